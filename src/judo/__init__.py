@@ -1,0 +1,55 @@
+"""judo: sampling-based model predictive control on MuJoCo, in plain Python.
+
+import judo
+controller = judo.make_controller("cartpole", "mppi")
+controller.update_action(state, time)   # state: (nq + nv,)
+u = controller.action(time)             # (nu,)
+"""
+
+import judo.optimizers  # noqa: E402,F401  (registers the built-in optimizers)
+import judo.tasks  # noqa: E402,F401  (registers the built-in tasks)
+from judo.core.config import Config
+from judo.core.controller import Controller, ControllerConfig, NonFiniteRewardError
+from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
+from judo.core.fields import np_1d_field, slider
+from judo.core.norms import quadratic_norm, smooth_l1_norm
+from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.registry import (
+    get_registered_optimizers,
+    get_registered_tasks,
+    make_controller,
+    register_optimizer,
+    register_task,
+    set_config_overrides,
+)
+from judo.core.spline import Spline, SplineBasis
+from judo.core.task import Task, TaskConfig
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Config",
+    "ConfigError",
+    "Controller",
+    "ControllerConfig",
+    "JudoError",
+    "ModelLoadError",
+    "NonFiniteRewardError",
+    "Optimizer",
+    "OptimizerConfig",
+    "Spline",
+    "SplineBasis",
+    "Task",
+    "TaskConfig",
+    "UnknownNameError",
+    "get_registered_optimizers",
+    "get_registered_tasks",
+    "make_controller",
+    "np_1d_field",
+    "quadratic_norm",
+    "register_optimizer",
+    "register_task",
+    "set_config_overrides",
+    "slider",
+    "smooth_l1_norm",
+]

@@ -1,0 +1,27 @@
+"""Errors raised by judo. Every message says what was expected, what was got, and the valid choices."""
+
+from collections.abc import Iterable
+
+
+class JudoError(Exception):
+    """Root of every error judo raises on purpose; catch this to handle any of them."""
+
+
+class UnknownNameError(JudoError, KeyError):
+    """A task, optimizer, field, sensor or joint name that does not exist."""
+
+    def __init__(self, kind: str, name: str, valid: Iterable[str]) -> None:
+        self.kind, self.name, self.valid = kind, name, sorted(valid)
+        choices = ", ".join(self.valid) if self.valid else "(none)"
+        super().__init__(f"unknown {kind} {name!r}; valid {kind}s are: {choices}")
+
+    def __str__(self) -> str:  # KeyError would otherwise wrap the message in quotes
+        return str(self.args[0])
+
+
+class ConfigError(JudoError, ValueError):
+    """A config value that is out of range, of the wrong type, or inconsistent with another."""
+
+
+class ModelLoadError(JudoError):
+    """A MuJoCo model that could not be read or compiled."""

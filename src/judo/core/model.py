@@ -1,0 +1,39 @@
+"""Loading MJCF models and reading names and sensor layouts out of them (read-only)."""
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from judo.core.errors import ModelLoadError
+
+STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
+
+
+def load_model(path: str | Path) -> mujoco.MjModel:
+    """Compile the MJCF file at `path` through MjSpec; raise ModelLoadError naming the path."""
+    path = Path(path)
+    if not path.is_file():
+        raise ModelLoadError(f"MuJoCo model file not found: {path}")
+    try:
+        return mujoco.MjSpec.from_file(str(path)).compile()
+    except Exception as err:  # mujoco raises ValueError or its own errors; all mean "bad model"
+        raise ModelLoadError(f"could not compile MuJoCo model {path}: {err}") from err
+
+
+def names(model: mujoco.MjModel, obj_type: mujoco.mjtObj, count: int) -> list[str]:
+    """The names of the `count` objects of `obj_type` in `model`, in id order."""
+    return [mujoco.mj_id2name(model, obj_type, i) or "" for i in range(count)]
+
+
+def trace_sensor_columns(model: mujoco.MjModel) -> np.ndarray:
+    """Columns of sensordata holding the 3-D `framepos` sensors whose name contains "trace".
+
+    Returns an int array of shape (3 * num_trace_sensors,), three consecutive columns per sensor.
+    """
+    columns = [
+        np.arange(model.sensor_adr[i], model.sensor_adr[i] + 3)
+        for i, name in enumerate(names(model, mujoco.mjtObj.mjOBJ_SENSOR, model.nsensor))
+        if "trace" in name and model.sensor_type[i] == mujoco.mjtSensor.mjSENS_FRAMEPOS
+    ]
+    return np.concatenate(columns) if columns else np.zeros(0, dtype=int)

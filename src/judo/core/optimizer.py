@@ -1,0 +1,90 @@
+"""The Optimizer contract: sample control knots around a nominal, then update the nominal from rewards."""
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from typing import Generic, TypeVar
+
+import numpy as np
+
+from judo.core.config import Config, require
+from judo.core.fields import slider
+
+
+@slider("num_rollouts", 1, 512, 1)
+@slider("num_nodes", 2, 20, 1)
+@slider("noise_ramp", 0.1, 10.0, 0.1)
+@dataclass
+class OptimizerConfig(Config):
+    """Settings every optimizer has."""
+
+    num_rollouts: int = 32
+    """Rollouts per iteration, the nominal included."""
+    num_nodes: int = 4
+    """Spline knots over the horizon."""
+    use_noise_ramp: bool = False
+    """Scale the sampling noise up along the horizon, so near-term knots move less."""
+    noise_ramp: float = 2.5
+    """Noise multiplier at the last knot when use_noise_ramp is on (it grows linearly from 1/num_nodes of it)."""
+
+    def validate(self) -> None:
+        super().validate()
+        require(self.num_rollouts >= 1, f"num_rollouts must be at least 1, got {self.num_rollouts}")
+        require(self.num_nodes >= 1, f"num_nodes must be at least 1, got {self.num_nodes}")
+        require(self.noise_ramp > 0, f"noise_ramp must be positive, got {self.noise_ramp}")
+
+
+ConfigT = TypeVar("ConfigT", bound=OptimizerConfig)
+
+
+class Optimizer(ABC, Generic[ConfigT]):
+    """A sampling-based update rule over spline knots.
+
+    Attributes:
+        config: the live config; edits take effect at the next planning cycle.
+        nu: number of controls.
+        num_rollouts, num_nodes: the sizes in use this cycle. The controller sets them from the
+            config at the top of each cycle, so they stay fixed while one cycle runs.
+        rng: the np.random.Generator all sampling draws from; replace it to seed.
+    """
+
+    def __init__(self, config: ConfigT, nu: int) -> None:
+        self.config = config
+        self.nu = nu
+        self.num_rollouts = config.num_rollouts
+        self.num_nodes = config.num_nodes
+        self.rng = np.random.default_rng()
+
+    @abstractmethod
+    def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
+        """Draw candidate knots around `nominal_knots` (num_nodes, nu).
+
+        Returns a new (num_rollouts, num_nodes, nu) array; by convention entry 0 is the nominal.
+        The controller clamps it to the actuator limits in place.
+        """
+
+    @abstractmethod
+    def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
+        """The new (num_nodes, nu) nominal from the clamped (num_rollouts, num_nodes, nu) samples and
+        their (num_rollouts,) rewards. Rewards are finite or -inf (NaN was mapped to -inf), higher is better."""
+
+    def pre_optimization(self, old_times: np.ndarray, new_times: np.ndarray) -> None:
+        """Called once per planning cycle before sampling, with the previous plan's (old_num_nodes,)
+        knot times and this cycle's (num_nodes,) knot times. Shift or resize carried state here."""
+
+    def stop_cond(self) -> bool:
+        """Checked after each iteration; True ends the cycle before `max_opt_iters`."""
+        return False
+
+    def noise_ramp_scale(self) -> np.ndarray:
+        """(num_nodes, 1) noise multiplier per knot: ones, or the linear ramp when use_noise_ramp is on."""
+        if not self.config.use_noise_ramp:
+            return np.ones((self.num_nodes, 1))
+        return self.config.noise_ramp * np.linspace(1 / self.num_nodes, 1, self.num_nodes)[:, None]
+
+    def perturb(self, nominal_knots: np.ndarray, sigma: float | np.ndarray) -> np.ndarray:
+        """(num_rollouts, num_nodes, nu): the nominal first, then the nominal plus Gaussian noise of
+        std `sigma` (scalar or (num_nodes, nu)) times the noise ramp."""
+        noise = self.rng.standard_normal((self.num_rollouts - 1, self.num_nodes, self.nu))
+        noise *= sigma * self.noise_ramp_scale()
+        noise += nominal_knots
+        return np.concatenate([nominal_knots[None], noise])

@@ -1,0 +1,106 @@
+"""Name -> class registries for tasks and optimizers, per-task config overrides, and make_controller."""
+
+from typing import Any
+
+import numpy as np
+
+from judo.core.config import Config, coerce_field_value, with_updates
+from judo.core.controller import Controller, ControllerConfig
+from judo.core.errors import JudoError, UnknownNameError
+from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.task import Task, TaskConfig
+
+_TASKS: dict[str, tuple[type[Task], type[TaskConfig]]] = {}
+_OPTIMIZERS: dict[str, tuple[type[Optimizer], type[OptimizerConfig]]] = {}
+_OVERRIDES: dict[tuple[str, type], dict[str, Any]] = {}
+
+
+def _check_class(what: str, cls: Any, base: type) -> None:
+    if not (isinstance(cls, type) and issubclass(cls, base)):
+        raise JudoError(f"{what} must be a subclass of {base.__name__}, got {cls!r}")
+
+
+def register_task(name: str, task_cls: type[Task], config_cls: type[TaskConfig]) -> None:
+    """Make `task_cls` (constructible with no arguments) selectable as `name`; replaces an earlier entry."""
+    _check_class(f"task {name!r}", task_cls, Task)
+    _check_class(f"config of task {name!r}", config_cls, TaskConfig)
+    _TASKS[name] = (task_cls, config_cls)
+
+
+def register_optimizer(name: str, optimizer_cls: type[Optimizer], config_cls: type[OptimizerConfig]) -> None:
+    """Make `optimizer_cls` selectable as `name`; replaces an earlier entry."""
+    _check_class(f"optimizer {name!r}", optimizer_cls, Optimizer)
+    _check_class(f"config of optimizer {name!r}", config_cls, OptimizerConfig)
+    _OPTIMIZERS[name] = (optimizer_cls, config_cls)
+
+
+def get_registered_tasks() -> dict[str, tuple[type[Task], type[TaskConfig]]]:
+    """name -> (task class, config class), a copy."""
+    return dict(_TASKS)
+
+
+def get_registered_optimizers() -> dict[str, tuple[type[Optimizer], type[OptimizerConfig]]]:
+    """name -> (optimizer class, config class), a copy."""
+    return dict(_OPTIMIZERS)
+
+
+def lookup_task(name: str) -> tuple[type[Task], type[TaskConfig]]:
+    """The registered (task class, config class) for `name`; UnknownNameError lists the valid names."""
+    if name not in _TASKS:
+        raise UnknownNameError("task", name, _TASKS)
+    return _TASKS[name]
+
+
+def lookup_optimizer(name: str) -> tuple[type[Optimizer], type[OptimizerConfig]]:
+    """The registered (optimizer class, config class) for `name`; UnknownNameError lists the valid names."""
+    if name not in _OPTIMIZERS:
+        raise UnknownNameError("optimizer", name, _OPTIMIZERS)
+    return _OPTIMIZERS[name]
+
+
+def set_config_overrides(task_name: str, config_cls: type[Config], overrides: dict[str, Any]) -> None:
+    """Use `overrides` ({field: value}) as the defaults of `config_cls` whenever `task_name` is active.
+
+    Overrides on a base class (e.g. OptimizerConfig) apply to all its subclasses; later calls merge
+    into earlier ones. Field names and values are checked now, so a typo fails here, not mid-run.
+    """
+    merged = {**_OVERRIDES.get((task_name, config_cls), {}), **overrides}
+    probe = config_cls()
+    checked = {name: coerce_field_value(probe, name, value) for name, value in merged.items()}
+    if config_cls not in (TaskConfig, OptimizerConfig, ControllerConfig):
+        with_updates(probe, checked)  # cross-field checks on a concrete class
+    _OVERRIDES[(task_name, config_cls)] = checked
+
+
+def make_config(config_cls: type[Config], task_name: str) -> Config:
+    """A new `config_cls` with the overrides registered for `task_name`, base classes' first."""
+    updates: dict[str, Any] = {}
+    for cls in reversed(config_cls.__mro__):
+        updates.update(_OVERRIDES.get((task_name, cls), {}))
+    return with_updates(config_cls(), updates)
+
+
+def make_controller(
+    task_name: str,
+    optimizer_name: str,
+    *,
+    controller_config: ControllerConfig | None = None,
+    optimizer_config: OptimizerConfig | None = None,
+    num_workers: int | None = None,
+    seed: int | None = None,
+) -> Controller:
+    """A Controller for the registered task and optimizer, with that task's overrides applied.
+
+    Configs passed in are used as they are. `seed` seeds the optimizer's and the task's generators.
+    """
+    task_cls, task_config_cls = lookup_task(task_name)
+    optimizer_cls, optimizer_config_cls = lookup_optimizer(optimizer_name)
+    task = task_cls()
+    task.config = make_config(task_config_cls, task_name)
+    controller_config = controller_config or make_config(ControllerConfig, task_name)  # type: ignore[assignment]
+    optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)  # type: ignore[assignment]
+    optimizer = optimizer_cls(optimizer_config, task.nu)
+    if seed is not None:
+        optimizer.rng = np.random.default_rng(seed)
+        task.rng = np.random.default_rng(seed + 1)
+    return Controller(controller_config, task, optimizer, num_workers)  # type: ignore[arg-type]

@@ -1,0 +1,76 @@
+"""Parallel open-loop rollouts: one shared MjModel, one MjData per worker thread, one C call per chunk."""
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+
+import mujoco
+import mujoco.rollout
+import numpy as np
+
+from judo.core.model import STATE_SPEC
+
+
+class RolloutPool:
+    """Rolls out batches of control sequences from one initial state on `num_workers` threads.
+
+    The batch is split into one contiguous chunk per worker; each worker runs MuJoCo's C rollout on
+    its own MjData with the GIL released. Output buffers are allocated when the batch shape changes
+    and reused otherwise, so the returned arrays are overwritten by the next call.
+    """
+
+    def __init__(self, model: mujoco.MjModel, num_workers: int | None = None) -> None:
+        self.model = model
+        self.num_workers = max(1, num_workers or os.cpu_count() or 1)
+        self.nstate = mujoco.mj_stateSize(model, STATE_SPEC)
+        self._datas = [mujoco.MjData(model) for _ in range(self.num_workers)]
+        self._runners = [mujoco.rollout.Rollout(nthread=0) for _ in range(self.num_workers)]
+        self._executor = ThreadPoolExecutor(self.num_workers, thread_name_prefix="judo-rollout")
+        self._shape: tuple[int, int] | None = None
+
+    def _allocate(self, num_rollouts: int, num_steps: int) -> None:
+        self._shape = (num_rollouts, num_steps)
+        self._initial = np.zeros((num_rollouts, self.nstate))
+        self._states = np.zeros((num_rollouts, num_steps, self.nstate))
+        self._sensors = np.zeros((num_rollouts, num_steps, self.model.nsensordata))
+        bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(int)
+        self._chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+        self._chunk_models = [[self.model] * (c.stop - c.start) for c in self._chunks]
+
+    def rollout(self, initial_state: np.ndarray, controls: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Roll out every control sequence from the same full-physics `initial_state` (nstate,).
+
+        Args:
+            initial_state: (nstate,) state as written by mj_getState with mjSTATE_FULLPHYSICS.
+            controls: (num_rollouts, T, nu) C-contiguous float64 controls, one per step.
+        Returns:
+            states (num_rollouts, T, nstate) full-physics states after each step, and
+            sensors (num_rollouts, T, nsensordata) sensor values after each step.
+        """
+        num_rollouts, num_steps, _ = controls.shape
+        if self._shape != (num_rollouts, num_steps):
+            self._allocate(num_rollouts, num_steps)
+        self._initial[:] = initial_state
+        if len(self._chunks) == 1:
+            self._run_chunk(0, controls)
+        else:
+            futures = [self._executor.submit(self._run_chunk, i, controls) for i in range(len(self._chunks))]
+            for future in futures:
+                future.result()
+        return self._states, self._sensors
+
+    def _run_chunk(self, worker: int, controls: np.ndarray) -> None:
+        chunk = self._chunks[worker]
+        self._runners[worker].rollout(
+            self._chunk_models[worker],
+            [self._datas[worker]],
+            self._initial[chunk],
+            controls[chunk],
+            skip_checks=True,
+            nstep=controls.shape[1],
+            state=self._states[chunk],
+            sensordata=self._sensors[chunk],
+        )
+
+    def close(self) -> None:
+        """Stop the worker threads; the pool cannot be used afterwards."""
+        self._executor.shutdown(wait=True)

@@ -1,0 +1,102 @@
+"""Splines through control knots, as linear maps from knot values to interpolated values (numpy only).
+
+Every supported spline is linear in its knot values, so interpolating many knot sets at the same
+query times is one matrix product: `values = weights(query_times) @ knots`. The controller
+precomputes the (T, num_nodes) weights once per configuration and reuses them every update.
+"""
+
+from typing import Literal
+
+import numpy as np
+
+from judo.core.errors import ConfigError
+
+SplineOrder = Literal["zero", "linear", "cubic"]
+MIN_KNOTS = {"zero": 1, "linear": 2, "cubic": 4}
+
+
+class SplineBasis:
+    """Interpolation weights for splines through knots at fixed `knot_times` (num_nodes,).
+
+    Orders: "zero" holds each knot until the next one; "linear" joins knots with straight lines;
+    "cubic" is the C2 cubic spline with not-a-knot ends (with 4 knots, the cubic polynomial through
+    them). Query times outside the knots are clamped: the spline holds its end values.
+    """
+
+    def __init__(self, knot_times: np.ndarray, order: SplineOrder) -> None:
+        knot_times = np.asarray(knot_times, dtype=float)
+        if order not in MIN_KNOTS:
+            raise ConfigError(f"spline order must be one of {list(MIN_KNOTS)}, got {order!r}")
+        if len(knot_times) < MIN_KNOTS[order]:
+            raise ConfigError(f"a {order} spline needs at least {MIN_KNOTS[order]} knots, got {len(knot_times)}")
+        if np.any(np.diff(knot_times) <= 0):
+            raise ConfigError(f"knot times must increase strictly, got {knot_times}")
+        self.knot_times = knot_times
+        self.order = order
+        if order == "cubic":
+            self._second_derivative_map = _not_a_knot_second_derivatives(knot_times)
+
+    def weights(self, query_times: np.ndarray) -> np.ndarray:
+        """(num_queries, num_nodes) matrix W with spline(query_times) = W @ knots."""
+        t = np.clip(np.asarray(query_times, dtype=float), self.knot_times[0], self.knot_times[-1])
+        num_nodes = len(self.knot_times)
+        rows = np.arange(len(t))
+        weights = np.zeros((len(t), num_nodes))
+        if num_nodes == 1:
+            weights[:, 0] = 1.0
+            return weights
+        segment = np.clip(np.searchsorted(self.knot_times, t, side="right") - 1, 0, num_nodes - 2)
+        if self.order == "zero":
+            at_end = t >= self.knot_times[-1]
+            weights[rows, np.where(at_end, num_nodes - 1, segment)] = 1.0
+            return weights
+        h = self.knot_times[segment + 1] - self.knot_times[segment]
+        a = (t - self.knot_times[segment]) / h  # position within the segment, 0..1
+        weights[rows, segment] = 1.0 - a
+        weights[rows, segment + 1] += a
+        if self.order == "cubic":
+            b = 1.0 - a
+            curvature = h**2 / 6.0
+            m = self._second_derivative_map
+            weights += (curvature * (b**3 - b))[:, None] * m[segment] + (curvature * (a**3 - a))[:, None] * m[
+                segment + 1
+            ]
+        return weights
+
+
+class Spline:
+    """A control trajectory: knots (num_nodes, nu) placed at `start_time + basis.knot_times`."""
+
+    def __init__(self, start_time: float, basis: SplineBasis, knots: np.ndarray) -> None:
+        self.start_time = start_time
+        self.basis = basis
+        self.knots = np.array(knots, dtype=float)
+
+    @property
+    def knot_times(self) -> np.ndarray:
+        """(num_nodes,) absolute knot times."""
+        return self.start_time + self.basis.knot_times
+
+    def __call__(self, times: float | np.ndarray) -> np.ndarray:
+        """(nu,) for a scalar time, (num_times, nu) for an array of times."""
+        scalar = np.ndim(times) == 0
+        values = self.basis.weights(np.atleast_1d(times) - self.start_time) @ self.knots
+        return values[0] if scalar else values
+
+
+def _not_a_knot_second_derivatives(x: np.ndarray) -> np.ndarray:
+    """(n, n) matrix M with spline''(x) = M @ y for the not-a-knot cubic spline through (x, y).
+
+    Interior rows are the usual C2 conditions; the first and last rows make the third derivative
+    continuous across the second and second-to-last knots.
+    """
+    n = len(x)
+    h = np.diff(x)
+    lhs = np.zeros((n, n))
+    rhs = np.zeros((n, n))
+    for i in range(1, n - 1):
+        lhs[i, i - 1 : i + 2] = h[i - 1], 2 * (h[i - 1] + h[i]), h[i]
+        rhs[i, i - 1 : i + 2] = 6 / h[i - 1], -6 / h[i - 1] - 6 / h[i], 6 / h[i]
+    lhs[0, :3] = h[1], -(h[0] + h[1]), h[0]
+    lhs[-1, -3:] = h[-1], -(h[-2] + h[-1]), h[-2]
+    return np.linalg.solve(lhs, rhs)

@@ -1,0 +1,150 @@
+"""The Task contract: a MuJoCo model plus a reward over batches of rollouts."""
+
+import typing
+from abc import ABC, abstractmethod
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar, Generic, TypeVar
+
+import mujoco
+import numpy as np
+
+from judo.core.config import Config
+from judo.core.errors import ModelLoadError, UnknownNameError
+from judo.core.model import load_model, names
+
+
+@dataclass
+class TaskConfig(Config):
+    """Base of every task's config: reward weights and goals, read by `Task.reward` each update."""
+
+
+ConfigT = TypeVar("ConfigT", bound=TaskConfig)
+
+
+class Task(ABC, Generic[ConfigT]):
+    """A control problem: a planning model, a plant model, and a reward to maximise.
+
+    Subclass it as `class MyTask(Task[MyConfig])` and implement `reward`; every other hook has a
+    no-op default. Attributes:
+        model: the MjModel the controller plans with.
+        sim_model: the MjModel of the plant (the same object unless `sim_model_path` differs); it
+            must have the same nq, nv, nu and mocap bodies as `model`.
+        data: the plant's MjData (on `sim_model`). The simulator steps it; `reset`, `pre_sim_step`
+            and `post_sim_step` may write to it. The controller never reads it.
+        config: this task's config, an instance of the class named in `Task[...]`.
+        rng: the np.random.Generator for resets and goal sampling; replace it to seed an episode.
+    """
+
+    config_cls: ClassVar[type[TaskConfig]] = TaskConfig
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        for base in getattr(cls, "__orig_bases__", ()):
+            args = typing.get_args(base)
+            if typing.get_origin(base) is Task and args and isinstance(args[0], type):
+                cls.config_cls = args[0]
+
+    def __init__(self, model_path: str | Path, sim_model_path: str | Path | None = None) -> None:
+        self.model = load_model(model_path)
+        same = sim_model_path is None or Path(sim_model_path).resolve() == Path(model_path).resolve()
+        self.sim_model = self.model if same else load_model(sim_model_path)  # type: ignore[arg-type]
+        for size in ("nq", "nv", "nu", "nmocap"):
+            if getattr(self.sim_model, size) != getattr(self.model, size):
+                raise ModelLoadError(
+                    f"plant model {sim_model_path} has {size}={getattr(self.sim_model, size)} but the "
+                    f"planning model {model_path} has {size}={getattr(self.model, size)}; they must match"
+                )
+        self.data = mujoco.MjData(self.sim_model)
+        self.config: ConfigT = self.config_cls()  # type: ignore[assignment]
+        self.rng = np.random.default_rng()
+
+    @abstractmethod
+    def reward(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray,
+        controls: np.ndarray,
+        config: ConfigT,
+        system_metadata: dict[str, Any] | None = None,
+    ) -> np.ndarray:
+        """Score each rollout; higher is better.
+
+        Args:
+            states: (num_rollouts, T, nq + nv), [qpos, qvel] after each step.
+            sensors: (num_rollouts, T, nsensordata), sensor readings after each step.
+            controls: (num_rollouts, T, nu), the control applied at each step.
+            config: the snapshot of this task's config taken for this update; read weights here.
+            system_metadata: what the system published with the state (e.g. mocap goal poses).
+        Returns:
+            (num_rollouts,) rewards. NaN counts as -inf: it never wins.
+        """
+
+    # Hooks. Each has a no-op default; override the ones the task needs.
+    def reset(self) -> None:
+        """Put the plant (`self.data`) in a start state; the default is the model's keyframe 0 or qpos0."""
+        if self.sim_model.nkey:
+            mujoco.mj_resetDataKeyframe(self.sim_model, self.data, 0)
+        else:
+            mujoco.mj_resetData(self.sim_model, self.data)
+        mujoco.mj_forward(self.sim_model, self.data)
+
+    def pre_rollout(self, state: np.ndarray) -> None:
+        """Called once per planning cycle with the (nq + nv,) state, before any rollout."""
+
+    def post_rollout(self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, rewards: np.ndarray) -> None:
+        """Called after each optimizer iteration with the rollouts' arrays and (num_rollouts,) rewards."""
+
+    def pre_sim_step(self) -> None:
+        """Called by the simulator before each plant step, e.g. to resample a reached goal."""
+
+    def post_sim_step(self) -> None:
+        """Called by the simulator after each plant step, e.g. to reset a dropped object."""
+
+    def get_sim_metadata(self) -> dict[str, Any]:
+        """Extra values the simulator publishes with the state; passed on to `reward`."""
+        return {}
+
+    def optimizer_warm_start(self) -> np.ndarray:
+        """The (nu,) control that the first plan holds at every knot; zeros by default."""
+        return np.zeros(self.nu)
+
+    # Helpers.
+    @property
+    def nu(self) -> int:
+        """Number of actuators."""
+        return self.model.nu
+
+    @property
+    def dt(self) -> float:
+        """Planning model timestep in seconds."""
+        return float(self.model.opt.timestep)
+
+    @property
+    def actuator_ctrlrange(self) -> np.ndarray:
+        """(nu, 2) control limits, [-inf, inf] for unlimited actuators. A copy; the model is untouched."""
+        limited = self.model.actuator_ctrllimited.astype(bool)
+        ranges = np.tile([-np.inf, np.inf], (self.nu, 1))
+        ranges[limited] = self.model.actuator_ctrlrange[limited]
+        return ranges
+
+    def get_sensor_start_index(self, sensor_name: str) -> int:
+        """Column of `sensor_name`'s first value in the sensors array."""
+        return int(
+            self.model.sensor_adr[self._id(mujoco.mjtObj.mjOBJ_SENSOR, self.model.nsensor, sensor_name, "sensor")]
+        )
+
+    def get_joint_position_start_index(self, joint_name: str) -> int:
+        """Column of `joint_name`'s first qpos entry in the states array."""
+        return int(self.model.jnt_qposadr[self._id(mujoco.mjtObj.mjOBJ_JOINT, self.model.njnt, joint_name, "joint")])
+
+    def get_joint_velocity_start_index(self, joint_name: str) -> int:
+        """Column of `joint_name`'s first qvel entry in the states array (qvel follows qpos)."""
+        joint = self._id(mujoco.mjtObj.mjOBJ_JOINT, self.model.njnt, joint_name, "joint")
+        return int(self.model.nq + self.model.jnt_dofadr[joint])
+
+    def _id(self, obj_type: mujoco.mjtObj, count: int, name: str, kind: str) -> int:
+        index = mujoco.mj_name2id(self.model, obj_type, name)
+        if index < 0:
+            raise UnknownNameError(kind, name, [n for n in names(self.model, obj_type, count) if n])
+        return index

@@ -1,0 +1,61 @@
+"""Cross-entropy method (Rubinstein 1999): fit a Gaussian to the elite samples."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from judo.core.config import require
+from judo.core.fields import slider
+from judo.core.optimizer import Optimizer, OptimizerConfig
+
+
+@slider("sigma_min", 0.001, 2.0, 0.001)
+@slider("sigma_max", 0.001, 2.0, 0.001)
+@slider("num_elites", 1, 128, 1)
+@dataclass
+class CEMConfig(OptimizerConfig):
+    """CEM settings."""
+
+    sigma_min: float = 0.05
+    """Lower bound on the per-knot noise std, so the search never collapses."""
+    sigma_max: float = 0.5
+    """Upper bound on the per-knot noise std, and its initial value."""
+    num_elites: int = 4
+    """Best samples the Gaussian is fitted to (at most num_rollouts)."""
+
+    def validate(self) -> None:
+        super().validate()
+        require(
+            0 < self.sigma_min <= self.sigma_max,
+            f"need 0 < sigma_min <= sigma_max, got {self.sigma_min}, {self.sigma_max}",
+        )
+        require(
+            1 <= self.num_elites <= self.num_rollouts,
+            f"num_elites must be between 1 and num_rollouts ({self.num_rollouts}), got {self.num_elites}",
+        )
+
+
+class CEM(Optimizer[CEMConfig]):
+    """Samples around the nominal with a per-knot std; the new nominal and std are the elites' mean and
+    std (clipped to [sigma_min, sigma_max]). The std carries over between cycles.
+
+    Attributes:
+        sigma: (num_nodes, nu) current sampling std.
+    """
+
+    def __init__(self, config: CEMConfig, nu: int) -> None:
+        super().__init__(config, nu)
+        self.sigma = np.full((self.num_nodes, nu), config.sigma_max)
+
+    def pre_optimization(self, old_times: np.ndarray, new_times: np.ndarray) -> None:
+        if self.sigma.shape != (self.num_nodes, self.nu):  # num_nodes changed: start wide again
+            self.sigma = np.full((self.num_nodes, self.nu), self.config.sigma_max)
+
+    def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
+        return self.perturb(nominal_knots, self.sigma)
+
+    def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
+        num_elites = min(self.config.num_elites, self.num_rollouts)
+        elites = sampled_knots[np.argsort(-rewards, kind="stable")[:num_elites]]
+        self.sigma = np.clip(elites.std(axis=0), self.config.sigma_min, self.config.sigma_max)
+        return elites.mean(axis=0)

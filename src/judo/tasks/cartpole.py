@@ -1,0 +1,64 @@
+"""Cart-pole swing-up: push the cart so the pole swings up from hanging and balances upright, centred."""
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from judo.core.fields import slider
+from judo.core.norms import quadratic_norm, smooth_l1_norm
+from judo.core.task import Task, TaskConfig
+
+MODEL_PATH = Path(__file__).parent / "models" / "cartpole.xml"
+
+
+@slider("w_vertical", 0.0, 50.0, 0.1)
+@slider("w_centered", 0.0, 50.0, 0.1)
+@slider("w_velocity", 0.0, 1.0, 0.01)
+@slider("w_control", 0.0, 1.0, 0.01)
+@dataclass
+class CartpoleConfig(TaskConfig):
+    """Cart-pole reward weights."""
+
+    w_vertical: float = 10.0
+    """Weight on the pole being upright."""
+    w_centered: float = 10.0
+    """Weight on the cart being at the rail's centre."""
+    w_velocity: float = 0.1
+    """Weight on small cart and pole velocities."""
+    w_control: float = 0.1
+    """Weight on small pushes."""
+
+
+class Cartpole(Task[CartpoleConfig]):
+    """State [cart x, pole angle (0 = upright), their velocities]; one control, the push on the cart."""
+
+    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+        super().__init__(model_path, sim_model_path)
+        self.reset()
+
+    def reward(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray,
+        controls: np.ndarray,
+        config: CartpoleConfig,
+        system_metadata: dict[str, Any] | None = None,
+    ) -> np.ndarray:
+        cart_x, angle, velocities = states[..., 0:1], states[..., 1:2], states[..., 2:4]
+        vertical = smooth_l1_norm(np.cos(angle) - 1.0, 0.01).sum(-1)
+        centered = smooth_l1_norm(cart_x, 0.1).sum(-1)
+        return -(
+            config.w_vertical * vertical
+            + config.w_centered * centered
+            + config.w_velocity * quadratic_norm(velocities).sum(-1)
+            + config.w_control * quadratic_norm(controls).sum(-1)
+        )
+
+    def reset(self) -> None:
+        """Pole hanging down, cart near the centre, small random velocities."""
+        self.data.qpos[:] = [0.0, np.pi] + self.rng.normal(0.0, [0.2, 0.2])
+        self.data.qvel[:] = self.rng.normal(0.0, 0.1, 2)
+        mujoco.mj_forward(self.sim_model, self.data)
