@@ -19,6 +19,23 @@ class TaskConfig(Config):
     """Base of every task's config: reward weights and goals, read by `Task.reward` each update."""
 
 
+@dataclass
+class EpisodeLog:
+    """A closed-loop episode of the plant, one row per plant step, for `Task.metrics`.
+
+    Attributes:
+        times: (S,) plant time after each step.
+        states: (S, nq + nv) [qpos, qvel] after each step.
+        controls: (S, nu) control applied during each step.
+        sensors: (S, nsensordata) plant sensor values after each step.
+    """
+
+    times: np.ndarray
+    states: np.ndarray
+    controls: np.ndarray
+    sensors: np.ndarray
+
+
 ConfigT = TypeVar("ConfigT", bound=TaskConfig)
 
 
@@ -103,6 +120,14 @@ class Task(ABC, Generic[ConfigT]):
 
     def get_sim_metadata(self) -> dict[str, Any]:
         """Extra values the simulator publishes with the state; passed on to `reward`."""
+        return {}
+
+    def metrics(self, log: EpisodeLog) -> dict[str, float]:
+        """Success figures of a finished episode for `evaluate`, e.g. {"final_distance": 0.02}.
+
+        Goal-reaching tasks report "goals_reached" and "goals_per_minute" (they may count goals in
+        `pre_sim_step` on the plant task this is called on). The default reports nothing.
+        """
         return {}
 
     def optimizer_warm_start(self) -> np.ndarray:

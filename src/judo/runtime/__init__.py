@@ -1,0 +1,1 @@
+"""The app: asyncio loops for the system, controller and GUI; the CLI."""

@@ -1,0 +1,92 @@
+"""The plant interface (simulator or hardware) and its MuJoCo implementation.
+
+Controller and GUI code only ever talk to a `System`, so a user swaps the simulator for a robot by
+writing one subclass: read the state, apply an action, step.
+"""
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from judo.core.errors import JudoError
+from judo.core.task import Task
+
+
+class SimulationDiverged(JudoError):
+    """The plant's state became non-finite or MuJoCo flagged bad accelerations; the plant was reset."""
+
+
+@dataclass
+class SystemState:
+    """One reading of the plant.
+
+    Attributes:
+        state: (nq + nv,) [qpos, qvel].
+        time: plant time in seconds.
+        metadata: extra values for the controller and reward, e.g. "mocap_pos" (nmocap, 3).
+    """
+
+    state: np.ndarray
+    time: float
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+
+class System(ABC):
+    """A plant the controller drives. `timestep` is the seconds one `step()` advances."""
+
+    timestep: float
+
+    @abstractmethod
+    def reset(self) -> None:
+        """Put the plant in its start state."""
+
+    @abstractmethod
+    def read_state(self) -> SystemState:
+        """The latest state; the arrays are copies the caller may keep."""
+
+    @abstractmethod
+    def apply(self, action: np.ndarray) -> None:
+        """Command the (nu,) `action` from now on."""
+
+    @abstractmethod
+    def step(self) -> None:
+        """Advance the plant by `timestep` under the last applied action."""
+
+
+class MujocoSystem(System):
+    """Simulates `task.sim_model` in `task.data`, calling the task's sim hooks around each step."""
+
+    def __init__(self, task: Task) -> None:
+        self.task = task
+        self.timestep = float(task.sim_model.opt.timestep)
+
+    def reset(self) -> None:
+        self.task.reset()
+
+    def read_state(self) -> SystemState:
+        data = self.task.data
+        metadata = {"mocap_pos": data.mocap_pos.copy(), "mocap_quat": data.mocap_quat.copy()}
+        metadata.update(self.task.get_sim_metadata())
+        return SystemState(np.concatenate([data.qpos, data.qvel]), float(data.time), metadata)
+
+    def apply(self, action: np.ndarray) -> None:
+        self.task.data.ctrl[:] = action
+
+    def step(self) -> None:
+        """One physics step. Raises SimulationDiverged (after resetting the task) if the state blew up."""
+        model, data = self.task.sim_model, self.task.data
+        self.task.pre_sim_step()
+        mujoco.mj_step(model, data)
+        self.task.post_sim_step()
+        bad_qacc = data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
+        if bad_qacc or not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+            time = data.time
+            data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number = 0
+            self.task.reset()
+            data.time = time
+            raise SimulationDiverged(
+                f"simulation of {type(self.task).__name__} diverged at t={time:.3f} s; reset the task"
+            )
