@@ -23,4 +23,16 @@ set_config_overrides("cylinder_push", PredictiveSamplingConfig, {"sigma": 0.2})
 set_config_overrides("cylinder_push", MPPIConfig, {"sigma": 0.2, "temperature": 1.0})
 set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max": 0.4})
 
+# --- Classic MPC benchmarks (after MJPC and hydrax) ---------------------------------------------------
+from judo.tasks.pendulum import Pendulum, PendulumConfig  # noqa: E402
+
+register_task("pendulum", Pendulum, PendulumConfig)
+# An upright pole falls away with a 0.26 s time constant, so open-loop plans longer than ~1 s cannot balance it.
+set_config_overrides("pendulum", ControllerConfig, {"horizon": 1.0, "spline_order": "cubic"})
+set_config_overrides("pendulum", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
+set_config_overrides("pendulum", PredictiveSamplingConfig, {"sigma": 0.3})
+set_config_overrides("pendulum", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
+set_config_overrides("pendulum", CEMConfig, {"sigma_min": 0.1, "sigma_max": 0.8, "num_elites": 4})
+# --- end of classic MPC benchmarks ------------------------------------------------------------------------
+
 __all__ = ["Cartpole", "CartpoleConfig", "CylinderPush", "CylinderPushConfig", "register_task"]
