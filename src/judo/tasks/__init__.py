@@ -24,6 +24,7 @@ set_config_overrides("cylinder_push", MPPIConfig, {"sigma": 0.2, "temperature": 
 set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max": 0.4})
 
 # --- Classic MPC benchmarks (after MJPC and hydrax) ---------------------------------------------------
+from judo.tasks.particle import Particle, ParticleConfig  # noqa: E402
 from judo.tasks.pendulum import Pendulum, PendulumConfig  # noqa: E402
 
 register_task("pendulum", Pendulum, PendulumConfig)
@@ -33,6 +34,14 @@ set_config_overrides("pendulum", OptimizerConfig, {"num_rollouts": 32, "num_node
 set_config_overrides("pendulum", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("pendulum", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
 set_config_overrides("pendulum", CEMConfig, {"sigma_min": 0.1, "sigma_max": 0.8, "num_elites": 4})
+
+register_task("particle", Particle, ParticleConfig)
+set_config_overrides("particle", ControllerConfig, {"horizon": 1.0, "spline_order": "cubic"})
+set_config_overrides("particle", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
+set_config_overrides("particle", PredictiveSamplingConfig, {"sigma": 0.3})
+set_config_overrides("particle", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
+# CEM needs a high noise floor here: its elite mean lags behind when the goal jumps.
+set_config_overrides("particle", CEMConfig, {"sigma_min": 0.2, "sigma_max": 0.6, "num_elites": 4})
 # --- end of classic MPC benchmarks ------------------------------------------------------------------------
 
 __all__ = ["Cartpole", "CartpoleConfig", "CylinderPush", "CylinderPushConfig", "register_task"]
