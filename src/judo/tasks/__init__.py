@@ -26,6 +26,7 @@ set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max"
 # --- Classic MPC benchmarks (after MJPC and hydrax) ---------------------------------------------------
 from judo.tasks.particle import Particle, ParticleConfig  # noqa: E402
 from judo.tasks.pendulum import Pendulum, PendulumConfig  # noqa: E402
+from judo.tasks.push_t import PushT, PushTConfig  # noqa: E402
 
 register_task("pendulum", Pendulum, PendulumConfig)
 # An upright pole falls away with a 0.26 s time constant, so open-loop plans longer than ~1 s cannot balance it.
@@ -42,6 +43,13 @@ set_config_overrides("particle", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("particle", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
 # CEM needs a high noise floor here: its elite mean lags behind when the goal jumps.
 set_config_overrides("particle", CEMConfig, {"sigma_min": 0.2, "sigma_max": 0.6, "num_elites": 4})
+
+register_task("push_t", PushT, PushTConfig)
+set_config_overrides("push_t", ControllerConfig, {"horizon": 1.0, "spline_order": "linear"})
+set_config_overrides("push_t", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
+set_config_overrides("push_t", PredictiveSamplingConfig, {"sigma": 0.3})
+set_config_overrides("push_t", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
+set_config_overrides("push_t", CEMConfig, {"sigma_min": 0.1, "sigma_max": 0.6, "num_elites": 4})
 # --- end of classic MPC benchmarks ------------------------------------------------------------------------
 
 __all__ = ["Cartpole", "CartpoleConfig", "CylinderPush", "CylinderPushConfig", "register_task"]
