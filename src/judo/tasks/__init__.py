@@ -27,6 +27,7 @@ set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max"
 from judo.tasks.particle import Particle, ParticleConfig  # noqa: E402
 from judo.tasks.pendulum import Pendulum, PendulumConfig  # noqa: E402
 from judo.tasks.push_t import PushT, PushTConfig  # noqa: E402
+from judo.tasks.walker import Walker, WalkerConfig  # noqa: E402
 
 register_task("pendulum", Pendulum, PendulumConfig)
 # An upright pole falls away with a 0.26 s time constant, so open-loop plans longer than ~1 s cannot balance it.
@@ -50,6 +51,13 @@ set_config_overrides("push_t", OptimizerConfig, {"num_rollouts": 32, "num_nodes"
 set_config_overrides("push_t", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("push_t", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
 set_config_overrides("push_t", CEMConfig, {"sigma_min": 0.1, "sigma_max": 0.6, "num_elites": 4})
+
+register_task("walker", Walker, WalkerConfig)
+set_config_overrides("walker", ControllerConfig, {"horizon": 0.6, "spline_order": "cubic"})
+set_config_overrides("walker", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
+set_config_overrides("walker", PredictiveSamplingConfig, {"sigma": 0.3})
+set_config_overrides("walker", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
+set_config_overrides("walker", CEMConfig, {"sigma_min": 0.3, "sigma_max": 0.5, "num_elites": 2})
 # --- end of classic MPC benchmarks ------------------------------------------------------------------------
 
 __all__ = ["Cartpole", "CartpoleConfig", "CylinderPush", "CylinderPushConfig", "register_task"]
