@@ -24,6 +24,7 @@ set_config_overrides("cylinder_push", MPPIConfig, {"sigma": 0.2, "temperature": 
 set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max": 0.4})
 
 # --- Classic MPC benchmarks (after MJPC and hydrax) ---------------------------------------------------
+from judo.tasks.humanoid_standup import HumanoidStandup, HumanoidStandupConfig  # noqa: E402
 from judo.tasks.particle import Particle, ParticleConfig  # noqa: E402
 from judo.tasks.pendulum import Pendulum, PendulumConfig  # noqa: E402
 from judo.tasks.push_t import PushT, PushTConfig  # noqa: E402
@@ -58,6 +59,13 @@ set_config_overrides("walker", OptimizerConfig, {"num_rollouts": 32, "num_nodes"
 set_config_overrides("walker", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("walker", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
 set_config_overrides("walker", CEMConfig, {"sigma_min": 0.3, "sigma_max": 0.5, "num_elites": 2})
+
+register_task("humanoid_standup", HumanoidStandup, HumanoidStandupConfig)
+set_config_overrides("humanoid_standup", ControllerConfig, {"horizon": 0.5, "spline_order": "cubic"})
+set_config_overrides("humanoid_standup", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
+set_config_overrides("humanoid_standup", PredictiveSamplingConfig, {"sigma": 0.3})
+set_config_overrides("humanoid_standup", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
+set_config_overrides("humanoid_standup", CEMConfig, {"sigma_min": 0.3, "sigma_max": 0.5, "num_elites": 2})
 # --- end of classic MPC benchmarks ------------------------------------------------------------------------
 
 __all__ = ["Cartpole", "CartpoleConfig", "CylinderPush", "CylinderPushConfig", "register_task"]
