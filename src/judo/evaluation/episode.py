@@ -57,10 +57,12 @@ class EpisodeResult:
 def make_plant_task(controller: Controller, seed: int) -> Task:
     """A second instance of the controller's task class to serve as the plant, sharing its config.
 
+    The class must be constructible with no arguments, as every registered task is.
+
     Its `rng` is seeded from `seed` (on a stream apart from the controller's) and it is reset, so the
     plant starts from the task's randomised start state, the same one for the same seed.
     """
-    plant = type(controller.task)()
+    plant = type(controller.task)()  # type: ignore[call-arg]  (registered tasks take no arguments)
     plant.config = controller.task.config
     plant.rng = np.random.default_rng([seed, PLANT_STREAM])
     plant.reset()

@@ -182,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
             )
             console.print(f"wrote {args.json}")
         if args.plot is not None:
-            model = lookup_task(args.task)[0]().sim_model
+            model = lookup_task(args.task)[0]().sim_model  # type: ignore[call-arg]
             write_episode_plot(results[0], model, args.plot, f"{title}, seed {results[0].seed}")
             console.print(f"wrote {args.plot}")
     except JudoError as err:
