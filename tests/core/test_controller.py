@@ -69,7 +69,9 @@ def test_warm_start_shifts_the_previous_plan(upright_task):
     controller.update_action(np.zeros(4), 0.0)
     plan = controller.nominal_knots.copy()
     seen = []
-    controller.optimizer.sample_control_knots = lambda nominal: seen.append(nominal.copy()) or np.repeat(nominal[None], 16, 0)
+    controller.optimizer.sample_control_knots = lambda nominal: (
+        seen.append(nominal.copy()) or np.repeat(nominal[None], 16, 0)
+    )
     controller.update_action(np.zeros(4), 0.1)
     expected = judo.Spline(0.0, judo.SplineBasis(np.linspace(0, 0.3, 4), "linear"), plan)(0.1 + np.linspace(0, 0.3, 4))
     np.testing.assert_allclose(seen[0], expected)
@@ -124,4 +126,6 @@ def test_mppi_balances_the_tiny_cartpole_near_upright(upright_task):
             controller.update_action(reading.state, reading.time)
         system.apply(controller.action(reading.time))
         system.step()
-    assert abs(np.cos(upright_task.data.qpos[1])) > 0.95 and np.cos(upright_task.data.qpos[1]) > 0  # still upright after 3 s
+    assert (
+        abs(np.cos(upright_task.data.qpos[1])) > 0.95 and np.cos(upright_task.data.qpos[1]) > 0
+    )  # still upright after 3 s

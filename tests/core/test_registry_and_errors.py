@@ -17,9 +17,13 @@ def test_builtins_are_registered_by_name():
 
 
 def test_unknown_names_list_the_valid_ones():
-    with pytest.raises(judo.UnknownNameError, match=r"unknown task 'cartpol'; valid tasks are: .*cartpole, .*cylinder_push"):
+    with pytest.raises(
+        judo.UnknownNameError, match=r"unknown task 'cartpol'; valid tasks are: .*cartpole, .*cylinder_push"
+    ):
         judo.make_controller("cartpol", "mppi")
-    with pytest.raises(judo.UnknownNameError, match=r"unknown optimizer 'mpi'; valid optimizers are: cem, .*mppi, .*ps"):
+    with pytest.raises(
+        judo.UnknownNameError, match=r"unknown optimizer 'mpi'; valid optimizers are: cem, .*mppi, .*ps"
+    ):
         judo.make_controller("cartpole", "mpi")
 
 
@@ -53,11 +57,16 @@ def test_register_a_user_task_and_override_its_configs(tiny_model_path):
 
 
 def test_overrides_are_checked_when_set():
-    with pytest.raises(judo.UnknownNameError, match=r"unknown field of MPPIConfig 'sigmaa'; valid field of MPPIConfigs are: .*sigma"):
+    with pytest.raises(
+        judo.UnknownNameError, match=r"unknown field of MPPIConfig 'sigmaa'; valid field of MPPIConfigs are: .*sigma"
+    ):
         judo.set_config_overrides("cartpole", MPPIConfig, {"sigmaa": 1.0})
     with pytest.raises(judo.ConfigError, match="MPPIConfig.sigma expects a number, got 'big'"):
         judo.set_config_overrides("cartpole", MPPIConfig, {"sigma": "big"})
-    with pytest.raises(judo.ConfigError, match=r"ControllerConfig.spline_order expects one of \['zero', 'linear', 'cubic'\], got 'quadratic'"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"ControllerConfig.spline_order expects one of \['zero', 'linear', 'cubic'\], got 'quadratic'",
+    ):
         judo.set_config_overrides("cartpole", judo.ControllerConfig, {"spline_order": "quadratic"})
 
 

@@ -17,7 +17,9 @@ set_config_overrides("cartpole", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("cartpole", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
 set_config_overrides("cartpole", CEMConfig, {"sigma_min": 0.2, "sigma_max": 1.0})
 
-set_config_overrides("cylinder_push", ControllerConfig, {"horizon": 1.0, "spline_order": "linear", "control_freq": 50.0})
+set_config_overrides(
+    "cylinder_push", ControllerConfig, {"horizon": 1.0, "spline_order": "linear", "control_freq": 50.0}
+)
 set_config_overrides("cylinder_push", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
 set_config_overrides("cylinder_push", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("cylinder_push", MPPIConfig, {"sigma": 0.3, "temperature": 0.01})
