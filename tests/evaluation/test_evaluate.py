@@ -2,7 +2,8 @@ import json
 
 import pytest
 
-from judo.core.registry import get_registered_optimizers, get_registered_tasks
+from judo.core.controller import ControllerConfig
+from judo.core.registry import get_registered_optimizers, get_registered_tasks, make_config
 from judo.evaluation.evaluate import main
 
 TINY = ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "0.5", "--num-workers", "1"]
@@ -16,11 +17,12 @@ def evaluate_json(tmp_path, *extra: str) -> dict:
 
 def test_evaluate_reports_each_episode_and_the_summary(tmp_path, capsys):
     report = evaluate_json(tmp_path, "--seeds", "2")
+    control_freq = make_config(ControllerConfig, "cartpole").control_freq
     assert (report["task"], report["optimizer"], report["seeds"], report["latency"]) == ("cartpole", "ps", 2, "none")
     assert [episode["seed"] for episode in report["episodes"]] == [0, 1]
     for episode in report["episodes"]:
         assert set(episode["metrics"]) == {"balanced_fraction", "swung_up", "mean_reward"}
-        assert episode["num_updates"] == 10  # 0.5 s at 20 Hz
+        assert episode["num_updates"] == round(0.5 * control_freq)
         assert episode["divergences"] == 0
     summary = report["summary"]["mean_reward"]
     values = [episode["metrics"]["mean_reward"] for episode in report["episodes"]]
