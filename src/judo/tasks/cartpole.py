@@ -64,8 +64,11 @@ class Cartpole(Task[CartpoleConfig]):
         mujoco.mj_forward(self.sim_model, self.data)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """ "balanced_fraction": share of the final 3 s (the whole episode if shorter) with the pole upright
-        (cos(angle) > 0.9) and the cart centred (|x| < 0.3 m); "swung_up": 1.0 if that share is over 0.9."""
+        """Balance over the final 3 s (the whole episode if shorter).
+
+        "balanced_fraction" is the share of those steps with the pole upright (cos(angle) > 0.9) and the
+        cart centred (|x| < 0.3 m); "swung_up" is 1.0 if that share is over 0.9, else 0.0.
+        """
         final = log.times > log.times[-1] - 3.0 + 1e-9  # steps ending within the final 3 s
         cart_x, angle = log.states[final, 0], log.states[final, 1]
         fraction = float(np.mean((np.cos(angle) > 0.9) & (np.abs(cart_x) < 0.3)))

@@ -71,7 +71,6 @@ class CylinderPush(Task[CylinderPushConfig]):
         mujoco.mj_forward(self.sim_model, self.data)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """ "final_distance": cart-to-goal distance (m) at the end of the episode; "reached": 1.0 if it is
-        under 0.05 m."""
+        """Where the cart ended: "final_distance" to the goal (m), and "reached", 1.0 if that is under 0.05 m."""
         distance = float(np.linalg.norm(log.states[-1, 2:4] - self.config.goal_pos))
         return {"final_distance": distance, "reached": float(distance < 0.05)}
