@@ -17,7 +17,9 @@ from judo.core.config import require, with_updates
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.model import STATE_SPEC
 from judo.core.registry import lookup_optimizer, make_config, make_controller
+from judo.core.spline import Spline
 from judo.evaluation.episode import make_plant_task
+from judo.runtime.system import MujocoSystem
 
 
 @dataclass
@@ -109,6 +111,16 @@ def full_physics_state(model: mujoco.MjModel, state: np.ndarray, time: float, me
     return initial
 
 
+def sampled_controls(controller: Controller, plan: Spline) -> np.ndarray:
+    """(num_rollouts, T, nu) controls as an update after `plan` would roll out: knots sampled by the
+    optimizer around the plan's knots, clamped to the actuator limits, interpolated at every step."""
+    knots = controller.optimizer.sample_control_knots(plan.knots)
+    low, high = controller.task.actuator_ctrlrange.T
+    np.clip(knots, low, high, out=knots)
+    weights = plan.basis.weights(np.arange(controller.num_steps) * controller.task.dt)  # (T, num_nodes)
+    return np.matmul(weights, knots)
+
+
 def time_control_update(
     controller: Controller,
     samples: int,
@@ -122,28 +134,22 @@ def time_control_update(
 
     Every update plans from the task's start state for `seed` (its randomised reset), one control
     period later than the one before, so the plan shifts as in a running loop. The raw rollouts start
-    from the same state and roll out the last plan, repeated for every rollout, on `controller.pool`.
+    from the same state and roll out a batch sampled as an update samples it, on `controller.pool`.
 
     Returns:
         update_ms (samples,) and raw_rollout_ms (samples,), wall times in milliseconds.
     """
     require(samples >= 1, f"samples must be at least 1, got {samples}")
     require(warmup >= 0, f"warmup must be at least 0, got {warmup}")
-    start_task = make_plant_task(controller, seed)
-    model = controller.task.model
-    state = np.concatenate([start_task.data.qpos, start_task.data.qvel])
-    metadata = {"mocap_pos": start_task.data.mocap_pos.copy(), "mocap_quat": start_task.data.mocap_quat.copy()}
-    metadata.update(start_task.get_sim_metadata())
+    start = MujocoSystem(make_plant_task(controller, seed)).read_state()
+    state, metadata, plan_time = start.state, start.metadata, start.time
     period = 1.0 / controller.config.control_freq
     controller.reset()
-    plan_time = float(start_task.data.time)
     for _ in range(warmup + 1):  # at least one update, so the plan and the batch size exist
         plan = controller.update_action(state, plan_time, metadata)
         plan_time += period
-    num_steps, num_rollouts = controller.num_steps, controller.optimizer.num_rollouts
-    step_times = plan.start_time + np.arange(num_steps) * controller.task.dt
-    controls = np.ascontiguousarray(np.broadcast_to(plan(step_times), (num_rollouts, num_steps, controller.task.nu)))
-    initial = full_physics_state(model, state, plan.start_time, metadata)
+    controls = sampled_controls(controller, plan)
+    initial = full_physics_state(controller.task.model, state, plan.start_time, metadata)
     for _ in range(warmup):
         controller.pool.rollout(initial, controls)
 
