@@ -49,3 +49,16 @@ def test_example_02_custom_optimizer_improves_on_the_start():
     results = load_example("02_custom_optimizer.py").main(iterations=8)
     assert set(results) == {"elite_average", "mppi"}
     assert all(reward > -5000 for reward in results.values())
+
+
+def test_example_04_config_file_registers_and_overrides():
+    import judo
+
+    loaded = judo.load_config(ROOT / "examples" / "04_config_file" / "judo.toml")
+    assert (loaded.task, loaded.optimizer) == ("balance", "cooling_mppi")
+    controller = judo.make_controller(loaded.task, loaded.optimizer, seed=0, num_workers=1)
+    assert controller.config.horizon == 0.6 and controller.optimizer.config.cooling == 0.3
+    assert controller.task.config.w_control == 0.05
+    controller.update_action(controller.task.data.qpos.tolist() + controller.task.data.qvel.tolist(), 0.0)
+    assert controller.optimizer.temperature < controller.optimizer.config.temperature  # it cooled
+    controller.close()
