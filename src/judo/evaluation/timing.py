@@ -1,7 +1,7 @@
 """Timing the control update against its floor: the raw rollout of the same N x T steps on the same pool.
 
 The control update samples knots, interpolates them, rolls them out, scores and updates; the raw
-rollout is only `controller.pool.rollout(initial_state, controls)` with controls of the same
+rollout is only `controller.pool.rollout(initial_state, controls, mocap)` with controls of the same
 (num_rollouts, T, nu) shape. Their ratio is the controller's overhead on top of physics.
 """
 
@@ -97,8 +97,11 @@ def benchmark_controller(
     )
 
 
-def full_physics_state(model: mujoco.MjModel, state: np.ndarray, time: float, metadata: dict) -> np.ndarray:
-    """The (nstate,) full-physics state a rollout starts from, for [qpos, qvel] `state` and mocap `metadata`."""
+def rollout_start(
+    model: mujoco.MjModel, state: np.ndarray, time: float, metadata: dict
+) -> tuple[np.ndarray, np.ndarray]:
+    """What `RolloutPool.rollout` starts from for [qpos, qvel] `state` and mocap poses in `metadata`:
+    the (nstate,) full-physics state and the (7 * nmocap,) mocap vector, as the controller builds them."""
     data = mujoco.MjData(model)
     data.time = time
     data.qpos[:] = state[: model.nq]
@@ -108,7 +111,7 @@ def full_physics_state(model: mujoco.MjModel, state: np.ndarray, time: float, me
             getattr(data, key)[:] = metadata[key]
     initial = np.zeros(mujoco.mj_stateSize(model, STATE_SPEC))
     mujoco.mj_getState(model, data, initial, STATE_SPEC)
-    return initial
+    return initial, np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
 
 
 def sampled_controls(controller: Controller, plan: Spline) -> np.ndarray:
@@ -149,9 +152,9 @@ def time_control_update(
         plan = controller.update_action(state, plan_time, metadata)
         plan_time += period
     controls = sampled_controls(controller, plan)
-    initial = full_physics_state(controller.task.model, state, plan.start_time, metadata)
+    initial, mocap = rollout_start(controller.task.model, state, plan.start_time, metadata)
     for _ in range(warmup):
-        controller.pool.rollout(initial, controls)
+        controller.pool.rollout(initial, controls, mocap)
 
     update_ms, raw_ms = np.zeros(samples), np.zeros(samples)
     for i in range(samples):
@@ -160,7 +163,7 @@ def time_control_update(
         update_ms[i] = 1e3 * (time.perf_counter() - started)
         plan_time += period
         started = time.perf_counter()
-        controller.pool.rollout(initial, controls)
+        controller.pool.rollout(initial, controls, mocap)
         raw_ms[i] = 1e3 * (time.perf_counter() - started)
         if on_sample is not None:
             on_sample()
