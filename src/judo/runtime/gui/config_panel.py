@@ -56,6 +56,10 @@ class ConfigPanel:
         """The fields that have widgets, in declaration order."""
         return list(self._widgets)
 
+    def handles(self, name: str) -> list[Any]:
+        """The viser handles of field `name`: one widget, or one slider per entry of an array."""
+        return list(self._widgets[name])
+
     def value_of(self, name: str) -> Any:
         """The value the widgets of field `name` show now."""
         return self._decode[name]([handle.value for handle in self._widgets[name]])
@@ -117,7 +121,10 @@ class ConfigPanel:
             try:
                 self._config = self._on_edit({name: value})
             except JudoError:
-                self._write(name, getattr(self._config, name))
+                try:
+                    self._write(name, getattr(self._config, name))
+                except RuntimeError:  # the panel was removed meanwhile (a switch): nothing to put back
+                    pass
 
     def _write(self, name: str, value: Any) -> None:
         for handle, item in zip(self._widgets[name], self._encode[name](value), strict=True):

@@ -37,6 +37,7 @@ class Plots:
                     ),
                     title=title,
                     scales={"x": viser.uplot.Scale(time=False, auto=True), "y": viser.uplot.Scale(auto=True)},
+                    axes=(viser.uplot.Axis(), viser.uplot.Axis(size=64)),  # room for values like -2,000
                     legend=viser.uplot.Legend(show=False),
                     aspect=2.0,
                 )

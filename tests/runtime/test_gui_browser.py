@@ -1,0 +1,89 @@
+"""The GUI in a real browser (headless Chromium): panels, a slider, a refused edit, the optimizer dropdown.
+
+Screenshots go to test-artifacts/.
+"""
+
+import re
+
+import pytest
+
+import judo
+from judo.runtime.app import App
+
+pytestmark = pytest.mark.browser
+
+
+@pytest.fixture
+def app(port):
+    app = App("cartpole", "mppi", host="127.0.0.1", port=port, seed=0, num_workers=1)
+    app.start()
+    yield app
+    app.stop()
+
+
+@pytest.fixture
+def page(chromium, app):
+    page = chromium.new_page(viewport={"width": 1400, "height": 1000})
+    page.set_default_timeout(60_000)  # software WebGL on a busy machine can be slow; an idle one takes seconds
+    page.goto(app.gui.url)
+    page.get_by_text("Controller", exact=True).wait_for()
+    for close in page.locator(".mantine-Notification-closeButton").all():  # e.g. the "software WebGL" notice
+        close.dispatch_event("click")
+    yield page
+    page.close()
+
+
+def labelled(page, label: str, role: str):
+    """The element with `role` inside the widget whose label reads exactly `label`."""
+    target = page.locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first.get_attribute("for")
+    widget = page.locator(f'[id="{target}"]')
+    return widget if widget.get_attribute("role") == role else widget.locator(f'[role="{role}"]')
+
+
+def test_panels_show_every_config_field(app, page, artifacts):
+    labels = page.locator("label").all_inner_texts()  # one round trip: a busy renderer answers slowly
+    texts = page.locator(".mantine-Paper-root").first.inner_text()
+    for panel in app.gui.panels.values():
+        for name in panel.field_names:
+            assert labels.count(name) == 1, name
+    for text in ("Controller", "Optimizer: mppi", "Task: cartpole", "Plots", "Pause", "Reset task", "Reset configs"):
+        assert text in texts
+    assert "status: running cartpole with mppi" in texts
+    page.wait_for_timeout(1500)  # let the scene and plots fill in
+    page.screenshot(path=artifacts / "gui_cartpole_mppi.png")
+
+
+def test_moving_a_slider_changes_the_controllers_config(app, page, wait_until, artifacts):
+    assert app.controller.config.horizon == 1.0
+    thumb = labelled(page, "horizon", "slider")
+    thumb.focus()
+    thumb.press("ArrowRight")
+    thumb.press("ArrowRight")  # two steps of 0.05
+    wait_until(lambda: app.controller.config.horizon == pytest.approx(1.1), timeout=60, what="the horizon to be 1.1")
+    assert thumb.get_attribute("aria-valuenow") == "1.1"
+    page.screenshot(path=artifacts / "gui_slider_moved.png")
+
+
+def test_an_invalid_edit_is_refused_and_the_widget_goes_back(app, page, wait_until, artifacts):
+    thumb = labelled(page, "num_nodes", "slider")
+    thumb.focus()
+    thumb.press("ArrowLeft")  # 4 -> 3 knots, too few for cartpole's cubic spline
+    message = "edit refused: a cubic spline needs num_nodes >= 4, got 3"
+    page.get_by_text(f"status: warning: {message}").wait_for()
+    wait_until(lambda: thumb.get_attribute("aria-valuenow") == "4", timeout=60, what="the slider to go back to 4")
+    assert app.configs()["optimizer"].num_nodes == 4 and app.controller.optimizer.config.num_nodes == 4
+    page.screenshot(path=artifacts / "gui_edit_refused.png")
+
+
+def test_switching_the_optimizer_dropdown_rebuilds_its_panel(app, page, wait_until, artifacts):
+    labelled(page, "optimizer", "combobox").click(force=True)  # force: skip waiting for stable animation frames
+    page.get_by_role("option", name="cem", exact=True).click(force=True)
+    page.get_by_text("Optimizer: cem", exact=True).wait_for()
+    wait_until(lambda: app.session.optimizer_name == "cem", timeout=60, what="the app to switch to cem")
+    assert isinstance(app.controller.optimizer, judo.get_registered_optimizers()["cem"][0])
+    for name in ("sigma_min", "sigma_max", "num_elites"):
+        page.locator("label", has_text=re.compile(f"^{name}$")).wait_for()
+    assert page.locator("label", has_text=re.compile("^temperature$")).count() == 0
+    assert page.get_by_text("Optimizer: mppi", exact=True).count() == 0
+    page.wait_for_timeout(1000)
+    page.screenshot(path=artifacts / "gui_switched_to_cem.png")
