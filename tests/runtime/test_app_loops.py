@@ -165,11 +165,17 @@ def test_switching_task_mid_run_builds_a_new_plant_with_the_task_defaults(wait_u
 
 
 def test_unknown_names_are_refused_with_the_valid_choices():
-    with pytest.raises(JudoError, match="unknown task 'nope'; valid tasks are: cartpole, cylinder_push"):
+    tasks, optimizers = (
+        ", ".join(sorted(judo.get_registered_tasks())),
+        ", ".join(sorted(judo.get_registered_optimizers())),
+    )
+    with pytest.raises(JudoError) as refused:
         small_app("nope")
+    assert str(refused.value) == f"unknown task 'nope'; valid tasks are: {tasks}"
     app = small_app()
-    with pytest.raises(JudoError, match="unknown optimizer 'nope'; valid optimizers are: cem, mppi, ps"):
+    with pytest.raises(JudoError) as refused:
         app.switch_optimizer("nope")
+    assert str(refused.value) == f"unknown optimizer 'nope'; valid optimizers are: {optimizers}"
 
 
 class Clock(System):

@@ -10,10 +10,12 @@ import numpy as np
 import pytest
 
 import judo.__main__
+from judo import get_registered_optimizers, get_registered_tasks
 from judo.runtime import cli
 from judo.runtime.session import default_configs
 
 SRC = str(Path(judo.__main__.__file__).parents[1])
+CONFIG_FILE = Path(__file__).resolve().parents[2] / "examples" / "04_config_file" / "judo.toml"
 
 
 def test_unknown_task_exits_2_with_the_valid_names_and_no_traceback():
@@ -22,16 +24,18 @@ def test_unknown_task_exits_2_with_the_valid_names_and_no_traceback():
         [sys.executable, "-m", "judo", "--task", "no_such_task"], capture_output=True, text=True, timeout=60, env=env
     )
     assert result.returncode == 2
-    assert result.stderr.strip() == (
-        "python -m judo: unknown task 'no_such_task'; valid tasks are: cartpole, cylinder_push"
-    )
+    prefix = "python -m judo: unknown task 'no_such_task'; valid tasks are: "
+    assert result.stderr.startswith(prefix) and result.stderr.count("\n") == 1  # one line
+    listed = result.stderr.strip().removeprefix(prefix).split(", ")
+    assert {"cartpole", "cylinder_push"} <= set(listed) and listed == sorted(listed)
     assert "Traceback" not in result.stdout + result.stderr
 
 
 def test_unknown_optimizer_exits_2_with_the_valid_names(capsys):
     assert cli.main(["--optimizer=no_such_optimizer"]) == 2
     err = capsys.readouterr().err
-    assert err.strip() == "python -m judo: unknown optimizer 'no_such_optimizer'; valid optimizers are: cem, mppi, ps"
+    optimizers = ", ".join(sorted(get_registered_optimizers()))
+    assert err.strip() == f"python -m judo: unknown optimizer 'no_such_optimizer'; valid optimizers are: {optimizers}"
 
 
 def test_overrides_reach_the_chosen_configs():
@@ -52,6 +56,21 @@ def test_overrides_reach_the_chosen_configs():
     assert configs["task"].w_cart_position == 2.0
 
 
+def test_a_config_file_names_the_task_and_sets_defaults_that_options_still_override(capsys):
+    with pytest.raises(SystemExit):
+        cli.main(["--config", str(CONFIG_FILE), "--controller.max-opt-iters", "2", "--help"])
+    text = capsys.readouterr().out
+    assert "Balance-task weights." in text  # the file's task, registered from its module
+    assert "Planning horizon in seconds. (default: 0.6)" in text  # the file's override
+    task, optimizer = cli._peek_names(["--config", str(CONFIG_FILE), "--task", "cartpole"])
+    assert (task, optimizer) == ("cartpole", "cooling_mppi")
+
+
+def test_a_missing_config_file_exits_2_with_its_name(capsys):
+    assert cli.main(["--config", "no/such/judo.toml"]) == 2
+    assert capsys.readouterr().err.strip() == "python -m judo: config file not found: no/such/judo.toml"
+
+
 def test_help_documents_the_fields_of_the_chosen_configs(capsys):
     with pytest.raises(SystemExit) as exit_info:
         cli.main(["--task", "cylinder_push", "--optimizer", "cem", "--help"])
@@ -60,7 +79,8 @@ def test_help_documents_the_fields_of_the_chosen_configs(capsys):
     for option in ("--headless", "--duration", "--controller.horizon", "--optimizer-config.num-elites"):
         assert option in text
     assert "--task-config.goal-pos" in text and "Goal position (m) of the cart on the table." in text
-    assert "Tasks: cartpole, cylinder_push. Optimizers: cem, mppi, ps." in text
+    tasks, optimizers = ", ".join(sorted(get_registered_tasks())), ", ".join(sorted(get_registered_optimizers()))
+    assert f"Tasks: {tasks}. Optimizers: {optimizers}." in " ".join(text.split())
 
 
 @pytest.mark.parametrize(

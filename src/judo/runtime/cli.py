@@ -6,6 +6,10 @@ named on the command line:
     python -m judo --task cartpole --optimizer mppi --controller.horizon 0.8 --optimizer-config.sigma 0.2
     python -m judo --task cylinder_push --headless --duration 10
     python -m judo --task cartpole --optimizer cem --help     # lists the cem and cartpole fields
+    python -m judo --config judo.toml                          # custom classes and overrides from a file
+
+Precedence, lowest first: the dataclass defaults, the task's registered overrides, the config file,
+the command-line options, then live GUI edits.
 """
 
 import argparse
@@ -14,6 +18,7 @@ import logging
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -21,7 +26,8 @@ import tyro
 import tyro.constructors
 
 from judo.core.config import Config, with_updates
-from judo.core.errors import JudoError, UnknownNameError
+from judo.core.config_file import load_config
+from judo.core.errors import JudoError
 from judo.core.registry import get_registered_optimizers, get_registered_tasks
 from judo.runtime.app import App
 from judo.runtime.session import default_configs
@@ -35,10 +41,12 @@ CONFIG_GROUPS = {"controller": "controller", "optimizer": "optimizer_config", "t
 class RunOptions:
     """What to run and how to serve it."""
 
+    config: Path | None = None
+    """TOML file that registers custom tasks and optimizers and sets per-task overrides (see docs/configuration.md)."""
     task: str = "cartpole"
-    """Registered task to run."""
+    """Registered task to run (the config file's `task` when it names one)."""
     optimizer: str = "mppi"
-    """Registered optimizer to plan with."""
+    """Registered optimizer to plan with (the config file's `optimizer` when it names one)."""
     host: str = "0.0.0.0"
     """Address the GUI server listens on."""
     port: int = 8080
@@ -54,12 +62,13 @@ class RunOptions:
 def main(argv: Sequence[str] | None = None) -> int:
     """Parse `argv` (default: sys.argv[1:]), run the app, and return the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    task, optimizer = _peek_names(argv)
     try:
+        task, optimizer = _peek_names(argv)
         defaults = default_configs(task, optimizer)
-    except UnknownNameError as err:
+    except JudoError as err:  # an unknown name, or a config file that cannot be applied
         print(f"{PROG}: {err}", file=sys.stderr)
         return 2
+    argv = ["--task", task, "--optimizer", optimizer, *argv]  # the config file's names, unless given again
     try:
         options, configs = parse(argv, defaults)
         app = App(
@@ -110,12 +119,20 @@ def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[s
 
 
 def _peek_names(argv: list[str]) -> tuple[str, str]:
-    """The --task and --optimizer values in `argv` (or their defaults), read before tyro builds the options."""
+    """The task and optimizer to run, read before tyro builds the options that depend on them.
+
+    Loads the --config file first (registering its classes and overrides), whose names stand in
+    for --task and --optimizer when those are not given. Raises JudoError for a bad file.
+    """
     peek = argparse.ArgumentParser(add_help=False)
-    peek.add_argument("--task", default=RunOptions.task)
-    peek.add_argument("--optimizer", default=RunOptions.optimizer)
+    peek.add_argument("--config", default=None)
+    peek.add_argument("--task", default=None)
+    peek.add_argument("--optimizer", default=None)
     known, _ = peek.parse_known_args(argv)
-    return known.task, known.optimizer
+    loaded = load_config(known.config) if known.config else None
+    task = known.task or (loaded and loaded.task) or RunOptions.task
+    optimizer = known.optimizer or (loaded and loaded.optimizer) or RunOptions.optimizer
+    return task, optimizer
 
 
 def _description() -> str:
