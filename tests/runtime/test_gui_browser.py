@@ -23,7 +23,7 @@ def app(port):
 
 @pytest.fixture
 def page(chromium, app):
-    page = chromium.new_page(viewport={"width": 1400, "height": 1000})
+    page = chromium.new_page(viewport={"width": 1280, "height": 900})
     page.set_default_timeout(60_000)  # software WebGL on a busy machine can be slow; an idle one takes seconds
     page.goto(app.gui.url)
     page.get_by_text("Controller", exact=True).wait_for()
@@ -51,6 +51,8 @@ def test_panels_show_every_config_field(app, page, artifacts):
     assert "status: running cartpole with mppi" in texts
     page.wait_for_timeout(1500)  # let the scene and plots fill in
     page.screenshot(path=artifacts / "gui_cartpole_mppi.png")
+    page.get_by_text("real-time factor", exact=True).scroll_into_view_if_needed()
+    page.screenshot(path=artifacts / "gui_plots.png")
 
 
 def test_moving_a_slider_changes_the_controllers_config(app, page, wait_until, artifacts):
@@ -76,6 +78,7 @@ def test_an_invalid_edit_is_refused_and_the_widget_goes_back(app, page, wait_unt
 
 
 def test_switching_the_optimizer_dropdown_rebuilds_its_panel(app, page, wait_until, artifacts):
+    scene = app.gui.scene
     labelled(page, "optimizer", "combobox").click(force=True)  # force: skip waiting for stable animation frames
     page.get_by_role("option", name="cem", exact=True).click(force=True)
     page.get_by_text("Optimizer: cem", exact=True).wait_for()
@@ -85,5 +88,6 @@ def test_switching_the_optimizer_dropdown_rebuilds_its_panel(app, page, wait_unt
         page.locator("label", has_text=re.compile(f"^{name}$")).wait_for()
     assert page.locator("label", has_text=re.compile("^temperature$")).count() == 0
     assert page.get_by_text("Optimizer: mppi", exact=True).count() == 0
+    assert app.gui.scene is scene  # same task: the scene and the user's camera stay
     page.wait_for_timeout(1000)
     page.screenshot(path=artifacts / "gui_switched_to_cem.png")

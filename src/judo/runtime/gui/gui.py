@@ -36,6 +36,7 @@ class Gui:
         self.plots = Plots(self.server.gui, order=100)
         self.panels: dict[str, ConfigPanel] = {}
         self.scene: SceneView | None = None
+        self._scene_task: str | None = None
         self._generation = -1
         self._external_edits = -1
         self._state_version = self._plan_version = 0
@@ -47,6 +48,11 @@ class Gui:
         """Where a browser finds the GUI."""
         host = self.server.get_host()
         return f"http://{'localhost' if host in ('0.0.0.0', '::') else host}:{self.server.get_port()}"
+
+    @property
+    def shown_generation(self) -> int:
+        """The generation of the session the panels and scene were last built for (-1 before the first)."""
+        return self._generation
 
     def update(self) -> None:
         """Follow the app: rebuild after a switch, refresh widgets, pose the scene, draw traces and plots."""
@@ -86,34 +92,37 @@ class Gui:
         self.server.stop()
 
     def _rebuild(self, reading: SystemState) -> None:
-        """New scene and config panels for the session in use; the camera frames the plant's `reading`."""
+        """New config panels for the session in use, and for a new task a new scene whose camera frames
+        the plant's `reading`."""
         app = self.app
-        session = app.session
-        self._generation = session.generation
+        session, configs = app.session, app.configs()
         self._external_edits = app.external_edits
         for panel in self.panels.values():
             panel.remove()
-        if self.scene is not None:
-            self.scene.remove()
-        self.scene = SceneView(self.server.scene, session.controller.task.model)
-        self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
-        self.scene.set_markers(app.configs()["task"])
+        if session.task_name != self._scene_task:  # a new model; a new optimizer keeps scene and camera
+            self._scene_task = session.task_name
+            if self.scene is not None:
+                self.scene.remove()
+            self.scene = SceneView(self.server.scene, session.controller.task.model)
+            self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
+            self.scene.set_markers(configs["task"])
+            position, look_at = self.scene.camera_pose()
+            self.server.initial_camera.position = position
+            self.server.initial_camera.look_at = look_at
+            for client in self.server.get_clients().values():
+                client.camera.position, client.camera.look_at = position, look_at
         self._shown_task_config = None
-        position, look_at = self.scene.camera_pose()
-        self.server.initial_camera.position = position
-        self.server.initial_camera.look_at = look_at
-        for client in self.server.get_clients().values():
-            client.camera.position, client.camera.look_at = position, look_at
         titles = {
             "controller": "Controller",
             "optimizer": f"Optimizer: {session.optimizer_name}",
             "task": f"Task: {session.task_name}",
         }
-        for order, (kind, config) in enumerate(app.configs().items(), start=1):
-            self.panels[kind] = ConfigPanel(
-                self.server.gui, titles[kind], config, self._editor(kind, session.generation), order=10 * order
-            )
+        self.panels = {
+            kind: ConfigPanel(self.server.gui, titles[kind], config, self._editor(kind, session.generation), 10 * order)
+            for order, (kind, config) in enumerate(configs.items(), start=1)
+        }
         self.controls.show_session()
+        self._generation = session.generation
 
     def _editor(self, kind: "ConfigKind", generation: int) -> Any:
         def edit(updates: dict[str, Any]) -> Config:

@@ -40,6 +40,7 @@ class Plots:
                     axes=(viser.uplot.Axis(), viser.uplot.Axis(size=64)),  # room for values like -2,000
                     legend=viser.uplot.Legend(show=False),
                     aspect=2.0,
+                    padding=(12, 24, 0, 0),  # room above the top tick label
                 )
 
     def add(self, t: float, figures: LiveFigures) -> None:
