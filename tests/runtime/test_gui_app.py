@@ -78,3 +78,12 @@ def test_an_optimizer_switch_keeps_the_scene_and_a_task_switch_replaces_it(app, 
     assert isinstance(marker, viser.IcosphereHandle)
     app.update_config("task", {"goal_pos": [0.4, -0.3]})
     wait_until(lambda: np.allclose(marker.position, [0.4, -0.3, 0.0]), what="the goal marker to move")
+
+
+def test_a_taken_port_moves_the_gui_to_the_next_free_one(app):
+    second = App("cartpole", "mppi", host="127.0.0.1", port=app.port, num_workers=1)
+    second.start()
+    try:
+        assert second.gui.url != app.gui.url and second.gui.server.get_port() > app.port
+    finally:
+        second.stop()

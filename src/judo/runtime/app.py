@@ -324,7 +324,8 @@ class App:
             if self.gui_enabled:
                 from judo.runtime.gui import Gui  # viser is only imported when a GUI is wanted
 
-                self.gui = Gui(self, self.host, self.port)
+                self.gui = Gui(self, self.host, self.port)  # viser moves to the next free port if this one is taken
+                logger.info("GUI at %s", self.gui.url)
                 loops.append(self._gui_loop())
             self.report(f"running {self._session.task_name} with {self._session.optimizer_name}")
             tasks = [asyncio.create_task(coro) for coro in loops]
