@@ -55,21 +55,27 @@ def test_panels_show_every_config_field(app, page, artifacts):
     page.screenshot(path=artifacts / "gui_plots.png")
 
 
+def click_slider(page, label: str, low: float, high: float, value: float):
+    """Click the track of the slider labelled `label` (range low..high) where `value` sits; return its thumb."""
+    track = labelled(page, label, "slider").locator("xpath=ancestor::div[contains(@class, 'mantine-Slider-root')]")
+    box = track.locator(".mantine-Slider-track").bounding_box()
+    assert box is not None
+    page.mouse.click(box["x"] + box["width"] * (value - low) / (high - low), box["y"] + box["height"] / 2)
+    return labelled(page, label, "slider")
+
+
 def test_moving_a_slider_changes_the_controllers_config(app, page, wait_until, artifacts):
     assert app.controller.config.horizon == 1.0
-    thumb = labelled(page, "horizon", "slider")
-    thumb.focus()
-    thumb.press("ArrowRight")
-    thumb.press("ArrowRight")  # two steps of 0.05
-    wait_until(lambda: app.controller.config.horizon == pytest.approx(1.1), timeout=60, what="the horizon to be 1.1")
-    assert thumb.get_attribute("aria-valuenow") == "1.1"
+    thumb = click_slider(page, "horizon", 0.05, 5.0, 2.5)
+    wait_until(lambda: thumb.get_attribute("aria-valuenow") != "1", timeout=60, what="the slider to move")
+    shown = float(thumb.get_attribute("aria-valuenow"))
+    assert 2.0 <= shown <= 3.0
+    wait_until(lambda: app.controller.config.horizon == shown, timeout=60, what=f"the horizon to be {shown}")
     page.screenshot(path=artifacts / "gui_slider_moved.png")
 
 
 def test_an_invalid_edit_is_refused_and_the_widget_goes_back(app, page, wait_until, artifacts):
-    thumb = labelled(page, "num_nodes", "slider")
-    thumb.focus()
-    thumb.press("ArrowLeft")  # 4 -> 3 knots, too few for cartpole's cubic spline
+    thumb = click_slider(page, "num_nodes", 2, 20, 3)  # 3 knots: too few for cartpole's cubic spline
     message = "edit refused: a cubic spline needs num_nodes >= 4, got 3"
     page.get_by_text(f"status: warning: {message}").wait_for()
     wait_until(lambda: thumb.get_attribute("aria-valuenow") == "4", timeout=60, what="the slider to go back to 4")
