@@ -25,10 +25,12 @@ from judo.core.registry import (
 )
 from judo.core.spline import Spline, SplineBasis
 from judo.core.task import Task, TaskConfig
+from judo.runtime.app import App
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "App",
     "Config",
     "ConfigError",
     "ConfigFileError",
