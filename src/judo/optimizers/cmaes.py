@@ -23,14 +23,20 @@ class CMAESConfig(OptimizerConfig):
 
     sigma: float = 0.3
     """Initial step size in control units (clipped to [sigma_min, sigma_max]); editing it restarts the search distribution."""
-    sigma_min: float = 0.02
+    sigma_min: float = 0.1
     """Lower bound on every coordinate's std step_size * sqrt(C_ii), so the search never collapses between cycles."""
-    sigma_max: float = 1.0
+    sigma_max: float = 0.5
     """Upper bound on every coordinate's std step_size * sqrt(C_ii)."""
+    execute_best: bool = True
+    """Plan with the best sample evaluated so far (on) or with CMA-ES's distribution mean (off)."""
 
     def validate(self) -> None:
         super().validate()
         require(self.sigma > 0, f"sigma must be positive, got {self.sigma}")
+        require(
+            self.num_rollouts >= 2,
+            f"CMA-ES needs num_rollouts >= 2 (the plan plus a population), got {self.num_rollouts}",
+        )
         require(
             0 < self.sigma_min <= self.sigma_max,
             f"need 0 < sigma_min <= sigma_max, got {self.sigma_min}, {self.sigma_max}",
@@ -87,34 +93,42 @@ def cmaes_parameters(lam: int, n: int) -> CMAESParameters:
 
 
 class CMAES(Optimizer[CMAESConfig]):
-    """CMA-ES over the num_nodes * nu knot values, warm-started each cycle from the shifted nominal.
+    """CMA-ES over the num_nodes * nu knot values, its mean warm-started each cycle from the shifted plan.
 
-    Each iteration samples x_k = m + step_size * sqrt(C) * z_k, z_k ~ N(0, I), around the mean m, which
-    is always the nominal the controller passes in: at the first iteration of a cycle that is the
-    previous plan shifted to the new knot times. Sample 0 is m itself (z = 0), as every judo optimizer
-    does; it is ranked like the others. The update follows Hansen's tutorial with positive weights only
-    (no active CMA), c_m = 1, and the samples as the controller clamped them to the actuator limits:
+    Each iteration evaluates the plan (sample 0, the nominal passed in) and a population of
+    lambda = num_rollouts - 1 samples x_k = m + step_size * sqrt(C) z_k, z_k ~ N(0, I). At the first
+    iteration of a cycle the mean m is the nominal, i.e. the previous plan shifted to the new knot times.
+    The update is Hansen's tutorial's with positive weights only (no active CMA) and c_m = 1, on the
+    population ranked by reward:
 
-        y_k = (x_k - m) / step_size,   <y> = sum_{i<=mu} w_i y_{i:lambda},   m <- m + step_size <y>
+        y_k = sqrt(C) z_k,   <y> = sum_{i<=mu} w_i y_{i:lambda},   m <- m + step_size <y>
         p_sigma <- (1 - c_sigma) p_sigma + sqrt(c_sigma (2 - c_sigma) mu_eff) C^{-1/2} <y>
         p_c <- (1 - c_c) p_c + h_sigma sqrt(c_c (2 - c_c) mu_eff) <y>
         C <- (1 - c_1 - c_mu) C + c_1 (p_c^2 + delta(h_sigma) C) + c_mu sum_i w_i y_{i:lambda}^2
         step_size <- step_size exp((c_sigma / d_sigma) (|p_sigma| / E|N(0, I)| - 1))
 
-    with lambda = num_rollouts. C is diagonal (sep-CMA-ES): a full n x n covariance needs on the order
-    of n^2 / mu_eff samples to learn, far more than the few dozen rollouts of a handful of iterations per
-    control cycle, while the diagonal's learning rates may be (n + 2) / 3 times larger; it also costs
-    O(n) per sample, so it scales to hands with many actuators and knots. Because the MPC problem moves
-    every cycle, each coordinate's std step_size * sqrt(C_ii) is kept in [sigma_min, sigma_max].
+    The steps y are the ones drawn; the controller evaluates them clamped to the actuator limits, and
+    updating with the clamped steps would shrink C wherever the plan saturates. The new plan is the
+    best sample evaluated this iteration (`execute_best`, the default: rollouts are deterministic, so
+    the plan never gets worse within a cycle) or the new mean m.
+
+    C is diagonal (sep-CMA-ES): a full n x n covariance needs on the order of n^2 / mu_eff samples to
+    learn, far more than the few dozen rollouts of a handful of iterations per control cycle, while the
+    diagonal's learning rates may be (n + 2) / 3 times larger; it also costs O(n) per sample, so it
+    scales to hands with many actuators and knots. After each update C is rescaled to mean(C_ii) = 1
+    and its scale moved into step_size (step_size^2 C is unchanged), so step_size is the RMS std; then
+    step_size and every coordinate's std step_size * sqrt(C_ii) are clipped to [sigma_min, sigma_max],
+    because the MPC problem moves every cycle and a collapsed search could not follow it.
 
     C, p_sigma and p_c are per knot and control, so between cycles they are re-interpolated from the old
     knot times to the new ones, like the plan itself; this also carries them across a num_nodes edit.
-    A num_rollouts edit only changes lambda and the parameters derived from it. use_noise_ramp shapes
-    the initial C (it is the initial per-knot std profile).
+    A num_rollouts edit only changes lambda and the parameters derived from it. Editing `sigma`
+    restarts the distribution. use_noise_ramp shapes the initial C (the initial per-knot std profile).
 
     Attributes:
-        step_size: the global step size sigma of CMA-ES.
-        variances: (num_nodes * nu,) the diagonal of C.
+        mean: (num_nodes * nu,) the distribution mean m.
+        step_size: the global step size sigma of CMA-ES (the RMS std of the samples).
+        variances: (num_nodes * nu,) the diagonal of C, with mean 1.
         path_sigma, path_c: (num_nodes * nu,) the evolution paths.
         generation: updates since the distribution was (re)started.
     """
@@ -133,10 +147,13 @@ class CMAES(Optimizer[CMAESConfig]):
         self.path_sigma = np.zeros(n)
         self.path_c = np.zeros(n)
         self.generation = 0
-        self._mean = np.zeros(n)
+        self.mean = np.zeros(n)
+        self._new_cycle = True
+        self._normalise_covariance()
         self._clip_spread()
 
     def pre_optimization(self, old_times: np.ndarray, new_times: np.ndarray) -> None:
+        self._new_cycle = True
         if self.config.sigma != self._restart_sigma or len(self.variances) != len(old_times) * self.nu:
             self.restart()  # a new initial sigma from the GUI, or state that does not belong to the old plan
             return
@@ -144,25 +161,34 @@ class CMAES(Optimizer[CMAESConfig]):
         for name in ("variances", "path_sigma", "path_c"):
             per_knot = getattr(self, name).reshape(len(old_times), self.nu)
             setattr(self, name, (shift @ per_knot).ravel())
+        self._normalise_covariance()
         self._clip_spread()
 
     def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
         if len(self.variances) != self.num_nodes * self.nu:  # sizes changed without pre_optimization
             self.restart()
-        self._mean = nominal_knots.ravel().astype(float)
-        noise = self.rng.standard_normal((self.num_rollouts - 1, len(self._mean)))
-        samples = self._mean + self.step_size * np.sqrt(self.variances) * noise
-        return np.concatenate([self._mean[None], samples]).reshape(self.num_rollouts, self.num_nodes, self.nu)
+        if self._new_cycle or len(self.mean) != self.num_nodes * self.nu:
+            self.mean = nominal_knots.ravel().astype(float)  # warm start from the shifted plan
+            self._new_cycle = False
+        self._draws = self.rng.standard_normal((self.num_rollouts - 1, len(self.mean)))
+        population = self.mean + self.step_size * np.sqrt(self.variances) * self._draws
+        return np.concatenate([nominal_knots.reshape(1, -1), population]).reshape(
+            self.num_rollouts, self.num_nodes, self.nu
+        )
 
     def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
-        n = len(self._mean)
-        p = cmaes_parameters(self.num_rollouts, n)
-        steps = (sampled_knots.reshape(self.num_rollouts, n) - self._mean) / self.step_size
-        parents = np.argsort(-rewards, kind="stable")[: p.mu]
-        weights = np.where(np.isfinite(rewards[parents]), p.weights[: len(parents)], 0.0)
+        n = len(self.mean)
+        lam = self.num_rollouts - 1
+        p = cmaes_parameters(lam, n)
+        population_rewards = rewards[1:]
+        steps = np.sqrt(self.variances) * self._draws  # as drawn, before the controller clamped them
+        parents = np.argsort(-population_rewards, kind="stable")[: p.mu]
+        weights = np.where(np.isfinite(population_rewards[parents]), p.weights, 0.0)
+        if weights.sum() == 0:  # every new sample failed: keep the distribution, keep the plan
+            return sampled_knots[0].copy()
         weights /= weights.sum()
         mean_step = weights @ steps[parents]
-        new_mean = self._mean + self.step_size * mean_step
+        self.mean = self.mean + self.step_size * mean_step
 
         self.generation += 1
         self.path_sigma *= 1 - p.c_sigma
@@ -179,8 +205,20 @@ class CMAES(Optimizer[CMAESConfig]):
             + p.c_mu * (weights @ np.square(steps[parents]))
         )
         self.step_size *= float(np.exp(p.c_sigma / p.d_sigma * (path_sigma_norm / p.chi_n - 1)))
+        self._normalise_covariance()
         self._clip_spread()
-        return new_mean.reshape(self.num_nodes, self.nu)
+        if self.config.execute_best:
+            return sampled_knots[np.argmax(rewards)].copy()
+        return self.mean.reshape(self.num_nodes, self.nu).copy()
+
+    def _normalise_covariance(self) -> None:
+        """Move C's overall scale into step_size so that mean(C_ii) = 1 and step_size is the RMS std.
+
+        step_size^2 C and the paths in N(0, I) units are unchanged; p_c, in units of step_size, is rescaled."""
+        scale = float(self.variances.mean())
+        self.variances /= scale
+        self.path_c /= np.sqrt(scale)
+        self.step_size *= np.sqrt(scale)
 
     def _clip_spread(self) -> None:
         """Keep step_size and every coordinate's std step_size * sqrt(C_ii) within [sigma_min, sigma_max]."""

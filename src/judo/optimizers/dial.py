@@ -26,10 +26,10 @@ class DialConfig(OptimizerConfig):
     """Noise std at the first iteration and the last knot (the largest noise), in control units."""
     beta_opt_iter: float = 1.0
     """Iteration annealing rate beta_1: the last of N iterations samples with about exp(-1/beta_1) of the first one's noise; larger anneals less."""
-    beta_horizon: float = 1.0
+    beta_horizon: float = 2.0
     """Horizon annealing rate beta_2: the first knot gets about exp(-1/beta_2) of the last knot's noise; larger anneals less."""
-    temperature: float = 0.1
-    """Softmax temperature on standardised rewards (r - mean) / std: small follows the best sample, large averages them."""
+    temperature: float = 0.01
+    """Softmax temperature on standardised rewards (r - mean) / std: small follows the best sample, large averages them (raise it with num_rollouts)."""
     anneal_iters: int = 4
     """Annealing iterations N per planning cycle; the cycle ends after N of them (so it runs min(N, max_opt_iters))."""
 
