@@ -90,7 +90,9 @@ def main() -> None:
     parser.add_argument("--no-timing", action="store_true")
     args = parser.parse_args()
     overrides = {} if args.max_opt_iters is None else {"max_opt_iters": args.max_opt_iters}
-    print(f"{'task':14s} {'optimizer':9s} {'iters':>5s} {'update ms':>9s} {'rollout ms':>10s} {'ratio':>6s}  success per seed")
+    print(
+        f"{'task':14s} {'optimizer':9s} {'iters':>5s} {'update ms':>9s} {'rollout ms':>10s} {'ratio':>6s}  success per seed"
+    )
     for task_name in args.tasks:
         for optimizer_name in args.optimizers:
             if args.no_timing:
