@@ -103,12 +103,11 @@ class ICEM(Optimizer[ICEMConfig]):
     def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
         if len(self.sigma) != self.num_nodes:  # sizes changed without pre_optimization
             self.restart()
-        if self.mean is None:
-            self.mean = nominal_knots.copy()
-        fixed = np.concatenate([nominal_knots[None], self.mean[None], self.kept_elites])[: self.num_rollouts]
+        mean = self.mean = nominal_knots.copy() if self.mean is None else self.mean
+        fixed = np.concatenate([nominal_knots[None], mean[None], self.kept_elites])[: self.num_rollouts]
         num_fresh = self.num_rollouts - len(fixed)
         noise = colored_noise(self.rng, self.config.beta, (num_fresh, self.nu, self.num_nodes)).transpose(0, 2, 1)
-        fresh = self.mean + noise * (self.sigma * self.noise_ramp_scale())
+        fresh = mean + noise * (self.sigma * self.noise_ramp_scale())
         return np.concatenate([fixed, fresh])
 
     def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
