@@ -26,9 +26,9 @@ class CylinderPushConfig(TaskConfig):
     """Weight on the pusher sitting behind the cart, on the far side from the goal."""
     w_pusher_velocity: float = 0.0
     """Weight on a slow pusher."""
-    w_cart_position: float = 0.1
+    w_cart_position: float = 1.0
     """Weight on the cart reaching the goal."""
-    pusher_goal_offset: float = 0.4
+    pusher_goal_offset: float = 0.35
     """How far behind the cart's centre (m) the pusher should be, along the cart-to-goal line."""
     goal_pos: np.ndarray = np_1d_field(
         np.array([0.0, 0.0]), names=["x", "y"], mins=[-1.0, -1.0], maxs=[1.0, 1.0], steps=[0.01, 0.01], vis_name="goal"

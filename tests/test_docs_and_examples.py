@@ -1,0 +1,64 @@
+"""Every python snippet in the README and docs runs, and every example runs and does what it says."""
+
+import importlib.util
+import re
+from pathlib import Path
+
+import matplotlib
+import pytest
+
+matplotlib.use("Agg")
+
+ROOT = Path(__file__).resolve().parents[1]
+DOC_FILES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+SKIP_MARK = "<!-- not-run -->"  # put on the line before a ```python block that only illustrates
+
+
+def python_blocks(path: Path) -> list[str]:
+    """The ```python blocks of a markdown file, in order, except those marked not-run."""
+    text = path.read_text()
+    blocks = []
+    for match in re.finditer(r"(?:^|\n)([^\n]*)\n```python\n(.*?)\n```", text, flags=re.S):
+        if SKIP_MARK not in match.group(1):
+            blocks.append(match.group(2))
+    return blocks
+
+
+@pytest.mark.parametrize("path", [p for p in DOC_FILES if python_blocks(p)], ids=lambda p: p.name)
+def test_doc_snippets_run(path, monkeypatch, tmp_path):
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {"__name__": f"doc_{path.stem}"}
+    blocks = python_blocks(path)
+    for block in blocks:  # blocks of one file share a namespace, as a reader would run them
+        exec(compile(block, str(path), "exec"), namespace)
+    assert blocks
+
+
+def load_example(name: str):
+    spec = importlib.util.spec_from_file_location(name.replace(".py", ""), ROOT / "examples" / name)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_example_01_custom_task_reaches_its_goal():
+    assert load_example("01_custom_task.py").main(duration=3.0) < 0.1
+
+
+def test_example_02_custom_optimizer_improves_on_the_start():
+    results = load_example("02_custom_optimizer.py").main(iterations=8)
+    assert set(results) == {"elite_average", "mppi"}
+    assert all(reward > -5000 for reward in results.values())
+
+
+def test_example_04_config_file_registers_and_overrides():
+    import judo
+
+    loaded = judo.load_config(ROOT / "examples" / "04_config_file" / "judo.toml")
+    assert (loaded.task, loaded.optimizer) == ("balance", "cooling_mppi")
+    controller = judo.make_controller(loaded.task, loaded.optimizer, seed=0, num_workers=1)
+    assert controller.config.horizon == 0.6 and controller.optimizer.config.cooling == 0.3
+    assert controller.task.config.w_control == 0.05
+    controller.update_action(controller.task.data.qpos.tolist() + controller.task.data.qvel.tolist(), 0.0)
+    assert controller.optimizer.temperature < controller.optimizer.config.temperature  # it cooled
+    controller.close()
