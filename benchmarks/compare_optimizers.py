@@ -49,30 +49,29 @@ def run_episode(task_name: str, optimizer_name: str, seed: int, overrides: dict)
 
 
 def time_update(task_name: str, optimizer_name: str, calls: int, overrides: dict) -> tuple[float, float, int]:
-    """(median update_action seconds, median rollout seconds, iterations per update)."""
+    """(median update_action seconds, median rollout seconds, iterations per update).
+
+    Update and rollout calls alternate, so both see the same machine load."""
     ctrl = judo.make_controller(task_name, optimizer_name, seed=0)
     ctrl.config = judo.core.config.with_updates(ctrl.config, overrides)
     state = np.concatenate([ctrl.task.data.qpos, ctrl.task.data.qvel])
     ctrl.update_action(state, 0.0)
     iterations = 0
-    update_times = []
+    original = ctrl.optimizer.update_nominal_knots
+
+    def counted(knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
+        nonlocal iterations
+        iterations += 1
+        return original(knots, rewards)
+
+    ctrl.optimizer.update_nominal_knots = counted  # type: ignore[method-assign]
+    update_times, rollout_times = [], []
     for i in range(calls):
         iterations = 0
-        original = ctrl.optimizer.update_nominal_knots
-
-        def counted(knots, rewards, original=original):
-            nonlocal iterations
-            iterations += 1
-            return original(knots, rewards)
-
-        ctrl.optimizer.update_nominal_knots = counted
         start = time.perf_counter()
         ctrl.update_action(state, 0.01 * (i + 1))
         update_times.append(time.perf_counter() - start)
-        del ctrl.optimizer.update_nominal_knots
-    controls = np.ascontiguousarray(ctrl._controls)
-    rollout_times = []
-    for _ in range(calls):
+        controls = np.ascontiguousarray(ctrl._controls)
         start = time.perf_counter()
         ctrl.pool.rollout(ctrl._initial_state, controls)
         rollout_times.append(time.perf_counter() - start)
