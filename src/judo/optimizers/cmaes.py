@@ -4,6 +4,7 @@ N. Hansen, "The CMA Evolution Strategy: A Tutorial", arXiv:1604.00772, 2016.
 R. Ros, N. Hansen, "A Simple Modification in CMA-ES Achieving Linear Time and Space Complexity", PPSN 2008.
 """
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -67,12 +68,15 @@ class CMAESParameters:
     """E||N(0, I_n)||, the length a path has under random selection."""
 
 
+@functools.lru_cache(maxsize=16)
 def cmaes_parameters(lam: int, n: int) -> CMAESParameters:
     """Hansen's default parameters for population `lam` in dimension `n`, with the covariance learning
-    rates multiplied by (n + 2) / 3 as sep-CMA-ES prescribes for a diagonal covariance."""
+    rates multiplied by (n + 2) / 3 as sep-CMA-ES prescribes for a diagonal covariance. Cached: the
+    sizes change only when num_rollouts or num_nodes is edited."""
     mu = max(1, lam // 2)
     raw = np.log((lam + 1) / 2) - np.log(np.arange(1, mu + 1))
     weights = raw / raw.sum() if raw.sum() > 0 else np.full(mu, 1.0 / mu)
+    weights.flags.writeable = False  # shared through the cache
     mu_eff = float(1.0 / np.square(weights).sum())
     c_sigma = (mu_eff + 2) / (n + mu_eff + 5)
     c_1 = 2 / ((n + 1.3) ** 2 + mu_eff)
