@@ -54,7 +54,8 @@ class Dial(Optimizer[DialConfig]):
 
     so the first iteration samples widest and each later one narrower (coarse-to-fine, like a diffusion
     model's reverse process), and knots further out, whose effect is least certain, get more noise than
-    the near ones. As in the authors' reference code the factor scales the noise std. The update is
+    the near ones. As in the authors' reference code the factor scales the noise std (their constant
+    per-iteration and per-knot ratios are this same exponential schedule). The update is
     MPPI's: the new nominal is sum_j w_j knots_j with w = softmax(standardised rewards / temperature);
     standardising (as the reference code does) makes one temperature work across reward scales.
     Between cycles the plan is warm-started by the controller's shift, as in the paper.
