@@ -62,3 +62,19 @@ def test_example_04_config_file_registers_and_overrides():
     controller.update_action(controller.task.data.qpos.tolist() + controller.task.data.qvel.tolist(), 0.0)
     assert controller.optimizer.temperature < controller.optimizer.config.temperature  # it cooled
     controller.close()
+
+
+def test_example_05_notebook_runs_and_plots(monkeypatch, tmp_path):
+    import json
+
+    import matplotlib.pyplot as plt
+
+    monkeypatch.chdir(tmp_path)
+    notebook = json.loads((ROOT / "examples" / "05_notebook.ipynb").read_text())
+    namespace: dict = {"__name__": "notebook"}
+    monkeypatch.setattr(plt, "show", lambda: plt.savefig(tmp_path / "episode.png"))
+    for cell in notebook["cells"]:
+        if cell["cell_type"] == "code":
+            exec(compile("".join(cell["source"]), "05_notebook.ipynb", "exec"), namespace)
+    assert (tmp_path / "episode.png").stat().st_size > 10_000
+    assert namespace["result"].log.states.shape[1] == 4

@@ -89,22 +89,18 @@ def load_config(path: str | Path) -> LoadedConfig:
     def fail(where: str, err: Exception) -> ConfigFileError:
         return ConfigFileError(f"{path}: [{where}]: {err}")
 
-    for name, entry in _table(table, "custom_tasks", path).items():
-        where = f"custom_tasks.{name}"
-        try:
-            register_task(
-                name, _import(_entry(entry, "task", where, path)), _import(_entry(entry, "config", where, path))
-            )
-        except JudoError as err:
-            raise fail(where, err) from None
-    for name, entry in _table(table, "custom_optimizers", path).items():
-        where = f"custom_optimizers.{name}"
-        try:
-            register_optimizer(
-                name, _import(_entry(entry, "optimizer", where, path)), _import(_entry(entry, "config", where, path))
-            )
-        except JudoError as err:
-            raise fail(where, err) from None
+    for section, class_key, register in (
+        ("custom_tasks", "task", register_task),
+        ("custom_optimizers", "optimizer", register_optimizer),
+    ):
+        for name, entry in _table(table, section, path).items():
+            where = f"{section}.{name}"
+            try:
+                register(
+                    name, _import(_entry(entry, class_key, where, path)), _import(_entry(entry, "config", where, path))
+                )
+            except JudoError as err:
+                raise fail(where, err) from None
 
     for task_name, overrides in _table(table, "controller_config_overrides", path).items():
         _apply(path, f"controller_config_overrides.{task_name}", task_name, ControllerConfig, overrides)

@@ -9,7 +9,7 @@ import numpy as np
 
 from judo.core.fields import np_1d_field, slider
 from judo.core.norms import quadratic_norm
-from judo.core.task import Task, TaskConfig
+from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "cylinder_push.xml"
 
@@ -69,3 +69,8 @@ class CylinderPush(Task[CylinderPushConfig]):
         self.data.qpos[:] = np.concatenate([pusher, cart])
         self.data.qvel[:] = 0.0
         mujoco.mj_forward(self.sim_model, self.data)
+
+    def metrics(self, log: EpisodeLog) -> dict[str, float]:
+        """Where the cart ended: "final_distance" to the goal (m), and "reached", 1.0 if that is under 0.05 m."""
+        distance = float(np.linalg.norm(log.states[-1, 2:4] - self.config.goal_pos))
+        return {"final_distance": distance, "reached": float(distance < 0.05)}
