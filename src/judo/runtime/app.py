@@ -20,6 +20,7 @@ the methods below; the loops pick them up at the top of their next iteration.
 import asyncio
 import functools
 import logging
+import math
 import signal
 import threading
 import time
@@ -378,6 +379,8 @@ class App:
             if due > max_steps:  # too far behind to catch up: fall behind instead (the RTF shows it)
                 origin += (due - max_steps) * dt
                 due = max_steps
+            if self.duration is not None:  # never step past the requested duration
+                due = min(due, max(0, math.ceil((self.duration - self.stats.sim_time()) / dt - 1e-9)))
             for _ in range(due):
                 self._step(session)
             steps_done += due
