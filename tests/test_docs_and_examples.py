@@ -78,3 +78,20 @@ def test_example_05_notebook_runs_and_plots(monkeypatch, tmp_path):
             exec(compile("".join(cell["source"]), "05_notebook.ipynb", "exec"), namespace)
     assert (tmp_path / "episode.png").stat().st_size > 10_000
     assert namespace["result"].log.states.shape[1] == 4
+
+
+def test_example_03_registers_then_runs_the_app_headless():
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "examples" / "03_programmatic_registration.py"), "--headless", "--duration", "1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=env,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "task: swing_high" in result.stdout and "optimizer: greedy_mppi" in result.stdout
