@@ -9,7 +9,7 @@ import numpy as np
 
 from judo.core.fields import slider
 from judo.core.norms import quadratic_norm, smooth_l1_norm
-from judo.core.task import Task, TaskConfig
+from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "cartpole.xml"
 
@@ -62,3 +62,14 @@ class Cartpole(Task[CartpoleConfig]):
         self.data.qpos[:] = [0.0, np.pi] + self.rng.normal(0.0, [0.2, 0.2])
         self.data.qvel[:] = self.rng.normal(0.0, 0.1, 2)
         mujoco.mj_forward(self.sim_model, self.data)
+
+    def metrics(self, log: EpisodeLog) -> dict[str, float]:
+        """Balance over the final 3 s (the whole episode if shorter).
+
+        "balanced_fraction" is the share of those steps with the pole upright (cos(angle) > 0.9) and the
+        cart centred (|x| < 0.3 m); "swung_up" is 1.0 if that share is over 0.9, else 0.0.
+        """
+        final = log.times > log.times[-1] - 3.0 + 1e-9  # steps ending within the final 3 s
+        cart_x, angle = log.states[final, 0], log.states[final, 1]
+        fraction = float(np.mean((np.cos(angle) > 0.9) & (np.abs(cart_x) < 0.3)))
+        return {"balanced_fraction": fraction, "swung_up": float(fraction > 0.9)}
