@@ -1,9 +1,10 @@
 import mujoco
 import numpy as np
 import pytest
-from closed_loop import run_episode
 
+import judo
 from judo.core.task import EpisodeLog
+from judo.evaluation.episode import make_plant_task, run_episode
 from judo.tasks.humanoid_standup import HumanoidStandup, HumanoidStandupConfig
 
 
@@ -79,6 +80,9 @@ def test_metrics_need_the_head_held_up_for_a_second() -> None:
 
 @pytest.mark.slow
 def test_mppi_gets_the_humanoid_off_the_floor() -> None:
-    plant, log = run_episode("humanoid_standup", "mppi", duration=3.0, seed=0)
+    controller = judo.make_controller("humanoid_standup", "mppi", seed=0)
+    plant = make_plant_task(controller, seed=0)
+    log = run_episode(controller, plant, duration=3.0).log
+    controller.close()
     head = plant.head_height(log.sensors)
     assert head[log.times > 2.0].max() > 1.0

@@ -1,8 +1,9 @@
 import numpy as np
 import pytest
-from closed_loop import run_episode
 
+import judo
 from judo.core.task import EpisodeLog
+from judo.evaluation.episode import make_plant_task, run_episode
 from judo.tasks.particle import GOAL_SPAN, Particle, ParticleConfig
 
 
@@ -72,5 +73,8 @@ def test_a_reached_goal_moves_on_and_metrics_count_the_moves() -> None:
 
 
 def test_predictive_sampling_reaches_several_goals() -> None:
-    plant, log = run_episode("particle", "ps", duration=8.0, seed=0)
+    controller = judo.make_controller("particle", "ps", seed=0)
+    plant = make_plant_task(controller, seed=0)
+    log = run_episode(controller, plant, duration=8.0).log
+    controller.close()
     assert plant.metrics(log)["goals_reached"] >= 3

@@ -1,9 +1,9 @@
 import numpy as np
 import pytest
-from closed_loop import run_episode
 
 import judo
 from judo.core.task import EpisodeLog
+from judo.evaluation.episode import make_plant_task, run_episode
 from judo.tasks.pendulum import Pendulum, PendulumConfig, wrap_angle
 
 
@@ -54,5 +54,8 @@ def test_metrics_measure_the_upright_share_of_the_last_three_seconds() -> None:
 
 
 def test_predictive_sampling_swings_the_pole_up_and_holds_it() -> None:
-    plant, log = run_episode("pendulum", "ps", duration=7.0, seed=0)
+    controller = judo.make_controller("pendulum", "ps", seed=0)
+    plant = make_plant_task(controller, seed=0)
+    log = run_episode(controller, plant, duration=7.0).log
+    controller.close()
     assert plant.metrics(log)["upright_fraction"] > 0.5

@@ -1,9 +1,10 @@
 import mujoco
 import numpy as np
 import pytest
-from closed_loop import run_episode
 
+import judo
 from judo.core.task import EpisodeLog
+from judo.evaluation.episode import make_plant_task, run_episode
 from judo.tasks.walker import Walker, WalkerConfig
 
 
@@ -70,7 +71,10 @@ def test_metrics_report_speed_falls_and_head_height() -> None:
 
 @pytest.mark.slow
 def test_mppi_makes_the_walker_run_forward_without_falling() -> None:
-    plant, log = run_episode("walker", "mppi", duration=4.0, seed=0)
+    controller = judo.make_controller("walker", "mppi", seed=0)
+    plant = make_plant_task(controller, seed=0)
+    log = run_episode(controller, plant, duration=4.0).log
+    controller.close()
     metrics = plant.metrics(log)
     assert metrics["mean_forward_speed"] > 0.7
     assert metrics["fallen_fraction"] == 0.0
