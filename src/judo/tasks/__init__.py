@@ -26,6 +26,7 @@ set_config_overrides("cylinder_push", MPPIConfig, {"sigma": 0.3, "temperature": 
 set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max": 0.6})
 
 # --- Classic MPC benchmarks (after MJPC and hydrax) ---------------------------------------------------
+from judo.tasks.acrobot import Acrobot, AcrobotConfig  # noqa: E402
 from judo.tasks.humanoid_standup import HumanoidStandup, HumanoidStandupConfig  # noqa: E402
 from judo.tasks.particle import Particle, ParticleConfig  # noqa: E402
 from judo.tasks.pendulum import Pendulum, PendulumConfig  # noqa: E402
@@ -47,6 +48,17 @@ set_config_overrides("particle", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("particle", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
 # CEM needs a high noise floor here: its elite mean lags behind when the goal jumps.
 set_config_overrides("particle", CEMConfig, {"sigma_min": 0.2, "sigma_max": 0.6, "num_elites": 4})
+
+register_task("acrobot", Acrobot, AcrobotConfig)
+# The upright acrobot diverges with a 0.15 s time constant and only the elbow pushes back: 50 Hz replanning
+# with two optimizer iterations per cycle holds it up for stretches; none of ps/cem/mppi balances it for good.
+set_config_overrides(
+    "acrobot", ControllerConfig, {"horizon": 1.0, "spline_order": "cubic", "control_freq": 50.0, "max_opt_iters": 2}
+)
+set_config_overrides("acrobot", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
+set_config_overrides("acrobot", PredictiveSamplingConfig, {"sigma": 0.3})
+set_config_overrides("acrobot", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
+set_config_overrides("acrobot", CEMConfig, {"sigma_min": 0.1, "sigma_max": 0.8, "num_elites": 4})
 
 register_task("push_t", PushT, PushTConfig)
 set_config_overrides("push_t", ControllerConfig, {"horizon": 1.0, "spline_order": "linear"})

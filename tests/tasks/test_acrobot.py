@@ -1,0 +1,80 @@
+import mujoco
+import numpy as np
+import pytest
+
+import judo
+from judo.core.task import EpisodeLog
+from judo.evaluation.episode import make_plant_task, run_episode
+from judo.tasks.acrobot import TOP, Acrobot, AcrobotConfig
+
+
+def rows(
+    task: Acrobot, qpos: tuple[float, float], qvel: tuple[float, float] = (0.0, 0.0)
+) -> tuple[np.ndarray, np.ndarray]:
+    """(1, 3, 4) states and (1, 3, nsensordata) sensors holding one pose for three steps."""
+    task.data.qpos[:], task.data.qvel[:] = qpos, qvel
+    for _ in range(2):  # MuJoCo's e_kinetic sensor reads the kinetic energy of the previous evaluation
+        mujoco.mj_forward(task.sim_model, task.data)
+    return np.tile([*qpos, *qvel], (1, 3, 1)), np.tile(task.data.sensordata, (1, 3, 1))
+
+
+def test_model_compiles_with_one_normalised_elbow_torque_and_traces() -> None:
+    task = Acrobot()
+    assert (task.model.nq, task.nu) == (2, 1)
+    np.testing.assert_array_equal(task.actuator_ctrlrange, [[-1.0, 1.0]])
+    assert task.model.actuator_trnid[0, 0] == task.model.joint("elbow").id
+    names = {task.model.sensor(i).name for i in range(task.model.nsensor)}
+    assert {"trace_tip", "trace_elbow"} <= names
+
+
+def test_upright_energy_is_the_potential_energy_straight_up() -> None:
+    task = Acrobot()
+    assert task.upright_energy == pytest.approx(9.81 * (1.0 * 0.5 + 1.0 * 1.5), rel=1e-3)
+    _, sensors = rows(task, (0.0, 0.0))
+    np.testing.assert_allclose(sensors[0, 0, :3], TOP, atol=1e-12)
+
+
+def test_reward_prefers_upright_over_folded_over_hanging() -> None:
+    task = Acrobot()
+    cases = [
+        rows(task, (0.0, 0.0)),
+        rows(task, (np.pi, np.pi)),
+        rows(task, (np.pi, 0.0)),
+        rows(task, (0.0, 0.0), (2.0, 0.0)),
+    ]
+    states = np.concatenate([c[0] for c in cases])
+    sensors = np.concatenate([c[1] for c in cases])
+    rewards = task.reward(states, sensors, np.zeros((4, 3, 1)), AcrobotConfig())
+    assert rewards.shape == (4,)
+    assert rewards[0] == pytest.approx(0.0, abs=1e-9)
+    assert rewards[0] > rewards[3]
+    assert rewards[0] > rewards[1] > rewards[2]
+
+
+def test_reset_hangs_both_links_down_at_random() -> None:
+    task = Acrobot()
+    task.rng = np.random.default_rng(0)
+    task.reset()
+    first = task.data.qpos.copy()
+    task.reset()
+    assert not np.allclose(first, task.data.qpos)
+    assert task.data.sensordata[task.get_sensor_start_index("trace_tip") + 2] < -1.9
+
+
+def test_metrics_measure_the_upright_share_of_the_last_three_seconds() -> None:
+    task = Acrobot()
+    times = np.arange(1, 501) * 0.01  # 5 s
+    sensors = np.zeros((500, task.model.nsensordata))
+    sensors[:, 2] = np.where(times > 3.5, 1.9, -2.0)  # tip 0.1 m below the top for the last 1.5 s
+    metrics = task.metrics(EpisodeLog(times, np.zeros((500, 4)), np.zeros((500, 1)), sensors))
+    assert metrics["upright_fraction"] == pytest.approx(0.5, abs=0.01)
+    assert metrics["final_tip_distance"] == pytest.approx(0.1)
+
+
+@pytest.mark.slow
+def test_predictive_sampling_swings_the_tip_up_to_the_top() -> None:
+    controller = judo.make_controller("acrobot", "ps", seed=0)
+    log = run_episode(controller, make_plant_task(controller, seed=0), duration=6.0).log
+    controller.close()
+    tip = log.sensors[:, :3]
+    assert np.linalg.norm(tip - TOP, axis=-1).min() < 0.3
