@@ -27,6 +27,7 @@ set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max"
 
 # --- Classic MPC benchmarks (after MJPC and hydrax) ---------------------------------------------------
 from judo.tasks.acrobot import Acrobot, AcrobotConfig  # noqa: E402
+from judo.tasks.double_cartpole import DoubleCartpole, DoubleCartpoleConfig  # noqa: E402
 from judo.tasks.humanoid_standup import HumanoidStandup, HumanoidStandupConfig  # noqa: E402
 from judo.tasks.particle import Particle, ParticleConfig  # noqa: E402
 from judo.tasks.pendulum import Pendulum, PendulumConfig  # noqa: E402
@@ -59,6 +60,19 @@ set_config_overrides("acrobot", OptimizerConfig, {"num_rollouts": 32, "num_nodes
 set_config_overrides("acrobot", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("acrobot", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
 set_config_overrides("acrobot", CEMConfig, {"sigma_min": 0.1, "sigma_max": 0.8, "num_elites": 4})
+
+register_task("double_cartpole", DoubleCartpole, DoubleCartpoleConfig)
+# Two poles diverge from upright with a 0.14 s time constant: balancing them needs 50 Hz replanning with two
+# optimizer iterations per cycle, and a horizon short enough (0.8 s) that open-loop plans stay meaningful.
+set_config_overrides(
+    "double_cartpole",
+    ControllerConfig,
+    {"horizon": 0.8, "spline_order": "cubic", "control_freq": 50.0, "max_opt_iters": 2},
+)
+set_config_overrides("double_cartpole", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
+set_config_overrides("double_cartpole", PredictiveSamplingConfig, {"sigma": 0.3})
+set_config_overrides("double_cartpole", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
+set_config_overrides("double_cartpole", CEMConfig, {"sigma_min": 0.2, "sigma_max": 0.6, "num_elites": 2})
 
 register_task("push_t", PushT, PushTConfig)
 set_config_overrides("push_t", ControllerConfig, {"horizon": 1.0, "spline_order": "linear"})

@@ -1,0 +1,92 @@
+"""Double cart-pole swing-up: push a cart so two poles in series swing up from hanging and balance upright."""
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from judo.core.fields import slider
+from judo.core.norms import quadratic_norm, smooth_l1_norm
+from judo.core.task import EpisodeLog, Task, TaskConfig
+from judo.tasks.pendulum import wrap_angle
+
+MODEL_PATH = Path(__file__).parent / "models" / "double_cartpole.xml"
+POLE_LENGTH = 0.8
+"""Length (m) of each pole; the tip of the upright pair is 2 * POLE_LENGTH above the cart."""
+UPRIGHT_TOLERANCE = 0.2
+"""Tip distance (m) from straight above the cart within which the poles count as upright in `metrics`."""
+FINAL_WINDOW = 3.0
+"""Seconds at the end of an episode over which `metrics` measures the upright fraction."""
+
+
+@slider("w_upright", 0.0, 50.0, 0.1)
+@slider("w_centered", 0.0, 20.0, 0.1)
+@slider("w_cart_velocity", 0.0, 5.0, 0.01)
+@slider("w_velocity", 0.0, 1.0, 0.01)
+@slider("w_control", 0.0, 1.0, 0.01)
+@dataclass
+class DoubleCartpoleConfig(TaskConfig):
+    """Double cart-pole reward weights."""
+
+    w_upright: float = 10.0
+    """Weight on both poles pointing up (a smooth |angle from vertical| of each pole, in rad)."""
+    w_centered: float = 5.0
+    """Weight on the cart being at the rail's centre (m)."""
+    w_cart_velocity: float = 0.3
+    """Weight on a slow cart (m/s), so the poles do not arrive at the top with the cart racing to the rail's end."""
+    w_velocity: float = 0.01
+    """Weight on small cart and pole velocities."""
+    w_control: float = 0.01
+    """Weight on small pushes."""
+
+
+class DoubleCartpole(Task[DoubleCartpoleConfig]):
+    """State [cart x, lower pole angle (0 = up), upper pole angle relative to the lower, their velocities];
+    one control, the push on the cart (20 N at 1)."""
+
+    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+        super().__init__(model_path, sim_model_path)
+        self._tip_column = self.get_sensor_start_index("trace_tip")
+        self.reset()
+
+    def reward(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray,
+        controls: np.ndarray,
+        config: DoubleCartpoleConfig,
+        system_metadata: dict[str, Any] | None = None,
+    ) -> np.ndarray:
+        cart_x, lower, upper = states[..., 0], states[..., 1], states[..., 1] + states[..., 2]
+        upright = smooth_l1_norm(wrap_angle(lower)[..., None], 0.1) + smooth_l1_norm(wrap_angle(upper)[..., None], 0.1)
+        return -(
+            config.w_upright * upright.sum(-1)
+            + config.w_centered * smooth_l1_norm(cart_x[..., None], 0.1).sum(-1)
+            + config.w_cart_velocity * quadratic_norm(states[..., 3:4]).sum(-1)
+            + config.w_velocity * quadratic_norm(states[..., 3:6]).sum(-1)
+            + config.w_control * quadratic_norm(controls).sum(-1)
+        )
+
+    def reset(self) -> None:
+        """Both poles hanging down within 0.2 rad, cart near the centre, small random velocities."""
+        self.data.qpos[:] = [0.0, np.pi, 0.0] + self.rng.uniform(-0.2, 0.2, 3)
+        self.data.qvel[:] = self.rng.normal(0.0, 0.1, 3)
+        mujoco.mj_forward(self.sim_model, self.data)
+
+    def tip_error(self, states: np.ndarray, sensors: np.ndarray) -> np.ndarray:
+        """(...,) distance (m) of the tip from its upright spot straight above the cart."""
+        tip = sensors[..., self._tip_column : self._tip_column + 3]
+        return np.linalg.norm(tip - states[..., :1] * [1.0, 0.0, 0.0] - [0.0, 0.0, 2 * POLE_LENGTH], axis=-1)
+
+    def metrics(self, log: EpisodeLog) -> dict[str, float]:
+        """upright_fraction: share of the last 3 s with the tip within 0.2 m of straight above the cart;
+        final_tip_error (m) and final_cart_offset (m, |x|) at the end."""
+        error = self.tip_error(log.states, log.sensors)
+        final = log.times >= log.times[-1] - FINAL_WINDOW
+        return {
+            "upright_fraction": float(np.mean(error[final] < UPRIGHT_TOLERANCE)),
+            "final_tip_error": float(error[-1]),
+            "final_cart_offset": float(abs(log.states[-1, 0])),
+        }

@@ -1,0 +1,86 @@
+import mujoco
+import numpy as np
+import pytest
+
+import judo
+from judo.core.task import EpisodeLog
+from judo.evaluation.episode import make_plant_task, run_episode
+from judo.tasks.double_cartpole import POLE_LENGTH, DoubleCartpole, DoubleCartpoleConfig
+
+
+def rows(task: DoubleCartpole, qpos: tuple[float, float, float], qvel=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """(1, 3, 6) states and (1, 3, nsensordata) sensors holding one pose for three steps."""
+    task.data.qpos[:], task.data.qvel[:] = qpos, qvel
+    mujoco.mj_forward(task.sim_model, task.data)
+    return np.tile([*qpos, *qvel], (1, 3, 1)), np.tile(task.data.sensordata, (1, 3, 1))
+
+
+def test_model_compiles_with_one_normalised_push_and_traces() -> None:
+    task = DoubleCartpole()
+    assert (task.model.nq, task.nu) == (3, 1)
+    np.testing.assert_array_equal(task.actuator_ctrlrange, [[-1.0, 1.0]])
+    names = {task.model.sensor(i).name for i in range(task.model.nsensor)}
+    assert {"trace_tip", "trace_elbow"} <= names
+
+
+def test_tip_error_is_zero_straight_above_the_cart() -> None:
+    task = DoubleCartpole()
+    states, sensors = rows(task, (1.5, 0.0, 0.0))
+    np.testing.assert_allclose(task.tip_error(states, sensors), 0.0, atol=1e-12)
+    states, sensors = rows(task, (0.0, np.pi, 0.0))
+    np.testing.assert_allclose(task.tip_error(states, sensors), 4 * POLE_LENGTH)
+
+
+def test_reward_prefers_both_poles_up_over_one_over_none() -> None:
+    task = DoubleCartpole()
+    cases = [
+        rows(task, (0.0, 0.0, 0.0)),  # upright, centred
+        rows(task, (0.0, 2 * np.pi, 0.0)),  # upright one turn later: the same
+        rows(task, (0.0, np.pi, np.pi)),  # lower pole down, upper pole up
+        rows(task, (0.0, np.pi, 0.0)),  # hanging
+        rows(task, (2.0, 0.0, 0.0)),  # upright, off centre
+        rows(task, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0)),  # upright, cart moving
+    ]
+    states = np.concatenate([c[0] for c in cases])
+    sensors = np.concatenate([c[1] for c in cases])
+    rewards = task.reward(states, sensors, np.zeros((6, 3, 1)), DoubleCartpoleConfig())
+    assert rewards.shape == (6,)
+    assert rewards[0] == pytest.approx(0.0)
+    assert rewards[1] == pytest.approx(0.0, abs=1e-9)
+    assert rewards[0] > rewards[2] > rewards[3]
+    assert rewards[0] > rewards[4] and rewards[0] > rewards[5]
+
+
+def test_reset_hangs_the_poles_down_at_random() -> None:
+    task = DoubleCartpole()
+    task.rng = np.random.default_rng(0)
+    task.reset()
+    first = task.data.qpos.copy()
+    task.reset()
+    assert not np.allclose(first, task.data.qpos)
+    assert abs(abs(task.data.qpos[1]) - np.pi) < 0.21
+
+
+def test_metrics_measure_the_upright_share_of_the_last_three_seconds() -> None:
+    task = DoubleCartpole()
+    times = np.arange(1, 501) * 0.01  # 5 s
+    states = np.zeros((500, 6))
+    states[:, 0] = 0.5
+    states[times <= 3.5, 1] = np.pi  # hanging, then upright for the last 1.5 s
+    sensors = np.zeros((500, task.model.nsensordata))
+    column = task.get_sensor_start_index("trace_tip")
+    sensors[:, column] = 0.5
+    sensors[:, column + 2] = np.where(times > 3.5, 2 * POLE_LENGTH, -2 * POLE_LENGTH)
+    metrics = task.metrics(EpisodeLog(times, states, np.zeros((500, 1)), sensors))
+    assert metrics["upright_fraction"] == pytest.approx(0.5, abs=0.01)
+    assert metrics["final_tip_error"] == pytest.approx(0.0)
+    assert metrics["final_cart_offset"] == pytest.approx(0.5)
+
+
+@pytest.mark.slow
+def test_predictive_sampling_swings_both_poles_up() -> None:
+    controller = judo.make_controller("double_cartpole", "ps", seed=0)
+    plant = make_plant_task(controller, seed=0)
+    log = run_episode(controller, plant, duration=3.0).log
+    controller.close()
+    assert plant.tip_error(log.states, log.sensors).min() < 0.3
