@@ -89,6 +89,7 @@ class Controller:
         self._layout_key: tuple | None = None
         self._scratch = mujoco.MjData(task.model)
         self._initial_state = np.zeros(mujoco.mj_stateSize(task.model, STATE_SPEC))
+        self._initial_mocap = np.zeros(7 * task.model.nmocap)
         self._trace_columns = trace_sensor_columns(task.model)
         self._ctrl_low, self._ctrl_high = task.actuator_ctrlrange.T.copy()
         self._num_state = task.model.nq + task.model.nv
@@ -127,6 +128,7 @@ class Controller:
                 if key in system_metadata:
                     getattr(data, key)[:] = system_metadata[key]
         mujoco.mj_getState(self.task.model, data, self._initial_state, STATE_SPEC)
+        self._initial_mocap[:] = np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
 
     def update_action(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None = None) -> None:
         """Run one planning cycle from `state` (nq + nv,) at sim `time` and publish the new plan.
@@ -161,7 +163,7 @@ class Controller:
                 )
             np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
             np.matmul(self._rollout_weights, knots, out=self._controls)
-            full_states, sensors = self.pool.rollout(self._initial_state, self._controls)
+            full_states, sensors = self.pool.rollout(self._initial_state, self._controls, self._initial_mocap)
             states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
             rewards = np.asarray(
                 task.reward(states, sensors, self._controls, task_config, system_metadata), dtype=float

@@ -9,6 +9,12 @@ import numpy as np
 
 from judo.core.model import STATE_SPEC
 
+MOCAP_CONTROL_SPEC = (
+    mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT
+)
+"""Per-step inputs of a rollout on a model with mocap bodies: [ctrl, mocap_pos, mocap_quat]. MuJoCo's
+rollout resets mocap poses to the model's defaults unless they are passed as inputs like this."""
+
 
 class RolloutPool:
     """Rolls out batches of control sequences from one initial state on `num_workers` threads.
@@ -32,16 +38,21 @@ class RolloutPool:
         self._initial = np.zeros((num_rollouts, self.nstate))
         self._states = np.zeros((num_rollouts, num_steps, self.nstate))
         self._sensors = np.zeros((num_rollouts, num_steps, self.model.nsensordata))
+        self._inputs = np.zeros((num_rollouts, num_steps, self.model.nu + 7 * self.model.nmocap))
         bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(int)
         self._chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
         self._chunk_models = [[self.model] * (c.stop - c.start) for c in self._chunks]
 
-    def rollout(self, initial_state: np.ndarray, controls: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def rollout(
+        self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """Roll out every control sequence from the same full-physics `initial_state` (nstate,).
 
         Args:
             initial_state: (nstate,) state as written by mj_getState with mjSTATE_FULLPHYSICS.
             controls: (num_rollouts, T, nu) C-contiguous float64 controls, one per step.
+            mocap: (7 * nmocap,) [mocap_pos.ravel(), mocap_quat.ravel()] held through every rollout
+                (mocap bodies are not part of the full-physics state); None keeps the model's defaults.
         Returns:
             states (num_rollouts, T, nstate) full-physics states after each step, and
             sensors (num_rollouts, T, nsensordata) sensor values after each step.
@@ -50,21 +61,27 @@ class RolloutPool:
         if self._shape != (num_rollouts, num_steps):
             self._allocate(num_rollouts, num_steps)
         self._initial[:] = initial_state
+        spec = mujoco.mjtState.mjSTATE_CTRL
+        if mocap is not None and self.model.nmocap:
+            self._inputs[..., : self.model.nu] = controls
+            self._inputs[..., self.model.nu :] = mocap
+            controls, spec = self._inputs, MOCAP_CONTROL_SPEC
         if len(self._chunks) == 1:
-            self._run_chunk(0, controls)
+            self._run_chunk(0, controls, spec)
         else:
-            futures = [self._executor.submit(self._run_chunk, i, controls) for i in range(len(self._chunks))]
+            futures = [self._executor.submit(self._run_chunk, i, controls, spec) for i in range(len(self._chunks))]
             for future in futures:
                 future.result()
         return self._states, self._sensors
 
-    def _run_chunk(self, worker: int, controls: np.ndarray) -> None:
+    def _run_chunk(self, worker: int, controls: np.ndarray, control_spec: int) -> None:
         chunk = self._chunks[worker]
         self._runners[worker].rollout(
             self._chunk_models[worker],
             [self._datas[worker]],
             self._initial[chunk],
             controls[chunk],
+            control_spec=control_spec,
             skip_checks=True,
             nstep=controls.shape[1],
             state=self._states[chunk],
