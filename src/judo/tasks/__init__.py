@@ -6,6 +6,8 @@ from judo.core.registry import register_task, set_config_overrides
 from judo.optimizers import CEMConfig, MPPIConfig, PredictiveSamplingConfig
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 from judo.tasks.cylinder_push import CylinderPush, CylinderPushConfig
+from judo.tasks.fr3_pick import FR3Pick, FR3PickConfig
+from judo.tasks.leap_cube import LeapCube, LeapCubeConfig, LeapCubeDown
 
 register_task("cartpole", Cartpole, CartpoleConfig)
 register_task("cylinder_push", CylinderPush, CylinderPushConfig)
@@ -22,5 +24,30 @@ set_config_overrides("cylinder_push", OptimizerConfig, {"num_rollouts": 32, "num
 set_config_overrides("cylinder_push", PredictiveSamplingConfig, {"sigma": 0.2})
 set_config_overrides("cylinder_push", MPPIConfig, {"sigma": 0.2, "temperature": 1.0})
 set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max": 0.4})
+
+# --- Robot tasks: LEAP hand cube rotation (palm up / palm down) and Franka-style pick-and-place. ---
+register_task("leap_cube", LeapCube, LeapCubeConfig)
+set_config_overrides("leap_cube", ControllerConfig, {"horizon": 0.5, "spline_order": "linear", "control_freq": 20.0})
+set_config_overrides("leap_cube", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 3})
+set_config_overrides("leap_cube", PredictiveSamplingConfig, {"sigma": 0.2})
+set_config_overrides("leap_cube", MPPIConfig, {"sigma": 0.2, "temperature": 0.1})
+set_config_overrides("leap_cube", CEMConfig, {"sigma_min": 0.15, "sigma_max": 0.5, "num_elites": 4})
+
+register_task("leap_cube_down", LeapCubeDown, LeapCubeConfig)
+set_config_overrides(
+    "leap_cube_down", ControllerConfig, {"horizon": 0.5, "spline_order": "linear", "control_freq": 20.0}
+)
+set_config_overrides("leap_cube_down", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 3})
+set_config_overrides("leap_cube_down", PredictiveSamplingConfig, {"sigma": 0.2})
+set_config_overrides("leap_cube_down", MPPIConfig, {"sigma": 0.2, "temperature": 0.1})
+set_config_overrides("leap_cube_down", CEMConfig, {"sigma_min": 0.15, "sigma_max": 0.5, "num_elites": 4})
+
+register_task("fr3_pick", FR3Pick, FR3PickConfig)
+set_config_overrides("fr3_pick", ControllerConfig, {"horizon": 1.0, "spline_order": "linear", "control_freq": 20.0})
+set_config_overrides("fr3_pick", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4, "use_noise_ramp": True})
+set_config_overrides("fr3_pick", PredictiveSamplingConfig, {"sigma": 0.02})
+set_config_overrides("fr3_pick", MPPIConfig, {"sigma": 0.03, "temperature": 0.01})
+set_config_overrides("fr3_pick", CEMConfig, {"sigma_min": 0.01, "sigma_max": 0.1, "num_elites": 8})
+# --- end of robot tasks. ---
 
 __all__ = ["Cartpole", "CartpoleConfig", "CylinderPush", "CylinderPushConfig", "register_task"]

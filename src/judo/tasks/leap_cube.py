@@ -18,13 +18,8 @@ DOWN_MODEL_PATH = MODELS / "leap_cube_down.xml"
 FINGERS = ("index", "middle", "ring", "thumb")
 HAND_JOINTS = tuple(
     f"hand/{finger}_{joint}"
-    for finger, joints in (
-        ("index", ("abd", "mcp", "pip", "dip")),
-        ("middle", ("abd", "mcp", "pip", "dip")),
-        ("ring", ("abd", "mcp", "pip", "dip")),
-        ("thumb", ("cmc", "axl", "mcp", "ip")),
-    )
-    for joint in joints
+    for finger in FINGERS
+    for joint in (("cmc", "axl", "mcp", "ip") if finger == "thumb" else ("abd", "mcp", "pip", "dip"))
 )
 """The hand's 16 joints in actuator order."""
 
@@ -59,8 +54,8 @@ class LeapCube(Task[LeapCubeConfig]):
 
     The goal is the mocap body "goal"; the reward reads its orientation and the cube's pose from sensors.
     On the plant, `pre_sim_step` turns the goal by 90 degrees about a random axis of the palm once the cube is
-    within `goal_tolerance` of it (counting `goals_reached`), and `post_sim_step` puts the cube back on
-    its start pose when it falls below `drop_height` (counting `drops`).
+    within `goal_tolerance` of it (counting `goals_reached`), and `post_sim_step` puts the hand and cube
+    back in the "home" keyframe when the cube falls below `drop_height` (counting `drops`).
     """
 
     goal_tolerance: ClassVar[float] = 0.4
@@ -74,7 +69,6 @@ class LeapCube(Task[LeapCubeConfig]):
         super().__init__(model_path, sim_model_path)
         self._hand_qpos = np.array([self.get_joint_position_start_index(name) for name in HAND_JOINTS])
         self._cube_qpos = self.get_joint_position_start_index("cube")
-        self._cube_qvel = self.get_joint_velocity_start_index("cube") - self.model.nq
         self._cube_pos = self.get_sensor_start_index("cube_pos")
         self._cube_quat = self.get_sensor_start_index("cube_quat")
         self._goal_quat = self.get_sensor_start_index("goal_quat")
