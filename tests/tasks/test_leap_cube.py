@@ -50,6 +50,12 @@ def test_plant_model_differs_from_the_planning_model_in_friction_only() -> None:
     np.testing.assert_array_equal(task.sim_model.key_qpos, task.model.key_qpos)
 
 
+def test_plant_model_loads_from_a_relative_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.chdir(PLANT_MODEL_PATH.parent.parent)
+    task = LeapCube(sim_model_path="models/leap_cube_plant.xml")
+    assert task.sim_model.opt.enableflags & mujoco.mjtEnableBit.mjENBL_OVERRIDE
+
+
 def test_reward_prefers_the_goal_orientation_and_the_resting_spot() -> None:
     task = LeapCube()
     home = task.model.key_qpos[0].copy()
