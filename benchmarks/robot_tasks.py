@@ -2,8 +2,9 @@
 
 For each seed it runs the task's default settings with no latency: the plant (a second task instance on
 `sim_model`) steps at its own timestep and the controller replans every 1 / control_freq seconds of sim
-time. It prints the plant task's metrics per seed and their mean, then the mean wall time of
-`Controller.update_action` next to the raw `RolloutPool.rollout` of the same (num_rollouts, T) batch.
+time. It prints the plant task's metrics per seed and their mean, with the median wall time of
+`Controller.update_action` next to the raw `RolloutPool.rollout` of the same (num_rollouts, T) batch
+(timed in alternation after the episode, from its final state).
 
     PYTHONPATH=src python benchmarks/robot_tasks.py leap_cube cem --seconds 60 --seeds 0 1 2
     PYTHONPATH=src python benchmarks/robot_tasks.py fr3_pick ps --seconds 20 --seeds 0 1 --plant models/x.xml
@@ -21,8 +22,10 @@ from judo.core.task import EpisodeLog
 from judo.runtime.system import MujocoSystem, SimulationDiverged
 
 
-def run_episode(task_name: str, optimizer_name: str, seconds: float, seed: int, plant_path: str | None) -> dict:
-    """One episode; returns the plant's metrics plus update/rollout timings in ms."""
+def run_episode(
+    task_name: str, optimizer_name: str, seconds: float, seed: int, plant_path: str | None, timing_repeats: int = 30
+) -> dict:
+    """One episode; returns the plant's metrics plus the median update and raw-rollout times in ms."""
     ctrl = judo.make_controller(task_name, optimizer_name, seed=seed)
     plant = type(ctrl.task)() if plant_path is None else type(ctrl.task)(sim_model_path=plant_path)
     plant.config = ctrl.task.config
@@ -30,13 +33,11 @@ def run_episode(task_name: str, optimizer_name: str, seconds: float, seed: int, 
     plant.reset()
     system = MujocoSystem(plant)
     rows: list[tuple[float, np.ndarray, np.ndarray, np.ndarray]] = []
-    update_times, next_plan, diverged = [], 0.0, 0
+    next_plan, diverged = 0.0, 0
     for _ in range(round(seconds / system.timestep)):
         state = system.read_state()
         if state.time >= next_plan - 1e-9:
-            start = time.perf_counter()
             ctrl.update_action(state.state, state.time, state.metadata)
-            update_times.append(time.perf_counter() - start)
             next_plan += 1.0 / ctrl.config.control_freq
         action = ctrl.action(state.time)
         system.apply(action)
@@ -47,13 +48,18 @@ def run_episode(task_name: str, optimizer_name: str, seconds: float, seed: int, 
         data = plant.data
         rows.append((data.time, np.concatenate([data.qpos, data.qvel]), action, data.sensordata.copy()))
     log = EpisodeLog(*(np.array(column) for column in zip(*rows, strict=True)))
-    # The floor: the raw rollout of the same (num_rollouts, T) batch from the final plant state.
+    # Update time against its floor, the raw rollout of the same (num_rollouts, T) batch, timed in
+    # alternation from the final plant state so both see the same machine load.
+    state = system.read_state()
     initial = np.zeros(mujoco.mj_stateSize(plant.sim_model, STATE_SPEC))
     mujoco.mj_getState(plant.sim_model, plant.data, initial, STATE_SPEC)
     mocap = np.concatenate([plant.data.mocap_pos.ravel(), plant.data.mocap_quat.ravel()])
     controls = np.tile(action, (ctrl.optimizer.num_rollouts, ctrl.num_steps, 1))
-    rollout_times = []
-    for _ in range(20):
+    update_times, rollout_times = [], []
+    for _ in range(timing_repeats):
+        start = time.perf_counter()
+        ctrl.update_action(state.state, state.time, state.metadata)
+        update_times.append(time.perf_counter() - start)
         start = time.perf_counter()
         ctrl.pool.rollout(initial, controls, mocap)
         rollout_times.append(time.perf_counter() - start)
@@ -61,8 +67,8 @@ def run_episode(task_name: str, optimizer_name: str, seconds: float, seed: int, 
     figures = plant.metrics(log)
     figures.update(
         diverged=float(diverged),
-        update_ms=1e3 * float(np.mean(update_times)),
-        rollout_ms=1e3 * float(np.mean(rollout_times)),
+        update_ms=1e3 * float(np.median(update_times)),
+        rollout_ms=1e3 * float(np.median(rollout_times)),
     )
     return figures
 

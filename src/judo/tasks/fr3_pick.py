@@ -32,8 +32,8 @@ class FR3PickConfig(TaskConfig):
     """FR3 pick-and-place reward weights; each phase uses the terms that matter to it."""
 
     w_reach: float = 5.0
-    """Weight on the gripper centre's distance (m) to the object (lift: to a point above it until it is
-    aligned, move, place) or to a point `lift_height` above it (done)."""
+    """Weight on the gripper centre's distance (m) to the object (lift: coming down from above it; move,
+    place) or, once placed, to a point that rises to `lift_height` above it as the gripper opens."""
     w_lift: float = 10.0
     """Weight on the object's height error (m) to `lift_height` above the table (lift, move)."""
     w_carry: float = 10.0
@@ -130,7 +130,8 @@ class FR3Pick(Task[FR3PickConfig]):
             cost += config.w_reach * reach + config.w_grip * opening
             cost += config.w_carry * np.linalg.norm(obj - goal, axis=-1)
         else:
-            above = obj + np.array([0.0, 0.0, config.lift_height])
+            # Let go, then back off: the target rises above the cube as the gripper opens.
+            above = obj + (config.lift_height * opening)[..., None] * np.array([0.0, 0.0, 1.0])
             cost += config.w_reach * np.linalg.norm(tcp - above, axis=-1) + config.w_grip * (1.0 - opening)
             cost += config.w_carry * np.linalg.norm(obj - goal, axis=-1)
         return -cost.mean(-1)
