@@ -195,8 +195,8 @@ def test_warm_start_holds_the_arm_with_the_gripper_open() -> None:
 
 
 @pytest.mark.slow
-def test_fr3_pick_ps_grasps_and_lifts_the_cube() -> None:
-    ctrl = judo.make_controller("fr3_pick", "ps", seed=0)
+def test_fr3_pick_cem_grasps_and_lifts_the_cube() -> None:
+    ctrl = judo.make_controller("fr3_pick", "cem", seed=0)
     plant = FR3Pick()
     plant.config = ctrl.task.config
     plant.rng = np.random.default_rng(100)
@@ -204,7 +204,7 @@ def test_fr3_pick_ps_grasps_and_lifts_the_cube() -> None:
     system = MujocoSystem(plant)
     start = np.linalg.norm(plant.data.site("tcp").xpos - plant.data.body("object").xpos)
     closest, next_plan = start, 0.0
-    for _ in range(round(8.0 / plant.dt)):
+    for _ in range(round(6.0 / plant.dt)):
         state = system.read_state()
         if state.time >= next_plan - 1e-9:
             ctrl.update_action(state.state, state.time, state.metadata)
