@@ -9,6 +9,7 @@ u = controller.action(time)             # (nu,)
 import judo.optimizers  # noqa: E402,F401  (registers the built-in optimizers)
 import judo.tasks  # noqa: E402,F401  (registers the built-in tasks)
 from judo.core.config import Config
+from judo.core.config_file import ConfigFileError, LoadedConfig, load_config
 from judo.core.controller import Controller, ControllerConfig, NonFiniteRewardError
 from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
 from judo.core.fields import np_1d_field, slider
@@ -24,15 +25,19 @@ from judo.core.registry import (
 )
 from judo.core.spline import Spline, SplineBasis
 from judo.core.task import Task, TaskConfig
+from judo.runtime.app import App
 
 __version__ = "0.1.0"
 
 __all__ = [
+    "App",
     "Config",
     "ConfigError",
+    "ConfigFileError",
     "Controller",
     "ControllerConfig",
     "JudoError",
+    "LoadedConfig",
     "ModelLoadError",
     "NonFiniteRewardError",
     "Optimizer",
@@ -44,6 +49,7 @@ __all__ = [
     "UnknownNameError",
     "get_registered_optimizers",
     "get_registered_tasks",
+    "load_config",
     "make_controller",
     "np_1d_field",
     "quadratic_norm",

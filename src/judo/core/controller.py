@@ -130,8 +130,11 @@ class Controller:
         mujoco.mj_getState(self.task.model, data, self._initial_state, STATE_SPEC)
         self._initial_mocap[:] = np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
 
-    def update_action(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None = None) -> None:
-        """Run one planning cycle from `state` (nq + nv,) at sim `time` and publish the new plan.
+    def update_action(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None = None) -> Spline:
+        """Run one planning cycle from `state` (nq + nv,) at sim `time`, publish the new plan and return it.
+
+        `action(t)` serves the returned plan from now on; a caller that models latency (the new plan
+        taking effect only later) keeps the previous returned plan and evaluates it itself.
 
         Raises ConfigError if the configs were edited into an invalid combination, and
         NonFiniteRewardError if every rollout scored NaN or -inf; in both cases the previous plan
@@ -187,6 +190,7 @@ class Controller:
         self._plan = Spline(time, self._basis, self.nominal_knots)
         shown = np.argsort(-rewards, kind="stable")[: self.config.max_num_traces]
         self.traces = sensors[np.r_[0, shown]][..., self._trace_columns].reshape(len(shown) + 1, self.num_steps, -1, 3)
+        return self._plan
 
     def action(self, time: float) -> np.ndarray:
         """(nu,) control of the current plan at sim `time` (held constant past its ends)."""

@@ -14,9 +14,16 @@ import numpy as np
 from judo.core.errors import JudoError
 from judo.core.task import Task
 
+DIVERGENCE_WARNINGS = (
+    mujoco.mjtWarning.mjWARN_BADQACC,
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+)
+"""MuJoCo warnings that mean the simulation blew up (it resets the data itself on bad qpos/qvel)."""
+
 
 class SimulationDiverged(JudoError):
-    """The plant's state became non-finite or MuJoCo flagged bad accelerations; the plant was reset."""
+    """The plant's state became non-finite or MuJoCo flagged bad positions, velocities or accelerations; the plant was reset."""
 
 
 @dataclass
@@ -78,15 +85,16 @@ class MujocoSystem(System):
     def step(self) -> None:
         """One physics step. Raises SimulationDiverged (after resetting the task) if the state blew up."""
         model, data = self.task.sim_model, self.task.data
+        start_time = data.time  # MuJoCo's own reset on bad qpos/qvel zeroes data.time
         self.task.pre_sim_step()
         mujoco.mj_step(model, data)
         self.task.post_sim_step()
-        bad_qacc = data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number > 0
-        if bad_qacc or not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
-            time = data.time
-            data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number = 0
+        warnings = [data.warning[w] for w in DIVERGENCE_WARNINGS]
+        if any(w.number for w in warnings) or not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+            for warning in warnings:
+                warning.number = 0
             self.task.reset()
-            data.time = time
+            data.time = start_time + model.opt.timestep  # the plant's clock keeps running
             raise SimulationDiverged(
-                f"simulation of {type(self.task).__name__} diverged at t={time:.3f} s; reset the task"
+                f"simulation of {type(self.task).__name__} diverged at t={start_time:.3f} s; reset the task"
             )

@@ -13,17 +13,19 @@ register_task("cartpole", Cartpole, CartpoleConfig)
 register_task("cylinder_push", CylinderPush, CylinderPushConfig)
 
 # Per-task defaults that solve each task out of the box (see benchmarks/ and `python -m judo evaluate`).
-set_config_overrides("cartpole", ControllerConfig, {"horizon": 1.0, "spline_order": "cubic"})
+set_config_overrides("cartpole", ControllerConfig, {"horizon": 1.0, "spline_order": "cubic", "control_freq": 50.0})
 set_config_overrides("cartpole", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
 set_config_overrides("cartpole", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("cartpole", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
-set_config_overrides("cartpole", CEMConfig, {"sigma_min": 0.1, "sigma_max": 0.5})
+set_config_overrides("cartpole", CEMConfig, {"sigma_min": 0.2, "sigma_max": 1.0})
 
-set_config_overrides("cylinder_push", ControllerConfig, {"horizon": 1.0, "spline_order": "linear"})
+set_config_overrides(
+    "cylinder_push", ControllerConfig, {"horizon": 1.0, "spline_order": "linear", "control_freq": 50.0}
+)
 set_config_overrides("cylinder_push", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
-set_config_overrides("cylinder_push", PredictiveSamplingConfig, {"sigma": 0.2})
-set_config_overrides("cylinder_push", MPPIConfig, {"sigma": 0.2, "temperature": 1.0})
-set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max": 0.4})
+set_config_overrides("cylinder_push", PredictiveSamplingConfig, {"sigma": 0.3})
+set_config_overrides("cylinder_push", MPPIConfig, {"sigma": 0.3, "temperature": 0.01})
+set_config_overrides("cylinder_push", CEMConfig, {"sigma_min": 0.05, "sigma_max": 0.6})
 
 # --- Robot tasks: LEAP hand cube rotation (palm up / palm down) and Franka-style pick-and-place. ---
 register_task("leap_cube", LeapCube, LeapCubeConfig)

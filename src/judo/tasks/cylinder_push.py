@@ -9,7 +9,7 @@ import numpy as np
 
 from judo.core.fields import np_1d_field, slider
 from judo.core.norms import quadratic_norm
-from judo.core.task import Task, TaskConfig
+from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "cylinder_push.xml"
 
@@ -26,9 +26,9 @@ class CylinderPushConfig(TaskConfig):
     """Weight on the pusher sitting behind the cart, on the far side from the goal."""
     w_pusher_velocity: float = 0.0
     """Weight on a slow pusher."""
-    w_cart_position: float = 0.1
+    w_cart_position: float = 1.0
     """Weight on the cart reaching the goal."""
-    pusher_goal_offset: float = 0.4
+    pusher_goal_offset: float = 0.35
     """How far behind the cart's centre (m) the pusher should be, along the cart-to-goal line."""
     goal_pos: np.ndarray = np_1d_field(
         np.array([0.0, 0.0]), names=["x", "y"], mins=[-1.0, -1.0], maxs=[1.0, 1.0], steps=[0.01, 0.01], vis_name="goal"
@@ -69,3 +69,8 @@ class CylinderPush(Task[CylinderPushConfig]):
         self.data.qpos[:] = np.concatenate([pusher, cart])
         self.data.qvel[:] = 0.0
         mujoco.mj_forward(self.sim_model, self.data)
+
+    def metrics(self, log: EpisodeLog) -> dict[str, float]:
+        """Where the cart ended: "final_distance" to the goal (m), and "reached", 1.0 if that is under 0.05 m."""
+        distance = float(np.linalg.norm(log.states[-1, 2:4] - self.config.goal_pos))
+        return {"final_distance": distance, "reached": float(distance < 0.05)}

@@ -1,0 +1,29 @@
+"""`python -m judo` (and the `judo` script): the app, or the `benchmark` and `evaluate` commands.
+
+python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
+python -m judo benchmark ...                        # judo.evaluation.benchmark
+python -m judo evaluate ...                         # judo.evaluation.evaluate
+"""
+
+import sys
+from collections.abc import Sequence
+
+
+def main(argv: Sequence[str] | None = None) -> int | None:
+    """Dispatch `argv` (default: sys.argv[1:]) to a command and return its exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    if argv and argv[0] == "benchmark":
+        from judo.evaluation.benchmark import main as benchmark_main
+
+        return benchmark_main(argv[1:])
+    if argv and argv[0] == "evaluate":
+        from judo.evaluation.evaluate import main as evaluate_main
+
+        return evaluate_main(argv[1:])
+    from judo.runtime.cli import main as app_main
+
+    return app_main(argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

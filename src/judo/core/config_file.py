@@ -1,0 +1,166 @@
+"""TOML config files: register custom tasks and optimizers by import path and set per-task overrides.
+
+task = "my_task"                      # initial task
+optimizer = "mppi"                    # initial optimizer
+[custom_tasks.my_task]
+task = "my_module.MyTask"             # dotted import paths; the file's folder is importable
+config = "my_module.MyTaskConfig"
+[custom_optimizers.my_opt]
+optimizer = "my_module.MyOpt"
+config = "my_module.MyOptConfig"
+[controller_config_overrides.my_task]
+horizon = 1.0
+[optimizer_config_overrides.cylinder_push.my_opt]
+param = 42
+[task_config_overrides.cartpole]
+w_centered = 5.0
+"""
+
+import importlib
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover
+    import tomli as tomllib
+
+from judo.core.controller import ControllerConfig
+from judo.core.errors import JudoError, UnknownNameError
+from judo.core.registry import (
+    lookup_optimizer,
+    lookup_task,
+    register_optimizer,
+    register_task,
+    set_config_overrides,
+)
+
+TOP_LEVEL_KEYS = (
+    "task",
+    "optimizer",
+    "custom_tasks",
+    "custom_optimizers",
+    "controller_config_overrides",
+    "optimizer_config_overrides",
+    "task_config_overrides",
+)
+
+
+class ConfigFileError(JudoError):
+    """A config file that cannot be read or applied; the message names the file and the offending key."""
+
+
+@dataclass
+class LoadedConfig:
+    """What a config file asks for at start-up (None where it does not say)."""
+
+    task: str | None
+    optimizer: str | None
+    path: Path
+
+
+def load_config(path: str | Path) -> LoadedConfig:
+    """Read the TOML file at `path`, register its custom classes and apply its overrides.
+
+    Raises ConfigFileError naming the file and the offending key or line; nothing is registered
+    unless the whole file is valid up to the failing entry.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except FileNotFoundError:
+        raise ConfigFileError(f"config file not found: {path}") from None
+    try:
+        table = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        where = "" if "line" in str(err) else f" (at line {max(1, len(text.splitlines()))})"
+        raise ConfigFileError(f"{path}: TOML syntax error: {err}{where}") from None
+
+    unknown = sorted(set(table) - set(TOP_LEVEL_KEYS))
+    if unknown:
+        raise ConfigFileError(
+            f"{path}: unknown top-level key {unknown[0]!r}; valid keys are: {', '.join(TOP_LEVEL_KEYS)}"
+        )
+    if str(path.parent.resolve()) not in sys.path:
+        sys.path.insert(0, str(path.parent.resolve()))
+
+    def fail(where: str, err: Exception) -> ConfigFileError:
+        return ConfigFileError(f"{path}: [{where}]: {err}")
+
+    for section, class_key, register in (
+        ("custom_tasks", "task", register_task),
+        ("custom_optimizers", "optimizer", register_optimizer),
+    ):
+        for name, entry in _table(table, section, path).items():
+            where = f"{section}.{name}"
+            try:
+                register(
+                    name, _import(_entry(entry, class_key, where, path)), _import(_entry(entry, "config", where, path))
+                )
+            except JudoError as err:
+                raise fail(where, err) from None
+
+    for task_name, overrides in _table(table, "controller_config_overrides", path).items():
+        _apply(path, f"controller_config_overrides.{task_name}", task_name, ControllerConfig, overrides)
+    for task_name, overrides in _table(table, "task_config_overrides", path).items():
+        where = f"task_config_overrides.{task_name}"
+        try:
+            config_cls = lookup_task(task_name)[1]
+        except UnknownNameError as err:
+            raise fail(where, err) from None
+        _apply(path, where, task_name, config_cls, overrides)
+    per_task = _table(table, "optimizer_config_overrides", path)
+    for task_name in per_task:
+        for optimizer_name, overrides in _table(per_task, task_name, path).items():
+            where = f"optimizer_config_overrides.{task_name}.{optimizer_name}"
+            try:
+                config_cls = lookup_optimizer(optimizer_name)[1]
+            except UnknownNameError as err:
+                raise fail(where, err) from None
+            _apply(path, where, task_name, config_cls, overrides)
+
+    for key, lookup in (("task", lookup_task), ("optimizer", lookup_optimizer)):
+        if key in table:
+            try:
+                lookup(table[key])
+            except UnknownNameError as err:
+                raise fail(key, err) from None
+    return LoadedConfig(table.get("task"), table.get("optimizer"), path)
+
+
+def _table(table: dict[str, Any], key: str, path: Path) -> dict[str, Any]:
+    value = table.get(key, {})
+    if not isinstance(value, dict):
+        raise ConfigFileError(f"{path}: [{key}] must be a table, got {value!r}")
+    return value
+
+
+def _entry(entry: Any, key: str, where: str, path: Path) -> str:
+    if not isinstance(entry, dict) or not isinstance(entry.get(key), str):
+        raise ConfigFileError(f'{path}: [{where}] needs {key} = "module.ClassName"')
+    return entry[key]
+
+
+def _import(dotted: str) -> Any:
+    """The object at the dotted import path `dotted`, or a JudoError naming the part that failed."""
+    module_name, _, attribute = dotted.rpartition(".")
+    if not module_name:
+        raise JudoError(f"{dotted!r} is not a dotted import path like 'my_module.MyClass'")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as err:
+        raise JudoError(f"cannot import module {module_name!r} (from {dotted!r}): {err}") from None
+    if not hasattr(module, attribute):
+        raise JudoError(f"module {module_name!r} has no attribute {attribute!r} (from {dotted!r})")
+    return getattr(module, attribute)
+
+
+def _apply(path: Path, where: str, task_name: str, config_cls: type, overrides: Any) -> None:
+    if not isinstance(overrides, dict):
+        raise ConfigFileError(f"{path}: [{where}] must be a table of field = value, got {overrides!r}")
+    try:
+        set_config_overrides(task_name, config_cls, overrides)
+    except JudoError as err:
+        raise ConfigFileError(f"{path}: [{where}]: {err}") from None

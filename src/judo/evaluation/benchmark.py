@@ -1,0 +1,122 @@
+"""`python -m judo benchmark`: time the control update of every task x optimizer pair against raw rollouts."""
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import tyro
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from judo.core.config import require
+from judo.core.errors import JudoError
+from judo.evaluation.cli import (
+    check_names,
+    chosen_optimizers,
+    chosen_tasks,
+    fail,
+    name_listing,
+    output_console,
+    parse_args,
+    progress_console,
+    write_json,
+)
+from judo.evaluation.timing import UpdateTiming, time_pair
+
+DESCRIPTION = (
+    "Time the control update of each task x optimizer pair with the task's default settings, after a warm-up, "
+    "next to the raw rollout of the same N x T steps on the same rollout pool (the floor) and their ratio."
+)
+
+
+@dataclass
+class BenchmarkArgs:
+    """Arguments of `python -m judo benchmark`."""
+
+    tasks: Annotated[
+        tuple[str, ...], tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)")
+    ] = ()
+    """Tasks to time, by registered name."""
+    optimizers: Annotated[
+        tuple[str, ...], tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)")
+    ] = ()
+    """Optimizers to time, by registered name."""
+    samples: int = 100
+    """Timed control updates per task x optimizer pair."""
+    warmup: int = 10
+    """Untimed updates (and raw rollouts) before timing starts."""
+    num_workers: Annotated[int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")] = (
+        None
+    )
+    """Rollout worker threads."""
+    json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """Also write one row per pair to this JSON file."""
+
+    def validate(self) -> None:
+        """Raise a JudoError for an argument out of range or a name that is not registered."""
+        require(self.samples >= 1, f"--samples must be at least 1, got {self.samples}")
+        require(self.warmup >= 0, f"--warmup must be at least 0, got {self.warmup}")
+        require(
+            self.num_workers is None or self.num_workers >= 1,
+            f"--num-workers must be at least 1, got {self.num_workers}",
+        )
+        check_names(self.tasks, self.optimizers)
+
+
+def timing_table(task: str, timings: list[UpdateTiming]) -> Table:
+    """One row per optimizer: update-time statistics (ms), the raw rollout floor and the overhead ratio."""
+    table = Table(title=f"{task}: control update time (ms), {timings[0].num_workers} rollout workers")
+    table.add_column("optimizer")
+    table.add_column("N x T", justify="right")
+    table.add_column("mean ± std", justify="right")
+    table.add_column("median (IQR)", justify="right")
+    table.add_column("min / max", justify="right")
+    table.add_column("raw rollout", justify="right")
+    table.add_column("overhead", justify="right")
+    for timing in timings:
+        ms = timing.update_ms
+        q25, q75 = np.percentile(ms, [25, 75])
+        table.add_row(
+            timing.optimizer,
+            f"{timing.num_rollouts} x {timing.num_steps}",
+            f"{ms.mean():.2f} ± {ms.std():.2f}",
+            f"{np.median(ms):.2f} ({q25:.2f}-{q75:.2f})",
+            f"{ms.min():.2f} / {ms.max():.2f}",
+            f"{np.median(timing.raw_rollout_ms):.2f}",
+            f"{timing.overhead_ratio():.2f}x",
+        )
+    return table
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the benchmark on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
+    args = parse_args(BenchmarkArgs, argv, "python -m judo benchmark", DESCRIPTION + " " + name_listing())
+    try:
+        args.validate()
+        tasks, optimizers = chosen_tasks(args.tasks), chosen_optimizers(args.optimizers)
+        results: dict[str, list[UpdateTiming]] = {task: [] for task in tasks}
+        columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+        with Progress(*columns, console=progress_console(), transient=True) as progress:
+            bar = progress.add_task("benchmark", total=len(tasks) * len(optimizers) * args.samples)
+            for task in tasks:
+                for optimizer in optimizers:
+                    progress.update(bar, description=f"{task} x {optimizer}")
+                    timing = time_pair(
+                        task,
+                        optimizer,
+                        args.samples,
+                        warmup=args.warmup,
+                        num_workers=args.num_workers,
+                        on_sample=lambda: progress.advance(bar),
+                    )
+                    results[task].append(timing)
+        console = output_console()
+        for task in tasks:
+            console.print(timing_table(task, results[task]))
+        if args.json is not None:
+            write_json(args.json, [timing.row() for task in tasks for timing in results[task]])
+            console.print(f"wrote {args.json}")
+    except JudoError as err:
+        fail(str(err))
+    return 0

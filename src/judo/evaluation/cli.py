@@ -1,0 +1,72 @@
+"""What `benchmark` and `evaluate` share on the command line: parsing, name checks, consoles, failing cleanly."""
+
+import json
+import sys
+from pathlib import Path
+from typing import Any, NoReturn, TypeVar
+
+import tyro
+from rich.console import Console
+
+from judo.core.errors import JudoError
+from judo.core.registry import get_registered_optimizers, get_registered_tasks, lookup_optimizer, lookup_task
+
+ArgsT = TypeVar("ArgsT")
+
+
+def fail(message: str) -> NoReturn:
+    """Print `error: message` to stderr and exit with status 2, without a traceback."""
+    print(f"error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def parse_args(args_cls: type[ArgsT], argv: list[str] | None, prog: str, description: str) -> ArgsT:
+    """Parse `argv` (sys.argv[1:] when None) into `args_cls` with tyro; --help comes from its field docstrings."""
+    return tyro.cli(args_cls, args=argv, prog=prog, description=description)
+
+
+def check_names(tasks: tuple[str, ...] | list[str], optimizers: tuple[str, ...] | list[str]) -> None:
+    """Raise UnknownNameError (listing the valid names) for a task or optimizer that is not registered."""
+    for name in tasks:
+        lookup_task(name)
+    for name in optimizers:
+        lookup_optimizer(name)
+
+
+def name_listing() -> str:
+    """One line naming the registered tasks and optimizers, for --help."""
+    return f"Tasks: {', '.join(get_registered_tasks())}. Optimizers: {', '.join(get_registered_optimizers())}."
+
+
+def all_or(names: tuple[str, ...], registered: dict[str, Any]) -> list[str]:
+    """`names`, or every registered name (in registration order) when `names` is empty."""
+    return list(names) if names else list(registered)
+
+
+def chosen_tasks(names: tuple[str, ...]) -> list[str]:
+    """The tasks named, or all registered tasks."""
+    return all_or(names, get_registered_tasks())
+
+
+def chosen_optimizers(names: tuple[str, ...]) -> list[str]:
+    """The optimizers named, or all registered optimizers."""
+    return all_or(names, get_registered_optimizers())
+
+
+def output_console() -> Console:
+    """Console for the results on stdout, 120 columns wide when stdout is not a terminal."""
+    return Console(width=None if sys.stdout.isatty() else 120)
+
+
+def progress_console() -> Console:
+    """Console for progress bars on stderr, so stdout holds only the results."""
+    return Console(stderr=True)
+
+
+def write_json(path: Path, content: Any) -> None:
+    """Write `content` to `path` as indented JSON, creating the parent folder; JudoError if that fails."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(json.dumps(content, indent=2) + "\n")
+    except OSError as err:
+        raise JudoError(f"could not write {path}: {err}") from err

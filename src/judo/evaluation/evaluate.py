@@ -1,0 +1,190 @@
+"""`python -m judo evaluate`: closed-loop episodes over seeds, the task's success metrics with 95% CIs."""
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+import tyro
+from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from judo.core.config import require
+from judo.core.errors import JudoError
+from judo.core.registry import lookup_task, make_controller
+from judo.evaluation.cli import (
+    check_names,
+    fail,
+    name_listing,
+    output_console,
+    parse_args,
+    progress_console,
+    write_json,
+)
+from judo.evaluation.episode import EpisodeResult, Latency, make_plant_task, run_episode
+from judo.evaluation.plot import check_plot_path, write_episode_plot
+from judo.evaluation.stats import Summary, summarize
+
+DESCRIPTION = (
+    "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
+    "seed (0, 1, ...), each from the task's randomised start, and print each success metric's mean with its 95% "
+    "confidence interval over seeds. With --latency measured or --latency-ms the plant keeps moving while a plan "
+    "is computed, and the plan takes effect that much later."
+)
+
+
+@dataclass
+class EvaluateArgs:
+    """Arguments of `python -m judo evaluate`."""
+
+    task: Annotated[str, tyro.conf.arg(metavar="NAME")]
+    """Task to run, by registered name."""
+    optimizer: Annotated[str, tyro.conf.arg(metavar="NAME")]
+    """Optimizer to run, by registered name."""
+    seeds: int = 5
+    """Episodes to run, with seeds 0 to seeds - 1."""
+    duration: float = 20.0
+    """Length of each episode in seconds of sim time."""
+    latency: Literal["none", "measured"] = "none"
+    """Planning latency: none, or each update's measured wall time (which varies from run to run)."""
+    latency_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
+    """Fixed planning latency in milliseconds of sim time (reproducible); instead of --latency."""
+    num_workers: Annotated[int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")] = (
+        None
+    )
+    """Rollout worker threads."""
+    json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """Also write each episode's metrics and the summary to this JSON file."""
+    plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """Also plot the first seed's episode against time to this .png (needs matplotlib) or .html file."""
+
+    def validate(self) -> None:
+        """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
+        check_names([self.task], [self.optimizer])
+        require(self.seeds >= 1, f"--seeds must be at least 1, got {self.seeds}")
+        require(self.duration > 0, f"--duration must be positive, got {self.duration}")
+        require(
+            self.latency_ms is None or self.latency == "none",
+            f"give either --latency {self.latency} or --latency-ms {self.latency_ms}, not both",
+        )
+        require(
+            self.latency_ms is None or self.latency_ms >= 0, f"--latency-ms must be at least 0, got {self.latency_ms}"
+        )
+        require(
+            self.num_workers is None or self.num_workers >= 1,
+            f"--num-workers must be at least 1, got {self.num_workers}",
+        )
+        if self.plot is not None:
+            check_plot_path(self.plot)
+
+    def episode_latency(self) -> Latency:
+        """The latency `run_episode` takes: seconds, or "measured"."""
+        if self.latency_ms is not None:
+            return self.latency_ms / 1e3
+        return "measured" if self.latency == "measured" else 0.0
+
+    def latency_label(self) -> str:
+        """How the latency reads in titles and JSON."""
+        if self.latency_ms is not None:
+            return f"{self.latency_ms:g} ms"
+        return self.latency
+
+
+def summarize_metrics(results: list[EpisodeResult]) -> dict[str, Summary]:
+    """Each metric's summary over the episodes, in the order the task reports them."""
+    names = list(dict.fromkeys(name for result in results for name in result.metrics))
+    return {name: summarize(np.array([result.metrics.get(name, np.nan) for result in results])) for name in names}
+
+
+def metrics_table(title: str, summaries: dict[str, Summary]) -> Table:
+    """One row per metric: mean ± 95% CI, min and max over seeds."""
+    table = Table(title=title)
+    table.add_column("metric")
+    table.add_column("mean ± 95% CI", justify="right")
+    table.add_column("min", justify="right")
+    table.add_column("max", justify="right")
+    for name, summary in summaries.items():
+        ci = "n/a" if np.isnan(summary.ci95) else f"{summary.ci95:.3g}"
+        table.add_row(name, f"{summary.mean:.3g} ± {ci}", f"{summary.min:.3g}", f"{summary.max:.3g}")
+    return table
+
+
+def episode_record(result: EpisodeResult) -> dict[str, Any]:
+    """The JSON record of one episode."""
+    return {
+        "seed": result.seed,
+        "metrics": result.metrics,
+        "num_updates": len(result.update_ms),
+        "update_ms_median": float(np.median(result.update_ms)) if len(result.update_ms) else None,
+        "latency_ms_median": float(1e3 * np.median(result.latency_s)) if len(result.latency_s) else None,
+        "failed_updates": result.failed_updates,
+        "divergences": result.divergences,
+    }
+
+
+def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
+    """Run one episode per seed; advance `progress` (if given) by sim seconds."""
+    bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
+    results = []
+    for seed in range(args.seeds):
+        controller = make_controller(args.task, args.optimizer, num_workers=args.num_workers, seed=seed)
+
+        def show(now: float, seed: int = seed) -> None:
+            if progress is not None and bar is not None:
+                progress.update(bar, completed=seed * args.duration + now, description=f"seed {seed}")
+
+        try:
+            plant = make_plant_task(controller, seed)
+            results.append(run_episode(controller, plant, args.duration, args.episode_latency(), seed, show))
+        finally:
+            controller.close()
+    return results
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
+    args = parse_args(EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing())
+    try:
+        args.validate()
+        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
+        with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
+            results = evaluate(args, progress)
+        summaries = summarize_metrics(results)
+        update_ms = np.concatenate([result.update_ms for result in results])
+        title = (
+            f"{args.task} x {args.optimizer}: {args.seeds} seeds x {args.duration:g} s, latency {args.latency_label()}"
+        )
+        console = output_console()
+        table = metrics_table(title, summaries)
+        table.caption = f"control update: median {np.median(update_ms):.2f} ms over {len(update_ms)} updates"
+        console.print(table)
+        for result in results:
+            if result.divergences or result.failed_updates:
+                console.print(
+                    f"seed {result.seed}: {result.divergences} simulation divergences, "
+                    f"{result.failed_updates} updates with no finite reward"
+                )
+        if args.json is not None:
+            write_json(
+                args.json,
+                {
+                    "task": args.task,
+                    "optimizer": args.optimizer,
+                    "seeds": args.seeds,
+                    "duration": args.duration,
+                    "latency": args.latency_label(),
+                    "episodes": [episode_record(result) for result in results],
+                    "summary": {
+                        name: {**vars(summary), "ci95": None if np.isnan(summary.ci95) else summary.ci95}
+                        for name, summary in summaries.items()
+                    },
+                },
+            )
+            console.print(f"wrote {args.json}")
+        if args.plot is not None:
+            model = lookup_task(args.task)[0]().sim_model  # type: ignore[call-arg]
+            write_episode_plot(results[0], model, args.plot, f"{title}, seed {results[0].seed}")
+            console.print(f"wrote {args.plot}")
+    except JudoError as err:
+        fail(str(err))
+    return 0

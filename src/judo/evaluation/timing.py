@@ -1,0 +1,207 @@
+"""Timing the control update against its floor: the raw rollout of the same N x T steps on the same pool.
+
+The control update samples knots, interpolates them, rolls them out, scores and updates; the raw
+rollout is only `controller.pool.rollout(initial_state, controls, mocap)` with controls of the same
+(num_rollouts, T, nu) shape. Their ratio is the controller's overhead on top of physics.
+"""
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from judo.core.config import require, with_updates
+from judo.core.controller import Controller, ControllerConfig
+from judo.core.model import STATE_SPEC
+from judo.core.registry import lookup_optimizer, make_config, make_controller
+from judo.core.spline import Spline
+from judo.evaluation.episode import make_plant_task
+from judo.runtime.system import MujocoSystem
+
+
+@dataclass
+class UpdateTiming:
+    """Wall times of one task x optimizer pair, in milliseconds.
+
+    Attributes:
+        task, optimizer: registered names.
+        num_rollouts, num_steps: the batch, N rollouts of T steps each.
+        num_workers: rollout threads of the pool.
+        max_opt_iters: optimizer iterations (each one batch of rollouts) per update.
+        update_ms: (samples,) wall time of each timed control update.
+        raw_rollout_ms: (samples,) wall time of each raw rollout of N x T steps on the same pool,
+            timed alternately with the updates so both see the same machine load.
+    """
+
+    task: str
+    optimizer: str
+    num_rollouts: int
+    num_steps: int
+    num_workers: int
+    max_opt_iters: int
+    update_ms: np.ndarray
+    raw_rollout_ms: np.ndarray
+
+    def overhead_ratio(self) -> float:
+        """Median update time over median raw rollout time (1.0 would be no overhead at one iteration)."""
+        return float(np.median(self.update_ms) / np.median(self.raw_rollout_ms))
+
+    def row(self) -> dict[str, Any]:
+        """The JSON row of `python -m judo benchmark --json`."""
+        return {
+            "task": self.task,
+            "optimizer": self.optimizer,
+            "num_rollouts": self.num_rollouts,
+            "T": self.num_steps,
+            "num_workers": self.num_workers,
+            "max_opt_iters": self.max_opt_iters,
+            "median_ms": float(np.median(self.update_ms)),
+            "mean_ms": float(np.mean(self.update_ms)),
+            "std_ms": float(np.std(self.update_ms)),
+            "min_ms": float(np.min(self.update_ms)),
+            "max_ms": float(np.max(self.update_ms)),
+            "q25_ms": float(np.percentile(self.update_ms, 25)),
+            "q75_ms": float(np.percentile(self.update_ms, 75)),
+            "raw_rollout_ms": float(np.median(self.raw_rollout_ms)),
+            "overhead_ratio": self.overhead_ratio(),
+        }
+
+
+def benchmark_controller(
+    task_name: str,
+    optimizer_name: str,
+    *,
+    num_rollouts: int | None = None,
+    num_nodes: int | None = None,
+    horizon: float | None = None,
+    num_workers: int | None = None,
+    seed: int = 0,
+) -> Controller:
+    """A seeded controller with the task's default settings, except the sizes given here."""
+    controller_config = make_config(ControllerConfig, task_name)
+    if horizon is not None:
+        controller_config = with_updates(controller_config, {"horizon": horizon})
+    optimizer_config = make_config(lookup_optimizer(optimizer_name)[1], task_name)
+    sizes = {"num_rollouts": num_rollouts, "num_nodes": num_nodes}
+    optimizer_config = with_updates(optimizer_config, {k: v for k, v in sizes.items() if v is not None})
+    return make_controller(
+        task_name,
+        optimizer_name,
+        controller_config=controller_config,  # type: ignore[arg-type]
+        optimizer_config=optimizer_config,  # type: ignore[arg-type]
+        num_workers=num_workers,
+        seed=seed,
+    )
+
+
+def rollout_start(
+    model: mujoco.MjModel, state: np.ndarray, time: float, metadata: dict
+) -> tuple[np.ndarray, np.ndarray]:
+    """What `RolloutPool.rollout` starts from for [qpos, qvel] `state` and mocap poses in `metadata`:
+    the (nstate,) full-physics state and the (7 * nmocap,) mocap vector, as the controller builds them."""
+    data = mujoco.MjData(model)
+    data.time = time
+    data.qpos[:] = state[: model.nq]
+    data.qvel[:] = state[model.nq : model.nq + model.nv]
+    for key in ("mocap_pos", "mocap_quat"):
+        if key in metadata:
+            getattr(data, key)[:] = metadata[key]
+    initial = np.zeros(mujoco.mj_stateSize(model, STATE_SPEC))
+    mujoco.mj_getState(model, data, initial, STATE_SPEC)
+    return initial, np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
+
+
+def sampled_controls(controller: Controller, plan: Spline) -> np.ndarray:
+    """(num_rollouts, T, nu) controls as an update after `plan` would roll out: knots sampled by the
+    optimizer around the plan's knots, clamped to the actuator limits, interpolated at every step."""
+    knots = controller.optimizer.sample_control_knots(plan.knots)
+    low, high = controller.task.actuator_ctrlrange.T
+    np.clip(knots, low, high, out=knots)
+    weights = plan.basis.weights(np.arange(controller.num_steps) * controller.task.dt)  # (T, num_nodes)
+    return np.matmul(weights, knots)
+
+
+def time_control_update(
+    controller: Controller,
+    samples: int,
+    warmup: int = 10,
+    seed: int = 0,
+    on_sample: Callable[[], None] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Time `samples` control updates and as many raw rollouts of the same batch, after `warmup` of each.
+
+    `on_sample` is called after each timed pair (not during the warm-up), e.g. to advance a progress bar.
+
+    Every update plans from the task's start state for `seed` (its randomised reset), one control
+    period later than the one before, so the plan shifts as in a running loop. The raw rollouts start
+    from the same state and roll out a batch sampled as an update samples it, on `controller.pool`.
+
+    Returns:
+        update_ms (samples,) and raw_rollout_ms (samples,), wall times in milliseconds.
+    """
+    require(samples >= 1, f"samples must be at least 1, got {samples}")
+    require(warmup >= 0, f"warmup must be at least 0, got {warmup}")
+    start = MujocoSystem(make_plant_task(controller, seed)).read_state()
+    state, metadata, plan_time = start.state, start.metadata, start.time
+    period = 1.0 / controller.config.control_freq
+    controller.reset()
+    for _ in range(warmup + 1):  # at least one update, so the plan and the batch size exist
+        plan = controller.update_action(state, plan_time, metadata)
+        plan_time += period
+    controls = sampled_controls(controller, plan)
+    initial, mocap = rollout_start(controller.task.model, state, plan.start_time, metadata)
+    for _ in range(warmup):
+        controller.pool.rollout(initial, controls, mocap)
+
+    update_ms, raw_ms = np.zeros(samples), np.zeros(samples)
+    for i in range(samples):
+        started = time.perf_counter()
+        controller.update_action(state, plan_time, metadata)
+        update_ms[i] = 1e3 * (time.perf_counter() - started)
+        plan_time += period
+        started = time.perf_counter()
+        controller.pool.rollout(initial, controls, mocap)
+        raw_ms[i] = 1e3 * (time.perf_counter() - started)
+        if on_sample is not None:
+            on_sample()
+    return update_ms, raw_ms
+
+
+def time_pair(
+    task_name: str,
+    optimizer_name: str,
+    samples: int,
+    *,
+    warmup: int = 10,
+    num_rollouts: int | None = None,
+    num_nodes: int | None = None,
+    horizon: float | None = None,
+    num_workers: int | None = None,
+    on_sample: Callable[[], None] | None = None,
+) -> UpdateTiming:
+    """Build a controller for the pair (default settings except the sizes given), time it, close it."""
+    controller = benchmark_controller(
+        task_name,
+        optimizer_name,
+        num_rollouts=num_rollouts,
+        num_nodes=num_nodes,
+        horizon=horizon,
+        num_workers=num_workers,
+    )
+    try:
+        update_ms, raw_ms = time_control_update(controller, samples, warmup, on_sample=on_sample)
+    finally:
+        controller.close()
+    return UpdateTiming(
+        task=task_name,
+        optimizer=optimizer_name,
+        num_rollouts=controller.optimizer.num_rollouts,
+        num_steps=controller.num_steps,
+        num_workers=controller.pool.num_workers,
+        max_opt_iters=controller.config.max_opt_iters,
+        update_ms=update_ms,
+        raw_rollout_ms=raw_ms,
+    )

@@ -1,0 +1,165 @@
+"""`python -m judo`: run a task and optimizer in real time, with the browser GUI or headless.
+
+The options are built by tyro from the same dataclasses the GUI shows, for the task and optimizer
+named on the command line:
+
+    python -m judo --task cartpole --optimizer mppi --controller.horizon 0.8 --optimizer-config.sigma 0.2
+    python -m judo --task cylinder_push --headless --duration 10
+    python -m judo --task cartpole --optimizer cem --help     # lists the cem and cartpole fields
+    python -m judo --config judo.toml                          # custom classes and overrides from a file
+
+Precedence, lowest first: the dataclass defaults, the task's registered overrides, the config file,
+the command-line options, then live GUI edits.
+"""
+
+import argparse
+import dataclasses
+import logging
+import sys
+from collections.abc import Sequence
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import tyro
+import tyro.constructors
+
+from judo.core.config import Config, with_updates
+from judo.core.config_file import load_config
+from judo.core.errors import JudoError
+from judo.core.registry import get_registered_optimizers, get_registered_tasks
+from judo.runtime.app import App
+from judo.runtime.session import default_configs
+
+PROG = "python -m judo"
+CONFIG_GROUPS = {"controller": "controller", "optimizer": "optimizer_config", "task": "task_config"}
+"""Config kind -> the option group holding its fields (`--controller.horizon`, `--optimizer-config.sigma`, ...)."""
+
+
+@dataclass
+class RunOptions:
+    """What to run and how to serve it."""
+
+    config: Path | None = None
+    """TOML file that registers custom tasks and optimizers and sets per-task overrides (see docs/configuration.md)."""
+    task: str = "cartpole"
+    """Registered task to run (the config file's `task` when it names one)."""
+    optimizer: str = "mppi"
+    """Registered optimizer to plan with (the config file's `optimizer` when it names one)."""
+    host: str = "0.0.0.0"
+    """Address the GUI server listens on."""
+    port: int = 8080
+    """Port of the GUI server."""
+    headless: bool = False
+    """Run the same loops without the GUI (for scripts and CI)."""
+    duration: float | None = None
+    """Stop after this many seconds of sim time and print a summary; by default run until Ctrl-C."""
+    seed: int | None = None
+    """Seed of the optimizer, the task and the simulated plant."""
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Parse `argv` (default: sys.argv[1:]), run the app, and return the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        task, optimizer = _peek_names(argv)
+        defaults = default_configs(task, optimizer)
+    except JudoError as err:  # an unknown name, or a config file that cannot be applied
+        print(f"{PROG}: {err}", file=sys.stderr)
+        return 2
+    argv = ["--task", task, "--optimizer", optimizer, *argv]  # the config file's names, unless given again
+    try:
+        options, configs = parse(argv, defaults)
+        app = App(
+            options.task,
+            options.optimizer,
+            controller_config=configs["controller"],  # type: ignore[arg-type]
+            optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
+            task_config=configs["task"],  # type: ignore[arg-type]
+            gui=not options.headless,
+            host=options.host,
+            port=options.port,
+            duration=options.duration,
+            seed=options.seed,
+        )
+    except JudoError as err:
+        print(f"{PROG}: {err}", file=sys.stderr)
+        return 2
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    print(f"{PROG}: {options.task} with {options.optimizer}; Ctrl-C stops", file=sys.stderr)
+    summary = app.run()
+    print(summary)
+    return 0
+
+
+def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[str, Config]]:
+    """The run options and the validated controller, optimizer and task configs from `argv`.
+
+    Raises ConfigError for a value the configs refuse (e.g. a wrong-length array).
+    """
+    groups = [
+        (CONFIG_GROUPS[kind], type(config), field(default_factory=lambda config=config: config))
+        for kind, config in defaults.items()
+    ]
+    arguments_cls = dataclasses.make_dataclass("JudoArguments", groups, bases=(RunOptions,))
+    parsed = tyro.cli(
+        arguments_cls,
+        args=argv,
+        prog=PROG,
+        description=_description(),
+        registry=_registry(),
+    )
+    configs = {}
+    for kind, config in defaults.items():
+        given = getattr(parsed, CONFIG_GROUPS[kind])
+        configs[kind] = with_updates(config, {f.name: getattr(given, f.name) for f in fields(given)})
+    options = RunOptions(**{f.name: getattr(parsed, f.name) for f in fields(RunOptions)})
+    return options, configs
+
+
+def _peek_names(argv: list[str]) -> tuple[str, str]:
+    """The task and optimizer to run, read before tyro builds the options that depend on them.
+
+    Loads the --config file first (registering its classes and overrides), whose names stand in
+    for --task and --optimizer when those are not given. Raises JudoError for a bad file.
+    """
+    peek = argparse.ArgumentParser(add_help=False)
+    peek.add_argument("--config", default=None)
+    peek.add_argument("--task", default=None)
+    peek.add_argument("--optimizer", default=None)
+    known, _ = peek.parse_known_args(argv)
+    loaded = load_config(known.config) if known.config else None
+    task = known.task or (loaded and loaded.task) or RunOptions.task
+    optimizer = known.optimizer or (loaded and loaded.optimizer) or RunOptions.optimizer
+    return task, optimizer
+
+
+def _description() -> str:
+    tasks = ", ".join(sorted(get_registered_tasks()))
+    optimizers = ", ".join(sorted(get_registered_optimizers()))
+    return (
+        "Run sampling-based MPC on a MuJoCo task in real time, with a browser GUI (or --headless). "
+        "The controller, optimizer and task options below belong to the chosen --task and --optimizer; "
+        f"pass those first to see their fields. Tasks: {tasks}. Optimizers: {optimizers}. "
+        f"Also: `{PROG} benchmark ...` and `{PROG} evaluate ...`."
+    )
+
+
+def _registry() -> tyro.constructors.ConstructorRegistry:
+    """tyro rules for the types configs use beyond tyro's own: 1-D numpy arrays as lists of floats."""
+    registry = tyro.constructors.ConstructorRegistry()
+
+    @registry.primitive_rule
+    def _array(type_info: tyro.constructors.PrimitiveTypeInfo) -> tyro.constructors.PrimitiveConstructorSpec | None:
+        if type_info.type is not np.ndarray:
+            return None
+        return tyro.constructors.PrimitiveConstructorSpec(
+            nargs="*",
+            metavar="FLOAT [FLOAT ...]",
+            instance_from_str=lambda args: np.array([float(a) for a in args]),
+            is_instance=lambda value: isinstance(value, np.ndarray),
+            str_from_instance=lambda value: [repr(float(x)) for x in value],
+        )
+
+    return registry

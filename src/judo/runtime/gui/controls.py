@@ -1,0 +1,79 @@
+"""The top of the GUI panel: task and optimizer dropdowns, pause/resume, reset buttons and the status line.
+
+Every control only calls an App command; the app's loops carry it out at their next iteration.
+"""
+
+from typing import TYPE_CHECKING
+
+import viser
+
+from judo.core.errors import JudoError
+from judo.core.registry import get_registered_optimizers, get_registered_tasks
+
+if TYPE_CHECKING:
+    from judo.runtime.app import App, Status
+
+MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
+STATUS_PREFIX = {"info": "", "warning": "warning: ", "error": "error: "}
+
+
+class Controls:
+    """Dropdowns of the registered tasks and optimizers, three buttons and a status line."""
+
+    def __init__(self, gui: viser.GuiApi, app: "App", order: float) -> None:
+        self.app = app
+        session = app.session
+        self.task = gui.add_dropdown(
+            "task",
+            sorted(get_registered_tasks()),
+            initial_value=session.task_name,
+            order=order,
+            hint="Registered tasks",
+        )
+        self.optimizer = gui.add_dropdown(
+            "optimizer",
+            sorted(get_registered_optimizers()),
+            initial_value=session.optimizer_name,
+            order=order + 0.1,
+            hint="Registered optimizers",
+        )
+        self.pause = gui.add_button("Pause", order=order + 0.2, hint="Pause or resume the plant and the planner")
+        self.reset_task = gui.add_button("Reset task", order=order + 0.3, hint="Put the plant in its start state")
+        self.reset_configs = gui.add_button(
+            "Reset configs", order=order + 0.4, hint="Put every config back to the task's defaults"
+        )
+        self.status = gui.add_markdown("", order=order + 0.5)
+        self._shown_status = -1
+        self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))
+        self.optimizer.on_update(lambda event: self._switch(event, app.switch_optimizer, self.optimizer, "optimizer"))
+        self.pause.on_click(lambda _: app.resume() if app.paused else app.pause())
+        self.reset_task.on_click(lambda _: app.reset_task())
+        self.reset_configs.on_click(lambda _: app.reset_configs())
+
+    def update(self) -> None:
+        """Show the app's pause state, names and latest status."""
+        self.pause.label = "Resume" if self.app.paused else "Pause"
+        status = self.app.status
+        if status.count != self._shown_status:
+            self._shown_status = status.count
+            self.status.content = status_markdown(status)
+
+    def show_session(self) -> None:
+        """Point the dropdowns at the session in use (after a switch, or a refused one)."""
+        session = self.app.session
+        self.task.value, self.optimizer.value = session.task_name, session.optimizer_name
+
+    def _switch(self, event: viser.GuiEvent, command, dropdown: viser.GuiDropdownHandle, what: str) -> None:
+        if event.client is None:
+            return
+        try:
+            command(dropdown.value)
+        except JudoError as err:
+            self.app.report(f"{what} not switched: {err}", "error")
+            self.show_session()
+
+
+def status_markdown(status: "Status") -> str:
+    """The status line as markdown; warnings and errors are marked as such."""
+    text = "".join("\\" + c if c in MARKDOWN_SPECIAL else c for c in status.message.replace("\n", " "))
+    return f"**status:** {STATUS_PREFIX[status.level]}{text}"

@@ -1,0 +1,135 @@
+"""The browser GUI of an App: a viser server whose panel and scene follow the app's session.
+
+`update()` is called by the app's GUI loop about 30 times a second, on the event-loop thread. The
+widgets' callbacks run on viser's threads and only call App commands.
+"""
+
+import time
+from typing import TYPE_CHECKING, Any
+
+import viser
+
+from judo.core.config import Config
+from judo.core.errors import JudoError
+from judo.runtime.gui.config_panel import ConfigPanel
+from judo.runtime.gui.controls import Controls
+from judo.runtime.gui.plots import Plots
+from judo.runtime.gui.scene import SceneView
+from judo.runtime.system import SystemState
+
+if TYPE_CHECKING:
+    from judo.runtime.app import App, ConfigKind
+
+PLOT_PERIOD = 0.25
+"""Seconds between points on the plots."""
+
+
+class Gui:
+    """Serves the GUI of `app` at http://host:port until `close()`."""
+
+    def __init__(self, app: "App", host: str, port: int) -> None:
+        self.app = app
+        self.server = viser.ViserServer(host=host, port=port, label="judo", verbose=False)
+        self.server.scene.set_up_direction("+z")
+        self.server.gui.configure_theme(control_width="large", dark_mode=False)
+        self.controls = Controls(self.server.gui, app, order=0)
+        self.plots = Plots(self.server.gui, order=100)
+        self.panels: dict[str, ConfigPanel] = {}
+        self.scene: SceneView | None = None
+        self._scene_task: str | None = None
+        self._generation = -1
+        self._external_edits = -1
+        self._state_version = self._plan_version = 0
+        self._shown_task_config: Config | None = None
+        self._start = self._last_plot = time.perf_counter()
+
+    @property
+    def url(self) -> str:
+        """Where a browser finds the GUI."""
+        host = self.server.get_host()
+        return f"http://{'localhost' if host in ('0.0.0.0', '::') else host}:{self.server.get_port()}"
+
+    @property
+    def shown_generation(self) -> int:
+        """The generation of the session the panels and scene were last built for (-1 before the first)."""
+        return self._generation
+
+    def update(self) -> None:
+        """Follow the app: rebuild after a switch, refresh widgets, pose the scene, draw traces and plots."""
+        app = self.app
+        session = app.session
+        state = app.buffer.latest("system")
+        if session.generation != self._generation:
+            if state is None or state.value.generation != session.generation:
+                return  # the new plant has not published its first state yet
+            self._rebuild(state.value.reading)
+        if app.external_edits != self._external_edits:
+            self._external_edits = app.external_edits
+            for kind, config in app.configs().items():
+                self.panels[kind].show(config)
+        assert self.scene is not None and state is not None
+        configs = app.configs()
+        if configs["task"] is not self._shown_task_config:
+            self._shown_task_config = configs["task"]
+            self.scene.set_markers(configs["task"])
+        if state.version != self._state_version and state.value.generation == self._generation:
+            self._state_version = state.version
+            reading = state.value.reading
+            with self.server.atomic():
+                self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
+        plan = app.buffer.latest("plan")
+        if plan is not None and plan.version != self._plan_version and plan.value.generation == self._generation:
+            self._plan_version = plan.version
+            self.scene.set_traces(plan.value.traces)
+        now = time.perf_counter()
+        if now - self._last_plot >= PLOT_PERIOD:
+            self._last_plot = now
+            self.plots.add(now - self._start, app.stats.live())
+        self.controls.update()
+
+    def close(self) -> None:
+        """Stop the server."""
+        self.server.stop()
+
+    def _rebuild(self, reading: SystemState) -> None:
+        """New config panels for the session in use, and for a new task a new scene whose camera frames
+        the plant's `reading`."""
+        app = self.app
+        session, configs = app.session, app.configs()
+        self._external_edits = app.external_edits
+        for panel in self.panels.values():
+            panel.remove()
+        if session.task_name != self._scene_task:  # a new model; a new optimizer keeps scene and camera
+            self._scene_task = session.task_name
+            if self.scene is not None:
+                self.scene.remove()
+            self.scene = SceneView(self.server.scene, session.controller.task.model)
+            self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
+            self.scene.set_markers(configs["task"])
+            position, look_at = self.scene.camera_pose()
+            self.server.initial_camera.position = position
+            self.server.initial_camera.look_at = look_at
+            for client in self.server.get_clients().values():
+                client.camera.position, client.camera.look_at = position, look_at
+        self._shown_task_config = None
+        titles = {
+            "controller": "Controller",
+            "optimizer": f"Optimizer: {session.optimizer_name}",
+            "task": f"Task: {session.task_name}",
+        }
+        self.panels = {
+            kind: ConfigPanel(self.server.gui, titles[kind], config, self._editor(kind, session.generation), 10 * order)
+            for order, (kind, config) in enumerate(configs.items(), start=1)
+        }
+        self.controls.show_session()
+        self._generation = session.generation
+
+    def _editor(self, kind: "ConfigKind", generation: int) -> Any:
+        def edit(updates: dict[str, Any]) -> Config:
+            try:
+                return self.app.update_config(kind, updates, generation=generation, from_gui=True)
+            except JudoError as err:
+                self.app.report(f"edit refused: {err}", "warning")
+                raise
+
+        return edit

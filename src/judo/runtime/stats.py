@@ -1,0 +1,137 @@
+"""Timing figures of a running app (plan times, control rate, real-time factor) and the end-of-run summary."""
+
+import threading
+import time
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class RunSummary:
+    """What `python -m judo --duration` prints at the end of a run.
+
+    Attributes:
+        task, optimizer: registry names in use at the end.
+        sim_time: seconds of plant time stepped (pauses excluded).
+        wall_time: wall-clock seconds the plant loop ran unpaused.
+        num_plans: planning cycles completed.
+        control_rate: planning cycles per wall-clock second.
+        plan_time_mean_ms, plan_time_p95_ms: wall time of one planning cycle.
+        real_time_factor: sim_time / wall_time (1 = real time).
+        final_reward: reward of the nominal rollout in the last cycle (NaN if none ran).
+    """
+
+    task: str
+    optimizer: str
+    sim_time: float
+    wall_time: float
+    num_plans: int
+    control_rate: float
+    plan_time_mean_ms: float
+    plan_time_p95_ms: float
+    real_time_factor: float
+    final_reward: float
+
+    def __str__(self) -> str:
+        rows = [
+            ("task", self.task),
+            ("optimizer", self.optimizer),
+            ("sim time", f"{self.sim_time:.2f} s in {self.wall_time:.2f} s wall"),
+            ("control rate", f"{self.control_rate:.1f} Hz ({self.num_plans} plans)"),
+            ("plan time", f"mean {self.plan_time_mean_ms:.2f} ms, p95 {self.plan_time_p95_ms:.2f} ms"),
+            ("real-time factor", f"{self.real_time_factor:.3f}"),
+            ("final reward", f"{self.final_reward:.4g}"),
+        ]
+        return "\n".join(f"{name:>16}: {value}" for name, value in rows)
+
+
+@dataclass(frozen=True)
+class LiveFigures:
+    """The figures the GUI plots, rates over the last `window` seconds; NaN where there is no data yet."""
+
+    nominal_reward: float
+    plan_time_ms: float
+    control_rate: float
+    real_time_factor: float
+
+
+class RunStats:
+    """Collects plan and plant timings from the app's loops; safe to read from any thread."""
+
+    def __init__(self, window: float = 1.0) -> None:
+        self.window = window
+        self._lock = threading.Lock()
+        self._plan_times: list[float] = []
+        self._recent_plan_starts: deque[float] = deque()
+        self._first_plan_start: float | None = None
+        self._last_plan_start: float | None = None
+        self._nominal_reward = float("nan")
+        self._sim_time = 0.0
+        self._wall_time = 0.0
+        self._recent_progress: deque[tuple[float, float]] = deque()  # (perf_counter, sim_time)
+
+    def record_plan(self, start: float, duration: float, nominal_reward: float) -> None:
+        """One planning cycle that began at `time.perf_counter()` value `start` and took `duration` s."""
+        with self._lock:
+            self._plan_times.append(duration)
+            self._recent_plan_starts.append(start)
+            if self._first_plan_start is None:
+                self._first_plan_start = start
+            self._last_plan_start = start
+            self._nominal_reward = nominal_reward
+            while self._recent_plan_starts[0] < start - self.window:
+                self._recent_plan_starts.popleft()
+
+    def record_plant(self, sim_dt: float, wall_dt: float) -> None:
+        """The plant advanced `sim_dt` seconds of sim time during `wall_dt` unpaused wall-clock seconds."""
+        now = time.perf_counter()
+        with self._lock:
+            self._sim_time += sim_dt
+            self._wall_time += wall_dt
+            self._recent_progress.append((now, self._sim_time))
+            while len(self._recent_progress) > 2 and self._recent_progress[1][0] < now - self.window:
+                self._recent_progress.popleft()
+
+    def sim_time(self) -> float:
+        """Seconds of plant time stepped so far."""
+        with self._lock:
+            return self._sim_time
+
+    def num_plans(self) -> int:
+        """Planning cycles completed so far."""
+        with self._lock:
+            return len(self._plan_times)
+
+    def live(self) -> LiveFigures:
+        """The latest reward and plan time, and the rates over the last `window` seconds."""
+        with self._lock:
+            starts = self._recent_plan_starts
+            rate = (len(starts) - 1) / (starts[-1] - starts[0]) if len(starts) > 1 else float("nan")
+            plan_ms = 1000.0 * self._plan_times[-1] if self._plan_times else float("nan")
+            rtf = float("nan")
+            if len(self._recent_progress) > 1:
+                (w0, s0), (w1, s1) = self._recent_progress[0], self._recent_progress[-1]
+                rtf = (s1 - s0) / (w1 - w0) if w1 > w0 else float("nan")
+            return LiveFigures(self._nominal_reward, plan_ms, rate, rtf)
+
+    def summary(self, task: str, optimizer: str) -> RunSummary:
+        """Figures over the whole run so far."""
+        with self._lock:
+            times = np.array(self._plan_times)
+            span = 0.0
+            if self._first_plan_start is not None and self._last_plan_start is not None:
+                span = self._last_plan_start - self._first_plan_start
+            return RunSummary(
+                task=task,
+                optimizer=optimizer,
+                sim_time=self._sim_time,
+                wall_time=self._wall_time,
+                num_plans=len(times),
+                control_rate=(len(times) - 1) / span if span > 0 else float("nan"),
+                plan_time_mean_ms=1000.0 * float(times.mean()) if len(times) else float("nan"),
+                plan_time_p95_ms=1000.0 * float(np.percentile(times, 95)) if len(times) else float("nan"),
+                real_time_factor=self._sim_time / self._wall_time if self._wall_time > 0 else float("nan"),
+                final_reward=self._nominal_reward,
+            )

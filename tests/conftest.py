@@ -1,0 +1,57 @@
+"""Shared fixtures: a tiny inline cart-pole model and task, so core tests need no shipped model."""
+
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+import judo
+
+TINY_CARTPOLE_XML = """
+<mujoco>
+  <option timestep="0.01"/>
+  <worldbody>
+    <body name="cart">
+      <joint name="slider" type="slide" axis="1 0 0"/>
+      <geom type="box" size=".2 .1 .1" mass="1"/>
+      <body name="pole">
+        <joint name="hinge" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.6" size=".04" mass=".1"/>
+        <site name="tip" pos="0 0 0.6"/>
+      </body>
+    </body>
+  </worldbody>
+  <actuator><motor joint="slider" gear="10" ctrlrange="-1 1" ctrllimited="true"/></actuator>
+  <sensor>
+    <framepos name="trace_tip" objtype="site" objname="tip"/>
+    <jointpos name="angle" joint="hinge"/>
+  </sensor>
+</mujoco>
+"""
+
+
+@pytest.fixture
+def tiny_model_path(tmp_path):
+    path = tmp_path / "tiny_cartpole.xml"
+    path.write_text(TINY_CARTPOLE_XML)
+    return path
+
+
+@dataclass
+class UprightConfig(judo.TaskConfig):
+    """Weights of the tiny upright task."""
+
+    w_upright: float = 1.0
+    """Weight on the pole staying upright."""
+
+
+class UprightTask(judo.Task[UprightConfig]):
+    """Keep the tiny cart-pole's pole upright (angle 0) with little control."""
+
+    def reward(self, states, sensors, controls, config, system_metadata=None):
+        return -config.w_upright * (1.0 - np.cos(states[..., 1])).sum(-1) - 0.01 * np.square(controls).sum((-1, -2))
+
+
+@pytest.fixture
+def upright_task(tiny_model_path):
+    return UprightTask(tiny_model_path)

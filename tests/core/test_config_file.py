@@ -1,0 +1,133 @@
+"""TOML config files: registration by import path, overrides, and one clear message per kind of mistake."""
+
+import textwrap
+
+import pytest
+
+import judo
+from judo.core.registry import make_config
+from judo.optimizers import MPPIConfig
+
+USER_MODULE = '''
+from dataclasses import dataclass
+import numpy as np
+import judo
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
+
+MODEL = __import__("pathlib").Path(__file__).with_name("tiny.xml")
+
+@dataclass
+class MyTaskConfig(judo.TaskConfig):
+    weight: float = 1.0
+    """A weight."""
+
+class MyTask(judo.Task[MyTaskConfig]):
+    def __init__(self):
+        super().__init__(MODEL)
+
+    def reward(self, states, sensors, controls, config, system_metadata=None):
+        return -config.weight * np.square(states[..., 1]).sum(-1)
+
+@dataclass
+class MyOptConfig(PredictiveSamplingConfig):
+    param: int = 1
+    """A parameter."""
+
+class MyOpt(PredictiveSampling):
+    pass
+
+NotATask = int
+'''
+
+
+@pytest.fixture
+def user_dir(tmp_path, tiny_model_path):
+    module = f"user_mod_{tmp_path.name.replace('-', '_')}"
+    (tmp_path / f"{module}.py").write_text(USER_MODULE)
+    (tmp_path / "tiny.xml").write_text(tiny_model_path.read_text())
+    return tmp_path, module
+
+
+def write(directory, text):
+    path = directory / "judo.toml"
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+def test_a_full_file_registers_and_overrides(user_dir):
+    directory, module = user_dir
+    path = write(
+        directory,
+        f'''
+        task = "file_task"
+        optimizer = "file_opt"
+        [custom_tasks.file_task]
+        task = "{module}.MyTask"
+        config = "{module}.MyTaskConfig"
+        [custom_optimizers.file_opt]
+        optimizer = "{module}.MyOpt"
+        config = "{module}.MyOptConfig"
+        [controller_config_overrides.file_task]
+        horizon = 0.5
+        [optimizer_config_overrides.cylinder_push.file_opt]
+        param = 42
+        [optimizer_config_overrides.file_task.mppi]
+        sigma = 0.9
+        [task_config_overrides.file_task]
+        weight = 4
+        ''',
+    )
+    loaded = judo.load_config(path)
+    assert (loaded.task, loaded.optimizer) == ("file_task", "file_opt")
+    opt_config_cls = judo.get_registered_optimizers()["file_opt"][1]
+    assert make_config(opt_config_cls, "cylinder_push").param == 42
+    assert make_config(opt_config_cls, "cartpole").param == 1
+    assert make_config(MPPIConfig, "file_task").sigma == 0.9
+    controller = judo.make_controller("file_task", "file_opt", num_workers=1)
+    assert controller.config.horizon == 0.5 and controller.task.config.weight == 4.0
+    controller.close()
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        ('tsk = "cartpole"', r"unknown top-level key 'tsk'; valid keys are: task, optimizer, custom_tasks"),
+        ("task = [", r"TOML syntax error: .*line 1"),
+        ('task = "cartpole"\noptimizer = = "ps"', r"TOML syntax error: .*at line 2, column"),
+        (
+            '[custom_tasks.x]\ntask = "nowhere_module.T"\nconfig = "nowhere_module.C"',
+            r"\[custom_tasks.x\]: cannot import module 'nowhere_module' \(from 'nowhere_module.T'\)",
+        ),
+        (
+            '[custom_tasks.x]\ntask = "{module}.Missing"\nconfig = "{module}.MyTaskConfig"',
+            r"module '{module}' has no attribute 'Missing'",
+        ),
+        (
+            '[custom_tasks.x]\ntask = "{module}.NotATask"\nconfig = "{module}.MyTaskConfig"',
+            r"task 'x' must be a subclass of Task, got <class 'int'>",
+        ),
+        (
+            "[controller_config_overrides.cartpole]\nhorizn = 1.0",
+            r"\[controller_config_overrides.cartpole\]: unknown field of ControllerConfig 'horizn'; .*horizon",
+        ),
+        (
+            '[controller_config_overrides.cartpole]\nhorizon = "long"',
+            r"ControllerConfig.horizon expects a number, got 'long'",
+        ),
+        (
+            "[optimizer_config_overrides.cartpole.mpi]\nsigma = 1.0",
+            r"unknown optimizer 'mpi'; valid optimizers are: .*mppi",
+        ),
+        ('task = "cartpol"', r"\[task\]: unknown task 'cartpol'; valid tasks are: .*cartpole"),
+    ],
+)
+def test_mistakes_name_the_offender(user_dir, body, message):
+    directory, module = user_dir
+    path = write(directory, body.replace("{module}", module))
+    with pytest.raises(judo.ConfigFileError, match=message.replace("{module}", module)):
+        judo.load_config(path)
+
+
+def test_a_missing_file_is_named(tmp_path):
+    with pytest.raises(judo.ConfigFileError, match="config file not found: .*nope.toml"):
+        judo.load_config(tmp_path / "nope.toml")

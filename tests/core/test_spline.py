@@ -1,0 +1,54 @@
+"""Splines against analytic values: each order reproduces the functions it should, exactly."""
+
+import numpy as np
+import pytest
+
+from judo import ConfigError, Spline, SplineBasis
+
+KNOT_TIMES = np.array([0.0, 0.3, 0.5, 0.9, 1.4])
+QUERIES = np.linspace(0.0, 1.4, 57)
+
+
+def test_zero_order_holds_each_knot_until_the_next():
+    knots = np.array([[1.0], [2.0], [3.0], [4.0], [5.0]])
+    values = SplineBasis(KNOT_TIMES, "zero").weights(np.array([0.0, 0.29, 0.3, 0.89, 1.0, 1.4])) @ knots
+    np.testing.assert_array_equal(values[:, 0], [1.0, 1.0, 2.0, 3.0, 4.0, 5.0])
+
+
+def test_linear_reproduces_a_line_and_interpolates_between_knots():
+    line = lambda t: 2.0 - 3.0 * t  # noqa: E731
+    values = SplineBasis(KNOT_TIMES, "linear").weights(QUERIES) @ line(KNOT_TIMES)
+    np.testing.assert_allclose(values, line(QUERIES), atol=1e-12)
+    midpoint = SplineBasis(np.array([0.0, 1.0]), "linear").weights(np.array([0.25])) @ np.array([0.0, 4.0])
+    assert midpoint[0] == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("num_knots", [4, 5, 7])
+def test_cubic_reproduces_any_cubic_polynomial(num_knots):
+    times = np.sort(np.r_[0.0, np.random.default_rng(num_knots).uniform(0.1, 2.0, num_knots - 1)])
+    cubic = lambda t: 1.0 - 2.0 * t + 0.5 * t**2 - 0.7 * t**3  # noqa: E731
+    queries = np.linspace(times[0], times[-1], 101)
+    values = SplineBasis(times, "cubic").weights(queries) @ cubic(times)
+    np.testing.assert_allclose(values, cubic(queries), atol=1e-10)
+
+
+def test_cubic_passes_through_its_knots_and_matches_a_sine_closely():
+    times = np.linspace(0.0, np.pi, 9)
+    basis = SplineBasis(times, "cubic")
+    np.testing.assert_allclose(basis.weights(times) @ np.sin(times), np.sin(times), atol=1e-12)
+    queries = np.linspace(0.0, np.pi, 200)
+    assert np.max(np.abs(basis.weights(queries) @ np.sin(times) - np.sin(queries))) < 2e-3
+
+
+def test_queries_outside_the_knots_hold_the_end_values():
+    spline = Spline(10.0, SplineBasis(np.array([0.0, 1.0, 2.0, 3.0]), "cubic"), np.array([[1.0], [5.0], [-2.0], [7.0]]))
+    np.testing.assert_allclose(spline(np.array([9.0, 13.0, 20.0])), [[1.0], [7.0], [7.0]])
+    assert spline(11.0).shape == (1,)
+    np.testing.assert_allclose(spline.knot_times, [10.0, 11.0, 12.0, 13.0])
+
+
+def test_too_few_knots_for_the_order_is_a_clear_error():
+    with pytest.raises(ConfigError, match="a cubic spline needs at least 4 knots, got 3"):
+        SplineBasis(np.array([0.0, 0.5, 1.0]), "cubic")
+    with pytest.raises(ConfigError, match="spline order must be one of"):
+        SplineBasis(np.array([0.0, 1.0]), "quintic")  # type: ignore[arg-type]

@@ -1,0 +1,69 @@
+import json
+
+import pytest
+
+from judo.core.registry import get_registered_tasks
+from judo.evaluation.benchmark import main
+from judo.evaluation.timing import time_pair
+
+
+def test_benchmark_writes_one_row_per_pair(tmp_path, capsys):
+    path = tmp_path / "bench.json"
+    argv = ["--tasks", "cartpole", "cylinder_push", "--optimizers", "ps", "mppi"]
+    assert main([*argv, "--samples", "3", "--warmup", "1", "--num-workers", "1", "--json", str(path)]) == 0
+    rows = json.loads(path.read_text())
+    assert [(row["task"], row["optimizer"]) for row in rows] == [
+        ("cartpole", "ps"),
+        ("cartpole", "mppi"),
+        ("cylinder_push", "ps"),
+        ("cylinder_push", "mppi"),
+    ]
+    expected_keys = {"task", "optimizer", "num_rollouts", "T", "median_ms", "mean_ms", "std_ms", "raw_rollout_ms"}
+    for row in rows:
+        assert expected_keys <= row.keys()
+        assert row["median_ms"] > 0 and row["raw_rollout_ms"] > 0 and row["std_ms"] >= 0
+        assert row["min_ms"] <= row["median_ms"] <= row["max_ms"]
+        assert row["num_workers"] == 1
+    # T is the horizon over the timestep: cartpole plans 1 s at 0.01 s, cylinder_push 1 s at 0.02 s
+    assert [row["T"] for row in rows] == [100, 100, 50, 50]
+    out = capsys.readouterr().out
+    assert "cartpole: control update time (ms), 1 rollout workers" in out
+    assert "median (IQR)" in out and "raw rollout" in out and "overhead" in out
+
+
+def test_timing_uses_the_sizes_asked_for():
+    timing = time_pair("cartpole", "cem", 2, warmup=0, num_rollouts=16, horizon=0.5, num_workers=1)
+    assert (timing.num_rollouts, timing.num_steps) == (16, 50)
+    assert timing.update_ms.shape == timing.raw_rollout_ms.shape == (2,)
+    assert timing.overhead_ratio() > 0
+
+
+def test_an_unknown_task_lists_the_valid_ones(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--tasks", "cartpol"])
+    assert exit_info.value.code == 2
+    valid = ", ".join(sorted(get_registered_tasks()))
+    assert capsys.readouterr().err == f"error: unknown task 'cartpol'; valid tasks are: {valid}\n"
+
+
+def test_an_unknown_optimizer_is_refused_before_any_timing(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--optimizers", "ps", "sgd", "--samples", "100000"])
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err.startswith("error: unknown optimizer 'sgd'; valid optimizers are: ")
+
+
+def test_samples_must_be_positive(capsys):
+    with pytest.raises(SystemExit):
+        main(["--samples", "0"])
+    assert capsys.readouterr().err == "error: --samples must be at least 1, got 0\n"
+
+
+def test_help_names_the_flags_and_the_choices(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--help"])
+    assert exit_info.value.code == 0
+    out = capsys.readouterr().out
+    for flag in ("--tasks", "--optimizers", "--samples", "--num-workers", "--json"):
+        assert flag in out
+    assert "cartpole" in out and "mppi" in out

@@ -1,0 +1,89 @@
+"""The Gui of a running App, without a browser: it follows switches, resets and the plant."""
+
+import numpy as np
+import pytest
+import viser
+
+from judo.runtime.app import App
+
+
+def shows_session(app: App) -> bool:
+    """True once the GUI has built its panels and scene for the session in use."""
+    return app.gui.shown_generation == app.session.generation
+
+
+@pytest.fixture
+def app(port):
+    app = App("cartpole", "mppi", host="127.0.0.1", port=port, seed=0, num_workers=1)
+    app.start()
+    yield app
+    app.stop()
+
+
+def test_panels_hold_the_fields_of_the_running_configs(app, wait_until):
+    wait_until(lambda: shows_session(app), what="the GUI to build")
+    panels = app.gui.panels
+    assert panels["controller"].field_names == [
+        "horizon",
+        "spline_order",
+        "control_freq",
+        "max_opt_iters",
+        "max_num_traces",
+    ]
+    assert panels["optimizer"].field_names == [
+        "num_rollouts",
+        "num_nodes",
+        "use_noise_ramp",
+        "noise_ramp",
+        "sigma",
+        "temperature",
+    ]
+    assert panels["task"].field_names == ["w_vertical", "w_centered", "w_velocity", "w_control"]
+    assert app.gui.controls.task.value == "cartpole" and app.gui.controls.optimizer.value == "mppi"
+    assert app.gui.url == f"http://127.0.0.1:{app.port}"
+
+
+def test_the_scene_follows_the_plant_and_draws_traces(app, wait_until):
+    wait_until(lambda: shows_session(app) and app.stats.num_plans() > 2, what="plans")
+    cart = app.gui.scene.body_frames[1]
+    wait_until(
+        lambda: np.allclose(cart.position[0], app.buffer.latest("system").value.reading.state[0], atol=0.05),
+        what="the cart frame to follow the plant",
+    )
+    wait_until(lambda: app.gui.server.scene.get_handle_by_name("/traces/nominal") is not None, what="traces")
+
+
+def test_reset_configs_refreshes_the_widgets(app, wait_until):
+    wait_until(lambda: shows_session(app), what="the GUI to build")
+    app.update_config("controller", {"horizon": 2.0})
+    wait_until(lambda: app.gui.panels["controller"].value_of("horizon") == 2.0, what="the widget to show 2.0")
+    app.reset_configs()
+    wait_until(lambda: app.gui.panels["controller"].value_of("horizon") == 1.0, what="the widget to show 1.0")
+    assert "configs reset to the defaults" in app.gui.controls.status.content
+
+
+def test_an_optimizer_switch_keeps_the_scene_and_a_task_switch_replaces_it(app, wait_until):
+    wait_until(lambda: shows_session(app), what="the GUI to build")
+    scene = app.gui.scene
+    app.switch_optimizer("ps")
+    wait_until(lambda: app.session.optimizer_name == "ps" and shows_session(app), what="the ps panel")
+    assert app.gui.scene is scene and app.gui.controls.optimizer.value == "ps"
+    assert "temperature" not in app.gui.panels["optimizer"].field_names
+    app.switch_task("cylinder_push")
+    wait_until(lambda: app.session.task_name == "cylinder_push" and shows_session(app), what="a new scene")
+    assert app.gui.scene is not scene
+    assert app.gui.controls.task.value == "cylinder_push"
+    assert app.gui.panels["task"].field_names[-1] == "goal_pos"
+    marker = app.gui.server.scene.get_handle_by_name("/markers/goal")
+    assert isinstance(marker, viser.IcosphereHandle)
+    app.update_config("task", {"goal_pos": [0.4, -0.3]})
+    wait_until(lambda: np.allclose(marker.position, [0.4, -0.3, 0.0]), what="the goal marker to move")
+
+
+def test_a_taken_port_moves_the_gui_to_the_next_free_one(app):
+    second = App("cartpole", "mppi", host="127.0.0.1", port=app.port, num_workers=1)
+    second.start()
+    try:
+        assert second.gui.url != app.gui.url and second.gui.server.get_port() > app.port
+    finally:
+        second.stop()

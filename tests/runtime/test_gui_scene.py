@@ -1,0 +1,142 @@
+"""SceneView: every geom type drawn from a MuJoCo model, posed from the state; traces and markers."""
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+import pytest
+import viser
+
+from judo.core.config import Config
+from judo.core.fields import np_1d_field
+from judo.runtime.gui.scene import SceneView, capsule_mesh, polyline_segments
+
+XML = """
+<mujoco>
+  <asset>
+    <mesh name="tetra" vertex="0 0 0  0.2 0 0  0 0.2 0  0 0 0.2"/>
+    <material name="green" rgba="0 1 0 1"/>
+  </asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1" rgba="0.8 0.8 0.8 1"/>
+    <geom name="hidden" type="box" size="0.1 0.1 0.1" group="3"/>
+    <body name="slider" pos="0 0 0.5">
+      <joint name="x" type="slide" axis="1 0 0"/>
+      <geom name="ball" type="sphere" size="0.1" rgba="1 0 0 1"/>
+      <geom name="egg" type="ellipsoid" size="0.1 0.2 0.3" pos="0.5 0 0" material="green"/>
+      <geom name="rod" type="capsule" size="0.05 0.2" pos="-0.5 0 0" rgba="0 0 1 0.5"/>
+      <geom name="can" type="cylinder" size="0.1 0.15" pos="0 0.5 0"/>
+      <geom name="crate" type="box" size="0.1 0.2 0.3" pos="0 -0.5 0"/>
+      <geom name="tetra" type="mesh" mesh="tetra" pos="0 0 0.5"/>
+    </body>
+    <body name="goal" mocap="true" pos="1 1 0">
+      <geom type="sphere" size="0.05" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+@pytest.fixture(scope="module")
+def server():
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    yield server
+    server.stop()
+
+
+@pytest.fixture
+def view(server):
+    model = mujoco.MjModel.from_xml_string(XML)
+    scene = SceneView(server.scene, model)
+    yield scene
+    scene.remove()
+
+
+def geom(view: SceneView, name: str):
+    return view.geom_nodes[mujoco.mj_name2id(view.model, mujoco.mjtObj.mjOBJ_GEOM, name)]
+
+
+def test_every_visible_geom_type_becomes_its_viser_shape_with_its_colour(view):
+    assert isinstance(geom(view, "floor"), viser.FrameHandle)  # a slab and grid lines under one frame
+    assert isinstance(geom(view, "ball"), viser.IcosphereHandle) and geom(view, "ball").radius == 0.1
+    assert geom(view, "ball").color == (255, 0, 0)
+    egg = geom(view, "egg")
+    assert isinstance(egg, viser.IcosphereHandle) and egg.scale == (0.1, 0.2, 0.3)
+    assert egg.color == (0, 255, 0)  # from its material
+    rod = geom(view, "rod")
+    assert isinstance(rod, viser.MeshHandle) and rod.opacity == 0.5
+    can = geom(view, "can")
+    assert isinstance(can, viser.CylinderHandle) and (can.radius, can.height) == (0.1, 0.3)
+    assert isinstance(geom(view, "crate"), viser.BoxHandle)
+    assert geom(view, "crate").dimensions == pytest.approx((0.2, 0.4, 0.6))
+    tetra = geom(view, "tetra")
+    assert isinstance(tetra, viser.MeshHandle) and tetra.vertices.shape == (4, 3) and tetra.faces.shape == (4, 3)
+    hidden = mujoco.mj_name2id(view.model, mujoco.mjtObj.mjOBJ_GEOM, "hidden")
+    assert hidden not in view.geom_nodes  # group 3: collision-only by convention
+    np.testing.assert_allclose(geom(view, "egg").position, [0.5, 0, 0])  # offset within its body frame
+
+
+def test_update_poses_jointed_and_mocap_bodies(view):
+    slider = mujoco.mj_name2id(view.model, mujoco.mjtObj.mjOBJ_BODY, "slider")
+    goal = mujoco.mj_name2id(view.model, mujoco.mjtObj.mjOBJ_BODY, "goal")
+    np.testing.assert_allclose(view.body_frames[goal].position, [1, 1, 0])
+    view.update(np.array([0.7]), {"mocap_pos": np.array([[0.2, -0.3, 0.1]]), "mocap_quat": np.array([[1, 0, 0, 0]])})
+    np.testing.assert_allclose(view.body_frames[slider].position, [0.7, 0, 0.5])
+    np.testing.assert_allclose(view.body_frames[goal].position, [0.2, -0.3, 0.1])
+
+
+def test_camera_looks_at_the_solid_geoms_from_the_models_default_view(view):
+    position, look_at = view.camera_pose()
+    assert -0.5 < look_at[0] < 1.0 and look_at[2] > 0.0  # the bodies, not the 4 m floor
+    direction = (look_at - position) / np.linalg.norm(look_at - position)
+    np.testing.assert_allclose(direction, [0, np.sqrt(0.5), -np.sqrt(0.5)], atol=1e-9)  # azimuth 90, elevation -45
+
+
+def test_traces_become_line_segments_nominal_first(view, server):
+    traces = np.zeros((3, 4, 2, 3))  # nominal + 2 rollouts, 4 steps, 2 trace sensors
+    traces[..., 0] = np.arange(4)[None, :, None]
+    view.set_traces(traces)
+    nominal = server.scene.get_handle_by_name("/traces/nominal")
+    samples = server.scene.get_handle_by_name("/traces/samples")
+    assert nominal.points.shape == (2 * 3, 2, 3) and samples.points.shape == (2 * 2 * 3, 2, 3)
+    view.set_traces(traces[:1])
+    assert server.scene.get_handle_by_name("/traces/samples") is None
+
+
+@dataclass
+class GoalConfig(Config):
+    goal: np.ndarray = np_1d_field([0.3, -0.2], vis_name="goal")
+    """A 2-D goal, drawn at z = 0."""
+    gains: np.ndarray = np_1d_field([1.0, 2.0, 3.0])
+    """No vis_name: not drawn."""
+
+
+def test_np_1d_fields_with_a_vis_name_get_a_marker_that_follows_the_config(view, server):
+    view.set_markers(GoalConfig())
+    marker = server.scene.get_handle_by_name("/markers/goal")
+    np.testing.assert_allclose(marker.position, [0.3, -0.2, 0.0])
+    view.set_markers(GoalConfig(goal=np.array([0.5, 0.5])))
+    np.testing.assert_allclose(marker.position, [0.5, 0.5, 0.0])
+    assert server.scene.get_handle_by_name("/markers/gains") is None
+
+
+def test_capsule_mesh_is_closed_around_its_axis_with_outward_faces():
+    vertices, faces = capsule_mesh(0.1, 0.3)
+    assert np.abs(vertices[:, 2]).max() == pytest.approx(0.4)
+    assert np.linalg.norm(vertices[:, :2], axis=1).max() == pytest.approx(0.1)
+    a, b, c = (vertices[faces[:, i]] for i in range(3))
+    normals = np.cross(b - a, c - a)
+    centres = (a + b + c) / 3
+    outward = centres - np.clip(centres * [0, 0, 1], -0.3, 0.3)  # from the nearest point on the axis
+    areas = np.linalg.norm(normals, axis=1)
+    proper = areas > 1e-12  # the pole rows give degenerate triangles
+    assert (np.einsum("ij,ij->i", normals[proper], outward[proper]) > 0).all()
+
+
+def test_polyline_segments_join_consecutive_steps_of_each_trace_and_sensor():
+    traces = np.arange(2 * 3 * 1 * 3, dtype=float).reshape(2, 3, 1, 3)
+    segments = polyline_segments(traces)
+    assert segments.shape == (4, 2, 3)
+    np.testing.assert_array_equal(segments[0], traces[0, :2, 0])
+    np.testing.assert_array_equal(segments[3], traces[1, 1:, 0])
+    assert polyline_segments(np.zeros((1, 1, 1, 3))).shape == (0, 2, 3)
