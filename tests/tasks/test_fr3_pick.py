@@ -6,7 +6,7 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.runtime.system import MujocoSystem
+from judo.evaluation.episode import make_plant_task, run_episode
 from judo.tasks.fr3_pick import ARM_JOINTS, DONE, LIFT, MOVE, PLACE, FR3Pick
 
 
@@ -197,21 +197,13 @@ def test_warm_start_holds_the_arm_with_the_gripper_open() -> None:
 @pytest.mark.slow
 def test_fr3_pick_cem_grasps_and_lifts_the_cube() -> None:
     ctrl = judo.make_controller("fr3_pick", "cem", seed=0)
-    plant = FR3Pick()
-    plant.config = ctrl.task.config
-    plant.rng = np.random.default_rng(100)
-    plant.reset()
-    system = MujocoSystem(plant)
-    start = np.linalg.norm(plant.data.site("tcp").xpos - plant.data.body("object").xpos)
-    closest, next_plan = start, 0.0
-    for _ in range(round(6.0 / plant.dt)):
-        state = system.read_state()
-        if state.time >= next_plan - 1e-9:
-            ctrl.update_action(state.state, state.time, state.metadata)
-            next_plan += 1.0 / ctrl.config.control_freq
-        system.apply(ctrl.action(state.time))
-        system.step()
-        closest = min(closest, np.linalg.norm(plant.data.site("tcp").xpos - plant.data.body("object").xpos))
+    plant = make_plant_task(ctrl, seed=0)
+    result = run_episode(ctrl, plant, 6.0, seed=0)
     ctrl.close()
-    assert closest < 0.02 < start
-    assert plant.max_phase >= MOVE, f"closest approach {closest:.3f} m, phase {plant.max_phase}"
+    tcp, obj = (
+        result.log.sensors[:, plant._tcp : plant._tcp + 3],
+        result.log.sensors[:, plant._object : plant._object + 3],
+    )
+    gaps = np.linalg.norm(tcp - obj, axis=-1)
+    assert gaps.min() < 0.02 < gaps[0]
+    assert result.metrics["phase_reached"] >= MOVE, f"closest approach {gaps.min():.3f} m, phase {plant.max_phase}"
