@@ -186,7 +186,9 @@ def test_metrics_judge_the_final_distance_to_the_goal() -> None:
         "time_to_place": 4.2,
     }
     sensors[-1, task._object] = 0.45
+    task.time_placed = float("nan")
     assert task.metrics(log)["success"] == 0.0
+    assert task.metrics(log)["time_to_place"] == 0.02  # never placed: the episode's length
 
 
 def test_warm_start_holds_the_arm_with_the_gripper_open() -> None:

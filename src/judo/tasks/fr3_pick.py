@@ -186,15 +186,17 @@ class FR3Pick(Task[FR3PickConfig]):
         return {"phase": self.phase}
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """success (object within `success_radius` of the goal at the end), the furthest phase reached
-        (index into PHASES) and the time it was first placed (NaN if never)."""
+        """success (object within `success_radius` of the goal at the end), its final distance, the
+        furthest phase reached (index into PHASES) and the time it was first placed (the episode's
+        length if never, so that means over episodes stay finite)."""
         final = log.sensors[-1]
         distance = np.linalg.norm(final[self._object : self._object + 3] - final[self._goal : self._goal + 3])
+        placed = self.time_placed if not np.isnan(self.time_placed) else float(log.times[-1])
         return {
             "success": float(distance < self.success_radius),
             "final_distance": float(distance),
             "phase_reached": float(self.max_phase),
-            "time_to_place": self.time_placed,
+            "time_to_place": placed,
         }
 
     def optimizer_warm_start(self) -> np.ndarray:
