@@ -16,7 +16,9 @@ def load_model(path: str | Path) -> mujoco.MjModel:
     if not path.is_file():
         raise ModelLoadError(f"MuJoCo model file not found: {path}")
     try:
-        return mujoco.MjSpec.from_file(str(path)).compile()
+        # Absolute, because MuJoCo resolves a relative path twice for an <include>d file that itself
+        # names a <model> asset file.
+        return mujoco.MjSpec.from_file(str(path.resolve())).compile()
     except Exception as err:  # mujoco raises ValueError or its own errors; all mean "bad model"
         raise ModelLoadError(f"could not compile MuJoCo model {path}: {err}") from err
 

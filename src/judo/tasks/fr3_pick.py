@@ -1,0 +1,204 @@
+"""FR3 pick and place: a 7-DoF Franka-style arm with a parallel gripper lifts a 4 cm cube off the table, carries
+it to a goal and sets it down there, through lift, move, place and done phases."""
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+import mujoco
+import numpy as np
+
+from judo.core.fields import slider
+from judo.core.task import EpisodeLog, Task, TaskConfig
+
+MODEL_PATH = Path(__file__).parent / "models" / "fr3_pick.xml"
+
+PHASES = ("lift", "move", "place", "done")
+"""lift: reach, grasp and raise the object; move: carry it above the goal; place: lower it onto the goal;
+done: let go and back off upwards."""
+LIFT, MOVE, PLACE, DONE = range(len(PHASES))
+
+ARM_JOINTS = tuple(f"joint{i}" for i in range(1, 8))
+
+
+@slider("w_reach", 0.0, 20.0, 0.1)
+@slider("w_lift", 0.0, 50.0, 0.1)
+@slider("w_carry", 0.0, 50.0, 0.1)
+@slider("w_grip", 0.0, 10.0, 0.01)
+@slider("w_upright", 0.0, 10.0, 0.01)
+@slider("lift_height", 0.05, 0.4, 0.01)
+@dataclass
+class FR3PickConfig(TaskConfig):
+    """FR3 pick-and-place reward weights; each phase uses the terms that matter to it."""
+
+    w_reach: float = 5.0
+    """Weight on the gripper centre's distance (m) to the object (lift: coming down from above it; move,
+    place) or, once placed, to a point that rises to `lift_height` above it as the gripper opens."""
+    w_lift: float = 10.0
+    """Weight on the object's height error (m) to `lift_height` above the table (lift, move)."""
+    w_carry: float = 10.0
+    """Weight on the object's distance (m) to the goal: horizontal in move, full in place and done."""
+    w_grip: float = 0.2
+    """Weight on the gripper being closed near the object and open away from it (0..1 each)."""
+    w_upright: float = 1.0
+    """Weight on the gripper pointing straight down (1 + z of its axis, 0..2) with its fingers closing
+    square to the cube's faces (sin^2 of twice the yaw error, 0..1)."""
+    lift_height: float = 0.15
+    """How high (m) above its resting height the object is carried."""
+
+
+class FR3Pick(Task[FR3PickConfig]):
+    """State [7 arm joint angles, 2 finger openings, cube position and quaternion, their velocities];
+    controls are 7 joint position targets (ctrlrange = joint range) and the gripper opening target (0 closed, 1 open).
+
+    The goal is the mocap body "goal". The plant task keeps the phase (`PHASES`) in `pre_sim_step` from the
+    object's state and publishes it as system_metadata["phase"]; the reward uses that phase's terms.
+    """
+
+    lift_fraction: ClassVar[float] = 0.6
+    """The object counts as lifted above this fraction of `lift_height`."""
+    place_radius: ClassVar[float] = 0.02
+    """Horizontal distance (m) to the goal at which a carried object is lowered (move -> place)."""
+    placed_radius: ClassVar[float] = 0.015
+    """Distance (m) of the object to the goal at which it counts as placed (place -> done)."""
+    success_radius: ClassVar[float] = 0.03
+    """Distance (m) of the object to the goal at the end of an episode that counts as success."""
+    approach_height: ClassVar[float] = 0.06
+    """Height (m) above the object from which the gripper comes down onto it."""
+    near_object: ClassVar[float] = 0.02
+    """Length scale (m) of the gripper-object distance at which the gripper should close."""
+
+    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+        super().__init__(model_path, sim_model_path)
+        self._arm_qpos = np.array([self.get_joint_position_start_index(name) for name in ARM_JOINTS])
+        self._finger_qpos = self.get_joint_position_start_index("finger_left")
+        self._object_qpos = self.get_joint_position_start_index("object")
+        self._object_qvel = self.get_joint_velocity_start_index("object") - self.model.nq
+        self._tcp = self.get_sensor_start_index("trace_tcp")
+        self._object = self.get_sensor_start_index("trace_object")
+        self._goal = self.get_sensor_start_index("goal_pos")
+        self._zaxis = self.get_sensor_start_index("tcp_zaxis")
+        self._finger_axis = self.get_sensor_start_index("finger_axis")
+        self._object_xaxis = self.get_sensor_start_index("object_xaxis")
+        self._home_key = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        self.rest_height = float(self.sim_model.key_qpos[self._home_key][self._object_qpos + 2])
+        self.max_opening = float(self.model.jnt_range[self.model.joint("finger_left").id, 1])
+        self.phase = LIFT
+        self.max_phase = LIFT
+        self.time_placed = float("nan")
+        self.reset()
+
+    def reward(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray,
+        controls: np.ndarray,
+        config: FR3PickConfig,
+        system_metadata: dict[str, Any] | None = None,
+    ) -> np.ndarray:
+        """Minus the time-averaged cost of the current phase's terms, (num_rollouts,)."""
+        phase = int((system_metadata or {}).get("phase", self.phase))
+        tcp = sensors[..., self._tcp : self._tcp + 3]
+        obj = sensors[..., self._object : self._object + 3]
+        goal = sensors[..., self._goal : self._goal + 3]
+        opening = states[..., self._finger_qpos] / self.max_opening  # 0 closed .. 1 open
+        reach = np.linalg.norm(tcp - obj, axis=-1)
+        height_error = np.abs(obj[..., 2] - (self.rest_height + config.lift_height))
+        # Upright: the gripper points down (1 + z of its axis) and its fingers close square to the cube's
+        # faces (sin^2 of twice the yaw between the finger axis and the cube's x axis).
+        finger_xy = sensors[..., self._finger_axis : self._finger_axis + 2]
+        cube_x = sensors[..., self._object_xaxis : self._object_xaxis + 2]
+        cube_y = np.stack([-cube_x[..., 1], cube_x[..., 0]], axis=-1)
+        square = 4.0 * np.square(np.sum(finger_xy * cube_x, -1) * np.sum(finger_xy * cube_y, -1))
+        cost = config.w_upright * (1.0 + sensors[..., self._zaxis + 2] + square)
+        if phase == LIFT:
+            # Approach from above: sideways and vertical distances to the object, plus a penalty for being
+            # below a floor that hovers over it, by nothing within 1 cm sideways (the open fingers clear the
+            # cube by 2 cm) rising to `approach_height` at 3 cm, so the fingers come down around the cube
+            # instead of knocking it over.
+            sideways = np.linalg.norm(tcp[..., :2] - obj[..., :2], axis=-1)
+            above = tcp[..., 2] - obj[..., 2]
+            floor = self.approach_height * np.clip((sideways - 0.01) / 0.02, 0.0, 1.0)
+            approach = sideways + np.abs(above) + 2.0 * np.maximum(floor - above, 0.0)
+            near = np.exp(-np.square(reach / self.near_object))
+            cost += config.w_reach * approach + config.w_lift * height_error
+            cost += config.w_grip * (near * opening + (1.0 - near) * (1.0 - opening))
+        elif phase == MOVE:
+            cost += config.w_reach * reach + config.w_lift * height_error + config.w_grip * opening
+            cost += config.w_carry * np.linalg.norm(obj[..., :2] - goal[..., :2], axis=-1)
+        elif phase == PLACE:
+            cost += config.w_reach * reach + config.w_grip * opening
+            cost += config.w_carry * np.linalg.norm(obj - goal, axis=-1)
+        else:
+            # Let go, then back off: the target rises above the cube as the gripper opens.
+            above = obj + (config.lift_height * opening)[..., None] * np.array([0.0, 0.0, 1.0])
+            cost += config.w_reach * np.linalg.norm(tcp - above, axis=-1) + config.w_grip * (1.0 - opening)
+            cost += config.w_carry * np.linalg.norm(obj - goal, axis=-1)
+        return -cost.mean(-1)
+
+    def reset(self) -> None:
+        """Arm at "home" with the gripper open; object and goal on random, separate spots of the table."""
+        mujoco.mj_resetDataKeyframe(self.sim_model, self.data, self._home_key)
+        object_xy = self.random_spot()
+        goal_xy = self.random_spot()
+        while np.linalg.norm(goal_xy - object_xy) < 0.15:
+            goal_xy = self.random_spot()
+        self.data.qpos[self._object_qpos : self._object_qpos + 2] = object_xy
+        self.data.mocap_pos[0, :2] = goal_xy
+        self.data.mocap_pos[0, 2] = self.rest_height
+        mujoco.mj_forward(self.sim_model, self.data)
+        self.phase = LIFT
+        self.max_phase = LIFT
+        self.time_placed = float("nan")
+
+    def random_spot(self) -> np.ndarray:
+        """(2,) a random x, y in the arm's workspace on the table, from `self.rng`."""
+        return self.rng.uniform([0.4, -0.25], [0.6, 0.25])
+
+    def next_phase(self, phase: int, obj: np.ndarray, goal: np.ndarray, lift_height: float) -> int:
+        """The phase that follows `phase` given the object's and goal's (3,) positions."""
+        lifted = obj[2] - self.rest_height > self.lift_fraction * lift_height
+        on_table = obj[2] - self.rest_height < 0.01
+        horizontal = float(np.linalg.norm(obj[:2] - goal[:2]))
+        distance = float(np.linalg.norm(obj - goal))
+        if phase == LIFT and lifted:
+            return MOVE
+        if phase == MOVE and horizontal < self.place_radius:
+            return PLACE
+        if phase == PLACE and distance < self.placed_radius:
+            return DONE
+        if phase in (MOVE, PLACE) and on_table and horizontal > 2.5 * self.place_radius:
+            return LIFT  # dropped on the way
+        if phase == DONE and distance > 2.5 * self.placed_radius:
+            return LIFT  # knocked off the goal
+        return phase
+
+    def pre_sim_step(self) -> None:
+        """Advance the phase from the object's state; note when the object was first placed."""
+        obj = self.data.qpos[self._object_qpos : self._object_qpos + 3]
+        self.phase = self.next_phase(self.phase, obj, self.data.mocap_pos[0], self.config.lift_height)
+        self.max_phase = max(self.max_phase, self.phase)
+        if self.phase == DONE and np.isnan(self.time_placed):
+            self.time_placed = float(self.data.time)
+
+    def get_sim_metadata(self) -> dict[str, Any]:
+        """{"phase": index into PHASES}, for the planner's reward."""
+        return {"phase": self.phase}
+
+    def metrics(self, log: EpisodeLog) -> dict[str, float]:
+        """success (object within `success_radius` of the goal at the end), its final distance, the
+        furthest phase reached (index into PHASES) and the time it was first placed (the episode's
+        length if never, so that means over episodes stay finite)."""
+        final = log.sensors[-1]
+        distance = np.linalg.norm(final[self._object : self._object + 3] - final[self._goal : self._goal + 3])
+        placed = self.time_placed if not np.isnan(self.time_placed) else float(log.times[-1])
+        return {
+            "success": float(distance < self.success_radius),
+            "final_distance": float(distance),
+            "phase_reached": float(self.max_phase),
+            "time_to_place": placed,
+        }
+
+    def optimizer_warm_start(self) -> np.ndarray:
+        """(8,) the arm's current joint angles in `self.data` as targets, with the gripper open."""
+        return np.append(self.data.qpos[self._arm_qpos], 1.0)

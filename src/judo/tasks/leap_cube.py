@@ -1,0 +1,170 @@
+"""LEAP cube rotation: a 16-DoF four-finger hand, palm up, turns a free cube to a sequence of goal orientations."""
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, ClassVar
+
+import mujoco
+import numpy as np
+
+from judo.core.fields import slider
+from judo.core.task import EpisodeLog, Task, TaskConfig
+
+MODELS = Path(__file__).parent / "models"
+MODEL_PATH = MODELS / "leap_cube.xml"
+PLANT_MODEL_PATH = MODELS / "leap_cube_plant.xml"
+DOWN_MODEL_PATH = MODELS / "leap_cube_down.xml"
+
+FINGERS = ("index", "middle", "ring", "thumb")
+HAND_JOINTS = tuple(
+    f"hand/{finger}_{joint}"
+    for finger in FINGERS
+    for joint in (("cmc", "axl", "mcp", "ip") if finger == "thumb" else ("abd", "mcp", "pip", "dip"))
+)
+"""The hand's 16 joints in actuator order."""
+
+
+@slider("w_position", 0.0, 500.0, 1.0)
+@slider("w_orientation", 0.0, 10.0, 0.01)
+@slider("w_fingertips", 0.0, 100.0, 0.1)
+@slider("w_hand_pose", 0.0, 1.0, 0.001)
+@dataclass
+class LeapCubeConfig(TaskConfig):
+    """LEAP cube reward weights."""
+
+    w_position: float = 300.0
+    """Weight on the cube staying at its resting spot on the palm (squared distance, m^2)."""
+    w_orientation: float = 1.0
+    """Weight on the cube's orientation error to the goal (squared angle, rad^2)."""
+    w_fingertips: float = 2.0
+    """Weight on the fingertips staying close to the cube (summed squared distance to the cube centre, m^2)."""
+    w_hand_pose: float = 0.0
+    """Weight on the commanded joint targets staying near the home pose (squared, rad^2)."""
+
+
+def quat_angle(q1: np.ndarray, q2: np.ndarray) -> np.ndarray:
+    """Rotation angle in [0, pi] between unit quaternions (..., 4) and (..., 4) -> (...)."""
+    dot = np.abs(np.sum(q1 * q2, axis=-1))
+    return 2.0 * np.arccos(np.minimum(dot, 1.0))
+
+
+class LeapCube(Task[LeapCubeConfig]):
+    """State [16 hand joint angles, cube position and quaternion, their velocities]; the 16 controls are
+    joint position targets (ctrlrange = joint range).
+
+    The goal is the mocap body "goal"; the reward reads its orientation and the cube's pose from sensors.
+    On the plant, `pre_sim_step` turns the goal by 90 degrees about a random axis of the palm once the cube is
+    within `goal_tolerance` of it (counting `goals_reached`), and `post_sim_step` puts the hand and cube
+    back in the "home" keyframe when the cube falls below `drop_height` (counting `drops`).
+    """
+
+    goal_tolerance: ClassVar[float] = 0.4
+    """Rotation angle (rad) under which the goal counts as reached."""
+    drop_height: ClassVar[float] = -0.05
+    """World height (m) of the cube centre under which it counts as dropped."""
+    rest_position: ClassVar[np.ndarray] = np.array([0.0, 0.0, 0.0355])
+    """Where the cube centre should stay, in the frame of the palm site "hand/palm_center"."""
+
+    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+        super().__init__(model_path, sim_model_path)
+        self._hand_qpos = np.array([self.get_joint_position_start_index(name) for name in HAND_JOINTS])
+        self._cube_qpos = self.get_joint_position_start_index("cube")
+        self._cube_pos = self.get_sensor_start_index("cube_pos")
+        self._cube_quat = self.get_sensor_start_index("cube_quat")
+        self._goal_quat = self.get_sensor_start_index("goal_quat")
+        self._cube_world = self.get_sensor_start_index("trace_cube")
+        self._tips = np.array([self.get_sensor_start_index(f"hand/trace_{f}_tip") for f in FINGERS])[
+            :, None
+        ] + np.arange(3)
+        self._home_key = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        self._home_ctrl = self.model.key_ctrl[self._home_key].copy()
+        self._grip_offset = self._home_ctrl - self.model.key_qpos[self._home_key][self._hand_qpos]
+        self._home_cube_quat = self.sim_model.key_qpos[self._home_key][self._cube_qpos + 3 : self._cube_qpos + 7].copy()
+        mujoco.mj_kinematics(self.sim_model, self.data)
+        palm = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_BODY, "hand/palm")
+        self._palm_axes = self.data.xmat[palm].reshape(3, 3).copy()  # columns: the palm's x, y, z in world
+        self.goals_reached = 0
+        self.drops = 0
+        self.reset()
+
+    def reward(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray,
+        controls: np.ndarray,
+        config: LeapCubeConfig,
+        system_metadata: dict[str, Any] | None = None,
+    ) -> np.ndarray:
+        """Minus the time-averaged position, orientation and hand-pose costs, (num_rollouts,)."""
+        position_error = sensors[..., self._cube_pos : self._cube_pos + 3] - self.rest_position
+        angle = quat_angle(
+            sensors[..., self._cube_quat : self._cube_quat + 4], sensors[..., self._goal_quat : self._goal_quat + 4]
+        )
+        tip_offsets = sensors[..., self._tips] - sensors[..., None, self._cube_world : self._cube_world + 3]
+        cost = (
+            config.w_position * np.square(position_error).sum(-1)
+            + config.w_fingertips * np.square(tip_offsets).sum((-1, -2))
+            + config.w_orientation * np.square(angle)
+            + config.w_hand_pose * np.square(controls - self._home_ctrl).sum(-1)
+        )
+        return -cost.mean(-1)
+
+    def reset(self) -> None:
+        """Hand and cube in the "home" keyframe, a first goal 90 degrees away, counters at zero."""
+        mujoco.mj_resetDataKeyframe(self.sim_model, self.data, self._home_key)
+        self.data.mocap_quat[0] = self.next_goal(self._home_cube_quat)
+        mujoco.mj_forward(self.sim_model, self.data)
+        self.goals_reached = 0
+        self.drops = 0
+
+    def next_goal(self, goal_quat: np.ndarray) -> np.ndarray:
+        """(4,) `goal_quat` turned by +-90 degrees about one of the palm's axes, drawn from `self.rng`."""
+        axis = self._palm_axes[:, self.rng.integers(3)] * self.rng.choice([-1.0, 1.0])
+        turn = np.concatenate([[np.cos(np.pi / 4)], np.sin(np.pi / 4) * axis])
+        new = np.zeros(4)
+        mujoco.mju_mulQuat(new, turn, goal_quat)
+        return new
+
+    def cube_goal_angle(self) -> float:
+        """Rotation angle (rad) between the plant's cube and goal."""
+        quat = self.data.qpos[self._cube_qpos + 3 : self._cube_qpos + 7]
+        return float(quat_angle(quat, self.data.mocap_quat[0]))
+
+    def pre_sim_step(self) -> None:
+        """Count a reached goal and draw the next one."""
+        if self.cube_goal_angle() < self.goal_tolerance:
+            self.goals_reached += 1
+            self.data.mocap_quat[0] = self.next_goal(self.data.mocap_quat[0])
+
+    def post_sim_step(self) -> None:
+        """Count a drop and put the hand and cube back in the "home" keyframe, at rest; the goal stays."""
+        if self.data.qpos[self._cube_qpos + 2] < self.drop_height:
+            self.drops += 1
+            self.data.qpos[:] = self.sim_model.key_qpos[self._home_key]
+            self.data.qvel[:] = 0.0
+            mujoco.mj_forward(self.sim_model, self.data)
+
+    def metrics(self, log: EpisodeLog) -> dict[str, float]:
+        """Goals reached (in total and per minute of the episode) and drops, counted on this plant task."""
+        minutes = len(log.times) * float(self.sim_model.opt.timestep) / 60.0
+        return {
+            "goals_reached": float(self.goals_reached),
+            "goals_per_minute": self.goals_reached / minutes if minutes > 0 else 0.0,
+            "drops": float(self.drops),
+        }
+
+    def optimizer_warm_start(self) -> np.ndarray:
+        """(16,) the hand's current joint angles in `self.data` as position targets, plus the grip of the
+        "home" keyframe (its ctrl minus its qpos: zero palm up, a squeeze palm down)."""
+        return self.data.qpos[self._hand_qpos] + self._grip_offset
+
+
+class LeapCubeDown(LeapCube):
+    """`LeapCube` with the palm facing down: the fingers hold the cube against the palm from below and
+    must turn it without letting go. It starts gripped (see the "home" keyframe of its model)."""
+
+    drop_height: ClassVar[float] = -0.05
+    """World height (m) of the cube centre under which it counts as dropped (the palm is at 0.1 m)."""
+
+    def __init__(self, model_path: str | Path = DOWN_MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+        super().__init__(model_path, sim_model_path)
