@@ -25,6 +25,7 @@ ARM_JOINTS = tuple(f"joint{i}" for i in range(1, 8))
 @slider("w_lift", 0.0, 50.0, 0.1)
 @slider("w_carry", 0.0, 50.0, 0.1)
 @slider("w_grip", 0.0, 10.0, 0.01)
+@slider("w_release", 0.0, 10.0, 0.01)
 @slider("w_upright", 0.0, 10.0, 0.01)
 @slider("lift_height", 0.05, 0.4, 0.01)
 @dataclass
@@ -33,13 +34,16 @@ class FR3PickConfig(TaskConfig):
 
     w_reach: float = 5.0
     """Weight on the gripper centre's distance (m) to the object (lift: coming down from above it; move,
-    place) or, once placed, to a point that rises to `lift_height` above it as the gripper opens."""
+    place) or, once placed, to a point `lift_height` above it, scaled by how far the gripper is open."""
     w_lift: float = 10.0
     """Weight on the object's height error (m) to `lift_height` above the table (lift, move)."""
     w_carry: float = 10.0
     """Weight on the object's distance (m) to the goal: horizontal in move, full in place and done."""
     w_grip: float = 0.2
     """Weight on the gripper being closed near the object and open away from it (0..1 each)."""
+    w_release: float = 2.0
+    """Weight on the gripper being open once the cube is placed (done); above w_reach * lift_height, so
+    letting go comes before backing off."""
     w_upright: float = 1.0
     """Weight on the gripper pointing straight down (1 + z of its axis, 0..2) with its fingers closing
     square to the cube's faces (sin^2 of twice the yaw error, 0..1)."""
@@ -130,9 +134,11 @@ class FR3Pick(Task[FR3PickConfig]):
             cost += config.w_reach * reach + config.w_grip * opening
             cost += config.w_carry * np.linalg.norm(obj - goal, axis=-1)
         else:
-            # Let go, then back off: the target rises above the cube as the gripper opens.
-            above = obj + (config.lift_height * opening)[..., None] * np.array([0.0, 0.0, 1.0])
-            cost += config.w_reach * np.linalg.norm(tcp - above, axis=-1) + config.w_grip * (1.0 - opening)
+            # Let go, then back off: the pull to a point `lift_height` above the cube grows as the gripper
+            # opens, and `w_release` outweighs it, so the gripper opens before it rises.
+            above = obj + np.array([0.0, 0.0, config.lift_height])
+            cost += config.w_release * (1.0 - opening)
+            cost += config.w_reach * opening * np.linalg.norm(tcp - above, axis=-1)
             cost += config.w_carry * np.linalg.norm(obj - goal, axis=-1)
         return -cost.mean(-1)
 
