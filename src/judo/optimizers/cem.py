@@ -1,6 +1,7 @@
 """Cross-entropy method (Rubinstein 1999): fit a Gaussian to the elite samples."""
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -25,14 +26,7 @@ class CEMConfig(OptimizerConfig):
 
     def validate(self) -> None:
         super().validate()
-        require(
-            0 < self.sigma_min <= self.sigma_max,
-            f"need 0 < sigma_min <= sigma_max, got {self.sigma_min}, {self.sigma_max}",
-        )
-        require(
-            1 <= self.num_elites <= self.num_rollouts,
-            f"num_elites must be between 1 and num_rollouts ({self.num_rollouts}), got {self.num_elites}",
-        )
+        check_elite_settings(self)
 
 
 class CEM(Optimizer[CEMConfig]):
@@ -59,3 +53,18 @@ class CEM(Optimizer[CEMConfig]):
         elites = sampled_knots[np.argsort(-rewards, kind="stable")[:num_elites]]
         self.sigma = np.clip(elites.std(axis=0), self.config.sigma_min, self.config.sigma_max)
         return elites.mean(axis=0)
+
+
+def check_elite_settings(config: Any) -> None:
+    """Raise ConfigError unless 0 < sigma_min <= sigma_max and 1 <= num_elites <= num_rollouts.
+
+    Shared by CEMConfig and ICEMConfig, which have these fields but no common base beyond OptimizerConfig.
+    """
+    require(
+        0 < config.sigma_min <= config.sigma_max,
+        f"need 0 < sigma_min <= sigma_max, got {config.sigma_min}, {config.sigma_max}",
+    )
+    require(
+        1 <= config.num_elites <= config.num_rollouts,
+        f"num_elites must be between 1 and num_rollouts ({config.num_rollouts}), got {config.num_elites}",
+    )

@@ -11,6 +11,7 @@ import numpy as np
 from judo.core.config import require
 from judo.core.fields import slider
 from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.optimizers.cem import check_elite_settings
 from judo.optimizers.knot_shift import shift_knots
 
 
@@ -36,14 +37,7 @@ class ICEMConfig(OptimizerConfig):
 
     def validate(self) -> None:
         super().validate()
-        require(
-            0 < self.sigma_min <= self.sigma_max,
-            f"need 0 < sigma_min <= sigma_max, got {self.sigma_min}, {self.sigma_max}",
-        )
-        require(
-            1 <= self.num_elites <= self.num_rollouts,
-            f"num_elites must be between 1 and num_rollouts ({self.num_rollouts}), got {self.num_elites}",
-        )
+        check_elite_settings(self)
         require(
             0.0 <= self.elite_keep_fraction <= 1.0,
             f"elite_keep_fraction must be between 0 and 1, got {self.elite_keep_fraction}",
