@@ -74,3 +74,16 @@ def test_sampling_is_deterministic_for_a_seed():
 
     np.testing.assert_array_equal(draw(3), draw(3))
     assert not np.array_equal(draw(3), draw(4))
+
+
+def test_cem_keeps_its_std_free_of_the_noise_ramp():
+    """With the ramp on, the samples' std is sigma times the ramp; refitting the elites divides it out
+    again, so the ramp is applied once per draw instead of compounding across cycles."""
+    config = CEMConfig(num_rollouts=4000, num_nodes=4, num_elites=4000, sigma_min=0.01, sigma_max=1.0)
+    config.use_noise_ramp, config.noise_ramp = True, 2.0
+    opt = CEM(config, nu=1)
+    opt.sigma[:] = 0.2
+    samples = opt.sample_control_knots(np.zeros((4, 1)))
+    np.testing.assert_allclose(samples[1:].std(0)[:, 0], 0.2 * np.array([0.5, 1.0, 1.5, 2.0]), rtol=0.06)
+    opt.update_nominal_knots(samples, np.zeros(4000))
+    np.testing.assert_allclose(opt.sigma, 0.2, rtol=0.06)

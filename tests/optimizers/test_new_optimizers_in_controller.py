@@ -75,3 +75,21 @@ def test_balances_the_cartpole_with_its_defaults(name):
     tail = np.array(tail)
     assert (np.cos(tail[:, 1]) > 0.9).all(), f"pole fell: min cos {np.cos(tail[:, 1]).min():.2f}"
     assert (np.abs(tail[:, 0]) < 0.5).all(), f"cart drifted to {np.abs(tail[:, 0]).max():.2f} m"
+
+
+@pytest.mark.parametrize("name", ["cem", "icem", "cmaes"])
+def test_controller_reset_restarts_the_search(name):
+    ctrl = judo.make_controller("cartpole", name, seed=0)
+    opt = ctrl.optimizer
+    plan_a_few_cycles(ctrl, 3)
+    if name == "cmaes":
+        assert opt.generation > 0
+    else:
+        assert not np.allclose(opt.sigma, opt.config.sigma_max)
+    ctrl.reset()
+    assert ctrl.nominal_knots is None
+    if name == "cmaes":
+        assert opt.generation == 0 and not opt.path_sigma.any()
+    else:
+        np.testing.assert_array_equal(opt.sigma, opt.config.sigma_max)
+    ctrl.close()

@@ -100,8 +100,10 @@ class Controller:
         return max(1, round(self.config.horizon / self.task.dt))
 
     def reset(self) -> None:
-        """Forget the plan; the next update starts again from the task's warm start."""
+        """Forget the plan and restart the optimizer's search; the next update starts again from the
+        task's warm start."""
         self._plan = None
+        self.optimizer.restart()
         self.nominal_knots = None
 
     def _apply_config_changes(self) -> None:

@@ -71,6 +71,12 @@ class Optimizer(ABC, Generic[ConfigT]):
         """Called once per planning cycle before sampling, with the previous plan's (old_num_nodes,)
         knot times and this cycle's (num_nodes,) knot times. Shift or resize carried state here."""
 
+    def restart(self) -> None:
+        """Forget any search distribution carried between planning cycles (stds, means, kept elites).
+
+        `Controller.reset()` calls it, so a reset plan also restarts the search. The default carries nothing.
+        """
+
     def stop_cond(self) -> bool:
         """Checked after each iteration; True ends the cycle before `max_opt_iters`."""
         return False

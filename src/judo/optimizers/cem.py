@@ -34,16 +34,21 @@ class CEM(Optimizer[CEMConfig]):
     std (clipped to [sigma_min, sigma_max]). The std carries over between cycles.
 
     Attributes:
-        sigma: (num_nodes, nu) current sampling std.
+        sigma: (num_nodes, nu) current sampling std, before the noise ramp (with use_noise_ramp on, the
+            samples' std is sigma times `noise_ramp_scale()`, and the elites' std is divided by it again).
     """
 
     def __init__(self, config: CEMConfig, nu: int) -> None:
         super().__init__(config, nu)
-        self.sigma = np.full((self.num_nodes, nu), config.sigma_max)
+        self.restart()
+
+    def restart(self) -> None:
+        """Start wide again: sigma_max on every knot."""
+        self.sigma = np.full((self.num_nodes, self.nu), self.config.sigma_max)
 
     def pre_optimization(self, old_times: np.ndarray, new_times: np.ndarray) -> None:
-        if self.sigma.shape != (self.num_nodes, self.nu):  # num_nodes changed: start wide again
-            self.sigma = np.full((self.num_nodes, self.nu), self.config.sigma_max)
+        if self.sigma.shape != (self.num_nodes, self.nu):  # num_nodes changed
+            self.restart()
 
     def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
         return self.perturb(nominal_knots, self.sigma)
@@ -51,7 +56,8 @@ class CEM(Optimizer[CEMConfig]):
     def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
         num_elites = min(self.config.num_elites, self.num_rollouts)
         elites = sampled_knots[np.argsort(-rewards, kind="stable")[:num_elites]]
-        self.sigma = np.clip(elites.std(axis=0), self.config.sigma_min, self.config.sigma_max)
+        spread = elites.std(axis=0) / self.noise_ramp_scale()
+        self.sigma = np.clip(spread, self.config.sigma_min, self.config.sigma_max)
         return elites.mean(axis=0)
 
 

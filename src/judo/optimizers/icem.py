@@ -71,7 +71,7 @@ class ICEM(Optimizer[ICEMConfig]):
 
     Attributes:
         mean: (num_nodes, nu) centre of the sampling distribution, or None until the first sample.
-        sigma: (num_nodes, nu) current sampling std.
+        sigma: (num_nodes, nu) current sampling std, before the noise ramp (see CEM).
         kept_elites: (num_kept, num_nodes, nu) elites carried into the next iteration, the plan excluded.
     """
 
@@ -110,7 +110,7 @@ class ICEM(Optimizer[ICEMConfig]):
         ranked = ranked[np.isfinite(rewards[ranked])]
         elites = sampled_knots[ranked[: cfg.num_elites]]
         self.mean = elites.mean(axis=0)
-        self.sigma = np.clip(elites.std(axis=0), cfg.sigma_min, cfg.sigma_max)
+        self.sigma = np.clip(elites.std(axis=0) / self.noise_ramp_scale(), cfg.sigma_min, cfg.sigma_max)
         num_kept = round(cfg.elite_keep_fraction * cfg.num_elites)
         self.kept_elites = elites[1:num_kept].copy()
         return elites[0].copy()
