@@ -4,6 +4,7 @@ import pytest
 
 from judo.core.controller import ControllerConfig
 from judo.core.registry import get_registered_optimizers, get_registered_tasks, make_config
+from judo.evaluation.cli import write_json
 from judo.evaluation.evaluate import main
 
 TINY = ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "0.5", "--num-workers", "1"]
@@ -104,3 +105,13 @@ def test_help_lists_the_flags(capsys):
     out = capsys.readouterr().out
     for flag in ("--task", "--optimizer", "--seeds", "--duration", "--latency", "--latency-ms", "--json", "--plot"):
         assert flag in out
+
+
+def test_json_reports_write_nan_and_infinities_as_null(tmp_path):
+    path = tmp_path / "report.json"
+    write_json(path, {"metric": float("nan"), "rows": [1.5, float("-inf"), {"x": float("inf")}], "name": "ok"})
+    assert json.loads(path.read_text(), parse_constant=pytest.fail) == {
+        "metric": None,
+        "rows": [1.5, None, {"x": None}],
+        "name": "ok",
+    }

@@ -1,6 +1,7 @@
 """What `benchmark` and `evaluate` share on the command line: parsing, name checks, consoles, failing cleanly."""
 
 import json
+import math
 import sys
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
@@ -64,9 +65,21 @@ def progress_console() -> Console:
 
 
 def write_json(path: Path, content: Any) -> None:
-    """Write `content` to `path` as indented JSON, creating the parent folder; JudoError if that fails."""
+    """Write `content` to `path` as indented, standard JSON (NaN and infinities become null), creating
+    the parent folder; JudoError if that fails."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        path.write_text(json.dumps(content, indent=2) + "\n")
+        path.write_text(json.dumps(non_finite_to_none(content), indent=2, allow_nan=False) + "\n")
     except OSError as err:
         raise JudoError(f"could not write {path}: {err}") from err
+
+
+def non_finite_to_none(content: Any) -> Any:
+    """`content` with every NaN or infinite float, in nested dicts and lists, replaced by None."""
+    if isinstance(content, dict):
+        return {key: non_finite_to_none(value) for key, value in content.items()}
+    if isinstance(content, (list, tuple)):
+        return [non_finite_to_none(value) for value in content]
+    if isinstance(content, float) and not math.isfinite(content):
+        return None
+    return content

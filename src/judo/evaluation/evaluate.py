@@ -174,10 +174,7 @@ def main(argv: list[str] | None = None) -> int:
                     "duration": args.duration,
                     "latency": args.latency_label(),
                     "episodes": [episode_record(result) for result in results],
-                    "summary": {
-                        name: {**vars(summary), "ci95": None if np.isnan(summary.ci95) else summary.ci95}
-                        for name, summary in summaries.items()
-                    },
+                    "summary": {name: vars(summary) for name, summary in summaries.items()},
                 },
             )
             console.print(f"wrote {args.json}")
