@@ -24,7 +24,9 @@ set_config_overrides("cartpole", ControllerConfig, {"horizon": 1.0, "spline_orde
 set_config_overrides("cartpole", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
 set_config_overrides("cartpole", PredictiveSamplingConfig, {"sigma": 0.3})
 set_config_overrides("cartpole", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
-set_config_overrides("cartpole", CEMConfig, {"sigma_min": 0.2, "sigma_max": 1.0})
+# Two elites, not four: a mean over more elites lags, and with 25 ms of planning latency it lost the
+# swing-up in 2 of 3 seeds (3 of 3 kept with two elites).
+set_config_overrides("cartpole", CEMConfig, {"sigma_min": 0.2, "sigma_max": 1.0, "num_elites": 2})
 
 set_config_overrides(
     "cylinder_push", ControllerConfig, {"horizon": 1.0, "spline_order": "linear", "control_freq": 50.0}
