@@ -1,0 +1,92 @@
+"""The task suite at a glance: for each task x optimizer, the update's overhead over the raw rollout
+floor and the closed-loop success metrics, as one markdown table per task.
+
+    PYTHONPATH=src python benchmarks/task_suite.py                      # every task x ps, cem, mppi
+    PYTHONPATH=src python benchmarks/task_suite.py --tasks acrobot --optimizers ps cem --seeds 2
+    PYTHONPATH=src python benchmarks/task_suite.py --markdown results.md
+
+Timing is `python -m judo benchmark`'s: the median control update and the median raw rollout of the
+same N x T batch on the same pool, interleaved so both see the same load; "overhead" is their ratio.
+Quality is `python -m judo evaluate`'s: one episode per seed from the task's randomised start, no
+latency, each metric's mean ± 95% CI over seeds (the CI is n/a for one seed). Episodes last
+`--duration` seconds, or the task's entry in LONGER_EPISODES when that is longer.
+"""
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from judo.core.errors import JudoError
+from judo.evaluation.cli import check_names, chosen_tasks, output_console, progress_console
+from judo.evaluation.evaluate import EvaluateArgs, evaluate, summarize_metrics
+from judo.evaluation.stats import Summary
+from judo.evaluation.timing import time_pair
+
+LONGER_EPISODES = {"leap_cube": 60.0, "leap_cube_down": 60.0, "fr3_pick": 20.0}
+"""Seconds per episode for tasks whose metric needs more time than the default (goals per minute)."""
+
+
+def cell(summary: Summary) -> str:
+    """`mean ± ci` to three significant figures, or just the mean when the CI is undefined."""
+    if np.isnan(summary.ci95):
+        return f"{summary.mean:.3g}"
+    return f"{summary.mean:.3g} ± {summary.ci95:.2g}"
+
+
+def task_rows(task: str, optimizers: list[str], args: argparse.Namespace, progress: Progress) -> list[str]:
+    """The markdown table of one task: a header, then one row per optimizer."""
+    duration = max(args.duration, LONGER_EPISODES.get(task, 0.0))
+    rows = []
+    metric_names: list[str] = []
+    for optimizer in optimizers:
+        progress.update(progress.task_ids[0], description=f"{task} x {optimizer}")
+        timing = time_pair(task, optimizer, args.timing_samples)
+        episodes = evaluate(EvaluateArgs(task=task, optimizer=optimizer, seeds=args.seeds, duration=duration))
+        summaries = summarize_metrics(episodes)
+        summaries.pop("mean_reward", None)
+        metric_names = metric_names or list(summaries)
+        update_ms = float(np.median(timing.update_ms))
+        floor_ms = float(np.median(timing.raw_rollout_ms))
+        cells = [optimizer, f"{update_ms:.1f}", f"{floor_ms:.1f}", f"{timing.overhead_ratio():.2f}x"]
+        rows.append("| " + " | ".join(cells + [cell(summaries[name]) for name in metric_names]) + " |")
+        progress.advance(progress.task_ids[0])
+    header = ["optimizer", "update ms", "rollout floor ms", "overhead", *metric_names]
+    seeds = f"{args.seeds} seed{'s' if args.seeds > 1 else ''}"
+    title = f"### {task} ({seeds} x {duration:g} s, no latency)"
+    return [title, "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header), *rows, ""]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--tasks", nargs="+", default=[], help="registered task names (default: all)")
+    parser.add_argument("--optimizers", nargs="+", default=["ps", "cem", "mppi"], help="registered optimizer names")
+    parser.add_argument("--seeds", type=int, default=3, help="episodes per pair, seeds 0 .. seeds - 1")
+    parser.add_argument("--duration", type=float, default=15.0, help="seconds of sim time per episode")
+    parser.add_argument("--timing-samples", type=int, default=30, help="timed control updates per pair")
+    parser.add_argument("--markdown", type=Path, default=None, help="also write the tables to this file")
+    args = parser.parse_args()
+    try:
+        check_names(args.tasks, args.optimizers)
+    except JudoError as err:
+        parser.error(str(err))
+    tasks = chosen_tasks(tuple(args.tasks))
+    lines: list[str] = []
+    console = output_console()  # tables on stdout; on a terminal the bar shares it and stays below them
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    bar_console = console if sys.stdout.isatty() else progress_console()
+    with Progress(*columns, console=bar_console, transient=True) as progress:
+        progress.add_task("task suite", total=len(tasks) * len(args.optimizers))
+        for task in tasks:
+            table = task_rows(task, args.optimizers, args, progress)
+            console.print("\n".join(table), markup=False, highlight=False, soft_wrap=True)
+            lines += table
+    if args.markdown is not None:
+        args.markdown.write_text("\n".join(lines))
+        console.print(f"wrote {args.markdown}")
+
+
+if __name__ == "__main__":
+    main()

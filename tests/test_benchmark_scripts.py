@@ -1,0 +1,36 @@
+"""The benchmark scripts run end to end on the smallest settings and print their tables."""
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_script(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, str(ROOT / "benchmarks" / args[0]), *args[1:]],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+        cwd=ROOT,
+    )
+
+
+def test_task_suite_prints_a_markdown_table_per_task(tmp_path):
+    out = tmp_path / "suite.md"
+    small = ["--seeds", "1", "--duration", "0.3", "--timing-samples", "2", "--markdown", str(out)]
+    result = run_script("task_suite.py", "--tasks", "cartpole", "particle", "--optimizers", "ps", *small)
+    assert result.returncode == 0, result.stderr
+    assert "### cartpole (1 seed x 0.3 s, no latency)" in result.stdout
+    assert "| optimizer | update ms | rollout floor ms | overhead | balanced_fraction | swung_up |" in result.stdout
+    assert "### particle" in result.stdout and "goals_per_minute" in result.stdout
+    assert out.read_text().count("| ps | ") == 2
+
+
+def test_task_suite_names_the_valid_choices_for_an_unknown_task():
+    result = run_script("task_suite.py", "--tasks", "cartpol")
+    assert result.returncode == 2
+    assert "cartpol" in result.stderr and "cartpole" in result.stderr
