@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from judo import ConfigError, Spline, SplineBasis
+from judo.core.spline import MIN_KNOTS
 
 KNOT_TIMES = np.array([0.0, 0.3, 0.5, 0.9, 1.4])
 QUERIES = np.linspace(0.0, 1.4, 57)
@@ -52,3 +53,17 @@ def test_too_few_knots_for_the_order_is_a_clear_error():
         SplineBasis(np.array([0.0, 0.5, 1.0]), "cubic")
     with pytest.raises(ConfigError, match="spline order must be one of"):
         SplineBasis(np.array([0.0, 1.0]), "quintic")  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("order", "num_knots"), [(order, n) for order in MIN_KNOTS for n in (1, 2, 4, 6) if n >= MIN_KNOTS[order]]
+)
+def test_one_time_weights_equal_the_batched_weights(order, num_knots):
+    knot_times = np.cumsum(np.random.default_rng(num_knots).uniform(0.1, 0.5, num_knots))
+    basis = SplineBasis(knot_times, order)
+    queries = np.concatenate([[knot_times[0] - 1.0, knot_times[-1] + 1.0], knot_times, np.linspace(0, 3, 41)])
+    batched = basis.weights(queries)
+    for query, row in zip(queries, batched):
+        np.testing.assert_allclose(basis.weights_at(query), row, atol=1e-12)
+    spline = Spline(0.5, basis, np.random.default_rng(0).normal(size=(num_knots, 2)))
+    np.testing.assert_allclose(spline(0.9), spline(np.array([0.9]))[0], atol=1e-12)

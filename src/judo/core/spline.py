@@ -5,6 +5,7 @@ query times is one matrix product: `values = weights(query_times) @ knots`. The 
 precomputes the (T, num_nodes) weights once per configuration and reuses them every update.
 """
 
+from bisect import bisect_right
 from typing import Literal
 
 import numpy as np
@@ -33,12 +34,13 @@ class SplineBasis:
             raise ConfigError(f"knot times must increase strictly, got {knot_times}")
         self.knot_times = knot_times
         self.order = order
+        self._knot_list = knot_times.tolist()
         if order == "cubic":
             self._second_derivative_map = _not_a_knot_second_derivatives(knot_times)
 
     def weights(self, query_times: np.ndarray) -> np.ndarray:
         """(num_queries, num_nodes) matrix W with spline(query_times) = W @ knots."""
-        t = np.clip(np.asarray(query_times, dtype=float), self.knot_times[0], self.knot_times[-1])
+        t = np.minimum(np.maximum(np.asarray(query_times, dtype=float), self.knot_times[0]), self.knot_times[-1])
         num_nodes = len(self.knot_times)
         rows = np.arange(len(t))
         weights = np.zeros((len(t), num_nodes))
@@ -63,6 +65,31 @@ class SplineBasis:
             ]
         return weights
 
+    def weights_at(self, query_time: float) -> np.ndarray:
+        """(num_nodes,) row w with spline(query_time) = w @ knots: `weights` for one time, about ten
+        times faster, for serving a plan at every simulation step."""
+        knots = self._knot_list
+        num_nodes = len(knots)
+        t = min(max(float(query_time), knots[0]), knots[-1])
+        weights = np.zeros(num_nodes)
+        if num_nodes == 1:
+            weights[0] = 1.0
+            return weights
+        segment = min(max(bisect_right(knots, t) - 1, 0), num_nodes - 2)
+        if self.order == "zero":
+            weights[num_nodes - 1 if t >= knots[-1] else segment] = 1.0
+            return weights
+        h = knots[segment + 1] - knots[segment]
+        a = (t - knots[segment]) / h
+        weights[segment] = 1.0 - a
+        weights[segment + 1] += a
+        if self.order == "cubic":
+            b = 1.0 - a
+            curvature = h * h / 6.0
+            m = self._second_derivative_map
+            weights += curvature * (b**3 - b) * m[segment] + curvature * (a**3 - a) * m[segment + 1]
+        return weights
+
 
 class Spline:
     """A control trajectory: knots (num_nodes, nu) placed at `start_time + basis.knot_times`."""
@@ -79,9 +106,9 @@ class Spline:
 
     def __call__(self, times: float | np.ndarray) -> np.ndarray:
         """(nu,) for a scalar time, (num_times, nu) for an array of times."""
-        scalar = np.ndim(times) == 0
-        values = self.basis.weights(np.atleast_1d(times) - self.start_time) @ self.knots
-        return values[0] if scalar else values
+        if np.ndim(times) == 0:
+            return self.basis.weights_at(float(times) - self.start_time) @ self.knots  # type: ignore[arg-type]
+        return self.basis.weights(np.asarray(times) - self.start_time) @ self.knots
 
 
 def _not_a_knot_second_derivatives(x: np.ndarray) -> np.ndarray:
