@@ -63,7 +63,7 @@ def test_one_time_weights_equal_the_batched_weights(order, num_knots):
     basis = SplineBasis(knot_times, order)
     queries = np.concatenate([[knot_times[0] - 1.0, knot_times[-1] + 1.0], knot_times, np.linspace(0, 3, 41)])
     batched = basis.weights(queries)
-    for query, row in zip(queries, batched):
+    for query, row in zip(queries, batched, strict=True):
         np.testing.assert_allclose(basis.weights_at(query), row, atol=1e-12)
     spline = Spline(0.5, basis, np.random.default_rng(0).normal(size=(num_knots, 2)))
     np.testing.assert_allclose(spline(0.9), spline(np.array([0.9]))[0], atol=1e-12)
