@@ -75,6 +75,20 @@ def test_metrics_measure_the_upright_share_of_the_last_three_seconds() -> None:
     assert metrics["upright_fraction"] == pytest.approx(0.5, abs=0.01)
     assert metrics["final_tip_error"] == pytest.approx(0.0)
     assert metrics["final_cart_offset"] == pytest.approx(0.5)
+    assert metrics["hit_rail_end"] == 0.0
+
+
+def test_metrics_flag_a_cart_that_reached_the_end_of_its_travel() -> None:
+    task = DoubleCartpole()
+    travel = task.sim_model.jnt_range[task.sim_model.joint("slider").id, 1]
+    times = np.arange(1, 101) * 0.01
+    states = np.zeros((100, 6))
+    sensors = np.zeros((100, task.model.nsensordata))
+    states[50, 0] = -(travel - 0.01)  # one step at the left end, back in the middle at the end
+    log = EpisodeLog(times, states, np.zeros((100, 1)), sensors)
+    assert task.metrics(log)["hit_rail_end"] == 1.0
+    states[50, 0] = -(travel - 0.1)  # near the end but not at it
+    assert task.metrics(log)["hit_rail_end"] == 0.0
 
 
 @pytest.mark.slow

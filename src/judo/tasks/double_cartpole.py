@@ -19,6 +19,8 @@ UPRIGHT_TOLERANCE = 0.2
 """Tip distance (m) from straight above the cart within which the poles count as upright in `metrics`."""
 FINAL_WINDOW = 3.0
 """Seconds at the end of an episode over which `metrics` measures the upright fraction."""
+RAIL_END_MARGIN = 0.05
+"""Distance (m) from the end of the cart's travel within which `metrics` counts the cart as at the rail's end."""
 
 
 @slider("w_upright", 0.0, 50.0, 0.1)
@@ -49,6 +51,7 @@ class DoubleCartpole(Task[DoubleCartpoleConfig]):
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self._tip_column = self.get_sensor_start_index("trace_tip")
+        self._cart_travel = float(self.sim_model.jnt_range[self.sim_model.joint("slider").id, 1])
         self.reset()
 
     def reward(
@@ -82,11 +85,13 @@ class DoubleCartpole(Task[DoubleCartpoleConfig]):
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """upright_fraction: share of the last 3 s with the tip within 0.2 m of straight above the cart;
-        final_tip_error (m) and final_cart_offset (m, |x|) at the end."""
+        final_tip_error (m) and final_cart_offset (m, |x|) at the end; hit_rail_end: 1.0 if the cart came
+        within 0.05 m of the end of its travel at any time in the episode (where the poles usually fall), else 0.0."""
         error = self.tip_error(log.states, log.sensors)
         final = log.times >= log.times[-1] - FINAL_WINDOW
         return {
             "upright_fraction": float(np.mean(error[final] < UPRIGHT_TOLERANCE)),
             "final_tip_error": float(error[-1]),
             "final_cart_offset": float(abs(log.states[-1, 0])),
+            "hit_rail_end": float(np.any(np.abs(log.states[:, 0]) > self._cart_travel - RAIL_END_MARGIN)),
         }
