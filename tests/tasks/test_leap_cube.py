@@ -8,7 +8,14 @@ import judo
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import make_plant_task, run_episode
 from judo.runtime.system import MujocoSystem
-from judo.tasks.leap_cube import HAND_JOINTS, PLANT_MODEL_PATH, LeapCube, LeapCubeDown, quat_angle
+from judo.tasks.leap_cube import (
+    HAND_JOINTS,
+    PLANT_MODEL_PATH,
+    LeapCube,
+    LeapCubeDown,
+    LeapCubeDownConfig,
+    quat_angle,
+)
 
 
 def sensors_at(task: LeapCube, qpos: np.ndarray, goal_quat: np.ndarray) -> np.ndarray:
@@ -75,6 +82,28 @@ def test_reward_prefers_the_goal_orientation_and_the_resting_spot() -> None:
     assert rewards[0] > rewards[1] and rewards[0] > rewards[2]
     expected_turn_cost = task.config.w_orientation * (np.pi / 2) ** 2
     assert rewards[0] - rewards[1] == pytest.approx(expected_turn_cost, rel=1e-6)
+
+
+def test_palm_down_reward_adds_the_slip_and_cube_speed_costs_to_the_palm_up_terms() -> None:
+    task = LeapCubeDown()
+    assert isinstance(task.config, LeapCubeDownConfig)
+    home = task.model.key_qpos[0].copy()
+    slipped = home.copy()
+    slipped[task._cube_qpos : task._cube_qpos + 3] -= 0.02 * task._palm_axes[:, 0]  # 2 cm towards the wrist
+    sensors = np.stack([sensors_at(task, q, task.data.mocap_quat[0]) for q in (home, slipped, home)])
+    sensors = sensors[:, None, :].repeat(5, axis=1)  # (3, T=5, nsensordata)
+    states = np.zeros((3, 5, task.model.nq + task.model.nv))
+    states[2, :, task._cube_vel : task._cube_vel + 3] = [0.1, 0.0, 0.0]
+    controls = np.tile(task.model.key_ctrl[0], (3, 5, 1))
+    config = task.config
+    rewards = task.reward(states, sensors, controls, config)
+    palm_up_terms = LeapCube.reward(task, states, sensors, controls, config)
+    offsets = sensors[:, 0, task._cube_pos : task._cube_pos + 2] - task.rest_position[:2]  # palm-frame x, y
+    assert offsets[1, 0] == pytest.approx(offsets[0, 0] - 0.02)
+    slip_cost = config.w_slip * np.square(offsets).sum(-1)
+    assert palm_up_terms[1] - rewards[1] == pytest.approx(slip_cost[1])
+    assert palm_up_terms[2] - rewards[2] == pytest.approx(slip_cost[2] + config.w_cube_velocity * 0.1**2)
+    assert palm_up_terms[0] - rewards[0] == pytest.approx(slip_cost[0])
 
 
 def test_quat_angle_ignores_the_quaternion_sign() -> None:
