@@ -143,3 +143,32 @@ def test_slider_and_np_1d_field_attach_metadata_only():
     assert spec is not None and spec.names == ("x", "y") and spec.vis_name == "goal"
     with pytest.raises(judo.ConfigError, match="np_1d_field: names has 1 entries, the array has 2"):
         judo.np_1d_field(np.array([1.0, 2.0]), names=["x"])
+
+
+def test_a_subclass_of_a_task_keeps_or_names_its_config_class(tiny_model_path):
+    @dataclass
+    class BaseConfig(judo.TaskConfig):
+        weight: float = 1.0
+        """A weight."""
+
+    @dataclass
+    class ChildConfig(BaseConfig):
+        extra: float = 2.0
+        """Another weight."""
+
+    class BaseTask(judo.Task[BaseConfig]):
+        def __init__(self):
+            super().__init__(tiny_model_path)
+
+        def reward(self, states, sensors, controls, config, system_metadata=None):
+            return np.zeros(states.shape[0])
+
+    class SameConfigTask(BaseTask):
+        pass
+
+    class OwnConfigTask(BaseTask):
+        config_cls = ChildConfig
+
+    assert type(SameConfigTask().config) is BaseConfig
+    assert type(OwnConfigTask().config) is ChildConfig
+    assert type(BaseTask().config) is BaseConfig

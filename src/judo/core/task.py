@@ -56,8 +56,10 @@ class Task(ABC, Generic[ConfigT]):
     config_cls: ClassVar[type[TaskConfig]] = TaskConfig
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Take `config_cls` from `Task[ConfigT]` among the class's own bases. A subclass of a task
+        inherits its parent's `config_cls`, or names its own: `config_cls = MyConfig` in its body."""
         super().__init_subclass__(**kwargs)
-        for base in getattr(cls, "__orig_bases__", ()):
+        for base in cls.__dict__.get("__orig_bases__", ()):
             args = typing.get_args(base)
             if typing.get_origin(base) is Task and args and isinstance(args[0], type):
                 cls.config_cls = args[0]

@@ -185,14 +185,12 @@ class LeapCubeDown(LeapCube):
     """`LeapCube` with the palm facing down: the fingers hold the cube against the palm from below and
     must turn it without letting go. It starts gripped (see the "home" keyframe of its model)."""
 
+    config_cls = LeapCubeDownConfig
     drop_height: ClassVar[float] = -0.05
     """World height (m) of the cube centre under which it counts as dropped (the palm is at 0.1 m)."""
 
     def __init__(self, model_path: str | Path = DOWN_MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
-        # Task.__init_subclass__ takes the config class from `Task[...]`, which this subclass inherits
-        # from LeapCube, so the palm-down config is set here.
-        self.config = LeapCubeDownConfig()
         self._cube_vel = self.get_joint_velocity_start_index("cube")
 
     def reward(
