@@ -19,8 +19,8 @@ BALANCE_STATE_WEIGHTS = np.array([1.0, 1.0, 0.1, 0.1])
 BALANCE_CONTROL_WEIGHT = 1.0
 """Per-step LQR weight on the squared control behind the balance cost."""
 BALANCE_SATURATION = 1000.0
-"""LQR cost-to-go at which the balance cost saturates at 1: a 0.09 rad lean of both links at rest, past
-the 0.02 to 0.05 rad from which that LQR with 5 Nm brings them back, so states further off look alike to it."""
+"""LQR cost-to-go at which the balance cost saturates at 1: a 0.09 rad lean of both links at rest, past the
+lean (between 0.02 and 0.05 rad) from which that LQR with 5 Nm brings them back; further off, states look alike."""
 UPRIGHT_TOLERANCE = 0.2
 """Tip distance (m) from the top within which the acrobot counts as upright in `metrics`."""
 FINAL_WINDOW = 3.0
@@ -40,7 +40,7 @@ class AcrobotConfig(TaskConfig):
     """Weight on the tip's distance (m) from the top."""
     w_energy: float = 1.0
     """Weight on the total energy (J) differing from that of resting upright; it drives the pumping
-    that a short horizon cannot see the pay-off of."""
+    that a 1 s horizon cannot see the pay-off of."""
     w_balance: float = 20.0
     """Weight on the balance cost (0 upright at rest, 1 once past recovering): it ranks the states near the
     top by how hard they are to bring back, which the tip's distance alone does not."""
