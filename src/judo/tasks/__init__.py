@@ -55,8 +55,10 @@ set_config_overrides("particle", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
 set_config_overrides("particle", CEMConfig, {"sigma_min": 0.2, "sigma_max": 0.6, "num_elites": 4})
 
 register_task("acrobot", Acrobot, AcrobotConfig)
-# The upright acrobot diverges with a 0.15 s time constant and only the elbow pushes back: 50 Hz replanning
-# with two optimizer iterations per cycle holds it up for stretches; none of ps/cem/mppi balances it for good.
+# The upright acrobot diverges with a 0.15 s time constant and only the elbow pushes back: 50 Hz replanning with
+# two optimizer iterations per cycle, and the reward's balance term (an LQR cost-to-go), keep it up once it is
+# there. A 1 s horizon is the compromise: shorter ones balance still better but swing up slowly or not at all.
+# Over 3 seeds x 15 s, cem keeps it upright about all of the last 3 s; ps and mppi about 70% (see README).
 set_config_overrides(
     "acrobot", ControllerConfig, {"horizon": 1.0, "spline_order": "cubic", "control_freq": 50.0, "max_opt_iters": 2}
 )

@@ -14,6 +14,13 @@ from judo.core.task import EpisodeLog, Task, TaskConfig
 MODEL_PATH = Path(__file__).parent / "models" / "acrobot.xml"
 TOP = np.array([0.0, 0.0, 2.0])
 """Position (m) of the tip when both links point straight up."""
+BALANCE_STATE_WEIGHTS = np.array([1.0, 1.0, 0.1, 0.1])
+"""Per-step LQR weights on [shoulder, elbow angle (rad), their velocities (rad/s)] behind the balance cost."""
+BALANCE_CONTROL_WEIGHT = 1.0
+"""Per-step LQR weight on the squared control behind the balance cost."""
+BALANCE_SATURATION = 1000.0
+"""LQR cost-to-go at which the balance cost saturates at 1: a 0.09 rad lean of both links at rest, past the
+lean (between 0.02 and 0.05 rad) from which that LQR with 5 Nm brings them back; further off, states look alike."""
 UPRIGHT_TOLERANCE = 0.2
 """Tip distance (m) from the top within which the acrobot counts as upright in `metrics`."""
 FINAL_WINDOW = 3.0
@@ -22,6 +29,7 @@ FINAL_WINDOW = 3.0
 
 @slider("w_tip", 0.0, 50.0, 0.1)
 @slider("w_energy", 0.0, 10.0, 0.01)
+@slider("w_balance", 0.0, 100.0, 0.1)
 @slider("w_velocity", 0.0, 1.0, 0.01)
 @slider("w_control", 0.0, 1.0, 0.01)
 @dataclass
@@ -33,10 +41,79 @@ class AcrobotConfig(TaskConfig):
     w_energy: float = 1.0
     """Weight on the total energy (J) differing from that of resting upright; it drives the pumping
     that a 1 s horizon cannot see the pay-off of."""
+    w_balance: float = 20.0
+    """Weight on the balance cost (0 upright at rest, 1 once past recovering): it ranks the states near the
+    top by how hard they are to bring back, which the tip's distance alone does not."""
     w_velocity: float = 0.02
     """Weight on slow joints; too much of it stops the pumping that the swing-up needs."""
     w_control: float = 0.01
     """Weight on small elbow torques."""
+
+
+@dataclass(frozen=True)
+class AcrobotEnergy:
+    """The acrobot's energy as a function of its state, with coefficients read from the model.
+
+    With angles q1 (shoulder), q2 (elbow) from straight up and velocities v1, v2:
+    kinetic = 0.5 [(a + 2b cos q2) v1^2 + 2 (c + b cos q2) v1 v2 + c v2^2] (the mass matrix depends on
+    the elbow alone), potential = g1 cos q1 + g2 cos(q1 + q2) (J, zero with the links level with the shoulder).
+    """
+
+    a: float
+    b: float
+    c: float
+    g1: float
+    g2: float
+
+    @classmethod
+    def of_model(cls, model: mujoco.MjModel) -> "AcrobotEnergy":
+        """Read the coefficients from `model` at two poses: elbow bent 90 degrees and straight."""
+        data = mujoco.MjData(model)
+        mass_matrices, potentials = [], []
+        for elbow in (np.pi / 2, 0.0):
+            data.qpos[:] = [0.0, elbow]
+            mujoco.mj_forward(model, data)
+            matrix = np.zeros((model.nv, model.nv))
+            mujoco.mj_fullM(model, data, matrix)
+            mass_matrices.append(matrix)
+            potentials.append(-float(model.opt.gravity[2]) * float(model.body_mass @ data.xipos[:, 2]))
+        bent, straight = mass_matrices
+        # Bent at 90 degrees the lower link lies level with the elbow: its cos(q1 + q2) term is zero.
+        bent_potential, straight_potential = potentials
+        return cls(
+            a=float(bent[0, 0]),
+            b=float(straight[0, 1] - bent[0, 1]),
+            c=float(bent[1, 1]),
+            g1=bent_potential,
+            g2=straight_potential - bent_potential,
+        )
+
+    def total(self, states: np.ndarray) -> np.ndarray:
+        """Kinetic plus potential energy (J) of (..., 4) states [q1, q2, v1, v2] -> (...)."""
+        shoulder, elbow, v1, v2 = np.moveaxis(states[..., :4], -1, 0)
+        cos_elbow = np.cos(elbow)
+        kinetic = 0.5 * (
+            (self.a + 2 * self.b * cos_elbow) * v1**2 + 2 * (self.c + self.b * cos_elbow) * v1 * v2 + self.c * v2**2
+        )
+        return kinetic + self.g1 * np.cos(shoulder) + self.g2 * np.cos(shoulder + elbow)
+
+
+def upright_cost_to_go(model: mujoco.MjModel, state_weights: np.ndarray, control_weight: float) -> np.ndarray:
+    """(4, 4) matrix P of the infinite-horizon LQR cost-to-go x^T P x around resting straight up, for
+    per-step costs x^T diag(state_weights) x + control_weight u^2 on the model linearised there."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    a, b = np.zeros((4, 4)), np.zeros((4, model.nu))
+    mujoco.mjd_transitionFD(model, data, 1e-6, True, a, b, None, None)
+    q, r = np.diag(state_weights), np.array([[control_weight]])
+    p = q.copy()
+    for _ in range(100_000):
+        gain = np.linalg.solve(r + b.T @ p @ b, b.T @ p @ a)
+        updated = q + a.T @ p @ (a - b @ gain)
+        if np.allclose(updated, p, rtol=1e-10, atol=0.0):
+            break
+        p = updated
+    return 0.5 * (updated + updated.T)
 
 
 class Acrobot(Task[AcrobotConfig]):
@@ -46,12 +123,13 @@ class Acrobot(Task[AcrobotConfig]):
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self._tip_column = self.get_sensor_start_index("trace_tip")
-        self._potential_column = self.get_sensor_start_index("potential_energy")
-        self._kinetic_column = self.get_sensor_start_index("kinetic_energy")
-        upright = mujoco.MjData(self.model)
-        mujoco.mj_forward(self.model, upright)
-        self.upright_energy = float(upright.sensordata[self._potential_column])
-        """Potential energy (J) of the links resting straight up: the energy a swing-up aims for."""
+        self.energy = AcrobotEnergy.of_model(self.model)
+        """Energy of a state, computed from the state itself: MuJoCo's e_kinetic sensor holds the value of
+        the previous evaluation, which in a rollout's first step belongs to an unrelated rollout."""
+        self.upright_energy = self.energy.g1 + self.energy.g2
+        """Energy (J) of the links resting straight up: the energy a swing-up aims for."""
+        self.balance_matrix = upright_cost_to_go(self.model, BALANCE_STATE_WEIGHTS, BALANCE_CONTROL_WEIGHT)
+        """(4, 4) P of the LQR cost-to-go x^T P x around upright, behind `balance_cost`."""
         self.reset()
 
     def reward(
@@ -63,13 +141,22 @@ class Acrobot(Task[AcrobotConfig]):
         system_metadata: dict[str, Any] | None = None,
     ) -> np.ndarray:
         tip = sensors[..., self._tip_column : self._tip_column + 3]
-        energy = sensors[..., self._potential_column] + sensors[..., self._kinetic_column]
+        energy = self.energy.total(states)
         return -(
             config.w_tip * smooth_l1_norm(tip - TOP, 0.1).sum(-1)
             + config.w_energy * np.abs(energy - self.upright_energy).sum(-1)
+            + config.w_balance * self.balance_cost(states).sum(-1)
             + config.w_velocity * quadratic_norm(states[..., 2:4]).sum(-1)
             + config.w_control * quadratic_norm(controls).sum(-1)
         )
+
+    def balance_cost(self, states: np.ndarray) -> np.ndarray:
+        """(...) balance cost of (..., 4) states: the LQR cost-to-go x^T P x around upright (angles wrapped
+        to [-pi, pi)), divided by BALANCE_SATURATION and capped at 1."""
+        x = states[..., :4].copy()
+        x[..., :2] = np.mod(x[..., :2] + np.pi, 2 * np.pi) - np.pi
+        cost_to_go = np.einsum("...i,ij,...j->...", x, self.balance_matrix, x)
+        return np.minimum(cost_to_go / BALANCE_SATURATION, 1.0)
 
     def reset(self) -> None:
         """Both links hanging down within 0.2 rad, with small random velocities."""
