@@ -63,11 +63,14 @@ def phase_sensors(task: FR3Pick, tcp: np.ndarray, obj: np.ndarray, goal: np.ndar
 
 
 def score(task: FR3Pick, cases: list[tuple[np.ndarray, float]], phase: int) -> np.ndarray:
-    """Rewards of constant (sensors, gripper opening in m) rollouts of T = 3 steps in `phase`."""
+    """Rewards of constant (sensors, gripper opening in m) rollouts of T = 3 steps in `phase`, with the
+    gripper commanded to the opening it has."""
     sensors = np.stack([s for s, _ in cases])[:, None, :].repeat(3, axis=1)
     states = np.zeros((len(cases), 3, task.model.nq + task.model.nv))
-    states[..., task._finger_qpos] = np.array([o for _, o in cases])[:, None]
+    openings = np.array([o for _, o in cases])[:, None]
+    states[..., task._finger_qpos] = openings
     controls = np.zeros((len(cases), 3, task.nu))
+    controls[..., task.gripper_control] = openings / task.max_opening
     return task.reward(states, sensors, controls, task.config, {"phase": phase})
 
 
@@ -75,12 +78,13 @@ def test_lift_reward_prefers_a_closed_grip_around_the_raised_object() -> None:
     task = FR3Pick()
     goal = np.array([0.5, -0.2, 0.02])
     resting, raised = np.array([0.5, 0.1, 0.02]), np.array([0.5, 0.1, 0.17])
+    grasp = np.array([0.0, 0.0, task.grasp_height])  # gripper centre above the object's when grasping
     rewards = score(
         task,
         [
-            (phase_sensors(task, raised, raised, goal), 0.0),  # grasped and lifted
-            (phase_sensors(task, resting, resting, goal), 0.0),  # grasped on the table
-            (phase_sensors(task, resting, resting, goal), 0.04),  # around it, open
+            (phase_sensors(task, raised + grasp, raised, goal), 0.0),  # grasped and lifted
+            (phase_sensors(task, resting + grasp, resting, goal), 0.0),  # grasped on the table
+            (phase_sensors(task, resting + grasp, resting, goal), 0.04),  # around it, open
             (phase_sensors(task, resting + [0, 0, 0.3], resting, goal), 0.04),  # far above, open
             (phase_sensors(task, resting + [0, 0, 0.3], resting, goal), 0.0),  # far above, closed
         ],
@@ -136,25 +140,59 @@ def test_reward_reads_the_phase_from_the_system_metadata() -> None:
 
 
 @pytest.mark.parametrize(
-    ("phase", "obj", "expected"),
+    ("phase", "obj", "held", "expected"),
     [
-        (LIFT, [0.5, 0.1, 0.02], LIFT),
-        (LIFT, [0.5, 0.1, 0.15], MOVE),
-        (MOVE, [0.5, 0.1, 0.15], MOVE),
-        (MOVE, [0.5, -0.19, 0.15], PLACE),
-        (MOVE, [0.5, -0.2, 0.02], PLACE),
-        (PLACE, [0.5, -0.19, 0.08], PLACE),
-        (PLACE, [0.5, -0.2, 0.025], DONE),
-        (MOVE, [0.5, 0.0, 0.02], LIFT),
-        (PLACE, [0.5, 0.0, 0.02], LIFT),
-        (DONE, [0.5, -0.2, 0.02], DONE),
-        (DONE, [0.5, -0.1, 0.02], LIFT),
+        (LIFT, [0.5, 0.1, 0.02], False, LIFT),
+        (LIFT, [0.5, 0.1, 0.15], True, MOVE),
+        (MOVE, [0.5, 0.1, 0.15], True, MOVE),
+        (MOVE, [0.5, -0.19, 0.15], True, PLACE),
+        (PLACE, [0.5, -0.19, 0.08], True, PLACE),
+        (PLACE, [0.5, -0.2, 0.025], True, DONE),
+        (PLACE, [0.5, -0.2, 0.025], False, DONE),  # let go right on the goal
+        (MOVE, [0.5, 0.1, 0.15], False, LIFT),  # slipped out while carried
+        (MOVE, [0.5, -0.2, 0.02], False, LIFT),  # dropped next to the goal
+        (PLACE, [0.5, -0.18, 0.02], False, LIFT),  # dropped short of the goal while lowered
+        (DONE, [0.5, -0.2, 0.02], False, DONE),
+        (DONE, [0.5, -0.1, 0.02], False, LIFT),
     ],
 )
-def test_phase_follows_the_object(phase: int, obj: list[float], expected: int) -> None:
+def test_phase_follows_the_object_and_the_grasp(phase: int, obj: list[float], held: bool, expected: int) -> None:
     task = FR3Pick()
     goal = np.array([0.5, -0.2, task.rest_height])
-    assert task.next_phase(phase, np.array(obj), goal, 0.15) == expected
+    assert task.next_phase(phase, np.array(obj), goal, 0.15, held) == expected
+
+
+def test_object_counts_as_held_only_between_fingers_it_holds_apart() -> None:
+    task = FR3Pick()
+    obj = np.array([0.5, 0.1, 0.17])
+    assert task.holds_object(obj + [0.0, 0.0, 0.01], obj, 0.02)
+    assert not task.holds_object(obj + [0.0, 0.0, 0.01], obj, 0.005)  # fingers shut: nothing between them
+    assert not task.holds_object(obj + [0.0, 0.05, 0.0], obj, 0.02)  # beside the object
+
+
+def put_object_in_the_gripper(task: FR3Pick, opening: float) -> None:
+    """Move the plant's cube to its gripper centre with the fingers `opening` (m) apart, sensors updated."""
+    mujoco.mj_forward(task.sim_model, task.data)
+    tcp = task.data.sensordata[task._tcp : task._tcp + 3].copy()
+    task.data.qpos[task._object_qpos : task._object_qpos + 3] = tcp - [0.0, 0.0, task.grasp_height]
+    task.data.qpos[task._finger_qpos : task._finger_qpos + 2] = opening
+    mujoco.mj_forward(task.sim_model, task.data)
+
+
+def test_plant_goes_back_to_lift_when_the_carried_object_is_lost() -> None:
+    task = FR3Pick()
+    put_object_in_the_gripper(task, 0.02)
+    task.phase = MOVE
+    task.pre_sim_step()
+    assert task.phase == MOVE
+    put_object_in_the_gripper(task, 0.003)  # fingers closed on nothing
+    task.pre_sim_step()
+    assert task.phase == LIFT and task.get_sim_metadata() == {"phase": LIFT}
+    put_object_in_the_gripper(task, 0.02)
+    task.phase = PLACE
+    task.data.qpos[task._object_qpos + 2] = task.rest_height  # fell onto the table
+    task.pre_sim_step()
+    assert task.phase == LIFT
 
 
 def test_plant_advances_its_phase_and_publishes_it() -> None:

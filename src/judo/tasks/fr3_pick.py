@@ -25,6 +25,7 @@ ARM_JOINTS = tuple(f"joint{i}" for i in range(1, 8))
 @slider("w_lift", 0.0, 50.0, 0.1)
 @slider("w_carry", 0.0, 50.0, 0.1)
 @slider("w_grip", 0.0, 10.0, 0.01)
+@slider("w_open", 0.0, 10.0, 0.01)
 @slider("w_release", 0.0, 10.0, 0.01)
 @slider("w_upright", 0.0, 10.0, 0.01)
 @slider("lift_height", 0.05, 0.4, 0.01)
@@ -33,14 +34,19 @@ class FR3PickConfig(TaskConfig):
     """FR3 pick-and-place reward weights; each phase uses the terms that matter to it."""
 
     w_reach: float = 5.0
-    """Weight on the gripper centre's distance (m) to the object (lift: coming down from above it; move,
-    place) or, once placed, to a point `lift_height` above it, scaled by how far the gripper is open."""
+    """Weight on the gripper centre's distance (m) to its grasp point `grasp_height` above the object's
+    centre (lift: coming down from above it; move, place) or, once placed, to a point `lift_height` above
+    the object, scaled by how far the gripper is open."""
     w_lift: float = 10.0
     """Weight on the object's height error (m) to `lift_height` above the table (lift, move)."""
     w_carry: float = 10.0
     """Weight on the object's distance (m) to the goal: horizontal in move, full in place and done."""
     w_grip: float = 0.2
-    """Weight on the gripper being closed near the object and open away from it (0..1 each)."""
+    """Weight on the gripper being closed (0..1) with the fingers around the object: commanded closed at the
+    grasp point (lift), or closed on the object (move, place)."""
+    w_open: float = 1.0
+    """Weight on the gripper command being closed (0..1) while the fingers do not yet straddle the object
+    (lift), so they come down around it open instead of landing on it."""
     w_release: float = 2.0
     """Weight on the gripper being open once the cube is placed (done); above w_reach * lift_height, so
     letting go comes before backing off."""
@@ -69,8 +75,16 @@ class FR3Pick(Task[FR3PickConfig]):
     """Distance (m) of the object to the goal at the end of an episode that counts as success."""
     approach_height: ClassVar[float] = 0.06
     """Height (m) above the object from which the gripper comes down onto it."""
-    near_object: ClassVar[float] = 0.02
-    """Length scale (m) of the gripper-object distance at which the gripper should close."""
+    near_object: ClassVar[float] = 0.015
+    """Length scale (m) of the gripper's distance to its grasp point on the object within which it closes."""
+    grasp_height: ClassVar[float] = 0.01
+    """Height (m) above the object's centre at which the gripper centre grasps it, so that the fingertips
+    (12 mm below the gripper centre) reach just past its middle and stay clear of the table."""
+    hold_radius: ClassVar[float] = 0.035
+    """Largest gripper-object distance (m) at which a carried object still counts as held."""
+    min_hold_opening: ClassVar[float] = 0.015
+    """Smallest finger opening (m, per finger) with the 2 cm half-wide cube between the fingers; fingers
+    closed further hold nothing."""
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
@@ -84,6 +98,7 @@ class FR3Pick(Task[FR3PickConfig]):
         self._zaxis = self.get_sensor_start_index("tcp_zaxis")
         self._finger_axis = self.get_sensor_start_index("finger_axis")
         self._object_xaxis = self.get_sensor_start_index("object_xaxis")
+        self.gripper_control = self.model.actuator("gripper").id
         self._home_key = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_KEY, "home")
         self.rest_height = float(self.sim_model.key_qpos[self._home_key][self._object_qpos + 2])
         self.max_opening = float(self.model.jnt_range[self.model.joint("finger_left").id, 1])
@@ -106,7 +121,8 @@ class FR3Pick(Task[FR3PickConfig]):
         obj = sensors[..., self._object : self._object + 3]
         goal = sensors[..., self._goal : self._goal + 3]
         opening = states[..., self._finger_qpos] / self.max_opening  # 0 closed .. 1 open
-        reach = np.linalg.norm(tcp - obj, axis=-1)
+        grasp_point = obj + np.array([0.0, 0.0, self.grasp_height])
+        reach = np.linalg.norm(tcp - grasp_point, axis=-1)
         height_error = np.abs(obj[..., 2] - (self.rest_height + config.lift_height))
         # Upright: the gripper points down (1 + z of its axis) and its fingers close square to the cube's
         # faces (sin^2 of twice the yaw between the finger axis and the cube's x axis).
@@ -121,12 +137,17 @@ class FR3Pick(Task[FR3PickConfig]):
             # cube by 2 cm) rising to `approach_height` at 3 cm, so the fingers come down around the cube
             # instead of knocking it over.
             sideways = np.linalg.norm(tcp[..., :2] - obj[..., :2], axis=-1)
-            above = tcp[..., 2] - obj[..., 2]
+            above = tcp[..., 2] - obj[..., 2] - self.grasp_height
             floor = self.approach_height * np.clip((sideways - 0.01) / 0.02, 0.0, 1.0)
             approach = sideways + np.abs(above) + 2.0 * np.maximum(floor - above, 0.0)
-            near = np.exp(-np.square(reach / self.near_object))
+            # The fingers straddle the object when the gripper centre is at the grasp point. A gripper
+            # commanded closed there earns w_grip, one commanded closed before costs w_open, and an open one
+            # costs the same w_grip everywhere, so arriving open is never worse than hovering open. On the
+            # command, not the opening (which lags it), so the planner closes on arrival.
+            straddle = np.exp(-(np.square(sideways) + np.square(above)) / self.near_object**2)
+            closed = 1.0 - controls[..., self.gripper_control]
             cost += config.w_reach * approach + config.w_lift * height_error
-            cost += config.w_grip * (near * opening + (1.0 - near) * (1.0 - opening))
+            cost += config.w_grip * (1.0 - straddle * closed) + config.w_open * (1.0 - straddle) * closed
         elif phase == MOVE:
             cost += config.w_reach * reach + config.w_lift * height_error + config.w_grip * opening
             cost += config.w_carry * np.linalg.norm(obj[..., :2] - goal[..., :2], axis=-1)
@@ -161,20 +182,25 @@ class FR3Pick(Task[FR3PickConfig]):
         """(2,) a random x, y in the arm's workspace on the table, from `self.rng`."""
         return self.rng.uniform([0.4, -0.25], [0.6, 0.25])
 
-    def next_phase(self, phase: int, obj: np.ndarray, goal: np.ndarray, lift_height: float) -> int:
-        """The phase that follows `phase` given the object's and goal's (3,) positions."""
+    def holds_object(self, tcp: np.ndarray, obj: np.ndarray, opening: float) -> bool:
+        """Whether the gripper centre `tcp` (3,) is next to the object `obj` (3,) with the fingers held apart
+        by it (`opening` in m per finger), i.e. the object is between the fingers."""
+        return float(np.linalg.norm(tcp - obj)) < self.hold_radius and opening > self.min_hold_opening
+
+    def next_phase(self, phase: int, obj: np.ndarray, goal: np.ndarray, lift_height: float, held: bool) -> int:
+        """The phase that follows `phase` given the object's and goal's (3,) positions and whether the
+        gripper holds the object (`holds_object`)."""
         lifted = obj[2] - self.rest_height > self.lift_fraction * lift_height
-        on_table = obj[2] - self.rest_height < 0.01
         horizontal = float(np.linalg.norm(obj[:2] - goal[:2]))
         distance = float(np.linalg.norm(obj - goal))
         if phase == LIFT and lifted:
             return MOVE
-        if phase == MOVE and horizontal < self.place_radius:
-            return PLACE
         if phase == PLACE and distance < self.placed_radius:
             return DONE
-        if phase in (MOVE, PLACE) and on_table and horizontal > 2.5 * self.place_radius:
-            return LIFT  # dropped on the way
+        if phase in (MOVE, PLACE) and not held:
+            return LIFT  # dropped or slipped out: open up and grasp it again
+        if phase == MOVE and horizontal < self.place_radius:
+            return PLACE
         if phase == DONE and distance > 2.5 * self.placed_radius:
             return LIFT  # knocked off the goal
         return phase
@@ -182,7 +208,9 @@ class FR3Pick(Task[FR3PickConfig]):
     def pre_sim_step(self) -> None:
         """Advance the phase from the object's state; note when the object was first placed."""
         obj = self.data.qpos[self._object_qpos : self._object_qpos + 3]
-        self.phase = self.next_phase(self.phase, obj, self.data.mocap_pos[0], self.config.lift_height)
+        tcp = self.data.sensordata[self._tcp : self._tcp + 3]
+        held = self.holds_object(tcp, obj, float(self.data.qpos[self._finger_qpos]))
+        self.phase = self.next_phase(self.phase, obj, self.data.mocap_pos[0], self.config.lift_height, held)
         self.max_phase = max(self.max_phase, self.phase)
         if self.phase == DONE and np.isnan(self.time_placed):
             self.time_placed = float(self.data.time)
