@@ -70,7 +70,7 @@ def score(task: FR3Pick, cases: list[tuple[np.ndarray, float]], phase: int) -> n
     openings = np.array([o for _, o in cases])[:, None]
     states[..., task._finger_qpos] = openings
     controls = np.zeros((len(cases), 3, task.nu))
-    controls[..., task.gripper_control] = openings / task.max_opening
+    controls[..., task.model.actuator("gripper").id] = openings / task.max_opening
     return task.reward(states, sensors, controls, task.config, {"phase": phase})
 
 
@@ -78,13 +78,12 @@ def test_lift_reward_prefers_a_closed_grip_around_the_raised_object() -> None:
     task = FR3Pick()
     goal = np.array([0.5, -0.2, 0.02])
     resting, raised = np.array([0.5, 0.1, 0.02]), np.array([0.5, 0.1, 0.17])
-    grasp = np.array([0.0, 0.0, task.grasp_height])  # gripper centre above the object's when grasping
     rewards = score(
         task,
         [
-            (phase_sensors(task, raised + grasp, raised, goal), 0.0),  # grasped and lifted
-            (phase_sensors(task, resting + grasp, resting, goal), 0.0),  # grasped on the table
-            (phase_sensors(task, resting + grasp, resting, goal), 0.04),  # around it, open
+            (phase_sensors(task, raised, raised, goal), 0.0),  # grasped and lifted
+            (phase_sensors(task, resting, resting, goal), 0.0),  # grasped on the table
+            (phase_sensors(task, resting, resting, goal), 0.04),  # around it, open
             (phase_sensors(task, resting + [0, 0, 0.3], resting, goal), 0.04),  # far above, open
             (phase_sensors(task, resting + [0, 0, 0.3], resting, goal), 0.0),  # far above, closed
         ],
@@ -124,6 +123,15 @@ def test_move_place_and_done_rewards_point_at_the_goal() -> None:
     )
     assert done[0] > done[1]
     assert done[0] == pytest.approx(0.0, abs=1e-9)
+
+
+def test_fingers_forced_past_fully_open_score_as_fully_open() -> None:
+    task = FR3Pick()
+    goal = np.array([0.5, -0.2, 0.02])
+    sensors = phase_sensors(task, goal, goal, goal)
+    for phase in (LIFT, DONE):
+        wide, forced = score(task, [(sensors, 0.04), (sensors, 0.046)], phase)
+        assert forced == pytest.approx(wide)
 
 
 def test_reward_reads_the_phase_from_the_system_metadata() -> None:
@@ -174,7 +182,7 @@ def put_object_in_the_gripper(task: FR3Pick, opening: float) -> None:
     """Move the plant's cube to its gripper centre with the fingers `opening` (m) apart, sensors updated."""
     mujoco.mj_forward(task.sim_model, task.data)
     tcp = task.data.sensordata[task._tcp : task._tcp + 3].copy()
-    task.data.qpos[task._object_qpos : task._object_qpos + 3] = tcp - [0.0, 0.0, task.grasp_height]
+    task.data.qpos[task._object_qpos : task._object_qpos + 3] = tcp
     task.data.qpos[task._finger_qpos : task._finger_qpos + 2] = opening
     mujoco.mj_forward(task.sim_model, task.data)
 

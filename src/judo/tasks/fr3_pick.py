@@ -25,7 +25,6 @@ ARM_JOINTS = tuple(f"joint{i}" for i in range(1, 8))
 @slider("w_lift", 0.0, 50.0, 0.1)
 @slider("w_carry", 0.0, 50.0, 0.1)
 @slider("w_grip", 0.0, 10.0, 0.01)
-@slider("w_open", 0.0, 10.0, 0.01)
 @slider("w_release", 0.0, 10.0, 0.01)
 @slider("w_upright", 0.0, 10.0, 0.01)
 @slider("lift_height", 0.05, 0.4, 0.01)
@@ -34,19 +33,14 @@ class FR3PickConfig(TaskConfig):
     """FR3 pick-and-place reward weights; each phase uses the terms that matter to it."""
 
     w_reach: float = 5.0
-    """Weight on the gripper centre's distance (m) to its grasp point `grasp_height` above the object's
-    centre (lift: coming down from above it; move, place) or, once placed, to a point `lift_height` above
-    the object, scaled by how far the gripper is open."""
+    """Weight on the gripper centre's distance (m) to the object (lift: coming down from above it; move,
+    place) or, once placed, to a point `lift_height` above it, scaled by how far the gripper is open."""
     w_lift: float = 10.0
     """Weight on the object's height error (m) to `lift_height` above the table (lift, move)."""
     w_carry: float = 10.0
     """Weight on the object's distance (m) to the goal: horizontal in move, full in place and done."""
     w_grip: float = 0.2
-    """Weight on the gripper being closed (0..1) with the fingers around the object: commanded closed at the
-    grasp point (lift), or closed on the object (move, place)."""
-    w_open: float = 1.0
-    """Weight on the gripper command being closed (0..1) while the fingers do not yet straddle the object
-    (lift), so they come down around it open instead of landing on it."""
+    """Weight on the gripper being closed near the object and open away from it (0..1 each)."""
     w_release: float = 2.0
     """Weight on the gripper being open once the cube is placed (done); above w_reach * lift_height, so
     letting go comes before backing off."""
@@ -75,11 +69,8 @@ class FR3Pick(Task[FR3PickConfig]):
     """Distance (m) of the object to the goal at the end of an episode that counts as success."""
     approach_height: ClassVar[float] = 0.06
     """Height (m) above the object from which the gripper comes down onto it."""
-    near_object: ClassVar[float] = 0.015
-    """Length scale (m) of the gripper's distance to its grasp point on the object within which it closes."""
-    grasp_height: ClassVar[float] = 0.01
-    """Height (m) above the object's centre at which the gripper centre grasps it, so that the fingertips
-    (12 mm below the gripper centre) reach just past its middle and stay clear of the table."""
+    near_object: ClassVar[float] = 0.02
+    """Length scale (m) of the gripper-object distance at which the gripper should close."""
     hold_radius: ClassVar[float] = 0.035
     """Largest gripper-object distance (m) at which a carried object still counts as held."""
     min_hold_opening: ClassVar[float] = 0.015
@@ -98,7 +89,6 @@ class FR3Pick(Task[FR3PickConfig]):
         self._zaxis = self.get_sensor_start_index("tcp_zaxis")
         self._finger_axis = self.get_sensor_start_index("finger_axis")
         self._object_xaxis = self.get_sensor_start_index("object_xaxis")
-        self.gripper_control = self.model.actuator("gripper").id
         self._home_key = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_KEY, "home")
         self.rest_height = float(self.sim_model.key_qpos[self._home_key][self._object_qpos + 2])
         self.max_opening = float(self.model.jnt_range[self.model.joint("finger_left").id, 1])
@@ -120,9 +110,10 @@ class FR3Pick(Task[FR3PickConfig]):
         tcp = sensors[..., self._tcp : self._tcp + 3]
         obj = sensors[..., self._object : self._object + 3]
         goal = sensors[..., self._goal : self._goal + 3]
-        opening = states[..., self._finger_qpos] / self.max_opening  # 0 closed .. 1 open
-        grasp_point = obj + np.array([0.0, 0.0, self.grasp_height])
-        reach = np.linalg.norm(tcp - grasp_point, axis=-1)
+        # 0 closed .. 1 open. Clipped: fingers pressed onto the table can be forced past their range, and
+        # that must not pay more than fully open (the planner would learn to jam them to "let go").
+        opening = np.clip(states[..., self._finger_qpos] / self.max_opening, 0.0, 1.0)
+        reach = np.linalg.norm(tcp - obj, axis=-1)
         height_error = np.abs(obj[..., 2] - (self.rest_height + config.lift_height))
         # Upright: the gripper points down (1 + z of its axis) and its fingers close square to the cube's
         # faces (sin^2 of twice the yaw between the finger axis and the cube's x axis).
@@ -137,17 +128,12 @@ class FR3Pick(Task[FR3PickConfig]):
             # cube by 2 cm) rising to `approach_height` at 3 cm, so the fingers come down around the cube
             # instead of knocking it over.
             sideways = np.linalg.norm(tcp[..., :2] - obj[..., :2], axis=-1)
-            above = tcp[..., 2] - obj[..., 2] - self.grasp_height
+            above = tcp[..., 2] - obj[..., 2]
             floor = self.approach_height * np.clip((sideways - 0.01) / 0.02, 0.0, 1.0)
             approach = sideways + np.abs(above) + 2.0 * np.maximum(floor - above, 0.0)
-            # The fingers straddle the object when the gripper centre is at the grasp point. A gripper
-            # commanded closed there earns w_grip, one commanded closed before costs w_open, and an open one
-            # costs the same w_grip everywhere, so arriving open is never worse than hovering open. On the
-            # command, not the opening (which lags it), so the planner closes on arrival.
-            straddle = np.exp(-(np.square(sideways) + np.square(above)) / self.near_object**2)
-            closed = 1.0 - controls[..., self.gripper_control]
+            near = np.exp(-np.square(reach / self.near_object))
             cost += config.w_reach * approach + config.w_lift * height_error
-            cost += config.w_grip * (1.0 - straddle * closed) + config.w_open * (1.0 - straddle) * closed
+            cost += config.w_grip * (near * opening + (1.0 - near) * (1.0 - opening))
         elif phase == MOVE:
             cost += config.w_reach * reach + config.w_lift * height_error + config.w_grip * opening
             cost += config.w_carry * np.linalg.norm(obj[..., :2] - goal[..., :2], axis=-1)
