@@ -63,11 +63,14 @@ def phase_sensors(task: FR3Pick, tcp: np.ndarray, obj: np.ndarray, goal: np.ndar
 
 
 def score(task: FR3Pick, cases: list[tuple[np.ndarray, float]], phase: int) -> np.ndarray:
-    """Rewards of constant (sensors, gripper opening in m) rollouts of T = 3 steps in `phase`."""
+    """Rewards of constant (sensors, gripper opening in m) rollouts of T = 3 steps in `phase`, with the
+    gripper commanded to the opening it has."""
     sensors = np.stack([s for s, _ in cases])[:, None, :].repeat(3, axis=1)
     states = np.zeros((len(cases), 3, task.model.nq + task.model.nv))
-    states[..., task._finger_qpos] = np.array([o for _, o in cases])[:, None]
+    openings = np.array([o for _, o in cases])[:, None]
+    states[..., task._finger_qpos] = openings
     controls = np.zeros((len(cases), 3, task.nu))
+    controls[..., task.model.actuator("gripper").id] = openings / task.max_opening
     return task.reward(states, sensors, controls, task.config, {"phase": phase})
 
 
@@ -122,6 +125,15 @@ def test_move_place_and_done_rewards_point_at_the_goal() -> None:
     assert done[0] == pytest.approx(0.0, abs=1e-9)
 
 
+def test_fingers_forced_past_fully_open_score_as_fully_open() -> None:
+    task = FR3Pick()
+    goal = np.array([0.5, -0.2, 0.02])
+    sensors = phase_sensors(task, goal, goal, goal)
+    for phase in (LIFT, DONE):
+        wide, forced = score(task, [(sensors, 0.04), (sensors, 0.046)], phase)
+        assert forced == pytest.approx(wide)
+
+
 def test_reward_reads_the_phase_from_the_system_metadata() -> None:
     task = FR3Pick()
     goal = np.array([0.5, -0.2, 0.02])
@@ -136,25 +148,60 @@ def test_reward_reads_the_phase_from_the_system_metadata() -> None:
 
 
 @pytest.mark.parametrize(
-    ("phase", "obj", "expected"),
+    ("phase", "obj", "held", "expected"),
     [
-        (LIFT, [0.5, 0.1, 0.02], LIFT),
-        (LIFT, [0.5, 0.1, 0.15], MOVE),
-        (MOVE, [0.5, 0.1, 0.15], MOVE),
-        (MOVE, [0.5, -0.19, 0.15], PLACE),
-        (MOVE, [0.5, -0.2, 0.02], PLACE),
-        (PLACE, [0.5, -0.19, 0.08], PLACE),
-        (PLACE, [0.5, -0.2, 0.025], DONE),
-        (MOVE, [0.5, 0.0, 0.02], LIFT),
-        (PLACE, [0.5, 0.0, 0.02], LIFT),
-        (DONE, [0.5, -0.2, 0.02], DONE),
-        (DONE, [0.5, -0.1, 0.02], LIFT),
+        (LIFT, [0.5, 0.1, 0.02], False, LIFT),
+        (LIFT, [0.5, 0.1, 0.15], True, MOVE),
+        (MOVE, [0.5, 0.1, 0.15], True, MOVE),
+        (MOVE, [0.5, -0.19, 0.15], True, PLACE),
+        (PLACE, [0.5, -0.19, 0.08], True, PLACE),
+        (PLACE, [0.5, -0.2, 0.025], True, DONE),
+        (PLACE, [0.5, -0.2, 0.025], False, DONE),  # let go right on the goal
+        (MOVE, [0.5, 0.1, 0.15], False, MOVE),  # loose in the air: decided once it lands
+        (MOVE, [0.5, 0.1, 0.02], True, LIFT),  # on the table far from the goal, even if "held"
+        (MOVE, [0.5, -0.2, 0.02], False, LIFT),  # dropped next to the goal
+        (PLACE, [0.5, -0.18, 0.02], False, LIFT),  # dropped short of the goal while lowered
+        (DONE, [0.5, -0.2, 0.02], False, DONE),
+        (DONE, [0.5, -0.1, 0.02], False, LIFT),
     ],
 )
-def test_phase_follows_the_object(phase: int, obj: list[float], expected: int) -> None:
+def test_phase_follows_the_object_and_the_grasp(phase: int, obj: list[float], held: bool, expected: int) -> None:
     task = FR3Pick()
     goal = np.array([0.5, -0.2, task.rest_height])
-    assert task.next_phase(phase, np.array(obj), goal, 0.15) == expected
+    assert task.next_phase(phase, np.array(obj), goal, 0.15, held) == expected
+
+
+def test_object_counts_as_held_only_between_fingers_it_holds_apart() -> None:
+    task = FR3Pick()
+    obj = np.array([0.5, 0.1, 0.17])
+    assert task.holds_object(obj + [0.0, 0.0, 0.01], obj, 0.02)
+    assert not task.holds_object(obj + [0.0, 0.0, 0.01], obj, 0.005)  # fingers shut: nothing between them
+    assert not task.holds_object(obj + [0.0, 0.05, 0.0], obj, 0.02)  # beside the object
+
+
+def put_object_in_the_gripper(task: FR3Pick, opening: float) -> None:
+    """Move the plant's cube to its gripper centre with the fingers `opening` (m) apart, sensors updated."""
+    mujoco.mj_forward(task.sim_model, task.data)
+    tcp = task.data.sensordata[task._tcp : task._tcp + 3].copy()
+    task.data.qpos[task._object_qpos : task._object_qpos + 3] = tcp
+    task.data.qpos[task._finger_qpos : task._finger_qpos + 2] = opening
+    mujoco.mj_forward(task.sim_model, task.data)
+
+
+def test_plant_goes_back_to_lift_when_the_object_lies_loose_on_the_table() -> None:
+    task = FR3Pick()
+    put_object_in_the_gripper(task, 0.02)
+    task.phase = MOVE
+    task.pre_sim_step()
+    assert task.phase == MOVE  # carried
+    goal = task.data.mocap_pos[0]
+    short_of_goal = [goal[0] + 2.0 * task.place_radius, goal[1], task.rest_height]  # near: the old rule missed it
+    task.data.qpos[task._object_qpos : task._object_qpos + 3] = short_of_goal
+    task.data.qpos[task._finger_qpos : task._finger_qpos + 2] = 0.003  # fingers closed on nothing
+    mujoco.mj_forward(task.sim_model, task.data)
+    task.phase = PLACE
+    task.pre_sim_step()
+    assert task.phase == LIFT and task.get_sim_metadata() == {"phase": LIFT}
 
 
 def test_plant_advances_its_phase_and_publishes_it() -> None:

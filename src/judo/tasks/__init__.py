@@ -112,6 +112,10 @@ set_config_overrides("leap_cube", OptimizerConfig, {"num_rollouts": 32, "num_nod
 set_config_overrides("leap_cube", PredictiveSamplingConfig, {"sigma": 0.2})
 set_config_overrides("leap_cube", MPPIConfig, {"sigma": 0.2, "temperature": 0.1})
 set_config_overrides("leap_cube", CEMConfig, {"sigma_min": 0.15, "sigma_max": 0.5, "num_elites": 4})
+# DIAL, CMA-ES and iCEM turn the cube well at their own defaults' noise scale (0.3 rad, like CEM's here); pinned.
+set_config_overrides("leap_cube", DialConfig, {"sigma": 0.3, "temperature": 0.01})
+set_config_overrides("leap_cube", CMAESConfig, {"sigma": 0.3, "sigma_min": 0.1, "sigma_max": 0.5})
+set_config_overrides("leap_cube", ICEMConfig, {"sigma_min": 0.15, "sigma_max": 0.5, "num_elites": 4})
 
 register_task("leap_cube_down", LeapCubeDown, LeapCubeDownConfig)
 set_config_overrides(
@@ -132,8 +136,14 @@ register_task("fr3_pick", FR3Pick, FR3PickConfig)
 set_config_overrides("fr3_pick", ControllerConfig, {"horizon": 1.0, "spline_order": "linear", "control_freq": 20.0})
 set_config_overrides("fr3_pick", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4, "use_noise_ramp": True})
 set_config_overrides("fr3_pick", PredictiveSamplingConfig, {"sigma": 0.02})
-set_config_overrides("fr3_pick", MPPIConfig, {"sigma": 0.03, "temperature": 0.01})
+# MPPI's weighted mean moves less than its samples: wider noise and a sharper softmax than ps's sigma.
+set_config_overrides("fr3_pick", MPPIConfig, {"sigma": 0.05, "temperature": 0.005})
 set_config_overrides("fr3_pick", CEMConfig, {"sigma_min": 0.01, "sigma_max": 0.1, "num_elites": 8})
+# Joint targets need centimetre precision: noise of a few hundredths of a radian, as for the others above
+# (their defaults are sized for 0.1-0.5 rad of noise).
+set_config_overrides("fr3_pick", DialConfig, {"sigma": 0.05, "temperature": 0.01})
+set_config_overrides("fr3_pick", CMAESConfig, {"sigma": 0.05, "sigma_min": 0.01, "sigma_max": 0.1})
+set_config_overrides("fr3_pick", ICEMConfig, {"sigma_min": 0.01, "sigma_max": 0.1, "num_elites": 8})
 # --- end of robot tasks. ---
 
 __all__ = ["Cartpole", "CartpoleConfig", "CylinderPush", "CylinderPushConfig", "register_task"]

@@ -71,6 +71,11 @@ class FR3Pick(Task[FR3PickConfig]):
     """Height (m) above the object from which the gripper comes down onto it."""
     near_object: ClassVar[float] = 0.02
     """Length scale (m) of the gripper-object distance at which the gripper should close."""
+    hold_radius: ClassVar[float] = 0.035
+    """Largest gripper-object distance (m) at which a carried object still counts as held."""
+    min_hold_opening: ClassVar[float] = 0.015
+    """Smallest finger opening (m, per finger) with the 2 cm half-wide cube between the fingers; fingers
+    closed further hold nothing."""
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
@@ -105,7 +110,9 @@ class FR3Pick(Task[FR3PickConfig]):
         tcp = sensors[..., self._tcp : self._tcp + 3]
         obj = sensors[..., self._object : self._object + 3]
         goal = sensors[..., self._goal : self._goal + 3]
-        opening = states[..., self._finger_qpos] / self.max_opening  # 0 closed .. 1 open
+        # 0 closed .. 1 open. Clipped: fingers pressed onto the table can be forced past their range, and
+        # that must not pay more than fully open (the planner would learn to jam them to "let go").
+        opening = np.clip(states[..., self._finger_qpos] / self.max_opening, 0.0, 1.0)
         reach = np.linalg.norm(tcp - obj, axis=-1)
         height_error = np.abs(obj[..., 2] - (self.rest_height + config.lift_height))
         # Upright: the gripper points down (1 + z of its axis) and its fingers close square to the cube's
@@ -161,20 +168,27 @@ class FR3Pick(Task[FR3PickConfig]):
         """(2,) a random x, y in the arm's workspace on the table, from `self.rng`."""
         return self.rng.uniform([0.4, -0.25], [0.6, 0.25])
 
-    def next_phase(self, phase: int, obj: np.ndarray, goal: np.ndarray, lift_height: float) -> int:
-        """The phase that follows `phase` given the object's and goal's (3,) positions."""
+    def holds_object(self, tcp: np.ndarray, obj: np.ndarray, opening: float) -> bool:
+        """Whether the gripper centre `tcp` (3,) is next to the object `obj` (3,) with the fingers held apart
+        by it (`opening` in m per finger), i.e. the object is between the fingers."""
+        return float(np.linalg.norm(tcp - obj)) < self.hold_radius and opening > self.min_hold_opening
+
+    def next_phase(self, phase: int, obj: np.ndarray, goal: np.ndarray, lift_height: float, held: bool) -> int:
+        """The phase that follows `phase` given the object's and goal's (3,) positions and whether the
+        gripper holds the object (`holds_object`). A loose object in the air is left to land first: the
+        grasp test is noisy while the fingers close or the arm swings, and a false "dropped" costs a regrasp."""
         lifted = obj[2] - self.rest_height > self.lift_fraction * lift_height
         on_table = obj[2] - self.rest_height < 0.01
         horizontal = float(np.linalg.norm(obj[:2] - goal[:2]))
         distance = float(np.linalg.norm(obj - goal))
         if phase == LIFT and lifted:
             return MOVE
-        if phase == MOVE and horizontal < self.place_radius:
-            return PLACE
         if phase == PLACE and distance < self.placed_radius:
             return DONE
-        if phase in (MOVE, PLACE) and on_table and horizontal > 2.5 * self.place_radius:
-            return LIFT  # dropped on the way
+        if phase in (MOVE, PLACE) and on_table and (not held or horizontal > 2.5 * self.place_radius):
+            return LIFT  # dropped on the way, or lying loose under the gripper: open up and grasp it again
+        if phase == MOVE and horizontal < self.place_radius:
+            return PLACE
         if phase == DONE and distance > 2.5 * self.placed_radius:
             return LIFT  # knocked off the goal
         return phase
@@ -182,7 +196,9 @@ class FR3Pick(Task[FR3PickConfig]):
     def pre_sim_step(self) -> None:
         """Advance the phase from the object's state; note when the object was first placed."""
         obj = self.data.qpos[self._object_qpos : self._object_qpos + 3]
-        self.phase = self.next_phase(self.phase, obj, self.data.mocap_pos[0], self.config.lift_height)
+        tcp = self.data.sensordata[self._tcp : self._tcp + 3]
+        held = self.holds_object(tcp, obj, float(self.data.qpos[self._finger_qpos]))
+        self.phase = self.next_phase(self.phase, obj, self.data.mocap_pos[0], self.config.lift_height, held)
         self.max_phase = max(self.max_phase, self.phase)
         if self.phase == DONE and np.isnan(self.time_placed):
             self.time_placed = float(self.data.time)
