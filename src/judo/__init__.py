@@ -13,7 +13,7 @@ from judo.core.config_file import ConfigFileError, LoadedConfig, load_config
 from judo.core.controller import Controller, ControllerConfig, NonFiniteRewardError
 from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
 from judo.core.fields import np_1d_field, slider
-from judo.core.norms import quadratic_norm, smooth_l1_norm
+from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.registry import (
     get_registered_optimizers,
@@ -58,4 +58,5 @@ __all__ = [
     "set_config_overrides",
     "slider",
     "smooth_l1_norm",
+    "wrap_angle",
 ]

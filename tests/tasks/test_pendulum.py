@@ -4,7 +4,8 @@ import pytest
 import judo
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import make_plant_task, run_episode
-from judo.tasks.pendulum import Pendulum, PendulumConfig, wrap_angle
+from judo.core.norms import wrap_angle
+from judo.tasks.pendulum import Pendulum, PendulumConfig
 
 
 def test_model_compiles_with_a_normalised_torque_and_a_tip_trace() -> None:

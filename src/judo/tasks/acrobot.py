@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 
 from judo.core.fields import slider
-from judo.core.norms import quadratic_norm, smooth_l1_norm
+from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "acrobot.xml"
@@ -154,7 +154,7 @@ class Acrobot(Task[AcrobotConfig]):
         """(...) balance cost of (..., 4) states: the LQR cost-to-go x^T P x around upright (angles wrapped
         to [-pi, pi)), divided by BALANCE_SATURATION and capped at 1."""
         x = states[..., :4].copy()
-        x[..., :2] = np.mod(x[..., :2] + np.pi, 2 * np.pi) - np.pi
+        x[..., :2] = wrap_angle(x[..., :2])
         cost_to_go = np.einsum("...i,ij,...j->...", x, self.balance_matrix, x)
         return np.minimum(cost_to_go / BALANCE_SATURATION, 1.0)
 

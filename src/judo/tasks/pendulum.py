@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 
 from judo.core.fields import slider
-from judo.core.norms import quadratic_norm, smooth_l1_norm
+from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "pendulum.xml"
@@ -31,11 +31,6 @@ class PendulumConfig(TaskConfig):
     """Weight on a slow pole; too much of it stops the pumping that the swing-up needs."""
     w_control: float = 0.01
     """Weight on small torques."""
-
-
-def wrap_angle(angle: np.ndarray) -> np.ndarray:
-    """Angles mapped into [-pi, pi), same shape."""
-    return np.mod(angle + np.pi, 2.0 * np.pi) - np.pi
 
 
 class Pendulum(Task[PendulumConfig]):

@@ -8,9 +8,8 @@ import mujoco
 import numpy as np
 
 from judo.core.fields import slider
-from judo.core.norms import quadratic_norm, smooth_l1_norm
+from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.task import EpisodeLog, Task, TaskConfig
-from judo.tasks.pendulum import wrap_angle
 
 MODEL_PATH = Path(__file__).parent / "models" / "push_t.xml"
 POSITION_TOLERANCE = 0.02
