@@ -2,9 +2,9 @@ import numpy as np
 import pytest
 
 import judo
+from judo.core.norms import wrap_angle
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import make_plant_task, run_episode
-from judo.core.norms import wrap_angle
 from judo.tasks.pendulum import Pendulum, PendulumConfig
 
 
