@@ -5,8 +5,10 @@ floor and the closed-loop success metrics, as one markdown table per task.
     PYTHONPATH=src python benchmarks/task_suite.py --tasks acrobot --optimizers ps cem --seeds 2
     PYTHONPATH=src python benchmarks/task_suite.py --markdown results.md
 
-Timing is `python -m judo benchmark`'s: the median control update and the median raw rollout of the
-same N x T batch on the same pool, interleaved so both see the same load; "overhead" is their ratio.
+Timing is `python -m judo benchmark`'s: the median control update, and the rollout floor, the median
+raw rollout of the same N x T batch on the same pool (interleaved, so both see the same load) times the
+controller's max_opt_iters (an update rolls out one batch per iteration); "overhead" is their ratio.
+An optimizer that ends its cycle early (stop_cond) can score below 1.
 Quality is `python -m judo evaluate`'s: one episode per seed from the task's randomised start, no
 latency, each metric's mean ± 95% CI over seeds (the CI is n/a for one seed). Episodes last
 `--duration` seconds, or the task's entry in LONGER_EPISODES when that is longer.
@@ -49,8 +51,8 @@ def task_rows(task: str, optimizers: list[str], args: argparse.Namespace, progre
         summaries.pop("mean_reward", None)
         metric_names = metric_names or list(summaries)
         update_ms = float(np.median(timing.update_ms))
-        floor_ms = float(np.median(timing.raw_rollout_ms))
-        cells = [optimizer, f"{update_ms:.1f}", f"{floor_ms:.1f}", f"{timing.overhead_ratio():.2f}x"]
+        floor_ms = timing.max_opt_iters * float(np.median(timing.raw_rollout_ms))
+        cells = [optimizer, f"{update_ms:.1f}", f"{floor_ms:.1f}", f"{update_ms / floor_ms:.2f}x"]
         rows.append("| " + " | ".join(cells + [cell(summaries[name]) for name in metric_names]) + " |")
         progress.advance(progress.task_ids[0])
     header = ["optimizer", "update ms", "rollout floor ms", "overhead", *metric_names]
