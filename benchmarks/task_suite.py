@@ -51,7 +51,7 @@ def task_rows(task: str, optimizers: list[str], args: argparse.Namespace, progre
         summaries.pop("mean_reward", None)
         metric_names = metric_names or list(summaries)
         update_ms = float(np.median(timing.update_ms))
-        floor_ms = timing.max_opt_iters * float(np.median(timing.raw_rollout_ms))
+        floor_ms = timing.floor_ms()
         cells = [optimizer, f"{update_ms:.1f}", f"{floor_ms:.1f}", f"{update_ms / floor_ms:.2f}x"]
         rows.append("| " + " | ".join(cells + [cell(summaries[name]) for name in metric_names]) + " |")
         progress.advance(progress.task_ids[0])

@@ -1,10 +1,11 @@
 import json
 
+import numpy as np
 import pytest
 
 from judo.core.registry import get_registered_tasks
 from judo.evaluation.benchmark import main
-from judo.evaluation.timing import time_pair
+from judo.evaluation.timing import UpdateTiming, time_pair
 
 
 def test_benchmark_writes_one_row_per_pair(tmp_path, capsys):
@@ -67,3 +68,9 @@ def test_help_names_the_flags_and_the_choices(capsys):
     for flag in ("--tasks", "--optimizers", "--samples", "--num-workers", "--json"):
         assert flag in out
     assert "cartpole" in out and "mppi" in out
+
+
+def test_the_rollout_floor_counts_one_batch_per_iteration():
+    timing = UpdateTiming("t", "o", 8, 10, 1, 3, np.array([9.0, 9.0]), np.array([2.0, 4.0]))
+    assert timing.floor_ms() == 3 * 3.0
+    assert timing.overhead_ratio() == 3.0

@@ -49,6 +49,10 @@ class UpdateTiming:
         """Median update time over median raw rollout time (1.0 would be no overhead at one iteration)."""
         return float(np.median(self.update_ms) / np.median(self.raw_rollout_ms))
 
+    def floor_ms(self) -> float:
+        """The physics an update cannot avoid: the median raw rollout times max_opt_iters (one batch per iteration)."""
+        return self.max_opt_iters * float(np.median(self.raw_rollout_ms))
+
     def row(self) -> dict[str, Any]:
         """The JSON row of `python -m judo benchmark --json`."""
         return {
