@@ -13,6 +13,7 @@ from judo.core.config_file import ConfigFileError, LoadedConfig, load_config
 from judo.core.controller import Controller, ControllerConfig, NonFiniteRewardError
 from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
 from judo.core.fields import np_1d_field, slider
+from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.registry import (
@@ -47,9 +48,11 @@ __all__ = [
     "Task",
     "TaskConfig",
     "UnknownNameError",
+    "capped_cost_to_go",
     "get_registered_optimizers",
     "get_registered_tasks",
     "load_config",
+    "lqr_cost_to_go",
     "make_controller",
     "np_1d_field",
     "quadratic_norm",

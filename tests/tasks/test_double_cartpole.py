@@ -40,15 +40,39 @@ def test_reward_prefers_both_poles_up_over_one_over_none() -> None:
         rows(task, (0.0, np.pi, 0.0)),  # hanging
         rows(task, (2.0, 0.0, 0.0)),  # upright, off centre
         rows(task, (0.0, 0.0, 0.0), (1.0, 0.0, 0.0)),  # upright, cart moving
+        rows(task, (3.5, 0.0, 0.0)),  # upright, past the soft wall 1 m before the end of the rail
     ]
     states = np.concatenate([c[0] for c in cases])
     sensors = np.concatenate([c[1] for c in cases])
-    rewards = task.reward(states, sensors, np.zeros((6, 3, 1)), DoubleCartpoleConfig())
-    assert rewards.shape == (6,)
+    rewards = task.reward(states, sensors, np.zeros((7, 3, 1)), DoubleCartpoleConfig())
+    assert rewards.shape == (7,)
     assert rewards[0] == pytest.approx(0.0)
     assert rewards[1] == pytest.approx(0.0, abs=1e-9)
     assert rewards[0] > rewards[2] > rewards[3]
     assert rewards[0] > rewards[4] and rewards[0] > rewards[5]
+    assert rewards[4] > rewards[6]
+    without_wall = task.reward(states[6:], sensors[6:], np.zeros((1, 3, 1)), DoubleCartpoleConfig(w_rail_end=0.0))
+    assert without_wall[0] - rewards[6] == pytest.approx(100.0 * 0.5**2 * 3)
+
+
+def test_balance_cost_ranks_states_near_upright_and_saturates_far_away() -> None:
+    task = DoubleCartpole()
+    states = np.array(
+        [
+            [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],  # upright, centred, at rest
+            [0.5, 0.0, 0.0, 0.0, 0.0, 0.0],  # upright, 0.5 m off centre
+            [0.0, 0.1, 0.0, 0.0, 0.0, 0.0],  # both poles leaning 0.1 rad
+            [0.0, 0.05, 0.0, 0.0, 0.0, 0.0],  # leaning half as far
+            [0.0, np.pi, 0.0, 0.0, 0.0, 0.0],  # hanging
+            [0.0, 2 * np.pi + 0.1, 0.0, 0.0, 0.0, 0.0],  # leaning 0.1 rad one turn later
+        ]
+    )
+    cost = task.balance_cost(states)
+    assert cost[0] == 0.0
+    assert 0.0 < cost[1] < 1.0 and 0.0 < cost[2] < 1.0
+    assert cost[3] == pytest.approx(cost[2] / 4)  # quadratic near upright
+    assert cost[4] == 1.0
+    assert cost[5] == pytest.approx(cost[2])
 
 
 def test_reset_hangs_the_poles_down_at_random() -> None:
@@ -92,9 +116,10 @@ def test_metrics_flag_a_cart_that_reached_the_end_of_its_travel() -> None:
 
 
 @pytest.mark.slow
-def test_predictive_sampling_swings_both_poles_up() -> None:
+def test_predictive_sampling_swings_both_poles_up_without_reaching_the_rail_end() -> None:
     controller = judo.make_controller("double_cartpole", "ps", seed=0)
     plant = make_plant_task(controller, seed=0)
     log = run_episode(controller, plant, duration=3.0).log
     controller.close()
     assert plant.tip_error(log.states, log.sensors).min() < 0.3
+    assert plant.metrics(log)["hit_rail_end"] == 0.0

@@ -13,6 +13,7 @@ from judo.core.controller import ControllerConfig, check_configs
 from judo.core.fields import slider_ranges
 from judo.core.model import trace_sensor_columns
 from judo.core.registry import (
+    _OVERRIDES,
     get_registered_optimizers,
     get_registered_tasks,
     lookup_optimizer,
@@ -67,8 +68,9 @@ def test_every_reward_weight_has_a_slider(task_name):
 
 @pytest.mark.parametrize("optimizer", ["ps", "cem", "mppi"])
 def test_optimizer_defaults_are_tuned_per_task(task_name, optimizer):
+    # Registered, not merely different: a tuned value may equal the global default (double_cartpole's ps sigma).
     _, config_cls = lookup_optimizer(optimizer)
-    assert make_config(config_cls, task_name) != config_cls()
+    assert _OVERRIDES.get((task_name, config_cls)), f"{task_name} sets no {config_cls.__name__} overrides"
 
 
 def test_the_task_s_defaults_pass_the_controller_s_checks(task_name):

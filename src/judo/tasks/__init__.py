@@ -70,18 +70,17 @@ set_config_overrides("acrobot", CEMConfig, {"sigma_min": 0.1, "sigma_max": 0.8, 
 register_task("double_cartpole", DoubleCartpole, DoubleCartpoleConfig)
 # Two poles diverge from upright with a 0.14 s time constant: balancing them needs 50 Hz replanning with two
 # optimizer iterations per cycle, and a horizon short enough (0.8 s) that open-loop plans stay meaningful.
-# Not yet solved: a 0.8 s plan cannot see the manoeuvre that brings a balanced cart back to the centre, so in
-# some episodes the cart drifts to the end of its travel and the poles fall (metric hit_rail_end). Longer
-# horizons, a single iteration with 64-128 rollouts, 100 Hz, 6 knots and stronger cart terms all balanced worse.
+# Small noise (0.05): with 0.3 the poles stayed up but wobbled past the upright tolerance for a third of the
+# time; the swing-up still succeeds with 0.05 because the plan is carried from one cycle to the next.
 set_config_overrides(
     "double_cartpole",
     ControllerConfig,
     {"horizon": 0.8, "spline_order": "cubic", "control_freq": 50.0, "max_opt_iters": 2},
 )
 set_config_overrides("double_cartpole", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
-set_config_overrides("double_cartpole", PredictiveSamplingConfig, {"sigma": 0.3})
-set_config_overrides("double_cartpole", MPPIConfig, {"sigma": 0.3, "temperature": 0.1})
-set_config_overrides("double_cartpole", CEMConfig, {"sigma_min": 0.2, "sigma_max": 0.6, "num_elites": 2})
+set_config_overrides("double_cartpole", PredictiveSamplingConfig, {"sigma": 0.05})
+set_config_overrides("double_cartpole", MPPIConfig, {"sigma": 0.05, "temperature": 0.1})
+set_config_overrides("double_cartpole", CEMConfig, {"sigma_min": 0.05, "sigma_max": 0.6, "num_elites": 2})
 
 register_task("push_t", PushT, PushTConfig)
 set_config_overrides("push_t", ControllerConfig, {"horizon": 1.0, "spline_order": "linear"})

@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from judo.core.fields import slider
+from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
@@ -98,24 +99,6 @@ class AcrobotEnergy:
         return kinetic + self.g1 * np.cos(shoulder) + self.g2 * np.cos(shoulder + elbow)
 
 
-def upright_cost_to_go(model: mujoco.MjModel, state_weights: np.ndarray, control_weight: float) -> np.ndarray:
-    """(4, 4) matrix P of the infinite-horizon LQR cost-to-go x^T P x around resting straight up, for
-    per-step costs x^T diag(state_weights) x + control_weight u^2 on the model linearised there."""
-    data = mujoco.MjData(model)
-    mujoco.mj_forward(model, data)
-    a, b = np.zeros((4, 4)), np.zeros((4, model.nu))
-    mujoco.mjd_transitionFD(model, data, 1e-6, True, a, b, None, None)
-    q, r = np.diag(state_weights), np.array([[control_weight]])
-    p = q.copy()
-    for _ in range(100_000):
-        gain = np.linalg.solve(r + b.T @ p @ b, b.T @ p @ a)
-        updated = q + a.T @ p @ (a - b @ gain)
-        if np.allclose(updated, p, rtol=1e-10, atol=0.0):
-            break
-        p = updated
-    return 0.5 * (updated + updated.T)
-
-
 class Acrobot(Task[AcrobotConfig]):
     """State [shoulder, elbow angles (0, 0 = straight up), their velocities]; one control, the elbow
     torque (5 Nm at 1). The shoulder is unactuated."""
@@ -128,7 +111,7 @@ class Acrobot(Task[AcrobotConfig]):
         the previous evaluation, which in a rollout's first step belongs to an unrelated rollout."""
         self.upright_energy = self.energy.g1 + self.energy.g2
         """Energy (J) of the links resting straight up: the energy a swing-up aims for."""
-        self.balance_matrix = upright_cost_to_go(self.model, BALANCE_STATE_WEIGHTS, BALANCE_CONTROL_WEIGHT)
+        self.balance_matrix = lqr_cost_to_go(self.model, BALANCE_STATE_WEIGHTS, BALANCE_CONTROL_WEIGHT)
         """(4, 4) P of the LQR cost-to-go x^T P x around upright, behind `balance_cost`."""
         self.reset()
 
@@ -155,8 +138,7 @@ class Acrobot(Task[AcrobotConfig]):
         to [-pi, pi)), divided by BALANCE_SATURATION and capped at 1."""
         x = states[..., :4].copy()
         x[..., :2] = wrap_angle(x[..., :2])
-        cost_to_go = np.einsum("...i,ij,...j->...", x, self.balance_matrix, x)
-        return np.minimum(cost_to_go / BALANCE_SATURATION, 1.0)
+        return capped_cost_to_go(x, self.balance_matrix, BALANCE_SATURATION)
 
     def reset(self) -> None:
         """Both links hanging down within 0.2 rad, with small random velocities."""

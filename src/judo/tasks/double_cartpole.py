@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from judo.core.fields import slider
+from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
@@ -20,10 +21,21 @@ FINAL_WINDOW = 3.0
 """Seconds at the end of an episode over which `metrics` measures the upright fraction."""
 RAIL_END_MARGIN = 0.05
 """Distance (m) from the end of the cart's travel within which `metrics` counts the cart as at the rail's end."""
+SOFT_RAIL_MARGIN = 1.0
+"""Distance (m) from the end of the cart's travel at which the reward's soft wall (`w_rail_end`) begins."""
+BALANCE_STATE_WEIGHTS = np.array([1.0, 1.0, 1.0, 0.1, 0.1, 0.1])
+"""Per-step LQR weights on [cart x (m), lower, upper pole angle (rad), their velocities] behind the balance cost."""
+BALANCE_CONTROL_WEIGHT = 1.0
+"""Per-step LQR weight on the squared push behind the balance cost."""
+BALANCE_SATURATION = 1000.0
+"""LQR cost-to-go at which the balance cost saturates at 1: the cart 2.6 m off centre at rest upright, or both
+poles leaning 0.58 rad together with the cart centred; beyond it the linearisation says little."""
 
 
 @slider("w_upright", 0.0, 50.0, 0.1)
+@slider("w_balance", 0.0, 300.0, 1.0)
 @slider("w_centered", 0.0, 20.0, 0.1)
+@slider("w_rail_end", 0.0, 500.0, 1.0)
 @slider("w_cart_velocity", 0.0, 5.0, 0.01)
 @slider("w_velocity", 0.0, 1.0, 0.01)
 @slider("w_control", 0.0, 1.0, 0.01)
@@ -33,8 +45,15 @@ class DoubleCartpoleConfig(TaskConfig):
 
     w_upright: float = 10.0
     """Weight on both poles pointing up (a smooth |angle from vertical| of each pole, in rad)."""
+    w_balance: float = 100.0
+    """Weight on the balance cost (0 upright and centred at rest, 1 once past recovering). It ranks states near
+    the top by how hard they are to bring back, and it is what recentres a balanced cart: a 0.8 s horizon
+    cannot see that manoeuvre, which first pushes the cart further out so that the poles lean inwards."""
     w_centered: float = 5.0
     """Weight on the cart being at the rail's centre (m)."""
+    w_rail_end: float = 100.0
+    """Weight on the squared distance (m^2) of the cart past a soft wall 1 m before each end of its travel,
+    so that the swing-up does not run the cart into the end stop."""
     w_cart_velocity: float = 0.3
     """Weight on a slow cart (m/s), so the poles do not arrive at the top with the cart racing to the rail's end."""
     w_velocity: float = 0.01
@@ -51,6 +70,8 @@ class DoubleCartpole(Task[DoubleCartpoleConfig]):
         super().__init__(model_path, sim_model_path)
         self._tip_column = self.get_sensor_start_index("trace_tip")
         self._cart_travel = float(self.sim_model.jnt_range[self.sim_model.joint("slider").id, 1])
+        self.balance_matrix = lqr_cost_to_go(self.model, BALANCE_STATE_WEIGHTS, BALANCE_CONTROL_WEIGHT)
+        """(6, 6) P of the LQR cost-to-go x^T P x around upright and centred, behind `balance_cost`."""
         self.reset()
 
     def reward(
@@ -63,13 +84,23 @@ class DoubleCartpole(Task[DoubleCartpoleConfig]):
     ) -> np.ndarray:
         cart_x, lower, upper = states[..., 0], states[..., 1], states[..., 1] + states[..., 2]
         upright = smooth_l1_norm(wrap_angle(lower)[..., None], 0.1) + smooth_l1_norm(wrap_angle(upper)[..., None], 0.1)
+        past_wall = np.maximum(np.abs(cart_x) - (self._cart_travel - SOFT_RAIL_MARGIN), 0.0)
         return -(
             config.w_upright * upright.sum(-1)
+            + config.w_balance * self.balance_cost(states).sum(-1)
             + config.w_centered * smooth_l1_norm(cart_x[..., None], 0.1).sum(-1)
+            + config.w_rail_end * np.square(past_wall).sum(-1)
             + config.w_cart_velocity * quadratic_norm(states[..., 3:4]).sum(-1)
             + config.w_velocity * quadratic_norm(states[..., 3:6]).sum(-1)
             + config.w_control * quadratic_norm(controls).sum(-1)
         )
+
+    def balance_cost(self, states: np.ndarray) -> np.ndarray:
+        """(...) balance cost of (..., 6) states: the LQR cost-to-go x^T P x around upright and centred (pole
+        angles wrapped to [-pi, pi)), divided by BALANCE_SATURATION and capped at 1."""
+        x = states[..., :6].copy()
+        x[..., 1:3] = wrap_angle(x[..., 1:3])
+        return capped_cost_to_go(x, self.balance_matrix, BALANCE_SATURATION)
 
     def reset(self) -> None:
         """Both poles hanging down within 0.2 rad, cart near the centre, small random velocities."""
