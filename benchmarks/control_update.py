@@ -1,4 +1,4 @@
-"""Median control-update time of every task x optimizer against the raw rollout of the same N x T steps.
+"""Median control-update time of every task x optimizer against its floor: the raw rollouts of the same work.
 
 All pairs at the same sizes (N = 32 rollouts, 4 knots, 1 s horizon) so rows compare; the other
 settings are each task's defaults. Run from the repository root:
@@ -35,9 +35,9 @@ class Args:
 def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     table = Table(
-        title=f"control update vs raw rollout, N={args.num_rollouts}, {args.num_nodes} knots, {args.horizon:g} s"
+        title=f"control update vs rollout floor, N={args.num_rollouts}, {args.num_nodes} knots, {args.horizon:g} s"
     )
-    for column in ("task", "optimizer", "N x T", "workers", "update median (ms)", "raw rollout (ms)", "ratio"):
+    for column in ("task", "optimizer", "N x T", "workers", "update median (ms)", "rollout floor (ms)", "ratio"):
         table.add_column(column, justify="left" if column in ("task", "optimizer") else "right")
     for task in get_registered_tasks():
         for optimizer in get_registered_optimizers():
@@ -57,7 +57,7 @@ def main() -> None:
                 f"{row['num_rollouts']} x {row['T']}",
                 str(row["num_workers"]),
                 f"{row['median_ms']:.2f}",
-                f"{row['raw_rollout_ms']:.2f}",
+                f"{row['floor_ms']:.2f}",
                 f"{row['overhead_ratio']:.2f}x",
             )
     Console(width=120).print(table)

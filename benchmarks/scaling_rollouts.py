@@ -31,7 +31,7 @@ class Args:
 def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     table = Table(title=f"{args.task} x {args.optimizer}: control update vs number of rollouts")
-    for column in ("N x T", "update median (ms)", "raw rollout (ms)", "ratio", "update per rollout step (us)"):
+    for column in ("N x T", "update median (ms)", "rollout floor (ms)", "ratio", "update per rollout step (us)"):
         table.add_column(column, justify="right")
     for num_rollouts in args.num_rollouts:
         row = time_pair(
@@ -40,7 +40,7 @@ def main() -> None:
         table.add_row(
             f"{row['num_rollouts']} x {row['T']}",
             f"{row['median_ms']:.2f}",
-            f"{row['raw_rollout_ms']:.2f}",
+            f"{row['floor_ms']:.2f}",
             f"{row['overhead_ratio']:.2f}x",
             f"{1e3 * row['median_ms'] / (row['num_rollouts'] * row['T']):.2f}",
         )

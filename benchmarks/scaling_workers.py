@@ -32,7 +32,7 @@ class Args:
 def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     table = Table(title=f"{args.task} x {args.optimizer}: control update vs rollout workers, N={args.num_rollouts}")
-    for column in ("workers", "update median (ms)", "raw rollout (ms)", "ratio", "speed-up vs 1 worker"):
+    for column in ("workers", "update median (ms)", "rollout floor (ms)", "ratio", "speed-up vs 1 worker"):
         table.add_column(column, justify="right")
     single = None
     for workers in range(1, args.max_workers + 1):
@@ -43,7 +43,7 @@ def main() -> None:
         table.add_row(
             str(workers),
             f"{row['median_ms']:.2f}",
-            f"{row['raw_rollout_ms']:.2f}",
+            f"{row['floor_ms']:.2f}",
             f"{row['overhead_ratio']:.2f}x",
             f"{single / row['median_ms']:.2f}x",
         )

@@ -73,4 +73,5 @@ def test_help_names_the_flags_and_the_choices(capsys):
 def test_the_rollout_floor_counts_one_batch_per_iteration():
     timing = UpdateTiming("t", "o", 8, 10, 1, 3, np.array([9.0, 9.0]), np.array([2.0, 4.0]))
     assert timing.floor_ms() == 3 * 3.0
-    assert timing.overhead_ratio() == 3.0
+    assert timing.overhead_ratio() == 9.0 / 9.0  # the update against the same work: three raw rollouts
+    assert timing.row()["floor_ms"] == 9.0

@@ -65,7 +65,8 @@ class BenchmarkArgs:
 
 
 def timing_table(task: str, timings: list[UpdateTiming]) -> Table:
-    """One row per optimizer: update-time statistics (ms), the raw rollout floor and the overhead ratio."""
+    """One row per optimizer: update-time statistics (ms), the raw rollout, the floor (raw rollout x iterations)
+    and the overhead ratio (median update / floor)."""
     table = Table(title=f"{task}: control update time (ms), {timings[0].num_workers} rollout workers")
     table.add_column("optimizer")
     table.add_column("N x T", justify="right")
@@ -73,6 +74,8 @@ def timing_table(task: str, timings: list[UpdateTiming]) -> Table:
     table.add_column("median (IQR)", justify="right")
     table.add_column("min / max", justify="right")
     table.add_column("raw rollout", justify="right")
+    table.add_column("iters", justify="right")
+    table.add_column("floor", justify="right")
     table.add_column("overhead", justify="right")
     for timing in timings:
         ms = timing.update_ms
@@ -84,6 +87,8 @@ def timing_table(task: str, timings: list[UpdateTiming]) -> Table:
             f"{np.median(ms):.2f} ({q25:.2f}-{q75:.2f})",
             f"{ms.min():.2f} / {ms.max():.2f}",
             f"{np.median(timing.raw_rollout_ms):.2f}",
+            str(timing.max_opt_iters),
+            f"{timing.floor_ms():.2f}",
             f"{timing.overhead_ratio():.2f}x",
         )
     return table
