@@ -125,6 +125,21 @@ def test_move_place_and_done_rewards_point_at_the_goal() -> None:
     assert done[0] == pytest.approx(0.0, abs=1e-9)
 
 
+def test_done_reward_charges_joint_targets_pressed_away_from_the_joints() -> None:
+    task = FR3Pick()
+    goal = np.array([0.5, -0.2, 0.02])
+    sensors = np.tile(phase_sensors(task, goal, goal, goal), (2, 3, 1))
+    states = np.zeros((2, 3, task.model.nq + task.model.nv))
+    states[..., task._finger_qpos] = task.max_opening
+    controls = np.zeros((2, 3, task.nu))
+    controls[..., task.model.actuator("gripper").id] = 1.0
+    controls[1, :, :7] = states[1, :, task._arm_qpos].T - 0.1  # every target 0.1 rad below its joint
+    on_target, pressing = task.reward(states, sensors, controls, task.config, {"phase": DONE})
+    assert on_target - pressing == pytest.approx(task.config.w_press * 7 * 0.1)
+    before_release = task.reward(states, sensors, controls, task.config, {"phase": PLACE})
+    assert before_release[0] == pytest.approx(before_release[1])  # only once the cube is placed
+
+
 def test_fingers_forced_past_fully_open_score_as_fully_open() -> None:
     task = FR3Pick()
     goal = np.array([0.5, -0.2, 0.02])

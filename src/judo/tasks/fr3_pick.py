@@ -27,6 +27,7 @@ ARM_JOINTS = tuple(f"joint{i}" for i in range(1, 8))
 @slider("w_grip", 0.0, 10.0, 0.01)
 @slider("w_release", 0.0, 10.0, 0.01)
 @slider("w_upright", 0.0, 10.0, 0.01)
+@slider("w_press", 0.0, 10.0, 0.01)
 @slider("lift_height", 0.05, 0.4, 0.01)
 @dataclass
 class FR3PickConfig(TaskConfig):
@@ -47,6 +48,11 @@ class FR3PickConfig(TaskConfig):
     w_upright: float = 1.0
     """Weight on the gripper pointing straight down (1 + z of its axis, 0..2) with its fingers closing
     square to the cube's faces (sin^2 of twice the yaw error, 0..1)."""
+    w_press: float = 2.0
+    """Weight on the gap (rad, summed over the arm's joints) between the joint targets and the joint angles
+    (done). Gravity is compensated, so a lasting gap means the arm presses on something: without this term
+    the targets of a hand resting on the table after the release creep below it, no small change of them
+    lifts the hand, and the open fingers slowly push the cube off the goal."""
     lift_height: float = 0.15
     """How high (m) above its resting height the object is carried."""
 
@@ -142,11 +148,13 @@ class FR3Pick(Task[FR3PickConfig]):
             cost += config.w_carry * np.linalg.norm(obj - goal, axis=-1)
         else:
             # Let go, then back off: the pull to a point `lift_height` above the cube grows as the gripper
-            # opens, and `w_release` outweighs it, so the gripper opens before it rises.
+            # opens, and `w_release` outweighs it, so the gripper opens before it rises. The press term keeps
+            # the joint targets near the joints, so that rising is a small change of plan.
             above = obj + np.array([0.0, 0.0, config.lift_height])
             cost += config.w_release * (1.0 - opening)
             cost += config.w_reach * opening * np.linalg.norm(tcp - above, axis=-1)
             cost += config.w_carry * np.linalg.norm(obj - goal, axis=-1)
+            cost += config.w_press * np.abs(controls[..., :7] - states[..., self._arm_qpos]).sum(-1)
         return -cost.mean(-1)
 
     def reset(self) -> None:
