@@ -59,7 +59,8 @@ def test_reset_configs_refreshes_the_widgets(app, wait_until):
     wait_until(lambda: app.gui.panels["controller"].value_of("horizon") == 2.0, what="the widget to show 2.0")
     app.reset_configs()
     wait_until(lambda: app.gui.panels["controller"].value_of("horizon") == 1.0, what="the widget to show 1.0")
-    assert "configs reset to the defaults" in app.gui.controls.status.content
+    # The status line is set just after the configs, so a GUI frame may fall in between: wait for it too.
+    wait_until(lambda: "configs reset to the defaults" in app.gui.controls.status.content, what="the status line")
 
 
 def test_an_optimizer_switch_keeps_the_scene_and_a_task_switch_replaces_it(app, wait_until):
