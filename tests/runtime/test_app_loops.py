@@ -93,12 +93,17 @@ def test_config_edit_reaches_the_controller_at_the_next_cycle(wait_until):
     try:
         app.update_config("controller", {"horizon": 0.5})
         app.update_config("optimizer", {"sigma": 0.4})
-        wait_until(lambda: app.controller.config.horizon == 0.5, what="the horizon edit")
-        assert app.controller.optimizer.config.sigma == 0.4
+        # One cycle applies the controller config, then the optimizer's: wait for both, not the first alone.
+        wait_until(
+            lambda: app.controller.config.horizon == 0.5 and app.controller.optimizer.config.sigma == 0.4,
+            what="the horizon and sigma edits",
+        )
         wait_until(lambda: latest_plan_steps(app) == 50, what="a plan over 50 steps")
         app.reset_configs()
-        wait_until(lambda: app.controller.config.horizon == 1.0, what="the default horizon of cartpole")
-        assert app.controller.optimizer.config.sigma == 0.3
+        wait_until(
+            lambda: app.controller.config.horizon == 1.0 and app.controller.optimizer.config.sigma == 0.3,
+            what="cartpole's default horizon and sigma",
+        )
     finally:
         app.stop()
 
