@@ -84,7 +84,9 @@ set_config_overrides(
 set_config_overrides("double_cartpole", OptimizerConfig, {"num_rollouts": 32, "num_nodes": 4})
 set_config_overrides("double_cartpole", PredictiveSamplingConfig, {"sigma": 0.05})
 set_config_overrides("double_cartpole", MPPIConfig, {"sigma": 0.05, "temperature": 0.1})
-set_config_overrides("double_cartpole", CEMConfig, {"sigma_min": 0.05, "sigma_max": 0.6, "num_elites": 2})
+# CEM (10 seeds x 30 s): upright 0.91 with sigma_min 0.05 / sigma_max 0.6, 1.0 in all 10 with 0.03 / 0.3.
+# 0.02 is too little: one seed in five never swings up.
+set_config_overrides("double_cartpole", CEMConfig, {"sigma_min": 0.03, "sigma_max": 0.3, "num_elites": 2})
 # The others with small noise too (3 seeds x 20 s, upright with their defaults -> with these): dial 0.77 -> 1.0,
 # cmaes 0.63 -> 1.0, icem 0.83 -> 0.98.
 set_config_overrides("double_cartpole", DialConfig, {"sigma": 0.05})
