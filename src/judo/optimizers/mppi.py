@@ -18,7 +18,8 @@ class MPPIConfig(OptimizerConfig):
     sigma: float = 0.05
     """Std of the Gaussian noise added to every knot, in control units."""
     temperature: float = 0.1
-    """Softmax temperature on rewards: small follows the best sample, large averages them all."""
+    """Softmax temperature on rewards: small follows the best sample, large averages them all. It is in the
+    task's reward units, so size it to how much the rewards of a cycle's samples differ (leap_cube: 0.001)."""
 
     def validate(self) -> None:
         super().validate()
