@@ -62,3 +62,11 @@ def test_capped_cost_is_zero_at_rest_quadratic_near_it_and_saturates_at_one() ->
     cost = capped_cost_to_go(deviations, matrix, saturation=10.0)
     assert cost.shape == (1, 4)
     np.testing.assert_allclose(cost, [[0.0, 0.2, 0.8, 1.0]])
+
+
+def test_capped_cost_wraps_the_angle_columns_only() -> None:
+    matrix = np.diag([2.0, 1.0])
+    turned = np.array([2 * np.pi + 1.0, 0.0])
+    assert capped_cost_to_go(turned, matrix, saturation=10.0, angle_columns=[0]) == pytest.approx(0.2)
+    assert capped_cost_to_go(turned, matrix, saturation=10.0) == 1.0  # unwrapped: far from rest
+    assert turned[0] == 2 * np.pi + 1.0  # the caller's array is left as it was

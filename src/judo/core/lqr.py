@@ -6,8 +6,12 @@ states near the top by exactly that. Far from the top the linearisation means no
 `capped_cost_to_go` saturates it at 1.
 """
 
+from collections.abc import Sequence
+
 import mujoco
 import numpy as np
+
+from judo.core.norms import wrap_angle
 
 MAX_RICCATI_ITERATIONS = 100_000
 
@@ -50,10 +54,16 @@ def lqr_cost_to_go(model: mujoco.MjModel, state_weights: np.ndarray, control_wei
     )
 
 
-def capped_cost_to_go(deviations: np.ndarray, matrix: np.ndarray, saturation: float) -> np.ndarray:
+def capped_cost_to_go(
+    deviations: np.ndarray, matrix: np.ndarray, saturation: float, angle_columns: Sequence[int] = ()
+) -> np.ndarray:
     """(...) cost x^T P x / saturation, capped at 1, of (..., n) state deviations x with (n, n) P = `matrix`.
 
     0 at the rest pose; 1 for every state whose cost-to-go exceeds `saturation`, which should sit near the
-    largest cost-to-go the real (saturating) actuators still recover from.
+    largest cost-to-go the real (saturating) actuators still recover from. The `angle_columns` of x belong to
+    joints that turn freely: they are wrapped to [-pi, pi) first, so a full turn counts as no deviation.
     """
+    if len(angle_columns):
+        deviations = deviations.copy()
+        deviations[..., angle_columns] = wrap_angle(deviations[..., angle_columns])
     return np.minimum(np.einsum("...i,ij,...j->...", deviations, matrix, deviations) / saturation, 1.0)

@@ -9,7 +9,7 @@ import numpy as np
 
 from judo.core.fields import slider
 from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
-from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
+from judo.core.norms import quadratic_norm, smooth_l1_norm
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "acrobot.xml"
@@ -136,9 +136,7 @@ class Acrobot(Task[AcrobotConfig]):
     def balance_cost(self, states: np.ndarray) -> np.ndarray:
         """(...) balance cost of (..., 4) states: the LQR cost-to-go x^T P x around upright (angles wrapped
         to [-pi, pi)), divided by BALANCE_SATURATION and capped at 1."""
-        x = states[..., :4].copy()
-        x[..., :2] = wrap_angle(x[..., :2])
-        return capped_cost_to_go(x, self.balance_matrix, BALANCE_SATURATION)
+        return capped_cost_to_go(states[..., :4], self.balance_matrix, BALANCE_SATURATION, angle_columns=[0, 1])
 
     def reset(self) -> None:
         """Both links hanging down within 0.2 rad, with small random velocities."""

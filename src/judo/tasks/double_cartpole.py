@@ -98,9 +98,7 @@ class DoubleCartpole(Task[DoubleCartpoleConfig]):
     def balance_cost(self, states: np.ndarray) -> np.ndarray:
         """(...) balance cost of (..., 6) states: the LQR cost-to-go x^T P x around upright and centred (pole
         angles wrapped to [-pi, pi)), divided by BALANCE_SATURATION and capped at 1."""
-        x = states[..., :6].copy()
-        x[..., 1:3] = wrap_angle(x[..., 1:3])
-        return capped_cost_to_go(x, self.balance_matrix, BALANCE_SATURATION)
+        return capped_cost_to_go(states[..., :6], self.balance_matrix, BALANCE_SATURATION, angle_columns=[1, 2])
 
     def reset(self) -> None:
         """Both poles hanging down within 0.2 rad, cart near the centre, small random velocities."""
