@@ -4,8 +4,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from judo.core.errors import MissingExtraError, UnknownNameError, import_extra
 from judo.core.model import STATE_SPEC
-from judo.core.rollout import RolloutPool
+from judo.core.rollout import RolloutPool, make_rollout_backend
 
 
 def sequential_rollouts(model, initial_state, controls):
@@ -53,3 +54,18 @@ def test_pool_reallocates_when_the_batch_shape_changes(tiny_model_path):
     pool.close()
     assert first.shape == (4, 10, initial_state.size) and second.shape == (6, 5, initial_state.size)
     assert pool.num_workers == 2
+
+
+def test_unknown_backend_name_lists_the_valid_ones(tiny_model_path):
+    model = mujoco.MjModel.from_xml_path(str(tiny_model_path))
+    with pytest.raises(UnknownNameError, match="unknown rollout backend 'gpu'; valid rollout backends are: cpu"):
+        make_rollout_backend("gpu", model)
+
+
+def test_missing_extra_names_the_extra_to_install():
+    with pytest.raises(MissingExtraError) as caught:
+        import_extra("judo_no_such_module", "the feature", "warp")
+    assert str(caught.value) == (
+        "the feature needs the optional extra judo[warp], which is not installed (no module 'judo_no_such_module'); "
+        'install it with: pip install "judo[warp]"'
+    )

@@ -144,7 +144,7 @@ def test_switching_optimizer_mid_run_keeps_the_plant_and_the_tuned_configs(wait_
         assert new.system is old.system and new.generation == old.generation + 1
         assert type(new.controller.optimizer).__name__ == "CEM"
         assert new.controller.config.horizon == 0.3  # the tuned controller config carried over
-        assert old.controller.pool._executor._shutdown  # the old rollout threads were stopped
+        assert old.controller.backend._executor._shutdown  # the old rollout threads were stopped
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 2, what="plans from cem")
         assert app.buffer.latest("plan").value.generation == new.generation

@@ -11,7 +11,7 @@ from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import slider
 from judo.core.model import STATE_SPEC, trace_sensor_columns
 from judo.core.optimizer import Optimizer, OptimizerConfig
-from judo.core.rollout import RolloutPool
+from judo.core.rollout import make_rollout_backend
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis, SplineOrder
 from judo.core.task import Task
 
@@ -64,6 +64,7 @@ class Controller:
 
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
+        backend: the RolloutBackend every rollout runs on ("cpu": `RolloutPool`, a thread pool).
         nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update.
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf).
         traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the "trace" framepos sensors
@@ -76,12 +77,13 @@ class Controller:
         task: Task,
         optimizer: Optimizer,
         num_workers: int | None = None,
+        backend: str = "cpu",
     ) -> None:
         check_configs(task, controller_config, optimizer.config)
         self.config = controller_config
         self.task = task
         self.optimizer = optimizer
-        self.pool = RolloutPool(task.model, num_workers)
+        self.backend = make_rollout_backend(backend, task.model, num_workers)
         self.nominal_knots: np.ndarray | None = None
         self.rewards = np.zeros(0)
         self.traces = np.zeros((0, 0, 0, 3))
@@ -168,7 +170,7 @@ class Controller:
                 )
             np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
             np.matmul(self._rollout_weights, knots, out=self._controls)
-            full_states, sensors = self.pool.rollout(self._initial_state, self._controls, self._initial_mocap)
+            full_states, sensors = self.backend.rollout(self._initial_state, self._controls, self._initial_mocap)
             states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
             rewards = np.asarray(
                 task.reward(states, sensors, self._controls, task_config, system_metadata), dtype=float
@@ -201,5 +203,5 @@ class Controller:
         return self._plan(time)
 
     def close(self) -> None:
-        """Stop the rollout threads."""
-        self.pool.close()
+        """Release the rollout backend's threads or device memory."""
+        self.backend.close()

@@ -25,3 +25,25 @@ class ConfigError(JudoError, ValueError):
 
 class ModelLoadError(JudoError):
     """A MuJoCo model that could not be read or compiled."""
+
+
+class MissingExtraError(JudoError, ImportError):
+    """A feature that needs an optional extra (`pip install "judo[EXTRA]"`) that is not installed."""
+
+    def __init__(self, feature: str, extra: str, missing: str) -> None:
+        self.feature, self.extra, self.missing = feature, extra, missing
+        super().__init__(
+            f"{feature} needs the optional extra judo[{extra}], which is not installed (no module {missing!r}); "
+            f'install it with: pip install "judo[{extra}]"'
+        )
+
+
+def import_extra(module: str, feature: str, extra: str):  # noqa: ANN201  (returns the module)
+    """Import `module` from an optional extra, or raise MissingExtraError naming the extra to install."""
+    import importlib
+
+    try:
+        return importlib.import_module(module)
+    except ImportError as err:
+        missing = err.name or module
+        raise MissingExtraError(feature, extra, missing) from err

@@ -1,5 +1,12 @@
-"""Parallel open-loop rollouts: one shared MjModel, one MjData per worker thread, one C call per chunk."""
+"""Rollout backends: the one call the Controller makes, from one initial state and per-step controls
+to per-step states and sensor values.
 
+`RolloutPool` is the CPU backend: one shared MjModel, one MjData per worker thread, one C call per
+chunk. Other backends (MuJoCo Warp on a GPU) implement the same `RolloutBackend` interface, so the
+Controller's loop stays written once.
+"""
+
+import abc
 import os
 from concurrent.futures import ThreadPoolExecutor
 
@@ -7,6 +14,7 @@ import mujoco
 import mujoco.rollout
 import numpy as np
 
+from judo.core.errors import UnknownNameError
 from judo.core.model import STATE_SPEC
 
 MOCAP_CONTROL_SPEC = (
@@ -16,7 +24,39 @@ MOCAP_CONTROL_SPEC = (
 rollout resets mocap poses to the model's defaults unless they are passed as inputs like this."""
 
 
-class RolloutPool:
+class RolloutBackend(abc.ABC):
+    """Rolls out a batch of control sequences from one initial state.
+
+    Attributes:
+        model: the planning model every rollout runs on.
+        num_workers: host threads the backend rolls out on (1 for a GPU backend).
+    """
+
+    model: mujoco.MjModel
+    num_workers: int
+
+    @abc.abstractmethod
+    def rollout(
+        self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Roll out every control sequence from the same full-physics `initial_state` (nstate,).
+
+        Args:
+            initial_state: (nstate,) state as written by mj_getState with mjSTATE_FULLPHYSICS.
+            controls: (num_rollouts, T, nu) C-contiguous float64 controls, one per step.
+            mocap: (7 * nmocap,) [mocap_pos.ravel(), mocap_quat.ravel()] held through every rollout
+                (mocap bodies are not part of the full-physics state); None keeps the model's defaults.
+        Returns:
+            states (num_rollouts, T, nstate) full-physics states after each step, and
+            sensors (num_rollouts, T, nsensordata) sensor values after each step; both may be
+            overwritten by the next call.
+        """
+
+    def close(self) -> None:  # noqa: B027  (no resources by default)
+        """Release threads or device memory; the backend cannot be used afterwards."""
+
+
+class RolloutPool(RolloutBackend):
     """Rolls out batches of control sequences from one initial state on `num_workers` threads.
 
     The batch is split into one contiguous chunk per worker; each worker runs MuJoCo's C rollout on
@@ -46,17 +86,7 @@ class RolloutPool:
     def rollout(
         self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Roll out every control sequence from the same full-physics `initial_state` (nstate,).
-
-        Args:
-            initial_state: (nstate,) state as written by mj_getState with mjSTATE_FULLPHYSICS.
-            controls: (num_rollouts, T, nu) C-contiguous float64 controls, one per step.
-            mocap: (7 * nmocap,) [mocap_pos.ravel(), mocap_quat.ravel()] held through every rollout
-                (mocap bodies are not part of the full-physics state); None keeps the model's defaults.
-        Returns:
-            states (num_rollouts, T, nstate) full-physics states after each step, and
-            sensors (num_rollouts, T, nsensordata) sensor values after each step.
-        """
+        """See `RolloutBackend.rollout`; the work is split into one contiguous chunk per worker thread."""
         num_rollouts, num_steps, _ = controls.shape
         if self._shape != (num_rollouts, num_steps):
             self._allocate(num_rollouts, num_steps)
@@ -91,3 +121,18 @@ class RolloutPool:
     def close(self) -> None:
         """Stop the worker threads; the pool cannot be used afterwards."""
         self._executor.shutdown(wait=True)
+
+
+ROLLOUT_BACKENDS = ("cpu",)
+"""Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`."""
+
+
+def make_rollout_backend(name: str, model: mujoco.MjModel, num_workers: int | None = None) -> RolloutBackend:
+    """The rollout backend called `name` (one of ROLLOUT_BACKENDS) for `model`.
+
+    `num_workers` sets the CPU pool's threads (one per core by default). Raises UnknownNameError for
+    an unknown name.
+    """
+    if name == "cpu":
+        return RolloutPool(model, num_workers)
+    raise UnknownNameError("rollout backend", name, ROLLOUT_BACKENDS)

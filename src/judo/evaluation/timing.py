@@ -1,7 +1,7 @@
 """Timing the control update against its floor: the raw rollout of the same N x T steps on the same pool.
 
 The control update samples knots, interpolates them, rolls them out, scores and updates; the raw
-rollout is only `controller.pool.rollout(initial_state, controls, mocap)` with controls of the same
+rollout is only `controller.backend.rollout(initial_state, controls, mocap)` with controls of the same
 (num_rollouts, T, nu) shape. An update rolls out one such batch per optimizer iteration, so the floor of the
 same work is max_opt_iters raw rollouts, and the update's ratio to that floor is the controller's overhead on
 top of physics.
@@ -145,7 +145,7 @@ def time_control_update(
 
     Every update plans from the task's start state for `seed` (its randomised reset), one control
     period later than the one before, so the plan shifts as in a running loop. The raw rollouts start
-    from the same state and roll out a batch sampled as an update samples it, on `controller.pool`.
+    from the same state and roll out a batch sampled as an update samples it, on `controller.backend`.
 
     Returns:
         update_ms (samples,) and raw_rollout_ms (samples,), wall times in milliseconds.
@@ -162,7 +162,7 @@ def time_control_update(
     controls = sampled_controls(controller, plan)
     initial, mocap = rollout_start(controller.task.model, state, plan.start_time, metadata)
     for _ in range(warmup):
-        controller.pool.rollout(initial, controls, mocap)
+        controller.backend.rollout(initial, controls, mocap)
 
     update_ms, raw_ms = np.zeros(samples), np.zeros(samples)
     for i in range(samples):
@@ -171,7 +171,7 @@ def time_control_update(
         update_ms[i] = 1e3 * (time.perf_counter() - started)
         plan_time += period
         started = time.perf_counter()
-        controller.pool.rollout(initial, controls, mocap)
+        controller.backend.rollout(initial, controls, mocap)
         raw_ms[i] = 1e3 * (time.perf_counter() - started)
         if on_sample is not None:
             on_sample()
@@ -208,7 +208,7 @@ def time_pair(
         optimizer=optimizer_name,
         num_rollouts=controller.optimizer.num_rollouts,
         num_steps=controller.num_steps,
-        num_workers=controller.pool.num_workers,
+        num_workers=controller.backend.num_workers,
         max_opt_iters=controller.config.max_opt_iters,
         update_ms=update_ms,
         raw_rollout_ms=raw_ms,
