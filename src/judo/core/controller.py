@@ -1,5 +1,6 @@
 """The sampling-based MPC loop, written once: shift, sample, clamp, interpolate, roll out, score, update."""
 
+import threading
 from dataclasses import dataclass
 from typing import Any
 
@@ -14,6 +15,10 @@ from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.rollout import make_rollout_backend
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis, SplineOrder
 from judo.core.task import Task
+
+
+class PlanningCancelled(JudoError):
+    """The `cancel` event of `Controller.update_action` was set; the cycle stopped and the previous plan stays."""
 
 
 class NonFiniteRewardError(JudoError):
@@ -134,8 +139,17 @@ class Controller:
         mujoco.mj_getState(self.task.model, data, self._initial_state, STATE_SPEC)
         self._initial_mocap[:] = np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
 
-    def update_action(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None = None) -> Spline:
+    def update_action(
+        self,
+        state: np.ndarray,
+        time: float,
+        system_metadata: dict[str, Any] | None = None,
+        cancel: threading.Event | None = None,
+    ) -> Spline:
         """Run one planning cycle from `state` (nq + nv,) at sim `time`, publish the new plan and return it.
+
+        A set `cancel` event (e.g. the app's stop) ends the cycle before its next optimizer iteration
+        with PlanningCancelled, keeping the previous plan.
 
         `action(t)` serves the returned plan from now on; a caller that models latency (the new plan
         taking effect only later) keeps the previous returned plan and evaluates it itself.
@@ -163,6 +177,8 @@ class Controller:
         expected = (opt.num_rollouts, opt.num_nodes, task.nu)
 
         for _ in range(self.config.max_opt_iters):
+            if cancel is not None and cancel.is_set():
+                raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
             knots = opt.sample_control_knots(nominal)
             if knots.shape != expected:
                 raise JudoError(

@@ -47,3 +47,7 @@ def import_extra(module: str, feature: str, extra: str):  # noqa: ANN201  (retur
     except ImportError as err:
         missing = err.name or module
         raise MissingExtraError(feature, extra, missing) from err
+
+
+class GuiStartError(JudoError):
+    """The GUI server could not start (an address that is not this machine's, a port out of range, ...)."""

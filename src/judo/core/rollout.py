@@ -8,7 +8,6 @@ Controller's loop stays written once.
 
 import abc
 import os
-from concurrent.futures import ThreadPoolExecutor
 
 import mujoco
 import mujoco.rollout
@@ -16,12 +15,17 @@ import numpy as np
 
 from judo.core.errors import UnknownNameError
 from judo.core.model import STATE_SPEC
+from judo.core.workers import DaemonThreadPool
 
 MOCAP_CONTROL_SPEC = (
     mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT
 )
 """Per-step inputs of a rollout on a model with mocap bodies: [ctrl, mocap_pos, mocap_quat]. MuJoCo's
 rollout resets mocap poses to the model's defaults unless they are passed as inputs like this."""
+
+
+CLOSE_TIMEOUT = 0.5
+"""Most seconds `RolloutPool.close` waits for its workers."""
 
 
 class RolloutBackend(abc.ABC):
@@ -70,7 +74,7 @@ class RolloutPool(RolloutBackend):
         self.nstate = mujoco.mj_stateSize(model, STATE_SPEC)
         self._datas = [mujoco.MjData(model) for _ in range(self.num_workers)]
         self._runners = [mujoco.rollout.Rollout(nthread=0) for _ in range(self.num_workers)]
-        self._executor = ThreadPoolExecutor(self.num_workers, thread_name_prefix="judo-rollout")
+        self._executor = DaemonThreadPool(self.num_workers, "judo-rollout")
         self._shape: tuple[int, int] | None = None
 
     def _allocate(self, num_rollouts: int, num_steps: int) -> None:
@@ -119,8 +123,11 @@ class RolloutPool(RolloutBackend):
         )
 
     def close(self) -> None:
-        """Stop the worker threads; the pool cannot be used afterwards."""
-        self._executor.shutdown(wait=True)
+        """Stop the worker threads; the pool cannot be used afterwards.
+
+        Waits at most CLOSE_TIMEOUT seconds: a worker still inside a long rollout ends when it
+        returns (the workers are daemon threads, so it never holds up the process's exit)."""
+        self._executor.shutdown(wait=True, timeout=CLOSE_TIMEOUT)
 
 
 ROLLOUT_BACKENDS = ("cpu",)

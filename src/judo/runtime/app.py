@@ -1,6 +1,6 @@
 """The judo app: one asyncio event loop running the plant, the planner and the browser GUI side by side.
 
-    app = judo.App(task="cartpole", optimizer="mppi")   # GUI at http://localhost:8080
+    app = judo.App(task="cartpole", optimizer="mppi")   # GUI at http://127.0.0.1:8080
     app.start()          # returns at once; the loops run in a background thread
     app.update_config("optimizer", {"sigma": 0.2})
     app.stop()
@@ -15,6 +15,10 @@ Three coroutines share one StateBuffer:
 - the GUI loop draws state, traces and plots at about 30 Hz.
 Other threads (the GUI's callbacks, a notebook) only write config objects and commands through
 the methods below; the loops pick them up at the top of their next iteration.
+
+A stop (`stop()`, Ctrl-C, SIGTERM) takes effect within about a second whatever the configs: every
+wait is cut short by it, the planning cycle stops between optimizer iterations, and a call stuck in
+a rollout or a slow reward is abandoned to its daemon thread rather than waited for.
 """
 
 import asyncio
@@ -24,18 +28,19 @@ import math
 import signal
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
 
 from judo.core.config import Config, with_updates
-from judo.core.controller import Controller, ControllerConfig, check_configs
+from judo.core.controller import Controller, ControllerConfig, PlanningCancelled, check_configs
 from judo.core.errors import ConfigError, JudoError
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import lookup_optimizer, lookup_task
 from judo.core.task import TaskConfig
+from judo.core.workers import DaemonThreadPool
+from judo.runtime.address import check_port, is_loopback, new_token
 from judo.runtime.session import Session, build_session, default_configs
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
@@ -54,6 +59,12 @@ GUI_PERIOD = 1.0 / 30.0
 """Seconds between GUI frames."""
 REPEAT_LOG_INTERVAL = 5.0
 """Seconds before the same status message is written to the log again."""
+CONFIG_POLL = 0.25
+"""Most seconds the controller loop waits before looking at control_freq again (an edit takes effect)."""
+
+
+class _Stopping(Exception):
+    """Raised inside the loops when a stop arrives while they wait for the planning thread."""
 
 
 @dataclass(frozen=True)
@@ -103,7 +114,15 @@ class App:
             defaults where left out.
         system: the plant to drive, e.g. your hardware; a MuJoCo simulation of the task by default.
             A user system stays for the whole run, so switching task is refused.
-        gui: serve the viser GUI at http://host:port.
+        gui: serve the viser GUI at http://host:port (http://host:port/TOKEN with a token).
+        host: address the GUI listens on; 127.0.0.1 (this machine only) by default. Any other
+            address (0.0.0.0: every interface) exposes the app to the network: a warning is logged
+            and a token is required.
+        port: the GUI's TCP port, 0..65535; the next free one if it is taken.
+        token: secret the GUI's URL must carry (see docs/gui.md); generated when `host` is not a
+            loopback address.
+        share: show viser's share button (a public URL through share.viser.studio); off by default,
+            and clients' share requests are refused.
         duration: stop after this many seconds of sim time; None runs until `stop()`.
         seed: seeds the optimizer, the task and the simulated plant.
         num_workers: rollout threads; the number of cores by default.
@@ -121,8 +140,10 @@ class App:
         task_config: TaskConfig | None = None,
         system: System | None = None,
         gui: bool = True,
-        host: str = "0.0.0.0",
+        host: str = "127.0.0.1",
         port: int = 8080,
+        token: str | None = None,
+        share: bool = False,
         duration: float | None = None,
         seed: int | None = None,
         num_workers: int | None = None,
@@ -131,7 +152,10 @@ class App:
             raise ConfigError(f"duration must be positive seconds of sim time, got {duration}")
         self.buffer = StateBuffer()
         self.stats = RunStats()
-        self.gui_enabled, self.host, self.port, self.duration = gui, host, port, duration
+        self.gui_enabled, self.host, self.port, self.duration = gui, host, check_port(port), duration
+        if gui and token is None and not is_loopback(host):
+            token = new_token()
+        self.token, self.share = token, share
         self._user_system, self._seed, self._num_workers = system, seed, num_workers
         self._lock = threading.RLock()
         self._session = build_session(
@@ -152,33 +176,69 @@ class App:
         self._reset_system = self._reset_controller = False
         self._paused = False
         self._status = Status("starting", "info", 0)
-        self._last_logged: tuple[str, float] = ("", 0.0)
+        self._logged_at: dict[str, float] = {}
         self._stop = threading.Event()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stopping: asyncio.Future | None = None  # done once a stop is requested, to end waits
+        self._start_error: BaseException | None = None
         self._ready = threading.Event()
         self._finished = threading.Event()
         self._thread: threading.Thread | None = None
         self._ran = False
+        self._running_loops = False
         self.gui: Any = None  # the Gui while the app runs with one
 
     # ---- lifecycle -------------------------------------------------------------------------
     def start(self) -> None:
-        """Run the loops in a background thread and return once they (and the GUI server) are up."""
+        """Run the loops in a background thread and return once they (and the GUI server) are up.
+
+        Raises GuiStartError (or ConfigError) if the GUI server cannot start."""
         self._claim_run()
-        self._thread = threading.Thread(target=lambda: asyncio.run(self._main()), name="judo-app", daemon=True)
+        self._thread = threading.Thread(target=self._run_in_thread, name="judo-app", daemon=True)
         self._thread.start()
         self._ready.wait()
+        if self._start_error is not None:
+            self._thread.join()
+            raise self._start_error
 
     def run(self) -> RunSummary:
-        """Run the loops in this thread until `duration` is reached, `stop()`, Ctrl-C or SIGTERM."""
+        """Run the loops in this thread until `duration` is reached, `stop()`, Ctrl-C or SIGTERM.
+
+        Raises GuiStartError (or ConfigError) if the GUI server cannot start."""
         self._claim_run()
         asyncio.run(self._main(handle_signals=threading.current_thread() is threading.main_thread()))
         return self.summary()
 
     def stop(self, timeout: float | None = 10.0) -> None:
-        """Ask every loop to finish, and wait for them (when started with `start()`)."""
-        self._stop.set()
+        """Ask every loop to finish, and wait for them (when started with `start()`), at most `timeout` s.
+
+        Takes effect within about a second: a planning cycle in flight is abandoned to its thread."""
+        self._request_stop()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout)
+
+    def _request_stop(self) -> None:
+        """Set the stop flag and wake every loop that waits (from any thread)."""
+        self._stop.set()
+        loop = self._loop
+        if loop is not None:
+            try:
+                loop.call_soon_threadsafe(self._wake_on_stop)
+            except RuntimeError:  # the loop has already closed
+                pass
+
+    def _wake_on_stop(self) -> None:
+        if self._stopping is not None and not self._stopping.done():
+            self._stopping.set_result(None)
+
+    def _run_in_thread(self) -> None:
+        try:
+            asyncio.run(self._main())
+        except BaseException as err:  # before the loops started: start() raises it; later: log it
+            if self._running_loops:
+                logger.error("the judo app failed", exc_info=err)
+            else:
+                self._start_error = err
 
     def wait(self, timeout: float | None = None) -> bool:
         """Block until the app stops by itself (its `duration` reached); True if it did within `timeout`."""
@@ -303,36 +363,46 @@ class App:
             self._switch_request = (task, optimizer)
 
     def report(self, message: str, level: Literal["info", "warning", "error"] = "info") -> None:
-        """Show `message` on the status line and write it to the log (repeats at most every few seconds)."""
+        """Show `message` on the status line and write it to the log (each message at most once every
+        REPEAT_LOG_INTERVAL seconds, however the messages alternate)."""
         with self._lock:
             self._status = Status(message, level, self._status.count + 1)
             now = time.monotonic()
-            last_message, last_time = self._last_logged
-            if message == last_message and now - last_time < REPEAT_LOG_INTERVAL:
+            if now - self._logged_at.get(message, -math.inf) < REPEAT_LOG_INTERVAL:
                 return
-            self._last_logged = (message, now)
+            if len(self._logged_at) >= 64:  # forget messages not logged lately, so the table stays small
+                self._logged_at = {m: t for m, t in self._logged_at.items() if now - t < REPEAT_LOG_INTERVAL}
+            self._logged_at[message] = now
         logger.log({"info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}[level], message)
 
     # ---- the loops -----------------------------------------------------------------------------
     async def _main(self, handle_signals: bool = False) -> None:
         loop = asyncio.get_running_loop()
+        self._stopping = loop.create_future()
+        self._loop = loop
+        if self._stop.is_set():  # stop() came before the loop existed
+            self._stopping.set_result(None)
         if handle_signals:
             for sig in (signal.SIGINT, signal.SIGTERM):
-                loop.add_signal_handler(sig, self._stop.set)
-        self._executor = ThreadPoolExecutor(1, thread_name_prefix="judo-plan")
+                loop.add_signal_handler(sig, self._request_stop)
+        self._executor = DaemonThreadPool(1, "judo-plan")
         try:
-            loops = [self._system_loop(), self._controller_loop()]
             if self.gui_enabled:
                 from judo.runtime.gui import Gui  # viser is only imported when a GUI is wanted
 
-                self.gui = Gui(self, self.host, self.port)  # viser moves to the next free port if this one is taken
+                # viser moves to the next free port if this one is taken; raises GuiStartError if it cannot start
+                self.gui = Gui(self, self.host, self.port, token=self.token, share=self.share)
+                self._warn_if_exposed()
                 logger.info("GUI at %s", self.gui.url)
+            loops = [self._system_loop(), self._controller_loop()]
+            if self.gui is not None:
                 loops.append(self._gui_loop())
             self.report(f"running {self._session.task_name} with {self._session.optimizer_name}")
             tasks = [asyncio.create_task(coro) for coro in loops]
+            self._running_loops = True
             self._ready.set()
             done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
-            self._stop.set()  # a loop only returns when asked to stop, or on a bug: end the others
+            self._request_stop()  # a loop only returns when asked to stop, or on a bug: end the others
             for result in await asyncio.gather(*tasks, return_exceptions=True):
                 if isinstance(result, BaseException):
                     logger.error("a judo loop failed", exc_info=result)
@@ -341,12 +411,45 @@ class App:
             self._ready.set()
             if self.gui is not None:
                 self.gui.close()
-            self._executor.shutdown(wait=True)
+            self._executor.shutdown(wait=False)  # a cycle still in flight ends in its own (daemon) thread
             self._session.close()
             if handle_signals:
                 for sig in (signal.SIGINT, signal.SIGTERM):
                     loop.remove_signal_handler(sig)
+            self._loop = None
             self._finished.set()
+
+    def _warn_if_exposed(self) -> None:
+        """Log what a GUI listening beyond loopback exposes."""
+        if is_loopback(self.host):
+            return
+        logger.warning(
+            "the GUI listens on %s (%s): anyone who can reach port %d of this machine and has the URL with its "
+            "token can change every config, switch the task, pause the plant or reset it, a real robot too. "
+            "Prefer the default 127.0.0.1 and an SSH tunnel (docs/gui.md).",
+            self.host,
+            "every network interface" if self.host in ("0.0.0.0", "::") else "reachable from the network",
+            self.gui.server.get_port(),
+        )
+
+    async def _sleep(self, seconds: float) -> None:
+        """Wait `seconds`, or until a stop is requested, whichever comes first."""
+        stopping = self._stopping
+        if seconds > 0 and stopping is not None and not stopping.done():
+            await asyncio.wait((stopping,), timeout=seconds)
+        else:
+            await asyncio.sleep(0)
+
+    async def _in_worker(self, fn: Any, *args: Any) -> Any:
+        """`fn(*args)` run on the planning thread; raises _Stopping if a stop comes first (the call is
+        abandoned to its thread, which ends after it)."""
+        assert self._stopping is not None
+        future = asyncio.get_running_loop().run_in_executor(self._executor, fn, *args)
+        await asyncio.wait((future, self._stopping), return_when=asyncio.FIRST_COMPLETED)
+        if self._stop.is_set():
+            future.cancel()  # drops the result whenever it comes
+            raise _Stopping
+        return future.result()
 
     async def _system_loop(self) -> None:
         """Step the plant at real-time pace: step k of a stretch is due at wall time origin + k * timestep."""
@@ -368,7 +471,7 @@ class App:
                 self._publish_state(session)
             if self._paused:
                 paced = False
-                await asyncio.sleep(IDLE_POLL)
+                await self._sleep(IDLE_POLL)
                 continue
             now = time.perf_counter()
             if not paced:
@@ -389,9 +492,9 @@ class App:
             if due:
                 self._publish_state(session)
             if self.duration is not None and self.stats.sim_time() >= self.duration - 1e-9:
-                self._stop.set()
+                self._request_stop()
                 break
-            await asyncio.sleep(max(0.0, origin + steps_done * dt - time.perf_counter()))
+            await self._sleep(origin + steps_done * dt - time.perf_counter())
 
     def _step(self, session: Session) -> None:
         system = session.system
@@ -421,36 +524,49 @@ class App:
         self.buffer.publish("system", SystemSnapshot(session.generation, reading))
 
     async def _controller_loop(self) -> None:
-        loop = asyncio.get_running_loop()
+        try:
+            while not self._stop.is_set():
+                await self._apply_controller_requests()
+                session = self._session
+                snapshot = self.buffer.latest("system")
+                if self._paused or snapshot is None or snapshot.value.generation != session.generation:
+                    await self._sleep(IDLE_POLL)
+                    continue
+                start = time.perf_counter()
+                await self._plan(session, snapshot.value.reading, start)
+                await self._wait_out_period(start)
+        except _Stopping:
+            return
+
+    async def _plan(self, session: Session, reading: SystemState, start: float) -> None:
+        """One planning cycle from `reading`, published under "plan"; a failed cycle is reported and skipped."""
+        controller = session.controller
+        try:
+            await self._in_worker(controller.update_action, reading.state, reading.time, reading.metadata, self._stop)
+        except (PlanningCancelled, _Stopping):
+            raise _Stopping from None
+        except JudoError as err:  # NonFiniteRewardError, ConfigError: skip this cycle
+            self.report(f"planning cycle skipped: {err}", "warning")
+        except Exception as err:  # an exception in the user's reward or hooks
+            self.report(f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}", "error")
+        else:
+            plan_time = time.perf_counter() - start
+            rewards = controller.rewards
+            assert controller.nominal_knots is not None  # set by every completed cycle
+            self.stats.record_plan(start, plan_time, float(rewards[0]) if len(rewards) else float("nan"))
+            plan = PlanSnapshot(
+                session.generation, reading.time, controller.nominal_knots, rewards, controller.traces, plan_time
+            )
+            self.buffer.publish("plan", plan)
+
+    async def _wait_out_period(self, start: float) -> None:
+        """Wait until one control period after `start`, following edits of control_freq as they come."""
         while not self._stop.is_set():
-            await self._apply_controller_requests()
-            session = self._session
-            snapshot = self.buffer.latest("system")
-            if self._paused or snapshot is None or snapshot.value.generation != session.generation:
-                await asyncio.sleep(IDLE_POLL)
-                continue
-            reading = snapshot.value.reading
-            controller = session.controller
-            start = time.perf_counter()
-            try:
-                await loop.run_in_executor(
-                    self._executor, controller.update_action, reading.state, reading.time, reading.metadata
-                )
-            except JudoError as err:  # NonFiniteRewardError, ConfigError: skip this cycle
-                self.report(f"planning cycle skipped: {err}", "warning")
-            except Exception as err:  # an exception in the user's reward or hooks
-                self.report(f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}", "error")
-            else:
-                plan_time = time.perf_counter() - start
-                rewards = controller.rewards
-                assert controller.nominal_knots is not None  # set by every completed cycle
-                self.stats.record_plan(start, plan_time, float(rewards[0]) if len(rewards) else float("nan"))
-                plan = PlanSnapshot(
-                    session.generation, reading.time, controller.nominal_knots, rewards, controller.traces, plan_time
-                )
-                self.buffer.publish("plan", plan)
-            period = 1.0 / controller.config.control_freq
-            await asyncio.sleep(max(0.0, start + period - time.perf_counter()))
+            period = 1.0 / self._configs["controller"].control_freq  # type: ignore[attr-defined]
+            remaining = start + period - time.perf_counter()
+            if remaining <= 0:
+                return
+            await self._sleep(min(remaining, CONFIG_POLL))
 
     async def _apply_controller_requests(self) -> None:
         """Switches, resets and config edits queued since the last cycle; no cycle is in flight here."""
@@ -484,7 +600,7 @@ class App:
         else:
             controller_config = task_config = None
             system, plant_task = self._user_system, None
-        build = functools.partial(
+        make = functools.partial(
             build_session,
             task,
             optimizer,
@@ -496,8 +612,17 @@ class App:
             seed=self._seed,
             num_workers=self._num_workers,
         )
+
+        def build() -> Session:
+            session = make()
+            if self._stop.is_set():  # the app stopped meanwhile and will not take it: free its threads
+                session.close()
+            return session
+
         try:
-            new = await asyncio.get_running_loop().run_in_executor(self._executor, build)
+            new = await self._in_worker(build)
+        except _Stopping:
+            raise
         except Exception as err:
             self.report(f"could not switch to {task} with {optimizer}: {type(err).__name__}: {err}", "error")
             return
@@ -518,7 +643,7 @@ class App:
                 self.gui.update()
             except Exception as err:
                 self.report(f"GUI update failed: {type(err).__name__}: {err}", "error")
-            await asyncio.sleep(max(0.0, start + GUI_PERIOD - time.perf_counter()))
+            await self._sleep(start + GUI_PERIOD - time.perf_counter())
 
     @staticmethod
     def _session_configs(session: Session) -> dict[ConfigKind, Config]:

@@ -47,10 +47,15 @@ class RunOptions:
     """Registered task to run (the config file's `task` when it names one)."""
     optimizer: str = "mppi"
     """Registered optimizer to plan with (the config file's `optimizer` when it names one)."""
-    host: str = "0.0.0.0"
-    """Address the GUI server listens on."""
+    host: str = "127.0.0.1"
+    """Address the GUI listens on: this machine only by default. 0.0.0.0 (every interface) exposes the app
+    to the network, behind a token; prefer an SSH tunnel (docs/gui.md)."""
     port: int = 8080
-    """Port of the GUI server."""
+    """Port of the GUI server, 0..65535 (the next free one if it is taken)."""
+    token: str | None = None
+    """Secret the GUI's URL must carry (http://HOST:PORT/TOKEN); generated when --host is not a loopback address."""
+    share: bool = False
+    """Show viser's share button, which opens a public URL (share.viser.studio) to this GUI for anyone who has it."""
     headless: bool = False
     """Run the same loops without the GUI (for scripts and CI)."""
     duration: float | None = None
@@ -80,6 +85,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             gui=not options.headless,
             host=options.host,
             port=options.port,
+            token=options.token,
+            share=options.share,
             duration=options.duration,
             seed=options.seed,
         )
@@ -88,7 +95,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     print(f"{PROG}: {options.task} with {options.optimizer}; Ctrl-C stops", file=sys.stderr)
-    summary = app.run()
+    try:
+        summary = app.run()
+    except JudoError as err:  # the GUI could not start
+        print(f"{PROG}: {err}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:  # Ctrl-C before the app's own handler was in place
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
     print(summary)
     return 0
 

@@ -7,14 +7,13 @@ widgets' callbacks run on viser's threads and only call App commands.
 import time
 from typing import TYPE_CHECKING, Any
 
-import viser
-
 from judo.core.config import Config
 from judo.core.errors import JudoError
 from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.plots import Plots
 from judo.runtime.gui.scene import SceneView
+from judo.runtime.gui.server import start_server
 from judo.runtime.system import SystemState
 
 if TYPE_CHECKING:
@@ -25,13 +24,18 @@ PLOT_PERIOD = 0.25
 
 
 class Gui:
-    """Serves the GUI of `app` at http://host:port until `close()`."""
+    """Serves the GUI of `app` at http://host:port (http://host:port/TOKEN with a token) until `close()`.
 
-    def __init__(self, app: "App", host: str, port: int) -> None:
+    Raises GuiStartError (or ConfigError for a port out of range) if the server cannot start; see
+    `start_server` for who may connect and the share button.
+    """
+
+    def __init__(self, app: "App", host: str, port: int, *, token: str | None = None, share: bool = False) -> None:
         self.app = app
-        self.server = viser.ViserServer(host=host, port=port, label="judo", verbose=False)
+        self.token = token
+        self.server = start_server(host, port, token=token, share=share, label="judo")
         self.server.scene.set_up_direction("+z")
-        self.server.gui.configure_theme(control_width="large", dark_mode=False)
+        self.server.gui.configure_theme(control_width="large", dark_mode=False, show_share_button=share)
         self.controls = Controls(self.server.gui, app, order=0)
         self.plots = Plots(self.server.gui, order=100)
         self.panels: dict[str, ConfigPanel] = {}
@@ -47,7 +51,8 @@ class Gui:
     def url(self) -> str:
         """Where a browser finds the GUI."""
         host = self.server.get_host()
-        return f"http://{'localhost' if host in ('0.0.0.0', '::') else host}:{self.server.get_port()}"
+        host = "localhost" if host in ("0.0.0.0", "::") else f"[{host}]" if ":" in host else host
+        return f"http://{host}:{self.server.get_port()}" + (f"/{self.token}" if self.token else "")
 
     @property
     def shown_generation(self) -> int:
