@@ -234,11 +234,9 @@ class App:
     def _run_in_thread(self) -> None:
         try:
             asyncio.run(self._main())
-        except BaseException as err:  # before the loops started: start() raises it; later: log it
-            if self._running_loops:
+        except BaseException as err:  # before the loops started, start() raises it; later, log it
+            if err is not self._start_error:
                 logger.error("the judo app failed", exc_info=err)
-            else:
-                self._start_error = err
 
     def wait(self, timeout: float | None = None) -> bool:
         """Block until the app stops by itself (its `duration` reached); True if it did within `timeout`."""
@@ -406,6 +404,10 @@ class App:
             for result in await asyncio.gather(*tasks, return_exceptions=True):
                 if isinstance(result, BaseException):
                     logger.error("a judo loop failed", exc_info=result)
+        except BaseException as err:
+            if not self._running_loops:  # the GUI did not start: start() raises this once `_ready` is set
+                self._start_error = err
+            raise
         finally:
             self._stop.set()
             self._ready.set()

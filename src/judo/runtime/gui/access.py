@@ -45,8 +45,10 @@ class AccessPolicy:
 
     def refusal(self, request: Request) -> str | None:
         """Why the websocket handshake `request` is refused, or None if it is accepted."""
-        host = request.headers.get("Host", "")
-        origin = request.headers.get("Origin")
+        hosts, origins = request.headers.get_all("Host"), request.headers.get_all("Origin")
+        if len(hosts) != 1 or len(origins) > 1:
+            return f"websocket refused: expected one Host and at most one Origin header, got {hosts} and {origins}"
+        host, origin = hosts[0], (origins[0] if origins else None)
         if origin is not None and urlsplit(origin).netloc.lower() != host.lower():
             return f"cross-origin websocket refused: Origin {origin!r} is not the GUI's own address {host!r}"
         if self.token is None:
