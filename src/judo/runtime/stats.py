@@ -18,7 +18,8 @@ class RunSummary:
         wall_time: wall-clock seconds the plant loop ran unpaused.
         num_plans: planning cycles completed.
         control_rate: planning cycles per wall-clock second.
-        plan_time_mean_ms, plan_time_p95_ms: wall time of one planning cycle.
+        plan_time_mean_ms: mean wall time of one planning cycle over the whole run.
+        plan_time_p95_ms: its 95th percentile over the last PLAN_TIMES_KEPT cycles.
         real_time_factor: sim_time / wall_time (1 = real time).
         final_reward: reward of the nominal rollout in the last cycle (NaN if none ran).
     """
@@ -57,13 +58,23 @@ class LiveFigures:
     real_time_factor: float
 
 
+PLAN_TIMES_KEPT = 10_000
+"""Plan times a RunStats keeps for the p95 (older ones only count towards the mean), so a long run's
+memory stays bounded."""
+
+
 class RunStats:
-    """Collects plan and plant timings from the app's loops; safe to read from any thread."""
+    """Collects plan and plant timings from the app's loops; safe to read from any thread.
+
+    Memory is bounded however long the app runs: the last PLAN_TIMES_KEPT plan times, a count and a sum.
+    """
 
     def __init__(self, window: float = 1.0) -> None:
         self.window = window
         self._lock = threading.Lock()
-        self._plan_times: list[float] = []
+        self._plan_times: deque[float] = deque(maxlen=PLAN_TIMES_KEPT)
+        self._num_plans = 0
+        self._plan_time_total = 0.0
         self._recent_plan_starts: deque[float] = deque()
         self._first_plan_start: float | None = None
         self._last_plan_start: float | None = None
@@ -76,6 +87,8 @@ class RunStats:
         """One planning cycle that began at `time.perf_counter()` value `start` and took `duration` s."""
         with self._lock:
             self._plan_times.append(duration)
+            self._num_plans += 1
+            self._plan_time_total += duration
             self._recent_plan_starts.append(start)
             if self._first_plan_start is None:
                 self._first_plan_start = start
@@ -102,7 +115,7 @@ class RunStats:
     def num_plans(self) -> int:
         """Planning cycles completed so far."""
         with self._lock:
-            return len(self._plan_times)
+            return self._num_plans
 
     def live(self) -> LiveFigures:
         """The latest reward and plan time, and the rates over the last `window` seconds."""
@@ -119,7 +132,7 @@ class RunStats:
     def summary(self, task: str, optimizer: str) -> RunSummary:
         """Figures over the whole run so far."""
         with self._lock:
-            times = np.array(self._plan_times)
+            times, count = np.array(self._plan_times), self._num_plans
             span = 0.0
             if self._first_plan_start is not None and self._last_plan_start is not None:
                 span = self._last_plan_start - self._first_plan_start
@@ -128,9 +141,9 @@ class RunStats:
                 optimizer=optimizer,
                 sim_time=self._sim_time,
                 wall_time=self._wall_time,
-                num_plans=len(times),
-                control_rate=(len(times) - 1) / span if span > 0 else float("nan"),
-                plan_time_mean_ms=1000.0 * float(times.mean()) if len(times) else float("nan"),
+                num_plans=count,
+                control_rate=(count - 1) / span if span > 0 else float("nan"),
+                plan_time_mean_ms=1000.0 * self._plan_time_total / count if count else float("nan"),
                 plan_time_p95_ms=1000.0 * float(np.percentile(times, 95)) if len(times) else float("nan"),
                 real_time_factor=self._sim_time / self._wall_time if self._wall_time > 0 else float("nan"),
                 final_reward=self._nominal_reward,
