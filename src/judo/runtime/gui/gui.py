@@ -128,6 +128,9 @@ class Gui:
         }
         self.controls.show_session()
         self._generation = session.generation
+        # viser keeps every removed widget's and scene node's tombstone for clients that connect later,
+        # and purges them only when one does: purge now, or each switch would grow the app's memory.
+        self.server._run_garbage_collector()
 
     def _editor(self, kind: "ConfigKind", generation: int) -> Any:
         def edit(updates: dict[str, Any]) -> Config:
