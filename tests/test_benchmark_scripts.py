@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -34,3 +36,16 @@ def test_task_suite_names_the_valid_choices_for_an_unknown_task():
     result = run_script("task_suite.py", "--tasks", "cartpol")
     assert result.returncode == 2
     assert "cartpol" in result.stderr and "cartpole" in result.stderr
+
+
+@pytest.mark.browser
+def test_soak_prints_memory_threads_rates_and_the_switch_growth():
+    if not Path("/usr/bin/chromium").exists():
+        pytest.skip("/usr/bin/chromium not found (install Debian's chromium package)")
+    result = run_script("soak.py", "--minutes", "0.03", "--sample-seconds", "1", "--switches", "5")
+    assert result.returncode == 0, result.stderr
+    assert "browser connected" in result.stdout
+    assert " minute   rss MB  threads  control Hz    RTF" in result.stdout
+    assert "soak: rss " in result.stdout and "threads " in result.stdout
+    assert "switch phase after the first 4 (each model loaded once): rss " in result.stdout
+    assert "Traceback" not in result.stderr
