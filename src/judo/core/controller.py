@@ -170,6 +170,10 @@ class Controller:
                 )
             np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
             np.matmul(self._rollout_weights, knots, out=self._controls)
+            # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
+            # the plan that is scored is the plan that is served (a cubic overshoots its knots).
+            np.minimum(self._controls, self._ctrl_high, out=self._controls)
+            np.maximum(self._controls, self._ctrl_low, out=self._controls)
             full_states, sensors = self.backend.rollout(self._initial_state, self._controls, self._initial_mocap)
             states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
             rewards = np.asarray(
@@ -191,13 +195,14 @@ class Controller:
 
         self.rewards = rewards
         self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)
-        self._plan = Spline(time, self._basis, self.nominal_knots)
+        self._plan = Spline(time, self._basis, self.nominal_knots, self._ctrl_low, self._ctrl_high)
         shown = np.argsort(-rewards, kind="stable")[: self.config.max_num_traces]
         self.traces = sensors[np.r_[0, shown]][..., self._trace_columns].reshape(len(shown) + 1, self.num_steps, -1, 3)
         return self._plan
 
     def action(self, time: float) -> np.ndarray:
-        """(nu,) control of the current plan at sim `time` (held constant past its ends)."""
+        """(nu,) control of the current plan at sim `time` (held constant past its ends), always
+        within the actuators' ctrlrange: exactly what the rollouts of the plan applied at that time."""
         if self._plan is None:
             return np.clip(self.task.optimizer_warm_start(), self._ctrl_low, self._ctrl_high)
         return self._plan(time)

@@ -124,12 +124,13 @@ def rollout_start(
 
 def sampled_controls(controller: Controller, plan: Spline) -> np.ndarray:
     """(num_rollouts, T, nu) controls as an update after `plan` would roll out: knots sampled by the
-    optimizer around the plan's knots, clamped to the actuator limits, interpolated at every step."""
+    optimizer around the plan's knots, clamped to the actuator limits, interpolated at every step and
+    clamped again (as `Controller.update_action` does)."""
     knots = controller.optimizer.sample_control_knots(plan.knots)
     low, high = controller.task.actuator_ctrlrange.T
     np.clip(knots, low, high, out=knots)
     weights = plan.basis.weights(np.arange(controller.num_steps) * controller.task.dt)  # (T, num_nodes)
-    return np.matmul(weights, knots)
+    return np.clip(np.matmul(weights, knots), low, high)
 
 
 def time_control_update(
