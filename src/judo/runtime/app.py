@@ -30,7 +30,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from judo.core.config import Config, with_updates
+from judo.core.config import Config, check_seed, with_updates
 from judo.core.controller import Controller, ControllerConfig, check_configs
 from judo.core.errors import ConfigError, JudoError
 from judo.core.optimizer import OptimizerConfig
@@ -52,6 +52,8 @@ IDLE_POLL = 0.01
 """Seconds a loop sleeps while paused or waiting for its first input."""
 GUI_PERIOD = 1.0 / 30.0
 """Seconds between GUI frames."""
+MAX_WORKERS = 1024
+"""Most rollout threads an app may ask for."""
 REPEAT_LOG_INTERVAL = 5.0
 """Seconds before the same status message is written to the log again."""
 
@@ -127,8 +129,16 @@ class App:
         seed: int | None = None,
         num_workers: int | None = None,
     ) -> None:
-        if duration is not None and not duration > 0:
-            raise ConfigError(f"duration must be positive seconds of sim time, got {duration}")
+        if duration is not None and not 0 < duration < math.inf:
+            raise ConfigError(
+                f"duration must be a positive, finite number of seconds of sim time (or None to run until stopped), "
+                f"got {duration}"
+            )
+        if num_workers is not None and not (isinstance(num_workers, int) and 1 <= num_workers <= MAX_WORKERS):
+            raise ConfigError(
+                f"num_workers must be an integer from 1 to {MAX_WORKERS} (or None: one per core), got {num_workers!r}"
+            )
+        check_seed(seed)
         self.buffer = StateBuffer()
         self.stats = RunStats()
         self.gui_enabled, self.host, self.port, self.duration = gui, host, port, duration
