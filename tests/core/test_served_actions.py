@@ -92,3 +92,12 @@ def test_a_bounded_spline_clamps_scalar_and_array_queries():
     values = spline(np.linspace(0, 1, 101))
     assert values.min() == -3.0 and values.max() == 3.0
     assert all(-3.0 <= spline(t)[0] <= 3.0 for t in np.linspace(0, 1, 101))
+
+
+def test_a_linear_spline_is_clamped_only_when_its_knots_leave_the_bounds():
+    basis = judo.SplineBasis(np.linspace(0.0, 1.0, 3), "linear")
+    inside = judo.Spline(0.0, basis, np.array([[1.0], [-1.0], [1.0]]), low=np.array([-1.0]), high=np.array([1.0]))
+    np.testing.assert_allclose(inside(np.array([0.25, 0.5])), [[0.0], [-1.0]])
+    outside = judo.Spline(0.0, basis, np.array([[5.0], [-5.0], [5.0]]), low=np.array([-1.0]), high=np.array([1.0]))
+    np.testing.assert_allclose(outside(np.array([0.1, 0.25, 0.5])), [[1.0], [0.0], [-1.0]])
+    assert outside(0.5)[0] == -1.0
