@@ -9,7 +9,7 @@ import tyro
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
-from judo.core.config import require
+from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import lookup_task, make_controller
 from judo.evaluation.cli import (
@@ -61,15 +61,14 @@ class EvaluateArgs:
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
         check_names([self.task], [self.optimizer])
-        require(self.seeds >= 1, f"--seeds must be at least 1, got {self.seeds}")
-        require(self.duration > 0, f"--duration must be positive, got {self.duration}")
+        require_between("--seeds", self.seeds, 1, 10_000)
+        require_between("--duration", self.duration, 0, 86_400.0, " s", above=True)
         require(
             self.latency_ms is None or self.latency == "none",
             f"give either --latency {self.latency} or --latency-ms {self.latency_ms}, not both",
         )
-        require(
-            self.latency_ms is None or self.latency_ms >= 0, f"--latency-ms must be at least 0, got {self.latency_ms}"
-        )
+        if self.latency_ms is not None:
+            require_between("--latency-ms", self.latency_ms, 0, 60_000.0)
         require(
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
