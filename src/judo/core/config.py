@@ -39,12 +39,12 @@ def require(condition: bool, message: str) -> None:
         raise ConfigError(message)
 
 
-def check_seed(seed: object) -> None:
+def check_seed(seed: int | None) -> None:
     """Raise ConfigError unless `seed` is None or an integer from 0 to 2**63 - 1 (what numpy's generators take)."""
+    if seed is None:
+        return
     integral = isinstance(seed, (int, np.integer)) and not isinstance(seed, bool)
-    require(
-        seed is None or (integral and 0 <= seed < 2**63), f"seed must be an integer from 0 to 2**63 - 1, got {seed!r}"
-    )
+    require(integral and 0 <= int(seed) < 2**63, f"seed must be an integer from 0 to 2**63 - 1, got {seed!r}")
 
 
 def require_between(name: str, value: float, low: float, high: float, unit: str = "", *, above: bool = False) -> None:

@@ -76,7 +76,8 @@ def check_configs(task: Task, controller_config: ControllerConfig, optimizer_con
     order, nodes = controller_config.spline_order, optimizer_config.num_nodes
     require(nodes >= MIN_KNOTS[order], f"a {order} spline needs num_nodes >= {MIN_KNOTS[order]}, got {nodes}")
     num_steps = max(1, round(controller_config.horizon / task.dt))
-    values_per_step = mujoco.mj_stateSize(task.model, STATE_SPEC) + task.model.nsensordata + task.nu
+    state_size = mujoco.mj_stateSize(task.model, STATE_SPEC)  # pyright: ignore[reportAttributeAccessIssue]
+    values_per_step = state_size + task.model.nsensordata + task.nu
     needed = optimizer_config.num_rollouts * num_steps * values_per_step * 8
     most = max(1, MAX_ROLLOUT_BYTES // (num_steps * values_per_step * 8))
     require(
