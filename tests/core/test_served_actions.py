@@ -101,3 +101,19 @@ def test_a_linear_spline_is_clamped_only_when_its_knots_leave_the_bounds():
     outside = judo.Spline(0.0, basis, np.array([[5.0], [-5.0], [5.0]]), low=np.array([-1.0]), high=np.array([1.0]))
     np.testing.assert_allclose(outside(np.array([0.1, 0.25, 0.5])), [[1.0], [0.0], [-1.0]])
     assert outside(0.5)[0] == -1.0
+
+
+def test_a_non_finite_reading_is_refused_and_never_served(swing_up):
+    """A sensor that returns NaN must not reach the rollouts (MuJoCo floods its log) or the served action."""
+    controller = judo.Controller(
+        judo.ControllerConfig(horizon=0.3), swing_up, MPPI(MPPIConfig(num_rollouts=4), swing_up.nu), num_workers=1
+    )
+    try:
+        plan = controller.update_action(np.zeros(2), 0.0)
+        with pytest.raises(judo.JudoError, match=r"non-finite reading \(time 0.01, non-finite state entries \[1\]\)"):
+            controller.update_action(np.array([0.0, np.nan]), 0.01)
+        with pytest.raises(judo.JudoError, match="action time must be a finite number of seconds, got nan"):
+            controller.action(float("nan"))
+        np.testing.assert_array_equal(controller.action(0.1), plan(0.1))  # the previous plan is still served
+    finally:
+        controller.close()

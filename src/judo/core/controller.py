@@ -1,5 +1,6 @@
 """The sampling-based MPC loop, written once: shift, sample, clamp, interpolate, roll out, score, update."""
 
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -183,13 +184,20 @@ class Controller:
         `action(t)` serves the returned plan from now on; a caller that models latency (the new plan
         taking effect only later) keeps the previous returned plan and evaluates it itself.
 
-        Raises ConfigError if the configs were edited into an invalid combination,
-        NonFiniteRewardError if every rollout scored NaN or -inf, and NonFiniteKnotsError if the
-        optimizer produced NaN or infinite knots; in each case the previous plan stays in force.
+        Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into
+        an invalid combination, NonFiniteRewardError if every rollout scored NaN or -inf, and
+        NonFiniteKnotsError if the optimizer produced NaN or infinite knots; in each case the
+        previous plan stays in force.
         """
         state = np.asarray(state, dtype=float)
         if state.shape != (self._num_state,):
             raise ConfigError(f"state must have shape ({self._num_state},) = (nq + nv,), got {state.shape}")
+        if not (np.isfinite(state).all() and math.isfinite(time)):
+            bad = np.flatnonzero(~np.isfinite(state)).tolist()
+            raise JudoError(
+                f"cannot plan from a non-finite reading (time {time}, non-finite state entries {bad}); "
+                "keeping the previous plan"
+            )
         self._apply_config_changes()
         opt, task = self.optimizer, self.task
         knot_times = time + self._knot_offsets
@@ -255,6 +263,8 @@ class Controller:
     def action(self, time: float) -> np.ndarray:
         """(nu,) control of the current plan at sim `time` (held constant past its ends), always
         within the actuators' ctrlrange: exactly what the rollouts of the plan applied at that time."""
+        if not math.isfinite(time):
+            raise JudoError(f"action time must be a finite number of seconds, got {time}")
         if self._plan is None:
             return np.clip(self.task.optimizer_warm_start(), self._ctrl_low, self._ctrl_high)
         return self._plan(time)
