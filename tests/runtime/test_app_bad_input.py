@@ -104,7 +104,7 @@ class FaultySystem(System):
 
     def __init__(self) -> None:
         self.timestep, self.steps = 0.01, 0
-        self.fault: Literal["none", "read_state", "apply", "step"] = "none"
+        self.fault: Literal["none", "read_state", "apply", "step", "nan_state"] = "none"
         self.last_action = np.zeros(1)
 
     def _maybe_fail(self, method: str) -> None:
@@ -116,7 +116,8 @@ class FaultySystem(System):
 
     def read_state(self) -> SystemState:
         self._maybe_fail("read_state")
-        return SystemState(np.array([0.0, 0.1, 0.0, 0.0]), self.steps * self.timestep)
+        angle = np.nan if self.fault == "nan_state" else 0.1  # a sensor that returns garbage
+        return SystemState(np.array([0.0, angle, 0.0, 0.0]), self.steps * self.timestep)
 
     def apply(self, action: np.ndarray) -> None:
         self._maybe_fail("apply")
@@ -127,7 +128,15 @@ class FaultySystem(System):
         self.steps += 1
 
 
-@pytest.mark.parametrize("method", ["read_state", "apply", "step"])
+REPORTS = {
+    "read_state": "read_state: robot bus timeout",
+    "apply": "apply: robot bus timeout",
+    "step": "step: robot bus timeout",
+    "nan_state": "cannot plan from a non-finite reading",
+}
+
+
+@pytest.mark.parametrize("method", list(REPORTS))
 def test_a_user_system_that_raises_is_reported_and_the_app_recovers(wait_until, method):
     system = FaultySystem()
     app = App("cartpole", "ps", system=system, gui=False, seed=0, num_workers=1)
@@ -135,8 +144,8 @@ def test_a_user_system_that_raises_is_reported_and_the_app_recovers(wait_until, 
     try:
         wait_until(lambda: app.stats.num_plans() >= 1, what="a first plan")
         system.fault = method  # type: ignore[assignment]
-        wait_until(lambda: f"{method}: robot bus timeout" in app.status.message, what=f"the {method} report")
-        assert app.status.level == "error" and "OSError" in app.status.message
+        wait_until(lambda: REPORTS[method] in app.status.message, what=f"the {method} report")
+        assert app.status.level in ("warning", "error")
         assert app.running
         system.fault = "none"
         steps, plans = system.steps, app.stats.num_plans()
