@@ -34,3 +34,11 @@ def test_task_suite_names_the_valid_choices_for_an_unknown_task():
     result = run_script("task_suite.py", "--tasks", "cartpol")
     assert result.returncode == 2
     assert "cartpol" in result.stderr and "cartpole" in result.stderr
+
+
+def test_served_actions_counts_actions_beyond_the_range_and_times_the_clamp():
+    result = run_script("served_actions.py", "--tasks", "pendulum", "--duration", "0.3", "--timing-samples", "1")
+    assert result.returncode == 0, result.stderr
+    row = next(line for line in result.stdout.splitlines() if "pendulum" in line)
+    assert [cell.strip() for cell in row.split("│")[1:5]] == ["pendulum", "cubic", "30", "0"]
+    assert "one Spline(t) call" in result.stdout and "cubic" in result.stdout
