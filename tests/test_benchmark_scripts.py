@@ -5,6 +5,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -34,3 +36,16 @@ def test_task_suite_names_the_valid_choices_for_an_unknown_task():
     result = run_script("task_suite.py", "--tasks", "cartpol")
     assert result.returncode == 2
     assert "cartpol" in result.stderr and "cartpole" in result.stderr
+
+
+@pytest.mark.warp
+def test_gpu_rollouts_prints_the_device_it_measured_and_a_row_per_task_and_n():
+    pytest.importorskip("warp")
+    pytest.importorskip("mujoco_warp")
+    tiny = ["--num-rollouts", "4", "8", "--samples", "1", "--warmup", "0", "--horizon", "0.05"]
+    result = run_script("gpu_rollouts.py", "--tasks", "cartpole", *tiny)
+    assert result.returncode == 0, result.stderr
+    out = " ".join(result.stdout.split())  # rich wraps long lines
+    assert "warp device: " in out and "MuJoCo Warp" in out
+    assert "cartpole │ 4 x 5 │" in out and "cartpole │ 8 x 5 │" in out
+    assert "CPU / warp" in out and "copies" in out and "reward" in out

@@ -14,6 +14,7 @@ Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `ma
 imports it only when the "warp" backend is asked for.
 """
 
+import time
 import warnings
 
 import mujoco
@@ -29,6 +30,11 @@ mjw = import_extra("mujoco_warp", FEATURE, "warp")
 
 wp.config.log_level = wp.LOG_WARNING  # no line per compiled kernel module
 
+EXTRA_SPEC = STATE_SPEC & ~(
+    mujoco.mjtState.mjSTATE_TIME | mujoco.mjtState.mjSTATE_QPOS | mujoco.mjtState.mjSTATE_QVEL | mujoco.mjtState.mjSTATE_ACT
+)
+"""The full-physics state after [time, qpos, qvel, act] (delay history, plugin and plastic state): empty for
+most models; read with mjw.get_state each step when not."""
 INITIAL_SPEC = (
     STATE_SPEC
     | mujoco.mjtState.mjSTATE_WARMSTART
@@ -47,6 +53,10 @@ DROPPED = int(CONTACT_OVERFLOWS | CONSTRAINT_OVERFLOWS)
 MAX_RESIZES = 8
 """Doublings of nconmax / njmax tried within one call before giving up with RolloutOverflowError."""
 MAX_GUI_ROLLOUTS = 8192
+"""The GUI's num_rollouts slider reaches this far on the warp backend."""
+PHASES = ("copy_in", "physics", "copy_out")
+"""Where a rollout's wall time goes, summed over calls in `WarpRollout.phase_seconds`: inputs to the device
+(host staging included), the T steps on the device, and states, sensors and overflow flags back to the host."""
 
 
 class WarpUnsupportedModelError(JudoError):
@@ -81,18 +91,31 @@ def _load_controls(
 
 @wp.kernel
 def _record_step(
-    state: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    time: wp.array(dtype=wp.float32),  # type: ignore[valid-type]
+    qpos: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    qvel: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    act: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    extra: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
     sensordata: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
     step: int,
     states: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
     sensors: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
 ):
-    """states[:, step] = state (N, nstate) and sensors[:, step] = sensordata (N, nsensordata), as float64.
-    Launch dim (N, nstate + nsensordata)."""
+    """states[:, step] = [time, qpos, qvel, act, extra] (N, nstate), the full-physics state in mj_getState's
+    order, and sensors[:, step] = sensordata (N, nsensordata), as float64. Launch dim (N, nstate + nsensordata)."""
     world, i = wp.tid()
-    nstate = state.shape[1]
-    if i < nstate:
-        states[world, step, i] = wp.float64(state[world, i])
+    nq, nv, na = qpos.shape[1], qvel.shape[1], act.shape[1]
+    nstate = 1 + nq + nv + na + extra.shape[1]
+    if i == 0:
+        states[world, step, 0] = wp.float64(time[world])
+    elif i < 1 + nq:
+        states[world, step, i] = wp.float64(qpos[world, i - 1])
+    elif i < 1 + nq + nv:
+        states[world, step, i] = wp.float64(qvel[world, i - 1 - nq])
+    elif i < 1 + nq + nv + na:
+        states[world, step, i] = wp.float64(act[world, i - 1 - nq - nv])
+    elif i < nstate:
+        states[world, step, i] = wp.float64(extra[world, i - 1 - nq - nv - na])
     else:
         sensors[world, step, i - nstate] = wp.float64(sensordata[world, i - nstate])
 
@@ -148,6 +171,8 @@ class WarpRollout(RolloutBackend):
     """
 
     gui_max_rollouts = MAX_GUI_ROLLOUTS
+    phase_seconds: dict[str, float]
+    """Seconds spent in each of PHASES, summed over every call so far (benchmarks read and reset it)."""
 
     def __init__(
         self,
@@ -165,6 +190,7 @@ class WarpRollout(RolloutBackend):
         self.deterministic = deterministic
         self._graph = None
         self._start_sizes = (nconmax, njmax)
+        self.phase_seconds = dict.fromkeys(PHASES, 0.0)
         self._upload(model)
 
     def _upload(self, model: mujoco.MjModel) -> None:
@@ -173,6 +199,7 @@ class WarpRollout(RolloutBackend):
             self._device_model = put_model(model, self.deterministic)
         self._uploaded = model
         self.nstate = mujoco.mj_stateSize(model, STATE_SPEC)
+        self.nextra = mujoco.mj_stateSize(model, EXTRA_SPEC)
         self.ninitial = mujoco.mj_stateSize(model, INITIAL_SPEC)
         self.nconmax = self.njmax = 0  # per world; sized at the first rollout, from the model and its start
         self._sized = False
@@ -196,8 +223,10 @@ class WarpRollout(RolloutBackend):
                 self._allocate(num_rollouts, num_steps)
             initial = self._initial_vector(initial_state, mocap)
             for _ in range(MAX_RESIZES):
+                started = time.perf_counter()
                 self._host_initial[:] = initial
                 np.copyto(self._host_controls, controls)
+                self.phase_seconds["copy_in"] += time.perf_counter() - started
                 self._run()
                 overflow = int(np.bitwise_or.reduce(self._host_overflow))
                 if not overflow & DROPPED:
@@ -221,22 +250,35 @@ class WarpRollout(RolloutBackend):
         return vector
 
     def _run(self) -> None:
-        """One rollout of the batch already in the host inputs; outputs and overflow flags land in the host arrays."""
-        if not self.device.is_cuda:  # host arrays are the device arrays: launch and wait
+        """One rollout of the batch already in the host inputs; outputs and overflow flags land in the host arrays.
+        Adds the time of each phase to `phase_seconds` (on CUDA, waiting for the device after each phase: the
+        phases run one after the other on one stream anyway)."""
+        seconds, clock = self.phase_seconds, time.perf_counter
+        if not self.device.is_cuda:  # host arrays are the device arrays: launch (synchronous on the CPU) and done
+            started = clock()
             self._launch_rollout()
+            seconds["physics"] += clock() - started
             return
+        started = clock()
         wp.copy(self._initial, self._pinned_initial)
         wp.copy(self._controls, self._pinned_controls)
+        wp.synchronize_device(self.device)
+        copied = clock()
         if self._graph is None:
             self._launch_rollout()  # compiles and loads every kernel before the capture
             with wp.ScopedCapture(device=self.device) as capture:
                 self._launch_rollout()
             self._graph = capture.graph
         wp.capture_launch(self._graph)
+        wp.synchronize_device(self.device)
+        stepped = clock()
         wp.copy(self._pinned_states, self._states)
         wp.copy(self._pinned_sensors, self._sensors)
         wp.copy(self._pinned_overflow, self._data.overflow)
         wp.synchronize_device(self.device)
+        seconds["copy_in"] += copied - started
+        seconds["physics"] += stepped - copied
+        seconds["copy_out"] += clock() - stepped
 
     def _launch_rollout(self) -> None:
         """The T-step rollout on the device: reset overflow flags, start every world from the initial
@@ -251,9 +293,12 @@ class WarpRollout(RolloutBackend):
             if self.model.nu:
                 wp.launch(_load_controls, dim=(num_rollouts, self.model.nu), inputs=[self._controls, step, d.ctrl])
             mjw.step(m, d)
-            mjw.get_state(m, d, self._state, int(STATE_SPEC))
+            if self.nextra:
+                mjw.get_state(m, d, self._extra, int(EXTRA_SPEC))
             wp.launch(
-                _record_step, dim=record_dim, inputs=[self._state, d.sensordata, step, self._states, self._sensors]
+                _record_step,
+                dim=record_dim,
+                inputs=[d.time, d.qpos, d.qvel, d.act, self._extra, d.sensordata, step, self._states, self._sensors],
             )
 
     # ---- buffers -------------------------------------------------------------------------------
@@ -287,7 +332,7 @@ class WarpRollout(RolloutBackend):
         self._data = mjw.make_data(model, nworld=num_rollouts, nconmax=self.nconmax, njmax=self.njmax)
         self._initial = wp.zeros(self.ninitial, dtype=wp.float64, device=device)
         self._start = wp.zeros((num_rollouts, self.ninitial), dtype=wp.float32, device=device)
-        self._state = wp.zeros((num_rollouts, self.nstate), dtype=wp.float32, device=device)
+        self._extra = wp.zeros((num_rollouts, self.nextra), dtype=wp.float32, device=device)
         self._controls = wp.zeros((num_rollouts, num_steps, model.nu), dtype=wp.float64, device=device)
         self._states = wp.zeros((num_rollouts, num_steps, self.nstate), dtype=wp.float64, device=device)
         self._sensors = wp.zeros((num_rollouts, num_steps, model.nsensordata), dtype=wp.float64, device=device)
@@ -309,7 +354,7 @@ class WarpRollout(RolloutBackend):
         """Drop the device buffers and graph; the backend cannot be used afterwards."""
         self._graph = None
         self._shape = None
-        for name in ("_data", "_initial", "_start", "_state", "_controls", "_states", "_sensors"):
+        for name in ("_data", "_initial", "_start", "_extra", "_controls", "_states", "_sensors"):
             self.__dict__.pop(name, None)
         for name in [key for key in self.__dict__ if key.startswith("_pinned_")]:
             del self.__dict__[name]
