@@ -31,7 +31,10 @@ mjw = import_extra("mujoco_warp", FEATURE, "warp")
 wp.config.log_level = wp.LOG_WARNING  # no line per compiled kernel module
 
 EXTRA_SPEC = STATE_SPEC & ~(
-    mujoco.mjtState.mjSTATE_TIME | mujoco.mjtState.mjSTATE_QPOS | mujoco.mjtState.mjSTATE_QVEL | mujoco.mjtState.mjSTATE_ACT
+    mujoco.mjtState.mjSTATE_TIME
+    | mujoco.mjtState.mjSTATE_QPOS
+    | mujoco.mjtState.mjSTATE_QVEL
+    | mujoco.mjtState.mjSTATE_ACT
 )
 """The full-physics state after [time, qpos, qvel, act] (delay history, plugin and plastic state): empty for
 most models; read with mjw.get_state each step when not."""
@@ -351,10 +354,9 @@ class WarpRollout(RolloutBackend):
         self._host_initial, self._host_controls, self._host_states, self._host_sensors = (a.numpy() for a in host)
 
     def close(self) -> None:
-        """Drop the device buffers and graph; the backend cannot be used afterwards."""
-        self._graph = None
-        self._shape = None
+        """Free the device buffers, the pinned host buffers and the graph (a later call allocates them again)."""
+        self._graph, self._shape = None, None
         for name in ("_data", "_initial", "_start", "_extra", "_controls", "_states", "_sensors"):
             self.__dict__.pop(name, None)
-        for name in [key for key in self.__dict__ if key.startswith("_pinned_")]:
+        for name in [key for key in self.__dict__ if key.startswith(("_pinned_", "_host_"))]:
             del self.__dict__[name]
