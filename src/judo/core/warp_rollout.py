@@ -47,11 +47,11 @@ INITIAL_SPEC = (
 """What each rollout starts from: the full-physics state, a zero solver warm start (so a rollout does not
 depend on the one before it) and the mocap poses, which then stay put for the whole rollout."""
 
-CONTACT_OVERFLOWS = mjw.OverflowType.BROADPHASE | mjw.OverflowType.NARROWPHASE | mjw.OverflowType.CCD
+CONTACT_OVERFLOWS = int(mjw.OverflowType.BROADPHASE | mjw.OverflowType.NARROWPHASE | mjw.OverflowType.CCD)
 """Overflow bits meaning contacts were dropped: fixed by more contacts per world (nconmax)."""
-CONSTRAINT_OVERFLOWS = mjw.OverflowType.NEFC | mjw.OverflowType.NJMAX_NNZ
+CONSTRAINT_OVERFLOWS = int(mjw.OverflowType.NEFC | mjw.OverflowType.NJMAX_NNZ)
 """Overflow bits meaning constraint rows were dropped: fixed by more rows per world (njmax)."""
-DROPPED = int(CONTACT_OVERFLOWS | CONSTRAINT_OVERFLOWS)
+DROPPED = CONTACT_OVERFLOWS | CONSTRAINT_OVERFLOWS
 """Every overflow bit that means a rollout lost contacts or constraints (solver-iteration limits are not such)."""
 MAX_RESIZES = 8
 """Doublings of nconmax / njmax tried within one call before giving up with RolloutOverflowError."""
@@ -356,7 +356,6 @@ class WarpRollout(RolloutBackend):
     def close(self) -> None:
         """Free the device buffers, the pinned host buffers and the graph (a later call allocates them again)."""
         self._graph, self._shape = None, None
-        for name in ("_data", "_initial", "_start", "_extra", "_controls", "_states", "_sensors"):
-            self.__dict__.pop(name, None)
-        for name in [key for key in self.__dict__ if key.startswith(("_pinned_", "_host_"))]:
-            del self.__dict__[name]
+        buffers = ("_data", "_initial", "_start", "_extra", "_controls", "_states", "_sensors")
+        for name in [key for key in vars(self) if key in buffers or key.startswith(("_pinned_", "_host_"))]:
+            delattr(self, name)

@@ -59,8 +59,7 @@ class RunOptions:
     seed: int | None = None
     """Seed of the optimizer, the task and the simulated plant."""
     backend: RolloutBackendName = "cpu"
-    """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on a GPU, or warp's CPU device when there is
-    none; needs pip install "judo[warp]"). Worth it for thousands of rollouts (see the README's GPU section)."""
+    """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install "judo[warp]")."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
