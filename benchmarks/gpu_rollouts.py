@@ -2,7 +2,8 @@
 
 For each task and N: the median control update on the warp backend (sample, roll out on the device,
 reward, update), the median raw rollout of the same N x T steps on the CPU `RolloutPool` (one thread per
-core), their ratio (above 1: the warp update is faster than the CPU pool's physics alone), and the share of
+core), their ratio (the pool's rollout times the update's optimizer iterations over the warp update; above 1
+the whole warp update is faster than the CPU pool's physics alone), and the share of
 the warp update spent copying inputs to the device and states back, and in the task's reward.
 
 Warp runs on its default device: the GPU when there is one, otherwise warp's CPU device, which launches
@@ -59,6 +60,7 @@ class Row:
     task: str
     num_rollouts: int
     num_steps: int
+    iterations: int
     update_ms: float
     cpu_rollout_ms: float
     copy_share: float
@@ -143,6 +145,7 @@ def time_controller(controller: Controller, task: str, args: Args, advance) -> R
         task=task,
         num_rollouts=controller.optimizer.num_rollouts,
         num_steps=controller.num_steps,
+        iterations=controller.config.max_opt_iters,
         update_ms=median,
         cpu_rollout_ms=float(np.median(cpu_ms)),
         copy_share=float(np.median(copy_ms)) / median,
@@ -152,15 +155,16 @@ def time_controller(controller: Controller, task: str, args: Args, advance) -> R
 
 def results_table(rows: list[Row], args: Args) -> Table:
     table = Table(title=f"{args.optimizer} control update on warp vs the CPU pool's raw rollouts (ms, medians)")
-    for column in ("task", "N x T", "warp update", "CPU pool rollout", "CPU / warp", "copies", "reward"):
+    for column in ("task", "N x T", "iters", "warp update", "CPU pool rollout", "CPU / warp", "copies", "reward"):
         table.add_column(column, justify="left" if column == "task" else "right")
     for row in rows:
         table.add_row(
             row.task,
             f"{row.num_rollouts} x {row.num_steps}",
+            str(row.iterations),
             f"{row.update_ms:.1f}",
             f"{row.cpu_rollout_ms:.1f}",
-            f"{row.cpu_rollout_ms / row.update_ms:.2f}x",
+            f"{row.iterations * row.cpu_rollout_ms / row.update_ms:.2f}x",
             f"{100 * row.copy_share:.1f}%",
             f"{100 * row.reward_share:.1f}%",
         )
@@ -189,7 +193,8 @@ def main() -> None:
                 rows.append(time_task(task, num_rollouts, args, lambda: progress.advance(bar)))
     console.print(results_table(rows, args))
     console.print(
-        "CPU / warp above 1: the whole warp update beats the CPU pool's physics alone. "
+        "CPU / warp: iters x CPU pool rollout / warp update; above 1 the whole warp update beats the CPU pool's "
+        "physics alone. "
         "copies: inputs to the device and states back; reward: the task's reward on the host."
     )
 
