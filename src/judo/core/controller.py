@@ -94,7 +94,8 @@ class Controller:
 
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
-        backend: the RolloutBackend every rollout runs on ("cpu": `RolloutPool`, a thread pool).
+        backend: the RolloutBackend every rollout runs on ("cpu": `RolloutPool`, a thread pool; "warp":
+            `WarpRollout`, MuJoCo Warp on a GPU).
         nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update.
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf).
         traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the "trace" framepos sensors

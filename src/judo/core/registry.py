@@ -87,11 +87,13 @@ def make_controller(
     optimizer_config: OptimizerConfig | None = None,
     num_workers: int | None = None,
     seed: int | None = None,
+    backend: str = "cpu",
 ) -> Controller:
     """A Controller for the registered task and optimizer, with that task's overrides applied.
 
     Configs passed in are used as they are. `seed` seeds the optimizer's and the task's generators
-    (ConfigError unless it is an integer from 0 to 2**63 - 1).
+    (ConfigError unless it is an integer from 0 to 2**63 - 1). `backend` names the rollout backend
+    ("cpu" threads or "warp" for MuJoCo Warp; see ROLLOUT_BACKENDS).
     """
     check_seed(seed)
     task_cls, task_config_cls = lookup_task(task_name)
@@ -104,4 +106,4 @@ def make_controller(
     if seed is not None:
         optimizer.rng = np.random.default_rng(seed)
         task.rng = np.random.default_rng(seed + 1)
-    return Controller(controller_config, task, optimizer, num_workers)  # type: ignore[arg-type]
+    return Controller(controller_config, task, optimizer, num_workers, backend)  # type: ignore[arg-type]

@@ -109,6 +109,7 @@ class App:
         duration: stop after this many seconds of sim time; None runs until `stop()`.
         seed: seeds the optimizer, the task and the simulated plant.
         num_workers: rollout threads; the number of cores by default.
+        backend: rollout backend, "cpu" (threads) or "warp" (MuJoCo Warp, a GPU when there is one).
 
     Raises UnknownNameError or ConfigError at once for bad names or configs.
     """
@@ -128,6 +129,7 @@ class App:
         duration: float | None = None,
         seed: int | None = None,
         num_workers: int | None = None,
+        backend: str = "cpu",
     ) -> None:
         if duration is not None and not 0 < duration < math.inf:
             raise ConfigError(
@@ -143,6 +145,7 @@ class App:
         self.stats = RunStats()
         self.gui_enabled, self.host, self.port, self.duration = gui, host, port, duration
         self._user_system, self._seed, self._num_workers = system, seed, num_workers
+        self.backend = backend
         self._lock = threading.RLock()
         self._session = build_session(
             task,
@@ -154,6 +157,7 @@ class App:
             system=system,
             seed=seed,
             num_workers=num_workers,
+            backend=backend,
         )
         self._configs: dict[ConfigKind, Config] = self._session_configs(self._session)
         self._pending: dict[ConfigKind, Config] = {}
@@ -505,6 +509,7 @@ class App:
             plant_task=plant_task,
             seed=self._seed,
             num_workers=self._num_workers,
+            backend=self.backend,
         )
         try:
             new = await asyncio.get_running_loop().run_in_executor(self._executor, build)
