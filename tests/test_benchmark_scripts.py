@@ -49,3 +49,24 @@ def test_soak_prints_memory_threads_rates_and_the_switch_growth():
     assert "soak: rss " in result.stdout and "threads " in result.stdout
     assert "switch phase after the first 4 (each model loaded once): rss " in result.stdout
     assert "Traceback" not in result.stderr
+
+
+def test_served_actions_counts_actions_beyond_the_range_and_times_the_clamp():
+    result = run_script("served_actions.py", "--tasks", "pendulum", "--duration", "0.3", "--timing-samples", "1")
+    assert result.returncode == 0, result.stderr
+    row = next(line for line in result.stdout.splitlines() if "pendulum" in line)
+    assert [cell.strip() for cell in row.split("│")[1:5]] == ["pendulum", "cubic", "30", "0"]
+    assert "one Spline(t) call" in result.stdout and "cubic" in result.stdout
+
+
+@pytest.mark.warp
+def test_gpu_rollouts_prints_the_device_it_measured_and_a_row_per_task_and_n():
+    pytest.importorskip("warp")
+    pytest.importorskip("mujoco_warp")
+    tiny = ["--num-rollouts", "4", "8", "--samples", "1", "--warmup", "0", "--horizon", "0.05"]
+    result = run_script("gpu_rollouts.py", "--tasks", "cartpole", *tiny)
+    assert result.returncode == 0, result.stderr
+    out = " ".join(result.stdout.split())  # rich wraps long lines
+    assert "warp device: " in out and "MuJoCo Warp" in out
+    assert "cartpole │ 4 x 5 │ 1 │" in out and "cartpole │ 8 x 5 │ 1 │" in out
+    assert "CPU / warp" in out and "copies" in out and "reward" in out

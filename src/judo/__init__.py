@@ -10,7 +10,7 @@ import judo.optimizers  # noqa: E402,F401  (registers the built-in optimizers)
 import judo.tasks  # noqa: E402,F401  (registers the built-in tasks)
 from judo.core.config import Config
 from judo.core.config_file import ConfigFileError, LoadedConfig, load_config
-from judo.core.controller import Controller, ControllerConfig, NonFiniteRewardError
+from judo.core.controller import Controller, ControllerConfig, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
 from judo.core.fields import np_1d_field, slider
 from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
@@ -40,6 +40,7 @@ __all__ = [
     "JudoError",
     "LoadedConfig",
     "ModelLoadError",
+    "NonFiniteKnotsError",
     "NonFiniteRewardError",
     "Optimizer",
     "OptimizerConfig",

@@ -96,11 +96,11 @@ def test_a_full_file_registers_and_overrides(user_dir):
         ('task = "cartpole"\noptimizer = = "ps"', r"TOML syntax error: .*at line 2, column"),
         (
             '[custom_tasks.x]\ntask = "nowhere_module.T"\nconfig = "nowhere_module.C"',
-            r"\[custom_tasks.x\]: cannot import module 'nowhere_module' \(from 'nowhere_module.T'\)",
+            r"\[custom_tasks.x\]: cannot import module 'nowhere_module' \(named by task = \"nowhere_module.T\"\)",
         ),
         (
             '[custom_tasks.x]\ntask = "{module}.Missing"\nconfig = "{module}.MyTaskConfig"',
-            r"module '{module}' has no attribute 'Missing'",
+            r"module '{module}' has no attribute 'Missing' \(named by task = \"{module}.Missing\"\)",
         ),
         (
             '[custom_tasks.x]\ntask = "{module}.NotATask"\nconfig = "{module}.MyTaskConfig"',

@@ -76,7 +76,7 @@ def test_registering_a_non_task_is_refused():
 
 
 def test_invalid_configs_fail_at_construction(upright_task):
-    with pytest.raises(judo.ConfigError, match="num_rollouts must be at least 1, got 0"):
+    with pytest.raises(judo.ConfigError, match="num_rollouts must be between 1 and 1048576, got 0"):
         judo.OptimizerConfig(num_rollouts=0)
     with pytest.raises(judo.ConfigError, match="num_elites must be between 1 and num_rollouts"):
         CEMConfig(num_rollouts=4, num_elites=8)
@@ -97,7 +97,7 @@ def test_an_invalid_live_edit_raises_at_the_next_cycle(upright_task):
     )
     controller.update_action(np.zeros(4), 0.0)
     controller.optimizer.config.num_rollouts = 0
-    with pytest.raises(judo.ConfigError, match="num_rollouts must be at least 1, got 0"):
+    with pytest.raises(judo.ConfigError, match="num_rollouts must be between 1 and 1048576, got 0"):
         controller.update_action(np.zeros(4), 0.02)
 
 

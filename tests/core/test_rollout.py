@@ -58,7 +58,7 @@ def test_pool_reallocates_when_the_batch_shape_changes(tiny_model_path):
 
 def test_unknown_backend_name_lists_the_valid_ones(tiny_model_path):
     model = mujoco.MjModel.from_xml_path(str(tiny_model_path))
-    with pytest.raises(UnknownNameError, match="unknown rollout backend 'gpu'; valid rollout backends are: cpu"):
+    with pytest.raises(UnknownNameError, match="unknown rollout backend 'gpu'; valid rollout backends are: cpu, warp"):
         make_rollout_backend("gpu", model)
 
 

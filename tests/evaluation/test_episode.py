@@ -110,7 +110,7 @@ def test_rewards_and_mean_reward_score_each_step_alone(push_task_cls):
 def test_bad_episode_arguments_are_refused(push_task_cls):
     controller = push_controller(push_task_cls)
     plant = make_plant_task(controller, seed=0)
-    with pytest.raises(ConfigError, match=r"^duration must be positive, got 0.0$"):
+    with pytest.raises(ConfigError, match=r"^duration must be positive and finite, got 0.0$"):
         run_episode(controller, plant, duration=0.0)
-    with pytest.raises(ConfigError, match=r"^latency must be at least 0 s, got -0.1$"):
+    with pytest.raises(ConfigError, match=r"^latency must be at least 0 s and finite, got -0.1$"):
         run_episode(controller, plant, duration=1.0, latency=-0.1)

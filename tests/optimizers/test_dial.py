@@ -89,7 +89,7 @@ def test_cycle_ends_after_anneal_iters_and_restarts_the_schedule():
 def test_bad_values_are_refused_with_a_clear_message():
     with pytest.raises(judo.ConfigError, match=r"^beta_horizon must be positive, got 0.0$"):
         DialConfig(beta_horizon=0.0)
-    with pytest.raises(judo.ConfigError, match=r"^anneal_iters must be at least 1, got 0$"):
+    with pytest.raises(judo.ConfigError, match=r"^anneal_iters must be between 1 and 100, got 0$"):
         with_updates(DialConfig(), {"anneal_iters": 0})
     with pytest.raises(judo.ConfigError, match=r"^temperature must be positive, got -1.0$"):
         DialConfig(temperature=-1.0)

@@ -98,7 +98,7 @@ def test_few_rollouts_truncate_the_fixed_samples():
 def test_bad_values_are_refused_with_a_clear_message():
     with pytest.raises(judo.ConfigError, match=r"^elite_keep_fraction must be between 0 and 1, got 1.5$"):
         ICEMConfig(elite_keep_fraction=1.5)
-    with pytest.raises(judo.ConfigError, match=r"^beta must be at least 0, got -1.0$"):
+    with pytest.raises(judo.ConfigError, match=r"^beta must be between 0 and 10, got -1.0$"):
         ICEMConfig(beta=-1.0)
     with pytest.raises(judo.ConfigError, match=r"^num_elites must be between 1 and num_rollouts \(8\), got 9$"):
         ICEMConfig(num_rollouts=8, num_elites=9)

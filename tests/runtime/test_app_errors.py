@@ -17,8 +17,8 @@ from judo.tasks.cartpole import Cartpole, CartpoleConfig
 class FlakyConfig(CartpoleConfig):
     """Cart-pole weights, plus a switch that breaks the reward or the simulation on purpose."""
 
-    failure: Literal["none", "nan", "raise", "diverge"] = "none"
-    """How to fail: NaN rewards, an exception in the reward, or an absurd force on the plant."""
+    failure: Literal["none", "nan", "raise", "shape", "diverge"] = "none"
+    """How to fail: NaN rewards, an exception in the reward, rewards of the wrong shape, or an absurd force on the plant."""
 
 
 class FlakyCartpole(Cartpole):
@@ -31,6 +31,8 @@ class FlakyCartpole(Cartpole):
             return np.full(states.shape[0], np.nan)
         if config.failure == "raise":
             raise ValueError("boom in the user's reward")
+        if config.failure == "shape":
+            return np.zeros((states.shape[0], 2))
         return super().reward(states, sensors, controls, config, system_metadata)
 
     def pre_sim_step(self) -> None:
@@ -73,6 +75,7 @@ def keeps_running(app: App, wait_until) -> None:
     [
         ("nan", "warning", "planning cycle skipped: all 8 rollouts of FlakyCartpole scored NaN or -inf"),
         ("raise", "error", "planning cycle skipped: ValueError in flaky_cartpole: boom in the user's reward"),
+        ("shape", "warning", "planning cycle skipped: FlakyCartpole.reward returned shape (8, 2), expected (8,)"),
     ],
 )
 def test_a_failing_reward_skips_cycles_is_reported_and_the_loops_survive(

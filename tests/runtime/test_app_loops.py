@@ -111,7 +111,7 @@ def test_config_edit_reaches_the_controller_at_the_next_cycle(wait_until):
 @pytest.mark.parametrize(
     ("kind", "updates", "message"),
     [
-        ("optimizer", {"num_rollouts": 0}, "num_rollouts must be at least 1, got 0"),
+        ("optimizer", {"num_rollouts": 0}, "num_rollouts must be between 1 and 1048576, got 0"),
         ("controller", {"horizon": 0.001}, r"horizon \(0.001 s\) is shorter than one timestep \(0.01 s\)"),
         ("controller", {"spline_order": "quintic"}, "expects one of \\['zero', 'linear', 'cubic'\\]"),
         ("task", {"no_such_weight": 1.0}, "unknown field of CartpoleConfig 'no_such_weight'"),

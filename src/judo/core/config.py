@@ -2,6 +2,7 @@
 
 import copy
 import functools
+import math
 import typing
 from dataclasses import dataclass, fields
 from typing import Any, Literal
@@ -19,13 +20,42 @@ class Config:
         self.validate()
 
     def validate(self) -> None:
-        """Raise ConfigError if a field is out of range. Subclasses extend this and call super()."""
+        """Raise ConfigError if a field is out of range. Subclasses extend this and call super().
+
+        The base check refuses NaN and infinite values in every float and array field: no planner
+        or reward works with them, and a NaN that reaches MuJoCo floods the log.
+        """
+        for f in fields(self):
+            value = getattr(self, f.name, None)
+            if isinstance(value, (float, np.floating)) and not math.isfinite(value):
+                raise ConfigError(f"{type(self).__name__}.{f.name} must be a finite number, got {value}")
+            if isinstance(value, np.ndarray) and value.dtype.kind in "fc" and not np.isfinite(value).all():
+                raise ConfigError(f"{type(self).__name__}.{f.name} must hold finite numbers, got {value.tolist()}")
 
 
 def require(condition: bool, message: str) -> None:
     """Raise ConfigError(message) unless `condition` holds; the one-line form of a config check."""
     if not condition:
         raise ConfigError(message)
+
+
+def check_seed(seed: int | None) -> None:
+    """Raise ConfigError unless `seed` is None or an integer from 0 to 2**63 - 1 (what numpy's generators take)."""
+    if seed is None:
+        return
+    integral = isinstance(seed, (int, np.integer)) and not isinstance(seed, bool)
+    require(integral and 0 <= int(seed) < 2**63, f"seed must be an integer from 0 to 2**63 - 1, got {seed!r}")
+
+
+def require_between(name: str, value: float, low: float, high: float, unit: str = "", *, above: bool = False) -> None:
+    """Raise ConfigError unless low <= value <= high (low < value with `above`), naming the valid range.
+
+    The message reads e.g. "horizon must be above 0 and at most 60 s, got inf".
+    """
+    ok = (value > low if above else value >= low) and value <= high
+    if not ok:
+        lower = f"above {low} and at most" if above else f"between {low} and"
+        raise ConfigError(f"{name} must be {lower} {high}{unit}, got {value}")
 
 
 @functools.cache
@@ -50,10 +80,12 @@ def coerce_field_value(config: Config, name: str, value: Any) -> Any:
         return bool(value)
     is_number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
     if hint is int:
-        require(is_number and float(value).is_integer(), f"{where} expects an integer, got {value!r}")
+        integral = isinstance(value, (int, np.integer)) or (is_number and float(value).is_integer())
+        require(is_number and integral, f"{where} expects an integer, got {value!r}")
         return int(value)
     if hint is float:
         require(is_number, f"{where} expects a number, got {value!r}")
+        require(math.isfinite(value), f"{where} expects a finite number, got {value!r}")
         return float(value)
     if hint is str:
         require(isinstance(value, str), f"{where} expects a string, got {value!r}")
@@ -69,6 +101,7 @@ def coerce_field_value(config: Config, name: str, value: Any) -> Any:
         except (TypeError, ValueError):
             raise ConfigError(f"{where} expects a list of {len(current)} numbers, got {value!r}") from None
         require(array.shape == current.shape, f"{where} expects {len(current)} numbers, got {value!r}")
+        require(bool(np.isfinite(array).all()), f"{where} expects {len(current)} finite numbers, got {value!r}")
         return array
     return value
 

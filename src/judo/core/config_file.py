@@ -3,7 +3,8 @@
 task = "my_task"                      # initial task
 optimizer = "mppi"                    # initial optimizer
 [custom_tasks.my_task]
-task = "my_module.MyTask"             # dotted import paths; the file's folder is importable
+task = "my_module.MyTask"             # dotted import paths; the file's folder is importable (after
+                                      # installed packages), and importing runs the module's code
 config = "my_module.MyTaskConfig"
 [custom_optimizers.my_opt]
 optimizer = "my_module.MyOpt"
@@ -18,6 +19,7 @@ w_centered = 5.0
 
 import importlib
 import sys
+import traceback
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -83,8 +85,11 @@ def load_config(path: str | Path) -> LoadedConfig:
         raise ConfigFileError(
             f"{path}: unknown top-level key {unknown[0]!r}; valid keys are: {', '.join(TOP_LEVEL_KEYS)}"
         )
-    if str(path.parent.resolve()) not in sys.path:
-        sys.path.insert(0, str(path.parent.resolve()))
+    folder = path.parent.resolve()
+    # Appended, not prepended: a file beside the config (say websockets.py) must never shadow an
+    # installed package, while modules the file names, and their own sibling imports, still resolve.
+    if str(folder) not in sys.path:
+        sys.path.append(str(folder))
 
     def fail(where: str, err: Exception) -> ConfigFileError:
         return ConfigFileError(f"{path}: [{where}]: {err}")
@@ -96,9 +101,8 @@ def load_config(path: str | Path) -> LoadedConfig:
         for name, entry in _table(table, section, path).items():
             where = f"{section}.{name}"
             try:
-                register(
-                    name, _import(_entry(entry, class_key, where, path)), _import(_entry(entry, "config", where, path))
-                )
+                classes = [_import(_entry(entry, key, where, path), key, folder) for key in (class_key, "config")]
+                register(name, *classes)
             except JudoError as err:
                 raise fail(where, err) from None
 
@@ -143,18 +147,50 @@ def _entry(entry: Any, key: str, where: str, path: Path) -> str:
     return entry[key]
 
 
-def _import(dotted: str) -> Any:
-    """The object at the dotted import path `dotted`, or a JudoError naming the part that failed."""
+def _import(dotted: str, key: str, folder: Path) -> Any:
+    """The object at the dotted import path `dotted` (named by `key` = "..."), or a JudoError naming
+    the part that failed. An error raised while importing the user's module keeps the user's own
+    frames (file, line, source) and the error, and drops judo's and importlib's."""
     module_name, _, attribute = dotted.rpartition(".")
+    named = f'{key} = "{dotted}"'
     if not module_name:
-        raise JudoError(f"{dotted!r} is not a dotted import path like 'my_module.MyClass'")
+        raise JudoError(f"{named} is not a dotted import path like 'my_module.MyClass'")
     try:
         module = importlib.import_module(module_name)
     except ImportError as err:
-        raise JudoError(f"cannot import module {module_name!r} (from {dotted!r}): {err}") from None
+        if err.name is not None and module_name.startswith(err.name):  # the named module itself is missing
+            raise JudoError(f"cannot import module {module_name!r} (named by {named}): {err}") from None
+        raise JudoError(f"importing module {module_name!r} (named by {named}) failed:\n{_user_error(err)}") from None
+    except Exception as err:  # a SyntaxError or any error raised by the module's own code
+        raise JudoError(f"importing module {module_name!r} (named by {named}) failed:\n{_user_error(err)}") from None
+    _check_not_shadowed(module_name, folder, named)
     if not hasattr(module, attribute):
-        raise JudoError(f"module {module_name!r} has no attribute {attribute!r} (from {dotted!r})")
+        raise JudoError(f"module {module_name!r} has no attribute {attribute!r} (named by {named})")
     return getattr(module, attribute)
+
+
+def _user_error(err: BaseException) -> str:
+    """`err` formatted like a traceback, but with only the frames of the user's files."""
+    judo_dir = str(Path(__file__).resolve().parents[1])
+    frames = [
+        frame
+        for frame in traceback.extract_tb(err.__traceback__)
+        if not frame.filename.startswith((judo_dir, "<frozen ")) and "importlib" not in frame.filename
+    ]
+    lines = traceback.format_list(frames) + traceback.format_exception_only(type(err), err)
+    return "".join(lines).rstrip("\n")
+
+
+def _check_not_shadowed(module_name: str, folder: Path, named: str) -> None:
+    """Raise JudoError if a module of this name lies beside the config file but an installed one was imported."""
+    top = module_name.partition(".")[0]
+    beside = [candidate for candidate in (folder / f"{top}.py", folder / top / "__init__.py") if candidate.exists()]
+    loaded = getattr(sys.modules.get(top), "__file__", None)
+    if beside and loaded is not None and Path(loaded).resolve() != beside[0].resolve():
+        raise JudoError(
+            f"{named} names {beside[0]}, but {top!r} is also an installed module ({loaded}), which comes first; "
+            "rename your module"
+        )
 
 
 def _apply(path: Path, where: str, task_name: str, config_cls: type, overrides: Any) -> None:

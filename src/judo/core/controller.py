@@ -1,5 +1,6 @@
 """The sampling-based MPC loop, written once: shift, sample, clamp, interpolate, roll out, score, update."""
 
+import math
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -7,7 +8,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.config import Config, require, snapshot
+from judo.core.config import Config, require, require_between, snapshot
 from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import slider
 from judo.core.model import STATE_SPEC, trace_sensor_columns
@@ -25,7 +26,25 @@ class NonFiniteRewardError(JudoError):
     """Every rollout of a cycle scored NaN or -inf, so there is nothing to learn from; the plan is kept."""
 
 
-@slider("horizon", 0.05, 5.0, 0.05)
+class NonFiniteKnotsError(JudoError):
+    """The optimizer sampled or returned NaN or infinite knots; its search was restarted and the plan is kept."""
+
+
+MAX_HORIZON = 60.0
+"""Longest planning horizon in seconds."""
+MIN_CONTROL_FREQ, MAX_CONTROL_FREQ = 0.1, 1000.0
+"""Slowest and fastest planning rates in Hz: one cycle per 10 s at the least (a stop must not wait
+out a longer period), and no faster than a plant is stepped."""
+MAX_OPT_ITERS = 100
+"""Most optimizer iterations per planning cycle."""
+MAX_NUM_TRACES = 64
+"""Most best-rollout traces drawn besides the nominal."""
+MAX_ROLLOUT_BYTES = 4 * 2**30
+"""Largest rollout buffers (num_rollouts x T x (nstate + nsensordata + nu) float64) a config may ask for:
+4 GiB, e.g. 65536 rollouts of 100 steps of a model with 80 state and sensor values."""
+
+
+@slider("horizon", 0.05, 5.0, 0.05)  # every slider range lies within the bounds `validate` accepts
 @slider("control_freq", 1.0, 200.0, 1.0)
 @slider("max_opt_iters", 1, 20, 1)
 @slider("max_num_traces", 0, 32, 1)
@@ -46,10 +65,10 @@ class ControllerConfig(Config):
 
     def validate(self) -> None:
         super().validate()
-        require(self.horizon > 0, f"horizon must be positive, got {self.horizon}")
-        require(self.control_freq > 0, f"control_freq must be positive, got {self.control_freq}")
-        require(self.max_opt_iters >= 1, f"max_opt_iters must be at least 1, got {self.max_opt_iters}")
-        require(self.max_num_traces >= 0, f"max_num_traces must be at least 0, got {self.max_num_traces}")
+        require_between("horizon", self.horizon, 0, MAX_HORIZON, " s", above=True)
+        require_between("control_freq", self.control_freq, MIN_CONTROL_FREQ, MAX_CONTROL_FREQ, " Hz")
+        require_between("max_opt_iters", self.max_opt_iters, 1, MAX_OPT_ITERS)
+        require_between("max_num_traces", self.max_num_traces, 0, MAX_NUM_TRACES)
 
 
 def check_configs(task: Task, controller_config: ControllerConfig, optimizer_config: OptimizerConfig) -> None:
@@ -62,6 +81,17 @@ def check_configs(task: Task, controller_config: ControllerConfig, optimizer_con
     )
     order, nodes = controller_config.spline_order, optimizer_config.num_nodes
     require(nodes >= MIN_KNOTS[order], f"a {order} spline needs num_nodes >= {MIN_KNOTS[order]}, got {nodes}")
+    num_steps = max(1, round(controller_config.horizon / task.dt))
+    state_size = mujoco.mj_stateSize(task.model, STATE_SPEC)  # pyright: ignore[reportAttributeAccessIssue]
+    values_per_step = state_size + task.model.nsensordata + task.nu
+    needed = optimizer_config.num_rollouts * num_steps * values_per_step * 8
+    most = max(1, MAX_ROLLOUT_BYTES // (num_steps * values_per_step * 8))
+    require(
+        needed <= MAX_ROLLOUT_BYTES,
+        f"num_rollouts {optimizer_config.num_rollouts} over a {controller_config.horizon} s horizon ({num_steps} steps) "
+        f"would need {needed / 2**30:.1f} GiB of rollout buffers, more than the {MAX_ROLLOUT_BYTES / 2**30:.0f} GiB "
+        f"limit; at this horizon num_rollouts must be at most {most}",
+    )
 
 
 class Controller:
@@ -69,7 +99,8 @@ class Controller:
 
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
-        backend: the RolloutBackend every rollout runs on ("cpu": `RolloutPool`, a thread pool).
+        backend: the RolloutBackend every rollout runs on ("cpu": `RolloutPool`, a thread pool; "warp":
+            `WarpRollout`, MuJoCo Warp on a GPU).
         nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update.
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf).
         traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the "trace" framepos sensors
@@ -114,17 +145,31 @@ class Controller:
         self.nominal_knots = None
 
     def _apply_config_changes(self) -> None:
-        """Rebuild the spline weights when horizon, order or sizes changed since the last cycle."""
+        """Rebuild the spline weights when horizon, order or sizes changed since the last cycle.
+
+        Everything new is built first and assigned only once all of it succeeded, so a refused
+        change leaves the previous layout (and its key) in force, and reverting the edit works.
+        """
         opt, cfg = self.optimizer, self.config
         key = (cfg.horizon, cfg.spline_order, opt.config.num_rollouts, opt.config.num_nodes, self.task.dt)
         if key == self._layout_key:
             return
         check_configs(self.task, cfg, opt.config)
-        opt.num_rollouts, opt.num_nodes = opt.config.num_rollouts, opt.config.num_nodes
-        self._knot_offsets = np.linspace(0.0, cfg.horizon, opt.num_nodes)
-        self._basis = SplineBasis(self._knot_offsets, cfg.spline_order)
-        self._rollout_weights = self._basis.weights(np.arange(self.num_steps) * self.task.dt)
-        self._controls = np.zeros((opt.num_rollouts, self.num_steps, self.task.nu))
+        num_rollouts, num_nodes = opt.config.num_rollouts, opt.config.num_nodes
+        num_steps = max(1, round(cfg.horizon / self.task.dt))
+        try:
+            knot_offsets = np.linspace(0.0, cfg.horizon, num_nodes)
+            basis = SplineBasis(knot_offsets, cfg.spline_order)
+            rollout_weights = basis.weights(np.arange(num_steps) * self.task.dt)
+            controls = np.zeros((num_rollouts, num_steps, self.task.nu))
+        except MemoryError:
+            raise ConfigError(
+                f"not enough memory for {num_rollouts} rollouts of {num_steps} steps with {num_nodes} knots; "
+                "lower num_rollouts, num_nodes or the horizon"
+            ) from None
+        opt.num_rollouts, opt.num_nodes = num_rollouts, num_nodes
+        self._knot_offsets, self._basis = knot_offsets, basis
+        self._rollout_weights, self._controls = rollout_weights, controls
         self._layout_key = key
 
     def _set_initial_state(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None) -> None:
@@ -154,13 +199,20 @@ class Controller:
         `action(t)` serves the returned plan from now on; a caller that models latency (the new plan
         taking effect only later) keeps the previous returned plan and evaluates it itself.
 
-        Raises ConfigError if the configs were edited into an invalid combination, and
-        NonFiniteRewardError if every rollout scored NaN or -inf; in both cases the previous plan
-        stays in force.
+        Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into
+        an invalid combination, NonFiniteRewardError if every rollout scored NaN or -inf, and
+        NonFiniteKnotsError if the optimizer produced NaN or infinite knots; in each case the
+        previous plan stays in force.
         """
         state = np.asarray(state, dtype=float)
         if state.shape != (self._num_state,):
             raise ConfigError(f"state must have shape ({self._num_state},) = (nq + nv,), got {state.shape}")
+        if not (np.isfinite(state).all() and math.isfinite(time)):
+            bad = np.flatnonzero(~np.isfinite(state)).tolist()
+            raise JudoError(
+                f"cannot plan from a non-finite reading (time {time}, non-finite state entries {bad}); "
+                "keeping the previous plan"
+            )
         self._apply_config_changes()
         opt, task = self.optimizer, self.task
         knot_times = time + self._knot_offsets
@@ -184,8 +236,14 @@ class Controller:
                 raise JudoError(
                     f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
                 )
+            if not np.isfinite(knots).all():
+                self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
             np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
             np.matmul(self._rollout_weights, knots, out=self._controls)
+            # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
+            # the plan that is scored is the plan that is served (a cubic overshoots its knots).
+            np.minimum(self._controls, self._ctrl_high, out=self._controls)
+            np.maximum(self._controls, self._ctrl_low, out=self._controls)
             full_states, sensors = self.backend.rollout(self._initial_state, self._controls, self._initial_mocap)
             states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
             rewards = np.asarray(
@@ -202,18 +260,28 @@ class Controller:
                     f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
                 )
             nominal = opt.update_nominal_knots(knots, rewards)
+            if not np.isfinite(nominal).all():
+                self._restart_search(f"{type(opt).__name__}.update_nominal_knots returned non-finite knots")
             if opt.stop_cond():
                 break
 
         self.rewards = rewards
         self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)
-        self._plan = Spline(time, self._basis, self.nominal_knots)
+        self._plan = Spline(time, self._basis, self.nominal_knots, self._ctrl_low, self._ctrl_high)
         shown = np.argsort(-rewards, kind="stable")[: self.config.max_num_traces]
         self.traces = sensors[np.r_[0, shown]][..., self._trace_columns].reshape(len(shown) + 1, self.num_steps, -1, 3)
         return self._plan
 
+    def _restart_search(self, what: str) -> None:
+        """Restart the optimizer's search (its carried state may be NaN too) and refuse the cycle."""
+        self.optimizer.restart()
+        raise NonFiniteKnotsError(f"{what}; restarted its search and kept the previous plan")
+
     def action(self, time: float) -> np.ndarray:
-        """(nu,) control of the current plan at sim `time` (held constant past its ends)."""
+        """(nu,) control of the current plan at sim `time` (held constant past its ends), always
+        within the actuators' ctrlrange: exactly what the rollouts of the plan applied at that time."""
+        if not math.isfinite(time):
+            raise JudoError(f"action time must be a finite number of seconds, got {time}")
         if self._plan is None:
             return np.clip(self.task.optimizer_warm_start(), self._ctrl_low, self._ctrl_high)
         return self._plan(time)

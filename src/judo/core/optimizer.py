@@ -6,8 +6,16 @@ from typing import Generic, TypeVar
 
 import numpy as np
 
-from judo.core.config import Config, require
+from judo.core.config import Config, require_between
 from judo.core.fields import slider
+
+MAX_NUM_ROLLOUTS = 2**20
+"""Most rollouts per iteration (a GPU backend runs 65536 and more); `check_configs` also bounds the
+rollout buffers' memory, which depends on the model and horizon."""
+MAX_NUM_NODES = 100
+"""Most spline knots over the horizon."""
+MAX_NOISE_RAMP = 100.0
+"""Largest noise multiplier at the last knot."""
 
 
 @slider("num_rollouts", 1, 512, 1)
@@ -28,9 +36,9 @@ class OptimizerConfig(Config):
 
     def validate(self) -> None:
         super().validate()
-        require(self.num_rollouts >= 1, f"num_rollouts must be at least 1, got {self.num_rollouts}")
-        require(self.num_nodes >= 1, f"num_nodes must be at least 1, got {self.num_nodes}")
-        require(self.noise_ramp > 0, f"noise_ramp must be positive, got {self.noise_ramp}")
+        require_between("num_rollouts", self.num_rollouts, 1, MAX_NUM_ROLLOUTS)
+        require_between("num_nodes", self.num_nodes, 1, MAX_NUM_NODES)
+        require_between("noise_ramp", self.noise_ramp, 0, MAX_NOISE_RAMP, above=True)
 
 
 ConfigT = TypeVar("ConfigT", bound=OptimizerConfig)

@@ -4,7 +4,7 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.config import Config, coerce_field_value, with_updates
+from judo.core.config import Config, check_seed, coerce_field_value, with_updates
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.optimizer import Optimizer, OptimizerConfig
@@ -67,8 +67,7 @@ def set_config_overrides(task_name: str, config_cls: type[Config], overrides: di
     merged = {**_OVERRIDES.get((task_name, config_cls), {}), **overrides}
     probe = config_cls()
     checked = {name: coerce_field_value(probe, name, value) for name, value in merged.items()}
-    if config_cls not in (TaskConfig, OptimizerConfig, ControllerConfig):
-        with_updates(probe, checked)  # cross-field checks on a concrete class
+    with_updates(probe, checked)  # range checks, and cross-field checks on a concrete class
     _OVERRIDES[(task_name, config_cls)] = checked
 
 
@@ -88,11 +87,15 @@ def make_controller(
     optimizer_config: OptimizerConfig | None = None,
     num_workers: int | None = None,
     seed: int | None = None,
+    backend: str = "cpu",
 ) -> Controller:
     """A Controller for the registered task and optimizer, with that task's overrides applied.
 
-    Configs passed in are used as they are. `seed` seeds the optimizer's and the task's generators.
+    Configs passed in are used as they are. `seed` seeds the optimizer's and the task's generators
+    (ConfigError unless it is an integer from 0 to 2**63 - 1). `backend` names the rollout backend
+    ("cpu" threads or "warp" for MuJoCo Warp; see ROLLOUT_BACKENDS).
     """
+    check_seed(seed)
     task_cls, task_config_cls = lookup_task(task_name)
     optimizer_cls, optimizer_config_cls = lookup_optimizer(optimizer_name)
     task = task_cls()
@@ -103,4 +106,4 @@ def make_controller(
     if seed is not None:
         optimizer.rng = np.random.default_rng(seed)
         task.rng = np.random.default_rng(seed + 1)
-    return Controller(controller_config, task, optimizer, num_workers)  # type: ignore[arg-type]
+    return Controller(controller_config, task, optimizer, num_workers, backend)  # type: ignore[arg-type]

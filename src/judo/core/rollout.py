@@ -8,6 +8,7 @@ Controller's loop stays written once.
 
 import abc
 import os
+from typing import Literal, get_args
 
 import mujoco
 import mujoco.rollout
@@ -34,10 +35,13 @@ class RolloutBackend(abc.ABC):
     Attributes:
         model: the planning model every rollout runs on.
         num_workers: host threads the backend rolls out on (1 for a GPU backend).
+        gui_max_rollouts: upper end of the GUI's num_rollouts slider on this backend; None keeps the
+            optimizer config's own range.
     """
 
     model: mujoco.MjModel
     num_workers: int
+    gui_max_rollouts: int | None = None
 
     @abc.abstractmethod
     def rollout(
@@ -130,16 +134,31 @@ class RolloutPool(RolloutBackend):
         self._executor.shutdown(wait=True, timeout=CLOSE_TIMEOUT)
 
 
-ROLLOUT_BACKENDS = ("cpu",)
-"""Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`."""
+RolloutBackendName = Literal["cpu", "warp"]
+ROLLOUT_BACKENDS: tuple[str, ...] = get_args(RolloutBackendName)
+"""Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`; "warp" is `WarpRollout` (MuJoCo Warp on
+warp's default device, a GPU when there is one; needs the judo[warp] extra)."""
+
+
+def check_rollout_backend(name: str) -> None:
+    """Raise UnknownNameError for a name not in ROLLOUT_BACKENDS, and MissingExtraError when the backend's
+    optional extra is not installed; builds nothing."""
+    if name not in ROLLOUT_BACKENDS:
+        raise UnknownNameError("rollout backend", name, ROLLOUT_BACKENDS)
+    if name == "warp":
+        import judo.core.warp_rollout  # noqa: F401  (imports warp and mujoco_warp, or names the extra)
 
 
 def make_rollout_backend(name: str, model: mujoco.MjModel, num_workers: int | None = None) -> RolloutBackend:
     """The rollout backend called `name` (one of ROLLOUT_BACKENDS) for `model`.
 
     `num_workers` sets the CPU pool's threads (one per core by default). Raises UnknownNameError for
-    an unknown name.
+    an unknown name, MissingExtraError when "warp" is asked for without the judo[warp] extra, and
+    WarpUnsupportedModelError for a model MuJoCo Warp cannot run.
     """
-    if name == "cpu":
-        return RolloutPool(model, num_workers)
-    raise UnknownNameError("rollout backend", name, ROLLOUT_BACKENDS)
+    check_rollout_backend(name)
+    if name == "warp":
+        from judo.core.warp_rollout import WarpRollout
+
+        return WarpRollout(model, num_workers)
+    return RolloutPool(model, num_workers)

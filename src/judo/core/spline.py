@@ -92,12 +92,32 @@ class SplineBasis:
 
 
 class Spline:
-    """A control trajectory: knots (num_nodes, nu) placed at `start_time + basis.knot_times`."""
+    """A control trajectory: knots (num_nodes, nu) placed at `start_time + basis.knot_times`.
 
-    def __init__(self, start_time: float, basis: SplineBasis, knots: np.ndarray) -> None:
+    With `low` and `high` ((nu,) bounds, e.g. the actuators' ctrlrange), every value it returns is
+    clamped into [low, high]: a cubic through knots that lie within the bounds can still overshoot
+    them between knots, and a plant must never be commanded beyond its range.
+    """
+
+    def __init__(
+        self,
+        start_time: float,
+        basis: SplineBasis,
+        knots: np.ndarray,
+        low: np.ndarray | None = None,
+        high: np.ndarray | None = None,
+    ) -> None:
         self.start_time = start_time
         self.basis = basis
         self.knots = np.array(knots, dtype=float)
+        nu = self.knots.shape[-1]
+        self.low = np.full(nu, -np.inf) if low is None else np.array(np.broadcast_to(low, (nu,)), dtype=float)
+        self.high = np.full(nu, np.inf) if high is None else np.array(np.broadcast_to(high, (nu,)), dtype=float)
+        # Zero-order and linear splines never leave the range of their knots, so only a cubic, or
+        # knots beyond the bounds, need clamping: the common linear case pays nothing.
+        has_bounds = bool(np.isfinite(self.low).any() or np.isfinite(self.high).any())
+        knots_inside = bool(((self.knots >= self.low) & (self.knots <= self.high)).all())
+        self._bounded = has_bounds and (basis.order == "cubic" or not knots_inside)
 
     @property
     def knot_times(self) -> np.ndarray:
@@ -105,10 +125,14 @@ class Spline:
         return self.start_time + self.basis.knot_times
 
     def __call__(self, times: float | np.ndarray) -> np.ndarray:
-        """(nu,) for a scalar time, (num_times, nu) for an array of times."""
+        """(nu,) for a scalar time, (num_times, nu) for an array of times, within [low, high]."""
         if np.ndim(times) == 0:
-            return self.basis.weights_at(float(times) - self.start_time) @ self.knots  # type: ignore[arg-type]
-        return self.basis.weights(np.asarray(times) - self.start_time) @ self.knots
+            values = self.basis.weights_at(float(times) - self.start_time) @ self.knots  # type: ignore[arg-type]
+        else:
+            values = self.basis.weights(np.asarray(times) - self.start_time) @ self.knots
+        if self._bounded:
+            return np.minimum(np.maximum(values, self.low), self.high)  # faster than np.clip or out=
+        return values
 
 
 def _not_a_knot_second_derivatives(x: np.ndarray) -> np.ndarray:

@@ -11,6 +11,7 @@ from rich.table import Table
 
 from judo.core.config import require
 from judo.core.errors import JudoError
+from judo.core.rollout import RolloutBackendName, check_rollout_backend
 from judo.evaluation.cli import (
     check_names,
     chosen_optimizers,
@@ -49,7 +50,9 @@ class BenchmarkArgs:
     num_workers: Annotated[int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")] = (
         None
     )
-    """Rollout worker threads."""
+    """Rollout worker threads (cpu backend)."""
+    backend: RolloutBackendName = "cpu"
+    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
     json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also write one row per pair to this JSON file."""
 
@@ -62,12 +65,15 @@ class BenchmarkArgs:
             f"--num-workers must be at least 1, got {self.num_workers}",
         )
         check_names(self.tasks, self.optimizers)
+        check_rollout_backend(self.backend)
 
 
 def timing_table(task: str, timings: list[UpdateTiming]) -> Table:
     """One row per optimizer: update-time statistics (ms), the raw rollout, the floor (raw rollout x iterations)
     and the overhead ratio (median update / floor)."""
-    table = Table(title=f"{task}: control update time (ms), {timings[0].num_workers} rollout workers")
+    backend = timings[0].backend
+    on = f"{timings[0].num_workers} rollout workers" if backend == "cpu" else f"the {backend} backend"
+    table = Table(title=f"{task}: control update time (ms), {on}")
     table.add_column("optimizer")
     table.add_column("N x T", justify="right")
     table.add_column("mean ± std", justify="right")
@@ -113,6 +119,7 @@ def main(argv: list[str] | None = None) -> int:
                         args.samples,
                         warmup=args.warmup,
                         num_workers=args.num_workers,
+                        backend=args.backend,
                         on_sample=lambda: progress.advance(bar),
                     )
                     results[task].append(timing)

@@ -16,7 +16,7 @@ from typing import Literal
 import numpy as np
 
 from judo.core.config import require
-from judo.core.controller import Controller, NonFiniteRewardError
+from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.spline import Spline
 from judo.core.task import EpisodeLog, Task
 from judo.runtime.system import MujocoSystem, SimulationDiverged
@@ -88,9 +88,9 @@ def run_episode(
         seed: recorded in the result.
         on_update: called after each control update with the plant time, e.g. to advance a progress bar.
     """
-    require(duration > 0, f"duration must be positive, got {duration}")
+    require(0 < duration < np.inf, f"duration must be positive and finite, got {duration}")
     if latency != "measured":
-        require(latency >= 0, f"latency must be at least 0 s, got {latency}")
+        require(0 <= latency < np.inf, f"latency must be at least 0 s and finite, got {latency}")
     system = MujocoSystem(plant_task)
     controller.reset()
     num_steps = max(1, round(duration / system.timestep))
@@ -119,7 +119,7 @@ def run_episode(
             started = time.perf_counter()
             try:
                 plan = controller.update_action(reading.state, now, reading.metadata)
-            except NonFiniteRewardError:
+            except (NonFiniteRewardError, NonFiniteKnotsError):  # the previous plan stays in force
                 plan = None
                 failed_updates += 1
             wall = time.perf_counter() - started

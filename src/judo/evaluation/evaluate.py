@@ -9,9 +9,10 @@ import tyro
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
-from judo.core.config import require
+from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import lookup_task, make_controller
+from judo.core.rollout import RolloutBackendName, check_rollout_backend
 from judo.evaluation.cli import (
     check_names,
     fail,
@@ -52,7 +53,9 @@ class EvaluateArgs:
     num_workers: Annotated[int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")] = (
         None
     )
-    """Rollout worker threads."""
+    """Rollout worker threads (cpu backend)."""
+    backend: RolloutBackendName = "cpu"
+    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
     json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also write each episode's metrics and the summary to this JSON file."""
     plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
@@ -61,21 +64,21 @@ class EvaluateArgs:
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
         check_names([self.task], [self.optimizer])
-        require(self.seeds >= 1, f"--seeds must be at least 1, got {self.seeds}")
-        require(self.duration > 0, f"--duration must be positive, got {self.duration}")
+        require_between("--seeds", self.seeds, 1, 10_000)
+        require_between("--duration", self.duration, 0, 86_400.0, " s", above=True)
         require(
             self.latency_ms is None or self.latency == "none",
             f"give either --latency {self.latency} or --latency-ms {self.latency_ms}, not both",
         )
-        require(
-            self.latency_ms is None or self.latency_ms >= 0, f"--latency-ms must be at least 0, got {self.latency_ms}"
-        )
+        if self.latency_ms is not None:
+            require_between("--latency-ms", self.latency_ms, 0, 60_000.0)
         require(
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
         )
         if self.plot is not None:
             check_plot_path(self.plot)
+        check_rollout_backend(self.backend)
 
     def episode_latency(self) -> Latency:
         """The latency `run_episode` takes: seconds, or "measured"."""
@@ -127,7 +130,9 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
     bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
     results = []
     for seed in range(args.seeds):
-        controller = make_controller(args.task, args.optimizer, num_workers=args.num_workers, seed=seed)
+        controller = make_controller(
+            args.task, args.optimizer, num_workers=args.num_workers, seed=seed, backend=args.backend
+        )
 
         def show(now: float, seed: int = seed) -> None:
             if progress is not None and bar is not None:
@@ -173,6 +178,7 @@ def main(argv: list[str] | None = None) -> int:
                     "seeds": args.seeds,
                     "duration": args.duration,
                     "latency": args.latency_label(),
+                    "backend": args.backend,
                     "episodes": [episode_record(result) for result in results],
                     "summary": {name: vars(summary) for name, summary in summaries.items()},
                 },

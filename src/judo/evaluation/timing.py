@@ -36,6 +36,7 @@ class UpdateTiming:
         update_ms: (samples,) wall time of each timed control update.
         raw_rollout_ms: (samples,) wall time of each raw rollout of N x T steps on the same pool,
             timed alternately with the updates so both see the same machine load.
+        backend: the rollout backend's name ("cpu" or "warp").
     """
 
     task: str
@@ -46,6 +47,7 @@ class UpdateTiming:
     max_opt_iters: int
     update_ms: np.ndarray
     raw_rollout_ms: np.ndarray
+    backend: str = "cpu"
 
     def floor_ms(self) -> float:
         """The physics an update cannot avoid: the median raw rollout times max_opt_iters (one batch per iteration)."""
@@ -64,6 +66,7 @@ class UpdateTiming:
             "num_rollouts": self.num_rollouts,
             "T": self.num_steps,
             "num_workers": self.num_workers,
+            "backend": self.backend,
             "max_opt_iters": self.max_opt_iters,
             "median_ms": float(np.median(self.update_ms)),
             "mean_ms": float(np.mean(self.update_ms)),
@@ -87,8 +90,9 @@ def benchmark_controller(
     horizon: float | None = None,
     num_workers: int | None = None,
     seed: int = 0,
+    backend: str = "cpu",
 ) -> Controller:
-    """A seeded controller with the task's default settings, except the sizes given here."""
+    """A seeded controller with the task's default settings, except the sizes given here, on `backend`."""
     controller_config = make_config(ControllerConfig, task_name)
     if horizon is not None:
         controller_config = with_updates(controller_config, {"horizon": horizon})
@@ -102,6 +106,7 @@ def benchmark_controller(
         optimizer_config=optimizer_config,  # type: ignore[arg-type]
         num_workers=num_workers,
         seed=seed,
+        backend=backend,
     )
 
 
@@ -124,12 +129,13 @@ def rollout_start(
 
 def sampled_controls(controller: Controller, plan: Spline) -> np.ndarray:
     """(num_rollouts, T, nu) controls as an update after `plan` would roll out: knots sampled by the
-    optimizer around the plan's knots, clamped to the actuator limits, interpolated at every step."""
+    optimizer around the plan's knots, clamped to the actuator limits, interpolated at every step and
+    clamped again (as `Controller.update_action` does)."""
     knots = controller.optimizer.sample_control_knots(plan.knots)
     low, high = controller.task.actuator_ctrlrange.T
     np.clip(knots, low, high, out=knots)
     weights = plan.basis.weights(np.arange(controller.num_steps) * controller.task.dt)  # (T, num_nodes)
-    return np.matmul(weights, knots)
+    return np.clip(np.matmul(weights, knots), low, high)
 
 
 def time_control_update(
@@ -188,9 +194,10 @@ def time_pair(
     num_nodes: int | None = None,
     horizon: float | None = None,
     num_workers: int | None = None,
+    backend: str = "cpu",
     on_sample: Callable[[], None] | None = None,
 ) -> UpdateTiming:
-    """Build a controller for the pair (default settings except the sizes given), time it, close it."""
+    """Build a controller for the pair (default settings except the sizes given) on `backend`, time it, close it."""
     controller = benchmark_controller(
         task_name,
         optimizer_name,
@@ -198,6 +205,7 @@ def time_pair(
         num_nodes=num_nodes,
         horizon=horizon,
         num_workers=num_workers,
+        backend=backend,
     )
     try:
         update_ms, raw_ms = time_control_update(controller, samples, warmup, on_sample=on_sample)
@@ -212,4 +220,5 @@ def time_pair(
         max_opt_iters=controller.config.max_opt_iters,
         update_ms=update_ms,
         raw_rollout_ms=raw_ms,
+        backend=backend,
     )

@@ -15,6 +15,7 @@ from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.optimizers.knot_shift import knot_shift_matrix
 
 
+@slider("num_rollouts", 2, 512, 1)  # CMA-ES needs a population besides the plan
 @slider("sigma", 0.001, 2.0, 0.001)
 @slider("sigma_min", 0.001, 2.0, 0.001)
 @slider("sigma_max", 0.001, 5.0, 0.001)

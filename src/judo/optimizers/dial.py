@@ -8,7 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judo.core.config import require
+from judo.core.config import require, require_between
+from judo.core.controller import MAX_OPT_ITERS
 from judo.core.fields import slider
 from judo.core.optimizer import Optimizer, OptimizerConfig
 
@@ -39,7 +40,7 @@ class DialConfig(OptimizerConfig):
         require(self.beta_opt_iter > 0, f"beta_opt_iter must be positive, got {self.beta_opt_iter}")
         require(self.beta_horizon > 0, f"beta_horizon must be positive, got {self.beta_horizon}")
         require(self.temperature > 0, f"temperature must be positive, got {self.temperature}")
-        require(self.anneal_iters >= 1, f"anneal_iters must be at least 1, got {self.anneal_iters}")
+        require_between("anneal_iters", self.anneal_iters, 1, MAX_OPT_ITERS)
 
 
 class Dial(Optimizer[DialConfig]):

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judo.core.config import require
+from judo.core.config import require, require_between
 from judo.core.fields import slider
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.optimizers.cem import check_elite_settings
@@ -42,7 +42,7 @@ class ICEMConfig(OptimizerConfig):
             0.0 <= self.elite_keep_fraction <= 1.0,
             f"elite_keep_fraction must be between 0 and 1, got {self.elite_keep_fraction}",
         )
-        require(self.beta >= 0, f"beta must be at least 0, got {self.beta}")
+        require_between("beta", self.beta, 0, 10)
 
 
 class ICEM(Optimizer[ICEMConfig]):

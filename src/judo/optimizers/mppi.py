@@ -23,6 +23,7 @@ class MPPIConfig(OptimizerConfig):
 
     def validate(self) -> None:
         super().validate()
+        require(self.sigma > 0, f"sigma must be positive, got {self.sigma}")
         require(self.temperature > 0, f"temperature must be positive, got {self.temperature}")
 
 

@@ -4,6 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from judo.core.config import require
 from judo.core.fields import slider
 from judo.core.optimizer import Optimizer, OptimizerConfig
 
@@ -15,6 +16,10 @@ class PredictiveSamplingConfig(OptimizerConfig):
 
     sigma: float = 0.05
     """Std of the Gaussian noise added to every knot, in control units."""
+
+    def validate(self) -> None:
+        super().validate()
+        require(self.sigma > 0, f"sigma must be positive, got {self.sigma}")
 
 
 class PredictiveSampling(Optimizer[PredictiveSamplingConfig]):

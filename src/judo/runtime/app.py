@@ -33,7 +33,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from judo.core.config import Config, with_updates
+from judo.core.config import Config, check_seed, with_updates
 from judo.core.controller import Controller, ControllerConfig, PlanningCancelled, check_configs
 from judo.core.errors import ConfigError, JudoError
 from judo.core.optimizer import OptimizerConfig
@@ -57,6 +57,8 @@ IDLE_POLL = 0.01
 """Seconds a loop sleeps while paused or waiting for its first input."""
 GUI_PERIOD = 1.0 / 30.0
 """Seconds between GUI frames."""
+MAX_WORKERS = 1024
+"""Most rollout threads an app may ask for."""
 REPEAT_LOG_INTERVAL = 5.0
 """Seconds before the same status message is written to the log again."""
 CONFIG_POLL = 0.25
@@ -126,6 +128,7 @@ class App:
         duration: stop after this many seconds of sim time; None runs until `stop()`.
         seed: seeds the optimizer, the task and the simulated plant.
         num_workers: rollout threads; the number of cores by default.
+        backend: rollout backend, "cpu" (threads) or "warp" (MuJoCo Warp, a GPU when there is one).
 
     Raises UnknownNameError or ConfigError at once for bad names or configs.
     """
@@ -147,9 +150,18 @@ class App:
         duration: float | None = None,
         seed: int | None = None,
         num_workers: int | None = None,
+        backend: str = "cpu",
     ) -> None:
-        if duration is not None and not duration > 0:
-            raise ConfigError(f"duration must be positive seconds of sim time, got {duration}")
+        if duration is not None and not 0 < duration < math.inf:
+            raise ConfigError(
+                f"duration must be a positive, finite number of seconds of sim time (or None to run until stopped), "
+                f"got {duration}"
+            )
+        if num_workers is not None and not (isinstance(num_workers, int) and 1 <= num_workers <= MAX_WORKERS):
+            raise ConfigError(
+                f"num_workers must be an integer from 1 to {MAX_WORKERS} (or None: one per core), got {num_workers!r}"
+            )
+        check_seed(seed)
         self.buffer = StateBuffer()
         self.stats = RunStats()
         self.gui_enabled, self.host, self.port, self.duration = gui, host, check_port(port), duration
@@ -157,6 +169,7 @@ class App:
             token = new_token()
         self.token, self.share = token, share
         self._user_system, self._seed, self._num_workers = system, seed, num_workers
+        self.backend = backend
         self._lock = threading.RLock()
         self._session = build_session(
             task,
@@ -168,6 +181,7 @@ class App:
             system=system,
             seed=seed,
             num_workers=num_workers,
+            backend=backend,
         )
         self._configs: dict[ConfigKind, Config] = self._session_configs(self._session)
         self._pending: dict[ConfigKind, Config] = {}
@@ -613,6 +627,7 @@ class App:
             plant_task=plant_task,
             seed=self._seed,
             num_workers=self._num_workers,
+            backend=self.backend,
         )
 
         def build() -> Session:

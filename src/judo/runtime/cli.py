@@ -29,6 +29,7 @@ from judo.core.config import Config, with_updates
 from judo.core.config_file import load_config
 from judo.core.errors import JudoError
 from judo.core.registry import get_registered_optimizers, get_registered_tasks
+from judo.core.rollout import RolloutBackendName
 from judo.runtime.app import App
 from judo.runtime.session import default_configs
 
@@ -62,6 +63,8 @@ class RunOptions:
     """Stop after this many seconds of sim time and print a summary; by default run until Ctrl-C."""
     seed: int | None = None
     """Seed of the optimizer, the task and the simulated plant."""
+    backend: RolloutBackendName = "cpu"
+    """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install "judo[warp]")."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -89,6 +92,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             share=options.share,
             duration=options.duration,
             seed=options.seed,
+            backend=options.backend,
         )
     except JudoError as err:
         print(f"{PROG}: {err}", file=sys.stderr)

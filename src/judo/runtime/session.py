@@ -63,14 +63,15 @@ def build_session(
     plant_task: Task | None = None,
     seed: int | None = None,
     num_workers: int | None = None,
+    backend: str = "cpu",
 ) -> Session:
     """A new Session. Configs left out get the task's registered defaults.
 
     With no `system`, the plant is a MujocoSystem on a second instance of the task class, sharing
     the controller task's config and reset to its start state. A given `system` (with the
     `plant_task` it steps, if any) is kept as it is, e.g. the user's hardware or the running plant
-    when only the optimizer changes. Raises UnknownNameError for an unregistered name and
-    ConfigError for configs that do not work together.
+    when only the optimizer changes. `backend` names the controller's rollout backend. Raises
+    UnknownNameError for an unregistered name and ConfigError for configs that do not work together.
     """
     controller = make_controller(
         task_name,
@@ -79,6 +80,7 @@ def build_session(
         optimizer_config=optimizer_config,
         num_workers=num_workers,
         seed=seed,
+        backend=backend,
     )
     if task_config is not None:
         controller.task.config = task_config

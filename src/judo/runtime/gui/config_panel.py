@@ -32,10 +32,19 @@ class ConfigPanel:
 
     A user's change calls `on_edit({field: value})`. If that raises JudoError, the widget goes back
     to the last accepted value (the caller reports why). `show(config)` puts a config that changed
-    elsewhere (reset, switch) into the widgets without calling `on_edit`.
+    elsewhere (reset, switch) into the widgets without calling `on_edit`. `ranges` ({field: SliderRange})
+    replaces the config class's own `@slider` ranges, e.g. a wider num_rollouts on a GPU backend.
     """
 
-    def __init__(self, gui: viser.GuiApi, label: str, config: Config, on_edit: EditFn, order: float) -> None:
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        label: str,
+        config: Config,
+        on_edit: EditFn,
+        order: float,
+        ranges: dict[str, SliderRange] | None = None,
+    ) -> None:
         self._on_edit = on_edit
         self._config = config
         self._lock = threading.Lock()
@@ -44,7 +53,8 @@ class ConfigPanel:
         self._encode: dict[str, Callable[[Any], list[Any]]] = {}
         self.folder = gui.add_folder(label, order=order)
         cls = type(config)
-        docs, ranges, types = field_docs(cls), slider_ranges(cls), field_types(cls)
+        docs, types = field_docs(cls), field_types(cls)
+        ranges = {**slider_ranges(cls), **(ranges or {})}
         with self.folder:
             for f in fields(config):
                 self._add_field(

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 
 from judo.core.config import Config
 from judo.core.errors import JudoError
+from judo.core.fields import SliderRange
 from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.plots import Plots
@@ -122,8 +123,17 @@ class Gui:
             "optimizer": f"Optimizer: {session.optimizer_name}",
             "task": f"Task: {session.task_name}",
         }
+        max_rollouts = session.controller.backend.gui_max_rollouts
+        ranges = {"optimizer": {"num_rollouts": SliderRange(1, max_rollouts, 1)}} if max_rollouts else {}
         self.panels = {
-            kind: ConfigPanel(self.server.gui, titles[kind], config, self._editor(kind, session.generation), 10 * order)
+            kind: ConfigPanel(
+                self.server.gui,
+                titles[kind],
+                config,
+                self._editor(kind, session.generation),
+                10 * order,
+                ranges.get(kind),
+            )
             for order, (kind, config) in enumerate(configs.items(), start=1)
         }
         self.controls.show_session()

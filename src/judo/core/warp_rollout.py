@@ -1,0 +1,361 @@
+"""`WarpRollout`: the rollout backend on MuJoCo Warp, for thousands of rollouts per planning cycle on a GPU.
+
+Every rollout is one MuJoCo Warp world; all N worlds step together. States and sensors come back in the
+same layout as `RolloutPool`'s (full-physics states per mj_getState, float64), so tasks and the
+Controller do not change. Physics runs in float32.
+
+On a CUDA device the T-step rollout (set the initial state, then per step: load controls, step, record)
+is captured once as a CUDA graph and replayed; it is captured again only when N, T or the model change.
+Inputs go to the device once per call from pinned host memory, and states and sensors come back once
+into preallocated pinned host arrays. On the CPU device (no GPU) the same kernels are launched directly
+and the host arrays are the device arrays themselves.
+
+Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `make_rollout_backend`
+imports it only when the "warp" backend is asked for.
+"""
+
+import time
+import warnings
+
+import mujoco
+import numpy as np
+
+from judo.core.errors import JudoError, import_extra
+from judo.core.model import STATE_SPEC
+from judo.core.rollout import RolloutBackend
+
+FEATURE = "the warp rollout backend (--backend warp)"
+wp = import_extra("warp", FEATURE, "warp")
+mjw = import_extra("mujoco_warp", FEATURE, "warp")
+
+wp.config.log_level = wp.LOG_WARNING  # no line per compiled kernel module
+
+EXTRA_SPEC = STATE_SPEC & ~(
+    mujoco.mjtState.mjSTATE_TIME
+    | mujoco.mjtState.mjSTATE_QPOS
+    | mujoco.mjtState.mjSTATE_QVEL
+    | mujoco.mjtState.mjSTATE_ACT
+)
+"""The full-physics state after [time, qpos, qvel, act] (delay history, plugin and plastic state): empty for
+most models; read with mjw.get_state each step when not."""
+INITIAL_SPEC = (
+    STATE_SPEC
+    | mujoco.mjtState.mjSTATE_WARMSTART
+    | mujoco.mjtState.mjSTATE_MOCAP_POS
+    | mujoco.mjtState.mjSTATE_MOCAP_QUAT
+)
+"""What each rollout starts from: the full-physics state, a zero solver warm start (so a rollout does not
+depend on the one before it) and the mocap poses, which then stay put for the whole rollout."""
+
+CONTACT_OVERFLOWS = int(mjw.OverflowType.BROADPHASE | mjw.OverflowType.NARROWPHASE | mjw.OverflowType.CCD)
+"""Overflow bits meaning contacts were dropped: fixed by more contacts per world (nconmax)."""
+CONSTRAINT_OVERFLOWS = int(mjw.OverflowType.NEFC | mjw.OverflowType.NJMAX_NNZ)
+"""Overflow bits meaning constraint rows were dropped: fixed by more rows per world (njmax)."""
+DROPPED = CONTACT_OVERFLOWS | CONSTRAINT_OVERFLOWS
+"""Every overflow bit that means a rollout lost contacts or constraints (solver-iteration limits are not such)."""
+MAX_RESIZES = 8
+"""Doublings of nconmax / njmax tried within one call before giving up with RolloutOverflowError."""
+MAX_GUI_ROLLOUTS = 8192
+"""The GUI's num_rollouts slider reaches this far on the warp backend."""
+PHASES = ("copy_in", "physics", "copy_out")
+"""Where a rollout's wall time goes, summed over calls in `WarpRollout.phase_seconds`: inputs to the device
+(host staging included), the T steps on the device, and states, sensors and overflow flags back to the host."""
+
+
+class WarpUnsupportedModelError(JudoError):
+    """A model that MuJoCo Warp cannot run (a feature its put_model does not implement)."""
+
+
+class RolloutOverflowError(JudoError):
+    """Rollouts that still dropped contacts or constraints after the backend grew its buffers MAX_RESIZES times."""
+
+
+class RolloutOverflowWarning(UserWarning):
+    """A rollout overflowed its contact or constraint buffers; they were doubled and the batch rolled out again."""
+
+
+@wp.kernel
+def _broadcast_initial(initial: wp.array(dtype=wp.float64), out: wp.array2d(dtype=wp.float32)):  # type: ignore[valid-type]
+    """out[world, i] = initial[i]: every world starts from the same (ninitial,) state. Launch dim (N, ninitial)."""
+    world, i = wp.tid()
+    out[world, i] = wp.float32(initial[i])
+
+
+@wp.kernel
+def _load_controls(
+    controls: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
+    step: int,
+    ctrl: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+):
+    """ctrl[world, j] = controls[world, step, j], the (N, nu) controls of one step. Launch dim (N, nu)."""
+    world, j = wp.tid()
+    ctrl[world, j] = wp.float32(controls[world, step, j])
+
+
+@wp.kernel
+def _record_step(
+    time: wp.array(dtype=wp.float32),  # type: ignore[valid-type]
+    qpos: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    qvel: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    act: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    extra: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    sensordata: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    step: int,
+    states: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
+    sensors: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
+):
+    """states[:, step] = [time, qpos, qvel, act, extra] (N, nstate), the full-physics state in mj_getState's
+    order, and sensors[:, step] = sensordata (N, nsensordata), as float64. Launch dim (N, nstate + nsensordata)."""
+    world, i = wp.tid()
+    nq, nv, na = qpos.shape[1], qvel.shape[1], act.shape[1]
+    nstate = 1 + nq + nv + na + extra.shape[1]
+    if i == 0:
+        states[world, step, 0] = wp.float64(time[world])
+    elif i < 1 + nq:
+        states[world, step, i] = wp.float64(qpos[world, i - 1])
+    elif i < 1 + nq + nv:
+        states[world, step, i] = wp.float64(qvel[world, i - 1 - nq])
+    elif i < 1 + nq + nv + na:
+        states[world, step, i] = wp.float64(act[world, i - 1 - nq - nv])
+    elif i < nstate:
+        states[world, step, i] = wp.float64(extra[world, i - 1 - nq - nv - na])
+    else:
+        sensors[world, step, i - nstate] = wp.float64(sensordata[world, i - nstate])
+
+
+def put_model(model: mujoco.MjModel, deterministic: bool):  # noqa: ANN201  (a mujoco_warp Model)
+    """`model` on the current warp device, or WarpUnsupportedModelError naming the feature MuJoCo Warp lacks."""
+    try:
+        device_model = mjw.put_model(model)
+    except (NotImplementedError, ValueError) as err:
+        raise WarpUnsupportedModelError(
+            f"MuJoCo Warp {mjw.__version__} cannot run this model: {err}; expected a model without that feature. "
+            "Run it on the CPU instead with --backend cpu (backend='cpu'), or change the model."
+        ) from err
+    device_model.opt.warn_overflow = 0  # reported (and fixed) by WarpRollout, not printed from kernels
+    device_model.opt.deterministic = int(mjw.DeterminismType.ALL if deterministic else mjw.DeterminismType.NONE)
+    return device_model
+
+
+def probe_sizes(model: mujoco.MjModel, states: list[np.ndarray]) -> tuple[int, int]:
+    """(contacts, constraint rows) MuJoCo finds at the model's reference pose, each keyframe and each of the
+    full-physics `states`: the starting point for sizing MuJoCo Warp's per-world buffers."""
+    data = mujoco.MjData(model)
+    ncon = nefc = 0
+    poses = [None, *range(model.nkey)]
+    for pose in [*poses, *states]:
+        if pose is None:
+            mujoco.mj_resetData(model, data)
+        elif isinstance(pose, int):
+            mujoco.mj_resetDataKeyframe(model, data, pose)
+        else:
+            mujoco.mj_setState(model, data, pose, STATE_SPEC)
+        mujoco.mj_forward(model, data)
+        ncon, nefc = max(ncon, data.ncon), max(nefc, data.nefc)
+    return ncon, nefc
+
+
+class WarpRollout(RolloutBackend):
+    """Rolls out batches of control sequences as MuJoCo Warp worlds on `wp.get_device()` (or `device`).
+
+    Contacts and constraint rows per world start at twice what MuJoCo finds at the model's reference pose,
+    its keyframes and the first initial state (at least 64 contacts and 128 rows). A batch that overflows
+    them is never returned: the overflowing buffer is doubled, a RolloutOverflowWarning says so, and the
+    batch is rolled out again (RolloutOverflowError after MAX_RESIZES doublings). The grown sizes stay.
+
+    Args:
+        model: the planning model; WarpUnsupportedModelError if MuJoCo Warp cannot run it.
+        num_workers: ignored (the device runs every rollout); kept for the factory's signature.
+        device: a warp device ("cpu", "cuda:0"); the default device when None.
+        deterministic: bitwise repeatable results on CUDA (stable contact order and atomics; somewhat
+            slower). The CPU device is deterministic either way.
+        nconmax, njmax: contacts and constraint rows per world to start from, instead of the sizes probed
+            from the model (they still grow on overflow).
+    """
+
+    gui_max_rollouts = MAX_GUI_ROLLOUTS
+    phase_seconds: dict[str, float]
+    """Seconds spent in each of PHASES, summed over every call so far (benchmarks read and reset it)."""
+
+    def __init__(
+        self,
+        model: mujoco.MjModel,
+        num_workers: int | None = None,
+        device: str | None = None,
+        deterministic: bool = True,
+        nconmax: int | None = None,
+        njmax: int | None = None,
+    ) -> None:
+        del num_workers
+        self.model = model
+        self.num_workers = 1
+        self.device = wp.get_device(device)
+        self.deterministic = deterministic
+        self._graph = None
+        self._start_sizes = (nconmax, njmax)
+        self.phase_seconds = dict.fromkeys(PHASES, 0.0)
+        self._upload(model)
+
+    def _upload(self, model: mujoco.MjModel) -> None:
+        """Put `model` on the device; buffers are sized and allocated (and the graph captured) at the next call."""
+        with wp.ScopedDevice(self.device):
+            self._device_model = put_model(model, self.deterministic)
+        self._uploaded = model
+        self.nstate = mujoco.mj_stateSize(model, STATE_SPEC)
+        self.nextra = mujoco.mj_stateSize(model, EXTRA_SPEC)
+        self.ninitial = mujoco.mj_stateSize(model, INITIAL_SPEC)
+        self.nconmax = self.njmax = 0  # per world; sized at the first rollout, from the model and its start
+        self._sized = False
+        self._scratch = mujoco.MjData(model)
+        self._default_mocap = np.concatenate([self._scratch.mocap_pos.ravel(), self._scratch.mocap_quat.ravel()])
+        self._shape: tuple[int, int] | None = None
+
+    # ---- the call ------------------------------------------------------------------------------
+    def rollout(
+        self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """See `RolloutBackend.rollout`. Returns float64 (N, T, nstate) states and (N, T, nsensordata)
+        sensors in preallocated host arrays, overwritten by the next call."""
+        num_rollouts, num_steps, _ = controls.shape
+        if self.model is not self._uploaded:  # a new planning model: upload it, then size, allocate, capture
+            self._upload(self.model)
+        with wp.ScopedDevice(self.device):
+            if self._shape != (num_rollouts, num_steps):
+                if not self._sized:
+                    self._size_buffers(initial_state)
+                self._allocate(num_rollouts, num_steps)
+            initial = self._initial_vector(initial_state, mocap)
+            for _ in range(MAX_RESIZES):
+                started = time.perf_counter()
+                self._host_initial[:] = initial
+                np.copyto(self._host_controls, controls)
+                self.phase_seconds["copy_in"] += time.perf_counter() - started
+                self._run()
+                overflow = int(np.bitwise_or.reduce(self._host_overflow))
+                if not overflow & DROPPED:
+                    return self._host_states, self._host_sensors
+                self._grow(overflow, int(np.count_nonzero(self._host_overflow & DROPPED)))
+        raise RolloutOverflowError(
+            f"MuJoCo Warp rollouts still overflow with {self.nconmax} contacts and {self.njmax} constraint rows "
+            f"per world after {MAX_RESIZES} doublings; expected a model whose contacts fit. Use --backend cpu."
+        )
+
+    def _initial_vector(self, initial_state: np.ndarray, mocap: np.ndarray | None) -> np.ndarray:
+        """(ninitial,) INITIAL_SPEC vector: `initial_state`, a zero warm start, and `mocap` (or the defaults)."""
+        data, model = self._scratch, self.model
+        mujoco.mj_setState(model, data, initial_state, STATE_SPEC)
+        data.qacc_warmstart[:] = 0.0
+        poses = self._default_mocap if mocap is None else mocap
+        data.mocap_pos[:] = poses[: 3 * model.nmocap].reshape(-1, 3)
+        data.mocap_quat[:] = poses[3 * model.nmocap :].reshape(-1, 4)
+        vector = np.empty(self.ninitial)
+        mujoco.mj_getState(model, data, vector, INITIAL_SPEC)
+        return vector
+
+    def _run(self) -> None:
+        """One rollout of the batch already in the host inputs; outputs and overflow flags land in the host arrays.
+        Adds the time of each phase to `phase_seconds` (on CUDA, waiting for the device after each phase: the
+        phases run one after the other on one stream anyway)."""
+        seconds, clock = self.phase_seconds, time.perf_counter
+        if not self.device.is_cuda:  # host arrays are the device arrays: launch (synchronous on the CPU) and done
+            started = clock()
+            self._launch_rollout()
+            seconds["physics"] += clock() - started
+            return
+        started = clock()
+        wp.copy(self._initial, self._pinned_initial)
+        wp.copy(self._controls, self._pinned_controls)
+        wp.synchronize_device(self.device)
+        copied = clock()
+        if self._graph is None:
+            self._launch_rollout()  # compiles and loads every kernel before the capture
+            with wp.ScopedCapture(device=self.device) as capture:
+                self._launch_rollout()
+            self._graph = capture.graph
+        wp.capture_launch(self._graph)
+        wp.synchronize_device(self.device)
+        stepped = clock()
+        wp.copy(self._pinned_states, self._states)
+        wp.copy(self._pinned_sensors, self._sensors)
+        wp.copy(self._pinned_overflow, self._data.overflow)
+        wp.synchronize_device(self.device)
+        seconds["copy_in"] += copied - started
+        seconds["physics"] += stepped - copied
+        seconds["copy_out"] += clock() - stepped
+
+    def _launch_rollout(self) -> None:
+        """The T-step rollout on the device: reset overflow flags, start every world from the initial
+        vector, then per step load the controls, step, and record state and sensors."""
+        m, d = self._device_model, self._data
+        num_rollouts, num_steps = self._shape  # type: ignore[misc]
+        d.overflow.zero_()
+        wp.launch(_broadcast_initial, dim=(num_rollouts, self.ninitial), inputs=[self._initial, self._start])
+        mjw.set_state(m, d, self._start, int(INITIAL_SPEC))
+        record_dim = (num_rollouts, self.nstate + self.model.nsensordata)
+        for step in range(num_steps):
+            if self.model.nu:
+                wp.launch(_load_controls, dim=(num_rollouts, self.model.nu), inputs=[self._controls, step, d.ctrl])
+            mjw.step(m, d)
+            if self.nextra:
+                mjw.get_state(m, d, self._extra, int(EXTRA_SPEC))
+            wp.launch(
+                _record_step,
+                dim=record_dim,
+                inputs=[d.time, d.qpos, d.qvel, d.act, self._extra, d.sensordata, step, self._states, self._sensors],
+            )
+
+    # ---- buffers -------------------------------------------------------------------------------
+    def _size_buffers(self, initial_state: np.ndarray) -> None:
+        ncon, nefc = probe_sizes(self.model, [initial_state])
+        nconmax, njmax = self._start_sizes
+        self.nconmax = max(64, 2 * ncon) if nconmax is None else nconmax
+        self.njmax = max(128, 2 * nefc) if njmax is None else njmax
+        self._sized = True
+
+    def _grow(self, overflow: int, worlds: int) -> None:
+        """Double the buffer that overflowed, warn, and rebuild the device data (and graph) at the same N x T."""
+        old = (self.nconmax, self.njmax)
+        if overflow & CONTACT_OVERFLOWS:
+            self.nconmax = max(1, 2 * self.nconmax)
+        if overflow & CONSTRAINT_OVERFLOWS:
+            self.njmax = max(1, 2 * self.njmax)
+        names = [flag.name for flag in mjw.OverflowType if flag & DROPPED and flag & overflow and flag.name]
+        warnings.warn(
+            f"MuJoCo Warp rollouts overflowed ({', '.join(names)}) in {worlds} of {self._shape[0]} worlds; "  # type: ignore[index]
+            f"contacts per world {old[0]} -> {self.nconmax}, constraint rows {old[1]} -> {self.njmax}; rolled out again",
+            RolloutOverflowWarning,
+            stacklevel=3,
+        )
+        self._allocate(*self._shape)  # type: ignore[misc]
+
+    def _allocate(self, num_rollouts: int, num_steps: int) -> None:
+        """Device data for N worlds, device inputs and outputs, and their host mirrors (pinned on CUDA)."""
+        self._shape, self._graph = (num_rollouts, num_steps), None
+        model, device = self.model, self.device
+        self._data = mjw.make_data(model, nworld=num_rollouts, nconmax=self.nconmax, njmax=self.njmax)
+        self._initial = wp.zeros(self.ninitial, dtype=wp.float64, device=device)
+        self._start = wp.zeros((num_rollouts, self.ninitial), dtype=wp.float32, device=device)
+        self._extra = wp.zeros((num_rollouts, self.nextra), dtype=wp.float32, device=device)
+        self._controls = wp.zeros((num_rollouts, num_steps, model.nu), dtype=wp.float64, device=device)
+        self._states = wp.zeros((num_rollouts, num_steps, self.nstate), dtype=wp.float64, device=device)
+        self._sensors = wp.zeros((num_rollouts, num_steps, model.nsensordata), dtype=wp.float64, device=device)
+        if device.is_cuda:
+            pinned = {"device": "cpu", "pinned": True}
+            self._pinned_initial = wp.zeros(self.ninitial, dtype=wp.float64, **pinned)
+            self._pinned_controls = wp.zeros(self._controls.shape, dtype=wp.float64, **pinned)
+            self._pinned_states = wp.zeros(self._states.shape, dtype=wp.float64, **pinned)
+            self._pinned_sensors = wp.zeros(self._sensors.shape, dtype=wp.float64, **pinned)
+            self._pinned_overflow = wp.zeros(num_rollouts, dtype=self._data.overflow.dtype, **pinned)
+            host = (self._pinned_initial, self._pinned_controls, self._pinned_states, self._pinned_sensors)
+            self._host_overflow = self._pinned_overflow.numpy()
+        else:
+            host = (self._initial, self._controls, self._states, self._sensors)
+            self._host_overflow = self._data.overflow.numpy()
+        self._host_initial, self._host_controls, self._host_states, self._host_sensors = (a.numpy() for a in host)
+
+    def close(self) -> None:
+        """Free the device buffers, the pinned host buffers and the graph (a later call allocates them again)."""
+        self._graph, self._shape = None, None
+        buffers = ("_data", "_initial", "_start", "_extra", "_controls", "_states", "_sensors")
+        for name in [key for key in vars(self) if key in buffers or key.startswith(("_pinned_", "_host_"))]:
+            delattr(self, name)

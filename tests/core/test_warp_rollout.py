@@ -1,0 +1,183 @@
+"""WarpRollout against RolloutPool, on warp's default device (the CPU device in CI: no GPU there).
+
+Marked `warp` and skipped without the judo[warp] extra. Warp compiles its kernels once per process and
+caches them on disk; the first run of this module takes about a minute for that, so the tests are few
+and share one backend per model.
+
+Tolerance: MuJoCo Warp computes in float32, MuJoCo in float64. Over 5 steps of 10 ms the states and
+sensors agree within ATOL = 1e-4 (measured: about 2e-7 without contacts, 1e-5 with the ball's contact).
+"""
+
+import mujoco
+import numpy as np
+import pytest
+
+pytest.importorskip("warp")
+pytest.importorskip("mujoco_warp")
+
+import judo  # noqa: E402
+from judo.core.model import STATE_SPEC  # noqa: E402
+from judo.core.rollout import RolloutPool  # noqa: E402
+from judo.core.warp_rollout import (  # noqa: E402
+    RolloutOverflowWarning,
+    WarpRollout,
+    WarpUnsupportedModelError,
+)
+
+pytestmark = pytest.mark.warp
+
+ATOL = 1e-4
+N, T = 4, 5
+
+BALLS_XML = """
+<mujoco>
+  <option timestep="0.01"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="cart" pos="0 0 0.5">
+      <joint name="slider" type="slide" axis="1 0 0"/>
+      <geom type="box" size=".2 .1 .1" mass="1" contype="0" conaffinity="0"/>
+      <body name="pole">
+        <joint name="hinge" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 0.6" size=".04" mass=".1" contype="0" conaffinity="0"/>
+        <site name="tip" pos="0 0 0.6"/>
+      </body>
+    </body>
+    <body name="ball" pos="0.5 0 0.099"><freejoint/><geom type="sphere" size="0.1" mass="0.2"/></body>
+    <body name="ball2" pos="-0.5 0 0.099"><freejoint/><geom type="sphere" size="0.1" mass="0.2"/></body>
+    <body name="goal" mocap="true" pos="0 0 1"><geom size="0.05" contype="0" conaffinity="0"/></body>
+  </worldbody>
+  <actuator><motor joint="slider" gear="10" ctrlrange="-1 1"/></actuator>
+  <sensor>
+    <framepos name="trace_tip" objtype="site" objname="tip"/>
+    <jointpos name="angle" joint="hinge"/>
+    <framepos name="ball_pos" objtype="body" objname="ball"/>
+    <framepos name="goal_pos" objtype="body" objname="goal"/>
+  </sensor>
+</mujoco>
+"""
+"""A cart-pole on a motor, two balls rolling on a floor (contacts) and a mocap goal."""
+
+
+def start_state(model: mujoco.MjModel) -> np.ndarray:
+    """(nstate,) full-physics state: the pole tilted, the cart and both balls moving."""
+    data = mujoco.MjData(model)
+    data.time = 1.5
+    data.qpos[1] = 0.3
+    data.qvel[:2] = [0.5, -1.0]
+    data.qvel[2:5] = [1.0, 0.5, 0.0]  # the first ball slides and rolls along the floor
+    data.qvel[8:11] = [-1.0, 0.0, 0.0]
+    state = np.zeros(mujoco.mj_stateSize(model, STATE_SPEC))
+    mujoco.mj_getState(model, data, state, STATE_SPEC)
+    return state
+
+
+@pytest.fixture(scope="module")
+def balls():
+    model = mujoco.MjModel.from_xml_string(BALLS_XML)
+    backend = WarpRollout(model)
+    yield model, backend
+    backend.close()
+
+
+def test_tiny_model_with_contacts_and_mocap_matches_the_cpu_pool_and_repeats_itself(balls):
+    model, backend = balls
+    initial = start_state(model)
+    controls = np.random.default_rng(0).uniform(-1, 1, (N, T, model.nu))
+    mocap = np.array([0.3, -0.2, 0.5, 0.0, 0.0, 0.0, 1.0])
+    states, sensors = backend.rollout(initial, controls, mocap)
+    states, sensors = states.copy(), sensors.copy()
+    pool = RolloutPool(model, num_workers=1)
+    expected_states, expected_sensors = pool.rollout(initial, controls, mocap)
+    pool.close()
+    assert states.shape == (N, T, initial.size) and states.dtype == np.float64
+    assert sensors.shape == (N, T, model.nsensordata) and sensors.dtype == np.float64
+    np.testing.assert_allclose(states, expected_states, atol=ATOL, rtol=0)
+    np.testing.assert_allclose(sensors, expected_sensors, atol=ATOL, rtol=0)
+    np.testing.assert_allclose(sensors[..., -3:], np.broadcast_to([0.3, -0.2, 0.5], (N, T, 3)), atol=1e-6)
+    assert np.ptp(states[:, -1, 1 + model.nq + 2]) == 0.0  # the ball, untouched by the controls, agrees
+    assert np.ptp(states[:, -1, 1]) > 1e-3  # the carts, driven differently, do not
+
+    again, again_sensors = backend.rollout(initial, controls, mocap)  # nothing carries over between calls
+    np.testing.assert_array_equal(again, states)
+    np.testing.assert_array_equal(again_sensors, sensors)
+    _, default_goal = backend.rollout(initial, controls)  # no mocap given: the model's own goal pose
+    np.testing.assert_allclose(default_goal[..., -3:], np.broadcast_to([0.0, 0.0, 1.0], (N, T, 3)), atol=1e-6)
+
+
+def test_overflowing_contact_and_constraint_buffers_grow_instead_of_dropping_contacts():
+    model = mujoco.MjModel.from_xml_string(BALLS_XML)
+    backend = WarpRollout(model, nconmax=1, njmax=2)  # two ball contacts need 2 contacts and 8 rows per world
+    initial = start_state(model)
+    controls = np.zeros((N, T, model.nu))
+    with pytest.warns(RolloutOverflowWarning) as caught:
+        states, _ = backend.rollout(initial, controls)
+    messages = [str(w.message) for w in caught]
+    assert messages[0].startswith("MuJoCo Warp rollouts overflowed (NEFC, BROADPHASE) in 4 of 4 worlds")
+    assert "contacts per world 1 -> 2, constraint rows 2 -> 4; rolled out again" in messages[0]
+    assert backend.nconmax >= 2 and backend.njmax >= 8
+    pool = RolloutPool(model, num_workers=1)
+    np.testing.assert_allclose(states, pool.rollout(initial, controls)[0], atol=ATOL, rtol=0)
+    pool.close()
+    backend.close()
+
+
+def test_a_feature_mujoco_warp_lacks_is_named_with_the_cpu_backend_suggested():
+    spec = mujoco.MjSpec.from_string(BALLS_XML)
+    spec.actuators[0].dyntype = mujoco.mjtDyn.mjDYN_PID  # MuJoCo 4's PID actuator, not in MuJoCo Warp 4.0
+    spec.actuators[0].gaintype = mujoco.mjtGain.mjGAIN_PID
+    spec.actuators[0].biastype = mujoco.mjtBias.mjBIAS_AFFINE
+    with pytest.raises(WarpUnsupportedModelError, match=r"cannot run this model: \['mjDYN_PID'\] not supported") as err:
+        WarpRollout(spec.compile())
+    assert "--backend cpu" in str(err.value)
+
+
+def cartpole_on_warp() -> judo.Controller:
+    """Seeded predictive sampling on cartpole with a 0.5 s horizon (50 steps): warp's CPU device launches
+    every kernel of every step one after the other, so short horizons keep the test fast."""
+    return judo.make_controller(
+        "cartpole", "ps", seed=0, backend="warp", controller_config=judo.ControllerConfig(horizon=0.5)
+    )
+
+
+@pytest.fixture(scope="module")
+def cartpole_warp():
+    controller = cartpole_on_warp()
+    yield controller
+    controller.close()
+
+
+def test_cartpole_matches_the_cpu_pool(cartpole_warp):
+    model = cartpole_warp.task.model
+    data = mujoco.MjData(model)
+    data.qpos[:] = [0.1, np.pi - 0.2]
+    initial = np.zeros(mujoco.mj_stateSize(model, STATE_SPEC))
+    mujoco.mj_getState(model, data, initial, STATE_SPEC)
+    controls = np.random.default_rng(1).uniform(-1, 1, (N, T, model.nu))
+    states, sensors = cartpole_warp.backend.rollout(initial, controls)
+    pool = RolloutPool(model, num_workers=1)
+    expected_states, expected_sensors = pool.rollout(initial, controls)
+    pool.close()
+    np.testing.assert_allclose(states, expected_states, atol=ATOL, rtol=0)
+    np.testing.assert_allclose(sensors, expected_sensors, atol=ATOL, rtol=0)
+
+
+def test_the_controller_improves_cartpole_on_warp_and_a_seeded_run_repeats_itself(cartpole_warp):
+    state = np.array([0.0, 1.0, 0.0, 0.0])  # the pole 1 rad from upright
+
+    def best_rewards(controller: judo.Controller) -> list[float]:
+        best = []
+        for _ in range(6):
+            controller.update_action(state, 0.0)
+            best.append(float(controller.rewards.max()))
+        return best
+
+    first = best_rewards(cartpole_warp)
+    assert first[-1] > first[0] + 10.0  # same start state: later plans roll out better (cpu: -660 -> -616)
+    assert all(b2 >= b1 - 1e-9 for b1, b2 in zip(first, first[1:], strict=False))  # ps keeps its best
+    again = cartpole_on_warp()
+    try:
+        assert best_rewards(again) == first
+        np.testing.assert_array_equal(again.nominal_knots, cartpole_warp.nominal_knots)
+    finally:
+        again.close()

@@ -1,0 +1,47 @@
+"""The GUI's num_rollouts slider follows the rollout backend: thousands of rollouts on warp."""
+
+import pytest
+import viser
+
+from judo.core.controller import ControllerConfig
+from judo.core.fields import SliderRange
+from judo.optimizers import MPPIConfig
+from judo.runtime.app import App
+from judo.runtime.gui.config_panel import ConfigPanel
+
+
+def test_a_panel_range_replaces_the_config_classes_slider_range():
+    server = viser.ViserServer(host="127.0.0.1", port=0, verbose=False)
+    try:
+        config = MPPIConfig(num_rollouts=32)
+        own = ConfigPanel(server.gui, "own", config, lambda updates: config, order=1)
+        wide = ConfigPanel(
+            server.gui,
+            "wide",
+            config,
+            lambda updates: config,
+            order=2,
+            ranges={"num_rollouts": SliderRange(1, 8192, 1)},
+        )
+        own_slider, wide_slider = own.handles("num_rollouts")[0], wide.handles("num_rollouts")[0]
+        assert (own_slider.min, own_slider.max) == (1, 512)
+        assert (wide_slider.min, wide_slider.max, wide_slider.step, wide_slider.value) == (1, 8192, 1, 32)
+        assert wide.handles("num_nodes")[0].max == own.handles("num_nodes")[0].max  # other fields keep theirs
+    finally:
+        server.stop()
+
+
+@pytest.mark.warp
+def test_the_rollouts_slider_reaches_8192_on_the_warp_backend(port, wait_until):
+    pytest.importorskip("warp")
+    pytest.importorskip("mujoco_warp")
+    short = ControllerConfig(horizon=0.2)  # warp's CPU device launches each step's kernels one by one: keep T small
+    app = App("cartpole", "mppi", controller_config=short, host="127.0.0.1", port=port, seed=0, backend="warp")
+    app.start()
+    try:
+        wait_until(lambda: app.gui.shown_generation == app.session.generation, timeout=60, what="the GUI to build")
+        slider = app.gui.panels["optimizer"].handles("num_rollouts")[0]
+        assert (slider.min, slider.max) == (1, 8192)
+        assert app.session.controller.backend.gui_max_rollouts == 8192
+    finally:
+        app.stop()
