@@ -8,6 +8,7 @@ cluster runs as many trials at once as it has CPUs.
 
 import os
 import socket
+from pathlib import Path
 from typing import Any
 
 from judo.core.errors import JudoError, import_extra
@@ -49,13 +50,13 @@ def start_ray(address: str | None, workers: int) -> bool:
     """Start (address None) or join Ray, unless this process is already connected to one (a notebook's, a
     test's), which is then used as it is. Returns whether it connected, i.e. whether `stop_ray` should follow."""
     ray = import_ray()
-    if ray.is_initialized():
-        return False
     if address not in (None, "auto"):
         check_reachable(address)
+    if ray.is_initialized():
+        return False
     options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
     if address is None:
-        options["num_cpus"] = workers
+        options.update(num_cpus=workers, runtime_env=local_runtime_env())
     try:
         ray.init(address=address, **options)
     except (ConnectionError, RuntimeError, ValueError) as err:
@@ -64,6 +65,16 @@ def start_ray(address: str | None, workers: int) -> bool:
             f"{str(err).splitlines()[0]}. For a cluster, start it with `ray start --head` first"
         ) from None
     return True
+
+
+def local_runtime_env() -> dict[str, Any]:
+    """Ray's runtime_env for a local Ray: its workers import judo from where this process does (a source
+    checkout included), ahead of whatever PYTHONPATH already holds."""
+    import judo
+
+    source = str(Path(judo.__file__).resolve().parent.parent)
+    inherited = os.environ.get("PYTHONPATH", "")
+    return {"env_vars": {"PYTHONPATH": os.pathsep.join(filter(None, [source, inherited]))}}
 
 
 def cluster_cpus() -> int:
