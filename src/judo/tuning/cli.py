@@ -62,7 +62,9 @@ class TuneArgs:
     """Fields pinned for every trial (and left out of the space), e.g. optimizer.num_rollouts=64."""
     max_plan_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
     """Best quality at a median control update of at most this: slower trials are kept but marked infeasible."""
-    direction: Annotated[Direction | None, tyro.conf.arg(help_behavior_hint="(default: the metric's)")] = None
+    direction: Annotated[
+        Direction | None, tyro.conf.arg(metavar="{maximize,minimize}", help_behavior_hint="(default: the metric's)")
+    ] = None
     """Override the metric's direction (for a metric of your own task that is better lower)."""
     latency: Literal["none", "measured"] = "none"
     """Planning latency in the episodes, as for evaluate."""
