@@ -176,7 +176,8 @@ def tune(args: TuneArgs) -> int:
     )
     connected = cluster.start_ray(args.address, args.workers or os.cpu_count() or 1)
     capacity = args.workers or cluster.cluster_cpus()
-    best_value = None if studies.best_trial(study, objective) is None else studies.best_trial(study, objective).value
+    best_so_far = studies.best_trial(study, objective)
+    best_value = None if best_so_far is None else best_so_far.value
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     started = time.perf_counter()
     try:

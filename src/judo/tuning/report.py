@@ -85,7 +85,9 @@ def write_study_plots(out: Path, study: Any, objective: Objective) -> list[Path]
     complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
     if not complete:
         return []
-    plots = [("history", optuna.visualization.plot_optimization_history, optuna_matplotlib.plot_optimization_history)]
+    plots: list[tuple[str, Any, Any]] = [
+        ("history", optuna.visualization.plot_optimization_history, optuna_matplotlib.plot_optimization_history)
+    ]
     if len(complete) >= 2 and complete[0].params:
         plots.append(
             ("importance", optuna.visualization.plot_param_importances, optuna_matplotlib.plot_param_importances)
