@@ -4,7 +4,7 @@ Each trial's settings are asked for while other trials run; a finished trial is 
 the study in the database holds every finished trial and a crash or Ctrl-C loses none of them.
 Trial user attributes: "metrics" (each metric's mean over seeds), "plan_ms" (median control update),
 "failure" (why a trial failed), and with --max-plan-ms "constraint" ([plan_ms - max_plan_ms],
-feasible when <= 0), which the TPE sampler takes into account.
+feasible when <= 0), also set as the trial's Optuna constraint, which the TPE sampler takes into account.
 """
 
 import math
@@ -58,7 +58,9 @@ def make_sampler(name: SamplerName, seed: int, space: list[Param], constrained: 
     """The seeded Optuna sampler `name`; TPE honours the plan-time constraint."""
     optuna = import_optuna()
     if name == "tpe":
-        return optuna.samplers.TPESampler(seed=seed, constraints_func=constraint_of if constrained else None)
+        if constrained and not hasattr(optuna.trial.Trial, "set_constraint"):  # optuna 4
+            return optuna.samplers.TPESampler(seed=seed, constraints_func=constraint_of)
+        return optuna.samplers.TPESampler(seed=seed)
     if name == "cmaes":
         import_extra("cmaes", "--sampler cmaes", "tune")
         return optuna.samplers.CmaEsSampler(seed=seed, warn_independent_sampling=False)
@@ -155,6 +157,8 @@ def tell(study: Any, trial: Any, outcome: TrialOutcome, max_plan_ms: float | Non
         return
     if max_plan_ms is not None:
         trial.set_user_attr("constraint", [outcome.plan_ms - max_plan_ms])
+        if hasattr(trial, "set_constraint"):  # optuna 5: the samplers read it from the trial
+            trial.set_constraint("plan_ms_over_max", outcome.plan_ms - max_plan_ms)
     study.tell(trial, outcome.value)
 
 
