@@ -26,9 +26,11 @@ def test_the_best_file_round_trips_through_load_config(tmp_path):
     path = tmp_path / "out" / "best.toml"
     write_best_toml(path, "tune_best_file_task", "mppi", values, ["Best of study 'x': trial 3", "Found by: tune"])
     text = path.read_text()
-    assert text.startswith("# Best of study 'x': trial 3\n# Found by: tune\n\n[controller_config_overrides.")
+    assert text.startswith(
+        '# Best of study \'x\': trial 3\n# Found by: tune\n\ntask = "tune_best_file_task"\noptimizer = "mppi"\n\n['
+    )
     assert tomllib.loads(text)["optimizer_config_overrides"]["tune_best_file_task"]["mppi"]["temperature"] == 1e-4
-    judo.load_config(path)
+    assert judo.load_config(path).task == "tune_best_file_task"
     controller = make_config(ControllerConfig, "tune_best_file_task")
     optimizer = make_config(MPPIConfig, "tune_best_file_task")
     task = make_config(UprightConfig, "tune_best_file_task")
@@ -40,7 +42,7 @@ def test_the_best_file_round_trips_through_load_config(tmp_path):
 def test_only_the_kinds_given_get_a_section_and_odd_values_are_refused():
     assert (
         best_toml("cartpole", "ps", {"optimizer.sigma": 0.5})
-        == "[optimizer_config_overrides.cartpole.ps]\nsigma = 0.5\n"
+        == 'task = "cartpole"\noptimizer = "ps"\n\n[optimizer_config_overrides.cartpole.ps]\nsigma = 0.5\n'
     )
     assert toml_value('say "hi"') == '"say \\"hi\\""'
     with pytest.raises(JudoError, match="non-finite value nan"):

@@ -76,7 +76,8 @@ def test_a_tiny_study_is_stored_resumed_and_its_best_file_loads(local_ray, resto
 
     best = max(resumed, key=lambda trial: trial.value)
     best_file = out / "best.toml"
-    assert f"trial {best.number}," in best_file.read_text()
+    text = best_file.read_text()
+    assert f"trial {best.number}," in text and "# Found by: python -m judo tune --task cartpole --optimizer ps" in text
     assert evaluate_main(["--config", str(best_file), "--task", "cartpole", "--optimizer", "ps", "--seeds", "1",
                           "--duration", "0.2", "--num-workers", "1"]) == 0  # fmt: skip
     loaded = make_config(PredictiveSamplingConfig, "cartpole")

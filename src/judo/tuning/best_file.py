@@ -35,9 +35,11 @@ def toml_value(value: Any) -> str:
 def best_toml(task: str, optimizer: str, values: dict[str, Any], header: Sequence[str] = ()) -> str:
     """The text of a --config file setting `values` ({`kind.field`: value}) for the pair.
 
-    `header` lines become comments at the top (the command that found the values, the score).
+    `header` lines become comments at the top (the command that found the values, the score). The file
+    also names the pair as the initial `task` and `optimizer`, so the app opens on them.
     """
     lines = [f"# {line}" if line else "#" for line in header]
+    lines += ["", f"task = {toml_value(task)}", f"optimizer = {toml_value(optimizer)}"]
     for kind, template in SECTIONS.items():
         entries = {name.split(".", 1)[1]: value for name, value in values.items() if name.split(".", 1)[0] == kind}
         if not entries:

@@ -122,9 +122,20 @@ class TuneArgs:
 
 
 def probe(args: TuneArgs, fixed: dict[str, Any]) -> list[str]:
-    """Run one short episode with the default settings (and --fix) and return the metrics it reports."""
+    """Run one short episode with the default settings (and --fix) and return the metrics it reports.
+
+    Raises JudoError when that episode fails, so a broken task stops the tune before Ray starts.
+    """
     spec = TrialSpec(args.task, args.optimizer, "mean_reward", 1, min(PROBE_DURATION, args.duration), fixed=fixed)
-    (result,) = run_seeded_episodes(spec, {}, range(1))
+    try:
+        (result,) = run_seeded_episodes(spec, {}, range(1))
+    except JudoError:
+        raise
+    except Exception as err:  # noqa: BLE001  (a user's task may raise anything)
+        raise JudoError(
+            f"a {spec.duration:g} s check episode of {args.task} x {args.optimizer} with the default settings failed: "
+            f"{type(err).__name__}: {err}"
+        ) from None
     return list(result.metrics)
 
 
@@ -133,8 +144,8 @@ def progress_text(objective: Objective, best: float | None) -> str:
     return f"best {objective.metric}: " + ("-" if best is None else f"{best:.4g}")
 
 
-def tune(args: TuneArgs) -> int:
-    """Run the study described by `args`; returns the exit status."""
+def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
+    """Run the study described by `args`; returns the exit status. `command` is recorded in best.toml."""
     from judo.tuning import cluster
     from judo.tuning import study as studies
 
@@ -201,12 +212,19 @@ def tune(args: TuneArgs) -> int:
     finally:
         if connected:
             cluster.stop_ray()
-    write_outputs(args, study, objective, space, spec, out, time.perf_counter() - started)
+    write_outputs(args, study, objective, space, spec, out, time.perf_counter() - started, command)
     return 0
 
 
 def write_outputs(
-    args: TuneArgs, study: Any, objective: Objective, space: list[Param], spec: TrialSpec, out: Path, seconds: float
+    args: TuneArgs,
+    study: Any,
+    objective: Objective,
+    space: list[Param],
+    spec: TrialSpec,
+    out: Path,
+    seconds: float,
+    command: str,
 ) -> None:
     """The table, trials.csv, summary.json, plots, best.toml and the best trial's episode plot."""
     from judo.tuning import report
@@ -225,12 +243,11 @@ def write_outputs(
         console.print("no feasible completed trial, so no best.toml" + (" (see trials.csv)" if study.trials else ""))
     else:
         values = {**spec.fixed, **best.params}
-        command = "python -m judo tune " + shlex.join(sys.argv[2:] if sys.argv[1:2] == ["tune"] else sys.argv[1:])
         header = [
             f"Best of study {study.study_name!r}: trial {best.number}, {objective.metric} = {best.value:.6g} "
-            f"({args.seeds} seeds x {args.duration:g} s), median plan {best.user_attrs.get('plan_ms', float('nan')):.3g} ms.",
+            f"({args.seeds} seeds x {args.duration:g} s), median plan {best.user_attrs.get('plan_ms') or float('nan'):.3g} ms.",
             f"Found by: {command}",
-            f"Use with: python -m judo --config {out / 'best.toml'}",
+            f"Use with: python -m judo --config {out / 'best.toml'}  (or evaluate --config ... --task ... --optimizer ...)",
         ]
         write_best_toml(out / "best.toml", args.task, args.optimizer, values, header)
         written.append(out / "best.toml")
@@ -248,8 +265,9 @@ def write_outputs(
 
 def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo tune` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
+    argv = list(sys.argv[1:] if argv is None else argv)
     args = tyro.cli(TuneArgs, args=argv, prog="python -m judo tune", description=DESCRIPTION + " " + name_listing())
     try:
-        return tune(args)
+        return tune(args, "python -m judo tune " + shlex.join(argv))
     except JudoError as err:
         fail(str(err))
