@@ -1,8 +1,9 @@
-"""`python -m judo` (and the `judo` script): the app, or the `benchmark` and `evaluate` commands.
+"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate` and `tune` commands.
 
 python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
 python -m judo benchmark ...                        # judo.evaluation.benchmark
 python -m judo evaluate ...                         # judo.evaluation.evaluate
+python -m judo tune ...                             # judo.tuning.cli (needs the `tune` extra)
 """
 
 import sys
@@ -20,6 +21,10 @@ def main(argv: Sequence[str] | None = None) -> int | None:
         from judo.evaluation.evaluate import main as evaluate_main
 
         return evaluate_main(argv[1:])
+    if argv and argv[0] == "tune":
+        from judo.tuning.cli import main as tune_main
+
+        return tune_main(argv[1:])
     from judo.runtime.cli import main as app_main
 
     return app_main(argv)

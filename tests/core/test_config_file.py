@@ -131,3 +131,26 @@ def test_mistakes_name_the_offender(user_dir, body, message):
 def test_a_missing_file_is_named(tmp_path):
     with pytest.raises(judo.ConfigFileError, match="config file not found: .*nope.toml"):
         judo.load_config(tmp_path / "nope.toml")
+
+
+def test_the_all_section_sets_every_optimizers_base_fields_and_a_named_one_wins(tmp_path):
+    path = write(
+        tmp_path,
+        """
+        [optimizer_config_overrides.all_section_task.all]
+        num_rollouts = 48
+        [optimizer_config_overrides.all_section_task.mppi]
+        num_rollouts = 40
+        """,
+    )
+    judo.load_config(path)
+    from judo.optimizers import CEMConfig
+
+    assert make_config(CEMConfig, "all_section_task").num_rollouts == 48
+    assert make_config(MPPIConfig, "all_section_task").num_rollouts == 40
+
+
+def test_an_unknown_optimizer_section_lists_all_among_the_valid_names(tmp_path):
+    path = write(tmp_path, "[optimizer_config_overrides.pendulum.mpi]\nsigma = 0.1\n")
+    with pytest.raises(judo.ConfigFileError, match=r"unknown optimizer 'mpi'; valid optimizers are: all, cem"):
+        judo.load_config(path)

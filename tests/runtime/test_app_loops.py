@@ -7,8 +7,12 @@ import pytest
 
 import judo
 from judo.core.errors import JudoError
+from judo.core.registry import make_config
 from judo.runtime.app import App
 from judo.runtime.system import System, SystemState
+
+CARTPOLE_HORIZON = make_config(judo.ControllerConfig, "cartpole").horizon
+"""cartpole's default horizon (src/judo/tasks/models/cartpole.toml)."""
 
 
 def small_app(task: str = "cartpole", optimizer: str = "mppi", **kwargs) -> App:
@@ -101,7 +105,7 @@ def test_config_edit_reaches_the_controller_at_the_next_cycle(wait_until):
         wait_until(lambda: latest_plan_steps(app) == 50, what="a plan over 50 steps")
         app.reset_configs()
         wait_until(
-            lambda: app.controller.config.horizon == 1.0 and app.controller.optimizer.config.sigma == 0.3,
+            lambda: app.controller.config.horizon == CARTPOLE_HORIZON and app.controller.optimizer.config.sigma == 0.3,
             what="cartpole's default horizon and sigma",
         )
     finally:

@@ -4,6 +4,8 @@ import numpy as np
 import pytest
 import viser
 
+from judo.core.controller import ControllerConfig
+from judo.core.registry import make_config
 from judo.runtime.app import App
 
 
@@ -58,7 +60,10 @@ def test_reset_configs_refreshes_the_widgets(app, wait_until):
     app.update_config("controller", {"horizon": 2.0})
     wait_until(lambda: app.gui.panels["controller"].value_of("horizon") == 2.0, what="the widget to show 2.0")
     app.reset_configs()
-    wait_until(lambda: app.gui.panels["controller"].value_of("horizon") == 1.0, what="the widget to show 1.0")
+    default = make_config(ControllerConfig, "cartpole").horizon
+    wait_until(
+        lambda: app.gui.panels["controller"].value_of("horizon") == default, what=f"the widget to show {default}"
+    )
     # The status line is set just after the configs, so a GUI frame may fall in between: wait for it too.
     wait_until(lambda: "configs reset to the defaults" in app.gui.controls.status.content, what="the status line")
 

@@ -8,6 +8,8 @@ import re
 import pytest
 
 import judo
+from judo.core.controller import ControllerConfig
+from judo.core.registry import make_config
 from judo.runtime.app import App
 
 pytestmark = pytest.mark.browser
@@ -65,9 +67,10 @@ def click_slider(page, label: str, low: float, high: float, value: float):
 
 
 def test_moving_a_slider_changes_the_controllers_config(app, page, wait_until, artifacts):
-    assert app.controller.config.horizon == 1.0
+    default = app.controller.config.horizon
+    assert default == make_config(ControllerConfig, "cartpole").horizon
     thumb = click_slider(page, "horizon", 0.05, 5.0, 2.5)
-    wait_until(lambda: thumb.get_attribute("aria-valuenow") != "1", timeout=60, what="the slider to move")
+    wait_until(lambda: float(thumb.get_attribute("aria-valuenow")) != default, timeout=60, what="the slider to move")
     shown = float(thumb.get_attribute("aria-valuenow"))
     assert 2.0 <= shown <= 3.0
     wait_until(lambda: app.controller.config.horizon == shown, timeout=60, what=f"the horizon to be {shown}")

@@ -13,6 +13,8 @@ config = "my_module.MyOptConfig"
 horizon = 1.0
 [optimizer_config_overrides.cylinder_push.my_opt]
 param = 42
+[optimizer_config_overrides.cylinder_push.all]   # "all": every optimizer (OptimizerConfig's fields)
+num_rollouts = 64
 [task_config_overrides.cartpole]
 w_centered = 5.0
 """
@@ -31,7 +33,9 @@ else:  # pragma: no cover
 
 from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
+from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import (
+    get_registered_optimizers,
     lookup_optimizer,
     lookup_task,
     register_optimizer,
@@ -48,6 +52,9 @@ TOP_LEVEL_KEYS = (
     "optimizer_config_overrides",
     "task_config_overrides",
 )
+
+ALL_OPTIMIZERS = "all"
+"""The optimizer name in [optimizer_config_overrides.<task>.all]: OptimizerConfig, so every optimizer."""
 
 
 class ConfigFileError(JudoError):
@@ -86,9 +93,11 @@ def load_config(path: str | Path) -> LoadedConfig:
             f"{path}: unknown top-level key {unknown[0]!r}; valid keys are: {', '.join(TOP_LEVEL_KEYS)}"
         )
     folder = path.parent.resolve()
-    # Appended, not prepended: a file beside the config (say websockets.py) must never shadow an
-    # installed package, while modules the file names, and their own sibling imports, still resolve.
-    if str(folder) not in sys.path:
+    # Only a file that registers classes needs its folder importable. Appended, not prepended: a file
+    # beside the config (say websockets.py) must never shadow an installed package, while modules the
+    # file names, and their own sibling imports, still resolve.
+    registers_classes = bool(table.get("custom_tasks") or table.get("custom_optimizers"))
+    if registers_classes and str(folder) not in sys.path:
         sys.path.append(str(folder))
 
     def fail(where: str, err: Exception) -> ConfigFileError:
@@ -120,7 +129,7 @@ def load_config(path: str | Path) -> LoadedConfig:
         for optimizer_name, overrides in _table(per_task, task_name, path).items():
             where = f"optimizer_config_overrides.{task_name}.{optimizer_name}"
             try:
-                config_cls = lookup_optimizer(optimizer_name)[1]
+                config_cls = optimizer_config_class(optimizer_name)
             except UnknownNameError as err:
                 raise fail(where, err) from None
             _apply(path, where, task_name, config_cls, overrides)
@@ -132,6 +141,15 @@ def load_config(path: str | Path) -> LoadedConfig:
             except UnknownNameError as err:
                 raise fail(key, err) from None
     return LoadedConfig(table.get("task"), table.get("optimizer"), path)
+
+
+def optimizer_config_class(name: str) -> type[OptimizerConfig]:
+    """The config class that [optimizer_config_overrides.<task>.<name>] sets: OptimizerConfig for "all"."""
+    if name == ALL_OPTIMIZERS:
+        return OptimizerConfig
+    if name not in get_registered_optimizers():
+        raise UnknownNameError("optimizer", name, [*get_registered_optimizers(), ALL_OPTIMIZERS])
+    return lookup_optimizer(name)[1]
 
 
 def _table(table: dict[str, Any], key: str, path: Path) -> dict[str, Any]:

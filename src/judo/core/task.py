@@ -54,6 +54,9 @@ class Task(ABC, Generic[ConfigT]):
     """
 
     config_cls: ClassVar[type[TaskConfig]] = TaskConfig
+    lower_is_better: ClassVar[tuple[str, ...]] = ()
+    """Names of the `metrics` that are better lower (errors, distances, times, drops); every other metric,
+    and evaluate's "mean_reward", is better higher. `python -m judo tune` reads this for the direction."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Take `config_cls` from `Task[ConfigT]` among the class's own bases. A subclass of a task

@@ -13,6 +13,7 @@ from judo.core.config import require
 from judo.core.errors import JudoError
 from judo.core.rollout import RolloutBackendName, check_rollout_backend
 from judo.evaluation.cli import (
+    apply_config_file,
     check_names,
     chosen_optimizers,
     chosen_tasks,
@@ -43,6 +44,9 @@ class BenchmarkArgs:
         tuple[str, ...], tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)")
     ] = ()
     """Optimizers to time, by registered name."""
+    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
+    (docs/configuration.md); read before anything else."""
     samples: int = 100
     """Timed control updates per task x optimizer pair."""
     warmup: int = 10
@@ -104,6 +108,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the benchmark on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
     args = parse_args(BenchmarkArgs, argv, "python -m judo benchmark", DESCRIPTION + " " + name_listing())
     try:
+        apply_config_file(args.config)
         args.validate()
         tasks, optimizers = chosen_tasks(args.tasks), chosen_optimizers(args.optimizers)
         results: dict[str, list[UpdateTiming]] = {task: [] for task in tasks}

@@ -26,6 +26,15 @@ def parse_args(args_cls: type[ArgsT], argv: list[str] | None, prog: str, descrip
     return tyro.cli(args_cls, args=argv, prog=prog, description=description)
 
 
+def apply_config_file(path: Path | None) -> None:
+    """Read the `--config` TOML file when one is given (registering its classes and applying its overrides),
+    the same way the app does; ConfigFileError names the file and the entry that is wrong."""
+    if path is not None:
+        from judo.core.config_file import load_config
+
+        load_config(path)
+
+
 def check_names(tasks: tuple[str, ...] | list[str], optimizers: tuple[str, ...] | list[str]) -> None:
     """Raise UnknownNameError (listing the valid names) for a task or optimizer that is not registered."""
     for name in tasks:

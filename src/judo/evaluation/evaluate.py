@@ -14,6 +14,7 @@ from judo.core.errors import JudoError
 from judo.core.registry import lookup_task, make_controller
 from judo.core.rollout import RolloutBackendName, check_rollout_backend
 from judo.evaluation.cli import (
+    apply_config_file,
     check_names,
     fail,
     name_listing,
@@ -42,6 +43,9 @@ class EvaluateArgs:
     """Task to run, by registered name."""
     optimizer: Annotated[str, tyro.conf.arg(metavar="NAME")]
     """Optimizer to run, by registered name."""
+    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
+    (docs/configuration.md); read before anything else."""
     seeds: int = 5
     """Episodes to run, with seeds 0 to seeds - 1."""
     duration: float = 20.0
@@ -150,6 +154,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
     args = parse_args(EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing())
     try:
+        apply_config_file(args.config)
         args.validate()
         columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
         with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:

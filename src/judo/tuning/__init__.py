@@ -1,0 +1,14 @@
+"""`python -m judo tune`: search a task x optimizer's settings with Optuna, running trials as Ray tasks.
+
+space.py      the search space, from the config dataclasses and their @slider ranges; --params / --fix
+objective.py  the metric being optimised and its direction
+trial.py      one trial: seeded closed-loop episodes (evaluate's runner) with the trial's settings
+best_file.py  the best settings as a `--config` TOML file
+cluster.py    starting or joining Ray
+study.py      the Optuna study: storage, sampler, ask/tell while trials run
+report.py     the outputs: table, trials.csv, plots
+cli.py        the command line
+
+Nothing here imports optuna or ray at import time except study.py and cluster.py, which are only
+imported by the command (they need the `tune` extra).
+"""

@@ -1,0 +1,273 @@
+"""`python -m judo tune`: search a task x optimizer's settings for the best closed-loop metric.
+
+python -m judo tune --task leap_cube --optimizer mppi --metric goals_per_minute --trials 60 --seeds 3 --duration 20
+"""
+
+import os
+import shlex
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import tyro
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from judo.core.config import require
+from judo.core.errors import JudoError
+from judo.core.registry import lookup_task
+from judo.evaluation.cli import apply_config_file, check_names, fail, name_listing, output_console, progress_console
+from judo.evaluation.episode import Latency
+from judo.evaluation.plot import write_episode_plot
+from judo.tuning.best_file import write_best_toml
+from judo.tuning.objective import Direction, Objective, make_objective
+from judo.tuning.space import Param, apply_values, build_space, default_configs, parse_fixed
+from judo.tuning.trial import TrialSpec, run_seeded_episodes
+
+DESCRIPTION = (
+    "Tune a task x optimizer: search the optimizer's settings (every numeric field with a slider range, plus "
+    "controller.horizon; or --params) for the best value of one of the task's evaluate metrics, averaged over "
+    "seeded closed-loop episodes. Optuna chooses the trials (TPE by default); each runs as a Ray task on one core, "
+    "on a local Ray or a cluster (--address). The study is stored in a database (SQLite by default), so the same "
+    "command resumes it. Writes to --out: trials.csv, plots (PNG and HTML), summary.json, and best.toml, which "
+    "`python -m judo --config` and `evaluate --config` read. Needs the `tune` extra: pip install 'judo[tune]'."
+)
+PROBE_DURATION = 0.2
+"""Seconds of sim time of the check episode run before the study, which also lists the task's metrics."""
+
+
+@dataclass
+class TuneArgs:
+    """Arguments of `python -m judo tune`."""
+
+    task: Annotated[str, tyro.conf.arg(metavar="NAME")]
+    """Task to tune, by registered name."""
+    optimizer: Annotated[str, tyro.conf.arg(metavar="NAME")]
+    """Optimizer to tune, by registered name."""
+    metric: Annotated[str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: mean_reward)")] = None
+    """The evaluate metric to optimise, averaged over seeds; its direction is the task's (lower_is_better)."""
+    trials: int = 20
+    """Finished trials the study should have; a resumed study runs only the missing ones."""
+    seeds: int = 3
+    """Episodes per trial, with seeds 0 to seeds - 1."""
+    duration: float = 10.0
+    """Length of each episode in seconds of sim time."""
+    params: Annotated[
+        tuple[str, ...], tyro.conf.arg(metavar="KIND.FIELD[=LOW:HIGH] ...", help_behavior_hint="(default: see above)")
+    ] = ()
+    """Parameters to search instead of the default space, e.g. optimizer.temperature controller.horizon
+    task.w_position; LOW:HIGH replaces the slider range. KIND is controller, optimizer or task."""
+    fix: Annotated[tuple[str, ...], tyro.conf.arg(metavar="KIND.FIELD=VALUE ...", help_behavior_hint="(optional)")] = ()
+    """Fields pinned for every trial (and left out of the space), e.g. optimizer.num_rollouts=64."""
+    max_plan_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
+    """Best quality at a median control update of at most this: slower trials are kept but marked infeasible."""
+    direction: Annotated[
+        Direction | None, tyro.conf.arg(metavar="{maximize,minimize}", help_behavior_hint="(default: the metric's)")
+    ] = None
+    """Override the metric's direction (for a metric of your own task that is better lower)."""
+    latency: Literal["none", "measured"] = "none"
+    """Planning latency in the episodes, as for evaluate."""
+    latency_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
+    """Fixed planning latency in milliseconds of sim time, as for evaluate; instead of --latency."""
+    sampler: Literal["tpe", "cmaes", "random", "grid"] = "tpe"
+    """Optuna sampler: TPE, CMA-ES, random search, or a grid of 3 values per parameter."""
+    seed: int = 0
+    """Seed of the sampler."""
+    workers: Annotated[int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")] = None
+    """Trials run at once, each on one rollout thread (the CPUs of a local Ray; with --address, default all the cluster's CPUs)."""
+    address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")] = None
+    """A running Ray cluster: auto (the one `ray start --head` started on this machine) or ray://HOST:10001."""
+    storage: Annotated[str | None, tyro.conf.arg(metavar="URL", help_behavior_hint="(default: sqlite in --out)")] = None
+    """Optuna RDB storage URL, e.g. sqlite:///judo-tune.db or postgresql://user:password@host/db."""
+    study: Annotated[
+        str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: TASK-OPTIMIZER-METRIC)")
+    ] = None
+    """Study name; an existing study of that name in the storage is resumed."""
+    out: Annotated[Path | None, tyro.conf.arg(metavar="DIR", help_behavior_hint="(default: tune-TASK-OPTIMIZER)")] = (
+        None
+    )
+    """Folder for trials.csv, the plots, summary.json and best.toml."""
+    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides."""
+
+    def validate(self) -> None:
+        """Raise a JudoError for an argument out of range or a name that is not registered."""
+        check_names([self.task], [self.optimizer])
+        require(self.trials >= 1, f"--trials must be at least 1, got {self.trials}")
+        require(self.seeds >= 1, f"--seeds must be at least 1, got {self.seeds}")
+        require(self.duration > 0, f"--duration must be positive, got {self.duration}")
+        require(self.workers is None or self.workers >= 1, f"--workers must be at least 1, got {self.workers}")
+        require(
+            self.max_plan_ms is None or self.max_plan_ms > 0, f"--max-plan-ms must be positive, got {self.max_plan_ms}"
+        )
+        require(
+            self.latency_ms is None or self.latency == "none",
+            f"give either --latency {self.latency} or --latency-ms {self.latency_ms}, not both",
+        )
+
+    def episode_latency(self) -> Latency:
+        """The latency `run_episode` takes: seconds, or "measured"."""
+        if self.latency_ms is not None:
+            return self.latency_ms / 1e3
+        return "measured" if self.latency == "measured" else 0.0
+
+    def out_dir(self) -> Path:
+        """--out, or tune-TASK-OPTIMIZER."""
+        return self.out or Path(f"tune-{self.task}-{self.optimizer}")
+
+    def storage_url(self) -> str:
+        """--storage, or a SQLite file in the output folder."""
+        return self.storage or f"sqlite:///{self.out_dir() / 'study.db'}"
+
+
+def probe(args: TuneArgs, fixed: dict[str, Any]) -> list[str]:
+    """Run one short episode with the default settings (and --fix) and return the metrics it reports.
+
+    Raises JudoError when that episode fails, so a broken task stops the tune before Ray starts.
+    """
+    spec = TrialSpec(args.task, args.optimizer, "mean_reward", 1, min(PROBE_DURATION, args.duration), fixed=fixed)
+    try:
+        (result,) = run_seeded_episodes(spec, {}, range(1))
+    except JudoError:
+        raise
+    except Exception as err:  # noqa: BLE001  (a user's task may raise anything)
+        raise JudoError(
+            f"a {spec.duration:g} s check episode of {args.task} x {args.optimizer} with the default settings failed: "
+            f"{type(err).__name__}: {err}"
+        ) from None
+    return list(result.metrics)
+
+
+def progress_text(objective: Objective, best: float | None) -> str:
+    """The progress bar's description."""
+    return f"best {objective.metric}: " + ("-" if best is None else f"{best:.4g}")
+
+
+def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
+    """Run the study described by `args`; returns the exit status. `command` is recorded in best.toml."""
+    from judo.tuning import cluster
+    from judo.tuning import study as studies
+
+    studies.import_optuna()  # the `tune` extra, checked before any work
+    cluster.import_ray()
+    apply_config_file(args.config)
+    args.validate()
+    configs = default_configs(args.task, args.optimizer)
+    fixed = parse_fixed(args.fix, configs)
+    apply_values(configs, fixed)  # a pinned value the configs refuse fails now, not in every trial
+    space = build_space(args.task, args.optimizer, args.params, fixed)
+    require(bool(space), "nothing to search: every parameter is fixed")
+    objective = make_objective(args.task, args.metric, probe(args, fixed), args.direction)
+    config_file = None if args.config is None else str(args.config.resolve())
+    spec = TrialSpec(
+        args.task,
+        args.optimizer,
+        objective.metric,
+        args.seeds,
+        args.duration,
+        args.episode_latency(),
+        config_file,
+        fixed,
+    )
+    target = args.trials
+    if args.sampler == "grid":
+        target = min(target, studies.grid_size(space))
+    sampler = studies.make_sampler(args.sampler, args.seed, space, args.max_plan_ms is not None)
+    study_name = args.study or f"{args.task}-{args.optimizer}-{objective.metric}"
+    identity = {"task": args.task, "optimizer": args.optimizer, "metric": objective.metric}
+    out = args.out_dir()
+    storage = args.storage_url()
+    study, already = studies.open_study(storage, study_name, objective, sampler, identity)
+    out.mkdir(parents=True, exist_ok=True)
+    console = output_console()
+    console.print(
+        f"study {study_name!r} in {storage}: {objective.direction} {objective.metric} over "
+        f"{', '.join(p.name for p in space)}" + (f"; resuming with {already} finished trials" if already else "")
+    )
+    connected = cluster.start_ray(args.address, args.workers or os.cpu_count() or 1)
+    capacity = args.workers or cluster.cluster_cpus()
+    best_so_far = studies.best_trial(study, objective)
+    best_value = None if best_so_far is None else best_so_far.value
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    started = time.perf_counter()
+    try:
+        with Progress(*columns, console=progress_console(), transient=True) as progress:
+            bar = progress.add_task(progress_text(objective, best_value), total=target, completed=min(already, target))
+
+            def show(update: studies.Progress) -> None:
+                best = studies.best_trial(study, objective)
+                progress.update(
+                    bar, completed=update.finished, description=progress_text(objective, best and best.value)
+                )
+
+            studies.run_trials(study, space, spec, target, capacity, args.max_plan_ms, show)
+    except KeyboardInterrupt:
+        print(
+            f"interrupted: the finished trials are stored in {storage} (study {study_name!r}); "
+            "run the same command to resume",
+            file=sys.stderr,
+        )
+        return 130
+    finally:
+        if connected:
+            cluster.stop_ray()
+    write_outputs(args, study, objective, space, spec, out, time.perf_counter() - started, command)
+    return 0
+
+
+def write_outputs(
+    args: TuneArgs,
+    study: Any,
+    objective: Objective,
+    space: list[Param],
+    spec: TrialSpec,
+    out: Path,
+    seconds: float,
+    command: str,
+) -> None:
+    """The table, trials.csv, summary.json, plots, best.toml and the best trial's episode plot."""
+    from judo.tuning import report
+    from judo.tuning import study as studies
+
+    console = output_console()
+    table = report.top_trials_table(study, objective, space)
+    table.caption = f"{table.caption}; this run took {seconds:.0f} s"
+    console.print(table)
+    report.write_trials_csv(out / "trials.csv", study)
+    written = [out / "trials.csv", *report.write_study_plots(out, study, objective)]
+    best = studies.best_trial(study, objective)
+    report.write_summary_json(out / "summary.json", study, objective, best)
+    written.append(out / "summary.json")
+    if best is None:
+        console.print("no feasible completed trial, so no best.toml" + (" (see trials.csv)" if study.trials else ""))
+    else:
+        values = {**spec.fixed, **best.params}
+        header = [
+            f"Best of study {study.study_name!r}: trial {best.number}, {objective.metric} = {best.value:.6g} "
+            f"({args.seeds} seeds x {args.duration:g} s), median plan {best.user_attrs.get('plan_ms') or float('nan'):.3g} ms.",
+            f"Found by: {command}",
+            f"Use with: python -m judo --config {out / 'best.toml'}  (or evaluate --config ... --task ... --optimizer ...)",
+        ]
+        write_best_toml(out / "best.toml", args.task, args.optimizer, values, header)
+        written.append(out / "best.toml")
+        (episode,) = run_seeded_episodes(spec, best.params, range(1))
+        model = lookup_task(args.task)[0]().sim_model  # type: ignore[call-arg]
+        title = f"{args.task} x {args.optimizer}, best trial {best.number}, seed 0"
+        for suffix in (".html", ".png"):
+            try:
+                write_episode_plot(episode, model, out / f"best_episode{suffix}", title)
+                written.append(out / f"best_episode{suffix}")
+            except JudoError:  # .png without matplotlib
+                pass
+    console.print("wrote " + ", ".join(str(path) for path in written))
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run `python -m judo tune` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = tyro.cli(TuneArgs, args=argv, prog="python -m judo tune", description=DESCRIPTION + " " + name_listing())
+    try:
+        return tune(args, "python -m judo tune " + shlex.join(argv))
+    except JudoError as err:
+        fail(str(err))

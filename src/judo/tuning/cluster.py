@@ -1,0 +1,117 @@
+"""Ray for tune: start a local Ray, or join a running cluster, and submit trials as Ray tasks.
+
+Ray runs offline: no usage statistics and no dashboard. `address` None starts a local Ray with
+`workers` CPUs; "auto" joins the cluster started on this machine with `ray start --head`;
+"HOST:PORT" or "ray://HOST:PORT" joins a remote one. Every trial is a task needing one CPU, so a
+cluster runs as many trials at once as it has CPUs.
+"""
+
+import os
+import socket
+from pathlib import Path
+from typing import Any
+
+from judo.core.errors import JudoError, import_extra
+from judo.tuning.trial import TrialOutcome, TrialSpec, run_trial
+
+CONNECT_TIMEOUT_S = 5.0
+"""How long to try reaching a cluster's address before giving up."""
+
+
+class RayClusterError(JudoError):
+    """A Ray cluster that cannot be started or reached; the message says how to start one."""
+
+
+def import_ray() -> Any:
+    """The ray module, or MissingExtraError naming the `tune` extra."""
+    os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    return import_extra("ray", "python -m judo tune", "tune")
+
+
+def check_reachable(address: str) -> None:
+    """RayClusterError unless a TCP connection to `address` ("[ray://]HOST:PORT") opens within the timeout."""
+    host_port = address.removeprefix("ray://")
+    host, _, port = host_port.rpartition(":")
+    if not host or not port.isdigit():
+        raise RayClusterError(
+            f"--address {address!r}: expected auto, HOST:PORT or ray://HOST:PORT (e.g. ray://10.0.0.5:10001)"
+        )
+    try:
+        socket.create_connection((host, int(port)), timeout=CONNECT_TIMEOUT_S).close()
+    except OSError as err:
+        raise RayClusterError(
+            f"cannot reach a Ray cluster at {address!r}: {err}. Start one with `ray start --head` on the head "
+            "machine (and `ray start --address=HEAD:6379` on the others), then pass --address auto on the head "
+            "or --address ray://HEAD:10001 from elsewhere"
+        ) from None
+
+
+def start_ray(address: str | None, workers: int) -> bool:
+    """Start (address None) or join Ray, unless this process is already connected to one (a notebook's, a
+    test's), which is then used as it is. Returns whether it connected, i.e. whether `stop_ray` should follow."""
+    ray = import_ray()
+    if address not in (None, "auto"):
+        check_reachable(address)
+    if ray.is_initialized():
+        return False
+    options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
+    if address is None:
+        options.update(num_cpus=workers, runtime_env=local_runtime_env())
+    try:
+        ray.init(address=address, **options)
+    except (ConnectionError, RuntimeError, ValueError) as err:
+        raise RayClusterError(
+            f"could not {'start a local Ray' if address is None else f'join the Ray cluster at {address!r}'}: "
+            f"{str(err).splitlines()[0]}. For a cluster, start it with `ray start --head` first"
+        ) from None
+    return True
+
+
+def local_runtime_env() -> dict[str, Any]:
+    """Ray's runtime_env for a local Ray: its workers import judo from where this process does (a source
+    checkout included), ahead of whatever PYTHONPATH already holds."""
+    import judo
+
+    source = str(Path(judo.__file__).resolve().parent.parent)
+    inherited = os.environ.get("PYTHONPATH", "")
+    return {"env_vars": {"PYTHONPATH": os.pathsep.join(filter(None, [source, inherited]))}}
+
+
+def cluster_cpus() -> int:
+    """CPUs of the Ray this process is connected to: how many trials can run at once."""
+    return max(1, int(import_ray().cluster_resources().get("CPU", 1)))
+
+
+def submit_trial(spec: TrialSpec, values: dict[str, Any]) -> Any:
+    """Start `run_trial(spec, values)` as a Ray task needing one CPU; returns its ObjectRef."""
+    ray = import_ray()
+    remote = ray.remote(num_cpus=1, max_retries=0)(run_trial)
+    return remote.remote(spec, values)
+
+
+def wait_any(refs: list[Any]) -> tuple[list[Any], list[Any]]:
+    """(finished, still running) refs, waiting until at least one is finished."""
+    return import_ray().wait(refs, num_returns=1)
+
+
+def outcome_of(ref: Any) -> TrialOutcome:
+    """The TrialOutcome of a finished ref; a failed outcome when the Ray task itself died (e.g. a worker crash)."""
+    ray = import_ray()
+    try:
+        return ray.get(ref)
+    except Exception as err:  # noqa: BLE001  (RayTaskError, WorkerCrashedError, ...)
+        return TrialOutcome(float("nan"), {}, float("nan"), f"Ray task failed: {type(err).__name__}: {err}")
+
+
+def cancel(refs: list[Any]) -> None:
+    """Cancel running trials (on Ctrl-C)."""
+    ray = import_ray()
+    for ref in refs:
+        ray.cancel(ref, force=True)
+
+
+def stop_ray() -> None:
+    """Shut this process's Ray connection (and a local Ray it started) down."""
+    ray = import_ray()
+    if ray.is_initialized():
+        ray.shutdown()

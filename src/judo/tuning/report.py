@@ -1,0 +1,143 @@
+"""The outputs of a tune: the table of top trials, trials.csv, and the plots (PNG and HTML).
+
+history.{png,html}      the objective of each trial and the best so far (infeasible trials greyed)
+importance.{png,html}   each parameter's importance to the objective (fANOVA), from 2 completed trials on
+best_episode.{png,html} the best trial's episode (seed 0), drawn by evaluate's plot code
+
+HTML plots are plotly files with the library inlined (they open offline); PNGs are drawn with matplotlib.
+"""
+
+import csv
+import json
+import math
+import warnings
+from pathlib import Path
+from typing import Any
+
+from rich.table import Table
+
+from judo.core.errors import JudoError
+from judo.tuning.objective import Objective
+from judo.tuning.space import Param
+from judo.tuning.study import import_optuna, is_feasible, ranked_trials
+
+
+def fmt(value: Any) -> str:
+    """A short text for a number or other value."""
+    if isinstance(value, float):
+        return "n/a" if math.isnan(value) else f"{value:.4g}"
+    return str(value)
+
+
+def top_trials_table(study: Any, objective: Objective, space: list[Param], count: int = 10) -> Table:
+    """The best `count` completed trials: value, median plan time, feasibility and parameters."""
+    trials = ranked_trials(study, objective)
+    failed = len(study.get_trials(deepcopy=False, states=(import_optuna().trial.TrialState.FAIL,)))
+    table = Table(title=f"top trials of {study.study_name}: {objective.metric} ({objective.direction})")
+    table.caption = f"{len(trials)} completed, {failed} failed"
+    fields = [p.field for p in space]
+    labels = [p.field if fields.count(p.field) == 1 else p.name for p in space]
+    for column in ("trial", objective.metric, "plan ms", "feasible", *labels):
+        table.add_column(column, justify="left" if column in ("feasible",) else "right")
+    for trial in trials[:count]:
+        table.add_row(
+            str(trial.number),
+            fmt(trial.value),
+            fmt(trial.user_attrs.get("plan_ms") or math.nan),
+            "yes" if is_feasible(trial) else "no",
+            *(fmt(trial.params.get(p.name, "")) for p in space),
+        )
+    return table
+
+
+def write_trials_csv(path: Path, study: Any) -> None:
+    """One row per trial: number, state, value, plan_ms, feasible, failure, each parameter and each metric."""
+    trials = study.get_trials(deepcopy=False)
+    params = list(dict.fromkeys(name for trial in trials for name in trial.params))
+    metrics = list(dict.fromkeys(name for trial in trials for name in trial.user_attrs.get("metrics", {})))
+    header = ["number", "state", "value", "plan_ms", "feasible", "failure", *params, *(f"metric.{m}" for m in metrics)]
+    try:
+        with path.open("w", newline="") as file:
+            writer = csv.writer(file)
+            writer.writerow(header)
+            for trial in trials:
+                writer.writerow(
+                    [
+                        trial.number,
+                        trial.state.name,
+                        "" if trial.value is None else trial.value,
+                        trial.user_attrs.get("plan_ms", ""),
+                        is_feasible(trial),
+                        trial.user_attrs.get("failure", ""),
+                        *(trial.params.get(name, "") for name in params),
+                        *(trial.user_attrs.get("metrics", {}).get(name, "") for name in metrics),
+                    ]
+                )
+    except OSError as err:
+        raise JudoError(f"could not write {path}: {err}") from err
+
+
+def write_study_plots(out: Path, study: Any, objective: Objective) -> list[Path]:
+    """history and (with 2+ completed trials) importance plots as PNG and HTML; returns the paths written."""
+    optuna = import_optuna()
+    from optuna.visualization import matplotlib as optuna_matplotlib
+
+    complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
+    if not complete:
+        return []
+    plots: list[tuple[str, Any, Any]] = [
+        ("history", optuna.visualization.plot_optimization_history, optuna_matplotlib.plot_optimization_history)
+    ]
+    if len(complete) >= 2 and complete[0].params:
+        plots.append(
+            ("importance", optuna.visualization.plot_param_importances, optuna_matplotlib.plot_param_importances)
+        )
+    written = []
+    for name, plotly_plot, matplotlib_plot in plots:
+        try:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                figure = plotly_plot(study, target_name=objective.metric)
+                figure.write_html(out / f"{name}.html", include_plotlyjs=True)
+                written.append(out / f"{name}.html")
+                written += write_png(out / f"{name}.png", matplotlib_plot, study, objective)
+        except (ValueError, RuntimeError, ZeroDivisionError) as err:  # e.g. importances of constant values
+            (out / f"{name}.txt").write_text(f"no {name} plot: {err}\n")
+    return written
+
+
+def write_png(path: Path, plot: Any, study: Any, objective: Objective) -> list[Path]:
+    """Draw `plot` (an optuna.visualization.matplotlib function) to `path`; [] when matplotlib is missing."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return []
+    axes = plot(study, target_name=objective.metric)
+    figure = axes.figure if hasattr(axes, "figure") else plt.gcf()
+    figure.set_size_inches(8, 5)
+    figure.tight_layout()
+    figure.savefig(path, dpi=100)
+    plt.close(figure)
+    return [path]
+
+
+def write_summary_json(path: Path, study: Any, objective: Objective, best: Any | None) -> None:
+    """The study's identity and best trial as JSON (for scripts)."""
+    content = {
+        "study": study.study_name,
+        **study.user_attrs,
+        "direction": objective.direction,
+        "best": None
+        if best is None
+        else {
+            "number": best.number,
+            "value": best.value,
+            "params": best.params,
+            "plan_ms": best.user_attrs.get("plan_ms"),
+            "metrics": best.user_attrs.get("metrics"),
+        },
+    }
+    path.write_text(json.dumps(content, indent=2, default=str) + "\n")

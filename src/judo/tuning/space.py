@@ -1,0 +1,225 @@
+"""The search space of a tune: config fields with ranges, from the config dataclasses and their @slider ranges.
+
+A parameter is named `<kind>.<field>` with kind one of controller, optimizer, task:
+`optimizer.temperature`, `controller.horizon`, `task.w_position`. By default the space holds every
+numeric field of the optimizer's config that has a slider (noise_ramp only when use_noise_ramp is on),
+plus `controller.horizon`. A range that
+spans two decades or more (max / min >= 100, min > 0) is searched on a log scale; int fields stay ints.
+"""
+
+import math
+import typing
+from dataclasses import dataclass, fields
+from typing import Any, Literal
+
+from judo.core.config import Config, coerce_field_value, field_types
+from judo.core.controller import ControllerConfig
+from judo.core.errors import ConfigError, JudoError
+from judo.core.fields import slider_ranges
+from judo.core.registry import lookup_optimizer, lookup_task, make_config
+from judo.core.spline import MIN_KNOTS
+
+Kind = Literal["controller", "optimizer", "task"]
+KINDS: tuple[Kind, ...] = ("controller", "optimizer", "task")
+DEFAULT_CONTROLLER_PARAMS = ("horizon",)
+"""Controller fields searched by default, besides the optimizer's numeric fields (num_nodes among them)."""
+LOG_SCALE_RATIO = 100.0
+"""A range with max / min at least this (two decades) is searched on a log scale."""
+
+
+class SearchSpaceError(JudoError):
+    """A --params or --fix entry that names no config field, has no range, or cannot be parsed."""
+
+
+@dataclass(frozen=True)
+class Param:
+    """One searched config field.
+
+    Attributes:
+        kind: which config holds it: controller, optimizer or task.
+        field: the field's name in that config.
+        low, high: the range (inclusive); unused for a categorical parameter.
+        log: search on a log scale.
+        integer: an int field, sampled as an int.
+        choices: the values of a categorical (Literal) field, else ().
+    """
+
+    kind: Kind
+    field: str
+    low: float = 0.0
+    high: float = 0.0
+    log: bool = False
+    integer: bool = False
+    choices: tuple[Any, ...] = ()
+
+    @property
+    def name(self) -> str:
+        """`kind.field`, as on the command line and in Optuna."""
+        return f"{self.kind}.{self.field}"
+
+
+def default_configs(task_name: str, optimizer_name: str) -> dict[Kind, Config]:
+    """The controller, optimizer and task configs of the pair with the task's registered overrides."""
+    return {
+        "controller": make_config(ControllerConfig, task_name),
+        "optimizer": make_config(lookup_optimizer(optimizer_name)[1], task_name),
+        "task": make_config(lookup_task(task_name)[1], task_name),
+    }
+
+
+def numeric_fields(config_cls: type) -> list[str]:
+    """The int and float fields of `config_cls`, in declaration order."""
+    types = field_types(config_cls)
+    return [f.name for f in fields(config_cls) if types[f.name] in (int, float)]
+
+
+def valid_names(configs: dict[Kind, Config]) -> list[str]:
+    """Every `kind.field` a tune can search or fix: numeric and Literal fields of the three configs."""
+    names = []
+    for kind, config in configs.items():
+        types = field_types(type(config))
+        names += [
+            f"{kind}.{name}"
+            for name, hint in types.items()
+            if hint in (int, float, bool) or typing.get_origin(hint) is Literal
+        ]
+    return names
+
+
+def split_name(name: str, configs: dict[Kind, Config]) -> tuple[Kind, str]:
+    """(kind, field) of `kind.field`; SearchSpaceError listing the valid names when there is no such field."""
+    kind, _, field = name.partition(".")
+    if kind in configs and field in field_types(type(configs[kind])):  # type: ignore[index]
+        return kind, field  # type: ignore[return-value]
+    raise SearchSpaceError(
+        f"unknown parameter {name!r}: expected <controller|optimizer|task>.<field>; valid parameters are: "
+        + ", ".join(valid_names(configs))
+    )
+
+
+def make_param(kind: Kind, field: str, config: Config, bounds: tuple[float, float] | None = None) -> Param:
+    """The Param for `field` of `config`, over `bounds` or its @slider range; SearchSpaceError if it has neither."""
+    hint = field_types(type(config))[field]
+    name = f"{kind}.{field}"
+    if typing.get_origin(hint) is Literal:
+        return Param(kind, field, choices=typing.get_args(hint))
+    if hint is bool:
+        return Param(kind, field, choices=(False, True))
+    if hint not in (int, float):
+        raise SearchSpaceError(f"{name} is a {getattr(hint, '__name__', hint)} field; only numbers can be searched")
+    if bounds is None:
+        sliders = slider_ranges(type(config))
+        if field not in sliders:
+            raise SearchSpaceError(f"{name} has no @slider range; give one as {name}=LOW:HIGH")
+        bounds = (sliders[field].min, sliders[field].max)
+    low, high = bounds
+    if not low < high:
+        raise SearchSpaceError(f"{name}: the range's low ({low:g}) must be below its high ({high:g})")
+    integer = hint is int
+    if integer:
+        low, high = math.ceil(low), math.floor(high)
+    log = low > 0 and high / low >= LOG_SCALE_RATIO
+    return Param(kind, field, float(low), float(high), log, integer)
+
+
+def parse_param_entry(entry: str) -> tuple[str, tuple[float, float] | None]:
+    """`kind.field` or `kind.field=LOW:HIGH` -> (name, bounds or None)."""
+    name, has_range, bounds = entry.partition("=")
+    if not has_range:
+        return name, None
+    low, colon, high = bounds.partition(":")
+    try:
+        if not colon:
+            raise ValueError
+        return name, (float(low), float(high))
+    except ValueError:
+        raise SearchSpaceError(f"--params {entry!r}: expected {name}=LOW:HIGH, e.g. {name}=0.01:1") from None
+
+
+def parse_fixed(entries: list[str] | tuple[str, ...], configs: dict[Kind, Config]) -> dict[str, Any]:
+    """`kind.field=value` entries (from --fix) -> {name: value checked against the field's type}."""
+    fixed: dict[str, Any] = {}
+    for entry in entries:
+        name, has_value, text = entry.partition("=")
+        if not has_value:
+            raise SearchSpaceError(f"--fix {entry!r}: expected <kind>.<field>=VALUE, e.g. optimizer.num_rollouts=64")
+        kind, field = split_name(name, configs)
+        try:
+            fixed[name] = coerce_field_value(configs[kind], field, parse_value(text))
+        except ConfigError as err:
+            raise SearchSpaceError(f"--fix {entry!r}: {err}") from None
+    return fixed
+
+
+def parse_value(text: str) -> Any:
+    """A number, true / false, or the string itself."""
+    lowered = text.strip().lower()
+    if lowered in ("true", "false"):
+        return lowered == "true"
+    for convert in (int, float):
+        try:
+            return convert(text)
+        except ValueError:
+            pass
+    return text.strip()
+
+
+def build_space(
+    task_name: str,
+    optimizer_name: str,
+    params: list[str] | tuple[str, ...] = (),
+    fixed: dict[str, Any] | None = None,
+) -> list[Param]:
+    """The parameters to search for the pair.
+
+    Args:
+        params: `kind.field` or `kind.field=LOW:HIGH` entries; empty means the default space (every
+            numeric optimizer field with a slider, plus controller.horizon).
+        fixed: parsed --fix values; these are left out of the space.
+    Raises SearchSpaceError for an unknown field (listing the valid ones) or one without a range.
+    """
+    configs = default_configs(task_name, optimizer_name)
+    fixed = fixed or {}
+    if params:
+        entries = [parse_param_entry(entry) for entry in params]
+    else:
+        optimizer_cls = type(configs["optimizer"])
+        sliders = slider_ranges(optimizer_cls)
+        ramped = fixed.get("optimizer.use_noise_ramp", configs["optimizer"].use_noise_ramp)  # type: ignore[attr-defined]
+        entries = [
+            (f"optimizer.{name}", None)
+            for name in numeric_fields(optimizer_cls)
+            if name in sliders and (name != "noise_ramp" or ramped)
+        ]
+        entries += [(f"controller.{name}", None) for name in DEFAULT_CONTROLLER_PARAMS]
+    space = []
+    for name, bounds in entries:
+        if name in fixed:
+            continue
+        kind, field = split_name(name, configs)
+        space.append(make_param(kind, field, configs[kind], bounds))
+    return fit_num_nodes(space, configs, fixed)
+
+
+def fit_num_nodes(space: list[Param], configs: dict[Kind, Config], fixed: dict[str, Any]) -> list[Param]:
+    """Raise num_nodes' low end to what the spline order needs, unless the order itself is searched."""
+    names = {param.name for param in space}
+    if "optimizer.num_nodes" not in names or "controller.spline_order" in names:
+        return space
+    order = fixed.get("controller.spline_order", configs["controller"].spline_order)  # type: ignore[attr-defined]
+    needed = MIN_KNOTS[order]
+    return [
+        Param(p.kind, p.field, max(p.low, needed), p.high, p.log, p.integer) if p.name == "optimizer.num_nodes" else p
+        for p in space
+    ]
+
+
+def apply_values(configs: dict[Kind, Config], values: dict[str, Any]) -> dict[Kind, Config]:
+    """New configs with `values` ({`kind.field`: value}) applied; ConfigError if they do not fit together."""
+    from judo.core.config import with_updates
+
+    updates: dict[Kind, dict[str, Any]] = {kind: {} for kind in configs}
+    for name, value in values.items():
+        kind, field = split_name(name, configs)
+        updates[kind][field] = value
+    return {kind: with_updates(config, updates[kind]) for kind, config in configs.items()}

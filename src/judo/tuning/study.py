@@ -1,0 +1,229 @@
+"""The Optuna study of a tune: its storage, its sampler, and the ask/tell loop that keeps the Ray workers busy.
+
+Each trial's settings are asked for while other trials run; a finished trial is told at once, so
+the study in the database holds every finished trial and a crash or Ctrl-C loses none of them.
+Trial user attributes: "metrics" (each metric's mean over seeds), "plan_ms" (median control update),
+"failure" (why a trial failed), and with --max-plan-ms "constraint" ([plan_ms - max_plan_ms],
+feasible when <= 0), also set as the trial's Optuna constraint, which the TPE sampler takes into account.
+"""
+
+import math
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+
+from judo.core.errors import JudoError, import_extra
+from judo.tuning import cluster
+from judo.tuning.objective import Objective
+from judo.tuning.space import Param
+from judo.tuning.trial import TrialOutcome, TrialSpec
+
+SamplerName = Literal["tpe", "cmaes", "random", "grid"]
+GRID_POINTS = 3
+"""Values per parameter on the grid of --sampler grid (ints and choices may have fewer)."""
+
+
+class StudyError(JudoError):
+    """A storage that cannot be opened, or a --study that was made for another task, optimizer or metric."""
+
+
+def import_optuna() -> Any:
+    """The optuna module, or MissingExtraError naming the `tune` extra."""
+    optuna = import_extra("optuna", "python -m judo tune", "tune")
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+    return optuna
+
+
+def constraint_of(trial: Any) -> list[float]:
+    """The trial's constraint values (feasible when all <= 0), from its user attributes."""
+    return list(trial.user_attrs.get("constraint", [0.0]))
+
+
+def grid_values(param: Param, points: int = GRID_POINTS) -> list[Any]:
+    """The grid of `param`: its choices, or `points` values spaced evenly (on a log scale when it is log)."""
+    if param.choices:
+        return list(param.choices)
+    spaced = np.geomspace(param.low, param.high, points) if param.log else np.linspace(param.low, param.high, points)
+    if param.integer:
+        return sorted({int(round(v)) for v in spaced})
+    return [float(v) for v in spaced]
+
+
+def make_sampler(name: SamplerName, seed: int, space: list[Param], constrained: bool) -> Any:
+    """The seeded Optuna sampler `name`; TPE honours the plan-time constraint."""
+    optuna = import_optuna()
+    if name == "tpe":
+        if constrained and not hasattr(optuna.trial.Trial, "set_constraint"):  # optuna 4
+            return optuna.samplers.TPESampler(seed=seed, constraints_func=constraint_of)
+        return optuna.samplers.TPESampler(seed=seed)
+    if name == "cmaes":
+        import_extra("cmaes", "--sampler cmaes", "tune")
+        return optuna.samplers.CmaEsSampler(seed=seed, warn_independent_sampling=False)
+    if name == "random":
+        return optuna.samplers.RandomSampler(seed=seed)
+    if name == "grid":
+        return optuna.samplers.GridSampler({p.name: grid_values(p) for p in space}, seed=seed)
+    raise StudyError(f"unknown sampler {name!r}; valid samplers are: tpe, cmaes, random, grid")
+
+
+def grid_size(space: list[Param]) -> int:
+    """How many trials a full grid has."""
+    return math.prod(len(grid_values(p)) for p in space)
+
+
+def sqlite_folder(storage: str) -> Path | None:
+    """The folder of a sqlite:/// storage's file (to create it), or None for other URLs."""
+    prefix = "sqlite:///"
+    if not storage.startswith(prefix) or storage == prefix or ":memory:" in storage:
+        return None
+    return Path(storage[len(prefix) :]).parent
+
+
+def open_study(
+    storage: str, study_name: str, objective: Objective, sampler: Any, identity: dict[str, str]
+) -> tuple[Any, int]:
+    """Create the study, or load it when it exists; returns (study, number of finished trials it already has).
+
+    `identity` ({"task": ..., "optimizer": ..., "metric": ...}) is stored with a new study and must match
+    on resume. Raises StudyError for a storage URL Optuna cannot open.
+    """
+    optuna = import_optuna()
+    folder = sqlite_folder(storage)
+    if folder is not None:
+        folder.mkdir(parents=True, exist_ok=True)
+    try:
+        rdb = optuna.storages.RDBStorage(storage)
+        study = optuna.create_study(
+            storage=rdb, study_name=study_name, direction=objective.direction, sampler=sampler, load_if_exists=True
+        )
+    except Exception as err:  # noqa: BLE001  (sqlalchemy and optuna raise many kinds for a bad URL)
+        first_line = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise StudyError(
+            f"cannot open the study storage {storage!r}: {first_line}. Expected an Optuna RDB URL such as "
+            "sqlite:///judo-tune.db or postgresql://user:password@host/database"
+        ) from None
+    stored = study.user_attrs
+    if not stored:
+        for key, value in identity.items():
+            study.set_user_attr(key, value)
+    else:
+        mismatched = {key: (stored.get(key), value) for key, value in identity.items() if stored.get(key) != value}
+        if mismatched:
+            what = ", ".join(f"{key} {old!r} (asked for {new!r})" for key, (old, new) in mismatched.items())
+            raise StudyError(
+                f"study {study_name!r} in {storage} was made for {what}; pick another --study name to start a new one"
+            )
+    if study.direction.name.lower() != objective.direction:
+        raise StudyError(
+            f"study {study_name!r} {study.direction.name.lower()}s its metric, not {objective.direction}; "
+            "pick another --study name"
+        )
+    return study, len(finished_trials(study))
+
+
+def finished_trials(study: Any) -> list[Any]:
+    """The trials that completed or failed (not those left running by an interrupted run)."""
+    optuna = import_optuna()
+    states = (optuna.trial.TrialState.COMPLETE, optuna.trial.TrialState.FAIL)
+    return study.get_trials(deepcopy=False, states=states)
+
+
+def suggest(trial: Any, space: list[Param]) -> dict[str, Any]:
+    """The trial's value for each parameter of `space`, by name."""
+    values: dict[str, Any] = {}
+    for param in space:
+        if param.choices:
+            values[param.name] = trial.suggest_categorical(param.name, list(param.choices))
+        elif param.integer:
+            values[param.name] = trial.suggest_int(param.name, int(param.low), int(param.high), log=param.log)
+        else:
+            values[param.name] = trial.suggest_float(param.name, param.low, param.high, log=param.log)
+    return values
+
+
+def tell(study: Any, trial: Any, outcome: TrialOutcome, max_plan_ms: float | None) -> None:
+    """Record `outcome` on the trial: complete with its value, or failed with the reason."""
+    optuna = import_optuna()
+    trial.set_user_attr("metrics", outcome.metrics)
+    trial.set_user_attr("plan_ms", None if math.isnan(outcome.plan_ms) else outcome.plan_ms)
+    if outcome.failed:
+        trial.set_user_attr("failure", outcome.failure)
+        study.tell(trial, state=optuna.trial.TrialState.FAIL)
+        return
+    if max_plan_ms is not None:
+        trial.set_user_attr("constraint", [outcome.plan_ms - max_plan_ms])
+        if hasattr(trial, "set_constraint"):  # optuna 5: the samplers read it from the trial
+            trial.set_constraint("plan_ms_over_max", outcome.plan_ms - max_plan_ms)
+    study.tell(trial, outcome.value)
+
+
+@dataclass
+class Progress:
+    """What the loop reports after each finished trial."""
+
+    finished: int
+    target: int
+    last: TrialOutcome
+
+
+def run_trials(
+    study: Any,
+    space: list[Param],
+    spec: TrialSpec,
+    target: int,
+    concurrency: int,
+    max_plan_ms: float | None,
+    on_trial: Callable[[Progress], None] | None = None,
+) -> None:
+    """Run trials on Ray until the study has `target` finished trials, `concurrency` at a time.
+
+    On Ctrl-C the running trials are cancelled and stored as failed ("interrupted"), and
+    KeyboardInterrupt is raised again; every finished trial is already in the storage.
+    """
+    optuna = import_optuna()
+    finished = len(finished_trials(study))
+    to_start = target - finished
+    running: dict[Any, Any] = {}  # ObjectRef -> optuna Trial
+    try:
+        while to_start > 0 or running:
+            while to_start > 0 and len(running) < concurrency:
+                trial = study.ask()
+                running[cluster.submit_trial(spec, suggest(trial, space))] = trial
+                to_start -= 1
+            done, _ = cluster.wait_any(list(running))
+            for ref in done:
+                outcome = cluster.outcome_of(ref)
+                tell(study, running.pop(ref), outcome, max_plan_ms)
+                finished += 1
+                if on_trial is not None:
+                    on_trial(Progress(finished, target, outcome))
+    except KeyboardInterrupt:
+        cluster.cancel(list(running))
+        for trial in running.values():
+            trial.set_user_attr("failure", "interrupted")
+            study.tell(trial, state=optuna.trial.TrialState.FAIL)
+        raise
+
+
+def is_feasible(trial: Any) -> bool:
+    """Whether the trial met --max-plan-ms (always, without it)."""
+    return all(value <= 0 for value in constraint_of(trial))
+
+
+def ranked_trials(study: Any, objective: Objective) -> list[Any]:
+    """Completed trials, feasible ones first, each group from best to worst."""
+    optuna = import_optuna()
+    complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
+    sign = -1.0 if objective.direction == "maximize" else 1.0
+    return sorted(complete, key=lambda trial: (not is_feasible(trial), sign * trial.value, trial.number))
+
+
+def best_trial(study: Any, objective: Objective) -> Any | None:
+    """The best feasible completed trial, or None when there is none."""
+    ranked = ranked_trials(study, objective)
+    return ranked[0] if ranked and is_feasible(ranked[0]) else None

@@ -1,0 +1,139 @@
+"""`python -m judo tune` end to end on a real local Ray and a real SQLite file, and its failure paths.
+
+One Ray session (2 CPUs) serves every test of this module that needs one; tune uses a Ray the process
+is already connected to, so it starts in one place only.
+"""
+
+import subprocess
+import sys
+
+import pytest
+
+from judo.core import registry
+from judo.core.registry import make_config
+from judo.evaluation.evaluate import main as evaluate_main
+from judo.optimizers import PredictiveSamplingConfig
+from judo.tuning.cli import main as tune_main
+
+optuna = pytest.importorskip("optuna")
+ray = pytest.importorskip("ray")
+
+TINY_STUDY = [
+    "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "2", "--workers", "2",
+    "--params", "optimizer.sigma", "controller.horizon=0.3:1.0", "--fix", "optimizer.num_rollouts=16",
+]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    """A local Ray with 2 CPUs for the module, started as tune starts one."""
+    from judo.tuning.cluster import local_runtime_env
+
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        log_to_driver=False,
+        configure_logging=False,
+        runtime_env=local_runtime_env(),
+    )
+    yield
+    ray.shutdown()
+
+
+@pytest.fixture
+def restored_overrides():
+    """Undo the overrides a --config file sets in this process."""
+    saved = dict(registry._OVERRIDES)
+    yield
+    registry._OVERRIDES.clear()
+    registry._OVERRIDES.update(saved)
+
+
+def stored_trials(storage: str, name: str) -> list:
+    return optuna.load_study(study_name=name, storage=storage).get_trials(deepcopy=False)
+
+
+@pytest.mark.slow
+def test_a_tiny_study_is_stored_resumed_and_its_best_file_loads(local_ray, restored_overrides, tmp_path, capsys):
+    storage, out = f"sqlite:///{tmp_path / 'tune.db'}", tmp_path / "out"
+    argv = [*TINY_STUDY, "--storage", storage, "--study", "tiny", "--out", str(out)]
+    assert tune_main([*argv, "--trials", "3"]) == 0
+    first = stored_trials(storage, "tiny")
+    assert [trial.state.name for trial in first] == ["COMPLETE"] * 3
+    assert all(set(trial.params) == {"optimizer.sigma", "controller.horizon"} for trial in first)
+    assert all(trial.user_attrs["plan_ms"] > 0 and "swung_up" in trial.user_attrs["metrics"] for trial in first)
+    for name in ("trials.csv", "best.toml", "summary.json", "history.html", "history.png", "best_episode.html"):
+        assert (out / name).is_file(), name
+    assert len((out / "trials.csv").read_text().splitlines()) == 1 + 3
+    printed = capsys.readouterr().out
+    assert "top trials of tiny: mean_reward (maximize)" in printed and "3 completed, 0 failed" in printed
+
+    assert tune_main([*argv, "--trials", "4"]) == 0  # resumes: one more trial
+    resumed = stored_trials(storage, "tiny")
+    assert [trial.state.name for trial in resumed] == ["COMPLETE"] * 4
+    assert [trial.params for trial in resumed[:3]] == [trial.params for trial in first]
+    assert "resuming with 3 finished trials" in capsys.readouterr().out
+
+    best = max(resumed, key=lambda trial: trial.value)
+    best_file = out / "best.toml"
+    text = best_file.read_text()
+    assert f"trial {best.number}," in text and "# Found by: python -m judo tune --task cartpole --optimizer ps" in text
+    assert evaluate_main(["--config", str(best_file), "--task", "cartpole", "--optimizer", "ps", "--seeds", "1",
+                          "--duration", "0.2", "--num-workers", "1"]) == 0  # fmt: skip
+    loaded = make_config(PredictiveSamplingConfig, "cartpole")
+    assert (loaded.sigma, loaded.num_rollouts) == (best.params["optimizer.sigma"], 16)
+
+
+def run_failing(argv: list[str], capsys) -> str:
+    """tune's stderr for `argv`, which must exit with status 2 and no traceback."""
+    with pytest.raises(SystemExit) as exit_info:
+        tune_main(argv)
+    assert exit_info.value.code == 2
+    err = capsys.readouterr().err
+    assert "Traceback" not in err
+    return err.strip()
+
+
+def test_a_bad_storage_url_says_what_is_expected(tmp_path, capsys):
+    err = run_failing([*TINY_STUDY, "--trials", "1", "--storage", "nosuchdb://x/y", "--out", str(tmp_path)], capsys)
+    assert err.startswith("error: cannot open the study storage 'nosuchdb://x/y': ")
+    assert err.endswith(
+        "Expected an Optuna RDB URL such as sqlite:///judo-tune.db or postgresql://user:password@host/database"
+    )
+
+
+def test_an_unreachable_address_says_how_to_start_a_cluster(tmp_path, capsys):
+    argv = [*TINY_STUDY, "--trials", "1", "--address", "ray://127.0.0.1:1", "--out", str(tmp_path)]
+    err = run_failing(argv, capsys)
+    assert err.startswith("error: cannot reach a Ray cluster at 'ray://127.0.0.1:1': ")
+    assert "`ray start --head`" in err and "--address ray://HEAD:10001" in err
+
+
+def test_an_unknown_metric_lists_the_tasks_metrics(tmp_path, capsys):
+    err = run_failing([*TINY_STUDY, "--metric", "upright", "--out", str(tmp_path)], capsys)
+    assert (
+        err
+        == "error: task 'cartpole' reports no metric 'upright'; its metrics are: balanced_fraction, swung_up, mean_reward"
+    )
+
+
+def test_an_unknown_parameter_lists_the_valid_ones(tmp_path, capsys):
+    err = run_failing(
+        ["--task", "cartpole", "--optimizer", "ps", "--params", "optimizer.sigam", "--out", str(tmp_path)], capsys
+    )
+    assert err.startswith("error: unknown parameter 'optimizer.sigam'") and "optimizer.sigma" in err
+
+
+def test_without_the_extra_tune_names_it(monkeypatch, tmp_path, capsys):
+    monkeypatch.setitem(sys.modules, "optuna", None)
+    err = run_failing([*TINY_STUDY, "--out", str(tmp_path)], capsys)
+    assert err == (
+        "error: python -m judo tune needs the optional extra judo[tune], which is not installed (no module 'optuna'); "
+        'install it with: pip install "judo[tune]"'
+    )
+
+
+def test_importing_judo_and_the_tune_command_imports_neither_optuna_nor_ray():
+    code = "import sys, judo, judo.tuning.cli; print(sorted({'optuna', 'ray'} & set(sys.modules)))"
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert result.stdout.strip() == "[]"
