@@ -120,6 +120,15 @@ class Task(ABC, Generic[ConfigT]):
     def post_sim_step(self) -> None:
         """Called by the simulator after each plant step, e.g. to reset a dropped object."""
 
+    def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
+        """Perturb `model`, a private copy of the planning model, in place, drawing from `rng`.
+
+        Called when the controller plans under several models (`ControllerConfig.num_randomizations`
+        > 1), once per randomized model per redraw. Scale what the real system gets wrong (frictions,
+        masses, dampings, gains; helpers in `judo.core.randomize`); never change sizes. The default
+        does nothing, so every randomized model equals the planning model.
+        """
+
     def get_sim_metadata(self) -> dict[str, Any]:
         """Extra values the simulator publishes with the state; passed on to `reward`."""
         return {}
