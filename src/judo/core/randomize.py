@@ -74,9 +74,29 @@ def check_randomized_model(original: mujoco.MjModel, randomized: mujoco.MjModel,
             index = tuple(int(i) for i in np.argwhere(bad)[0])
             expected = "a finite value >= 0" if name in NONNEGATIVE_FIELDS else "a finite value"
             raise InvalidRandomizedModelError(
-                f"{source} set {name}[{', '.join(map(str, index))}] to {after[index]!r}; expected {expected} "
-                f"(it was {before[index]!r})"
+                f"{source} set {name}[{', '.join(map(str, index))}]{_owner(original, name, index[0])} to "
+                f"{float(after[index])!r}; expected {expected} (it was {float(before[index])!r})"
             )
+
+
+OWNERS = {
+    "body_": mujoco.mjtObj.mjOBJ_BODY,
+    "geom_": mujoco.mjtObj.mjOBJ_GEOM,
+    "jnt_": mujoco.mjtObj.mjOBJ_JOINT,
+    "actuator_": mujoco.mjtObj.mjOBJ_ACTUATOR,
+}
+"""Field prefix -> the kind of object whose row it is, for naming it in errors."""
+
+
+def _owner(model: mujoco.MjModel, field: str, row: int) -> str:
+    """' (body "cube")' for row `row` of `field`, or "" when the row's object has no name."""
+    if field.startswith("dof_"):
+        field, row = "jnt_", int(model.dof_jntid[row])
+    for prefix, obj_type in OWNERS.items():
+        if field.startswith(prefix):
+            name = mujoco.mj_id2name(model, obj_type, row)
+            return f" ({prefix.rstrip('_').replace('jnt', 'joint')} {name!r})" if name else ""
+    return ""
 
 
 def _float_fields(model: mujoco.MjModel) -> list[str]:
