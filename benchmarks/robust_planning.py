@@ -25,7 +25,7 @@ import numpy as np
 import judo
 from judo.core.config import with_updates
 from judo.core.controller import ControllerConfig
-from judo.core.registry import make_config
+from judo.core.registry import lookup_optimizer, make_config
 from judo.core.risk import RISK_MEASURES
 from judo.core.task import Task
 from judo.evaluation.episode import PLANT_STREAM, run_episode
@@ -93,7 +93,7 @@ def main() -> None:
     parser.add_argument("--friction-scale", type=float, default=0.6, help="fr3_pick plant: object friction factor")
     args = parser.parse_args()
     for optimizer in args.optimizers:
-        judo.core.registry.lookup_optimizer(optimizer)
+        lookup_optimizer(optimizer)
     metrics = HEADLINE[args.task]
     plant = (
         "leap_cube_plant.xml"
