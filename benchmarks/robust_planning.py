@@ -56,7 +56,7 @@ def mismatched_plant(task: str, seed: int, mass_scale: float, friction_scale: fl
 def run_setting(args: argparse.Namespace, optimizer: str, num_models: int, risk: str) -> dict[str, float]:
     """Mean metrics and median plan time (ms) of one setting over the seeds."""
     rows, plan_ms = [], []
-    for seed in range(args.seeds):
+    for seed in range(args.first_seed, args.first_seed + args.seeds):
         settings = {"num_randomizations": num_models, "risk": risk, "cvar_alpha": args.cvar_alpha}
         controller_config = with_updates(make_config(ControllerConfig, args.task), settings)
         controller = judo.make_controller(
@@ -86,7 +86,10 @@ def main() -> None:
     parser.add_argument("--randomizations", nargs="+", type=int, default=[1, 4], help="num_randomizations values")
     parser.add_argument("--risks", nargs="+", default=["average", "cvar"], choices=RISK_MEASURES)
     parser.add_argument("--cvar-alpha", type=float, default=0.5)
-    parser.add_argument("--seeds", type=int, default=3, help="episodes, with seeds 0 to seeds - 1")
+    parser.add_argument(
+        "--seeds", type=int, default=3, help="episodes, with seeds first-seed to first-seed + seeds - 1"
+    )
+    parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--duration", type=float, default=60.0, help="seconds of sim time per episode")
     parser.add_argument("--num-workers", type=int, default=None, help="rollout threads (default: one per core)")
     parser.add_argument("--mass-scale", type=float, default=2.0, help="fr3_pick plant: object mass factor")
@@ -100,7 +103,9 @@ def main() -> None:
         if args.task == "leap_cube"
         else f"object mass x{args.mass_scale:g}, friction x{args.friction_scale:g}"
     )
-    print(f"### {args.task} on a mismatched plant ({plant}), {args.seeds} seed(s) x {args.duration:g} s, no latency\n")
+    print(
+        f"### {args.task} on a mismatched plant ({plant}), {args.seeds} seed(s) from {args.first_seed} x {args.duration:g} s, no latency\n"
+    )
     print("| optimizer | num_randomizations | risk | " + " | ".join(metrics) + " | plan ms (median) |")
     print("|---" * (len(metrics) + 4) + "|", flush=True)
     for optimizer in args.optimizers:
