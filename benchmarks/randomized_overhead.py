@@ -23,9 +23,19 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=50)
     parser.add_argument("--warmup", type=int, default=5)
     parser.add_argument("--num-workers", type=int, default=None, help="rollout threads (default: one per core)")
+    parser.add_argument(
+        "--cpu-time",
+        action="store_true",
+        help="time the calling thread's CPU time instead of wall time (needs --num-workers 1; steadier on a busy machine)",
+    )
     args = parser.parse_args()
+    if args.cpu_time and args.num_workers != 1:
+        parser.error("--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread")
+    clock = time.thread_time if args.cpu_time else time.perf_counter
+    what = "thread CPU time" if args.cpu_time else "wall time"
     print(
-        f"### {args.task} x {args.optimizer}: update / raw rollout of N x R x T (times max_opt_iters), {args.samples} samples\n"
+        f"### {args.task} x {args.optimizer}: update / raw rollout of N x R x T (times max_opt_iters), "
+        f"{args.samples} samples, {what}\n"
     )
     print("| R | N x R x T | update ms (median) | raw ms (median) | ratio (median) | ratio (min / min) | redraw ms |")
     print("|---|---|---|---|---|---|---|", flush=True)
@@ -37,7 +47,7 @@ def main() -> None:
             controller_updates={"num_randomizations": num_models},
         )
         try:
-            update_ms, raw_ms = time_control_update(controller, args.samples, args.warmup)
+            update_ms, raw_ms = time_control_update(controller, args.samples, args.warmup, clock=clock)
             raw_ms = raw_ms * controller.config.max_opt_iters  # the floor: one raw batch per optimizer iteration
             started = time.perf_counter()
             randomized_models(controller.task, num_models, np.random.default_rng(0))
