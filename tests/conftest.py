@@ -55,3 +55,21 @@ class UprightTask(judo.Task[UprightConfig]):
 @pytest.fixture
 def upright_task(tiny_model_path):
     return UprightTask(tiny_model_path)
+
+
+@pytest.fixture(autouse=True)
+def restore_the_registry():
+    """Each test starts from the registry `import judo` builds: a doc snippet or config file that
+    registers a task or sets overrides (on cartpole, say) must not change what later tests see."""
+    from judo.core import registry
+
+    tasks, optimizers = dict(registry._TASKS), dict(registry._OPTIMIZERS)
+    overrides = {key: dict(value) for key, value in registry._OVERRIDES.items()}
+    yield
+    for table, saved in (
+        (registry._TASKS, tasks),
+        (registry._OPTIMIZERS, optimizers),
+        (registry._OVERRIDES, overrides),
+    ):
+        table.clear()
+        table.update(saved)

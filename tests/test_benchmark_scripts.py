@@ -70,3 +70,20 @@ def test_gpu_rollouts_prints_the_device_it_measured_and_a_row_per_task_and_n():
     assert "warp device: " in out and "MuJoCo Warp" in out
     assert "cartpole │ 4 x 5 │ 1 │" in out and "cartpole │ 8 x 5 │ 1 │" in out
     assert "CPU / warp" in out and "copies" in out and "reward" in out
+
+
+def test_robust_planning_prints_a_row_per_setting():
+    small = ["--seeds", "1", "--duration", "0.2", "--num-workers", "1", "--optimizers", "cem"]
+    result = run_script(
+        "robust_planning.py", "--task", "leap_cube", *small, "--randomizations", "1", "2", "--risks", "cvar"
+    )
+    assert result.returncode == 0, result.stderr
+    assert "### leap_cube on a mismatched plant (leap_cube_plant.xml), 1 seed(s) from 0 x 0.2 s" in result.stdout
+    assert "| cem | 1 | - | 0 | 0 |" in result.stdout and "| cem | 2 | cvar 0.5 | 0 | 0 |" in result.stdout
+
+
+def test_randomized_overhead_prints_the_ratio_per_r():
+    small = ["--task", "cartpole", "--optimizer", "ps", "--samples", "2", "--warmup", "1", "--num-workers", "1"]
+    result = run_script("randomized_overhead.py", *small, "--randomizations", "1", "3")
+    assert result.returncode == 0, result.stderr
+    assert "| 1 | 16 x 1 x 70 |" in result.stdout and "| 3 | 16 x 3 x 70 |" in result.stdout

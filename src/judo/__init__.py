@@ -16,6 +16,7 @@ from judo.core.fields import np_1d_field, slider
 from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.randomize import InvalidRandomizedModelError
 from judo.core.registry import (
     get_registered_optimizers,
     get_registered_tasks,
@@ -24,6 +25,7 @@ from judo.core.registry import (
     register_task,
     set_config_overrides,
 )
+from judo.core.rollout import RandomizedRolloutError
 from judo.core.spline import Spline, SplineBasis
 from judo.core.task import Task, TaskConfig
 from judo.runtime.app import App
@@ -37,6 +39,7 @@ __all__ = [
     "ConfigFileError",
     "Controller",
     "ControllerConfig",
+    "InvalidRandomizedModelError",
     "JudoError",
     "LoadedConfig",
     "ModelLoadError",
@@ -44,6 +47,7 @@ __all__ = [
     "NonFiniteRewardError",
     "Optimizer",
     "OptimizerConfig",
+    "RandomizedRolloutError",
     "Spline",
     "SplineBasis",
     "Task",

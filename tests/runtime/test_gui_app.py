@@ -31,6 +31,11 @@ def test_panels_hold_the_fields_of_the_running_configs(app, wait_until):
         "control_freq",
         "max_opt_iters",
         "max_num_traces",
+        "num_randomizations",
+        "risk",
+        "cvar_alpha",
+        "risk_scale",
+        "redraw_every",
     ]
     assert panels["optimizer"].field_names == [
         "num_rollouts",

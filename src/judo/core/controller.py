@@ -13,6 +13,8 @@ from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import slider
 from judo.core.model import STATE_SPEC, trace_sensor_columns
 from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.randomize import randomized_models
+from judo.core.risk import RiskMeasure, reduce_rewards
 from judo.core.rollout import make_rollout_backend
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis, SplineOrder
 from judo.core.task import Task
@@ -39,8 +41,11 @@ MAX_OPT_ITERS = 100
 """Most optimizer iterations per planning cycle."""
 MAX_NUM_TRACES = 64
 """Most best-rollout traces drawn besides the nominal."""
+MAX_RANDOMIZATIONS = 64
+"""Most models each sampled control sequence is rolled out under."""
 MAX_ROLLOUT_BYTES = 4 * 2**30
-"""Largest rollout buffers (num_rollouts x T x (nstate + nsensordata + nu) float64) a config may ask for:
+"""Largest rollout buffers (num_randomizations x num_rollouts x T x (nstate + nsensordata + nu) float64) a
+config may ask for:
 4 GiB, e.g. 65536 rollouts of 100 steps of a model with 80 state and sensor values."""
 
 
@@ -48,6 +53,10 @@ MAX_ROLLOUT_BYTES = 4 * 2**30
 @slider("control_freq", 1.0, 200.0, 1.0)
 @slider("max_opt_iters", 1, 20, 1)
 @slider("max_num_traces", 0, 32, 1)
+@slider("num_randomizations", 1, 16, 1)
+@slider("cvar_alpha", 0.05, 1.0, 0.05)
+@slider("risk_scale", 0.1, 100.0, 0.1)
+@slider("redraw_every", 0, 100, 1)
 @dataclass
 class ControllerConfig(Config):
     """Settings of the planning loop, shared by every task and optimizer."""
@@ -62,6 +71,19 @@ class ControllerConfig(Config):
     """Optimizer iterations per planning cycle."""
     max_num_traces: int = 5
     """Best rollouts drawn as traces, besides the nominal."""
+    num_randomizations: int = 1
+    """Models each sampled control sequence is rolled out under: the planning model and
+    num_randomizations - 1 copies perturbed by the task's randomize_model hook (1: off)."""
+    risk: RiskMeasure = "average"
+    """How a sequence's rewards under the randomized models become one score: average, worst, best,
+    cvar (mean of the worst cvar_alpha fraction) or exponential (certainty equivalent, risk_scale)."""
+    cvar_alpha: float = 0.5
+    """Fraction of the models, the worst ones, that the cvar risk averages; in (0, 1]."""
+    risk_scale: float = 1.0
+    """Scale of the exponential risk, in 1 / reward units: > 0 risk-averse, < 0 risk-seeking; not 0."""
+    redraw_every: int = 0
+    """Planning cycles between redraws of the randomized models; 0 draws them once (again only when
+    num_randomizations changes)."""
 
     def validate(self) -> None:
         super().validate()
@@ -69,6 +91,13 @@ class ControllerConfig(Config):
         require_between("control_freq", self.control_freq, MIN_CONTROL_FREQ, MAX_CONTROL_FREQ, " Hz")
         require_between("max_opt_iters", self.max_opt_iters, 1, MAX_OPT_ITERS)
         require_between("max_num_traces", self.max_num_traces, 0, MAX_NUM_TRACES)
+        require_between("num_randomizations", self.num_randomizations, 1, MAX_RANDOMIZATIONS)
+        require(0 < self.cvar_alpha <= 1, f"cvar_alpha must be in (0, 1], got {self.cvar_alpha}")
+        require(
+            np.isfinite(self.risk_scale) and self.risk_scale != 0,
+            f"risk_scale must be a finite nonzero number (> 0 risk-averse, < 0 risk-seeking), got {self.risk_scale}",
+        )
+        require(self.redraw_every >= 0, f"redraw_every must be at least 0 (0: draw once), got {self.redraw_every}")
 
 
 def check_configs(task: Task, controller_config: ControllerConfig, optimizer_config: OptimizerConfig) -> None:
@@ -84,13 +113,15 @@ def check_configs(task: Task, controller_config: ControllerConfig, optimizer_con
     num_steps = max(1, round(controller_config.horizon / task.dt))
     state_size = mujoco.mj_stateSize(task.model, STATE_SPEC)  # pyright: ignore[reportAttributeAccessIssue]
     values_per_step = state_size + task.model.nsensordata + task.nu
-    needed = optimizer_config.num_rollouts * num_steps * values_per_step * 8
-    most = max(1, MAX_ROLLOUT_BYTES // (num_steps * values_per_step * 8))
+    num_models = controller_config.num_randomizations
+    needed = num_models * optimizer_config.num_rollouts * num_steps * values_per_step * 8
+    most = max(1, MAX_ROLLOUT_BYTES // (num_models * num_steps * values_per_step * 8))
     require(
         needed <= MAX_ROLLOUT_BYTES,
-        f"num_rollouts {optimizer_config.num_rollouts} over a {controller_config.horizon} s horizon ({num_steps} steps) "
+        f"num_rollouts {optimizer_config.num_rollouts} x num_randomizations {num_models} over a "
+        f"{controller_config.horizon} s horizon ({num_steps} steps) "
         f"would need {needed / 2**30:.1f} GiB of rollout buffers, more than the {MAX_ROLLOUT_BYTES / 2**30:.0f} GiB "
-        f"limit; at this horizon num_rollouts must be at most {most}",
+        f"limit; at this horizon and num_randomizations, num_rollouts must be at most {most}",
     )
 
 
@@ -102,7 +133,10 @@ class Controller:
         backend: the RolloutBackend every rollout runs on ("cpu": `RolloutPool`, a thread pool; "warp":
             `WarpRollout`, MuJoCo Warp on a GPU).
         nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update.
-        rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf).
+        rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf); with
+            num_randomizations R > 1, each sequence's R rewards reduced by the config's risk measure.
+        models: the R models the last cycle rolled out under: the task's planning model, then the
+            R - 1 copies its `randomize_model` hook perturbed (drawn from `task.rng`).
         traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the "trace" framepos sensors
             along the nominal rollout (index 0) and the best `max_num_traces` rollouts.
     """
@@ -131,6 +165,8 @@ class Controller:
         self._trace_columns = trace_sensor_columns(task.model)
         self._ctrl_low, self._ctrl_high = task.actuator_ctrlrange.T.copy()
         self._num_state = task.model.nq + task.model.nv
+        self.models: list[mujoco.MjModel] = [task.model]
+        self._cycles_since_draw = 0
 
     @property
     def num_steps(self) -> int:
@@ -151,26 +187,54 @@ class Controller:
         change leaves the previous layout (and its key) in force, and reverting the edit works.
         """
         opt, cfg = self.optimizer, self.config
-        key = (cfg.horizon, cfg.spline_order, opt.config.num_rollouts, opt.config.num_nodes, self.task.dt)
+        key = (
+            cfg.horizon,
+            cfg.spline_order,
+            opt.config.num_rollouts,
+            opt.config.num_nodes,
+            self.task.dt,
+            cfg.num_randomizations,
+        )
         if key == self._layout_key:
             return
         check_configs(self.task, cfg, opt.config)
         num_rollouts, num_nodes = opt.config.num_rollouts, opt.config.num_nodes
         num_steps = max(1, round(cfg.horizon / self.task.dt))
+        num_models = cfg.num_randomizations
         try:
             knot_offsets = np.linspace(0.0, cfg.horizon, num_nodes)
             basis = SplineBasis(knot_offsets, cfg.spline_order)
             rollout_weights = basis.weights(np.arange(num_steps) * self.task.dt)
             controls = np.zeros((num_rollouts, num_steps, self.task.nu))
+            # (R * num_rollouts, T, nu): block r is every sequence again, rolled out on model r. R = 1: the same array.
+            batch_controls = controls if num_models == 1 else np.zeros((num_models * num_rollouts, *controls.shape[1:]))
         except MemoryError:
             raise ConfigError(
-                f"not enough memory for {num_rollouts} rollouts of {num_steps} steps with {num_nodes} knots; "
-                "lower num_rollouts, num_nodes or the horizon"
+                f"not enough memory for {num_models} x {num_rollouts} rollouts of {num_steps} steps with "
+                f"{num_nodes} knots; lower num_randomizations, num_rollouts, num_nodes or the horizon"
             ) from None
+        if num_models != len(self.models):
+            self._set_models(num_models)  # a hook that fails raises here, before the layout changes
         opt.num_rollouts, opt.num_nodes = num_rollouts, num_nodes
         self._knot_offsets, self._basis = knot_offsets, basis
         self._rollout_weights, self._controls = rollout_weights, controls
+        self._batch_controls = batch_controls
+        self._control_blocks = batch_controls.reshape(num_models, *controls.shape)
         self._layout_key = key
+
+    def _set_models(self, num_models: int) -> None:
+        """Draw `num_models` models (the planning model and perturbed copies) and give them to the backend."""
+        models = randomized_models(self.task, num_models, self.task.rng) if num_models > 1 else [self.task.model]
+        self.backend.set_models(None if num_models == 1 else models)
+        self.models = models
+        self._cycles_since_draw = 0
+
+    def _redraw_models_if_due(self) -> None:
+        """Redraw the randomized models every `redraw_every` cycles (never when it is 0 or randomization is off)."""
+        cfg = self.config
+        if cfg.num_randomizations > 1 and cfg.redraw_every and self._cycles_since_draw >= cfg.redraw_every:
+            self._set_models(cfg.num_randomizations)
+        self._cycles_since_draw += 1
 
     def _set_initial_state(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None) -> None:
         data = self._scratch
@@ -214,7 +278,8 @@ class Controller:
                 "keeping the previous plan"
             )
         self._apply_config_changes()
-        opt, task = self.optimizer, self.task
+        self._redraw_models_if_due()
+        opt, task, cfg = self.optimizer, self.task, self.config
         knot_times = time + self._knot_offsets
         if self._plan is None:
             nominal = np.tile(task.optimizer_warm_start(), (opt.num_nodes, 1)).astype(float)
@@ -227,6 +292,8 @@ class Controller:
         task.pre_rollout(state)
         task_config = snapshot(task.config)
         expected = (opt.num_rollouts, opt.num_nodes, task.nu)
+        num_models = len(self.models)
+        num_rows = num_models * opt.num_rollouts
 
         for _ in range(self.config.max_opt_iters):
             if cancel is not None and cancel.is_set():
@@ -244,16 +311,19 @@ class Controller:
             # the plan that is scored is the plan that is served (a cubic overshoots its knots).
             np.minimum(self._controls, self._ctrl_high, out=self._controls)
             np.maximum(self._controls, self._ctrl_low, out=self._controls)
-            full_states, sensors = self.backend.rollout(self._initial_state, self._controls, self._initial_mocap)
+            if num_models > 1:
+                self._control_blocks[:] = self._controls  # every sequence once per model
+            full_states, sensors = self.backend.rollout(self._initial_state, self._batch_controls, self._initial_mocap)
             states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
             rewards = np.asarray(
-                task.reward(states, sensors, self._controls, task_config, system_metadata), dtype=float
+                task.reward(states, sensors, self._batch_controls, task_config, system_metadata), dtype=float
             )
-            if rewards.shape != (opt.num_rollouts,):
-                raise JudoError(
-                    f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({opt.num_rollouts},)"
-                )
+            if rewards.shape != (num_rows,):
+                raise JudoError(f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)")
             rewards[np.isnan(rewards)] = -np.inf
+            if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
+                rewards = reduce_rewards(rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale)
+                states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
             task.post_rollout(states, sensors, self._controls, rewards)
             if not np.isfinite(rewards).any():
                 raise NonFiniteRewardError(

@@ -8,13 +8,14 @@ Controller's loop stays written once.
 
 import abc
 import os
+from collections.abc import Sequence
 from typing import Literal, get_args
 
 import mujoco
 import mujoco.rollout
 import numpy as np
 
-from judo.core.errors import UnknownNameError
+from judo.core.errors import JudoError, UnknownNameError
 from judo.core.model import STATE_SPEC
 from judo.core.workers import DaemonThreadPool
 
@@ -51,7 +52,9 @@ class RolloutBackend(abc.ABC):
 
         Args:
             initial_state: (nstate,) state as written by mj_getState with mjSTATE_FULLPHYSICS.
-            controls: (num_rollouts, T, nu) C-contiguous float64 controls, one per step.
+            controls: (num_rollouts, T, nu) C-contiguous float64 controls, one per step. After
+                `set_models(models)`, num_rollouts is a multiple of len(models) and block r of the
+                rows runs on models[r].
             mocap: (7 * nmocap,) [mocap_pos.ravel(), mocap_quat.ravel()] held through every rollout
                 (mocap bodies are not part of the full-physics state); None keeps the model's defaults.
         Returns:
@@ -60,16 +63,42 @@ class RolloutBackend(abc.ABC):
             overwritten by the next call.
         """
 
+    def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
+        """Roll out later batches under several models (domain randomization), or under `model` alone (None).
+
+        With R = len(models), a batch of M control rows (M a multiple of R) is split into R equal
+        blocks in order: rows [r * M / R, (r + 1) * M / R) run on models[r]. The Controller passes each
+        sampled sequence once per block, so rows r * N + i are sequence i under model r. The models
+        must have the sizes of `model` (copies of it with other parameter values); they are kept by
+        reference, not copied, until the next call.
+
+        The default accepts only None or [model]; a backend that cannot roll out per-rollout models
+        raises RandomizedRolloutError naming itself and the setting.
+        """
+        if models is None or (len(models) == 1 and models[0] is self.model):
+            return
+        raise RandomizedRolloutError(
+            f"the {type(self).__name__} rollout backend cannot roll out under several models, so it cannot run "
+            f"num_randomizations = {len(models)}; expected num_randomizations = 1 on this backend, or the cpu backend "
+            "(RolloutPool), which can"
+        )
+
     def close(self) -> None:  # noqa: B027  (no resources by default)
         """Release threads or device memory; the backend cannot be used afterwards."""
+
+
+class RandomizedRolloutError(JudoError):
+    """A rollout backend was asked to roll out under several models and cannot, or the models do not fit."""
 
 
 class RolloutPool(RolloutBackend):
     """Rolls out batches of control sequences from one initial state on `num_workers` threads.
 
     The batch is split into one contiguous chunk per worker; each worker runs MuJoCo's C rollout on
-    its own MjData with the GIL released. Output buffers are allocated when the batch shape changes
-    and reused otherwise, so the returned arrays are overwritten by the next call.
+    its own MjData with the GIL released. Output buffers, and each chunk's list of per-rollout models,
+    are built when the batch shape or the models change and reused otherwise, so the returned arrays
+    are overwritten by the next call. Under `set_models` MuJoCo's rollout gets the mixed list of
+    models, by reference: nothing is copied per call.
     """
 
     def __init__(self, model: mujoco.MjModel, num_workers: int | None = None) -> None:
@@ -80,6 +109,22 @@ class RolloutPool(RolloutBackend):
         self._runners = [mujoco.rollout.Rollout(nthread=0) for _ in range(self.num_workers)]
         self._executor = DaemonThreadPool(self.num_workers, "judo-rollout")
         self._shape: tuple[int, int] | None = None
+        self._models: list[mujoco.MjModel] = [model]
+
+    def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
+        """See `RolloutBackend.set_models`; raises RandomizedRolloutError for a model of other sizes."""
+        models = [self.model] if models is None else list(models)
+        if not models:
+            raise RandomizedRolloutError("set_models needs at least one model, got an empty list")
+        for i, other in enumerate(models):
+            for size in ("nq", "nv", "nu", "na", "nmocap", "nsensordata"):
+                if getattr(other, size) != getattr(self.model, size):
+                    raise RandomizedRolloutError(
+                        f"model {i} passed to set_models has {size}={getattr(other, size)}, expected "
+                        f"{getattr(self.model, size)} as in the pool's model"
+                    )
+        self._models = models
+        self._shape = None  # rebuild the chunks' model lists on the next rollout
 
     def _allocate(self, num_rollouts: int, num_steps: int) -> None:
         self._shape = (num_rollouts, num_steps)
@@ -89,13 +134,20 @@ class RolloutPool(RolloutBackend):
         self._inputs = np.zeros((num_rollouts, num_steps, self.model.nu + 7 * self.model.nmocap))
         bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(int)
         self._chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-        self._chunk_models = [[self.model] * (c.stop - c.start) for c in self._chunks]
+        block = num_rollouts // len(self._models)
+        row_models = [model for model in self._models for _ in range(block)]  # block r: models[r]
+        self._chunk_models = [row_models[c] for c in self._chunks]
 
     def rollout(
         self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """See `RolloutBackend.rollout`; the work is split into one contiguous chunk per worker thread."""
         num_rollouts, num_steps, _ = controls.shape
+        if num_rollouts % len(self._models):
+            raise RandomizedRolloutError(
+                f"a batch of {num_rollouts} rollouts cannot be split evenly over the {len(self._models)} models "
+                "given to set_models; expected a multiple of the number of models"
+            )
         if self._shape != (num_rollouts, num_steps):
             self._allocate(num_rollouts, num_steps)
         self._initial[:] = initial_state

@@ -93,7 +93,9 @@ class Task(ABC, Generic[ConfigT]):
         """Score each rollout; higher is better.
 
         Args:
-            states: (num_rollouts, T, nq + nv), [qpos, qvel] after each step.
+            states: (num_rollouts, T, nq + nv), [qpos, qvel] after each step. Under randomized models
+                the batch holds num_randomizations * num_rollouts rows (block r: every sequence under
+                model r) and the reward must score each row alone, as any reward does.
             sensors: (num_rollouts, T, nsensordata), sensor readings after each step.
             controls: (num_rollouts, T, nu), the control applied at each step.
             config: the snapshot of this task's config taken for this update; read weights here.
@@ -115,13 +117,26 @@ class Task(ABC, Generic[ConfigT]):
         """Called once per planning cycle with the (nq + nv,) state, before any rollout."""
 
     def post_rollout(self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, rewards: np.ndarray) -> None:
-        """Called after each optimizer iteration with the rollouts' arrays and (num_rollouts,) rewards."""
+        """Called after each optimizer iteration with the rollouts' arrays and (num_rollouts,) rewards.
+
+        Under randomized models (num_randomizations > 1) the arrays are the rollouts on the planning
+        model and the rewards are each sequence's rewards over all models, reduced by the risk measure.
+        """
 
     def pre_sim_step(self) -> None:
         """Called by the simulator before each plant step, e.g. to resample a reached goal."""
 
     def post_sim_step(self) -> None:
         """Called by the simulator after each plant step, e.g. to reset a dropped object."""
+
+    def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
+        """Perturb `model`, a private copy of the planning model, in place, drawing from `rng`.
+
+        Called when the controller plans under several models (`ControllerConfig.num_randomizations`
+        > 1), once per randomized model per redraw. Scale what the real system gets wrong (frictions,
+        masses, dampings, gains; helpers in `judo.core.randomize`); never change sizes. The default
+        does nothing, so every randomized model equals the planning model.
+        """
 
     def get_sim_metadata(self) -> dict[str, Any]:
         """Extra values the simulator publishes with the state; passed on to `reward`."""

@@ -1,6 +1,6 @@
 """`python -m judo benchmark`: time the control update of every task x optimizer pair against raw rollouts."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated
 
@@ -13,11 +13,14 @@ from judo.core.config import require
 from judo.core.errors import JudoError
 from judo.core.rollout import RolloutBackendName, check_rollout_backend
 from judo.evaluation.cli import (
+    ControllerOverrides,
     apply_config_file,
     check_names,
     chosen_optimizers,
     chosen_tasks,
+    controller_config,
     fail,
+    given_fields,
     name_listing,
     output_console,
     parse_args,
@@ -28,7 +31,7 @@ from judo.evaluation.timing import UpdateTiming, time_pair
 
 DESCRIPTION = (
     "Time the control update of each task x optimizer pair with the task's default settings, after a warm-up, "
-    "next to the raw rollout of the same N x T steps on the same rollout pool (the floor) and their ratio."
+    "next to the raw rollout of the same N x R x T steps (R: --controller.num-randomizations, 1 by default) on the same rollout pool (the floor) and their ratio."
 )
 
 
@@ -59,6 +62,8 @@ class BenchmarkArgs:
     """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
     json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also write one row per pair to this JSON file."""
+    controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
+    """Controller settings to change from each task's defaults, e.g. --controller.num-randomizations 4."""
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range or a name that is not registered."""
@@ -70,6 +75,8 @@ class BenchmarkArgs:
         )
         check_names(self.tasks, self.optimizers)
         check_rollout_backend(self.backend)
+        for task in chosen_tasks(self.tasks):
+            controller_config(task, self.controller)
 
 
 def timing_table(task: str, timings: list[UpdateTiming]) -> Table:
@@ -79,7 +86,7 @@ def timing_table(task: str, timings: list[UpdateTiming]) -> Table:
     on = f"{timings[0].num_workers} rollout workers" if backend == "cpu" else f"the {backend} backend"
     table = Table(title=f"{task}: control update time (ms), {on}")
     table.add_column("optimizer")
-    table.add_column("N x T", justify="right")
+    table.add_column("N x R x T", justify="right")
     table.add_column("mean ± std", justify="right")
     table.add_column("median (IQR)", justify="right")
     table.add_column("min / max", justify="right")
@@ -92,7 +99,7 @@ def timing_table(task: str, timings: list[UpdateTiming]) -> Table:
         q25, q75 = np.percentile(ms, [25, 75])
         table.add_row(
             timing.optimizer,
-            f"{timing.num_rollouts} x {timing.num_steps}",
+            f"{timing.num_rollouts} x {timing.num_randomizations} x {timing.num_steps}",
             f"{ms.mean():.2f} ± {ms.std():.2f}",
             f"{np.median(ms):.2f} ({q25:.2f}-{q75:.2f})",
             f"{ms.min():.2f} / {ms.max():.2f}",
@@ -126,6 +133,7 @@ def main(argv: list[str] | None = None) -> int:
                         num_workers=args.num_workers,
                         backend=args.backend,
                         on_sample=lambda: progress.advance(bar),
+                        controller_updates=given_fields(args.controller),
                     )
                     results[task].append(timing)
         console = output_console()

@@ -1,16 +1,27 @@
 """What `benchmark` and `evaluate` share on the command line: parsing, name checks, consoles, failing cleanly."""
 
+import dataclasses
 import json
 import math
 import sys
+import typing
 from pathlib import Path
-from typing import Any, NoReturn, TypeVar
+from typing import Annotated, Any, Literal, NoReturn, TypeVar
 
 import tyro
 from rich.console import Console
 
+from judo.core.config import field_types, with_updates
+from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
-from judo.core.registry import get_registered_optimizers, get_registered_tasks, lookup_optimizer, lookup_task
+from judo.core.field_docs import field_docs
+from judo.core.registry import (
+    get_registered_optimizers,
+    get_registered_tasks,
+    lookup_optimizer,
+    lookup_task,
+    make_config,
+)
 
 ArgsT = TypeVar("ArgsT")
 
@@ -92,3 +103,38 @@ def non_finite_to_none(content: Any) -> Any:
     if isinstance(content, float) and not math.isfinite(content):
         return None
     return content
+
+
+def optional_fields(config_cls: type, name: str) -> type:
+    """A dataclass called `name` with every field of `config_cls` as `T | None = None` and the same --help
+    text, so that a command line can tell the fields a user gave from those left to the task's defaults."""
+    docs, types = field_docs(config_cls), field_types(config_cls)
+
+    def option(name: str) -> Any:
+        kind = types[name]
+        choices = typing.get_args(kind) if typing.get_origin(kind) is Literal else ()
+        metavar = "{" + ",".join(map(str, choices)) + "}" if choices else getattr(kind, "__name__", "VALUE").upper()
+        text = " ".join(docs.get(name, "").split())
+        return Annotated[
+            kind | None, tyro.conf.arg(help=text, metavar=metavar, help_behavior_hint="(default: the task's)")
+        ]
+
+    specs = [(f.name, option(f.name), dataclasses.field(default=None)) for f in dataclasses.fields(config_cls)]
+    overrides = dataclasses.make_dataclass(name, specs)
+    overrides.__doc__ = f"Fields of {config_cls.__name__} to change from the task's defaults."
+    return overrides
+
+
+ControllerOverrides = optional_fields(ControllerConfig, "ControllerOverrides")
+"""`--controller.FIELD VALUE` options of `benchmark` and `evaluate`: every ControllerConfig field, None when not given."""
+
+
+def given_fields(overrides: Any) -> dict[str, Any]:
+    """The fields of a `ControllerOverrides` that were given (not None), by name."""
+    return {name: value for name, value in vars(overrides).items() if value is not None}
+
+
+def controller_config(task: str, overrides: Any) -> ControllerConfig:
+    """The task's ControllerConfig (its registered defaults) with the given `--controller.*` fields applied;
+    ConfigError for a value the config refuses."""
+    return with_updates(make_config(ControllerConfig, task), given_fields(overrides))  # type: ignore[return-value]

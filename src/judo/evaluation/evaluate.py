@@ -1,6 +1,6 @@
 """`python -m judo evaluate`: closed-loop episodes over seeds, the task's success metrics with 95% CIs."""
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -14,9 +14,12 @@ from judo.core.errors import JudoError
 from judo.core.registry import lookup_task, make_controller
 from judo.core.rollout import RolloutBackendName, check_rollout_backend
 from judo.evaluation.cli import (
+    ControllerOverrides,
     apply_config_file,
     check_names,
+    controller_config,
     fail,
+    given_fields,
     name_listing,
     output_console,
     parse_args,
@@ -64,6 +67,8 @@ class EvaluateArgs:
     """Also write each episode's metrics and the summary to this JSON file."""
     plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also plot the first seed's episode against time to this .png (needs matplotlib) or .html file."""
+    controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
+    """Controller settings to change from the task's defaults, e.g. --controller.num-randomizations 4."""
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
@@ -83,6 +88,7 @@ class EvaluateArgs:
         if self.plot is not None:
             check_plot_path(self.plot)
         check_rollout_backend(self.backend)
+        controller_config(self.task, self.controller)
 
     def episode_latency(self) -> Latency:
         """The latency `run_episode` takes: seconds, or "measured"."""
@@ -135,7 +141,12 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
     results = []
     for seed in range(args.seeds):
         controller = make_controller(
-            args.task, args.optimizer, num_workers=args.num_workers, seed=seed, backend=args.backend
+            args.task,
+            args.optimizer,
+            controller_config=controller_config(args.task, args.controller),
+            num_workers=args.num_workers,
+            seed=seed,
+            backend=args.backend,
         )
 
         def show(now: float, seed: int = seed) -> None:
@@ -164,6 +175,9 @@ def main(argv: list[str] | None = None) -> int:
         title = (
             f"{args.task} x {args.optimizer}: {args.seeds} seeds x {args.duration:g} s, latency {args.latency_label()}"
         )
+        changed = given_fields(args.controller)
+        if changed:
+            title += ", " + ", ".join(f"{name}={value}" for name, value in changed.items())
         console = output_console()
         table = metrics_table(title, summaries)
         table.caption = f"control update: median {np.median(update_ms):.2f} ms over {len(update_ms)} updates"
@@ -184,6 +198,7 @@ def main(argv: list[str] | None = None) -> int:
                     "duration": args.duration,
                     "latency": args.latency_label(),
                     "backend": args.backend,
+                    "controller": changed,
                     "episodes": [episode_record(result) for result in results],
                     "summary": {name: vars(summary) for name, summary in summaries.items()},
                 },

@@ -1,8 +1,9 @@
-"""Timing the control update against its floor: the raw rollout of the same N x T steps on the same pool.
+"""Timing the control update against its floor: the raw rollout of the same N x R x T steps on the same pool.
 
-The control update samples knots, interpolates them, rolls them out, scores and updates; the raw
-rollout is only `controller.backend.rollout(initial_state, controls, mocap)` with controls of the same
-(num_rollouts, T, nu) shape. An update rolls out one such batch per optimizer iteration, so the floor of the
+The control update samples knots, interpolates them, rolls them out (each sequence under each of the R
+randomized models; R = 1 without randomization), scores and updates; the raw rollout is only
+`controller.backend.rollout(initial_state, controls, mocap)` with controls of the same (R * num_rollouts, T, nu)
+shape, on the same models. An update rolls out one such batch per optimizer iteration, so the floor of the
 same work is max_opt_iters raw rollouts, and the update's ratio to that floor is the controller's overhead on
 top of physics.
 """
@@ -31,10 +32,11 @@ class UpdateTiming:
     Attributes:
         task, optimizer: registered names.
         num_rollouts, num_steps: the batch, N rollouts of T steps each.
+        num_randomizations: R, the models each rollout runs under (so R * N rollouts per batch).
         num_workers: rollout threads of the pool.
         max_opt_iters: optimizer iterations (each one batch of rollouts) per update.
         update_ms: (samples,) wall time of each timed control update.
-        raw_rollout_ms: (samples,) wall time of each raw rollout of N x T steps on the same pool,
+        raw_rollout_ms: (samples,) wall time of each raw rollout of N x R x T steps on the same pool,
             timed alternately with the updates so both see the same machine load.
         backend: the rollout backend's name ("cpu" or "warp").
     """
@@ -48,6 +50,7 @@ class UpdateTiming:
     update_ms: np.ndarray
     raw_rollout_ms: np.ndarray
     backend: str = "cpu"
+    num_randomizations: int = 1
 
     def floor_ms(self) -> float:
         """The physics an update cannot avoid: the median raw rollout times max_opt_iters (one batch per iteration)."""
@@ -65,6 +68,7 @@ class UpdateTiming:
             "optimizer": self.optimizer,
             "num_rollouts": self.num_rollouts,
             "T": self.num_steps,
+            "num_randomizations": self.num_randomizations,
             "num_workers": self.num_workers,
             "backend": self.backend,
             "max_opt_iters": self.max_opt_iters,
@@ -91,11 +95,14 @@ def benchmark_controller(
     num_workers: int | None = None,
     seed: int = 0,
     backend: str = "cpu",
+    controller_updates: dict[str, Any] | None = None,
 ) -> Controller:
-    """A seeded controller with the task's default settings, except the sizes given here, on `backend`."""
-    controller_config = make_config(ControllerConfig, task_name)
+    """A seeded controller on `backend` with the task's default settings, except the sizes and the
+    ControllerConfig fields (`controller_updates`, e.g. {"num_randomizations": 4}) given here."""
+    updates = dict(controller_updates or {})
     if horizon is not None:
-        controller_config = with_updates(controller_config, {"horizon": horizon})
+        updates["horizon"] = horizon
+    controller_config = with_updates(make_config(ControllerConfig, task_name), updates)
     optimizer_config = make_config(lookup_optimizer(optimizer_name)[1], task_name)
     sizes = {"num_rollouts": num_rollouts, "num_nodes": num_nodes}
     optimizer_config = with_updates(optimizer_config, {k: v for k, v in sizes.items() if v is not None})
@@ -128,14 +135,15 @@ def rollout_start(
 
 
 def sampled_controls(controller: Controller, plan: Spline) -> np.ndarray:
-    """(num_rollouts, T, nu) controls as an update after `plan` would roll out: knots sampled by the
+    """(R * num_rollouts, T, nu) controls as an update after `plan` would roll out: knots sampled by the
     optimizer around the plan's knots, clamped to the actuator limits, interpolated at every step and
-    clamped again (as `Controller.update_action` does)."""
+    clamped again (as `Controller.update_action` does), repeated once per model the controller rolls
+    out under (R = len(controller.models))."""
     knots = controller.optimizer.sample_control_knots(plan.knots)
     low, high = controller.task.actuator_ctrlrange.T
     np.clip(knots, low, high, out=knots)
     weights = plan.basis.weights(np.arange(controller.num_steps) * controller.task.dt)  # (T, num_nodes)
-    return np.clip(np.matmul(weights, knots), low, high)
+    return np.concatenate([np.clip(np.matmul(weights, knots), low, high)] * len(controller.models))
 
 
 def time_control_update(
@@ -144,10 +152,13 @@ def time_control_update(
     warmup: int = 10,
     seed: int = 0,
     on_sample: Callable[[], None] | None = None,
+    clock: Callable[[], float] = time.perf_counter,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Time `samples` control updates and as many raw rollouts of the same batch, after `warmup` of each.
 
     `on_sample` is called after each timed pair (not during the warm-up), e.g. to advance a progress bar.
+    `clock` reads seconds: wall time by default; `time.thread_time` measures the calling thread's CPU time,
+    which a loaded machine disturbs far less (all the work runs on the calling thread with one worker).
 
     Every update plans from the task's start state for `seed` (its randomised reset), one control
     period later than the one before, so the plan shifts as in a running loop. The raw rollouts start
@@ -172,13 +183,13 @@ def time_control_update(
 
     update_ms, raw_ms = np.zeros(samples), np.zeros(samples)
     for i in range(samples):
-        started = time.perf_counter()
+        started = clock()
         controller.update_action(state, plan_time, metadata)
-        update_ms[i] = 1e3 * (time.perf_counter() - started)
+        update_ms[i] = 1e3 * (clock() - started)
         plan_time += period
-        started = time.perf_counter()
+        started = clock()
         controller.backend.rollout(initial, controls, mocap)
-        raw_ms[i] = 1e3 * (time.perf_counter() - started)
+        raw_ms[i] = 1e3 * (clock() - started)
         if on_sample is not None:
             on_sample()
     return update_ms, raw_ms
@@ -196,8 +207,10 @@ def time_pair(
     num_workers: int | None = None,
     backend: str = "cpu",
     on_sample: Callable[[], None] | None = None,
+    controller_updates: dict[str, Any] | None = None,
 ) -> UpdateTiming:
-    """Build a controller for the pair (default settings except the sizes given) on `backend`, time it, close it."""
+    """Build a controller for the pair on `backend` (default settings except the sizes and controller fields
+    given), time it, close it."""
     controller = benchmark_controller(
         task_name,
         optimizer_name,
@@ -206,6 +219,7 @@ def time_pair(
         horizon=horizon,
         num_workers=num_workers,
         backend=backend,
+        controller_updates=controller_updates,
     )
     try:
         update_ms, raw_ms = time_control_update(controller, samples, warmup, on_sample=on_sample)
@@ -216,6 +230,7 @@ def time_pair(
         optimizer=optimizer_name,
         num_rollouts=controller.optimizer.num_rollouts,
         num_steps=controller.num_steps,
+        num_randomizations=len(controller.models),
         num_workers=controller.backend.num_workers,
         max_opt_iters=controller.config.max_opt_iters,
         update_ms=update_ms,

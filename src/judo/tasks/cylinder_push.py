@@ -9,6 +9,7 @@ import numpy as np
 
 from judo.core.fields import np_1d_field, slider
 from judo.core.norms import quadratic_norm
+from judo.core.randomize import body_id, contact_geom_ids, scale_body_mass, scale_dof_frictionloss, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "cylinder_push.xml"
@@ -71,6 +72,14 @@ class CylinderPush(Task[CylinderPushConfig]):
         self.data.qpos[:] = np.concatenate([pusher, cart])
         self.data.qvel[:] = 0.0
         mujoco.mj_forward(self.sim_model, self.data)
+
+    def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
+        """Pusher-cart friction x U[0.7, 1.3] per geom, the cart's mass x U[0.8, 1.25], and the cart's friction
+        loss (the table's friction) x U[0.7, 1.3]."""
+        scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
+        scale_body_mass(model, body_id(model, "cart"), 0.8, 1.25, rng)
+        dofs = [int(model.joint(name).dofadr[0]) for name in ("cart_x", "cart_y")]
+        scale_dof_frictionloss(model, dofs, 0.7, 1.3, rng)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """Where the cart ended: "final_distance" to the goal (m), and "reached", 1.0 if that is under 0.05 m."""

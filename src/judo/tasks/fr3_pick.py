@@ -9,6 +9,7 @@ import mujoco
 import numpy as np
 
 from judo.core.fields import slider
+from judo.core.randomize import body_id, contact_geom_ids, scale_body_mass, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "fr3_pick.xml"
@@ -216,6 +217,11 @@ class FR3Pick(Task[FR3PickConfig]):
     def get_sim_metadata(self) -> dict[str, Any]:
         """{"phase": index into PHASES}, for the planner's reward."""
         return {"phase": self.phase}
+
+    def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
+        """Each contact geom's sliding friction x U[0.6, 1.25] (its own draw), the object's mass and inertia x U[0.75, 1.5]."""
+        scale_geom_friction(model, contact_geom_ids(model), 0.6, 1.25, rng)
+        scale_body_mass(model, body_id(model, "object"), 0.75, 1.5, rng)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """success (object within `success_radius` of the goal at the end), its final distance, the

@@ -9,6 +9,7 @@ import numpy as np
 
 from judo.core.fields import slider
 from judo.core.norms import quadratic_norm, smooth_l1_norm
+from judo.core.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "humanoid_standup.xml"
@@ -117,6 +118,10 @@ class HumanoidStandup(Task[HumanoidStandupConfig]):
             mujoco.mj_step(self.sim_model, self.data)
         self.data.time = 0.0
         mujoco.mj_forward(self.sim_model, self.data)
+
+    def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
+        """Each contact geom's sliding friction x U[0.7, 1.3] (its own draw): the body's grip on the floor."""
+        scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """final_head_height (m); standing_fraction: share of the episode with the head above 1.2 m;

@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from judo.core.fields import slider
+from judo.core.randomize import body_id, contact_geom_ids, scale_body_mass, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODELS = Path(__file__).parent / "models"
@@ -145,6 +146,14 @@ class LeapCube(Task[LeapCubeConfig]):
             self.data.qpos[:] = self.sim_model.key_qpos[self._home_key]
             self.data.qvel[:] = 0.0
             mujoco.mj_forward(self.sim_model, self.data)
+
+    def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
+        """Each contact geom's sliding friction x U[0.7, 1.3] (its own draw), the cube's mass and inertia x U[0.8, 1.25].
+
+        The range covers the plant model's 0.9 on every contact (the planner's pairs are 0.7 to 1.2).
+        """
+        scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
+        scale_body_mass(model, body_id(model, "cube"), 0.8, 1.25, rng)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """Goals reached (in total and per minute of the episode) and drops, counted on this plant task."""

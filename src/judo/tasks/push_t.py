@@ -9,6 +9,7 @@ import numpy as np
 
 from judo.core.fields import slider
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
+from judo.core.randomize import body_id, contact_geom_ids, scale_body_mass, scale_dof_frictionloss, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "push_t.xml"
@@ -101,6 +102,14 @@ class PushT(Task[PushTConfig]):
         pusher = block + self.rng.uniform(0.2, 0.3) * np.array([np.cos(pusher_direction), np.sin(pusher_direction)])
         self.data.qpos[:] = [*block, self.rng.uniform(-np.pi, np.pi), *pusher]
         mujoco.mj_forward(self.sim_model, self.data)
+
+    def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
+        """Pusher-block friction x U[0.7, 1.3] per geom, the block's mass x U[0.8, 1.25], and the block's friction
+        loss (the table's friction) x U[0.7, 1.3]."""
+        scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
+        scale_body_mass(model, body_id(model, "block"), 0.8, 1.25, rng)
+        dofs = [int(model.joint(name).dofadr[0]) for name in ("block_x", "block_y", "block_yaw")]
+        scale_dof_frictionloss(model, dofs, 0.7, 1.3, rng)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """final_position_error (m) and final_angle_error (rad, absolute) of the block at the end;

@@ -9,6 +9,7 @@ import numpy as np
 
 from judo.core.fields import slider
 from judo.core.norms import quadratic_norm, smooth_l1_norm
+from judo.core.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "walker.xml"
@@ -78,6 +79,10 @@ class Walker(Task[WalkerConfig]):
         self.data.qpos[3:] = self.rng.uniform(-0.1, 0.1, 6)
         self.data.qvel[:] = self.rng.normal(0.0, 0.1, self.sim_model.nv)
         mujoco.mj_forward(self.sim_model, self.data)
+
+    def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
+        """Each contact geom's sliding friction x U[0.7, 1.3] (its own draw): the feet's grip on the floor."""
+        scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """mean_forward_speed: torso travel (m) over the episode's duration (s); fallen_fraction: share of
