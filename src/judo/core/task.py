@@ -54,6 +54,9 @@ class Task(ABC, Generic[ConfigT]):
     """
 
     config_cls: ClassVar[type[TaskConfig]] = TaskConfig
+    focus_body: ClassVar[str | None] = None
+    """The body the GUI's camera follows while the task runs. None: the first body with a free joint,
+    and no following when there is none (the camera stays where it framed the task)."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Take `config_cls` from `Task[ConfigT]` among the class's own bases. A subclass of a task

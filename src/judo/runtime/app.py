@@ -151,6 +151,9 @@ class App:
         self._switch_request: tuple[str, str] | None = None
         self._reset_system = self._reset_controller = False
         self._paused = False
+        self._reset_from_user = False
+        self._resets_done = 0
+        self._trouble: set[str] = set()  # loops whose last report was a failure, until they recover
         self._status = Status("starting", "info", 0)
         self._last_logged: tuple[str, float] = ("", 0.0)
         self._stop = threading.Event()
@@ -224,6 +227,11 @@ class App:
         return self._status
 
     @property
+    def resets_done(self) -> int:
+        """Counts task resets the plant has carried out, so the GUI knows when to reframe its camera."""
+        return self._resets_done
+
+    @property
     def external_edits(self) -> int:
         """Counts config changes not made through the GUI (reset, switch, `update_config`), so the GUI
         knows when to refresh its widgets."""
@@ -276,12 +284,14 @@ class App:
     def resume(self) -> None:
         """Undo `pause()`."""
         self._paused = False
-        self.report("running")
+        session = self._session
+        self.report(f"running {session.task_name} with {session.optimizer_name}")
 
     def reset_task(self) -> None:
         """Reset the plant to its start state and forget the plan."""
         with self._lock:
             self._reset_system = self._reset_controller = True
+            self._reset_from_user = True
 
     def switch_task(self, task: str) -> None:
         """Use the registered task `task` from the next cycle, with its default configs."""
@@ -312,6 +322,15 @@ class App:
                 return
             self._last_logged = (message, now)
         logger.log({"info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}[level], message)
+
+    def _recovered(self, loop: str, message: str) -> None:
+        """After a success of `loop`: if its failure is on the status line, replace it with `message`."""
+        if loop not in self._trouble:
+            return
+        self._trouble.discard(loop)
+        if self._status.level != "info":
+            session = self._session
+            self.report(f"{message}: running {session.task_name} with {session.optimizer_name}")
 
     # ---- the loops -----------------------------------------------------------------------------
     async def _main(self, handle_signals: bool = False) -> None:
@@ -366,6 +385,11 @@ class App:
                 self._call_system(system.reset)
                 paced = False
                 self._publish_state(session)
+                self._resets_done += 1
+                with self._lock:
+                    from_user, self._reset_from_user = self._reset_from_user, False
+                if from_user:
+                    self.report(f"{session.task_name} reset to its start state; the plan starts afresh")
             if self._paused:
                 paced = False
                 await asyncio.sleep(IDLE_POLL)
@@ -404,7 +428,10 @@ class App:
             with self._lock:
                 self._reset_controller = True
         except Exception as err:  # a user's System or task hook failed; keep serving
+            self._trouble.add("system")
             self.report(f"system step failed: {type(err).__name__}: {err}", "error")
+        else:
+            self._recovered("system", "the system steps again")
 
     def _call_system(self, method: Any) -> None:
         try:
@@ -437,10 +464,13 @@ class App:
                     self._executor, controller.update_action, reading.state, reading.time, reading.metadata
                 )
             except JudoError as err:  # NonFiniteRewardError, ConfigError: skip this cycle
+                self._trouble.add("planner")
                 self.report(f"planning cycle skipped: {err}", "warning")
             except Exception as err:  # an exception in the user's reward or hooks
+                self._trouble.add("planner")
                 self.report(f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}", "error")
             else:
+                self._recovered("planner", "planning works again")
                 plan_time = time.perf_counter() - start
                 rewards = controller.rewards
                 assert controller.nominal_knots is not None  # set by every completed cycle
@@ -509,7 +539,8 @@ class App:
         self.buffer.clear("plan")
         self._publish_state(new)
         old.close()
-        self.report(f"running {task} with {optimizer}")
+        self._trouble.clear()
+        self.report(f"switched to {task} with {optimizer}{' (paused)' if self._paused else ''}")
 
     async def _gui_loop(self) -> None:
         while not self._stop.is_set():

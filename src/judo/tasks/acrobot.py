@@ -103,6 +103,8 @@ class Acrobot(Task[AcrobotConfig]):
     """State [shoulder, elbow angles (0, 0 = straight up), their velocities]; one control, the elbow
     torque (5 Nm at 1). The shoulder is unactuated."""
 
+    focus_body = "upper_arm"
+
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self._tip_column = self.get_sensor_start_index("trace_tip")

@@ -39,6 +39,8 @@ class CylinderPushConfig(TaskConfig):
 class CylinderPush(Task[CylinderPushConfig]):
     """State [pusher x, y, cart x, y, and their velocities]; controls are the x, y forces on the pusher."""
 
+    focus_body = "cart"
+
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self.reset()

@@ -66,6 +66,8 @@ class DoubleCartpole(Task[DoubleCartpoleConfig]):
     """State [cart x, lower pole angle (0 = up), upper pole angle relative to the lower, their velocities];
     one control, the push on the cart (20 N at 1)."""
 
+    focus_body = "cart"
+
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self._tip_column = self.get_sensor_start_index("trace_tip")

@@ -65,6 +65,8 @@ class FR3Pick(Task[FR3PickConfig]):
     object's state and publishes it as system_metadata["phase"]; the reward uses that phase's terms.
     """
 
+    focus_body = "object"
+
     lift_fraction: ClassVar[float] = 0.6
     """The object counts as lifted above this fraction of `lift_height`."""
     place_radius: ClassVar[float] = 0.02

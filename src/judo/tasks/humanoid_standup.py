@@ -52,6 +52,8 @@ class HumanoidStandup(Task[HumanoidStandupConfig]):
     """State [torso position, quaternion, 16 joint angles, and the 22 velocities]; controls are the 16 joint
     torques, normalised to [-1, 1] (from 40 Nm at the elbows to 150 Nm at the hips)."""
 
+    focus_body = "torso"
+
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self._columns = {

@@ -58,6 +58,8 @@ class LeapCube(Task[LeapCubeConfig]):
     back in the "home" keyframe when the cube falls below `drop_height` (counting `drops`).
     """
 
+    focus_body = "cube"
+
     goal_tolerance: ClassVar[float] = 0.4
     """Rotation angle (rad) under which the goal counts as reached."""
     drop_height: ClassVar[float] = -0.05

@@ -42,6 +42,8 @@ class Particle(Task[ParticleConfig]):
     The goal is a mocap body; the planner reads it through the "goal_position" sensor.
     """
 
+    focus_body = "particle"
+
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self._particle_column = self.get_sensor_start_index("trace_particle")

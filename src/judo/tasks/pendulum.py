@@ -39,6 +39,8 @@ class Pendulum(Task[PendulumConfig]):
     Gravity needs 4.9 Nm to hold the pole level, so the controller has to swing it up in several pumps.
     """
 
+    focus_body = "pole"
+
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self.reset()

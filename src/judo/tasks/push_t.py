@@ -48,6 +48,8 @@ class PushT(Task[PushTConfig]):
     """State [block x, y, heading, pusher x, y, and their velocities]; controls are the x, y forces on the
     pusher (5 N at 1). The planner reads the block and goal poses through framepos/framequat sensors."""
 
+    focus_body = "block"
+
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self._columns = {

@@ -44,6 +44,8 @@ class Walker(Task[WalkerConfig]):
     """State [torso x, z offset, pitch, right and left hip, knee, ankle angles, and their velocities];
     controls are the six joint torques, normalised to [-1, 1] (hips 100 Nm, knees 60 Nm, ankles 20 Nm)."""
 
+    focus_body = "torso"
+
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self._head_column = self.get_sensor_start_index("trace_head")

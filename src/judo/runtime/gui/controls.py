@@ -42,6 +42,9 @@ class Controls:
         self.reset_configs = gui.add_button(
             "Reset configs", order=order + 0.4, hint="Put every config back to the task's defaults"
         )
+        self.follow = gui.add_checkbox(
+            "follow camera", True, order=order + 0.45, hint="Keep the task's focus body in view while it runs"
+        )
         self.status = gui.add_markdown("", order=order + 0.5)
         self._shown_status = -1
         self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))

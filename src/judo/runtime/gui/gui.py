@@ -7,10 +7,12 @@ widgets' callbacks run on viser's threads and only call App commands.
 import time
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 import viser
 
 from judo.core.config import Config
 from judo.core.errors import JudoError
+from judo.runtime.gui.camera import Follower, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.plots import Plots
@@ -36,12 +38,16 @@ class Gui:
         self.plots = Plots(self.server.gui, order=100)
         self.panels: dict[str, ConfigPanel] = {}
         self.scene: SceneView | None = None
+        self.follower: Follower | None = None
+        self._look_at = np.zeros(3)  # where the cameras look while following: the framed centre plus the focus's moves
+        self._resets_done = app.resets_done
         self._scene_task: str | None = None
         self._generation = -1
         self._external_edits = -1
         self._state_version = self._plan_version = 0
         self._shown_task_config: Config | None = None
         self._start = self._last_plot = time.perf_counter()
+        self.server.on_client_connect(self._frame_new_page)
 
     @property
     def url(self) -> str:
@@ -77,6 +83,11 @@ class Gui:
             reading = state.value.reading
             with self.server.atomic():
                 self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
+            if app.resets_done != self._resets_done:  # the plant is back at its start: frame it again
+                self._resets_done = app.resets_done
+                self.frame_task()
+            else:
+                self._follow()
         plan = app.buffer.latest("plan")
         if plan is not None and plan.version != self._plan_version and plan.value.generation == self._generation:
             self._plan_version = plan.version
@@ -106,11 +117,9 @@ class Gui:
             self.scene = SceneView(self.server.scene, session.controller.task.model)
             self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
             self.scene.set_markers(configs["task"])
-            position, look_at = self.scene.camera_pose()
-            self.server.initial_camera.position = position
-            self.server.initial_camera.look_at = look_at
-            for client in self.server.get_clients().values():
-                client.camera.position, client.camera.look_at = position, look_at
+            task = session.controller.task
+            self.follower = Follower(task.model, focus_body_id(task.model, type(task).focus_body))
+            self.frame_task()
         self._shown_task_config = None
         titles = {
             "controller": "Controller",
@@ -123,6 +132,43 @@ class Gui:
         }
         self.controls.show_session()
         self._generation = session.generation
+
+    def frame_task(self) -> None:
+        """Point every page's camera (and a new page's) at the task as the scene shows it now."""
+        assert self.scene is not None and self.follower is not None
+        position, look_at = self.scene.camera_pose()
+        self.server.initial_camera.position = position
+        self.server.initial_camera.look_at = look_at
+        self._look_at = np.array(look_at, dtype=float)
+        for client in self.server.get_clients().values():
+            with client.atomic():
+                client.camera.position, client.camera.look_at = position, look_at
+        self.follower.restart(self.scene.data)
+
+    def _frame_new_page(self, client: viser.ClientHandle) -> None:
+        """A page opened mid-run looks at the task where it is now, not where it started."""
+        if self.scene is not None:
+            position, look_at = self.scene.camera_pose()
+            with client.atomic():
+                client.camera.position, client.camera.look_at = position, look_at
+
+    def _follow(self) -> None:
+        """Move every camera by how far the focus body moved, while "follow" is on.
+
+        The look-at point is ours (a page's camera report may lag our last move, so it is not added
+        to); the view direction and distance stay the page's own, so the user can still orbit and zoom.
+        """
+        assert self.scene is not None and self.follower is not None
+        delta = self.follower.step(self.scene.data)
+        self._look_at = self._look_at + delta  # kept up while off too, so turning follow on finds the focus
+        if not self.controls.follow.value or not np.any(np.abs(delta) > 1e-6):
+            return
+        for client in self.server.get_clients().values():
+            camera = client.camera
+            offset = np.asarray(camera.position) - np.asarray(camera.look_at)
+            with client.atomic():
+                camera.position = self._look_at + offset
+                camera.look_at = self._look_at
 
     def _editor(self, kind: "ConfigKind", generation: int) -> Any:
         def edit(updates: dict[str, Any]) -> Config:
