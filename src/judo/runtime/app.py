@@ -39,7 +39,7 @@ from judo.core.task import TaskConfig
 from judo.runtime.session import Session, build_session, default_configs
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
-from judo.runtime.system import SimulationDiverged, System, SystemState
+from judo.runtime.system import MujocoSystem, SimulationDiverged, System, SystemState
 
 logger = logging.getLogger("judo.app")
 
@@ -152,6 +152,7 @@ class App:
         self._reset_system = self._reset_controller = False
         self._paused = False
         self._reset_from_user = False
+        self._goal_moves: dict[int, np.ndarray] = {}  # mocap index -> (3,) position for the plant
         self._resets_done = 0
         self._trouble: set[str] = set()  # loops whose last report was a failure, until they recover
         self._status = Status("starting", "info", 0)
@@ -293,6 +294,21 @@ class App:
             self._reset_system = self._reset_controller = True
             self._reset_from_user = True
 
+    def move_goal(self, index: int, position: np.ndarray) -> None:
+        """Move mocap body `index` (a goal) of the simulated plant to `position` (3,) before its next step.
+
+        The planner sees it with the next state (the plant publishes its mocap poses). Raises JudoError
+        for a user's System, whose goals the app cannot move, or an index the model does not have.
+        """
+        system = self._session.system
+        if not isinstance(system, MujocoSystem):
+            raise JudoError(f"cannot move goal {index}: the app drives your own {type(system).__name__}")
+        nmocap = system.task.sim_model.nmocap
+        if not 0 <= index < nmocap:
+            raise JudoError(f"goal index must be in [0, {nmocap}), got {index}")
+        with self._lock:
+            self._goal_moves[index] = np.array(position, dtype=float).reshape(3)
+
     def switch_task(self, task: str) -> None:
         """Use the registered task `task` from the next cycle, with its default configs."""
         lookup_task(task)
@@ -390,6 +406,12 @@ class App:
                     from_user, self._reset_from_user = self._reset_from_user, False
                 if from_user:
                     self.report(f"{session.task_name} reset to its start state; the plan starts afresh")
+            with self._lock:
+                moves, self._goal_moves = self._goal_moves, {}
+            if moves and isinstance(system, MujocoSystem):
+                for index, position in moves.items():
+                    system.task.data.mocap_pos[index] = position
+                self._publish_state(session)
             if self._paused:
                 paced = False
                 await asyncio.sleep(IDLE_POLL)

@@ -15,6 +15,7 @@ from judo.core.errors import JudoError
 from judo.runtime.gui.camera import Follower, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.controls import Controls
+from judo.runtime.gui.goal_handles import GoalHandles
 from judo.runtime.gui.plots import Plots
 from judo.runtime.gui.scene import SceneView
 from judo.runtime.system import SystemState
@@ -23,7 +24,7 @@ if TYPE_CHECKING:
     from judo.runtime.app import App, ConfigKind
 
 PLOT_PERIOD = 0.25
-"""Seconds between points on the plots."""
+"""Seconds between points on the plots and updates of the numeric readout."""
 
 
 class Gui:
@@ -39,6 +40,7 @@ class Gui:
         self.panels: dict[str, ConfigPanel] = {}
         self.scene: SceneView | None = None
         self.follower: Follower | None = None
+        self.goals: GoalHandles | None = None
         self._look_at = np.zeros(3)  # where the cameras look while following: the framed centre plus the focus's moves
         self._resets_done = app.resets_done
         self._scene_task: str | None = None
@@ -78,6 +80,8 @@ class Gui:
         if configs["task"] is not self._shown_task_config:
             self._shown_task_config = configs["task"]
             self.scene.set_markers(configs["task"])
+        if self.goals is not None:
+            self.goals.update(configs["task"], state.value.reading.metadata.get("mocap_pos"))
         if state.version != self._state_version and state.value.generation == self._generation:
             self._state_version = state.version
             reading = state.value.reading
@@ -95,7 +99,11 @@ class Gui:
         now = time.perf_counter()
         if now - self._last_plot >= PLOT_PERIOD:
             self._last_plot = now
-            self.plots.add(now - self._start, app.stats.live())
+            figures = app.stats.live()
+            self.plots.add(now - self._start, figures)
+            self.controls.show_readout(state.value.reading.time, figures)
+        for panel in self.panels.values():
+            panel.flush()
         self.controls.update()
 
     def close(self) -> None:
@@ -114,13 +122,21 @@ class Gui:
             self._scene_task = session.task_name
             if self.scene is not None:
                 self.scene.remove()
+            if self.goals is not None:
+                self.goals.remove()
             self.scene = SceneView(self.server.scene, session.controller.task.model)
             self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
             self.scene.set_markers(configs["task"])
             task = session.controller.task
+            self.goals = GoalHandles(
+                self.server.scene, task.model, configs["task"], self._drag_field(session.generation), self._drag_mocap
+            )
             self.follower = Follower(task.model, focus_body_id(task.model, type(task).focus_body))
             self.frame_task()
         self._shown_task_config = None
+        assert self.scene is not None
+        self.scene.set_traces(np.zeros((0, 0, 0, 3)))  # a new optimizer: the old one's plan and figures go
+        self.plots.clear()
         titles = {
             "controller": "Controller",
             "optimizer": f"Optimizer: {session.optimizer_name}",
@@ -134,8 +150,11 @@ class Gui:
         self._generation = session.generation
 
     def frame_task(self) -> None:
-        """Point every page's camera (and a new page's) at the task as the scene shows it now."""
+        """Point every page's camera (and a new page's) at the task as the scene shows it now, and
+        clear the traces and plots of what ran before."""
         assert self.scene is not None and self.follower is not None
+        self.scene.set_traces(np.zeros((0, 0, 0, 3)))
+        self.plots.clear()
         position, look_at = self.scene.camera_pose()
         self.server.initial_camera.position = position
         self.server.initial_camera.look_at = look_at
@@ -170,12 +189,37 @@ class Gui:
                 camera.position = self._look_at + offset
                 camera.look_at = self._look_at
 
+    def _drag_field(self, generation: int) -> Any:
+        def drag(name: str, value: np.ndarray) -> None:
+            try:
+                self.app.update_config("task", {name: value}, generation=generation)  # the sliders follow
+            except JudoError as err:
+                self.app.report(f"goal not moved: {err}", "warning")
+
+        return drag
+
+    def _drag_mocap(self, index: int, position: np.ndarray) -> None:
+        try:
+            self.app.move_goal(index, position)
+        except JudoError as err:
+            self.app.report(f"goal not moved: {err}", "warning")
+
     def _editor(self, kind: "ConfigKind", generation: int) -> Any:
         def edit(updates: dict[str, Any]) -> Config:
             try:
-                return self.app.update_config(kind, updates, generation=generation, from_gui=True)
+                config = self.app.update_config(kind, updates, generation=generation, from_gui=True)
             except JudoError as err:
                 self.app.report(f"edit refused: {err}", "warning")
                 raise
+            shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
+            self.app.report(f"{kind} config: {shown}")
+            return config
 
         return edit
+
+
+def _shown(value: Any) -> str:
+    """A config value as the status line shows it: floats to 4 significant digits, arrays as lists."""
+    if isinstance(value, np.ndarray):
+        return "[" + ", ".join(_shown(float(v)) for v in value) + "]"
+    return f"{value:.4g}" if isinstance(value, float) else str(value)
