@@ -152,7 +152,7 @@ class App:
         self._reset_system = self._reset_controller = False
         self._paused = False
         self._reset_from_user = False
-        self._goal_moves: dict[int, np.ndarray] = {}  # mocap index -> (3,) position for the plant
+        self._goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}  # mocap index -> (pos, quat)
         self._resets_done = 0
         self._trouble: set[str] = set()  # loops whose last report was a failure, until they recover
         self._status = Status("starting", "info", 0)
@@ -294,8 +294,9 @@ class App:
             self._reset_system = self._reset_controller = True
             self._reset_from_user = True
 
-    def move_goal(self, index: int, position: np.ndarray) -> None:
-        """Move mocap body `index` (a goal) of the simulated plant to `position` (3,) before its next step.
+    def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
+        """Move mocap body `index` (a goal) of the simulated plant to `position` (3,), and turn it to
+        `quat` (4,) wxyz if given, before its next step.
 
         The planner sees it with the next state (the plant publishes its mocap poses). Raises JudoError
         for a user's System, whose goals the app cannot move, or an index the model does not have.
@@ -307,7 +308,8 @@ class App:
         if not 0 <= index < nmocap:
             raise JudoError(f"goal index must be in [0, {nmocap}), got {index}")
         with self._lock:
-            self._goal_moves[index] = np.array(position, dtype=float).reshape(3)
+            turn = None if quat is None else np.array(quat, dtype=float).reshape(4)
+            self._goal_moves[index] = (np.array(position, dtype=float).reshape(3), turn)
 
     def switch_task(self, task: str) -> None:
         """Use the registered task `task` from the next cycle, with its default configs."""
@@ -409,8 +411,10 @@ class App:
             with self._lock:
                 moves, self._goal_moves = self._goal_moves, {}
             if moves and isinstance(system, MujocoSystem):
-                for index, position in moves.items():
+                for index, (position, quat) in moves.items():
                     system.task.data.mocap_pos[index] = position
+                    if quat is not None:
+                        system.task.data.mocap_quat[index] = quat / np.linalg.norm(quat)
                 self._publish_state(session)
             if self._paused:
                 paced = False

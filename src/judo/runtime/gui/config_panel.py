@@ -35,6 +35,9 @@ EditFn = Callable[[dict[str, Any]], Config]
 
 EDIT_SETTLE = 0.3
 """Seconds a widget must keep its value before the edit is applied."""
+NUDGE_HOLD = 0.15
+"""Seconds a value nudged to make pages redraw is held before it is put back: long enough that a
+page receives the two in separate messages and draws both."""
 
 
 class ConfigPanel:
@@ -56,7 +59,7 @@ class ConfigPanel:
         self._encode: dict[str, Callable[[Any], list[Any]]] = {}
         self._pending: dict[str, list[list[Any]]] = {}  # field -> the widget values seen while it was edited
         self._last_change: dict[str, float] = {}
-        self._nudged: dict[int, tuple[Any, Any, Any]] = {}  # id(handle) -> (handle, nudged, value to put back)
+        self._nudged: dict[int, tuple[Any, Any, Any, float]] = {}  # id(handle) -> (handle, nudged, value, when)
         self.folder = gui.add_folder(label, order=order)
         cls = type(config)
         docs, ranges, types = field_docs(cls), slider_ranges(cls), field_types(cls)
@@ -88,13 +91,15 @@ class ConfigPanel:
                 self._write(name, getattr(config, name), resync=True)
 
     def flush(self) -> None:
-        """Apply the edits that have settled, and finish the page refreshes begun by the last flush."""
+        """Apply the edits that have settled, and put back the values nudged long enough ago."""
         with self._lock:
-            for handle, nudged, value in self._nudged.values():
+            now = time.monotonic()
+            for key, (handle, nudged, value, when) in list(self._nudged.items()):
+                if now - when < NUDGE_HOLD:
+                    continue
+                del self._nudged[key]
                 if handle.value == nudged:  # a page may have edited it since
                     handle.value = value
-            self._nudged = {}
-            now = time.monotonic()
             for name in [n for n, t in self._last_change.items() if now - t >= EDIT_SETTLE]:
                 del self._last_change[name]
                 value = self._decode[name](self._settled(name, self._pending.pop(name)))
@@ -201,14 +206,14 @@ class ConfigPanel:
 
         With `resync`, every page redraws the value even if the server thinks it shows it already
         (a box left blank or with refused text): the value is nudged by one step now (a page redraws
-        only a value that differs as shown) and put back at the next flush, a frame later.
+        only a value that differs as shown) and put back by the first flush NUDGE_HOLD seconds later.
         """
         for handle, item in zip(self._widgets[name], self._encode[name](value), strict=True):
             if isinstance(handle, viser.GuiSliderHandle):
                 handle.min, handle.max = min(handle.min, item), max(handle.max, item)
             if resync and not isinstance(item, (bool, str)):
                 handle.value = item + (getattr(handle, "step", None) or 1)
-                self._nudged[id(handle)] = (handle, handle.value, item)
+                self._nudged[id(handle)] = (handle, handle.value, item, time.monotonic())
             else:
                 handle.value = item
 

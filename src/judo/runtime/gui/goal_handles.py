@@ -1,8 +1,8 @@
 """Drag handles for goals: a viser transform control on every mocap body and every `np_1d_field` with a `vis_name`.
 
 A field's handle moves only along the axes the field has (x; x and y; x, y and z). Dragging calls
-`on_field(name, value)` with the field's new (n,) array, or `on_mocap(index, position)` with a
-mocap body's new (3,) position; the caller turns those into a config edit or a plant command.
+`on_field(name, value)` with the field's new (n,) array, or `on_mocap(index, position, wxyz)` with
+a mocap body's new (3,) position and (4,) orientation (mocap goals turn too); the caller turns those into a config edit or a plant command.
 While no page drags a handle, `update` keeps it on the goal, wherever the goal moved.
 """
 
@@ -29,7 +29,7 @@ class GoalHandles:
         model: mujoco.MjModel,
         config: Config,
         on_field: Callable[[str, np.ndarray], None],
-        on_mocap: Callable[[int, np.ndarray], None],
+        on_mocap: Callable[[int, np.ndarray, np.ndarray], None],
     ) -> None:
         self.scene, self._on_field, self._on_mocap = scene, on_field, on_mocap
         self.controls: dict[str, Any] = {}
@@ -39,7 +39,7 @@ class GoalHandles:
             index = int(model.body_mocapid[body])
             if index >= 0:
                 name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"mocap_{index}"
-                control = self._add(f"mocap/{name}", scale, (True, True, True), model.body_pos[body])
+                control = self._add(f"mocap/{name}", scale, (True, True, True), model.body_pos[body], turns=True)
                 control.on_update(lambda event, i=index, key=f"mocap/{name}": self._dragged_mocap(event, key, i))
         for field_name, value in vars(config).items():
             spec = array_field_spec(type(config), field_name)
@@ -53,8 +53,9 @@ class GoalHandles:
             control.on_update(lambda event, f=field_name, key=key: self._dragged_field(event, key, f))
         self._config = config
 
-    def update(self, config: Config, mocap_pos: np.ndarray | None) -> None:
-        """Put every handle no page is dragging on its goal: `config`'s fields and (nmocap, 3) `mocap_pos`."""
+    def update(self, config: Config, mocap_pos: np.ndarray | None, mocap_quat: np.ndarray | None = None) -> None:
+        """Put every handle no page is dragging on its goal: `config`'s fields, (nmocap, 3) `mocap_pos`
+        and (nmocap, 4) `mocap_quat`."""
         self._config = config
         for key, control in self.controls.items():
             if key in self._dragging:
@@ -65,7 +66,10 @@ class GoalHandles:
                 position = np.array(control.position, dtype=float)
                 position[: len(value)] = value
             elif mocap_pos is not None:
-                position = mocap_pos[self._mocap_index(key)]
+                index = self._mocap_index(key)
+                position = mocap_pos[index]
+                if mocap_quat is not None and not np.allclose(mocap_quat[index], control.wxyz):
+                    control.wxyz = mocap_quat[index]
             else:
                 continue
             if not np.allclose(position, control.position):
@@ -75,12 +79,14 @@ class GoalHandles:
         """Take the handles out of the scene."""
         self.scene.remove_by_name("/goals")
 
-    def _add(self, key: str, scale: float, axes: tuple[bool, bool, bool], position: np.ndarray) -> Any:
+    def _add(
+        self, key: str, scale: float, axes: tuple[bool, bool, bool], position: np.ndarray, turns: bool = False
+    ) -> Any:
         control = self.scene.add_transform_controls(
             f"/goals/{key}",
             scale=scale,
             active_axes=axes,
-            disable_rotations=True,
+            disable_rotations=not turns,
             disable_sliders=not all(axes[:2]),
             depth_test=False,
             position=tuple(float(x) for x in position),
@@ -106,7 +112,7 @@ class GoalHandles:
 
     def _dragged_mocap(self, event: Any, key: str, index: int) -> None:
         if self._track(event, key):
-            self._on_mocap(index, np.asarray(event.target.position, dtype=float))
+            self._on_mocap(index, np.asarray(event.target.position, dtype=float), np.asarray(event.target.wxyz))
 
     def _mocap_index(self, key: str) -> int:
         return [k for k in self.controls if k.startswith("mocap/")].index(key)

@@ -81,7 +81,8 @@ class Gui:
             self._shown_task_config = configs["task"]
             self.scene.set_markers(configs["task"])
         if self.goals is not None:
-            self.goals.update(configs["task"], state.value.reading.metadata.get("mocap_pos"))
+            metadata = state.value.reading.metadata
+            self.goals.update(configs["task"], metadata.get("mocap_pos"), metadata.get("mocap_quat"))
         if state.version != self._state_version and state.value.generation == self._generation:
             self._state_version = state.version
             reading = state.value.reading
@@ -198,9 +199,9 @@ class Gui:
 
         return drag
 
-    def _drag_mocap(self, index: int, position: np.ndarray) -> None:
+    def _drag_mocap(self, index: int, position: np.ndarray, wxyz: np.ndarray) -> None:
         try:
-            self.app.move_goal(index, position)
+            self.app.move_goal(index, position, wxyz)
         except JudoError as err:
             self.app.report(f"goal not moved: {err}", "warning")
 
