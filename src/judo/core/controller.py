@@ -20,7 +20,7 @@ class NonFiniteRewardError(JudoError):
     """Every rollout of a cycle scored NaN or -inf, so there is nothing to learn from; the plan is kept."""
 
 
-@slider("horizon", 0.05, 5.0, 0.05)
+@slider("horizon", 0.05, 5.0, 0.05, log=False)  # seconds: read linearly
 @slider("control_freq", 1.0, 200.0, 1.0)
 @slider("max_opt_iters", 1, 20, 1)
 @slider("max_num_traces", 0, 32, 1)

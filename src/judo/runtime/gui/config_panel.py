@@ -35,9 +35,9 @@ EditFn = Callable[[dict[str, Any]], Config]
 
 EDIT_SETTLE = 0.3
 """Seconds a widget must keep its value before the edit is applied."""
-NUDGE_HOLD = 0.15
+NUDGE_HOLD = 0.5
 """Seconds a value nudged to make pages redraw is held before it is put back: long enough that a
-page receives the two in separate messages and draws both."""
+page, even a slow one (software WebGL), draws both."""
 
 
 class ConfigPanel:
