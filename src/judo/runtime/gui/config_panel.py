@@ -36,8 +36,9 @@ EditFn = Callable[[dict[str, Any]], Config]
 EDIT_SETTLE = 0.3
 """Seconds a widget must keep its value before the edit is applied."""
 NUDGE_HOLD = 0.5
-"""Seconds a value nudged to make pages redraw is held before it is put back: long enough that a
-page, even a slow one (software WebGL), draws both."""
+"""Seconds an integer nudged by one step to make pages redraw is held before it is put back."""
+FLOAT_NUDGE = 1e-9
+"""Relative change that makes a page redraw a float box without changing what it means."""
 
 
 class ConfigPanel:
@@ -59,7 +60,8 @@ class ConfigPanel:
         self._encode: dict[str, Callable[[Any], list[Any]]] = {}
         self._pending: dict[str, list[list[Any]]] = {}  # field -> the widget values seen while it was edited
         self._last_change: dict[str, float] = {}
-        self._nudged: dict[int, tuple[Any, Any, Any, float]] = {}  # id(handle) -> (handle, nudged, value, when)
+        # id(handle) -> (handle, value it was nudged to, value in force, when to put it back or None)
+        self._nudged: dict[int, tuple[Any, Any, Any, float | None]] = {}
         self.folder = gui.add_folder(label, order=order)
         cls = type(config)
         docs, ranges, types = field_docs(cls), slider_ranges(cls), field_types(cls)
@@ -95,7 +97,7 @@ class ConfigPanel:
         with self._lock:
             now = time.monotonic()
             for key, (handle, nudged, value, when) in list(self._nudged.items()):
-                if now - when < NUDGE_HOLD:
+                if when is None or now - when < NUDGE_HOLD:
                     continue
                 del self._nudged[key]
                 if handle.value == nudged:  # a page may have edited it since
@@ -205,13 +207,21 @@ class ConfigPanel:
         """Show `value` in field `name`'s widgets, widening slider ranges to hold it.
 
         With `resync`, every page redraws the value even if the server thinks it shows it already
-        (a box left blank or with refused text): the value is nudged by one step now (a page redraws
-        only a value that differs as shown) and put back by the first flush NUDGE_HOLD seconds later.
+        (a box left blank or with refused text); a page redraws only on a changed value, so it gets
+        one: a float alternates between the value and the value nudged by FLOAT_NUDGE (the same to
+        every digit shown), an integer is nudged by one step and put back NUDGE_HOLD seconds later.
         """
         for handle, item in zip(self._widgets[name], self._encode[name](value), strict=True):
             if isinstance(handle, viser.GuiSliderHandle):
                 handle.min, handle.max = min(handle.min, item), max(handle.max, item)
-            if resync and not isinstance(item, (bool, str)):
+            shown = self._nudged.pop(id(handle), None)
+            if resync and isinstance(item, float):
+                if shown is not None and shown[2] == item and handle.value == shown[1]:
+                    handle.value = item  # it shows the nudged value: the exact one is a change
+                else:
+                    handle.value = item + max(abs(item), 1e-3) * FLOAT_NUDGE
+                    self._nudged[id(handle)] = (handle, handle.value, item, None)
+            elif resync and isinstance(item, int) and not isinstance(item, bool):
                 handle.value = item + (getattr(handle, "step", None) or 1)
                 self._nudged[id(handle)] = (handle, handle.value, item, time.monotonic())
             else:

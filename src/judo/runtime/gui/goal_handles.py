@@ -16,8 +16,10 @@ import viser
 from judo.core.config import Config
 from judo.core.fields import array_field_spec
 
-HANDLE_SCALE = 0.6
-"""Handle size as a fraction of the model's extent (capped below), so it suits a hand or a field."""
+HANDLE_SCALE = 0.2
+"""Handle size as a fraction of the model's extent (within HANDLE_SIZES), so it suits a hand or a field."""
+HANDLE_SIZES = (0.06, 0.4)
+"""Smallest and largest handle, in metres."""
 
 
 class GoalHandles:
@@ -34,7 +36,7 @@ class GoalHandles:
         self.scene, self._on_field, self._on_mocap = scene, on_field, on_mocap
         self.controls: dict[str, Any] = {}
         self._dragging: set[str] = set()
-        scale = HANDLE_SCALE * min(max(float(model.stat.extent), 0.2), 1.0) * 0.5
+        scale = float(np.clip(HANDLE_SCALE * float(model.stat.extent), *HANDLE_SIZES))
         for body in range(1, model.nbody):
             index = int(model.body_mocapid[body])
             if index >= 0:
