@@ -32,9 +32,14 @@ from judo.runtime.gui.field_docs import field_docs
 
 EditFn = Callable[[dict[str, Any]], Config]
 """Applies {field: value} and returns the accepted config, or raises JudoError to refuse it."""
+ReportFn = Callable[[str], None]
+"""Shows why an edit was refused (on the status line)."""
 
-EDIT_SETTLE = 0.3
+EDIT_SETTLE = 0.5
 """Seconds a widget must keep its value before the edit is applied."""
+REFUSAL_HOLD = 1.5
+"""Seconds a refused value stays in its box, unreported, in case the user is still typing (a "0" on
+the way to "0.25"); then the refusal is reported and the box goes back to the value in force."""
 NUDGE_HOLD = 0.5
 """Seconds an integer nudged by one step to make pages redraw is held before it is put back."""
 FLOAT_NUDGE = 1e-9
@@ -51,8 +56,18 @@ class ConfigPanel:
     calling `on_edit`.
     """
 
-    def __init__(self, gui: viser.GuiApi, label: str, config: Config, on_edit: EditFn, order: float) -> None:
+    def __init__(
+        self,
+        gui: viser.GuiApi,
+        label: str,
+        config: Config,
+        on_edit: EditFn,
+        order: float,
+        on_refused: ReportFn | None = None,
+    ) -> None:
         self._on_edit = on_edit
+        self._on_refused = on_refused
+        self._refused: dict[str, tuple[float, str]] = {}  # field -> (when, why) of a refusal not yet shown
         self._config = config
         self._lock = threading.Lock()
         self._widgets: dict[str, list[Any]] = {}
@@ -104,12 +119,20 @@ class ConfigPanel:
                     handle.value = value
             for name in [n for n, t in self._last_change.items() if now - t >= EDIT_SETTLE]:
                 del self._last_change[name]
+                self._refused.pop(name, None)
                 value = self._decode[name](self._settled(name, self._pending.pop(name)))
                 try:
                     self._config = self._on_edit({name: value})
-                except JudoError:
-                    pass  # the caller reported why; the widgets go back to the value in force
+                except JudoError as err:
+                    self._refused[name] = (now, str(err))  # shown and put back once the user stops typing
+                    continue
                 self._write(name, getattr(self._config, name), resync=True)
+            for name, (when, why) in list(self._refused.items()):
+                if now - when >= REFUSAL_HOLD and name not in self._last_change:
+                    del self._refused[name]
+                    if self._on_refused is not None:
+                        self._on_refused(why)
+                    self._write(name, getattr(self._config, name), resync=True)
 
     def remove(self) -> None:
         """Take the folder and its widgets off the page."""

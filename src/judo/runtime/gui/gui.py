@@ -144,7 +144,14 @@ class Gui:
             "task": f"Task: {session.task_name}",
         }
         self.panels = {
-            kind: ConfigPanel(self.server.gui, titles[kind], config, self._editor(kind, session.generation), 10 * order)
+            kind: ConfigPanel(
+                self.server.gui,
+                titles[kind],
+                config,
+                self._editor(kind, session.generation),
+                10 * order,
+                on_refused=lambda why: self.app.report(f"edit refused: {why}", "warning"),
+            )
             for order, (kind, config) in enumerate(configs.items(), start=1)
         }
         self.controls.show_session()
@@ -207,11 +214,7 @@ class Gui:
 
     def _editor(self, kind: "ConfigKind", generation: int) -> Any:
         def edit(updates: dict[str, Any]) -> Config:
-            try:
-                config = self.app.update_config(kind, updates, generation=generation, from_gui=True)
-            except JudoError as err:
-                self.app.report(f"edit refused: {err}", "warning")
-                raise
+            config = self.app.update_config(kind, updates, generation=generation, from_gui=True)
             shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
             self.app.report(f"{kind} config: {shown}")
             return config
