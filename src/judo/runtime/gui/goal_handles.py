@@ -91,7 +91,7 @@ class GoalHandles:
             disable_rotations=not turns,
             disable_sliders=not all(axes[:2]),
             depth_test=False,
-            position=tuple(float(x) for x in position),
+            position=np.asarray(position, dtype=float),
         )
         self.controls[key] = control
         return control
