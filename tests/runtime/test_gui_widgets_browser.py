@@ -84,7 +84,7 @@ def test_a_value_beyond_the_slider_that_the_config_accepts_widens_the_slider(app
     wait_until(lambda: app.controller.config.horizon == 8.0, timeout=30, what="the horizon to be 8")
     thumb = slider(page, "horizon")
     wait_until(lambda: float(thumb.get_attribute("aria-valuemax")) >= 8.0, timeout=30, what="the slider to widen")
-    assert number_box(page, "horizon").input_value() == "8"
+    wait_until(lambda: shows(number_box(page, "horizon"), 8.0), timeout=30, what="the box to show 8")
     wait_until(lambda: "controller config: horizon = 8" in status_text(page), timeout=30, what="the confirmation")
     page.screenshot(path=artifacts / "widgets_widened.png")
 
@@ -92,13 +92,13 @@ def test_a_value_beyond_the_slider_that_the_config_accepts_widens_the_slider(app
 def test_a_refused_value_is_reported_and_the_next_accepted_edit_replaces_the_warning(app, page, wait_until, artifacts):
     type_into(page, "num_nodes", "3")  # too few knots for cartpole's cubic spline
     page.get_by_text("status: warning: edit refused: a cubic spline needs num_nodes >= 4, got 3").wait_for()
-    wait_until(lambda: number_box(page, "num_nodes").input_value() == "4", timeout=30, what="the box to show 4")
+    wait_until(lambda: shows(number_box(page, "num_nodes"), 4), timeout=30, what="the box to show 4")
     assert app.configs()["optimizer"].num_nodes == 4
     page.screenshot(path=artifacts / "widgets_refused.png")
     type_into(page, "num_nodes", "6")
     wait_until(lambda: status_text(page) == "status: optimizer config: num_nodes = 6", timeout=30, what="confirmation")
     assert app.controller.optimizer.config.num_nodes == 6 or app.configs()["optimizer"].num_nodes == 6
-    assert number_box(page, "num_nodes").input_value() == "6"
+    wait_until(lambda: shows(number_box(page, "num_nodes"), 6), timeout=30, what="the box to show 6")
 
 
 def send_as_the_page(app: App, handle, value) -> None:
@@ -161,15 +161,14 @@ def test_two_pages_end_in_agreement_with_the_controller(chromium, app, page, wai
 
         def agree() -> bool:
             horizon = app.controller.config.horizon
-            shown = {number_box(p, "horizon").input_value() for p in (page, other)}
-            return shown == {f"{horizon:g}"}
+            return all(shows(number_box(p, "horizon"), horizon) for p in (page, other))
 
         wait_until(agree, timeout=30, what="both pages to show the controller's horizon")
         wait_until(lambda: app.controller.task.config.w_centered == 20.0, timeout=30, what="w_centered 20")
         wait_until(lambda: app.controller.task.config.w_velocity == 0.5, timeout=30, what="w_velocity 0.5")
         for p in (page, other):
-            wait_until(lambda p=p: number_box(p, "w_centered").input_value() == "20", timeout=30, what="w_centered")
-            wait_until(lambda p=p: number_box(p, "w_velocity").input_value() == "0.5", timeout=30, what="w_velocity")
+            wait_until(lambda p=p: shows(number_box(p, "w_centered"), 20.0), timeout=30, what="w_centered")
+            wait_until(lambda p=p: shows(number_box(p, "w_velocity"), 0.5), timeout=30, what="w_velocity")
         other.screenshot(path=artifacts / "widgets_two_pages.png")
     finally:
         other.close()
@@ -204,10 +203,8 @@ def test_dragging_a_field_goal_moves_the_config_the_sliders_and_the_plan(app, pa
     assert control.active_axes == (True, True, False)  # a 2-D goal moves in the plane
     drag_through_the_page(app, control, (0.4, -0.3, 0.0))
     wait_until(lambda: list(app.controller.task.config.goal_pos) == [0.4, -0.3], timeout=30, what="the planner's goal")
-    for label, shown in (("x", "0.4"), ("y", "-0.3")):
-        wait_until(
-            lambda label=label, shown=shown: number_box(page, label).input_value() == shown, timeout=30, what=label
-        )
+    for label, shown in (("x", 0.4), ("y", -0.3)):
+        wait_until(lambda label=label, shown=shown: shows(number_box(page, label), shown), timeout=30, what=label)
     page.screenshot(path=artifacts / "widgets_goal_dragged.png")
 
 
