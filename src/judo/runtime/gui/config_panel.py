@@ -99,13 +99,17 @@ class ConfigPanel:
         """The value the widgets of field `name` show now."""
         return self._decode[name]([self._shown(handle) for handle in self._widgets[name]])
 
-    def show(self, config: Config) -> None:
-        """Put `config`'s values into the widgets on every page; nothing is sent back to `on_edit`."""
+    def show(self, config: Config, redraw: bool = False) -> None:
+        """Put `config`'s values into the widgets on every page; nothing is sent back to `on_edit`.
+
+        With `redraw`, every page redraws even the values that did not change (after Reset configs,
+        so a box left blank shows the value in force again).
+        """
         with self._lock:
             self._config = config
             self._pending.clear()
             for name in self._widgets:
-                self._write(name, getattr(config, name), resync=True)
+                self._write(name, getattr(config, name), resync=redraw)
 
     def flush(self) -> None:
         """Apply the edits that have settled, and put back the values nudged long enough ago."""

@@ -54,7 +54,8 @@ class Controls:
         self.optimizer.on_update(lambda event: self._switch(event, app.switch_optimizer, self.optimizer, "optimizer"))
         self.pause.on_click(lambda _: app.resume() if app.paused else app.pause())
         self.reset_task.on_click(lambda _: app.reset_task())
-        self.reset_configs.on_click(lambda _: app.reset_configs())
+        self.redraw_requested = False  # set by Reset configs: every page redraws every widget
+        self.reset_configs.on_click(lambda _: self._reset_configs())
 
     def update(self) -> None:
         """Show the app's pause state, names and latest status."""
@@ -75,6 +76,10 @@ class Controls:
             f"sim time {shown(sim_time, ' s', 1)} · plan {shown(figures.plan_time_ms, ' ms', 1)} · "
             f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor {shown(figures.real_time_factor, '', 2)}"
         )
+
+    def _reset_configs(self) -> None:
+        self.redraw_requested = True
+        self.app.reset_configs()
 
     def show_session(self) -> None:
         """Point the dropdowns at the session in use (after a switch, or a refused one)."""

@@ -73,8 +73,9 @@ class Gui:
             self._rebuild(state.value.reading)
         if app.external_edits != self._external_edits:
             self._external_edits = app.external_edits
+            redraw, self.controls.redraw_requested = self.controls.redraw_requested, False
             for kind, config in app.configs().items():
-                self.panels[kind].show(config)
+                self.panels[kind].show(config, redraw=redraw)
         assert self.scene is not None and state is not None
         configs = app.configs()
         if configs["task"] is not self._shown_task_config:
