@@ -168,7 +168,7 @@ def test_switching_task_mid_run_builds_a_new_plant_with_the_task_defaults(wait_u
         wait_until(lambda: app.buffer.latest("system").value.reading.state.shape == (8,), what="the new plant's state")
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 2, what="plans on the new task")
-        assert "running cylinder_push with mppi" in app.status.message
+        assert "switched to cylinder_push with mppi" in app.status.message
     finally:
         app.stop()
 

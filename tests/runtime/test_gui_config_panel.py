@@ -117,3 +117,42 @@ def test_default_range_reaches_twice_the_value(value, integer, expected):
 
 def test_nice_step_cuts_a_span_into_at_least_100_round_steps():
     assert [nice_step(span) for span in (1.0, 0.5, 3.0, 250.0)] == [0.01, 0.005, 0.02, 2.0]
+
+
+@slider("temperature", 0.001, 10.0, 0.001)
+@slider("weight", 0.0, 500.0, 1.0)
+@dataclass
+class LogConfig(Config):
+    """A field over four decades and one from zero."""
+
+    temperature: float = 0.1
+    """Spans 0.001 to 10: a log slider."""
+    weight: float = 30.0
+    """Starts at 0: a linear slider."""
+
+
+def test_a_range_over_two_decades_gets_a_number_box_and_a_slider_over_log10(server):
+    from judo.core.fields import slider_ranges
+
+    ranges = slider_ranges(LogConfig)
+    assert ranges["temperature"].is_log and not ranges["weight"].is_log
+    applied: list[dict] = []
+
+    def on_edit(updates):
+        applied.append(updates)
+        return LogConfig(**{**vars(LogConfig()), **updates})
+
+    panel = ConfigPanel(server.gui, "Log", LogConfig(), on_edit, order=2)
+    try:
+        number, log_slider = panel.handles("temperature")
+        assert isinstance(number, viser.GuiNumberHandle) and number.value == 0.1
+        assert isinstance(log_slider, viser.GuiSliderHandle) and log_slider.label == "temperature (log10)"
+        assert (log_slider.min, log_slider.max, log_slider.value) == (-3.0, 1.0, -1.0)
+        assert [mark.label for mark in log_slider._marks] == ["0.001", "0.01", "0.1", "1", "10"]
+        log_slider.value = -2.0  # as a page's drag leaves it
+        assert panel.value_of("temperature") == 0.01
+        number.value = 0.5
+        assert panel.value_of("temperature") == 0.5
+        assert len(panel.handles("weight")) == 1
+    finally:
+        panel.remove()

@@ -49,7 +49,9 @@ config may ask for:
 4 GiB, e.g. 65536 rollouts of 100 steps of a model with 80 state and sensor values."""
 
 
-@slider("horizon", 0.05, 5.0, 0.05)  # every slider range lies within the bounds `validate` accepts
+@slider(
+    "horizon", 0.05, 5.0, 0.05, log=False
+)  # seconds, read linearly; every slider range lies within `validate`'s bounds
 @slider("control_freq", 1.0, 200.0, 1.0)
 @slider("max_opt_iters", 1, 20, 1)
 @slider("max_num_traces", 0, 32, 1)

@@ -15,13 +15,29 @@ T = TypeVar("T")
 SLIDER_ATTR = "__judo_sliders__"
 
 
+LOG_SCALE_DECADES = 2.0
+"""A float slider whose positive range spans at least this many powers of ten moves over log10."""
+
+
 @dataclass(frozen=True)
 class SliderRange:
-    """The range of a numeric config field's slider; `step=None` lets the GUI choose."""
+    """The range of a numeric config field's slider; `step=None` lets the GUI choose.
+
+    `log=None` puts a float slider on a log scale when `min > 0` and its range spans at least
+    LOG_SCALE_DECADES (MPPI's temperature, 0.001 to 10); True or False decides it outright.
+    """
 
     min: float
     max: float
     step: float | None = None
+    log: bool | None = None
+
+    @property
+    def is_log(self) -> bool:
+        """True when the slider moves over log10 of the value."""
+        if self.log is not None:
+            return self.log and self.min > 0
+        return self.min > 0 and self.max / self.min >= 10.0**LOG_SCALE_DECADES
 
 
 @dataclass(frozen=True)
@@ -35,10 +51,14 @@ class ArrayFieldSpec:
     vis_name: str | None = None
 
 
-def slider(field_name: str, min: float, max: float, step: float | None = None) -> Callable[[T], T]:
+def slider(
+    field_name: str, min: float, max: float, step: float | None = None, log: bool | None = None
+) -> Callable[[T], T]:
     """Class decorator that gives the numeric field `field_name` a slider from `min` to `max`.
 
-    Stack it above `@dataclass`, once per field. Raises ConfigError for an inverted range.
+    Stack it above `@dataclass`, once per field. `log` puts a float field's slider on a log scale
+    (None: when the range spans two or more decades, see `SliderRange`). Raises ConfigError for an
+    inverted range.
     """
     from judo.core.errors import ConfigError
 
@@ -49,7 +69,7 @@ def slider(field_name: str, min: float, max: float, step: float | None = None) -
 
     def decorate(cls: T) -> T:
         inherited = dict(getattr(cls, SLIDER_ATTR, {}))
-        inherited[field_name] = SliderRange(float(min), float(max), None if step is None else float(step))
+        inherited[field_name] = SliderRange(float(min), float(max), None if step is None else float(step), log)
         setattr(cls, SLIDER_ATTR, inherited)
         return cls
 

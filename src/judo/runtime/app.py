@@ -44,7 +44,7 @@ from judo.runtime.address import check_port, is_loopback, new_token
 from judo.runtime.session import Session, build_session, default_configs
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
-from judo.runtime.system import SimulationDiverged, System, SystemState
+from judo.runtime.system import MujocoSystem, SimulationDiverged, System, SystemState
 
 logger = logging.getLogger("judo.app")
 
@@ -189,6 +189,10 @@ class App:
         self._switch_request: tuple[str, str] | None = None
         self._reset_system = self._reset_controller = False
         self._paused = False
+        self._reset_from_user = False
+        self._goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}  # mocap index -> (pos, quat)
+        self._resets_done = 0
+        self._trouble: set[str] = set()  # loops whose last report was a failure, until they recover
         self._status = Status("starting", "info", 0)
         self._logged_at: dict[str, float] = {}
         self._stop = threading.Event()
@@ -296,6 +300,11 @@ class App:
         return self._status
 
     @property
+    def resets_done(self) -> int:
+        """Counts task resets the plant has carried out, so the GUI knows when to reframe its camera."""
+        return self._resets_done
+
+    @property
     def external_edits(self) -> int:
         """Counts config changes not made through the GUI (reset, switch, `update_config`), so the GUI
         knows when to refresh its widgets."""
@@ -348,12 +357,31 @@ class App:
     def resume(self) -> None:
         """Undo `pause()`."""
         self._paused = False
-        self.report("running")
+        session = self._session
+        self.report(f"running {session.task_name} with {session.optimizer_name}")
 
     def reset_task(self) -> None:
         """Reset the plant to its start state and forget the plan."""
         with self._lock:
             self._reset_system = self._reset_controller = True
+            self._reset_from_user = True
+
+    def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
+        """Move mocap body `index` (a goal) of the simulated plant to `position` (3,), and turn it to
+        `quat` (4,) wxyz if given, before its next step.
+
+        The planner sees it with the next state (the plant publishes its mocap poses). Raises JudoError
+        for a user's System, whose goals the app cannot move, or an index the model does not have.
+        """
+        system = self._session.system
+        if not isinstance(system, MujocoSystem):
+            raise JudoError(f"cannot move goal {index}: the app drives your own {type(system).__name__}")
+        nmocap = system.task.sim_model.nmocap
+        if not 0 <= index < nmocap:
+            raise JudoError(f"goal index must be in [0, {nmocap}), got {index}")
+        with self._lock:
+            turn = None if quat is None else np.array(quat, dtype=float).reshape(4)
+            self._goal_moves[index] = (np.array(position, dtype=float).reshape(3), turn)
 
     def switch_task(self, task: str) -> None:
         """Use the registered task `task` from the next cycle, with its default configs."""
@@ -386,6 +414,15 @@ class App:
                 self._logged_at = {m: t for m, t in self._logged_at.items() if now - t < REPEAT_LOG_INTERVAL}
             self._logged_at[message] = now
         logger.log({"info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}[level], message)
+
+    def _recovered(self, loop: str, message: str) -> None:
+        """After a success of `loop`: if its failure is on the status line, replace it with `message`."""
+        if loop not in self._trouble:
+            return
+        self._trouble.discard(loop)
+        if self._status.level != "info":
+            session = self._session
+            self.report(f"{message}: running {session.task_name} with {session.optimizer_name}")
 
     # ---- the loops -----------------------------------------------------------------------------
     async def _main(self, handle_signals: bool = False) -> None:
@@ -485,6 +522,19 @@ class App:
                 self._call_system(system.reset)
                 paced = False
                 self._publish_state(session)
+                self._resets_done += 1
+                with self._lock:
+                    from_user, self._reset_from_user = self._reset_from_user, False
+                if from_user:
+                    self.report(f"{session.task_name} reset to its start state; the plan starts afresh")
+            with self._lock:
+                moves, self._goal_moves = self._goal_moves, {}
+            if moves and isinstance(system, MujocoSystem):
+                for index, (position, quat) in moves.items():
+                    system.task.data.mocap_pos[index] = position
+                    if quat is not None:
+                        system.task.data.mocap_quat[index] = quat / np.linalg.norm(quat)
+                self._publish_state(session)
             if self._paused:
                 paced = False
                 await self._sleep(IDLE_POLL)
@@ -523,7 +573,10 @@ class App:
             with self._lock:
                 self._reset_controller = True
         except Exception as err:  # a user's System or task hook failed; keep serving
+            self._trouble.add("system")
             self.report(f"system step failed: {type(err).__name__}: {err}", "error")
+        else:
+            self._recovered("system", "the system steps again")
 
     def _call_system(self, method: Any) -> None:
         try:
@@ -562,10 +615,13 @@ class App:
         except (PlanningCancelled, _Stopping):
             raise _Stopping from None
         except JudoError as err:  # NonFiniteRewardError, ConfigError: skip this cycle
+            self._trouble.add("planner")
             self.report(f"planning cycle skipped: {err}", "warning")
         except Exception as err:  # an exception in the user's reward or hooks
+            self._trouble.add("planner")
             self.report(f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}", "error")
         else:
+            self._recovered("planner", "planning works again")
             plan_time = time.perf_counter() - start
             rewards = controller.rewards
             assert controller.nominal_knots is not None  # set by every completed cycle
@@ -651,7 +707,8 @@ class App:
         self.buffer.clear("plan")
         self._publish_state(new)
         old.close()
-        self.report(f"running {task} with {optimizer}")
+        self._trouble.clear()
+        self.report(f"switched to {task} with {optimizer}{' (paused)' if self._paused else ''}")
 
     async def _gui_loop(self) -> None:
         while not self._stop.is_set():

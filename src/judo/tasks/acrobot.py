@@ -104,6 +104,7 @@ class Acrobot(Task[AcrobotConfig]):
     torque (5 Nm at 1). The shoulder is unactuated."""
 
     lower_is_better = ("final_tip_distance",)
+    focus_body = "upper_arm"
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)

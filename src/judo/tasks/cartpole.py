@@ -34,6 +34,8 @@ class CartpoleConfig(TaskConfig):
 class Cartpole(Task[CartpoleConfig]):
     """State [cart x, pole angle (0 = upright), their velocities]; one control, the push on the cart."""
 
+    focus_body = "cart"
+
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
         self.reset()

@@ -41,6 +41,7 @@ class CylinderPush(Task[CylinderPushConfig]):
     """State [pusher x, y, cart x, y, and their velocities]; controls are the x, y forces on the pusher."""
 
     lower_is_better = ("final_distance",)
+    focus_body = "cart"
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)

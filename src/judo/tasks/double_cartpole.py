@@ -67,6 +67,7 @@ class DoubleCartpole(Task[DoubleCartpoleConfig]):
     one control, the push on the cart (20 N at 1)."""
 
     lower_is_better = ("final_tip_error", "final_cart_offset", "hit_rail_end")
+    focus_body = "cart"
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)

@@ -54,6 +54,7 @@ class HumanoidStandup(Task[HumanoidStandupConfig]):
     torques, normalised to [-1, 1] (from 40 Nm at the elbows to 150 Nm at the hips)."""
 
     lower_is_better = ("time_to_stand",)
+    focus_body = "torso"
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)

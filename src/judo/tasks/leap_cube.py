@@ -60,6 +60,7 @@ class LeapCube(Task[LeapCubeConfig]):
     """
 
     lower_is_better = ("drops",)
+    focus_body = "cube"
 
     goal_tolerance: ClassVar[float] = 0.4
     """Rotation angle (rad) under which the goal counts as reached."""

@@ -43,6 +43,7 @@ class Particle(Task[ParticleConfig]):
     """
 
     lower_is_better = ("final_distance",)
+    focus_body = "particle"
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)

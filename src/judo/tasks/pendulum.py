@@ -40,6 +40,7 @@ class Pendulum(Task[PendulumConfig]):
     """
 
     lower_is_better = ("final_angle_error",)
+    focus_body = "pole"
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)

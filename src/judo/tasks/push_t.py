@@ -50,6 +50,7 @@ class PushT(Task[PushTConfig]):
     pusher (5 N at 1). The planner reads the block and goal poses through framepos/framequat sensors."""
 
     lower_is_better = ("final_position_error", "final_angle_error")
+    focus_body = "block"
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)

@@ -46,6 +46,7 @@ class Walker(Task[WalkerConfig]):
     controls are the six joint torques, normalised to [-1, 1] (hips 100 Nm, knees 60 Nm, ankles 20 Nm)."""
 
     lower_is_better = ("fallen_fraction",)
+    focus_body = "torso"
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)

@@ -6,10 +6,17 @@
     str          -> text box
     np_1d_field  -> folder with one slider per entry (named and ranged by the field's metadata)
 Other field types get no widget. Every range is widened to include the current value.
+
+A page sends a number box's value at every keystroke and a slider's at every step of a drag, so an
+edit is applied once it has settled (EDIT_SETTLE seconds without a change): typing 0.001 never
+applies 0. After each applied edit, accepted or refused, every page is made to show the value in
+force, even one whose box holds stale text.
 """
 
+import functools
 import math
 import threading
+import time
 import typing
 from collections.abc import Callable
 from dataclasses import fields
@@ -25,15 +32,29 @@ from judo.runtime.gui.field_docs import field_docs
 
 EditFn = Callable[[dict[str, Any]], Config]
 """Applies {field: value} and returns the accepted config, or raises JudoError to refuse it."""
+ReportFn = Callable[[str], None]
+"""Shows why an edit was refused (on the status line)."""
+
+EDIT_SETTLE = 0.5
+"""Seconds a widget must keep its value before the edit is applied."""
+REFUSAL_HOLD = 1.5
+"""Seconds a refused value stays in its box, unreported, in case the user is still typing (a "0" on
+the way to "0.25"); then the refusal is reported and the box goes back to the value in force."""
+NUDGE_HOLD = 0.5
+"""Seconds an integer nudged by one step to make pages redraw is held before it is put back."""
+FLOAT_NUDGE = 1e-9
+"""Relative change that makes a page redraw a float box without changing what it means."""
 
 
 class ConfigPanel:
     """Widgets for every supported field of `config`, in a folder titled `label`.
 
-    A user's change calls `on_edit({field: value})`. If that raises JudoError, the widget goes back
-    to the last accepted value (the caller reports why). `show(config)` puts a config that changed
-    elsewhere (reset, switch) into the widgets without calling `on_edit`. `ranges` ({field: SliderRange})
-    replaces the config class's own `@slider` ranges, e.g. a wider num_rollouts on a GPU backend.
+    A user's change is queued; `flush()` (called every GUI frame) calls `on_edit({field: value})`
+    once it has settled. If that raises JudoError, the widget goes back to the last accepted value
+    (the caller reports why); if it is accepted beyond a slider's range, the range widens to show
+    it. `show(config)` puts a config that changed elsewhere (reset, switch) into the widgets without
+    calling `on_edit`. `ranges` ({field: SliderRange}) replaces the config class's own `@slider`
+    ranges, e.g. a wider num_rollouts on a GPU backend.
     """
 
     def __init__(
@@ -44,13 +65,20 @@ class ConfigPanel:
         on_edit: EditFn,
         order: float,
         ranges: dict[str, SliderRange] | None = None,
+        on_refused: ReportFn | None = None,
     ) -> None:
         self._on_edit = on_edit
+        self._on_refused = on_refused
+        self._refused: dict[str, tuple[float, str]] = {}  # field -> (when, why) of a refusal not yet shown
         self._config = config
         self._lock = threading.Lock()
         self._widgets: dict[str, list[Any]] = {}
         self._decode: dict[str, Callable[[list[Any]], Any]] = {}
         self._encode: dict[str, Callable[[Any], list[Any]]] = {}
+        self._pending: dict[str, list[list[Any]]] = {}  # field -> the widget values seen while it was edited
+        self._last_change: dict[str, float] = {}
+        # id(handle) -> (handle, value it was nudged to, value in force, when to put it back or None)
+        self._nudged: dict[int, tuple[Any, Any, Any, float | None]] = {}
         self.folder = gui.add_folder(label, order=order)
         cls = type(config)
         docs, types = field_docs(cls), field_types(cls)
@@ -72,14 +100,46 @@ class ConfigPanel:
 
     def value_of(self, name: str) -> Any:
         """The value the widgets of field `name` show now."""
-        return self._decode[name]([handle.value for handle in self._widgets[name]])
+        return self._decode[name]([self._shown(handle) for handle in self._widgets[name]])
 
-    def show(self, config: Config) -> None:
-        """Put `config`'s values into the widgets; nothing is sent back to `on_edit`."""
+    def show(self, config: Config, redraw: bool = False) -> None:
+        """Put `config`'s values into the widgets on every page; nothing is sent back to `on_edit`.
+
+        With `redraw`, every page redraws even the values that did not change (after Reset configs,
+        so a box left blank shows the value in force again).
+        """
         with self._lock:
             self._config = config
+            self._pending.clear()
             for name in self._widgets:
-                self._write(name, getattr(config, name))
+                self._write(name, getattr(config, name), resync=redraw)
+
+    def flush(self) -> None:
+        """Apply the edits that have settled, and put back the values nudged long enough ago."""
+        with self._lock:
+            now = time.monotonic()
+            for key, (handle, nudged, value, when) in list(self._nudged.items()):
+                if when is None or now - when < NUDGE_HOLD:
+                    continue
+                del self._nudged[key]
+                if handle.value == nudged:  # a page may have edited it since
+                    handle.value = value
+            for name in [n for n, t in self._last_change.items() if now - t >= EDIT_SETTLE]:
+                del self._last_change[name]
+                self._refused.pop(name, None)
+                value = self._decode[name](self._settled(name, self._pending.pop(name)))
+                try:
+                    self._config = self._on_edit({name: value})
+                except JudoError as err:
+                    self._refused[name] = (now, str(err))  # shown and put back once the user stops typing
+                    continue
+                self._write(name, getattr(self._config, name), resync=True)
+            for name, (when, why) in list(self._refused.items()):
+                if now - when >= REFUSAL_HOLD and name not in self._last_change:
+                    del self._refused[name]
+                    if self._on_refused is not None:
+                        self._on_refused(why)
+                    self._write(name, getattr(self._config, name), resync=True)
 
     def remove(self) -> None:
         """Take the folder and its widgets off the page."""
@@ -94,6 +154,9 @@ class ConfigPanel:
             choices = {str(choice): choice for choice in typing.get_args(hint)}
             handles = [gui.add_dropdown(name, list(choices), initial_value=str(value), hint=doc)]
             self._bind(name, handles, lambda values: choices[values[0]], lambda v: [str(v)])
+        elif hint is float and rng is not None and rng.is_log and value > 0:
+            handles = self._add_log(gui, name, float(value), rng, doc)
+            self._bind(name, handles, functools.partial(self._decode_log, name), encode_log)
         elif hint is int or hint is float:
             handles = [_slider(gui, name, value, rng, hint is int, doc)]
             self._bind(name, handles, lambda values: values[0], lambda v: [v])
@@ -103,6 +166,26 @@ class ConfigPanel:
         elif hint is np.ndarray and np.ndim(value) == 1:
             handles = self._add_array(gui, name, np.asarray(value, dtype=float), doc)
             self._bind(name, handles, lambda values: np.array(values, dtype=float), lambda v: [float(x) for x in v])
+
+    def _add_log(self, gui: viser.GuiApi, name: str, value: float, rng: SliderRange, doc: str | None) -> list[Any]:
+        """A number box in real units, and under it a slider over log10 marked at each power of ten."""
+        low, high = math.log10(min(rng.min, value)), math.log10(max(rng.max, value))
+        step = 10.0 ** (math.floor(math.log10(rng.min)) - 1)
+        number = gui.add_number(name, value, step=step, hint=doc)
+        decades = range(math.ceil(low - 1e-9), math.floor(high + 1e-9) + 1)
+        marks = tuple((float(d), f"{10.0**d:g}") for d in decades)
+        log_slider = gui.add_slider(
+            f"{name} (log10)", min=low, max=high, step=0.01, initial_value=round(math.log10(value), 2), marks=marks
+        )
+        return [number, log_slider]
+
+    def _decode_log(self, name: str, values: list[Any]) -> float:
+        """The value a log field's widgets ask for: the number box's if it changed, else 10**slider."""
+        number, exponent = float(values[0]), float(values[1])
+        in_force = float(getattr(self._config, name))
+        if number != in_force or in_force <= 0 or abs(exponent - round(math.log10(in_force), 2)) < 1e-9:
+            return number
+        return float(f"{10.0**exponent:.3g}")
 
     def _add_array(self, gui: viser.GuiApi, name: str, value: np.ndarray, doc: str | None) -> list[Any]:
         spec = array_field_spec(type(self._config), name)
@@ -127,20 +210,57 @@ class ConfigPanel:
         if event.client is None:  # our own write (show, or a refused edit put back)
             return
         with self._lock:
-            value = self.value_of(name)
-            try:
-                self._config = self._on_edit({name: value})
-            except JudoError:
-                try:
-                    self._write(name, getattr(self._config, name))
-                except RuntimeError:  # the panel was removed meanwhile (a switch): nothing to put back
-                    pass
+            self._pending.setdefault(name, []).append([self._shown(handle) for handle in self._widgets[name]])
+            self._last_change[name] = time.monotonic()
 
-    def _write(self, name: str, value: Any) -> None:
+    def _shown(self, handle: Any) -> Any:
+        """The value `handle` shows, or will again at the next flush if it is nudged for a redraw."""
+        nudged = self._nudged.get(id(handle))
+        return nudged[2] if nudged is not None and handle.value == nudged[1] else handle.value
+
+    def _settled(self, name: str, seen: list[list[Any]]) -> list[Any]:
+        """The widget values to apply: the last seen, except where a number box clamped a typed value.
+
+        A page's number box puts a value typed beyond the slider's range back to the range's end
+        when it loses focus; that end, right after a value beyond it, means the typed value.
+        """
+        settled = list(seen[-1])
+        for i, handle in enumerate(self._widgets[name]):
+            if not isinstance(handle, viser.GuiSliderHandle) or settled[i] not in (handle.min, handle.max):
+                continue
+            beyond = [v[i] for v in seen if v[i] > handle.max or v[i] < handle.min]
+            if beyond:
+                settled[i] = beyond[-1]
+        return settled
+
+    def _write(self, name: str, value: Any, resync: bool = False) -> None:
+        """Show `value` in field `name`'s widgets, widening slider ranges to hold it.
+
+        With `resync`, every page redraws the value even if the server thinks it shows it already
+        (a box left blank or with refused text); a page redraws only on a changed value, so it gets
+        one: a float alternates between the value and the value nudged by FLOAT_NUDGE (the same to
+        every digit shown), an integer is nudged by one step and put back NUDGE_HOLD seconds later.
+        """
         for handle, item in zip(self._widgets[name], self._encode[name](value), strict=True):
             if isinstance(handle, viser.GuiSliderHandle):
                 handle.min, handle.max = min(handle.min, item), max(handle.max, item)
-            handle.value = item
+            shown = self._nudged.pop(id(handle), None)
+            if resync and isinstance(item, float):
+                if shown is not None and shown[2] == item and handle.value == shown[1]:
+                    handle.value = item  # it shows the nudged value: the exact one is a change
+                else:
+                    handle.value = item + max(abs(item), 1e-3) * FLOAT_NUDGE
+                    self._nudged[id(handle)] = (handle, handle.value, item, None)
+            elif resync and isinstance(item, int) and not isinstance(item, bool):
+                handle.value = item + (getattr(handle, "step", None) or 1)
+                self._nudged[id(handle)] = (handle, handle.value, item, time.monotonic())
+            else:
+                handle.value = item
+
+
+def encode_log(value: float) -> list[Any]:
+    """[value, log10(value) to the slider's 0.01 step] for a log field's number box and slider."""
+    return [float(value), round(math.log10(value), 2) if value > 0 else -12.0]
 
 
 def _slider(gui: viser.GuiApi, label: str, value: Any, rng: SliderRange | None, integer: bool, doc: str | None):

@@ -3,6 +3,7 @@
 Every control only calls an App command; the app's loops carry it out at their next iteration.
 """
 
+import math
 from typing import TYPE_CHECKING
 
 import viser
@@ -12,6 +13,7 @@ from judo.core.registry import get_registered_optimizers, get_registered_tasks
 
 if TYPE_CHECKING:
     from judo.runtime.app import App, Status
+    from judo.runtime.stats import LiveFigures
 
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
 STATUS_PREFIX = {"info": "", "warning": "warning: ", "error": "error: "}
@@ -42,21 +44,42 @@ class Controls:
         self.reset_configs = gui.add_button(
             "Reset configs", order=order + 0.4, hint="Put every config back to the task's defaults"
         )
+        self.follow = gui.add_checkbox(
+            "follow camera", True, order=order + 0.45, hint="Keep the task's focus body in view while it runs"
+        )
         self.status = gui.add_markdown("", order=order + 0.5)
-        self._shown_status = -1
+        self.readout = gui.add_markdown("", order=order + 0.6)
+        self._shown_status: tuple[int, bool] = (-1, False)
         self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))
         self.optimizer.on_update(lambda event: self._switch(event, app.switch_optimizer, self.optimizer, "optimizer"))
         self.pause.on_click(lambda _: app.resume() if app.paused else app.pause())
         self.reset_task.on_click(lambda _: app.reset_task())
-        self.reset_configs.on_click(lambda _: app.reset_configs())
+        self.redraw_requested = False  # set by Reset configs: every page redraws every widget
+        self.reset_configs.on_click(lambda _: self._reset_configs())
 
     def update(self) -> None:
         """Show the app's pause state, names and latest status."""
-        self.pause.label = "Resume" if self.app.paused else "Pause"
+        paused = self.app.paused
+        self.pause.label = "Resume" if paused else "Pause"
         status = self.app.status
-        if status.count != self._shown_status:
-            self._shown_status = status.count
-            self.status.content = status_markdown(status)
+        if (status.count, paused) != self._shown_status:
+            self._shown_status = (status.count, paused)
+            self.status.content = status_markdown(status, paused)
+
+    def show_readout(self, sim_time: float, figures: "LiveFigures") -> None:
+        """Sim time, plan time, control rate and real-time factor as numbers ("-" before there is data)."""
+
+        def shown(value: float, unit: str, digits: int) -> str:
+            return f"{value:.{digits}f}{unit}" if math.isfinite(value) else "-"
+
+        self.readout.content = (
+            f"sim time {shown(sim_time, ' s', 1)} · plan {shown(figures.plan_time_ms, ' ms', 1)} · "
+            f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor {shown(figures.real_time_factor, '', 2)}"
+        )
+
+    def _reset_configs(self) -> None:
+        self.redraw_requested = True
+        self.app.reset_configs()
 
     def show_session(self) -> None:
         """Point the dropdowns at the session in use (after a switch, or a refused one)."""
@@ -73,7 +96,8 @@ class Controls:
             self.show_session()
 
 
-def status_markdown(status: "Status") -> str:
-    """The status line as markdown; warnings and errors are marked as such."""
+def status_markdown(status: "Status", paused: bool = False) -> str:
+    """The status line as markdown; warnings and errors are marked as such, and a paused app says so first."""
     text = "".join("\\" + c if c in MARKDOWN_SPECIAL else c for c in status.message.replace("\n", " "))
-    return f"**status:** {STATUS_PREFIX[status.level]}{text}"
+    state = "**paused** · " if paused and status.message != "paused" else ""
+    return f"**status:** {state}{STATUS_PREFIX[status.level]}{text}"

@@ -7,11 +7,16 @@ widgets' callbacks run on viser's threads and only call App commands.
 import time
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+import viser
+
 from judo.core.config import Config
 from judo.core.errors import JudoError
 from judo.core.fields import SliderRange
+from judo.runtime.gui.camera import Follower, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.controls import Controls
+from judo.runtime.gui.goal_handles import GoalHandles
 from judo.runtime.gui.plots import Plots
 from judo.runtime.gui.scene import SceneView
 from judo.runtime.gui.server import start_server
@@ -21,7 +26,7 @@ if TYPE_CHECKING:
     from judo.runtime.app import App, ConfigKind
 
 PLOT_PERIOD = 0.25
-"""Seconds between points on the plots."""
+"""Seconds between points on the plots and updates of the numeric readout."""
 
 
 class Gui:
@@ -41,12 +46,17 @@ class Gui:
         self.plots = Plots(self.server.gui, order=100)
         self.panels: dict[str, ConfigPanel] = {}
         self.scene: SceneView | None = None
+        self.follower: Follower | None = None
+        self.goals: GoalHandles | None = None
+        self._look_at = np.zeros(3)  # where the cameras look while following: the framed centre plus the focus's moves
+        self._resets_done = app.resets_done
         self._scene_task: str | None = None
         self._generation = -1
         self._external_edits = -1
         self._state_version = self._plan_version = 0
         self._shown_task_config: Config | None = None
         self._start = self._last_plot = time.perf_counter()
+        self.server.on_client_connect(self._frame_new_page)
 
     @property
     def url(self) -> str:
@@ -71,18 +81,27 @@ class Gui:
             self._rebuild(state.value.reading)
         if app.external_edits != self._external_edits:
             self._external_edits = app.external_edits
+            redraw, self.controls.redraw_requested = self.controls.redraw_requested, False
             for kind, config in app.configs().items():
-                self.panels[kind].show(config)
+                self.panels[kind].show(config, redraw=redraw)
         assert self.scene is not None and state is not None
         configs = app.configs()
         if configs["task"] is not self._shown_task_config:
             self._shown_task_config = configs["task"]
             self.scene.set_markers(configs["task"])
+        if self.goals is not None:
+            metadata = state.value.reading.metadata
+            self.goals.update(configs["task"], metadata.get("mocap_pos"), metadata.get("mocap_quat"))
         if state.version != self._state_version and state.value.generation == self._generation:
             self._state_version = state.version
             reading = state.value.reading
             with self.server.atomic():
                 self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
+            if app.resets_done != self._resets_done:  # the plant is back at its start: frame it again
+                self._resets_done = app.resets_done
+                self.frame_task()
+            else:
+                self._follow()
         plan = app.buffer.latest("plan")
         if plan is not None and plan.version != self._plan_version and plan.value.generation == self._generation:
             self._plan_version = plan.version
@@ -90,7 +109,11 @@ class Gui:
         now = time.perf_counter()
         if now - self._last_plot >= PLOT_PERIOD:
             self._last_plot = now
-            self.plots.add(now - self._start, app.stats.live())
+            figures = app.stats.live()
+            self.plots.add(now - self._start, figures)
+            self.controls.show_readout(state.value.reading.time, figures)
+        for panel in self.panels.values():
+            panel.flush()
         self.controls.update()
 
     def close(self) -> None:
@@ -109,15 +132,21 @@ class Gui:
             self._scene_task = session.task_name
             if self.scene is not None:
                 self.scene.remove()
+            if self.goals is not None:
+                self.goals.remove()
             self.scene = SceneView(self.server.scene, session.controller.task.model)
             self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
             self.scene.set_markers(configs["task"])
-            position, look_at = self.scene.camera_pose()
-            self.server.initial_camera.position = position
-            self.server.initial_camera.look_at = look_at
-            for client in self.server.get_clients().values():
-                client.camera.position, client.camera.look_at = position, look_at
+            task = session.controller.task
+            self.goals = GoalHandles(
+                self.server.scene, task.model, configs["task"], self._drag_field(session.generation), self._drag_mocap
+            )
+            self.follower = Follower(task.model, focus_body_id(task.model, type(task).focus_body))
+            self.frame_task()
         self._shown_task_config = None
+        assert self.scene is not None
+        self.scene.set_traces(np.zeros((0, 0, 0, 3)))  # a new optimizer: the old one's plan and figures go
+        self.plots.clear()
         titles = {
             "controller": "Controller",
             "optimizer": f"Optimizer: {session.optimizer_name}",
@@ -133,6 +162,7 @@ class Gui:
                 self._editor(kind, session.generation),
                 10 * order,
                 ranges.get(kind),
+                on_refused=lambda why: self.app.report(f"edit refused: {why}", "warning"),
             )
             for order, (kind, config) in enumerate(configs.items(), start=1)
         }
@@ -142,12 +172,73 @@ class Gui:
         # and purges them only when one does: purge now, or each switch would grow the app's memory.
         self.server._run_garbage_collector()
 
+    def frame_task(self) -> None:
+        """Point every page's camera (and a new page's) at the task as the scene shows it now, and
+        clear the traces and plots of what ran before."""
+        assert self.scene is not None and self.follower is not None
+        self.scene.set_traces(np.zeros((0, 0, 0, 3)))
+        self.plots.clear()
+        position, look_at = self.scene.camera_pose()
+        self.server.initial_camera.position = position
+        self.server.initial_camera.look_at = look_at
+        self._look_at = np.array(look_at, dtype=float)
+        for client in self.server.get_clients().values():
+            with client.atomic():
+                client.camera.position, client.camera.look_at = position, look_at
+        self.follower.restart(self.scene.data)
+
+    def _frame_new_page(self, client: viser.ClientHandle) -> None:
+        """A page opened mid-run looks at the task where it is now, not where it started."""
+        if self.scene is not None:
+            position, look_at = self.scene.camera_pose()
+            with client.atomic():
+                client.camera.position, client.camera.look_at = position, look_at
+
+    def _follow(self) -> None:
+        """Move every camera by how far the focus body moved, while "follow" is on.
+
+        The look-at point is ours (a page's camera report may lag our last move, so it is not added
+        to); the view direction and distance stay the page's own, so the user can still orbit and zoom.
+        """
+        assert self.scene is not None and self.follower is not None
+        delta = self.follower.step(self.scene.data)
+        self._look_at = self._look_at + delta  # kept up while off too, so turning follow on finds the focus
+        if not self.controls.follow.value or not np.any(np.abs(delta) > 1e-6):
+            return
+        for client in self.server.get_clients().values():
+            camera = client.camera
+            offset = np.asarray(camera.position) - np.asarray(camera.look_at)
+            with client.atomic():
+                camera.position = self._look_at + offset
+                camera.look_at = self._look_at
+
+    def _drag_field(self, generation: int) -> Any:
+        def drag(name: str, value: np.ndarray) -> None:
+            try:
+                self.app.update_config("task", {name: value}, generation=generation)  # the sliders follow
+            except JudoError as err:
+                self.app.report(f"goal not moved: {err}", "warning")
+
+        return drag
+
+    def _drag_mocap(self, index: int, position: np.ndarray, wxyz: np.ndarray) -> None:
+        try:
+            self.app.move_goal(index, position, wxyz)
+        except JudoError as err:
+            self.app.report(f"goal not moved: {err}", "warning")
+
     def _editor(self, kind: "ConfigKind", generation: int) -> Any:
         def edit(updates: dict[str, Any]) -> Config:
-            try:
-                return self.app.update_config(kind, updates, generation=generation, from_gui=True)
-            except JudoError as err:
-                self.app.report(f"edit refused: {err}", "warning")
-                raise
+            config = self.app.update_config(kind, updates, generation=generation, from_gui=True)
+            shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
+            self.app.report(f"{kind} config: {shown}")
+            return config
 
         return edit
+
+
+def _shown(value: Any) -> str:
+    """A config value as the status line shows it: floats to 4 significant digits, arrays as lists."""
+    if isinstance(value, np.ndarray):
+        return "[" + ", ".join(_shown(float(v)) for v in value) + "]"
+    return f"{value:.4g}" if isinstance(value, float) else str(value)

@@ -13,6 +13,7 @@ import viser
 
 from judo.core.config import Config
 from judo.core.fields import array_field_spec
+from judo.runtime.gui.camera import frame_points, model_camera, reach_points
 
 logger = logging.getLogger("judo.gui")
 
@@ -23,8 +24,6 @@ DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)
 NOMINAL_TRACE_RGB = (0.9, 0.1, 0.1)
 SAMPLE_TRACE_RGB = (0.1, 0.5, 0.9)
 MARKER_RGB = (0.1, 0.8, 0.2)
-MIN_FRAMED_RADIUS = 1.5
-"""Metres: the camera frames at least a ball this big, so small or clustered models keep some context."""
 
 
 class SceneView:
@@ -55,26 +54,22 @@ class SceneView:
             if model.body_mocapid[b] >= 0:
                 self._frame(b)
 
-    def camera_pose(self, fov: float = np.deg2rad(75.0)) -> tuple[np.ndarray, np.ndarray]:
-        """(position (3,), look_at (3,)) of a camera that frames the drawn geoms (planes aside) and markers.
+    def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """(position (3,), look_at (3,)) of a camera that frames the task as posed by the last `update`.
 
-        It looks at the centre of their bounding box, as posed by the last `update`, from the model's
-        default azimuth and elevation (`<visual><global>`), from far enough that the box's bounding
-        sphere (at least MIN_FRAMED_RADIUS) fits the vertical `fov`.
+        The model's first camera when it has one (looking at the framed centre's depth); otherwise
+        the drawn geoms (planes aside), the markers, and the reach of the jointed chains fixed to the
+        world, seen from the model's default azimuth and elevation (see `camera.frame_points`).
         """
         model, data = self.model, self.data
         solid = [g for g in self.geom_nodes if model.geom_type[g] != Geom.mjGEOM_PLANE]
-        points = [geom_box_corners(model, data, solid)] if solid else [np.array(model.stat.center)[None]]
+        corners = geom_box_corners(model, data, solid) if solid else np.array(model.stat.center)[None]
+        corner_bodies = np.repeat(model.geom_bodyid[solid], 8) if solid else np.zeros(1, dtype=int)
+        points = [corners, reach_points(model, data, corners, corner_bodies)]
         points += [np.asarray(marker.position)[None] for marker in self._markers.values()]
-        corners = np.concatenate(points)
-        low, high = corners.min(axis=0), corners.max(axis=0)
-        look_at, radius = (low + high) / 2, max(0.5 * float(np.linalg.norm(high - low)), MIN_FRAMED_RADIUS)
-        distance = radius / np.sin(fov / 2)
-        azimuth, elevation = np.deg2rad([model.vis.global_.azimuth, model.vis.global_.elevation])
-        forward = np.array(
-            [np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)]
-        )
-        return look_at - distance * forward, look_at
+        position, look_at = frame_points(model, np.concatenate(points))
+        named = model_camera(model, data, float(np.linalg.norm(look_at - position)))
+        return named if named is not None else (position, look_at)
 
     def update(self, qpos: np.ndarray, metadata: dict[str, Any]) -> None:
         """Pose the moving bodies for `qpos` (nq,) and the mocap poses in `metadata` (if present)."""

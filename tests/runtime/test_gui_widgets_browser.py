@@ -1,0 +1,226 @@
+"""Widgets that never lie, in a real browser: typed values, refusals, resets and switches while paused, two pages.
+
+Screenshots go to test-artifacts/widgets_*.png.
+"""
+
+import re
+import time
+
+import numpy as np
+import pytest
+
+from judo.runtime.app import App
+
+pytestmark = pytest.mark.browser
+
+
+@pytest.fixture
+def app(port):
+    app = App("cartpole", "mppi", host="127.0.0.1", port=port, seed=0, num_workers=1)
+    app.start()
+    yield app
+    app.stop()
+
+
+def open_page(chromium, app):
+    page = chromium.new_page(viewport={"width": 1280, "height": 900})
+    page.set_default_timeout(60_000)
+    page.goto(app.gui.url)
+    page.get_by_text("Controller", exact=True).wait_for()
+    return page
+
+
+@pytest.fixture
+def page(chromium, app):
+    page = open_page(chromium, app)
+    yield page
+    page.close()
+
+
+def slider(page, label: str):
+    target = page.locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first.get_attribute("for")
+    return page.locator(f'[id="{target}"]').locator('[role="slider"]')
+
+
+def number_box(page, label: str):
+    """The number box labelled `label`: beside its slider, or on its own (a log-scale field's)."""
+    target = page.locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first.get_attribute("for")
+    widget = page.locator(f'[id="{target}"]')
+    if "mantine-NumberInput-input" in (widget.get_attribute("class") or ""):
+        return widget
+    return widget.locator(
+        "xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]//input[contains(@class, 'mantine-NumberInput-input')]"
+    )
+
+
+def shows(box, value: float) -> bool:
+    """True when the number box shows `value` (to however many digits it prints)."""
+    text = box.input_value()
+    return text != "" and float(text) == value
+
+
+def type_into(page, label: str, text: str) -> None:
+    box = number_box(page, label)
+    box.fill(text)
+    box.blur()
+
+
+def status_text(page) -> str:
+    return page.locator("p").filter(has_text=re.compile("^status:")).first.inner_text()
+
+
+def test_a_typed_abc_changes_nothing_and_reset_configs_shows_the_value_in_force(app, page, wait_until, artifacts):
+    type_into(page, "sigma", "abc")  # the page sends nothing for text that is not a number
+    page.wait_for_timeout(500)
+    assert app.configs()["optimizer"].sigma == 0.3
+    page.get_by_role("button", name="Reset configs").click()
+    wait_until(lambda: shows(number_box(page, "sigma"), 0.3), timeout=30, what="the box to show 0.3")
+    assert "configs reset to the defaults" in status_text(page)
+    page.screenshot(path=artifacts / "widgets_abc_reset.png")
+
+
+def test_a_value_beyond_the_slider_that_the_config_accepts_widens_the_slider(app, page, wait_until, artifacts):
+    type_into(page, "horizon", "8")
+    wait_until(lambda: app.controller.config.horizon == 8.0, timeout=30, what="the horizon to be 8")
+    thumb = slider(page, "horizon")
+    wait_until(lambda: float(thumb.get_attribute("aria-valuemax")) >= 8.0, timeout=30, what="the slider to widen")
+    wait_until(lambda: shows(number_box(page, "horizon"), 8.0), timeout=30, what="the box to show 8")
+    wait_until(lambda: "controller config: horizon = 8" in status_text(page), timeout=30, what="the confirmation")
+    page.screenshot(path=artifacts / "widgets_widened.png")
+
+
+def test_a_refused_value_is_reported_and_the_next_accepted_edit_replaces_the_warning(app, page, wait_until, artifacts):
+    type_into(page, "num_nodes", "3")  # too few knots for cartpole's cubic spline
+    page.get_by_text("status: warning: edit refused: a cubic spline needs num_nodes >= 4, got 3").wait_for()
+    wait_until(lambda: shows(number_box(page, "num_nodes"), 4), timeout=30, what="the box to show 4")
+    assert app.configs()["optimizer"].num_nodes == 4
+    page.screenshot(path=artifacts / "widgets_refused.png")
+    type_into(page, "num_nodes", "6")
+    wait_until(lambda: status_text(page) == "status: optimizer config: num_nodes = 6", timeout=30, what="confirmation")
+    assert app.controller.optimizer.config.num_nodes == 6 or app.configs()["optimizer"].num_nodes == 6
+    wait_until(lambda: shows(number_box(page, "num_nodes"), 6), timeout=30, what="the box to show 6")
+
+
+def send_as_the_page(app: App, handle, value) -> None:
+    """Deliver `value` for widget `handle` as the page's websocket message does (one per keystroke)."""
+    import asyncio
+
+    from viser import _messages
+
+    (client_id,) = app.gui.server.get_clients()
+    message = _messages.GuiUpdateMessage(handle._impl.uuid, {"value": value})
+    handler = app.gui.server.gui._handle_gui_updates
+    asyncio.run_coroutine_threadsafe(handler(client_id, message), app.gui.server._event_loop).result(10)
+
+
+def test_typing_a_number_applies_only_the_value_it_settles_on(app, page, wait_until):
+    (horizon,) = app.gui.panels["controller"].handles("horizon")
+    for keystroke in (0.0, 0.2, 0.25):  # typing 0.25 sends 0 (which the config refuses), 0.2, 0.25
+        send_as_the_page(app, horizon, keystroke)
+        time.sleep(0.1)
+    wait_until(lambda: app.configs()["controller"].horizon == 0.25, timeout=30, what="horizon 0.25")
+    time.sleep(2.0)  # past the settle and refusal times: nothing else is applied or reported
+    assert app.configs()["controller"].horizon == 0.25
+    assert "refused" not in app.status.message and "refused" not in status_text(page)
+    wait_until(lambda: shows(number_box(page, "horizon"), 0.25), timeout=30, what="the box to show 0.25")
+
+
+def test_reset_while_paused_says_so_clears_the_traces_and_stays_paused(app, page, wait_until, artifacts):
+    wait_until(
+        lambda: app.gui.server.scene.get_handle_by_name("/traces/nominal") is not None, timeout=60, what="traces"
+    )
+    page.get_by_role("button", name="Pause").click()
+    wait_until(lambda: app.paused, what="the pause")
+    page.get_by_role("button", name="Reset task").click()
+    page.get_by_text(re.compile("^status: paused · cartpole reset to its start state")).wait_for()
+    assert app.gui.server.scene.get_handle_by_name("/traces/nominal") is None
+    page.wait_for_timeout(500)
+    assert app.paused and app.gui.server.scene.get_handle_by_name("/traces/nominal") is None
+    assert page.get_by_role("button", name="Resume").count() == 1
+    page.screenshot(path=artifacts / "widgets_reset_paused.png")
+
+
+def test_a_switch_while_paused_is_shown_as_paused(app, page, wait_until, artifacts):
+    page.get_by_role("button", name="Pause").click()
+    wait_until(lambda: app.paused, what="the pause")
+    app.switch_task("pendulum")
+    page.get_by_text("Task: pendulum", exact=True).wait_for()
+    page.get_by_text(re.compile("^status: paused · switched to pendulum with mppi")).wait_for()
+    assert "running" not in status_text(page) and app.paused
+    page.screenshot(path=artifacts / "widgets_switch_paused.png")
+
+
+def test_two_pages_end_in_agreement_with_the_controller(chromium, app, page, wait_until, artifacts):
+    other = open_page(chromium, app)
+    try:
+        for first, second in ((page, other), (other, page)):  # one slider, opposite directions, at once
+            number_box(first, "horizon").fill("4")
+            number_box(second, "horizon").fill("0.5")
+        number_box(page, "w_centered").fill("20")  # and two different sliders at once (issue 12's probe)
+        number_box(other, "w_velocity").fill("0.5")
+
+        def agree() -> bool:
+            horizon = app.controller.config.horizon
+            return all(shows(number_box(p, "horizon"), horizon) for p in (page, other))
+
+        wait_until(agree, timeout=30, what="both pages to show the controller's horizon")
+        wait_until(lambda: app.controller.task.config.w_centered == 20.0, timeout=30, what="w_centered 20")
+        wait_until(lambda: app.controller.task.config.w_velocity == 0.5, timeout=30, what="w_velocity 0.5")
+        for p in (page, other):
+            wait_until(lambda p=p: shows(number_box(p, "w_centered"), 20.0), timeout=30, what="w_centered")
+            wait_until(lambda p=p: shows(number_box(p, "w_velocity"), 0.5), timeout=30, what="w_velocity")
+        other.screenshot(path=artifacts / "widgets_two_pages.png")
+    finally:
+        other.close()
+
+
+def drag_through_the_page(app: App, control, position) -> None:
+    """Move transform control `control` as the page's drag does: start, update to `position`, end."""
+    from viser import _messages
+
+    (client_id,) = app.gui.server.get_clients()
+    scene = app.gui.server.scene
+    name = control.name
+    loop = app.gui.server._event_loop  # the drag messages are handled on viser's event loop, as from a socket
+
+    async def drag() -> None:
+        await scene._handle_transform_controls_drag_start(client_id, _messages.TransformControlsDragStartMessage(name))
+        await scene._handle_transform_controls_updates(
+            client_id, _messages.TransformControlsUpdateMessage(name, (1.0, 0.0, 0.0, 0.0), tuple(position))
+        )
+        await scene._handle_transform_controls_drag_end(client_id, _messages.TransformControlsDragEndMessage(name))
+
+    import asyncio
+
+    asyncio.run_coroutine_threadsafe(drag(), loop).result(10)
+
+
+def test_dragging_a_field_goal_moves_the_config_the_sliders_and_the_plan(app, page, wait_until, artifacts):
+    app.switch_task("cylinder_push")
+    page.get_by_text("Task: cylinder_push", exact=True).wait_for()
+    wait_until(lambda: app.gui.goals is not None and "field/goal_pos" in app.gui.goals.controls, what="the handle")
+    control = app.gui.goals.controls["field/goal_pos"]
+    assert control.active_axes == (True, True, False)  # a 2-D goal moves in the plane
+    drag_through_the_page(app, control, (0.4, -0.3, 0.0))
+    wait_until(lambda: list(app.controller.task.config.goal_pos) == [0.4, -0.3], timeout=30, what="the planner's goal")
+    for label, shown in (("x", 0.4), ("y", -0.3)):
+        wait_until(lambda label=label, shown=shown: shows(number_box(page, label), shown), timeout=30, what=label)
+    page.screenshot(path=artifacts / "widgets_goal_dragged.png")
+
+
+def test_dragging_a_mocap_goal_moves_the_plants_goal_that_the_planner_reads(app, page, wait_until):
+    app.switch_task("particle")
+    page.get_by_text("Task: particle", exact=True).wait_for()
+    wait_until(lambda: app.gui.goals is not None and "mocap/goal" in app.gui.goals.controls, what="the handle")
+    particle = app.buffer.latest("system").value.reading.state[:2]
+    goal = np.array([*(-0.25 * np.sign(particle + 1e-9)), 0.0])  # across the field: not reached (and resampled) soon
+    drag_through_the_page(app, app.gui.goals.controls["mocap/goal"], goal)
+
+    def plant_goal() -> np.ndarray:
+        return app.buffer.latest("system").value.reading.metadata["mocap_pos"][0]
+
+    wait_until(lambda: np.allclose(plant_goal(), goal), timeout=30, what="the plant's goal to move")
+    plans = app.stats.num_plans()
+    wait_until(lambda: app.stats.num_plans() > plans + 1, timeout=30, what="a plan from the moved goal")
+    planned_goal = app.controller._initial_mocap[:3]  # the mocap pose the last plan's rollouts started from
+    assert np.allclose(planned_goal, goal) or not np.allclose(plant_goal(), goal)  # unless reached and resampled
