@@ -25,6 +25,17 @@ def port() -> int:
 
 
 @pytest.fixture
+def app(port):
+    """A running cartpole App with MPPI and its GUI on a free port (seeded, one rollout thread)."""
+    from judo.runtime.app import App
+
+    app = App("cartpole", "mppi", host="127.0.0.1", port=port, seed=0, num_workers=1)
+    app.start()
+    yield app
+    app.stop()
+
+
+@pytest.fixture
 def wait_until() -> Callable[..., None]:
     """wait_until(condition, timeout, what): poll `condition()` until true, or fail saying `what` did not happen."""
 

@@ -1,7 +1,6 @@
 """The Gui of a running App, without a browser: it follows switches, resets and the plant."""
 
 import numpy as np
-import pytest
 import viser
 
 from judo.core.controller import ControllerConfig
@@ -12,14 +11,6 @@ from judo.runtime.app import App
 def shows_session(app: App) -> bool:
     """True once the GUI has built its panels and scene for the session in use."""
     return app.gui.shown_generation == app.session.generation
-
-
-@pytest.fixture
-def app(port):
-    app = App("cartpole", "mppi", host="127.0.0.1", port=port, seed=0, num_workers=1)
-    app.start()
-    yield app
-    app.stop()
 
 
 def test_panels_hold_the_fields_of_the_running_configs(app, wait_until):

@@ -10,17 +10,8 @@ import pytest
 import judo
 from judo.core.controller import ControllerConfig
 from judo.core.registry import make_config
-from judo.runtime.app import App
 
 pytestmark = pytest.mark.browser
-
-
-@pytest.fixture
-def app(port):
-    app = App("cartpole", "mppi", host="127.0.0.1", port=port, seed=0, num_workers=1)
-    app.start()
-    yield app
-    app.stop()
 
 
 @pytest.fixture

@@ -14,14 +14,6 @@ from judo.runtime.app import App
 pytestmark = pytest.mark.browser
 
 
-@pytest.fixture
-def app(port):
-    app = App("cartpole", "mppi", host="127.0.0.1", port=port, seed=0, num_workers=1)
-    app.start()
-    yield app
-    app.stop()
-
-
 def open_page(chromium, app):
     page = chromium.new_page(viewport={"width": 1280, "height": 900})
     page.set_default_timeout(60_000)

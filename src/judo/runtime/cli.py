@@ -160,7 +160,7 @@ def _description() -> str:
         "Run sampling-based MPC on a MuJoCo task in real time, with a browser GUI (or --headless). "
         "The controller, optimizer and task options below belong to the chosen --task and --optimizer; "
         f"pass those first to see their fields. Tasks: {tasks}. Optimizers: {optimizers}. "
-        f"Also: `{PROG} benchmark ...` and `{PROG} evaluate ...`."
+        f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...` and `{PROG} tune ...` (each with --help)."
     )
 
 
