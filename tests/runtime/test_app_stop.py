@@ -58,7 +58,8 @@ def test_stop_cuts_a_long_control_period_short(wait_until):
     wait_until(lambda: app.stats.num_plans() >= 1, what="the first plan")
     time.sleep(0.2)  # the controller loop now sleeps out its period
     assert stop_time(app) < STOP_BUDGET
-    assert judo_threads() == []
+    # The idle planning thread is joined by the stop; allow a loaded machine a moment to schedule it.
+    wait_until(lambda: judo_threads() == [], timeout=1.0, what="no judo thread left")
 
 
 def test_stop_ends_a_cycle_of_the_most_optimizer_iterations(wait_until):

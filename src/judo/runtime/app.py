@@ -55,6 +55,8 @@ MAX_CATCH_UP = 0.1
 """Most seconds of sim time the system loop steps at once to catch up; beyond that it falls behind."""
 IDLE_POLL = 0.01
 """Seconds a loop sleeps while paused or waiting for its first input."""
+IDLE_THREAD_JOIN = 0.1
+"""Seconds a stop waits for the planning thread to end before leaving it to finish on its own."""
 GUI_PERIOD = 1.0 / 30.0
 """Seconds between GUI frames."""
 MAX_WORKERS = 1024
@@ -464,7 +466,9 @@ class App:
             self._ready.set()
             if self.gui is not None:
                 self.gui.close()
-            self._executor.shutdown(wait=False)  # a cycle still in flight ends in its own (daemon) thread
+            # An idle planning thread ends at once and is joined; a cycle still in flight (a huge batch,
+            # a slow reward) is not waited for: it ends in its own daemon thread.
+            self._executor.shutdown(wait=True, timeout=IDLE_THREAD_JOIN)
             self._session.close()
             if handle_signals:
                 for sig in (signal.SIGINT, signal.SIGTERM):
