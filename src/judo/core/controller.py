@@ -49,9 +49,8 @@ config may ask for:
 4 GiB, e.g. 65536 rollouts of 100 steps of a model with 80 state and sensor values."""
 
 
-@slider(
-    "horizon", 0.05, 5.0, 0.05, log=False
-)  # seconds, read linearly; every slider range lies within `validate`'s bounds
+# Every slider range lies within the bounds `validate` accepts; the horizon (seconds) reads linearly.
+@slider("horizon", 0.05, 5.0, 0.05, log=False)
 @slider("control_freq", 1.0, 200.0, 1.0)
 @slider("max_opt_iters", 1, 20, 1)
 @slider("max_num_traces", 0, 32, 1)
@@ -102,6 +101,11 @@ class ControllerConfig(Config):
         require(self.redraw_every >= 0, f"redraw_every must be at least 0 (0: draw once), got {self.redraw_every}")
 
 
+def rollout_steps(horizon: float, dt: float) -> int:
+    """Rollout length T in steps for a `horizon` in seconds and a timestep `dt`: at least one, rounded."""
+    return max(1, round(horizon / dt))
+
+
 def check_configs(task: Task, controller_config: ControllerConfig, optimizer_config: OptimizerConfig) -> None:
     """Raise ConfigError unless the configs work together on `task` (each is validated too)."""
     controller_config.validate()
@@ -112,7 +116,7 @@ def check_configs(task: Task, controller_config: ControllerConfig, optimizer_con
     )
     order, nodes = controller_config.spline_order, optimizer_config.num_nodes
     require(nodes >= MIN_KNOTS[order], f"a {order} spline needs num_nodes >= {MIN_KNOTS[order]}, got {nodes}")
-    num_steps = max(1, round(controller_config.horizon / task.dt))
+    num_steps = rollout_steps(controller_config.horizon, task.dt)
     state_size = mujoco.mj_stateSize(task.model, STATE_SPEC)  # pyright: ignore[reportAttributeAccessIssue]
     values_per_step = state_size + task.model.nsensordata + task.nu
     num_models = controller_config.num_randomizations
@@ -173,7 +177,7 @@ class Controller:
     @property
     def num_steps(self) -> int:
         """Rollout length T in steps: the horizon divided by the timestep, rounded."""
-        return max(1, round(self.config.horizon / self.task.dt))
+        return rollout_steps(self.config.horizon, self.task.dt)
 
     def reset(self) -> None:
         """Forget the plan and restart the optimizer's search; the next update starts again from the
@@ -201,7 +205,7 @@ class Controller:
             return
         check_configs(self.task, cfg, opt.config)
         num_rollouts, num_nodes = opt.config.num_rollouts, opt.config.num_nodes
-        num_steps = max(1, round(cfg.horizon / self.task.dt))
+        num_steps = rollout_steps(cfg.horizon, self.task.dt)
         num_models = cfg.num_randomizations
         try:
             knot_offsets = np.linspace(0.0, cfg.horizon, num_nodes)
