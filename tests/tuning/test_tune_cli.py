@@ -4,12 +4,14 @@ One Ray session (2 CPUs) serves every test of this module that needs one; tune u
 is already connected to, so it starts in one place only.
 """
 
+import json
 import subprocess
 import sys
 
 import pytest
 
 from judo.core import registry
+from judo.core.controller import ControllerConfig
 from judo.core.registry import make_config
 from judo.evaluation.evaluate import main as evaluate_main
 from judo.optimizers import PredictiveSamplingConfig
@@ -65,8 +67,16 @@ def test_a_tiny_study_is_stored_resumed_and_its_best_file_loads(local_ray, resto
     for name in ("trials.csv", "best.toml", "summary.json", "history.html", "history.png", "best_episode.html"):
         assert (out / name).is_file(), name
     assert len((out / "trials.csv").read_text().splitlines()) == 1 + 3
+    defaults = (
+        make_config(PredictiveSamplingConfig, "cartpole").sigma,
+        make_config(ControllerConfig, "cartpole").horizon,
+    )
+    assert first[0].user_attrs["baseline"] and not any(trial.user_attrs.get("baseline") for trial in first[1:])
+    assert (first[0].params["optimizer.sigma"], first[0].params["controller.horizon"]) == defaults
     printed = capsys.readouterr().out
     assert "top trials of tiny: mean_reward (maximize)" in printed and "3 completed, 0 failed" in printed
+    assert f"defaults (trial 0): mean_reward {first[0].value:.4g}" in printed
+    assert json.loads((out / "summary.json").read_text())["defaults"]["number"] == 0
 
     assert tune_main([*argv, "--trials", "4"]) == 0  # resumes: one more trial
     resumed = stored_trials(storage, "tiny")

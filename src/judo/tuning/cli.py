@@ -179,6 +179,8 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     out = args.out_dir()
     storage = args.storage_url()
     study, already = studies.open_study(storage, study_name, objective, sampler, identity)
+    if not study.trials and args.sampler != "grid":  # a grid runs its own points only
+        studies.enqueue_defaults(study, space, configs)
     out.mkdir(parents=True, exist_ok=True)
     console = output_console()
     console.print(
@@ -237,7 +239,10 @@ def write_outputs(
     report.write_trials_csv(out / "trials.csv", study)
     written = [out / "trials.csv", *report.write_study_plots(out, study, objective)]
     best = studies.best_trial(study, objective)
-    report.write_summary_json(out / "summary.json", study, objective, best)
+    baseline = studies.baseline_trial(study)
+    if baseline is not None:
+        console.print(report.before_after_line(objective, baseline, best))
+    report.write_summary_json(out / "summary.json", study, objective, best, baseline)
     written.append(out / "summary.json")
     if best is None:
         console.print("no feasible completed trial, so no best.toml" + (" (see trials.csv)" if study.trials else ""))
@@ -246,6 +251,7 @@ def write_outputs(
         header = [
             f"Best of study {study.study_name!r}: trial {best.number}, {objective.metric} = {best.value:.6g} "
             f"({args.seeds} seeds x {args.duration:g} s), median plan {best.user_attrs.get('plan_ms') or float('nan'):.3g} ms.",
+            *([] if baseline is None else [report.before_after_line(objective, baseline, best)]),
             f"Found by: {command}",
             f"Use with: python -m judo --config {out / 'best.toml'}  (or evaluate --config ... --task ... --optimizer ...)",
         ]

@@ -41,7 +41,7 @@ def top_trials_table(study: Any, objective: Objective, space: list[Param], count
         table.add_column(column, justify="left" if column in ("feasible",) else "right")
     for trial in trials[:count]:
         table.add_row(
-            str(trial.number),
+            f"{trial.number} (defaults)" if trial.user_attrs.get("baseline") else str(trial.number),
             fmt(trial.value),
             fmt(trial.user_attrs.get("plan_ms") or math.nan),
             "yes" if is_feasible(trial) else "no",
@@ -124,20 +124,43 @@ def write_png(path: Path, plot: Any, study: Any, objective: Objective) -> list[P
     return [path]
 
 
-def write_summary_json(path: Path, study: Any, objective: Objective, best: Any | None) -> None:
-    """The study's identity and best trial as JSON (for scripts)."""
+def before_after_line(objective: Objective, baseline: Any, best: Any | None) -> str:
+    """One line comparing the trial that ran the defaults with the best trial."""
+    before = f"defaults (trial {baseline.number}): {objective.metric} {fmt(baseline.value)}, plan {plan_text(baseline)}"
+    if best is None:
+        return before + "; no feasible trial"
+    if best.number == baseline.number:
+        return before + "; no trial beat them"
+    return before + f"; best (trial {best.number}): {fmt(best.value)}, plan {plan_text(best)}"
+
+
+def plan_text(trial: Any) -> str:
+    """The trial's median control update, e.g. "12.3 ms"."""
+    return f"{fmt(trial.user_attrs.get('plan_ms') or math.nan)} ms"
+
+
+def trial_summary(trial: Any | None) -> dict[str, Any] | None:
+    """A trial's number, value, parameters, plan time and metrics, for summary.json."""
+    if trial is None:
+        return None
+    return {
+        "number": trial.number,
+        "value": trial.value,
+        "params": trial.params,
+        "plan_ms": trial.user_attrs.get("plan_ms"),
+        "metrics": trial.user_attrs.get("metrics"),
+    }
+
+
+def write_summary_json(
+    path: Path, study: Any, objective: Objective, best: Any | None, baseline: Any | None = None
+) -> None:
+    """The study's identity, its best trial and the trial that ran the defaults, as JSON (for scripts)."""
     content = {
         "study": study.study_name,
         **study.user_attrs,
         "direction": objective.direction,
-        "best": None
-        if best is None
-        else {
-            "number": best.number,
-            "value": best.value,
-            "params": best.params,
-            "plan_ms": best.user_attrs.get("plan_ms"),
-            "metrics": best.user_attrs.get("metrics"),
-        },
+        "best": trial_summary(best),
+        "defaults": trial_summary(baseline),
     }
     path.write_text(json.dumps(content, indent=2, default=str) + "\n")

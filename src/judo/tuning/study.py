@@ -210,6 +210,30 @@ def run_trials(
         raise
 
 
+BASELINE_ATTR = "baseline"
+"""User attribute set on the trial that ran the pair's current defaults."""
+
+
+def enqueue_defaults(study: Any, space: list[Param], configs: dict[str, Any]) -> None:
+    """Queue the current defaults (the configs' values of the searched fields) as the next trial.
+
+    Called for a new study, so that its trial 0 measures the settings a tune starts from: the report
+    then says what the best trial gained over them (the "before" of a before/after), and the best
+    trial is never worse than the defaults. A default outside a --params range is still run as is.
+    """
+    defaults = {param.name: getattr(configs[param.kind], param.field) for param in space}
+    with warnings.catch_warnings():  # optuna warns that an out-of-range default is used as given
+        warnings.simplefilter("ignore")
+        study.enqueue_trial(defaults, user_attrs={BASELINE_ATTR: True}, skip_if_exists=True)
+
+
+def baseline_trial(study: Any) -> Any | None:
+    """The completed trial that ran the defaults, or None (an older study, or it failed)."""
+    optuna = import_optuna()
+    complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
+    return next((trial for trial in complete if trial.user_attrs.get(BASELINE_ATTR)), None)
+
+
 def is_feasible(trial: Any) -> bool:
     """Whether the trial met --max-plan-ms (always, without it)."""
     return all(value <= 0 for value in constraint_of(trial))
