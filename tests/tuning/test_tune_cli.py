@@ -5,8 +5,10 @@ is already connected to, so it starts in one place only.
 """
 
 import json
+import signal
 import subprocess
 import sys
+import time
 
 import pytest
 
@@ -147,3 +149,39 @@ def test_importing_judo_and_the_tune_command_imports_neither_optuna_nor_ray():
     code = "import sys, judo, judo.tuning.cli; print(sorted({'optuna', 'ray'} & set(sys.modules)))"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stdout.strip() == "[]"
+
+
+@pytest.mark.slow
+def test_ctrl_c_stops_a_running_tune_at_once_and_keeps_every_finished_trial(tmp_path):
+    storage = f"sqlite:///{tmp_path / 'tune.db'}"
+    argv = [
+        "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "60", "--workers", "1",
+        "--params", "optimizer.sigma", "--trials", "5", "--storage", storage, "--study", "stopped",
+        "--out", str(tmp_path / "out"),
+    ]  # fmt: skip
+    tune = subprocess.Popen(
+        [sys.executable, "-m", "judo", "tune", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    try:
+        deadline = time.monotonic() + 240
+        while time.monotonic() < deadline and tune.poll() is None:
+            time.sleep(0.5)
+            try:
+                states = [trial.state.name for trial in stored_trials(storage, "stopped")]
+            except KeyError:  # the study is not created yet
+                continue
+            if states.count("COMPLETE") == 1 and "RUNNING" in states:
+                break
+        assert tune.poll() is None, f"tune ended early: {tune.communicate()}"
+        tune.send_signal(signal.SIGINT)
+        started = time.monotonic()
+        _, err = tune.communicate(timeout=30)
+        stopped_after = time.monotonic() - started
+    finally:
+        tune.kill()
+    assert tune.returncode == 130 and "Traceback" not in err
+    assert "run the same command to resume" in err
+    assert stopped_after < 10, f"tune took {stopped_after:.1f} s to stop"  # a trial lasts longer than that
+    trials = stored_trials(storage, "stopped")
+    assert [trial.state.name for trial in trials] == ["COMPLETE", "FAIL"]
+    assert trials[0].user_attrs["baseline"] and trials[1].user_attrs["failure"] == "interrupted"
