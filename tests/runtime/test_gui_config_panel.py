@@ -87,9 +87,11 @@ def test_sliders_use_the_declared_range_widened_to_the_value_or_a_default_one(pa
     assert widgets(panel, "weights")[2].max == 7.0  # np_1d_field's default span, 2 |v| + 1
 
 
-def test_field_docstrings_become_hover_hints(panel):
-    assert widgets(panel, "rollouts")[0].hint == "Rollouts per cycle."
-    assert widgets(panel, "goal")[1].hint == "A named array."
+def test_field_names_in_words_become_labels_and_the_exact_name_and_docstring_hover_hints(panel):
+    assert widgets(panel, "rollouts")[0].hint == "rollouts: Rollouts per cycle."
+    assert widgets(panel, "goal")[1].hint == "goal: A named array."
+    free_float = widgets(panel, "free_float")[0]
+    assert free_float.label == "free float" and free_float.hint.startswith("free_float")
 
 
 def test_show_puts_a_config_into_the_widgets_and_widens_ranges(panel):

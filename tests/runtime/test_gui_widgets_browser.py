@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from judo.runtime.app import App
+from judo.runtime.gui.config_panel import field_label
 
 pytestmark = pytest.mark.browser
 
@@ -30,13 +31,13 @@ def page(chromium, app):
 
 
 def slider(page, label: str):
-    target = page.locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first.get_attribute("for")
+    target = page.locator("label", has_text=re.compile(f"^{re.escape(field_label(label))}$")).first.get_attribute("for")
     return page.locator(f'[id="{target}"]').locator('[role="slider"]')
 
 
 def number_box(page, label: str):
     """The number box labelled `label`: beside its slider, or on its own (a log-scale field's)."""
-    target = page.locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first.get_attribute("for")
+    target = page.locator("label", has_text=re.compile(f"^{re.escape(field_label(label))}$")).first.get_attribute("for")
     widget = page.locator(f'[id="{target}"]')
     if "mantine-NumberInput-input" in (widget.get_attribute("class") or ""):
         return widget
