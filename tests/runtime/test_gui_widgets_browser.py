@@ -3,6 +3,7 @@
 Screenshots go to test-artifacts/widgets_*.png.
 """
 
+import logging
 import re
 import time
 
@@ -143,7 +144,8 @@ def test_a_switch_while_paused_is_shown_as_paused(app, page, wait_until, artifac
     page.screenshot(path=artifacts / "widgets_switch_paused.png")
 
 
-def test_two_pages_end_in_agreement_with_the_controller(chromium, app, page, wait_until, artifacts):
+def test_two_pages_end_in_agreement_with_the_controller(chromium, app, page, wait_until, artifacts, caplog, capfd):
+    caplog.set_level(logging.WARNING)
     other = open_page(chromium, app)
     try:
         for first, second in ((page, other), (other, page)):  # one slider, opposite directions, at once
@@ -165,6 +167,16 @@ def test_two_pages_end_in_agreement_with_the_controller(chromium, app, page, wai
         other.screenshot(path=artifacts / "widgets_two_pages.png")
     finally:
         other.close()
+    assert_no_exception_logged(caplog, capfd)
+
+
+def assert_no_exception_logged(caplog, capfd) -> None:
+    """Fail if the app logged an error or a traceback, or a thread (viser's handlers) printed one."""
+    logged = [f"{r.name}: {r.getMessage()}" for r in caplog.records if r.exc_info or r.levelno >= logging.ERROR]
+    assert logged == [], f"the app logged errors: {logged}"
+    out, err = capfd.readouterr()
+    printed = out + err
+    assert "Traceback" not in printed and "exception" not in printed.lower(), f"printed during the test:\n{printed}"
 
 
 def drag_through_the_page(app: App, control, position) -> None:
