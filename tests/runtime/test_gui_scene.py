@@ -129,6 +129,10 @@ def test_a_walker_is_framed_about_its_body_not_the_reach_of_its_sliding_root(ser
         assert height > 0.9, f"the walker fills only {height / 2:.0%} of the view's height"
         position, look_at = view.camera_pose()
         assert np.linalg.norm(look_at - position) < 2.5  # metres; the root slides' reach framed it from 4.2
+        view.update(np.r_[10.0, np.zeros(model.nq - 1)], {})  # walked 10 m (as a page opened mid-run sees it)
+        far_position, far_look_at = view.camera_pose()
+        np.testing.assert_allclose(far_look_at - look_at, [10.0, 0.0, 0.0], atol=1e-9)
+        np.testing.assert_allclose(far_position - position, [10.0, 0.0, 0.0], atol=1e-9)
     finally:
         view.remove()
 

@@ -8,8 +8,8 @@
 Framing uses the model's first camera when it has one; otherwise it looks, from the model's default
 azimuth and elevation, at the box that holds the drawn geoms (planes aside) wherever the jointed
 chains fixed to the world can swing them, from just far enough that it fits the view. A body that
-slides on the world (a cart, a planar walker's torso) is framed from where its slides start to
-where it is, not about every pose its limbs could reach: the camera follows it instead.
+slides or floats (a cart, a planar walker's torso) is framed where it is, not with every place it
+could slide or swing its limbs to: the camera follows it instead.
 """
 
 import mujoco
@@ -43,27 +43,23 @@ def focus_body_id(model: mujoco.MjModel, name: str | None) -> int:
 
 
 def reach_points(model: mujoco.MjModel, data: mujoco.MjData, corners: np.ndarray, corner_bodies: np.ndarray):
-    """(6 * k, 3) points bounding where the k jointed bodies fixed to the world can take their geoms.
+    """(6 * k, 3) points bounding where the k jointed chains fixed to the world can swing their geoms.
 
-    Two kinds of body count, each as the 6 extreme points of a ball around its first joint's anchor:
-    - a body that slides on the world (a cart, a pusher, a planar walker's torso): the ball reaches
-      its own geoms' farthest corner, so the framing holds where its slides start and where it is
-      now. Its limbs are not swung about: a sliding body carries them, and the camera follows it.
-    - a body that turns (hinge or ball joints only) on the world or on bodies that only slide (a
-      pendulum's pole, an arm's first link, the pole on a cart): the ball reaches its whole
-      subtree's farthest geom corner, wherever the chain swings.
-    Free-jointed bodies add nothing. `corners` (n, 3) are geom-box corners and `corner_bodies` (n,)
-    the body each belongs to.
+    A chain starts at a body that turns (hinge or ball joints only) on the world, or on bodies that
+    only slide: a pendulum's pole, an arm's first link, the pole on a cart. Its reach is the ball
+    around its first joint's anchor through its subtree's farthest geom corner, given as the ball's
+    6 extreme points. A body that slides or floats (a cart, a pusher, a planar walker's torso, a
+    free body) adds no reach: it is framed where it is and the camera follows it, rather than framed
+    with where its slides start or every pose its limbs could swing to. `corners` (n, 3) are
+    geom-box corners and `corner_bodies` (n,) the body each belongs to.
     """
+    turning = {mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL}
     points = []
     for body in range(1, model.nbody):
         types = _joint_types(model, body)
-        if not types or mujoco.mjtJoint.mjJNT_FREE in types or not _slides_on_world(model, body):
+        if not types or not types <= turning or not _slides_on_world(model, body):
             continue
-        if mujoco.mjtJoint.mjJNT_SLIDE in types:
-            inside = corner_bodies == body
-        else:
-            inside = np.array([_in_subtree(model, int(b), body) for b in corner_bodies], dtype=bool)
+        inside = np.array([_in_subtree(model, int(b), body) for b in corner_bodies], dtype=bool)
         if not inside.any():
             continue
         anchor = data.xanchor[model.body_jntadr[body]]
