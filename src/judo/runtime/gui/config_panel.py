@@ -1,6 +1,7 @@
 """A GUI folder of widgets generated from a config dataclass, one widget per field.
 
     int, float   -> slider, over the field's `@slider` range or a default one around the value
+    float over decades (log range) -> text box in real units, and a slider over log10 under it
     bool         -> checkbox
     Literal[...] -> dropdown of the literal's values
     str          -> text box
@@ -28,7 +29,7 @@ import numpy as np
 import viser
 
 from judo.core.config import Config, field_types
-from judo.core.errors import JudoError
+from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import SliderRange, array_field_spec, slider_ranges
 from judo.runtime.gui.field_docs import field_docs
 
@@ -129,9 +130,9 @@ class ConfigPanel:
             for name in [n for n, t in self._last_change.items() if now - t >= EDIT_SETTLE]:
                 del self._last_change[name]
                 self._refused.pop(name, None)
-                value = self._decode[name](self._settled(name, self._pending.pop(name)))
+                seen = self._settled(name, self._pending.pop(name))
                 try:
-                    self._config = self._on_edit({name: value})
+                    self._config = self._on_edit({name: self._decode[name](seen)})
                 except JudoError as err:
                     self._refused[name] = (now, str(err))  # shown and put back once the user stops typing
                     continue
@@ -171,10 +172,14 @@ class ConfigPanel:
             self._bind(name, handles, lambda values: np.array(values, dtype=float), lambda v: [float(x) for x in v])
 
     def _add_log(self, gui: viser.GuiApi, label: str, value: float, rng: SliderRange, doc: str) -> list[Any]:
-        """A number box in real units, and under it a slider over log10 marked at each power of ten."""
+        """A box for the value in real units, and under it a slider over log10 marked at each power of ten.
+
+        The box is a text box: a page sends whatever is typed there, so text that is not a number is
+        refused with a message and replaced by the value in force (a page's number box sends nothing
+        for it and is left blank).
+        """
         low, high = math.log10(min(rng.min, value)), math.log10(max(rng.max, value))
-        step = 10.0 ** (math.floor(math.log10(rng.min)) - 1)
-        number = gui.add_number(label, value, step=step, hint=doc)
+        number = gui.add_text(label, format_number(value), hint=doc)
         decades = range(math.ceil(low - 1e-9), math.floor(high + 1e-9) + 1)
         marks = tuple((float(d), f"{10.0**d:g}") for d in decades)
         log_slider = gui.add_slider(
@@ -183,8 +188,11 @@ class ConfigPanel:
         return [number, log_slider]
 
     def _decode_log(self, name: str, values: list[Any]) -> float:
-        """The value a log field's widgets ask for: the number box's if it changed, else 10**slider."""
-        number, exponent = float(values[0]), float(values[1])
+        """The value a log field's widgets ask for: the box's if it changed, else 10**slider.
+
+        Raises ConfigError when the box holds text that is not a number.
+        """
+        number, exponent = parse_number(name, values[0]), float(values[1])
         in_force = float(getattr(self._config, name))
         if number != in_force or in_force <= 0 or abs(exponent - round(math.log10(in_force), 2)) < 1e-9:
             return number
@@ -273,8 +281,23 @@ def field_hint(name: str, doc: str | None) -> str:
 
 
 def encode_log(value: float) -> list[Any]:
-    """[value, log10(value) to the slider's 0.01 step] for a log field's number box and slider."""
-    return [float(value), round(math.log10(value), 2) if value > 0 else -12.0]
+    """[value as text, log10(value) to the slider's 0.01 step] for a log field's box and slider."""
+    return [format_number(value), round(math.log10(value), 2) if value > 0 else -12.0]
+
+
+def format_number(value: float) -> str:
+    """`value` as a box shows it: to 12 significant digits ("20", "0.3", "1e-05"), or every digit
+    needed to read it back exactly."""
+    text = f"{float(value):.12g}"
+    return text if float(text) == float(value) else repr(float(value))
+
+
+def parse_number(name: str, text: Any) -> float:
+    """The number typed as `text` into field `name`'s box. Raises ConfigError if it is not one."""
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name} must be a number, like 0.25 or 1e-3; got {str(text)!r}") from None
 
 
 def _slider(gui: viser.GuiApi, label: str, value: Any, rng: SliderRange | None, integer: bool, doc: str):
