@@ -10,6 +10,7 @@ import pytest
 import judo
 from judo.core.controller import ControllerConfig
 from judo.core.registry import make_config
+from judo.runtime.gui.config_panel import field_label
 
 pytestmark = pytest.mark.browser
 
@@ -28,7 +29,7 @@ def page(chromium, app):
 
 def labelled(page, label: str, role: str):
     """The element with `role` inside the widget whose label reads exactly `label`."""
-    target = page.locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first.get_attribute("for")
+    target = page.locator("label", has_text=re.compile(f"^{re.escape(field_label(label))}$")).first.get_attribute("for")
     widget = page.locator(f'[id="{target}"]')
     return widget if widget.get_attribute("role") == role else widget.locator(f'[role="{role}"]')
 
@@ -38,7 +39,7 @@ def test_panels_show_every_config_field(app, page, artifacts):
     texts = page.locator(".mantine-Paper-root").first.inner_text()
     for panel in app.gui.panels.values():
         for name in panel.field_names:
-            assert labels.count(name) == 1, name
+            assert labels.count(field_label(name)) == 1, name
     for text in ("Controller", "Optimizer: mppi", "Task: cartpole", "Plots", "Pause", "Reset task", "Reset configs"):
         assert text in texts
     assert "status: running cartpole with mppi" in texts
@@ -86,7 +87,7 @@ def test_switching_the_optimizer_dropdown_rebuilds_its_panel(app, page, wait_unt
     wait_until(lambda: app.session.optimizer_name == "cem", timeout=60, what="the app to switch to cem")
     assert isinstance(app.controller.optimizer, judo.get_registered_optimizers()["cem"][0])
     for name in ("sigma_min", "sigma_max", "num_elites"):
-        page.locator("label", has_text=re.compile(f"^{name}$")).wait_for()
+        page.locator("label", has_text=re.compile(f"^{field_label(name)}$")).wait_for()
     assert page.locator("label", has_text=re.compile("^temperature$")).count() == 0
     assert page.get_by_text("Optimizer: mppi", exact=True).count() == 0
     assert app.gui.scene is scene  # same task: the scene and the user's camera stay

@@ -74,3 +74,27 @@ def test_the_focus_body_stays_in_view_while_the_task_runs(task, app, page, wait_
         time.sleep(SAMPLE_PERIOD)
     assert app.stats.num_plans() > start_plans, f"{task} did not plan while the camera was watched"
     page.screenshot(path=artifacts / f"camera_{task}.png")
+
+
+def test_following_keeps_the_pages_view_direction_and_distance(app, page, wait_until):
+    """A page may report its camera halfway through a follow move; taken as the user's view, that
+    made the camera fall behind a walking walker and tilt until the walker left the view."""
+    if app.session.task_name != "walker":
+        app.switch_task("walker")
+    wait_until(lambda: app.gui.shown_generation == app.session.generation, timeout=60, what="the GUI to show walker")
+    page.get_by_text("Task: walker", exact=True).wait_for()
+    app.reset_task()
+    (client,) = app.gui.server.get_clients().values()
+    torso = app.gui.follower.body
+    wait_until(lambda: app.resets_done >= 1, timeout=30, what="the reset")
+    time.sleep(0.5)
+    offset = np.asarray(client.camera.position) - np.asarray(client.camera.look_at)
+    start, worst = app.gui.scene.data.xpos[torso].copy(), 0.0
+    deadline = time.monotonic() + RUN_SECONDS
+    while time.monotonic() < deadline:
+        now = np.asarray(client.camera.position) - np.asarray(client.camera.look_at)
+        worst = max(worst, float(np.linalg.norm(now - offset)))
+        time.sleep(SAMPLE_PERIOD)
+    moved = float(np.linalg.norm(app.gui.scene.data.xpos[torso] - start))
+    assert moved > 0.3, f"the walker moved only {moved:.2f} m: nothing to follow"
+    assert worst < 0.25, f"the camera's offset from the walker changed by {worst:.2f} m while following"

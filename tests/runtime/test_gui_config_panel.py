@@ -8,8 +8,9 @@ import pytest
 import viser
 
 from judo.core.config import Config
+from judo.core.errors import ConfigError
 from judo.core.fields import np_1d_field, slider
-from judo.runtime.gui.config_panel import ConfigPanel, default_range, nice_step
+from judo.runtime.gui.config_panel import ConfigPanel, default_range, format_number, nice_step, parse_number
 
 
 @slider("rollouts", 1, 64, 1)
@@ -87,9 +88,11 @@ def test_sliders_use_the_declared_range_widened_to_the_value_or_a_default_one(pa
     assert widgets(panel, "weights")[2].max == 7.0  # np_1d_field's default span, 2 |v| + 1
 
 
-def test_field_docstrings_become_hover_hints(panel):
-    assert widgets(panel, "rollouts")[0].hint == "Rollouts per cycle."
-    assert widgets(panel, "goal")[1].hint == "A named array."
+def test_field_names_in_words_become_labels_and_the_exact_name_and_docstring_hover_hints(panel):
+    assert widgets(panel, "rollouts")[0].hint == "rollouts: Rollouts per cycle."
+    assert widgets(panel, "goal")[1].hint == "goal: A named array."
+    free_float = widgets(panel, "free_float")[0]
+    assert free_float.label == "free float" and free_float.hint.startswith("free_float")
 
 
 def test_show_puts_a_config_into_the_widgets_and_widens_ranges(panel):
@@ -145,14 +148,24 @@ def test_a_range_over_two_decades_gets_a_number_box_and_a_slider_over_log10(serv
     panel = ConfigPanel(server.gui, "Log", LogConfig(), on_edit, order=2)
     try:
         number, log_slider = panel.handles("temperature")
-        assert isinstance(number, viser.GuiNumberHandle) and number.value == 0.1
+        assert isinstance(number, viser.GuiTextHandle) and number.value == "0.1"  # a page sends any text typed
         assert isinstance(log_slider, viser.GuiSliderHandle) and log_slider.label == "temperature (log10)"
         assert (log_slider.min, log_slider.max, log_slider.value) == (-3.0, 1.0, -1.0)
         assert [mark.label for mark in log_slider._marks] == ["0.001", "0.01", "0.1", "1", "10"]
         log_slider.value = -2.0  # as a page's drag leaves it
         assert panel.value_of("temperature") == 0.01
-        number.value = 0.5
+        number.value = "0.5"
         assert panel.value_of("temperature") == 0.5
+        number.value = "abc"
+        with pytest.raises(ConfigError, match="temperature must be a number, like 0.25 or 1e-3; got 'abc'"):
+            panel.value_of("temperature")
         assert len(panel.handles("weight")) == 1
     finally:
         panel.remove()
+
+
+def test_a_log_fields_box_shows_numbers_briefly_and_exactly():
+    assert [format_number(v) for v in (20.0, 0.3, 1e-5, 0.1 + 0.2)] == ["20", "0.3", "1e-05", "0.30000000000000004"]
+    assert parse_number("sigma", " 2.5e-3 ") == 0.0025
+    with pytest.raises(ConfigError, match="sigma must be a number, like 0.25 or 1e-3; got ''"):
+        parse_number("sigma", "")

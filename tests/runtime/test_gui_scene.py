@@ -7,9 +7,11 @@ import numpy as np
 import pytest
 import viser
 
+import judo
 from judo.core.config import Config
 from judo.core.fields import np_1d_field
-from judo.runtime.gui.scene import SceneView, capsule_mesh, polyline_segments
+from judo.runtime.gui.camera import VERTICAL_FOV, VISIBLE_ASPECT, project
+from judo.runtime.gui.scene import SceneView, capsule_mesh, geom_box_corners, polyline_segments
 
 XML = """
 <mujoco>
@@ -90,6 +92,58 @@ def test_camera_looks_at_the_solid_geoms_from_the_models_default_view(view):
     assert -0.5 < look_at[0] < 1.0 and look_at[2] > 0.0  # the bodies, not the 4 m floor
     direction = (look_at - position) / np.linalg.norm(look_at - position)
     np.testing.assert_allclose(direction, [0, np.sqrt(0.5), -np.sqrt(0.5)], atol=1e-9)  # azimuth 90, elevation -45
+
+
+CART_POLE = """
+<mujoco>
+  <worldbody>
+    <body name="cart">
+      <joint name="slide" type="slide" axis="1 0 0"/>
+      <geom type="box" size="0.1 0.1 0.05"/>
+      <body name="pole">
+        <joint name="hinge" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -1" size="0.02"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def framed_ndc(view: SceneView, points: np.ndarray) -> np.ndarray:
+    """(n, 2) where `points` (n, 3) fall in the framing camera's view (|x|, |y| < 1 is inside)."""
+    position, look_at = view.camera_pose()
+    up = np.array([0.0, 0.0, 1.0])
+    return np.array([project(p, position, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT) for p in points])
+
+
+def test_a_walker_is_framed_about_its_body_not_the_reach_of_its_sliding_root(server):
+    model = judo.get_registered_tasks()["walker"][0]().model
+    view = SceneView(server.scene, model)
+    try:
+        solid = [g for g in view.geom_nodes if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE]
+        corners = geom_box_corners(model, view.data, solid)
+        ndc = framed_ndc(view, corners)
+        assert np.abs(ndc).max() < 1.0  # the whole walker is in view
+        height = ndc[:, 1].max() - ndc[:, 1].min()  # of the view's 2 units
+        assert height > 0.9, f"the walker fills only {height / 2:.0%} of the view's height"
+        position, look_at = view.camera_pose()
+        assert np.linalg.norm(look_at - position) < 2.5  # metres; the root slides' reach framed it from 4.2
+        view.update(np.r_[10.0, np.zeros(model.nq - 1)], {})  # walked 10 m (as a page opened mid-run sees it)
+        far_position, far_look_at = view.camera_pose()
+        np.testing.assert_allclose(far_look_at - look_at, [10.0, 0.0, 0.0], atol=1e-9)
+        np.testing.assert_allclose(far_position - position, [10.0, 0.0, 0.0], atol=1e-9)
+    finally:
+        view.remove()
+
+
+def test_a_pole_on_a_cart_is_framed_wherever_it_can_swing(server):
+    view = SceneView(server.scene, mujoco.MjModel.from_xml_string(CART_POLE))
+    try:
+        swung = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])  # up, and out to each side
+        assert np.abs(framed_ndc(view, swung)).max() < 1.0
+    finally:
+        view.remove()
 
 
 def test_traces_become_line_segments_nominal_first(view, server):

@@ -3,6 +3,7 @@
 Screenshots go to test-artifacts/widgets_*.png.
 """
 
+import logging
 import re
 import time
 
@@ -10,6 +11,7 @@ import numpy as np
 import pytest
 
 from judo.runtime.app import App
+from judo.runtime.gui.config_panel import field_label
 
 pytestmark = pytest.mark.browser
 
@@ -30,18 +32,16 @@ def page(chromium, app):
 
 
 def slider(page, label: str):
-    target = page.locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first.get_attribute("for")
+    target = page.locator("label", has_text=re.compile(f"^{re.escape(field_label(label))}$")).first.get_attribute("for")
     return page.locator(f'[id="{target}"]').locator('[role="slider"]')
 
 
 def number_box(page, label: str):
-    """The number box labelled `label`: beside its slider, or on its own (a log-scale field's)."""
-    target = page.locator("label", has_text=re.compile(f"^{re.escape(label)}$")).first.get_attribute("for")
-    widget = page.locator(f'[id="{target}"]')
-    if "mantine-NumberInput-input" in (widget.get_attribute("class") or ""):
-        return widget
-    return widget.locator(
-        "xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]//input[contains(@class, 'mantine-NumberInput-input')]"
+    """The box labelled `label` where a number is typed: beside its slider, or on its own (a log-scale field's)."""
+    label_element = page.locator("label", has_text=re.compile(f"^{re.escape(field_label(label))}$")).first
+    return label_element.locator(
+        "xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]//input"
+        "[contains(@class, 'mantine-NumberInput-input') or contains(@class, 'mantine-TextInput-input')]"
     )
 
 
@@ -61,12 +61,23 @@ def status_text(page) -> str:
     return page.locator("p").filter(has_text=re.compile("^status:")).first.inner_text()
 
 
-def test_a_typed_abc_changes_nothing_and_reset_configs_shows_the_value_in_force(app, page, wait_until, artifacts):
-    type_into(page, "sigma", "abc")  # the page sends nothing for text that is not a number
-    page.wait_for_timeout(500)
+def test_typed_text_that_is_not_a_number_is_refused_with_a_message_and_the_box_shows_the_value_in_force(
+    app, page, wait_until, artifacts
+):
+    type_into(page, "sigma", "abc")  # a log-scale field's box: a text box, which sends what is typed
+    page.get_by_text("status: warning: edit refused: sigma must be a number, like 0.25 or 1e-3; got 'abc'").wait_for()
+    wait_until(lambda: shows(number_box(page, "sigma"), 0.3), timeout=30, what="the box to show 0.3 again")
     assert app.configs()["optimizer"].sigma == 0.3
+    page.screenshot(path=artifacts / "widgets_abc_refused.png")
+
+
+def test_a_sliders_box_left_blank_shows_the_value_in_force_after_reset_configs(app, page, wait_until, artifacts):
+    horizon = app.configs()["controller"].horizon
+    type_into(page, "horizon", "abc")  # a slider's own number box takes no letters and sends nothing for a blank
+    page.wait_for_timeout(500)
+    assert app.configs()["controller"].horizon == horizon
     page.get_by_role("button", name="Reset configs").click()
-    wait_until(lambda: shows(number_box(page, "sigma"), 0.3), timeout=30, what="the box to show 0.3")
+    wait_until(lambda: shows(number_box(page, "horizon"), horizon), timeout=30, what=f"the box to show {horizon}")
     assert "configs reset to the defaults" in status_text(page)
     page.screenshot(path=artifacts / "widgets_abc_reset.png")
 
@@ -142,7 +153,8 @@ def test_a_switch_while_paused_is_shown_as_paused(app, page, wait_until, artifac
     page.screenshot(path=artifacts / "widgets_switch_paused.png")
 
 
-def test_two_pages_end_in_agreement_with_the_controller(chromium, app, page, wait_until, artifacts):
+def test_two_pages_end_in_agreement_with_the_controller(chromium, app, page, wait_until, artifacts, caplog, capfd):
+    caplog.set_level(logging.WARNING)
     other = open_page(chromium, app)
     try:
         for first, second in ((page, other), (other, page)):  # one slider, opposite directions, at once
@@ -164,6 +176,16 @@ def test_two_pages_end_in_agreement_with_the_controller(chromium, app, page, wai
         other.screenshot(path=artifacts / "widgets_two_pages.png")
     finally:
         other.close()
+    assert_no_exception_logged(caplog, capfd)
+
+
+def assert_no_exception_logged(caplog, capfd) -> None:
+    """Fail if the app logged an error or a traceback, or a thread (viser's handlers) printed one."""
+    logged = [f"{r.name}: {r.getMessage()}" for r in caplog.records if r.exc_info or r.levelno >= logging.ERROR]
+    assert logged == [], f"the app logged errors: {logged}"
+    out, err = capfd.readouterr()
+    printed = out + err
+    assert "Traceback" not in printed and "exception" not in printed.lower(), f"printed during the test:\n{printed}"
 
 
 def drag_through_the_page(app: App, control, position) -> None:

@@ -1,12 +1,15 @@
 """Where the GUI's camera looks: a framing of the task on open, reset and switch, and the focus body it follows.
 
-    framing = frame_model(model, data, geoms, extra_points)   # (position (3,), look_at (3,))
+    points = np.concatenate([corners, reach_points(model, data, corners, corner_bodies)])
+    position, look_at = frame_points(model, points)            # (3,), (3,)
     follower = Follower(model, focus_body_id(model, task.focus_body))
     delta = follower.step(data)                                 # (3,) how far the focus moved
 
 Framing uses the model's first camera when it has one; otherwise it looks, from the model's default
 azimuth and elevation, at the box that holds the drawn geoms (planes aside) wherever the jointed
-chains fixed to the world can swing them, from just far enough that it fits the view.
+chains fixed to the world can swing them, from just far enough that it fits the view. A body that
+slides or floats (a cart, a planar walker's torso) is framed where it is, not with every place it
+could slide or swing its limbs to: the camera follows it instead.
 """
 
 import mujoco
@@ -42,25 +45,42 @@ def focus_body_id(model: mujoco.MjModel, name: str | None) -> int:
 def reach_points(model: mujoco.MjModel, data: mujoco.MjData, corners: np.ndarray, corner_bodies: np.ndarray):
     """(6 * k, 3) points bounding where the k jointed chains fixed to the world can swing their geoms.
 
-    For each body with non-free joints whose parent is welded to the world (a pendulum's pole, an
-    arm's first link, a cart), the ball around its first joint's anchor through its subtree's
-    farthest geom corner, as the 6 extreme points of that ball. `corners` (n, 3) are geom-box
-    corners and `corner_bodies` (n,) the body each belongs to.
+    A chain starts at a body that turns (hinge or ball joints only) on the world, or on bodies that
+    only slide: a pendulum's pole, an arm's first link, the pole on a cart. Its reach is the ball
+    around its first joint's anchor through its subtree's farthest geom corner, given as the ball's
+    6 extreme points. A body that slides or floats (a cart, a pusher, a planar walker's torso, a
+    free body) adds no reach: it is framed where it is and the camera follows it, rather than framed
+    with where its slides start or every pose its limbs could swing to. `corners` (n, 3) are
+    geom-box corners and `corner_bodies` (n,) the body each belongs to.
     """
+    turning = {mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL}
     points = []
     for body in range(1, model.nbody):
-        if model.body_jntnum[body] == 0 or model.body_weldid[model.body_parentid[body]] != 0:
-            continue
-        joint = model.body_jntadr[body]
-        if model.jnt_type[joint] == mujoco.mjtJoint.mjJNT_FREE:
+        types = _joint_types(model, body)
+        if not types or not types <= turning or not _slides_on_world(model, body):
             continue
         inside = np.array([_in_subtree(model, int(b), body) for b in corner_bodies], dtype=bool)
         if not inside.any():
             continue
-        anchor = data.xanchor[joint]
+        anchor = data.xanchor[model.body_jntadr[body]]
         radius = float(np.linalg.norm(corners[inside] - anchor, axis=1).max())
         points.append(anchor + radius * np.concatenate([np.eye(3), -np.eye(3)]))
     return np.concatenate(points) if points else np.zeros((0, 3))
+
+
+def _joint_types(model: mujoco.MjModel, body: int) -> set[int]:
+    first = model.body_jntadr[body]
+    return {int(t) for t in model.jnt_type[first : first + model.body_jntnum[body]]}
+
+
+def _slides_on_world(model: mujoco.MjModel, body: int) -> bool:
+    """True when every body between `body` and the world has no joints or slide joints only."""
+    parent = int(model.body_parentid[body])
+    while parent > 0:
+        if not _joint_types(model, parent) <= {mujoco.mjtJoint.mjJNT_SLIDE}:
+            return False
+        parent = int(model.body_parentid[parent])
+    return True
 
 
 def frame_points(model: mujoco.MjModel, points: np.ndarray, aspect: float = VISIBLE_ASPECT):

@@ -1,11 +1,14 @@
 """A GUI folder of widgets generated from a config dataclass, one widget per field.
 
     int, float   -> slider, over the field's `@slider` range or a default one around the value
+    float over decades (log range) -> text box in real units, and a slider over log10 under it
     bool         -> checkbox
     Literal[...] -> dropdown of the literal's values
     str          -> text box
     np_1d_field  -> folder with one slider per entry (named and ranged by the field's metadata)
-Other field types get no widget. Every range is widened to include the current value.
+Other field types get no widget. Every range is widened to include the current value. A widget is
+labelled with its field's name in words (`field_label`: "max num traces"), and its hover hint
+starts with the exact name.
 
 A page sends a number box's value at every keystroke and a slider's at every step of a drag, so an
 edit is applied once it has settled (EDIT_SETTLE seconds without a change): typing 0.001 never
@@ -26,7 +29,7 @@ import numpy as np
 import viser
 
 from judo.core.config import Config, field_types
-from judo.core.errors import JudoError
+from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import SliderRange, array_field_spec, slider_ranges
 from judo.runtime.gui.field_docs import field_docs
 
@@ -127,9 +130,9 @@ class ConfigPanel:
             for name in [n for n, t in self._last_change.items() if now - t >= EDIT_SETTLE]:
                 del self._last_change[name]
                 self._refused.pop(name, None)
-                value = self._decode[name](self._settled(name, self._pending.pop(name)))
+                seen = self._settled(name, self._pending.pop(name))
                 try:
-                    self._config = self._on_edit({name: value})
+                    self._config = self._on_edit({name: self._decode[name](seen)})
                 except JudoError as err:
                     self._refused[name] = (now, str(err))  # shown and put back once the user stops typing
                     continue
@@ -147,56 +150,64 @@ class ConfigPanel:
 
     # ---- building ------------------------------------------------------------------------------
     def _add_field(self, gui: viser.GuiApi, name: str, hint: Any, value: Any, rng: SliderRange | None, doc: str | None):
+        label, doc = field_label(name), field_hint(name, doc)
         if hint is bool:
-            handles = [gui.add_checkbox(name, bool(value), hint=doc)]
+            handles = [gui.add_checkbox(label, bool(value), hint=doc)]
             self._bind(name, handles, lambda values: bool(values[0]), lambda v: [bool(v)])
         elif typing.get_origin(hint) is Literal:
             choices = {str(choice): choice for choice in typing.get_args(hint)}
-            handles = [gui.add_dropdown(name, list(choices), initial_value=str(value), hint=doc)]
+            handles = [gui.add_dropdown(label, list(choices), initial_value=str(value), hint=doc)]
             self._bind(name, handles, lambda values: choices[values[0]], lambda v: [str(v)])
         elif hint is float and rng is not None and rng.is_log and value > 0:
-            handles = self._add_log(gui, name, float(value), rng, doc)
+            handles = self._add_log(gui, label, float(value), rng, doc)
             self._bind(name, handles, functools.partial(self._decode_log, name), encode_log)
         elif hint is int or hint is float:
-            handles = [_slider(gui, name, value, rng, hint is int, doc)]
+            handles = [_slider(gui, label, value, rng, hint is int, doc)]
             self._bind(name, handles, lambda values: values[0], lambda v: [v])
         elif hint is str:
-            handles = [gui.add_text(name, str(value), hint=doc)]
+            handles = [gui.add_text(label, str(value), hint=doc)]
             self._bind(name, handles, lambda values: values[0], lambda v: [v])
         elif hint is np.ndarray and np.ndim(value) == 1:
             handles = self._add_array(gui, name, np.asarray(value, dtype=float), doc)
             self._bind(name, handles, lambda values: np.array(values, dtype=float), lambda v: [float(x) for x in v])
 
-    def _add_log(self, gui: viser.GuiApi, name: str, value: float, rng: SliderRange, doc: str | None) -> list[Any]:
-        """A number box in real units, and under it a slider over log10 marked at each power of ten."""
+    def _add_log(self, gui: viser.GuiApi, label: str, value: float, rng: SliderRange, doc: str) -> list[Any]:
+        """A box for the value in real units, and under it a slider over log10 marked at each power of ten.
+
+        The box is a text box: a page sends whatever is typed there, so text that is not a number is
+        refused with a message and replaced by the value in force (a page's number box sends nothing
+        for it and is left blank).
+        """
         low, high = math.log10(min(rng.min, value)), math.log10(max(rng.max, value))
-        step = 10.0 ** (math.floor(math.log10(rng.min)) - 1)
-        number = gui.add_number(name, value, step=step, hint=doc)
+        number = gui.add_text(label, format_number(value), hint=doc)
         decades = range(math.ceil(low - 1e-9), math.floor(high + 1e-9) + 1)
         marks = tuple((float(d), f"{10.0**d:g}") for d in decades)
         log_slider = gui.add_slider(
-            f"{name} (log10)", min=low, max=high, step=0.01, initial_value=round(math.log10(value), 2), marks=marks
+            f"{label} (log10)", min=low, max=high, step=0.01, initial_value=round(math.log10(value), 2), marks=marks
         )
         return [number, log_slider]
 
     def _decode_log(self, name: str, values: list[Any]) -> float:
-        """The value a log field's widgets ask for: the number box's if it changed, else 10**slider."""
-        number, exponent = float(values[0]), float(values[1])
+        """The value a log field's widgets ask for: the box's if it changed, else 10**slider.
+
+        Raises ConfigError when the box holds text that is not a number.
+        """
+        number, exponent = parse_number(name, values[0]), float(values[1])
         in_force = float(getattr(self._config, name))
         if number != in_force or in_force <= 0 or abs(exponent - round(math.log10(in_force), 2)) < 1e-9:
             return number
         return float(f"{10.0**exponent:.3g}")
 
-    def _add_array(self, gui: viser.GuiApi, name: str, value: np.ndarray, doc: str | None) -> list[Any]:
+    def _add_array(self, gui: viser.GuiApi, name: str, value: np.ndarray, doc: str) -> list[Any]:
         spec = array_field_spec(type(self._config), name)
         spans = 2.0 * np.abs(value) + 1.0
         names = spec.names if spec else [str(i) for i in range(len(value))]
         mins = spec.mins if spec else list(-spans)
         maxs = spec.maxs if spec else list(spans)
         steps = spec.steps if spec else [0.01] * len(value)
-        with gui.add_folder(name, expand_by_default=True):
+        with gui.add_folder(field_label(name), expand_by_default=True):
             return [
-                _slider(gui, entry, float(x), SliderRange(lo, hi, step), False, doc)
+                _slider(gui, field_label(entry), float(x), SliderRange(lo, hi, step), False, doc)
                 for entry, x, lo, hi, step in zip(names, value, mins, maxs, steps, strict=True)
             ]
 
@@ -258,12 +269,38 @@ class ConfigPanel:
                 handle.value = item
 
 
+def field_label(name: str) -> str:
+    """The label a field's widget shows: its name in words ("max num traces"), which a narrow panel
+    wraps between words, never inside one as it would wrap "max_num_traces"."""
+    return name.replace("_", " ")
+
+
+def field_hint(name: str, doc: str | None) -> str:
+    """The hover hint of a field's widget: its exact name (as in code, configs and the CLI), then its doc."""
+    return f"{name}: {doc}" if doc else name
+
+
 def encode_log(value: float) -> list[Any]:
-    """[value, log10(value) to the slider's 0.01 step] for a log field's number box and slider."""
-    return [float(value), round(math.log10(value), 2) if value > 0 else -12.0]
+    """[value as text, log10(value) to the slider's 0.01 step] for a log field's box and slider."""
+    return [format_number(value), round(math.log10(value), 2) if value > 0 else -12.0]
 
 
-def _slider(gui: viser.GuiApi, label: str, value: Any, rng: SliderRange | None, integer: bool, doc: str | None):
+def format_number(value: float) -> str:
+    """`value` as a box shows it: to 12 significant digits ("20", "0.3", "1e-05"), or every digit
+    needed to read it back exactly."""
+    text = f"{float(value):.12g}"
+    return text if float(text) == float(value) else repr(float(value))
+
+
+def parse_number(name: str, text: Any) -> float:
+    """The number typed as `text` into field `name`'s box. Raises ConfigError if it is not one."""
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        raise ConfigError(f"{name} must be a number, like 0.25 or 1e-3; got {str(text)!r}") from None
+
+
+def _slider(gui: viser.GuiApi, label: str, value: Any, rng: SliderRange | None, integer: bool, doc: str):
     """A slider over `rng` (or a default range around `value`), widened to include `value`."""
     rng = rng or default_range(value, integer)
     low, high = min(rng.min, value), max(rng.max, value)

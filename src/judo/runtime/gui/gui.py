@@ -4,6 +4,7 @@
 widgets' callbacks run on viser's threads and only call App commands.
 """
 
+import collections
 import time
 from typing import TYPE_CHECKING, Any
 
@@ -25,6 +26,8 @@ from judo.runtime.system import SystemState
 if TYPE_CHECKING:
     from judo.runtime.app import App, ConfigKind
 
+SENT_POSES_KEPT = 400
+"""Camera poses sent to the pages that a late camera report is matched against (a few seconds' worth)."""
 PLOT_PERIOD = 0.25
 """Seconds between points on the plots and updates of the numeric readout."""
 
@@ -49,6 +52,8 @@ class Gui:
         self.follower: Follower | None = None
         self.goals: GoalHandles | None = None
         self._look_at = np.zeros(3)  # where the cameras look while following: the framed centre plus the focus's moves
+        self._offsets: dict[int, np.ndarray] = {}  # client id -> (3,) camera position minus look-at that we keep
+        self._sent: collections.deque[np.ndarray] = collections.deque(maxlen=SENT_POSES_KEPT)  # (2, 3) poses sent
         self._resets_done = app.resets_done
         self._scene_task: str | None = None
         self._generation = -1
@@ -182,9 +187,12 @@ class Gui:
         self.server.initial_camera.position = position
         self.server.initial_camera.look_at = look_at
         self._look_at = np.array(look_at, dtype=float)
+        self._offsets.clear()
         for client in self.server.get_clients().values():
             with client.atomic():
                 client.camera.position, client.camera.look_at = position, look_at
+            self._offsets[client.client_id] = np.asarray(position, dtype=float) - look_at
+        self._sent.append(np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)]))
         self.follower.restart(self.scene.data)
 
     def _frame_new_page(self, client: viser.ClientHandle) -> None:
@@ -193,21 +201,35 @@ class Gui:
             position, look_at = self.scene.camera_pose()
             with client.atomic():
                 client.camera.position, client.camera.look_at = position, look_at
+            self._offsets[client.client_id] = np.asarray(position, dtype=float) - look_at
+            self._sent.append(np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)]))
 
     def _follow(self) -> None:
         """Move every camera by how far the focus body moved, while "follow" is on.
 
         The look-at point is ours (a page's camera report may lag our last move, so it is not added
         to); the view direction and distance stay the page's own, so the user can still orbit and zoom.
+        A page that lags may report a camera halfway through our moves (a new look-at with a position
+        we sent a second ago); taken as the user's view, that would drift the camera behind a walking
+        robot. So a report whose position and look-at are both among the last poses we sent is ours,
+        and the offset we keep stands; any other report is the user's orbit or zoom, and is kept.
         """
         assert self.scene is not None and self.follower is not None
         delta = self.follower.step(self.scene.data)
         self._look_at = self._look_at + delta  # kept up while off too, so turning follow on finds the focus
         if not self.controls.follow.value or not np.any(np.abs(delta) > 1e-6):
             return
+        sent = np.array(self._sent).reshape(-1, 2, 3)  # (n, 2, 3) position and look-at of each pose sent
         for client in self.server.get_clients().values():
             camera = client.camera
-            offset = np.asarray(camera.position) - np.asarray(camera.look_at)
+            position, look_at = np.asarray(camera.position), np.asarray(camera.look_at)
+            kept = self._offsets.get(client.client_id)
+            ours = np.any(np.linalg.norm(sent[:, 0] - position, axis=1) < 1e-3) and np.any(
+                np.linalg.norm(sent[:, 1] - look_at, axis=1) < 1e-3
+            )
+            offset = kept if kept is not None and ours else position - look_at
+            self._offsets[client.client_id] = offset
+            self._sent.append(np.stack([self._look_at + offset, self._look_at]))
             with client.atomic():
                 camera.position = self._look_at + offset
                 camera.look_at = self._look_at
