@@ -240,8 +240,9 @@ def write_outputs(
     written = [out / "trials.csv", *report.write_study_plots(out, study, objective)]
     best = studies.best_trial(study, objective)
     baseline = studies.baseline_trial(study)
-    if baseline is not None:
-        console.print(report.before_after_line(objective, baseline, best))
+    comparison = None if baseline is None else report.before_after_line(objective, baseline, best)
+    if comparison is not None:
+        console.print(comparison)
     report.write_summary_json(out / "summary.json", study, objective, best, baseline)
     written.append(out / "summary.json")
     if best is None:
@@ -251,7 +252,7 @@ def write_outputs(
         header = [
             f"Best of study {study.study_name!r}: trial {best.number}, {objective.metric} = {best.value:.6g} "
             f"({args.seeds} seeds x {args.duration:g} s), median plan {best.user_attrs.get('plan_ms') or float('nan'):.3g} ms.",
-            *([] if baseline is None else [report.before_after_line(objective, baseline, best)]),
+            *([] if comparison is None else [comparison]),
             f"Found by: {command}",
             f"Use with: python -m judo --config {out / 'best.toml'}  (or evaluate --config ... --task ... --optimizer ...)",
         ]

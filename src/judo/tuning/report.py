@@ -19,7 +19,7 @@ from rich.table import Table
 from judo.core.errors import JudoError
 from judo.tuning.objective import Objective
 from judo.tuning.space import Param
-from judo.tuning.study import import_optuna, is_feasible, ranked_trials
+from judo.tuning.study import import_optuna, is_baseline, is_feasible, ranked_trials
 
 
 def fmt(value: Any) -> str:
@@ -41,7 +41,7 @@ def top_trials_table(study: Any, objective: Objective, space: list[Param], count
         table.add_column(column, justify="left" if column in ("feasible",) else "right")
     for trial in trials[:count]:
         table.add_row(
-            f"{trial.number} (defaults)" if trial.user_attrs.get("baseline") else str(trial.number),
+            f"{trial.number} (defaults)" if is_baseline(trial) else str(trial.number),
             fmt(trial.value),
             fmt(trial.user_attrs.get("plan_ms") or math.nan),
             "yes" if is_feasible(trial) else "no",

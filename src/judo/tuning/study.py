@@ -227,11 +227,16 @@ def enqueue_defaults(study: Any, space: list[Param], configs: dict[str, Any]) ->
         study.enqueue_trial(defaults, user_attrs={BASELINE_ATTR: True}, skip_if_exists=True)
 
 
+def is_baseline(trial: Any) -> bool:
+    """Whether `trial` is the one `enqueue_defaults` queued."""
+    return bool(trial.user_attrs.get(BASELINE_ATTR))
+
+
 def baseline_trial(study: Any) -> Any | None:
     """The completed trial that ran the defaults, or None (an older study, or it failed)."""
     optuna = import_optuna()
     complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
-    return next((trial for trial in complete if trial.user_attrs.get(BASELINE_ATTR)), None)
+    return next((trial for trial in complete if is_baseline(trial)), None)
 
 
 def is_feasible(trial: Any) -> bool:
