@@ -28,8 +28,7 @@ from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.core.rollout import RolloutPool, check_rollout_backend
 from judo.evaluation.cli import check_names
-from judo.evaluation.episode import make_plant_task
-from judo.evaluation.timing import benchmark_controller, rollout_start, sampled_controls
+from judo.evaluation.timing import benchmark_controller, rollout_start
 from judo.runtime.system import MujocoSystem
 
 
@@ -97,7 +96,7 @@ def time_task(task: str, num_rollouts: int, args: Args, advance) -> Row:  # noqa
 
 
 def time_controller(controller: Controller, task: str, args: Args, advance) -> Row:  # noqa: ANN001
-    start = MujocoSystem(make_plant_task(controller, 0)).read_state()
+    start = MujocoSystem.from_task(controller.task, 0).read_state()
     state, metadata, now = start.state, start.metadata, start.time
     period = 1.0 / controller.config.control_freq
     reward_seconds = [0.0]
@@ -127,7 +126,7 @@ def time_controller(controller: Controller, task: str, args: Args, advance) -> R
         now += period
         advance()
 
-    controls = np.ascontiguousarray(sampled_controls(controller, plan))
+    controls = np.ascontiguousarray(controller.batch_controls)  # (num_rollouts, T, nu), as the updates roll out
     initial, mocap = rollout_start(controller.task.model, state, plan.start_time, metadata)
     pool = RolloutPool(controller.task.model, args.num_workers)
     try:

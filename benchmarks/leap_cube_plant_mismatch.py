@@ -12,7 +12,8 @@ import argparse
 import numpy as np
 
 import judo
-from judo.evaluation.episode import PLANT_STREAM, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import PLANT_STREAM, MujocoSystem
 from judo.tasks.leap_cube import PLANT_MODEL_PATH, LeapCube
 
 
@@ -29,7 +30,7 @@ def main() -> None:
         plant.config = controller.task.config
         plant.rng = np.random.default_rng([seed, PLANT_STREAM])
         plant.reset()
-        result = run_episode(controller, plant, args.duration, seed=seed)
+        result = run_episode(controller, MujocoSystem(plant), args.duration, seed=seed)
         controller.close()
         rows.append(result.metrics)
         print(f"seed {seed}: " + ", ".join(f"{k}={v:.3g}" for k, v in result.metrics.items()), flush=True)

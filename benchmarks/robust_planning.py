@@ -28,7 +28,8 @@ from judo.core.controller import ControllerConfig
 from judo.core.registry import lookup_optimizer, make_config
 from judo.core.risk import RISK_MEASURES
 from judo.core.task import Task
-from judo.evaluation.episode import PLANT_STREAM, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import PLANT_STREAM, MujocoSystem
 from judo.tasks.fr3_pick import FR3Pick
 from judo.tasks.leap_cube import PLANT_MODEL_PATH, LeapCube
 
@@ -37,7 +38,7 @@ HEADLINE = {"leap_cube": ("goals_per_minute", "drops"), "fr3_pick": ("success", 
 
 
 def mismatched_plant(task: str, seed: int, mass_scale: float, friction_scale: float) -> Task:
-    """The plant task for `task`, seeded like `make_plant_task`, reset to its start state."""
+    """The plant task for `task`, seeded like `MujocoSystem.from_task`, reset to its start state."""
     if task == "leap_cube":
         plant: Task = LeapCube(sim_model_path=PLANT_MODEL_PATH)
     else:
@@ -70,7 +71,7 @@ def run_setting(args: argparse.Namespace, optimizer: str, num_models: int, risk:
         plant.config = controller.task.config
         plant.reset()
         try:
-            result = run_episode(controller, plant, args.duration, seed=seed)
+            result = run_episode(controller, MujocoSystem(plant), args.duration, seed=seed)
         finally:
             controller.close()
         rows.append(result.metrics)

@@ -17,7 +17,8 @@ from rich.console import Console
 from rich.table import Table
 
 import judo
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import MujocoSystem
 
 
 @dataclass
@@ -53,7 +54,7 @@ def episode_row(task: str, optimizer: str, duration: float) -> list[str]:
 
     controller.update_action = recording_update  # type: ignore[method-assign]
     try:
-        result = run_episode(controller, make_plant_task(controller, 0), duration)
+        result = run_episode(controller, MujocoSystem.from_task(controller.task, 0), duration)
     finally:
         controller.close()
     after_step, controls = result.log.times, result.log.controls

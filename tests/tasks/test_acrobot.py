@@ -4,7 +4,8 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import MujocoSystem
 from judo.tasks.acrobot import MODEL_PATH, TOP, Acrobot, AcrobotConfig
 
 
@@ -98,7 +99,7 @@ def test_metrics_measure_the_upright_share_of_the_last_three_seconds() -> None:
 @pytest.mark.slow
 def test_cem_swings_the_acrobot_up_and_holds_it() -> None:
     controller = judo.make_controller("acrobot", "cem", seed=0)
-    log = run_episode(controller, make_plant_task(controller, seed=0), duration=8.0).log
+    log = run_episode(controller, MujocoSystem.from_task(controller.task, seed=0), duration=8.0).log
     controller.close()
     distance = np.linalg.norm(log.sensors[:, :3] - TOP, axis=-1)
     last = log.times > log.times[-1] - 1.5

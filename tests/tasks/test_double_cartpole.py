@@ -4,7 +4,8 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import MujocoSystem
 from judo.tasks.double_cartpole import POLE_LENGTH, DoubleCartpole, DoubleCartpoleConfig
 
 
@@ -118,8 +119,8 @@ def test_metrics_flag_a_cart_that_reached_the_end_of_its_travel() -> None:
 @pytest.mark.slow
 def test_predictive_sampling_swings_both_poles_up_without_reaching_the_rail_end() -> None:
     controller = judo.make_controller("double_cartpole", "ps", seed=0)
-    plant = make_plant_task(controller, seed=0)
+    plant = MujocoSystem.from_task(controller.task, seed=0)
     log = run_episode(controller, plant, duration=3.0).log
     controller.close()
-    assert plant.tip_error(log.states, log.sensors).min() < 0.3
-    assert plant.metrics(log)["hit_rail_end"] == 0.0
+    assert plant.task.tip_error(log.states, log.sensors).min() < 0.3
+    assert plant.task.metrics(log)["hit_rail_end"] == 0.0

@@ -6,7 +6,8 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import MujocoSystem
 from judo.tasks.fr3_pick import ARM_JOINTS, DONE, LIFT, MOVE, PLACE, FR3Pick
 
 
@@ -255,19 +256,21 @@ def test_metrics_judge_the_final_distance_to_the_goal() -> None:
 
 def test_warm_start_holds_the_arm_with_the_gripper_open() -> None:
     task = FR3Pick()
-    np.testing.assert_array_equal(task.optimizer_warm_start(), np.append(task.data.qpos[task._arm_qpos], 1.0))
+    task.reset()
+    state = np.concatenate([task.data.qpos, task.data.qvel])
+    np.testing.assert_array_equal(task.optimizer_warm_start(state), np.append(task.data.qpos[task._arm_qpos], 1.0))
 
 
 @pytest.mark.slow
 def test_fr3_pick_cem_grasps_and_lifts_the_cube() -> None:
     ctrl = judo.make_controller("fr3_pick", "cem", seed=1)
-    plant = make_plant_task(ctrl, seed=1)  # seed 1 reaches the cube in about 3.4 s and lifts it by 6 s
+    plant = MujocoSystem.from_task(ctrl.task, seed=1)  # seed 1 reaches the cube in about 3.4 s and lifts it by 6 s
     result = run_episode(ctrl, plant, 8.0, seed=1)
     ctrl.close()
     tcp, obj = (
-        result.log.sensors[:, plant._tcp : plant._tcp + 3],
-        result.log.sensors[:, plant._object : plant._object + 3],
+        result.log.sensors[:, plant.task._tcp : plant.task._tcp + 3],
+        result.log.sensors[:, plant.task._object : plant.task._object + 3],
     )
     gaps = np.linalg.norm(tcp - obj, axis=-1)
     assert gaps.min() < 0.02 < gaps[0]
-    assert result.metrics["phase_reached"] >= MOVE, f"closest approach {gaps.min():.3f} m, phase {plant.max_phase}"
+    assert result.metrics["phase_reached"] >= MOVE, f"closest approach {gaps.min():.3f} m, phase {plant.task.max_phase}"

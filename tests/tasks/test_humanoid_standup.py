@@ -4,7 +4,8 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import MujocoSystem
 from judo.tasks.humanoid_standup import HumanoidStandup, HumanoidStandupConfig
 
 
@@ -81,8 +82,8 @@ def test_metrics_need_the_head_held_up_for_a_second() -> None:
 @pytest.mark.slow
 def test_mppi_gets_the_humanoid_off_the_floor() -> None:
     controller = judo.make_controller("humanoid_standup", "mppi", seed=0)
-    plant = make_plant_task(controller, seed=0)
+    plant = MujocoSystem.from_task(controller.task, seed=0)
     log = run_episode(controller, plant, duration=3.0).log
     controller.close()
-    head = plant.head_height(log.sensors)
+    head = plant.task.head_height(log.sensors)
     assert head[log.times > 2.0].max() > 1.0

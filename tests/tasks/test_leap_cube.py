@@ -6,7 +6,7 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
 from judo.runtime.system import MujocoSystem
 from judo.tasks.leap_cube import (
     HAND_JOINTS,
@@ -170,8 +170,10 @@ def test_metrics_report_goals_per_minute_and_drops() -> None:
 
 def test_warm_start_holds_the_current_joints_palm_up_and_squeezes_palm_down() -> None:
     up, down = LeapCube(), LeapCubeDown()
-    np.testing.assert_array_equal(up.optimizer_warm_start(), up.data.qpos[up._hand_qpos])
-    squeeze = down.optimizer_warm_start() - down.data.qpos[down._hand_qpos]
+    state = np.concatenate([up.data.qpos, up.data.qvel])
+    np.testing.assert_array_equal(up.optimizer_warm_start(state), up.data.qpos[up._hand_qpos])
+    state = np.concatenate([down.data.qpos, down.data.qvel])
+    squeeze = down.optimizer_warm_start(state) - down.data.qpos[down._hand_qpos]
     np.testing.assert_allclose(squeeze, down.model.key_ctrl[0] - down.model.key_qpos[0][down._hand_qpos])
     assert squeeze.max() > 0.05
 
@@ -192,10 +194,10 @@ def test_planner_rollouts_see_the_plants_goal() -> None:
     np.testing.assert_allclose(seen[0][..., goal : goal + 4], np.broadcast_to(plant.data.mocap_quat[0], (32, 50, 4)))
 
 
-def closed_loop_angles(task_name: str, seconds: float, seed: int) -> tuple[LeapCube, np.ndarray]:
-    """Default CEM on `task_name` for `seconds` (no latency); the plant task and its (S,) cube-goal angles."""
+def closed_loop_angles(task_name: str, seconds: float, seed: int) -> tuple[MujocoSystem, np.ndarray]:
+    """Default CEM on `task_name` for `seconds` (no latency); the plant and its (S,) cube-goal angles."""
     ctrl = judo.make_controller(task_name, "cem", seed=seed)
-    plant = make_plant_task(ctrl, seed)
+    plant = MujocoSystem.from_task(ctrl.task, seed)
     result = run_episode(ctrl, plant, seconds, seed=seed)
     ctrl.close()
     cube, goal = ctrl.task.get_sensor_start_index("cube_quat"), ctrl.task.get_sensor_start_index("goal_quat")
@@ -205,12 +207,12 @@ def closed_loop_angles(task_name: str, seconds: float, seed: int) -> tuple[LeapC
 @pytest.mark.slow
 def test_leap_cube_cem_turns_the_cube_towards_its_goal() -> None:
     plant, angles = closed_loop_angles("leap_cube", 4.0, seed=0)
-    assert plant.drops == 0
-    assert plant.goals_reached >= 1 or angles.min() < angles[0] - 0.4, angles[::20]
+    assert plant.task.drops == 0
+    assert plant.task.goals_reached >= 1 or angles.min() < angles[0] - 0.4, angles[::20]
 
 
 @pytest.mark.slow
 def test_leap_cube_down_cem_holds_the_cube_and_turns_it() -> None:
     plant, angles = closed_loop_angles("leap_cube_down", 4.0, seed=0)
-    assert plant.drops == 0
-    assert plant.goals_reached >= 1 or angles.min() < angles[0] - 0.3, angles[::20]
+    assert plant.task.drops == 0
+    assert plant.task.goals_reached >= 1 or angles.min() < angles[0] - 0.3, angles[::20]

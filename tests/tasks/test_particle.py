@@ -3,7 +3,8 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import MujocoSystem
 from judo.tasks.particle import GOAL_SPAN, Particle, ParticleConfig
 
 
@@ -74,7 +75,7 @@ def test_a_reached_goal_moves_on_and_metrics_count_the_moves() -> None:
 
 def test_predictive_sampling_reaches_several_goals() -> None:
     controller = judo.make_controller("particle", "ps", seed=0)
-    plant = make_plant_task(controller, seed=0)
+    plant = MujocoSystem.from_task(controller.task, seed=0)
     log = run_episode(controller, plant, duration=8.0).log
     controller.close()
-    assert plant.metrics(log)["goals_reached"] >= 3
+    assert plant.task.metrics(log)["goals_reached"] >= 3

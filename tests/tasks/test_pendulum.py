@@ -4,7 +4,8 @@ import pytest
 import judo
 from judo.core.norms import wrap_angle
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import MujocoSystem
 from judo.tasks.pendulum import Pendulum, PendulumConfig
 
 
@@ -56,7 +57,7 @@ def test_metrics_measure_the_upright_share_of_the_last_three_seconds() -> None:
 
 def test_predictive_sampling_swings_the_pole_up_and_holds_it() -> None:
     controller = judo.make_controller("pendulum", "ps", seed=0)
-    plant = make_plant_task(controller, seed=0)
+    plant = MujocoSystem.from_task(controller.task, seed=0)
     log = run_episode(controller, plant, duration=7.0).log
     controller.close()
-    assert plant.metrics(log)["upright_fraction"] > 0.5
+    assert plant.task.metrics(log)["upright_fraction"] > 0.5

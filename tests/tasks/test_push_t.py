@@ -4,7 +4,8 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import MujocoSystem
 from judo.tasks.push_t import PushT, PushTConfig, yaw_of
 
 
@@ -70,9 +71,9 @@ def test_metrics_report_final_errors_and_the_placed_share() -> None:
 @pytest.mark.slow
 def test_predictive_sampling_pushes_the_block_onto_the_goal() -> None:
     controller = judo.make_controller("push_t", "ps", seed=0)
-    plant = make_plant_task(controller, seed=0)
+    plant = MujocoSystem.from_task(controller.task, seed=0)
     log = run_episode(controller, plant, duration=5.0).log
     controller.close()
-    metrics = plant.metrics(log)
+    metrics = plant.task.metrics(log)
     assert metrics["final_position_error"] < 0.05
     assert metrics["final_angle_error"] < 0.3

@@ -4,7 +4,8 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import make_plant_task, run_episode
+from judo.evaluation.episode import run_episode
+from judo.runtime.system import MujocoSystem
 from judo.tasks.walker import Walker, WalkerConfig
 
 
@@ -72,9 +73,9 @@ def test_metrics_report_speed_falls_and_head_height() -> None:
 @pytest.mark.slow
 def test_mppi_makes_the_walker_run_forward_without_falling() -> None:
     controller = judo.make_controller("walker", "mppi", seed=0)
-    plant = make_plant_task(controller, seed=0)
+    plant = MujocoSystem.from_task(controller.task, seed=0)
     log = run_episode(controller, plant, duration=4.0).log
     controller.close()
-    metrics = plant.metrics(log)
+    metrics = plant.task.metrics(log)
     assert metrics["mean_forward_speed"] > 0.7
     assert metrics["fallen_fraction"] == 0.0

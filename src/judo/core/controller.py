@@ -1,7 +1,9 @@
 """The sampling-based MPC loop, written once: shift, sample, clamp, interpolate, roll out, score, update."""
 
+import inspect
 import math
 import threading
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -131,6 +133,24 @@ def check_configs(task: Task, controller_config: ControllerConfig, optimizer_con
     )
 
 
+def warm_start_takes_state(task: Task) -> bool:
+    """Whether `task.optimizer_warm_start` takes the plant state. The old no-argument form (it read the
+    task's own `data`, which the controller never steps) still works, with a DeprecationWarning."""
+    try:
+        parameters = inspect.signature(task.optimizer_warm_start).parameters
+    except (TypeError, ValueError):  # a builtin or an odd callable: assume the current form
+        return True
+    if parameters:
+        return True
+    warnings.warn(
+        f"{type(task).__name__}.optimizer_warm_start() without arguments is deprecated: define "
+        "optimizer_warm_start(self, state) and read the (nq + nv,) plant state it is given, not self.data",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    return False
+
+
 class Controller:
     """Plans with `optimizer` on `task` and serves the resulting control spline.
 
@@ -173,6 +193,7 @@ class Controller:
         self._num_state = task.model.nq + task.model.nv
         self.models: list[mujoco.MjModel] = [task.model]
         self._cycles_since_draw = 0
+        self._warm_start_takes_state = warm_start_takes_state(task)
 
     @property
     def num_steps(self) -> int:
@@ -288,7 +309,7 @@ class Controller:
         opt, task, cfg = self.optimizer, self.task, self.config
         knot_times = time + self._knot_offsets
         if self._plan is None:
-            nominal = np.tile(task.optimizer_warm_start(), (opt.num_nodes, 1)).astype(float)
+            nominal = np.tile(self._warm_start(state), (opt.num_nodes, 1)).astype(float)
             old_times = knot_times
         else:
             nominal = self._plan(knot_times)
@@ -353,15 +374,44 @@ class Controller:
         self.optimizer.restart()
         raise NonFiniteKnotsError(f"{what}; restarted its search and kept the previous plan")
 
-    def action(self, time: float) -> np.ndarray:
+    def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
         """(nu,) control of the current plan at sim `time` (held constant past its ends), always
-        within the actuators' ctrlrange: exactly what the rollouts of the plan applied at that time."""
+        within the actuators' ctrlrange: exactly what the rollouts of the plan applied at that time.
+        Before the first plan: the task's warm start from the (nq + nv,) `state` (see `warm_start_action`)."""
         if not math.isfinite(time):
             raise JudoError(f"action time must be a finite number of seconds, got {time}")
         if self._plan is None:
-            return np.clip(self.task.optimizer_warm_start(), self._ctrl_low, self._ctrl_high)
+            return self.warm_start_action(state)
         return self._plan(time)
+
+    def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
+        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped to the ctrlrange: what a
+        plant gets before the first plan. Without a state, the planning model's start state (keyframe 0 or
+        qpos0, at rest) stands in."""
+        return np.clip(self._warm_start(state), self._ctrl_low, self._ctrl_high)
+
+    def _warm_start(self, state: np.ndarray | None) -> np.ndarray:
+        if not self._warm_start_takes_state:
+            return np.asarray(self.task.optimizer_warm_start(), dtype=float)  # type: ignore[call-arg]
+        if state is None:
+            model = self.task.model
+            qpos = model.key_qpos[0] if model.nkey else model.qpos0
+            state = np.concatenate([qpos, np.zeros(model.nv)])
+        return np.asarray(self.task.optimizer_warm_start(state), dtype=float)
+
+    @property
+    def batch_controls(self) -> np.ndarray:
+        """(R * num_rollouts, T, nu) the controls the last optimizer iteration rolled out (block r under model
+        r), clamped as served; zeros before the first update. A view: copy it to keep it."""
+        self._apply_config_changes()
+        return self._batch_controls
 
     def close(self) -> None:
         """Release the rollout backend's threads or device memory."""
         self.backend.close()
+
+    def __enter__(self) -> "Controller":
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

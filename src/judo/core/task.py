@@ -47,8 +47,9 @@ class Task(ABC, Generic[ConfigT]):
         model: the MjModel the controller plans with.
         sim_model: the MjModel of the plant (the same object unless `sim_model_path` differs); it
             must have the same nq, nv, nu and mocap bodies as `model`.
-        data: the plant's MjData (on `sim_model`). The simulator steps it; `reset`, `pre_sim_step`
-            and `post_sim_step` may write to it. The controller never reads it.
+        data: the plant's MjData (on `sim_model`), used only when this instance is the simulated plant
+            (`MujocoSystem`): the simulator steps it; `reset`, `pre_sim_step` and `post_sim_step` may write
+            to it. The controller never reads it: planning hooks get the state they need as arguments.
         config: this task's config, an instance of the class named in `Task[...]`.
         rng: the np.random.Generator for resets and goal sampling; replace it to seed an episode.
     """
@@ -153,8 +154,10 @@ class Task(ABC, Generic[ConfigT]):
         """
         return {}
 
-    def optimizer_warm_start(self) -> np.ndarray:
-        """The (nu,) control that the first plan holds at every knot; zeros by default."""
+    def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
+        """The (nu,) control that the first plan holds at every knot, from the (nq + nv,) plant `state`
+        [qpos, qvel] it starts from; zeros by default. (The old form without `state` still works, with a
+        DeprecationWarning.)"""
         return np.zeros(self.nu)
 
     # Helpers.

@@ -1,31 +1,27 @@
 """Closed-loop episodes: a controller drives a simulated plant, optionally with planning latency.
 
-Every 1/control_freq of sim time the controller plans from the plant's current state. Without
-latency the new plan drives the plant at once. With latency the plant keeps running on the previous
-plan while the new one is computed, and the new plan takes effect `latency` seconds of sim time after
-the state it was planned from, as on a real robot; the controller cannot start its next plan before
-the current one is done. Everything is seeded, so an episode with a fixed (or no) latency is
+An episode is the one closed-loop step (`judo.runtime.closed_loop.ClosedLoop.step`) repeated for
+`duration` seconds of sim time: every 1/control_freq of sim time the controller plans from the plant's
+reading. Without latency the new plan drives the plant at once. With latency the plant keeps running on
+the previous plan while the new one is computed, and the new plan takes effect `latency` seconds of sim
+time after the state it was planned from, as on a real robot; the controller cannot start its next plan
+before the current one is done. Everything is seeded, so an episode with a fixed (or no) latency is
 reproducible bit for bit; "measured" latency uses each update's wall time and so varies from run to run.
 """
 
-import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Literal
 
 import numpy as np
 
 from judo.core.config import require
-from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewardError
-from judo.core.spline import Spline
+from judo.core.controller import Controller
 from judo.core.task import EpisodeLog, Task
-from judo.runtime.system import MujocoSystem, SimulationDiverged
+from judo.runtime.closed_loop import ClosedLoop, Latency, check_latency
+from judo.runtime.records import PlanRecord, Recorder, StepRecord
+from judo.runtime.system import MujocoSystem
 
-Latency = float | Literal["measured"]
-"""Planning latency: seconds of sim time (0 for none), or "measured" for each update's wall time."""
-
-PLANT_STREAM = 0x706C616E74
-"""Second word of the plant's seed sequence, keeping its stream apart from the controller's generators."""
+__all__ = ["EpisodeLogRecorder", "EpisodeResult", "Latency", "run_episode", "step_reward"]
 
 
 @dataclass
@@ -54,109 +50,87 @@ class EpisodeResult:
     divergences: int
 
 
-def make_plant_task(controller: Controller, seed: int) -> Task:
-    """A second instance of the controller's task class to serve as the plant, sharing its config.
+class EpisodeLogRecorder:
+    """Records an episode's plant steps into an EpisodeLog of `num_steps` rows, with each step's reward.
 
-    The class must be constructible with no arguments, as every registered task is.
-
-    Its `rng` is seeded from `seed` (on a stream apart from the controller's) and it is reset, so the
-    plant starts from the task's randomised start state, the same one for the same seed.
+    Attributes:
+        log: times (S,), states (S, nq + nv), controls (S, nu), sensors (S, nsensordata).
+        rewards: (S,) the task's reward of each step alone (see `step_reward`).
+        steps: rows filled so far.
     """
-    plant = type(controller.task)()  # type: ignore[call-arg]  (registered tasks take no arguments)
-    plant.config = controller.task.config
-    plant.rng = np.random.default_rng([seed, PLANT_STREAM])
-    plant.reset()
-    return plant
+
+    def __init__(self, task: Task, sim_model_sizes: tuple[int, int, int, int], num_steps: int) -> None:
+        nq, nv, nu, nsensordata = sim_model_sizes
+        self.task = task
+        self.log = EpisodeLog(
+            times=np.zeros(num_steps),
+            states=np.zeros((num_steps, nq + nv)),
+            controls=np.zeros((num_steps, nu)),
+            sensors=np.zeros((num_steps, nsensordata)),
+        )
+        self.rewards = np.zeros(num_steps)
+        self.steps = 0
+
+    def on_plan(self, record: PlanRecord) -> None:
+        """Plans are not part of the log."""
+
+    def on_step(self, record: StepRecord) -> None:
+        """Fill the next row with the step's reading, action and reward."""
+        row, log = self.steps, self.log
+        log.times[row] = record.time
+        log.states[row] = record.state
+        log.controls[row] = record.action
+        log.sensors[row] = record.sensors
+        self.rewards[row] = step_reward(self.task, log, row, record.metadata)
+        self.steps += 1
 
 
 def run_episode(
     controller: Controller,
-    plant_task: Task,
+    system: MujocoSystem,
     duration: float,
     latency: Latency = 0.0,
     seed: int = 0,
     on_update: Callable[[float], None] | None = None,
+    recorders: Iterable[Recorder] = (),
 ) -> EpisodeResult:
-    """Drive `plant_task`'s simulation with `controller` for `duration` seconds of sim time.
+    """Drive the simulated plant `system` with `controller` for `duration` seconds of sim time.
 
     Args:
         controller: plans on its own task instance; seed it (make_controller(..., seed=...)) for a
             reproducible episode. Its plan is reset first.
-        plant_task: the plant, e.g. from `make_plant_task`, already reset to its start state.
+        system: the plant, from `MujocoSystem.from_task(controller.task, seed)`, at its start state.
         duration: seconds of sim time; the episode is round(duration / plant timestep) steps.
         latency: seconds of sim time between a plan's state and its taking effect, or "measured".
         seed: recorded in the result.
         on_update: called after each control update with the plant time, e.g. to advance a progress bar.
+        recorders: more recorders of every plan and step (e.g. a dataset writer), after the episode log.
     """
     require(0 < duration < np.inf, f"duration must be positive and finite, got {duration}")
-    if latency != "measured":
-        require(0 <= latency < np.inf, f"latency must be at least 0 s and finite, got {latency}")
-    system = MujocoSystem(plant_task)
-    controller.reset()
+    check_latency(latency)
     num_steps = max(1, round(duration / system.timestep))
-    period = 1.0 / controller.config.control_freq
-    tolerance = 1e-9
-    sim_model = plant_task.sim_model
-    log = EpisodeLog(
-        times=np.zeros(num_steps),
-        states=np.zeros((num_steps, sim_model.nq + sim_model.nv)),
-        controls=np.zeros((num_steps, sim_model.nu)),
-        sensors=np.zeros((num_steps, sim_model.nsensordata)),
-    )
-    rewards = np.zeros(num_steps)
-    warm_start_action = controller.action(0.0)  # what the plant holds until the first plan takes effect
-    active_plan: Spline | None = None
-    pending: list[tuple[float, Spline]] = []  # (time it takes effect, plan), in order
-    next_plan_time = plant_task.data.time
-    update_ms: list[float] = []
-    latency_s: list[float] = []
-    failed_updates = divergences = 0
-
-    reading = system.read_state()
-    for step in range(num_steps):
-        now = reading.time
-        if now >= next_plan_time - tolerance:
-            started = time.perf_counter()
-            try:
-                plan = controller.update_action(reading.state, now, reading.metadata)
-            except (NonFiniteRewardError, NonFiniteKnotsError):  # the previous plan stays in force
-                plan = None
-                failed_updates += 1
-            wall = time.perf_counter() - started
-            delay = wall if latency == "measured" else float(latency)
-            update_ms.append(1e3 * wall)
-            latency_s.append(delay)
-            if plan is not None:
-                pending.append((now + delay, plan))
-            # The next tick of the control clock, or at once when this update overran it.
-            next_plan_time = max(next_plan_time + period, now + delay)
-            if on_update is not None:
-                on_update(now)
-        while pending and pending[0][0] <= now + tolerance:
-            active_plan = pending.pop(0)[1]
-        action = warm_start_action if active_plan is None else active_plan(now)
-        system.apply(action)
-        try:
-            system.step()
-        except SimulationDiverged:
-            divergences += 1
-        reading = system.read_state()
-        log.times[step] = reading.time
-        log.states[step] = reading.state
-        log.controls[step] = action
-        log.sensors[step] = plant_task.data.sensordata
-        rewards[step] = step_reward(controller.task, log, step, reading.metadata)
-
-    metrics = {**plant_task.metrics(log), "mean_reward": float(rewards.mean())}
+    model = system.task.sim_model
+    episode_log = EpisodeLogRecorder(controller.task, (model.nq, model.nv, model.nu, model.nsensordata), num_steps)
+    loop = ClosedLoop(controller, system, latency=latency, recorders=[episode_log, *recorders])
+    loop.restart()
+    updates = 0
+    for _ in range(num_steps):
+        now = loop.reading.time if loop.reading is not None else 0.0
+        loop.step()
+        if on_update is not None and len(loop.update_ms) > updates:
+            updates = len(loop.update_ms)
+            on_update(now)
+    log, rewards = episode_log.log, episode_log.rewards
+    metrics = {**system.task.metrics(log), "mean_reward": float(rewards.mean())}
     return EpisodeResult(
         seed=seed,
         log=log,
         rewards=rewards,
         metrics=metrics,
-        update_ms=np.array(update_ms),
-        latency_s=np.array(latency_s),
-        failed_updates=failed_updates,
-        divergences=divergences,
+        update_ms=np.array(loop.update_ms),
+        latency_s=np.array(loop.latency_s),
+        failed_updates=loop.failed_updates,
+        divergences=loop.divergences,
     )
 
 

@@ -26,7 +26,8 @@ from judo.evaluation.cli import (
     progress_console,
     write_json,
 )
-from judo.evaluation.episode import EpisodeResult, Latency, make_plant_task, run_episode
+from judo.evaluation.episode import EpisodeResult, Latency, run_episode
+from judo.runtime.system import MujocoSystem
 from judo.evaluation.plot import check_plot_path, write_episode_plot
 from judo.evaluation.stats import Summary, summarize
 
@@ -140,24 +141,21 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
     bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
     results = []
     for seed in range(args.seeds):
-        controller = make_controller(
+
+        def show(now: float, seed: int = seed) -> None:
+            if progress is not None and bar is not None:
+                progress.update(bar, completed=seed * args.duration + now, description=f"seed {seed}")
+
+        with make_controller(
             args.task,
             args.optimizer,
             controller_config=controller_config(args.task, args.controller),
             num_workers=args.num_workers,
             seed=seed,
             backend=args.backend,
-        )
-
-        def show(now: float, seed: int = seed) -> None:
-            if progress is not None and bar is not None:
-                progress.update(bar, completed=seed * args.duration + now, description=f"seed {seed}")
-
-        try:
-            plant = make_plant_task(controller, seed)
+        ) as controller:
+            plant = MujocoSystem.from_task(controller.task, seed)
             results.append(run_episode(controller, plant, args.duration, args.episode_latency(), seed, show))
-        finally:
-            controller.close()
     return results
 
 

@@ -20,9 +20,8 @@ from judo.core.config import require, with_updates
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.model import STATE_SPEC
 from judo.core.registry import lookup_optimizer, make_config, make_controller
-from judo.core.spline import Spline
-from judo.evaluation.episode import make_plant_task
-from judo.runtime.system import MujocoSystem
+from judo.runtime.closed_loop import ClosedLoop
+from judo.runtime.system import MujocoSystem, SystemState
 
 
 @dataclass
@@ -134,18 +133,6 @@ def rollout_start(
     return initial, np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
 
 
-def sampled_controls(controller: Controller, plan: Spline) -> np.ndarray:
-    """(R * num_rollouts, T, nu) controls as an update after `plan` would roll out: knots sampled by the
-    optimizer around the plan's knots, clamped to the actuator limits, interpolated at every step and
-    clamped again (as `Controller.update_action` does), repeated once per model the controller rolls
-    out under (R = len(controller.models))."""
-    knots = controller.optimizer.sample_control_knots(plan.knots)
-    low, high = controller.task.actuator_ctrlrange.T
-    np.clip(knots, low, high, out=knots)
-    weights = plan.basis.weights(np.arange(controller.num_steps) * controller.task.dt)  # (T, num_nodes)
-    return np.concatenate([np.clip(np.matmul(weights, knots), low, high)] * len(controller.models))
-
-
 def time_control_update(
     controller: Controller,
     samples: int,
@@ -160,33 +147,38 @@ def time_control_update(
     `clock` reads seconds: wall time by default; `time.thread_time` measures the calling thread's CPU time,
     which a loaded machine disturbs far less (all the work runs on the calling thread with one worker).
 
-    Every update plans from the task's start state for `seed` (its randomised reset), one control
-    period later than the one before, so the plan shifts as in a running loop. The raw rollouts start
-    from the same state and roll out a batch sampled as an update samples it, on `controller.backend`.
+    Every update is the closed loop's `plan` from the task's start state for `seed` (its randomised
+    reset), one control period later than the one before, so the plan shifts as in a running loop. The
+    raw rollouts start from the same state and roll out the batch the last warm-up update rolled out
+    (`controller.batch_controls`), on `controller.backend`.
 
     Returns:
         update_ms (samples,) and raw_rollout_ms (samples,), wall times in milliseconds.
     """
     require(samples >= 1, f"samples must be at least 1, got {samples}")
     require(warmup >= 0, f"warmup must be at least 0, got {warmup}")
-    start = MujocoSystem(make_plant_task(controller, seed)).read_state()
-    state, metadata, plan_time = start.state, start.metadata, start.time
+    loop = ClosedLoop(controller, MujocoSystem.from_task(controller.task, seed))
+    start = loop.restart()
     period = 1.0 / controller.config.control_freq
-    controller.reset()
-    for _ in range(warmup + 1):  # at least one update, so the plan and the batch size exist
-        plan = controller.update_action(state, plan_time, metadata)
+    plan_time = start.time
+
+    def update() -> None:  # one control update from the start state, one control period after the last
+        nonlocal plan_time
+        loop.plan(SystemState(start.state, plan_time, start.metadata))
         plan_time += period
-    controls = sampled_controls(controller, plan)
-    initial, mocap = rollout_start(controller.task.model, state, plan.start_time, metadata)
+
+    for _ in range(warmup + 1):  # at least one update, so the plan and the batch exist
+        update()
+    controls = controller.batch_controls.copy()  # (R * num_rollouts, T, nu), as the updates roll out
+    initial, mocap = rollout_start(controller.task.model, start.state, plan_time, start.metadata)
     for _ in range(warmup):
         controller.backend.rollout(initial, controls, mocap)
 
     update_ms, raw_ms = np.zeros(samples), np.zeros(samples)
     for i in range(samples):
         started = clock()
-        controller.update_action(state, plan_time, metadata)
+        update()
         update_ms[i] = 1e3 * (clock() - started)
-        plan_time += period
         started = clock()
         controller.backend.rollout(initial, controls, mocap)
         raw_ms[i] = 1e3 * (clock() - started)
@@ -211,7 +203,7 @@ def time_pair(
 ) -> UpdateTiming:
     """Build a controller for the pair on `backend` (default settings except the sizes and controller fields
     given), time it, close it."""
-    controller = benchmark_controller(
+    with benchmark_controller(
         task_name,
         optimizer_name,
         num_rollouts=num_rollouts,
@@ -220,11 +212,8 @@ def time_pair(
         num_workers=num_workers,
         backend=backend,
         controller_updates=controller_updates,
-    )
-    try:
+    ) as controller:
         update_ms, raw_ms = time_control_update(controller, samples, warmup, on_sample=on_sample)
-    finally:
-        controller.close()
     return UpdateTiming(
         task=task_name,
         optimizer=optimizer_name,

@@ -21,6 +21,9 @@ DIVERGENCE_WARNINGS = (
 )
 """MuJoCo warnings that mean the simulation blew up (it resets the data itself on bad qpos/qvel)."""
 
+PLANT_STREAM = 0x706C616E74
+"""Second word of a simulated plant's seed sequence, keeping its stream apart from the controller's generators."""
+
 
 class SimulationDiverged(JudoError):
     """The plant's state became non-finite or MuJoCo flagged bad positions, velocities or accelerations; the plant was reset."""
@@ -62,13 +65,40 @@ class System(ABC):
     def step(self) -> None:
         """Advance the plant by `timestep` under the last applied action."""
 
+    def plant_sensors(self) -> np.ndarray:
+        """(nsensordata,) every sensor value of the plant, for logs and datasets; empty by default (a robot
+        has no simulator sensors to give)."""
+        return np.zeros(0)
+
 
 class MujocoSystem(System):
-    """Simulates `task.sim_model` in `task.data`, calling the task's sim hooks around each step."""
+    """Simulates `task.sim_model` in `task.data`, calling the task's sim hooks around each step.
+
+    The plant is the System's: the task instance it steps is its own, never the controller's.
+    `MujocoSystem.from_task` builds the simulated plant for the app, evaluate, tune and the benchmarks.
+    """
 
     def __init__(self, task: Task) -> None:
         self.task = task
         self.timestep = float(task.sim_model.opt.timestep)
+
+    @classmethod
+    def from_task(cls, task: Task, seed: int | None = None) -> "MujocoSystem":
+        """The simulated plant of `task`: a new instance of its class sharing its config, reset to its start.
+
+        The one seeding rule of every simulated plant: the plant's `rng` is seeded with
+        [seed, PLANT_STREAM] (a stream apart from the controller's), so the same seed gives the same
+        randomised start state; `seed` None draws a fresh one. The class must be constructible with no
+        arguments, as every registered task is.
+        """
+        plant: Task = type(task)()  # type: ignore[call-arg]  (registered tasks take no arguments)
+        plant.config = task.config
+        plant.rng = np.random.default_rng(None if seed is None else [seed, PLANT_STREAM])
+        plant.reset()
+        return cls(plant)
+
+    def plant_sensors(self) -> np.ndarray:
+        return self.task.data.sensordata.copy()
 
     def reset(self) -> None:
         self.task.reset()

@@ -238,6 +238,6 @@ class FR3Pick(Task[FR3PickConfig]):
             "time_to_place": placed,
         }
 
-    def optimizer_warm_start(self) -> np.ndarray:
-        """(8,) the arm's current joint angles in `self.data` as targets, with the gripper open."""
-        return np.append(self.data.qpos[self._arm_qpos], 1.0)
+    def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
+        """(8,) the arm's joint angles in the (nq + nv,) plant `state` as targets, with the gripper open."""
+        return np.append(state[self._arm_qpos], 1.0)

@@ -165,10 +165,10 @@ class LeapCube(Task[LeapCubeConfig]):
             "drops": float(self.drops),
         }
 
-    def optimizer_warm_start(self) -> np.ndarray:
-        """(16,) the hand's current joint angles in `self.data` as position targets, plus the grip of the
-        "home" keyframe (its ctrl minus its qpos: zero palm up, a squeeze palm down)."""
-        return self.data.qpos[self._hand_qpos] + self._grip_offset
+    def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
+        """(16,) the hand's joint angles in the (nq + nv,) plant `state` as position targets, plus the grip
+        of the "home" keyframe (its ctrl minus its qpos: zero palm up, a squeeze palm down)."""
+        return state[self._hand_qpos] + self._grip_offset
 
 
 @slider("w_cube_velocity", 0.0, 50.0, 0.1)

@@ -1,6 +1,6 @@
 """One trial: the task x optimizer with the trial's settings, over seeded closed-loop episodes.
 
-The episodes are evaluate's (`judo.evaluation.episode.run_episode` from `make_plant_task`), one per
+The episodes are evaluate's (`judo.evaluation.episode.run_episode` on `MujocoSystem.from_task`), one per
 seed, with the same latency options. `run_trial` is what each Ray task runs; it never raises: an
 exception, a non-finite metric, a diverged simulation or an update with no finite reward makes the
 outcome failed, with the reason.
@@ -16,7 +16,8 @@ import numpy as np
 
 from judo.core.errors import JudoError
 from judo.core.registry import make_controller
-from judo.evaluation.episode import EpisodeResult, Latency, make_plant_task, run_episode
+from judo.evaluation.episode import EpisodeResult, Latency, run_episode
+from judo.runtime.system import MujocoSystem
 
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many trials)."""
@@ -88,20 +89,17 @@ def run_seeded_episodes(spec: TrialSpec, values: dict[str, Any], seeds: range) -
     configs = apply_values(default_configs(spec.task, spec.optimizer), {**spec.fixed, **values})
     results = []
     for seed in seeds:
-        controller = make_controller(
+        with make_controller(
             spec.task,
             spec.optimizer,
             controller_config=configs["controller"],  # type: ignore[arg-type]
             optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
             num_workers=spec.num_workers,
             seed=seed,
-        )
-        try:
+        ) as controller:
             controller.task.config = configs["task"]
-            plant = make_plant_task(controller, seed)
+            plant = MujocoSystem.from_task(controller.task, seed)
             results.append(run_episode(controller, plant, spec.duration, spec.latency, seed))
-        finally:
-            controller.close()
     return results
 
 

@@ -1,0 +1,201 @@
+"""The one closed-loop step: read the plant, plan (with the latency model), serve the plan, step the plant.
+
+Everything that drives a plant with a controller calls this module, and nothing else writes the loop:
+- the app's two coroutines (`judo.runtime.loops`): the controller coroutine calls `plan` on its worker
+  thread at `control_freq` of wall time, and the system coroutine calls `advance` at real-time pace;
+- `evaluate`'s episodes (`judo.evaluation.episode.run_episode`), and through them `tune`'s trials, call
+  `step`, which plans on the control clock in sim time and then advances;
+- the benchmark's timing (`judo.evaluation.timing`) calls `plan` for each timed update.
+
+    reading = system.read_state()  --[estimator]-->  plan(reading)  --latency-->  serve(t)  --[watchdog]-->
+    system.apply(action); system.step()  -->  read back  --[recorders: on_plan, on_step]
+
+Where the next features plug in, each once, here:
+- an estimator between the reading and the plan: `read` turns the System's reading into the state planned from;
+- a watchdog on the served action: `serve` decides what the plant gets at time t (today: the plan in force);
+- recorders of every step and plan: the `recorders` given to the loop (`judo.runtime.records.Recorder`).
+
+The latency model: a plan computed from the reading at time t is served from plant time t + delay, where the
+delay is a fixed number of seconds of sim time or "measured" (the update's wall time). Until then the plant
+keeps the plan in force before it (or the task's warm start before the first plan). The app uses delay 0: a
+plan is served from the first step after it is done, which in real time is its real latency.
+"""
+
+import math
+import threading
+import time
+from collections.abc import Iterable
+from typing import Literal
+
+import numpy as np
+
+from judo.core.config import require
+from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewardError
+from judo.core.spline import Spline
+from judo.runtime.records import PlanRecord, Recorder, StepRecord
+from judo.runtime.system import SimulationDiverged, System, SystemState
+
+Latency = float | Literal["measured"]
+"""Planning latency: seconds of sim time (0 for none), or "measured" for each update's wall time."""
+
+TIME_TOLERANCE = 1e-9
+"""Seconds within which two plant times count as the same (a plan due at t is served at t)."""
+
+
+def check_latency(latency: Latency) -> None:
+    """Raise ConfigError unless `latency` is "measured" or a finite number of seconds, at least 0."""
+    if latency != "measured":
+        require(0 <= latency < math.inf, f"latency must be at least 0 s and finite, got {latency}")
+
+
+class ClosedLoop:
+    """A controller driving a plant: read, plan, serve, step.
+
+    Args:
+        controller: plans on its own task instance; it never reads the plant's data.
+        system: the plant (a simulator, rehearsed sensing or hardware).
+        latency: seconds of sim time between a plan's reading and its being served, or "measured".
+        recorders: objects with `on_plan(PlanRecord)` and `on_step(StepRecord)`, called in order.
+
+    Attributes:
+        reading: the latest reading of the plant (None until the first `read`).
+        update_ms: wall times of every control update, in milliseconds (failed ones too).
+        latency_s: the delay after which each update's plan took effect, in seconds.
+        failed_updates: updates whose rollouts all scored NaN or -inf, or whose knots were non-finite
+            (the plan before them stayed in force).
+        divergences: times the plant's simulation blew up and was reset.
+        next_plan_time: plant time of the next control update of `step`'s control clock.
+
+    `plan` may run on another thread than `serve` and `advance` (the app's worker thread): the hand-over
+    of a new plan is locked.
+    """
+
+    def __init__(
+        self,
+        controller: Controller,
+        system: System,
+        *,
+        latency: Latency = 0.0,
+        recorders: Iterable[Recorder] = (),
+    ) -> None:
+        check_latency(latency)
+        self.controller, self.system, self.latency = controller, system, latency
+        self.recorders = list(recorders)
+        self.reading: SystemState | None = None
+        self.update_ms: list[float] = []
+        self.latency_s: list[float] = []
+        self.failed_updates = self.divergences = 0
+        self.next_plan_time = -math.inf
+        self.last_delay = 0.0
+        self._lock = threading.Lock()
+        self._active: Spline | None = None
+        self._pending: list[tuple[float, Spline]] = []  # (plant time it takes effect, plan), in order
+        self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
+
+    def forget_plans(self) -> None:
+        """Forget every plan, the controller's too: the plant gets the warm start until the next plan."""
+        self.controller.reset()
+        with self._lock:
+            self._active, self._pending, self._hold = None, [], None
+
+    def restart(self) -> SystemState:
+        """Forget every plan and read the plant; the control clock starts at the reading's time."""
+        self.forget_plans()
+        reading = self.read()
+        self.next_plan_time = reading.time
+        return reading
+
+    def read(self) -> SystemState:
+        """Read the plant: the reading the next plan starts from, kept as `reading`."""
+        self.reading = self.system.read_state()
+        return self.reading
+
+    def plan(self, reading: SystemState, cancel: threading.Event | None = None) -> Spline | None:
+        """One control update from `reading`, scheduled to be served after the latency model's delay.
+
+        Returns the new plan, or None when the update failed on non-finite rewards or knots (counted in
+        `failed_updates`; the plan before stays in force). Other errors (a reward that raises, an invalid
+        config, a set `cancel`) propagate, with nothing scheduled.
+        """
+        started = time.perf_counter()
+        try:
+            plan = self.controller.update_action(reading.state, reading.time, reading.metadata, cancel)
+        except (NonFiniteRewardError, NonFiniteKnotsError):
+            plan = None
+            self.failed_updates += 1
+        wall = time.perf_counter() - started
+        delay = wall if self.latency == "measured" else float(self.latency)
+        self.update_ms.append(1e3 * wall)
+        self.latency_s.append(delay)
+        self.last_delay = delay
+        if plan is None:
+            return None
+        with self._lock:
+            self._pending.append((reading.time + delay, plan))
+        rewards = self.controller.rewards
+        finite = rewards[np.isfinite(rewards)]
+        record = PlanRecord(
+            time=reading.time,
+            takes_effect=reading.time + delay,
+            knots=plan.knots,
+            update_ms=1e3 * wall,
+            best_reward=float(finite.max()) if len(finite) else math.nan,
+            mean_reward=float(finite.mean()) if len(finite) else math.nan,
+        )
+        for recorder in self.recorders:
+            recorder.on_plan(record)
+        return plan
+
+    def serve(self, now: float) -> np.ndarray:
+        """(nu,) the control the plant gets at plant time `now`: the latest plan whose time has come, or the
+        task's warm start (from the latest reading) before the first one."""
+        with self._lock:
+            while self._pending and self._pending[0][0] <= now + TIME_TOLERANCE:
+                self._active = self._pending.pop(0)[1]
+            active = self._active
+            if active is None and self._hold is None:  # held from the first reading after a restart
+                self._hold = self.controller.warm_start_action(None if self.reading is None else self.reading.state)
+            hold = self._hold
+        return hold if active is None else active(now)
+
+    def advance(self) -> StepRecord:
+        """Serve the plan at the plant's time, step the plant once, read it back and record the step.
+
+        A diverged simulation (the plant reset itself) is counted in `divergences` and re-raised after the
+        step is read back and recorded; any other error of the System propagates at once.
+        """
+        reading = self.reading if self.reading is not None else self.read()
+        action = self.serve(reading.time)
+        self.system.apply(action)
+        diverged: SimulationDiverged | None = None
+        try:
+            self.system.step()
+        except SimulationDiverged as err:
+            self.divergences += 1
+            diverged = err
+        reading = self.read()
+        record = StepRecord(reading.time, reading.state, self.system.plant_sensors(), action, reading.metadata)
+        for recorder in self.recorders:
+            recorder.on_step(record)
+        if diverged is not None:
+            raise diverged
+        return record
+
+    def step(self) -> StepRecord | None:
+        """Plan when the control clock is due (in sim time), then advance the plant one step.
+
+        The control clock ticks every 1 / control_freq s of plant time; an update that overran its tick
+        (a delay longer than the period) moves the next one to when its plan takes effect, since the
+        controller cannot start a plan before the current one is done. Returns the step's record, or None
+        when the simulation diverged (counted in `divergences`; the plant reset itself).
+        """
+        reading = self.reading if self.reading is not None else self.restart()
+        now = reading.time
+        if now >= self.next_plan_time - TIME_TOLERANCE:
+            self.plan(reading)
+            period = 1.0 / self.controller.config.control_freq
+            self.next_plan_time = max(self.next_plan_time + period, now + self.last_delay)
+        try:
+            return self.advance()
+        except SimulationDiverged:
+            return None

@@ -1,0 +1,62 @@
+"""What the closed loop reports to its recorders: one record per plant step and one per control update.
+
+A recorder is any object with `on_plan` and `on_step`; the closed loop (`judo.runtime.closed_loop`) calls
+every recorder it was given, so evaluate's episode log, a dataset writer and the GUI's recording all see
+the same thing.
+"""
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+
+@dataclass
+class StepRecord:
+    """One plant step.
+
+    Attributes:
+        time: plant time after the step, in seconds.
+        state: (nq + nv,) [qpos, qvel] read after the step; None for a robot that measures only sensors.
+        sensors: (nsensordata,) the plant's sensor values after the step (empty when the plant has none to give).
+        action: (nu,) the control served during the step.
+        metadata: the reading's metadata, e.g. "mocap_pos" (nmocap, 3).
+    """
+
+    time: float
+    state: np.ndarray | None
+    sensors: np.ndarray
+    action: np.ndarray
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class PlanRecord:
+    """One control update.
+
+    Attributes:
+        time: time of the reading planned from, in seconds.
+        takes_effect: plant time from which the new plan is served (time + the latency model's delay).
+        knots: (num_nodes, nu) the new plan's knots.
+        update_ms: wall time of the update in milliseconds.
+        best_reward, mean_reward: the best and the mean finite reward of the update's last iteration.
+    """
+
+    time: float
+    takes_effect: float
+    knots: np.ndarray
+    update_ms: float
+    best_reward: float
+    mean_reward: float
+
+
+class Recorder(Protocol):
+    """Receives every control update and every plant step of a closed loop, in order."""
+
+    def on_plan(self, record: PlanRecord) -> None:
+        """Called after each successful control update."""
+        ...
+
+    def on_step(self, record: StepRecord) -> None:
+        """Called after each plant step."""
+        ...
