@@ -27,9 +27,9 @@ from judo.evaluation.cli import (
     write_json,
 )
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
-from judo.runtime.system import MujocoSystem
 from judo.evaluation.plot import check_plot_path, write_episode_plot
 from judo.evaluation.stats import Summary, summarize
+from judo.runtime.system import MujocoSystem
 
 DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
