@@ -214,7 +214,7 @@ def test_a_user_system_is_driven_in_place_of_the_simulator(wait_until):
     app.start()
     try:
         wait_until(lambda: app.stats.num_plans() >= 3, what="three plans")
-        assert app.session.plant_task is None and app.session.system is clock
+        assert app.session.simulated is None and app.session.system is clock
         assert clock.steps > 0 and len(clock.actions) == clock.steps
         assert all(action.shape == (1,) for action in clock.actions)
         app.reset_task()

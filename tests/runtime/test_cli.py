@@ -11,8 +11,8 @@ import pytest
 
 import judo.__main__
 from judo import get_registered_optimizers, get_registered_tasks
+from judo.core.registry import default_configs
 from judo.runtime import cli
-from judo.runtime.session import default_configs
 
 SRC = str(Path(judo.__main__.__file__).parents[1])
 CONFIG_FILE = Path(__file__).resolve().parents[2] / "examples" / "04_config_file" / "judo.toml"

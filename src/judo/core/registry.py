@@ -1,6 +1,6 @@
 """Name -> class registries for tasks and optimizers, per-task config overrides, and make_controller."""
 
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
@@ -9,6 +9,10 @@ from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.task import Task, TaskConfig
+
+ConfigKind = Literal["controller", "optimizer", "task"]
+"""The three configs of a running pair: the controller's, the optimizer's and the task's."""
+CONFIG_KINDS: tuple[ConfigKind, ...] = ("controller", "optimizer", "task")
 
 _TASKS: dict[str, tuple[type[Task], type[TaskConfig]]] = {}
 _OPTIMIZERS: dict[str, tuple[type[Optimizer], type[OptimizerConfig]]] = {}
@@ -77,6 +81,16 @@ def make_config(config_cls: type[Config], task_name: str) -> Config:
     for cls in reversed(config_cls.__mro__):
         updates.update(_OVERRIDES.get((task_name, cls), {}))
     return with_updates(config_cls(), updates)
+
+
+def default_configs(task_name: str, optimizer_name: str) -> dict[ConfigKind, Config]:
+    """The controller, optimizer and task configs of the pair with the task's registered overrides, by kind.
+    Raises UnknownNameError for an unregistered name."""
+    return {
+        "controller": make_config(ControllerConfig, task_name),
+        "optimizer": make_config(lookup_optimizer(optimizer_name)[1], task_name),
+        "task": make_config(lookup_task(task_name)[1], task_name),
+    }
 
 
 def make_controller(

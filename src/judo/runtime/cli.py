@@ -28,10 +28,9 @@ import tyro.constructors
 from judo.core.config import Config, with_updates
 from judo.core.config_file import load_config
 from judo.core.errors import JudoError
-from judo.core.registry import get_registered_optimizers, get_registered_tasks
+from judo.core.registry import default_configs, get_registered_optimizers, get_registered_tasks
 from judo.core.rollout import RolloutBackendName
 from judo.runtime.app import App
-from judo.runtime.session import default_configs
 
 PROG = "python -m judo"
 CONFIG_GROUPS = {"controller": "controller", "optimizer": "optimizer_config", "task": "task_config"}

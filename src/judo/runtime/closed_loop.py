@@ -31,6 +31,7 @@ import numpy as np
 
 from judo.core.config import require
 from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewardError
+from judo.core.errors import JudoError
 from judo.core.spline import Spline
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
 from judo.runtime.system import SimulationDiverged, System, SystemState
@@ -62,7 +63,7 @@ class ClosedLoop:
         update_ms: wall times of every control update, in milliseconds (failed ones too).
         latency_s: the delay after which each update's plan took effect, in seconds.
         failed_updates: updates whose rollouts all scored NaN or -inf, or whose knots were non-finite
-            (the plan before them stayed in force).
+            (the plan before them stayed in force); `last_failure` is the latest one's error.
         divergences: times the plant's simulation blew up and was reset.
         next_plan_time: plant time of the next control update of `step`'s control clock.
 
@@ -87,6 +88,7 @@ class ClosedLoop:
         self.failed_updates = self.divergences = 0
         self.next_plan_time = -math.inf
         self.last_delay = 0.0
+        self.last_failure: JudoError | None = None  # why the latest failed update failed
         self._lock = threading.Lock()
         self._active: Spline | None = None
         self._pending: list[tuple[float, Spline]] = []  # (plant time it takes effect, plan), in order
@@ -120,9 +122,10 @@ class ClosedLoop:
         started = time.perf_counter()
         try:
             plan = self.controller.update_action(reading.state, reading.time, reading.metadata, cancel)
-        except (NonFiniteRewardError, NonFiniteKnotsError):
+        except (NonFiniteRewardError, NonFiniteKnotsError) as err:
             plan = None
             self.failed_updates += 1
+            self.last_failure = err
         wall = time.perf_counter() - started
         delay = wall if self.latency == "measured" else float(self.latency)
         self.update_ms.append(1e3 * wall)

@@ -13,14 +13,13 @@ from dataclasses import dataclass, fields
 from typing import Any, Literal
 
 from judo.core.config import Config, coerce_field_value, field_types
-from judo.core.controller import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import slider_ranges
-from judo.core.registry import lookup_optimizer, lookup_task, make_config
+from judo.core.registry import CONFIG_KINDS, ConfigKind, default_configs
 from judo.core.spline import MIN_KNOTS
 
-Kind = Literal["controller", "optimizer", "task"]
-KINDS: tuple[Kind, ...] = ("controller", "optimizer", "task")
+Kind = ConfigKind
+KINDS = CONFIG_KINDS
 DEFAULT_CONTROLLER_PARAMS = ("horizon",)
 """Controller fields searched by default, besides the optimizer's numeric fields (num_nodes among them)."""
 LOG_SCALE_RATIO = 100.0
@@ -56,15 +55,6 @@ class Param:
     def name(self) -> str:
         """`kind.field`, as on the command line and in Optuna."""
         return f"{self.kind}.{self.field}"
-
-
-def default_configs(task_name: str, optimizer_name: str) -> dict[Kind, Config]:
-    """The controller, optimizer and task configs of the pair with the task's registered overrides."""
-    return {
-        "controller": make_config(ControllerConfig, task_name),
-        "optimizer": make_config(lookup_optimizer(optimizer_name)[1], task_name),
-        "task": make_config(lookup_task(task_name)[1], task_name),
-    }
 
 
 def numeric_fields(config_cls: type) -> list[str]:

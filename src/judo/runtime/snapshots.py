@@ -1,0 +1,36 @@
+"""What the app's loops publish in the StateBuffer for the GUI and scripts: plant readings and plans."""
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from judo.runtime.system import SystemState
+
+
+@dataclass(frozen=True)
+class SystemSnapshot:
+    """What the system loop publishes under "system": the plant reading of one session."""
+
+    generation: int
+    reading: SystemState
+
+
+@dataclass(frozen=True)
+class PlanSnapshot:
+    """What the controller loop publishes under "plan" after each planning cycle.
+
+    Attributes:
+        generation: the session that planned.
+        time: sim time of the state planned from.
+        nominal_knots: (num_nodes, nu) knots of the new plan.
+        rewards: (num_rollouts,) rewards of the last iteration (index 0 is the nominal).
+        traces: (1 + num_shown, T, num_trace_sensors, 3) trace-sensor positions, nominal first.
+        plan_time: wall-clock seconds the cycle took.
+    """
+
+    generation: int
+    time: float
+    nominal_knots: np.ndarray
+    rewards: np.ndarray
+    traces: np.ndarray
+    plan_time: float
