@@ -22,6 +22,7 @@ from judo.core.registry import (
     lookup_task,
     make_config,
 )
+from judo.runtime.closed_loop import Latency
 
 ArgsT = TypeVar("ArgsT")
 
@@ -138,3 +139,16 @@ def controller_config(task: str, overrides: Any) -> ControllerConfig:
     """The task's ControllerConfig (its registered defaults) with the given `--controller.*` fields applied;
     ConfigError for a value the config refuses."""
     return with_updates(make_config(ControllerConfig, task), given_fields(overrides))  # type: ignore[return-value]
+
+
+def episode_latency(latency: str, latency_ms: float | None) -> Latency:
+    """The latency `run_episode` takes for `--latency none|measured` and `--latency-ms MS`: seconds of sim
+    time, or "measured"."""
+    if latency_ms is not None:
+        return latency_ms / 1e3
+    return "measured" if latency == "measured" else 0.0
+
+
+def latency_label(latency: str, latency_ms: float | None) -> str:
+    """How those flags' latency reads in titles and JSON: "none", "measured" or "25 ms"."""
+    return f"{latency_ms:g} ms" if latency_ms is not None else latency

@@ -18,8 +18,10 @@ from judo.evaluation.cli import (
     apply_config_file,
     check_names,
     controller_config,
+    episode_latency,
     fail,
     given_fields,
+    latency_label,
     name_listing,
     output_console,
     parse_args,
@@ -93,15 +95,11 @@ class EvaluateArgs:
 
     def episode_latency(self) -> Latency:
         """The latency `run_episode` takes: seconds, or "measured"."""
-        if self.latency_ms is not None:
-            return self.latency_ms / 1e3
-        return "measured" if self.latency == "measured" else 0.0
+        return episode_latency(self.latency, self.latency_ms)
 
     def latency_label(self) -> str:
         """How the latency reads in titles and JSON."""
-        if self.latency_ms is not None:
-            return f"{self.latency_ms:g} ms"
-        return self.latency
+        return latency_label(self.latency, self.latency_ms)
 
 
 def summarize_metrics(results: list[EpisodeResult]) -> dict[str, Summary]:

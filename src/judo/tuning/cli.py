@@ -17,7 +17,15 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from judo.core.config import require
 from judo.core.errors import JudoError
 from judo.core.registry import lookup_task
-from judo.evaluation.cli import apply_config_file, check_names, fail, name_listing, output_console, progress_console
+from judo.evaluation.cli import (
+    apply_config_file,
+    check_names,
+    episode_latency,
+    fail,
+    name_listing,
+    output_console,
+    progress_console,
+)
 from judo.evaluation.episode import Latency
 from judo.evaluation.plot import write_episode_plot
 from judo.tuning.best_file import write_best_toml
@@ -108,9 +116,7 @@ class TuneArgs:
 
     def episode_latency(self) -> Latency:
         """The latency `run_episode` takes: seconds, or "measured"."""
-        if self.latency_ms is not None:
-            return self.latency_ms / 1e3
-        return "measured" if self.latency == "measured" else 0.0
+        return episode_latency(self.latency, self.latency_ms)
 
     def out_dir(self) -> Path:
         """--out, or tune-TASK-OPTIMIZER."""
