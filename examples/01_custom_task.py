@@ -73,22 +73,13 @@ def main(duration: float = 3.0) -> float:
     """Run `duration` seconds of closed loop; return the final distance to the goal (m)."""
     judo.register_task("reach", Reach, ReachConfig)
     judo.set_config_overrides("reach", judo.OptimizerConfig, {"num_rollouts": 16})
-    controller = judo.make_controller("reach", "mppi", seed=0)
-    plant = Reach()
-    plant.config = controller.task.config
-    plant.rng = np.random.default_rng(0)
-    system = MujocoSystem(plant)
-    system.reset()
-    next_plan = 0.0
-    while system.read_state().time < duration:
-        reading = system.read_state()
-        if reading.time >= next_plan:
-            controller.update_action(reading.state, reading.time, reading.metadata)
-            next_plan += 1.0 / controller.config.control_freq
-        system.apply(controller.action(reading.time))
-        system.step()
-    controller.close()
-    distance = float(np.linalg.norm(plant.data.qpos[:2] - plant.config.goal))
+    with judo.make_controller("reach", "mppi", seed=0) as controller:
+        plant = MujocoSystem.from_task(controller.task, seed=0)  # a second Reach instance is the plant
+        loop = judo.ClosedLoop(controller, plant)  # read, plan, serve, step: the loop the app runs
+        loop.restart()
+        while loop.reading.time < duration:
+            loop.step()
+    distance = float(np.linalg.norm(plant.task.data.qpos[:2] - plant.task.config.goal))
     print(f"distance to goal after {duration:.0f} s: {distance:.3f} m")
     return distance
 

@@ -4,6 +4,9 @@ import judo
 controller = judo.make_controller("cartpole", "mppi")
 controller.update_action(state, time)   # state: (nq + nv,)
 u = controller.action(time)             # (nu,)
+
+loop = judo.ClosedLoop(controller, judo.MujocoSystem.from_task(controller.task, seed=0))
+loop.step()                             # plan when due, serve, step the plant once
 """
 
 import judo.optimizers  # noqa: E402,F401  (registers the built-in optimizers)
@@ -29,11 +32,15 @@ from judo.core.rollout import RandomizedRolloutError
 from judo.core.spline import Spline, SplineBasis
 from judo.core.task import Task, TaskConfig
 from judo.runtime.app import App
+from judo.runtime.closed_loop import ClosedLoop
+from judo.runtime.records import PlanRecord, Recorder, StepRecord
+from judo.runtime.system import MujocoSystem, System, SystemState
 
 __version__ = "0.1.0"
 
 __all__ = [
     "App",
+    "ClosedLoop",
     "Config",
     "ConfigError",
     "ConfigFileError",
@@ -43,13 +50,19 @@ __all__ = [
     "JudoError",
     "LoadedConfig",
     "ModelLoadError",
+    "MujocoSystem",
     "NonFiniteKnotsError",
     "NonFiniteRewardError",
     "Optimizer",
     "OptimizerConfig",
+    "PlanRecord",
     "RandomizedRolloutError",
+    "Recorder",
     "Spline",
     "SplineBasis",
+    "StepRecord",
+    "System",
+    "SystemState",
     "Task",
     "TaskConfig",
     "UnknownNameError",
