@@ -149,3 +149,88 @@ def test_the_public_loop_runs_a_registered_task():
             loop.step()
     assert loop.reading is not None and loop.reading.time == pytest.approx(10 * controller.task.dt)
     assert loop.failed_updates == 0 and len(loop.update_ms) >= 1
+
+
+def faulty_hold_task(hold_task_cls, fault_after: float, fault: str):
+    """The hold task whose reward misbehaves once the rollouts start after `fault_after` s of plant time."""
+
+    class Faulty(hold_task_cls):
+        clock = staticmethod(lambda: 0.0)  # the test points it at the loop's clock
+
+        def reward(self, states, sensors, controls, config, system_metadata=None):
+            if self.clock() >= fault_after:
+                if fault == "nan":
+                    return np.full(len(states), np.nan)
+                raise RuntimeError("the reward's model server is down")
+            return super().reward(states, sensors, controls, config, system_metadata)
+
+    return Faulty
+
+
+@pytest.mark.parametrize("fault", ["nan", "raise"])
+def test_the_watchdog_serves_the_safe_action_once_the_plan_is_too_old_and_resumes(hold_task_cls, fault):
+    """A reward that fails from t = 0.5 s: within max_plan_age + one period the plant gets safe_action (hold
+    the block where it is); when the reward works again, plans are served again."""
+    events = []
+    task_cls = faulty_hold_task(hold_task_cls, 0.5, fault)
+    optimizer = PredictiveSampling(PredictiveSamplingConfig(num_rollouts=8, num_nodes=2, sigma=0.3), nu=1)
+    config = ControllerConfig(horizon=0.1, control_freq=20.0, max_plan_age=0.2)
+    with Controller(config, task_cls(), optimizer, num_workers=1) as controller:
+        loop = ClosedLoop(controller, MujocoSystem.from_task(controller.task, seed=0), on_watchdog=events.append)
+        controller.task.clock = lambda: loop.stepped_time
+        loop.restart()
+        served = []
+        for _ in range(150):
+            try:
+                record = loop.step()
+            except RuntimeError:  # the raising reward: the loop's caller (the app, evaluate) reports it
+                record = loop.advance()
+            served.append((record.time, record.action[0], record.state[0]))
+            if record.time >= 1.2:
+                controller.task.clock = lambda: -1.0  # the fault clears
+    times, actions, positions = np.array(served).T
+    tripped = np.flatnonzero([a == pytest.approx(p, abs=0.02) and t > 0.5 for t, a, p in served])
+    # the last good plan was from t <= 0.5; the watchdog trips within 0.2 + 0.05 s after it
+    assert loop.watchdog.trips == 1 and events[0] is not None and events[-1] is None
+    assert "plan in force is" in events[0]
+    first_safe = times[tripped[0]]
+    assert 0.5 < first_safe <= 0.5 + 0.2 + 0.05 + 0.011
+    assert loop.watchdog.tripped is None  # serving plans again at the end
+
+
+def test_a_frozen_reading_trips_the_watchdog_and_a_reading_running_backwards_is_refused(hold_task_cls):
+    from judo.runtime.watchdog import ReadingTimeError
+
+    events = []
+    with hold_controller(hold_task_cls) as controller:
+        plant = MujocoSystem.from_task(controller.task, seed=0)
+        loop = ClosedLoop(controller, plant, on_watchdog=events.append)
+        controller.config.max_plan_age = 0.2
+        loop.restart()
+        for _ in range(20):
+            loop.step()
+        frozen = plant.read_state()
+        plant.read_state = lambda: frozen  # the sensor stream freezes: the same reading forever
+        for _ in range(40):
+            loop.step()
+        assert events and "has not advanced" in events[0]
+        safe = loop.safe_action()
+        assert loop.serve(loop.reading.time) == pytest.approx(safe)
+        assert safe == pytest.approx(frozen.state[:1])  # hold the position actuator where the block was
+        plant.read_state = lambda: judo.SystemState(frozen.state, frozen.time - 1.0)
+        with pytest.raises(ReadingTimeError, match="went backwards"):
+            loop.read()
+
+
+def test_max_plan_age_zero_turns_the_watchdog_off_and_halt_applies_the_safe_action(hold_task_cls):
+    with hold_controller(hold_task_cls) as controller:
+        plant = MujocoSystem.from_task(controller.task, seed=0)
+        controller.config.max_plan_age = 0.0
+        loop = ClosedLoop(controller, plant)
+        reading = loop.restart()
+        loop.plan(reading)
+        loop.stepped_time += 100.0  # a very old plan
+        assert loop.watchdog.verdict(loop.clock(), 0.0, 0.0, 20.0) is None
+        assert loop.serve(reading.time) == pytest.approx(controller.action(reading.time))
+        loop.halt()
+        assert plant.task.data.ctrl[0] == pytest.approx(reading.state[0])

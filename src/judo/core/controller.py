@@ -60,6 +60,7 @@ config may ask for:
 @slider("cvar_alpha", 0.05, 1.0, 0.05)
 @slider("risk_scale", 0.1, 100.0, 0.1)
 @slider("redraw_every", 0, 100, 1)
+@slider("max_plan_age", 0.0, 5.0, 0.05, log=False)
 @dataclass
 class ControllerConfig(Config):
     """Settings of the planning loop, shared by every task and optimizer."""
@@ -87,6 +88,10 @@ class ControllerConfig(Config):
     redraw_every: int = 0
     """Planning cycles between redraws of the randomized models; 0 draws them once (again only when
     num_randomizations changes)."""
+    max_plan_age: float = 0.5
+    """Watchdog, in seconds: once the plan in force is older than this beyond one control period (planning
+    stalled, failed, or the readings' time stopped advancing), the plant gets the task's safe_action
+    instead; 0 turns the watchdog off."""
 
     def validate(self) -> None:
         super().validate()
@@ -101,6 +106,7 @@ class ControllerConfig(Config):
             f"risk_scale must be a finite nonzero number (> 0 risk-averse, < 0 risk-seeking), got {self.risk_scale}",
         )
         require(self.redraw_every >= 0, f"redraw_every must be at least 0 (0: draw once), got {self.redraw_every}")
+        require_between("max_plan_age", self.max_plan_age, 0, MAX_HORIZON, " s (0: no watchdog)")
 
 
 def rollout_steps(horizon: float, dt: float) -> int:

@@ -160,6 +160,28 @@ class Task(ABC, Generic[ConfigT]):
         DeprecationWarning.)"""
         return np.zeros(self.nu)
 
+    def safe_action(self, state: np.ndarray) -> np.ndarray:
+        """The (nu,) control that brings the plant to rest from the (nq + nv,) `state`: what the watchdog
+        serves when the plan in force is too old, and what `System.halt` applies by default.
+
+        The default sets motor, force and velocity actuators to 0 and holds position actuators at their
+        joint's current position (never a jump to 0), clamped to the ctrlrange. Override it for anything
+        else (a gripper that must keep its grip, a drone that must hover).
+        """
+        action = np.zeros(self.nu)
+        model = self.model
+        for i in range(self.nu):
+            joint = int(model.actuator_trnid[i, 0])
+            joint_types = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
+            is_joint = int(model.actuator_trntype[i]) in joint_types
+            affine = int(model.actuator_biastype[i]) == int(mujoco.mjtBias.mjBIAS_AFFINE)
+            position_servo = affine and model.actuator_biasprm[i, 1] != 0  # bias -kp * q: holds a target q
+            if is_joint and position_servo and joint >= 0:
+                gear = float(model.actuator_gear[i, 0]) or 1.0
+                action[i] = state[model.jnt_qposadr[joint]] / gear
+        low, high = self.actuator_ctrlrange.T
+        return np.clip(action, low, high)
+
     # Helpers.
     @property
     def nu(self) -> int:

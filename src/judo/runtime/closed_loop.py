@@ -12,7 +12,8 @@ Everything that drives a plant with a controller calls this module, and nothing 
 
 Where the next features plug in, each once, here:
 - an estimator between the reading and the plan: `read` turns the System's reading into the state planned from;
-- a watchdog on the served action: `serve` decides what the plant gets at time t (today: the plan in force);
+- the watchdog on the served action (`judo.runtime.watchdog`): `serve` gives the plant the task's
+  `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one control period;
 - recorders of every step and plan: the `recorders` given to the loop (`judo.runtime.records.Recorder`).
 
 The latency model: a plan computed from the reading at time t is served from plant time t + delay, where the
@@ -24,7 +25,7 @@ plan is served from the first step after it is done, which in real time is its r
 import math
 import threading
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Literal
 
 import numpy as np
@@ -35,6 +36,7 @@ from judo.core.errors import JudoError
 from judo.core.spline import Spline
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
 from judo.runtime.system import SimulationDiverged, System, SystemState
+from judo.runtime.watchdog import Watchdog
 
 Latency = float | Literal["measured"]
 """Planning latency: seconds of sim time (0 for none), or "measured" for each update's wall time."""
@@ -57,6 +59,10 @@ class ClosedLoop:
         system: the plant (a simulator, rehearsed sensing or hardware).
         latency: seconds of sim time between a plan's reading and its being served, or "measured".
         recorders: objects with `on_plan(PlanRecord)` and `on_step(StepRecord)`, called in order.
+        clock: the watchdog's clock in seconds; None counts the plant time the loop has stepped (evaluate,
+            tune), the app passes the wall clock.
+        on_watchdog: called with the reason when the watchdog starts serving the safe action, and with None
+            when a fresh plan is served again (once per episode of trouble).
 
     Attributes:
         reading: the latest reading of the plant (None until the first `read`).
@@ -78,10 +84,18 @@ class ClosedLoop:
         *,
         latency: Latency = 0.0,
         recorders: Iterable[Recorder] = (),
+        clock: Callable[[], float] | None = None,
+        on_watchdog: Callable[[str | None], None] | None = None,
     ) -> None:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
         self.recorders = list(recorders)
+        self.stepped_time = 0.0  # plant time this loop has stepped, the watchdog's clock when none is given
+        self.clock = clock if clock is not None else (lambda: self.stepped_time)
+        self.on_watchdog = on_watchdog
+        self.watchdog = Watchdog()
+        self._plan_stamp = 0.0  # watchdog clock of the freshest reading behind the plan in force
+        self._safe_state: np.ndarray | None = None  # (nq + nv,) the latest finite reading, for safe_action
         self.reading: SystemState | None = None
         self.update_ms: list[float] = []
         self.latency_s: list[float] = []
@@ -91,26 +105,38 @@ class ClosedLoop:
         self.last_failure: JudoError | None = None  # why the latest failed update failed
         self._lock = threading.Lock()
         self._active: Spline | None = None
-        self._pending: list[tuple[float, Spline]] = []  # (plant time it takes effect, plan), in order
+        self._pending: list[tuple[float, Spline, float]] = []  # (plant time it takes effect, plan, stamp), in order
         self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
 
     def forget_plans(self) -> None:
         """Forget every plan, the controller's too: the plant gets the warm start until the next plan."""
         self.controller.reset()
+        now = self.clock()
         with self._lock:
             self._active, self._pending, self._hold = None, [], None
+            self._plan_stamp = now  # the warm start counts as a plan from now
 
     def restart(self) -> SystemState:
-        """Forget every plan and read the plant; the control clock starts at the reading's time."""
+        """Forget every plan and read the plant; the control clock starts at the reading's time. Call it
+        after the plant was reset, whose time may start again."""
         self.forget_plans()
+        self.watchdog.restart(self.clock())
         reading = self.read()
         self.next_plan_time = reading.time
         return reading
 
     def read(self) -> SystemState:
-        """Read the plant: the reading the next plan starts from, kept as `reading`."""
-        self.reading = self.system.read_state()
-        return self.reading
+        """Read the plant: the reading the next plan starts from, kept as `reading`.
+
+        Raises ReadingTimeError, keeping the reading before, if its time went backwards."""
+        reading = self.system.read_state()
+        self.watchdog.note_reading(reading, self.clock())
+        self.reading = reading
+        state = reading.state
+        if state is not None and np.shape(state) == (self.controller.task.model.nq + self.controller.task.model.nv,):
+            if np.isfinite(state).all():
+                self._safe_state = np.array(state, dtype=float)
+        return reading
 
     def plan(self, reading: SystemState, cancel: threading.Event | None = None) -> Spline | None:
         """One control update from `reading`, scheduled to be served after the latency model's delay.
@@ -119,6 +145,7 @@ class ClosedLoop:
         `failed_updates`; the plan before stays in force). Other errors (a reward that raises, an invalid
         config, a set `cancel`) propagate, with nothing scheduled.
         """
+        stamp = self.watchdog.fresh_at
         started = time.perf_counter()
         try:
             plan = self.controller.update_action(reading.state, reading.time, reading.metadata, cancel)
@@ -134,7 +161,7 @@ class ClosedLoop:
         if plan is None:
             return None
         with self._lock:
-            self._pending.append((reading.time + delay, plan))
+            self._pending.append((reading.time + delay, plan, stamp))
         rewards = self.controller.rewards
         finite = rewards[np.isfinite(rewards)]
         record = PlanRecord(
@@ -151,15 +178,41 @@ class ClosedLoop:
 
     def serve(self, now: float) -> np.ndarray:
         """(nu,) the control the plant gets at plant time `now`: the latest plan whose time has come, or the
-        task's warm start (from the latest reading) before the first one."""
+        task's warm start (from the latest reading) before the first one; the task's `safe_action` instead
+        while the watchdog finds that plan too old."""
         with self._lock:
             while self._pending and self._pending[0][0] <= now + TIME_TOLERANCE:
-                self._active = self._pending.pop(0)[1]
-            active = self._active
+                _, self._active, self._plan_stamp = self._pending.pop(0)
+            active, stamp = self._active, self._plan_stamp
             if active is None and self._hold is None:  # held from the first reading after a restart
                 self._hold = self.controller.warm_start_action(None if self.reading is None else self.reading.state)
             hold = self._hold
+        config = self.controller.config
+        was_tripped = self.watchdog.tripped
+        reason = self.watchdog.verdict(self.clock(), stamp, config.max_plan_age, config.control_freq)
+        if reason is not None:
+            if was_tripped is None and self.on_watchdog is not None:
+                self.on_watchdog(reason)
+            return self.safe_action()
+        if was_tripped is not None and self.on_watchdog is not None:
+            self.on_watchdog(None)
         return hold if active is None else active(now)
+
+    def safe_action(self) -> np.ndarray:
+        """(nu,) the task's `safe_action` from the latest finite reading (the planning model's start state
+        before any), clamped to the ctrlrange."""
+        task = self.controller.task
+        state = self._safe_state
+        if state is None:
+            model = task.model
+            state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])
+        low, high = task.actuator_ctrlrange.T
+        return np.clip(np.asarray(task.safe_action(state), dtype=float), low, high)
+
+    def halt(self) -> None:
+        """Bring the plant to rest: the System's own `halt()` where it offers one, else apply the safe action."""
+        if not self.system.halt():
+            self.system.apply(self.safe_action())
 
     def advance(self) -> StepRecord:
         """Serve the plan at the plant's time, step the plant once, read it back and record the step.
@@ -171,6 +224,7 @@ class ClosedLoop:
         action = self.serve(reading.time)
         self.system.apply(action)
         diverged: SimulationDiverged | None = None
+        self.stepped_time += self.system.timestep
         try:
             self.system.step()
         except SimulationDiverged as err:

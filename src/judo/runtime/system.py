@@ -65,6 +65,12 @@ class System(ABC):
     def step(self) -> None:
         """Advance the plant by `timestep` under the last applied action."""
 
+    def halt(self) -> bool:
+        """Bring the robot to rest now, e.g. engage brakes or switch the drives to a hold mode; called on a
+        pause, a stop and a watchdog trip, possibly from another thread than `step`. Return True if done;
+        the default returns False, and the app then applies the task's `safe_action` instead."""
+        return False
+
     def plant_sensors(self) -> np.ndarray:
         """(nsensordata,) every sensor value of the plant, for logs and datasets; empty by default (a robot
         has no simulator sensors to give)."""
