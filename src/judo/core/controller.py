@@ -3,11 +3,13 @@
 import math
 import threading
 from dataclasses import dataclass
+from types import TracebackType
 from typing import Any
 
 import mujoco
 import numpy as np
 
+from judo.core.backend import RolloutBackend, make_rollout_backend
 from judo.core.config import Config, require, require_between, snapshot
 from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import slider
@@ -15,7 +17,6 @@ from judo.core.model import STATE_SPEC, trace_sensor_columns
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.randomize import randomized_models
 from judo.core.risk import RiskMeasure, reduce_rewards
-from judo.core.rollout import make_rollout_backend
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis, SplineOrder
 from judo.core.task import Task
 
@@ -136,8 +137,9 @@ class Controller:
 
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
-        backend: the RolloutBackend every rollout runs on ("cpu": `RolloutPool`, a thread pool; "warp":
-            `WarpRollout`, MuJoCo Warp on a GPU).
+        backend: the RolloutBackend every rollout runs on, built from the constructor's `backend` name
+            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU).
+        backend_name: that name (read-only).
         nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update.
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf); with
             num_randomizations R > 1, each sequence's R rewards reduced by the config's risk measure.
@@ -159,7 +161,8 @@ class Controller:
         self.config = controller_config
         self.task = task
         self.optimizer = optimizer
-        self.backend = make_rollout_backend(backend, task.model, num_workers)
+        self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
+        self._backend_name = backend
         self.nominal_knots: np.ndarray | None = None
         self.rewards = np.zeros(0)
         self.traces = np.zeros((0, 0, 0, 3))
@@ -362,6 +365,20 @@ class Controller:
             return np.clip(self.task.optimizer_warm_start(), self._ctrl_low, self._ctrl_high)
         return self._plan(time)
 
+    @property
+    def backend_name(self) -> str:
+        """The name the rollout backend was built from, one of ROLLOUT_BACKENDS ("cpu", "warp")."""
+        return self._backend_name
+
     def close(self) -> None:
         """Release the rollout backend's threads or device memory."""
         self.backend.close()
+
+    def __enter__(self) -> "Controller":
+        """`with judo.make_controller(...) as controller:` closes the controller on the way out."""
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, error: BaseException | None, traceback: TracebackType | None
+    ) -> None:
+        self.close()
