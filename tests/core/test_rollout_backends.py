@@ -10,7 +10,14 @@ import mujoco
 import pytest
 
 import judo
-from judo.core.backend import ROLLOUT_BACKENDS, check_rollout_backend, make_rollout_backend
+from judo.core.backend import (
+    BACKEND_CLASSES,
+    ROLLOUT_BACKENDS,
+    RolloutBackend,
+    backend_class,
+    check_rollout_backend,
+    make_rollout_backend,
+)
 from judo.core.errors import MissingExtraError, UnknownNameError
 from judo.core.rollout import RolloutPool
 from judo.evaluation import benchmark, evaluate
@@ -47,6 +54,8 @@ def test_backend_names_are_checked_and_listed(tiny_model_path):
     model = mujoco.MjModel.from_xml_path(str(tiny_model_path))
     with make_rollout_backend("cpu", model, 1) as pool:
         assert type(pool) is RolloutPool and pool.num_workers == 1
+    assert set(BACKEND_CLASSES) == set(ROLLOUT_BACKENDS) and backend_class("cpu") is RolloutPool
+    assert issubclass(backend_class("cpu"), RolloutBackend)
 
 
 def test_without_the_extra_the_warp_backend_names_it(without_warp, tiny_model_path):
