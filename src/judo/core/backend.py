@@ -14,7 +14,6 @@ back a module that imports it.
 import abc
 import importlib
 from collections.abc import Sequence
-from types import TracebackType
 from typing import Literal, TypeVar, get_args
 
 import mujoco
@@ -84,9 +83,7 @@ class RolloutBackend(abc.ABC):
     def __enter__(self: BackendT) -> BackendT:
         return self
 
-    def __exit__(
-        self, kind: type[BaseException] | None, error: BaseException | None, traceback: TracebackType | None
-    ) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         self.close()
 
 

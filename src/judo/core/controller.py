@@ -3,7 +3,6 @@
 import math
 import threading
 from dataclasses import dataclass
-from types import TracebackType
 from typing import Any
 
 import mujoco
@@ -378,7 +377,5 @@ class Controller:
         """`with judo.make_controller(...) as controller:` closes the controller on the way out."""
         return self
 
-    def __exit__(
-        self, kind: type[BaseException] | None, error: BaseException | None, traceback: TracebackType | None
-    ) -> None:
+    def __exit__(self, *exc_info: object) -> None:
         self.close()
