@@ -87,8 +87,8 @@ def slider(
 
 
 def field_names(cls: type) -> list[str]:
-    """The fields of config class `cls` and its bases, in definition order: its dataclass fields, or, before
-    `@dataclass` has run on it (a decorator below `@dataclass`), the annotated class attributes."""
+    """The fields of config class `cls` and its bases, in definition order: the annotated class attributes
+    (ClassVars left out), which are its dataclass fields, and are known before `@dataclass` has run too."""
     names: dict[str, None] = {}
     for klass in reversed(cls.__mro__):
         for name, annotation in klass.__dict__.get("__annotations__", {}).items():
