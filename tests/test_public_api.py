@@ -13,3 +13,19 @@ def test_every_public_name_exists_and_is_documented():
     missing = [name for name in judo.__all__ if name not in documented]
     assert not missing, f"add these to docs/api.md: {missing}"
     assert all(hasattr(judo, name) for name in judo.__all__)
+
+
+def test_judo_tasks_exports_every_built_in_task_class_and_its_config():
+    import judo.tasks
+
+    registered = judo.get_registered_tasks()
+    assert len(registered) >= 12 and set(judo.tasks.BUILTIN_TASKS) <= set(registered)
+    for task_cls, config_cls in judo.tasks.BUILTIN_TASKS.values():
+        assert task_cls.__name__ in judo.tasks.__all__ and config_cls.__name__ in judo.tasks.__all__
+        assert getattr(judo.tasks, task_cls.__name__) is task_cls
+        assert getattr(judo.tasks, config_cls.__name__) is config_cls
+    assert len(judo.tasks.BUILTIN_TASKS) == 12
+    assert sorted(judo.tasks.__all__) == sorted(
+        [name for task, config in judo.tasks.BUILTIN_TASKS.values() for name in (task.__name__, config.__name__)]
+        + ["register_task"]
+    )

@@ -11,6 +11,7 @@ loop.step()                             # plan when due, serve, step the plant o
 
 import judo.optimizers  # noqa: E402,F401  (registers the built-in optimizers)
 import judo.tasks  # noqa: E402,F401  (registers the built-in tasks)
+from judo.core.backend import RandomizedRolloutError
 from judo.core.config import Config
 from judo.core.config_file import ConfigFileError, LoadedConfig, load_config
 from judo.core.controller import Controller, ControllerConfig, NonFiniteKnotsError, NonFiniteRewardError
@@ -28,7 +29,6 @@ from judo.core.registry import (
     register_task,
     set_config_overrides,
 )
-from judo.core.rollout import RandomizedRolloutError
 from judo.core.spline import Spline, SplineBasis
 from judo.core.task import Task, TaskConfig
 from judo.runtime.app import App

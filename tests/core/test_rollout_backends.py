@@ -10,8 +10,16 @@ import mujoco
 import pytest
 
 import judo
+from judo.core.backend import (
+    BACKEND_CLASSES,
+    ROLLOUT_BACKENDS,
+    RolloutBackend,
+    backend_class,
+    check_rollout_backend,
+    make_rollout_backend,
+)
 from judo.core.errors import MissingExtraError, UnknownNameError
-from judo.core.rollout import ROLLOUT_BACKENDS, check_rollout_backend, make_rollout_backend
+from judo.core.rollout import RolloutPool
 from judo.evaluation import benchmark, evaluate
 from judo.runtime import cli
 
@@ -30,7 +38,9 @@ def without_warp(monkeypatch):
 
 
 def test_import_judo_imports_no_warp():
-    code = "import sys, judo, judo.core.rollout; print(sorted(m for m in sys.modules if 'warp' in m))"
+    code = (
+        "import sys, judo, judo.core.backend, judo.core.rollout; print(sorted(m for m in sys.modules if 'warp' in m))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
 
@@ -42,7 +52,10 @@ def test_backend_names_are_checked_and_listed(tiny_model_path):
     with pytest.raises(UnknownNameError, match="valid rollout backends are: cpu, warp"):
         judo.make_controller("cartpole", "mppi", backend="cuda")
     model = mujoco.MjModel.from_xml_path(str(tiny_model_path))
-    assert make_rollout_backend("cpu", model, 1).gui_max_rollouts is None  # the config's own slider range
+    with make_rollout_backend("cpu", model, 1) as pool:
+        assert type(pool) is RolloutPool and pool.num_workers == 1
+    assert set(BACKEND_CLASSES) == set(ROLLOUT_BACKENDS) and backend_class("cpu") is RolloutPool
+    assert issubclass(backend_class("cpu"), RolloutBackend)
 
 
 def test_without_the_extra_the_warp_backend_names_it(without_warp, tiny_model_path):

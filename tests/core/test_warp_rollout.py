@@ -107,19 +107,18 @@ def test_tiny_model_with_contacts_and_mocap_matches_the_cpu_pool_and_repeats_its
 
 def test_overflowing_contact_and_constraint_buffers_grow_instead_of_dropping_contacts():
     model = mujoco.MjModel.from_xml_string(BALLS_XML)
-    backend = WarpRollout(model, nconmax=1, njmax=2)  # two ball contacts need 2 contacts and 8 rows per world
     initial = start_state(model)
     controls = np.zeros((N, T, model.nu))
-    with pytest.warns(RolloutOverflowWarning) as caught:
-        states, _ = backend.rollout(initial, controls)
-    messages = [str(w.message) for w in caught]
-    assert messages[0].startswith("MuJoCo Warp rollouts overflowed (NEFC, BROADPHASE) in 4 of 4 worlds")
-    assert "contacts per world 1 -> 2, constraint rows 2 -> 4; rolled out again" in messages[0]
-    assert backend.nconmax >= 2 and backend.njmax >= 8
-    pool = RolloutPool(model, num_workers=1)
-    np.testing.assert_allclose(states, pool.rollout(initial, controls)[0], atol=ATOL, rtol=0)
-    pool.close()
-    backend.close()
+    # two ball contacts need 2 contacts and 8 rows per world
+    with WarpRollout(model, nconmax=1, njmax=2) as backend, RolloutPool(model, num_workers=1) as pool:
+        with pytest.warns(RolloutOverflowWarning) as caught:
+            states, _ = backend.rollout(initial, controls)
+        messages = [str(w.message) for w in caught]
+        assert messages[0].startswith("MuJoCo Warp rollouts overflowed (NEFC, BROADPHASE) in 4 of 4 worlds")
+        assert "contacts per world 1 -> 2, constraint rows 2 -> 4; rolled out again" in messages[0]
+        assert backend.nconmax >= 2 and backend.njmax >= 8
+        np.testing.assert_allclose(states, pool.rollout(initial, controls)[0], atol=ATOL, rtol=0)
+    assert not hasattr(backend, "_data") and not hasattr(backend, "_host_states")  # the with freed the buffers
 
 
 def test_a_feature_mujoco_warp_lacks_is_named_with_the_cpu_backend_suggested():
@@ -175,9 +174,8 @@ def test_the_controller_improves_cartpole_on_warp_and_a_seeded_run_repeats_itsel
     first = best_rewards(cartpole_warp)
     assert first[-1] > first[0] + 10.0  # same start state: later plans roll out better (cpu: -660 -> -616)
     assert all(b2 >= b1 - 1e-9 for b1, b2 in zip(first, first[1:], strict=False))  # ps keeps its best
-    again = cartpole_on_warp()
-    try:
+    assert cartpole_warp.backend_name == "warp" and isinstance(cartpole_warp.backend, WarpRollout)
+    with cartpole_on_warp() as again:
         assert best_rewards(again) == first
         np.testing.assert_array_equal(again.nominal_knots, cartpole_warp.nominal_knots)
-    finally:
-        again.close()
+    assert not hasattr(again.backend, "_data")  # leaving the with closed the controller's backend

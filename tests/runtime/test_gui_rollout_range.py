@@ -3,11 +3,13 @@
 import pytest
 import viser
 
+from judo.core.backend import ROLLOUT_BACKENDS
 from judo.core.controller import ControllerConfig
 from judo.core.fields import SliderRange
 from judo.optimizers import MPPIConfig
 from judo.runtime.app import App
 from judo.runtime.gui.config_panel import ConfigPanel
+from judo.runtime.gui.gui import MAX_ROLLOUTS_BY_BACKEND
 
 
 def test_a_panel_range_replaces_the_config_classes_slider_range():
@@ -31,6 +33,11 @@ def test_a_panel_range_replaces_the_config_classes_slider_range():
         server.stop()
 
 
+def test_the_gui_widens_the_rollouts_slider_by_backend_name_only_for_warp():
+    assert MAX_ROLLOUTS_BY_BACKEND == {"warp": 8192}  # "cpu" keeps the optimizer config's own range
+    assert set(MAX_ROLLOUTS_BY_BACKEND) <= set(ROLLOUT_BACKENDS)  # keyed by names the factory knows
+
+
 @pytest.mark.warp
 def test_the_rollouts_slider_reaches_8192_on_the_warp_backend(port, wait_until):
     pytest.importorskip("warp")
@@ -42,6 +49,6 @@ def test_the_rollouts_slider_reaches_8192_on_the_warp_backend(port, wait_until):
         wait_until(lambda: app.gui.shown_generation == app.session.generation, timeout=60, what="the GUI to build")
         slider = app.gui.panels["optimizer"].handles("num_rollouts")[0]
         assert (slider.min, slider.max) == (1, 8192)
-        assert app.session.controller.backend.gui_max_rollouts == 8192
+        assert app.session.controller.backend_name == "warp"
     finally:
         app.stop()

@@ -4,6 +4,7 @@ Both helpers only attach metadata, so a config stays a plain dataclass that tyro
 use directly.
 """
 
+import difflib
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, fields
 from typing import Any, TypeVar
@@ -56,9 +57,10 @@ def slider(
 ) -> Callable[[T], T]:
     """Class decorator that gives the numeric field `field_name` a slider from `min` to `max`.
 
-    Stack it above `@dataclass`, once per field. `log` puts a float field's slider on a log scale
-    (None: when the range spans two or more decades, see `SliderRange`). Raises ConfigError for an
-    inverted range.
+    Stack it above `@dataclass`, once per field (below it works too). `log` puts a float field's slider
+    on a log scale (None: when the range spans two or more decades, see `SliderRange`). Raises ConfigError
+    for an inverted range, and, when the class is defined, for a `field_name` that is not one of its
+    fields (a typo would otherwise give no slider and no error), listing the fields.
     """
     from judo.core.errors import ConfigError
 
@@ -68,12 +70,31 @@ def slider(
         raise ConfigError(f"slider for {field_name!r}: step must be positive, got {step}")
 
     def decorate(cls: T) -> T:
+        names = field_names(cls)  # type: ignore[arg-type]
+        if field_name not in names:
+            close = difflib.get_close_matches(field_name, names, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise ConfigError(
+                f"@slider({field_name!r}, ...) on {cls.__name__}: {cls.__name__} has no field {field_name!r}{hint}; "  # type: ignore[attr-defined]
+                f"expected one of its fields: {', '.join(names) or '(none)'}"
+            )
         inherited = dict(getattr(cls, SLIDER_ATTR, {}))
         inherited[field_name] = SliderRange(float(min), float(max), None if step is None else float(step), log)
         setattr(cls, SLIDER_ATTR, inherited)
         return cls
 
     return decorate
+
+
+def field_names(cls: type) -> list[str]:
+    """The fields of config class `cls` and its bases, in definition order: the annotated class attributes
+    (ClassVars left out), which are its dataclass fields, and are known before `@dataclass` has run too."""
+    names: dict[str, None] = {}
+    for klass in reversed(cls.__mro__):
+        for name, annotation in klass.__dict__.get("__annotations__", {}).items():
+            if not str(annotation).startswith(("ClassVar", "typing.ClassVar")):
+                names[name] = None
+    return list(names)
 
 
 def slider_ranges(config_cls: type) -> dict[str, SliderRange]:

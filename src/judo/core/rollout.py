@@ -1,23 +1,40 @@
-"""Rollout backends: the one call the Controller makes, from one initial state and per-step controls
-to per-step states and sensor values.
+"""`RolloutPool`, the CPU rollout backend: one shared MjModel, one MjData per worker thread, one C call per
+chunk.
 
-`RolloutPool` is the CPU backend: one shared MjModel, one MjData per worker thread, one C call per
-chunk. Other backends (MuJoCo Warp on a GPU) implement the same `RolloutBackend` interface, so the
-Controller's loop stays written once.
+It implements `judo.core.backend.RolloutBackend`, as the MuJoCo Warp backend (core/warp_rollout.py) does;
+the factory `make_rollout_backend` lives in core/backend.py and is re-exported here, with the other
+backend names, for code that imports them from this module.
 """
 
-import abc
 import os
 from collections.abc import Sequence
-from typing import Literal, get_args
 
 import mujoco
 import mujoco.rollout
 import numpy as np
 
-from judo.core.errors import JudoError, UnknownNameError
+from judo.core.backend import (
+    ROLLOUT_BACKENDS,
+    RandomizedRolloutError,
+    RolloutBackend,
+    RolloutBackendName,
+    check_rollout_backend,
+    make_rollout_backend,
+)
 from judo.core.model import STATE_SPEC
 from judo.core.workers import DaemonThreadPool
+
+__all__ = [
+    "CLOSE_TIMEOUT",
+    "MOCAP_CONTROL_SPEC",
+    "ROLLOUT_BACKENDS",
+    "RandomizedRolloutError",
+    "RolloutBackend",
+    "RolloutBackendName",
+    "RolloutPool",
+    "check_rollout_backend",
+    "make_rollout_backend",
+]
 
 MOCAP_CONTROL_SPEC = (
     mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT
@@ -28,67 +45,6 @@ rollout resets mocap poses to the model's defaults unless they are passed as inp
 
 CLOSE_TIMEOUT = 0.5
 """Most seconds `RolloutPool.close` waits for its workers."""
-
-
-class RolloutBackend(abc.ABC):
-    """Rolls out a batch of control sequences from one initial state.
-
-    Attributes:
-        model: the planning model every rollout runs on.
-        num_workers: host threads the backend rolls out on (1 for a GPU backend).
-        gui_max_rollouts: upper end of the GUI's num_rollouts slider on this backend; None keeps the
-            optimizer config's own range.
-    """
-
-    model: mujoco.MjModel
-    num_workers: int
-    gui_max_rollouts: int | None = None
-
-    @abc.abstractmethod
-    def rollout(
-        self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Roll out every control sequence from the same full-physics `initial_state` (nstate,).
-
-        Args:
-            initial_state: (nstate,) state as written by mj_getState with mjSTATE_FULLPHYSICS.
-            controls: (num_rollouts, T, nu) C-contiguous float64 controls, one per step. After
-                `set_models(models)`, num_rollouts is a multiple of len(models) and block r of the
-                rows runs on models[r].
-            mocap: (7 * nmocap,) [mocap_pos.ravel(), mocap_quat.ravel()] held through every rollout
-                (mocap bodies are not part of the full-physics state); None keeps the model's defaults.
-        Returns:
-            states (num_rollouts, T, nstate) full-physics states after each step, and
-            sensors (num_rollouts, T, nsensordata) sensor values after each step; both may be
-            overwritten by the next call.
-        """
-
-    def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
-        """Roll out later batches under several models (domain randomization), or under `model` alone (None).
-
-        With R = len(models), a batch of M control rows (M a multiple of R) is split into R equal
-        blocks in order: rows [r * M / R, (r + 1) * M / R) run on models[r]. The Controller passes each
-        sampled sequence once per block, so rows r * N + i are sequence i under model r. The models
-        must have the sizes of `model` (copies of it with other parameter values); they are kept by
-        reference, not copied, until the next call.
-
-        The default accepts only None or [model]; a backend that cannot roll out per-rollout models
-        raises RandomizedRolloutError naming itself and the setting.
-        """
-        if models is None or (len(models) == 1 and models[0] is self.model):
-            return
-        raise RandomizedRolloutError(
-            f"the {type(self).__name__} rollout backend cannot roll out under several models, so it cannot run "
-            f"num_randomizations = {len(models)}; expected num_randomizations = 1 on this backend, or the cpu backend "
-            "(RolloutPool), which can"
-        )
-
-    def close(self) -> None:  # noqa: B027  (no resources by default)
-        """Release threads or device memory; the backend cannot be used afterwards."""
-
-
-class RandomizedRolloutError(JudoError):
-    """A rollout backend was asked to roll out under several models and cannot, or the models do not fit."""
 
 
 class RolloutPool(RolloutBackend):
@@ -184,33 +140,3 @@ class RolloutPool(RolloutBackend):
         Waits at most CLOSE_TIMEOUT seconds: a worker still inside a long rollout ends when it
         returns (the workers are daemon threads, so it never holds up the process's exit)."""
         self._executor.shutdown(wait=True, timeout=CLOSE_TIMEOUT)
-
-
-RolloutBackendName = Literal["cpu", "warp"]
-ROLLOUT_BACKENDS: tuple[str, ...] = get_args(RolloutBackendName)
-"""Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`; "warp" is `WarpRollout` (MuJoCo Warp on
-warp's default device, a GPU when there is one; needs the judo[warp] extra)."""
-
-
-def check_rollout_backend(name: str) -> None:
-    """Raise UnknownNameError for a name not in ROLLOUT_BACKENDS, and MissingExtraError when the backend's
-    optional extra is not installed; builds nothing."""
-    if name not in ROLLOUT_BACKENDS:
-        raise UnknownNameError("rollout backend", name, ROLLOUT_BACKENDS)
-    if name == "warp":
-        import judo.core.warp_rollout  # noqa: F401  (imports warp and mujoco_warp, or names the extra)
-
-
-def make_rollout_backend(name: str, model: mujoco.MjModel, num_workers: int | None = None) -> RolloutBackend:
-    """The rollout backend called `name` (one of ROLLOUT_BACKENDS) for `model`.
-
-    `num_workers` sets the CPU pool's threads (one per core by default). Raises UnknownNameError for
-    an unknown name, MissingExtraError when "warp" is asked for without the judo[warp] extra, and
-    WarpUnsupportedModelError for a model MuJoCo Warp cannot run.
-    """
-    check_rollout_backend(name)
-    if name == "warp":
-        from judo.core.warp_rollout import WarpRollout
-
-        return WarpRollout(model, num_workers)
-    return RolloutPool(model, num_workers)

@@ -11,7 +11,7 @@ into preallocated pinned host arrays. On the CPU device (no GPU) the same kernel
 and the host arrays are the device arrays themselves.
 
 Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `make_rollout_backend`
-imports it only when the "warp" backend is asked for.
+(core/backend.py) imports it only when the "warp" backend is asked for.
 """
 
 import time
@@ -20,9 +20,9 @@ import warnings
 import mujoco
 import numpy as np
 
+from judo.core.backend import RolloutBackend
 from judo.core.errors import JudoError, import_extra
 from judo.core.model import STATE_SPEC
-from judo.core.rollout import RolloutBackend
 
 FEATURE = "the warp rollout backend (--backend warp)"
 wp = import_extra("warp", FEATURE, "warp")
@@ -55,8 +55,6 @@ DROPPED = CONTACT_OVERFLOWS | CONSTRAINT_OVERFLOWS
 """Every overflow bit that means a rollout lost contacts or constraints (solver-iteration limits are not such)."""
 MAX_RESIZES = 8
 """Doublings of nconmax / njmax tried within one call before giving up with RolloutOverflowError."""
-MAX_GUI_ROLLOUTS = 8192
-"""The GUI's num_rollouts slider reaches this far on the warp backend."""
 PHASES = ("copy_in", "physics", "copy_out")
 """Where a rollout's wall time goes, summed over calls in `WarpRollout.phase_seconds`: inputs to the device
 (host staging included), the T steps on the device, and states, sensors and overflow flags back to the host."""
@@ -165,7 +163,6 @@ class WarpRollout(RolloutBackend):
 
     Args:
         model: the planning model; WarpUnsupportedModelError if MuJoCo Warp cannot run it.
-        num_workers: ignored (the device runs every rollout); kept for the factory's signature.
         device: a warp device ("cpu", "cuda:0"); the default device when None.
         deterministic: bitwise repeatable results on CUDA (stable contact order and atomics; somewhat
             slower). The CPU device is deterministic either way.
@@ -173,20 +170,17 @@ class WarpRollout(RolloutBackend):
             from the model (they still grow on overflow).
     """
 
-    gui_max_rollouts = MAX_GUI_ROLLOUTS
     phase_seconds: dict[str, float]
     """Seconds spent in each of PHASES, summed over every call so far (benchmarks read and reset it)."""
 
     def __init__(
         self,
         model: mujoco.MjModel,
-        num_workers: int | None = None,
         device: str | None = None,
         deterministic: bool = True,
         nconmax: int | None = None,
         njmax: int | None = None,
     ) -> None:
-        del num_workers
         self.model = model
         self.num_workers = 1
         self.device = wp.get_device(device)

@@ -9,9 +9,9 @@ import tyro
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
+from judo.core.backend import RolloutBackendName, check_rollout_backend
 from judo.core.config import require
 from judo.core.errors import JudoError
-from judo.core.rollout import RolloutBackendName, check_rollout_backend
 from judo.evaluation.cli import (
     ControllerOverrides,
     apply_config_file,

@@ -25,11 +25,11 @@ import numpy as np
 import tyro
 import tyro.constructors
 
+from judo.core.backend import RolloutBackendName
 from judo.core.config import Config, with_updates
 from judo.core.config_file import load_config
 from judo.core.errors import JudoError
 from judo.core.registry import default_configs, get_registered_optimizers, get_registered_tasks
-from judo.core.rollout import RolloutBackendName
 from judo.runtime.app import App
 
 PROG = "python -m judo"

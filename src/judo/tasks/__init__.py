@@ -52,4 +52,30 @@ for _name, (_task_cls, _config_cls) in BUILTIN_TASKS.items():
     load_config(defaults_path(_name))
 
 
-__all__ = ["Cartpole", "CartpoleConfig", "CylinderPush", "CylinderPushConfig", "register_task"]
+__all__ = [  # every built-in task class and its config
+    "Acrobot",
+    "AcrobotConfig",
+    "Cartpole",
+    "CartpoleConfig",
+    "CylinderPush",
+    "CylinderPushConfig",
+    "DoubleCartpole",
+    "DoubleCartpoleConfig",
+    "FR3Pick",
+    "FR3PickConfig",
+    "HumanoidStandup",
+    "HumanoidStandupConfig",
+    "LeapCube",
+    "LeapCubeConfig",
+    "LeapCubeDown",
+    "LeapCubeDownConfig",
+    "Particle",
+    "ParticleConfig",
+    "Pendulum",
+    "PendulumConfig",
+    "PushT",
+    "PushTConfig",
+    "Walker",
+    "WalkerConfig",
+    "register_task",
+]

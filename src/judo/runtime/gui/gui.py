@@ -30,6 +30,9 @@ SENT_POSES_KEPT = 400
 """Camera poses sent to the pages that a late camera report is matched against (a few seconds' worth)."""
 PLOT_PERIOD = 0.25
 """Seconds between points on the plots and updates of the numeric readout."""
+MAX_ROLLOUTS_BY_BACKEND = {"warp": 8192}
+"""Upper end of the num_rollouts slider on a rollout backend, by the backend's name (a GPU rolls out
+thousands of samples per cycle); a backend not named here keeps the optimizer config's own range."""
 
 
 class Gui:
@@ -157,7 +160,7 @@ class Gui:
             "optimizer": f"Optimizer: {session.optimizer_name}",
             "task": f"Task: {session.task_name}",
         }
-        max_rollouts = session.controller.backend.gui_max_rollouts
+        max_rollouts = MAX_ROLLOUTS_BY_BACKEND.get(session.controller.backend_name)
         ranges = {"optimizer": {"num_rollouts": SliderRange(1, max_rollouts, 1)}} if max_rollouts else {}
         self.panels = {
             kind: ConfigPanel(

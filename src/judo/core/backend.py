@@ -1,0 +1,134 @@
+"""The rollout backend interface, and the factory that builds a backend from its name.
+
+A rollout backend is the one call the Controller makes: from one initial state and per-step controls to
+per-step states and sensor values. `RolloutPool` (core/rollout.py, CPU threads) and `WarpRollout`
+(core/warp_rollout.py, MuJoCo Warp on a GPU) implement `RolloutBackend`, so the Controller's loop stays
+written once.
+
+The dependencies point one way: each backend module imports this one, and this module imports neither.
+The factory names each backend class by its dotted path (`BACKEND_CLASSES`, data) and imports that
+module only when the backend is asked for, so `import judo` never imports warp and no module imports
+back a module that imports it.
+"""
+
+import abc
+import importlib
+from collections.abc import Sequence
+from typing import Literal, TypeVar, get_args
+
+import mujoco
+import numpy as np
+
+from judo.core.errors import JudoError, UnknownNameError
+
+BackendT = TypeVar("BackendT", bound="RolloutBackend")
+
+
+class RolloutBackend(abc.ABC):
+    """Rolls out a batch of control sequences from one initial state.
+
+    A backend is a context manager: `with RolloutPool(model) as pool:` closes it (its threads or device
+    memory) on the way out.
+
+    Attributes:
+        model: the planning model every rollout runs on.
+        num_workers: host threads the backend rolls out on (1 for a GPU backend).
+    """
+
+    model: mujoco.MjModel
+    num_workers: int
+
+    @abc.abstractmethod
+    def rollout(
+        self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Roll out every control sequence from the same full-physics `initial_state` (nstate,).
+
+        Args:
+            initial_state: (nstate,) state as written by mj_getState with mjSTATE_FULLPHYSICS.
+            controls: (num_rollouts, T, nu) C-contiguous float64 controls, one per step. After
+                `set_models(models)`, num_rollouts is a multiple of len(models) and block r of the
+                rows runs on models[r].
+            mocap: (7 * nmocap,) [mocap_pos.ravel(), mocap_quat.ravel()] held through every rollout
+                (mocap bodies are not part of the full-physics state); None keeps the model's defaults.
+        Returns:
+            states (num_rollouts, T, nstate) full-physics states after each step, and
+            sensors (num_rollouts, T, nsensordata) sensor values after each step; both may be
+            overwritten by the next call.
+        """
+
+    def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
+        """Roll out later batches under several models (domain randomization), or under `model` alone (None).
+
+        With R = len(models), a batch of M control rows (M a multiple of R) is split into R equal
+        blocks in order: rows [r * M / R, (r + 1) * M / R) run on models[r]. The Controller passes each
+        sampled sequence once per block, so rows r * N + i are sequence i under model r. The models
+        must have the sizes of `model` (copies of it with other parameter values); they are kept by
+        reference, not copied, until the next call.
+
+        The default accepts only None or [model]; a backend that cannot roll out per-rollout models
+        raises RandomizedRolloutError naming itself and the setting.
+        """
+        if models is None or (len(models) == 1 and models[0] is self.model):
+            return
+        raise RandomizedRolloutError(
+            f"the {type(self).__name__} rollout backend cannot roll out under several models, so it cannot run "
+            f"num_randomizations = {len(models)}; expected num_randomizations = 1 on this backend, or the cpu backend "
+            "(RolloutPool), which can"
+        )
+
+    def close(self) -> None:  # noqa: B027  (no resources by default)
+        """Release threads or device memory; the backend cannot be used afterwards."""
+
+    def __enter__(self: BackendT) -> BackendT:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+
+class RandomizedRolloutError(JudoError):
+    """A rollout backend was asked to roll out under several models and cannot, or the models do not fit."""
+
+
+RolloutBackendName = Literal["cpu", "warp"]
+ROLLOUT_BACKENDS: tuple[str, ...] = get_args(RolloutBackendName)
+"""Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`; "warp" is `WarpRollout` (MuJoCo Warp on
+warp's default device, a GPU when there is one; needs the judo[warp] extra)."""
+
+BACKEND_CLASSES: dict[str, str] = {
+    "cpu": "judo.core.rollout.RolloutPool",
+    "warp": "judo.core.warp_rollout.WarpRollout",
+}
+"""Each name in ROLLOUT_BACKENDS and the dotted path of its class, imported when the backend is asked for."""
+
+
+def check_rollout_backend(name: str) -> None:
+    """Raise UnknownNameError for a name not in ROLLOUT_BACKENDS, and MissingExtraError when the backend's
+    optional extra is not installed; builds nothing."""
+    backend_class(name)
+
+
+def backend_class(name: str) -> type[RolloutBackend]:
+    """The class of the rollout backend called `name`, importing its module (and so its extra) now.
+
+    Raises UnknownNameError for a name not in ROLLOUT_BACKENDS and MissingExtraError (from the module's
+    import) when the backend's extra is not installed."""
+    if name not in ROLLOUT_BACKENDS:
+        raise UnknownNameError("rollout backend", name, ROLLOUT_BACKENDS)
+    module, _, attribute = BACKEND_CLASSES[name].rpartition(".")
+    return getattr(importlib.import_module(module), attribute)
+
+
+def make_rollout_backend(name: str, model: mujoco.MjModel, num_workers: int | None = None) -> RolloutBackend:
+    """The rollout backend called `name` (one of ROLLOUT_BACKENDS) for `model`.
+
+    `num_workers` sets the CPU pool's threads (one per core by default); a GPU backend runs every rollout
+    on its device and takes no worker count. Raises UnknownNameError for an unknown name,
+    MissingExtraError when "warp" is asked for without the judo[warp] extra, and WarpUnsupportedModelError
+    for a model MuJoCo Warp cannot run.
+    """
+    cls = backend_class(name)
+    if name == "cpu":
+        return cls(model, num_workers)  # type: ignore[call-arg]
+    return cls(model)  # type: ignore[call-arg]

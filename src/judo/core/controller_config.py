@@ -1,0 +1,118 @@
+"""The planning loop's settings (`ControllerConfig`), their bounds, and the check that configs work together."""
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from judo.core.config import Config, require, require_between
+from judo.core.fields import slider
+from judo.core.model import STATE_SPEC
+from judo.core.optimizer import OptimizerConfig
+from judo.core.risk import RiskMeasure
+from judo.core.spline import MIN_KNOTS, SplineOrder
+from judo.core.task import Task
+
+MAX_HORIZON = 60.0
+"""Longest planning horizon in seconds."""
+MIN_CONTROL_FREQ, MAX_CONTROL_FREQ = 0.1, 1000.0
+"""Slowest and fastest planning rates in Hz: one cycle per 10 s at the least (a stop must not wait
+out a longer period), and no faster than a plant is stepped."""
+MAX_OPT_ITERS = 100
+"""Most optimizer iterations per planning cycle."""
+MAX_NUM_TRACES = 64
+"""Most best-rollout traces drawn besides the nominal."""
+MAX_RANDOMIZATIONS = 64
+"""Most models each sampled control sequence is rolled out under."""
+MAX_ROLLOUT_BYTES = 4 * 2**30
+"""Largest rollout buffers (num_randomizations x num_rollouts x T x (nstate + nsensordata + nu) float64) a
+config may ask for:
+4 GiB, e.g. 65536 rollouts of 100 steps of a model with 80 state and sensor values."""
+
+
+# Every slider range lies within the bounds `validate` accepts; the horizon (seconds) reads linearly.
+@slider("horizon", 0.05, 5.0, 0.05, log=False)
+@slider("control_freq", 1.0, 200.0, 1.0)
+@slider("max_opt_iters", 1, 20, 1)
+@slider("max_num_traces", 0, 32, 1)
+@slider("num_randomizations", 1, 16, 1)
+@slider("cvar_alpha", 0.05, 1.0, 0.05)
+@slider("risk_scale", 0.1, 100.0, 0.1)
+@slider("redraw_every", 0, 100, 1)
+@slider("max_plan_age", 0.0, 5.0, 0.05, log=False)
+@dataclass
+class ControllerConfig(Config):
+    """Settings of the planning loop, shared by every task and optimizer."""
+
+    horizon: float = 1.0
+    """Planning horizon in seconds."""
+    spline_order: SplineOrder = "linear"
+    """How controls are interpolated between knots: zero-order hold, linear, or cubic (needs 4+ knots)."""
+    control_freq: float = 20.0
+    """Planning cycles per second that the app aims for."""
+    max_opt_iters: int = 1
+    """Optimizer iterations per planning cycle."""
+    max_num_traces: int = 5
+    """Best rollouts drawn as traces, besides the nominal."""
+    num_randomizations: int = 1
+    """Models each sampled control sequence is rolled out under: the planning model and
+    num_randomizations - 1 copies perturbed by the task's randomize_model hook (1: off)."""
+    risk: RiskMeasure = "average"
+    """How a sequence's rewards under the randomized models become one score: average, worst, best,
+    cvar (mean of the worst cvar_alpha fraction) or exponential (certainty equivalent, risk_scale)."""
+    cvar_alpha: float = 0.5
+    """Fraction of the models, the worst ones, that the cvar risk averages; in (0, 1]."""
+    risk_scale: float = 1.0
+    """Scale of the exponential risk, in 1 / reward units: > 0 risk-averse, < 0 risk-seeking; not 0."""
+    redraw_every: int = 0
+    """Planning cycles between redraws of the randomized models; 0 draws them once (again only when
+    num_randomizations changes)."""
+    max_plan_age: float = 0.5
+    """Watchdog, in seconds: once the plan in force is older than this beyond one control period (planning
+    stalled, failed, or the readings' time stopped advancing), the plant gets the task's safe_action
+    instead; 0 turns the watchdog off."""
+
+    def validate(self) -> None:
+        super().validate()
+        require_between("horizon", self.horizon, 0, MAX_HORIZON, " s", above=True)
+        require_between("control_freq", self.control_freq, MIN_CONTROL_FREQ, MAX_CONTROL_FREQ, " Hz")
+        require_between("max_opt_iters", self.max_opt_iters, 1, MAX_OPT_ITERS)
+        require_between("max_num_traces", self.max_num_traces, 0, MAX_NUM_TRACES)
+        require_between("num_randomizations", self.num_randomizations, 1, MAX_RANDOMIZATIONS)
+        require(0 < self.cvar_alpha <= 1, f"cvar_alpha must be in (0, 1], got {self.cvar_alpha}")
+        require(
+            np.isfinite(self.risk_scale) and self.risk_scale != 0,
+            f"risk_scale must be a finite nonzero number (> 0 risk-averse, < 0 risk-seeking), got {self.risk_scale}",
+        )
+        require(self.redraw_every >= 0, f"redraw_every must be at least 0 (0: draw once), got {self.redraw_every}")
+        require_between("max_plan_age", self.max_plan_age, 0, MAX_HORIZON, " s (0: no watchdog)")
+
+
+def rollout_steps(horizon: float, dt: float) -> int:
+    """Rollout length T in steps for a `horizon` in seconds and a timestep `dt`: at least one, rounded."""
+    return max(1, round(horizon / dt))
+
+
+def check_configs(task: Task, controller_config: ControllerConfig, optimizer_config: OptimizerConfig) -> None:
+    """Raise ConfigError unless the configs work together on `task` (each is validated too)."""
+    controller_config.validate()
+    optimizer_config.validate()
+    require(
+        controller_config.horizon >= task.dt,
+        f"horizon ({controller_config.horizon} s) is shorter than one timestep ({task.dt} s)",
+    )
+    order, nodes = controller_config.spline_order, optimizer_config.num_nodes
+    require(nodes >= MIN_KNOTS[order], f"a {order} spline needs num_nodes >= {MIN_KNOTS[order]}, got {nodes}")
+    num_steps = rollout_steps(controller_config.horizon, task.dt)
+    state_size = mujoco.mj_stateSize(task.model, STATE_SPEC)  # pyright: ignore[reportAttributeAccessIssue]
+    values_per_step = state_size + task.model.nsensordata + task.nu
+    num_models = controller_config.num_randomizations
+    needed = num_models * optimizer_config.num_rollouts * num_steps * values_per_step * 8
+    most = max(1, MAX_ROLLOUT_BYTES // (num_models * num_steps * values_per_step * 8))
+    require(
+        needed <= MAX_ROLLOUT_BYTES,
+        f"num_rollouts {optimizer_config.num_rollouts} x num_randomizations {num_models} over a "
+        f"{controller_config.horizon} s horizon ({num_steps} steps) "
+        f"would need {needed / 2**30:.1f} GiB of rollout buffers, more than the {MAX_ROLLOUT_BYTES / 2**30:.0f} GiB "
+        f"limit; at this horizon and num_randomizations, num_rollouts must be at most {most}",
+    )
