@@ -174,27 +174,31 @@ def test_the_watchdog_serves_the_safe_action_once_the_plan_is_too_old_and_resume
     events = []
     task_cls = faulty_hold_task(hold_task_cls, 0.5, fault)
     optimizer = PredictiveSampling(PredictiveSamplingConfig(num_rollouts=8, num_nodes=2, sigma=0.3), nu=1)
+    optimizer.rng = np.random.default_rng(0)
     config = ControllerConfig(horizon=0.1, control_freq=20.0, max_plan_age=0.2)
     with Controller(config, task_cls(), optimizer, num_workers=1) as controller:
         loop = ClosedLoop(controller, MujocoSystem.from_task(controller.task, seed=0), on_watchdog=events.append)
         controller.task.clock = lambda: loop.stepped_time
         loop.restart()
-        served = []
+        served = []  # (time after the step, action served, position before the step, watchdog tripped)
         for _ in range(150):
+            before = loop.reading.state[0]
             try:
                 record = loop.step()
             except RuntimeError:  # the raising reward: the loop's caller (the app, evaluate) reports it
                 record = loop.advance()
-            served.append((record.time, record.action[0], record.state[0]))
+            served.append((record.time, record.action[0], before, loop.watchdog.tripped is not None))
             if record.time >= 1.2:
                 controller.task.clock = lambda: -1.0  # the fault clears
-    times, actions, positions = np.array(served).T
-    tripped = np.flatnonzero([a == pytest.approx(p, abs=0.02) and t > 0.5 for t, a, p in served])
+    tripped = [row for row in served if row[3]]
     # the last good plan was from t <= 0.5; the watchdog trips within 0.2 + 0.05 s after it
     assert loop.watchdog.trips == 1 and events[0] is not None and events[-1] is None
     assert "plan in force is" in events[0]
-    first_safe = times[tripped[0]]
-    assert 0.5 < first_safe <= 0.5 + 0.2 + 0.05 + 0.011
+    first_time, first_action, position, _ = tripped[0]
+    assert 0.5 < first_time <= 0.5 + 0.2 + 0.05 + 0.011
+    assert first_action == pytest.approx(position)  # safe_action: the position servo holds where the block is
+    assert all(row[1] == pytest.approx(row[2]) for row in tripped)
+    assert not served[-1][3]
     assert loop.watchdog.tripped is None  # serving plans again at the end
 
 
