@@ -28,7 +28,6 @@ import math
 import signal
 import threading
 import time
-from dataclasses import dataclass
 from typing import Any, Literal
 
 import numpy as np
@@ -41,15 +40,13 @@ from judo.core.registry import lookup_optimizer, lookup_task
 from judo.core.task import TaskConfig
 from judo.core.workers import DaemonThreadPool
 from judo.runtime.address import check_port, is_loopback, new_token
+from judo.runtime.commands import CONFIG_KINDS, ConfigKind, PlanSnapshot, Status, SystemSnapshot
 from judo.runtime.session import Session, build_session, default_configs
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
 from judo.runtime.system import MujocoSystem, SimulationDiverged, System, SystemState
 
 logger = logging.getLogger("judo.app")
-
-ConfigKind = Literal["controller", "optimizer", "task"]
-CONFIG_KINDS: tuple[ConfigKind, ...] = ("controller", "optimizer", "task")
 
 MAX_CATCH_UP = 0.1
 """Most seconds of sim time the system loop steps at once to catch up; beyond that it falls behind."""
@@ -69,44 +66,6 @@ CONFIG_POLL = 0.25
 
 class _Stopping(Exception):
     """Raised inside the loops when a stop arrives while they wait for the planning thread."""
-
-
-@dataclass(frozen=True)
-class SystemSnapshot:
-    """What the system loop publishes under "system": the plant reading of one session."""
-
-    generation: int
-    reading: SystemState
-
-
-@dataclass(frozen=True)
-class PlanSnapshot:
-    """What the controller loop publishes under "plan" after each planning cycle.
-
-    Attributes:
-        generation: the session that planned.
-        time: sim time of the state planned from.
-        nominal_knots: (num_nodes, nu) knots of the new plan.
-        rewards: (num_rollouts,) rewards of the last iteration (index 0 is the nominal).
-        traces: (1 + num_shown, T, num_trace_sensors, 3) trace-sensor positions, nominal first.
-        plan_time: wall-clock seconds the cycle took.
-    """
-
-    generation: int
-    time: float
-    nominal_knots: np.ndarray
-    rewards: np.ndarray
-    traces: np.ndarray
-    plan_time: float
-
-
-@dataclass(frozen=True)
-class Status:
-    """The GUI's status line: the latest message, its level, and a count that grows with each report."""
-
-    message: str
-    level: Literal["info", "warning", "error"]
-    count: int
 
 
 class App:
