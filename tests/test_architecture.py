@@ -19,11 +19,7 @@ MAX_LINES = 400
 MAX_RUNTIME_LINES = 350
 """Most lines in any file in src/judo/runtime."""
 
-APP = "judo.runtime.app"
-CIRCLES_BEING_REMOVED = (APP,)
-"""Modules whose import circles issue #20 is still removing (runtime/app.py <-> runtime/gui/*, while the GUI
-moves onto a command port). When that lands, empty this and `test_no_import_circles` asserts
-`import_cycles() == []` outright."""
+
 
 
 def module_name(path: Path, root: Path) -> str:
@@ -135,11 +131,7 @@ def explain(cycles: list[list[str]], graph: dict[str, set[str]]) -> str:
 def test_no_import_circles():
     graph = import_graph()
     cycles = import_cycles()
-    print(explain(cycles, graph))
-    # While issue #20 moves the GUI onto a command port, the circle through runtime/app.py may remain;
-    # after that, CIRCLES_BEING_REMOVED is emptied and this reads `assert import_cycles() == []`.
-    remaining = [cycle for cycle in cycles if not set(cycle) & set(CIRCLES_BEING_REMOVED)]
-    assert remaining == [], explain(remaining, graph)
+    assert cycles == [], explain(cycles, graph)
 
 
 def test_the_rollout_backends_import_only_the_interface_module():

@@ -1,19 +1,16 @@
 """The top of the GUI panel: task and optimizer dropdowns, pause/resume, reset buttons and the status line.
 
-Every control only calls an App command; the app's loops carry it out at their next iteration.
+Every control only calls a command of the app's port (`judo.runtime.commands.AppPort`); the app's
+loops carry it out at their next iteration.
 """
 
 import math
-from typing import TYPE_CHECKING
 
 import viser
 
 from judo.core.errors import JudoError
 from judo.core.registry import get_registered_optimizers, get_registered_tasks
-
-if TYPE_CHECKING:
-    from judo.runtime.app import App, Status
-    from judo.runtime.stats import LiveFigures
+from judo.runtime.commands import AppPort, LiveFigures, Status
 
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
 STATUS_PREFIX = {"info": "", "warning": "warning: ", "error": "error: "}
@@ -22,7 +19,7 @@ STATUS_PREFIX = {"info": "", "warning": "warning: ", "error": "error: "}
 class Controls:
     """Dropdowns of the registered tasks and optimizers, three buttons and a status line."""
 
-    def __init__(self, gui: viser.GuiApi, app: "App", order: float) -> None:
+    def __init__(self, gui: viser.GuiApi, app: AppPort, order: float) -> None:
         self.app = app
         session = app.session
         self.task = gui.add_dropdown(
@@ -66,7 +63,7 @@ class Controls:
             self._shown_status = (status.count, paused)
             self.status.content = status_markdown(status, paused)
 
-    def show_readout(self, sim_time: float, figures: "LiveFigures") -> None:
+    def show_readout(self, sim_time: float, figures: LiveFigures) -> None:
         """Sim time, plan time, control rate and real-time factor as numbers ("-" before there is data)."""
 
         def shown(value: float, unit: str, digits: int) -> str:
@@ -96,7 +93,7 @@ class Controls:
             self.show_session()
 
 
-def status_markdown(status: "Status", paused: bool = False) -> str:
+def status_markdown(status: Status, paused: bool = False) -> str:
     """The status line as markdown; warnings and errors are marked as such, and a paused app says so first."""
     text = "".join("\\" + c if c in MARKDOWN_SPECIAL else c for c in status.message.replace("\n", " "))
     state = "**paused** · " if paused and status.message != "paused" else ""

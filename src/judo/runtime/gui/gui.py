@@ -1,12 +1,13 @@
 """The browser GUI of an App: a viser server whose panel and scene follow the app's session.
 
 `update()` is called by the app's GUI loop about 30 times a second, on the event-loop thread. The
-widgets' callbacks run on viser's threads and only call App commands.
+widgets' callbacks run on viser's threads. The GUI knows the app only through the command port
+(`judo.runtime.commands.AppPort`): it reads status from it and calls its commands, nothing else.
 """
 
 import collections
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import viser
@@ -14,6 +15,7 @@ import viser
 from judo.core.config import Config
 from judo.core.errors import JudoError
 from judo.core.fields import SliderRange
+from judo.runtime.commands import AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
 from judo.runtime.gui.camera import Follower, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.controls import Controls
@@ -21,10 +23,6 @@ from judo.runtime.gui.goal_handles import GoalHandles
 from judo.runtime.gui.plots import Plots
 from judo.runtime.gui.scene import SceneView
 from judo.runtime.gui.server import start_server
-from judo.runtime.system import SystemState
-
-if TYPE_CHECKING:
-    from judo.runtime.app import App, ConfigKind
 
 SENT_POSES_KEPT = 400
 """Camera poses sent to the pages that a late camera report is matched against (a few seconds' worth)."""
@@ -42,7 +40,7 @@ class Gui:
     `start_server` for who may connect and the share button.
     """
 
-    def __init__(self, app: "App", host: str, port: int, *, token: str | None = None, share: bool = False) -> None:
+    def __init__(self, app: AppPort, host: str, port: int, *, token: str | None = None, share: bool = False) -> None:
         self.app = app
         self.token = token
         self.server = start_server(host, port, token=token, share=share, label="judo")
@@ -82,7 +80,7 @@ class Gui:
         """Follow the app: rebuild after a switch, refresh widgets, pose the scene, draw traces and plots."""
         app = self.app
         session = app.session
-        state = app.buffer.latest("system")
+        state: Snapshot[SystemSnapshot] | None = app.buffer.latest("system")
         if session.generation != self._generation:
             if state is None or state.value.generation != session.generation:
                 return  # the new plant has not published its first state yet
@@ -252,7 +250,7 @@ class Gui:
         except JudoError as err:
             self.app.report(f"goal not moved: {err}", "warning")
 
-    def _editor(self, kind: "ConfigKind", generation: int) -> Any:
+    def _editor(self, kind: ConfigKind, generation: int) -> Any:
         def edit(updates: dict[str, Any]) -> Config:
             config = self.app.update_config(kind, updates, generation=generation, from_gui=True)
             shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)

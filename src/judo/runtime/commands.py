@@ -1,0 +1,141 @@
+"""The command port: all the browser GUI sees of the app, and the status types both sides share.
+
+The GUI (`judo.runtime.gui`) imports this module and never `judo.runtime.app`; `App` implements
+`AppPort`. What goes through the port, and nothing else:
+- read-only status: the session in use, the latest configs, the snapshots the loops publish, the
+  live figures, the status line and a few counters that tell the GUI when to redraw;
+- commands, callable from any thread (the GUI's callbacks run on viser's): config edits, pause and
+  resume, resets, goal moves, switches of task or optimizer, and status reports. Each is queued and
+  carried out by the app's loops at their next iteration.
+
+The loops publish under two topics of the app's StateBuffer: "system" a `SystemSnapshot`, "plan" a
+`PlanSnapshot`.
+"""
+
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from judo.core.config import Config
+from judo.core.registry import CONFIG_KINDS, ConfigKind
+from judo.runtime.session import Session
+from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
+from judo.runtime.state_buffer import Snapshot
+from judo.runtime.stats import LiveFigures
+from judo.runtime.status_line import Level as StatusLevel
+from judo.runtime.status_line import Status
+from judo.runtime.system import SystemState
+
+__all__ = [
+    "CONFIG_KINDS",
+    "AppPort",
+    "ConfigKind",
+    "FigureSource",
+    "LiveFigures",
+    "PlanSnapshot",
+    "Session",
+    "Snapshot",
+    "SnapshotSource",
+    "Status",
+    "StatusLevel",
+    "SystemSnapshot",
+    "SystemState",
+]
+
+
+class SnapshotSource(Protocol):
+    """The reading side of the app's StateBuffer."""
+
+    def latest(self, topic: str) -> Snapshot[Any] | None:
+        """The newest snapshot of `topic` ("system": SystemSnapshot, "plan": PlanSnapshot), or None."""
+        ...
+
+
+class FigureSource(Protocol):
+    """The reading side of the app's RunStats."""
+
+    def live(self) -> LiveFigures:
+        """The latest plan time, control rate, real-time factor and nominal reward."""
+        ...
+
+
+@runtime_checkable
+class AppPort(Protocol):
+    """The commands and read-only status the GUI uses; `judo.App` implements it."""
+
+    @property
+    def session(self) -> Session:
+        """The session in use (names, generation, controller); replaced, never changed, on a switch."""
+        ...
+
+    @property
+    def buffer(self) -> SnapshotSource:
+        """The latest "system" and "plan" snapshots."""
+        ...
+
+    @property
+    def stats(self) -> FigureSource:
+        """The live figures for the plots and the readout."""
+        ...
+
+    @property
+    def paused(self) -> bool:
+        """True while the plant and the planner are paused."""
+        ...
+
+    @property
+    def status(self) -> Status:
+        """The latest status message."""
+        ...
+
+    @property
+    def resets_done(self) -> int:
+        """Counts plant resets carried out, so the GUI knows when to reframe its camera."""
+        ...
+
+    @property
+    def external_edits(self) -> int:
+        """Counts config changes not made through the GUI, so the GUI knows when to refresh its widgets."""
+        ...
+
+    def configs(self) -> dict[ConfigKind, Config]:
+        """The latest accepted config of each kind."""
+        ...
+
+    def update_config(
+        self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+    ) -> Config:
+        """Validate {field: value} `updates` to the `kind` config and queue it; raises JudoError if refused."""
+        ...
+
+    def reset_configs(self) -> None:
+        """Put every config back to the task's registered defaults."""
+        ...
+
+    def pause(self) -> None:
+        """Freeze the plant and the planner."""
+        ...
+
+    def resume(self) -> None:
+        """Undo `pause()`."""
+        ...
+
+    def reset_task(self) -> None:
+        """Reset the plant to its start state and forget the plan."""
+        ...
+
+    def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
+        """Move mocap body `index` to `position` (3,), turned to `quat` (4,) wxyz if given; raises JudoError."""
+        ...
+
+    def switch_task(self, task: str) -> None:
+        """Use the registered task `task` from the next cycle; raises JudoError if refused."""
+        ...
+
+    def switch_optimizer(self, optimizer: str) -> None:
+        """Use the registered optimizer `optimizer` from the next cycle; raises JudoError if unknown."""
+        ...
+
+    def report(self, message: str, level: StatusLevel = "info") -> None:
+        """Show `message` on the status line and write it to the log."""
+        ...
