@@ -20,8 +20,6 @@ MAX_RUNTIME_LINES = 350
 """Most lines in any file in src/judo/runtime."""
 
 
-
-
 def module_name(path: Path, root: Path) -> str:
     """`judo/core/rollout.py` -> "judo.core.rollout"; `judo/core/__init__.py` -> "judo.core"."""
     parts = list(path.relative_to(root).with_suffix("").parts)

@@ -234,10 +234,9 @@ class Controller:
             raise ConfigError(f"state must have shape ({self._num_state},) = (nq + nv,), got {state.shape}")
         if not (np.isfinite(state).all() and math.isfinite(time)):
             bad = np.flatnonzero(~np.isfinite(state)).tolist()
-            raise JudoError(
-                f"cannot plan from a non-finite reading (time {time}, non-finite state entries {bad}); "
-                "keeping the previous plan"
-            )
+            what = f"non-finite state entries {bad}" if bad else f"non-finite time {time}"
+            # no reading time in the message: the same fault must read the same, so the log's repeat filter holds
+            raise JudoError(f"cannot plan from a non-finite reading ({what}); keeping the previous plan")
         self._apply_config_changes()
         self._redraw_models_if_due()
         opt, task, cfg = self.optimizer, self.task, self.config

@@ -39,6 +39,7 @@ from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
 from judo.runtime.status_line import Status, StatusLine
 from judo.runtime.system import System
+from judo.runtime.watchdog import PausableClock
 
 __all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]
 
@@ -70,6 +71,8 @@ class App(AppEventLoop):
         seed: seeds the optimizer, the task and the simulated plant.
         num_workers: rollout threads; the number of cores by default.
         backend: rollout backend, "cpu" (threads) or "warp" (MuJoCo Warp, a GPU when there is one).
+        system_call_limit: seconds a call into the System (read_state, apply, step, reset) may block before
+            the status line reports it and the robot is halted (`System.halt`) where the System offers it.
 
     Raises UnknownNameError or ConfigError at once for bad names or configs.
     """
@@ -92,6 +95,7 @@ class App(AppEventLoop):
         seed: int | None = None,
         num_workers: int | None = None,
         backend: str = "cpu",
+        system_call_limit: float = 0.5,
     ) -> None:
         if duration is not None and not 0 < duration < math.inf:
             raise ConfigError(
@@ -103,6 +107,10 @@ class App(AppEventLoop):
                 f"num_workers must be an integer from 1 to {MAX_WORKERS} (or None: one per core), got {num_workers!r}"
             )
         check_seed(seed)
+        if not 0 < system_call_limit < math.inf:
+            raise ConfigError(
+                f"system_call_limit must be a positive, finite number of seconds, got {system_call_limit}"
+            )
         self.buffer = StateBuffer()
         self.stats = RunStats()
         self.gui_enabled, self.host, self.port, self.duration = gui, host, check_port(port), duration
@@ -112,6 +120,9 @@ class App(AppEventLoop):
         self._user_system, self._seed, self._num_workers = system, seed, num_workers
         self.backend = backend
         self._lock = threading.RLock()
+        self._status_line = StatusLine()
+        self._clock = PausableClock()  # the watchdog's clock: wall time that stands still while paused
+        self.system_call_limit = system_call_limit
         self._session = build_session(
             task,
             optimizer,
@@ -123,6 +134,8 @@ class App(AppEventLoop):
             seed=seed,
             num_workers=num_workers,
             backend=backend,
+            clock=self._clock,
+            on_watchdog=self._on_watchdog,
         )
         self._configs: dict[ConfigKind, Config] = session_configs(self._session)
         self._pending: dict[ConfigKind, Config] = {}
@@ -130,10 +143,10 @@ class App(AppEventLoop):
         self._switch_request: tuple[str, str] | None = None
         self._reset_system = self._reset_controller = False
         self._paused = False
+        self._clock.resume()
         self._reset_from_user = False
         self._goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}  # mocap index -> (pos, quat)
         self._resets_done = 0
-        self._status_line = StatusLine()
         self._stop = threading.Event()
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stopping: asyncio.Future | None = None  # done once a stop is requested, to end waits
@@ -270,18 +283,19 @@ class App(AppEventLoop):
     def pause(self) -> None:
         """Freeze the plant and the planner (a paused simulation keeps its time)."""
         self._paused = True
+        self._clock.pause()
         self.report("paused")
 
     def resume(self) -> None:
         """Undo `pause()`."""
         self._paused = False
+        self._clock.resume()
         self.report(self._running_message())
 
     def reset_task(self) -> None:
         """Reset the plant to its start state and forget the plan."""
-        with self._lock:
-            self._reset_system = self._reset_controller = True
-            self._reset_from_user = True
+        with self._lock:  # the plan is forgotten once the plant's reset worked
+            self._reset_system = self._reset_from_user = True
 
     def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
         """Move mocap body `index` (a goal) of the simulated plant to `position` (3,), and turn it to

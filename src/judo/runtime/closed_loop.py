@@ -36,6 +36,7 @@ from judo.core.errors import JudoError
 from judo.core.spline import Spline
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
 from judo.runtime.system import SimulationDiverged, System, SystemState
+from judo.runtime.system_calls import SystemCalls, SystemClosedError
 from judo.runtime.watchdog import Watchdog
 
 Latency = float | Literal["measured"]
@@ -43,6 +44,25 @@ Latency = float | Literal["measured"]
 
 TIME_TOLERANCE = 1e-9
 """Seconds within which two plant times count as the same (a plan due at t is served at t)."""
+
+
+class SystemCallError(JudoError):
+    """Some System calls of one plant step failed; each was tried on its own.
+
+    Attributes:
+        failed: {call name: its exception}, of "apply", "step" and "read_state".
+    """
+
+    def __init__(self, failed: dict[str, Exception]) -> None:
+        self.failed = failed
+        super().__init__(
+            "; ".join(f"system {name} failed: {type(err).__name__}: {err}" for name, err in failed.items())
+        )
+
+    @property
+    def served(self) -> bool:
+        """Whether the plant still got its action and its step."""
+        return "apply" not in self.failed and "step" not in self.failed
 
 
 def check_latency(latency: Latency) -> None:
@@ -89,12 +109,14 @@ class ClosedLoop:
     ) -> None:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
+        self.calls = SystemCalls(system)  # every System call goes through it (see judo.runtime.system_calls)
         self.recorders = list(recorders)
         self.stepped_time = 0.0  # plant time this loop has stepped, the watchdog's clock when none is given
         self.clock = clock if clock is not None else (lambda: self.stepped_time)
         self.on_watchdog = on_watchdog
         self.watchdog = Watchdog()
-        self._plan_stamp = 0.0  # watchdog clock of the freshest reading behind the plan in force
+        self.watchdog.restart(self.clock())
+        self._plan_stamp = self.clock()  # watchdog clock of the freshest reading behind the plan in force
         self._safe_state: np.ndarray | None = None  # (nq + nv,) the latest finite reading, for safe_action
         self.reading: SystemState | None = None
         self.update_ms: list[float] = []
@@ -129,7 +151,7 @@ class ClosedLoop:
         """Read the plant: the reading the next plan starts from, kept as `reading`.
 
         Raises ReadingTimeError, keeping the reading before, if its time went backwards."""
-        reading = self.system.read_state()
+        reading = self.calls.read_state()
         self.watchdog.note_reading(reading, self.clock())
         self.reading = reading
         state = reading.state
@@ -211,29 +233,56 @@ class ClosedLoop:
 
     def halt(self) -> None:
         """Bring the plant to rest: the System's own `halt()` where it offers one, else apply the safe action."""
-        if not self.system.halt():
-            self.system.apply(self.safe_action())
+        if not self.calls.halt():
+            self.calls.apply(self.safe_action())
+
+    def reset_plant(self) -> SystemState:
+        """Reset the plant to its start state and read it (its time may start again). Raises what the System's
+        `reset` raised, with the loop as it was; the plans are the caller's to forget (`forget_plans`)."""
+        self.calls.reset()
+        self.watchdog.restart(self.clock())
+        return self.read()
 
     def advance(self) -> StepRecord:
         """Serve the plan at the plant's time, step the plant once, read it back and record the step.
 
-        A diverged simulation (the plant reset itself) is counted in `divergences` and re-raised after the
-        step is read back and recorded; any other error of the System propagates at once.
+        apply, step and read_state are each tried on their own, so a failed reading or apply never skips
+        the step (a robot's driver exchanges its data in `step`). A diverged simulation (the plant reset
+        itself) is counted in `divergences` and re-raised after the step is read back and recorded; other
+        failed calls are raised together as a SystemCallError once all three were tried.
         """
         reading = self.reading if self.reading is not None else self.read()
         action = self.serve(reading.time)
-        self.system.apply(action)
+        failed: dict[str, Exception] = {}
         diverged: SimulationDiverged | None = None
+        try:
+            self.calls.apply(action)
+        except SystemClosedError:
+            raise
+        except Exception as err:
+            failed["apply"] = err
         self.stepped_time += self.system.timestep
         try:
-            self.system.step()
+            self.calls.step()
         except SimulationDiverged as err:
             self.divergences += 1
             diverged = err
-        reading = self.read()
+        except SystemClosedError:
+            raise
+        except Exception as err:
+            failed["step"] = err
+        try:
+            reading = self.read()
+        except SystemClosedError:
+            raise
+        except Exception as err:
+            failed["read_state"] = err
         record = StepRecord(reading.time, reading.state, self.system.plant_sensors(), action, reading.metadata)
-        for recorder in self.recorders:
-            recorder.on_step(record)
+        if "read_state" not in failed:
+            for recorder in self.recorders:
+                recorder.on_step(record)
+        if failed:
+            raise SystemCallError(failed)
         if diverged is not None:
             raise diverged
         return record

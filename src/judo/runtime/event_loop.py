@@ -1,5 +1,6 @@
-"""The App's event loop: one asyncio loop that serves the GUI and runs the system, controller and GUI
-coroutines (`judo.runtime.loops`) until a stop, then tears everything down.
+"""The App's event loop: one asyncio loop that serves the GUI and runs the controller, plant-monitor and GUI
+coroutines (`judo.runtime.loops`) beside the plant's own thread (`judo.runtime.plant_loop`) until a stop,
+then tears everything down.
 
 A stop (`stop()`, Ctrl-C, SIGTERM, the duration reached) sets `_stop` from any thread and wakes every wait;
 a planning cycle still in flight is abandoned to its daemon thread rather than waited for.
@@ -18,6 +19,8 @@ logger = logging.getLogger("judo.app")
 
 IDLE_THREAD_JOIN = 0.1
 """Seconds a stop waits for the planning thread to end before leaving it to finish on its own."""
+PLANT_THREAD_JOIN = 1.0
+"""Seconds a stop waits for the plant thread to halt the plant and end; a driver blocked longer is left."""
 
 
 class AppEventLoop(AppLoops):
@@ -52,7 +55,9 @@ class AppEventLoop(AppLoops):
                 self.gui = Gui(self, self.host, self.port, token=self.token, share=self.share)
                 self._warn_if_exposed()
                 logger.info("GUI at %s", self.gui.url)
-            loops = [self._system_loop(), self._controller_loop()]
+            self._plant_thread = threading.Thread(target=self._drive_plant, name="judo-plant", daemon=True)
+            self._plant_thread.start()
+            loops = [self._controller_loop(), self._watch_plant(self._plant_thread)]
             if self.gui is not None:
                 loops.append(self._gui_loop())
             self.report(self._running_message())
@@ -71,6 +76,7 @@ class AppEventLoop(AppLoops):
         finally:
             self._stop.set()
             self._ready.set()
+            self._end_plant_thread()
             if self.gui is not None:
                 self.gui.close()
             # An idle planning thread ends at once and is joined; a cycle still in flight (a huge batch,
@@ -82,6 +88,14 @@ class AppEventLoop(AppLoops):
                     loop.remove_signal_handler(sig)
             self._loop = None
             self._finished.set()
+
+    def _end_plant_thread(self) -> None:
+        """Give the plant thread up to PLANT_THREAD_JOIN s to halt the plant and end, then let no System call
+        start any more (a driver blocked in a call is left to return on its own daemon thread)."""
+        thread = getattr(self, "_plant_thread", None)
+        if thread is not None:
+            thread.join(PLANT_THREAD_JOIN)
+        self._session.closed_loop.calls.close()
 
     def _warn_if_exposed(self) -> None:
         """Log what a GUI listening beyond loopback exposes."""

@@ -1,11 +1,11 @@
 """The app's coroutines: thin async wrappers around the one closed-loop step (`judo.runtime.closed_loop`).
 
-Three coroutines share one StateBuffer:
-- the system loop calls `ClosedLoop.advance` at real-time pace (step k of a stretch is due at wall time
-  origin + k * timestep) and publishes each new reading under "system";
+The plant runs on a thread of its own (`judo.runtime.plant_loop`): it calls `ClosedLoop.advance` at
+real-time pace and publishes each new reading under "system" in the StateBuffer. On the event loop:
 - the controller loop calls `ClosedLoop.plan` at `control_freq` from the latest reading, on a worker thread
   (`run_in_executor`) so the event loop never blocks on rollouts, and publishes the plan, rewards, traces
   and timing under "plan";
+- the plant monitor reports a System call that blocks, and halts the robot where the System can;
 - the GUI loop draws state, traces and plots at about 30 Hz.
 Commands from other threads (`judo.runtime.app.App`) only queue requests; the loops pick them up at the top
 of their next iteration. `AppLoops` is the App's base class: it holds the loops and the state they share.
@@ -14,36 +14,31 @@ of their next iteration. `AppLoops` is the App's base class: it holds the loops 
 import asyncio
 import functools
 import logging
-import math
 import threading
 import time
 from typing import TYPE_CHECKING, Any
-
-import numpy as np
 
 from judo.core.config import Config
 from judo.core.controller import PlanningCancelled
 from judo.core.errors import JudoError
 from judo.core.registry import ConfigKind
 from judo.core.workers import DaemonThreadPool
+from judo.runtime.plant_loop import PlantLoop
 from judo.runtime.session import Session, build_session
-from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
-from judo.runtime.state_buffer import StateBuffer
-from judo.runtime.stats import RunStats
-from judo.runtime.status_line import StatusLine
-from judo.runtime.system import SimulationDiverged, System, SystemState
+from judo.runtime.snapshots import PlanSnapshot
+from judo.runtime.system import System, SystemState
 
 if TYPE_CHECKING:
     from judo.runtime.gui import Gui
 
 logger = logging.getLogger("judo.app")
 
-MAX_CATCH_UP = 0.1
-"""Most seconds of sim time the system loop steps at once to catch up; beyond that it falls behind."""
 IDLE_POLL = 0.01
 """Seconds a loop sleeps while paused or waiting for its first input."""
 GUI_PERIOD = 1.0 / 30.0
 """Seconds between GUI frames."""
+PLANT_WATCH_PERIOD = 0.05
+"""Seconds between the monitor's looks at the plant thread's System call."""
 CONFIG_POLL = 0.25
 """Most seconds the controller loop waits before looking at control_freq again (an edit takes effect)."""
 
@@ -52,43 +47,22 @@ class Stopping(Exception):
     """Raised inside the loops when a stop arrives while they wait for the planning thread."""
 
 
-class AppLoops:
-    """The loops of an App and the state they share with its commands (all guarded by `_lock`)."""
+class AppLoops(PlantLoop):
+    """The controller and GUI coroutines of an App, a monitor of the plant thread, and task switches; the
+    plant's own loop (`judo.runtime.plant_loop`) runs on a thread of its own."""
 
-    buffer: StateBuffer
-    stats: RunStats
-    duration: float | None
     gui: "Gui | None"
-    _status_line: StatusLine
-    _lock: threading.RLock
-    _session: Session
     _configs: dict[ConfigKind, Config]
     _pending: dict[ConfigKind, Config]
     _external_edits: int
     _switch_request: tuple[str, str] | None
-    _reset_system: bool
-    _reset_controller: bool
-    _reset_from_user: bool
-    _goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]]  # mocap index -> (pos (3,), quat (4,) or None)
-    _resets_done: int
-    _paused: bool
-    _stop: threading.Event
     _stopping: asyncio.Future | None
     _executor: DaemonThreadPool
     _user_system: System | None
     _seed: int | None
     _num_workers: int | None
     backend: str
-
-    def report(self, message: str, level: Any = "info") -> None:
-        self._status_line.report(message, level)
-
-    def _request_stop(self) -> None:  # judo.runtime.event_loop's
-        raise NotImplementedError
-
-    def _running_message(self) -> str:
-        session = self._session
-        return f"running {session.task_name} with {session.optimizer_name}"
+    system_call_limit: float
 
     async def _sleep(self, seconds: float) -> None:
         """Wait `seconds`, or until a stop is requested, whichever comes first."""
@@ -109,91 +83,45 @@ class AppLoops:
             raise Stopping
         return future.result()
 
-    # ---- the system loop: the plant at real-time pace -------------------------------------------------
-    async def _system_loop(self) -> None:
-        """Step the plant at real-time pace: step k of a stretch is due at wall time origin + k * timestep."""
-        generation = -1
-        origin = last_wall = 0.0
-        steps_done = 0
-        paced = False
+    # ---- the plant thread's monitor ---------------------------------------------------------------------
+    async def _watch_plant(self, plant_thread: threading.Thread) -> None:
+        """Report a System call that has blocked longer than `system_call_limit` (once per block) and halt the
+        robot where the System offers a halt; report when it returns. Ends on a stop."""
+        reported: tuple[str, float] | None = None
         while not self._stop.is_set():
-            session = self._session
-            if session.generation != generation:
-                generation, paced = session.generation, False
-                self._read_and_publish(session)
-            if self._carry_out_plant_requests(session):
-                paced = False
-            if self._paused:
-                paced = False
-                await self._sleep(IDLE_POLL)
-                continue
-            now = time.perf_counter()
-            if not paced:
-                origin, last_wall, steps_done, paced = now, now, 0, True
-            dt = session.system.timestep
-            due = int((now - origin) / dt) + 1 - steps_done
-            max_steps = max(1, round(MAX_CATCH_UP / dt))
-            if due > max_steps:  # too far behind to catch up: fall behind instead (the RTF shows it)
-                origin += (due - max_steps) * dt
-                due = max_steps
-            if self.duration is not None:  # never step past the requested duration
-                due = min(due, max(0, math.ceil((self.duration - self.stats.sim_time()) / dt - 1e-9)))
-            for _ in range(due):
-                self._step(session)
-            steps_done += due
-            self.stats.record_plant(due * dt, now - last_wall)
-            last_wall = now
-            if due and session.closed_loop.reading is not None:
-                self.buffer.publish("system", SystemSnapshot(session.generation, session.closed_loop.reading))
-            if self.duration is not None and self.stats.sim_time() >= self.duration - 1e-9:
+            calls = self._session.closed_loop.calls
+            blocked = calls.blocked(self.system_call_limit)
+            if blocked is not None and reported is None:
+                reported = blocked
+                halting = calls.offers_halt()
+                self.report(
+                    f"system {blocked[0]}() has not returned for {blocked[1]:.1f} s; "
+                    + ("halting the robot" if halting else "the watchdog serves the safe action once it returns"),
+                    "error",
+                )
+                if halting:  # on a thread of its own: the driver's halt may block too
+                    threading.Thread(target=self._halt_quietly, daemon=True, name="judo-halt").start()
+            elif blocked is None and reported is not None:
+                reported = None
+                self.report(f"the system responds again: {self._running_message()}")
+            if not plant_thread.is_alive() and not self._stop.is_set():
+                self.report("the plant thread ended unexpectedly; stopping", "error")
                 self._request_stop()
-                break
-            await self._sleep(origin + steps_done * dt - time.perf_counter())
+            await self._sleep(PLANT_WATCH_PERIOD)
 
-    def _carry_out_plant_requests(self, session: Session) -> bool:
-        """A reset or goal moves queued for the plant; True if the plant was reset."""
-        with self._lock:
-            reset, self._reset_system = self._reset_system, False
-            moves, self._goal_moves = self._goal_moves, {}
-        if reset:
-            try:
-                session.system.reset()
-            except Exception as err:
-                self.report(f"system reset failed: {type(err).__name__}: {err}", "error")
-            self._read_and_publish(session)
-            self._resets_done += 1
-            with self._lock:
-                from_user, self._reset_from_user = self._reset_from_user, False
-            if from_user:
-                self.report(f"{session.task_name} reset to its start state; the plan starts afresh")
-        plant = session.simulated
-        if moves and plant is not None:
-            for index, (position, quat) in moves.items():
-                plant.task.data.mocap_pos[index] = position
-                if quat is not None:
-                    plant.task.data.mocap_quat[index] = quat / np.linalg.norm(quat)
-            self._read_and_publish(session)
-        return reset
-
-    def _step(self, session: Session) -> None:
+    def _halt_quietly(self) -> None:
         try:
-            session.closed_loop.advance()
-        except SimulationDiverged as err:
-            self.report(str(err), "warning")
-            with self._lock:
-                self._reset_controller = True
-        except Exception as err:  # a user's System or task hook failed; keep serving
-            self._status_line.failed("system", f"system step failed: {type(err).__name__}: {err}")
-        else:
-            self._status_line.recovered("system", f"the system steps again: {self._running_message()}")
-
-    def _read_and_publish(self, session: Session) -> None:
-        try:
-            reading = session.closed_loop.read()
+            self._session.closed_loop.calls.halt()
         except Exception as err:
-            self.report(f"system read_state failed: {type(err).__name__}: {err}", "error")
-            return
-        self.buffer.publish("system", SystemSnapshot(session.generation, reading))
+            self.report(f"system halt failed: {type(err).__name__}: {err}", "error")
+
+    def _on_watchdog(self, reason: str | None) -> None:
+        """The closed loop's watchdog tripped (`reason`) or recovered (None): say so once per episode."""
+        if reason is not None:
+            self._status_line.failed("watchdog", f"watchdog: {reason}; serving the safe action", "warning")
+        elif "watchdog" in self._status_line.trouble:  # said even when another part's recovery came first
+            self._status_line.trouble.discard("watchdog")
+            self.report(f"fresh plans are served again: {self._running_message()}")
 
     # ---- the controller loop: plan at control_freq -----------------------------------------------------
     async def _controller_loop(self) -> None:
@@ -289,6 +217,8 @@ class AppLoops:
             seed=self._seed,
             num_workers=self._num_workers,
             backend=self.backend,
+            clock=self._session.closed_loop.clock,
+            on_watchdog=self._on_watchdog,
         )
 
         def build() -> Session:

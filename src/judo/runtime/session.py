@@ -4,6 +4,7 @@ closed loop between them.
 Switching task or optimizer builds a new Session and closes the old one; nothing is patched in place.
 """
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from judo.core.controller import Controller, ControllerConfig
@@ -55,12 +56,15 @@ def build_session(
     seed: int | None = None,
     num_workers: int | None = None,
     backend: str = "cpu",
+    clock: Callable[[], float] | None = None,
+    on_watchdog: Callable[[str | None], None] | None = None,
 ) -> Session:
     """A new Session. Configs left out get the task's registered defaults.
 
     With no `system`, the plant is `MujocoSystem.from_task` of the controller's task (its config shared,
     seeded by `seed`, at its start state). A given `system` is kept as it is, e.g. the user's hardware or
-    the running plant when only the optimizer changes. `backend` names the controller's rollout backend.
+    the running plant when only the optimizer changes. `backend` names the controller's rollout backend;
+    `clock` and `on_watchdog` go to the closed loop (its watchdog's clock, and its trip/recovery callback).
     Raises UnknownNameError for an unregistered name and ConfigError for configs that do not work together.
     """
     controller = make_controller(
@@ -76,5 +80,5 @@ def build_session(
         controller.task.config = task_config
     if system is None:
         system = MujocoSystem.from_task(controller.task, seed)
-    closed_loop = ClosedLoop(controller, system)
+    closed_loop = ClosedLoop(controller, system, clock=clock, on_watchdog=on_watchdog)
     return Session(task_name, optimizer_name, controller, system, closed_loop, generation)
