@@ -5,17 +5,28 @@ count, and the control rate and real-time factor over that period. Then it switc
 optimizer through the App API (the browser following each switch) and prints the growth. The goal:
 memory growth under 5% from minute 2 to the end, and a flat thread count.
 
+With --driver-faults SECONDS the app drives the task through a stand-in robot driver (the simulator
+behind a System) that injects one fault every SECONDS for a second: a raising, NaN, wrong-shape or
+frozen reading, a raising apply or step, or a call that blocks. The run then also prints how many faults
+were injected, how many times the watchdog served the safe action, and how many calls blocked; a user
+System cannot switch task, so the switch phase switches optimizer only.
+
 PYTHONPATH=src python benchmarks/soak.py [--minutes 30] [--task cartpole] [--optimizer mppi] [--switches 200]
+PYTHONPATH=src python benchmarks/soak.py --minutes 5 --driver-faults 10
 """
 
 import sys
+import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import tyro
 
+import judo
 from judo.runtime.app import App
+from judo.runtime.system import MujocoSystem, System, SystemState
 
 SWITCH_CYCLE = (("cartpole", "mppi"), ("cartpole", "cem"), ("acrobot", "cem"), ("acrobot", "mppi"))
 """(task, optimizer) pairs the switch phase goes round: two optimizer switches and two task switches."""
@@ -37,6 +48,75 @@ class Args:
     """Seconds between printed samples."""
     chromium: Path = Path("/usr/bin/chromium")
     """The Chromium binary playwright drives (never downloaded)."""
+    driver_faults: float = 0.0
+    """Inject one driver fault every this many seconds, for a second each (0: a fault-free simulator)."""
+
+
+DRIVER_FAULTS = (
+    "raising reading",
+    "NaN reading",
+    "wrong-shape reading",
+    "frozen reading",
+    "raising apply",
+    "raising step",
+    "blocking step",
+)
+"""The faults the stand-in driver injects in turn."""
+
+
+class FaultyDriver(System):
+    """The task's simulator behind a System whose calls fail in turn: one fault every `every` s, for 1 s."""
+
+    def __init__(self, task: str, every: float) -> None:
+        with judo.make_controller(task, "ps", seed=0) as controller:
+            self.plant = MujocoSystem.from_task(controller.task, seed=0)
+        self.timestep, self.every, self.start = self.plant.timestep, every, time.monotonic()
+        self.injected: dict[str, int] = {}
+        self._frozen: SystemState | None = None
+        self._lock = threading.Lock()
+
+    def fault(self) -> str | None:
+        """The fault in force now, counting each one once."""
+        elapsed = time.monotonic() - self.start
+        index = int(elapsed // self.every)
+        if index == 0 or elapsed - index * self.every > 1.0:
+            self._frozen = None
+            return None
+        name = DRIVER_FAULTS[(index - 1) % len(DRIVER_FAULTS)]
+        with self._lock:
+            key = f"{index}:{name}"
+            if key not in self.injected:
+                self.injected[key] = 1
+        return name
+
+    def reset(self) -> None:
+        self.plant.reset()
+
+    def read_state(self) -> SystemState:
+        reading, fault = self.plant.read_state(), self.fault()
+        if fault == "raising reading":
+            raise OSError("encoder bus timeout")
+        if fault == "NaN reading":
+            reading.state[0] = np.nan
+        elif fault == "wrong-shape reading":
+            reading.state = reading.state[:-1]
+        elif fault == "frozen reading":
+            self._frozen = self._frozen or reading
+            return self._frozen
+        return reading
+
+    def apply(self, action: np.ndarray) -> None:
+        if self.fault() == "raising apply":
+            raise OSError("drive fault")
+        self.plant.apply(action)
+
+    def step(self) -> None:
+        fault = self.fault()
+        if fault == "raising step":
+            raise OSError("fieldbus frame lost")
+        if fault == "blocking step":
+            time.sleep(1.0)
+        self.plant.step()
 
 
 def process_status() -> tuple[float, int]:
@@ -80,6 +160,9 @@ def switch_phase(app: App, args: Args) -> None:
         task, optimizer = SWITCH_CYCLE[k % len(SWITCH_CYCLE)]
         if (task, optimizer) == (session.task_name, session.optimizer_name):
             task, optimizer = SWITCH_CYCLE[(k + 1) % len(SWITCH_CYCLE)]
+        if args.driver_faults:  # a user System is one task: switch optimizer only
+            task = session.task_name
+            optimizer = "cem" if session.optimizer_name != "cem" else "mppi"
         generation = session.generation
         if task != session.task_name:
             app.switch_task(task)
@@ -111,7 +194,8 @@ def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     from playwright.sync_api import sync_playwright
 
-    app = App(args.task, args.optimizer, port=0, seed=0)
+    driver = FaultyDriver(args.task, args.driver_faults) if args.driver_faults else None
+    app = App(args.task, args.optimizer, port=0, seed=0, system=driver)
     app.start()
     say(f"soak: {args.task} with {args.optimizer} for {args.minutes:g} min, GUI at {app.gui.url}")
     try:
@@ -135,6 +219,13 @@ def main() -> None:
     finally:
         app.stop()
     say(str(app.summary()))
+    if driver is not None:
+        trips = app.session.closed_loop.watchdog.trips
+        say(
+            f"driver faults: {len(driver.injected)} injected ({', '.join(DRIVER_FAULTS)} in turn); the watchdog "
+            f"served the safe action {trips} times in the last session; app still running at the end: "
+            f"{'no (stopped by the soak)' if not app.running else 'yes'}"
+        )
 
 
 if __name__ == "__main__":

@@ -87,3 +87,18 @@ def test_randomized_overhead_prints_the_ratio_per_r():
     result = run_script("randomized_overhead.py", *small, "--randomizations", "1", "3")
     assert result.returncode == 0, result.stderr
     assert "| 1 | 16 x 1 x 70 |" in result.stdout and "| 3 | 16 x 3 x 70 |" in result.stdout
+
+
+@pytest.mark.browser
+def test_soak_with_driver_faults_reports_the_faults_and_the_watchdog():
+    if not Path("/usr/bin/chromium").exists():
+        pytest.skip("/usr/bin/chromium not found (install Debian's chromium package)")
+    result = run_script(
+        "soak.py", "--minutes", "0.1", "--sample-seconds", "2", "--switches", "0", "--driver-faults", "1.5"
+    )
+    assert result.returncode == 0, result.stderr
+    line = next(line for line in result.stdout.splitlines() if line.startswith("driver faults: "))
+    injected = int(line.split()[2])
+    trips = int(line.split("safe action ")[1].split()[0])
+    assert injected >= 3, result.stdout
+    assert trips >= 2, result.stdout  # one session (no switches): each fault of a second trips the watchdog
