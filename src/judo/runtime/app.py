@@ -40,7 +40,7 @@ from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import lookup_optimizer, lookup_task
 from judo.core.task import TaskConfig
 from judo.core.workers import DaemonThreadPool
-from judo.runtime.address import check_port, is_loopback, new_token
+from judo.runtime.address import check_port, check_token, is_loopback
 from judo.runtime.session import Session, build_session, default_configs
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
@@ -167,8 +167,7 @@ class App:
         self.buffer = StateBuffer()
         self.stats = RunStats()
         self.gui_enabled, self.host, self.port, self.duration = gui, host, check_port(port), duration
-        if gui and token is None and not is_loopback(host):
-            token = new_token()
+        token = check_token(token, host, generate=gui)
         self.token, self.share = token, share
         self._user_system, self._seed, self._num_workers = system, seed, num_workers
         self.backend = backend
