@@ -40,6 +40,7 @@ from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import lookup_optimizer, lookup_task
 from judo.core.task import TaskConfig
 from judo.core.workers import DaemonThreadPool
+from judo.runtime import exit_guard
 from judo.runtime.address import check_port, check_token, is_loopback
 from judo.runtime.session import Session, build_session, default_configs
 from judo.runtime.state_buffer import StateBuffer
@@ -219,6 +220,7 @@ class App:
         if self._start_error is not None:
             self._thread.join()
             raise self._start_error
+        exit_guard.register(self)  # stopped at interpreter exit if the script never calls stop()
 
     def run(self) -> RunSummary:
         """Run the loops in this thread until `duration` is reached, `stop()`, Ctrl-C or SIGTERM.
