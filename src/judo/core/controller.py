@@ -326,7 +326,7 @@ class Controller:
             )
             if rewards.shape != (num_rows,):
                 raise JudoError(f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)")
-            rewards[np.isnan(rewards)] = -np.inf
+            rewards[np.isnan(rewards) | (rewards == np.inf)] = -np.inf  # NaN or +inf never wins a ranking
             if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
                 rewards = reduce_rewards(rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale)
                 states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
