@@ -147,7 +147,7 @@ def _peek_names(argv: list[str]) -> tuple[str, str]:
     peek.add_argument("--task", default=None)
     peek.add_argument("--optimizer", default=None)
     known, _ = peek.parse_known_args(argv)
-    loaded = load_config(known.config) if known.config else None
+    loaded = load_config(known.config) if known.config is not None else None
     task = known.task or (loaded and loaded.task) or RunOptions.task
     optimizer = known.optimizer or (loaded and loaded.optimizer) or RunOptions.optimizer
     return task, optimizer
