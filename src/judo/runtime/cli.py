@@ -25,7 +25,8 @@ import numpy as np
 import tyro
 import tyro.constructors
 
-from judo.core.config import Config, with_updates
+from judo.core.boundary import MAX_DURATION
+from judo.core.config import Config, require_between, with_updates
 from judo.core.config_file import load_config
 from judo.core.errors import JudoError
 from judo.core.registry import get_registered_optimizers, get_registered_tasks
@@ -79,6 +80,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = ["--task", task, "--optimizer", optimizer, *argv]  # the config file's names, unless given again
     try:
         options, configs = parse(argv, defaults)
+        if options.duration is not None:  # its step count must fit an integer
+            require_between("duration", options.duration, 0, MAX_DURATION, " s of sim time", above=True)
         app = App(
             options.task,
             options.optimizer,
@@ -142,7 +145,7 @@ def _peek_names(argv: list[str]) -> tuple[str, str]:
     Loads the --config file first (registering its classes and overrides), whose names stand in
     for --task and --optimizer when those are not given. Raises JudoError for a bad file.
     """
-    peek = argparse.ArgumentParser(add_help=False)
+    peek = argparse.ArgumentParser(prog=PROG, add_help=False)
     peek.add_argument("--config", default=None)
     peek.add_argument("--task", default=None)
     peek.add_argument("--optimizer", default=None)
