@@ -166,19 +166,19 @@ def test_every_float_field_refuses_a_magnitude_whose_use_overflows(config_cls):
             continue
         for bad in (1e308, -1e308, 10 * MAX_MAGNITUDE):
             bad_value = np.full_like(value, bad) if isinstance(value, np.ndarray) else bad
-            with pytest.raises(
-                judo.ConfigError,
-                match=f"{config_cls.__name__}.{field.name} must (be|hold numbers) of magnitude at most 1e\\+09",
-            ):
+            with pytest.raises(judo.ConfigError, match=field.name):  # by its own range, or else the bound
                 with_updates(config, {field.name: bad_value})
+    weights = judo.get_registered_tasks()["cartpole"][1]()  # fields with no range of their own: the bound names it
+    with pytest.raises(judo.ConfigError, match=r"CartpoleConfig.w_vertical must be of magnitude at most 1e\+09"):
+        with_updates(weights, {"w_vertical": -1e308})
 
 
 @pytest.mark.parametrize(
     ("updates", "message"),
     [
-        ({"horizon": 10**40}, "ControllerConfig.horizon must be of magnitude at most 1e+09, got 1e+40"),
+        ({"horizon": 10**40}, "horizon must be above 0 and at most 60.0 s, got 1e+40"),
         ({"horizon": 10**400}, "ControllerConfig.horizon expects a finite number, got 1000000"),
-        ({"max_opt_iters": 10**40}, "ControllerConfig.max_opt_iters expects an integer of magnitude at most 2**53"),
+        ({"max_opt_iters": 10**40}, "max_opt_iters must be between 1 and 100"),
         (
             {"spline_order": np.array([1, 2])},
             "ControllerConfig.spline_order expects one of ['zero', 'linear', 'cubic']",

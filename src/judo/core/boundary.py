@@ -20,9 +20,11 @@ MAX_EPISODE = 86_400.0
 JUDO_DIR = str(Path(__file__).resolve().parents[1])
 
 
-def check_count(option: str, value: int, high: int, low: int = 1) -> None:
-    """Raise ConfigError unless low <= `value` <= high, naming `option` (e.g. "--num-workers")."""
-    require(low <= value <= high, f"{option} must be an integer from {low} to {high}, got {shown(value)}")
+def check_count(option: str, value: int | None, high: int, low: int = 1) -> None:
+    """Raise ConfigError unless `value` is None (not given) or low <= `value` <= high, naming `option`."""
+    require(
+        value is None or low <= value <= high, f"{option} must be an integer from {low} to {high}, got {shown(value)}"
+    )
 
 
 def check_output_file(option: str, path: Path | None) -> None:

@@ -33,31 +33,42 @@ class Config:
 
     def __post_init__(self) -> None:
         self.validate()
+        check_magnitudes(self)
 
     def validate(self) -> None:
         """Raise ConfigError if a field is out of range. Subclasses extend this and call super().
 
-        The base check, one per kind of field, refuses in every float and array field NaN, infinite
-        values and magnitudes beyond MAX_MAGNITUDE (no planner or reward works with them: 1e308 weights,
-        noise or goals overflow every cycle, and a NaN that reaches MuJoCo floods the log), and in every
-        integer field magnitudes beyond MAX_INT.
+        The base check refuses NaN and infinite values in every float and array field: no planner
+        or reward works with them, and a NaN that reaches MuJoCo floods the log.
         """
         for f in fields(self):
             value = getattr(self, f.name, None)
             where = f"{type(self).__name__}.{f.name}"
             if isinstance(value, (float, np.floating)):
                 require(math.isfinite(value), f"{where} must be a finite number, got {value}")
-                require(
-                    abs(value) <= MAX_MAGNITUDE, f"{where} must be of magnitude at most {MAX_MAGNITUDE:g}, got {value}"
-                )
             if isinstance(value, np.ndarray) and value.dtype.kind in "fc":
                 require(bool(np.isfinite(value).all()), f"{where} must hold finite numbers, got {shown(value)}")
-                require(
-                    bool((np.abs(value) <= MAX_MAGNITUDE).all()),
-                    f"{where} must hold numbers of magnitude at most {MAX_MAGNITUDE:g}, got {shown(value)}",
-                )
-            if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
-                require(abs(int(value)) <= MAX_INT, f"{where} must be of magnitude at most 2**53, got {shown(value)}")
+
+
+def check_magnitudes(config: Config) -> None:
+    """Raise ConfigError for a value no field may hold whatever its own range, one check per kind of field:
+    a float (or an array's entry) beyond MAX_MAGNITUDE, an integer beyond MAX_INT. A weight, noise scale
+    or goal of 1e308 passes "finite" but overflows every planning cycle.
+
+    Run after `validate()`, at construction and by `with_updates`, so a field's own range is named first.
+    """
+    for f in fields(config):
+        value = getattr(config, f.name, None)
+        where = f"{type(config).__name__}.{f.name}"
+        if isinstance(value, (float, np.floating)):
+            require(abs(value) <= MAX_MAGNITUDE, f"{where} must be of magnitude at most {MAX_MAGNITUDE:g}, got {value}")
+        if isinstance(value, np.ndarray) and value.dtype.kind in "fc":
+            require(
+                bool((np.abs(value) <= MAX_MAGNITUDE).all()),
+                f"{where} must hold numbers of magnitude at most {MAX_MAGNITUDE:g}, got {shown(value)}",
+            )
+        if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+            require(abs(int(value)) <= MAX_INT, f"{where} must be of magnitude at most 2**53, got {shown(value)}")
 
 
 def require(condition: bool, message: str) -> None:
@@ -109,9 +120,6 @@ def coerce_field_value(config: Config, name: str, value: Any) -> Any:
     if hint is int:
         integral = isinstance(value, (int, np.integer)) or (is_number and float(value).is_integer())
         require(is_number and integral, f"{where} expects an integer, got {shown(value)}")
-        require(
-            abs(int(value)) <= MAX_INT, f"{where} expects an integer of magnitude at most 2**53, got {shown(value)}"
-        )
         return int(value)
     if hint is float:
         require(is_number, f"{where} expects a number, got {shown(value)}")
@@ -155,6 +163,7 @@ def with_updates(config: Config, updates: dict[str, Any]) -> Config:
     for name, value in updates.items():
         setattr(updated, name, coerce_field_value(updated, name, value))
     updated.validate()
+    check_magnitudes(updated)
     return updated
 
 

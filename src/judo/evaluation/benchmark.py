@@ -116,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the benchmark on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
     args = parse_args(BenchmarkArgs, argv, "python -m judo benchmark", DESCRIPTION + " " + name_listing())
     try:
-        check_count("--num-workers", args.num_workers or 1, MAX_WORKERS)
+        check_count("--num-workers", args.num_workers, MAX_WORKERS)
         check_count("--samples", args.samples, MAX_SAMPLES)
         check_count("--warmup", args.warmup, MAX_SAMPLES, low=0)
         check_output_file("--json", args.json)

@@ -166,7 +166,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
     args = parse_args(EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing())
     try:
-        check_count("--num-workers", args.num_workers or 1, MAX_WORKERS)
+        check_count("--num-workers", args.num_workers, MAX_WORKERS)
         check_output_file("--json", args.json)
         check_output_file("--plot", args.plot)
         apply_config_file(args.config)

@@ -15,6 +15,7 @@ the command-line options, then live GUI edits.
 import argparse
 import dataclasses
 import logging
+import math
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
@@ -26,9 +27,9 @@ import tyro
 import tyro.constructors
 
 from judo.core.boundary import MAX_DURATION
-from judo.core.config import Config, require_between, with_updates
+from judo.core.config import Config, with_updates
 from judo.core.config_file import load_config
-from judo.core.errors import JudoError
+from judo.core.errors import ConfigError, JudoError
 from judo.core.registry import get_registered_optimizers, get_registered_tasks
 from judo.core.rollout import RolloutBackendName
 from judo.runtime.app import App
@@ -80,8 +81,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = ["--task", task, "--optimizer", optimizer, *argv]  # the config file's names, unless given again
     try:
         options, configs = parse(argv, defaults)
-        if options.duration is not None:  # its step count must fit an integer
-            require_between("duration", options.duration, 0, MAX_DURATION, " s of sim time", above=True)
+        if options.duration is not None and math.isfinite(options.duration) and options.duration > MAX_DURATION:
+            raise ConfigError(  # its step count would not fit an integer
+                "duration must be a positive, finite number of seconds of sim time, "
+                f"at most {MAX_DURATION:g}, got {options.duration}"
+            )
         app = App(
             options.task,
             options.optimizer,

@@ -276,7 +276,7 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = tyro.cli(TuneArgs, args=argv, prog="python -m judo tune", description=DESCRIPTION + " " + name_listing())
     try:
-        check_count("--workers", args.workers or 1, MAX_WORKERS)
+        check_count("--workers", args.workers, MAX_WORKERS)
         check_count("--trials", args.trials, MAX_SAMPLES)
         require_between("--duration", args.duration, 0, MAX_EPISODE, " s", above=True)
         if args.latency_ms is not None:
