@@ -240,3 +240,11 @@ def test_the_table_covers_every_command():
     commands = {row.args[0] if row.args[0] in ("evaluate", "benchmark", "tune") else "app" for row in TABLE}
     assert commands == {"app", "evaluate", "benchmark", "tune"}
     assert len({row.id for row in TABLE}) == len(TABLE)  # ids are the outcome keys
+
+
+@pytest.mark.slow
+def test_debug_shows_the_users_own_traceback(tmp_path):
+    for name in ("user_classes.py", "init_fails.toml"):
+        (tmp_path / name).write_text(str(FILES[name]))
+    status, err = run_row(Row((*BAD_EVALUATE, *config("init_fails.toml"), "--debug"), 1, ""), tmp_path)
+    assert status == 1 and "Traceback" in err and 'raise RuntimeError("cannot build the task")' in err
