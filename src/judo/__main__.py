@@ -4,15 +4,40 @@ python -m judo --task cartpole --optimizer mppi     # the app; --help lists its 
 python -m judo benchmark ...                        # judo.evaluation.benchmark
 python -m judo evaluate ...                         # judo.evaluation.evaluate
 python -m judo tune ...                             # judo.tuning.cli (needs the `tune` extra)
+
+Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
+task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
+status 1 (`--debug` anywhere on the line shows the whole traceback instead); Ctrl-C exits 130.
 """
 
 import sys
 from collections.abc import Sequence
 
+PROG = "python -m judo"
+
 
 def main(argv: Sequence[str] | None = None) -> int | None:
     """Dispatch `argv` (default: sys.argv[1:]) to a command and return its exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [arg for arg in argv if arg != "--debug"]
+    prog = f"{PROG} {argv[0]}" if argv and argv[0] in ("benchmark", "evaluate", "tune") else PROG
+    try:
+        return dispatch(argv)
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return 130
+    except Exception as err:  # the user's code failed (judo's own errors are told by each command)
+        if debug:
+            raise
+        from judo.core.boundary import user_error_line
+
+        print(f"{prog}: {user_error_line(err)} (--debug shows the traceback)", file=sys.stderr)
+        return 1
+
+
+def dispatch(argv: list[str]) -> int | None:
+    """Run the command `argv` names and return its exit status."""
     if argv and argv[0] == "benchmark":
         from judo.evaluation.benchmark import main as benchmark_main
 

@@ -152,3 +152,44 @@ def test_a_cem_whose_search_went_nan_is_restarted(upright_task):
         assert np.isfinite(controller.update_action(np.zeros(4), 0.04).knots).all()
     finally:
         controller.close()
+
+
+@pytest.mark.parametrize("config_cls", every_config_class(), ids=lambda cls: cls.__name__)
+def test_every_float_field_refuses_a_magnitude_whose_use_overflows(config_cls):
+    """1e308 weights, noise or goals pass "finite" but overflow every planning cycle: one bound, every field."""
+    from judo.core.config import MAX_MAGNITUDE
+
+    config = config_cls()
+    for field in dataclasses.fields(config):
+        value = getattr(config, field.name)
+        if isinstance(value, bool) or not isinstance(value, (float, np.ndarray)):
+            continue
+        for bad in (1e308, -1e308, 10 * MAX_MAGNITUDE):
+            bad_value = np.full_like(value, bad) if isinstance(value, np.ndarray) else bad
+            with pytest.raises(judo.ConfigError, match=field.name):  # by its own range, or else the bound
+                with_updates(config, {field.name: bad_value})
+    weights = judo.get_registered_tasks()["cartpole"][1]()  # fields with no range of their own: the bound names it
+    with pytest.raises(judo.ConfigError, match=r"CartpoleConfig.w_vertical must be of magnitude at most 1e\+09"):
+        with_updates(weights, {"w_vertical": -1e308})
+
+
+@pytest.mark.parametrize(
+    ("updates", "message"),
+    [
+        ({"horizon": 10**40}, "horizon must be above 0 and at most 60.0 s, got 1e+40"),
+        ({"horizon": 10**400}, "ControllerConfig.horizon expects a finite number, got 1000000"),
+        ({"max_opt_iters": 10**40}, "max_opt_iters must be between 1 and 100"),
+        (
+            {"spline_order": np.array([1, 2])},
+            "ControllerConfig.spline_order expects one of ['zero', 'linear', 'cubic']",
+        ),
+        ({"spline_order": ["cubic"]}, "expects one of"),
+        ([1, 2], "updates must be a dict {field: value}, got list [1, 2]"),
+        ("horizon", "updates must be a dict {field: value}, got str"),
+        ({"horizon": "x" * 10**6}, "expects a number, got 'xxx"),
+    ],
+)
+def test_update_config_raises_config_errors_only_with_values_cut_short(updates, message):
+    with pytest.raises(judo.ConfigError) as error:
+        with_updates(judo.ControllerConfig(), updates)  # type: ignore[arg-type]
+    assert message in str(error.value) and len(str(error.value)) < 400

@@ -137,6 +137,9 @@ def test_the_all_section_sets_every_optimizers_base_fields_and_a_named_one_wins(
     path = write(
         tmp_path,
         """
+        [custom_tasks.all_section_task]
+        task = "judo.tasks.cartpole.Cartpole"
+        config = "judo.tasks.cartpole.CartpoleConfig"
         [optimizer_config_overrides.all_section_task.all]
         num_rollouts = 48
         [optimizer_config_overrides.all_section_task.mppi]

@@ -55,6 +55,26 @@ def test_nan_rewards_never_win(upright_task):
     np.testing.assert_array_equal(controller.nominal_knots, np.zeros((4, 1)))  # the nominal won
 
 
+@pytest.mark.parametrize("optimizer", ["ps", "mppi"])
+def test_inf_rewards_never_win_and_keep_mppi_weights_finite(upright_task, optimizer):
+    def reward(states, sensors, controls, config, system_metadata=None):
+        values = -np.abs(controls).sum((1, 2))
+        values[1:] = np.inf  # everything but the nominal "scores" +inf, as a diverged reward may
+        return values
+
+    upright_task.reward = reward
+    config = MPPIConfig(num_rollouts=16, sigma=0.5) if optimizer == "mppi" else None
+    controller = (
+        make(upright_task)
+        if config is None
+        else judo.Controller(judo.ControllerConfig(), upright_task, MPPI(config, upright_task.nu), num_workers=2)
+    )
+    controller.update_action(np.zeros(4), 0.0)
+    assert controller.rewards[0] > -np.inf and np.all(controller.rewards[1:] == -np.inf)
+    assert np.isfinite(controller.nominal_knots).all()
+    np.testing.assert_array_equal(controller.nominal_knots, np.zeros((4, 1)))  # the nominal won
+
+
 def test_all_nan_rewards_raise_and_keep_the_previous_plan(upright_task):
     controller = make(upright_task)
     controller.update_action(np.zeros(4), 0.0)

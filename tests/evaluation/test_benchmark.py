@@ -57,7 +57,7 @@ def test_an_unknown_optimizer_is_refused_before_any_timing(capsys):
 def test_samples_must_be_positive(capsys):
     with pytest.raises(SystemExit):
         main(["--samples", "0"])
-    assert capsys.readouterr().err == "error: --samples must be at least 1, got 0\n"
+    assert capsys.readouterr().err == "error: --samples must be an integer from 1 to 100000, got 0\n"
 
 
 def test_help_names_the_flags_and_the_choices(capsys):

@@ -15,7 +15,7 @@ from websockets.sync.client import connect
 
 from judo.core.errors import ConfigError, GuiStartError
 from judo.runtime import cli
-from judo.runtime.address import check_host, check_port, is_loopback
+from judo.runtime.address import check_host, check_port, check_token, is_loopback
 from judo.runtime.app import App
 from judo.runtime.gui.access import AccessPolicy
 
@@ -162,6 +162,45 @@ def test_a_host_that_is_not_this_machine_fails_fast(host, message):
     with pytest.raises(GuiStartError):
         app.start()
     assert not app.running
+
+
+@pytest.mark.parametrize(
+    ("token", "message"),
+    [
+        ("", "token must not be empty or blank (it would let every URL in)"),
+        ("   ", "token must not be empty or blank"),
+        ("a/b/c/d/e/f", "token may only hold the URL-safe characters A-Z, a-z, 0-9, '_' and '-', got 'a/b/c/d/e/f'"),
+        ("two words here", "with ' '"),
+        ("tok?en=1#frag", "with '#', '=', '?'"),
+        ("..........", "with '.'"),
+        ("tökentöken", "with 'ö'"),
+        ("short", "token must be 8 to 128 characters long, got 5 characters"),
+        ("x" * 129, "token must be 8 to 128 characters long, got 129"),
+        (12345678, "token must be a string"),
+    ],
+)
+def test_a_token_that_is_blank_or_not_url_safe_is_refused(token, message):
+    with pytest.raises(ConfigError) as error:
+        check_token(token, "0.0.0.0")
+    assert message in str(error.value)
+    with pytest.raises(ConfigError):
+        App("cartpole", "ps", host="0.0.0.0", token=token, num_workers=1)  # type: ignore[arg-type]
+    with pytest.raises(ConfigError):
+        App("cartpole", "ps", token=token, gui=False, num_workers=1)  # type: ignore[arg-type]
+
+
+def test_a_token_is_kept_generated_beyond_loopback_and_optional_on_loopback():
+    assert check_token("s3cret-token_OK", "0.0.0.0") == "s3cret-token_OK"
+    generated = check_token(None, "0.0.0.0")
+    assert generated is not None and check_token(generated, "0.0.0.0") == generated
+    assert check_token(None, "127.0.0.1") is None
+    assert check_token(None, "0.0.0.0", generate=False) is None
+
+
+def test_an_empty_token_on_the_command_line_exits_2(capsys):
+    assert cli.main(["--host", "0.0.0.0", "--token", "", "--headless", "--duration", "0.01"]) == 2
+    err = capsys.readouterr().err
+    assert "token must not be empty or blank" in err and "Traceback" not in err
 
 
 def test_loopback_addresses():

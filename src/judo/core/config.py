@@ -11,6 +11,21 @@ import numpy as np
 
 from judo.core.errors import ConfigError, UnknownNameError
 
+MAX_MAGNITUDE = 1e9
+"""Largest magnitude of a float config value (a weight, a noise scale, a goal): far beyond any that plans,
+below MuJoCo's "huge value" mark (1e10), and small enough that a reward squaring it and summing it over
+every rollout and step never overflows."""
+MAX_INT = 2**53
+"""Largest magnitude of an integer config value: every one is exact as a float, a numpy int and in a browser."""
+SHOWN = 200
+"""Characters of an offending value a message shows at most."""
+
+
+def shown(value: Any) -> str:
+    """`repr(value)`, cut to SHOWN characters, for an error message (a 50 MB value is never echoed whole)."""
+    text = repr(value.tolist() if isinstance(value, np.ndarray) else value)
+    return text if len(text) <= SHOWN else f"{text[:SHOWN]}... ({len(text)} characters)"
+
 
 @dataclass
 class Config:
@@ -18,6 +33,7 @@ class Config:
 
     def __post_init__(self) -> None:
         self.validate()
+        check_magnitudes(self)
 
     def validate(self) -> None:
         """Raise ConfigError if a field is out of range. Subclasses extend this and call super().
@@ -27,10 +43,32 @@ class Config:
         """
         for f in fields(self):
             value = getattr(self, f.name, None)
-            if isinstance(value, (float, np.floating)) and not math.isfinite(value):
-                raise ConfigError(f"{type(self).__name__}.{f.name} must be a finite number, got {value}")
-            if isinstance(value, np.ndarray) and value.dtype.kind in "fc" and not np.isfinite(value).all():
-                raise ConfigError(f"{type(self).__name__}.{f.name} must hold finite numbers, got {value.tolist()}")
+            where = f"{type(self).__name__}.{f.name}"
+            if isinstance(value, (float, np.floating)):
+                require(math.isfinite(value), f"{where} must be a finite number, got {value}")
+            if isinstance(value, np.ndarray) and value.dtype.kind in "fc":
+                require(bool(np.isfinite(value).all()), f"{where} must hold finite numbers, got {shown(value)}")
+
+
+def check_magnitudes(config: Config) -> None:
+    """Raise ConfigError for a value no field may hold whatever its own range, one check per kind of field:
+    a float (or an array's entry) beyond MAX_MAGNITUDE, an integer beyond MAX_INT. A weight, noise scale
+    or goal of 1e308 passes "finite" but overflows every planning cycle.
+
+    Run after `validate()`, at construction and by `with_updates`, so a field's own range is named first.
+    """
+    for f in fields(config):
+        value = getattr(config, f.name, None)
+        where = f"{type(config).__name__}.{f.name}"
+        if isinstance(value, (float, np.floating)):
+            require(abs(value) <= MAX_MAGNITUDE, f"{where} must be of magnitude at most {MAX_MAGNITUDE:g}, got {value}")
+        if isinstance(value, np.ndarray) and value.dtype.kind in "fc":
+            require(
+                bool((np.abs(value) <= MAX_MAGNITUDE).all()),
+                f"{where} must hold numbers of magnitude at most {MAX_MAGNITUDE:g}, got {shown(value)}",
+            )
+        if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+            require(abs(int(value)) <= MAX_INT, f"{where} must be of magnitude at most 2**53, got {shown(value)}")
 
 
 def require(condition: bool, message: str) -> None:
@@ -76,32 +114,39 @@ def coerce_field_value(config: Config, name: str, value: Any) -> Any:
     hint = types[name]
     where = f"{type(config).__name__}.{name}"
     if hint is bool:
-        require(isinstance(value, (bool, np.bool_)), f"{where} expects true or false, got {value!r}")
+        require(isinstance(value, (bool, np.bool_)), f"{where} expects true or false, got {shown(value)}")
         return bool(value)
     is_number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
     if hint is int:
         integral = isinstance(value, (int, np.integer)) or (is_number and float(value).is_integer())
-        require(is_number and integral, f"{where} expects an integer, got {value!r}")
+        require(is_number and integral, f"{where} expects an integer, got {shown(value)}")
         return int(value)
     if hint is float:
-        require(is_number, f"{where} expects a number, got {value!r}")
-        require(math.isfinite(value), f"{where} expects a finite number, got {value!r}")
-        return float(value)
+        require(is_number, f"{where} expects a number, got {shown(value)}")
+        try:
+            number = float(value)
+        except OverflowError:  # an int beyond a float's range (10**400)
+            number = math.inf
+        require(math.isfinite(number), f"{where} expects a finite number, got {shown(value)}")
+        return number
     if hint is str:
-        require(isinstance(value, str), f"{where} expects a string, got {value!r}")
+        require(isinstance(value, str), f"{where} expects a string, got {shown(value)}")
         return value
     if typing.get_origin(hint) is Literal:
         choices = typing.get_args(hint)
-        require(value in choices, f"{where} expects one of {list(choices)}, got {value!r}")
+        scalar = isinstance(value, (str, int, float, bool, np.generic))  # an array compares elementwise
+        require(scalar and value in choices, f"{where} expects one of {list(choices)}, got {shown(value)}")
         return value
     if hint is np.ndarray:
         current = getattr(config, name)
         try:
             array = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
-            raise ConfigError(f"{where} expects a list of {len(current)} numbers, got {value!r}") from None
-        require(array.shape == current.shape, f"{where} expects {len(current)} numbers, got {value!r}")
-        require(bool(np.isfinite(array).all()), f"{where} expects {len(current)} finite numbers, got {value!r}")
+            raise ConfigError(f"{where} expects a list of {len(current)} numbers, got {shown(value)}") from None
+        except OverflowError:  # an int beyond a float's range
+            raise ConfigError(f"{where} expects {len(current)} finite numbers, got {shown(value)}") from None
+        require(array.shape == current.shape, f"{where} expects {len(current)} numbers, got {shown(value)}")
+        require(bool(np.isfinite(array).all()), f"{where} expects {len(current)} finite numbers, got {shown(value)}")
         return array
     return value
 
@@ -112,10 +157,13 @@ def with_updates(config: Config, updates: dict[str, Any]) -> Config:
     Raises UnknownNameError for a field that does not exist and ConfigError for a bad value, so a
     caller (override file, CLI, GUI) can refuse the edit and keep the previous config.
     """
+    if not isinstance(updates, dict):
+        raise ConfigError(f"updates must be a dict {{field: value}}, got {type(updates).__name__} {shown(updates)}")
     updated = snapshot(config)
     for name, value in updates.items():
         setattr(updated, name, coerce_field_value(updated, name, value))
     updated.validate()
+    check_magnitudes(updated)
     return updated
 
 

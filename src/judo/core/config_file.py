@@ -20,6 +20,8 @@ w_centered = 5.0
 """
 
 import importlib
+import os
+import stat
 import sys
 import traceback
 from dataclasses import dataclass
@@ -57,6 +59,10 @@ ALL_OPTIMIZERS = "all"
 """The optimizer name in [optimizer_config_overrides.<task>.all]: OptimizerConfig, so every optimizer."""
 
 
+MAX_CONFIG_BYTES = 1_000_000
+"""Largest config file read: a config is a few hundred lines; anything bigger is not one."""
+
+
 class ConfigFileError(JudoError):
     """A config file that cannot be read or applied; the message names the file and the offending key."""
 
@@ -77,15 +83,14 @@ def load_config(path: str | Path) -> LoadedConfig:
     unless the whole file is valid up to the failing entry.
     """
     path = Path(path)
-    try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise ConfigFileError(f"config file not found: {path}") from None
+    text = read_config_text(path)
     try:
         table = tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
         where = "" if "line" in str(err) else f" (at line {max(1, len(text.splitlines()))})"
         raise ConfigFileError(f"{path}: TOML syntax error: {err}{where}") from None
+    except ValueError as err:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
+        raise ConfigFileError(f"{path}: a value could not be read: {str(err)[:200]}") from None
 
     unknown = sorted(set(table) - set(TOP_LEVEL_KEYS))
     if unknown:
@@ -116,7 +121,12 @@ def load_config(path: str | Path) -> LoadedConfig:
                 raise fail(where, err) from None
 
     for task_name, overrides in _table(table, "controller_config_overrides", path).items():
-        _apply(path, f"controller_config_overrides.{task_name}", task_name, ControllerConfig, overrides)
+        where = f"controller_config_overrides.{task_name}"
+        try:
+            lookup_task(task_name)
+        except UnknownNameError as err:
+            raise fail(where, err) from None
+        _apply(path, where, task_name, ControllerConfig, overrides)
     for task_name, overrides in _table(table, "task_config_overrides", path).items():
         where = f"task_config_overrides.{task_name}"
         try:
@@ -129,6 +139,7 @@ def load_config(path: str | Path) -> LoadedConfig:
         for optimizer_name, overrides in _table(per_task, task_name, path).items():
             where = f"optimizer_config_overrides.{task_name}.{optimizer_name}"
             try:
+                lookup_task(task_name)
                 config_cls = optimizer_config_class(optimizer_name)
             except UnknownNameError as err:
                 raise fail(where, err) from None
@@ -141,6 +152,48 @@ def load_config(path: str | Path) -> LoadedConfig:
             except UnknownNameError as err:
                 raise fail(key, err) from None
     return LoadedConfig(table.get("task"), table.get("optimizer"), path)
+
+
+def read_config_text(path: str | Path) -> str:
+    """The text of the config file at `path`, checked before it is opened and as it is read.
+
+    Raises ConfigFileError, in one line, for an empty path, a missing or unreadable file, a directory,
+    a FIFO, device or socket (checked with stat first, so reading never blocks or runs out of memory),
+    a file over MAX_CONFIG_BYTES, a binary file (a NUL byte) and text that is not UTF-8.
+    """
+    if str(path).strip() in ("", "."):
+        raise ConfigFileError("--config needs the path of a TOML file, got an empty path (or '.')")
+    path = Path(path)
+    try:
+        info = os.stat(path)
+    except FileNotFoundError:
+        raise ConfigFileError(f"config file not found: {path}") from None
+    except OSError as err:
+        raise ConfigFileError(f"cannot read config file {path}: {err.strerror or err}") from None
+    if stat.S_ISDIR(info.st_mode):
+        raise ConfigFileError(f"config file {path} is a directory; give the path of a TOML file")
+    if not stat.S_ISREG(info.st_mode):
+        raise ConfigFileError(f"config file {path} is not a regular file (a FIFO, device or socket); give a TOML file")
+    if info.st_size > MAX_CONFIG_BYTES:
+        raise ConfigFileError(
+            f"config file {path} is {info.st_size} bytes; a config file is at most {MAX_CONFIG_BYTES} bytes"
+        )
+    try:
+        with open(path, "rb") as file:
+            data = file.read(MAX_CONFIG_BYTES + 1)  # the file may have grown since stat
+    except OSError as err:
+        raise ConfigFileError(f"cannot read config file {path}: {err.strerror or err}") from None
+    if len(data) > MAX_CONFIG_BYTES:
+        raise ConfigFileError(f"config file {path} is over {MAX_CONFIG_BYTES} bytes; a config file is at most that")
+    if b"\0" in data:
+        raise ConfigFileError(f"config file {path} is binary (it holds NUL bytes); give a TOML text file")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        line = data[: err.start].count(b"\n") + 1
+        raise ConfigFileError(
+            f"config file {path} is not UTF-8 text (byte {err.start}, line {line}); save it as UTF-8"
+        ) from None
 
 
 def optimizer_config_class(name: str) -> type[OptimizerConfig]:

@@ -275,12 +275,16 @@ class Controller:
                 self._control_blocks[:] = self._controls  # every sequence once per model
             full_states, sensors = self.backend.rollout(self._initial_state, self._batch_controls, self._initial_mocap)
             states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
-            rewards = np.asarray(
-                task.reward(states, sensors, self._batch_controls, task_config, system_metadata), dtype=float
-            )
+            returned = task.reward(states, sensors, self._batch_controls, task_config, system_metadata)
+            try:
+                rewards = np.asarray(returned, dtype=float)
+            except (TypeError, ValueError) as err:
+                raise JudoError(
+                    f"{type(task).__name__}.reward must return ({num_rows},) numbers, got {' '.join(str(returned).split())[:200]} ({err})"
+                ) from None
             if rewards.shape != (num_rows,):
                 raise JudoError(f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)")
-            rewards[np.isnan(rewards)] = -np.inf
+            rewards[np.isnan(rewards) | (rewards == np.inf)] = -np.inf  # NaN or +inf never wins a ranking
             if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
                 rewards = reduce_rewards(rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale)
                 states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]

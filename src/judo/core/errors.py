@@ -13,7 +13,8 @@ class UnknownNameError(JudoError, KeyError):
     def __init__(self, kind: str, name: str, valid: Iterable[str]) -> None:
         self.kind, self.name, self.valid = kind, name, sorted(valid)
         choices = ", ".join(self.valid) if self.valid else "(none)"
-        super().__init__(f"unknown {kind} {name!r}; valid {kind}s are: {choices}")
+        asked = repr(name) if len(repr(name)) <= 200 else f"{repr(name)[:200]}..."  # never a 50 MB name whole
+        super().__init__(f"unknown {kind} {asked}; valid {kind}s are: {choices}")
 
     def __str__(self) -> str:  # KeyError would otherwise wrap the message in quotes
         return str(self.args[0])

@@ -10,6 +10,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from judo.core.backend import RolloutBackendName, check_rollout_backend
+from judo.core.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_file
 from judo.core.config import require
 from judo.core.errors import JudoError
 from judo.evaluation.cli import (
@@ -115,6 +116,10 @@ def main(argv: list[str] | None = None) -> int:
     """Run the benchmark on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
     args = parse_args(BenchmarkArgs, argv, "python -m judo benchmark", DESCRIPTION + " " + name_listing())
     try:
+        check_count("--num-workers", args.num_workers, MAX_WORKERS)
+        check_count("--samples", args.samples, MAX_SAMPLES)
+        check_count("--warmup", args.warmup, MAX_SAMPLES, low=0)
+        check_output_file("--json", args.json)
         apply_config_file(args.config)
         args.validate()
         tasks, optimizers = chosen_tasks(args.tasks), chosen_optimizers(args.optimizers)

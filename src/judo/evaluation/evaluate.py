@@ -9,6 +9,7 @@ import tyro
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
+from judo.core.boundary import MAX_WORKERS, check_count, check_output_file
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import lookup_task, make_controller
@@ -161,6 +162,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
     args = parse_args(EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing())
     try:
+        check_count("--num-workers", args.num_workers, MAX_WORKERS)
+        check_output_file("--json", args.json)
+        check_output_file("--plot", args.plot)
         apply_config_file(args.config)
         args.validate()
         columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))

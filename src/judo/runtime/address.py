@@ -17,6 +17,11 @@ PORT_RANGE = (0, 65535)
 RESOLVE_TIMEOUT = 3.0
 """Seconds to wait for a host name to resolve before giving up on it."""
 LOCAL_HOSTS_HINT = "127.0.0.1 (this machine only, the default) or 0.0.0.0 (every network interface)"
+TOKEN_LENGTH = (8, 128)
+"""Shortest and longest access token accepted, in characters."""
+TOKEN_ALPHABET = "A-Z, a-z, 0-9, '_' and '-'"
+"""The URL-safe characters a token may hold (those of `secrets.token_urlsafe`), so its URL always opens."""
+_TOKEN_PATTERN = re.compile(r"[A-Za-z0-9_-]+")
 
 
 def check_port(port: object) -> int:
@@ -41,6 +46,35 @@ def is_loopback(host: str) -> bool:
 def new_token() -> str:
     """A fresh random access token for the GUI's URL (22 URL-safe characters, 128 bits)."""
     return secrets.token_urlsafe(16)
+
+
+def check_token(token: object, host: str, *, generate: bool = True) -> str | None:
+    """The GUI's access token: `token` if it is URL-safe, a fresh one when it is None, `generate` is set
+    (a GUI is served) and `host` reaches beyond this machine, else None (no token).
+
+    Raises ConfigError for an empty or blank token (which would let every URL in), a token outside
+    `TOKEN_ALPHABET` (its URL could never be opened) or one whose length is outside `TOKEN_LENGTH`.
+    """
+    if token is None:
+        return new_token() if generate and not is_loopback(host) else None
+    low, high = TOKEN_LENGTH
+    shown = repr(token)[:200]
+    if not isinstance(token, str):
+        raise ConfigError(f"token must be a string of {low} to {high} characters, got {type(token).__name__} {shown}")
+    if not token.strip():
+        raise ConfigError(
+            f"token must not be empty or blank (it would let every URL in), got {shown}; "
+            "leave it out to get a generated one"
+        )
+    if not _TOKEN_PATTERN.fullmatch(token):
+        bad = sorted({c for c in token if not _TOKEN_PATTERN.fullmatch(c)})
+        raise ConfigError(
+            f"token may only hold the URL-safe characters {TOKEN_ALPHABET}, got {shown} "
+            f"(with {', '.join(map(repr, bad))[:200]})"
+        )
+    if not low <= len(token) <= high:
+        raise ConfigError(f"token must be {low} to {high} characters long, got {len(token)} characters")
+    return token
 
 
 def check_host(host: str, timeout: float = RESOLVE_TIMEOUT) -> None:

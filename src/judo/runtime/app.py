@@ -30,7 +30,8 @@ from judo.core.errors import ConfigError, JudoError
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import CONFIG_KINDS, ConfigKind, default_configs, lookup_optimizer, lookup_task
 from judo.core.task import TaskConfig
-from judo.runtime.address import check_port, is_loopback, new_token
+from judo.runtime import exit_guard
+from judo.runtime.address import check_port, check_token
 from judo.runtime.event_loop import AppEventLoop
 from judo.runtime.loops import session_configs
 from judo.runtime.session import Session, build_session
@@ -114,8 +115,7 @@ class App(AppEventLoop):
         self.buffer = StateBuffer()
         self.stats = RunStats()
         self.gui_enabled, self.host, self.port, self.duration = gui, host, check_port(port), duration
-        if gui and token is None and not is_loopback(host):
-            token = new_token()
+        token = check_token(token, host, generate=gui)
         self.token, self.share = token, share
         self._user_system, self._seed, self._num_workers = system, seed, num_workers
         self.backend = backend
@@ -170,6 +170,7 @@ class App(AppEventLoop):
         if self._start_error is not None:
             self._thread.join()
             raise self._start_error
+        exit_guard.register(self)  # stopped at interpreter exit if the script never calls stop()
 
     def run(self) -> RunSummary:
         """Run the loops in this thread until `duration` is reached, `stop()`, Ctrl-C or SIGTERM.

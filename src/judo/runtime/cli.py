@@ -15,6 +15,7 @@ the command-line options, then live GUI edits.
 import argparse
 import dataclasses
 import logging
+import math
 import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
@@ -26,9 +27,10 @@ import tyro
 import tyro.constructors
 
 from judo.core.backend import RolloutBackendName
+from judo.core.boundary import MAX_DURATION
 from judo.core.config import Config, with_updates
 from judo.core.config_file import load_config
-from judo.core.errors import JudoError
+from judo.core.errors import ConfigError, JudoError
 from judo.core.registry import default_configs, get_registered_optimizers, get_registered_tasks
 from judo.runtime.app import App
 
@@ -78,6 +80,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = ["--task", task, "--optimizer", optimizer, *argv]  # the config file's names, unless given again
     try:
         options, configs = parse(argv, defaults)
+        if options.duration is not None and math.isfinite(options.duration) and options.duration > MAX_DURATION:
+            raise ConfigError(  # its step count would not fit an integer
+                "duration must be a positive, finite number of seconds of sim time, "
+                f"at most {MAX_DURATION:g}, got {options.duration}"
+            )
         app = App(
             options.task,
             options.optimizer,
@@ -141,12 +148,12 @@ def _peek_names(argv: list[str]) -> tuple[str, str]:
     Loads the --config file first (registering its classes and overrides), whose names stand in
     for --task and --optimizer when those are not given. Raises JudoError for a bad file.
     """
-    peek = argparse.ArgumentParser(add_help=False)
+    peek = argparse.ArgumentParser(prog=PROG, add_help=False)
     peek.add_argument("--config", default=None)
     peek.add_argument("--task", default=None)
     peek.add_argument("--optimizer", default=None)
     known, _ = peek.parse_known_args(argv)
-    loaded = load_config(known.config) if known.config else None
+    loaded = load_config(known.config) if known.config is not None else None
     task = known.task or (loaded and loaded.task) or RunOptions.task
     optimizer = known.optimizer or (loaded and loaded.optimizer) or RunOptions.optimizer
     return task, optimizer

@@ -14,7 +14,8 @@ from typing import Annotated, Any, Literal
 import tyro
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from judo.core.config import require
+from judo.core.boundary import MAX_EPISODE, MAX_SAMPLES, MAX_WORKERS, check_count, check_output_folder
+from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import lookup_task
 from judo.evaluation.cli import (
@@ -281,6 +282,12 @@ def main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     args = tyro.cli(TuneArgs, args=argv, prog="python -m judo tune", description=DESCRIPTION + " " + name_listing())
     try:
+        check_count("--workers", args.workers, MAX_WORKERS)
+        check_count("--trials", args.trials, MAX_SAMPLES)
+        require_between("--duration", args.duration, 0, MAX_EPISODE, " s", above=True)
+        if args.latency_ms is not None:
+            require_between("--latency-ms", args.latency_ms, 0, 60_000.0)
+        check_output_folder("--out", args.out_dir())
         return tune(args, "python -m judo tune " + shlex.join(argv))
     except JudoError as err:
         fail(str(err))

@@ -12,7 +12,7 @@ import typing
 from dataclasses import dataclass, fields
 from typing import Any, Literal
 
-from judo.core.config import Config, coerce_field_value, field_types
+from judo.core.config import MAX_MAGNITUDE, Config, coerce_field_value, field_types
 from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import slider_ranges
 from judo.core.registry import CONFIG_KINDS, ConfigKind, default_configs
@@ -121,9 +121,14 @@ def parse_param_entry(entry: str) -> tuple[str, tuple[float, float] | None]:
     try:
         if not colon:
             raise ValueError
-        return name, (float(low), float(high))
+        lowest, highest = float(low), float(high)
     except ValueError:
-        raise SearchSpaceError(f"--params {entry!r}: expected {name}=LOW:HIGH, e.g. {name}=0.01:1") from None
+        raise SearchSpaceError(f"--params {entry[:200]!r}: expected {name}=LOW:HIGH, e.g. {name}=0.01:1") from None
+    if not all(math.isfinite(v) and abs(v) <= MAX_MAGNITUDE for v in (lowest, highest)):
+        raise SearchSpaceError(
+            f"--params {entry[:200]!r}: LOW and HIGH must be finite numbers of magnitude at most {MAX_MAGNITUDE:g}"
+        )
+    return name, (lowest, highest)
 
 
 def parse_fixed(entries: list[str] | tuple[str, ...], configs: dict[Kind, Config]) -> dict[str, Any]:

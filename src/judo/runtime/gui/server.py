@@ -4,7 +4,8 @@ share button only on request, and an error, never a hang, when it cannot start.
 viser offers no hook into its websocket handshake, so `start_server` wraps the one
 `websockets.asyncio.server.serve` call viser's server thread makes while the server starts (and
 only that call: it is recognised by viser's handler), adding the policy in front of viser's own
-`process_request`. The wrapper is in place only during the start, under a lock.
+`process_request`. The wrapper is in place only during the start, under a lock. Widget edits from
+clients pass `guard_gui_updates` (incoming.py) before viser applies and broadcasts them.
 """
 
 import contextlib
@@ -19,6 +20,7 @@ from viser import _messages as viser_messages
 from judo.core.errors import GuiStartError
 from judo.runtime.address import check_host, check_port, is_loopback
 from judo.runtime.gui.access import AccessPolicy
+from judo.runtime.gui.incoming import guard_gui_updates
 
 logger = logging.getLogger("judo.gui")
 
@@ -67,6 +69,11 @@ def start_server(host: str, port: int, *, token: str | None, share: bool, label:
     if not guarded:  # a viser release that serves differently: never run without the policy
         server.stop()
         raise GuiStartError(f"cannot guard the websocket of viser {viser.__version__}; judo needs a viser it supports")
+    try:
+        guard_gui_updates(server)  # one client's edit can never close other pages (see incoming.py)
+    except GuiStartError:
+        server.stop()
+        raise
     server.gui.configure_theme(show_share_button=share)
     if not share:  # a client could still send the request the hidden button sends
         server._websock_server.unregister_handler(viser_messages.ShareUrlRequest)
