@@ -110,7 +110,7 @@ def test_a_non_finite_reading_is_refused_and_never_served(swing_up):
     )
     try:
         plan = controller.update_action(np.zeros(2), 0.0)
-        with pytest.raises(judo.JudoError, match=r"non-finite reading \(time 0.01, non-finite state entries \[1\]\)"):
+        with pytest.raises(judo.JudoError, match=r"non-finite reading \(non-finite state entries \[1\]\)"):
             controller.update_action(np.array([0.0, np.nan]), 0.01)
         with pytest.raises(judo.JudoError, match="action time must be a finite number of seconds, got nan"):
             controller.action(float("nan"))
