@@ -1,9 +1,10 @@
-"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate` and `tune` commands.
+"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune` and `collect` commands.
 
 python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
 python -m judo benchmark ...                        # judo.evaluation.benchmark
 python -m judo evaluate ...                         # judo.evaluation.evaluate
 python -m judo tune ...                             # judo.tuning.cli (needs the `tune` extra)
+python -m judo collect ...                          # judo.collection.cli (needs the `collect` extra)
 """
 
 import sys
@@ -25,6 +26,10 @@ def main(argv: Sequence[str] | None = None) -> int | None:
         from judo.tuning.cli import main as tune_main
 
         return tune_main(argv[1:])
+    if argv and argv[0] == "collect":
+        from judo.collection.cli import main as collect_main
+
+        return collect_main(argv[1:])
     from judo.runtime.cli import main as app_main
 
     return app_main(argv)

@@ -153,6 +153,14 @@ class Task(ABC, Generic[ConfigT]):
         """
         return {}
 
+    def success(self, metrics: dict[str, float]) -> bool | None:
+        """Whether an episode with these `metrics` (from `metrics`) counts as a success, for
+        `python -m judo collect --success-only`; None when the task has no rule.
+
+        The default reads a "success" metric (true when above 0.5) and has no rule without one.
+        """
+        return metrics["success"] > 0.5 if "success" in metrics else None
+
     def optimizer_warm_start(self) -> np.ndarray:
         """The (nu,) control that the first plan holds at every knot; zeros by default."""
         return np.zeros(self.nu)

@@ -21,9 +21,11 @@ from judo.evaluation.cli import (
     fail,
     given_fields,
     name_listing,
+    optimizer_config,
     output_console,
-    parse_args,
+    parse_args_with_config_fields,
     progress_console,
+    task_config,
     write_json,
 )
 from judo.evaluation.episode import EpisodeResult, Latency, make_plant_task, run_episode
@@ -69,6 +71,8 @@ class EvaluateArgs:
     """Also plot the first seed's episode against time to this .png (needs matplotlib) or .html file."""
     controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
     """Controller settings to change from the task's defaults, e.g. --controller.num-randomizations 4."""
+    # parse_args_with_config_fields adds `optimizer_config` (--optimizer-config.FIELD, e.g.
+    # --optimizer-config.sigma 0.3) and `task_config` (--task-config.FIELD), typed for the pair named.
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
@@ -89,6 +93,20 @@ class EvaluateArgs:
             check_plot_path(self.plot)
         check_rollout_backend(self.backend)
         controller_config(self.task, self.controller)
+        if hasattr(self, "optimizer_config"):
+            optimizer_config(self.task, self.optimizer, self.optimizer_config)
+            task_config(self.task, self.task_config)
+
+    def changed_fields(self) -> dict[str, Any]:
+        """Every config field given on the command line, as {"controller.horizon": 1.0, "optimizer.sigma": 0.3, ...}."""
+        groups = {"controller": self.controller, "optimizer": getattr(self, "optimizer_config", None)}
+        groups["task"] = getattr(self, "task_config", None)
+        return {
+            f"{kind}.{name}": value
+            for kind, group in groups.items()
+            if group is not None
+            for name, value in given_fields(group).items()
+        }
 
     def episode_latency(self) -> Latency:
         """The latency `run_episode` takes: seconds, or "measured"."""
@@ -144,10 +162,12 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
             args.task,
             args.optimizer,
             controller_config=controller_config(args.task, args.controller),
+            optimizer_config=optimizer_config(args.task, args.optimizer, getattr(args, "optimizer_config", None)),
             num_workers=args.num_workers,
             seed=seed,
             backend=args.backend,
         )
+        controller.task.config = task_config(args.task, getattr(args, "task_config", None))
 
         def show(now: float, seed: int = seed) -> None:
             if progress is not None and bar is not None:
@@ -163,7 +183,9 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
 
 def main(argv: list[str] | None = None) -> int:
     """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
-    args = parse_args(EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing())
+    args = parse_args_with_config_fields(
+        EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing()
+    )
     try:
         apply_config_file(args.config)
         args.validate()
@@ -175,9 +197,9 @@ def main(argv: list[str] | None = None) -> int:
         title = (
             f"{args.task} x {args.optimizer}: {args.seeds} seeds x {args.duration:g} s, latency {args.latency_label()}"
         )
-        changed = given_fields(args.controller)
+        changed = args.changed_fields()
         if changed:
-            title += ", " + ", ".join(f"{name}={value}" for name, value in changed.items())
+            title += ", " + ", ".join(f"{name.removeprefix('controller.')}={value}" for name, value in changed.items())
         console = output_console()
         table = metrics_table(title, summaries)
         table.caption = f"control update: median {np.median(update_ms):.2f} ms over {len(update_ms)} updates"
@@ -198,7 +220,8 @@ def main(argv: list[str] | None = None) -> int:
                     "duration": args.duration,
                     "latency": args.latency_label(),
                     "backend": args.backend,
-                    "controller": changed,
+                    "controller": given_fields(args.controller),
+                    "overrides": changed,
                     "episodes": [episode_record(result) for result in results],
                     "summary": {name: vars(summary) for name, summary in summaries.items()},
                 },

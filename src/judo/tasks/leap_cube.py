@@ -165,6 +165,10 @@ class LeapCube(Task[LeapCubeConfig]):
             "drops": float(self.drops),
         }
 
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: at least one goal reached and no drop."""
+        return bool(metrics["goals_reached"] >= 1 and metrics["drops"] == 0)
+
     def optimizer_warm_start(self) -> np.ndarray:
         """(16,) the hand's current joint angles in `self.data` as position targets, plus the grip of the
         "home" keyframe (its ctrl minus its qpos: zero palm up, a squeeze palm down)."""
