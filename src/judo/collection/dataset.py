@@ -21,6 +21,7 @@ imported here only, and this module only where a command needs it.
 
 import json
 import signal
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -33,6 +34,8 @@ from judo.core.errors import JudoError, import_extra
 
 EXTRA = "collect"
 """The optional extra holding h5py and ray."""
+LOCK_WAIT_S = 30.0
+"""How long a write waits for a reader in another process to let go of the file."""
 PLAN_KEYS = ("times", "takes_effect", "update_ms", "best_reward", "mean_reward", "knots")
 """The datasets of a demo's `plan` group."""
 
@@ -125,24 +128,35 @@ class DatasetFile:
                     data.attrs["total"] = 0
                 file.require_group("judo/failed")
                 file.require_group("judo/dropped")
-        except OSError as err:
+        except OSError as err:  # not HDF5, a folder, no permission
             raise DatasetError(f"cannot open {self.path} as an HDF5 dataset: {err}") from None
 
     @contextmanager
     def _open(self) -> Iterator[Any]:
-        with sigint_deferred(), self.h5py.File(self.path, "a") as file:
+        with sigint_deferred(), self._file("a") as file:
             yield file
             file.flush()
 
+    def _file(self, mode: str) -> Any:
+        """The h5py File in `mode`, waiting up to LOCK_WAIT_S while another process (a reader) holds it."""
+        deadline = time.monotonic() + LOCK_WAIT_S
+        while True:
+            try:
+                return self.h5py.File(self.path, mode)
+            except OSError as err:
+                if "lock" not in str(err).lower() or time.monotonic() > deadline:
+                    raise DatasetError(f"cannot open {self.path}: {err}") from None
+                time.sleep(0.1)
+
     def finished_seeds(self) -> set[int]:
         """Seeds that need no new episode: kept as a demo, or dropped as not a success."""
-        with self.h5py.File(self.path, "r") as file:
+        with self._file("r") as file:
             kept = {int(name.removeprefix("demo_")) for name in file["data"]}
             return kept | {int(seed) for seed in file["judo/dropped"].attrs}
 
     def counts(self) -> dict[str, int]:
         """{"kept", "dropped", "failed", "total"}: demos, dropped and failed seeds, and samples in the file."""
-        with self.h5py.File(self.path, "r") as file:
+        with self._file("r") as file:
             return {
                 "kept": len(file["data"]),
                 "dropped": len(file["judo/dropped"].attrs),

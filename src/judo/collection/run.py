@@ -1,7 +1,8 @@
 """The collect driver: submit the missing seeds as Ray tasks, write each finished episode, show progress.
 
 Only this driver writes the file, one finished episode at a time (judo.collection.dataset.DatasetFile).
-At most two episodes per CPU are in flight, so a long run holds little in memory.
+At most --workers episodes are in flight (two per CPU of the Ray without it), so a long run holds little
+in memory and --workers means the same on a local Ray and a cluster.
 """
 
 import sys
@@ -87,7 +88,7 @@ def collect(spec: CollectSpec, env_args: dict[str, Any], args: Any, command: str
         console.print(f"{args.out}: {len(finished)} seeds done; running the {len(todo)} missing ones")
     connected = cluster.start_ray(args.address, workers)
     ray = cluster.import_ray("python -m judo collect", "collect")
-    window = 2 * (args.workers or cluster.cluster_cpus())
+    window = args.workers or 2 * cluster.cluster_cpus()  # --workers caps the episodes run at once on any Ray
     tally = Tally()
     running: dict[Any, int] = {}
     pending = iter(todo)
