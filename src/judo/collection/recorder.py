@@ -1,5 +1,6 @@
 """`EpisodeRecorder`: a Recorder that gathers one episode's steps and plans into the dataset's arrays."""
 
+import dataclasses
 from typing import Any
 
 import numpy as np
@@ -23,8 +24,8 @@ class EpisodeRecorder:
         self.plans: list[PlanRecord] = []
 
     def on_plan(self, record: PlanRecord) -> None:
-        """Keep the update's record."""
-        self.plans.append(record)
+        """Keep the update's record (its knots copied)."""
+        self.plans.append(dataclasses.replace(record, knots=np.array(record.knots)))
 
     def on_step(self, record: StepRecord) -> None:
         """Keep the step's record (its arrays are copied, so the caller may reuse them)."""

@@ -25,6 +25,7 @@ from judo.evaluation.cli import (
     output_console,
     parse_args_with_config_fields,
     progress_console,
+    set_field_overrides,
     task_config,
     write_json,
 )
@@ -162,12 +163,10 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
             args.task,
             args.optimizer,
             controller_config=controller_config(args.task, args.controller),
-            optimizer_config=optimizer_config(args.task, args.optimizer, getattr(args, "optimizer_config", None)),
             num_workers=args.num_workers,
             seed=seed,
             backend=args.backend,
         )
-        controller.task.config = task_config(args.task, getattr(args, "task_config", None))
 
         def show(now: float, seed: int = seed) -> None:
             if progress is not None and bar is not None:
@@ -189,6 +188,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         apply_config_file(args.config)
         args.validate()
+        set_field_overrides(args.task, args.optimizer, args.optimizer_config, args.task_config)
         columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
         with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
             results = evaluate(args, progress)

@@ -1,7 +1,8 @@
-"""What the closed-loop step reports to recorders: one `StepRecord` per plant step, one `PlanRecord` per update.
+"""What the closed loop reports to its recorders: one record per plant step and one per control update.
 
-A `Recorder` plugs into the one closed-loop step once; the app, evaluate, tune and collect all call it,
-so every consumer (the dataset writer, plots, the GUI's recording) sees the same records.
+A recorder is any object with `on_plan` and `on_step`; the closed loop (`judo.runtime.closed_loop`) calls
+every recorder it was given, so evaluate's episode log, a dataset writer and the GUI's recording all see
+the same thing.
 """
 
 from dataclasses import dataclass, field
@@ -12,14 +13,14 @@ import numpy as np
 
 @dataclass
 class StepRecord:
-    """One plant step: what the plant did.
+    """One plant step.
 
     Attributes:
-        time: plant time after the step (s).
-        state: (nq + nv,) plant state [qpos, qvel] after the step; None for a robot that measures only sensors.
-        sensors: (nsensordata,) plant sensor values after the step (empty for hardware).
+        time: plant time after the step, in seconds.
+        state: (nq + nv,) [qpos, qvel] read after the step; None for a robot that measures only sensors.
+        sensors: (nsensordata,) the plant's sensor values after the step (empty when the plant has none to give).
         action: (nu,) the control served during the step.
-        metadata: the reading's metadata after the step, e.g. "mocap_pos" (nmocap, 3).
+        metadata: the reading's metadata, e.g. "mocap_pos" (nmocap, 3).
     """
 
     time: float
@@ -34,12 +35,11 @@ class PlanRecord:
     """One control update.
 
     Attributes:
-        time: time of the reading the plan was made from (s).
-        takes_effect: plant time at which this plan starts being served (s); `time` plus the latency.
+        time: time of the reading planned from, in seconds.
+        takes_effect: plant time from which the new plan is served (time + the latency model's delay).
         knots: (num_nodes, nu) the new plan's knots.
         update_ms: wall time of the update in milliseconds.
-        best_reward: the best rollout reward of the update's last optimizer iteration.
-        mean_reward: the mean of that iteration's finite rollout rewards.
+        best_reward, mean_reward: the best and the mean finite reward of the update's last iteration.
     """
 
     time: float
@@ -51,12 +51,12 @@ class PlanRecord:
 
 
 class Recorder(Protocol):
-    """Receives every plan and every plant step of a closed loop, in the order they happen."""
+    """Receives every control update and every plant step of a closed loop, in order."""
 
     def on_plan(self, record: PlanRecord) -> None:
-        """Called once per control update that produced a plan."""
+        """Called after each successful control update."""
         ...
 
     def on_step(self, record: StepRecord) -> None:
-        """Called once per plant step, after the step."""
+        """Called after each plant step."""
         ...

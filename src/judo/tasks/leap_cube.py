@@ -156,6 +156,10 @@ class LeapCube(Task[LeapCubeConfig]):
         scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
         scale_body_mass(model, body_id(model, "cube"), 0.8, 1.25, rng)
 
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: at least one goal reached and no drop."""
+        return bool(metrics["goals_reached"] >= 1 and metrics["drops"] == 0)
+
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """Goals reached (in total and per minute of the episode) and drops, counted on this plant task."""
         minutes = len(log.times) * float(self.sim_model.opt.timestep) / 60.0
@@ -164,10 +168,6 @@ class LeapCube(Task[LeapCubeConfig]):
             "goals_per_minute": self.goals_reached / minutes if minutes > 0 else 0.0,
             "drops": float(self.drops),
         }
-
-    def success(self, metrics: dict[str, float]) -> bool:
-        """Success for `collect --success-only`: at least one goal reached and no drop."""
-        return bool(metrics["goals_reached"] >= 1 and metrics["drops"] == 0)
 
     def optimizer_warm_start(self) -> np.ndarray:
         """(16,) the hand's current joint angles in `self.data` as position targets, plus the grip of the
