@@ -18,7 +18,7 @@ def replay(tmp_path, port):
     dataset = DatasetFile(path, {"task": "cartpole", "optimizer": "ps", "plant_timestep": 0.01})
     for seed in (0, 1):
         dataset.write_episode(collect_episode(CollectSpec("cartpole", "ps", 1.0), seed).episode)
-    replay = Replay(path, demo=1, host="127.0.0.1", port=port)
+    replay = Replay(path, demo=1, host="127.0.0.1", port=port, speed=0.2)  # 5 s to play the 1 s episode
     replay.start()
     yield replay
     replay.stop()

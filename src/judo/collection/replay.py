@@ -17,6 +17,7 @@ import numpy as np
 import tyro
 
 from judo.collection.dataset import DatasetError, demo_name, import_h5py
+from judo.core.config import require_between
 from judo.core.errors import JudoError
 from judo.evaluation.cli import apply_config_file, fail
 
@@ -38,6 +39,8 @@ class ReplayArgs:
     """Address the GUI listens on (this machine only by default)."""
     port: int = 8080
     """Port of the GUI (the next free one if taken)."""
+    speed: float = 1.0
+    """Playback speed at the start (sim seconds per second; the page's speed slider changes it)."""
 
 
 @dataclass
@@ -83,7 +86,9 @@ class Replay:
         scene: the SceneView posed from the recorded rows.
     """
 
-    def __init__(self, path: Path, demo: int | None = None, host: str = "127.0.0.1", port: int = 8080) -> None:
+    def __init__(
+        self, path: Path, demo: int | None = None, host: str = "127.0.0.1", port: int = 8080, speed: float = 1.0
+    ) -> None:
         from judo.core.registry import lookup_task
 
         self.env_args, self.demos = read_demos(path)
@@ -92,7 +97,8 @@ class Replay:
         self.demo = self.demos[demo if demo is not None else next(iter(self.demos))]
         self.model = lookup_task(self.env_args["task"])[0]().sim_model  # type: ignore[call-arg]
         self.path, self.host, self.port = path, host, port
-        self.index, self.playing, self.speed = 0, False, 1.0
+        require_between("--speed", speed, 0.1, 4.0)
+        self.index, self.playing, self.speed = 0, False, float(speed)
         self._stop = threading.Event()
         self._lock = threading.Lock()
 
@@ -109,7 +115,7 @@ class Replay:
         self.demo_dropdown = gui.add_dropdown("demo", names, initial_value=demo_name(self.demo.seed))
         self.play_button = gui.add_button("Play")
         self.time_slider = gui.add_slider("time (s)", 0.0, self._duration(), self._dt(), 0.0)
-        self.speed_slider = gui.add_slider("speed", 0.1, 4.0, 0.1, 1.0)
+        self.speed_slider = gui.add_slider("speed", 0.1, 4.0, 0.1, self.speed)
         self.readout = gui.add_markdown("")
         self.demo_dropdown.on_update(lambda _: self.select(int(self.demo_dropdown.value.removeprefix("demo_"))))
         self.play_button.on_click(lambda _: self.set_playing(not self.playing))
@@ -187,7 +193,7 @@ def main(argv: list[str] | None = None) -> int:
     args = tyro.cli(ReplayArgs, args=argv, prog="python -m judo replay", description=__doc__)
     try:
         apply_config_file(args.config)
-        replay = Replay(args.file, args.demo, args.host, args.port)
+        replay = Replay(args.file, args.demo, args.host, args.port, args.speed)
         replay.start()
     except JudoError as err:
         fail(str(err))
