@@ -39,6 +39,7 @@ def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(chromium, repla
         start = cart_position(replay)
         assert replay.index == 0 and np.array_equal(replay.scene.data.qpos, replay.demos[1].qpos[0])
         page.get_by_text("Play", exact=True).click()
+        page.get_by_text("Pause", exact=True).wait_for()
         wait_until(lambda: replay.index >= 20, timeout=30, what="the replay to play 20 rows")
         assert not np.allclose(cart_position(replay), start)  # the cart moved with the recorded qpos
         page.get_by_text("Pause", exact=True).click()

@@ -168,11 +168,14 @@ class Replay:
 
     def _play(self) -> None:
         last = time.perf_counter()
+        clock = 0.0  # sim seconds shown while playing, kept unrounded so that slow speeds still advance
         while not self._stop.wait(FRAME_S):
             now = time.perf_counter()
-            if self.playing:
-                advanced = float(self.demo.times[self.index]) + (now - last) * self.speed
-                row = self._row(advanced)
+            if not self.playing:
+                clock = float(self.demo.times[self.index])
+            else:
+                clock += (now - last) * self.speed
+                row = self._row(clock)
                 self.seek(row)
                 if row >= len(self.demo.qpos) - 1:
                     self.set_playing(False)
