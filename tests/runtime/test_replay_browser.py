@@ -13,12 +13,12 @@ pytestmark = pytest.mark.browser
 
 @pytest.fixture
 def replay(tmp_path, port):
-    """A replay of seeds 0 and 1 of 1 s cartpole x ps episodes, showing seed 1, on a free port."""
+    """A replay of seeds 0 and 1 of 2 s cartpole x ps episodes, showing seed 1, on a free port."""
     path = tmp_path / "cartpole.h5"
     dataset = DatasetFile(path, {"task": "cartpole", "optimizer": "ps", "plant_timestep": 0.01})
     for seed in (0, 1):
-        dataset.write_episode(collect_episode(CollectSpec("cartpole", "ps", 1.0), seed).episode)
-    replay = Replay(path, demo=1, host="127.0.0.1", port=port, speed=0.2)  # 5 s to play the 1 s episode
+        dataset.write_episode(collect_episode(CollectSpec("cartpole", "ps", 2.0), seed).episode)
+    replay = Replay(path, demo=1, host="127.0.0.1", port=port, speed=0.1)  # 20 s to play the 2 s episode
     replay.start()
     yield replay
     replay.stop()
@@ -51,7 +51,7 @@ def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(chromium, repla
         wait_until(lambda: replay.index > paused + 30, timeout=30, what="the scrubber to move the replay")
         shown = replay.index
         assert np.array_equal(replay.scene.data.qpos, replay.demos[1].qpos[shown])
-        assert 80 <= shown <= 99
+        assert 160 <= shown <= 199
         page.screenshot(path=artifacts / "replay_cartpole.png")
     finally:
         page.close()
