@@ -40,7 +40,7 @@ def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(chromium, repla
         assert replay.index == 0 and np.array_equal(replay.scene.data.qpos, replay.demos[1].qpos[0])
         page.get_by_text("Play", exact=True).click()
         page.get_by_text("Pause", exact=True).wait_for()
-        wait_until(lambda: replay.index >= 20, timeout=30, what="the replay to play 20 rows")
+        wait_until(lambda: replay.index >= 20, timeout=60, what="the replay to play 20 rows")
         assert not np.allclose(cart_position(replay), start)  # the cart moved with the recorded qpos
         page.get_by_text("Pause", exact=True).click()
         wait_until(lambda: not replay.playing, timeout=10, what="the replay to pause")
@@ -48,7 +48,7 @@ def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(chromium, repla
         slider = page.locator(".mantine-Slider-root").first
         box = slider.locator(".mantine-Slider-track").bounding_box()
         page.mouse.click(box["x"] + 0.9 * box["width"], box["y"] + box["height"] / 2)
-        wait_until(lambda: replay.index > paused + 30, timeout=30, what="the scrubber to move the replay")
+        wait_until(lambda: replay.index > paused + 30, timeout=60, what="the scrubber to move the replay")
         shown = replay.index
         assert np.array_equal(replay.scene.data.qpos, replay.demos[1].qpos[shown])
         assert 160 <= shown <= 199
