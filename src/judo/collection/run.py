@@ -86,14 +86,15 @@ def collect(spec: CollectSpec, env_args: dict[str, Any], args: Any, command: str
         return 0
     if finished:
         console.print(f"{args.out}: {len(finished)} seeds done; running the {len(todo)} missing ones")
-    connected = cluster.start_ray(args.address, workers)
     ray = cluster.import_ray("python -m judo collect", "collect")
-    window = args.workers or 2 * cluster.cluster_cpus()  # --workers caps the episodes run at once on any Ray
     tally = Tally()
     running: dict[Any, int] = {}
     pending = iter(todo)
     columns = (TextColumn("collect"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"))
+    connected = False
     try:
+        connected = cluster.start_ray(args.address, workers)
+        window = args.workers or 2 * cluster.cluster_cpus()  # --workers caps the episodes run at once on any Ray
         with Progress(*columns, TimeElapsedColumn(), console=progress_console(), transient=True) as progress:
             bar = progress.add_task(tally.line(), total=len(todo))
             while True:
