@@ -107,3 +107,29 @@ def test_importing_judo_and_the_collect_command_imports_neither_h5py_nor_ray():
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stdout.strip() == "[]"
+
+
+def test_a_failed_episode_is_recorded_with_its_reason_and_run_again_on_resume(tmp_path):
+    from judo.collection.run import Tally, write_outcome
+    from judo.core.registry import register_task
+    from tests.conftest import TINY_CARTPOLE_XML, UprightConfig, UprightTask
+
+    model_path = tmp_path / "tiny.xml"
+    model_path.write_text(TINY_CARTPOLE_XML)
+
+    class BrokenMetrics(UprightTask):
+        def __init__(self):
+            super().__init__(model_path)
+
+        def metrics(self, log):
+            raise ValueError("no metrics today")
+
+    register_task("broken_metrics", BrokenMetrics, UprightConfig)
+    outcome = collect_episode(CollectSpec("broken_metrics", "ps", 0.05), 3)
+    assert outcome.episode is None and outcome.failure.startswith("ValueError: no metrics today (")
+    dataset, tally = DatasetFile(tmp_path / "broken.h5", {"task": "broken_metrics"}), Tally()
+    write_outcome(dataset, outcome, False, tally, "broken_metrics")
+    assert (tally.done, tally.failed, tally.kept) == (1, 1, 0)
+    with h5py.File(tmp_path / "broken.h5", "r") as file:
+        assert dict(file["judo/failed"].attrs) == {"3": outcome.failure}
+    assert dataset.finished_seeds() == set()  # a resumed run tries seed 3 again
