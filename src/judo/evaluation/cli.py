@@ -12,7 +12,7 @@ import numpy as np
 import tyro
 from rich.console import Console
 
-from judo.core.config import field_types, with_updates
+from judo.core.config import Config, field_types, with_updates
 from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
 from judo.core.field_docs import field_docs
@@ -24,7 +24,6 @@ from judo.core.registry import (
     lookup_task,
     make_config,
 )
-from judo.core.task import TaskConfig
 
 ArgsT = TypeVar("ArgsT")
 
@@ -59,6 +58,8 @@ def parse_args_with_config_fields(args_cls: type[ArgsT], argv: list[str] | None,
     tasks and optimizers count); without them, or with an unknown name, the groups are empty and the
     later name check says what is valid.
     """
+    from judo.core.task import TaskConfig
+
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         apply_config_file(None if (path := option_value(argv, "config")) is None else Path(path))
@@ -191,8 +192,8 @@ def optimizer_config(task: str, optimizer: str, overrides: Any) -> OptimizerConf
     return with_updates(make_config(lookup_optimizer(optimizer)[1], task), given_fields(overrides))  # type: ignore[return-value]
 
 
-def task_config(task: str, overrides: Any) -> TaskConfig:
-    """The task's config (its registered defaults) with the given `--task-config.*` fields applied."""
+def task_config(task: str, overrides: Any) -> Config:
+    """The task's TaskConfig (its registered defaults) with the given `--task-config.*` fields applied."""
     return with_updates(make_config(lookup_task(task)[1], task), given_fields(overrides))  # type: ignore[return-value]
 
 
