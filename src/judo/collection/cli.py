@@ -66,11 +66,9 @@ class CollectArgs:
     backend: RolloutBackendName = "cpu"
     """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
     success_only: bool = False
-    """Keep only the episodes the task counts as a success (Task.success of its metrics); the others are
-    listed in the file as dropped and not run again."""
+    """Keep only the episodes the task counts as a success (Task.success of its metrics); the others are listed in the file as dropped and not run again."""
     workers: Annotated[int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")] = None
-    """Episodes run at once, each on one rollout thread (the CPUs of a local Ray; with --address, default all
-    the cluster's CPUs)."""
+    """Episodes run at once, each on one rollout thread (the CPUs of a local Ray; with --address, default twice the cluster's CPUs in flight)."""
     address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")] = None
     """A running Ray cluster: auto (the one `ray start --head` started on this machine) or ray://HOST:10001."""
     controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
