@@ -94,9 +94,8 @@ class EvaluateArgs:
             check_plot_path(self.plot)
         check_rollout_backend(self.backend)
         controller_config(self.task, self.controller)
-        if hasattr(self, "optimizer_config"):
-            optimizer_config(self.task, self.optimizer, self.optimizer_config)
-            task_config(self.task, self.task_config)
+        optimizer_config(self.task, self.optimizer, getattr(self, "optimizer_config", None))
+        task_config(self.task, getattr(self, "task_config", None))
 
     def changed_fields(self) -> dict[str, Any]:
         """Every config field given on the command line, as {"controller.horizon": 1.0, "optimizer.sigma": 0.3, ...}."""
@@ -188,7 +187,9 @@ def main(argv: list[str] | None = None) -> int:
     try:
         apply_config_file(args.config)
         args.validate()
-        set_field_overrides(args.task, args.optimizer, args.optimizer_config, args.task_config)
+        set_field_overrides(
+            args.task, args.optimizer, getattr(args, "optimizer_config", None), getattr(args, "task_config", None)
+        )
         columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
         with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
             results = evaluate(args, progress)
