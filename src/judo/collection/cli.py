@@ -123,7 +123,7 @@ def model_sha256(model: mujoco.MjModel) -> str:
     return hashlib.sha256(buffer.tobytes()).hexdigest()
 
 
-def env_args(args: CollectArgs, configs: dict[str, Config]) -> dict[str, Any]:
+def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
     """The `data` group's env_args: everything that determines the episodes, plus versions and model hashes."""
     import judo
     from judo.core.registry import lookup_task

@@ -16,6 +16,7 @@ from judo.core.config import Config
 from judo.core.errors import JudoError
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
 from judo.runtime.system import MujocoSystem
+from judo.tuning.space import Kind
 
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
@@ -64,7 +65,7 @@ def load_config_once(path: str | None) -> None:
     _LOADED_CONFIG_FILES.add(path)
 
 
-def configs_in_force(spec: CollectSpec) -> dict[str, Config]:
+def configs_in_force(spec: CollectSpec) -> dict[Kind, Config]:
     """{"controller", "optimizer", "task"}: the task's registered configs with `spec.values` applied."""
     from judo.tuning.space import apply_values, default_configs
 
