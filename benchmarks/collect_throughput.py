@@ -89,7 +89,7 @@ def env_timestep(path: Path) -> float:
     import h5py
 
     with h5py.File(path, "r") as file:
-        return json.loads(file["data"].attrs["env_args"])["plant_timestep"]
+        return json.loads(str(file["data"].attrs["env_args"]))["plant_timestep"]
 
 
 if __name__ == "__main__":
