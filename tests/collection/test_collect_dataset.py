@@ -134,3 +134,18 @@ def test_a_failed_episode_is_recorded_with_its_reason_and_run_again_on_resume(tm
     with h5py.File(tmp_path / "broken.h5", "r") as file:
         assert dict(file["judo/failed"].attrs) == {"3": outcome.failure}
     assert dataset.finished_seeds() == set()  # a resumed run tries seed 3 again
+
+
+def test_success_only_for_a_task_without_a_rule_says_what_to_add(leap_cube_file, tmp_path):
+    from judo.collection.run import NoSuccessRuleError, Tally, write_outcome
+
+    outcome = collect_episode(CollectSpec("leap_cube", "ps", 0.05), 0)
+    outcome.episode.success, outcome.episode.metrics = None, {"distance": 0.1}
+    dataset = DatasetFile(tmp_path / "rule.h5", ENV_ARGS)
+    with pytest.raises(NoSuccessRuleError) as error:
+        write_outcome(dataset, outcome, True, Tally(), "my_task")
+    assert str(error.value) == (
+        "--success-only: task 'my_task' has no success rule for its metrics ['distance']; give the task a "
+        "`success(self, metrics) -> bool` method, or report a 'success' metric"
+    )
+    assert dataset.counts() == {"kept": 0, "dropped": 0, "failed": 0, "total": 0}
