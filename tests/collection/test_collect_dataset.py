@@ -136,7 +136,7 @@ def test_a_failed_episode_is_recorded_with_its_reason_and_run_again_on_resume(tm
     assert dataset.finished_seeds() == set()  # a resumed run tries seed 3 again
 
 
-def test_success_only_for_a_task_without_a_rule_says_what_to_add(leap_cube_file, tmp_path):
+def test_success_only_for_a_task_without_a_rule_says_what_to_add(tmp_path):
     from judo.collection.run import NoSuccessRuleError, Tally, write_outcome
 
     outcome = collect_episode(CollectSpec("leap_cube", "ps", 0.05), 0)
