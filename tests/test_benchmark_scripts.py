@@ -88,13 +88,3 @@ def test_randomized_overhead_prints_the_ratio_per_r():
     assert result.returncode == 0, result.stderr
     assert "| 1 | 16 x 1 x 70 |" in result.stdout and "| 3 | 16 x 3 x 70 |" in result.stdout
 
-
-@pytest.mark.slow
-def test_collect_throughput_prints_rates_scaling_and_file_size():
-    pytest.importorskip("h5py")
-    pytest.importorskip("ray")
-    result = run_script("collect_throughput.py", "--tasks", "cartpole", "--episodes", "2", "--duration", "0.2")
-    assert result.returncode == 0, result.stderr
-    rows = [line for line in result.stdout.splitlines() if line.startswith("│ cartpole")]
-    assert [row.split("│")[2].strip() for row in rows] == ["1", "2"]
-    assert "1.00x" in rows[0] and all(float(row.split("│")[6]) > 0 for row in rows)  # KB per 1000 samples
