@@ -87,4 +87,3 @@ def test_randomized_overhead_prints_the_ratio_per_r():
     result = run_script("randomized_overhead.py", *small, "--randomizations", "1", "3")
     assert result.returncode == 0, result.stderr
     assert "| 1 | 16 x 1 x 70 |" in result.stdout and "| 3 | 16 x 3 x 70 |" in result.stdout
-
