@@ -1,9 +1,12 @@
-"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate` and `tune` commands.
+"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune`, `collect`
+and `replay` commands.
 
 python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
 python -m judo benchmark ...                        # judo.evaluation.benchmark
 python -m judo evaluate ...                         # judo.evaluation.evaluate
 python -m judo tune ...                             # judo.tuning.cli (needs the `tune` extra)
+python -m judo collect ...                          # judo.collection.cli (needs the `collect` extra)
+python -m judo replay FILE.h5                       # judo.collection.replay: a collect file in the GUI
 
 Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
 task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
@@ -21,7 +24,8 @@ def main(argv: Sequence[str] | None = None) -> int | None:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [arg for arg in argv if arg != "--debug"]
-    prog = f"{PROG} {argv[0]}" if argv and argv[0] in ("benchmark", "evaluate", "tune") else PROG
+    commands = ("benchmark", "evaluate", "tune", "collect", "replay")
+    prog = f"{PROG} {argv[0]}" if argv and argv[0] in commands else PROG
     try:
         return dispatch(argv)
     except KeyboardInterrupt:
@@ -50,6 +54,14 @@ def dispatch(argv: list[str]) -> int | None:
         from judo.tuning.cli import main as tune_main
 
         return tune_main(argv[1:])
+    if argv and argv[0] == "collect":
+        from judo.collection.cli import main as collect_main
+
+        return collect_main(argv[1:])
+    if argv and argv[0] == "replay":
+        from judo.collection.replay import main as replay_main
+
+        return replay_main(argv[1:])
     from judo.runtime.cli import main as app_main
 
     return app_main(argv)

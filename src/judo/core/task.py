@@ -146,6 +146,14 @@ class Task(ABC, Generic[ConfigT]):
         """Extra values the simulator publishes with the state; passed on to `reward`."""
         return {}
 
+    def success(self, metrics: dict[str, float]) -> bool | None:
+        """Whether an episode with these `metrics` (from `metrics`) counts as a success, for
+        `python -m judo collect --success-only`; None when the task has no rule.
+
+        The default reads a "success" metric (true when above 0.5) and has no rule without one.
+        """
+        return metrics["success"] > 0.5 if "success" in metrics else None
+
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """Success figures of a finished episode for `evaluate`, e.g. {"final_distance": 0.02}.
 

@@ -8,13 +8,15 @@ import typing
 from pathlib import Path
 from typing import Annotated, Any, Literal, NoReturn, TypeVar
 
+import numpy as np
 import tyro
 from rich.console import Console
 
-from judo.core.config import field_types, with_updates
+from judo.core.config import Config, field_types, with_updates
 from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
 from judo.core.field_docs import field_docs
+from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import (
     get_registered_optimizers,
     get_registered_tasks,
@@ -36,6 +38,54 @@ def fail(message: str) -> NoReturn:
 def parse_args(args_cls: type[ArgsT], argv: list[str] | None, prog: str, description: str) -> ArgsT:
     """Parse `argv` (sys.argv[1:] when None) into `args_cls` with tyro; --help comes from its field docstrings."""
     return tyro.cli(args_cls, args=argv, prog=prog, description=description)
+
+
+def option_value(argv: list[str], name: str) -> str | None:
+    """The value given to `--name` in `argv` ("--name VALUE" or "--name=VALUE"; the last one counts), or None."""
+    value = None
+    for index, arg in enumerate(argv):
+        if arg == f"--{name}" and index + 1 < len(argv):
+            value = argv[index + 1]
+        elif arg.startswith(f"--{name}="):
+            value = arg.split("=", 1)[1]
+    return value
+
+
+def parse_args_with_config_fields(args_cls: type[ArgsT], argv: list[str] | None, prog: str, description: str) -> ArgsT:
+    """`parse_args` with two more option groups built for the named pair: `--optimizer-config.FIELD` (every
+    field of the --optimizer's config) and `--task-config.FIELD` (every field of the --task's config).
+
+    --config, --task and --optimizer are read from `argv` first (the --config file is loaded, so that its
+    tasks and optimizers count); without them, or with an unknown name, the groups are empty and the
+    later name check says what is valid.
+    """
+    from judo.core.task import TaskConfig
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    try:
+        apply_config_file(None if (path := option_value(argv, "config")) is None else Path(path))
+    except JudoError as err:
+        fail(str(err))
+    task, optimizer = option_value(argv, "task"), option_value(argv, "optimizer")
+    task_cls = lookup_task(task)[1] if task in get_registered_tasks() else TaskConfig
+    optimizer_cls = lookup_optimizer(optimizer)[1] if optimizer in get_registered_optimizers() else OptimizerConfig
+    groups = {
+        "optimizer_config": (optional_fields(optimizer_cls, "OptimizerOverrides"), "optimizer"),
+        "task_config": (optional_fields(task_cls, "TaskOverrides"), "task"),
+    }
+    specs = [
+        (
+            name,
+            Annotated[
+                group, tyro.conf.arg(help=f"Fields of the {kind}'s config ({group.config_cls.__name__}) to change.")
+            ],  # type: ignore[attr-defined]
+            dataclasses.field(default_factory=group),
+        )
+        for name, (group, kind) in groups.items()
+    ]
+    extended = dataclasses.make_dataclass(args_cls.__name__, specs, bases=(args_cls,))
+    extended.__doc__ = args_cls.__doc__
+    return parse_args(extended, argv, prog, description)
 
 
 def apply_config_file(path: Path | None) -> None:
@@ -112,9 +162,10 @@ def optional_fields(config_cls: type, name: str) -> type:
     docs, types = field_docs(config_cls), field_types(config_cls)
 
     def option(name: str) -> Any:
-        kind = types[name]
+        kind = tuple[float, ...] if types[name] is np.ndarray else types[name]  # an array field takes numbers
         choices = typing.get_args(kind) if typing.get_origin(kind) is Literal else ()
         metavar = "{" + ",".join(map(str, choices)) + "}" if choices else getattr(kind, "__name__", "VALUE").upper()
+        metavar = "NUMBER ..." if types[name] is np.ndarray else metavar
         text = " ".join(docs.get(name, "").split())
         return Annotated[
             kind | None, tyro.conf.arg(help=text, metavar=metavar, help_behavior_hint="(default: the task's)")
@@ -123,6 +174,7 @@ def optional_fields(config_cls: type, name: str) -> type:
     specs = [(f.name, option(f.name), dataclasses.field(default=None)) for f in dataclasses.fields(config_cls)]
     overrides = dataclasses.make_dataclass(name, specs)
     overrides.__doc__ = f"Fields of {config_cls.__name__} to change from the task's defaults."
+    overrides.config_cls = config_cls  # type: ignore[attr-defined]
     return overrides
 
 
@@ -131,8 +183,28 @@ ControllerOverrides = optional_fields(ControllerConfig, "ControllerOverrides")
 
 
 def given_fields(overrides: Any) -> dict[str, Any]:
-    """The fields of a `ControllerOverrides` that were given (not None), by name."""
-    return {name: value for name, value in vars(overrides).items() if value is not None}
+    """The fields of a `ControllerOverrides` (or any `optional_fields` class) that were given (not None), by
+    name; {} for None."""
+    return {} if overrides is None else {name: value for name, value in vars(overrides).items() if value is not None}
+
+
+def optimizer_config(task: str, optimizer: str, overrides: Any) -> OptimizerConfig:
+    """The optimizer's config for the task (its registered defaults) with the given `--optimizer-config.*` fields."""
+    return with_updates(make_config(lookup_optimizer(optimizer)[1], task), given_fields(overrides))  # type: ignore[return-value]
+
+
+def task_config(task: str, overrides: Any) -> Config:
+    """The task's TaskConfig (its registered defaults) with the given `--task-config.*` fields applied."""
+    return with_updates(make_config(lookup_task(task)[1], task), given_fields(overrides))  # type: ignore[return-value]
+
+
+def set_field_overrides(task: str, optimizer: str, optimizer_overrides: Any, task_overrides: Any) -> None:
+    """Make the given `--optimizer-config.*` and `--task-config.*` fields the pair's defaults in this process,
+    as a --config file's [optimizer_config_overrides] and [task_config_overrides] entries do."""
+    from judo.core.registry import set_config_overrides
+
+    set_config_overrides(task, lookup_optimizer(optimizer)[1], given_fields(optimizer_overrides))
+    set_config_overrides(task, lookup_task(task)[1], given_fields(task_overrides))
 
 
 def controller_config(task: str, overrides: Any) -> ControllerConfig:

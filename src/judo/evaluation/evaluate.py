@@ -24,9 +24,12 @@ from judo.evaluation.cli import (
     given_fields,
     latency_label,
     name_listing,
+    optimizer_config,
     output_console,
-    parse_args,
+    parse_args_with_config_fields,
     progress_console,
+    set_field_overrides,
+    task_config,
     write_json,
 )
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
@@ -73,6 +76,8 @@ class EvaluateArgs:
     """Also plot the first seed's episode against time to this .png (needs matplotlib) or .html file."""
     controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
     """Controller settings to change from the task's defaults, e.g. --controller.num-randomizations 4."""
+    # parse_args_with_config_fields adds `optimizer_config` (--optimizer-config.FIELD, e.g.
+    # --optimizer-config.sigma 0.3) and `task_config` (--task-config.FIELD), typed for the pair named.
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
@@ -93,6 +98,19 @@ class EvaluateArgs:
             check_plot_path(self.plot)
         check_rollout_backend(self.backend)
         controller_config(self.task, self.controller)
+        optimizer_config(self.task, self.optimizer, getattr(self, "optimizer_config", None))
+        task_config(self.task, getattr(self, "task_config", None))
+
+    def changed_fields(self) -> dict[str, Any]:
+        """Every config field given on the command line, as {"controller.horizon": 1.0, "optimizer.sigma": 0.3, ...}."""
+        groups = {"controller": self.controller, "optimizer": getattr(self, "optimizer_config", None)}
+        groups["task"] = getattr(self, "task_config", None)
+        return {
+            f"{kind}.{name}": value
+            for kind, group in groups.items()
+            if group is not None
+            for name, value in given_fields(group).items()
+        }
 
     def episode_latency(self) -> Latency:
         """The latency `run_episode` takes: seconds, or "measured"."""
@@ -160,13 +178,18 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
 
 def main(argv: list[str] | None = None) -> int:
     """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
-    args = parse_args(EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing())
+    args = parse_args_with_config_fields(
+        EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing()
+    )
     try:
         check_count("--num-workers", args.num_workers, MAX_WORKERS)
         check_output_file("--json", args.json)
         check_output_file("--plot", args.plot)
         apply_config_file(args.config)
         args.validate()
+        set_field_overrides(
+            args.task, args.optimizer, getattr(args, "optimizer_config", None), getattr(args, "task_config", None)
+        )
         columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
         with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
             results = evaluate(args, progress)
@@ -175,9 +198,9 @@ def main(argv: list[str] | None = None) -> int:
         title = (
             f"{args.task} x {args.optimizer}: {args.seeds} seeds x {args.duration:g} s, latency {args.latency_label()}"
         )
-        changed = given_fields(args.controller)
+        changed = args.changed_fields()
         if changed:
-            title += ", " + ", ".join(f"{name}={value}" for name, value in changed.items())
+            title += ", " + ", ".join(f"{name.removeprefix('controller.')}={value}" for name, value in changed.items())
         console = output_console()
         table = metrics_table(title, summaries)
         table.caption = f"control update: median {np.median(update_ms):.2f} ms over {len(update_ms)} updates"
@@ -198,7 +221,8 @@ def main(argv: list[str] | None = None) -> int:
                     "duration": args.duration,
                     "latency": args.latency_label(),
                     "backend": args.backend,
-                    "controller": changed,
+                    "controller": given_fields(args.controller),
+                    "overrides": changed,
                     "episodes": [episode_record(result) for result in results],
                     "summary": {name: vars(summary) for name, summary in summaries.items()},
                 },

@@ -156,3 +156,7 @@ class Acrobot(Task[AcrobotConfig]):
             "upright_fraction": float(np.mean(distance[final] < UPRIGHT_TOLERANCE)),
             "final_tip_distance": float(distance[-1]),
         }
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: the tip upright over at least 90% of the final 3 s."""
+        return bool(metrics["upright_fraction"] >= 0.9)

@@ -79,3 +79,7 @@ class Cartpole(Task[CartpoleConfig]):
         cart_x, angle = log.states[final, 0], log.states[final, 1]
         fraction = float(np.mean((np.cos(angle) > 0.9) & (np.abs(cart_x) < 0.3)))
         return {"balanced_fraction": fraction, "swung_up": float(fraction > 0.9)}
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: "swung_up" (the pole balanced over 90% of the final 3 s)."""
+        return bool(metrics["swung_up"] > 0.5)

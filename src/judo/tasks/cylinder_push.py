@@ -86,3 +86,7 @@ class CylinderPush(Task[CylinderPushConfig]):
         """Where the cart ended: "final_distance" to the goal (m), and "reached", 1.0 if that is under 0.05 m."""
         distance = float(np.linalg.norm(log.states[-1, 2:4] - self.config.goal_pos))
         return {"final_distance": distance, "reached": float(distance < 0.05)}
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: "reached" (the cart ended within 0.05 m of the goal)."""
+        return bool(metrics["reached"] > 0.5)

@@ -126,3 +126,7 @@ class DoubleCartpole(Task[DoubleCartpoleConfig]):
             "final_cart_offset": float(abs(log.states[-1, 0])),
             "hit_rail_end": float(np.any(np.abs(log.states[:, 0]) > self._cart_travel - RAIL_END_MARGIN)),
         }
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: the tip upright over at least 90% of the final 3 s, never near a rail end."""
+        return bool(metrics["upright_fraction"] >= 0.9 and metrics["hit_rail_end"] < 0.5)

@@ -141,3 +141,7 @@ class HumanoidStandup(Task[HumanoidStandupConfig]):
             "time_to_stand": float(log.times[start] - log.times[0] + dt),
             "standing_after_up": float(standing[start:].mean()) if held.any() else 0.0,
         }
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: stood up and then stayed standing at least 90% of the time."""
+        return bool(metrics["standing_after_up"] >= 0.9)

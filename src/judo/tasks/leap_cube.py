@@ -156,6 +156,10 @@ class LeapCube(Task[LeapCubeConfig]):
         scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
         scale_body_mass(model, body_id(model, "cube"), 0.8, 1.25, rng)
 
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: at least one goal reached and no drop."""
+        return bool(metrics["goals_reached"] >= 1 and metrics["drops"] == 0)
+
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """Goals reached (in total and per minute of the episode) and drops, counted on this plant task."""
         minutes = len(log.times) * float(self.sim_model.opt.timestep) / 60.0

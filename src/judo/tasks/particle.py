@@ -99,3 +99,7 @@ class Particle(Task[ParticleConfig]):
             "goals_per_minute": float(60.0 * goals / duration),
             "final_distance": float(np.linalg.norm(particle[-1] - goal[-1])),
         }
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: at least one goal reached."""
+        return bool(metrics["goals_reached"] >= 1)

@@ -77,3 +77,7 @@ class Pendulum(Task[PendulumConfig]):
             "upright_fraction": float(np.mean(angle_error[final] < UPRIGHT_TOLERANCE)),
             "final_angle_error": float(angle_error[-1]),
         }
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: the pole upright over at least 90% of the final 3 s."""
+        return bool(metrics["upright_fraction"] >= 0.9)

@@ -122,3 +122,9 @@ class PushT(Task[PushTConfig]):
             "final_angle_error": float(abs(angle_error[-1])),
             "placed_fraction": float(placed.mean()),
         }
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: the block placed (within 2 cm and 0.1 rad) at the end."""
+        return bool(
+            metrics["final_position_error"] < POSITION_TOLERANCE and metrics["final_angle_error"] < ANGLE_TOLERANCE
+        )

@@ -95,3 +95,7 @@ class Walker(Task[WalkerConfig]):
             "fallen_fraction": float(np.mean(head_height < FALLEN_HEAD_HEIGHT)),
             "final_head_height": float(head_height[-1]),
         }
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: never fallen."""
+        return bool(metrics["fallen_fraction"] == 0.0)

@@ -1,4 +1,4 @@
-"""Ray for tune: start a local Ray, or join a running cluster, and submit trials as Ray tasks.
+"""Ray for tune and collect: start a local Ray, or join a running cluster, and submit trials as Ray tasks.
 
 Ray runs offline: no usage statistics and no dashboard. `address` None starts a local Ray with
 `workers` CPUs; "auto" joins the cluster started on this machine with `ray start --head`;
@@ -22,10 +22,10 @@ class RayClusterError(JudoError):
     """A Ray cluster that cannot be started or reached; the message says how to start one."""
 
 
-def import_ray() -> Any:
-    """The ray module, or MissingExtraError naming the `tune` extra."""
+def import_ray(feature: str = "python -m judo tune", extra: str = "tune") -> Any:
+    """The ray module, or MissingExtraError naming `extra` as what `feature` needs."""
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
-    return import_extra("ray", "python -m judo tune", "tune")
+    return import_extra("ray", feature, extra)
 
 
 def check_reachable(address: str) -> None:
@@ -84,9 +84,13 @@ def cluster_cpus() -> int:
 
 def submit_trial(spec: TrialSpec, values: dict[str, Any]) -> Any:
     """Start `run_trial(spec, values)` as a Ray task needing one CPU; returns its ObjectRef."""
+    return submit(run_trial, spec, values)
+
+
+def submit(function: Any, *args: Any) -> Any:
+    """Start `function(*args)` as a Ray task needing one CPU, never retried; returns its ObjectRef."""
     ray = import_ray()
-    remote = ray.remote(num_cpus=1, max_retries=0)(run_trial)
-    return remote.remote(spec, values)
+    return ray.remote(num_cpus=1, max_retries=0)(function).remote(*args)
 
 
 def wait_any(refs: list[Any]) -> tuple[list[Any], list[Any]]:

@@ -1,0 +1,175 @@
+"""`python -m judo collect`: closed-loop MPC episodes, seeded 0..N-1, run as Ray tasks into an HDF5 dataset.
+
+python -m judo collect --task cartpole --optimizer mppi --episodes 100 --duration 10 --out cartpole.h5
+"""
+
+import dataclasses
+import hashlib
+import os
+import shlex
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import mujoco
+import numpy as np
+import tyro
+
+from judo.core.config import Config, require, require_between
+from judo.core.errors import JudoError
+from judo.core.rollout import RolloutBackendName, check_rollout_backend
+from judo.evaluation.cli import (
+    ControllerOverrides,
+    check_names,
+    controller_config,
+    episode_latency,
+    fail,
+    given_fields,
+    name_listing,
+    optimizer_config,
+    parse_args_with_config_fields,
+    task_config,
+)
+from judo.evaluation.episode import Latency
+
+DESCRIPTION = (
+    "Collect closed-loop MPC episodes of a task x optimizer into an HDF5 dataset in a robomimic-style layout "
+    "(data/demo_<seed>/obs/qpos, actions, rewards, dones, ...) plus each control update's plan (docs/collect.md). "
+    "Episodes are seeded 0 to --episodes - 1 and run as Ray tasks, on a local Ray (--workers) or a cluster "
+    "(--address). The same command again adds only the seeds missing from --out, so a larger --episodes extends "
+    "a file and an interrupted run resumes; Ctrl-C keeps every finished episode. Config fields of the pair are "
+    "set with --controller.FIELD, --optimizer-config.FIELD and --task-config.FIELD (listed below once --task and "
+    "--optimizer are given). Needs the `collect` extra: pip install 'judo[collect]'."
+)
+
+
+@dataclass
+class CollectArgs:
+    """Arguments of `python -m judo collect`."""
+
+    task: Annotated[str, tyro.conf.arg(metavar="NAME")]
+    """Task to run, by registered name."""
+    optimizer: Annotated[str, tyro.conf.arg(metavar="NAME")]
+    """Optimizer to run, by registered name."""
+    out: Annotated[Path, tyro.conf.arg(metavar="FILE.h5")]
+    """The HDF5 dataset to write; an existing one made with the same arguments gets the missing seeds."""
+    episodes: int = 10
+    """Episodes the file should hold, with seeds 0 to episodes - 1."""
+    duration: float = 10.0
+    """Length of each episode in seconds of sim time."""
+    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides."""
+    latency: Literal["none", "measured"] = "none"
+    """Planning latency, as for evaluate: none, or each update's measured wall time."""
+    latency_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
+    """Fixed planning latency in milliseconds of sim time (reproducible); instead of --latency."""
+    backend: RolloutBackendName = "cpu"
+    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
+    success_only: bool = False
+    """Keep only the episodes the task counts as a success (Task.success of its metrics); the others are listed in the file as dropped and not run again."""
+    workers: Annotated[int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")] = None
+    """Episodes run at once, each on one rollout thread (the CPUs of a local Ray; with --address, default twice the cluster's CPUs in flight)."""
+    address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")] = None
+    """A running Ray cluster: auto (the one `ray start --head` started on this machine) or ray://HOST:10001."""
+    controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
+    """Controller settings to change from the task's defaults, e.g. --controller.horizon 1.0."""
+
+    def validate(self) -> None:
+        """Raise a JudoError for an argument out of range or a name that is not registered."""
+        check_names([self.task], [self.optimizer])
+        require_between("--episodes", self.episodes, 1, 10_000_000)
+        require_between("--duration", self.duration, 0, 86_400.0, " s", above=True)
+        require(
+            self.latency_ms is None or self.latency == "none",
+            f"give either --latency {self.latency} or --latency-ms {self.latency_ms}, not both",
+        )
+        if self.latency_ms is not None:
+            require_between("--latency-ms", self.latency_ms, 0, 60_000.0)
+        require(self.workers is None or self.workers >= 1, f"--workers must be at least 1, got {self.workers}")
+        require(self.out.suffix in (".h5", ".hdf5"), f"--out must name an .h5 or .hdf5 file, got {str(self.out)!r}")
+        check_rollout_backend(self.backend)
+        controller_config(self.task, self.controller)
+        optimizer_config(self.task, self.optimizer, getattr(self, "optimizer_config", None))
+        task_config(self.task, getattr(self, "task_config", None))
+
+    def episode_latency(self) -> Latency:
+        """The latency `run_episode` takes: seconds, or "measured"."""
+        return episode_latency(self.latency, self.latency_ms)
+
+    def values(self) -> dict[str, Any]:
+        """Every config field given on the command line, {"controller.horizon": 1.0, "optimizer.sigma": ...}."""
+        groups = {
+            "controller": self.controller,
+            "optimizer": getattr(self, "optimizer_config", None),
+            "task": getattr(self, "task_config", None),
+        }
+        return {
+            f"{kind}.{name}": value for kind, group in groups.items() for name, value in given_fields(group).items()
+        }
+
+
+def config_dict(config: Config) -> dict[str, Any]:
+    """A config's fields as JSON values (arrays as lists)."""
+    values = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
+    return {name: value.tolist() if isinstance(value, np.ndarray) else value for name, value in values.items()}
+
+
+def model_sha256(model: mujoco.MjModel) -> str:
+    """SHA-256 of the compiled model (its MJB bytes): it changes with any edit of the XML or of a file it includes."""
+    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return hashlib.sha256(buffer.tobytes()).hexdigest()
+
+
+def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
+    """The `data` group's env_args: everything that determines the episodes, plus versions and model hashes."""
+    import judo
+    from judo.core.registry import lookup_task
+
+    task = lookup_task(args.task)[0]()  # type: ignore[call-arg]
+    latency = args.episode_latency()
+    return {
+        "env_name": args.task,
+        "type": "judo",
+        "task": args.task,
+        "optimizer": args.optimizer,
+        "duration": args.duration,
+        "latency_s": latency,
+        "backend": args.backend,
+        "success_only": args.success_only,
+        "config_file": None if args.config is None else str(args.config),
+        "env_kwargs": {kind: config_dict(config) for kind, config in configs.items()},
+        "plant_timestep": float(task.sim_model.opt.timestep),
+        "judo_version": judo.__version__,
+        "mujoco_version": mujoco.__version__,
+        "planning_model_sha256": model_sha256(task.model),
+        "plant_model_sha256": model_sha256(task.sim_model),
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run `python -m judo collect` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
+    from judo.collection.dataset import import_h5py
+    from judo.collection.episode import CollectSpec, configs_in_force
+    from judo.collection.run import collect
+
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parse_args_with_config_fields(
+        CollectArgs, argv, "python -m judo collect", DESCRIPTION + " " + name_listing()
+    )
+    try:
+        import_h5py()
+        from judo.tuning.cluster import import_ray
+
+        import_ray("python -m judo collect", "collect")
+        args.validate()
+        config_file = None if args.config is None else str(args.config.resolve())
+        spec = CollectSpec(
+            args.task, args.optimizer, args.duration, args.episode_latency(), args.values(), config_file, args.backend
+        )
+        configs = configs_in_force(spec)
+        command = "python -m judo collect " + shlex.join(argv)
+        return collect(spec, env_args(args, configs), args, command, args.workers or os.cpu_count() or 1)
+    except JudoError as err:
+        fail(str(err))

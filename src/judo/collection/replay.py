@@ -1,0 +1,210 @@
+"""`python -m judo replay FILE.h5 [--demo N]`: play a collect file's episodes back in the GUI's 3-D scene.
+
+Nothing is re-simulated: each frame poses the task's plant model at a recorded qpos (and mocap
+positions), so a replay is exactly what happened. The page has a demo dropdown, play/pause, a time
+scrubber, a speed control and the demo's metrics.
+"""
+
+import json
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Annotated, Any
+
+import numpy as np
+import tyro
+
+from judo.collection.dataset import DatasetError, demo_name, import_h5py
+from judo.core.config import require_between
+from judo.core.errors import JudoError
+from judo.evaluation.cli import apply_config_file, fail
+
+FRAME_S = 1 / 30
+"""Seconds between frames while playing."""
+
+
+@dataclass
+class ReplayArgs:
+    """Arguments of `python -m judo replay`."""
+
+    file: tyro.conf.Positional[Path]
+    """The HDF5 file `python -m judo collect` wrote."""
+    demo: Annotated[int | None, tyro.conf.arg(metavar="SEED", help_behavior_hint="(default: the first)")] = None
+    """Seed of the demo shown first."""
+    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """TOML file registering the file's task, when it is a task of your own."""
+    host: str = "127.0.0.1"
+    """Address the GUI listens on (this machine only by default)."""
+    port: int = 8080
+    """Port of the GUI (the next free one if taken)."""
+    speed: float = 1.0
+    """Playback speed at the start (sim seconds per second; the page's speed slider changes it)."""
+
+
+@dataclass
+class Demo:
+    """One recorded episode: qpos (S, nq), mocap_pos (S, nmocap, 3) or None, times (S,), metrics, success."""
+
+    seed: int
+    qpos: np.ndarray
+    mocap_pos: np.ndarray | None
+    times: np.ndarray
+    metrics: dict[str, float]
+    success: bool
+
+
+def read_demos(path: Path) -> tuple[dict[str, Any], dict[int, Demo]]:
+    """(env_args, {seed: Demo}) of a collect file, in seed order; DatasetError when it is not one."""
+    h5py = import_h5py("python -m judo replay")
+    try:
+        with h5py.File(path, "r") as file:
+            env_args = json.loads(file["data"].attrs["env_args"])
+            dt = float(env_args["plant_timestep"])
+            demos = {}
+            for name in sorted(file["data"], key=lambda name: int(name.removeprefix("demo_"))):
+                group = file["data"][name]
+                qpos = group["obs/qpos"][:]
+                mocap = group["obs/mocap_pos"][:].reshape(len(qpos), -1, 3) if "mocap_pos" in group["obs"] else None
+                seed = int(group.attrs["seed"])
+                times = dt * np.arange(1, len(qpos) + 1)
+                metrics = json.loads(group.attrs["metrics"])
+                demos[seed] = Demo(seed, qpos, mocap, times, metrics, bool(group.attrs["success"]))
+    except (OSError, KeyError, ValueError) as err:
+        raise DatasetError(f"{path} is not a file of `python -m judo collect`: {err}") from None
+    if not demos:
+        raise DatasetError(f"{path} holds no episodes")
+    return env_args, demos
+
+
+class Replay:
+    """A GUI playing the demos of `path` back; `start` serves it, `stop` ends it.
+
+    Attributes:
+        demo: the demo shown; index: its row shown (0..S-1); playing: whether time runs.
+        scene: the SceneView posed from the recorded rows.
+    """
+
+    def __init__(
+        self, path: Path, demo: int | None = None, host: str = "127.0.0.1", port: int = 8080, speed: float = 1.0
+    ) -> None:
+        from judo.core.registry import lookup_task
+
+        self.env_args, self.demos = read_demos(path)
+        if demo is not None and demo not in self.demos:
+            raise DatasetError(f"{path} has no demo of seed {demo}; its seeds are: {', '.join(map(str, self.demos))}")
+        self.demo = self.demos[demo if demo is not None else next(iter(self.demos))]
+        self.model = lookup_task(self.env_args["task"])[0]().sim_model  # type: ignore[call-arg]
+        self.path, self.host, self.port = path, host, port
+        require_between("--speed", speed, 0.1, 4.0)
+        self.index, self.playing, self.speed = 0, False, float(speed)
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+
+    def start(self) -> None:
+        """Start the server, draw the first row of the demo and the widgets, and the playback thread."""
+        from judo.runtime.gui.scene import SceneView
+        from judo.runtime.gui.server import start_server
+
+        self.server = start_server(self.host, self.port, token=None, share=False, label="judo replay")
+        self.url = f"http://{self.host}:{self.server.get_port()}"
+        self.scene = SceneView(self.server.scene, self.model)
+        gui = self.server.gui
+        names = [demo_name(seed) for seed in self.demos]
+        self.demo_dropdown = gui.add_dropdown("demo", names, initial_value=demo_name(self.demo.seed))
+        self.play_button = gui.add_button("Play")
+        self.time_slider = gui.add_slider("time (s)", 0.0, self._duration(), self._dt(), 0.0)
+        self.speed_slider = gui.add_slider("speed", 0.1, 4.0, 0.1, self.speed)
+        self.readout = gui.add_markdown("")
+        self.demo_dropdown.on_update(lambda _: self.select(int(self.demo_dropdown.value.removeprefix("demo_"))))
+        self.play_button.on_click(lambda _: self.set_playing(not self.playing))
+        self.time_slider.on_update(lambda _: self.show(self._row(self.time_slider.value)))
+        self.speed_slider.on_update(lambda _: setattr(self, "speed", float(self.speed_slider.value)))
+        self.select(self.demo.seed)
+        position, look_at = self.scene.camera_pose()
+        self.server.initial_camera.position, self.server.initial_camera.look_at = position, look_at
+        self._thread = threading.Thread(target=self._play, name="judo-replay", daemon=True)
+        self._thread.start()
+
+    def select(self, seed: int) -> None:
+        """Show demo `seed` from its first row, with its metrics."""
+        self.demo = self.demos[seed]
+        self.time_slider.max = self._duration()
+        metrics = ", ".join(f"{name} {value:.3g}" for name, value in self.demo.metrics.items())
+        self.readout.content = (
+            f"**{self.env_args['task']} x {self.env_args['optimizer']}**, seed {seed}, "
+            f"{'success' if self.demo.success else 'no success'}  \n{metrics}"
+        )
+        self.seek(0)
+
+    def set_playing(self, playing: bool) -> None:
+        """Play or pause; playing from the last row starts over."""
+        if playing and self.index >= len(self.demo.qpos) - 1:
+            self.seek(0)
+        self.playing = playing
+        self.play_button.label = "Pause" if playing else "Play"
+
+    def seek(self, index: int) -> None:
+        """Show row `index` and move the scrubber there."""
+        self.show(index)
+        self.time_slider.value = float(self.demo.times[self.index])
+
+    def show(self, index: int) -> None:
+        """Pose the scene at row `index` (clamped) of the demo shown."""
+        with self._lock:
+            demo = self.demo
+            self.index = int(np.clip(index, 0, len(demo.qpos) - 1))
+            metadata = {} if demo.mocap_pos is None else {"mocap_pos": demo.mocap_pos[self.index]}
+            self.scene.update(demo.qpos[self.index], metadata)
+
+    def stop(self) -> None:
+        """Stop playing and the server."""
+        self._stop.set()
+        if hasattr(self, "_thread"):
+            self._thread.join(timeout=2.0)
+        if hasattr(self, "server"):
+            self.server.stop()
+
+    def _play(self) -> None:
+        last = time.perf_counter()
+        clock = 0.0  # sim seconds shown while playing, kept unrounded so that slow speeds still advance
+        while not self._stop.wait(FRAME_S):
+            now = time.perf_counter()
+            if not self.playing:
+                clock = float(self.demo.times[self.index])
+            else:
+                clock += (now - last) * self.speed
+                row = self._row(clock)
+                self.seek(row)
+                if row >= len(self.demo.qpos) - 1:
+                    self.set_playing(False)
+            last = now
+
+    def _dt(self) -> float:
+        return float(self.env_args["plant_timestep"])
+
+    def _duration(self) -> float:
+        return float(self.demo.times[-1])
+
+    def _row(self, seconds: float) -> int:
+        return int(round(seconds / self._dt())) - 1
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run `python -m judo replay` on `argv` (sys.argv[1:] when None) until Ctrl-C; exits 2 on bad arguments."""
+    args = tyro.cli(ReplayArgs, args=argv, prog="python -m judo replay", description=__doc__)
+    try:
+        apply_config_file(args.config)
+        replay = Replay(args.file, args.demo, args.host, args.port, args.speed)
+        replay.start()
+    except JudoError as err:
+        fail(str(err))
+    print(f"replaying {args.file} at {replay.url} (Ctrl-C to stop)", file=sys.stderr)
+    try:
+        while True:
+            time.sleep(1.0)
+    except KeyboardInterrupt:
+        return 0
+    finally:
+        replay.stop()

@@ -1,0 +1,136 @@
+"""The collect driver: submit the missing seeds as Ray tasks, write each finished episode, show progress.
+
+Only this driver writes the file, one finished episode at a time (judo.collection.dataset.DatasetFile).
+At most --workers episodes are in flight (two per CPU of the Ray without it), so a long run holds little
+in memory and --workers means the same on a local Ray and a cluster.
+"""
+
+import sys
+import time
+from typing import Any
+
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from judo.collection.dataset import DatasetFile
+from judo.collection.episode import CollectSpec, EpisodeOutcome, collect_episode
+from judo.core.errors import JudoError
+from judo.evaluation.cli import output_console, progress_console
+
+SHOWN_FAILURES = 5
+"""Failed seeds listed with their reasons at the end of a run (all of them are in the file)."""
+
+
+class NoSuccessRuleError(JudoError):
+    """--success-only for a task whose `success(metrics)` has no rule for its metrics."""
+
+
+class Tally:
+    """Counts of this run's episodes, for the progress bar and the closing line."""
+
+    def __init__(self) -> None:
+        self.done = self.failed = self.kept = self.dropped = 0
+        self.failures: list[tuple[int, str]] = []
+        self.started = time.perf_counter()
+
+    def line(self) -> str:
+        """done, failed, kept, dropped and episodes per minute."""
+        minutes = (time.perf_counter() - self.started) / 60.0
+        rate = self.done / minutes if minutes > 0 else 0.0
+        dropped = f", dropped {self.dropped}" if self.dropped else ""
+        return f"done {self.done}, failed {self.failed}, kept {self.kept}{dropped}, {rate:.1f} episodes/min"
+
+
+def write_outcome(file: DatasetFile, outcome: EpisodeOutcome, success_only: bool, tally: Tally, task: str) -> None:
+    """Write one finished episode (or its failure, or its dropping) to `file` and count it."""
+    tally.done += 1
+    episode = outcome.episode
+    if episode is None:
+        tally.failed += 1
+        reason = outcome.failure or "unknown failure"
+        tally.failures.append((outcome.seed, reason))
+        file.write_failure(outcome.seed, reason)
+        return
+    if success_only and episode.success is None:
+        raise NoSuccessRuleError(
+            f"--success-only: task {task!r} has no success rule for its metrics {sorted(episode.metrics)}; "
+            "give the task a `success(self, metrics) -> bool` method, or report a 'success' metric"
+        )
+    if success_only and not episode.success:
+        tally.dropped += 1
+        file.write_dropped(episode.seed, episode.metrics)
+        return
+    tally.kept += 1
+    file.write_episode(episode)
+
+
+def outcome_of(ray: Any, ref: Any, seed: int) -> EpisodeOutcome:
+    """The EpisodeOutcome of a finished ref; a failure when the Ray task itself died (e.g. a worker crash)."""
+    try:
+        return ray.get(ref)
+    except Exception as err:  # noqa: BLE001  (RayTaskError, WorkerCrashedError, ...)
+        return EpisodeOutcome(seed, None, f"Ray task failed: {type(err).__name__}: {err}")
+
+
+def collect(spec: CollectSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
+    """Run the seeds of 0..args.episodes-1 missing from `args.out` and write them there; returns the exit status
+    (130 after Ctrl-C, with the command that resumes printed)."""
+    from judo.tuning import cluster
+
+    file = DatasetFile(args.out, env_args)
+    finished = file.finished_seeds()
+    todo = [seed for seed in range(args.episodes) if seed not in finished]
+    console = output_console()
+    if not todo:
+        counts = file.counts()
+        console.print(f"{args.out} already holds seeds 0 to {args.episodes - 1}: {counts['kept']} episodes kept")
+        return 0
+    if finished:
+        console.print(f"{args.out}: {len(finished)} seeds done; running the {len(todo)} missing ones")
+    ray = cluster.import_ray("python -m judo collect", "collect")
+    tally = Tally()
+    running: dict[Any, int] = {}
+    pending = iter(todo)
+    columns = (TextColumn("collect"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"))
+    connected = False
+    try:
+        connected = cluster.start_ray(args.address, workers)
+        window = args.workers or 2 * cluster.cluster_cpus()  # --workers caps the episodes run at once on any Ray
+        with Progress(*columns, TimeElapsedColumn(), console=progress_console(), transient=True) as progress:
+            bar = progress.add_task(tally.line(), total=len(todo))
+            while True:
+                while len(running) < window and (seed := next(pending, None)) is not None:
+                    running[cluster.submit(collect_episode, spec, seed)] = seed
+                if not running:
+                    break
+                ready, _ = cluster.wait_any(list(running))
+                for ref in ready:
+                    seed = running.pop(ref)
+                    write_outcome(file, outcome_of(ray, ref, seed), args.success_only, tally, spec.task)
+                progress.update(bar, completed=tally.done, description=tally.line())
+    except KeyboardInterrupt:
+        cluster.cancel(list(running))
+        print(
+            f"interrupted: {tally.kept} finished episodes of this run are in {args.out}; resume with:\n  {command}",
+            file=sys.stderr,
+        )
+        return 130
+    except JudoError:
+        cluster.cancel(list(running))
+        raise
+    finally:
+        if connected:
+            cluster.stop_ray()
+    report(console, file, args, tally)
+    return 0
+
+
+def report(console: Any, file: DatasetFile, args: Any, tally: Tally) -> None:
+    """The closing lines: what this run added, what was dropped and why episodes failed."""
+    counts = file.counts()
+    console.print(f"{tally.line()}; {args.out} holds {counts['kept']} episodes, {counts['total']} samples")
+    if args.success_only:
+        console.print(f"--success-only: dropped {tally.dropped} of {tally.done - tally.failed} episodes run")
+    for seed, reason in tally.failures[:SHOWN_FAILURES]:
+        console.print(f"seed {seed} failed: {reason}")
+    if len(tally.failures) > SHOWN_FAILURES:
+        console.print(f"... and {len(tally.failures) - SHOWN_FAILURES} more (attributes of judo/failed in the file)")

@@ -1,0 +1,57 @@
+"""`python -m judo replay` in headless Chromium: the robot moves while playing, and the scrubber poses it."""
+
+import numpy as np
+import pytest
+
+from judo.collection.dataset import DatasetFile
+from judo.collection.episode import CollectSpec, collect_episode
+from judo.collection.replay import Replay
+
+pytest.importorskip("h5py")
+pytestmark = pytest.mark.browser
+
+
+@pytest.fixture
+def replay(tmp_path, port):
+    """A replay of seeds 0 and 1 of 2 s cartpole x ps episodes, showing seed 1, on a free port."""
+    path = tmp_path / "cartpole.h5"
+    dataset = DatasetFile(path, {"task": "cartpole", "optimizer": "ps", "plant_timestep": 0.01})
+    for seed in (0, 1):
+        dataset.write_episode(collect_episode(CollectSpec("cartpole", "ps", 2.0), seed).episode)
+    replay = Replay(path, demo=1, host="127.0.0.1", port=port, speed=0.1)  # 20 s to play the 2 s episode
+    replay.start()
+    yield replay
+    replay.stop()
+
+
+def cart_position(replay: Replay) -> np.ndarray:
+    """Where the scene's cart frame is (body 1), as sent to the page."""
+    return np.array(replay.scene.body_frames[1].position)
+
+
+def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(chromium, replay, wait_until, artifacts):
+    page = chromium.new_page(viewport={"width": 1280, "height": 900})
+    page.set_default_timeout(60_000)
+    try:
+        page.goto(replay.url)
+        page.get_by_text("Play", exact=True).wait_for()
+        assert "seed 1" in page.locator(".mantine-Paper-root").first.inner_text()
+        start = cart_position(replay)
+        assert replay.index == 0 and np.array_equal(replay.scene.data.qpos, replay.demos[1].qpos[0])
+        page.get_by_text("Play", exact=True).click()
+        page.get_by_text("Pause", exact=True).wait_for()
+        wait_until(lambda: replay.index >= 20, timeout=60, what="the replay to play 20 rows")
+        assert not np.allclose(cart_position(replay), start)  # the cart moved with the recorded qpos
+        page.get_by_text("Pause", exact=True).click()
+        wait_until(lambda: not replay.playing, timeout=10, what="the replay to pause")
+        paused = replay.index
+        slider = page.locator(".mantine-Slider-root").first
+        box = slider.locator(".mantine-Slider-track").bounding_box()
+        page.mouse.click(box["x"] + 0.9 * box["width"], box["y"] + box["height"] / 2)
+        wait_until(lambda: replay.index > paused + 30, timeout=60, what="the scrubber to move the replay")
+        shown = replay.index
+        assert np.array_equal(replay.scene.data.qpos, replay.demos[1].qpos[shown])
+        assert 160 <= shown <= 199
+        page.screenshot(path=artifacts / "replay_cartpole.png")
+    finally:
+        page.close()
