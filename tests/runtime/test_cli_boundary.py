@@ -137,6 +137,12 @@ TABLE = [
     Row((*BAD_EVALUATE, *config("reward_strings.toml")), 2, "RewardStrings.reward must return ("),
     Row((*BAD_BENCHMARK, *config("init_fails.toml")), 1, "(raised in InitFails.__init__, "),
     Row((*BAD_BENCHMARK, *config("reward_fails.toml")), 1, "(raised in RewardFails.reward, "),
+    Row(  # the app logs each skipped cycle, then says why the run failed
+        ("--headless", "--duration", "0.3", "--task", "bad", *config("reward_fails.toml")),
+        1,
+        "no plan ever succeeded in this run: planning cycle skipped: ZeroDivisionError in bad: reward blew up",
+        one_line=False,
+    ),
     Row((*BAD_BENCHMARK, *config("reward_strings.toml")), 2, "RewardStrings.reward must return"),
     Row((*BAD_TUNE, *config("init_fails.toml")), 2, "cannot build the task"),
     # sizes, latencies and durations beyond their bounds

@@ -114,6 +114,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
     print(summary)
+    if options.headless and summary.num_plans == 0:
+        why = app.status.message if app.status.level != "info" else "no planning cycle completed"
+        print(f"{PROG}: no plan ever succeeded in this run: {why}", file=sys.stderr)
+        return 1
     return 0
 
 
