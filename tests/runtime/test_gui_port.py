@@ -2,6 +2,7 @@
 
 import ast
 import inspect
+import types
 import typing
 from pathlib import Path
 
@@ -111,7 +112,9 @@ def test_the_app_implements_every_member_of_the_port(unstarted_app):
                     got = getattr(value, method)
                     assert _parameters(got) == _parameters(getattr(wanted, method))[1:], f"App.{name}.{method}"
             else:
-                assert isinstance(getattr(app, name), typing.get_origin(wanted) or wanted), f"App.{name}"
+                kinds = typing.get_args(wanted) if isinstance(wanted, types.UnionType) else (wanted,)
+                kinds = tuple(type(None) if kind is None else typing.get_origin(kind) or kind for kind in kinds)
+                assert isinstance(getattr(app, name), kinds), f"App.{name}"
         else:
             assert inspect.isfunction(on_class), f"AppPort.{name} is a method; App has {on_class!r} for it"
             assert _parameters(on_class) == _parameters(declared), f"App.{name} takes other parameters than the port"

@@ -3,8 +3,6 @@
 python -m judo collect --task cartpole --optimizer mppi --episodes 100 --duration 10 --out cartpole.h5
 """
 
-import dataclasses
-import hashlib
 import os
 import shlex
 import sys
@@ -13,9 +11,9 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import mujoco
-import numpy as np
 import tyro
 
+from judo.collection.model_info import config_dict, model_sha256
 from judo.core.config import Config, require, require_between
 from judo.core.errors import JudoError
 from judo.core.rollout import RolloutBackendName, check_rollout_backend
@@ -107,19 +105,6 @@ class CollectArgs:
         return {
             f"{kind}.{name}": value for kind, group in groups.items() for name, value in given_fields(group).items()
         }
-
-
-def config_dict(config: Config) -> dict[str, Any]:
-    """A config's fields as JSON values (arrays as lists)."""
-    values = {f.name: getattr(config, f.name) for f in dataclasses.fields(config)}
-    return {name: value.tolist() if isinstance(value, np.ndarray) else value for name, value in values.items()}
-
-
-def model_sha256(model: mujoco.MjModel) -> str:
-    """SHA-256 of the compiled model (its MJB bytes): it changes with any edit of the XML or of a file it includes."""
-    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
-    mujoco.mj_saveModel(model, None, buffer)
-    return hashlib.sha256(buffer.tobytes()).hexdigest()
 
 
 def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:

@@ -20,19 +20,18 @@ import asyncio
 import logging
 import math
 import threading
-from typing import Any, Literal
 
 import numpy as np
 
-from judo.core.config import Config, check_seed, with_updates
-from judo.core.controller import Controller, ControllerConfig, check_configs
+from judo.core.config import Config, check_seed
+from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.optimizer import OptimizerConfig
-from judo.core.registry import CONFIG_KINDS, ConfigKind, default_configs, lookup_optimizer, lookup_task
+from judo.core.registry import CONFIG_KINDS, ConfigKind
 from judo.core.task import TaskConfig
 from judo.runtime import exit_guard
 from judo.runtime.address import check_port, check_token
-from judo.runtime.event_loop import AppEventLoop
+from judo.runtime.app_commands import AppCommands
 from judo.runtime.loops import session_configs
 from judo.runtime.session import Session, build_session
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
@@ -50,7 +49,7 @@ MAX_WORKERS = 1024
 """Most rollout threads an app may ask for."""
 
 
-class App(AppEventLoop):
+class App(AppCommands):
     """Runs a task and optimizer in real time, with a browser GUI unless `gui=False`.
 
     Args:
@@ -147,6 +146,7 @@ class App(AppEventLoop):
         self._reset_from_user = False
         self._goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}  # mocap index -> (pos, quat)
         self._resets_done = 0
+        self._recording = None
         self._stop = threading.Event()
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stopping: asyncio.Future | None = None  # done once a stop is requested, to end waits
@@ -246,95 +246,3 @@ class App(AppEventLoop):
         """The latest accepted config of each kind; a planning cycle may not have picked them up yet."""
         with self._lock:
             return dict(self._configs)
-
-    # ---- commands (any thread) -----------------------------------------------------------------
-    def update_config(
-        self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
-    ) -> Config:
-        """Validate `updates` ({field: value}) to the `kind` config and queue it for the next cycle.
-
-        Returns the new config. Raises UnknownNameError or ConfigError, keeping the previous config,
-        if a field does not exist, a value is invalid, or the configs would not work together (e.g.
-        num_rollouts 0, a horizon shorter than one timestep). `generation` (from `session`) refuses
-        an edit made for a session that has since been replaced.
-        """
-        if kind not in CONFIG_KINDS:
-            raise ConfigError(f"config kind must be one of {list(CONFIG_KINDS)}, got {kind!r}")
-        with self._lock:
-            if generation is not None and generation != self._session.generation:
-                raise ConfigError("the task or optimizer changed since this edit was made; it was not applied")
-            updated = with_updates(self._configs[kind], updates)
-            candidate = {**self._configs, kind: updated}
-            check_configs(self._session.controller.task, candidate["controller"], candidate["optimizer"])  # type: ignore[arg-type]
-            self._configs[kind] = updated
-            self._pending[kind] = updated
-            if not from_gui:
-                self._external_edits += 1
-        return updated
-
-    def reset_configs(self) -> None:
-        """Put every config back to the task's registered defaults (at the next cycle)."""
-        with self._lock:
-            session = self._session
-            self._configs = default_configs(session.task_name, session.optimizer_name)  # type: ignore[assignment]
-            self._pending = dict(self._configs)
-            self._external_edits += 1
-        self.report("configs reset to the defaults")
-
-    def pause(self) -> None:
-        """Freeze the plant and the planner (a paused simulation keeps its time)."""
-        self._paused = True
-        self._clock.pause()
-        self.report("paused")
-
-    def resume(self) -> None:
-        """Undo `pause()`."""
-        self._paused = False
-        self._clock.resume()
-        self.report(self._running_message())
-
-    def reset_task(self) -> None:
-        """Reset the plant to its start state and forget the plan."""
-        with self._lock:  # the plan is forgotten once the plant's reset worked
-            self._reset_system = self._reset_from_user = True
-
-    def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
-        """Move mocap body `index` (a goal) of the simulated plant to `position` (3,), and turn it to
-        `quat` (4,) wxyz if given, before its next step.
-
-        The planner sees it with the next state (the plant publishes its mocap poses). Raises JudoError
-        for a user's System, whose goals the app cannot move, or an index the model does not have.
-        """
-        plant = self._session.simulated
-        if plant is None:
-            raise JudoError(f"cannot move goal {index}: the app drives your own {type(self._session.system).__name__}")
-        nmocap = plant.task.sim_model.nmocap
-        if not 0 <= index < nmocap:
-            raise JudoError(f"goal index must be in [0, {nmocap}), got {index}")
-        with self._lock:
-            turn = None if quat is None else np.array(quat, dtype=float).reshape(4)
-            self._goal_moves[index] = (np.array(position, dtype=float).reshape(3), turn)
-
-    def switch_task(self, task: str) -> None:
-        """Use the registered task `task` from the next cycle, with its default configs."""
-        lookup_task(task)
-        if self._user_system is not None and task != self._session.task_name:
-            raise JudoError(
-                f"cannot switch to task {task!r}: the app drives your own System, which is "
-                f"{self._session.task_name!r}; start a new App for another task"
-            )
-        with self._lock:
-            optimizer = self._switch_request[1] if self._switch_request else self._session.optimizer_name
-            self._switch_request = (task, optimizer)
-
-    def switch_optimizer(self, optimizer: str) -> None:
-        """Use the registered optimizer `optimizer` from the next cycle, keeping the plant running."""
-        lookup_optimizer(optimizer)
-        with self._lock:
-            task = self._switch_request[0] if self._switch_request else self._session.task_name
-            self._switch_request = (task, optimizer)
-
-    def report(self, message: str, level: Literal["info", "warning", "error"] = "info") -> None:
-        """Show `message` on the status line and write it to the log (each message at most once every
-        few seconds, however the messages alternate)."""
-        self._status_line.report(message, level)

@@ -12,6 +12,7 @@ The loops publish under two topics of the app's StateBuffer: "system" a `SystemS
 `PlanSnapshot`.
 """
 
+from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
@@ -138,4 +139,17 @@ class AppPort(Protocol):
 
     def report(self, message: str, level: StatusLevel = "info") -> None:
         """Show `message` on the status line and write it to the log."""
+        ...
+
+    @property
+    def recording(self) -> Path | None:
+        """The file a recording under way will be written to, or None."""
+        ...
+
+    def start_recording(self, path: str | Path | None = None) -> Path:
+        """Record every step, plan and config edit into an HDF5 file (the collect layout); returns it."""
+        ...
+
+    def stop_recording(self) -> Path | None:
+        """Write the recording under way as the next demo of its file; returns the file, or None."""
         ...

@@ -77,6 +77,7 @@ class AppEventLoop(AppLoops):
             self._stop.set()
             self._ready.set()
             self._end_plant_thread()
+            self._finish_recording("the app stopped")
             if self.gui is not None:
                 self.gui.close()
             # An idle planning thread ends at once and is joined; a cycle still in flight (a huge batch,

@@ -199,6 +199,7 @@ class AppLoops(PlantLoop):
 
     async def _switch(self, task: str, optimizer: str) -> None:
         old = self._session
+        self._finish_recording("the task or optimizer was switched")
         if task == old.task_name:  # new optimizer on the running plant, keeping the tuned configs
             with self._lock:
                 controller_config, task_config = self._configs["controller"], self._configs["task"]
@@ -244,6 +245,15 @@ class AppLoops(PlantLoop):
         old.close()
         self._status_line.trouble.clear()
         self.report(f"switched to {task} with {optimizer}{' (paused)' if self._paused else ''}")
+
+    def _finish_recording(self, why: str) -> None:
+        """Write the recording under way, if any (on a switch or a stop), reporting a failure."""
+        if getattr(self, "_recording", None) is None:
+            return
+        try:
+            self.stop_recording()  # type: ignore[attr-defined]  (AppCommands')
+        except Exception as err:
+            self.report(f"the recording ({why}) could not be written: {type(err).__name__}: {err}", "error")
 
     # ---- the GUI loop ------------------------------------------------------------------------------------
     async def _gui_loop(self) -> None:

@@ -44,6 +44,14 @@ class Controls:
         self.follow = gui.add_checkbox(
             "follow camera", True, order=order + 0.45, hint="Keep the task's focus body in view while it runs"
         )
+        self.record = gui.add_checkbox(
+            "record",
+            False,
+            order=order + 0.47,
+            hint="Record every step, plan and config edit to judo-recording-TASK-TIME.h5 (needs judo[collect]); "
+            "untick to write it, then: python -m judo replay FILE",
+        )
+        self.record.on_update(lambda event: self._toggle_recording(event))
         self.status = gui.add_markdown("", order=order + 0.5)
         self.readout = gui.add_markdown("", order=order + 0.6)
         self._shown_status: tuple[int, bool] = (-1, False)
@@ -58,6 +66,7 @@ class Controls:
         """Show the app's pause state, names and latest status."""
         paused = self.app.paused
         self.pause.label = "Resume" if paused else "Pause"
+        self.show_recording()
         status = self.app.status
         if (status.count, paused) != self._shown_status:
             self._shown_status = (status.count, paused)
@@ -73,6 +82,24 @@ class Controls:
             f"sim time {shown(sim_time, ' s', 1)} · plan {shown(figures.plan_time_ms, ' ms', 1)} · "
             f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor {shown(figures.real_time_factor, '', 2)}"
         )
+
+    def _toggle_recording(self, event: viser.GuiEvent) -> None:
+        if event.client is None:
+            return
+        try:
+            if self.record.value:
+                self.app.start_recording()
+            else:
+                self.app.stop_recording()
+        except JudoError as err:
+            self.app.report(f"recording: {err}", "error")
+        self.show_recording()
+
+    def show_recording(self) -> None:
+        """Tick the record box exactly while a recording is under way (it stops by itself on a switch)."""
+        recording = self.app.recording is not None
+        if self.record.value != recording:
+            self.record.value = recording
 
     def _reset_configs(self) -> None:
         self.redraw_requested = True

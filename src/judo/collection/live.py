@@ -1,0 +1,118 @@
+"""Recording a running app: every step, every plan and every config edit, to a collect file.
+
+`LiveRecording` is a Recorder on the app's closed loop (`judo.runtime.closed_loop`), so it records exactly
+what `collect` records. `finish()` writes the recording as the next `data/demo_<n>` of an HDF5 file in the
+collect layout (docs/collect.md), so `python -m judo replay FILE` plays it back. Recordings of one task,
+optimizer and models share a file; each demo's attrs hold the configs at its start (`env_kwargs`, JSON)
+and the edits made while it ran (`config_edits`, JSON: [{time, kind, config}]). Needs the `collect` extra (h5py).
+"""
+
+import json
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from judo.collection.dataset import DatasetFile, import_h5py
+from judo.collection.model_info import config_dict, model_sha256
+from judo.collection.recorder import EpisodeRecorder
+from judo.core.config import Config
+from judo.core.task import EpisodeLog
+from judo.evaluation.episode import step_reward
+from judo.runtime.records import PlanRecord, StepRecord
+from judo.runtime.session import Session
+
+
+def default_recording_path(task: str) -> Path:
+    """judo-recording-TASK-YYYYmmdd-HHMMSS.h5 in the working folder."""
+    return Path(f"judo-recording-{task}-{time.strftime('%Y%m%d-%H%M%S')}.h5")
+
+
+class LiveRecording:
+    """Records a running session until `finish()`.
+
+    Args:
+        path: the HDF5 file to add the recording to (created when missing; an existing file must hold
+            recordings of the same task, optimizer and models).
+        session: the app's session being recorded.
+        configs: the configs in force when the recording starts, by kind.
+    """
+
+    def __init__(self, path: str | Path, session: Session, configs: dict[str, Config]) -> None:
+        import_h5py("recording from the GUI")
+        self.path, self.session = Path(path), session
+        task, model = session.controller.task, session.controller.task.model
+        self._steps = EpisodeRecorder(
+            model.nq, model.nv, model.nmocap, session.controller.optimizer.num_nodes, model.nu
+        )
+        self._lock = threading.Lock()
+        self.config_edits: list[dict[str, Any]] = []
+        self.env_kwargs = {kind: config_dict(config) for kind, config in configs.items()}  # at the start
+        self.env_args = {
+            "env_name": session.task_name,
+            "type": "judo",
+            "source": "gui recording",
+            "task": session.task_name,
+            "optimizer": session.optimizer_name,
+            "plant_timestep": float(session.system.timestep),
+            "mujoco_version": mujoco.__version__,
+            "planning_model_sha256": model_sha256(task.model),
+            "plant_model_sha256": model_sha256(task.sim_model),
+        }
+
+    def on_plan(self, record: PlanRecord) -> None:
+        """Keep the control update (called on the planning thread)."""
+        with self._lock:
+            self._steps.on_plan(record)
+
+    def on_step(self, record: StepRecord) -> None:
+        """Keep the plant step (called on the plant thread); a step without a full state is skipped."""
+        if record.state is None:
+            return
+        with self._lock:
+            self._steps.on_step(record)
+
+    def on_config(self, kind: str, config: Config) -> None:
+        """Keep a config edit with the plant time of the latest step."""
+        with self._lock:
+            now = self._steps.steps[-1].time if self._steps.steps else 0.0
+            self.config_edits.append({"time": now, "kind": kind, "config": config_dict(config)})
+
+    @property
+    def num_steps(self) -> int:
+        """Steps recorded so far."""
+        return len(self._steps.steps)
+
+    def finish(self) -> tuple[Path, int]:
+        """Write the recording as the next demo of the file; returns (path, demo index). Raises
+        DatasetError if the file cannot be written or holds another task's recordings."""
+        with self._lock:
+            steps, plans = list(self._steps.steps), list(self._steps.plans)
+        recorder = EpisodeRecorder(
+            self._steps.nq, self._steps.nv, self._steps.nmocap, self._steps.num_nodes, self._steps.nu
+        )
+        recorder.steps, recorder.plans = steps, plans
+        task = self.session.controller.task
+        log = EpisodeLog(
+            times=np.array([step.time for step in steps]),
+            states=np.array([step.state for step in steps], dtype=float).reshape(len(steps), -1),
+            controls=np.array([step.action for step in steps], dtype=float).reshape(len(steps), -1),
+            sensors=np.array([step.sensors for step in steps], dtype=float).reshape(len(steps), -1),
+        )
+        rewards = np.array([step_reward(task, log, row, steps[row].metadata) for row in range(len(steps))])
+        plant = self.session.simulated
+        metrics = plant.task.metrics(log) if plant is not None and steps else {}
+        metrics["mean_reward"] = float(rewards.mean()) if len(rewards) else float("nan")
+        dataset = DatasetFile(self.path, self.env_args)
+        index = max(dataset.finished_seeds(), default=-1) + 1
+        success = plant.task.success(metrics) if plant is not None else None
+        dataset.write_episode(recorder.episode(index, rewards, metrics, success))
+        h5py = import_h5py("recording from the GUI")
+        with h5py.File(self.path, "a") as file:
+            demo = file[f"data/demo_{index}"]
+            demo.attrs["env_kwargs"] = json.dumps(self.env_kwargs)
+            demo.attrs["config_edits"] = json.dumps(self.config_edits)
+        return self.path, index
