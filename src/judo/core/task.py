@@ -12,6 +12,7 @@ import numpy as np
 from judo.core.config import Config
 from judo.core.errors import ModelLoadError, UnknownNameError
 from judo.core.model import load_model, names
+from judo.core.sensors import MeasuredLayout, measured_layout
 
 
 @dataclass
@@ -47,6 +48,7 @@ class Task(ABC, Generic[ConfigT]):
         model: the MjModel the controller plans with.
         sim_model: the MjModel of the plant (the same object unless `sim_model_path` differs); it
             must have the same nq, nv, nu and mocap bodies as `model`.
+        measured / sim_measured: where `measured_sensors` lie in the planning / plant model's sensordata.
         data: the plant's MjData (on `sim_model`). The simulator steps it; `reset`, `pre_sim_step`
             and `post_sim_step` may write to it. The controller never reads it.
         config: this task's config, an instance of the class named in `Task[...]`.
@@ -60,6 +62,10 @@ class Task(ABC, Generic[ConfigT]):
     focus_body: ClassVar[str | None] = None
     """The body the GUI's camera follows while the task runs. None: the first body with a free joint,
     and no following when there is none (the camera stays where it framed the task)."""
+    measured_sensors: ClassVar[tuple[str, ...]] = ()
+    """Names of the MJCF sensors a robot running this task would have (encoders, a camera's pose, an IMU),
+    in the order a System's `SystemState.sensors` holds their values. Trace sensors are never measured.
+    Checked against both models when the task is built; `measured` says where the values lie."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Take `config_cls` from `Task[ConfigT]` among the class's own bases. A subclass of a task
@@ -80,6 +86,15 @@ class Task(ABC, Generic[ConfigT]):
                     f"plant model {sim_model_path} has {size}={getattr(self.sim_model, size)} but the "
                     f"planning model {model_path} has {size}={getattr(self.model, size)}; they must match"
                 )
+        owner = type(self).__name__
+        self.measured: MeasuredLayout = measured_layout(self.model, self.measured_sensors, owner)
+        """Where `measured_sensors` lie in the planning model's sensordata."""
+        self.sim_measured: MeasuredLayout = (
+            self.measured
+            if self.sim_model is self.model
+            else measured_layout(self.sim_model, self.measured_sensors, owner)
+        )
+        """Where `measured_sensors` lie in the plant model's sensordata."""
         self.data = mujoco.MjData(self.sim_model)
         self.config: ConfigT = self.config_cls()  # type: ignore[assignment]
         self.rng = np.random.default_rng()
