@@ -79,10 +79,11 @@ def test_per_type_values_take_a_default_and_refuse_types_not_measured(model_path
     assert per_sensor(0.1, layout, "noise") == [0.1, 0.1]
     assert per_sensor({"default": 0.1, "framequat": 0.02}, layout, "noise") == [0.1, 0.02]
     assert per_sensor({"framequat": 0.02}, layout, "noise") == [None, 0.02]
+    assert per_sensor({"gyro": 0.1, "jointpos": 0.2}, layout, "noise") == [0.2, None]  # gyro: not measured here
     with pytest.raises(
-        ConfigError, match="sensor type 'gyro' is not measured here; valid keys are: default, framequat"
+        ConfigError, match="'camera' is not a sensor type; valid keys here are: default, framequat, jointpos"
     ):
-        per_sensor({"gyro": 0.1}, layout, "noise")
+        per_sensor({"camera": 0.1}, layout, "noise")
 
 
 def test_parse_per_type_reads_command_line_values():

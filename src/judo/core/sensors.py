@@ -16,6 +16,8 @@ from judo.core.model import names
 
 QUATERNION_TYPES = ("framequat", "ballquat")
 """Sensor types whose 4 values are a unit quaternion: their noise and residuals are 3-D rotations (rad)."""
+SENSOR_TYPES = tuple(n.removeprefix("mjSENS_").lower() for n in mujoco.mjtSensor.__members__ if n != "mjSENS_USER")
+"""Every MuJoCo sensor type's MJCF name ("jointpos", "framequat", "gyro", ...)."""
 DEFAULT_KEY = "default"
 """The key of a per-type mapping that applies to every sensor type not named in it."""
 
@@ -102,16 +104,20 @@ def per_sensor(
 ) -> list[float | None]:
     """One value per measured sensor, from one value for all or a mapping {sensor type: value}.
 
-    A mapping may hold "default" for the types it does not name; a type it names must be one of the
-    layout's (ConfigError lists them). A type neither named nor defaulted gets None. `what` names the
-    setting in messages, e.g. "sensor noise".
+    A mapping may hold "default" for the types it does not name. A key must be a MuJoCo sensor type
+    (ConfigError lists them, the measured ones first), so one mapping serves tasks that measure different
+    types; a type not measured here is ignored. A type neither named nor defaulted gets None. `what` names
+    the setting in messages, e.g. "sensor noise".
     """
     if value is None or not isinstance(value, Mapping):
         return [None if value is None else float(value)] * len(layout.names)
-    valid = sorted({*layout.types, DEFAULT_KEY})
     for key in value:
-        if key not in valid:
-            raise ConfigError(f"{what}: sensor type {key!r} is not measured here; valid keys are: {', '.join(valid)}")
+        if key != DEFAULT_KEY and key not in SENSOR_TYPES:
+            measured = sorted({*layout.types, DEFAULT_KEY})
+            raise ConfigError(
+                f"{what}: {key!r} is not a sensor type; valid keys here are: {', '.join(measured)} "
+                f"(any MuJoCo sensor type is accepted: {', '.join(SENSOR_TYPES)})"
+            )
     default = value.get(DEFAULT_KEY)
     picked = [value.get(sensor_type, default) for sensor_type in layout.types]
     return [None if v is None else float(v) for v in picked]

@@ -92,14 +92,14 @@ class MujocoSystem(System):
         with it the solver's warm start, is untouched: sensing never changes the physics. (After `mj_step`
         the plant's sensordata belongs to the state before the step.)
         """
-        if self._scratch is None:
-            self._scratch = mujoco.MjData(self.task.sim_model)
+        model = self.task.sim_model
+        scratch = self._scratch = self._scratch or mujoco.MjData(model)
         spec = mujoco.mjtState.mjSTATE_INTEGRATION
-        state = np.empty(mujoco.mj_stateSize(self.task.sim_model, spec))
-        mujoco.mj_getState(self.task.sim_model, self.task.data, state, spec)
-        mujoco.mj_setState(self.task.sim_model, self._scratch, state, spec)
-        mujoco.mj_forward(self.task.sim_model, self._scratch)
-        return self.task.sim_measured.read(self._scratch.sensordata)
+        state = np.empty(mujoco.mj_stateSize(model, spec))
+        mujoco.mj_getState(model, self.task.data, state, spec)
+        mujoco.mj_setState(model, scratch, state, spec)
+        mujoco.mj_forward(model, scratch)
+        return self.task.sim_measured.read(scratch.sensordata)
 
     def apply(self, action: np.ndarray) -> None:
         self.task.data.ctrl[:] = action
