@@ -48,11 +48,11 @@ class Task(ABC, Generic[ConfigT]):
         model: the MjModel the controller plans with.
         sim_model: the MjModel of the plant (the same object unless `sim_model_path` differs); it
             must have the same nq, nv, nu and mocap bodies as `model`.
-        measured / sim_measured: where `measured_sensors` lie in the planning / plant model's sensordata.
         data: the plant's MjData (on `sim_model`). The simulator steps it; `reset`, `pre_sim_step`
             and `post_sim_step` may write to it. The controller never reads it.
         config: this task's config, an instance of the class named in `Task[...]`.
         rng: the np.random.Generator for resets and goal sampling; replace it to seed an episode.
+        measured / sim_measured: where `measured_sensors` lie in the planning / plant model's sensordata.
     """
 
     config_cls: ClassVar[type[TaskConfig]] = TaskConfig
