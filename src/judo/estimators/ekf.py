@@ -24,6 +24,8 @@ from judo.runtime.system import SystemState
 
 RESET_ITERATIONS = 5
 """Gauss-Newton iterations of the first correction (an iterated EKF), which starts far from the truth."""
+COVARIANCE_CAP = 10.0
+"""No variance grows past this many times the initial std, squared (see `_capped`)."""
 TIME_TOLERANCE = 1e-9
 """Seconds within which two stamps count as the same instant."""
 
@@ -38,6 +40,7 @@ TIME_TOLERANCE = 1e-9
 @slider("noise_other", 1e-5, 1.0, log=True)
 @slider("history", 0.0, 1.0, 0.01)
 @slider("relinearize_every", 1, 20, 1)
+@slider("fd_epsilon", 1e-7, 1e-2, log=True)
 @dataclass
 class EKFConfig(EstimatorConfig):
     """Extended Kalman filter noise model and bookkeeping."""
@@ -67,6 +70,10 @@ class EKFConfig(EstimatorConfig):
     """Seconds of past steps kept to fuse late readings at the time they were taken; older ones are dropped."""
     relinearize_every: int = 1
     """Compute the Jacobians every this many steps and reuse them in between (cheaper, less exact)."""
+    fd_epsilon: float = 1e-3
+    """Finite-difference step of the Jacobians (m, rad, m/s, ...). Far above rounding's optimum: a contact solver
+    stopped after a few iterations is noisy, and at 1e-6 that noise made leap_cube's Jacobian entries 1e5 and
+    the filter lose the cube; 1e-3 did not."""
 
     def validate(self) -> None:
         super().validate()
@@ -195,7 +202,7 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         nv, na = self.model.nv, self.model.na
         cfg = self.config
         noise = np.r_[np.full(nv, cfg.process_noise_position), np.full(nv + na, cfg.process_noise_velocity)]
-        prior_cov = A @ cov @ A.T + np.diag(noise**2 * self.dt)
+        prior_cov = self._capped(A @ cov @ A.T + np.diag(noise**2 * self.dt))
         if index + 1 <= self.nodes[-1].index:
             following = self._node(index + 1)
             following.prior, following.prior_cov, following.posterior = prior, prior_cov, None
@@ -245,6 +252,19 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         cov = IKG @ P @ IKG.T + K @ R @ K.T
         node.posterior = (x, 0.5 * (cov + cov.T))
 
+    def _capped(self, cov: np.ndarray) -> np.ndarray:
+        """`cov` with each variance above COVARIANCE_CAP^2 times the initial one scaled down to that (D cov D, D
+        diagonal: still SPD).
+
+        A Jacobian taken across a contact switch can have huge entries, and the covariance it spreads would let
+        one encoder reading throw the velocities off; the cap is far above what a working filter reaches.
+        """
+        nv, cfg = self.model.nv, self.config
+        stds = np.r_[np.full(nv, cfg.initial_position_std), np.full(self.space.size - nv, cfg.initial_velocity_std)]
+        cap = (COVARIANCE_CAP * stds) ** 2
+        scale = np.sqrt(np.minimum(1.0, cap / np.maximum(np.diag(cov), 1e-300)))
+        return cov * scale[:, None] * scale[None, :]
+
     # Model evaluations.
     def _jacobians_for(self, node: _Node) -> tuple[np.ndarray, np.ndarray]:
         """The node's (A, C): fresh every `relinearize_every` steps, else the previous node's."""
@@ -257,7 +277,7 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
     def _linearize(self, x: np.ndarray, time: float) -> tuple[np.ndarray, np.ndarray]:
         """(A (n, n), C (measured size, n)) of one step from `x` under the control in force after `time`."""
         self._set_state(x, time, self._controls.at(time + 0.5 * self.dt))
-        mujoco.mjd_transitionFD(self.model, self.data, 1e-6, 0, self._A, None, self._C, None)
+        mujoco.mjd_transitionFD(self.model, self.data, self.config.fd_epsilon, 0, self._A, None, self._C, None)
         self.linearizations += 1
         return self._A.copy(), self._C[self.task.measured.columns].copy()
 

@@ -79,6 +79,11 @@ class SensedSystem(System):
         """The plant's current time (s): the time a plan made now starts from, later than a delayed reading's."""
         return float(self.task.data.time)
 
+    def plant_sensors(self) -> np.ndarray:
+        """(nsensordata,) every sensor of the simulated plant, noiseless and current, for logs and metrics
+        (the controller sees only `read_state`)."""
+        return self.task.data.sensordata.copy()
+
     def reset(self) -> None:
         self.system.reset()
         for queue in self._in_flight:
