@@ -23,8 +23,8 @@ def test_estimators_are_made_by_name_with_their_config():
     ekf = judo.make_estimator("ekf", task, EKFConfig(noise_jointpos=0.01))
     assert ekf.config.noise_jointpos == 0.01
     assert isinstance(judo.make_estimator("state", task).config, judo.EstimatorConfig)
-    judo.set_config_overrides("cartpole", EKFConfig, {"history": 0.1})
-    assert judo.make_estimator("ekf", task, task_name="cartpole").config.history == 0.1
+    judo.set_config_overrides("unregistered_task", EKFConfig, {"history": 0.1})
+    assert judo.make_estimator("ekf", task, task_name="unregistered_task").config.history == 0.1
     assert {"noise_jointpos", "process_noise_velocity", "relinearize_every"} <= set(slider_ranges(EKFConfig))
 
 
@@ -68,3 +68,17 @@ def test_control_history_gives_the_action_in_force_and_forgets_old_ones():
     assert history.at(0.0).tolist() == [18.0]  # before the span: the action in force at its start (0.19 s)
     history.append(0.29, np.array([-1.0]))  # the same instant again: replaced
     assert history.at(0.3).tolist() == [-1.0]
+
+
+def test_a_config_file_sets_an_estimator_s_fields_per_task(tmp_path):
+    path = tmp_path / "judo.toml"
+    path.write_text("[estimator_config_overrides.unregistered_task.ekf]\nnoise_jointpos = 0.003\n")
+    judo.load_config(path)
+    task = judo.get_registered_tasks()["pendulum"][0]()
+    assert judo.make_estimator("ekf", task, task_name="unregistered_task").config.noise_jointpos == 0.003
+    path.write_text("[estimator_config_overrides.pendulum.kalman]\nnoise_jointpos = 0.003\n")
+    with pytest.raises(
+        judo.ConfigFileError,
+        match=r"\[estimator_config_overrides.pendulum.kalman\]: unknown estimator 'kalman'; valid estimators are: ekf, state",
+    ):
+        judo.load_config(path)
