@@ -76,7 +76,7 @@ class EstimatingLoop(ClosedLoop):
         self.started = False
 
     def read(self) -> SystemState:
-        raw = self.sensed.read_state()
+        raw = super().read()  # through the loop's System gate and watchdog
         if not self.started:
             self.estimator.reset(raw)
             self.started = True
