@@ -148,7 +148,8 @@ def leap_cube_cost(steps: int = 500) -> None:
     """The EKF's update time on leap_cube with the issue's sensing, fresh and reused Jacobians, and the
     estimate's error against the plant's true state for each (mean and 95th percentile over the steps)."""
     print(
-        "\nEKF on leap_cube, 5 s of a hand waving the cube: encoders 100 Hz; cube pose 30 Hz, 2 mm, 1 deg, 40 ms late"
+        f"\nEKF on leap_cube, {steps} steps of a hand waving the cube: encoders 100 Hz; cube pose 30 Hz, 2 mm, 1 deg, "
+        "40 ms late"
     )
     print(
         f"{'relinearize_every':>17} {'jacobians/update':>16} {'update ms':>10} {'in mj_steps':>12} "
