@@ -9,6 +9,7 @@ loop = judo.ClosedLoop(controller, judo.MujocoSystem.from_task(controller.task, 
 loop.step()                             # plan when due, serve, step the plant once
 """
 
+import judo.estimators  # noqa: E402,F401  (registers the built-in estimators)
 import judo.optimizers  # noqa: E402,F401  (registers the built-in optimizers)
 import judo.tasks  # noqa: E402,F401  (registers the built-in tasks)
 from judo.core.backend import RandomizedRolloutError
@@ -16,15 +17,19 @@ from judo.core.config import Config
 from judo.core.config_file import ConfigFileError, LoadedConfig, load_config
 from judo.core.controller import Controller, ControllerConfig, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
+from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig
 from judo.core.fields import np_1d_field, slider
 from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.randomize import InvalidRandomizedModelError
 from judo.core.registry import (
+    get_registered_estimators,
     get_registered_optimizers,
     get_registered_tasks,
     make_controller,
+    make_estimator,
+    register_estimator,
     register_optimizer,
     register_task,
     set_config_overrides,
@@ -44,8 +49,11 @@ __all__ = [
     "Config",
     "ConfigError",
     "ConfigFileError",
+    "ControlHistory",
     "Controller",
     "ControllerConfig",
+    "Estimator",
+    "EstimatorConfig",
     "InvalidRandomizedModelError",
     "JudoError",
     "LoadedConfig",
@@ -67,13 +75,16 @@ __all__ = [
     "TaskConfig",
     "UnknownNameError",
     "capped_cost_to_go",
+    "get_registered_estimators",
     "get_registered_optimizers",
     "get_registered_tasks",
     "load_config",
     "lqr_cost_to_go",
     "make_controller",
+    "make_estimator",
     "np_1d_field",
     "quadratic_norm",
+    "register_estimator",
     "register_optimizer",
     "register_task",
     "set_config_overrides",

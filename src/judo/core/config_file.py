@@ -17,6 +17,8 @@ param = 42
 num_rollouts = 64
 [task_config_overrides.cartpole]
 w_centered = 5.0
+[estimator_config_overrides.cartpole.ekf]
+process_noise_velocity = 0.02
 """
 
 import importlib
@@ -38,6 +40,7 @@ from judo.core.errors import JudoError, UnknownNameError
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import (
     get_registered_optimizers,
+    lookup_estimator,
     lookup_optimizer,
     lookup_task,
     register_optimizer,
@@ -53,6 +56,7 @@ TOP_LEVEL_KEYS = (
     "controller_config_overrides",
     "optimizer_config_overrides",
     "task_config_overrides",
+    "estimator_config_overrides",
 )
 
 ALL_OPTIMIZERS = "all"
@@ -141,6 +145,16 @@ def load_config(path: str | Path) -> LoadedConfig:
             try:
                 lookup_task(task_name)
                 config_cls = optimizer_config_class(optimizer_name)
+            except UnknownNameError as err:
+                raise fail(where, err) from None
+            _apply(path, where, task_name, config_cls, overrides)
+
+    per_task = _table(table, "estimator_config_overrides", path)
+    for task_name in per_task:
+        for estimator_name, overrides in _table(per_task, task_name, path).items():
+            where = f"estimator_config_overrides.{task_name}.{estimator_name}"
+            try:
+                config_cls = lookup_estimator(estimator_name)[1]
             except UnknownNameError as err:
                 raise fail(where, err) from None
             _apply(path, where, task_name, config_cls, overrides)

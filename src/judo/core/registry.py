@@ -1,4 +1,4 @@
-"""Name -> class registries for tasks and optimizers, per-task config overrides, and make_controller."""
+"""Name -> class registries for tasks, optimizers and estimators, per-task config overrides, and make_controller."""
 
 from typing import Any, Literal
 
@@ -7,6 +7,7 @@ import numpy as np
 from judo.core.config import Config, check_seed, coerce_field_value, with_updates
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
+from judo.core.estimator import Estimator, EstimatorConfig
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.task import Task, TaskConfig
 
@@ -16,6 +17,7 @@ CONFIG_KINDS: tuple[ConfigKind, ...] = ("controller", "optimizer", "task")
 
 _TASKS: dict[str, tuple[type[Task], type[TaskConfig]]] = {}
 _OPTIMIZERS: dict[str, tuple[type[Optimizer], type[OptimizerConfig]]] = {}
+_ESTIMATORS: dict[str, tuple[type[Estimator], type[EstimatorConfig]]] = {}
 _OVERRIDES: dict[tuple[str, type], dict[str, Any]] = {}
 
 
@@ -36,6 +38,36 @@ def register_optimizer(name: str, optimizer_cls: type[Optimizer], config_cls: ty
     _check_class(f"optimizer {name!r}", optimizer_cls, Optimizer)
     _check_class(f"config of optimizer {name!r}", config_cls, OptimizerConfig)
     _OPTIMIZERS[name] = (optimizer_cls, config_cls)
+
+
+def register_estimator(name: str, estimator_cls: type[Estimator], config_cls: type[EstimatorConfig]) -> None:
+    """Make `estimator_cls` (constructible as cls(task, config)) selectable as `name`; replaces an earlier entry."""
+    _check_class(f"estimator {name!r}", estimator_cls, Estimator)
+    _check_class(f"config of estimator {name!r}", config_cls, EstimatorConfig)
+    _ESTIMATORS[name] = (estimator_cls, config_cls)
+
+
+def get_registered_estimators() -> dict[str, tuple[type[Estimator], type[EstimatorConfig]]]:
+    """name -> (estimator class, config class), a copy."""
+    return dict(_ESTIMATORS)
+
+
+def lookup_estimator(name: str) -> tuple[type[Estimator], type[EstimatorConfig]]:
+    """The registered (estimator class, config class) for `name`; UnknownNameError lists the valid names."""
+    if name not in _ESTIMATORS:
+        raise UnknownNameError("estimator", name, _ESTIMATORS)
+    return _ESTIMATORS[name]
+
+
+def make_estimator(
+    name: str, task: Task, config: EstimatorConfig | None = None, task_name: str | None = None
+) -> Estimator:
+    """The registered estimator `name` on `task`'s planning model, with `config` or the registered defaults
+    (with `task_name`'s overrides, e.g. an [ekf] table in the task's TOML)."""
+    estimator_cls, config_cls = lookup_estimator(name)
+    if config is None:
+        config = make_config(config_cls, task_name) if task_name else config_cls()  # type: ignore[assignment]
+    return estimator_cls(task, config)
 
 
 def get_registered_tasks() -> dict[str, tuple[type[Task], type[TaskConfig]]]:

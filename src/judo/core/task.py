@@ -12,6 +12,7 @@ import numpy as np
 from judo.core.config import Config
 from judo.core.errors import ModelLoadError, UnknownNameError
 from judo.core.model import load_model, names
+from judo.core.sensors import MeasuredLayout, measured_layout
 
 
 @dataclass
@@ -52,6 +53,7 @@ class Task(ABC, Generic[ConfigT]):
             to it. The controller never reads it: planning hooks get the state they need as arguments.
         config: this task's config, an instance of the class named in `Task[...]`.
         rng: the np.random.Generator for resets and goal sampling; replace it to seed an episode.
+        measured / sim_measured: where `measured_sensors` lie in the planning / plant model's sensordata.
     """
 
     config_cls: ClassVar[type[TaskConfig]] = TaskConfig
@@ -61,6 +63,10 @@ class Task(ABC, Generic[ConfigT]):
     focus_body: ClassVar[str | None] = None
     """The body the GUI's camera follows while the task runs. None: the first body with a free joint,
     and no following when there is none (the camera stays where it framed the task)."""
+    measured_sensors: ClassVar[tuple[str, ...]] = ()
+    """Names of the MJCF sensors a robot running this task would have (encoders, a camera's pose, an IMU),
+    in the order a System's `SystemState.sensors` holds their values. Trace sensors are never measured.
+    Checked against both models when the task is built; `measured` says where the values lie."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Take `config_cls` from `Task[ConfigT]` among the class's own bases. A subclass of a task
@@ -81,6 +87,15 @@ class Task(ABC, Generic[ConfigT]):
                     f"plant model {sim_model_path} has {size}={getattr(self.sim_model, size)} but the "
                     f"planning model {model_path} has {size}={getattr(self.model, size)}; they must match"
                 )
+        owner = type(self).__name__
+        self.measured: MeasuredLayout = measured_layout(self.model, self.measured_sensors, owner)
+        """Where `measured_sensors` lie in the planning model's sensordata."""
+        self.sim_measured: MeasuredLayout = (
+            self.measured
+            if self.sim_model is self.model
+            else measured_layout(self.sim_model, self.measured_sensors, owner)
+        )
+        """Where `measured_sensors` lie in the plant model's sensordata."""
         self.data = mujoco.MjData(self.sim_model)
         self.config: ConfigT = self.config_cls()  # type: ignore[assignment]
         self.rng = np.random.default_rng()

@@ -34,14 +34,19 @@ class SystemState:
     """One reading of the plant.
 
     Attributes:
-        state: (nq + nv,) [qpos, qvel].
-        time: plant time in seconds.
-        metadata: extra values for the controller and reward, e.g. "mocap_pos" (nmocap, 3).
+        state: (nq + nv,) [qpos, qvel], or None from a System that measures only sensors.
+        time: plant time in seconds at which the measurement was *taken* (so a late reading is known as
+            late); with per-sensor times (metadata "sensor_times"), the newest of them.
+        metadata: extra values for the controller and reward, e.g. "mocap_pos" (nmocap, 3), and
+            "sensor_times" (len(Task.measured_sensors),): when each sensor's value was taken, if they differ.
+        sensors: (measured size,) values of the task's `measured_sensors`, in order (see `Task.measured`),
+            or None when the System measures none.
     """
 
-    state: np.ndarray
+    state: np.ndarray | None
     time: float
     metadata: dict[str, Any] = field(default_factory=dict)
+    sensors: np.ndarray | None = None
 
 
 class System(ABC):
@@ -87,6 +92,7 @@ class MujocoSystem(System):
     def __init__(self, task: Task) -> None:
         self.task = task
         self.timestep = float(task.sim_model.opt.timestep)
+        self._scratch: mujoco.MjData | None = None  # for sensor_values
 
     @classmethod
     def from_task(cls, task: Task, seed: int | None = None) -> "MujocoSystem":
@@ -114,6 +120,22 @@ class MujocoSystem(System):
         metadata = {"mocap_pos": data.mocap_pos.copy(), "mocap_quat": data.mocap_quat.copy()}
         metadata.update(self.task.get_sim_metadata())
         return SystemState(np.concatenate([data.qpos, data.qvel]), float(data.time), metadata)
+
+    def sensor_values(self) -> np.ndarray:
+        """(task.sim_measured.size,) the task's measured sensors at the plant's current state, noiseless.
+
+        Evaluated on a scratch MjData (`mj_forward` on a copy of the state), so the plant's own data, and
+        with it the solver's warm start, is untouched: sensing never changes the physics. (After `mj_step`
+        the plant's sensordata belongs to the state before the step.)
+        """
+        model = self.task.sim_model
+        scratch = self._scratch = self._scratch or mujoco.MjData(model)
+        spec = mujoco.mjtState.mjSTATE_INTEGRATION
+        state = np.empty(mujoco.mj_stateSize(model, spec))
+        mujoco.mj_getState(model, self.task.data, state, spec)
+        mujoco.mj_setState(model, scratch, state, spec)
+        mujoco.mj_forward(model, scratch)
+        return self.task.sim_measured.read(scratch.sensordata)
 
     def apply(self, action: np.ndarray) -> None:
         self.task.data.ctrl[:] = action

@@ -103,6 +103,7 @@ class Acrobot(Task[AcrobotConfig]):
     """State [shoulder, elbow angles (0, 0 = straight up), their velocities]; one control, the elbow
     torque (5 Nm at 1). The shoulder is unactuated."""
 
+    measured_sensors = ("shoulder_pos", "elbow_pos")
     lower_is_better = ("final_tip_distance",)
     focus_body = "upper_arm"
 

@@ -34,6 +34,7 @@ class CartpoleConfig(TaskConfig):
 class Cartpole(Task[CartpoleConfig]):
     """State [cart x, pole angle (0 = upright), their velocities]; one control, the push on the cart."""
 
+    measured_sensors = ("slider_pos", "hinge_pos")
     focus_body = "cart"
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:

@@ -40,6 +40,7 @@ class CylinderPushConfig(TaskConfig):
 class CylinderPush(Task[CylinderPushConfig]):
     """State [pusher x, y, cart x, y, and their velocities]; controls are the x, y forces on the pusher."""
 
+    measured_sensors = ("pusher_x_pos", "pusher_y_pos", "cart_x_pos", "cart_y_pos")
     lower_is_better = ("final_distance",)
     focus_body = "cart"
 

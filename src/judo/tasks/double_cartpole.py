@@ -66,6 +66,7 @@ class DoubleCartpole(Task[DoubleCartpoleConfig]):
     """State [cart x, lower pole angle (0 = up), upper pole angle relative to the lower, their velocities];
     one control, the push on the cart (20 N at 1)."""
 
+    measured_sensors = ("slider_pos", "hinge1_pos", "hinge2_pos")
     lower_is_better = ("final_tip_error", "final_cart_offset", "hit_rail_end")
     focus_body = "cart"
 

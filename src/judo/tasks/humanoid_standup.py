@@ -55,6 +55,20 @@ class HumanoidStandup(Task[HumanoidStandupConfig]):
 
     lower_is_better = ("time_to_stand",)
     focus_body = "torso"
+    measured_sensors = (
+        *(
+            f"{joint}_pos"
+            for joint in (
+                "abdomen_pitch",
+                "abdomen_roll",
+                *(f"{side}_{j}" for side in ("right", "left") for j in ("hip_roll", "hip_pitch", "knee", "ankle")),
+                *(f"{side}_{j}" for side in ("right", "left") for j in ("shoulder_pitch", "shoulder_roll", "elbow")),
+            )
+        ),
+        "imu_quat",
+        "imu_gyro",
+        "imu_accel",
+    )
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)

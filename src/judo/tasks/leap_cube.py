@@ -61,6 +61,17 @@ class LeapCube(Task[LeapCubeConfig]):
 
     lower_is_better = ("drops",)
     focus_body = "cube"
+    measured_sensors = (
+        *(
+            f"hand/{finger}_{joint}_pos"
+            for finger in ("index", "middle", "ring")
+            for joint in ("abd", "mcp", "pip", "dip")
+        ),
+        *(f"hand/thumb_{joint}_pos" for joint in ("cmc", "axl", "mcp", "ip")),
+        "cube_pos",
+        "cube_quat",
+    )
+    """16 joint encoders, and the cube's position (relative to the palm) and orientation from a camera."""
 
     goal_tolerance: ClassVar[float] = 0.4
     """Rotation angle (rad) under which the goal counts as reached."""

@@ -42,6 +42,7 @@ class Particle(Task[ParticleConfig]):
     The goal is a mocap body; the planner reads it through the "goal_position" sensor.
     """
 
+    measured_sensors = ("x_pos", "y_pos")
     lower_is_better = ("final_distance",)
     focus_body = "particle"
 

@@ -39,6 +39,7 @@ class Pendulum(Task[PendulumConfig]):
     Gravity needs 4.9 Nm to hold the pole level, so the controller has to swing it up in several pumps.
     """
 
+    measured_sensors = ("hinge_pos",)
     lower_is_better = ("final_angle_error",)
     focus_body = "pole"
 

@@ -49,6 +49,7 @@ class PushT(Task[PushTConfig]):
     """State [block x, y, heading, pusher x, y, and their velocities]; controls are the x, y forces on the
     pusher (5 N at 1). The planner reads the block and goal poses through framepos/framequat sensors."""
 
+    measured_sensors = ("block_x_pos", "block_y_pos", "block_yaw_pos", "pusher_x_pos", "pusher_y_pos")
     lower_is_better = ("final_position_error", "final_angle_error")
     focus_body = "block"
 

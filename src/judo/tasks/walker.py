@@ -45,6 +45,12 @@ class Walker(Task[WalkerConfig]):
     """State [torso x, z offset, pitch, right and left hip, knee, ankle angles, and their velocities];
     controls are the six joint torques, normalised to [-1, 1] (hips 100 Nm, knees 60 Nm, ankles 20 Nm)."""
 
+    measured_sensors = (
+        *(f"{side}_{joint}_pos" for side in ("right", "left") for joint in ("hip", "knee", "ankle")),
+        "imu_quat",
+        "imu_gyro",
+        "imu_accel",
+    )
     lower_is_better = ("fallen_fraction",)
     focus_body = "torso"
 
