@@ -21,7 +21,6 @@ wall time (which does not). With relinearize_every=k the Jacobians are reused fo
 """
 
 import argparse
-import dataclasses
 import time
 
 import mujoco
@@ -33,7 +32,6 @@ from judo.core.registry import make_controller, make_estimator
 from judo.estimators.ekf import EKFConfig
 from judo.evaluation.episode import EpisodeLogRecorder
 from judo.runtime.closed_loop import ClosedLoop
-from judo.runtime.records import StepRecord
 from judo.runtime.sensing import SensedSystem
 from judo.runtime.system import MujocoSystem, SystemState
 
@@ -66,50 +64,14 @@ class Differencing(Estimator[EstimatorConfig]):
         return estimate_of(reading, np.concatenate([positions, self.velocity]), time)
 
 
-class EstimatingLoop(ClosedLoop):
-    """ClosedLoop with an estimator between the reading and the plan, fed every served action."""
-
-    def __init__(self, controller, system: SensedSystem, estimator: Estimator) -> None:
-        super().__init__(controller, system)
-        self.sensed, self.estimator = system, estimator
-        self.controls = ControlHistory(controller.task.nu)
-        self.started = False
-
-    def read(self) -> SystemState:
-        raw = super().read()  # through the loop's System gate and watchdog
-        if not self.started:
-            self.estimator.reset(raw)
-            self.started = True
-        estimate = self.estimator.update(raw, self.sensed.time, self.controls)
-        self.reading = dataclasses.replace(estimate, time=self.sensed.time)  # planned as of the plant's now
-        return self.reading
-
-    def serve(self, now: float) -> np.ndarray:
-        action = super().serve(now)
-        self.controls.append(now, action)
-        return action
-
-
-class TruthRecorder(EpisodeLogRecorder):
-    """The episode log of the true plant state (a reading carries only the estimate)."""
-
-    def __init__(self, controller, plant: MujocoSystem, num_steps: int) -> None:
-        model = plant.task.sim_model
-        super().__init__(controller.task, (model.nq, model.nv, model.nu, model.nsensordata), num_steps)
-        self.plant = plant
-
-    def on_step(self, record: StepRecord) -> None:
-        data = self.plant.task.data
-        super().on_step(dataclasses.replace(record, state=np.concatenate([data.qpos, data.qvel])))
-
-
 def episode(task_name: str, optimizer: str, seed: int, duration: float, mode: str) -> tuple[str, float]:
     """(name, value) of the task's first metric in one seeded episode, planned from the full state, the EKF or
     no filter."""
     controller = make_controller(task_name, optimizer, seed=seed, num_workers=1)
     plant = MujocoSystem.from_task(controller.task, seed)
     num_steps = max(1, round(duration / plant.timestep))
-    recorder = TruthRecorder(controller, plant, num_steps)
+    model = plant.task.sim_model
+    recorder = EpisodeLogRecorder(controller.task, (model.nq, model.nv, model.nu, model.nsensordata), num_steps)
     if mode == "full state":
         loop = ClosedLoop(controller, plant, recorders=[recorder])
     else:
@@ -120,8 +82,7 @@ def episode(task_name: str, optimizer: str, seed: int, duration: float, mode: st
             if mode == "sensors + ekf"
             else Differencing(controller.task)
         )
-        loop = EstimatingLoop(controller, sensed, estimator)
-        loop.recorders.append(recorder)
+        loop = ClosedLoop(controller, sensed, recorders=[recorder], estimator=estimator)  # logs the true state
     loop.restart()
     for _ in range(num_steps):
         loop.step()

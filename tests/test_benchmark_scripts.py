@@ -102,3 +102,12 @@ def test_soak_with_driver_faults_reports_the_faults_and_the_watchdog():
     trips = int(line.split("safe action ")[1].split()[0])
     assert injected >= 3, result.stdout
     assert trips >= 2, result.stdout  # one session (no switches): each fault of a second trips the watchdog
+
+
+def test_estimation_prints_the_closed_loop_table_and_the_ekf_cost():
+    result = run_script(
+        "estimation.py", "--tasks", "pendulum", "--seeds", "1", "--duration", "0.5", "--cost-steps", "5"
+    )
+    assert result.returncode == 0, result.stderr
+    assert "full state" in result.stdout and "sensors + ekf" in result.stdout
+    assert "EKF on leap_cube" in result.stdout and "relinearize_every" in result.stdout

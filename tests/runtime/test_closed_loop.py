@@ -238,3 +238,25 @@ def test_max_plan_age_zero_turns_the_watchdog_off_and_halt_applies_the_safe_acti
         assert loop.serve(reading.time) == pytest.approx(controller.action(reading.time))
         loop.halt()
         assert plant.task.data.ctrl[0] == pytest.approx(reading.state[0])
+
+
+def test_an_estimator_plans_from_late_noisy_encoders_and_the_records_hold_truth_measurement_and_estimate():
+    from judo.runtime.sensing import SensedSystem
+
+    recorder = ListRecorder()
+    with judo.make_controller("pendulum", "mppi", seed=0) as controller:
+        plant = MujocoSystem.from_task(controller.task, seed=0)
+        sensed = SensedSystem(plant, noise=0.005, delay=0.01, rate=100.0, rng=np.random.default_rng(0))
+        ekf = judo.make_estimator("ekf", controller.task, task_name="pendulum")
+        loop = ClosedLoop(controller, sensed, recorders=[recorder], estimator=ekf)
+        first = loop.restart()
+        assert loop.raw_reading.state is None and first.state.shape == (2,)  # planned from the estimate
+        for _ in range(100):
+            loop.step()
+    step = recorder.steps[-1]
+    assert step.state == pytest.approx(plant.plant_state())  # the true state, for logs and metrics
+    assert step.measured.shape == (1,) and step.estimate.shape == (2,)
+    assert abs(step.estimate[0] - step.state[0]) < 0.05  # the estimate tracks the true angle
+    assert abs(step.measured[0] - step.state[0]) > 0  # the encoder is noisy and late
+    assert loop.reading.time == pytest.approx(plant.task.data.time)  # as of the plant's now, not the late reading's
+    assert loop.controls.at(loop.reading.time) == pytest.approx(step.action)  # fed every served action

@@ -11,7 +11,8 @@ Everything that drives a plant with a controller calls this module, and nothing 
     system.apply(action); system.step()  -->  read back  --[recorders: on_plan, on_step]
 
 Where the next features plug in, each once, here:
-- an estimator between the reading and the plan: `read` turns the System's reading into the state planned from;
+- the estimator between the reading and the plan (`judo.core.estimator`): `read` fuses the System's raw
+  reading (sensors, the time they were taken) into the state planned from, as of the plant's now;
 - the watchdog on the served action (`judo.runtime.watchdog`): `serve` gives the plant the task's
   `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one control period;
 - recorders of every step and plan: the `recorders` given to the loop (`judo.runtime.records.Recorder`).
@@ -22,6 +23,7 @@ keeps the plan in force before it (or the task's warm start before the first pla
 plan is served from the first step after it is done, which in real time is its real latency.
 """
 
+import dataclasses
 import math
 import threading
 import time
@@ -33,36 +35,20 @@ import numpy as np
 from judo.core.config import require
 from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.errors import JudoError
+from judo.core.estimator import ControlHistory, Estimator
 from judo.core.spline import Spline
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
 from judo.runtime.system import SimulationDiverged, System, SystemState
-from judo.runtime.system_calls import SystemCalls, SystemClosedError
+from judo.runtime.system_calls import SystemCallError, SystemCalls, SystemClosedError
 from judo.runtime.watchdog import Watchdog
 
 Latency = float | Literal["measured"]
 """Planning latency: seconds of sim time (0 for none), or "measured" for each update's wall time."""
 
+__all__ = ["ClosedLoop", "Latency", "SystemCallError", "check_latency"]
+
 TIME_TOLERANCE = 1e-9
 """Seconds within which two plant times count as the same (a plan due at t is served at t)."""
-
-
-class SystemCallError(JudoError):
-    """Some System calls of one plant step failed; each was tried on its own.
-
-    Attributes:
-        failed: {call name: its exception}, of "apply", "step" and "read_state".
-    """
-
-    def __init__(self, failed: dict[str, Exception]) -> None:
-        self.failed = failed
-        super().__init__(
-            "; ".join(f"system {name} failed: {type(err).__name__}: {err}" for name, err in failed.items())
-        )
-
-    @property
-    def served(self) -> bool:
-        """Whether the plant still got its action and its step."""
-        return "apply" not in self.failed and "step" not in self.failed
 
 
 def check_latency(latency: Latency) -> None:
@@ -83,6 +69,9 @@ class ClosedLoop:
             tune), the app passes the wall clock.
         on_watchdog: called with the reason when the watchdog starts serving the safe action, and with None
             when a fresh plan is served again (once per episode of trouble).
+        estimator: turns each raw reading into the state planned from (None: plan from the reading's state).
+            It is fed every served action, and estimates as of the plant's now: the System's `time` where it
+            has one (a reading may be late), else the reading's.
 
     Attributes:
         reading: the latest reading of the plant (None until the first `read`).
@@ -106,11 +95,16 @@ class ClosedLoop:
         recorders: Iterable[Recorder] = (),
         clock: Callable[[], float] | None = None,
         on_watchdog: Callable[[str | None], None] | None = None,
+        estimator: Estimator | None = None,
     ) -> None:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
         self.calls = SystemCalls(system)  # every System call goes through it (see judo.runtime.system_calls)
         self.recorders = list(recorders)
+        self.estimator = estimator
+        self.controls = ControlHistory(controller.task.nu)  # every served action, for the estimator
+        self.raw_reading: SystemState | None = None  # the System's latest reading, before the estimator
+        self._estimator_started = False
         self.stepped_time = 0.0  # plant time this loop has stepped, the watchdog's clock when none is given
         self.clock = clock if clock is not None else (lambda: self.stepped_time)
         self.on_watchdog = on_watchdog
@@ -130,6 +124,11 @@ class ClosedLoop:
         self._pending: list[tuple[float, Spline, float]] = []  # (plant time it takes effect, plan, stamp), in order
         self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
 
+    def restart_estimator(self) -> None:
+        """Start the estimator afresh from the next reading (after a reset of the plant)."""
+        self._estimator_started = False
+        self.controls.clear()
+
     def forget_plans(self) -> None:
         """Forget every plan, the controller's too: the plant gets the warm start until the next plan."""
         self.controller.reset()
@@ -143,6 +142,7 @@ class ClosedLoop:
         after the plant was reset, whose time may start again."""
         self.forget_plans()
         self.watchdog.restart(self.clock())
+        self.restart_estimator()
         reading = self.read()
         self.next_plan_time = reading.time
         return reading
@@ -151,14 +151,30 @@ class ClosedLoop:
         """Read the plant: the reading the next plan starts from, kept as `reading`.
 
         Raises ReadingTimeError, keeping the reading before, if its time went backwards."""
-        reading = self.calls.read_state()
-        self.watchdog.note_reading(reading, self.clock())
+        raw = self.calls.read_state()
+        self.watchdog.note_reading(raw, self.clock())
+        self.raw_reading = raw
+        reading = raw if self.estimator is None else self._estimate(raw)
         self.reading = reading
         state = reading.state
         if state is not None and np.shape(state) == (self.controller.task.model.nq + self.controller.task.model.nv,):
             if np.isfinite(state).all():
                 self._safe_state = np.array(state, dtype=float)
         return reading
+
+    def plant_time(self, raw: SystemState) -> float:
+        """The plant's now: the System's `time` where it has one (its readings may be late), else the reading's."""
+        now = getattr(self.system, "time", None)
+        return float(now) if isinstance(now, int | float) else raw.time
+
+    def _estimate(self, raw: SystemState) -> SystemState:
+        """The estimator's state from `raw`, as of the plant's now (started from the first reading)."""
+        assert self.estimator is not None
+        now = self.plant_time(raw)
+        if not self._estimator_started:
+            self.estimator.reset(raw)
+            self._estimator_started = True
+        return dataclasses.replace(self.estimator.update(raw, now, self.controls), time=now)
 
     def plan(self, reading: SystemState, cancel: threading.Event | None = None) -> Spline | None:
         """One control update from `reading`, scheduled to be served after the latency model's delay.
@@ -241,6 +257,7 @@ class ClosedLoop:
         `reset` raised, with the loop as it was; the plans are the caller's to forget (`forget_plans`)."""
         self.calls.reset()
         self.watchdog.restart(self.clock())
+        self.restart_estimator()
         return self.read()
 
     def advance(self) -> StepRecord:
@@ -253,6 +270,8 @@ class ClosedLoop:
         """
         reading = self.reading if self.reading is not None else self.read()
         action = self.serve(reading.time)
+        if self.estimator is not None:
+            self.controls.append(reading.time, action)
         failed: dict[str, Exception] = {}
         diverged: SimulationDiverged | None = None
         try:
@@ -277,7 +296,17 @@ class ClosedLoop:
             raise
         except Exception as err:
             failed["read_state"] = err
-        record = StepRecord(reading.time, reading.state, self.system.plant_sensors(), action, reading.metadata)
+        true_state = self.system.plant_state()
+        raw = self.raw_reading
+        record = StepRecord(
+            reading.time,
+            reading.state if true_state is None else true_state,
+            self.system.plant_sensors(),
+            action,
+            reading.metadata,
+            measured=None if raw is None else raw.sensors,
+            estimate=None if self.estimator is None else reading.state,
+        )
         if "read_state" not in failed:
             for recorder in self.recorders:
                 recorder.on_step(record)

@@ -17,10 +17,13 @@ class StepRecord:
 
     Attributes:
         time: plant time after the step, in seconds.
-        state: (nq + nv,) [qpos, qvel] read after the step; None for a robot that measures only sensors.
+        state: (nq + nv,) [qpos, qvel] after the step: the plant's true state where the System knows it (a
+            simulator), else the reading's; None for a robot that measures only sensors.
         sensors: (nsensordata,) the plant's sensor values after the step (empty when the plant has none to give).
         action: (nu,) the control served during the step.
         metadata: the reading's metadata, e.g. "mocap_pos" (nmocap, 3).
+        measured: the measured sensors of the reading (task.measured.size,), where the System gives them.
+        estimate: (nq + nv,) the estimator's state after the step, where an estimator runs.
     """
 
     time: float
@@ -28,6 +31,8 @@ class StepRecord:
     sensors: np.ndarray
     action: np.ndarray
     metadata: dict[str, Any] = field(default_factory=dict)
+    measured: np.ndarray | None = None
+    estimate: np.ndarray | None = None
 
 
 @dataclass

@@ -84,6 +84,10 @@ class SensedSystem(System):
         (the controller sees only `read_state`)."""
         return self.task.data.sensordata.copy()
 
+    def plant_state(self) -> np.ndarray | None:
+        """(nq + nv,) the simulated plant's true state, for logs and metrics (the controller never sees it)."""
+        return self.system.plant_state()
+
     def reset(self) -> None:
         self.system.reset()
         for queue in self._in_flight:

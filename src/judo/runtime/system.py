@@ -81,6 +81,11 @@ class System(ABC):
         has no simulator sensors to give)."""
         return np.zeros(0)
 
+    def plant_state(self) -> np.ndarray | None:
+        """(nq + nv,) the plant's true state for logs and metrics, where the System knows it (a simulator);
+        None by default (a robot knows only what it measures)."""
+        return None
+
 
 class MujocoSystem(System):
     """Simulates `task.sim_model` in `task.data`, calling the task's sim hooks around each step.
@@ -111,6 +116,9 @@ class MujocoSystem(System):
 
     def plant_sensors(self) -> np.ndarray:
         return self.task.data.sensordata.copy()
+
+    def plant_state(self) -> np.ndarray:
+        return np.concatenate([self.task.data.qpos, self.task.data.qvel])
 
     def reset(self) -> None:
         self.task.reset()

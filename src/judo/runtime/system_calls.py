@@ -20,6 +20,25 @@ class SystemClosedError(JudoError):
     """The app stopped: no System call starts any more."""
 
 
+class SystemCallError(JudoError):
+    """Some System calls of one plant step failed; each was tried on its own.
+
+    Attributes:
+        failed: {call name: its exception}, of "apply", "step" and "read_state".
+    """
+
+    def __init__(self, failed: dict[str, Exception]) -> None:
+        self.failed = failed
+        super().__init__(
+            "; ".join(f"system {name} failed: {type(err).__name__}: {err}" for name, err in failed.items())
+        )
+
+    @property
+    def served(self) -> bool:
+        """Whether the plant still got its action and its step."""
+        return "apply" not in self.failed and "step" not in self.failed
+
+
 class SystemCalls:
     """Makes calls into `system` one gate at a time; safe to use from several threads.
 
