@@ -61,6 +61,7 @@ class LeapCube(Task[LeapCubeConfig]):
 
     lower_is_better = ("drops",)
     focus_body = "cube"
+    check_latency_ms = 50.0
 
     goal_tolerance: ClassVar[float] = 0.4
     """Rotation angle (rad) under which the goal counts as reached."""
