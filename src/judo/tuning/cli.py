@@ -35,12 +35,13 @@ from judo.tuning.trial import TrialSpec, run_seeded_episodes
 
 DESCRIPTION = (
     "Tune a task x optimizer: search the optimizer's settings (every numeric field with a slider range, plus "
-    "controller.horizon; or --params) for the best value of one of the task's evaluate metrics, averaged over "
-    "seeded closed-loop episodes under several conditions (--conditions; by default the task's check set: "
-    "20 Hz and the task's own rate, crossed with no latency and 25 ms, 50 ms for the LEAP and fr3 tasks), "
-    "aggregated by --aggregate. Optuna chooses the trials (TPE by default); "
-    "each episode (a condition x a seed) runs as a Ray task on one core, on a local Ray or a cluster (--address). The study is stored in a database (SQLite by default), so the same "
-    "command resumes it. Writes to --out: trials.csv, plots (PNG and HTML), summary.json, and best.toml, which "
+    "controller.horizon, each from 1/3 to 3 times its value in force; or --params) for the best value of one "
+    "of the task's evaluate metrics, averaged over seeded closed-loop episodes under several conditions "
+    "(--conditions; by default the task's check set: 20 Hz and the task's own rate, crossed with no latency "
+    "and 25 ms, 50 ms for the LEAP and fr3 tasks), aggregated by --aggregate. Optuna chooses the trials (TPE "
+    "by default); each episode (a condition x a seed) runs as a Ray task on one core, on a local Ray or a "
+    "cluster (--address). The study is stored in a database (SQLite by default), so the same command resumes "
+    "it. Writes to --out: trials.csv, plots (PNG and HTML), summary.json, and best.toml, which "
     "`python -m judo --config` and `evaluate --config` read. Needs the `tune` extra: pip install 'judo[tune]'."
 )
 PROBE_DURATION = 0.2
