@@ -134,7 +134,8 @@ def given_fields(overrides: Any) -> dict[str, Any]:
     return {name: value for name, value in vars(overrides).items() if value is not None}
 
 
-def controller_config(task: str, overrides: Any) -> ControllerConfig:
-    """The task's ControllerConfig (its registered defaults) with the given `--controller.*` fields applied;
-    ConfigError for a value the config refuses."""
-    return with_updates(make_config(ControllerConfig, task), given_fields(overrides))  # type: ignore[return-value]
+def controller_config(task: str, overrides: Any, optimizer: str | None = None) -> ControllerConfig:
+    """The task's ControllerConfig (its registered defaults, and `optimizer`'s own when given) with the given
+    `--controller.*` fields applied; ConfigError for a value the config refuses."""
+    defaults = make_config(ControllerConfig, task, optimizer)
+    return with_updates(defaults, given_fields(overrides))  # type: ignore[return-value]

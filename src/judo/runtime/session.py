@@ -45,7 +45,7 @@ def default_configs(task_name: str, optimizer_name: str) -> dict[str, object]:
     _, task_config_cls = lookup_task(task_name)
     _, optimizer_config_cls = lookup_optimizer(optimizer_name)
     return {
-        "controller": make_config(ControllerConfig, task_name),
+        "controller": make_config(ControllerConfig, task_name, optimizer_name),
         "optimizer": make_config(optimizer_config_cls, task_name),
         "task": make_config(task_config_cls, task_name),
     }

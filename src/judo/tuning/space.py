@@ -65,7 +65,7 @@ class Param:
 def default_configs(task_name: str, optimizer_name: str) -> dict[Kind, Config]:
     """The controller, optimizer and task configs of the pair with the task's registered overrides."""
     return {
-        "controller": make_config(ControllerConfig, task_name),
+        "controller": make_config(ControllerConfig, task_name, optimizer_name),
         "optimizer": make_config(lookup_optimizer(optimizer_name)[1], task_name),
         "task": make_config(lookup_task(task_name)[1], task_name),
     }
