@@ -86,7 +86,7 @@ def test_randomized_overhead_prints_the_ratio_per_r():
     small = ["--task", "cartpole", "--optimizer", "ps", "--samples", "2", "--warmup", "1", "--num-workers", "1"]
     result = run_script("randomized_overhead.py", *small, "--randomizations", "1", "3")
     assert result.returncode == 0, result.stderr
-    assert "| 1 | 16 x 1 x 70 |" in result.stdout and "| 3 | 16 x 3 x 70 |" in result.stdout
+    assert "| 1 | 64 x 1 x 100 |" in result.stdout and "| 3 | 64 x 3 x 100 |" in result.stdout
 
 
 def test_defaults_under_conditions_prints_the_matrix_and_names_a_bad_condition(tmp_path):

@@ -38,15 +38,15 @@ MPPI_SLIDERS = ["optimizer.num_nodes", "optimizer.sigma", "optimizer.temperature
 
 
 def test_the_default_space_is_three_times_either_side_of_the_value_in_force_on_a_log_scale():
-    space = by_name(build_space("cartpole", "cem"))  # cartpole: 16 rollouts, 4 knots, 0.7 s; cem sigma_min 0.2
+    space = by_name(build_space("cartpole", "cem"))  # cartpole: 64 rollouts, 4 knots, 1.0 s; cem sigma_min 0.2
     rollouts, nodes, horizon = (
         space["optimizer.num_rollouts"],
         space["optimizer.num_nodes"],
         space["controller.horizon"],
     )
-    assert (rollouts.low, rollouts.high, rollouts.integer, rollouts.log) == (6, 48, True, True)  # ceil(16/3), 48
+    assert (rollouts.low, rollouts.high, rollouts.integer, rollouts.log) == (22, 192, True, True)  # ceil(64/3), 192
     assert (nodes.low, nodes.high) == (4, 12)  # 4/3 raised to the 4 knots a cubic spline needs
-    assert (horizon.low, horizon.high, horizon.log) == (pytest.approx(0.7 / 3), pytest.approx(2.1), True)
+    assert (horizon.low, horizon.high, horizon.log) == (pytest.approx(1 / 3), pytest.approx(3.0), True)
     assert (space["optimizer.sigma_min"].low, space["optimizer.sigma_min"].high) == pytest.approx((0.2 / 3, 0.6))
     sigma_max = space["optimizer.sigma_max"]  # 1.0: x3 is clipped to the slider's 2.0
     assert (sigma_max.low, sigma_max.high) == pytest.approx((1 / 3, 2.0))

@@ -64,7 +64,7 @@ class TrialOutcome:
 
     Attributes:
         value: the metric's mean over seeds (NaN when failed).
-        metrics: every metric's mean over seeds.
+        metrics: every metric's mean over seeds and conditions.
         plan_ms: the median control update over all episodes' updates, in milliseconds.
         failure: why the trial failed, or None.
         conditions: the metric's mean over seeds under each condition, by Condition.label.
