@@ -111,3 +111,10 @@ def test_latency_ms_is_one_condition_or_folds_into_the_conditions():
         ConditionError, match="give the latency either in --conditions latency_ms=... or by --latency-ms"
     ):
         args.condition_list()
+
+
+def test_the_table_names_a_condition_by_its_units():
+    from judo.tuning.report import short_label
+
+    assert short_label("control_freq=20 latency_ms=25") == "20 Hz 25 ms"
+    assert short_label("latency_ms=0") == "0 ms" and short_label("default") == "default"

@@ -40,7 +40,7 @@ def top_trials_table(study: Any, objective: Objective, space: list[Param], count
     labels = [p.field if fields.count(p.field) == 1 else p.name for p in space]
     conditions = condition_labels(trials)
     shown = conditions if len(conditions) > 1 else []
-    for column in ("trial", objective.metric, *shown, "plan ms", "feasible", *labels):
+    for column in ("trial", objective.metric, *map(short_label, shown), "plan ms", "feasible", *labels):
         table.add_column(column, justify="left" if column in ("feasible",) else "right")
     for trial in trials[:count]:
         table.add_row(
@@ -52,6 +52,16 @@ def top_trials_table(study: Any, objective: Objective, space: list[Param], count
             *(fmt(trial.params.get(p.name, "")) for p in space),
         )
     return table
+
+
+def short_label(label: str) -> str:
+    """A condition's label for a table column: "control_freq=20 latency_ms=25" -> "20 Hz 25 ms"."""
+    units = {"control_freq": "Hz", "latency_ms": "ms"}
+    words = []
+    for part in label.split():
+        name, _, value = part.partition("=")
+        words.append(f"{value} {units[name]}" if name in units else part)
+    return " ".join(words)
 
 
 def condition_labels(trials: list[Any]) -> list[str]:
