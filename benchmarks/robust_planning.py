@@ -59,7 +59,7 @@ def run_setting(args: argparse.Namespace, optimizer: str, num_models: int, risk:
     rows, plan_ms = [], []
     for seed in range(args.first_seed, args.first_seed + args.seeds):
         settings = {"num_randomizations": num_models, "risk": risk, "cvar_alpha": args.cvar_alpha}
-        controller_config = with_updates(make_config(ControllerConfig, args.task), settings)
+        controller_config = with_updates(make_config(ControllerConfig, args.task, optimizer), settings)
         controller = judo.make_controller(
             args.task,
             optimizer,

@@ -86,7 +86,49 @@ def test_randomized_overhead_prints_the_ratio_per_r():
     small = ["--task", "cartpole", "--optimizer", "ps", "--samples", "2", "--warmup", "1", "--num-workers", "1"]
     result = run_script("randomized_overhead.py", *small, "--randomizations", "1", "3")
     assert result.returncode == 0, result.stderr
-    assert "| 1 | 16 x 1 x 70 |" in result.stdout and "| 3 | 16 x 3 x 70 |" in result.stdout
+    assert "| 1 | 64 x 1 x 100 |" in result.stdout and "| 3 | 64 x 3 x 100 |" in result.stdout
+
+
+def test_defaults_under_conditions_prints_the_matrix_and_names_a_bad_condition(tmp_path):
+    out = tmp_path / "matrix.md"
+    small = ["--seeds", "1", "--duration", "0.3", "--markdown", str(out)]
+    result = run_script(
+        "defaults_under_conditions.py", "--tasks", "cartpole", "--optimizers", "ps", "--conditions",
+        "control_freq=20,50", "latency_ms=0", *small,
+    )  # fmt: skip
+    assert result.returncode in (0, 1), result.stderr  # 1: a collapse was flagged
+    assert "### cartpole (1 seeds from 0 x 0.3 s; **!** = collapse)" in result.stdout
+    assert "| optimizer | condition | balanced_fraction | swung_up | mean_reward |" in result.stdout
+    assert "| ps | control_freq=20 latency_ms=0 | " in result.stdout
+    assert "| ps | control_freq=50 latency_ms=0 | " in result.stdout
+    assert ("no collapse" in result.stdout) == (result.returncode == 0)
+    assert out.read_text().count("| ps | ") == 2
+    bad = run_script("defaults_under_conditions.py", "--tasks", "cartpole", "--conditions", "latncy_ms=0")
+    assert bad.returncode == 2
+    assert "unknown condition 'latncy_ms'; valid conditions are: control_freq, latency_ms" in bad.stderr
+
+
+def test_a_collapse_is_a_tenth_of_a_fraction_or_a_quarter_of_a_rate_below_the_best_condition():
+    import importlib.util
+
+    from judo.evaluation.stats import Summary
+
+    spec = importlib.util.spec_from_file_location("matrix", ROOT / "benchmarks" / "defaults_under_conditions.py")
+    matrix = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(matrix)
+
+    def summaries(**means):
+        return {name: Summary(mean, 0.0, mean, mean, 5) for name, mean in means.items()}
+
+    fractions = {"fast": summaries(balanced_fraction=1.0), "slow": summaries(balanced_fraction=0.89)}
+    (collapse,) = matrix.collapses("cartpole", "ps", fractions)
+    assert (collapse.condition, collapse.value, collapse.best_condition) == ("slow", 0.89, "fast")
+    fractions["slow"] = summaries(balanced_fraction=0.9)
+    assert matrix.collapses("cartpole", "ps", fractions) == []
+    rates = {"fast": summaries(goals_per_minute=40.0, drops=0.0), "slow": summaries(goals_per_minute=30.5, drops=9.0)}
+    assert matrix.collapses("leap_cube", "cem", rates) == []  # 24% lost; drops is lower-is-better, not judged
+    rates["slow"] = summaries(goals_per_minute=29.0, drops=0.0)
+    assert [c.metric for c in matrix.collapses("leap_cube", "cem", rates)] == ["goals_per_minute"]
 
 
 @pytest.mark.browser

@@ -157,3 +157,49 @@ def test_an_unknown_optimizer_section_lists_all_among_the_valid_names(tmp_path):
     path = write(tmp_path, "[optimizer_config_overrides.pendulum.mpi]\nsigma = 0.1\n")
     with pytest.raises(judo.ConfigFileError, match=r"unknown optimizer 'mpi'; valid optimizers are: all, cem"):
         judo.load_config(path)
+
+
+def test_a_per_optimizer_controller_section_applies_after_the_task_wide_one_and_to_that_optimizer_only(tmp_path):
+    path = write(
+        tmp_path,
+        """
+        [controller_config_overrides.per_optimizer_task]
+        horizon = 1.2
+        control_freq = 40.0
+        [controller_config_overrides.per_optimizer_task.ps]
+        horizon = 0.8
+        """,
+    )
+    judo.load_config(path)
+    ps = make_config(judo.ControllerConfig, "per_optimizer_task", "ps")
+    cem = make_config(judo.ControllerConfig, "per_optimizer_task", "cem")
+    assert (ps.horizon, ps.control_freq) == (0.8, 40.0)  # its own horizon, the task-wide rate
+    assert (cem.horizon, cem.control_freq) == (1.2, 40.0)
+    assert make_config(judo.ControllerConfig, "per_optimizer_task").horizon == 1.2
+    judo.load_config(write(tmp_path, "[controller_config_overrides.cartpole.ps]\nhorizon = 0.9\n"))
+    ps_controller = judo.make_controller("cartpole", "ps", num_workers=1)
+    cem_controller = judo.make_controller("cartpole", "cem", num_workers=1)
+    try:
+        assert ps_controller.config.horizon == 0.9
+        assert cem_controller.config.horizon == make_config(judo.ControllerConfig, "cartpole").horizon != 0.9
+    finally:
+        ps_controller.close()
+        cem_controller.close()
+
+
+@pytest.mark.parametrize(
+    ("body", "message"),
+    [
+        (
+            "[controller_config_overrides.cartpole.mpi]\nhorizon = 1.0",
+            r"\[controller_config_overrides.cartpole.mpi\]: unknown optimizer 'mpi'; valid optimizers are: .*mppi",
+        ),
+        (
+            "[controller_config_overrides.cartpole.ps]\nhorizn = 1.0",
+            r"\[controller_config_overrides.cartpole.ps\]: unknown field of ControllerConfig 'horizn'; .*horizon",
+        ),
+    ],
+)
+def test_a_bad_per_optimizer_controller_section_is_named(tmp_path, body, message):
+    with pytest.raises(judo.ConfigFileError, match=message):
+        judo.load_config(write(tmp_path, body))

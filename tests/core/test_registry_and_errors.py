@@ -50,7 +50,7 @@ def test_register_a_user_task_and_override_its_configs(tiny_model_path):
     assert controller.optimizer.config.num_rollouts == 12 and controller.optimizer.config.sigma == 0.7
     assert controller.task.config.weight == 3.0 and isinstance(controller.task.config.weight, float)
     assert make_config(CEMConfig, "my_task").num_rollouts == 12  # the base-class override reaches every optimizer
-    assert make_config(MPPIConfig, "cartpole").num_rollouts == 16  # other tasks keep their own (cartpole.toml)
+    assert make_config(MPPIConfig, "cartpole").num_rollouts == 64  # other tasks keep their own (cartpole.toml)
     controller.update_action(np.zeros(4), 0.0)
     assert controller.rewards.shape == (12,)
     controller.close()

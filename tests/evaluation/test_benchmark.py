@@ -25,8 +25,8 @@ def test_benchmark_writes_one_row_per_pair(tmp_path, capsys):
         assert row["median_ms"] > 0 and row["raw_rollout_ms"] > 0 and row["std_ms"] >= 0
         assert row["min_ms"] <= row["median_ms"] <= row["max_ms"]
         assert row["num_workers"] == 1
-    # T is the horizon over the timestep: cartpole plans 0.7 s at 0.01 s, cylinder_push 1 s at 0.02 s
-    assert [row["T"] for row in rows] == [70, 70, 50, 50]
+    # T is the horizon over the timestep: cartpole plans 1.0 s at 0.01 s, cylinder_push 1 s at 0.02 s
+    assert [row["T"] for row in rows] == [100, 100, 50, 50]
     out = capsys.readouterr().out
     assert "cartpole: control update time (ms), 1 rollout workers" in out
     assert "median (IQR)" in out and "raw rollout" in out and "overhead" in out

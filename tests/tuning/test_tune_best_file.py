@@ -31,7 +31,10 @@ def test_the_best_file_round_trips_through_load_config(tmp_path):
     )
     assert tomllib.loads(text)["optimizer_config_overrides"]["tune_best_file_task"]["mppi"]["temperature"] == 1e-4
     assert judo.load_config(path).task == "tune_best_file_task"
-    controller = make_config(ControllerConfig, "tune_best_file_task")
+    assert tomllib.loads(text)["controller_config_overrides"]["tune_best_file_task"]["mppi"]["max_opt_iters"] == 3
+    assert make_config(ControllerConfig, "tune_best_file_task").horizon == ControllerConfig().horizon  # mppi's only
+    assert make_config(ControllerConfig, "tune_best_file_task", "ps").horizon == ControllerConfig().horizon
+    controller = make_config(ControllerConfig, "tune_best_file_task", "mppi")
     optimizer = make_config(MPPIConfig, "tune_best_file_task")
     task = make_config(UprightConfig, "tune_best_file_task")
     assert (controller.horizon, controller.spline_order, controller.max_opt_iters) == (0.123456789, "zero", 3)

@@ -25,6 +25,7 @@ ray = pytest.importorskip("ray")
 TINY_STUDY = [
     "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "2", "--workers", "2",
     "--params", "optimizer.sigma", "controller.horizon=0.3:1.0", "--fix", "optimizer.num_rollouts=16",
+    "--latency-ms", "0",
 ]  # fmt: skip
 
 
@@ -84,7 +85,7 @@ def test_a_tiny_study_is_stored_resumed_and_its_best_file_loads(local_ray, resto
     resumed = stored_trials(storage, "tiny")
     assert [trial.state.name for trial in resumed] == ["COMPLETE"] * 4
     assert [trial.params for trial in resumed[:3]] == [trial.params for trial in first]
-    assert "resuming with 3 finished trials" in capsys.readouterr().out
+    assert "resuming with 3 finished trials" in " ".join(capsys.readouterr().out.split())  # the console wraps
 
     best = max(resumed, key=lambda trial: trial.value)
     best_file = out / "best.toml"
@@ -94,6 +95,30 @@ def test_a_tiny_study_is_stored_resumed_and_its_best_file_loads(local_ray, resto
                           "--duration", "0.2", "--num-workers", "1"]) == 0  # fmt: skip
     loaded = make_config(PredictiveSamplingConfig, "cartpole")
     assert (loaded.sigma, loaded.num_rollouts) == (best.params["optimizer.sigma"], 16)
+
+
+@pytest.mark.slow
+def test_a_tiny_multi_condition_study_records_every_condition(local_ray, restored_overrides, tmp_path):
+    out = tmp_path / "out"
+    argv = [*TINY_STUDY[:-2], "--conditions", "control_freq=20,50", "--aggregate", "worst", "--metric",
+            "balanced_fraction", "--trials", "2", "--duration", "1", "--out", str(out)]  # fmt: skip
+    assert tune_main(argv) == 0
+    trials = stored_trials(f"sqlite:///{out / 'study.db'}", "cartpole-ps-balanced_fraction")
+    assert [trial.state.name for trial in trials] == ["COMPLETE"] * 2
+    labels = ["control_freq=20", "control_freq=50"]
+    for trial in trials:
+        assert list(trial.user_attrs["conditions"]) == labels
+        assert trial.value == min(trial.user_attrs["conditions"].values())
+    header, *rows = (out / "trials.csv").read_text().splitlines()
+    columns = header.split(",")
+    assert columns[2:5] == ["value", *(f"balanced_fraction@{label}" for label in labels)] and len(rows) == 2
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["conditions"] == "control_freq=20; control_freq=50" and summary["aggregate"] == "worst"
+    assert list(summary["best"]["conditions"]) == labels
+    assert (out / "conditions.html").is_file() and (out / "conditions.png").is_file()
+    assert "# Per condition: control_freq=20: " in (out / "best.toml").read_text()
+    assert evaluate_main(["--config", str(out / "best.toml"), "--task", "cartpole", "--optimizer", "ps", "--seeds",
+                          "1", "--duration", "0.2", "--num-workers", "1"]) == 0  # fmt: skip
 
 
 def run_failing(argv: list[str], capsys) -> str:
@@ -157,7 +182,7 @@ def test_ctrl_c_stops_a_running_tune_at_once_and_keeps_every_finished_trial(tmp_
     argv = [
         "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "60", "--workers", "1",
         "--params", "optimizer.sigma", "--trials", "5", "--storage", storage, "--study", "stopped",
-        "--out", str(tmp_path / "out"),
+        "--out", str(tmp_path / "out"), "--latency-ms", "0",
     ]  # fmt: skip
     tune = subprocess.Popen(
         [sys.executable, "-m", "judo", "tune", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True

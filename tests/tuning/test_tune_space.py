@@ -34,8 +34,30 @@ def test_noise_ramp_is_searched_when_the_ramp_is_on():
     assert "optimizer.noise_ramp" in by_name(build_space("cartpole", "ps", fixed={"optimizer.use_noise_ramp": True}))
 
 
+MPPI_SLIDERS = ["optimizer.num_nodes", "optimizer.sigma", "optimizer.temperature", "controller.horizon"]
+
+
+def test_the_default_space_is_three_times_either_side_of_the_value_in_force_on_a_log_scale():
+    space = by_name(build_space("cartpole", "cem"))  # cartpole: 64 rollouts, 4 knots, 1.0 s; cem sigma_min 0.2
+    rollouts, nodes, horizon = (
+        space["optimizer.num_rollouts"],
+        space["optimizer.num_nodes"],
+        space["controller.horizon"],
+    )
+    assert (rollouts.low, rollouts.high, rollouts.integer, rollouts.log) == (22, 192, True, True)  # ceil(64/3), 192
+    assert (nodes.low, nodes.high) == (4, 12)  # 4/3 raised to the 4 knots a cubic spline needs
+    assert (horizon.low, horizon.high, horizon.log) == (pytest.approx(1 / 3), pytest.approx(3.0), True)
+    assert (space["optimizer.sigma_min"].low, space["optimizer.sigma_min"].high) == pytest.approx((0.2 / 3, 0.6))
+    sigma_max = space["optimizer.sigma_max"]  # 1.0: x3 is clipped to the slider's 2.0
+    assert (sigma_max.low, sigma_max.high) == pytest.approx((1 / 3, 2.0))
+    assert all(param.log for param in space.values())
+    tuned = by_name(build_space("cartpole", "cem", ["controller.horizon", "optimizer.num_elites=1:4"]))
+    assert (tuned["controller.horizon"].low, tuned["controller.horizon"].high) == (0.05, 5.0)  # --params: slider
+    assert (tuned["optimizer.num_elites"].low, tuned["optimizer.num_elites"].high) == (1, 4)
+
+
 def test_ranges_of_two_decades_or_more_are_log_and_narrower_ones_linear():
-    space = by_name(build_space("cartpole", "mppi"))
+    space = by_name(build_space("cartpole", "mppi", MPPI_SLIDERS))
     temperature = space["optimizer.temperature"]
     assert (temperature.low, temperature.high, temperature.log, temperature.integer) == (0.001, 10.0, True, False)
     assert space["optimizer.sigma"].log  # 0.001 to 2
@@ -50,11 +72,13 @@ def test_ranges_of_two_decades_or_more_are_log_and_narrower_ones_linear():
 
 
 def test_int_fields_stay_ints_and_num_nodes_starts_where_the_spline_order_needs():
-    space = by_name(build_space("cartpole", "ps"))  # cartpole's spline is cubic: 4 knots at least
+    space = by_name(build_space("cartpole", "ps", ["optimizer.num_rollouts", "optimizer.num_nodes"]))  # cubic: 4+
     rollouts, nodes = space["optimizer.num_rollouts"], space["optimizer.num_nodes"]
     assert (rollouts.low, rollouts.high, rollouts.integer, rollouts.log) == (1, 512, True, True)
     assert (nodes.low, nodes.high) == (4, 20)
-    linear = by_name(build_space("cartpole", "ps", fixed={"controller.spline_order": "linear"}))
+    linear = by_name(
+        build_space("cartpole", "ps", ["optimizer.num_nodes"], fixed={"controller.spline_order": "linear"})
+    )
     assert linear["optimizer.num_nodes"].low == 2
 
 

@@ -11,6 +11,8 @@ optimizer = "my_module.MyOpt"
 config = "my_module.MyOptConfig"
 [controller_config_overrides.my_task]
 horizon = 1.0
+[controller_config_overrides.my_task.mppi]      # only with mppi, after the task-wide section
+horizon = 0.8
 [optimizer_config_overrides.cylinder_push.my_opt]
 param = 42
 [optimizer_config_overrides.cylinder_push.all]   # "all": every optimizer (OptimizerConfig's fields)
@@ -130,7 +132,16 @@ def load_config(path: str | Path) -> LoadedConfig:
             lookup_task(task_name)
         except UnknownNameError as err:
             raise fail(where, err) from None
-        _apply(path, where, task_name, ControllerConfig, overrides)
+        if not isinstance(overrides, dict):
+            raise ConfigFileError(f"{path}: [{where}] must be a table of field = value, got {overrides!r}")
+        task_wide = {key: value for key, value in overrides.items() if not isinstance(value, dict)}
+        _apply(path, where, task_name, ControllerConfig, task_wide)
+        for optimizer_name, per_optimizer in overrides.items():
+            if isinstance(per_optimizer, dict):
+                if optimizer_name not in get_registered_optimizers():
+                    err = UnknownNameError("optimizer", optimizer_name, get_registered_optimizers())
+                    raise fail(f"{where}.{optimizer_name}", err)
+                _apply(path, f"{where}.{optimizer_name}", task_name, ControllerConfig, per_optimizer, optimizer_name)
     for task_name, overrides in _table(table, "task_config_overrides", path).items():
         where = f"task_config_overrides.{task_name}"
         try:
@@ -278,10 +289,12 @@ def _check_not_shadowed(module_name: str, folder: Path, named: str) -> None:
         )
 
 
-def _apply(path: Path, where: str, task_name: str, config_cls: type, overrides: Any) -> None:
+def _apply(
+    path: Path, where: str, task_name: str, config_cls: type, overrides: Any, optimizer_name: str | None = None
+) -> None:
     if not isinstance(overrides, dict):
         raise ConfigFileError(f"{path}: [{where}] must be a table of field = value, got {overrides!r}")
     try:
-        set_config_overrides(task_name, config_cls, overrides)
+        set_config_overrides(task_name, config_cls, overrides, optimizer_name)
     except JudoError as err:
         raise ConfigFileError(f"{path}: [{where}]: {err}") from None

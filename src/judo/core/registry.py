@@ -18,7 +18,8 @@ CONFIG_KINDS: tuple[ConfigKind, ...] = ("controller", "optimizer", "task")
 _TASKS: dict[str, tuple[type[Task], type[TaskConfig]]] = {}
 _OPTIMIZERS: dict[str, tuple[type[Optimizer], type[OptimizerConfig]]] = {}
 _ESTIMATORS: dict[str, tuple[type[Estimator], type[EstimatorConfig]]] = {}
-_OVERRIDES: dict[tuple[str, type], dict[str, Any]] = {}
+_OVERRIDES: dict[tuple[Any, ...], dict[str, Any]] = {}
+"""(task, config class) -> overrides for every optimizer; (task, config class, optimizer) -> that optimizer's."""
 
 
 def _check_class(what: str, cls: Any, base: type) -> None:
@@ -94,24 +95,34 @@ def lookup_optimizer(name: str) -> tuple[type[Optimizer], type[OptimizerConfig]]
     return _OPTIMIZERS[name]
 
 
-def set_config_overrides(task_name: str, config_cls: type[Config], overrides: dict[str, Any]) -> None:
-    """Use `overrides` ({field: value}) as the defaults of `config_cls` whenever `task_name` is active.
+def set_config_overrides(
+    task_name: str, config_cls: type[Config], overrides: dict[str, Any], optimizer_name: str | None = None
+) -> None:
+    """Use `overrides` ({field: value}) as the defaults of `config_cls` whenever `task_name` is active
+    (and, with `optimizer_name`, only with that optimizer, applied after the task-wide overrides: how
+    [controller_config_overrides.<task>.<optimizer>] gives one optimizer its own horizon).
 
     Overrides on a base class (e.g. OptimizerConfig) apply to all its subclasses; later calls merge
     into earlier ones. Field names and values are checked now, so a typo fails here, not mid-run.
     """
-    merged = {**_OVERRIDES.get((task_name, config_cls), {}), **overrides}
+    key = (task_name, config_cls) if optimizer_name is None else (task_name, config_cls, optimizer_name)
+    merged = {**_OVERRIDES.get(key, {}), **overrides}
     probe = config_cls()
     checked = {name: coerce_field_value(probe, name, value) for name, value in merged.items()}
-    with_updates(probe, checked)  # range checks, and cross-field checks on a concrete class
-    _OVERRIDES[(task_name, config_cls)] = checked
+    task_wide = _OVERRIDES.get((task_name, config_cls), {}) if optimizer_name is not None else {}
+    with_updates(probe, {**task_wide, **checked})  # range checks, and cross-field checks on a concrete class
+    _OVERRIDES[key] = checked
 
 
-def make_config(config_cls: type[Config], task_name: str) -> Config:
-    """A new `config_cls` with the overrides registered for `task_name`, base classes' first."""
+def make_config(config_cls: type[Config], task_name: str, optimizer_name: str | None = None) -> Config:
+    """A new `config_cls` with the overrides registered for `task_name`, base classes' first, then (given
+    `optimizer_name`) those registered for that optimizer alone, base classes' first."""
     updates: dict[str, Any] = {}
     for cls in reversed(config_cls.__mro__):
         updates.update(_OVERRIDES.get((task_name, cls), {}))
+    if optimizer_name is not None:
+        for cls in reversed(config_cls.__mro__):
+            updates.update(_OVERRIDES.get((task_name, cls, optimizer_name), {}))
     return with_updates(config_cls(), updates)
 
 
@@ -119,7 +130,7 @@ def default_configs(task_name: str, optimizer_name: str) -> dict[ConfigKind, Con
     """The controller, optimizer and task configs of the pair with the task's registered overrides, by kind.
     Raises UnknownNameError for an unregistered name."""
     return {
-        "controller": make_config(ControllerConfig, task_name),
+        "controller": make_config(ControllerConfig, task_name, optimizer_name),
         "optimizer": make_config(lookup_optimizer(optimizer_name)[1], task_name),
         "task": make_config(lookup_task(task_name)[1], task_name),
     }
@@ -146,7 +157,7 @@ def make_controller(
     optimizer_cls, optimizer_config_cls = lookup_optimizer(optimizer_name)
     task = task_cls()
     task.config = make_config(task_config_cls, task_name)
-    controller_config = controller_config or make_config(ControllerConfig, task_name)  # type: ignore[assignment]
+    controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)  # type: ignore[assignment]
     optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)  # type: ignore[assignment]
     optimizer = optimizer_cls(optimizer_config, task.nu)
     if seed is not None:

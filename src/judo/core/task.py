@@ -60,6 +60,9 @@ class Task(ABC, Generic[ConfigT]):
     lower_is_better: ClassVar[tuple[str, ...]] = ()
     """Names of the `metrics` that are better lower (errors, distances, times, drops); every other metric,
     and evaluate's "mean_reward", is better higher. `python -m judo tune` reads this for the direction."""
+    check_latency_ms: ClassVar[float] = 25.0
+    """The fixed planning latency (ms) the task's defaults are checked under, besides none (a `tune`'s default
+    conditions and benchmarks/defaults_under_conditions.py); slower tasks check a larger one."""
     focus_body: ClassVar[str | None] = None
     """The body the GUI's camera follows while the task runs. None: the first body with a free joint,
     and no following when there is none (the camera stays where it framed the task)."""

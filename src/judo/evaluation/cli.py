@@ -207,10 +207,11 @@ def set_field_overrides(task: str, optimizer: str, optimizer_overrides: Any, tas
     set_config_overrides(task, lookup_task(task)[1], given_fields(task_overrides))
 
 
-def controller_config(task: str, overrides: Any) -> ControllerConfig:
-    """The task's ControllerConfig (its registered defaults) with the given `--controller.*` fields applied;
-    ConfigError for a value the config refuses."""
-    return with_updates(make_config(ControllerConfig, task), given_fields(overrides))  # type: ignore[return-value]
+def controller_config(task: str, overrides: Any, optimizer: str | None = None) -> ControllerConfig:
+    """The task's ControllerConfig (its registered defaults, and `optimizer`'s own when given) with the given
+    `--controller.*` fields applied; ConfigError for a value the config refuses."""
+    defaults = make_config(ControllerConfig, task, optimizer)
+    return with_updates(defaults, given_fields(overrides))  # type: ignore[return-value]
 
 
 def episode_latency(latency: str, latency_ms: float | None) -> Latency:

@@ -166,7 +166,7 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
         with make_controller(
             args.task,
             args.optimizer,
-            controller_config=controller_config(args.task, args.controller),
+            controller_config=controller_config(args.task, args.controller, args.optimizer),
             num_workers=args.num_workers,
             seed=seed,
             backend=args.backend,

@@ -101,7 +101,7 @@ def benchmark_controller(
     updates = dict(controller_updates or {})
     if horizon is not None:
         updates["horizon"] = horizon
-    controller_config = with_updates(make_config(ControllerConfig, task_name), updates)
+    controller_config = with_updates(make_config(ControllerConfig, task_name, optimizer_name), updates)
     optimizer_config = make_config(lookup_optimizer(optimizer_name)[1], task_name)
     sizes = {"num_rollouts": num_rollouts, "num_nodes": num_nodes}
     optimizer_config = with_updates(optimizer_config, {k: v for k, v in sizes.items() if v is not None})

@@ -72,6 +72,7 @@ class LeapCube(Task[LeapCubeConfig]):
         "cube_quat",
     )
     """16 joint encoders, and the cube's position (relative to the palm) and orientation from a camera."""
+    check_latency_ms = 50.0
 
     goal_tolerance: ClassVar[float] = 0.4
     """Rotation angle (rad) under which the goal counts as reached."""

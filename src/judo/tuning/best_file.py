@@ -8,11 +8,12 @@ from typing import Any
 from judo.core.errors import JudoError
 
 SECTIONS = {
-    "controller": "controller_config_overrides.{task}",
+    "controller": "controller_config_overrides.{task}.{optimizer}",
     "optimizer": "optimizer_config_overrides.{task}.{optimizer}",
     "task": "task_config_overrides.{task}",
 }
-"""The --config table each kind of parameter goes in."""
+"""The --config table each kind of parameter goes in: a tune is of one optimizer, so its controller settings
+apply with that optimizer alone (after the task-wide section), and never change the task's other optimizers."""
 
 
 def toml_value(value: Any) -> str:

@@ -7,7 +7,7 @@ import os
 import shlex
 import sys
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -30,16 +30,27 @@ from judo.evaluation.cli import (
 from judo.evaluation.episode import Latency
 from judo.evaluation.plot import write_episode_plot
 from judo.tuning.best_file import write_best_toml
+from judo.tuning.conditions import (
+    Aggregate,
+    Condition,
+    ConditionError,
+    ConditionsMode,
+    check_conditions,
+    parse_conditions,
+)
 from judo.tuning.objective import Direction, Objective, make_objective
 from judo.tuning.space import Param, apply_values, build_space, default_configs, parse_fixed
 from judo.tuning.trial import TrialSpec, run_seeded_episodes
 
 DESCRIPTION = (
     "Tune a task x optimizer: search the optimizer's settings (every numeric field with a slider range, plus "
-    "controller.horizon; or --params) for the best value of one of the task's evaluate metrics, averaged over "
-    "seeded closed-loop episodes. Optuna chooses the trials (TPE by default); each runs as a Ray task on one core, "
-    "on a local Ray or a cluster (--address). The study is stored in a database (SQLite by default), so the same "
-    "command resumes it. Writes to --out: trials.csv, plots (PNG and HTML), summary.json, and best.toml, which "
+    "controller.horizon, each from 1/3 to 3 times its value in force; or --params) for the best value of one "
+    "of the task's evaluate metrics, averaged over seeded closed-loop episodes under several conditions "
+    "(--conditions; by default the task's check set: 20 Hz and the task's own rate, crossed with no latency "
+    "and 25 ms, 50 ms for the LEAP and fr3 tasks), aggregated by --aggregate. Optuna chooses the trials (TPE "
+    "by default); each episode (a condition x a seed) runs as a Ray task on one core, on a local Ray or a "
+    "cluster (--address). The study is stored in a database (SQLite by default), so the same command resumes "
+    "it. Writes to --out: trials.csv, plots (PNG and HTML), summary.json, and best.toml, which "
     "`python -m judo --config` and `evaluate --config` read. Needs the `tune` extra: pip install 'judo[tune]'."
 )
 PROBE_DURATION = 0.2
@@ -75,10 +86,28 @@ class TuneArgs:
         Direction | None, tyro.conf.arg(metavar="{maximize,minimize}", help_behavior_hint="(default: the metric's)")
     ] = None
     """Override the metric's direction (for a metric of your own task that is better lower)."""
+    conditions: Annotated[
+        tuple[str, ...],
+        tyro.conf.arg(metavar="NAME=V1,V2,... ...", help_behavior_hint="(default: the task's check set)"),
+    ] = ()
+    """Episode settings every trial is scored under: latency_ms (fixed planning latency) and control_freq (Hz),
+    e.g. latency_ms=0,25,50 control_freq=20,50. Crossed: every combination (here 6 conditions); with
+    --conditions-mode listed the i-th values of each name make the i-th condition. Default: control_freq 20
+    and the task's own rate, crossed with latency_ms 0 and 25 (50 for leap_cube, leap_cube_down, fr3_pick),
+    unless --latency or --latency-ms picks a single condition."""
+    conditions_mode: ConditionsMode = "crossed"
+    """How --conditions' lists combine: crossed (every combination) or listed (paired by position, equal lengths)."""
+    aggregate: Aggregate = "mean"
+    """How the conditions' metrics (each a mean over seeds) become the trial's value: their mean, the worst, or
+    cvar (the mean of the worst --cvar-alpha fraction of conditions)."""
+    cvar_alpha: float = 0.5
+    """The fraction of worst conditions --aggregate cvar averages (at least one condition)."""
     latency: Literal["none", "measured"] = "none"
-    """Planning latency in the episodes, as for evaluate."""
+    """Planning latency in the episodes, as for evaluate; measured runs one condition at the task's rate
+    (or each --conditions control_freq)."""
     latency_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
-    """Fixed planning latency in milliseconds of sim time, as for evaluate; instead of --latency."""
+    """Fixed planning latency in milliseconds of sim time, as for evaluate, instead of --latency: one condition
+    at the task's rate (or each --conditions control_freq); same as --conditions latency_ms=MS."""
     sampler: Literal["tpe", "cmaes", "random", "grid"] = "tpe"
     """Optuna sampler: TPE, CMA-ES, random search, or a grid of 3 values per parameter."""
     seed: int = 0
@@ -114,6 +143,21 @@ class TuneArgs:
             self.latency_ms is None or self.latency == "none",
             f"give either --latency {self.latency} or --latency-ms {self.latency_ms}, not both",
         )
+        require(0 < self.cvar_alpha <= 1, f"--cvar-alpha must be in (0, 1], got {self.cvar_alpha}")
+
+    def condition_list(self) -> list[Condition]:
+        """The conditions every trial runs: --conditions, or one condition for --latency/--latency-ms, or the
+        task's check set. ConditionError for a bad entry, or a latency given both ways."""
+        conditions = parse_conditions(self.conditions, self.conditions_mode)
+        own_latency = self.latency_ms is not None or self.latency == "measured"
+        if any(condition.latency_ms is not None for condition in conditions) and own_latency:
+            flag = "--latency-ms" if self.latency_ms is not None else "--latency measured"
+            raise ConditionError(f"give the latency either in --conditions latency_ms=... or by {flag}, not both")
+        if self.latency_ms is not None:  # folded into every condition
+            return [replace(condition, latency_ms=self.latency_ms) for condition in conditions or [Condition()]]
+        if conditions:
+            return conditions
+        return [Condition()] if own_latency else check_conditions(self.task)
 
     def episode_latency(self) -> Latency:
         """The latency `run_episode` takes: seconds, or "measured"."""
@@ -146,6 +190,11 @@ def probe(args: TuneArgs, fixed: dict[str, Any]) -> list[str]:
     return list(result.metrics)
 
 
+def aggregate_text(spec: TrialSpec) -> str:
+    """E.g. "worst" or "cvar 0.5": how a study aggregates its conditions."""
+    return f"cvar {spec.cvar_alpha:g}" if spec.aggregate == "cvar" else spec.aggregate
+
+
 def progress_text(objective: Objective, best: float | None) -> str:
     """The progress bar's description."""
     return f"best {objective.metric}: " + ("-" if best is None else f"{best:.4g}")
@@ -176,13 +225,23 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
         args.episode_latency(),
         config_file,
         fixed,
+        conditions=tuple(args.condition_list()),
+        aggregate=args.aggregate,
+        cvar_alpha=args.cvar_alpha,
+        maximize=objective.direction == "maximize",
     )
     target = args.trials
     if args.sampler == "grid":
         target = min(target, studies.grid_size(space))
     sampler = studies.make_sampler(args.sampler, args.seed, space, args.max_plan_ms is not None)
     study_name = args.study or f"{args.task}-{args.optimizer}-{objective.metric}"
-    identity = {"task": args.task, "optimizer": args.optimizer, "metric": objective.metric}
+    identity = {
+        "task": args.task,
+        "optimizer": args.optimizer,
+        "metric": objective.metric,
+        "conditions": "; ".join(condition.label for condition in spec.conditions),
+        "aggregate": aggregate_text(spec),
+    }
     out = args.out_dir()
     storage = args.storage_url()
     study, already = studies.open_study(storage, study_name, objective, sampler, identity)
@@ -191,7 +250,8 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     out.mkdir(parents=True, exist_ok=True)
     console = output_console()
     console.print(
-        f"study {study_name!r} in {storage}: {objective.direction} {objective.metric} over "
+        f"study {study_name!r} in {storage}: {objective.direction} the {aggregate_text(spec)} of {objective.metric} "
+        f"over {len(spec.conditions)} conditions ({identity['conditions']}), searching "
         f"{', '.join(p.name for p in space)}" + (f"; resuming with {already} finished trials" if already else "")
     )
     connected = cluster.start_ray(args.address, args.workers or os.cpu_count() or 1)
@@ -243,7 +303,7 @@ def write_outputs(
     table = report.top_trials_table(study, objective, space)
     table.caption = f"{table.caption}; this run took {seconds:.0f} s"
     console.print(table)
-    report.write_trials_csv(out / "trials.csv", study)
+    report.write_trials_csv(out / "trials.csv", study, objective.metric)
     written = [out / "trials.csv", *report.write_study_plots(out, study, objective)]
     best = studies.best_trial(study, objective)
     baseline = studies.baseline_trial(study)
@@ -258,7 +318,10 @@ def write_outputs(
         values = {**spec.fixed, **best.params}
         header = [
             f"Best of study {study.study_name!r}: trial {best.number}, {objective.metric} = {best.value:.6g} "
-            f"({args.seeds} seeds x {args.duration:g} s), median plan {best.user_attrs.get('plan_ms') or float('nan'):.3g} ms.",
+            f"({aggregate_text(spec)} of {len(spec.conditions)} conditions x {args.seeds} seeds x {args.duration:g} s), "
+            f"median plan {best.user_attrs.get('plan_ms') or float('nan'):.3g} ms.",
+            "Per condition: "
+            + ", ".join(f"{label}: {value:.4g}" for label, value in best.user_attrs.get("conditions", {}).items()),
             *([] if comparison is None else [comparison]),
             f"Found by: {command}",
             f"Use with: python -m judo --config {out / 'best.toml'}  (or evaluate --config ... --task ... --optimizer ...)",
@@ -267,7 +330,7 @@ def write_outputs(
         written.append(out / "best.toml")
         (episode,) = run_seeded_episodes(spec, best.params, range(1))
         model = lookup_task(args.task)[0]().sim_model  # type: ignore[call-arg]
-        title = f"{args.task} x {args.optimizer}, best trial {best.number}, seed 0"
+        title = f"{args.task} x {args.optimizer}, best trial {best.number}, seed 0, {spec.conditions[0].label}"
         for suffix in (".html", ".png"):
             try:
                 write_episode_plot(episode, model, out / f"best_episode{suffix}", title)

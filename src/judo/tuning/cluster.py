@@ -2,8 +2,8 @@
 
 Ray runs offline: no usage statistics and no dashboard. `address` None starts a local Ray with
 `workers` CPUs; "auto" joins the cluster started on this machine with `ray start --head`;
-"HOST:PORT" or "ray://HOST:PORT" joins a remote one. Every trial is a task needing one CPU, so a
-cluster runs as many trials at once as it has CPUs.
+"HOST:PORT" or "ray://HOST:PORT" joins a remote one. Every episode of a trial (a condition x a seed)
+is a task needing one CPU, so a cluster runs as many episodes at once as it has CPUs.
 """
 
 import os
@@ -11,8 +11,10 @@ import socket
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from judo.core.errors import JudoError, import_extra
-from judo.tuning.trial import TrialOutcome, TrialSpec, run_trial
+from judo.tuning.trial import EpisodeOutcome, TrialSpec, run_condition_seed
 
 CONNECT_TIMEOUT_S = 5.0
 """How long to try reaching a cluster's address before giving up."""
@@ -82,9 +84,16 @@ def cluster_cpus() -> int:
     return max(1, int(import_ray().cluster_resources().get("CPU", 1)))
 
 
-def submit_trial(spec: TrialSpec, values: dict[str, Any]) -> Any:
-    """Start `run_trial(spec, values)` as a Ray task needing one CPU; returns its ObjectRef."""
-    return submit(run_trial, spec, values)
+def submit_trial(spec: TrialSpec, values: dict[str, Any]) -> list[Any]:
+    """Start each episode of a trial, `run_condition_seed(spec, values, condition, seed)` for every condition
+    and seed, as a Ray task needing one CPU; returns their ObjectRefs."""
+    ray = import_ray()
+    remote = ray.remote(num_cpus=1, max_retries=0)(run_condition_seed)
+    return [
+        remote.remote(spec, values, condition, seed)
+        for condition in range(len(spec.conditions))
+        for seed in range(spec.seeds)
+    ]
 
 
 def submit(function: Any, *args: Any) -> Any:
@@ -98,13 +107,14 @@ def wait_any(refs: list[Any]) -> tuple[list[Any], list[Any]]:
     return import_ray().wait(refs, num_returns=1)
 
 
-def outcome_of(ref: Any) -> TrialOutcome:
-    """The TrialOutcome of a finished ref; a failed outcome when the Ray task itself died (e.g. a worker crash)."""
+def outcome_of(ref: Any, condition: int, seed: int) -> EpisodeOutcome:
+    """The EpisodeOutcome of a finished ref (episode `seed` of condition number `condition`); a failed one
+    when the Ray task itself died (e.g. a worker crash)."""
     ray = import_ray()
     try:
         return ray.get(ref)
     except Exception as err:  # noqa: BLE001  (RayTaskError, WorkerCrashedError, ...)
-        return TrialOutcome(float("nan"), {}, float("nan"), f"Ray task failed: {type(err).__name__}: {err}")
+        return EpisodeOutcome(condition, seed, {}, np.zeros(0), f"Ray task failed: {type(err).__name__}: {err}")
 
 
 def cancel(refs: list[Any]) -> None:

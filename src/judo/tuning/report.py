@@ -1,6 +1,7 @@
 """The outputs of a tune: the table of top trials, trials.csv, and the plots (PNG and HTML).
 
 history.{png,html}      the objective of each trial and the best so far (infeasible trials greyed)
+conditions.{png,html}   each condition's metric (mean over seeds) of each trial, with 2+ conditions
 importance.{png,html}   each parameter's importance to the objective (fANOVA), from 2 completed trials on
 best_episode.{png,html} the best trial's episode (seed 0), drawn by evaluate's plot code
 
@@ -37,12 +38,15 @@ def top_trials_table(study: Any, objective: Objective, space: list[Param], count
     table.caption = f"{len(trials)} completed, {failed} failed"
     fields = [p.field for p in space]
     labels = [p.field if fields.count(p.field) == 1 else p.name for p in space]
-    for column in ("trial", objective.metric, "plan ms", "feasible", *labels):
+    conditions = condition_labels(trials)
+    shown = conditions if len(conditions) > 1 else []
+    for column in ("trial", objective.metric, *map(short_label, shown), "plan ms", "feasible", *labels):
         table.add_column(column, justify="left" if column in ("feasible",) else "right")
     for trial in trials[:count]:
         table.add_row(
             f"{trial.number} (defaults)" if is_baseline(trial) else str(trial.number),
             fmt(trial.value),
+            *(fmt(trial.user_attrs.get("conditions", {}).get(label, math.nan)) for label in shown),
             fmt(trial.user_attrs.get("plan_ms") or math.nan),
             "yes" if is_feasible(trial) else "no",
             *(fmt(trial.params.get(p.name, "")) for p in space),
@@ -50,12 +54,39 @@ def top_trials_table(study: Any, objective: Objective, space: list[Param], count
     return table
 
 
-def write_trials_csv(path: Path, study: Any) -> None:
-    """One row per trial: number, state, value, plan_ms, feasible, failure, each parameter and each metric."""
+def short_label(label: str) -> str:
+    """A condition's label for a table column: "control_freq=20 latency_ms=25" -> "20 Hz 25 ms"."""
+    units = {"control_freq": "Hz", "latency_ms": "ms"}
+    words = []
+    for part in label.split():
+        name, _, value = part.partition("=")
+        words.append(f"{value} {units[name]}" if name in units else part)
+    return " ".join(words)
+
+
+def condition_labels(trials: list[Any]) -> list[str]:
+    """The condition labels the trials were scored under, in order of first appearance."""
+    return list(dict.fromkeys(label for trial in trials for label in trial.user_attrs.get("conditions", {})))
+
+
+def write_trials_csv(path: Path, study: Any, metric: str = "value") -> None:
+    """One row per trial: number, state, value, the objective `metric` under each condition (a column
+    `METRIC@LABEL` per condition), plan_ms, feasible, failure, each parameter and each metric's mean."""
     trials = study.get_trials(deepcopy=False)
     params = list(dict.fromkeys(name for trial in trials for name in trial.params))
     metrics = list(dict.fromkeys(name for trial in trials for name in trial.user_attrs.get("metrics", {})))
-    header = ["number", "state", "value", "plan_ms", "feasible", "failure", *params, *(f"metric.{m}" for m in metrics)]
+    conditions = condition_labels(trials)
+    header = [
+        "number",
+        "state",
+        "value",
+        *(f"{metric}@{label}" for label in conditions),
+        "plan_ms",
+        "feasible",
+        "failure",
+        *params,
+        *(f"metric.{m}" for m in metrics),
+    ]
     try:
         with path.open("w", newline="") as file:
             writer = csv.writer(file)
@@ -66,6 +97,7 @@ def write_trials_csv(path: Path, study: Any) -> None:
                         trial.number,
                         trial.state.name,
                         "" if trial.value is None else trial.value,
+                        *(trial.user_attrs.get("conditions", {}).get(label, "") for label in conditions),
                         trial.user_attrs.get("plan_ms", ""),
                         is_feasible(trial),
                         trial.user_attrs.get("failure", ""),
@@ -103,7 +135,42 @@ def write_study_plots(out: Path, study: Any, objective: Objective) -> list[Path]
                 written += write_png(out / f"{name}.png", matplotlib_plot, study, objective)
         except (ValueError, RuntimeError, ZeroDivisionError) as err:  # e.g. importances of constant values
             (out / f"{name}.txt").write_text(f"no {name} plot: {err}\n")
-    return written
+    return written + write_conditions_plots(out, complete, objective)
+
+
+def write_conditions_plots(out: Path, complete: list[Any], objective: Objective) -> list[Path]:
+    """conditions.{html,png}: each condition's metric against the trial number, with 2+ conditions."""
+    labels = condition_labels(complete)
+    if len(labels) < 2:
+        return []
+    import plotly.graph_objects as go
+
+    numbers = [trial.number for trial in complete]
+    series = {label: [trial.user_attrs.get("conditions", {}).get(label) for trial in complete] for label in labels}
+    figure = go.Figure([go.Scatter(x=numbers, y=ys, mode="lines+markers", name=label) for label, ys in series.items()])
+    figure.update_layout(
+        title=f"{objective.metric} under each condition (mean over seeds)",
+        xaxis_title="trial",
+        yaxis_title=objective.metric,
+    )
+    figure.write_html(out / "conditions.html", include_plotlyjs=True)
+    written = [out / "conditions.html"]
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return written
+    figure, axes = plt.subplots(figsize=(8, 5))
+    for label, ys in series.items():
+        axes.plot(numbers, [math.nan if y is None else y for y in ys], marker="o", label=label)
+    axes.set(xlabel="trial", ylabel=objective.metric, title=f"{objective.metric} under each condition")
+    axes.legend()
+    figure.tight_layout()
+    figure.savefig(out / "conditions.png", dpi=100)
+    plt.close(figure)
+    return [*written, out / "conditions.png"]
 
 
 def write_png(path: Path, plot: Any, study: Any, objective: Objective) -> list[Path]:
@@ -148,6 +215,7 @@ def trial_summary(trial: Any | None) -> dict[str, Any] | None:
         "value": trial.value,
         "params": trial.params,
         "plan_ms": trial.user_attrs.get("plan_ms"),
+        "conditions": trial.user_attrs.get("conditions"),
         "metrics": trial.user_attrs.get("metrics"),
     }
 

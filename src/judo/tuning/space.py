@@ -3,8 +3,10 @@
 A parameter is named `<kind>.<field>` with kind one of controller, optimizer, task:
 `optimizer.temperature`, `controller.horizon`, `task.w_position`. By default the space holds every
 numeric field of the optimizer's config that has a slider (noise_ramp only when use_noise_ramp is on),
-plus `controller.horizon`. A range that
-spans two decades or more (max / min >= 100, min > 0) is searched on a log scale; int fields stay ints.
+plus `controller.horizon`, each over x/÷ 3 around the value in force (DEFAULT_SPREAD), clipped to its
+slider range, and searched on a log scale so the value in force is the middle (the whole slider range
+when the value is not positive). A range given in --params, or a field's slider range, is searched on a
+log scale when it spans two decades or more (max / min >= 100, min > 0); int fields stay ints.
 """
 
 import math
@@ -24,6 +26,8 @@ DEFAULT_CONTROLLER_PARAMS = ("horizon",)
 """Controller fields searched by default, besides the optimizer's numeric fields (num_nodes among them)."""
 LOG_SCALE_RATIO = 100.0
 """A range with max / min at least this (two decades) is searched on a log scale."""
+DEFAULT_SPREAD = 3.0
+"""The default space searches each field from its value in force / this to its value x this."""
 
 
 class SearchSpaceError(JudoError):
@@ -87,8 +91,12 @@ def split_name(name: str, configs: dict[Kind, Config]) -> tuple[Kind, str]:
     )
 
 
-def make_param(kind: Kind, field: str, config: Config, bounds: tuple[float, float] | None = None) -> Param:
-    """The Param for `field` of `config`, over `bounds` or its @slider range; SearchSpaceError if it has neither."""
+def make_param(
+    kind: Kind, field: str, config: Config, bounds: tuple[float, float] | None = None, log: bool | None = None
+) -> Param:
+    """The Param for `field` of `config`, over `bounds` or its @slider range; SearchSpaceError if it has neither.
+
+    `log` None: a log scale when the range spans two decades or more (LOG_SCALE_RATIO)."""
     hint = field_types(type(config))[field]
     name = f"{kind}.{field}"
     if typing.get_origin(hint) is Literal:
@@ -108,8 +116,24 @@ def make_param(kind: Kind, field: str, config: Config, bounds: tuple[float, floa
     integer = hint is int
     if integer:
         low, high = math.ceil(low), math.floor(high)
-    log = low > 0 and high / low >= LOG_SCALE_RATIO
-    return Param(kind, field, float(low), float(high), log, integer)
+    if log is None:
+        log = low > 0 and high / low >= LOG_SCALE_RATIO
+    return Param(kind, field, float(low), float(high), log and low > 0, integer)
+
+
+def around_value(kind: Kind, field: str, config: Config) -> Param:
+    """The default Param of a field with a slider: ×/÷ DEFAULT_SPREAD around its value in `config`, clipped to
+    the slider range, on a log scale; the slider range (by the usual rule) when the value is not positive or
+    the clipped range is empty."""
+    slider_range = slider_ranges(type(config))[field]
+    value = float(getattr(config, field))
+    if value > 0 and math.isfinite(value):
+        low, high = max(slider_range.min, value / DEFAULT_SPREAD), min(slider_range.max, value * DEFAULT_SPREAD)
+        if field_types(type(config))[field] is int:
+            low, high = math.ceil(low), math.floor(high)
+        if low < high:
+            return make_param(kind, field, config, (low, high), log=True)
+    return make_param(kind, field, config)
 
 
 def parse_param_entry(entry: str) -> tuple[str, tuple[float, float] | None]:
@@ -168,13 +192,15 @@ def build_space(
     """The parameters to search for the pair.
 
     Args:
-        params: `kind.field` or `kind.field=LOW:HIGH` entries; empty means the default space (every
-            numeric optimizer field with a slider, plus controller.horizon).
+        params: `kind.field` or `kind.field=LOW:HIGH` entries (a bare name: its whole slider range); empty
+            means the default space (every numeric optimizer field with a slider, plus controller.horizon,
+            ×/÷ 3 around the value in force; see `around_value`).
         fixed: parsed --fix values; these are left out of the space.
     Raises SearchSpaceError for an unknown field (listing the valid ones) or one without a range.
     """
     configs = default_configs(task_name, optimizer_name)
     fixed = fixed or {}
+    around = not params
     if params:
         entries = [parse_param_entry(entry) for entry in params]
     else:
@@ -192,7 +218,9 @@ def build_space(
         if name in fixed:
             continue
         kind, field = split_name(name, configs)
-        space.append(make_param(kind, field, configs[kind], bounds))
+        space.append(
+            around_value(kind, field, configs[kind]) if around else make_param(kind, field, configs[kind], bounds)
+        )
     return fit_num_nodes(space, configs, fixed)
 
 

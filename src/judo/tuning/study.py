@@ -2,7 +2,8 @@
 
 Each trial's settings are asked for while other trials run; a finished trial is told at once, so
 the study in the database holds every finished trial and a crash or Ctrl-C loses none of them.
-Trial user attributes: "metrics" (each metric's mean over seeds), "plan_ms" (median control update),
+Trial user attributes: "metrics" (each metric's mean over seeds and conditions), "conditions" (the
+objective metric's mean over seeds under each condition, by label), "plan_ms" (median control update),
 "failure" (why a trial failed), and with --max-plan-ms "constraint" ([plan_ms - max_plan_ms],
 feasible when <= 0), also set as the trial's Optuna constraint, which the TPE sampler takes into account.
 """
@@ -20,7 +21,7 @@ from judo.core.errors import JudoError, import_extra
 from judo.tuning import cluster
 from judo.tuning.objective import Objective
 from judo.tuning.space import Param
-from judo.tuning.trial import TrialOutcome, TrialSpec
+from judo.tuning.trial import EpisodeOutcome, TrialOutcome, TrialSpec, score_trial
 
 SamplerName = Literal["tpe", "cmaes", "random", "grid"]
 GRID_POINTS = 3
@@ -150,6 +151,8 @@ def tell(study: Any, trial: Any, outcome: TrialOutcome, max_plan_ms: float | Non
     """Record `outcome` on the trial: complete with its value, or failed with the reason."""
     optuna = import_optuna()
     trial.set_user_attr("metrics", outcome.metrics)
+    if outcome.conditions:
+        trial.set_user_attr("conditions", outcome.conditions)
     trial.set_user_attr("plan_ms", None if math.isnan(outcome.plan_ms) else outcome.plan_ms)
     if outcome.failed:
         trial.set_user_attr("failure", outcome.failure)
@@ -180,31 +183,44 @@ def run_trials(
     max_plan_ms: float | None,
     on_trial: Callable[[Progress], None] | None = None,
 ) -> None:
-    """Run trials on Ray until the study has `target` finished trials, `concurrency` at a time.
+    """Run trials on Ray until the study has `target` finished trials, keeping about `concurrency` episodes running.
 
+    Each trial's episodes (a condition x a seed each) are Ray tasks of their own; a new trial is asked for
+    while fewer than `concurrency` episodes are pending, and a trial is told once all its episodes are in.
     On Ctrl-C the running trials are cancelled and stored as failed ("interrupted"), and
     KeyboardInterrupt is raised again; every finished trial is already in the storage.
     """
     optuna = import_optuna()
     finished = len(finished_trials(study))
     to_start = target - finished
-    running: dict[Any, Any] = {}  # ObjectRef -> optuna Trial
+    pending: dict[Any, tuple[int, int, int]] = {}  # ObjectRef -> (trial number, condition, seed)
+    running: dict[int, tuple[Any, list[EpisodeOutcome]]] = {}  # trial number -> (optuna Trial, episodes so far)
+    per_trial = len(spec.conditions) * spec.seeds
     try:
         while to_start > 0 or running:
-            while to_start > 0 and len(running) < concurrency:
+            while to_start > 0 and (not running or len(pending) < concurrency):
                 trial = study.ask()
-                running[cluster.submit_trial(spec, suggest(trial, space))] = trial
+                refs = cluster.submit_trial(spec, suggest(trial, space))
+                keys = [(c, s) for c in range(len(spec.conditions)) for s in range(spec.seeds)]
+                pending.update({ref: (trial.number, c, s) for ref, (c, s) in zip(refs, keys, strict=True)})
+                running[trial.number] = (trial, [])
                 to_start -= 1
-            done, _ = cluster.wait_any(list(running))
+            done, _ = cluster.wait_any(list(pending))
             for ref in done:
-                outcome = cluster.outcome_of(ref)
-                tell(study, running.pop(ref), outcome, max_plan_ms)
+                number, condition, seed = pending.pop(ref)
+                trial, episodes = running[number]
+                episodes.append(cluster.outcome_of(ref, condition, seed))
+                if len(episodes) < per_trial:
+                    continue
+                del running[number]
+                outcome = score_trial(spec, episodes)
+                tell(study, trial, outcome, max_plan_ms)
                 finished += 1
                 if on_trial is not None:
                     on_trial(Progress(finished, target, outcome))
     except KeyboardInterrupt:
-        cluster.cancel(list(running))
-        for trial in running.values():
+        cluster.cancel(list(pending))
+        for trial, _ in running.values():
             trial.set_user_attr("failure", "interrupted")
             study.tell(trial, state=optuna.trial.TrialState.FAIL)
         raise

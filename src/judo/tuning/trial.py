@@ -1,9 +1,10 @@
 """One trial: the task x optimizer with the trial's settings, over seeded closed-loop episodes.
 
 The episodes are evaluate's (`judo.evaluation.episode.run_episode` on `MujocoSystem.from_task`), one per
-seed, with the same latency options. `run_trial` is what each Ray task runs; it never raises: an
-exception, a non-finite metric, a diverged simulation or an update with no finite reward makes the
-outcome failed, with the reason.
+seed and condition (tuning/conditions.py), with the same latency options. `run_condition_seed` is what
+each Ray task runs and `score_trial` combines a trial's episodes; neither raises: an exception, a
+non-finite metric, a diverged simulation or an update with no finite reward makes the outcome failed,
+with the reason.
 """
 
 import math
@@ -18,6 +19,7 @@ from judo.core.errors import JudoError
 from judo.core.registry import make_controller
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
 from judo.runtime.system import MujocoSystem
+from judo.tuning.conditions import Aggregate, Condition
 
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many trials)."""
@@ -36,6 +38,10 @@ class TrialSpec:
         config_file: the user's --config file (read once per process), or None.
         fixed: --fix values, {`kind.field`: value}, applied under the trial's own values.
         num_workers: rollout threads per trial (1, so that parallel trials do not fight for cores).
+        conditions: the episode settings each seed runs under (tuning/conditions.py); one condition
+            that sets nothing runs the study's latency at the task's rate.
+        aggregate, cvar_alpha: how the conditions' metrics become the trial's value.
+        maximize: whether the metric is better higher (which condition is the worst).
     """
 
     task: str
@@ -47,6 +53,10 @@ class TrialSpec:
     config_file: str | None = None
     fixed: dict[str, Any] = field(default_factory=dict)
     num_workers: int = 1
+    conditions: tuple[Condition, ...] = (Condition(),)
+    aggregate: Aggregate = "mean"
+    cvar_alpha: float = 0.5
+    maximize: bool = True
 
 
 @dataclass
@@ -55,15 +65,17 @@ class TrialOutcome:
 
     Attributes:
         value: the metric's mean over seeds (NaN when failed).
-        metrics: every metric's mean over seeds.
+        metrics: every metric's mean over seeds and conditions.
         plan_ms: the median control update over all episodes' updates, in milliseconds.
         failure: why the trial failed, or None.
+        conditions: the metric's mean over seeds under each condition, by Condition.label.
     """
 
     value: float
     metrics: dict[str, float]
     plan_ms: float
     failure: str | None = None
+    conditions: dict[str, float] = field(default_factory=dict)
 
     @property
     def failed(self) -> bool:
@@ -81,12 +93,21 @@ def load_config_once(path: str | None) -> None:
     _LOADED_CONFIG_FILES.add(path)
 
 
-def run_seeded_episodes(spec: TrialSpec, values: dict[str, Any], seeds: range) -> list[EpisodeResult]:
-    """One episode per seed with `values` ({`kind.field`: value}) over the fixed ones; raises on failure."""
+def run_seeded_episodes(
+    spec: TrialSpec, values: dict[str, Any], seeds: range, condition: Condition | None = None
+) -> list[EpisodeResult]:
+    """One episode per seed with `values` ({`kind.field`: value}) over the fixed ones; raises on failure.
+
+    `condition` (None: `spec.conditions[0]`) sets the controller's control_freq and the latency.
+    """
     from judo.tuning.space import apply_values, default_configs
 
     load_config_once(spec.config_file)
+    condition = spec.conditions[0] if condition is None else condition
     configs = apply_values(default_configs(spec.task, spec.optimizer), {**spec.fixed, **values})
+    if condition.control_freq is not None:
+        configs = apply_values(configs, {"controller.control_freq": condition.control_freq})
+    latency = spec.latency if condition.latency_ms is None else condition.latency_ms / 1e3
     results = []
     for seed in seeds:
         with make_controller(
@@ -99,7 +120,7 @@ def run_seeded_episodes(spec: TrialSpec, values: dict[str, Any], seeds: range) -
         ) as controller:
             controller.task.config = configs["task"]
             plant = MujocoSystem.from_task(controller.task, seed)
-            results.append(run_episode(controller, plant, spec.duration, spec.latency, seed))
+            results.append(run_episode(controller, plant, spec.duration, latency, seed))
     return results
 
 
@@ -115,23 +136,66 @@ def episode_failure(result: EpisodeResult) -> str | None:
     return None
 
 
-def run_trial(spec: TrialSpec, values: dict[str, Any]) -> TrialOutcome:
-    """Run the trial's episodes and average `spec.metric` over seeds; never raises."""
+@dataclass
+class EpisodeOutcome:
+    """One episode of a trial, a Ray task of its own: seed `seed` under `spec.conditions[condition]`.
+
+    Attributes:
+        condition, seed: which episode it is.
+        metrics: the episode's metrics ({} when it failed before finishing).
+        update_ms: (num_updates,) wall time of each control update, in milliseconds.
+        failure: why the episode failed, or None.
+    """
+
+    condition: int
+    seed: int
+    metrics: dict[str, float]
+    update_ms: np.ndarray
+    failure: str | None = None
+
+
+def run_condition_seed(spec: TrialSpec, values: dict[str, Any], condition: int, seed: int) -> EpisodeOutcome:
+    """Run one episode of the trial (seed `seed` under condition number `condition`); never raises."""
     try:
-        results = run_seeded_episodes(spec, values, range(spec.seeds))
+        (result,) = run_seeded_episodes(spec, values, range(seed, seed + 1), spec.conditions[condition])
     except JudoError as err:
-        return TrialOutcome(math.nan, {}, math.nan, f"{type(err).__name__}: {err}")
+        return EpisodeOutcome(condition, seed, {}, np.zeros(0), f"{type(err).__name__}: {err}")
     except Exception as err:  # noqa: BLE001  (a user's task may raise anything; the study goes on)
         where = traceback.extract_tb(err.__traceback__)[-1]
-        return TrialOutcome(
-            math.nan, {}, math.nan, f"{type(err).__name__}: {err} ({Path(where.filename).name}:{where.lineno})"
-        )
-    names = list(dict.fromkeys(name for result in results for name in result.metrics))
-    metrics = {name: float(np.mean([result.metrics.get(name, np.nan) for result in results])) for name in names}
-    update_ms = np.concatenate([result.update_ms for result in results])
+        failure = f"{type(err).__name__}: {err} ({Path(where.filename).name}:{where.lineno})"
+        return EpisodeOutcome(condition, seed, {}, np.zeros(0), failure)
+    return EpisodeOutcome(condition, seed, result.metrics, np.asarray(result.update_ms), episode_failure(result))
+
+
+def score_trial(spec: TrialSpec, episodes: list[EpisodeOutcome]) -> TrialOutcome:
+    """The trial's outcome from all its episodes: each condition's mean of `spec.metric` over seeds,
+    aggregated by `spec.aggregate`; `metrics` are means over every episode. Failed when any episode failed."""
+    from judo.tuning.conditions import aggregate
+
+    labels = [condition.label for condition in spec.conditions]
+    episodes = sorted(episodes, key=lambda episode: (episode.condition, episode.seed))
+    for episode in episodes:
+        if episode.failure is not None:
+            where = f"{labels[episode.condition]}: " if len(labels) > 1 else ""
+            return TrialOutcome(math.nan, {}, math.nan, where + episode.failure)
+    names = list(dict.fromkeys(name for episode in episodes for name in episode.metrics))
+    metrics = {name: float(np.mean([episode.metrics.get(name, np.nan) for episode in episodes])) for name in names}
+    update_ms = np.concatenate([episode.update_ms for episode in episodes]) if episodes else np.zeros(0)
     plan_ms = float(np.median(update_ms)) if len(update_ms) else math.nan
-    failure = next((reason for result in results if (reason := episode_failure(result))), None)
-    value = metrics.get(spec.metric, math.nan)
-    if failure is None and not math.isfinite(value):
-        failure = f"metric {spec.metric!r} is {value}"
-    return TrialOutcome(value, metrics, plan_ms, failure)
+    per_condition = {
+        label: float(np.mean([e.metrics.get(spec.metric, np.nan) for e in episodes if e.condition == index]))
+        for index, label in enumerate(labels)
+    }
+    value = aggregate(list(per_condition.values()), spec.aggregate, spec.maximize, spec.cvar_alpha)
+    failure = None if math.isfinite(value) else f"metric {spec.metric!r} is {value}"
+    return TrialOutcome(value, metrics, plan_ms, failure, per_condition)
+
+
+def run_trial(spec: TrialSpec, values: dict[str, Any]) -> TrialOutcome:
+    """Run every episode of the trial here, one after another (a study runs each as its own Ray task); never raises."""
+    episodes = [
+        run_condition_seed(spec, values, condition, seed)
+        for condition in range(len(spec.conditions))
+        for seed in range(spec.seeds)
+    ]
+    return score_trial(spec, episodes)
