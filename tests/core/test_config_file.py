@@ -160,6 +160,7 @@ def test_an_unknown_optimizer_section_lists_all_among_the_valid_names(tmp_path):
 
 
 def test_a_per_optimizer_controller_section_applies_after_the_task_wide_one_and_to_that_optimizer_only(tmp_path):
+    judo.register_task("per_optimizer_task", *judo.get_registered_tasks()["cartpole"])  # overrides need a task
     path = write(
         tmp_path,
         """
@@ -177,14 +178,10 @@ def test_a_per_optimizer_controller_section_applies_after_the_task_wide_one_and_
     assert (cem.horizon, cem.control_freq) == (1.2, 40.0)
     assert make_config(judo.ControllerConfig, "per_optimizer_task").horizon == 1.2
     judo.load_config(write(tmp_path, "[controller_config_overrides.cartpole.ps]\nhorizon = 0.9\n"))
-    ps_controller = judo.make_controller("cartpole", "ps", num_workers=1)
-    cem_controller = judo.make_controller("cartpole", "cem", num_workers=1)
-    try:
+    with judo.make_controller("cartpole", "ps", num_workers=1) as ps_controller:
         assert ps_controller.config.horizon == 0.9
+    with judo.make_controller("cartpole", "cem", num_workers=1) as cem_controller:
         assert cem_controller.config.horizon == make_config(judo.ControllerConfig, "cartpole").horizon != 0.9
-    finally:
-        ps_controller.close()
-        cem_controller.close()
 
 
 @pytest.mark.parametrize(
