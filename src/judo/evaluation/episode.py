@@ -16,9 +16,11 @@ import numpy as np
 
 from judo.core.config import require
 from judo.core.controller import Controller
+from judo.core.estimator import Estimator
 from judo.core.task import EpisodeLog, Task
 from judo.runtime.closed_loop import ClosedLoop, Latency, check_latency
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
+from judo.runtime.sensing import SensedSystem
 from judo.runtime.system import MujocoSystem
 
 __all__ = ["EpisodeLogRecorder", "EpisodeResult", "Latency", "run_episode", "step_reward"]
@@ -87,31 +89,35 @@ class EpisodeLogRecorder:
 
 def run_episode(
     controller: Controller,
-    system: MujocoSystem,
+    system: "MujocoSystem | SensedSystem",
     duration: float,
     latency: Latency = 0.0,
     seed: int = 0,
     on_update: Callable[[float], None] | None = None,
     recorders: Iterable[Recorder] = (),
+    estimator: Estimator | None = None,
 ) -> EpisodeResult:
     """Drive the simulated plant `system` with `controller` for `duration` seconds of sim time.
 
     Args:
         controller: plans on its own task instance; seed it (make_controller(..., seed=...)) for a
             reproducible episode. Its plan is reset first.
-        system: the plant, from `MujocoSystem.from_task(controller.task, seed)`, at its start state.
+        system: the plant, from `MujocoSystem.from_task(controller.task, seed)` at its start state, or a
+            `SensedSystem` around it (rehearsed sensing: the controller sees only the measured sensors).
         duration: seconds of sim time; the episode is round(duration / plant timestep) steps.
         latency: seconds of sim time between a plan's state and its taking effect, or "measured".
         seed: recorded in the result.
         on_update: called after each control update with the plant time, e.g. to advance a progress bar.
         recorders: more recorders of every plan and step (e.g. a dataset writer), after the episode log.
+        estimator: between the reading and the plan (needed when the plant serves only sensors). The log
+            and the metrics hold the plant's true state either way.
     """
     require(0 < duration < np.inf, f"duration must be positive and finite, got {duration}")
     check_latency(latency)
     num_steps = max(1, round(duration / system.timestep))
     model = system.task.sim_model
     episode_log = EpisodeLogRecorder(controller.task, (model.nq, model.nv, model.nu, model.nsensordata), num_steps)
-    loop = ClosedLoop(controller, system, latency=latency, recorders=[episode_log, *recorders])
+    loop = ClosedLoop(controller, system, latency=latency, recorders=[episode_log, *recorders], estimator=estimator)
     loop.restart()
     updates = 0
     for _ in range(num_steps):
