@@ -1,26 +1,18 @@
 """One trial: the task x optimizer with the trial's settings, over seeded closed-loop episodes.
 
-The episodes are evaluate's (`judo.evaluation.episode.run_episode` on `MujocoSystem.from_task`), one per
-seed, with the same latency options. `run_trial` is what each Ray task runs; it never raises: an
-exception, a non-finite metric, a diverged simulation or an update with no finite reward makes the
+The episodes are evaluate's (`judo.evaluation.seeded.run_seeded_episode`), one per seed, with the same
+latency options. `run_trial` is what each Ray task runs; it never raises: an exception, a non-finite metric, a diverged simulation or an update with no finite reward makes the
 outcome failed, with the reason.
 """
 
 import math
-import traceback
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from judo.core.errors import JudoError
-from judo.core.registry import make_controller
-from judo.evaluation.episode import EpisodeResult, Latency, run_episode
-from judo.runtime.system import MujocoSystem
-
-_LOADED_CONFIG_FILES: set[str] = set()
-"""--config files already read in this process (a Ray worker runs many trials)."""
+from judo.evaluation.episode import EpisodeResult, Latency
+from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode
 
 
 @dataclass(frozen=True)
@@ -71,36 +63,19 @@ class TrialOutcome:
         return self.failure is not None
 
 
-def load_config_once(path: str | None) -> None:
-    """Read the user's --config file in this process, once (registering its classes and overrides)."""
-    if path is None or path in _LOADED_CONFIG_FILES:
-        return
-    from judo.core.config_file import load_config
-
-    load_config(path)
-    _LOADED_CONFIG_FILES.add(path)
-
-
 def run_seeded_episodes(spec: TrialSpec, values: dict[str, Any], seeds: range) -> list[EpisodeResult]:
-    """One episode per seed with `values` ({`kind.field`: value}) over the fixed ones; raises on failure."""
-    from judo.tuning.space import apply_values, default_configs
-
-    load_config_once(spec.config_file)
-    configs = apply_values(default_configs(spec.task, spec.optimizer), {**spec.fixed, **values})
-    results = []
-    for seed in seeds:
-        with make_controller(
-            spec.task,
-            spec.optimizer,
-            controller_config=configs["controller"],  # type: ignore[arg-type]
-            optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
-            num_workers=spec.num_workers,
-            seed=seed,
-        ) as controller:
-            controller.task.config = configs["task"]
-            plant = MujocoSystem.from_task(controller.task, seed)
-            results.append(run_episode(controller, plant, spec.duration, spec.latency, seed))
-    return results
+    """One episode per seed with `values` ({`kind.field`: value}) over the fixed ones, each by the one seeded
+    episode runner (`judo.evaluation.seeded.run_seeded_episode`); raises on failure."""
+    episode = EpisodeSpec(
+        spec.task,
+        spec.optimizer,
+        spec.duration,
+        spec.latency,
+        {**spec.fixed, **values},
+        spec.config_file,
+        num_workers=spec.num_workers,
+    )
+    return [run_seeded_episode(episode, seed) for seed in seeds]
 
 
 def episode_failure(result: EpisodeResult) -> str | None:
@@ -119,13 +94,8 @@ def run_trial(spec: TrialSpec, values: dict[str, Any]) -> TrialOutcome:
     """Run the trial's episodes and average `spec.metric` over seeds; never raises."""
     try:
         results = run_seeded_episodes(spec, values, range(spec.seeds))
-    except JudoError as err:
-        return TrialOutcome(math.nan, {}, math.nan, f"{type(err).__name__}: {err}")
     except Exception as err:  # noqa: BLE001  (a user's task may raise anything; the study goes on)
-        where = traceback.extract_tb(err.__traceback__)[-1]
-        return TrialOutcome(
-            math.nan, {}, math.nan, f"{type(err).__name__}: {err} ({Path(where.filename).name}:{where.lineno})"
-        )
+        return TrialOutcome(math.nan, {}, math.nan, failure_reason(err))
     names = list(dict.fromkeys(name for result in results for name in result.metrics))
     metrics = {name: float(np.mean([result.metrics.get(name, np.nan) for result in results])) for name in names}
     update_ms = np.concatenate([result.update_ms for result in results])
