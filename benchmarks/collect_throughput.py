@@ -22,8 +22,8 @@ from rich.console import Console
 from rich.table import Table
 
 from judo.collection.cli import CollectArgs, env_args
-from judo.collection.episode import CollectSpec, configs_in_force
 from judo.collection.run import collect
+from judo.evaluation.seeded import EpisodeSpec, configs_in_force
 from judo.tuning import cluster
 
 
@@ -46,7 +46,7 @@ class Args:
 def run(task: str, optimizer: str, workers: int, episodes: int, duration: float, out: Path) -> float:
     """Collect `episodes` episodes into `out` with `workers` at once; returns the wall seconds."""
     args = CollectArgs(task, optimizer, out, episodes=episodes, duration=duration, workers=workers)
-    spec = CollectSpec(task, optimizer, duration)
+    spec = EpisodeSpec(task, optimizer, duration)
     started = time.perf_counter()
     with contextlib.redirect_stdout(io.StringIO()):
         collect(spec, env_args(args, configs_in_force(spec)), SimpleNamespace(**vars(args)), "", workers)

@@ -11,8 +11,9 @@ import pytest
 
 from judo.collection.cli import main as collect_main
 from judo.collection.dataset import DatasetError, DatasetFile
-from judo.collection.episode import CollectSpec, collect_episode
+from judo.collection.episode import collect_episode
 from judo.core.registry import lookup_optimizer, lookup_task, make_config
+from judo.evaluation.seeded import EpisodeSpec
 
 h5py = pytest.importorskip("h5py")
 
@@ -32,7 +33,7 @@ def leap_cube_file(tmp_path_factory):
     path = tmp_path_factory.mktemp("collect") / "leap_cube.h5"
     dataset = DatasetFile(path, ENV_ARGS)
     for seed in (0, 1):
-        outcome = collect_episode(CollectSpec("leap_cube", "ps", 0.2), seed)
+        outcome = collect_episode(EpisodeSpec("leap_cube", "ps", 0.2), seed)
         assert outcome.failure is None
         dataset.write_episode(outcome.episode)
     return path
@@ -126,7 +127,7 @@ def test_a_failed_episode_is_recorded_with_its_reason_and_run_again_on_resume(tm
             raise ValueError("no metrics today")
 
     register_task("broken_metrics", BrokenMetrics, UprightConfig)
-    outcome = collect_episode(CollectSpec("broken_metrics", "ps", 0.05), 3)
+    outcome = collect_episode(EpisodeSpec("broken_metrics", "ps", 0.05), 3)
     assert outcome.episode is None and outcome.failure.startswith("ValueError: no metrics today (")
     dataset, tally = DatasetFile(tmp_path / "broken.h5", {"task": "broken_metrics"}), Tally()
     write_outcome(dataset, outcome, False, tally, "broken_metrics")
@@ -139,7 +140,7 @@ def test_a_failed_episode_is_recorded_with_its_reason_and_run_again_on_resume(tm
 def test_success_only_for_a_task_without_a_rule_says_what_to_add(tmp_path):
     from judo.collection.run import NoSuccessRuleError, Tally, write_outcome
 
-    outcome = collect_episode(CollectSpec("leap_cube", "ps", 0.05), 0)
+    outcome = collect_episode(EpisodeSpec("leap_cube", "ps", 0.05), 0)
     outcome.episode.success, outcome.episode.metrics = None, {"distance": 0.1}
     dataset = DatasetFile(tmp_path / "rule.h5", ENV_ARGS)
     with pytest.raises(NoSuccessRuleError) as error:

@@ -147,6 +147,8 @@ TABLE = [
     Row((*BAD_TUNE, *config("init_fails.toml")), 2, "cannot build the task"),
     # sizes, latencies and durations beyond their bounds
     Row((*EVALUATE, "--num-workers", "5000"), 2, "--num-workers must be an integer from 1 to 1024, got 5000"),
+    Row((*EVALUATE, "--workers", "0"), 2, "--workers must be an integer from 1 to 1024, got 0"),
+    Row((*EVALUATE, "--workers", "5000"), 2, "--workers must be an integer from 1 to 1024, got 5000"),
     Row((*BENCHMARK, "--num-workers", "5000"), 2, "--num-workers must be an integer from 1 to 1024, got 5000"),
     Row((*TUNE, "--workers", "5000"), 2, "--workers must be an integer from 1 to 1024, got 5000"),
     Row((*BENCHMARK[:-4], "--samples", str(10**12)), 2, "--samples must be an integer from 1 to 100000"),

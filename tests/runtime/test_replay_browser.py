@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from judo.collection.dataset import DatasetFile
-from judo.collection.episode import CollectSpec, collect_episode
+from judo.collection.episode import collect_episode
 from judo.collection.replay import Replay
+from judo.evaluation.seeded import EpisodeSpec
 
 pytest.importorskip("h5py")
 pytestmark = pytest.mark.browser
@@ -17,7 +18,7 @@ def replay(tmp_path, port):
     path = tmp_path / "cartpole.h5"
     dataset = DatasetFile(path, {"task": "cartpole", "optimizer": "ps", "plant_timestep": 0.01})
     for seed in (0, 1):
-        dataset.write_episode(collect_episode(CollectSpec("cartpole", "ps", 2.0), seed).episode)
+        dataset.write_episode(collect_episode(EpisodeSpec("cartpole", "ps", 2.0), seed).episode)
     replay = Replay(path, demo=1, host="127.0.0.1", port=port, speed=0.1)  # 20 s to play the 2 s episode
     replay.start()
     yield replay

@@ -136,8 +136,8 @@ def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo collect` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
     from judo.collection.dataset import import_h5py
-    from judo.collection.episode import CollectSpec, configs_in_force
     from judo.collection.run import collect
+    from judo.evaluation.seeded import EpisodeSpec, configs_in_force
 
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args_with_config_fields(
@@ -150,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
         import_ray("python -m judo collect", "collect")
         args.validate()
         config_file = None if args.config is None else str(args.config.resolve())
-        spec = CollectSpec(
+        spec = EpisodeSpec(
             args.task, args.optimizer, args.duration, args.episode_latency(), args.values(), config_file, args.backend
         )
         configs = configs_in_force(spec)

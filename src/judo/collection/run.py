@@ -12,9 +12,10 @@ from typing import Any
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from judo.collection.dataset import DatasetFile
-from judo.collection.episode import CollectSpec, EpisodeOutcome, collect_episode
+from judo.collection.episode import EpisodeOutcome, collect_episode
 from judo.core.errors import JudoError
 from judo.evaluation.cli import output_console, progress_console
+from judo.evaluation.seeded import EpisodeSpec
 
 SHOWN_FAILURES = 5
 """Failed seeds listed with their reasons at the end of a run (all of them are in the file)."""
@@ -71,7 +72,7 @@ def outcome_of(ray: Any, ref: Any, seed: int) -> EpisodeOutcome:
         return EpisodeOutcome(seed, None, f"Ray task failed: {type(err).__name__}: {err}")
 
 
-def collect(spec: CollectSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
+def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
     """Run the seeds of 0..args.episodes-1 missing from `args.out` and write them there; returns the exit status
     (130 after Ctrl-C, with the command that resumes printed)."""
     from judo.tuning import cluster

@@ -1,5 +1,6 @@
 """`python -m judo evaluate`: closed-loop episodes over seeds, the task's success metrics with 95% CIs."""
 
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -12,7 +13,7 @@ from rich.table import Table
 from judo.core.boundary import MAX_WORKERS, check_count, check_output_file
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
-from judo.core.registry import lookup_task, make_controller
+from judo.core.registry import lookup_task
 from judo.core.rollout import RolloutBackendName, check_rollout_backend
 from judo.evaluation.cli import (
     ControllerOverrides,
@@ -32,10 +33,10 @@ from judo.evaluation.cli import (
     task_config,
     write_json,
 )
-from judo.evaluation.episode import EpisodeResult, Latency, run_episode
+from judo.evaluation.episode import EpisodeResult, Latency
 from judo.evaluation.plot import check_plot_path, write_episode_plot
+from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.evaluation.stats import Summary, summarize
-from judo.runtime.system import MujocoSystem
 
 DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
@@ -70,6 +71,12 @@ class EvaluateArgs:
     """Rollout worker threads (cpu backend)."""
     backend: RolloutBackendName = "cpu"
     """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
+    workers: Annotated[int | None, tyro.conf.arg(metavar="K", help_behavior_hint="(default: in this process)")] = None
+    """Run the seeds as Ray tasks, K at once, on a local Ray with K CPUs (each on one rollout thread unless
+    --num-workers is given); the metrics are those of the in-process run. Needs pip install 'judo[tune]'."""
+    address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(optional)")] = None
+    """Run the seeds as Ray tasks on a running Ray cluster: auto (the one `ray start --head` started on this
+    machine) or ray://HOST:10001; with --workers, at most K at once."""
     json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also write each episode's metrics and the summary to this JSON file."""
     plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
@@ -111,6 +118,20 @@ class EvaluateArgs:
             if group is not None
             for name, value in given_fields(group).items()
         }
+
+    def episode_spec(self) -> EpisodeSpec:
+        """What determines each seed's episode, for the one seeded episode runner here or on Ray."""
+        on_ray = self.workers is not None or self.address is not None
+        return EpisodeSpec(
+            self.task,
+            self.optimizer,
+            self.duration,
+            self.episode_latency(),
+            self.changed_fields(),
+            None if self.config is None else str(self.config.resolve()),
+            self.backend,
+            (self.num_workers or 1) if on_ray else self.num_workers,
+        )
 
     def episode_latency(self) -> Latency:
         """The latency `run_episode` takes: seconds, or "measured"."""
@@ -154,8 +175,9 @@ def episode_record(result: EpisodeResult) -> dict[str, Any]:
 
 
 def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
-    """Run one episode per seed; advance `progress` (if given) by sim seconds."""
+    """Run one episode per seed in this process, one after the other; advance `progress` (if given) by sim seconds."""
     bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
+    spec = args.episode_spec()
     results = []
     for seed in range(args.seeds):
 
@@ -163,26 +185,31 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
             if progress is not None and bar is not None:
                 progress.update(bar, completed=seed * args.duration + now, description=f"seed {seed}")
 
-        with make_controller(
-            args.task,
-            args.optimizer,
-            controller_config=controller_config(args.task, args.controller, args.optimizer),
-            num_workers=args.num_workers,
-            seed=seed,
-            backend=args.backend,
-        ) as controller:
-            plant = MujocoSystem.from_task(controller.task, seed)
-            results.append(run_episode(controller, plant, args.duration, args.episode_latency(), seed, show))
+        results.append(run_seeded_episode(spec, seed, on_update=show))
     return results
 
 
+def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, str]]]:
+    """(the episodes, by seed; (seed, reason) of those that failed): in this process, or as Ray tasks with
+    --workers or --address (where a failed seed does not stop the others)."""
+    if args.workers is not None or args.address is not None:
+        from judo.evaluation.on_ray import evaluate_on_ray
+
+        return evaluate_on_ray(args.episode_spec(), args.seeds, args.workers, args.address)
+    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
+    with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
+        return evaluate(args, progress), []
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
+    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, or 1 when a seed failed on Ray; exits
+    with status 2 on bad arguments."""
     args = parse_args_with_config_fields(
         EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing()
     )
     try:
         check_count("--num-workers", args.num_workers, MAX_WORKERS)
+        check_count("--workers", args.workers, MAX_WORKERS)
         check_output_file("--json", args.json)
         check_output_file("--plot", args.plot)
         apply_config_file(args.config)
@@ -190,9 +217,11 @@ def main(argv: list[str] | None = None) -> int:
         set_field_overrides(
             args.task, args.optimizer, getattr(args, "optimizer_config", None), getattr(args, "task_config", None)
         )
-        columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
-        with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
-            results = evaluate(args, progress)
+        results, failures = run_seeds(args)
+        for seed, reason in failures:
+            print(f"seed {seed} failed: {reason}", file=sys.stderr)
+        if not results:
+            return 1
         summaries = summarize_metrics(results)
         update_ms = np.concatenate([result.update_ms for result in results])
         title = (
@@ -234,4 +263,4 @@ def main(argv: list[str] | None = None) -> int:
             console.print(f"wrote {args.plot}")
     except JudoError as err:
         fail(str(err))
-    return 0
+    return 1 if failures else 0

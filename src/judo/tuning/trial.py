@@ -1,28 +1,21 @@
 """One trial: the task x optimizer with the trial's settings, over seeded closed-loop episodes.
 
-The episodes are evaluate's (`judo.evaluation.episode.run_episode` on `MujocoSystem.from_task`), one per
-seed and condition (tuning/conditions.py), with the same latency options. `run_condition_seed` is what
+The episodes are evaluate's (`judo.evaluation.seeded.run_seeded_episode`, the one seeded episode runner), one
+per seed and condition (tuning/conditions.py), with the same latency options. `run_condition_seed` is what
 each Ray task runs and `score_trial` combines a trial's episodes; neither raises: an exception, a
 non-finite metric, a diverged simulation or an update with no finite reward makes the outcome failed,
 with the reason.
 """
 
 import math
-import traceback
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from judo.core.errors import JudoError
-from judo.core.registry import make_controller
-from judo.evaluation.episode import EpisodeResult, Latency, run_episode
-from judo.runtime.system import MujocoSystem
+from judo.evaluation.episode import EpisodeResult, Latency
+from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode
 from judo.tuning.conditions import Aggregate, Condition
-
-_LOADED_CONFIG_FILES: set[str] = set()
-"""--config files already read in this process (a Ray worker runs many trials)."""
 
 
 @dataclass(frozen=True)
@@ -83,45 +76,23 @@ class TrialOutcome:
         return self.failure is not None
 
 
-def load_config_once(path: str | None) -> None:
-    """Read the user's --config file in this process, once (registering its classes and overrides)."""
-    if path is None or path in _LOADED_CONFIG_FILES:
-        return
-    from judo.core.config_file import load_config
-
-    load_config(path)
-    _LOADED_CONFIG_FILES.add(path)
-
-
 def run_seeded_episodes(
     spec: TrialSpec, values: dict[str, Any], seeds: range, condition: Condition | None = None
 ) -> list[EpisodeResult]:
-    """One episode per seed with `values` ({`kind.field`: value}) over the fixed ones; raises on failure.
+    """One episode per seed with `values` ({`kind.field`: value}) over the fixed ones, each by the one seeded
+    episode runner (`judo.evaluation.seeded.run_seeded_episode`); raises on failure.
 
     `condition` (None: `spec.conditions[0]`) sets the controller's control_freq and the latency.
     """
-    from judo.tuning.space import apply_values, default_configs
-
-    load_config_once(spec.config_file)
     condition = spec.conditions[0] if condition is None else condition
-    configs = apply_values(default_configs(spec.task, spec.optimizer), {**spec.fixed, **values})
+    updates = {**spec.fixed, **values}
     if condition.control_freq is not None:
-        configs = apply_values(configs, {"controller.control_freq": condition.control_freq})
+        updates["controller.control_freq"] = condition.control_freq
     latency = spec.latency if condition.latency_ms is None else condition.latency_ms / 1e3
-    results = []
-    for seed in seeds:
-        with make_controller(
-            spec.task,
-            spec.optimizer,
-            controller_config=configs["controller"],  # type: ignore[arg-type]
-            optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
-            num_workers=spec.num_workers,
-            seed=seed,
-        ) as controller:
-            controller.task.config = configs["task"]
-            plant = MujocoSystem.from_task(controller.task, seed)
-            results.append(run_episode(controller, plant, spec.duration, latency, seed))
-    return results
+    episode = EpisodeSpec(
+        spec.task, spec.optimizer, spec.duration, latency, updates, spec.config_file, num_workers=spec.num_workers
+    )
+    return [run_seeded_episode(episode, seed) for seed in seeds]
 
 
 def episode_failure(result: EpisodeResult) -> str | None:
@@ -158,12 +129,8 @@ def run_condition_seed(spec: TrialSpec, values: dict[str, Any], condition: int, 
     """Run one episode of the trial (seed `seed` under condition number `condition`); never raises."""
     try:
         (result,) = run_seeded_episodes(spec, values, range(seed, seed + 1), spec.conditions[condition])
-    except JudoError as err:
-        return EpisodeOutcome(condition, seed, {}, np.zeros(0), f"{type(err).__name__}: {err}")
     except Exception as err:  # noqa: BLE001  (a user's task may raise anything; the study goes on)
-        where = traceback.extract_tb(err.__traceback__)[-1]
-        failure = f"{type(err).__name__}: {err} ({Path(where.filename).name}:{where.lineno})"
-        return EpisodeOutcome(condition, seed, {}, np.zeros(0), failure)
+        return EpisodeOutcome(condition, seed, {}, np.zeros(0), failure_reason(err))
     return EpisodeOutcome(condition, seed, result.metrics, np.asarray(result.update_ms), episode_failure(result))
 
 

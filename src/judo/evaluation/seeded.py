@@ -1,0 +1,131 @@
+"""The one seeded episode runner of evaluate, tune and collect: seed `seed`'s controller and plant, run.
+
+`run_seeded_episode(spec, seed)` builds the controller (`make_controller(..., seed=seed)`) with the configs
+in force and the plant (`MujocoSystem.from_task(controller.task, seed)`), and runs `run_episode` on them.
+Everything that determines the episode is in an `EpisodeSpec` of plain values, so the same call runs in
+this process (evaluate without --workers) or as a Ray task on another machine (evaluate --workers, the
+episodes of a tune trial, collect), and gives the same episode bit for bit wherever it runs.
+"""
+
+import traceback
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from judo.core.config import Config
+from judo.core.controller import Controller
+from judo.core.errors import JudoError
+from judo.evaluation.episode import EpisodeResult, Latency, run_episode
+from judo.runtime.records import Recorder
+from judo.runtime.system import MujocoSystem
+
+_LOADED_CONFIG_FILES: set[str] = set()
+"""--config files already read in this process (a Ray worker runs many episodes)."""
+
+RecorderFactory = Callable[[Controller, MujocoSystem], Iterable[Recorder]]
+"""Makes an episode's extra recorders once its controller and plant exist (they size their buffers from them)."""
+
+
+@dataclass(frozen=True)
+class EpisodeSpec:
+    """What determines a seeded episode, apart from its seed.
+
+    Attributes:
+        task, optimizer: registered names.
+        duration: seconds of sim time.
+        latency: seconds of sim time between a plan's reading and its taking effect, or "measured".
+        values: config fields changed from the pair's defaults, {"controller.horizon": 1.0, "optimizer.sigma": ...}.
+        config_file: the user's --config file (read once per process), or None.
+        backend: rollout backend, "cpu" or "warp".
+        num_workers: rollout threads (None: one per core; 1 where episodes run in parallel, so they do not
+            fight for cores).
+    """
+
+    task: str
+    optimizer: str
+    duration: float
+    latency: Latency = 0.0
+    values: dict[str, Any] = field(default_factory=dict)
+    config_file: str | None = None
+    backend: str = "cpu"
+    num_workers: int | None = 1
+
+
+def load_config_once(path: str | None) -> None:
+    """Read the user's --config file in this process, once (registering its classes and overrides)."""
+    if path is None or path in _LOADED_CONFIG_FILES:
+        return
+    from judo.core.config_file import load_config
+
+    load_config(path)
+    _LOADED_CONFIG_FILES.add(path)
+
+
+def configs_in_force(spec: EpisodeSpec) -> dict[str, Config]:
+    """{"controller", "optimizer", "task"}: the pair's registered configs with `spec.values` applied; reads
+    `spec.config_file` first. ConfigError (or SearchSpaceError for an unknown field) if they do not fit."""
+    from judo.core.registry import default_configs
+    from judo.tuning.space import apply_values
+
+    load_config_once(spec.config_file)
+    return apply_values(default_configs(spec.task, spec.optimizer), spec.values)  # type: ignore[arg-type, return-value]
+
+
+def run_seeded_episode(
+    spec: EpisodeSpec,
+    seed: int,
+    recorders: RecorderFactory | None = None,
+    on_update: Callable[[float], None] | None = None,
+) -> EpisodeResult:
+    """Run seed `seed`'s episode of `spec`; raises what the task, optimizer or configs raise.
+
+    Args:
+        spec: the task, optimizer, configs, duration, latency, backend and rollout threads.
+        seed: seeds the controller's generators and the plant's (`MujocoSystem.from_task`).
+        recorders: called with the controller and the plant before the episode; its recorders get every
+            plan and step (e.g. collect's dataset recorder).
+        on_update: called after each control update with the plant time (a progress bar).
+    """
+    from judo.core.registry import make_controller
+
+    configs = configs_in_force(spec)
+    with make_controller(
+        spec.task,
+        spec.optimizer,
+        controller_config=configs["controller"],  # type: ignore[arg-type]
+        optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
+        num_workers=spec.num_workers,
+        seed=seed,
+        backend=spec.backend,
+    ) as controller:
+        controller.task.config = configs["task"]
+        system = MujocoSystem.from_task(controller.task, seed)
+        extra = list(recorders(controller, system)) if recorders is not None else []
+        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra)
+
+
+def failure_reason(err: BaseException) -> str:
+    """An exception as the one-line reason an episode failed: its type and message, and where for an
+    exception that is not judo's own (e.g. "ZeroDivisionError: ... (my_task.py:12)")."""
+    if isinstance(err, JudoError):
+        return f"{type(err).__name__}: {err}"
+    where = traceback.extract_tb(err.__traceback__)[-1]
+    return f"{type(err).__name__}: {err} ({Path(where.filename).name}:{where.lineno})"
+
+
+@dataclass
+class SeedOutcome:
+    """What one Ray task of evaluate sends back: seed `seed`'s episode (with its log), or why it failed."""
+
+    seed: int
+    result: EpisodeResult | None
+    failure: str | None = None
+
+
+def evaluate_seed(spec: EpisodeSpec, seed: int) -> SeedOutcome:
+    """`run_seeded_episode(spec, seed)` as a Ray task: never raises, a failure comes back with its reason."""
+    try:
+        return SeedOutcome(seed, run_seeded_episode(spec, seed))
+    except Exception as err:  # noqa: BLE001  (a user's task may raise anything; the other seeds go on)
+        return SeedOutcome(seed, None, failure_reason(err))
