@@ -16,18 +16,15 @@ import tyro
 from judo.collection.model_info import config_dict, model_sha256
 from judo.core.config import Config, require, require_between
 from judo.core.errors import JudoError
-from judo.core.rollout import RolloutBackendName, check_rollout_backend
+from judo.core.rollout import RolloutBackendName
 from judo.evaluation.cli import (
     ControllerOverrides,
-    check_names,
-    controller_config,
+    check_episode_args,
     episode_latency,
     fail,
     given_fields,
     name_listing,
-    optimizer_config,
     parse_args_with_config_fields,
-    task_config,
 )
 from judo.evaluation.episode import Latency
 
@@ -75,21 +72,10 @@ class CollectArgs:
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range or a name that is not registered."""
-        check_names([self.task], [self.optimizer])
+        check_episode_args(self)
         require_between("--episodes", self.episodes, 1, 10_000_000)
-        require_between("--duration", self.duration, 0, 86_400.0, " s", above=True)
-        require(
-            self.latency_ms is None or self.latency == "none",
-            f"give either --latency {self.latency} or --latency-ms {self.latency_ms}, not both",
-        )
-        if self.latency_ms is not None:
-            require_between("--latency-ms", self.latency_ms, 0, 60_000.0)
         require(self.workers is None or self.workers >= 1, f"--workers must be at least 1, got {self.workers}")
         require(self.out.suffix in (".h5", ".hdf5"), f"--out must name an .h5 or .hdf5 file, got {str(self.out)!r}")
-        check_rollout_backend(self.backend)
-        controller_config(self.task, self.controller)
-        optimizer_config(self.task, self.optimizer, getattr(self, "optimizer_config", None))
-        task_config(self.task, getattr(self, "task_config", None))
 
     def episode_latency(self) -> Latency:
         """The latency `run_episode` takes: seconds, or "measured"."""

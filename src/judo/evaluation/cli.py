@@ -12,7 +12,8 @@ import numpy as np
 import tyro
 from rich.console import Console
 
-from judo.core.config import Config, field_types, with_updates
+from judo.core.backend import check_rollout_backend
+from judo.core.config import Config, field_types, require, require_between, with_updates
 from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
 from judo.core.field_docs import field_docs
@@ -225,3 +226,21 @@ def episode_latency(latency: str, latency_ms: float | None) -> Latency:
 def latency_label(latency: str, latency_ms: float | None) -> str:
     """How those flags' latency reads in titles and JSON: "none", "measured" or "25 ms"."""
     return f"{latency_ms:g} ms" if latency_ms is not None else latency
+
+
+def check_episode_args(args: Any) -> None:
+    """The checks every command that runs episodes shares (evaluate, collect): registered names, the
+    duration, the latency flags, the backend, and the --controller, --optimizer-config and --task-config
+    fields against the pair's configs. Raises a JudoError saying which argument is wrong."""
+    check_names([args.task], [args.optimizer])
+    require_between("--duration", args.duration, 0, 86_400.0, " s", above=True)
+    require(
+        args.latency_ms is None or args.latency == "none",
+        f"give either --latency {args.latency} or --latency-ms {args.latency_ms}, not both",
+    )
+    if args.latency_ms is not None:
+        require_between("--latency-ms", args.latency_ms, 0, 60_000.0)
+    check_rollout_backend(args.backend)
+    controller_config(args.task, args.controller, args.optimizer)
+    optimizer_config(args.task, args.optimizer, getattr(args, "optimizer_config", None))
+    task_config(args.task, getattr(args, "task_config", None))

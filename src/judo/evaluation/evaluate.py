@@ -14,23 +14,20 @@ from judo.core.boundary import MAX_WORKERS, check_count, check_output_file
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import lookup_task
-from judo.core.rollout import RolloutBackendName, check_rollout_backend
+from judo.core.rollout import RolloutBackendName
 from judo.evaluation.cli import (
     ControllerOverrides,
     apply_config_file,
-    check_names,
-    controller_config,
+    check_episode_args,
     episode_latency,
     fail,
     given_fields,
     latency_label,
     name_listing,
-    optimizer_config,
     output_console,
     parse_args_with_config_fields,
     progress_console,
     set_field_overrides,
-    task_config,
     write_json,
 )
 from judo.evaluation.episode import EpisodeResult, Latency
@@ -88,25 +85,14 @@ class EvaluateArgs:
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
-        check_names([self.task], [self.optimizer])
+        check_episode_args(self)
         require_between("--seeds", self.seeds, 1, 10_000)
-        require_between("--duration", self.duration, 0, 86_400.0, " s", above=True)
-        require(
-            self.latency_ms is None or self.latency == "none",
-            f"give either --latency {self.latency} or --latency-ms {self.latency_ms}, not both",
-        )
-        if self.latency_ms is not None:
-            require_between("--latency-ms", self.latency_ms, 0, 60_000.0)
         require(
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
         )
         if self.plot is not None:
             check_plot_path(self.plot)
-        check_rollout_backend(self.backend)
-        controller_config(self.task, self.controller)
-        optimizer_config(self.task, self.optimizer, getattr(self, "optimizer_config", None))
-        task_config(self.task, getattr(self, "task_config", None))
 
     def changed_fields(self) -> dict[str, Any]:
         """Every config field given on the command line, as {"controller.horizon": 1.0, "optimizer.sigma": 0.3, ...}."""
