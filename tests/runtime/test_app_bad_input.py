@@ -153,3 +153,16 @@ def test_a_user_system_that_raises_is_reported_and_the_app_recovers(wait_until, 
         assert np.abs(system.last_action).max() <= 1.0  # cartpole's ctrlrange
     finally:
         app.stop()
+
+
+def test_a_goal_move_to_a_non_finite_pose_is_refused_and_the_goal_stays():
+    app = judo.App("particle", "ps", gui=False, seed=0, num_workers=1)
+    goal = app.session.simulated.task.data.mocap_pos[0].copy()
+    for position, quat in (([np.nan, 0, 0], None), ([0, 0, 0], [0, 0, 0, 0]), ([0, np.inf, 0], [1, 0, 0, 0])):
+        with pytest.raises(judo.JudoError, match="must be finite"):
+            app.move_goal(0, np.array(position, dtype=float), None if quat is None else np.array(quat, dtype=float))
+    with pytest.raises(judo.JudoError, match="a position needs 3 numbers"):
+        app.move_goal(0, np.zeros(2))
+    app.move_goal(0, np.array([0.1, 0.2, 0.0]))  # a finite pose is queued for the plant
+    assert np.array_equal(app.session.simulated.task.data.mocap_pos[0], goal)  # not applied before the loops run
+    app.session.close()

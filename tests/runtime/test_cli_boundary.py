@@ -44,6 +44,13 @@ class RewardFails(Cartpole):
         raise ZeroDivisionError("reward blew up")
 
 
+class RewardFailsBelow(Cartpole):
+    def reward(self, states, sensors, controls, config, *args, **kwargs):
+        if config.w_vertical < 3.0:
+            raise ValueError("w_vertical too low for this test")
+        return super().reward(states, sensors, controls, config, *args, **kwargs)
+
+
 class RewardStrings(Cartpole):
     def reward(self, states, *args, **kwargs):
         return np.array(["x"] * states.shape[0])
@@ -60,6 +67,7 @@ FILES: dict[str, str | bytes] = {
     "config_fails.toml": custom_task("judo.tasks.cartpole.Cartpole", "user_classes.BadConfig"),
     "reward_fails.toml": custom_task("user_classes.RewardFails"),
     "reward_strings.toml": custom_task("user_classes.RewardStrings"),
+    "reward_fails_above.toml": custom_task("user_classes.RewardFailsBelow"),
     "bigint.toml": "[task_config_overrides.cartpole]\nw_vertical = " + "9" * 400 + "\n",
     "unknown_task.toml": "[controller_config_overrides.no_such_task]\nhorizon = 1.0\n",
     "binary.toml": b"\x00\x01\x02binary\xff\xfe",
@@ -151,6 +159,23 @@ TABLE = [
     Row((*EVALUATE, "--workers", "5000"), 2, "--workers must be an integer from 1 to 1024, got 5000"),
     Row((*BENCHMARK, "--num-workers", "5000"), 2, "--num-workers must be an integer from 1 to 1024, got 5000"),
     Row((*TUNE, "--workers", "5000"), 2, "--workers must be an integer from 1 to 1024, got 5000"),
+    Row(  # the defaults pass the check episode; every grid trial's w_vertical makes the reward raise
+        (
+            *BAD_TUNE,
+            *config("reward_fails_above.toml"),
+            "--sampler",
+            "grid",
+            "--params",
+            "task.w_vertical=1:2",
+            "--workers",
+            "1",
+            "--latency-ms",
+            "0",
+        ),
+        1,
+        "every trial failed; the first reason: ValueError: w_vertical too low for this test",
+        one_line=False,
+    ),
     Row((*BENCHMARK[:-4], "--samples", str(10**12)), 2, "--samples must be an integer from 1 to 100000"),
     Row((*EVALUATE, "--latency-ms", "-1"), 2, "--latency-ms must be between 0 and 60000.0, got -1.0"),
     Row((*TUNE, "--latency-ms", "-1"), 2, "--latency-ms must be between 0 and 60000.0, got -1.0"),

@@ -127,9 +127,15 @@ class AppCommands(AppEventLoop):
         nmocap = plant.task.sim_model.nmocap
         if not 0 <= index < nmocap:
             raise JudoError(f"goal index must be in [0, {nmocap}), got {index}")
-        with self._lock:
+        try:
+            moved = np.array(position, dtype=float).reshape(3)
             turn = None if quat is None else np.array(quat, dtype=float).reshape(4)
-            self._goal_moves[index] = (np.array(position, dtype=float).reshape(3), turn)
+        except (TypeError, ValueError) as err:
+            raise JudoError(f"goal {index}: a position needs 3 numbers and a quat 4: {err}") from None
+        if not np.isfinite(moved).all() or (turn is not None and not (np.isfinite(turn).all() and turn.any())):
+            raise JudoError(f"goal {index} not moved: position {moved.tolist()} and quat must be finite (quat not 0)")
+        with self._lock:
+            self._goal_moves[index] = (moved, turn)
 
     def switch_task(self, task: str) -> None:
         """Use the registered task `task` from the next cycle, with its default configs."""

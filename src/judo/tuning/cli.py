@@ -282,6 +282,11 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
         if connected:
             cluster.stop_ray()
     write_outputs(args, study, objective, space, spec, out, time.perf_counter() - started, command)
+    finished = studies.finished_trials(study)
+    if finished and all(trial.user_attrs.get("failure") for trial in finished):
+        reason = finished[0].user_attrs["failure"]
+        print(f"python -m judo tune: every trial failed; the first reason: {reason}", file=sys.stderr)
+        return 1
     return 0
 
 
