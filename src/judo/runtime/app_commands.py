@@ -13,6 +13,7 @@ import numpy as np
 from judo.core.config import Config, with_updates
 from judo.core.controller import check_configs
 from judo.core.errors import ConfigError, JudoError
+from judo.core.estimator import EstimatorConfig
 from judo.core.registry import CONFIG_KINDS, ConfigKind, default_configs, lookup_optimizer, lookup_task
 from judo.runtime.event_loop import AppEventLoop
 from judo.runtime.watchdog import PausableClock
@@ -86,6 +87,28 @@ class AppCommands(AppEventLoop):
                 self._external_edits += 1
             if self._recording is not None:
                 self._recording.on_config(kind, updated)
+        return updated
+
+    def update_estimator_config(
+        self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+    ) -> EstimatorConfig:
+        """Validate `updates` ({field: value}) to the running estimator's config and use it from its next
+        update. Returns the new config. Raises ConfigError, keeping the config before, for an unknown field
+        or a bad value, and JudoError when no estimator runs or the session changed (`generation`)."""
+        with self._lock:
+            session = self._session
+            if generation is not None and generation != session.generation:
+                raise ConfigError("the task or optimizer changed since this edit was made; it was not applied")
+            estimator = session.closed_loop.estimator
+            if estimator is None:
+                raise JudoError(
+                    "no estimator runs: the app plans from the plant's full state; start it with "
+                    "estimator='ekf' (or observe='sensors') to have one"
+                )
+            updated = with_updates(estimator.config, updates)
+            estimator.config = updated  # read by the estimator at its next update, on the plant's thread
+            if not from_gui:
+                self._external_edits += 1
         return updated
 
     def reset_configs(self) -> None:

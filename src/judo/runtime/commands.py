@@ -18,6 +18,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from judo.core.config import Config
+from judo.core.estimator import EstimatorConfig
 from judo.core.registry import CONFIG_KINDS, ConfigKind
 from judo.runtime.session import Session
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
@@ -107,6 +108,13 @@ class AppPort(Protocol):
         self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
     ) -> Config:
         """Validate {field: value} `updates` to the `kind` config and queue it; raises JudoError if refused."""
+        ...
+
+    def update_estimator_config(
+        self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+    ) -> EstimatorConfig:
+        """Validate {field: value} `updates` to the running estimator's config (`session.closed_loop.estimator`)
+        and use it from its next update; raises JudoError if refused or no estimator runs."""
         ...
 
     def reset_configs(self) -> None:

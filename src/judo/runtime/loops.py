@@ -16,6 +16,7 @@ import functools
 import logging
 import threading
 import time
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from judo.core.config import Config
@@ -24,7 +25,7 @@ from judo.core.errors import JudoError
 from judo.core.registry import ConfigKind
 from judo.core.workers import DaemonThreadPool
 from judo.runtime.plant_loop import PlantLoop
-from judo.runtime.session import Session, build_session
+from judo.runtime.session import Sensing, Session, build_session
 from judo.runtime.snapshots import PlanSnapshot
 from judo.runtime.system import System, SystemState
 
@@ -60,6 +61,7 @@ class AppLoops(PlantLoop):
     _executor: DaemonThreadPool
     _user_system: System | None
     _seed: int | None
+    _sensing: Sensing
     _num_workers: int | None
     backend: str
     system_call_limit: float
@@ -204,9 +206,12 @@ class AppLoops(PlantLoop):
             with self._lock:
                 controller_config, task_config = self._configs["controller"], self._configs["task"]
             system = old.system
+            estimator = old.closed_loop.estimator  # its live config goes on with the running plant
+            sensing = self._sensing if estimator is None else replace(self._sensing, estimator_config=estimator.config)
         else:
             controller_config = task_config = None
             system = self._user_system
+            sensing = self._sensing
         make = functools.partial(
             build_session,
             task,
@@ -220,6 +225,7 @@ class AppLoops(PlantLoop):
             backend=self.backend,
             clock=self._session.closed_loop.clock,
             on_watchdog=self._on_watchdog,
+            sensing=sensing,
         )
 
         def build() -> Session:
