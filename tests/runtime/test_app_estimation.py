@@ -62,11 +62,18 @@ def test_full_state_runs_no_estimator_and_publishes_no_truth(wait_until):
         app.stop()
 
 
-def test_a_named_estimator_runs_on_full_state_and_its_config_is_used():
+def test_a_named_estimator_and_its_config_are_used_and_one_that_cannot_read_the_plant_refused():
     config = EKFConfig(noise_jointpos=0.02)
-    app = App("cartpole", gui=False, seed=0, num_workers=1, estimator="ekf", estimator_config=config)
-    assert isinstance(app.session.system, MujocoSystem)
+    app = sensed_app(estimator="ekf", estimator_config=config)
     assert app.session.closed_loop.estimator.config is config
+    app = App("cartpole", gui=False, seed=0, num_workers=1, estimator="state")  # the pass-through
+    assert app.session.estimator_name == "state" and isinstance(app.session.system, MujocoSystem)
+    with pytest.raises(
+        ConfigError, match="the 'ekf' estimator cannot run on this plant's readings: .*observe='sensors'"
+    ):
+        App("cartpole", gui=False, estimator="ekf")  # a full-state plant has no sensor readings to fuse
+    with pytest.raises(ConfigError, match="the 'state' estimator cannot run on this plant's readings"):
+        sensed_app(estimator="state")
 
 
 def test_a_users_sensors_only_system_gets_the_ekf_by_default():
@@ -122,6 +129,39 @@ def test_switches_keep_the_sensing_and_the_live_estimator_config(wait_until):
         app.stop()
 
 
+def test_switching_the_estimator_rebuilds_the_session_on_the_running_plant(wait_until):
+    app = App("cartpole", "mppi", gui=False, seed=0, num_workers=1)
+    with pytest.raises(UnknownNameError, match="valid estimators are: ekf, state"):
+        app.switch_estimator("nope")
+    with pytest.raises(ConfigError, match="the 'ekf' estimator cannot run on this plant's readings"):
+        app.switch_estimator("ekf")
+    app.start()
+    try:
+        plant = app.session.system
+        app.switch_estimator("state")
+        wait_until(lambda: app.session.estimator_name == "state", timeout=30, what="the estimator switch")
+        assert app.session.system is plant and app.session.generation == 1
+        assert app.status.message.startswith("switched to cartpole with mppi and the state estimator")
+        app.switch_estimator(None)
+        wait_until(lambda: app.session.closed_loop.estimator is None, timeout=30, what="the estimator removed")
+    finally:
+        app.stop()
+    sensed = sensed_app()
+    sensed.session.closed_loop.read()
+    with pytest.raises(JudoError, match="cannot plan without an estimator"):
+        sensed.switch_estimator(None)
+    with pytest.raises(ConfigError, match="the 'state' estimator cannot run"):
+        sensed.switch_estimator("state")
+    sensed.start()
+    try:
+        sensed.update_estimator_config({"noise_jointpos": 0.02})
+        sensed.switch_estimator("ekf")  # the one running: restarted, its tuned config kept
+        wait_until(lambda: sensed.session.generation == 1, timeout=30, what="the estimator switch")
+        assert sensed.session.closed_loop.estimator.config.noise_jointpos == 0.02
+    finally:
+        sensed.stop()
+
+
 def test_the_gui_draws_the_estimate_as_a_ghost_with_its_panel_and_error_chart(port, wait_until):
     app = App("cartpole", "mppi", port=port, seed=0, num_workers=1, **SENSING)
     app.start()
@@ -146,5 +186,6 @@ def test_the_gui_draws_the_estimate_as_a_ghost_with_its_panel_and_error_chart(po
         wait_until(lambda: len(gui.plots.estimation.data[0]) >= 3, what="points on the estimation-error chart")
         gui.estimator_panel._on_edit({"noise_jointpos": 0.03})  # what a slider's edit calls
         assert app.session.closed_loop.estimator.config.noise_jointpos == 0.03
+        assert gui.controls.estimator.value == "ekf"
     finally:
         app.stop()

@@ -2,6 +2,7 @@
 true one and follows the estimate, and the estimation-error chart updates. Screenshots go to test-artifacts/."""
 
 import io
+import re
 
 import mujoco
 import numpy as np
@@ -88,5 +89,14 @@ def test_the_ghost_follows_the_estimate_and_the_error_chart_updates(sensed_app, 
         assert before != after
         legend = chart.locator(".u-legend").inner_text()
         assert "position" in legend and "velocity" in legend
+
+        # the estimator dropdown: "state" cannot read encoders-only readings, so it is refused and put back
+        label = page.locator("label", has_text=re.compile("^estimator$")).first
+        dropdown = page.locator(f'[id="{label.get_attribute("for")}"]')
+        dropdown.click(force=True)
+        page.get_by_role("option", name="state", exact=True).click(force=True)
+        wait_until(lambda: "estimator not switched" in app.status.message, timeout=30, what="the refusal")
+        wait_until(lambda: gui.controls.estimator.value == "ekf", what="the dropdown put back")
+        assert app.session.generation == 0 and app.session.estimator_name == "ekf"
     finally:
         page.close()

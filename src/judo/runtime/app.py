@@ -163,6 +163,7 @@ class App(AppCommands):
         self._pending: dict[ConfigKind, Config] = {}
         self._external_edits = 0
         self._switch_request: tuple[str, str] | None = None
+        self._rebuild_requested = False
         self._reset_system = self._reset_controller = False
         self._paused = False
         self._clock.resume()

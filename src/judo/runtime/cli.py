@@ -102,7 +102,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Parse `argv` (default: sys.argv[1:]), run the app, and return the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        task, optimizer, estimator = _peek_names(argv)
+        task, optimizer = _peek_names(argv)
+        estimator = _peek_estimator(argv)
         defaults = default_configs(task, optimizer)
         if estimator is not None:
             defaults["estimator"] = make_config(lookup_estimator(estimator)[1], task)
@@ -182,25 +183,31 @@ def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[s
     return options, configs
 
 
-def _peek_names(argv: list[str]) -> tuple[str, str, str | None]:
-    """The task, optimizer and estimator to run, read before tyro builds the options that depend on them.
+def _peek_names(argv: list[str]) -> tuple[str, str]:
+    """The task and optimizer to run, read before tyro builds the options that depend on them.
 
     Loads the --config file first (registering its classes and overrides), whose names stand in
-    for --task and --optimizer when those are not given. The estimator is --estimator's, else "ekf" with
-    --observe sensors, else None. Raises JudoError for a bad file.
+    for --task and --optimizer when those are not given. Raises JudoError for a bad file.
     """
     peek = argparse.ArgumentParser(prog=PROG, add_help=False)
     peek.add_argument("--config", default=None)
     peek.add_argument("--task", default=None)
     peek.add_argument("--optimizer", default=None)
-    peek.add_argument("--estimator", default=None)
-    peek.add_argument("--observe", default=None)
     known, _ = peek.parse_known_args(argv)
     loaded = load_config(known.config) if known.config is not None else None
     task = known.task or (loaded and loaded.task) or RunOptions.task
     optimizer = known.optimizer or (loaded and loaded.optimizer) or RunOptions.optimizer
-    estimator = known.estimator or ("ekf" if known.observe == "sensors" else None)
-    return task, optimizer, estimator
+    return task, optimizer
+
+
+def _peek_estimator(argv: list[str]) -> str | None:
+    """The estimator to run, whose config fields become --estimator-config.* options: --estimator's, else
+    "ekf" with --observe sensors, else None."""
+    peek = argparse.ArgumentParser(prog=PROG, add_help=False)
+    peek.add_argument("--estimator", default=None)
+    peek.add_argument("--observe", default=None)
+    known, _ = peek.parse_known_args(argv)
+    return known.estimator or ("ekf" if known.observe == "sensors" else None)
 
 
 def merge_repeated(argv: list[str], flags: Sequence[str]) -> list[str]:

@@ -141,6 +141,10 @@ class AppPort(Protocol):
         """Use the registered task `task` from the next cycle; raises JudoError if refused."""
         ...
 
+    def switch_estimator(self, estimator: str | None) -> None:
+        """Run the registered estimator `estimator` (None: none) from the next cycle; raises JudoError if refused."""
+        ...
+
     def switch_optimizer(self, optimizer: str) -> None:
         """Use the registered optimizer `optimizer` from the next cycle; raises JudoError if unknown."""
         ...

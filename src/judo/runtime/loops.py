@@ -62,6 +62,7 @@ class AppLoops(PlantLoop):
     _user_system: System | None
     _seed: int | None
     _sensing: Sensing
+    _rebuild_requested: bool
     _num_workers: int | None
     backend: str
     system_call_limit: float
@@ -180,7 +181,8 @@ class AppLoops(PlantLoop):
         """Switches, resets and config edits queued since the last cycle; no cycle is in flight here."""
         with self._lock:
             switch, self._switch_request = self._switch_request, None
-        if switch is not None and switch != (self._session.task_name, self._session.optimizer_name):
+            rebuild, self._rebuild_requested = self._rebuild_requested, False
+        if switch is not None and (rebuild or switch != (self._session.task_name, self._session.optimizer_name)):
             await self._switch(*switch)
         with self._lock:
             pending, self._pending = self._pending, {}
@@ -206,8 +208,9 @@ class AppLoops(PlantLoop):
             with self._lock:
                 controller_config, task_config = self._configs["controller"], self._configs["task"]
             system = old.system
-            estimator = old.closed_loop.estimator  # its live config goes on with the running plant
-            sensing = self._sensing if estimator is None else replace(self._sensing, estimator_config=estimator.config)
+            estimator = old.closed_loop.estimator  # its live config goes on with the running plant, unless replaced
+            keep = estimator is not None and self._sensing.estimator in (None, old.estimator_name)
+            sensing = replace(self._sensing, estimator_config=estimator.config) if keep else self._sensing  # type: ignore[union-attr]
         else:
             controller_config = task_config = None
             system = self._user_system
@@ -226,6 +229,7 @@ class AppLoops(PlantLoop):
             clock=self._session.closed_loop.clock,
             on_watchdog=self._on_watchdog,
             sensing=sensing,
+            reading=old.closed_loop.raw_reading if system is old.system else None,  # its thread is reading it
         )
 
         def build() -> Session:
@@ -250,7 +254,8 @@ class AppLoops(PlantLoop):
         self._read_and_publish(new)
         old.close()
         self._status_line.trouble.clear()
-        self.report(f"switched to {task} with {optimizer}{' (paused)' if self._paused else ''}")
+        estimating = f" and the {new.estimator_name} estimator" if new.estimator_name else ""
+        self.report(f"switched to {task} with {optimizer}{estimating}{' (paused)' if self._paused else ''}")
 
     def _finish_recording(self, why: str) -> None:
         """Write the recording under way, if any (on a switch or a stop), reporting a failure."""

@@ -12,13 +12,14 @@ import numpy as np
 
 from judo.core.config import require
 from judo.core.controller import Controller, ControllerConfig
-from judo.core.estimator import EstimatorConfig, default_estimator_name
+from judo.core.errors import ConfigError
+from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, default_estimator_name
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import lookup_estimator, make_controller, make_estimator
 from judo.core.task import TaskConfig
 from judo.runtime.closed_loop import ClosedLoop
 from judo.runtime.sensing import PerType, SensedSystem
-from judo.runtime.system import MujocoSystem, System
+from judo.runtime.system import MujocoSystem, System, SystemState
 
 Observe = Literal["state", "sensors"]
 """What the simulated plant serves: its full state, or only the task's measured sensors (rehearsed sensing)."""
@@ -111,6 +112,7 @@ def build_session(
     clock: Callable[[], float] | None = None,
     on_watchdog: Callable[[str | None], None] | None = None,
     sensing: Sensing | None = None,
+    reading: SystemState | None = None,
 ) -> Session:
     """A new Session. Configs left out get the task's registered defaults.
 
@@ -122,8 +124,10 @@ def build_session(
     `sensing` says how a new simulated plant is observed (observe="sensors" wraps it in a SensedSystem whose
     noise draws from [seed, SENSING_STREAM]) and which estimator the closed loop runs: the named one, else
     "ekf" when the plant's first reading has no full state, else none (plan from the reading as it is).
-    Raises UnknownNameError for an unregistered name and ConfigError for configs that do not work together
-    (e.g. observing sensors on a task that declares none).
+    `reading` is the given `system`'s latest reading, when another thread is driving it (a switch); None
+    reads it here. Raises UnknownNameError for an unregistered name and ConfigError for configs that do not
+    work together (e.g. observing sensors on a task that declares none, or an estimator that cannot fuse
+    the plant's readings).
     """
     sensing = sensing if sensing is not None else Sensing()
     sensing.check()
@@ -145,14 +149,30 @@ def build_session(
                 rng = np.random.default_rng(None if seed is None else [seed, SENSING_STREAM])
                 system = SensedSystem(system, sensing.noise, sensing.delay, sensing.rate, rng)
         name = sensing.estimator
+        if reading is None and (name is not None or not isinstance(system, MujocoSystem)):
+            reading = system.read_state()
         if name is None and not isinstance(system, MujocoSystem):  # the simulator reads its full state
-            name = default_estimator_name(system.read_state())
+            assert reading is not None
+            name = default_estimator_name(reading)
             name = None if name == "state" else name
         estimator = None
         if name is not None:
+            assert reading is not None
             estimator = make_estimator(name, controller.task, sensing.estimator_config, task_name)
+            check_estimator(name, estimator, reading)
         closed_loop = ClosedLoop(controller, system, clock=clock, on_watchdog=on_watchdog, estimator=estimator)
     except BaseException:
         controller.close()
         raise
     return Session(task_name, optimizer_name, controller, system, closed_loop, generation, name)
+
+
+def check_estimator(name: str, estimator: Estimator, reading: SystemState) -> None:
+    """Raise ConfigError unless `estimator` can fuse the plant's `reading` (a filter of sensors on a full-state
+    reading, or "state" on a sensors-only one, would fail at every step). Resets it."""
+    try:
+        estimator.reset(reading)
+        estimator.update(reading, reading.time, ControlHistory(estimator.task.nu))
+    except ReadingError as err:
+        hint = " (observe='sensors' rehearses a robot's sensors in simulation)" if reading.sensors is None else ""
+        raise ConfigError(f"the {name!r} estimator cannot run on this plant's readings: {err}{hint}") from None
