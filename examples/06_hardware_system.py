@@ -2,9 +2,12 @@
 
 The app only talks to its plant through `judo.runtime.system.System`: `read_state()`, `apply(action)`,
 `step()` and `reset()`. Here a stand-in "robot" implements it: an in-process cart-pole that is not
-quite the model the controller plans with (its pole is 10% heavier), whose sensors are noisy and
-arrive late, and whose motor takes a while to respond. Swap this class for one that talks to your
-robot's drivers and nothing else changes.
+quite the model the controller plans with (its pole is 10% heavier), whose motor takes a while to
+respond, and which measures what a real one does: its two joint encoders (the task's
+`Cartpole.measured_sensors`), noisy, at 100 Hz and 20 ms late, each reading stamped with the time it
+was taken. It never reports velocities, so `read_state` returns `state=None`, and the app runs the
+extended Kalman filter by default (`estimator="ekf"`) to estimate the full state the planner needs.
+Swap this class for one that talks to your robot's drivers and nothing else changes.
 
     python examples/06_hardware_system.py                          # GUI at http://localhost:8080
     python examples/06_hardware_system.py --headless --duration 5  # prints a summary
@@ -17,17 +20,19 @@ import mujoco
 import numpy as np
 
 import judo
+from judo.estimators.ekf import EKFConfig
 from judo.runtime.system import System, SystemState
 from judo.tasks.cartpole import MODEL_PATH
 
 
 class LaggyNoisyCartpole(System):
-    """A simulated cart-pole robot with sensor noise, sensor latency and actuation latency.
+    """A simulated cart-pole robot that measures only its encoders, noisy, late and at their own rate.
 
     Args:
-        sensor_latency: seconds before a measurement reaches `read_state`.
+        sensor_latency: seconds from taking an encoder sample to its reaching `read_state`.
         actuation_latency: seconds before an applied action reaches the motor.
-        noise_std: std of the Gaussian noise on every measured [qpos, qvel] entry.
+        noise_std: std of the Gaussian noise on each encoder (m for the cart, rad for the pole).
+        sensor_rate: encoder samples per second.
         pole_mass_scale: how much heavier the real pole is than in the planning model.
         seed: seeds the noise and the start state.
     """
@@ -37,6 +42,7 @@ class LaggyNoisyCartpole(System):
         sensor_latency: float = 0.02,
         actuation_latency: float = 0.01,
         noise_std: float = 0.005,
+        sensor_rate: float = 100.0,
         pole_mass_scale: float = 1.1,
         seed: int = 0,
     ) -> None:
@@ -46,8 +52,10 @@ class LaggyNoisyCartpole(System):
         self.data = mujoco.MjData(self.model)
         self.timestep = float(self.model.opt.timestep)
         self.sensor_latency, self.actuation_latency, self.noise_std = sensor_latency, actuation_latency, noise_std
+        self.sensor_period = 1.0 / sensor_rate
         self.rng = np.random.default_rng(seed)
-        self._measurements: deque[tuple[float, np.ndarray]] = deque()  # (time taken, noisy state)
+        self._measurements: deque[tuple[float, np.ndarray]] = deque()  # (time taken, noisy encoders (2,))
+        self._next_sample = 0.0
         self._commands: deque[tuple[float, np.ndarray]] = deque()  # (time due at the motor, action)
         self.reset()
 
@@ -57,14 +65,24 @@ class LaggyNoisyCartpole(System):
         mujoco.mj_forward(self.model, self.data)
         self._measurements.clear()
         self._commands.clear()
+        self._next_sample = self.data.time
         self._measure()
 
+    @property
+    def time(self) -> float:
+        """The robot's clock now (s): the estimator predicts a late reading forward to it."""
+        return float(self.data.time)
+
     def read_state(self) -> SystemState:
-        """The newest measurement that has arrived by now, stamped with the robot's clock."""
+        """The newest encoder sample that has arrived by now, stamped with the time it was *taken*.
+
+        `state` is None (the robot does not know its velocities); `sensors` holds the (2,) encoder values
+        in the order of `Cartpole.measured_sensors`: cart position (m), pole angle (rad)."""
         now = self.data.time
-        while len(self._measurements) > 1 and self._measurements[1][0] <= now - self.sensor_latency:
+        while len(self._measurements) > 1 and self._measurements[1][0] <= now - self.sensor_latency + 1e-9:
             self._measurements.popleft()
-        return SystemState(self._measurements[0][1].copy(), now)
+        taken, encoders = self._measurements[0]
+        return SystemState(None, taken, {}, encoders.copy())
 
     def apply(self, action: np.ndarray) -> None:
         self._commands.append((self.data.time + self.actuation_latency, np.array(action, dtype=float)))
@@ -76,8 +94,12 @@ class LaggyNoisyCartpole(System):
         self._measure()
 
     def _measure(self) -> None:
-        state = np.concatenate([self.data.qpos, self.data.qvel])
-        self._measurements.append((self.data.time, state + self.rng.normal(0.0, self.noise_std, state.shape)))
+        """Take an encoder sample when one is due (at `sensor_rate`), with noise."""
+        if self.data.time < self._next_sample - 1e-9:
+            return
+        self._next_sample += self.sensor_period
+        encoders = self.data.qpos.copy()  # slider (m) and hinge (rad): what the two jointpos sensors read
+        self._measurements.append((self.data.time, encoders + self.rng.normal(0.0, self.noise_std, encoders.shape)))
 
 
 def main() -> None:
@@ -88,8 +110,17 @@ def main() -> None:
     args = parser.parse_args()
     robot = LaggyNoisyCartpole()
     app = judo.App(
-        task="cartpole", optimizer="mppi", system=robot, gui=not args.headless, port=args.port, duration=args.duration
+        task="cartpole",
+        optimizer="mppi",
+        system=robot,  # its readings have state None: the app picks the "ekf" estimator
+        estimator_config=EKFConfig(
+            noise_jointpos=robot.noise_std
+        ),  # the filter trusts the encoders as much as they deserve
+        gui=not args.headless,
+        port=args.port,
+        duration=args.duration,
     )
+    print(f"estimator: {app.session.estimator_name}")
     print(app.run())
 
 

@@ -51,6 +51,10 @@ class RewardFailsBelow(Cartpole):
         return super().reward(states, sensors, controls, config, *args, **kwargs)
 
 
+class NoSensors(Cartpole):
+    measured_sensors = ()
+
+
 class RewardStrings(Cartpole):
     def reward(self, states, *args, **kwargs):
         return np.array(["x"] * states.shape[0])
@@ -68,6 +72,7 @@ FILES: dict[str, str | bytes] = {
     "reward_fails.toml": custom_task("user_classes.RewardFails"),
     "reward_strings.toml": custom_task("user_classes.RewardStrings"),
     "reward_fails_above.toml": custom_task("user_classes.RewardFailsBelow"),
+    "no_sensors.toml": custom_task("user_classes.NoSensors"),
     "bigint.toml": "[task_config_overrides.cartpole]\nw_vertical = " + "9" * 400 + "\n",
     "unknown_task.toml": "[controller_config_overrides.no_such_task]\nhorizon = 1.0\n",
     "binary.toml": b"\x00\x01\x02binary\xff\xfe",
@@ -196,6 +201,16 @@ TABLE = [
     Row(("--host", "0.0.0.0", "--token", "", *APP), 2, "token must not be empty or blank"),
     Row(("--task", "-x"), 2, "python -m judo: error: argument --task: expected one argument", one_line=False),
     Row(("--task", "x" * 3000, *APP), 2, "unknown task 'xxxxxxxx"),
+    # sensing and estimation
+    Row((*APP, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state"),
+    Row(
+        ("--task", "bad", *APP, *config("no_sensors.toml"), "--observe", "sensors"),
+        2,
+        "NoSensors declares no measured sensors; list the MJCF sensors a robot has in NoSensors.measured_sensors",
+    ),
+    Row((*APP, "--observe", "sensors", "--sensor-rate-hz", "framepos=x"), 2, "--sensor-rate-hz expects NUMBER or"),
+    Row((*APP, "--observe", "sensors", "--sensor-noise", "bogus=0.1"), 2, "sensor noise: 'bogus' is not a sensor type"),
+    Row((*APP, "--observe", "sensors", "--sensor-delay-ms", "-5"), 2, "sensor delay must be at least 0"),
     # Ctrl-C
     Row((*EVALUATE[:-2], "--duration", "3000", "--num-workers", "2"), 130, "interrupted", interrupt=True),
     Row((*BENCHMARK[:-4], "--samples", "100000", "--num-workers", "2"), 130, "interrupted", interrupt=True),

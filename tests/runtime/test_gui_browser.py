@@ -52,6 +52,7 @@ def test_panels_show_every_config_field(app, page, artifacts):
 def click_slider(page, label: str, low: float, high: float, value: float):
     """Click the track of the slider labelled `label` (range low..high) where `value` sits; return its thumb."""
     track = labelled(page, label, "slider").locator("xpath=ancestor::div[contains(@class, 'mantine-Slider-root')]")
+    track.scroll_into_view_if_needed()  # a click outside the viewport reaches nothing
     box = track.locator(".mantine-Slider-track").bounding_box()
     assert box is not None
     page.mouse.click(box["x"] + box["width"] * (value - low) / (high - low), box["y"] + box["height"] / 2)

@@ -1,9 +1,11 @@
-"""examples/06_hardware_system.py: a user's own System drives the unchanged app, headless."""
+"""examples/06_hardware_system.py: a user's own encoders-only System drives the unchanged app through the EKF."""
 
 import os
 import subprocess
 import sys
 from pathlib import Path
+
+import numpy as np
 
 import judo
 
@@ -21,25 +23,50 @@ def test_the_hardware_example_runs_headless_and_prints_a_summary():
         env=env,
     )
     assert result.returncode == 0, result.stderr
+    assert "estimator: ekf" in result.stdout  # a sensors-only reading gets the EKF by default
     assert "task: cartpole" in result.stdout and "sim time: 1.00 s" in result.stdout
     assert "control rate:" in result.stdout and "Traceback" not in result.stderr
 
 
-def test_the_example_robot_reports_late_noisy_measurements():
+def example_module():
     sys.path.insert(0, str(ROOT / "examples"))
     try:
-        example = __import__("06_hardware_system")
+        return __import__("06_hardware_system")
     finally:
         sys.path.remove(str(ROOT / "examples"))
-    robot = example.LaggyNoisyCartpole(sensor_latency=0.05, noise_std=0.01, seed=1)
-    truth = []
-    for _ in range(20):
+
+
+def test_the_example_robot_reports_only_late_noisy_encoders_stamped_when_taken():
+    robot = example_module().LaggyNoisyCartpole(sensor_latency=0.05, noise_std=0.01, sensor_rate=100.0, seed=1)
+    truth = {}
+    for _ in range(30):
         robot.apply([0.5])
         robot.step()
-        truth.append((robot.data.time, robot.data.qpos[0]))
+        truth[round(robot.data.time, 6)] = robot.data.qpos.copy()
     reading = robot.read_state()
-    assert reading.time == robot.data.time  # stamped with the robot's clock...
-    late_cart_x = [x for t, x in truth if t <= reading.time - 0.05 + 1e-9][-1]
-    assert abs(reading.state[0] - late_cart_x) < 0.05  # ...but showing the cart as it was 50 ms ago
-    assert reading.state[0] != late_cart_x  # with noise on it
-    assert robot.data.qpos[0] > late_cart_x  # the pushed cart has moved on since
+    assert reading.state is None and reading.sensors.shape == (2,)  # encoders only, no velocities
+    assert abs(reading.time - (robot.time - 0.05)) < 0.011  # stamped with when it was taken, 50 ms ago
+    taken = truth[round(reading.time, 6)]
+    assert np.allclose(reading.sensors, taken, atol=0.05)  # the joints as they were then...
+    assert not np.array_equal(reading.sensors, taken)  # ...with noise on them
+    assert robot.data.qpos[0] > taken[0]  # the pushed cart has moved on since
+
+
+def test_the_ekf_tracks_the_example_robot_through_the_closed_loop():
+    from judo.core.registry import make_controller, make_estimator
+    from judo.runtime.closed_loop import ClosedLoop
+
+    robot = example_module().LaggyNoisyCartpole(seed=2)
+    controller = make_controller("cartpole", "mppi", num_workers=1, seed=0)
+    try:
+        loop = ClosedLoop(controller, robot, estimator=make_estimator("ekf", controller.task, task_name="cartpole"))
+        errors = []
+        for _ in range(150):  # 1.5 s of a swing-up
+            record = loop.step()
+            truth = np.concatenate([robot.data.qpos, robot.data.qvel])
+            errors.append(np.abs(record.estimate - truth))
+        late = np.array(errors[50:])
+        assert late[:, :2].max() < 0.1  # positions (m, rad), from noisy encoders 20 ms late
+        assert np.median(late[:, 2:], axis=0).max() < 0.5  # velocities it never measures (m/s, rad/s)
+    finally:
+        controller.close()

@@ -116,7 +116,7 @@ def per_sensor(
             measured = sorted({*layout.types, DEFAULT_KEY})
             raise ConfigError(
                 f"{what}: {key!r} is not a sensor type; valid keys here are: {', '.join(measured)} "
-                f"(any MuJoCo sensor type is accepted: {', '.join(SENSOR_TYPES)})"
+                f"(or any other MuJoCo sensor type, as mujoco.mjtSensor names it without its mjSENS_ prefix, lower case)"
             )
     default = value.get(DEFAULT_KEY)
     picked = [value.get(sensor_type, default) for sensor_type in layout.types]

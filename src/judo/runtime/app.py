@@ -26,6 +26,7 @@ import numpy as np
 from judo.core.config import Config, check_seed
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import ConfigError, JudoError
+from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import CONFIG_KINDS, ConfigKind
 from judo.core.task import TaskConfig
@@ -33,7 +34,8 @@ from judo.runtime import exit_guard
 from judo.runtime.address import check_port, check_token
 from judo.runtime.app_commands import AppCommands
 from judo.runtime.loops import session_configs
-from judo.runtime.session import Session, build_session
+from judo.runtime.sensing import PerType
+from judo.runtime.session import Observe, Sensing, Session, build_session
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
@@ -73,6 +75,14 @@ class App(AppCommands):
         backend: rollout backend, "cpu" (threads) or "warp" (MuJoCo Warp, a GPU when there is one).
         system_call_limit: seconds a call into the System (read_state, apply, step, reset) may block before
             the status line reports it and the robot is halted (`System.halt`) where the System offers it.
+        estimator, estimator_config: the registered estimator between the plant's readings and the plan,
+            and its config (its registered defaults where left out). By default none for a full-state
+            reading, and "ekf" for one with only measured sensors (observe="sensors", or a System whose
+            reading has state None). Edit its config live with `update_estimator_config`.
+        observe: "state" (the simulated plant's full state) or "sensors" (only the task's measured sensors,
+            through `judo.runtime.sensing.SensedSystem`: rehearsed sensing, its noise seeded from `seed`).
+        sensor_noise, sensor_delay, sensor_rate: the rehearsed sensors' noise std, delay (s) and rate (Hz),
+            one value for all or {sensor type: value} with an optional "default"; used with observe="sensors".
 
     Raises UnknownNameError or ConfigError at once for bad names or configs.
     """
@@ -96,6 +106,12 @@ class App(AppCommands):
         num_workers: int | None = None,
         backend: str = "cpu",
         system_call_limit: float = 0.5,
+        estimator: str | None = None,
+        estimator_config: EstimatorConfig | None = None,
+        observe: Observe = "state",
+        sensor_noise: PerType = None,
+        sensor_delay: PerType = None,
+        sensor_rate: PerType = None,
     ) -> None:
         if duration is not None and not 0 < duration < math.inf:
             raise ConfigError(
@@ -122,6 +138,12 @@ class App(AppCommands):
         self._status_line = StatusLine()
         self._clock = PausableClock()  # the watchdog's clock: wall time that stands still while paused
         self.system_call_limit = system_call_limit
+        if system is not None and observe != "state":
+            raise ConfigError(
+                f"observe={observe!r} rehearses sensing on the app's own simulation; your System chooses what it "
+                "measures (return SystemState.sensors, state None), so leave observe at 'state'"
+            )
+        self._sensing = Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
         self._session = build_session(
             task,
             optimizer,
@@ -135,11 +157,13 @@ class App(AppCommands):
             backend=backend,
             clock=self._clock,
             on_watchdog=self._on_watchdog,
+            sensing=self._sensing,
         )
         self._configs: dict[ConfigKind, Config] = session_configs(self._session)
         self._pending: dict[ConfigKind, Config] = {}
         self._external_edits = 0
         self._switch_request: tuple[str, str] | None = None
+        self._rebuild_requested = False
         self._reset_system = self._reset_controller = False
         self._paused = False
         self._clock.resume()

@@ -5,6 +5,7 @@ request under the app's lock; the loops (`judo.runtime.loops`, `judo.runtime.pla
 the top of their next iteration. `AppCommands` is the App's base class (see `judo.runtime.app.App`).
 """
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Literal
 
@@ -13,8 +14,17 @@ import numpy as np
 from judo.core.config import Config, with_updates
 from judo.core.controller import check_configs
 from judo.core.errors import ConfigError, JudoError
-from judo.core.registry import CONFIG_KINDS, ConfigKind, default_configs, lookup_optimizer, lookup_task
+from judo.core.estimator import EstimatorConfig
+from judo.core.registry import (
+    CONFIG_KINDS,
+    ConfigKind,
+    default_configs,
+    lookup_optimizer,
+    lookup_task,
+    make_estimator,
+)
 from judo.runtime.event_loop import AppEventLoop
+from judo.runtime.session import check_estimator
 from judo.runtime.watchdog import PausableClock
 
 
@@ -22,6 +32,7 @@ class AppCommands(AppEventLoop):
     """Config edits, pause and resume, resets, goal moves, switches and recording (see `judo.runtime.app.App`)."""
 
     _clock: PausableClock
+    _rebuild_requested: bool  # a switch of estimator: rebuild the session even with the same names
     _recording: Any  # the LiveRecording under way (judo.collection.live), or None
 
     @property
@@ -88,6 +99,28 @@ class AppCommands(AppEventLoop):
                 self._recording.on_config(kind, updated)
         return updated
 
+    def update_estimator_config(
+        self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+    ) -> EstimatorConfig:
+        """Validate `updates` ({field: value}) to the running estimator's config and use it from its next
+        update. Returns the new config. Raises ConfigError, keeping the config before, for an unknown field
+        or a bad value, and JudoError when no estimator runs or the session changed (`generation`)."""
+        with self._lock:
+            session = self._session
+            if generation is not None and generation != session.generation:
+                raise ConfigError("the task or optimizer changed since this edit was made; it was not applied")
+            estimator = session.closed_loop.estimator
+            if estimator is None:
+                raise JudoError(
+                    "no estimator runs: the app plans from the plant's full state; start it with "
+                    "estimator='ekf' (or observe='sensors') to have one"
+                )
+            updated = with_updates(estimator.config, updates)
+            estimator.config = updated  # read by the estimator at its next update, on the plant's thread
+            if not from_gui:
+                self._external_edits += 1
+        return updated
+
     def reset_configs(self) -> None:
         """Put every config back to the task's registered defaults (at the next cycle)."""
         with self._lock:
@@ -148,6 +181,29 @@ class AppCommands(AppEventLoop):
         with self._lock:
             optimizer = self._switch_request[1] if self._switch_request else self._session.optimizer_name
             self._switch_request = (task, optimizer)
+
+    def switch_estimator(self, estimator: str | None) -> None:
+        """Run the registered estimator `estimator` (None: none, planning from full-state readings as they are)
+        from the next cycle, keeping the plant running: restarted from the next reading, with its registered
+        defaults (its live config when it is the one running). Raises UnknownNameError for
+        an unregistered name, JudoError when the plant's readings lack what it needs (a full state)."""
+        session = self._session
+        if estimator is not None:  # tried on the plant's latest reading (its own thread may be reading it now)
+            latest = session.closed_loop.raw_reading or session.system.read_state()
+            check_estimator(estimator, make_estimator(estimator, session.controller.task), latest)
+        with self._lock:
+            raw = session.closed_loop.raw_reading
+            if estimator is None and raw is not None and raw.state is None:
+                raise JudoError(
+                    "cannot plan without an estimator: the plant measures only sensors (state None); choose "
+                    "an estimator that fuses them, e.g. 'ekf'"
+                )
+            self._sensing = replace(self._sensing, estimator=estimator, estimator_config=None)
+            if estimator is None and session.estimator_name is None:
+                return
+            if self._switch_request is None:
+                self._switch_request = (session.task_name, session.optimizer_name)
+            self._rebuild_requested = True
 
     def switch_optimizer(self, optimizer: str) -> None:
         """Use the registered optimizer `optimizer` from the next cycle, keeping the plant running."""

@@ -18,6 +18,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from judo.core.config import Config
+from judo.core.estimator import EstimatorConfig
 from judo.core.registry import CONFIG_KINDS, ConfigKind
 from judo.runtime.session import Session
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
@@ -109,6 +110,13 @@ class AppPort(Protocol):
         """Validate {field: value} `updates` to the `kind` config and queue it; raises JudoError if refused."""
         ...
 
+    def update_estimator_config(
+        self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+    ) -> EstimatorConfig:
+        """Validate {field: value} `updates` to the running estimator's config (`session.closed_loop.estimator`)
+        and use it from its next update; raises JudoError if refused or no estimator runs."""
+        ...
+
     def reset_configs(self) -> None:
         """Put every config back to the task's registered defaults."""
         ...
@@ -131,6 +139,10 @@ class AppPort(Protocol):
 
     def switch_task(self, task: str) -> None:
         """Use the registered task `task` from the next cycle; raises JudoError if refused."""
+        ...
+
+    def switch_estimator(self, estimator: str | None) -> None:
+        """Run the registered estimator `estimator` (None: none) from the next cycle; raises JudoError if refused."""
         ...
 
     def switch_optimizer(self, optimizer: str) -> None:

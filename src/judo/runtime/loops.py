@@ -16,6 +16,7 @@ import functools
 import logging
 import threading
 import time
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 from judo.core.config import Config
@@ -24,7 +25,7 @@ from judo.core.errors import JudoError
 from judo.core.registry import ConfigKind
 from judo.core.workers import DaemonThreadPool
 from judo.runtime.plant_loop import PlantLoop
-from judo.runtime.session import Session, build_session
+from judo.runtime.session import Sensing, Session, build_session
 from judo.runtime.snapshots import PlanSnapshot
 from judo.runtime.system import System, SystemState
 
@@ -60,6 +61,8 @@ class AppLoops(PlantLoop):
     _executor: DaemonThreadPool
     _user_system: System | None
     _seed: int | None
+    _sensing: Sensing
+    _rebuild_requested: bool
     _num_workers: int | None
     backend: str
     system_call_limit: float
@@ -178,7 +181,8 @@ class AppLoops(PlantLoop):
         """Switches, resets and config edits queued since the last cycle; no cycle is in flight here."""
         with self._lock:
             switch, self._switch_request = self._switch_request, None
-        if switch is not None and switch != (self._session.task_name, self._session.optimizer_name):
+            rebuild, self._rebuild_requested = self._rebuild_requested, False
+        if switch is not None and (rebuild or switch != (self._session.task_name, self._session.optimizer_name)):
             await self._switch(*switch)
         with self._lock:
             pending, self._pending = self._pending, {}
@@ -204,9 +208,13 @@ class AppLoops(PlantLoop):
             with self._lock:
                 controller_config, task_config = self._configs["controller"], self._configs["task"]
             system = old.system
+            estimator = old.closed_loop.estimator  # its live config goes on with the running plant, unless replaced
+            keep = estimator is not None and self._sensing.estimator in (None, old.estimator_name)
+            sensing = replace(self._sensing, estimator_config=estimator.config) if keep else self._sensing  # type: ignore[union-attr]
         else:
             controller_config = task_config = None
             system = self._user_system
+            sensing = self._sensing
         make = functools.partial(
             build_session,
             task,
@@ -220,6 +228,8 @@ class AppLoops(PlantLoop):
             backend=self.backend,
             clock=self._session.closed_loop.clock,
             on_watchdog=self._on_watchdog,
+            sensing=sensing,
+            reading=old.closed_loop.raw_reading if system is old.system else None,  # its thread is reading it
         )
 
         def build() -> Session:
@@ -244,7 +254,8 @@ class AppLoops(PlantLoop):
         self._read_and_publish(new)
         old.close()
         self._status_line.trouble.clear()
-        self.report(f"switched to {task} with {optimizer}{' (paused)' if self._paused else ''}")
+        estimating = f" and the {new.estimator_name} estimator" if new.estimator_name else ""
+        self.report(f"switched to {task} with {optimizer}{estimating}{' (paused)' if self._paused else ''}")
 
     def _finish_recording(self, why: str) -> None:
         """Write the recording under way, if any (on a switch or a stop), reporting a failure."""

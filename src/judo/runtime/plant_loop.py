@@ -22,7 +22,7 @@ from judo.runtime.snapshots import SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats
 from judo.runtime.status_line import StatusLine
-from judo.runtime.system import SimulationDiverged
+from judo.runtime.system import SimulationDiverged, SystemState
 from judo.runtime.system_calls import SystemClosedError
 
 logger = logging.getLogger("judo.app")
@@ -31,6 +31,13 @@ MAX_CATCH_UP = 0.1
 """Most seconds of sim time the plant loop steps at once to catch up; beyond that it falls behind."""
 IDLE_POLL = 0.01
 """Seconds the plant loop sleeps while paused."""
+
+
+def system_snapshot(session: Session, reading: SystemState) -> SystemSnapshot:
+    """The "system" snapshot of `reading`, with the simulated plant's true state when an estimator runs."""
+    plant = session.simulated
+    truth = plant.plant_state() if plant is not None and session.closed_loop.estimator is not None else None
+    return SystemSnapshot(session.generation, reading, truth)
 
 
 class PlantLoop:
@@ -98,7 +105,7 @@ class PlantLoop:
                 self.stats.record_plant(served * dt, now - last_wall)  # only the ticks the plant got
                 last_wall = now
                 if due and session.closed_loop.reading is not None:
-                    self.buffer.publish("system", SystemSnapshot(session.generation, session.closed_loop.reading))
+                    self.buffer.publish("system", system_snapshot(session, session.closed_loop.reading))
                 if self.duration is not None and self.stats.sim_time() >= self.duration - 1e-9:
                     self._request_stop()
                     break
@@ -134,7 +141,7 @@ class PlantLoop:
             except Exception as err:  # the plan is not restarted as if the reset had worked
                 self.report(f"system reset failed: {type(err).__name__}: {err}; the plan was kept", "error")
             else:
-                self.buffer.publish("system", SystemSnapshot(session.generation, reading))
+                self.buffer.publish("system", system_snapshot(session, reading))
                 self._resets_done += 1
                 with self._lock:
                     self._reset_controller = True
@@ -177,4 +184,4 @@ class PlantLoop:
         except Exception as err:
             self.report(f"system read_state failed: {type(err).__name__}: {err}", "error")
             return
-        self.buffer.publish("system", SystemSnapshot(session.generation, reading))
+        self.buffer.publish("system", system_snapshot(session, reading))

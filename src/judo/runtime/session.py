@@ -6,13 +6,60 @@ Switching task or optimizer builds a new Session and closes the old one; nothing
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Literal
 
+import numpy as np
+
+from judo.core.config import require
 from judo.core.controller import Controller, ControllerConfig
+from judo.core.errors import ConfigError
+from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, default_estimator_name
 from judo.core.optimizer import OptimizerConfig
-from judo.core.registry import make_controller
+from judo.core.registry import lookup_estimator, make_controller, make_estimator
 from judo.core.task import TaskConfig
 from judo.runtime.closed_loop import ClosedLoop
-from judo.runtime.system import MujocoSystem, System
+from judo.runtime.sensing import PerType, SensedSystem
+from judo.runtime.system import MujocoSystem, System, SystemState
+
+Observe = Literal["state", "sensors"]
+"""What the simulated plant serves: its full state, or only the task's measured sensors (rehearsed sensing)."""
+OBSERVE_CHOICES = ("state", "sensors")
+SENSING_STREAM = 0x73656E7365
+"""Second entry of the sensor noise's seed sequence ([seed, SENSING_STREAM]): a stream apart from the plant's."""
+
+
+@dataclass(frozen=True)
+class Sensing:
+    """How the app's simulated plant is observed, kept across switches.
+
+    Attributes:
+        observe: "state" (the full state) or "sensors" (the measured sensors through `SensedSystem`).
+        noise, delay, rate: `SensedSystem`'s per-type settings (std, seconds, Hz), for observe="sensors".
+        estimator: registered estimator name; None picks by the first reading (`default_estimator_name`).
+        estimator_config: its config; None takes the registered defaults (with the task's overrides).
+    """
+
+    observe: Observe = "state"
+    noise: PerType = None
+    delay: PerType = None
+    rate: PerType = None
+    estimator: str | None = None
+    estimator_config: EstimatorConfig | None = None
+
+    def check(self) -> None:
+        """Raise ConfigError for an unknown observe or a config of another estimator; UnknownNameError
+        (listing the valid names) for an unregistered estimator."""
+        require(
+            self.observe in OBSERVE_CHOICES, f"observe must be one of {list(OBSERVE_CHOICES)}, got {self.observe!r}"
+        )
+        if self.estimator is not None:
+            _, config_cls = lookup_estimator(self.estimator)
+            if self.estimator_config is not None:
+                require(
+                    isinstance(self.estimator_config, config_cls),
+                    f"estimator_config for {self.estimator!r} must be a {config_cls.__name__}, "
+                    f"got {type(self.estimator_config).__name__}",
+                )
 
 
 @dataclass
@@ -22,8 +69,11 @@ class Session:
     Attributes:
         task_name, optimizer_name: registry names.
         controller: plans on its own Task instance (`controller.task`).
-        system: the plant; a MujocoSystem simulating its own task instance, or the user's own System.
+        system: the plant; a MujocoSystem simulating its own task instance (behind a SensedSystem when
+            observing sensors), or the user's own System.
         closed_loop: the one closed-loop step on `controller` and `system`.
+        estimator_name: the estimator the closed loop runs (`closed_loop.estimator`), or None when it plans
+            from the System's full-state readings as they are.
         generation: counts sessions within one app, so stale GUI edits and snapshots are recognised.
     """
 
@@ -33,11 +83,14 @@ class Session:
     system: System
     closed_loop: ClosedLoop
     generation: int
+    estimator_name: str | None = None
 
     @property
     def simulated(self) -> MujocoSystem | None:
-        """The plant when it is the app's own simulation (goals can be moved, configs shared), else None."""
-        return self.system if isinstance(self.system, MujocoSystem) else None
+        """The plant when it is the app's own simulation (goals can be moved, configs shared), else None;
+        the simulator itself when it is observed through a SensedSystem."""
+        system = self.system.system if isinstance(self.system, SensedSystem) else self.system
+        return system if isinstance(system, MujocoSystem) else None
 
     def close(self) -> None:
         """Stop the controller's rollout threads."""
@@ -58,6 +111,8 @@ def build_session(
     backend: str = "cpu",
     clock: Callable[[], float] | None = None,
     on_watchdog: Callable[[str | None], None] | None = None,
+    sensing: Sensing | None = None,
+    reading: SystemState | None = None,
 ) -> Session:
     """A new Session. Configs left out get the task's registered defaults.
 
@@ -65,8 +120,17 @@ def build_session(
     seeded by `seed`, at its start state). A given `system` is kept as it is, e.g. the user's hardware or
     the running plant when only the optimizer changes. `backend` names the controller's rollout backend;
     `clock` and `on_watchdog` go to the closed loop (its watchdog's clock, and its trip/recovery callback).
-    Raises UnknownNameError for an unregistered name and ConfigError for configs that do not work together.
+
+    `sensing` says how a new simulated plant is observed (observe="sensors" wraps it in a SensedSystem whose
+    noise draws from [seed, SENSING_STREAM]) and which estimator the closed loop runs: the named one, else
+    "ekf" when the plant's first reading has no full state, else none (plan from the reading as it is).
+    `reading` is the given `system`'s latest reading, when another thread is driving it (a switch); None
+    reads it here. Raises UnknownNameError for an unregistered name and ConfigError for configs that do not
+    work together (e.g. observing sensors on a task that declares none, or an estimator that cannot fuse
+    the plant's readings).
     """
+    sensing = sensing if sensing is not None else Sensing()
+    sensing.check()
     controller = make_controller(
         task_name,
         optimizer_name,
@@ -78,7 +142,37 @@ def build_session(
     )
     if task_config is not None:
         controller.task.config = task_config
-    if system is None:
-        system = MujocoSystem.from_task(controller.task, seed)
-    closed_loop = ClosedLoop(controller, system, clock=clock, on_watchdog=on_watchdog)
-    return Session(task_name, optimizer_name, controller, system, closed_loop, generation)
+    try:
+        if system is None:
+            system = MujocoSystem.from_task(controller.task, seed)
+            if sensing.observe == "sensors":
+                rng = np.random.default_rng(None if seed is None else [seed, SENSING_STREAM])
+                system = SensedSystem(system, sensing.noise, sensing.delay, sensing.rate, rng)
+        name = sensing.estimator
+        if reading is None and (name is not None or not isinstance(system, MujocoSystem)):
+            reading = system.read_state()
+        if name is None and not isinstance(system, MujocoSystem):  # the simulator reads its full state
+            assert reading is not None
+            name = default_estimator_name(reading)
+            name = None if name == "state" else name
+        estimator = None
+        if name is not None:
+            assert reading is not None
+            estimator = make_estimator(name, controller.task, sensing.estimator_config, task_name)
+            check_estimator(name, estimator, reading)
+        closed_loop = ClosedLoop(controller, system, clock=clock, on_watchdog=on_watchdog, estimator=estimator)
+    except BaseException:
+        controller.close()
+        raise
+    return Session(task_name, optimizer_name, controller, system, closed_loop, generation, name)
+
+
+def check_estimator(name: str, estimator: Estimator, reading: SystemState) -> None:
+    """Raise ConfigError unless `estimator` can fuse the plant's `reading` (a filter of sensors on a full-state
+    reading, or "state" on a sensors-only one, would fail at every step). Resets it."""
+    try:
+        estimator.reset(reading)
+        estimator.update(reading, reading.time, ControlHistory(estimator.task.nu))
+    except ReadingError as err:
+        hint = " (observe='sensors' rehearses a robot's sensors in simulation)" if reading.sensors is None else ""
+        raise ConfigError(f"the {name!r} estimator cannot run on this plant's readings: {err}{hint}") from None

@@ -9,10 +9,18 @@ from judo.runtime.system import SystemState
 
 @dataclass(frozen=True)
 class SystemSnapshot:
-    """What the system loop publishes under "system": the plant reading of one session."""
+    """What the system loop publishes under "system": the plant reading of one session.
+
+    Attributes:
+        generation: the session that read it.
+        reading: the state the next plan starts from: the estimate when an estimator runs, else the reading.
+        true_state: (nq + nv,) the simulated plant's true state when an estimator runs (the GUI draws it as
+            the robot and the estimate as a ghost); None otherwise, and for a user's System.
+    """
 
     generation: int
     reading: SystemState
+    true_state: np.ndarray | None = None
 
 
 @dataclass(frozen=True)

@@ -9,10 +9,12 @@ import math
 import viser
 
 from judo.core.errors import JudoError
-from judo.core.registry import get_registered_optimizers, get_registered_tasks
+from judo.core.registry import get_registered_estimators, get_registered_optimizers, get_registered_tasks
 from judo.runtime.commands import AppPort, LiveFigures, Status
 
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
+NO_ESTIMATOR = "none"
+"""The estimator dropdown's entry for planning from full-state readings as they are."""
 STATUS_PREFIX = {"info": "", "warning": "warning: ", "error": "error: "}
 
 
@@ -36,6 +38,13 @@ class Controls:
             order=order + 0.1,
             hint="Registered optimizers",
         )
+        self.estimator = gui.add_dropdown(
+            "estimator",
+            [NO_ESTIMATOR, *sorted(get_registered_estimators())],
+            initial_value=session.estimator_name or NO_ESTIMATOR,
+            order=order + 0.15,
+            hint="Registered estimators, between the plant's readings and the plan (none: plan from the full state)",
+        )
         self.pause = gui.add_button("Pause", order=order + 0.2, hint="Pause or resume the plant and the planner")
         self.reset_task = gui.add_button("Reset task", order=order + 0.3, hint="Put the plant in its start state")
         self.reset_configs = gui.add_button(
@@ -57,6 +66,14 @@ class Controls:
         self._shown_status: tuple[int, bool] = (-1, False)
         self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))
         self.optimizer.on_update(lambda event: self._switch(event, app.switch_optimizer, self.optimizer, "optimizer"))
+        self.estimator.on_update(
+            lambda event: self._switch(
+                event,
+                lambda name: app.switch_estimator(None if name == NO_ESTIMATOR else name),
+                self.estimator,
+                "estimator",
+            )
+        )
         self.pause.on_click(lambda _: app.resume() if app.paused else app.pause())
         self.reset_task.on_click(lambda _: app.reset_task())
         self.redraw_requested = False  # set by Reset configs: every page redraws every widget
@@ -109,6 +126,7 @@ class Controls:
         """Point the dropdowns at the session in use (after a switch, or a refused one)."""
         session = self.app.session
         self.task.value, self.optimizer.value = session.task_name, session.optimizer_name
+        self.estimator.value = session.estimator_name or NO_ESTIMATOR
 
     def _switch(self, event: viser.GuiEvent, command, dropdown: viser.GuiDropdownHandle, what: str) -> None:
         if event.client is None:

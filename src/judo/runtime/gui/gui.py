@@ -20,7 +20,7 @@ from judo.runtime.gui.camera import Follower, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.goal_handles import GoalHandles
-from judo.runtime.gui.plots import Plots
+from judo.runtime.gui.plots import Plots, estimation_error
 from judo.runtime.gui.scene import SceneView
 from judo.runtime.gui.server import start_server
 
@@ -50,6 +50,8 @@ class Gui:
         self.plots = Plots(self.server.gui, order=100)
         self.panels: dict[str, ConfigPanel] = {}
         self.scene: SceneView | None = None
+        self.ghost: SceneView | None = None  # the estimate, while an estimator runs on the app's simulation
+        self.estimator_panel: ConfigPanel | None = None
         self.follower: Follower | None = None
         self.goals: GoalHandles | None = None
         self._look_at = np.zeros(3)  # where the cameras look while following: the framed centre plus the focus's moves
@@ -90,6 +92,9 @@ class Gui:
             redraw, self.controls.redraw_requested = self.controls.redraw_requested, False
             for kind, config in app.configs().items():
                 self.panels[kind].show(config, redraw=redraw)
+            estimator = session.closed_loop.estimator
+            if self.estimator_panel is not None and estimator is not None:
+                self.estimator_panel.show(estimator.config, redraw=redraw)
         assert self.scene is not None and state is not None
         configs = app.configs()
         if configs["task"] is not self._shown_task_config:
@@ -100,9 +105,12 @@ class Gui:
             self.goals.update(configs["task"], metadata.get("mocap_pos"), metadata.get("mocap_quat"))
         if state.version != self._state_version and state.value.generation == self._generation:
             self._state_version = state.version
-            reading = state.value.reading
+            reading, truth = state.value.reading, state.value.true_state
+            nq = self.scene.model.nq
             with self.server.atomic():
-                self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
+                self.scene.update((reading.state if truth is None else truth)[:nq], reading.metadata)
+                if self.ghost is not None and truth is not None:
+                    self.ghost.update(reading.state[:nq], reading.metadata)
             if app.resets_done != self._resets_done:  # the plant is back at its start: frame it again
                 self._resets_done = app.resets_done
                 self.frame_task()
@@ -117,9 +125,15 @@ class Gui:
             self._last_plot = now
             figures = app.stats.live()
             self.plots.add(now - self._start, figures)
+            truth = state.value.true_state
+            if truth is not None and state.value.generation == self._generation:
+                errors = estimation_error(self.scene.model, truth, state.value.reading.state)
+                self.plots.add_estimation(now - self._start, *errors)
             self.controls.show_readout(state.value.reading.time, figures)
         for panel in self.panels.values():
             panel.flush()
+        if self.estimator_panel is not None:
+            self.estimator_panel.flush()
         self.controls.update()
 
     def close(self) -> None:
@@ -132,14 +146,18 @@ class Gui:
         app = self.app
         session, configs = app.session, app.configs()
         self._external_edits = app.external_edits
-        for panel in self.panels.values():
+        for panel in [*self.panels.values(), *([self.estimator_panel] if self.estimator_panel else [])]:
             panel.remove()
+        self.estimator_panel = None
         if session.task_name != self._scene_task:  # a new model; a new optimizer keeps scene and camera
             self._scene_task = session.task_name
             if self.scene is not None:
                 self.scene.remove()
             if self.goals is not None:
                 self.goals.remove()
+            if self.ghost is not None:
+                self.ghost.remove()
+                self.ghost = None
             self.scene = SceneView(self.server.scene, session.controller.task.model)
             self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
             self.scene.set_markers(configs["task"])
@@ -172,11 +190,42 @@ class Gui:
             )
             for order, (kind, config) in enumerate(configs.items(), start=1)
         }
+        self._show_estimator(session, reading)
         self.controls.show_session()
         self._generation = session.generation
         # viser keeps every removed widget's and scene node's tombstone for clients that connect later,
         # and purges them only when one does: purge now, or each switch would grow the app's memory.
         self.server._run_garbage_collector()
+
+    def _show_estimator(self, session: Any, reading: SystemState) -> None:
+        """The estimator's config panel, and while it runs on the app's own simulation (the snapshots carry
+        the true state) the estimate's ghost and the estimation-error chart."""
+        estimator = session.closed_loop.estimator
+        simulated = estimator is not None and session.simulated is not None
+        if simulated and self.ghost is None:
+            self.ghost = SceneView(self.server.scene, session.controller.task.model, "/ghost", ghost=True)
+            self.ghost.update(reading.state[: self.ghost.model.nq], reading.metadata)
+        elif not simulated and self.ghost is not None:
+            self.ghost.remove()
+            self.ghost = None
+        self.plots.show_estimation(simulated)
+        if estimator is not None:
+            generation = session.generation
+
+            def edit(updates: dict[str, Any]) -> Config:
+                config = self.app.update_estimator_config(updates, generation=generation, from_gui=True)
+                shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
+                self.app.report(f"estimator config: {shown}")
+                return config
+
+            self.estimator_panel = ConfigPanel(
+                self.server.gui,
+                f"Estimator: {session.estimator_name}",
+                estimator.config,
+                edit,
+                40,
+                on_refused=lambda why: self.app.report(f"edit refused: {why}", "warning"),
+            )
 
     def frame_task(self) -> None:
         """Point every page's camera (and a new page's) at the task as the scene shows it now, and

@@ -1,7 +1,9 @@
-"""Live uPlot charts of the app's figures: nominal reward, plan time, achieved control rate, real-time factor."""
+"""Live uPlot charts of the app's figures: nominal reward, plan time, achieved control rate, real-time factor,
+and, while an estimator runs in simulation, the estimation error."""
 
 from collections import deque
 
+import mujoco
 import numpy as np
 import viser
 import viser.uplot
@@ -21,10 +23,35 @@ CHARTS = (
 """(LiveFigures attribute, chart title, y-axis label with units, line colour) of each chart."""
 
 
+ESTIMATION_TITLE = "estimation error"
+ESTIMATION_SERIES = (("position", "#ff7f0e"), ("velocity", "#17becf"))
+"""(series label, line colour) of the estimation-error chart: the norms of the position and velocity errors."""
+
+
+def estimation_error(model: mujoco.MjModel, true_state: np.ndarray, estimate: np.ndarray) -> tuple[float, float]:
+    """(position, velocity) error norms of the (nq + nv,) `estimate` against `true_state`: the position error
+    in tangent space (`mj_differentiatePos`, so a quaternion's error is an angle in rad), both in mixed units
+    (m and rad; m/s and rad/s)."""
+    nq, nv = model.nq, model.nv
+    difference = np.zeros(nv)
+    mujoco.mj_differentiatePos(
+        model, difference, 1.0, np.asarray(true_state[:nq], float), np.asarray(estimate[:nq], float)
+    )
+    velocity = np.asarray(estimate[nq : nq + nv], float) - np.asarray(true_state[nq : nq + nv], float)
+    return float(np.linalg.norm(difference)), float(np.linalg.norm(velocity))
+
+
 class Plots:
-    """One chart per figure, in a folder titled "Plots"; `add(t, figures)` appends a point to each."""
+    """One chart per figure, in a folder titled "Plots"; `add(t, figures)` appends a point to each.
+
+    `show_estimation(True)` adds the estimation-error chart (two lines: position and velocity error norms),
+    `add_estimation(t, position, velocity)` appends to it.
+    """
 
     def __init__(self, gui: viser.GuiApi, order: float) -> None:
+        self.gui = gui
+        self.estimation: viser.GuiUplotHandle | None = None
+        self._estimation_history: deque[tuple[float, float, float]] = deque(maxlen=HISTORY)
         self.folder = gui.add_folder("Plots", order=order)
         self._history: dict[str, deque[tuple[float, float]]] = {key: deque(maxlen=HISTORY) for key, *_ in CHARTS}
         self.charts: dict[str, viser.GuiUplotHandle] = {}
@@ -52,6 +79,46 @@ class Plots:
         for key, chart in self.charts.items():
             self._history[key].clear()
             chart.data = (np.zeros(0), np.zeros(0))
+        self._estimation_history.clear()
+        if self.estimation is not None:
+            self.estimation.data = (np.zeros(0), np.zeros(0), np.zeros(0))
+
+    def show_estimation(self, shown: bool) -> None:
+        """Add the estimation-error chart (at the top of the folder), or take it away."""
+        if shown and self.estimation is None:
+            with self.folder:
+                self.estimation = self.gui.add_uplot(
+                    (np.zeros(0), np.zeros(0), np.zeros(0)),
+                    (
+                        viser.uplot.Series(label="wall time (s)"),
+                        *(
+                            viser.uplot.Series(label=label, stroke=colour, width=2)
+                            for label, colour in ESTIMATION_SERIES
+                        ),
+                    ),
+                    title=ESTIMATION_TITLE,
+                    scales={"x": viser.uplot.Scale(time=False, auto=True), "y": viser.uplot.Scale(auto=True)},
+                    axes=(
+                        viser.uplot.Axis(label="wall time (s)", labelSize=18),
+                        viser.uplot.Axis(label="|error| (m, rad; m/s, rad/s)", size=64, labelSize=18),
+                    ),
+                    legend=viser.uplot.Legend(show=True),
+                    aspect=2.0,
+                    padding=(12, 24, 0, 0),
+                    order=-1,
+                )
+        elif not shown and self.estimation is not None:
+            self.estimation.remove()
+            self.estimation = None
+            self._estimation_history.clear()
+
+    def add_estimation(self, t: float, position: float, velocity: float) -> None:
+        """Append the estimation error norms at wall time `t` and redraw (nothing while the chart is hidden)."""
+        if self.estimation is None or not (np.isfinite(position) and np.isfinite(velocity)):
+            return
+        self._estimation_history.append((t, position, velocity))
+        points = np.array(self._estimation_history)
+        self.estimation.data = (points[:, 0], points[:, 1], points[:, 2])
 
     def add(self, t: float, figures: LiveFigures) -> None:
         """Append the finite figures at wall time `t` (seconds since the app started) and redraw."""

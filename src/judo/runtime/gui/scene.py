@@ -24,34 +24,47 @@ DEFAULT_GEOM_RGBA = (0.5, 0.5, 0.5, 1.0)
 NOMINAL_TRACE_RGB = (0.9, 0.1, 0.1)
 SAMPLE_TRACE_RGB = (0.1, 0.5, 0.9)
 MARKER_RGB = (0.1, 0.8, 0.2)
+GHOST_RGB = (0.2, 0.6, 1.0)
+GHOST_OPACITY = 0.35
+"""Colour and opacity of the estimate's ghost: the jointed bodies drawn again, translucent and blue."""
 
 
 class SceneView:
     """Draws `model` under the scene node `root` and keeps it posed from plant readings.
+
+    With `ghost`, only the jointed bodies are drawn, translucent in GHOST_RGB, under `root` (e.g. "/ghost"):
+    the robot as an estimator believes it is, posed beside the true one.
 
     Attributes:
         body_frames: body id -> viser frame, for every body that holds a drawn geom or is a mocap body.
         geom_nodes: geom id -> viser node, for every drawn geom.
     """
 
-    def __init__(self, scene: viser.SceneApi, model: mujoco.MjModel, root: str = "/model") -> None:
-        self.scene, self.model, self.root = scene, model, root
+    def __init__(self, scene: viser.SceneApi, model: mujoco.MjModel, root: str = "/model", ghost: bool = False) -> None:
+        self.scene, self.model, self.root, self.ghost = scene, model, root, ghost
         self.data = mujoco.MjData(model)
         mujoco.mj_kinematics(model, self.data)
         self.body_frames: dict[int, Any] = {}
         self.geom_nodes: dict[int, Any] = {}
         self._markers: dict[str, Any] = {}
-        self._moving = [b for b in range(1, model.nbody) if model.body_weldid[b] != 0 or model.body_mocapid[b] >= 0]
+        jointed = [b for b in range(1, model.nbody) if model.body_weldid[b] != 0]
+        self._moving = (
+            jointed if ghost else [b for b in range(1, model.nbody) if b in jointed or model.body_mocapid[b] >= 0]
+        )
         for g in range(model.ngeom):
             rgba = geom_rgba(model, g)
             if model.geom_group[g] >= VISIBLE_GROUPS or rgba[3] == 0:
                 continue
             body = int(model.geom_bodyid[g])
+            if ghost:
+                if model.body_weldid[body] == 0:
+                    continue
+                rgba = np.array([*GHOST_RGB, GHOST_OPACITY])
             node = self._add_geom(f"{self._frame(body)}/geom_{g}", g, rgba)
             if node is not None:
                 self.geom_nodes[g] = node
         for b in range(1, model.nbody):
-            if model.body_mocapid[b] >= 0:
+            if model.body_mocapid[b] >= 0 and not ghost:
                 self._frame(b)
 
     def camera_pose(self) -> tuple[np.ndarray, np.ndarray]:
@@ -116,8 +129,8 @@ class SceneView:
                 self._markers[spec.vis_name].position = position
 
     def remove(self) -> None:
-        """Take the model, traces and markers out of the scene."""
-        for path in (self.root, "/traces", "/markers"):
+        """Take the model, traces and markers out of the scene (a ghost: only itself)."""
+        for path in (self.root,) if self.ghost else (self.root, "/traces", "/markers"):
             self.scene.remove_by_name(path)
 
     # ---- building ------------------------------------------------------------------------------
