@@ -64,7 +64,14 @@ def main() -> None:
     try:
         with tempfile.TemporaryDirectory() as folder:
             for task in args.tasks:
-                run(task, args.optimizer, max(args.workers), max(args.workers), args.duration, Path(folder) / "warm.h5")
+                run(
+                    task,
+                    args.optimizer,
+                    max(args.workers),
+                    max(args.workers),
+                    args.duration,
+                    Path(folder) / f"warm-{task}.h5",
+                )
                 base = None
                 for workers in args.workers:
                     out = Path(folder) / f"{task}-{workers}.h5"
