@@ -51,6 +51,9 @@ def wait_until() -> Callable[..., None]:
 
 @pytest.fixture(scope="session")
 def chromium() -> Iterator[object]:
+    # Once started, playwright's sync API keeps an event loop running in the main thread for the session,
+    # so a test that calls App.run() (asyncio.run) in the main thread must sort before the first browser
+    # test: keep browser tests in test_gui_*_browser.py (and the like) files.
     """Debian's headless Chromium driven by playwright. Skipped when it is missing, unless $CI is set."""
     problem = None if CHROMIUM.exists() else f"{CHROMIUM} not found (install Debian's chromium package)"
     try:

@@ -52,32 +52,3 @@ def test_a_recording_holds_the_steps_plans_and_config_edits_and_replay_reads_it(
         edits = json.loads(group.attrs["config_edits"])
         assert [(edit["kind"], edit["config"]["sigma"]) for edit in edits] == [("optimizer", 0.2)]
         assert group["actions"].shape == (len(demo.qpos), 1) and np.isfinite(group["rewards"][:]).all()
-
-
-@pytest.mark.browser
-def test_the_record_toggle_in_the_browser_writes_a_file_that_replay_opens(
-    chromium, port, tmp_path, monkeypatch, wait_until
-):
-    monkeypatch.chdir(tmp_path)  # the default recording path is in the working folder
-    app = small_app(port=port)
-    app.start()
-    page = chromium.new_page(viewport={"width": 1280, "height": 900})
-    page.set_default_timeout(60_000)
-    try:
-        page.goto(app.gui.url)
-        record = page.get_by_text("record", exact=True)
-        record.wait_for()
-        record.click()
-        wait_until(lambda: app.recording is not None, timeout=30, what="the recording to start")
-        plans = app.stats.num_plans()
-        wait_until(lambda: app.stats.num_plans() >= plans + 3, timeout=30, what="three plans recorded")
-        record.click()
-        wait_until(lambda: app.recording is None, timeout=30, what="the recording to be written")
-        wait_until(lambda: "recorded " in app.status.message, timeout=10, what="the status to say so")
-    finally:
-        page.close()
-        app.stop()
-    files = list(tmp_path.glob("judo-recording-cartpole-*.h5"))
-    assert len(files) == 1
-    _, demos = read_demos(files[0])
-    assert len(demos[0].qpos) > 10
