@@ -85,6 +85,19 @@ APP = ("--headless", "--duration", "0.05")
 EVALUATE = ("evaluate", "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "0.05")
 BENCHMARK = ("benchmark", "--tasks", "cartpole", "--optimizers", "ps", "--samples", "2", "--warmup", "0")
 TUNE = ("tune", "--task", "cartpole", "--optimizer", "ps", "--trials", "1", "--seeds", "1", "--duration", "0.05")
+COLLECT = (
+    "collect",
+    "--task",
+    "cartpole",
+    "--optimizer",
+    "ps",
+    "--episodes",
+    "1",
+    "--duration",
+    "0.05",
+    "--out",
+    "x.h5",
+)
 BAD_EVALUATE = tuple("bad" if arg == "cartpole" else arg for arg in EVALUATE)
 BAD_BENCHMARK = tuple("bad" if arg == "cartpole" else arg for arg in BENCHMARK)
 BAD_TUNE = tuple("bad" if arg == "cartpole" else arg for arg in TUNE)
@@ -211,6 +224,22 @@ TABLE = [
     Row((*APP, "--observe", "sensors", "--sensor-rate-hz", "framepos=x"), 2, "--sensor-rate-hz expects NUMBER or"),
     Row((*APP, "--observe", "sensors", "--sensor-noise", "bogus=0.1"), 2, "sensor noise: 'bogus' is not a sensor type"),
     Row((*APP, "--observe", "sensors", "--sensor-delay-ms", "-5"), 2, "sensor delay must be at least 0"),
+    Row((*APP, "--sensor-noise", "0.1"), 2, "--sensor-noise set the rehearsed sensors, which run only with --observe"),
+    Row((*EVALUATE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state"),
+    Row(
+        (*BAD_EVALUATE, *config("no_sensors.toml"), "--observe", "sensors"),
+        2,
+        "NoSensors declares no measured sensors; list the MJCF sensors a robot has in NoSensors.measured_sensors",
+    ),
+    Row((*EVALUATE, "--observe", "sensors", "--estimator", "state"), 2, "the 'state' estimator cannot run on this"),
+    Row(
+        (*EVALUATE, "--observe", "sensors", "--sensor-rate-hz", "9", "--sensor-rate-hz", "a=x"),
+        2,
+        "--sensor-rate-hz expects",
+    ),
+    Row((*TUNE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state"),
+    Row((*TUNE, "--sensor-delay-ms", "10"), 2, "--sensor-delay-ms set the rehearsed sensors, which run only with"),
+    Row((*COLLECT, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state"),
     # Ctrl-C
     Row((*EVALUATE[:-2], "--duration", "3000", "--num-workers", "2"), 130, "interrupted", interrupt=True),
     Row((*BENCHMARK[:-4], "--samples", "100000", "--num-workers", "2"), 130, "interrupted", interrupt=True),

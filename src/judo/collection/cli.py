@@ -8,7 +8,7 @@ import shlex
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 import mujoco
 import tyro
@@ -16,17 +16,8 @@ import tyro
 from judo.collection.model_info import config_dict, model_sha256
 from judo.core.config import Config, require, require_between
 from judo.core.errors import JudoError
-from judo.core.rollout import RolloutBackendName
-from judo.evaluation.cli import (
-    ControllerOverrides,
-    check_episode_args,
-    episode_latency,
-    fail,
-    given_fields,
-    name_listing,
-    parse_args_with_config_fields,
-)
-from judo.evaluation.episode import Latency
+from judo.evaluation.cli import fail, name_listing, parse_args_with_config_fields
+from judo.evaluation.episode_args import EpisodeArgs
 
 DESCRIPTION = (
     "Collect closed-loop MPC episodes of a task x optimizer into an HDF5 dataset in a robomimic-style layout "
@@ -35,62 +26,35 @@ DESCRIPTION = (
     "(--address). The same command again adds only the seeds missing from --out, so a larger --episodes extends "
     "a file and an interrupted run resumes; Ctrl-C keeps every finished episode. Config fields of the pair are "
     "set with --controller.FIELD, --optimizer-config.FIELD and --task-config.FIELD (listed below once --task and "
-    "--optimizer are given). Needs the `collect` extra: pip install 'judo[collect]'."
+    "--optimizer are given). With --observe sensors (and --sensor-*, --estimator) the file also holds what the "
+    "robot measured and what the estimator estimated. Needs the `collect` extra: pip install 'judo[collect]'."
 )
 
 
 @dataclass
-class CollectArgs:
+class CollectArgs(EpisodeArgs):
     """Arguments of `python -m judo collect`."""
 
-    task: Annotated[str, tyro.conf.arg(metavar="NAME")]
-    """Task to run, by registered name."""
-    optimizer: Annotated[str, tyro.conf.arg(metavar="NAME")]
-    """Optimizer to run, by registered name."""
-    out: Annotated[Path, tyro.conf.arg(metavar="FILE.h5")]
+    out: Annotated[Path, tyro.conf.arg(metavar="FILE.h5")] = field(kw_only=True)
     """The HDF5 dataset to write; an existing one made with the same arguments gets the missing seeds."""
     episodes: int = 10
     """Episodes the file should hold, with seeds 0 to episodes - 1."""
     duration: float = 10.0
     """Length of each episode in seconds of sim time."""
-    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
-    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides."""
-    latency: Literal["none", "measured"] = "none"
-    """Planning latency, as for evaluate: none, or each update's measured wall time."""
-    latency_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
-    """Fixed planning latency in milliseconds of sim time (reproducible); instead of --latency."""
-    backend: RolloutBackendName = "cpu"
-    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
     success_only: bool = False
     """Keep only the episodes the task counts as a success (Task.success of its metrics); the others are listed in the file as dropped and not run again."""
     workers: Annotated[int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")] = None
     """Episodes run at once, each on one rollout thread (the CPUs of a local Ray; with --address, default twice the cluster's CPUs in flight)."""
     address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")] = None
     """A running Ray cluster: auto (the one `ray start --head` started on this machine) or ray://HOST:10001."""
-    controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
-    """Controller settings to change from the task's defaults, e.g. --controller.horizon 1.0."""
+    # EpisodeArgs has the task, optimizer, --config, latency, backend, --controller.FIELD and sensing options.
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range or a name that is not registered."""
-        check_episode_args(self)
+        self.check()
         require_between("--episodes", self.episodes, 1, 10_000_000)
         require(self.workers is None or self.workers >= 1, f"--workers must be at least 1, got {self.workers}")
         require(self.out.suffix in (".h5", ".hdf5"), f"--out must name an .h5 or .hdf5 file, got {str(self.out)!r}")
-
-    def episode_latency(self) -> Latency:
-        """The latency `run_episode` takes: seconds, or "measured"."""
-        return episode_latency(self.latency, self.latency_ms)
-
-    def values(self) -> dict[str, Any]:
-        """Every config field given on the command line, {"controller.horizon": 1.0, "optimizer.sigma": ...}."""
-        groups = {
-            "controller": self.controller,
-            "optimizer": getattr(self, "optimizer_config", None),
-            "task": getattr(self, "task_config", None),
-        }
-        return {
-            f"{kind}.{name}": value for kind, group in groups.items() for name, value in given_fields(group).items()
-        }
 
 
 def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
@@ -107,6 +71,7 @@ def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
         "optimizer": args.optimizer,
         "duration": args.duration,
         "latency_s": latency,
+        "sensing": args.sensing_record(),
         "backend": args.backend,
         "success_only": args.success_only,
         "config_file": None if args.config is None else str(args.config),
@@ -123,7 +88,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo collect` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
     from judo.collection.dataset import import_h5py
     from judo.collection.run import collect
-    from judo.evaluation.seeded import EpisodeSpec, configs_in_force
+    from judo.evaluation.seeded import configs_in_force
 
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args_with_config_fields(
@@ -135,10 +100,7 @@ def main(argv: list[str] | None = None) -> int:
 
         import_ray("python -m judo collect", "collect")
         args.validate()
-        config_file = None if args.config is None else str(args.config.resolve())
-        spec = EpisodeSpec(
-            args.task, args.optimizer, args.duration, args.episode_latency(), args.values(), config_file, args.backend
-        )
+        spec = args.spec(num_workers=1)
         configs = configs_in_force(spec)
         command = "python -m judo collect " + shlex.join(argv)
         return collect(spec, env_args(args, configs), args, command, args.workers or os.cpu_count() or 1)

@@ -26,6 +26,7 @@ from judo.core.registry import (
     make_config,
 )
 from judo.runtime.closed_loop import Latency
+from judo.runtime.sensing_flags import merge_repeated
 
 ArgsT = TypeVar("ArgsT")
 
@@ -62,7 +63,7 @@ def parse_args_with_config_fields(args_cls: type[ArgsT], argv: list[str] | None,
     """
     from judo.core.task import TaskConfig
 
-    argv = list(sys.argv[1:] if argv is None else argv)
+    argv = merge_repeated(list(sys.argv[1:] if argv is None else argv))
     try:
         apply_config_file(None if (path := option_value(argv, "config")) is None else Path(path))
     except JudoError as err:

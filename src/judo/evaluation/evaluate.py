@@ -1,9 +1,9 @@
 """`python -m judo evaluate`: closed-loop episodes over seeds, the task's success metrics with 95% CIs."""
 
 import sys
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 import numpy as np
 import tyro
@@ -14,15 +14,10 @@ from judo.core.boundary import MAX_WORKERS, check_count, check_output_file
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import lookup_task
-from judo.core.rollout import RolloutBackendName
 from judo.evaluation.cli import (
-    ControllerOverrides,
     apply_config_file,
-    check_episode_args,
-    episode_latency,
     fail,
     given_fields,
-    latency_label,
     name_listing,
     output_console,
     parse_args_with_config_fields,
@@ -30,7 +25,8 @@ from judo.evaluation.cli import (
     set_field_overrides,
     write_json,
 )
-from judo.evaluation.episode import EpisodeResult, Latency
+from judo.evaluation.episode import EpisodeResult
+from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.evaluation.stats import Summary, summarize
@@ -39,35 +35,21 @@ DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
     "seed (0, 1, ...), each from the task's randomised start, and print each success metric's mean with its 95% "
     "confidence interval over seeds. With --latency measured or --latency-ms the plant keeps moving while a plan "
-    "is computed, and the plan takes effect that much later."
+    "is computed, and the plan takes effect that much later. With --observe sensors the planner sees only the "
+    "task's measured sensors (noisy, late, at their rates: --sensor-*) through --estimator (ekf by default)."
 )
 
 
 @dataclass
-class EvaluateArgs:
+class EvaluateArgs(EpisodeArgs):
     """Arguments of `python -m judo evaluate`."""
 
-    task: Annotated[str, tyro.conf.arg(metavar="NAME")]
-    """Task to run, by registered name."""
-    optimizer: Annotated[str, tyro.conf.arg(metavar="NAME")]
-    """Optimizer to run, by registered name."""
-    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
-    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
-    (docs/configuration.md); read before anything else."""
     seeds: int = 5
     """Episodes to run, with seeds 0 to seeds - 1."""
-    duration: float = 20.0
-    """Length of each episode in seconds of sim time."""
-    latency: Literal["none", "measured"] = "none"
-    """Planning latency: none, or each update's measured wall time (which varies from run to run)."""
-    latency_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
-    """Fixed planning latency in milliseconds of sim time (reproducible); instead of --latency."""
     num_workers: Annotated[int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")] = (
         None
     )
     """Rollout worker threads (cpu backend)."""
-    backend: RolloutBackendName = "cpu"
-    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
     workers: Annotated[int | None, tyro.conf.arg(metavar="K", help_behavior_hint="(default: in this process)")] = None
     """Run the seeds as Ray tasks, K at once, on a local Ray with K CPUs (each on one rollout thread unless
     --num-workers is given); the metrics are those of the in-process run. Needs pip install 'judo[tune]'."""
@@ -78,14 +60,13 @@ class EvaluateArgs:
     """Also write each episode's metrics and the summary to this JSON file."""
     plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also plot the first seed's episode against time to this .png (needs matplotlib) or .html file."""
-    controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
-    """Controller settings to change from the task's defaults, e.g. --controller.num-randomizations 4."""
+    # EpisodeArgs has the task, optimizer, episode, latency, backend, --controller.FIELD and sensing options;
     # parse_args_with_config_fields adds `optimizer_config` (--optimizer-config.FIELD, e.g.
     # --optimizer-config.sigma 0.3) and `task_config` (--task-config.FIELD), typed for the pair named.
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
-        check_episode_args(self)
+        self.check()
         require_between("--seeds", self.seeds, 1, 10_000)
         require(
             self.num_workers is None or self.num_workers >= 1,
@@ -94,38 +75,10 @@ class EvaluateArgs:
         if self.plot is not None:
             check_plot_path(self.plot)
 
-    def changed_fields(self) -> dict[str, Any]:
-        """Every config field given on the command line, as {"controller.horizon": 1.0, "optimizer.sigma": 0.3, ...}."""
-        groups = {"controller": self.controller, "optimizer": getattr(self, "optimizer_config", None)}
-        groups["task"] = getattr(self, "task_config", None)
-        return {
-            f"{kind}.{name}": value
-            for kind, group in groups.items()
-            if group is not None
-            for name, value in given_fields(group).items()
-        }
-
     def episode_spec(self) -> EpisodeSpec:
         """What determines each seed's episode, for the one seeded episode runner here or on Ray."""
         on_ray = self.workers is not None or self.address is not None
-        return EpisodeSpec(
-            self.task,
-            self.optimizer,
-            self.duration,
-            self.episode_latency(),
-            self.changed_fields(),
-            None if self.config is None else str(self.config.resolve()),
-            self.backend,
-            (self.num_workers or 1) if on_ray else self.num_workers,
-        )
-
-    def episode_latency(self) -> Latency:
-        """The latency `run_episode` takes: seconds, or "measured"."""
-        return episode_latency(self.latency, self.latency_ms)
-
-    def latency_label(self) -> str:
-        """How the latency reads in titles and JSON."""
-        return latency_label(self.latency, self.latency_ms)
+        return self.spec((self.num_workers or 1) if on_ray else self.num_workers)
 
 
 def summarize_metrics(results: list[EpisodeResult]) -> dict[str, Summary]:
@@ -212,6 +165,7 @@ def main(argv: list[str] | None = None) -> int:
         update_ms = np.concatenate([result.update_ms for result in results])
         title = (
             f"{args.task} x {args.optimizer}: {args.seeds} seeds x {args.duration:g} s, latency {args.latency_label()}"
+            f"{args.sensing_label()}"
         )
         changed = args.changed_fields()
         if changed:
@@ -235,6 +189,7 @@ def main(argv: list[str] | None = None) -> int:
                     "seeds": args.seeds,
                     "duration": args.duration,
                     "latency": args.latency_label(),
+                    "sensing": args.sensing_record(),
                     "backend": args.backend,
                     "controller": given_fields(args.controller),
                     "overrides": changed,

@@ -18,6 +18,8 @@ from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
 from judo.runtime.records import Recorder
+from judo.runtime.sensing import SensedSystem
+from judo.runtime.session import Sensing, choose_estimator, observed_plant
 from judo.runtime.system import MujocoSystem
 
 _LOADED_CONFIG_FILES: set[str] = set()
@@ -40,6 +42,8 @@ class EpisodeSpec:
         backend: rollout backend, "cpu" or "warp".
         num_workers: rollout threads (None: one per core; 1 where episodes run in parallel, so they do not
             fight for cores).
+        sensing: how the plant is observed (--observe, --sensor-*) and the estimator between its readings and
+            the plan (--estimator); the full state as it is by default.
     """
 
     task: str
@@ -50,6 +54,7 @@ class EpisodeSpec:
     config_file: str | None = None
     backend: str = "cpu"
     num_workers: int | None = 1
+    sensing: Sensing = field(default_factory=Sensing)
 
 
 def load_config_once(path: str | None) -> None:
@@ -80,6 +85,10 @@ def run_seeded_episode(
 ) -> EpisodeResult:
     """Run seed `seed`'s episode of `spec`; raises what the task, optimizer or configs raise.
 
+    With `spec.sensing.observe` "sensors" the plant serves only the task's measured sensors (noise seeded by
+    [seed, SENSING_STREAM]) through the estimator; the log, the metrics and the recorders' `state` hold the
+    plant's true state either way.
+
     Args:
         spec: the task, optimizer, configs, duration, latency, backend and rollout threads.
         seed: seeds the controller's generators and the plant's (`MujocoSystem.from_task`).
@@ -100,9 +109,15 @@ def run_seeded_episode(
         backend=spec.backend,
     ) as controller:
         controller.task.config = configs["task"]
-        system = MujocoSystem.from_task(controller.task, seed)
-        extra = list(recorders(controller, system)) if recorders is not None else []
-        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra)
+        system = observed_plant(controller.task, seed, spec.sensing)
+        _, estimator = choose_estimator(controller.task, spec.task, system, spec.sensing)
+        extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
+        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
+
+
+def plant_of(system: MujocoSystem | SensedSystem) -> MujocoSystem:
+    """The simulator itself, also when it is observed through a SensedSystem."""
+    return system.system if isinstance(system, SensedSystem) else system
 
 
 def failure_reason(err: BaseException) -> str:

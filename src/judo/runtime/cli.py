@@ -22,7 +22,7 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import tyro
@@ -40,9 +40,8 @@ from judo.core.registry import (
     lookup_estimator,
     make_config,
 )
-from judo.core.sensors import parse_per_type
 from judo.runtime.app import App
-from judo.runtime.sensing import PerType
+from judo.runtime.sensing_flags import SensingFlags, merge_repeated
 
 PROG = "python -m judo"
 CONFIG_GROUPS = {
@@ -52,13 +51,11 @@ CONFIG_GROUPS = {
     "estimator": "estimator_config",
 }
 """Config kind -> the option group holding its fields (`--controller.horizon`, `--optimizer-config.sigma`, ...)."""
-PER_TYPE_FLAGS = ("--sensor-noise", "--sensor-delay-ms", "--sensor-rate-hz")
-"""Flags that may be repeated, each value NUMBER or TYPE=NUMBER (e.g. --sensor-rate-hz framepos=30)."""
 
 
 @dataclass
-class RunOptions:
-    """What to run and how to serve it."""
+class RunOptions(SensingFlags):
+    """What to run and how to serve it (and, from SensingFlags, how the simulated plant is observed)."""
 
     config: Path | None = None
     """TOML file that registers custom tasks and optimizers and sets per-task overrides (see docs/configuration.md)."""
@@ -83,19 +80,6 @@ class RunOptions:
     """Seed of the optimizer, the task and the simulated plant."""
     backend: RolloutBackendName = "cpu"
     """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install "judo[warp]")."""
-    observe: Literal["state", "sensors"] = "state"
-    """What the planner gets from the simulated plant: its full state, or only the task's measured sensors
-    (noisy, late, at their rates: rehearsed sensing, fused by --estimator)."""
-    sensor_noise: tuple[str, ...] = ()
-    """Std of the measured sensors' noise (their units; rad per axis for a quaternion): STD for all, or
-    TYPE=STD per sensor type (e.g. framepos=0.002); repeatable. With --observe sensors."""
-    sensor_delay_ms: tuple[str, ...] = ()
-    """Milliseconds from taking a sample to delivering it: MS, or TYPE=MS (e.g. framepos=40); repeatable."""
-    sensor_rate_hz: tuple[str, ...] = ()
-    """Samples per second: HZ, or TYPE=HZ (e.g. framepos=30); every plant step when not given; repeatable."""
-    estimator: str | None = None
-    """Registered estimator between the readings and the plan (ekf, state, ...); ekf by default with
-    --observe sensors. Its fields are the --estimator-config.* options."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -110,7 +94,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except JudoError as err:  # an unknown name, or a config file that cannot be applied
         print(f"{PROG}: {err}", file=sys.stderr)
         return 2
-    argv = ["--task", task, "--optimizer", optimizer, *merge_repeated(argv, PER_TYPE_FLAGS)]
+    argv = ["--task", task, "--optimizer", optimizer, *merge_repeated(argv)]
     try:
         options, configs = parse(argv, defaults)
         if options.duration is not None and math.isfinite(options.duration) and options.duration > MAX_DURATION:
@@ -135,7 +119,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             observe=options.observe,
             estimator=estimator,
             estimator_config=configs.get("estimator"),  # type: ignore[arg-type]
-            **sensing_options(options),
+            **{f"sensor_{key}": value for key, value in options.sensor_settings().items()},
         )
     except JudoError as err:
         print(f"{PROG}: {err}", file=sys.stderr)
@@ -208,49 +192,6 @@ def _peek_estimator(argv: list[str]) -> str | None:
     peek.add_argument("--observe", default=None)
     known, _ = peek.parse_known_args(argv)
     return known.estimator or ("ekf" if known.observe == "sensors" else None)
-
-
-def merge_repeated(argv: list[str], flags: Sequence[str]) -> list[str]:
-    """`argv` with every repeat of each of `flags` gathered into its first occurrence:
-    ["--sensor-rate-hz", "100", "--sensor-rate-hz", "framepos=30"] -> ["--sensor-rate-hz", "100", "framepos=30"]."""
-    merged: list[str] = []
-    first: dict[str, int] = {}  # flag -> index in `merged` after its values so far
-    i = 0
-    while i < len(argv):
-        arg = argv[i]
-        flag, eq, inline = arg.partition("=")
-        if flag not in flags:
-            merged.append(arg)
-            i += 1
-            continue
-        values = [inline] if eq else []
-        i += 1
-        while not eq and i < len(argv) and not argv[i].startswith("--"):
-            values.append(argv[i])
-            i += 1
-        if flag in first:
-            at = first[flag]
-            merged[at:at] = values
-            first = {f: (n + len(values) if n >= at and f != flag else n) for f, n in first.items()}
-            first[flag] = at + len(values)
-        else:
-            merged += [flag, *values]
-            first[flag] = len(merged)
-    return merged
-
-
-def sensing_options(options: RunOptions) -> dict[str, PerType]:
-    """App's sensor_noise, sensor_delay (s) and sensor_rate from the per-type flags (ConfigError for a bad value)."""
-    delay = parse_per_type(options.sensor_delay_ms, "--sensor-delay-ms") if options.sensor_delay_ms else None
-    if isinstance(delay, dict):
-        delay = {key: value / 1e3 for key, value in delay.items()}
-    elif delay is not None:
-        delay /= 1e3
-    return {
-        "sensor_noise": parse_per_type(options.sensor_noise, "--sensor-noise") if options.sensor_noise else None,
-        "sensor_delay": delay,
-        "sensor_rate": parse_per_type(options.sensor_rate_hz, "--sensor-rate-hz") if options.sensor_rate_hz else None,
-    }
 
 
 def _description() -> str:

@@ -16,7 +16,7 @@ from judo.core.errors import ConfigError
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, default_estimator_name
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import lookup_estimator, make_controller, make_estimator
-from judo.core.task import TaskConfig
+from judo.core.task import Task, TaskConfig
 from judo.runtime.closed_loop import ClosedLoop
 from judo.runtime.sensing import PerType, SensedSystem
 from judo.runtime.system import MujocoSystem, System, SystemState
@@ -144,27 +144,48 @@ def build_session(
         controller.task.config = task_config
     try:
         if system is None:
-            system = MujocoSystem.from_task(controller.task, seed)
-            if sensing.observe == "sensors":
-                rng = np.random.default_rng(None if seed is None else [seed, SENSING_STREAM])
-                system = SensedSystem(system, sensing.noise, sensing.delay, sensing.rate, rng)
-        name = sensing.estimator
-        if reading is None and (name is not None or not isinstance(system, MujocoSystem)):
-            reading = system.read_state()
-        if name is None and not isinstance(system, MujocoSystem):  # the simulator reads its full state
-            assert reading is not None
-            name = default_estimator_name(reading)
-            name = None if name == "state" else name
-        estimator = None
-        if name is not None:
-            assert reading is not None
-            estimator = make_estimator(name, controller.task, sensing.estimator_config, task_name)
-            check_estimator(name, estimator, reading)
+            system = observed_plant(controller.task, seed, sensing)
+        name, estimator = choose_estimator(controller.task, task_name, system, sensing, reading)
         closed_loop = ClosedLoop(controller, system, clock=clock, on_watchdog=on_watchdog, estimator=estimator)
     except BaseException:
         controller.close()
         raise
     return Session(task_name, optimizer_name, controller, system, closed_loop, generation, name)
+
+
+def observed_plant(task: Task, seed: int | None, sensing: Sensing) -> MujocoSystem | SensedSystem:
+    """The simulated plant of `task` (`MujocoSystem.from_task(task, seed)`), behind a SensedSystem serving
+    only the measured sensors when `sensing.observe` is "sensors" (its noise drawn from [seed, SENSING_STREAM]).
+    ConfigError for a task that declares no measured sensors."""
+    plant = MujocoSystem.from_task(task, seed)
+    if sensing.observe != "sensors":
+        return plant
+    rng = np.random.default_rng(None if seed is None else [seed, SENSING_STREAM])
+    return SensedSystem(plant, sensing.noise, sensing.delay, sensing.rate, rng)
+
+
+def choose_estimator(
+    task: Task, task_name: str, system: System, sensing: Sensing, reading: SystemState | None = None
+) -> tuple[str | None, Estimator | None]:
+    """(name, estimator) between `system`'s readings and the plan: `sensing.estimator`, else "ekf" for a
+    plant whose readings have no full state, else (None, None) (plan from the reading as it is).
+
+    `reading` is the plant's latest reading when another thread drives it; None reads it here. ConfigError
+    when the estimator cannot fuse the plant's readings.
+    """
+    name = sensing.estimator
+    if reading is None and (name is not None or not isinstance(system, MujocoSystem)):
+        reading = system.read_state()
+    if name is None and not isinstance(system, MujocoSystem):  # the simulator reads its full state
+        assert reading is not None
+        name = default_estimator_name(reading)
+        name = None if name == "state" else name
+    if name is None:
+        return None, None
+    assert reading is not None
+    estimator = make_estimator(name, task, sensing.estimator_config, task_name)
+    check_estimator(name, estimator, reading)
+    return name, estimator
 
 
 def check_estimator(name: str, estimator: Estimator, reading: SystemState) -> None:

@@ -29,6 +29,8 @@ from judo.evaluation.cli import (
 )
 from judo.evaluation.episode import Latency
 from judo.evaluation.plot import write_episode_plot
+from judo.runtime.sensing_flags import SensingFlags, merge_repeated
+from judo.runtime.session import Sensing
 from judo.tuning.best_file import write_best_toml
 from judo.tuning.conditions import (
     Aggregate,
@@ -51,14 +53,15 @@ DESCRIPTION = (
     "by default); each episode (a condition x a seed) runs as a Ray task on one core, on a local Ray or a "
     "cluster (--address). The study is stored in a database (SQLite by default), so the same command resumes "
     "it. Writes to --out: trials.csv, plots (PNG and HTML), summary.json, and best.toml, which "
-    "`python -m judo --config` and `evaluate --config` read. Needs the `tune` extra: pip install 'judo[tune]'."
+    "`python -m judo --config` and `evaluate --config` read. With --observe sensors (--sensor-*, --estimator) "
+    "every episode plans from the task's measured sensors through the estimator. Needs the `tune` extra: pip install 'judo[tune]'."
 )
 PROBE_DURATION = 0.2
 """Seconds of sim time of the check episode run before the study, which also lists the task's metrics."""
 
 
 @dataclass
-class TuneArgs:
+class TuneArgs(SensingFlags):
     """Arguments of `python -m judo tune`."""
 
     task: Annotated[str, tyro.conf.arg(metavar="NAME")]
@@ -144,6 +147,7 @@ class TuneArgs:
             f"give either --latency {self.latency} or --latency-ms {self.latency_ms}, not both",
         )
         require(0 < self.cvar_alpha <= 1, f"--cvar-alpha must be in (0, 1], got {self.cvar_alpha}")
+        self.sensing()
 
     def condition_list(self) -> list[Condition]:
         """The conditions every trial runs: --conditions, or one condition for --latency/--latency-ms, or the
@@ -177,7 +181,8 @@ def probe(args: TuneArgs, fixed: dict[str, Any]) -> list[str]:
 
     Raises JudoError when that episode fails, so a broken task stops the tune before Ray starts.
     """
-    spec = TrialSpec(args.task, args.optimizer, "mean_reward", 1, min(PROBE_DURATION, args.duration), fixed=fixed)
+    duration = min(PROBE_DURATION, args.duration)
+    spec = TrialSpec(args.task, args.optimizer, "mean_reward", 1, duration, fixed=fixed, sensing=args.sensing())
     try:
         (result,) = run_seeded_episodes(spec, {}, range(1))
     except JudoError:
@@ -229,6 +234,7 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
         aggregate=args.aggregate,
         cvar_alpha=args.cvar_alpha,
         maximize=objective.direction == "maximize",
+        sensing=args.sensing(),
     )
     target = args.trials
     if args.sampler == "grid":
@@ -242,6 +248,8 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
         "conditions": "; ".join(condition.label for condition in spec.conditions),
         "aggregate": aggregate_text(spec),
     }
+    if spec.sensing != Sensing():  # a study planning from sensors never resumes one from the full state
+        identity["sensing"] = repr(spec.sensing)
     out = args.out_dir()
     storage = args.storage_url()
     study, already = studies.open_study(storage, study_name, objective, sampler, identity)
@@ -347,7 +355,7 @@ def write_outputs(
 
 def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo tune` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
-    argv = list(sys.argv[1:] if argv is None else argv)
+    argv = merge_repeated(list(sys.argv[1:] if argv is None else argv))
     args = tyro.cli(TuneArgs, args=argv, prog="python -m judo tune", description=DESCRIPTION + " " + name_listing())
     try:
         check_count("--workers", args.workers, MAX_WORKERS)

@@ -15,6 +15,7 @@ import numpy as np
 
 from judo.evaluation.episode import EpisodeResult, Latency
 from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode
+from judo.runtime.session import Sensing
 from judo.tuning.conditions import Aggregate, Condition
 
 
@@ -35,6 +36,7 @@ class TrialSpec:
             that sets nothing runs the study's latency at the task's rate.
         aggregate, cvar_alpha: how the conditions' metrics become the trial's value.
         maximize: whether the metric is better higher (which condition is the worst).
+        sensing: how every episode's plant is observed and estimated (--observe, --sensor-*, --estimator).
     """
 
     task: str
@@ -50,6 +52,7 @@ class TrialSpec:
     aggregate: Aggregate = "mean"
     cvar_alpha: float = 0.5
     maximize: bool = True
+    sensing: Sensing = field(default_factory=Sensing)
 
 
 @dataclass
@@ -90,7 +93,14 @@ def run_seeded_episodes(
         updates["controller.control_freq"] = condition.control_freq
     latency = spec.latency if condition.latency_ms is None else condition.latency_ms / 1e3
     episode = EpisodeSpec(
-        spec.task, spec.optimizer, spec.duration, latency, updates, spec.config_file, num_workers=spec.num_workers
+        spec.task,
+        spec.optimizer,
+        spec.duration,
+        latency,
+        updates,
+        spec.config_file,
+        num_workers=spec.num_workers,
+        sensing=spec.sensing,
     )
     return [run_seeded_episode(episode, seed) for seed in seeds]
 

@@ -1,0 +1,112 @@
+"""`EpisodeArgs`: the arguments every command that runs seeded episodes shares (evaluate, collect).
+
+The task and optimizer, the --config file, the episode's length and latency, the rollout backend, the
+`--controller.FIELD` overrides (and the `--optimizer-config.FIELD` and `--task-config.FIELD` groups that
+`parse_args_with_config_fields` adds), and from `SensingFlags` how the plant is observed and estimated.
+`spec()` turns them into the `EpisodeSpec` of the one seeded episode runner.
+"""
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import tyro
+
+from judo.core.rollout import RolloutBackendName
+from judo.evaluation.cli import (
+    ControllerOverrides,
+    check_episode_args,
+    episode_latency,
+    given_fields,
+    latency_label,
+)
+from judo.evaluation.seeded import EpisodeSpec
+from judo.runtime.closed_loop import Latency
+from judo.runtime.sensing_flags import SensingFlags
+
+
+@dataclass
+class EpisodeArgs(SensingFlags):
+    """What determines a command's episodes, apart from their seeds."""
+
+    task: Annotated[str, tyro.conf.arg(metavar="NAME")]
+    """Task to run, by registered name."""
+    optimizer: Annotated[str, tyro.conf.arg(metavar="NAME")]
+    """Optimizer to run, by registered name."""
+    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
+    (docs/configuration.md); read before anything else."""
+    duration: float = 20.0
+    """Length of each episode in seconds of sim time."""
+    latency: Literal["none", "measured"] = "none"
+    """Planning latency: none, or each update's measured wall time (which varies from run to run)."""
+    latency_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
+    """Fixed planning latency in milliseconds of sim time (reproducible); instead of --latency."""
+    backend: RolloutBackendName = "cpu"
+    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
+    controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
+    """Controller settings to change from the task's defaults, e.g. --controller.horizon 1.0."""
+
+    def check(self) -> None:
+        """Raise a JudoError naming the argument that is wrong (names, duration, latency, backend, config
+        fields, sensing flags)."""
+        check_episode_args(self)
+        self.sensing()
+
+    def changed_fields(self) -> dict[str, Any]:
+        """Every config field given on the command line, {"controller.horizon": 1.0, "optimizer.sigma": 0.3, ...}."""
+        groups = {
+            "controller": self.controller,
+            "optimizer": getattr(self, "optimizer_config", None),
+            "task": getattr(self, "task_config", None),
+        }
+        return {
+            f"{kind}.{name}": value
+            for kind, group in groups.items()
+            if group is not None
+            for name, value in given_fields(group).items()
+        }
+
+    def config_file(self) -> str | None:
+        """The --config file as an absolute path (Ray workers read it from another directory), or None."""
+        return None if self.config is None else str(self.config.resolve())
+
+    def episode_latency(self) -> Latency:
+        """The latency `run_episode` takes: seconds, or "measured"."""
+        return episode_latency(self.latency, self.latency_ms)
+
+    def latency_label(self) -> str:
+        """How the latency reads in titles and JSON: "none", "measured" or "25 ms"."""
+        return latency_label(self.latency, self.latency_ms)
+
+    def spec(self, num_workers: int | None) -> EpisodeSpec:
+        """What determines each seed's episode, for the one seeded episode runner, with `num_workers` rollout
+        threads per episode (None: one per core)."""
+        return EpisodeSpec(
+            self.task,
+            self.optimizer,
+            self.duration,
+            self.episode_latency(),
+            self.changed_fields(),
+            self.config_file(),
+            self.backend,
+            num_workers,
+            self.sensing(),
+        )
+
+    def sensing_label(self) -> str:
+        """How the observation reads in titles: "" for the full state, else e.g. ", sensors + ekf"."""
+        if self.observe == "state" and self.estimator is None:
+            return ""
+        return f", {self.observe} + {self.estimator or 'ekf'}" if self.observe == "sensors" else f", {self.estimator}"
+
+    def sensing_record(self) -> dict[str, Any]:
+        """The sensing flags as JSON: observe, noise, delay (s), rate (Hz) and estimator."""
+        sensing = self.sensing()
+        return {
+            "observe": sensing.observe,
+            "noise": sensing.noise,
+            "delay_s": sensing.delay,
+            "rate_hz": sensing.rate,
+            "estimator": sensing.estimator or ("ekf" if sensing.observe == "sensors" else None),
+        }
