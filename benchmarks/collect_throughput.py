@@ -45,7 +45,7 @@ class Args:
 
 def run(task: str, optimizer: str, workers: int, episodes: int, duration: float, out: Path) -> float:
     """Collect `episodes` episodes into `out` with `workers` at once; returns the wall seconds."""
-    args = CollectArgs(task, optimizer, out, episodes=episodes, duration=duration, workers=workers)
+    args = CollectArgs(task, optimizer, out=out, episodes=episodes, duration=duration, workers=workers)
     spec = EpisodeSpec(task, optimizer, duration)
     started = time.perf_counter()
     with contextlib.redirect_stdout(io.StringIO()):

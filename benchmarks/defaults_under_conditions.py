@@ -3,8 +3,9 @@
 For each task x optimizer x condition, runs seeded closed-loop episodes (evaluate's episodes, through
 tune's episode runner) and prints each success metric's mean ± 95% CI over seeds. A condition is a
 replanning rate and a fixed planning latency (`python -m judo tune --conditions` syntax); by default the
-task's check set: control_freq 20 and the task's own rate, crossed with no latency and
-`Task.check_latency_ms` (25 ms; 50 ms for leap_cube, leap_cube_down and fr3_pick).
+task's check set: its slowest rate `Task.min_control_freq` (20 Hz; 50 Hz for acrobot and double_cartpole,
+which diverge too fast for less) and the task's own rate, crossed with no latency and `Task.check_latency_ms`
+(25 ms; 50 ms for leap_cube, leap_cube_down and fr3_pick).
 
 A **collapse** is flagged where a condition loses, against the pair's best condition, more than 0.1 of a
 fraction metric (a metric whose means all lie in [0, 1], e.g. balanced_fraction) or more than 25% of a rate

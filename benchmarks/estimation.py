@@ -2,18 +2,23 @@
 state, and the EKF's cost on leap_cube.
 
     PYTHONPATH=src python benchmarks/estimation.py                     # cartpole, pendulum: 5 seeds x 8 s
-    PYTHONPATH=src python benchmarks/estimation.py --tasks acrobot --seeds 3 --duration 10
+    PYTHONPATH=src python benchmarks/estimation.py --tasks acrobot double_cartpole --seeds 5 --duration 15
+    PYTHONPATH=src python benchmarks/estimation.py --tasks walker --seeds 5 --duration 15 --cost-steps 0
+    PYTHONPATH=src python benchmarks/estimation.py --tasks leap_cube --optimizer icem --seeds 5 --duration 30
     PYTHONPATH=src python benchmarks/estimation.py --cost-only           # just the leap_cube EKF cost
 
-Each task runs three ways on the same seeds (the plant's start state and the sensor noise are seeded):
-- "full state": today's evaluate, the true [qpos, qvel] every step;
-- "sensors + ekf": SensedSystem serving only the task's measured sensors (encoders: std 0.005 rad,
-  100 Hz, 10 ms late) into the EKF, which fuses each reading at the time it was taken and predicts to now;
-- "sensors, no filter": the same readings planned from as they come: positions as read and velocities by
-  differencing successive readings, late values taken as current. The gap to the EKF is what the filter buys.
-The metric is the task's first metric (cartpole: balanced_fraction, pendulum: upright_fraction), from the
-true plant state. The episode's loop is judo.runtime.closed_loop.ClosedLoop, with the estimator between
-the reading and the plan (`read`) and every served action kept for its predictions (`serve`).
+Each task runs on the same seeds (the plant's start state and the sensor noise are seeded) as evaluate runs
+it (`run_seeded_episode`, the one seeded runner of evaluate, tune and collect):
+- "full state": `evaluate`, the true [qpos, qvel] every step;
+- "sensors + ekf": `evaluate --observe sensors --estimator ekf` with the task's sensing below: a SensedSystem
+  serving only the measured sensors into the EKF, which fuses each reading at the time it was taken and
+  predicts to now;
+- "state, noisy + late": the "state" estimator (no filter) fed the same noise, rate and delay on a full state:
+  qpos with the encoders' std, qvel with the std of differencing two such readings (sqrt(2) std x rate), both
+  sampled at the encoders' rate and delivered as late. The gap to the EKF is what the filter buys. Only for the
+  tasks whose sensing is one rate and delay for every sensor (not leap_cube).
+The metric is the task's first metric (cartpole: balanced_fraction, walker: mean_forward_speed, leap_cube:
+goals_per_minute), always from the true plant state.
 
 The leap_cube cost: one EKF update (a finite-difference Jacobian of 2 nv = 44 state columns, ~45 mj_steps)
 against one mj_step of the same model in the same process, so the ratio holds on a loaded machine, and the
@@ -22,87 +27,132 @@ wall time (which does not). With relinearize_every=k the Jacobians are reused fo
 
 import argparse
 import time
+from collections import deque
 
 import mujoco
 import numpy as np
 
 import judo
-from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, estimate_of
+from judo.core.estimator import ControlHistory
 from judo.core.registry import make_controller, make_estimator
 from judo.estimators.ekf import EKFConfig
-from judo.evaluation.episode import EpisodeLogRecorder
-from judo.runtime.closed_loop import ClosedLoop
+from judo.evaluation.episode import run_episode
+from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.runtime.sensing import SensedSystem
-from judo.runtime.system import MujocoSystem, SystemState
+from judo.runtime.session import Sensing
+from judo.runtime.system import MujocoSystem, System, SystemState
 
-SENSING = {"noise": 0.005, "rate": 100.0, "delay": 0.01}
+ENCODERS = {"noise": 0.005, "rate": 100.0, "delay": 0.01}
 """The issue's encoder setting for cartpole, pendulum, acrobot and double_cartpole."""
+WALKER_SENSING = {
+    "noise": {"jointpos": 0.005, "framequat": float(np.deg2rad(0.5)), "gyro": 0.01, "accelerometer": 0.1},
+    "rate": 200.0,
+    "delay": 0.005,
+}
+"""Encoders and a torso IMU (orientation, gyro, accelerometer) at 200 Hz, 5 ms late."""
 LEAP_SENSING = {
-    "noise": {"jointpos": 0.005, "framepos": 0.002, "framequat": np.deg2rad(1.0)},
+    "noise": {"jointpos": 0.005, "framepos": 0.002, "framequat": float(np.deg2rad(1.0))},
     "rate": {"jointpos": 100.0, "framepos": 30.0, "framequat": 30.0},
     "delay": {"jointpos": 0.0, "framepos": 0.04, "framequat": 0.04},
 }
 """The issue's leap_cube setting: encoders at 100 Hz, the cube's pose at 30 Hz, 2 mm and 1 degree, 40 ms late."""
-SENSOR_STREAM = 0x73656E73
-"""Second word of the sensor noise's seed sequence, apart from the plant's and the controller's."""
+SENSING = {"walker": WALKER_SENSING, "leap_cube": LEAP_SENSING, "leap_cube_down": LEAP_SENSING}
+"""Each task's sensing (ENCODERS for the others)."""
 
 
-class Differencing(Estimator[EstimatorConfig]):
-    """No filter: qpos from the joint encoders as read, qvel by differencing successive readings (for tasks
-    whose measured sensors are one encoder per joint, in qpos order)."""
+class NoisyLateState(System):
+    """A simulated plant serving its full state the way raw encoders would give it: qpos with Gaussian noise
+    (std `position_std`, applied in the tangent space, so free joints stay valid), qvel with `velocity_std`,
+    sampled every `1 / rate` s and delivered `delay` s later, stamped with the time it was taken."""
 
-    def reset(self, reading: SystemState) -> None:
-        self.previous: tuple[float, np.ndarray] | None = None
-        self.velocity = np.zeros(self.task.model.nv)
+    def __init__(self, system: MujocoSystem, position_std: float, velocity_std: float, rate: float, delay: float,
+                 rng: np.random.Generator) -> None:  # fmt: skip
+        self.system, self.task, self.timestep = system, system.task, system.timestep
+        self.position_std, self.velocity_std, self.period, self.delay = position_std, velocity_std, 1 / rate, delay
+        self.rng = rng
+        self.in_flight: deque[tuple[float, SystemState]] = deque()
+        self.reset()
 
-    def update(self, reading: SystemState, time: float, controls: ControlHistory) -> SystemState:
-        positions = np.asarray(reading.sensors, dtype=float)
-        if self.previous is not None and reading.time > self.previous[0] + 1e-9:
-            self.velocity = (positions - self.previous[1]) / (reading.time - self.previous[0])
-        if self.previous is None or reading.time > self.previous[0] + 1e-9:
-            self.previous = (reading.time, positions.copy())
-        return estimate_of(reading, np.concatenate([positions, self.velocity]), time)
+    def plant_state(self) -> np.ndarray | None:
+        return self.system.plant_state()
+
+    def plant_sensors(self) -> np.ndarray:
+        return self.task.data.sensordata.copy()
+
+    def reset(self) -> None:
+        self.system.reset()
+        self.in_flight.clear()
+        self.next_sample = self.task.data.time
+        self.latest = self.sample()
+        self.next_sample += self.period
+
+    def apply(self, action: np.ndarray) -> None:
+        self.system.apply(action)
+
+    def step(self) -> None:
+        self.system.step()
+        now = self.task.data.time
+        if now >= self.next_sample - 1e-9:
+            self.in_flight.append((now + self.delay, self.sample()))
+            self.next_sample += self.period
+        while self.in_flight and self.in_flight[0][0] <= now + 1e-9:
+            self.latest = self.in_flight.popleft()[1]
+
+    def read_state(self) -> SystemState:
+        return self.latest
+
+    def sample(self) -> SystemState:
+        model, data = self.task.sim_model, self.task.data
+        qpos = data.qpos.copy()
+        mujoco.mj_integratePos(model, qpos, self.rng.normal(0.0, self.position_std, model.nv), 1.0)
+        qvel = data.qvel + self.rng.normal(0.0, self.velocity_std, model.nv)
+        reading = self.system.read_state()
+        return SystemState(np.concatenate([qpos, qvel]), float(data.time), reading.metadata, reading.sensors)
 
 
 def episode(task_name: str, optimizer: str, seed: int, duration: float, mode: str) -> tuple[str, float]:
     """(name, value) of the task's first metric in one seeded episode, planned from the full state, the EKF or
-    no filter."""
-    controller = make_controller(task_name, optimizer, seed=seed, num_workers=1)
-    plant = MujocoSystem.from_task(controller.task, seed)
-    num_steps = max(1, round(duration / plant.timestep))
-    model = plant.task.sim_model
-    recorder = EpisodeLogRecorder(controller.task, (model.nq, model.nv, model.nu, model.nsensordata), num_steps)
-    if mode == "full state":
-        loop = ClosedLoop(controller, plant, recorders=[recorder])
+    the "state" estimator on a noisy, late full state."""
+    settings = SENSING.get(task_name, ENCODERS)
+    if mode == "state, noisy + late":
+        std, rate, delay = settings["noise"], settings["rate"], settings["delay"]
+        controller = make_controller(task_name, optimizer, seed=seed, num_workers=1)
+        plant = MujocoSystem.from_task(controller.task, seed)
+        noisy = NoisyLateState(plant, std, np.sqrt(2) * std * rate, rate, delay, np.random.default_rng([seed, 7]))
+        with controller:
+            state_estimator = make_estimator("state", controller.task, task_name=task_name)
+            result = run_episode(controller, noisy, duration, seed=seed, estimator=state_estimator)  # type: ignore[arg-type]
     else:
-        rng = np.random.default_rng([seed, SENSOR_STREAM])
-        sensed = SensedSystem(plant, **SENSING, rng=rng)  # type: ignore[arg-type]
-        estimator = (
-            make_estimator("ekf", controller.task, task_name=task_name)
-            if mode == "sensors + ekf"
-            else Differencing(controller.task)
-        )
-        loop = ClosedLoop(controller, sensed, recorders=[recorder], estimator=estimator)  # logs the true state
-    loop.restart()
-    for _ in range(num_steps):
-        loop.step()
-    controller.close()
-    name, value = next(iter(plant.task.metrics(recorder.log).items()))
-    return name, value
+        sensing = Sensing("sensors", **settings, estimator="ekf") if mode == "sensors + ekf" else Sensing()
+        result = run_seeded_episode(EpisodeSpec(task_name, optimizer, duration, sensing=sensing), seed)
+    return next(iter(result.metrics.items()))
+
+
+def has_single_rate(task_name: str) -> bool:
+    """Whether the task's sensing is one noise, rate and delay for every sensor (the noisy-state baseline's)."""
+    return all(not isinstance(value, dict) for value in SENSING.get(task_name, ENCODERS).values())
 
 
 def quality_table(tasks: list[str], optimizer: str, seeds: int, duration: float) -> None:
-    modes = ("full state", "sensors + ekf", "sensors, no filter")
-    print(f"closed loop, {seeds} seeds x {duration:g} s, {optimizer}; encoders std 0.005 rad, 100 Hz, 10 ms late")
-    print(f"{'task':16} {'metric':18} " + " ".join(f"{m:>20}" for m in modes) + f" {'ekf / full':>11}")
+    modes = ("full state", "sensors + ekf", "state, noisy + late")
+    print(f"closed loop, {seeds} seeds x {duration:g} s, {optimizer}; mean ± std over seeds; sensing per task:")
     for task_name in tasks:
-        runs = {m: [episode(task_name, optimizer, s, duration, m) for s in range(seeds)] for m in modes}
+        print(f"  {task_name}: {SENSING.get(task_name, ENCODERS)}")
+    print(f"{'task':16} {'metric':19} " + " ".join(f"{m:>20}" for m in modes) + f" {'ekf/full':>9} {'state/full':>10}")
+    for task_name in tasks:
+        runs = {
+            mode: [episode(task_name, optimizer, seed, duration, mode) for seed in range(seeds)]
+            for mode in modes
+            if mode != modes[2] or has_single_rate(task_name)
+        }
         metric = runs["full state"][0][0]
-        results = {m: [value for _, value in v] for m, v in runs.items()}
-        means = {m: float(np.mean(v)) for m, v in results.items()}
-        cells = " ".join(f"{means[m]:>8.3f} ± {np.std(results[m]):<9.3f}" for m in modes)
-        ratio = means["sensors + ekf"] / means["full state"] if means["full state"] else float("nan")
-        print(f"{task_name:16} {metric:18} {cells} {ratio:>11.2f}", flush=True)
+        results = {mode: np.array([value for _, value in values]) for mode, values in runs.items()}
+        cells = " ".join(
+            f"{results[m].mean():>8.3f} ± {results[m].std():<9.3f}" if m in results else f"{'n/a':>20}" for m in modes
+        )
+        full = results["full state"].mean()
+        ratios = [results[m].mean() / full if m in results and full else float("nan") for m in modes[1:]]
+        print(f"{task_name:16} {metric:19} {cells} {ratios[0]:>9.2f} {ratios[1]:>10.2f}", flush=True)
 
 
 def leap_cube_cost(steps: int = 500) -> None:

@@ -63,6 +63,10 @@ class Task(ABC, Generic[ConfigT]):
     check_latency_ms: ClassVar[float] = 25.0
     """The fixed planning latency (ms) the task's defaults are checked under, besides none (a `tune`'s default
     conditions and benchmarks/defaults_under_conditions.py); slower tasks check a larger one."""
+    min_control_freq: ClassVar[float] = 20.0
+    """The slowest replanning rate (Hz) the task's defaults are checked at and hold at (docs/tasks.md). 20 Hz,
+    what a loaded laptop reaches, unless the task is too unstable for it (double_cartpole's upright pose
+    diverges with a 0.14 s time constant); the slow rate of a `tune`'s default conditions."""
     focus_body: ClassVar[str | None] = None
     """The body the GUI's camera follows while the task runs. None: the first body with a free joint,
     and no following when there is none (the camera stays where it framed the task)."""

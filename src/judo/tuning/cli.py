@@ -48,7 +48,7 @@ DESCRIPTION = (
     "Tune a task x optimizer: search the optimizer's settings (every numeric field with a slider range, plus "
     "controller.horizon, each from 1/3 to 3 times its value in force; or --params) for the best value of one "
     "of the task's evaluate metrics, averaged over seeded closed-loop episodes under several conditions "
-    "(--conditions; by default the task's check set: 20 Hz and the task's own rate, crossed with no latency "
+    "(--conditions; by default the task's check set: 20 Hz (or the task's minimum rate) and its own rate, crossed with no latency "
     "and 25 ms, 50 ms for the LEAP and fr3 tasks), aggregated by --aggregate. Optuna chooses the trials (TPE "
     "by default); each episode (a condition x a seed) runs as a Ray task on one core, on a local Ray or a "
     "cluster (--address). The study is stored in a database (SQLite by default), so the same command resumes "

@@ -24,8 +24,6 @@ AGGREGATES: tuple[str, ...] = ("mean", "worst", "cvar")
 ConditionsMode = Literal["crossed", "listed"]
 CONDITION_NAMES = ("control_freq", "latency_ms")
 """The settings a condition can set, in the order labels name them."""
-CHECK_CONTROL_FREQ = 20.0
-"""The slow replanning rate every task's defaults are checked at (ControllerConfig's own default)."""
 MAX_LATENCY_MS = 60_000.0
 """The largest latency a condition accepts, as evaluate's --latency-ms."""
 
@@ -112,10 +110,12 @@ def parse_conditions(entries: Sequence[str], mode: ConditionsMode = "crossed") -
 
 
 def check_conditions(task_name: str) -> list[Condition]:
-    """The task's check set: control_freq 20 and the task's own rate, crossed with latency 0 and its check latency."""
+    """The task's check set: its slowest rate (`Task.min_control_freq`, 20 Hz unless the task needs more) and its
+    own rate, crossed with latency 0 and its check latency (`Task.check_latency_ms`)."""
+    task_cls = lookup_task(task_name)[0]
     own_rate = make_config(ControllerConfig, task_name).control_freq  # type: ignore[attr-defined]
-    rates = list(dict.fromkeys([CHECK_CONTROL_FREQ, float(own_rate)]))
-    latencies = [0.0, float(lookup_task(task_name)[0].check_latency_ms)]
+    rates = list(dict.fromkeys([float(task_cls.min_control_freq), float(own_rate)]))
+    latencies = [0.0, float(task_cls.check_latency_ms)]
     return [Condition(rate, latency) for rate, latency in itertools.product(rates, latencies)]
 
 
