@@ -14,7 +14,7 @@ from judo.core import registry
 from tests.conftest import TINY_CARTPOLE_XML
 
 h5py = pytest.importorskip("h5py")
-ray = pytest.importorskip("ray")
+pytest.importorskip("ray")  # skipped without the extra; the local_ray fixture is in tests/conftest.py
 
 CARTPOLE = ["--task", "cartpole", "--optimizer", "ps", "--duration", "0.3", "--workers", "2"]
 
@@ -50,22 +50,6 @@ class StartRight(judo.Task[StartRightConfig]):
     def success(self, metrics):
         return metrics["start_x"] > 0.0
 '''
-
-
-@pytest.fixture(scope="module")
-def local_ray():
-    """A local Ray with 2 CPUs for the module, started as collect starts one."""
-    from judo.tuning.cluster import local_runtime_env
-
-    ray.init(
-        num_cpus=2,
-        include_dashboard=False,
-        log_to_driver=False,
-        configure_logging=False,
-        runtime_env=local_runtime_env(),
-    )
-    yield
-    ray.shutdown()
 
 
 @pytest.fixture
