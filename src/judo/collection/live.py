@@ -44,10 +44,9 @@ class LiveRecording:
     def __init__(self, path: str | Path, session: Session, configs: dict[str, Config]) -> None:
         import_h5py("recording from the GUI")
         self.path, self.session = Path(path), session
-        task, model = session.controller.task, session.controller.task.model
-        self._steps = EpisodeRecorder(
-            model.nq, model.nv, model.nmocap, session.controller.optimizer.num_nodes, model.nu
-        )
+        task = session.controller.task
+        self._steps = EpisodeRecorder.for_loop(session.controller, task, traces=True)  # the GUI's record keeps traces
+        self.wants_traces = True
         self._lock = threading.Lock()
         self.config_edits: list[dict[str, Any]] = []
         self.env_kwargs = {kind: config_dict(config) for kind, config in configs.items()}  # at the start
@@ -90,11 +89,8 @@ class LiveRecording:
         """Write the recording as the next demo of the file; returns (path, demo index). Raises
         DatasetError if the file cannot be written or holds another task's recordings."""
         with self._lock:
-            steps, plans = list(self._steps.steps), list(self._steps.plans)
-        recorder = EpisodeRecorder(
-            self._steps.nq, self._steps.nv, self._steps.nmocap, self._steps.num_nodes, self._steps.nu
-        )
-        recorder.steps, recorder.plans = steps, plans
+            recorder = self._steps.with_records(list(self._steps.steps), list(self._steps.plans))
+            steps = recorder.steps
         task = self.session.controller.task
         log = EpisodeLog(
             times=np.array([step.time for step in steps]),
