@@ -6,6 +6,8 @@ from typing import Any
 import numpy as np
 
 from judo.collection.dataset import EpisodeArrays
+from judo.core.controller import Controller
+from judo.core.task import Task
 from judo.runtime.records import PlanRecord, StepRecord
 
 
@@ -38,8 +40,8 @@ class EpisodeRecorder:
         self.plans: list[PlanRecord] = []
 
     @classmethod
-    def for_loop(cls, controller: Any, plant_task: Any, traces: bool = False) -> "EpisodeRecorder":
-        """A recorder for `controller`'s plans (a Controller) and the plant model of `plant_task` (a Task)."""
+    def for_loop(cls, controller: Controller, plant_task: Task, traces: bool = False) -> "EpisodeRecorder":
+        """A recorder for `controller`'s plans and the plant model (`sim_model`) of `plant_task`."""
         model = plant_task.sim_model
         sizes = (model.nq, model.nv, model.nmocap, controller.optimizer.num_nodes, model.nu)
         return cls(*sizes, tuple(plant_task.measured_sensors), traces)
