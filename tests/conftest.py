@@ -73,3 +73,21 @@ def restore_the_registry():
     ):
         table.clear()
         table.update(saved)
+
+
+@pytest.fixture(scope="module")
+def local_ray():
+    """A local Ray with 2 CPUs for the module, started as collect, evaluate --workers and tune start one.
+    Ray is imported here, so the tests that do not use it never import it."""
+    ray = pytest.importorskip("ray")
+    from judo.tuning.cluster import local_runtime_env
+
+    ray.init(
+        num_cpus=2,
+        include_dashboard=False,
+        log_to_driver=False,
+        configure_logging=False,
+        runtime_env=local_runtime_env(),
+    )
+    yield
+    ray.shutdown()

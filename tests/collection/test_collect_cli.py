@@ -14,7 +14,7 @@ from judo.core import registry
 from tests.conftest import TINY_CARTPOLE_XML
 
 h5py = pytest.importorskip("h5py")
-ray = pytest.importorskip("ray")
+pytest.importorskip("ray")  # skipped without the extra; the local_ray fixture is in tests/conftest.py
 
 CARTPOLE = ["--task", "cartpole", "--optimizer", "ps", "--duration", "0.3", "--workers", "2"]
 
@@ -50,22 +50,6 @@ class StartRight(judo.Task[StartRightConfig]):
     def success(self, metrics):
         return metrics["start_x"] > 0.0
 '''
-
-
-@pytest.fixture(scope="module")
-def local_ray():
-    """A local Ray with 2 CPUs for the module, started as collect starts one."""
-    from judo.tuning.cluster import local_runtime_env
-
-    ray.init(
-        num_cpus=2,
-        include_dashboard=False,
-        log_to_driver=False,
-        configure_logging=False,
-        runtime_env=local_runtime_env(),
-    )
-    yield
-    ray.shutdown()
 
 
 @pytest.fixture
@@ -111,7 +95,9 @@ def test_a_config_file_task_with_success_only_keeps_the_successes(local_ray, res
     out = tmp_path / "start_right.h5"
     argv = ["--config", str(config), "--task", module, "--optimizer", "ps", "--duration", "0.1", "--workers", "2"]
     assert (
-        collect_main([*argv, "--episodes", "8", "--success-only", "--out", str(out), "--task-config.w-upright", "2"])
+        collect_main(
+            [*argv, "--episodes", "8", "--success-only", "--traces", "--out", str(out), "--task-config.w-upright", "2"]
+        )
         == 0
     )
     printed = capsys.readouterr().out
@@ -120,11 +106,15 @@ def test_a_config_file_task_with_success_only_keeps_the_successes(local_ray, res
         dropped = {int(seed): json.loads(metrics) for seed, metrics in file["judo/dropped"].attrs.items()}
         assert all(file["data"][f"demo_{seed}"].attrs["success"] for seed in kept)
         starts = [json.loads(file["data"][f"demo_{seed}"].attrs["metrics"])["start_x"] for seed in kept]
+        traces = [file["data"][f"demo_{seed}/plan/traces"] for seed in kept]  # --traces: the tip's, nominal + 5
+        assert all(
+            t.dtype == np.float32 and t.shape[0] >= 1 and t.shape[1] == 6 and t.shape[3:] == (1, 3) for t in traces
+        )
         env_args = json.loads(file["data"].attrs["env_args"])
     assert kept and dropped and kept | set(dropped) == set(range(8)) and not kept & set(dropped)
     assert all(x > 0 for x in starts) and all(metrics["start_x"] <= 0 for metrics in dropped.values())
     assert f"--success-only: dropped {len(dropped)} of 8 episodes run" in printed
-    assert env_args["task"] == module and env_args["env_kwargs"]["task"] == {"w_upright": 2.0}
+    assert env_args["task"] == module and env_args["env_kwargs"]["task"] == {"w_upright": 2.0} and env_args["traces"]
 
 
 @pytest.mark.slow

@@ -41,7 +41,8 @@ def leap_cube_file(tmp_path_factory):
 
 def test_the_layout_and_dtypes_are_the_documented_ones(leap_cube_file):
     layout = documented_layout()
-    assert len(layout) == 13
+    assert len(layout) == 17
+    sensed = {"obs/measured", "obs/estimate_qpos", "obs/estimate_qvel", "plan/traces"}  # test_collect_sensing.py
     model = lookup_task("leap_cube")[0]().sim_model
     sizes = {
         "nq": model.nq, "nv": model.nv, "nu": model.nu, "nsensordata": model.nsensordata,
@@ -55,7 +56,11 @@ def test_the_layout_and_dtypes_are_the_documented_ones(leap_cube_file):
         demo = data["demo_1"]
         steps, updates = demo.attrs["num_samples"], len(demo["plan/times"])
         assert (steps, updates, demo.attrs["seed"]) == (20, 4, 1)
+        for path in sensed:
+            assert path not in demo, path  # a full-state episode without --traces
         for path, (shape, dtype) in layout.items():
+            if path in sensed:
+                continue
             dims = [d.strip() for d in shape.strip("(,)").split(",") if d.strip()]
             expected = tuple({"S": steps, "U": updates}.get(d, sizes.get(d)) for d in dims)
             assert demo[path].shape == expected, path

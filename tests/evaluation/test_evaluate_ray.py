@@ -14,27 +14,11 @@ import pytest
 import judo
 from judo.evaluation.evaluate import main
 
-ray = pytest.importorskip("ray")
+pytest.importorskip("ray")  # skipped without the extra; the local_ray fixture is in tests/conftest.py
 
 SRC = str(Path(judo.__file__).resolve().parents[1])
 PATH = os.environ.get("PYTHONPATH")
 CARTPOLE = ["--task", "cartpole", "--optimizer", "mppi", "--seeds", "2", "--duration", "1", "--latency-ms", "20"]
-
-
-@pytest.fixture(scope="module")
-def local_ray():
-    """A local Ray with 2 CPUs for the module, started as evaluate --workers starts one."""
-    from judo.tuning.cluster import local_runtime_env
-
-    ray.init(
-        num_cpus=2,
-        include_dashboard=False,
-        log_to_driver=False,
-        configure_logging=False,
-        runtime_env=local_runtime_env(),
-    )
-    yield
-    ray.shutdown()
 
 
 def episodes_and_summary(path) -> tuple[list[dict], dict]:

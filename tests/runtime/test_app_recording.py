@@ -1,4 +1,5 @@
-"""Recording the running app (#24): every step, plan and config edit into a collect file that replay reads."""
+"""Recording the running app (#24): every step, plan and config edit (the estimator's too) into a collect file
+that replay reads, with the measured sensors, the estimate and the plans' traces."""
 
 import json
 import time
@@ -52,3 +53,69 @@ def test_a_recording_holds_the_steps_plans_and_config_edits_and_replay_reads_it(
         edits = json.loads(group.attrs["config_edits"])
         assert [(edit["kind"], edit["config"]["sigma"]) for edit in edits] == [("optimizer", 0.2)]
         assert group["actions"].shape == (len(demo.qpos), 1) and np.isfinite(group["rewards"][:]).all()
+
+
+def recorded_demo(path) -> tuple[dict[str, np.ndarray], list[dict]]:
+    """({dataset path under demo_0: its array}, its config edits) of a recording's first demo."""
+    with h5py.File(path, "r") as file:
+        group = file["data/demo_0"]
+        arrays = {f"{part}/{key}": group[part][key][:] for part in ("obs", "plan") for key in group[part]}
+        arrays["measured_sensors"] = json.loads(group.attrs.get("measured_sensors", "null"))
+        return arrays, json.loads(group.attrs["config_edits"])
+
+
+def test_a_sensed_recording_keeps_the_measurements_the_estimate_traces_and_estimator_edits(tmp_path, wait_until):
+    app = small_app(gui=False, observe="sensors", sensor_noise=0.005, sensor_rate=100)  # encoders into the EKF
+    app.start()
+    try:
+        wait_until(lambda: app.stats.num_plans() >= 2, what="two plans")
+        path = app.start_recording(tmp_path / "sensed.h5")
+        plans = app.stats.num_plans()
+        wait_until(lambda: app.stats.num_plans() >= plans + 3, what="three more plans")
+        app.update_estimator_config({"noise_jointpos": 0.01})  # what the GUI's estimator panel calls
+        plans = app.stats.num_plans()
+        wait_until(lambda: app.stats.num_plans() >= plans + 3, what="three more plans")
+    finally:
+        app.stop()
+    arrays, edits = recorded_demo(path)
+    steps, updates = len(arrays["obs/qpos"]), len(arrays["plan/times"])
+    assert arrays["measured_sensors"] == ["slider_pos", "hinge_pos"]
+    assert arrays["obs/measured"].shape == arrays["obs/estimate_qpos"].shape == arrays["obs/estimate_qvel"].shape
+    assert arrays["obs/measured"].shape == (steps, 2) and np.isfinite(arrays["obs/estimate_qpos"]).all()
+    assert np.abs(arrays["obs/estimate_qpos"] - arrays["obs/qpos"]).max() < 0.2  # the filter follows the truth
+    traces = arrays["plan/traces"]
+    assert traces.dtype == np.float32 and traces.shape[:2] == (updates, 1 + app.controller.config.max_num_traces)
+    assert [(edit["kind"], edit["name"], edit["config"]["noise_jointpos"]) for edit in edits] == [
+        ("estimator", "ekf", 0.01)
+    ]
+
+
+def test_a_change_of_estimator_is_recorded_and_the_recording_goes_on(tmp_path, wait_until):
+    app = small_app(gui=False)  # full state, no estimator
+    app.start()
+    try:
+        wait_until(lambda: app.stats.num_plans() >= 2, what="two plans")
+        path = app.start_recording(tmp_path / "switch.h5")
+        app.update_config("optimizer", {"sigma": 0.2})
+        plans = app.stats.num_plans()
+        wait_until(lambda: app.stats.num_plans() >= plans + 3, what="three more plans")
+        app.switch_estimator("state")  # what the GUI's estimator dropdown calls
+        wait_until(lambda: app.session.estimator_name == "state", what="the switch")
+        plans = app.stats.num_plans()
+        wait_until(lambda: app.stats.num_plans() >= plans + 3, what="three more plans")
+        assert app.recording == path and app.controller.optimizer.config.sigma == 0.2  # both carried over
+        app.switch_estimator(None)
+        wait_until(lambda: app.session.estimator_name is None, what="the switch back")
+        time.sleep(0.2)
+    finally:
+        app.stop()
+    arrays, edits = recorded_demo(path)
+    assert [(edit["kind"], edit.get("name")) for edit in edits] == [
+        ("optimizer", None), ("estimator", "state"), ("estimator", None)
+    ]  # fmt: skip
+    assert edits[1]["config"] is not None and edits[2]["config"] is None
+    assert edits[0]["time"] <= edits[1]["time"] <= edits[2]["time"]
+    estimated = np.isfinite(arrays["obs/estimate_qpos"]).all(axis=1)  # rows while "state" ran, NaN elsewhere
+    assert estimated.any() and not estimated.all() and not estimated[0]
+    assert np.allclose(arrays["obs/estimate_qpos"][estimated], arrays["obs/qpos"][estimated])  # a pass-through
+    assert "obs/measured" not in arrays and arrays["measured_sensors"] is None

@@ -20,29 +20,13 @@ from judo.optimizers import PredictiveSamplingConfig
 from judo.tuning.cli import main as tune_main
 
 optuna = pytest.importorskip("optuna")
-ray = pytest.importorskip("ray")
+pytest.importorskip("ray")  # skipped without the extra; the local_ray fixture is in tests/conftest.py
 
 TINY_STUDY = [
     "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "2", "--workers", "2",
     "--params", "optimizer.sigma", "controller.horizon=0.3:1.0", "--fix", "optimizer.num_rollouts=16",
     "--latency-ms", "0",
 ]  # fmt: skip
-
-
-@pytest.fixture(scope="module")
-def local_ray():
-    """A local Ray with 2 CPUs for the module, started as tune starts one."""
-    from judo.tuning.cluster import local_runtime_env
-
-    ray.init(
-        num_cpus=2,
-        include_dashboard=False,
-        log_to_driver=False,
-        configure_logging=False,
-        runtime_env=local_runtime_env(),
-    )
-    yield
-    ray.shutdown()
 
 
 @pytest.fixture

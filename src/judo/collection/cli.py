@@ -43,6 +43,8 @@ class CollectArgs(EpisodeArgs):
     """Length of each episode in seconds of sim time."""
     success_only: bool = False
     """Keep only the episodes the task counts as a success (Task.success of its metrics); the others are listed in the file as dropped and not run again."""
+    traces: bool = False
+    """Also keep each plan's traces (plan/traces: the trace sensors along the nominal and best rollouts, drawn by replay); off by default, as they are most of a file's size."""
     workers: Annotated[int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")] = None
     """Episodes run at once, each on one rollout thread (the CPUs of a local Ray; with --address, default twice the cluster's CPUs in flight)."""
     address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")] = None
@@ -74,6 +76,7 @@ def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
         "sensing": args.sensing_record(),
         "backend": args.backend,
         "success_only": args.success_only,
+        "traces": args.traces,
         "config_file": None if args.config is None else str(args.config),
         "env_kwargs": {kind: config_dict(config) for kind, config in configs.items()},
         "plant_timestep": float(task.sim_model.opt.timestep),

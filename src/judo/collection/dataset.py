@@ -5,12 +5,17 @@
     data/demo_<seed>/obs/qvel       (S, nv)  float64    plant qvel after each step
     data/demo_<seed>/obs/sensors    (S, nsensordata) float64
     data/demo_<seed>/obs/mocap_pos  (S, 3 * nmocap) float64, only for a task with mocap bodies
+    data/demo_<seed>/obs/measured   (S, m)   float64    the measured sensors read (only with --observe sensors)
+    data/demo_<seed>/obs/estimate_qpos, estimate_qvel   (S, nq), (S, nv) float64, the estimator's state after
+                                    each step (only where an estimator ran; NaN rows before it started)
     data/demo_<seed>/actions        (S, nu)  float64    control served during each step
     data/demo_<seed>/rewards        (S,)     float64    the task's reward of each step
     data/demo_<seed>/dones          (S,)     uint8      1 on the last step only
     data/demo_<seed>/plan/...       times, takes_effect, update_ms, best_reward, mean_reward (U,);
-                                    knots (U, num_nodes, nu)
-    data/demo_<seed>                attrs num_samples, seed, metrics (JSON), success
+                                    knots (U, num_nodes, nu); traces (U, 1 + num_shown, T, num_trace_sensors,
+                                    3) float32, only with --traces and in GUI recordings (NaN-padded)
+    data/demo_<seed>                attrs num_samples, seed, metrics (JSON), success; measured_sensors (JSON
+                                    list of the sensor names of obs/measured) with obs/measured
     judo/failed                     attrs "<seed>": why that episode failed (retried on resume)
     judo/dropped                    attrs "<seed>": its metrics (JSON), not a success under --success-only
 
@@ -64,6 +69,9 @@ class EpisodeArrays:
             "knots": (U, num_nodes, nu), one row per control update that produced a plan.
         metrics: the task's metrics of the episode.
         success: whether the task counts the episode a success (None: the task has no rule).
+        measured: (S, m) the measured sensors the System served after each step, or None (full state).
+        estimate: (S, nq + nv) the estimator's state after each step (NaN rows where none ran), or None.
+        measured_sensors: names of the task's measured sensors, in the order of `measured`'s columns.
     """
 
     seed: int
@@ -76,6 +84,9 @@ class EpisodeArrays:
     plan: dict[str, np.ndarray]
     metrics: dict[str, float]
     success: bool | None
+    measured: np.ndarray | None = None
+    estimate: np.ndarray | None = None
+    measured_sensors: tuple[str, ...] = ()
 
     @property
     def num_samples(self) -> int:
@@ -193,6 +204,12 @@ def write_demo(group: Any, episode: EpisodeArrays) -> None:
     obs = {"qpos": episode.qpos, "qvel": episode.qvel, "sensors": episode.sensors}
     if episode.mocap_pos is not None:
         obs["mocap_pos"] = episode.mocap_pos
+    if episode.measured is not None:
+        obs["measured"] = episode.measured
+        group.attrs["measured_sensors"] = json.dumps(list(episode.measured_sensors))
+    if episode.estimate is not None:
+        nq = episode.qpos.shape[1]
+        obs["estimate_qpos"], obs["estimate_qvel"] = episode.estimate[:, :nq], episode.estimate[:, nq:]
     for key, value in obs.items():
         group.create_dataset(f"obs/{key}", data=np.asarray(value, dtype=np.float64))
     group.create_dataset("actions", data=np.asarray(episode.actions, dtype=np.float64))
@@ -202,6 +219,8 @@ def write_demo(group: Any, episode: EpisodeArrays) -> None:
     group.create_dataset("dones", data=dones)
     for key in PLAN_KEYS:
         group.create_dataset(f"plan/{key}", data=np.asarray(episode.plan[key], dtype=np.float64))
+    if "traces" in episode.plan:
+        group.create_dataset("plan/traces", data=np.asarray(episode.plan["traces"], dtype=np.float32))
     group.attrs["num_samples"] = episode.num_samples
     group.attrs["seed"] = episode.seed
     group.attrs["metrics"] = json.dumps(episode.metrics)

@@ -32,13 +32,13 @@ def episode_failure(result: EpisodeResult) -> str | None:
     return f"non-finite metrics: {', '.join(bad)}" if bad else None
 
 
-def collect_episode(spec: EpisodeSpec, seed: int) -> EpisodeOutcome:
-    """Run and record seed `seed`'s episode; never raises: a failure comes back with its reason."""
+def collect_episode(spec: EpisodeSpec, seed: int, traces: bool = False) -> EpisodeOutcome:
+    """Run and record seed `seed`'s episode, each plan's traces too with `traces` (collect --traces); never
+    raises: a failure comes back with its reason."""
     made: list[tuple[EpisodeRecorder, MujocoSystem]] = []
 
     def recorders(controller: Controller, system: MujocoSystem) -> list[EpisodeRecorder]:
-        model = system.task.sim_model
-        recorder = EpisodeRecorder(model.nq, model.nv, model.nmocap, controller.optimizer.num_nodes, model.nu)
+        recorder = EpisodeRecorder.for_loop(controller, system.task, traces)
         made.append((recorder, system))
         return [recorder]
 

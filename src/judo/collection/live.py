@@ -4,7 +4,8 @@
 what `collect` records. `finish()` writes the recording as the next `data/demo_<n>` of an HDF5 file in the
 collect layout (docs/collect.md), so `python -m judo replay FILE` plays it back. Recordings of one task,
 optimizer and models share a file; each demo's attrs hold the configs at its start (`env_kwargs`, JSON)
-and the edits made while it ran (`config_edits`, JSON: [{time, kind, config}]). Needs the `collect` extra (h5py).
+and the edits made while it ran (`config_edits`, JSON: [{time, kind, config}], where an edit of the estimator's
+config or a change of estimator is kind "estimator" with its `name`). Needs the `collect` extra (h5py).
 """
 
 import json
@@ -44,10 +45,9 @@ class LiveRecording:
     def __init__(self, path: str | Path, session: Session, configs: dict[str, Config]) -> None:
         import_h5py("recording from the GUI")
         self.path, self.session = Path(path), session
-        task, model = session.controller.task, session.controller.task.model
-        self._steps = EpisodeRecorder(
-            model.nq, model.nv, model.nmocap, session.controller.optimizer.num_nodes, model.nu
-        )
+        task = session.controller.task
+        self._steps = EpisodeRecorder.for_loop(session.controller, task, traces=True)  # the GUI's record keeps traces
+        self.wants_traces = True
         self._lock = threading.Lock()
         self.config_edits: list[dict[str, Any]] = []
         self.env_kwargs = {kind: config_dict(config) for kind, config in configs.items()}  # at the start
@@ -75,11 +75,24 @@ class LiveRecording:
         with self._lock:
             self._steps.on_step(record)
 
-    def on_config(self, kind: str, config: Config) -> None:
-        """Keep a config edit with the plant time of the latest step."""
+    def on_config(self, kind: str, config: Config | None, **details: Any) -> None:
+        """Keep a config edit (`kind` "controller", "optimizer", "task" or "estimator"; `config` None for no
+        estimator) with the plant time of the latest step and `details` (e.g. the estimator's `name`)."""
         with self._lock:
             now = self._steps.steps[-1].time if self._steps.steps else 0.0
-            self.config_edits.append({"time": now, "kind": kind, "config": config_dict(config)})
+            edit = {"time": now, "kind": kind, **details, "config": None if config is None else config_dict(config)}
+            self.config_edits.append(edit)
+
+    def move_to(self, session: Session) -> None:
+        """Go on recording `session`, which replaced the one recorded on the same task, optimizer and plant (a
+        change of estimator): the steps and plans of both are one recording, with the change as an
+        "estimator" edit."""
+        if self in self.session.closed_loop.recorders:
+            self.session.closed_loop.recorders.remove(self)
+        self.session = session
+        session.closed_loop.recorders.append(self)
+        estimator = session.closed_loop.estimator
+        self.on_config("estimator", None if estimator is None else estimator.config, name=session.estimator_name)
 
     @property
     def num_steps(self) -> int:
@@ -90,11 +103,8 @@ class LiveRecording:
         """Write the recording as the next demo of the file; returns (path, demo index). Raises
         DatasetError if the file cannot be written or holds another task's recordings."""
         with self._lock:
-            steps, plans = list(self._steps.steps), list(self._steps.plans)
-        recorder = EpisodeRecorder(
-            self._steps.nq, self._steps.nv, self._steps.nmocap, self._steps.num_nodes, self._steps.nu
-        )
-        recorder.steps, recorder.plans = steps, plans
+            recorder = self._steps.with_records(list(self._steps.steps), list(self._steps.plans))
+            steps = recorder.steps
         task = self.session.controller.task
         log = EpisodeLog(
             times=np.array([step.time for step in steps]),

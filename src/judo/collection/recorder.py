@@ -6,6 +6,8 @@ from typing import Any
 import numpy as np
 
 from judo.collection.dataset import EpisodeArrays
+from judo.core.controller import Controller
+from judo.core.task import Task
 from judo.runtime.records import PlanRecord, StepRecord
 
 
@@ -13,25 +15,57 @@ class EpisodeRecorder:
     """Accumulates the StepRecords and PlanRecords of one closed-loop episode (the `Recorder` protocol).
 
     Args:
-        nq, nv: sizes of the plant's qpos and qvel, to split each step's (nq + nv,) state.
+        nq, nv: sizes of the plant's qpos and qvel, to split each step's (nq + nv,) state (and estimate).
         nmocap: the plant's mocap bodies; with any, each step's metadata must hold "mocap_pos" (nmocap, 3).
         num_nodes, nu: shape of a plan's knots, for the (0, num_nodes, nu) array of an episode with no plan.
+        measured_sensors: names of the task's measured sensors, stored beside the steps' measured values.
+        traces: whether to keep each plan's traces; the closed loop copies them only for a recorder whose
+            `wants_traces` is true.
     """
 
-    def __init__(self, nq: int, nv: int, nmocap: int, num_nodes: int, nu: int) -> None:
+    def __init__(
+        self,
+        nq: int,
+        nv: int,
+        nmocap: int,
+        num_nodes: int,
+        nu: int,
+        measured_sensors: tuple[str, ...] = (),
+        traces: bool = False,
+    ) -> None:
         self.nq, self.nv, self.nmocap, self.num_nodes, self.nu = nq, nv, nmocap, num_nodes, nu
+        self.measured_sensors = tuple(measured_sensors)
+        self.wants_traces = traces
         self.steps: list[StepRecord] = []
         self.plans: list[PlanRecord] = []
 
+    @classmethod
+    def for_loop(cls, controller: Controller, plant_task: Task, traces: bool = False) -> "EpisodeRecorder":
+        """A recorder for `controller`'s plans and the plant model (`sim_model`) of `plant_task`."""
+        model = plant_task.sim_model
+        sizes = (model.nq, model.nv, model.nmocap, controller.optimizer.num_nodes, model.nu)
+        return cls(*sizes, tuple(plant_task.measured_sensors), traces)
+
+    def with_records(self, steps: list[StepRecord], plans: list[PlanRecord]) -> "EpisodeRecorder":
+        """A recorder of the same sizes and settings holding `steps` and `plans`."""
+        sizes = (self.nq, self.nv, self.nmocap, self.num_nodes, self.nu)
+        recorder = EpisodeRecorder(*sizes, self.measured_sensors, self.wants_traces)
+        recorder.steps, recorder.plans = steps, plans
+        return recorder
+
     def on_plan(self, record: PlanRecord) -> None:
-        """Keep the update's record (its knots copied)."""
-        self.plans.append(dataclasses.replace(record, knots=np.array(record.knots)))
+        """Keep the update's record (its knots copied; its traces only when `wants_traces`)."""
+        traces = None if record.traces is None or not self.wants_traces else np.array(record.traces, np.float32)
+        self.plans.append(dataclasses.replace(record, knots=np.array(record.knots), traces=traces))
 
     def on_step(self, record: StepRecord) -> None:
         """Keep the step's record (its arrays are copied, so the caller may reuse them)."""
         metadata = {"mocap_pos": np.array(record.metadata["mocap_pos"])} if self.nmocap else {}
         state = None if record.state is None else np.array(record.state)
-        self.steps.append(StepRecord(record.time, state, np.array(record.sensors), np.array(record.action), metadata))
+        measured = None if record.measured is None else np.array(record.measured, dtype=float)
+        estimate = None if record.estimate is None else np.array(record.estimate, dtype=float)
+        sensors, action = np.array(record.sensors), np.array(record.action)
+        self.steps.append(StepRecord(record.time, state, sensors, action, metadata, measured, estimate))
 
     def episode(self, seed: int, rewards: np.ndarray, metrics: dict[str, float], success: bool | None) -> EpisodeArrays:
         """The recorded episode as the dataset's arrays, with its (S,) per-step `rewards`, metrics and success."""
@@ -51,10 +85,14 @@ class EpisodeRecorder:
             plan=self.plan_arrays(),
             metrics=metrics,
             success=success,
+            measured=rows_where_given([step.measured for step in steps]),
+            estimate=rows_where_given([step.estimate for step in steps]),
+            measured_sensors=self.measured_sensors,
         )
 
     def plan_arrays(self) -> dict[str, np.ndarray]:
-        """{"times", "takes_effect", "update_ms", "best_reward", "mean_reward"}: (U,); "knots": (U, num_nodes, nu)."""
+        """{"times", "takes_effect", "update_ms", "best_reward", "mean_reward"}: (U,); "knots": (U, num_nodes, nu);
+        and, where the plans carry traces, "traces": (U, 1 + num_shown, T, num_trace_sensors, 3) float32."""
         plans = self.plans
         arrays: dict[str, Any] = {
             key: np.array([getattr(plan, key) for plan in plans], dtype=float)
@@ -64,4 +102,30 @@ class EpisodeRecorder:
         arrays["knots"] = np.array([plan.knots for plan in plans], dtype=float).reshape(
             len(plans), self.num_nodes, self.nu
         )
+        traces = [plan.traces for plan in plans]
+        if plans and all(trace is not None for trace in traces):
+            arrays["traces"] = padded_stack(traces)  # type: ignore[arg-type]
         return arrays
+
+
+def rows_where_given(rows: list[np.ndarray | None]) -> np.ndarray | None:
+    """(S, m): the given rows stacked, NaN where a row is None (e.g. before an estimator was switched on);
+    None when no row is given (a full-state episode)."""
+    given = [row for row in rows if row is not None]
+    if not given:
+        return None
+    out = np.full((len(rows), len(given[0])), np.nan)
+    for i, row in enumerate(rows):
+        if row is not None:
+            out[i] = row
+    return out
+
+
+def padded_stack(arrays: list[np.ndarray]) -> np.ndarray:
+    """(U, *largest shape) float32: the arrays stacked, each padded with NaN to the largest along every axis
+    (a live recording's traces change shape with edits of the horizon or max_num_traces)."""
+    shape = np.max([array.shape for array in arrays], axis=0)
+    out = np.full((len(arrays), *shape), np.nan, dtype=np.float32)
+    for i, array in enumerate(arrays):
+        out[(i, *(slice(0, n) for n in array.shape))] = array
+    return out

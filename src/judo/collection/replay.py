@@ -1,8 +1,10 @@
 """`python -m judo replay FILE.h5 [--demo N]`: play a collect file's episodes back in the GUI's 3-D scene.
 
 Nothing is re-simulated: each frame poses the task's plant model at a recorded qpos (and mocap
-positions), so a replay is exactly what happened. The page has a demo dropdown, play/pause, a time
-scrubber, a speed control and the demo's metrics.
+positions), so a replay is exactly what happened. Where the file has `plan/traces` (collect --traces, GUI
+recordings), each frame also draws the traces of the latest plan made by its time, with the live GUI's
+own drawing (`SceneView.set_traces`). The page has a demo dropdown, play/pause, a time scrubber, a speed
+control and the demo's metrics.
 """
 
 import json
@@ -23,6 +25,8 @@ from judo.evaluation.cli import apply_config_file, fail
 
 FRAME_S = 1 / 30
 """Seconds between frames while playing."""
+TIME_TOLERANCE = 1e-9
+"""Seconds within which a plan's time counts as a row's (both are sums of plant timesteps)."""
 
 
 @dataclass
@@ -45,7 +49,8 @@ class ReplayArgs:
 
 @dataclass
 class Demo:
-    """One recorded episode: qpos (S, nq), mocap_pos (S, nmocap, 3) or None, times (S,), metrics, success."""
+    """One recorded episode: qpos (S, nq), mocap_pos (S, nmocap, 3) or None, times (S,), metrics, success;
+    plan_times (U,) the reading times of its plans, and has_traces: whether the file holds their traces."""
 
     seed: int
     qpos: np.ndarray
@@ -53,6 +58,8 @@ class Demo:
     times: np.ndarray
     metrics: dict[str, float]
     success: bool
+    plan_times: np.ndarray
+    has_traces: bool
 
 
 def read_demos(path: Path) -> tuple[dict[str, Any], dict[int, Demo]]:
@@ -70,12 +77,30 @@ def read_demos(path: Path) -> tuple[dict[str, Any], dict[int, Demo]]:
                 seed = int(group.attrs["seed"])
                 times = dt * np.arange(1, len(qpos) + 1)
                 metrics = json.loads(group.attrs["metrics"])
-                demos[seed] = Demo(seed, qpos, mocap, times, metrics, bool(group.attrs["success"]))
+                plan_times, has_traces = group["plan/times"][:], "traces" in group["plan"]
+                success = bool(group.attrs["success"])
+                demos[seed] = Demo(seed, qpos, mocap, times, metrics, success, plan_times, has_traces)
     except (OSError, KeyError, ValueError) as err:
         raise DatasetError(f"{path} is not a file of `python -m judo collect`: {err}") from None
     if not demos:
         raise DatasetError(f"{path} holds no episodes")
     return env_args, demos
+
+
+def read_traces(path: Path, seed: int) -> np.ndarray:
+    """(U, 1 + num_shown, T, num_trace_sensors, 3) the plan traces of demo `seed` (read when it is shown)."""
+    h5py = import_h5py("python -m judo replay")
+    with h5py.File(path, "r") as file:
+        return file["data"][demo_name(seed)]["plan/traces"][:]
+
+
+def unpadded(traces: np.ndarray) -> np.ndarray:
+    """(num_traces, T, num_trace_sensors, 3) one plan's traces without the NaN padding of a file whose plans
+    differ in shape (a recording across an edit of the horizon or of max_num_traces)."""
+    finite = np.isfinite(traces)
+    steps = finite.any(axis=(0, 2, 3))
+    traces, finite = traces[:, steps], finite[:, steps]
+    return traces[finite.all(axis=(1, 2, 3))]
 
 
 class Replay:
@@ -99,6 +124,8 @@ class Replay:
         self.path, self.host, self.port = path, host, port
         require_between("--speed", speed, 0.1, 4.0)
         self.index, self.playing, self.speed = 0, False, float(speed)
+        self.traces: np.ndarray | None = None  # (U, ...) the shown demo's plan traces, where the file has them
+        self.plan_shown = -1  # the plan whose traces are drawn (-1: none)
         self._stop = threading.Event()
         self._lock = threading.Lock()
 
@@ -129,7 +156,11 @@ class Replay:
 
     def select(self, seed: int) -> None:
         """Show demo `seed` from its first row, with its metrics."""
-        self.demo = self.demos[seed]
+        with self._lock:
+            self.demo = self.demos[seed]
+            self.traces = read_traces(self.path, seed) if self.demo.has_traces else None
+            self.plan_shown = -1
+            self.scene.set_traces(np.zeros((0, 0, 0, 3)))
         self.time_slider.max = self._duration()
         metrics = ", ".join(f"{name} {value:.3g}" for name, value in self.demo.metrics.items())
         self.readout.content = (
@@ -151,12 +182,18 @@ class Replay:
         self.time_slider.value = float(self.demo.times[self.index])
 
     def show(self, index: int) -> None:
-        """Pose the scene at row `index` (clamped) of the demo shown."""
+        """Pose the scene at row `index` (clamped) of the demo shown, with the traces of the latest plan made by
+        its time."""
         with self._lock:
             demo = self.demo
             self.index = int(np.clip(index, 0, len(demo.qpos) - 1))
             metadata = {} if demo.mocap_pos is None else {"mocap_pos": demo.mocap_pos[self.index]}
             self.scene.update(demo.qpos[self.index], metadata)
+            if self.traces is not None:
+                plan = int(np.searchsorted(demo.plan_times, demo.times[self.index] + TIME_TOLERANCE, side="right")) - 1
+                if plan != self.plan_shown:
+                    self.plan_shown = plan
+                    self.scene.set_traces(unpadded(self.traces[plan]) if plan >= 0 else np.zeros((0, 0, 0, 3)))
 
     def stop(self) -> None:
         """Stop playing and the server."""

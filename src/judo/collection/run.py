@@ -100,7 +100,7 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
             bar = progress.add_task(tally.line(), total=len(todo))
             while True:
                 while len(running) < window and (seed := next(pending, None)) is not None:
-                    running[cluster.submit(collect_episode, spec, seed)] = seed
+                    running[cluster.submit(collect_episode, spec, seed, args.traces)] = seed
                 if not running:
                     break
                 ready, _ = cluster.wait_any(list(running))

@@ -42,9 +42,10 @@ class AppCommands(AppEventLoop):
         return None if recording is None else recording.path
 
     def start_recording(self, path: str | Path | None = None) -> Path:
-        """Record every step, plan and config edit of the running session until `stop_recording()` (or a
-        switch of task or optimizer) into `path` (an HDF5 file in the collect layout, docs/collect.md;
-        judo-recording-TASK-TIME.h5 by default). Needs the `collect` extra (h5py). Returns the path."""
+        """Record every step, plan and config edit (the estimator's, and a change of estimator, too) of the
+        running session until `stop_recording()` (or a switch of task or optimizer) into `path` (an HDF5 file
+        in the collect layout, docs/collect.md; judo-recording-TASK-TIME.h5 by default). Needs the `collect`
+        extra (h5py). Returns the path."""
         from judo.collection.live import LiveRecording, default_recording_path  # h5py only when asked for
 
         with self._lock:
@@ -119,6 +120,8 @@ class AppCommands(AppEventLoop):
             estimator.config = updated  # read by the estimator at its next update, on the plant's thread
             if not from_gui:
                 self._external_edits += 1
+            if self._recording is not None:
+                self._recording.on_config("estimator", updated, name=session.estimator_name)
         return updated
 
     def reset_configs(self) -> None:

@@ -209,10 +209,18 @@ class ClosedLoop:
             update_ms=1e3 * wall,
             best_reward=float(finite.max()) if len(finite) else math.nan,
             mean_reward=float(finite.mean()) if len(finite) else math.nan,
+            traces=self._traces_if_wanted(),
         )
         for recorder in self.recorders:
             recorder.on_plan(record)
         return plan
+
+    def _traces_if_wanted(self) -> np.ndarray | None:
+        """(1 + num_shown, T, num_trace_sensors, 3) float32 copy of the controller's traces when a recorder
+        has `wants_traces`, else None."""
+        if any(getattr(recorder, "wants_traces", False) for recorder in self.recorders):
+            return self.controller.traces.astype(np.float32)
+        return None
 
     def serve(self, now: float) -> np.ndarray:
         """(nu,) the control the plant gets at plant time `now`: the latest plan whose time has come, or the

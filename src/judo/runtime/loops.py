@@ -63,6 +63,7 @@ class AppLoops(PlantLoop):
     _seed: int | None
     _sensing: Sensing
     _rebuild_requested: bool
+    _recording: Any
     _num_workers: int | None
     backend: str
     system_call_limit: float
@@ -203,10 +204,15 @@ class AppLoops(PlantLoop):
 
     async def _switch(self, task: str, optimizer: str) -> None:
         old = self._session
-        self._finish_recording("the task or optimizer was switched")
+        estimator_only = (task, optimizer) == (old.task_name, old.optimizer_name)  # a recording goes on
+        if not estimator_only:
+            self._finish_recording("the task or optimizer was switched")
+        optimizer_config = None
         if task == old.task_name:  # new optimizer on the running plant, keeping the tuned configs
             with self._lock:
                 controller_config, task_config = self._configs["controller"], self._configs["task"]
+                if estimator_only:
+                    optimizer_config = self._configs["optimizer"]
             system = old.system
             estimator = old.closed_loop.estimator  # its live config goes on with the running plant, unless replaced
             keep = estimator is not None and self._sensing.estimator in (None, old.estimator_name)
@@ -221,6 +227,7 @@ class AppLoops(PlantLoop):
             optimizer,
             old.generation + 1,
             controller_config=controller_config,  # type: ignore[arg-type]
+            optimizer_config=optimizer_config,  # type: ignore[arg-type]
             task_config=task_config,  # type: ignore[arg-type]
             system=system,
             seed=self._seed,
@@ -250,6 +257,8 @@ class AppLoops(PlantLoop):
             self._configs = session_configs(new)
             self._pending = {}
             self._external_edits += 1
+            if estimator_only and self._recording is not None:
+                self._recording.move_to(new)
         self.buffer.clear("plan")
         self._read_and_publish(new)
         old.close()

@@ -45,6 +45,9 @@ class PlanRecord:
         knots: (num_nodes, nu) the new plan's knots.
         update_ms: wall time of the update in milliseconds.
         best_reward, mean_reward: the best and the mean finite reward of the update's last iteration.
+        traces: (1 + num_shown, T, num_trace_sensors, 3) float32 copy of the controller's `traces` (the trace
+            sensors along the nominal and the best rollouts), only when a recorder's `wants_traces` asks for
+            it; else None.
     """
 
     time: float
@@ -53,10 +56,15 @@ class PlanRecord:
     update_ms: float
     best_reward: float
     mean_reward: float
+    traces: np.ndarray | None = None
 
 
 class Recorder(Protocol):
-    """Receives every control update and every plant step of a closed loop, in order."""
+    """Receives every control update and every plant step of a closed loop, in order.
+
+    A recorder with a true attribute `wants_traces` gets each PlanRecord with its `traces`; the loop copies
+    them only then (evaluate and tune do without the copy).
+    """
 
     def on_plan(self, record: PlanRecord) -> None:
         """Called after each successful control update."""
