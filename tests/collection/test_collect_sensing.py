@@ -128,3 +128,21 @@ def test_traces_of_plans_that_differ_in_shape_are_padded_and_replay_unpads_them(
     assert stacked.shape == (2, 6, 80, 1, 3) and stacked.dtype == np.float32
     assert np.array_equal(unpadded(stacked[0]), before.astype(np.float32))
     assert np.array_equal(unpadded(stacked[1]), after.astype(np.float32))
+
+
+def test_collect_with_observe_sensors_records_what_was_measured_and_estimated():
+    from judo.collection.episode import collect_episode
+    from judo.evaluation.seeded import EpisodeSpec
+    from judo.runtime.session import Sensing
+
+    sensing = Sensing("sensors", noise=0.005, delay=0.01, rate=100.0)  # collect --observe sensors --sensor-* ...
+    outcome = collect_episode(EpisodeSpec("cartpole", "ps", 0.3, sensing=sensing), 0)
+    episode = outcome.episode
+    assert outcome.failure is None and episode is not None
+    steps = len(episode.actions)
+    assert episode.measured is not None and episode.measured.shape == (steps, 2)
+    assert episode.estimate is not None and episode.estimate.shape == (steps, 4)
+    assert episode.measured_sensors == ("slider_pos", "hinge_pos")  # Cartpole.measured_sensors
+    assert np.abs(episode.estimate[steps // 2 :, :2] - episode.qpos[steps // 2 :]).max() < 0.05
+    full = collect_episode(EpisodeSpec("cartpole", "ps", 0.3), 0).episode
+    assert full is not None and full.measured is None and full.estimate is None
