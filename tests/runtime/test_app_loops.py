@@ -130,6 +130,17 @@ def test_invalid_edit_is_refused_and_the_previous_config_stays(kind, updates, me
     assert app.controller.config.horizon == 0.3
 
 
+def test_a_control_rate_below_the_task_minimum_is_applied_with_a_warning():
+    app = small_app("acrobot")  # Acrobot.min_control_freq: 50 Hz
+    updated = app.update_config("controller", {"control_freq": 20.0})
+    assert updated.control_freq == 20.0
+    assert app.status.level == "warning"
+    assert "control_freq 20 Hz is below the 50 Hz that Acrobot's defaults need" in app.status.message
+    reports = app.status.count
+    app.update_config("controller", {"control_freq": 50.0})
+    assert app.status.count == reports  # at the minimum: no warning
+
+
 def test_edits_for_a_replaced_session_are_refused():
     app = small_app()
     with pytest.raises(JudoError, match="the task or optimizer changed since this edit was made"):

@@ -98,6 +98,14 @@ class AppCommands(AppEventLoop):
                 self._external_edits += 1
             if self._recording is not None:
                 self._recording.on_config(kind, updated)
+            task = self._session.controller.task
+        rate = getattr(updated, "control_freq", None)
+        if kind == "controller" and rate is not None and rate < type(task).min_control_freq:
+            self.report(
+                f"control_freq {rate:g} Hz is below the {type(task).min_control_freq:g} Hz that {type(task).__name__}'s "
+                "defaults need (docs/tasks.md); expect it to fail",
+                "warning",
+            )
         return updated
 
     def update_estimator_config(
