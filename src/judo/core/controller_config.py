@@ -71,6 +71,10 @@ class ControllerConfig(Config):
     """Watchdog, in seconds: once the plan in force is older than this beyond one control period (planning
     stalled, failed, or the readings' time stopped advancing), the plant gets the task's safe_action
     instead; 0 turns the watchdog off."""
+    latency_compensation: bool = False
+    """Plan from the state the plant will be in when the plan takes effect: the reading is stepped forward on
+    the planning model by the planning latency (the fixed latency, else the last update's wall time), under
+    the controls the plant gets meanwhile (judo.runtime.latency)."""
 
     def validate(self) -> None:
         super().validate()

@@ -10,7 +10,7 @@ Everything that drives a plant with a controller calls this module, and nothing 
     reading = system.read_state()  --[estimator]-->  plan(reading)  --latency-->  serve(t)  --[watchdog]-->
     system.apply(action); system.step()  -->  read back  --[recorders: on_plan, on_step]
 
-Where the next features plug in, each once, here:
+Where the features plug in, each once, here:
 - the estimator between the reading and the plan (`judo.core.estimator`): `read` fuses the System's raw
   reading (sensors, the time they were taken) into the state planned from, as of the plant's now;
 - the watchdog on the served action (`judo.runtime.watchdog`): `serve` gives the plant the task's
@@ -20,7 +20,8 @@ Where the next features plug in, each once, here:
 The latency model: a plan computed from the reading at time t is served from plant time t + delay, where the
 delay is a fixed number of seconds of sim time or "measured" (the update's wall time). Until then the plant
 keeps the plan in force before it (or the task's warm start before the first plan). The app uses delay 0: a
-plan is served from the first step after it is done, which in real time is its real latency.
+plan is served from the first step after it is done, which in real time is its real latency. The
+controller's `latency_compensation` plans from the reading predicted to then (`judo.runtime.latency`).
 """
 
 import dataclasses
@@ -28,33 +29,23 @@ import math
 import threading
 import time
 from collections.abc import Callable, Iterable
-from typing import Literal
 
 import numpy as np
 
-from judo.core.config import require
 from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.errors import JudoError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.spline import Spline
+from judo.runtime.latency import Latency, LatencyPredictor, check_latency
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
 from judo.runtime.system import SimulationDiverged, System, SystemState
 from judo.runtime.system_calls import SystemCallError, SystemCalls, SystemClosedError
 from judo.runtime.watchdog import Watchdog
 
-Latency = float | Literal["measured"]
-"""Planning latency: seconds of sim time (0 for none), or "measured" for each update's wall time."""
-
 __all__ = ["ClosedLoop", "Latency", "SystemCallError", "check_latency"]
 
 TIME_TOLERANCE = 1e-9
 """Seconds within which two plant times count as the same (a plan due at t is served at t)."""
-
-
-def check_latency(latency: Latency) -> None:
-    """Raise ConfigError unless `latency` is "measured" or a finite number of seconds, at least 0."""
-    if latency != "measured":
-        require(0 <= latency < math.inf, f"latency must be at least 0 s and finite, got {latency}")
 
 
 class ClosedLoop:
@@ -123,6 +114,7 @@ class ClosedLoop:
         self._active: Spline | None = None
         self._pending: list[tuple[float, Spline, float]] = []  # (plant time it takes effect, plan, stamp), in order
         self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
+        self.real_time, self._predictor = clock is not None, LatencyPredictor(controller.task)  # app: wall clock
 
     def restart_estimator(self) -> None:
         """Start the estimator afresh from the next reading (after a reset of the plant)."""
@@ -185,8 +177,9 @@ class ClosedLoop:
         """
         stamp = self.watchdog.fresh_at
         started = time.perf_counter()
+        start = self._predicted(reading) if self.controller.config.latency_compensation else reading
         try:
-            plan = self.controller.update_action(reading.state, reading.time, reading.metadata, cancel)
+            plan = self.controller.update_action(start.state, start.time, start.metadata, cancel)
         except (NonFiniteRewardError, NonFiniteKnotsError) as err:
             plan = None
             self.failed_updates += 1
@@ -214,6 +207,19 @@ class ClosedLoop:
         for recorder in self.recorders:
             recorder.on_plan(record)
         return plan
+
+    def _predicted(self, reading: SystemState) -> SystemState:
+        """`reading` predicted to when the plan made from it takes effect, under the plans due meanwhile."""
+        measured = self.latency == "measured" or self.real_time
+        delay = (self.update_ms[-1] / 1e3 if self.update_ms else 0.0) if measured else float(self.latency)
+
+        def control_at(now: float) -> np.ndarray:
+            with self._lock:
+                due = [plan for at, plan, _ in self._pending if at <= now + TIME_TOLERANCE]
+                plan = due[-1] if due else self._active
+            return self.controller.warm_start_action(reading.state) if plan is None else plan(now)
+
+        return self._predictor.predict_reading(reading, delay, control_at)
 
     def _traces_if_wanted(self) -> np.ndarray | None:
         """(1 + num_shown, T, num_trace_sensors, 3) float32 copy of the controller's traces when a recorder

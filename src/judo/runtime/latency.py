@@ -1,0 +1,65 @@
+"""Planning latency: the closed loop's latency model, and the prediction that compensates for it.
+
+A plan computed from the reading at time t is served from t + delay (`judo.runtime.closed_loop`). Until then
+the plant goes on under the plan in force before it, so a plan whose rollouts start from the reading's state
+plans the first `delay` seconds for a state the plant has already left. With the controller's
+`latency_compensation`, the closed loop first predicts the plant's state at t + delay on the planning model,
+under the controls it will actually be served meanwhile, and plans from there (`predict_reading`).
+"""
+
+import dataclasses
+import math
+from collections.abc import Callable
+from typing import Literal
+
+import mujoco
+import numpy as np
+
+from judo.core.config import require
+from judo.core.task import Task
+from judo.runtime.system import SystemState
+
+Latency = float | Literal["measured"]
+"""Planning latency: seconds of sim time (0 for none), or "measured" for each update's wall time."""
+
+
+def check_latency(latency: Latency) -> None:
+    """Raise ConfigError unless `latency` is "measured" or a finite number of seconds, at least 0."""
+    if latency != "measured":
+        require(0 <= latency < math.inf, f"latency must be at least 0 s and finite, got {latency}")
+
+
+class LatencyPredictor:
+    """Predicts a reading forward by the planning latency on the task's planning model (its own MjData).
+
+    Args:
+        task: the controller's task; its `model` steps the prediction.
+    """
+
+    def __init__(self, task: Task) -> None:
+        self.model = task.model
+        self.data = mujoco.MjData(self.model)
+
+    def predict_reading(
+        self, reading: SystemState, delay: float, control_at: Callable[[float], np.ndarray]
+    ) -> SystemState:
+        """`reading` moved `delay` seconds ahead: its (nq + nv,) state stepped round(delay / timestep) steps with
+        `control_at(time)` ((nu,), the control the plant gets at that plant time), its time advanced as far.
+        The reading as it is when the delay is under half a step or it has no full state."""
+        steps = round(delay / self.model.opt.timestep)
+        nq, nv = self.model.nq, self.model.nv
+        if steps <= 0 or reading.state is None or np.shape(reading.state) != (nq + nv,):
+            return reading
+        data = self.data
+        mujoco.mj_resetData(self.model, data)
+        data.qpos[:], data.qvel[:], data.time = reading.state[:nq], reading.state[nq:], reading.time
+        for key in ("mocap_pos", "mocap_quat"):
+            if key in reading.metadata and self.model.nmocap:
+                getattr(data, key)[:] = reading.metadata[key]
+        for _ in range(steps):
+            data.ctrl[:] = control_at(float(data.time))
+            mujoco.mj_step(self.model, data)
+        if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+            return reading  # the prediction blew up: plan from what was read
+        state = np.concatenate([data.qpos, data.qvel])
+        return dataclasses.replace(reading, state=state, time=reading.time + steps * self.model.opt.timestep)
