@@ -63,6 +63,7 @@ def test_the_check_set_is_20_hz_and_the_tasks_rate_with_no_latency_and_its_check
         "control_freq=50 latency_ms=0",
         "control_freq=50 latency_ms=25",
     ]
+    assert {c.control_freq for c in check_conditions("double_cartpole")} == {40.0, 50.0}  # its minimum, its own
     assert {c.latency_ms for c in check_conditions("leap_cube_down")} == {0.0, 50.0}
     assert {c.latency_ms for c in check_conditions("fr3_pick")} == {0.0, 50.0}
 
