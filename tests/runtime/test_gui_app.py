@@ -28,6 +28,7 @@ def test_panels_hold_the_fields_of_the_running_configs(app, wait_until):
         "risk_scale",
         "redraw_every",
         "max_plan_age",
+        "latency_compensation",
     ]
     assert panels["optimizer"].field_names == [
         "num_rollouts",
