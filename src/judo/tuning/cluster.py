@@ -18,6 +18,8 @@ from judo.tuning.trial import EpisodeOutcome, TrialSpec, run_condition_seed
 
 CONNECT_TIMEOUT_S = 5.0
 """How long to try reaching a cluster's address before giving up."""
+_connection = {"ours": False}
+"""Whether this process's Ray connection was made by `start_ray` (so `stop_ray` will end its tasks)."""
 
 
 class RayClusterError(JudoError):
@@ -66,6 +68,7 @@ def start_ray(address: str | None, workers: int) -> bool:
             f"could not {'start a local Ray' if address is None else f'join the Ray cluster at {address!r}'}: "
             f"{str(err).splitlines()[0]}. For a cluster, start it with `ray start --head` first"
         ) from None
+    _connection["ours"] = True
     return True
 
 
@@ -118,7 +121,14 @@ def outcome_of(ref: Any, condition: int, seed: int) -> EpisodeOutcome:
 
 
 def cancel(refs: list[Any]) -> None:
-    """Cancel running trials (on Ctrl-C)."""
+    """Cancel running tasks (on Ctrl-C or an error) on a Ray this process joined as it found it (a notebook's).
+
+    On a Ray that `start_ray` connected, nothing is cancelled: `stop_ray` follows, and disconnecting the driver
+    ends every task it submitted. Force-cancelling them first raced their replies and aborted Ray's core worker
+    ("Tried to complete task that was not pending", task_manager.cc), which lost collect's exit status in CI.
+    """
+    if _connection["ours"]:
+        return
     ray = import_ray()
     for ref in refs:
         ray.cancel(ref, force=True)
@@ -127,5 +137,6 @@ def cancel(refs: list[Any]) -> None:
 def stop_ray() -> None:
     """Shut this process's Ray connection (and a local Ray it started) down."""
     ray = import_ray()
+    _connection["ours"] = False
     if ray.is_initialized():
         ray.shutdown()
