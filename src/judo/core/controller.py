@@ -28,7 +28,7 @@ from judo.core.controller_config import (
     rollout_steps,
 )
 from judo.core.errors import ConfigError, JudoError
-from judo.core.model import STATE_SPEC, trace_sensor_columns
+from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
 from judo.core.optimizer import Optimizer
 from judo.core.randomize import randomized_models
 from judo.core.risk import reduce_rewards
@@ -202,10 +202,7 @@ class Controller:
         data.time = time
         data.qpos[:] = state[: self.task.model.nq]
         data.qvel[:] = state[self.task.model.nq : self._num_state]
-        if system_metadata:
-            for key in ("mocap_pos", "mocap_quat"):
-                if key in system_metadata:
-                    getattr(data, key)[:] = system_metadata[key]
+        set_mocap_poses(self.task.model, data, system_metadata)
         mujoco.mj_getState(self.task.model, data, self._initial_state, STATE_SPEC)
         self._initial_mocap[:] = np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
 

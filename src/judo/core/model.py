@@ -23,6 +23,16 @@ def load_model(path: str | Path) -> mujoco.MjModel:
         raise ModelLoadError(f"could not compile MuJoCo model {path}: {err}") from err
 
 
+def set_mocap_poses(model: mujoco.MjModel, data: mujoco.MjData, metadata: dict | None) -> None:
+    """Copy a reading's "mocap_pos" (nmocap, 3) and "mocap_quat" (nmocap, 4), where `metadata` has them, into
+    `data`: mocap bodies (goals, targets) are not part of [qpos, qvel], so a System publishes them beside it."""
+    if not metadata or not model.nmocap:
+        return
+    for key in ("mocap_pos", "mocap_quat"):
+        if key in metadata:
+            getattr(data, key)[:] = metadata[key]
+
+
 def names(model: mujoco.MjModel, obj_type: mujoco.mjtObj, count: int) -> list[str]:
     """The names of the `count` objects of `obj_type` in `model`, in id order."""
     return [mujoco.mj_id2name(model, obj_type, i) or "" for i in range(count)]

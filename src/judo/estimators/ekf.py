@@ -18,6 +18,7 @@ import numpy as np
 from judo.core.config import require
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, check_sensors, estimate_of
 from judo.core.fields import slider
+from judo.core.model import set_mocap_poses
 from judo.core.task import Task
 from judo.estimators.tangent import Residuals, TangentSpace
 from judo.runtime.system import SystemState
@@ -130,7 +131,7 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         """Start from `reading`: its state if it has one, else the model's keyframe 0 (or qpos0), then fuse its
         sensors with RESET_ITERATIONS Gauss-Newton steps."""
         sensors = check_sensors(self.task, reading, "ekf")
-        self._set_mocap(reading)
+        set_mocap_poses(self.model, self.data, reading.metadata)
         if reading.state is not None:
             x0 = np.concatenate([reading.state, np.zeros(self.model.na)])
         else:
@@ -157,7 +158,7 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         if not self.nodes:
             self.reset(reading)
         sensors = check_sensors(self.task, reading, "ekf")
-        self._set_mocap(reading)
+        set_mocap_poses(self.model, self.data, reading.metadata)
         self._controls = controls
         target = max(self._index(time), self.nodes[-1].index)
         first = self.nodes[0].index
@@ -291,11 +292,6 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         nq, nv = self.model.nq, self.model.nv
         self.data.qpos[:], self.data.qvel[:], self.data.act[:] = x[:nq], x[nq : nq + nv], x[nq + nv :]
         self.data.ctrl[:], self.data.time = ctrl, time
-
-    def _set_mocap(self, reading: SystemState) -> None:
-        for key in ("mocap_pos", "mocap_quat"):
-            if key in reading.metadata and self.model.nmocap:
-                getattr(self.data, key)[:] = reading.metadata[key]
 
     # Bookkeeping.
     def _index(self, time: float) -> int:

@@ -18,7 +18,7 @@ import numpy as np
 
 from judo.core.config import require, with_updates
 from judo.core.controller import Controller, ControllerConfig
-from judo.core.model import STATE_SPEC
+from judo.core.model import STATE_SPEC, set_mocap_poses
 from judo.core.registry import lookup_optimizer, make_config, make_controller
 from judo.runtime.closed_loop import ClosedLoop
 from judo.runtime.system import MujocoSystem, SystemState
@@ -125,9 +125,7 @@ def rollout_start(
     data.time = time
     data.qpos[:] = state[: model.nq]
     data.qvel[:] = state[model.nq : model.nq + model.nv]
-    for key in ("mocap_pos", "mocap_quat"):
-        if key in metadata:
-            getattr(data, key)[:] = metadata[key]
+    set_mocap_poses(model, data, metadata)
     initial = np.zeros(mujoco.mj_stateSize(model, STATE_SPEC))
     mujoco.mj_getState(model, data, initial, STATE_SPEC)
     return initial, np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from judo.core.config import require
+from judo.core.model import set_mocap_poses
 from judo.core.task import Task
 from judo.runtime.system import SystemState
 
@@ -53,9 +54,7 @@ class LatencyPredictor:
         data = self.data
         mujoco.mj_resetData(self.model, data)
         data.qpos[:], data.qvel[:], data.time = reading.state[:nq], reading.state[nq:], reading.time
-        for key in ("mocap_pos", "mocap_quat"):
-            if key in reading.metadata and self.model.nmocap:
-                getattr(data, key)[:] = reading.metadata[key]
+        set_mocap_poses(self.model, data, reading.metadata)
         for _ in range(steps):
             data.ctrl[:] = control_at(float(data.time))
             mujoco.mj_step(self.model, data)
