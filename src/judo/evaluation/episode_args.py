@@ -12,6 +12,7 @@ from typing import Annotated, Any, Literal
 
 import tyro
 
+from judo.core.estimator import estimator_in_force
 from judo.core.rollout import RolloutBackendName
 from judo.evaluation.cli import (
     ControllerOverrides,
@@ -98,7 +99,9 @@ class EpisodeArgs(SensingFlags):
         """How the observation reads in titles: "" for the full state, else e.g. ", sensors + ekf"."""
         if self.observe == "state" and self.estimator is None:
             return ""
-        return f", {self.observe} + {self.estimator or 'ekf'}" if self.observe == "sensors" else f", {self.estimator}"
+        if self.observe == "sensors":
+            return f", sensors + {estimator_in_force(self.observe, self.estimator)}"
+        return f", {self.estimator}"
 
     def sensing_record(self) -> dict[str, Any]:
         """The sensing flags as JSON: observe, noise, delay (s), rate (Hz) and estimator."""
@@ -108,5 +111,5 @@ class EpisodeArgs(SensingFlags):
             "noise": sensing.noise,
             "delay_s": sensing.delay,
             "rate_hz": sensing.rate,
-            "estimator": sensing.estimator or ("ekf" if sensing.observe == "sensors" else None),
+            "estimator": estimator_in_force(sensing.observe, sensing.estimator),
         }

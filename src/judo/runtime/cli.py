@@ -33,6 +33,7 @@ from judo.core.boundary import MAX_DURATION
 from judo.core.config import Config, with_updates
 from judo.core.config_file import load_config
 from judo.core.errors import ConfigError, JudoError
+from judo.core.estimator import estimator_in_force
 from judo.core.registry import (
     default_configs,
     get_registered_optimizers,
@@ -191,7 +192,7 @@ def _peek_estimator(argv: list[str]) -> str | None:
     peek.add_argument("--estimator", default=None)
     peek.add_argument("--observe", default=None)
     known, _ = peek.parse_known_args(argv)
-    return known.estimator or ("ekf" if known.observe == "sensors" else None)
+    return estimator_in_force(known.observe or "state", known.estimator)
 
 
 def _description() -> str:
