@@ -7,7 +7,11 @@ is a task needing one CPU, so a cluster runs as many episodes at once as it has 
 """
 
 import os
+import signal
 import socket
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -18,8 +22,8 @@ from judo.tuning.trial import EpisodeOutcome, TrialSpec, run_condition_seed
 
 CONNECT_TIMEOUT_S = 5.0
 """How long to try reaching a cluster's address before giving up."""
-_connection = {"ours": False}
-"""Whether this process's Ray connection was made by `start_ray` (so `stop_ray` will end its tasks)."""
+WAIT_SLICE_S = 0.5
+"""How long one `ray.wait` may block before a pending Ctrl-C is checked."""
 
 
 class RayClusterError(JudoError):
@@ -68,7 +72,6 @@ def start_ray(address: str | None, workers: int) -> bool:
             f"could not {'start a local Ray' if address is None else f'join the Ray cluster at {address!r}'}: "
             f"{str(err).splitlines()[0]}. For a cluster, start it with `ray start --head` first"
         ) from None
-    _connection["ours"] = True
     return True
 
 
@@ -106,8 +109,35 @@ def submit(function: Any, *args: Any) -> Any:
 
 
 def wait_any(refs: list[Any]) -> tuple[list[Any], list[Any]]:
-    """(finished, still running) refs, waiting until at least one is finished."""
-    return import_ray().wait(refs, num_returns=1)
+    """(finished, still running) refs, waiting until at least one is finished.
+
+    Waits in slices of WAIT_SLICE_S with Ctrl-C turned into a flag, and raises KeyboardInterrupt here, between
+    the slices: a SIGINT that lands inside Ray's own blocking wait once went unanswered (collect's Ctrl-C test in
+    CI ran on for a minute without printing a line), and this way a stop takes effect within WAIT_SLICE_S.
+    """
+    ray = import_ray()
+    while True:
+        with sigint_as_flag() as interrupted:
+            done, running = ray.wait(refs, num_returns=1, timeout=WAIT_SLICE_S)
+        if interrupted:
+            raise KeyboardInterrupt
+        if done:
+            return done, running
+
+
+@contextmanager
+def sigint_as_flag() -> Iterator[list[int]]:
+    """Within the block a SIGINT is appended to the yielded list instead of raising (main thread only; elsewhere
+    the list stays empty and signals are left alone)."""
+    caught: list[int] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield caught
+        return
+    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    try:
+        yield caught
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def outcome_of(ref: Any, condition: int, seed: int) -> EpisodeOutcome:
@@ -121,22 +151,17 @@ def outcome_of(ref: Any, condition: int, seed: int) -> EpisodeOutcome:
 
 
 def cancel(refs: list[Any]) -> None:
-    """Cancel running tasks (on Ctrl-C or an error) on a Ray this process joined as it found it (a notebook's).
-
-    On a Ray that `start_ray` connected, nothing is cancelled: `stop_ray` follows, and disconnecting the driver
-    ends every task it submitted. Force-cancelling them first raced their replies and aborted Ray's core worker
-    ("Tried to complete task that was not pending", task_manager.cc), which lost collect's exit status in CI.
-    """
-    if _connection["ours"]:
-        return
+    """Cancel running tasks (on Ctrl-C or an error) without killing their workers: each gets a KeyboardInterrupt
+    and replies as cancelled; an episode returns to Python every plant step, so it lands within one step.
+    `force=True` raced the replies of tasks that were just finishing and aborted Ray's core worker ("Tried to
+    complete task that was not pending", task_manager.cc) in a CI run of collect's Ctrl-C test."""
     ray = import_ray()
     for ref in refs:
-        ray.cancel(ref, force=True)
+        ray.cancel(ref, force=False)
 
 
 def stop_ray() -> None:
     """Shut this process's Ray connection (and a local Ray it started) down."""
     ray = import_ray()
-    _connection["ours"] = False
     if ray.is_initialized():
         ray.shutdown()
