@@ -1,0 +1,35 @@
+"""Ctrl-C while a Ray loop waits: `cluster.wait_any` answers it within a wait slice, and cancelling leaves the
+workers alive (no force-kill racing the tasks' replies)."""
+
+import os
+import signal
+import threading
+import time
+
+import pytest
+
+from judo.tuning import cluster
+
+
+def test_ctrl_c_during_a_wait_raises_within_a_slice_and_the_tasks_cancel(local_ray):
+    ray = pytest.importorskip("ray")
+
+    def busy(seconds: float) -> float:  # local, so Ray ships it by value (workers cannot import this module)
+        end = time.monotonic() + seconds  # Python code running, as an episode's loop is (a non-forced cancel
+        while time.monotonic() < end:  # lands between bytecodes; Ray does not interrupt a time.sleep)
+            pass
+        return seconds
+
+    remote = ray.remote(num_cpus=1)(busy)
+    refs = [remote.remote(30.0)]
+    assert cluster.wait_any([remote.remote(0.0)])[0]  # a finished task returns at once
+    timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
+    started = time.monotonic()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        cluster.wait_any(refs)
+    assert time.monotonic() - started < 1.0 + cluster.WAIT_SLICE_S + 1.0
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the flag handler is gone again
+    cluster.cancel(refs)
+    with pytest.raises(ray.exceptions.TaskCancelledError):
+        ray.get(refs[0], timeout=20)
