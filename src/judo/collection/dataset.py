@@ -25,7 +25,6 @@ imported here only, and this module only where a command needs it.
 """
 
 import json
-import signal
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -36,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from judo.core.errors import JudoError, import_extra
+from judo.core.interrupts import sigint_deferred
 
 EXTRA = "collect"
 """The optional extra holding h5py and ray."""
@@ -97,24 +97,6 @@ class EpisodeArrays:
 def demo_name(seed: int) -> str:
     """The group name of seed `seed`'s episode under `data`."""
     return f"demo_{seed}"
-
-
-@contextmanager
-def sigint_deferred() -> Iterator[None]:
-    """Hold a Ctrl-C (SIGINT) off until the block ends, then raise KeyboardInterrupt; only in the main thread."""
-    import threading
-
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    caught: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
-    if caught:
-        raise KeyboardInterrupt
 
 
 class DatasetFile:

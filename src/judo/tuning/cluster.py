@@ -7,17 +7,14 @@ is a task needing one CPU, so a cluster runs as many episodes at once as it has 
 """
 
 import os
-import signal
 import socket
-import threading
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from judo.core.errors import JudoError, import_extra
+from judo.core.interrupts import sigint_as_flag
 from judo.tuning.trial import EpisodeOutcome, TrialSpec, run_condition_seed
 
 CONNECT_TIMEOUT_S = 5.0
@@ -123,21 +120,6 @@ def wait_any(refs: list[Any]) -> tuple[list[Any], list[Any]]:
             raise KeyboardInterrupt
         if done:
             return done, running
-
-
-@contextmanager
-def sigint_as_flag() -> Iterator[list[int]]:
-    """Within the block a SIGINT is appended to the yielded list instead of raising (main thread only; elsewhere
-    the list stays empty and signals are left alone)."""
-    caught: list[int] = []
-    if threading.current_thread() is not threading.main_thread():
-        yield caught
-        return
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
-    try:
-        yield caught
-    finally:
-        signal.signal(signal.SIGINT, previous)
 
 
 def outcome_of(ref: Any, condition: int, seed: int) -> EpisodeOutcome:
