@@ -3,7 +3,7 @@ state, and the EKF's cost on leap_cube.
 
     PYTHONPATH=src python benchmarks/estimation.py                     # cartpole, pendulum: 5 seeds x 8 s
     PYTHONPATH=src python benchmarks/estimation.py --tasks acrobot double_cartpole --seeds 5 --duration 15
-    PYTHONPATH=src python benchmarks/estimation.py --tasks walker --seeds 5 --duration 15 --cost-steps 0
+    PYTHONPATH=src python benchmarks/estimation.py --tasks walker --seeds 5 --duration 15 --cost-steps 0 --true-start
     PYTHONPATH=src python benchmarks/estimation.py --tasks leap_cube --optimizer icem --seeds 5 --duration 30
     PYTHONPATH=src python benchmarks/estimation.py --cost-only           # just the leap_cube EKF cost
 
@@ -20,6 +20,9 @@ it (`run_seeded_episode`, the one seeded runner of evaluate, tune and collect):
 - "ekf, ideal sensors": the EKF on the same measured sensors without noise or delay, read every plant step. It
   starts from the model's keyframe, as on a robot, not from the plant's seeded start state; what it loses
   against the full state is the filter's own loss (observability, contacts), apart from the sensors'.
+- "ekf, ideal, true start" (with --true-start): the same, but the filter starts from the plant's true start
+  state. What "ekf, ideal sensors" loses beyond it is the unknown start (walker starts in the air with random
+  velocities that no sensor sees until a foot lands).
 The metric is the task's first metric (cartpole: balanced_fraction, walker: mean_forward_speed, leap_cube:
 goals_per_minute), always from the true plant state.
 
@@ -29,6 +32,7 @@ wall time (which does not). With relinearize_every=k the Jacobians are reused fo
 """
 
 import argparse
+import dataclasses
 import time
 from collections import deque
 
@@ -36,7 +40,7 @@ import mujoco
 import numpy as np
 
 import judo
-from judo.core.estimator import ControlHistory
+from judo.core.estimator import ControlHistory, Estimator
 from judo.core.registry import make_controller, make_estimator
 from judo.estimators.ekf import EKFConfig
 from judo.evaluation.episode import run_episode
@@ -113,11 +117,30 @@ class NoisyLateState(System):
         return SystemState(np.concatenate([qpos, qvel]), float(data.time), reading.metadata, reading.sensors)
 
 
+class TrueStart:
+    """An estimator started from the plant's true state instead of the model's keyframe; otherwise `estimator`."""
+
+    def __init__(self, estimator: Estimator, plant: MujocoSystem) -> None:
+        self.estimator, self.plant = estimator, plant
+
+    def reset(self, reading: SystemState) -> None:
+        self.estimator.reset(dataclasses.replace(reading, state=self.plant.plant_state()))
+
+    def update(self, reading: SystemState, time: float, controls: ControlHistory) -> SystemState:
+        return self.estimator.update(reading, time, controls)
+
+
 def episode(task_name: str, optimizer: str, seed: int, duration: float, mode: str) -> tuple[str, float]:
     """(name, value) of the task's first metric in one seeded episode, planned from the full state, the EKF or
     the "state" estimator on a noisy, late full state."""
     settings = SENSING.get(task_name, ENCODERS)
-    if mode == "state, noisy + late":
+    if mode == "ekf, ideal, true start":
+        controller = make_controller(task_name, optimizer, seed=seed, num_workers=1)
+        plant = MujocoSystem.from_task(controller.task, seed)
+        with controller:
+            ekf = TrueStart(make_estimator("ekf", controller.task, task_name=task_name), plant)
+            result = run_episode(controller, SensedSystem(plant), duration, seed=seed, estimator=ekf)  # type: ignore[arg-type]
+    elif mode == "state, noisy + late":
         std, rate, delay = settings["noise"], settings["rate"], settings["delay"]
         controller = make_controller(task_name, optimizer, seed=seed, num_workers=1)
         plant = MujocoSystem.from_task(controller.task, seed)
@@ -140,15 +163,16 @@ def has_single_rate(task_name: str) -> bool:
     return all(not isinstance(value, dict) for value in SENSING.get(task_name, ENCODERS).values())
 
 
-def quality_table(tasks: list[str], optimizer: str, seeds: int, duration: float) -> None:
+def quality_table(tasks: list[str], optimizer: str, seeds: int, duration: float, true_start: bool) -> None:
     modes = ("full state", "sensors + ekf", "state, noisy + late", "ekf, ideal sensors")
+    modes += ("ekf, ideal, true start",) if true_start else ()
     print(f"closed loop, {seeds} seeds x {duration:g} s, {optimizer}; mean ± std over seeds; sensing per task:")
     for task_name in tasks:
         print(f"  {task_name}: {SENSING.get(task_name, ENCODERS)}")
     print(
         "  ekf, ideal sensors: the same measured sensors without noise or delay, every plant step (the filter's own loss)"
     )
-    ratio_names = ("ekf/full", "state/full", "ideal/full")
+    ratio_names = ("ekf/full", "state/full", "ideal/full", "true0/full")[: len(modes) - 1]
     print(
         f"{'task':16} {'metric':19} "
         + " ".join(f"{m:>20}" for m in modes)
@@ -244,10 +268,13 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--duration", type=float, default=8.0)
     parser.add_argument("--cost-only", action="store_true", help="print only the leap_cube EKF cost")
+    parser.add_argument(
+        "--true-start", action="store_true", help="add the EKF with ideal sensors started from the true state"
+    )
     parser.add_argument("--cost-steps", type=int, default=500, help="plant steps of the leap_cube cost run (0: skip)")
     args = parser.parse_args()
     if not args.cost_only:
-        quality_table(args.tasks, args.optimizer, args.seeds, args.duration)
+        quality_table(args.tasks, args.optimizer, args.seeds, args.duration, args.true_start)
     if args.cost_steps > 0:
         leap_cube_cost(args.cost_steps)
 
