@@ -5,6 +5,7 @@ state, and the EKF's cost on leap_cube.
     PYTHONPATH=src python benchmarks/estimation.py --tasks acrobot double_cartpole --seeds 5 --duration 15
     PYTHONPATH=src python benchmarks/estimation.py --tasks walker --seeds 5 --duration 15 --cost-steps 0 --true-start
     PYTHONPATH=src python benchmarks/estimation.py --tasks leap_cube --optimizer icem --seeds 5 --duration 30
+    PYTHONPATH=src python benchmarks/estimation.py --tasks leap_cube --seeds 3 --duration 15 --planner-noise 0.002
     PYTHONPATH=src python benchmarks/estimation.py --cost-only           # just the leap_cube EKF cost
 
 Each task runs on the same seeds (the plant's start state and the sensor noise are seeded) as evaluate runs
@@ -23,6 +24,9 @@ it (`run_seeded_episode`, the one seeded runner of evaluate, tune and collect):
 - "ekf, ideal, true start" (with --true-start): the same, but the filter starts from the plant's true start
   state. What "ekf, ideal sensors" loses beyond it is the unknown start (walker starts in the air with random
   velocities that no sensor sees until a foot lands).
+- "state + planner noise" (with --planner-noise STD): no estimator, the true state every plant step with
+  Gaussian noise of std STD (m or rad, in the tangent space) on every position and none on the velocities.
+  It measures how much noise the planner itself tolerates, whatever filter produced it.
 The metric is the task's first metric (cartpole: balanced_fraction, walker: mean_forward_speed, leap_cube:
 goals_per_minute), always from the true plant state.
 
@@ -130,11 +134,31 @@ class TrueStart:
         return self.estimator.update(reading, time, controls)
 
 
-def episode(task_name: str, optimizer: str, seed: int, duration: float, mode: str) -> tuple[str, float]:
+RATIO_NAMES = {
+    "sensors + ekf": "ekf/full",
+    "state, noisy + late": "state/full",
+    "ekf, ideal sensors": "ideal/full",
+    "ekf, ideal, true start": "true0/full",
+    "state + planner noise": "noise/full",
+}
+"""The short name of each mode's ratio to the full state."""
+
+
+def episode(
+    task_name: str, optimizer: str, seed: int, duration: float, mode: str, planner_noise: float = 0.0
+) -> tuple[str, float]:
     """(name, value) of the task's first metric in one seeded episode, planned from the full state, the EKF or
     the "state" estimator on a noisy, late full state."""
     settings = SENSING.get(task_name, ENCODERS)
-    if mode == "ekf, ideal, true start":
+    if mode == "state + planner noise":
+        controller = make_controller(task_name, optimizer, seed=seed, num_workers=1)
+        plant = MujocoSystem.from_task(controller.task, seed)
+        every_step = 1.0 / plant.timestep
+        noisy = NoisyLateState(plant, planner_noise, 0.0, every_step, 0.0, np.random.default_rng([seed, 7]))
+        with controller:
+            state_estimator = make_estimator("state", controller.task, task_name=task_name)
+            result = run_episode(controller, noisy, duration, seed=seed, estimator=state_estimator)  # type: ignore[arg-type]
+    elif mode == "ekf, ideal, true start":
         controller = make_controller(task_name, optimizer, seed=seed, num_workers=1)
         plant = MujocoSystem.from_task(controller.task, seed)
         with controller:
@@ -163,16 +187,21 @@ def has_single_rate(task_name: str) -> bool:
     return all(not isinstance(value, dict) for value in SENSING.get(task_name, ENCODERS).values())
 
 
-def quality_table(tasks: list[str], optimizer: str, seeds: int, duration: float, true_start: bool) -> None:
+def quality_table(
+    tasks: list[str], optimizer: str, seeds: int, duration: float, true_start: bool, planner_noise: float
+) -> None:
     modes = ("full state", "sensors + ekf", "state, noisy + late", "ekf, ideal sensors")
     modes += ("ekf, ideal, true start",) if true_start else ()
+    modes += ("state + planner noise",) if planner_noise > 0 else ()
     print(f"closed loop, {seeds} seeds x {duration:g} s, {optimizer}; mean ± std over seeds; sensing per task:")
     for task_name in tasks:
         print(f"  {task_name}: {SENSING.get(task_name, ENCODERS)}")
     print(
         "  ekf, ideal sensors: the same measured sensors without noise or delay, every plant step (the filter's own loss)"
     )
-    ratio_names = ("ekf/full", "state/full", "ideal/full", "true0/full")[: len(modes) - 1]
+    if planner_noise > 0:
+        print(f"  state + planner noise: the true state every step, positions with std {planner_noise:g}, no filter")
+    ratio_names = [RATIO_NAMES[m] for m in modes[1:]]
     print(
         f"{'task':16} {'metric':19} "
         + " ".join(f"{m:>20}" for m in modes)
@@ -181,7 +210,7 @@ def quality_table(tasks: list[str], optimizer: str, seeds: int, duration: float,
     )
     for task_name in tasks:
         runs = {
-            mode: [episode(task_name, optimizer, seed, duration, mode) for seed in range(seeds)]
+            mode: [episode(task_name, optimizer, seed, duration, mode, planner_noise) for seed in range(seeds)]
             for mode in modes
             if mode != modes[2] or has_single_rate(task_name)
         }
@@ -271,10 +300,17 @@ def main() -> None:
     parser.add_argument(
         "--true-start", action="store_true", help="add the EKF with ideal sensors started from the true state"
     )
+    parser.add_argument(
+        "--planner-noise",
+        type=float,
+        default=0.0,
+        metavar="STD",
+        help="add the true state with this position noise (m or rad) every step, no filter",
+    )
     parser.add_argument("--cost-steps", type=int, default=500, help="plant steps of the leap_cube cost run (0: skip)")
     args = parser.parse_args()
     if not args.cost_only:
-        quality_table(args.tasks, args.optimizer, args.seeds, args.duration, args.true_start)
+        quality_table(args.tasks, args.optimizer, args.seeds, args.duration, args.true_start, args.planner_noise)
     if args.cost_steps > 0:
         leap_cube_cost(args.cost_steps)
 

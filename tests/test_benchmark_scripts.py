@@ -148,12 +148,24 @@ def test_soak_with_driver_faults_reports_the_faults_and_the_watchdog():
 
 def test_estimation_prints_the_closed_loop_table_and_the_ekf_cost():
     result = run_script(
-        "estimation.py", "--tasks", "pendulum", "--seeds", "1", "--duration", "0.5", "--cost-steps", "5", "--true-start"
+        "estimation.py",
+        "--tasks",
+        "pendulum",
+        "--seeds",
+        "1",
+        "--duration",
+        "0.5",
+        "--cost-steps",
+        "5",
+        "--true-start",
+        "--planner-noise",
+        "0.01",
     )
     assert result.returncode == 0, result.stderr
-    for mode in ("full state", "sensors + ekf", "state, noisy + late", "ekf, ideal sensors", "ekf, ideal, true start"):
+    modes = ("full state", "sensors + ekf", "state, noisy + late", "ekf, ideal sensors", "ekf, ideal, true start")
+    for mode in (*modes, "state + planner noise"):
         assert mode in result.stdout
     row = next(line for line in result.stdout.splitlines() if line.startswith("pendulum "))
-    assert row.split()[1] == "upright_fraction" and len(row.split()) == 21  # 5 modes (mean ± std) and 4 ratios
+    assert row.split()[1] == "upright_fraction" and len(row.split()) == 25  # 6 modes (mean ± std) and 5 ratios
     assert 0.0 <= float(row.split()[14]) <= 1.0, row  # the true-start column's mean is a fraction
     assert "EKF on leap_cube" in result.stdout and "relinearize_every" in result.stdout
