@@ -184,3 +184,26 @@ def lines_over_the_limit() -> dict[str, int]:
 def test_no_file_is_over_its_line_limit():
     over = lines_over_the_limit()
     assert not over, f"files over {MAX_LINES} lines ({MAX_RUNTIME_LINES} in runtime/): {over}"
+
+
+LIBRARY_LAYERS = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks")
+"""The library a notebook imports: what plans and estimates."""
+APPLICATION_LAYERS = ("judo.runtime", "judo.evaluation", "judo.tuning", "judo.collection")
+"""What runs it: the app and its loops, and the commands."""
+
+
+def in_layer(module: str, layers: tuple[str, ...]) -> bool:
+    return any(module == layer or module.startswith(layer + ".") for layer in layers)
+
+
+def test_the_library_layers_never_import_the_runtime_or_the_commands():
+    graph = import_graph()
+    assert graph, "no judo modules found"
+    upward = sorted(
+        f"{module} imports {target}"
+        for module, targets in graph.items()
+        if in_layer(module, LIBRARY_LAYERS)
+        for target in targets
+        if in_layer(target, APPLICATION_LAYERS)
+    )
+    assert not upward, "\n".join(upward)

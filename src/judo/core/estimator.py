@@ -20,8 +20,8 @@ import numpy as np
 
 from judo.core.config import Config
 from judo.core.errors import JudoError
+from judo.core.reading import SystemState
 from judo.core.task import Task
-from judo.runtime.system import SystemState
 
 
 class ReadingError(JudoError, ValueError):

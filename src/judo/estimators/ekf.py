@@ -19,9 +19,9 @@ from judo.core.config import require
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, check_sensors, estimate_of
 from judo.core.fields import slider
 from judo.core.model import set_mocap_poses
+from judo.core.reading import SystemState
 from judo.core.task import Task
 from judo.estimators.tangent import Residuals, TangentSpace
-from judo.runtime.system import SystemState
 
 RESET_ITERATIONS = 5
 """Gauss-Newton iterations of the first correction (an iterated EKF), which starts far from the truth."""

@@ -3,7 +3,7 @@
 from dataclasses import dataclass
 
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, estimate_of
-from judo.runtime.system import SystemState
+from judo.core.reading import SystemState
 
 
 @dataclass

@@ -5,13 +5,12 @@ writing one subclass: read the state, apply an action, step.
 """
 
 from abc import ABC, abstractmethod
-from dataclasses import dataclass, field
-from typing import Any
 
 import mujoco
 import numpy as np
 
 from judo.core.errors import JudoError
+from judo.core.reading import SystemState
 from judo.core.task import Task
 
 DIVERGENCE_WARNINGS = (
@@ -27,26 +26,6 @@ PLANT_STREAM = 0x706C616E74
 
 class SimulationDiverged(JudoError):
     """The plant's state became non-finite or MuJoCo flagged bad positions, velocities or accelerations; the plant was reset."""
-
-
-@dataclass
-class SystemState:
-    """One reading of the plant.
-
-    Attributes:
-        state: (nq + nv,) [qpos, qvel], or None from a System that measures only sensors.
-        time: plant time in seconds at which the measurement was *taken* (so a late reading is known as
-            late); with per-sensor times (metadata "sensor_times"), the newest of them.
-        metadata: extra values for the controller and reward, e.g. "mocap_pos" (nmocap, 3), and
-            "sensor_times" (len(Task.measured_sensors),): when each sensor's value was taken, if they differ.
-        sensors: (measured size,) values of the task's `measured_sensors`, in order (see `Task.measured`),
-            or None when the System measures none.
-    """
-
-    state: np.ndarray | None
-    time: float
-    metadata: dict[str, Any] = field(default_factory=dict)
-    sensors: np.ndarray | None = None
 
 
 class System(ABC):
