@@ -1,4 +1,4 @@
-"""The EKF on tiny nonlinear models: a free body's quaternion and covariance, and delay compensation."""
+"""The EKF and the UKF on tiny nonlinear models: a free body's quaternion and covariance, and delay compensation."""
 
 import mujoco
 import numpy as np
@@ -7,6 +7,7 @@ import pytest
 from judo.core.estimator import ControlHistory
 from judo.core.task import Task
 from judo.estimators.ekf import EKFConfig, ExtendedKalmanFilter
+from judo.estimators.ukf import UKFConfig, UnscentedKalmanFilter
 from judo.runtime.sensing import SensedSystem
 from judo.runtime.system import MujocoSystem, SystemState
 
@@ -42,6 +43,9 @@ PENDULUM_XML = """
 </mujoco>
 """
 
+FILTERS = {"ekf": (ExtendedKalmanFilter, EKFConfig), "ukf": (UnscentedKalmanFilter, UKFConfig)}
+"""Both Kalman filters, by registered name: the same contract, the same tests."""
+
 
 def make_task(xml, tmp_path, sensors):
     path = tmp_path / "model.xml"
@@ -56,14 +60,16 @@ def make_task(xml, tmp_path, sensors):
     return Model(path)
 
 
-def test_a_free_body_s_quaternion_stays_normalized_and_its_covariance_positive_definite(tmp_path):
+@pytest.mark.parametrize("name", FILTERS)
+def test_a_free_body_s_quaternion_stays_normalized_and_its_covariance_positive_definite(tmp_path, name):
+    filter_cls, config_cls = FILTERS[name]
     sensors = ("box_pos", "box_quat", "box_gyro")
     plant, planner = make_task(FREE_BODY_XML, tmp_path, sensors), make_task(FREE_BODY_XML, tmp_path, sensors)
     plant.data.qvel[:] = [0.3, 0.0, 2.0, 4.0, -3.0, 6.0]  # tumbling while it falls
     mujoco.mj_forward(plant.sim_model, plant.data)
     noise = {"framepos": 0.002, "framequat": 0.02, "gyro": 0.01}
     system = SensedSystem(MujocoSystem(plant), noise=noise, rng=np.random.default_rng(0))
-    ekf = ExtendedKalmanFilter(planner, EKFConfig(noise_framequat=0.02))
+    ekf = filter_cls(planner, config_cls(noise_framequat=0.02))
     controls = ControlHistory(0)
     ekf.reset(system.read_state())
     for _ in range(150):
@@ -81,12 +87,13 @@ def test_a_free_body_s_quaternion_stays_normalized_and_its_covariance_positive_d
     assert np.linalg.norm(estimate.state[10:] - plant.data.qvel[3:]) < 0.05  # rad/s: the gyro's noise
 
 
-def run_pendulum(tmp_path, delay, stamp_as_taken=True, steps=300):
-    """Estimate errors (steps,) of the pole angle with readings `delay` s late, noise 0.002 rad."""
+def run_pendulum(tmp_path, delay, stamp_as_taken=True, steps=300, name="ekf"):
+    """Estimate errors (steps,) of the pole angle with readings `delay` s late, noise 0.002 rad, by filter `name`."""
+    filter_cls, config_cls = FILTERS[name]
     plant = make_task(PENDULUM_XML, tmp_path, ("hinge_pos",))
     planner = make_task(PENDULUM_XML, tmp_path, ("hinge_pos",))
     system = SensedSystem(MujocoSystem(plant), noise=0.002, delay=delay, rng=np.random.default_rng(0))
-    ekf = ExtendedKalmanFilter(planner, EKFConfig(noise_jointpos=0.002))
+    ekf = filter_cls(planner, config_cls(noise_jointpos=0.002))
     controls = ControlHistory(1)
     ekf.reset(system.read_state())
     torques = np.sin(np.arange(steps) * 0.05) + np.random.default_rng(1).normal(0.0, 0.3, steps)
@@ -104,9 +111,10 @@ def run_pendulum(tmp_path, delay, stamp_as_taken=True, steps=300):
     return np.abs(np.array(errors[100:])), np.abs(plant.data.qvel[0])
 
 
-def test_a_delayed_reading_gives_the_estimate_of_an_undelayed_one_within_the_noise(tmp_path):
-    on_time, _ = run_pendulum(tmp_path, delay=0.0)
-    late, speed = run_pendulum(tmp_path, delay=0.04)
-    naive, _ = run_pendulum(tmp_path, delay=0.04, stamp_as_taken=False)
+@pytest.mark.parametrize("name", FILTERS)
+def test_a_delayed_reading_gives_the_estimate_of_an_undelayed_one_within_the_noise(tmp_path, name):
+    on_time, _ = run_pendulum(tmp_path, delay=0.0, name=name)
+    late, speed = run_pendulum(tmp_path, delay=0.04, name=name)
+    naive, _ = run_pendulum(tmp_path, delay=0.04, stamp_as_taken=False, name=name)
     assert on_time.mean() < 0.002 and late.mean() < 0.003  # within the encoder's 0.002 rad
     assert naive.mean() > 20 * late.mean()  # 40 ms of a swinging pole, uncompensated

@@ -1,11 +1,13 @@
-"""On a linear model the EKF is the Kalman filter: a slide joint with a motor under Euler integration."""
+"""On a linear model the EKF and the UKF are the Kalman filter: a slide joint with a motor under Euler integration."""
 
 import mujoco
 import numpy as np
+import pytest
 
 from judo.core.estimator import ControlHistory
 from judo.core.task import Task
-from judo.estimators.ekf import EKFConfig, ExtendedKalmanFilter
+from judo.estimators.ekf import RESET_ITERATIONS, EKFConfig, ExtendedKalmanFilter
+from judo.estimators.ukf import UKFConfig, UnscentedKalmanFilter
 from judo.runtime.system import SystemState
 
 SLIDER_XML = """
@@ -54,7 +56,16 @@ def kalman_filter(readings, controls, config):
     return np.array(estimates), np.array(covariances)
 
 
-def test_the_ekf_equals_the_exact_kalman_filter_on_a_linear_system(tmp_path):
+@pytest.mark.parametrize(
+    "filter_cls, config_cls, extra",
+    [
+        (ExtendedKalmanFilter, EKFConfig, {}),
+        (UnscentedKalmanFilter, UKFConfig, {"spread": 1.0}),  # the cubature rule: exact on linear models
+        (UnscentedKalmanFilter, UKFConfig, {"spread": 0.3}),  # and at any spread
+    ],
+    ids=["ekf", "ukf", "ukf-spread-0.3"],
+)
+def test_the_filter_equals_the_exact_kalman_filter_on_a_linear_system(tmp_path, filter_cls, config_cls, extra):
     path = tmp_path / "slider.xml"
     path.write_text(SLIDER_XML)
     task = Slider(path)
@@ -62,8 +73,8 @@ def test_the_ekf_equals_the_exact_kalman_filter_on_a_linear_system(tmp_path):
     steps = 200
     controls = rng.uniform(-1.0, 1.0, steps)
     readings = np.cumsum(rng.normal(0.0, 0.01, steps)) + 0.3  # any sequence will do: both filters see the same
-    config = EKFConfig(process_noise_position=0.02, process_noise_velocity=0.5, noise_jointpos=0.01)
-    ekf = ExtendedKalmanFilter(task, config)
+    config = config_cls(process_noise_position=0.02, process_noise_velocity=0.5, noise_jointpos=0.01, **extra)
+    ekf = filter_cls(task, config)
     history = ControlHistory(task.nu)
     expected, expected_cov = kalman_filter(readings, controls, config)
     for k in range(steps):
@@ -77,7 +88,10 @@ def test_the_ekf_equals_the_exact_kalman_filter_on_a_linear_system(tmp_path):
         np.testing.assert_allclose(ekf.covariance(), expected_cov[k], rtol=0, atol=1e-9)
         assert estimate.time == k * DT
         history.append(k * DT, np.array([controls[k]]))
-    assert ekf.linearizations >= steps  # one finite-difference Jacobian per step at relinearize_every=1
+    if filter_cls is ExtendedKalmanFilter:
+        assert ekf.linearizations >= steps  # one finite-difference Jacobian per step at relinearize_every=1
+    else:
+        assert ekf.linearizations <= RESET_ITERATIONS  # sigma points after the first reading
 
 
 def test_model_is_linear_as_the_reference_assumes(tmp_path):

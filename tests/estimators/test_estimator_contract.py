@@ -14,8 +14,8 @@ from judo.runtime.system import SystemState
 
 def test_unknown_estimator_names_list_the_valid_ones():
     with pytest.raises(UnknownNameError) as err:
-        lookup_estimator("ukf")
-    assert str(err.value) == "unknown estimator 'ukf'; valid estimators are: ekf, state"
+        lookup_estimator("particle")
+    assert str(err.value) == "unknown estimator 'particle'; valid estimators are: ekf, state, ukf"
 
 
 def test_estimators_are_made_by_name_with_their_config():
@@ -26,6 +26,10 @@ def test_estimators_are_made_by_name_with_their_config():
     judo.set_config_overrides("unregistered_task", EKFConfig, {"history": 0.1})
     assert judo.make_estimator("ekf", task, task_name="unregistered_task").config.history == 0.1
     assert {"noise_jointpos", "process_noise_velocity", "relinearize_every"} <= set(slider_ranges(EKFConfig))
+    ukf = judo.make_estimator("ukf", task, task_name="cartpole")  # the task's TOML section for the ukf
+    assert ukf.config.process_noise_velocity == 0.02 and ukf.config.spread == 1.0
+    assert {"noise_jointpos", "spread"} <= set(slider_ranges(type(ukf.config)))
+    assert "relinearize_every" not in slider_ranges(type(ukf.config))  # the EKF's alone
 
 
 def test_the_state_estimator_passes_a_full_state_through_and_refuses_sensors_only():
@@ -79,6 +83,6 @@ def test_a_config_file_sets_an_estimator_s_fields_per_task(tmp_path):
     path.write_text("[estimator_config_overrides.pendulum.kalman]\nnoise_jointpos = 0.003\n")
     with pytest.raises(
         judo.ConfigFileError,
-        match=r"\[estimator_config_overrides.pendulum.kalman\]: unknown estimator 'kalman'; valid estimators are: ekf, state",
+        match=r"\[estimator_config_overrides.pendulum.kalman\]: unknown estimator 'kalman'; valid estimators are: ekf, state, ukf",
     ):
         judo.load_config(path)

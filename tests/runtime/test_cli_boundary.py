@@ -215,7 +215,7 @@ TABLE = [
     Row(("--task", "-x"), 2, "python -m judo: error: argument --task: expected one argument", one_line=False),
     Row(("--task", "x" * 3000, *APP), 2, "unknown task 'xxxxxxxx"),
     # sensing and estimation
-    Row((*APP, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state"),
+    Row((*APP, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
     Row(
         ("--task", "bad", *APP, *config("no_sensors.toml"), "--observe", "sensors"),
         2,
@@ -225,7 +225,7 @@ TABLE = [
     Row((*APP, "--observe", "sensors", "--sensor-noise", "bogus=0.1"), 2, "sensor noise: 'bogus' is not a sensor type"),
     Row((*APP, "--observe", "sensors", "--sensor-delay-ms", "-5"), 2, "sensor delay must be at least 0"),
     Row((*APP, "--sensor-noise", "0.1"), 2, "--sensor-noise set the rehearsed sensors, which run only with --observe"),
-    Row((*EVALUATE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state"),
+    Row((*EVALUATE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
     Row(
         (*BAD_EVALUATE, *config("no_sensors.toml"), "--observe", "sensors"),
         2,
@@ -237,9 +237,9 @@ TABLE = [
         2,
         "--sensor-rate-hz expects",
     ),
-    Row((*TUNE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state"),
+    Row((*TUNE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
     Row((*TUNE, "--sensor-delay-ms", "10"), 2, "--sensor-delay-ms set the rehearsed sensors, which run only with"),
-    Row((*COLLECT, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state"),
+    Row((*COLLECT, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
     # Ctrl-C
     Row((*EVALUATE[:-2], "--duration", "3000", "--num-workers", "2"), 130, "interrupted", interrupt=True),
     Row((*BENCHMARK[:-4], "--samples", "100000", "--num-workers", "2"), 130, "interrupted", interrupt=True),

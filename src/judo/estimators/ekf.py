@@ -40,11 +40,10 @@ TIME_TOLERANCE = 1e-9
 @slider("noise_accelerometer", 1e-3, 10.0, log=True)
 @slider("noise_other", 1e-5, 1.0, log=True)
 @slider("history", 0.0, 1.0, 0.01)
-@slider("relinearize_every", 1, 20, 1)
 @slider("fd_epsilon", 1e-7, 1e-2, log=True)
 @dataclass
-class EKFConfig(EstimatorConfig):
-    """Extended Kalman filter noise model and bookkeeping."""
+class KalmanConfig(EstimatorConfig):
+    """The noise model and bookkeeping that the Kalman filters here share (EKF, UKF)."""
 
     process_noise_position: float = 0.01
     """Std of the model's position error, (m or rad) per sqrt(s): how far the truth drifts from a prediction."""
@@ -69,23 +68,30 @@ class EKFConfig(EstimatorConfig):
     """Std of the first guess's velocities (m/s or rad/s)."""
     history: float = 0.2
     """Seconds of past steps kept to fuse late readings at the time they were taken; older ones are dropped."""
-    relinearize_every: int = 1
-    """Compute the Jacobians every this many steps and reuse them in between (cheaper, less exact)."""
     fd_epsilon: float = 1e-3
-    """Finite-difference step of the Jacobians (m, rad, m/s, ...). Far above rounding's optimum: a contact solver
-    stopped after a few iterations is noisy, and at 1e-6 that noise made leap_cube's Jacobian entries 1e5 and
-    the filter lose the cube; 1e-3 did not."""
+    """Finite-difference step of the Jacobians (m, rad, m/s, ...): the EKF's at every step, the UKF's for its first
+    reading only. Far above rounding's optimum: a contact solver stopped after a few iterations is noisy, and at
+    1e-6 that noise made leap_cube's Jacobian entries 1e5 and the filter lose the cube; 1e-3 did not."""
 
     def validate(self) -> None:
         super().validate()
         for name, value in vars(self).items():
             if name != "history":
-                require(value > 0, f"EKFConfig.{name} must be positive, got {value}")
-        require(self.history >= 0, f"EKFConfig.history must be at least 0 s, got {self.history}")
+                require(value > 0, f"{type(self).__name__}.{name} must be positive, got {value}")
+        require(self.history >= 0, f"{type(self).__name__}.history must be at least 0 s, got {self.history}")
 
     def sensor_std(self, sensor_type: str) -> float:
         """The std of a sensor of `sensor_type` ("jointpos", ...), `noise_other` for a type without a field."""
         return float(getattr(self, f"noise_{sensor_type}", self.noise_other))
+
+
+@slider("relinearize_every", 1, 20, 1)
+@dataclass
+class EKFConfig(KalmanConfig):
+    """Extended Kalman filter noise model and bookkeeping."""
+
+    relinearize_every: int = 1
+    """Compute the Jacobians every this many steps and reuse them in between (cheaper, less exact)."""
 
 
 @dataclass
@@ -200,16 +206,22 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         mujoco.mj_step(self.model, self.data)
         prior = np.concatenate([self.data.qpos, self.data.qvel, self.data.act])
         A = node.jacobians[0]  # type: ignore[index]  (set by _posterior)
-        nv, na = self.model.nv, self.model.na
-        cfg = self.config
-        noise = np.r_[np.full(nv, cfg.process_noise_position), np.full(nv + na, cfg.process_noise_velocity)]
-        prior_cov = self._capped(A @ cov @ A.T + np.diag(noise**2 * self.dt))
-        if index + 1 <= self.nodes[-1].index:
-            following = self._node(index + 1)
+        self._set_prior(index + 1, prior, self._capped(A @ cov @ A.T + self._process_noise()), arriving)
+
+    def _set_prior(self, index: int, prior: np.ndarray, prior_cov: np.ndarray, arriving: dict[int, np.ndarray]) -> None:
+        """Give node `index` (appended if new) this prior and the readings `arriving` there; its posterior is stale."""
+        if index <= self.nodes[-1].index:
+            following = self._node(index)
             following.prior, following.prior_cov, following.posterior = prior, prior_cov, None
             following.measured.update(arriving)
         else:
-            self.nodes.append(_Node(index + 1, prior, prior_cov, dict(arriving)))
+            self.nodes.append(_Node(index, prior, prior_cov, dict(arriving)))
+
+    def _process_noise(self) -> np.ndarray:
+        """(n, n) the process noise added over one step."""
+        nv, na, cfg = self.model.nv, self.model.na, self.config
+        noise = np.r_[np.full(nv, cfg.process_noise_position), np.full(nv + na, cfg.process_noise_velocity)]
+        return np.diag(noise**2 * self.dt)
 
     def _posterior(self, node: _Node) -> tuple[np.ndarray, np.ndarray]:
         """(state, covariance) after fusing the node's measurements (computed once, until the node changes)."""
@@ -226,17 +238,7 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
             if node.jacobians is None:
                 node.jacobians = self._jacobians_for(node)
             return
-        numbers = sorted(node.measured)
-        measured = np.zeros(self.task.measured.size)
-        for i in numbers:
-            measured[self.task.measured.slices[i]] = node.measured[i]
-        std = np.concatenate(
-            [
-                np.full(r.stop - r.start, self.config.sensor_std(self.task.measured.types[i]))
-                for i, r in self._rows(numbers)
-            ]
-        )
-        R = np.diag(std**2)
+        numbers, measured, R = self._measurement(node)
         P, x0, x = node.prior_cov, node.prior, node.prior
         K = G = np.zeros((0, 0))
         time = self.start_time + node.index * self.dt
@@ -252,6 +254,21 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         IKG = np.eye(len(P)) - K @ G
         cov = IKG @ P @ IKG.T + K @ R @ K.T
         node.posterior = (x, 0.5 * (cov + cov.T))
+
+    def _measurement(self, node: _Node) -> tuple[list[int], np.ndarray, np.ndarray]:
+        """The node's sensor numbers (sorted), their values in a (measured size,) vector (zeros elsewhere), and
+        the (m, m) measurement noise R of their residual rows."""
+        numbers = sorted(node.measured)
+        measured = np.zeros(self.task.measured.size)
+        for i in numbers:
+            measured[self.task.measured.slices[i]] = node.measured[i]
+        std = np.concatenate(
+            [
+                np.full(r.stop - r.start, self.config.sensor_std(self.task.measured.types[i]))
+                for i, r in self._rows(numbers)
+            ]
+        )
+        return numbers, measured, np.diag(std**2)
 
     def _capped(self, cov: np.ndarray) -> np.ndarray:
         """`cov` with each variance above COVARIANCE_CAP^2 times the initial one scaled down to that (D cov D, D

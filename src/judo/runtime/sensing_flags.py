@@ -36,7 +36,7 @@ class SensingFlags:
     sensor_rate_hz: tuple[str, ...] = ()
     """Samples per second: HZ, or TYPE=HZ (e.g. framepos=30); every plant step when not given; repeatable."""
     estimator: str | None = None
-    """Registered estimator between the readings and the plan (ekf, state, ...); ekf by default with
+    """Registered estimator between the readings and the plan (ekf, ukf, state, ...); ekf by default with
     --observe sensors, none (the true state as it is) with --observe state."""
 
     def sensor_settings(self) -> dict[str, PerType]:
