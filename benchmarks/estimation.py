@@ -14,6 +14,8 @@ it (`run_seeded_episode`, the one seeded runner of evaluate, tune and collect):
 - "sensors + ekf": `evaluate --observe sensors --estimator ekf` with the task's sensing below: a SensedSystem
   serving only the measured sensors into the EKF, which fuses each reading at the time it was taken and
   predicts to now;
+- "sensors + ukf": the same with the unscented Kalman filter (`--estimator ukf`): sigma points through mj_step
+  instead of finite-difference Jacobians;
 - "state, noisy + late": the "state" estimator (no filter) fed the same noise, rate and delay on a full state:
   qpos with the encoders' std, qvel with the std of differencing two such readings (sqrt(2) std x rate), both
   sampled at the encoders' rate and delivered as late. The gap to the EKF is what the filter buys. Only for the
@@ -32,7 +34,8 @@ goals_per_minute), always from the true plant state.
 
 The leap_cube cost: one EKF update (a finite-difference Jacobian of 2 nv = 44 state columns, ~45 mj_steps)
 against one mj_step of the same model in the same process, so the ratio holds on a loaded machine, and the
-wall time (which does not). With relinearize_every=k the Jacobians are reused for k steps.
+wall time (which does not). With relinearize_every=k the Jacobians are reused for k steps. The "ukf" row is one
+UKF update: 88 sigma points through mj_step and the sensors, more for a replayed late reading.
 """
 
 import argparse
@@ -47,6 +50,7 @@ import judo
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.registry import make_controller, make_estimator
 from judo.estimators.ekf import EKFConfig
+from judo.estimators.ukf import UKFConfig
 from judo.evaluation.episode import run_episode
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.runtime.sensing import SensedSystem
@@ -136,6 +140,7 @@ class TrueStart:
 
 RATIO_NAMES = {
     "sensors + ekf": "ekf/full",
+    "sensors + ukf": "ukf/full",
     "state, noisy + late": "state/full",
     "ekf, ideal sensors": "ideal/full",
     "ekf, ideal, true start": "true0/full",
@@ -176,6 +181,7 @@ def episode(
         sensing = {
             "full state": Sensing(),
             "sensors + ekf": Sensing("sensors", **settings, estimator="ekf"),
+            "sensors + ukf": Sensing("sensors", **settings, estimator="ukf"),
             "ekf, ideal sensors": Sensing("sensors", estimator="ekf"),
         }[mode]
         result = run_seeded_episode(EpisodeSpec(task_name, optimizer, duration, sensing=sensing), seed)
@@ -190,7 +196,7 @@ def has_single_rate(task_name: str) -> bool:
 def quality_table(
     tasks: list[str], optimizer: str, seeds: int, duration: float, true_start: bool, planner_noise: float
 ) -> None:
-    modes = ("full state", "sensors + ekf", "state, noisy + late", "ekf, ideal sensors")
+    modes = ("full state", "sensors + ekf", "sensors + ukf", "state, noisy + late", "ekf, ideal sensors")
     modes += ("ekf, ideal, true start",) if true_start else ()
     modes += ("state + planner noise",) if planner_noise > 0 else ()
     print(f"closed loop, {seeds} seeds x {duration:g} s, {optimizer}; mean ± std over seeds; sensing per task:")
@@ -212,7 +218,7 @@ def quality_table(
         runs = {
             mode: [episode(task_name, optimizer, seed, duration, mode, planner_noise) for seed in range(seeds)]
             for mode in modes
-            if mode != modes[2] or has_single_rate(task_name)
+            if mode != "state, noisy + late" or has_single_rate(task_name)
         }
         metric = runs["full state"][0][0]
         results = {mode: np.array([value for _, value in values]) for mode, values in runs.items()}
@@ -225,10 +231,10 @@ def quality_table(
 
 
 def leap_cube_cost(steps: int = 500) -> None:
-    """The EKF's update time on leap_cube with the issue's sensing, fresh and reused Jacobians, and the
-    estimate's error against the plant's true state for each (mean and 95th percentile over the steps)."""
+    """The EKF's update time on leap_cube with the issue's sensing, fresh and reused Jacobians, and the UKF's, with
+    the estimate's error against the plant's true state for each (mean and 95th percentile over the steps)."""
     print(
-        f"\nEKF on leap_cube, {steps} steps of a hand waving the cube: encoders 100 Hz; cube pose 30 Hz, 2 mm, 1 deg, "
+        f"\nEKF and UKF on leap_cube, {steps} steps of a hand waving the cube: encoders 100 Hz; cube pose 30 Hz, 2 mm, 1 deg, "
         "40 ms late"
     )
     print(
@@ -236,12 +242,15 @@ def leap_cube_cost(steps: int = 500) -> None:
         f"{'cube mm mean/p95':>17} {'cube deg mean/p95':>18} {'joints rad':>11}"
     )
     camera_error: list[float] = []
-    for every in (1, 2, 4):
+    for every in (1, 2, 4, "ukf"):
         controller_task = judo.get_registered_tasks()["leap_cube"][0]()
         plant = MujocoSystem.from_task(controller_task, 0)
         sensed = SensedSystem(plant, **LEAP_SENSING, rng=np.random.default_rng(0))  # type: ignore[arg-type]
-        config = EKFConfig(relinearize_every=every, noise_framequat=np.deg2rad(1.0))
-        ekf = make_estimator("ekf", controller_task, config)
+        if every == "ukf":
+            ekf = make_estimator("ukf", controller_task, UKFConfig(noise_framequat=np.deg2rad(1.0)))
+        else:
+            config = EKFConfig(relinearize_every=int(every), noise_framequat=np.deg2rad(1.0))
+            ekf = make_estimator("ekf", controller_task, config)
         controls = ControlHistory(controller_task.nu)
         ekf.reset(sensed.read_state())
         home = controller_task.model.key_ctrl[0]

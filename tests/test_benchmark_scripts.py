@@ -162,10 +162,12 @@ def test_estimation_prints_the_closed_loop_table_and_the_ekf_cost():
         "0.01",
     )
     assert result.returncode == 0, result.stderr
-    modes = ("full state", "sensors + ekf", "state, noisy + late", "ekf, ideal sensors", "ekf, ideal, true start")
+    modes = ("full state", "sensors + ekf", "sensors + ukf", "state, noisy + late", "ekf, ideal sensors")
+    modes += ("ekf, ideal, true start",)
     for mode in (*modes, "state + planner noise"):
         assert mode in result.stdout
     row = next(line for line in result.stdout.splitlines() if line.startswith("pendulum "))
-    assert row.split()[1] == "upright_fraction" and len(row.split()) == 25  # 6 modes (mean ± std) and 5 ratios
-    assert 0.0 <= float(row.split()[14]) <= 1.0, row  # the true-start column's mean is a fraction
-    assert "EKF on leap_cube" in result.stdout and "relinearize_every" in result.stdout
+    assert row.split()[1] == "upright_fraction" and len(row.split()) == 29  # 7 modes (mean ± std) and 6 ratios
+    assert 0.0 <= float(row.split()[17]) <= 1.0, row  # the true-start column's mean is a fraction
+    assert "EKF and UKF on leap_cube" in result.stdout and "relinearize_every" in result.stdout
+    assert any(line.split()[:1] == ["ukf"] for line in result.stdout.splitlines())  # the UKF's cost row
