@@ -150,7 +150,13 @@ RATIO_NAMES = {
 
 
 def episode(
-    task_name: str, optimizer: str, seed: int, duration: float, mode: str, planner_noise: float = 0.0
+    task_name: str,
+    optimizer: str,
+    seed: int,
+    duration: float,
+    mode: str,
+    planner_noise: float = 0.0,
+    latency: float = 0.0,
 ) -> tuple[str, float]:
     """(name, value) of the task's first metric in one seeded episode, planned from the full state, the EKF or
     the "state" estimator on a noisy, late full state."""
@@ -162,13 +168,13 @@ def episode(
         noisy = NoisyLateState(plant, planner_noise, 0.0, every_step, 0.0, np.random.default_rng([seed, 7]))
         with controller:
             state_estimator = make_estimator("state", controller.task, task_name=task_name)
-            result = run_episode(controller, noisy, duration, seed=seed, estimator=state_estimator)  # type: ignore[arg-type]
+            result = run_episode(controller, noisy, duration, latency, seed, estimator=state_estimator)  # type: ignore[arg-type]
     elif mode == "ekf, ideal, true start":
         controller = make_controller(task_name, optimizer, seed=seed, num_workers=1)
         plant = MujocoSystem.from_task(controller.task, seed)
         with controller:
             ekf = TrueStart(make_estimator("ekf", controller.task, task_name=task_name), plant)
-            result = run_episode(controller, SensedSystem(plant), duration, seed=seed, estimator=ekf)  # type: ignore[arg-type]
+            result = run_episode(controller, SensedSystem(plant), duration, latency, seed, estimator=ekf)  # type: ignore[arg-type]
     elif mode == "state, noisy + late":
         std, rate, delay = settings["noise"], settings["rate"], settings["delay"]
         controller = make_controller(task_name, optimizer, seed=seed, num_workers=1)
@@ -176,7 +182,7 @@ def episode(
         noisy = NoisyLateState(plant, std, np.sqrt(2) * std * rate, rate, delay, np.random.default_rng([seed, 7]))
         with controller:
             state_estimator = make_estimator("state", controller.task, task_name=task_name)
-            result = run_episode(controller, noisy, duration, seed=seed, estimator=state_estimator)  # type: ignore[arg-type]
+            result = run_episode(controller, noisy, duration, latency, seed, estimator=state_estimator)  # type: ignore[arg-type]
     else:
         sensing = {
             "full state": Sensing(),
@@ -184,7 +190,7 @@ def episode(
             "sensors + ukf": Sensing("sensors", **settings, estimator="ukf"),
             "ekf, ideal sensors": Sensing("sensors", estimator="ekf"),
         }[mode]
-        result = run_seeded_episode(EpisodeSpec(task_name, optimizer, duration, sensing=sensing), seed)
+        result = run_seeded_episode(EpisodeSpec(task_name, optimizer, duration, latency, sensing=sensing), seed)
     return next(iter(result.metrics.items()))
 
 
@@ -193,13 +199,18 @@ def has_single_rate(task_name: str) -> bool:
     return all(not isinstance(value, dict) for value in SENSING.get(task_name, ENCODERS).values())
 
 
-def quality_table(
-    tasks: list[str], optimizer: str, seeds: int, duration: float, true_start: bool, planner_noise: float
-) -> None:
+def quality_table(args: argparse.Namespace) -> None:
+    """The closed-loop table of `args` (the command line's tasks, optimizer, seeds, duration, latency, modes)."""
+    tasks, optimizer, duration = args.tasks, args.optimizer, args.duration
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    true_start, planner_noise, latency = args.true_start, args.planner_noise, args.latency_ms / 1000
     modes = ("full state", "sensors + ekf", "sensors + ukf", "state, noisy + late", "ekf, ideal sensors")
     modes += ("ekf, ideal, true start",) if true_start else ()
     modes += ("state + planner noise",) if planner_noise > 0 else ()
-    print(f"closed loop, {seeds} seeds x {duration:g} s, {optimizer}; mean ± std over seeds; sensing per task:")
+    print(
+        f"closed loop, seeds {seeds.start}-{seeds.stop - 1} x {duration:g} s, {optimizer}, latency {args.latency_ms:g} "
+        "ms; mean ± std over seeds; sensing per task:"
+    )
     for task_name in tasks:
         print(f"  {task_name}: {SENSING.get(task_name, ENCODERS)}")
     print(
@@ -216,7 +227,7 @@ def quality_table(
     )
     for task_name in tasks:
         runs = {
-            mode: [episode(task_name, optimizer, seed, duration, mode, planner_noise) for seed in range(seeds)]
+            mode: [episode(task_name, optimizer, seed, duration, mode, planner_noise, latency) for seed in seeds]
             for mode in modes
             if mode != "state, noisy + late" or has_single_rate(task_name)
         }
@@ -303,7 +314,9 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--tasks", nargs="+", default=["cartpole", "pendulum"])
     parser.add_argument("--optimizer", default="mppi")
-    parser.add_argument("--seeds", type=int, default=5)
+    parser.add_argument("--seeds", type=int, default=5, help="how many seeds")
+    parser.add_argument("--first-seed", type=int, default=0, help="the first seed (fresh seeds: 5 after 0-4)")
+    parser.add_argument("--latency-ms", type=float, default=0.0, help="sim-time delay before a plan takes effect")
     parser.add_argument("--duration", type=float, default=8.0)
     parser.add_argument("--cost-only", action="store_true", help="print only the leap_cube EKF cost")
     parser.add_argument(
@@ -319,7 +332,7 @@ def main() -> None:
     parser.add_argument("--cost-steps", type=int, default=500, help="plant steps of the leap_cube cost run (0: skip)")
     args = parser.parse_args()
     if not args.cost_only:
-        quality_table(args.tasks, args.optimizer, args.seeds, args.duration, args.true_start, args.planner_noise)
+        quality_table(args)
     if args.cost_steps > 0:
         leap_cube_cost(args.cost_steps)
 

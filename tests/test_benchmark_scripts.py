@@ -160,6 +160,10 @@ def test_estimation_prints_the_closed_loop_table_and_the_ekf_cost():
         "--true-start",
         "--planner-noise",
         "0.01",
+        "--first-seed",
+        "2",
+        "--latency-ms",
+        "10",
     )
     assert result.returncode == 0, result.stderr
     modes = ("full state", "sensors + ekf", "sensors + ukf", "state, noisy + late", "ekf, ideal sensors")
@@ -169,5 +173,6 @@ def test_estimation_prints_the_closed_loop_table_and_the_ekf_cost():
     row = next(line for line in result.stdout.splitlines() if line.startswith("pendulum "))
     assert row.split()[1] == "upright_fraction" and len(row.split()) == 29  # 7 modes (mean ± std) and 6 ratios
     assert 0.0 <= float(row.split()[17]) <= 1.0, row  # the true-start column's mean is a fraction
+    assert "seeds 2-2" in result.stdout and "latency 10 ms" in result.stdout
     assert "EKF and UKF on leap_cube" in result.stdout and "relinearize_every" in result.stdout
     assert any(line.split()[:1] == ["ukf"] for line in result.stdout.splitlines())  # the UKF's cost row
