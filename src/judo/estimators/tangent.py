@@ -72,6 +72,20 @@ class Residuals:
         """int indices into the residual vector of the sensors numbered `sensors` (indices into layout.names)."""
         return np.concatenate([np.arange(self.rows[i].start, self.rows[i].stop) for i in sensors])
 
+    def values(self, sensors: list[int], measured: np.ndarray, predicted: np.ndarray) -> np.ndarray:
+        """(m,) the residual y - h(x) of the sensors numbered `sensors` (indices into layout.names), from the
+        (layout.size,) `measured` and `predicted` values (only the listed sensors' entries are read)."""
+        residual = []
+        for i in sensors:
+            s = self.layout.slices[i]
+            if self.is_quat[i]:
+                r = np.zeros(3)
+                mujoco.mju_subQuat(r, measured[s], predicted[s] / np.linalg.norm(predicted[s]))
+                residual.append(r)
+            else:
+                residual.append(measured[s] - predicted[s])
+        return np.concatenate(residual)
+
     def evaluate(self, sensors: list[int], measured: np.ndarray, predicted: np.ndarray, jacobian: np.ndarray):
         """Residual and its Jacobian for the sensors numbered `sensors`.
 
@@ -83,16 +97,12 @@ class Residuals:
         Returns:
             (m,) residual y - h(x) and (m, 2 nv + na) G, with residual(x + dx) ~ residual(x) - G dx.
         """
-        residual, rows = [], []
+        rows = []
         for i in sensors:
             s = self.layout.slices[i]
             if self.is_quat[i]:
                 h = predicted[s] / np.linalg.norm(predicted[s])
-                r = np.zeros(3)
-                mujoco.mju_subQuat(r, measured[s], h)
-                residual.append(r)
                 rows.append(2.0 * quaternion_error_matrix(h) @ jacobian[s])
             else:
-                residual.append(measured[s] - predicted[s])
                 rows.append(jacobian[s])
-        return np.concatenate(residual), np.vstack(rows)
+        return self.values(sensors, measured, predicted), np.vstack(rows)

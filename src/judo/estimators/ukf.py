@@ -100,10 +100,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         numbers, measured, R = self._measurement(node)
         time = self.start_time + node.index * self.dt
         points, offsets = self._sigma_points(x, cov)
-        unused = np.zeros((self.task.measured.size, len(cov)))  # evaluate's Jacobian argument; G is not used
-        residuals = np.array(
-            [self.residuals.evaluate(numbers, measured, self._sensors_at(p, time), unused)[0] for p in points]
-        )
+        residuals = np.array([self.residuals.values(numbers, measured, self._sensors_at(p, time)) for p in points])
         mean = residuals.mean(axis=0)  # y - E[h(x)]
         centred = residuals - mean  # -(h_i - E[h])
         spread_sq = self.config.spread**2  # type: ignore[attr-defined]
