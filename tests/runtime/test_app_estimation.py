@@ -7,6 +7,7 @@ import pytest
 
 from judo.core.errors import ConfigError, JudoError, UnknownNameError
 from judo.estimators.ekf import EKFConfig, ExtendedKalmanFilter
+from judo.estimators.ukf import UnscentedKalmanFilter
 from judo.runtime.app import App
 from judo.runtime.gui.plots import estimation_error
 from judo.runtime.sensing import SensedSystem
@@ -187,5 +188,24 @@ def test_the_gui_draws_the_estimate_as_a_ghost_with_its_panel_and_error_chart(po
         gui.estimator_panel._on_edit({"noise_jointpos": 0.03})  # what a slider's edit calls
         assert app.session.closed_loop.estimator.config.noise_jointpos == 0.03
         assert gui.controls.estimator.value == "ekf"
+    finally:
+        app.stop()
+
+
+def test_the_app_runs_the_ukf_tracks_the_plant_and_takes_its_spread_edits(wait_until):
+    app = sensed_app(estimator="ukf")
+    estimator = app.session.closed_loop.estimator
+    assert isinstance(estimator, UnscentedKalmanFilter)
+    assert estimator.config.process_noise_velocity == 0.02  # cartpole's TOML section for the ukf
+    with pytest.raises(JudoError, match="relinearize_every"):
+        app.update_estimator_config({"relinearize_every": 3})  # the EKF's field, not the UKF's
+    assert app.update_estimator_config({"spread": 0.5}).spread == 0.5
+    app.start()
+    try:
+        snapshot = published(app, wait_until)
+        position, velocity = estimation_error(
+            app.session.controller.task.model, snapshot.true_state, snapshot.reading.state
+        )
+        assert position < 0.1 and velocity < 1.0  # the sigma points track the cart and pole
     finally:
         app.stop()
