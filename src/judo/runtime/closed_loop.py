@@ -22,6 +22,11 @@ delay is a fixed number of seconds of sim time or "measured" (the update's wall 
 keeps the plan in force before it (or the task's warm start before the first plan). The app uses delay 0: a
 plan is served from the first step after it is done, which in real time is its real latency. The
 controller's `latency_compensation` plans from the reading predicted to then (`judo.runtime.latency`).
+
+With judo's own simulator the app gives no clock: the watchdog then ages plans in the plant time stepped, and
+the plant thread waits for a planning cycle that would otherwise take more than one control period of plant
+time (`cycle_overdue`), so a slow machine slows the simulation (the real-time factor shows it) instead of
+serving the safe action. A user's System (a robot) keeps the wall clock and the watchdog as strict as ever.
 """
 
 import dataclasses
@@ -115,6 +120,8 @@ class ClosedLoop:
         self._pending: list[tuple[float, Spline, float]] = []  # (plant time it takes effect, plan, stamp), in order
         self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
         self.real_time, self._predictor = clock is not None, LatencyPredictor(controller.task)  # app: wall clock
+        self.cycle_started: float | None = None  # stepped_time when the planning cycle in flight began
+        self.last_cycle_plant_time = 0.0  # plant time stepped (by another thread) while the last cycle ran
 
     def restart_estimator(self) -> None:
         """Start the estimator afresh from the next reading (after a reset of the plant)."""
@@ -177,13 +184,17 @@ class ClosedLoop:
         """
         stamp = self.watchdog.fresh_at
         started = time.perf_counter()
-        start = self._predicted(reading) if self.controller.config.latency_compensation else reading
+        self.cycle_started = stepped = self.stepped_time
         try:
+            start = self._predicted(reading) if self.controller.config.latency_compensation else reading
             plan = self.controller.update_action(start.state, start.time, start.metadata, cancel)
         except (NonFiniteRewardError, NonFiniteKnotsError) as err:
             plan = None
             self.failed_updates += 1
             self.last_failure = err
+        finally:
+            self.cycle_started = None
+            self.last_cycle_plant_time = self.stepped_time - stepped
         wall = time.perf_counter() - started
         delay = wall if self.latency == "measured" else float(self.latency)
         self.update_ms.append(1e3 * wall)
@@ -210,8 +221,12 @@ class ClosedLoop:
 
     def _predicted(self, reading: SystemState) -> SystemState:
         """`reading` predicted to when the plan made from it takes effect, under the plans due meanwhile."""
-        measured = self.latency == "measured" or self.real_time
-        delay = (self.update_ms[-1] / 1e3 if self.update_ms else 0.0) if measured else float(self.latency)
+        if self.latency == "measured" or self.real_time:  # a robot: the plant moves on in wall time
+            delay = self.update_ms[-1] / 1e3 if self.update_ms else 0.0
+        elif float(self.latency) > 0:
+            delay = float(self.latency)
+        else:  # the plant time the last cycle took: the app's simulator steps meanwhile; evaluate's does not
+            delay = self.last_cycle_plant_time
 
         def control_at(now: float) -> np.ndarray:
             with self._lock:
@@ -220,6 +235,15 @@ class ClosedLoop:
             return self.controller.warm_start_action(reading.state) if plan is None else plan(now)
 
         return self._predictor.predict_reading(reading, delay, control_at)
+
+    def cycle_overdue(self) -> bool:
+        """Whether one more plant step would let the planning cycle in flight take more than one control
+        period of plant time: the app's own simulator waits instead (docs/gui.md); a robot cannot."""
+        started = self.cycle_started
+        if started is None:
+            return False
+        period = 1.0 / self.controller.config.control_freq
+        return self.stepped_time + self.system.timestep - started > period + TIME_TOLERANCE
 
     def _traces_if_wanted(self) -> np.ndarray | None:
         """(1 + num_shown, T, num_trace_sensors, 3) float32 copy of the controller's traces when a recorder
