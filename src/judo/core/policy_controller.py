@@ -81,7 +81,7 @@ class PolicyController:
         task: the planning task; its `policy_observation` says what the policy sees.
         policy: a Policy whose sizes fit the task (checked now: PolicyError, one line, naming both).
         config: the loop's settings (control_freq, max_plan_age, latency_compensation; horizon and spline_order
-            for a chunk); None: the defaults with the fields the policy's metadata sets.
+            for a chunk); None: the expert's (a copy), or the defaults, with the fields the policy's metadata sets.
         task_name: the task's registered name, checked against the policy's metadata "task" (None: not checked).
         expert: a Controller on the same task that plans from every state the policy is served from, for labels.
 
@@ -104,7 +104,7 @@ class PolicyController:
         observation_size = task.policy_observation_size()
         policy.check_fits(task_name, observation_size, task.nu)
         self.task, self.policy, self.expert = task, policy, expert
-        self.config = config if config is not None else policy_config(policy)
+        self.config = config if config is not None else policy_config(policy, None if expert is None else expert.config)
         self.nominal_knots: np.ndarray | None = None
         self.inference_ms: list[float] = []
         self.expert_failures = 0
