@@ -1,6 +1,5 @@
 """`python -m judo evaluate --policy FILE.onnx`: the same metrics as for an optimizer, the inference time where an
-optimizer's update time is printed, and one-line errors (exit 2)
-for a policy that does not fit the task. Real ONNX files written with the onnx helper API, run on onnxruntime."""
+optimizer's update time is printed, and one-line errors (exit 2) for a policy that does not fit the task. Real ONNX files written with the onnx helper API, run on onnxruntime."""
 
 import json
 
