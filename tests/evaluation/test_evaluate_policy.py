@@ -67,3 +67,10 @@ def test_neither_optimizer_nor_policy_and_a_missing_file_are_one_line_and_exit_2
         main([*TINY, "--policy", str(tmp_path / "none.onnx")])
     assert exit_info.value.code == 2
     assert "does not exist; expected an .onnx file" in capsys.readouterr().err
+
+
+def test_a_policy_that_returns_nan_fails_every_update_and_evaluate_says_so(tmp_path, capsys):
+    nan = write_linear_policy(tmp_path / "nan.onnx", np.full((1, 4), np.nan), metadata={"task": "cartpole"})
+    assert main([*TINY, "--seeds", "1", "--policy", str(nan), "--controller.max-plan-age", "0.1"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "mean_reward" in out and "seed 0: 0 simulation divergences, 20 updates with non-finite actions" in out

@@ -186,7 +186,8 @@ def main(argv: list[str] | None = None) -> int:
             if result.divergences or result.failed_updates:
                 console.print(
                     f"seed {result.seed}: {result.divergences} simulation divergences, "
-                    f"{result.failed_updates} updates with no finite reward"
+                    f"{result.failed_updates} updates with "
+                    + ("non-finite actions" if args.policy is not None else "no finite reward")
                 )
         if args.json is not None:
             write_json(
