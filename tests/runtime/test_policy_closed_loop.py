@@ -196,3 +196,36 @@ def test_an_expert_plans_from_every_state_the_policy_is_served_from(hold_task_cl
             assert record.action[0] == pytest.approx(-1.0)  # the policy drives
         assert expert.nominal_knots is not None and controller.rewards.shape == (8,)
         assert np.all(expert.nominal_knots > -1.0)  # the MPC wants the block at 0.5, not at -1
+
+
+@pytest.mark.parametrize("fixed_batch", [False, True])
+def test_an_onnx_chunk_policy_is_served_through_the_loop_as_its_matrix_product(hold_task_cls, tmp_path, fixed_batch):
+    """A chunk policy file (3 knots of W o + b; fixed batch 1 or dynamic) on onnxruntime, made for the task at
+    10 Hz: each plan's knots are the product (to float32), and the plant gets the linear plan between them."""
+    pytest.importorskip("onnxruntime")
+    from judo.core.onnx_policy import write_linear_policy
+
+    weight, bias = np.array([[1.0, 0.0], [0.5, 0.1], [0.0, 0.2]]), np.array([0.0, 0.1, 0.2])
+    metadata = {"task": "hold", "control_freq": "10", "horizon": "0.2", "spline_order": "linear"}
+    path = write_linear_policy(tmp_path / "chunk.onnx", weight, bias, metadata, fixed_batch, horizon=3)
+    with make_policy_controller_for(hold_task_cls, path) as controller:
+        assert (controller.config.control_freq, controller.config.horizon) == (10.0, 0.2)
+        loop = ClosedLoop(controller, MujocoSystem.from_task(controller.task, seed=0))
+        loop.restart()
+        for _ in range(30):
+            state, now = loop.reading.state.copy(), loop.reading.time
+            planned = len(loop.update_ms)
+            record = loop.step()
+            if len(loop.update_ms) > planned:  # this step planned from `state`
+                expected, planned_at = weight @ state + bias, now
+                np.testing.assert_allclose(controller.nominal_knots[:, 0], expected, rtol=1e-6, atol=1e-6)
+                assert record.action[0] == pytest.approx(controller.nominal_knots[0, 0])  # the plan at its start
+        assert len(loop.update_ms) == 3 and loop.failed_updates == 0
+        assert loop.serve(planned_at + 0.05)[0] == pytest.approx(np.mean(controller.nominal_knots[:2, 0]))
+
+
+def make_policy_controller_for(task_cls, path):
+    from judo.core.policy_controller import as_policy, policy_config
+
+    policy = as_policy(path)
+    return PolicyController(task_cls(), policy, policy_config(policy), task_name="hold")
