@@ -3,6 +3,8 @@ from every state it visits, and the file keeps the MPC's plans and actions as la
 Real ONNX files on onnxruntime; the episode in-process (as its Ray task runs it), the command on a local Ray."""
 
 import json
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +18,7 @@ h5py = pytest.importorskip("h5py")
 pytest.importorskip("onnxruntime")
 from judo.core.onnx_policy import write_linear_policy  # noqa: E402
 
+DOC = (Path(__file__).resolve().parents[2] / "docs" / "collect.md").read_text()
 CONSTANT = 0.25
 """The policy's action: a constant push (exact in float32), far from what the MPC plans."""
 
@@ -38,6 +41,8 @@ def test_the_file_holds_the_served_actions_and_the_mpcs_plans_and_actions_as_lab
         chunks, inference = demo["policy/knots"][:], demo["policy/inference_ms"][:]
         step_times = demo["obs/qpos"].shape[0]
     assert np.all(actions == CONSTANT)  # the policy drove
+    documented = dict(re.findall(r"^\| `data/demo_<seed>/((?:mpc_actions|policy/)[^`]*)` \| (\([^)]*\))", DOC, re.M))
+    assert documented == {"mpc_actions": "(S, nu)", "policy/knots": "(U, H, nu)", "policy/inference_ms": "(U,)"}
     assert len(times) == 6 and knots.shape[0] == 6 and knots.shape[2] == 1  # 20 Hz x 0.3 s, the MPC's knots
     assert chunks.shape == (6, 1, 1) and np.all(chunks == CONSTANT) and np.all(inference > 0)
     assert labels.shape == actions.shape == (step_times, 1) and np.isfinite(labels).all()
