@@ -30,6 +30,7 @@ from judo.core.controller_config import (
 from judo.core.errors import ConfigError, JudoError
 from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
 from judo.core.optimizer import Optimizer
+from judo.core.parallel_reward import ParallelReward
 from judo.core.randomize import randomized_models
 from judo.core.risk import reduce_rewards
 from judo.core.spline import Spline, SplineBasis
@@ -114,6 +115,7 @@ class Controller:
         self.optimizer = optimizer
         self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
         self._backend_name = backend
+        self._score = ParallelReward(self.backend.reward_threads)  # one plain call unless the backend asks
         self.nominal_knots: np.ndarray | None = None
         self.rewards = np.zeros(0)
         self.traces = np.zeros((0, 0, 0, 3))
@@ -272,7 +274,7 @@ class Controller:
                 self._control_blocks[:] = self._controls  # every sequence once per model
             full_states, sensors = self.backend.rollout(self._initial_state, self._batch_controls, self._initial_mocap)
             states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
-            returned = task.reward(states, sensors, self._batch_controls, task_config, system_metadata)
+            returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
             try:
                 rewards = np.asarray(returned, dtype=float)
             except (TypeError, ValueError) as err:
@@ -346,8 +348,9 @@ class Controller:
         return self._backend_name
 
     def close(self) -> None:
-        """Release the rollout backend's threads or device memory."""
+        """Release the rollout backend's threads or device memory, and the reward's threads."""
         self.backend.close()
+        self._score.close()
 
     def __enter__(self) -> "Controller":
         """`with judo.make_controller(...) as controller:` closes the controller on the way out."""

@@ -128,6 +128,9 @@ class Task(ABC, Generic[ConfigT]):
             system_metadata: what the system published with the state (e.g. mocap goal poses).
         Returns:
             (num_rollouts,) rewards. NaN counts as -inf: it never wins.
+
+        On the warp backend a large batch is scored in blocks of rows, several at once on host threads
+        (core/parallel_reward.py): read the arguments and the task's constants, and write nothing shared.
         """
 
     # Hooks. Each has a no-op default; override the ones the task needs.
