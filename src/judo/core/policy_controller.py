@@ -201,8 +201,8 @@ class PolicyController:
             raise NonFiniteKnotsError(f"{err}; keeping the previous plan") from None
         finally:
             self.inference_ms.append((perf_counter_ns() - started) / 1e6)
-        self.nominal_knots = np.clip(chunk, self._ctrl_low, self._ctrl_high)
-        self._plan = Spline(time, basis, self.nominal_knots, self._ctrl_low, self._ctrl_high)
+        knots = self.nominal_knots = np.clip(chunk, self._ctrl_low, self._ctrl_high)
+        self._plan = Spline(time, basis, knots, self._ctrl_low, self._ctrl_high)
         if self.expert is not None:
             try:
                 self.expert.update_action(state, time, system_metadata, cancel)

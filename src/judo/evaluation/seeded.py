@@ -130,6 +130,8 @@ def run_seeded_episode(
     configs = configs_in_force(spec)
     if spec.policy is not None:
         return run_policy_episode(spec, seed, configs, recorders, on_update)
+    if spec.optimizer is None:
+        raise JudoError(f"an episode of {spec.task!r} needs an optimizer or a policy; the spec names neither")
     with make_controller(
         spec.task,
         spec.optimizer,
