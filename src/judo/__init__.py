@@ -24,6 +24,7 @@ from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.onnx_policy import OnnxPolicy
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.policy import Policy, PolicyError
+from judo.core.policy_controller import PolicyController, make_policy_controller
 from judo.core.randomize import InvalidRandomizedModelError
 from judo.core.registry import (
     get_registered_estimators,
@@ -68,6 +69,7 @@ __all__ = [
     "OptimizerConfig",
     "PlanRecord",
     "Policy",
+    "PolicyController",
     "PolicyError",
     "RandomizedRolloutError",
     "Recorder",
@@ -87,6 +89,7 @@ __all__ = [
     "lqr_cost_to_go",
     "make_controller",
     "make_estimator",
+    "make_policy_controller",
     "np_1d_field",
     "quadratic_norm",
     "register_estimator",

@@ -187,6 +187,40 @@ class Task(ABC, Generic[ConfigT]):
         """
         return {}
 
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """What a policy sees (judo.Policy): a batch of observations, vectorized over the batch.
+
+        Args:
+            states: (B, nq + nv) [qpos, qvel].
+            sensors: (B, nsensordata) the planning model's sensor values at those states, or None where the
+                caller has none to give (a task that reads them says so in its own error).
+            system_metadata: what the system published with the state (e.g. "mocap_pos" (nmocap, 3)).
+            previous_actions: (B, nu) the action each row was served last, or None where there is none.
+        Returns:
+            (B, O) float observations; the default is the states themselves, O = nq + nv. Override it to give
+            a policy what it was trained on (sensors, a goal, the previous action), e.g.
+            `np.concatenate([states, sensors[:, self.measured.columns]], axis=1)`.
+        """
+        return np.asarray(states, dtype=float)
+
+    def policy_observation_size(self) -> int:
+        """O, the length of one `policy_observation`: the hook called on one zero row (zero sensors and
+        previous action, the model's own mocap poses)."""
+        model = self.model
+        bodies = np.flatnonzero(model.body_mocapid >= 0)
+        order = np.argsort(model.body_mocapid[bodies])  # mocap index order
+        metadata = {"mocap_pos": model.body_pos[bodies[order]], "mocap_quat": model.body_quat[bodies[order]]}
+        row = self.policy_observation(
+            np.zeros((1, model.nq + model.nv)), np.zeros((1, model.nsensordata)), metadata, np.zeros((1, self.nu))
+        )
+        return int(np.shape(row)[-1])
+
     def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
         """The (nu,) control that the first plan holds at every knot, from the (nq + nv,) plant `state`
         [qpos, qvel] it starts from; zeros by default. (The old form without `state` still works, with a
