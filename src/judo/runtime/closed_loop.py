@@ -23,10 +23,8 @@ keeps the plan in force before it (or the task's warm start before the first pla
 plan is served from the first step after it is done, which in real time is its real latency. The
 controller's `latency_compensation` plans from the reading predicted to then (`judo.runtime.latency`).
 
-With judo's own simulator the app gives no clock: the watchdog then ages plans in the plant time stepped, and
-the plant thread waits for a planning cycle that would otherwise take more than one control period of plant
-time (`cycle_overdue`), so a slow machine slows the simulation (the real-time factor shows it) instead of
-serving the safe action. A user's System (a robot) keeps the wall clock and the watchdog as strict as ever.
+For judo's own simulator the app gives no clock (plans age in plant time stepped) and waits for a slow cycle
+(`judo.runtime.plant_loop`); for a user's System, a robot, it gives the wall clock.
 """
 
 import dataclasses
@@ -41,7 +39,7 @@ from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewar
 from judo.core.errors import JudoError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.spline import Spline
-from judo.runtime.latency import Latency, LatencyPredictor, check_latency
+from judo.runtime.latency import Latency, LatencyPredictor, check_latency, prediction_delay
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
 from judo.runtime.system import SimulationDiverged, System, SystemState
 from judo.runtime.system_calls import SystemCallError, SystemCalls, SystemClosedError
@@ -204,29 +202,15 @@ class ClosedLoop:
             return None
         with self._lock:
             self._pending.append((reading.time + delay, plan, stamp))
-        rewards = self.controller.rewards
-        finite = rewards[np.isfinite(rewards)]
-        record = PlanRecord(
-            time=reading.time,
-            takes_effect=reading.time + delay,
-            knots=plan.knots,
-            update_ms=1e3 * wall,
-            best_reward=float(finite.max()) if len(finite) else math.nan,
-            mean_reward=float(finite.mean()) if len(finite) else math.nan,
-            traces=self._traces_if_wanted(),
-        )
+        traces = self._traces_if_wanted()
+        record = PlanRecord.of_update(reading.time, delay, plan.knots, wall, self.controller.rewards, traces)
         for recorder in self.recorders:
             recorder.on_plan(record)
         return plan
 
     def _predicted(self, reading: SystemState) -> SystemState:
         """`reading` predicted to when the plan made from it takes effect, under the plans due meanwhile."""
-        if self.latency == "measured" or self.real_time:  # a robot: the plant moves on in wall time
-            delay = self.update_ms[-1] / 1e3 if self.update_ms else 0.0
-        elif float(self.latency) > 0:
-            delay = float(self.latency)
-        else:  # the plant time the last cycle took: the app's simulator steps meanwhile; evaluate's does not
-            delay = self.last_cycle_plant_time
+        delay = prediction_delay(self.latency, self.real_time, self.update_ms, self.last_cycle_plant_time)
 
         def control_at(now: float) -> np.ndarray:
             with self._lock:
@@ -235,15 +219,6 @@ class ClosedLoop:
             return self.controller.warm_start_action(reading.state) if plan is None else plan(now)
 
         return self._predictor.predict_reading(reading, delay, control_at)
-
-    def cycle_overdue(self) -> bool:
-        """Whether one more plant step would let the planning cycle in flight take more than one control
-        period of plant time: the app's own simulator waits instead (docs/gui.md); a robot cannot."""
-        started = self.cycle_started
-        if started is None:
-            return False
-        period = 1.0 / self.controller.config.control_freq
-        return self.stepped_time + self.system.timestep - started > period + TIME_TOLERANCE
 
     def _traces_if_wanted(self) -> np.ndarray | None:
         """(1 + num_shown, T, num_trace_sensors, 3) float32 copy of the controller's traces when a recorder

@@ -1,7 +1,7 @@
 """The app's plant loop: the System driven from one thread of its own, at real-time pace.
 
 judo's own simulator waits for a planning cycle that would take more than one control period of sim time
-(`ClosedLoop.cycle_overdue`): on a slow machine the simulation slows down and the real-time factor shows it.
+(`cycle_overdue`): on a slow machine the simulation slows down and the real-time factor shows it.
 A user's System (a robot) is never held back.
 
 Step k of a stretch is due at wall time origin + k * timestep; a loop that falls further behind than
@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from judo.runtime.closed_loop import SystemCallError
+from judo.runtime.closed_loop import ClosedLoop, SystemCallError
 from judo.runtime.session import Session
 from judo.runtime.snapshots import SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
@@ -37,6 +37,16 @@ IDLE_POLL = 0.01
 """Seconds the plant loop sleeps while paused."""
 WAIT_REPORT = 2.0
 """Wall seconds the simulation waits for one planning cycle before the status line says so."""
+
+
+def cycle_overdue(loop: ClosedLoop) -> bool:
+    """Whether one more plant step would let the planning cycle in flight take more than one control period
+    of the plant time `loop` has stepped: judo's own simulator waits instead (docs/gui.md); a robot cannot."""
+    started = loop.cycle_started
+    if started is None:
+        return False
+    period = 1.0 / loop.controller.config.control_freq
+    return loop.stepped_time + loop.system.timestep - started > period + 1e-9
 
 
 def system_snapshot(session: Session, reading: SystemState) -> SystemSnapshot:
@@ -111,7 +121,7 @@ class PlantLoop:
                 waits = not session.closed_loop.real_time  # judo's own simulator waits for a slow planner
                 served = stepped = 0
                 while stepped < due and not self._stop.is_set():
-                    if waits and session.closed_loop.cycle_overdue():
+                    if waits and cycle_overdue(session.closed_loop):
                         break
                     served += self._step(session)
                     stepped += 1
