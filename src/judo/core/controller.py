@@ -28,6 +28,7 @@ from judo.core.controller_config import (
     rollout_steps,
 )
 from judo.core.errors import ConfigError, JudoError
+from judo.core.low_level import with_low_level
 from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
 from judo.core.optimizer import Optimizer
 from judo.core.randomize import randomized_models
@@ -89,9 +90,11 @@ class Controller:
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
         backend: the RolloutBackend every rollout runs on, built from the constructor's `backend` name
-            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU).
+            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU); for a task
+            with a low-level policy (`Task.low_level`), a `LowLevelRollout` around the pool, and the plan,
+            its knots and clamps are the policy's commands (`task.command_size`, `task.command_range`).
         backend_name: that name (read-only).
-        nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update.
+        nominal_knots: (num_nodes, nu) knots (nu: `task.command_size` throughout) of the current plan, or None before the first update.
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf); with
             num_randomizations R > 1, each sequence's R rewards reduced by the config's risk measure.
         models: the R models the last cycle rolled out under: the task's planning model, then the
@@ -113,6 +116,7 @@ class Controller:
         self.task = task
         self.optimizer = optimizer
         self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
+        self.backend = with_low_level(self.backend, task.low_level())  # the pool itself without one
         self._backend_name = backend
         self.nominal_knots: np.ndarray | None = None
         self.rewards = np.zeros(0)
@@ -123,7 +127,7 @@ class Controller:
         self._initial_state = np.zeros(mujoco.mj_stateSize(task.model, STATE_SPEC))
         self._initial_mocap = np.zeros(7 * task.model.nmocap)
         self._trace_columns = trace_sensor_columns(task.model)
-        self._ctrl_low, self._ctrl_high = task.actuator_ctrlrange.T.copy()
+        self._ctrl_low, self._ctrl_high = task.command_range.T.copy()
         self._num_state = task.model.nq + task.model.nv
         self.models: list[mujoco.MjModel] = [task.model]
         self._cycles_since_draw = 0
@@ -166,7 +170,7 @@ class Controller:
             knot_offsets = np.linspace(0.0, cfg.horizon, num_nodes)
             basis = SplineBasis(knot_offsets, cfg.spline_order)
             rollout_weights = basis.weights(np.arange(num_steps) * self.task.dt)
-            controls = np.zeros((num_rollouts, num_steps, self.task.nu))
+            controls = np.zeros((num_rollouts, num_steps, self.task.command_size))
             # (R * num_rollouts, T, nu): block r is every sequence again, rolled out on model r. R = 1: the same array.
             batch_controls = controls if num_models == 1 else np.zeros((num_models * num_rollouts, *controls.shape[1:]))
         except MemoryError:
@@ -248,7 +252,7 @@ class Controller:
         self._set_initial_state(state, time, system_metadata)
         task.pre_rollout(state)
         task_config = snapshot(task.config)
-        expected = (opt.num_rollouts, opt.num_nodes, task.nu)
+        expected = (opt.num_rollouts, opt.num_nodes, task.command_size)
         num_models = len(self.models)
         num_rows = num_models * opt.num_rollouts
 
