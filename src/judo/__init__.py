@@ -21,7 +21,9 @@ from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig
 from judo.core.fields import np_1d_field, slider
 from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
+from judo.core.onnx_policy import OnnxPolicy
 from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.policy import Policy, PolicyError
 from judo.core.randomize import InvalidRandomizedModelError
 from judo.core.registry import (
     get_registered_estimators,
@@ -61,9 +63,12 @@ __all__ = [
     "MujocoSystem",
     "NonFiniteKnotsError",
     "NonFiniteRewardError",
+    "OnnxPolicy",
     "Optimizer",
     "OptimizerConfig",
     "PlanRecord",
+    "Policy",
+    "PolicyError",
     "RandomizedRolloutError",
     "Recorder",
     "Spline",

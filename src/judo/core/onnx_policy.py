@@ -1,0 +1,242 @@
+"""`OnnxPolicy`: a Policy read from an ONNX file and run on onnxruntime's CPU provider; and writers for small
+policies (linear laws and MLPs) built with the onnx helper API, so tests, examples and `distill` need no
+exporter and nothing downloaded.
+
+The file's graph takes one input of shape (B, O) and gives (B, A) (a per-step action policy, as Isaac Lab and
+mjlab export) or (B, H, A) (an action chunk). Its `metadata_props` may say what it is for ("task", "kind",
+"observation", "normalization", "training_command", "name"); `Policy.check_fits` reads "task".
+
+A file exported with a fixed batch of 1 (as most exporters write) is rewritten at load: the first dimension of
+its input and outputs becomes a symbolic "batch", the stored intermediate shapes are dropped, and a batch of 2
+is run to check the graph still works. A graph that hard-codes the batch inside (a Reshape to [1, ...]) fails
+that check and is then run one row at a time, with a warning saying so.
+
+Importing this module imports neither onnx nor onnxruntime; loading or writing a policy does, and without the
+judo[policy] extra the error names it.
+"""
+
+import warnings
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from judo.core.errors import import_extra
+from judo.core.policy import Policy, PolicyError
+
+FEATURE = "ONNX policies (OnnxPolicy, --policy FILE.onnx)"
+EXTRA = "policy"
+OPSET = 17
+"""The ONNX opset the writers target (onnxruntime 1.17 and later run it)."""
+
+
+def _onnx() -> Any:
+    return import_extra("onnx", FEATURE, EXTRA)
+
+
+def _onnxruntime() -> Any:
+    return import_extra("onnxruntime", FEATURE, EXTRA)
+
+
+def _dims(value_info: Any) -> list[Any]:
+    """Each dimension of a graph input or output: an int, a symbolic name, or None when unknown."""
+    dims = []
+    for dim in value_info.type.tensor_type.shape.dim:
+        dims.append(dim.dim_value if dim.HasField("dim_value") else (dim.dim_param or None))
+    return dims
+
+
+class OnnxPolicy(Policy):
+    """A policy read from an ONNX file, run on onnxruntime's CPU provider.
+
+    Args:
+        path: the .onnx file: one input (B, O), first output (B, A) or (B, H, A).
+        threads: onnxruntime's intra-op threads. 1 by default: a small network on a batch of a few
+            thousand rows is fastest on one thread, and the caller's own threads do the rest.
+    Raises PolicyError for a missing or unreadable file or a graph of another shape, and MissingExtraError
+    (naming judo[policy]) without onnxruntime.
+    """
+
+    def __init__(self, path: str | Path, threads: int = 1) -> None:
+        self.path = Path(path)
+        if not self.path.is_file():
+            raise PolicyError(f"policy file {str(self.path)!r} does not exist; expected an .onnx file")
+        onnx, ort = _onnx(), _onnxruntime()
+        try:
+            model = onnx.load(str(self.path))
+            onnx.checker.check_model(model)
+        except Exception as err:  # noqa: BLE001  (onnx raises several unrelated types for a bad file)
+            raise PolicyError(
+                f"cannot read policy file {str(self.path)!r} as ONNX: {str(err).splitlines()[0]}"
+            ) from None
+        initializers = {init.name for init in model.graph.initializer}
+        inputs = [value for value in model.graph.input if value.name not in initializers]
+        if len(inputs) != 1 or not model.graph.output:
+            raise PolicyError(
+                f"policy file {str(self.path)!r} has {len(inputs)} inputs and {len(model.graph.output)} outputs; "
+                "expected one input (batch, observation_size) and an output (batch, [horizon,] action_size)"
+            )
+        in_dims, out_dims = _dims(inputs[0]), _dims(model.graph.output[0])
+        if len(in_dims) != 2 or not isinstance(in_dims[1], int) or len(out_dims) not in (2, 3):
+            raise PolicyError(
+                f"policy file {str(self.path)!r} maps shape {in_dims} to {out_dims}; expected (batch, O) to "
+                "(batch, A) or (batch, H, A) with O, H and A fixed"
+            )
+        if not all(isinstance(d, int) and d > 0 for d in out_dims[1:]):
+            raise PolicyError(f"policy file {str(self.path)!r} gives output shape {out_dims}; expected fixed H and A")
+        self.observation_size = int(in_dims[1])
+        self.horizon = 1 if len(out_dims) == 2 else int(out_dims[1])
+        self.action_size = int(out_dims[-1])
+        self.metadata = {prop.key: prop.value for prop in model.metadata_props}
+        self.metadata.setdefault("name", self.path.stem)
+        self.fixed_batch = in_dims[0] == 1
+        if self.fixed_batch:
+            _make_batch_symbolic(model)
+        options = ort.SessionOptions()
+        options.intra_op_num_threads = max(1, threads)
+        options.inter_op_num_threads = 1
+        self._session = ort.InferenceSession(model.SerializeToString(), options, providers=["CPUExecutionProvider"])
+        self._input = self._session.get_inputs()[0].name
+        self._output = self._session.get_outputs()[0].name
+        self._dtype = np.float64 if "double" in self._session.get_inputs()[0].type else np.float32
+        self._row_by_row = False
+        if self.fixed_batch:
+            try:
+                self._run(np.zeros((2, self.observation_size), dtype=self._dtype))
+            except Exception:  # noqa: BLE001  (onnxruntime's errors for a hard-coded batch vary)
+                self._row_by_row = True
+                warnings.warn(
+                    f"policy {str(self.path)!r} hard-codes a batch of 1 inside its graph; it runs one row at a time",
+                    stacklevel=2,
+                )
+
+    def _run(self, observations: np.ndarray) -> np.ndarray:
+        return self._session.run([self._output], {self._input: observations})[0]
+
+    def act(self, observations: np.ndarray) -> np.ndarray:
+        """(B, observation_size) -> (B, horizon, action_size) float64; PolicyError for another width."""
+        observations = np.ascontiguousarray(observations, dtype=self._dtype)
+        if observations.ndim != 2 or observations.shape[1] != self.observation_size:
+            raise PolicyError(
+                f"policy {self.name!r} takes observations of shape (B, {self.observation_size}), "
+                f"got {observations.shape}"
+            )
+        if self._row_by_row:
+            rows = [self._run(observations[i : i + 1]) for i in range(observations.shape[0])]
+            actions = np.concatenate(rows) if rows else np.zeros((0, self.horizon, self.action_size))
+        else:
+            actions = self._run(observations)
+        return np.asarray(actions, dtype=np.float64).reshape(observations.shape[0], self.horizon, self.action_size)
+
+
+def _make_batch_symbolic(model: Any) -> None:
+    """Make the first dimension of `model`'s input and outputs a symbolic "batch"; drop stored inner shapes."""
+    for value in [*model.graph.input, *model.graph.output]:
+        dims = value.type.tensor_type.shape.dim
+        if dims:
+            dims[0].ClearField("dim_value")
+            dims[0].dim_param = "batch"
+    del model.graph.value_info[:]
+
+
+# ---- writers ----------------------------------------------------------------------------------------------
+def mlp_policy_model(
+    layers: Sequence[tuple[np.ndarray, np.ndarray]],
+    activation: str = "Tanh",
+    horizon: int = 1,
+    metadata: Mapping[str, str] | None = None,
+    fixed_batch: bool = False,
+    input_scale: tuple[np.ndarray, np.ndarray] | None = None,
+    output_scale: tuple[np.ndarray, np.ndarray] | None = None,
+) -> Any:
+    """An ONNX ModelProto (float32) for an MLP: y = L_n(act(... act(L_1(x)))), L_i(x) = x W_i^T + b_i.
+
+    Args:
+        layers: [(W_i (out_i, in_i), b_i (out_i,))]; one layer is a linear law. The last out size is H * A.
+        activation: the ONNX op between layers ("Tanh", "Relu", "Elu", ...).
+        horizon: H; above 1 the output (B, H * A) is reshaped to (B, H, A).
+        metadata: stored as the file's metadata_props (string keys and values).
+        fixed_batch: write the batch dimension as a fixed 1 (as many exporters do) instead of symbolic.
+        input_scale: (mean (O,), std (O,)): the graph normalizes x to (x - mean) / std first.
+        output_scale: (mean (H * A,), std (H * A,)): the graph maps its output y to y * std + mean last.
+    """
+    onnx = _onnx()
+    helper, numpy_helper = onnx.helper, onnx.numpy_helper
+    if not layers:
+        raise PolicyError("an MLP policy needs at least one layer")
+    sizes = [np.asarray(layers[0][0]).shape[1]] + [np.asarray(w).shape[0] for w, _ in layers]
+    out_size = sizes[-1]
+    if horizon < 1 or out_size % horizon:
+        raise PolicyError(f"the last layer gives {out_size} values, which horizon {horizon} does not divide")
+    initializers, nodes, name = [], [], "observations"
+
+    def constant(label: str, array: np.ndarray) -> str:
+        initializers.append(numpy_helper.from_array(np.asarray(array, dtype=np.float32), label))
+        return label
+
+    if input_scale is not None:
+        mean, std = input_scale
+        nodes.append(helper.make_node("Sub", [name, constant("in_mean", mean)], ["centred"]))
+        nodes.append(helper.make_node("Div", ["centred", constant("in_std", std)], ["normalized"]))
+        name = "normalized"
+    for i, (weight, bias) in enumerate(layers):
+        weight, bias = np.asarray(weight), np.asarray(bias)
+        if weight.shape != (sizes[i + 1], sizes[i]) or bias.shape != (sizes[i + 1],):
+            raise PolicyError(f"layer {i} has W {weight.shape} and b {bias.shape}; expected {(sizes[i + 1], sizes[i])}")
+        gemm = f"layer{i}"
+        nodes.append(
+            helper.make_node("Gemm", [name, constant(f"W{i}", weight), constant(f"b{i}", bias)], [gemm], transB=1)
+        )
+        name = gemm
+        if i < len(layers) - 1:
+            nodes.append(helper.make_node(activation, [gemm], [f"{gemm}_act"]))
+            name = f"{gemm}_act"
+    if output_scale is not None:
+        mean, std = output_scale
+        nodes.append(helper.make_node("Mul", [name, constant("out_std", std)], ["scaled"]))
+        nodes.append(helper.make_node("Add", ["scaled", constant("out_mean", mean)], ["unscaled"]))
+        name = "unscaled"
+    batch: int | str = 1 if fixed_batch else "batch"
+    out_shape: list[int | str] = [batch, out_size]
+    if horizon > 1:
+        out_shape = [batch, horizon, out_size // horizon]
+        initializers.append(
+            numpy_helper.from_array(np.array([-1, horizon, out_size // horizon], np.int64), "chunk_shape")
+        )
+        nodes.append(helper.make_node("Reshape", [name, "chunk_shape"], ["chunk"]))
+        name = "chunk"
+    nodes.append(helper.make_node("Identity", [name], ["actions"]))
+    graph = helper.make_graph(
+        nodes,
+        "judo_policy",
+        [helper.make_tensor_value_info("observations", onnx.TensorProto.FLOAT, [batch, sizes[0]])],
+        [helper.make_tensor_value_info("actions", onnx.TensorProto.FLOAT, out_shape)],
+        initializers,
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)], producer_name="judo")
+    model.ir_version = 8  # what onnxruntime 1.17 and later read
+    helper.set_model_props(model, {str(k): str(v) for k, v in (metadata or {}).items()})
+    onnx.checker.check_model(model)
+    return model
+
+
+def write_mlp_policy(path: str | Path, layers: Sequence[tuple[np.ndarray, np.ndarray]], **kwargs: Any) -> Path:
+    """Write `mlp_policy_model(layers, **kwargs)` to `path` and return it."""
+    path = Path(path)
+    path.write_bytes(mlp_policy_model(layers, **kwargs).SerializeToString())
+    return path
+
+
+def write_linear_policy(
+    path: str | Path,
+    weight: np.ndarray,
+    bias: np.ndarray | None = None,
+    metadata: Mapping[str, str] | None = None,
+    fixed_batch: bool = False,
+    horizon: int = 1,
+) -> Path:
+    """Write the linear policy a = W o + b (W (H * A, O), b (H * A,), zeros by default) to `path`."""
+    weight = np.atleast_2d(np.asarray(weight, dtype=float))
+    bias = np.zeros(weight.shape[0]) if bias is None else np.asarray(bias, dtype=float)
+    return write_mlp_policy(path, [(weight, bias)], horizon=horizon, metadata=metadata, fixed_batch=fixed_batch)
