@@ -120,11 +120,17 @@ class RolloutPool(RolloutBackend):
             self._inputs[..., : self.model.nu] = controls
             self._inputs[..., self.model.nu :] = mocap
             controls, spec = self._inputs, MOCAP_CONTROL_SPEC
-        self.rollout_rows(self._initial, controls, spec, self._states, self._sensors)
+        self.rollout_rows(self._initial, controls, spec, self._states, self._sensors, caller_runs_first=False)
         return self._states, self._sensors
 
     def rollout_rows(
-        self, initial_states: np.ndarray, inputs: np.ndarray, control_spec: int, states: np.ndarray, sensors: np.ndarray
+        self,
+        initial_states: np.ndarray,
+        inputs: np.ndarray,
+        control_spec: int,
+        states: np.ndarray,
+        sensors: np.ndarray,
+        caller_runs_first: bool = True,
     ) -> None:
         """Roll row i of `inputs` out from row i of `initial_states`, into the caller's output arrays.
 
@@ -132,15 +138,22 @@ class RolloutPool(RolloutBackend):
         C-contiguous float64: initial_states (N, nstate); inputs (N, k, ncontrol), the per-step values of
         `control_spec` ([ctrl] or [ctrl, mocap_pos, mocap_quat]); states (N, k, nstate) and sensors
         (N, k, nsensordata), written. Rows split over the workers and models as in `rollout`.
+
+        With `caller_runs_first` the calling thread runs the first chunk itself rather than wait, one thread
+        hand-off fewer for each of a policy's many short ticks; `rollout` (one long call) leaves all chunks to
+        the daemon workers, so that a caller waiting on them stays interruptible.
         """
         chunks, chunk_models = self._split(len(initial_states))
         args = (chunks, chunk_models, initial_states, inputs, control_spec, states, sensors)
         if len(chunks) == 1:
             self._run_chunk(0, *args)
-        else:
-            futures = [self._executor.submit(self._run_chunk, i, *args) for i in range(len(chunks))]
-            for future in futures:
-                future.result()
+            return
+        first = 1 if caller_runs_first else 0
+        futures = [self._executor.submit(self._run_chunk, i, *args) for i in range(first, len(chunks))]
+        if caller_runs_first:
+            self._run_chunk(0, *args)
+        for future in futures:
+            future.result()
 
     def _run_chunk(
         self,
