@@ -246,3 +246,37 @@ def test_the_plant_runs_the_policy_on_the_served_command_every_k_steps(tmp_path)
     expected, _ = reference(task.sim_model, task.low_level(), initial_state, np.tile(command, (1, 9, 1)))
     np.testing.assert_array_equal(system.plant_state(), expected[0, -1, 1:5])
     assert task.low_level().policy.batches[-3:] == [1, 1, 1]  # ticks at steps 0, 3 and 6
+
+
+def test_the_warp_backend_is_refused_before_it_is_built(tmp_path):
+    path = tmp_path / "limited.xml"
+    path.write_text(LIMITED_XML)
+    task = LowLevelTask(path)
+    optimizer = PredictiveSampling(PredictiveSamplingConfig(num_rollouts=4), task.command_size)
+    with pytest.raises(LowLevelBackendError, match="^the warp rollout backend cannot run a low-level policy"):
+        judo.Controller(judo.ControllerConfig(horizon=0.2), task, optimizer, num_workers=1, backend="warp")
+
+
+def test_randomized_models_roll_out_through_the_policy_block_by_block(limited_model):
+    heavier = mujoco.MjModel.from_xml_path(_write(LIMITED_XML.replace('mass=".1"', 'mass=".3"')))
+    low = make_low_level(3)
+    initial_state = initial_state_of(limited_model, [0.1, 2.5], [0.3, -0.2])
+    commands = np.random.default_rng(2).uniform(-1, 1, (4, 10, 2))
+    with LowLevelRollout(RolloutPool(limited_model, 2), low) as backend:
+        backend.set_models([limited_model, heavier])
+        states, _ = backend.rollout(initial_state, commands)
+    np.testing.assert_array_equal(states[:2], reference(limited_model, low, initial_state, commands[:2])[0])
+    np.testing.assert_array_equal(states[2:], reference(heavier, low, initial_state, commands[2:])[0])
+
+
+MOCAP_XML = LIMITED_XML.replace(
+    "  </worldbody>", '    <body name="goal" mocap="true" pos="0 0 1"><site name="goal"/></body>\n  </worldbody>'
+).replace("<sensor>", '<sensor><framepos name="goal_pos" objtype="site" objname="goal"/>')
+
+
+def test_mocap_poses_hold_through_every_chunk():
+    model = mujoco.MjModel.from_xml_path(_write(MOCAP_XML))
+    mocap = np.array([0.5, -0.2, 0.7, 1.0, 0.0, 0.0, 0.0])  # [pos, quat] of the one mocap body
+    with LowLevelRollout(RolloutPool(model, 1), make_low_level(2)) as backend:
+        _, sensors = backend.rollout(initial_state_of(model, [0, 0], [0, 0]), np.zeros((3, 7, 2)), mocap)
+    np.testing.assert_allclose(sensors[..., :3], np.broadcast_to(mocap[:3], (3, 7, 3)))

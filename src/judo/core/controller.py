@@ -28,7 +28,7 @@ from judo.core.controller_config import (
     rollout_steps,
 )
 from judo.core.errors import ConfigError, JudoError
-from judo.core.low_level import with_low_level
+from judo.core.low_level import check_low_level_backend, with_low_level
 from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
 from judo.core.optimizer import Optimizer
 from judo.core.randomize import randomized_models
@@ -115,6 +115,7 @@ class Controller:
         self.config = controller_config
         self.task = task
         self.optimizer = optimizer
+        check_low_level_backend(backend, task.low_level())
         self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
         self.backend = with_low_level(self.backend, task.low_level())  # the pool itself without one
         self._backend_name = backend

@@ -126,6 +126,16 @@ def act_rows(policy: Policy, observations: np.ndarray) -> np.ndarray:
     return actions
 
 
+def check_low_level_backend(name: str, low_level: "LowLevel | None") -> None:
+    """Raise LowLevelBackendError, before any backend is built, when a task with a low-level policy asks for a
+    rollout backend other than "cpu" (MuJoCo Warp cannot run a policy between its steps yet)."""
+    if low_level is not None and name != "cpu":
+        raise LowLevelBackendError(
+            f"the {name} rollout backend cannot run a low-level policy inside its rollouts yet; expected the cpu "
+            "backend for a task whose low_level() returns a policy"
+        )
+
+
 def with_low_level(backend: RolloutBackend, low_level: "LowLevel | None") -> RolloutBackend:
     """`backend` itself without a low-level policy, else a `LowLevelRollout` around it. A backend that cannot
     run the policy between its steps is closed and LowLevelBackendError raised."""
