@@ -94,7 +94,8 @@ class Controller:
             with a low-level policy (`Task.low_level`), a `LowLevelRollout` around the pool, and the plan,
             its knots and clamps are the policy's commands (`task.command_size`, `task.command_range`).
         backend_name: that name (read-only).
-        nominal_knots: (num_nodes, nu) knots (nu: `task.command_size` throughout) of the current plan, or None before the first update.
+        nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update (here and
+            below, nu is `task.command_size`: the actuators, or a low-level policy's commands).
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf); with
             num_randomizations R > 1, each sequence's R rewards reduced by the config's risk measure.
         models: the R models the last cycle rolled out under: the task's planning model, then the

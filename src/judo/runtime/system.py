@@ -152,6 +152,8 @@ class MujocoSystem(System):
             for warning in warnings:
                 warning.number = 0
             self.task.reset()
+            if self.low_level is not None:
+                self.low_level.reset()
             data.time = start_time + model.opt.timestep  # the plant's clock keeps running
             raise SimulationDiverged(
                 f"simulation of {type(self.task).__name__} diverged at t={start_time:.3f} s; reset the task"
