@@ -19,6 +19,7 @@ from judo.core.controller import Controller, ControllerConfig, NonFiniteKnotsErr
 from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig
 from judo.core.fields import np_1d_field, slider
+from judo.core.low_level import LowLevel
 from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.onnx_policy import OnnxPolicy
@@ -60,6 +61,7 @@ __all__ = [
     "InvalidRandomizedModelError",
     "JudoError",
     "LoadedConfig",
+    "LowLevel",
     "ModelLoadError",
     "MujocoSystem",
     "NonFiniteKnotsError",

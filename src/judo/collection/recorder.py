@@ -44,7 +44,7 @@ class EpisodeRecorder:
     def for_loop(cls, controller: Controller, plant_task: Task, traces: bool = False) -> "EpisodeRecorder":
         """A recorder for `controller`'s plans and the plant model (`sim_model`) of `plant_task`."""
         model = plant_task.sim_model
-        sizes = (model.nq, model.nv, model.nmocap, controller.optimizer.num_nodes, model.nu)
+        sizes = (model.nq, model.nv, model.nmocap, controller.optimizer.num_nodes, controller.task.command_size)
         return cls(*sizes, tuple(plant_task.measured_sensors), traces)
 
     def with_records(self, steps: list[StepRecord], plans: list[PlanRecord]) -> "EpisodeRecorder":

@@ -96,7 +96,7 @@ class ClosedLoop:
         self.calls = SystemCalls(system)  # every System call goes through it (see judo.runtime.system_calls)
         self.recorders = list(recorders)
         self.estimator = estimator
-        self.controls = ControlHistory(controller.task.nu)  # every served action, for the estimator
+        self.controls = ControlHistory(controller.task.command_size)  # every served action, for the estimator
         self.raw_reading: SystemState | None = None  # the System's latest reading, before the estimator
         self._estimator_started = False
         self.stepped_time = 0.0  # plant time this loop has stepped, the watchdog's clock when none is given
@@ -257,7 +257,7 @@ class ClosedLoop:
         if state is None:
             model = task.model
             state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])
-        low, high = task.actuator_ctrlrange.T
+        low, high = task.command_range.T
         return np.clip(np.asarray(task.safe_action(state), dtype=float), low, high)
 
     def halt(self) -> None:
