@@ -81,3 +81,24 @@ def test_a_users_system_is_not_held_back_and_gets_the_safe_action_from_the_same_
     assert loop.watchdog.trips >= 1  # the plan grew older than max_plan_age + one period of wall time
     assert 0.0 in driver.applied  # cartpole's safe action: the motor off
     assert app.stats.sim_time() > 0.6 * RUN_SECONDS  # the robot's time is never slowed for the planner
+
+
+def test_the_apps_pendulum_swings_up_within_10_s_of_sim_time_however_slow_the_machine():
+    """The new-user tour's pendulum (mppi at its defaults): upright (within 0.3 rad) by 10 s of sim time,
+    read off the app's own plant while it runs at whatever pace this machine allows."""
+    app = App("pendulum", "mppi", gui=False, seed=0, duration=10.0, num_workers=1)
+    plant = app.session.simulated
+    assert plant is not None
+    upright_at = None
+    app.start()
+    try:
+        deadline = time.monotonic() + 120.0
+        while app.stats.sim_time() < 9.9 and time.monotonic() < deadline:
+            time.sleep(0.05)
+            if upright_at is None and np.cos(plant.task.data.qpos[0]) > np.cos(0.3):
+                upright_at = app.stats.sim_time()
+    finally:
+        app.stop()
+    assert upright_at is not None and upright_at < 10.0, f"the pole was not upright by {app.stats.sim_time():.1f} s"
+    assert np.cos(plant.task.data.qpos[0]) > np.cos(0.3)  # and it stays up
+    assert app.session.closed_loop.watchdog.trips == 0
