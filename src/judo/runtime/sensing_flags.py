@@ -36,8 +36,9 @@ class SensingFlags:
     sensor_rate_hz: tuple[str, ...] = ()
     """Samples per second: HZ, or TYPE=HZ (e.g. framepos=30); every plant step when not given; repeatable."""
     estimator: str | None = None
-    """Registered estimator between the readings and the plan (ekf, ukf, state, ...); ekf by default with
-    --observe sensors, none (the true state as it is) with --observe state."""
+    """Registered estimator between the readings and the plan (ekf, ukf, state, ...). By default the task's own
+    with --observe sensors (ukf for walker and leap_cube, else ekf), none (the true state as it is) with
+    --observe state."""
 
     def sensor_settings(self) -> dict[str, PerType]:
         """{"noise": std, "delay": seconds, "rate": Hz} from the per-type flags, each None when not given, a
