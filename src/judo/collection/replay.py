@@ -126,7 +126,9 @@ def check_demos(path: Path, demos: dict[int, Demo], model: Any, task: str) -> No
     for seed, demo in demos.items():
         where = f"{path}: data/{demo_name(seed)}"
         rows = len(demo.qpos)
-        arrays = {"obs/qpos": (demo.qpos, (rows, model.nq), f"(S, {model.nq}) for {task}'s nq = {model.nq}")}
+        arrays: dict[str, tuple[np.ndarray, tuple[int, ...], str]] = {
+            "obs/qpos": (demo.qpos, (rows, model.nq), f"(S, {model.nq}) for {task}'s nq = {model.nq}")
+        }
         if demo.mocap_pos is not None:
             width = 3 * model.nmocap
             arrays["obs/mocap_pos"] = (
