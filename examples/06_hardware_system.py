@@ -6,7 +6,7 @@ quite the model the controller plans with (its pole is 10% heavier), whose motor
 respond, and which measures what a real one does: its two joint encoders (the task's
 `Cartpole.measured_sensors`), noisy, at 100 Hz and 20 ms late, each reading stamped with the time it
 was taken. It never reports velocities, so `read_state` returns `state=None`, and the app runs the
-extended Kalman filter by default (`estimator="ekf"`) to estimate the full state the planner needs.
+extended Kalman filter, cartpole's default (`estimator="ekf"`), to estimate the full state the planner needs.
 Swap this class for one that talks to your robot's drivers and nothing else changes.
 
     python examples/06_hardware_system.py                          # GUI at http://localhost:8080
@@ -112,7 +112,7 @@ def main() -> None:
     app = judo.App(
         task="cartpole",
         optimizer="mppi",
-        system=robot,  # its readings have state None: the app picks the "ekf" estimator
+        system=robot,  # its readings have state None: the app picks cartpole's default estimator, "ekf"
         estimator_config=EKFConfig(
             noise_jointpos=robot.noise_std
         ),  # the filter trusts the encoders as much as they deserve

@@ -77,17 +77,11 @@ def restore_the_registry():
 
 @pytest.fixture(scope="module")
 def local_ray():
-    """A local Ray with 2 CPUs for the module, started as collect, evaluate --workers and tune start one.
-    Ray is imported here, so the tests that do not use it never import it."""
-    ray = pytest.importorskip("ray")
-    from judo.tuning.cluster import local_runtime_env
+    """A local Ray with 2 CPUs for the module, started by the call collect, evaluate --workers and tune make
+    (`start_ray`: on 127.0.0.1). Ray is imported here, so the tests that do not use it never import it."""
+    pytest.importorskip("ray")
+    from judo.tuning.cluster import start_ray, stop_ray
 
-    ray.init(
-        num_cpus=2,
-        include_dashboard=False,
-        log_to_driver=False,
-        configure_logging=False,
-        runtime_env=local_runtime_env(),
-    )
+    start_ray(None, 2)
     yield
-    ray.shutdown()
+    stop_ray()

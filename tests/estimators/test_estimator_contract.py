@@ -53,8 +53,9 @@ def test_the_ekf_refuses_readings_without_the_measured_sensors():
 
 
 def test_the_default_estimator_follows_what_the_reading_holds():
-    assert default_estimator_name(SystemState(np.zeros(4), 0.0)) == "state"
-    assert default_estimator_name(SystemState(None, 0.0, {}, np.zeros(2))) == "ekf"
+    cartpole = judo.get_registered_tasks()["cartpole"][0]
+    assert default_estimator_name(SystemState(np.zeros(4), 0.0), cartpole) == "state"
+    assert default_estimator_name(SystemState(None, 0.0, {}, np.zeros(2)), cartpole) == "ekf"
 
 
 def test_ekf_config_refuses_non_positive_noise():

@@ -81,6 +81,8 @@ def test_help_documents_the_fields_of_the_chosen_configs(capsys):
     assert "--task-config.goal-pos" in text and "Goal position (m) of the cart on the table." in text
     tasks, optimizers = ", ".join(sorted(get_registered_tasks())), ", ".join(sorted(get_registered_optimizers()))
     assert f"Tasks: {tasks}. Optimizers: {optimizers}." in " ".join(text.split())
+    for command in ("benchmark ...", "evaluate ...", "tune ...", "collect ...", "replay FILE.h5"):  # every command
+        assert f"`python -m judo {command}`" in " ".join(text.split()), command
 
 
 @pytest.mark.parametrize(

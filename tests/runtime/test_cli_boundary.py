@@ -1,8 +1,10 @@
-"""The command-line boundary of every command (the app, evaluate, benchmark, tune), as one table: each row
-runs `python -m judo` in a subprocess and expects an exit status, a one-line message, and no traceback
-and no hang. Bad config files, user classes and rewards that raise, sizes beyond their bounds, output
-paths that cannot be written, and Ctrl-C."""
+"""The command-line boundary of every command (the app, evaluate, benchmark, tune, collect, replay), as one
+table: each row runs `python -m judo` in a subprocess and expects an exit status, a one-line message, and no
+traceback and no hang. Bad config files, user classes and rewards that raise, sizes and sensing values beyond
+their bounds, output paths that cannot be written, HDF5 files that are not judo's or are broken, and Ctrl-C."""
 
+import importlib.util
+import json
 import os
 import signal
 import subprocess
@@ -12,6 +14,7 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import judo
@@ -98,6 +101,14 @@ COLLECT = (
     "--out",
     "x.h5",
 )
+SENSED_APP = (*APP, "--observe", "sensors")
+SENSED_EVALUATE = (*EVALUATE, "--observe", "sensors")
+NOISE_BOUND = "--sensor-noise must be between 0 and 100 (a std in the sensor's unit: m, rad, m/s, rad/s, m/s^2), got"
+RATE_BOUND = "--sensor-rate-hz must be between 0.1 and 1000000 Hz, got"
+DELAY_BOUND = "--sensor-delay-ms must be between 0 and 10000 ms, got"
+NOT_A_SENSOR_VALUE = "--sensor-noise expects NUMBER or TYPE=NUMBER (e.g. framepos=30), got '=0.1'"
+NO_ESTIMATOR = "unknown estimator ''; valid estimators are: ekf, state, ukf"
+HAVE_H5PY = importlib.util.find_spec("h5py") is not None
 BAD_EVALUATE = tuple("bad" if arg == "cartpole" else arg for arg in EVALUATE)
 BAD_BENCHMARK = tuple("bad" if arg == "cartpole" else arg for arg in BENCHMARK)
 BAD_TUNE = tuple("bad" if arg == "cartpole" else arg for arg in TUNE)
@@ -223,7 +234,22 @@ TABLE = [
     ),
     Row((*APP, "--observe", "sensors", "--sensor-rate-hz", "framepos=x"), 2, "--sensor-rate-hz expects NUMBER or"),
     Row((*APP, "--observe", "sensors", "--sensor-noise", "bogus=0.1"), 2, "sensor noise: 'bogus' is not a sensor type"),
-    Row((*APP, "--observe", "sensors", "--sensor-delay-ms", "-5"), 2, "sensor delay must be at least 0"),
+    Row((*SENSED_APP, "--sensor-delay-ms", "-5"), 2, f"{DELAY_BOUND} -5.0"),
+    Row((*SENSED_APP, "--sensor-noise", "=0.1"), 2, NOT_A_SENSOR_VALUE),
+    Row((*SENSED_APP, "--sensor-noise", "1e308"), 2, f"{NOISE_BOUND} 1e+308"),
+    Row((*SENSED_APP, "--sensor-delay-ms", "1e12"), 2, f"{DELAY_BOUND} 1000000000000.0"),
+    Row((*SENSED_APP, "--sensor-rate-hz", "1e-9"), 2, f"{RATE_BOUND} 1e-09"),
+    Row((*SENSED_APP, "--sensor-noise", "framepos=nan"), 2, NOISE_BOUND.replace("noise", "noise framepos") + " nan"),
+    Row((*APP, "--estimator", ""), 2, NO_ESTIMATOR),
+    Row((*SENSED_EVALUATE, "--sensor-noise", "=0.1"), 2, NOT_A_SENSOR_VALUE),
+    Row((*SENSED_EVALUATE, "--sensor-noise", "1e308"), 2, f"{NOISE_BOUND} 1e+308"),
+    Row((*SENSED_EVALUATE, "--sensor-delay-ms", "1e12"), 2, f"{DELAY_BOUND} 1000000000000.0"),
+    Row((*SENSED_EVALUATE, "--sensor-rate-hz", "1e-9"), 2, f"{RATE_BOUND} 1e-09"),
+    Row((*EVALUATE, "--estimator", ""), 2, NO_ESTIMATOR),
+    Row((*TUNE, "--observe", "sensors", "--sensor-delay-ms", "1e12"), 2, f"{DELAY_BOUND} 1000000000000.0"),
+    Row((*COLLECT, "--observe", "sensors", "--sensor-rate-hz", "-1"), 2, f"{RATE_BOUND} -1.0"),
+    Row((*COLLECT, "--observe", "sensors", "--sensor-noise", "inf"), 2, f"{NOISE_BOUND} inf"),
+    Row((*BENCHMARK, "--tasks"), 2, "--tasks needs at least one name; leave --tasks out for all of them"),
     Row((*APP, "--sensor-noise", "0.1"), 2, "--sensor-noise set the rehearsed sensors, which run only with --observe"),
     Row((*EVALUATE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
     Row(
@@ -240,6 +266,25 @@ TABLE = [
     Row((*TUNE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
     Row((*TUNE, "--sensor-delay-ms", "10"), 2, "--sensor-delay-ms set the rehearsed sensors, which run only with"),
     Row((*COLLECT, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
+    # HDF5 files (written by write_h5_files): another program's is never written into; a broken one never played
+    Row(
+        (*COLLECT[:-1], "other.h5"),
+        2,
+        "other.h5 is an HDF5 file judo did not write (it holds images and no judo env_args); judo writes only into "
+        "its own datasets: give another file",
+    ),
+    *(
+        Row(("replay", f"{name}.h5"), 2, f"{name}.h5{message}")
+        for name, message in [
+            ("nan", ": data/demo_0/obs/qpos holds non-finite values (NaN or inf) in 1 of its 5 rows, the first row 2"),
+            ("narrow", ": data/demo_0/obs/qpos must have shape (S, 2) for cartpole's nq = 2, got (5, 1)"),
+            (
+                "no_timestep",
+                " is not a file of `python -m judo collect`: data's env_args has no entry 'plant_timestep'",
+            ),
+        ]
+    ),
+    Row(("replay", "nan.h5", "--host", "0.0.0.0", "--token", ""), 2, "token must not be empty or blank"),
     # Ctrl-C
     Row((*EVALUATE[:-2], "--duration", "3000", "--num-workers", "2"), 130, "interrupted", interrupt=True),
     Row((*BENCHMARK[:-4], "--samples", "100000", "--num-workers", "2"), 130, "interrupted", interrupt=True),
@@ -293,14 +338,40 @@ def outcomes(tmp_path_factory) -> dict[str, tuple[int | None, str]]:
         (folder / name).write_bytes(content if isinstance(content, bytes) else content.encode())
     (folder / "adir").mkdir()
     os.mkfifo(folder / "fifo")
+    if HAVE_H5PY:
+        write_h5_files(folder)
     with ThreadPoolExecutor(4) as pool:
         return dict(zip((row.id for row in TABLE), pool.map(lambda row: run_row(row, folder), TABLE), strict=True))
+
+
+def write_h5_files(folder: Path) -> None:
+    """other.h5, another program's HDF5 file, and cartpole replays in judo's layout that are broken: a NaN row in
+    qpos (nan.h5), qpos one column short (narrow.h5), and no plant_timestep in env_args (no_timestep.h5)."""
+    import h5py
+
+    with h5py.File(folder / "other.h5", "w") as file:
+        file["images"] = np.zeros((2, 3))
+    qpos = np.zeros((5, 2))  # cartpole: nq = 2
+    qpos[2] = np.nan
+    env_args = {"type": "judo", "task": "cartpole", "optimizer": "ps", "plant_timestep": 0.01}
+    for name, rows, args in [
+        ("nan", qpos, env_args),
+        ("narrow", np.zeros((5, 1)), env_args),
+        ("no_timestep", np.zeros((5, 2)), {**env_args, "plant_timestep": None}),
+    ]:
+        with h5py.File(folder / f"{name}.h5", "w") as file:
+            file.create_group("data").attrs["env_args"] = json.dumps({k: v for k, v in args.items() if v is not None})
+            demo = file.create_group("data/demo_0")
+            demo["obs/qpos"], demo["plan/times"] = rows, np.array([0.0, 0.02])
+            demo.attrs.update({"seed": 0, "metrics": "{}", "success": False})
 
 
 @pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="FIFOs, /dev/zero and /proc")
 @pytest.mark.parametrize("row", TABLE, ids=lambda row: row.id[:80])
 def test_every_bad_input_gets_one_line_and_its_exit_status(outcomes, row):
+    if ".h5" in row.id and not HAVE_H5PY:
+        pytest.skip("the HDF5 rows need h5py (the collect extra)")
     status, err = outcomes[row.id]
     assert status is not None, f"hung: {row.args}"
     assert "Traceback" not in err, err[-3000:]
@@ -314,8 +385,9 @@ def test_every_bad_input_gets_one_line_and_its_exit_status(outcomes, row):
 
 
 def test_the_table_covers_every_command():
-    commands = {row.args[0] if row.args[0] in ("evaluate", "benchmark", "tune") else "app" for row in TABLE}
-    assert commands == {"app", "evaluate", "benchmark", "tune"}
+    named = ("evaluate", "benchmark", "tune", "collect", "replay")
+    commands = {row.args[0] if row.args[0] in named else "app" for row in TABLE}
+    assert commands == {"app", *named}
     assert len({row.id for row in TABLE}) == len(TABLE)  # ids are the outcome keys
 
 

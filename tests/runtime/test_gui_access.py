@@ -237,3 +237,36 @@ def test_the_policy_with_a_token():
     page = Request("/tok/", Headers())
     assert policy.page_request(page).path == "/"  # type: ignore[union-attr]
     assert "needs its access token" in policy.page_request(Request("/", Headers()))  # type: ignore[operator]
+
+
+def test_replay_follows_the_apps_access_rules(port, tmp_path):
+    h5py = pytest.importorskip("h5py")
+    import json
+
+    import numpy as np
+
+    from judo.collection.replay import Replay
+
+    path = tmp_path / "cartpole.h5"
+    with h5py.File(path, "w") as file:  # a one-demo cartpole file in collect's layout
+        file.create_group("data").attrs["env_args"] = json.dumps(
+            {"task": "cartpole", "optimizer": "ps", "plant_timestep": 0.01}
+        )
+        file["data/demo_0/obs/qpos"], file["data/demo_0/plan/times"] = np.zeros((5, 2)), np.zeros(0)
+        file["data/demo_0"].attrs.update({"seed": 0, "metrics": "{}", "success": False})
+    assert Replay(path).token is None  # loopback: no token, as the app
+    with pytest.raises(ConfigError, match="token must not be empty or blank"):
+        Replay(path, host="0.0.0.0", token=" ")
+    replay = Replay(path, host="0.0.0.0", port=port)
+    assert replay.token is not None and len(replay.token) >= 20  # generated beyond loopback, as the app's
+    replay.start()
+    try:
+        assert replay.url == f"http://localhost:{port}/{replay.token}"
+        assert refused(port) == 403  # even a local program needs the token
+        assert refused(port, path="/wrong-token", origin=f"http://127.0.0.1:{port}") == 403
+        with open_websocket(port, path=f"/{replay.token}", origin=f"http://127.0.0.1:{port}") as websocket:
+            assert websocket.recv(timeout=10)
+        with urllib.request.urlopen(replay.url.replace("localhost", "127.0.0.1"), timeout=10) as page:
+            assert page.status == 200
+    finally:
+        replay.stop()

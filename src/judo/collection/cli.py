@@ -129,11 +129,11 @@ def main(argv: list[str] | None = None) -> int:
         CollectArgs, argv, "python -m judo collect", DESCRIPTION + " " + name_listing()
     )
     try:
+        args.validate()  # every argument, sensing flags included, before Ray starts or a file is opened
         import_h5py()
         from judo.tuning.cluster import import_ray
 
         import_ray("python -m judo collect", "collect")
-        args.validate()
         spec = args.spec(num_workers=1)
         configs = configs_in_force(spec)
         command = "python -m judo collect " + shlex.join(argv)

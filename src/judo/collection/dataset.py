@@ -110,15 +110,21 @@ class DatasetFile:
     """The driver's handle on a dataset file: create it, or reopen it to append missing seeds.
 
     `env_args` is everything that determines the episodes (task, optimizer, configs, versions, model
-    hashes); an existing file must hold the same, except for the judo and mujoco versions.
+    hashes); an existing file must hold the same, except for the judo and mujoco versions. Its "type" is
+    always "judo", the mark of a file judo wrote: an existing file without it (`check_ours`) is refused before
+    it is opened for writing.
     """
 
     def __init__(self, path: str | Path, env_args: dict[str, Any]) -> None:
         self.h5py = import_h5py()
         self.path = Path(path)
+        env_args = {**env_args, "type": "judo"}
         self.env_args = env_args
         try:
             self.path.parent.mkdir(parents=True, exist_ok=True)
+            if self.path.exists():
+                with self._file("r") as file:
+                    check_ours(self.path, file)
             with self._open() as file:
                 data = file.require_group("data")
                 if "env_args" in data.attrs:
@@ -186,6 +192,25 @@ class DatasetFile:
         with self._open() as file:
             file["judo/dropped"].attrs[str(seed)] = json.dumps(metrics)
             file["judo/failed"].attrs.pop(str(seed), None)
+
+
+def check_ours(path: Path, file: Any) -> None:
+    """DatasetError unless the open h5py `file` is one judo wrote (data.attrs["env_args"] JSON with "type"
+    "judo"), or one with nothing in it: judo never writes its groups beside another program's data."""
+    if not len(file) and not len(file.attrs):
+        return
+    data = file.get("data")
+    env_args = data.attrs.get("env_args") if isinstance(data, import_h5py().Group) else None
+    try:
+        ours = env_args is not None and json.loads(env_args).get("type") == "judo"
+    except (TypeError, ValueError, AttributeError):
+        ours = False
+    if not ours:
+        keys = ", ".join(sorted(file)[:5]) + (", ..." if len(file) > 5 else "")
+        raise DatasetError(
+            f"{path} is an HDF5 file judo did not write (it holds {keys or 'only attributes'} and no judo "
+            "env_args); judo writes only into its own datasets: give another file"
+        )
 
 
 def write_demo(group: Any, episode: EpisodeArrays) -> None:

@@ -40,9 +40,12 @@ class ReplayArgs:
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """TOML file registering the file's task, when it is a task of your own."""
     host: str = "127.0.0.1"
-    """Address the GUI listens on (this machine only by default)."""
+    """Address the GUI listens on: this machine only by default. 0.0.0.0 (every interface) shows the recording
+    to the network, behind a token, under the app's access rules (docs/gui.md)."""
     port: int = 8080
     """Port of the GUI (the next free one if taken)."""
+    token: str | None = None
+    """Secret the GUI's URL must carry (http://HOST:PORT/TOKEN); generated when --host is not a loopback address."""
     speed: float = 1.0
     """Playback speed at the start (sim seconds per second; the page's speed slider changes it)."""
 
@@ -63,28 +66,90 @@ class Demo:
 
 
 def read_demos(path: Path) -> tuple[dict[str, Any], dict[int, Demo]]:
-    """(env_args, {seed: Demo}) of a collect file, in seed order; DatasetError when it is not one."""
+    """(env_args, {seed: Demo}) of a collect file, in seed order; DatasetError when it is not one, naming the
+    group, dataset, attribute or env_args entry that is missing or unreadable. `check_demos` checks the arrays
+    against the task's model."""
     h5py = import_h5py("python -m judo replay")
+    not_ours = f"{path} is not a file of `python -m judo collect`"
     try:
         with h5py.File(path, "r") as file:
-            env_args = json.loads(file["data"].attrs["env_args"])
-            dt = float(env_args["plant_timestep"])
+            data = member(file, "data", "the file", "group")
+            env_args = json.loads(member(data.attrs, "env_args", "data", "attribute"))
+            dt = float(member(env_args, "plant_timestep", "data's env_args", "entry"))
+            for key in ("task", "optimizer"):  # the page's title
+                member(env_args, key, "data's env_args", "entry")
+            if not 0 < dt <= 1.0:  # NaN too
+                raise DatasetError(f"data's env_args entry 'plant_timestep' must be above 0 and at most 1 s, got {dt}")
             demos = {}
-            for name in sorted(file["data"], key=lambda name: int(name.removeprefix("demo_"))):
-                group = file["data"][name]
-                qpos = group["obs/qpos"][:]
-                mocap = group["obs/mocap_pos"][:].reshape(len(qpos), -1, 3) if "mocap_pos" in group["obs"] else None
-                seed = int(group.attrs["seed"])
+            for name in sorted(file["data"], key=demo_seed):
+                group, where = file["data"][name], f"data/{name}"
+                qpos = member(group, "obs/qpos", where, "dataset")[:]
+                mocap = group["obs/mocap_pos"][:] if "obs/mocap_pos" in group else None
+                seed = int(member(group.attrs, "seed", where, "attribute"))
                 times = dt * np.arange(1, len(qpos) + 1)
-                metrics = json.loads(group.attrs["metrics"])
-                plan_times, has_traces = group["plan/times"][:], "traces" in group["plan"]
-                success = bool(group.attrs["success"])
+                metrics = json.loads(member(group.attrs, "metrics", where, "attribute"))
+                plan_times, has_traces = member(group, "plan/times", where, "dataset")[:], "plan/traces" in group
+                traces = group["plan/traces"].shape if has_traces else (len(plan_times), 0, 0, 0, 3)
+                if len(traces) != 5 or traces[0] != len(plan_times) or traces[-1] != 3:
+                    raise DatasetError(f"{where}/plan/traces must have shape ({len(plan_times)}, ..., 3), got {traces}")
+                success = bool(member(group.attrs, "success", where, "attribute"))
                 demos[seed] = Demo(seed, qpos, mocap, times, metrics, success, plan_times, has_traces)
-    except (OSError, KeyError, ValueError) as err:
-        raise DatasetError(f"{path} is not a file of `python -m judo collect`: {err}") from None
+    except DatasetError as err:
+        raise DatasetError(f"{not_ours}: {err}") from None
+    except (OSError, ValueError, TypeError) as err:  # not HDF5, unreadable JSON, a name that is not demo_<seed>
+        raise DatasetError(f"{not_ours}: {' '.join(str(err).split())[:200]}") from None
     if not demos:
         raise DatasetError(f"{path} holds no episodes")
     return env_args, demos
+
+
+def member(container: Any, key: str, where: str, kind: str) -> Any:
+    """`container[key]` (an h5py group or attributes, or a dict), or DatasetError "WHERE has no KIND 'KEY'"."""
+    try:
+        return container[key]
+    except KeyError:
+        raise DatasetError(f"{where} has no {kind} {key!r}") from None
+
+
+def demo_seed(name: str) -> int:
+    """The seed of group `name` ("demo_<seed>"); ValueError naming the group otherwise."""
+    seed = name.removeprefix("demo_")
+    if name == seed or not seed.isdigit():
+        raise ValueError(f"data holds {name!r}, which is not a demo_<seed> group")
+    return int(seed)
+
+
+def check_demos(path: Path, demos: dict[int, Demo], model: Any, task: str) -> None:
+    """DatasetError unless every demo's arrays fit `model` (the task's plant model) and are finite: qpos
+    (S, nq) with S >= 1, obs/mocap_pos (S, 3 nmocap) where present, plan/times (U,). Reshapes mocap_pos to
+    (S, nmocap, 3)."""
+    for seed, demo in demos.items():
+        where = f"{path}: data/{demo_name(seed)}"
+        rows = len(demo.qpos)
+        arrays: dict[str, tuple[np.ndarray, tuple[int, ...], str]] = {
+            "obs/qpos": (demo.qpos, (rows, model.nq), f"(S, {model.nq}) for {task}'s nq = {model.nq}")
+        }
+        if demo.mocap_pos is not None:
+            width = 3 * model.nmocap
+            arrays["obs/mocap_pos"] = (
+                demo.mocap_pos,
+                (rows, width),
+                f"(S, {width}) for {task}'s {model.nmocap} mocap bodies",
+            )
+        arrays["plan/times"] = (demo.plan_times, (len(demo.plan_times),), "(U,)")
+        for key, (values, shape, expected) in arrays.items():
+            if values.ndim != len(shape) or values.shape != shape or not rows:
+                raise DatasetError(f"{where}/{key} must have shape {expected}, got {values.shape}")
+            if not np.issubdtype(values.dtype, np.number):
+                raise DatasetError(f"{where}/{key} must hold numbers, got {values.dtype}")
+            bad = np.flatnonzero(~np.isfinite(values).all(axis=tuple(range(1, values.ndim))))
+            if bad.size:
+                raise DatasetError(
+                    f"{where}/{key} holds non-finite values (NaN or inf) in {bad.size} of its {len(values)} rows, "
+                    f"the first row {bad[0]}"
+                )
+        if demo.mocap_pos is not None:
+            demo.mocap_pos = demo.mocap_pos.reshape(rows, model.nmocap, 3)
 
 
 def read_traces(path: Path, seed: int) -> np.ndarray:
@@ -109,20 +174,31 @@ class Replay:
     Attributes:
         demo: the demo shown; index: its row shown (0..S-1); playing: whether time runs.
         scene: the SceneView posed from the recorded rows.
+        token: the secret the page's URL carries (`check_token`: given, or generated beyond loopback), or None.
     """
 
     def __init__(
-        self, path: Path, demo: int | None = None, host: str = "127.0.0.1", port: int = 8080, speed: float = 1.0
+        self,
+        path: Path,
+        demo: int | None = None,
+        host: str = "127.0.0.1",
+        port: int = 8080,
+        speed: float = 1.0,
+        token: str | None = None,
     ) -> None:
         from judo.core.registry import lookup_task
+        from judo.runtime.address import check_port, check_token
 
+        check_port(port)
+        self.token = check_token(token, host)  # the app's rules: generated beyond loopback, never empty
+        require_between("--speed", speed, 0.1, 4.0)
         self.env_args, self.demos = read_demos(path)
         if demo is not None and demo not in self.demos:
             raise DatasetError(f"{path} has no demo of seed {demo}; its seeds are: {', '.join(map(str, self.demos))}")
         self.demo = self.demos[demo if demo is not None else next(iter(self.demos))]
         self.model = lookup_task(self.env_args["task"])[0]().sim_model  # type: ignore[call-arg]
+        check_demos(path, self.demos, self.model, self.env_args["task"])
         self.path, self.host, self.port = path, host, port
-        require_between("--speed", speed, 0.1, 4.0)
         self.index, self.playing, self.speed = 0, False, float(speed)
         self.traces: np.ndarray | None = None  # (U, ...) the shown demo's plan traces, where the file has them
         self.plan_shown = -1  # the plan whose traces are drawn (-1: none)
@@ -132,10 +208,10 @@ class Replay:
     def start(self) -> None:
         """Start the server, draw the first row of the demo and the widgets, and the playback thread."""
         from judo.runtime.gui.scene import SceneView
-        from judo.runtime.gui.server import start_server
+        from judo.runtime.gui.server import gui_url, start_server
 
-        self.server = start_server(self.host, self.port, token=None, share=False, label="judo replay")
-        self.url = f"http://{self.host}:{self.server.get_port()}"
+        self.server = start_server(self.host, self.port, token=self.token, share=False, label="judo replay")
+        self.url = gui_url(self.server, self.token)
         self.scene = SceneView(self.server.scene, self.model)
         gui = self.server.gui
         names = [demo_name(seed) for seed in self.demos]
@@ -233,7 +309,7 @@ def main(argv: list[str] | None = None) -> int:
     args = tyro.cli(ReplayArgs, args=argv, prog="python -m judo replay", description=__doc__)
     try:
         apply_config_file(args.config)
-        replay = Replay(args.file, args.demo, args.host, args.port, args.speed)
+        replay = Replay(args.file, args.demo, args.host, args.port, args.speed, args.token)
         replay.start()
     except JudoError as err:
         fail(str(err))

@@ -137,19 +137,19 @@ def check_sensors(task: Task, reading: SystemState, who: str) -> np.ndarray:
     return sensors
 
 
-SENSORS_ESTIMATOR = "ekf"
-"""The estimator a plant that serves only measured sensors gets unless one is named."""
+def default_estimator_name(reading: SystemState, task: Task | type[Task]) -> str:
+    """ "state" for a reading with a full state, the task's `default_estimator` for one with only measured
+    sensors."""
+    return "state" if reading.state is not None else task.default_estimator
 
 
-def default_estimator_name(reading: SystemState) -> str:
-    """ "state" for a reading with a full state, SENSORS_ESTIMATOR ("ekf") for one with only measured sensors."""
-    return "state" if reading.state is not None else SENSORS_ESTIMATOR
-
-
-def estimator_in_force(observe: str, estimator: str | None) -> str | None:
-    """The estimator a simulated plant observed as `observe` ("state" or "sensors") runs: `estimator` if
-    named, else SENSORS_ESTIMATOR for sensors and None (the full state as it is) for the state."""
-    return estimator or (SENSORS_ESTIMATOR if observe == "sensors" else None)
+def estimator_in_force(observe: str, estimator: str | None, task: Task | type[Task]) -> str | None:
+    """The estimator a simulated plant of `task` observed as `observe` ("state" or "sensors") runs: `estimator`
+    if named, else the task's `default_estimator` for sensors and None (the full state as it is) for the state.
+    The one place that decides the default, for the app, evaluate, tune, collect, titles and JSON."""
+    if estimator is not None:
+        return estimator
+    return task.default_estimator if observe == "sensors" else None
 
 
 def estimate_of(reading: SystemState, state: np.ndarray, time: float) -> SystemState:

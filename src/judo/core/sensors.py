@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from judo.core.config import shown
 from judo.core.errors import ConfigError, JudoError, UnknownNameError
 from judo.core.model import names
 
@@ -126,15 +127,18 @@ def per_sensor(
 def parse_per_type(items: Sequence[str], what: str) -> float | dict[str, float]:
     """Command-line values like ["100", "framepos=30"] -> {"default": 100.0, "framepos": 30.0}.
 
-    A single bare number gives that float. ConfigError for a value that is not a number.
+    A single bare number gives that float. ConfigError for a value that is not a number, or an "=" with no
+    TYPE before it ("=0.1").
     """
     parsed: dict[str, float] = {}
     for item in items:
-        key, _, number = item.rpartition("=")
+        key, equals, number = item.rpartition("=")
         try:
+            if equals and not key:
+                raise ValueError("no sensor type before '='")
             parsed[key or DEFAULT_KEY] = float(number)
         except ValueError:
-            raise ConfigError(f"{what} expects NUMBER or TYPE=NUMBER (e.g. framepos=30), got {item!r}") from None
+            raise ConfigError(f"{what} expects NUMBER or TYPE=NUMBER (e.g. framepos=30), got {shown(item)}") from None
     if list(parsed) == [DEFAULT_KEY]:
         return parsed[DEFAULT_KEY]
     return parsed

@@ -77,6 +77,11 @@ class Task(ABC, Generic[ConfigT]):
     """Names of the MJCF sensors a robot running this task would have (encoders, a camera's pose, an IMU),
     in the order a System's `SystemState.sensors` holds their values. Trace sensors are never measured.
     Checked against both models when the task is built; `measured` says where the values lie."""
+    default_estimator: ClassVar[str] = "ekf"
+    """The registered estimator that fuses `measured_sensors` when none is named (`--estimator`): with
+    `--observe sensors`, or under a System whose readings have no full state. The app, evaluate, tune, collect
+    and the GUI read it only through `judo.core.estimator` (`estimator_in_force`, `default_estimator_name`). A
+    class attribute beside `measured_sensors`, whose filter it names: the task's TOML holds only config fields."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Take `config_cls` from `Task[ConfigT]` among the class's own bases. A subclass of a task

@@ -11,6 +11,7 @@ finite-difference Jacobians, and does not turn into 40 ms of stale state.
 """
 
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import mujoco
 import numpy as np
@@ -115,6 +116,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
     """
 
     config_cls = EKFConfig
+    name: ClassVar[str] = "ekf"
+    """How the filter names itself in its errors: its registered name (a subclass names its own)."""
 
     def __init__(self, task: Task, config: EKFConfig | None = None) -> None:
         super().__init__(task, config)
@@ -136,7 +139,7 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
     def reset(self, reading: SystemState) -> None:
         """Start from `reading`: its state if it has one, else the model's keyframe 0 (or qpos0), then fuse its
         sensors with RESET_ITERATIONS Gauss-Newton steps."""
-        sensors = check_sensors(self.task, reading, "ekf")
+        sensors = check_sensors(self.task, reading, self.name)
         set_mocap_poses(self.model, self.data, reading.metadata)
         if reading.state is not None:
             x0 = np.concatenate([reading.state, np.zeros(self.model.na)])
@@ -163,7 +166,7 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         model's timestep from the reset's time), never earlier than the newest step already reached."""
         if not self.nodes:
             self.reset(reading)
-        sensors = check_sensors(self.task, reading, "ekf")
+        sensors = check_sensors(self.task, reading, self.name)
         set_mocap_poses(self.model, self.data, reading.metadata)
         self._controls = controls
         target = max(self._index(time), self.nodes[-1].index)

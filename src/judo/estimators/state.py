@@ -30,7 +30,8 @@ class StateEstimator(Estimator[StateEstimatorConfig]):
         if reading.state is None:
             raise ReadingError(
                 f"the 'state' estimator needs a full state (nq + nv = {size} values), but the reading has only "
-                f"sensors; use the 'ekf' estimator to estimate the state from {type(self.task).__name__}'s sensors"
+                f"sensors; use the '{self.task.default_estimator}' estimator to estimate the state from "
+                f"{type(self.task).__name__}'s sensors"
             )
         if reading.state.shape != (size,):
             raise ReadingError(f"SystemState.state must have shape ({size},), got {reading.state.shape}")

@@ -40,6 +40,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
     """UKF over [qpos, qvel, act] with a (2 nv + na)-square tangent-space covariance (see the module docstring)."""
 
     config_cls = UKFConfig  # type: ignore[assignment]
+    name = "ukf"
 
     def __init__(self, task: Task, config: UKFConfig | None = None) -> None:
         super().__init__(task, config)  # type: ignore[arg-type]

@@ -41,12 +41,12 @@ class BenchmarkArgs:
     """Arguments of `python -m judo benchmark`."""
 
     tasks: Annotated[
-        tuple[str, ...], tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)")
-    ] = ()
+        tuple[str, ...] | None, tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)")
+    ] = None
     """Tasks to time, by registered name."""
     optimizers: Annotated[
-        tuple[str, ...], tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)")
-    ] = ()
+        tuple[str, ...] | None, tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)")
+    ] = None
     """Optimizers to time, by registered name."""
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
@@ -68,15 +68,17 @@ class BenchmarkArgs:
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range or a name that is not registered."""
+        for flag, names in (("--tasks", self.tasks), ("--optimizers", self.optimizers)):
+            require(names != (), f"{flag} needs at least one name; leave {flag} out for all of them")
         require(self.samples >= 1, f"--samples must be at least 1, got {self.samples}")
         require(self.warmup >= 0, f"--warmup must be at least 0, got {self.warmup}")
         require(
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
         )
-        check_names(self.tasks, self.optimizers)
+        check_names(self.tasks or (), self.optimizers or ())
         check_rollout_backend(self.backend)
-        for task in chosen_tasks(self.tasks):
+        for task in chosen_tasks(self.tasks or ()):
             controller_config(task, self.controller)
 
 
@@ -122,7 +124,7 @@ def main(argv: list[str] | None = None) -> int:
         check_output_file("--json", args.json)
         apply_config_file(args.config)
         args.validate()
-        tasks, optimizers = chosen_tasks(args.tasks), chosen_optimizers(args.optimizers)
+        tasks, optimizers = chosen_tasks(args.tasks or ()), chosen_optimizers(args.optimizers or ())
         results: dict[str, list[UpdateTiming]] = {task: [] for task in tasks}
         columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
         with Progress(*columns, console=progress_console(), transient=True) as progress:

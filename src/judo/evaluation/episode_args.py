@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal
 import tyro
 
 from judo.core.estimator import estimator_in_force
+from judo.core.registry import lookup_task
 from judo.core.rollout import RolloutBackendName
 from judo.evaluation.cli import (
     ControllerOverrides,
@@ -119,8 +120,12 @@ class EpisodeArgs(SensingFlags):
         if self.observe == "state" and self.estimator is None:
             return ""
         if self.observe == "sensors":
-            return f", sensors + {estimator_in_force(self.observe, self.estimator)}"
+            return f", sensors + {self.estimator_in_force()}"
         return f", {self.estimator}"
+
+    def estimator_in_force(self) -> str | None:
+        """The estimator the episodes run: --estimator, else the task's default with --observe sensors, else None."""
+        return estimator_in_force(self.observe, self.estimator, lookup_task(self.task)[0])
 
     def sensing_record(self) -> dict[str, Any]:
         """The sensing flags as JSON: observe, noise, delay (s), rate (Hz) and estimator."""
@@ -130,5 +135,5 @@ class EpisodeArgs(SensingFlags):
             "noise": sensing.noise,
             "delay_s": sensing.delay,
             "rate_hz": sensing.rate,
-            "estimator": estimator_in_force(sensing.observe, sensing.estimator),
+            "estimator": self.estimator_in_force(),
         }

@@ -36,7 +36,8 @@ DESCRIPTION = (
     "seed (0, 1, ...), each from the task's randomised start, and print each success metric's mean with its 95% "
     "confidence interval over seeds. With --latency measured or --latency-ms the plant keeps moving while a plan "
     "is computed, and the plan takes effect that much later. With --observe sensors the planner sees only the "
-    "task's measured sensors (noisy, late, at their rates: --sensor-*) through --estimator (ekf by default)."
+    "task's measured sensors (noisy, late, at their rates: --sensor-*) through --estimator (by default the "
+    "task's own: ukf for walker and leap_cube, else ekf)."
 )
 
 

@@ -77,8 +77,9 @@ class App(AppCommands):
             the status line reports it and the robot is halted (`System.halt`) where the System offers it.
         estimator, estimator_config: the registered estimator between the plant's readings and the plan,
             and its config (its registered defaults where left out). By default none for a full-state
-            reading, and "ekf" for one with only measured sensors (observe="sensors", or a System whose
-            reading has state None). Edit its config live with `update_estimator_config`.
+            reading, and the task's `default_estimator` ("ekf"; "ukf" for walker and leap_cube) for one with
+            only measured sensors (observe="sensors", or a System whose reading has state None), chosen again
+            for each task switched to. Edit its config live with `update_estimator_config`.
         observe: "state" (the simulated plant's full state) or "sensors" (only the task's measured sensors,
             through `judo.runtime.sensing.SensedSystem`: rehearsed sensing, its noise seeded from `seed`).
         sensor_noise, sensor_delay, sensor_rate: the rehearsed sensors' noise std, delay (s) and rate (Hz),

@@ -39,6 +39,7 @@ from judo.core.registry import (
     get_registered_optimizers,
     get_registered_tasks,
     lookup_estimator,
+    lookup_task,
     make_config,
 )
 from judo.runtime.app import App
@@ -88,7 +89,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
         task, optimizer = _peek_names(argv)
-        estimator = _peek_estimator(argv)
+        estimator, pinned = _peek_estimator(argv, task)
         defaults = default_configs(task, optimizer)
         if estimator is not None:
             defaults["estimator"] = make_config(lookup_estimator(estimator)[1], task)
@@ -118,8 +119,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             seed=options.seed,
             backend=options.backend,
             observe=options.observe,
-            estimator=estimator,
-            estimator_config=configs.get("estimator"),  # type: ignore[arg-type]
+            estimator=estimator if pinned else None,  # None: each task's own default, at start and on a switch
+            estimator_config=configs.get("estimator") if pinned else None,  # type: ignore[arg-type]
             **{f"sensor_{key}": value for key, value in options.sensor_settings().items()},
         )
     except JudoError as err:
@@ -185,14 +186,21 @@ def _peek_names(argv: list[str]) -> tuple[str, str]:
     return task, optimizer
 
 
-def _peek_estimator(argv: list[str]) -> str | None:
-    """The estimator to run, whose config fields become --estimator-config.* options: --estimator's, else
-    "ekf" with --observe sensors, else None."""
+def _peek_estimator(argv: list[str], task: str) -> tuple[str | None, bool]:
+    """(the estimator to run, whose config fields become --estimator-config.* options; whether it is pinned).
+    The estimator is --estimator's, else `task`'s default with --observe sensors (`estimator_in_force`), else
+    None. It is pinned (kept across task switches, with the config given) when --estimator or an
+    --estimator-config.* field names it; else each task runs its own default. UnknownNameError for an
+    unknown task."""
     peek = argparse.ArgumentParser(prog=PROG, add_help=False)
     peek.add_argument("--estimator", default=None)
     peek.add_argument("--observe", default=None)
-    known, _ = peek.parse_known_args(argv)
-    return estimator_in_force(known.observe or "state", known.estimator)
+    known, rest = peek.parse_known_args(argv)
+    fields_given = any(arg.startswith(("--estimator-config.", "--estimator_config.")) for arg in rest)
+    task_cls = lookup_task(task)[0]
+    return estimator_in_force(known.observe or "state", known.estimator, task_cls), (
+        known.estimator is not None or fields_given
+    )
 
 
 def _description() -> str:
@@ -202,7 +210,8 @@ def _description() -> str:
         "Run sampling-based MPC on a MuJoCo task in real time, with a browser GUI (or --headless). "
         "The controller, optimizer and task options below belong to the chosen --task and --optimizer; "
         f"pass those first to see their fields. Tasks: {tasks}. Optimizers: {optimizers}. "
-        f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...` and `{PROG} tune ...` (each with --help)."
+        f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...`, `{PROG} tune ...`, `{PROG} collect ...` and "
+        f"`{PROG} replay FILE.h5` (each with --help)."
     )
 
 

@@ -12,13 +12,20 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
-from judo.core.config import require
-from judo.core.sensors import parse_per_type
+from judo.core.config import require, require_between
+from judo.core.sensors import DEFAULT_KEY, parse_per_type
 from judo.runtime.sensing import PerType
 from judo.runtime.session import Sensing
 
 PER_TYPE_FLAGS = ("--sensor-noise", "--sensor-delay-ms", "--sensor-rate-hz")
 """Flags that may be repeated, each value NUMBER or TYPE=NUMBER (e.g. --sensor-rate-hz framepos=30)."""
+FLAG_BOUNDS: dict[str, tuple[float, float, str]] = {
+    "--sensor-noise": (0, 100, " (a std in the sensor's unit: m, rad, m/s, rad/s, m/s^2)"),
+    "--sensor-delay-ms": (0, 10_000, " ms"),
+    "--sensor-rate-hz": (0.1, 1_000_000, " Hz"),
+}
+"""flag -> (lowest, highest, unit) of each of its values: a finite std no sensor exceeds (100 m/s^2 is 10 g), a
+delay up to 10 s, a rate of one sample per 10 s up to 1 MHz. Beyond them a value is a typo, not a sensor."""
 
 
 @dataclass(kw_only=True)
@@ -36,13 +43,14 @@ class SensingFlags:
     sensor_rate_hz: tuple[str, ...] = ()
     """Samples per second: HZ, or TYPE=HZ (e.g. framepos=30); every plant step when not given; repeatable."""
     estimator: str | None = None
-    """Registered estimator between the readings and the plan (ekf, ukf, state, ...); ekf by default with
-    --observe sensors, none (the true state as it is) with --observe state."""
+    """Registered estimator between the readings and the plan (ekf, ukf, state, ...). By default the task's own
+    with --observe sensors (ukf for walker and leap_cube, else ekf), none (the true state as it is) with
+    --observe state."""
 
     def sensor_settings(self) -> dict[str, PerType]:
         """{"noise": std, "delay": seconds, "rate": Hz} from the per-type flags, each None when not given, a
-        float, or {type: value} (ConfigError for a value that is not a number or a setting without
-        --observe sensors)."""
+        float, or {type: value} (ConfigError for a value that is not a number, one outside FLAG_BOUNDS, or a
+        setting without --observe sensors)."""
         given = [flag for flag, values in zip(PER_TYPE_FLAGS, self.per_type_values(), strict=True) if values]
         require(
             not given or self.observe == "sensors",
@@ -52,6 +60,11 @@ class SensingFlags:
             parse_per_type(values, flag) if values else None
             for flag, values in zip(PER_TYPE_FLAGS, self.per_type_values(), strict=True)
         )
+        for flag, setting in zip(PER_TYPE_FLAGS, (noise, delay_ms, rate), strict=True):
+            low, high, unit = FLAG_BOUNDS[flag]
+            per_type = setting if isinstance(setting, dict) else {DEFAULT_KEY: setting} if setting is not None else {}
+            for key, value in per_type.items():
+                require_between(flag if key == DEFAULT_KEY else f"{flag} {key}", value, low, high, unit)
         delay = {key: value / 1e3 for key, value in delay_ms.items()} if isinstance(delay_ms, dict) else delay_ms
         delay = delay / 1e3 if isinstance(delay, float) else delay
         return {"noise": noise, "delay": delay, "rate": rate}

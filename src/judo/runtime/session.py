@@ -123,7 +123,7 @@ def build_session(
 
     `sensing` says how a new simulated plant is observed (observe="sensors" wraps it in a SensedSystem whose
     noise draws from [seed, SENSING_STREAM]) and which estimator the closed loop runs: the named one, else
-    "ekf" when the plant's first reading has no full state, else none (plan from the reading as it is).
+    the task's `default_estimator` when the plant's first reading has no full state, else none (plan from the reading as it is).
     `reading` is the given `system`'s latest reading, when another thread is driving it (a switch); None
     reads it here. Raises UnknownNameError for an unregistered name and ConfigError for configs that do not
     work together (e.g. observing sensors on a task that declares none, or an estimator that cannot fuse
@@ -167,8 +167,9 @@ def observed_plant(task: Task, seed: int | None, sensing: Sensing) -> MujocoSyst
 def choose_estimator(
     task: Task, task_name: str, system: System, sensing: Sensing, reading: SystemState | None = None
 ) -> tuple[str | None, Estimator | None]:
-    """(name, estimator) between `system`'s readings and the plan: `sensing.estimator`, else "ekf" for a
-    plant whose readings have no full state, else (None, None) (plan from the reading as it is).
+    """(name, estimator) between `system`'s readings and the plan: `sensing.estimator`, else the task's
+    `default_estimator` for a plant whose readings have no full state, else (None, None) (plan from the reading
+    as it is).
 
     `reading` is the plant's latest reading when another thread drives it; None reads it here. ConfigError
     when the estimator cannot fuse the plant's readings.
@@ -178,11 +179,17 @@ def choose_estimator(
         reading = system.read_state()
     if name is None and not isinstance(system, MujocoSystem):  # the simulator reads its full state
         assert reading is not None
-        name = default_estimator_name(reading)
+        name = default_estimator_name(reading, task)
         name = None if name == "state" else name
     if name is None:
         return None, None
     assert reading is not None
+    config_cls = lookup_estimator(name)[1]
+    if sensing.estimator is None and not isinstance(sensing.estimator_config, (config_cls, type(None))):
+        raise ConfigError(  # a config given for another filter than the task's default
+            f"estimator_config is a {type(sensing.estimator_config).__name__}, but {task_name}'s default "
+            f"estimator {name!r} takes a {config_cls.__name__}; name the estimator it is for (estimator=...)"
+        )
     estimator = make_estimator(name, task, sensing.estimator_config, task_name)
     check_estimator(name, estimator, reading)
     return name, estimator

@@ -1,13 +1,15 @@
 """Ray for tune and collect: start a local Ray, or join a running cluster, and submit trials as Ray tasks.
 
 Ray runs offline: no usage statistics and no dashboard. `address` None starts a local Ray with
-`workers` CPUs; "auto" joins the cluster started on this machine with `ray start --head`;
+`workers` CPUs, listening on 127.0.0.1 only (as the GUI does); "auto" joins the cluster started on this machine with `ray start --head`;
 "HOST:PORT" or "ray://HOST:PORT" joins a remote one. Every episode of a trial (a condition x a seed)
 is a task needing one CPU, so a cluster runs as many episodes at once as it has CPUs.
 """
 
 import os
 import socket
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -21,6 +23,8 @@ CONNECT_TIMEOUT_S = 5.0
 """How long to try reaching a cluster's address before giving up."""
 WAIT_SLICE_S = 0.5
 """How long one `ray.wait` may block before a pending Ctrl-C is checked."""
+LOCAL_RAY_HOST = "127.0.0.1"
+"""The address a local Ray (no --address) listens on: this machine only, as the GUI by default."""
 
 
 class RayClusterError(JudoError):
@@ -61,15 +65,35 @@ def start_ray(address: str | None, workers: int) -> bool:
         return False
     options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
     if address is None:
-        options.update(num_cpus=workers, runtime_env=local_runtime_env())
+        options.update(num_cpus=workers, runtime_env=local_runtime_env(), _node_ip_address=LOCAL_RAY_HOST)
     try:
-        ray.init(address=address, **options)
+        with _on_loopback(address is None):
+            ray.init(address=address, **options)
     except (ConnectionError, RuntimeError, ValueError) as err:
         raise RayClusterError(
             f"could not {'start a local Ray' if address is None else f'join the Ray cluster at {address!r}'}: "
             f"{str(err).splitlines()[0]}. For a cluster, start it with `ray start --head` first"
         ) from None
     return True
+
+
+@contextmanager
+def _on_loopback(local: bool) -> Iterator[None]:
+    """While a local Ray starts (`local`), let it keep 127.0.0.1 as its node address, so that its GCS, raylet and
+    workers listen there only. Ray turns a node address of 127.0.0.1 into the machine's network address unless
+    its cluster support is off (`ray_constants.ENABLE_RAY_CLUSTER`, as Ray has it on macOS and Windows); it is off
+    for the start alone and restored after, so a later `--address` joins a cluster as before."""
+    constants = None
+    if local:
+        from ray._private import ray_constants as constants  # no public switch: see tests/tuning/test_local_ray.py
+    saved = getattr(constants, "ENABLE_RAY_CLUSTER", None)
+    if saved is not None:
+        constants.ENABLE_RAY_CLUSTER = False  # type: ignore[union-attr]
+    try:
+        yield
+    finally:
+        if saved is not None:
+            constants.ENABLE_RAY_CLUSTER = saved  # type: ignore[union-attr]
 
 
 def local_runtime_env() -> dict[str, Any]:

@@ -22,7 +22,7 @@ from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.goal_handles import GoalHandles
 from judo.runtime.gui.plots import Plots, estimation_error
 from judo.runtime.gui.scene import SceneView
-from judo.runtime.gui.server import start_server
+from judo.runtime.gui.server import gui_url, start_server
 
 SENT_POSES_KEPT = 400
 """Camera poses sent to the pages that a late camera report is matched against (a few seconds' worth)."""
@@ -69,9 +69,7 @@ class Gui:
     @property
     def url(self) -> str:
         """Where a browser finds the GUI."""
-        host = self.server.get_host()
-        host = "localhost" if host in ("0.0.0.0", "::") else f"[{host}]" if ":" in host else host
-        return f"http://{host}:{self.server.get_port()}" + (f"/{self.token}" if self.token else "")
+        return gui_url(self.server, self.token)
 
     @property
     def shown_generation(self) -> int:

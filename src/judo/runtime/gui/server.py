@@ -81,6 +81,14 @@ def start_server(host: str, port: int, *, token: str | None, share: bool, label:
     return server
 
 
+def gui_url(server: viser.ViserServer, token: str | None) -> str:
+    """Where a browser finds `server`'s GUI: http://HOST:PORT, then /TOKEN when it has one (every interface,
+    0.0.0.0 or ::, is shown as localhost; an IPv6 address in brackets)."""
+    host = server.get_host()
+    host = "localhost" if host in ("0.0.0.0", "::") else f"[{host}]" if ":" in host else host
+    return f"http://{host}:{server.get_port()}" + (f"/{token}" if token else "")
+
+
 def _refuse_share(client_id: int, message: object) -> None:
     logger.warning(
         "client %d asked for a public share URL; refused (start the app with --share to allow it)", client_id

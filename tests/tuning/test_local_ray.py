@@ -1,0 +1,36 @@
+"""The local Ray that collect, evaluate --workers and tune start (`start_ray` without --address) listens on
+127.0.0.1 only, as the GUI does, runs tasks there, and leaves Ray's cluster support as it found it."""
+
+import os
+
+import pytest
+
+from judo.tuning import cluster
+
+ray = pytest.importorskip("ray")
+psutil = pytest.importorskip("psutil")  # a dependency of ray
+
+
+def listening_addresses() -> set[str]:
+    """The IP addresses that this process and its children (Ray's GCS, raylet and workers) listen on."""
+    processes = [psutil.Process(), *psutil.Process().children(recursive=True)]
+    found = set()
+    for process in processes:
+        try:
+            connections = process.net_connections(kind="inet")
+        except (psutil.NoSuchProcess, psutil.AccessDenied):
+            continue
+        found |= {c.laddr.ip for c in connections if c.status == psutil.CONN_LISTEN}
+    return found
+
+
+def test_a_local_ray_listens_on_loopback_only_and_runs_tasks(local_ray):
+    from ray._private import ray_constants
+
+    assert ray_constants.ENABLE_RAY_CLUSTER  # restored once the local Ray started (a cluster is joined as before)
+    assert ray.get_runtime_context().gcs_address.startswith("127.0.0.1:")
+    assert {node["NodeManagerAddress"] for node in ray.nodes()} == {"127.0.0.1"}
+    assert ray.get(cluster.submit(lambda: os.getpid())) != os.getpid()  # a task ran, in a worker of that Ray
+    addresses = listening_addresses()
+    assert addresses, "no listening socket found for Ray's processes"
+    assert addresses <= {"127.0.0.1", "::ffff:127.0.0.1"}, addresses
