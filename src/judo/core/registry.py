@@ -9,6 +9,7 @@ from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.estimator import Estimator, EstimatorConfig
 from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.policy import Policy
 from judo.core.task import Task, TaskConfig
 
 ConfigKind = Literal["controller", "optimizer", "task"]
@@ -145,12 +146,14 @@ def make_controller(
     num_workers: int | None = None,
     seed: int | None = None,
     backend: str = "cpu",
+    proposal_policy: Policy | None = None,
 ) -> Controller:
     """A Controller for the registered task and optimizer, with that task's overrides applied.
 
     Configs passed in are used as they are. `seed` seeds the optimizer's and the task's generators
     (ConfigError unless it is an integer from 0 to 2**63 - 1). `backend` names the rollout backend
-    ("cpu" threads or "warp" for MuJoCo Warp; see ROLLOUT_BACKENDS).
+    ("cpu" threads or "warp" for MuJoCo Warp; see ROLLOUT_BACKENDS). `proposal_policy` makes the candidates
+    that `controller_config.policy_samples` asks for (judo.core.proposals).
     """
     check_seed(seed)
     task_cls, task_config_cls = lookup_task(task_name)
@@ -163,4 +166,4 @@ def make_controller(
     if seed is not None:
         optimizer.rng = np.random.default_rng(seed)
         task.rng = np.random.default_rng(seed + 1)
-    return Controller(controller_config, task, optimizer, num_workers, backend)  # type: ignore[arg-type]
+    return Controller(controller_config, task, optimizer, num_workers, backend, proposal_policy)  # type: ignore[arg-type]

@@ -1,0 +1,187 @@
+"""The policy as a proposal (generative predictive control): some of an update's candidates come from a policy.
+
+With `ControllerConfig.policy_samples` K > 0, every optimizer iteration overwrites the last K of the
+optimizer's N sampled knot sequences with candidates made from the controller's `proposal_policy`, before the
+clamp and the rollouts, so the optimizer scores and ranks them with its own:
+
+  - a chunk policy (horizon H > 1) gives knots directly: its chunk is read as H values evenly spaced over the
+    planning horizon, which is the plan's knots when H == num_nodes and is otherwise interpolated linearly
+    onto the num_nodes knot times;
+  - an action policy (H = 1) is rolled out in closed loop on the planning model from the current state (T
+    steps, one batched `act` per step for all K rollouts, then one at the final state for the horizon's end),
+    and its T + 1 actions are fitted to the knots by least squares on the spline's weights.
+
+The policy runs once per update, on K copies of the observation: a generative (stochastic) policy gives K
+samples, a deterministic one K equal ones. Candidate 0 goes in as it is; candidate j >= 1 is moved by the
+perturbation the optimizer drew for the row it replaces (that row minus the nominal, row 0), so the copies of
+a deterministic policy explore around it with the optimizer's own current spread (CEM's sigma, DIAL's
+annealing, CMA-ES's covariance) and no new setting. Nothing here draws from the optimizer's generator, so
+the other N - K candidates are the same draws, bit for bit, as the same seed's without proposals.
+
+What the policy sees is the task's `policy_observation(states, sensors, system_metadata)` when it has one,
+else the state [qpos, qvel] itself.
+"""
+
+from typing import Any
+
+import mujoco
+import mujoco.rollout
+import numpy as np
+
+from judo.core.errors import ConfigError
+from judo.core.model import STATE_SPEC
+from judo.core.policy import Policy
+from judo.core.spline import SplineBasis
+from judo.core.task import Task
+
+CONTROL_SPEC = mujoco.mjtState.mjSTATE_CTRL
+MOCAP_CONTROL_SPEC = CONTROL_SPEC | mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT
+
+
+def policy_observations(
+    task: Task, states: np.ndarray, sensors: np.ndarray, system_metadata: dict[str, Any] | None
+) -> np.ndarray:
+    """(B, observation_size): the task's `policy_observation` of (B, nq + nv) `states` and (B, nsensordata)
+    `sensors` when it has one, else the states themselves."""
+    observe = getattr(task, "policy_observation", None)
+    if observe is None:
+        return states
+    return np.asarray(observe(states, sensors, system_metadata), dtype=float)
+
+
+def chunk_to_knots(chunks: np.ndarray, knot_offsets: np.ndarray) -> np.ndarray:
+    """(K, num_nodes, nu) knots from (K, H, nu) chunks whose H values lie evenly over [0, knot_offsets[-1]]:
+    the chunks themselves when H == num_nodes, else their linear interpolation at the (num_nodes,) offsets."""
+    horizon = chunks.shape[1]
+    if horizon == len(knot_offsets):
+        return chunks
+    chunk_times = np.linspace(0.0, knot_offsets[-1], horizon)
+    return SplineBasis(chunk_times, "linear").weights(knot_offsets) @ chunks
+
+
+def fit_times(num_steps: int, dt: float, horizon: float) -> np.ndarray:
+    """(T + 1,) times of a closed-loop rollout's actions: each step's start, j * dt, then the horizon's end."""
+    return np.append(np.arange(num_steps) * dt, horizon)
+
+
+def fit_matrix(basis: SplineBasis, num_steps: int, dt: float) -> np.ndarray:
+    """(num_nodes, T + 1) least-squares map from actions at `fit_times` to the knots of `basis` whose spline
+    is closest to them: the pseudo-inverse of the spline's (T + 1, num_nodes) weights at those times (a knot
+    no time weighs, too few steps per knot, gets the minimum-norm value 0)."""
+    return np.linalg.pinv(basis.weights(fit_times(num_steps, dt, basis.knot_times[-1])))
+
+
+def insert_proposals(knots: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+    """Overwrite the last K rows of the (N, num_nodes, nu) `knots` in place with the (K, num_nodes, nu)
+    `candidates`: candidate 0 as it is, candidate j >= 1 plus the replaced row's offset from row 0 (the
+    nominal). Returns the (K,) replaced rows."""
+    num_rollouts, count = len(knots), len(candidates)
+    rows = np.arange(num_rollouts - count, num_rollouts)
+    offsets = knots[rows[1:]] - knots[0]
+    knots[rows[0]] = candidates[0]
+    knots[rows[1:]] = candidates[1:] + offsets
+    return rows
+
+
+class Proposer:
+    """Makes a proposal policy's candidates for a controller, once per update (see the module docstring).
+
+    Holds what it reuses between updates: an MjData for the initial sensors, a rollout runner, and the
+    least-squares fit matrix of the spline layout in force.
+    """
+
+    def __init__(self, task: Task) -> None:
+        self.task = task
+        model = task.model
+        self._data = mujoco.MjData(model)
+        self._runner = mujoco.rollout.Rollout(nthread=0)
+        self._num_state = model.nq + model.nv
+        self._fit_key: tuple | None = None
+        self._fit = np.zeros((0, 0))
+        self._checked: tuple[int, int] | None = None
+
+    def check(self, policy: Policy | None, count: int) -> None:
+        """ConfigError (one line) when `count` > 0 proposals are asked for and there is no `policy`; PolicyError
+        unless a `policy` takes the task's observations to its nu controls (checked once per policy)."""
+        if count and policy is None:
+            raise ConfigError(
+                f"policy_samples is {count} but the controller has no proposal policy; give one "
+                "(make_controller(..., proposal_policy=...), evaluate --proposal-policy FILE.onnx) or set it to 0"
+            )
+        if policy is None or self._checked == (id(policy), self.task.nu):
+            return
+        model = self.task.model
+        state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])[None]
+        observation = policy_observations(self.task, state, np.zeros((1, model.nsensordata)), None)
+        policy.check_fits(None, observation.shape[-1], self.task.nu)
+        self._checked = (id(policy), self.task.nu)
+
+    def candidates(
+        self,
+        policy: Policy | None,
+        count: int,
+        initial_state: np.ndarray,
+        initial_mocap: np.ndarray,
+        basis: SplineBasis,
+        num_steps: int,
+        system_metadata: dict[str, Any] | None,
+    ) -> np.ndarray | None:
+        """(count, num_nodes, nu) the policy's candidate knots from the full physics `initial_state` (nstate,)
+        with mocap poses `initial_mocap` (7 nmocap,), for the spline `basis` over `num_steps` steps; not clamped.
+        None when `count` is 0; ConfigError when it is not and there is no policy (see `check`)."""
+        self.check(policy, count)
+        if not count or policy is None:
+            return None
+        model, data = self.task.model, self._data
+        mujoco.mj_setState(model, data, initial_state, STATE_SPEC)
+        data.mocap_pos[:] = initial_mocap[: 3 * model.nmocap].reshape(-1, 3)
+        data.mocap_quat[:] = initial_mocap[3 * model.nmocap :].reshape(-1, 4)
+        mujoco.mj_forward(model, data)
+        states = np.tile(initial_state[1 : 1 + self._num_state], (count, 1))
+        sensors = np.tile(data.sensordata, (count, 1))
+        observations = policy_observations(self.task, states, sensors, system_metadata)
+        if policy.horizon > 1:
+            return chunk_to_knots(policy.checked_act(observations), basis.knot_times)
+        actions = self._closed_loop(
+            policy, count, initial_state, initial_mocap, num_steps, observations, system_metadata
+        )
+        key = (tuple(basis.knot_times), basis.order, num_steps, self.task.dt)
+        if key != self._fit_key:
+            self._fit, self._fit_key = fit_matrix(basis, num_steps, self.task.dt), key
+        return np.einsum("nt,kta->kna", self._fit, actions)
+
+    def _closed_loop(
+        self,
+        policy: Policy,
+        count: int,
+        initial_state: np.ndarray,
+        initial_mocap: np.ndarray,
+        num_steps: int,
+        observations: np.ndarray,
+        system_metadata: dict[str, Any] | None,
+    ) -> np.ndarray:
+        """(count, T + 1, nu) the action policy's actions along `count` closed-loop rollouts of T steps on the
+        planning model, clamped to the ctrlrange as the plant would get them, and its action at the end."""
+        model, nu = self.task.model, self.task.nu
+        low, high = self.task.actuator_ctrlrange.T
+        actions = np.zeros((count, num_steps + 1, nu))
+        current = np.tile(initial_state, (count, 1))
+        inputs = np.zeros((count, 1, nu + 7 * model.nmocap))
+        inputs[:, 0, nu:] = initial_mocap  # rollout resets mocap poses unless they are inputs
+        spec = MOCAP_CONTROL_SPEC if model.nmocap else CONTROL_SPEC
+        models = [model] * count  # skip_checks wants one per rollout
+        state_out = np.zeros((count, 1, len(initial_state)))
+        sensor_out = np.zeros((count, 1, model.nsensordata))
+        for step in range(num_steps + 1):
+            actions[:, step] = np.clip(policy.checked_act(observations)[:, 0], low, high)
+            if step == num_steps:
+                break
+            inputs[:, 0, :nu] = actions[:, step]
+            self._runner.rollout(
+                models, [self._data], current, inputs, control_spec=spec, skip_checks=True,
+                nstep=1, state=state_out, sensordata=sensor_out,
+            )  # fmt: skip
+            current = state_out[:, 0].copy()
+            states = current[:, 1 : 1 + self._num_state]
+            observations = policy_observations(self.task, states, sensor_out[:, 0], system_metadata)
+        return actions
