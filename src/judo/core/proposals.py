@@ -22,6 +22,7 @@ What the policy sees is the task's `policy_observation(states, sensors, system_m
 else the state [qpos, qvel] itself.
 """
 
+import warnings
 from typing import Any
 
 import mujoco
@@ -30,7 +31,7 @@ import numpy as np
 
 from judo.core.errors import ConfigError
 from judo.core.model import STATE_SPEC
-from judo.core.policy import Policy
+from judo.core.policy import Policy, PolicyError
 from judo.core.spline import SplineBasis
 from judo.core.task import Task
 
@@ -83,11 +84,25 @@ def insert_proposals(knots: np.ndarray, candidates: np.ndarray) -> np.ndarray:
     return rows
 
 
+def check_policy_fits(task: Task, policy: Policy, task_name: str | None = None) -> None:
+    """PolicyError (one line, naming both sides) unless `policy` was made for `task_name` (when both say) and
+    takes the observations `policy_observations` makes for `task` to its nu controls."""
+    model = task.model
+    state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])[None]
+    observation = policy_observations(task, state, np.zeros((1, model.nsensordata)), None)
+    policy.check_fits(task_name, observation.shape[-1], task.nu)
+
+
 class Proposer:
     """Makes a proposal policy's candidates for a controller, once per update (see the module docstring).
 
     Holds what it reuses between updates: an MjData for the initial sensors, a rollout runner, and the
-    least-squares fit matrix of the spline layout in force.
+    least-squares fit matrix of the spline layout in force. A policy that fails during an update (raises
+    PolicyError: non-finite actions, another shape) costs that update its proposals, not its plan: the
+    optimizer's own N samples run, a RuntimeWarning says why, and `last_error` keeps the message.
+
+    Attributes:
+        last_error: why the last update went without proposals, or None when it had them (or asked for none).
     """
 
     def __init__(self, task: Task) -> None:
@@ -99,6 +114,7 @@ class Proposer:
         self._fit_key: tuple | None = None
         self._fit = np.zeros((0, 0))
         self._checked: tuple[int, int] | None = None
+        self.last_error: str | None = None
 
     def check(self, policy: Policy | None, count: int) -> None:
         """ConfigError (one line) when `count` > 0 proposals are asked for and there is no `policy`; PolicyError
@@ -110,10 +126,7 @@ class Proposer:
             )
         if policy is None or self._checked == (id(policy), self.task.nu):
             return
-        model = self.task.model
-        state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])[None]
-        observation = policy_observations(self.task, state, np.zeros((1, model.nsensordata)), None)
-        policy.check_fits(None, observation.shape[-1], self.task.nu)
+        check_policy_fits(self.task, policy)
         self._checked = (id(policy), self.task.nu)
 
     def candidates(
@@ -130,8 +143,26 @@ class Proposer:
         with mocap poses `initial_mocap` (7 nmocap,), for the spline `basis` over `num_steps` steps; not clamped.
         None when `count` is 0; ConfigError when it is not and there is no policy (see `check`)."""
         self.check(policy, count)
+        self.last_error = None
         if not count or policy is None:
             return None
+        try:
+            return self._candidates(policy, count, initial_state, initial_mocap, basis, num_steps, system_metadata)
+        except PolicyError as err:
+            self.last_error = str(err)
+            warnings.warn(f"this update runs without proposals: {err}", RuntimeWarning, stacklevel=3)
+            return None
+
+    def _candidates(
+        self,
+        policy: Policy,
+        count: int,
+        initial_state: np.ndarray,
+        initial_mocap: np.ndarray,
+        basis: SplineBasis,
+        num_steps: int,
+        system_metadata: dict[str, Any] | None,
+    ) -> np.ndarray:
         model, data = self.task.model, self._data
         mujoco.mj_setState(model, data, initial_state, STATE_SPEC)
         data.mocap_pos[:] = initial_mocap[: 3 * model.nmocap].reshape(-1, 3)

@@ -10,6 +10,7 @@ from judo.core.errors import JudoError, UnknownNameError
 from judo.core.estimator import Estimator, EstimatorConfig
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.policy import Policy
+from judo.core.proposals import check_policy_fits
 from judo.core.task import Task, TaskConfig
 
 ConfigKind = Literal["controller", "optimizer", "task"]
@@ -163,6 +164,8 @@ def make_controller(
     controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)  # type: ignore[assignment]
     optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)  # type: ignore[assignment]
     optimizer = optimizer_cls(optimizer_config, task.nu)
+    if proposal_policy is not None:
+        check_policy_fits(task, proposal_policy, task_name)  # names the task, which the Controller cannot
     if seed is not None:
         optimizer.rng = np.random.default_rng(seed)
         task.rng = np.random.default_rng(seed + 1)
