@@ -220,7 +220,9 @@ def test_a_failing_policy_costs_the_update_its_proposals_not_its_plan(tiny_model
     policy = ConstantPolicy(np.nan, 1)
     controller = make(UprightTask(tiny_model_path), "ps", 3, policy)
     plain = update(make(UprightTask(tiny_model_path), "ps"))
-    with pytest.warns(RuntimeWarning, match="this update runs without proposals: policy 'constant' returned non-finite"):
+    with pytest.warns(
+        RuntimeWarning, match="this update runs without proposals: policy 'constant' returned non-finite"
+    ):
         rewards, controls, _ = update(controller)
     np.testing.assert_array_equal(controls, plain[1])  # the optimizer's own N samples
     assert controller._proposer.last_error == "policy 'constant' returned non-finite actions"
