@@ -13,9 +13,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from judo.core.config import Config
+from judo.core.config import Config, require
 from judo.core.controller import Controller
 from judo.core.errors import JudoError
+from judo.core.policy import Policy
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
 from judo.runtime.records import Recorder
 from judo.runtime.sensing import SensedSystem
@@ -44,6 +45,8 @@ class EpisodeSpec:
             fight for cores).
         sensing: how the plant is observed (--observe, --sensor-*) and the estimator between its readings and
             the plan (--estimator); the full state as it is by default.
+        proposal_policy: an .onnx file whose policy makes the controller's `policy_samples` candidates
+            (judo.core.proposals), or None.
     """
 
     task: str
@@ -55,6 +58,7 @@ class EpisodeSpec:
     backend: str = "cpu"
     num_workers: int | None = 1
     sensing: Sensing = field(default_factory=Sensing)
+    proposal_policy: str | None = None
 
 
 def load_config_once(path: str | None) -> None:
@@ -107,12 +111,28 @@ def run_seeded_episode(
         num_workers=spec.num_workers,
         seed=seed,
         backend=spec.backend,
+        proposal_policy=load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples),  # type: ignore[attr-defined]
     ) as controller:
         controller.task.config = configs["task"]
         system = observed_plant(controller.task, seed, spec.sensing)
         _, estimator = choose_estimator(controller.task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
         return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
+
+
+def load_proposal_policy(path: str | None, policy_samples: int) -> Policy | None:
+    """The OnnxPolicy in the file at `path` (None for None); ConfigError when there is a file but `policy_samples`
+    in force is 0, so that it would never be used."""
+    if path is None:
+        return None
+    require(
+        policy_samples > 0,
+        f"--proposal-policy {path} is given but policy_samples is 0, so it would never be used; set "
+        "--controller.policy-samples K (1 to num_rollouts - 1)",
+    )
+    from judo.core.onnx_policy import OnnxPolicy  # onnxruntime only when a policy is asked for
+
+    return OnnxPolicy(path)
 
 
 def plant_of(system: MujocoSystem | SensedSystem) -> MujocoSystem:
