@@ -176,3 +176,13 @@ def test_estimation_prints_the_closed_loop_table_and_the_ekf_cost():
     assert "seeds 2-2" in result.stdout and "latency 10 ms" in result.stdout
     assert "EKF and UKF on leap_cube" in result.stdout and "relinearize_every" in result.stdout
     assert any(line.split()[:1] == ["ukf"] for line in result.stdout.splitlines())  # the UKF's cost row
+
+
+def test_proposals_prints_a_row_per_rollout_count_and_policy_samples():
+    small = ["--optimizers", "ps", "--seeds", "1", "--duration", "0.3", "--num-workers", "1", "--num-rollouts", "16"]
+    result = run_script("proposals.py", *small, "--policy-samples", "1")
+    assert result.returncode == 0, result.stderr
+    out = " ".join(result.stdout.split())  # rich wraps long lines
+    assert "cartpole: proposals from an LQR law holding the cart at 0.2 m, seeds 100-100 x 0.3 s" in out
+    for rollouts, samples in (("16", "0"), ("16", "1"), ("2", "0"), ("2", "1")):
+        assert f"│ ps │ {rollouts} │ {samples} │" in out

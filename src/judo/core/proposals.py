@@ -204,7 +204,7 @@ class Proposer:
         state_out = np.zeros((count, 1, len(initial_state)))
         sensor_out = np.zeros((count, 1, model.nsensordata))
         for step in range(num_steps + 1):
-            actions[:, step] = np.clip(policy.checked_act(observations)[:, 0], low, high)
+            np.minimum(np.maximum(policy.checked_act(observations)[:, 0], low), high, out=actions[:, step])
             if step == num_steps:
                 break
             inputs[:, 0, :nu] = actions[:, step]
