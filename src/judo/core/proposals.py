@@ -108,8 +108,8 @@ class Proposer:
     def __init__(self, task: Task) -> None:
         self.task = task
         model = task.model
-        self._data = mujoco.MjData(model)
-        self._runner = mujoco.rollout.Rollout(nthread=0)
+        self._data: mujoco.MjData | None = None  # made at the first proposal: most controllers never propose
+        self._runner: mujoco.rollout.Rollout | None = None
         self._num_state = model.nq + model.nv
         self._fit_key: tuple | None = None
         self._fit = np.zeros((0, 0))
@@ -163,7 +163,11 @@ class Proposer:
         num_steps: int,
         system_metadata: dict[str, Any] | None,
     ) -> np.ndarray:
-        model, data = self.task.model, self._data
+        model = self.task.model
+        data = self._data
+        if data is None:
+            data = self._data = mujoco.MjData(model)
+            self._runner = mujoco.rollout.Rollout(nthread=0)
         mujoco.mj_setState(model, data, initial_state, STATE_SPEC)
         data.mocap_pos[:] = initial_mocap[: 3 * model.nmocap].reshape(-1, 3)
         data.mocap_quat[:] = initial_mocap[3 * model.nmocap :].reshape(-1, 4)
@@ -208,7 +212,7 @@ class Proposer:
             if step == num_steps:
                 break
             inputs[:, 0, :nu] = actions[:, step]
-            self._runner.rollout(
+            self._runner.rollout(  # type: ignore[union-attr]
                 models, [self._data], current, inputs, control_spec=spec, skip_checks=True,
                 nstep=1, state=state_out, sensordata=sensor_out,
             )  # fmt: skip
