@@ -226,3 +226,28 @@ def test_a_failing_policy_costs_the_update_its_proposals_not_its_plan(tiny_model
         rewards, controls, _ = update(controller)
     np.testing.assert_array_equal(controls, plain[1])  # the optimizer's own N samples
     assert controller._proposer.last_error == "policy 'constant' returned non-finite actions"
+
+
+class ObservedTask(UprightTask):
+    """A task with its own policy observation: the state and the previous action (O = nq + nv + nu)."""
+
+    def policy_observation(self, states, sensors, system_metadata=None, previous_actions=None):
+        return np.concatenate([states, previous_actions], axis=1)
+
+
+class RampPolicy(judo.Policy):
+    """Its previous action plus 0.01: a ramp in time, which a linear spline follows exactly."""
+
+    def __init__(self) -> None:
+        self.observation_size, self.action_size, self.horizon = 5, 1, 1
+        self.metadata = {}
+
+    def act(self, observations):
+        return observations[:, None, 4:5] + 0.01
+
+
+def test_the_task_s_policy_observation_gets_the_previous_action(tiny_model_path):
+    with make(ObservedTask(tiny_model_path), "ps", 1, RampPolicy()) as controller:
+        controller.update_action(np.array([0.0, 0.4, 0.0, 0.0]), 0.0)  # the warm start serves 0 now
+        times = np.arange(controller.num_steps) * controller.task.dt
+        np.testing.assert_allclose(controller.batch_controls[-1, :, 0], 0.01 + times, rtol=0, atol=1e-12)

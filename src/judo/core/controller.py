@@ -268,6 +268,7 @@ class Controller:
             self._basis,
             self.num_steps,
             system_metadata,
+            nominal[0],  # the action served now
         )
 
         for _ in range(self.config.max_opt_iters):

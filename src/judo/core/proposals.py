@@ -40,14 +40,18 @@ MOCAP_CONTROL_SPEC = CONTROL_SPEC | mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.m
 
 
 def policy_observations(
-    task: Task, states: np.ndarray, sensors: np.ndarray, system_metadata: dict[str, Any] | None
+    task: Task,
+    states: np.ndarray,
+    sensors: np.ndarray,
+    system_metadata: dict[str, Any] | None,
+    previous_actions: np.ndarray,
 ) -> np.ndarray:
-    """(B, observation_size): the task's `policy_observation` of (B, nq + nv) `states` and (B, nsensordata)
-    `sensors` when it has one, else the states themselves."""
+    """(B, observation_size): the task's `policy_observation` of (B, nq + nv) `states`, (B, nsensordata)
+    `sensors` and (B, nu) `previous_actions` when it has one, else the states themselves."""
     observe = getattr(task, "policy_observation", None)
     if observe is None:
         return states
-    return np.asarray(observe(states, sensors, system_metadata), dtype=float)
+    return np.asarray(observe(states, sensors, system_metadata, previous_actions), dtype=float)
 
 
 def chunk_to_knots(chunks: np.ndarray, knot_offsets: np.ndarray) -> np.ndarray:
@@ -87,9 +91,13 @@ def insert_proposals(knots: np.ndarray, candidates: np.ndarray) -> np.ndarray:
 def check_policy_fits(task: Task, policy: Policy, task_name: str | None = None) -> None:
     """PolicyError (one line, naming both sides) unless `policy` was made for `task_name` (when both say) and
     takes the observations `policy_observations` makes for `task` to its nu controls."""
+    size_of = getattr(task, "policy_observation_size", None)
+    if size_of is not None:
+        policy.check_fits(task_name, int(size_of()), task.nu)
+        return
     model = task.model
     state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])[None]
-    observation = policy_observations(task, state, np.zeros((1, model.nsensordata)), None)
+    observation = policy_observations(task, state, np.zeros((1, model.nsensordata)), None, np.zeros((1, task.nu)))
     policy.check_fits(task_name, observation.shape[-1], task.nu)
 
 
@@ -138,16 +146,20 @@ class Proposer:
         basis: SplineBasis,
         num_steps: int,
         system_metadata: dict[str, Any] | None,
+        previous_action: np.ndarray,
     ) -> np.ndarray | None:
         """(count, num_nodes, nu) the policy's candidate knots from the full physics `initial_state` (nstate,)
         with mocap poses `initial_mocap` (7 nmocap,), for the spline `basis` over `num_steps` steps; not clamped.
-        None when `count` is 0; ConfigError when it is not and there is no policy (see `check`)."""
+        `previous_action` (nu,) is the action the plant gets now (what the policy's first observation holds as
+        its previous action, where the task's observation has one). None when `count` is 0; ConfigError when it
+        is not and there is no policy (see `check`)."""
         self.check(policy, count)
         self.last_error = None
         if not count or policy is None:
             return None
         try:
-            return self._candidates(policy, count, initial_state, initial_mocap, basis, num_steps, system_metadata)
+            start = (initial_state, initial_mocap, np.tile(previous_action, (count, 1)))
+            return self._candidates(policy, count, start, basis, num_steps, system_metadata)
         except PolicyError as err:
             self.last_error = str(err)
             warnings.warn(f"this update runs without proposals: {err}", RuntimeWarning, stacklevel=3)
@@ -157,12 +169,12 @@ class Proposer:
         self,
         policy: Policy,
         count: int,
-        initial_state: np.ndarray,
-        initial_mocap: np.ndarray,
+        start: tuple[np.ndarray, np.ndarray, np.ndarray],
         basis: SplineBasis,
         num_steps: int,
         system_metadata: dict[str, Any] | None,
     ) -> np.ndarray:
+        initial_state, initial_mocap, previous = start
         model = self.task.model
         data = self._data
         if data is None:
@@ -174,7 +186,7 @@ class Proposer:
         mujoco.mj_forward(model, data)
         states = np.tile(initial_state[1 : 1 + self._num_state], (count, 1))
         sensors = np.tile(data.sensordata, (count, 1))
-        observations = policy_observations(self.task, states, sensors, system_metadata)
+        observations = policy_observations(self.task, states, sensors, system_metadata, previous)
         if policy.horizon > 1:
             return chunk_to_knots(policy.checked_act(observations), basis.knot_times)
         actions = self._closed_loop(
@@ -218,5 +230,5 @@ class Proposer:
             )  # fmt: skip
             current = state_out[:, 0].copy()
             states = current[:, 1 : 1 + self._num_state]
-            observations = policy_observations(self.task, states, sensor_out[:, 0], system_metadata)
+            observations = policy_observations(self.task, states, sensor_out[:, 0], system_metadata, actions[:, step])
         return actions
