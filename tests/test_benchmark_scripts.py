@@ -16,7 +16,7 @@ def run_script(*args: str) -> subprocess.CompletedProcess:
         capture_output=True,
         text=True,
         timeout=300,
-        env={**os.environ, "PYTHONPATH": str(ROOT / "src")},
+        env={**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])},
         cwd=ROOT,
     )
 
@@ -176,6 +176,15 @@ def test_estimation_prints_the_closed_loop_table_and_the_ekf_cost():
     assert "seeds 2-2" in result.stdout and "latency 10 ms" in result.stdout
     assert "EKF and UKF on leap_cube" in result.stdout and "relinearize_every" in result.stdout
     assert any(line.split()[:1] == ["ukf"] for line in result.stdout.splitlines())  # the UKF's cost row
+
+
+def test_low_level_policy_prints_update_floor_and_what_batching_buys():
+    small = ["--num-rollouts", "4", "--samples", "1", "--warmup", "0", "--num-workers", "1", "--cpu-time"]
+    result = run_script("low_level_policy.py", *small)
+    assert result.returncode == 0, result.stderr
+    out = " ".join(result.stdout.split())  # rich wraps long lines
+    assert "cartpole_pd x ps: low-level policy inside every rollout" in out and "thread CPU time" in out
+    assert "4 x 100 │ 2 (50) │" in out and "batching buys" in out
 
 
 def test_proposals_prints_a_row_per_rollout_count_and_policy_samples():

@@ -95,3 +95,8 @@ def test_example_03_registers_then_runs_the_app_headless():
     )
     assert result.returncode == 0, result.stderr
     assert "task: swing_high" in result.stdout and "optimizer: greedy_mppi" in result.stdout
+
+
+def test_example_07_low_level_policy_plans_targets_and_balances():
+    metrics = load_example("07_low_level_policy.py").main(duration=4.5)
+    assert metrics["swung_up"] == 1.0 and metrics["balanced_fraction"] > 0.95

@@ -19,11 +19,13 @@ from judo.core.controller import Controller, ControllerConfig, NonFiniteKnotsErr
 from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig
 from judo.core.fields import np_1d_field, slider
+from judo.core.low_level import LowLevel
 from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.onnx_policy import OnnxPolicy
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.policy import Policy, PolicyError
+from judo.core.policy_controller import PolicyController, make_policy_controller
 from judo.core.randomize import InvalidRandomizedModelError
 from judo.core.registry import (
     get_registered_estimators,
@@ -59,6 +61,7 @@ __all__ = [
     "InvalidRandomizedModelError",
     "JudoError",
     "LoadedConfig",
+    "LowLevel",
     "ModelLoadError",
     "MujocoSystem",
     "NonFiniteKnotsError",
@@ -68,6 +71,7 @@ __all__ = [
     "OptimizerConfig",
     "PlanRecord",
     "Policy",
+    "PolicyController",
     "PolicyError",
     "RandomizedRolloutError",
     "Recorder",
@@ -87,6 +91,7 @@ __all__ = [
     "lqr_cost_to_go",
     "make_controller",
     "make_estimator",
+    "make_policy_controller",
     "np_1d_field",
     "quadratic_norm",
     "register_estimator",

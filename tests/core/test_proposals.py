@@ -251,3 +251,20 @@ def test_the_task_s_policy_observation_gets_the_previous_action(tiny_model_path)
         controller.update_action(np.array([0.0, 0.4, 0.0, 0.0]), 0.0)  # the warm start serves 0 now
         times = np.arange(controller.num_steps) * controller.task.dt
         np.testing.assert_allclose(controller.batch_controls[-1, :, 0], 0.01 + times, rtol=0, atol=1e-12)
+
+
+def test_on_a_task_that_plans_low_level_commands_a_chunk_policy_proposes_commands():
+    with pytest.raises(
+        judo.PolicyError,
+        match=r"^policy 'constant' is an action policy, but CartpolePD plans a low-level policy's commands, where "
+        r"only a chunk policy \(horizon > 1\) can propose; its closed loop would bypass the low-level policy$",
+    ):
+        judo.make_controller("cartpole_pd", "ps", proposal_policy=ConstantPolicy(0.0, 1))
+    config = judo.ControllerConfig(horizon=0.3, policy_samples=1)
+    policy = ConstantPolicy(99.0, 3)  # far beyond the command range: clamped to it, like the optimizer's knots
+    with judo.make_controller(
+        "cartpole_pd", "ps", controller_config=config, proposal_policy=policy, num_workers=1
+    ) as c:
+        c.update_action(np.array([0.0, 3.1, 0.0, 0.0]), 0.0)
+        expected = np.full((c.num_steps, 1), c.task.command_range[0, 1])
+        np.testing.assert_allclose(c.batch_controls[-1], expected, rtol=0, atol=1e-12)  # a cubic rounds

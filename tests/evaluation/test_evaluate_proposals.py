@@ -54,8 +54,13 @@ def test_policy_samples_from_a_config_file(tmp_path, policy_file):
             ["--controller.policy-samples", "4", "--proposal-policy", "{policy}", "--task", "acrobot"],
             "error: policy 'law' was made for task 'cartpole', not 'acrobot'",
         ),
+        (
+            ["--controller.policy-samples", "4", "--proposal-policy", "{policy}", "--policy", "{policy}"],
+            "error: --proposal-policy proposes candidates to an optimizer's plan, but --policy drives the plant "
+            "itself; give one",
+        ),
     ],
-    ids=["no-policy", "no-samples", "another-task"],
+    ids=["no-policy", "no-samples", "another-task", "with-policy"],
 )
 def test_one_line_errors(policy_file, capsys, extra, message):
     with pytest.raises(SystemExit) as exit_info:

@@ -62,9 +62,24 @@ def test_stop_cuts_a_long_control_period_short(wait_until):
     wait_until(lambda: judo_threads() == [], timeout=1.0, what="no judo thread left")
 
 
+def in_flight_for(app: App, seconds: float):
+    """A condition for wait_until: one planning cycle has been in flight for `seconds` of wall time, and the
+    plant has run (judo's simulator waits for a cycle that takes more than one control period of sim time)."""
+    seen: list[float] = []
+
+    def condition() -> bool:
+        if app.session.closed_loop.cycle_started is None or app.stats.sim_time() <= 0.0:
+            seen.clear()
+            return False
+        seen[:] = seen or [time.perf_counter()]
+        return time.perf_counter() - seen[0] >= seconds
+
+    return condition
+
+
 def test_stop_ends_a_cycle_of_the_most_optimizer_iterations(wait_until):
     app = started(controller={"max_opt_iters": MAX_OPT_ITERS}, num_rollouts=1024)  # seconds a cycle
-    wait_until(lambda: app.stats.sim_time() > 0.3, what="the plant to run")
+    wait_until(in_flight_for(app, 0.3), what="a planning cycle in flight for 0.3 s")
     assert app.stats.num_plans() == 0  # the first cycle is still iterating
     assert stop_time(app) < STOP_BUDGET
     wait_until(lambda: judo_threads() == [], timeout=3.0, what="the planning thread to end its last iteration")
@@ -73,14 +88,14 @@ def test_stop_ends_a_cycle_of_the_most_optimizer_iterations(wait_until):
 def test_stop_does_not_wait_for_a_slow_user_reward(monkeypatch, wait_until):
     monkeypatch.setitem(registry._TASKS, "slow_cartpole", (SlowRewardCartpole, CartpoleConfig))
     app = started("slow_cartpole", controller={})
-    wait_until(lambda: app.stats.sim_time() > 0.3, what="the plant to run")  # a reward is sleeping now
+    wait_until(in_flight_for(app, 0.3), what="a planning cycle in flight for 0.3 s")  # a reward sleeps now
     assert stop_time(app) < STOP_BUDGET
     wait_until(lambda: judo_threads() == [], timeout=2.0, what="the abandoned reward call to end")
 
 
 def test_stop_abandons_one_huge_batch_of_rollouts(wait_until):
     app = started(controller={}, num_rollouts=100_000)
-    wait_until(lambda: app.stats.sim_time() > 0.2, what="the plant to run")
+    wait_until(in_flight_for(app, 0.2), what="a planning cycle in flight for 0.2 s")
     assert stop_time(app) < STOP_BUDGET
     # the rollout threads finish their chunk in their own time; they are daemons, so they never hold up an exit
     assert all(t.daemon for t in threading.enumerate() if t.name.startswith("judo"))

@@ -3,6 +3,7 @@
 python -m judo collect --task cartpole --optimizer mppi --episodes 100 --duration 10 --out cartpole.h5
 """
 
+import hashlib
 import os
 import shlex
 import sys
@@ -57,6 +58,17 @@ class CollectArgs(EpisodeArgs):
         require_between("--episodes", self.episodes, 1, 10_000_000)
         require(self.workers is None or self.workers >= 1, f"--workers must be at least 1, got {self.workers}")
         require(self.out.suffix in (".h5", ".hdf5"), f"--out must name an .h5 or .hdf5 file, got {str(self.out)!r}")
+        if self.policy is not None:
+            require(
+                self.optimizer is not None,
+                "collect --policy needs --optimizer NAME: the MPC that plans from the states the policy visits, "
+                "for the labels",
+            )
+            require(
+                self.latency != "measured",
+                "collect --policy with --latency measured would count the MPC's labelling in the policy's latency; "
+                "give --latency-ms MS",
+            )
 
 
 def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
@@ -71,6 +83,7 @@ def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
         "type": "judo",
         "task": args.task,
         "optimizer": args.optimizer,
+        "policy": None if args.policy is None else policy_record(args),
         "duration": args.duration,
         "latency_s": latency,
         "sensing": args.sensing_record(),
@@ -84,6 +97,24 @@ def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
         "mujoco_version": mujoco.__version__,
         "planning_model_sha256": model_sha256(task.model),
         "plant_model_sha256": model_sha256(task.sim_model),
+    }
+
+
+def policy_record(args: CollectArgs) -> dict[str, Any]:
+    """The driving policy in env_args: its file, the file's SHA-256 (another policy is another run), its name,
+    horizon and metadata, and the ControllerConfig it was served under."""
+    from judo.core.policy_controller import as_policy
+    from judo.evaluation.seeded import policy_config_in_force
+
+    path = Path(args.policy)  # type: ignore[arg-type]
+    policy = as_policy(path)
+    return {
+        "file": str(path.resolve()),
+        "sha256": hashlib.sha256(path.read_bytes()).hexdigest(),
+        "name": policy.name,
+        "horizon": policy.horizon,
+        "metadata": dict(policy.metadata),
+        "controller": config_dict(policy_config_in_force(args.spec(1), policy)),
     }
 
 

@@ -9,6 +9,8 @@
     data/demo_<seed>/obs/estimate_qpos, estimate_qvel   (S, nq), (S, nv) float64, the estimator's state after
                                     each step (only where an estimator ran; NaN rows before it started)
     data/demo_<seed>/actions        (S, nu)  float64    control served during each step
+    data/demo_<seed>/mpc_actions    (S, nu)  float64    the MPC's action at each step, where a policy drove
+    data/demo_<seed>/policy/...     knots (U, H, nu), inference_ms (U,): the driving policy's chunks
     data/demo_<seed>/rewards        (S,)     float64    the task's reward of each step
     data/demo_<seed>/dones          (S,)     uint8      1 on the last step only
     data/demo_<seed>/plan/...       times, takes_effect, update_ms, best_reward, mean_reward (U,);
@@ -72,6 +74,9 @@ class EpisodeArrays:
         measured: (S, m) the measured sensors the System served after each step, or None (full state).
         estimate: (S, nq + nv) the estimator's state after each step (NaN rows where none ran), or None.
         measured_sensors: names of the task's measured sensors, in the order of `measured`'s columns.
+        mpc_actions: (S, nu) the MPC's action at the time each step was served, where a policy drove the plant
+            (collect --policy): the label beside `actions`; else None.
+        policy_plan: {"knots": (U, H, nu), "inference_ms": (U,)} the policy's chunks, where a policy drove.
     """
 
     seed: int
@@ -87,6 +92,8 @@ class EpisodeArrays:
     measured: np.ndarray | None = None
     estimate: np.ndarray | None = None
     measured_sensors: tuple[str, ...] = ()
+    mpc_actions: np.ndarray | None = None
+    policy_plan: dict[str, np.ndarray] | None = None
 
     @property
     def num_samples(self) -> int:
@@ -196,6 +203,10 @@ def write_demo(group: Any, episode: EpisodeArrays) -> None:
         group.create_dataset(f"obs/{key}", data=np.asarray(value, dtype=np.float64))
     group.create_dataset("actions", data=np.asarray(episode.actions, dtype=np.float64))
     group.create_dataset("rewards", data=np.asarray(episode.rewards, dtype=np.float64))
+    if episode.mpc_actions is not None:
+        group.create_dataset("mpc_actions", data=np.asarray(episode.mpc_actions, dtype=np.float64))
+    for key, value in (episode.policy_plan or {}).items():
+        group.create_dataset(f"policy/{key}", data=np.asarray(value, dtype=np.float64))
     dones = np.zeros(episode.num_samples, dtype=np.uint8)
     dones[-1:] = 1
     group.create_dataset("dones", data=dones)
@@ -222,7 +233,7 @@ def flatten(content: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 def check_same_run(path: Path, stored: dict[str, Any], wanted: dict[str, Any]) -> None:
     """DatasetError naming the differing entries unless `stored` and `wanted` env_args agree (versions aside)."""
-    ignored = {"judo_version", "mujoco_version", "config_file"}  # the configs in force are compared instead
+    ignored = {"judo_version", "mujoco_version", "config_file", "policy.file"}  # configs and the policy's hash count
     old, new = flatten(stored), flatten(wanted)
     differing = sorted(key for key in old.keys() | new.keys() if key not in ignored and old.get(key) != new.get(key))
     if differing:

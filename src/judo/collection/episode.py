@@ -8,8 +8,9 @@ import math
 from dataclasses import dataclass
 
 from judo.collection.dataset import EpisodeArrays
-from judo.collection.recorder import EpisodeRecorder
+from judo.collection.recorder import EpisodeRecorder, PolicyServedRecorder
 from judo.core.controller import Controller
+from judo.core.policy_controller import PolicyController
 from judo.evaluation.episode import EpisodeResult
 from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode
 from judo.runtime.system import MujocoSystem
@@ -37,8 +38,11 @@ def collect_episode(spec: EpisodeSpec, seed: int, traces: bool = False) -> Episo
     raises: a failure comes back with its reason."""
     made: list[tuple[EpisodeRecorder, MujocoSystem]] = []
 
-    def recorders(controller: Controller, system: MujocoSystem) -> list[EpisodeRecorder]:
-        recorder = EpisodeRecorder.for_loop(controller, system.task, traces)
+    def recorders(controller: Controller | PolicyController, system: MujocoSystem) -> list[EpisodeRecorder]:
+        if isinstance(controller, PolicyController):  # collect --policy: the MPC's plans are the labels
+            recorder: EpisodeRecorder = PolicyServedRecorder.for_policy(controller, system.task, traces)
+        else:
+            recorder = EpisodeRecorder.for_loop(controller, system.task, traces)
         made.append((recorder, system))
         return [recorder]
 

@@ -7,6 +7,7 @@ import numpy as np
 
 from judo.collection.dataset import EpisodeArrays
 from judo.core.controller import Controller
+from judo.core.policy_controller import PolicyController
 from judo.core.task import Task
 from judo.runtime.records import PlanRecord, StepRecord
 
@@ -43,7 +44,7 @@ class EpisodeRecorder:
     def for_loop(cls, controller: Controller, plant_task: Task, traces: bool = False) -> "EpisodeRecorder":
         """A recorder for `controller`'s plans and the plant model (`sim_model`) of `plant_task`."""
         model = plant_task.sim_model
-        sizes = (model.nq, model.nv, model.nmocap, controller.optimizer.num_nodes, model.nu)
+        sizes = (model.nq, model.nv, model.nmocap, controller.optimizer.num_nodes, controller.task.command_size)
         return cls(*sizes, tuple(plant_task.measured_sensors), traces)
 
     def with_records(self, steps: list[StepRecord], plans: list[PlanRecord]) -> "EpisodeRecorder":
@@ -129,3 +130,62 @@ def padded_stack(arrays: list[np.ndarray]) -> np.ndarray:
     for i, array in enumerate(arrays):
         out[(i, *(slice(0, n) for n in array.shape))] = array
     return out
+
+
+class PolicyServedRecorder(EpisodeRecorder):
+    """An EpisodeRecorder for policy-served collection (collect --policy FILE.onnx --optimizer O): the policy
+    drives the plant while its expert, the MPC, plans from every state the policy is served from.
+
+    `plan/*` holds the MPC's plans (the labels: its knots, its best and mean rewards, its update time), as in a
+    file collected with the MPC driving; `actions` the policy's served actions; and besides them `mpc_actions`
+    (S, nu), the MPC's newest plan at the time each step was served, and `policy/knots` (U, H, nu) and
+    `policy/inference_ms` (U,), the policy's chunks and inference times.
+    """
+
+    def __init__(self, controller: PolicyController, timestep: float, *sizes: Any, **settings: Any) -> None:
+        super().__init__(*sizes, **settings)
+        self.timestep = timestep  # the plant's: a step served before any plan was served at its time less it
+        assert controller.expert is not None, "policy-served collection needs the MPC as the policy's expert"
+        self.controller, self.expert = controller, controller.expert
+        self.mpc_actions: list[np.ndarray] = []
+        self.policy_knots: list[np.ndarray] = []
+        self.inference_ms: list[float] = []
+        self._served_at: float | None = None  # time of the reading the next step is served from
+
+    @classmethod
+    def for_policy(cls, controller: PolicyController, plant_task: Task, traces: bool = False) -> "PolicyServedRecorder":
+        """A recorder for `controller` (with its expert) and the plant model (`sim_model`) of `plant_task`."""
+        model = plant_task.sim_model
+        num_nodes = controller.expert.optimizer.num_nodes  # type: ignore[union-attr]
+        sizes = (model.nq, model.nv, model.nmocap, num_nodes, model.nu)
+        measured = tuple(plant_task.measured_sensors)
+        return cls(controller, float(model.opt.timestep), *sizes, measured_sensors=measured, traces=traces)
+
+    def on_plan(self, record: PlanRecord) -> None:
+        """Keep the policy's chunk and inference time, and record the MPC's plan from the same reading."""
+        inference = self.controller.inference_ms[-1]
+        self.policy_knots.append(np.array(record.knots))
+        self.inference_ms.append(inference)
+        if self._served_at is None:
+            self._served_at = record.time
+        knots = self.expert.nominal_knots
+        knots = np.full((self.num_nodes, self.nu), np.nan) if knots is None else knots
+        super().on_plan(dataclasses.replace(record, knots=knots, update_ms=record.update_ms - inference))
+
+    def on_step(self, record: StepRecord) -> None:
+        """Keep the step, and the MPC's action at the time it was served (the label of the served action)."""
+        super().on_step(record)
+        served_at = record.time - self.timestep if self._served_at is None else self._served_at
+        self.mpc_actions.append(np.array(self.expert.action(served_at, record.state), dtype=float))
+        self._served_at = record.time
+
+    def episode(self, seed: int, rewards: np.ndarray, metrics: dict[str, float], success: bool | None) -> EpisodeArrays:
+        """The episode's arrays with `mpc_actions` (S, nu) and the policy's plans {"knots", "inference_ms"}."""
+        arrays = super().episode(seed, rewards, metrics, success)
+        horizon = self.controller.policy.horizon
+        arrays.mpc_actions = np.array(self.mpc_actions, dtype=float).reshape(len(self.mpc_actions), self.nu)
+        arrays.policy_plan = {
+            "knots": np.array(self.policy_knots, dtype=float).reshape(len(self.policy_knots), horizon, self.nu),
+            "inference_ms": np.array(self.inference_ms, dtype=float),
+        }
+        return arrays

@@ -33,10 +33,14 @@ class RolloutBackend(abc.ABC):
     Attributes:
         model: the planning model every rollout runs on.
         num_workers: host threads the backend rolls out on (1 for a GPU backend).
+        reward_threads: host threads for the rewards of a large batch (see below).
     """
 
     model: mujoco.MjModel
     num_workers: int
+    reward_threads: int = 1
+    """Host threads the Controller may score a large batch's rewards on (core/parallel_reward.py): 1, one plain
+    call, unless the backend leaves the host's cores idle while it rolls out (the GPU backend)."""
 
     @abc.abstractmethod
     def rollout(

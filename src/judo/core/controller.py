@@ -28,8 +28,10 @@ from judo.core.controller_config import (
     rollout_steps,
 )
 from judo.core.errors import ConfigError, JudoError
+from judo.core.low_level import check_low_level_backend, with_low_level
 from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
 from judo.core.optimizer import Optimizer
+from judo.core.parallel_reward import ParallelReward
 from judo.core.policy import Policy
 from judo.core.proposals import Proposer, insert_proposals
 from judo.core.randomize import randomized_models
@@ -91,9 +93,12 @@ class Controller:
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
         backend: the RolloutBackend every rollout runs on, built from the constructor's `backend` name
-            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU).
+            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU); for a task
+            with a low-level policy (`Task.low_level`), a `LowLevelRollout` around the pool, and the plan,
+            its knots and clamps are the policy's commands (`task.command_size`, `task.command_range`).
         backend_name: that name (read-only).
-        nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update.
+        nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update (here and
+            below, nu is `task.command_size`: the actuators, or a low-level policy's commands).
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf); with
             num_randomizations R > 1, each sequence's R rewards reduced by the config's risk measure.
         models: the R models the last cycle rolled out under: the task's planning model, then the
@@ -120,8 +125,11 @@ class Controller:
         self.config = controller_config
         self.task = task
         self.optimizer = optimizer
+        check_low_level_backend(backend, task.low_level())
         self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
+        self.backend = with_low_level(self.backend, task.low_level())  # the pool itself without one
         self._backend_name = backend
+        self._score = ParallelReward(self.backend.reward_threads)  # one plain call unless the backend asks
         self.nominal_knots: np.ndarray | None = None
         self.rewards = np.zeros(0)
         self.traces = np.zeros((0, 0, 0, 3))
@@ -131,7 +139,7 @@ class Controller:
         self._initial_state = np.zeros(mujoco.mj_stateSize(task.model, STATE_SPEC))
         self._initial_mocap = np.zeros(7 * task.model.nmocap)
         self._trace_columns = trace_sensor_columns(task.model)
-        self._ctrl_low, self._ctrl_high = task.actuator_ctrlrange.T.copy()
+        self._ctrl_low, self._ctrl_high = task.command_range.T.copy()
         self._num_state = task.model.nq + task.model.nv
         self.models: list[mujoco.MjModel] = [task.model]
         self._cycles_since_draw = 0
@@ -175,7 +183,7 @@ class Controller:
             knot_offsets = np.linspace(0.0, cfg.horizon, num_nodes)
             basis = SplineBasis(knot_offsets, cfg.spline_order)
             rollout_weights = basis.weights(np.arange(num_steps) * self.task.dt)
-            controls = np.zeros((num_rollouts, num_steps, self.task.nu))
+            controls = np.zeros((num_rollouts, num_steps, self.task.command_size))
             # (R * num_rollouts, T, nu): block r is every sequence again, rolled out on model r. R = 1: the same array.
             batch_controls = controls if num_models == 1 else np.zeros((num_models * num_rollouts, *controls.shape[1:]))
         except MemoryError:
@@ -257,7 +265,7 @@ class Controller:
         self._set_initial_state(state, time, system_metadata)
         task.pre_rollout(state)
         task_config = snapshot(task.config)
-        expected = (opt.num_rollouts, opt.num_nodes, task.nu)
+        expected = (opt.num_rollouts, opt.num_nodes, task.command_size)
         num_models = len(self.models)
         num_rows = num_models * opt.num_rollouts
         candidates = self._proposer.candidates(
@@ -294,7 +302,7 @@ class Controller:
                 self._control_blocks[:] = self._controls  # every sequence once per model
             full_states, sensors = self.backend.rollout(self._initial_state, self._batch_controls, self._initial_mocap)
             states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
-            returned = task.reward(states, sensors, self._batch_controls, task_config, system_metadata)
+            returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
             try:
                 rewards = np.asarray(returned, dtype=float)
             except (TypeError, ValueError) as err:
@@ -368,8 +376,9 @@ class Controller:
         return self._backend_name
 
     def close(self) -> None:
-        """Release the rollout backend's threads or device memory."""
+        """Release the rollout backend's threads or device memory, and the reward's threads."""
         self.backend.close()
+        self._score.close()
 
     def __enter__(self) -> "Controller":
         """`with judo.make_controller(...) as controller:` closes the controller on the way out."""

@@ -27,6 +27,11 @@ class PolicyError(JudoError):
     policy file that cannot be read."""
 
 
+class NonFiniteActionsError(PolicyError):
+    """A policy returned NaN or infinite actions (`Policy.checked_act`); served as a controller, the update fails
+    and the plan before it stays in force, so the watchdog sees the plan age."""
+
+
 class Policy(abc.ABC):
     """Maps a batch of observations to a batch of action chunks.
 
@@ -87,7 +92,7 @@ class Policy(abc.ABC):
                 f"({batch}, {self.horizon}, {self.action_size})"
             )
         if not np.isfinite(actions).all():
-            raise PolicyError(f"policy {self.name!r} returned non-finite actions")
+            raise NonFiniteActionsError(f"policy {self.name!r} returned non-finite actions")
         return actions
 
     def describe(self) -> dict[str, Any]:

@@ -18,8 +18,10 @@ a deterministic policy explore around it with the optimizer's own current spread
 annealing, CMA-ES's covariance) and no new setting. Nothing here draws from the optimizer's generator, so
 the other N - K candidates are the same draws, bit for bit, as the same seed's without proposals.
 
-What the policy sees is the task's `policy_observation(states, sensors, system_metadata)` when it has one,
-else the state [qpos, qvel] itself.
+What the policy sees is the task's `policy_observation(states, sensors, system_metadata, previous_actions)`.
+On a task that plans a low-level policy's commands (`Task.low_level`), the candidates are commands
+(`command_size`, clamped to `command_range`), and only a chunk policy can propose: an action policy's closed
+loop here steps the actuators directly, which would bypass the low-level policy.
 """
 
 import warnings
@@ -32,36 +34,23 @@ import numpy as np
 from judo.core.errors import ConfigError
 from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
-from judo.core.spline import SplineBasis
+from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
 from judo.core.task import Task
 
 CONTROL_SPEC = mujoco.mjtState.mjSTATE_CTRL
 MOCAP_CONTROL_SPEC = CONTROL_SPEC | mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT
 
 
-def policy_observations(
-    task: Task,
-    states: np.ndarray,
-    sensors: np.ndarray,
-    system_metadata: dict[str, Any] | None,
-    previous_actions: np.ndarray,
-) -> np.ndarray:
-    """(B, observation_size): the task's `policy_observation` of (B, nq + nv) `states`, (B, nsensordata)
-    `sensors` and (B, nu) `previous_actions` when it has one, else the states themselves."""
-    observe = getattr(task, "policy_observation", None)
-    if observe is None:
-        return states
-    return np.asarray(observe(states, sensors, system_metadata, previous_actions), dtype=float)
-
-
-def chunk_to_knots(chunks: np.ndarray, knot_offsets: np.ndarray) -> np.ndarray:
-    """(K, num_nodes, nu) knots from (K, H, nu) chunks whose H values lie evenly over [0, knot_offsets[-1]]:
-    the chunks themselves when H == num_nodes, else their linear interpolation at the (num_nodes,) offsets."""
+def chunk_to_knots(chunks: np.ndarray, knot_offsets: np.ndarray, order: SplineOrder = "linear") -> np.ndarray:
+    """(K, num_nodes, nu) knots from (K, H, nu) chunks whose H values are knots spread evenly over
+    [0, knot_offsets[-1]] (as the policy as the controller serves them): the chunks themselves when H ==
+    num_nodes, else their `order` spline (linear when H is too few knots for it) at the (num_nodes,) offsets."""
     horizon = chunks.shape[1]
     if horizon == len(knot_offsets):
         return chunks
     chunk_times = np.linspace(0.0, knot_offsets[-1], horizon)
-    return SplineBasis(chunk_times, "linear").weights(knot_offsets) @ chunks
+    order = order if horizon >= MIN_KNOTS[order] else "linear"
+    return SplineBasis(chunk_times, order).weights(knot_offsets) @ chunks
 
 
 def fit_times(num_steps: int, dt: float, horizon: float) -> np.ndarray:
@@ -90,15 +79,15 @@ def insert_proposals(knots: np.ndarray, candidates: np.ndarray) -> np.ndarray:
 
 def check_policy_fits(task: Task, policy: Policy, task_name: str | None = None) -> None:
     """PolicyError (one line, naming both sides) unless `policy` was made for `task_name` (when both say) and
-    takes the observations `policy_observations` makes for `task` to its nu controls."""
-    size_of = getattr(task, "policy_observation_size", None)
-    if size_of is not None:
-        policy.check_fits(task_name, int(size_of()), task.nu)
-        return
-    model = task.model
-    state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])[None]
-    observation = policy_observations(task, state, np.zeros((1, model.nsensordata)), None, np.zeros((1, task.nu)))
-    policy.check_fits(task_name, observation.shape[-1], task.nu)
+    takes the task's `policy_observation` to the plan's command_size values; and, on a task that plans a
+    low-level policy's commands, unless it is a chunk policy (an action policy's closed loop runs the
+    actuators, not the low-level policy)."""
+    policy.check_fits(task_name, task.policy_observation_size(), task.command_size)
+    if policy.horizon == 1 and task.low_level() is not None:
+        raise PolicyError(
+            f"policy {policy.name!r} is an action policy, but {type(task).__name__} plans a low-level policy's "
+            "commands, where only a chunk policy (horizon > 1) can propose; its closed loop would bypass the low-level policy"
+        )
 
 
 class Proposer:
@@ -132,10 +121,10 @@ class Proposer:
                 f"policy_samples is {count} but the controller has no proposal policy; give one "
                 "(make_controller(..., proposal_policy=...), evaluate --proposal-policy FILE.onnx) or set it to 0"
             )
-        if policy is None or self._checked == (id(policy), self.task.nu):
+        if policy is None or self._checked == (id(policy), self.task.command_size):
             return
         check_policy_fits(self.task, policy)
-        self._checked = (id(policy), self.task.nu)
+        self._checked = (id(policy), self.task.command_size)
 
     def candidates(
         self,
@@ -186,9 +175,9 @@ class Proposer:
         mujoco.mj_forward(model, data)
         states = np.tile(initial_state[1 : 1 + self._num_state], (count, 1))
         sensors = np.tile(data.sensordata, (count, 1))
-        observations = policy_observations(self.task, states, sensors, system_metadata, previous)
+        observations = self._observe(states, sensors, system_metadata, previous)
         if policy.horizon > 1:
-            return chunk_to_knots(policy.checked_act(observations), basis.knot_times)
+            return chunk_to_knots(policy.checked_act(observations), basis.knot_times, basis.order)
         actions = self._closed_loop(
             policy, count, initial_state, initial_mocap, num_steps, observations, system_metadata
         )
@@ -196,6 +185,13 @@ class Proposer:
         if key != self._fit_key:
             self._fit, self._fit_key = fit_matrix(basis, num_steps, self.task.dt), key
         return np.einsum("nt,kta->kna", self._fit, actions)
+
+    def _observe(
+        self, states: np.ndarray, sensors: np.ndarray, system_metadata: dict[str, Any] | None, previous: np.ndarray
+    ) -> np.ndarray:
+        """(B, O) the task's `policy_observation` of (B, nq + nv) states, (B, nsensordata) sensors and (B, nu)
+        previous actions."""
+        return np.asarray(self.task.policy_observation(states, sensors, system_metadata, previous), dtype=float)
 
     def _closed_loop(
         self,
@@ -230,5 +226,5 @@ class Proposer:
             )  # fmt: skip
             current = state_out[:, 0].copy()
             states = current[:, 1 : 1 + self._num_state]
-            observations = policy_observations(self.task, states, sensor_out[:, 0], system_metadata, actions[:, step])
+            observations = self._observe(states, sensor_out[:, 0], system_metadata, actions[:, step])
         return actions

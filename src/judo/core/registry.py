@@ -163,7 +163,7 @@ def make_controller(
     task.config = make_config(task_config_cls, task_name)
     controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)  # type: ignore[assignment]
     optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)  # type: ignore[assignment]
-    optimizer = optimizer_cls(optimizer_config, task.nu)
+    optimizer = optimizer_cls(optimizer_config, task.command_size)
     if proposal_policy is not None:
         check_policy_fits(task, proposal_policy, task_name)  # names the task, which the Controller cannot
     if seed is not None:

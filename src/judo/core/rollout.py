@@ -66,6 +66,7 @@ class RolloutPool(RolloutBackend):
         self._executor = DaemonThreadPool(self.num_workers, "judo-rollout")
         self._shape: tuple[int, int] | None = None
         self._models: list[mujoco.MjModel] = [model]
+        self._splits: dict[int, tuple[list[slice], list[list[mujoco.MjModel]]]] = {}
 
     def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
         """See `RolloutBackend.set_models`; raises RandomizedRolloutError for a model of other sizes."""
@@ -80,7 +81,7 @@ class RolloutPool(RolloutBackend):
                         f"{getattr(self.model, size)} as in the pool's model"
                     )
         self._models = models
-        self._shape = None  # rebuild the chunks' model lists on the next rollout
+        self._splits.clear()  # rebuild the chunks' model lists on the next rollout
 
     def _allocate(self, num_rollouts: int, num_steps: int) -> None:
         self._shape = (num_rollouts, num_steps)
@@ -88,22 +89,29 @@ class RolloutPool(RolloutBackend):
         self._states = np.zeros((num_rollouts, num_steps, self.nstate))
         self._sensors = np.zeros((num_rollouts, num_steps, self.model.nsensordata))
         self._inputs = np.zeros((num_rollouts, num_steps, self.model.nu + 7 * self.model.nmocap))
-        bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(int)
-        self._chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
-        block = num_rollouts // len(self._models)
-        row_models = [model for model in self._models for _ in range(block)]  # block r: models[r]
-        self._chunk_models = [row_models[c] for c in self._chunks]
+
+    def _split(self, num_rollouts: int) -> tuple[list[slice], list[list[mujoco.MjModel]]]:
+        """The rows of each worker's contiguous chunk and each chunk's per-row models, kept per batch size
+        until `set_models` changes the models."""
+        if num_rollouts % len(self._models):
+            raise RandomizedRolloutError(
+                f"a batch of {num_rollouts} rollouts cannot be split evenly over the {len(self._models)} models "
+                "given to set_models; expected a multiple of the number of models"
+            )
+        if num_rollouts not in self._splits:
+            bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(int)
+            chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
+            block = num_rollouts // len(self._models)
+            row_models = [model for model in self._models for _ in range(block)]  # block r: models[r]
+            self._splits[num_rollouts] = (chunks, [row_models[c] for c in chunks])
+        return self._splits[num_rollouts]
 
     def rollout(
         self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """See `RolloutBackend.rollout`; the work is split into one contiguous chunk per worker thread."""
         num_rollouts, num_steps, _ = controls.shape
-        if num_rollouts % len(self._models):
-            raise RandomizedRolloutError(
-                f"a batch of {num_rollouts} rollouts cannot be split evenly over the {len(self._models)} models "
-                "given to set_models; expected a multiple of the number of models"
-            )
+        self._split(num_rollouts)  # RandomizedRolloutError before anything is written
         if self._shape != (num_rollouts, num_steps):
             self._allocate(num_rollouts, num_steps)
         self._initial[:] = initial_state
@@ -112,26 +120,63 @@ class RolloutPool(RolloutBackend):
             self._inputs[..., : self.model.nu] = controls
             self._inputs[..., self.model.nu :] = mocap
             controls, spec = self._inputs, MOCAP_CONTROL_SPEC
-        if len(self._chunks) == 1:
-            self._run_chunk(0, controls, spec)
-        else:
-            futures = [self._executor.submit(self._run_chunk, i, controls, spec) for i in range(len(self._chunks))]
-            for future in futures:
-                future.result()
+        self.rollout_rows(self._initial, controls, spec, self._states, self._sensors, caller_runs_first=False)
         return self._states, self._sensors
 
-    def _run_chunk(self, worker: int, controls: np.ndarray, control_spec: int) -> None:
-        chunk = self._chunks[worker]
+    def rollout_rows(
+        self,
+        initial_states: np.ndarray,
+        inputs: np.ndarray,
+        control_spec: int,
+        states: np.ndarray,
+        sensors: np.ndarray,
+        caller_runs_first: bool = True,
+    ) -> None:
+        """Roll row i of `inputs` out from row i of `initial_states`, into the caller's output arrays.
+
+        The step a low-level policy's rollouts (core/low_level.py) take between two ticks. All arrays are
+        C-contiguous float64: initial_states (N, nstate); inputs (N, k, ncontrol), the per-step values of
+        `control_spec` ([ctrl] or [ctrl, mocap_pos, mocap_quat]); states (N, k, nstate) and sensors
+        (N, k, nsensordata), written. Rows split over the workers and models as in `rollout`.
+
+        With `caller_runs_first` the calling thread runs the first chunk itself rather than wait, one thread
+        hand-off fewer for each of a policy's many short ticks; `rollout` (one long call) leaves all chunks to
+        the daemon workers, so that a caller waiting on them stays interruptible.
+        """
+        chunks, chunk_models = self._split(len(initial_states))
+        args = (chunks, chunk_models, initial_states, inputs, control_spec, states, sensors)
+        if len(chunks) == 1:
+            self._run_chunk(0, *args)
+            return
+        first = 1 if caller_runs_first else 0
+        futures = [self._executor.submit(self._run_chunk, i, *args) for i in range(first, len(chunks))]
+        if caller_runs_first:
+            self._run_chunk(0, *args)
+        for future in futures:
+            future.result()
+
+    def _run_chunk(
+        self,
+        worker: int,
+        chunks: list[slice],
+        chunk_models: list[list[mujoco.MjModel]],
+        initial_states: np.ndarray,
+        controls: np.ndarray,
+        control_spec: int,
+        states: np.ndarray,
+        sensors: np.ndarray,
+    ) -> None:
+        chunk = chunks[worker]
         self._runners[worker].rollout(
-            self._chunk_models[worker],
+            chunk_models[worker],
             [self._datas[worker]],
-            self._initial[chunk],
+            initial_states[chunk],
             controls[chunk],
             control_spec=control_spec,
             skip_checks=True,
             nstep=controls.shape[1],
-            state=self._states[chunk],
-            sensordata=self._sensors[chunk],
+            state=states[chunk],
+            sensordata=sensors[chunk],
         )
 
     def close(self) -> None:

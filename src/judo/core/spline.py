@@ -111,8 +111,8 @@ class Spline:
         self.basis = basis
         self.knots = np.array(knots, dtype=float)
         nu = self.knots.shape[-1]
-        self.low = np.full(nu, -np.inf) if low is None else np.array(np.broadcast_to(low, (nu,)), dtype=float)
-        self.high = np.full(nu, np.inf) if high is None else np.array(np.broadcast_to(high, (nu,)), dtype=float)
+        self.low = _bounds(low, -np.inf, nu)
+        self.high = _bounds(high, np.inf, nu)
         # Zero-order and linear splines never leave the range of their knots, so only a cubic, or
         # knots beyond the bounds, need clamping: the common linear case pays nothing.
         has_bounds = bool(np.isfinite(self.low).any() or np.isfinite(self.high).any())
@@ -133,6 +133,15 @@ class Spline:
         if self._bounded:
             return np.minimum(np.maximum(values, self.low), self.high)  # faster than np.clip or out=
         return values
+
+
+def _bounds(value: np.ndarray | None, default: float, nu: int) -> np.ndarray:
+    """(nu,) float copy of `value` broadcast to nu entries, or `default` everywhere for None. The (nu,) array of
+    every plan skips the broadcast, which costs more than the rest of a policy's plan (judo.core.policy_controller)."""
+    if value is None:
+        return np.full(nu, default)
+    array = np.asarray(value, dtype=float)
+    return array.copy() if array.shape == (nu,) else np.array(np.broadcast_to(array, (nu,)))
 
 
 def _not_a_knot_second_derivatives(x: np.ndarray) -> np.ndarray:

@@ -14,6 +14,9 @@ from judo.core.errors import ModelLoadError, UnknownNameError
 from judo.core.model import load_model, names
 from judo.core.sensors import MeasuredLayout, measured_layout
 
+if typing.TYPE_CHECKING:
+    from judo.core.low_level import LowLevel
+
 
 @dataclass
 class TaskConfig(Config):
@@ -123,11 +126,15 @@ class Task(ABC, Generic[ConfigT]):
                 the batch holds num_randomizations * num_rollouts rows (block r: every sequence under
                 model r) and the reward must score each row alone, as any reward does.
             sensors: (num_rollouts, T, nsensordata), sensor readings after each step.
-            controls: (num_rollouts, T, nu), the control applied at each step.
+            controls: (num_rollouts, T, nu), the control applied at each step; under a low-level policy
+                (`low_level`), the (num_rollouts, T, C) commands planned for each step instead.
             config: the snapshot of this task's config taken for this update; read weights here.
             system_metadata: what the system published with the state (e.g. mocap goal poses).
         Returns:
             (num_rollouts,) rewards. NaN counts as -inf: it never wins.
+
+        On the warp backend a large batch is scored in blocks of rows, several at once on host threads
+        (core/parallel_reward.py): read the arguments and the task's constants, and write nothing shared.
         """
 
     # Hooks. Each has a no-op default; override the ones the task needs.
@@ -138,6 +145,16 @@ class Task(ABC, Generic[ConfigT]):
         else:
             mujoco.mj_resetData(self.sim_model, self.data)
         mujoco.mj_forward(self.sim_model, self.data)
+
+    def low_level(self) -> "LowLevel | None":
+        """A low-level policy to plan over (judo.core.low_level), or None (the default): plan the actuators.
+
+        With one, the optimizer plans its C commands (`command_size`, `command_range`), every rollout and the
+        simulated plant run the policy every k physics steps to turn them into ctrl, and `reward` gets the
+        commands as `controls`. Return the same object on every call (build it once, in `__init__`): the
+        Controller, the plant and the size properties each ask for it.
+        """
+        return None
 
     def pre_rollout(self, state: np.ndarray) -> None:
         """Called once per planning cycle with the (nq + nv,) state, before any rollout."""
@@ -184,20 +201,58 @@ class Task(ABC, Generic[ConfigT]):
         """
         return {}
 
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """What a policy sees (judo.Policy): a batch of observations, vectorized over the batch.
+
+        Args:
+            states: (B, nq + nv) [qpos, qvel].
+            sensors: (B, nsensordata) the planning model's sensor values at those states, or None where the
+                caller has none to give (a task that reads them says so in its own error).
+            system_metadata: what the system published with the state (e.g. "mocap_pos" (nmocap, 3)).
+            previous_actions: (B, nu) the action each row was served last, or None where there is none.
+        Returns:
+            (B, O) float observations; the default is the states themselves, O = nq + nv. Override it to give
+            a policy what it was trained on (sensors, a goal, the previous action), e.g.
+            `np.concatenate([states, sensors[:, self.measured.columns]], axis=1)`.
+        """
+        return np.asarray(states, dtype=float)
+
+    def policy_observation_size(self) -> int:
+        """O, the length of one `policy_observation`: the hook called on one zero row (zero sensors and
+        previous action, the model's own mocap poses)."""
+        model = self.model
+        bodies = np.flatnonzero(model.body_mocapid >= 0)
+        order = np.argsort(model.body_mocapid[bodies])  # mocap index order
+        metadata = {"mocap_pos": model.body_pos[bodies[order]], "mocap_quat": model.body_quat[bodies[order]]}
+        row = self.policy_observation(
+            np.zeros((1, model.nq + model.nv)), np.zeros((1, model.nsensordata)), metadata, np.zeros((1, self.nu))
+        )
+        return int(np.shape(row)[-1])
+
     def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
-        """The (nu,) control that the first plan holds at every knot, from the (nq + nv,) plant `state`
+        """The (command_size,) control that the first plan holds at every knot, from the (nq + nv,) plant `state`
         [qpos, qvel] it starts from; zeros by default. (The old form without `state` still works, with a
         DeprecationWarning.)"""
-        return np.zeros(self.nu)
+        return np.zeros(self.command_size)
 
     def safe_action(self, state: np.ndarray) -> np.ndarray:
-        """The (nu,) control that brings the plant to rest from the (nq + nv,) `state`: what the watchdog
+        """The (command_size,) control that brings the plant to rest from the (nq + nv,) `state`: what the watchdog
         serves when the plan in force is too old, and what `System.halt` applies by default.
 
         The default sets motor, force and velocity actuators to 0 and holds position actuators at their
         joint's current position (never a jump to 0), clamped to the ctrlrange. Override it for anything
-        else (a gripper that must keep its grip, a drone that must hover).
+        else (a gripper that must keep its grip, a drone that must hover). Under a low-level policy the
+        default is each command's zero clamped to its range; a task says what holds its robot still.
         """
+        if self.low_level() is not None:
+            low, high = self.command_range.T
+            return np.clip(np.zeros(self.command_size), low, high)
         action = np.zeros(self.nu)
         model = self.model
         for i in range(self.nu):
@@ -230,6 +285,20 @@ class Task(ABC, Generic[ConfigT]):
         ranges = np.tile([-np.inf, np.inf], (self.nu, 1))
         ranges[limited] = self.model.actuator_ctrlrange[limited]
         return ranges
+
+    @property
+    def command_size(self) -> int:
+        """What the optimizer plans and the System is served per step: `nu` actuators' ctrl, or under a
+        low-level policy (`low_level`) its C commands."""
+        low_level = self.low_level()
+        return self.nu if low_level is None else low_level.command_size
+
+    @property
+    def command_range(self) -> np.ndarray:
+        """(command_size, 2) the limits the plan is clamped to: `actuator_ctrlrange`, or under a low-level
+        policy its `command_range`. A copy."""
+        low_level = self.low_level()
+        return self.actuator_ctrlrange if low_level is None else low_level.command_range.copy()
 
     def get_sensor_start_index(self, sensor_name: str) -> int:
         """Column of `sensor_name`'s first value in the sensors array."""

@@ -14,6 +14,7 @@ Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `ma
 (core/backend.py) imports it only when the "warp" backend is asked for.
 """
 
+import os
 import time
 import warnings
 
@@ -164,8 +165,11 @@ class WarpRollout(RolloutBackend):
     Args:
         model: the planning model; WarpUnsupportedModelError if MuJoCo Warp cannot run it.
         device: a warp device ("cpu", "cuda:0"); the default device when None.
-        deterministic: bitwise repeatable results on CUDA (stable contact order and atomics; somewhat
-            slower). The CPU device is deterministic either way.
+        deterministic: bitwise repeatable results on CUDA (stable contact order and atomics). Off by default:
+            warp's deterministic launches allocate a sort workspace per launch, and inside the captured T-step
+            graph these add up; on an H100 (80 GB) cartpole at N = 256 ran out of memory. Without it a seeded
+            run on CUDA differs from run to run in float32's last digits; the CPU device is deterministic
+            either way.
         nconmax, njmax: contacts and constraint rows per world to start from, instead of the sizes probed
             from the model (they still grow on overflow).
     """
@@ -177,12 +181,13 @@ class WarpRollout(RolloutBackend):
         self,
         model: mujoco.MjModel,
         device: str | None = None,
-        deterministic: bool = True,
+        deterministic: bool = False,
         nconmax: int | None = None,
         njmax: int | None = None,
     ) -> None:
         self.model = model
         self.num_workers = 1
+        self.reward_threads = os.cpu_count() or 1  # the host's cores are idle while the device rolls out
         self.device = wp.get_device(device)
         self.deterministic = deterministic
         self._graph = None

@@ -200,12 +200,13 @@ def task_config(task: str, overrides: Any) -> Config:
     return with_updates(make_config(lookup_task(task)[1], task), given_fields(overrides))  # type: ignore[return-value]
 
 
-def set_field_overrides(task: str, optimizer: str, optimizer_overrides: Any, task_overrides: Any) -> None:
+def set_field_overrides(task: str, optimizer: str | None, optimizer_overrides: Any, task_overrides: Any) -> None:
     """Make the given `--optimizer-config.*` and `--task-config.*` fields the pair's defaults in this process,
     as a --config file's [optimizer_config_overrides] and [task_config_overrides] entries do."""
     from judo.core.registry import set_config_overrides
 
-    set_config_overrides(task, lookup_optimizer(optimizer)[1], given_fields(optimizer_overrides))
+    if optimizer is not None:
+        set_config_overrides(task, lookup_optimizer(optimizer)[1], given_fields(optimizer_overrides))
     set_config_overrides(task, lookup_task(task)[1], given_fields(task_overrides))
 
 
@@ -233,7 +234,11 @@ def check_episode_args(args: Any) -> None:
     """The checks every command that runs episodes shares (evaluate, collect): registered names, the
     duration, the latency flags, the backend, and the --controller, --optimizer-config and --task-config
     fields against the pair's configs. Raises a JudoError saying which argument is wrong."""
-    check_names([args.task], [args.optimizer])
+    require(
+        args.optimizer is not None or getattr(args, "policy", None) is not None,
+        "give --optimizer NAME (or --policy FILE.onnx to run a policy)",
+    )
+    check_names([args.task], [] if args.optimizer is None else [args.optimizer])
     require_between("--duration", args.duration, 0, 86_400.0, " s", above=True)
     require(
         args.latency_ms is None or args.latency == "none",
@@ -243,5 +248,6 @@ def check_episode_args(args: Any) -> None:
         require_between("--latency-ms", args.latency_ms, 0, 60_000.0)
     check_rollout_backend(args.backend)
     controller_config(args.task, args.controller, args.optimizer)
-    optimizer_config(args.task, args.optimizer, getattr(args, "optimizer_config", None))
+    if args.optimizer is not None:
+        optimizer_config(args.task, args.optimizer, getattr(args, "optimizer_config", None))
     task_config(args.task, getattr(args, "task_config", None))

@@ -116,7 +116,8 @@ def run_episode(
     check_latency(latency)
     num_steps = max(1, round(duration / system.timestep))
     model = system.task.sim_model
-    episode_log = EpisodeLogRecorder(controller.task, (model.nq, model.nv, model.nu, model.nsensordata), num_steps)
+    sizes = (model.nq, model.nv, controller.task.command_size, model.nsensordata)  # controls: what is served
+    episode_log = EpisodeLogRecorder(controller.task, sizes, num_steps)
     loop = ClosedLoop(controller, system, latency=latency, recorders=[episode_log, *recorders], estimator=estimator)
     loop.restart()
     updates = 0

@@ -32,8 +32,14 @@ class EpisodeArgs(SensingFlags):
 
     task: Annotated[str, tyro.conf.arg(metavar="NAME")]
     """Task to run, by registered name."""
-    optimizer: Annotated[str, tyro.conf.arg(metavar="NAME")]
+    optimizer: Annotated[str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(optional with --policy)")] = (
+        None
+    )
     """Optimizer to run, by registered name."""
+    policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
+    """A policy (an ONNX file, needs pip install 'judo[policy]') that drives the plant instead of the optimizer,
+    through the same closed loop (docs/policies.md); its metadata's control_freq, horizon and spline_order are the
+    defaults of --controller.*."""
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
     (docs/configuration.md); read before anything else."""
@@ -50,9 +56,21 @@ class EpisodeArgs(SensingFlags):
 
     def check(self) -> None:
         """Raise a JudoError naming the argument that is wrong (names, duration, latency, backend, config
-        fields, sensing flags)."""
+        fields, sensing flags, a policy that does not fit the task)."""
         check_episode_args(self)
         self.sensing()
+        if self.policy is not None:
+            from judo.core.policy_controller import make_policy_controller
+
+            make_policy_controller(self.task, self.policy).close()  # PolicyError, one line, if it does not fit
+
+    def policy_file(self) -> str | None:
+        """The --policy file as an absolute path (Ray workers read it from another directory), or None."""
+        return None if self.policy is None else str(self.policy.resolve())
+
+    def controller_label(self) -> str:
+        """What drives the plant, for titles: the optimizer's name, or "policy NAME"."""
+        return self.optimizer if self.policy is None else f"policy {self.policy.stem}"  # type: ignore[return-value]
 
     def changed_fields(self) -> dict[str, Any]:
         """Every config field given on the command line, {"controller.horizon": 1.0, "optimizer.sigma": 0.3, ...}."""
@@ -93,6 +111,7 @@ class EpisodeArgs(SensingFlags):
             self.backend,
             num_workers,
             self.sensing(),
+            self.policy_file(),
         )
 
     def sensing_label(self) -> str:

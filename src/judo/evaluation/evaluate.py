@@ -78,6 +78,10 @@ class EvaluateArgs(EpisodeArgs):
         )
         if self.plot is not None:
             check_plot_path(self.plot)
+        require(
+            self.policy is None or self.proposal_policy is None,
+            "--proposal-policy proposes candidates to an optimizer's plan, but --policy drives the plant itself; give one",
+        )
 
     def episode_spec(self) -> EpisodeSpec:
         """What determines each seed's episode, for the one seeded episode runner here or on Ray."""
@@ -104,6 +108,14 @@ def metrics_table(title: str, summaries: dict[str, Summary]) -> Table:
         ci = "n/a" if np.isnan(summary.ci95) else f"{summary.ci95:.3g}"
         table.add_row(name, f"{summary.mean:.3g} ± {ci}", f"{summary.min:.3g}", f"{summary.max:.3g}")
     return table
+
+
+def update_caption(update_ms: np.ndarray, policy: bool) -> str:
+    """The table's caption: the median control update in ms, or for a policy its inference in µs (observation,
+    `act` and plan; the same span of the loop's update)."""
+    if policy:
+        return f"policy inference: median {1e3 * np.median(update_ms):.1f} µs per update over {len(update_ms)} updates"
+    return f"control update: median {np.median(update_ms):.2f} ms over {len(update_ms)} updates"
 
 
 def episode_record(result: EpisodeResult) -> dict[str, Any]:
@@ -170,7 +182,7 @@ def main(argv: list[str] | None = None) -> int:
         summaries = summarize_metrics(results)
         update_ms = np.concatenate([result.update_ms for result in results])
         title = (
-            f"{args.task} x {args.optimizer}: {args.seeds} seeds x {args.duration:g} s, latency {args.latency_label()}"
+            f"{args.task} x {args.controller_label()}: {args.seeds} seeds x {args.duration:g} s, latency {args.latency_label()}"
             f"{args.sensing_label()}"
         )
         changed = args.changed_fields()
@@ -178,13 +190,14 @@ def main(argv: list[str] | None = None) -> int:
             title += ", " + ", ".join(f"{name.removeprefix('controller.')}={value}" for name, value in changed.items())
         console = output_console()
         table = metrics_table(title, summaries)
-        table.caption = f"control update: median {np.median(update_ms):.2f} ms over {len(update_ms)} updates"
+        table.caption = update_caption(update_ms, args.policy is not None)
         console.print(table)
         for result in results:
             if result.divergences or result.failed_updates:
                 console.print(
                     f"seed {result.seed}: {result.divergences} simulation divergences, "
-                    f"{result.failed_updates} updates with no finite reward"
+                    f"{result.failed_updates} updates with "
+                    + ("non-finite actions" if args.policy is not None else "no finite reward")
                 )
         if args.json is not None:
             write_json(
@@ -192,6 +205,7 @@ def main(argv: list[str] | None = None) -> int:
                 {
                     "task": args.task,
                     "optimizer": args.optimizer,
+                    "policy": args.policy_file(),
                     "seeds": args.seeds,
                     "duration": args.duration,
                     "latency": args.latency_label(),

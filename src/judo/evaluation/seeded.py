@@ -11,7 +11,7 @@ import traceback
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from judo.core.config import Config, require
 from judo.core.controller import Controller
@@ -22,6 +22,10 @@ from judo.runtime.records import Recorder
 from judo.runtime.sensing import SensedSystem
 from judo.runtime.session import Sensing, choose_estimator, observed_plant
 from judo.runtime.system import MujocoSystem
+
+if TYPE_CHECKING:
+    from judo.core.controller import ControllerConfig
+    from judo.core.policy import Policy
 
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
@@ -45,12 +49,14 @@ class EpisodeSpec:
             fight for cores).
         sensing: how the plant is observed (--observe, --sensor-*) and the estimator between its readings and
             the plan (--estimator); the full state as it is by default.
+        policy: an .onnx file (absolute path) that drives the plant instead of the optimizer; with an optimizer
+            too, the MPC plans from every state the policy is served from, for labels (collect --policy).
         proposal_policy: an .onnx file whose policy makes the controller's `policy_samples` candidates
             (judo.core.proposals), or None.
     """
 
     task: str
-    optimizer: str
+    optimizer: str | None
     duration: float
     latency: Latency = 0.0
     values: dict[str, Any] = field(default_factory=dict)
@@ -58,6 +64,7 @@ class EpisodeSpec:
     backend: str = "cpu"
     num_workers: int | None = 1
     sensing: Sensing = field(default_factory=Sensing)
+    policy: str | None = None
     proposal_policy: str | None = None
 
 
@@ -78,7 +85,29 @@ def configs_in_force(spec: EpisodeSpec) -> dict[str, Config]:
     from judo.tuning.space import apply_values
 
     load_config_once(spec.config_file)
+    if spec.optimizer is None:  # a policy alone: no optimizer's config
+        from judo.core.controller import ControllerConfig
+        from judo.core.registry import lookup_task, make_config
+
+        configs = {
+            "controller": make_config(ControllerConfig, spec.task),
+            "task": make_config(lookup_task(spec.task)[1], spec.task),
+        }
+        return apply_values(configs, spec.values)  # type: ignore[arg-type, return-value]
     return apply_values(default_configs(spec.task, spec.optimizer), spec.values)  # type: ignore[arg-type, return-value]
+
+
+def policy_config_in_force(spec: EpisodeSpec, policy: "Policy") -> "ControllerConfig":
+    """The policy's ControllerConfig: the task's (and optimizer's) defaults, then the fields the policy's metadata
+    sets, then the --controller.* fields given in `spec.values`, which win."""
+    from judo.core.controller import ControllerConfig
+    from judo.core.policy_controller import policy_config
+    from judo.core.registry import make_config
+    from judo.tuning.space import apply_values
+
+    base = policy_config(policy, make_config(ControllerConfig, spec.task, spec.optimizer))  # type: ignore[arg-type]
+    given = {name: value for name, value in spec.values.items() if name.startswith("controller.")}
+    return apply_values({"controller": base}, given)["controller"]  # type: ignore[return-value]
 
 
 def run_seeded_episode(
@@ -103,6 +132,10 @@ def run_seeded_episode(
     from judo.core.registry import make_controller
 
     configs = configs_in_force(spec)
+    if spec.policy is not None:
+        return run_policy_episode(spec, seed, configs, recorders, on_update)
+    if spec.optimizer is None:
+        raise JudoError(f"an episode of {spec.task!r} needs an optimizer or a policy; the spec names neither")
     with make_controller(
         spec.task,
         spec.optimizer,
@@ -133,6 +166,41 @@ def load_proposal_policy(path: str | None, policy_samples: int) -> Policy | None
     from judo.core.onnx_policy import OnnxPolicy  # onnxruntime only when a policy is asked for
 
     return OnnxPolicy(path)
+
+
+def run_policy_episode(
+    spec: EpisodeSpec,
+    seed: int,
+    configs: dict[str, Config],
+    recorders: RecorderFactory | None = None,
+    on_update: Callable[[float], None] | None = None,
+) -> EpisodeResult:
+    """`run_seeded_episode` of a spec with a policy: a PolicyController drives the plant (with the optimizer, if the
+    spec names one, as its expert labelling every state the policy is served from)."""
+    from judo.core.policy_controller import as_policy, make_policy_controller
+    from judo.core.registry import make_controller
+
+    policy = as_policy(spec.policy)  # type: ignore[arg-type]
+    expert = None
+    if spec.optimizer is not None:
+        expert = make_controller(
+            spec.task,
+            spec.optimizer,
+            controller_config=configs["controller"],  # type: ignore[arg-type]
+            optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
+            num_workers=spec.num_workers,
+            seed=seed,
+            backend=spec.backend,
+        )
+    config = policy_config_in_force(spec, policy)
+    controller = make_policy_controller(spec.task, policy, controller_config=config, expert=expert, seed=seed)
+    task = controller.task
+    with controller:
+        task.config = configs["task"]
+        system = observed_plant(task, seed, spec.sensing)
+        _, estimator = choose_estimator(task, spec.task, system, spec.sensing)
+        extra = list(recorders(controller, plant_of(system))) if recorders is not None else []  # type: ignore[arg-type]
+        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)  # type: ignore[arg-type]
 
 
 def plant_of(system: MujocoSystem | SensedSystem) -> MujocoSystem:

@@ -155,7 +155,7 @@ class App(AppCommands):
             seed=seed,
             num_workers=num_workers,
             backend=backend,
-            clock=self._clock,
+            clock=self.watchdog_clock(),
             on_watchdog=self._on_watchdog,
             sensing=self._sensing,
         )

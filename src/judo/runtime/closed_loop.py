@@ -22,6 +22,9 @@ delay is a fixed number of seconds of sim time or "measured" (the update's wall 
 keeps the plan in force before it (or the task's warm start before the first plan). The app uses delay 0: a
 plan is served from the first step after it is done, which in real time is its real latency. The
 controller's `latency_compensation` plans from the reading predicted to then (`judo.runtime.latency`).
+
+For judo's own simulator the app gives no clock (plans age in plant time stepped) and waits for a slow cycle
+(`judo.runtime.plant_loop`); for a user's System, a robot, it gives the wall clock.
 """
 
 import dataclasses
@@ -36,7 +39,7 @@ from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewar
 from judo.core.errors import JudoError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.spline import Spline
-from judo.runtime.latency import Latency, LatencyPredictor, check_latency
+from judo.runtime.latency import Latency, LatencyPredictor, check_latency, prediction_delay
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
 from judo.runtime.system import SimulationDiverged, System, SystemState
 from judo.runtime.system_calls import SystemCallError, SystemCalls, SystemClosedError
@@ -93,7 +96,7 @@ class ClosedLoop:
         self.calls = SystemCalls(system)  # every System call goes through it (see judo.runtime.system_calls)
         self.recorders = list(recorders)
         self.estimator = estimator
-        self.controls = ControlHistory(controller.task.nu)  # every served action, for the estimator
+        self.controls = ControlHistory(controller.task.command_size)  # every served action, for the estimator
         self.raw_reading: SystemState | None = None  # the System's latest reading, before the estimator
         self._estimator_started = False
         self.stepped_time = 0.0  # plant time this loop has stepped, the watchdog's clock when none is given
@@ -115,6 +118,8 @@ class ClosedLoop:
         self._pending: list[tuple[float, Spline, float]] = []  # (plant time it takes effect, plan, stamp), in order
         self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
         self.real_time, self._predictor = clock is not None, LatencyPredictor(controller.task)  # app: wall clock
+        self.cycle_started: float | None = None  # stepped_time when the planning cycle in flight began
+        self.last_cycle_plant_time = 0.0  # plant time stepped (by another thread) while the last cycle ran
 
     def restart_estimator(self) -> None:
         """Start the estimator afresh from the next reading (after a reset of the plant)."""
@@ -177,13 +182,17 @@ class ClosedLoop:
         """
         stamp = self.watchdog.fresh_at
         started = time.perf_counter()
-        start = self._predicted(reading) if self.controller.config.latency_compensation else reading
+        self.cycle_started = stepped = self.stepped_time
         try:
+            start = self._predicted(reading) if self.controller.config.latency_compensation else reading
             plan = self.controller.update_action(start.state, start.time, start.metadata, cancel)
         except (NonFiniteRewardError, NonFiniteKnotsError) as err:
             plan = None
             self.failed_updates += 1
             self.last_failure = err
+        finally:
+            self.cycle_started = None
+            self.last_cycle_plant_time = self.stepped_time - stepped
         wall = time.perf_counter() - started
         delay = wall if self.latency == "measured" else float(self.latency)
         self.update_ms.append(1e3 * wall)
@@ -193,25 +202,15 @@ class ClosedLoop:
             return None
         with self._lock:
             self._pending.append((reading.time + delay, plan, stamp))
-        rewards = self.controller.rewards
-        finite = rewards[np.isfinite(rewards)]
-        record = PlanRecord(
-            time=reading.time,
-            takes_effect=reading.time + delay,
-            knots=plan.knots,
-            update_ms=1e3 * wall,
-            best_reward=float(finite.max()) if len(finite) else math.nan,
-            mean_reward=float(finite.mean()) if len(finite) else math.nan,
-            traces=self._traces_if_wanted(),
-        )
+        traces = self._traces_if_wanted()
+        record = PlanRecord.of_update(reading.time, delay, plan.knots, wall, self.controller.rewards, traces)
         for recorder in self.recorders:
             recorder.on_plan(record)
         return plan
 
     def _predicted(self, reading: SystemState) -> SystemState:
         """`reading` predicted to when the plan made from it takes effect, under the plans due meanwhile."""
-        measured = self.latency == "measured" or self.real_time
-        delay = (self.update_ms[-1] / 1e3 if self.update_ms else 0.0) if measured else float(self.latency)
+        delay = prediction_delay(self.latency, self.real_time, self.update_ms, self.last_cycle_plant_time)
 
         def control_at(now: float) -> np.ndarray:
             with self._lock:
@@ -258,7 +257,7 @@ class ClosedLoop:
         if state is None:
             model = task.model
             state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])
-        low, high = task.actuator_ctrlrange.T
+        low, high = task.command_range.T
         return np.clip(np.asarray(task.safe_action(state), dtype=float), low, high)
 
     def halt(self) -> None:

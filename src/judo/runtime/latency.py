@@ -30,6 +30,15 @@ def check_latency(latency: Latency) -> None:
         require(0 <= latency < math.inf, f"latency must be at least 0 s and finite, got {latency}")
 
 
+def prediction_delay(latency: Latency, real_time: bool, update_ms: list[float], cycle_plant_time: float) -> float:
+    """Seconds ahead that latency compensation predicts a reading: the last update's wall time for a robot (or
+    "measured"), the fixed latency, else the plant time the last cycle took (the app's simulator steps
+    while planning; evaluate's does not, so 0 there)."""
+    if latency == "measured" or real_time:
+        return update_ms[-1] / 1e3 if update_ms else 0.0
+    return float(latency) if float(latency) > 0 else cycle_plant_time
+
+
 class LatencyPredictor:
     """Predicts a reading forward by the planning latency on the task's planning model (its own MjData).
 

@@ -28,6 +28,7 @@ from judo.runtime.plant_loop import PlantLoop
 from judo.runtime.session import Sensing, Session, build_session
 from judo.runtime.snapshots import PlanSnapshot
 from judo.runtime.system import System, SystemState
+from judo.runtime.watchdog import PausableClock
 
 if TYPE_CHECKING:
     from judo.runtime.gui import Gui
@@ -60,6 +61,7 @@ class AppLoops(PlantLoop):
     _stopping: asyncio.Future | None
     _executor: DaemonThreadPool
     _user_system: System | None
+    _clock: PausableClock
     _seed: int | None
     _sensing: Sensing
     _rebuild_requested: bool
@@ -67,6 +69,11 @@ class AppLoops(PlantLoop):
     _num_workers: int | None
     backend: str
     system_call_limit: float
+
+    def watchdog_clock(self) -> PausableClock | None:
+        """The closed loop's clock: wall time (standing still while paused) for a user's System, a robot;
+        None, the plant time stepped, for judo's own simulator, which waits for the planner instead."""
+        return None if self._user_system is None else self._clock
 
     async def _sleep(self, seconds: float) -> None:
         """Wait `seconds`, or until a stop is requested, whichever comes first."""
@@ -233,7 +240,7 @@ class AppLoops(PlantLoop):
             seed=self._seed,
             num_workers=self._num_workers,
             backend=self.backend,
-            clock=self._session.closed_loop.clock,
+            clock=self.watchdog_clock(),
             on_watchdog=self._on_watchdog,
             sensing=sensing,
             reading=old.closed_loop.raw_reading if system is old.system else None,  # its thread is reading it

@@ -1,5 +1,9 @@
 """The app's plant loop: the System driven from one thread of its own, at real-time pace.
 
+judo's own simulator waits for a planning cycle that would take more than one control period of sim time
+(`cycle_overdue`): on a slow machine the simulation slows down and the real-time factor shows it.
+A user's System (a robot) is never held back.
+
 Step k of a stretch is due at wall time origin + k * timestep; a loop that falls further behind than
 MAX_CATCH_UP steps at once falls behind instead (the real-time factor shows it). Each step is the closed
 loop's `advance` (`judo.runtime.closed_loop`): serve, apply, step, read back. Off the event loop, a driver
@@ -16,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from judo.runtime.closed_loop import SystemCallError
+from judo.runtime.closed_loop import ClosedLoop, SystemCallError
 from judo.runtime.session import Session
 from judo.runtime.snapshots import SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
@@ -31,6 +35,18 @@ MAX_CATCH_UP = 0.1
 """Most seconds of sim time the plant loop steps at once to catch up; beyond that it falls behind."""
 IDLE_POLL = 0.01
 """Seconds the plant loop sleeps while paused."""
+WAIT_REPORT = 2.0
+"""Wall seconds the simulation waits for one planning cycle before the status line says so."""
+
+
+def cycle_overdue(loop: ClosedLoop) -> bool:
+    """Whether one more plant step would let the planning cycle in flight take more than one control period
+    of the plant time `loop` has stepped: judo's own simulator waits instead (docs/gui.md); a robot cannot."""
+    started = loop.cycle_started
+    if started is None:
+        return False
+    period = 1.0 / loop.controller.config.control_freq
+    return loop.stepped_time + loop.system.timestep - started > period + 1e-9
 
 
 def system_snapshot(session: Session, reading: SystemState) -> SystemSnapshot:
@@ -56,6 +72,8 @@ class PlantLoop:
     _resets_done: int
     _paused: bool
     _stop: threading.Event
+    _waiting_since: float | None = None  # wall time the simulation began to wait for the cycle in flight
+    _wait_reported = False
 
     def report(self, message: str, level: Any = "info") -> None:
         self._status_line.report(message, level)
@@ -100,19 +118,49 @@ class PlantLoop:
                     due = max_steps
                 if self.duration is not None:  # never step past the requested duration
                     due = min(due, max(0, math.ceil((self.duration - self.stats.sim_time()) / dt - 1e-9)))
-                served = sum(self._step(session) for _ in range(due) if not self._stop.is_set())
-                steps_done += due
+                waits = not session.closed_loop.real_time  # judo's own simulator waits for a slow planner
+                served = stepped = 0
+                while stepped < due and not self._stop.is_set():
+                    if waits and cycle_overdue(session.closed_loop):
+                        break
+                    served += self._step(session)
+                    stepped += 1
+                steps_done += stepped
+                if stepped < due:  # waiting for the planner: resume pacing from when it is done
+                    paced = False
+                    self._note_wait(True)
+                elif stepped:
+                    self._note_wait(False)
                 self.stats.record_plant(served * dt, now - last_wall)  # only the ticks the plant got
                 last_wall = now
-                if due and session.closed_loop.reading is not None:
+                if stepped and session.closed_loop.reading is not None:
                     self.buffer.publish("system", system_snapshot(session, session.closed_loop.reading))
                 if self.duration is not None and self.stats.sim_time() >= self.duration - 1e-9:
                     self._request_stop()
                     break
-                self._stop.wait(max(0.0, origin + steps_done * dt - time.perf_counter()))
+                wait = IDLE_POLL / 10 if not paced else max(0.0, origin + steps_done * dt - time.perf_counter())
+                self._stop.wait(wait)
             self._halt(session, "stopped")
         except SystemClosedError:  # the app stopped while a call was blocked: no further call
             return
+
+    def _note_wait(self, waiting: bool) -> None:
+        """Say once when the simulator has waited WAIT_REPORT s for one planning cycle, and when it goes on."""
+        now = time.perf_counter()
+        if not waiting:
+            if self._wait_reported:
+                self.report(f"the planner caught up; the simulation goes on: {self._running_message()}")
+            self._waiting_since, self._wait_reported = None, False
+            return
+        if self._waiting_since is None:
+            self._waiting_since = now
+        elif not self._wait_reported and now - self._waiting_since > WAIT_REPORT:
+            self._wait_reported = True
+            self.report(
+                f"the simulation has waited {now - self._waiting_since:.1f} s for a planning cycle "
+                "(it waits rather than let a cycle take more than one control period of sim time)",
+                "warning",
+            )
 
     def _halt(self, session: Session, why: str) -> bool:
         """Bring the plant to rest (the System's halt, or the safe action); True if it worked."""

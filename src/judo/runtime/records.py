@@ -5,6 +5,7 @@ every recorder it was given, so evaluate's episode log, a dataset writer and the
 the same thing.
 """
 
+import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
@@ -57,6 +58,17 @@ class PlanRecord:
     best_reward: float
     mean_reward: float
     traces: np.ndarray | None = None
+
+    @classmethod
+    def of_update(
+        cls, time: float, delay: float, knots: np.ndarray, wall: float, rewards: np.ndarray, traces: np.ndarray | None
+    ) -> "PlanRecord":
+        """The record of an update planned from the reading at `time`, served `delay` s later, that took `wall`
+        s and scored (num_rollouts,) `rewards` (only the finite ones count)."""
+        finite = rewards[np.isfinite(rewards)]
+        best = float(finite.max()) if len(finite) else math.nan
+        mean = float(finite.mean()) if len(finite) else math.nan
+        return cls(time, time + delay, knots, 1e3 * wall, best, mean, traces)
 
 
 class Recorder(Protocol):

@@ -10,6 +10,7 @@ import mujoco
 import numpy as np
 
 from judo.core.errors import JudoError
+from judo.core.low_level import LowLevelPlant
 from judo.core.reading import SystemState
 from judo.core.task import Task
 
@@ -43,7 +44,8 @@ class System(ABC):
 
     @abstractmethod
     def apply(self, action: np.ndarray) -> None:
-        """Command the (nu,) `action` from now on."""
+        """Command the (task.command_size,) `action` from now on: the actuators' ctrl, or, for a task with a
+        low-level policy, its command, which the robot's own controller turns into ctrl at its rate."""
 
     @abstractmethod
     def step(self) -> None:
@@ -69,7 +71,9 @@ class System(ABC):
 class MujocoSystem(System):
     """Simulates `task.sim_model` in `task.data`, calling the task's sim hooks around each step.
 
-    The plant is the System's: the task instance it steps is its own, never the controller's.
+    The plant is the System's: the task instance it steps is its own, never the controller's. For a task
+    with a low-level policy (`Task.low_level`), `apply` serves the command and the plant runs the policy on
+    it every k steps before stepping (`LowLevelPlant`), as the robot's own controller would.
     `MujocoSystem.from_task` builds the simulated plant for the app, evaluate, tune and the benchmarks.
     """
 
@@ -77,6 +81,8 @@ class MujocoSystem(System):
         self.task = task
         self.timestep = float(task.sim_model.opt.timestep)
         self._scratch: mujoco.MjData | None = None  # for sensor_values
+        low_level = task.low_level()
+        self.low_level = None if low_level is None else LowLevelPlant(low_level, task.sim_model)
 
     @classmethod
     def from_task(cls, task: Task, seed: int | None = None) -> "MujocoSystem":
@@ -101,6 +107,8 @@ class MujocoSystem(System):
 
     def reset(self) -> None:
         self.task.reset()
+        if self.low_level is not None:
+            self.low_level.reset()
 
     def read_state(self) -> SystemState:
         data = self.task.data
@@ -125,13 +133,18 @@ class MujocoSystem(System):
         return self.task.sim_measured.read(scratch.sensordata)
 
     def apply(self, action: np.ndarray) -> None:
-        self.task.data.ctrl[:] = action
+        if self.low_level is not None:
+            self.low_level.command[:] = action
+        else:
+            self.task.data.ctrl[:] = action
 
     def step(self) -> None:
         """One physics step. Raises SimulationDiverged (after resetting the task) if the state blew up."""
         model, data = self.task.sim_model, self.task.data
         start_time = data.time  # MuJoCo's own reset on bad qpos/qvel zeroes data.time
         self.task.pre_sim_step()
+        if self.low_level is not None:
+            self.low_level.before_step(model, data)
         mujoco.mj_step(model, data)
         self.task.post_sim_step()
         warnings = [data.warning[w] for w in DIVERGENCE_WARNINGS]
@@ -139,6 +152,8 @@ class MujocoSystem(System):
             for warning in warnings:
                 warning.number = 0
             self.task.reset()
+            if self.low_level is not None:
+                self.low_level.reset()
             data.time = start_time + model.opt.timestep  # the plant's clock keeps running
             raise SimulationDiverged(
                 f"simulation of {type(self.task).__name__} diverged at t={start_time:.3f} s; reset the task"

@@ -12,6 +12,7 @@ from judo.core.config_file import load_config
 from judo.core.registry import register_task
 from judo.tasks.acrobot import Acrobot, AcrobotConfig
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
+from judo.tasks.cartpole_pd import CartpolePD
 from judo.tasks.cylinder_push import CylinderPush, CylinderPushConfig
 from judo.tasks.double_cartpole import DoubleCartpole, DoubleCartpoleConfig
 from judo.tasks.fr3_pick import FR3Pick, FR3PickConfig
@@ -27,6 +28,8 @@ DEFAULTS_DIR = Path(__file__).parent / "models"
 
 BUILTIN_TASKS = {
     "cartpole": (Cartpole, CartpoleConfig),
+    # Cart-pole planned through a low-level PD policy: the MPC plans the cart's target (judo.core.low_level).
+    "cartpole_pd": (CartpolePD, CartpoleConfig),
     "cylinder_push": (CylinderPush, CylinderPushConfig),
     # Classic MPC benchmarks (after MJPC and hydrax).
     "pendulum": (Pendulum, PendulumConfig),
@@ -58,6 +61,7 @@ __all__ = [  # every built-in task class and its config
     "AcrobotConfig",
     "Cartpole",
     "CartpoleConfig",
+    "CartpolePD",
     "CylinderPush",
     "CylinderPushConfig",
     "DoubleCartpole",

@@ -24,8 +24,11 @@ CHARTS = (
 
 
 ESTIMATION_TITLE = "estimation error"
-ESTIMATION_SERIES = (("position", "#ff7f0e"), ("velocity", "#17becf"))
-"""(series label, line colour) of the estimation-error chart: the norms of the position and velocity errors."""
+ESTIMATION_SERIES = (("position (mm, mrad)", "#ff7f0e"), ("velocity (mm/s, mrad/s)", "#17becf"))
+"""(series label, line colour) of the estimation-error chart: the norms of the position and velocity errors,
+drawn in thousandths (mm and mrad), whose ticks read 1.5 and 2 where metres' read 0.001, 0 and 0."""
+ESTIMATION_SCALE = 1e3
+"""Units drawn per SI unit on the estimation-error chart (m -> mm, rad -> mrad)."""
 
 
 def estimation_error(model: mujoco.MjModel, true_state: np.ndarray, estimate: np.ndarray) -> tuple[float, float]:
@@ -100,7 +103,7 @@ class Plots:
                     scales={"x": viser.uplot.Scale(time=False, auto=True), "y": viser.uplot.Scale(auto=True)},
                     axes=(
                         viser.uplot.Axis(label="wall time (s)", labelSize=18),
-                        viser.uplot.Axis(label="|error| (m, rad; m/s, rad/s)", size=64, labelSize=18),
+                        viser.uplot.Axis(label="error (mm, mrad)", size=64, labelSize=18),
                     ),
                     legend=viser.uplot.Legend(show=True),
                     aspect=2.0,
@@ -116,7 +119,7 @@ class Plots:
         """Append the estimation error norms at wall time `t` and redraw (nothing while the chart is hidden)."""
         if self.estimation is None or not (np.isfinite(position) and np.isfinite(velocity)):
             return
-        self._estimation_history.append((t, position, velocity))
+        self._estimation_history.append((t, ESTIMATION_SCALE * position, ESTIMATION_SCALE * velocity))
         points = np.array(self._estimation_history)
         self.estimation.data = (points[:, 0], points[:, 1], points[:, 2])
 

@@ -1,0 +1,279 @@
+"""A low-level policy inside every rollout (the Spot hierarchy of the seed paper's 0.1.0 release, batched).
+
+A task declares one with `Task.low_level()`: the optimizer then plans the policy's commands (C numbers per
+step within `command_range`, e.g. a target position or a base velocity) instead of the actuators' ctrl, and
+every `every` (k) physics steps the policy turns each rollout's command, state and previous action into the
+ctrl held for the next k steps. Three places run it, the same way:
+  - `LowLevelRollout`, the CPU rollout backend's wrapper: all N rollouts are stepped k steps at a time on the
+    pool's threads (`mujoco.rollout`, states carried between chunks), and between chunks one batched
+    `Policy.act` on the (N, O) observations of all rollouts makes the next ctrl;
+  - `LowLevelPlant`, inside `MujocoSystem`: the simulated plant runs the policy on the command it is served,
+    every k of its steps, as the robot's own controller would (a robot's `System` runs it itself);
+  - `with_low_level`, which the Controller calls on its backend: the wrapper, or a LowLevelBackendError for
+    a backend that cannot run a policy between its steps (MuJoCo Warp, for now).
+Each chunk starts MuJoCo's solver cold (`qacc_warmstart` zero, as every rollout of a planning cycle starts);
+models without active constraints are unaffected.
+"""
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from judo.core.backend import RolloutBackend
+from judo.core.errors import JudoError
+from judo.core.model import STATE_SPEC
+from judo.core.policy import Policy, PolicyError
+from judo.core.rollout import MOCAP_CONTROL_SPEC, RolloutPool
+
+ObservationFn = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+"""(commands (B, C), states (B, nq + nv), previous_actions (B, A)) -> (B, O) observations."""
+ToCtrlFn = Callable[[np.ndarray], np.ndarray]
+"""(B, A) actions -> (B, nu) ctrl."""
+
+
+class LowLevelBackendError(JudoError):
+    """A rollout backend that cannot run a task's low-level policy between its physics steps."""
+
+
+@dataclass
+class LowLevel:
+    """What a task returns from `Task.low_level()` to plan commands over a low-level policy.
+
+    Attributes:
+        policy: a per-step Policy (horizon 1) run every `every` physics steps, batched over rollouts.
+        command_range: (C, 2) the limits of each planned command; C is the size the optimizer plans.
+        every: physics steps per policy tick, k: the policy runs at 1 / (k * timestep) Hz.
+        observation: (commands (B, C), states (B, nq + nv), previous_actions (B, A)) -> (B, O), vectorized
+            numpy; previous_actions are the policy's own outputs of the last tick (zeros at a rollout's or a
+            plant's start). None: [commands, states], so O = C + nq + nv.
+        to_ctrl: (B, A) actions -> (B, nu) ctrl, held for the next k steps (MuJoCo clamps it to the
+            ctrlrange). None: the actions are the ctrl (A = nu).
+    """
+
+    policy: Policy
+    command_range: np.ndarray
+    every: int = 1
+    observation: ObservationFn | None = None
+    to_ctrl: ToCtrlFn | None = None
+
+    def __post_init__(self) -> None:
+        self.command_range = np.array(self.command_range, dtype=float)
+        shape = self.command_range.shape
+        if len(shape) != 2 or shape[1] != 2 or shape[0] < 1:
+            raise PolicyError(f"command_range must have shape (C, 2) with C >= 1, got {shape}")
+        if (self.command_range[:, 0] > self.command_range[:, 1]).any():
+            raise PolicyError(f"command_range needs low <= high in every row, got {self.command_range.tolist()}")
+        if isinstance(self.every, bool) or not isinstance(self.every, (int, np.integer)) or self.every < 1:
+            raise PolicyError(f"every (physics steps per policy tick) must be an integer >= 1, got {self.every!r}")
+        if self.policy.horizon != 1:
+            raise PolicyError(
+                f"a low-level policy gives one action per tick (horizon 1); policy {self.policy.name!r} has "
+                f"horizon {self.policy.horizon}"
+            )
+
+    @property
+    def command_size(self) -> int:
+        """C, the number of commands the optimizer plans per step."""
+        return len(self.command_range)
+
+    def observe(self, commands: np.ndarray, states: np.ndarray, previous_actions: np.ndarray) -> np.ndarray:
+        """(B, O) the policy's observations: the task's `observation`, or [commands, states] without one."""
+        if self.observation is not None:
+            return self.observation(commands, states, previous_actions)
+        return np.concatenate([commands, states], axis=1)
+
+    def ctrl(self, actions: np.ndarray) -> np.ndarray:
+        """(B, nu) ctrl of (B, A) `actions`: the task's `to_ctrl`, or the actions themselves."""
+        return actions if self.to_ctrl is None else self.to_ctrl(actions)
+
+    def check(self, model: mujoco.MjModel) -> None:
+        """Raise a one-line PolicyError unless the policy takes the observation the hooks build on `model`
+        and its actions make `model.nu` ctrl: both hooks are tried once on a batch of one."""
+        state = np.concatenate([model.qpos0, np.zeros(model.nv)])[None]
+        try:
+            observation = self.observe(np.zeros((1, self.command_size)), state, np.zeros((1, self.policy.action_size)))
+        except Exception as err:  # noqa: BLE001  (a user hook: report it in one line)
+            raise PolicyError(f"the low-level observation hook failed on a batch of one: {err!r}") from err
+        if np.ndim(observation) != 2 or len(observation) != 1:
+            raise PolicyError(f"the low-level observation hook must return (B, O), got shape {np.shape(observation)}")
+        self.policy.check_fits(None, np.shape(observation)[1], self.policy.action_size)
+        try:
+            ctrl = self.ctrl(np.zeros((1, self.policy.action_size)))
+        except Exception as err:  # noqa: BLE001
+            raise PolicyError(
+                f"to_ctrl failed on the (1, {self.policy.action_size}) actions of policy {self.policy.name!r}: {err!r}"
+            ) from err
+        if np.shape(ctrl) != (1, model.nu):
+            what = "to_ctrl returns" if self.to_ctrl is not None else f"policy {self.policy.name!r} gives actions of"
+            raise PolicyError(f"{what} shape {np.shape(ctrl)[1:]} per row, but the model has nu = {model.nu} actuators")
+
+
+def act_rows(policy: Policy, observations: np.ndarray) -> np.ndarray:
+    """(B, A) actions of one batched `act` on (B, O) `observations` (a (B, 1, A) output is read as (B, A));
+    PolicyError for any other shape. Non-finite actions are returned as they are."""
+    actions = np.asarray(policy.act(observations), dtype=float)
+    batch = len(observations)
+    if actions.shape == (batch, 1, policy.action_size):
+        return actions[:, 0]
+    if actions.shape != (batch, policy.action_size):
+        raise PolicyError(
+            f"policy {policy.name!r} returned shape {actions.shape}, expected ({batch}, {policy.action_size}) "
+            f"or ({batch}, 1, {policy.action_size})"
+        )
+    return actions
+
+
+def check_low_level_backend(name: str, low_level: "LowLevel | None") -> None:
+    """Raise LowLevelBackendError, before any backend is built, when a task with a low-level policy asks for a
+    rollout backend other than "cpu" (MuJoCo Warp cannot run a policy between its steps yet)."""
+    if low_level is not None and name != "cpu":
+        raise LowLevelBackendError(
+            f"the {name} rollout backend cannot run a low-level policy inside its rollouts yet; expected the cpu "
+            "backend for a task whose low_level() returns a policy"
+        )
+
+
+def with_low_level(backend: RolloutBackend, low_level: "LowLevel | None") -> RolloutBackend:
+    """`backend` itself without a low-level policy, else a `LowLevelRollout` around it. A backend that cannot
+    run the policy between its steps is closed and LowLevelBackendError raised."""
+    if low_level is None:
+        return backend
+    if not isinstance(backend, RolloutPool):
+        backend.close()
+        raise LowLevelBackendError(
+            f"the {type(backend).__name__} rollout backend cannot run a low-level policy inside its rollouts yet; "
+            "expected the cpu backend (RolloutPool) for a task whose low_level() returns a policy"
+        )
+    return LowLevelRollout(backend, low_level)
+
+
+class LowLevelRollout(RolloutBackend):
+    """Rolls out planned commands through a low-level policy on a `RolloutPool`'s threads.
+
+    `rollout(initial_state, commands, mocap)` takes (N, T, C) commands where a plain backend takes ctrl. For
+    each tick j (steps jk to jk + k - 1, the last chunk possibly shorter) it builds the (N, O) observations
+    from the commands at step jk, the states reached so far and the previous actions, makes one batched
+    `act` for all N rollouts, and rolls every rollout k steps on from its own state with the ctrl held.
+    A rollout whose policy returned non-finite actions gets NaN states and sensors, so it never wins.
+    Buffers are allocated per (N, T) and reused, so the returned arrays are overwritten by the next call.
+
+    Attributes:
+        inner: the pool the physics runs on; closed with this backend.
+        low_level: the task's declaration.
+        act_calls: batched `act` calls made so far (one per tick of every rollout call).
+    """
+
+    def __init__(self, inner: RolloutPool, low_level: LowLevel) -> None:
+        low_level.check(inner.model)
+        self.inner, self.low_level = inner, low_level
+        self.model, self.num_workers = inner.model, inner.num_workers
+        self.act_calls = 0
+        self._shape: tuple[int, int] | None = None
+
+    def set_models(self, models) -> None:  # noqa: ANN001  (see RolloutBackend.set_models)
+        """See `RolloutBackend.set_models`: the inner pool rolls each block of rows out on its model."""
+        self.inner.set_models(models)
+
+    def _allocate(self, num_rollouts: int, num_steps: int) -> None:
+        model, k = self.model, self.low_level.every
+        nstate, width = mujoco.mj_stateSize(model, STATE_SPEC), model.nu + 7 * model.nmocap
+        self._shape = (num_rollouts, num_steps)
+        self._states = np.zeros((num_rollouts, num_steps, nstate))
+        self._sensors = np.zeros((num_rollouts, num_steps, model.nsensordata))
+        self._current = np.zeros((num_rollouts, nstate))  # each rollout's state at the tick
+        self._previous = np.zeros((num_rollouts, self.low_level.policy.action_size))
+        self._ticks = [(t, min(t + k, num_steps)) for t in range(0, num_steps, k)]
+        # One set of contiguous chunk buffers per chunk length (k, and a shorter last one if T % k).
+        self._chunk = {
+            n: (
+                np.zeros((num_rollouts, n, width)),
+                np.zeros((num_rollouts, n, nstate)),
+                np.zeros((num_rollouts, n, model.nsensordata)),
+            )
+            for n in {b - a for a, b in self._ticks}
+        }
+
+    def rollout(
+        self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """See `RolloutBackend.rollout`, with `controls` the (N, T, C) planned commands; returns the
+        (N, T, nstate) states and (N, T, nsensordata) sensors after each step."""
+        commands = controls
+        num_rollouts, num_steps, size = commands.shape
+        if size != self.low_level.command_size:
+            raise JudoError(
+                f"the low-level rollout takes (N, T, {self.low_level.command_size}) commands, got {commands.shape}"
+            )
+        if self._shape != (num_rollouts, num_steps):
+            self._allocate(num_rollouts, num_steps)
+        model, low, policy = self.model, self.low_level, self.low_level.policy
+        nu, num_state = model.nu, 1 + model.nq + model.nv  # STATE_SPEC starts [time, qpos, qvel]
+        spec = mujoco.mjtState.mjSTATE_CTRL
+        if mocap is not None and model.nmocap:
+            spec = MOCAP_CONTROL_SPEC
+            for inputs, _, _ in self._chunk.values():
+                inputs[..., nu:] = mocap
+        self._current[:] = initial_state
+        self._previous[:] = 0.0
+        finite = np.ones(num_rollouts, dtype=bool)
+        for start, stop in self._ticks:
+            observations = low.observe(commands[:, start], self._current[:, 1:num_state], self._previous)
+            actions = act_rows(policy, observations)
+            self.act_calls += 1
+            if not math.isfinite(actions.sum()):  # one cheap reduction per tick; rows only when it fails
+                finite &= np.isfinite(actions).all(axis=1)
+            self._previous[:] = actions
+            inputs, states, sensors = self._chunk[stop - start]
+            inputs[..., :nu] = low.ctrl(actions)[:, None, :]
+            self.inner.rollout_rows(self._current, inputs, spec, states, sensors)
+            self._states[:, start:stop] = states
+            self._sensors[:, start:stop] = sensors
+            self._current[:] = states[:, -1]
+        if not finite.all():
+            self._states[~finite] = np.nan
+            self._sensors[~finite] = np.nan
+        return self._states, self._sensors
+
+    def close(self) -> None:
+        """Close the inner pool."""
+        self.inner.close()
+
+
+class LowLevelPlant:
+    """The plant's side of a low-level policy: `MujocoSystem` serves it the command, and every k of its
+    steps it runs the policy on that command, the plant's state and its previous action, as the robot's
+    own controller would, writing the ctrl the plant then holds.
+
+    Attributes:
+        low_level: the plant task's declaration.
+        command: (C,) the command in force, as last served (zeros until then).
+    """
+
+    def __init__(self, low_level: LowLevel, model: mujoco.MjModel) -> None:
+        low_level.check(model)
+        self.low_level = low_level
+        self.command = np.zeros(low_level.command_size)
+        self._previous = np.zeros((1, low_level.policy.action_size))
+        self._steps = 0
+
+    def reset(self) -> None:
+        """Forget the previous action and restart the tick count (after a reset of the plant)."""
+        self._previous[:] = 0.0
+        self._steps = 0
+
+    def before_step(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """On every k-th step, run the policy and write `data.ctrl`; PolicyError for a non-finite action."""
+        if self._steps % self.low_level.every == 0:
+            state = np.concatenate([data.qpos, data.qvel])[None]
+            observation = self.low_level.observe(self.command[None], state, self._previous)
+            actions = act_rows(self.low_level.policy, np.asarray(observation, dtype=float))
+            if not np.isfinite(actions).all():
+                raise PolicyError(
+                    f"low-level policy {self.low_level.policy.name!r} returned non-finite actions on the plant"
+                )
+            self._previous[:] = actions
+            data.ctrl[:] = self.low_level.ctrl(actions)[0]
+        self._steps += 1

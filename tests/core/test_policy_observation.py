@@ -1,0 +1,33 @@
+"""Task.policy_observation: the state by default for every built-in task, batched; a task's own observation and
+its size, with sensors, mocap goals and the previous action."""
+
+import numpy as np
+import pytest
+
+import judo
+from judo.core.registry import lookup_task
+from tests.conftest import UprightTask
+
+
+@pytest.mark.parametrize("name", sorted(judo.tasks.BUILTIN_TASKS))
+def test_the_default_observation_is_the_state_for_every_built_in_task(name):
+    task = lookup_task(name)[0]()
+    size = task.model.nq + task.model.nv
+    states = np.random.default_rng(0).standard_normal((5, size))
+    np.testing.assert_array_equal(task.policy_observation(states), states)
+    assert task.policy_observation_size() == size
+
+
+def test_a_task_says_what_its_policy_sees(tiny_model_path):
+    class Goal(UprightTask):
+        def policy_observation(self, states, sensors=None, system_metadata=None, previous_actions=None):
+            angle = sensors[:, self.get_sensor_start_index("angle")]
+            return np.column_stack([np.cos(angle), np.sin(angle), states[:, 2:], previous_actions])
+
+    task = Goal(tiny_model_path)
+    assert task.policy_observation_size() == 2 + 2 + 1
+    sensors = np.zeros((3, task.model.nsensordata))
+    sensors[:, task.get_sensor_start_index("angle")] = [0.0, np.pi / 2, np.pi]
+    observation = task.policy_observation(np.ones((3, 4)), sensors, None, np.full((3, 1), 0.5))
+    np.testing.assert_allclose(observation[:, :2], [[1, 0], [0, 1], [-1, 0]], atol=1e-12)
+    np.testing.assert_array_equal(observation[:, 2:], [[1, 1, 0.5]] * 3)
