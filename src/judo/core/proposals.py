@@ -77,6 +77,15 @@ def insert_proposals(knots: np.ndarray, candidates: np.ndarray) -> np.ndarray:
     return rows
 
 
+def check_proposal_policy(policy: Policy | None, policy_samples: int) -> None:
+    """ConfigError (one line) when `policy_samples` > 0 proposals are asked for and there is no `policy`."""
+    if policy_samples and policy is None:
+        raise ConfigError(
+            f"policy_samples is {policy_samples} but the controller has no proposal policy; give one "
+            "(make_controller(..., proposal_policy=...), evaluate --proposal-policy FILE.onnx) or set it to 0"
+        )
+
+
 def check_policy_fits(task: Task, policy: Policy, task_name: str | None = None) -> None:
     """PolicyError (one line, naming both sides) unless `policy` was made for `task_name` (when both say) and
     takes the task's `policy_observation` to the plan's command_size values; and, on a task that plans a
@@ -116,11 +125,7 @@ class Proposer:
     def check(self, policy: Policy | None, count: int) -> None:
         """ConfigError (one line) when `count` > 0 proposals are asked for and there is no `policy`; PolicyError
         unless a `policy` takes the task's observations to its nu controls (checked once per policy)."""
-        if count and policy is None:
-            raise ConfigError(
-                f"policy_samples is {count} but the controller has no proposal policy; give one "
-                "(make_controller(..., proposal_policy=...), evaluate --proposal-policy FILE.onnx) or set it to 0"
-            )
+        check_proposal_policy(policy, count)
         if policy is None or self._checked == (id(policy), self.task.command_size):
             return
         check_policy_fits(self.task, policy)
