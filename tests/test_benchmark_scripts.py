@@ -185,3 +185,13 @@ def test_low_level_policy_prints_update_floor_and_what_batching_buys():
     out = " ".join(result.stdout.split())  # rich wraps long lines
     assert "cartpole_pd x ps: low-level policy inside every rollout" in out and "thread CPU time" in out
     assert "4 x 100 │ 2 (50) │" in out and "batching buys" in out
+
+
+def test_proposals_prints_a_row_per_rollout_count_and_policy_samples():
+    small = ["--optimizers", "ps", "--seeds", "1", "--duration", "0.3", "--num-workers", "1", "--num-rollouts", "16"]
+    result = run_script("proposals.py", *small, "--policy-samples", "1")
+    assert result.returncode == 0, result.stderr
+    out = " ".join(result.stdout.split())  # rich wraps long lines
+    assert "cartpole: proposals from an LQR law holding the cart at 0.2 m, seeds 100-100 x 0.3 s" in out
+    for rollouts, samples in (("16", "0"), ("16", "1"), ("2", "0"), ("2", "1")):
+        assert f"│ ps │ {rollouts} │ {samples} │" in out

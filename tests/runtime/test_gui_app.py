@@ -29,7 +29,10 @@ def test_panels_hold_the_fields_of_the_running_configs(app, wait_until):
         "redraw_every",
         "max_plan_age",
         "latency_compensation",
+        "policy_samples",
     ]
+    samples = panels["controller"].handles("policy_samples")[0]  # the proposals' slider, off by default
+    assert (samples.min, samples.max, samples.step, samples.value) == (0, 64, 1, 0)
     assert panels["optimizer"].field_names == [
         "num_rollouts",
         "num_nodes",

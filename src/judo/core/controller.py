@@ -32,6 +32,8 @@ from judo.core.low_level import check_low_level_backend, with_low_level
 from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
 from judo.core.optimizer import Optimizer
 from judo.core.parallel_reward import ParallelReward
+from judo.core.policy import Policy
+from judo.core.proposals import Proposer, insert_proposals
 from judo.core.randomize import randomized_models
 from judo.core.risk import reduce_rewards
 from judo.core.spline import Spline, SplineBasis
@@ -103,6 +105,8 @@ class Controller:
             R - 1 copies its `randomize_model` hook perturbed (drawn from `task.rng`).
         traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the "trace" framepos sensors
             along the nominal rollout (index 0) and the best `max_num_traces` rollouts.
+        proposal_policy: the Policy whose candidates replace the last `config.policy_samples` of the
+            optimizer's samples every iteration (judo.core.proposals), or None.
     """
 
     def __init__(
@@ -112,8 +116,12 @@ class Controller:
         optimizer: Optimizer,
         num_workers: int | None = None,
         backend: str = "cpu",
+        proposal_policy: Policy | None = None,
     ) -> None:
         check_configs(task, controller_config, optimizer.config)
+        self.proposal_policy = proposal_policy
+        self._proposer = Proposer(task)
+        self._proposer.check(proposal_policy, controller_config.policy_samples)
         self.config = controller_config
         self.task = task
         self.optimizer = optimizer
@@ -163,6 +171,7 @@ class Controller:
             opt.config.num_nodes,
             self.task.dt,
             cfg.num_randomizations,
+            cfg.policy_samples,  # checked against num_rollouts by check_configs
         )
         if key == self._layout_key:
             return
@@ -259,6 +268,16 @@ class Controller:
         expected = (opt.num_rollouts, opt.num_nodes, task.command_size)
         num_models = len(self.models)
         num_rows = num_models * opt.num_rollouts
+        candidates = self._proposer.candidates(
+            self.proposal_policy,
+            cfg.policy_samples,
+            self._initial_state,
+            self._initial_mocap,
+            self._basis,
+            self.num_steps,
+            system_metadata,
+            nominal[0],  # the action served now
+        )
 
         for _ in range(self.config.max_opt_iters):
             if cancel is not None and cancel.is_set():
@@ -270,7 +289,10 @@ class Controller:
                 )
             if not np.isfinite(knots).all():
                 self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
+            rows = None if candidates is None else insert_proposals(knots, candidates)
             np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
+            if rows is not None:
+                opt.samples_replaced(rows, knots[rows])
             np.matmul(self._rollout_weights, knots, out=self._controls)
             # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
             # the plan that is scored is the plan that is served (a cubic overshoots its knots).

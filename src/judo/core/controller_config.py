@@ -8,7 +8,7 @@ import numpy as np
 from judo.core.config import Config, require, require_between
 from judo.core.fields import slider
 from judo.core.model import STATE_SPEC
-from judo.core.optimizer import OptimizerConfig
+from judo.core.optimizer import MAX_NUM_ROLLOUTS, OptimizerConfig
 from judo.core.risk import RiskMeasure
 from judo.core.spline import MIN_KNOTS, SplineOrder
 from judo.core.task import Task
@@ -40,6 +40,7 @@ config may ask for:
 @slider("risk_scale", 0.1, 100.0, 0.1)
 @slider("redraw_every", 0, 100, 1)
 @slider("max_plan_age", 0.0, 5.0, 0.05, log=False)
+@slider("policy_samples", 0, 64, 1)
 @dataclass
 class ControllerConfig(Config):
     """Settings of the planning loop, shared by every task and optimizer."""
@@ -75,6 +76,10 @@ class ControllerConfig(Config):
     """Plan from the state the plant will be in when the plan takes effect: the reading is stepped forward on
     the planning model by the planning latency (the fixed latency, else the last update's wall time), under
     the controls the plant gets meanwhile (judo.runtime.latency)."""
+    policy_samples: int = 0
+    """Candidates of each update that come from the controller's proposal policy instead of the optimizer
+    (generative predictive control): the last policy_samples of the num_rollouts, scored and ranked with the
+    others, so worse ones are not chosen; at most num_rollouts - 1, 0 turns it off (judo.core.proposals)."""
 
     def validate(self) -> None:
         super().validate()
@@ -90,6 +95,7 @@ class ControllerConfig(Config):
         )
         require(self.redraw_every >= 0, f"redraw_every must be at least 0 (0: draw once), got {self.redraw_every}")
         require_between("max_plan_age", self.max_plan_age, 0, MAX_HORIZON, " s (0: no watchdog)")
+        require_between("policy_samples", self.policy_samples, 0, MAX_NUM_ROLLOUTS - 1, " (0: off)")
 
 
 def rollout_steps(horizon: float, dt: float) -> int:
@@ -104,6 +110,12 @@ def check_configs(task: Task, controller_config: ControllerConfig, optimizer_con
     require(
         controller_config.horizon >= task.dt,
         f"horizon ({controller_config.horizon} s) is shorter than one timestep ({task.dt} s)",
+    )
+    samples, rollouts = controller_config.policy_samples, optimizer_config.num_rollouts
+    require(
+        samples < rollouts,
+        f"policy_samples ({samples}) must be below num_rollouts ({rollouts}): the nominal, rollout 0, is never "
+        f"replaced; expected 0 to {rollouts - 1}",
     )
     order, nodes = controller_config.spline_order, optimizer_config.num_nodes
     require(nodes >= MIN_KNOTS[order], f"a {order} spline needs num_nodes >= {MIN_KNOTS[order]}, got {nodes}")

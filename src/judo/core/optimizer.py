@@ -75,6 +75,13 @@ class Optimizer(ABC, Generic[ConfigT]):
         """The new (num_nodes, nu) nominal from the clamped (num_rollouts, num_nodes, nu) samples and
         their (num_rollouts,) rewards. Rewards are finite or -inf (NaN was mapped to -inf), higher is better."""
 
+    def samples_replaced(self, rows: np.ndarray, knots: np.ndarray) -> None:
+        """Called after `sample_control_knots` when the controller put candidates from elsewhere (a proposal
+        policy's, `ControllerConfig.policy_samples`) in place of the samples at `rows` (k,), never row 0, with
+        their clamped (k, num_nodes, nu) `knots`, before the rollouts. An optimizer whose update reads what it
+        drew rather than the knots it is given (CMA-ES's steps) brings that in line here; the default does
+        nothing, since the other updates read only the knots and their rewards."""
+
     def pre_optimization(self, old_times: np.ndarray, new_times: np.ndarray) -> None:
         """Called once per planning cycle before sampling, with the previous plan's (old_num_nodes,)
         knot times and this cycle's (num_nodes,) knot times. Shift or resize carried state here."""

@@ -9,6 +9,8 @@ from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.estimator import Estimator, EstimatorConfig
 from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.policy import Policy
+from judo.core.proposals import check_policy_fits
 from judo.core.task import Task, TaskConfig
 
 ConfigKind = Literal["controller", "optimizer", "task"]
@@ -145,12 +147,14 @@ def make_controller(
     num_workers: int | None = None,
     seed: int | None = None,
     backend: str = "cpu",
+    proposal_policy: Policy | None = None,
 ) -> Controller:
     """A Controller for the registered task and optimizer, with that task's overrides applied.
 
     Configs passed in are used as they are. `seed` seeds the optimizer's and the task's generators
     (ConfigError unless it is an integer from 0 to 2**63 - 1). `backend` names the rollout backend
-    ("cpu" threads or "warp" for MuJoCo Warp; see ROLLOUT_BACKENDS).
+    ("cpu" threads or "warp" for MuJoCo Warp; see ROLLOUT_BACKENDS). `proposal_policy` makes the candidates
+    that `controller_config.policy_samples` asks for (judo.core.proposals).
     """
     check_seed(seed)
     task_cls, task_config_cls = lookup_task(task_name)
@@ -160,7 +164,9 @@ def make_controller(
     controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)  # type: ignore[assignment]
     optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)  # type: ignore[assignment]
     optimizer = optimizer_cls(optimizer_config, task.command_size)
+    if proposal_policy is not None:
+        check_policy_fits(task, proposal_policy, task_name)  # names the task, which the Controller cannot
     if seed is not None:
         optimizer.rng = np.random.default_rng(seed)
         task.rng = np.random.default_rng(seed + 1)
-    return Controller(controller_config, task, optimizer, num_workers, backend)  # type: ignore[arg-type]
+    return Controller(controller_config, task, optimizer, num_workers, backend, proposal_policy)  # type: ignore[arg-type]

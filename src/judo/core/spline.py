@@ -33,7 +33,7 @@ class SplineBasis:
         if np.any(np.diff(knot_times) <= 0):
             raise ConfigError(f"knot times must increase strictly, got {knot_times}")
         self.knot_times = knot_times
-        self.order = order
+        self.order: SplineOrder = order
         self._knot_list = knot_times.tolist()
         if order == "cubic":
             self._second_derivative_map = _not_a_knot_second_derivatives(knot_times)

@@ -13,9 +13,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from judo.core.config import Config
+from judo.core.config import Config, require
 from judo.core.controller import Controller
 from judo.core.errors import JudoError
+from judo.core.policy import Policy
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
 from judo.runtime.records import Recorder
 from judo.runtime.sensing import SensedSystem
@@ -50,6 +51,8 @@ class EpisodeSpec:
             the plan (--estimator); the full state as it is by default.
         policy: an .onnx file (absolute path) that drives the plant instead of the optimizer; with an optimizer
             too, the MPC plans from every state the policy is served from, for labels (collect --policy).
+        proposal_policy: an .onnx file whose policy makes the controller's `policy_samples` candidates
+            (judo.core.proposals), or None.
     """
 
     task: str
@@ -62,6 +65,7 @@ class EpisodeSpec:
     num_workers: int | None = 1
     sensing: Sensing = field(default_factory=Sensing)
     policy: str | None = None
+    proposal_policy: str | None = None
 
 
 def load_config_once(path: str | None) -> None:
@@ -140,12 +144,28 @@ def run_seeded_episode(
         num_workers=spec.num_workers,
         seed=seed,
         backend=spec.backend,
+        proposal_policy=load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples),  # type: ignore[attr-defined]
     ) as controller:
         controller.task.config = configs["task"]
         system = observed_plant(controller.task, seed, spec.sensing)
         _, estimator = choose_estimator(controller.task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
         return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
+
+
+def load_proposal_policy(path: str | None, policy_samples: int) -> Policy | None:
+    """The OnnxPolicy in the file at `path` (None for None); ConfigError when there is a file but `policy_samples`
+    in force is 0, so that it would never be used."""
+    if path is None:
+        return None
+    require(
+        policy_samples > 0,
+        f"--proposal-policy {path} is given but policy_samples is 0, so it would never be used; set "
+        "--controller.policy-samples K (1 to num_rollouts - 1)",
+    )
+    from judo.core.onnx_policy import OnnxPolicy  # onnxruntime only when a policy is asked for
+
+    return OnnxPolicy(path)
 
 
 def run_policy_episode(

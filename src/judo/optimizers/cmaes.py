@@ -181,6 +181,19 @@ class CMAES(Optimizer[CMAESConfig]):
             self.num_rollouts, self.num_nodes, self.nu
         )
 
+    def samples_replaced(self, rows: np.ndarray, knots: np.ndarray) -> None:
+        """Take the candidates at `rows` (a proposal policy's) into the update as injected solutions (Hansen 2011,
+        "Injecting external solutions into CMA-ES", arXiv:1110.4181): the draw behind each becomes
+        z = (x - m) / (step_size sqrt(C)), its length clipped to c_y = sqrt(n) + 2n / (n + 2), so that a far
+        candidate moves the mean, the paths and C no further than a long own draw would. Without this the update
+        would credit a candidate's rank to the draw it replaced."""
+        n = len(self.mean)
+        draws = (knots.reshape(len(rows), n) - self.mean) / (self.step_size * np.sqrt(self.variances))
+        lengths = np.linalg.norm(draws, axis=1, keepdims=True)
+        limit = np.sqrt(n) + 2 * n / (n + 2)
+        draws *= np.minimum(1.0, limit / np.maximum(lengths, np.finfo(float).tiny))
+        self._draws[np.asarray(rows) - 1] = draws
+
     def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
         n = len(self.mean)
         lam = self.num_rollouts - 1

@@ -15,6 +15,7 @@ from judo.core.config import Config, with_updates
 from judo.core.controller import check_configs
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
+from judo.core.proposals import check_proposal_policy
 from judo.core.registry import (
     CONFIG_KINDS,
     ConfigKind,
@@ -92,6 +93,8 @@ class AppCommands(AppEventLoop):
             updated = with_updates(self._configs[kind], updates)
             candidate = {**self._configs, kind: updated}
             check_configs(self._session.controller.task, candidate["controller"], candidate["optimizer"])  # type: ignore[arg-type]
+            proposals = getattr(self._session.controller, "proposal_policy", None)  # refused here, not every cycle
+            check_proposal_policy(proposals, getattr(candidate["controller"], "policy_samples", 0))
             self._configs[kind] = updated
             self._pending[kind] = updated
             if not from_gui:
