@@ -102,3 +102,21 @@ def test_the_apps_pendulum_swings_up_within_10_s_of_sim_time_however_slow_the_ma
     assert upright_at is not None and upright_at < 10.0, f"the pole was not upright by {app.stats.sim_time():.1f} s"
     assert np.cos(plant.task.data.qpos[0]) > np.cos(0.3)  # and it stays up
     assert app.session.closed_loop.watchdog.trips == 0
+
+
+def test_judos_simulator_does_not_wait_for_a_failing_planner_the_watchdog_serves_the_safe_action():
+    controller = judo.ControllerConfig(horizon=0.3, control_freq=CONTROL_FREQ, max_plan_age=MAX_PLAN_AGE)
+    app = App("cartpole", "ps", controller_config=controller, gui=False, seed=0, num_workers=1)
+
+    def failing_reward(*args, **kwargs):
+        raise RuntimeError("the reward's model server is down")
+
+    app.session.controller.task.reward = failing_reward  # type: ignore[method-assign]
+    app.start()
+    try:
+        time.sleep(1.5)
+    finally:
+        app.stop()
+    loop = app.session.closed_loop
+    assert app.stats.num_plans() == 0 and loop.last_cycle_failed
+    assert loop.watchdog.trips >= 1 and app.stats.sim_time() > MAX_PLAN_AGE + 1.0 / CONTROL_FREQ

@@ -23,8 +23,7 @@ keeps the plan in force before it (or the task's warm start before the first pla
 plan is served from the first step after it is done, which in real time is its real latency. The
 controller's `latency_compensation` plans from the reading predicted to then (`judo.runtime.latency`).
 
-For judo's own simulator the app gives no clock (plans age in plant time stepped) and waits for a slow cycle
-(`judo.runtime.plant_loop`); for a user's System, a robot, it gives the wall clock.
+The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (plant_loop.py).
 """
 
 import dataclasses
@@ -104,7 +103,7 @@ class ClosedLoop:
         self.on_watchdog = on_watchdog
         self.watchdog = Watchdog()
         self.watchdog.restart(self.clock())
-        self._plan_stamp = self.clock()  # watchdog clock of the freshest reading behind the plan in force
+        self.plan_stamp = self.clock()  # watchdog clock of the freshest reading behind the plan in force
         self._safe_state: np.ndarray | None = None  # (nq + nv,) the latest finite reading, for safe_action
         self.reading: SystemState | None = None
         self.update_ms: list[float] = []
@@ -119,6 +118,7 @@ class ClosedLoop:
         self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
         self.real_time, self._predictor = clock is not None, LatencyPredictor(controller.task)  # app: wall clock
         self.cycle_started: float | None = None  # stepped_time when the planning cycle in flight began
+        self.last_cycle_failed, self.newest_stamp = False, self.plan_stamp  # and the newest scheduled plan's stamp
         self.last_cycle_plant_time = 0.0  # plant time stepped (by another thread) while the last cycle ran
 
     def restart_estimator(self) -> None:
@@ -132,7 +132,7 @@ class ClosedLoop:
         now = self.clock()
         with self._lock:
             self._active, self._pending, self._hold = None, [], None
-            self._plan_stamp = now  # the warm start counts as a plan from now
+            self.plan_stamp = now  # the warm start counts as a plan from now
 
     def restart(self) -> SystemState:
         """Forget every plan and read the plant; the control clock starts at the reading's time. Call it
@@ -182,7 +182,7 @@ class ClosedLoop:
         """
         stamp = self.watchdog.fresh_at
         started = time.perf_counter()
-        self.cycle_started = stepped = self.stepped_time
+        self.cycle_started, self.last_cycle_failed, stepped = self.stepped_time, True, self.stepped_time
         try:
             start = self._predicted(reading) if self.controller.config.latency_compensation else reading
             plan = self.controller.update_action(start.state, start.time, start.metadata, cancel)
@@ -200,6 +200,7 @@ class ClosedLoop:
         self.last_delay = delay
         if plan is None:
             return None
+        self.last_cycle_failed, self.newest_stamp = False, stamp
         with self._lock:
             self._pending.append((reading.time + delay, plan, stamp))
         traces = self._traces_if_wanted()
@@ -233,8 +234,8 @@ class ClosedLoop:
         while the watchdog finds that plan too old."""
         with self._lock:
             while self._pending and self._pending[0][0] <= now + TIME_TOLERANCE:
-                _, self._active, self._plan_stamp = self._pending.pop(0)
-            active, stamp = self._active, self._plan_stamp
+                _, self._active, self.plan_stamp = self._pending.pop(0)
+            active, stamp = self._active, self.plan_stamp
             if active is None and self._hold is None:  # held from the first reading after a restart
                 self._hold = self.controller.warm_start_action(None if self.reading is None else self.reading.state)
             hold = self._hold

@@ -1,7 +1,7 @@
 """The app's plant loop: the System driven from one thread of its own, at real-time pace.
 
-judo's own simulator waits for a planning cycle that would take more than one control period of sim time
-(`cycle_overdue`): on a slow machine the simulation slows down and the real-time factor shows it.
+judo's own simulator waits for a slow planner (`sim_waits`): on a slow machine the simulation slows down
+and the real-time factor shows it.
 A user's System (a robot) is never held back.
 
 Step k of a stretch is due at wall time origin + k * timestep; a loop that falls further behind than
@@ -39,14 +39,18 @@ WAIT_REPORT = 2.0
 """Wall seconds the simulation waits for one planning cycle before the status line says so."""
 
 
-def cycle_overdue(loop: ClosedLoop) -> bool:
-    """Whether one more plant step would let the planning cycle in flight take more than one control period
-    of the plant time `loop` has stepped: judo's own simulator waits instead (docs/gui.md); a robot cannot."""
+def sim_waits(loop: ClosedLoop) -> bool:
+    """Whether judo's own simulator waits before its next step (docs/gui.md; a robot never does): while the
+    planning cycle in flight would take more than one control period of sim time, and between cycles while the
+    plan in force would age past max(2 periods, max_plan_age / 2) (a planner thread late to start its next
+    cycle); never after a failed cycle, so a failing planner still trips the watchdog."""
+    config = loop.controller.config
+    period, next_time = 1.0 / config.control_freq, loop.stepped_time + loop.system.timestep
     started = loop.cycle_started
-    if started is None:
-        return False
-    period = 1.0 / loop.controller.config.control_freq
-    return loop.stepped_time + loop.system.timestep - started > period + 1e-9
+    if started is not None:
+        return next_time - started > period + 1e-9
+    newest = max(loop.plan_stamp, loop.newest_stamp)  # a finished plan is in force from the next step on
+    return not loop.last_cycle_failed and next_time - newest > max(2 * period, config.max_plan_age / 2)
 
 
 def system_snapshot(session: Session, reading: SystemState) -> SystemSnapshot:
@@ -121,7 +125,7 @@ class PlantLoop:
                 waits = not session.closed_loop.real_time  # judo's own simulator waits for a slow planner
                 served = stepped = 0
                 while stepped < due and not self._stop.is_set():
-                    if waits and cycle_overdue(session.closed_loop):
+                    if waits and sim_waits(session.closed_loop):
                         break
                     served += self._step(session)
                     stepped += 1
