@@ -28,9 +28,10 @@ RUN_SECONDS = float(os.environ.get("JUDO_CAMERA_SECONDS", "3"))
 SAMPLE_PERIOD = 0.2
 IN_VIEW = 0.97
 """Every projected box corner of the moving bodies stays within this much of the way to the view's edges."""
-REACH_SHARE = 0.6
-"""The task's reach (its geoms and where it can swing them) spans at least this share of the view's
-width or height: framed close enough, not from afar (the old pendulum's spanned about 0.5)."""
+REACH_SHARE = 0.4
+"""The task's reach (its geoms, goals and where it can swing them) spans at least this share of the
+view's width or height while it runs: framed close, not from afar. Framing puts it at 0.8 when the
+task is framed; a pusher that has closed on its object since spans less (cylinder_push: 0.46)."""
 ROBOT_SHARE = 0.1
 """The moving bodies span at least this share (at their widest while the task runs): never a speck
 (a cart-pole's is its track's, about 0.14)."""
@@ -71,14 +72,43 @@ def in_view(app: App, points: np.ndarray) -> np.ndarray:
     return np.array([(9.0, 9.0) if v is None else v for v in view]).reshape(-1, 2)
 
 
+def framed_bodies(model: mujoco.MjModel, focus: int) -> set[int]:
+    """The moving bodies the camera promises to keep in view: the followed body's tree (a walker, a
+    cart and its pole) and trees that turn on the world (an arm, a hand, a pendulum). Another tree
+    that slides or floats apart from the followed one (push_t's pusher, beside the block the camera
+    follows), and a goal the task moves, may leave the view."""
+
+    def root(body: int) -> int:
+        while model.body_parentid[body] != 0:
+            body = int(model.body_parentid[body])
+        return body
+
+    def only_turns(body: int) -> bool:  # every joint between `body` and the world is a hinge or a ball
+        turning = {mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL}
+        while body != 0:
+            first, count = model.body_jntadr[body], model.body_jntnum[body]
+            if not {int(t) for t in model.jnt_type[first : first + count]} <= turning:
+                return False
+            body = int(model.body_parentid[body])
+        return True
+
+    bodies = set()
+    for body in range(1, model.nbody):
+        moves = model.body_mocapid[body] < 0 and model.body_weldid[body] != 0
+        if moves and (root(body) == root(focus) or only_turns(body)):
+            bodies.add(body)
+    return bodies
+
+
 def robot_and_reach(app: App) -> tuple[np.ndarray, np.ndarray]:
-    """(n, 3) box corners of the drawn solid geoms of the bodies that move, and (m, 3) the points the
-    framing bounds the task's reach with (those corners, the world's solid geoms, the goal markers,
-    and where the robot can swing its limbs without travelling: `camera.reach_points`)."""
+    """(n, 3) box corners of the drawn solid geoms of the `framed_bodies`, and (m, 3) the points the
+    framing bounds the task's reach with (the corners of all the solid geoms, the goal markers, and
+    where the robot can swing its limbs without travelling: `camera.reach_points`)."""
     scene = app.gui.scene
     model, data = scene.model, scene.data
     solid = [g for g in scene.geom_nodes if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_PLANE]
-    moving = [g for g in solid if model.body_weldid[model.geom_bodyid[g]] != 0]
+    framed = framed_bodies(model, app.gui.follower.body)
+    moving = [g for g in solid if model.geom_bodyid[g] in framed]
     corners = geom_box_corners(model, data, solid)
     reach = reach_points(model, data, corners, np.repeat(model.geom_bodyid[solid], 8))
     markers = np.array([marker.position for marker in scene.markers.values()]).reshape(-1, 3)
