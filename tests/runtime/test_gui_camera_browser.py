@@ -113,8 +113,9 @@ def robot_and_reach(app: App) -> tuple[np.ndarray, np.ndarray]:
 
 
 def span(view: np.ndarray) -> float:
-    """The share of the view's width or height (whichever is more) that (n, 2) view coordinates span."""
-    return float(max(np.ptp(view[:, 0]), np.ptp(view[:, 1])) / 2)
+    """The share of the view's width or height (whichever is more) that (n, 2) view coordinates span
+    (1 when they span more than the view: a goal left behind by the followed body)."""
+    return min(float(max(np.ptp(view[:, 0]), np.ptp(view[:, 1])) / 2), 1.0)
 
 
 def floor_is_under(app: App, point: np.ndarray) -> bool:
