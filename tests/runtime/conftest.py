@@ -70,6 +70,29 @@ def chromium() -> Iterator[object]:
         browser.close()
 
 
+PAUSE_THE_SCENE = """() => {
+  const view = [...document.querySelectorAll('div')].find((d) => d.style.zIndex === '0' && d.querySelector('canvas'));
+  if (view) view.style.transform = 'translateX(-300vw)';
+  return Boolean(view);
+}"""
+"""JS: move the 3-D view's box out of the page's sight. viser stops drawing a scene it cannot see (its
+canvas's intersection observer) and still applies every message, so the panel works as before."""
+
+
+@pytest.fixture(scope="session")
+def pause_scene() -> Callable[[object], None]:
+    """pause_scene(page): stop `page` drawing the 3-D scene, for a test that reads the panel, not the picture.
+
+    Headless Chromium draws WebGL in software: one page redrawing the scene at the GUI's 30 Hz keeps a
+    third of a core busy, most of the CI's browser-test time. Screenshots then show the panel alone.
+    """
+
+    def pause(page) -> None:
+        assert page.evaluate(PAUSE_THE_SCENE), "the page has no 3-D view to pause (has viser's layout changed?)"
+
+    return pause
+
+
 @pytest.fixture
 def artifacts() -> Path:
     """The folder screenshots go to (gitignored)."""

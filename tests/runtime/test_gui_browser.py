@@ -16,11 +16,12 @@ pytestmark = pytest.mark.browser
 
 
 @pytest.fixture
-def page(chromium, app):
+def page(chromium, app, pause_scene):
     page = chromium.new_page(viewport={"width": 1280, "height": 900})
     page.set_default_timeout(60_000)  # software WebGL on a busy machine can be slow; an idle one takes seconds
     page.goto(app.gui.url)
     page.get_by_text("Controller", exact=True).wait_for()
+    pause_scene(page)
     for close in page.locator(".mantine-Notification-closeButton").all():  # e.g. the "software WebGL" notice
         close.dispatch_event("click")
     yield page

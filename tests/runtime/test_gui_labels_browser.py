@@ -46,7 +46,9 @@ def test_line_breaks_are_found_only_at_spaces():
 
 
 @pytest.mark.parametrize(("task", "optimizer"), [("cartpole", "mppi"), ("leap_cube", "cem")])
-def test_every_panel_label_fits_or_wraps_between_words(task, optimizer, app, chromium, wait_until, artifacts):
+def test_every_panel_label_fits_or_wraps_between_words(
+    task, optimizer, app, chromium, wait_until, artifacts, pause_scene
+):
     if task != app.session.task_name:
         app.switch_task(task)
     if optimizer != app.session.optimizer_name:
@@ -65,6 +67,7 @@ def test_every_panel_label_fits_or_wraps_between_words(task, optimizer, app, chr
         page.goto(app.gui.url)
         page.get_by_text(f"Task: {task}", exact=True).wait_for()
         page.get_by_text(f"Optimizer: {optimizer}", exact=True).wait_for()
+        pause_scene(page)
         expected = {field_label(name) for panel in app.gui.panels.values() for name in panel.field_names}
         laid_out = {"".join(layout["lines"]): layout for layout in page.locator("label[for]").evaluate_all(LAYOUTS)}
         assert expected <= set(laid_out), f"labels not on the page: {expected - set(laid_out)}"

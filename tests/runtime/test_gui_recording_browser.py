@@ -19,7 +19,7 @@ def small_recording_app(**kwargs) -> App:
 
 @pytest.mark.browser
 def test_the_record_toggle_in_the_browser_writes_a_file_that_replay_opens(
-    chromium, port, tmp_path, monkeypatch, wait_until
+    chromium, port, tmp_path, monkeypatch, wait_until, pause_scene
 ):
     monkeypatch.chdir(tmp_path)  # the default recording path is in the working folder
     app = small_recording_app(port=port)
@@ -28,6 +28,8 @@ def test_the_record_toggle_in_the_browser_writes_a_file_that_replay_opens(
     page.set_default_timeout(60_000)
     try:
         page.goto(app.gui.url)
+        page.get_by_text("Controller", exact=True).wait_for()
+        pause_scene(page)
         record = page.get_by_text("record", exact=True)
         record.wait_for()
         record.click()

@@ -36,12 +36,13 @@ def nominal_trace(replay: Replay) -> np.ndarray:
     return np.array(replay.scene.scene.get_handle_by_name("/traces/nominal").points)
 
 
-def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(chromium, replay, wait_until, artifacts):
+def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(chromium, replay, wait_until, artifacts, pause_scene):
     page = chromium.new_page(viewport={"width": 1280, "height": 900})
     page.set_default_timeout(60_000)
     try:
         page.goto(replay.url)
         page.get_by_text("Play", exact=True).wait_for()
+        pause_scene(page)
         assert "seed 1" in page.locator(".mantine-Paper-root").first.inner_text()
         start, start_trace = cart_position(replay), nominal_trace(replay)
         assert replay.scene.scene.get_handle_by_name("/traces/samples") is not None

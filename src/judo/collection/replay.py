@@ -214,6 +214,7 @@ class Replay:
         self.url = gui_url(self.server, self.token)
         self.scene = SceneView(self.server.scene, self.model)
         gui = self.server.gui
+        gui.main_panel.dock_right()  # beside the view the camera frames, as in the app
         names = [demo_name(seed) for seed in self.demos]
         self.demo_dropdown = gui.add_dropdown("demo", names, initial_value=demo_name(self.demo.seed))
         self.play_button = gui.add_button("Play")

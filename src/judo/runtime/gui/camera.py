@@ -6,23 +6,25 @@
     delta = follower.step(data)                                 # (3,) how far the focus moved
 
 Framing uses the model's first camera when it has one; otherwise it looks, from the model's default
-azimuth and elevation, at the box that holds the drawn geoms (planes aside) wherever the jointed
-chains fixed to the world can swing them, from just far enough that it fits the view. A body that
-slides or floats (a cart, a planar walker's torso) is framed where it is, not with every place it
-could slide or swing its limbs to: the camera follows it instead.
+azimuth and elevation, at the drawn geoms (planes aside) and everywhere the robot can swing them
+without travelling: the reach of the jointed chains fixed to the world, and the reach of the limbs
+of a body that slides or floats (a cart's pole, a walker's legs) around where that body is now.
+The camera sits just far enough back that every such point lands inside the middle FRAMING_FILL of
+the canvas, which the docked GUI panel does not cover. Where a body could slide to is not framed:
+the camera follows it instead.
 """
 
 import mujoco
 import numpy as np
 
 MIN_FRAMED_RADIUS = 0.12
-"""Metres: the smallest ball the camera frames, so a lone small body keeps a little context."""
-FRAMING_MARGIN = 1.15
-"""The framed ball is this much bigger than the bodies' extent, so nothing touches the edge."""
+"""Metres: the smallest half-extent the camera frames, so a lone small body keeps a little context."""
+FRAMING_FILL = 0.8
+"""The framed points reach at most this fraction of the way from the view's centre to its edges."""
 VERTICAL_FOV = np.deg2rad(75.0)
 """viser's default vertical field of view (radians)."""
-VISIBLE_ASPECT = 1.2
-"""Width over height of the part of a typical page the panel leaves uncovered."""
+VISIBLE_ASPECT = 1.1
+"""Width over height of the canvas beside the docked GUI panel on a 1280 x 800 page (wider pages see more)."""
 
 
 def focus_body_id(model: mujoco.MjModel, name: str | None) -> int:
@@ -43,29 +45,90 @@ def focus_body_id(model: mujoco.MjModel, name: str | None) -> int:
 
 
 def reach_points(model: mujoco.MjModel, data: mujoco.MjData, corners: np.ndarray, corner_bodies: np.ndarray):
-    """(6 * k, 3) points bounding where the k jointed chains fixed to the world can swing their geoms.
+    """(n, 3) points bounding where k bodies can swing their subtrees' geoms without travelling.
 
-    A chain starts at a body that turns (hinge or ball joints only) on the world, or on bodies that
-    only slide: a pendulum's pole, an arm's first link, the pole on a cart. Its reach is the ball
-    around its first joint's anchor through its subtree's farthest geom corner, given as the ball's
-    6 extreme points. A body that slides or floats (a cart, a pusher, a planar walker's torso, a
-    free body) adds no reach: it is framed where it is and the camera follows it, rather than framed
-    with where its slides start or every pose its limbs could swing to. `corners` (n, 3) are
+    Two kinds of body count. A chain that turns (hinge or ball joints only) on the world, or on
+    bodies that only slide (a pendulum's pole, an arm's first link, the pole on a cart), reaches the
+    ball around its first joint's anchor as far as its subtree can stretch. A body that slides or
+    floats on the world (a cart, a pusher, a planar walker's torso, a free humanoid)
+    reaches the ball around where it is now as far as its subtree can stretch: its limbs in any
+    pose, but not every place it could slide to (the camera follows it instead). A ball is given as
+    14 points on it; where every hinge below the body turns about one axis (a planar robot), the
+    reach is the ball's circle across that axis, given as 16 points on it. `corners` (n, 3) are
     geom-box corners and `corner_bodies` (n,) the body each belongs to.
     """
     turning = {mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL}
     points = []
     for body in range(1, model.nbody):
         types = _joint_types(model, body)
-        if not types or not types <= turning or not _slides_on_world(model, body):
+        if not types or not _slides_on_world(model, body):
             continue
         inside = np.array([_in_subtree(model, int(b), body) for b in corner_bodies], dtype=bool)
         if not inside.any():
             continue
-        anchor = data.xanchor[model.body_jntadr[body]]
-        radius = float(np.linalg.norm(corners[inside] - anchor, axis=1).max())
-        points.append(anchor + radius * np.concatenate([np.eye(3), -np.eye(3)]))
+        centre = data.xanchor[model.body_jntadr[body]] if types <= turning else data.xpos[body]
+        radius = _reach_radius(model, data, body, centre, corners, corner_bodies)
+        axis = _swing_axis(model, data, body)
+        points.append(centre + radius * (BALL_DIRECTIONS if axis is None else _circle_directions(axis)))
     return np.concatenate(points) if points else np.zeros((0, 3))
+
+
+def _reach_radius(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    body: int,
+    point: np.ndarray,
+    corners: np.ndarray,
+    corner_bodies: np.ndarray,
+) -> float:
+    """How far from `point` (3,), fixed in `body`, any geom corner of `body`'s subtree can get in any
+    pose: `body`'s own corners, and for each jointed child the distance to its joint's anchor plus
+    the child's own reach from there (a folded arm reaches as far as a straight one)."""
+    own = corners[corner_bodies == body]
+    radius = float(np.linalg.norm(own - point, axis=1).max()) if len(own) else 0.0
+    for child in range(body + 1, model.nbody):
+        if model.body_parentid[child] != body:
+            continue
+        if model.body_jntnum[child] == 0:  # welded on: it moves with `body`
+            radius = max(radius, _reach_radius(model, data, child, point, corners, corner_bodies))
+            continue
+        anchor = data.xanchor[model.body_jntadr[child]]
+        reach = _reach_radius(model, data, child, anchor, corners, corner_bodies)
+        if reach > 0:
+            radius = max(radius, float(np.linalg.norm(anchor - point)) + reach)
+    return radius
+
+
+BALL_DIRECTIONS = np.concatenate(
+    [np.eye(3), -np.eye(3), np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) / np.sqrt(3)]
+)
+"""(14, 3) unit directions whose points outline a ball well enough to frame it from any side."""
+
+
+def _swing_axis(model: mujoco.MjModel, data: mujoco.MjData, body: int) -> np.ndarray | None:
+    """(3,) the one world axis every hinge in `body`'s subtree turns about (a planar robot), or None
+    when the subtree turns about several axes or has a ball or free joint."""
+    axes = []
+    for joint in range(model.njnt):
+        if not _in_subtree(model, int(model.jnt_bodyid[joint]), body):
+            continue
+        kind = model.jnt_type[joint]
+        if kind in (mujoco.mjtJoint.mjJNT_BALL, mujoco.mjtJoint.mjJNT_FREE):
+            return None
+        if kind == mujoco.mjtJoint.mjJNT_HINGE:
+            axes.append(data.xaxis[joint] / np.linalg.norm(data.xaxis[joint]))
+    if not axes or any(abs(float(a @ axes[0])) < 1 - 1e-6 for a in axes):
+        return None
+    return axes[0]
+
+
+def _circle_directions(axis: np.ndarray, count: int = 16) -> np.ndarray:
+    """(count, 3) unit directions around the circle perpendicular to `axis` (3,): a planar reach."""
+    u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u = u / np.linalg.norm(u)
+    v = np.cross(axis, u)
+    angles = np.linspace(0, 2 * np.pi, count, endpoint=False)
+    return np.cos(angles)[:, None] * u + np.sin(angles)[:, None] * v
 
 
 def _joint_types(model: mujoco.MjModel, body: int) -> set[int]:
@@ -87,15 +150,25 @@ def frame_points(model: mujoco.MjModel, points: np.ndarray, aspect: float = VISI
     """(position (3,), look_at (3,)) of a camera that sees every point of (n, 3) `points`.
 
     It looks at the centre of their box from the model's default azimuth and elevation
-    (`<visual><global>`), far enough that the box's bounding ball fits both fields of view.
+    (`<visual><global>`), from just far enough that each point projects within FRAMING_FILL of the
+    view's half-width and half-height (a pinhole of VERTICAL_FOV and width over height `aspect`).
     """
     low, high = points.min(axis=0), points.max(axis=0)
     look_at = (low + high) / 2
-    radius = FRAMING_MARGIN * max(0.5 * float(np.linalg.norm(high - low)), MIN_FRAMED_RADIUS)
-    half_fov = min(VERTICAL_FOV / 2, np.arctan(np.tan(VERTICAL_FOV / 2) * aspect))
-    distance = radius / np.sin(half_fov)
     azimuth, elevation = np.deg2rad([model.vis.global_.azimuth, model.vis.global_.elevation])
     forward = np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right = (
+        right / np.linalg.norm(right)
+        if np.linalg.norm(right) > 1e-9
+        else np.array([np.sin(azimuth), -np.cos(azimuth), 0.0])
+    )
+    up = np.cross(right, forward)
+    offsets = points - look_at  # (n, 3)
+    across, along, depth = np.abs(offsets @ right), np.abs(offsets @ up), offsets @ forward
+    tan_y = FRAMING_FILL * np.tan(VERTICAL_FOV / 2)
+    needed = np.maximum(across / (tan_y * aspect), along / tan_y) - depth  # (n,) each point's distance
+    distance = max(float(needed.max()), MIN_FRAMED_RADIUS / tan_y, float(np.abs(depth).max()) + MIN_FRAMED_RADIUS)
     return look_at - distance * forward, look_at
 
 

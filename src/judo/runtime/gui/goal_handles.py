@@ -20,6 +20,18 @@ HANDLE_SCALE = 0.2
 """Handle size as a fraction of the model's extent (within HANDLE_SIZES), so it suits a hand or a field."""
 HANDLE_SIZES = (0.06, 0.4)
 """Smallest and largest handle, in metres."""
+MOCAP_HANDLE_FRACTION = 0.7
+"""A mocap goal's handle reaches at most this fraction of its geoms' half-size, so it never hides the goal."""
+
+
+def mocap_handle_size(model: mujoco.MjModel, body: int, scale: float) -> float:
+    """The handle size for mocap `body`: `scale`, shrunk to MOCAP_HANDLE_FRACTION of the half-size of
+    the body's largest geom (its bounding box), so a goal cube stays visible around its handle."""
+    geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body]
+    if not geoms:
+        return scale
+    half = float(model.geom_aabb[geoms, 3:].max())
+    return min(scale, MOCAP_HANDLE_FRACTION * half)
 
 
 class GoalHandles:
@@ -41,7 +53,8 @@ class GoalHandles:
             index = int(model.body_mocapid[body])
             if index >= 0:
                 name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"mocap_{index}"
-                control = self._add(f"mocap/{name}", scale, (True, True, True), model.body_pos[body], turns=True)
+                size = mocap_handle_size(model, body, scale)
+                control = self._add(f"mocap/{name}", size, (True, True, True), model.body_pos[body], turns=True)
                 control.on_update(lambda event, i=index, key=f"mocap/{name}": self._dragged_mocap(event, key, i))
         for field_name, value in vars(config).items():
             spec = array_field_spec(type(config), field_name)

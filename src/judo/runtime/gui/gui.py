@@ -46,6 +46,7 @@ class Gui:
         self.server = start_server(host, port, token=token, share=share, label="judo")
         self.server.scene.set_up_direction("+z")
         self.server.gui.configure_theme(control_width="large", dark_mode=False, show_share_button=share)
+        self.server.gui.main_panel.dock_right()  # the panel beside the 3-D view, not over the robot it frames
         self.controls = Controls(self.server.gui, app, order=0)
         self.plots = Plots(self.server.gui, order=100)
         self.panels: dict[str, ConfigPanel] = {}
@@ -75,6 +76,12 @@ class Gui:
     def shown_generation(self) -> int:
         """The generation of the session the panels and scene were last built for (-1 before the first)."""
         return self._generation
+
+    def camera_sent(self, client_id: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """(position (3,), look_at (3,)) of the camera last sent to page `client_id` (None before any):
+        what the page shows with the bodies posed in the same update, however late it reports back."""
+        offset = self._offsets.get(client_id)
+        return None if offset is None else (self._look_at + offset, self._look_at.copy())
 
     def update(self) -> None:
         """Follow the app: rebuild after a switch, refresh widgets, pose the scene, draw traces and plots."""
@@ -264,6 +271,8 @@ class Gui:
         """
         assert self.scene is not None and self.follower is not None
         delta = self.follower.step(self.scene.data)
+        if self.follower.body:
+            self.scene.keep_floor_under(self.scene.data.xpos[self.follower.body])
         self._look_at = self._look_at + delta  # kept up while off too, so turning follow on finds the focus
         if not self.controls.follow.value or not np.any(np.abs(delta) > 1e-6):
             return

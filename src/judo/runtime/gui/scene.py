@@ -38,6 +38,9 @@ class SceneView:
     Attributes:
         body_frames: body id -> viser frame, for every body that holds a drawn geom or is a mocap body.
         geom_nodes: geom id -> viser node, for every drawn geom.
+        markers: vis_name -> the sphere drawn at a config's goal (see `set_markers`).
+        floors: geom id -> (the frame its slab and grid hang from, its grid section in metres), for
+            every world plane the robot can touch (see `keep_floor_under`).
     """
 
     def __init__(self, scene: viser.SceneApi, model: mujoco.MjModel, root: str = "/model", ghost: bool = False) -> None:
@@ -46,7 +49,8 @@ class SceneView:
         mujoco.mj_kinematics(model, self.data)
         self.body_frames: dict[int, Any] = {}
         self.geom_nodes: dict[int, Any] = {}
-        self._markers: dict[str, Any] = {}
+        self.markers: dict[str, Any] = {}
+        self.floors: dict[int, tuple[Any, float]] = {}
         jointed = [b for b in range(1, model.nbody) if model.body_weldid[b] != 0]
         self._moving = (
             jointed if ghost else [b for b in range(1, model.nbody) if b in jointed or model.body_mocapid[b] >= 0]
@@ -79,7 +83,7 @@ class SceneView:
         corners = geom_box_corners(model, data, solid) if solid else np.array(model.stat.center)[None]
         corner_bodies = np.repeat(model.geom_bodyid[solid], 8) if solid else np.zeros(1, dtype=int)
         points = [corners, reach_points(model, data, corners, corner_bodies)]
-        points += [np.asarray(marker.position)[None] for marker in self._markers.values()]
+        points += [np.asarray(marker.position)[None] for marker in self.markers.values()]
         position, look_at = frame_points(model, np.concatenate(points))
         named = model_camera(model, data, float(np.linalg.norm(look_at - position)))
         return named if named is not None else (position, look_at)
@@ -97,6 +101,17 @@ class SceneView:
             if frame is not None:
                 frame.position = data.xpos[b]
                 frame.wxyz = data.xquat[b]
+
+    def keep_floor_under(self, point: np.ndarray) -> None:
+        """Shift each floor the robot can touch (a world plane that collides, which MuJoCo makes
+        infinite) in whole grid sections so it stays under `point` (3,): a walker never walks off
+        the drawn floor, and the grid lines stay where they were in the world."""
+        for g, (frame, section) in self.floors.items():
+            rotation = self.data.geom_xmat[g].reshape(3, 3)
+            local = rotation.T @ (np.asarray(point, dtype=float) - self.data.geom_xpos[g])  # in the plane's frame
+            shift = section * np.round(local[:2] / section)
+            if np.any(shift != np.asarray(frame.position)[:2]):
+                frame.position = (float(shift[0]), float(shift[1]), 0.0)
 
     def set_traces(self, traces: np.ndarray) -> None:
         """Draw (num_traces, T, num_sensors, 3) trace positions as polylines, index 0 (the nominal) in red."""
@@ -120,13 +135,13 @@ class SceneView:
             position = np.zeros(3)
             entries = np.asarray(value, dtype=float)[:3]
             position[: len(entries)] = entries
-            if spec.vis_name not in self._markers:
+            if spec.vis_name not in self.markers:
                 radius = 0.04 * max(float(self.model.stat.extent), 1.0)
-                self._markers[spec.vis_name] = self.scene.add_icosphere(
+                self.markers[spec.vis_name] = self.scene.add_icosphere(
                     f"/markers/{spec.vis_name}", radius=radius, color=MARKER_RGB, position=position
                 )
             else:
-                self._markers[spec.vis_name].position = position
+                self.markers[spec.vis_name].position = position
 
     def remove(self) -> None:
         """Take the model, traces and markers out of the scene (a ghost: only itself)."""
@@ -152,6 +167,11 @@ class SceneView:
             width = 2 * size[0] if size[0] > 0 else 20.0
             height = 2 * size[1] if size[1] > 0 else 20.0
             node = scene.add_frame(path, show_axes=False, **pose)
+            section = max(width, height) / 4
+            if model.geom_bodyid[g] == 0 and (model.geom_contype[g] or model.geom_conaffinity[g]):
+                # MuJoCo's planes are infinite: a floor the robot can touch is drawn under it wherever it goes
+                self.floors[g] = (scene.add_frame(f"{path}/floor", show_axes=False), section)
+                path = f"{path}/floor"
             scene.add_box(
                 f"{path}/slab", color=color, dimensions=(width, height, 0.01), opacity=opacity, position=(0, 0, -0.005)
             )
@@ -160,8 +180,8 @@ class SceneView:
                 width=width,
                 height=height,
                 plane_opacity=0.0,
-                cell_size=max(width, height) / 16,
-                section_size=max(width, height) / 4,
+                cell_size=section / 4,
+                section_size=section,
                 position=(0, 0, 0.001),
             )
             return node
