@@ -129,28 +129,34 @@ def run_seeded_episode(
             plan and step (e.g. collect's dataset recorder).
         on_update: called after each control update with the plant time (a progress bar).
     """
-    from judo.core.registry import make_controller
-
     configs = configs_in_force(spec)
     if spec.policy is not None:
         return run_policy_episode(spec, seed, configs, recorders, on_update)
     if spec.optimizer is None:
         raise JudoError(f"an episode of {spec.task!r} needs an optimizer or a policy; the spec names neither")
-    with make_controller(
-        spec.task,
-        spec.optimizer,
-        controller_config=configs["controller"],  # type: ignore[arg-type]
-        optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
-        num_workers=spec.num_workers,
-        seed=seed,
-        backend=spec.backend,
-        proposal_policy=load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples),  # type: ignore[attr-defined]
-    ) as controller:
+    proposals = load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples)  # type: ignore[attr-defined]
+    with spec_controller(spec, configs, seed, proposal_policy=proposals) as controller:
         controller.task.config = configs["task"]
         system = observed_plant(controller.task, seed, spec.sensing)
         _, estimator = choose_estimator(controller.task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
         return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
+
+
+def spec_controller(spec: EpisodeSpec, configs: dict[str, Config], seed: int, **extra: Any) -> Controller:
+    """The Controller of `spec`'s task and optimizer with `configs` in force, seeded by `seed`."""
+    from judo.core.registry import make_controller
+
+    return make_controller(
+        spec.task,
+        spec.optimizer,  # type: ignore[arg-type]
+        controller_config=configs["controller"],  # type: ignore[arg-type]
+        optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
+        num_workers=spec.num_workers,
+        seed=seed,
+        backend=spec.backend,
+        **extra,
+    )
 
 
 def load_proposal_policy(path: str | None, policy_samples: int) -> Policy | None:
@@ -178,20 +184,11 @@ def run_policy_episode(
     """`run_seeded_episode` of a spec with a policy: a PolicyController drives the plant (with the optimizer, if the
     spec names one, as its expert labelling every state the policy is served from)."""
     from judo.core.policy_controller import as_policy, make_policy_controller
-    from judo.core.registry import make_controller
 
     policy = as_policy(spec.policy)  # type: ignore[arg-type]
     expert = None
     if spec.optimizer is not None:
-        expert = make_controller(
-            spec.task,
-            spec.optimizer,
-            controller_config=configs["controller"],  # type: ignore[arg-type]
-            optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
-            num_workers=spec.num_workers,
-            seed=seed,
-            backend=spec.backend,
-        )
+        expert = spec_controller(spec, configs, seed)
     config = policy_config_in_force(spec, policy)
     controller = make_policy_controller(spec.task, policy, controller_config=config, expert=expert, seed=seed)
     task = controller.task
