@@ -111,21 +111,6 @@ class LowLevel:
             raise PolicyError(f"{what} shape {np.shape(ctrl)[1:]} per row, but the model has nu = {model.nu} actuators")
 
 
-def act_rows(policy: Policy, observations: np.ndarray) -> np.ndarray:
-    """(B, A) actions of one batched `act` on (B, O) `observations` (a (B, 1, A) output is read as (B, A));
-    PolicyError for any other shape. Non-finite actions are returned as they are."""
-    actions = np.asarray(policy.act(observations), dtype=float)
-    batch = len(observations)
-    if actions.shape == (batch, 1, policy.action_size):
-        return actions[:, 0]
-    if actions.shape != (batch, policy.action_size):
-        raise PolicyError(
-            f"policy {policy.name!r} returned shape {actions.shape}, expected ({batch}, {policy.action_size}) "
-            f"or ({batch}, 1, {policy.action_size})"
-        )
-    return actions
-
-
 def check_low_level_backend(name: str, low_level: "LowLevel | None") -> None:
     """Raise LowLevelBackendError, before any backend is built, when a task with a low-level policy asks for a
     rollout backend other than "cpu" (MuJoCo Warp cannot run a policy between its steps yet)."""
@@ -221,7 +206,7 @@ class LowLevelRollout(RolloutBackend):
         finite = np.ones(num_rollouts, dtype=bool)
         for start, stop in self._ticks:
             observations = low.observe(commands[:, start], self._current[:, 1:num_state], self._previous)
-            actions = act_rows(policy, observations)
+            actions = policy.checked_act(observations, require_finite=False)[:, 0]  # NaN: that rollout loses
             self.act_calls += 1
             if not math.isfinite(actions.sum()):  # one cheap reduction per tick; rows only when it fails
                 finite &= np.isfinite(actions).all(axis=1)
@@ -269,11 +254,10 @@ class LowLevelPlant:
         if self._steps % self.low_level.every == 0:
             state = np.concatenate([data.qpos, data.qvel])[None]
             observation = self.low_level.observe(self.command[None], state, self._previous)
-            actions = act_rows(self.low_level.policy, np.asarray(observation, dtype=float))
+            policy = self.low_level.policy
+            actions = policy.checked_act(np.asarray(observation, dtype=float), require_finite=False)[:, 0]
             if not np.isfinite(actions).all():
-                raise PolicyError(
-                    f"low-level policy {self.low_level.policy.name!r} returned non-finite actions on the plant"
-                )
+                raise PolicyError(f"low-level policy {policy.name!r} returned non-finite actions on the plant")
             self._previous[:] = actions
             data.ctrl[:] = self.low_level.ctrl(actions)[0]
         self._steps += 1

@@ -79,9 +79,9 @@ class Policy(abc.ABC):
                 f"{task_name or '?'!s} needs {action_size}"
             )
 
-    def checked_act(self, observations: np.ndarray) -> np.ndarray:
-        """`act`, with its output checked: (B, horizon, action_size) and finite, else PolicyError. A per-step
-        policy's (B, action_size) output is read as (B, 1, action_size)."""
+    def checked_act(self, observations: np.ndarray, require_finite: bool = True) -> np.ndarray:
+        """`act`, with its output checked: (B, horizon, action_size) and (unless `require_finite` is False) finite,
+        else PolicyError. A per-step policy's (B, action_size) output is read as (B, 1, action_size)."""
         actions = np.asarray(self.act(observations), dtype=float)
         batch = observations.shape[0]
         if actions.shape == (batch, self.action_size) and self.horizon == 1:
@@ -91,7 +91,7 @@ class Policy(abc.ABC):
                 f"policy {self.name!r} returned shape {actions.shape}, expected "
                 f"({batch}, {self.horizon}, {self.action_size})"
             )
-        if not np.isfinite(actions).all():
+        if require_finite and not np.isfinite(actions).all():
             raise NonFiniteActionsError(f"policy {self.name!r} returned non-finite actions")
         return actions
 
