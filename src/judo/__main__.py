@@ -1,5 +1,5 @@
-"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune`, `collect`
-and `replay` commands.
+"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune`, `collect`,
+`replay` and `distill` commands.
 
 python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
 python -m judo benchmark ...                        # judo.evaluation.benchmark
@@ -7,6 +7,7 @@ python -m judo evaluate ...                         # judo.evaluation.evaluate
 python -m judo tune ...                             # judo.tuning.cli (needs the `tune` extra)
 python -m judo collect ...                          # judo.collection.cli (needs the `collect` extra)
 python -m judo replay FILE.h5                       # judo.collection.replay: a collect file in the GUI
+python -m judo distill DATA.h5 --out POLICY.onnx    # judo.learning.cli: a policy from collect's files
 
 Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
 task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
@@ -24,7 +25,7 @@ def main(argv: Sequence[str] | None = None) -> int | None:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [arg for arg in argv if arg != "--debug"]
-    commands = ("benchmark", "evaluate", "tune", "collect", "replay")
+    commands = ("benchmark", "evaluate", "tune", "collect", "replay", "distill")
     prog = f"{PROG} {argv[0]}" if argv and argv[0] in commands else PROG
     try:
         return dispatch(argv)
@@ -62,6 +63,10 @@ def dispatch(argv: list[str]) -> int | None:
         from judo.collection.replay import main as replay_main
 
         return replay_main(argv[1:])
+    if argv and argv[0] == "distill":
+        from judo.learning.cli import main as distill_main
+
+        return distill_main(argv[1:])
     from judo.runtime.cli import main as app_main
 
     return app_main(argv)

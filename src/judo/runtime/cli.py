@@ -210,8 +210,8 @@ def _description() -> str:
         "Run sampling-based MPC on a MuJoCo task in real time, with a browser GUI (or --headless). "
         "The controller, optimizer and task options below belong to the chosen --task and --optimizer; "
         f"pass those first to see their fields. Tasks: {tasks}. Optimizers: {optimizers}. "
-        f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...`, `{PROG} tune ...`, `{PROG} collect ...` and "
-        f"`{PROG} replay FILE.h5` (each with --help)."
+        f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...`, `{PROG} tune ...`, `{PROG} collect ...`, "
+        f"`{PROG} replay FILE.h5` and `{PROG} distill DATA.h5 --out POLICY.onnx` (each with --help)."
     )
 
 

@@ -1,0 +1,197 @@
+"""distill's driver: train on the datasets, then (with --rounds) let the MPC teach the policy it made.
+
+Each teacher round r (DAgger; gpc's loop with --proposals):
+  1. collect `episodes_per_round` episodes into ROUNDS/round_<r>.h5, seeds from r * if TYPE_CHECKING:
+    from judo.learning.cli import DistillArgs
+
+ROUND_SEED_STRIDE, in which
+     the policy of round r - 1 drives the plant and the dataset's MPC labels every state it visits
+     (`collect --policy`; with --proposals K the MPC also samples K candidates from the policy);
+  2. retrain from scratch on the datasets and every round file so far: ROUNDS/policy_round_<r>.onnx;
+  3. measure the policy alone, and the MPC with its proposals, on fresh seeds, and print the table so far.
+ROUNDS is the folder OUT_rounds beside --out. A rerun resumes: collect adds only missing seeds, and a round whose
+policy file exists is not trained again. The last round's policy is copied to --out at the end.
+"""
+
+import dataclasses
+import json
+import shutil
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from judo.learning.export import losses_path, plot_losses, policy_metadata, write_policy
+from judo.learning.pairs import DistillError, TrainingPairs, read_pairs
+from judo.learning.training import TrainedPolicy, train
+
+ROUND_SEED_STRIDE = 100_000
+"""Round r collects seeds r * ROUND_SEED_STRIDE onwards: never a seed of another round or of a usual dataset."""
+
+
+def train_and_write(
+    datasets: list[Path], args: "DistillArgs", command: str, out: Path, progress_console: Console
+) -> tuple[TrainedPolicy, TrainingPairs]:
+    """Read `datasets`, train with a progress bar showing the losses, write the ONNX file and its loss PNG."""
+    pairs = read_pairs(datasets, args.kind)
+    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("epoch {task.completed:.0f}"))
+    with Progress(*columns, TimeElapsedColumn(), console=progress_console, transient=True) as progress:
+        bar = progress.add_task(f"training {out.name}", total=args.epochs)
+
+        def show(epoch: int, train_loss: float, validation_loss: float) -> None:
+            description = f"{out.name}: loss {train_loss:.4g}, validation {validation_loss:.4g}"
+            progress.update(bar, completed=epoch + 1, description=description)
+
+        trained = train(pairs, args.settings(), show)
+    write_policy(out, trained, policy_metadata(trained, pairs, command, out.stem), args.noise_scale)
+    title = f"{pairs.task}, {pairs.kind} policy, {trained.head}: {pairs.num_pairs} pairs of {len(pairs.episodes)} episodes"
+    plot_losses(losses_path(out), trained, title)
+    return trained, pairs
+
+
+def summary_line(out: Path, trained: TrainedPolicy, pairs: TrainingPairs) -> str:
+    """One line on what was trained and where it went."""
+    return (
+        f"wrote {out} ({pairs.kind}, {trained.head}): {pairs.num_pairs} pairs from {len(trained.train_episodes)} "
+        f"training and {len(trained.validation_episodes)} validation episodes, {len(trained.history['train'])} "
+        f"epochs in {trained.seconds:.1f} s, validation loss {min(trained.history['validation']):.4g} "
+        f"(epoch {trained.best_epoch + 1}); losses in {losses_path(out)}"
+    )
+
+
+def distill(args: "DistillArgs", command: str, console: Console, progress_console: Console) -> None:
+    """Train on the datasets (and run the teacher rounds), writing `args.out`."""
+    datasets = list(args.datasets)
+    if args.rounds == 0:
+        trained, pairs = train_and_write(datasets, args, command, args.out, progress_console)
+        console.print(summary_line(args.out, trained, pairs))
+        console.print(f"serve it: python -m judo evaluate --task {pairs.task} --policy {args.out}")
+        return
+    folder = args.out.with_name(args.out.stem + "_rounds")
+    folder.mkdir(parents=True, exist_ok=True)
+    env_args = dataset_env_args(datasets[0])
+    rows: list[list[str]] = []
+    policy = folder / "policy_round_0.onnx"
+    for round_index in range(args.rounds + 1):
+        if round_index > 0:
+            round_file = folder / f"round_{round_index}.h5"
+            collect_round(args, env_args, policy, round_file, round_index)
+            datasets.append(round_file)
+            policy = folder / f"policy_round_{round_index}.onnx"
+        if policy.exists():
+            console.print(f"round {round_index}: {policy} exists; resumed without training it again")
+            pairs, seconds = read_pairs(datasets, args.kind), float("nan")
+        else:
+            trained, pairs = train_and_write(datasets, args, command, policy, progress_console)
+            console.print(summary_line(policy, trained, pairs))
+            seconds = trained.seconds
+        rows.append([str(round_index), str(len(pairs.episodes)), str(pairs.num_pairs), f"{seconds:.1f}"])
+        rows[-1] += evaluate_round(args, env_args, policy)
+        console.print(round_table(rows, args, env_args))
+    shutil.copyfile(policy, args.out)
+    shutil.copyfile(losses_path(policy), losses_path(args.out))
+    console.print(f"wrote {args.out} (round {args.rounds}'s policy); every round's files are in {folder}")
+
+
+def dataset_env_args(path: Path) -> dict[str, Any]:
+    """The env_args of the collect dataset at `path` (read_pairs has checked it is one)."""
+    from judo.collection.dataset import import_h5py
+
+    with import_h5py("python -m judo distill").File(path, "r") as file:
+        return json.loads(file["data"].attrs["env_args"])
+
+
+def teacher_flags(args: "DistillArgs", env_args: dict[str, Any]) -> list[str]:
+    """The collect/evaluate flags that reproduce the dataset's MPC: optimizer, duration, latency, and the plan
+    layout fields of its configs (so every round's knots have the dataset's shape)."""
+    optimizer = args.optimizer or env_args.get("optimizer")
+    if optimizer is None:
+        raise DistillError("the dataset names no optimizer (a policy drove it); give --optimizer NAME for the rounds")
+    latency = env_args.get("latency_s", 0.0)
+    flags = ["--task", env_args["task"], "--optimizer", optimizer, "--duration", repr(float(env_args["duration"]))]
+    flags += ["--latency-ms", repr(1e3 * latency if isinstance(latency, (int, float)) else 0.0)]
+    kwargs = env_args.get("env_kwargs", {})
+    for name in ("control_freq", "horizon", "spline_order"):
+        if name in kwargs.get("controller", {}):
+            flags += [f"--controller.{name.replace('_', '-')}", str(kwargs["controller"][name])]
+    for name in ("num_nodes", "num_rollouts"):
+        if name in kwargs.get("optimizer", {}):
+            flags += [f"--optimizer-config.{name.replace('_', '-')}", str(kwargs["optimizer"][name])]
+    return flags
+
+
+def collect_round(args: "DistillArgs", env_args: dict[str, Any], policy: Path, out: Path, round_index: int) -> None:
+    """Collect round `round_index`'s episodes (resuming `out`) with `policy` driving and the MPC labelling."""
+    from judo.collection.cli import main as collect_main
+
+    argv = ["--out", str(out), "--episodes", str(args.episodes_per_round), "--policy", str(policy)]
+    argv += ["--first-seed", str(round_index * ROUND_SEED_STRIDE), *teacher_flags(args, env_args)]
+    if args.proposals:
+        argv += ["--proposal-policy", str(policy), "--controller.policy-samples", str(args.proposals)]
+    if args.workers is not None:
+        argv += ["--workers", str(args.workers)]
+    if args.address is not None:
+        argv += ["--address", args.address]
+    status = collect_main(argv)
+    if status:
+        raise DistillError(f"round {round_index}'s collect ended with status {status}; rerun to resume it")
+
+
+def proposal_samples(env_args: dict[str, Any]) -> int:
+    """K for the table's "MPC + proposals" column: an eighth of the MPC's rollouts, at least 1."""
+    rollouts = int(env_args.get("env_kwargs", {}).get("optimizer", {}).get("num_rollouts", 16))
+    return max(1, rollouts // 8)
+
+
+def evaluate_round(args: "DistillArgs", env_args: dict[str, Any], policy: Path) -> list[str]:
+    """The round's two table cells: the task's metric for the policy alone and for the MPC with its proposals,
+    mean over `args.eval_seeds` fresh seeds ("-" with --eval-seeds 0)."""
+    if args.eval_seeds == 0:
+        return ["-", "-"]
+    from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
+
+    optimizer = args.optimizer or env_args.get("optimizer")
+    latency = env_args.get("latency_s", 0.0)
+    latency = float(latency) if isinstance(latency, (int, float)) else 0.0
+    base = EpisodeSpec(env_args["task"], None, float(env_args["duration"]), latency, num_workers=None)
+    with_proposals = dataclasses.replace(
+        base,
+        optimizer=optimizer,
+        proposal_policy=str(policy),
+        values={"controller.policy_samples": proposal_samples(env_args)},
+    )
+    specs = {
+        "policy": dataclasses.replace(base, policy=str(policy)),
+        "proposals": with_proposals if optimizer is not None else None,
+    }
+    cells = []
+    seeds = range(args.eval_first_seed, args.eval_first_seed + args.eval_seeds)
+    for spec in specs.values():
+        if spec is None:
+            cells.append("-")
+            continue
+        results = [run_seeded_episode(spec, seed) for seed in seeds]
+        metric = headline_metric(results[0].metrics)
+        values = np.array([result.metrics[metric] for result in results])
+        cells.append(f"{metric} {values.mean():.3g}")
+    return cells
+
+
+def headline_metric(metrics: dict[str, float]) -> str:
+    """The task's own first metric (not mean_reward, unless it is the only one)."""
+    return next((name for name in metrics if name != "mean_reward"), "mean_reward")
+
+
+def round_table(rows: list[list[str]], args: "DistillArgs", env_args: dict[str, Any]) -> Table:
+    """The rounds so far: data, training time, and the two measurements on fresh seeds."""
+    seeds = f"seeds {args.eval_first_seed}-{args.eval_first_seed + args.eval_seeds - 1}"
+    table = Table(title=f"distill {env_args['task']} ({args.kind}, {args.head}): teacher rounds, measured on {seeds}")
+    for column in ("round", "episodes", "pairs", "training s", "policy alone"):
+        table.add_column(column, justify="right")
+    table.add_column(f"MPC + proposals (K = {proposal_samples(env_args)})", justify="right")
+    for row in rows:
+        table.add_row(*row)
+    return table
