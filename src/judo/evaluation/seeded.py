@@ -182,13 +182,15 @@ def run_policy_episode(
     on_update: Callable[[float], None] | None = None,
 ) -> EpisodeResult:
     """`run_seeded_episode` of a spec with a policy: a PolicyController drives the plant (with the optimizer, if the
-    spec names one, as its expert labelling every state the policy is served from)."""
+    spec names one, as its expert labelling every state the policy is served from, sampling `policy_samples` of its
+    candidates from `spec.proposal_policy` where one is given)."""
     from judo.core.policy_controller import as_policy, make_policy_controller
 
     policy = as_policy(spec.policy)  # type: ignore[arg-type]
     expert = None
-    if spec.optimizer is not None:
-        expert = spec_controller(spec, configs, seed)
+    if spec.optimizer is not None:  # the MPC that labels; with a proposal policy, gpc's augmented controller
+        proposals = load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples)  # type: ignore[attr-defined]
+        expert = spec_controller(spec, configs, seed, proposal_policy=proposals)
     config = policy_config_in_force(spec, policy)
     controller = make_policy_controller(spec.task, policy, controller_config=config, expert=expert, seed=seed)
     task = controller.task
