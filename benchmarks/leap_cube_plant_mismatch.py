@@ -20,11 +20,14 @@ from judo.tasks.leap_cube import PLANT_MODEL_PATH, LeapCube
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--optimizer", default="cem", choices=sorted(judo.get_registered_optimizers()))
-    parser.add_argument("--seeds", type=int, default=3, help="episodes, with seeds 0 to seeds - 1")
+    parser.add_argument(
+        "--seeds", type=int, default=3, help="episodes, with seeds first-seed to first-seed + seeds - 1"
+    )
+    parser.add_argument("--first-seed", type=int, default=0, help="the first episode's seed")
     parser.add_argument("--duration", type=float, default=60.0, help="seconds of sim time per episode")
     args = parser.parse_args()
     rows = []
-    for seed in range(args.seeds):
+    for seed in range(args.first_seed, args.first_seed + args.seeds):
         controller = judo.make_controller("leap_cube", args.optimizer, seed=seed)
         plant = LeapCube(sim_model_path=PLANT_MODEL_PATH)
         plant.config = controller.task.config

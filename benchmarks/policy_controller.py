@@ -23,6 +23,7 @@ from rich.table import Table
 
 import judo
 from judo.core.onnx_policy import write_linear_policy, write_mlp_policy
+from judo.evaluation.cli import seeds_label
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 
 
@@ -35,7 +36,9 @@ class Args:
     optimizer: str = "mppi"
     """The optimizer the policies are compared with, by registered name."""
     seeds: int = 2
-    """Episodes per controller, seeds 0 to seeds - 1."""
+    """Episodes per controller, seeds first_seed to first_seed + seeds - 1."""
+    first_seed: int = 0
+    """Seed of each controller's first episode."""
     duration: float = 5.0
     """Seconds of sim time per episode."""
     hidden: int = 64
@@ -59,22 +62,24 @@ def write_policies(task_name: str, folder: Path, hidden: int) -> dict[str, Path]
     }
 
 
-def median_update_ms(spec: EpisodeSpec, seeds: int) -> tuple[float, int]:
-    """(median update wall time in ms, number of updates) over the seeds' episodes."""
-    update_ms = np.concatenate([run_seeded_episode(spec, seed).update_ms for seed in range(seeds)])
+def median_update_ms(spec: EpisodeSpec, seeds: range) -> tuple[float, int]:
+    """(median update wall time in ms, number of updates) over the episodes of `seeds`."""
+    update_ms = np.concatenate([run_seeded_episode(spec, seed).update_ms for seed in seeds])
     return float(np.median(update_ms)), len(update_ms)
 
 
 def main(args: Args) -> None:
-    table = Table(title=f"policy inference vs {args.optimizer} update ({args.seeds} seeds x {args.duration:g} s)")
+    seeds = range(args.first_seed, args.first_seed + args.seeds)
+    label = seeds_label(args.first_seed, args.seeds)
+    table = Table(title=f"policy inference vs {args.optimizer} update ({label} x {args.duration:g} s)")
     for column in ("task", "controller", "updates", "median per update", "per MPC update"):
         table.add_column(column, justify="left" if column in ("task", "controller") else "right")
     with tempfile.TemporaryDirectory() as folder:
         for task in args.tasks:
-            mpc_ms, mpc_updates = median_update_ms(EpisodeSpec(task, args.optimizer, args.duration), args.seeds)
+            mpc_ms, mpc_updates = median_update_ms(EpisodeSpec(task, args.optimizer, args.duration), seeds)
             for label, path in write_policies(task, Path(folder), args.hidden).items():
                 spec = EpisodeSpec(task, None, args.duration, policy=str(path))
-                ms, updates = median_update_ms(spec, args.seeds)
+                ms, updates = median_update_ms(spec, seeds)
                 table.add_row(task, f"policy ({label})", str(updates), f"{1e3 * ms:.1f} µs", f"{mpc_ms / ms:.0f}x")
             table.add_row(task, args.optimizer, str(mpc_updates), f"{mpc_ms:.2f} ms", "1x")
     Console(width=120).print(table)

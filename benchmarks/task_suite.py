@@ -47,7 +47,11 @@ def task_rows(task: str, optimizers: list[str], args: argparse.Namespace, progre
     for optimizer in optimizers:
         progress.update(progress.task_ids[0], description=f"{task} x {optimizer}")
         timing = time_pair(task, optimizer, args.timing_samples)
-        episodes = evaluate(EvaluateArgs(task=task, optimizer=optimizer, seeds=args.seeds, duration=duration))
+        episodes = evaluate(
+            EvaluateArgs(
+                task=task, optimizer=optimizer, seeds=args.seeds, first_seed=args.first_seed, duration=duration
+            )
+        )
         summaries = summarize_metrics(episodes)
         summaries.pop("mean_reward", None)
         metric_names = metric_names or list(summaries)
@@ -57,6 +61,8 @@ def task_rows(task: str, optimizers: list[str], args: argparse.Namespace, progre
         progress.advance(progress.task_ids[0])
     header = ["optimizer", "update ms", "rollout floor ms", "overhead", *metric_names]
     seeds = f"{args.seeds} seed{'s' if args.seeds > 1 else ''}"
+    if args.first_seed:
+        seeds += f" from {args.first_seed}"
     title = f"### {task} ({seeds} x {duration:g} s, no latency)"
     return [title, "", "| " + " | ".join(header) + " |", "|" + "---|" * len(header), *rows, ""]
 
@@ -65,7 +71,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--tasks", nargs="+", default=[], help="registered task names (default: all)")
     parser.add_argument("--optimizers", nargs="+", default=["ps", "cem", "mppi"], help="registered optimizer names")
-    parser.add_argument("--seeds", type=int, default=3, help="episodes per pair, seeds 0 .. seeds - 1")
+    parser.add_argument(
+        "--seeds", type=int, default=3, help="episodes per pair, seeds first-seed .. first-seed + seeds - 1"
+    )
+    parser.add_argument("--first-seed", type=int, default=0, help="the first episode's seed")
     parser.add_argument("--duration", type=float, default=15.0, help="seconds of sim time per episode")
     parser.add_argument("--timing-samples", type=int, default=30, help="timed control updates per pair")
     parser.add_argument("--markdown", type=Path, default=None, help="also write the tables to this file")

@@ -86,6 +86,21 @@ def test_the_same_command_with_more_episodes_adds_exactly_the_missing_seeds(loca
 
 
 @pytest.mark.slow
+def test_first_seed_adds_its_own_seeds_to_the_same_file_and_resumes_them(local_ray, tmp_path, capsys):
+    out = tmp_path / "cartpole.h5"
+    assert collect_main([*CARTPOLE, "--episodes", "1", "--out", str(out)]) == 0
+    assert collect_main([*CARTPOLE, "--first-seed", "10", "--episodes", "2", "--out", str(out)]) == 0
+    assert sorted(demos(out)) == ["demo_0", "demo_10", "demo_11"]  # first_seed is not part of env_args
+    capsys.readouterr()
+    assert collect_main([*CARTPOLE, "--first-seed", "10", "--episodes", "3", "--out", str(out)]) == 0
+    assert "2 seeds done; running the 1 missing ones" in capsys.readouterr().out
+    with h5py.File(out, "r") as file:
+        assert sorted(int(demo.attrs["seed"]) for demo in file["data"].values()) == [0, 10, 11, 12]
+    assert collect_main([*CARTPOLE, "--first-seed", "10", "--episodes", "3", "--out", str(out)]) == 0
+    assert "already holds seeds 10 to 12" in capsys.readouterr().out
+
+
+@pytest.mark.slow
 def test_a_config_file_task_with_success_only_keeps_the_successes(local_ray, restored_registry, tmp_path, capsys):
     module = f"start_right_{tmp_path.name.replace('-', '_')}"
     (tmp_path / f"{module}.py").write_text(USER_MODULE)

@@ -35,6 +35,17 @@ def test_evaluate_reports_each_episode_and_the_summary(tmp_path, capsys):
     assert "mean ± 95% CI" in out and "balanced_fraction" in out
 
 
+def test_first_seed_runs_the_seeds_from_it_and_says_so(tmp_path, capsys):
+    report = evaluate_json(tmp_path, "--first-seed", "3", "--seeds", "2")
+    assert (report["seeds"], report["first_seed"]) == (2, 3)
+    assert [episode["seed"] for episode in report["episodes"]] == [3, 4]
+    assert "cartpole x ps: 2 seeds (3-4) x 0.5 s, latency none" in capsys.readouterr().out
+    alone = evaluate_json(tmp_path, "--first-seed", "4")  # seed 4's episode does not depend on the seeds before it
+    assert [episode["seed"] for episode in alone["episodes"]] == [4]
+    assert alone["episodes"][0]["metrics"] == report["episodes"][1]["metrics"]
+    assert evaluate_json(tmp_path)["first_seed"] == 0
+
+
 def test_the_same_seed_gives_the_same_result_twice(tmp_path):
     first, again = evaluate_json(tmp_path), evaluate_json(tmp_path)
     assert first["episodes"][0]["metrics"] == again["episodes"][0]["metrics"]

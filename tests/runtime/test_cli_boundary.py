@@ -88,19 +88,7 @@ APP = ("--headless", "--duration", "0.05")
 EVALUATE = ("evaluate", "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "0.05")
 BENCHMARK = ("benchmark", "--tasks", "cartpole", "--optimizers", "ps", "--samples", "2", "--warmup", "0")
 TUNE = ("tune", "--task", "cartpole", "--optimizer", "ps", "--trials", "1", "--seeds", "1", "--duration", "0.05")
-COLLECT = (
-    "collect",
-    "--task",
-    "cartpole",
-    "--optimizer",
-    "ps",
-    "--episodes",
-    "1",
-    "--duration",
-    "0.05",
-    "--out",
-    "x.h5",
-)
+COLLECT = tuple("collect --task cartpole --optimizer ps --episodes 1 --duration 0.05 --out x.h5".split())
 SENSED_APP = (*APP, "--observe", "sensors")
 SENSED_EVALUATE = (*EVALUATE, "--observe", "sensors")
 NOISE_BOUND = "--sensor-noise must be between 0 and 100 (a std in the sensor's unit: m, rad, m/s, rad/s, m/s^2), got"
@@ -214,6 +202,15 @@ TABLE = [
         "duration must be a positive, finite number of seconds of sim time, at most 1e+09",
     ),
     Row((*TUNE[:-2], "--duration", "inf"), 2, "--duration must be above 0 and at most 86400.0 s, got inf"),
+    Row((*EVALUATE, "--first-seed", "-1"), 2, f"--first-seed must be an integer from 0 to {2**31 - 1} (the last seed"),
+    Row(
+        (*EVALUATE[:-4], "--seeds", "3", "--first-seed", str(2**31 - 2)),
+        2,
+        f"--first-seed must be an integer from 0 to {2**31 - 3} (the last seed, --first-seed + --seeds - 1, is at "
+        f"most {2**31 - 1}), got {2**31 - 2}",
+    ),
+    Row((*COLLECT, "--first-seed", str(2**31)), 2, "(the last seed, --first-seed + --episodes - 1, is at most"),
+    Row((*TUNE, "--first-seed", "-5"), 2, "--first-seed must be an integer from 0 to 2147483647 (the last seed"),
     Row((*TUNE, "--params", "optimizer.sigma=0:inf"), 2, "LOW and HIGH must be finite numbers of magnitude"),
     Row((*TUNE, "--params", "optimizer.sigma=0:" + "9" * 5000), 2, "LOW and HIGH must be finite numbers"),
     # output paths, checked before any work

@@ -25,6 +25,15 @@ def test_a_trial_with_the_default_settings_gives_evaluates_result():
     assert outcome.plan_ms > 0
 
 
+def test_a_trial_from_a_first_seed_runs_evaluates_episodes_of_those_seeds():
+    spec = TrialSpec("cartpole", "ps", "balanced_fraction", seeds=2, duration=0.4, first_seed=7)
+    assert list(spec.seed_range()) == [7, 8]
+    outcome = run_trial(spec, {})
+    results = evaluate(EvaluateArgs("cartpole", "ps", seeds=2, first_seed=7, duration=0.4, num_workers=1))
+    assert [result.seed for result in results] == [7, 8]
+    assert outcome.metrics["mean_reward"] == pytest.approx(np.mean([r.metrics["mean_reward"] for r in results]))
+
+
 def test_the_trials_values_reach_the_episodes():
     default, other = run_trial(CARTPOLE, {}), run_trial(CARTPOLE, {"optimizer.sigma": 1.5, "task.w_centered": 0.0})
     assert other.failure is None

@@ -1,4 +1,4 @@
-"""`python -m judo collect`: closed-loop MPC episodes, seeded 0..N-1, run as Ray tasks into an HDF5 dataset.
+"""`python -m judo collect`: closed-loop MPC episodes, seeded F..F+N-1 (--first-seed F, 0 by default), run as Ray tasks into an HDF5 dataset.
 
 python -m judo collect --task cartpole --optimizer mppi --episodes 100 --duration 10 --out cartpole.h5
 """
@@ -15,6 +15,7 @@ import mujoco
 import tyro
 
 from judo.collection.model_info import config_dict, model_sha256
+from judo.core.boundary import check_seed_range
 from judo.core.config import Config, require, require_between
 from judo.core.errors import JudoError
 from judo.evaluation.cli import fail, name_listing, parse_args_with_config_fields
@@ -23,7 +24,7 @@ from judo.evaluation.episode_args import EpisodeArgs
 DESCRIPTION = (
     "Collect closed-loop MPC episodes of a task x optimizer into an HDF5 dataset in a robomimic-style layout "
     "(data/demo_<seed>/obs/qpos, actions, rewards, dones, ...) plus each control update's plan (docs/collect.md). "
-    "Episodes are seeded 0 to --episodes - 1 and run as Ray tasks, on a local Ray (--workers) or a cluster "
+    "Episodes are seeded --first-seed to --first-seed + --episodes - 1 (0 to --episodes - 1 by default) and run as Ray tasks, on a local Ray (--workers) or a cluster "
     "(--address). The same command again adds only the seeds missing from --out, so a larger --episodes extends "
     "a file and an interrupted run resumes; Ctrl-C keeps every finished episode. Config fields of the pair are "
     "set with --controller.FIELD, --optimizer-config.FIELD and --task-config.FIELD (listed below once --task and "
@@ -39,7 +40,11 @@ class CollectArgs(EpisodeArgs):
     out: Annotated[Path, tyro.conf.arg(metavar="FILE.h5")] = field(kw_only=True)
     """The HDF5 dataset to write; an existing one made with the same arguments gets the missing seeds."""
     episodes: int = 10
-    """Episodes the file should hold, with seeds 0 to episodes - 1."""
+    """Episodes the file should hold, with seeds first_seed to first_seed + episodes - 1."""
+    first_seed: int = 0
+    """Seed of the first episode (e.g. 1000, to keep a policy's evaluation seeds out of its training data). Not
+    part of the run's identity: the same command with another --first-seed adds those seeds to the same file,
+    which can so hold seeds 0-9 and 100-109."""
     duration: float = 10.0
     """Length of each episode in seconds of sim time."""
     success_only: bool = False
@@ -56,6 +61,7 @@ class CollectArgs(EpisodeArgs):
         """Raise a JudoError for an argument out of range or a name that is not registered."""
         self.check()
         require_between("--episodes", self.episodes, 1, 10_000_000)
+        check_seed_range(self.first_seed, self.episodes, "--episodes")
         require(self.workers is None or self.workers >= 1, f"--workers must be at least 1, got {self.workers}")
         require(self.out.suffix in (".h5", ".hdf5"), f"--out must name an .h5 or .hdf5 file, got {str(self.out)!r}")
         if self.policy is not None:

@@ -73,20 +73,21 @@ def outcome_of(ray: Any, ref: Any, seed: int) -> EpisodeOutcome:
 
 
 def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
-    """Run the seeds of 0..args.episodes-1 missing from `args.out` and write them there; returns the exit status
+    """Run the seeds of args.first_seed..args.first_seed+args.episodes-1 missing from `args.out` and write them there; returns the exit status
     (130 after Ctrl-C, with the command that resumes printed)."""
     from judo.tuning import cluster
 
     file = DatasetFile(args.out, env_args)
     finished = file.finished_seeds()
-    todo = [seed for seed in range(args.episodes) if seed not in finished]
+    wanted = range(args.first_seed, args.first_seed + args.episodes)
+    todo = [seed for seed in wanted if seed not in finished]
     console = output_console()
     if not todo:
         counts = file.counts()
-        console.print(f"{args.out} already holds seeds 0 to {args.episodes - 1}: {counts['kept']} episodes kept")
+        console.print(f"{args.out} already holds seeds {wanted[0]} to {wanted[-1]}: {counts['kept']} episodes kept")
         return 0
-    if finished:
-        console.print(f"{args.out}: {len(finished)} seeds done; running the {len(todo)} missing ones")
+    if len(todo) < len(wanted):
+        console.print(f"{args.out}: {len(wanted) - len(todo)} seeds done; running the {len(todo)} missing ones")
     ray = cluster.import_ray("python -m judo collect", "collect")
     tally = Tally()
     running: dict[Any, int] = {}

@@ -17,6 +17,9 @@ MAX_DURATION = 1e9
 """Longest run in seconds of sim time (about 30 years): its step count always fits an integer."""
 MAX_EPISODE = 86_400.0
 """Longest `evaluate` or `tune` episode in seconds of sim time (a day)."""
+MAX_SEED = 2**31 - 1
+"""Largest episode seed (--first-seed plus the count, less one): a seed fits an int32 wherever it is read back
+(a dataset's demo_<seed>, a JSON record, a learner's own PRNG)."""
 JUDO_DIR = str(Path(__file__).resolve().parents[1])
 
 
@@ -24,6 +27,17 @@ def check_count(option: str, value: int | None, high: int, low: int = 1) -> None
     """Raise ConfigError unless `value` is None (not given) or low <= `value` <= high, naming `option`."""
     require(
         value is None or low <= value <= high, f"{option} must be an integer from {low} to {high}, got {shown(value)}"
+    )
+
+
+def check_seed_range(first: int, count: int, count_option: str) -> None:
+    """Raise ConfigError unless the seeds `first` .. `first` + `count` - 1 all lie in 0 .. MAX_SEED; the message
+    names --first-seed, its valid range for this `count`, and `count_option` (--seeds or --episodes)."""
+    high = MAX_SEED - max(count, 1) + 1
+    require(
+        0 <= first <= high,
+        f"--first-seed must be an integer from 0 to {high} (the last seed, --first-seed + {count_option} - 1, is at "
+        f"most {MAX_SEED}), got {shown(first)}",
     )
 
 

@@ -33,6 +33,22 @@ def set_mocap_poses(model: mujoco.MjModel, data: mujoco.MjData, metadata: dict |
             getattr(data, key)[:] = metadata[key]
 
 
+def model_mocap_poses(model: mujoco.MjModel) -> dict[str, np.ndarray]:
+    """The model's own mocap poses, as a System publishes them: "mocap_pos" (nmocap, 3) and "mocap_quat"
+    (nmocap, 4), in mocap index order (each mocap body's pos and quat in the MJCF)."""
+    bodies = np.flatnonzero(model.body_mocapid >= 0)
+    order = np.argsort(model.body_mocapid[bodies])
+    return {"mocap_pos": model.body_pos[bodies[order]].copy(), "mocap_quat": model.body_quat[bodies[order]].copy()}
+
+
+def mocap_pose(model: mujoco.MjModel, metadata: dict | None, key: str) -> np.ndarray:
+    """`metadata[key]` ("mocap_pos" or "mocap_quat") where `metadata` has it, else the model's own poses: (nmocap,
+    3 or 4), or (B, nmocap, 3 or 4) where the metadata gives one row per batch row."""
+    if metadata and key in metadata:
+        return np.asarray(metadata[key], dtype=float)
+    return model_mocap_poses(model)[key]
+
+
 def names(model: mujoco.MjModel, obj_type: mujoco.mjtObj, count: int) -> list[str]:
     """The names of the `count` objects of `obj_type` in `model`, in id order."""
     return [mujoco.mj_id2name(model, obj_type, i) or "" for i in range(count)]

@@ -11,7 +11,7 @@ import numpy as np
 
 from judo.core.config import Config
 from judo.core.errors import ModelLoadError, UnknownNameError
-from judo.core.model import load_model, names
+from judo.core.model import load_model, model_mocap_poses, names
 from judo.core.sensors import MeasuredLayout, measured_layout
 
 if typing.TYPE_CHECKING:
@@ -219,7 +219,8 @@ class Task(ABC, Generic[ConfigT]):
             states: (B, nq + nv) [qpos, qvel].
             sensors: (B, nsensordata) the planning model's sensor values at those states, or None where the
                 caller has none to give (a task that reads them says so in its own error).
-            system_metadata: what the system published with the state (e.g. "mocap_pos" (nmocap, 3)).
+            system_metadata: what the system published with the state (e.g. "mocap_pos" (nmocap, 3)), or None;
+                judo.core.model.mocap_pose reads a mocap pose from it, falling back to the model's own.
             previous_actions: (B, nu) the action each row was served last, or None where there is none.
         Returns:
             (B, O) float observations; the default is the states themselves, O = nq + nv. Override it to give
@@ -232,9 +233,7 @@ class Task(ABC, Generic[ConfigT]):
         """O, the length of one `policy_observation`: the hook called on one zero row (zero sensors and
         previous action, the model's own mocap poses)."""
         model = self.model
-        bodies = np.flatnonzero(model.body_mocapid >= 0)
-        order = np.argsort(model.body_mocapid[bodies])  # mocap index order
-        metadata = {"mocap_pos": model.body_pos[bodies[order]], "mocap_quat": model.body_quat[bodies[order]]}
+        metadata = model_mocap_poses(model)
         row = self.policy_observation(
             np.zeros((1, model.nq + model.nv)), np.zeros((1, model.nsensordata)), metadata, np.zeros((1, self.nu))
         )

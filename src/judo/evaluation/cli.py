@@ -230,6 +230,13 @@ def latency_label(latency: str, latency_ms: float | None) -> str:
     return f"{latency_ms:g} ms" if latency_ms is not None else latency
 
 
+def seeds_label(first: int, count: int) -> str:
+    """How a run's seeds read in titles: "5 seeds" for seeds 0 to 4 (the default), "2 seeds (3-4)" otherwise."""
+    if first == 0:
+        return f"{count} seeds"
+    return f"{count} seeds ({first}-{first + count - 1})" if count > 1 else f"1 seed ({first})"
+
+
 def check_episode_args(args: Any) -> None:
     """The checks every command that runs episodes shares (evaluate, collect): registered names, the
     duration, the latency flags, the backend, and the --controller, --optimizer-config and --task-config

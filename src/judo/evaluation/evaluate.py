@@ -11,7 +11,7 @@ import tyro
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
-from judo.core.boundary import MAX_WORKERS, check_count, check_output_file
+from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import lookup_task
@@ -23,6 +23,7 @@ from judo.evaluation.cli import (
     output_console,
     parse_args_with_config_fields,
     progress_console,
+    seeds_label,
     set_field_overrides,
     write_json,
 )
@@ -34,7 +35,7 @@ from judo.evaluation.stats import Summary, summarize
 
 DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
-    "seed (0, 1, ...), each from the task's randomised start, and print each success metric's mean with its 95% "
+    "seed (--first-seed, --first-seed + 1, ...; 0, 1, ... by default), each from the task's randomised start, and print each success metric's mean with its 95% "
     "confidence interval over seeds. With --latency measured or --latency-ms the plant keeps moving while a plan "
     "is computed, and the plan takes effect that much later. With --observe sensors the planner sees only the "
     "task's measured sensors (noisy, late, at their rates: --sensor-*) through --estimator (by default the "
@@ -47,7 +48,10 @@ class EvaluateArgs(EpisodeArgs):
     """Arguments of `python -m judo evaluate`."""
 
     seeds: int = 5
-    """Episodes to run, with seeds 0 to seeds - 1."""
+    """Episodes to run, with seeds first_seed to first_seed + seeds - 1."""
+    first_seed: int = 0
+    """Seed of the first episode: e.g. --first-seed 100 --seeds 20 runs seeds 100 to 119, to score a policy on
+    seeds its training data (collect --first-seed) never held."""
     num_workers: Annotated[int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")] = (
         None
     )
@@ -73,6 +77,7 @@ class EvaluateArgs(EpisodeArgs):
         """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
         self.check()
         require_between("--seeds", self.seeds, 1, 10_000)
+        check_seed_range(self.first_seed, self.seeds, "--seeds")
         require(
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
@@ -83,6 +88,10 @@ class EvaluateArgs(EpisodeArgs):
             self.policy is None or self.proposal_policy is None,
             "--proposal-policy proposes candidates to an optimizer's plan, but --policy drives the plant itself; give one",
         )
+
+    def seed_range(self) -> range:
+        """The seeds to run: first_seed to first_seed + seeds - 1."""
+        return range(self.first_seed, self.first_seed + self.seeds)
 
     def episode_spec(self) -> EpisodeSpec:
         """What determines each seed's episode, for the one seeded episode runner here or on Ray."""
@@ -133,15 +142,16 @@ def episode_record(result: EpisodeResult) -> dict[str, Any]:
 
 
 def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
-    """Run one episode per seed in this process, one after the other; advance `progress` (if given) by sim seconds."""
+    """Run one episode per seed of `args.seed_range()` in this process, one after the other; advance `progress` (if
+    given) by sim seconds."""
     bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
     spec = args.episode_spec()
     results = []
-    for seed in range(args.seeds):
+    for done, seed in enumerate(args.seed_range()):
 
-        def show(now: float, seed: int = seed) -> None:
+        def show(now: float, seed: int = seed, done: int = done) -> None:
             if progress is not None and bar is not None:
-                progress.update(bar, completed=seed * args.duration + now, description=f"seed {seed}")
+                progress.update(bar, completed=done * args.duration + now, description=f"seed {seed}")
 
         results.append(run_seeded_episode(spec, seed, on_update=show))
     return results
@@ -153,7 +163,7 @@ def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, 
     if args.workers is not None or args.address is not None:
         from judo.evaluation.on_ray import evaluate_on_ray
 
-        return evaluate_on_ray(args.episode_spec(), args.seeds, args.workers, args.address)
+        return evaluate_on_ray(args.episode_spec(), args.seed_range(), args.workers, args.address)
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
     with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
         return evaluate(args, progress), []
@@ -183,7 +193,8 @@ def main(argv: list[str] | None = None) -> int:
         summaries = summarize_metrics(results)
         update_ms = np.concatenate([result.update_ms for result in results])
         title = (
-            f"{args.task} x {args.controller_label()}: {args.seeds} seeds x {args.duration:g} s, latency {args.latency_label()}"
+            f"{args.task} x {args.controller_label()}: {seeds_label(args.first_seed, args.seeds)} x {args.duration:g} s"
+            f", latency {args.latency_label()}"
             f"{args.sensing_label()}"
         )
         changed = args.changed_fields()
@@ -208,6 +219,7 @@ def main(argv: list[str] | None = None) -> int:
                     "optimizer": args.optimizer,
                     "policy": args.policy_file(),
                     "seeds": args.seeds,
+                    "first_seed": args.first_seed,
                     "duration": args.duration,
                     "latency": args.latency_label(),
                     "sensing": args.sensing_record(),

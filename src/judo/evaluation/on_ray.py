@@ -42,9 +42,9 @@ def outcome_of(ray: Any, ref: Any, seed: int) -> SeedOutcome:
 
 
 def evaluate_on_ray(
-    spec: EpisodeSpec, seeds: int, workers: int | None, address: str | None
+    spec: EpisodeSpec, seeds: range, workers: int | None, address: str | None
 ) -> tuple[list[EpisodeResult], list[tuple[int, str]]]:
-    """Run seeds 0..seeds-1 of `spec` as Ray tasks on a local Ray with `workers` CPUs (address None) or the
+    """Run the seeds `seeds` of `spec` as Ray tasks on a local Ray with `workers` CPUs (address None) or the
     cluster at `address`; returns (the episodes that ran, by seed; (seed, reason) of those that failed)."""
     import os
 
@@ -54,14 +54,14 @@ def evaluate_on_ray(
     outcomes: list[SeedOutcome] = []
     counts = Counts()
     running: dict[Any, int] = {}
-    pending = iter(range(seeds))
+    pending = iter(seeds)
     columns = (TextColumn("evaluate"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"))
     connected = False
     try:
         connected = cluster.start_ray(address, workers or os.cpu_count() or 1)
         window = workers or 2 * cluster.cluster_cpus()
         with Progress(*columns, TimeElapsedColumn(), console=progress_console(), transient=True) as progress:
-            bar = progress.add_task(counts.line(), total=seeds)
+            bar = progress.add_task(counts.line(), total=len(seeds))
             while True:
                 while len(running) < window and (seed := next(pending, None)) is not None:
                     running[cluster.submit(evaluate_seed, spec, seed)] = seed

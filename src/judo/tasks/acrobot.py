@@ -148,6 +148,22 @@ class Acrobot(Task[AcrobotConfig]):
         to [-pi, pi)), divided by BALANCE_SATURATION and capped at 1."""
         return capped_cost_to_go(states[..., :4], self.balance_matrix, BALANCE_SATURATION, angle_columns=[0, 1])
 
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(B, 6) [cos shoulder, cos elbow, sin shoulder, sin elbow, shoulder rate, elbow rate] of (B, 4) states.
+
+        Both hinges are unlimited: a swing-up that goes over the top leaves the raw angles at 2 pi, 4 pi, ...
+        for the same pose, which a learned policy would have to meet in its data at every one of them; cos and
+        sin are the same there.
+        """
+        states = np.asarray(states, dtype=float)
+        return np.concatenate([np.cos(states[:, :2]), np.sin(states[:, :2]), states[:, 2:4]], axis=1)
+
     def reset(self) -> None:
         """Both links hanging down within 0.2 rad, with small random velocities."""
         self.data.qpos[:] = [np.pi, 0.0] + self.rng.uniform(-0.2, 0.2, 2)

@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from judo.core.fields import slider
+from judo.core.model import mocap_pose
 from judo.core.norms import quadratic_norm, smooth_l1_norm
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
@@ -71,6 +72,23 @@ class Particle(Task[ParticleConfig]):
             + config.w_velocity * quadratic_norm(states[..., 2:4]).sum(-1)
             + config.w_control * quadratic_norm(controls).sum(-1)
         )
+
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(B, 6) [x, y, vx, vy, goal x - x, goal y - y]: the (B, 4) state and the goal relative to the particle.
+
+        The goal is the mocap body's position, `system_metadata["mocap_pos"]` (nmocap, 3) or (B, nmocap, 3) (a
+        collect file's obs/mocap_pos, reshaped), else the model's own; without it a policy could not know where
+        to go. The position itself stays in: the walls make the dynamics depend on where the particle is.
+        """
+        states = np.asarray(states, dtype=float)
+        goal = np.broadcast_to(mocap_pose(self.model, system_metadata, "mocap_pos")[..., 0, :2], (len(states), 2))
+        return np.concatenate([states, goal - states[:, :2]], axis=1)
 
     def reset(self) -> None:
         """Particle at rest on a random spot; a random goal."""

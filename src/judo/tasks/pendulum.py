@@ -63,6 +63,22 @@ class Pendulum(Task[PendulumConfig]):
             + config.w_control * quadratic_norm(controls).sum(-1)
         )
 
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(B, 3) [cos angle, sin angle, angular velocity] of (B, 2) states.
+
+        The hinge is unlimited: the pole's pumping and any full turn leave the raw angle at 2 pi, 4 pi, ... for
+        the same pose, which a learned policy would have to meet in its data at every one of them; cos and sin
+        are the same there.
+        """
+        states = np.asarray(states, dtype=float)
+        return np.column_stack([np.cos(states[:, 0]), np.sin(states[:, 0]), states[:, 1]])
+
     def reset(self) -> None:
         """Pole hanging down, within 0.3 rad, with a small random spin."""
         self.data.qpos[:] = np.pi + self.rng.uniform(-0.3, 0.3)

@@ -8,6 +8,7 @@ import mujoco
 import numpy as np
 
 from judo.core.fields import slider
+from judo.core.model import mocap_pose
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
 from judo.core.randomize import body_id, contact_geom_ids, scale_body_mass, scale_dof_frictionloss, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
@@ -93,6 +94,44 @@ class PushT(Task[PushTConfig]):
             + config.w_orientation * smooth_l1_norm(angle_error[..., None], 0.1).sum(-1)
             + config.w_proximity * smooth_l1_norm(pusher - behind, 0.05).sum(-1)
             + config.w_control * quadratic_norm(controls).sum(-1)
+        )
+
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(B, 13) the block, pusher and goal relative to the block, in the world frame the pusher forces act in:
+
+            [0:2]   goal x, y - block x, y (m)
+            [2:4]   cos, sin of the heading error, block heading - goal heading
+            [4:6]   pusher x, y - block x, y (m)
+            [6:8]   cos, sin of the block's heading (its hinge is unlimited: the raw angle grows as it turns)
+            [8:13]  qvel: block vx, vy, yaw rate, pusher vx, vy
+
+        from (B, 10) states. Nothing absolute: nothing bounds the table, so the dynamics are the same anywhere.
+        The goal is `system_metadata["mocap_pos"]` (nmocap, 3) and its heading "mocap_quat" (nmocap, 4) (each
+        also (B, nmocap, ...)), else the model's own pose. A collect file stores obs/mocap_pos only; its goal's
+        heading is the model's, since `reset` never turns the goal (only a GUI drag does), so the
+        observation of a recorded step is this with system_metadata {"mocap_pos": that row}.
+        """
+        states = np.asarray(states, dtype=float)
+        block, block_yaw, pusher = states[:, 0:2], states[:, 2], states[:, 3:5]
+        goal = np.broadcast_to(mocap_pose(self.model, system_metadata, "mocap_pos")[..., 0, :2], block.shape)
+        goal_yaw = yaw_of(mocap_pose(self.model, system_metadata, "mocap_quat")[..., 0, :])
+        error = block_yaw - goal_yaw
+        return np.column_stack(
+            [
+                goal - block,
+                np.cos(error),
+                np.sin(error),
+                pusher - block,
+                np.cos(block_yaw),
+                np.sin(block_yaw),
+                states[:, 5:],
+            ]
         )
 
     def reset(self) -> None:

@@ -14,7 +14,14 @@ from typing import Annotated, Any, Literal
 import tyro
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from judo.core.boundary import MAX_EPISODE, MAX_SAMPLES, MAX_WORKERS, check_count, check_output_folder
+from judo.core.boundary import (
+    MAX_EPISODE,
+    MAX_SAMPLES,
+    MAX_WORKERS,
+    check_count,
+    check_output_folder,
+    check_seed_range,
+)
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import lookup_task
@@ -26,6 +33,7 @@ from judo.evaluation.cli import (
     name_listing,
     output_console,
     progress_console,
+    seeds_label,
 )
 from judo.evaluation.episode import Latency
 from judo.evaluation.plot import write_episode_plot
@@ -73,7 +81,11 @@ class TuneArgs(SensingFlags):
     trials: int = 20
     """Finished trials the study should have; a resumed study runs only the missing ones."""
     seeds: int = 3
-    """Episodes per trial, with seeds 0 to seeds - 1."""
+    """Episodes per trial and condition, with seeds first_seed to first_seed + seeds - 1."""
+    first_seed: int = 0
+    """Seed of each condition's first episode: e.g. --first-seed 1000 tunes on seeds an `evaluate` of seeds 0 to
+    999 never sees. Not part of a study's identity (as --seeds is not): a resumed study scores its new trials on
+    these seeds."""
     duration: float = 10.0
     """Length of each episode in seconds of sim time."""
     params: Annotated[
@@ -137,6 +149,7 @@ class TuneArgs(SensingFlags):
         check_names([self.task], [self.optimizer])
         require(self.trials >= 1, f"--trials must be at least 1, got {self.trials}")
         require(self.seeds >= 1, f"--seeds must be at least 1, got {self.seeds}")
+        check_seed_range(self.first_seed, self.seeds, "--seeds")
         require(self.duration > 0, f"--duration must be positive, got {self.duration}")
         require(self.workers is None or self.workers >= 1, f"--workers must be at least 1, got {self.workers}")
         require(
@@ -235,6 +248,7 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
         cvar_alpha=args.cvar_alpha,
         maximize=objective.direction == "maximize",
         sensing=args.sensing(),
+        first_seed=args.first_seed,
     )
     target = args.trials
     if args.sampler == "grid":
@@ -331,7 +345,8 @@ def write_outputs(
         values = {**spec.fixed, **best.params}
         header = [
             f"Best of study {study.study_name!r}: trial {best.number}, {objective.metric} = {best.value:.6g} "
-            f"({aggregate_text(spec)} of {len(spec.conditions)} conditions x {args.seeds} seeds x {args.duration:g} s), "
+            f"({aggregate_text(spec)} of {len(spec.conditions)} conditions x "
+            f"{seeds_label(args.first_seed, args.seeds)} x {args.duration:g} s), "
             f"median plan {best.user_attrs.get('plan_ms') or float('nan'):.3g} ms.",
             "Per condition: "
             + ", ".join(f"{label}: {value:.4g}" for label, value in best.user_attrs.get("conditions", {}).items()),
@@ -341,9 +356,11 @@ def write_outputs(
         ]
         write_best_toml(out / "best.toml", args.task, args.optimizer, values, header)
         written.append(out / "best.toml")
-        (episode,) = run_seeded_episodes(spec, best.params, range(1))
+        (episode,) = run_seeded_episodes(spec, best.params, spec.seed_range()[:1])
         model = lookup_task(args.task)[0]().sim_model  # type: ignore[call-arg]
-        title = f"{args.task} x {args.optimizer}, best trial {best.number}, seed 0, {spec.conditions[0].label}"
+        title = (
+            f"{args.task} x {args.optimizer}, best trial {best.number}, seed {episode.seed}, {spec.conditions[0].label}"
+        )
         for suffix in (".html", ".png"):
             try:
                 write_episode_plot(episode, model, out / f"best_episode{suffix}", title)

@@ -119,7 +119,7 @@ def submit_trial(spec: TrialSpec, values: dict[str, Any]) -> list[Any]:
     return [
         remote.remote(spec, values, condition, seed)
         for condition in range(len(spec.conditions))
-        for seed in range(spec.seeds)
+        for seed in spec.seed_range()
     ]
 
 

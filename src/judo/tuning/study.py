@@ -201,7 +201,7 @@ def run_trials(
             while to_start > 0 and (not running or len(pending) < concurrency):
                 trial = study.ask()
                 refs = cluster.submit_trial(spec, suggest(trial, space))
-                keys = [(c, s) for c in range(len(spec.conditions)) for s in range(spec.seeds)]
+                keys = [(c, s) for c in range(len(spec.conditions)) for s in spec.seed_range()]
                 pending.update({ref: (trial.number, c, s) for ref, (c, s) in zip(refs, keys, strict=True)})
                 running[trial.number] = (trial, [])
                 to_start -= 1

@@ -26,7 +26,7 @@ class TrialSpec:
     Attributes:
         task, optimizer: registered names.
         metric: the metric averaged over seeds as the trial's value.
-        seeds: episodes per trial, with seeds 0 to seeds - 1.
+        seeds: episodes per trial, with seeds first_seed to first_seed + seeds - 1.
         duration: seconds of sim time per episode.
         latency: as for run_episode: seconds of sim time, or "measured".
         config_file: the user's --config file (read once per process), or None.
@@ -37,6 +37,7 @@ class TrialSpec:
         aggregate, cvar_alpha: how the conditions' metrics become the trial's value.
         maximize: whether the metric is better higher (which condition is the worst).
         sensing: how every episode's plant is observed and estimated (--observe, --sensor-*, --estimator).
+        first_seed: the seed of each condition's first episode (tune --first-seed).
     """
 
     task: str
@@ -53,6 +54,11 @@ class TrialSpec:
     cvar_alpha: float = 0.5
     maximize: bool = True
     sensing: Sensing = field(default_factory=Sensing)
+    first_seed: int = 0
+
+    def seed_range(self) -> range:
+        """The seeds every condition of a trial runs: first_seed to first_seed + seeds - 1."""
+        return range(self.first_seed, self.first_seed + self.seeds)
 
 
 @dataclass
@@ -173,6 +179,6 @@ def run_trial(spec: TrialSpec, values: dict[str, Any]) -> TrialOutcome:
     episodes = [
         run_condition_seed(spec, values, condition, seed)
         for condition in range(len(spec.conditions))
-        for seed in range(spec.seeds)
+        for seed in spec.seed_range()
     ]
     return score_trial(spec, episodes)
