@@ -30,7 +30,9 @@ from judo.learning.rounds import headline_metric
 class Args:
     """Which tasks, how much data, how many teacher rounds, and which fresh seeds."""
 
-    tasks: list[str] = field(default_factory=lambda: ["cartpole", "pendulum", "acrobot", "double_cartpole", "particle", "push_t"])
+    tasks: list[str] = field(
+        default_factory=lambda: ["cartpole", "pendulum", "acrobot", "double_cartpole", "particle", "push_t"]
+    )
     """Tasks, by registered name."""
     optimizer: str = "mppi"
     """The MPC that makes the data and labels the rounds."""
@@ -97,7 +99,10 @@ def run_task(task: str, args: Args) -> dict:
         row["columns"][label] = {"metrics": metrics, "update_ms": update_ms}
     row["metric"] = headline_metric(row["columns"]["MPC"]["metrics"])
     metadata = OnnxPolicy(policy).metadata
-    row["training_s"], row["episodes_used"] = float(metadata["training_seconds"]), args.episodes + args.rounds * args.episodes_per_round
+    row["training_s"], row["episodes_used"] = (
+        float(metadata["training_seconds"]),
+        args.episodes + args.rounds * args.episodes_per_round,
+    )
     return row
 
 
@@ -116,7 +121,9 @@ def print_table(rows: list[dict], args: Args) -> None:
             share = f" ({value / base:.2f})" if base > 0 else ""
             cells.append(f"{value:.3g}{share}")
         print(f"| {row['task']} | {metric} | " + " | ".join(cells) + " |")
-    print("\n| task | policy inference µs | MPC update ms (N) | training s (last round) | episodes used | collect + distill min |")
+    print(
+        "\n| task | policy inference µs | MPC update ms (N) | training s (last round) | episodes used | collect + distill min |"
+    )
     print("|---|---|---|---|---|---|")
     for row in rows:
         inference = 1e3 * row["columns"]["policy, round 0"]["update_ms"]

@@ -90,6 +90,7 @@ def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
         "task": args.task,
         "optimizer": args.optimizer,
         "policy": None if args.policy is None else policy_record(args),
+        "proposal_policy": None if args.proposal_policy is None else file_record(args.proposal_policy),
         "duration": args.duration,
         "latency_s": latency,
         "sensing": args.sensing_record(),
@@ -104,6 +105,11 @@ def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
         "planning_model_sha256": model_sha256(task.model),
         "plant_model_sha256": model_sha256(task.sim_model),
     }
+
+
+def file_record(path: Path) -> dict[str, str]:
+    """A policy file in env_args: its absolute path and SHA-256 (another file is another run)."""
+    return {"file": str(path.resolve()), "sha256": hashlib.sha256(path.read_bytes()).hexdigest()}
 
 
 def policy_record(args: CollectArgs) -> dict[str, Any]:
@@ -128,7 +134,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo collect` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
     from judo.collection.dataset import import_h5py
     from judo.collection.run import collect
-    from judo.evaluation.seeded import configs_in_force
+    from judo.evaluation.seeded import configs_in_force, load_proposal_policy
 
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args_with_config_fields(
@@ -142,6 +148,7 @@ def main(argv: list[str] | None = None) -> int:
         import_ray("python -m judo collect", "collect")
         spec = args.spec(num_workers=1)
         configs = configs_in_force(spec)
+        load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples)  # type: ignore[attr-defined]
         command = "python -m judo collect " + shlex.join(argv)
         return collect(spec, env_args(args, configs), args, command, args.workers or os.cpu_count() or 1)
     except JudoError as err:

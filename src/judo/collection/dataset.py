@@ -258,7 +258,7 @@ def flatten(content: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 def check_same_run(path: Path, stored: dict[str, Any], wanted: dict[str, Any]) -> None:
     """DatasetError naming the differing entries unless `stored` and `wanted` env_args agree (versions aside)."""
-    ignored = {"judo_version", "mujoco_version", "config_file", "policy.file"}  # configs and the policy's hash count
+    ignored = {"judo_version", "mujoco_version", "config_file", "policy.file", "proposal_policy.file"}  # hashes count
     old, new = flatten(stored), flatten(wanted)
     differing = sorted(key for key in old.keys() | new.keys() if key not in ignored and old.get(key) != new.get(key))
     if differing:

@@ -41,6 +41,10 @@ class EpisodeArgs(SensingFlags):
     """A policy (an ONNX file, needs pip install 'judo[policy]') that drives the plant instead of the optimizer,
     through the same closed loop (docs/policies.md); its metadata's control_freq, horizon and spline_order are the
     defaults of --controller.*."""
+    proposal_policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
+    """Policy whose candidates replace --controller.policy-samples of the optimizer's num_rollouts each update
+    (the policy as a proposal, docs/policies.md); needs pip install 'judo[policy]'. With collect --policy, the
+    MPC that labels samples from it (gpc's augmented controller)."""
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
     (docs/configuration.md); read before anything else."""
@@ -113,6 +117,7 @@ class EpisodeArgs(SensingFlags):
             num_workers,
             self.sensing(),
             self.policy_file(),
+            None if self.proposal_policy is None else str(self.proposal_policy.resolve()),
         )
 
     def sensing_label(self) -> str:

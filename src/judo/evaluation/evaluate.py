@@ -1,6 +1,5 @@
 """`python -m judo evaluate`: closed-loop episodes over seeds, the task's success metrics with 95% CIs."""
 
-import dataclasses
 import sys
 from dataclasses import dataclass
 from pathlib import Path
@@ -66,9 +65,6 @@ class EvaluateArgs(EpisodeArgs):
     """Also write each episode's metrics and the summary to this JSON file."""
     plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also plot the first seed's episode against time to this .png (needs matplotlib) or .html file."""
-    proposal_policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
-    """Policy whose candidates replace --controller.policy-samples of the optimizer's num_rollouts each update
-    (the policy as a proposal, docs/policies.md); needs pip install 'judo[policy]'."""
     # EpisodeArgs has the task, optimizer, episode, latency, backend, --controller.FIELD and sensing options;
     # parse_args_with_config_fields adds `optimizer_config` (--optimizer-config.FIELD, e.g.
     # --optimizer-config.sigma 0.3) and `task_config` (--task-config.FIELD), typed for the pair named.
@@ -96,9 +92,7 @@ class EvaluateArgs(EpisodeArgs):
     def episode_spec(self) -> EpisodeSpec:
         """What determines each seed's episode, for the one seeded episode runner here or on Ray."""
         on_ray = self.workers is not None or self.address is not None
-        spec = self.spec((self.num_workers or 1) if on_ray else self.num_workers)
-        policy = None if self.proposal_policy is None else str(self.proposal_policy.resolve())
-        return dataclasses.replace(spec, proposal_policy=policy)
+        return self.spec((self.num_workers or 1) if on_ray else self.num_workers)
 
 
 def summarize_metrics(results: list[EpisodeResult]) -> dict[str, Summary]:

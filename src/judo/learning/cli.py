@@ -81,7 +81,9 @@ class DistillArgs:
         """Raise a JudoError (one line) for an argument out of range or an --out that cannot be written."""
         require(len(self.datasets) > 0, "give at least one dataset written by python -m judo collect")
         require(self.out.suffix == ".onnx", f"--out must name an .onnx file, got {str(self.out)!r}")
-        require(all(0 < width <= 4096 for width in self.hidden), f"--hidden widths must be 1 to 4096, got {self.hidden}")
+        require(
+            all(0 < width <= 4096 for width in self.hidden), f"--hidden widths must be 1 to 4096, got {self.hidden}"
+        )
         require_between("--epochs", self.epochs, 1, 100_000)
         require_between("--batch-size", self.batch_size, 1, 1_000_000)
         require(0 < self.learning_rate < 1, f"--learning-rate must be in (0, 1), got {self.learning_rate}")

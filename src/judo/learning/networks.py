@@ -30,7 +30,7 @@ def init_mlp(key: jax.Array, sizes: Sequence[int]) -> Params:
     layer starts small so the first outputs are near the target's mean."""
     params = []
     keys = jax.random.split(key, len(sizes) - 1)
-    for i, (fan_in, fan_out) in enumerate(zip(sizes[:-1], sizes[1:])):
+    for i, (fan_in, fan_out) in enumerate(zip(sizes[:-1], sizes[1:], strict=True)):
         scale = np.sqrt(2.0 / fan_in) * (0.01 if i == len(sizes) - 2 else 1.0)
         params.append((scale * jax.random.normal(keys[i], (fan_out, fan_in)), jnp.zeros(fan_out)))
     return params

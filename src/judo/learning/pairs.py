@@ -136,7 +136,9 @@ def read_pairs(paths: list[Path], kind: str) -> TrainingPairs:
         except (KeyError, ValueError, TypeError) as err:
             raise DistillError(f"{str(path)!r} is not a whole judo dataset: {err}") from None
     if pairs is None or not pairs.num_pairs:
-        raise DistillError(f"the datasets {[str(p) for p in paths]} hold no training pairs; collect some episodes first")
+        raise DistillError(
+            f"the datasets {[str(p) for p in paths]} hold no training pairs; collect some episodes first"
+        )
     return pairs
 
 

@@ -1,10 +1,7 @@
 """distill's driver: train on the datasets, then (with --rounds) let the MPC teach the policy it made.
 
 Each teacher round r (DAgger; gpc's loop with --proposals):
-  1. collect `episodes_per_round` episodes into ROUNDS/round_<r>.h5, seeds from r * if TYPE_CHECKING:
-    from judo.learning.cli import DistillArgs
-
-ROUND_SEED_STRIDE, in which
+  1. collect `episodes_per_round` episodes into ROUNDS/round_<r>.h5, seeds from r * ROUND_SEED_STRIDE, in which
      the policy of round r - 1 drives the plant and the dataset's MPC labels every state it visits
      (`collect --policy`; with --proposals K the MPC also samples K candidates from the policy);
   2. retrain from scratch on the datasets and every round file so far: ROUNDS/policy_round_<r>.onnx;
@@ -28,6 +25,9 @@ from judo.learning.export import losses_path, plot_losses, policy_metadata, writ
 from judo.learning.pairs import DistillError, TrainingPairs, read_pairs
 from judo.learning.training import TrainedPolicy, train
 
+if TYPE_CHECKING:
+    from judo.learning.cli import DistillArgs
+
 ROUND_SEED_STRIDE = 100_000
 """Round r collects seeds r * ROUND_SEED_STRIDE onwards: never a seed of another round or of a usual dataset."""
 
@@ -47,7 +47,9 @@ def train_and_write(
 
         trained = train(pairs, args.settings(), show)
     write_policy(out, trained, policy_metadata(trained, pairs, command, out.stem), args.noise_scale)
-    title = f"{pairs.task}, {pairs.kind} policy, {trained.head}: {pairs.num_pairs} pairs of {len(pairs.episodes)} episodes"
+    title = (
+        f"{pairs.task}, {pairs.kind} policy, {trained.head}: {pairs.num_pairs} pairs of {len(pairs.episodes)} episodes"
+    )
     plot_losses(losses_path(out), trained, title)
     return trained, pairs
 
