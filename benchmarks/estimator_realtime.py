@@ -4,7 +4,9 @@ Starts the real App headless (no GUI) on each task with `observe="sensors"` and 
 `--warmup` s, then measures `--duration` s of wall time: the real-time factor (sim seconds per wall second, 1 =
 real time), the planning rate, and, where the estimator runs on a thread of its own, how far its newest
 estimate lagged behind the plant (mean and max, in ms of sim time). A "state" row (the full state, no filter)
-gives each task's figure without one. Run from the repository root:
+gives each task's figure without one. Each filter runs twice in a row, at the same load: on the plant thread
+(as before #31: the App's EstimatorThread unwrapped) and on its own thread (the app's default). Run from the
+repository root:
 
     PYTHONPATH=src python benchmarks/estimator_realtime.py
     PYTHONPATH=src python benchmarks/estimator_realtime.py --tasks walker --filters ukf --duration 15
@@ -19,6 +21,7 @@ from dataclasses import dataclass
 import tyro
 
 from judo.runtime.app import App
+from judo.runtime.estimator_thread import EstimatorThread
 
 
 @dataclass
@@ -39,6 +42,8 @@ class Args:
     """Rollout threads (the number of cores by default, as in the app)."""
     seed: int = 0
     """Seeds the optimizer, the plant and the sensor noise."""
+    threads: tuple[str, ...] = ("plant", "own")
+    """Where each filter runs: "plant" (on the plant thread, as before #31 item 2) and/or "own" (its own thread)."""
 
 
 def load() -> str:
@@ -47,10 +52,13 @@ def load() -> str:
         return " ".join(f.read().split()[:3])
 
 
-def measure(task: str, estimator: str, args: Args) -> dict[str, str]:
-    """One row: run the app on `task` with `estimator` and return its figures, formatted."""
+def measure(task: str, estimator: str, thread: str, args: Args) -> dict[str, str]:
+    """One row: run the app on `task` with `estimator` on `thread` and return its figures, formatted."""
     sensing = {} if estimator == "state" else {"observe": "sensors", "estimator": estimator}
     app = App(task, args.optimizer, gui=False, seed=args.seed, num_workers=args.num_workers, **sensing)  # type: ignore[arg-type]
+    loop = app.session.closed_loop
+    if thread == "plant" and isinstance(loop.estimator, EstimatorThread):
+        loop.estimator = loop.estimator.estimator  # the filter itself, called on the plant thread
     load_before = load()
     app.start()
     lags: list[float] = []
@@ -70,6 +78,7 @@ def measure(task: str, estimator: str, args: Args) -> dict[str, str]:
     return {
         "task": task,
         "estimator": estimator,
+        "filter thread": "-" if estimator == "state" else thread,
         "real-time factor": f"{(sim1 - sim0) / wall:.3f}",
         "plans / s": f"{(plans1 - plans0) / wall:.1f}",
         "filter lag ms (mean / max)": f"{sum(lags) / len(lags):.0f} / {max(lags):.0f}" if lags else "-",
@@ -80,7 +89,8 @@ def measure(task: str, estimator: str, args: Args) -> dict[str, str]:
 
 def main(args: Args) -> None:
     print(f"load average at the start: {load()}  (1, 5, 15 min)")
-    rows = [measure(task, estimator, args) for task in args.tasks for estimator in args.filters]
+    runs = [(t, e, "-" if e == "state" else h) for t in args.tasks for e in args.filters for h in args.threads]
+    rows = [measure(*run, args) for run in dict.fromkeys(runs)]  # one "state" row per task
     columns = list(rows[0])
     widths = {c: max(len(c), *(len(str(r[c])) for r in rows)) for c in columns}
     print(" | ".join(c.ljust(widths[c]) for c in columns))

@@ -9,7 +9,9 @@ plant's now on the planning model under the actions served since (its mean only:
 against the UKF's 2n sigma points). The filter's thread fuses the newest reading waiting, with every served
 action in order; readings that a newer one overtook while the filter was busy are passed over (a sensor's value
 held in the newer reading is fused from there). So a filter slower than the plant's step makes the estimate
-lag (`lag`), not the plant: judo's own simulator keeps real time.
+lag (`lag`), not the plant: judo's own simulator keeps real time. A filter more than CATCH_UP_LAG behind starts
+over from the prediction at the plant's now and the newest reading (`catch_ups`), so its lag stays within
+CATCH_UP_LAG and one update.
 
 The app's plant runs through it (`build_session(..., estimator_thread=True)`); evaluate, tune and collect call
 their estimator on the stepping thread, so their episodes stay deterministic.
@@ -22,6 +24,7 @@ failed read_state, as for a filter on the plant thread); the filter goes on with
 ends the (daemon) thread within `timeout`.
 """
 
+import dataclasses
 import math
 import threading
 from collections import deque
@@ -37,6 +40,8 @@ from judo.runtime.latency import LatencyPredictor
 
 JOIN_TIMEOUT = 0.2
 """Seconds `close` waits for the filter's thread to finish its update in flight."""
+CATCH_UP_LAG = 0.5
+"""Seconds of plant time the filter may fall behind before it starts over from the prediction at the plant's now."""
 
 
 class EstimatorThreadError(JudoError):
@@ -66,6 +71,7 @@ class EstimatorThread(Estimator):
         fused: readings fused so far (on the thread, and the first after each reset on the plant thread).
         passed_over: readings a newer one overtook before the filter got to them.
         failures: updates that raised on the filter's thread.
+        catch_ups: times the filter fell CATCH_UP_LAG behind and started over from the prediction at the plant's now.
     """
 
     def __init__(self, estimator: Estimator) -> None:  # not Estimator.__init__: `config` is the handed-over one
@@ -86,7 +92,7 @@ class EstimatorThread(Estimator):
         self._predictor = LatencyPredictor(self.task)
         self._first = True  # the next update is the first since a reset: fused on the calling thread
         self.lag = 0.0
-        self.fused = self.passed_over = self.failures = 0
+        self.fused = self.passed_over = self.failures = self.catch_ups = 0
 
     @property
     def config(self) -> Any:
@@ -165,6 +171,16 @@ class EstimatorThread(Estimator):
         self._bridge = ahead
         return estimate_of(reading, np.asarray(ahead.state), ahead.time)
 
+    def _catch_up_if_behind(self, newest: _Handed) -> None:
+        """Start the filter over from the plant thread's prediction (with `newest`'s sensors) when its estimate is
+        more than CATCH_UP_LAG behind `newest`: a filter slower than the plant would fall further behind at every
+        update, and the planner would plan from an ever longer prediction that no reading corrects."""
+        estimate, bridge = self._estimate, self._bridge
+        if estimate is None or bridge is None or newest.time - estimate.time <= CATCH_UP_LAG:
+            return
+        self.estimator.reset(dataclasses.replace(newest.reading, state=bridge.state, time=bridge.time))
+        self.catch_ups += 1
+
     def _take_config(self) -> None:
         """Give the filter the config edited last (under `_lock`)."""
         with self._mutex:
@@ -197,6 +213,7 @@ class EstimatorThread(Estimator):
                 newest = handed[-1]
                 self._take_config()
                 try:
+                    self._catch_up_if_behind(newest)
                     estimate = self.estimator.update(newest.reading, newest.time, self._controls)
                 except Exception as err:  # raised from the plant thread's next update
                     with self._mutex:
