@@ -3,7 +3,8 @@
 Starts the real App headless (no GUI) on each task with `observe="sensors"` and each filter, lets it run
 `--warmup` s, then measures `--duration` s of wall time: the real-time factor (sim seconds per wall second, 1 =
 real time), the planning rate, and, where the estimator runs on a thread of its own, how far its newest
-estimate lagged behind the plant (mean and max, in ms of sim time). A "state" row (the full state, no filter)
+estimate lagged behind the plant (mean and max, in ms of sim time) and how often it started over to catch up
+(`EstimatorThread.catch_ups`). A "state" row (the full state, no filter)
 gives each task's figure without one. Each filter runs twice in a row, at the same load: on the plant thread
 (as before #31: the App's EstimatorThread unwrapped) and on its own thread (the app's default). Run from the
 repository root:
@@ -72,6 +73,7 @@ def measure(task: str, estimator: str, thread: str, args: Args) -> dict[str, str
                 lags.append(1e3 * lag)
         sim1, plans1, wall1 = app.stats.sim_time(), app.stats.num_plans(), time.perf_counter()
         status = app.status.message
+        catch_ups = getattr(app.session.closed_loop.estimator, "catch_ups", None)
     finally:
         app.stop()
     wall = wall1 - wall0
@@ -82,6 +84,7 @@ def measure(task: str, estimator: str, thread: str, args: Args) -> dict[str, str
         "real-time factor": f"{(sim1 - sim0) / wall:.3f}",
         "plans / s": f"{(plans1 - plans0) / wall:.1f}",
         "filter lag ms (mean / max)": f"{sum(lags) / len(lags):.0f} / {max(lags):.0f}" if lags else "-",
+        "catch-ups": "-" if catch_ups is None else str(catch_ups),
         "load before / after": f"{load_before} / {load()}",
         "status": status[:60],
     }
