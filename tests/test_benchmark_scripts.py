@@ -195,3 +195,24 @@ def test_proposals_prints_a_row_per_rollout_count_and_policy_samples():
     assert "cartpole: proposals from an LQR law holding the cart at 0.2 m, seeds 100-100 x 0.3 s" in out
     for rollouts, samples in (("16", "0"), ("16", "1"), ("2", "0"), ("2", "1")):
         assert f"│ ps │ {rollouts} │ {samples} │" in out
+
+
+def test_estimator_realtime_prints_a_row_per_filter_and_thread():
+    result = run_script(
+        "estimator_realtime.py",
+        "--tasks",
+        "cartpole",
+        "--filters",
+        "state",
+        "ekf",
+        "--duration",
+        "0.5",
+        "--warmup",
+        "0.5",
+    )
+    assert result.returncode == 0, result.stderr
+    assert "load average at the start:" in result.stdout
+    rows = [line.split("|") for line in result.stdout.splitlines() if line.startswith("cartpole")]
+    assert [(row[1].strip(), row[2].strip()) for row in rows] == [("state", "-"), ("ekf", "plant"), ("ekf", "own")]
+    assert all(float(row[3]) > 0 for row in rows)  # a real-time factor each
+    assert rows[2][5].strip() != "-" and rows[1][5].strip() == "-"  # the lag of a filter on its own thread only

@@ -9,6 +9,7 @@ from judo.core.errors import ConfigError, JudoError, UnknownNameError
 from judo.estimators.ekf import EKFConfig, ExtendedKalmanFilter
 from judo.estimators.ukf import UnscentedKalmanFilter
 from judo.runtime.app import App
+from judo.runtime.estimator_thread import EstimatorThread
 from judo.runtime.gui.plots import estimation_error
 from judo.runtime.sensing import SensedSystem
 from judo.runtime.system import MujocoSystem
@@ -35,7 +36,8 @@ def test_observing_sensors_builds_a_sensed_plant_and_the_ekf(wait_until):
     assert isinstance(session.system, SensedSystem)
     assert isinstance(session.simulated, MujocoSystem) and session.simulated is session.system.system
     assert session.estimator_name == "ekf"
-    assert isinstance(session.closed_loop.estimator, ExtendedKalmanFilter)
+    assert isinstance(session.closed_loop.estimator, EstimatorThread)  # off the plant thread
+    assert isinstance(session.closed_loop.estimator.estimator, ExtendedKalmanFilter)
     assert session.system.delay.tolist() == [0.01, 0.01] and session.system.period.tolist() == [0.01, 0.01]
     app.start()
     try:
@@ -125,7 +127,7 @@ def test_switches_keep_the_sensing_and_the_live_estimator_config(wait_until):
         wait_until(lambda: app.session.task_name == "acrobot", timeout=30, what="the task switch")
         session = app.session
         assert isinstance(session.system, SensedSystem) and session.system.delay.tolist() == [0.01, 0.01]
-        assert isinstance(session.closed_loop.estimator, ExtendedKalmanFilter)
+        assert isinstance(session.closed_loop.estimator.estimator, ExtendedKalmanFilter)
     finally:
         app.stop()
 
@@ -195,7 +197,7 @@ def test_the_gui_draws_the_estimate_as_a_ghost_with_its_panel_and_error_chart(po
 def test_the_app_runs_the_ukf_tracks_the_plant_and_takes_its_spread_edits(wait_until):
     app = sensed_app(estimator="ukf")
     estimator = app.session.closed_loop.estimator
-    assert isinstance(estimator, UnscentedKalmanFilter)
+    assert isinstance(estimator.estimator, UnscentedKalmanFilter)
     assert estimator.config.process_noise_velocity == 0.02  # cartpole's TOML section for the ukf
     with pytest.raises(JudoError, match="relinearize_every"):
         app.update_estimator_config({"relinearize_every": 3})  # the EKF's field, not the UKF's

@@ -68,6 +68,10 @@ class ControlHistory:
             chosen = action
         return chosen.copy()
 
+    def latest(self) -> tuple[float, np.ndarray] | None:
+        """(time, (nu,) action) of the newest entry (the action a copy), or None when empty."""
+        return (self._times[-1], self._actions[-1].copy()) if self._times else None
+
     def clear(self) -> None:
         """Forget every control (after a plant reset)."""
         self._times.clear()

@@ -159,6 +159,7 @@ class App(AppCommands):
             clock=self.watchdog_clock(),
             on_watchdog=self._on_watchdog,
             sensing=self._sensing,
+            estimator_thread=True,  # the plant thread only reads, steps and serves (judo.runtime.estimator_thread)
         )
         self._configs: dict[ConfigKind, Config] = session_configs(self._session)
         self._pending: dict[ConfigKind, Config] = {}

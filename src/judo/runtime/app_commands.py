@@ -128,7 +128,7 @@ class AppCommands(AppEventLoop):
                     "estimator='ekf' (or observe='sensors') to have one"
                 )
             updated = with_updates(estimator.config, updates)
-            estimator.config = updated  # read by the estimator at its next update, on the plant's thread
+            estimator.config = updated  # handed to the filter before its next update, on its own thread
             if not from_gui:
                 self._external_edits += 1
             if self._recording is not None:

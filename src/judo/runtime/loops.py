@@ -244,6 +244,7 @@ class AppLoops(PlantLoop):
             on_watchdog=self._on_watchdog,
             sensing=sensing,
             reading=old.closed_loop.raw_reading if system is old.system else None,  # its thread is reading it
+            estimator_thread=True,
         )
 
         def build() -> Session:

@@ -18,6 +18,7 @@ from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import lookup_estimator, make_controller, make_estimator
 from judo.core.task import Task, TaskConfig
 from judo.runtime.closed_loop import ClosedLoop
+from judo.runtime.estimator_thread import EstimatorThread
 from judo.runtime.sensing import PerType, SensedSystem
 from judo.runtime.system import MujocoSystem, System, SystemState
 
@@ -93,7 +94,9 @@ class Session:
         return system if isinstance(system, MujocoSystem) else None
 
     def close(self) -> None:
-        """Stop the controller's rollout threads."""
+        """Stop the controller's rollout threads, and the estimator's thread where it runs on one."""
+        if isinstance(self.closed_loop.estimator, EstimatorThread):
+            self.closed_loop.estimator.close()
         self.controller.close()
 
 
@@ -113,6 +116,7 @@ def build_session(
     on_watchdog: Callable[[str | None], None] | None = None,
     sensing: Sensing | None = None,
     reading: SystemState | None = None,
+    estimator_thread: bool = False,
 ) -> Session:
     """A new Session. Configs left out get the task's registered defaults.
 
@@ -125,9 +129,10 @@ def build_session(
     noise draws from [seed, SENSING_STREAM]) and which estimator the closed loop runs: the named one, else
     the task's `default_estimator` when the plant's first reading has no full state, else none (plan from the reading as it is).
     `reading` is the given `system`'s latest reading, when another thread is driving it (a switch); None
-    reads it here. Raises UnknownNameError for an unregistered name and ConfigError for configs that do not
-    work together (e.g. observing sensors on a task that declares none, or an estimator that cannot fuse
-    the plant's readings).
+    reads it here. `estimator_thread` runs the estimator on a thread of its own (`EstimatorThread`), for the
+    app's plant thread, which must not wait for the filter; evaluate's sim-time episodes leave it off.
+    Raises UnknownNameError for an unregistered name and ConfigError for configs that do not work together
+    (e.g. observing sensors on a task that declares none, or an estimator that cannot fuse the plant's readings).
     """
     sensing = sensing if sensing is not None else Sensing()
     sensing.check()
@@ -146,6 +151,8 @@ def build_session(
         if system is None:
             system = observed_plant(controller.task, seed, sensing)
         name, estimator = choose_estimator(controller.task, task_name, system, sensing, reading)
+        if estimator is not None and estimator_thread:
+            estimator = EstimatorThread(estimator)
         closed_loop = ClosedLoop(controller, system, clock=clock, on_watchdog=on_watchdog, estimator=estimator)
     except BaseException:
         controller.close()
