@@ -188,7 +188,7 @@ def test_no_file_is_over_its_line_limit():
 
 LIBRARY_LAYERS = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks")
 """The library a notebook imports: what plans and estimates."""
-APPLICATION_LAYERS = ("judo.runtime", "judo.evaluation", "judo.tuning", "judo.collection")
+APPLICATION_LAYERS = ("judo.runtime", "judo.evaluation", "judo.tuning", "judo.collection", "judo.learning")
 """What runs it: the app and its loops, and the commands."""
 
 
@@ -205,5 +205,18 @@ def test_the_library_layers_never_import_the_runtime_or_the_commands():
         if in_layer(module, LIBRARY_LAYERS)
         for target in targets
         if in_layer(target, APPLICATION_LAYERS)
+    )
+    assert not upward, "\n".join(upward)
+
+
+def test_nothing_below_learning_imports_it():
+    """distill sits on top: it reads datasets and runs collect and evaluate; nothing else imports it."""
+    graph = import_graph()
+    upward = sorted(
+        f"{module} imports {target}"
+        for module, targets in graph.items()
+        if not in_layer(module, ("judo.learning",)) and module != "judo.__main__"
+        for target in targets
+        if in_layer(target, ("judo.learning",))
     )
     assert not upward, "\n".join(upward)

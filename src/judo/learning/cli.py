@@ -6,15 +6,10 @@ python -m judo distill cartpole.h5 --out cartpole_policy.onnx --rounds 3      # 
 
 import shlex
 import sys
-from dataclasses import dataclass, field
-from pathlib import Path
-from typing import Annotated, Literal
 
-import tyro
-
-from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.evaluation.cli import fail, output_console, parse_args, progress_console
+from judo.learning.args import DistillArgs
 
 DESCRIPTION = (
     "Train a policy on the episodes of python -m judo collect (one task; several files are read together) and "
@@ -27,101 +22,6 @@ DESCRIPTION = (
     "visits, retrains on everything, and prints the policy alone and the MPC with its proposals on fresh seeds. "
     "Needs the `learn` extra: pip install 'judo[learn]'."
 )
-
-
-@dataclass
-class DistillArgs:
-    """Arguments of `python -m judo distill`."""
-
-    datasets: Annotated[tuple[Path, ...], tyro.conf.Positional, tyro.conf.arg(metavar="DATA.h5")]
-    """Datasets written by python -m judo collect, all of one task."""
-    out: Annotated[Path, tyro.conf.arg(metavar="POLICY.onnx")] = field(kw_only=True)
-    """The ONNX file to write (its loss curves go beside it, as POLICY.losses.png)."""
-    kind: Literal["action", "chunk"] = "action"
-    """What the policy gives: the next action, or the plan's knots (a chunk)."""
-    head: Literal["regression", "flow"] = "regression"
-    """Output head: regression (deterministic) or flow (flow matching: samples, for multimodal data)."""
-    hidden: tuple[int, ...] = (256, 256)
-    """Widths of the MLP's hidden layers."""
-    epochs: int = 300
-    """Most passes over the training pairs (training stops earlier on the validation loss)."""
-    batch_size: int = 256
-    """Pairs per gradient step."""
-    learning_rate: float = 1e-3
-    """Adam's step size."""
-    patience: int = 30
-    """Epochs without a lower validation loss before training stops."""
-    flow_steps: int = 10
-    """Euler steps of the flow head's sampler (in the ONNX graph)."""
-    noise_scale: float = 1.0
-    """The flow head's starting noise (1: samples from the learned distribution; 0: the deterministic sample)."""
-    seed: int = 0
-    """Seeds the episode split, the initial weights, the minibatches and the flow's noise."""
-    rounds: int = 0
-    """Teacher rounds after the first training (DAgger): the policy drives, the MPC labels, retrain on all."""
-    episodes_per_round: int = 10
-    """New episodes each teacher round collects."""
-    optimizer: Annotated[str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: the dataset's)")] = (
-        None
-    )
-    """The MPC that labels in the teacher rounds."""
-    proposals: int = 0
-    """In the teacher rounds, the MPC that labels also samples K of its candidates from the policy (gpc's
-    augmented controller); 0: the MPC alone labels."""
-    eval_seeds: int = 3
-    """Fresh seeds each round's table is measured on (the policy alone, and the MPC with its proposals)."""
-    eval_first_seed: int = 10_000
-    """The first of those seeds; keep it above every seed in the training data."""
-    workers: Annotated[int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")] = None
-    """Episodes collected at once in the teacher rounds (the CPUs of a local Ray)."""
-    address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")] = None
-    """A running Ray cluster for the teacher rounds' episodes: auto, or ray://HOST:10001."""
-
-    def validate(self) -> None:
-        """Raise a JudoError (one line) for an argument out of range or an --out that cannot be written."""
-        require(len(self.datasets) > 0, "give at least one dataset written by python -m judo collect")
-        require(self.out.suffix == ".onnx", f"--out must name an .onnx file, got {str(self.out)!r}")
-        require(
-            all(0 < width <= 4096 for width in self.hidden), f"--hidden widths must be 1 to 4096, got {self.hidden}"
-        )
-        require_between("--epochs", self.epochs, 1, 100_000)
-        require_between("--batch-size", self.batch_size, 1, 1_000_000)
-        require(0 < self.learning_rate < 1, f"--learning-rate must be in (0, 1), got {self.learning_rate}")
-        require_between("--patience", self.patience, 1, 100_000)
-        require_between("--flow-steps", self.flow_steps, 1, 100)
-        require(0 <= self.noise_scale <= 10, f"--noise-scale must be 0 to 10, got {self.noise_scale}")
-        require_between("--rounds", self.rounds, 0, 100)
-        require_between("--episodes-per-round", self.episodes_per_round, 1, 100_000)
-        require_between("--proposals", self.proposals, 0, 100_000)
-        require_between("--eval-seeds", self.eval_seeds, 0, 10_000)
-        require(self.seed >= 0, f"--seed must be at least 0, got {self.seed}")
-        check_writable(self.out)
-
-    def settings(self):  # noqa: ANN201  (TrainSettings, imported with the training code)
-        """The TrainSettings these arguments ask for."""
-        from judo.learning.training import TrainSettings
-
-        return TrainSettings(
-            self.head,
-            tuple(self.hidden),
-            self.epochs,
-            self.batch_size,
-            self.learning_rate,
-            self.patience,
-            flow_steps=self.flow_steps,
-            seed=self.seed,
-        )
-
-
-def check_writable(path: Path) -> None:
-    """JudoError unless a file can be written at `path` (its folder is made), before any training starts."""
-    probe = path.with_name(path.name + ".partial")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as err:
-        raise JudoError(f"cannot write --out {str(path)!r}: {err.strerror or err}") from None
 
 
 def main(argv: list[str] | None = None) -> int:

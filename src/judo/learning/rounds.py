@@ -14,26 +14,24 @@ import dataclasses
 import json
 import shutil
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from rich.console import Console
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from judo.learning.args import DistillArgs
 from judo.learning.export import losses_path, plot_losses, policy_metadata, write_policy
 from judo.learning.pairs import DistillError, TrainingPairs, read_pairs
 from judo.learning.training import TrainedPolicy, train
-
-if TYPE_CHECKING:
-    from judo.learning.cli import DistillArgs
 
 ROUND_SEED_STRIDE = 100_000
 """Round r collects seeds r * ROUND_SEED_STRIDE onwards: never a seed of another round or of a usual dataset."""
 
 
 def train_and_write(
-    datasets: list[Path], args: "DistillArgs", command: str, out: Path, progress_console: Console
+    datasets: list[Path], args: DistillArgs, command: str, out: Path, progress_console: Console
 ) -> tuple[TrainedPolicy, TrainingPairs]:
     """Read `datasets`, train with a progress bar showing the losses, write the ONNX file and its loss PNG."""
     pairs = read_pairs(datasets, args.kind)
@@ -64,7 +62,7 @@ def summary_line(out: Path, trained: TrainedPolicy, pairs: TrainingPairs) -> str
     )
 
 
-def distill(args: "DistillArgs", command: str, console: Console, progress_console: Console) -> None:
+def distill(args: DistillArgs, command: str, console: Console, progress_console: Console) -> None:
     """Train on the datasets (and run the teacher rounds), writing `args.out`."""
     datasets = list(args.datasets)
     if args.rounds == 0:
@@ -106,7 +104,7 @@ def dataset_env_args(path: Path) -> dict[str, Any]:
         return json.loads(file["data"].attrs["env_args"])
 
 
-def teacher_flags(args: "DistillArgs", env_args: dict[str, Any]) -> list[str]:
+def teacher_flags(args: DistillArgs, env_args: dict[str, Any]) -> list[str]:
     """The collect/evaluate flags that reproduce the dataset's MPC: optimizer, duration, latency, and the plan
     layout fields of its configs (so every round's knots have the dataset's shape)."""
     optimizer = args.optimizer or env_args.get("optimizer")
@@ -125,7 +123,7 @@ def teacher_flags(args: "DistillArgs", env_args: dict[str, Any]) -> list[str]:
     return flags
 
 
-def collect_round(args: "DistillArgs", env_args: dict[str, Any], policy: Path, out: Path, round_index: int) -> None:
+def collect_round(args: DistillArgs, env_args: dict[str, Any], policy: Path, out: Path, round_index: int) -> None:
     """Collect round `round_index`'s episodes (resuming `out`) with `policy` driving and the MPC labelling."""
     from judo.collection.cli import main as collect_main
 
@@ -148,7 +146,7 @@ def proposal_samples(env_args: dict[str, Any]) -> int:
     return max(1, rollouts // 8)
 
 
-def evaluate_round(args: "DistillArgs", env_args: dict[str, Any], policy: Path) -> list[str]:
+def evaluate_round(args: DistillArgs, env_args: dict[str, Any], policy: Path) -> list[str]:
     """The round's two table cells: the task's metric for the policy alone and for the MPC with its proposals,
     mean over `args.eval_seeds` fresh seeds ("-" with --eval-seeds 0)."""
     if args.eval_seeds == 0:
@@ -187,7 +185,7 @@ def headline_metric(metrics: dict[str, float]) -> str:
     return next((name for name in metrics if name != "mean_reward"), "mean_reward")
 
 
-def round_table(rows: list[list[str]], args: "DistillArgs", env_args: dict[str, Any]) -> Table:
+def round_table(rows: list[list[str]], args: DistillArgs, env_args: dict[str, Any]) -> Table:
     """The rounds so far: data, training time, and the two measurements on fresh seeds."""
     seeds = f"seeds {args.eval_first_seed}-{args.eval_first_seed + args.eval_seeds - 1}"
     table = Table(title=f"distill {env_args['task']} ({args.kind}, {args.head}): teacher rounds, measured on {seeds}")
