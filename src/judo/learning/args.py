@@ -1,6 +1,6 @@
 """`DistillArgs`: the arguments of `python -m judo distill`, their bounds, and the TrainSettings they ask for."""
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -8,38 +8,21 @@ import tyro
 
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
+from judo.learning.settings import TrainSettings
 
 
 @dataclass
-class DistillArgs:
-    """Arguments of `python -m judo distill`."""
+class DistillArgs(TrainSettings):
+    """Arguments of `python -m judo distill`: the TrainSettings, and what to read, write and run around them."""
 
-    datasets: Annotated[tuple[Path, ...], tyro.conf.Positional, tyro.conf.arg(metavar="DATA.h5")]
+    datasets: Annotated[tuple[Path, ...], tyro.conf.Positional, tyro.conf.arg(metavar="DATA.h5")] = field(kw_only=True)
     """Datasets written by python -m judo collect, all of one task."""
     out: Annotated[Path, tyro.conf.arg(metavar="POLICY.onnx")] = field(kw_only=True)
     """The ONNX file to write (its loss curves go beside it, as POLICY.losses.png)."""
     kind: Literal["action", "chunk"] = "action"
     """What the policy gives: the next action, or the plan's knots (a chunk)."""
-    head: Literal["regression", "flow"] = "regression"
-    """Output head: regression (deterministic) or flow (flow matching: samples, for multimodal data)."""
-    hidden: tuple[int, ...] = (256, 256)
-    """Widths of the MLP's hidden layers."""
-    epochs: int = 300
-    """Most passes over the training pairs (training stops earlier on the validation loss)."""
-    batch_size: int = 256
-    """Pairs per gradient step."""
-    learning_rate: float = 1e-3
-    """Adam's step size."""
-    patience: int = 30
-    """Epochs without a lower validation loss before training stops."""
-    flow_steps: int = 10
-    """Euler steps of the flow head's sampler (in the ONNX graph)."""
     noise_scale: float = 1.0
     """The flow head's starting noise (1: samples from the learned distribution; 0: the deterministic sample)."""
-    validation_fraction: float = 0.2
-    """Share of the episodes held out for validation (at least one when there are two or more)."""
-    seed: int = 0
-    """Seeds the episode split, the initial weights, the minibatches and the flow's noise."""
     rounds: int = 0
     """Teacher rounds after the first training (DAgger): the policy drives, the MPC labels, retrain on all."""
     episodes_per_round: int = 10
@@ -84,21 +67,9 @@ class DistillArgs:
         )
         check_writable(self.out)
 
-    def settings(self):  # noqa: ANN201  (TrainSettings, imported with the training code)
+    def settings(self) -> TrainSettings:
         """The TrainSettings these arguments ask for."""
-        from judo.learning.training import TrainSettings
-
-        return TrainSettings(
-            self.head,
-            tuple(self.hidden),
-            self.epochs,
-            self.batch_size,
-            self.learning_rate,
-            self.patience,
-            self.validation_fraction,
-            flow_steps=self.flow_steps,
-            seed=self.seed,
-        )
+        return TrainSettings(**{item.name: getattr(self, item.name) for item in fields(TrainSettings)})
 
 
 def check_writable(path: Path) -> None:
