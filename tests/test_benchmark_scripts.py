@@ -216,3 +216,17 @@ def test_estimator_realtime_prints_a_row_per_filter_and_thread():
     assert [(row[1].strip(), row[2].strip()) for row in rows] == [("state", "-"), ("ekf", "plant"), ("ekf", "own")]
     assert all(float(row[3]) > 0 for row in rows)  # a real-time factor each
     assert rows[2][5].strip() != "-" and rows[1][5].strip() == "-"  # the lag of a filter on its own thread only
+
+
+@pytest.mark.slow
+def test_distill_collects_distills_and_prints_the_columns_on_fresh_seeds(tmp_path):
+    pytest.importorskip("jax")
+    small = ["--tasks", "pendulum", "--episodes", "2", "--duration", "0.5", "--rounds", "1", "--episodes-per-round"]
+    small += ["1", "--seeds", "1", "--workers", "1", "--workdir", str(tmp_path)]
+    result = run_script("distill.py", *small)
+    assert result.returncode == 0, result.stderr[-2000:]
+    out = result.stdout
+    assert "### distill (chunk, regression, mppi; 1 fresh seeds from 1000 x 0.5 s; 2 MPC episodes + 1 rounds x 1)" in out
+    header = "| task | metric | MPC | policy, round 0 | policy, round 1 | MPC + policy, N/8 (K=2) | MPC, N/8 |"
+    assert header in out and "| pendulum | upright_fraction |" in out
+    assert (tmp_path / "pendulum_chunk_regression_rounds" / "round_1.h5").is_file()
