@@ -80,7 +80,8 @@ class QuadrupedBaseConfig(TaskConfig):
     """What both quadruped tasks weigh: height, uprightness, the gait, velocity, posture and effort."""
 
     gait: GaitName = "trot"
-    """The foot schedule: "trot" (diagonal pairs, 2.5 Hz), "walk" (one foot at a time, 1.25 Hz) or "stand"."""
+    """The foot schedule: "trot" (diagonal pairs, 2.5 Hz), "walk" (one foot at a time, 1.25 Hz) or "stand" (no foot
+    is asked to lift; the goal task still shuffles towards its goal, as the velocity task does towards a command)."""
     target_height: float = 0.29
     """Trunk height (m) to hold; the standing pose puts it at 0.30 m."""
     step_height: float = 0.07
