@@ -100,3 +100,9 @@ def test_example_03_registers_then_runs_the_app_headless():
 def test_example_07_low_level_policy_plans_targets_and_balances():
     metrics = load_example("07_low_level_policy.py").main(duration=4.5)
     assert metrics["swung_up"] == 1.0 and metrics["balanced_fraction"] > 0.95
+
+
+@pytest.mark.slow
+def test_example_08_quadruped_walks_towards_its_goal_without_falling():
+    metrics = load_example("08_quadruped.py").main(duration=1.5)
+    assert metrics["final_distance"] < 0.5 and metrics["falls"] == 0.0  # the first goal lies 1 m ahead

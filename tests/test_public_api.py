@@ -24,7 +24,9 @@ def test_judo_tasks_exports_every_built_in_task_class_and_its_config():
         assert task_cls.__name__ in judo.tasks.__all__ and config_cls.__name__ in judo.tasks.__all__
         assert getattr(judo.tasks, task_cls.__name__) is task_cls
         assert getattr(judo.tasks, config_cls.__name__) is config_cls
-    assert len(judo.tasks.BUILTIN_TASKS) == 13  # the twelve, and cartpole_pd (a low-level policy, #33)
+    assert (
+        len(judo.tasks.BUILTIN_TASKS) == 15
+    )  # the twelve, cartpole_pd (#33), quadruped and quadruped_velocity (#35)
     assert sorted(judo.tasks.__all__) == sorted(
         {name for task, config in judo.tasks.BUILTIN_TASKS.values() for name in (task.__name__, config.__name__)}
         | {"register_task"}

@@ -8,8 +8,8 @@ import judo
 from judo.core.registry import lookup_task
 from tests.conftest import UprightTask
 
-OWN_OBSERVATION = ("acrobot", "particle", "pendulum", "push_t")
-"""Built-in tasks with their own observation (tests/tasks/test_policy_observations.py)."""
+OWN_OBSERVATION = ("acrobot", "particle", "pendulum", "push_t", "quadruped_velocity")
+"""Built-in tasks with their own observation (tests/tasks/test_policy_observations.py, test_quadruped.py)."""
 
 
 @pytest.mark.parametrize("name", sorted(set(judo.tasks.BUILTIN_TASKS) - set(OWN_OBSERVATION)))

@@ -106,6 +106,8 @@ EXPECTED_TYPES = {
     "fr3_pick": {"jointpos", "framepos", "framequat"},
     "walker": {"jointpos", "framequat", "gyro", "accelerometer"},
     "humanoid_standup": {"jointpos", "framequat", "gyro", "accelerometer"},
+    "quadruped": {"jointpos", "framequat", "gyro", "accelerometer", "touch"},
+    "quadruped_velocity": {"jointpos", "framequat", "gyro", "accelerometer", "touch"},
 }
 
 

@@ -42,6 +42,8 @@ BUILTIN_TASKS = (
     "leap_cube",
     "leap_cube_down",
     "fr3_pick",
+    "quadruped",
+    "quadruped_velocity",
 )
 BUILTIN_OPTIMIZERS = ("ps", "cem", "mppi", "dial", "cmaes", "icem")
 

@@ -21,6 +21,8 @@ from judo.tasks.leap_cube import LeapCube, LeapCubeConfig, LeapCubeDown, LeapCub
 from judo.tasks.particle import Particle, ParticleConfig
 from judo.tasks.pendulum import Pendulum, PendulumConfig
 from judo.tasks.push_t import PushT, PushTConfig
+from judo.tasks.quadruped import Quadruped, QuadrupedConfig
+from judo.tasks.quadruped_velocity import QuadrupedVelocity, QuadrupedVelocityConfig
 from judo.tasks.walker import Walker, WalkerConfig
 
 DEFAULTS_DIR = Path(__file__).parent / "models"
@@ -39,6 +41,10 @@ BUILTIN_TASKS = {
     "push_t": (PushT, PushTConfig),
     "walker": (Walker, WalkerConfig),
     "humanoid_standup": (HumanoidStandup, HumanoidStandupConfig),
+    # A Go1-class quadruped planned directly in its 12 joint targets: walk to goals.
+    "quadruped": (Quadruped, QuadrupedConfig),
+    # The same robot tracking a commanded base velocity: the teacher of a distilled locomotion policy.
+    "quadruped_velocity": (QuadrupedVelocity, QuadrupedVelocityConfig),
     # Robot tasks: LEAP hand cube rotation (palm up / palm down) and Franka-style pick-and-place.
     "leap_cube": (LeapCube, LeapCubeConfig),
     "leap_cube_down": (LeapCubeDown, LeapCubeDownConfig),
@@ -80,6 +86,10 @@ __all__ = [  # every built-in task class and its config
     "PendulumConfig",
     "PushT",
     "PushTConfig",
+    "Quadruped",
+    "QuadrupedConfig",
+    "QuadrupedVelocity",
+    "QuadrupedVelocityConfig",
     "Walker",
     "WalkerConfig",
     "register_task",
