@@ -235,6 +235,15 @@ def test_dragging_a_mocap_goal_moves_the_plants_goal_that_the_planner_reads(app,
     app.switch_task("particle")
     page.get_by_text("Task: particle", exact=True).wait_for()
     wait_until(lambda: app.gui.goals is not None and "mocap/goal" in app.gui.goals.controls, what="the handle")
+
+    def plant_runs_particle() -> bool:  # the switch done on the plant too, not only in the GUI (a loaded machine)
+        snapshot = app.buffer.latest("system")
+        session = app.session
+        return (
+            session.task_name == "particle" and snapshot is not None and snapshot.value.generation == session.generation
+        )
+
+    wait_until(plant_runs_particle, timeout=30, what="the plant to run the particle")
     particle = app.buffer.latest("system").value.reading.state[:2]
     goal = np.array([*(-0.25 * np.sign(particle + 1e-9)), 0.0])  # across the field: not reached (and resampled) soon
     drag_through_the_page(app, app.gui.goals.controls["mocap/goal"], goal)
