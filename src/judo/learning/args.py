@@ -6,8 +6,8 @@ from typing import Annotated, Literal
 
 import tyro
 
+from judo.core.boundary import check_output_file
 from judo.core.config import require, require_between
-from judo.core.errors import JudoError
 from judo.learning.settings import TrainSettings
 
 
@@ -65,19 +65,8 @@ class DistillArgs(TrainSettings):
             0 < self.validation_fraction < 1,
             f"--validation-fraction must be in (0, 1), got {self.validation_fraction}",
         )
-        check_writable(self.out)
+        check_output_file("--out", self.out)
 
     def settings(self) -> TrainSettings:
         """The TrainSettings these arguments ask for."""
         return TrainSettings(**{item.name: getattr(self, item.name) for item in fields(TrainSettings)})
-
-
-def check_writable(path: Path) -> None:
-    """JudoError unless a file can be written at `path` (its folder is made), before any training starts."""
-    probe = path.with_name(path.name + ".partial")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        probe.write_bytes(b"")
-        probe.unlink()
-    except OSError as err:
-        raise JudoError(f"cannot write --out {str(path)!r}: {err.strerror or err}") from None
