@@ -218,10 +218,22 @@ def drag_through_the_page(app: App, control, position) -> None:
     asyncio.run_coroutine_threadsafe(drag(), loop).result(10)
 
 
+def wait_for_the_plant_to_run(app: App, task: str, wait_until) -> None:
+    """Wait until the switch to `task` has reached the plant too, not only the GUI's handles: a drag made while
+    the session is being replaced goes to the old one (on a loaded machine, CI runs 2 and 6)."""
+
+    def switched() -> bool:
+        snapshot, session = app.buffer.latest("system"), app.session
+        return session.task_name == task and snapshot is not None and snapshot.value.generation == session.generation
+
+    wait_until(switched, timeout=30, what=f"the plant to run {task}")
+
+
 def test_dragging_a_field_goal_moves_the_config_the_sliders_and_the_plan(app, page, wait_until, artifacts):
     app.switch_task("cylinder_push")
     page.get_by_text("Task: cylinder_push", exact=True).wait_for()
     wait_until(lambda: app.gui.goals is not None and "field/goal_pos" in app.gui.goals.controls, what="the handle")
+    wait_for_the_plant_to_run(app, "cylinder_push", wait_until)
     control = app.gui.goals.controls["field/goal_pos"]
     assert control.active_axes == (True, True, False)  # a 2-D goal moves in the plane
     drag_through_the_page(app, control, (0.4, -0.3, 0.0))
@@ -236,14 +248,7 @@ def test_dragging_a_mocap_goal_moves_the_plants_goal_that_the_planner_reads(app,
     page.get_by_text("Task: particle", exact=True).wait_for()
     wait_until(lambda: app.gui.goals is not None and "mocap/goal" in app.gui.goals.controls, what="the handle")
 
-    def plant_runs_particle() -> bool:  # the switch done on the plant too, not only in the GUI (a loaded machine)
-        snapshot = app.buffer.latest("system")
-        session = app.session
-        return (
-            session.task_name == "particle" and snapshot is not None and snapshot.value.generation == session.generation
-        )
-
-    wait_until(plant_runs_particle, timeout=30, what="the plant to run the particle")
+    wait_for_the_plant_to_run(app, "particle", wait_until)
     particle = app.buffer.latest("system").value.reading.state[:2]
     goal = np.array([*(-0.25 * np.sign(particle + 1e-9)), 0.0])  # across the field: not reached (and resampled) soon
     drag_through_the_page(app, app.gui.goals.controls["mocap/goal"], goal)
