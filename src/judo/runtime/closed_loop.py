@@ -27,7 +27,6 @@ The app's own simulator: no clock (plans age in plant time), and it waits for a 
 """
 
 import dataclasses
-import math
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -38,6 +37,7 @@ from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewar
 from judo.core.errors import JudoError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.spline import Spline
+from judo.runtime.control_clock import TIME_TOLERANCE, ControlClock
 from judo.runtime.latency import Latency, LatencyPredictor, check_latency, prediction_delay
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
 from judo.runtime.system import SimulationDiverged, System, SystemState
@@ -45,10 +45,6 @@ from judo.runtime.system_calls import SystemCallError, SystemCalls, SystemClosed
 from judo.runtime.watchdog import Watchdog
 
 __all__ = ["ClosedLoop", "Latency", "SystemCallError", "check_latency"]
-
-TIME_TOLERANCE = 1e-9
-"""Seconds within which two plant times count as the same (a plan due at t is served at t)."""
-
 
 class ClosedLoop:
     """A controller driving a plant: read, plan, serve, step.
@@ -73,7 +69,7 @@ class ClosedLoop:
         failed_updates: updates whose rollouts all scored NaN or -inf, or whose knots were non-finite
             (the plan before them stayed in force); `last_failure` is the latest one's error.
         divergences: times the plant's simulation blew up and was reset.
-        next_plan_time: plant time of the next control update of `step`'s control clock.
+        control_clock: when `step` makes the next control update, in plant time (`judo.runtime.control_clock`).
 
     `plan` may run on another thread than `serve` and `advance` (the app's worker thread): the hand-over
     of a new plan is locked.
@@ -109,7 +105,7 @@ class ClosedLoop:
         self.update_ms: list[float] = []
         self.latency_s: list[float] = []
         self.failed_updates = self.divergences = 0
-        self.next_plan_time = -math.inf
+        self.control_clock = ControlClock()
         self.last_delay = 0.0
         self.last_failure: JudoError | None = None  # why the latest failed update failed
         self._lock = threading.Lock()
@@ -141,7 +137,7 @@ class ClosedLoop:
         self.watchdog.restart(self.clock())
         self.restart_estimator()
         reading = self.read()
-        self.next_plan_time = reading.time
+        self.control_clock.restart(reading.time)
         return reading
 
     def read(self) -> SystemState:
@@ -339,11 +335,10 @@ class ClosedLoop:
         when the simulation diverged (counted in `divergences`; the plant reset itself).
         """
         reading = self.reading if self.reading is not None else self.restart()
-        now = reading.time
-        if now >= self.next_plan_time - TIME_TOLERANCE:
+        now, period = reading.time, 1.0 / self.controller.config.control_freq
+        if self.control_clock.due(now, period):
             self.plan(reading)
-            period = 1.0 / self.controller.config.control_freq
-            self.next_plan_time = max(self.next_plan_time + period, now + self.last_delay)
+            self.control_clock.ticked(now, self.last_delay, period)
         try:
             return self.advance()
         except SimulationDiverged:
