@@ -32,6 +32,12 @@ def default_recording_path(task: str) -> Path:
     return Path(f"judo-recording-{task}-{time.strftime('%Y%m%d-%H%M%S')}.h5")
 
 
+def start_live_recording(path: str | Path | None, session: Session, configs: dict[str, Config]) -> "LiveRecording":
+    """The app's default recorder (`judo.runtime.recordings.DEFAULT_RECORDER`): a LiveRecording of `session` into
+    `path` (`default_recording_path` for None), from the `configs` in force."""
+    return LiveRecording(path or default_recording_path(session.task_name), session, configs)
+
+
 class LiveRecording:
     """Records a running session until `finish()`.
 

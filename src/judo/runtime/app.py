@@ -1,4 +1,4 @@
-"""The judo app: one asyncio event loop running the plant, the planner and the browser GUI side by side.
+"""The judo app: a plant thread, a planner and a browser GUI side by side, sharing one lock-protected state.
 
     app = judo.App(task="cartpole", optimizer="mppi")   # GUI at http://127.0.0.1:8080
     app.start()          # returns at once; the loops run in a background thread
@@ -6,10 +6,14 @@
     app.stop()
     print(app.summary())
 
-This module is the App's lifecycle (start, run, stop) and its commands (config edits, pause, reset,
-switches, goal moves), callable from any thread; `judo.runtime.loops` holds the coroutines that carry them
-out, each a thin wrapper around the one closed-loop step (`judo.runtime.closed_loop`). The GUI talks to the
-App only through the command port (`judo.runtime.commands`).
+The App is composed of parts that own their state and are handed what they use (docs/architecture.md):
+- `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the counters;
+- `Commands` (`judo.runtime.app_commands`): validate each command and queue it in the state;
+- `PlantRunner` (`judo.runtime.plant_runner`): the System's thread;
+- `PlannerRunner` (`judo.runtime.planner_runner`): the control clock, planning and switches;
+- `Supervisor` (`judo.runtime.supervisor`): the event loop, signals, the monitor and the stop order;
+- `Recordings` (`judo.runtime.recordings`) and the frontend (the GUI, given to the App, which never imports it).
+The App implements the command port the GUI uses (`judo.runtime.commands.AppPort`) and delegates.
 
 A stop (`stop()`, Ctrl-C, SIGTERM) takes effect within about a second whatever the configs: every
 wait is cut short by it, the planning cycle stops between optimizer iterations, and a call stuck in
@@ -17,9 +21,12 @@ a rollout or a slow reward is abandoned to its daemon thread rather than waited 
 """
 
 import asyncio
+import functools
 import logging
 import math
 import threading
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -32,16 +39,23 @@ from judo.core.registry import CONFIG_KINDS, ConfigKind
 from judo.core.task import TaskConfig
 from judo.runtime import exit_guard
 from judo.runtime.address import check_port, check_token
-from judo.runtime.app_commands import AppCommands
-from judo.runtime.loops import session_configs
+from judo.runtime.app_commands import Commands
+from judo.runtime.app_state import AppState
+from judo.runtime.frontend import FrontendFactory, viser_frontend
+from judo.runtime.planner_runner import PlannerRunner
+from judo.runtime.plant_runner import PlantRunner
+from judo.runtime.recordings import Recordings
+from judo.runtime.records import LiveRecorder, RecorderFactory
+from judo.runtime.reports import Reports
 from judo.runtime.sensing import PerType
-from judo.runtime.session import Observe, Sensing, Session, build_session
+from judo.runtime.session import Observe, Sensing, Session
+from judo.runtime.session_maker import SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
-from judo.runtime.status_line import Status, StatusLine
+from judo.runtime.status_line import Level, Status, StatusLine
+from judo.runtime.supervisor import Supervisor
 from judo.runtime.system import System
-from judo.runtime.watchdog import PausableClock
 
 __all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]
 
@@ -51,7 +65,7 @@ MAX_WORKERS = 1024
 """Most rollout threads an app may ask for."""
 
 
-class App(AppCommands):
+class App:
     """Runs a task and optimizer in real time, with a browser GUI unless `gui=False`.
 
     Args:
@@ -60,7 +74,9 @@ class App(AppCommands):
             defaults where left out.
         system: the plant to drive, e.g. your hardware; a MuJoCo simulation of the task by default.
             A user system stays for the whole run, so switching task is refused.
-        gui: serve the viser GUI at http://host:port (http://host:port/TOKEN with a token).
+        gui: serve the viser GUI at http://host:port (http://host:port/TOKEN with a token); or a function that
+            builds another frontend from the App (the `AppPort`, `judo.runtime.commands`) on the app's event loop,
+            anything with `url`, `update()` (one frame, about 30 Hz) and `close()`.
         host: address the GUI listens on; 127.0.0.1 (this machine only) by default. Any other
             address (0.0.0.0: every interface) exposes the app to the network: a warning is logged
             and a token is required.
@@ -84,6 +100,8 @@ class App(AppCommands):
             through `judo.runtime.sensing.SensedSystem`: rehearsed sensing, its noise seeded from `seed`).
         sensor_noise, sensor_delay, sensor_rate: the rehearsed sensors' noise std, delay (s) and rate (Hz),
             one value for all or {sensor type: value} with an optional "default"; used with observe="sensors".
+        recorder_factory: makes the recorder of `start_recording(path)`; None writes collect's HDF5 layout
+            (`judo.collection.live`, needs the `collect` extra).
 
     Raises UnknownNameError or ConfigError at once for bad names or configs.
     """
@@ -97,7 +115,7 @@ class App(AppCommands):
         optimizer_config: OptimizerConfig | None = None,
         task_config: TaskConfig | None = None,
         system: System | None = None,
-        gui: bool = True,
+        gui: bool | FrontendFactory = True,
         host: str = "127.0.0.1",
         port: int = 8080,
         token: str | None = None,
@@ -113,6 +131,7 @@ class App(AppCommands):
         sensor_noise: PerType = None,
         sensor_delay: PerType = None,
         sensor_rate: PerType = None,
+        recorder_factory: RecorderFactory | None = None,
     ) -> None:
         if duration is not None and not 0 < duration < math.inf:
             raise ConfigError(
@@ -128,61 +147,35 @@ class App(AppCommands):
             raise ConfigError(
                 f"system_call_limit must be a positive, finite number of seconds, got {system_call_limit}"
             )
-        self.buffer = StateBuffer()
-        self.stats = RunStats()
-        self.gui_enabled, self.host, self.port, self.duration = gui, host, check_port(port), duration
-        token = check_token(token, host, generate=gui)
-        self.token, self.share = token, share
-        self._user_system, self._seed, self._num_workers = system, seed, num_workers
-        self.backend = backend
-        self._lock = threading.RLock()
-        self._status_line = StatusLine()
-        self._clock = PausableClock()  # the watchdog's clock: wall time that stands still while paused
-        self.system_call_limit = system_call_limit
         if system is not None and observe != "state":
             raise ConfigError(
                 f"observe={observe!r} rehearses sensing on the app's own simulation; your System chooses what it "
                 "measures (return SystemState.sensors, state None), so leave observe at 'state'"
             )
-        self._sensing = Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
-        self._session = build_session(
-            task,
-            optimizer,
-            0,
-            controller_config=controller_config,
-            optimizer_config=optimizer_config,
-            task_config=task_config,
-            system=system,
-            seed=seed,
-            num_workers=num_workers,
-            backend=backend,
-            clock=self.watchdog_clock(),
-            on_watchdog=self._on_watchdog,
-            sensing=self._sensing,
-            estimator_thread=True,  # the plant thread only reads, steps and serves (judo.runtime.estimator_thread)
+        self.gui_enabled, self.host, self.port, self.duration = gui is not False, host, check_port(port), duration
+        self.token, self.share = check_token(token, host, generate=gui is not False), share
+        self.backend, self.system_call_limit = backend, system_call_limit
+        self.buffer = StateBuffer()  # the GUI's view: the latest reading and plan
+        self.stats = RunStats()
+        self._state = state = AppState(
+            Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
         )
-        self._configs: dict[ConfigKind, Config] = session_configs(self._session)
-        self._pending: dict[ConfigKind, Config] = {}
-        self._external_edits = 0
-        self._switch_request: tuple[str, str] | None = None
-        self._rebuild_requested = False
-        self._reset_system = self._reset_controller = False
-        self._paused = False
-        self._clock.resume()
-        self._reset_from_user = False
-        self._goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]] = {}  # mocap index -> (pos, quat)
-        self._resets_done = 0
-        self._recording = None
-        self._stop = threading.Event()
-        self._loop: asyncio.AbstractEventLoop | None = None
-        self._stopping: asyncio.Future | None = None  # done once a stop is requested, to end waits
-        self._start_error: BaseException | None = None
-        self._ready = threading.Event()
-        self._finished = threading.Event()
+        self._reports = reports = Reports(StatusLine(), state)
+        clock = None if system is None else state.clock  # a robot's plans age in wall time; the simulator waits
+        maker = SessionMaker(system, seed, num_workers, backend, clock, reports.on_watchdog)
+        state.begin(maker.first(task, optimizer, state.sensing, controller_config, optimizer_config, task_config))
+        self._commands = Commands(state, reports, system)
+        self._recordings = Recordings(state, reports, recorder_factory)
+        plant = PlantRunner(state, self.buffer, self.stats, reports, duration, state.stop.set)
+        planner = PlannerRunner(state, maker, self.buffer, self.stats, reports, self._recordings)
+        make_frontend = (
+            None if gui is False else functools.partial(gui, self) if callable(gui) else viser_frontend(self)
+        )
+        self._supervisor = Supervisor(
+            state, plant, planner, self._recordings, reports, system_call_limit, make_frontend
+        )
         self._thread: threading.Thread | None = None
         self._ran = False
-        self._running_loops = False
-        self.gui = None  # the Gui while the app runs with one
 
     # ---- lifecycle -------------------------------------------------------------------------
     def start(self) -> None:
@@ -192,10 +185,10 @@ class App(AppCommands):
         self._claim_run()
         self._thread = threading.Thread(target=self._run_in_thread, name="judo-app", daemon=True)
         self._thread.start()
-        self._ready.wait()
-        if self._start_error is not None:
+        self._supervisor.ready.wait()
+        if self._supervisor.start_error is not None:
             self._thread.join()
-            raise self._start_error
+            raise self._supervisor.start_error
         exit_guard.register(self)  # stopped at interpreter exit if the script never calls stop()
 
     def run(self) -> RunSummary:
@@ -203,32 +196,32 @@ class App(AppCommands):
 
         Raises GuiStartError (or ConfigError) if the GUI server cannot start."""
         self._claim_run()
-        asyncio.run(self._main(handle_signals=threading.current_thread() is threading.main_thread()))
+        asyncio.run(self._supervisor.main(handle_signals=threading.current_thread() is threading.main_thread()))
         return self.summary()
 
     def stop(self, timeout: float | None = 10.0) -> None:
         """Ask every loop to finish, and wait for them (when started with `start()`), at most `timeout` s.
 
         Takes effect within about a second: a planning cycle in flight is abandoned to its thread."""
-        self._request_stop()
+        self._state.stop.set()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout)
 
     def wait(self, timeout: float | None = None) -> bool:
         """Block until the app stops by itself (its `duration` reached); True if it did within `timeout`."""
         if self._thread is None:
-            return self._stop.is_set()
+            return self._state.stop.is_set()
         self._thread.join(timeout)
         return not self._thread.is_alive()
 
     @property
     def running(self) -> bool:
         """True from `start()`/`run()` until the loops have finished."""
-        return self._ran and not self._finished.is_set()
+        return self._ran and not self._supervisor.finished.is_set()
 
     def summary(self) -> RunSummary:
         """Control rate, plan times, real-time factor and final reward of the run so far."""
-        session = self._session
+        session = self._state.session
         return self.stats.summary(session.task_name, session.optimizer_name)
 
     def _claim_run(self) -> None:
@@ -236,39 +229,108 @@ class App(AppCommands):
             raise JudoError("this App has already run; create a new App to run again")
         self._ran = True
 
+    def _run_in_thread(self) -> None:
+        try:
+            asyncio.run(self._supervisor.main())
+        except BaseException as err:  # before the loops started, start() raises it; later, log it
+            if err is not self._supervisor.start_error:
+                logger.error("the judo app failed", exc_info=err)
+
     # ---- what the GUI and scripts read ---------------------------------------------------------
+    @property
+    def gui(self) -> Any:
+        """The GUI (`judo.runtime.gui.Gui`, or the frontend given) while the app runs with one, else None."""
+        return self._supervisor.frontend
+
     @property
     def session(self) -> Session:
         """The session in use: names, controller and plant. Replaced, never changed, on a switch."""
-        return self._session
+        return self._state.session
 
     @property
     def controller(self) -> Controller:
         """The controller in use; its configs change only at the top of a planning cycle."""
-        return self._session.controller
+        return self._state.session.controller
 
     @property
     def paused(self) -> bool:
         """True while the plant and the planner are paused."""
-        return self._paused
+        return self._state.paused
 
     @property
     def status(self) -> Status:
         """The latest status message."""
-        return self._status_line.status
+        return self._reports.status
 
     @property
     def resets_done(self) -> int:
         """Counts task resets the plant has carried out, so the GUI knows when to reframe its camera."""
-        return self._resets_done
+        return self._state.resets_done
 
     @property
     def external_edits(self) -> int:
         """Counts config changes not made through the GUI (reset, switch, `update_config`), so the GUI
         knows when to refresh its widgets."""
-        return self._external_edits
+        return self._state.external_edits
 
     def configs(self) -> dict[ConfigKind, Config]:
         """The latest accepted config of each kind; a planning cycle may not have picked them up yet."""
-        with self._lock:
-            return dict(self._configs)
+        return self._state.configs.as_dict()
+
+    # ---- commands (judo.runtime.app_commands), callable from any thread ------------------------------
+    def update_config(
+        self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+    ) -> Config:
+        return self._commands.update_config(kind, updates, generation=generation, from_gui=from_gui)
+
+    def update_estimator_config(
+        self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+    ) -> EstimatorConfig:
+        return self._commands.update_estimator_config(updates, generation=generation, from_gui=from_gui)
+
+    def reset_configs(self) -> None:
+        self._commands.reset_configs()
+
+    def pause(self) -> None:
+        self._commands.pause()
+
+    def resume(self) -> None:
+        self._commands.resume()
+
+    def reset_task(self) -> None:
+        self._commands.reset_task()
+
+    def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
+        self._commands.move_goal(index, position, quat)
+
+    def switch_task(self, task: str) -> None:
+        self._commands.switch_task(task)
+
+    def switch_optimizer(self, optimizer: str) -> None:
+        self._commands.switch_optimizer(optimizer)
+
+    def switch_estimator(self, estimator: str | None) -> None:
+        self._commands.switch_estimator(estimator)
+
+    def report(self, message: str, level: Level = "info") -> None:
+        """Show `message` on the status line and write it to the log (each message at most once every
+        few seconds, however the messages alternate)."""
+        self._reports.report(message, level)
+
+    @property
+    def recording(self) -> Path | None:
+        """The file a recording under way will be written to, or None."""
+        return self._recordings.path
+
+    def start_recording(self, recorder: LiveRecorder | str | Path | None = None) -> Path:
+        """Record every step, plan and config edit (the estimator's, and a change of estimator, too) of the running
+        session until `stop_recording()` (or a switch of task or optimizer). `recorder` is any `LiveRecorder`
+        of `app.session`, or a path for the app's recorder factory (by default an HDF5 file in the collect
+        layout, docs/collect.md, judo-recording-TASK-TIME.h5 for None; needs the `collect` extra). Returns its file."""
+        return self._recordings.start(recorder)
+
+    def stop_recording(self) -> Path | None:
+        """Stop the recording under way and write it as the next demo of its file (`python -m judo replay
+        FILE` plays it); returns the file, or None when nothing was recording. Raises JudoError if the
+        file cannot be written."""
+        return self._recordings.stop()

@@ -1,10 +1,11 @@
 """The one closed-loop step: read the plant, plan (with the latency model), serve the plan, step the plant.
 
 Everything that drives a plant with a controller calls this module, and nothing else writes the loop:
-- the app's two coroutines (`judo.runtime.loops`): the controller coroutine calls `plan` on its worker
-  thread at `control_freq` of wall time, and the system coroutine calls `advance` at real-time pace;
+- the app's two runners: the planner runner (`judo.runtime.planner_runner`) calls `plan` on its worker thread
+  when the control clock says, in wall time, and the plant runner (`judo.runtime.plant_runner`) calls `advance`
+  on the System's thread at real-time pace;
 - `evaluate`'s episodes (`judo.evaluation.episode.run_episode`), and through them `tune`'s trials, call
-  `step`, which plans on the control clock in sim time and then advances;
+  `step`, which plans when the control clock (`judo.runtime.control_clock`) says, in sim time, then advances;
 - the benchmark's timing (`judo.evaluation.timing`) calls `plan` for each timed update.
 
     reading = system.read_state()  --[estimator]-->  plan(reading)  --latency-->  serve(t)  --[watchdog]-->
@@ -23,7 +24,7 @@ keeps the plan in force before it (or the task's warm start before the first pla
 plan is served from the first step after it is done, which in real time is its real latency. The
 controller's `latency_compensation` plans from the reading predicted to then (`judo.runtime.latency`).
 
-The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (plant_loop.py).
+The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (plant_runner.py).
 """
 
 import dataclasses
@@ -45,6 +46,7 @@ from judo.runtime.system_calls import SystemCallError, SystemCalls, SystemClosed
 from judo.runtime.watchdog import Watchdog
 
 __all__ = ["ClosedLoop", "Latency", "SystemCallError", "check_latency"]
+
 
 class ClosedLoop:
     """A controller driving a plant: read, plan, serve, step.

@@ -20,6 +20,7 @@ import numpy as np
 from judo.core.config import Config
 from judo.core.estimator import EstimatorConfig
 from judo.core.registry import CONFIG_KINDS, ConfigKind
+from judo.runtime.records import LiveRecorder
 from judo.runtime.session import Session
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
 from judo.runtime.state_buffer import Snapshot
@@ -158,8 +159,9 @@ class AppPort(Protocol):
         """The file a recording under way will be written to, or None."""
         ...
 
-    def start_recording(self, path: str | Path | None = None) -> Path:
-        """Record every step, plan and config edit into an HDF5 file (the collect layout); returns it."""
+    def start_recording(self, recorder: LiveRecorder | str | Path | None = None) -> Path:
+        """Record every step, plan and config edit with `recorder`, or into the file `recorder` names with the
+        app's recorder factory (by default an HDF5 file in the collect layout); returns the file."""
         ...
 
     def stop_recording(self) -> Path | None:

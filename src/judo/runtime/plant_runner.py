@@ -1,4 +1,6 @@
-"""The app's plant loop: the System driven from one thread of its own, at real-time pace.
+"""The app's plant runner: the System driven from one thread of its own, at real-time pace.
+
+The plant runner is the only caller of the closed loop's `advance`, of the plant's resets and of `halt`.
 
 judo's own simulator waits for a slow planner (`sim_waits`): on a slow machine the simulation slows down
 and the real-time factor shows it.
@@ -7,7 +9,7 @@ A user's System (a robot) is never held back.
 Step k of a stretch is due at wall time origin + k * timestep; a loop that falls further behind than
 MAX_CATCH_UP steps at once falls behind instead (the real-time factor shows it). Each step is the closed
 loop's `advance` (`judo.runtime.closed_loop`): serve, apply, step, read back. Off the event loop, a driver
-that blocks freezes neither the GUI nor planning; the event loop's monitor (`AppLoops._watch_plant`)
+that blocks freezes neither the GUI nor planning; the supervisor's monitor (`judo.runtime.supervisor`)
 reports a call that blocks and halts the robot where the System can. The plant is halted on a pause and
 on the way out of a stop.
 """
@@ -16,16 +18,17 @@ import logging
 import math
 import threading
 import time
-from typing import Any
+from collections.abc import Callable
 
 import numpy as np
 
+from judo.runtime.app_state import AppState
 from judo.runtime.closed_loop import ClosedLoop, SystemCallError
+from judo.runtime.reports import Reports
 from judo.runtime.session import Session
 from judo.runtime.snapshots import SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats
-from judo.runtime.status_line import StatusLine
 from judo.runtime.system import SimulationDiverged, SystemState
 from judo.runtime.system_calls import SystemClosedError
 
@@ -60,34 +63,36 @@ def system_snapshot(session: Session, reading: SystemState) -> SystemSnapshot:
     return SystemSnapshot(session.generation, reading, truth)
 
 
-class PlantLoop:
-    """The plant thread of an App and the state it shares with the App's commands (guarded by `_lock`)."""
+class PlantRunner:
+    """The plant thread of an App: steps the session's plant at real-time pace, carries out the plant's
+    requests (resets, goal moves) and publishes each new reading under "system" for the GUI.
 
-    buffer: StateBuffer
-    stats: RunStats
-    duration: float | None
-    _status_line: StatusLine
-    _lock: threading.RLock
-    _session: Session
-    _reset_system: bool
-    _reset_controller: bool
-    _reset_from_user: bool
-    _goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]]  # mocap index -> (pos (3,), quat (4,) or None)
-    _resets_done: int
-    _paused: bool
-    _stop: threading.Event
-    _waiting_since: float | None = None  # wall time the simulation began to wait for the cycle in flight
-    _wait_reported = False
+    Args:
+        state: the app's shared state (the session in use, pause, the plant's requests).
+        buffer: where the readings are published for the GUI.
+        stats: the run's figures (sim time stepped, real-time factor).
+        reports: the status line.
+        duration: stop after this many seconds of sim time (None: run until stopped).
+        request_stop: called when `duration` is reached.
+    """
 
-    def report(self, message: str, level: Any = "info") -> None:
-        self._status_line.report(message, level)
+    def __init__(
+        self,
+        state: AppState,
+        buffer: StateBuffer,
+        stats: RunStats,
+        reports: Reports,
+        duration: float | None,
+        request_stop: Callable[[], None],
+    ) -> None:
+        self._state, self._buffer, self._stats, self._reports = state, buffer, stats, reports
+        self._duration, self._request_stop = duration, request_stop
+        self._waiting_since: float | None = None  # wall time the simulation began to wait for the cycle in flight
+        self._wait_reported = False
+        self.thread = threading.Thread(target=self._drive_plant, name="judo-plant", daemon=True)
 
-    def _request_stop(self) -> None:  # judo.runtime.event_loop's
-        raise NotImplementedError
-
-    def _running_message(self) -> str:
-        session = self._session
-        return f"running {session.task_name} with {session.optimizer_name}"
+    def start(self) -> None:
+        self.thread.start()
 
     def _drive_plant(self) -> None:
         """The plant thread: step the plant at real-time pace until a stop; halt it on a pause and at the end."""
@@ -95,20 +100,20 @@ class PlantLoop:
         origin = last_wall = 0.0
         steps_done = 0
         paced = halted = False
-        session = self._session
+        session = self._state.session
         try:
-            while not self._stop.is_set():
-                session = self._session
+            while not self._state.stop.is_set():
+                session = self._state.session
                 if session.generation != generation:
                     generation, paced = session.generation, False
                     self._read_and_publish(session)
                 if self._carry_out_plant_requests(session):
                     paced = False
-                if self._paused:
+                if self._state.paused:
                     if not halted:
                         halted = self._halt(session, "paused")
                     paced = False
-                    self._stop.wait(IDLE_POLL)
+                    self._state.stop.wait(IDLE_POLL)
                     continue
                 halted = False
                 now = time.perf_counter()
@@ -120,11 +125,11 @@ class PlantLoop:
                 if due > max_steps:  # too far behind to catch up: fall behind instead (the RTF shows it)
                     origin += (due - max_steps) * dt
                     due = max_steps
-                if self.duration is not None:  # never step past the requested duration
-                    due = min(due, max(0, math.ceil((self.duration - self.stats.sim_time()) / dt - 1e-9)))
+                if self._duration is not None:  # never step past the requested duration
+                    due = min(due, max(0, math.ceil((self._duration - self._stats.sim_time()) / dt - 1e-9)))
                 waits = not session.closed_loop.real_time  # judo's own simulator waits for a slow planner
                 served = stepped = 0
-                while stepped < due and not self._stop.is_set():
+                while stepped < due and not self._state.stop.is_set():
                     if waits and sim_waits(session.closed_loop):
                         break
                     served += self._step(session)
@@ -135,15 +140,15 @@ class PlantLoop:
                     self._note_wait(True)
                 elif stepped:
                     self._note_wait(False)
-                self.stats.record_plant(served * dt, now - last_wall)  # only the ticks the plant got
+                self._stats.record_plant(served * dt, now - last_wall)  # only the ticks the plant got
                 last_wall = now
                 if stepped and session.closed_loop.reading is not None:
-                    self.buffer.publish("system", system_snapshot(session, session.closed_loop.reading))
-                if self.duration is not None and self.stats.sim_time() >= self.duration - 1e-9:
+                    self._buffer.publish("system", system_snapshot(session, session.closed_loop.reading))
+                if self._duration is not None and self._stats.sim_time() >= self._duration - 1e-9:
                     self._request_stop()
                     break
                 wait = IDLE_POLL / 10 if not paced else max(0.0, origin + steps_done * dt - time.perf_counter())
-                self._stop.wait(wait)
+                self._state.stop.wait(wait)
             self._halt(session, "stopped")
         except SystemClosedError:  # the app stopped while a call was blocked: no further call
             return
@@ -153,14 +158,14 @@ class PlantLoop:
         now = time.perf_counter()
         if not waiting:
             if self._wait_reported:
-                self.report(f"the planner caught up; the simulation goes on: {self._running_message()}")
+                self._reports.report(f"the planner caught up; the simulation goes on: {self._reports.running()}")
             self._waiting_since, self._wait_reported = None, False
             return
         if self._waiting_since is None:
             self._waiting_since = now
         elif not self._wait_reported and now - self._waiting_since > WAIT_REPORT:
             self._wait_reported = True
-            self.report(
+            self._reports.report(
                 f"the simulation has waited {now - self._waiting_since:.1f} s for a planning cycle "
                 "(it waits rather than let a cycle take more than one control period of sim time)",
                 "warning",
@@ -173,32 +178,26 @@ class PlantLoop:
         except SystemClosedError:
             raise
         except Exception as err:
-            self.report(f"system halt ({why}) failed: {type(err).__name__}: {err}", "error")
+            self._reports.report(f"system halt ({why}) failed: {type(err).__name__}: {err}", "error")
             return False
         return True
 
     def _carry_out_plant_requests(self, session: Session) -> bool:
         """A reset or goal moves queued for the plant; True if the plant was reset."""
-        with self._lock:
-            reset, self._reset_system = self._reset_system, False
-            moves, self._goal_moves = self._goal_moves, {}
-            from_user = reset and self._reset_from_user
-            if reset:
-                self._reset_from_user = False
+        requests = self._state.take_plant_requests()
+        reset, moves = requests.reset, requests.goal_moves
         if reset:
             try:
                 reading = session.closed_loop.reset_plant()
             except SystemClosedError:
                 raise
             except Exception as err:  # the plan is not restarted as if the reset had worked
-                self.report(f"system reset failed: {type(err).__name__}: {err}; the plan was kept", "error")
+                self._reports.report(f"system reset failed: {type(err).__name__}: {err}; the plan was kept", "error")
             else:
-                self.buffer.publish("system", system_snapshot(session, reading))
-                self._resets_done += 1
-                with self._lock:
-                    self._reset_controller = True
-                if from_user:
-                    self.report(f"{session.task_name} reset to its start state; the plan starts afresh")
+                self._buffer.publish("system", system_snapshot(session, reading))
+                self._state.note_plant_reset()
+                if requests.reset_from_user:
+                    self._reports.report(f"{session.task_name} reset to its start state; the plan starts afresh")
         plant = session.simulated
         if moves and plant is not None:
             for index, (position, quat) in moves.items():
@@ -213,19 +212,18 @@ class PlantLoop:
         try:
             session.closed_loop.advance()
         except SimulationDiverged as err:
-            self.report(str(err), "warning")
-            with self._lock:
-                self._reset_controller = True
+            self._reports.report(str(err), "warning")
+            self._state.note_divergence()
             return True
         except SystemCallError as err:  # a user's System or task hook failed; keep serving
-            self._status_line.failed("system", str(err))
+            self._reports.failed("system", str(err))
             return err.served
         except SystemClosedError:
             raise
         except Exception as err:
-            self._status_line.failed("system", f"system step failed: {type(err).__name__}: {err}")
+            self._reports.failed("system", f"system step failed: {type(err).__name__}: {err}")
             return False
-        self._status_line.recovered("system", f"the system steps again: {self._running_message()}")
+        self._reports.recovered("system")
         return True
 
     def _read_and_publish(self, session: Session) -> None:
@@ -234,6 +232,6 @@ class PlantLoop:
         except SystemClosedError:
             raise
         except Exception as err:
-            self.report(f"system read_state failed: {type(err).__name__}: {err}", "error")
+            self._reports.report(f"system read_state failed: {type(err).__name__}: {err}", "error")
             return
-        self.buffer.publish("system", system_snapshot(session, reading))
+        self._buffer.publish("system", system_snapshot(session, reading))

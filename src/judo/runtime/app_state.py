@@ -1,0 +1,237 @@
+"""The app's shared state: one object, one lock, every field written through its methods.
+
+The App's parts (`judo.runtime.app`) share one `AppState` and take what is theirs from it:
+- the commands (any thread: the GUI's callbacks, a notebook) validate, then `accept_config`, `request_*`,
+  `pause`, `resume`;
+- the plant runner (`judo.runtime.plant_runner`, the System's thread) takes the plant's requests
+  (`take_plant_requests`) and counts the resets it carries out;
+- the planner runner (`judo.runtime.planner_runner`) takes the planner's requests (`take_planner_requests`)
+  and installs a new session on a switch (`install_session`); it is the only writer of the session's configs.
+
+Reads of a single field (`session`, `paused`, the counters) need no lock: each is one reference, replaced
+whole. Everything read or written together is taken under `lock`.
+"""
+
+import threading
+from dataclasses import dataclass, field, fields, replace
+from typing import Any
+
+import numpy as np
+
+from judo.core.config import Config
+from judo.core.controller import ControllerConfig
+from judo.core.estimator import EstimatorConfig
+from judo.core.optimizer import OptimizerConfig
+from judo.core.registry import ConfigKind
+from judo.core.task import TaskConfig
+from judo.runtime.records import LiveRecorder
+from judo.runtime.session import Sensing, Session
+from judo.runtime.stop_signal import StopSignal
+from judo.runtime.watchdog import PausableClock
+
+
+@dataclass(frozen=True)
+class ConfigSet:
+    """The three configs of a session, one typed field per kind."""
+
+    controller: ControllerConfig
+    optimizer: OptimizerConfig
+    task: TaskConfig
+
+    @classmethod
+    def of(cls, session: Session) -> "ConfigSet":
+        """The configs `session`'s controller uses."""
+        controller = session.controller
+        return cls(controller.config, controller.optimizer.config, controller.task.config)
+
+    @classmethod
+    def from_dict(cls, configs: dict[ConfigKind, Config]) -> "ConfigSet":
+        """{kind: config} (e.g. `judo.core.registry.default_configs`) as a ConfigSet; TypeError for a wrong type."""
+        made = cls(configs["controller"], configs["optimizer"], configs["task"])  # type: ignore[arg-type]  # checked below
+        for kind, cls_ in (("controller", ControllerConfig), ("optimizer", OptimizerConfig), ("task", TaskConfig)):
+            if not isinstance(getattr(made, kind), cls_):
+                raise TypeError(f"the {kind} config must be a {cls_.__name__}, got {type(getattr(made, kind))}")
+        return made
+
+    def get(self, kind: ConfigKind) -> Config:
+        """The config of `kind`."""
+        return getattr(self, kind)
+
+    def with_config(self, kind: ConfigKind, config: Config) -> "ConfigSet":
+        """A copy with `config` as the `kind` config."""
+        return replace(self, **{kind: config})
+
+    def as_dict(self) -> dict[ConfigKind, Config]:
+        """{kind: config}, for the GUI and recordings."""
+        return {"controller": self.controller, "optimizer": self.optimizer, "task": self.task}
+
+
+@dataclass
+class PendingConfigs:
+    """Configs accepted since the planner last took them: one optional field per kind (None: no edit)."""
+
+    controller: ControllerConfig | None = None
+    optimizer: OptimizerConfig | None = None
+    task: TaskConfig | None = None
+
+    def any(self) -> bool:
+        return any(getattr(self, f.name) is not None for f in fields(self))
+
+
+@dataclass
+class PlantRequests:
+    """What the plant runner carries out before its next step."""
+
+    reset: bool = False
+    reset_from_user: bool = False  # the reset was asked for (reported), not made by a divergence
+    goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]] = field(default_factory=dict)  # index -> pos, quat
+
+
+@dataclass
+class PlannerRequests:
+    """What the planner runner carries out at the top of its next cycle."""
+
+    switch: tuple[str, str] | None = None  # (task, optimizer)
+    rebuild: bool = False  # rebuild the session even with the same names (a switch of estimator)
+    forget_plans: bool = False  # the plant was reset (or diverged): plan afresh
+    configs: PendingConfigs = field(default_factory=PendingConfigs)
+
+
+class AppState:
+    """The state an App's parts share (see the module's docstring).
+
+    Args:
+        sensing: how the simulated plant is observed and which estimator runs, kept across switches.
+
+    `begin(session)` gives it the first session; no part runs before.
+    """
+
+    def __init__(self, sensing: Sensing) -> None:
+        self.lock = threading.RLock()
+        self.stop = StopSignal()  # set once, from any thread, to stop every part
+        self.session: Session  # the session in use, from `begin`
+        self.configs: ConfigSet  # the latest accepted configs, from `begin`
+        self.sensing = sensing
+        self.clock = PausableClock()  # the watchdog's wall clock for a user's System: stands still while paused
+        self.clock.resume()
+        self.paused = False
+        self.external_edits = 0  # config changes not made through the GUI, so it refreshes its widgets
+        self.resets_done = 0  # plant resets carried out, so the GUI reframes its camera
+        self.recording: LiveRecorder | None = None
+        self._plant = PlantRequests()
+        self._planner = PlannerRequests()
+
+    def begin(self, session: Session) -> None:
+        """Start with `session` and its configs."""
+        with self.lock:
+            self.session, self.configs = session, ConfigSet.of(session)
+
+    # ---- configs ----------------------------------------------------------------------------------
+    def accept_config(self, kind: ConfigKind, config: Config, *, from_gui: bool) -> None:
+        """Put `config` (validated by the caller under `lock`) in force from the planner's next cycle."""
+        with self.lock:
+            self.configs = self.configs.with_config(kind, config)
+            setattr(self._planner.configs, kind, config)
+            self._count_edit(from_gui)
+            if self.recording is not None:
+                self.recording.on_config(kind, config)
+
+    def accept_estimator_config(self, estimator: Any, config: EstimatorConfig, *, from_gui: bool) -> None:
+        """Hand `config` to the running `estimator` (its own hand-over takes effect before its next update)."""
+        with self.lock:
+            estimator.config = config
+            self._count_edit(from_gui)
+            if self.recording is not None:
+                self.recording.on_config("estimator", config, name=self.session.estimator_name)
+
+    def reset_configs(self, defaults: ConfigSet) -> None:
+        """Put `defaults` in force from the planner's next cycle."""
+        with self.lock:
+            self.configs = defaults
+            self._planner.configs = PendingConfigs(defaults.controller, defaults.optimizer, defaults.task)
+            self._count_edit(from_gui=False)
+
+    def _count_edit(self, from_gui: bool) -> None:
+        if not from_gui:
+            self.external_edits += 1
+
+    # ---- recording ----------------------------------------------------------------------------------
+    def begin_recording(self, recorder: LiveRecorder) -> None:
+        """`recorder` hears every config edit from now on (`judo.runtime.recordings`)."""
+        with self.lock:
+            self.recording = recorder
+
+    def end_recording(self) -> LiveRecorder | None:
+        """The recorder under way, which hears no more edits; None when nothing records."""
+        with self.lock:
+            recorder, self.recording = self.recording, None
+        return recorder
+
+    # ---- pause ------------------------------------------------------------------------------------
+    def pause(self) -> None:
+        with self.lock:
+            self.paused = True
+            self.clock.pause()
+
+    def resume(self) -> None:
+        with self.lock:
+            self.paused = False
+            self.clock.resume()
+
+    # ---- the plant's requests -----------------------------------------------------------------------
+    def request_reset(self, *, from_user: bool) -> None:
+        """Reset the plant before its next step (and the plan once that worked)."""
+        with self.lock:
+            self._plant.reset = True
+            self._plant.reset_from_user = self._plant.reset_from_user or from_user
+
+    def request_goal_move(self, index: int, position: np.ndarray, quat: np.ndarray | None) -> None:
+        with self.lock:
+            self._plant.goal_moves[index] = (position, quat)
+
+    def take_plant_requests(self) -> PlantRequests:
+        """The plant's requests since the last take (the plant runner's)."""
+        with self.lock:
+            requests, self._plant = self._plant, PlantRequests()
+        return requests
+
+    def note_plant_reset(self) -> None:
+        """The plant was reset (or reset itself): count it, and have the planner forget its plans."""
+        with self.lock:
+            self.resets_done += 1
+            self._planner.forget_plans = True
+
+    def note_divergence(self) -> None:
+        """The plant's simulation blew up and reset itself: the planner forgets its plans."""
+        with self.lock:
+            self._planner.forget_plans = True
+
+    # ---- the planner's requests ---------------------------------------------------------------------
+    def request_switch(self, task: str | None = None, optimizer: str | None = None, *, rebuild: bool = False) -> None:
+        """Switch to `task` and/or `optimizer` (the names in use, or already asked for, where None)."""
+        with self.lock:
+            current = self._planner.switch or (self.session.task_name, self.session.optimizer_name)
+            self._planner.switch = (task or current[0], optimizer or current[1])
+            self._planner.rebuild = self._planner.rebuild or rebuild
+
+    def request_estimator(self, estimator: str | None, *, rebuild: bool) -> None:
+        """Run `estimator` (None: none) in every session from now on, with its registered defaults; `rebuild` the
+        running session for it."""
+        with self.lock:
+            self.sensing = replace(self.sensing, estimator=estimator, estimator_config=None)
+            if rebuild:
+                self.request_switch(rebuild=True)
+
+    def take_planner_requests(self) -> PlannerRequests:
+        """The planner's requests since the last take (the planner runner's)."""
+        with self.lock:
+            requests, self._planner = self._planner, PlannerRequests()
+        return requests
+
+    def install_session(self, session: Session) -> None:
+        """Use `session` from now on, with its own configs (the planner runner's, on a switch)."""
+        with self.lock:
+            self.session = session
+            self.configs = ConfigSet.of(session)
+            self._planner.configs = PendingConfigs()
+            self.external_edits += 1

@@ -1,0 +1,167 @@
+"""The app's planner runner: the control clock in wall time, planning on a worker thread, and switches.
+
+A coroutine on the app's event loop. At the top of each iteration it carries out what the commands queued in the
+app's state (a switch of task, optimizer or estimator; config edits; forgetting the plans after a reset), so it
+is the only writer of the session's configs and the only builder of sessions after the first. When the control
+clock (`judo.runtime.control_clock`, the one `ClosedLoop.step` uses in sim time) says a plan is due, it plans from
+the closed loop's latest reading on its worker thread (`run_in_executor`), so the event loop never blocks on
+rollouts, and publishes the plan, rewards, traces and timing under "plan" in the StateBuffer (the GUI's view).
+"""
+
+import time
+
+from judo.core.controller import PlanningCancelled
+from judo.core.errors import JudoError
+from judo.core.workers import DaemonThreadPool
+from judo.runtime.app_state import AppState, PendingConfigs
+from judo.runtime.control_clock import ControlClock
+from judo.runtime.recordings import Recordings
+from judo.runtime.reports import Reports
+from judo.runtime.session import Session
+from judo.runtime.session_maker import SessionMaker
+from judo.runtime.snapshots import PlanSnapshot
+from judo.runtime.state_buffer import StateBuffer
+from judo.runtime.stats import RunStats
+from judo.runtime.stop_signal import Stopping
+from judo.runtime.system import SystemState
+
+IDLE_POLL = 0.01
+"""Seconds the planner sleeps while paused or waiting for its first reading."""
+CONFIG_POLL = 0.25
+"""Most seconds the planner waits before looking again (an edit of control_freq takes effect)."""
+IDLE_THREAD_JOIN = 0.1
+"""Seconds a stop waits for the planning thread to end before leaving it to finish on its own."""
+
+
+class PlannerRunner:
+    """Plans for the session in use at control_freq of wall time (see the module's docstring).
+
+    Args:
+        state: the app's state (the session, the requests, pause, stop).
+        maker: builds the session that replaces the running one on a switch.
+        buffer: where each plan is published for the GUI.
+        stats: the run's figures (plan times, rewards).
+        reports: the status line.
+        recordings: the recording under way, finished on a switch of task or optimizer.
+    """
+
+    def __init__(
+        self,
+        state: AppState,
+        maker: SessionMaker,
+        buffer: StateBuffer,
+        stats: RunStats,
+        reports: Reports,
+        recordings: Recordings,
+    ) -> None:
+        self._state, self._maker, self._buffer, self._stats = state, maker, buffer, stats
+        self._reports, self._recordings = reports, recordings
+        self.clock = ControlClock()
+        self._executor = DaemonThreadPool(1, "judo-plan")
+
+    async def run(self) -> None:
+        """Plan until a stop (the stop signal must be bound to this event loop)."""
+        state = self._state
+        try:
+            while not state.stop.is_set():
+                await self._carry_out_requests()
+                session = state.session
+                reading = session.closed_loop.reading
+                period = 1.0 / session.controller.config.control_freq
+                now = time.perf_counter()
+                if state.paused or reading is None:
+                    self.clock.restart(now)  # a plan is due as soon as there is one to make
+                    await state.stop.sleep(IDLE_POLL)
+                elif not self.clock.due(now, period):
+                    await state.stop.sleep(min(self.clock.remaining(now, period), CONFIG_POLL))
+                else:
+                    await self._plan(session, reading, now)
+                    self.clock.ticked(now, time.perf_counter() - now, period)
+        except Stopping:
+            return
+
+    def close(self) -> None:
+        """End the planning thread: at once when idle; a cycle still in flight (a huge batch, a slow reward) is
+        not waited for beyond IDLE_THREAD_JOIN and ends on its own daemon thread."""
+        self._executor.shutdown(wait=True, timeout=IDLE_THREAD_JOIN)
+
+    async def _plan(self, session: Session, reading: SystemState, start: float) -> None:
+        """One planning cycle from `reading`, published under "plan"; a failed cycle is reported and skipped."""
+        controller, reports = session.controller, self._reports
+        try:
+            plan = await self._state.stop.in_worker(self._executor, session.closed_loop.plan, reading, self._state.stop)
+        except (PlanningCancelled, Stopping):
+            raise Stopping from None
+        except JudoError as err:  # ConfigError, a bad reading: skip this cycle
+            reports.failed("planner", f"planning cycle skipped: {err}", "warning")
+            return
+        except Exception as err:  # an exception in the user's reward or hooks
+            reports.failed("planner", f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}")
+            return
+        if plan is None:  # no finite reward, or non-finite knots: the plan before stays in force
+            reports.failed("planner", f"planning cycle skipped: {session.closed_loop.last_failure}", "warning")
+            return
+        reports.recovered("planner")
+        plan_time = time.perf_counter() - start
+        rewards = controller.rewards
+        assert controller.nominal_knots is not None  # set by every completed cycle
+        self._stats.record_plan(start, plan_time, float(rewards[0]) if len(rewards) else float("nan"))
+        snapshot = PlanSnapshot(
+            session.generation, reading.time, controller.nominal_knots, rewards, controller.traces, plan_time
+        )
+        self._buffer.publish("plan", snapshot)
+
+    async def _carry_out_requests(self) -> None:
+        """Switches, config edits and resets queued since the last look; no cycle is in flight here."""
+        requests = self._state.take_planner_requests()
+        old, pending = self._state.session, requests.configs
+        names = (old.task_name, old.optimizer_name)
+        if requests.switch is not None and (requests.rebuild or requests.switch != names):
+            if await self._switch(*requests.switch):
+                pending = PendingConfigs()  # the new session took the accepted configs
+        session = self._state.session
+        controller = session.controller
+        if pending.controller is not None:
+            controller.config = pending.controller
+        if pending.optimizer is not None:
+            controller.optimizer.config = pending.optimizer
+        if pending.task is not None:
+            controller.task.config = pending.task
+            if session.simulated is not None:
+                session.simulated.task.config = pending.task
+        if requests.forget_plans:
+            session.closed_loop.forget_plans()
+
+    async def _switch(self, task: str, optimizer: str) -> bool:
+        """Replace the session with one of `task` and `optimizer` (built on the worker thread); True if it worked."""
+        state, old = self._state, self._state.session
+        estimator_only = (task, optimizer) == (old.task_name, old.optimizer_name)  # a recording goes on
+        if not estimator_only:
+            self._recordings.finish("the task or optimizer was switched")
+        with state.lock:
+            sensing, configs = state.sensing, state.configs
+
+        def build() -> Session:
+            session = self._maker.switched(old, task, optimizer, sensing, configs)
+            if state.stop.is_set():  # the app stopped meanwhile and will not take it: free its threads
+                session.close()
+            return session
+
+        try:
+            new = await state.stop.in_worker(self._executor, build)
+        except Stopping:
+            raise
+        except Exception as err:
+            self._reports.report(f"could not switch to {task} with {optimizer}: {type(err).__name__}: {err}", "error")
+            return False
+        with state.lock:
+            state.install_session(new)
+            if estimator_only:
+                self._recordings.move_to(new)
+        self._buffer.clear("plan")
+        old.close()
+        self._reports.line.trouble.clear()
+        self.clock.restart(time.perf_counter())
+        estimating = f" and the {new.estimator_name} estimator" if new.estimator_name else ""
+        self._reports.report(f"switched to {task} with {optimizer}{estimating}{' (paused)' if state.paused else ''}")
+        return True

@@ -1,0 +1,98 @@
+"""How the app builds its sessions: the first one, and the one that replaces it on a switch.
+
+The settings that stay for the whole run (the user's System, the seed, the rollout threads and backend, the
+watchdog's clock and its reports) are given once; `first` and `switched` build a `Session` with them.
+"""
+
+from collections.abc import Callable
+from dataclasses import dataclass, replace
+
+from judo.core.controller import ControllerConfig
+from judo.core.optimizer import OptimizerConfig
+from judo.core.task import TaskConfig
+from judo.runtime.app_state import ConfigSet
+from judo.runtime.session import Sensing, Session, build_session
+from judo.runtime.system import System
+
+
+@dataclass(frozen=True)
+class SessionMaker:
+    """Builds the app's sessions.
+
+    Attributes:
+        user_system: the user's plant (a robot), kept for the whole run; None simulates each task.
+        seed: seeds the optimizer, the task and the simulated plant.
+        num_workers: rollout threads (None: one per core).
+        backend: the rollout backend's name.
+        clock: the closed loop's watchdog clock: wall time for a user's System, None (plant time) for judo's
+            own simulator, which waits for the planner instead.
+        on_watchdog: the closed loop's trip / recovery callback.
+    """
+
+    user_system: System | None
+    seed: int | None
+    num_workers: int | None
+    backend: str
+    clock: Callable[[], float] | None
+    on_watchdog: Callable[[str | None], None]
+
+    def first(
+        self,
+        task: str,
+        optimizer: str,
+        sensing: Sensing,
+        controller_config: ControllerConfig | None = None,
+        optimizer_config: OptimizerConfig | None = None,
+        task_config: TaskConfig | None = None,
+    ) -> Session:
+        """The app's first session (generation 0); configs left out get the task's registered defaults."""
+        return self._build(task, optimizer, 0, sensing, controller_config, optimizer_config, task_config, None)
+
+    def switched(self, old: Session, task: str, optimizer: str, sensing: Sensing, configs: ConfigSet) -> Session:
+        """The session that replaces `old` for `task` with `optimizer`.
+
+        The same task keeps the running plant and the accepted `configs` of the controller and the task (and of
+        the optimizer when only the estimator changes), and the running estimator's live config unless another
+        estimator is asked for; another task starts from its registered defaults on a new plant (or the
+        user's System)."""
+        estimator_only = (task, optimizer) == (old.task_name, old.optimizer_name)
+        if task != old.task_name:
+            return self._build(task, optimizer, old.generation + 1, sensing, None, None, None, old)
+        estimator = old.closed_loop.estimator  # its live config goes on with the running plant, unless replaced
+        if estimator is not None and sensing.estimator in (None, old.estimator_name):
+            sensing = replace(sensing, estimator_config=estimator.config)
+        optimizer_config = configs.optimizer if estimator_only else None
+        return self._build(
+            task, optimizer, old.generation + 1, sensing, configs.controller, optimizer_config, configs.task, old
+        )
+
+    def _build(
+        self,
+        task: str,
+        optimizer: str,
+        generation: int,
+        sensing: Sensing,
+        controller_config: ControllerConfig | None,
+        optimizer_config: OptimizerConfig | None,
+        task_config: TaskConfig | None,
+        old: Session | None,
+    ) -> Session:
+        keeps_plant = old is not None and task == old.task_name
+        system = old.system if keeps_plant and old is not None else self.user_system
+        return build_session(
+            task,
+            optimizer,
+            generation,
+            controller_config=controller_config,
+            optimizer_config=optimizer_config,
+            task_config=task_config,
+            system=system,
+            seed=self.seed,
+            num_workers=self.num_workers,
+            backend=self.backend,
+            clock=self.clock,
+            on_watchdog=self.on_watchdog,
+            sensing=sensing,
+            reading=old.closed_loop.raw_reading if old is not None and system is old.system else None,  # being read
+            estimator_thread=True,  # the plant thread only reads, steps and serves (judo.runtime.estimator_thread)
+        )

@@ -1,0 +1,160 @@
+"""The app's supervisor: one asyncio event loop that runs the planner, watches the plant thread and draws the GUI
+until a stop, then stops every part in order.
+
+Who runs what:
+- the plant runner's own thread (`judo.runtime.plant_runner`) steps the plant;
+- on the event loop: the planner runner (`judo.runtime.planner_runner`), the monitor of the plant thread's System
+  calls (here), and the frontend's frames (here, about 30 Hz);
+- viser's own threads serve the browser and run the GUI's callbacks, which only queue commands.
+
+The stop order, whatever started it (`App.stop()`, Ctrl-C, SIGTERM, the duration reached, a dead plant thread):
+the stop signal wakes every wait; the plant thread gets PLANT_THREAD_JOIN s to halt the plant and end, then no
+System call may start; the recording under way is written; the frontend closes; the planning thread ends (a
+cycle still in flight is abandoned to its daemon thread); the session's rollout and filter threads end.
+"""
+
+import asyncio
+import logging
+import signal
+import threading
+from collections.abc import Callable, Coroutine
+from typing import Any
+
+from judo.runtime.app_state import AppState
+from judo.runtime.frontend import Frontend
+from judo.runtime.planner_runner import PlannerRunner
+from judo.runtime.plant_runner import PlantRunner
+from judo.runtime.recordings import Recordings
+from judo.runtime.reports import Reports
+
+logger = logging.getLogger("judo.app")
+
+GUI_PERIOD = 1.0 / 30.0
+"""Seconds between GUI frames."""
+PLANT_WATCH_PERIOD = 0.05
+"""Seconds between the monitor's looks at the plant thread's System call."""
+PLANT_THREAD_JOIN = 1.0
+"""Seconds a stop waits for the plant thread to halt the plant and end; a driver blocked longer is left."""
+
+
+class Supervisor:
+    """Runs an App's parts until a stop (see the module's docstring).
+
+    Args:
+        state: the app's state (its stop signal, the session in use).
+        plant: the plant runner, started here.
+        planner: the planner runner, run here.
+        recordings: written at the stop.
+        reports: the status line.
+        system_call_limit: seconds a System call may block before it is reported and the robot halted.
+        make_frontend: builds the GUI on the event loop's thread (None: no GUI); raises if it cannot start.
+    """
+
+    def __init__(
+        self,
+        state: AppState,
+        plant: PlantRunner,
+        planner: PlannerRunner,
+        recordings: Recordings,
+        reports: Reports,
+        system_call_limit: float,
+        make_frontend: Callable[[], Frontend] | None,
+    ) -> None:
+        self._state, self._plant, self._planner = state, plant, planner
+        self._recordings, self._reports = recordings, reports
+        self._system_call_limit, self._make_frontend = system_call_limit, make_frontend
+        self.frontend: Frontend | None = None  # while the loops run with a GUI
+        self.start_error: BaseException | None = None  # why the GUI could not start
+        self.ready = threading.Event()  # the loops run (or failed to start)
+        self.finished = threading.Event()  # every part has stopped
+
+    async def main(self, handle_signals: bool = False) -> None:
+        """Run every part until a stop, then stop them in order. Raises what kept the GUI from starting."""
+        state, loop = self._state, asyncio.get_running_loop()
+        state.stop.bind()
+        if handle_signals:
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                loop.add_signal_handler(sig, state.stop.set)
+        running = False
+        try:
+            if self._make_frontend is not None:
+                self.frontend = self._make_frontend()
+            self._plant.start()
+            coroutines: list[Coroutine[Any, Any, None]] = [self._planner.run(), self._watch_plant()]
+            if self.frontend is not None:
+                coroutines.append(self._draw_frontend(self.frontend))
+            self._reports.report(self._reports.running())
+            tasks = [asyncio.create_task(coroutine) for coroutine in coroutines]
+            running = True
+            self.ready.set()
+            await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+            state.stop.set()  # a loop only returns when asked to stop, or on a bug: end the others
+            for result in await asyncio.gather(*tasks, return_exceptions=True):
+                if isinstance(result, BaseException):
+                    logger.error("a judo loop failed", exc_info=result)
+        except BaseException as err:
+            if not running:  # the GUI did not start: start() raises this once `ready` is set
+                self.start_error = err
+            raise
+        finally:
+            self._stop_in_order()
+            if handle_signals:
+                for sig in (signal.SIGINT, signal.SIGTERM):
+                    loop.remove_signal_handler(sig)
+            state.stop.unbind()
+            self.finished.set()
+
+    def _stop_in_order(self) -> None:
+        state = self._state
+        state.stop.set()
+        self.ready.set()
+        if self._plant.thread.ident is not None:
+            self._plant.thread.join(PLANT_THREAD_JOIN)
+        state.session.closed_loop.calls.close()  # a driver blocked in a call is left to return on its own thread
+        self._recordings.finish("the app stopped")
+        if self.frontend is not None:
+            self.frontend.close()
+        self._planner.close()
+        state.session.close()
+
+    async def _watch_plant(self) -> None:
+        """Report a System call that has blocked longer than `system_call_limit` (once per block) and halt the
+        robot where the System offers a halt; report when it returns. Ends on a stop."""
+        state, reports = self._state, self._reports
+        reported: tuple[str, float] | None = None
+        while not state.stop.is_set():
+            calls = state.session.closed_loop.calls
+            blocked = calls.blocked(self._system_call_limit)
+            if blocked is not None and reported is None:
+                reported = blocked
+                halting = calls.offers_halt()
+                reports.report(
+                    f"system {blocked[0]}() has not returned for {blocked[1]:.1f} s; "
+                    + ("halting the robot" if halting else "the watchdog serves the safe action once it returns"),
+                    "error",
+                )
+                if halting:  # on a thread of its own: the driver's halt may block too
+                    threading.Thread(target=self._halt_quietly, daemon=True, name="judo-halt").start()
+            elif blocked is None and reported is not None:
+                reported = None
+                reports.report(f"the system responds again: {reports.running()}")
+            if not self._plant.thread.is_alive() and not state.stop.is_set():
+                reports.report("the plant thread ended unexpectedly; stopping", "error")
+                state.stop.set()
+            await state.stop.sleep(PLANT_WATCH_PERIOD)
+
+    def _halt_quietly(self) -> None:
+        try:
+            self._state.session.closed_loop.calls.halt()
+        except Exception as err:
+            self._reports.report(f"system halt failed: {type(err).__name__}: {err}", "error")
+
+    async def _draw_frontend(self, frontend: Frontend) -> None:
+        loop = asyncio.get_running_loop()
+        while not self._state.stop.is_set():
+            start = loop.time()
+            try:
+                frontend.update()
+            except Exception as err:
+                self._reports.report(f"GUI update failed: {type(err).__name__}: {err}", "error")
+            await self._state.stop.sleep(start + GUI_PERIOD - loop.time())
