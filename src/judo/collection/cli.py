@@ -20,6 +20,7 @@ from judo.core.config import Config, require, require_between
 from judo.core.errors import JudoError
 from judo.evaluation.cli import fail, name_listing, parse_args_with_config_fields
 from judo.evaluation.episode_args import EpisodeArgs
+from judo.version import __version__
 
 DESCRIPTION = (
     "Collect closed-loop MPC episodes of a task x optimizer into an HDF5 dataset in a robomimic-style layout "
@@ -79,7 +80,6 @@ class CollectArgs(EpisodeArgs):
 
 def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
     """The `data` group's env_args: everything that determines the episodes, plus versions and model hashes."""
-    import judo
     from judo.core.registry import lookup_task
 
     task = lookup_task(args.task)[0]()  # type: ignore[call-arg]
@@ -100,7 +100,7 @@ def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
         "config_file": None if args.config is None else str(args.config),
         "env_kwargs": {kind: config_dict(config) for kind, config in configs.items()},
         "plant_timestep": float(task.sim_model.opt.timestep),
-        "judo_version": judo.__version__,
+        "judo_version": __version__,
         "mujoco_version": mujoco.__version__,
         "planning_model_sha256": model_sha256(task.model),
         "plant_model_sha256": model_sha256(task.sim_model),
@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args.validate()  # every argument, sensing flags included, before Ray starts or a file is opened
         import_h5py()
-        from judo.tuning.cluster import import_ray
+        from judo.ray_cluster import import_ray
 
         import_ray("python -m judo collect", "collect")
         spec = args.spec(num_workers=1)

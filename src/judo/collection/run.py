@@ -75,7 +75,7 @@ def outcome_of(ray: Any, ref: Any, seed: int) -> EpisodeOutcome:
 def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
     """Run the seeds of args.first_seed..args.first_seed+args.episodes-1 missing from `args.out` and write them there; returns the exit status
     (130 after Ctrl-C, with the command that resumes printed)."""
-    from judo.tuning import cluster
+    import judo.ray_cluster as cluster
 
     file = DatasetFile(args.out, env_args)
     finished = file.finished_seeds()

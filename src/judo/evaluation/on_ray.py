@@ -48,7 +48,7 @@ def evaluate_on_ray(
     cluster at `address`; returns (the episodes that ran, by seed; (seed, reason) of those that failed)."""
     import os
 
-    from judo.tuning import cluster
+    import judo.ray_cluster as cluster
 
     ray = cluster.import_ray(FEATURE, "tune")
     outcomes: list[SeedOutcome] = []

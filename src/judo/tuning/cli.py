@@ -220,7 +220,7 @@ def progress_text(objective: Objective, best: float | None) -> str:
 
 def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     """Run the study described by `args`; returns the exit status. `command` is recorded in best.toml."""
-    from judo.tuning import cluster
+    import judo.ray_cluster as cluster
     from judo.tuning import study as studies
 
     studies.import_optuna()  # the `tune` extra, checked before any work

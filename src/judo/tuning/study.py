@@ -18,8 +18,9 @@ from typing import Any, Literal
 import numpy as np
 
 from judo.core.errors import JudoError, import_extra
-from judo.tuning import cluster
+from judo.ray_cluster import cancel, wait_any
 from judo.tuning.objective import Objective
+from judo.tuning.on_ray import outcome_of, submit_trial
 from judo.tuning.space import Param
 from judo.tuning.trial import EpisodeOutcome, TrialOutcome, TrialSpec, score_trial
 
@@ -200,16 +201,16 @@ def run_trials(
         while to_start > 0 or running:
             while to_start > 0 and (not running or len(pending) < concurrency):
                 trial = study.ask()
-                refs = cluster.submit_trial(spec, suggest(trial, space))
+                refs = submit_trial(spec, suggest(trial, space))
                 keys = [(c, s) for c in range(len(spec.conditions)) for s in spec.seed_range()]
                 pending.update({ref: (trial.number, c, s) for ref, (c, s) in zip(refs, keys, strict=True)})
                 running[trial.number] = (trial, [])
                 to_start -= 1
-            done, _ = cluster.wait_any(list(pending))
+            done, _ = wait_any(list(pending))
             for ref in done:
                 number, condition, seed = pending.pop(ref)
                 trial, episodes = running[number]
-                episodes.append(cluster.outcome_of(ref, condition, seed))
+                episodes.append(outcome_of(ref, condition, seed))
                 if len(episodes) < per_trial:
                     continue
                 del running[number]
@@ -219,7 +220,7 @@ def run_trials(
                 if on_trial is not None:
                     on_trial(Progress(finished, target, outcome))
     except KeyboardInterrupt:
-        cluster.cancel(list(pending))
+        cancel(list(pending))
         for trial, _ in running.values():
             trial.set_user_attr("failure", "interrupted")
             study.tell(trial, state=optuna.trial.TrialState.FAIL)
