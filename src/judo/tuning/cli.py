@@ -23,8 +23,9 @@ from judo.core.boundary import (
     check_seed_range,
 )
 from judo.core.config import require, require_between
+from judo.core.config_values import apply_values
 from judo.core.errors import JudoError
-from judo.core.registry import lookup_task
+from judo.core.registry import default_configs, lookup_task
 from judo.evaluation.cli import (
     apply_config_file,
     check_names,
@@ -49,7 +50,7 @@ from judo.tuning.conditions import (
     parse_conditions,
 )
 from judo.tuning.objective import Direction, Objective, make_objective
-from judo.tuning.space import Param, apply_values, build_space, default_configs, parse_fixed
+from judo.tuning.space import Param, build_space, parse_fixed
 from judo.tuning.trial import TrialSpec, run_seeded_episodes
 
 DESCRIPTION = (

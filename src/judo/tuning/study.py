@@ -17,7 +17,9 @@ from typing import Any, Literal
 
 import numpy as np
 
+from judo.core.config import Config
 from judo.core.errors import JudoError, import_extra
+from judo.core.registry import ConfigKind
 from judo.ray_cluster import cancel, wait_any
 from judo.tuning.objective import Objective
 from judo.tuning.on_ray import outcome_of, submit_trial
@@ -231,7 +233,7 @@ BASELINE_ATTR = "baseline"
 """User attribute set on the trial that ran the pair's current defaults."""
 
 
-def enqueue_defaults(study: Any, space: list[Param], configs: dict[str, Any]) -> None:
+def enqueue_defaults(study: Any, space: list[Param], configs: dict[ConfigKind, Config]) -> None:
     """Queue the current defaults (the configs' values of the searched fields) as the next trial.
 
     Called for a new study, so that its trial 0 measures the settings a tune starts from: the report
