@@ -14,11 +14,11 @@ from typing import Annotated, Any
 import mujoco
 import tyro
 
+from judo.cli_shared import fail, name_listing, parse_args_with_config_fields
 from judo.collection.model_info import config_dict, model_sha256
 from judo.core.boundary import check_seed_range
 from judo.core.config import Config, require, require_between
 from judo.core.errors import JudoError
-from judo.evaluation.cli import fail, name_listing, parse_args_with_config_fields
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.version import __version__
 

@@ -18,10 +18,10 @@ from typing import Annotated, Any
 import numpy as np
 import tyro
 
+from judo.cli_shared import apply_config_file, fail
 from judo.collection.dataset import DatasetError, demo_name, import_h5py
 from judo.core.config import require_between
 from judo.core.errors import JudoError
-from judo.evaluation.cli import apply_config_file, fail
 
 FRAME_S = 1 / 30
 """Seconds between frames while playing."""

@@ -11,10 +11,10 @@ from typing import Any
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from judo.cli_shared import output_console, progress_console
 from judo.collection.dataset import DatasetFile
 from judo.collection.episode import EpisodeOutcome, collect_episode
 from judo.core.errors import JudoError
-from judo.evaluation.cli import output_console, progress_console
 from judo.evaluation.seeded import EpisodeSpec
 
 SHOWN_FAILURES = 5

@@ -12,16 +12,11 @@ from typing import Annotated, Any, Literal
 
 import tyro
 
+from judo.cli_shared import episode_latency
 from judo.core.estimator import estimator_in_force
 from judo.core.registry import lookup_task
 from judo.core.rollout import RolloutBackendName
-from judo.evaluation.cli import (
-    ControllerOverrides,
-    check_episode_args,
-    episode_latency,
-    given_fields,
-    latency_label,
-)
+from judo.evaluation.cli import ControllerOverrides, check_episode_args, given_fields, latency_label
 from judo.evaluation.seeded import EpisodeSpec
 from judo.runtime.closed_loop import Latency
 from judo.runtime.sensing_flags import SensingFlags

@@ -11,7 +11,7 @@ from typing import Any
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from judo.evaluation.cli import progress_console
+from judo.cli_shared import progress_console
 from judo.evaluation.episode import EpisodeResult
 from judo.evaluation.seeded import EpisodeSpec, SeedOutcome, evaluate_seed
 

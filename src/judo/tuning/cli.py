@@ -14,6 +14,16 @@ from typing import Annotated, Any, Literal
 import tyro
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from judo.cli_shared import (
+    apply_config_file,
+    check_names,
+    episode_latency,
+    fail,
+    name_listing,
+    output_console,
+    progress_console,
+    seeds_label,
+)
 from judo.core.boundary import (
     MAX_EPISODE,
     MAX_SAMPLES,
@@ -26,16 +36,6 @@ from judo.core.config import require, require_between
 from judo.core.config_values import apply_values
 from judo.core.errors import JudoError
 from judo.core.registry import default_configs, lookup_task
-from judo.evaluation.cli import (
-    apply_config_file,
-    check_names,
-    episode_latency,
-    fail,
-    name_listing,
-    output_console,
-    progress_console,
-    seeds_label,
-)
 from judo.evaluation.episode import Latency
 from judo.evaluation.plot import write_episode_plot
 from judo.runtime.sensing_flags import SensingFlags, merge_repeated
