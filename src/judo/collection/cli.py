@@ -80,9 +80,9 @@ class CollectArgs(EpisodeArgs):
 
 def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
     """The `data` group's env_args: everything that determines the episodes, plus versions and model hashes."""
-    from judo.core.registry import lookup_task
+    from judo.core.registry import make_task
 
-    task = lookup_task(args.task)[0]()  # type: ignore[call-arg]
+    task = make_task(args.task)
     latency = args.episode_latency()
     return {
         "env_name": args.task,
@@ -118,7 +118,8 @@ def policy_record(args: CollectArgs) -> dict[str, Any]:
     from judo.core.policy_controller import as_policy
     from judo.evaluation.seeded import policy_config_in_force
 
-    path = Path(args.policy)  # type: ignore[arg-type]
+    assert args.policy is not None, "env_args records a policy only when --policy is given"
+    path = Path(args.policy)
     policy = as_policy(path)
     return {
         "file": str(path.resolve()),
@@ -134,6 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo collect` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
     from judo.collection.dataset import import_h5py
     from judo.collection.run import collect
+    from judo.core.config_values import controller_config_of
     from judo.evaluation.seeded import configs_in_force, load_proposal_policy
 
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -148,7 +150,7 @@ def main(argv: list[str] | None = None) -> int:
         import_ray("python -m judo collect", "collect")
         spec = args.spec(num_workers=1)
         configs = configs_in_force(spec)
-        load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples)  # type: ignore[attr-defined]
+        load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
         command = "python -m judo collect " + shlex.join(argv)
         return collect(spec, env_args(args, configs), args, command, args.workers or os.cpu_count() or 1)
     except JudoError as err:

@@ -1,6 +1,7 @@
 """Name -> class registries for tasks, optimizers and estimators, per-task config overrides, and make_controller."""
 
-from typing import Any, Literal
+from collections.abc import Callable
+from typing import Any, Literal, cast
 
 import numpy as np
 
@@ -88,6 +89,12 @@ def lookup_task(name: str) -> tuple[type[Task], type[TaskConfig]]:
     if name not in _TASKS:
         raise UnknownNameError("task", name, _TASKS)
     return _TASKS[name]
+
+
+def make_task(name: str) -> Task:
+    """A new instance of the task registered as `name`; UnknownNameError lists the valid names."""
+    task_cls = cast(Callable[[], Task], lookup_task(name)[0])  # register_task takes classes built with no arguments
+    return task_cls()
 
 
 def lookup_optimizer(name: str) -> tuple[type[Optimizer], type[OptimizerConfig]]:

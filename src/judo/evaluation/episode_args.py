@@ -70,7 +70,10 @@ class EpisodeArgs(SensingFlags):
 
     def controller_label(self) -> str:
         """What drives the plant, for titles: the optimizer's name, or "policy NAME"."""
-        return self.optimizer if self.policy is None else f"policy {self.policy.stem}"  # type: ignore[return-value]
+        if self.policy is not None:
+            return f"policy {self.policy.stem}"
+        assert self.optimizer is not None, "check() asks for --optimizer or --policy"
+        return self.optimizer
 
     def changed_fields(self) -> dict[str, Any]:
         """Every config field given on the command line, {"controller.horizon": 1.0, "optimizer.sigma": 0.3, ...}."""

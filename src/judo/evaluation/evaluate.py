@@ -22,7 +22,7 @@ from judo.cli_shared import (
 from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
-from judo.core.registry import lookup_task
+from judo.core.registry import make_task
 from judo.evaluation.cli import given_fields, set_field_overrides, write_json
 from judo.evaluation.episode import EpisodeResult
 from judo.evaluation.episode_args import EpisodeArgs
@@ -225,7 +225,7 @@ def main(argv: list[str] | None = None) -> int:
             )
             console.print(f"wrote {args.json}")
         if args.plot is not None:
-            model = lookup_task(args.task)[0]().sim_model  # type: ignore[call-arg]
+            model = make_task(args.task).sim_model
             write_episode_plot(results[0], model, args.plot, f"{title}, seed {results[0].seed}")
             console.print(f"wrote {args.plot}")
     except JudoError as err:

@@ -27,12 +27,14 @@ from judo.runtime.system import MujocoSystem
 
 if TYPE_CHECKING:
     from judo.core.controller import ControllerConfig
+    from judo.core.policy_controller import PolicyController
 
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
 
-RecorderFactory = Callable[[Controller, MujocoSystem], Iterable[Recorder]]
-"""Makes an episode's extra recorders once its controller and plant exist (they size their buffers from them)."""
+RecorderFactory = Callable[["Controller | PolicyController", MujocoSystem], Iterable[Recorder]]
+"""Makes an episode's extra recorders once its controller (a PolicyController where a policy drives) and plant
+exist (they size their buffers from them)."""
 
 
 @dataclass(frozen=True)
@@ -203,8 +205,8 @@ def run_policy_episode(
         task.config = configs["task"]
         system = observed_plant(task, seed, spec.sensing)
         _, estimator = choose_estimator(task, spec.task, system, spec.sensing)
-        extra = list(recorders(controller, plant_of(system))) if recorders is not None else []  # type: ignore[arg-type]  # a PolicyController stands in for a Controller (duck-typed, no shared Protocol)
-        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)  # type: ignore[arg-type]  # as above
+        extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
+        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)  # type: ignore[arg-type]  # a PolicyController stands in for a Controller (duck-typed; ClosedLoop has no Protocol for both)
 
 
 def plant_of(system: MujocoSystem | SensedSystem) -> MujocoSystem:

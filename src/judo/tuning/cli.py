@@ -35,7 +35,7 @@ from judo.core.boundary import (
 from judo.core.config import require, require_between
 from judo.core.config_values import apply_values
 from judo.core.errors import JudoError
-from judo.core.registry import default_configs, lookup_task
+from judo.core.registry import default_configs, make_task
 from judo.evaluation.episode import Latency
 from judo.evaluation.plot import write_episode_plot
 from judo.runtime.sensing_flags import SensingFlags, merge_repeated
@@ -358,7 +358,7 @@ def write_outputs(
         write_best_toml(out / "best.toml", args.task, args.optimizer, values, header)
         written.append(out / "best.toml")
         (episode,) = run_seeded_episodes(spec, best.params, spec.seed_range()[:1])
-        model = lookup_task(args.task)[0]().sim_model  # type: ignore[call-arg]
+        model = make_task(args.task).sim_model
         title = (
             f"{args.task} x {args.optimizer}, best trial {best.number}, seed {episode.seed}, {spec.conditions[0].label}"
         )
