@@ -25,10 +25,10 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
+from judo.cli_shared import check_names
 from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.core.rollout import RolloutPool, check_rollout_backend
-from judo.evaluation.cli import check_names
 from judo.evaluation.timing import benchmark_controller, rollout_start
 from judo.runtime.system import MujocoSystem
 

@@ -22,8 +22,8 @@ from rich.console import Console
 from rich.table import Table
 
 import judo
+from judo.cli_shared import seeds_label
 from judo.core.onnx_policy import write_linear_policy, write_mlp_policy
-from judo.evaluation.cli import seeds_label
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 
 

@@ -21,8 +21,9 @@ from pathlib import Path
 import numpy as np
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from judo.cli_shared import check_names, output_console, progress_console
 from judo.core.errors import JudoError
-from judo.evaluation.cli import check_names, chosen_tasks, output_console, progress_console
+from judo.evaluation.cli import chosen_tasks
 from judo.evaluation.evaluate import EvaluateArgs, evaluate, summarize_metrics
 from judo.evaluation.stats import Summary
 from judo.evaluation.timing import time_pair

@@ -80,7 +80,7 @@ def local_ray():
     """A local Ray with 2 CPUs for the module, started by the call collect, evaluate --workers and tune make
     (`start_ray`: on 127.0.0.1). Ray is imported here, so the tests that do not use it never import it."""
     pytest.importorskip("ray")
-    from judo.tuning.cluster import start_ray, stop_ray
+    from judo.ray_cluster import start_ray, stop_ray
 
     start_ray(None, 2)
     yield

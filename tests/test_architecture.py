@@ -6,9 +6,14 @@ module is an edge to it, and each strongly connected component of more than one 
 importing itself) is one circle. A module named by a string and loaded with importlib (the rollout
 backend factory's `BACKEND_CLASSES` in core/backend.py) is not an import statement and not an edge: the
 factory depends on the backends only when called, by name, as a plugin table does.
+
+The same imports, gathered by package (judo.core, judo.runtime, ..., and a module directly in judo such as
+judo.ray_cluster as its own), must form no circle either, and follow PACKAGE_ORDER: a package imports only
+those below it, inside functions too. No module imports the root package.
 """
 
 import ast
+from collections.abc import Set
 from pathlib import Path
 
 SRC = Path(__file__).resolve().parents[1] / "src"
@@ -188,8 +193,16 @@ def test_no_file_is_over_its_line_limit():
 
 LIBRARY_LAYERS = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks")
 """The library a notebook imports: what plans and estimates."""
-APPLICATION_LAYERS = ("judo.runtime", "judo.evaluation", "judo.tuning", "judo.collection", "judo.learning")
-"""What runs it: the app and its loops, and the commands."""
+APPLICATION_LAYERS = (
+    "judo.ray_cluster",
+    "judo.runtime",
+    "judo.cli_shared",
+    "judo.evaluation",
+    "judo.tuning",
+    "judo.collection",
+    "judo.learning",
+)
+"""What runs it: Ray, the app and its loops, and the commands with what their command lines share."""
 
 
 def in_layer(module: str, layers: tuple[str, ...]) -> bool:
@@ -220,3 +233,122 @@ def test_nothing_below_learning_imports_it():
         if in_layer(target, ("judo.learning",))
     )
     assert not upward, "\n".join(upward)
+
+
+TOP = ("judo", "judo.__main__")
+"""The package itself and `python -m judo`: they gather everything, so they may import anything."""
+PACKAGE_ORDER = (
+    "judo.version",
+    "judo.core",
+    "judo.estimators",
+    "judo.optimizers",
+    "judo.tasks",
+    "judo.ray_cluster",
+    "judo.runtime",
+    "judo.cli_shared",
+    "judo.evaluation",
+    "judo.collection",
+    "judo.tuning",
+    "judo.learning",
+)
+"""judo's packages (and top-level modules), lowest first: each imports only those before it, lazy imports
+included. The library (core < estimators, optimizers < tasks), then what runs it: Ray, the app, the command
+lines' shared pieces, and the commands; collect runs evaluate's seeded episodes, tune none of collect's, and
+distill runs both."""
+EDGES_BEING_REMOVED = {("judo.runtime", "judo.collection")}  # removed by the App recomposition (#32 item 4)
+"""Package imports that go against PACKAGE_ORDER today and are on their way out; each is checked to exist."""
+
+
+def package_of(module: str, package: str = PACKAGE) -> str:
+    """The package a module counts for: "judo.core.rollout" -> "judo.core"; a module directly in the package
+    ("judo.ray_cluster", "judo.__main__") and the package itself count for themselves."""
+    parts = module.split(".")
+    return module if len(parts) <= 2 or parts[0] != package else ".".join(parts[:2])
+
+
+def package_graph(graph: dict[str, set[str]], package: str = PACKAGE) -> dict[tuple[str, str], list[str]]:
+    """(importing package, imported package) -> the module imports that make the edge ("a.x -> b.y"), for each
+    pair of different packages; built from `graph` (every import, lazy ones included)."""
+    edges: dict[tuple[str, str], list[str]] = {}
+    for module, targets in graph.items():
+        for target in sorted(targets):
+            edge = (package_of(module, package), package_of(target, package))
+            if edge[0] != edge[1]:
+                edges.setdefault(edge, []).append(f"{module} -> {target}")
+    return edges
+
+
+def package_cycles(edges: dict[tuple[str, str], list[str]], allowed: Set[tuple[str, str]] = frozenset()) -> str:
+    """Each package-level import circle of `edges` (less the `allowed` ones), with the module imports that close
+    it; "" when there is none."""
+    nodes = {node for edge in edges for node in edge}
+    graph = {node: {b for (a, b) in edges if a == node and (a, b) not in allowed} for node in nodes}
+    lines = []
+    for cycle in sorted(c for c in strongly_connected_components(graph) if len(c) > 1):
+        lines.append(f"package import circle: {', '.join(cycle)}")
+        lines += [f"    {line}" for a in cycle for b in sorted(graph[a] & set(cycle)) for line in edges[a, b]]
+    return "\n".join(lines)
+
+
+def upward_imports(
+    edges: dict[tuple[str, str], list[str]], order: tuple[str, ...], allowed: Set[tuple[str, str]] = frozenset()
+) -> list[str]:
+    """Every module import from a package in `order` to one above it (an edge not in `allowed`)."""
+    rank = {name: index for index, name in enumerate(order)}
+    return [
+        f"{line}  ({a} is below {b} in the order)"
+        for (a, b), lines in sorted(edges.items())
+        if a in rank and b in rank and rank[b] > rank[a] and (a, b) not in allowed
+        for line in lines
+    ]
+
+
+def test_no_package_level_import_circles_counting_lazy_imports():
+    cycles = package_cycles(package_graph(import_graph()), EDGES_BEING_REMOVED)
+    assert not cycles, cycles
+
+
+def test_the_packages_import_only_downward_in_their_order():
+    graph = import_graph()
+    packages = {package_of(module) for module in graph}
+    assert packages - set(TOP) == set(PACKAGE_ORDER), "place each package of src/judo in PACKAGE_ORDER"
+    upward = upward_imports(package_graph(graph), PACKAGE_ORDER, EDGES_BEING_REMOVED)
+    assert not upward, "\n".join(upward)
+
+
+def test_the_edges_being_removed_still_exist():
+    edges = package_graph(import_graph())
+    gone = sorted(edge for edge in EDGES_BEING_REMOVED if edge not in edges)
+    assert not gone, f"{gone} no longer exist: remove them from EDGES_BEING_REMOVED"
+
+
+def test_no_module_imports_the_root_package():
+    """`import judo` or `from judo import make_controller` in a module of judo: the root package gathers everything
+    (the app included), so such a module depends on all of judo. It imports from the defining module instead."""
+    graph = import_graph()
+    importers = sorted(module for module, targets in graph.items() if PACKAGE in targets and module != "judo.__main__")
+    assert not importers, f"these import the root judo package: {importers}"
+
+
+def test_the_package_check_sees_a_lazy_import_that_the_module_check_cannot(tmp_path):
+    write_package(
+        tmp_path,
+        {
+            "pkg/__init__.py": "",
+            "pkg/low/__init__.py": "",
+            "pkg/low/a.py": "def late():\n    from pkg.high import c\n",  # low -> high, inside a function
+            "pkg/low/d.py": "",
+            "pkg/high/__init__.py": "",
+            "pkg/high/b.py": "from pkg.low import d\n",  # high -> low
+            "pkg/high/c.py": "",
+        },
+    )
+    assert import_cycles(tmp_path, "pkg") == []  # no module imports one that imports it back
+    edges = package_graph(import_graph(tmp_path, "pkg"), "pkg")
+    text = package_cycles(edges)
+    assert text.startswith("package import circle: pkg.high, pkg.low\n")
+    assert "    pkg.low.a -> pkg.high.c" in text and "    pkg.high.b -> pkg.low.d" in text
+    assert upward_imports(edges, ("pkg.low", "pkg.high")) == [
+        "pkg.low.a -> pkg.high.c  (pkg.low is below pkg.high in the order)"
+    ]
+    assert package_cycles(edges, {("pkg.low", "pkg.high")}) == ""

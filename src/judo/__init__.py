@@ -44,8 +44,7 @@ from judo.runtime.app import App
 from judo.runtime.closed_loop import ClosedLoop
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
 from judo.runtime.system import MujocoSystem, System, SystemState
-
-__version__ = "0.1.0"
+from judo.version import __version__ as __version__
 
 __all__ = [
     "App",

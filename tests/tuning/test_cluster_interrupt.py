@@ -8,7 +8,7 @@ import time
 
 import pytest
 
-from judo.tuning import cluster
+import judo.ray_cluster as cluster
 
 
 def test_ctrl_c_during_a_wait_raises_within_a_slice_and_the_tasks_cancel(local_ray):

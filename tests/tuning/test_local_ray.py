@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from judo.tuning import cluster
+import judo.ray_cluster as cluster
 
 ray = pytest.importorskip("ray")
 psutil = pytest.importorskip("psutil")  # a dependency of ray

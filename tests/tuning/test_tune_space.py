@@ -3,14 +3,9 @@
 import pytest
 
 import judo
-from judo.tuning.space import (
-    Param,
-    SearchSpaceError,
-    apply_values,
-    build_space,
-    default_configs,
-    parse_fixed,
-)
+from judo.core.config_values import SearchSpaceError, apply_values
+from judo.core.registry import default_configs
+from judo.tuning.space import Param, build_space, parse_fixed
 from tests.conftest import UprightConfig, UprightTask
 
 

@@ -14,12 +14,13 @@ from typing import Annotated, Any
 import mujoco
 import tyro
 
+from judo.cli_shared import fail, name_listing, parse_args_with_config_fields
 from judo.collection.model_info import config_dict, model_sha256
 from judo.core.boundary import check_seed_range
 from judo.core.config import Config, require, require_between
 from judo.core.errors import JudoError
-from judo.evaluation.cli import fail, name_listing, parse_args_with_config_fields
 from judo.evaluation.episode_args import EpisodeArgs
+from judo.version import __version__
 
 DESCRIPTION = (
     "Collect closed-loop MPC episodes of a task x optimizer into an HDF5 dataset in a robomimic-style layout "
@@ -79,10 +80,9 @@ class CollectArgs(EpisodeArgs):
 
 def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
     """The `data` group's env_args: everything that determines the episodes, plus versions and model hashes."""
-    import judo
-    from judo.core.registry import lookup_task
+    from judo.core.registry import make_task
 
-    task = lookup_task(args.task)[0]()  # type: ignore[call-arg]
+    task = make_task(args.task)
     latency = args.episode_latency()
     return {
         "env_name": args.task,
@@ -100,7 +100,7 @@ def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
         "config_file": None if args.config is None else str(args.config),
         "env_kwargs": {kind: config_dict(config) for kind, config in configs.items()},
         "plant_timestep": float(task.sim_model.opt.timestep),
-        "judo_version": judo.__version__,
+        "judo_version": __version__,
         "mujoco_version": mujoco.__version__,
         "planning_model_sha256": model_sha256(task.model),
         "plant_model_sha256": model_sha256(task.sim_model),
@@ -118,7 +118,8 @@ def policy_record(args: CollectArgs) -> dict[str, Any]:
     from judo.core.policy_controller import as_policy
     from judo.evaluation.seeded import policy_config_in_force
 
-    path = Path(args.policy)  # type: ignore[arg-type]
+    assert args.policy is not None, "env_args records a policy only when --policy is given"
+    path = Path(args.policy)
     policy = as_policy(path)
     return {
         "file": str(path.resolve()),
@@ -134,6 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo collect` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
     from judo.collection.dataset import import_h5py
     from judo.collection.run import collect
+    from judo.core.config_values import controller_config_of
     from judo.evaluation.seeded import configs_in_force, load_proposal_policy
 
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -143,12 +145,12 @@ def main(argv: list[str] | None = None) -> int:
     try:
         args.validate()  # every argument, sensing flags included, before Ray starts or a file is opened
         import_h5py()
-        from judo.tuning.cluster import import_ray
+        from judo.ray_cluster import import_ray
 
         import_ray("python -m judo collect", "collect")
         spec = args.spec(num_workers=1)
         configs = configs_in_force(spec)
-        load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples)  # type: ignore[attr-defined]
+        load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
         command = "python -m judo collect " + shlex.join(argv)
         return collect(spec, env_args(args, configs), args, command, args.workers or os.cpu_count() or 1)
     except JudoError as err:

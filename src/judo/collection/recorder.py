@@ -103,9 +103,9 @@ class EpisodeRecorder:
         arrays["knots"] = np.array([plan.knots for plan in plans], dtype=float).reshape(
             len(plans), self.num_nodes, self.nu
         )
-        traces = [plan.traces for plan in plans]
-        if plans and all(trace is not None for trace in traces):
-            arrays["traces"] = padded_stack(traces)  # type: ignore[arg-type]
+        traces = [plan.traces for plan in plans if plan.traces is not None]
+        if plans and len(traces) == len(plans):  # every plan carries traces
+            arrays["traces"] = padded_stack(traces)
         return arrays
 
 
@@ -156,7 +156,8 @@ class PolicyServedRecorder(EpisodeRecorder):
     def for_policy(cls, controller: PolicyController, plant_task: Task, traces: bool = False) -> "PolicyServedRecorder":
         """A recorder for `controller` (with its expert) and the plant model (`sim_model`) of `plant_task`."""
         model = plant_task.sim_model
-        num_nodes = controller.expert.optimizer.num_nodes  # type: ignore[union-attr]
+        assert controller.expert is not None, "a policy-served recording needs the expert MPC that labels"
+        num_nodes = controller.expert.optimizer.num_nodes
         sizes = (model.nq, model.nv, model.nmocap, num_nodes, model.nu)
         measured = tuple(plant_task.measured_sensors)
         return cls(controller, float(model.opt.timestep), *sizes, measured_sensors=measured, traces=traces)

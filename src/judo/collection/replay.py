@@ -18,10 +18,10 @@ from typing import Annotated, Any
 import numpy as np
 import tyro
 
+from judo.cli_shared import apply_config_file, fail
 from judo.collection.dataset import DatasetError, demo_name, import_h5py
 from judo.core.config import require_between
 from judo.core.errors import JudoError
-from judo.evaluation.cli import apply_config_file, fail
 
 FRAME_S = 1 / 30
 """Seconds between frames while playing."""
@@ -186,7 +186,7 @@ class Replay:
         speed: float = 1.0,
         token: str | None = None,
     ) -> None:
-        from judo.core.registry import lookup_task
+        from judo.core.registry import make_task
         from judo.runtime.address import check_port, check_token
 
         check_port(port)
@@ -196,7 +196,7 @@ class Replay:
         if demo is not None and demo not in self.demos:
             raise DatasetError(f"{path} has no demo of seed {demo}; its seeds are: {', '.join(map(str, self.demos))}")
         self.demo = self.demos[demo if demo is not None else next(iter(self.demos))]
-        self.model = lookup_task(self.env_args["task"])[0]().sim_model  # type: ignore[call-arg]
+        self.model = make_task(self.env_args["task"]).sim_model
         check_demos(path, self.demos, self.model, self.env_args["task"])
         self.path, self.host, self.port = path, host, port
         self.index, self.playing, self.speed = 0, False, float(speed)

@@ -11,10 +11,10 @@ from typing import Any
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from judo.cli_shared import output_console, progress_console
 from judo.collection.dataset import DatasetFile
 from judo.collection.episode import EpisodeOutcome, collect_episode
 from judo.core.errors import JudoError
-from judo.evaluation.cli import output_console, progress_console
 from judo.evaluation.seeded import EpisodeSpec
 
 SHOWN_FAILURES = 5
@@ -75,7 +75,7 @@ def outcome_of(ray: Any, ref: Any, seed: int) -> EpisodeOutcome:
 def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
     """Run the seeds of args.first_seed..args.first_seed+args.episodes-1 missing from `args.out` and write them there; returns the exit status
     (130 after Ctrl-C, with the command that resumes printed)."""
-    from judo.tuning import cluster
+    import judo.ray_cluster as cluster
 
     file = DatasetFile(args.out, env_args)
     finished = file.finished_seeds()

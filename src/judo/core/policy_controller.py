@@ -69,7 +69,7 @@ def policy_config(policy: Policy, base: ControllerConfig | None = None) -> Contr
     """`base` (ControllerConfig() when None) with the fields the policy's metadata sets; PolicyError if they do
     not fit."""
     try:
-        return with_updates(base or ControllerConfig(), policy_config_fields(policy))  # type: ignore[return-value]
+        return with_updates(base or ControllerConfig(), policy_config_fields(policy))
     except ConfigError as err:
         raise PolicyError(f"policy {policy.name!r}: its metadata does not make a controller config: {err}") from None
 

@@ -1,10 +1,11 @@
 """Name -> class registries for tasks, optimizers and estimators, per-task config overrides, and make_controller."""
 
-from typing import Any, Literal
+from collections.abc import Callable
+from typing import Any, Literal, cast
 
 import numpy as np
 
-from judo.core.config import Config, check_seed, coerce_field_value, with_updates
+from judo.core.config import Config, ConfigT, check_seed, coerce_field_value, with_updates
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.estimator import Estimator, EstimatorConfig
@@ -69,7 +70,7 @@ def make_estimator(
     (with `task_name`'s overrides, e.g. an [ekf] table in the task's TOML)."""
     estimator_cls, config_cls = lookup_estimator(name)
     if config is None:
-        config = make_config(config_cls, task_name) if task_name else config_cls()  # type: ignore[assignment]
+        config = make_config(config_cls, task_name) if task_name else config_cls()
     return estimator_cls(task, config)
 
 
@@ -88,6 +89,12 @@ def lookup_task(name: str) -> tuple[type[Task], type[TaskConfig]]:
     if name not in _TASKS:
         raise UnknownNameError("task", name, _TASKS)
     return _TASKS[name]
+
+
+def make_task(name: str) -> Task:
+    """A new instance of the task registered as `name`; UnknownNameError lists the valid names."""
+    task_cls = cast(Callable[[], Task], lookup_task(name)[0])  # register_task takes classes built with no arguments
+    return task_cls()
 
 
 def lookup_optimizer(name: str) -> tuple[type[Optimizer], type[OptimizerConfig]]:
@@ -116,7 +123,7 @@ def set_config_overrides(
     _OVERRIDES[key] = checked
 
 
-def make_config(config_cls: type[Config], task_name: str, optimizer_name: str | None = None) -> Config:
+def make_config(config_cls: type[ConfigT], task_name: str, optimizer_name: str | None = None) -> ConfigT:
     """A new `config_cls` with the overrides registered for `task_name`, base classes' first, then (given
     `optimizer_name`) those registered for that optimizer alone, base classes' first."""
     updates: dict[str, Any] = {}
@@ -161,8 +168,8 @@ def make_controller(
     optimizer_cls, optimizer_config_cls = lookup_optimizer(optimizer_name)
     task = task_cls()
     task.config = make_config(task_config_cls, task_name)
-    controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)  # type: ignore[assignment]
-    optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)  # type: ignore[assignment]
+    controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)
+    optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)
     optimizer = optimizer_cls(optimizer_config, task.command_size)
     if proposal_policy is not None:
         check_policy_fits(task, proposal_policy, task_name)  # names the task, which the Controller cannot

@@ -9,23 +9,25 @@ import tyro
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
+from judo.cli_shared import (
+    apply_config_file,
+    check_names,
+    fail,
+    name_listing,
+    output_console,
+    parse_args,
+    progress_console,
+)
 from judo.core.backend import RolloutBackendName, check_rollout_backend
 from judo.core.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_file
 from judo.core.config import require
 from judo.core.errors import JudoError
 from judo.evaluation.cli import (
     ControllerOverrides,
-    apply_config_file,
-    check_names,
     chosen_optimizers,
     chosen_tasks,
     controller_config,
-    fail,
     given_fields,
-    name_listing,
-    output_console,
-    parse_args,
-    progress_console,
     write_json,
 )
 from judo.evaluation.timing import UpdateTiming, time_pair

@@ -12,16 +12,11 @@ from typing import Annotated, Any, Literal
 
 import tyro
 
+from judo.cli_shared import episode_latency
 from judo.core.estimator import estimator_in_force
 from judo.core.registry import lookup_task
 from judo.core.rollout import RolloutBackendName
-from judo.evaluation.cli import (
-    ControllerOverrides,
-    check_episode_args,
-    episode_latency,
-    given_fields,
-    latency_label,
-)
+from judo.evaluation.cli import ControllerOverrides, check_episode_args, given_fields, latency_label
 from judo.evaluation.seeded import EpisodeSpec
 from judo.runtime.closed_loop import Latency
 from judo.runtime.sensing_flags import SensingFlags
@@ -75,7 +70,10 @@ class EpisodeArgs(SensingFlags):
 
     def controller_label(self) -> str:
         """What drives the plant, for titles: the optimizer's name, or "policy NAME"."""
-        return self.optimizer if self.policy is None else f"policy {self.policy.stem}"  # type: ignore[return-value]
+        if self.policy is not None:
+            return f"policy {self.policy.stem}"
+        assert self.optimizer is not None, "check() asks for --optimizer or --policy"
+        return self.optimizer
 
     def changed_fields(self) -> dict[str, Any]:
         """Every config field given on the command line, {"controller.horizon": 1.0, "optimizer.sigma": 0.3, ...}."""

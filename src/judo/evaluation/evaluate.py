@@ -10,22 +10,20 @@ import tyro
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
-from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
-from judo.core.config import require, require_between
-from judo.core.errors import JudoError
-from judo.core.registry import lookup_task
-from judo.evaluation.cli import (
+from judo.cli_shared import (
     apply_config_file,
     fail,
-    given_fields,
     name_listing,
     output_console,
     parse_args_with_config_fields,
     progress_console,
     seeds_label,
-    set_field_overrides,
-    write_json,
 )
+from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
+from judo.core.config import require, require_between
+from judo.core.errors import JudoError
+from judo.core.registry import make_task
+from judo.evaluation.cli import given_fields, set_field_overrides, write_json
 from judo.evaluation.episode import EpisodeResult
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
@@ -227,7 +225,7 @@ def main(argv: list[str] | None = None) -> int:
             )
             console.print(f"wrote {args.json}")
         if args.plot is not None:
-            model = lookup_task(args.task)[0]().sim_model  # type: ignore[call-arg]
+            model = make_task(args.task).sim_model
             write_episode_plot(results[0], model, args.plot, f"{title}, seed {results[0].seed}")
             console.print(f"wrote {args.plot}")
     except JudoError as err:

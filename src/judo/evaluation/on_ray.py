@@ -11,7 +11,7 @@ from typing import Any
 
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from judo.evaluation.cli import progress_console
+from judo.cli_shared import progress_console
 from judo.evaluation.episode import EpisodeResult
 from judo.evaluation.seeded import EpisodeSpec, SeedOutcome, evaluate_seed
 
@@ -48,7 +48,7 @@ def evaluate_on_ray(
     cluster at `address`; returns (the episodes that ran, by seed; (seed, reason) of those that failed)."""
     import os
 
-    from judo.tuning import cluster
+    import judo.ray_cluster as cluster
 
     ray = cluster.import_ray(FEATURE, "tune")
     outcomes: list[SeedOutcome] = []

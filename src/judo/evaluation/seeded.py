@@ -8,15 +8,17 @@ episodes of a tune trial, collect), and gives the same episode bit for bit where
 """
 
 import traceback
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from judo.core.config import Config, require
+from judo.core.config_values import controller_config_of, optimizer_config_of
 from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.core.policy import Policy
+from judo.core.registry import ConfigKind
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
 from judo.runtime.records import Recorder
 from judo.runtime.sensing import SensedSystem
@@ -25,13 +27,14 @@ from judo.runtime.system import MujocoSystem
 
 if TYPE_CHECKING:
     from judo.core.controller import ControllerConfig
-    from judo.core.policy import Policy
+    from judo.core.policy_controller import PolicyController
 
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
 
-RecorderFactory = Callable[[Controller, MujocoSystem], Iterable[Recorder]]
-"""Makes an episode's extra recorders once its controller and plant exist (they size their buffers from them)."""
+RecorderFactory = Callable[["Controller | PolicyController", MujocoSystem], Iterable[Recorder]]
+"""Makes an episode's extra recorders once its controller (a PolicyController where a policy drives) and plant
+exist (they size their buffers from them)."""
 
 
 @dataclass(frozen=True)
@@ -78,36 +81,37 @@ def load_config_once(path: str | None) -> None:
     _LOADED_CONFIG_FILES.add(path)
 
 
-def configs_in_force(spec: EpisodeSpec) -> dict[str, Config]:
+def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
     """{"controller", "optimizer", "task"}: the pair's registered configs with `spec.values` applied; reads
     `spec.config_file` first. ConfigError (or SearchSpaceError for an unknown field) if they do not fit."""
+    from judo.core.config_values import apply_values
     from judo.core.registry import default_configs
-    from judo.tuning.space import apply_values
 
     load_config_once(spec.config_file)
     if spec.optimizer is None:  # a policy alone: no optimizer's config
         from judo.core.controller import ControllerConfig
         from judo.core.registry import lookup_task, make_config
 
-        configs = {
+        configs: dict[ConfigKind, Config] = {
             "controller": make_config(ControllerConfig, spec.task),
             "task": make_config(lookup_task(spec.task)[1], spec.task),
         }
-        return apply_values(configs, spec.values)  # type: ignore[arg-type, return-value]
-    return apply_values(default_configs(spec.task, spec.optimizer), spec.values)  # type: ignore[arg-type, return-value]
+        return apply_values(configs, spec.values)
+    return apply_values(default_configs(spec.task, spec.optimizer), spec.values)
 
 
 def policy_config_in_force(spec: EpisodeSpec, policy: "Policy") -> "ControllerConfig":
     """The policy's ControllerConfig: the task's (and optimizer's) defaults, then the fields the policy's metadata
     sets, then the --controller.* fields given in `spec.values`, which win."""
+    from judo.core.config_values import apply_values
     from judo.core.controller import ControllerConfig
     from judo.core.policy_controller import policy_config
     from judo.core.registry import make_config
-    from judo.tuning.space import apply_values
 
-    base = policy_config(policy, make_config(ControllerConfig, spec.task, spec.optimizer))  # type: ignore[arg-type]
+    base = policy_config(policy, make_config(ControllerConfig, spec.task, spec.optimizer))
     given = {name: value for name, value in spec.values.items() if name.startswith("controller.")}
-    return apply_values({"controller": base}, given)["controller"]  # type: ignore[return-value]
+    configs: dict[ConfigKind, Config] = {"controller": base}
+    return controller_config_of(apply_values(configs, given))
 
 
 def run_seeded_episode(
@@ -134,7 +138,7 @@ def run_seeded_episode(
         return run_policy_episode(spec, seed, configs, recorders, on_update)
     if spec.optimizer is None:
         raise JudoError(f"an episode of {spec.task!r} needs an optimizer or a policy; the spec names neither")
-    proposals = load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples)  # type: ignore[attr-defined]
+    proposals = load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
     with spec_controller(spec, configs, seed, proposal_policy=proposals) as controller:
         controller.task.config = configs["task"]
         system = observed_plant(controller.task, seed, spec.sensing)
@@ -143,15 +147,17 @@ def run_seeded_episode(
         return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
 
 
-def spec_controller(spec: EpisodeSpec, configs: dict[str, Config], seed: int, **extra: Any) -> Controller:
-    """The Controller of `spec`'s task and optimizer with `configs` in force, seeded by `seed`."""
+def spec_controller(spec: EpisodeSpec, configs: Mapping[ConfigKind, Config], seed: int, **extra: Any) -> Controller:
+    """The Controller of `spec`'s task and optimizer with `configs` (of `configs_in_force`) in force, seeded by
+    `seed`; its callers call it only for a spec that names an optimizer."""
     from judo.core.registry import make_controller
 
+    assert spec.optimizer is not None, "spec_controller runs a spec that names an optimizer"
     return make_controller(
         spec.task,
-        spec.optimizer,  # type: ignore[arg-type]
-        controller_config=configs["controller"],  # type: ignore[arg-type]
-        optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
+        spec.optimizer,
+        controller_config=controller_config_of(configs),
+        optimizer_config=optimizer_config_of(configs),
         num_workers=spec.num_workers,
         seed=seed,
         backend=spec.backend,
@@ -177,7 +183,7 @@ def load_proposal_policy(path: str | None, policy_samples: int) -> Policy | None
 def run_policy_episode(
     spec: EpisodeSpec,
     seed: int,
-    configs: dict[str, Config],
+    configs: dict[ConfigKind, Config],
     recorders: RecorderFactory | None = None,
     on_update: Callable[[float], None] | None = None,
 ) -> EpisodeResult:
@@ -186,10 +192,11 @@ def run_policy_episode(
     candidates from `spec.proposal_policy` where one is given)."""
     from judo.core.policy_controller import as_policy, make_policy_controller
 
-    policy = as_policy(spec.policy)  # type: ignore[arg-type]
+    assert spec.policy is not None, "run_policy_episode runs a spec with a policy"
+    policy = as_policy(spec.policy)
     expert = None
     if spec.optimizer is not None:  # the MPC that labels; with a proposal policy, gpc's augmented controller
-        proposals = load_proposal_policy(spec.proposal_policy, configs["controller"].policy_samples)  # type: ignore[attr-defined]
+        proposals = load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
         expert = spec_controller(spec, configs, seed, proposal_policy=proposals)
     config = policy_config_in_force(spec, policy)
     controller = make_policy_controller(spec.task, policy, controller_config=config, expert=expert, seed=seed)
@@ -198,8 +205,8 @@ def run_policy_episode(
         task.config = configs["task"]
         system = observed_plant(task, seed, spec.sensing)
         _, estimator = choose_estimator(task, spec.task, system, spec.sensing)
-        extra = list(recorders(controller, plant_of(system))) if recorders is not None else []  # type: ignore[arg-type]
-        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)  # type: ignore[arg-type]
+        extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
+        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)  # type: ignore[arg-type]  # a PolicyController stands in for a Controller (duck-typed; ClosedLoop has no Protocol for both)
 
 
 def plant_of(system: MujocoSystem | SensedSystem) -> MujocoSystem:

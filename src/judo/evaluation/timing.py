@@ -108,8 +108,8 @@ def benchmark_controller(
     return make_controller(
         task_name,
         optimizer_name,
-        controller_config=controller_config,  # type: ignore[arg-type]
-        optimizer_config=optimizer_config,  # type: ignore[arg-type]
+        controller_config=controller_config,
+        optimizer_config=optimizer_config,
         num_workers=num_workers,
         seed=seed,
         backend=backend,

@@ -7,8 +7,8 @@ python -m judo distill cartpole.h5 --out cartpole_policy.onnx --rounds 3      # 
 import shlex
 import sys
 
+from judo.cli_shared import fail, output_console, parse_args, progress_console
 from judo.core.errors import JudoError
-from judo.evaluation.cli import fail, output_console, parse_args, progress_console
 from judo.learning.args import DistillArgs
 
 DESCRIPTION = (

@@ -158,7 +158,7 @@ def _read_file(path: Path, file: Any, kind: str, pairs: TrainingPairs | None) ->
     """Add the episodes of the open h5py `file` to `pairs` (a new TrainingPairs when None)."""
     from judo.collection.model_info import config_dict
     from judo.core.controller_config import ControllerConfig
-    from judo.core.registry import lookup_task, make_config
+    from judo.core.registry import make_config, make_task
 
     env_args = _env_args(path, file)
     task_name = env_args["task"]
@@ -167,7 +167,7 @@ def _read_file(path: Path, file: Any, kind: str, pairs: TrainingPairs | None) ->
     demos = sorted(file["data"], key=lambda name: int(name.removeprefix("demo_")))
     if not demos:
         raise DistillError(f"{str(path)!r} holds no episodes; run python -m judo collect into it first")
-    task = lookup_task(task_name)[0]()  # type: ignore[call-arg]
+    task = make_task(task_name)
     controller = {**config_dict(make_config(ControllerConfig, task_name, env_args.get("optimizer")))}
     controller.update(env_args.get("env_kwargs", {}).get("controller", {}))
     time_step = float(env_args.get("plant_timestep", task.sim_model.opt.timestep))

@@ -14,18 +14,7 @@ from typing import Annotated, Any, Literal
 import tyro
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from judo.core.boundary import (
-    MAX_EPISODE,
-    MAX_SAMPLES,
-    MAX_WORKERS,
-    check_count,
-    check_output_folder,
-    check_seed_range,
-)
-from judo.core.config import require, require_between
-from judo.core.errors import JudoError
-from judo.core.registry import lookup_task
-from judo.evaluation.cli import (
+from judo.cli_shared import (
     apply_config_file,
     check_names,
     episode_latency,
@@ -35,6 +24,18 @@ from judo.evaluation.cli import (
     progress_console,
     seeds_label,
 )
+from judo.core.boundary import (
+    MAX_EPISODE,
+    MAX_SAMPLES,
+    MAX_WORKERS,
+    check_count,
+    check_output_folder,
+    check_seed_range,
+)
+from judo.core.config import require, require_between
+from judo.core.config_values import apply_values
+from judo.core.errors import JudoError
+from judo.core.registry import default_configs, make_task
 from judo.evaluation.episode import Latency
 from judo.evaluation.plot import write_episode_plot
 from judo.runtime.sensing_flags import SensingFlags, merge_repeated
@@ -49,7 +50,7 @@ from judo.tuning.conditions import (
     parse_conditions,
 )
 from judo.tuning.objective import Direction, Objective, make_objective
-from judo.tuning.space import Param, apply_values, build_space, default_configs, parse_fixed
+from judo.tuning.space import Param, build_space, parse_fixed
 from judo.tuning.trial import TrialSpec, run_seeded_episodes
 
 DESCRIPTION = (
@@ -220,7 +221,7 @@ def progress_text(objective: Objective, best: float | None) -> str:
 
 def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     """Run the study described by `args`; returns the exit status. `command` is recorded in best.toml."""
-    from judo.tuning import cluster
+    import judo.ray_cluster as cluster
     from judo.tuning import study as studies
 
     studies.import_optuna()  # the `tune` extra, checked before any work
@@ -357,7 +358,7 @@ def write_outputs(
         write_best_toml(out / "best.toml", args.task, args.optimizer, values, header)
         written.append(out / "best.toml")
         (episode,) = run_seeded_episodes(spec, best.params, spec.seed_range()[:1])
-        model = lookup_task(args.task)[0]().sim_model  # type: ignore[call-arg]
+        model = make_task(args.task).sim_model
         title = (
             f"{args.task} x {args.optimizer}, best trial {best.number}, seed {episode.seed}, {spec.conditions[0].label}"
         )

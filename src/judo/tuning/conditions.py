@@ -113,7 +113,7 @@ def check_conditions(task_name: str) -> list[Condition]:
     """The task's check set: its slowest rate (`Task.min_control_freq`, 20 Hz unless the task needs more) and its
     own rate, crossed with latency 0 and its check latency (`Task.check_latency_ms`)."""
     task_cls = lookup_task(task_name)[0]
-    own_rate = make_config(ControllerConfig, task_name).control_freq  # type: ignore[attr-defined]
+    own_rate = make_config(ControllerConfig, task_name).control_freq
     rates = list(dict.fromkeys([float(task_cls.min_control_freq), float(own_rate)]))
     latencies = [0.0, float(task_cls.check_latency_ms)]
     return [Condition(rate, latency) for rate, latency in itertools.product(rates, latencies)]

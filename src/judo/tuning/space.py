@@ -15,7 +15,8 @@ from dataclasses import dataclass, fields
 from typing import Any, Literal
 
 from judo.core.config import MAX_MAGNITUDE, Config, coerce_field_value, field_types
-from judo.core.errors import ConfigError, JudoError
+from judo.core.config_values import SearchSpaceError, controller_config_of, optimizer_config_of, split_name
+from judo.core.errors import ConfigError
 from judo.core.fields import slider_ranges
 from judo.core.registry import CONFIG_KINDS, ConfigKind, default_configs
 from judo.core.spline import MIN_KNOTS
@@ -28,10 +29,6 @@ LOG_SCALE_RATIO = 100.0
 """A range with max / min at least this (two decades) is searched on a log scale."""
 DEFAULT_SPREAD = 3.0
 """The default space searches each field from its value in force / this to its value x this."""
-
-
-class SearchSpaceError(JudoError):
-    """A --params or --fix entry that names no config field, has no range, or cannot be parsed."""
 
 
 @dataclass(frozen=True)
@@ -65,30 +62,6 @@ def numeric_fields(config_cls: type) -> list[str]:
     """The int and float fields of `config_cls`, in declaration order."""
     types = field_types(config_cls)
     return [f.name for f in fields(config_cls) if types[f.name] in (int, float)]
-
-
-def valid_names(configs: dict[Kind, Config]) -> list[str]:
-    """Every `kind.field` a tune can search or fix: numeric and Literal fields of the three configs."""
-    names = []
-    for kind, config in configs.items():
-        types = field_types(type(config))
-        names += [
-            f"{kind}.{name}"
-            for name, hint in types.items()
-            if hint in (int, float, bool) or typing.get_origin(hint) is Literal
-        ]
-    return names
-
-
-def split_name(name: str, configs: dict[Kind, Config]) -> tuple[Kind, str]:
-    """(kind, field) of `kind.field`; SearchSpaceError listing the valid names when there is no such field."""
-    kind, _, field = name.partition(".")
-    if kind in configs and field in field_types(type(configs[kind])):  # type: ignore[index]
-        return kind, field  # type: ignore[return-value]
-    raise SearchSpaceError(
-        f"unknown parameter {name!r}: expected <controller|optimizer|task>.<field>; valid parameters are: "
-        + ", ".join(valid_names(configs))
-    )
 
 
 def make_param(
@@ -206,7 +179,7 @@ def build_space(
     else:
         optimizer_cls = type(configs["optimizer"])
         sliders = slider_ranges(optimizer_cls)
-        ramped = fixed.get("optimizer.use_noise_ramp", configs["optimizer"].use_noise_ramp)  # type: ignore[attr-defined]
+        ramped = fixed.get("optimizer.use_noise_ramp", optimizer_config_of(configs).use_noise_ramp)
         entries = [
             (f"optimizer.{name}", None)
             for name in numeric_fields(optimizer_cls)
@@ -229,20 +202,9 @@ def fit_num_nodes(space: list[Param], configs: dict[Kind, Config], fixed: dict[s
     names = {param.name for param in space}
     if "optimizer.num_nodes" not in names or "controller.spline_order" in names:
         return space
-    order = fixed.get("controller.spline_order", configs["controller"].spline_order)  # type: ignore[attr-defined]
+    order = fixed.get("controller.spline_order", controller_config_of(configs).spline_order)
     needed = MIN_KNOTS[order]
     return [
         Param(p.kind, p.field, max(p.low, needed), p.high, p.log, p.integer) if p.name == "optimizer.num_nodes" else p
         for p in space
     ]
-
-
-def apply_values(configs: dict[Kind, Config], values: dict[str, Any]) -> dict[Kind, Config]:
-    """New configs with `values` ({`kind.field`: value}) applied; ConfigError if they do not fit together."""
-    from judo.core.config import with_updates
-
-    updates: dict[Kind, dict[str, Any]] = {kind: {} for kind in configs}
-    for name, value in values.items():
-        kind, field = split_name(name, configs)
-        updates[kind][field] = value
-    return {kind: with_updates(config, updates[kind]) for kind, config in configs.items()}

@@ -17,9 +17,12 @@ from typing import Any, Literal
 
 import numpy as np
 
+from judo.core.config import Config
 from judo.core.errors import JudoError, import_extra
-from judo.tuning import cluster
+from judo.core.registry import ConfigKind
+from judo.ray_cluster import cancel, wait_any
 from judo.tuning.objective import Objective
+from judo.tuning.on_ray import outcome_of, submit_trial
 from judo.tuning.space import Param
 from judo.tuning.trial import EpisodeOutcome, TrialOutcome, TrialSpec, score_trial
 
@@ -200,16 +203,16 @@ def run_trials(
         while to_start > 0 or running:
             while to_start > 0 and (not running or len(pending) < concurrency):
                 trial = study.ask()
-                refs = cluster.submit_trial(spec, suggest(trial, space))
+                refs = submit_trial(spec, suggest(trial, space))
                 keys = [(c, s) for c in range(len(spec.conditions)) for s in spec.seed_range()]
                 pending.update({ref: (trial.number, c, s) for ref, (c, s) in zip(refs, keys, strict=True)})
                 running[trial.number] = (trial, [])
                 to_start -= 1
-            done, _ = cluster.wait_any(list(pending))
+            done, _ = wait_any(list(pending))
             for ref in done:
                 number, condition, seed = pending.pop(ref)
                 trial, episodes = running[number]
-                episodes.append(cluster.outcome_of(ref, condition, seed))
+                episodes.append(outcome_of(ref, condition, seed))
                 if len(episodes) < per_trial:
                     continue
                 del running[number]
@@ -219,7 +222,7 @@ def run_trials(
                 if on_trial is not None:
                     on_trial(Progress(finished, target, outcome))
     except KeyboardInterrupt:
-        cluster.cancel(list(pending))
+        cancel(list(pending))
         for trial, _ in running.values():
             trial.set_user_attr("failure", "interrupted")
             study.tell(trial, state=optuna.trial.TrialState.FAIL)
@@ -230,7 +233,7 @@ BASELINE_ATTR = "baseline"
 """User attribute set on the trial that ran the pair's current defaults."""
 
 
-def enqueue_defaults(study: Any, space: list[Param], configs: dict[str, Any]) -> None:
+def enqueue_defaults(study: Any, space: list[Param], configs: dict[ConfigKind, Config]) -> None:
     """Queue the current defaults (the configs' values of the searched fields) as the next trial.
 
     Called for a new study, so that its trial 0 measures the settings a tune starts from: the report

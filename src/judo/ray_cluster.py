@@ -1,9 +1,11 @@
-"""Ray for tune and collect: start a local Ray, or join a running cluster, and submit trials as Ray tasks.
+"""Ray for evaluate, tune and collect: start a local Ray, or join a running cluster, and run functions as Ray tasks.
 
 Ray runs offline: no usage statistics and no dashboard. `address` None starts a local Ray with
 `workers` CPUs, listening on 127.0.0.1 only (as the GUI does); "auto" joins the cluster started on this machine with `ray start --head`;
-"HOST:PORT" or "ray://HOST:PORT" joins a remote one. Every episode of a trial (a condition x a seed)
-is a task needing one CPU, so a cluster runs as many episodes at once as it has CPUs.
+"HOST:PORT" or "ray://HOST:PORT" joins a remote one. Every episode (of a trial, a collect run, an
+evaluate --workers run) is a task needing one CPU, so a cluster runs as many episodes at once as it has CPUs.
+This module knows no command: each command's own module (evaluation/on_ray.py, tuning/on_ray.py,
+collection/run.py) submits its episodes through it.
 """
 
 import os
@@ -13,11 +15,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from judo.core.errors import JudoError, import_extra
 from judo.core.interrupts import sigint_as_flag
-from judo.tuning.trial import EpisodeOutcome, TrialSpec, run_condition_seed
 
 CONNECT_TIMEOUT_S = 5.0
 """How long to try reaching a cluster's address before giving up."""
@@ -83,25 +82,25 @@ def _on_loopback(local: bool) -> Iterator[None]:
     workers listen there only. Ray turns a node address of 127.0.0.1 into the machine's network address unless
     its cluster support is off (`ray_constants.ENABLE_RAY_CLUSTER`, as Ray has it on macOS and Windows); it is off
     for the start alone and restored after, so a later `--address` joins a cluster as before."""
-    constants = None
+    constants: Any = None  # ray's private constants module (no stubs), or None when not starting a local Ray
     if local:
-        from ray._private import ray_constants as constants  # no public switch: see tests/tuning/test_local_ray.py
+        from ray._private import ray_constants  # no public switch: see tests/tuning/test_local_ray.py
+
+        constants = ray_constants
     saved = getattr(constants, "ENABLE_RAY_CLUSTER", None)
     if saved is not None:
-        constants.ENABLE_RAY_CLUSTER = False  # type: ignore[union-attr]
+        constants.ENABLE_RAY_CLUSTER = False
     try:
         yield
     finally:
         if saved is not None:
-            constants.ENABLE_RAY_CLUSTER = saved  # type: ignore[union-attr]
+            constants.ENABLE_RAY_CLUSTER = saved
 
 
 def local_runtime_env() -> dict[str, Any]:
     """Ray's runtime_env for a local Ray: its workers import judo from where this process does (a source
     checkout included), ahead of whatever PYTHONPATH already holds."""
-    import judo
-
-    source = str(Path(judo.__file__).resolve().parent.parent)
+    source = str(Path(__file__).resolve().parent.parent)  # the folder that holds the judo package
     inherited = os.environ.get("PYTHONPATH", "")
     return {"env_vars": {"PYTHONPATH": os.pathsep.join(filter(None, [source, inherited]))}}
 
@@ -109,18 +108,6 @@ def local_runtime_env() -> dict[str, Any]:
 def cluster_cpus() -> int:
     """CPUs of the Ray this process is connected to: how many trials can run at once."""
     return max(1, int(import_ray().cluster_resources().get("CPU", 1)))
-
-
-def submit_trial(spec: TrialSpec, values: dict[str, Any]) -> list[Any]:
-    """Start each episode of a trial, `run_condition_seed(spec, values, condition, seed)` for every condition
-    and seed, as a Ray task needing one CPU; returns their ObjectRefs."""
-    ray = import_ray()
-    remote = ray.remote(num_cpus=1, max_retries=0)(run_condition_seed)
-    return [
-        remote.remote(spec, values, condition, seed)
-        for condition in range(len(spec.conditions))
-        for seed in spec.seed_range()
-    ]
 
 
 def submit(function: Any, *args: Any) -> Any:
@@ -144,16 +131,6 @@ def wait_any(refs: list[Any]) -> tuple[list[Any], list[Any]]:
             raise KeyboardInterrupt
         if done:
             return done, running
-
-
-def outcome_of(ref: Any, condition: int, seed: int) -> EpisodeOutcome:
-    """The EpisodeOutcome of a finished ref (episode `seed` of condition number `condition`); a failed one
-    when the Ray task itself died (e.g. a worker crash)."""
-    ray = import_ray()
-    try:
-        return ray.get(ref)
-    except Exception as err:  # noqa: BLE001  (RayTaskError, WorkerCrashedError, ...)
-        return EpisodeOutcome(condition, seed, {}, np.zeros(0), f"Ray task failed: {type(err).__name__}: {err}")
 
 
 def cancel(refs: list[Any]) -> None:

@@ -1,0 +1,154 @@
+"""What the commands' command lines share (benchmark, evaluate, tune, collect, replay, distill): parsing with
+tyro, the `--optimizer-config.FIELD` and `--task-config.FIELD` groups, the --config file, name checks and
+listings, the latency flags, consoles, and failing cleanly.
+
+It sits below the command packages (evaluation, collection, tuning, learning) and above the runtime, whose
+`sensing_flags.py` holds the sensing flags that the app's command line shares with them.
+"""
+
+import dataclasses
+import sys
+import typing
+from pathlib import Path
+from typing import Annotated, Any, Literal, NoReturn, TypeVar
+
+import numpy as np
+import tyro
+from rich.console import Console
+
+from judo.core.config import field_types
+from judo.core.errors import JudoError
+from judo.core.field_docs import field_docs
+from judo.core.optimizer import OptimizerConfig
+from judo.core.registry import (
+    get_registered_optimizers,
+    get_registered_tasks,
+    lookup_optimizer,
+    lookup_task,
+)
+from judo.runtime.closed_loop import Latency
+from judo.runtime.sensing_flags import merge_repeated
+
+ArgsT = TypeVar("ArgsT")
+
+
+def fail(message: str) -> NoReturn:
+    """Print `error: message` to stderr and exit with status 2, without a traceback."""
+    print(f"error: {message}", file=sys.stderr)
+    raise SystemExit(2)
+
+
+def parse_args(args_cls: type[ArgsT], argv: list[str] | None, prog: str, description: str) -> ArgsT:
+    """Parse `argv` (sys.argv[1:] when None) into `args_cls` with tyro; --help comes from its field docstrings."""
+    return tyro.cli(args_cls, args=argv, prog=prog, description=description)
+
+
+def option_value(argv: list[str], name: str) -> str | None:
+    """The value given to `--name` in `argv` ("--name VALUE" or "--name=VALUE"; the last one counts), or None."""
+    value = None
+    for index, arg in enumerate(argv):
+        if arg == f"--{name}" and index + 1 < len(argv):
+            value = argv[index + 1]
+        elif arg.startswith(f"--{name}="):
+            value = arg.split("=", 1)[1]
+    return value
+
+
+def parse_args_with_config_fields(args_cls: type[ArgsT], argv: list[str] | None, prog: str, description: str) -> ArgsT:
+    """`parse_args` with two more option groups built for the named pair: `--optimizer-config.FIELD` (every
+    field of the --optimizer's config) and `--task-config.FIELD` (every field of the --task's config).
+
+    --config, --task and --optimizer are read from `argv` first (the --config file is loaded, so that its
+    tasks and optimizers count); without them, or with an unknown name, the groups are empty and the
+    later name check says what is valid.
+    """
+    from judo.core.task import TaskConfig
+
+    argv = merge_repeated(list(sys.argv[1:] if argv is None else argv))
+    try:
+        apply_config_file(None if (path := option_value(argv, "config")) is None else Path(path))
+    except JudoError as err:
+        fail(str(err))
+    task, optimizer = option_value(argv, "task"), option_value(argv, "optimizer")
+    task_cls = lookup_task(task)[1] if task in get_registered_tasks() else TaskConfig
+    optimizer_cls = lookup_optimizer(optimizer)[1] if optimizer in get_registered_optimizers() else OptimizerConfig
+    groups = {
+        "optimizer_config": (optimizer_cls, "OptimizerOverrides", "optimizer"),
+        "task_config": (task_cls, "TaskOverrides", "task"),
+    }
+    specs = []
+    for name, (config_cls, group_name, kind) in groups.items():
+        group = optional_fields(config_cls, group_name)
+        option = tyro.conf.arg(help=f"Fields of the {kind}'s config ({config_cls.__name__}) to change.")
+        specs.append((name, Annotated[group, option], dataclasses.field(default_factory=group)))
+    extended = dataclasses.make_dataclass(args_cls.__name__, specs, bases=(args_cls,))
+    extended.__doc__ = args_cls.__doc__
+    return parse_args(extended, argv, prog, description)
+
+
+def apply_config_file(path: Path | None) -> None:
+    """Read the `--config` TOML file when one is given (registering its classes and applying its overrides),
+    the same way the app does; ConfigFileError names the file and the entry that is wrong."""
+    if path is not None:
+        from judo.core.config_file import load_config
+
+        load_config(path)
+
+
+def check_names(tasks: tuple[str, ...] | list[str], optimizers: tuple[str, ...] | list[str]) -> None:
+    """Raise UnknownNameError (listing the valid names) for a task or optimizer that is not registered."""
+    for name in tasks:
+        lookup_task(name)
+    for name in optimizers:
+        lookup_optimizer(name)
+
+
+def name_listing() -> str:
+    """One line naming the registered tasks and optimizers, for --help."""
+    return f"Tasks: {', '.join(get_registered_tasks())}. Optimizers: {', '.join(get_registered_optimizers())}."
+
+
+def output_console() -> Console:
+    """Console for the results on stdout, 120 columns wide when stdout is not a terminal."""
+    return Console(width=None if sys.stdout.isatty() else 120)
+
+
+def progress_console() -> Console:
+    """Console for progress bars on stderr, so stdout holds only the results."""
+    return Console(stderr=True)
+
+
+def optional_fields(config_cls: type, name: str) -> type:
+    """A dataclass called `name` with every field of `config_cls` as `T | None = None` and the same --help
+    text, so that a command line can tell the fields a user gave from those left to the task's defaults."""
+    docs, types = field_docs(config_cls), field_types(config_cls)
+
+    def option(name: str) -> Any:
+        kind = tuple[float, ...] if types[name] is np.ndarray else types[name]  # an array field takes numbers
+        choices = typing.get_args(kind) if typing.get_origin(kind) is Literal else ()
+        metavar = "{" + ",".join(map(str, choices)) + "}" if choices else getattr(kind, "__name__", "VALUE").upper()
+        metavar = "NUMBER ..." if types[name] is np.ndarray else metavar
+        text = " ".join(docs.get(name, "").split())
+        return Annotated[
+            kind | None, tyro.conf.arg(help=text, metavar=metavar, help_behavior_hint="(default: the task's)")
+        ]
+
+    specs = [(f.name, option(f.name), dataclasses.field(default=None)) for f in dataclasses.fields(config_cls)]
+    overrides = dataclasses.make_dataclass(name, specs, namespace={"config_cls": config_cls})
+    overrides.__doc__ = f"Fields of {config_cls.__name__} to change from the task's defaults."
+    return overrides
+
+
+def episode_latency(latency: str, latency_ms: float | None) -> Latency:
+    """The latency `run_episode` takes for `--latency none|measured` and `--latency-ms MS`: seconds of sim
+    time, or "measured"."""
+    if latency_ms is not None:
+        return latency_ms / 1e3
+    return "measured" if latency == "measured" else 0.0
+
+
+def seeds_label(first: int, count: int) -> str:
+    """How a run's seeds read in titles: "5 seeds" for seeds 0 to 4 (the default), "2 seeds (3-4)" otherwise."""
+    if first == 0:
+        return f"{count} seeds"
+    return f"{count} seeds ({first}-{first + count - 1})" if count > 1 else f"1 seed ({first})"
