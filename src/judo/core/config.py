@@ -5,7 +5,7 @@ import functools
 import math
 import typing
 from dataclasses import dataclass, fields
-from typing import Any, Literal
+from typing import Any, Literal, TypeVar
 
 import numpy as np
 
@@ -48,6 +48,10 @@ class Config:
                 require(math.isfinite(value), f"{where} must be a finite number, got {value}")
             if isinstance(value, np.ndarray) and value.dtype.kind in "fc":
                 require(bool(np.isfinite(value).all()), f"{where} must hold finite numbers, got {shown(value)}")
+
+
+ConfigT = TypeVar("ConfigT", bound=Config)
+"""A config class, kept by the helpers that copy or build one (`with_updates`, `snapshot`, `make_config`)."""
 
 
 def check_magnitudes(config: Config) -> None:
@@ -151,7 +155,7 @@ def coerce_field_value(config: Config, name: str, value: Any) -> Any:
     return value
 
 
-def with_updates(config: Config, updates: dict[str, Any]) -> Config:
+def with_updates(config: ConfigT, updates: dict[str, Any]) -> ConfigT:
     """A validated copy of `config` with `updates` applied; `config` itself is never changed.
 
     Raises UnknownNameError for a field that does not exist and ConfigError for a bad value, so a
@@ -167,7 +171,7 @@ def with_updates(config: Config, updates: dict[str, Any]) -> Config:
     return updated
 
 
-def snapshot(config: Config) -> Config:
+def snapshot(config: ConfigT) -> ConfigT:
     """A copy of `config` that later edits of the original cannot reach (arrays are copied too)."""
     copied = copy.copy(config)
     for name, value in vars(copied).items():

@@ -4,14 +4,14 @@ from typing import Any, Literal
 
 import numpy as np
 
-from judo.core.config import Config, check_seed, coerce_field_value, with_updates
+from judo.core.config import Config, ConfigT, check_seed, coerce_field_value, with_updates
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.estimator import Estimator, EstimatorConfig
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.policy import Policy
 from judo.core.proposals import check_policy_fits
-from judo.core.task import Task, TaskConfig
+from judo.core.task import Task, TaskConfig, new_task
 
 ConfigKind = Literal["controller", "optimizer", "task"]
 """The three configs of a running pair: the controller's, the optimizer's and the task's."""
@@ -69,7 +69,7 @@ def make_estimator(
     (with `task_name`'s overrides, e.g. an [ekf] table in the task's TOML)."""
     estimator_cls, config_cls = lookup_estimator(name)
     if config is None:
-        config = make_config(config_cls, task_name) if task_name else config_cls()  # type: ignore[assignment]
+        config = make_config(config_cls, task_name) if task_name else config_cls()
     return estimator_cls(task, config)
 
 
@@ -116,7 +116,7 @@ def set_config_overrides(
     _OVERRIDES[key] = checked
 
 
-def make_config(config_cls: type[Config], task_name: str, optimizer_name: str | None = None) -> Config:
+def make_config(config_cls: type[ConfigT], task_name: str, optimizer_name: str | None = None) -> ConfigT:
     """A new `config_cls` with the overrides registered for `task_name`, base classes' first, then (given
     `optimizer_name`) those registered for that optimizer alone, base classes' first."""
     updates: dict[str, Any] = {}
@@ -159,14 +159,14 @@ def make_controller(
     check_seed(seed)
     task_cls, task_config_cls = lookup_task(task_name)
     optimizer_cls, optimizer_config_cls = lookup_optimizer(optimizer_name)
-    task = task_cls()
+    task = new_task(task_cls)
     task.config = make_config(task_config_cls, task_name)
-    controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)  # type: ignore[assignment]
-    optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)  # type: ignore[assignment]
+    controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)
+    optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)
     optimizer = optimizer_cls(optimizer_config, task.command_size)
     if proposal_policy is not None:
         check_policy_fits(task, proposal_policy, task_name)  # names the task, which the Controller cannot
     if seed is not None:
         optimizer.rng = np.random.default_rng(seed)
         task.rng = np.random.default_rng(seed + 1)
-    return Controller(controller_config, task, optimizer, num_workers, backend, proposal_policy)  # type: ignore[arg-type]
+    return Controller(controller_config, task, optimizer, num_workers, backend, proposal_policy)
