@@ -13,8 +13,8 @@ back a module that imports it.
 
 import abc
 import importlib
-from collections.abc import Sequence
-from typing import Literal, TypeVar, get_args
+from collections.abc import Callable, Sequence
+from typing import Literal, TypeVar, cast, get_args
 
 import mujoco
 import numpy as np
@@ -132,7 +132,9 @@ def make_rollout_backend(name: str, model: mujoco.MjModel, num_workers: int | No
     MissingExtraError when "warp" is asked for without the judo[warp] extra, and WarpUnsupportedModelError
     for a model MuJoCo Warp cannot run.
     """
-    cls = backend_class(name)
+    # The constructors take different arguments (only the CPU pool's takes num_workers), which RolloutBackend,
+    # declaring none, cannot describe: the class is called as a plain callable (a widening cast).
+    cls = cast(Callable[..., RolloutBackend], backend_class(name))
     if name == "cpu":
-        return cls(model, num_workers)  # type: ignore[call-arg]
-    return cls(model)  # type: ignore[call-arg]
+        return cls(model, num_workers)
+    return cls(model)

@@ -51,7 +51,7 @@ class Config:
 
 
 ConfigT = TypeVar("ConfigT", bound=Config)
-"""A Config subclass, kept through the functions that copy or update a config."""
+"""A config class, kept by the helpers that copy or build one (`with_updates`, `snapshot`, `make_config`)."""
 
 
 def check_magnitudes(config: Config) -> None:

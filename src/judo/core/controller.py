@@ -8,7 +8,8 @@ import inspect
 import math
 import threading
 import warnings
-from typing import Any
+from collections.abc import Callable
+from typing import Any, cast
 
 import mujoco
 import numpy as np
@@ -85,6 +86,12 @@ def warm_start_takes_state(task: Task) -> bool:
         stacklevel=3,
     )
     return False
+
+
+def legacy_warm_start(task: Task) -> Any:
+    """`task.optimizer_warm_start()` in the deprecated form without the state, for a task whose override takes
+    none (`warm_start_takes_state` False); Task declares the current form, hence the cast."""
+    return cast(Callable[[], Any], task.optimizer_warm_start)()
 
 
 class Controller:
@@ -356,7 +363,7 @@ class Controller:
 
     def _warm_start(self, state: np.ndarray | None) -> np.ndarray:
         if not self._warm_start_takes_state:
-            return np.asarray(self.task.optimizer_warm_start(), dtype=float)  # type: ignore[call-arg]
+            return np.asarray(legacy_warm_start(self.task), dtype=float)
         if state is None:
             model = self.task.model
             qpos = model.key_qpos[0] if model.nkey else model.qpos0

@@ -14,7 +14,7 @@ System that holds its readings between samples is fine.
 from abc import ABC, abstractmethod
 from collections import deque
 from dataclasses import dataclass
-from typing import Any, ClassVar, Generic, TypeVar
+from typing import Any, ClassVar, Generic, TypeVar, cast
 
 import numpy as np
 
@@ -96,7 +96,8 @@ class Estimator(ABC, Generic[ConfigT]):
 
     def __init__(self, task: Task, config: ConfigT | None = None) -> None:
         self.task = task
-        self.config: ConfigT = config if config is not None else self.config_cls()  # type: ignore[assignment]
+        # config_cls is the class named in Estimator[ConfigT]; a ClassVar cannot say so.
+        self.config: ConfigT = config if config is not None else cast(ConfigT, self.config_cls())
 
     @abstractmethod
     def reset(self, reading: SystemState) -> None:

@@ -11,7 +11,7 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-T = TypeVar("T")
+ClassT = TypeVar("ClassT", bound=type)
 
 SLIDER_ATTR = "__judo_sliders__"
 
@@ -54,7 +54,7 @@ class ArrayFieldSpec:
 
 def slider(
     field_name: str, min: float, max: float, step: float | None = None, log: bool | None = None
-) -> Callable[[T], T]:
+) -> Callable[[ClassT], ClassT]:
     """Class decorator that gives the numeric field `field_name` a slider from `min` to `max`.
 
     Stack it above `@dataclass`, once per field (below it works too). `log` puts a float field's slider
@@ -69,13 +69,13 @@ def slider(
     if step is not None and step <= 0:
         raise ConfigError(f"slider for {field_name!r}: step must be positive, got {step}")
 
-    def decorate(cls: T) -> T:
-        names = field_names(cls)  # type: ignore[arg-type]
+    def decorate(cls: ClassT) -> ClassT:
+        names = field_names(cls)
         if field_name not in names:
             close = difflib.get_close_matches(field_name, names, n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise ConfigError(
-                f"@slider({field_name!r}, ...) on {cls.__name__}: {cls.__name__} has no field {field_name!r}{hint}; "  # type: ignore[attr-defined]
+                f"@slider({field_name!r}, ...) on {cls.__name__}: {cls.__name__} has no field {field_name!r}{hint}; "
                 f"expected one of its fields: {', '.join(names) or '(none)'}"
             )
         inherited = dict(getattr(cls, SLIDER_ATTR, {}))
@@ -142,7 +142,7 @@ def np_1d_field(
 
 def array_field_spec(config_cls: type, field_name: str) -> ArrayFieldSpec | None:
     """The np_1d_field metadata of `field_name` on `config_cls`, or None if it has none."""
-    for f in fields(config_cls):  # type: ignore[arg-type]
+    for f in fields(config_cls):
         if f.name == field_name:
             return f.metadata.get("judo_array")
     return None

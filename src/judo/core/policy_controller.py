@@ -27,13 +27,19 @@ import mujoco
 import numpy as np
 
 from judo.core.config import check_seed, with_updates
-from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewardError, warm_start_takes_state
+from judo.core.controller import (
+    Controller,
+    NonFiniteKnotsError,
+    NonFiniteRewardError,
+    legacy_warm_start,
+    warm_start_takes_state,
+)
 from judo.core.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.model import set_mocap_poses
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
-from judo.core.task import Task
+from judo.core.task import Task, new_task
 
 POLICY_CONFIG_FIELDS = ("control_freq", "horizon", "spline_order")
 """ControllerConfig fields a policy's metadata may set (as strings): the rate it was trained to act at, and for a
@@ -222,7 +228,7 @@ class PolicyController:
         first plan (the planning model's start state stands in without a state)."""
         task = self.task
         if not self._warm_start_takes_state:
-            return np.clip(np.asarray(task.optimizer_warm_start(), float), self._ctrl_low, self._ctrl_high)  # type: ignore[call-arg]
+            return np.clip(np.asarray(legacy_warm_start(task), float), self._ctrl_low, self._ctrl_high)
         if state is None:
             model = task.model
             state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])
@@ -279,13 +285,13 @@ def make_policy_controller(
         else:
             check_seed(seed)
             task_cls, task_config_cls = lookup_task(task_name)
-            task = task_cls()  # type: ignore[call-arg]
+            task = new_task(task_cls)
             task.config = make_config(task_config_cls, task_name)
             if seed is not None:
                 task.rng = np.random.default_rng(seed + 1)
         if controller_config is None:
             base = expert.config if expert is not None else make_config(ControllerConfig, task_name)
-            controller_config = policy_config(loaded, base)  # type: ignore[arg-type]
+            controller_config = policy_config(loaded, base)
         return PolicyController(task, loaded, controller_config, task_name=task_name, expert=expert)
     except BaseException:
         if expert is not None:

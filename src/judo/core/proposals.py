@@ -210,6 +210,7 @@ class Proposer:
     ) -> np.ndarray:
         """(count, T + 1, nu) the action policy's actions along `count` closed-loop rollouts of T steps on the
         planning model, clamped to the ctrlrange as the plant would get them, and its action at the end."""
+        assert self._runner is not None  # made with self._data by _candidates, the only caller
         model, nu = self.task.model, self.task.nu
         low, high = self.task.actuator_ctrlrange.T
         actions = np.zeros((count, num_steps + 1, nu))
@@ -225,7 +226,7 @@ class Proposer:
             if step == num_steps:
                 break
             inputs[:, 0, :nu] = actions[:, step]
-            self._runner.rollout(  # type: ignore[union-attr]
+            self._runner.rollout(
                 models, [self._data], current, inputs, control_spec=spec, skip_checks=True,
                 nstep=1, state=state_out, sensordata=sensor_out,
             )  # fmt: skip

@@ -12,7 +12,7 @@ from judo.core.estimator import Estimator, EstimatorConfig
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.policy import Policy
 from judo.core.proposals import check_policy_fits
-from judo.core.task import Task, TaskConfig
+from judo.core.task import Task, TaskConfig, new_task
 
 ConfigKind = Literal["controller", "optimizer", "task"]
 """The three configs of a running pair: the controller's, the optimizer's and the task's."""
@@ -166,7 +166,7 @@ def make_controller(
     check_seed(seed)
     task_cls, task_config_cls = lookup_task(task_name)
     optimizer_cls, optimizer_config_cls = lookup_optimizer(optimizer_name)
-    task = task_cls()
+    task = new_task(task_cls)
     task.config = make_config(task_config_cls, task_name)
     controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)
     optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)
@@ -176,4 +176,4 @@ def make_controller(
     if seed is not None:
         optimizer.rng = np.random.default_rng(seed)
         task.rng = np.random.default_rng(seed + 1)
-    return Controller(controller_config, task, optimizer, num_workers, backend, proposal_policy)  # type: ignore[arg-type]
+    return Controller(controller_config, task, optimizer, num_workers, backend, proposal_policy)

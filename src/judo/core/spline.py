@@ -127,7 +127,7 @@ class Spline:
     def __call__(self, times: float | np.ndarray) -> np.ndarray:
         """(nu,) for a scalar time, (num_times, nu) for an array of times, within [low, high]."""
         if np.ndim(times) == 0:
-            values = self.basis.weights_at(float(times) - self.start_time) @ self.knots  # type: ignore[arg-type]
+            values = self.basis.weights_at(float(times) - self.start_time) @ self.knots
         else:
             values = self.basis.weights(np.asarray(times) - self.start_time) @ self.knots
         if self._bounded:

@@ -2,9 +2,10 @@
 
 import typing
 from abc import ABC, abstractmethod
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar, Generic, TypeVar
+from typing import Any, ClassVar, Generic, TypeVar, cast
 
 import mujoco
 import numpy as np
@@ -94,8 +95,10 @@ class Task(ABC, Generic[ConfigT]):
 
     def __init__(self, model_path: str | Path, sim_model_path: str | Path | None = None) -> None:
         self.model = load_model(model_path)
-        same = sim_model_path is None or Path(sim_model_path).resolve() == Path(model_path).resolve()
-        self.sim_model = self.model if same else load_model(sim_model_path)  # type: ignore[arg-type]
+        if sim_model_path is None or Path(sim_model_path).resolve() == Path(model_path).resolve():
+            self.sim_model = self.model
+        else:
+            self.sim_model = load_model(sim_model_path)
         for size in ("nq", "nv", "nu", "nmocap"):
             if getattr(self.sim_model, size) != getattr(self.model, size):
                 raise ModelLoadError(
@@ -112,7 +115,8 @@ class Task(ABC, Generic[ConfigT]):
         )
         """Where `measured_sensors` lie in the plant model's sensordata."""
         self.data = mujoco.MjData(self.sim_model)
-        self.config: ConfigT = self.config_cls()  # type: ignore[assignment]
+        # config_cls is the class named in Task[ConfigT] (see __init_subclass__); a ClassVar cannot say so.
+        self.config: ConfigT = cast(ConfigT, self.config_cls())
         self.rng = np.random.default_rng()
 
     @abstractmethod
@@ -324,3 +328,12 @@ class Task(ABC, Generic[ConfigT]):
         if index < 0:
             raise UnknownNameError(kind, name, [n for n in names(self.model, obj_type, count) if n])
         return index
+
+
+TaskT = TypeVar("TaskT", bound=Task)
+
+
+def new_task(task_cls: type[TaskT]) -> TaskT:
+    """A new `task_cls()`. A registered task class builds its own models and so takes no arguments (what
+    `register_task` asks of it), while the Task base it is typed by takes the model paths: hence the cast."""
+    return cast(Callable[[], TaskT], task_cls)()

@@ -17,6 +17,7 @@ Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `ma
 import os
 import time
 import warnings
+from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -30,6 +31,17 @@ wp = import_extra("warp", FEATURE, "warp")
 mjw = import_extra("mujoco_warp", FEATURE, "warp")
 
 wp.config.log_level = wp.LOG_WARNING  # no line per compiled kernel module
+
+if TYPE_CHECKING:  # warp's array types are call expressions, which a type checker cannot read as annotations
+    Float32Array = Any
+    Float32Array2D = Any
+    Float64Array = Any
+    Float64Array3D = Any
+else:  # the kernel argument types warp compiles the kernels below for
+    Float32Array = wp.array(dtype=wp.float32)
+    Float32Array2D = wp.array2d(dtype=wp.float32)
+    Float64Array = wp.array(dtype=wp.float64)
+    Float64Array3D = wp.array3d(dtype=wp.float64)
 
 EXTRA_SPEC = STATE_SPEC & ~(
     mujoco.mjtState.mjSTATE_TIME
@@ -74,7 +86,7 @@ class RolloutOverflowWarning(UserWarning):
 
 
 @wp.kernel
-def _broadcast_initial(initial: wp.array(dtype=wp.float64), out: wp.array2d(dtype=wp.float32)):  # type: ignore[valid-type]
+def _broadcast_initial(initial: Float64Array, out: Float32Array2D):
     """out[world, i] = initial[i]: every world starts from the same (ninitial,) state. Launch dim (N, ninitial)."""
     world, i = wp.tid()
     out[world, i] = wp.float32(initial[i])
@@ -82,9 +94,9 @@ def _broadcast_initial(initial: wp.array(dtype=wp.float64), out: wp.array2d(dtyp
 
 @wp.kernel
 def _load_controls(
-    controls: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
+    controls: Float64Array3D,
     step: int,
-    ctrl: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    ctrl: Float32Array2D,
 ):
     """ctrl[world, j] = controls[world, step, j], the (N, nu) controls of one step. Launch dim (N, nu)."""
     world, j = wp.tid()
@@ -93,15 +105,15 @@ def _load_controls(
 
 @wp.kernel
 def _record_step(
-    time: wp.array(dtype=wp.float32),  # type: ignore[valid-type]
-    qpos: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
-    qvel: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
-    act: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
-    extra: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
-    sensordata: wp.array2d(dtype=wp.float32),  # type: ignore[valid-type]
+    time: Float32Array,
+    qpos: Float32Array2D,
+    qvel: Float32Array2D,
+    act: Float32Array2D,
+    extra: Float32Array2D,
+    sensordata: Float32Array2D,
     step: int,
-    states: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
-    sensors: wp.array3d(dtype=wp.float64),  # type: ignore[valid-type]
+    states: Float64Array3D,
+    sensors: Float64Array3D,
 ):
     """states[:, step] = [time, qpos, qvel, act, extra] (N, nstate), the full-physics state in mj_getState's
     order, and sensors[:, step] = sensordata (N, nsensordata), as float64. Launch dim (N, nstate + nsensordata)."""
@@ -286,7 +298,8 @@ class WarpRollout(RolloutBackend):
         """The T-step rollout on the device: reset overflow flags, start every world from the initial
         vector, then per step load the controls, step, and record state and sensors."""
         m, d = self._device_model, self._data
-        num_rollouts, num_steps = self._shape  # type: ignore[misc]
+        assert self._shape is not None  # set with self._data by _allocate
+        num_rollouts, num_steps = self._shape
         d.overflow.zero_()
         wp.launch(_broadcast_initial, dim=(num_rollouts, self.ninitial), inputs=[self._initial, self._start])
         mjw.set_state(m, d, self._start, int(INITIAL_SPEC))
@@ -319,13 +332,14 @@ class WarpRollout(RolloutBackend):
         if overflow & CONSTRAINT_OVERFLOWS:
             self.njmax = max(1, 2 * self.njmax)
         names = [flag.name for flag in mjw.OverflowType if flag & DROPPED and flag & overflow and flag.name]
+        assert self._shape is not None  # _grow follows a rollout of the allocated batch
         warnings.warn(
-            f"MuJoCo Warp rollouts overflowed ({', '.join(names)}) in {worlds} of {self._shape[0]} worlds; "  # type: ignore[index]
+            f"MuJoCo Warp rollouts overflowed ({', '.join(names)}) in {worlds} of {self._shape[0]} worlds; "
             f"contacts per world {old[0]} -> {self.nconmax}, constraint rows {old[1]} -> {self.njmax}; rolled out again",
             RolloutOverflowWarning,
             stacklevel=3,
         )
-        self._allocate(*self._shape)  # type: ignore[misc]
+        self._allocate(*self._shape)
 
     def _allocate(self, num_rollouts: int, num_steps: int) -> None:
         """Device data for N worlds, device inputs and outputs, and their host mirrors (pinned on CUDA)."""

@@ -208,7 +208,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         self._set_state(x, time, self._controls.at(time + 0.5 * self.dt))
         mujoco.mj_step(self.model, self.data)
         prior = np.concatenate([self.data.qpos, self.data.qvel, self.data.act])
-        A = node.jacobians[0]  # type: ignore[index]  (set by _posterior)
+        assert node.jacobians is not None  # set by _posterior
+        A = node.jacobians[0]
         self._set_prior(index + 1, prior, self._capped(A @ cov @ A.T + self._process_noise()), arriving)
 
     def _set_prior(self, index: int, prior: np.ndarray, prior_cov: np.ndarray, arriving: dict[int, np.ndarray]) -> None:
@@ -232,7 +233,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
             node.jacobians = self._jacobians_for(node)
         if node.posterior is None:
             self._correct(node, iterations=1)
-        return node.posterior  # type: ignore[return-value]
+        assert node.posterior is not None  # set by _correct
+        return node.posterior
 
     def _correct(self, node: _Node, iterations: int) -> None:
         """Fuse the node's measurements into its prior (Joseph form); `iterations` > 1 relinearizes (IEKF)."""

@@ -2,6 +2,8 @@
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, estimate_of
 from judo.core.reading import SystemState
 
@@ -21,10 +23,11 @@ class StateEstimator(Estimator[StateEstimatorConfig]):
 
     def update(self, reading: SystemState, time: float, controls: ControlHistory) -> SystemState:
         """`reading` itself (state copied), at the time it was taken; `time` and `controls` are not used."""
-        self._check(reading)
-        return estimate_of(reading, reading.state.copy(), reading.time)  # type: ignore[union-attr]
+        state = self._check(reading)
+        return estimate_of(reading, state.copy(), reading.time)
 
-    def _check(self, reading: SystemState) -> None:
+    def _check(self, reading: SystemState) -> np.ndarray:
+        """`reading.state`, or a ReadingError when it is missing or the wrong size."""
         model = self.task.model
         size = model.nq + model.nv
         if reading.state is None:
@@ -35,3 +38,4 @@ class StateEstimator(Estimator[StateEstimatorConfig]):
             )
         if reading.state.shape != (size,):
             raise ReadingError(f"SystemState.state must have shape ({size},), got {reading.state.shape}")
+        return reading.state

@@ -39,11 +39,12 @@ class UKFConfig(KalmanConfig):
 class UnscentedKalmanFilter(ExtendedKalmanFilter):
     """UKF over [qpos, qvel, act] with a (2 nv + na)-square tangent-space covariance (see the module docstring)."""
 
-    config_cls = UKFConfig  # type: ignore[assignment]
+    config_cls = UKFConfig
+    config: UKFConfig  # the config Estimator.__init__ stores (see __init__)
     name = "ukf"
 
     def __init__(self, task: Task, config: UKFConfig | None = None) -> None:
-        super().__init__(task, config)  # type: ignore[arg-type]
+        super().__init__(task, config)  # type: ignore[arg-type]  # not an EKFConfig: _jacobians_for, which reads relinearize_every, is overridden
 
     def _jacobians_for(self, node: _Node) -> tuple[np.ndarray, np.ndarray]:
         """Fresh Jacobians: only the first reading's iterated update uses them (no reuse to configure)."""
@@ -57,7 +58,8 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
                 self._correct(node, iterations=RESET_ITERATIONS)
             else:
                 self._sigma_correct(node)
-        return node.posterior  # type: ignore[return-value]
+        assert node.posterior is not None  # set by _correct / _sigma_correct
+        return node.posterior
 
     def _sigma_points(self, x: np.ndarray, cov: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
         """The 2n states x + offset_i and the (2n, n) tangent offsets, +-spread sqrt(n) times L's columns."""
@@ -68,7 +70,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         except np.linalg.LinAlgError:  # rounding made it semi-definite: clip the eigenvalues
             values, vectors = np.linalg.eigh(symmetric)
             root = vectors * np.sqrt(np.maximum(values, 1e-12))
-        scale = self.config.spread * np.sqrt(n)  # type: ignore[attr-defined]
+        scale = self.config.spread * np.sqrt(n)
         offsets = scale * np.concatenate([root.T, -root.T])
         return [self.space.plus(x, offset) for offset in offsets], offsets
 
@@ -82,7 +84,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         deviations = np.array([self.space.minus(self._stepped(p, time, ctrl), reference) for p in points])
         mean = deviations.mean(axis=0)
         centred = deviations - mean
-        spread_sq = self.config.spread**2  # type: ignore[attr-defined]
+        spread_sq = self.config.spread**2
         prior_cov = centred.T @ centred / (len(points) * spread_sq) + self._process_noise()
         self._set_prior(index + 1, self.space.plus(reference, mean), self._capped(prior_cov), arriving)
 
@@ -104,7 +106,7 @@ class UnscentedKalmanFilter(ExtendedKalmanFilter):
         residuals = np.array([self.residuals.values(numbers, measured, self._sensors_at(p, time)) for p in points])
         mean = residuals.mean(axis=0)  # y - E[h(x)]
         centred = residuals - mean  # -(h_i - E[h])
-        spread_sq = self.config.spread**2  # type: ignore[attr-defined]
+        spread_sq = self.config.spread**2
         innovation_cov = centred.T @ centred / (len(points) * spread_sq) + R
         cross_cov = -offsets.T @ centred / (len(points) * spread_sq)  # (n, m) cov(x, h(x))
         gain = np.linalg.solve(innovation_cov, cross_cov.T).T

@@ -30,10 +30,12 @@ import tyro.constructors
 
 from judo.core.backend import RolloutBackendName
 from judo.core.boundary import MAX_DURATION
-from judo.core.config import Config, with_updates
+from judo.core.config import Config, ConfigT, with_updates
 from judo.core.config_file import load_config
+from judo.core.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
-from judo.core.estimator import estimator_in_force
+from judo.core.estimator import EstimatorConfig, estimator_in_force
+from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import (
     default_configs,
     get_registered_optimizers,
@@ -42,6 +44,7 @@ from judo.core.registry import (
     lookup_task,
     make_config,
 )
+from judo.core.task import TaskConfig
 from judo.runtime.app import App
 from judo.runtime.sensing_flags import SensingFlags, merge_repeated
 
@@ -90,7 +93,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         task, optimizer = _peek_names(argv)
         estimator, pinned = _peek_estimator(argv, task)
-        defaults = default_configs(task, optimizer)
+        defaults: dict[str, Config] = {**default_configs(task, optimizer)}  # the estimator may join the three kinds
         if estimator is not None:
             defaults["estimator"] = make_config(lookup_estimator(estimator)[1], task)
     except JudoError as err:  # an unknown name, or a config file that cannot be applied
@@ -107,9 +110,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         app = App(
             options.task,
             options.optimizer,
-            controller_config=configs["controller"],  # type: ignore[arg-type]
-            optimizer_config=configs["optimizer"],  # type: ignore[arg-type]
-            task_config=configs["task"],  # type: ignore[arg-type]
+            controller_config=_as_kind(configs["controller"], ControllerConfig),
+            optimizer_config=_as_kind(configs["optimizer"], OptimizerConfig),
+            task_config=_as_kind(configs["task"], TaskConfig),
             gui=not options.headless,
             host=options.host,
             port=options.port,
@@ -120,7 +123,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             backend=options.backend,
             observe=options.observe,
             estimator=estimator if pinned else None,  # None: each task's own default, at start and on a switch
-            estimator_config=configs.get("estimator") if pinned else None,  # type: ignore[arg-type]
+            estimator_config=_as_kind(configs.get("estimator"), EstimatorConfig) if pinned else None,
             **{f"sensor_{key}": value for key, value in options.sensor_settings().items()},
         )
     except JudoError as err:
@@ -167,6 +170,13 @@ def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[s
         configs[kind] = with_updates(config, {f.name: getattr(given, f.name) for f in fields(given)})
     options = RunOptions(**{f.name: getattr(parsed, f.name) for f in fields(RunOptions)})
     return options, configs
+
+
+def _as_kind(config: Config | None, cls: type[ConfigT]) -> ConfigT | None:
+    """`config` typed as the base class of its kind (`parse` keeps each default's class: `default_configs` and
+    `make_config` build the controller's, the optimizer's, the task's and the estimator's); None stays None."""
+    assert config is None or isinstance(config, cls), f"expected a {cls.__name__}, got {type(config).__name__}"
+    return config
 
 
 def _peek_names(argv: list[str]) -> tuple[str, str]:

@@ -12,7 +12,7 @@ import numpy as np
 from judo.core.errors import JudoError
 from judo.core.low_level import LowLevelPlant
 from judo.core.reading import SystemState
-from judo.core.task import Task
+from judo.core.task import Task, new_task
 
 DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQACC,
@@ -93,7 +93,7 @@ class MujocoSystem(System):
         randomised start state; `seed` None draws a fresh one. The class must be constructible with no
         arguments, as every registered task is.
         """
-        plant: Task = type(task)()  # type: ignore[call-arg]  (registered tasks take no arguments)
+        plant: Task = new_task(type(task))
         plant.config = task.config
         plant.rng = np.random.default_rng(None if seed is None else [seed, PLANT_STREAM])
         plant.reset()
