@@ -255,10 +255,6 @@ PACKAGE_ORDER = (
 included. The library (core < estimators, optimizers < tasks), then what runs it: Ray, the app, the command
 lines' shared pieces, and the commands; collect runs evaluate's seeded episodes, tune none of collect's, and
 distill runs both."""
-EDGES_BEING_REMOVED = {("judo.runtime", "judo.collection")}  # removed by the App recomposition (#32 item 4)
-"""Package imports that go against PACKAGE_ORDER today and are on their way out; each is checked to exist."""
-
-
 def package_of(module: str, package: str = PACKAGE) -> str:
     """The package a module counts for: "judo.core.rollout" -> "judo.core"; a module directly in the package
     ("judo.ray_cluster", "judo.__main__") and the package itself count for themselves."""
@@ -304,7 +300,7 @@ def upward_imports(
 
 
 def test_no_package_level_import_circles_counting_lazy_imports():
-    cycles = package_cycles(package_graph(import_graph()), EDGES_BEING_REMOVED)
+    cycles = package_cycles(package_graph(import_graph()))
     assert not cycles, cycles
 
 
@@ -312,14 +308,8 @@ def test_the_packages_import_only_downward_in_their_order():
     graph = import_graph()
     packages = {package_of(module) for module in graph}
     assert packages - set(TOP) == set(PACKAGE_ORDER), "place each package of src/judo in PACKAGE_ORDER"
-    upward = upward_imports(package_graph(graph), PACKAGE_ORDER, EDGES_BEING_REMOVED)
+    upward = upward_imports(package_graph(graph), PACKAGE_ORDER)
     assert not upward, "\n".join(upward)
-
-
-def test_the_edges_being_removed_still_exist():
-    edges = package_graph(import_graph())
-    gone = sorted(edge for edge in EDGES_BEING_REMOVED if edge not in edges)
-    assert not gone, f"{gone} no longer exist: remove them from EDGES_BEING_REMOVED"
 
 
 def test_no_module_imports_the_root_package():

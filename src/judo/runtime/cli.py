@@ -22,7 +22,7 @@ import sys
 from collections.abc import Sequence
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
 import tyro
@@ -59,8 +59,8 @@ CONFIG_GROUPS = {
 
 
 @dataclass
-class RunOptions(SensingFlags):
-    """What to run and how to serve it (and, from SensingFlags, how the simulated plant is observed)."""
+class RunOptions:
+    """What to run and how to serve it, and how the simulated plant is observed (`sensing`, flags without a prefix)."""
 
     config: Path | None = None
     """TOML file that registers custom tasks and optimizers and sets per-task overrides (see docs/configuration.md)."""
@@ -85,6 +85,10 @@ class RunOptions(SensingFlags):
     """Seed of the optimizer, the task and the simulated plant."""
     backend: RolloutBackendName = "cpu"
     """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install "judo[warp]")."""
+    sensing: Annotated[SensingFlags, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")] = field(
+        default_factory=SensingFlags
+    )
+    """--observe, --sensor-*, --estimator."""
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -121,10 +125,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             duration=options.duration,
             seed=options.seed,
             backend=options.backend,
-            observe=options.observe,
+            observe=options.sensing.observe,
             estimator=estimator if pinned else None,  # None: each task's own default, at start and on a switch
             estimator_config=_as_kind(configs.get("estimator"), EstimatorConfig) if pinned else None,
-            **{f"sensor_{key}": value for key, value in options.sensor_settings().items()},
+            **{f"sensor_{key}": value for key, value in options.sensing.sensor_settings().items()},
         )
     except JudoError as err:
         print(f"{PROG}: {err}", file=sys.stderr)
@@ -156,7 +160,9 @@ def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[s
         (CONFIG_GROUPS[kind], type(config), field(default_factory=lambda config=config: config))
         for kind, config in defaults.items()
     ]
-    arguments_cls = dataclasses.make_dataclass("JudoArguments", groups, bases=(RunOptions,))
+    flat = Annotated[RunOptions, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")]  # its flags without a prefix
+    options_field = ("options", flat, field(default_factory=RunOptions))
+    arguments_cls = dataclasses.make_dataclass("JudoArguments", [options_field, *groups])
     parsed = tyro.cli(
         arguments_cls,
         args=argv,
@@ -168,8 +174,7 @@ def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[s
     for kind, config in defaults.items():
         given = getattr(parsed, CONFIG_GROUPS[kind])
         configs[kind] = with_updates(config, {f.name: getattr(given, f.name) for f in fields(given)})
-    options = RunOptions(**{f.name: getattr(parsed, f.name) for f in fields(RunOptions)})
-    return options, configs
+    return parsed.options, configs
 
 
 def _as_kind(config: Config | None, cls: type[ConfigT]) -> ConfigT | None:
