@@ -106,6 +106,16 @@ def test_duration_runs_headless_and_prints_the_summary(capsys):
     assert "final reward:" in out and "sim time: 0.50 s" in out
 
 
+def test_a_proposal_policy_plans_with_the_app_and_one_for_another_task_exits_2(capsys):
+    pytest.importorskip("onnxruntime")
+    policy = str(Path(cli.__file__).parents[1] / "tasks" / "models" / "policies" / "pendulum_chunk.onnx")
+    argv = ["--headless", "--duration", "0.5", "--seed", "0", "--proposal-policy", policy]
+    status = cli.main([*argv, "--task", "pendulum", "--optimizer", "ps", "--controller.policy-samples", "4"])
+    assert status == 0 and "task: pendulum" in capsys.readouterr().out
+    assert cli.main([*argv, "--task", "cartpole"]) == 2
+    assert "was made for task 'pendulum', not 'cartpole'" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("command", ["benchmark", "evaluate"])
 def test_benchmark_and_evaluate_are_dispatched_with_the_remaining_arguments(monkeypatch, command):
     received = []

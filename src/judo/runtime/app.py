@@ -35,6 +35,8 @@ from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
+from judo.core.policy import Policy
+from judo.core.policy_controller import as_policy
 from judo.core.registry import CONFIG_KINDS, ConfigKind
 from judo.core.task import TaskConfig
 from judo.runtime import exit_guard
@@ -100,6 +102,9 @@ class App:
             through `judo.runtime.sensing.SensedSystem`: rehearsed sensing, its noise seeded from `seed`).
         sensor_noise, sensor_delay, sensor_rate: the rehearsed sensors' noise std, delay (s) and rate (Hz),
             one value for all or {sensor type: value} with an optional "default"; used with observe="sensors".
+        proposal_policy: a `judo.Policy`, or an ONNX file (needs the `policy` extra), whose candidates replace
+            `controller_config.policy_samples` of the rollouts each update (docs/policies.md), in sessions of
+            `task` (a switch to another task plans without it). PolicyError at once if it does not fit the task.
         recorder_factory: makes the recorder of `start_recording(path)`; None writes collect's HDF5 layout
             (`judo.collection.live`, needs the `collect` extra).
 
@@ -132,6 +137,7 @@ class App:
         sensor_delay: PerType = None,
         sensor_rate: PerType = None,
         recorder_factory: RecorderFactory | None = None,
+        proposal_policy: Policy | str | Path | None = None,
     ) -> None:
         if duration is not None and not 0 < duration < math.inf:
             raise ConfigError(
@@ -162,7 +168,8 @@ class App:
         )
         self._reports = reports = Reports(StatusLine(), state)
         clock = None if system is None else state.clock  # a robot's plans age in wall time; the simulator waits
-        maker = SessionMaker(system, seed, num_workers, backend, clock, reports.on_watchdog)
+        proposals = None if proposal_policy is None else as_policy(proposal_policy)
+        maker = SessionMaker(system, seed, num_workers, backend, clock, reports.on_watchdog, proposals, task)
         state.begin(maker.first(task, optimizer, state.sensing, controller_config, optimizer_config, task_config))
         self._commands = Commands(state, reports, system)
         self._recordings = Recordings(state, reports, recorder_factory)

@@ -85,6 +85,10 @@ class RunOptions:
     """Seed of the optimizer, the task and the simulated plant."""
     backend: RolloutBackendName = "cpu"
     """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install "judo[warp]")."""
+    proposal_policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
+    """Policy whose candidates replace --controller.policy-samples of the optimizer's num_rollouts each update (the
+    policy as a proposal, docs/policies.md; the GUI's policy_samples slider sets how many); needs pip install
+    'judo[policy]'."""
     sensing: Annotated[SensingFlags, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")] = field(
         default_factory=SensingFlags
     )
@@ -126,6 +130,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             seed=options.seed,
             backend=options.backend,
             observe=options.sensing.observe,
+            proposal_policy=options.proposal_policy,
             estimator=estimator if pinned else None,  # None: each task's own default, at start and on a switch
             estimator_config=_as_kind(configs.get("estimator"), EstimatorConfig) if pinned else None,
             **{f"sensor_{key}": value for key, value in options.sensing.sensor_settings().items()},

@@ -15,6 +15,7 @@ from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import ConfigError
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, default_estimator_name
 from judo.core.optimizer import OptimizerConfig
+from judo.core.policy import Policy
 from judo.core.registry import lookup_estimator, make_controller, make_estimator
 from judo.core.task import Task, TaskConfig
 from judo.runtime.closed_loop import ClosedLoop
@@ -117,6 +118,7 @@ def build_session(
     sensing: Sensing | None = None,
     reading: SystemState | None = None,
     estimator_thread: bool = False,
+    proposal_policy: Policy | None = None,
 ) -> Session:
     """A new Session. Configs left out get the task's registered defaults.
 
@@ -129,7 +131,8 @@ def build_session(
     noise draws from [seed, SENSING_STREAM]) and which estimator the closed loop runs: the named one, else
     the task's `default_estimator` when the plant's first reading has no full state, else none (plan from the reading as it is).
     `reading` is the given `system`'s latest reading, when another thread is driving it (a switch); None
-    reads it here. `estimator_thread` runs the estimator on a thread of its own (`EstimatorThread`), for the
+    reads it here. `proposal_policy` makes the controller's `policy_samples` candidates (judo.core.proposals;
+    PolicyError unless it fits the task). `estimator_thread` runs the estimator on a thread of its own (`EstimatorThread`), for the
     app's plant thread, which must not wait for the filter; evaluate's sim-time episodes leave it off.
     Raises UnknownNameError for an unregistered name and ConfigError for configs that do not work together
     (e.g. observing sensors on a task that declares none, or an estimator that cannot fuse the plant's readings).
@@ -144,6 +147,7 @@ def build_session(
         num_workers=num_workers,
         seed=seed,
         backend=backend,
+        proposal_policy=proposal_policy,
     )
     if task_config is not None:
         controller.task.config = task_config

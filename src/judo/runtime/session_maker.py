@@ -9,6 +9,7 @@ from dataclasses import dataclass, replace
 
 from judo.core.controller import ControllerConfig
 from judo.core.optimizer import OptimizerConfig
+from judo.core.policy import Policy
 from judo.core.task import TaskConfig
 from judo.runtime.app_state import ConfigSet
 from judo.runtime.session import Sensing, Session, build_session
@@ -27,6 +28,9 @@ class SessionMaker:
         clock: the closed loop's watchdog clock: wall time for a user's System, None (plant time) for judo's
             own simulator, which waits for the planner instead.
         on_watchdog: the closed loop's trip / recovery callback.
+        proposal_policy: makes the `policy_samples` candidates of every session of `proposal_task`, the task it
+            was made for (a session of another task plans without it).
+        proposal_task: the task `proposal_policy` is for.
     """
 
     user_system: System | None
@@ -35,6 +39,8 @@ class SessionMaker:
     backend: str
     clock: Callable[[], float] | None
     on_watchdog: Callable[[str | None], None]
+    proposal_policy: Policy | None = None
+    proposal_task: str | None = None
 
     def first(
         self,
@@ -95,4 +101,5 @@ class SessionMaker:
             sensing=sensing,
             reading=old.closed_loop.raw_reading if old is not None and system is old.system else None,  # being read
             estimator_thread=True,  # the plant thread only reads, steps and serves (judo.runtime.estimator_thread)
+            proposal_policy=self.proposal_policy if task == self.proposal_task else None,
         )
