@@ -5,6 +5,7 @@
     data/demo_<seed>/obs/qvel       (S, nv)  float64    plant qvel after each step
     data/demo_<seed>/obs/sensors    (S, nsensordata) float64
     data/demo_<seed>/obs/mocap_pos  (S, 3 * nmocap) float64, only for a task with mocap bodies
+    data/demo_<seed>/obs/metadata/<key>  (S, *shape) float64, each key of the task's `recorded_metadata`
     data/demo_<seed>/obs/measured   (S, m)   float64    the measured sensors read (only with --observe sensors)
     data/demo_<seed>/obs/estimate_qpos, estimate_qvel   (S, nq), (S, nv) float64, the estimator's state after
                                     each step (only where an estimator ran; NaN rows before it started)
@@ -30,7 +31,7 @@ import json
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -77,6 +78,8 @@ class EpisodeArrays:
         mpc_actions: (S, nu) the MPC's action at the time each step was served, where a policy drove the plant
             (collect --policy): the label beside `actions`; else None.
         policy_plan: {"knots": (U, H, nu), "inference_ms": (U,)} the policy's chunks, where a policy drove.
+        metadata: {key: (S, *shape)} each step's system metadata of the task's `Task.recorded_metadata` keys
+            (e.g. quadruped_velocity's "velocity_command" (S, 3)); empty for a task that declares none.
     """
 
     seed: int
@@ -94,6 +97,7 @@ class EpisodeArrays:
     measured_sensors: tuple[str, ...] = ()
     mpc_actions: np.ndarray | None = None
     policy_plan: dict[str, np.ndarray] | None = None
+    metadata: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def num_samples(self) -> int:
@@ -224,6 +228,7 @@ def write_demo(group: Any, episode: EpisodeArrays) -> None:
     if episode.estimate is not None:
         nq = episode.qpos.shape[1]
         obs["estimate_qpos"], obs["estimate_qvel"] = episode.estimate[:, :nq], episode.estimate[:, nq:]
+    obs.update({f"metadata/{key}": value for key, value in episode.metadata.items()})
     for key, value in obs.items():
         group.create_dataset(f"obs/{key}", data=np.asarray(value, dtype=np.float64))
     group.create_dataset("actions", data=np.asarray(episode.actions, dtype=np.float64))

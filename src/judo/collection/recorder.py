@@ -7,6 +7,7 @@ import numpy as np
 
 from judo.collection.dataset import EpisodeArrays
 from judo.core.controller import Controller
+from judo.core.errors import JudoError
 from judo.core.policy_controller import PolicyController
 from judo.core.task import Task
 from judo.runtime.records import PlanRecord, StepRecord
@@ -22,6 +23,9 @@ class EpisodeRecorder:
         measured_sensors: names of the task's measured sensors, stored beside the steps' measured values.
         traces: whether to keep each plan's traces; the closed loop copies them only for a recorder whose
             `wants_traces` is true.
+        recorded_metadata: the task's `Task.recorded_metadata`: keys of each step's metadata to keep, each a
+            number or an array of one shape throughout; a step without one, or with another shape, is an error.
+        task_name: the task's name, for those errors.
     """
 
     def __init__(
@@ -33,10 +37,13 @@ class EpisodeRecorder:
         nu: int,
         measured_sensors: tuple[str, ...] = (),
         traces: bool = False,
+        recorded_metadata: tuple[str, ...] = (),
+        task_name: str = "the task",
     ) -> None:
         self.nq, self.nv, self.nmocap, self.num_nodes, self.nu = nq, nv, nmocap, num_nodes, nu
         self.measured_sensors = tuple(measured_sensors)
         self.wants_traces = traces
+        self.recorded_metadata, self.task_name = tuple(recorded_metadata), task_name
         self.steps: list[StepRecord] = []
         self.plans: list[PlanRecord] = []
 
@@ -45,12 +52,14 @@ class EpisodeRecorder:
         """A recorder for `controller`'s plans and the plant model (`sim_model`) of `plant_task`."""
         model = plant_task.sim_model
         sizes = (model.nq, model.nv, model.nmocap, controller.optimizer.num_nodes, controller.task.command_size)
-        return cls(*sizes, tuple(plant_task.measured_sensors), traces)
+        return cls(*sizes, tuple(plant_task.measured_sensors), traces, *metadata_settings(plant_task))
 
     def with_records(self, steps: list[StepRecord], plans: list[PlanRecord]) -> "EpisodeRecorder":
         """A recorder of the same sizes and settings holding `steps` and `plans`."""
         sizes = (self.nq, self.nv, self.nmocap, self.num_nodes, self.nu)
-        recorder = EpisodeRecorder(*sizes, self.measured_sensors, self.wants_traces)
+        recorder = EpisodeRecorder(
+            *sizes, self.measured_sensors, self.wants_traces, self.recorded_metadata, self.task_name
+        )
         recorder.steps, recorder.plans = steps, plans
         return recorder
 
@@ -60,8 +69,12 @@ class EpisodeRecorder:
         self.plans.append(dataclasses.replace(record, knots=np.array(record.knots), traces=traces))
 
     def on_step(self, record: StepRecord) -> None:
-        """Keep the step's record (its arrays are copied, so the caller may reuse them)."""
+        """Keep the step's record (its arrays are copied, so the caller may reuse them). Raises JudoError for a
+        step whose metadata lacks a `recorded_metadata` key or holds one that is not numbers of the first step's
+        shape."""
         metadata = {"mocap_pos": np.array(record.metadata["mocap_pos"])} if self.nmocap else {}
+        for key in self.recorded_metadata:
+            metadata[key] = self.recorded_value(record, key)
         state = None if record.state is None else np.array(record.state)
         measured = None if record.measured is None else np.array(record.measured, dtype=float)
         estimate = None if record.estimate is None else np.array(record.estimate, dtype=float)
@@ -75,6 +88,9 @@ class EpisodeRecorder:
         mocap = None
         if self.nmocap:
             mocap = np.array([step.metadata["mocap_pos"] for step in steps], dtype=float).reshape(len(steps), -1)
+        metadata = {
+            key: np.array([step.metadata[key] for step in steps], dtype=float) for key in self.recorded_metadata
+        }
         return EpisodeArrays(
             seed=seed,
             qpos=states[:, : self.nq],
@@ -89,7 +105,24 @@ class EpisodeRecorder:
             measured=rows_where_given([step.measured for step in steps]),
             estimate=rows_where_given([step.estimate for step in steps]),
             measured_sensors=self.measured_sensors,
+            metadata=metadata,
         )
+
+    def recorded_value(self, record: StepRecord, key: str) -> np.ndarray:
+        """A float copy of `record.metadata[key]`; JudoError, naming the task and the key, where the step has none
+        or one that is not numbers of the shape of the first step's."""
+        where = f"{self.task_name} records system metadata {key!r} (Task.recorded_metadata), but its step at "
+        where += f"t = {record.time:g} s"
+        if key not in record.metadata:
+            raise JudoError(f"{where} published none (its metadata holds {sorted(record.metadata)})")
+        try:
+            value = np.array(record.metadata[key], dtype=float)
+        except (TypeError, ValueError):
+            raise JudoError(f"{where} published {type(record.metadata[key]).__name__}, not numbers") from None
+        first = self.steps[0].metadata[key] if self.steps else value
+        if value.shape != first.shape:
+            raise JudoError(f"{where} published shape {value.shape}, the first step {first.shape}")
+        return value
 
     def plan_arrays(self) -> dict[str, np.ndarray]:
         """{"times", "takes_effect", "update_ms", "best_reward", "mean_reward"}: (U,); "knots": (U, num_nodes, nu);
@@ -107,6 +140,11 @@ class EpisodeRecorder:
         if plans and len(traces) == len(plans):  # every plan carries traces
             arrays["traces"] = padded_stack(traces)
         return arrays
+
+
+def metadata_settings(task: Task) -> tuple[tuple[str, ...], str]:
+    """(`task.recorded_metadata`, its class name): what an EpisodeRecorder of `task` keeps of each step's metadata."""
+    return tuple(task.recorded_metadata), type(task).__name__
 
 
 def rows_where_given(rows: list[np.ndarray | None]) -> np.ndarray | None:
@@ -160,7 +198,16 @@ class PolicyServedRecorder(EpisodeRecorder):
         num_nodes = controller.expert.optimizer.num_nodes
         sizes = (model.nq, model.nv, model.nmocap, num_nodes, model.nu)
         measured = tuple(plant_task.measured_sensors)
-        return cls(controller, float(model.opt.timestep), *sizes, measured_sensors=measured, traces=traces)
+        recorded, name = metadata_settings(plant_task)
+        return cls(
+            controller,
+            float(model.opt.timestep),
+            *sizes,
+            measured_sensors=measured,
+            traces=traces,
+            recorded_metadata=recorded,
+            task_name=name,
+        )
 
     def on_plan(self, record: PlanRecord) -> None:
         """Keep the policy's chunk and inference time, and record the MPC's plan from the same reading."""

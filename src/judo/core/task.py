@@ -83,15 +83,26 @@ class Task(ABC, Generic[ConfigT]):
     `--observe sensors`, or under a System whose readings have no full state. The app, evaluate, tune, collect
     and the GUI read it only through `judo.core.estimator` (`estimator_in_force`, `default_estimator_name`). A
     class attribute beside `measured_sensors`, whose filter it names: the task's TOML holds only config fields."""
+    recorded_metadata: ClassVar[tuple[str, ...]] = ()
+    """Keys of the system metadata (`get_sim_metadata`) that the task's `reward` or `policy_observation` reads, each
+    a number or a fixed-shape array of numbers: `collect` keeps every step's value (`obs/metadata/KEY`) and
+    `distill` gives it back to `policy_observation`. "mocap_pos" is kept for every task with mocap bodies
+    (`obs/mocap_pos`) and is not listed here."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Take `config_cls` from `Task[ConfigT]` among the class's own bases. A subclass of a task
-        inherits its parent's `config_cls`, or names its own: `config_cls = MyConfig` in its body."""
+        inherits its parent's `config_cls`, or names its own: `config_cls = MyConfig` in its body. Checks the keys of
+        `recorded_metadata` (TypeError)."""
         super().__init_subclass__(**kwargs)
         for base in cls.__dict__.get("__orig_bases__", ()):
             args = typing.get_args(base)
             if typing.get_origin(base) is Task and args and isinstance(args[0], type):
                 cls.config_cls = args[0]
+        keys = cls.recorded_metadata
+        if not isinstance(keys, tuple) or not all(isinstance(k, str) and k and "/" not in k for k in keys):
+            raise TypeError(f"{cls.__name__}.recorded_metadata must be a tuple of key names without '/', got {keys!r}")
+        if "mocap_pos" in keys:
+            raise TypeError(f"{cls.__name__}.recorded_metadata lists 'mocap_pos', which is always kept: leave it out")
 
     def __init__(self, model_path: str | Path, sim_model_path: str | Path | None = None) -> None:
         self.model = load_model(model_path)

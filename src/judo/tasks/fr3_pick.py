@@ -70,6 +70,7 @@ class FR3Pick(Task[FR3PickConfig]):
     focus_body = "object"
     measured_sensors = (*(f"joint{i}_pos" for i in range(1, 8)), "finger_left_pos", "object_pos", "object_quat")
     check_latency_ms = 50.0
+    recorded_metadata = ("phase",)  # the reward's terms depend on it: collect keeps each step's
 
     lift_fraction: ClassVar[float] = 0.6
     """The object counts as lifted above this fraction of `lift_height`."""

@@ -126,6 +126,7 @@ class QuadrupedVelocity(QuadrupedBase[QuadrupedVelocityConfig]):
 
     config_cls = QuadrupedVelocityConfig
     lower_is_better = ("falls", "velocity_error", "yaw_rate_error")
+    recorded_metadata = (COMMAND_KEY,)  # collect keeps each step's command, which distill's observation needs
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
