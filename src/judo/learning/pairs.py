@@ -9,8 +9,10 @@ Two kinds of policy (judo.core.policy.POLICY_KINDS):
 
 Observations are the task's own `policy_observation`, built exactly as the closed loop builds them when it serves a
 policy: the planning model's sensors at the state (where the task reads sensors), the goal's mocap position of
-that step, and the action in force as the previous action. They are of the plant's true state: where an episode
-ran an estimator, the policy learns from the state the estimator was estimating.
+that step, the system metadata the task records (`Task.recorded_metadata`, `obs/metadata/<key>`: e.g.
+quadruped_velocity's command) of that step, and the action in force as the previous action. They are of the
+plant's true state: where an episode ran an estimator, the policy learns from the state the estimator was
+estimating.
 """
 
 import json
@@ -65,7 +67,12 @@ class TrainingPairs:
 
 
 def episode_observations(
-    task: Task, states: np.ndarray, mocap_pos: np.ndarray | None, previous: np.ndarray, time_step: float
+    task: Task,
+    states: np.ndarray,
+    mocap_pos: np.ndarray | None,
+    previous: np.ndarray,
+    time_step: float,
+    recorded: dict[str, np.ndarray] | None = None,
 ) -> np.ndarray:
     """(S, O) the task's `policy_observation` of S recorded rows, as the closed loop builds them.
 
@@ -75,6 +82,8 @@ def episode_observations(
         mocap_pos: (S, 3 * nmocap) the mocap positions of each step, or None without mocap bodies.
         previous: (S, nu) the action in force at each row (served during that step).
         time_step: the plant's timestep (row r is at time (r + 1) * time_step).
+        recorded: {key: (S, *shape)} the system metadata of each step (`obs/metadata`), given to the observation
+            as the row's `system_metadata[key]` (*shape).
     """
     model = task.model
     bodies = np.flatnonzero(model.body_mocapid >= 0)
@@ -82,15 +91,21 @@ def episode_observations(
     wants_sensors = type(task).policy_observation is not Task.policy_observation
     data = mujoco.MjData(model)
     rows = np.zeros((len(states), 0))
+    recorded = recorded or {}
+    columns = [np.asarray(values, dtype=float).reshape(len(states), -1) for values in recorded.values()]
+    if mocap_pos is not None and len(bodies):
+        columns.append(np.asarray(mocap_pos, dtype=float).reshape(len(states), -1))
     groups = [np.arange(len(states))]
-    if mocap_pos is not None and len(bodies):  # rows with the same goal go in one batch
-        _, inverse = np.unique(np.round(mocap_pos, 12), axis=0, return_inverse=True)
+    if columns and len(states):  # rows with the same goal and metadata go in one batch
+        _, inverse = np.unique(np.concatenate(columns, axis=1), axis=0, return_inverse=True)
         groups = [np.flatnonzero(inverse.ravel() == k) for k in range(int(inverse.max()) + 1)]
     for index in groups:
         metadata: dict[str, Any] | None = None
         if len(bodies):
             positions = model.body_pos[bodies] if mocap_pos is None else mocap_pos[index[0]].reshape(-1, 3)
             metadata = {"mocap_pos": positions.copy(), "mocap_quat": model.body_quat[bodies].copy()}
+        if recorded:
+            metadata = {**(metadata or {}), **{key: values[index[0]].copy() for key, values in recorded.items()}}
         sensors = None
         if wants_sensors:
             sensors = np.zeros((len(index), model.nsensordata))
@@ -105,6 +120,27 @@ def episode_observations(
             rows = np.zeros((len(states), block.shape[1]))
         rows[index] = block
     return rows
+
+
+def recorded_metadata(path: Path, name: str, demo: Any, task: Task) -> dict[str, np.ndarray]:
+    """{key: (S, *shape)} the demo's `obs/metadata/<key>` of each of the task's `recorded_metadata` keys that its own
+    `policy_observation` may read (none for the default observation, the state). DistillError (one line) for a
+    key the file lacks (a file collected before judo kept it) or of another length."""
+    if type(task).policy_observation is Task.policy_observation:
+        return {}
+    rows, recorded = len(demo["obs/qpos"]), {}
+    for key in task.recorded_metadata:
+        if f"obs/metadata/{key}" not in demo:
+            raise DistillError(
+                f"{str(path)!r} {name} has no obs/metadata/{key}, the system metadata {type(task).__name__}'s "
+                "observation reads; collect the dataset again with this judo, which records it"
+            )
+        recorded[key] = demo[f"obs/metadata/{key}"][()]
+        if len(recorded[key]) != rows:
+            raise DistillError(
+                f"{str(path)!r} {name}: obs/metadata/{key} has {len(recorded[key])} rows, obs/qpos {rows}"
+            )
+    return recorded
 
 
 def observation_layout(task: Task) -> str:
@@ -199,7 +235,9 @@ def _demo_pairs(path: Path, name: str, demo: Any, task: Task, kind: str, time_st
     mocap = demo["obs/mocap_pos"][()] if "obs/mocap_pos" in demo else None
     served = demo["actions"][()]
     labels = demo["mpc_actions"][()] if "mpc_actions" in demo else served
-    observations = episode_observations(task, states, mocap, served, time_step)
+    observations = episode_observations(
+        task, states, mocap, served, time_step, recorded_metadata(path, name, demo, task)
+    )
     if kind == "action":
         keep = np.isfinite(labels[1:]).all(axis=1) & np.isfinite(observations[:-1]).all(axis=1)
         return observations[:-1][keep], labels[1:][keep]
