@@ -41,9 +41,10 @@ def leap_cube_file(tmp_path_factory):
 
 def test_the_layout_and_dtypes_are_the_documented_ones(leap_cube_file):
     layout = documented_layout()
-    assert len(layout) == 20
+    assert len(layout) == 21
     sensed = {"obs/measured", "obs/estimate_qpos", "obs/estimate_qvel", "plan/traces"}  # test_collect_sensing.py
     sensed |= {"mpc_actions", "policy/knots", "policy/inference_ms"}  # collect --policy: test_collect_policy.py
+    sensed |= {"obs/metadata/<key>"}  # a task's recorded_metadata (leap_cube has none): test_collect_metadata.py
     model = lookup_task("leap_cube")[0]().sim_model
     sizes = {
         "nq": model.nq, "nv": model.nv, "nu": model.nu, "nsensordata": model.nsensordata,
@@ -57,7 +58,7 @@ def test_the_layout_and_dtypes_are_the_documented_ones(leap_cube_file):
         demo = data["demo_1"]
         steps, updates = demo.attrs["num_samples"], len(demo["plan/times"])
         assert (steps, updates, demo.attrs["seed"]) == (20, 4, 1)
-        for path in sensed:
+        for path in sensed | {"obs/metadata"}:
             assert path not in demo, path  # a full-state MPC episode without --traces
         for path, (shape, dtype) in layout.items():
             if path in sensed:

@@ -2,6 +2,8 @@
 obs/metadata/<key>, exactly what the plant published; a task that declares a key it does not publish is named;
 replay reads files with and without the group."""
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -14,6 +16,8 @@ from judo.runtime.records import StepRecord
 from judo.tasks import Pendulum, QuadrupedVelocity
 
 h5py = pytest.importorskip("h5py")
+
+DOC = (Path(__file__).resolve().parents[2] / "docs" / "collect.md").read_text()
 
 SPEC = EpisodeSpec("quadruped_velocity", "ps", 1.3, values={"task.resample_period": 0.5, "optimizer.num_rollouts": 8})
 """130 steps of quadruped_velocity under a command redrawn every 0.5 s: three commands."""
@@ -45,6 +49,7 @@ def test_each_steps_command_is_kept_as_the_plant_published_it(quadruped_file):
         assert commands.shape == (130, 3) and commands.dtype == np.float64
         commands = commands[:]
         assert sorted(demo["obs/metadata"]) == ["velocity_command"]
+    assert "| `data/demo_<seed>/obs/metadata/<key>` | (S, *shape) | float64 |" in DOC
     # the command in force during each step: the plant's latest draw at the step's start (its own log of draws)
     drawn_at, drawn = zip(*plant.command_log, strict=True)
     starts = np.concatenate([[0.0], times[:-1]])
