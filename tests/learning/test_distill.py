@@ -180,7 +180,13 @@ def test_a_teacher_round_on_a_local_ray_writes_its_files_and_a_rerun_resumes(car
     with h5py.File(folder / "round_1.h5", "r") as file:
         assert sorted(file["data"]) == ["demo_100000", "demo_100001"]  # the round's own seeds
         assert "mpc_actions" in file["data/demo_100000"]  # the policy drove, the MPC labelled
-    assert out.read_bytes() == (folder / "policy_round_1.onnx").read_bytes()
+    shipped, last_round = OnnxPolicy(out), OnnxPolicy(folder / "policy_round_1.onnx")
+    assert shipped.metadata["name"] == "taught" and last_round.metadata["name"] == "policy_round_1"
+    assert {k: v for k, v in shipped.metadata.items() if k != "name"} == {
+        k: v for k, v in last_round.metadata.items() if k != "name"
+    }  # round 1's policy, named after its file
+    observations = np.random.default_rng(0).normal(size=(5, shipped.observation_size))
+    np.testing.assert_array_equal(shipped.act(observations), last_round.act(observations))
     first = capsys.readouterr().out
     assert "teacher rounds" in first and "policy alone" in first
     assert distill_main(argv) == 0

@@ -168,3 +168,15 @@ def plot_losses(path: Path, trained: TrainedPolicy, title: str) -> Path | None:
     figure.savefig(path)
     plt.close(figure)
     return path
+
+
+def copy_policy(source: Path, target: Path) -> Path:
+    """Copy the policy file `source` to `target`, its metadata "name" set to `target`'s stem (a round's policy
+    shipped as the command's --out is named after the file it is in, not after its round)."""
+    onnx = _onnx()
+    model = onnx.load(str(source))
+    for prop in model.metadata_props:
+        if prop.key == "name":
+            prop.value = target.stem
+    onnx.save(model, str(target))
+    return target

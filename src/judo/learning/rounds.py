@@ -22,7 +22,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from judo.learning.args import DistillArgs
-from judo.learning.export import losses_path, plot_losses, policy_metadata, write_policy
+from judo.learning.export import copy_policy, losses_path, plot_losses, policy_metadata, write_policy
 from judo.learning.pairs import DistillError, TrainingPairs, read_pairs
 from judo.learning.training import TrainedPolicy, train
 
@@ -91,7 +91,7 @@ def distill(args: DistillArgs, command: str, console: Console, progress_console:
         rows.append([str(round_index), str(len(pairs.episodes)), str(pairs.num_pairs), f"{seconds:.1f}"])
         rows[-1] += evaluate_round(args, env_args, policy)
         console.print(round_table(rows, args, env_args))
-    shutil.copyfile(policy, args.out)
+    copy_policy(policy, args.out)
     shutil.copyfile(losses_path(policy), losses_path(args.out))
     console.print(f"wrote {args.out} (round {args.rounds}'s policy); every round's files are in {folder}")
 
