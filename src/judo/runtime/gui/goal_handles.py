@@ -64,7 +64,7 @@ class GoalHandles:
             position = np.zeros(3)
             position[:axes] = np.asarray(value, dtype=float)[:axes]
             key = f"field/{field_name}"
-            control = self._add(key, scale, tuple(i < axes for i in range(3)), position)  # type: ignore[arg-type]
+            control = self._add(key, scale, (axes > 0, axes > 1, axes > 2), position)
             control.on_update(lambda event, f=field_name, key=key: self._dragged_field(event, key, f))
         self._config = config
 
