@@ -121,6 +121,24 @@ def panel_page(chromium) -> Callable[..., object]:
     return new_page
 
 
+SCENE_DPR = 0.5
+"""Device pixels per CSS pixel the 3-D view is drawn at in tests that look at the scene (viser's `fixedDpr` page
+option; left alone, viser picks 1 and drops to 0.75 when frames are slow). A frame of a quadruped at 1280x800 costs
+the software GPU process about half a core-second at 1: every screenshot waits for one, and the page's camera
+moves once a frame. The view's size and camera are the same at any DPR (its aspect to within a pixel's rounding): only its
+pixels are fewer."""
+
+
+@pytest.fixture(scope="session")
+def scene_url() -> Callable[[str], str]:
+    """scene_url(url): the GUI at `url` with its 3-D view drawn at SCENE_DPR, for a test that looks at the scene."""
+
+    def with_dpr(url: str) -> str:
+        return f"{url}{'&' if '?' in url else '?'}fixedDpr={SCENE_DPR:g}"
+
+    return with_dpr
+
+
 @pytest.fixture
 def artifacts() -> Path:
     """The folder screenshots go to (gitignored)."""
