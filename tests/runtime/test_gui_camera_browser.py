@@ -24,7 +24,7 @@ from judo.runtime.app import App
 from judo.runtime.gui.camera import project, reach_points
 from judo.runtime.gui.scene import geom_box_corners
 
-pytestmark = pytest.mark.browser
+pytestmark = [pytest.mark.browser, pytest.mark.slow]  # every task runs for RUN_SECONDS: about 2 min in all
 
 RUN_SECONDS = float(os.environ.get("JUDO_CAMERA_SECONDS", "3"))
 SAMPLE_PERIOD = 0.2

@@ -11,7 +11,7 @@ from PIL import Image
 
 from judo.runtime.app import App
 
-pytestmark = pytest.mark.browser
+pytestmark = [pytest.mark.browser, pytest.mark.slow]  # 13-17 s: the scene drawn, screenshots compared
 
 
 @pytest.fixture
