@@ -39,6 +39,7 @@ def test_task_suite_names_the_valid_choices_for_an_unknown_task():
 
 
 @pytest.mark.browser
+@pytest.mark.slow  # 8-10 s: the soak script with a browser drawing the scene
 def test_soak_prints_memory_threads_rates_and_the_switch_growth():
     if not Path("/usr/bin/chromium").exists():
         pytest.skip("/usr/bin/chromium not found (install Debian's chromium package)")
@@ -132,6 +133,7 @@ def test_a_collapse_is_a_tenth_of_a_fraction_or_a_quarter_of_a_rate_below_the_be
 
 
 @pytest.mark.browser
+@pytest.mark.slow  # 10-13 s
 def test_soak_with_driver_faults_reports_the_faults_and_the_watchdog():
     if not Path("/usr/bin/chromium").exists():
         pytest.skip("/usr/bin/chromium not found (install Debian's chromium package)")
@@ -226,7 +228,9 @@ def test_distill_collects_distills_and_prints_the_columns_on_fresh_seeds(tmp_pat
     result = run_script("distill.py", *small)
     assert result.returncode == 0, result.stderr[-2000:]
     out = result.stdout
-    assert "### distill (chunk, regression, mppi; 1 fresh seeds from 1000 x 0.5 s; 2 MPC episodes + 1 rounds x 1)" in out
+    assert (
+        "### distill (chunk, regression, mppi; 1 fresh seeds from 1000 x 0.5 s; 2 MPC episodes + 1 rounds x 1)" in out
+    )
     header = "| task | metric | MPC | policy, round 0 | policy, round 1 | MPC + policy, N/8 (K=2) | MPC, N/8 |"
     assert header in out and "| pendulum | upright_fraction |" in out
     assert (tmp_path / "pendulum_chunk_regression_rounds" / "round_1.h5").is_file()

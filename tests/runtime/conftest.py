@@ -70,27 +70,73 @@ def chromium() -> Iterator[object]:
         browser.close()
 
 
-PAUSE_THE_SCENE = """() => {
-  const view = [...document.querySelectorAll('div')].find((d) => d.style.zIndex === '0' && d.querySelector('canvas'));
-  if (view) view.style.transform = 'translateX(-300vw)';
+VIEW = "[...document.querySelectorAll('div')].find((d) => d.style.zIndex === '0' && d.querySelector('canvas'))"
+"""JS expression: viser's 3-D view, the box its canvas is drawn in (undefined before it is in the page)."""
+OUT_OF_SIGHT = "translateX(-300vw)"
+PAUSE_THE_SCENE = f"""() => {{
+  const view = {VIEW};
+  if (view) view.style.transform = '{OUT_OF_SIGHT}';
   return Boolean(view);
-}"""
+}}"""
 """JS: move the 3-D view's box out of the page's sight. viser stops drawing a scene it cannot see (its
 canvas's intersection observer) and still applies every message, so the panel works as before."""
+NEVER_DRAW_THE_SCENE = f"""(() => {{
+  let view = null;
+  new MutationObserver(() => {{
+    if (view && view.isConnected) return;
+    view = {VIEW};
+    if (view) view.style.transform = '{OUT_OF_SIGHT}';
+  }}).observe(document, {{ childList: true, subtree: true }});
+}})();"""
+"""JS run before the page's own: move the 3-D view out of sight as soon as it is in the page (and again if it is
+ever made anew). viser's canvas starts as not in view, so the scene is never drawn, not even its first frames."""
 
 
 @pytest.fixture(scope="session")
 def pause_scene() -> Callable[[object], None]:
     """pause_scene(page): stop `page` drawing the 3-D scene, for a test that reads the panel, not the picture.
 
-    Headless Chromium draws WebGL in software: one page redrawing the scene at the GUI's 30 Hz keeps a
-    third of a core busy, most of the CI's browser-test time. Screenshots then show the panel alone.
+    Headless Chromium draws WebGL in software: one page drawing the scene takes all the CPU it gets (a
+    frame of a quadruped at 1280x900 costs its GPU process about half a core-second), most of the CI's
+    browser-test time. Screenshots then show the panel alone. A page from `panel_page` never draws it.
     """
 
     def pause(page) -> None:
         assert page.evaluate(PAUSE_THE_SCENE), "the page has no 3-D view to pause (has viser's layout changed?)"
 
     return pause
+
+
+@pytest.fixture(scope="session")
+def panel_page(chromium) -> Callable[..., object]:
+    """panel_page(**kwargs): `chromium.new_page(**kwargs)` that never draws the 3-D scene, from its first frame:
+    for a test that reads the panel, not the picture. Call `pause_scene(page)` once it is up, which fails if
+    the page has no 3-D view (the pause would then have silently done nothing)."""
+
+    def new_page(**kwargs):
+        page = chromium.new_page(**kwargs)
+        page.add_init_script(NEVER_DRAW_THE_SCENE)
+        return page
+
+    return new_page
+
+
+SCENE_DPR = 0.5
+"""Device pixels per CSS pixel the 3-D view is drawn at in tests that look at the scene (viser's `fixedDpr` page
+option; left alone, viser picks 1 and drops to 0.75 when frames are slow). A frame of a quadruped at 1280x800 costs
+the software GPU process about half a core-second at 1: every screenshot waits for one, and the page's camera
+moves once a frame. The view's size and camera are the same at any DPR (its aspect to within a pixel's rounding): only its
+pixels are fewer."""
+
+
+@pytest.fixture(scope="session")
+def scene_url() -> Callable[[str], str]:
+    """scene_url(url): the GUI at `url` with its 3-D view drawn at SCENE_DPR, for a test that looks at the scene."""
+
+    def with_dpr(url: str) -> str:
+        return f"{url}{'&' if '?' in url else '?'}fixedDpr={SCENE_DPR:g}"
+
+    return with_dpr
 
 
 @pytest.fixture

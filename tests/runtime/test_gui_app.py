@@ -1,6 +1,9 @@
 """The Gui of a running App, without a browser: it follows switches, resets and the plant."""
 
+import time
+
 import numpy as np
+import pytest
 import viser
 
 from judo.core.controller import ControllerConfig
@@ -94,3 +97,29 @@ def test_a_taken_port_moves_the_gui_to_the_next_free_one(app):
         assert second.gui.url != app.gui.url and second.gui.server.get_port() > app.port
     finally:
         second.stop()
+
+
+def test_the_record_box_follows_recordings_and_leaves_a_pages_toggle_alone_until_it_is_acted_on(
+    app, wait_until, tmp_path
+):
+    """viser applies a page's toggle, then runs its callback on its thread pool: the GUI loop (30 Hz) must not put
+    the box back meanwhile, or the callback reads the box put back (an untick under load started a second recording)."""
+    pytest.importorskip("h5py")
+    wait_until(lambda: shows_session(app), what="the GUI to build")
+    record = app.gui.controls.record
+
+    def record_a_few_steps(path) -> None:
+        app.start_recording(path)
+        steps = app.stats.num_plans()
+        wait_until(lambda: app.stats.num_plans() >= steps + 2, what="two plans recorded")
+
+    record_a_few_steps(tmp_path / "a.h5")
+    wait_until(lambda: record.value, what="the box to tick when a recording starts")
+    record.value = False  # where a page's untick leaves the box until its callback runs (set here, no callback runs)
+    time.sleep(0.5)  # about 15 GUI updates
+    assert record.value is False, "the GUI loop put the box back before the page's untick was acted on"
+    app.stop_recording()
+    record.value = True  # a stale tick: the next recording change is shown over it
+    record_a_few_steps(tmp_path / "b.h5")
+    app.stop_recording()
+    wait_until(lambda: not record.value, what="the box to untick when a recording ends")

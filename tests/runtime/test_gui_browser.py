@@ -16,8 +16,8 @@ pytestmark = pytest.mark.browser
 
 
 @pytest.fixture
-def page(chromium, app, pause_scene):
-    page = chromium.new_page(viewport={"width": 1280, "height": 900})
+def page(panel_page, app, pause_scene):
+    page = panel_page(viewport={"width": 1280, "height": 900})
     page.set_default_timeout(60_000)  # software WebGL on a busy machine can be slow; an idle one takes seconds
     page.goto(app.gui.url)
     page.get_by_text("Controller", exact=True).wait_for()

@@ -6,7 +6,9 @@ page reports them) sees the robot: the corners of the bounding box of every draw
 body that moves, projected to the view's [-1, 1] coordinates. The docked GUI panel covers none of
 the canvas, so the whole canvas counts. One app and one page serve all twelve tasks (switching
 between them), so the test costs one app start. Each task runs JUDO_CAMERA_SECONDS wall seconds
-(3 by default; 10 for the issue's full check). Screenshots go to test-artifacts/camera_<task>.png.
+(3 by default; 10 for the issue's full check). Screenshots go to test-artifacts/camera_<task>.png; the page
+draws its view at half resolution (conftest.SCENE_DPR): the camera it reports is the same (its aspect to
+within a pixel's rounding).
 """
 
 import os
@@ -22,7 +24,7 @@ from judo.runtime.app import App
 from judo.runtime.gui.camera import project, reach_points
 from judo.runtime.gui.scene import geom_box_corners
 
-pytestmark = pytest.mark.browser
+pytestmark = [pytest.mark.browser, pytest.mark.slow]  # every task runs for RUN_SECONDS: about 2 min in all
 
 RUN_SECONDS = float(os.environ.get("JUDO_CAMERA_SECONDS", "3"))
 SAMPLE_PERIOD = 0.2
@@ -48,10 +50,10 @@ def app():
 
 
 @pytest.fixture(scope="module")
-def page(chromium, app):
+def page(chromium, app, scene_url):
     page = chromium.new_page(viewport={"width": 1280, "height": 800})
     page.set_default_timeout(60_000)
-    page.goto(app.gui.url)
+    page.goto(scene_url(app.gui.url))
     page.get_by_text("Controller", exact=True).wait_for()
     yield page
     page.close()

@@ -11,7 +11,7 @@ from PIL import Image
 
 from judo.runtime.app import App
 
-pytestmark = pytest.mark.browser
+pytestmark = [pytest.mark.browser, pytest.mark.slow]  # 13-17 s: the scene drawn, screenshots compared
 
 
 @pytest.fixture
@@ -37,12 +37,14 @@ def pixels(png: bytes) -> np.ndarray:
     return np.asarray(Image.open(io.BytesIO(png)).convert("RGB"), dtype=int)
 
 
-def test_the_ghost_follows_the_estimate_and_the_error_chart_updates(sensed_app, chromium, wait_until, artifacts):
+def test_the_ghost_follows_the_estimate_and_the_error_chart_updates(
+    sensed_app, chromium, wait_until, artifacts, scene_url, pause_scene
+):
     app, gui = sensed_app, sensed_app.gui
     page = chromium.new_page(viewport={"width": 1280, "height": 900})
     page.set_default_timeout(60_000)
     try:
-        page.goto(gui.url)
+        page.goto(scene_url(gui.url))
         page.get_by_text("Estimator: ekf", exact=True).wait_for()
         wait_until(lambda: len(gui.server.get_clients()) == 1, what="the page to connect")
         assert page.get_by_text("Noise jointpos").count() >= 1  # the estimator's sliders
@@ -76,6 +78,9 @@ def test_the_ghost_follows_the_estimate_and_the_error_chart_updates(sensed_app, 
         assert tint[:, 2].mean() > tint[:, 0].mean()  # the ghost tints the robot blue
         for frame in gui.ghost.body_frames.values():
             frame.visible = True
+
+        # the rest reads the panel: the scene stops being drawn (a screenshot waits for a frame of it)
+        pause_scene(page)
 
         # the estimation-error chart is on the page and redraws as points come in
         app.resume()

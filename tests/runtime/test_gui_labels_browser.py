@@ -47,7 +47,7 @@ def test_line_breaks_are_found_only_at_spaces():
 
 @pytest.mark.parametrize(("task", "optimizer"), [("cartpole", "mppi"), ("leap_cube", "cem")])
 def test_every_panel_label_fits_or_wraps_between_words(
-    task, optimizer, app, chromium, wait_until, artifacts, pause_scene
+    task, optimizer, app, panel_page, wait_until, artifacts, pause_scene
 ):
     if task != app.session.task_name:
         app.switch_task(task)
@@ -61,7 +61,7 @@ def test_every_panel_label_fits_or_wraps_between_words(
         timeout=60,
         what=f"the GUI to show {task} with {optimizer}",
     )
-    page = chromium.new_page(viewport={"width": 1400, "height": 900})
+    page = panel_page(viewport={"width": 1400, "height": 900})
     page.set_default_timeout(60_000)
     try:
         page.goto(app.gui.url)

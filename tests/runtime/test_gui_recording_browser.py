@@ -19,12 +19,12 @@ def small_recording_app(**kwargs) -> App:
 
 @pytest.mark.browser
 def test_the_record_toggle_in_the_browser_writes_a_file_that_replay_opens(
-    chromium, port, tmp_path, monkeypatch, wait_until, pause_scene
+    panel_page, port, tmp_path, monkeypatch, wait_until, pause_scene
 ):
     monkeypatch.chdir(tmp_path)  # the default recording path is in the working folder
     app = small_recording_app(port=port)
     app.start()
-    page = chromium.new_page(viewport={"width": 1280, "height": 900})
+    page = panel_page(viewport={"width": 1280, "height": 900})
     page.set_default_timeout(60_000)
     try:
         page.goto(app.gui.url)

@@ -16,8 +16,8 @@ from judo.runtime.gui.config_panel import field_label
 pytestmark = pytest.mark.browser
 
 
-def open_page(chromium, app, pause_scene):
-    page = chromium.new_page(viewport={"width": 1280, "height": 900})
+def open_page(panel_page, app, pause_scene):
+    page = panel_page(viewport={"width": 1280, "height": 900})
     page.set_default_timeout(60_000)
     page.goto(app.gui.url)
     page.get_by_text("Controller", exact=True).wait_for()
@@ -26,8 +26,8 @@ def open_page(chromium, app, pause_scene):
 
 
 @pytest.fixture
-def page(chromium, app, pause_scene):
-    page = open_page(chromium, app, pause_scene)
+def page(panel_page, app, pause_scene):
+    page = open_page(panel_page, app, pause_scene)
     yield page
     page.close()
 
@@ -161,10 +161,10 @@ def test_a_switch_while_paused_is_shown_as_paused(app, page, wait_until, artifac
 
 
 def test_two_pages_end_in_agreement_with_the_controller(
-    chromium, app, page, wait_until, artifacts, caplog, capfd, pause_scene
+    panel_page, app, page, wait_until, artifacts, caplog, capfd, pause_scene
 ):
     caplog.set_level(logging.WARNING)
-    other = open_page(chromium, app, pause_scene)
+    other = open_page(panel_page, app, pause_scene)
     try:
         for first, second in ((page, other), (other, page)):  # one slider, opposite directions, at once
             number_box(first, "horizon").fill("4")

@@ -36,8 +36,10 @@ def nominal_trace(replay: Replay) -> np.ndarray:
     return np.array(replay.scene.scene.get_handle_by_name("/traces/nominal").points)
 
 
-def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(chromium, replay, wait_until, artifacts, pause_scene):
-    page = chromium.new_page(viewport={"width": 1280, "height": 900})
+def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(
+    panel_page, replay, wait_until, artifacts, pause_scene
+):
+    page = panel_page(viewport={"width": 1280, "height": 900})
     page.set_default_timeout(60_000)
     try:
         page.goto(replay.url)

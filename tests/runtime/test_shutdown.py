@@ -107,10 +107,10 @@ def test_a_signal_stops_the_gui_app_quickly_and_cleanly(sig, client, port):
 
 
 @pytest.mark.browser
-def test_sigint_with_a_browser_connected_stops_cleanly(chromium, port, pause_scene):
+def test_sigint_with_a_browser_connected_stops_cleanly(panel_page, port, pause_scene):
     app = JudoProcess("--port", str(port))
     app.wait_for("running cartpole with ps")
-    page = chromium.new_page()
+    page = panel_page()
     try:
         page.goto(f"http://127.0.0.1:{port}")
         page.get_by_text("Controller", exact=True).wait_for(timeout=60_000)

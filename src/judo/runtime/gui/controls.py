@@ -64,6 +64,7 @@ class Controls:
         self.status = gui.add_markdown("", order=order + 0.5)
         self.readout = gui.add_markdown("", order=order + 0.6)
         self._shown_status: tuple[int, bool] = (-1, False)
+        self._recording_seen: bool | None = None  # whether the app was recording at the last `show_recording`
         self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))
         self.optimizer.on_update(lambda event: self._switch(event, app.switch_optimizer, self.optimizer, "optimizer"))
         self.estimator.on_update(
@@ -110,13 +111,20 @@ class Controls:
                 self.app.stop_recording()
         except JudoError as err:
             self.app.report(f"recording: {err}", "error")
-        self.show_recording()
+        self.show_recording(after_toggle=True)
 
-    def show_recording(self) -> None:
-        """Tick the record box exactly while a recording is under way (it stops by itself on a switch)."""
+    def show_recording(self, after_toggle: bool = False) -> None:
+        """Tick the record box when a recording starts and untick it when one ends (a switch ends it by itself),
+        and `after_toggle` show what came of a page's toggle (a refused start unticks it).
+
+        Between those the box is left alone: a page's toggle is applied by viser before its callback runs on
+        viser's thread pool, and putting the box back to the app's state meanwhile (the GUI loop runs 30 times a
+        second) made that callback read the box put back, so an untick started a second recording."""
         recording = self.app.recording is not None
-        if self.record.value != recording:
-            self.record.value = recording
+        if after_toggle or recording != self._recording_seen:
+            self._recording_seen = recording
+            if self.record.value != recording:
+                self.record.value = recording
 
     def _reset_configs(self) -> None:
         self.redraw_requested = True

@@ -4,9 +4,18 @@ A field's handle moves only along the axes the field has (x; x and y; x, y and z
 `on_field(name, value)` with the field's new (n,) array, or `on_mocap(index, position, wxyz)` with
 a mocap body's new (3,) position and (4,) orientation (mocap goals turn too); the caller turns those into a config edit or a plant command.
 While no page drags a handle, `update` keeps it on the goal, wherever the goal moved.
+
+A drag's start, moves and end reach the handle's callback as coroutines, which viser runs on its event loop
+as each message arrives, in order: the start marks the handle as dragged (so `update` leaves it where the page
+puts it) before a move's pose is read, right after viser applied it. The app's command is then made from one
+worker thread, in the same order. (A plain callback goes to viser's thread pool, where start, moves and end race
+each other and `update`: under load a move could read the handle already put back on the old goal, and the
+goal did not move.)
 """
 
-from collections.abc import Callable
+import logging
+from collections.abc import Callable, Coroutine
+from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any
 
 import mujoco
@@ -16,12 +25,17 @@ import viser
 from judo.core.config import Config
 from judo.core.fields import array_field_spec
 
+logger = logging.getLogger("judo.gui")
+
 HANDLE_SCALE = 0.2
 """Handle size as a fraction of the model's extent (within HANDLE_SIZES), so it suits a hand or a field."""
 HANDLE_SIZES = (0.06, 0.4)
 """Smallest and largest handle, in metres."""
 MOCAP_HANDLE_FRACTION = 0.7
 """A mocap goal's handle reaches at most this fraction of its geoms' half-size, so it never hides the goal."""
+
+_commands = ThreadPoolExecutor(max_workers=1, thread_name_prefix="judo-goal-drag")
+"""Makes the app's commands for drags, one at a time in the order the drag messages came."""
 
 
 def mocap_handle_size(model: mujoco.MjModel, body: int, scale: float) -> float:
@@ -55,7 +69,9 @@ class GoalHandles:
                 name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, body) or f"mocap_{index}"
                 size = mocap_handle_size(model, body, scale)
                 control = self._add(f"mocap/{name}", size, (True, True, True), model.body_pos[body], turns=True)
-                control.on_update(lambda event, i=index, key=f"mocap/{name}": self._dragged_mocap(event, key, i))
+                control.on_update(
+                    _on_loop(lambda event, i=index, key=f"mocap/{name}": self._dragged_mocap(event, key, i))
+                )
         for field_name, value in vars(config).items():
             spec = array_field_spec(type(config), field_name)
             if spec is None or spec.vis_name is None:
@@ -64,8 +80,8 @@ class GoalHandles:
             position = np.zeros(3)
             position[:axes] = np.asarray(value, dtype=float)[:axes]
             key = f"field/{field_name}"
-            control = self._add(key, scale, tuple(i < axes for i in range(3)), position)  # type: ignore[arg-type]
-            control.on_update(lambda event, f=field_name, key=key: self._dragged_field(event, key, f))
+            control = self._add(key, scale, (axes > 0, axes > 1, axes > 2), position)
+            control.on_update(_on_loop(lambda event, f=field_name, key=key: self._dragged_field(event, key, f)))
         self._config = config
 
     def update(self, config: Config, mocap_pos: np.ndarray | None, mocap_quat: np.ndarray | None = None) -> None:
@@ -123,11 +139,31 @@ class GoalHandles:
         value = np.array(getattr(self._config, field_name), dtype=float)
         axes = min(len(value), 3)
         value[:axes] = np.asarray(event.target.position, dtype=float)[:axes]
-        self._on_field(field_name, value)
+        _command(self._on_field, field_name, value)
 
     def _dragged_mocap(self, event: Any, key: str, index: int) -> None:
         if self._track(event, key):
-            self._on_mocap(index, np.asarray(event.target.position, dtype=float), np.asarray(event.target.wxyz))
+            position, wxyz = np.array(event.target.position, dtype=float), np.array(event.target.wxyz, dtype=float)
+            _command(self._on_mocap, index, position, wxyz)
 
     def _mocap_index(self, key: str) -> int:
         return [k for k in self.controls if k.startswith("mocap/")].index(key)
+
+
+def _command(call: Callable[..., None], *args: Any) -> None:
+    """Run `call(*args)` on the drag worker after the commands before it; an exception it raises is logged."""
+
+    def log_failure(done: Future) -> None:
+        if done.exception() is not None:
+            logger.error("a goal drag's command failed", exc_info=done.exception())
+
+    _commands.submit(call, *args).add_done_callback(log_failure)
+
+
+def _on_loop(handle: Callable[[Any], None]) -> Callable[[Any], Coroutine[Any, Any, None]]:
+    """`handle` as a coroutine function, which viser runs on its event loop as each drag message arrives (see above)."""
+
+    async def on_update(event: Any) -> None:
+        handle(event)
+
+    return on_update

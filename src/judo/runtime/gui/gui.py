@@ -23,6 +23,7 @@ from judo.runtime.gui.goal_handles import GoalHandles
 from judo.runtime.gui.plots import Plots, estimation_error
 from judo.runtime.gui.scene import SceneView
 from judo.runtime.gui.server import gui_url, start_server
+from judo.runtime.gui.viser_internals import purge_removed
 
 SENT_POSES_KEPT = 400
 """Camera poses sent to the pages that a late camera report is matched against (a few seconds' worth)."""
@@ -200,7 +201,7 @@ class Gui:
         self._generation = session.generation
         # viser keeps every removed widget's and scene node's tombstone for clients that connect later,
         # and purges them only when one does: purge now, or each switch would grow the app's memory.
-        self.server._run_garbage_collector()
+        purge_removed(self.server)
 
     def _show_estimator(self, session: Any, reading: SystemState) -> None:
         """The estimator's config panel, and while it runs on the app's own simulation (the snapshots carry

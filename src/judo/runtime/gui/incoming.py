@@ -17,14 +17,22 @@ nothing is stored and no other page hears of it.
 
 import logging
 import math
-from collections.abc import Callable
 from numbers import Real
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import viser
-from viser import _messages as viser_messages
+import viser.infra
 
-from judo.core.errors import GuiStartError
+from judo.runtime.gui.viser_internals import (
+    Handler,
+    replace_handler,
+    send_widget_value,
+    viser_gui_update_handler,
+    widget_by_uuid,
+)
+
+if TYPE_CHECKING:
+    from judo.runtime.gui.viser_internals import GuiUpdateMessage
 
 logger = logging.getLogger("judo.gui")
 
@@ -33,24 +41,14 @@ MAX_INT = 2**53 - 1
 MAX_TEXT = 100_000
 """Most characters a text box accepts from a page."""
 
-Handler = Callable[[int, viser_messages.GuiUpdateMessage], Any]
-
 
 def guard_gui_updates(server: viser.ViserServer) -> None:
-    """Put `refusal` in front of viser's handler of `GuiUpdateMessage` on `server`.
-
-    Raises GuiStartError if the viser release registers its handler differently (never run unguarded).
-    """
-    websock = server._websock_server
-    handlers = websock._incoming_handlers.get(viser_messages.GuiUpdateMessage, [])
-    if handlers != [server.gui._handle_gui_updates]:
-        raise GuiStartError(
-            f"cannot guard the widget edits of viser {viser.__version__}; judo needs a viser it supports"
-        )
-    viser_handler: Handler = handlers[0]
+    """Put `refusal` in front of viser's handler of `GuiUpdateMessage` on `server` (whose viser internals
+    `check_server` has checked)."""
+    viser_handler: Handler = viser_gui_update_handler(server)
     warned: set[int] = set()
 
-    async def guarded(client_id: int, message: viser_messages.GuiUpdateMessage) -> None:
+    async def guarded(client_id: viser.infra.ClientId, message: "GuiUpdateMessage") -> None:
         why = refusal(server, client_id, message)
         if why is None:
             await viser_handler(client_id, message)
@@ -62,19 +60,18 @@ def guard_gui_updates(server: viser.ViserServer) -> None:
             )
         _show_value_in_force(server, client_id, message.uuid)
 
-    websock.unregister_handler(viser_messages.GuiUpdateMessage)
-    websock.register_handler(viser_messages.GuiUpdateMessage, guarded)
+    replace_handler(server, "GuiUpdateMessage", guarded)
 
 
-def refusal(server: viser.ViserServer, client_id: int, message: viser_messages.GuiUpdateMessage) -> str | None:
+def refusal(server: viser.ViserServer, client_id: int, message: "GuiUpdateMessage") -> str | None:
     """Why `message` from client `client_id` must not reach viser, or None if it may."""
-    if client_id not in server._connected_clients:
+    if client_id not in server.get_clients():
         return "the client has not registered (a page registers with its first camera message)"
     updates = message.updates
     if not isinstance(updates, dict) or set(updates) != {"value"}:
         shown = sorted(map(str, updates))[:10] if isinstance(updates, dict) else type(updates).__name__
         return f"a page only ever sets a widget's value, got {shown}"
-    handle = server.gui._gui_input_handle_from_uuid.get(message.uuid)
+    handle = widget_by_uuid(server, message.uuid)
     if handle is None:
         return None  # viser ignores an edit of a widget it does not have
     return value_refusal(handle, updates["value"])
@@ -113,11 +110,11 @@ def _like(current: Any, value: Any) -> str | None:
 
 def _show_value_in_force(server: viser.ViserServer, client_id: int, uuid: str) -> None:
     """Send client `client_id` (only) the value in force of widget `uuid`, over what its page shows."""
-    client = server._connected_clients.get(client_id)
-    handle = server.gui._gui_input_handle_from_uuid.get(uuid)
+    client = server.get_clients().get(client_id)
+    handle = widget_by_uuid(server, uuid)
     if client is None or handle is None:
         return
-    client._websock_connection.queue_message(viser_messages.GuiUpdateMessage(uuid, {"value": handle.value}))
+    send_widget_value(client, uuid, handle.value)
 
 
 def _shown(value: Any) -> str:

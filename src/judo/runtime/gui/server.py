@@ -5,31 +5,33 @@ viser offers no hook into its websocket handshake, so `start_server` wraps the o
 `websockets.asyncio.server.serve` call viser's server thread makes while the server starts (and
 only that call: it is recognised by viser's handler), adding the policy in front of viser's own
 `process_request`. The wrapper is in place only during the start, under a lock. Widget edits from
-clients pass `guard_gui_updates` (incoming.py) before viser applies and broadcasts them.
+clients pass `guard_gui_updates` (incoming.py) before viser applies and broadcasts them. These hooks
+rely on viser's private internals, all reached through viser_internals.py and checked there before
+and right after the start: a viser without them is refused with GuiStartError, never run unguarded.
 """
 
-import contextlib
 import logging
 import threading
-from collections.abc import Iterator
 
 import viser
-import websockets.asyncio.server
-from viser import _messages as viser_messages
 
 from judo.core.errors import GuiStartError
 from judo.runtime.address import check_host, check_port, is_loopback
 from judo.runtime.gui.access import AccessPolicy
 from judo.runtime.gui.incoming import guard_gui_updates
+from judo.runtime.gui.viser_internals import (
+    VISER_HANDLER,
+    check_server,
+    check_viser,
+    guarded_handshakes,
+    replace_handler,
+    unsupported,
+)
 
 logger = logging.getLogger("judo.gui")
 
 START_TIMEOUT = 20.0
 """Seconds to wait for the server to start listening before reporting that it could not."""
-VISER_HANDLER = "WebsockServer._background_worker.<locals>.ws_handler"
-"""`__qualname__` of the websocket handler viser's server thread serves: the call to guard."""
-
-_starting = threading.Lock()
 
 
 def start_server(host: str, port: int, *, token: str | None, share: bool, label: str) -> viser.ViserServer:
@@ -38,10 +40,12 @@ def start_server(host: str, port: int, *, token: str | None, share: bool, label:
     Handshakes must pass `AccessPolicy(token)`. The share button (a public URL through
     share.viser.studio) is shown, and clients' share requests honoured, only if `share`.
     Raises ConfigError for a port out of range, GuiStartError for an address that is not this
-    machine's or a server that does not start within START_TIMEOUT seconds.
+    machine's, a server that does not start within START_TIMEOUT seconds, or a viser that lacks an
+    internal judo relies on (the message names the installed viser and the range judo is tested with).
     """
     check_port(port)
     check_host(host)
+    check_viser()
     if token is None and not is_loopback(host):
         raise GuiStartError(f"the GUI on {host!r} reaches beyond this machine and needs an access token")
     policy = AccessPolicy(token)
@@ -51,7 +55,7 @@ def start_server(host: str, port: int, *, token: str | None, share: bool, label:
 
     def build() -> None:
         try:
-            with _guarded_handshakes(policy, guarded):
+            with guarded_handshakes(policy.guard, guarded, START_TIMEOUT):
                 started.append(viser.ViserServer(host=host, port=port, label=label, verbose=False))
         except BaseException as err:  # reported to the caller below
             failed.append(err)
@@ -66,18 +70,17 @@ def start_server(host: str, port: int, *, token: str | None, share: bool, label:
     if not started:
         raise GuiStartError(f"the GUI server did not start on {host}:{port} within {START_TIMEOUT:g} s")
     server = started[0]
-    if not guarded:  # a viser release that serves differently: never run without the policy
-        server.stop()
-        raise GuiStartError(f"cannot guard the websocket of viser {viser.__version__}; judo needs a viser it supports")
     try:
+        if not guarded:  # a viser release that serves differently: never run without the policy
+            raise unsupported(f"a websocket served with the handler {VISER_HANDLER} (the handshake judo guards)")
+        check_server(server)
         guard_gui_updates(server)  # one client's edit can never close other pages (see incoming.py)
-    except GuiStartError:
+        server.gui.configure_theme(show_share_button=share)
+        if not share:  # a client could still send the request the hidden button sends
+            replace_handler(server, "ShareUrlRequest", _refuse_share)
+    except BaseException:  # never leave a server running that start_server did not hand over
         server.stop()
         raise
-    server.gui.configure_theme(show_share_button=share)
-    if not share:  # a client could still send the request the hidden button sends
-        server._websock_server.unregister_handler(viser_messages.ShareUrlRequest)
-        server._websock_server.register_handler(viser_messages.ShareUrlRequest, _refuse_share)
     return server
 
 
@@ -93,25 +96,3 @@ def _refuse_share(client_id: int, message: object) -> None:
     logger.warning(
         "client %d asked for a public share URL; refused (start the app with --share to allow it)", client_id
     )
-
-
-@contextlib.contextmanager
-def _guarded_handshakes(policy: AccessPolicy, guarded: list[bool]) -> Iterator[None]:
-    """Put `policy` in front of the `process_request` of viser's `serve` calls made meanwhile;
-    append to `guarded` for each call guarded."""
-    serve = websockets.asyncio.server.serve
-
-    def guarded_serve(handler, *args, process_request=None, **kwargs):  # noqa: ANN001, ANN202
-        if getattr(handler, "__qualname__", "") == VISER_HANDLER:
-            process_request = policy.guard(process_request)
-            guarded.append(True)
-        return serve(handler, *args, process_request=process_request, **kwargs)
-
-    if not _starting.acquire(timeout=START_TIMEOUT):
-        raise GuiStartError("another GUI server is still starting in this process")
-    websockets.asyncio.server.serve = guarded_serve  # type: ignore[misc]
-    try:
-        yield
-    finally:
-        websockets.asyncio.server.serve = serve  # type: ignore[misc]
-        _starting.release()
