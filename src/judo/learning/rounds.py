@@ -63,12 +63,13 @@ def summary_line(out: Path, trained: TrainedPolicy, pairs: TrainingPairs) -> str
 
 
 def distill(args: DistillArgs, command: str, console: Console, progress_console: Console) -> None:
-    """Train on the datasets (and run the teacher rounds), writing `args.out`."""
+    """Train on the datasets (and run the teacher rounds), writing `args.out`. Lines that name a file are never
+    wrapped (soft_wrap), so its path can be copied whole, however long."""
     datasets = list(args.datasets)
     if args.rounds == 0:
         trained, pairs = train_and_write(datasets, args, command, args.out, progress_console)
-        console.print(summary_line(args.out, trained, pairs))
-        console.print(f"serve it: python -m judo evaluate --task {pairs.task} --policy {args.out}")
+        console.print(summary_line(args.out, trained, pairs), soft_wrap=True)
+        console.print(f"serve it: python -m judo evaluate --task {pairs.task} --policy {args.out}", soft_wrap=True)
         return
     folder = args.out.with_name(args.out.stem + "_rounds")
     folder.mkdir(parents=True, exist_ok=True)
@@ -82,18 +83,20 @@ def distill(args: DistillArgs, command: str, console: Console, progress_console:
             datasets.append(round_file)
             policy = folder / f"policy_round_{round_index}.onnx"
         if policy.exists():
-            console.print(f"round {round_index}: {policy} exists; resumed without training it again")
+            console.print(f"round {round_index}: {policy} exists; resumed without training it again", soft_wrap=True)
             pairs, seconds = read_pairs(datasets, args.kind), float("nan")
         else:
             trained, pairs = train_and_write(datasets, args, command, policy, progress_console)
-            console.print(summary_line(policy, trained, pairs))
+            console.print(summary_line(policy, trained, pairs), soft_wrap=True)
             seconds = trained.seconds
         rows.append([str(round_index), str(len(pairs.episodes)), str(pairs.num_pairs), f"{seconds:.1f}"])
         rows[-1] += evaluate_round(args, env_args, policy)
         console.print(round_table(rows, args, env_args))
     copy_policy(policy, args.out)
     shutil.copyfile(losses_path(policy), losses_path(args.out))
-    console.print(f"wrote {args.out} (round {args.rounds}'s policy); every round's files are in {folder}")
+    console.print(
+        f"wrote {args.out} (round {args.rounds}'s policy); every round's files are in {folder}", soft_wrap=True
+    )
 
 
 def dataset_env_args(path: Path) -> dict[str, Any]:
