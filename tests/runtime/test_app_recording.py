@@ -119,3 +119,12 @@ def test_a_change_of_estimator_is_recorded_and_the_recording_goes_on(tmp_path, w
     assert estimated.any() and not estimated.all() and not estimated[0]
     assert np.allclose(arrays["obs/estimate_qpos"][estimated], arrays["obs/qpos"][estimated])  # a pass-through
     assert "obs/measured" not in arrays and arrays["measured_sensors"] is None
+
+
+def test_stopping_a_recording_before_any_step_writes_nothing_and_says_so(tmp_path):
+    app = App("cartpole", "ps", gui=False, seed=0, num_workers=1)  # never started: the plant takes no step
+    app.start_recording(tmp_path / "empty.h5")
+    with pytest.raises(judo.JudoError, match=r"nothing was recorded \(the plant took no step"):
+        app.stop_recording()
+    assert app.recording is None and not (tmp_path / "empty.h5").exists()
+    app.stop()

@@ -21,6 +21,7 @@ from judo.collection.dataset import DatasetFile, import_h5py
 from judo.collection.model_info import config_dict, model_sha256
 from judo.collection.recorder import EpisodeRecorder
 from judo.core.config import Config
+from judo.core.errors import JudoError
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import step_reward
 from judo.runtime.records import PlanRecord, StepRecord
@@ -35,6 +36,11 @@ def default_recording_path(task: str) -> Path:
 def start_live_recording(path: str | Path | None, session: Session, configs: dict[str, Config]) -> "LiveRecording":
     """The app's default recorder (`judo.runtime.recordings.DEFAULT_RECORDER`): a LiveRecording of `session` into
     `path` (`default_recording_path` for None), from the `configs` in force."""
+    if getattr(session.controller, "optimizer", None) is None:
+        raise JudoError(
+            "the GUI's recording holds an optimizer's plans; a policy drives this session: switch to an optimizer to "
+            "record, or record the policy with python -m judo collect --policy FILE.onnx"
+        )
     return LiveRecording(path or default_recording_path(session.task_name), session, configs)
 
 
@@ -107,10 +113,13 @@ class LiveRecording:
 
     def finish(self) -> tuple[Path, int]:
         """Write the recording as the next demo of the file; returns (path, demo index). Raises
-        DatasetError if the file cannot be written or holds another task's recordings."""
+        DatasetError if the file cannot be written or holds another task's recordings, and JudoError (writing
+        nothing) when the plant took no step while it recorded."""
         with self._lock:
             recorder = self._steps.with_records(list(self._steps.steps), list(self._steps.plans))
             steps = recorder.steps
+        if not steps:
+            raise JudoError(f"nothing was recorded (the plant took no step while recording); {self.path} not written")
         task = self.session.controller.task
         log = EpisodeLog(
             times=np.array([step.time for step in steps]),
