@@ -1,5 +1,6 @@
 """The benchmark scripts run end to end on the smallest settings and print their tables."""
 
+import json
 import os
 import subprocess
 import sys
@@ -234,3 +235,18 @@ def test_distill_collects_distills_and_prints_the_columns_on_fresh_seeds(tmp_pat
     header = "| task | metric | MPC | policy, round 0 | policy, round 1 | MPC + policy, N/8 (K=2) | MPC, N/8 |"
     assert header in out and "| pendulum | upright_fraction |" in out
     assert (tmp_path / "pendulum_chunk_regression_rounds" / "round_1.h5").is_file()
+
+
+def test_evaluate_fingerprint_writes_the_metrics_and_finds_a_changed_run(tmp_path):
+    small = ["--tasks", "pendulum", "--optimizers", "ps", "--latency-ms", "0", "--seeds", "1", "--duration", "0.2"]
+    out = tmp_path / "before.json"
+    result = run_script("evaluate_fingerprint.py", *small, "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    runs = json.loads(out.read_text())
+    assert list(runs) == ["pendulum/ps/0 ms"] and runs["pendulum/ps/0 ms"][0][0] == 0  # seed 0's row
+    same = run_script("evaluate_fingerprint.py", *small, "--compare", str(out))
+    assert same.returncode == 0 and "1 runs compared" in same.stdout and "0 differ" in same.stdout
+    runs["pendulum/ps/0 ms"][0][2] += 1  # one update more than this run makes
+    out.write_text(json.dumps(runs))
+    changed = run_script("evaluate_fingerprint.py", *small, "--compare", str(out))
+    assert changed.returncode == 1 and "differs: pendulum/ps/0 ms" in changed.stdout
