@@ -255,6 +255,8 @@ PACKAGE_ORDER = (
 included. The library (core < estimators, optimizers < tasks), then what runs it: Ray, the app, the command
 lines' shared pieces, and the commands; collect runs evaluate's seeded episodes, tune none of collect's, and
 distill runs both."""
+
+
 def package_of(module: str, package: str = PACKAGE) -> str:
     """The package a module counts for: "judo.core.rollout" -> "judo.core"; a module directly in the package
     ("judo.ray_cluster", "judo.__main__") and the package itself count for themselves."""

@@ -22,6 +22,7 @@ from judo.runtime.session import Sensing
 RUNTIME = Path(judo.runtime.__file__).parent
 APP_PARTS = (
     "app",
+    "app_settings",
     "app_state",
     "app_commands",
     "plant_runner",

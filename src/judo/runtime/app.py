@@ -15,24 +15,22 @@ The App is composed of parts that own their state and are handed what they use (
 - `Recordings` (`judo.runtime.recordings`) and the frontend (the GUI, given to the App, which never imports it).
 The App implements the command port the GUI uses (`judo.runtime.commands.AppPort`) and delegates.
 
-A stop (`stop()`, Ctrl-C, SIGTERM) takes effect within about a second whatever the configs: every
-wait is cut short by it, the planning cycle stops between optimizer iterations, and a call stuck in
-a rollout or a slow reward is abandoned to its daemon thread rather than waited for.
+A stop (`stop()`, Ctrl-C, SIGTERM) takes effect within about a second whatever the configs: every wait is cut
+short, planning stops between optimizer iterations, and a call stuck in a rollout is left to its daemon thread.
 """
 
 import asyncio
 import functools
 import logging
-import math
 import threading
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from judo.core.config import Config, check_seed
+from judo.core.config import Config
 from judo.core.controller import Controller, ControllerConfig
-from judo.core.errors import ConfigError, JudoError
+from judo.core.errors import JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.policy import Policy
@@ -42,6 +40,7 @@ from judo.core.task import TaskConfig
 from judo.runtime import exit_guard
 from judo.runtime.address import check_port, check_token
 from judo.runtime.app_commands import Commands
+from judo.runtime.app_settings import check_app_settings
 from judo.runtime.app_state import AppState
 from judo.runtime.frontend import FrontendFactory, viser_frontend
 from judo.runtime.planner_runner import PlannerRunner
@@ -50,7 +49,7 @@ from judo.runtime.recordings import Recordings
 from judo.runtime.records import LiveRecorder, RecorderFactory
 from judo.runtime.reports import Reports
 from judo.runtime.sensing import PerType
-from judo.runtime.session import Observe, Sensing, Session
+from judo.runtime.session import POLICY_OPTIMIZER, Observe, Sensing, Session
 from judo.runtime.session_maker import SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
@@ -62,9 +61,6 @@ from judo.runtime.system import System
 __all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]
 
 logger = logging.getLogger("judo.app")
-
-MAX_WORKERS = 1024
-"""Most rollout threads an app may ask for."""
 
 
 class App:
@@ -105,6 +101,10 @@ class App:
         proposal_policy: a `judo.Policy`, or an ONNX file (needs the `policy` extra), whose candidates replace
             `controller_config.policy_samples` of the rollouts each update (docs/policies.md), in sessions of
             `task` (a switch to another task plans without it). PolicyError at once if it does not fit the task.
+        policy: a `judo.Policy`, or an ONNX file (the `policy` extra), that drives the plant instead of `optimizer`
+            through the same closed loop (docs/policies.md): the session's optimizer is then "policy", and its
+            controller config the policy's metadata's rate and chunk layout (where `controller_config` is None).
+            `switch_optimizer(name)` hands the plant to MPC, `switch_optimizer("policy")` back; another task: MPC.
         recorder_factory: makes the recorder of `start_recording(path)`; None writes collect's HDF5 layout
             (`judo.collection.live`, needs the `collect` extra).
 
@@ -138,26 +138,9 @@ class App:
         sensor_rate: PerType = None,
         recorder_factory: RecorderFactory | None = None,
         proposal_policy: Policy | str | Path | None = None,
+        policy: Policy | str | Path | None = None,
     ) -> None:
-        if duration is not None and not 0 < duration < math.inf:
-            raise ConfigError(
-                f"duration must be a positive, finite number of seconds of sim time (or None to run until stopped), "
-                f"got {duration}"
-            )
-        if num_workers is not None and not (isinstance(num_workers, int) and 1 <= num_workers <= MAX_WORKERS):
-            raise ConfigError(
-                f"num_workers must be an integer from 1 to {MAX_WORKERS} (or None: one per core), got {num_workers!r}"
-            )
-        check_seed(seed)
-        if not 0 < system_call_limit < math.inf:
-            raise ConfigError(
-                f"system_call_limit must be a positive, finite number of seconds, got {system_call_limit}"
-            )
-        if system is not None and observe != "state":
-            raise ConfigError(
-                f"observe={observe!r} rehearses sensing on the app's own simulation; your System chooses what it "
-                "measures (return SystemState.sensors, state None), so leave observe at 'state'"
-            )
+        check_app_settings(duration, num_workers, seed, system_call_limit, system is not None, observe)
         self.gui_enabled, self.host, self.port, self.duration = gui is not False, host, check_port(port), duration
         self.token, self.share = check_token(token, host, generate=gui is not False), share
         self.backend, self.system_call_limit = backend, system_call_limit
@@ -169,9 +152,14 @@ class App:
         self._reports = reports = Reports(StatusLine(), state)
         clock = None if system is None else state.clock  # a robot's plans age in wall time; the simulator waits
         proposals = None if proposal_policy is None else as_policy(proposal_policy)
-        maker = SessionMaker(system, seed, num_workers, backend, clock, reports.on_watchdog, proposals, task)
-        state.begin(maker.first(task, optimizer, state.sensing, controller_config, optimizer_config, task_config))
-        self._commands = Commands(state, reports, system)
+        driver = None if policy is None else as_policy(policy)
+        maker = SessionMaker(
+            system, seed, num_workers, backend, clock, reports.on_watchdog, proposals, task, driver, task, optimizer
+        )
+        first = optimizer if driver is None else POLICY_OPTIMIZER
+        state.begin(maker.first(task, first, state.sensing, controller_config, optimizer_config, task_config))
+        self._policy_name = None if driver is None else driver.name
+        self._commands = Commands(state, reports, maker)
         self._recordings = Recordings(state, reports, recorder_factory)
         plant = PlantRunner(state, self.buffer, self.stats, reports, duration, state.stop.set)
         planner = PlannerRunner(state, maker, self.buffer, self.stats, reports, self._recordings)
@@ -250,6 +238,11 @@ class App:
         return self._supervisor.frontend
 
     @property
+    def policy_name(self) -> str | None:
+        """The policy the app can serve as its controller (the optimizer dropdown's "policy"), or None."""
+        return self._policy_name
+
+    @property
     def session(self) -> Session:
         """The session in use: names, controller and plant. Replaced, never changed, on a switch."""
         return self._state.session
@@ -320,8 +313,7 @@ class App:
         self._commands.switch_estimator(estimator)
 
     def report(self, message: str, level: Level = "info") -> None:
-        """Show `message` on the status line and write it to the log (each message at most once every
-        few seconds, however the messages alternate)."""
+        """Show `message` on the status line and write it to the log (each message at most every few seconds)."""
         self._reports.report(message, level)
 
     @property
@@ -330,14 +322,12 @@ class App:
         return self._recordings.path
 
     def start_recording(self, recorder: LiveRecorder | str | Path | None = None) -> Path:
-        """Record every step, plan and config edit (the estimator's, and a change of estimator, too) of the running
-        session until `stop_recording()` (or a switch of task or optimizer). `recorder` is any `LiveRecorder`
-        of `app.session`, or a path for the app's recorder factory (by default an HDF5 file in the collect
-        layout, docs/collect.md, judo-recording-TASK-TIME.h5 for None; needs the `collect` extra). Returns its file."""
+        """Record every step, plan and config edit until `stop_recording()` (or a switch of task or optimizer) with
+        `recorder` (any `LiveRecorder` of `app.session`), or into a path by the app's recorder factory (by default
+        collect's HDF5 layout, judo-recording-TASK-TIME.h5 for None; the `collect` extra). Returns its file."""
         return self._recordings.start(recorder)
 
     def stop_recording(self) -> Path | None:
-        """Stop the recording under way and write it as the next demo of its file (`python -m judo replay
-        FILE` plays it); returns the file, or None when nothing was recording. Raises JudoError if the
-        file cannot be written."""
+        """Write the recording under way as the next demo of its file (`python -m judo replay FILE` plays it);
+        returns the file, or None when nothing was recording. JudoError if it cannot be written."""
         return self._recordings.stop()

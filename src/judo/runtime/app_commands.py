@@ -17,15 +17,14 @@ from judo.core.proposals import check_proposal_policy
 from judo.core.registry import (
     CONFIG_KINDS,
     ConfigKind,
-    default_configs,
     lookup_optimizer,
     lookup_task,
     make_estimator,
 )
-from judo.runtime.app_state import AppState, ConfigSet
+from judo.runtime.app_state import AppState
 from judo.runtime.reports import Reports
-from judo.runtime.session import check_estimator
-from judo.runtime.system import System
+from judo.runtime.session import POLICY_OPTIMIZER, check_estimator
+from judo.runtime.session_maker import SessionMaker
 
 
 class Commands:
@@ -34,11 +33,13 @@ class Commands:
     Args:
         state: the app's state, where every command queues its request.
         reports: the status line.
-        user_system: the user's System, which stays for the whole run (None: judo simulates each task).
+        maker: how the app builds sessions: the user's System (which stays for the whole run), the policy, the
+            defaults.
     """
 
-    def __init__(self, state: AppState, reports: Reports, user_system: System | None) -> None:
-        self._state, self._reports, self._user_system = state, reports, user_system
+    def __init__(self, state: AppState, reports: Reports, maker: SessionMaker) -> None:
+        self._state, self._reports, self._maker = state, reports, maker
+        self._user_system = maker.user_system
 
     def update_config(
         self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
@@ -57,11 +58,17 @@ class Commands:
             session = state.session
             if generation is not None and generation != session.generation:
                 raise ConfigError("the task or optimizer changed since this edit was made; it was not applied")
-            updated = with_updates(state.configs.get(kind), updates)
+            current = state.configs.get(kind)
+            if current is None:
+                raise ConfigError(
+                    f"a policy drives {session.task_name}: it has no {kind} config; choose an optimizer to plan with MPC"
+                )
+            updated = with_updates(current, updates)
             candidate = state.configs.with_config(kind, updated)
-            check_configs(session.controller.task, candidate.controller, candidate.optimizer)
-            proposals = getattr(session.controller, "proposal_policy", None)  # refused here, not every cycle
-            check_proposal_policy(proposals, candidate.controller.policy_samples)
+            if candidate.optimizer is not None:  # a policy's session has no rollouts to check against
+                check_configs(session.controller.task, candidate.controller, candidate.optimizer)
+                proposals = getattr(session.controller, "proposal_policy", None)  # refused here, not every cycle
+                check_proposal_policy(proposals, candidate.controller.policy_samples)
             state.accept_config(kind, updated, from_gui=from_gui)
             task = session.controller.task
         rate = getattr(updated, "control_freq", None)
@@ -100,7 +107,7 @@ class Commands:
         state = self._state
         with state.lock:
             session = state.session
-            state.reset_configs(ConfigSet.from_dict(default_configs(session.task_name, session.optimizer_name)))
+            state.reset_configs(self._maker.default_configs(session.task_name, session.optimizer_name))
         self._reports.report("configs reset to the defaults")
 
     def pause(self) -> None:
@@ -172,5 +179,8 @@ class Commands:
 
     def switch_optimizer(self, optimizer: str) -> None:
         """Use the registered optimizer `optimizer` from the next cycle, keeping the plant running."""
-        lookup_optimizer(optimizer)
+        if optimizer == POLICY_OPTIMIZER:
+            self._maker.check_policy_session(self._state.session.task_name)
+        else:
+            lookup_optimizer(optimizer)
         self._state.request_switch(optimizer=optimizer)

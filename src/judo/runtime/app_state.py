@@ -32,29 +32,30 @@ from judo.runtime.watchdog import PausableClock
 
 @dataclass(frozen=True)
 class ConfigSet:
-    """The three configs of a session, one typed field per kind."""
+    """The configs of a session, one typed field per kind; `optimizer` None where a policy drives the session."""
 
     controller: ControllerConfig
-    optimizer: OptimizerConfig
+    optimizer: OptimizerConfig | None
     task: TaskConfig
 
     @classmethod
     def of(cls, session: Session) -> "ConfigSet":
         """The configs `session`'s controller uses."""
         controller = session.controller
-        return cls(controller.config, controller.optimizer.config, controller.task.config)
+        optimizer = getattr(controller, "optimizer", None)  # a PolicyController has none
+        return cls(controller.config, None if optimizer is None else optimizer.config, controller.task.config)
 
     @classmethod
     def from_dict(cls, configs: dict[ConfigKind, Config]) -> "ConfigSet":
         """{kind: config} (e.g. `judo.core.registry.default_configs`) as a ConfigSet; TypeError for a wrong type."""
-        made = cls(configs["controller"], configs["optimizer"], configs["task"])  # type: ignore[arg-type]  # checked below
+        made = cls(configs["controller"], configs.get("optimizer"), configs["task"])  # type: ignore[arg-type]  # checked below
         for kind, cls_ in (("controller", ControllerConfig), ("optimizer", OptimizerConfig), ("task", TaskConfig)):
-            if not isinstance(getattr(made, kind), cls_):
+            if not isinstance(getattr(made, kind), cls_) and not (kind == "optimizer" and made.optimizer is None):
                 raise TypeError(f"the {kind} config must be a {cls_.__name__}, got {type(getattr(made, kind))}")
         return made
 
-    def get(self, kind: ConfigKind) -> Config:
-        """The config of `kind`."""
+    def get(self, kind: ConfigKind) -> Config | None:
+        """The config of `kind` (None: the session has none of that kind)."""
         return getattr(self, kind)
 
     def with_config(self, kind: ConfigKind, config: Config) -> "ConfigSet":
@@ -62,8 +63,12 @@ class ConfigSet:
         return replace(self, **{kind: config})
 
     def as_dict(self) -> dict[ConfigKind, Config]:
-        """{kind: config}, for the GUI and recordings."""
-        return {"controller": self.controller, "optimizer": self.optimizer, "task": self.task}
+        """{kind: config} of the kinds the session has, for the GUI and recordings."""
+        configs: dict[ConfigKind, Config] = {"controller": self.controller}
+        if self.optimizer is not None:
+            configs["optimizer"] = self.optimizer
+        configs["task"] = self.task
+        return configs
 
 
 @dataclass

@@ -85,6 +85,10 @@ class RunOptions:
     """Seed of the optimizer, the task and the simulated plant."""
     backend: RolloutBackendName = "cpu"
     """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install "judo[warp]")."""
+    policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
+    """A policy (an ONNX file; needs pip install 'judo[policy]') that drives the plant instead of --optimizer, through
+    the same closed loop (docs/policies.md); its metadata's control_freq, horizon and spline_order are the defaults
+    of --controller.*. The GUI's optimizer dropdown switches to MPC (--optimizer's configs) and back to "policy"."""
     proposal_policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
     """Policy whose candidates replace --controller.policy-samples of the optimizer's num_rollouts each update (the
     policy as a proposal, docs/policies.md; the GUI's policy_samples slider sets how many); needs pip install
@@ -115,10 +119,13 @@ def main(argv: Sequence[str] | None = None) -> int:
                 "duration must be a positive, finite number of seconds of sim time, "
                 f"at most {MAX_DURATION:g}, got {options.duration}"
             )
+        controller_config = _as_kind(configs["controller"], ControllerConfig)
+        if options.policy is not None and controller_config == defaults["controller"]:
+            controller_config = None  # no --controller.* given: the policy's metadata's rate and chunk layout
         app = App(
             options.task,
             options.optimizer,
-            controller_config=_as_kind(configs["controller"], ControllerConfig),
+            controller_config=controller_config,
             optimizer_config=_as_kind(configs["optimizer"], OptimizerConfig),
             task_config=_as_kind(configs["task"], TaskConfig),
             gui=not options.headless,
@@ -131,6 +138,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             backend=options.backend,
             observe=options.sensing.observe,
             proposal_policy=options.proposal_policy,
+            policy=options.policy,
             estimator=estimator if pinned else None,  # None: each task's own default, at start and on a switch
             estimator_config=_as_kind(configs.get("estimator"), EstimatorConfig) if pinned else None,
             **{f"sensor_{key}": value for key, value in options.sensing.sensor_settings().items()},

@@ -21,7 +21,7 @@ from judo.core.config import Config
 from judo.core.estimator import EstimatorConfig
 from judo.core.registry import CONFIG_KINDS, ConfigKind
 from judo.runtime.records import LiveRecorder
-from judo.runtime.session import Session
+from judo.runtime.session import POLICY_OPTIMIZER, Session
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
 from judo.runtime.state_buffer import Snapshot
 from judo.runtime.stats import LiveFigures
@@ -31,6 +31,7 @@ from judo.runtime.system import SystemState
 
 __all__ = [
     "CONFIG_KINDS",
+    "POLICY_OPTIMIZER",
     "AppPort",
     "ConfigKind",
     "FigureSource",
@@ -69,6 +70,11 @@ class AppPort(Protocol):
     @property
     def session(self) -> Session:
         """The session in use (names, generation, controller); replaced, never changed, on a switch."""
+        ...
+
+    @property
+    def policy_name(self) -> str | None:
+        """The name of the policy the app can serve as its controller (its optimizer dropdown's "policy"), or None."""
         ...
 
     @property

@@ -163,5 +163,6 @@ class PlannerRunner:
         self._reports.line.trouble.clear()
         self.clock.restart(time.perf_counter())
         estimating = f" and the {new.estimator_name} estimator" if new.estimator_name else ""
-        self._reports.report(f"switched to {task} with {optimizer}{estimating}{' (paused)' if state.paused else ''}")
+        paused = " (paused)" if state.paused else ""
+        self._reports.report(f"switched to {new.task_name} with {new.optimizer_name}{estimating}{paused}")
         return True

@@ -16,6 +16,7 @@ from judo.core.errors import ConfigError
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, default_estimator_name
 from judo.core.optimizer import OptimizerConfig
 from judo.core.policy import Policy
+from judo.core.policy_controller import make_policy_controller
 from judo.core.registry import lookup_estimator, make_controller, make_estimator
 from judo.core.task import Task, TaskConfig
 from judo.runtime.closed_loop import ClosedLoop
@@ -26,6 +27,8 @@ from judo.runtime.system import MujocoSystem, System, SystemState
 Observe = Literal["state", "sensors"]
 """What the simulated plant serves: its full state, or only the task's measured sensors (rehearsed sensing)."""
 OBSERVE_CHOICES = ("state", "sensors")
+POLICY_OPTIMIZER = "policy"
+"""The optimizer name of a session that a policy drives instead of an optimizer (`App(policy=...)`)."""
 SENSING_STREAM = 0x73656E7365
 """Second entry of the sensor noise's seed sequence ([seed, SENSING_STREAM]): a stream apart from the plant's."""
 
@@ -119,6 +122,7 @@ def build_session(
     reading: SystemState | None = None,
     estimator_thread: bool = False,
     proposal_policy: Policy | None = None,
+    policy: Policy | None = None,
 ) -> Session:
     """A new Session. Configs left out get the task's registered defaults.
 
@@ -132,23 +136,29 @@ def build_session(
     the task's `default_estimator` when the plant's first reading has no full state, else none (plan from the reading as it is).
     `reading` is the given `system`'s latest reading, when another thread is driving it (a switch); None
     reads it here. `proposal_policy` makes the controller's `policy_samples` candidates (judo.core.proposals;
-    PolicyError unless it fits the task). `estimator_thread` runs the estimator on a thread of its own (`EstimatorThread`), for the
+    PolicyError unless it fits the task). `policy` drives the plant instead of an optimizer (`optimizer_name` is then
+    POLICY_OPTIMIZER and `optimizer_config` unused; `controller_config` None takes the policy's metadata's rate).
+    `estimator_thread` runs the estimator on a thread of its own (`EstimatorThread`), for the
     app's plant thread, which must not wait for the filter; evaluate's sim-time episodes leave it off.
     Raises UnknownNameError for an unregistered name and ConfigError for configs that do not work together
     (e.g. observing sensors on a task that declares none, or an estimator that cannot fuse the plant's readings).
     """
     sensing = sensing if sensing is not None else Sensing()
     sensing.check()
-    controller = make_controller(
-        task_name,
-        optimizer_name,
-        controller_config=controller_config,
-        optimizer_config=optimizer_config,
-        num_workers=num_workers,
-        seed=seed,
-        backend=backend,
-        proposal_policy=proposal_policy,
-    )
+    if policy is not None:  # the policy is the controller (judo.core.policy_controller); the loop is the same
+        made = make_policy_controller(task_name, policy, controller_config=controller_config, seed=seed)
+        controller: Controller = made  # type: ignore[assignment]  # a PolicyController serves as one (duck-typed)
+    else:
+        controller = make_controller(
+            task_name,
+            optimizer_name,
+            controller_config=controller_config,
+            optimizer_config=optimizer_config,
+            num_workers=num_workers,
+            seed=seed,
+            backend=backend,
+            proposal_policy=proposal_policy,
+        )
     if task_config is not None:
         controller.task.config = task_config
     try:

@@ -10,7 +10,7 @@ import viser
 
 from judo.core.errors import JudoError
 from judo.core.registry import get_registered_estimators, get_registered_optimizers, get_registered_tasks
-from judo.runtime.commands import AppPort, LiveFigures, Status
+from judo.runtime.commands import POLICY_OPTIMIZER, AppPort, LiveFigures, Status
 
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
 NO_ESTIMATOR = "none"
@@ -33,10 +33,10 @@ class Controls:
         )
         self.optimizer = gui.add_dropdown(
             "optimizer",
-            sorted(get_registered_optimizers()),
+            sorted(get_registered_optimizers()) + ([POLICY_OPTIMIZER] if app.policy_name else []),
             initial_value=session.optimizer_name,
             order=order + 0.1,
-            hint="Registered optimizers",
+            hint="Registered optimizers" + (f"; policy: {app.policy_name} drives the plant" if app.policy_name else ""),
         )
         self.estimator = gui.add_dropdown(
             "estimator",
@@ -96,8 +96,10 @@ class Controls:
         def shown(value: float, unit: str, digits: int) -> str:
             return f"{value:.{digits}f}{unit}" if math.isfinite(value) else "-"
 
+        policy = self.app.policy_name if self.app.session.optimizer_name == POLICY_OPTIMIZER else None
+        update = "plan" if policy is None else f"policy {policy} · inference"  # its update is one `act`
         self.readout.content = (
-            f"sim time {shown(sim_time, ' s', 1)} · plan {shown(figures.plan_time_ms, ' ms', 1)} · "
+            f"sim time {shown(sim_time, ' s', 1)} · {update} {shown(figures.plan_time_ms, ' ms', 1)} · "
             f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor {shown(figures.real_time_factor, '', 2)}"
         )
 
