@@ -101,7 +101,7 @@ class PlannerRunner:
         if plan is None:  # no finite reward, or non-finite knots: the plan before stays in force
             reports.failed("planner", f"planning cycle skipped: {session.closed_loop.last_failure}", "warning")
             return
-        reports.recovered("planner")
+        reports.recovered("planner", "planning works again")
         plan_time = time.perf_counter() - start
         rewards = controller.rewards
         assert controller.nominal_knots is not None  # set by every completed cycle

@@ -223,7 +223,7 @@ class PlantRunner:
         except Exception as err:
             self._reports.failed("system", f"system step failed: {type(err).__name__}: {err}")
             return False
-        self._reports.recovered("system")
+        self._reports.recovered("system", "the system steps again")
         return True
 
     def _read_and_publish(self, session: Session) -> None:

@@ -28,13 +28,9 @@ class Reports:
         """`part` (e.g. "planner") failed; it stays in trouble until it recovers."""
         self.line.failed(part, message, level)
 
-    def recovered(self, part: str) -> None:
-        """`part` works again: say the app is running, if its failure is on the status line."""
-        self.line.recovered(part, f"{self._recovery_word(part)}: {self.running()}")
-
-    @staticmethod
-    def _recovery_word(part: str) -> str:
-        return {"planner": "planning works again", "system": "the system steps again"}.get(part, f"{part} works again")
+    def recovered(self, part: str, news: str) -> None:
+        """`part` works again: say `news` and that the app is running, if its failure is on the status line."""
+        self.line.recovered(part, f"{news}: {self.running()}")
 
     def running(self) -> str:
         """'running TASK with OPTIMIZER'."""

@@ -116,8 +116,7 @@ class SessionMaker:
         task_config: TaskConfig | None,
         old: Session | None,
     ) -> Session:
-        keeps_plant = old is not None and task == old.task_name
-        system = old.system if keeps_plant and old is not None else self.user_system
+        system = old.system if old is not None and task == old.task_name else self.user_system
         return build_session(
             task,
             optimizer,
