@@ -22,6 +22,7 @@ from judo.tasks.particle import Particle, ParticleConfig
 from judo.tasks.pendulum import Pendulum, PendulumConfig
 from judo.tasks.push_t import PushT, PushTConfig
 from judo.tasks.quadruped import Quadruped, QuadrupedConfig
+from judo.tasks.quadruped_navigate import QuadrupedNavigate, QuadrupedNavigateConfig
 from judo.tasks.quadruped_velocity import QuadrupedVelocity, QuadrupedVelocityConfig
 from judo.tasks.walker import Walker, WalkerConfig
 
@@ -45,6 +46,8 @@ BUILTIN_TASKS = {
     "quadruped": (Quadruped, QuadrupedConfig),
     # The same robot tracking a commanded base velocity: the teacher of a distilled locomotion policy.
     "quadruped_velocity": (QuadrupedVelocity, QuadrupedVelocityConfig),
+    # The same walk to goals, planned in base-velocity commands over the locomotion policy judo distilled.
+    "quadruped_navigate": (QuadrupedNavigate, QuadrupedNavigateConfig),
     # Robot tasks: LEAP hand cube rotation (palm up / palm down) and Franka-style pick-and-place.
     "leap_cube": (LeapCube, LeapCubeConfig),
     "leap_cube_down": (LeapCubeDown, LeapCubeDownConfig),

@@ -29,6 +29,12 @@ STANDING_HEIGHT = 0.2976
 """Trunk height (m) of the "home" keyframe; the robot counts as fallen below half of it."""
 
 
+def gravity_in_body(quat: np.ndarray) -> np.ndarray:
+    """(..., 3) the world's down direction in the frame of (..., 4) unit quaternions [w, x, y, z]: R^T [0, 0, -1]."""
+    w, x, y, z = np.moveaxis(quat, -1, 0)
+    return -np.stack([2.0 * (x * z - w * y), 2.0 * (y * z + w * x), 1.0 - 2.0 * (x * x + y * y)], axis=-1)
+
+
 @dataclass(frozen=True)
 class Gait:
     """A periodic gait: each leg swings once per cycle, for 1 - duty of it, starting at its phase offset."""
@@ -172,6 +178,24 @@ class QuadrupedBase(Task[ConfigT]):
         self.data.ctrl[:] = self.home_ctrl
         mujoco.mj_forward(self.sim_model, self.data)
 
+    def locomotion_observation(self, commands: np.ndarray, states: np.ndarray, previous: np.ndarray) -> np.ndarray:
+        """(B, 33) the locomotion observation (quadruped_velocity.OBSERVATION) of (B, 3) commands [vx, vy, yaw rate]
+        and (B, nq + nv) states, one command per row: what quadruped_velocity's `policy_observation` gives, and
+        quadruped_navigate's low-level hook (hence a hook's argument order). The (B, 12) `previous` joint targets
+        are not part of it: a policy cloned from the MPC with them learned to copy them (the copycat problem of
+        behaviour cloning; docs/tasks.md)."""
+        nq = self.model.nq
+        return np.concatenate(
+            [
+                states[:, self._joint_qpos] - self.home_ctrl,
+                states[:, self._joint_qvel],
+                states[:, nq + 3 : nq + 6],
+                gravity_in_body(states[:, 3:7]),
+                commands,
+            ],
+            axis=1,
+        )
+
     def post_sim_step(self) -> None:
         """Count a fall (trunk below half its standing height) and stand the robot up where it lies."""
         if self.data.qpos[2] < 0.5 * STANDING_HEIGHT:
@@ -190,6 +214,34 @@ class QuadrupedBase(Task[ConfigT]):
     def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
         """Each contact geom's sliding friction x U[0.7, 1.3] (its own draw): the feet's grip on the floor."""
         scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
+
+
+def start_before_goal(model: mujoco.MjModel, data: mujoco.MjData, home_key: int) -> None:
+    """Put `data` in the keyframe `home_key` (standing at the origin facing +x, at rest) with the goal 1 m ahead."""
+    mujoco.mj_resetDataKeyframe(model, data, home_key)
+    data.mocap_pos[0, :2] = (1.0, 0.0)
+    mujoco.mj_forward(model, data)
+
+
+def goal_distance(data: mujoco.MjData) -> float:
+    """Horizontal distance (m) from the trunk to the goal (the first mocap body)."""
+    return float(np.linalg.norm(data.qpos[:2] - data.mocap_pos[0, :2]))
+
+
+def draw_next_goal(data: mujoco.MjData, rng: np.random.Generator) -> None:
+    """Move the goal to a spot 1 to 2 m from the trunk, in any direction."""
+    angle, distance = rng.uniform(-np.pi, np.pi), rng.uniform(1.0, 2.0)
+    data.mocap_pos[0, :2] = data.qpos[:2] + distance * np.array([np.cos(angle), np.sin(angle)])
+
+
+def goal_metrics(goals_reached: int, falls: int, minutes: float, final_distance: float) -> dict[str, float]:
+    """The walking tasks' metrics: goals_reached, goals_per_minute over `minutes`, falls, final_distance (m)."""
+    return {
+        "goals_reached": float(goals_reached),
+        "goals_per_minute": goals_reached / minutes if minutes > 0 else 0.0,
+        "falls": float(falls),
+        "final_distance": final_distance,
+    }
 
 
 @slider("speed", 0.0, 1.5, 0.05)
@@ -254,33 +306,25 @@ class Quadruped(QuadrupedBase[QuadrupedConfig]):
 
     def reset(self) -> None:
         """Standing at the origin facing +x, at rest; a goal 1 m ahead; counters at zero."""
-        mujoco.mj_resetDataKeyframe(self.sim_model, self.data, self._home_key)
-        self.data.mocap_pos[0, :2] = (1.0, 0.0)
-        mujoco.mj_forward(self.sim_model, self.data)
+        start_before_goal(self.sim_model, self.data, self._home_key)
         self.goals_reached = 0
         self.falls = 0
 
     def goal_distance(self) -> float:
         """Horizontal distance (m) from the plant's trunk to the goal."""
-        return float(np.linalg.norm(self.data.qpos[:2] - self.data.mocap_pos[0, :2]))
+        return goal_distance(self.data)
 
     def pre_sim_step(self) -> None:
         """Count a reached goal and draw the next one 1 to 2 m from the trunk, in any direction."""
         if self.config.new_goal_on_reach and self.goal_distance() < self.config.goal_radius:
             self.goals_reached += 1
-            angle, distance = self.rng.uniform(-np.pi, np.pi), self.rng.uniform(1.0, 2.0)
-            self.data.mocap_pos[0, :2] = self.data.qpos[:2] + distance * np.array([np.cos(angle), np.sin(angle)])
+            draw_next_goal(self.data, self.rng)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """goals_reached and goals_per_minute (counted on this plant task), falls (trunk below half its standing
         height), and final_distance (m) from the trunk to the last goal."""
         minutes = len(log.times) * float(self.sim_model.opt.timestep) / 60.0
-        return {
-            "goals_reached": float(self.goals_reached),
-            "goals_per_minute": self.goals_reached / minutes if minutes > 0 else 0.0,
-            "falls": float(self.falls),
-            "final_distance": self.goal_distance(),
-        }
+        return goal_metrics(self.goals_reached, self.falls, minutes, self.goal_distance())
 
     def success(self, metrics: dict[str, float]) -> bool:
         """Success for `collect --success-only`: at least one goal reached and no fall."""
