@@ -86,7 +86,7 @@ def test_reward_scores_each_rollout_finitely_from_a_reset_state(task_name):
     state = np.concatenate([task.data.qpos, task.data.qvel])
     states = np.tile(state, (3, 5, 1))
     sensors = np.tile(task.data.sensordata, (3, 5, 1))
-    controls = np.tile(np.clip(task.optimizer_warm_start(state), *task.actuator_ctrlrange.T), (3, 5, 1))
+    controls = np.tile(np.clip(task.optimizer_warm_start(state), *task.command_range.T), (3, 5, 1))  # planned controls
     task.pre_rollout(state)
     rewards = task.reward(states, sensors, controls, task.config, task.get_sim_metadata())
     assert np.shape(rewards) == (3,) and np.isfinite(rewards).all()

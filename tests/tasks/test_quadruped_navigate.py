@@ -15,8 +15,8 @@ from judo.tasks.quadruped_velocity import COMMAND_KEY, QuadrupedVelocity
 
 def test_the_shipped_policy_loads_and_names_its_task_and_training_command():
     policy = OnnxPolicy(POLICY_PATH)
-    assert (policy.observation_size, policy.action_size, policy.horizon) == (33, 12, 1)
-    assert policy.metadata["task"] == "quadruped_velocity" and policy.metadata["kind"] == "action"
+    assert (policy.observation_size, policy.action_size, policy.horizon) == (33, 12, 4)  # a chunk: 4 knots
+    assert policy.metadata["task"] == "quadruped_velocity" and policy.metadata["kind"] == "chunk"
     assert policy.metadata["name"] == "quadruped_locomotion"
     assert "python -m judo distill" in policy.metadata["training_command"]
     assert POLICY_PATH.stat().st_size < 2_000_000  # small enough to ship
@@ -42,9 +42,13 @@ def test_the_task_plans_commands_and_the_plant_runs_the_shipped_policy_on_the_se
     command = np.array([0.5, 0.0, 0.2])
     state = plant.plant_state()
     plant.apply(command)
-    plant.step()  # the first tick: the policy runs on the served command and the state
+    plant.step()  # the first tick: the policy runs on the served command and the state; its chunk's first knot
     observation = task.locomotion_observation(command[None], state[None], np.zeros((1, 12)))
-    np.testing.assert_allclose(plant.task.data.ctrl, OnnxPolicy(POLICY_PATH).act(observation)[0, 0], atol=1e-5)
+    knots = OnnxPolicy(POLICY_PATH).act(observation)[0]  # (4, 12) over 0.5 s
+    np.testing.assert_allclose(plant.task.data.ctrl, knots[0], atol=1e-5)
+    plant.step()  # the tick's second step: 0.01 s along the chunk's cubic
+    expected = task.low_level().step_weights(EVERY, task.dt)[1] @ knots
+    np.testing.assert_allclose(plant.task.data.ctrl, expected, atol=1e-5)
 
 
 @pytest.mark.slow

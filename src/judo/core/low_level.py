@@ -3,7 +3,8 @@
 A task declares one with `Task.low_level()`: the optimizer then plans the policy's commands (C numbers per
 step within `command_range`, e.g. a target position or a base velocity) instead of the actuators' ctrl, and
 every `every` (k) physics steps the policy turns each rollout's command, state and previous action into the
-ctrl held for the next k steps. Three places run it, the same way:
+ctrl held for the next k steps (or, for a chunk policy, the ctrl of each of those k steps read off the chunk's
+spline). Three places run it, the same way:
   - `LowLevelRollout`, the CPU rollout backend's wrapper: all N rollouts are stepped k steps at a time on the
     pool's threads (`mujoco.rollout`, states carried between chunks), and between chunks one batched
     `Policy.act` on the (N, O) observations of all rollouts makes the next ctrl;
@@ -17,7 +18,8 @@ models without active constraints are unaffected.
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -27,6 +29,7 @@ from judo.core.errors import JudoError
 from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
 from judo.core.rollout import MOCAP_CONTROL_SPEC, RolloutPool
+from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
 
 ObservationFn = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 """(commands (B, C), states (B, nq + nv), previous_actions (B, A)) -> (B, O) observations."""
@@ -43,7 +46,11 @@ class LowLevel:
     """What a task returns from `Task.low_level()` to plan commands over a low-level policy.
 
     Attributes:
-        policy: a per-step Policy (horizon 1) run every `every` physics steps, batched over rollouts.
+        policy: a Policy run every `every` physics steps, batched over rollouts: a per-step one (horizon 1), whose
+            action is held for the k steps, or a chunk policy (horizon H > 1), whose H knots span
+            `chunk_horizon` seconds as a `chunk_spline_order` spline that gives each of the k steps its own action
+            (an action chunk, as `distill --kind chunk` writes; its metadata's "horizon" and "spline_order" are
+            the defaults of the two fields).
         command_range: (C, 2) the limits of each planned command; C is the size the optimizer plans.
         every: physics steps per policy tick, k: the policy runs at 1 / (k * timestep) Hz.
         observation: (commands (B, C), states (B, nq + nv), previous_actions (B, A)) -> (B, O), vectorized
@@ -51,6 +58,8 @@ class LowLevel:
             plant's start). None: [commands, states], so O = C + nq + nv.
         to_ctrl: (B, A) actions -> (B, nu) ctrl, held for the next k steps (MuJoCo clamps it to the
             ctrlrange). None: the actions are the ctrl (A = nu).
+        chunk_horizon: seconds a chunk's knots span (chunk policies only); None: the policy's "horizon" metadata.
+        chunk_spline_order: "zero", "linear" or "cubic" (chunk policies only); None: its "spline_order" metadata.
     """
 
     policy: Policy
@@ -58,6 +67,10 @@ class LowLevel:
     every: int = 1
     observation: ObservationFn | None = None
     to_ctrl: ToCtrlFn | None = None
+    chunk_horizon: float | None = None
+    chunk_spline_order: str | None = None
+    chunk: SplineBasis | None = field(init=False, default=None)
+    """The chunk's knot layout (set from the two fields above), or None for a per-step policy."""
 
     def __post_init__(self) -> None:
         self.command_range = np.array(self.command_range, dtype=float)
@@ -68,11 +81,35 @@ class LowLevel:
             raise PolicyError(f"command_range needs low <= high in every row, got {self.command_range.tolist()}")
         if isinstance(self.every, bool) or not isinstance(self.every, (int, np.integer)) or self.every < 1:
             raise PolicyError(f"every (physics steps per policy tick) must be an integer >= 1, got {self.every!r}")
-        if self.policy.horizon != 1:
+        self.chunk = None if self.policy.horizon == 1 else self._chunk_basis()
+
+    def _chunk_basis(self) -> SplineBasis:
+        """The knot layout of the policy's chunks; PolicyError (one line) where it is not known or does not fit."""
+        metadata, horizon = getattr(self.policy, "metadata", {}), self.policy.horizon
+        span = self.chunk_horizon if self.chunk_horizon is not None else metadata.get("horizon")
+        order = self.chunk_spline_order or metadata.get("spline_order", "cubic")
+        try:
+            span = float(span) if span is not None else float("nan")
+        except ValueError:
+            span = float("nan")
+        if not span > 0:
             raise PolicyError(
-                f"a low-level policy gives one action per tick (horizon 1); policy {self.policy.name!r} has "
-                f"horizon {self.policy.horizon}"
+                f"policy {self.policy.name!r} gives chunks of {horizon} actions (not horizon 1) but no chunk_horizon "
+                "(seconds its knots span) > 0; give one, or write it as the policy's 'horizon' metadata"
             )
+        if order not in MIN_KNOTS or horizon < MIN_KNOTS[order]:
+            raise PolicyError(
+                f"policy {self.policy.name!r} gives chunks of {horizon} actions; chunk_spline_order must be one of "
+                f"{[name for name, least in MIN_KNOTS.items() if least <= horizon]}, got {order!r}"
+            )
+        return SplineBasis(np.linspace(0.0, span, horizon), cast(SplineOrder, order))
+
+    def step_weights(self, num_steps: int, timestep: float) -> np.ndarray:
+        """(num_steps, H) the weights that give each of a tick's `num_steps` steps its action from the H actions
+        of one `act`: the chunk's spline at 0, dt, 2 dt, ...; all ones for a per-step policy (held)."""
+        if self.chunk is None:
+            return np.ones((num_steps, 1))
+        return self.chunk.weights(np.arange(num_steps) * timestep)
 
     @property
     def command_size(self) -> int:
@@ -171,14 +208,16 @@ class LowLevelRollout(RolloutBackend):
         self._current = np.zeros((num_rollouts, nstate))  # each rollout's state at the tick
         self._previous = np.zeros((num_rollouts, self.low_level.policy.action_size))
         self._ticks = [(t, min(t + k, num_steps)) for t in range(0, num_steps, k)]
-        # One set of contiguous chunk buffers per chunk length (k, and a shorter last one if T % k).
-        self._chunk = {
+        lengths = {b - a for a, b in self._ticks}
+        self._weights = {n: self.low_level.step_weights(n, model.opt.timestep) for n in lengths}
+        # One set of contiguous buffers per tick length (k, and a shorter last one if T % k).
+        self._tick_buffers = {
             n: (
                 np.zeros((num_rollouts, n, width)),
                 np.zeros((num_rollouts, n, nstate)),
                 np.zeros((num_rollouts, n, model.nsensordata)),
             )
-            for n in {b - a for a, b in self._ticks}
+            for n in lengths
         }
 
     def rollout(
@@ -199,20 +238,25 @@ class LowLevelRollout(RolloutBackend):
         spec = mujoco.mjtState.mjSTATE_CTRL
         if mocap is not None and model.nmocap:
             spec = MOCAP_CONTROL_SPEC
-            for inputs, _, _ in self._chunk.values():
+            for inputs, _, _ in self._tick_buffers.values():
                 inputs[..., nu:] = mocap
         self._current[:] = initial_state
         self._previous[:] = 0.0
         finite = np.ones(num_rollouts, dtype=bool)
         for start, stop in self._ticks:
             observations = low.observe(commands[:, start], self._current[:, 1:num_state], self._previous)
-            actions = policy.checked_act(observations, require_finite=False)[:, 0]  # NaN: that rollout loses
+            chunk = policy.checked_act(observations, require_finite=False)  # (N, H, A); NaN: that rollout loses
             self.act_calls += 1
-            if not math.isfinite(actions.sum()):  # one cheap reduction per tick; rows only when it fails
-                finite &= np.isfinite(actions).all(axis=1)
-            self._previous[:] = actions
-            inputs, states, sensors = self._chunk[stop - start]
-            inputs[..., :nu] = low.ctrl(actions)[:, None, :]
+            if not math.isfinite(chunk.sum()):  # one cheap reduction per tick; rows only when it fails
+                finite &= np.isfinite(chunk).all(axis=(1, 2))
+            inputs, states, sensors = self._tick_buffers[stop - start]
+            if low.chunk is None:  # one action, held for the tick
+                self._previous[:] = chunk[:, 0]
+                inputs[..., :nu] = low.ctrl(chunk[:, 0])[:, None, :]
+            else:  # each step's action off the chunk's spline
+                actions = np.einsum("sh,bha->bsa", self._weights[stop - start], chunk)
+                self._previous[:] = actions[:, -1]
+                inputs[..., :nu] = low.ctrl(actions.reshape(-1, actions.shape[-1])).reshape(num_rollouts, -1, nu)
             self.inner.rollout_rows(self._current, inputs, spec, states, sensors)
             self._states[:, start:stop] = states
             self._sensors[:, start:stop] = sensors
@@ -242,6 +286,8 @@ class LowLevelPlant:
         self.low_level = low_level
         self.command = np.zeros(low_level.command_size)
         self._previous = np.zeros((1, low_level.policy.action_size))
+        self._weights = low_level.step_weights(low_level.every, model.opt.timestep)  # (k, H)
+        self._tick_ctrl = np.zeros((low_level.every, model.nu))
         self._steps = 0
 
     def reset(self) -> None:
@@ -250,14 +296,18 @@ class LowLevelPlant:
         self._steps = 0
 
     def before_step(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """On every k-th step, run the policy and write `data.ctrl`; PolicyError for a non-finite action."""
-        if self._steps % self.low_level.every == 0:
+        """On every k-th step, run the policy to make the ctrl of this tick's k steps; on every step write that
+        step's into `data.ctrl`. PolicyError for a non-finite action."""
+        tick_step = self._steps % self.low_level.every
+        if tick_step == 0:
             state = np.concatenate([data.qpos, data.qvel])[None]
             observation = self.low_level.observe(self.command[None], state, self._previous)
             policy = self.low_level.policy
-            actions = policy.checked_act(np.asarray(observation, dtype=float), require_finite=False)[:, 0]
-            if not np.isfinite(actions).all():
+            chunk = policy.checked_act(np.asarray(observation, dtype=float), require_finite=False)[0]  # (H, A)
+            if not np.isfinite(chunk).all():
                 raise PolicyError(f"low-level policy {policy.name!r} returned non-finite actions on the plant")
-            self._previous[:] = actions
-            data.ctrl[:] = self.low_level.ctrl(actions)[0]
+            actions = self._weights @ chunk  # (k, A): held, or off the chunk's spline
+            self._previous[:] = actions[-1]
+            self._tick_ctrl[:] = self.low_level.ctrl(actions)
+        data.ctrl[:] = self._tick_ctrl[tick_step]
         self._steps += 1

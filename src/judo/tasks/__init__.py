@@ -91,6 +91,8 @@ __all__ = [  # every built-in task class and its config
     "PushTConfig",
     "Quadruped",
     "QuadrupedConfig",
+    "QuadrupedNavigate",
+    "QuadrupedNavigateConfig",
     "QuadrupedVelocity",
     "QuadrupedVelocityConfig",
     "Walker",
