@@ -12,6 +12,7 @@ Medians, and the ratio of the minima (the steadier figure on a loaded machine).
     PYTHONPATH=src python benchmarks/low_level_policy.py [--task cartpole_pd] [--num-rollouts 64 256]
 """
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -56,8 +57,12 @@ class OneRowAtATime(Policy):
 
     def __init__(self, policy: Policy) -> None:
         self.policy = policy
-        self.observation_size, self.action_size, self.horizon = policy.observation_size, policy.action_size, 1
-        self.metadata = {"name": f"{policy.name} one row at a time"}
+        self.observation_size, self.action_size, self.horizon = (
+            policy.observation_size,
+            policy.action_size,
+            policy.horizon,
+        )
+        self.metadata = {**getattr(policy, "metadata", {}), "name": f"{policy.name} one row at a time"}
 
     def act(self, observations: np.ndarray) -> np.ndarray:
         return np.concatenate([self.policy.act(observations[i : i + 1]) for i in range(len(observations))])
@@ -84,7 +89,7 @@ def row(args: Args, num_rollouts: int, progress: Progress, bar) -> list[str]:  #
         observations = np.random.default_rng(0).normal(size=(num_rollouts, low.policy.observation_size))
         observations = observations.astype(float)
         ctrl = np.zeros((num_rollouts, num_steps, model.nu))
-        one_row = LowLevelRollout(pool, type(low)(OneRowAtATime(low.policy), low.command_range, low.every))
+        one_row = LowLevelRollout(pool, dataclasses.replace(low, policy=OneRowAtATime(low.policy)))
         times: dict[str, list[float]] = {"update": [], "floor": [], "batched": [], "one_row": []}
         plan_time = reading.time
 

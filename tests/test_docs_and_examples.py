@@ -106,3 +106,9 @@ def test_example_07_low_level_policy_plans_targets_and_balances():
 def test_example_08_quadruped_walks_towards_its_goal_without_falling():
     metrics = load_example("08_quadruped.py").main(duration=1.5)
     assert metrics["final_distance"] < 0.5 and metrics["falls"] == 0.0  # the first goal lies 1 m ahead
+
+
+def test_example_09_plans_the_quadruped_over_its_shipped_policy_without_falling(capsys):
+    metrics = load_example("09_quadruped_navigate.py").main(duration=1.0)
+    assert metrics["falls"] == 0.0 and metrics["final_distance"] < 1.5  # the first goal lies 1 m ahead
+    assert "over 'quadruped_locomotion'" in capsys.readouterr().out

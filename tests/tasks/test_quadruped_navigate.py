@@ -2,12 +2,10 @@
 and the plant both run (onnxruntime), and the shipped policy names its task and training command."""
 
 import numpy as np
-import pytest
 
 import judo
 from judo.core.low_level import LowLevelRollout
 from judo.core.onnx_policy import OnnxPolicy
-from judo.evaluation.episode import run_episode
 from judo.runtime.system import MujocoSystem
 from judo.tasks.quadruped_navigate import COMMAND_RANGE, EVERY, POLICY_PATH, QuadrupedNavigate
 from judo.tasks.quadruped_velocity import COMMAND_KEY, QuadrupedVelocity
@@ -49,15 +47,3 @@ def test_the_task_plans_commands_and_the_plant_runs_the_shipped_policy_on_the_se
     plant.step()  # the tick's second step: 0.01 s along the chunk's cubic
     expected = task.low_level().step_weights(EVERY, task.dt)[1] @ knots
     np.testing.assert_allclose(plant.task.data.ctrl, expected, atol=1e-5)
-
-
-@pytest.mark.slow
-def test_with_its_defaults_it_walks_towards_a_goal_a_metre_away_over_the_policy():
-    controller = judo.make_controller("quadruped_navigate", "mppi", seed=0, num_workers=1)
-    plant = MujocoSystem.from_task(controller.task, seed=0)
-    task = plant.task
-    assert isinstance(task, QuadrupedNavigate) and task.goal_distance() == pytest.approx(1.0, abs=0.01)
-    with controller:
-        result = run_episode(controller, plant, duration=2.0, seed=0)
-    assert task.goal_distance() < 0.5, f"still {task.goal_distance():.2f} m from the goal"
-    assert result.metrics["falls"] == 0.0

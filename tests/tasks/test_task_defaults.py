@@ -44,6 +44,7 @@ BUILTIN_TASKS = (
     "fr3_pick",
     "quadruped",
     "quadruped_velocity",
+    "quadruped_navigate",
 )
 BUILTIN_OPTIMIZERS = ("ps", "cem", "mppi", "dial", "cmaes", "icem")
 
