@@ -137,6 +137,7 @@ class QuadrupedBase(Task[ConfigT]):
         self._forward = self.get_sensor_start_index("torso_forward")
         self._velocity = self.get_sensor_start_index("torso_world_velocity")
         self._clock = self.get_sensor_start_index("clock")
+        self._goal = self.get_sensor_start_index("goal_position")
         self._torque_per_rad = self.model.actuator_gainprm[:, 0] / np.abs(self.model.actuator_forcerange[:, 1])
         self.falls = 0
 
@@ -162,6 +163,22 @@ class QuadrupedBase(Task[ConfigT]):
         and `wanted`, (num_rollouts, T, 2) m/s."""
         velocity = sensors[..., self._velocity : self._velocity + 2]
         return config.w_velocity * np.square(velocity - wanted).sum(-1)
+
+    def goal_cost(self, sensors: np.ndarray, config: Any) -> np.ndarray:
+        """(num_rollouts, T) walking towards the goal at config.speed (slowing within 0.5 m), facing it while farther
+        than config.goal_radius (w_heading), and its distance (w_goal, smooth L1), from (num_rollouts, T,
+        nsensordata) sensors: the goal task's terms, which quadruped_navigate plans over its policy too."""
+        offset = sensors[..., self._goal : self._goal + 2] - sensors[..., self._torso : self._torso + 2]
+        distance = np.linalg.norm(offset, axis=-1, keepdims=True)
+        direction = offset / np.maximum(distance, 1e-6)
+        wanted = direction * config.speed * np.minimum(distance / 0.5, 1.0)
+        yaw_error = self.heading(sensors) - np.arctan2(offset[..., 1], offset[..., 0])
+        far = distance[..., 0] > config.goal_radius
+        return (
+            self.velocity_cost(sensors, wanted, config)
+            + config.w_heading * far * (1.0 - np.cos(yaw_error))
+            + config.w_goal * smooth_l1_norm(offset, 0.1)
+        )
 
     def heading(self, sensors: np.ndarray) -> np.ndarray:
         """(...,) the trunk's yaw (rad) from (..., nsensordata) sensor rows."""
@@ -276,7 +293,6 @@ class Quadruped(QuadrupedBase[QuadrupedConfig]):
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
-        self._goal = self.get_sensor_start_index("goal_position")
         self.goals_reached = 0
         self.reset()
 
@@ -290,18 +306,7 @@ class Quadruped(QuadrupedBase[QuadrupedConfig]):
     ) -> np.ndarray:
         """Minus the time-averaged cost, (num_rollouts,): `base_cost`, walking towards the goal at `speed`, and
         facing it."""
-        offset = sensors[..., self._goal : self._goal + 2] - sensors[..., self._torso : self._torso + 2]
-        distance = np.linalg.norm(offset, axis=-1, keepdims=True)
-        direction = offset / np.maximum(distance, 1e-6)
-        wanted = direction * config.speed * np.minimum(distance / 0.5, 1.0)
-        yaw_error = self.heading(sensors) - np.arctan2(offset[..., 1], offset[..., 0])
-        far = distance[..., 0] > config.goal_radius
-        cost = (
-            self.base_cost(states, sensors, controls, config)
-            + self.velocity_cost(sensors, wanted, config)
-            + config.w_heading * far * (1.0 - np.cos(yaw_error))
-            + config.w_goal * smooth_l1_norm(offset, 0.1)
-        )
+        cost = self.base_cost(states, sensors, controls, config) + self.goal_cost(sensors, config)
         return -cost.mean(-1)
 
     def reset(self) -> None:

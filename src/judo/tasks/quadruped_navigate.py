@@ -15,7 +15,6 @@ import numpy as np
 
 from judo.core.fields import slider
 from judo.core.low_level import LowLevel
-from judo.core.norms import smooth_l1_norm
 from judo.core.onnx_policy import OnnxPolicy
 from judo.core.task import EpisodeLog, TaskConfig
 from judo.tasks.quadruped import (
@@ -88,7 +87,6 @@ class QuadrupedNavigate(QuadrupedBase[QuadrupedNavigateConfig]):
         policy_path: str | Path = POLICY_PATH,
     ) -> None:
         super().__init__(model_path, sim_model_path)
-        self._goal = self.get_sensor_start_index("goal_position")
         self.goals_reached = 0
         self._low_level = LowLevel(
             OnnxPolicy(policy_path),
@@ -112,18 +110,10 @@ class QuadrupedNavigate(QuadrupedBase[QuadrupedNavigateConfig]):
         """Minus the time-averaged cost, (num_rollouts,), from (num_rollouts, T, nq + nv) states, (num_rollouts, T,
         nsensordata) sensors and (num_rollouts, T, 3) commands: trunk height and tilt, walking towards the goal at
         `speed`, facing it, its distance, and the commands' size."""
-        offset = sensors[..., self._goal : self._goal + 2] - sensors[..., self._torso : self._torso + 2]
-        distance = np.linalg.norm(offset, axis=-1, keepdims=True)
-        direction = offset / np.maximum(distance, 1e-6)
-        wanted = direction * config.speed * np.minimum(distance / 0.5, 1.0)
-        yaw_error = self.heading(sensors) - np.arctan2(offset[..., 1], offset[..., 0])
-        far = distance[..., 0] > config.goal_radius
         cost = (
             config.w_height * np.square(sensors[..., self._torso + 2] - config.target_height)
             + config.w_upright * (1.0 - sensors[..., self._up + 2])
-            + self.velocity_cost(sensors, wanted, config)
-            + config.w_heading * far * (1.0 - np.cos(yaw_error))
-            + config.w_goal * smooth_l1_norm(offset, 0.1)
+            + self.goal_cost(sensors, config)
             + config.w_command * np.square(controls).sum(-1)
         )
         return -cost.mean(-1)
