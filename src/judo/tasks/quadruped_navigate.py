@@ -4,7 +4,9 @@ quadruped_velocity's MPC (models/policies/quadruped_locomotion.onnx, docs/tasks.
 12 joint targets at 50 Hz, inside every rollout and on the plant (judo.core.low_level), as the seed paper's
 Spot tasks plan over an RL policy.
 
-The policy runs on onnxruntime: the judo[policy] extra.
+The shipped policy does not walk yet: it shuffles in place, so no goal is reached (docs/tasks.md has the figures
+and what to try next). Pass your own as `QuadrupedNavigate(policy_path=...)`. The policy runs on onnxruntime: the
+judo[policy] extra.
 """
 
 from dataclasses import dataclass
