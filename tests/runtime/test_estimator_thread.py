@@ -104,8 +104,8 @@ def test_a_filter_slower_than_the_plant_starts_over_and_its_lag_stays_bounded(wa
         assert max(lags) < 4 * CATCH_UP_LAG and threaded.catch_ups >= 2
         # started over from the prediction, corrected by the newest reading: within 0.25 most of the time. The
         # error grows with the lag, which wall-clock load sets: medians of 0.03-0.12 in clean CI runs (0.124 in
-        # session 14's), one snapshot at a start-over 0.6 (CI run 4); a filter left to fall behind is off by whole
-        # swings of the pole (about 1) within the 2 s watched.
+        # session 14's), one snapshot at a start-over 0.6 (CI run 4). The lag bound above is what catches a filter
+        # left to fall behind; this one catches a start-over from a wrong state.
         assert np.median(errors) < 0.25, errors
     finally:
         app.stop()
