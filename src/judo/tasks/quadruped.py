@@ -137,7 +137,6 @@ class QuadrupedBase(Task[ConfigT]):
         self._forward = self.get_sensor_start_index("torso_forward")
         self._velocity = self.get_sensor_start_index("torso_world_velocity")
         self._clock = self.get_sensor_start_index("clock")
-        self._goal = self.get_sensor_start_index("goal_position")
         self._torque_per_rad = self.model.actuator_gainprm[:, 0] / np.abs(self.model.actuator_forcerange[:, 1])
         self.falls = 0
 
@@ -164,22 +163,6 @@ class QuadrupedBase(Task[ConfigT]):
         velocity = sensors[..., self._velocity : self._velocity + 2]
         return config.w_velocity * np.square(velocity - wanted).sum(-1)
 
-    def goal_cost(self, sensors: np.ndarray, config: Any) -> np.ndarray:
-        """(num_rollouts, T) walking towards the goal at config.speed (slowing within 0.5 m), facing it while farther
-        than config.goal_radius (w_heading), and its distance (w_goal, smooth L1), from (num_rollouts, T,
-        nsensordata) sensors: the goal task's terms, which quadruped_navigate plans over its policy too."""
-        offset = sensors[..., self._goal : self._goal + 2] - sensors[..., self._torso : self._torso + 2]
-        distance = np.linalg.norm(offset, axis=-1, keepdims=True)
-        direction = offset / np.maximum(distance, 1e-6)
-        wanted = direction * config.speed * np.minimum(distance / 0.5, 1.0)
-        yaw_error = self.heading(sensors) - np.arctan2(offset[..., 1], offset[..., 0])
-        far = distance[..., 0] > config.goal_radius
-        return (
-            self.velocity_cost(sensors, wanted, config)
-            + config.w_heading * far * (1.0 - np.cos(yaw_error))
-            + config.w_goal * smooth_l1_norm(offset, 0.1)
-        )
-
     def heading(self, sensors: np.ndarray) -> np.ndarray:
         """(...,) the trunk's yaw (rad) from (..., nsensordata) sensor rows."""
         return np.arctan2(sensors[..., self._forward + 1], sensors[..., self._forward])
@@ -195,7 +178,9 @@ class QuadrupedBase(Task[ConfigT]):
         self.data.ctrl[:] = self.home_ctrl
         mujoco.mj_forward(self.sim_model, self.data)
 
-    def locomotion_observation(self, commands: np.ndarray, states: np.ndarray, previous: np.ndarray) -> np.ndarray:
+    def locomotion_observation(
+        self, commands: np.ndarray, states: np.ndarray, previous: np.ndarray | None = None
+    ) -> np.ndarray:
         """(B, 33) the locomotion observation (quadruped_velocity.OBSERVATION) of (B, 3) commands [vx, vy, yaw rate]
         and (B, nq + nv) states, one command per row: what quadruped_velocity's `policy_observation` gives, and
         quadruped_navigate's low-level hook (hence a hook's argument order). The (B, 12) `previous` joint targets
@@ -233,34 +218,6 @@ class QuadrupedBase(Task[ConfigT]):
         scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
 
 
-def start_before_goal(model: mujoco.MjModel, data: mujoco.MjData, home_key: int) -> None:
-    """Put `data` in the keyframe `home_key` (standing at the origin facing +x, at rest) with the goal 1 m ahead."""
-    mujoco.mj_resetDataKeyframe(model, data, home_key)
-    data.mocap_pos[0, :2] = (1.0, 0.0)
-    mujoco.mj_forward(model, data)
-
-
-def goal_distance(data: mujoco.MjData) -> float:
-    """Horizontal distance (m) from the trunk to the goal (the first mocap body)."""
-    return float(np.linalg.norm(data.qpos[:2] - data.mocap_pos[0, :2]))
-
-
-def draw_next_goal(data: mujoco.MjData, rng: np.random.Generator) -> None:
-    """Move the goal to a spot 1 to 2 m from the trunk, in any direction."""
-    angle, distance = rng.uniform(-np.pi, np.pi), rng.uniform(1.0, 2.0)
-    data.mocap_pos[0, :2] = data.qpos[:2] + distance * np.array([np.cos(angle), np.sin(angle)])
-
-
-def goal_metrics(goals_reached: int, falls: int, minutes: float, final_distance: float) -> dict[str, float]:
-    """The walking tasks' metrics: goals_reached, goals_per_minute over `minutes`, falls, final_distance (m)."""
-    return {
-        "goals_reached": float(goals_reached),
-        "goals_per_minute": goals_reached / minutes if minutes > 0 else 0.0,
-        "falls": float(falls),
-        "final_distance": final_distance,
-    }
-
-
 @slider("speed", 0.0, 1.5, 0.05)
 @slider("goal_radius", 0.05, 1.0, 0.05)
 @slider("w_goal", 0.0, 20.0, 0.1)
@@ -281,7 +238,74 @@ class QuadrupedConfig(QuadrupedBaseConfig):
     """Weight on the trunk facing away from the goal (1 - cos of the yaw error), while farther than goal_radius."""
 
 
-class Quadruped(QuadrupedBase[QuadrupedConfig]):
+class WalkToGoalBase(QuadrupedBase[ConfigT]):
+    """What both walk-to-goal tasks (quadruped, quadruped_navigate) share: the goal's cost terms, read through the
+    "goal_position" sensor, and the plant's goal rule: once the trunk is within `goal_radius` of the mocap goal,
+    `pre_sim_step` counts it and draws a new one 1 to 2 m away (while `new_goal_on_reach`). Their configs have
+    speed, goal_radius, new_goal_on_reach, w_velocity, w_heading and w_goal.
+    """
+
+    lower_is_better: ClassVar[tuple[str, ...]] = ("falls", "final_distance")
+
+    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+        super().__init__(model_path, sim_model_path)
+        self._goal = self.get_sensor_start_index("goal_position")
+        self.goals_reached = 0
+        self.reset()
+
+    def goal_cost(self, sensors: np.ndarray, config: Any) -> np.ndarray:
+        """(num_rollouts, T) walking towards the goal at config.speed (slowing within 0.5 m), facing it while farther
+        than config.goal_radius (w_heading), and its distance (w_goal, smooth L1), from (num_rollouts, T,
+        nsensordata) sensors: the goal task's terms, which quadruped_navigate plans over its policy too."""
+        offset = sensors[..., self._goal : self._goal + 2] - sensors[..., self._torso : self._torso + 2]
+        distance = np.linalg.norm(offset, axis=-1, keepdims=True)
+        direction = offset / np.maximum(distance, 1e-6)
+        wanted = direction * config.speed * np.minimum(distance / 0.5, 1.0)
+        yaw_error = self.heading(sensors) - np.arctan2(offset[..., 1], offset[..., 0])
+        far = distance[..., 0] > config.goal_radius
+        return (
+            self.velocity_cost(sensors, wanted, config)
+            + config.w_heading * far * (1.0 - np.cos(yaw_error))
+            + config.w_goal * smooth_l1_norm(offset, 0.1)
+        )
+
+    def reset(self) -> None:
+        """Standing at the origin facing +x, at rest; a goal 1 m ahead; counters at zero."""
+        mujoco.mj_resetDataKeyframe(self.sim_model, self.data, self._home_key)
+        self.data.mocap_pos[0, :2] = (1.0, 0.0)
+        mujoco.mj_forward(self.sim_model, self.data)
+        self.goals_reached = 0
+        self.falls = 0
+
+    def goal_distance(self) -> float:
+        """Horizontal distance (m) from the plant's trunk to the goal."""
+        return float(np.linalg.norm(self.data.qpos[:2] - self.data.mocap_pos[0, :2]))
+
+    def pre_sim_step(self) -> None:
+        """Count a reached goal and draw the next one 1 to 2 m from the trunk, in any direction."""
+        config: Any = self.config
+        if config.new_goal_on_reach and self.goal_distance() < config.goal_radius:
+            self.goals_reached += 1
+            angle, distance = self.rng.uniform(-np.pi, np.pi), self.rng.uniform(1.0, 2.0)
+            self.data.mocap_pos[0, :2] = self.data.qpos[:2] + distance * np.array([np.cos(angle), np.sin(angle)])
+
+    def metrics(self, log: EpisodeLog) -> dict[str, float]:
+        """goals_reached and goals_per_minute (counted on this plant task), falls (trunk below half its standing
+        height), and final_distance (m) from the trunk to the last goal."""
+        minutes = len(log.times) * float(self.sim_model.opt.timestep) / 60.0
+        return {
+            "goals_reached": float(self.goals_reached),
+            "goals_per_minute": self.goals_reached / minutes if minutes > 0 else 0.0,
+            "falls": float(self.falls),
+            "final_distance": self.goal_distance(),
+        }
+
+    def success(self, metrics: dict[str, float]) -> bool:
+        """Success for `collect --success-only`: at least one goal reached and no fall."""
+        return bool(metrics["goals_reached"] >= 1 and metrics["falls"] == 0)
+
+
+class Quadruped(WalkToGoalBase[QuadrupedConfig]):
     """Walk to the mocap goal; once the trunk is within `goal_radius` of it, the plant draws a new one 1 to 2 m away.
 
     The reward reads the goal through the "goal_position" sensor. On the plant, `pre_sim_step` counts reached
@@ -289,12 +313,6 @@ class Quadruped(QuadrupedBase[QuadrupedConfig]):
     """
 
     config_cls = QuadrupedConfig
-    lower_is_better = ("falls", "final_distance")
-
-    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
-        super().__init__(model_path, sim_model_path)
-        self.goals_reached = 0
-        self.reset()
 
     def reward(
         self,
@@ -308,29 +326,3 @@ class Quadruped(QuadrupedBase[QuadrupedConfig]):
         facing it."""
         cost = self.base_cost(states, sensors, controls, config) + self.goal_cost(sensors, config)
         return -cost.mean(-1)
-
-    def reset(self) -> None:
-        """Standing at the origin facing +x, at rest; a goal 1 m ahead; counters at zero."""
-        start_before_goal(self.sim_model, self.data, self._home_key)
-        self.goals_reached = 0
-        self.falls = 0
-
-    def goal_distance(self) -> float:
-        """Horizontal distance (m) from the plant's trunk to the goal."""
-        return goal_distance(self.data)
-
-    def pre_sim_step(self) -> None:
-        """Count a reached goal and draw the next one 1 to 2 m from the trunk, in any direction."""
-        if self.config.new_goal_on_reach and self.goal_distance() < self.config.goal_radius:
-            self.goals_reached += 1
-            draw_next_goal(self.data, self.rng)
-
-    def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """goals_reached and goals_per_minute (counted on this plant task), falls (trunk below half its standing
-        height), and final_distance (m) from the trunk to the last goal."""
-        minutes = len(log.times) * float(self.sim_model.opt.timestep) / 60.0
-        return goal_metrics(self.goals_reached, self.falls, minutes, self.goal_distance())
-
-    def success(self, metrics: dict[str, float]) -> bool:
-        """Success for `collect --success-only`: at least one goal reached and no fall."""
-        return bool(metrics["goals_reached"] >= 1 and metrics["falls"] == 0)

@@ -18,15 +18,8 @@ import numpy as np
 from judo.core.fields import slider
 from judo.core.low_level import LowLevel
 from judo.core.onnx_policy import OnnxPolicy
-from judo.core.task import EpisodeLog, TaskConfig
-from judo.tasks.quadruped import (
-    MODEL_PATH,
-    QuadrupedBase,
-    draw_next_goal,
-    goal_distance,
-    goal_metrics,
-    start_before_goal,
-)
+from judo.core.task import TaskConfig
+from judo.tasks.quadruped import MODEL_PATH, WalkToGoalBase
 
 POLICY_PATH = Path(__file__).parent / "models" / "policies" / "quadruped_locomotion.onnx"
 """The shipped locomotion policy: 33 observations (quadruped_velocity.OBSERVATION) to 12 joint targets."""
@@ -72,15 +65,14 @@ class QuadrupedNavigateConfig(TaskConfig):
     """Weight on the planned command's size (squared, summed: m^2/s^2 and rad^2/s^2)."""
 
 
-class QuadrupedNavigate(QuadrupedBase[QuadrupedNavigateConfig]):
+class QuadrupedNavigate(WalkToGoalBase[QuadrupedNavigateConfig]):
     """Walk to the mocap goal by planning (N, T, 3) velocity commands through the locomotion policy.
 
-    The reward's `controls` are the commands. The plant counts reached goals (a new one is drawn 1 to 2 m away) and
-    falls, as quadruped does, so the two tasks' metrics compare directly.
+    The reward's `controls` are the commands. The goal rule, the goal's cost terms and the metrics are quadruped's
+    (WalkToGoalBase), so the two tasks' figures compare directly.
     """
 
     config_cls = QuadrupedNavigateConfig
-    lower_is_better = ("falls", "final_distance")
 
     def __init__(
         self,
@@ -89,14 +81,12 @@ class QuadrupedNavigate(QuadrupedBase[QuadrupedNavigateConfig]):
         policy_path: str | Path = POLICY_PATH,
     ) -> None:
         super().__init__(model_path, sim_model_path)
-        self.goals_reached = 0
         self._low_level = LowLevel(
             OnnxPolicy(policy_path),
             command_range=COMMAND_RANGE,
             every=EVERY,
             observation=self.locomotion_observation,
         )
-        self.reset()
 
     def low_level(self) -> LowLevel:
         return self._low_level
@@ -119,31 +109,6 @@ class QuadrupedNavigate(QuadrupedBase[QuadrupedNavigateConfig]):
             + config.w_command * np.square(controls).sum(-1)
         )
         return -cost.mean(-1)
-
-    def reset(self) -> None:
-        """Standing at the origin facing +x, at rest; a goal 1 m ahead; counters at zero."""
-        start_before_goal(self.sim_model, self.data, self._home_key)
-        self.goals_reached = 0
-        self.falls = 0
-
-    def goal_distance(self) -> float:
-        """Horizontal distance (m) from the plant's trunk to the goal."""
-        return goal_distance(self.data)
-
-    def pre_sim_step(self) -> None:
-        """Count a reached goal and draw the next one 1 to 2 m from the trunk, in any direction."""
-        if self.config.new_goal_on_reach and self.goal_distance() < self.config.goal_radius:
-            self.goals_reached += 1
-            draw_next_goal(self.data, self.rng)
-
-    def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """goals_reached, goals_per_minute, falls (trunk below half its standing height), final_distance (m)."""
-        minutes = len(log.times) * float(self.sim_model.opt.timestep) / 60.0
-        return goal_metrics(self.goals_reached, self.falls, minutes, self.goal_distance())
-
-    def success(self, metrics: dict[str, float]) -> bool:
-        """Success for `collect --success-only`: at least one goal reached and no fall."""
-        return bool(metrics["goals_reached"] >= 1 and metrics["falls"] == 0)
 
     def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
         """(3,) the first plan commands standing still."""

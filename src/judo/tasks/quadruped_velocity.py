@@ -232,7 +232,5 @@ class QuadrupedVelocity(QuadrupedBase[QuadrupedVelocityConfig]):
         angular velocity is what the IMU's gyro reads, and gravity's direction what its orientation gives, so the
         policy needs no simulator-only value and no sensors argument."""
         states = np.atleast_2d(np.asarray(states, dtype=float))
-        batch = len(states)
-        commands = np.broadcast_to(self.command_from(system_metadata), (batch, 3))
-        previous = np.tile(self.home_ctrl, (batch, 1)) if previous_actions is None else np.asarray(previous_actions)
-        return self.locomotion_observation(commands, states, previous)
+        commands = np.broadcast_to(self.command_from(system_metadata), (len(states), 3))
+        return self.locomotion_observation(commands, states, previous_actions)
