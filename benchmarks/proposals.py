@@ -1,13 +1,13 @@
 """The policy as a proposal: closed-loop quality at N and N/8 rollouts, with and without `policy_samples`.
 
-On cartpole (swing-up from hanging, then balance, centred), the proposal policy is good but not perfect: the
-LQR law of the planning model linearised upright, u = -K (x - x*), on the wrapped pole angle, saturated by the
-actuator, with its cart target x* moved off centre by --offset (the task wants the cart at 0). It balances a
-pole near the top, but cannot swing one up and balances the cart in the wrong place. It is an action policy
-(H = 1), so each update rolls it out in closed loop on the planning model and fits it to the knots
-(judo.core.proposals). Each row runs the task's default controller with num_rollouts N (or N/8) and
-policy_samples 0 or K, over fresh seeds (--first-seed; the task's defaults were tuned on seeds 0-4), and
-shows the task's metrics (mean and 95% CI over seeds) in sim time, and the median update time in wall time
+On cartpole (swing-up from hanging, then balance, centred), the proposal policy is good but not perfect: the LQR
+law of the planning model linearised upright, u = -K (x - x*), on the pole angle rebuilt (wrapped) from the task's
+observation [cart x, cos, sin, velocities], saturated by the actuator, with its cart target x* moved off centre by
+--offset (the task wants the cart at 0). It balances a pole near the top, but cannot swing one up and balances the
+cart in the wrong place. It is an action policy (H = 1), so each update rolls it out in closed loop on the planning
+model and fits it to the knots (judo.core.proposals). Each row runs the task's default controller with num_rollouts
+N (or N/8) and policy_samples 0 or K, over fresh seeds (--first-seed; the task's defaults were tuned on seeds 0-4),
+and shows the task's metrics (mean and 95% CI over seeds) in sim time, and the median update time in wall time
 (which the machine's load moves; the metrics do not depend on it).
 
     PYTHONPATH=src python benchmarks/proposals.py --optimizers ps cem mppi --seeds 5 --duration 10
@@ -58,10 +58,12 @@ class Args:
 
 
 class CartpoleLQR(judo.Policy):
-    """u = clip(-K (x - x*)) on x = [cart x, wrapped pole angle, velocities]: the LQR law of `model` upright."""
+    """u = clip(-K (x - x*)) on x = [cart x, wrapped pole angle, velocities]: the LQR law of `model` upright, on
+    cartpole's observation [cart x, cos angle, sin angle, cart velocity, angular velocity], whose angle is
+    arctan2(sin, cos)."""
 
     def __init__(self, model: mujoco.MjModel, offset: float) -> None:
-        self.observation_size, self.action_size, self.horizon = 4, 1, 1
+        self.observation_size, self.action_size, self.horizon = 5, 1, 1
         self.metadata = {"task": TASK, "name": f"lqr (cart held at {offset:g} m)"}
         weights, control_weight = np.array([1.0, 10.0, 0.1, 0.1]), 0.1
         cost_to_go = lqr_cost_to_go(model, weights, control_weight)
@@ -73,7 +75,9 @@ class CartpoleLQR(judo.Policy):
         self.target = np.array([offset, 0.0, 0.0, 0.0])
 
     def act(self, observations: np.ndarray) -> np.ndarray:
-        deviations = observations - self.target
+        angle = np.arctan2(observations[:, 2], observations[:, 1])
+        states = np.column_stack([observations[:, 0], angle, observations[:, 3], observations[:, 4]])
+        deviations = states - self.target
         deviations[:, 1] = wrap_angle(deviations[:, 1])
         return np.minimum(np.maximum(-deviations @ self.gain.T, -1.0), 1.0)[:, None, :]
 

@@ -25,7 +25,7 @@ CONSTANT = 0.25
 
 @pytest.fixture
 def push_policy(tmp_path):
-    return write_linear_policy(tmp_path / "push.onnx", np.zeros((1, 4)), [CONSTANT], metadata={"task": "cartpole"})
+    return write_linear_policy(tmp_path / "push.onnx", np.zeros((1, 5)), [CONSTANT], metadata={"task": "cartpole"})
 
 
 def test_the_file_holds_the_served_actions_and_the_mpcs_plans_and_actions_as_labels(push_policy, tmp_path):
@@ -90,7 +90,7 @@ def test_collect_policy_writes_labels_and_resumes_only_with_the_same_policy(loca
         assert file["data/demo_1/mpc_actions"].shape == file["data/demo_1/actions"].shape
         policy = json.loads(file["data"].attrs["env_args"])["policy"]
     assert policy["name"] == "push" and policy["metadata"]["task"] == "cartpole" and len(policy["sha256"]) == 64
-    other = write_linear_policy(tmp_path / "push.onnx", np.zeros((1, 4)), [0.1], metadata={"task": "cartpole"})
+    other = write_linear_policy(tmp_path / "push.onnx", np.zeros((1, 5)), [0.1], metadata={"task": "cartpole"})
     with pytest.raises(SystemExit):
         collect_main([*argv[:-2], "--policy", str(other), "--duration", "0.2", "--episodes", "3", "--out", str(out)])
     assert "policy.sha256: file has" in capsys.readouterr().err

@@ -8,7 +8,7 @@ import judo
 from judo.core.registry import lookup_task
 from tests.conftest import UprightTask
 
-OWN_OBSERVATION = ("acrobot", "particle", "pendulum", "push_t", "quadruped_velocity")
+OWN_OBSERVATION = ("acrobot", "cartpole", "cartpole_pd", "particle", "pendulum", "push_t", "quadruped_velocity")
 """Built-in tasks with their own observation (tests/tasks/test_policy_observations.py, test_quadruped.py)."""
 
 

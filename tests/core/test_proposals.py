@@ -210,7 +210,7 @@ def test_policy_samples_errors(tiny_model_path):
 
 
 def test_make_controller_names_the_task_a_policy_was_not_made_for():
-    policy = ConstantPolicy(0.0, 1)
+    policy = ConstantPolicy(0.0, 1, observation_size=5)  # cartpole's size: only the task is wrong
     policy.metadata["task"] = "acrobot"
     with pytest.raises(judo.PolicyError, match=r"^policy 'constant' was made for task 'acrobot', not 'cartpole'$"):
         judo.make_controller("cartpole", "ps", proposal_policy=policy)
@@ -259,9 +259,10 @@ def test_on_a_task_that_plans_low_level_commands_a_chunk_policy_proposes_command
         match=r"^policy 'constant' is an action policy, but CartpolePD plans a low-level policy's commands, where "
         r"only a chunk policy \(horizon > 1\) can propose; its closed loop would bypass the low-level policy$",
     ):
-        judo.make_controller("cartpole_pd", "ps", proposal_policy=ConstantPolicy(0.0, 1))
+        judo.make_controller("cartpole_pd", "ps", proposal_policy=ConstantPolicy(0.0, 1, observation_size=5))
     config = judo.ControllerConfig(horizon=0.3, policy_samples=1)
-    policy = ConstantPolicy(99.0, 3)  # far beyond the command range: clamped to it, like the optimizer's knots
+    # far beyond the command range: clamped to it, like the optimizer's knots
+    policy = ConstantPolicy(99.0, 3, observation_size=5)
     with judo.make_controller(
         "cartpole_pd", "ps", controller_config=config, proposal_policy=policy, num_workers=1
     ) as c:

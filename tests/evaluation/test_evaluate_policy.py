@@ -16,9 +16,9 @@ TINY = ["--task", "cartpole", "--seeds", "2", "--duration", "0.4", "--num-worker
 
 @pytest.fixture
 def cartpole_policy(tmp_path):
-    """a = -0.5 x - 2 theta - 0.1 xdot - 0.2 thetadot, made for cartpole, at 25 Hz."""
+    """a = -0.5 x - 2 sin theta - 0.1 xdot - 0.2 thetadot on [x, cos, sin, xdot, thetadot], for cartpole, at 25 Hz."""
     metadata = {"task": "cartpole", "control_freq": "25"}
-    return write_linear_policy(tmp_path / "pd.onnx", np.array([[-0.5, -2.0, -0.1, -0.2]]), metadata=metadata)
+    return write_linear_policy(tmp_path / "pd.onnx", np.array([[-0.5, 0.0, -2.0, -0.1, -0.2]]), metadata=metadata)
 
 
 def test_a_policy_prints_the_optimizers_metrics_and_its_inference_time(cartpole_policy, tmp_path, capsys):
@@ -45,9 +45,9 @@ def test_the_command_line_wins_over_the_policys_metadata(cartpole_policy, tmp_pa
 @pytest.mark.parametrize(
     ("weight", "metadata", "message"),
     [
-        (np.zeros((1, 4)), {"task": "acrobot"}, "policy 'bad' was made for task 'acrobot', not 'cartpole'"),
-        (np.zeros((1, 3)), {}, "policy 'bad' takes observations of size 3, but the task cartpole gives 4"),
-        (np.zeros((2, 4)), {}, "policy 'bad' gives actions of size 2, but the task cartpole needs 1"),
+        (np.zeros((1, 5)), {"task": "acrobot"}, "policy 'bad' was made for task 'acrobot', not 'cartpole'"),
+        (np.zeros((1, 3)), {}, "policy 'bad' takes observations of size 3, but the task cartpole gives 5"),
+        (np.zeros((2, 5)), {}, "policy 'bad' gives actions of size 2, but the task cartpole needs 1"),
     ],
 )
 def test_a_policy_that_does_not_fit_the_task_is_one_line_and_exit_2(tmp_path, capsys, weight, metadata, message):
@@ -70,7 +70,7 @@ def test_neither_optimizer_nor_policy_and_a_missing_file_are_one_line_and_exit_2
 
 
 def test_a_policy_that_returns_nan_fails_every_update_and_evaluate_says_so(tmp_path, capsys):
-    nan = write_linear_policy(tmp_path / "nan.onnx", np.full((1, 4), np.nan), metadata={"task": "cartpole"})
+    nan = write_linear_policy(tmp_path / "nan.onnx", np.full((1, 5), np.nan), metadata={"task": "cartpole"})
     assert main([*TINY, "--seeds", "1", "--policy", str(nan), "--controller.max-plan-age", "0.1"]) == 0
     out = " ".join(capsys.readouterr().out.split())
     assert "mean_reward" in out and "seed 0: 0 simulation divergences, 20 updates with non-finite actions" in out

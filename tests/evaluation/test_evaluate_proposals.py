@@ -15,7 +15,7 @@ TINY = ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration",
 def policy_file(tmp_path):
     from judo.core.onnx_policy import write_linear_policy
 
-    weight = np.array([[1.0, -2.0, 0.5, -0.5]])  # any linear law on [qpos, qvel]: proposals can only help
+    weight = np.array([[1.0, 0.0, -2.0, 0.5, -0.5]])  # any linear law on the observation: proposals can only help
     return write_linear_policy(tmp_path / "law.onnx", weight, metadata={"task": "cartpole"})
 
 

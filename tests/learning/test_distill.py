@@ -62,13 +62,15 @@ def test_pairs_follow_the_steps_and_the_plans(cartpole_file):
         demo = file["data/demo_1"]
         qpos, qvel, actions = demo["obs/qpos"][:], demo["obs/qvel"][:], demo["actions"][:]
         knots, times = demo["plan/knots"][:], demo["plan/times"][:]
-    # cartpole observes [qpos, qvel]: the state after step s gives the action of step s + 1
-    np.testing.assert_array_equal(action.observations[1], np.concatenate([qpos, qvel], axis=1)[:-1])
+    # cartpole observes [x, cos angle, sin angle, qvel]: the state after step s gives the action of step s + 1
+    observed = np.column_stack([qpos[:, 0], np.cos(qpos[:, 1]), np.sin(qpos[:, 1]), qvel])
+    assert observed.shape == (len(qpos), 5)
+    np.testing.assert_array_equal(action.observations[1], observed[:-1])
     np.testing.assert_array_equal(action.targets[1], actions[1:])
     # each plan after the first pairs the state read at its time with its knots
     assert chunk.horizon == knots.shape[1] and len(chunk.targets[1]) == len(times) - 1 == 19
     rows = np.round(times[1:] / 0.01).astype(int) - 1
-    np.testing.assert_array_equal(chunk.observations[1], np.concatenate([qpos, qvel], axis=1)[rows])
+    np.testing.assert_array_equal(chunk.observations[1], observed[rows])
     np.testing.assert_array_equal(chunk.targets[1], knots[1:].reshape(19, -1))
     assert chunk.controller == {"control_freq": "20.0", "horizon": str(configs_in_force(SPEC)["controller"].horizon),
                                 "spline_order": configs_in_force(SPEC)["controller"].spline_order}  # fmt: skip
@@ -109,9 +111,10 @@ def test_the_metadata_round_trips_and_another_task_is_refused(cartpole_file, tmp
     metadata = policy.metadata
     assert (metadata["task"], metadata["kind"], metadata["head"]) == ("cartpole", "action", "regression")
     assert metadata["training_command"] == f"python -m judo distill {cartpole_file} --out {out} --epochs 3 --hidden 16"
-    assert metadata["observation"] == "[qpos (2), qvel (2)]" and metadata["control_freq"] == "100.0"
+    layout = "(B, 5) [cart x, cos angle, sin angle, cart velocity, angular velocity] of (B, 4) states."
+    assert metadata["observation"] == layout and metadata["control_freq"] == "100.0"
     normalization = json.loads(metadata["normalization"])
-    assert len(normalization["observation_mean"]) == 4 and len(normalization["target_std"]) == 1
+    assert len(normalization["observation_mean"]) == 5 and len(normalization["target_std"]) == 1
     assert (tmp_path / "policy.losses.png").stat().st_size > 1000
     controller = make_policy_controller("cartpole", out)
     assert controller.config.control_freq == 100.0  # served at the rate it was trained at

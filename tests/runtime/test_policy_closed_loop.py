@@ -167,16 +167,16 @@ def test_a_policy_for_another_task_or_observation_is_refused_in_one_line_at_cons
         )
     with pytest.raises(PolicyError) as err:
         make_policy_controller("cartpole", Linear([[1.0, 0.0]], [0.0]))
-    assert str(err.value) == "policy 'Linear' takes observations of size 2, but the task cartpole gives 4"
+    assert str(err.value) == "policy 'Linear' takes observations of size 2, but the task cartpole gives 5"
 
 
 def test_the_policys_metadata_sets_the_rate_and_code_wins():
-    policy = Linear(np.zeros((1, 4)), [0.0], metadata={"task": "cartpole", "control_freq": "50"})
+    policy = Linear(np.zeros((1, 5)), [0.0], metadata={"task": "cartpole", "control_freq": "50"})
     with make_policy_controller("cartpole", policy) as controller:
         assert controller.config.control_freq == 50.0
     with make_policy_controller("cartpole", policy, controller_config=ControllerConfig(control_freq=25.0)) as c:
         assert c.config.control_freq == 25.0
-    bad = Linear(np.zeros((1, 4)), [0.0], metadata={"control_freq": "fast"})
+    bad = Linear(np.zeros((1, 5)), [0.0], metadata={"control_freq": "fast"})
     with pytest.raises(PolicyError, match="metadata control_freq='fast' is not a number"):
         make_policy_controller("cartpole", bad)
 

@@ -1,5 +1,5 @@
 """The built-in tasks' own policy observations: particle and push_t see their goal (relative to what must reach
-it), pendulum and acrobot see cos and sin of their unlimited hinges; batched, and as long as
+it), pendulum, acrobot and cartpole see cos and sin of their unlimited hinges; batched, and as long as
 `policy_observation_size()` says."""
 
 import numpy as np
@@ -10,7 +10,7 @@ from judo.core.policy import Policy
 from judo.core.policy_controller import make_policy_controller
 from judo.core.registry import lookup_task
 
-SIZES = {"particle": 6, "push_t": 13, "pendulum": 3, "acrobot": 6}
+SIZES = {"particle": 6, "push_t": 13, "pendulum": 3, "acrobot": 6, "cartpole": 5, "cartpole_pd": 5}
 
 
 def make(name: str):
@@ -90,6 +90,32 @@ def test_hinge_angles_a_full_turn_apart_give_the_same_observation(name, angles):
     nq = task.model.nq
     np.testing.assert_allclose(observation[:, : 2 * nq], np.hstack([np.cos(states[:, :nq]), np.sin(states[:, :nq])]))
     np.testing.assert_array_equal(observation[:, 2 * nq :], states[:, nq:])  # the rates as they are
+
+
+@pytest.mark.parametrize("name", ["cartpole", "cartpole_pd"])
+def test_cartpole_sees_the_cart_cos_and_sin_of_the_pole_and_the_velocities(name):
+    task = make(name)
+    states = np.array(
+        [
+            [0.3, 0.0, -0.5, 1.5],  # upright
+            [0.3, 2 * np.pi, -0.5, 1.5],  # upright after a full turn
+            [-0.2, -4 * np.pi, 0.0, 0.0],  # upright after two turns back
+            [0.1, np.pi, 0.2, -0.7],  # hanging down
+            [0.0, np.pi / 2, 1.0, 2.0],  # a quarter turn
+        ]
+    )
+    observation = task.policy_observation(states)
+    expected = [
+        [0.3, 1.0, 0.0, -0.5, 1.5],
+        [0.3, 1.0, 0.0, -0.5, 1.5],
+        [-0.2, 1.0, 0.0, 0.0, 0.0],
+        [0.1, -1.0, 0.0, 0.2, -0.7],
+        [0.0, 0.0, 1.0, 1.0, 2.0],
+    ]
+    np.testing.assert_allclose(observation, expected, atol=1e-12)
+    np.testing.assert_allclose(observation[1], observation[0], atol=1e-12)  # 0 and 2 pi: one pose, one observation
+    small = task.policy_observation(np.array([[0.0, 0.01, 0.0, 0.0]]))
+    np.testing.assert_allclose(small[0, 2], 0.01, rtol=1e-4)  # sin angle reads as the angle near upright
 
 
 class Recording(Policy):

@@ -64,6 +64,23 @@ class Cartpole(Task[CartpoleConfig]):
         )
         return -per_step.sum(-1)
 
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(B, 5) [cart x, cos angle, sin angle, cart velocity, angular velocity] of (B, 4) states.
+
+        The pole's hinge is unlimited: a swing-up ends at 0 or 2 pi (or 4 pi after a full turn), one pose that a
+        learned policy would otherwise have to meet in its data at each of those angles; cos and sin are the same
+        there. A law written for [x, angle, velocities] near upright reads sin angle as the angle.
+        """
+        states = np.asarray(states, dtype=float)
+        angle = states[:, 1]
+        return np.column_stack([states[:, 0], np.cos(angle), np.sin(angle), states[:, 2], states[:, 3]])
+
     def reset(self) -> None:
         """Pole hanging down, cart near the centre, small random velocities."""
         self.data.qpos[:] = [0.0, np.pi] + self.rng.normal(0.0, [0.2, 0.2])
