@@ -43,7 +43,10 @@ class RunSummary:
             ("control rate", f"{self.control_rate:.1f} Hz ({self.num_plans} plans)"),
             ("plan time", f"mean {self.plan_time_mean_ms:.2f} ms, p95 {self.plan_time_p95_ms:.2f} ms"),
             ("real-time factor", f"{self.real_time_factor:.3f}"),
-            ("final reward", f"{self.final_reward:.4g}"),
+            (
+                "final reward",
+                f"{self.final_reward:.4g}" if np.isfinite(self.final_reward) else "none (no rollout scored)",
+            ),
         ]
         return "\n".join(f"{name:>16}: {value}" for name, value in rows)
 
