@@ -195,3 +195,17 @@ def test_a_teacher_round_on_a_local_ray_writes_its_files_and_a_rerun_resumes(car
     assert distill_main(argv) == 0
     again = capsys.readouterr().out
     assert "round 1: " + str(folder / "policy_round_1.onnx") + " exists; resumed" in again
+
+
+@pytest.mark.parametrize(("eval_seeds", "title"), [(3, "measured on seeds 10000-10002"), (0, "not measured")])
+def test_the_round_table_names_the_seeds_it_was_measured_on_or_says_it_was_not(eval_seeds, title):
+    from rich.console import Console
+
+    from judo.learning.args import DistillArgs
+    from judo.learning.rounds import round_table
+
+    args = DistillArgs(datasets=(Path("d.h5"),), out=Path("p.onnx"), eval_seeds=eval_seeds, eval_first_seed=10000)
+    console = Console(record=True, width=200)
+    console.print(round_table([["0", "10", "100", "1.0", "-", "-"]], args, {"task": "pendulum"}))
+    text = " ".join(console.export_text().split())  # the title wraps at the table's width
+    assert f"teacher rounds, {title}" in text and "10000-9999" not in text

@@ -190,8 +190,10 @@ def headline_metric(metrics: dict[str, float]) -> str:
 
 def round_table(rows: list[list[str]], args: DistillArgs, env_args: dict[str, Any]) -> Table:
     """The rounds so far: data, training time, and the two measurements on fresh seeds."""
-    seeds = f"seeds {args.eval_first_seed}-{args.eval_first_seed + args.eval_seeds - 1}"
-    table = Table(title=f"distill {env_args['task']} ({args.kind}, {args.head}): teacher rounds, measured on {seeds}")
+    seeds = f"measured on seeds {args.eval_first_seed}-{args.eval_first_seed + args.eval_seeds - 1}"
+    if args.eval_seeds < 1:
+        seeds = "not measured (--eval-seeds 0)"
+    table = Table(title=f"distill {env_args['task']} ({args.kind}, {args.head}): teacher rounds, {seeds}")
     for column in ("round", "episodes", "pairs", "training s", "policy alone"):
         table.add_column(column, justify="right")
     table.add_column(f"MPC + proposals (K = {proposal_samples(env_args)})", justify="right")
