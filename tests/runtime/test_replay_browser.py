@@ -61,13 +61,14 @@ def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(
         box = slider.locator(".mantine-Slider-track").bounding_box()
         page.mouse.click(box["x"] + 0.9 * box["width"], box["y"] + box["height"] / 2)
         wait_until(lambda: replay.index > paused + 30, timeout=60, what="the scrubber to move the replay")
-        shown = replay.index
-        assert np.array_equal(replay.scene.data.qpos, replay.demos[1].qpos[shown])
+        with replay.lock:  # the index is set first in a frame, the pose and traces after: read a whole frame
+            shown, plan_shown, qpos = replay.index, replay.plan_shown, replay.scene.data.qpos.copy()
+            moved_trace = nominal_trace(replay)  # the scrubbed-to time's plan, drawn as the live GUI draws it
+        assert np.array_equal(qpos, replay.demos[1].qpos[shown])
         assert 160 <= shown <= 199
         plan_times, row_time = np.append(replay.demos[1].plan_times, np.inf), replay.demos[1].times[shown]
-        assert plan_times[replay.plan_shown] <= row_time + 1e-9 < plan_times[replay.plan_shown + 1]
-        moved_trace = nominal_trace(replay)  # the scrubbed-to time's plan, drawn as the live GUI draws it
-        assert np.allclose(moved_trace[0, 0], replay.traces[replay.plan_shown, 0, 0, 0])
+        assert plan_times[plan_shown] <= row_time + 1e-9 < plan_times[plan_shown + 1]
+        assert np.allclose(moved_trace[0, 0], replay.traces[plan_shown, 0, 0, 0])
         assert not np.allclose(moved_trace, start_trace)
         page.screenshot(path=artifacts / "replay_cartpole.png")
     finally:

@@ -203,7 +203,7 @@ class Replay:
         self.traces: np.ndarray | None = None  # (U, ...) the shown demo's plan traces, where the file has them
         self.plan_shown = -1  # the plan whose traces are drawn (-1: none)
         self._stop = threading.Event()
-        self._lock = threading.Lock()
+        self.lock = threading.Lock()  # held while a demo is chosen or a row is shown: hold it to read a whole frame
 
     def start(self) -> None:
         """Start the server, draw the first row of the demo and the widgets, and the playback thread."""
@@ -233,7 +233,7 @@ class Replay:
 
     def select(self, seed: int) -> None:
         """Show demo `seed` from its first row, with its metrics."""
-        with self._lock:
+        with self.lock:
             self.demo = self.demos[seed]
             self.traces = read_traces(self.path, seed) if self.demo.has_traces else None
             self.plan_shown = -1
@@ -261,7 +261,7 @@ class Replay:
     def show(self, index: int) -> None:
         """Pose the scene at row `index` (clamped) of the demo shown, with the traces of the latest plan made by
         its time."""
-        with self._lock:
+        with self.lock:
             demo = self.demo
             self.index = int(np.clip(index, 0, len(demo.qpos) - 1))
             metadata = {} if demo.mocap_pos is None else {"mocap_pos": demo.mocap_pos[self.index]}
