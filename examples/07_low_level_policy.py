@@ -30,8 +30,11 @@ POLICY_FILE = Path(tempfile.mkdtemp(prefix="judo-example-07-")) / "pd.onnx"
 write_linear_policy(POLICY_FILE, weight=[[2.0, -0.6]], metadata={"name": "cart_pd", "observation": "target - x, x_vel"})
 
 
-def error_and_velocity(commands: np.ndarray, states: np.ndarray, previous_actions: np.ndarray) -> np.ndarray:
-    """(B, 2) [target - cart x, cart velocity] from (B, 1) targets and (B, 4) [qpos, qvel] states."""
+def error_and_velocity(
+    commands: np.ndarray, states: np.ndarray, previous_actions: np.ndarray, times: np.ndarray
+) -> np.ndarray:
+    """(B, 2) [target - cart x, cart velocity] from (B, 1) targets and (B, 4) [qpos, qvel] states (the previous
+    actions and the (B,) sim times are not needed)."""
     return np.stack([commands[:, 0] - states[:, 0], states[:, 2]], axis=1)
 
 

@@ -55,14 +55,14 @@ class RowwiseLinear(Policy):
         return np.tanh(out)[:, None, :]  # (B, 1, A): a per-step policy's chunk of one
 
 
-def with_previous(commands, states, previous_actions):
-    """[commands, states, previous actions]: O = C + nq + nv + A."""
-    return np.concatenate([commands, states, previous_actions], axis=1)
+def with_previous(commands, states, previous_actions, times):
+    """[commands, states, previous actions, sim time]: O = C + nq + nv + A + 1."""
+    return np.concatenate([commands, states, previous_actions, times[:, None]], axis=1)
 
 
 def make_low_level(every: int, seed: int = 0) -> LowLevel:
     rng = np.random.default_rng(seed)
-    policy = RowwiseLinear(rng.normal(0.0, 1.0, (2, 2 + 4 + 2)), rng.normal(0.0, 0.1, 2))
+    policy = RowwiseLinear(rng.normal(0.0, 1.0, (2, 2 + 4 + 2 + 1)), rng.normal(0.0, 0.1, 2))
     return LowLevel(
         policy, command_range=[[-0.5, 0.5], [-1.0, 1.0]], every=every, observation=with_previous, to_ctrl=to_ctrl
     )
@@ -86,7 +86,8 @@ def reference(model, low, initial_state, commands):
         for t in range(num_steps):
             if t % low.every == 0:
                 state = np.concatenate([data.qpos, data.qvel])[None]
-                previous = low.policy.act(low.observe(commands[i : i + 1, t], state, previous))[:, 0]
+                times = np.array([data.time])
+                previous = low.policy.act(low.observe(commands[i : i + 1, t], state, previous, times))[:, 0]
                 data.ctrl[:] = low.ctrl(previous)[0]
                 data.qacc_warmstart[:] = 0.0
             mujoco.mj_step(model, data)
@@ -189,7 +190,7 @@ def test_the_controller_plans_the_commands_in_their_range(tmp_path):
     [
         (
             LowLevel(RowwiseLinear(np.zeros((2, 7)), np.zeros(2)), [[-1, 1], [-1, 1]], 2, with_previous, to_ctrl),
-            "policy 'rowwise_linear' takes observations of size 7, but the task ? gives 8",
+            "policy 'rowwise_linear' takes observations of size 7, but the task ? gives 9",
         ),
         (
             LowLevel(RowwiseLinear(np.zeros((2, 6)), np.zeros(2)), [[-1, 1], [-1, 1]], 2),

@@ -58,7 +58,8 @@ def reference(model, low, initial_state, commands):
         for t in range(num_steps):
             if t % low.every == 0:
                 state = np.concatenate([data.qpos, data.qvel])[None]
-                knots = low.policy.act(low.observe(commands[i : i + 1, t], state, np.zeros((1, 1))))[0]
+                observation = low.observe(commands[i : i + 1, t], state, np.zeros((1, 1)), np.array([data.time]))
+                knots = low.policy.act(observation)[0]
                 tick_start = t
                 data.qacc_warmstart[:] = 0.0
             data.ctrl[:] = basis.weights(np.array([(t - tick_start) * model.opt.timestep])) @ knots

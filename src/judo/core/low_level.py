@@ -2,9 +2,9 @@
 
 A task declares one with `Task.low_level()`: the optimizer then plans the policy's commands (C numbers per
 step within `command_range`, e.g. a target position or a base velocity) instead of the actuators' ctrl, and
-every `every` (k) physics steps the policy turns each rollout's command, state and previous action into the
-ctrl held for the next k steps (or, for a chunk policy, the ctrl of each of those k steps read off the chunk's
-spline). Three places run it, the same way:
+every `every` (k) physics steps the policy turns each rollout's command, state, previous action and sim time
+(a gait's clock) into the ctrl held for the next k steps (or, for a chunk policy, the ctrl of each of those k
+steps read off the chunk's spline). Three places run it, the same way:
   - `LowLevelRollout`, the CPU rollout backend's wrapper: all N rollouts are stepped k steps at a time on the
     pool's threads (`mujoco.rollout`, states carried between chunks), and between chunks one batched
     `Policy.act` on the (N, O) observations of all rollouts makes the next ctrl;
@@ -31,8 +31,8 @@ from judo.core.policy import Policy, PolicyError
 from judo.core.rollout import MOCAP_CONTROL_SPEC, RolloutPool
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
 
-ObservationFn = Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray]
-"""(commands (B, C), states (B, nq + nv), previous_actions (B, A)) -> (B, O) observations."""
+ObservationFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+"""(commands (B, C), states (B, nq + nv), previous_actions (B, A), times (B,)) -> (B, O) observations."""
 ToCtrlFn = Callable[[np.ndarray], np.ndarray]
 """(B, A) actions -> (B, nu) ctrl."""
 
@@ -53,9 +53,10 @@ class LowLevel:
             the defaults of the two fields).
         command_range: (C, 2) the limits of each planned command; C is the size the optimizer plans.
         every: physics steps per policy tick, k: the policy runs at 1 / (k * timestep) Hz.
-        observation: (commands (B, C), states (B, nq + nv), previous_actions (B, A)) -> (B, O), vectorized
-            numpy; previous_actions are the policy's own outputs of the last tick (zeros at a rollout's or a
-            plant's start). None: [commands, states], so O = C + nq + nv.
+        observation: (commands (B, C), states (B, nq + nv), previous_actions (B, A), times (B,)) -> (B, O),
+            vectorized numpy; previous_actions are the policy's own outputs of the last tick (zeros at a
+            rollout's or a plant's start), times each row's sim time (s; the plant's clock, carried on through
+            the rollouts, for a policy that keeps a gait's rhythm). None: [commands, states], so O = C + nq + nv.
         to_ctrl: (B, A) actions -> (B, nu) ctrl, held for the next k steps (MuJoCo clamps it to the
             ctrlrange). None: the actions are the ctrl (A = nu).
         chunk_horizon: seconds a chunk's knots span (chunk policies only); None: the policy's "horizon" metadata.
@@ -116,10 +117,12 @@ class LowLevel:
         """C, the number of commands the optimizer plans per step."""
         return len(self.command_range)
 
-    def observe(self, commands: np.ndarray, states: np.ndarray, previous_actions: np.ndarray) -> np.ndarray:
+    def observe(
+        self, commands: np.ndarray, states: np.ndarray, previous_actions: np.ndarray, times: np.ndarray
+    ) -> np.ndarray:
         """(B, O) the policy's observations: the task's `observation`, or [commands, states] without one."""
         if self.observation is not None:
-            return self.observation(commands, states, previous_actions)
+            return self.observation(commands, states, previous_actions, times)
         return np.concatenate([commands, states], axis=1)
 
     def ctrl(self, actions: np.ndarray) -> np.ndarray:
@@ -131,7 +134,8 @@ class LowLevel:
         and its actions make `model.nu` ctrl: both hooks are tried once on a batch of one."""
         state = np.concatenate([model.qpos0, np.zeros(model.nv)])[None]
         try:
-            observation = self.observe(np.zeros((1, self.command_size)), state, np.zeros((1, self.policy.action_size)))
+            previous = np.zeros((1, self.policy.action_size))
+            observation = self.observe(np.zeros((1, self.command_size)), state, previous, np.zeros(1))
         except Exception as err:  # noqa: BLE001  (a user hook: report it in one line)
             raise PolicyError(f"the low-level observation hook failed on a batch of one: {err!r}") from err
         if np.ndim(observation) != 2 or len(observation) != 1:
@@ -244,7 +248,8 @@ class LowLevelRollout(RolloutBackend):
         self._previous[:] = 0.0
         finite = np.ones(num_rollouts, dtype=bool)
         for start, stop in self._ticks:
-            observations = low.observe(commands[:, start], self._current[:, 1:num_state], self._previous)
+            current = self._current
+            observations = low.observe(commands[:, start], current[:, 1:num_state], self._previous, current[:, 0])
             chunk = policy.checked_act(observations, require_finite=False)  # (N, H, A); NaN: that rollout loses
             self.act_calls += 1
             if not math.isfinite(chunk.sum()):  # one cheap reduction per tick; rows only when it fails
@@ -301,7 +306,7 @@ class LowLevelPlant:
         tick_step = self._steps % self.low_level.every
         if tick_step == 0:
             state = np.concatenate([data.qpos, data.qvel])[None]
-            observation = self.low_level.observe(self.command[None], state, self._previous)
+            observation = self.low_level.observe(self.command[None], state, self._previous, np.array([data.time]))
             policy = self.low_level.policy
             chunk = policy.checked_act(np.asarray(observation, dtype=float), require_finite=False)[0]  # (H, A)
             if not np.isfinite(chunk).all():
