@@ -1,5 +1,5 @@
 """`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune`, `collect`,
-`replay` and `distill` commands.
+`replay`, `distill` and `gait-search` commands.
 
 python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
 python -m judo benchmark ...                        # judo.evaluation.benchmark
@@ -8,6 +8,7 @@ python -m judo tune ...                             # judo.tuning.cli (needs the
 python -m judo collect ...                          # judo.collection.cli (needs the `collect` extra)
 python -m judo replay FILE.h5                       # judo.collection.replay: a collect file in the GUI
 python -m judo distill DATA.h5 --out POLICY.onnx    # judo.learning.cli: a policy from collect's files
+python -m judo gait-search --out POLICY.onnx        # judo.learning.gait_cli: the quadruped's locomotion policy
 
 Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
 task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
@@ -25,7 +26,7 @@ def main(argv: Sequence[str] | None = None) -> int | None:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [arg for arg in argv if arg != "--debug"]
-    commands = ("benchmark", "evaluate", "tune", "collect", "replay", "distill")
+    commands = ("benchmark", "evaluate", "tune", "collect", "replay", "distill", "gait-search")
     prog = f"{PROG} {argv[0]}" if argv and argv[0] in commands else PROG
     try:
         return dispatch(argv)
@@ -67,6 +68,10 @@ def dispatch(argv: list[str]) -> int | None:
         from judo.learning.cli import main as distill_main
 
         return distill_main(argv[1:])
+    if argv and argv[0] == "gait-search":
+        from judo.learning.gait_cli import main as gait_search_main
+
+        return gait_search_main(argv[1:])
     from judo.runtime.cli import main as app_main
 
     return app_main(argv)

@@ -1,5 +1,5 @@
-"""What the commands' command lines share (benchmark, evaluate, tune, collect, replay, distill): parsing with
-tyro, the `--optimizer-config.FIELD` and `--task-config.FIELD` groups, the --config file, name checks and
+"""What the commands' command lines share (benchmark, evaluate, tune, collect, replay, distill, gait-search):
+parsing with tyro, the `--optimizer-config.FIELD` and `--task-config.FIELD` groups, the --config file, name checks and
 listings, the latency flags, consoles, and failing cleanly.
 
 It sits below the command packages (evaluation, collection, tuning, learning) and above the runtime, whose

@@ -20,7 +20,7 @@ DURATION, PERIOD = 1.3, 0.5
 class SeeingPolicy(Policy):
     """quadruped_velocity's per-step policy that keeps every observation it is given, and walks by the command."""
 
-    observation_size, action_size, horizon = 33, 12, 1
+    observation_size, action_size, horizon = 35, 12, 1
 
     def __init__(self) -> None:
         self.metadata = {"task": "quadruped_velocity", "control_freq": "100.0"}  # acts at every plant step
@@ -58,14 +58,15 @@ def policy_file(tmp_path_factory):
 
 def test_the_rebuilt_observations_are_what_the_policy_saw_in_the_closed_loop(policy_file):
     path, seen = policy_file
-    assert seen.shape == (130, 33)  # at t = 0 (before any step) and after each of the first 129 steps
+    assert seen.shape == (130, 35)  # at t = 0 (before any step) and after each of the first 129 steps
     pairs = read_pairs([path], "action")
     # the state after step s (its observation) gives the action of step s + 1: rows 0..128, seen at t = 0.01..1.29
-    np.testing.assert_array_equal(pairs.observations[0], seen[1:])
+    # equal but for the gait clock's last bits: the rebuild's time is (row + 1) dt, the plant's a running sum
+    np.testing.assert_allclose(pairs.observations[0], seen[1:], rtol=0, atol=1e-12)
     commands = np.unique(seen[:, 30:33], axis=0)
     assert len(commands) == 3  # the command changed twice, and the rebuilt rows followed it
     chunk = read_pairs([path], "chunk")  # each update's reading: the same rows
-    np.testing.assert_array_equal(chunk.observations[0], seen[1:])
+    np.testing.assert_allclose(chunk.observations[0], seen[1:], rtol=0, atol=1e-12)
     with h5py.File(path, "r") as file:
         demo = file["data/demo_0"]
         states = np.concatenate([demo["obs/qpos"][:], demo["obs/qvel"][:]], axis=1)

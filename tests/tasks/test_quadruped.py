@@ -7,6 +7,7 @@ import pytest
 
 import judo
 from judo.core.errors import ConfigError
+from judo.core.policy import PolicyError
 from judo.evaluation.episode import run_episode
 from judo.runtime.system import MujocoSystem
 from judo.tasks.quadruped import GAITS, JOINTS, LEGS, Quadruped, gait_of, swing_heights
@@ -116,8 +117,13 @@ def test_the_policy_observation_is_proprioception_and_command_without_the_previo
     state = np.concatenate([task.data.qpos, task.data.qvel])
     previous = np.tile(task.home_ctrl, (2, 1))
     previous[1, 0] += 0.1
-    observation = task.policy_observation(np.tile(state, (2, 1)), None, {COMMAND_KEY: [0.5, 0.1, 0.3]}, previous)
-    assert observation.shape == (2, 33) == (2, task.policy_observation_size())
+    sensors = np.zeros((2, task.model.nsensordata))
+    sensors[:, task._clock] = 0.1  # the sim time: a quarter of the trot's 0.4 s cycle
+    observation = task.policy_observation(np.tile(state, (2, 1)), sensors, {COMMAND_KEY: [0.5, 0.1, 0.3]}, previous)
+    assert observation.shape == (2, 35) == (2, task.policy_observation_size())
+    np.testing.assert_allclose(observation[:, 33:35], [[0.0, 1.0]] * 2, atol=1e-12)  # the clock: cos, sin
+    with pytest.raises(PolicyError, match="needs the sensors, for the gait clock"):
+        task.policy_observation(state[None], None, {COMMAND_KEY: [0.5, 0.1, 0.3]}, previous[:1])
     np.testing.assert_allclose(observation[:, :12], np.tile(state[7:19] - task.home_ctrl, (2, 1)))
     np.testing.assert_allclose(observation[:, 27:30], [[0.0, 0.0, -1.0]] * 2, atol=0.01)  # gravity, trunk frame
     np.testing.assert_array_equal(observation[:, 30:33], [[0.5, 0.1, 0.3]] * 2)

@@ -214,11 +214,31 @@ def mlp_policy_model(
         [helper.make_tensor_value_info("actions", onnx.TensorProto.FLOAT, out_shape)],
         initializers,
     )
+    return model_of_graph(graph, metadata)
+
+
+def model_of_graph(graph: Any, metadata: Mapping[str, str] | None) -> Any:
+    """The checked ONNX ModelProto of `graph` (opset OPSET, IR 8) with `metadata` as its metadata_props."""
+    onnx = _onnx()
+    helper = onnx.helper
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)], producer_name="judo")
     model.ir_version = 8  # what onnxruntime 1.17 and later read
     helper.set_model_props(model, {str(k): str(v) for k, v in (metadata or {}).items()})
     onnx.checker.check_model(model)
     return model
+
+
+def save_model(path: Path, model: Any, error: type[Exception] = PolicyError) -> Path:
+    """Write `model` to `path` through a temporary file, so a failed write leaves no half file; `error` (one line,
+    naming the path) where it cannot be written."""
+    partial = path.with_name(path.name + ".partial")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        partial.write_bytes(model.SerializeToString())
+        partial.replace(path)
+    except OSError as err:
+        raise error(f"cannot write the policy to {str(path)!r}: {err.strerror or err}") from None
+    return path
 
 
 def write_mlp_policy(path: str | Path, layers: Sequence[tuple[np.ndarray, np.ndarray]], **kwargs: Any) -> Path:

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.onnx_policy import OPSET, _onnx, mlp_policy_model
+from judo.core.onnx_policy import _onnx, mlp_policy_model, model_of_graph, save_model
 from judo.learning.networks import ACTIVATION
 from judo.learning.pairs import DistillError, TrainingPairs
 from judo.learning.training import TrainedPolicy
@@ -118,25 +118,13 @@ def flow_policy_model(trained: TrainedPolicy, metadata: dict[str, str], noise_sc
         [helper.make_tensor_value_info("actions", onnx.TensorProto.FLOAT, out_shape)],
         initializers,
     )
-    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", OPSET)], producer_name="judo")
-    model.ir_version = 8
-    helper.set_model_props(model, {str(k): str(v) for k, v in metadata.items()})
-    onnx.checker.check_model(model)
-    return model
+    return model_of_graph(graph, metadata)
 
 
 def write_policy(path: Path, trained: TrainedPolicy, metadata: dict[str, str], noise_scale: float = 1.0) -> Path:
     """Write the ONNX file (through a temporary file, so a failed write leaves no half file); DistillError
     naming the path where it cannot be written."""
-    model = policy_model(trained, metadata, noise_scale)
-    partial = path.with_name(path.name + ".partial")
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        partial.write_bytes(model.SerializeToString())
-        partial.replace(path)
-    except OSError as err:
-        raise DistillError(f"cannot write the policy to {str(path)!r}: {err.strerror or err}") from None
-    return path
+    return save_model(path, policy_model(trained, metadata, noise_scale), DistillError)
 
 
 def losses_path(out: Path) -> Path:

@@ -239,7 +239,8 @@ def _description() -> str:
         "The controller, optimizer and task options below belong to the chosen --task and --optimizer; "
         f"pass those first to see their fields. Tasks: {tasks}. Optimizers: {optimizers}. "
         f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...`, `{PROG} tune ...`, `{PROG} collect ...`, "
-        f"`{PROG} replay FILE.h5` and `{PROG} distill DATA.h5 --out POLICY.onnx` (each with --help)."
+        f"`{PROG} replay FILE.h5`, `{PROG} distill DATA.h5 --out POLICY.onnx` and `{PROG} gait-search --out "
+        "POLICY.onnx` (each with --help)."
     )
 
 

@@ -63,6 +63,17 @@ def gait_of(name: str) -> Gait:
     return GAITS[name]
 
 
+CLOCK_HZ = GAITS["trot"].frequency
+"""Frequency (Hz) of the clock in the locomotion observation: the trot's, so its phase is the reward's schedule."""
+
+
+def gait_clock(times: np.ndarray) -> np.ndarray:
+    """(B, 2) [cos, sin] of the trot's phase 2 pi CLOCK_HZ t at (B,) sim `times` (s): a front-right foot's
+    swing starts at phase 0 (GAITS["trot"])."""
+    phase = 2.0 * np.pi * CLOCK_HZ * np.asarray(times, dtype=float)
+    return np.stack([np.cos(phase), np.sin(phase)], axis=1)
+
+
 def swing_heights(times: np.ndarray, gait: Gait, step_height: float) -> np.ndarray:
     """(..., 4) target foot heights (m) at `times` (...) s: a half sine of `step_height` over each leg's swing, 0
     while it stands."""
@@ -179,13 +190,13 @@ class QuadrupedBase(Task[ConfigT]):
         mujoco.mj_forward(self.sim_model, self.data)
 
     def locomotion_observation(
-        self, commands: np.ndarray, states: np.ndarray, previous: np.ndarray | None = None
+        self, commands: np.ndarray, states: np.ndarray, previous: np.ndarray | None, times: np.ndarray
     ) -> np.ndarray:
-        """(B, 33) the locomotion observation (quadruped_velocity.OBSERVATION) of (B, 3) commands [vx, vy, yaw rate]
-        and (B, nq + nv) states, one command per row: what quadruped_velocity's `policy_observation` gives, and
-        quadruped_navigate's low-level hook (hence a hook's argument order). The (B, 12) `previous` joint targets
-        are not part of it: a policy cloned from the MPC with them learned to copy them (the copycat problem of
-        behaviour cloning; docs/tasks.md)."""
+        """(B, 35) the locomotion observation (quadruped_velocity.OBSERVATION) of (B, 3) commands [vx, vy, yaw rate],
+        (B, nq + nv) states and (B,) sim times (s), one command per row: what quadruped_velocity's
+        `policy_observation` gives, and quadruped_navigate's low-level hook (hence a hook's argument order). The
+        (B, 12) `previous` joint targets are not part of it: a policy cloned from the MPC with them learned to copy
+        them (the copycat problem of behaviour cloning; docs/tasks.md)."""
         nq = self.model.nq
         return np.concatenate(
             [
@@ -194,6 +205,7 @@ class QuadrupedBase(Task[ConfigT]):
                 states[:, nq + 3 : nq + 6],
                 gravity_in_body(states[:, 3:7]),
                 commands,
+                gait_clock(times),
             ],
             axis=1,
         )

@@ -1,8 +1,9 @@
 """Quadruped velocity tracking: the Go1-class quadruped follows a commanded base velocity (forward, sideways, yaw
 rate), planned directly in its 12 joint targets. The command is redrawn every few seconds of sim time.
 
-It is the teacher for a distilled locomotion policy: `policy_observation` gives what such a policy sees on the
-robot (proprioception and the command).
+Its reward is what `python -m judo gait-search` teaches the shipped locomotion policy on (judo.learning.gait_search),
+and `policy_observation` gives what such a policy sees on the robot (proprioception, the command and the gait's
+clock).
 """
 
 from dataclasses import dataclass
@@ -13,6 +14,7 @@ import numpy as np
 
 from judo.core.config import require
 from judo.core.fields import slider
+from judo.core.policy import PolicyError
 from judo.core.task import EpisodeLog
 from judo.tasks.quadruped import MODEL_PATH, QuadrupedBase, QuadrupedBaseConfig
 
@@ -26,10 +28,12 @@ trunk sways sideways and yaws back and forth within each stride (0.4 s), which n
 OBSERVATION = (
     "12 joint angles minus the standing pose (rad), 12 joint velocities (rad/s), trunk angular velocity in the "
     "trunk frame (3, rad/s, what a gyro reads), gravity's direction in the trunk frame (3), the command [vx, vy, "
-    "yaw rate] (3)"
+    "yaw rate] (3), the gait clock [cos, sin] of 2 pi 2.5 Hz t (2)"
 )
-"""What `QuadrupedVelocity.policy_observation` holds, in order: 33 values. Not the previous action: a policy cloned
+"""What `QuadrupedVelocity.policy_observation` holds, in order: 35 values. Not the previous action: a policy cloned
 with it copied it (its joint targets moved 0.007 rad a step against the MPC's 0.06, and it fell 12 times in 20 s)."""
+OBSERVATION_COLUMNS = {"command": np.arange(30, 33), "clock": np.arange(33, 35), "gyro_and_gravity": np.arange(24, 30)}
+"""Where the gait policy (judo.learning.gait_policy) reads its inputs in OBSERVATION."""
 
 
 @slider("max_forward", 0.0, 1.5, 0.05)
@@ -227,10 +231,13 @@ class QuadrupedVelocity(QuadrupedBase[QuadrupedVelocityConfig]):
         system_metadata: dict[str, Any] | None = None,
         previous_actions: np.ndarray | None = None,
     ) -> np.ndarray:
-        """(B, 33) what a locomotion policy sees (OBSERVATION), from (B, nq + nv) states and the published command;
-        `previous_actions` is not used (OBSERVATION says why). Read from the states, not the sensors: the trunk-frame
-        angular velocity is what the IMU's gyro reads, and gravity's direction what its orientation gives, so the
-        policy needs no simulator-only value and no sensors argument."""
+        """(B, 35) what a locomotion policy sees (OBSERVATION), from (B, nq + nv) states, the published command and
+        the (B, nsensordata) sensors' "clock" (the sim time); `previous_actions` is not used (OBSERVATION says
+        why). The rest is read from the states: the trunk-frame angular velocity is what the IMU's gyro reads, and
+        gravity's direction what its orientation gives, so the policy needs no simulator-only value."""
         states = np.atleast_2d(np.asarray(states, dtype=float))
+        if sensors is None:
+            raise PolicyError("quadruped_velocity's policy observation needs the sensors, for the gait clock")
         commands = np.broadcast_to(self.command_from(system_metadata), (len(states), 3))
-        return self.locomotion_observation(commands, states, previous_actions)
+        times = np.atleast_2d(np.asarray(sensors, dtype=float))[:, self._clock]
+        return self.locomotion_observation(commands, states, previous_actions, times)

@@ -1,0 +1,135 @@
+"""`python -m judo gait-search`: teach the quadruped a locomotion policy by policy search, and write it as ONNX.
+
+python -m judo gait-search --out quadruped_locomotion.onnx
+python -m judo evaluate --task quadruped_velocity --policy quadruped_locomotion.onnx --seeds 5 --first-seed 1000
+"""
+
+import json
+import shlex
+import sys
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import tyro
+
+from judo.cli_shared import fail, output_console, parse_args, progress_console
+from judo.core.boundary import check_output_file
+from judo.core.config import require
+from judo.core.errors import JudoError
+from judo.learning.gait_search import EVERY, GaitSearchSettings, Iteration
+
+DESCRIPTION = (
+    "Teach the quadruped a locomotion policy for quadruped_velocity's commands [vx, vy, yaw rate] by policy search: "
+    "judo's CEM tunes a gait policy (a trot's clock harmonics, shaped linearly by the command, plus feedback on the "
+    "trunk's gyro and tilt; judo.learning.gait_policy) on closed-loop episodes scored by quadruped_velocity's own "
+    "reward, the objective its MPC plans with. Writes an ONNX file for --policy and quadruped_navigate, and the "
+    "reward curve beside it as a PNG. Needs the `policy` extra: pip install 'judo[policy]'."
+)
+TASK = "quadruped_velocity"
+
+
+@dataclass
+class GaitSearchArgs(GaitSearchSettings):
+    """Arguments of `python -m judo gait-search`: the search's settings and the file to write."""
+
+    out: Annotated[Path, tyro.conf.arg(metavar="POLICY.onnx")] = field(kw_only=True)
+    """The ONNX file to write (its reward curve goes beside it, as POLICY.search.png)."""
+
+    def validate(self) -> None:
+        super().validate()
+        require(self.out.suffix == ".onnx", f"--out must name an .onnx file, got {str(self.out)!r}")
+        check_output_file("--out", self.out)
+
+
+def write_gait_policy(out: Path, parameters: np.ndarray, metadata: dict[str, str]) -> Path:
+    """Write the gait policy of (P,) `parameters` to `out` through a temporary file (no half file on failure)."""
+    from judo.core.onnx_policy import save_model
+    from judo.learning.gait_policy import gait_policy_model
+    from judo.learning.gait_search import quadruped_gait_layout
+    from judo.tasks.quadruped_velocity import QuadrupedVelocity
+
+    model = gait_policy_model(parameters, quadruped_gait_layout(QuadrupedVelocity()), metadata)
+    return save_model(out, model, JudoError)
+
+
+def plot_search(path: Path, history: list[Iteration]) -> Path | None:
+    """The mean's and the best candidate's reward per iteration as a PNG at `path`; None without matplotlib."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return None
+    figure, axes = plt.subplots(figsize=(6, 3.5), dpi=110)
+    index = [record.index + 1 for record in history]
+    axes.plot(index, [record.mean_reward for record in history], label="the CEM's mean")
+    axes.plot(index, [record.best_reward for record in history], label="best candidate", alpha=0.6)
+    axes.set_xlabel("iteration")
+    axes.set_ylabel("quadruped_velocity reward (higher is better)")
+    axes.set_title("gait-search: reward on each iteration's drawn commands", fontsize=9)
+    axes.legend(fontsize=8)
+    figure.tight_layout()
+    figure.savefig(path)
+    plt.close(figure)
+    return path
+
+
+def run(args: GaitSearchArgs, command: str) -> None:
+    """Search with a progress bar, then write the ONNX file and its reward curve, and say how to use them."""
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from judo.learning.gait_search import search_gait
+    from judo.tasks.quadruped_velocity import OBSERVATION, QuadrupedVelocity
+
+    console = output_console()
+    settings = GaitSearchSettings(**{name: getattr(args, name) for name in asdict(GaitSearchSettings())})
+    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"))
+    with Progress(*columns, TimeElapsedColumn(), console=progress_console(), transient=True) as progress:
+        bar = progress.add_task("searching", total=args.iterations)
+
+        def show(record: Iteration) -> None:
+            text = f"reward {record.mean_reward:.3f} (best {record.best_reward:.3f}), falls {record.falls:.0%}"
+            progress.update(bar, completed=record.index + 1, description=text)
+
+        task = QuadrupedVelocity()
+        parameters, history = search_gait(task, settings, show)
+    metadata = {
+        "name": args.out.stem,
+        "task": TASK,
+        "kind": "action",
+        "head": "gait",
+        "observation": OBSERVATION,
+        "observation_size": "35",
+        "control_freq": repr(1.0 / (EVERY * float(task.model.opt.timestep))),
+        "training_command": command,
+        "training_seconds": f"{history[-1].seconds:.1f}",
+        "search": json.dumps({**asdict(settings), "final_reward": history[-1].mean_reward}),
+    }
+    write_gait_policy(args.out, parameters, metadata)
+    plot = plot_search(args.out.with_name(args.out.stem + ".search.png"), history)
+    console.print(
+        f"wrote {args.out} after {len(history)} iterations in {history[-1].seconds / 60:.1f} min: the mean's reward "
+        f"{history[0].mean_reward:.3f} -> {history[-1].mean_reward:.3f}, falls {history[-1].falls:.0%}"
+        + (f"; the reward curve is {plot}" if plot else "")
+    )
+    console.print(
+        f"score it on fresh seeds: python -m judo evaluate --task {TASK} --policy {args.out} --seeds 5 --first-seed 1000"
+    )
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run `python -m judo gait-search` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parse_args(GaitSearchArgs, argv, "python -m judo gait-search", DESCRIPTION)
+    try:
+        args.validate()
+        from judo.core.errors import import_extra
+
+        import_extra("onnx", "python -m judo gait-search", "policy")
+        run(args, "python -m judo gait-search " + shlex.join(argv))
+    except JudoError as err:
+        fail(str(err))
+    return 0
