@@ -1,7 +1,7 @@
 """The quadruped walks to goals planned over a locomotion policy judo taught itself.
 
-`quadruped_velocity`'s MPC (12 joint targets, 32 rollouts) taught a policy to follow a base-velocity command
-(`python -m judo distill --kind action --rounds 3`, docs/tasks.md); it ships as
+judo's CEM taught a gait policy to follow a base-velocity command on `quadruped_velocity`'s reward, the objective
+its MPC plans with (`python -m judo gait-search`, docs/tasks.md); it ships as
 models/policies/quadruped_locomotion.onnx. `quadruped_navigate` plans only the command [vx, vy, yaw rate] with 3
 knots over 1 s, with a quarter of quadruped's rollouts: inside every rollout the policy turns the command into the
 joint targets at 50 Hz, batched over all rollouts, and the plant runs the same policy on the command it is

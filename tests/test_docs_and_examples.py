@@ -110,5 +110,5 @@ def test_example_08_quadruped_walks_towards_its_goal_without_falling():
 
 def test_example_09_plans_the_quadruped_over_its_shipped_policy_without_falling(capsys):
     metrics = load_example("09_quadruped_navigate.py").main(duration=1.0)
-    assert metrics["falls"] == 0.0 and metrics["final_distance"] < 1.5  # the first goal lies 1 m ahead
+    assert metrics["falls"] == 0.0 and metrics["final_distance"] < 0.85  # the first goal lies 1 m ahead: it walks
     assert "over 'quadruped_locomotion'" in capsys.readouterr().out

@@ -44,9 +44,9 @@ BUILTIN_TASKS = {
     "humanoid_standup": (HumanoidStandup, HumanoidStandupConfig),
     # A Go1-class quadruped planned directly in its 12 joint targets: walk to goals.
     "quadruped": (Quadruped, QuadrupedConfig),
-    # The same robot tracking a commanded base velocity: the teacher of a distilled locomotion policy.
+    # The same robot tracking a commanded base velocity: the reward `gait-search` teaches the locomotion policy on.
     "quadruped_velocity": (QuadrupedVelocity, QuadrupedVelocityConfig),
-    # The same walk to goals, planned in base-velocity commands over the locomotion policy judo distilled.
+    # The same walk to goals, planned in base-velocity commands over the locomotion policy judo taught itself.
     "quadruped_navigate": (QuadrupedNavigate, QuadrupedNavigateConfig),
     # Robot tasks: LEAP hand cube rotation (palm up / palm down) and Franka-style pick-and-place.
     "leap_cube": (LeapCube, LeapCubeConfig),
