@@ -12,7 +12,7 @@ noise in the labels that defeated cloning it (docs/tasks.md).
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -22,7 +22,7 @@ from judo.core.config import require, require_between
 from judo.core.model import STATE_SPEC
 from judo.learning.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout, gait_actions
 from judo.optimizers.cem import CEM, CEMConfig
-from judo.tasks.quadruped import GAITS, LEGS, STANDING_HEIGHT
+from judo.tasks.quadruped import GAITS, STANDING_HEIGHT
 from judo.tasks.quadruped_velocity import (
     COMMAND_KEY,
     OBSERVATION_COLUMNS,
@@ -55,7 +55,7 @@ class GaitSearchSettings:
     """Largest std, and the first iteration's."""
     seed: int = 0
     """Seeds the commands, the start phases and the CEM's samples."""
-    workers: int = field(default=2)
+    workers: int = 2
     """Threads stepping the episodes."""
 
     def validate(self) -> None:
@@ -78,7 +78,6 @@ def quadruped_gait_layout(task: QuadrupedVelocity) -> GaitLayout:
     feedback on the trunk's gyro and gravity direction."""
     offsets = np.array(GAITS["trot"].offsets)
     signs = np.repeat(np.where(offsets == 0.0, 1.0, -1.0), 3)  # a leg half a cycle behind: its first harmonic flips
-    require(len(offsets) == len(LEGS), "the trot names an offset per leg")
     return GaitLayout(
         home=task.home_ctrl.copy(),
         command_columns=OBSERVATION_COLUMNS["command"],
@@ -187,8 +186,8 @@ def search_gait(
         fell = (states[..., 2] < 0.5 * STANDING_HEIGHT).any(axis=1).reshape(population, count)
         scores = rewards.mean(axis=1)
         mean = cem.update_nominal_knots(candidates[:, None], scores)
-        record = Iteration(index, float(scores[0]), float(scores.max()), float(fell[0].mean()), 0.0)
-        record.seconds = time.perf_counter() - start
+        seconds = time.perf_counter() - start
+        record = Iteration(index, float(scores[0]), float(scores.max()), float(fell[0].mean()), seconds)
         history.append(record)
         if on_iteration is not None:
             on_iteration(record)
