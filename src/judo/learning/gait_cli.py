@@ -18,6 +18,7 @@ from judo.cli_shared import fail, output_console, parse_args, progress_console
 from judo.core.boundary import check_output_file
 from judo.core.config import require
 from judo.core.errors import JudoError
+from judo.learning.gait_policy import GaitLayout
 from judo.learning.gait_search import EVERY, GaitSearchSettings, Iteration
 
 DESCRIPTION = (
@@ -43,15 +44,13 @@ class GaitSearchArgs(GaitSearchSettings):
         check_output_file("--out", self.out)
 
 
-def write_gait_policy(out: Path, parameters: np.ndarray, metadata: dict[str, str]) -> Path:
-    """Write the gait policy of (P,) `parameters` to `out` through a temporary file (no half file on failure)."""
+def write_gait_policy(out: Path, parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]) -> Path:
+    """Write the gait policy of (P,) `parameters` on `layout` to `out` through a temporary file (no half file on
+    failure)."""
     from judo.core.onnx_policy import save_model
     from judo.learning.gait_policy import gait_policy_model
-    from judo.learning.gait_search import quadruped_gait_layout
-    from judo.tasks.quadruped_velocity import QuadrupedVelocity
 
-    model = gait_policy_model(parameters, quadruped_gait_layout(QuadrupedVelocity()), metadata)
-    return save_model(out, model, JudoError)
+    return save_model(out, gait_policy_model(parameters, layout, metadata), JudoError)
 
 
 def plot_search(path: Path, history: list[Iteration]) -> Path | None:
@@ -81,7 +80,7 @@ def run(args: GaitSearchArgs, command: str) -> None:
     """Search with a progress bar, then write the ONNX file and its reward curve, and say how to use them."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-    from judo.learning.gait_search import search_gait
+    from judo.learning.gait_search import quadruped_gait_layout, search_gait
     from judo.tasks.quadruped_velocity import OBSERVATION, QuadrupedVelocity
 
     console = output_console()
@@ -96,19 +95,20 @@ def run(args: GaitSearchArgs, command: str) -> None:
 
         task = QuadrupedVelocity()
         parameters, history = search_gait(task, settings, show)
+    layout = quadruped_gait_layout(task)
     metadata = {
         "name": args.out.stem,
         "task": TASK,
         "kind": "action",
         "head": "gait",
         "observation": OBSERVATION,
-        "observation_size": "35",
+        "observation_size": str(layout.observation_size),
         "control_freq": repr(1.0 / (EVERY * float(task.model.opt.timestep))),
         "training_command": command,
         "training_seconds": f"{history[-1].seconds:.1f}",
         "search": json.dumps({**asdict(settings), "final_reward": history[-1].mean_reward}),
     }
-    write_gait_policy(args.out, parameters, metadata)
+    write_gait_policy(args.out, parameters, layout, metadata)
     plot = plot_search(args.out.with_name(args.out.stem + ".search.png"), history)
     console.print(
         f"wrote {args.out} after {len(history)} iterations in {history[-1].seconds / 60:.1f} min: the mean's reward "

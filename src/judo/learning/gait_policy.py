@@ -91,7 +91,7 @@ def gait_actions(parameters: np.ndarray, observations: np.ndarray, layout: GaitL
 def gait_policy_model(parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]) -> Any:
     """An ONNX ModelProto (float32, (B, O) -> (B, J)) that computes `gait_actions` of one (P,) parameter row.
 
-    The harmonic weights are folded into one (20, J) matrix per sign, so the graph is: the (B, 5) phase
+    The harmonic weights, each joint's phase signs folded in, make one (20, J) matrix, so the graph is: the (B, 5) phase
     features times the (B, 4) command features (an outer product, (B, 20)), a MatMul, the feedback's MatMul on
     the whole observation (zero rows outside `feedback_columns`) and the standing pose added.
     """

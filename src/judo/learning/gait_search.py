@@ -84,7 +84,7 @@ def quadruped_gait_layout(task: QuadrupedVelocity) -> GaitLayout:
         clock_columns=OBSERVATION_COLUMNS["clock"],
         feedback_columns=OBSERVATION_COLUMNS["gyro_and_gravity"],
         phase_signs=signs,
-        observation_size=35,
+        observation_size=task.policy_observation_size(),
     )
 
 
