@@ -20,6 +20,7 @@ from judo.optimizers import PredictiveSamplingConfig
 from judo.tuning.cli import main as tune_main
 
 optuna = pytest.importorskip("optuna")
+sqlalchemy = pytest.importorskip("sqlalchemy")  # optuna's storage layer
 pytest.importorskip("ray")  # skipped without the extra; the local_ray fixture is in tests/conftest.py
 
 TINY_STUDY = [
@@ -175,10 +176,12 @@ def test_ctrl_c_stops_a_running_tune_at_once_and_keeps_every_finished_trial(tmp_
         deadline = time.monotonic() + 240
         while time.monotonic() < deadline and tune.poll() is None:
             time.sleep(0.5)
+            if not (tmp_path / "tune.db").exists():  # never create the file the tune is about to create
+                continue
             try:
                 states = [trial.state.name for trial in stored_trials(storage, "stopped")]
-            except KeyError:  # the study is not created yet
-                continue
+            except (KeyError, sqlalchemy.exc.SQLAlchemyError, optuna.exceptions.StorageInternalError):
+                continue  # the study is not created yet, or the tune holds the file's lock while it writes
             if states.count("COMPLETE") == 1 and "RUNNING" in states:
                 break
         assert tune.poll() is None, f"tune ended early: {tune.communicate()}"
