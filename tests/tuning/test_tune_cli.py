@@ -173,7 +173,7 @@ def test_ctrl_c_stops_a_running_tune_at_once_and_keeps_every_finished_trial(tmp_
         [sys.executable, "-m", "judo", "tune", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
     )
     try:
-        deadline = time.monotonic() + 240
+        deadline, states = time.monotonic() + 480, []
         while time.monotonic() < deadline and tune.poll() is None:
             time.sleep(0.5)
             if not (tmp_path / "tune.db").exists():  # never create the file the tune is about to create
@@ -185,6 +185,7 @@ def test_ctrl_c_stops_a_running_tune_at_once_and_keeps_every_finished_trial(tmp_
             if states.count("COMPLETE") == 1 and "RUNNING" in states:
                 break
         assert tune.poll() is None, f"tune ended early: {tune.communicate()}"
+        assert states.count("COMPLETE") == 1 and "RUNNING" in states, f"no second trial running in 480 s: {states}"
         tune.send_signal(signal.SIGINT)
         started = time.monotonic()
         _, err = tune.communicate(timeout=30)
