@@ -6,7 +6,7 @@ as an ONNX file by `write_linear_policy` (no exporter, nothing downloaded) and l
 task declares it in `low_level()`: the command (the cart's target position, within +-1.8 m), the rate (every 2
 physics steps, 50 Hz), and how command, state and previous action make the policy's observation. The
 optimizer then plans targets; every rollout and the simulated plant run the policy, the rollouts with one
-batched `act` for all of them per tick. The built-in `cartpole_pd` task is the same.
+batched `act` per tick for each worker's block of them. The built-in `cartpole_pd` task is the same.
 
     PYTHONPATH=src python examples/07_low_level_policy.py [--duration 5]
 """

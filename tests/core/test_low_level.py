@@ -129,9 +129,11 @@ def test_hierarchical_rollout_equals_a_plain_loop_bit_for_bit(limited_model, num
         states, sensors = backend.rollout(initial_state, commands)
         np.testing.assert_array_equal(states, expected_states)
         np.testing.assert_array_equal(sensors, expected_sensors)
-        # One batched act of all 7 rollouts per tick, never 7 calls of one.
-        assert low.policy.batches == [7] * math.ceil(41 / every)
-        assert backend.act_calls == math.ceil(41 / every)
+        # One batched act per tick for each worker's block of rows (all 7 on one worker), never 7 calls of one.
+        blocks = [rows.stop - rows.start for rows in backend.inner.blocks(7)]
+        assert len(blocks) == num_workers and sum(blocks) == 7
+        assert sorted(low.policy.batches) == sorted(blocks * math.ceil(41 / every))
+        assert backend.act_calls == num_workers * math.ceil(41 / every)
     assert not np.allclose(states[0], states[1])  # different commands gave different rollouts
     assert np.abs(states[..., 1]).max() >= 0.3 - 1e-3  # the rail's limit was reached
 
@@ -182,7 +184,7 @@ def test_the_controller_plans_the_commands_in_their_range(tmp_path):
         assert (np.abs(controller.nominal_knots[:, 0]) <= 0.5).all()
         assert controller.action(0.05).shape == (2,)
         assert task.seen_controls == [(8, 20, 2)]  # the reward got the commands
-        assert controller.backend.act_calls == 10  # 20 steps, a tick every 2
+        assert controller.backend.act_calls == 10 * 2  # 20 steps, a tick every 2, for each of the 2 workers
 
 
 @pytest.mark.parametrize(

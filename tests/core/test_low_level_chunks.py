@@ -92,7 +92,7 @@ def test_each_step_of_a_tick_takes_its_action_off_the_chunk_s_spline(cart):
     with LowLevelRollout(RolloutPool(model, 2), low) as backend:
         states, _ = backend.rollout(initial_state, commands)
         np.testing.assert_allclose(states, reference(model, low, initial_state, commands), rtol=1e-10, atol=1e-12)
-        assert backend.act_calls == 5  # one batched act per tick, ticks at 0, 5, 10, 15, 20
+        assert backend.act_calls == 5 * 2  # one batched act per tick (0, 5, 10, 15, 20) for each worker's rows
     held = LowLevel(LinearChunk(), command_range=[[-1.0, 1.0]], every=5, chunk_spline_order="zero")
     with LowLevelRollout(RolloutPool(model, 1), held) as backend:
         zero_order, _ = backend.rollout(initial_state, commands)

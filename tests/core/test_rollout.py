@@ -1,5 +1,7 @@
 """The rollout pool equals a plain sequential mj_step loop, bit for bit, for any worker count."""
 
+import time
+
 import mujoco
 import numpy as np
 import pytest
@@ -69,3 +71,25 @@ def test_missing_extra_names_the_extra_to_install():
         "the feature needs the optional extra judo[warp], which is not installed (no module 'judo_no_such_module'); "
         'install it with: pip install "judo[warp]"'
     )
+
+
+def test_each_block_runs_once_and_a_worker_s_error_is_raised_only_after_every_block_ended(tiny_model_path):
+    model = mujoco.MjModel.from_xml_path(str(tiny_model_path))
+    with RolloutPool(model, 3) as pool:
+        assert [(rows.start, rows.stop) for rows in pool.blocks(7)] == [(0, 2), (2, 4), (4, 7)]
+        assert len(pool.blocks(2)) == 2  # never an empty block
+        ran: list[int] = []
+        pool.for_each_block(7, ran.append)
+        assert sorted(ran) == [0, 1, 2]
+
+        ended: list[int] = []
+
+        def fail_on_block_2(block: int) -> None:
+            if block == 2:
+                raise ValueError("block 2 failed")
+            time.sleep(0.2)  # the caller's block 0 and block 1 outlast block 2's failure
+            ended.append(block)
+
+        with pytest.raises(ValueError, match="block 2 failed"):
+            pool.for_each_block(7, fail_on_block_2)
+        assert sorted(ended) == [0, 1]

@@ -5,9 +5,12 @@ step within `command_range`, e.g. a target position or a base velocity) instead 
 every `every` (k) physics steps the policy turns each rollout's command, state, previous action and sim time
 (a gait's clock) into the ctrl held for the next k steps (or, for a chunk policy, the ctrl of each of those k
 steps read off the chunk's spline). Three places run it, the same way:
-  - `LowLevelRollout`, the CPU rollout backend's wrapper: all N rollouts are stepped k steps at a time on the
-    pool's threads (`mujoco.rollout`, states carried between chunks), and between chunks one batched
-    `Policy.act` on the (N, O) observations of all rollouts makes the next ctrl;
+  - `LowLevelRollout`, the CPU rollout backend's wrapper: each of the pool's workers runs the whole tick loop of
+    its own block of rows (`mujoco.rollout` k steps at a time, states carried between ticks), and at every tick
+    one batched `Policy.act` on its block's (B, O) observations makes the next ctrl: one thread hand-off per
+    update rather than one per tick, and one worker's `act` overlaps the other's physics. `act` and the hooks
+    are therefore called from several threads at once (as they already were by the plant's thread and the
+    planner's): they must not keep shared mutable state;
   - `LowLevelPlant`, inside `MujocoSystem`: the simulated plant runs the policy on the command it is served,
     every k of its steps, as the robot's own controller would (a robot's `System` runs it itself);
   - `with_low_level`, which the Controller calls on its backend: the wrapper, or a LowLevelBackendError for
@@ -179,17 +182,18 @@ def with_low_level(backend: RolloutBackend, low_level: "LowLevel | None") -> Rol
 class LowLevelRollout(RolloutBackend):
     """Rolls out planned commands through a low-level policy on a `RolloutPool`'s threads.
 
-    `rollout(initial_state, commands, mocap)` takes (N, T, C) commands where a plain backend takes ctrl. For
-    each tick j (steps jk to jk + k - 1, the last chunk possibly shorter) it builds the (N, O) observations
-    from the commands at step jk, the states reached so far and the previous actions, makes one batched
-    `act` for all N rollouts, and rolls every rollout k steps on from its own state with the ctrl held.
+    `rollout(initial_state, commands, mocap)` takes (N, T, C) commands where a plain backend takes ctrl. Each
+    worker of the pool takes its block of B rows (`RolloutPool.blocks`) through every tick j (steps jk to
+    jk + k - 1, the last tick possibly shorter): it builds the block's (B, O) observations from the commands at
+    step jk, the states reached so far and the previous actions, makes one batched `act` for the block, and
+    rolls each of its rollouts k steps on from its own state with the ctrl held.
     A rollout whose policy returned non-finite actions gets NaN states and sensors, so it never wins.
     Buffers are allocated per (N, T) and reused, so the returned arrays are overwritten by the next call.
 
     Attributes:
         inner: the pool the physics runs on; closed with this backend.
         low_level: the task's declaration.
-        act_calls: batched `act` calls made so far (one per tick of every rollout call).
+        act_calls: batched `act` calls made so far (one per tick and worker block of every rollout call).
     """
 
     def __init__(self, inner: RolloutPool, low_level: LowLevel) -> None:
@@ -211,6 +215,7 @@ class LowLevelRollout(RolloutBackend):
         self._sensors = np.zeros((num_rollouts, num_steps, model.nsensordata))
         self._current = np.zeros((num_rollouts, nstate))  # each rollout's state at the tick
         self._previous = np.zeros((num_rollouts, self.low_level.policy.action_size))
+        self._finite = np.ones(num_rollouts, dtype=bool)  # False: the policy gave that rollout a non-finite action
         self._ticks = [(t, min(t + k, num_steps)) for t in range(0, num_steps, k)]
         lengths = {b - a for a, b in self._ticks}
         self._weights = {n: self.low_level.step_weights(n, model.opt.timestep) for n in lengths}
@@ -237,39 +242,50 @@ class LowLevelRollout(RolloutBackend):
             )
         if self._shape != (num_rollouts, num_steps):
             self._allocate(num_rollouts, num_steps)
-        model, low, policy = self.model, self.low_level, self.low_level.policy
-        nu, num_state = model.nu, 1 + model.nq + model.nv  # STATE_SPEC starts [time, qpos, qvel]
         spec = mujoco.mjtState.mjSTATE_CTRL
-        if mocap is not None and model.nmocap:
+        if mocap is not None and self.model.nmocap:
             spec = MOCAP_CONTROL_SPEC
             for inputs, _, _ in self._tick_buffers.values():
-                inputs[..., nu:] = mocap
+                inputs[..., self.model.nu :] = mocap
         self._current[:] = initial_state
         self._previous[:] = 0.0
-        finite = np.ones(num_rollouts, dtype=bool)
+        self._finite[:] = True
+        blocks = self.inner.blocks(num_rollouts)
+
+        def roll(block: int) -> None:
+            self._roll_block(blocks[block], block, commands, spec)
+
+        self.inner.for_each_block(num_rollouts, roll)
+        self.act_calls += len(self._ticks) * len(blocks)
+        if not self._finite.all():
+            self._states[~self._finite] = np.nan
+            self._sensors[~self._finite] = np.nan
+        return self._states, self._sensors
+
+    def _roll_block(self, rows: slice, block: int, commands: np.ndarray, spec: int) -> None:
+        """Every tick of the rollouts in `rows`, one worker's block, on the calling thread: build their (B, O)
+        observations, one batched `act`, then k steps of each with the ctrl held (or off the chunk's spline).
+        Blocks only read and write their own rows of the shared buffers."""
+        model, low, policy = self.model, self.low_level, self.low_level.policy
+        nu, num_state = model.nu, 1 + model.nq + model.nv  # STATE_SPEC starts [time, qpos, qvel]
+        current, previous, finite = self._current[rows], self._previous[rows], self._finite[rows]  # views
         for start, stop in self._ticks:
-            current = self._current
-            observations = low.observe(commands[:, start], current[:, 1:num_state], self._previous, current[:, 0])
-            chunk = policy.checked_act(observations, require_finite=False)  # (N, H, A); NaN: that rollout loses
-            self.act_calls += 1
+            observations = low.observe(commands[rows, start], current[:, 1:num_state], previous, current[:, 0])
+            chunk = policy.checked_act(observations, require_finite=False)  # (B, H, A); NaN: that rollout loses
             if not math.isfinite(chunk.sum()):  # one cheap reduction per tick; rows only when it fails
                 finite &= np.isfinite(chunk).all(axis=(1, 2))
             inputs, states, sensors = self._tick_buffers[stop - start]
             if low.chunk is None:  # one action, held for the tick
-                self._previous[:] = chunk[:, 0]
-                inputs[..., :nu] = low.ctrl(chunk[:, 0])[:, None, :]
+                previous[:] = chunk[:, 0]
+                inputs[rows, :, :nu] = low.ctrl(chunk[:, 0])[:, None, :]
             else:  # each step's action off the chunk's spline
                 actions = np.einsum("sh,bha->bsa", self._weights[stop - start], chunk)
-                self._previous[:] = actions[:, -1]
-                inputs[..., :nu] = low.ctrl(actions.reshape(-1, actions.shape[-1])).reshape(num_rollouts, -1, nu)
-            self.inner.rollout_rows(self._current, inputs, spec, states, sensors)
-            self._states[:, start:stop] = states
-            self._sensors[:, start:stop] = sensors
-            self._current[:] = states[:, -1]
-        if not finite.all():
-            self._states[~finite] = np.nan
-            self._sensors[~finite] = np.nan
-        return self._states, self._sensors
+                previous[:] = actions[:, -1]
+                inputs[rows, :, :nu] = low.ctrl(actions.reshape(-1, actions.shape[-1])).reshape(len(chunk), -1, nu)
+            self.inner.rollout_block(block, self._current, inputs, spec, states, sensors)
+            self._states[rows, start:stop] = states[rows]
+            self._sensors[rows, start:stop] = sensors[rows]
+            current[:] = states[rows, -1]
 
     def close(self) -> None:
         """Close the inner pool."""

@@ -4,7 +4,8 @@ A policy plugs into judo's one closed loop at three places (docs/policies.md):
   - as the controller: its action (or chunk) is the plan, served and watched like an optimizer's;
   - as proposals: some of an optimizer's candidate knot sequences come from it each update;
   - inside every rollout as a low-level controller: the optimizer plans commands, and every k physics
-    steps one batched `act` for all rollouts turns commands and state into `ctrl`.
+    steps one batched `act` for each worker's block of rollouts turns commands and state into `ctrl`
+    (several threads call `act` at once: a policy must not keep shared mutable state between calls).
 
 Write one by hand as a subclass (numpy, any library), or load an exported network with `OnnxPolicy`
 (core/onnx_policy.py, the judo[policy] extra). What a policy sees is the task's to say:

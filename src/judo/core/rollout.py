@@ -7,7 +7,7 @@ backend names, for code that imports them from this module.
 """
 
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import mujoco
 import mujoco.rollout
@@ -123,6 +123,53 @@ class RolloutPool(RolloutBackend):
         self.rollout_rows(self._initial, controls, spec, self._states, self._sensors, caller_runs_first=False)
         return self._states, self._sensors
 
+    def blocks(self, num_rollouts: int) -> list[slice]:
+        """The contiguous block of rows each worker rolls out of a batch of `num_rollouts`: one block per
+        worker, or one per row when there are fewer rows than workers."""
+        return self._split(num_rollouts)[0]
+
+    def for_each_block(self, num_rollouts: int, work: Callable[[int], None], caller_runs_first: bool = True) -> None:
+        """Call `work(block)` once for each block of a batch of `num_rollouts` (see `blocks`), on the worker
+        threads, and return once every call has returned; the first error is re-raised after all have ended.
+
+        With `caller_runs_first` the calling thread runs block 0 itself rather than wait, one thread hand-off
+        fewer; `rollout` (one long call) leaves all blocks to the daemon workers, so that a caller waiting on
+        them stays interruptible.
+        """
+        count = len(self.blocks(num_rollouts))
+        if count == 1:
+            work(0)
+            return
+        first = 1 if caller_runs_first else 0
+        futures = [self._executor.submit(work, block) for block in range(first, count)]
+        try:
+            if caller_runs_first:
+                work(0)
+        finally:
+            for future in futures:
+                future.exception()  # every block has ended before any error propagates
+        for future in futures:
+            future.result()
+
+    def rollout_block(
+        self,
+        block: int,
+        initial_states: np.ndarray,
+        inputs: np.ndarray,
+        control_spec: int,
+        states: np.ndarray,
+        sensors: np.ndarray,
+    ) -> None:
+        """Roll the rows of block `block` (see `blocks`) out on that block's MjData, on the calling thread.
+
+        The arrays hold the whole batch, of which only the block's rows are read and written; all are
+        C-contiguous float64: initial_states (N, nstate); inputs (N, k, ncontrol), the per-step values of
+        `control_spec` ([ctrl] or [ctrl, mocap_pos, mocap_quat]); states (N, k, nstate) and sensors
+        (N, k, nsensordata). A low-level policy's worker (core/low_level.py) calls it once per tick.
+        """
+        chunks, chunk_models = self._split(len(initial_states))
+        self._run_chunk(block, chunks, chunk_models, initial_states, inputs, control_spec, states, sensors)
+
     def rollout_rows(
         self,
         initial_states: np.ndarray,
@@ -132,28 +179,13 @@ class RolloutPool(RolloutBackend):
         sensors: np.ndarray,
         caller_runs_first: bool = True,
     ) -> None:
-        """Roll row i of `inputs` out from row i of `initial_states`, into the caller's output arrays.
+        """Roll row i of `inputs` out from row i of `initial_states`, into the caller's output arrays: every
+        block on its worker (arrays as in `rollout_block`; `caller_runs_first` as in `for_each_block`)."""
 
-        The step a low-level policy's rollouts (core/low_level.py) take between two ticks. All arrays are
-        C-contiguous float64: initial_states (N, nstate); inputs (N, k, ncontrol), the per-step values of
-        `control_spec` ([ctrl] or [ctrl, mocap_pos, mocap_quat]); states (N, k, nstate) and sensors
-        (N, k, nsensordata), written. Rows split over the workers and models as in `rollout`.
+        def roll(block: int) -> None:
+            self.rollout_block(block, initial_states, inputs, control_spec, states, sensors)
 
-        With `caller_runs_first` the calling thread runs the first chunk itself rather than wait, one thread
-        hand-off fewer for each of a policy's many short ticks; `rollout` (one long call) leaves all chunks to
-        the daemon workers, so that a caller waiting on them stays interruptible.
-        """
-        chunks, chunk_models = self._split(len(initial_states))
-        args = (chunks, chunk_models, initial_states, inputs, control_spec, states, sensors)
-        if len(chunks) == 1:
-            self._run_chunk(0, *args)
-            return
-        first = 1 if caller_runs_first else 0
-        futures = [self._executor.submit(self._run_chunk, i, *args) for i in range(first, len(chunks))]
-        if caller_runs_first:
-            self._run_chunk(0, *args)
-        for future in futures:
-            future.result()
+        self.for_each_block(len(initial_states), roll, caller_runs_first)
 
     def _run_chunk(
         self,
