@@ -2,9 +2,10 @@
 
 For each N, timed interleaved from the task's start state (seed 0):
   - update: one control update of a task with a low-level policy (the optimizer plans commands; every k steps
-    one batched `act` for all N rollouts turns them into ctrl; judo.core.low_level);
-  - floor: the raw `mujoco.rollout` of the same N x T steps on the same pool, plus ceil(T / k) batched `act`
-    calls of the same (N, O) size (times max_opt_iters); the target is update / floor <= 1.3;
+    one batched `act` per worker's block of rollouts turns them into ctrl; judo.core.low_level);
+  - floor: the raw `mujoco.rollout` of the same N x T steps on the same pool (the very ctrl the policy gave in
+    those rollouts, recorded once, so that the physics and its contacts are the same), plus ceil(T / k) batched
+    `act` calls of the same (N, O) size (times max_opt_iters); the target is update / floor <= 1.3;
   - the hierarchical rollout alone, batched (one `act` of N rows per tick) and the 0.1.0 way (one `act` of one
     row per rollout per tick: N calls per tick), and the speed-up batching gives.
 Medians, and the ratio of the minima (the steadier figure on a loaded machine).
@@ -24,9 +25,10 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 import judo
-from judo.core.low_level import LowLevelRollout
+from judo.core.low_level import LowLevel, LowLevelRollout
 from judo.core.policy import Policy
 from judo.core.registry import lookup_optimizer, make_config
+from judo.core.rollout import RolloutPool
 from judo.evaluation.timing import rollout_start
 from judo.runtime.system import MujocoSystem
 
@@ -50,6 +52,30 @@ class Args:
     cpu_time: bool = False
     """Time the calling thread's CPU time instead of wall time (needs --num-workers 1, so that all the work runs
     on the timed thread; far steadier on a loaded machine)."""
+
+
+class RecordingPool(RolloutPool):
+    """A rollout pool that keeps the ctrl of every step a low-level rollout takes on it: the floor's ctrl."""
+
+    def record(self, num_rollouts: int, num_steps: int) -> None:
+        """Keep the next low-level rollout's (num_rollouts, num_steps, nu) ctrl in `ctrl`."""
+        self.ctrl = np.zeros((num_rollouts, num_steps, self.model.nu))
+        self.steps_done = [0] * len(self.blocks(num_rollouts))
+
+    def rollout_block(self, block, initial_states, inputs, control_spec, states, sensors) -> None:  # noqa: ANN001
+        rows, start = self.blocks(len(initial_states))[block], self.steps_done[block]
+        self.ctrl[rows, start : start + inputs.shape[1]] = inputs[rows, :, : self.model.nu]
+        self.steps_done[block] += inputs.shape[1]
+        super().rollout_block(block, initial_states, inputs, control_spec, states, sensors)
+
+
+def ctrl_of(low: LowLevel, pool: RolloutPool, initial, commands, mocap) -> np.ndarray:  # noqa: ANN001
+    """(N, T, nu) the ctrl the low-level policy gives in the rollouts of (N, T, C) `commands` from `initial`."""
+    recording = RecordingPool(pool.model, pool.num_workers)
+    recording.record(*commands.shape[:2])
+    with LowLevelRollout(recording, low) as backend:
+        backend.rollout(initial, commands, mocap)
+    return recording.ctrl
 
 
 class OneRowAtATime(Policy):
@@ -88,7 +114,6 @@ def row(args: Args, num_rollouts: int, progress: Progress, bar) -> list[str]:  #
         num_steps, ticks = controller.num_steps, math.ceil(controller.num_steps / low.every)
         observations = np.random.default_rng(0).normal(size=(num_rollouts, low.policy.observation_size))
         observations = observations.astype(float)
-        ctrl = np.zeros((num_rollouts, num_steps, model.nu))
         one_row = LowLevelRollout(pool, dataclasses.replace(low, policy=OneRowAtATime(low.policy)))
         times: dict[str, list[float]] = {"update": [], "floor": [], "batched": [], "one_row": []}
         plan_time = reading.time
@@ -104,6 +129,8 @@ def row(args: Args, num_rollouts: int, progress: Progress, bar) -> list[str]:  #
                 for _ in range(ticks):
                     low.policy.act(observations)
 
+        update()  # one plan first, so that the floor's ctrl is what the policy gives on the optimizer's commands
+        ctrl = ctrl_of(low, pool, initial, controller.batch_controls, mocap)
         commands = controller.batch_controls  # (N, T, C), a view: what the last update rolled out
         clock = time.thread_time if args.cpu_time else time.perf_counter
         for sample in range(args.warmup + args.samples):
