@@ -10,7 +10,7 @@ from judo.core.errors import ConfigError
 from judo.core.policy import PolicyError
 from judo.evaluation.episode import run_episode
 from judo.runtime.system import MujocoSystem
-from judo.tasks.quadruped import GAITS, JOINTS, LEGS, Quadruped, gait_of, swing_heights
+from judo.tasks.quadruped import GAITS, JOINTS, LEGS, Quadruped, gait_of, gravity_in_body, swing_heights
 from judo.tasks.quadruped_velocity import COMMAND_KEY, QuadrupedVelocity, QuadrupedVelocityConfig
 
 
@@ -128,3 +128,15 @@ def test_the_policy_observation_is_proprioception_and_command_without_the_previo
     np.testing.assert_allclose(observation[:, 27:30], [[0.0, 0.0, -1.0]] * 2, atol=0.01)  # gravity, trunk frame
     np.testing.assert_array_equal(observation[:, 30:33], [[0.5, 0.1, 0.3]] * 2)
     np.testing.assert_array_equal(observation[0], observation[1])  # the previous action is not seen (copycat)
+
+
+def test_gravity_in_body_is_mujoco_s_rotation_transposed_applied_to_down():
+    quats = np.random.default_rng(3).normal(size=(20, 4))
+    quats /= np.linalg.norm(quats, axis=1, keepdims=True)
+    expected = []
+    for quat in quats:
+        rotation = np.zeros(9)
+        mujoco.mju_quat2Mat(rotation, quat)
+        expected.append(rotation.reshape(3, 3).T @ [0.0, 0.0, -1.0])
+    np.testing.assert_allclose(gravity_in_body(quats), expected, atol=1e-12)
+    assert gravity_in_body(quats.reshape(4, 5, 4)).shape == (4, 5, 3)  # any leading shape
