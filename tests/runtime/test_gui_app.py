@@ -1,5 +1,6 @@
 """The Gui of a running App, without a browser: it follows switches, resets and the plant."""
 
+import dataclasses
 import time
 
 import numpy as np
@@ -123,3 +124,20 @@ def test_the_record_box_follows_recordings_and_leaves_a_pages_toggle_alone_until
     record_a_few_steps(tmp_path / "b.h5")
     app.stop_recording()
     wait_until(lambda: not record.value, what="the box to untick when a recording ends")
+
+
+def test_a_plan_made_before_a_reset_never_draws_its_traces_over_the_reset_plant(app, wait_until):
+    def nominal_trace():
+        return app.gui.server.scene.get_handle_by_name("/traces/nominal")
+
+    wait_until(lambda: shows_session(app) and nominal_trace() is not None, what="traces")
+    app.pause()
+    stale = app.buffer.latest("plan").value  # planned from the plant before the reset
+    resets = app.resets_done
+    app.reset_task()
+    wait_until(lambda: app.resets_done == resets + 1 and nominal_trace() is None, what="the reset to clear the traces")
+    app.buffer.publish("plan", stale)  # as a cycle still in flight at the reset, or not yet drawn, would publish it
+    time.sleep(0.5)  # many GUI updates
+    assert nominal_trace() is None and app.paused
+    app.buffer.publish("plan", dataclasses.replace(stale, resets=app.resets_done))  # planned after the reset
+    wait_until(lambda: nominal_trace() is not None, what="a plan made after the reset drawn")

@@ -66,6 +66,7 @@ class PlannerRunner:
             while not state.stop.is_set():
                 await self._carry_out_requests()
                 session = state.session
+                resets = state.resets_done  # before the reading: a reset in between only makes the plan look stale
                 reading = session.closed_loop.reading
                 period = 1.0 / session.controller.config.control_freq
                 now = time.perf_counter()
@@ -75,7 +76,7 @@ class PlannerRunner:
                 elif not self.clock.due(now, period):
                     await state.stop.sleep(min(self.clock.remaining(now, period), CONFIG_POLL))
                 else:
-                    await self._plan(session, reading, now)
+                    await self._plan(session, reading, now, resets)
                     self.clock.ticked(now, time.perf_counter() - now, period)
         except Stopping:
             return
@@ -85,8 +86,9 @@ class PlannerRunner:
         not waited for beyond IDLE_THREAD_JOIN and ends on its own daemon thread."""
         self._executor.shutdown(wait=True, timeout=IDLE_THREAD_JOIN)
 
-    async def _plan(self, session: Session, reading: SystemState, start: float) -> None:
-        """One planning cycle from `reading`, published under "plan"; a failed cycle is reported and skipped."""
+    async def _plan(self, session: Session, reading: SystemState, start: float, resets: int) -> None:
+        """One planning cycle from `reading`, read after `resets` plant resets, published under "plan"; a failed
+        cycle is reported and skipped."""
         controller, reports = session.controller, self._reports
         try:
             plan = await self._state.stop.in_worker(self._executor, session.closed_loop.plan, reading, self._state.stop)
@@ -107,7 +109,7 @@ class PlannerRunner:
         assert controller.nominal_knots is not None  # set by every completed cycle
         self._stats.record_plan(start, plan_time, float(rewards[0]) if len(rewards) else float("nan"))
         snapshot = PlanSnapshot(
-            session.generation, reading.time, controller.nominal_knots, rewards, controller.traces, plan_time
+            session.generation, reading.time, controller.nominal_knots, rewards, controller.traces, plan_time, resets
         )
         self._buffer.publish("plan", snapshot)
 

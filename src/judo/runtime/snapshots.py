@@ -34,6 +34,8 @@ class PlanSnapshot:
         rewards: (num_rollouts,) rewards of the last iteration (index 0 is the nominal).
         traces: (1 + num_shown, T, num_trace_sensors, 3) trace-sensor positions, nominal first.
         plan_time: wall-clock seconds the cycle took.
+        resets: plant resets done before the state planned from was read; a plan from before the latest reset is
+            stale, and the GUI never draws its traces over the reset plant.
     """
 
     generation: int
@@ -42,3 +44,4 @@ class PlanSnapshot:
     rewards: np.ndarray
     traces: np.ndarray
     plan_time: float
+    resets: int = 0
