@@ -147,6 +147,19 @@ def episode_latency(latency: str, latency_ms: float | None) -> Latency:
     return "measured" if latency == "measured" else 0.0
 
 
+def optional_pyplot() -> Any:
+    """matplotlib.pyplot on its file-only Agg backend, or None when matplotlib (the `plot` extra) is missing: the
+    commands' PNG figures are written only where it is installed."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return None
+    return plt
+
+
 def seeds_label(first: int, count: int) -> str:
     """How a run's seeds read in titles: "5 seeds" for seeds 0 to 4 (the default), "2 seeds (3-4)" otherwise."""
     if first == 0:

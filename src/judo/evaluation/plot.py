@@ -1,6 +1,6 @@
 """Plot of one episode against time: positions, velocities, controls and reward, as PNG or HTML.
 
-PNG needs matplotlib (the optional `plot` extra, imported only here and only when asked for). HTML
+PNG needs matplotlib (the optional `plot` extra, imported only when a PNG is asked for: `optional_pyplot`). HTML
 needs nothing: it is one self-contained file with inline SVG, viewable offline in any browser.
 """
 
@@ -11,6 +11,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from judo.cli_shared import optional_pyplot
 from judo.core.errors import ConfigError, JudoError
 from judo.evaluation.episode import EpisodeResult
 
@@ -78,15 +79,11 @@ def write_episode_plot(result: EpisodeResult, model: mujoco.MjModel, path: Path,
 
 
 def _import_pyplot():  # noqa: ANN202  (matplotlib is optional, so it is not imported for annotations)
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
+    plt = optional_pyplot()
+    if plt is None:
         raise JudoError(
             "a PNG plot needs matplotlib, which is not installed: pip install 'judo[plot]', or give a .html path"
-        ) from None
+        )
     return plt
 
 

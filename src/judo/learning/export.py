@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from judo.cli_shared import optional_pyplot
 from judo.core.onnx_policy import _onnx, mlp_policy_model, model_of_graph, save_model
 from judo.learning.networks import ACTIVATION
 from judo.learning.pairs import DistillError, TrainingPairs
@@ -135,12 +136,8 @@ def losses_path(out: Path) -> Path:
 def plot_losses(path: Path, trained: TrainedPolicy, title: str) -> Path | None:
     """The training and validation loss per epoch as a PNG at `path` (log scale, the kept epoch marked); None
     without matplotlib."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
+    plt = optional_pyplot()
+    if plt is None:
         return None
     figure, axes = plt.subplots(figsize=(6, 3.5), dpi=110)
     epochs = np.arange(1, len(trained.history["train"]) + 1)

@@ -14,7 +14,7 @@ from typing import Annotated
 import numpy as np
 import tyro
 
-from judo.cli_shared import fail, output_console, parse_args, progress_console
+from judo.cli_shared import fail, optional_pyplot, output_console, parse_args, progress_console
 from judo.core.boundary import check_output_file
 from judo.core.config import require
 from judo.core.errors import JudoError
@@ -55,12 +55,8 @@ def write_gait_policy(out: Path, parameters: np.ndarray, layout: GaitLayout, met
 
 def plot_search(path: Path, history: list[Iteration]) -> Path | None:
     """The mean's and the best candidate's reward per iteration as a PNG at `path`; None without matplotlib."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
+    plt = optional_pyplot()
+    if plt is None:
         return None
     figure, axes = plt.subplots(figsize=(6, 3.5), dpi=110)
     index = [record.index + 1 for record in history]

@@ -17,6 +17,7 @@ from typing import Any
 
 from rich.table import Table
 
+from judo.cli_shared import optional_pyplot
 from judo.core.errors import JudoError
 from judo.tuning.objective import Objective
 from judo.tuning.space import Param
@@ -155,12 +156,8 @@ def write_conditions_plots(out: Path, complete: list[Any], objective: Objective)
     )
     figure.write_html(out / "conditions.html", include_plotlyjs=True)
     written = [out / "conditions.html"]
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
+    plt = optional_pyplot()
+    if plt is None:
         return written
     figure, axes = plt.subplots(figsize=(8, 5))
     for label, ys in series.items():
@@ -175,12 +172,8 @@ def write_conditions_plots(out: Path, complete: list[Any], objective: Objective)
 
 def write_png(path: Path, plot: Any, study: Any, objective: Objective) -> list[Path]:
     """Draw `plot` (an optuna.visualization.matplotlib function) to `path`; [] when matplotlib is missing."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
+    plt = optional_pyplot()
+    if plt is None:
         return []
     axes = plot(study, target_name=objective.metric)
     figure = axes.figure if hasattr(axes, "figure") else plt.gcf()
