@@ -63,6 +63,7 @@ def test_the_episodes_are_real_physics_and_a_standing_policy_stands():
     standing = np.zeros((2, layout.num_parameters))  # all zero: the standing pose's targets
     commands = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]])
     states, sensors, ctrl = episodes.run(standing, commands, np.zeros(2), seconds=1.0)
+    episodes.close()
     assert states.shape == (2, 50, 37) and ctrl.shape == (2, 50, 12)
     np.testing.assert_allclose(ctrl, np.broadcast_to(task.home_ctrl, ctrl.shape))
     assert (states[:, :, 2] > 0.9 * STANDING_HEIGHT).all()  # stands

@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-from mujoco import rollout as mujoco_rollout
 
 from judo.core.config import require, require_between
 from judo.core.model import STATE_SPEC
+from judo.core.rollout import RolloutPool
 from judo.learning.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout, gait_actions
 from judo.optimizers.cem import CEM, CEMConfig
 from judo.tasks.quadruped import GAITS, STANDING_HEIGHT
@@ -113,11 +113,12 @@ class Iteration:
 
 
 class GaitEpisodes:
-    """Steps B closed-loop episodes of the quadruped at once, each with its own gait policy parameters."""
+    """Steps B closed-loop episodes of the quadruped at once, each with its own gait policy parameters, on a
+    `RolloutPool` (its worker threads and MjData kept for every tick of every run; `close` ends them)."""
 
     def __init__(self, task: QuadrupedVelocity, layout: GaitLayout, workers: int) -> None:
         self.task, self.layout, self.model = task, layout, task.model
-        self._datas = [mujoco.MjData(self.model) for _ in range(workers)]
+        self.pool = RolloutPool(self.model, workers)
         data = mujoco.MjData(self.model)
         data.qpos[:] = self.model.key_qpos[0]
         data.ctrl[:] = task.home_ctrl
@@ -137,14 +138,20 @@ class GaitEpisodes:
         states = np.zeros((batch, ticks, model.nq + model.nv))
         sensors = np.zeros((batch, ticks, model.nsensordata))
         ctrl = np.zeros((batch, ticks, model.nu))
+        held = np.zeros((batch, EVERY, model.nu))  # one tick's ctrl, and what its steps reach
+        stepped, read = np.zeros((batch, EVERY, self.pool.nstate)), np.zeros((batch, EVERY, model.nsensordata))
         for tick in range(ticks):
             observation = self.task.locomotion_observation(commands, current[:, 1:], None, current[:, 0])
             ctrl[:, tick] = gait_actions(parameters, observation, self.layout)
-            held = np.repeat(ctrl[:, tick, None], EVERY, axis=1)
-            stepped, read = mujoco_rollout.rollout(model, self._datas, current, held, nstep=EVERY)
-            current = stepped[:, -1]
+            held[:] = ctrl[:, tick, None]
+            self.pool.rollout_rows(current, held, mujoco.mjtState.mjSTATE_CTRL, stepped, read)
+            current[:] = stepped[:, -1]
             states[:, tick], sensors[:, tick] = current[:, 1:], read[:, -1]
         return states, sensors, ctrl
+
+    def close(self) -> None:
+        """End the pool's worker threads."""
+        self.pool.close()
 
 
 def search_gait(
@@ -167,28 +174,31 @@ def search_gait(
     )
     rng = np.random.default_rng(settings.seed)
     cem.rng = np.random.default_rng(settings.seed + 1)
-    episodes = GaitEpisodes(task, layout, settings.workers)
     mean, history, start = stepping_in_place(layout)[None], [], time.perf_counter()
-    population, count = settings.population, settings.commands
-    period = 1.0 / GAITS["trot"].frequency
-    for index in range(settings.iterations):
-        commands = np.array([draw_command(config, rng) for _ in range(count)])
-        candidates = cem.sample_control_knots(mean)[:, 0]  # (population, P), row 0 the mean
-        rows = np.repeat(candidates, count, axis=0)
-        row_commands = np.tile(commands, (population, 1))
-        starts = rng.uniform(0.0, period, len(rows))
-        states, sensors, ctrl = episodes.run(rows, row_commands, starts, settings.episode_seconds)
-        rewards = np.zeros((population, count))
-        for j, command in enumerate(commands):
-            block = slice(j, None, count)  # rows of command j, one per candidate
-            metadata = {COMMAND_KEY: command}
-            rewards[:, j] = task.reward(states[block], sensors[block], ctrl[block], config, metadata)
-        fell = (states[..., 2] < 0.5 * STANDING_HEIGHT).any(axis=1).reshape(population, count)
-        scores = rewards.mean(axis=1)
-        mean = cem.update_nominal_knots(candidates[:, None], scores)
-        seconds = time.perf_counter() - start
-        record = Iteration(index, float(scores[0]), float(scores.max()), float(fell[0].mean()), seconds)
-        history.append(record)
-        if on_iteration is not None:
-            on_iteration(record)
+    episodes = GaitEpisodes(task, layout, settings.workers)
+    try:
+        population, count = settings.population, settings.commands
+        period = 1.0 / GAITS["trot"].frequency
+        for index in range(settings.iterations):
+            commands = np.array([draw_command(config, rng) for _ in range(count)])
+            candidates = cem.sample_control_knots(mean)[:, 0]  # (population, P), row 0 the mean
+            rows = np.repeat(candidates, count, axis=0)
+            row_commands = np.tile(commands, (population, 1))
+            starts = rng.uniform(0.0, period, len(rows))
+            states, sensors, ctrl = episodes.run(rows, row_commands, starts, settings.episode_seconds)
+            rewards = np.zeros((population, count))
+            for j, command in enumerate(commands):
+                block = slice(j, None, count)  # rows of command j, one per candidate
+                metadata = {COMMAND_KEY: command}
+                rewards[:, j] = task.reward(states[block], sensors[block], ctrl[block], config, metadata)
+            fell = (states[..., 2] < 0.5 * STANDING_HEIGHT).any(axis=1).reshape(population, count)
+            scores = rewards.mean(axis=1)
+            mean = cem.update_nominal_knots(candidates[:, None], scores)
+            seconds = time.perf_counter() - start
+            record = Iteration(index, float(scores[0]), float(scores.max()), float(fell[0].mean()), seconds)
+            history.append(record)
+            if on_iteration is not None:
+                on_iteration(record)
+    finally:
+        episodes.close()
     return mean[0], history
