@@ -21,6 +21,11 @@ num_rollouts = 64
 w_centered = 5.0
 [estimator_config_overrides.cartpole.ekf]
 process_noise_velocity = 0.02
+[model_overrides.cartpole]                      # MjModel fields of the planning model, by element name
+body_mass.pole = 0.13
+geom_friction.cart = [0.9, 0.005, 0.0001]
+[plant_overrides.cartpole]                      # the simulated plant's only (a mismatched plant to rehearse on)
+dof_damping.slider = 0.5
 """
 
 import importlib
@@ -43,6 +48,7 @@ from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import (
     get_registered_optimizers,
     lookup_estimator,
+    set_model_overrides,
     lookup_optimizer,
     lookup_task,
     register_optimizer,
@@ -59,6 +65,8 @@ TOP_LEVEL_KEYS = (
     "optimizer_config_overrides",
     "task_config_overrides",
     "estimator_config_overrides",
+    "model_overrides",
+    "plant_overrides",
 )
 
 ALL_OPTIMIZERS = "all"
@@ -169,6 +177,14 @@ def load_config(path: str | Path) -> LoadedConfig:
             except UnknownNameError as err:
                 raise fail(where, err) from None
             _apply(path, where, task_name, config_cls, overrides)
+
+    for section in ("model_overrides", "plant_overrides"):
+        for task_name, overrides in _table(table, section, path).items():
+            try:
+                lookup_task(task_name)
+                set_model_overrides(task_name, overrides, plant=section == "plant_overrides")
+            except JudoError as err:
+                raise fail(f"{section}.{task_name}", err) from None
 
     for key, lookup in (("task", lookup_task), ("optimizer", lookup_optimizer)):
         if key in table:

@@ -274,7 +274,7 @@ def make_policy_controller(
     `backend`), that plans from the same states for labels; the policy controller shares its task instance and
     closes it. Without one, `seed` seeds the task's generator as `make_controller` does.
     """
-    from judo.core.registry import lookup_task, make_config, make_controller
+    from judo.core.registry import lookup_task, make_config, make_controller, with_model_overrides
 
     loaded = as_policy(policy)
     if isinstance(expert, str):
@@ -285,7 +285,7 @@ def make_policy_controller(
         else:
             check_seed(seed)
             task_cls, task_config_cls = lookup_task(task_name)
-            task = new_task(task_cls)
+            task = with_model_overrides(new_task(task_cls), task_name)
             task.config = make_config(task_config_cls, task_name)
             if seed is not None:
                 task.rng = np.random.default_rng(seed + 1)

@@ -116,6 +116,10 @@ class Task(ABC, Generic[ConfigT]):
                     f"plant model {sim_model_path} has {size}={getattr(self.sim_model, size)} but the "
                     f"planning model {model_path} has {size}={getattr(self.model, size)}; they must match"
                 )
+        self.model_overrides: dict[str, dict[str, Any]] = {}
+        """MjModel fields set on the planning model by element name (judo.core.model_overrides); {} for the MJCF's."""
+        self.plant_overrides: dict[str, dict[str, Any]] = {}
+        """MjModel fields set on the plant model (`sim_model`), which every plant built from this task gets."""
         owner = type(self).__name__
         self.measured: MeasuredLayout = measured_layout(self.model, self.measured_sensors, owner)
         """Where `measured_sensors` lie in the planning model's sensordata."""

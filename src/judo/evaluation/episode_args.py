@@ -43,6 +43,10 @@ class EpisodeArgs(SensingFlags):
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
     (docs/configuration.md); read before anything else."""
+    plant_overrides: Annotated[tuple[str, ...], tyro.conf.arg(metavar="FIELD.ELEMENT=VALUE")] = ()
+    """MjModel fields of the simulated plant only, by element name (a plant unlike the planning model, to rehearse
+    on), e.g. body_mass.pole=0.13 "geom_friction.cube=[0.9, 0.005, 0.0001]"; after the --config file's
+    [plant_overrides.TASK] (docs/sysid.md)."""
     duration: float = 20.0
     """Length of each episode in seconds of sim time."""
     latency: Literal["none", "measured"] = "none"
@@ -59,6 +63,11 @@ class EpisodeArgs(SensingFlags):
         fields, sensing flags, a policy that does not fit the task)."""
         check_episode_args(self)
         self.sensing()
+        if self.plant_overrides:
+            from judo.core.model_overrides import parse_override_entries
+            from judo.core.registry import set_model_overrides
+
+            set_model_overrides(self.task, parse_override_entries(self.plant_overrides), plant=True)
         if self.policy is not None:
             from judo.core.policy_controller import make_policy_controller
 
@@ -116,6 +125,7 @@ class EpisodeArgs(SensingFlags):
             self.sensing(),
             self.policy_file(),
             None if self.proposal_policy is None else str(self.proposal_policy.resolve()),
+            self.plant_overrides,
         )
 
     def sensing_label(self) -> str:

@@ -69,6 +69,8 @@ class EpisodeSpec:
     sensing: Sensing = field(default_factory=Sensing)
     policy: str | None = None
     proposal_policy: str | None = None
+    plant_overrides: tuple[str, ...] = ()
+    """--plant-overrides entries, FIELD.ELEMENT=VALUE: the simulated plant's model fields."""
 
 
 def load_config_once(path: str | None) -> None:
@@ -88,6 +90,11 @@ def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
     from judo.core.registry import default_configs
 
     load_config_once(spec.config_file)
+    if spec.plant_overrides:  # set in this process too (a Ray worker); merging the same entries again is idempotent
+        from judo.core.model_overrides import parse_override_entries
+        from judo.core.registry import set_model_overrides
+
+        set_model_overrides(spec.task, parse_override_entries(spec.plant_overrides), plant=True)
     if spec.optimizer is None:  # a policy alone: no optimizer's config
         from judo.core.controller import ControllerConfig
         from judo.core.registry import lookup_task, make_config
