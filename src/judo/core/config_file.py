@@ -48,12 +48,12 @@ from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import (
     get_registered_optimizers,
     lookup_estimator,
-    set_model_overrides,
     lookup_optimizer,
     lookup_task,
     register_optimizer,
     register_task,
     set_config_overrides,
+    set_model_overrides,
 )
 
 TOP_LEVEL_KEYS = (
