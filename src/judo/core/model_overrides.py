@@ -15,6 +15,7 @@ is checked against a model (`check_model_overrides`) before anything is set.
 """
 
 import copy
+import sys
 import typing
 from typing import Any
 
@@ -157,7 +158,10 @@ def parse_override_entries(entries: list[str] | tuple[str, ...], flag: str = "--
     """{field: {element: value}} from command-line entries "FIELD.ELEMENT=VALUE" (VALUE a number or a TOML
     list, e.g. "geom_friction.cube=[0.9, 0.005, 0.0001]"); ConfigError for an entry of another form. Names and
     shapes are checked later, against the task's model."""
-    import tomllib
+    if sys.version_info >= (3, 11):
+        import tomllib
+    else:  # pragma: no cover
+        import tomli as tomllib
 
     parsed: ModelOverrides = {}
     for entry in entries:
