@@ -11,7 +11,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
-import tomllib
 import tyro
 
 from judo.cli_shared import apply_config_file, fail, output_console, parse_args, progress_console
