@@ -19,6 +19,7 @@ from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.core.policy import Policy
 from judo.core.registry import ConfigKind
+from judo.core.task import Task
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
 from judo.runtime.records import Recorder
 from judo.runtime.sensing import SensedSystem
@@ -90,11 +91,6 @@ def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
     from judo.core.registry import default_configs
 
     load_config_once(spec.config_file)
-    if spec.plant_overrides:  # set in this process too (a Ray worker); merging the same entries again is idempotent
-        from judo.core.model_overrides import parse_override_entries
-        from judo.core.registry import set_model_overrides
-
-        set_model_overrides(spec.task, parse_override_entries(spec.plant_overrides), plant=True)
     if spec.optimizer is None:  # a policy alone: no optimizer's config
         from judo.core.controller import ControllerConfig
         from judo.core.registry import lookup_task, make_config
@@ -148,7 +144,7 @@ def run_seeded_episode(
     proposals = load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
     with spec_controller(spec, configs, seed, proposal_policy=proposals) as controller:
         controller.task.config = configs["task"]
-        system = observed_plant(controller.task, seed, spec.sensing)
+        system = observed_plant(with_spec_plant(controller.task, spec), seed, spec.sensing)
         _, estimator = choose_estimator(controller.task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
         return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
@@ -210,10 +206,25 @@ def run_policy_episode(
     task = controller.task
     with controller:
         task.config = configs["task"]
-        system = observed_plant(task, seed, spec.sensing)
+        system = observed_plant(with_spec_plant(task, spec), seed, spec.sensing)
         _, estimator = choose_estimator(task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
         return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)  # type: ignore[arg-type]  # a PolicyController stands in for a Controller (duck-typed; ClosedLoop has no Protocol for both)
+
+
+def with_spec_plant(task: Task, spec: EpisodeSpec) -> Task:
+    """`task` with `spec.plant_overrides` (--plant-overrides) added to the plant overrides that every plant built
+    from it gets (`MujocoSystem.from_task`); its own models are left as they are."""
+    if spec.plant_overrides:
+        from judo.core.model_overrides import check_model_overrides, parse_override_entries
+
+        merged = {field: dict(values) for field, values in task.plant_overrides.items()}
+        for field, values in check_model_overrides(
+            task.sim_model, parse_override_entries(spec.plant_overrides)
+        ).items():
+            merged.setdefault(field, {}).update(values)
+        task.plant_overrides = merged
+    return task
 
 
 def plant_of(system: MujocoSystem | SensedSystem) -> MujocoSystem:
