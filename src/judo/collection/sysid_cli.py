@@ -4,6 +4,7 @@ python -m judo sysid run.h5 --task cartpole --params body_mass.pole dof_damping.
 python -m judo evaluate --task cartpole --optimizer mppi --config fitted.toml     # plan with the fitted model
 """
 
+import json
 import math
 import shlex
 import sys
@@ -123,12 +124,11 @@ def _custom_tables(config: Path | None) -> dict[str, Any]:
 def fitted_toml(task: str, overrides: dict[str, dict[str, Any]], header: list[str], custom: dict[str, Any]) -> str:
     """The --config file of the fit: `header` as comments, `custom` tables, then [model_overrides.TASK]."""
     from judo.core.model_overrides import toml_value
-    from judo.tuning.best_file import toml_value as literal
 
     lines = [f"# {line}" for line in header]
     for section, entries in custom.items():
         for name, entry in entries.items():
-            lines += ["", f"[{section}.{name}]"] + [f"{key} = {literal(value)}" for key, value in entry.items()]
+            lines += ["", f"[{section}.{name}]"] + [f"{key} = {json.dumps(value)}" for key, value in entry.items()]
     lines += ["", f"[model_overrides.{task}]"]
     for field_name, values in overrides.items():
         for element, value in values.items():
