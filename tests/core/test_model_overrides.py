@@ -123,3 +123,27 @@ def test_command_line_entries_parse_numbers_and_lists():
     }
     with pytest.raises(judo.ConfigError, match=r"--plant-overrides takes FIELD.ELEMENT=VALUE entries .*got 'pole=1'"):
         parse_override_entries(["pole=1"])
+
+
+def test_an_option_override_is_leap_cube_plant_xml_bit_for_bit():
+    """opt.o_friction turns on MuJoCo's contact override as leap_cube_plant.xml's <flag override="enable"/> does."""
+    import mujoco
+
+    from judo.tasks.leap_cube import PLANT_MODEL_PATH, LeapCube
+
+    xml = LeapCube(sim_model_path=PLANT_MODEL_PATH).sim_model
+    planning = LeapCube().model
+    entries = ["opt.o_friction=[0.9, 0.9, 0.02, 0.0001, 0.0001]"]
+    model = overridden(planning, check_model_overrides(planning, parse_override_entries(entries)))
+    finals = []
+    for each in (xml, model, planning):
+        data = mujoco.MjData(each)
+        mujoco.mj_resetDataKeyframe(each, data, 0)
+        for step in range(100):
+            data.ctrl[:] = 0.3 * np.sin(0.1 * step + np.arange(each.nu))
+            mujoco.mj_step(each, data)
+        finals.append(np.concatenate([data.qpos, data.qvel]))
+    np.testing.assert_array_equal(finals[0], finals[1])
+    assert not np.array_equal(finals[0], finals[2])
+    with pytest.raises(judo.UnknownNameError, match=r"^opt.o_frict: MjOption has no float field 'o_frict'; its fields"):
+        check_model_overrides(planning, {"opt": {"o_frict": 1.0}})

@@ -9,7 +9,9 @@ A model override is `{field: {element: value}}`, as TOML writes `body_mass.pole 
     actuator_gear.push = 9.1                    # the leading entries of a row (gear[0]), as MJCF reads gear="9.1"
 
 A field is a float array of MjModel with one row per element of a kind (body_, jnt_, dof_, geom_, site_,
-actuator_, tendon_, pair_, eq_); `dof_` fields are set by joint name, over the joint's dofs. A value is a
+actuator_, tendon_, pair_, eq_); `dof_` fields are set by joint name, over the joint's dofs. `opt.NAME` sets
+MjOption's float settings (`opt.o_friction = [0.9, 0.9, 0.02, 0.0001, 0.0001]` overrides every contact's
+friction and turns on MuJoCo's contact override flag, as MJCF's <flag override="enable"/> does). A value is a
 number or a list of at most the row's length, which sets the row's leading entries. Every name and shape
 is checked against a model (`check_model_overrides`) before anything is set.
 """
@@ -43,6 +45,25 @@ _KINDS: dict[str, tuple[mujoco.mjtObj, str, str]] = {
     "eq_": (mujoco.mjtObj.mjOBJ_EQUALITY, "neq", "equality"),
 }
 """Field prefix -> (object type, MjModel count attribute, element kind in messages)."""
+
+
+OPTION = "opt"
+"""The field name of MjModel.opt's settings: opt.o_friction = [...] (its elements are MjOption's float fields)."""
+OPTION_FIELDS = (
+    "timestep", "impratio", "density", "viscosity", "gravity", "wind", "magnetic",
+    "o_margin", "o_solref", "o_solimp", "o_friction",
+)  # fmt: skip
+"""MjOption's settings an override may set. Setting an o_ field turns on the contact override flag, as MJCF's
+<option o_friction="..."><flag override="enable"/></option> does: every contact then takes the o_ values."""
+
+
+def _set_options(model: mujoco.MjModel, values: dict[str, np.ndarray]) -> None:
+    for element, value in values.items():
+        current = model_value(model, OPTION, element)
+        current[: value.size] = value
+        setattr(model.opt, element, current[0] if current.size == 1 else current)
+        if element.startswith("o_"):
+            model.opt.enableflags |= mujoco.mjtEnableBit.mjENBL_OVERRIDE
 
 
 def settable_fields(model: mujoco.MjModel) -> list[str]:
@@ -96,7 +117,7 @@ def check_model_overrides(model: mujoco.MjModel, overrides: Any) -> ModelOverrid
     """
     if not isinstance(overrides, dict):
         raise ConfigError(f"model overrides must be a table of FIELD.ELEMENT = value, got {overrides!r}")
-    valid = settable_fields(model)
+    valid = [*settable_fields(model), OPTION]
     checked: ModelOverrides = {}
     for field, per_element in overrides.items():
         if field not in valid:
@@ -107,8 +128,7 @@ def check_model_overrides(model: mujoco.MjModel, overrides: Any) -> ModelOverrid
             raise ConfigError(f"{field} needs an element name, as {field}.NAME = value; got {field} = {per_element!r}")
         checked[field] = {}
         for element, value in per_element.items():
-            rows = _rows(model, field, element)
-            width = int(np.prod(getattr(model, field)[rows].shape))
+            width = model_value(model, field, element).size
             try:
                 array = np.asarray(value, dtype=float)
             except (TypeError, ValueError):
@@ -127,6 +147,9 @@ def apply_model_overrides(model: mujoco.MjModel, overrides: ModelOverrides) -> N
     """Set `overrides` (checked by `check_model_overrides`) on `model` in place: each value fills the leading
     entries of its element's rows (all of a joint's dofs, row after row, for a dof_ field)."""
     for field, per_element in overrides.items():
+        if field == OPTION:
+            _set_options(model, per_element)
+            continue
         array = getattr(model, field)
         for element, value in per_element.items():
             rows = _rows(model, field, element)
@@ -144,7 +167,15 @@ def overridden(model: mujoco.MjModel, overrides: ModelOverrides) -> mujoco.MjMod
 
 
 def model_value(model: mujoco.MjModel, field: str, element: str) -> np.ndarray:
-    """The flat values of `element`'s rows of `field` in `model`, (row size * rows,)."""
+    """The flat values of `element`'s rows of `field` in `model`, (row size * rows,); for "opt", the option's."""
+    if field == OPTION:
+        if element not in OPTION_FIELDS:
+            err = UnknownNameError("option", element, OPTION_FIELDS)
+            err.args = (
+                f"opt.{element}: MjOption has no float field {element!r}; its fields are: {', '.join(err.valid)}",
+            )
+            raise err
+        return np.atleast_1d(np.asarray(getattr(model.opt, element), dtype=float)).copy()
     return np.asarray(getattr(model, field)[_rows(model, field, element)], dtype=float).reshape(-1)
 
 
