@@ -120,7 +120,7 @@ def main() -> None:
     parser.add_argument("--log-seed", type=int, default=500, help="seed of the logged episode")
     parser.add_argument("--seeds", type=int, default=5, help="closed-loop episodes per model")
     parser.add_argument("--first-seed", type=int, default=1000, help="fresh seeds, apart from the log's")
-    parser.add_argument("--window", type=float, default=0.5, help="seconds of each fitted window (sysid --window)")
+    parser.add_argument("--window", type=float, default=0.05, help="seconds of each fitted window (sysid --window)")
     parser.add_argument("--max-iters", type=int, default=50)
     args = parser.parse_args()
     print(

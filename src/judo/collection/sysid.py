@@ -182,9 +182,14 @@ def prediction_error(model: mujoco.MjModel, windows: Windows) -> float:
     states, _ = rollout.rollout(model, data, initial, windows.controls)
     qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)  # rows are [time, qpos, qvel, ...]
     predicted = states[..., qpos_at : qpos_at + model.nq + model.nv]
-    spread = windows.measured.reshape(-1, windows.measured.shape[-1]).std(axis=0)
-    error = (predicted - windows.measured) / np.where(spread > 1e-9, spread, 1.0)
+    error = (predicted - windows.measured) / _spread(windows)
     return float(np.sqrt(np.mean(np.square(error))))
+
+
+def _spread(windows: Windows) -> np.ndarray:
+    """(nq + nv,) each state coordinate's standard deviation over the logged windows (1 where it never moves)."""
+    spread = windows.measured.reshape(-1, windows.measured.shape[-1]).std(axis=0)
+    return np.where(spread > 1e-9, spread, 1.0)
 
 
 @dataclass
@@ -276,9 +281,13 @@ def fit(
         del spec  # the candidate is set on the planning model itself, as [model_overrides] will set it
         return fitted_model(model, parameters, np.array([candidate[p.name].value[0] for p in parameters]))
 
-    sequences = _model_sequences(sysid, task, windows)
+    sequences = _model_sequences(sysid, model, windows)
     evaluations = [0]
-    residual = sysid.build_residual_fn(models_sequences=[sequences], build_model=build_model)
+    residual = sysid.build_residual_fn(
+        models_sequences=[sequences],
+        build_model=build_model,
+        modify_residual=_state_residual(sysid, _spread(windows)),
+    )
 
     def counted(x: np.ndarray, candidate: Any, **kwargs: Any) -> Any:
         evaluations[0] += 1
@@ -318,28 +327,41 @@ def _entry(model: mujoco.MjModel, parameter: FitParameter) -> float:
     return float(model_value(model, parameter.field, parameter.element)[parameter.index or 0])
 
 
-def _model_sequences(sysid: Any, task: Task, windows: Windows) -> Any:
+def _model_sequences(sysid: Any, model: mujoco.MjModel, windows: Windows) -> Any:
     """mujoco.sysid's ModelSequences of the windows: each a sequence with its start state, its actions (K, nu) at
-    times 0, dt, ... and its logged states (K, nq + nv) after each step, as qpos and qvel signals."""
-    model = task.model
-    qpos_map, qvel_map, _, _ = sysid.TimeSeries.compute_all_state_mappings(model)
-    names = [name for name, _ in sorted(qpos_map.items(), key=lambda item: item[1][1][0])]
-    names += [name for name, _ in sorted(qvel_map.items(), key=lambda item: item[1][1][0])]
-    dt = float(model.opt.timestep)
-    steps = windows.controls.shape[1]
-    control_times = np.arange(steps) * dt
-    state_times = (np.arange(steps) + 1) * dt
+    times 0, dt, ... and its logged states, the start's and those after each step (K + 1, nq + nv) at times 0, dt,
+    ..., as one custom observation ("state"; `_state_residual` compares it: joint-named signals need every joint
+    named, and the LEAP hand's are not)."""
+    times = np.arange(windows.controls.shape[1] + 1) * float(model.opt.timestep)
+    mapping = {"state": (sysid.SignalType.CustomObs, np.arange(model.nq + model.nv))}
     data = mujoco.MjData(model)
     starts, controls, measured = [], [], []
     for start, control, states in zip(windows.starts, windows.controls, windows.measured, strict=True):
         data.qpos[:], data.qvel[:] = start[: model.nq], start[model.nq :]
         starts.append(sysid.create_initial_state(model, data.qpos.copy(), data.qvel.copy(), data.act.copy()))
-        controls.append(sysid.TimeSeries.from_control_names(control_times, control, model))
-        measured.append(sysid.TimeSeries.from_names(state_times, states, model, names=names))
+        # mujoco.sysid's layout: N states from the start and N controls, the last of which it never applies
+        controls.append(sysid.TimeSeries.from_control_names(times, np.vstack([control, control[-1:]]), model))
+        measured.append(sysid.TimeSeries(times, np.vstack([start, states]), mapping))
     sequence_names = [f"window_{i}" for i in range(len(starts))]
     return sysid.ModelSequences(
         "judo", _PlanningModel(model), sequence_names, starts, controls, measured, allow_missing_sensors=True
     )
+
+
+def _state_residual(sysid: Any, spread: np.ndarray) -> Callable[..., Any]:
+    """mujoco.sysid's modify_residual hook: the rolled-out [qpos, qvel] after each step against the logged one,
+    each coordinate divided by its spread (nq + nv,) in the whole log; returns (residual (K, nq + nv), predicted,
+    measured) as TimeSeries of the same layout."""
+
+    def residual(params: Any, predicted: Any, measured: Any, model: mujoco.MjModel, *args: Any, **kwargs: Any) -> Any:
+        del params, predicted, args
+        width = model.nq + model.nv
+        state = np.asarray(kwargs["state"])[:, 1 : 1 + width]  # a row [time, qpos, qvel, ...] after each step
+        after = sysid.TimeSeries(measured.times[1:], measured.data[1:], measured.signal_mapping)  # the start is given
+        prediction = sysid.TimeSeries(after.times, state, after.signal_mapping)
+        return (after.data - state) / spread, prediction, after
+
+    return residual
 
 
 class _PlanningModel:
