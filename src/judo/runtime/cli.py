@@ -35,6 +35,7 @@ from judo.core.config_file import load_config
 from judo.core.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig, estimator_in_force
+from judo.core.model_overrides import parse_override_entries
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import (
     default_configs,
@@ -43,6 +44,7 @@ from judo.core.registry import (
     lookup_estimator,
     lookup_task,
     make_config,
+    set_model_overrides,
 )
 from judo.core.task import TaskConfig
 from judo.runtime.app import App
@@ -68,6 +70,9 @@ class RunOptions:
     """Registered task to run (the config file's `task` when it names one)."""
     optimizer: str = "mppi"
     """Registered optimizer to plan with (the config file's `optimizer` when it names one)."""
+    plant_overrides: Annotated[tuple[str, ...], tyro.conf.arg(metavar="FIELD.ELEMENT=VALUE")] = ()
+    """MjModel fields of the simulated plant only, by element name (a plant unlike the planning model, to rehearse
+    on), e.g. body_mass.pole=0.13; after the --config file's [plant_overrides.TASK] (docs/sysid.md)."""
     host: str = "127.0.0.1"
     """Address the GUI listens on: this machine only by default. 0.0.0.0 (every interface) exposes the app
     to the network, behind a token; prefer an SSH tunnel (docs/gui.md)."""
@@ -207,10 +212,13 @@ def _peek_names(argv: list[str]) -> tuple[str, str]:
     peek.add_argument("--config", default=None)
     peek.add_argument("--task", default=None)
     peek.add_argument("--optimizer", default=None)
+    peek.add_argument("--plant-overrides", "--plant_overrides", nargs="*", default=())
     known, _ = peek.parse_known_args(argv)
     loaded = load_config(known.config) if known.config is not None else None
     task = known.task or (loaded and loaded.task) or RunOptions.task
     optimizer = known.optimizer or (loaded and loaded.optimizer) or RunOptions.optimizer
+    if known.plant_overrides:
+        set_model_overrides(task, parse_override_entries(known.plant_overrides), plant=True)
     return task, optimizer
 
 
@@ -239,8 +247,8 @@ def _description() -> str:
         "The controller, optimizer and task options below belong to the chosen --task and --optimizer; "
         f"pass those first to see their fields. Tasks: {tasks}. Optimizers: {optimizers}. "
         f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...`, `{PROG} tune ...`, `{PROG} collect ...`, "
-        f"`{PROG} replay FILE.h5`, `{PROG} distill DATA.h5 --out POLICY.onnx` and `{PROG} gait-search --out "
-        "POLICY.onnx` (each with --help)."
+        f"`{PROG} replay FILE.h5`, `{PROG} distill DATA.h5 --out POLICY.onnx`, `{PROG} gait-search --out "
+        f"POLICY.onnx` and `{PROG} sysid LOG.h5 --task T --params ... --out FITTED.toml` (each with --help)."
     )
 
 
