@@ -46,7 +46,9 @@ def test_a_fit_finds_the_plants_mass_and_damping_and_the_file_changes_only_the_p
     printed = capsys.readouterr().out
     assert "| geom_friction.pole | 1 | 1 | unbounded | no: not excited by the data, left out of --out |" in printed
     assert "cond(J) = inf" in printed  # the unexcited friction makes the fit's Jacobian singular
-    assert re.search(r"\| body_mass.pole \| 0.1 \| 0.1[23]\d* \| ± [\d.e-]+ \| yes \|", (tmp_path / "fitted.md").read_text())
+    assert re.search(
+        r"\| body_mass.pole \| 0.1 \| 0.1[23]\d* \| ± [\d.e-]+ \| yes \|", (tmp_path / "fitted.md").read_text()
+    )
     load_config(out)
     with make_controller("cartpole", "mppi", num_workers=1) as controller:
         model = controller.task.model
@@ -104,3 +106,29 @@ def test_mistakes_exit_2_in_one_line_and_write_nothing(log, tmp_path, capsys, ca
 def test_import_judo_imports_no_sysid_dependency():
     code = "import sys, judo, judo.collection.sysid_cli; print(sorted({'mujoco.sysid', 'scipy', 'colorama'} & set(sys.modules)))"
     assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout == "[]\n"
+
+
+@pytest.mark.slow
+def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_file_registers_it(tmp_path, capsys):
+    """examples/10_sysid: a custom task whose sim_model_path has a 0.13 kg pole; the fit (mass and the inertia the
+    heavier geom brings) lands on it, and the written file registers the task beside its module."""
+    import shutil
+    from pathlib import Path
+
+    from judo.core.registry import make_task
+
+    folder = tmp_path / "robot"
+    shutil.copytree(Path(__file__).resolve().parents[2] / "examples" / "10_sysid", folder)
+    load_config(folder / "judo.toml")
+    outcome = collect_episode(EpisodeSpec("heavy_cartpole", "mppi", 2.0), 0)
+    assert outcome.failure is None
+    log = folder / "run.h5"
+    DatasetFile(log, {"task": "heavy_cartpole", "optimizer": "mppi"}).write_episode(outcome.episode)
+    argv = [str(log), "--config", str(folder / "judo.toml"), "--task", "heavy_cartpole"]
+    out = folder / "fitted.toml"
+    assert sysid_main([*argv, "--params", "body_mass.pole", "body_inertia.pole[1]", "--out", str(out)]) == 0
+    assert "[custom_tasks.heavy_cartpole]" in out.read_text()
+    load_config(out)
+    task = make_task("heavy_cartpole")
+    assert task.model.body_mass[2] == pytest.approx(0.13, rel=0.05)
+    assert task.model.body_inertia[2, 1] == pytest.approx(task.sim_model.body_inertia[2, 1], rel=0.05)

@@ -99,7 +99,7 @@ def run(args: SysidArgs, command: str) -> None:
             progress.update(bar, description=f"fitting {len(parameters)} parameters: {count} residual evaluations")
 
         result = fit(task, parameters, episodes, steps, args.max_iters, on_evaluation)
-    header = [command, f"fitted to {result.num_windows} windows of {steps} steps from {len(episodes)} episodes"]
+    header = [command, f"fitted to {result.num_windows} windows of {steps} steps from {len(episodes)} episode(s)"]
     text = fitted_toml(args.task, result.overrides(task.model), header, _custom_tables(args.config))
     report = report_text(args, result, command, len(episodes))
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -154,7 +154,7 @@ def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -
         "",
         f"`{command}`",
         "",
-        f"{num_episodes} episodes from {', '.join(str(p) for p in args.logs)}: {result.num_windows} windows of "
+        f"{num_episodes} episode(s) from {', '.join(str(p) for p in args.logs)}: {result.num_windows} windows of "
         f"{result.window_steps} steps ({args.window:g} s); fit in {result.seconds:.1f} s.",
         "",
         "| parameter | planning model | fitted | 95% interval | determined by the data |",
