@@ -1,5 +1,5 @@
 """`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune`, `collect`,
-`replay`, `distill`, `gait-search` and `sysid` commands.
+`replay`, `distill`, `gait-search`, `sysid` and `excite` commands.
 
 python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
 python -m judo benchmark ...                        # judo.evaluation.benchmark
@@ -10,6 +10,7 @@ python -m judo replay FILE.h5                       # judo.collection.replay: a 
 python -m judo distill DATA.h5 --out POLICY.onnx    # judo.learning.cli: a policy from collect's files
 python -m judo gait-search --out POLICY.onnx        # judo.learning.gait_cli: the quadruped's locomotion policy
 python -m judo sysid LOG.h5 --task T --params ... --out FITTED.toml   # judo.collection.sysid_cli: fit the model
+python -m judo excite --task T --out LOG.h5         # judo.collection.excite: a log worth fitting
 
 Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
 task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
@@ -27,7 +28,7 @@ def main(argv: Sequence[str] | None = None) -> int | None:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [arg for arg in argv if arg != "--debug"]
-    commands = ("benchmark", "evaluate", "tune", "collect", "replay", "distill", "gait-search", "sysid")
+    commands = ("benchmark", "evaluate", "tune", "collect", "replay", "distill", "gait-search", "sysid", "excite")
     prog = f"{PROG} {argv[0]}" if argv and argv[0] in commands else PROG
     try:
         return dispatch(argv)
@@ -73,6 +74,10 @@ def dispatch(argv: list[str]) -> int | None:
         from judo.collection.sysid_cli import main as sysid_main
 
         return sysid_main(argv[1:])
+    if argv and argv[0] == "excite":
+        from judo.collection.excite import main as excite_main
+
+        return excite_main(argv[1:])
     if argv and argv[0] == "gait-search":
         from judo.learning.gait_cli import main as gait_search_main
 

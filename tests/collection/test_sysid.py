@@ -132,3 +132,23 @@ def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_fil
     task = make_task("heavy_cartpole")
     assert task.model.body_mass[2] == pytest.approx(0.13, rel=0.05)
     assert task.model.body_inertia[2, 1] == pytest.approx(task.sim_model.body_inertia[2, 1], rel=0.05)
+
+
+def test_excite_stays_within_the_actuator_limits_and_logs_what_sysid_fits(tmp_path, capsys):
+    from judo.collection.excite import main as excite_main
+
+    log = tmp_path / "excite.h5"
+    overrides = ["--plant-overrides", f"body_mass.pole={TRUE_MASS}"]
+    assert (
+        excite_main(["--task", "cartpole", "--duration", "3", "--amplitude", "0.8", *overrides, "--out", str(log)]) == 0
+    )
+    with h5py.File(log, "r") as file:
+        actions = file["data/demo_0/actions"][:]
+    assert actions.shape == (300, 1) and np.abs(actions).max() <= 0.8 + 1e-12 and np.abs(actions).max() > 0.7
+    out = tmp_path / "fitted.toml"
+    assert sysid_main([str(log), "--task", "cartpole", "--params", "body_mass.pole", "--out", str(out)]) == 0
+    assert float(out.read_text().split("body_mass.pole = ")[1].split()[0]) == pytest.approx(TRUE_MASS, rel=0.01)
+    with pytest.raises(SystemExit) as caught:
+        excite_main(["--task", "cartpole", "--amplitude", "2", "--out", str(tmp_path / "never.h5")])
+    assert caught.value.code == 2 and not (tmp_path / "never.h5").exists()
+    assert "error: --amplitude must be in (0, 1], got 2.0" in capsys.readouterr().err
