@@ -222,31 +222,26 @@ class FitResult:
     seconds: float
 
     def overrides(self, model: mujoco.MjModel) -> dict[str, dict[str, Any]]:
-        """{field: {element: value}} of the excited parameters, whole rows as `model` holds them otherwise."""
-        rows: dict[tuple[str, str], np.ndarray] = {}
-        for parameter, value, excited in zip(self.parameters, self.fitted, self.excited, strict=True):
-            if not excited:
-                continue
-            key = (parameter.field, parameter.element)
-            row = rows.setdefault(key, model_value(model, *key).copy())
-            row[parameter.index or 0] = value
-        result: dict[str, dict[str, Any]] = {}
-        for (field, element), row in rows.items():
-            result.setdefault(field, {})[element] = row
-        return result
+        """{field: {element: row}} of the excited parameters, each whole row as `model` holds it otherwise."""
+        chosen = [(p, v) for p, v, excited in zip(self.parameters, self.fitted, self.excited, strict=True) if excited]
+        return parameter_rows(model, chosen)
+
+
+def parameter_rows(model: mujoco.MjModel, values: list[tuple[FitParameter, float]]) -> dict[str, dict[str, Any]]:
+    """{field: {element: row}}: each parameter's value set in its row of `model` (the rest of the row as it is)."""
+    rows: dict[tuple[str, str], np.ndarray] = {}
+    for parameter, value in values:
+        key = (parameter.field, parameter.element)
+        rows.setdefault(key, model_value(model, *key).copy())[parameter.index or 0] = value
+    overrides: dict[str, dict[str, Any]] = {}
+    for (field, element), row in rows.items():
+        overrides.setdefault(field, {})[element] = row
+    return overrides
 
 
 def fitted_model(model: mujoco.MjModel, parameters: list[FitParameter], values: np.ndarray) -> mujoco.MjModel:
     """A copy of `model` with each parameter set to its value in `values` (P,)."""
-    rows: dict[tuple[str, str], np.ndarray] = {}
-    for parameter, value in zip(parameters, values, strict=True):
-        key = (parameter.field, parameter.element)
-        row = rows.setdefault(key, model_value(model, *key).copy())
-        row[parameter.index or 0] = value
-    overrides: dict[str, dict[str, Any]] = {}
-    for (field, element), row in rows.items():
-        overrides.setdefault(field, {})[element] = row
-    return overridden(model, overrides)
+    return overridden(model, parameter_rows(model, list(zip(parameters, values, strict=True))))
 
 
 def fit(
@@ -267,7 +262,24 @@ def fit(
     if not hasattr(sysid, "optimize"):  # mujoco.sysid swallows its own ImportError
         import_extra("scipy", "python -m judo sysid", EXTRA)
         import_extra("colorama", "python -m judo sysid", EXTRA)
-    logging.getLogger("absl").setLevel(logging.ERROR)
+    absl = logging.getLogger("absl")  # mujoco.sysid's warnings (a sensor layout it does not use) stay quiet
+    level = absl.level
+    absl.setLevel(logging.ERROR)
+    try:
+        return _fit(sysid, task, parameters, episodes, window_steps, max_iters, on_evaluation)
+    finally:
+        absl.setLevel(level)
+
+
+def _fit(
+    sysid: Any,
+    task: Task,
+    parameters: list[FitParameter],
+    episodes: list[Episode],
+    window_steps: int,
+    max_iters: int,
+    on_evaluation: Callable[[int], None] | None,
+) -> FitResult:
     began = time.perf_counter()
     model = task.model
     windows = cut_windows(episodes, window_steps)
