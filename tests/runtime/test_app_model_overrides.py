@@ -47,3 +47,24 @@ def test_the_apps_plant_overrides_flag_sets_the_plant_and_names_a_mistake():
         app.stop()
     with pytest.raises(Exception, match=r"^body_mass.pol: the model has no body 'pol'; its body names are"):
         _peek_names(["--task", "cartpole", "--plant-overrides", "body_mass.pol=0.2"])
+
+
+@pytest.mark.slow
+def test_sysid_fits_the_plant_from_a_gui_recording(tmp_path, wait_until, capsys):
+    """A recording of the running app on a heavier-pole plant is a log sysid reads: the fit finds the pole."""
+    pytest.importorskip("h5py")
+    pytest.importorskip("scipy")
+    from judo.collection.sysid_cli import main as sysid_main
+    from judo.core.registry import set_model_overrides
+
+    set_model_overrides("cartpole", {"body_mass": {"pole": 0.13}}, plant=True)
+    app = App("cartpole", "ps", gui=False, seed=0, num_workers=1)
+    app.start()
+    try:
+        path = app.start_recording(tmp_path / "run.h5")
+        wait_until(lambda: app.stats.num_plans() >= 30, what="thirty plans")
+    finally:
+        app.stop()  # writes the recording
+    out = tmp_path / "fitted.toml"
+    assert sysid_main([str(path), "--task", "cartpole", "--params", "body_mass.pole", "--out", str(out)]) == 0
+    assert float(out.read_text().split("body_mass.pole = ")[1].split()[0]) == pytest.approx(0.13, rel=0.05)
