@@ -14,15 +14,17 @@ Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `ma
 (core/backend.py) imports it only when the "warp" backend is asked for.
 """
 
+import dataclasses
 import os
 import time
 import warnings
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend
+from judo.core.backend import RandomizedRolloutError, RolloutBackend, check_blocks, check_model_sizes
 from judo.core.errors import JudoError, import_extra
 from judo.core.model import STATE_SPEC
 
@@ -35,12 +37,12 @@ wp.config.log_level = wp.LOG_WARNING  # no line per compiled kernel module
 if TYPE_CHECKING:  # warp's array types are call expressions, which a type checker cannot read as annotations
     Float32Array = Any
     Float32Array2D = Any
-    Float64Array = Any
+    Float64Array2D = Any
     Float64Array3D = Any
 else:  # the kernel argument types warp compiles the kernels below for
     Float32Array = wp.array(dtype=wp.float32)
     Float32Array2D = wp.array2d(dtype=wp.float32)
-    Float64Array = wp.array(dtype=wp.float64)
+    Float64Array2D = wp.array2d(dtype=wp.float64)
     Float64Array3D = wp.array3d(dtype=wp.float64)
 
 EXTRA_SPEC = STATE_SPEC & ~(
@@ -86,10 +88,11 @@ class RolloutOverflowWarning(UserWarning):
 
 
 @wp.kernel
-def _broadcast_initial(initial: Float64Array, out: Float32Array2D):
-    """out[world, i] = initial[i]: every world starts from the same (ninitial,) state. Launch dim (N, ninitial)."""
+def _broadcast_initial(initial: Float64Array2D, rows_per_problem: int, out: Float32Array2D):
+    """out[world, i] = initial[world // rows_per_problem, i]: each block of rows_per_problem worlds starts from its
+    problem's (ninitial,) state. Launch dim (N, ninitial)."""
     world, i = wp.tid()
-    out[world, i] = wp.float32(initial[i])
+    out[world, i] = wp.float32(initial[world // rows_per_problem, i])
 
 
 @wp.kernel
@@ -134,10 +137,11 @@ def _record_step(
         sensors[world, step, i - nstate] = wp.float64(sensordata[world, i - nstate])
 
 
-def put_model(model: mujoco.MjModel, deterministic: bool):  # noqa: ANN201  (a mujoco_warp Model)
-    """`model` on the current warp device, or WarpUnsupportedModelError naming the feature MuJoCo Warp lacks."""
+def put_model(model: mujoco.MjModel, deterministic: bool, batch_sizes: dict[str, int] | None = None):
+    """`model` on the current warp device (the fields in `batch_sizes` with that many rows, one per world), or
+    WarpUnsupportedModelError naming the feature MuJoCo Warp lacks."""
     try:
-        device_model = mjw.put_model(model)
+        device_model = mjw.put_model(model, batch_sizes=batch_sizes)
     except (NotImplementedError, ValueError) as err:
         raise WarpUnsupportedModelError(
             f"MuJoCo Warp {mjw.__version__} cannot run this model: {err}; expected a model without that feature. "
@@ -146,6 +150,60 @@ def put_model(model: mujoco.MjModel, deterministic: bool):  # noqa: ANN201  (a m
     device_model.opt.warn_overflow = 0  # reported (and fixed) by WarpRollout, not printed from kernels
     device_model.opt.deterministic = int(mjw.DeterminismType.ALL if deterministic else mjw.DeterminismType.NONE)
     return device_model
+
+
+def varying_fields(
+    model: mujoco.MjModel, models: Sequence[mujoco.MjModel], deterministic: bool
+) -> dict[str, np.ndarray]:
+    """The device-model fields in which `models` differ from `model`, as MuJoCo Warp lays them out: field name ->
+    (R, *field shape) values, one row per model. Comparing the uploaded models (not the MjModels) also catches what
+    put_model derives from a changed field, and what `mj_setConst` recomputed.
+
+    Raises RandomizedRolloutError naming a field that differs and that MuJoCo Warp holds once for all worlds."""
+    base = put_model(model, deterministic)
+    uploaded = [base if other is model else put_model(other, deterministic) for other in models]
+    varying: dict[str, np.ndarray] = {}
+    for name, spec, arrays in _array_fields(base, uploaded):
+        values = [array.numpy() for array in arrays]
+        reference = _field(base, name).numpy()
+        if all(_same(value, reference) for value in values):
+            continue
+        if "." in name or not spec or spec[0] != "*":
+            raise RandomizedRolloutError(
+                f"the models given to set_models differ in {name}, which MuJoCo Warp {mjw.__version__} holds once "
+                "for all worlds; expected models that differ only in fields it holds per world (body_mass, "
+                "body_inertia, geom_friction, dof_damping, actuator_gainprm and the like), or the cpu backend"
+            )
+        varying[name] = np.stack([value[0] for value in values])  # each (1, *field shape): one world
+    return varying
+
+
+def _array_fields(base: Any, uploaded: list[Any]) -> list[tuple[str, tuple, list[Any]]]:
+    """(name, spec shape, each uploaded model's array) of every warp-array field of the device model and of its
+    nested option structs (named "opt.timestep" and the like)."""
+    fields = []
+    for field in dataclasses.fields(base):
+        value = getattr(base, field.name)
+        if isinstance(value, wp.array):
+            fields.append((field.name, getattr(field.type, "shape", ()), [getattr(m, field.name) for m in uploaded]))
+        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+            for inner in dataclasses.fields(value):
+                if isinstance(getattr(value, inner.name), wp.array):
+                    arrays = [getattr(getattr(m, field.name), inner.name) for m in uploaded]
+                    fields.append((f"{field.name}.{inner.name}", (), arrays))
+    return fields
+
+
+def _field(device_model: Any, name: str) -> Any:
+    """The array called `name` ("body_mass", "opt.timestep") of a device model."""
+    for part in name.split("."):
+        device_model = getattr(device_model, part)
+    return device_model
+
+
+def _same(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two arrays hold the same values (NaNs in the same places count as equal)."""
+    return a.shape == b.shape and bool(np.all((a == b) | ((a != a) & (b != b))))
 
 
 def probe_sizes(model: mujoco.MjModel, states: list[np.ndarray]) -> tuple[int, int]:
@@ -186,6 +244,7 @@ class WarpRollout(RolloutBackend):
             from the model (they still grow on overflow).
     """
 
+    name = "warp"
     phase_seconds: dict[str, float]
     """Seconds spent in each of PHASES, summed over every call so far (benchmarks read and reset it)."""
 
@@ -205,21 +264,58 @@ class WarpRollout(RolloutBackend):
         self._graph = None
         self._start_sizes = (nconmax, njmax)
         self.phase_seconds = dict.fromkeys(PHASES, 0.0)
+        self._models: list[mujoco.MjModel] | None = None  # set_models' models, or None for `model` alone
+        self._varying: dict[str, np.ndarray] = {}  # field name -> (R, *field shape) values that differ by model
         self._upload(model)
 
-    def _upload(self, model: mujoco.MjModel) -> None:
-        """Put `model` on the device; buffers are sized and allocated (and the graph captured) at the next call."""
+    def _upload(self, model: mujoco.MjModel, batch_sizes: dict[str, int] | None = None) -> None:
+        """Put `model` on the device, with the fields in `batch_sizes` given one row per world; buffers are sized
+        and allocated (and the graph captured) at the next call."""
         with wp.ScopedDevice(self.device):
-            self._device_model = put_model(model, self.deterministic)
+            self._device_model = put_model(model, self.deterministic, batch_sizes)
         self._uploaded = model
+        self._batch_layout = tuple(sorted(batch_sizes or {})), next(iter((batch_sizes or {0: 0}).values()))
         self.nstate = mujoco.mj_stateSize(model, STATE_SPEC)
         self.nextra = mujoco.mj_stateSize(model, EXTRA_SPEC)
         self.ninitial = mujoco.mj_stateSize(model, INITIAL_SPEC)
-        self.nconmax = self.njmax = 0  # per world; sized at the first rollout, from the model and its start
-        self._sized = False
+        if not self._sized_for(model):
+            self.nconmax = self.njmax = 0  # per world; sized at the first rollout, from the model and its start
+            self._sized = False
         self._scratch = mujoco.MjData(model)
         self._default_mocap = np.concatenate([self._scratch.mocap_pos.ravel(), self._scratch.mocap_quat.ravel()])
-        self._shape: tuple[int, int] | None = None
+        self._shape: tuple[int, int, int] | None = None
+        self._written: tuple[int, ...] | None = None  # which model values the batched fields hold
+
+    def _sized_for(self, model: mujoco.MjModel) -> bool:
+        """Whether the contact and row buffers were already sized for `model` (kept when only its batching changes)."""
+        return getattr(self, "_sized", False) and getattr(self, "_sized_model", None) is model
+
+    # ---- several models (domain randomization) ---------------------------------------------------
+    def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
+        """See `RolloutBackend.set_models`. The fields in which the models differ become per-world arrays of the
+        device model (MuJoCo Warp's batched model fields); a later set of models that differs in the same fields
+        is written into those arrays in place, so the captured graph stays valid. RandomizedRolloutError names a
+        field that differs and that MuJoCo Warp cannot hold per world."""
+        if models is None or (len(models) == 1 and models[0] is self.model):
+            self._models, self._varying = None, {}
+            return
+        models = check_model_sizes(self.model, models)
+        self._varying = varying_fields(self.model, models, self.deterministic)
+        self._models = models
+
+    def _batch_sizes(self, num_rows: int) -> dict[str, int]:
+        """The device model's batched fields for a batch of `num_rows` rows: one row per world of each varying field."""
+        return dict.fromkeys(self._varying, num_rows)
+
+    def _write_model_values(self, num_rows: int, num_problems: int) -> None:
+        """Each varying field's per-world values: problem p's block of rows, split into R equal blocks, block r
+        on models[r]; written into the device arrays in place."""
+        assert self._models is not None  # only called under set_models
+        per_problem = num_rows // num_problems
+        for name, values in self._varying.items():  # values: (R, *field shape)
+            rows = np.repeat(values, per_problem // len(self._models), axis=0)  # (per_problem, *field shape)
+            getattr(self._device_model, name).assign(np.concatenate([rows] * num_problems))
+        self._written = (id(self._models), num_rows, num_problems)
 
     # ---- the call ------------------------------------------------------------------------------
     def rollout(
@@ -227,15 +323,45 @@ class WarpRollout(RolloutBackend):
     ) -> tuple[np.ndarray, np.ndarray]:
         """See `RolloutBackend.rollout`. Returns float64 (N, T, nstate) states and (N, T, nsensordata)
         sensors in preallocated host arrays, overwritten by the next call."""
+        return self.rollout_problems(initial_state[None], controls, None if mocap is None else mocap[None])
+
+    def rollout_problems(
+        self, initial_states: np.ndarray, controls: np.ndarray, mocaps: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Roll out P problems in one batch: problem p's rows [p * M, (p + 1) * M) start from initial_states[p].
+
+        Args:
+            initial_states: (P, nstate) full-physics states, one per problem.
+            controls: (P * M, T, nu) C-contiguous float64 controls; under `set_models` each problem's M rows split
+                into R equal blocks, block r on models[r].
+            mocaps: (P, 7 * nmocap) each problem's mocap poses, or None for the model's defaults.
+        Returns:
+            states (P * M, T, nstate) and sensors (P * M, T, nsensordata) in preallocated host arrays, overwritten
+            by the next call.
+        """
+        num_problems = len(initial_states)
         num_rollouts, num_steps, _ = controls.shape
-        if self.model is not self._uploaded:  # a new planning model: upload it, then size, allocate, capture
-            self._upload(self.model)
+        if num_rollouts % num_problems:
+            raise JudoError(f"{num_rollouts} rows cannot be split evenly over {num_problems} problems")
+        if self._models is not None:
+            check_blocks(num_rollouts // num_problems, len(self._models))
+        batch_sizes = self._batch_sizes(num_rollouts) if self._models is not None else {}
+        layout = tuple(sorted(batch_sizes)), num_rollouts if batch_sizes else 0
+        if self.model is not self._uploaded or layout != self._batch_layout:  # a new model or other batched fields
+            self._upload(self.model, batch_sizes)
         with wp.ScopedDevice(self.device):
-            if self._shape != (num_rollouts, num_steps):
+            if self._shape != (num_rollouts, num_steps, num_problems):
                 if not self._sized:
-                    self._size_buffers(initial_state)
-                self._allocate(num_rollouts, num_steps)
-            initial = self._initial_vector(initial_state, mocap)
+                    self._size_buffers(initial_states[0])
+                self._allocate(num_rollouts, num_steps, num_problems)
+            if self._models is not None and self._written != (id(self._models), num_rollouts, num_problems):
+                self._write_model_values(num_rollouts, num_problems)
+            initial = np.stack(
+                [
+                    self._initial_vector(state, None if mocaps is None else mocaps[p])
+                    for p, state in enumerate(initial_states)
+                ]
+            )
             for _ in range(MAX_RESIZES):
                 started = time.perf_counter()
                 self._host_initial[:] = initial
@@ -246,6 +372,7 @@ class WarpRollout(RolloutBackend):
                 if not overflow & DROPPED:
                     return self._host_states, self._host_sensors
                 self._grow(overflow, int(np.count_nonzero(self._host_overflow & DROPPED)))
+                self._written = None
         raise RolloutOverflowError(
             f"MuJoCo Warp rollouts still overflow with {self.nconmax} contacts and {self.njmax} constraint rows "
             f"per world after {MAX_RESIZES} doublings; expected a model whose contacts fit. Use --backend cpu."
@@ -299,9 +426,10 @@ class WarpRollout(RolloutBackend):
         vector, then per step load the controls, step, and record state and sensors."""
         m, d = self._device_model, self._data
         assert self._shape is not None  # set with self._data by _allocate
-        num_rollouts, num_steps = self._shape
+        num_rollouts, num_steps, num_problems = self._shape
         d.overflow.zero_()
-        wp.launch(_broadcast_initial, dim=(num_rollouts, self.ninitial), inputs=[self._initial, self._start])
+        inputs = [self._initial, num_rollouts // num_problems, self._start]
+        wp.launch(_broadcast_initial, dim=(num_rollouts, self.ninitial), inputs=inputs)
         mjw.set_state(m, d, self._start, int(INITIAL_SPEC))
         record_dim = (num_rollouts, self.nstate + self.model.nsensordata)
         for step in range(num_steps):
@@ -322,7 +450,7 @@ class WarpRollout(RolloutBackend):
         nconmax, njmax = self._start_sizes
         self.nconmax = max(64, 2 * ncon) if nconmax is None else nconmax
         self.njmax = max(128, 2 * nefc) if njmax is None else njmax
-        self._sized = True
+        self._sized, self._sized_model = True, self.model
 
     def _grow(self, overflow: int, worlds: int) -> None:
         """Double the buffer that overflowed, warn, and rebuild the device data (and graph) at the same N x T."""
@@ -341,12 +469,12 @@ class WarpRollout(RolloutBackend):
         )
         self._allocate(*self._shape)
 
-    def _allocate(self, num_rollouts: int, num_steps: int) -> None:
+    def _allocate(self, num_rollouts: int, num_steps: int, num_problems: int = 1) -> None:
         """Device data for N worlds, device inputs and outputs, and their host mirrors (pinned on CUDA)."""
-        self._shape, self._graph = (num_rollouts, num_steps), None
+        self._shape, self._graph = (num_rollouts, num_steps, num_problems), None
         model, device = self.model, self.device
         self._data = mjw.make_data(model, nworld=num_rollouts, nconmax=self.nconmax, njmax=self.njmax)
-        self._initial = wp.zeros(self.ninitial, dtype=wp.float64, device=device)
+        self._initial = wp.zeros((num_problems, self.ninitial), dtype=wp.float64, device=device)
         self._start = wp.zeros((num_rollouts, self.ninitial), dtype=wp.float32, device=device)
         self._extra = wp.zeros((num_rollouts, self.nextra), dtype=wp.float32, device=device)
         self._controls = wp.zeros((num_rollouts, num_steps, model.nu), dtype=wp.float64, device=device)
@@ -354,7 +482,7 @@ class WarpRollout(RolloutBackend):
         self._sensors = wp.zeros((num_rollouts, num_steps, model.nsensordata), dtype=wp.float64, device=device)
         if device.is_cuda:
             pinned = {"device": "cpu", "pinned": True}
-            self._pinned_initial = wp.zeros(self.ninitial, dtype=wp.float64, **pinned)
+            self._pinned_initial = wp.zeros(self._initial.shape, dtype=wp.float64, **pinned)
             self._pinned_controls = wp.zeros(self._controls.shape, dtype=wp.float64, **pinned)
             self._pinned_states = wp.zeros(self._states.shape, dtype=wp.float64, **pinned)
             self._pinned_sensors = wp.zeros(self._sensors.shape, dtype=wp.float64, **pinned)

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from judo.core.backend import RolloutBackend
 from judo.core.config import Config, require
 from judo.core.config_values import controller_config_of, optimizer_config_of
 from judo.core.controller import Controller
@@ -119,6 +120,7 @@ def run_seeded_episode(
     seed: int,
     recorders: RecorderFactory | None = None,
     on_update: Callable[[float], None] | None = None,
+    backend: RolloutBackend | None = None,
 ) -> EpisodeResult:
     """Run seed `seed`'s episode of `spec`; raises what the task, optimizer or configs raise.
 
@@ -132,6 +134,8 @@ def run_seeded_episode(
         recorders: called with the controller and the plant before the episode; its recorders get every
             plan and step (e.g. collect's dataset recorder).
         on_update: called after each control update with the plant time (a progress bar).
+        backend: the controller's rollout backend, owned by the episode from now on (a ProblemBatch's slot);
+            built from `spec.backend` when None.
     """
     configs = configs_in_force(spec)
     if spec.policy is not None:
@@ -139,7 +143,7 @@ def run_seeded_episode(
     if spec.optimizer is None:
         raise JudoError(f"an episode of {spec.task!r} needs an optimizer or a policy; the spec names neither")
     proposals = load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
-    with spec_controller(spec, configs, seed, proposal_policy=proposals) as controller:
+    with spec_controller(spec, configs, seed, backend, proposal_policy=proposals) as controller:
         controller.task.config = configs["task"]
         system = observed_plant(controller.task, seed, spec.sensing)
         _, estimator = choose_estimator(controller.task, spec.task, system, spec.sensing)
@@ -147,9 +151,16 @@ def run_seeded_episode(
         return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
 
 
-def spec_controller(spec: EpisodeSpec, configs: Mapping[ConfigKind, Config], seed: int, **extra: Any) -> Controller:
+def spec_controller(
+    spec: EpisodeSpec,
+    configs: Mapping[ConfigKind, Config],
+    seed: int,
+    backend: RolloutBackend | None = None,
+    **extra: Any,
+) -> Controller:
     """The Controller of `spec`'s task and optimizer with `configs` (of `configs_in_force`) in force, seeded by
-    `seed`; its callers call it only for a spec that names an optimizer."""
+    `seed`, rolling out on `backend` (built from `spec.backend` when None); its callers call it only for a spec
+    that names an optimizer."""
     from judo.core.registry import make_controller
 
     assert spec.optimizer is not None, "spec_controller runs a spec that names an optimizer"
@@ -160,7 +171,7 @@ def spec_controller(spec: EpisodeSpec, configs: Mapping[ConfigKind, Config], see
         optimizer_config=optimizer_config_of(configs),
         num_workers=spec.num_workers,
         seed=seed,
-        backend=spec.backend,
+        backend=spec.backend if backend is None else backend,
         **extra,
     )
 
