@@ -10,11 +10,14 @@ Inputs go to the device once per call from pinned host memory, and states and se
 into preallocated pinned host arrays. On the CPU device (no GPU) the same kernels are launched directly
 and the host arrays are the device arrays themselves.
 
+Under `set_models` the fields in which the models differ are MuJoCo Warp's per-world model arrays (see
+core/warp_models.py), and `rollout_problems` rolls out several problems, each from its own state, in one batch
+(core/problem_batch.py).
+
 Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `make_rollout_backend`
 (core/backend.py) imports it only when the "warp" backend is asked for.
 """
 
-import dataclasses
 import os
 import time
 import warnings
@@ -24,15 +27,16 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from judo.core.backend import RandomizedRolloutError, RolloutBackend, check_blocks, check_model_sizes
+from judo.core.backend import RolloutBackend, check_blocks, check_model_sizes
 from judo.core.errors import JudoError, import_extra
 from judo.core.model import STATE_SPEC
+from judo.core.warp_models import WarpUnsupportedModelError, probe_sizes, put_model, varying_fields
 
 FEATURE = "the warp rollout backend (--backend warp)"
 wp = import_extra("warp", FEATURE, "warp")
 mjw = import_extra("mujoco_warp", FEATURE, "warp")
 
-wp.config.log_level = wp.LOG_WARNING  # no line per compiled kernel module
+__all__ = ["RolloutOverflowError", "RolloutOverflowWarning", "WarpRollout", "WarpUnsupportedModelError"]
 
 if TYPE_CHECKING:  # warp's array types are call expressions, which a type checker cannot read as annotations
     Float32Array = Any
@@ -73,10 +77,6 @@ MAX_RESIZES = 8
 PHASES = ("copy_in", "physics", "copy_out")
 """Where a rollout's wall time goes, summed over calls in `WarpRollout.phase_seconds`: inputs to the device
 (host staging included), the T steps on the device, and states, sensors and overflow flags back to the host."""
-
-
-class WarpUnsupportedModelError(JudoError):
-    """A model that MuJoCo Warp cannot run (a feature its put_model does not implement)."""
 
 
 class RolloutOverflowError(JudoError):
@@ -137,93 +137,6 @@ def _record_step(
         sensors[world, step, i - nstate] = wp.float64(sensordata[world, i - nstate])
 
 
-def put_model(model: mujoco.MjModel, deterministic: bool, batch_sizes: dict[str, int] | None = None):
-    """`model` on the current warp device (the fields in `batch_sizes` with that many rows, one per world), or
-    WarpUnsupportedModelError naming the feature MuJoCo Warp lacks."""
-    try:
-        device_model = mjw.put_model(model, batch_sizes=batch_sizes)
-    except (NotImplementedError, ValueError) as err:
-        raise WarpUnsupportedModelError(
-            f"MuJoCo Warp {mjw.__version__} cannot run this model: {err}; expected a model without that feature. "
-            "Run it on the CPU instead with --backend cpu (backend='cpu'), or change the model."
-        ) from err
-    device_model.opt.warn_overflow = 0  # reported (and fixed) by WarpRollout, not printed from kernels
-    device_model.opt.deterministic = int(mjw.DeterminismType.ALL if deterministic else mjw.DeterminismType.NONE)
-    return device_model
-
-
-def varying_fields(
-    model: mujoco.MjModel, models: Sequence[mujoco.MjModel], deterministic: bool
-) -> dict[str, np.ndarray]:
-    """The device-model fields in which `models` differ from `model`, as MuJoCo Warp lays them out: field name ->
-    (R, *field shape) values, one row per model. Comparing the uploaded models (not the MjModels) also catches what
-    put_model derives from a changed field, and what `mj_setConst` recomputed.
-
-    Raises RandomizedRolloutError naming a field that differs and that MuJoCo Warp holds once for all worlds."""
-    base = put_model(model, deterministic)
-    uploaded = [base if other is model else put_model(other, deterministic) for other in models]
-    varying: dict[str, np.ndarray] = {}
-    for name, spec, arrays in _array_fields(base, uploaded):
-        values = [array.numpy() for array in arrays]
-        reference = _field(base, name).numpy()
-        if all(_same(value, reference) for value in values):
-            continue
-        if "." in name or not spec or spec[0] != "*":
-            raise RandomizedRolloutError(
-                f"the models given to set_models differ in {name}, which MuJoCo Warp {mjw.__version__} holds once "
-                "for all worlds; expected models that differ only in fields it holds per world (body_mass, "
-                "body_inertia, geom_friction, dof_damping, actuator_gainprm and the like), or the cpu backend"
-            )
-        varying[name] = np.stack([value[0] for value in values])  # each (1, *field shape): one world
-    return varying
-
-
-def _array_fields(base: Any, uploaded: list[Any]) -> list[tuple[str, tuple, list[Any]]]:
-    """(name, spec shape, each uploaded model's array) of every warp-array field of the device model and of its
-    nested option structs (named "opt.timestep" and the like)."""
-    fields = []
-    for field in dataclasses.fields(base):
-        value = getattr(base, field.name)
-        if isinstance(value, wp.array):
-            fields.append((field.name, getattr(field.type, "shape", ()), [getattr(m, field.name) for m in uploaded]))
-        elif dataclasses.is_dataclass(value) and not isinstance(value, type):
-            for inner in dataclasses.fields(value):
-                if isinstance(getattr(value, inner.name), wp.array):
-                    arrays = [getattr(getattr(m, field.name), inner.name) for m in uploaded]
-                    fields.append((f"{field.name}.{inner.name}", (), arrays))
-    return fields
-
-
-def _field(device_model: Any, name: str) -> Any:
-    """The array called `name` ("body_mass", "opt.timestep") of a device model."""
-    for part in name.split("."):
-        device_model = getattr(device_model, part)
-    return device_model
-
-
-def _same(a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether two arrays hold the same values (NaNs in the same places count as equal)."""
-    return a.shape == b.shape and bool(np.all((a == b) | ((a != a) & (b != b))))
-
-
-def probe_sizes(model: mujoco.MjModel, states: list[np.ndarray]) -> tuple[int, int]:
-    """(contacts, constraint rows) MuJoCo finds at the model's reference pose, each keyframe and each of the
-    full-physics `states`: the starting point for sizing MuJoCo Warp's per-world buffers."""
-    data = mujoco.MjData(model)
-    ncon = nefc = 0
-    poses = [None, *range(model.nkey)]
-    for pose in [*poses, *states]:
-        if pose is None:
-            mujoco.mj_resetData(model, data)
-        elif isinstance(pose, int):
-            mujoco.mj_resetDataKeyframe(model, data, pose)
-        else:
-            mujoco.mj_setState(model, data, pose, STATE_SPEC)
-        mujoco.mj_forward(model, data)
-        ncon, nefc = max(ncon, data.ncon), max(nefc, data.nefc)
-    return ncon, nefc
-
-
 class WarpRollout(RolloutBackend):
     """Rolls out batches of control sequences as MuJoCo Warp worlds on `wp.get_device()` (or `device`).
 
@@ -271,6 +184,9 @@ class WarpRollout(RolloutBackend):
     def _upload(self, model: mujoco.MjModel, batch_sizes: dict[str, int] | None = None) -> None:
         """Put `model` on the device, with the fields in `batch_sizes` given one row per world; buffers are sized
         and allocated (and the graph captured) at the next call."""
+        if getattr(self, "_uploaded", None) is not model:  # a new model: its buffers are sized at the next call
+            self.nconmax = self.njmax = 0
+            self._sized = False
         with wp.ScopedDevice(self.device):
             self._device_model = put_model(model, self.deterministic, batch_sizes)
         self._uploaded = model
@@ -278,19 +194,11 @@ class WarpRollout(RolloutBackend):
         self.nstate = mujoco.mj_stateSize(model, STATE_SPEC)
         self.nextra = mujoco.mj_stateSize(model, EXTRA_SPEC)
         self.ninitial = mujoco.mj_stateSize(model, INITIAL_SPEC)
-        if not self._sized_for(model):
-            self.nconmax = self.njmax = 0  # per world; sized at the first rollout, from the model and its start
-            self._sized = False
         self._scratch = mujoco.MjData(model)
         self._default_mocap = np.concatenate([self._scratch.mocap_pos.ravel(), self._scratch.mocap_quat.ravel()])
         self._shape: tuple[int, int, int] | None = None
-        self._written: tuple[int, ...] | None = None  # which model values the batched fields hold
+        self._written: tuple[int, int] | None = None  # the (rows, problems) the batched fields were written for
 
-    def _sized_for(self, model: mujoco.MjModel) -> bool:
-        """Whether the contact and row buffers were already sized for `model` (kept when only its batching changes)."""
-        return getattr(self, "_sized", False) and getattr(self, "_sized_model", None) is model
-
-    # ---- several models (domain randomization) ---------------------------------------------------
     def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
         """See `RolloutBackend.set_models`. The fields in which the models differ become per-world arrays of the
         device model (MuJoCo Warp's batched model fields); a later set of models that differs in the same fields
@@ -301,11 +209,7 @@ class WarpRollout(RolloutBackend):
             return
         models = check_model_sizes(self.model, models)
         self._varying = varying_fields(self.model, models, self.deterministic)
-        self._models = models
-
-    def _batch_sizes(self, num_rows: int) -> dict[str, int]:
-        """The device model's batched fields for a batch of `num_rows` rows: one row per world of each varying field."""
-        return dict.fromkeys(self._varying, num_rows)
+        self._models, self._written = models, None
 
     def _write_model_values(self, num_rows: int, num_problems: int) -> None:
         """Each varying field's per-world values: problem p's block of rows, split into R equal blocks, block r
@@ -315,9 +219,8 @@ class WarpRollout(RolloutBackend):
         for name, values in self._varying.items():  # values: (R, *field shape)
             rows = np.repeat(values, per_problem // len(self._models), axis=0)  # (per_problem, *field shape)
             getattr(self._device_model, name).assign(np.concatenate([rows] * num_problems))
-        self._written = (id(self._models), num_rows, num_problems)
+        self._written = (num_rows, num_problems)
 
-    # ---- the call ------------------------------------------------------------------------------
     def rollout(
         self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
@@ -345,7 +248,7 @@ class WarpRollout(RolloutBackend):
             raise JudoError(f"{num_rollouts} rows cannot be split evenly over {num_problems} problems")
         if self._models is not None:
             check_blocks(num_rollouts // num_problems, len(self._models))
-        batch_sizes = self._batch_sizes(num_rollouts) if self._models is not None else {}
+        batch_sizes = dict.fromkeys(self._varying, num_rollouts) if self._models is not None else {}  # a row per world
         layout = tuple(sorted(batch_sizes)), num_rollouts if batch_sizes else 0
         if self.model is not self._uploaded or layout != self._batch_layout:  # a new model or other batched fields
             self._upload(self.model, batch_sizes)
@@ -354,14 +257,10 @@ class WarpRollout(RolloutBackend):
                 if not self._sized:
                     self._size_buffers(initial_states[0])
                 self._allocate(num_rollouts, num_steps, num_problems)
-            if self._models is not None and self._written != (id(self._models), num_rollouts, num_problems):
+            if self._models is not None and self._written != (num_rollouts, num_problems):
                 self._write_model_values(num_rollouts, num_problems)
-            initial = np.stack(
-                [
-                    self._initial_vector(state, None if mocaps is None else mocaps[p])
-                    for p, state in enumerate(initial_states)
-                ]
-            )
+            poses = [None] * num_problems if mocaps is None else list(mocaps)
+            initial = np.stack([self._initial_vector(s, m) for s, m in zip(initial_states, poses, strict=True)])
             for _ in range(MAX_RESIZES):
                 started = time.perf_counter()
                 self._host_initial[:] = initial
@@ -372,7 +271,6 @@ class WarpRollout(RolloutBackend):
                 if not overflow & DROPPED:
                     return self._host_states, self._host_sensors
                 self._grow(overflow, int(np.count_nonzero(self._host_overflow & DROPPED)))
-                self._written = None
         raise RolloutOverflowError(
             f"MuJoCo Warp rollouts still overflow with {self.nconmax} contacts and {self.njmax} constraint rows "
             f"per world after {MAX_RESIZES} doublings; expected a model whose contacts fit. Use --backend cpu."
@@ -450,7 +348,7 @@ class WarpRollout(RolloutBackend):
         nconmax, njmax = self._start_sizes
         self.nconmax = max(64, 2 * ncon) if nconmax is None else nconmax
         self.njmax = max(128, 2 * nefc) if njmax is None else njmax
-        self._sized, self._sized_model = True, self.model
+        self._sized = True
 
     def _grow(self, overflow: int, worlds: int) -> None:
         """Double the buffer that overflowed, warn, and rebuild the device data (and graph) at the same N x T."""
