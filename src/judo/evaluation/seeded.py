@@ -9,9 +9,10 @@ episodes of a tune trial, collect), and gives the same episode bit for bit where
 
 import traceback
 from collections.abc import Callable, Iterable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from judo.core.backend import RolloutBackend
 from judo.core.config import Config, require
@@ -26,9 +27,12 @@ from judo.runtime.sensing import SensedSystem
 from judo.runtime.session import Sensing, choose_estimator, observed_plant
 from judo.runtime.system import MujocoSystem
 
+T = TypeVar("T")
+
 if TYPE_CHECKING:
     from judo.core.controller import ControllerConfig
     from judo.core.policy_controller import PolicyController
+    from judo.core.problem_batch import ProblemBackend
 
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
@@ -232,6 +236,27 @@ def failure_reason(err: BaseException) -> str:
         return f"{type(err).__name__}: {err}"
     where = traceback.extract_tb(err.__traceback__)[-1]
     return f"{type(err).__name__}: {err} ({Path(where.filename).name}:{where.lineno})"
+
+
+def run_side_by_side(backend: "ProblemBackend", seeds: list[int], run: Callable[[int, RolloutBackend], T]) -> list[T]:
+    """`run(seed, slot)` for every seed at once, on threads, each seed's controller rolling out on `slot`, its share
+    of a ProblemBatch of `backend`: every planning cycle of the group is one launch of P x N rollouts
+    (evaluate and collect --episodes-per-batch). A slot is closed when its run returns or raises, so the others
+    never wait for an episode that ended. Returns the runs' results in the order of `seeds`; raises the first
+    run's error after all of them ended."""
+    from judo.core.problem_batch import ProblemBatch
+
+    batch = ProblemBatch(backend, len(seeds))
+
+    def one(i: int) -> T:
+        try:
+            return run(seeds[i], batch.slots[i])
+        finally:
+            batch.slots[i].close()
+
+    with ThreadPoolExecutor(len(seeds), thread_name_prefix="judo-episode") as threads:
+        futures = [threads.submit(one, i) for i in range(len(seeds))]
+        return [future.result() for future in futures]
 
 
 @dataclass
