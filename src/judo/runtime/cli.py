@@ -47,6 +47,7 @@ from judo.core.registry import (
 from judo.core.task import TaskConfig
 from judo.runtime.app import App
 from judo.runtime.sensing_flags import SensingFlags, merge_repeated
+from judo.runtime.system_choice import Ros2Options, SystemOptions, build_system
 
 PROG = "python -m judo"
 CONFIG_GROUPS = {
@@ -93,6 +94,13 @@ class RunOptions:
     """Policy whose candidates replace --controller.policy-samples of the optimizer's num_rollouts each update (the
     policy as a proposal, docs/policies.md; the GUI's policy_samples slider sets how many); needs pip install
     'judo[policy]'."""
+    system: str | None = None
+    """The plant: judo's simulator by default; ros2, a robot on a ROS 2 graph over DDS (needs pip install -e
+    ".[ros2]"; docs/hardware.md); or module:Class, a user's System subclass built with Class(task)."""
+    record: Annotated[Path | None, tyro.conf.arg(metavar="FILE.mcap", help_behavior_hint="(optional)")] = None
+    """With --system ros2: log what the robot sent and what judo commanded to this MCAP file, with ROS 2 schemas."""
+    ros2: tyro.conf.Suppress[Ros2Options] = field(default_factory=Ros2Options)
+    """The ROS 2 bridge's domain, topics, rate and joint names (--ros2.*, a group of its own)."""
     sensing: Annotated[SensingFlags, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")] = field(
         default_factory=SensingFlags
     )
@@ -122,12 +130,15 @@ def main(argv: Sequence[str] | None = None) -> int:
         controller_config = _as_kind(configs["controller"], ControllerConfig)
         if options.policy is not None and controller_config == defaults["controller"]:
             controller_config = None  # no --controller.* given: the policy's metadata's rate and chunk layout
+        task_config = _as_kind(configs["task"], TaskConfig)
+        system = build_system(SystemOptions(options.system, options.record, options.ros2), options.task, task_config)
         app = App(
             options.task,
             options.optimizer,
             controller_config=controller_config,
             optimizer_config=_as_kind(configs["optimizer"], OptimizerConfig),
-            task_config=_as_kind(configs["task"], TaskConfig),
+            task_config=task_config,
+            system=system,
             gui=not options.headless,
             host=options.host,
             port=options.port,
@@ -156,6 +167,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # Ctrl-C before the app's own handler was in place
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
+    finally:
+        close = getattr(system, "close", None)  # a robot link: its last command acknowledged, its log finished
+        if callable(close):
+            close()
     print(summary)
     if options.headless and summary.num_plans == 0:
         why = app.status.message if app.status.level != "info" else "no planning cycle completed"
@@ -175,7 +190,8 @@ def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[s
     ]
     flat = Annotated[RunOptions, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")]  # its flags without a prefix
     options_field = ("options", flat, field(default_factory=RunOptions))
-    arguments_cls = dataclasses.make_dataclass("JudoArguments", [options_field, *groups])
+    ros2_field = ("ros2", Ros2Options, field(default_factory=Ros2Options))  # --ros2.domain-id, ... (with --system ros2)
+    arguments_cls = dataclasses.make_dataclass("JudoArguments", [options_field, ros2_field, *groups])
     parsed = tyro.cli(
         arguments_cls,
         args=argv,
@@ -187,7 +203,7 @@ def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[s
     for kind, config in defaults.items():
         given = getattr(parsed, CONFIG_GROUPS[kind])
         configs[kind] = with_updates(config, {f.name: getattr(given, f.name) for f in fields(given)})
-    return parsed.options, configs
+    return dataclasses.replace(parsed.options, ros2=parsed.ros2), configs
 
 
 def _as_kind(config: Config | None, cls: type[ConfigT]) -> ConfigT | None:

@@ -1,0 +1,346 @@
+"""`Ros2System`: a robot reached over ROS 2's DDS wire, with no ROS install, as judo's `System`.
+
+    python -m judo --task cartpole --system ros2 --headless [--ros2.domain-id 7] [--record run.mcap]
+
+State in: sensor_msgs/JointState on /joint_states (matched by joint name), nav_msgs/Odometry on /odom for a
+task with a free joint, sensor_msgs/Imu on /imu (passed on in the reading's metadata["imu"]); best effort, keep
+last 1. Commands out: std_msgs/Float64MultiArray on /judo/commands in actuator order, reliable: what a
+ros2_control forward command controller takes. The reading's time is the JointState's header stamp, the
+robot's clock, so a late reading is known as late.
+
+A message that cannot be a reading is refused, and the reason is logged (once, then every few seconds with a
+count): wrong lengths, a missing or unknown joint, a non-finite value, a stamp that jumps backwards or from the
+future. While nothing valid arrives the reading's time stands still, and the closed loop's watchdog serves the
+task's safe action once the plan is older than `max_plan_age`. A robot that restarts its clock is followed
+after `RESTART_AFTER` seconds of consistent stamps, with the reading's time carried on from where it was.
+"""
+
+import logging
+import math
+import threading
+import time
+from typing import Any
+
+import numpy as np
+
+from judo.core.errors import ConfigError, JudoError
+from judo.core.task import Task
+from judo.ros2 import link
+from judo.ros2 import messages as msg
+from judo.ros2.mcap_log import McapLog
+from judo.runtime.system import System, SystemState
+from judo.runtime.system_choice import Ros2Options, SystemOptions
+
+logger = logging.getLogger("judo.ros2")
+
+RESTART_AFTER = 1.0
+"""Wall seconds of stamps refused as backwards or from the future before they count as the robot's new clock."""
+FUTURE_TOLERANCE = 0.5
+"""Seconds a stamp may run ahead of the last one plus the wall time since, before it counts as from the future."""
+REPORT_EVERY = 5.0
+"""Wall seconds between log lines of the same refusal."""
+WRITER_CHECK_EVERY = 1.0
+"""Wall seconds between checks for another writer of the commands topic."""
+
+
+class RobotClock:
+    """Turns a robot's header stamps into reading times that never run back."""
+
+    def __init__(self) -> None:
+        self.last_stamp: float | None = None
+        self.last_time = 0.0
+        self._last_wall = 0.0
+        self._epoch = 0.0  # reading time - stamp, moved when the robot's clock restarts
+        self._refused_since: float | None = None
+
+    def accept(self, stamp: float, wall: float) -> tuple[float | None, str | None]:
+        """(reading time, None) for an accepted `stamp` (seconds) received at `wall` (monotonic seconds), or
+        (None, why it was refused)."""
+        if not math.isfinite(stamp):
+            return None, f"a non-finite stamp {stamp}"
+        last = self.last_stamp
+        why = None
+        if last is not None:
+            if stamp < last - 1e-9:
+                why = f"a stamp that went backwards, from {last:.3f} s to {stamp:.3f} s"
+            elif stamp > last + (wall - self._last_wall) + FUTURE_TOLERANCE:
+                why = f"a stamp from the future: {stamp:.3f} s, {stamp - last:.3f} s after {last:.3f} s"
+        if why is not None:
+            if self._refused_since is None:
+                self._refused_since = wall
+            if wall - self._refused_since < RESTART_AFTER:
+                return None, why
+            carried = self.last_time + (wall - self._last_wall)  # the robot's clock restarted: carry on from here
+            self._epoch = carried - stamp
+            logger.warning("the robot's clock restarted (%s); readings go on from %.3f s", why, carried)
+        self._refused_since = None
+        self.last_stamp, self._last_wall = stamp, wall
+        self.last_time = stamp + self._epoch
+        return self.last_time, None
+
+
+class Ros2System(System):
+    """The robot behind a ROS 2 graph, driven by judo's closed loop.
+
+    Args:
+        task: the task the robot runs; its model's joint names are the JointState's (through
+            `options.joint_map`), and `halt()` writes its `safe_action`.
+        options: domain, topics, rate and joint map (`judo.runtime.system_choice.Ros2Options`).
+        record: an MCAP log of every message read and written (None: none).
+        refuse_other_writer: raise JudoError at start when another writer already commands the robot.
+
+    Waits up to `options.wait_s` for the robot's first valid JointState (JudoError if none came).
+
+    Attributes:
+        refused: {reason kind: count} of the messages refused so far.
+        commands_sent: commands written so far.
+    """
+
+    def __init__(
+        self,
+        task: Task,
+        options: Ros2Options | None = None,
+        record: McapLog | None = None,
+        refuse_other_writer: bool = True,
+    ) -> None:
+        from cyclonedds.core import Policy, Qos
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.sub import DataReader
+
+        self.task = task
+        self.options = options = options or Ros2Options()
+        if not (math.isfinite(options.rate_hz) and options.rate_hz > 0):
+            raise ConfigError(f"the bridge's rate must be a positive number of Hz, got {options.rate_hz}")
+        self.timestep = 1.0 / options.rate_hz
+        self.layout = link.JointLayout.of(task.model, options.joint_map)
+        self.domain = link.domain_id(options.domain_id)
+        self.log = record
+        self.refused: dict[str, int] = {}
+        self.commands_sent = 0
+        self._reported: dict[str, float] = {}
+        self._index = {name: i for i, name in enumerate(self.layout.names)}
+        self._lock = threading.Lock()
+        self._clock = RobotClock()
+        self._reading: SystemState | None = None
+        self._odom: tuple[np.ndarray, np.ndarray] | None = None
+        self._imu: dict[str, np.ndarray] | None = None
+        self._command: np.ndarray | None = None
+        self._next_tick: float | None = None
+        self._next_writer_check = 0.0
+        self._other_writer_warned = False
+        self._participant = part = link.participant(self.domain)
+        self._joint_reader = DataReader(part, link.topic(part, options.joint_states, msg.JointState), link.SENSOR_QOS)
+        self._odom_reader = None
+        if self.layout.free is not None:
+            self._odom_reader = DataReader(part, link.topic(part, options.odom, msg.Odometry), link.SENSOR_QOS)
+        self._imu_reader = DataReader(part, link.topic(part, options.imu, msg.Imu), link.SENSOR_QOS)
+        command_topic = link.topic(part, options.commands, msg.Float64MultiArray)
+        self._writer = DataWriter(part, command_topic, link.COMMAND_QOS)
+        others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)  # writers of other processes
+        self._writer_check = DataReader(part, command_topic, others)
+        self._wait_for_robot(options.wait_s)
+        if refuse_other_writer and self.other_writers():
+            raise JudoError(
+                f"another process already writes commands on {msg.ros_topic(options.commands)} in DDS domain "
+                f"{self.domain}: two controllers would fight over the robot; stop it, or use another "
+                "--ros2.commands topic or --ros2.domain-id"
+            )
+
+    @classmethod
+    def from_options(cls, task: Task, options: SystemOptions) -> "Ros2System":
+        """The bridge the app's `--system ros2 [--record FILE.mcap] [--ros2.*]` options describe."""
+        log = None if options.record is None else McapLog(options.record)
+        try:
+            return cls(task, options.ros2, log)
+        except BaseException:
+            if log is not None:
+                log.close()
+            raise
+
+    def _wait_for_robot(self, seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self._take()
+            if self._reading is not None:
+                return
+            time.sleep(0.01)
+        why = "; ".join(f"{n} refused ({kind})" for kind, n in self.refused.items()) or "nothing arrived"
+        raise JudoError(
+            f"no valid sensor_msgs/JointState on {msg.ros_topic(self.options.joint_states)} in DDS domain "
+            f"{self.domain} within {seconds:g} s ({why}); is the robot's process running, on this ROS_DOMAIN_ID? "
+            f"It must name the joints {list(self.layout.names)}"
+        )
+
+    def other_writers(self) -> int:
+        """How many writers of other processes the commands topic has (another judo, or a teleop)."""
+        return len(self._writer_check.get_matched_publications())
+
+    def _refuse(self, kind: str, detail: str) -> None:
+        self.refused[kind] = self.refused.get(kind, 0) + 1
+        now = time.monotonic()
+        if now - self._reported.get(kind, -math.inf) >= REPORT_EVERY:
+            self._reported[kind] = now
+            logger.warning("refused %s (%d so far): %s", kind, self.refused[kind], detail)
+
+    def _take(self) -> None:
+        """Read every message that arrived since the last call."""
+        wall = time.monotonic()
+        if self._odom_reader is not None:
+            for odom in self._odom_reader.take(8):
+                self._note_odometry(odom)
+        for sample in self._imu_reader.take(8):
+            self._note_imu(sample)
+        for joints in self._joint_reader.take(8):
+            self._note_joint_state(joints, wall)
+
+    def _note_odometry(self, odom: msg.Odometry) -> None:
+        try:
+            qpos, qvel = link.base_from_odometry(odom)
+        except JudoError as err:
+            return self._refuse("odometry", str(err))
+        if not (np.isfinite(qpos).all() and np.isfinite(qvel).all()):
+            return self._refuse("odometry", "an Odometry with a non-finite pose or twist")
+        if self.log is not None:
+            self.log.write(self.options.odom, odom, _ns(odom.header.stamp))
+        self._odom = (qpos, qvel)
+
+    def _note_imu(self, sample: msg.Imu) -> None:
+        q, w, a = sample.orientation, sample.angular_velocity, sample.linear_acceleration
+        values = {
+            "orientation": np.array([q.w, q.x, q.y, q.z]),
+            "angular_velocity": np.array([w.x, w.y, w.z]),
+            "linear_acceleration": np.array([a.x, a.y, a.z]),
+            "stamp": np.array([msg.seconds_of(sample.header.stamp)]),
+        }
+        if not all(np.isfinite(v).all() for v in values.values()):
+            return self._refuse("imu", "an Imu with a non-finite value")
+        if self.log is not None:
+            self.log.write(self.options.imu, sample, _ns(sample.header.stamp))
+        self._imu = values
+
+    def _note_joint_state(self, joints: msg.JointState, wall: float) -> None:
+        names, n = list(joints.name), len(joints.name)
+        if len(joints.position) != n or len(joints.velocity) != n:
+            return self._refuse(
+                "joint state (wrong lengths)",
+                f"{n} names, {len(joints.position)} positions, {len(joints.velocity)} velocities; "
+                "each joint needs a position and a velocity",
+            )
+        unknown = [name for name in names if name not in self._index]
+        missing = [name for name in self.layout.names if name not in set(names)]
+        if unknown or missing:
+            return self._refuse(
+                "joint state (names)",
+                f"missing joints {missing}, unknown joints {unknown}; expected {list(self.layout.names)} "
+                "(map names with --ros2.joint-map mjcf_name=robot_name)",
+            )
+        position, velocity = np.asarray(joints.position, float), np.asarray(joints.velocity, float)
+        bad = [name for name, p, v in zip(names, position, velocity, strict=True) if not math.isfinite(p + v)]
+        if bad:
+            return self._refuse("joint state (non-finite)", f"non-finite position or velocity of joints {bad}")
+        if self.layout.free is not None and self._odom is None:
+            return self._refuse("joint state (no odometry yet)", f"no valid Odometry on {self.options.odom} yet")
+        reading_time, why = self._clock.accept(msg.seconds_of(joints.header.stamp), wall)
+        if reading_time is None:
+            return self._refuse("joint state (stamp)", str(why))
+        model = self.task.model
+        qpos, qvel = model.qpos0.copy(), np.zeros(model.nv)
+        order = [self._index[name] for name in names]
+        qpos[self.layout.qpos[order]] = position
+        qvel[self.layout.qvel[order]] = velocity
+        if self.layout.free is not None and self._odom is not None:
+            a, d = self.layout.free
+            qpos[a : a + 7], qvel[d : d + 6] = self._odom
+        metadata: dict[str, Any] = {}
+        if self._imu is not None:
+            metadata["imu"] = {key: value.copy() for key, value in self._imu.items()}
+        if self.log is not None:
+            self.log.write(self.options.joint_states, joints, _ns(joints.header.stamp))
+        with self._lock:
+            self._reading = SystemState(np.concatenate([qpos, qvel]), reading_time, metadata)
+
+    def reset(self) -> None:
+        """A robot is not reset by judo: the loop starts again from its latest reading."""
+
+    def read_state(self) -> SystemState:
+        self._take()
+        with self._lock:
+            reading = self._reading
+        assert reading is not None  # the constructor waited for the first one
+        state = reading.state
+        return SystemState(None if state is None else state.copy(), reading.time, dict(reading.metadata))
+
+    def apply(self, action: np.ndarray) -> None:
+        """Keep the (command_size,) `action`, clamped to the task's command range, to be written by `step`.
+        JudoError for a wrong size or a non-finite value (nothing is written then)."""
+        action = np.asarray(action, dtype=float)
+        size = self.task.command_size
+        if action.shape != (size,) or not np.isfinite(action).all():
+            raise JudoError(f"refused a command of shape {action.shape} (expected ({size},), finite): {action}")
+        low, high = self.task.command_range.T
+        with self._lock:
+            self._command = np.clip(action, low, high)
+
+    def step(self) -> None:
+        """Write the command in force, then wait for the next tick of the bridge's rate, in wall time."""
+        with self._lock:
+            command = self._command
+        if command is not None:
+            self._write(command)
+        now = time.monotonic()
+        if now >= self._next_writer_check:
+            self._next_writer_check = now + WRITER_CHECK_EVERY
+            self._check_other_writers()
+        if self._next_tick is None or self._next_tick < now - 0.1:  # first tick, or far behind: pace from now
+            self._next_tick = now
+        self._next_tick += self.timestep
+        time.sleep(max(0.0, self._next_tick - time.monotonic()))
+
+    def _check_other_writers(self) -> None:
+        others = self.other_writers()
+        if others and not self._other_writer_warned:
+            logger.warning(
+                "%d other writer(s) command %s in domain %d: the robot hears more than one controller",
+                others,
+                msg.ros_topic(self.options.commands),
+                self.domain,
+            )
+        self._other_writer_warned = bool(others)
+
+    def _write(self, command: np.ndarray) -> None:
+        message = link.commands(command)
+        self._writer.write(message)
+        self.commands_sent += 1
+        if self.log is not None:
+            self.log.write(self.options.commands, message)
+
+    def halt(self) -> bool:
+        """Write the task's safe action from the latest reading now (and keep it in force). True."""
+        with self._lock:
+            reading = self._reading
+        state = None if reading is None else reading.state
+        if state is None:
+            model = self.task.model
+            state = np.concatenate([model.qpos0, np.zeros(model.nv)])
+        low, high = self.task.command_range.T
+        safe = np.clip(np.asarray(self.task.safe_action(state), float), low, high)
+        with self._lock:
+            self._command = safe
+        self._write(safe)
+        return True
+
+    def close(self) -> None:
+        """Wait briefly for the robot to acknowledge the last command, and finish the MCAP log."""
+        from cyclonedds.util import duration
+
+        try:
+            self._writer.wait_for_acks(duration(milliseconds=200))
+        except Exception:  # noqa: BLE001  (no reader, or the robot gone: nothing to wait for)
+            pass
+        if self.log is not None:
+            self.log.close()
+
+
+def _ns(stamp: msg.Time) -> int:
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
