@@ -39,6 +39,8 @@ FUTURE_TOLERANCE = 0.5
 """Seconds a stamp may run ahead of the last one plus the wall time since, before it counts as from the future."""
 REPORT_EVERY = 5.0
 """Wall seconds between log lines of the same refusal."""
+DISCOVERY_S = 0.3
+"""Seconds the bridge gives discovery, after the robot's first reading, to find another writer of its commands."""
 WRITER_CHECK_EVERY = 1.0
 """Wall seconds between checks for another writer of the commands topic."""
 
@@ -139,7 +141,7 @@ class Ros2System(System):
         others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)  # writers of other processes
         self._writer_check = DataReader(part, command_topic, others)
         self._wait_for_robot(options.wait_s)
-        if refuse_other_writer and self.other_writers():
+        if refuse_other_writer and self._other_writer_seen(DISCOVERY_S):
             raise JudoError(
                 f"another process already writes commands on {msg.ros_topic(options.commands)} in DDS domain "
                 f"{self.domain}: two controllers would fight over the robot; stop it, or use another "
@@ -170,6 +172,15 @@ class Ros2System(System):
             f"{self.domain} within {seconds:g} s ({why}); is the robot's process running, on this ROS_DOMAIN_ID? "
             f"It must name the joints {list(self.layout.names)}"
         )
+
+    def _other_writer_seen(self, seconds: float) -> bool:
+        """Whether another process writes commands, waiting up to `seconds` for discovery to find one."""
+        deadline = time.monotonic() + seconds
+        while not self.other_writers():
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.02)
+        return True
 
     def other_writers(self) -> int:
         """How many writers of other processes the commands topic has (another judo, or a teleop)."""
