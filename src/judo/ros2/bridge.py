@@ -130,23 +130,28 @@ class Ros2System(System):
         self._next_tick: float | None = None
         self._next_writer_check = 0.0
         self._other_writer_warned = False
+        self._closed = False
         self._participant = part = link.participant(self.domain)
-        self._joint_reader = DataReader(part, link.topic(part, options.joint_states, msg.JointState), link.SENSOR_QOS)
-        self._odom_reader = None
-        if self.layout.free is not None:
-            self._odom_reader = DataReader(part, link.topic(part, options.odom, msg.Odometry), link.SENSOR_QOS)
-        self._imu_reader = DataReader(part, link.topic(part, options.imu, msg.Imu), link.SENSOR_QOS)
-        command_topic = link.topic(part, options.commands, msg.Float64MultiArray)
-        self._writer = DataWriter(part, command_topic, link.COMMAND_QOS)
-        others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)  # writers of other processes
-        self._writer_check = DataReader(part, command_topic, others)
-        self._wait_for_robot(options.wait_s)
-        if refuse_other_writer and self._other_writer_seen(DISCOVERY_S):
-            raise JudoError(
-                f"another process already writes commands on {msg.ros_topic(options.commands)} in DDS domain "
-                f"{self.domain}: two controllers would fight over the robot; stop it, or use another "
-                "--ros2.commands topic or --ros2.domain-id"
-            )
+        try:
+            self._joint_reader = DataReader(part, link.topic(part, options.joint_states, msg.JointState), link.SENSOR_QOS)
+            self._odom_reader = None
+            if self.layout.free is not None:
+                self._odom_reader = DataReader(part, link.topic(part, options.odom, msg.Odometry), link.SENSOR_QOS)
+            self._imu_reader = DataReader(part, link.topic(part, options.imu, msg.Imu), link.SENSOR_QOS)
+            command_topic = link.topic(part, options.commands, msg.Float64MultiArray)
+            self._writer = DataWriter(part, command_topic, link.COMMAND_QOS)
+            others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)  # writers of other processes
+            self._writer_check = DataReader(part, command_topic, others)
+            self._wait_for_robot(options.wait_s)
+            if refuse_other_writer and self._other_writer_seen(DISCOVERY_S):
+                raise JudoError(
+                    f"another participant (a judo, a teleop node) already writes commands on {msg.ros_topic(options.commands)} in DDS domain "
+                    f"{self.domain}: two controllers would fight over the robot; stop it, or use another "
+                    "--ros2.commands topic or --ros2.domain-id"
+                )
+        except BaseException:
+            link.close_participant(part)
+            raise
 
     @classmethod
     def from_options(cls, task: Task, options: SystemOptions) -> "Ros2System":
@@ -341,13 +346,18 @@ class Ros2System(System):
         return True
 
     def close(self) -> None:
-        """Wait briefly for the robot to acknowledge the last command, and finish the MCAP log."""
+        """Wait briefly for the robot to acknowledge the last command, leave the DDS domain and finish the MCAP
+        log. The bridge cannot be used after."""
         from cyclonedds.util import duration
 
+        if self._closed:
+            return
+        self._closed = True
         try:
             self._writer.wait_for_acks(duration(milliseconds=200))
         except Exception:  # noqa: BLE001  (no reader, or the robot gone: nothing to wait for)
             pass
+        link.close_participant(self._participant)
         if self.log is not None:
             self.log.close()
 
