@@ -113,4 +113,6 @@ def echo_reader(domain: int):  # noqa: ANN201
 
 
 def echoes(reader) -> list[np.ndarray]:  # noqa: ANN001
-    return [np.asarray(m.data) for m in reader.take(64)]
+    from judo.ros2 import link
+
+    return [np.asarray(m.data) for m in link.take(reader, 64)]

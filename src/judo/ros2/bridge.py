@@ -202,11 +202,11 @@ class Ros2System(System):
         """Read every message that arrived since the last call."""
         wall = time.monotonic()
         if self._odom_reader is not None:
-            for odom in self._odom_reader.take(8):
+            for odom in link.take(self._odom_reader, 8):
                 self._note_odometry(odom)
-        for sample in self._imu_reader.take(8):
+        for sample in link.take(self._imu_reader, 8):
             self._note_imu(sample)
-        for joints in self._joint_reader.take(8):
+        for joints in link.take(self._joint_reader, 8):
             self._note_joint_state(joints, wall)
 
     def _note_odometry(self, odom: msg.Odometry) -> None:

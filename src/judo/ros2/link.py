@@ -48,6 +48,13 @@ def participant(domain: int):  # noqa: ANN201  (a cyclonedds DomainParticipant)
     return dds.DomainParticipant(domain)
 
 
+def take(reader, n: int = 16) -> list:  # noqa: ANN001
+    """The data samples `reader` holds, up to `n`, taken; without the notices that a writer went away."""
+    from cyclonedds.sub import InvalidSample
+
+    return [sample for sample in reader.take(n) if not isinstance(sample, InvalidSample)]
+
+
 def close_participant(participant) -> None:  # noqa: ANN001
     """Delete `participant` and everything it made (readers, writers, topics) now, not when it is collected."""
     participant.__del__()  # cyclonedds deletes an entity, with its children, in __del__ only

@@ -151,7 +151,7 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
         now = time.monotonic()
         if options.duration is not None and now - start >= options.duration:
             break
-        for command in reader.take(16):
+        for command in link.take(reader, 16):
             values = np.asarray(command.data, float)
             if echo is not None:
                 echo.write(command)
