@@ -6,7 +6,7 @@ every std_msgs/Float64MultiArray it reads on /judo/commands to its motor, as a r
 controller would. The types are ROS 2's own DDS types (`sensor_msgs::msg::dds_::JointState_` on the DDS topic
 `rt/joint_states`), so a ROS 2 node on the same ROS_DOMAIN_ID hears it too. Two processes:
 
-    PYTHONPATH=src python examples/10_ros2_robot.py --seconds 30 &       # the robot, hanging down
+    PYTHONPATH=src python examples/10_ros2_robot.py &                     # the robot, hanging down
     PYTHONPATH=src python -m judo --task cartpole --system ros2 --headless --duration 20
 
 judo swings the pole up and balances it; at the end this process prints the fraction of the last 5 s before
@@ -27,7 +27,7 @@ from cyclonedds.idl import IdlStruct
 from cyclonedds.idl.annotations import final
 from cyclonedds.idl.types import float64, int32, sequence, uint32
 from cyclonedds.pub import DataWriter
-from cyclonedds.sub import DataReader
+from cyclonedds.sub import DataReader, InvalidSample
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
@@ -82,7 +82,9 @@ class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiAr
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--seconds", type=float, default=30.0, help="wall seconds to run")
+    parser.add_argument(
+        "--seconds", type=float, default=60.0, help="most wall seconds to run (it stops 1 s after the last command)"
+    )
     args = parser.parse_args()
 
     model = mujoco.MjModel.from_xml_path(str(MODEL))
@@ -98,11 +100,14 @@ def main() -> None:
     print(f"robot: publishing rt/joint_states {names} on domain {participant.domain_id}", flush=True)
 
     dt, start, steps, upright, last_command = model.opt.timestep, time.monotonic(), 0, [], 0.0
-    while time.monotonic() - start < args.seconds:
+    commanded_at = None  # wall time of the latest command: the robot stops 1 s after judo went away
+    while time.monotonic() - start < args.seconds and (commanded_at is None or time.monotonic() - commanded_at < 1):
         for command in commands.take(8):
+            if isinstance(command, InvalidSample):  # a notice that a writer went away, not a command
+                continue
             if len(command.data) == model.nu and all(math.isfinite(u) for u in command.data):
                 data.ctrl[:] = command.data
-                last_command = data.time
+                last_command, commanded_at = data.time, time.monotonic()
         mujoco.mj_step(model, data)
         steps += 1
         sec = int(data.time)

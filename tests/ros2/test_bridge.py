@@ -12,6 +12,8 @@ import pytest
 pytest.importorskip("cyclonedds")
 mcap_reader = pytest.importorskip("mcap_ros2.reader")
 
+from ros2_links import echo_reader, echoes, poll  # noqa: E402
+
 import judo  # noqa: E402
 from judo.core.errors import JudoError  # noqa: E402
 from judo.core.registry import make_config  # noqa: E402
@@ -23,7 +25,6 @@ from judo.runtime.app import App  # noqa: E402
 from judo.runtime.closed_loop import ClosedLoop  # noqa: E402
 from judo.runtime.system_choice import Ros2Options  # noqa: E402
 from judo.tasks.cartpole import Cartpole  # noqa: E402
-from ros2_links import echo_reader, echoes, poll  # noqa: E402
 
 
 def bridge(domain: int, log: McapLog | None = None) -> Ros2System:
@@ -37,7 +38,11 @@ def small_controller(**config) -> judo.Controller:  # noqa: ANN003
     )
     optimizer_config = dataclasses.replace(make_config(MPPIConfig, "cartpole"), num_rollouts=16)
     return judo.make_controller(
-        "cartpole", "mppi", controller_config=controller_config, optimizer_config=optimizer_config, seed=0,
+        "cartpole",
+        "mppi",
+        controller_config=controller_config,
+        optimizer_config=optimizer_config,
+        seed=0,
         num_workers=1,
     )
 

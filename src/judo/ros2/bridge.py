@@ -1,3 +1,5 @@
+# pyright: reportArgumentType=false
+# (cyclonedds types a message's list fields as its IDL `sequence`, which is a plain list at run time)
 """`Ros2System`: a robot reached over ROS 2's DDS wire, with no ROS install, as judo's `System`.
 
     python -m judo --task cartpole --system ros2 --headless [--ros2.domain-id 7] [--record run.mcap]
@@ -133,7 +135,9 @@ class Ros2System(System):
         self._closed = False
         self._participant = part = link.participant(self.domain)
         try:
-            self._joint_reader = DataReader(part, link.topic(part, options.joint_states, msg.JointState), link.SENSOR_QOS)
+            self._joint_reader = DataReader(
+                part, link.topic(part, options.joint_states, msg.JointState), link.SENSOR_QOS
+            )
             self._odom_reader = None
             if self.layout.free is not None:
                 self._odom_reader = DataReader(part, link.topic(part, options.odom, msg.Odometry), link.SENSOR_QOS)
@@ -364,4 +368,3 @@ class Ros2System(System):
 
 def _ns(stamp: msg.Time) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
-

@@ -1,3 +1,5 @@
+# pyright: reportArgumentType=false
+# (cyclonedds types a message's list fields as its IDL `sequence`, which is a plain list at run time)
 """What both ends of a ROS 2 link share: the DDS domain and QoS, and a MuJoCo model's joints as JointState names.
 
 QoS, as ROS 2 sets it: sensor streams are best effort, keep last 1 (the sensor-data profile); commands are
@@ -50,7 +52,7 @@ def participant(domain: int):  # noqa: ANN201  (a cyclonedds DomainParticipant)
 
 def take(reader, n: int = 16) -> list:  # noqa: ANN001
     """The data samples `reader` holds, up to `n`, taken; without the notices that a writer went away."""
-    from cyclonedds.sub import InvalidSample
+    from cyclonedds.internal import InvalidSample
 
     return [sample for sample in reader.take(n) if not isinstance(sample, InvalidSample)]
 

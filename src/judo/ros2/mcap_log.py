@@ -49,12 +49,12 @@ class McapLog:
             if channel is None:
                 schema = self._schemas.get(name)
                 if schema is None:
-                    schema = self._schemas[name] = self._writer.register_schema(
-                        name, "ros2msg", MSGDEFS[name].encode()
-                    )
+                    schema = self._schemas[name] = self._writer.register_schema(name, "ros2msg", MSGDEFS[name].encode())
                 channel = self._channels[topic] = self._writer.register_channel(topic, "cdr", schema)
             self._sequence += 1
-            self._writer.add_message(channel, now, bytes(data), now if publish_ns is None else publish_ns, self._sequence)
+            self._writer.add_message(
+                channel, now, bytes(data), now if publish_ns is None else publish_ns, self._sequence
+            )
             self.messages += 1
 
     def close(self) -> None:

@@ -1,3 +1,6 @@
+# pyright: reportCallIssue=false, reportGeneralTypeIssues=false, reportAssignmentType=false
+# (cyclonedds' IDL dataclasses take `typename=` in the class line, sizes in `array[float64, 9]` and lists for
+# `sequence` fields, which its type hints do not describe)
 """ROS 2's standard messages as DDS types, without a ROS install: the CDR on the wire is ROS 2's own.
 
 ROS 2 maps `sensor_msgs/msg/JointState` to the DDS type `sensor_msgs::msg::dds_::JointState_` and the topic

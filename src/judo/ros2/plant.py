@@ -21,7 +21,7 @@ import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Annotated
+from typing import Annotated, Any
 
 import mujoco
 import numpy as np
@@ -34,6 +34,7 @@ from judo.runtime.system import MujocoSystem, SimulationDiverged
 from judo.runtime.system_choice import Ros2Options
 
 PROG = "python -m judo plant"
+DESCRIPTION = "judo's simulator as a robot process on a ROS 2 graph (DDS, no ROS install), with link faults."
 logger = logging.getLogger("judo.ros2.plant")
 
 MAX_CATCH_UP = 0.1
@@ -126,7 +127,9 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
     layout = link.JointLayout.of(model, options.ros2.joint_map)
     domain = link.domain_id(options.ros2.domain_id)
     part = link.participant(domain)
-    writers = {"joints": DataWriter(part, link.topic(part, options.ros2.joint_states, msg.JointState), link.SENSOR_QOS)}
+    writers: dict[str, Any] = {
+        "joints": DataWriter(part, link.topic(part, options.ros2.joint_states, msg.JointState), link.SENSOR_QOS)
+    }
     if layout.free is not None:
         writers["odom"] = DataWriter(part, link.topic(part, options.ros2.odom, msg.Odometry), link.SENSOR_QOS)
         writers["imu"] = DataWriter(part, link.topic(part, options.ros2.imu, msg.Imu), link.SENSOR_QOS)
@@ -198,9 +201,12 @@ def _body_accel(model: mujoco.MjModel, data: mujoco.MjData, layout) -> np.ndarra
 def main(argv: Sequence[str] | None = None) -> int:
     """`python -m judo plant`: parse `argv`, run the plant until stopped, return the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    options = tyro.cli(PlantOptions, args=argv, prog=PROG, description=__doc__.split("\n\n")[0])
+    options = tyro.cli(PlantOptions, args=argv, prog=PROG, description=DESCRIPTION)
     if options.task not in get_registered_tasks():
-        print(f"{PROG}: unknown task {options.task!r}; valid tasks are: {', '.join(sorted(get_registered_tasks()))}", file=sys.stderr)
+        print(
+            f"{PROG}: unknown task {options.task!r}; valid tasks are: {', '.join(sorted(get_registered_tasks()))}",
+            file=sys.stderr,
+        )
         return 2
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     stop = threading.Event()

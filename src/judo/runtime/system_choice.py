@@ -10,6 +10,7 @@ where it has that classmethod (the bridge does), else `Class(task)`: the task in
 import importlib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import cast
 
 from judo.core.errors import ConfigError, JudoError
 from judo.core.registry import lookup_task
@@ -86,7 +87,7 @@ def build_system(options: SystemOptions, task_name: str, task_config: TaskConfig
         task.config = task_config
     from_options = getattr(cls, "from_options", None)
     if callable(from_options):
-        return from_options(task, options)
+        return cast(System, from_options(task, options))
     if options.record is not None:
         raise ConfigError(f"--record logs the ROS 2 bridge's link; {cls.__name__} takes no --record")
     return cls(task)  # type: ignore[call-arg]

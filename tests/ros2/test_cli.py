@@ -1,0 +1,98 @@
+"""`--system`, `--record` and `python -m judo plant` on the command line, and the "done when" run: a robot
+process with no judo code (examples/10_ros2_robot.py) swung up and balanced by `python -m judo --system ros2`."""
+
+import subprocess
+import sys
+
+import pytest
+
+pytest.importorskip("cyclonedds")
+
+from ros2_links import ROOT, env, free_domain, stop_process  # noqa: E402
+
+from judo.ros2 import plant  # noqa: E402
+from judo.runtime import cli  # noqa: E402
+from judo.runtime.system import System  # noqa: E402
+from judo.runtime.system_choice import SystemOptions, build_system, system_class  # noqa: E402
+
+
+def one_line_error(capsys, argv: list[str], main=cli.main) -> str:  # noqa: ANN001
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err
+    return err
+
+
+def test_a_bad_system_or_record_is_one_line_naming_the_choices(capsys, tmp_path):
+    err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "ros3"])
+    assert "--system expects ros2 or module:Class (a System subclass), got 'ros3'" in err
+    err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "judo.runtime.system:SystemState"])
+    assert "expected a System subclass 'SystemState' in judo.runtime.system, got SystemState" in err
+    err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--record", str(tmp_path / "run.mcap")])
+    assert "give it with --system ros2" in err
+    err = one_line_error(
+        capsys,
+        [
+            "--task",
+            "cartpole",
+            "--headless",
+            "--system",
+            "ros2",
+            "--ros2.domain-id",
+            str(free_domain()),
+            "--ros2.wait-s",
+            "0.2",
+        ],
+    )
+    assert "no valid sensor_msgs/JointState on rt/joint_states" in err and "['slider', 'hinge']" in err
+    err = one_line_error(capsys, ["--task", "cartpole", "--system", "ros2", "--ros2.domain-id", "400"])
+    assert "the DDS domain id must be 0..232, got 400" in err
+
+
+def test_a_users_system_class_is_loaded_by_module_and_class_and_built_on_the_task(tmp_path, monkeypatch):
+    (tmp_path / "my_robot.py").write_text(
+        "from judo.runtime.system import MujocoSystem\nclass MyRobot(MujocoSystem):\n    pass\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert issubclass(system_class("my_robot:MyRobot"), System)
+    robot = build_system(SystemOptions(system="my_robot:MyRobot"), "cartpole")
+    assert type(robot).__name__ == "MyRobot" and type(robot.task).__name__ == "Cartpole"
+    assert robot.read_state().state.shape == (4,)
+
+
+def test_the_plant_refuses_faults_out_of_range_in_one_line(capsys):
+    err = one_line_error(capsys, ["--drop", "1.5"], plant.main)
+    assert err == "python -m judo plant: --drop must be a fraction 0..1, got 1.5"
+    err = one_line_error(capsys, ["--task", "cartpol"], plant.main)
+    assert "unknown task 'cartpol'; valid tasks are:" in err and "cartpole" in err
+
+
+@pytest.mark.slow
+def test_a_robot_with_no_judo_code_is_swung_up_and_balanced_over_ros2():
+    domain = free_domain()
+    robot = subprocess.Popen(
+        [sys.executable, str(ROOT / "examples" / "10_ros2_robot.py"), "--seconds", "60"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env(domain),
+        cwd=ROOT,
+    )
+    try:
+        assert "publishing rt/joint_states" in robot.stdout.readline()
+        app = subprocess.run(
+            [sys.executable, "-m", "judo", "--task", "cartpole", "--system", "ros2", "--headless", "--duration", "9"],
+            capture_output=True,
+            text=True,
+            env=env(domain),
+            cwd=ROOT,
+            timeout=120,
+        )
+        assert app.returncode == 0, app.stderr
+        out, _ = robot.communicate(timeout=10)  # it stops 1 s after the last command
+    finally:
+        if robot.poll() is None:
+            stop_process(robot)
+    assert "robot: upright " in out, out
+    fraction = float(out.split("robot: upright ")[1].split()[0])
+    assert fraction >= 0.8, out

@@ -1,0 +1,129 @@
+"""The link fails the way links fail: malformed JointStates and bad stamps are refused and named, a robot that
+restarts its clock is followed, and a lossy, late, jittery link (a plant process with faults) never makes the
+bridge read a stale or out-of-order state or command anything out of range."""
+
+import dataclasses
+import logging
+import time
+
+import numpy as np
+import pytest
+
+pytest.importorskip("cyclonedds")
+
+from ros2_links import DdsRobot, echo_reader, echoes, free_domain, poll, start_plant, stop_process  # noqa: E402
+
+import judo  # noqa: E402
+from judo.core.registry import make_config  # noqa: E402
+from judo.optimizers.mppi import MPPIConfig  # noqa: E402
+from judo.ros2 import bridge as bridge_module  # noqa: E402
+from judo.ros2 import link  # noqa: E402
+from judo.ros2.bridge import Ros2System  # noqa: E402
+from judo.runtime.closed_loop import ClosedLoop  # noqa: E402
+from judo.runtime.system_choice import Ros2Options  # noqa: E402
+from judo.tasks.cartpole import Cartpole  # noqa: E402
+
+
+def test_malformed_joint_states_and_bad_stamps_are_refused_and_named(caplog, monkeypatch):
+    monkeypatch.setattr(bridge_module, "RESTART_AFTER", 0.3)
+    monkeypatch.setattr(bridge_module, "REPORT_EVERY", 0.0)  # every refusal logged, for the test
+    domain = free_domain()
+    robot = DdsRobot(domain)
+    system = Ros2System(Cartpole(), Ros2Options(domain_id=domain))
+    try:
+        robot.stop_streaming()
+        good = system.read_state()
+        stamp = robot.stamp
+        cases = [
+            ("joint state (names)", "missing joints ['hinge']", (["slider"], [0.0], [0.0], stamp + 0.01)),
+            (
+                "joint state (names)",
+                "unknown joints ['elbow']",
+                (["slider", "hinge", "elbow"], [0.0] * 3, [0.0] * 3, stamp + 0.01),
+            ),
+            (
+                "joint state (wrong lengths)",
+                "2 names, 1 positions, 2 velocities",
+                (["slider", "hinge"], [0.0], [0.0, 0.0], stamp + 0.01),
+            ),
+            (
+                "joint state (non-finite)",
+                "joints ['hinge']",
+                (["slider", "hinge"], [0.0, np.nan], [0.0, 0.0], stamp + 0.01),
+            ),
+            (
+                "joint state (stamp)",
+                f"went backwards, from {stamp:.3f} s",
+                (["slider", "hinge"], [0.0, 0.0], [0.0, 0.0], stamp - 1.0),
+            ),
+            ("joint state (stamp)", "from the future", (["slider", "hinge"], [0.0, 0.0], [0.0, 0.0], stamp + 60.0)),
+        ]
+        for kind, named, message in cases:
+            before = system.refused.get(kind, 0)
+            caplog.clear()
+            with caplog.at_level(logging.WARNING, logger="judo.ros2"):
+                robot.send(*message)
+                poll(lambda kind=kind, before=before: (system.read_state(), system.refused.get(kind, 0))[1] > before)
+            assert named in caplog.text, (kind, caplog.text)
+            reading = system.read_state()
+            assert reading.time == good.time  # nothing refused ever becomes the reading
+            np.testing.assert_array_equal(reading.state, good.state)
+        # a robot whose clock restarted at 0 is followed once its stamps stay consistent, its time carried on
+        restart_stamps = iter(np.arange(0.01, 5.0, 0.01))
+        deadline = time.monotonic() + 3.0
+        while system.read_state().time == good.time and time.monotonic() < deadline:
+            robot.send(["slider", "hinge"], [0.2, 3.1], [0.0, 0.0], float(next(restart_stamps)))
+            time.sleep(0.01)
+        after = system.read_state()
+        assert after.time > good.time and after.state[0] == pytest.approx(0.2)
+    finally:
+        system.close()
+        robot.close()
+
+
+def test_the_bridge_waits_for_a_robot_and_says_what_it_expected():
+    with pytest.raises(judo.JudoError, match=r"no valid sensor_msgs/JointState on rt/joint_states in DDS domain \d+"):
+        Ros2System(Cartpole(), Ros2Options(domain_id=free_domain(), wait_s=0.2))
+
+
+@pytest.mark.slow
+def test_a_lossy_late_jittery_link_keeps_plans_fresh_in_order_and_commands_in_range():
+    domain = free_domain()
+    proc = start_plant(
+        domain, "--echo", "--latency-ms", "50", "--jitter-ms", "30", "--drop", "0.2", "--duplicate", "0.1"
+    )
+    part, echo = echo_reader(domain)
+    system = Ros2System(Cartpole(), Ros2Options(domain_id=domain))
+    controller_config = dataclasses.replace(
+        make_config(judo.ControllerConfig, "cartpole"), horizon=0.5, control_freq=20.0, max_plan_age=0.5
+    )
+    optimizer_config = dataclasses.replace(make_config(MPPIConfig, "cartpole"), num_rollouts=16)
+    controller = judo.make_controller(
+        "cartpole",
+        "mppi",
+        controller_config=controller_config,
+        optimizer_config=optimizer_config,
+        seed=0,
+        num_workers=1,
+    )
+    loop = ClosedLoop(controller, system, clock=time.monotonic)
+    times, commands = [], []
+    try:
+        deadline = time.monotonic() + 2.5
+        while time.monotonic() < deadline:
+            record = loop.step()  # raises ReadingTimeError if a reading's time ever went backwards
+            assert record is not None
+            times.append(record.time)
+            commands.extend(echoes(echo))
+        poll(lambda: bool(commands.extend(echoes(echo))) or len(commands) >= 100, what="the plant's echoes")
+    finally:
+        system.close()
+        link.close_participant(part)
+        stop_process(proc)
+    assert np.all(np.diff(times) >= 0)
+    assert loop.watchdog.trips == 0  # 50-80 ms late and a fifth lost: plans stay within max_plan_age
+    assert len(loop.update_ms) >= 10
+    assert system.refused.get("joint state (stamp)", 0) > 0  # the jitter reordered messages: the late ones refused
+    low, high = Cartpole().command_range.T
+    values = np.concatenate(commands)
+    assert np.isfinite(values).all() and (values >= low).all() and (values <= high).all()
