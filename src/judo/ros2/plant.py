@@ -114,8 +114,10 @@ def check(options: PlantOptions) -> None:
 
 def run_plant(options: PlantOptions, stop: threading.Event) -> None:
     """Run the plant until `stop` is set (or `options.duration` wall seconds have passed)."""
+    from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
     from cyclonedds.pub import DataWriter
     from cyclonedds.sub import DataReader
+    from cyclonedds.util import duration
 
     from judo.ros2 import link
     from judo.ros2 import messages as msg
@@ -138,6 +140,8 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
     if options.echo:
         echo_topic = link.topic(part, options.ros2.commands + "_echo", msg.Float64MultiArray)
         echo = DataWriter(part, echo_topic, link.COMMAND_QOS)
+    waitset = WaitSet(part)  # wakes the loop when a command arrives, so it is read at once, not at the next tick
+    waitset.attach(ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any))
     outbox = Outbox(options, np.random.default_rng(None if options.seed is None else [options.seed, 1]))
     size, (low, high) = system.task.command_size, system.task.command_range.T
     dt, period = system.timestep, 1.0 / options.rate_hz
@@ -187,7 +191,9 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
             if count > 1 and count != writers_seen:
                 logger.warning("%d writers command this robot on %s", count, msg.ros_topic(options.ros2.commands))
             writers_seen = count
-        stop.wait(max(0.0, min(origin + steps * dt, outbox.next_due()) - time.monotonic()))
+        wait = min(origin + steps * dt, outbox.next_due(), now + 0.05) - time.monotonic()  # 50 ms: see a stop
+        if wait > 0:
+            waitset.wait(duration(nanoseconds=int(wait * 1e9)))
 
 
 def _body_accel(model: mujoco.MjModel, data: mujoco.MjData, layout) -> np.ndarray:  # noqa: ANN001
