@@ -96,3 +96,22 @@ def test_a_robot_with_no_judo_code_is_swung_up_and_balanced_over_ros2():
     assert "robot: upright " in out, out
     fraction = float(out.split("robot: upright ")[1].split()[0])
     assert fraction >= 0.8, out
+
+
+def test_without_the_ros2_extra_both_commands_say_what_to_install_in_one_line(capsys, monkeypatch):
+    for name in ("cyclonedds", "cyclonedds.domain", "mcap", "mcap.writer"):
+        monkeypatch.setitem(sys.modules, name, None)  # makes the import raise ImportError, as without the extra
+    for name in ("judo.ros2.bridge", "judo.ros2.messages", "judo.ros2.link", "judo.ros2.mcap_log"):
+        monkeypatch.delitem(sys.modules, name, raising=False)
+    err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "ros2"])
+    assert "the ROS 2 bridge needs the optional extra judo[ros2]" in err and "pip install" in err
+    err = one_line_error(capsys, ["--task", "cartpole"], plant.main)
+    assert "python -m judo plant needs the optional extra judo[ros2]" in err
+
+
+def test_import_judo_and_its_app_import_no_dds():
+    code = (
+        "import sys, judo, judo.runtime.cli; print(sorted(m for m in sys.modules if 'cyclonedds' in m or 'mcap' in m))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env()).stdout
+    assert out.strip() == "[]"
