@@ -55,9 +55,9 @@ def stop_process(proc: subprocess.Popen) -> None:
 
 class DdsRobot:
     """A robot written in the test on cyclonedds: publishes the JointStates it is given, and a valid one every
-    10 ms while `streaming`."""
+    10 ms until `stop_streaming` (positions only where `velocity` is False)."""
 
-    def __init__(self, domain: int) -> None:
+    def __init__(self, domain: int, velocity: bool = True) -> None:
         from cyclonedds.pub import DataWriter
 
         from judo.ros2 import link
@@ -69,6 +69,7 @@ class DdsRobot:
             self.participant, link.topic(self.participant, "/joint_states", msg.JointState), link.SENSOR_QOS
         )
         self.stamp = 1.0
+        self.velocity = velocity
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._stream, daemon=True)
         self._thread.start()
@@ -80,7 +81,7 @@ class DdsRobot:
     def _stream(self) -> None:
         while not self._stop.is_set():
             self.stamp += 0.01
-            self.send(["slider", "hinge"], [0.1, 3.0], [0.0, 0.0], self.stamp)
+            self.send(["slider", "hinge"], [0.1, 3.0], [0.0, 0.0] if self.velocity else [], self.stamp)
             time.sleep(0.01)
 
     def stop_streaming(self) -> None:

@@ -20,8 +20,25 @@ from judo.ros2 import bridge as bridge_module  # noqa: E402
 from judo.ros2 import link  # noqa: E402
 from judo.ros2.bridge import Ros2System  # noqa: E402
 from judo.runtime.closed_loop import ClosedLoop  # noqa: E402
+from judo.runtime.session import Sensing, choose_estimator  # noqa: E402
 from judo.runtime.system_choice import Ros2Options  # noqa: E402
 from judo.tasks.cartpole import Cartpole  # noqa: E402
+
+
+def small_controller() -> judo.Controller:
+    """cartpole's mppi with few rollouts, so it keeps up on a busy machine."""
+    controller_config = dataclasses.replace(
+        make_config(judo.ControllerConfig, "cartpole"), horizon=0.5, control_freq=20.0, max_plan_age=0.5
+    )
+    optimizer_config = dataclasses.replace(make_config(MPPIConfig, "cartpole"), num_rollouts=16)
+    return judo.make_controller(
+        "cartpole",
+        "mppi",
+        controller_config=controller_config,
+        optimizer_config=optimizer_config,
+        seed=0,
+        num_workers=1,
+    )
 
 
 def test_malformed_joint_states_and_bad_stamps_are_refused_and_named(caplog, monkeypatch):
@@ -76,6 +93,27 @@ def test_malformed_joint_states_and_bad_stamps_are_refused_and_named(caplog, mon
             time.sleep(0.01)
         after = system.read_state()
         assert after.time > good.time and after.state[0] == pytest.approx(0.2)
+    finally:
+        system.close()
+        robot.close()
+
+
+def test_joint_positions_alone_become_the_tasks_measured_sensors_and_the_ekf_estimates_the_state():
+    domain = free_domain()
+    robot = DdsRobot(domain, velocity=False)
+    system = Ros2System(Cartpole(), Ros2Options(domain_id=domain))
+    try:
+        reading = system.read_state()
+        assert reading.state is None
+        np.testing.assert_array_equal(reading.sensors, [0.1, 3.0])  # slider_pos, hinge_pos: cartpole's measured
+        name, estimator = choose_estimator(system.task, "cartpole", system, Sensing(), reading)
+        assert name == "ekf"
+        loop = ClosedLoop(small_controller(), system, clock=time.monotonic, estimator=estimator)
+        for _ in range(20):
+            loop.step()
+        estimate = loop.reading.state  # the EKF's: it tracks the measured positions; the pushes it sends move
+        assert np.isfinite(estimate).all()  # its model's velocities a little while this robot stands still
+        np.testing.assert_allclose(estimate[:2], [0.1, 3.0], atol=0.02)
     finally:
         system.close()
         robot.close()

@@ -8,7 +8,9 @@ State in: sensor_msgs/JointState on /joint_states (matched by joint name), nav_m
 task with a free joint, sensor_msgs/Imu on /imu (passed on in the reading's metadata["imu"]); best effort, keep
 last 1. Commands out: std_msgs/Float64MultiArray on /judo/commands in actuator order, reliable: what a
 ros2_control forward command controller takes. The reading's time is the JointState's header stamp, the
-robot's clock, so a late reading is known as late.
+robot's clock, so a late reading is known as late. A JointState with a velocity for every joint (and, for a
+free base, an Odometry) is the full state; one with positions only becomes the task's `measured_sensors`
+(jointpos from the positions, gyro and accelerometer from the latest Imu) for its estimator.
 
 A message that cannot be a reading is refused, and the reason is logged (once, then every few seconds with a
 count): wrong lengths, a missing or unknown joint, a non-finite value, a stamp that jumps backwards or from the
@@ -240,11 +242,12 @@ class Ros2System(System):
 
     def _note_joint_state(self, joints: msg.JointState, wall: float) -> None:
         names, n = list(joints.name), len(joints.name)
-        if len(joints.position) != n or len(joints.velocity) != n:
+        with_velocity = len(joints.velocity) == n
+        if len(joints.position) != n or not (with_velocity or len(joints.velocity) == 0):
             return self._refuse(
                 "joint state (wrong lengths)",
                 f"{n} names, {len(joints.position)} positions, {len(joints.velocity)} velocities; "
-                "each joint needs a position and a velocity",
+                "each joint needs a position, and a velocity each or none",
             )
         unknown = [name for name in names if name not in self._index]
         missing = [name for name in self.layout.names if name not in set(names)]
@@ -254,30 +257,66 @@ class Ros2System(System):
                 f"missing joints {missing}, unknown joints {unknown}; expected {list(self.layout.names)} "
                 "(map names with --ros2.joint-map mjcf_name=robot_name)",
             )
-        position, velocity = np.asarray(joints.position, float), np.asarray(joints.velocity, float)
+        position = np.asarray(joints.position, float)
+        velocity = np.asarray(joints.velocity, float) if with_velocity else np.zeros(n)
         bad = [name for name, p, v in zip(names, position, velocity, strict=True) if not math.isfinite(p + v)]
         if bad:
             return self._refuse("joint state (non-finite)", f"non-finite position or velocity of joints {bad}")
-        if self.layout.free is not None and self._odom is None:
-            return self._refuse("joint state (no odometry yet)", f"no valid Odometry on {self.options.odom} yet")
+        full = with_velocity and (self.layout.free is None or self._odom is not None)
+        order = [self._index[name] for name in names]
+        sensors = None
+        if not full:  # positions only (or no odometry): the task's measured sensors, for its estimator
+            sensors, why = self._measured(position, order)
+            if sensors is None:
+                return self._refuse("joint state (not enough to plan from)", str(why))
         reading_time, why = self._clock.accept(msg.seconds_of(joints.header.stamp), wall)
         if reading_time is None:
             return self._refuse("joint state (stamp)", str(why))
-        model = self.task.model
-        qpos, qvel = model.qpos0.copy(), np.zeros(model.nv)
-        order = [self._index[name] for name in names]
-        qpos[self.layout.qpos[order]] = position
-        qvel[self.layout.qvel[order]] = velocity
-        if self.layout.free is not None and self._odom is not None:
-            a, d = self.layout.free
-            qpos[a : a + 7], qvel[d : d + 6] = self._odom
+        state = None
+        if full:
+            model = self.task.model
+            qpos, qvel = model.qpos0.copy(), np.zeros(model.nv)
+            qpos[self.layout.qpos[order]] = position
+            qvel[self.layout.qvel[order]] = velocity
+            if self.layout.free is not None and self._odom is not None:
+                a, d = self.layout.free
+                qpos[a : a + 7], qvel[d : d + 6] = self._odom
+            state = np.concatenate([qpos, qvel])
         metadata: dict[str, Any] = {}
         if self._imu is not None:
             metadata["imu"] = {key: value.copy() for key, value in self._imu.items()}
         if self.log is not None:
             self.log.write(self.options.joint_states, joints, _ns(joints.header.stamp))
         with self._lock:
-            self._reading = SystemState(np.concatenate([qpos, qvel]), reading_time, metadata)
+            self._reading = SystemState(state, reading_time, metadata, sensors)
+
+    def _measured(self, position: np.ndarray, order: list[int]) -> tuple[np.ndarray | None, str | None]:
+        """((task.measured.size,) the task's measured sensors from the JointState's `position` (in message
+        order; `order` their layout indices) and the latest Imu, None) or (None, why they cannot be made)."""
+        model, layout = self.task.model, self.task.measured
+        if layout.size == 0:
+            return None, (
+                f"{type(self.task).__name__} declares no measured sensors, so each JointState needs a velocity "
+                "per joint" + (" and an Odometry on " + self.options.odom if self.layout.free is not None else "")
+            )
+        by_qpos = dict(zip(self.layout.qpos[order].tolist(), position.tolist(), strict=True))
+        values = np.empty(layout.size)
+        for name, kind, sensor, where in zip(layout.names, layout.types, layout.ids, layout.slices, strict=True):
+            if kind == "jointpos":
+                address = int(model.jnt_qposadr[model.sensor_objid[sensor]])
+                if address not in by_qpos:
+                    return None, f"measured sensor {name!r} is on a joint the JointState lacks"
+                values[where] = by_qpos[address]
+            elif kind in ("gyro", "accelerometer") and self._imu is not None:
+                key = "angular_velocity" if kind == "gyro" else "linear_acceleration"
+                values[where] = self._imu[key]
+            else:
+                source = "no Imu has arrived yet" if kind in ("gyro", "accelerometer") else "no ROS 2 source"
+                return (
+                    None,
+                    f"measured sensor {name!r} ({kind}) has {source}; the bridge fills jointpos, gyro, accelerometer",
+                )
+        return values, None
 
     def reset(self) -> None:
         """A robot is not reset by judo: the loop starts again from its latest reading."""
@@ -287,8 +326,13 @@ class Ros2System(System):
         with self._lock:
             reading = self._reading
         assert reading is not None  # the constructor waited for the first one
-        state = reading.state
-        return SystemState(None if state is None else state.copy(), reading.time, dict(reading.metadata))
+        state, sensors = reading.state, reading.sensors
+        return SystemState(
+            None if state is None else state.copy(),
+            reading.time,
+            dict(reading.metadata),
+            None if sensors is None else sensors.copy(),
+        )
 
     def apply(self, action: np.ndarray) -> None:
         """Keep the (command_size,) `action`, clamped to the task's command range, to be written by `step`.
