@@ -9,7 +9,7 @@
   does), (b) the plant process over DDS, (c) the plant with --latency-ms 20 --drop 0.1. balanced_fraction is
   cartpole's own metric (final 3 s), on the plant's true states in (a) and on the states the robot sent in (b, c).
 
-    PYTHONPATH=src python benchmarks/ros2_bridge.py [--seeds 3] [--duration 10]
+    PYTHONPATH=src python benchmarks/ros2_bridge.py [--seeds 3] [--duration 10] [--latency-compensation]
 
 Wall-clock closed loops on a shared, loaded machine are noisy: a planning cycle that a busy core delays is a
 late plan on the robot. Needs pip install -e ".[ros2]".
@@ -52,6 +52,8 @@ class Args:
     """Commands timed for the round trip."""
     cycles: int = 2000
     """Cycles timed for the per-cycle overhead."""
+    latency_compensation: bool = False
+    """Plan from the reading predicted to when the plan takes effect (ControllerConfig.latency_compensation)."""
 
 
 class WallClockMujoco(MujocoSystem):
@@ -109,11 +111,13 @@ def stop(proc: subprocess.Popen) -> None:
     proc.wait(timeout=10)
 
 
-def controller(seed: int) -> judo.Controller:
+def controller(seed: int, latency_compensation: bool) -> judo.Controller:
+    config = make_config(judo.ControllerConfig, "cartpole", "mppi")
+    config.latency_compensation = latency_compensation
     return judo.make_controller(
         "cartpole",
         "mppi",
-        controller_config=make_config(judo.ControllerConfig, "cartpole", "mppi"),
+        controller_config=config,
         optimizer_config=make_config(MPPIConfig, "cartpole"),
         seed=seed,
     )
@@ -127,9 +131,9 @@ def balanced_fraction(records: list[StepRecord]) -> float:
     return Cartpole().metrics(log)["balanced_fraction"]
 
 
-def episode(system, seed: int, duration: float) -> float:  # noqa: ANN001
+def episode(system, seed: int, duration: float, latency_compensation: bool) -> float:  # noqa: ANN001
     steps = Steps()
-    loop = ClosedLoop(controller(seed), system, clock=time.monotonic, recorders=[steps])
+    loop = ClosedLoop(controller(seed, latency_compensation), system, clock=time.monotonic, recorders=[steps])
     end = time.monotonic() + duration
     while time.monotonic() < end:
         loop.step()
@@ -206,7 +210,12 @@ def main() -> None:
     rows = {"in-process (wall clock)": [], "over DDS": [], "over DDS, --latency-ms 20 --drop 0.1": []}
     for seed in range(args.seeds):
         rows["in-process (wall clock)"].append(
-            episode(WallClockMujoco(MujocoSystem.from_task(Cartpole(), seed).task), seed, args.duration)
+            episode(
+                WallClockMujoco(MujocoSystem.from_task(Cartpole(), seed).task),
+                seed,
+                args.duration,
+                args.latency_compensation,
+            )
         )
         for name, flags in (
             ("over DDS", ()),
@@ -215,11 +224,14 @@ def main() -> None:
             proc = start_plant(domain, seed, *flags)
             system = Ros2System(Cartpole(), Ros2Options(domain_id=domain))
             try:
-                rows[name].append(episode(system, seed, args.duration))
+                rows[name].append(episode(system, seed, args.duration, args.latency_compensation))
             finally:
                 system.close()
                 stop(proc)
-    print(f"\ncartpole, mppi, {args.seeds} seeds x {args.duration:g} s wall: balanced_fraction (final 3 s)")
+    compensation = ", latency compensation" if args.latency_compensation else ""
+    print(
+        f"\ncartpole, mppi{compensation}, {args.seeds} seeds x {args.duration:g} s wall: balanced_fraction (final 3 s)"
+    )
     print("| plant | mean | per seed |\n|---|---|---|")
     for name, values in rows.items():
         print(f"| {name} | {np.mean(values):.2f} | {' / '.join(f'{v:.2f}' for v in values)} |")

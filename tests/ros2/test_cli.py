@@ -115,3 +115,18 @@ def test_import_judo_and_its_app_import_no_dds():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env()).stdout
     assert out.strip() == "[]"
+
+
+def test_the_config_file_names_the_system_and_the_bridges_settings_under_the_flags(capsys, tmp_path):
+    domain = free_domain()
+    config = tmp_path / "judo.toml"
+    config.write_text(
+        f'task = "cartpole"\nsystem = "ros2"\n[ros2]\ndomain_id = {domain}\nwait_s = 30\n'
+        'joint_states = "/robot/joint_states"\njoint_map = { slider = "cart_joint" }\n'
+    )
+    err = one_line_error(capsys, ["--config", str(config), "--headless", "--ros2.wait-s", "0.2"])
+    assert f"no valid sensor_msgs/JointState on rt/robot/joint_states in DDS domain {domain} within 0.2 s" in err
+    assert "['cart_joint', 'hinge']" in err  # the file's joint map
+    config.write_text('system = "ros2"\n[ros2]\ndomian_id = 3\n')
+    err = one_line_error(capsys, ["--config", str(config), "--headless"])
+    assert "the config file's [ros2]: unknown field 'domian_id'; valid fields are: domain_id," in err

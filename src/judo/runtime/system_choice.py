@@ -8,9 +8,9 @@ where it has that classmethod (the bridge does), else `Class(task)`: the task in
 """
 
 import importlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import cast
+from typing import Any, cast
 
 from judo.core.errors import ConfigError, JudoError
 from judo.core.registry import lookup_task
@@ -52,6 +52,33 @@ class SystemOptions:
     record: Path | None = None
     """With --system ros2: log what the robot sent and what judo commanded to this MCAP file (ROS 2 schemas)."""
     ros2: Ros2Options = field(default_factory=Ros2Options)
+
+
+def ros2_options(table: dict[str, Any], where: str) -> Ros2Options:
+    """Ros2Options from a TOML table of its fields (`joint_map` a table {mjcf_name = robot_name} or a list of
+    "mjcf_name=robot_name"). ConfigError naming the field for an unknown name or a value of the wrong type."""
+    valid = {f.name: f for f in fields(Ros2Options)}
+    values: dict[str, Any] = {}
+    for key, value in table.items():
+        if key not in valid:
+            raise ConfigError(f"{where}: unknown field {key!r}; valid fields are: {', '.join(valid)}")
+        if key == "joint_map":
+            if isinstance(value, dict):
+                value = [f"{k}={v}" for k, v in value.items()]
+            if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
+                raise ConfigError(f"{where}: joint_map must be a table mjcf_name = robot_name, got {value!r}")
+            value = tuple(value)
+        elif key == "domain_id":
+            if not (isinstance(value, int) and not isinstance(value, bool)):
+                raise ConfigError(f"{where}: domain_id must be an integer 0..232, got {value!r}")
+        elif key in ("rate_hz", "wait_s"):
+            if not (isinstance(value, int | float) and not isinstance(value, bool)):
+                raise ConfigError(f"{where}: {key} must be a number, got {value!r}")
+            value = float(value)
+        elif not isinstance(value, str):
+            raise ConfigError(f"{where}: {key} must be a topic name (a string), got {value!r}")
+        values[key] = value
+    return Ros2Options(**values)
 
 
 def system_class(name: str) -> type[System]:
