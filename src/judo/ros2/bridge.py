@@ -16,7 +16,7 @@ A message that cannot be a reading is refused, and the reason is logged (once, t
 count): wrong lengths, a missing or unknown joint, a non-finite value, a stamp that jumps backwards or from the
 future. While nothing valid arrives the reading's time stands still, and the closed loop's watchdog serves the
 task's safe action once the plan is older than `max_plan_age`. A robot that restarts its clock is followed
-after `RESTART_AFTER` seconds of consistent stamps, with the reading's time carried on from where it was.
+after a second of consistent stamps (`judo.ros2.clock`), with the reading's time carried on from where it was.
 """
 
 import logging
@@ -31,58 +31,19 @@ from judo.core.errors import ConfigError, JudoError
 from judo.core.task import Task
 from judo.ros2 import link
 from judo.ros2 import messages as msg
+from judo.ros2.clock import RobotClock
 from judo.ros2.mcap_log import McapLog
 from judo.runtime.system import System, SystemState
 from judo.runtime.system_choice import Ros2Options, SystemOptions
 
 logger = logging.getLogger("judo.ros2")
 
-RESTART_AFTER = 1.0
-"""Wall seconds of stamps refused as backwards or from the future before they count as the robot's new clock."""
-FUTURE_TOLERANCE = 0.5
-"""Seconds a stamp may run ahead of the last one plus the wall time since, before it counts as from the future."""
 REPORT_EVERY = 5.0
 """Wall seconds between log lines of the same refusal."""
 DISCOVERY_S = 0.3
 """Seconds the bridge gives discovery, after the robot's first reading, to find another writer of its commands."""
 WRITER_CHECK_EVERY = 1.0
 """Wall seconds between checks for another writer of the commands topic."""
-
-
-class RobotClock:
-    """Turns a robot's header stamps into reading times that never run back."""
-
-    def __init__(self) -> None:
-        self.last_stamp: float | None = None
-        self.last_time = 0.0
-        self._last_wall = 0.0
-        self._epoch = 0.0  # reading time - stamp, moved when the robot's clock restarts
-        self._refused_since: float | None = None
-
-    def accept(self, stamp: float, wall: float) -> tuple[float | None, str | None]:
-        """(reading time, None) for an accepted `stamp` (seconds) received at `wall` (monotonic seconds), or
-        (None, why it was refused)."""
-        if not math.isfinite(stamp):
-            return None, f"a non-finite stamp {stamp}"
-        last = self.last_stamp
-        why = None
-        if last is not None:
-            if stamp < last - 1e-9:
-                why = f"a stamp that went backwards, from {last:.3f} s to {stamp:.3f} s"
-            elif stamp > last + (wall - self._last_wall) + FUTURE_TOLERANCE:
-                why = f"a stamp from the future: {stamp:.3f} s, {stamp - last:.3f} s after {last:.3f} s"
-        if why is not None:
-            if self._refused_since is None:
-                self._refused_since = wall
-            if wall - self._refused_since < RESTART_AFTER:
-                return None, why
-            carried = self.last_time + (wall - self._last_wall)  # the robot's clock restarted: carry on from here
-            self._epoch = carried - stamp
-            logger.warning("the robot's clock restarted (%s); readings go on from %.3f s", why, carried)
-        self._refused_since = None
-        self.last_stamp, self._last_wall = stamp, wall
-        self.last_time = stamp + self._epoch
-        return self.last_time, None
 
 
 class Ros2System(System):

@@ -17,6 +17,7 @@ import judo  # noqa: E402
 from judo.core.registry import make_config  # noqa: E402
 from judo.optimizers.mppi import MPPIConfig  # noqa: E402
 from judo.ros2 import bridge as bridge_module  # noqa: E402
+from judo.ros2 import clock as clock_module  # noqa: E402
 from judo.ros2 import link  # noqa: E402
 from judo.ros2.bridge import Ros2System  # noqa: E402
 from judo.runtime.closed_loop import ClosedLoop  # noqa: E402
@@ -42,7 +43,7 @@ def small_controller() -> judo.Controller:
 
 
 def test_malformed_joint_states_and_bad_stamps_are_refused_and_named(caplog, monkeypatch):
-    monkeypatch.setattr(bridge_module, "RESTART_AFTER", 0.3)
+    monkeypatch.setattr(clock_module, "RESTART_AFTER", 0.3)
     monkeypatch.setattr(bridge_module, "REPORT_EVERY", 0.0)  # every refusal logged, for the test
     domain = free_domain()
     robot = DdsRobot(domain)
