@@ -265,8 +265,8 @@ def _description() -> str:
         "The controller, optimizer and task options below belong to the chosen --task and --optimizer; "
         f"pass those first to see their fields. Tasks: {tasks}. Optimizers: {optimizers}. "
         f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...`, `{PROG} tune ...`, `{PROG} collect ...`, "
-        f"`{PROG} replay FILE.h5`, `{PROG} distill DATA.h5 --out POLICY.onnx` and `{PROG} gait-search --out "
-        "POLICY.onnx` (each with --help)."
+        f"`{PROG} replay FILE.h5`, `{PROG} distill DATA.h5 --out POLICY.onnx`, `{PROG} gait-search --out "
+        f"POLICY.onnx` and `{PROG} plant --task T` (judo's simulator as a ROS 2 robot process; each with --help)."
     )
 
 
