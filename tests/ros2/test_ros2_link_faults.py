@@ -4,6 +4,7 @@ bridge read a stale or out-of-order state or command anything out of range."""
 
 import dataclasses
 import logging
+import threading
 import time
 
 import numpy as np
@@ -118,6 +119,66 @@ def test_joint_positions_alone_become_the_tasks_measured_sensors_and_the_ekf_est
     finally:
         system.close()
         robot.close()
+
+
+FREE_BASE = """
+<mujoco><worldbody>
+  <body name="base"><freejoint name="root"/><geom size="0.1"/>
+    <body name="leg"><joint name="knee" type="hinge"/><geom size="0.05" pos="0 0 -0.2"/></body>
+  </body>
+</worldbody>
+<actuator><motor joint="knee" ctrlrange="-1 1"/></actuator></mujoco>
+"""
+
+
+class FreeBase(judo.Task):
+    def reward(self, states, sensors, controls, config, system_metadata=None):  # noqa: ANN001, ANN201
+        return np.zeros(states.shape[0])
+
+
+def test_a_free_base_comes_from_odometry_and_the_imu_rides_along_in_the_metadata(tmp_path):
+    from cyclonedds.pub import DataWriter
+
+    from judo.ros2 import messages as msg
+
+    (tmp_path / "free_base.xml").write_text(FREE_BASE)
+    domain = free_domain()
+    part = link.participant(domain)
+    writers = {
+        name: DataWriter(part, link.topic(part, topic, kind), link.SENSOR_QOS)
+        for name, topic, kind in (
+            ("joints", "/joint_states", msg.JointState),
+            ("odom", "/odom", msg.Odometry),
+            ("imu", "/imu", msg.Imu),
+        )
+    }
+    layout = link.JointLayout.of(FreeBase(tmp_path / "free_base.xml").model)
+    qpos = np.array([1.0, 2.0, 0.5, np.cos(0.3), 0.0, 0.0, np.sin(0.3), -0.4])  # yawed 0.6 rad
+    qvel = np.array([0.5, -0.2, 0.1, 0.01, 0.02, 0.3, 1.5])
+    stop = threading.Event()
+
+    def robot() -> None:
+        stamp = 1.0
+        while not stop.is_set():
+            stamp += 0.01
+            writers["odom"].write(link.odometry(layout, qpos, qvel, stamp))
+            writers["imu"].write(link.imu(qpos, qvel, np.array([0.0, 0.0, 9.81]), layout, stamp))
+            writers["joints"].write(link.joint_state(layout, qpos, qvel, stamp))
+            time.sleep(0.01)
+
+    thread = threading.Thread(target=robot, daemon=True)
+    thread.start()
+    try:
+        system = Ros2System(FreeBase(tmp_path / "free_base.xml"), Ros2Options(domain_id=domain))
+        poll(lambda: "imu" in system.read_state().metadata, what="an Imu")
+        reading = system.read_state()
+        np.testing.assert_allclose(reading.state, np.concatenate([qpos, qvel]), atol=1e-12)
+        np.testing.assert_allclose(reading.metadata["imu"]["linear_acceleration"], [0.0, 0.0, 9.81])
+        system.close()
+    finally:
+        stop.set()
+        thread.join()
+        link.close_participant(part)
 
 
 def test_the_bridge_waits_for_a_robot_and_says_what_it_expected():
