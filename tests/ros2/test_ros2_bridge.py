@@ -116,7 +116,9 @@ def test_a_paused_robot_gets_the_safe_action_within_max_plan_age_and_plans_resum
         system.close()
 
 
-def test_the_app_on_the_bridge_stops_within_a_second_and_leaves_the_robot_the_safe_action(plant):
+def test_the_app_on_the_bridge_records_hdf5_stops_within_a_second_and_leaves_the_robot_the_safe_action(plant, tmp_path):
+    from judo.collection.replay import read_demos
+
     _, domain = plant
     part, echo = echo_reader(domain)
     system = bridge(domain)
@@ -133,7 +135,10 @@ def test_the_app_on_the_bridge_stops_within_a_second_and_leaves_the_robot_the_sa
     )
     try:
         app.start()
-        poll(lambda: app.stats.num_plans() >= 5, timeout=10, what="five plans")
+        poll(lambda: app.stats.num_plans() >= 2, timeout=10, what="two plans")
+        path = app.start_recording(tmp_path / "run.h5")  # the app's own HDF5 recorder, on the bridge
+        plans = app.stats.num_plans()
+        poll(lambda: app.stats.num_plans() >= plans + 3, timeout=10, what="three more plans")
         started = time.monotonic()
         app.stop()
         assert time.monotonic() - started < 1.0
@@ -142,3 +147,6 @@ def test_the_app_on_the_bridge_stops_within_a_second_and_leaves_the_robot_the_sa
     finally:
         system.close()
         link.close_participant(part)
+    _, demos = read_demos(path)
+    demo = demos[0]
+    assert demo.qpos.shape[1] == 2 and len(demo.qpos) > 5 and np.isfinite(demo.qpos).all()
