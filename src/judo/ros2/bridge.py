@@ -112,9 +112,9 @@ class Ros2System(System):
             self._wait_for_robot(options.wait_s)
             if refuse_other_writer and self._other_writer_seen(DISCOVERY_S):
                 raise JudoError(
-                    f"another participant (a judo, a teleop node) already writes commands on {msg.ros_topic(options.commands)} in DDS domain "
-                    f"{self.domain}: two controllers would fight over the robot; stop it, or use another "
-                    "--ros2.commands topic or --ros2.domain-id"
+                    f"another participant (a judo, a teleop node) already writes commands on "
+                    f"{msg.ros_topic(options.commands)} in DDS domain {self.domain}: two controllers would fight "
+                    "over the robot; stop it, or use another --ros2.commands topic or --ros2.domain-id"
                 )
         except BaseException:
             link.close_participant(part)
