@@ -10,7 +10,7 @@ Inputs go to the device once per call from pinned host memory, and states and se
 into preallocated pinned host arrays. On the CPU device (no GPU) the same kernels are launched directly
 and the host arrays are the device arrays themselves.
 
-Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `make_rollout_backend`
+Importing this module imports warp and mujoco_warp (the `judo-mpc[warp]` extra); `make_rollout_backend`
 (core/backend.py) imports it only when the "warp" backend is asked for.
 """
 

@@ -55,7 +55,7 @@ class EvaluateArgs(EpisodeArgs):
     """Rollout worker threads (cpu backend)."""
     workers: Annotated[int | None, tyro.conf.arg(metavar="K", help_behavior_hint="(default: in this process)")] = None
     """Run the seeds as Ray tasks, K at once, on a local Ray with K CPUs (each on one rollout thread unless
-    --num-workers is given); the metrics are those of the in-process run. Needs pip install 'judo[tune]'."""
+    --num-workers is given); the metrics are those of the in-process run. Needs pip install -e '.[tune]'."""
     address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(optional)")] = None
     """Run the seeds as Ray tasks on a running Ray cluster: auto (the one `ray start --head` started on this
     machine) or ray://HOST:10001; with --workers, at most K at once."""

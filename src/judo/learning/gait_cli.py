@@ -26,7 +26,7 @@ DESCRIPTION = (
     "judo's CEM tunes a gait policy (a trot's clock harmonics, shaped linearly by the command, plus feedback on the "
     "trunk's gyro and tilt; judo.learning.gait_policy) on closed-loop episodes scored by quadruped_velocity's own "
     "reward, the objective its MPC plans with. Writes an ONNX file for --policy and quadruped_navigate, and the "
-    "reward curve beside it as a PNG. Needs the `policy` extra: pip install 'judo[policy]'."
+    "reward curve beside it as a PNG (with matplotlib)."
 )
 TASK = "quadruped_velocity"
 
