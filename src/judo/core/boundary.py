@@ -41,14 +41,35 @@ def check_seed_range(first: int, count: int, count_option: str) -> None:
     )
 
 
-def check_output_file(option: str, path: Path | None) -> None:
+def check_output_file(option: str, path: Path | None, beside: tuple[str, ...] = ()) -> None:
     """Raise ConfigError now, before any work, unless `path` (when given) can be written as a file: not a
-    folder, and inside a folder that exists or can be made, writable by this user."""
+    folder, inside a folder that exists or can be made, writable by this user, with a name (and the names in
+    `beside`, of the files or folders the command writes next to it) short enough for the file system."""
     if path is None:
         return
     require(str(path).strip() not in ("", "."), f"{option} needs a file path, got an empty path")
     require(not path.is_dir(), f"{option} {shown(str(path))} is a folder; give a file path")
     _check_writable_folder(option, path.parent)
+    for name in (path.name, *beside):
+        check_name_length(option, path.parent, name)
+
+
+def check_name_length(option: str, folder: Path, name: str) -> None:
+    """ConfigError unless `name` fits the longest file name allowed in `folder` (or the nearest folder above
+    it that exists; 255 bytes where the file system does not say)."""
+    existing = folder.absolute()
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    try:
+        limit = os.pathconf(existing, "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):  # no pathconf (Windows) or no answer for this file system
+        limit = 255
+    size = len(os.fsencode(name))
+    require(
+        size <= limit,
+        f"{option}: the name {shown(name)} is {size} bytes long; the file system allows at most {limit}; "
+        "give a shorter name",
+    )
 
 
 def check_output_folder(option: str, path: Path | None) -> None:
