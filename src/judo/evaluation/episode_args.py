@@ -53,6 +53,10 @@ class EpisodeArgs(SensingFlags):
     """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install -e ".[warp]")."""
     controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
     """Controller settings to change from the task's defaults, e.g. --controller.horizon 1.0."""
+    strict: bool = False
+    """Exit with status 1 when a control update failed in any episode (non-finite actions from a policy, or no
+    finite reward from the optimizer, so the task's safe action was served) or the simulation diverged; without
+    it such runs are reported and exit 0."""
 
     def check(self) -> None:
         """Raise a JudoError naming the argument that is wrong (names, duration, latency, backend, config
