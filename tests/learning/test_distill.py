@@ -242,6 +242,11 @@ def test_teacher_settings_and_names_are_refused_before_any_training(cartpole_fil
         f"error: --out: the name {shown('p' * 250 + '.losses.png')} is 261 bytes long; the file system allows at most 255; "
         "give a shorter name"
     )
+    long_folder = tmp_path / ("f" * 300) / "p.onnx"  # a folder to make whose name is too long
+    assert refusal(capsys, [str(cartpole_file), "--out", str(long_folder)]) == (
+        f"error: --out: the name {shown('f' * 300)} is 300 bytes long; the file system allows at most 255; "
+        "give a shorter name"
+    )
     assert not out.exists() and not any(tmp_path.iterdir())  # nothing trained, nothing written
 
 
