@@ -13,19 +13,29 @@ python -m judo plant --task cartpole                # judo.ros2.plant: the simul
 
 Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
 task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
-status 1 (`--debug` anywhere on the line shows the whole traceback instead); Ctrl-C exits 130.
+status 1 (`--debug` anywhere on the line shows the whole traceback instead); Ctrl-C exits 130. A warning is
+printed as one line, "warning: MESSAGE", without Python's file path and source line.
 """
 
 import sys
+import warnings
 from collections.abc import Sequence
 
 PROG = "python -m judo"
+
+
+def one_line_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int, line=None) -> str:  # noqa: ANN001
+    """A warning as the commands print it: one clean line, without the file path and source line Python adds."""
+    text = str(message).strip().splitlines()
+    return f"warning: {text[0] if text else category.__name__}\n"
 
 
 def main(argv: Sequence[str] | None = None) -> int | None:
     """Dispatch `argv` (default: sys.argv[1:]) to a command and return its exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
+    if not debug:  # --debug keeps Python's own form, with the file and line
+        warnings.formatwarning = one_line_warning
     argv = [arg for arg in argv if arg != "--debug"]
     commands = ("benchmark", "evaluate", "tune", "collect", "replay", "distill", "gait-search", "plant")
     prog = f"{PROG} {argv[0]}" if argv and argv[0] in commands else PROG

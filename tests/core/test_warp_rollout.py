@@ -1,6 +1,6 @@
 """WarpRollout against RolloutPool, on warp's default device (the CPU device in CI: no GPU there).
 
-Marked `warp` and skipped without the judo[warp] extra. Warp compiles its kernels once per process and
+Marked `warp` and skipped without the judo-mpc[warp] extra. Warp compiles its kernels once per process and
 caches them on disk; the first run of this module takes about a minute for that, so the tests are few
 and share one backend per model.
 

@@ -24,6 +24,9 @@ class EpisodeOutcome:
     seed: int
     episode: EpisodeArrays | None
     failure: str | None = None
+    failed_updates: int = 0
+    """Control updates that failed (non-finite actions, or no finite reward): the safe action was served."""
+    num_updates: int = 0
 
 
 def episode_failure(result: EpisodeResult) -> str | None:
@@ -71,6 +74,6 @@ def collect_episode(
             return EpisodeOutcome(seed, None, failure)
         recorder, system = made[0]
         episode = recorder.episode(seed, result.rewards, result.metrics, system.task.success(result.metrics))
-        return EpisodeOutcome(seed, episode)
+        return EpisodeOutcome(seed, episode, None, result.failed_updates, len(result.update_ms))
     except Exception as err:  # noqa: BLE001  (a user's task may raise anything; the run goes on)
         return EpisodeOutcome(seed, None, failure_reason(err))

@@ -30,6 +30,7 @@ class Tally:
 
     def __init__(self) -> None:
         self.done = self.failed = self.kept = self.dropped = 0
+        self.with_failed_updates = self.unserved = 0  # episodes with some, and with only, failed control updates
         self.failures: list[tuple[int, str]] = []
         self.started = time.perf_counter()
 
@@ -51,6 +52,9 @@ def write_outcome(file: DatasetFile, outcome: EpisodeOutcome, success_only: bool
         tally.failures.append((outcome.seed, reason))
         file.write_failure(outcome.seed, reason)
         return
+    if outcome.failed_updates:
+        tally.with_failed_updates += 1
+        tally.unserved += outcome.failed_updates >= outcome.num_updates > 0
     if success_only and episode.success is None:
         raise NoSuccessRuleError(
             f"--success-only: task {task!r} has no success rule for its metrics {sorted(episode.metrics)}; "
@@ -75,7 +79,7 @@ def outcomes_of(ray: Any, ref: Any, seeds: list[int]) -> list[EpisodeOutcome]:
 
 def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
     """Run the seeds of args.first_seed..args.first_seed+args.episodes-1 missing from `args.out` and write them there; returns the exit status
-    (130 after Ctrl-C, with the command that resumes printed)."""
+    (130 after Ctrl-C, with the command that resumes printed; 1 with --strict when a control update failed)."""
     import judo.ray_cluster as cluster
 
     file = DatasetFile(args.out, env_args)
@@ -125,6 +129,12 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
         if connected:
             cluster.stop_ray()
     report(console, file, args, tally)
+    if args.strict and tally.with_failed_updates:
+        print(
+            f"--strict: {tally.with_failed_updates} of {tally.done} episodes had failed control updates",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 
@@ -138,3 +148,12 @@ def report(console: Any, file: DatasetFile, args: Any, tally: Tally) -> None:
         console.print(f"seed {seed} failed: {reason}")
     if len(tally.failures) > SHOWN_FAILURES:
         console.print(f"... and {len(tally.failures) - SHOWN_FAILURES} more (attributes of judo/failed in the file)")
+    if tally.unserved:
+        what = "non-finite actions" if args.policy is not None else "no finite reward"
+        print(
+            f"warning: in {tally.unserved} of {tally.done} episodes every control update gave {what}, so every "
+            "action stored is the task's safe action, not a plan's; --strict makes this exit 1",
+            file=sys.stderr,
+        )
+    elif tally.with_failed_updates:
+        console.print(f"{tally.with_failed_updates} episodes had control updates that failed (safe action served)")

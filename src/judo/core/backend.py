@@ -129,7 +129,7 @@ def check_blocks(num_rollouts: int, num_models: int) -> None:
 RolloutBackendName = Literal["cpu", "warp"]
 ROLLOUT_BACKENDS: tuple[str, ...] = get_args(RolloutBackendName)
 """Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`; "warp" is `WarpRollout` (MuJoCo Warp on
-warp's default device, a GPU when there is one; needs the judo[warp] extra)."""
+warp's default device, a GPU when there is one; needs the judo-mpc[warp] extra)."""
 
 BACKEND_CLASSES: dict[str, str] = {
     "cpu": "judo.core.rollout.RolloutPool",
@@ -160,7 +160,7 @@ def make_rollout_backend(name: str, model: mujoco.MjModel, num_workers: int | No
 
     `num_workers` sets the CPU pool's threads (one per core by default); a GPU backend runs every rollout
     on its device and takes no worker count. Raises UnknownNameError for an unknown name,
-    MissingExtraError when "warp" is asked for without the judo[warp] extra, and WarpUnsupportedModelError
+    MissingExtraError when "warp" is asked for without the judo-mpc[warp] extra, and WarpUnsupportedModelError
     for a model MuJoCo Warp cannot run.
     """
     # The constructors take different arguments (only the CPU pool's takes num_workers), which RolloutBackend,

@@ -47,7 +47,7 @@ chunk policy the span and interpolation of its chunk. Fields given on a command 
 
 
 def as_policy(policy: "Policy | str | Path") -> Policy:
-    """`policy` itself, or the ONNX file it names loaded as an `OnnxPolicy` (the judo[policy] extra)."""
+    """`policy` itself, or the ONNX file it names loaded as an `OnnxPolicy` (on onnxruntime)."""
     if isinstance(policy, Policy):
         return policy
     if isinstance(policy, (str, Path)):

@@ -25,11 +25,11 @@ from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import make_task
 from judo.evaluation.cli import given_fields, set_field_overrides, write_json
-from judo.evaluation.episode import EpisodeResult
+from judo.evaluation.episode import EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode, run_side_by_side
-from judo.evaluation.stats import Summary, summarize
+from judo.evaluation.stats import Summary, shown_interval, summarize
 
 DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
@@ -56,7 +56,7 @@ class EvaluateArgs(EpisodeArgs):
     """Rollout worker threads (cpu backend)."""
     workers: Annotated[int | None, tyro.conf.arg(metavar="K", help_behavior_hint="(default: in this process)")] = None
     """Run the seeds as Ray tasks, K at once, on a local Ray with K CPUs (each on one rollout thread unless
-    --num-workers is given); the metrics are those of the in-process run. Needs pip install 'judo[tune]'."""
+    --num-workers is given); the metrics are those of the in-process run. Needs pip install -e '.[tune]'."""
     address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(optional)")] = None
     """Run the seeds as Ray tasks on a running Ray cluster: auto (the one `ray start --head` started on this
     machine) or ray://HOST:10001; with --workers, at most K at once."""
@@ -113,8 +113,7 @@ def metrics_table(title: str, summaries: dict[str, Summary]) -> Table:
     table.add_column("min", justify="right")
     table.add_column("max", justify="right")
     for name, summary in summaries.items():
-        ci = "n/a" if np.isnan(summary.ci95) else f"{summary.ci95:.3g}"
-        table.add_row(name, f"{summary.mean:.3g} ± {ci}", f"{summary.min:.3g}", f"{summary.max:.3g}")
+        table.add_row(name, shown_interval(summary), f"{summary.min:.3g}", f"{summary.max:.3g}")
     return table
 
 
@@ -197,11 +196,12 @@ def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, 
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, or 1 when a seed failed on Ray; exits
-    with status 2 on bad arguments."""
+    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, or 1 when a seed failed on Ray (or, with
+    --strict, when an update failed or the simulation diverged); exits with status 2 on bad arguments."""
     args = parse_args_with_config_fields(
         EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing()
     )
+    troubled = 0  # episodes with failed updates or divergences
     try:
         check_count("--num-workers", args.num_workers, MAX_WORKERS)
         check_count("--workers", args.workers, MAX_WORKERS)
@@ -233,11 +233,17 @@ def main(argv: list[str] | None = None) -> int:
         console.print(table)
         for result in results:
             if result.divergences or result.failed_updates:
+                troubled += 1
                 console.print(
                     f"seed {result.seed}: {result.divergences} simulation divergences, "
                     f"{result.failed_updates} updates with "
                     + ("non-finite actions" if args.policy is not None else "no finite reward")
                 )
+            loud = unserved_line(
+                result.failed_updates, len(result.update_ms), args.policy is not None, f"seed {result.seed}"
+            )
+            if loud is not None:
+                print(loud, file=sys.stderr)
         if args.json is not None:
             write_json(
                 args.json,
@@ -265,4 +271,10 @@ def main(argv: list[str] | None = None) -> int:
             console.print(f"wrote {args.plot}")
     except JudoError as err:
         fail(str(err))
+    if args.strict and troubled:
+        print(
+            f"--strict: {troubled} of {len(results)} episodes had failed control updates or simulation divergences",
+            file=sys.stderr,
+        )
+        return 1
     return 1 if failures else 0

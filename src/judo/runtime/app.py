@@ -150,6 +150,13 @@ class App:
             Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
         )
         self._reports = reports = Reports(StatusLine(), state)
+        if system is not None and type(system).halt is System.halt:
+            reports.report(
+                f"your System {type(system).__name__} defines no halt(): while a call into it blocks, nothing "
+                "reaches the robot, which keeps its last action until the call returns; define halt() to bring "
+                "it to rest from another thread (docs/hardware.md)",
+                "warning",
+            )
         clock = None if system is None else state.clock  # a robot's plans age in wall time; the simulator waits
         proposals = None if proposal_policy is None else as_policy(proposal_policy)
         driver = None if policy is None else as_policy(policy)

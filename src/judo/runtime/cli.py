@@ -85,15 +85,14 @@ class RunOptions:
     seed: int | None = None
     """Seed of the optimizer, the task and the simulated plant."""
     backend: RolloutBackendName = "cpu"
-    """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install "judo[warp]")."""
+    """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install -e ".[warp]")."""
     policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
-    """A policy (an ONNX file; needs pip install 'judo[policy]') that drives the plant instead of --optimizer, through
+    """A policy (an ONNX file, run on onnxruntime) that drives the plant instead of --optimizer, through
     the same closed loop (docs/policies.md); its metadata's control_freq, horizon and spline_order are the defaults
     of --controller.*. The GUI's optimizer dropdown switches to MPC (--optimizer's configs) and back to "policy"."""
     proposal_policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
     """Policy whose candidates replace --controller.policy-samples of the optimizer's num_rollouts each update (the
-    policy as a proposal, docs/policies.md; the GUI's policy_samples slider sets how many); needs pip install
-    'judo[policy]'."""
+    policy as a proposal, docs/policies.md; the GUI's policy_samples slider sets how many)."""
     system: str | None = None
     """The plant: judo's simulator by default; ros2, a robot on a ROS 2 graph over DDS (needs pip install -e
     ".[ros2]"; docs/hardware.md); or module:Class, a user's System subclass built with Class(task)."""

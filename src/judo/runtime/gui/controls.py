@@ -57,7 +57,7 @@ class Controls:
             "record",
             False,
             order=order + 0.47,
-            hint="Record every step, plan and config edit to judo-recording-TASK-TIME.h5 (needs judo[collect]); "
+            hint="Record every step, plan and config edit to judo-recording-TASK-TIME.h5 (needs judo-mpc[collect]); "
             "untick to write it, then: python -m judo replay FILE",
         )
         self.record.on_update(lambda event: self._toggle_recording(event))
