@@ -14,7 +14,7 @@ back a module that imports it.
 import abc
 import importlib
 from collections.abc import Callable, Sequence
-from typing import Literal, TypeVar, cast, get_args
+from typing import Literal, Protocol, TypeVar, cast, get_args
 
 import mujoco
 import numpy as np
@@ -81,6 +81,14 @@ class RolloutBackend(abc.ABC):
             "(RolloutPool), which can"
         )
 
+    cancel: "CancelFlag | None" = None
+    """Set by the Controller for one cycle (`set_cancel`): a backend that can stop part-way through a batch polls
+    it and raises RolloutCancelled once it is set; the default backend never looks."""
+
+    def set_cancel(self, cancel: "CancelFlag | None") -> None:
+        """Poll `cancel` during the rollouts from now on (None: never)."""
+        self.cancel = cancel
+
     def close(self) -> None:  # noqa: B027  (no resources by default)
         """Release threads or device memory; the backend cannot be used afterwards."""
 
@@ -89,6 +97,16 @@ class RolloutBackend(abc.ABC):
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+class CancelFlag(Protocol):
+    """Anything with `is_set()`: a threading.Event, the app's stop signal, a planning cycle."""
+
+    def is_set(self) -> bool: ...
+
+
+class RolloutCancelled(JudoError):
+    """A batch of rollouts was cancelled (its backend's `cancel` set) before it finished; its outputs are partial."""
 
 
 class RandomizedRolloutError(JudoError):

@@ -14,7 +14,7 @@ from typing import Any, cast
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend, make_rollout_backend
+from judo.core.backend import RolloutBackend, RolloutCancelled, make_rollout_backend
 from judo.core.config import snapshot
 from judo.core.controller_config import (
     MAX_CONTROL_FREQ,
@@ -286,52 +286,64 @@ class Controller:
             nominal[0],  # the action served now
         )
 
-        for _ in range(self.config.max_opt_iters):
-            if cancel is not None and cancel.is_set():
-                raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
-            knots = opt.sample_control_knots(nominal)
-            if knots.shape != expected:
-                raise JudoError(
-                    f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
+        self.backend.set_cancel(cancel)  # polled between pieces of a big batch too
+        try:
+            for _ in range(self.config.max_opt_iters):
+                if cancel is not None and cancel.is_set():
+                    raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
+                knots = opt.sample_control_knots(nominal)
+                if knots.shape != expected:
+                    raise JudoError(
+                        f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
+                    )
+                if not np.isfinite(knots).all():
+                    self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
+                rows = None if candidates is None else insert_proposals(knots, candidates)
+                np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
+                if rows is not None:
+                    opt.samples_replaced(rows, knots[rows])
+                np.matmul(self._rollout_weights, knots, out=self._controls)
+                # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
+                # the plan that is scored is the plan that is served (a cubic overshoots its knots).
+                np.minimum(self._controls, self._ctrl_high, out=self._controls)
+                np.maximum(self._controls, self._ctrl_low, out=self._controls)
+                if num_models > 1:
+                    self._control_blocks[:] = self._controls  # every sequence once per model
+                full_states, sensors = self.backend.rollout(
+                    self._initial_state, self._batch_controls, self._initial_mocap
                 )
-            if not np.isfinite(knots).all():
-                self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
-            rows = None if candidates is None else insert_proposals(knots, candidates)
-            np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
-            if rows is not None:
-                opt.samples_replaced(rows, knots[rows])
-            np.matmul(self._rollout_weights, knots, out=self._controls)
-            # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
-            # the plan that is scored is the plan that is served (a cubic overshoots its knots).
-            np.minimum(self._controls, self._ctrl_high, out=self._controls)
-            np.maximum(self._controls, self._ctrl_low, out=self._controls)
-            if num_models > 1:
-                self._control_blocks[:] = self._controls  # every sequence once per model
-            full_states, sensors = self.backend.rollout(self._initial_state, self._batch_controls, self._initial_mocap)
-            states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
-            returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
-            try:
-                rewards = np.asarray(returned, dtype=float)
-            except (TypeError, ValueError) as err:
-                raise JudoError(
-                    f"{type(task).__name__}.reward must return ({num_rows},) numbers, got {' '.join(str(returned).split())[:200]} ({err})"
-                ) from None
-            if rewards.shape != (num_rows,):
-                raise JudoError(f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)")
-            rewards[np.isnan(rewards) | (rewards == np.inf)] = -np.inf  # NaN or +inf never wins a ranking
-            if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
-                rewards = reduce_rewards(rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale)
-                states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
-            task.post_rollout(states, sensors, self._controls, rewards)
-            if not np.isfinite(rewards).any():
-                raise NonFiniteRewardError(
-                    f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
-                )
-            nominal = opt.update_nominal_knots(knots, rewards)
-            if not np.isfinite(nominal).all():
-                self._restart_search(f"{type(opt).__name__}.update_nominal_knots returned non-finite knots")
-            if opt.stop_cond():
-                break
+                states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
+                returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
+                try:
+                    rewards = np.asarray(returned, dtype=float)
+                except (TypeError, ValueError) as err:
+                    raise JudoError(
+                        f"{type(task).__name__}.reward must return ({num_rows},) numbers, got {' '.join(str(returned).split())[:200]} ({err})"
+                    ) from None
+                if rewards.shape != (num_rows,):
+                    raise JudoError(
+                        f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)"
+                    )
+                rewards[np.isnan(rewards) | (rewards == np.inf)] = -np.inf  # NaN or +inf never wins a ranking
+                if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
+                    rewards = reduce_rewards(
+                        rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale
+                    )
+                    states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
+                task.post_rollout(states, sensors, self._controls, rewards)
+                if not np.isfinite(rewards).any():
+                    raise NonFiniteRewardError(
+                        f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
+                    )
+                nominal = opt.update_nominal_knots(knots, rewards)
+                if not np.isfinite(nominal).all():
+                    self._restart_search(f"{type(opt).__name__}.update_nominal_knots returned non-finite knots")
+                if opt.stop_cond():
+                    break
+        except RolloutCancelled:
+            raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force") from None
+        finally:
+            self.backend.set_cancel(None)
 
         self.rewards = rewards
         self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)

@@ -10,9 +10,10 @@ from typing import Any
 import numpy as np
 
 from judo.core.config import Config, with_updates
-from judo.core.controller import check_configs
+from judo.core.controller import ControllerConfig, check_configs
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
+from judo.core.optimizer import OptimizerConfig
 from judo.core.proposals import check_proposal_policy
 from judo.core.registry import (
     CONFIG_KINDS,
@@ -22,6 +23,7 @@ from judo.core.registry import (
     make_estimator,
 )
 from judo.runtime.app_state import AppState
+from judo.runtime.cycles import MAX_CYCLE_SECONDS, cycle_size
 from judo.runtime.reports import Reports
 from judo.runtime.session import POLICY_OPTIMIZER, check_estimator
 from judo.runtime.session_maker import SessionMaker
@@ -69,6 +71,9 @@ class Commands:
                 check_configs(session.controller.task, candidate.controller, candidate.optimizer)
                 proposals = getattr(session.controller, "proposal_policy", None)  # refused here, not every cycle
                 check_proposal_policy(proposals, candidate.controller.policy_samples)
+                resized = self._check_cycle_cost(updates, candidate.controller, candidate.optimizer)
+                if resized and state.cycle is not None and state.cycle.late():
+                    state.cancel_cycle("the planning cycle was resized")
             state.accept_config(kind, updated, from_gui=from_gui)
             task = session.controller.task
         rate = getattr(updated, "control_freq", None)
@@ -79,6 +84,26 @@ class Commands:
                 "warning",
             )
         return updated
+
+    def _check_cycle_cost(
+        self, updates: dict[str, Any], controller: ControllerConfig, optimizer: OptimizerConfig
+    ) -> bool:
+        """True if these configs change the size of a planning cycle (see `judo.runtime.cycles`); ConfigError if
+        they grow it beyond an estimated MAX_CYCLE_SECONDS (a smaller cycle is always accepted). Under the lock."""
+        state = self._state
+        task = state.session.controller.task
+        current = state.configs
+        before = None if current.optimizer is None else cycle_size(task, current.controller, current.optimizer)
+        after = cycle_size(task, controller, optimizer)
+        seconds = state.step_cost.estimate(after)
+        if seconds > MAX_CYCLE_SECONDS and (before is None or after.total > before.total):
+            edit = ", ".join(f"{name} = {value}" for name, value in updates.items())
+            raise ConfigError(
+                f"{edit} would make a planning cycle of about {seconds:.0f} s (num_rollouts x num_randomizations x "
+                f"max_opt_iters x horizon steps: {after}); expected at most {MAX_CYCLE_SECONDS:g} s: lower "
+                "num_rollouts, num_randomizations, max_opt_iters or the horizon"
+            )
+        return after != before
 
     def update_estimator_config(
         self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False

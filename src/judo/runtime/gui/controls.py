@@ -63,6 +63,7 @@ class Controls:
         self.record.on_update(lambda event: self._toggle_recording(event))
         self.status = gui.add_markdown("", order=order + 0.5)
         self.readout = gui.add_markdown("", order=order + 0.6)
+        self.cost = gui.add_markdown("", order=order + 0.65)
         self._shown_status: tuple[int, bool] = (-1, False)
         self._recording_seen: bool | None = None  # whether the app was recording at the last `show_recording`
         self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))
@@ -102,6 +103,7 @@ class Controls:
             f"sim time {shown(sim_time, ' s', 1)} · {update} {shown(figures.plan_time_ms, ' ms', 1)} · "
             f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor {shown(figures.real_time_factor, '', 2)}"
         )
+        self.cost.content = self.app.planning_cost().line().replace(" x ", " × ")
 
     def _toggle_recording(self, event: viser.GuiEvent) -> None:
         if event.client is None:
@@ -141,11 +143,15 @@ class Controls:
     def _switch(self, event: viser.GuiEvent, command, dropdown: viser.GuiDropdownHandle, what: str) -> None:
         if event.client is None:
             return
+        wanted = dropdown.value
         try:
-            command(dropdown.value)
+            command(wanted)
         except JudoError as err:
             self.app.report(f"{what} not switched: {err}", "error")
-            self.show_session()
+        else:
+            self.app.report(f"switching {what} to {wanted}...")
+        # the dropdowns name what runs: the session in use until the switch is carried out (`Gui._rebuild`)
+        self.show_session()
 
 
 def status_markdown(status: Status, paused: bool = False) -> str:
