@@ -70,7 +70,8 @@ class StepCost:
     """
 
     def __init__(self, model: mujoco.MjModel, workers: int, probe: bool = True) -> None:
-        self.seconds = self.probe(model, workers) if probe else math.nan
+        self.probed = self.probe(model, workers) if probe else 0.0
+        self.seconds = self.probed if probe else math.nan
 
     @staticmethod
     def probe(model: mujoco.MjModel, workers: int) -> float:
@@ -85,9 +86,13 @@ class StepCost:
         return per_step / max(1, min(workers, os.cpu_count() or 1))
 
     def record(self, size: CycleSize, seconds: float) -> None:
-        """A cycle of `size` took `seconds`: the new cost of one step, if it was large enough to tell."""
-        if size.total >= CALIBRATION_STEPS and seconds > 0:
-            self.seconds = seconds / size.total
+        """A cycle of `size` took `seconds`: the new cost of one step. A cycle of fewer than CALIBRATION_STEPS
+        steps counts its fixed overhead (a low-level policy's inference, the reward) as steps, so it never lowers
+        the cost below the probe's: the estimate errs towards refusing, until a large cycle tells."""
+        if seconds <= 0 or size.total <= 0:
+            return
+        per_step = seconds / size.total
+        self.seconds = per_step if size.total >= CALIBRATION_STEPS else max(self.probed, per_step)
 
     def estimate(self, size: CycleSize) -> float:
         """Estimated wall seconds of a cycle of `size` (NaN while the cost is unknown)."""
