@@ -8,10 +8,12 @@ import numpy as np
 import pytest
 
 import judo
+from judo.core import registry
 from judo.core.errors import ConfigError, JudoError
 from judo.core.rollout import RolloutPool
 from judo.runtime.app import App
 from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleSize, StepCost
+from judo.tasks.cartpole import Cartpole, CartpoleConfig
 
 CANCEL_BUDGET = 1.5
 """Seconds from a command to the end of the cycle it cancels (a piece of rollouts, on a loaded machine)."""
@@ -129,3 +131,26 @@ def test_a_cancelled_batch_ends_part_way_and_a_whole_one_matches_one_call(uprigh
             pool.rollout(state, controls)
     finally:
         pool.close()
+
+
+class PausingCartpole(Cartpole):
+    """Cart-pole whose simulator stalls once for 0.8 s, as this process does while a page is sent the scene."""
+
+    stalled = False
+
+    def pre_sim_step(self) -> None:
+        if not PausingCartpole.stalled and self.data.time > 0.2:
+            PausingCartpole.stalled = True
+            time.sleep(0.8)
+
+
+def test_judos_own_simulator_is_never_reported_as_a_blocked_driver(monkeypatch, wait_until, caplog):
+    monkeypatch.setitem(registry._TASKS, "pausing_cartpole", (PausingCartpole, CartpoleConfig))
+    PausingCartpole.stalled = False
+    app = App("pausing_cartpole", "ps", gui=False, num_workers=1, system_call_limit=0.3)
+    app.start()
+    try:
+        wait_until(lambda: PausingCartpole.stalled and app.stats.sim_time() > 0.5, what="the stall and after")
+    finally:
+        app.stop()
+    assert "has not returned" not in caplog.text and "responds again" not in caplog.text
