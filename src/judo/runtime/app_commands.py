@@ -76,6 +76,15 @@ class Commands:
                     state.cancel_cycle("the planning cycle was resized")
             state.accept_config(kind, updated, from_gui=from_gui)
             task = session.controller.task
+        if (
+            kind == "controller"
+            and getattr(updated, "max_plan_age", 1) == 0
+            and getattr(current, "max_plan_age", 0) != 0
+        ):
+            self._reports.report(
+                "max_plan_age 0 turns the watchdog off: a stalled planner's last plan is served however old it is",
+                "warning",
+            )
         rate = getattr(updated, "control_freq", None)
         if kind == "controller" and rate is not None and rate < type(task).min_control_freq:
             self._reports.report(

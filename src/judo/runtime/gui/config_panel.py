@@ -57,7 +57,8 @@ class ConfigPanel:
     (the caller reports why); if it is accepted beyond a slider's range, the range widens to show
     it. `show(config)` puts a config that changed elsewhere (reset, switch) into the widgets without
     calling `on_edit`. `ranges` ({field: SliderRange}) replaces the config class's own `@slider`
-    ranges, e.g. a wider num_rollouts on a GPU backend.
+    ranges, e.g. a wider num_rollouts on a GPU backend. The fields in `hidden` get no widget (fields of no use
+    to the session, e.g. policy_samples without a proposal policy).
     """
 
     def __init__(
@@ -69,6 +70,7 @@ class ConfigPanel:
         order: float,
         ranges: dict[str, SliderRange] | None = None,
         on_refused: ReportFn | None = None,
+        hidden: tuple[str, ...] = (),
     ) -> None:
         self._on_edit = on_edit
         self._on_refused = on_refused
@@ -88,6 +90,8 @@ class ConfigPanel:
         ranges = {**slider_ranges(cls), **(ranges or {})}
         with self.folder:
             for f in fields(config):
+                if f.name in hidden:
+                    continue
                 self._add_field(
                     gui, f.name, types[f.name], getattr(config, f.name), ranges.get(f.name), docs.get(f.name)
                 )

@@ -6,6 +6,7 @@ widgets' callbacks run on viser's threads. The GUI knows the app only through th
 """
 
 import collections
+import dataclasses
 import time
 from typing import Any
 
@@ -15,7 +16,8 @@ import viser
 from judo.core.config import Config
 from judo.core.errors import JudoError
 from judo.core.fields import SliderRange
-from judo.runtime.commands import AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
+from judo.core.policy_controller import POLICY_USES_FIELDS
+from judo.runtime.commands import POLICY_OPTIMIZER, AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
 from judo.runtime.gui.camera import Follower, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.controls import Controls
@@ -211,6 +213,7 @@ class Gui:
                 10 * order,
                 ranges.get(kind),
                 on_refused=lambda why: self.app.report(f"edit refused: {why}", "warning"),
+                hidden=hidden_fields(session, kind, config),
             )
             for order, (kind, config) in enumerate(configs.items(), start=1)
         }
@@ -334,6 +337,16 @@ class Gui:
             return config
 
         return edit
+
+
+def hidden_fields(session: Any, kind: ConfigKind, config: Config) -> tuple[str, ...]:
+    """The fields of `session`'s `kind` config that get no widget: while a policy drives, the controller fields
+    only an optimizer uses; without a proposal policy, policy_samples (every value but 0 would be refused)."""
+    if kind != "controller":
+        return ()
+    if session.optimizer_name == POLICY_OPTIMIZER:
+        return tuple(f.name for f in dataclasses.fields(config) if f.name not in POLICY_USES_FIELDS)
+    return () if getattr(session.controller, "proposal_policy", None) is not None else ("policy_samples",)
 
 
 def _shown(value: Any) -> str:
