@@ -1,7 +1,7 @@
 """A GUI folder of widgets generated from a config dataclass, one widget per field.
 
     int, float   -> slider, over the field's `@slider` range or a default one around the value
-    float over decades (log range) -> text box in real units, and a slider over log10 under it
+    float over decades (log range) -> one text box in real units (typed: 1e-3), its range in the hint
     bool         -> checkbox
     Literal[...] -> dropdown of the literal's values
     str          -> text box
@@ -176,31 +176,18 @@ class ConfigPanel:
             self._bind(name, handles, lambda values: np.array(values, dtype=float), lambda v: [float(x) for x in v])
 
     def _add_log(self, gui: viser.GuiApi, label: str, value: float, rng: SliderRange, doc: str) -> list[Any]:
-        """A box for the value in real units, and under it a slider over log10 marked at each power of ten.
+        """One box for the value in real units (a field over decades: typed, e.g. 1e-3), its range in the hint.
 
         The box is a text box: a page sends whatever is typed there, so text that is not a number is
         refused with a message and replaced by the value in force (a page's number box sends nothing
         for it and is left blank).
         """
-        low, high = math.log10(min(rng.min, value)), math.log10(max(rng.max, value))
-        number = gui.add_text(label, format_number(value), hint=doc)
-        decades = range(math.ceil(low - 1e-9), math.floor(high + 1e-9) + 1)
-        marks = tuple((float(d), f"{10.0**d:g}") for d in decades)
-        log_slider = gui.add_slider(
-            f"{label} (log10)", min=low, max=high, step=0.01, initial_value=round(math.log10(value), 2), marks=marks
-        )
-        return [number, log_slider]
+        span = f"{format_number(min(rng.min, value))} to {format_number(max(rng.max, value))}"
+        return [gui.add_text(label, format_number(value), hint=f"{doc} (usually {span}; type e.g. 1e-3)")]
 
     def _decode_log(self, name: str, values: list[Any]) -> float:
-        """The value a log field's widgets ask for: the box's if it changed, else 10**slider.
-
-        Raises ConfigError when the box holds text that is not a number.
-        """
-        number, exponent = parse_number(name, values[0]), float(values[1])
-        in_force = float(getattr(self._config, name))
-        if number != in_force or in_force <= 0 or abs(exponent - round(math.log10(in_force), 2)) < 1e-9:
-            return number
-        return float(f"{10.0**exponent:.3g}")
+        """The value a log field's box asks for. Raises ConfigError when it holds text that is not a number."""
+        return parse_number(name, values[0])
 
     def _add_array(self, gui: viser.GuiApi, name: str, value: np.ndarray, doc: str) -> list[Any]:
         spec = array_field_spec(type(self._config), name)
@@ -285,8 +272,8 @@ def field_hint(name: str, doc: str | None) -> str:
 
 
 def encode_log(value: float) -> list[Any]:
-    """[value as text, log10(value) to the slider's 0.01 step] for a log field's box and slider."""
-    return [format_number(value), round(math.log10(value), 2) if value > 0 else -12.0]
+    """[value as text] for a log field's box."""
+    return [format_number(value)]
 
 
 def format_number(value: float) -> str:
