@@ -248,3 +248,19 @@ def test_the_goal_cubes_drag_handle_is_smaller_than_the_goal_cube():
     half = model.geom_size[[g for g in range(model.ngeom) if model.geom_bodyid[g] == goal], :3].max()
     size = mocap_handle_size(model, goal, float(np.clip(HANDLE_SCALE * model.stat.extent, *HANDLE_SIZES)))
     assert size < half, f"the handle ({size:.3f} m) is not smaller than the goal cube's half-size ({half:.3f} m)"
+
+
+@pytest.mark.parametrize("task", ["quadruped_navigate", "particle", "fr3_pick"])
+def test_a_small_goals_drag_handle_is_big_enough_to_grab_in_the_framed_view(server, task):
+    """quadruped_navigate's handle was about 15 pixels (issue 43): now at least 4% of the framed view's height at
+    the goal, about 40 pixels of a 900-pixel page."""
+    model = judo.get_registered_tasks()[task][0]().model
+    goal = int(np.flatnonzero(model.body_mocapid >= 0)[0])
+    view = SceneView(server.scene, model)
+    try:
+        position, _ = view.camera_pose()
+        distance = float(np.linalg.norm(view.data.xpos[goal] - position))
+    finally:
+        view.remove()
+    size = mocap_handle_size(model, goal, float(np.clip(HANDLE_SCALE * model.stat.extent, *HANDLE_SIZES)))
+    assert size / distance >= 0.04, f"{task}: a {size:.3f} m handle {distance:.2f} m from the camera"

@@ -6,6 +6,7 @@ loops carry it out at their next iteration.
 
 import math
 
+import numpy as np
 import viser
 
 from judo.core.errors import JudoError
@@ -15,6 +16,8 @@ from judo.runtime.commands import POLICY_OPTIMIZER, AppPort, LiveFigures, Status
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
 NO_ESTIMATOR = "none"
 """The estimator dropdown's entry for planning from full-state readings as they are."""
+INFERENCE_WINDOW = 100
+"""Latest updates whose median the readout shows as a policy's inference time."""
 STATUS_PREFIX = {"info": "", "warning": "warning: ", "error": "error: "}
 
 
@@ -97,10 +100,16 @@ class Controls:
         def shown(value: float, unit: str, digits: int) -> str:
             return f"{value:.{digits}f}{unit}" if math.isfinite(value) else "-"
 
-        policy = self.app.policy_name if self.app.session.optimizer_name == POLICY_OPTIMIZER else None
-        update = "plan" if policy is None else f"policy {policy} · inference"  # its update is one `act`
+        session = self.app.session
+        policy = self.app.policy_name if session.optimizer_name == POLICY_OPTIMIZER else None
+        if policy is None:
+            update = f"plan {shown(figures.plan_time_ms, ' ms', 1)}"
+        else:  # the span `evaluate` reports: the closed loop's update (observation, `act`, plan), its median
+            recent = session.closed_loop.update_ms[-INFERENCE_WINDOW:]
+            median = 1e3 * float(np.median(recent)) if recent else math.nan
+            update = f"policy {policy} · inference {shown(median, ' µs', 0)} (median, as evaluate)"
         self.readout.content = (
-            f"sim time {shown(sim_time, ' s', 1)} · {update} {shown(figures.plan_time_ms, ' ms', 1)} · "
+            f"sim time {shown(sim_time, ' s', 1)} · {update} · "
             f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor {shown(figures.real_time_factor, '', 2)}"
         )
         self.cost.content = self.app.planning_cost().line().replace(" x ", " × ")
