@@ -165,3 +165,17 @@ def test_a_policy_session_shows_only_the_fields_a_policy_uses_and_proposals_thei
 
 
 POLICY_USES_FIELDS_IN_ORDER = ("horizon", "spline_order", "control_freq", "max_plan_age", "latency_compensation")
+
+
+def test_quadruped_velocity_shows_the_command_it_tracks(port, wait_until):
+    app = App("quadruped_velocity", "ps", port=port, seed=0, num_workers=1)
+    app.start()
+    try:
+        wait_until(lambda: shows_session(app) and app.gui.controls.task_readout.content, what="the task's readout")
+        command = app.buffer.latest("system").value.reading.metadata["velocity_command"]
+        shown = app.gui.controls.task_readout.content
+        assert shown.startswith("command: forward ") and shown.endswith(" rad/s"), shown
+        assert f"turn {command[2]:.2f} rad/s" in shown or app.stats.sim_time() > 2.0  # a command redrawn meanwhile
+    finally:
+        app.stop()
+    assert judo.get_registered_tasks()["cartpole"][0]().readout({}) is None  # the default: no line

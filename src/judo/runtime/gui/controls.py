@@ -67,6 +67,7 @@ class Controls:
         self.status = gui.add_markdown("", order=order + 0.5)
         self.readout = gui.add_markdown("", order=order + 0.6)
         self.cost = gui.add_markdown("", order=order + 0.65)
+        self.task_readout = gui.add_markdown("", order=order + 0.67)  # the task's own line (`Task.readout`)
         self._shown_status: tuple[int, bool] = (-1, False)
         self._recording_seen: bool | None = None  # whether the app was recording at the last `show_recording`
         self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))
@@ -94,8 +95,9 @@ class Controls:
             self._shown_status = (status.count, paused)
             self.status.content = status_markdown(status, paused)
 
-    def show_readout(self, sim_time: float, figures: LiveFigures) -> None:
-        """Sim time, plan time, control rate and real-time factor as numbers ("-" before there is data)."""
+    def show_readout(self, sim_time: float, figures: LiveFigures, metadata: dict | None = None) -> None:
+        """Sim time, plan time, control rate and real-time factor as numbers ("-" before there is data), the
+        planning cycle's cost, and the task's own line from the plant's `metadata` (`Task.readout`)."""
 
         def shown(value: float, unit: str, digits: int) -> str:
             return f"{value:.{digits}f}{unit}" if math.isfinite(value) else "-"
@@ -113,6 +115,8 @@ class Controls:
             f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor {shown(figures.real_time_factor, '', 2)}"
         )
         self.cost.content = self.app.planning_cost().line().replace(" x ", " × ")
+        line = session.controller.task.readout(metadata or {})
+        self.task_readout.content = "" if line is None else markdown_text(line)
 
     def _toggle_recording(self, event: viser.GuiEvent) -> None:
         if event.client is None:
@@ -163,8 +167,13 @@ class Controls:
         self.show_session()
 
 
+def markdown_text(text: str) -> str:
+    """`text` on one line, with markdown's special characters escaped."""
+    return "".join("\\" + c if c in MARKDOWN_SPECIAL else c for c in text.replace("\n", " "))
+
+
 def status_markdown(status: Status, paused: bool = False) -> str:
     """The status line as markdown; warnings and errors are marked as such, and a paused app says so first."""
-    text = "".join("\\" + c if c in MARKDOWN_SPECIAL else c for c in status.message.replace("\n", " "))
+    text = markdown_text(status.message)
     state = "**paused** · " if paused and status.message != "paused" else ""
     return f"**status:** {state}{STATUS_PREFIX[status.level]}{text}"

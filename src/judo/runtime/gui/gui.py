@@ -151,7 +151,7 @@ class Gui:
             if truth is not None and state.value.generation == self._generation:
                 errors = estimation_error(self.scene.model, truth, state.value.reading.state)
                 self.plots.add_estimation(now - self._start, *errors)
-            self.controls.show_readout(state.value.reading.time, figures)
+            self.controls.show_readout(state.value.reading.time, figures, state.value.reading.metadata)
         for panel in self.panels.values():
             panel.flush()
         if self.estimator_panel is not None:
