@@ -127,7 +127,7 @@ def test_a_cancelled_batch_ends_part_way_and_a_whole_one_matches_one_call(uprigh
         cancelled = threading.Event()
         cancelled.set()
         pool.set_cancel(cancelled)
-        with pytest.raises(JudoError, match="rollouts cancelled part-way"):
+        with pytest.raises(JudoError, match="planning cycle cancelled part-way through a batch of rollouts"):
             pool.rollout(state, controls)
     finally:
         pool.close()

@@ -12,8 +12,9 @@ back a module that imports it.
 """
 
 import abc
+import contextlib
 import importlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Literal, Protocol, TypeVar, cast, get_args
 
 import mujoco
@@ -82,12 +83,21 @@ class RolloutBackend(abc.ABC):
         )
 
     cancel: "CancelFlag | None" = None
-    """Set by the Controller for one cycle (`set_cancel`): a backend that can stop part-way through a batch polls
-    it and raises RolloutCancelled once it is set; the default backend never looks."""
+    """Set by the Controller for one cycle (`cancelled_by`): a backend that can stop part-way through a batch polls
+    it and raises PlanningCancelled once it is set; the default backend never looks."""
 
     def set_cancel(self, cancel: "CancelFlag | None") -> None:
         """Poll `cancel` during the rollouts from now on (None: never)."""
         self.cancel = cancel
+
+    @contextlib.contextmanager
+    def cancelled_by(self, cancel: "CancelFlag | None") -> Iterator[None]:
+        """Within the block, poll `cancel` during the rollouts (`set_cancel`); never after it."""
+        self.set_cancel(cancel)
+        try:
+            yield
+        finally:
+            self.set_cancel(None)
 
     def close(self) -> None:  # noqa: B027  (no resources by default)
         """Release threads or device memory; the backend cannot be used afterwards."""
@@ -105,8 +115,9 @@ class CancelFlag(Protocol):
     def is_set(self) -> bool: ...
 
 
-class RolloutCancelled(JudoError):
-    """A batch of rollouts was cancelled (its backend's `cancel` set) before it finished; its outputs are partial."""
+class PlanningCancelled(JudoError):
+    """The `cancel` flag of `Controller.update_action` was set: the cycle stopped (between optimizer iterations, or
+    part-way through a batch of rollouts whose outputs are then partial) and the previous plan stays."""
 
 
 class RandomizedRolloutError(JudoError):

@@ -14,7 +14,7 @@ from typing import Any, cast
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend, RolloutCancelled, make_rollout_backend
+from judo.core.backend import PlanningCancelled, RolloutBackend, make_rollout_backend
 from judo.core.config import snapshot
 from judo.core.controller_config import (
     MAX_CONTROL_FREQ,
@@ -56,10 +56,6 @@ __all__ = [
     "check_configs",
     "rollout_steps",
 ]
-
-
-class PlanningCancelled(JudoError):
-    """The `cancel` event of `Controller.update_action` was set; the cycle stopped and the previous plan stays."""
 
 
 class NonFiniteRewardError(JudoError):
@@ -286,8 +282,7 @@ class Controller:
             nominal[0],  # the action served now
         )
 
-        self.backend.set_cancel(cancel)  # polled between pieces of a big batch too
-        try:
+        with self.backend.cancelled_by(cancel):  # polled between pieces of a big batch too
             for _ in range(self.config.max_opt_iters):
                 if cancel is not None and cancel.is_set():
                     raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
@@ -340,10 +335,6 @@ class Controller:
                     self._restart_search(f"{type(opt).__name__}.update_nominal_knots returned non-finite knots")
                 if opt.stop_cond():
                     break
-        except RolloutCancelled:
-            raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force") from None
-        finally:
-            self.backend.set_cancel(None)
 
         self.rewards = rewards
         self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)

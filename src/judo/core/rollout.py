@@ -15,10 +15,10 @@ import numpy as np
 
 from judo.core.backend import (
     ROLLOUT_BACKENDS,
+    PlanningCancelled,
     RandomizedRolloutError,
     RolloutBackend,
     RolloutBackendName,
-    RolloutCancelled,
     check_rollout_backend,
     make_rollout_backend,
 )
@@ -208,7 +208,9 @@ class RolloutPool(RolloutBackend):
         piece = rows if cancel is None else max(1, PIECE_STEPS // max(1, num_steps))
         for first in range(0, rows, piece):  # one call unless a cancellable chunk is bigger than PIECE_STEPS
             if cancel is not None and cancel.is_set():
-                raise RolloutCancelled("rollouts cancelled part-way through the batch")
+                raise PlanningCancelled(
+                    "planning cycle cancelled part-way through a batch of rollouts; the previous plan stays in force"
+                )
             part = slice(chunk.start + first, min(chunk.stop, chunk.start + first + piece))
             self._runners[worker].rollout(
                 models if piece >= rows else models[first : first + piece],

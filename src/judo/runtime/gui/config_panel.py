@@ -31,6 +31,9 @@ import viser
 from judo.core.config import Config, field_types
 from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import SliderRange, array_field_spec, slider_ranges
+from judo.core.policy_controller import POLICY_USES_FIELDS
+from judo.core.registry import ConfigKind
+from judo.runtime.commands import POLICY_OPTIMIZER
 from judo.runtime.gui.field_docs import field_docs
 
 EditFn = Callable[[dict[str, Any]], Config]
@@ -319,3 +322,13 @@ def nice_step(span: float) -> float:
     raw = span / 100.0
     power = 10.0 ** math.floor(math.log10(raw))
     return max(m * power for m in (1.0, 2.0, 5.0) if m * power <= raw * (1 + 1e-9))
+
+
+def hidden_fields(session: Any, kind: ConfigKind, config: Config) -> tuple[str, ...]:
+    """The fields of `session`'s `kind` config that get no widget: while a policy drives, the controller fields
+    only an optimizer uses; without a proposal policy, policy_samples (every value but 0 would be refused)."""
+    if kind != "controller":
+        return ()
+    if session.optimizer_name == POLICY_OPTIMIZER:
+        return tuple(f.name for f in fields(config) if f.name not in POLICY_USES_FIELDS)
+    return () if getattr(session.controller, "proposal_policy", None) is not None else ("policy_samples",)

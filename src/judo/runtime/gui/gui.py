@@ -6,7 +6,6 @@ widgets' callbacks run on viser's threads. The GUI knows the app only through th
 """
 
 import collections
-import dataclasses
 import time
 from typing import Any
 
@@ -16,10 +15,9 @@ import viser
 from judo.core.config import Config
 from judo.core.errors import JudoError
 from judo.core.fields import SliderRange
-from judo.core.policy_controller import POLICY_USES_FIELDS
-from judo.runtime.commands import POLICY_OPTIMIZER, AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
+from judo.runtime.commands import AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
 from judo.runtime.gui.camera import Follower, focus_body_id
-from judo.runtime.gui.config_panel import ConfigPanel
+from judo.runtime.gui.config_panel import ConfigPanel, hidden_fields
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.goal_handles import GoalHandles
 from judo.runtime.gui.plots import Plots, estimation_error
@@ -337,16 +335,6 @@ class Gui:
             return config
 
         return edit
-
-
-def hidden_fields(session: Any, kind: ConfigKind, config: Config) -> tuple[str, ...]:
-    """The fields of `session`'s `kind` config that get no widget: while a policy drives, the controller fields
-    only an optimizer uses; without a proposal policy, policy_samples (every value but 0 would be refused)."""
-    if kind != "controller":
-        return ()
-    if session.optimizer_name == POLICY_OPTIMIZER:
-        return tuple(f.name for f in dataclasses.fields(config) if f.name not in POLICY_USES_FIELDS)
-    return () if getattr(session.controller, "proposal_policy", None) is not None else ("policy_samples",)
 
 
 def _shown(value: Any) -> str:
