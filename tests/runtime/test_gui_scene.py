@@ -10,6 +10,7 @@ import viser
 import judo
 from judo.core.config import Config
 from judo.core.fields import np_1d_field
+from judo.core.model import trace_sensor_columns
 from judo.runtime.gui.camera import VERTICAL_FOV, VISIBLE_ASPECT, project
 from judo.runtime.gui.goal_handles import HANDLE_SCALE, HANDLE_SIZES, mocap_handle_size
 from judo.runtime.gui.scene import SceneView, capsule_mesh, geom_box_corners, polyline_segments
@@ -264,3 +265,32 @@ def test_a_small_goals_drag_handle_is_big_enough_to_grab_in_the_framed_view(serv
         view.remove()
     size = mocap_handle_size(model, goal, float(np.clip(HANDLE_SCALE * model.stat.extent, *HANDLE_SIZES)))
     assert size / distance >= 0.04, f"{task}: a {size:.3f} m handle {distance:.2f} m from the camera"
+
+
+def test_a_plans_traces_start_where_the_robot_is_drawn(server):
+    """Foot traces were drawn beside the quadruped's feet (issue 43): a plan from a reading some tens of milliseconds
+    old is drawn with each sensor's traces moved to start at the sensor as the scene poses it now."""
+    controller = judo.make_controller("quadruped", "ps", num_workers=1)
+    try:
+        model = controller.task.model
+        view = SceneView(server.scene, model)
+        data = mujoco.MjData(model)
+        if model.nkey:
+            mujoco.mj_resetDataKeyframe(model, data, 0)
+        state = np.r_[data.qpos, data.qvel]
+        controller.update_action(state, 0.0)
+        traces = controller.traces.copy()  # (1 + shown, T, 5, 3): torso and four feet
+        moved = data.qpos.copy()
+        moved[:2] += [0.1, -0.05]  # the robot as drawn now: 11 cm from where the plan started
+        view.update(moved, {})
+        view.set_traces(traces)
+        nominal = server.scene.get_handle_by_name("/traces/nominal").points  # (segments, 2, 3), sensor by sensor
+        columns = trace_sensor_columns(model)
+        sensors = [int(np.flatnonzero(model.sensor_adr == c)[0]) for c in columns[::3]]
+        feet = [view.data.site_xpos[model.sensor_objid[s]] for s in sensors]
+        starts = nominal.reshape(len(sensors), -1, 2, 3)[:, 0, 0]  # each sensor's first segment's first point
+        np.testing.assert_allclose(starts, feet, atol=1e-9)
+        assert np.linalg.norm(traces[0, 0] - np.array(feet), axis=1).min() > 0.05  # unmoved, they were beside
+        view.remove()
+    finally:
+        controller.close()
