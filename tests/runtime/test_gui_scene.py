@@ -11,7 +11,7 @@ import judo
 from judo.core.config import Config
 from judo.core.fields import np_1d_field
 from judo.core.model import trace_sensor_columns
-from judo.runtime.gui.camera import VERTICAL_FOV, VISIBLE_ASPECT, project
+from judo.runtime.gui.camera import FRAMING_FILL, VERTICAL_FOV, VISIBLE_ASPECT, distance_to_see, project
 from judo.runtime.gui.goal_handles import HANDLE_SCALE, HANDLE_SIZES, mocap_handle_size
 from judo.runtime.gui.scene import SceneView, capsule_mesh, geom_box_corners, polyline_segments
 
@@ -294,3 +294,25 @@ def test_a_plans_traces_start_where_the_robot_is_drawn(server):
         view.remove()
     finally:
         controller.close()
+
+
+def test_a_followed_camera_pulls_back_until_the_goal_is_in_view(server):
+    """quadruped_navigate's goal was out of view in 2 of 4 frames (issue 43): following the robot, the camera keeps
+    its direction and look-at and moves back just far enough for the goal to be inside the framed part of the view."""
+    model = judo.get_registered_tasks()["quadruped_navigate"][0]().model
+    view = SceneView(server.scene, model)
+    try:
+        position, look_at = view.camera_pose()
+        offset = position - look_at
+        up = np.array([0.0, 0.0, 1.0])
+        near = look_at + [0.1, 0.0, 0.0]
+        assert distance_to_see(offset, look_at, near[None]) == pytest.approx(np.linalg.norm(offset))  # kept
+        far = look_at + [6.0, 0.0, 0.0]  # a goal drawn 6 m to the side
+        assert max(np.abs(project(far, position, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT))) > 1.0  # out of view
+        distance = distance_to_see(offset, look_at, far[None])
+        moved = look_at + offset * distance / np.linalg.norm(offset)
+        seen = project(far, moved, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT)
+        assert max(np.abs(seen)) == pytest.approx(FRAMING_FILL)  # in view, at the framing's edge
+        assert view.goal_positions().shape == (1, 3)  # the mocap goal
+    finally:
+        view.remove()

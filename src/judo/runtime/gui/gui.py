@@ -16,7 +16,7 @@ from judo.core.config import Config
 from judo.core.errors import JudoError
 from judo.core.fields import SliderRange
 from judo.runtime.commands import AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
-from judo.runtime.gui.camera import Follower, focus_body_id
+from judo.runtime.gui.camera import Follower, distance_to_see, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel, hidden_fields
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.goal_handles import GoalHandles
@@ -298,6 +298,7 @@ class Gui:
         if not self.controls.follow.value or not np.any(np.abs(delta) > 1e-6):
             return
         sent = np.array(self._sent).reshape(-1, 2, 3)  # (n, 2, 3) position and look-at of each pose sent
+        goals = self.scene.goal_positions()
         for client in self.server.get_clients().values():
             camera = client.camera
             position, look_at = np.asarray(camera.position), np.asarray(camera.look_at)
@@ -306,6 +307,9 @@ class Gui:
                 np.linalg.norm(sent[:, 1] - look_at, axis=1) < 1e-3
             )
             offset = kept if kept is not None and ours else position - look_at
+            if goals is not None:  # pull back until the goals are in view too
+                length = float(np.linalg.norm(offset))
+                offset = offset * (distance_to_see(offset, self._look_at, goals) / length) if length else offset
             self._offsets[client.client_id] = offset
             self._sent.append(np.stack([self._look_at + offset, self._look_at]))
             with client.atomic():

@@ -159,6 +159,12 @@ class SceneView:
             positions.append(where[model.sensor_objid[sensor]])
         return np.array(positions).reshape(-1, 3)
 
+    def goal_positions(self) -> np.ndarray | None:
+        """(n, 3) where the goals are drawn: the mocap bodies and the config's markers; None when there are none."""
+        mocap = [self.data.xpos[b] for b in range(1, self.model.nbody) if self.model.body_mocapid[b] >= 0]
+        points = mocap + [np.asarray(marker.position, dtype=float) for marker in self.markers.values()]
+        return np.array(points).reshape(-1, 3) if points else None
+
     def set_markers(self, config: Config) -> None:
         """A sphere at the first three entries of every `np_1d_field` with a `vis_name` (missing ones are 0)."""
         for name, value in vars(config).items():
