@@ -63,6 +63,8 @@ def test_a_late_cycle_is_cancelled_by_the_user(wait_until, command, reason):
         assert app.stats.num_plans() == 0  # cancelled, not completed
         assert app.summary().num_plans == 0
         assert cycle.reason == reason
+        summary = app.summary()  # the simulator waited for the cycle: the run's wall time holds the wait
+        assert summary.wall_time > 1.0 and summary.real_time_factor < 0.5, summary
         if command == "switch":
             wait_until(lambda: app.session.optimizer_name == "mppi", timeout=5.0, what="the switch")
         if command in ("switch", "resize"):  # planning goes on, at the new size or in the new session
