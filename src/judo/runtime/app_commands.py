@@ -50,8 +50,9 @@ class Commands:
 
         Returns the new config. Raises UnknownNameError or ConfigError, keeping the previous config,
         if a field does not exist, a value is invalid, or the configs would not work together (e.g.
-        num_rollouts 0, a horizon shorter than one timestep). `generation` (from `session`) refuses
-        an edit made for a session that has since been replaced.
+        num_rollouts 0, a horizon shorter than one timestep), or the edit would grow a planning cycle past an
+        estimated MAX_CYCLE_SECONDS (`judo.runtime.cycles`). An edit that resizes a late cycle cancels it.
+        `generation` (from `session`) refuses an edit made for a session that has since been replaced.
         """
         if kind not in CONFIG_KINDS:
             raise ConfigError(f"config kind must be one of {list(CONFIG_KINDS)}, got {kind!r}")
