@@ -71,7 +71,7 @@ def test_gpu_rollouts_prints_the_device_it_measured_and_a_row_per_task_and_n():
     out = " ".join(result.stdout.split())  # rich wraps long lines
     assert "warp device: " in out and "MuJoCo Warp" in out
     assert "cartpole │ 4 x 5 │ 1 │" in out and "cartpole │ 8 x 5 │ 1 │" in out
-    assert "CPU / warp" in out and "copies" in out and "reward" in out
+    assert "CPU / warp" in out and "physics" in out and "copies" in out and "reward" in out
 
 
 def test_robust_planning_prints_a_row_per_setting():

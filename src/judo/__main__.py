@@ -9,6 +9,7 @@ python -m judo collect ...                          # judo.collection.cli (needs
 python -m judo replay FILE.h5                       # judo.collection.replay: a collect file in the GUI
 python -m judo distill DATA.h5 --out POLICY.onnx    # judo.learning.cli: a policy from collect's files
 python -m judo gait-search --out POLICY.onnx        # judo.learning.gait_cli: the quadruped's locomotion policy
+python -m judo plant --task cartpole                # judo.ros2.plant: the simulator as a ROS 2 robot process
 
 Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
 task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
@@ -26,7 +27,7 @@ def main(argv: Sequence[str] | None = None) -> int | None:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [arg for arg in argv if arg != "--debug"]
-    commands = ("benchmark", "evaluate", "tune", "collect", "replay", "distill", "gait-search")
+    commands = ("benchmark", "evaluate", "tune", "collect", "replay", "distill", "gait-search", "plant")
     prog = f"{PROG} {argv[0]}" if argv and argv[0] in commands else PROG
     try:
         return dispatch(argv)
@@ -68,6 +69,10 @@ def dispatch(argv: list[str]) -> int | None:
         from judo.learning.cli import main as distill_main
 
         return distill_main(argv[1:])
+    if argv and argv[0] == "plant":
+        from judo.ros2.plant import main as plant_main
+
+        return plant_main(argv[1:])
     if argv and argv[0] == "gait-search":
         from judo.learning.gait_cli import main as gait_search_main
 

@@ -13,7 +13,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from judo.cli_shared import output_console, progress_console
 from judo.collection.dataset import DatasetFile
-from judo.collection.episode import EpisodeOutcome, collect_episode
+from judo.collection.episode import EpisodeOutcome, collect_group
 from judo.core.errors import JudoError
 from judo.evaluation.seeded import EpisodeSpec
 
@@ -64,12 +64,13 @@ def write_outcome(file: DatasetFile, outcome: EpisodeOutcome, success_only: bool
     file.write_episode(episode)
 
 
-def outcome_of(ray: Any, ref: Any, seed: int) -> EpisodeOutcome:
-    """The EpisodeOutcome of a finished ref; a failure when the Ray task itself died (e.g. a worker crash)."""
+def outcomes_of(ray: Any, ref: Any, seeds: list[int]) -> list[EpisodeOutcome]:
+    """The EpisodeOutcomes of a finished ref (a group of seeds); a failure for each seed when the Ray task itself
+    died (e.g. a worker crash)."""
     try:
         return ray.get(ref)
     except Exception as err:  # noqa: BLE001  (RayTaskError, WorkerCrashedError, ...)
-        return EpisodeOutcome(seed, None, f"Ray task failed: {type(err).__name__}: {err}")
+        return [EpisodeOutcome(seed, None, f"Ray task failed: {type(err).__name__}: {err}") for seed in seeds]
 
 
 def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
@@ -90,8 +91,9 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
         console.print(f"{args.out}: {len(wanted) - len(todo)} seeds done; running the {len(todo)} missing ones")
     ray = cluster.import_ray("python -m judo collect", "collect")
     tally = Tally()
-    running: dict[Any, int] = {}
-    pending = iter(todo)
+    running: dict[Any, list[int]] = {}
+    size = args.episodes_per_batch  # seeds per Ray task: side by side on one warp backend when more than one
+    pending = iter([todo[i : i + size] for i in range(0, len(todo), size)])
     columns = (TextColumn("collect"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"))
     connected = False
     try:
@@ -100,14 +102,14 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
         with Progress(*columns, TimeElapsedColumn(), console=progress_console(), transient=True) as progress:
             bar = progress.add_task(tally.line(), total=len(todo))
             while True:
-                while len(running) < window and (seed := next(pending, None)) is not None:
-                    running[cluster.submit(collect_episode, spec, seed, args.traces)] = seed
+                while len(running) * size < window and (group := next(pending, None)) is not None:
+                    running[cluster.submit(collect_group, spec, group, args.traces)] = group
                 if not running:
                     break
                 ready, _ = cluster.wait_any(list(running))
                 for ref in ready:
-                    seed = running.pop(ref)
-                    write_outcome(file, outcome_of(ray, ref, seed), args.success_only, tally, spec.task)
+                    for outcome in outcomes_of(ray, ref, running.pop(ref)):
+                        write_outcome(file, outcome, args.success_only, tally, spec.task)
                 progress.update(bar, completed=tally.done, description=tally.line())
     except KeyboardInterrupt:
         cluster.cancel(list(running))

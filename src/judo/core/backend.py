@@ -39,6 +39,8 @@ class RolloutBackend(abc.ABC):
 
     model: mujoco.MjModel
     num_workers: int
+    name: str = ""
+    """The name `make_rollout_backend` builds it from (one of ROLLOUT_BACKENDS)."""
     reward_threads: int = 1
     """Host threads the Controller may score a large batch's rewards on (core/parallel_reward.py): 1, one plain
     call, unless the backend leaves the host's cores idle while it rolls out (the GPU backend)."""
@@ -122,6 +124,35 @@ class PlanningCancelled(JudoError):
 
 class RandomizedRolloutError(JudoError):
     """A rollout backend was asked to roll out under several models and cannot, or the models do not fit."""
+
+
+MODEL_SIZES = ("nq", "nv", "nu", "na", "nmocap", "nsensordata")
+"""The sizes every model given to `set_models` must share with the backend's model."""
+
+
+def check_model_sizes(model: mujoco.MjModel, models: Sequence[mujoco.MjModel]) -> list[mujoco.MjModel]:
+    """`models` as a list, or RandomizedRolloutError for an empty list or a model whose MODEL_SIZES differ
+    from `model`'s."""
+    models = list(models)
+    if not models:
+        raise RandomizedRolloutError("set_models needs at least one model, got an empty list")
+    for i, other in enumerate(models):
+        for size in MODEL_SIZES:
+            if getattr(other, size) != getattr(model, size):
+                raise RandomizedRolloutError(
+                    f"model {i} passed to set_models has {size}={getattr(other, size)}, expected "
+                    f"{getattr(model, size)} as in the backend's model"
+                )
+    return models
+
+
+def check_blocks(num_rollouts: int, num_models: int) -> None:
+    """RandomizedRolloutError unless a batch of `num_rollouts` rows splits evenly over `num_models` models."""
+    if num_rollouts % num_models:
+        raise RandomizedRolloutError(
+            f"a batch of {num_rollouts} rollouts cannot be split evenly over the {num_models} models "
+            "given to set_models; expected a multiple of the number of models"
+        )
 
 
 RolloutBackendName = Literal["cpu", "warp"]

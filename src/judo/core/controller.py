@@ -96,7 +96,8 @@ class Controller:
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
         backend: the RolloutBackend every rollout runs on, built from the constructor's `backend` name
-            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU); for a task
+            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU) or given built
+            (a `ProblemSlot`, one episode's share of a batch of episodes); for a task
             with a low-level policy (`Task.low_level`), a `LowLevelRollout` around the pool, and the plan,
             its knots and clamps are the policy's commands (`task.command_size`, `task.command_range`).
         backend_name: that name (read-only).
@@ -118,7 +119,7 @@ class Controller:
         task: Task,
         optimizer: Optimizer,
         num_workers: int | None = None,
-        backend: str = "cpu",
+        backend: str | RolloutBackend = "cpu",
         proposal_policy: Policy | None = None,
     ) -> None:
         check_configs(task, controller_config, optimizer.config)
@@ -128,10 +129,13 @@ class Controller:
         self.config = controller_config
         self.task = task
         self.optimizer = optimizer
-        check_low_level_backend(backend, task.low_level())
-        self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
+        if isinstance(backend, str):
+            check_low_level_backend(backend, task.low_level())
+            self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
+        else:  # a backend built by the caller (a ProblemBatch's slot), owned from now on
+            self.backend = backend
         self.backend = with_low_level(self.backend, task.low_level())  # the pool itself without one
-        self._backend_name = backend
+        self._backend_name = backend if isinstance(backend, str) else backend.name
         self._score = ParallelReward(self.backend.reward_threads)  # one plain call unless the backend asks
         self.nominal_knots: np.ndarray | None = None
         self.rewards = np.zeros(0)

@@ -19,6 +19,8 @@ from judo.core.backend import (
     RandomizedRolloutError,
     RolloutBackend,
     RolloutBackendName,
+    check_blocks,
+    check_model_sizes,
     check_rollout_backend,
     make_rollout_backend,
 )
@@ -61,6 +63,8 @@ class RolloutPool(RolloutBackend):
     models, by reference: nothing is copied per call.
     """
 
+    name = "cpu"
+
     def __init__(self, model: mujoco.MjModel, num_workers: int | None = None) -> None:
         self.model = model
         self.num_workers = max(1, num_workers or os.cpu_count() or 1)
@@ -74,16 +78,7 @@ class RolloutPool(RolloutBackend):
 
     def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
         """See `RolloutBackend.set_models`; raises RandomizedRolloutError for a model of other sizes."""
-        models = [self.model] if models is None else list(models)
-        if not models:
-            raise RandomizedRolloutError("set_models needs at least one model, got an empty list")
-        for i, other in enumerate(models):
-            for size in ("nq", "nv", "nu", "na", "nmocap", "nsensordata"):
-                if getattr(other, size) != getattr(self.model, size):
-                    raise RandomizedRolloutError(
-                        f"model {i} passed to set_models has {size}={getattr(other, size)}, expected "
-                        f"{getattr(self.model, size)} as in the pool's model"
-                    )
+        models = [self.model] if models is None else check_model_sizes(self.model, models)
         self._models = models
         self._splits.clear()  # rebuild the chunks' model lists on the next rollout
 
@@ -97,11 +92,7 @@ class RolloutPool(RolloutBackend):
     def _split(self, num_rollouts: int) -> tuple[list[slice], list[list[mujoco.MjModel]]]:
         """The rows of each worker's contiguous chunk and each chunk's per-row models, kept per batch size
         until `set_models` changes the models."""
-        if num_rollouts % len(self._models):
-            raise RandomizedRolloutError(
-                f"a batch of {num_rollouts} rollouts cannot be split evenly over the {len(self._models)} models "
-                "given to set_models; expected a multiple of the number of models"
-            )
+        check_blocks(num_rollouts, len(self._models))
         if num_rollouts not in self._splits:
             bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(int)
             chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]

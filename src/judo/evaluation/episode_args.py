@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal
 import tyro
 
 from judo.cli_shared import episode_latency
+from judo.core.config import require, require_between
 from judo.core.estimator import estimator_in_force
 from judo.core.registry import lookup_task
 from judo.core.rollout import RolloutBackendName
@@ -51,6 +52,10 @@ class EpisodeArgs(SensingFlags):
     """Fixed planning latency in milliseconds of sim time (reproducible); instead of --latency."""
     backend: RolloutBackendName = "cpu"
     """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
+    episodes_per_batch: int = 1
+    """Run this many seeds side by side (threads of one process), their rollouts one batch of the warp backend per
+    planning cycle (P episodes x N rollouts per launch): a GPU rolls out 4 x 256 worlds in little more time than
+    256. Needs --backend warp; not with --policy or randomized models."""
     controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
     """Controller settings to change from the task's defaults, e.g. --controller.horizon 1.0."""
 
@@ -59,6 +64,12 @@ class EpisodeArgs(SensingFlags):
         fields, sensing flags, a policy that does not fit the task)."""
         check_episode_args(self)
         self.sensing()
+        require_between("--episodes-per-batch", self.episodes_per_batch, 1, 1024)
+        require(
+            self.episodes_per_batch == 1 or (self.backend == "warp" and self.policy is None),
+            f"--episodes-per-batch {self.episodes_per_batch} batches episodes' rollouts on one warp backend; "
+            f"expected --backend warp (got {self.backend}) and no --policy",
+        )
         if self.policy is not None:
             from judo.core.policy_controller import make_policy_controller
 

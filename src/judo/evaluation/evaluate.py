@@ -19,6 +19,7 @@ from judo.cli_shared import (
     progress_console,
     seeds_label,
 )
+from judo.core.backend import RolloutBackend
 from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
@@ -27,7 +28,7 @@ from judo.evaluation.cli import given_fields, set_field_overrides, write_json
 from judo.evaluation.episode import EpisodeResult
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
-from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
+from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode, run_side_by_side
 from judo.evaluation.stats import Summary, summarize
 
 DESCRIPTION = (
@@ -75,6 +76,11 @@ class EvaluateArgs(EpisodeArgs):
         require(
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
+        )
+        require(
+            self.episodes_per_batch == 1 or (self.workers is None and self.address is None),
+            f"--episodes-per-batch {self.episodes_per_batch} runs the episodes side by side in this process; "
+            "expected no --workers or --address",
         )
         if self.plot is not None:
             check_plot_path(self.plot)
@@ -149,6 +155,33 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
     return results
 
 
+def evaluate_batched(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
+    """Run the seeds of `args.seed_range()` in groups of `args.episodes_per_batch`, each group side by side with its
+    rollouts batched on one WarpRollout (`run_side_by_side`); advance `progress` (if given) by sim seconds."""
+    from judo.core.warp_rollout import WarpRollout
+
+    bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
+    spec, seeds = args.episode_spec(), list(args.seed_range())
+    size = args.episodes_per_batch
+    results: list[EpisodeResult] = []
+    with WarpRollout(make_task(args.task).model) as backend:
+        for start in range(0, len(seeds), size):
+            group = seeds[start : start + size]
+            times = dict.fromkeys(group, 0.0)
+
+            def run(seed: int, slot: RolloutBackend, start: int = start, times: dict = times) -> EpisodeResult:
+                def show(now: float) -> None:
+                    times[seed] = now
+                    if progress is not None and bar is not None:
+                        done = start * args.duration + sum(times.values())
+                        progress.update(bar, completed=done, description=f"seeds {min(times)}-{max(times)}")
+
+                return run_seeded_episode(spec, seed, on_update=show, backend=slot)
+
+            results.extend(run_side_by_side(backend, group, run))
+    return results
+
+
 def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, str]]]:
     """(the episodes, by seed; (seed, reason) of those that failed): in this process, or as Ray tasks with
     --workers or --address (where a failed seed does not stop the others)."""
@@ -158,6 +191,8 @@ def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, 
         return evaluate_on_ray(args.episode_spec(), args.seed_range(), args.workers, args.address)
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
     with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
+        if args.episodes_per_batch > 1:
+            return evaluate_batched(args, progress), []
         return evaluate(args, progress), []
 
 
