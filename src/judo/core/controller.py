@@ -6,7 +6,6 @@ imported here too, where they have always been importable from.
 
 import inspect
 import math
-import threading
 import warnings
 from collections.abc import Callable
 from typing import Any, cast
@@ -14,7 +13,7 @@ from typing import Any, cast
 import mujoco
 import numpy as np
 
-from judo.core.backend import PlanningCancelled, RolloutBackend, make_rollout_backend
+from judo.core.backend import CancelFlag, PlanningCancelled, RolloutBackend, make_rollout_backend
 from judo.core.config import snapshot
 from judo.core.controller_config import (
     MAX_CONTROL_FREQ,
@@ -235,15 +234,14 @@ class Controller:
         state: np.ndarray,
         time: float,
         system_metadata: dict[str, Any] | None = None,
-        cancel: threading.Event | None = None,
+        cancel: CancelFlag | None = None,
     ) -> Spline:
         """Run one planning cycle from `state` (nq + nv,) at sim `time`, publish the new plan and return it.
 
-        A set `cancel` event (e.g. the app's stop) ends the cycle before its next optimizer iteration
-        with PlanningCancelled, keeping the previous plan.
-
-        `action(t)` serves the returned plan from now on; a caller that models latency (the new plan
-        taking effect only later) keeps the previous returned plan and evaluates it itself.
+        A set `cancel` (a threading.Event, the app's stop or planning cycle) ends the cycle with PlanningCancelled,
+        keeping the previous plan: before its next optimizer iteration, or between pieces of a batch of rollouts
+        (the CPU pool). `action(t)` serves the returned plan from now on; a caller that models latency (the new
+        plan taking effect only later) keeps the previous returned plan and evaluates it itself.
 
         Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into
         an invalid combination, NonFiniteRewardError if every rollout scored NaN or -inf, and
