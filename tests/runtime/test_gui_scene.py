@@ -283,7 +283,7 @@ def test_a_plans_traces_start_where_the_robot_is_drawn(server):
         moved = data.qpos.copy()
         moved[:2] += [0.1, -0.05]  # the robot as drawn now: 11 cm from where the plan started
         view.update(moved, {})
-        view.set_traces(traces)
+        view.set_traces(traces, anchored=True)  # as the live GUI draws a plan (a replay draws it as recorded)
         nominal = server.scene.get_handle_by_name("/traces/nominal").points  # (segments, 2, 3), sensor by sensor
         columns = trace_sensor_columns(model)
         sensors = [int(np.flatnonzero(model.sensor_adr == c)[0]) for c in columns[::3]]

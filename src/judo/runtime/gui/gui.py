@@ -139,7 +139,7 @@ class Gui:
         if plan is not None and plan.version != self._plan_version and plan.value.generation == self._generation:
             self._plan_version = plan.version
             if plan.value.resets == self._resets_done:  # never a plan of the plant as it was before a reset
-                self.scene.set_traces(plan.value.traces)
+                self.scene.set_traces(plan.value.traces, anchored=True)
         now = time.perf_counter()
         if now - self._last_plot >= PLOT_PERIOD:
             self._last_plot = now

@@ -116,12 +116,13 @@ class SceneView:
             if np.any(shift != np.asarray(frame.position)[:2]):
                 frame.position = (float(shift[0]), float(shift[1]), 0.0)
 
-    def set_traces(self, traces: np.ndarray) -> None:
+    def set_traces(self, traces: np.ndarray, anchored: bool = False) -> None:
         """Draw (num_traces, T, num_sensors, 3) trace positions as polylines, index 0 (the nominal) in red.
 
-        Each sensor's traces are moved to start where the scene draws that sensor now: a plan is made from a
-        reading some tens of milliseconds old, in which a trotting foot was centimetres from where it is drawn."""
-        traces = self._anchored(traces)
+        `anchored` moves each sensor's traces to start where the scene draws that sensor now (the live GUI: a plan
+        is made from a reading some tens of milliseconds old, in which a trotting foot was centimetres from where
+        it is drawn); a replay draws them as recorded."""
+        traces = self._anchored(traces) if anchored else traces
         for index, (name, rgb, thickness) in enumerate(
             [("nominal", NOMINAL_TRACE_RGB, 0.012), ("samples", SAMPLE_TRACE_RGB, 0.005)]
         ):
