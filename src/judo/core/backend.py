@@ -12,9 +12,10 @@ back a module that imports it.
 """
 
 import abc
+import contextlib
 import importlib
-from collections.abc import Callable, Sequence
-from typing import Literal, TypeVar, cast, get_args
+from collections.abc import Callable, Iterator, Sequence
+from typing import Literal, Protocol, TypeVar, cast, get_args
 
 import mujoco
 import numpy as np
@@ -83,6 +84,23 @@ class RolloutBackend(abc.ABC):
             "(RolloutPool), which can"
         )
 
+    cancel: "CancelFlag | None" = None
+    """Set by the Controller for one cycle (`cancelled_by`): a backend that can stop part-way through a batch polls
+    it and raises PlanningCancelled once it is set; the default backend never looks."""
+
+    def set_cancel(self, cancel: "CancelFlag | None") -> None:
+        """Poll `cancel` during the rollouts from now on (None: never)."""
+        self.cancel = cancel
+
+    @contextlib.contextmanager
+    def cancelled_by(self, cancel: "CancelFlag | None") -> Iterator[None]:
+        """Within the block, poll `cancel` during the rollouts (`set_cancel`); never after it."""
+        self.set_cancel(cancel)
+        try:
+            yield
+        finally:
+            self.set_cancel(None)
+
     def close(self) -> None:  # noqa: B027  (no resources by default)
         """Release threads or device memory; the backend cannot be used afterwards."""
 
@@ -91,6 +109,17 @@ class RolloutBackend(abc.ABC):
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+class CancelFlag(Protocol):
+    """Anything with `is_set()`: a threading.Event, the app's stop signal, a planning cycle."""
+
+    def is_set(self) -> bool: ...
+
+
+class PlanningCancelled(JudoError):
+    """The `cancel` flag of `Controller.update_action` was set: the cycle stopped (between optimizer iterations, or
+    part-way through a batch of rollouts whose outputs are then partial) and the previous plan stays."""
 
 
 class RandomizedRolloutError(JudoError):

@@ -22,6 +22,7 @@ short, planning stops between optimizer iterations, and a call stuck in a rollou
 import asyncio
 import functools
 import logging
+import math
 import threading
 from pathlib import Path
 from typing import Any
@@ -42,6 +43,7 @@ from judo.runtime.address import check_port, check_token
 from judo.runtime.app_commands import Commands
 from judo.runtime.app_settings import check_app_settings
 from judo.runtime.app_state import AppState
+from judo.runtime.cycles import CycleCost, cycle_size
 from judo.runtime.frontend import FrontendFactory, viser_frontend
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
@@ -283,6 +285,20 @@ class App:
     def configs(self) -> dict[ConfigKind, Config]:
         """The latest accepted config of each kind; a planning cycle may not have picked them up yet."""
         return self._state.configs.as_dict()
+
+    def planning_cost(self) -> CycleCost:
+        """The planning cycle's size (N x R x iterations x T steps) and estimated seconds under the latest configs
+        (size None where a policy drives), the last update's wall seconds, and how long the cycle in flight has
+        run once it is late (else None); see `judo.runtime.cycles`."""
+        state = self._state
+        with state.lock:
+            session, configs, cycle, step_cost = state.session, state.configs, state.cycle, state.step_cost
+        task = session.controller.task
+        size = None if configs.optimizer is None else cycle_size(task, configs.controller, configs.optimizer)
+        times = session.closed_loop.update_ms
+        last = times[-1] / 1e3 if times else math.nan
+        running = cycle.elapsed() if cycle is not None and cycle.late() else None
+        return CycleCost(size, math.nan if size is None else step_cost.estimate(size), last, running)
 
     # ---- commands (judo.runtime.app_commands), callable from any thread ------------------------------
     def update_config(
