@@ -58,7 +58,7 @@ from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
 from judo.runtime.status_line import Level, Status, StatusLine
 from judo.runtime.supervisor import Supervisor
-from judo.runtime.system import System
+from judo.runtime.system import System, missing_halt
 
 __all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]
 
@@ -152,13 +152,8 @@ class App:
             Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
         )
         self._reports = reports = Reports(StatusLine(), state)
-        if system is not None and type(system).halt is System.halt:
-            reports.report(
-                f"your System {type(system).__name__} defines no halt(): while a call into it blocks, nothing "
-                "reaches the robot, which keeps its last action until the call returns; define halt() to bring "
-                "it to rest from another thread (docs/hardware.md)",
-                "warning",
-            )
+        if system is not None and (warning := missing_halt(system)) is not None:
+            reports.report(warning, "warning")
         clock = None if system is None else state.clock  # a robot's plans age in wall time; the simulator waits
         proposals = None if proposal_policy is None else as_policy(proposal_policy)
         driver = None if policy is None else as_policy(policy)
@@ -287,9 +282,8 @@ class App:
         return self._state.configs.as_dict()
 
     def planning_cost(self) -> CycleCost:
-        """The planning cycle's size (N x R x iterations x T steps) and estimated seconds under the latest configs
-        (size None where a policy drives), the last update's wall seconds, and how long the cycle in flight has
-        run once it is late (else None); see `judo.runtime.cycles`."""
+        """The cycle's size (N x R x iterations x T; None where a policy drives) and estimated seconds under the latest
+        configs, the last update's seconds, and the late cycle's seconds so far (else None); judo.runtime.cycles."""
         state = self._state
         with state.lock:
             session, configs, cycle, step_cost = state.session, state.configs, state.cycle, state.step_cost
