@@ -13,7 +13,7 @@ The controller is the task's default, with --controller settings changed only by
 num_randomizations and risk; the randomized models come from the task's `randomize_model` hook.
 
     PYTHONPATH=src python benchmarks/robust_planning.py --task leap_cube --optimizers cem mppi \\
-        --randomizations 1 4 --risks average cvar --seeds 3 --duration 60
+        --randomizations 1 4 --risks average cvar --seeds 3 --duration 60 [--backend warp --num-rollouts 1024]
 """
 
 import argparse
@@ -67,12 +67,17 @@ def run_setting(args: argparse.Namespace, optimizer: str, num_models: int, risk:
     for seed in range(args.first_seed, args.first_seed + args.seeds):
         settings = {"num_randomizations": num_models, "risk": risk, "cvar_alpha": args.cvar_alpha}
         controller_config = with_updates(make_config(ControllerConfig, args.task, optimizer), settings)
+        optimizer_config = make_config(lookup_optimizer(optimizer)[1], args.task)
+        if args.num_rollouts is not None:
+            optimizer_config = with_updates(optimizer_config, {"num_rollouts": args.num_rollouts})
         controller = judo.make_controller(
             args.task,
             optimizer,
             controller_config=controller_config,  # type: ignore[arg-type]
+            optimizer_config=optimizer_config,  # type: ignore[arg-type]
             num_workers=args.num_workers,
             seed=seed,
+            backend=args.backend,
         )
         plant = mismatched_plant(args.task, seed, args.mass_scale, args.friction_scale, args.plant_overrides)
         plant.config = controller.task.config
@@ -100,6 +105,10 @@ def main() -> None:
     parser.add_argument("--first-seed", type=int, default=0)
     parser.add_argument("--duration", type=float, default=60.0, help="seconds of sim time per episode")
     parser.add_argument("--num-workers", type=int, default=None, help="rollout threads (default: one per core)")
+    parser.add_argument("--backend", default="cpu", choices=["cpu", "warp"], help="rollout backend")
+    parser.add_argument(
+        "--num-rollouts", type=int, default=None, help="samples per iteration (default: the task's own)"
+    )
     parser.add_argument("--mass-scale", type=float, default=2.0, help="fr3_pick plant: object mass factor")
     parser.add_argument("--friction-scale", type=float, default=0.6, help="fr3_pick plant: object friction factor")
     parser.add_argument(
@@ -119,7 +128,8 @@ def main() -> None:
         else f"object mass x{args.mass_scale:g}, friction x{args.friction_scale:g}"
     )
     print(
-        f"### {args.task} on a mismatched plant ({plant}), {args.seeds} seed(s) from {args.first_seed} x {args.duration:g} s, no latency\n"
+        f"### {args.task} on a mismatched plant ({plant}), {args.seeds} seed(s) from {args.first_seed} x {args.duration:g} s, "
+        f"no latency, {args.backend} backend, num_rollouts {args.num_rollouts or 'of the task'}\n"
     )
     print("| optimizer | num_randomizations | risk | " + " | ".join(metrics) + " | plan ms (median) |")
     print("|---" * (len(metrics) + 4) + "|", flush=True)

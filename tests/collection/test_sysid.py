@@ -110,7 +110,7 @@ def test_import_judo_imports_no_sysid_dependency():
 
 @pytest.mark.slow
 def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_file_registers_it(tmp_path, capsys):
-    """examples/10_sysid: a custom task whose sim_model_path has a 0.13 kg pole; the fit (mass and the inertia the
+    """examples/11_sysid: a custom task whose sim_model_path has a 0.13 kg pole; the fit (mass and the inertia the
     heavier geom brings) lands on it, and the written file registers the task beside its module."""
     import shutil
     from pathlib import Path
@@ -118,7 +118,7 @@ def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_fil
     from judo.core.registry import make_task
 
     folder = tmp_path / "robot"
-    shutil.copytree(Path(__file__).resolve().parents[2] / "examples" / "10_sysid", folder)
+    shutil.copytree(Path(__file__).resolve().parents[2] / "examples" / "11_sysid", folder)
     load_config(folder / "judo.toml")
     outcome = collect_episode(EpisodeSpec("heavy_cartpole", "mppi", 2.0), 0)
     assert outcome.failure is None

@@ -37,7 +37,7 @@ def test_the_app_plans_on_the_fitted_model_simulates_the_plant_and_says_so(tmp_p
 
 
 def test_the_apps_plant_overrides_flag_sets_the_plant_and_names_a_mistake():
-    assert _peek_names(["--task", "cartpole", "--plant-overrides", "body_mass.pole=0.2"]) == ("cartpole", "mppi")
+    assert _peek_names(["--task", "cartpole", "--plant-overrides", "body_mass.pole=0.2"]) == ("cartpole", "mppi", None)
     app = App("cartpole", "ps", gui=False, seed=0, num_workers=1)
     try:
         assert app.session.simulated.task.sim_model.body_mass[2] == 0.2

@@ -46,8 +46,13 @@ POLICY_CONFIG_FIELDS = ("control_freq", "horizon", "spline_order")
 chunk policy the span and interpolation of its chunk. Fields given on a command line or in code win."""
 
 
+POLICY_USES_FIELDS = (*POLICY_CONFIG_FIELDS, "max_plan_age", "latency_compensation")
+"""ControllerConfig fields a PolicyController uses; the others (iterations, randomization, risk, traces, proposals)
+only an optimizer's Controller does, so the GUI hides them while a policy drives."""
+
+
 def as_policy(policy: "Policy | str | Path") -> Policy:
-    """`policy` itself, or the ONNX file it names loaded as an `OnnxPolicy` (the judo[policy] extra)."""
+    """`policy` itself, or the ONNX file it names loaded as an `OnnxPolicy` (on onnxruntime)."""
     if isinstance(policy, Policy):
         return policy
     if isinstance(policy, (str, Path)):

@@ -5,6 +5,7 @@ from typing import Any, Literal, cast
 
 import numpy as np
 
+from judo.core.backend import RolloutBackend
 from judo.core.config import Config, ConfigT, check_seed, coerce_field_value, with_updates
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
@@ -183,14 +184,14 @@ def make_controller(
     optimizer_config: OptimizerConfig | None = None,
     num_workers: int | None = None,
     seed: int | None = None,
-    backend: str = "cpu",
+    backend: str | RolloutBackend = "cpu",
     proposal_policy: Policy | None = None,
 ) -> Controller:
     """A Controller for the registered task and optimizer, with that task's overrides applied.
 
     Configs passed in are used as they are. `seed` seeds the optimizer's and the task's generators
     (ConfigError unless it is an integer from 0 to 2**63 - 1). `backend` names the rollout backend
-    ("cpu" threads or "warp" for MuJoCo Warp; see ROLLOUT_BACKENDS). `proposal_policy` makes the candidates
+    ("cpu" threads or "warp" for MuJoCo Warp; see ROLLOUT_BACKENDS), or is one already built. `proposal_policy` makes the candidates
     that `controller_config.policy_samples` asks for (judo.core.proposals).
     """
     check_seed(seed)

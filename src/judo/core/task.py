@@ -209,6 +209,11 @@ class Task(ABC, Generic[ConfigT]):
         """Extra values the simulator publishes with the state; passed on to `reward`."""
         return {}
 
+    def readout(self, system_metadata: dict[str, Any]) -> str | None:
+        """One line the GUI shows under its figures, from the plant's latest metadata (e.g. the command a task
+        tracks); None (the default) shows nothing."""
+        return None
+
     def success(self, metrics: dict[str, float]) -> bool | None:
         """Whether an episode with these `metrics` (from `metrics`) counts as a success, for
         `python -m judo collect --success-only`; None when the task has no rule.

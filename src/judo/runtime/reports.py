@@ -24,6 +24,10 @@ class Reports:
         """Show `message` (each message logged at most once every few seconds)."""
         self.line.report(message, level)
 
+    def progress(self, message: str, level: Level = "info") -> None:
+        """Show `message` without writing it to the log (a count that changes every second)."""
+        self.line.report(message, level, log=False)
+
     def failed(self, part: str, message: str, level: Level = "error") -> None:
         """`part` (e.g. "planner") failed; it stays in trouble until it recovers."""
         self.line.failed(part, message, level)

@@ -163,3 +163,14 @@ class MujocoSystem(System):
             raise SimulationDiverged(
                 f"simulation of {type(self.task).__name__} diverged at t={start_time:.3f} s; reset the task"
             )
+
+
+def missing_halt(system: System) -> str | None:
+    """The start-up warning for a user System without its own `halt()`, or None when it has one."""
+    if type(system).halt is not System.halt:
+        return None
+    return (
+        f"your System {type(system).__name__} defines no halt(): while a call into it blocks, nothing reaches the "
+        "robot, which keeps its last action until the call returns; define halt() to bring it to rest from another "
+        "thread (docs/hardware.md)"
+    )

@@ -63,7 +63,7 @@ DESCRIPTION = (
     "cluster (--address). The study is stored in a database (SQLite by default), so the same command resumes "
     "it. Writes to --out: trials.csv, plots (PNG and HTML), summary.json, and best.toml, which "
     "`python -m judo --config` and `evaluate --config` read. With --observe sensors (--sensor-*, --estimator) "
-    "every episode plans from the task's measured sensors through the estimator. Needs the `tune` extra: pip install 'judo[tune]'."
+    "every episode plans from the task's measured sensors through the estimator. Needs the `tune` extra: pip install -e '.[tune]'."
 )
 PROBE_DURATION = 0.2
 """Seconds of sim time of the check episode run before the study, which also lists the task's metrics."""
