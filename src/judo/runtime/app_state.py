@@ -178,6 +178,11 @@ class AppState:
         return recorder
 
     # ---- the planning cycle in flight ----------------------------------------------------------------
+    def start_cycle(self, cycle: PlanningCycle | None) -> None:
+        """Make `cycle` the one in flight (None: none is)."""
+        with self.lock:
+            self.cycle = cycle
+
     def cancel_cycle(self, reason: str) -> None:
         """End the planning cycle in flight, if any, at its next check (the plan before stays in force)."""
         with self.lock:

@@ -99,9 +99,8 @@ class PlannerRunner:
                 if configs.optimizer is None
                 else cycle_size(session.controller.task, configs.controller, configs.optimizer)
             )
-            cycle = state.cycle = PlanningCycle(
-                state.stop, size, math.nan if size is None else state.step_cost.estimate(size)
-            )
+            cycle = PlanningCycle(state.stop, size, math.nan if size is None else state.step_cost.estimate(size))
+        state.start_cycle(cycle)
         try:
             plan = await state.stop.in_worker(self._executor, session.closed_loop.plan, reading, cycle)
         except Stopping:
@@ -120,8 +119,7 @@ class PlannerRunner:
             reports.failed("planner", f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}")
             return
         finally:
-            with state.lock:
-                state.cycle = None
+            state.start_cycle(None)
         if plan is None:  # no finite reward, or non-finite knots: the plan before stays in force
             reports.failed("planner", f"planning cycle skipped: {session.closed_loop.last_failure}", "warning")
             return
