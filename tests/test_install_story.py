@@ -40,7 +40,8 @@ def test_no_doc_example_or_error_installs_the_other_judo():
 def test_the_distribution_is_judo_mpc_with_mujoco_bounded():
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     assert project["name"] == "judo-mpc"
-    self_references = [dep for extra in project["optional-dependencies"].values() for dep in extra if "[" in dep]
+    extras = project["optional-dependencies"].values()
+    self_references = [dep for extra in extras for dep in extra if dep.startswith("judo")]
     assert self_references and all(dep.startswith("judo-mpc[") for dep in self_references)
     (mujoco,) = [dep for dep in project["dependencies"] if dep.startswith("mujoco")]
     assert mujoco == "mujoco>=4.0,<4.1"

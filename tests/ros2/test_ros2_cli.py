@@ -104,9 +104,9 @@ def test_without_the_ros2_extra_both_commands_say_what_to_install_in_one_line(ca
     for name in ("judo.ros2.bridge", "judo.ros2.messages", "judo.ros2.link", "judo.ros2.mcap_log"):
         monkeypatch.delitem(sys.modules, name, raising=False)
     err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "ros2"])
-    assert "the ROS 2 bridge needs the optional extra judo[ros2]" in err and "pip install" in err
+    assert "the ROS 2 bridge needs the optional extra judo-mpc[ros2]" in err and "pip install" in err
     err = one_line_error(capsys, ["--task", "cartpole"], plant.main)
-    assert "python -m judo plant needs the optional extra judo[ros2]" in err
+    assert "python -m judo plant needs the optional extra judo-mpc[ros2]" in err
 
 
 def test_import_judo_and_its_app_import_no_dds():
