@@ -12,6 +12,7 @@ import numpy as np
 
 from judo.core.config import Config
 from judo.core.errors import ModelLoadError, UnknownNameError
+from judo.core.feedback import default_feedback_cost
 from judo.core.model import load_model, model_mocap_poses, names
 from judo.core.sensors import MeasuredLayout, measured_layout
 
@@ -259,6 +260,14 @@ class Task(ABC, Generic[ConfigT]):
         [qpos, qvel] it starts from; zeros by default. (The old form without `state` still works, with a
         DeprecationWarning.)"""
         return np.zeros(self.command_size)
+
+    def feedback_cost(self) -> tuple[np.ndarray, np.ndarray]:
+        """The tracking cost of the feedback gains (`ControllerConfig.feedback`): (2 nv,) weights on the deviation
+        [dq, dv] from the nominal rollout (dq in the tangent space: a free joint's is 3 + 3) and (nu,) weights on
+        the control correction. The default weighs every position by 1, every velocity by 0.1 and each control
+        by 0.01 / (half its range)^2 (`judo.core.feedback.default_feedback_cost`); raise the control weights for
+        softer gains."""
+        return default_feedback_cost(self.model, self.actuator_ctrlrange)
 
     def safe_action(self, state: np.ndarray) -> np.ndarray:
         """The (command_size,) control that brings the plant to rest from the (nq + nv,) `state`: what the watchdog
