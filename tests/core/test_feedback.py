@@ -54,7 +54,7 @@ def initial_state(model: mujoco.MjModel, qpos: list[float], qvel: list[float]) -
 def test_gains_of_a_linear_system_match_the_discrete_riccati_solution() -> None:
     model = mujoco.MjModel.from_xml_string(SLIDER.format(damping=0))
     q, r = np.array([1.0, 0.1]), np.array([0.01])
-    gains_of = FeedbackGains(model, num_workers=2)
+    gains_of = FeedbackGains(None, num_workers=2, model=model)
     try:
         gains, nominal = gains_of.compute(initial_state(model, [0.0], [0.0]), np.zeros(0), np.zeros((2000, 1)), q, r)
     finally:
@@ -74,7 +74,7 @@ def test_gains_of_a_linear_system_match_the_discrete_riccati_solution() -> None:
 def test_a_model_that_yields_nan_fails_with_a_named_error_and_nan_in_the_backward_pass_too() -> None:
     model = mujoco.MjModel.from_xml_string(SLIDER.format(damping=0))
     model.dof_damping[0] = np.nan
-    gains_of = FeedbackGains(model, num_workers=1)
+    gains_of = FeedbackGains(None, num_workers=1, model=model)
     with pytest.raises(FeedbackError, match="diverged|non-finite"):
         gains_of.compute(initial_state(model, [0.0], [0.0]), np.zeros(0), np.zeros((10, 1)), np.ones(2), np.ones(1))
     gains_of.close()

@@ -29,7 +29,7 @@ from judo.core.controller_config import (
     rollout_steps,
 )
 from judo.core.errors import ConfigError, JudoError
-from judo.core.feedback import FeedbackError, FeedbackGains, FeedbackPlan, finite_weights
+from judo.core.feedback import FeedbackGains
 from judo.core.low_level import check_low_level_backend, with_low_level
 from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
 from judo.core.optimizer import Optimizer
@@ -152,7 +152,7 @@ class Controller:
         self.models: list[mujoco.MjModel] = [task.model]
         self._cycles_since_draw = 0
         self._warm_start_takes_state = warm_start_takes_state(task)
-        self._feedback: FeedbackGains | None = None  # built on the first update with config.feedback
+        self._gains = FeedbackGains(task, self.backend.num_workers if backend == "cpu" else None)
 
     @property
     def num_steps(self) -> int:
@@ -337,47 +337,12 @@ class Controller:
 
         self.rewards = rewards
         self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)
-        if cfg.feedback:
-            self._plan = self._feedback_plan(time)
-        else:
-            self._plan = Spline(time, self._basis, self.nominal_knots, self._ctrl_low, self._ctrl_high)
+        self._plan = Spline(time, self._basis, self.nominal_knots, self._ctrl_low, self._ctrl_high)
+        if cfg.feedback:  # with the gains around its nominal rollout (judo.core.feedback)
+            self._plan = self._gains.add_to(self._plan, self._rollout_weights, self._initial_state, self._initial_mocap)
         shown = np.argsort(-rewards, kind="stable")[: self.config.max_num_traces]
         self.traces = sensors[np.r_[0, shown]][..., self._trace_columns].reshape(len(shown) + 1, self.num_steps, -1, 3)
         return self._plan
-
-    def _feedback_plan(self, time: float) -> FeedbackPlan:
-        """The new plan with TVLQR gains around its nominal rollout on the planning model (judo.core.feedback);
-        without gains, and saying why in `feedback_error`, when they could not be computed."""
-        task = self.task
-        if task.low_level() is not None:
-            raise ConfigError(
-                f"feedback needs a task that plans its actuators; {type(task).__name__} plans a low-level "
-                "policy's commands: turn feedback off"
-            )
-        if self._feedback is None:
-            self._feedback = FeedbackGains(task.model, self.backend.num_workers)
-        assert self.nominal_knots is not None
-        controls = np.clip(self._rollout_weights @ self.nominal_knots, self._ctrl_low, self._ctrl_high)
-        gains = nominal_states = error = None
-        try:
-            state_weights, control_weights = (np.asarray(w, dtype=float) for w in task.feedback_cost())
-            finite_weights(state_weights, control_weights, task.model, task.nu)
-            gains, nominal_states = self._feedback.compute(
-                self._initial_state, self._initial_mocap, controls, state_weights, control_weights
-            )
-        except FeedbackError as err:
-            error = str(err)
-        return FeedbackPlan(
-            time,
-            self._basis,
-            self.nominal_knots,
-            self._ctrl_low,
-            self._ctrl_high,
-            task.model,
-            gains,
-            nominal_states,
-            error,
-        )
 
     def _restart_search(self, what: str) -> None:
         """Restart the optimizer's search (its carried state may be NaN too) and refuse the cycle."""
@@ -385,9 +350,8 @@ class Controller:
         raise NonFiniteKnotsError(f"{what}; restarted its search and kept the previous plan")
 
     def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) control of the current plan at sim `time` (held constant past its ends), always
-        within the actuators' ctrlrange: exactly what the rollouts of the plan applied at that time, plus
-        the feedback gains' correction from the (nq + nv,) `state` when `config.feedback` is on.
+        """(nu,) control of the current plan at sim `time` (held past its ends), within the ctrlrange: what its
+        rollouts applied then, plus the gains' correction from the (nq + nv,) `state` with `config.feedback`.
         Before the first plan: the task's warm start from the (nq + nv,) `state` (see `warm_start_action`)."""
         if not math.isfinite(time):
             raise JudoError(f"action time must be a finite number of seconds, got {time}")
@@ -423,11 +387,10 @@ class Controller:
         return self._backend_name
 
     def close(self) -> None:
-        """Release the rollout backend's threads or device memory, and the reward's threads."""
+        """Release the rollout backend's threads or device memory, and the reward's and the gains' threads."""
         self.backend.close()
         self._score.close()
-        if self._feedback is not None:
-            self._feedback.close()
+        self._gains.close()
 
     def __enter__(self) -> "Controller":
         """`with judo.make_controller(...) as controller:` closes the controller on the way out."""

@@ -20,6 +20,7 @@ positive definite, costs nothing, and is what TVLQR tracking controllers on hard
 
 import math
 import os
+import typing
 
 import mujoco
 import mujoco.rollout
@@ -27,8 +28,11 @@ import numpy as np
 
 from judo.core.errors import JudoError
 from judo.core.model import STATE_SPEC
-from judo.core.spline import Spline, SplineBasis
+from judo.core.spline import Spline
 from judo.core.workers import DaemonThreadPool
+
+if typing.TYPE_CHECKING:
+    from judo.core.task import Task
 
 FD_EPS = 1e-6
 """Finite-difference step of `mjd_transitionFD` (MuJoCo's own default); forward differences."""
@@ -90,17 +94,13 @@ class FeedbackPlan(Spline):
 
     def __init__(
         self,
-        start_time: float,
-        basis: SplineBasis,
-        knots: np.ndarray,
-        low: np.ndarray,
-        high: np.ndarray,
+        plan: Spline,
         model: mujoco.MjModel,
         gains: np.ndarray | None,
         nominal_states: np.ndarray | None,
         feedback_error: str | None = None,
     ) -> None:
-        super().__init__(start_time, basis, knots, low, high)
+        super().__init__(plan.start_time, plan.basis, plan.knots, plan.low, plan.high)
         self.model = model
         self.gains, self.nominal_states, self.feedback_error = gains, nominal_states, feedback_error
         self._dt = float(model.opt.timestep)
@@ -134,14 +134,21 @@ class FeedbackGains:
     `mjd_transitionFD` releases the GIL, so the chunks run in parallel.
 
     Args:
-        model: the planning model (never modified).
+        task: the task whose planning model (never modified) is linearised and whose `feedback_cost` weighs the
+            deviations (only `compute` works without one: None).
         num_workers: threads for the derivatives (the rollout pool's count; one per core by default).
     """
 
-    def __init__(self, model: mujoco.MjModel, num_workers: int | None = None) -> None:
+    def __init__(
+        self, task: "Task | None", num_workers: int | None = None, model: mujoco.MjModel | None = None
+    ) -> None:
+        self.task = task
+        model = model if model is not None else task.model if task is not None else None
+        if model is None:
+            raise ValueError("FeedbackGains needs a task or a model")
         self.model = model
         self.num_workers = max(1, num_workers or os.cpu_count() or 1)
-        self._datas = [mujoco.MjData(model) for _ in range(self.num_workers)]
+        self._datas: list[mujoco.MjData] = []  # one per worker, made with the first gains
         self._executor = DaemonThreadPool(self.num_workers, "judo-feedback")
         self._runner = mujoco.rollout.Rollout(nthread=0)
         self.nstate = mujoco.mj_stateSize(model, STATE_SPEC)
@@ -150,6 +157,7 @@ class FeedbackGains:
 
     def _allocate(self, num_steps: int) -> None:
         model = self.model
+        self._datas = self._datas or [mujoco.MjData(model) for _ in range(self.num_workers)]
         self._num_steps = num_steps
         self._states = np.zeros((1, num_steps, self.nstate))
         self._sensors = np.zeros((1, num_steps, model.nsensordata))
@@ -240,21 +248,30 @@ class FeedbackGains:
         # [time, qpos, qvel, ...] of STATE_SPEC -> [qpos, qvel]
         return gains, path[:, 1 : 1 + nq + nv].copy()
 
+    def add_to(self, plan: Spline, weights: np.ndarray, initial_state: np.ndarray, mocap: np.ndarray) -> FeedbackPlan:
+        """`plan` with the TVLQR gains around its controls at the T steps (`weights` (T, num_nodes) @ its knots,
+        clamped) rolled out from `initial_state` (STATE_SPEC) under the (7 nmocap,) `mocap` poses, weighed by
+        `task.feedback_cost()`; without gains, and saying why in `feedback_error`, when they failed."""
+        task = self.task
+        assert task is not None, "FeedbackGains.add_to needs the task"
+        gains = nominal_states = error = None
+        controls = np.minimum(np.maximum(weights @ plan.knots, plan.low), plan.high)
+        try:
+            if task.low_level() is not None:
+                raise FeedbackError(
+                    f"{type(task).__name__} plans a low-level policy's commands, and feedback gains are only for "
+                    "plans of the actuators"
+                )
+            state_weights, control_weights = (np.asarray(w, dtype=float) for w in task.feedback_cost())
+            finite_weights(state_weights, control_weights, self.model, task.nu)
+            gains, nominal_states = self.compute(initial_state, mocap, controls, state_weights, control_weights)
+        except FeedbackError as err:
+            error = str(err)
+        return FeedbackPlan(plan, self.model, gains, nominal_states, error)
+
     def close(self) -> None:
         """Stop the worker threads."""
         self._executor.shutdown(wait=True, timeout=0.5)
-
-
-def default_feedback_cost(model: mujoco.MjModel, control_range: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The default tracking cost: (2 nv,) state weights, 1 on each position deviation (rad or m) and 0.1 on
-    each velocity deviation, and (nu,) control weights 0.01 / (half the control range)^2, so that a deviation
-    of 0.1 rad costs as much as a tenth of an actuator's half range.
-
-    `control_range` is (nu, 2) [low, high]; an unbounded actuator counts a half range of 1."""
-    half = 0.5 * (control_range[:, 1] - control_range[:, 0])
-    half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
-    state = np.concatenate([np.ones(model.nv), np.full(model.nv, 0.1)])
-    return state, 0.01 / half**2
 
 
 def finite_weights(state_weights: np.ndarray, control_weights: np.ndarray, model: mujoco.MjModel, nu: int) -> None:
