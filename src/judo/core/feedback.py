@@ -163,36 +163,28 @@ class FeedbackGains:
         self._sensors = np.zeros((1, num_steps, model.nsensordata))
         self._inputs = np.zeros((1, num_steps, model.nu + 7 * model.nmocap))
         stride = math.ceil(num_steps / MAX_LINEARISATIONS)
-        self._points = np.arange(0, num_steps, stride)  # the steps linearised
-        self._source = np.arange(num_steps) // stride  # the linearisation each step uses
-        num_points = len(self._points)
+        self.points = np.arange(0, num_steps, stride)  # the steps linearised
+        self.source = np.arange(num_steps) // stride  # the linearisation each step uses
+        num_points = len(self.points)
         self._a = np.zeros((num_points, self.ndx, self.ndx))
         self._b = np.zeros((num_points, self.ndx, model.nu))
         bounds = np.linspace(0, num_points, min(self.num_workers, num_points) + 1).astype(int)
         self._chunks = [range(lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)]
 
-    def compute(
-        self,
-        initial_state: np.ndarray,
-        mocap: np.ndarray,
-        controls: np.ndarray,
-        state_weights: np.ndarray,
-        control_weights: np.ndarray,
-    ) -> tuple[np.ndarray, np.ndarray]:
-        """Gains and nominal states of the (T, nu) `controls` rolled out from the (nstate,) `initial_state`
-        (STATE_SPEC) with the (7 nmocap,) `mocap` poses held.
+    def linearise(
+        self, initial_state: np.ndarray, mocap: np.ndarray, controls: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The nominal rollout of the (T, nu) `controls` from the (nstate,) `initial_state` (STATE_SPEC) with the
+        (7 nmocap,) `mocap` poses held, and its linearisations.
 
-        Args:
-            state_weights: (2 nv,) Q on [dq, dv]; control_weights: (nu,) R.
-        Returns:
-            (T, nu, 2 nv) gains and the (T, nq + nv) nominal [qpos, qvel] at steps 0..T-1.
-        Raises FeedbackError for non-finite states, derivatives or gains, or gains beyond MAX_GAIN.
+        Returns (T, nstate) states before each step's control (STATE_SPEC), and (L, n, n) A and (L, n, nu) B
+        (n = 2 nv + na) at the L steps `points` (L,); step t uses linearisation `source[t]` ((T,) ints). The
+        arrays are reused by the next call. Raises FeedbackError for a diverged rollout or non-finite derivatives.
         """
-        model, nq, nv, nu = self.model, self.model.nq, self.model.nv, self.model.nu
+        model, nu = self.model, self.model.nu
         num_steps = len(controls)
         if num_steps != self._num_steps:
             self._allocate(num_steps)
-        # States along the nominal: step k's state is the one before its control is applied.
         self._inputs[0, :, :nu] = controls
         self._inputs[0, :, nu:] = mocap
         spec = mujoco.mjtState.mjSTATE_CTRL
@@ -224,7 +216,7 @@ class FeedbackGains:
                 data.mocap_pos[:] = mocap[: 3 * model.nmocap].reshape(-1, 3)
                 data.mocap_quat[:] = mocap[3 * model.nmocap :].reshape(-1, 4)
             for i in self._chunks[worker]:
-                k = self._points[i]
+                k = self.points[i]
                 mujoco.mj_setState(model, data, path[k], STATE_SPEC)
                 data.ctrl[:] = controls[k]
                 mujoco.mjd_transitionFD(model, data, FD_EPS, False, a[i], b[i], None, None)
@@ -238,10 +230,31 @@ class FeedbackGains:
         for future in futures:
             future.result()
         if not (np.isfinite(a).all() and np.isfinite(b).all()):
-            bad = self._points[np.flatnonzero(~(np.isfinite(a).all(axis=(1, 2)) & np.isfinite(b).all(axis=(1, 2))))[0]]
+            bad = self.points[np.flatnonzero(~(np.isfinite(a).all(axis=(1, 2)) & np.isfinite(b).all(axis=(1, 2))))[0]]
             raise FeedbackError(f"non-finite derivatives at step {bad} of the nominal rollout")
+        return path, a, b
+
+    def compute(
+        self,
+        initial_state: np.ndarray,
+        mocap: np.ndarray,
+        controls: np.ndarray,
+        state_weights: np.ndarray,
+        control_weights: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Gains and nominal states of the (T, nu) `controls` rolled out from the (nstate,) `initial_state`
+        (STATE_SPEC) with the (7 nmocap,) `mocap` poses held.
+
+        Args:
+            state_weights: (2 nv,) Q on [dq, dv]; control_weights: (nu,) R.
+        Returns:
+            (T, nu, 2 nv) gains and the (T, nq + nv) nominal [qpos, qvel] at steps 0..T-1.
+        Raises FeedbackError for non-finite states, derivatives or gains, or gains beyond MAX_GAIN.
+        """
+        model, nq, nv = self.model, self.model.nq, self.model.nv
+        path, a, b = self.linearise(initial_state, mocap, controls)
         weights = np.concatenate([state_weights, np.full(model.na, 1e-6)])
-        gains = tvlqr_gains(a, b, weights, control_weights, weights, self._source)[:, :, : 2 * nv]
+        gains = tvlqr_gains(a, b, weights, control_weights, weights, self.source)[:, :, : 2 * nv]
         largest = float(np.abs(gains).max()) if gains.size else 0.0
         if not largest <= MAX_GAIN:
             raise FeedbackError(f"gains of {largest:.3g} exceed {MAX_GAIN:g}: a degenerate linearisation")
