@@ -4,12 +4,9 @@ Its settings, `ControllerConfig`, and `check_configs` live in `judo.core.control
 imported here too, where they have always been importable from.
 """
 
-import inspect
 import math
 import threading
-import warnings
-from collections.abc import Callable
-from typing import Any, cast
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -32,14 +29,14 @@ from judo.core.errors import ConfigError, JudoError
 from judo.core.feedback import FeedbackGains
 from judo.core.low_level import check_low_level_backend, with_low_level
 from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
-from judo.core.optimizer import Optimizer
+from judo.core.optimizer import Optimizer, PlanningStart
 from judo.core.parallel_reward import ParallelReward
 from judo.core.policy import Policy
 from judo.core.proposals import Proposer, insert_proposals
 from judo.core.randomize import randomized_models
 from judo.core.risk import reduce_rewards
 from judo.core.spline import Spline, SplineBasis
-from judo.core.task import Task
+from judo.core.task import Task, legacy_warm_start, warm_start_takes_state
 
 __all__ = [
     "MAX_CONTROL_FREQ",
@@ -69,30 +66,6 @@ class NonFiniteRewardError(JudoError):
 
 class NonFiniteKnotsError(JudoError):
     """The optimizer sampled or returned NaN or infinite knots; its search was restarted and the plan is kept."""
-
-
-def warm_start_takes_state(task: Task) -> bool:
-    """Whether `task.optimizer_warm_start` takes the plant state. The old no-argument form (it read the
-    task's own `data`, which the controller never steps) still works, with a DeprecationWarning."""
-    try:
-        parameters = inspect.signature(task.optimizer_warm_start).parameters
-    except (TypeError, ValueError):  # a builtin or an odd callable: assume the current form
-        return True
-    if parameters:
-        return True
-    warnings.warn(
-        f"{type(task).__name__}.optimizer_warm_start() without arguments is deprecated: define "
-        "optimizer_warm_start(self, state) and read the (nq + nv,) plant state it is given, not self.data",
-        DeprecationWarning,
-        stacklevel=3,
-    )
-    return False
-
-
-def legacy_warm_start(task: Task) -> Any:
-    """`task.optimizer_warm_start()` in the deprecated form without the state, for a task whose override takes
-    none (`warm_start_takes_state` False); Task declares the current form, hence the cast."""
-    return cast(Callable[[], Any], task.optimizer_warm_start)()
 
 
 class Controller:
@@ -274,6 +247,8 @@ class Controller:
         self._set_initial_state(state, time, system_metadata)
         task.pre_rollout(state)
         task_config = snapshot(task.config)
+        start = (self._initial_state, self._initial_mocap, self._rollout_weights, task_config, system_metadata)
+        opt.set_start(PlanningStart(task, *start))
         expected = (opt.num_rollouts, opt.num_nodes, task.command_size)
         num_models = len(self.models)
         num_rows = num_models * opt.num_rollouts

@@ -1,6 +1,8 @@
 """The Task contract: a MuJoCo model plus a reward over batches of rollouts."""
 
+import inspect
 import typing
+import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -353,6 +355,30 @@ class Task(ABC, Generic[ConfigT]):
 
 
 TaskT = TypeVar("TaskT", bound=Task)
+
+
+def warm_start_takes_state(task: Task) -> bool:
+    """Whether `task.optimizer_warm_start` takes the plant state. The old no-argument form (it read the
+    task's own `data`, which the controller never steps) still works, with a DeprecationWarning."""
+    try:
+        parameters = inspect.signature(task.optimizer_warm_start).parameters
+    except (TypeError, ValueError):  # a builtin or an odd callable: assume the current form
+        return True
+    if parameters:
+        return True
+    warnings.warn(
+        f"{type(task).__name__}.optimizer_warm_start() without arguments is deprecated: define "
+        "optimizer_warm_start(self, state) and read the (nq + nv,) plant state it is given, not self.data",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    return False
+
+
+def legacy_warm_start(task: Task) -> Any:
+    """`task.optimizer_warm_start()` in the deprecated form without the state, for a task whose override takes
+    none (`warm_start_takes_state` False); Task declares the current form, hence the cast."""
+    return cast(Callable[[], Any], task.optimizer_warm_start)()
 
 
 def new_task(task_cls: type[TaskT]) -> TaskT:
