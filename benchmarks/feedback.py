@@ -2,18 +2,21 @@
 
 For each task, planning rate (20, 10, 5 Hz, and 10 Hz with 25 ms of latency) and plant, runs closed-loop
 episodes (the evaluate machinery: `run_episode` on the task's defaults, sim time, seeds from --first-seed)
-with the optimizer, without and with feedback, and prints each task's two headline metrics (mean over seeds).
+with each optimizer, without and with feedback, and prints each task's two headline metrics (mean over seeds).
 
 Two plants:
-- "same": the plant is the planning model. Without latency the plant then follows the nominal rollout
-  exactly, x - x_nom(t) = 0, and no feedback law can change anything: the rows must match (a check).
+- "same": the plant is the planning model. Without latency the plant then follows the nominal rollout to
+  rounding error, x - x_nom(t) ~ 0, and no feedback law can change much: the rows differ only where rounding
+  grows through a chaotic episode (a check).
 - "heavier": every body of the plant is --mass-scale times heavier (inertia too) than the planner thinks,
   so the plant drifts off the plan between replans; this is what the gains are for.
 
 Then, on one machine in one run, the median control update with and without the gains (their ratio is what
-the gains add) and the serving time of one action: the plain spline, and the spline with the gains.
+the gains add; each optimizer's against the first's) and the serving time of one action: the plain spline,
+and the spline with the gains.
 
     PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole walker --first-seed 500
+    PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole --optimizers mppi ilqr --plants heavier
 """
 
 import argparse
@@ -32,6 +35,8 @@ CONDITIONS = [(20.0, 0.0), (10.0, 0.0), (5.0, 0.0), (10.0, 25.0)]
 """(planning rate in Hz, latency in ms) of each column."""
 DEFAULT_SEEDS = {"cartpole": (3, 10.0), "walker": (2, 8.0), "quadruped": (2, 15.0)}
 """Seeds and seconds per episode of each task (others: 2 seeds of 10 s)."""
+HEADLINE = {"quadruped": ["goals_per_minute", "falls"], "humanoid_standup": ["standing_fraction", "final_head_height"]}
+"""The two metrics printed for a task; by default the first two of its `metrics`."""
 
 
 @dataclass
@@ -91,7 +96,7 @@ def serving_us(task: str, optimizer: str) -> tuple[float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--tasks", nargs="+", default=["cartpole", "walker"])
-    parser.add_argument("--optimizer", default="mppi")
+    parser.add_argument("--optimizers", nargs="+", default=["mppi"], help="each without and with feedback")
     parser.add_argument("--first-seed", type=int, default=500)
     parser.add_argument("--seeds", type=int, help="episodes per cell (default: per task, see DEFAULT_SEEDS)")
     parser.add_argument("--duration", type=float, help="seconds of sim time per episode (default: per task)")
@@ -103,29 +108,34 @@ def main() -> None:
         num_seeds, duration = DEFAULT_SEEDS.get(task, (2, 10.0))
         num_seeds, duration = args.seeds or num_seeds, args.duration or duration
         seeds = range(args.first_seed, args.first_seed + num_seeds)
-        print(f"\n{task}, {args.optimizer}, {num_seeds} seeds x {duration:g} s (seeds {seeds.start}-{seeds.stop - 1})")
-        times: dict[bool, list[float]] = {False: [], True: []}
+        print(f"\n{task}, {num_seeds} seeds x {duration:g} s (seeds {seeds.start}-{seeds.stop - 1})", flush=True)
+        times: dict[tuple[str, bool], list[float]] = {(o, f): [] for o in args.optimizers for f in (False, True)}
         names: list[str] = []
         for plant in args.plants:
             scale = args.mass_scale if plant == "heavier" else 1.0
-            lines = {False: [], True: []}
-            for rate, latency in CONDITIONS:
-                for feedback in (False, True):
-                    cell = run_cell(task, args.optimizer, rate, latency, feedback, scale, seeds, duration)
-                    names = names or [k for k in cell.metrics if k != "mean_reward"][:2]
-                    lines[feedback].append(" / ".join(f"{cell.metrics[k]:.2f}" for k in names))
-                    times[feedback] += cell.update_ms
+            lines: dict[tuple[str, bool], list[str]] = {key: [] for key in times}
+            for optimizer, feedback in times:
+                for rate, latency in CONDITIONS:
+                    cell = run_cell(task, optimizer, rate, latency, feedback, scale, seeds, duration)
+                    headline = [k for k in HEADLINE.get(task, []) if k in cell.metrics]
+                    names = names or headline or [k for k in cell.metrics if k != "mean_reward"][:2]
+                    lines[optimizer, feedback].append(" / ".join(f"{cell.metrics[k]:.2f}" for k in names))
+                    times[optimizer, feedback] += cell.update_ms
             label = f"plant {plant}" + (f" (mass x {scale:g})" if plant == "heavier" else "")
             print(f"| {label}: {' / '.join(names)} | {header} |")
             print("|---|" + "---|" * len(CONDITIONS))
-            for feedback in (False, True):
-                print(f"| {args.optimizer}{' + feedback' if feedback else ''} | {' | '.join(lines[feedback])} |")
-        plain, gains = np.median(times[False]), np.median(times[True])
-        spline_us, feedback_us = serving_us(task, args.optimizer)
-        print(
-            f"update: median {plain:.2f} ms without gains, {gains:.2f} ms with (x {gains / plain:.2f}); "
-            f"serving one action: {spline_us:.1f} us plain, {feedback_us:.1f} us with gains"
-        )
+            for (optimizer, feedback), cells in lines.items():
+                print(f"| {optimizer}{' + feedback' if feedback else ''} | {' | '.join(cells)} |", flush=True)
+        base = np.median(times[args.optimizers[0], False])
+        for optimizer in args.optimizers:
+            plain, gains = np.median(times[optimizer, False]), np.median(times[optimizer, True])
+            spline_us, feedback_us = serving_us(task, optimizer)
+            print(
+                f"{optimizer} update: median {plain:.2f} ms without gains (x {plain / base:.2f} of "
+                f"{args.optimizers[0]}'s), {gains:.2f} ms with (x {gains / plain:.2f}); serving one action: "
+                f"{spline_us:.1f} us plain, {feedback_us:.1f} us with gains",
+                flush=True,
+            )
 
 
 if __name__ == "__main__":
