@@ -252,6 +252,7 @@ def test_evaluate_fingerprint_writes_the_metrics_and_finds_a_changed_run(tmp_pat
     assert changed.returncode == 1 and "differs: pendulum/ps/0 ms" in changed.stdout
 
 
+@pytest.mark.slow  # about 5 s: 8 episodes of 0.3 s in a subprocess
 def test_feedback_prints_each_optimizer_with_and_without_gains_and_the_update_and_serving_times():
     small = ["--seeds", "1", "--duration", "0.3", "--plants", "heavier"]
     result = run_script("feedback.py", "--tasks", "cartpole", "--optimizers", "mppi", *small)
