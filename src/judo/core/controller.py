@@ -314,7 +314,8 @@ class Controller:
         self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)
         self._plan = Spline(time, self._basis, self.nominal_knots, self._ctrl_low, self._ctrl_high)
         if cfg.feedback:  # with the gains around its nominal rollout (judo.core.feedback)
-            self._plan = self._gains.add_to(self._plan, self._rollout_weights, self._initial_state, self._initial_mocap)
+            start = (self._initial_state, self._initial_mocap, opt.num_rollouts * len(self.models))
+            self._plan = self._gains.add_to(self._plan, self._rollout_weights, *start)
         shown = np.argsort(-rewards, kind="stable")[: self.config.max_num_traces]
         self.traces = sensors[np.r_[0, shown]][..., self._trace_columns].reshape(len(shown) + 1, self.num_steps, -1, 3)
         return self._plan

@@ -37,9 +37,13 @@ if typing.TYPE_CHECKING:
 FD_EPS = 1e-6
 """Finite-difference step of `mjd_transitionFD` (MuJoCo's own default); forward differences."""
 MAX_LINEARISATIONS = 20
-"""Most steps of the nominal rollout that are linearised: every ceil(T / 20)-th step, each linearisation
+"""Most steps of the nominal rollout that are linearised: every ceil(T / L)-th step, each linearisation
 standing for the steps up to the next (the backward pass still runs every step). A linearisation costs
-2 nv + na + nu model steps; along all T steps they would cost about as much as the rollouts themselves."""
+2 nv + na + nu + 1 model steps; along all T steps they would cost about as much as the rollouts themselves."""
+MIN_LINEARISATIONS = 5
+"""Fewest steps linearised, whatever the budget."""
+LINEARISATION_SHARE = 0.2
+"""The gains' budget: their linearisations may cost this share of the model steps of one update's rollouts."""
 MAX_GAIN = 1e6
 """Largest |K| entry accepted; larger gains mean a degenerate linearisation and the plan is served without."""
 
@@ -130,7 +134,7 @@ class FeedbackGains:
     """Linearises the planning model along a nominal control sequence and computes its TVLQR gains.
 
     Owns one MjData per worker thread and its buffers (reallocated only when the horizon changes). The
-    linearised steps (at most MAX_LINEARISATIONS) are split into one contiguous chunk per worker;
+    linearised steps (`num_points`, at most MAX_LINEARISATIONS) are split into one contiguous chunk per worker;
     `mjd_transitionFD` releases the GIL, so the chunks run in parallel.
 
     Args:
@@ -153,16 +157,24 @@ class FeedbackGains:
         self._runner = mujoco.rollout.Rollout(nthread=0)
         self.nstate = mujoco.mj_stateSize(model, STATE_SPEC)
         self.ndx = 2 * model.nv + model.na
-        self._num_steps = -1
+        self._layout = (-1, -1)
 
-    def _allocate(self, num_steps: int) -> None:
+    def num_points(self, num_steps: int, num_rollouts: int | None) -> int:
+        """Steps to linearise along a T = `num_steps` rollout: MAX_LINEARISATIONS for `num_rollouts` None, else as
+        many as LINEARISATION_SHARE of `num_rollouts` x T model steps pay for (MIN_LINEARISATIONS at least)."""
+        if num_rollouts is None:
+            return min(MAX_LINEARISATIONS, num_steps)
+        affordable = int(LINEARISATION_SHARE * num_rollouts * num_steps / (self.ndx + self.model.nu + 1))
+        return min(max(affordable, MIN_LINEARISATIONS), MAX_LINEARISATIONS, num_steps)
+
+    def _allocate(self, num_steps: int, max_points: int) -> None:
         model = self.model
         self._datas = self._datas or [mujoco.MjData(model) for _ in range(self.num_workers)]
-        self._num_steps = num_steps
+        self._layout = (num_steps, max_points)
         self._states = np.zeros((1, num_steps, self.nstate))
         self._sensors = np.zeros((1, num_steps, model.nsensordata))
         self._inputs = np.zeros((1, num_steps, model.nu + 7 * model.nmocap))
-        stride = math.ceil(num_steps / MAX_LINEARISATIONS)
+        stride = math.ceil(num_steps / max_points)
         self.points = np.arange(0, num_steps, stride)  # the steps linearised
         self.source = np.arange(num_steps) // stride  # the linearisation each step uses
         num_points = len(self.points)
@@ -172,10 +184,10 @@ class FeedbackGains:
         self._chunks = [range(lo, hi) for lo, hi in zip(bounds[:-1], bounds[1:], strict=True)]
 
     def linearise(
-        self, initial_state: np.ndarray, mocap: np.ndarray, controls: np.ndarray
+        self, initial_state: np.ndarray, mocap: np.ndarray, controls: np.ndarray, max_points: int = MAX_LINEARISATIONS
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The nominal rollout of the (T, nu) `controls` from the (nstate,) `initial_state` (STATE_SPEC) with the
-        (7 nmocap,) `mocap` poses held, and its linearisations.
+        (7 nmocap,) `mocap` poses held, and its linearisations at up to `max_points` steps.
 
         Returns (T, nstate) states before each step's control (STATE_SPEC), and (L, n, n) A and (L, n, nu) B
         (n = 2 nv + na) at the L steps `points` (L,); step t uses linearisation `source[t]` ((T,) ints). The
@@ -183,8 +195,8 @@ class FeedbackGains:
         """
         model, nu = self.model, self.model.nu
         num_steps = len(controls)
-        if num_steps != self._num_steps:
-            self._allocate(num_steps)
+        if (num_steps, max_points) != self._layout:
+            self._allocate(num_steps, max_points)
         self._inputs[0, :, :nu] = controls
         self._inputs[0, :, nu:] = mocap
         spec = mujoco.mjtState.mjSTATE_CTRL
@@ -241,18 +253,20 @@ class FeedbackGains:
         controls: np.ndarray,
         state_weights: np.ndarray,
         control_weights: np.ndarray,
+        max_points: int = MAX_LINEARISATIONS,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Gains and nominal states of the (T, nu) `controls` rolled out from the (nstate,) `initial_state`
         (STATE_SPEC) with the (7 nmocap,) `mocap` poses held.
 
         Args:
             state_weights: (2 nv,) Q on [dq, dv]; control_weights: (nu,) R.
+            max_points: most steps linearised (see `linearise`).
         Returns:
             (T, nu, 2 nv) gains and the (T, nq + nv) nominal [qpos, qvel] at steps 0..T-1.
         Raises FeedbackError for non-finite states, derivatives or gains, or gains beyond MAX_GAIN.
         """
         model, nq, nv = self.model, self.model.nq, self.model.nv
-        path, a, b = self.linearise(initial_state, mocap, controls)
+        path, a, b = self.linearise(initial_state, mocap, controls, max_points)
         weights = np.concatenate([state_weights, np.full(model.na, 1e-6)])
         gains = tvlqr_gains(a, b, weights, control_weights, weights, self.source)[:, :, : 2 * nv]
         largest = float(np.abs(gains).max()) if gains.size else 0.0
@@ -261,10 +275,13 @@ class FeedbackGains:
         # [time, qpos, qvel, ...] of STATE_SPEC -> [qpos, qvel]
         return gains, path[:, 1 : 1 + nq + nv].copy()
 
-    def add_to(self, plan: Spline, weights: np.ndarray, initial_state: np.ndarray, mocap: np.ndarray) -> FeedbackPlan:
+    def add_to(
+        self, plan: Spline, weights: np.ndarray, initial_state: np.ndarray, mocap: np.ndarray, num_rollouts: int
+    ) -> FeedbackPlan:
         """`plan` with the TVLQR gains around its controls at the T steps (`weights` (T, num_nodes) @ its knots,
         clamped) rolled out from `initial_state` (STATE_SPEC) under the (7 nmocap,) `mocap` poses, weighed by
-        `task.feedback_cost()`; without gains, and saying why in `feedback_error`, when they failed."""
+        `task.feedback_cost()`, linearised at as many steps as an update of `num_rollouts` rollouts pays for
+        (`num_points`); without gains, and saying why in `feedback_error`, when they failed."""
         task = self.task
         assert task is not None, "FeedbackGains.add_to needs the task"
         gains = nominal_states = error = None
@@ -277,7 +294,8 @@ class FeedbackGains:
                 )
             state_weights, control_weights = (np.asarray(w, dtype=float) for w in task.feedback_cost())
             finite_weights(state_weights, control_weights, self.model, task.nu)
-            gains, nominal_states = self.compute(initial_state, mocap, controls, state_weights, control_weights)
+            points = self.num_points(len(controls), num_rollouts)
+            gains, nominal_states = self.compute(initial_state, mocap, controls, state_weights, control_weights, points)
         except FeedbackError as err:
             error = str(err)
         return FeedbackPlan(plan, self.model, gains, nominal_states, error)
