@@ -17,6 +17,7 @@ and the spline with the gains.
 
     PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole walker --first-seed 500
     PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole --optimizers mppi ilqr --plants heavier
+    PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole walker quadruped --timing-only
 """
 
 import argparse
@@ -74,23 +75,31 @@ def run_cell(
     return Cell({k: float(np.mean([r[k] for r in rows])) for k in rows[0]}, update_ms)
 
 
-def serving_us(task: str, optimizer: str) -> tuple[float, float]:
-    """Microseconds to serve one action of a plan: the plain spline, and the spline with gains."""
-    spec = EpisodeSpec(task, optimizer, 1.0, values={"controller.feedback": True}, num_workers=2)
+def timings(task: str, optimizer: str, updates: int = 10) -> tuple[float, float, float, float]:
+    """From one start state: the median update without and with the gains in ms (alternating, so that a busy
+    machine slows both alike), and the microseconds to serve one action of the plain spline and with the gains."""
+    spec = EpisodeSpec(task, optimizer, 1.0, num_workers=2)
     configs = configs_in_force(spec)
     with spec_controller(spec, configs, 0) as controller:
         controller.task.reset()
         data = controller.task.data
         state = np.concatenate([data.qpos, data.qvel])
-        plan = controller.update_action(state, 0.0)
+        metadata = controller.task.get_sim_metadata()
+        update_ms: dict[bool, list[float]] = {False: [], True: []}
+        for _ in range(updates):
+            for feedback in (False, True):
+                controller.config.feedback = feedback
+                start = time.perf_counter()
+                plan = controller.update_action(state, 0.0, metadata)
+                update_ms[feedback].append(1e3 * (time.perf_counter() - start))
         assert isinstance(plan, FeedbackPlan) and plan.gains is not None, plan
-        times = []
+        serving = []
         for with_state in (None, state + 1e-3):
             start = time.perf_counter()
             for i in range(2000):
                 plan(0.001 * (i % 50), with_state)
-            times.append((time.perf_counter() - start) / 2000 * 1e6)
-    return times[0], times[1]
+            serving.append((time.perf_counter() - start) / 2000 * 1e6)
+    return float(np.median(update_ms[False])), float(np.median(update_ms[True])), serving[0], serving[1]
 
 
 def main() -> None:
@@ -102,6 +111,7 @@ def main() -> None:
     parser.add_argument("--duration", type=float, help="seconds of sim time per episode (default: per task)")
     parser.add_argument("--mass-scale", type=float, default=1.25, help="the heavier plant's mass factor")
     parser.add_argument("--plants", nargs="+", default=["same", "heavier"], choices=["same", "heavier"])
+    parser.add_argument("--timing-only", action="store_true", help="only the update and serving times, no episodes")
     args = parser.parse_args()
     header = " | ".join(f"{rate:g} Hz" + (f" + {lat:g} ms" if lat else "") for rate, lat in CONDITIONS)
     for task in args.tasks:
@@ -111,7 +121,7 @@ def main() -> None:
         print(f"\n{task}, {num_seeds} seeds x {duration:g} s (seeds {seeds.start}-{seeds.stop - 1})", flush=True)
         times: dict[tuple[str, bool], list[float]] = {(o, f): [] for o in args.optimizers for f in (False, True)}
         names: list[str] = []
-        for plant in args.plants:
+        for plant in [] if args.timing_only else args.plants:
             scale = args.mass_scale if plant == "heavier" else 1.0
             lines: dict[tuple[str, bool], list[str]] = {key: [] for key in times}
             for optimizer, feedback in times:
@@ -126,13 +136,14 @@ def main() -> None:
             print("|---|" + "---|" * len(CONDITIONS))
             for (optimizer, feedback), cells in lines.items():
                 print(f"| {optimizer}{' + feedback' if feedback else ''} | {' | '.join(cells)} |", flush=True)
-        base = np.median(times[args.optimizers[0], False])
+        base = np.median(times[args.optimizers[0], False]) if not args.timing_only else np.nan
         for optimizer in args.optimizers:
-            plain, gains = np.median(times[optimizer, False]), np.median(times[optimizer, True])
-            spline_us, feedback_us = serving_us(task, optimizer)
+            plain, gains = np.median(times[optimizer, False] or [np.nan]), np.median(times[optimizer, True] or [np.nan])
+            alone, with_gains, spline_us, feedback_us = timings(task, optimizer)
             print(
-                f"{optimizer} update: median {plain:.2f} ms without gains (x {plain / base:.2f} of "
-                f"{args.optimizers[0]}'s), {gains:.2f} ms with (x {gains / plain:.2f}); serving one action: "
+                f"{optimizer} update in the episodes: median {plain:.2f} ms without gains (x {plain / base:.2f} of "
+                f"{args.optimizers[0]}'s), {gains:.2f} ms with; from one state, alternating: {alone:.2f} ms, "
+                f"{with_gains:.2f} ms with gains (x {with_gains / alone:.2f}); serving one action: "
                 f"{spline_us:.1f} us plain, {feedback_us:.1f} us with gains",
                 flush=True,
             )

@@ -260,4 +260,5 @@ def test_feedback_prints_each_optimizer_with_and_without_gains_and_the_update_an
     header = "| plant heavier (mass x 1.25): balanced_fraction / swung_up | 20 Hz | 10 Hz | 5 Hz | 10 Hz + 25 ms |"
     assert header in result.stdout
     assert "| mppi | " in result.stdout and "| mppi + feedback | " in result.stdout
-    assert "mppi update: median " in result.stdout and "us with gains" in result.stdout
+    assert "mppi update in the episodes: median " in result.stdout and "from one state, alternating" in result.stdout
+    assert "us with gains" in result.stdout
