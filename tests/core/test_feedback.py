@@ -146,3 +146,28 @@ def test_gains_are_finite_and_bounded_and_a_failed_update_serves_the_plan_withou
         assert isinstance(plan, FeedbackPlan) and plan.gains is None
         assert plan.feedback_error == "feedback_cost's control weights must be finite and above 0"
         np.testing.assert_array_equal(plan(0.02, state + 0.05), plan(0.02))  # the plan alone is served
+
+
+def test_a_free_joint_s_deviation_is_taken_in_the_tangent_space() -> None:
+    with judo.make_controller(
+        "quadruped", "mppi", controller_config=ControllerConfig(feedback=True), num_workers=2, seed=0
+    ) as controller:
+        controller.task.reset()
+        data = controller.task.data
+        state = np.concatenate([data.qpos, data.qvel])
+        plan = controller.update_action(state, 0.0, controller.task.get_sim_metadata())
+        assert isinstance(plan, FeedbackPlan) and plan.gains is not None and plan.nominal_states is not None
+        assert plan.gains.shape[1:] == (controller.task.nu, 2 * controller.task.model.nv)  # 3 + 3 for the free joint
+        nominal = plan.nominal_states[0]
+        np.testing.assert_allclose(plan(0.0, nominal), plan(0.0), atol=1e-12)
+        flipped = nominal.copy()
+        flipped[3:7] *= -1.0  # the same orientation: no deviation in the tangent space
+        np.testing.assert_allclose(plan(0.0, flipped), plan(0.0), atol=1e-9)
+        yawed = nominal.copy()
+        mujoco.mj_integratePos(
+            controller.task.model, yawed[: controller.task.model.nq], np.r_[0, 0, 0, 0, 0, 0.05, np.zeros(12)], 1.0
+        )
+        dx = np.zeros(2 * controller.task.model.nv)
+        dx[5] = 0.05
+        expected = np.clip(plan(0.0) + plan.gains[0] @ dx, *controller.task.command_range.T)
+        np.testing.assert_allclose(plan(0.0, yawed), expected, atol=1e-9)

@@ -2,8 +2,8 @@
 
 Between two control updates the plan is served open-loop, `u(t)` from the spline, whatever the state does.
 With `ControllerConfig.feedback`, each update also linearises the planning model along the nominal plan's
-rollout (`mujoco.mjd_transitionFD` at every step, on the CPU worker threads, one MjData each) and runs a
-time-varying LQR backward pass on a quadratic tracking cost; the plan then carries the gains and serves
+rollout (`mujoco.mjd_transitionFD` at up to 20 evenly spaced steps, on the CPU worker threads, one MjData
+each) and runs a time-varying LQR backward pass on a quadratic tracking cost; the plan carries the gains and serves
 
     u(t) = clamp(u_plan(t) + K(t) (x_hat - x_nom(t)))
 
@@ -108,8 +108,7 @@ class FeedbackPlan(Spline):
         self.model = model
         self.gains, self.nominal_states, self.feedback_error = gains, nominal_states, feedback_error
         self._dt = float(model.opt.timestep)
-        self._nq, self._nv = model.nq, model.nv
-        self._dq = np.zeros(model.nv)
+        self._nq = model.nq
         self._plain_difference = model.nq == model.nv
 
     def __call__(self, times: float | np.ndarray, state: np.ndarray | None = None) -> np.ndarray:
@@ -125,8 +124,9 @@ class FeedbackPlan(Spline):
         if self._plain_difference:
             dx = x - x_nom
         else:
-            mujoco.mj_differentiatePos(self.model, self._dq, 1.0, x_nom[:nq], x[:nq])
-            dx = np.concatenate([self._dq, x[nq:] - x_nom[nq:]])
+            dq = np.empty(self.model.nv)  # per call: a plan may be served from two threads
+            mujoco.mj_differentiatePos(self.model, dq, 1.0, x_nom[:nq], x[:nq])
+            dx = np.concatenate([dq, x[nq:] - x_nom[nq:]])
         return np.minimum(np.maximum(values + gains[step] @ dx, self.low), self.high)
 
 
