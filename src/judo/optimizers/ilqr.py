@@ -30,6 +30,7 @@ MAX_REGULARIZATION = 1e8
 """Largest regularisation of the control Hessian; beyond it the backward pass gives up for the cycle."""
 
 
+@slider("num_rollouts", 2, 64, 1)
 @slider("regularization", 1e-6, 100.0, 1e-6)
 @slider("min_step", 1e-4, 0.5, 1e-4)
 @slider("fd_step", 1e-6, 0.1, 1e-6)
