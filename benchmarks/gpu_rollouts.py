@@ -4,7 +4,8 @@ For each task and N: the median control update on the warp backend (sample, roll
 reward, update), the median raw rollout of the same N x T steps on the CPU `RolloutPool` (one thread per
 core), their ratio (the pool's rollout times the update's optimizer iterations over the warp update; above 1
 the whole warp update is faster than the CPU pool's physics alone), and the share of
-the warp update spent copying inputs to the device and states back, and in the task's reward.
+the warp update spent stepping on the device, copying inputs to the device and states back, and in the task's
+reward (what is left is the host's sampling, spline and optimizer update).
 
 Warp runs on its default device: the GPU when there is one, otherwise warp's CPU device, which launches
 every kernel of every step one after the other and is far slower than the pool; the header says which.
@@ -65,6 +66,7 @@ class Row:
     cpu_rollout_ms: float
     copy_share: float
     reward_share: float
+    physics_share: float
 
 
 def device_header() -> str:
@@ -115,7 +117,7 @@ def time_controller(controller: Controller, task: str, args: Args, advance) -> R
         plan = controller.update_action(state, now, metadata)
         now += period
     backend = controller.backend
-    update_ms, copy_ms, reward_ms = [], [], []
+    update_ms, copy_ms, reward_ms, physics_ms = [], [], [], []
     for _ in range(args.samples):
         backend.phase_seconds = dict.fromkeys(backend.phase_seconds, 0.0)  # type: ignore[attr-defined]
         reward_span[:] = [math.inf, -math.inf]
@@ -123,6 +125,7 @@ def time_controller(controller: Controller, task: str, args: Args, advance) -> R
         controller.update_action(state, now, metadata)
         update_ms.append(1e3 * (time.perf_counter() - started))
         copy_ms.append(1e3 * (backend.phase_seconds["copy_in"] + backend.phase_seconds["copy_out"]))  # type: ignore[attr-defined]
+        physics_ms.append(1e3 * backend.phase_seconds["physics"])  # type: ignore[attr-defined]
         reward_ms.append(1e3 * max(0.0, reward_span[1] - reward_span[0]))  # spans any physics between iterations too
         now += period
         advance()
@@ -150,12 +153,23 @@ def time_controller(controller: Controller, task: str, args: Args, advance) -> R
         cpu_rollout_ms=float(np.median(cpu_ms)),
         copy_share=float(np.median(copy_ms)) / median,
         reward_share=float(np.median(reward_ms)) / median,
+        physics_share=float(np.median(physics_ms)) / median,
     )
 
 
 def results_table(rows: list[Row], args: Args) -> Table:
     table = Table(title=f"{args.optimizer} control update on warp vs the CPU pool's raw rollouts (ms, medians)")
-    for column in ("task", "N x T", "iters", "warp update", "CPU pool rollout", "CPU / warp", "copies", "reward"):
+    for column in (
+        "task",
+        "N x T",
+        "iters",
+        "warp update",
+        "CPU pool rollout",
+        "CPU / warp",
+        "physics",
+        "copies",
+        "reward",
+    ):
         table.add_column(column, justify="left" if column == "task" else "right")
     for row in rows:
         table.add_row(
@@ -165,6 +179,7 @@ def results_table(rows: list[Row], args: Args) -> Table:
             f"{row.update_ms:.1f}",
             f"{row.cpu_rollout_ms:.1f}",
             f"{row.iterations * row.cpu_rollout_ms / row.update_ms:.2f}x",
+            f"{100 * row.physics_share:.1f}%",
             f"{100 * row.copy_share:.1f}%",
             f"{100 * row.reward_share:.1f}%",
         )
@@ -176,7 +191,7 @@ def main() -> None:
     console = Console(width=140)
     try:
         check_names(args.tasks, [args.optimizer])
-        check_rollout_backend("warp")  # MissingExtraError names judo[warp]
+        check_rollout_backend("warp")  # MissingExtraError names judo-mpc[warp]
         header = device_header()
     except JudoError as err:
         console.print(f"error: {err}", style="red")
@@ -195,7 +210,7 @@ def main() -> None:
     console.print(
         "CPU / warp: iters x CPU pool rollout / warp update; above 1 the whole warp update beats the CPU pool's "
         "physics alone. "
-        "copies: inputs to the device and states back; reward: the task's reward on the host (wall time, its row "
+        "physics: the T steps on the device (waited for); copies: inputs to the device and states back; reward: the task's reward on the host (wall time, its row "
         f"blocks on up to {os.cpu_count()} threads)."
     )
 

@@ -71,7 +71,7 @@ def test_gpu_rollouts_prints_the_device_it_measured_and_a_row_per_task_and_n():
     out = " ".join(result.stdout.split())  # rich wraps long lines
     assert "warp device: " in out and "MuJoCo Warp" in out
     assert "cartpole │ 4 x 5 │ 1 │" in out and "cartpole │ 8 x 5 │ 1 │" in out
-    assert "CPU / warp" in out and "copies" in out and "reward" in out
+    assert "CPU / warp" in out and "physics" in out and "copies" in out and "reward" in out
 
 
 def test_robust_planning_prints_a_row_per_setting():
@@ -80,7 +80,10 @@ def test_robust_planning_prints_a_row_per_setting():
         "robust_planning.py", "--task", "leap_cube", *small, "--randomizations", "1", "2", "--risks", "cvar"
     )
     assert result.returncode == 0, result.stderr
-    assert "### leap_cube on a mismatched plant (leap_cube_plant.xml), 1 seed(s) from 0 x 0.2 s" in result.stdout
+    assert (
+        "### leap_cube on a mismatched plant (opt.o_friction=[0.9, 0.9, 0.02, 0.0001, 0.0001]), 1 seed(s) from 0 x 0.2 s"
+        in result.stdout
+    )
     assert "| cem | 1 | - | 0 | 0 |" in result.stdout and "| cem | 2 | cvar 0.5 | 0 | 0 |" in result.stdout
 
 

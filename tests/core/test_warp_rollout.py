@@ -1,12 +1,16 @@
 """WarpRollout against RolloutPool, on warp's default device (the CPU device in CI: no GPU there).
 
-Marked `warp` and skipped without the judo[warp] extra. Warp compiles its kernels once per process and
+Marked `warp` and skipped without the judo-mpc[warp] extra. Warp compiles its kernels once per process and
 caches them on disk; the first run of this module takes about a minute for that, so the tests are few
 and share one backend per model.
 
 Tolerance: MuJoCo Warp computes in float32, MuJoCo in float64. Over 5 steps of 10 ms the states and
 sensors agree within ATOL = 1e-4 (measured: about 2e-7 without contacts, 1e-5 with the ball's contact).
 """
+
+import copy
+import json
+from concurrent.futures import ThreadPoolExecutor
 
 import mujoco
 import numpy as np
@@ -16,7 +20,9 @@ pytest.importorskip("warp")
 pytest.importorskip("mujoco_warp")
 
 import judo  # noqa: E402
+from judo.core.backend import RandomizedRolloutError  # noqa: E402
 from judo.core.model import STATE_SPEC  # noqa: E402
+from judo.core.problem_batch import ProblemBatch, ProblemBatchError  # noqa: E402
 from judo.core.rollout import RolloutPool  # noqa: E402
 from judo.core.warp_rollout import (  # noqa: E402
     RolloutOverflowWarning,
@@ -185,3 +191,125 @@ def test_the_controller_improves_cartpole_on_warp_and_a_seeded_run_repeats_itsel
         assert best_rewards(again) == first
         np.testing.assert_array_equal(again.nominal_knots, cartpole_warp.nominal_knots)
     assert not hasattr(again.backend, "_data")  # leaving the with closed the controller's backend
+
+
+def perturbed(model: mujoco.MjModel, mass: float, friction: float) -> mujoco.MjModel:
+    """A copy of `model` with the first ball `mass` times heavier, every friction `friction` and the slider damped,
+    its derived constants recomputed (as `randomized_models` does)."""
+    other = copy.deepcopy(model)
+    other.body_mass[other.body("ball").id] *= mass
+    other.geom_friction[:, 0] = friction
+    other.dof_damping[0] = 0.5
+    mujoco.mj_setConst(other, mujoco.MjData(other))
+    return other
+
+
+def test_randomized_models_run_per_world_and_a_redraw_keeps_the_device_model_and_graph(balls):
+    model, _ = balls
+    initial = start_state(model)
+    controls = np.random.default_rng(2).uniform(-1, 1, (2 * N, T, model.nu))
+    models = [model, perturbed(model, 3.0, 0.3)]
+    with WarpRollout(model, deterministic=True) as backend, RolloutPool(model, num_workers=1) as pool:
+        backend.set_models(models)
+        states = backend.rollout(initial, controls)[0].copy()
+        pool.set_models(models)
+        np.testing.assert_allclose(states, pool.rollout(initial, controls)[0], atol=ATOL, rtol=0)
+        tol = 1e-5 if backend.device.is_cuda else 0.0  # bitwise on the CPU device
+        for r, each in enumerate(models):  # block r ran on models[r]: as each model alone
+            with WarpRollout(each, deterministic=True) as alone:
+                block = slice(r * N, (r + 1) * N)
+                np.testing.assert_allclose(states[block], alone.rollout(initial, controls[block])[0], atol=tol, rtol=0)
+        assert np.abs(states[:N] - states[N:]).max() > 1e-3  # the heavier, slipperier world moves otherwise
+        device_model, graph = backend._device_model, backend._graph
+        redrawn = [model, perturbed(model, 1.5, 0.6)]  # a redraw: other values in the same fields
+        backend.set_models(redrawn)
+        again = backend.rollout(initial, controls)[0]
+        assert backend._device_model is device_model and backend._graph is graph  # written in place, not recaptured
+        pool.set_models(redrawn)
+        np.testing.assert_allclose(again, pool.rollout(initial, controls)[0], atol=ATOL, rtol=0)
+        backend.set_models(None)  # back to one model for every row
+        one = backend.rollout(initial, controls[:N])[0]
+        pool.set_models(None)
+        np.testing.assert_allclose(one, pool.rollout(initial, controls[:N])[0], atol=ATOL, rtol=0)
+
+
+def test_models_that_differ_in_a_field_mujoco_warp_holds_once_are_refused_by_name(balls):
+    model, backend = balls
+    other = copy.deepcopy(model)
+    other.opt.timestep = 0.02
+    with pytest.raises(RandomizedRolloutError, match=r"differ in opt.timestep, which MuJoCo Warp .* holds once"):
+        backend.set_models([model, other])
+    backend.set_models([model, perturbed(model, 2.0, 0.5)])
+    with pytest.raises(RandomizedRolloutError, match="a batch of 5 rollouts cannot be split evenly over the 2 models"):
+        backend.rollout(start_state(model), np.zeros((5, T, model.nu)))
+    backend.set_models(None)
+
+
+def test_problems_roll_out_as_one_batch_from_their_own_states_and_slots_wait_for_each_other(balls):
+    model, _ = balls
+    first = start_state(model)
+    second = first.copy()
+    second[1:3] = [-0.4, 0.7]  # another cart position and pole angle
+    controls = np.random.default_rng(3).uniform(-1, 1, (2 * N, T, model.nu))
+    goals = np.array([[0.3, -0.2, 0.5, 1, 0, 0, 0], [0.0, 0.4, 0.2, 1, 0, 0, 0]], dtype=float)
+    with WarpRollout(model, deterministic=True) as backend:
+        both, sensors = (a.copy() for a in backend.rollout_problems(np.stack([first, second]), controls, goals))
+        tol = 1e-5 if backend.device.is_cuda else 0.0
+        for p, state in enumerate([first, second]):
+            rows = slice(p * N, (p + 1) * N)
+            alone, alone_sensors = backend.rollout(state, controls[rows], goals[p])
+            np.testing.assert_allclose(both[rows], alone, atol=tol, rtol=0)
+            np.testing.assert_allclose(sensors[rows], alone_sensors, atol=tol, rtol=0)
+        batch = ProblemBatch(backend, 2)
+        with ThreadPoolExecutor(2) as threads:  # each slot's rollout returns once both handed theirs in
+            futures = [
+                threads.submit(lambda p, s: batch.slots[p].rollout(s, controls[p * N : (p + 1) * N], goals[p]), p, s)
+                for p, s in enumerate([first, second])
+            ]
+            results = [future.result(timeout=300)[0].copy() for future in futures]
+        assert batch.launches == 1
+        np.testing.assert_array_equal(np.concatenate(results), both)
+        batch.slots[1].close()  # slot 1's episode ended: slot 0 rolls out alone, without waiting
+        alone = batch.slots[0].rollout(first, controls[:N], goals[0])[0]
+        np.testing.assert_allclose(alone, both[:N], atol=tol, rtol=0)
+        with pytest.raises(ProblemBatchError, match="cannot roll out under 2 randomized models"):
+            batch.slots[0].set_models([model, perturbed(model, 2.0, 0.5)])
+
+
+@pytest.mark.slow
+def test_evaluate_with_episodes_batched_on_warp_gives_the_episodes_run_one_by_one(tmp_path, capsys):
+    from judo.evaluation.evaluate import main
+
+    common = ["--task", "cartpole", "--optimizer", "ps", "--backend", "warp", "--seeds", "2", "--duration", "0.1"]
+    common += ["--controller.horizon", "0.3"]
+    assert main([*common, "--json", str(tmp_path / "one.json")]) == 0
+    assert main([*common, "--episodes-per-batch", "2", "--json", str(tmp_path / "two.json")]) == 0
+    one, two = (json.loads((tmp_path / name).read_text()) for name in ("one.json", "two.json"))
+    assert [e["seed"] for e in two["episodes"]] == [0, 1]
+    assert [e["num_updates"] for e in two["episodes"]] == [e["num_updates"] for e in one["episodes"]] != [0, 0]
+    if not WarpRollout(mujoco.MjModel.from_xml_string(BALLS_XML)).device.is_cuda:  # bitwise on the CPU device
+        assert [e["metrics"] for e in two["episodes"]] == [e["metrics"] for e in one["episodes"]]
+    with pytest.raises(SystemExit) as err:
+        main(["--task", "cartpole", "--optimizer", "ps", "--episodes-per-batch", "2"])
+    assert err.value.code == 2
+    assert "expected --backend warp" in capsys.readouterr().err
+
+
+def test_collect_with_episodes_batched_on_warp_records_the_episodes_run_one_by_one():
+    from judo.collection.episode import collect_episode, collect_group
+    from judo.evaluation.seeded import EpisodeSpec
+
+    spec = EpisodeSpec("cartpole", "ps", 0.06, values={"controller.horizon": 0.2}, backend="warp")
+    batched = collect_group(spec, [3, 4])
+    assert [outcome.seed for outcome in batched] == [3, 4] and all(o.failure is None for o in batched)
+    alone = [collect_episode(spec, seed) for seed in (3, 4)]
+    for group, single in zip(batched, alone, strict=True):
+        assert group.episode is not None and single.episode is not None
+        assert len(group.episode.plan["knots"]) == len(single.episode.plan["knots"]) > 0
+        if not WarpRollout(mujoco.MjModel.from_xml_string(BALLS_XML)).device.is_cuda:  # bitwise on warp's CPU device
+            np.testing.assert_array_equal(group.episode.plan["knots"], single.episode.plan["knots"])
+            np.testing.assert_array_equal(group.episode.qpos, single.episode.qpos)
+    broken = EpisodeSpec("cartpole", "ps", 0.06, values={"controller.num_randomizations": 2}, backend="warp")
+    failures = collect_group(broken, [5, 6])  # each seed fails with the reason; nothing raises
+    assert [o.seed for o in failures] == [5, 6]
+    assert all(o.episode is None and "cannot roll out under 2 randomized models" in (o.failure or "") for o in failures)

@@ -12,9 +12,10 @@ back a module that imports it.
 """
 
 import abc
+import contextlib
 import importlib
-from collections.abc import Callable, Sequence
-from typing import Literal, TypeVar, cast, get_args
+from collections.abc import Callable, Iterator, Sequence
+from typing import Literal, Protocol, TypeVar, cast, get_args
 
 import mujoco
 import numpy as np
@@ -38,6 +39,8 @@ class RolloutBackend(abc.ABC):
 
     model: mujoco.MjModel
     num_workers: int
+    name: str = ""
+    """The name `make_rollout_backend` builds it from (one of ROLLOUT_BACKENDS)."""
     reward_threads: int = 1
     """Host threads the Controller may score a large batch's rewards on (core/parallel_reward.py): 1, one plain
     call, unless the backend leaves the host's cores idle while it rolls out (the GPU backend)."""
@@ -81,6 +84,23 @@ class RolloutBackend(abc.ABC):
             "(RolloutPool), which can"
         )
 
+    cancel: "CancelFlag | None" = None
+    """Set by the Controller for one cycle (`cancelled_by`): a backend that can stop part-way through a batch polls
+    it and raises PlanningCancelled once it is set; the default backend never looks."""
+
+    def set_cancel(self, cancel: "CancelFlag | None") -> None:
+        """Poll `cancel` during the rollouts from now on (None: never)."""
+        self.cancel = cancel
+
+    @contextlib.contextmanager
+    def cancelled_by(self, cancel: "CancelFlag | None") -> Iterator[None]:
+        """Within the block, poll `cancel` during the rollouts (`set_cancel`); never after it."""
+        self.set_cancel(cancel)
+        try:
+            yield
+        finally:
+            self.set_cancel(None)
+
     def close(self) -> None:  # noqa: B027  (no resources by default)
         """Release threads or device memory; the backend cannot be used afterwards."""
 
@@ -91,14 +111,54 @@ class RolloutBackend(abc.ABC):
         self.close()
 
 
+class CancelFlag(Protocol):
+    """Anything with `is_set()`: a threading.Event, the app's stop signal, a planning cycle."""
+
+    def is_set(self) -> bool: ...
+
+
+class PlanningCancelled(JudoError):
+    """The `cancel` flag of `Controller.update_action` was set: the cycle stopped (between optimizer iterations, or
+    part-way through a batch of rollouts whose outputs are then partial) and the previous plan stays."""
+
+
 class RandomizedRolloutError(JudoError):
     """A rollout backend was asked to roll out under several models and cannot, or the models do not fit."""
+
+
+MODEL_SIZES = ("nq", "nv", "nu", "na", "nmocap", "nsensordata")
+"""The sizes every model given to `set_models` must share with the backend's model."""
+
+
+def check_model_sizes(model: mujoco.MjModel, models: Sequence[mujoco.MjModel]) -> list[mujoco.MjModel]:
+    """`models` as a list, or RandomizedRolloutError for an empty list or a model whose MODEL_SIZES differ
+    from `model`'s."""
+    models = list(models)
+    if not models:
+        raise RandomizedRolloutError("set_models needs at least one model, got an empty list")
+    for i, other in enumerate(models):
+        for size in MODEL_SIZES:
+            if getattr(other, size) != getattr(model, size):
+                raise RandomizedRolloutError(
+                    f"model {i} passed to set_models has {size}={getattr(other, size)}, expected "
+                    f"{getattr(model, size)} as in the backend's model"
+                )
+    return models
+
+
+def check_blocks(num_rollouts: int, num_models: int) -> None:
+    """RandomizedRolloutError unless a batch of `num_rollouts` rows splits evenly over `num_models` models."""
+    if num_rollouts % num_models:
+        raise RandomizedRolloutError(
+            f"a batch of {num_rollouts} rollouts cannot be split evenly over the {num_models} models "
+            "given to set_models; expected a multiple of the number of models"
+        )
 
 
 RolloutBackendName = Literal["cpu", "warp"]
 ROLLOUT_BACKENDS: tuple[str, ...] = get_args(RolloutBackendName)
 """Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`; "warp" is `WarpRollout` (MuJoCo Warp on
-warp's default device, a GPU when there is one; needs the judo[warp] extra)."""
+warp's default device, a GPU when there is one; needs the judo-mpc[warp] extra)."""
 
 BACKEND_CLASSES: dict[str, str] = {
     "cpu": "judo.core.rollout.RolloutPool",
@@ -129,7 +189,7 @@ def make_rollout_backend(name: str, model: mujoco.MjModel, num_workers: int | No
 
     `num_workers` sets the CPU pool's threads (one per core by default); a GPU backend runs every rollout
     on its device and takes no worker count. Raises UnknownNameError for an unknown name,
-    MissingExtraError when "warp" is asked for without the judo[warp] extra, and WarpUnsupportedModelError
+    MissingExtraError when "warp" is asked for without the judo-mpc[warp] extra, and WarpUnsupportedModelError
     for a model MuJoCo Warp cannot run.
     """
     # The constructors take different arguments (only the CPU pool's takes num_workers), which RolloutBackend,

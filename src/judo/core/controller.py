@@ -5,13 +5,12 @@ imported here too, where they have always been importable from.
 """
 
 import math
-import threading
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend, make_rollout_backend
+from judo.core.backend import CancelFlag, PlanningCancelled, RolloutBackend, make_rollout_backend
 from judo.core.config import snapshot
 from judo.core.controller_config import (
     MAX_CONTROL_FREQ,
@@ -56,10 +55,6 @@ __all__ = [
 ]
 
 
-class PlanningCancelled(JudoError):
-    """The `cancel` event of `Controller.update_action` was set; the cycle stopped and the previous plan stays."""
-
-
 class NonFiniteRewardError(JudoError):
     """Every rollout of a cycle scored NaN or -inf, so there is nothing to learn from; the plan is kept."""
 
@@ -74,7 +69,8 @@ class Controller:
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
         backend: the RolloutBackend every rollout runs on, built from the constructor's `backend` name
-            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU); for a task
+            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU) or given built
+            (a `ProblemSlot`, one episode's share of a batch of episodes); for a task
             with a low-level policy (`Task.low_level`), a `LowLevelRollout` around the pool, and the plan,
             its knots and clamps are the policy's commands (`task.command_size`, `task.command_range`).
         backend_name: that name (read-only).
@@ -96,7 +92,7 @@ class Controller:
         task: Task,
         optimizer: Optimizer,
         num_workers: int | None = None,
-        backend: str = "cpu",
+        backend: str | RolloutBackend = "cpu",
         proposal_policy: Policy | None = None,
     ) -> None:
         check_configs(task, controller_config, optimizer.config)
@@ -106,10 +102,13 @@ class Controller:
         self.config = controller_config
         self.task = task
         self.optimizer = optimizer
-        check_low_level_backend(backend, task.low_level())
-        self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
+        if isinstance(backend, str):
+            check_low_level_backend(backend, task.low_level())
+            self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
+        else:  # a backend built by the caller (a ProblemBatch's slot), owned from now on
+            self.backend = backend
         self.backend = with_low_level(self.backend, task.low_level())  # the pool itself without one
-        self._backend_name = backend
+        self._backend_name = backend if isinstance(backend, str) else backend.name
         self._score = ParallelReward(self.backend.reward_threads)  # one plain call unless the backend asks
         self.nominal_knots: np.ndarray | None = None
         self.rewards = np.zeros(0)
@@ -210,15 +209,14 @@ class Controller:
         state: np.ndarray,
         time: float,
         system_metadata: dict[str, Any] | None = None,
-        cancel: threading.Event | None = None,
+        cancel: CancelFlag | None = None,
     ) -> Spline:
         """Run one planning cycle from `state` (nq + nv,) at sim `time`, publish the new plan and return it.
 
-        A set `cancel` event (e.g. the app's stop) ends the cycle before its next optimizer iteration
-        with PlanningCancelled, keeping the previous plan.
-
-        `action(t)` serves the returned plan from now on; a caller that models latency (the new plan
-        taking effect only later) keeps the previous returned plan and evaluates it itself.
+        A set `cancel` (a threading.Event, the app's stop or planning cycle) ends the cycle with PlanningCancelled,
+        keeping the previous plan: before its next optimizer iteration, or between pieces of a batch of rollouts
+        (the CPU pool). `action(t)` serves the returned plan from now on; a caller that models latency (the new
+        plan taking effect only later) keeps the previous returned plan and evaluates it itself.
 
         Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into
         an invalid combination, NonFiniteRewardError if every rollout scored NaN or -inf, and
@@ -263,52 +261,59 @@ class Controller:
             nominal[0],  # the action served now
         )
 
-        for _ in range(self.config.max_opt_iters):
-            if cancel is not None and cancel.is_set():
-                raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
-            knots = opt.sample_control_knots(nominal)
-            if knots.shape != expected:
-                raise JudoError(
-                    f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
+        with self.backend.cancelled_by(cancel):  # polled between pieces of a big batch too
+            for _ in range(self.config.max_opt_iters):
+                if cancel is not None and cancel.is_set():
+                    raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
+                knots = opt.sample_control_knots(nominal)
+                if knots.shape != expected:
+                    raise JudoError(
+                        f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
+                    )
+                if not np.isfinite(knots).all():
+                    self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
+                rows = None if candidates is None else insert_proposals(knots, candidates)
+                np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
+                if rows is not None:
+                    opt.samples_replaced(rows, knots[rows])
+                np.matmul(self._rollout_weights, knots, out=self._controls)
+                # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
+                # the plan that is scored is the plan that is served (a cubic overshoots its knots).
+                np.minimum(self._controls, self._ctrl_high, out=self._controls)
+                np.maximum(self._controls, self._ctrl_low, out=self._controls)
+                if num_models > 1:
+                    self._control_blocks[:] = self._controls  # every sequence once per model
+                full_states, sensors = self.backend.rollout(
+                    self._initial_state, self._batch_controls, self._initial_mocap
                 )
-            if not np.isfinite(knots).all():
-                self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
-            rows = None if candidates is None else insert_proposals(knots, candidates)
-            np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
-            if rows is not None:
-                opt.samples_replaced(rows, knots[rows])
-            np.matmul(self._rollout_weights, knots, out=self._controls)
-            # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
-            # the plan that is scored is the plan that is served (a cubic overshoots its knots).
-            np.minimum(self._controls, self._ctrl_high, out=self._controls)
-            np.maximum(self._controls, self._ctrl_low, out=self._controls)
-            if num_models > 1:
-                self._control_blocks[:] = self._controls  # every sequence once per model
-            full_states, sensors = self.backend.rollout(self._initial_state, self._batch_controls, self._initial_mocap)
-            states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
-            returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
-            try:
-                rewards = np.asarray(returned, dtype=float)
-            except (TypeError, ValueError) as err:
-                raise JudoError(
-                    f"{type(task).__name__}.reward must return ({num_rows},) numbers, got {' '.join(str(returned).split())[:200]} ({err})"
-                ) from None
-            if rewards.shape != (num_rows,):
-                raise JudoError(f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)")
-            rewards[np.isnan(rewards) | (rewards == np.inf)] = -np.inf  # NaN or +inf never wins a ranking
-            if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
-                rewards = reduce_rewards(rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale)
-                states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
-            task.post_rollout(states, sensors, self._controls, rewards)
-            if not np.isfinite(rewards).any():
-                raise NonFiniteRewardError(
-                    f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
-                )
-            nominal = opt.update_nominal_knots(knots, rewards)
-            if not np.isfinite(nominal).all():
-                self._restart_search(f"{type(opt).__name__}.update_nominal_knots returned non-finite knots")
-            if opt.stop_cond():
-                break
+                states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
+                returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
+                try:
+                    rewards = np.asarray(returned, dtype=float)
+                except (TypeError, ValueError) as err:
+                    raise JudoError(
+                        f"{type(task).__name__}.reward must return ({num_rows},) numbers, got {' '.join(str(returned).split())[:200]} ({err})"
+                    ) from None
+                if rewards.shape != (num_rows,):
+                    raise JudoError(
+                        f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)"
+                    )
+                rewards[np.isnan(rewards) | (rewards == np.inf)] = -np.inf  # NaN or +inf never wins a ranking
+                if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
+                    rewards = reduce_rewards(
+                        rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale
+                    )
+                    states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
+                task.post_rollout(states, sensors, self._controls, rewards)
+                if not np.isfinite(rewards).any():
+                    raise NonFiniteRewardError(
+                        f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
+                    )
+                nominal = opt.update_nominal_knots(knots, rewards)
+                if not np.isfinite(nominal).all():
+                    self._restart_search(f"{type(opt).__name__}.update_nominal_knots returned non-finite knots")
+                if opt.stop_cond():
+                    break
 
         self.rewards = rewards
         self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)

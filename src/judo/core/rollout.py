@@ -15,9 +15,12 @@ import numpy as np
 
 from judo.core.backend import (
     ROLLOUT_BACKENDS,
+    PlanningCancelled,
     RandomizedRolloutError,
     RolloutBackend,
     RolloutBackendName,
+    check_blocks,
+    check_model_sizes,
     check_rollout_backend,
     make_rollout_backend,
 )
@@ -45,6 +48,9 @@ rollout resets mocap poses to the model's defaults unless they are passed as inp
 
 CLOSE_TIMEOUT = 0.5
 """Most seconds `RolloutPool.close` waits for its workers."""
+PIECE_STEPS = 50_000
+"""Most rollout steps one C call of a worker takes while a `cancel` flag is set on the pool: a bigger chunk is
+rolled out in pieces of whole rows, the flag polled between them, so a cancelled batch ends within a piece."""
 
 
 class RolloutPool(RolloutBackend):
@@ -56,6 +62,8 @@ class RolloutPool(RolloutBackend):
     are overwritten by the next call. Under `set_models` MuJoCo's rollout gets the mixed list of
     models, by reference: nothing is copied per call.
     """
+
+    name = "cpu"
 
     def __init__(self, model: mujoco.MjModel, num_workers: int | None = None) -> None:
         self.model = model
@@ -70,16 +78,7 @@ class RolloutPool(RolloutBackend):
 
     def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
         """See `RolloutBackend.set_models`; raises RandomizedRolloutError for a model of other sizes."""
-        models = [self.model] if models is None else list(models)
-        if not models:
-            raise RandomizedRolloutError("set_models needs at least one model, got an empty list")
-        for i, other in enumerate(models):
-            for size in ("nq", "nv", "nu", "na", "nmocap", "nsensordata"):
-                if getattr(other, size) != getattr(self.model, size):
-                    raise RandomizedRolloutError(
-                        f"model {i} passed to set_models has {size}={getattr(other, size)}, expected "
-                        f"{getattr(self.model, size)} as in the pool's model"
-                    )
+        models = [self.model] if models is None else check_model_sizes(self.model, models)
         self._models = models
         self._splits.clear()  # rebuild the chunks' model lists on the next rollout
 
@@ -93,11 +92,7 @@ class RolloutPool(RolloutBackend):
     def _split(self, num_rollouts: int) -> tuple[list[slice], list[list[mujoco.MjModel]]]:
         """The rows of each worker's contiguous chunk and each chunk's per-row models, kept per batch size
         until `set_models` changes the models."""
-        if num_rollouts % len(self._models):
-            raise RandomizedRolloutError(
-                f"a batch of {num_rollouts} rollouts cannot be split evenly over the {len(self._models)} models "
-                "given to set_models; expected a multiple of the number of models"
-            )
+        check_blocks(num_rollouts, len(self._models))
         if num_rollouts not in self._splits:
             bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(int)
             chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
@@ -198,18 +193,27 @@ class RolloutPool(RolloutBackend):
         states: np.ndarray,
         sensors: np.ndarray,
     ) -> None:
-        chunk = chunks[worker]
-        self._runners[worker].rollout(
-            chunk_models[worker],
-            [self._datas[worker]],
-            initial_states[chunk],
-            controls[chunk],
-            control_spec=control_spec,
-            skip_checks=True,
-            nstep=controls.shape[1],
-            state=states[chunk],
-            sensordata=sensors[chunk],
-        )
+        chunk, models, cancel = chunks[worker], chunk_models[worker], self.cancel
+        num_steps = controls.shape[1]
+        rows = chunk.stop - chunk.start
+        piece = rows if cancel is None else max(1, PIECE_STEPS // max(1, num_steps))
+        for first in range(0, rows, piece):  # one call unless a cancellable chunk is bigger than PIECE_STEPS
+            if cancel is not None and cancel.is_set():
+                raise PlanningCancelled(
+                    "planning cycle cancelled part-way through a batch of rollouts; the previous plan stays in force"
+                )
+            part = slice(chunk.start + first, min(chunk.stop, chunk.start + first + piece))
+            self._runners[worker].rollout(
+                models if piece >= rows else models[first : first + piece],
+                [self._datas[worker]],
+                initial_states[part],
+                controls[part],
+                control_spec=control_spec,
+                skip_checks=True,
+                nstep=num_steps,
+                state=states[part],
+                sensordata=sensors[part],
+            )
 
     def close(self) -> None:
         """Stop the worker threads; the pool cannot be used afterwards.

@@ -10,37 +10,43 @@ Inputs go to the device once per call from pinned host memory, and states and se
 into preallocated pinned host arrays. On the CPU device (no GPU) the same kernels are launched directly
 and the host arrays are the device arrays themselves.
 
-Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `make_rollout_backend`
+Under `set_models` the fields in which the models differ are MuJoCo Warp's per-world model arrays (see
+core/warp_models.py), and `rollout_problems` rolls out several problems, each from its own state, in one batch
+(core/problem_batch.py).
+
+Importing this module imports warp and mujoco_warp (the `judo-mpc[warp]` extra); `make_rollout_backend`
 (core/backend.py) imports it only when the "warp" backend is asked for.
 """
 
 import os
 import time
 import warnings
+from collections.abc import Sequence
 from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend
+from judo.core.backend import RolloutBackend, check_blocks, check_model_sizes
 from judo.core.errors import JudoError, import_extra
 from judo.core.model import STATE_SPEC
+from judo.core.warp_models import WarpUnsupportedModelError, probe_sizes, put_model, varying_fields
 
 FEATURE = "the warp rollout backend (--backend warp)"
 wp = import_extra("warp", FEATURE, "warp")
 mjw = import_extra("mujoco_warp", FEATURE, "warp")
 
-wp.config.log_level = wp.LOG_WARNING  # no line per compiled kernel module
+__all__ = ["RolloutOverflowError", "RolloutOverflowWarning", "WarpRollout", "WarpUnsupportedModelError"]
 
 if TYPE_CHECKING:  # warp's array types are call expressions, which a type checker cannot read as annotations
     Float32Array = Any
     Float32Array2D = Any
-    Float64Array = Any
+    Float64Array2D = Any
     Float64Array3D = Any
 else:  # the kernel argument types warp compiles the kernels below for
     Float32Array = wp.array(dtype=wp.float32)
     Float32Array2D = wp.array2d(dtype=wp.float32)
-    Float64Array = wp.array(dtype=wp.float64)
+    Float64Array2D = wp.array2d(dtype=wp.float64)
     Float64Array3D = wp.array3d(dtype=wp.float64)
 
 EXTRA_SPEC = STATE_SPEC & ~(
@@ -73,10 +79,6 @@ PHASES = ("copy_in", "physics", "copy_out")
 (host staging included), the T steps on the device, and states, sensors and overflow flags back to the host."""
 
 
-class WarpUnsupportedModelError(JudoError):
-    """A model that MuJoCo Warp cannot run (a feature its put_model does not implement)."""
-
-
 class RolloutOverflowError(JudoError):
     """Rollouts that still dropped contacts or constraints after the backend grew its buffers MAX_RESIZES times."""
 
@@ -86,10 +88,11 @@ class RolloutOverflowWarning(UserWarning):
 
 
 @wp.kernel
-def _broadcast_initial(initial: Float64Array, out: Float32Array2D):
-    """out[world, i] = initial[i]: every world starts from the same (ninitial,) state. Launch dim (N, ninitial)."""
+def _broadcast_initial(initial: Float64Array2D, rows_per_problem: int, out: Float32Array2D):
+    """out[world, i] = initial[world // rows_per_problem, i]: each block of rows_per_problem worlds starts from its
+    problem's (ninitial,) state. Launch dim (N, ninitial)."""
     world, i = wp.tid()
-    out[world, i] = wp.float32(initial[i])
+    out[world, i] = wp.float32(initial[world // rows_per_problem, i])
 
 
 @wp.kernel
@@ -134,38 +137,6 @@ def _record_step(
         sensors[world, step, i - nstate] = wp.float64(sensordata[world, i - nstate])
 
 
-def put_model(model: mujoco.MjModel, deterministic: bool):  # noqa: ANN201  (a mujoco_warp Model)
-    """`model` on the current warp device, or WarpUnsupportedModelError naming the feature MuJoCo Warp lacks."""
-    try:
-        device_model = mjw.put_model(model)
-    except (NotImplementedError, ValueError) as err:
-        raise WarpUnsupportedModelError(
-            f"MuJoCo Warp {mjw.__version__} cannot run this model: {err}; expected a model without that feature. "
-            "Run it on the CPU instead with --backend cpu (backend='cpu'), or change the model."
-        ) from err
-    device_model.opt.warn_overflow = 0  # reported (and fixed) by WarpRollout, not printed from kernels
-    device_model.opt.deterministic = int(mjw.DeterminismType.ALL if deterministic else mjw.DeterminismType.NONE)
-    return device_model
-
-
-def probe_sizes(model: mujoco.MjModel, states: list[np.ndarray]) -> tuple[int, int]:
-    """(contacts, constraint rows) MuJoCo finds at the model's reference pose, each keyframe and each of the
-    full-physics `states`: the starting point for sizing MuJoCo Warp's per-world buffers."""
-    data = mujoco.MjData(model)
-    ncon = nefc = 0
-    poses = [None, *range(model.nkey)]
-    for pose in [*poses, *states]:
-        if pose is None:
-            mujoco.mj_resetData(model, data)
-        elif isinstance(pose, int):
-            mujoco.mj_resetDataKeyframe(model, data, pose)
-        else:
-            mujoco.mj_setState(model, data, pose, STATE_SPEC)
-        mujoco.mj_forward(model, data)
-        ncon, nefc = max(ncon, data.ncon), max(nefc, data.nefc)
-    return ncon, nefc
-
-
 class WarpRollout(RolloutBackend):
     """Rolls out batches of control sequences as MuJoCo Warp worlds on `wp.get_device()` (or `device`).
 
@@ -186,6 +157,7 @@ class WarpRollout(RolloutBackend):
             from the model (they still grow on overflow).
     """
 
+    name = "warp"
     phase_seconds: dict[str, float]
     """Seconds spent in each of PHASES, summed over every call so far (benchmarks read and reset it)."""
 
@@ -205,37 +177,90 @@ class WarpRollout(RolloutBackend):
         self._graph = None
         self._start_sizes = (nconmax, njmax)
         self.phase_seconds = dict.fromkeys(PHASES, 0.0)
+        self._models: list[mujoco.MjModel] | None = None  # set_models' models, or None for `model` alone
+        self._varying: dict[str, np.ndarray] = {}  # field name -> (R, *field shape) values that differ by model
         self._upload(model)
 
-    def _upload(self, model: mujoco.MjModel) -> None:
-        """Put `model` on the device; buffers are sized and allocated (and the graph captured) at the next call."""
+    def _upload(self, model: mujoco.MjModel, batch_sizes: dict[str, int] | None = None) -> None:
+        """Put `model` on the device, with the fields in `batch_sizes` given one row per world; buffers are sized
+        and allocated (and the graph captured) at the next call."""
+        if getattr(self, "_uploaded", None) is not model:  # a new model: its buffers are sized at the next call
+            self.nconmax = self.njmax = 0
+            self._sized = False
         with wp.ScopedDevice(self.device):
-            self._device_model = put_model(model, self.deterministic)
+            self._device_model = put_model(model, self.deterministic, batch_sizes)
         self._uploaded = model
+        self._batch_layout = tuple(sorted(batch_sizes or {})), next(iter((batch_sizes or {0: 0}).values()))
         self.nstate = mujoco.mj_stateSize(model, STATE_SPEC)
         self.nextra = mujoco.mj_stateSize(model, EXTRA_SPEC)
         self.ninitial = mujoco.mj_stateSize(model, INITIAL_SPEC)
-        self.nconmax = self.njmax = 0  # per world; sized at the first rollout, from the model and its start
-        self._sized = False
         self._scratch = mujoco.MjData(model)
         self._default_mocap = np.concatenate([self._scratch.mocap_pos.ravel(), self._scratch.mocap_quat.ravel()])
-        self._shape: tuple[int, int] | None = None
+        self._shape: tuple[int, int, int] | None = None
+        self._written: tuple[int, int] | None = None  # the (rows, problems) the batched fields were written for
 
-    # ---- the call ------------------------------------------------------------------------------
+    def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
+        """See `RolloutBackend.set_models`. The fields in which the models differ become per-world arrays of the
+        device model (MuJoCo Warp's batched model fields); a later set of models that differs in the same fields
+        is written into those arrays in place, so the captured graph stays valid. RandomizedRolloutError names a
+        field that differs and that MuJoCo Warp cannot hold per world."""
+        if models is None or (len(models) == 1 and models[0] is self.model):
+            self._models, self._varying = None, {}
+            return
+        models = check_model_sizes(self.model, models)
+        self._varying = varying_fields(self.model, models, self.deterministic)
+        self._models, self._written = models, None
+
+    def _write_model_values(self, num_rows: int, num_problems: int) -> None:
+        """Each varying field's per-world values: problem p's block of rows, split into R equal blocks, block r
+        on models[r]; written into the device arrays in place."""
+        assert self._models is not None  # only called under set_models
+        per_problem = num_rows // num_problems
+        for name, values in self._varying.items():  # values: (R, *field shape)
+            rows = np.repeat(values, per_problem // len(self._models), axis=0)  # (per_problem, *field shape)
+            getattr(self._device_model, name).assign(np.concatenate([rows] * num_problems))
+        self._written = (num_rows, num_problems)
+
     def rollout(
         self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
         """See `RolloutBackend.rollout`. Returns float64 (N, T, nstate) states and (N, T, nsensordata)
         sensors in preallocated host arrays, overwritten by the next call."""
+        return self.rollout_problems(initial_state[None], controls, None if mocap is None else mocap[None])
+
+    def rollout_problems(
+        self, initial_states: np.ndarray, controls: np.ndarray, mocaps: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Roll out P problems in one batch: problem p's rows [p * M, (p + 1) * M) start from initial_states[p].
+
+        Args:
+            initial_states: (P, nstate) full-physics states, one per problem.
+            controls: (P * M, T, nu) C-contiguous float64 controls; under `set_models` each problem's M rows split
+                into R equal blocks, block r on models[r].
+            mocaps: (P, 7 * nmocap) each problem's mocap poses, or None for the model's defaults.
+        Returns:
+            states (P * M, T, nstate) and sensors (P * M, T, nsensordata) in preallocated host arrays, overwritten
+            by the next call.
+        """
+        num_problems = len(initial_states)
         num_rollouts, num_steps, _ = controls.shape
-        if self.model is not self._uploaded:  # a new planning model: upload it, then size, allocate, capture
-            self._upload(self.model)
+        if num_rollouts % num_problems:
+            raise JudoError(f"{num_rollouts} rows cannot be split evenly over {num_problems} problems")
+        if self._models is not None:
+            check_blocks(num_rollouts // num_problems, len(self._models))
+        batch_sizes = dict.fromkeys(self._varying, num_rollouts) if self._models is not None else {}  # a row per world
+        layout = tuple(sorted(batch_sizes)), num_rollouts if batch_sizes else 0
+        if self.model is not self._uploaded or layout != self._batch_layout:  # a new model or other batched fields
+            self._upload(self.model, batch_sizes)
         with wp.ScopedDevice(self.device):
-            if self._shape != (num_rollouts, num_steps):
+            if self._shape != (num_rollouts, num_steps, num_problems):
                 if not self._sized:
-                    self._size_buffers(initial_state)
-                self._allocate(num_rollouts, num_steps)
-            initial = self._initial_vector(initial_state, mocap)
+                    self._size_buffers(initial_states[0])
+                self._allocate(num_rollouts, num_steps, num_problems)
+            if self._models is not None and self._written != (num_rollouts, num_problems):
+                self._write_model_values(num_rollouts, num_problems)
+            poses = [None] * num_problems if mocaps is None else list(mocaps)
+            initial = np.stack([self._initial_vector(s, m) for s, m in zip(initial_states, poses, strict=True)])
             for _ in range(MAX_RESIZES):
                 started = time.perf_counter()
                 self._host_initial[:] = initial
@@ -299,9 +324,10 @@ class WarpRollout(RolloutBackend):
         vector, then per step load the controls, step, and record state and sensors."""
         m, d = self._device_model, self._data
         assert self._shape is not None  # set with self._data by _allocate
-        num_rollouts, num_steps = self._shape
+        num_rollouts, num_steps, num_problems = self._shape
         d.overflow.zero_()
-        wp.launch(_broadcast_initial, dim=(num_rollouts, self.ninitial), inputs=[self._initial, self._start])
+        inputs = [self._initial, num_rollouts // num_problems, self._start]
+        wp.launch(_broadcast_initial, dim=(num_rollouts, self.ninitial), inputs=inputs)
         mjw.set_state(m, d, self._start, int(INITIAL_SPEC))
         record_dim = (num_rollouts, self.nstate + self.model.nsensordata)
         for step in range(num_steps):
@@ -341,12 +367,12 @@ class WarpRollout(RolloutBackend):
         )
         self._allocate(*self._shape)
 
-    def _allocate(self, num_rollouts: int, num_steps: int) -> None:
+    def _allocate(self, num_rollouts: int, num_steps: int, num_problems: int = 1) -> None:
         """Device data for N worlds, device inputs and outputs, and their host mirrors (pinned on CUDA)."""
-        self._shape, self._graph = (num_rollouts, num_steps), None
+        self._shape, self._graph = (num_rollouts, num_steps, num_problems), None
         model, device = self.model, self.device
         self._data = mjw.make_data(model, nworld=num_rollouts, nconmax=self.nconmax, njmax=self.njmax)
-        self._initial = wp.zeros(self.ninitial, dtype=wp.float64, device=device)
+        self._initial = wp.zeros((num_problems, self.ninitial), dtype=wp.float64, device=device)
         self._start = wp.zeros((num_rollouts, self.ninitial), dtype=wp.float32, device=device)
         self._extra = wp.zeros((num_rollouts, self.nextra), dtype=wp.float32, device=device)
         self._controls = wp.zeros((num_rollouts, num_steps, model.nu), dtype=wp.float64, device=device)
@@ -354,7 +380,7 @@ class WarpRollout(RolloutBackend):
         self._sensors = wp.zeros((num_rollouts, num_steps, model.nsensordata), dtype=wp.float64, device=device)
         if device.is_cuda:
             pinned = {"device": "cpu", "pinned": True}
-            self._pinned_initial = wp.zeros(self.ninitial, dtype=wp.float64, **pinned)
+            self._pinned_initial = wp.zeros(self._initial.shape, dtype=wp.float64, **pinned)
             self._pinned_controls = wp.zeros(self._controls.shape, dtype=wp.float64, **pinned)
             self._pinned_states = wp.zeros(self._states.shape, dtype=wp.float64, **pinned)
             self._pinned_sensors = wp.zeros(self._sensors.shape, dtype=wp.float64, **pinned)

@@ -19,16 +19,17 @@ from judo.cli_shared import (
     progress_console,
     seeds_label,
 )
+from judo.core.backend import RolloutBackend
 from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import make_task
 from judo.evaluation.cli import given_fields, set_field_overrides, write_json
-from judo.evaluation.episode import EpisodeResult
+from judo.evaluation.episode import EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
-from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
-from judo.evaluation.stats import Summary, summarize
+from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode, run_side_by_side
+from judo.evaluation.stats import Summary, shown_interval, summarize
 
 DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
@@ -55,7 +56,7 @@ class EvaluateArgs(EpisodeArgs):
     """Rollout worker threads (cpu backend)."""
     workers: Annotated[int | None, tyro.conf.arg(metavar="K", help_behavior_hint="(default: in this process)")] = None
     """Run the seeds as Ray tasks, K at once, on a local Ray with K CPUs (each on one rollout thread unless
-    --num-workers is given); the metrics are those of the in-process run. Needs pip install 'judo[tune]'."""
+    --num-workers is given); the metrics are those of the in-process run. Needs pip install -e '.[tune]'."""
     address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(optional)")] = None
     """Run the seeds as Ray tasks on a running Ray cluster: auto (the one `ray start --head` started on this
     machine) or ray://HOST:10001; with --workers, at most K at once."""
@@ -75,6 +76,11 @@ class EvaluateArgs(EpisodeArgs):
         require(
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
+        )
+        require(
+            self.episodes_per_batch == 1 or (self.workers is None and self.address is None),
+            f"--episodes-per-batch {self.episodes_per_batch} runs the episodes side by side in this process; "
+            "expected no --workers or --address",
         )
         if self.plot is not None:
             check_plot_path(self.plot)
@@ -107,8 +113,7 @@ def metrics_table(title: str, summaries: dict[str, Summary]) -> Table:
     table.add_column("min", justify="right")
     table.add_column("max", justify="right")
     for name, summary in summaries.items():
-        ci = "n/a" if np.isnan(summary.ci95) else f"{summary.ci95:.3g}"
-        table.add_row(name, f"{summary.mean:.3g} ± {ci}", f"{summary.min:.3g}", f"{summary.max:.3g}")
+        table.add_row(name, shown_interval(summary), f"{summary.min:.3g}", f"{summary.max:.3g}")
     return table
 
 
@@ -149,6 +154,33 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
     return results
 
 
+def evaluate_batched(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
+    """Run the seeds of `args.seed_range()` in groups of `args.episodes_per_batch`, each group side by side with its
+    rollouts batched on one WarpRollout (`run_side_by_side`); advance `progress` (if given) by sim seconds."""
+    from judo.core.warp_rollout import WarpRollout
+
+    bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
+    spec, seeds = args.episode_spec(), list(args.seed_range())
+    size = args.episodes_per_batch
+    results: list[EpisodeResult] = []
+    with WarpRollout(make_task(args.task).model) as backend:
+        for start in range(0, len(seeds), size):
+            group = seeds[start : start + size]
+            times = dict.fromkeys(group, 0.0)
+
+            def run(seed: int, slot: RolloutBackend, start: int = start, times: dict = times) -> EpisodeResult:
+                def show(now: float) -> None:
+                    times[seed] = now
+                    if progress is not None and bar is not None:
+                        done = start * args.duration + sum(times.values())
+                        progress.update(bar, completed=done, description=f"seeds {min(times)}-{max(times)}")
+
+                return run_seeded_episode(spec, seed, on_update=show, backend=slot)
+
+            results.extend(run_side_by_side(backend, group, run))
+    return results
+
+
 def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, str]]]:
     """(the episodes, by seed; (seed, reason) of those that failed): in this process, or as Ray tasks with
     --workers or --address (where a failed seed does not stop the others)."""
@@ -158,15 +190,18 @@ def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, 
         return evaluate_on_ray(args.episode_spec(), args.seed_range(), args.workers, args.address)
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
     with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
+        if args.episodes_per_batch > 1:
+            return evaluate_batched(args, progress), []
         return evaluate(args, progress), []
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, or 1 when a seed failed on Ray; exits
-    with status 2 on bad arguments."""
+    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, or 1 when a seed failed on Ray (or, with
+    --strict, when an update failed or the simulation diverged); exits with status 2 on bad arguments."""
     args = parse_args_with_config_fields(
         EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing()
     )
+    troubled = 0  # episodes with failed updates or divergences
     try:
         check_count("--num-workers", args.num_workers, MAX_WORKERS)
         check_count("--workers", args.workers, MAX_WORKERS)
@@ -198,11 +233,17 @@ def main(argv: list[str] | None = None) -> int:
         console.print(table)
         for result in results:
             if result.divergences or result.failed_updates:
+                troubled += 1
                 console.print(
                     f"seed {result.seed}: {result.divergences} simulation divergences, "
                     f"{result.failed_updates} updates with "
                     + ("non-finite actions" if args.policy is not None else "no finite reward")
                 )
+            loud = unserved_line(
+                result.failed_updates, len(result.update_ms), args.policy is not None, f"seed {result.seed}"
+            )
+            if loud is not None:
+                print(loud, file=sys.stderr)
         if args.json is not None:
             write_json(
                 args.json,
@@ -230,4 +271,10 @@ def main(argv: list[str] | None = None) -> int:
             console.print(f"wrote {args.plot}")
     except JudoError as err:
         fail(str(err))
+    if args.strict and troubled:
+        print(
+            f"--strict: {troubled} of {len(results)} episodes had failed control updates or simulation divergences",
+            file=sys.stderr,
+        )
+        return 1
     return 1 if failures else 0
