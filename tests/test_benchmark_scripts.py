@@ -253,3 +253,15 @@ def test_evaluate_fingerprint_writes_the_metrics_and_finds_a_changed_run(tmp_pat
     out.write_text(json.dumps(runs))
     changed = run_script("evaluate_fingerprint.py", *small, "--compare", str(out))
     assert changed.returncode == 1 and "differs: pendulum/ps/0 ms" in changed.stdout
+
+
+@pytest.mark.slow  # about 5 s: 8 episodes of 0.3 s in a subprocess
+def test_feedback_prints_each_optimizer_with_and_without_gains_and_the_update_and_serving_times():
+    small = ["--seeds", "1", "--duration", "0.3", "--plants", "heavier"]
+    result = run_script("feedback.py", "--tasks", "cartpole", "--optimizers", "mppi", *small)
+    assert result.returncode == 0, result.stderr
+    header = "| plant heavier (mass x 1.25): balanced_fraction / swung_up | 20 Hz | 10 Hz | 5 Hz | 10 Hz + 25 ms |"
+    assert header in result.stdout
+    assert "| mppi | " in result.stdout and "| mppi + feedback | " in result.stdout
+    assert "mppi update in the episodes: median " in result.stdout and "from one state, alternating" in result.stdout
+    assert "us with gains" in result.stdout

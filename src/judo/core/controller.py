@@ -4,11 +4,8 @@ Its settings, `ControllerConfig`, and `check_configs` live in `judo.core.control
 imported here too, where they have always been importable from.
 """
 
-import inspect
 import math
-import warnings
-from collections.abc import Callable
-from typing import Any, cast
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -28,16 +25,17 @@ from judo.core.controller_config import (
     rollout_steps,
 )
 from judo.core.errors import ConfigError, JudoError
+from judo.core.feedback import FeedbackGains
 from judo.core.low_level import check_low_level_backend, with_low_level
 from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
-from judo.core.optimizer import Optimizer
+from judo.core.optimizer import Optimizer, PlanningStart
 from judo.core.parallel_reward import ParallelReward
 from judo.core.policy import Policy
 from judo.core.proposals import Proposer, insert_proposals
 from judo.core.randomize import randomized_models
 from judo.core.risk import reduce_rewards
 from judo.core.spline import Spline, SplineBasis
-from judo.core.task import Task
+from judo.core.task import Task, legacy_warm_start, warm_start_takes_state
 
 __all__ = [
     "MAX_CONTROL_FREQ",
@@ -63,30 +61,6 @@ class NonFiniteRewardError(JudoError):
 
 class NonFiniteKnotsError(JudoError):
     """The optimizer sampled or returned NaN or infinite knots; its search was restarted and the plan is kept."""
-
-
-def warm_start_takes_state(task: Task) -> bool:
-    """Whether `task.optimizer_warm_start` takes the plant state. The old no-argument form (it read the
-    task's own `data`, which the controller never steps) still works, with a DeprecationWarning."""
-    try:
-        parameters = inspect.signature(task.optimizer_warm_start).parameters
-    except (TypeError, ValueError):  # a builtin or an odd callable: assume the current form
-        return True
-    if parameters:
-        return True
-    warnings.warn(
-        f"{type(task).__name__}.optimizer_warm_start() without arguments is deprecated: define "
-        "optimizer_warm_start(self, state) and read the (nq + nv,) plant state it is given, not self.data",
-        DeprecationWarning,
-        stacklevel=3,
-    )
-    return False
-
-
-def legacy_warm_start(task: Task) -> Any:
-    """`task.optimizer_warm_start()` in the deprecated form without the state, for a task whose override takes
-    none (`warm_start_takes_state` False); Task declares the current form, hence the cast."""
-    return cast(Callable[[], Any], task.optimizer_warm_start)()
 
 
 class Controller:
@@ -150,6 +124,7 @@ class Controller:
         self.models: list[mujoco.MjModel] = [task.model]
         self._cycles_since_draw = 0
         self._warm_start_takes_state = warm_start_takes_state(task)
+        self._gains = FeedbackGains(task, self.backend.num_workers if backend == "cpu" else None)
 
     @property
     def num_steps(self) -> int:
@@ -270,6 +245,8 @@ class Controller:
         self._set_initial_state(state, time, system_metadata)
         task.pre_rollout(state)
         task_config = snapshot(task.config)
+        start = (self._initial_state, self._initial_mocap, self._rollout_weights, task_config, system_metadata)
+        opt.set_start(PlanningStart(task, *start))
         expected = (opt.num_rollouts, opt.num_nodes, task.command_size)
         num_models = len(self.models)
         num_rows = num_models * opt.num_rollouts
@@ -341,6 +318,9 @@ class Controller:
         self.rewards = rewards
         self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)
         self._plan = Spline(time, self._basis, self.nominal_knots, self._ctrl_low, self._ctrl_high)
+        if cfg.feedback:  # with the gains around its nominal rollout (judo.core.feedback)
+            start = (self._initial_state, self._initial_mocap, opt.num_rollouts * len(self.models))
+            self._plan = self._gains.add_to(self._plan, self._rollout_weights, *start)
         shown = np.argsort(-rewards, kind="stable")[: self.config.max_num_traces]
         self.traces = sensors[np.r_[0, shown]][..., self._trace_columns].reshape(len(shown) + 1, self.num_steps, -1, 3)
         return self._plan
@@ -351,14 +331,14 @@ class Controller:
         raise NonFiniteKnotsError(f"{what}; restarted its search and kept the previous plan")
 
     def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) control of the current plan at sim `time` (held constant past its ends), always
-        within the actuators' ctrlrange: exactly what the rollouts of the plan applied at that time.
+        """(nu,) control of the current plan at sim `time` (held past its ends), within the ctrlrange: what its
+        rollouts applied then, plus the gains' correction from the (nq + nv,) `state` with `config.feedback`.
         Before the first plan: the task's warm start from the (nq + nv,) `state` (see `warm_start_action`)."""
         if not math.isfinite(time):
             raise JudoError(f"action time must be a finite number of seconds, got {time}")
         if self._plan is None:
             return self.warm_start_action(state)
-        return self._plan(time)
+        return self._plan(time, state)
 
     def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
         """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped to the ctrlrange: what a
@@ -388,9 +368,10 @@ class Controller:
         return self._backend_name
 
     def close(self) -> None:
-        """Release the rollout backend's threads or device memory, and the reward's threads."""
+        """Release the rollout backend's threads or device memory, and the reward's and the gains' threads."""
         self.backend.close()
         self._score.close()
+        self._gains.close()
 
     def __enter__(self) -> "Controller":
         """`with judo.make_controller(...) as controller:` closes the controller on the way out."""

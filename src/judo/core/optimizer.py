@@ -1,13 +1,17 @@
 """The Optimizer contract: sample control knots around a nominal, then update the nominal from rewards."""
 
+import typing
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
 from judo.core.config import Config, require_between
 from judo.core.fields import slider
+
+if typing.TYPE_CHECKING:
+    from judo.core.task import Task
 
 MAX_NUM_ROLLOUTS = 2**20
 """Most rollouts per iteration (a GPU backend runs 65536 and more); `check_configs` also bounds the
@@ -42,6 +46,27 @@ class OptimizerConfig(Config):
 
 
 ConfigT = TypeVar("ConfigT", bound=OptimizerConfig)
+
+
+@dataclass
+class PlanningStart:
+    """What one planning cycle starts from, for an optimizer that uses the model itself (`Optimizer.set_start`).
+
+    Attributes:
+        task: the controller's task (its planning `model`, `reward` and hooks).
+        state: (nstate,) the full physics state the rollouts start from (judo.core.model.STATE_SPEC).
+        mocap: (7 nmocap,) the mocap poses held along the rollouts [positions, quaternions].
+        weights: (T, num_nodes) the spline weights: the controls of the T rollout steps are `weights @ knots`.
+        task_config: the task config snapshot the rewards of this cycle are scored with.
+        metadata: the system metadata handed to the reward (or None).
+    """
+
+    task: "Task"
+    state: np.ndarray
+    mocap: np.ndarray
+    weights: np.ndarray
+    task_config: Any
+    metadata: dict[str, Any] | None
 
 
 class Optimizer(ABC, Generic[ConfigT]):
@@ -81,6 +106,11 @@ class Optimizer(ABC, Generic[ConfigT]):
         their clamped (k, num_nodes, nu) `knots`, before the rollouts. An optimizer whose update reads what it
         drew rather than the knots it is given (CMA-ES's steps) brings that in line here; the default does
         nothing, since the other updates read only the knots and their rewards."""
+
+    def set_start(self, start: PlanningStart) -> None:
+        """Called once per planning cycle, before the first sample, with the state, model and spline the cycle
+        plans with. Sampling optimizers need none of it (the default ignores it); a derivative-based one
+        (`ilqr`) linearises the model along its nominal from there."""
 
     def pre_optimization(self, old_times: np.ndarray, new_times: np.ndarray) -> None:
         """Called once per planning cycle before sampling, with the previous plan's (old_num_nodes,)

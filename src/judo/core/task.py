@@ -1,6 +1,8 @@
 """The Task contract: a MuJoCo model plus a reward over batches of rollouts."""
 
+import inspect
 import typing
+import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -269,6 +271,17 @@ class Task(ABC, Generic[ConfigT]):
         DeprecationWarning.)"""
         return np.zeros(self.command_size)
 
+    def feedback_cost(self) -> tuple[np.ndarray, np.ndarray]:
+        """The tracking cost of the feedback gains (`ControllerConfig.feedback`): (2 nv,) weights on the deviation
+        [dq, dv] from the nominal rollout (dq in the tangent space: a free joint's is 3 + 3) and (nu,) weights on
+        the control correction. The default weighs every position by 1, every velocity by 0.1 and each control
+        by 0.01 / (half its range)^2 (an unbounded one: half range 1), so that a deviation of 0.1 rad costs as
+        much as a tenth of an actuator's half range; raise the control weights for softer gains."""
+        low, high = self.actuator_ctrlrange.T
+        half = 0.5 * (high - low)
+        half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
+        return np.concatenate([np.ones(self.model.nv), np.full(self.model.nv, 0.1)]), 0.01 / half**2
+
     def safe_action(self, state: np.ndarray) -> np.ndarray:
         """The (command_size,) control that brings the plant to rest from the (nq + nv,) `state`: what the watchdog
         serves when the plan in force is too old, and what `System.halt` applies by default.
@@ -351,6 +364,30 @@ class Task(ABC, Generic[ConfigT]):
 
 
 TaskT = TypeVar("TaskT", bound=Task)
+
+
+def warm_start_takes_state(task: Task) -> bool:
+    """Whether `task.optimizer_warm_start` takes the plant state. The old no-argument form (it read the
+    task's own `data`, which the controller never steps) still works, with a DeprecationWarning."""
+    try:
+        parameters = inspect.signature(task.optimizer_warm_start).parameters
+    except (TypeError, ValueError):  # a builtin or an odd callable: assume the current form
+        return True
+    if parameters:
+        return True
+    warnings.warn(
+        f"{type(task).__name__}.optimizer_warm_start() without arguments is deprecated: define "
+        "optimizer_warm_start(self, state) and read the (nq + nv,) plant state it is given, not self.data",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    return False
+
+
+def legacy_warm_start(task: Task) -> Any:
+    """`task.optimizer_warm_start()` in the deprecated form without the state, for a task whose override takes
+    none (`warm_start_takes_state` False); Task declares the current form, hence the cast."""
+    return cast(Callable[[], Any], task.optimizer_warm_start)()
 
 
 def new_task(task_cls: type[TaskT]) -> TaskT:

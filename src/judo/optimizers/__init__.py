@@ -5,6 +5,7 @@ from judo.optimizers.cem import CEM, CEMConfig
 from judo.optimizers.cmaes import CMAES, CMAESConfig
 from judo.optimizers.dial import Dial, DialConfig
 from judo.optimizers.icem import ICEM, ICEMConfig
+from judo.optimizers.ilqr import ILQR, ILQRConfig
 from judo.optimizers.mppi import MPPI, MPPIConfig
 from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
@@ -14,6 +15,7 @@ register_optimizer("mppi", MPPI, MPPIConfig)
 register_optimizer("dial", Dial, DialConfig)
 register_optimizer("cmaes", CMAES, CMAESConfig)
 register_optimizer("icem", ICEM, ICEMConfig)
+register_optimizer("ilqr", ILQR, ILQRConfig)
 
 __all__ = [
     "CEM",
@@ -24,6 +26,8 @@ __all__ = [
     "DialConfig",
     "ICEM",
     "ICEMConfig",
+    "ILQR",
+    "ILQRConfig",
     "MPPI",
     "MPPIConfig",
     "PredictiveSampling",

@@ -227,9 +227,10 @@ class ClosedLoop:
         return None
 
     def serve(self, now: float) -> np.ndarray:
-        """(nu,) the control the plant gets at plant time `now`: the latest plan whose time has come, or the
-        task's warm start (from the latest reading) before the first one; the task's `safe_action` instead
-        while the watchdog finds that plan too old."""
+        """(nu,) the control the plant gets at plant time `now`: the latest plan whose time has come (with
+        feedback gains, corrected by the latest reading's deviation from its nominal), or the task's warm
+        start (from the latest reading) before the first one; the task's `safe_action` instead while the
+        watchdog finds that plan too old."""
         with self._lock:
             while self._pending and self._pending[0][0] <= now + TIME_TOLERANCE:
                 _, self._active, self.plan_stamp = self._pending.pop(0)
@@ -246,7 +247,9 @@ class ClosedLoop:
             return self.safe_action()
         if was_tripped is not None and self.on_watchdog is not None:
             self.on_watchdog(None)
-        return hold if active is None else active(now)
+        if active is None:
+            return hold
+        return active(now, None if self.reading is None else self.reading.state)  # the state feeds back gains
 
     def safe_action(self) -> np.ndarray:
         """(nu,) the task's `safe_action` from the latest finite reading (the planning model's start state

@@ -13,6 +13,7 @@ import time
 
 from judo.core.controller import PlanningCancelled
 from judo.core.errors import JudoError
+from judo.core.feedback import FeedbackPlan
 from judo.core.workers import DaemonThreadPool
 from judo.runtime.app_state import AppState, PendingConfigs
 from judo.runtime.control_clock import ControlClock
@@ -124,6 +125,8 @@ class PlannerRunner:
             reports.failed("planner", f"planning cycle skipped: {session.closed_loop.last_failure}", "warning")
             return
         reports.recovered("planner", "planning works again")
+        if isinstance(plan, FeedbackPlan) and plan.feedback_error is not None:
+            reports.report(f"plan served without feedback gains: {plan.feedback_error}", "warning")
         plan_time = time.perf_counter() - start
         rewards = controller.rewards
         assert controller.nominal_knots is not None  # set by every completed cycle
