@@ -1,0 +1,206 @@
+"""Tasks whose rollouts are their own dynamics: a vectorized numpy step instead of MuJoCo physics.
+
+A `DynamicsTask` writes `dynamics(states (N, nx), controls (N, nu), dt) -> (N, nx)`; `DynamicsRollout` rolls a
+batch out as T vectorized calls behind the same `RolloutBackend` interface as the MuJoCo pool, so the
+Controller's loop, every optimizer, the splines, evaluate, tune and collect stay as they are. The Controller
+picks this backend by itself for such a task (`task_rollout_backend`).
+
+The rest of judo passes states around as a MuJoCo model's [qpos, qvel]. A DynamicsTask therefore carries a
+small generated model (`carrier_xml`): ceil(nx / 2) slide joints, no contacts, no gravity, one motor per
+control holding its limits, the timestep `dt`. Its [qpos, qvel] is the task's state x, with one trailing zero
+when nx is odd; the plant (`DynamicsSystem`, in judo.runtime.system) keeps x there, so logs, datasets and the
+GUI read it as any other task's state. MuJoCo never steps that model.
+"""
+
+import math
+from abc import abstractmethod
+from collections.abc import Sequence
+import mujoco
+import numpy as np
+
+from judo.core.backend import RolloutBackend, make_rollout_backend
+from judo.core.errors import ConfigError, JudoError
+from judo.core.model import STATE_SPEC
+from judo.core.sensors import measured_layout
+from judo.core.task import ConfigT, Task
+
+
+class DynamicsError(JudoError):
+    """A DynamicsTask's `dynamics` returned the wrong shape, or non-finite states in every rollout."""
+
+
+def state_size(nx: int) -> int:
+    """nq + nv of the carrier model of an nx-state task: nx rounded up to even."""
+    return nx + nx % 2
+
+
+def carrier_xml(name: str, nx: int, control_range: np.ndarray, dt: float) -> str:
+    """The MJCF text of the model carrying an nx-state task with (nu, 2) `control_range` and timestep `dt`.
+
+    ceil(nx / 2) slide joints (qpos holds x[:k], qvel x[k:]) on one massive body without contacts, and one
+    motor per control on joint i % k with its limits (unlimited where a bound is infinite).
+    """
+    joints = state_size(nx) // 2
+    joint_lines = "\n".join(f'      <joint name="x{i}" type="slide" axis="1 0 0"/>' for i in range(joints))
+    motors = []
+    for i, (low, high) in enumerate(np.asarray(control_range, dtype=float)):
+        limits = (
+            f'ctrllimited="true" ctrlrange="{float(low)!r} {float(high)!r}"' if np.isfinite([low, high]).all() else ""
+        )
+        motors.append(f'    <motor name="u{i}" joint="x{i % joints}" {limits}/>')
+    return f"""<mujoco model="{name}">
+  <option timestep="{dt!r}" gravity="0 0 0" integrator="Euler"/>
+  <worldbody>
+    <body name="state">
+{joint_lines}
+      <geom type="sphere" size="0.01" mass="1" contype="0" conaffinity="0"/>
+    </body>
+  </worldbody>
+  <actuator>
+{chr(10).join(motors)}
+  </actuator>
+</mujoco>
+"""
+
+
+class DynamicsTask(Task[ConfigT]):
+    """A control problem on dynamics you write: `dynamics` steps a batch of states, `reward` scores rollouts.
+
+    Subclass it as `class MyTask(DynamicsTask[MyConfig])`, call `super().__init__(nx, control_range, dt)` and
+    implement `dynamics` and `reward` (the signature of every task; `states` is (N, T, nx), with one extra zero
+    column when nx is odd, and `sensors` is (N, T, 0)). `initial_state` sets where the plant starts (zeros by
+    default; draw from `self.rng` for a random start).
+
+    Attributes:
+        nx: the state's length.
+        model: the generated carrier model (`carrier_xml`), whose [qpos, qvel] is the state x; its actuators
+            hold the control limits and its timestep is `dt`.
+        process_noise: (nx,) standard deviation of the Gaussian noise the simulated plant adds to the state
+            after each step (zeros: none); the planning rollouts never add it.
+    """
+
+    def __init__(self, nx: int, control_range: Sequence[Sequence[float]] | np.ndarray, dt: float) -> None:
+        control_range = np.asarray(control_range, dtype=float)
+        if not (isinstance(nx, int) and nx > 0):
+            raise ConfigError(f"{type(self).__name__}: nx must be a positive integer, got {nx!r}")
+        if control_range.ndim != 2 or control_range.shape[1] != 2 or not len(control_range):
+            raise ConfigError(
+                f"{type(self).__name__}: control_range must be (nu, 2) [low, high] rows, got shape {control_range.shape}"
+            )
+        if not (math.isfinite(dt) and dt > 0):
+            raise ConfigError(f"{type(self).__name__}: dt must be a positive number of seconds, got {dt}")
+        self.nx = nx
+        self.model = mujoco.MjModel.from_xml_string(carrier_xml(type(self).__name__, nx, control_range, dt))
+        self.sim_model = self.model
+        self.measured = self.sim_measured = measured_layout(self.model, (), type(self).__name__)
+        self.data = mujoco.MjData(self.model)
+        self.config = self.config_cls()  # pyright: ignore[reportAttributeAccessIssue]
+        self.rng = np.random.default_rng()
+        self.process_noise = np.zeros(nx)
+
+    @abstractmethod
+    def dynamics(self, states: np.ndarray, controls: np.ndarray, dt: float) -> np.ndarray:
+        """One step of every row: (N, nx) states and (N, nu) controls (within their limits) to (N, nx) states
+        `dt` seconds later. Vectorized numpy; return a new array (the inputs are the backend's)."""
+
+    def initial_state(self) -> np.ndarray:
+        """The (nx,) state the plant starts from on `reset`; zeros by default. Draw from `self.rng` to randomize."""
+        return np.zeros(self.nx)
+
+    @property
+    def state(self) -> np.ndarray:
+        """The plant's (nx,) state, read from `data` (a copy)."""
+        return np.concatenate([self.data.qpos, self.data.qvel])[: self.nx]
+
+    @state.setter
+    def state(self, x: np.ndarray) -> None:
+        padded = np.zeros(self.model.nq + self.model.nv)
+        padded[: self.nx] = x
+        self.data.qpos[:], self.data.qvel[:] = padded[: self.model.nq], padded[self.model.nq :]
+
+    def reset(self) -> None:
+        """Put the plant at `initial_state()`, time 0."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.state = np.asarray(self.initial_state(), dtype=float)
+
+    def safe_action(self, state: np.ndarray) -> np.ndarray:
+        """Zero controls clamped to their limits; override it for what brings your system to rest."""
+        low, high = self.actuator_ctrlrange.T
+        return np.clip(np.zeros(self.nu), low, high)
+
+    def step_checked(self, states: np.ndarray, controls: np.ndarray) -> np.ndarray:
+        """`dynamics(states, controls, dt)` as a float array, or DynamicsError naming the task when it is not
+        (N, nx). (N, nx) states, (N, nu) controls."""
+        out = self.dynamics(states, controls, self.dt)
+        try:
+            out = np.asarray(out, dtype=float)
+        except (TypeError, ValueError) as err:
+            raise DynamicsError(
+                f"{type(self).__name__}.dynamics must return (N, nx) numbers, got {type(out).__name__} ({err})"
+            ) from None
+        if out.shape != states.shape:
+            raise DynamicsError(
+                f"{type(self).__name__}.dynamics returned shape {out.shape}, expected {states.shape} = (N, nx)"
+            )
+        return out
+
+
+class DynamicsRollout(RolloutBackend):
+    """Rolls a DynamicsTask's batch out as T vectorized `dynamics` calls, one per step, on the calling thread.
+
+    Outputs are preallocated once per batch shape. Rows whose state becomes NaN or infinite are flagged in
+    `diverged`, which the Controller scores -inf: a diverged rollout never wins.
+    """
+
+    name = "dynamics"
+
+    def __init__(self, task: DynamicsTask) -> None:
+        self.task = task
+        self.model = task.model
+        self.num_workers = 1
+        self._state_size = mujoco.mj_stateSize(task.model, STATE_SPEC)
+        self._states = np.zeros((0, 0, self._state_size))
+        self._sensors = np.zeros((0, 0, 0))
+        self.diverged = np.zeros(0, dtype=bool)
+
+    def rollout(
+        self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Every (num_rollouts, T, nu) control sequence from the full-physics `initial_state` of the carrier
+        model (time, then x). Returns states (num_rollouts, T, nstate) with time in column 0 and x in
+        columns 1 to nx, and sensors (num_rollouts, T, 0). `mocap` is ignored (the carrier has none).
+        Raises DynamicsError for a wrong output shape, or when every row has diverged."""
+        task, nx = self.task, self.task.nx
+        num_rollouts, num_steps, _ = controls.shape
+        if self._states.shape[:2] != (num_rollouts, num_steps):
+            self._states = np.zeros((num_rollouts, num_steps, self._state_size))
+            self._sensors = np.zeros((num_rollouts, num_steps, 0))
+            self.diverged = np.zeros(num_rollouts, dtype=bool)
+        states = self._states
+        states[:, :, 0] = initial_state[0] + task.dt * np.arange(1, num_steps + 1)
+        x = np.repeat(initial_state[None, 1 : 1 + nx], num_rollouts, axis=0)
+        diverged = self.diverged
+        diverged[:] = False
+        for t in range(num_steps):
+            x = task.step_checked(x, controls[:, t])
+            states[:, t, 1 : 1 + nx] = x
+            diverged |= ~np.isfinite(x).all(axis=1)  # a later step may map NaN or inf back to finite numbers
+        if self.diverged.all():
+            raise DynamicsError(
+                f"{type(task).__name__}.dynamics gave NaN or infinite states in all {num_rollouts} rollouts; "
+                "expected finite states (check the step for divisions by zero or a too large dt)"
+            )
+        return states, self._sensors
+
+
+def task_rollout_backend(task: Task, name: str, num_workers: int | None) -> RolloutBackend:
+    """The backend a Controller rolls `task` out on: `DynamicsRollout` for a DynamicsTask (asked for by the
+    default name "cpu"), else `make_rollout_backend(name, task.model, num_workers)`."""
+    if not isinstance(task, DynamicsTask):
+        return make_rollout_backend(name, task.model, num_workers)
+    if name != "cpu":
+        raise ConfigError(
+            f"{type(task).__name__} rolls out its own dynamics, which run on the host: expected backend 'cpu' "
+            f"(the default), got {name!r}"
+        )
+    return DynamicsRollout(task)
