@@ -2,7 +2,6 @@
 swung up by three optimizers, and bad dynamics refused with one line naming the task."""
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import pytest

@@ -15,6 +15,7 @@ GUI read it as any other task's state. MuJoCo never steps that model.
 import math
 from abc import abstractmethod
 from collections.abc import Sequence
+
 import mujoco
 import numpy as np
 
