@@ -15,6 +15,7 @@ GUI read it as any other task's state. MuJoCo never steps that model.
 import math
 from abc import abstractmethod
 from collections.abc import Sequence
+from typing import ClassVar
 
 import mujoco
 import numpy as np
@@ -35,11 +36,15 @@ def state_size(nx: int) -> int:
     return nx + nx % 2
 
 
-def carrier_xml(name: str, nx: int, control_range: np.ndarray, dt: float) -> str:
+def carrier_xml(
+    name: str, nx: int, control_range: np.ndarray, dt: float, scene_xml: str = "", num_traces: int = 0
+) -> str:
     """The MJCF text of the model carrying an nx-state task with (nu, 2) `control_range` and timestep `dt`.
 
-    ceil(nx / 2) slide joints (qpos holds x[:k], qvel x[k:]) on one massive body without contacts, and one
-    motor per control on joint i % k with its limits (unlimited where a bound is infinite).
+    ceil(nx / 2) slide joints (qpos holds x[:k], qvel x[k:]) on one massive body without contacts, one motor per
+    control on joint i % k with its limits (unlimited where a bound is infinite), the task's `scene_xml`
+    (worldbody elements: static geoms, mocap goals) and `num_traces` "trace" framepos sensors, whose values
+    the backend fills from `DynamicsTask.trace_points`.
     """
     joints = state_size(nx) // 2
     joint_lines = "\n".join(f'      <joint name="x{i}" type="slide" axis="1 0 0"/>' for i in range(joints))
@@ -49,17 +54,36 @@ def carrier_xml(name: str, nx: int, control_range: np.ndarray, dt: float) -> str
             f'ctrllimited="true" ctrlrange="{float(low)!r} {float(high)!r}"' if np.isfinite([low, high]).all() else ""
         )
         motors.append(f'    <motor name="u{i}" joint="x{i % joints}" {limits}/>')
+    sites = "".join(f'<site name="trace_site{k}"/>' for k in range(num_traces))
+    sensors = "".join(f'<framepos name="trace{k}" objtype="site" objname="trace_site{k}"/>' for k in range(num_traces))
     return f"""<mujoco model="{name}">
   <option timestep="{dt!r}" gravity="0 0 0" integrator="Euler"/>
   <worldbody>
+    {sites}
+    {scene_xml}
     <body name="state">
 {joint_lines}
-      <geom type="sphere" size="0.01" mass="1" contype="0" conaffinity="0"/>
+      <geom type="sphere" size="0.01" mass="1" contype="0" conaffinity="0" group="5"/>
     </body>
   </worldbody>
   <actuator>
 {chr(10).join(motors)}
   </actuator>
+  <sensor>{sensors}</sensor>
+</mujoco>
+"""
+
+
+def drawing_xml(name: str, scene_xml: str, robot_xml: str) -> str:
+    """The MJCF text of the model the GUI draws a DynamicsTask with: its scene (the carrier's mocap bodies in
+    the same order) and its robot, whose joints `DynamicsTask.draw_qpos` sets."""
+    return f"""<mujoco model="{name}">
+  <visual><global offwidth="640" offheight="480"/></visual>
+  <worldbody>
+    <light pos="0 0 5" dir="0 0 -1"/>
+    {scene_xml}
+    {robot_xml}
+  </worldbody>
 </mujoco>
 """
 
@@ -69,8 +93,13 @@ class DynamicsTask(Task[ConfigT]):
 
     Subclass it as `class MyTask(DynamicsTask[MyConfig])`, call `super().__init__(nx, control_range, dt)` and
     implement `dynamics` and `reward` (the signature of every task; `states` is (N, T, nx), with one extra zero
-    column when nx is odd, and `sensors` is (N, T, 0)). `initial_state` sets where the plant starts (zeros by
+    column when nx is odd, and `sensors` (N, T, 3 * num_traces) the `trace_points`). Goals reach `reward` as any
+    task's: mocap bodies of `scene_xml`, in `system_metadata` (judo.core.model.mocap_pose reads them). `initial_state` sets where the plant starts (zeros by
     default; draw from `self.rng` for a random start).
+
+    Drawing in the GUI: `scene_xml` (worldbody MJCF: a floor, obstacles, mocap goals the GUI lets you drag, which
+    the plant publishes as any task's) and `robot_xml` (the robot's bodies with their joints) build `draw_model`;
+    `draw_qpos` maps states to its qpos. `trace_points` gives the points the GUI traces along the rollouts.
 
     Attributes:
         nx: the state's length.
@@ -79,6 +108,13 @@ class DynamicsTask(Task[ConfigT]):
         process_noise: (nx,) standard deviation of the Gaussian noise the simulated plant adds to the state
             after each step (zeros: none); the planning rollouts never add it.
     """
+
+    scene_xml: ClassVar[str] = ""
+    """Worldbody MJCF elements in both the carrier and the drawing model: a floor, static obstacles, mocap goals."""
+    robot_xml: ClassVar[str] = ""
+    """Worldbody MJCF of the robot as drawn (bodies with joints); its qpos comes from `draw_qpos`."""
+    num_traces: ClassVar[int] = 0
+    """How many points `trace_points` gives per state (the GUI draws each one's path along the rollouts)."""
 
     def __init__(self, nx: int, control_range: Sequence[Sequence[float]] | np.ndarray, dt: float) -> None:
         control_range = np.asarray(control_range, dtype=float)
@@ -91,7 +127,11 @@ class DynamicsTask(Task[ConfigT]):
         if not (math.isfinite(dt) and dt > 0):
             raise ConfigError(f"{type(self).__name__}: dt must be a positive number of seconds, got {dt}")
         self.nx = nx
-        self.model = mujoco.MjModel.from_xml_string(carrier_xml(type(self).__name__, nx, control_range, dt))
+        name = type(self).__name__
+        xml = carrier_xml(name, nx, control_range, dt, self.scene_xml, self.num_traces)
+        self.model = mujoco.MjModel.from_xml_string(xml)
+        self.draw_model = mujoco.MjModel.from_xml_string(drawing_xml(name, self.scene_xml, self.robot_xml))
+        """The model the GUI draws (`drawing_xml`): the scene and the robot."""
         self.sim_model = self.model
         self.measured = self.sim_measured = measured_layout(self.model, (), type(self).__name__)
         self.data = mujoco.MjData(self.model)
@@ -103,6 +143,14 @@ class DynamicsTask(Task[ConfigT]):
     def dynamics(self, states: np.ndarray, controls: np.ndarray, dt: float) -> np.ndarray:
         """One step of every row: (N, nx) states and (N, nu) controls (within their limits) to (N, nx) states
         `dt` seconds later. Vectorized numpy; return a new array (the inputs are the backend's)."""
+
+    def draw_qpos(self, states: np.ndarray) -> np.ndarray:
+        """(B, draw_model.nq) the drawn robot's joint positions at (B, nx) states; none by default."""
+        return np.zeros((len(states), self.draw_model.nq))
+
+    def trace_points(self, states: np.ndarray) -> np.ndarray:
+        """(..., num_traces, 3) world points the GUI traces, at (..., nx) states; none by default."""
+        return np.zeros((*states.shape[:-1], self.num_traces, 3))
 
     def initial_state(self) -> np.ndarray:
         """The (nx,) state the plant starts from on `reset`; zeros by default. Draw from `self.rng` to randomize."""
@@ -122,7 +170,8 @@ class DynamicsTask(Task[ConfigT]):
     def reset(self) -> None:
         """Put the plant at `initial_state()`, time 0."""
         mujoco.mj_resetData(self.model, self.data)
-        self.state = np.asarray(self.initial_state(), dtype=float)
+        self.state = x = np.asarray(self.initial_state(), dtype=float)
+        self.data.sensordata[:] = self.trace_points(x).ravel()
 
     def safe_action(self, state: np.ndarray) -> np.ndarray:
         """Zero controls clamped to their limits; override it for what brings your system to rest."""
@@ -169,13 +218,14 @@ class DynamicsRollout(RolloutBackend):
     ) -> tuple[np.ndarray, np.ndarray]:
         """Every (num_rollouts, T, nu) control sequence from the full-physics `initial_state` of the carrier
         model (time, then x). Returns states (num_rollouts, T, nstate) with time in column 0 and x in
-        columns 1 to nx, and sensors (num_rollouts, T, 0). `mocap` is ignored (the carrier has none).
+        columns 1 to nx, and sensors (num_rollouts, T, 3 * num_traces), the `trace_points`. `mocap` is ignored:
+        the reward reads goals from its system metadata.
         Raises DynamicsError for a wrong output shape, or when every row has diverged."""
         task, nx = self.task, self.task.nx
         num_rollouts, num_steps, _ = controls.shape
         if self._states.shape[:2] != (num_rollouts, num_steps):
             self._states = np.zeros((num_rollouts, num_steps, self._state_size))
-            self._sensors = np.zeros((num_rollouts, num_steps, 0))
+            self._sensors = np.zeros((num_rollouts, num_steps, self.model.nsensordata))
             self.diverged = np.zeros(num_rollouts, dtype=bool)
         states = self._states
         states[:, :, 0] = initial_state[0] + task.dt * np.arange(1, num_steps + 1)
@@ -186,12 +236,27 @@ class DynamicsRollout(RolloutBackend):
             x = task.step_checked(x, controls[:, t])
             states[:, t, 1 : 1 + nx] = x
             diverged |= ~np.isfinite(x).all(axis=1)  # a later step may map NaN or inf back to finite numbers
+        if task.num_traces:
+            self._sensors[:] = task.trace_points(states[:, :, 1 : 1 + nx]).reshape(self._sensors.shape)
         if self.diverged.all():
             raise DynamicsError(
                 f"{type(task).__name__}.dynamics gave NaN or infinite states in all {num_rollouts} rollouts; "
                 "expected finite states (check the step for divisions by zero or a too large dt)"
             )
         return states, self._sensors
+
+
+def drawn_model(task: Task) -> mujoco.MjModel:
+    """The model the GUI draws `task` with: a DynamicsTask's `draw_model`, else its planning model."""
+    return task.draw_model if isinstance(task, DynamicsTask) else task.model
+
+
+def drawn_qpos(task: Task, state: np.ndarray) -> np.ndarray:
+    """(drawn_model(task).nq,) the drawn qpos at the (nq + nv,) `state`: `draw_qpos` of a DynamicsTask, else the
+    state's qpos."""
+    if isinstance(task, DynamicsTask):
+        return np.asarray(task.draw_qpos(np.asarray(state, dtype=float)[None, : task.nx]), dtype=float)[0]
+    return state[: task.model.nq]
 
 
 def task_rollout_backend(task: Task, name: str, num_workers: int | None) -> RolloutBackend:

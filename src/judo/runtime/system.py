@@ -193,6 +193,7 @@ class DynamicsSystem(MujocoSystem):
         if self.process_noise.any():
             x = x + self.process_noise * task.rng.standard_normal(task.nx)
         task.state = x
+        data.sensordata[:] = task.trace_points(x).ravel()  # the carrier's only sensors: the traced points
         data.time = start_time + task.dt
         task.post_sim_step()
         if not np.isfinite(x).all():
