@@ -11,6 +11,7 @@ import judo.optimizers  # noqa: F401  (the defaults files name the built-in opti
 from judo.core.config_file import load_config
 from judo.core.registry import register_task
 from judo.tasks.acrobot import Acrobot, AcrobotConfig
+from judo.tasks.car import Car, CarConfig
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 from judo.tasks.cartpole_pd import CartpolePD
 from judo.tasks.cylinder_push import CylinderPush, CylinderPushConfig
@@ -52,6 +53,8 @@ BUILTIN_TASKS = {
     "leap_cube": (LeapCube, LeapCubeConfig),
     "leap_cube_down": (LeapCubeDown, LeapCubeDownConfig),
     "fr3_pick": (FR3Pick, FR3PickConfig),
+    # Tasks on their own numpy dynamics (judo.core.dynamics), not MuJoCo: a kinematic-bicycle car.
+    "car": (Car, CarConfig),
 }
 
 
@@ -68,6 +71,8 @@ for _name, (_task_cls, _config_cls) in BUILTIN_TASKS.items():
 __all__ = [  # every built-in task class and its config
     "Acrobot",
     "AcrobotConfig",
+    "Car",
+    "CarConfig",
     "Cartpole",
     "CartpoleConfig",
     "CartpolePD",
