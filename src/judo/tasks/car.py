@@ -29,6 +29,8 @@ LENGTH, WIDTH = 0.58, 0.31
 """Body size (m) (f1tenth_gym)."""
 CAR_RADIUS = 0.2
 """Radius (m) of the disc the car counts as for hitting an obstacle (about half its length)."""
+CLEARANCE = 0.1
+"""Extra distance (m) the reward keeps from obstacles beyond the car's disc."""
 DT = 0.02
 """Step (s): 50 Hz."""
 OBSTACLES = np.array([[1.2, 1.0, 0.35], [-1.1, 1.3, 0.3], [-1.3, -1.1, 0.4], [1.0, -1.4, 0.3], [0.0, 2.4, 0.3]])
@@ -62,8 +64,8 @@ class CarConfig(TaskConfig):
     """Weight on the distance (m) from the car's centre to the goal."""
     w_velocity: float = 0.05
     """Weight on a slow car, so it stops on the goal instead of circling it."""
-    w_obstacle: float = 100.0
-    """Weight on how deep (m) the car's disc reaches into an obstacle."""
+    w_obstacle: float = 300.0
+    """Weight on how deep (m) the car's disc, 10 cm larger for clearance, reaches into an obstacle."""
     w_control: float = 0.001
     """Weight on small controls (fractions of their limits)."""
     goal_radius: float = 0.2
@@ -121,7 +123,7 @@ class Car(DynamicsTask[CarConfig]):
         return -(
             config.w_position * smooth_l1_norm(position - goal, 0.1).sum(-1)
             + config.w_velocity * np.square(states[..., 3]).sum(-1)
-            + config.w_obstacle * penetration(position).sum(-1)
+            + config.w_obstacle * penetration(position, CAR_RADIUS + CLEARANCE).sum(-1)
             + config.w_control * np.square(controls).sum((-2, -1))
         )
 
