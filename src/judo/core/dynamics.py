@@ -41,13 +41,17 @@ def carrier_xml(
 ) -> str:
     """The MJCF text of the model carrying an nx-state task with (nu, 2) `control_range` and timestep `dt`.
 
-    ceil(nx / 2) slide joints (qpos holds x[:k], qvel x[k:]) on one massive body without contacts, one motor per
+    ceil(nx / 2) slide joints (qpos holds x[:k], qvel x[k:]), each on its own body without contacts, one motor per
     control on joint i % k with its limits (unlimited where a bound is infinite), the task's `scene_xml`
     (worldbody elements: static geoms, mocap goals) and `num_traces` "trace" framepos sensors, whose values
     the backend fills from `DynamicsTask.trace_points`.
     """
     joints = state_size(nx) // 2
-    joint_lines = "\n".join(f'      <joint name="x{i}" type="slide" axis="1 0 0"/>' for i in range(joints))
+    joint_lines = "\n".join(
+        f'    <body name="state{i}"><joint name="x{i}" type="slide" axis="1 0 0"/>'
+        '<geom type="sphere" size="0.01" mass="1" contype="0" conaffinity="0" group="5"/></body>'
+        for i in range(joints)
+    )
     motors = []
     for i, (low, high) in enumerate(np.asarray(control_range, dtype=float)):
         limits = (
@@ -61,10 +65,7 @@ def carrier_xml(
   <worldbody>
     {sites}
     {scene_xml}
-    <body name="state">
 {joint_lines}
-      <geom type="sphere" size="0.01" mass="1" contype="0" conaffinity="0" group="5"/>
-    </body>
   </worldbody>
   <actuator>
 {chr(10).join(motors)}

@@ -22,6 +22,7 @@ from judo.tasks.leap_cube import LeapCube, LeapCubeConfig, LeapCubeDown, LeapCub
 from judo.tasks.particle import Particle, ParticleConfig
 from judo.tasks.pendulum import Pendulum, PendulumConfig
 from judo.tasks.push_t import PushT, PushTConfig
+from judo.tasks.quadrotor import Quadrotor, QuadrotorConfig
 from judo.tasks.quadruped import Quadruped, QuadrupedConfig
 from judo.tasks.quadruped_navigate import QuadrupedNavigate, QuadrupedNavigateConfig
 from judo.tasks.quadruped_velocity import QuadrupedVelocity, QuadrupedVelocityConfig
@@ -55,6 +56,8 @@ BUILTIN_TASKS = {
     "fr3_pick": (FR3Pick, FR3PickConfig),
     # Tasks on their own numpy dynamics (judo.core.dynamics), not MuJoCo: a kinematic-bicycle car.
     "car": (Car, CarConfig),
+    # A quadrotor rigid body on its four rotor thrusts (numpy equations of motion).
+    "quadrotor": (Quadrotor, QuadrotorConfig),
 }
 
 
@@ -94,6 +97,8 @@ __all__ = [  # every built-in task class and its config
     "PendulumConfig",
     "PushT",
     "PushTConfig",
+    "Quadrotor",
+    "QuadrotorConfig",
     "Quadruped",
     "QuadrupedConfig",
     "QuadrupedNavigate",
