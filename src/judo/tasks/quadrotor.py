@@ -35,6 +35,8 @@ HOVER = MASS * GRAVITY / 4 / MAX_THRUST
 """Each rotor's control (a fraction of MAX_THRUST) that holds the quadrotor in a hover: 0.25."""
 DT = 0.01
 """Step (s): 100 Hz."""
+YAW_TOLERANCE = 0.5
+"""Heading error (rad) within which a goal pose counts as reached (with the distance within `goal_radius`)."""
 GOAL_LOW, GOAL_HIGH = np.array([-1.5, -1.5, 0.6]), np.array([1.5, 1.5, 2.0])
 """Corners (m) of the box new goals are drawn from."""
 
@@ -74,8 +76,8 @@ class QuadrotorConfig(TaskConfig):
     """Weight on slow turning (rad/s)."""
     w_control: float = 0.1
     """Weight on thrusts near hover."""
-    goal_radius: float = 0.15
-    """Distance (m) within which the goal counts as reached (with the heading within 0.3 rad)."""
+    goal_radius: float = 0.2
+    """Distance (m) within which the goal counts as reached (with the heading within 0.5 rad)."""
     new_goal_on_reach: bool = True
     """Move the goal to a random pose whenever it is reached (turn off to place goals by hand)."""
 
@@ -188,7 +190,7 @@ class Quadrotor(DynamicsTask[QuadrotorConfig]):
         if self.config.new_goal_on_reach:
             state, data = self.state, self.data
             near = np.linalg.norm(state[:3] - data.mocap_pos[0]) < self.config.goal_radius
-            if near and np.cos(yaw_of(state[3:7]) - yaw_of(data.mocap_quat[0])) > np.cos(0.3):
+            if near and np.cos(yaw_of(state[3:7]) - yaw_of(data.mocap_quat[0])) > np.cos(YAW_TOLERANCE):
                 self.goals_reached += 1
                 self._new_goal()
 
