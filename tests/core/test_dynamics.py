@@ -160,3 +160,17 @@ def test_the_plant_is_seeded_noisy_and_resets_on_nan():
     ):
         nan_plant.step()
     assert np.isfinite(nan_plant.read_state().state).all()
+
+
+def test_latency_compensation_predicts_on_the_task_s_own_dynamics():
+    from judo.core.reading import SystemState
+    from judo.runtime.latency import LatencyPredictor
+
+    task = UserPendulum()
+    reading = SystemState(np.array([2.0, 0.5]), 1.0, {})
+    predicted = LatencyPredictor(task).predict_reading(reading, 0.1, lambda t: np.array([0.3]))
+    x = np.array([[2.0, 0.5]])
+    for _ in range(5):
+        x = task.dynamics(x, np.array([[0.3]]), 0.02)
+    assert np.array_equal(predicted.state, x[0])
+    assert predicted.time == pytest.approx(1.1)

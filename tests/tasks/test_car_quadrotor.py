@@ -68,3 +68,18 @@ def test_the_quadrotor_reaches_a_goal_pose():
         result = run_episode(controller, MujocoSystem.from_task(controller.task, seed=0), duration=8.0)
     assert result.metrics["goals_reached"] >= 1
     assert result.metrics["crashes"] == 0
+
+
+def test_the_car_drives_to_a_goal_moved_on_the_plant():
+    """What the GUI's drag does (App.move_goal writes the plant's mocap goal): the planner sees the goal in the
+    plant's published metadata and the car drives there."""
+    controller = judo.make_controller("car", "mppi", seed=1)
+    controller.task.config.new_goal_on_reach = False
+    plant = MujocoSystem.from_task(controller.task, seed=1)
+    plant.task.data.mocap_pos[0, :2] = [-2.0, 0.2]
+    with controller:
+        loop = judo.ClosedLoop(controller, plant)
+        loop.restart()
+        while loop.reading.time < 5.0:
+            loop.step()
+    assert np.linalg.norm(plant.task.state[:2] - [-2.0, 0.2]) < 0.2
