@@ -54,13 +54,15 @@ def main(duration: float = 8.0) -> dict[str, float]:
     judo.set_config_overrides("unicycle", MPPIConfig, {"sigma": 0.5})
     with judo.make_controller("unicycle", "mppi", seed=0) as controller:
         plant = judo.MujocoSystem.from_task(controller.task, seed=0)  # a DynamicsSystem stepping `dynamics`
+        unicycle = plant.task
+        assert isinstance(unicycle, Unicycle)
         loop = judo.ClosedLoop(controller, plant)
         loop.restart()
         closest = np.inf
         while loop.reading.time < duration:
             loop.step()
-            closest = min(closest, float(np.linalg.norm(plant.task.state[:2] - OBSTACLE)))
-    result = {"final_distance": float(np.linalg.norm(plant.task.state[:2] - GOAL)), "closest_approach": closest}
+            closest = min(closest, float(np.linalg.norm(unicycle.state[:2] - OBSTACLE)))
+    result = {"final_distance": float(np.linalg.norm(unicycle.state[:2] - GOAL)), "closest_approach": closest}
     print(
         f"after {duration:.0f} s: {result['final_distance']:.2f} m from the goal, never nearer than "
         f"{closest:.2f} m to the obstacle's centre (radius {RADIUS} m)"

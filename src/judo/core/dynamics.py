@@ -204,6 +204,7 @@ class DynamicsRollout(RolloutBackend):
     """
 
     name = "dynamics"
+    diverged: np.ndarray
 
     def __init__(self, task: DynamicsTask) -> None:
         self.task = task
@@ -239,7 +240,7 @@ class DynamicsRollout(RolloutBackend):
             diverged |= ~np.isfinite(x).all(axis=1)  # a later step may map NaN or inf back to finite numbers
         if task.num_traces:
             self._sensors[:] = task.trace_points(states[:, :, 1 : 1 + nx]).reshape(self._sensors.shape)
-        if self.diverged.all():
+        if diverged.all():
             raise DynamicsError(
                 f"{type(task).__name__}.dynamics gave NaN or infinite states in all {num_rollouts} rollouts; "
                 "expected finite states (check the step for divisions by zero or a too large dt)"
@@ -252,9 +253,11 @@ def drawn_model(task: Task) -> mujoco.MjModel:
     return task.draw_model if isinstance(task, DynamicsTask) else task.model
 
 
-def drawn_qpos(task: Task, state: np.ndarray) -> np.ndarray:
+def drawn_qpos(task: Task, state: np.ndarray | None) -> np.ndarray:
     """(drawn_model(task).nq,) the drawn qpos at the (nq + nv,) `state`: `draw_qpos` of a DynamicsTask, else the
-    state's qpos."""
+    state's qpos; the drawn model's qpos0 for a reading without a state."""
+    if state is None:
+        return drawn_model(task).qpos0.copy()
     if isinstance(task, DynamicsTask):
         return np.asarray(task.draw_qpos(np.asarray(state, dtype=float)[None, : task.nx]), dtype=float)[0]
     return state[: task.model.nq]

@@ -98,7 +98,7 @@ class MujocoSystem(System):
         plant.config = task.config
         plant.rng = np.random.default_rng(None if seed is None else [seed, PLANT_STREAM])
         plant.reset()
-        if isinstance(plant, DynamicsTask) and not issubclass(cls, DynamicsSystem):
+        if isinstance(plant, DynamicsTask) and cls is MujocoSystem:
             return DynamicsSystem(plant)  # a task with its own dynamics is simulated by them, not by MuJoCo
         return cls(plant)
 
