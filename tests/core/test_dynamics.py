@@ -9,6 +9,7 @@ import pytest
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.dynamics import DynamicsError, DynamicsRollout, DynamicsTask
 from judo.core.errors import ConfigError
+from judo.core.registry import get_registered_optimizers
 from judo.core.norms import wrap_angle
 from judo.core.task import TaskConfig
 from judo.evaluation.episode import run_episode
@@ -174,3 +175,14 @@ def test_latency_compensation_predicts_on_the_task_s_own_dynamics():
         x = task.dynamics(x, np.array([[0.3]]), 0.02)
     assert np.array_equal(predicted.state, x[0])
     assert predicted.time == pytest.approx(1.1)
+
+
+@pytest.mark.parametrize("name", sorted(get_registered_optimizers()))
+def test_every_optimizer_plans_on_a_dynamics_task(name):
+    optimizer_cls, config_cls = get_registered_optimizers()[name]
+    task = UserPendulum()
+    with Controller(ControllerConfig(horizon=0.3), task, optimizer_cls(config_cls(num_rollouts=8), 1)) as controller:
+        for k in range(3):
+            controller.update_action(np.array([np.pi, 0.0]), 0.05 * k)
+        assert np.isfinite(controller.rewards).all() and controller.rewards.shape == (8,)
+        assert controller.action(0.1).shape == (1,)
