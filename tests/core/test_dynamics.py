@@ -9,8 +9,8 @@ import pytest
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.dynamics import DynamicsError, DynamicsRollout, DynamicsTask
 from judo.core.errors import ConfigError
-from judo.core.registry import get_registered_optimizers
 from judo.core.norms import wrap_angle
+from judo.core.registry import get_registered_optimizers
 from judo.core.task import TaskConfig
 from judo.evaluation.episode import run_episode
 from judo.optimizers import CEM, MPPI, CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
