@@ -8,7 +8,7 @@ import pytest
 
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.dynamics import DynamicsError, DynamicsRollout, DynamicsTask
-from judo.core.errors import ConfigError
+from judo.core.errors import ConfigError, ModelLoadError
 from judo.core.norms import wrap_angle
 from judo.core.registry import get_registered_optimizers
 from judo.core.task import TaskConfig
@@ -186,3 +186,18 @@ def test_every_optimizer_plans_on_a_dynamics_task(name):
             controller.update_action(np.array([np.pi, 0.0]), 0.05 * k)
         assert np.isfinite(controller.rewards).all() and controller.rewards.shape == (8,)
         assert controller.action(0.1).shape == (1,)
+
+
+def test_bad_task_definitions_are_one_line_errors():
+    class Backwards(UserPendulum):
+        def __init__(self) -> None:
+            DynamicsTask.__init__(self, nx=2, control_range=[[1.0, -1.0]], dt=0.02)
+
+    class BadScene(UserPendulum):
+        scene_xml = "<geom type='nothing'/>"
+
+    with pytest.raises(ConfigError, match=r"^Backwards: control_range rows must be \[low, high\] with low <= high"):
+        Backwards()
+    with pytest.raises(ModelLoadError, match=r"^BadScene: could not compile its scene_xml and robot_xml: ") as err:
+        BadScene()
+    assert "\n" not in str(err.value)

@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 
 from judo.core.backend import RolloutBackend, make_rollout_backend
-from judo.core.errors import ConfigError, JudoError
+from judo.core.errors import ConfigError, JudoError, ModelLoadError
 from judo.core.model import STATE_SPEC
 from judo.core.sensors import measured_layout
 from judo.core.task import ConfigT, Task
@@ -95,8 +95,8 @@ class DynamicsTask(Task[ConfigT]):
     Subclass it as `class MyTask(DynamicsTask[MyConfig])`, call `super().__init__(nx, control_range, dt)` and
     implement `dynamics` and `reward` (the signature of every task; `states` is (N, T, nx), with one extra zero
     column when nx is odd, and `sensors` (N, T, 3 * num_traces) the `trace_points`). Goals reach `reward` as any
-    task's: mocap bodies of `scene_xml`, in `system_metadata` (judo.core.model.mocap_pose reads them). `initial_state` sets where the plant starts (zeros by
-    default; draw from `self.rng` for a random start).
+    task's: mocap bodies of `scene_xml`, in `system_metadata` (judo.core.model.mocap_pose reads them).
+    `initial_state` sets where the plant starts (zeros by default; draw from `self.rng` for a random start).
 
     Drawing in the GUI: `scene_xml` (worldbody MJCF: a floor, obstacles, mocap goals the GUI lets you drag, which
     the plant publishes as any task's) and `robot_xml` (the robot's bodies with their joints) build `draw_model`;
@@ -125,14 +125,24 @@ class DynamicsTask(Task[ConfigT]):
             raise ConfigError(
                 f"{type(self).__name__}: control_range must be (nu, 2) [low, high] rows, got shape {control_range.shape}"
             )
+        if not (control_range[:, 0] <= control_range[:, 1]).all():
+            raise ConfigError(
+                f"{type(self).__name__}: control_range rows must be [low, high] with low <= high, got "
+                f"{control_range.tolist()}"
+            )
         if not (math.isfinite(dt) and dt > 0):
             raise ConfigError(f"{type(self).__name__}: dt must be a positive number of seconds, got {dt}")
         self.nx = nx
         name = type(self).__name__
-        xml = carrier_xml(name, nx, control_range, dt, self.scene_xml, self.num_traces)
-        self.model = mujoco.MjModel.from_xml_string(xml)
-        self.draw_model = mujoco.MjModel.from_xml_string(drawing_xml(name, self.scene_xml, self.robot_xml))
-        """The model the GUI draws (`drawing_xml`): the scene and the robot."""
+        try:
+            self.model = mujoco.MjModel.from_xml_string(
+                carrier_xml(name, nx, control_range, dt, self.scene_xml, self.num_traces)
+            )
+            self.draw_model = mujoco.MjModel.from_xml_string(drawing_xml(name, self.scene_xml, self.robot_xml))
+            """The model the GUI draws (`drawing_xml`): the scene and the robot."""
+        except ValueError as err:
+            reason = " ".join(str(err).split())
+            raise ModelLoadError(f"{name}: could not compile its scene_xml and robot_xml: {reason}") from None
         self.sim_model = self.model
         self.measured = self.sim_measured = measured_layout(self.model, (), type(self).__name__)
         self.data = mujoco.MjData(self.model)
