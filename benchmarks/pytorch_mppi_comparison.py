@@ -10,7 +10,9 @@ throwaway venv of its own, never in judo's extras or CI. This script runs its to
     python -m venv /tmp/torch-bench-venv && /tmp/torch-bench-venv/bin/pip install torch pytorch-mppi
     PYTHONPATH=src python benchmarks/pytorch_mppi_comparison.py --torch-python /tmp/torch-bench-venv/bin/python
 
-The judo half runs in judo's own environment; the torch half (`--side torch`) imports only numpy, torch and
+Both run on one CPU thread by default (judo's DynamicsRollout is one thread of numpy; `--torch-threads` gives
+torch more). On a busy 2-core machine torch's default of one thread per core made its N = 1024 update 20 times
+slower (116-150 ms against 6.3 ms on one thread). The judo half runs in judo's own environment; the torch half (`--side torch`) imports only numpy, torch and
 pytorch_mppi. Both plan the same dynamics: the pendulum of tests/core/test_dynamics.py (1 kg, 0.5 m, at most
 2 Nm against 4.9 Nm of gravity, semi-implicit Euler at 20 ms), with the same running cost.
 """
@@ -97,12 +99,13 @@ def judo_side(sizes: list[tuple[int, int]], seeds: int, repeats: int) -> dict:
     return {"update_ms": timings, "upright": success}
 
 
-def torch_side(sizes: list[tuple[int, int]], seeds: int, repeats: int) -> dict:
-    """The same with pytorch_mppi's MPPI (per-step noise, its own defaults), float64 on the CPU."""
+def torch_side(sizes: list[tuple[int, int]], seeds: int, repeats: int, threads: int) -> dict:
+    """The same with pytorch_mppi's MPPI (per-step noise, its own defaults), float64 on `threads` CPU threads."""
     import torch
     from pytorch_mppi import MPPI
 
     torch.set_default_dtype(torch.float64)
+    torch.set_num_threads(threads)
 
     def dynamics(states, controls):
         angle, velocity = states[:, 0], states[:, 1]
@@ -151,18 +154,21 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=75)
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--repeats", type=int, default=20)
+    parser.add_argument(
+        "--torch-threads", type=int, default=1, help="torch's intra-op threads (judo's dynamics run on one)"
+    )
     args = parser.parse_args()
     sizes = [(n, args.steps) for n in args.samples]
     if args.side == "judo":
         print(json.dumps(judo_side(sizes, args.seeds, args.repeats)))
         return
     if args.side == "torch":
-        print(json.dumps(torch_side(sizes, args.seeds, args.repeats)))
+        print(json.dumps(torch_side(sizes, args.seeds, args.repeats, args.torch_threads)))
         return
     if not args.torch_python:
         sys.exit("--torch-python is needed: the interpreter of a throwaway venv with torch and pytorch-mppi")
     common = ["--samples", *map(str, args.samples), "--steps", str(args.steps), "--seeds", str(args.seeds)]
-    common += ["--repeats", str(args.repeats)]
+    common += ["--repeats", str(args.repeats), "--torch-threads", str(args.torch_threads)]
     results = {}
     for side, python in (("judo", sys.executable), ("torch", args.torch_python)):
         out = subprocess.run([python, __file__, "--side", side, *common], check=True, capture_output=True, text=True)
