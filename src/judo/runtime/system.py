@@ -181,6 +181,7 @@ class DynamicsSystem(MujocoSystem):
         self.dynamics_task = task
         noise = task.process_noise if process_noise is None else process_noise
         self.process_noise = np.broadcast_to(np.asarray(noise, dtype=float), (task.nx,)).copy()
+        self._low, self._high = task.actuator_ctrlrange.T.copy()
 
     def step(self) -> None:
         """One step of the task's dynamics under the applied control. Raises SimulationDiverged (after resetting
@@ -188,8 +189,8 @@ class DynamicsSystem(MujocoSystem):
         task, data = self.dynamics_task, self.dynamics_task.data
         start_time = data.time
         task.pre_sim_step()
-        low, high = task.actuator_ctrlrange.T  # clamped as MuJoCo clamps a limited actuator's ctrl
-        x = task.step_checked(task.state[None], np.clip(data.ctrl, low, high)[None])[0]
+        control = np.clip(data.ctrl, self._low, self._high)  # as MuJoCo clamps a limited actuator's ctrl
+        x = task.step_checked(task.state[None], control[None])[0]
         if self.process_noise.any():
             x = x + self.process_noise * task.rng.standard_normal(task.nx)
         task.state = x
