@@ -191,7 +191,7 @@ def main() -> None:
     console = Console(width=140)
     try:
         check_names(args.tasks, [args.optimizer])
-        check_rollout_backend("warp")  # MissingExtraError names judo[warp]
+        check_rollout_backend("warp")  # MissingExtraError names judo-mpc[warp]
         header = device_header()
     except JudoError as err:
         console.print(f"error: {err}", style="red")

@@ -5,7 +5,7 @@ its MPC plans with (`python -m judo gait-search`, docs/tasks.md); it ships as
 models/policies/quadruped_locomotion.onnx. `quadruped_navigate` plans only the command [vx, vy, yaw rate] with 3
 knots over 1 s, with a quarter of quadruped's rollouts: inside every rollout the policy turns the command into the
 joint targets at 50 Hz, batched over each worker's rollouts, and the plant runs the same policy on the command it is
-served, as a robot's onboard controller would. Needs the policy extra: pip install 'judo[policy]'.
+served, as a robot's onboard controller would. Its policy runs on onnxruntime, a core dependency.
 
     PYTHONPATH=src python examples/09_quadruped_navigate.py [--duration 10]
     python -m judo --task quadruped_navigate --optimizer mppi    # the GUI: drag the goal disc around

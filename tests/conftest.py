@@ -65,11 +65,13 @@ def restore_the_registry():
 
     tasks, optimizers = dict(registry._TASKS), dict(registry._OPTIMIZERS)
     overrides = {key: dict(value) for key, value in registry._OVERRIDES.items()}
+    model_overrides = {key: dict(value) for key, value in registry._MODEL_OVERRIDES.items()}
     yield
     for table, saved in (
         (registry._TASKS, tasks),
         (registry._OPTIMIZERS, optimizers),
         (registry._OVERRIDES, overrides),
+        (registry._MODEL_OVERRIDES, model_overrides),
     ):
         table.clear()
         table.update(saved)

@@ -196,6 +196,7 @@ LIBRARY_LAYERS = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks
 APPLICATION_LAYERS = (
     "judo.ray_cluster",
     "judo.runtime",
+    "judo.ros2",
     "judo.cli_shared",
     "judo.evaluation",
     "judo.tuning",
@@ -245,6 +246,7 @@ PACKAGE_ORDER = (
     "judo.tasks",
     "judo.ray_cluster",
     "judo.runtime",
+    "judo.ros2",
     "judo.cli_shared",
     "judo.evaluation",
     "judo.collection",

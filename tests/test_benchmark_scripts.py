@@ -80,7 +80,10 @@ def test_robust_planning_prints_a_row_per_setting():
         "robust_planning.py", "--task", "leap_cube", *small, "--randomizations", "1", "2", "--risks", "cvar"
     )
     assert result.returncode == 0, result.stderr
-    assert "### leap_cube on a mismatched plant (leap_cube_plant.xml), 1 seed(s) from 0 x 0.2 s" in result.stdout
+    assert (
+        "### leap_cube on a mismatched plant (opt.o_friction=[0.9, 0.9, 0.02, 0.0001, 0.0001]), 1 seed(s) from 0 x 0.2 s"
+        in result.stdout
+    )
     assert "| cem | 1 | - | 0 | 0 |" in result.stdout and "| cem | 2 | cvar 0.5 | 0 | 0 |" in result.stdout
 
 

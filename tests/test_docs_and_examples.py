@@ -114,7 +114,7 @@ def test_example_09_plans_the_quadruped_over_its_shipped_policy_without_falling(
     assert "over 'quadruped_locomotion'" in capsys.readouterr().out
 
 
-def test_example_10_own_dynamics_drives_around_the_obstacle_to_the_goal():
-    result = load_example("10_own_dynamics.py").main(duration=6.0)
+def test_example_12_own_dynamics_drives_around_the_obstacle_to_the_goal():
+    result = load_example("12_own_dynamics.py").main(duration=6.0)
     assert result["final_distance"] < 0.1
     assert result["closest_approach"] > 0.3 + 0.05  # the obstacle's radius and a margin

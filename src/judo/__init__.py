@@ -38,6 +38,7 @@ from judo.core.registry import (
     register_optimizer,
     register_task,
     set_config_overrides,
+    set_model_overrides,
 )
 from judo.core.spline import Spline, SplineBasis
 from judo.core.task import Task, TaskConfig
@@ -100,6 +101,7 @@ __all__ = [
     "register_optimizer",
     "register_task",
     "set_config_overrides",
+    "set_model_overrides",
     "slider",
     "smooth_l1_norm",
     "wrap_angle",

@@ -1,5 +1,5 @@
 """`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune`, `collect`,
-`replay`, `distill` and `gait-search` commands.
+`replay`, `distill`, `gait-search`, `sysid` and `excite` commands.
 
 python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
 python -m judo benchmark ...                        # judo.evaluation.benchmark
@@ -9,24 +9,48 @@ python -m judo collect ...                          # judo.collection.cli (needs
 python -m judo replay FILE.h5                       # judo.collection.replay: a collect file in the GUI
 python -m judo distill DATA.h5 --out POLICY.onnx    # judo.learning.cli: a policy from collect's files
 python -m judo gait-search --out POLICY.onnx        # judo.learning.gait_cli: the quadruped's locomotion policy
+python -m judo plant --task cartpole                # judo.ros2.plant: the simulator as a ROS 2 robot process
+python -m judo sysid LOG.h5 --task T --params ... --out FITTED.toml   # judo.collection.sysid_cli: fit the model
+python -m judo excite --task T --out LOG.h5         # judo.collection.excite: a log worth fitting
 
 Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
 task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
-status 1 (`--debug` anywhere on the line shows the whole traceback instead); Ctrl-C exits 130.
+status 1 (`--debug` anywhere on the line shows the whole traceback instead); Ctrl-C exits 130. A warning is
+printed as one line, "warning: MESSAGE", without Python's file path and source line.
 """
 
 import sys
+import warnings
 from collections.abc import Sequence
 
 PROG = "python -m judo"
+
+
+def one_line_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int, line=None) -> str:  # noqa: ANN001
+    """A warning as the commands print it: one clean line, without the file path and source line Python adds."""
+    text = str(message).strip().splitlines()
+    return f"warning: {text[0] if text else category.__name__}\n"
 
 
 def main(argv: Sequence[str] | None = None) -> int | None:
     """Dispatch `argv` (default: sys.argv[1:]) to a command and return its exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
+    if not debug:  # --debug keeps Python's own form, with the file and line
+        warnings.formatwarning = one_line_warning
     argv = [arg for arg in argv if arg != "--debug"]
-    commands = ("benchmark", "evaluate", "tune", "collect", "replay", "distill", "gait-search")
+    commands = (
+        "benchmark",
+        "evaluate",
+        "tune",
+        "collect",
+        "replay",
+        "distill",
+        "gait-search",
+        "plant",
+        "sysid",
+        "excite",
+    )
     prog = f"{PROG} {argv[0]}" if argv and argv[0] in commands else PROG
     try:
         return dispatch(argv)
@@ -68,6 +92,18 @@ def dispatch(argv: list[str]) -> int | None:
         from judo.learning.cli import main as distill_main
 
         return distill_main(argv[1:])
+    if argv and argv[0] == "plant":
+        from judo.ros2.plant import main as plant_main
+
+        return plant_main(argv[1:])
+    if argv and argv[0] == "sysid":
+        from judo.collection.sysid_cli import main as sysid_main
+
+        return sysid_main(argv[1:])
+    if argv and argv[0] == "excite":
+        from judo.collection.excite import main as excite_main
+
+        return excite_main(argv[1:])
     if argv and argv[0] == "gait-search":
         from judo.learning.gait_cli import main as gait_search_main
 

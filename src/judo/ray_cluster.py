@@ -8,6 +8,7 @@ This module knows no command: each command's own module (evaluation/on_ray.py, t
 collection/run.py) submits its episodes through it.
 """
 
+import logging
 import os
 import socket
 from collections.abc import Iterator
@@ -30,9 +31,21 @@ class RayClusterError(JudoError):
     """A Ray cluster that cannot be started or reached; the message says how to start one."""
 
 
+RAY_TOKEN_LOGGER = "ray._private.authentication.authentication_token_setup"
+"""The logger of Ray's notice that a new local Ray turned token authentication on (as it does by default)."""
+
+
+def _not_the_token_notice(record: logging.LogRecord) -> bool:
+    return not record.getMessage().startswith("Token authentication is enabled for this Ray cluster")
+
+
 def import_ray(feature: str = "python -m judo tune", extra: str = "tune") -> Any:
-    """The ray module, or MissingExtraError naming `extra` as what `feature` needs."""
+    """The ray module, or MissingExtraError naming `extra` as what `feature` needs. Ray's notice that a local Ray
+    uses token authentication (its default; nothing for the user to do) is left out; its other warnings stay."""
     os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
+    notices = logging.getLogger(RAY_TOKEN_LOGGER)
+    if _not_the_token_notice not in notices.filters:
+        notices.addFilter(_not_the_token_notice)
     return import_extra("ray", feature, extra)
 
 

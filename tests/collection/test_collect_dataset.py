@@ -105,8 +105,9 @@ def test_without_the_extra_collect_names_it(monkeypatch, tmp_path, capsys):
         collect_main(["--task", "cartpole", "--optimizer", "ps", "--out", str(tmp_path / "x.h5")])
     assert exit_info.value.code == 2
     assert capsys.readouterr().err.strip() == (
-        "error: python -m judo collect needs the optional extra judo[collect], which is not installed "
-        "(no module 'h5py'); install it with: pip install \"judo[collect]\""
+        "error: python -m judo collect needs the optional extra judo-mpc[collect], which is not installed "
+        "(no module 'h5py'); install it with: pip install -e \".[collect]\" (from a checkout) or "
+        'pip install "judo-mpc[collect]"'
     )
 
 

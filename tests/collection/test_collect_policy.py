@@ -94,3 +94,16 @@ def test_collect_policy_writes_labels_and_resumes_only_with_the_same_policy(loca
     with pytest.raises(SystemExit):
         collect_main([*argv[:-2], "--policy", str(other), "--duration", "0.2", "--episodes", "3", "--out", str(out)])
     assert "policy.sha256: file has" in capsys.readouterr().err
+
+
+def test_collect_with_a_nan_policy_says_so_loudly_and_strict_exits_1(local_ray, tmp_path, capsys):
+    nan = write_linear_policy(tmp_path / "nan.onnx", np.full((1, 5), np.nan), metadata={"task": "cartpole"})
+    argv = ["--task", "cartpole", "--optimizer", "ps", "--policy", str(nan), "--duration", "0.2", "--episodes", "1"]
+    argv += ["--workers", "1", "--controller.max-plan-age", "0.1"]
+    assert collect_main([*argv, "--out", str(tmp_path / "a.h5")]) == 0
+    assert capsys.readouterr().err.strip() == (
+        "warning: in 1 of 1 episodes every control update gave non-finite actions, so every action stored is the "
+        "task's safe action, not a plan's; --strict makes this exit 1"
+    )
+    assert collect_main([*argv, "--out", str(tmp_path / "b.h5"), "--strict"]) == 1
+    assert capsys.readouterr().err.strip().splitlines()[-1] == "--strict: 1 of 1 episodes had failed control updates"

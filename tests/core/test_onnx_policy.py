@@ -77,7 +77,7 @@ def test_bad_files_are_one_line_errors(tmp_path):
 def test_without_the_extra_the_error_names_it(tmp_path, monkeypatch):
     path = write_linear_policy(tmp_path / "p.onnx", W, B)
     monkeypatch.setitem(sys.modules, "onnxruntime", None)  # makes `import onnxruntime` raise ImportError
-    with pytest.raises(MissingExtraError, match=r'pip install "judo\[policy\]"'):
+    with pytest.raises(MissingExtraError, match=r'pip install -e "\.\[policy\]"'):
         OnnxPolicy(path)
 
 

@@ -68,8 +68,9 @@ def test_missing_extra_names_the_extra_to_install():
     with pytest.raises(MissingExtraError) as caught:
         import_extra("judo_no_such_module", "the feature", "warp")
     assert str(caught.value) == (
-        "the feature needs the optional extra judo[warp], which is not installed (no module 'judo_no_such_module'); "
-        'install it with: pip install "judo[warp]"'
+        "the feature needs the optional extra judo-mpc[warp], which is not installed "
+        "(no module 'judo_no_such_module'); install it with: pip install -e \".[warp]\" (from a checkout) or "
+        'pip install "judo-mpc[warp]"'
     )
 
 

@@ -24,14 +24,15 @@ from judo.evaluation import benchmark, evaluate
 from judo.runtime import cli
 
 MISSING_WARP = (
-    "the warp rollout backend (--backend warp) needs the optional extra judo[warp], which is not installed "
-    "(no module 'warp'); install it with: pip install \"judo[warp]\""
+    "the warp rollout backend (--backend warp) needs the optional extra judo-mpc[warp], which is not installed "
+    "(no module 'warp'); install it with: pip install -e \".[warp]\" (from a checkout) or "
+    'pip install "judo-mpc[warp]"'
 )
 
 
 @pytest.fixture
 def without_warp(monkeypatch):
-    """warp and mujoco_warp cannot be imported (as on a machine without judo[warp]) for this test."""
+    """warp and mujoco_warp cannot be imported (as on a machine without judo-mpc[warp]) for this test."""
     monkeypatch.setitem(sys.modules, "warp", None)
     monkeypatch.setitem(sys.modules, "mujoco_warp", None)
     monkeypatch.delitem(sys.modules, "judo.core.warp_rollout", raising=False)
@@ -63,9 +64,9 @@ def test_without_the_extra_the_warp_backend_names_it(without_warp, tiny_model_pa
     with pytest.raises(MissingExtraError) as caught:
         make_rollout_backend("warp", model)
     assert str(caught.value) == MISSING_WARP and caught.value.extra == "warp"
-    with pytest.raises(MissingExtraError, match=r'pip install "judo\[warp\]"'):
+    with pytest.raises(MissingExtraError, match=r'pip install -e "\.\[warp\]"'):
         judo.make_controller("cartpole", "mppi", backend="warp")
-    with pytest.raises(MissingExtraError, match=r'pip install "judo\[warp\]"'):
+    with pytest.raises(MissingExtraError, match=r'pip install -e "\.\[warp\]"'):
         judo.App("cartpole", "mppi", backend="warp", gui=False)
 
 

@@ -1,6 +1,6 @@
 """WarpRollout against RolloutPool, on warp's default device (the CPU device in CI: no GPU there).
 
-Marked `warp` and skipped without the judo[warp] extra. Warp compiles its kernels once per process and
+Marked `warp` and skipped without the judo-mpc[warp] extra. Warp compiles its kernels once per process and
 caches them on disk; the first run of this module takes about a minute for that, so the tests are few
 and share one backend per model.
 
@@ -293,3 +293,23 @@ def test_evaluate_with_episodes_batched_on_warp_gives_the_episodes_run_one_by_on
         main(["--task", "cartpole", "--optimizer", "ps", "--episodes-per-batch", "2"])
     assert err.value.code == 2
     assert "expected --backend warp" in capsys.readouterr().err
+
+
+def test_collect_with_episodes_batched_on_warp_records_the_episodes_run_one_by_one():
+    from judo.collection.episode import collect_episode, collect_group
+    from judo.evaluation.seeded import EpisodeSpec
+
+    spec = EpisodeSpec("cartpole", "ps", 0.06, values={"controller.horizon": 0.2}, backend="warp")
+    batched = collect_group(spec, [3, 4])
+    assert [outcome.seed for outcome in batched] == [3, 4] and all(o.failure is None for o in batched)
+    alone = [collect_episode(spec, seed) for seed in (3, 4)]
+    for group, single in zip(batched, alone, strict=True):
+        assert group.episode is not None and single.episode is not None
+        assert len(group.episode.plan["knots"]) == len(single.episode.plan["knots"]) > 0
+        if not WarpRollout(mujoco.MjModel.from_xml_string(BALLS_XML)).device.is_cuda:  # bitwise on warp's CPU device
+            np.testing.assert_array_equal(group.episode.plan["knots"], single.episode.plan["knots"])
+            np.testing.assert_array_equal(group.episode.qpos, single.episode.qpos)
+    broken = EpisodeSpec("cartpole", "ps", 0.06, values={"controller.num_randomizations": 2}, backend="warp")
+    failures = collect_group(broken, [5, 6])  # each seed fails with the reason; nothing raises
+    assert [o.seed for o in failures] == [5, 6]
+    assert all(o.episode is None and "cannot roll out under 2 randomized models" in (o.failure or "") for o in failures)

@@ -72,5 +72,15 @@ def test_neither_optimizer_nor_policy_and_a_missing_file_are_one_line_and_exit_2
 def test_a_policy_that_returns_nan_fails_every_update_and_evaluate_says_so(tmp_path, capsys):
     nan = write_linear_policy(tmp_path / "nan.onnx", np.full((1, 5), np.nan), metadata={"task": "cartpole"})
     assert main([*TINY, "--seeds", "1", "--policy", str(nan), "--controller.max-plan-age", "0.1"]) == 0
-    out = " ".join(capsys.readouterr().out.split())
+    printed = capsys.readouterr()
+    out = " ".join(printed.out.split())
     assert "mean_reward" in out and "seed 0: 0 simulation divergences, 20 updates with non-finite actions" in out
+    assert printed.err.strip() == (
+        "warning: seed 0: every one of its 20 control updates gave non-finite actions, so every action served was "
+        "the task's safe action; these figures measure the safe action, not the policy"
+    )
+    strict = [*TINY, "--seeds", "1", "--policy", str(nan), "--controller.max-plan-age", "0.1", "--strict"]
+    assert main(strict) == 1
+    assert capsys.readouterr().err.strip().splitlines()[-1] == (
+        "--strict: 1 of 1 episodes had failed control updates or simulation divergences"
+    )

@@ -67,3 +67,20 @@ def test_one_line_errors(policy_file, capsys, extra, message):
         main([*TINY, *(arg.format(policy=policy_file) for arg in extra)])
     assert exit_info.value.code == 2
     assert capsys.readouterr().err.strip() == message.format(policy=policy_file)
+
+
+def test_a_failing_proposal_policy_is_told_in_one_clean_warning_line(tmp_path):
+    import subprocess
+    import sys
+
+    from judo.core.onnx_policy import write_linear_policy
+
+    nan = write_linear_policy(tmp_path / "nan.onnx", np.full((1, 5), np.nan), metadata={"task": "cartpole"})
+    argv = [*TINY, "--duration", "0.1", "--controller.policy-samples", "2", "--proposal-policy", str(nan)]
+    result = subprocess.run(
+        [sys.executable, "-m", "judo", "evaluate", *argv], capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 0, result.stderr
+    lines = result.stderr.strip().splitlines()
+    assert lines and all(line.startswith("warning: this update runs without proposals: ") for line in lines), lines
+    assert ".py:" not in result.stderr  # no file path and line, no source line

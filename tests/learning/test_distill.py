@@ -17,6 +17,7 @@ pytest.importorskip("onnxruntime")
 from judo.collection.dataset import DatasetFile  # noqa: E402
 from judo.collection.episode import collect_episode  # noqa: E402
 from judo.collection.model_info import config_dict  # noqa: E402
+from judo.core.config import shown  # noqa: E402
 from judo.core.onnx_policy import OnnxPolicy  # noqa: E402
 from judo.core.policy import PolicyError  # noqa: E402
 from judo.core.policy_controller import make_policy_controller  # noqa: E402
@@ -177,7 +178,7 @@ def test_a_teacher_round_on_a_local_ray_writes_its_files_and_a_rerun_resumes(car
     assert distill_main(argv) == 0
     folder = tmp_path / "taught_rounds"
     assert sorted(path.name for path in folder.iterdir()) == [
-        "policy_round_0.losses.png", "policy_round_0.onnx", "policy_round_1.losses.png", "policy_round_1.onnx",
+        "distill_run.json", "policy_round_0.losses.png", "policy_round_0.onnx", "policy_round_1.losses.png", "policy_round_1.onnx",
         "round_1.h5",
     ]  # fmt: skip
     with h5py.File(folder / "round_1.h5", "r") as file:
@@ -195,6 +196,11 @@ def test_a_teacher_round_on_a_local_ray_writes_its_files_and_a_rerun_resumes(car
     assert distill_main(argv) == 0
     again = capsys.readouterr().out
     assert "round 1: " + str(folder / "policy_round_1.onnx") + " exists; resumed" in again
+    other = [*argv[:-2], "--hidden", "8"]  # the same run but for the width: refused, not "resumed"
+    assert refusal(capsys, other) == (
+        f"error: '{folder}' holds teacher rounds of --hidden 16, not --hidden 8; rerun with those to resume them, "
+        "or give another --out to start new rounds"
+    )
 
 
 @pytest.mark.parametrize(("eval_seeds", "title"), [(3, "measured on seeds 10000-10002"), (0, "not measured")])
@@ -209,3 +215,70 @@ def test_the_round_table_names_the_seeds_it_was_measured_on_or_says_it_was_not(e
     console.print(round_table([["0", "10", "100", "1.0", "-", "-"]], args, {"task": "pendulum"}))
     text = " ".join(console.export_text().split())  # the title wraps at the table's width
     assert f"teacher rounds, {title}" in text and "10000-9999" not in text
+
+
+def test_an_existing_out_is_refused_without_overwrite_and_replaced_with_it(cartpole_file, tmp_path, capsys):
+    out = tmp_path / "p.onnx"
+    out.write_bytes(b"an earlier policy")
+    assert refusal(capsys, [str(cartpole_file), "--out", str(out), "--epochs", "1"]) == (
+        f"error: --out '{out}' exists; give --overwrite to replace it, or another --out"
+    )
+    assert out.read_bytes() == b"an earlier policy"
+    assert distill_main([str(cartpole_file), "--out", str(out), "--epochs", "1", "--overwrite"]) == 0
+    assert OnnxPolicy(out).metadata["task"] == "cartpole"
+
+
+def test_teacher_settings_and_names_are_refused_before_any_training(cartpole_file, tmp_path, capsys):
+    out = tmp_path / "p.onnx"
+    assert refusal(capsys, [str(cartpole_file), "--out", str(out), "--proposals", "4"]) == (
+        "error: --proposals 4 samples candidates in the teacher rounds; give --rounds 1 or more with it"
+    )
+    assert refusal(capsys, [str(cartpole_file), "--out", str(out), "--rounds", "1", "--proposals", "1000"]) == (
+        "error: --proposals 1000 must be below the teacher's num_rollouts (64, ps on cartpole): the nominal, "
+        "rollout 0, is never replaced; expected 0 to 63"
+    )
+    long_out = tmp_path / ("p" * 250 + ".onnx")  # the name fits, its "_rounds" folder and loss PNG do not
+    assert refusal(capsys, [str(cartpole_file), "--out", str(long_out)]) == (
+        f"error: --out: the name {shown('p' * 250 + '.losses.png')} is 261 bytes long; the file system allows at most 255; "
+        "give a shorter name"
+    )
+    long_folder = tmp_path / ("f" * 300) / "p.onnx"  # a folder to make whose name is too long
+    assert refusal(capsys, [str(cartpole_file), "--out", str(long_folder)]) == (
+        f"error: --out: the name {shown('f' * 300)} is 300 bytes long; the file system allows at most 255; "
+        "give a shorter name"
+    )
+    assert not out.exists() and not any(tmp_path.iterdir())  # nothing trained, nothing written
+
+
+def test_a_resume_with_other_training_settings_is_refused_in_one_line(cartpole_file, tmp_path, capsys):
+    from judo.learning.args import DistillArgs
+    from judo.learning.rounds import RUN_RECORD
+
+    out = tmp_path / "taught.onnx"
+    first = ["--out", str(out), "--rounds", "1", "--kind", "action", "--hidden", "16", "16", "--epochs", "3"]
+    folder = tmp_path / "taught_rounds"
+    folder.mkdir()
+    (folder / "policy_round_0.onnx").write_bytes(b"round 0 of a run with no record")
+    assert refusal(capsys, [str(cartpole_file), *first]) == (
+        f"error: '{folder}' holds teacher rounds whose settings were not recorded, so they cannot be resumed; "
+        "remove it, or give another --out"
+    )
+    earlier = DistillArgs(datasets=(cartpole_file,), out=out, rounds=1, kind="action", hidden=(16, 16), epochs=3)
+    (folder / RUN_RECORD).write_text(json.dumps(earlier.run_record()))  # as the first run writes it
+    again = [str(cartpole_file), "--out", str(out), "--rounds", "2", "--kind", "chunk", "--hidden", "8"]
+    assert refusal(capsys, [*again, "--epochs", "3"]) == (
+        f"error: '{folder}' holds teacher rounds of --hidden 16 16 --kind action, not --hidden 8 --kind chunk; "
+        "rerun with those to resume them, or give another --out to start new rounds"
+    )
+    assert sorted(path.name for path in folder.iterdir()) == [RUN_RECORD, "policy_round_0.onnx"]  # untouched
+
+
+def test_a_low_level_task_is_refused_before_training(tmp_path, capsys):
+    spec = EpisodeSpec("quadruped_navigate", "ps", 0.04, values={"optimizer.num_rollouts": 4})
+    path = write_dataset(tmp_path / "quadruped.h5", spec, range(1))  # 4 control updates of 3 commands each
+    for kind in ("action", "chunk"):
+        assert refusal(capsys, [str(path), "--out", str(tmp_path / "p.onnx"), "--kind", kind]) == (
+            "error: distill cannot learn task 'quadruped_navigate': its MPC plans 3 commands for a low-level policy "
+            "that drives the 12 actuators, while a distilled policy is served to the actuators; give datasets of a "
+            "task without a low-level policy"
+        )

@@ -1,6 +1,8 @@
 """gait-search: the gait policy's ONNX graph gives gait_actions' targets, the search's episodes are real quadruped
 physics scored by quadruped_velocity's reward, and the command writes a policy OnnxPolicy serves."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -80,11 +82,33 @@ def test_the_episodes_are_real_physics_and_a_standing_policy_stands():
 def test_a_short_search_runs_the_cem_and_keeps_every_iteration():
     settings = GaitSearchSettings(iterations=2, population=4, elites=2, commands=2, episode_seconds=0.2, workers=1)
     seen = []
-    parameters, history = search_gait(QuadrupedVelocity(), settings, seen.append)
+    result = search_gait(QuadrupedVelocity(), settings, seen.append)
+    history = result.history
     layout = quadruped_gait_layout(QuadrupedVelocity())
-    assert parameters.shape == (layout.num_parameters,) and [r.index for r in history] == [0, 1] and seen == history
-    assert not np.allclose(parameters, stepping_in_place(layout))  # the CEM moved the mean
+    assert result.parameters.shape == (layout.num_parameters,) and [r.index for r in history] == [0, 1]
+    assert seen == history and not result.interrupted
     assert all(np.isfinite([r.mean_reward, r.best_reward]).all() and r.best_reward >= r.mean_reward for r in history)
+    rewards = [r.mean_reward for r in history]
+    assert result.best_index == int(np.argmax(rewards))  # the best iteration's mean, not the last one
+    first_mean = stepping_in_place(layout)
+    assert np.allclose(result.parameters, first_mean) == (result.best_index == 0)  # iteration 0 scores the start
+
+
+def test_ctrl_c_ends_the_search_with_the_best_so_far():
+    settings = GaitSearchSettings(iterations=5, population=2, elites=1, commands=1, episode_seconds=0.1, workers=1)
+
+    def interrupt_at(index):
+        def on_iteration(record):
+            if record.index == index:
+                raise KeyboardInterrupt  # what Ctrl-C raises in the main thread
+
+        return on_iteration
+
+    result = search_gait(QuadrupedVelocity(), settings, interrupt_at(1))
+    assert result.interrupted and [r.index for r in result.history] == [0, 1]
+    assert result.best_index == int(np.argmax([r.mean_reward for r in result.history]))
+    first_only = search_gait(QuadrupedVelocity(), settings, interrupt_at(0))
+    assert first_only.interrupted and first_only.best_index == 0 and len(first_only.history) == 1
 
 
 def test_the_command_writes_a_policy_that_names_its_task_and_command(tmp_path, capsys):
@@ -94,7 +118,15 @@ def test_the_command_writes_a_policy_that_names_its_task_and_command(tmp_path, c
     policy = OnnxPolicy(out)
     assert policy.metadata["task"] == "quadruped_velocity" and policy.metadata["control_freq"] == "50.0"
     assert policy.metadata["training_command"].startswith("python -m judo gait-search --out")
-    assert "score it on fresh seeds" in capsys.readouterr().out
+    printed = capsys.readouterr().out
+    assert "score it on fresh seeds" in printed and "the mean of iteration 1, the best of 1" in printed
+    assert json.loads(policy.metadata["search"])["best_iteration"] == 1
+    with pytest.raises(SystemExit) as exit_info:  # the policy is not overwritten without a word
+        gait_search_main([*argv, "--episode-seconds", "0.1", "--workers", "1"])
+    assert exit_info.value.code == 2
+    assert capsys.readouterr().err.strip() == (
+        f"error: --out '{out}' exists; give --overwrite to replace it, or another --out"
+    )
 
 
 @pytest.mark.parametrize(

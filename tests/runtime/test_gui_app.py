@@ -2,11 +2,13 @@
 
 import dataclasses
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
 import viser
 
+import judo
 from judo.core.controller import ControllerConfig
 from judo.core.registry import make_config
 from judo.runtime.app import App
@@ -33,10 +35,9 @@ def test_panels_hold_the_fields_of_the_running_configs(app, wait_until):
         "redraw_every",
         "max_plan_age",
         "latency_compensation",
-        "policy_samples",
-    ]
-    samples = panels["controller"].handles("policy_samples")[0]  # the proposals' slider, off by default
-    assert (samples.min, samples.max, samples.step, samples.value) == (0, 64, 1, 0)
+    ]  # no policy_samples: without a proposal policy every value but 0 would be refused
+    age = panels["controller"].handles("max_plan_age")[0]  # its left end is a short age, not the watchdog off
+    assert (age.min, age.max, age.value) == (0.05, 5.0, 0.5)
     assert panels["optimizer"].field_names == [
         "num_rollouts",
         "num_nodes",
@@ -141,3 +142,40 @@ def test_a_plan_made_before_a_reset_never_draws_its_traces_over_the_reset_plant(
     assert nominal_trace() is None and app.paused
     app.buffer.publish("plan", dataclasses.replace(stale, resets=app.resets_done))  # planned after the reset
     wait_until(lambda: nominal_trace() is not None, what="a plan made after the reset drawn")
+
+
+POLICY = Path(judo.__file__).parent / "tasks" / "models" / "policies" / "pendulum_chunk.onnx"
+
+
+def test_a_policy_session_shows_only_the_fields_a_policy_uses_and_proposals_their_slider(port, wait_until):
+    pytest.importorskip("onnxruntime")
+    app = App("pendulum", "ps", port=port, seed=0, num_workers=1, policy=POLICY, proposal_policy=POLICY)
+    app.start()
+    try:
+        wait_until(lambda: shows_session(app), what="the GUI to build")
+        assert app.gui.panels["controller"].field_names == list(POLICY_USES_FIELDS_IN_ORDER)
+        app.switch_optimizer("ps")  # MPC with the policy's proposals: every field, policy_samples among them
+        wait_until(lambda: shows_session(app) and app.session.optimizer_name == "ps", what="the switch")
+        names = app.gui.panels["controller"].field_names
+        assert names[-1] == "policy_samples" and len(names) == len(dataclasses.fields(ControllerConfig))
+        samples = app.gui.panels["controller"].handles("policy_samples")[0]
+        assert (samples.min, samples.max, samples.value) == (0, 64, 0)
+    finally:
+        app.stop()
+
+
+POLICY_USES_FIELDS_IN_ORDER = ("horizon", "spline_order", "control_freq", "max_plan_age", "latency_compensation")
+
+
+def test_quadruped_velocity_shows_the_command_it_tracks(port, wait_until):
+    app = App("quadruped_velocity", "ps", port=port, seed=0, num_workers=1)
+    app.start()
+    try:
+        wait_until(lambda: shows_session(app) and app.gui.controls.task_readout.content, what="the task's readout")
+        command = app.buffer.latest("system").value.reading.metadata["velocity_command"]
+        shown = app.gui.controls.task_readout.content
+        assert shown.startswith("command: forward ") and shown.endswith(" rad/s"), shown
+        assert f"turn {command[2]:.2f} rad/s" in shown or app.stats.sim_time() > 2.0  # a command redrawn meanwhile
+    finally:
+        app.stop()
+    assert judo.get_registered_tasks()["cartpole"][0]().readout({}) is None  # the default: no line

@@ -1,4 +1,5 @@
-"""A policy in the GUI, in headless Chromium (#33): the page names the policy and its inference time, offers "policy"
+"""A policy in the GUI, in headless Chromium (#33): the page names the policy and its inference time (the
+closed loop's update, the span evaluate reports), offers "policy"
 in the optimizer dropdown, and shows the policy_samples slider of a controller with a proposal policy."""
 
 from pathlib import Path
@@ -28,7 +29,9 @@ def test_the_page_names_the_driving_policy_its_inference_time_and_the_proposals_
         pause_scene(page)
         page.get_by_text("policy pendulum_chunk · inference").wait_for()  # the readout, with a time once there is one
         readout = page.get_by_text("policy pendulum_chunk · inference").inner_text()
-        assert " ms" in readout.split("inference")[1], readout
+        inference = app.session.closed_loop.update_ms  # the span evaluate reports, in µs on the page
+        assert " µs (median, as evaluate)" in readout.split("inference")[1], readout
+        assert 1e3 * min(inference) <= float(readout.split("inference ")[1].split(" µs")[0]) <= 1e3 * max(inference)
         assert page.get_by_text("Optimizer:", exact=False).count() == 0  # a policy has no optimizer panel
         page.screenshot(path=artifacts / "policy_pendulum.png")
 

@@ -10,7 +10,8 @@ import viser
 import judo
 from judo.core.config import Config
 from judo.core.fields import np_1d_field
-from judo.runtime.gui.camera import VERTICAL_FOV, VISIBLE_ASPECT, project
+from judo.core.model import trace_sensor_columns
+from judo.runtime.gui.camera import FRAMING_FILL, VERTICAL_FOV, VISIBLE_ASPECT, distance_to_see, project
 from judo.runtime.gui.goal_handles import HANDLE_SCALE, HANDLE_SIZES, mocap_handle_size
 from judo.runtime.gui.scene import SceneView, capsule_mesh, geom_box_corners, polyline_segments
 
@@ -248,3 +249,70 @@ def test_the_goal_cubes_drag_handle_is_smaller_than_the_goal_cube():
     half = model.geom_size[[g for g in range(model.ngeom) if model.geom_bodyid[g] == goal], :3].max()
     size = mocap_handle_size(model, goal, float(np.clip(HANDLE_SCALE * model.stat.extent, *HANDLE_SIZES)))
     assert size < half, f"the handle ({size:.3f} m) is not smaller than the goal cube's half-size ({half:.3f} m)"
+
+
+@pytest.mark.parametrize("task", ["quadruped_navigate", "particle", "fr3_pick"])
+def test_a_small_goals_drag_handle_is_big_enough_to_grab_in_the_framed_view(server, task):
+    """quadruped_navigate's handle was about 15 pixels (issue 43): now at least 4% of the framed view's height at
+    the goal, about 40 pixels of a 900-pixel page."""
+    model = judo.get_registered_tasks()[task][0]().model
+    goal = int(np.flatnonzero(model.body_mocapid >= 0)[0])
+    view = SceneView(server.scene, model)
+    try:
+        position, _ = view.camera_pose()
+        distance = float(np.linalg.norm(view.data.xpos[goal] - position))
+    finally:
+        view.remove()
+    size = mocap_handle_size(model, goal, float(np.clip(HANDLE_SCALE * model.stat.extent, *HANDLE_SIZES)))
+    assert size / distance >= 0.04, f"{task}: a {size:.3f} m handle {distance:.2f} m from the camera"
+
+
+def test_a_plans_traces_start_where_the_robot_is_drawn(server):
+    """Foot traces were drawn beside the quadruped's feet (issue 43): a plan from a reading some tens of milliseconds
+    old is drawn with each sensor's traces moved to start at the sensor as the scene poses it now."""
+    controller = judo.make_controller("quadruped", "ps", num_workers=1)
+    try:
+        model = controller.task.model
+        view = SceneView(server.scene, model)
+        data = mujoco.MjData(model)
+        if model.nkey:
+            mujoco.mj_resetDataKeyframe(model, data, 0)
+        state = np.r_[data.qpos, data.qvel]
+        controller.update_action(state, 0.0)
+        traces = controller.traces.copy()  # (1 + shown, T, 5, 3): torso and four feet
+        moved = data.qpos.copy()
+        moved[:2] += [0.1, -0.05]  # the robot as drawn now: 11 cm from where the plan started
+        view.update(moved, {})
+        view.set_traces(traces, anchored=True)  # as the live GUI draws a plan (a replay draws it as recorded)
+        nominal = server.scene.get_handle_by_name("/traces/nominal").points  # (segments, 2, 3), sensor by sensor
+        columns = trace_sensor_columns(model)
+        sensors = [int(np.flatnonzero(model.sensor_adr == c)[0]) for c in columns[::3]]
+        feet = [view.data.site_xpos[model.sensor_objid[s]] for s in sensors]
+        starts = nominal.reshape(len(sensors), -1, 2, 3)[:, 0, 0]  # each sensor's first segment's first point
+        np.testing.assert_allclose(starts, feet, atol=1e-9)
+        assert np.linalg.norm(traces[0, 0] - np.array(feet), axis=1).min() > 0.05  # unmoved, they were beside
+        view.remove()
+    finally:
+        controller.close()
+
+
+def test_a_followed_camera_pulls_back_until_the_goal_is_in_view(server):
+    """quadruped_navigate's goal was out of view in 2 of 4 frames (issue 43): following the robot, the camera keeps
+    its direction and look-at and moves back just far enough for the goal to be inside the framed part of the view."""
+    model = judo.get_registered_tasks()["quadruped_navigate"][0]().model
+    view = SceneView(server.scene, model)
+    try:
+        position, look_at = view.camera_pose()
+        offset = position - look_at
+        up = np.array([0.0, 0.0, 1.0])
+        near = look_at + [0.1, 0.0, 0.0]
+        assert distance_to_see(offset, look_at, near[None]) == pytest.approx(np.linalg.norm(offset))  # kept
+        far = look_at + [6.0, 0.0, 0.0]  # a goal drawn 6 m to the side
+        assert max(np.abs(project(far, position, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT))) > 1.0  # out of view
+        distance = distance_to_see(offset, look_at, far[None])
+        moved = look_at + offset * distance / np.linalg.norm(offset)
+        seen = project(far, moved, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT)
+        assert max(np.abs(seen)) == pytest.approx(FRAMING_FILL)  # in view, at the framing's edge
+        assert view.goal_positions().shape == (1, 3)  # the mocap goal
+    finally:
+        view.remove()

@@ -169,8 +169,9 @@ def test_without_the_extra_tune_names_it(monkeypatch, tmp_path, capsys):
     monkeypatch.setitem(sys.modules, "optuna", None)
     err = run_failing([*TINY_STUDY, "--out", str(tmp_path)], capsys)
     assert err == (
-        "error: python -m judo tune needs the optional extra judo[tune], which is not installed (no module 'optuna'); "
-        'install it with: pip install "judo[tune]"'
+        "error: python -m judo tune needs the optional extra judo-mpc[tune], which is not installed "
+        "(no module 'optuna'); install it with: pip install -e \".[tune]\" (from a checkout) or "
+        'pip install "judo-mpc[tune]"'
     )
 
 

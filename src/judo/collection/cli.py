@@ -30,7 +30,7 @@ DESCRIPTION = (
     "a file and an interrupted run resumes; Ctrl-C keeps every finished episode. Config fields of the pair are "
     "set with --controller.FIELD, --optimizer-config.FIELD and --task-config.FIELD (listed below once --task and "
     "--optimizer are given). With --observe sensors (and --sensor-*, --estimator) the file also holds what the "
-    "robot measured and what the estimator estimated. Needs the `collect` extra: pip install 'judo[collect]'."
+    "robot measured and what the estimator estimated. Needs the `collect` extra: pip install -e '.[collect]'."
 )
 
 

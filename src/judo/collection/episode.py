@@ -9,10 +9,11 @@ from dataclasses import dataclass
 
 from judo.collection.dataset import EpisodeArrays
 from judo.collection.recorder import EpisodeRecorder, PolicyServedRecorder
+from judo.core.backend import RolloutBackend
 from judo.core.controller import Controller
 from judo.core.policy_controller import PolicyController
 from judo.evaluation.episode import EpisodeResult
-from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode
+from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode, run_side_by_side
 from judo.runtime.system import MujocoSystem
 
 
@@ -23,6 +24,9 @@ class EpisodeOutcome:
     seed: int
     episode: EpisodeArrays | None
     failure: str | None = None
+    failed_updates: int = 0
+    """Control updates that failed (non-finite actions, or no finite reward): the safe action was served."""
+    num_updates: int = 0
 
 
 def episode_failure(result: EpisodeResult) -> str | None:
@@ -33,9 +37,26 @@ def episode_failure(result: EpisodeResult) -> str | None:
     return f"non-finite metrics: {', '.join(bad)}" if bad else None
 
 
-def collect_episode(spec: EpisodeSpec, seed: int, traces: bool = False) -> EpisodeOutcome:
-    """Run and record seed `seed`'s episode, each plan's traces too with `traces` (collect --traces); never
-    raises: a failure comes back with its reason."""
+def collect_group(spec: EpisodeSpec, seeds: list[int], traces: bool = False) -> list[EpisodeOutcome]:
+    """`collect_episode` of each seed: one after the other, or with more than one seed on the warp backend, side by
+    side with their rollouts one batch per planning cycle (collect --episodes-per-batch); never raises."""
+    if len(seeds) == 1 or spec.backend != "warp":
+        return [collect_episode(spec, seed, traces) for seed in seeds]
+    try:
+        from judo.core.registry import make_task
+        from judo.core.warp_rollout import WarpRollout
+
+        with WarpRollout(make_task(spec.task).model) as backend:
+            return run_side_by_side(backend, seeds, lambda seed, slot: collect_episode(spec, seed, traces, slot))
+    except Exception as err:  # noqa: BLE001  (the backend itself failed: every seed of the group failed)
+        return [EpisodeOutcome(seed, None, failure_reason(err)) for seed in seeds]
+
+
+def collect_episode(
+    spec: EpisodeSpec, seed: int, traces: bool = False, backend: RolloutBackend | None = None
+) -> EpisodeOutcome:
+    """Run and record seed `seed`'s episode, each plan's traces too with `traces` (collect --traces), rolling out on
+    `backend` (built from `spec.backend` when None); never raises: a failure comes back with its reason."""
     made: list[tuple[EpisodeRecorder, MujocoSystem]] = []
 
     def recorders(controller: Controller | PolicyController, system: MujocoSystem) -> list[EpisodeRecorder]:
@@ -47,12 +68,12 @@ def collect_episode(spec: EpisodeSpec, seed: int, traces: bool = False) -> Episo
         return [recorder]
 
     try:
-        result = run_seeded_episode(spec, seed, recorders)
+        result = run_seeded_episode(spec, seed, recorders, backend=backend)
         failure = episode_failure(result)
         if failure is not None:
             return EpisodeOutcome(seed, None, failure)
         recorder, system = made[0]
         episode = recorder.episode(seed, result.rewards, result.metrics, system.task.success(result.metrics))
-        return EpisodeOutcome(seed, episode)
+        return EpisodeOutcome(seed, episode, None, result.failed_updates, len(result.update_ms))
     except Exception as err:  # noqa: BLE001  (a user's task may raise anything; the run goes on)
         return EpisodeOutcome(seed, None, failure_reason(err))

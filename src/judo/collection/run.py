@@ -13,7 +13,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from judo.cli_shared import output_console, progress_console
 from judo.collection.dataset import DatasetFile
-from judo.collection.episode import EpisodeOutcome, collect_episode
+from judo.collection.episode import EpisodeOutcome, collect_group
 from judo.core.errors import JudoError
 from judo.evaluation.seeded import EpisodeSpec
 
@@ -30,6 +30,7 @@ class Tally:
 
     def __init__(self) -> None:
         self.done = self.failed = self.kept = self.dropped = 0
+        self.with_failed_updates = self.unserved = 0  # episodes with some, and with only, failed control updates
         self.failures: list[tuple[int, str]] = []
         self.started = time.perf_counter()
 
@@ -51,6 +52,9 @@ def write_outcome(file: DatasetFile, outcome: EpisodeOutcome, success_only: bool
         tally.failures.append((outcome.seed, reason))
         file.write_failure(outcome.seed, reason)
         return
+    if outcome.failed_updates:
+        tally.with_failed_updates += 1
+        tally.unserved += outcome.failed_updates >= outcome.num_updates > 0
     if success_only and episode.success is None:
         raise NoSuccessRuleError(
             f"--success-only: task {task!r} has no success rule for its metrics {sorted(episode.metrics)}; "
@@ -64,17 +68,18 @@ def write_outcome(file: DatasetFile, outcome: EpisodeOutcome, success_only: bool
     file.write_episode(episode)
 
 
-def outcome_of(ray: Any, ref: Any, seed: int) -> EpisodeOutcome:
-    """The EpisodeOutcome of a finished ref; a failure when the Ray task itself died (e.g. a worker crash)."""
+def outcomes_of(ray: Any, ref: Any, seeds: list[int]) -> list[EpisodeOutcome]:
+    """The EpisodeOutcomes of a finished ref (a group of seeds); a failure for each seed when the Ray task itself
+    died (e.g. a worker crash)."""
     try:
         return ray.get(ref)
     except Exception as err:  # noqa: BLE001  (RayTaskError, WorkerCrashedError, ...)
-        return EpisodeOutcome(seed, None, f"Ray task failed: {type(err).__name__}: {err}")
+        return [EpisodeOutcome(seed, None, f"Ray task failed: {type(err).__name__}: {err}") for seed in seeds]
 
 
 def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
     """Run the seeds of args.first_seed..args.first_seed+args.episodes-1 missing from `args.out` and write them there; returns the exit status
-    (130 after Ctrl-C, with the command that resumes printed)."""
+    (130 after Ctrl-C, with the command that resumes printed; 1 with --strict when a control update failed)."""
     import judo.ray_cluster as cluster
 
     file = DatasetFile(args.out, env_args)
@@ -90,8 +95,9 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
         console.print(f"{args.out}: {len(wanted) - len(todo)} seeds done; running the {len(todo)} missing ones")
     ray = cluster.import_ray("python -m judo collect", "collect")
     tally = Tally()
-    running: dict[Any, int] = {}
-    pending = iter(todo)
+    running: dict[Any, list[int]] = {}
+    size = args.episodes_per_batch  # seeds per Ray task: side by side on one warp backend when more than one
+    pending = iter([todo[i : i + size] for i in range(0, len(todo), size)])
     columns = (TextColumn("collect"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"))
     connected = False
     try:
@@ -100,14 +106,14 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
         with Progress(*columns, TimeElapsedColumn(), console=progress_console(), transient=True) as progress:
             bar = progress.add_task(tally.line(), total=len(todo))
             while True:
-                while len(running) < window and (seed := next(pending, None)) is not None:
-                    running[cluster.submit(collect_episode, spec, seed, args.traces)] = seed
+                while len(running) * size < window and (group := next(pending, None)) is not None:
+                    running[cluster.submit(collect_group, spec, group, args.traces)] = group
                 if not running:
                     break
                 ready, _ = cluster.wait_any(list(running))
                 for ref in ready:
-                    seed = running.pop(ref)
-                    write_outcome(file, outcome_of(ray, ref, seed), args.success_only, tally, spec.task)
+                    for outcome in outcomes_of(ray, ref, running.pop(ref)):
+                        write_outcome(file, outcome, args.success_only, tally, spec.task)
                 progress.update(bar, completed=tally.done, description=tally.line())
     except KeyboardInterrupt:
         cluster.cancel(list(running))
@@ -123,6 +129,12 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
         if connected:
             cluster.stop_ray()
     report(console, file, args, tally)
+    if args.strict and tally.with_failed_updates:
+        print(
+            f"--strict: {tally.with_failed_updates} of {tally.done} episodes had failed control updates",
+            file=sys.stderr,
+        )
+        return 1
     return 0
 
 
@@ -136,3 +148,12 @@ def report(console: Any, file: DatasetFile, args: Any, tally: Tally) -> None:
         console.print(f"seed {seed} failed: {reason}")
     if len(tally.failures) > SHOWN_FAILURES:
         console.print(f"... and {len(tally.failures) - SHOWN_FAILURES} more (attributes of judo/failed in the file)")
+    if tally.unserved:
+        what = "non-finite actions" if args.policy is not None else "no finite reward"
+        print(
+            f"warning: in {tally.unserved} of {tally.done} episodes every control update gave {what}, so every "
+            "action stored is the task's safe action, not a plan's; --strict makes this exit 1",
+            file=sys.stderr,
+        )
+    elif tally.with_failed_updates:
+        console.print(f"{tally.with_failed_updates} episodes had control updates that failed (safe action served)")

@@ -12,9 +12,10 @@ back a module that imports it.
 """
 
 import abc
+import contextlib
 import importlib
-from collections.abc import Callable, Sequence
-from typing import Literal, TypeVar, cast, get_args
+from collections.abc import Callable, Iterator, Sequence
+from typing import Literal, Protocol, TypeVar, cast, get_args
 
 import mujoco
 import numpy as np
@@ -86,6 +87,23 @@ class RolloutBackend(abc.ABC):
             "(RolloutPool), which can"
         )
 
+    cancel: "CancelFlag | None" = None
+    """Set by the Controller for one cycle (`cancelled_by`): a backend that can stop part-way through a batch polls
+    it and raises PlanningCancelled once it is set; the default backend never looks."""
+
+    def set_cancel(self, cancel: "CancelFlag | None") -> None:
+        """Poll `cancel` during the rollouts from now on (None: never)."""
+        self.cancel = cancel
+
+    @contextlib.contextmanager
+    def cancelled_by(self, cancel: "CancelFlag | None") -> Iterator[None]:
+        """Within the block, poll `cancel` during the rollouts (`set_cancel`); never after it."""
+        self.set_cancel(cancel)
+        try:
+            yield
+        finally:
+            self.set_cancel(None)
+
     def close(self) -> None:  # noqa: B027  (no resources by default)
         """Release threads or device memory; the backend cannot be used afterwards."""
 
@@ -94,6 +112,17 @@ class RolloutBackend(abc.ABC):
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+class CancelFlag(Protocol):
+    """Anything with `is_set()`: a threading.Event, the app's stop signal, a planning cycle."""
+
+    def is_set(self) -> bool: ...
+
+
+class PlanningCancelled(JudoError):
+    """The `cancel` flag of `Controller.update_action` was set: the cycle stopped (between optimizer iterations, or
+    part-way through a batch of rollouts whose outputs are then partial) and the previous plan stays."""
 
 
 class RandomizedRolloutError(JudoError):
@@ -132,7 +161,7 @@ def check_blocks(num_rollouts: int, num_models: int) -> None:
 RolloutBackendName = Literal["cpu", "warp"]
 ROLLOUT_BACKENDS: tuple[str, ...] = get_args(RolloutBackendName)
 """Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`; "warp" is `WarpRollout` (MuJoCo Warp on
-warp's default device, a GPU when there is one; needs the judo[warp] extra)."""
+warp's default device, a GPU when there is one; needs the judo-mpc[warp] extra)."""
 
 BACKEND_CLASSES: dict[str, str] = {
     "cpu": "judo.core.rollout.RolloutPool",
@@ -163,7 +192,7 @@ def make_rollout_backend(name: str, model: mujoco.MjModel, num_workers: int | No
 
     `num_workers` sets the CPU pool's threads (one per core by default); a GPU backend runs every rollout
     on its device and takes no worker count. Raises UnknownNameError for an unknown name,
-    MissingExtraError when "warp" is asked for without the judo[warp] extra, and WarpUnsupportedModelError
+    MissingExtraError when "warp" is asked for without the judo-mpc[warp] extra, and WarpUnsupportedModelError
     for a model MuJoCo Warp cannot run.
     """
     # The constructors take different arguments (only the CPU pool's takes num_workers), which RolloutBackend,

@@ -41,14 +41,32 @@ def check_seed_range(first: int, count: int, count_option: str) -> None:
     )
 
 
-def check_output_file(option: str, path: Path | None) -> None:
-    """Raise ConfigError now, before any work, unless `path` (when given) can be written as a file: not a
-    folder, and inside a folder that exists or can be made, writable by this user."""
+def check_output_file(option: str, path: Path | None, beside: tuple[str, ...] = ()) -> None:
+    """Raise ConfigError now, before any work, unless `path` (when given) can be written as a file: every name on
+    its path (and the names in `beside`, of the files or folders the command writes next to it) short enough
+    for the file system, not a folder, inside a folder that exists or can be made, writable by this user."""
     if path is None:
         return
     require(str(path).strip() not in ("", "."), f"{option} needs a file path, got an empty path")
+    for name in (*path.absolute().parts[1:], *beside):  # before any stat: a too-long name makes it raise
+        check_name_length(option, name)
     require(not path.is_dir(), f"{option} {shown(str(path))} is a folder; give a file path")
     _check_writable_folder(option, path.parent)
+
+
+def check_name_length(option: str, name: str) -> None:
+    """ConfigError unless `name` fits the longest file name the file system allows (its limit where this
+    process runs; 255 bytes where it does not say)."""
+    try:
+        limit = os.pathconf(".", "PC_NAME_MAX")
+    except (OSError, ValueError, AttributeError):  # no pathconf (Windows) or no answer for this file system
+        limit = 255
+    size = len(os.fsencode(name))
+    require(
+        size <= limit,
+        f"{option}: the name {shown(name)} is {size} bytes long; the file system allows at most {limit}; "
+        "give a shorter name",
+    )
 
 
 def check_output_folder(option: str, path: Path | None) -> None:

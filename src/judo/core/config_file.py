@@ -21,6 +21,16 @@ num_rollouts = 64
 w_centered = 5.0
 [estimator_config_overrides.cartpole.ekf]
 process_noise_velocity = 0.02
+system = "ros2"                       # the plant: "ros2" (the ROS 2 bridge) or "module:Class" (--system)
+[ros2]                                # the bridge's settings, the fields of --ros2.* (flags win)
+domain_id = 7
+commands = "/forward_command_controller/commands"
+joint_map = { slider = "cart_joint" } # MJCF joint name = the robot's JointState name
+[model_overrides.cartpole]                      # MjModel fields of the planning model, by element name
+body_mass.pole = 0.13
+geom_friction.cart = [0.9, 0.005, 0.0001]
+[plant_overrides.cartpole]                      # the simulated plant's only (a mismatched plant to rehearse on)
+dof_damping.slider = 0.5
 """
 
 import importlib
@@ -28,7 +38,7 @@ import os
 import stat
 import sys
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -48,6 +58,7 @@ from judo.core.registry import (
     register_optimizer,
     register_task,
     set_config_overrides,
+    set_model_overrides,
 )
 
 TOP_LEVEL_KEYS = (
@@ -59,6 +70,10 @@ TOP_LEVEL_KEYS = (
     "optimizer_config_overrides",
     "task_config_overrides",
     "estimator_config_overrides",
+    "system",
+    "ros2",
+    "model_overrides",
+    "plant_overrides",
 )
 
 ALL_OPTIMIZERS = "all"
@@ -80,6 +95,10 @@ class LoadedConfig:
     task: str | None
     optimizer: str | None
     path: Path
+    system: str | None = None
+    """The plant the file names (`system = "ros2"` or "module:Class")."""
+    ros2: dict[str, Any] = field(default_factory=dict)
+    """The [ros2] table: the ROS 2 bridge's settings by field name, checked where they are used."""
 
 
 def load_config(path: str | Path) -> LoadedConfig:
@@ -170,13 +189,27 @@ def load_config(path: str | Path) -> LoadedConfig:
                 raise fail(where, err) from None
             _apply(path, where, task_name, config_cls, overrides)
 
+    for section in ("model_overrides", "plant_overrides"):
+        for task_name, overrides in _table(table, section, path).items():
+            try:
+                lookup_task(task_name)
+                set_model_overrides(task_name, overrides, plant=section == "plant_overrides")
+            except JudoError as err:
+                raise fail(f"{section}.{task_name}", err) from None
+
     for key, lookup in (("task", lookup_task), ("optimizer", lookup_optimizer)):
         if key in table:
             try:
                 lookup(table[key])
             except UnknownNameError as err:
                 raise fail(key, err) from None
-    return LoadedConfig(table.get("task"), table.get("optimizer"), path)
+    system = table.get("system")
+    if system is not None and not isinstance(system, str):
+        raise ConfigFileError(f'{path}: system must be a string ("ros2" or "module:Class"), got {system!r}')
+    ros2 = table.get("ros2", {})
+    if not isinstance(ros2, dict):
+        raise ConfigFileError(f"{path}: [ros2] must be a table of field = value, got {ros2!r}")
+    return LoadedConfig(table.get("task"), table.get("optimizer"), path, system, ros2)
 
 
 def read_config_text(path: str | Path) -> str:

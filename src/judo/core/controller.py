@@ -6,7 +6,6 @@ imported here too, where they have always been importable from.
 
 import inspect
 import math
-import threading
 import warnings
 from collections.abc import Callable
 from typing import Any, cast
@@ -14,7 +13,7 @@ from typing import Any, cast
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend
+from judo.core.backend import CancelFlag, PlanningCancelled, RolloutBackend
 from judo.core.config import snapshot
 from judo.core.controller_config import (
     MAX_CONTROL_FREQ,
@@ -59,10 +58,6 @@ __all__ = [
 ]
 
 
-class PlanningCancelled(JudoError):
-    """The `cancel` event of `Controller.update_action` was set; the cycle stopped and the previous plan stays."""
-
-
 class NonFiniteRewardError(JudoError):
     """Every rollout of a cycle scored NaN or -inf, so there is nothing to learn from; the plan is kept."""
 
@@ -101,10 +96,9 @@ class Controller:
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
         backend: the RolloutBackend every rollout runs on, built from the constructor's `backend` name
-            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU) or given built
-            (a `ProblemSlot`); `DynamicsRollout` for a task with its own dynamics (judo.core.dynamics); for a task
-            with a low-level policy (`Task.low_level`), a `LowLevelRollout` around the pool, and the plan, its knots
-            and clamps are the policy's commands (`task.command_size`, `task.command_range`).
+            ("cpu": `RolloutPool`, threads; "warp": `WarpRollout`, MuJoCo Warp on a GPU) or given built (a
+            `ProblemSlot`); `DynamicsRollout` for a task with its own dynamics (judo.core.dynamics); under a
+            low-level policy (`Task.low_level`), a `LowLevelRollout` whose plan is its commands (`command_size`).
         backend_name: that name (read-only).
         nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update (here and
             below, nu is `task.command_size`: the actuators, or a low-level policy's commands).
@@ -240,15 +234,14 @@ class Controller:
         state: np.ndarray,
         time: float,
         system_metadata: dict[str, Any] | None = None,
-        cancel: threading.Event | None = None,
+        cancel: CancelFlag | None = None,
     ) -> Spline:
         """Run one planning cycle from `state` (nq + nv,) at sim `time`, publish the new plan and return it.
 
-        A set `cancel` event (e.g. the app's stop) ends the cycle before its next optimizer iteration
-        with PlanningCancelled, keeping the previous plan.
-
-        `action(t)` serves the returned plan from now on; a caller that models latency (the new plan
-        taking effect only later) keeps the previous returned plan and evaluates it itself.
+        A set `cancel` (a threading.Event, the app's stop or planning cycle) ends the cycle with PlanningCancelled,
+        keeping the previous plan: before its next optimizer iteration, or between pieces of a batch of rollouts
+        (the CPU pool). `action(t)` serves the returned plan from now on; a caller that models latency (the new
+        plan taking effect only later) keeps the previous returned plan and evaluates it itself.
 
         Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into
         an invalid combination, NonFiniteRewardError if every rollout scored NaN or -inf, and
@@ -291,52 +284,59 @@ class Controller:
             nominal[0],  # the action served now
         )
 
-        for _ in range(self.config.max_opt_iters):
-            if cancel is not None and cancel.is_set():
-                raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
-            knots = opt.sample_control_knots(nominal)
-            if knots.shape != expected:
-                raise JudoError(
-                    f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
+        with self.backend.cancelled_by(cancel):  # polled between pieces of a big batch too
+            for _ in range(self.config.max_opt_iters):
+                if cancel is not None and cancel.is_set():
+                    raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
+                knots = opt.sample_control_knots(nominal)
+                if knots.shape != expected:
+                    raise JudoError(
+                        f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
+                    )
+                if not np.isfinite(knots).all():
+                    self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
+                rows = None if candidates is None else insert_proposals(knots, candidates)
+                np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
+                if rows is not None:
+                    opt.samples_replaced(rows, knots[rows])
+                np.matmul(self._rollout_weights, knots, out=self._controls)
+                # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
+                # the plan that is scored is the plan that is served (a cubic overshoots its knots).
+                np.minimum(self._controls, self._ctrl_high, out=self._controls)
+                np.maximum(self._controls, self._ctrl_low, out=self._controls)
+                if num_models > 1:
+                    self._control_blocks[:] = self._controls  # every sequence once per model
+                full_states, sensors = self.backend.rollout(
+                    self._initial_state, self._batch_controls, self._initial_mocap
                 )
-            if not np.isfinite(knots).all():
-                self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
-            rows = None if candidates is None else insert_proposals(knots, candidates)
-            np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
-            if rows is not None:
-                opt.samples_replaced(rows, knots[rows])
-            np.matmul(self._rollout_weights, knots, out=self._controls)
-            # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
-            # the plan that is scored is the plan that is served (a cubic overshoots its knots).
-            np.minimum(self._controls, self._ctrl_high, out=self._controls)
-            np.maximum(self._controls, self._ctrl_low, out=self._controls)
-            if num_models > 1:
-                self._control_blocks[:] = self._controls  # every sequence once per model
-            full_states, sensors = self.backend.rollout(self._initial_state, self._batch_controls, self._initial_mocap)
-            states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
-            returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
-            try:
-                rewards = np.asarray(returned, dtype=float)
-            except (TypeError, ValueError) as err:
-                raise JudoError(
-                    f"{type(task).__name__}.reward must return ({num_rows},) numbers, got {' '.join(str(returned).split())[:200]} ({err})"
-                ) from None
-            if rewards.shape != (num_rows,):
-                raise JudoError(f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)")
-            rewards[np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged] = -np.inf  # these never win
-            if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
-                rewards = reduce_rewards(rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale)
-                states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
-            task.post_rollout(states, sensors, self._controls, rewards)
-            if not np.isfinite(rewards).any():
-                raise NonFiniteRewardError(
-                    f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
-                )
-            nominal = opt.update_nominal_knots(knots, rewards)
-            if not np.isfinite(nominal).all():
-                self._restart_search(f"{type(opt).__name__}.update_nominal_knots returned non-finite knots")
-            if opt.stop_cond():
-                break
+                states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
+                returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
+                try:
+                    rewards = np.asarray(returned, dtype=float)
+                except (TypeError, ValueError) as err:
+                    raise JudoError(
+                        f"{type(task).__name__}.reward must return ({num_rows},) numbers, got {' '.join(str(returned).split())[:200]} ({err})"
+                    ) from None
+                if rewards.shape != (num_rows,):
+                    raise JudoError(
+                        f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)"
+                    )
+                rewards[np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged] = -np.inf  # these never win
+                if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
+                    rewards = reduce_rewards(
+                        rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale
+                    )
+                    states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
+                task.post_rollout(states, sensors, self._controls, rewards)
+                if not np.isfinite(rewards).any():
+                    raise NonFiniteRewardError(
+                        f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
+                    )
+                nominal = opt.update_nominal_knots(knots, rewards)
+                if not np.isfinite(nominal).all():
+                    self._restart_search(f"{type(opt).__name__}.update_nominal_knots returned non-finite knots")
+                if opt.stop_cond():
+                    break
 
         self.rewards = rewards
         self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)

@@ -29,13 +29,15 @@ class ModelLoadError(JudoError):
 
 
 class MissingExtraError(JudoError, ImportError):
-    """A feature that needs an optional extra (`pip install "judo[EXTRA]"`) that is not installed."""
+    """A feature that needs an optional extra that is not installed. The distribution is `judo-mpc` (the
+    index's `judo` is another project), so the message names `pip install -e ".[EXTRA]"` from a checkout and
+    `pip install "judo-mpc[EXTRA]"` from the index."""
 
     def __init__(self, feature: str, extra: str, missing: str) -> None:
         self.feature, self.extra, self.missing = feature, extra, missing
         super().__init__(
-            f"{feature} needs the optional extra judo[{extra}], which is not installed (no module {missing!r}); "
-            f'install it with: pip install "judo[{extra}]"'
+            f"{feature} needs the optional extra judo-mpc[{extra}], which is not installed (no module {missing!r}); "
+            f'install it with: pip install -e ".[{extra}]" (from a checkout) or pip install "judo-mpc[{extra}]"'
         )
 
 

@@ -287,6 +287,11 @@ class LowLevelRollout(RolloutBackend):
             self._sensors[rows, start:stop] = sensors[rows]
             current[:] = states[rows, -1]
 
+    def set_cancel(self, cancel) -> None:  # noqa: ANN001  (see RolloutBackend.set_cancel)
+        """See `RolloutBackend.set_cancel`: the inner pool polls it between its pieces, every tick."""
+        self.cancel = cancel
+        self.inner.set_cancel(cancel)
+
     def close(self) -> None:
         """Close the inner pool."""
         self.inner.close()

@@ -12,7 +12,7 @@ is run to check the graph still works. A graph that hard-codes the batch inside 
 that check and is then run one row at a time, with a warning saying so.
 
 Importing this module imports neither onnx nor onnxruntime; loading or writing a policy does, and without the
-judo[policy] extra the error names it.
+`policy` extra (onnxruntime and onnx, also core dependencies) the error names it.
 """
 
 import warnings
@@ -31,12 +31,12 @@ OPSET = 17
 """The ONNX opset the writers target (onnxruntime 1.17 and later run it)."""
 
 
-def _onnx() -> Any:
-    return import_extra("onnx", FEATURE, EXTRA)
+def _onnx(feature: str = FEATURE) -> Any:
+    return import_extra("onnx", feature, EXTRA)
 
 
-def _onnxruntime() -> Any:
-    return import_extra("onnxruntime", FEATURE, EXTRA)
+def _onnxruntime(feature: str = FEATURE) -> Any:
+    return import_extra("onnxruntime", feature, EXTRA)
 
 
 def _dims(value_info: Any) -> list[Any]:
@@ -54,15 +54,17 @@ class OnnxPolicy(Policy):
         path: the .onnx file: one input (B, O), first output (B, A) or (B, H, A).
         threads: onnxruntime's intra-op threads. 1 by default: a small network on a batch of a few
             thousand rows is fastest on one thread, and the caller's own threads do the rest.
+        feature: what needs the policy, as a missing onnxruntime's error names it (a task that ships one
+            names itself).
     Raises PolicyError for a missing or unreadable file or a graph of another shape, and MissingExtraError
-    (naming judo[policy]) without onnxruntime.
+    (naming the `policy` extra) without onnxruntime.
     """
 
-    def __init__(self, path: str | Path, threads: int = 1) -> None:
+    def __init__(self, path: str | Path, threads: int = 1, feature: str = FEATURE) -> None:
         self.path = Path(path)
         if not self.path.is_file():
             raise PolicyError(f"policy file {str(self.path)!r} does not exist; expected an .onnx file")
-        onnx, ort = _onnx(), _onnxruntime()
+        onnx, ort = _onnx(feature), _onnxruntime(feature)
         try:
             model = onnx.load(str(self.path))
             onnx.checker.check_model(model)

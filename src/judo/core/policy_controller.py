@@ -46,8 +46,13 @@ POLICY_CONFIG_FIELDS = ("control_freq", "horizon", "spline_order")
 chunk policy the span and interpolation of its chunk. Fields given on a command line or in code win."""
 
 
+POLICY_USES_FIELDS = (*POLICY_CONFIG_FIELDS, "max_plan_age", "latency_compensation")
+"""ControllerConfig fields a PolicyController uses; the others (iterations, randomization, risk, traces, proposals)
+only an optimizer's Controller does, so the GUI hides them while a policy drives."""
+
+
 def as_policy(policy: "Policy | str | Path") -> Policy:
-    """`policy` itself, or the ONNX file it names loaded as an `OnnxPolicy` (the judo[policy] extra)."""
+    """`policy` itself, or the ONNX file it names loaded as an `OnnxPolicy` (on onnxruntime)."""
     if isinstance(policy, Policy):
         return policy
     if isinstance(policy, (str, Path)):
@@ -274,7 +279,7 @@ def make_policy_controller(
     `backend`), that plans from the same states for labels; the policy controller shares its task instance and
     closes it. Without one, `seed` seeds the task's generator as `make_controller` does.
     """
-    from judo.core.registry import lookup_task, make_config, make_controller
+    from judo.core.registry import lookup_task, make_config, make_controller, with_model_overrides
 
     loaded = as_policy(policy)
     if isinstance(expert, str):
@@ -285,7 +290,7 @@ def make_policy_controller(
         else:
             check_seed(seed)
             task_cls, task_config_cls = lookup_task(task_name)
-            task = new_task(task_cls)
+            task = with_model_overrides(new_task(task_cls), task_name)
             task.config = make_config(task_config_cls, task_name)
             if seed is not None:
                 task.rng = np.random.default_rng(seed + 1)

@@ -10,6 +10,7 @@ from judo.core.config import Config, ConfigT, check_seed, coerce_field_value, wi
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.estimator import Estimator, EstimatorConfig
+from judo.core.model_overrides import ModelOverrides, check_model_overrides, override_task_models
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.policy import Policy
 from judo.core.proposals import check_policy_fits
@@ -24,6 +25,8 @@ _OPTIMIZERS: dict[str, tuple[type[Optimizer], type[OptimizerConfig]]] = {}
 _ESTIMATORS: dict[str, tuple[type[Estimator], type[EstimatorConfig]]] = {}
 _OVERRIDES: dict[tuple[Any, ...], dict[str, Any]] = {}
 """(task, config class) -> overrides for every optimizer; (task, config class, optimizer) -> that optimizer's."""
+_MODEL_OVERRIDES: dict[tuple[str, bool], ModelOverrides] = {}
+"""(task, plant?) -> {field: {element: value}} for the planning model (False) or the simulated plant (True)."""
 
 
 def _check_class(what: str, cls: Any, base: type) -> None:
@@ -93,9 +96,36 @@ def lookup_task(name: str) -> tuple[type[Task], type[TaskConfig]]:
 
 
 def make_task(name: str) -> Task:
-    """A new instance of the task registered as `name`; UnknownNameError lists the valid names."""
+    """A new instance of the task registered as `name`, with its registered model and plant overrides
+    (`set_model_overrides`) in force; UnknownNameError lists the valid names."""
     task_cls = cast(Callable[[], Task], lookup_task(name)[0])  # register_task takes classes built with no arguments
-    return task_cls()
+    return with_model_overrides(task_cls(), name)
+
+
+def set_model_overrides(task_name: str, overrides: ModelOverrides, *, plant: bool = False) -> None:
+    """Set MjModel fields by element name whenever `task_name` is built: `overrides` is {field: {element: value}},
+    e.g. {"body_mass": {"pole": 0.13}} (judo.core.model_overrides). They go to the planning model, or with `plant`
+    to the simulated plant only ([model_overrides.TASK] and [plant_overrides.TASK] in a config file). Later calls
+    merge into earlier ones. Names and shapes are checked now, against the task's model: UnknownNameError lists
+    the valid fields or elements, ConfigError names the shape expected."""
+    task = new_task(lookup_task(task_name)[0])
+    model = task.sim_model if plant else task.model
+    merged = {field: dict(values) for field, values in _MODEL_OVERRIDES.get((task_name, plant), {}).items()}
+    for field, values in check_model_overrides(model, overrides).items():
+        merged.setdefault(field, {}).update(values)
+    _MODEL_OVERRIDES[(task_name, plant)] = merged
+
+
+def model_overrides(task_name: str, *, plant: bool = False) -> ModelOverrides:
+    """The model (or with `plant`, plant) overrides registered for `task_name`, {} where none are."""
+    return {field: dict(values) for field, values in _MODEL_OVERRIDES.get((task_name, plant), {}).items()}
+
+
+def with_model_overrides(task: Task, task_name: str) -> Task:
+    """`task` with the overrides registered for `task_name`: its planning model replaced by an overridden copy
+    (`task.model_overrides`), and its plant model too where plant overrides are registered
+    (`task.plant_overrides`, which `MujocoSystem.from_task` gives every plant built from it)."""
+    return override_task_models(task, model_overrides(task_name), model_overrides(task_name, plant=True))
 
 
 def lookup_optimizer(name: str) -> tuple[type[Optimizer], type[OptimizerConfig]]:
@@ -167,7 +197,7 @@ def make_controller(
     check_seed(seed)
     task_cls, task_config_cls = lookup_task(task_name)
     optimizer_cls, optimizer_config_cls = lookup_optimizer(optimizer_name)
-    task = new_task(task_cls)
+    task = with_model_overrides(new_task(task_cls), task_name)
     task.config = make_config(task_config_cls, task_name)
     controller_config = controller_config or make_config(ControllerConfig, task_name, optimizer_name)
     optimizer_config = optimizer_config or make_config(optimizer_config_cls, task_name)

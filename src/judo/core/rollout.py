@@ -15,6 +15,7 @@ import numpy as np
 
 from judo.core.backend import (
     ROLLOUT_BACKENDS,
+    PlanningCancelled,
     RandomizedRolloutError,
     RolloutBackend,
     RolloutBackendName,
@@ -47,6 +48,9 @@ rollout resets mocap poses to the model's defaults unless they are passed as inp
 
 CLOSE_TIMEOUT = 0.5
 """Most seconds `RolloutPool.close` waits for its workers."""
+PIECE_STEPS = 50_000
+"""Most rollout steps one C call of a worker takes while a `cancel` flag is set on the pool: a bigger chunk is
+rolled out in pieces of whole rows, the flag polled between them, so a cancelled batch ends within a piece."""
 
 
 class RolloutPool(RolloutBackend):
@@ -189,18 +193,27 @@ class RolloutPool(RolloutBackend):
         states: np.ndarray,
         sensors: np.ndarray,
     ) -> None:
-        chunk = chunks[worker]
-        self._runners[worker].rollout(
-            chunk_models[worker],
-            [self._datas[worker]],
-            initial_states[chunk],
-            controls[chunk],
-            control_spec=control_spec,
-            skip_checks=True,
-            nstep=controls.shape[1],
-            state=states[chunk],
-            sensordata=sensors[chunk],
-        )
+        chunk, models, cancel = chunks[worker], chunk_models[worker], self.cancel
+        num_steps = controls.shape[1]
+        rows = chunk.stop - chunk.start
+        piece = rows if cancel is None else max(1, PIECE_STEPS // max(1, num_steps))
+        for first in range(0, rows, piece):  # one call unless a cancellable chunk is bigger than PIECE_STEPS
+            if cancel is not None and cancel.is_set():
+                raise PlanningCancelled(
+                    "planning cycle cancelled part-way through a batch of rollouts; the previous plan stays in force"
+                )
+            part = slice(chunk.start + first, min(chunk.stop, chunk.start + first + piece))
+            self._runners[worker].rollout(
+                models if piece >= rows else models[first : first + piece],
+                [self._datas[worker]],
+                initial_states[part],
+                controls[part],
+                control_spec=control_spec,
+                skip_checks=True,
+                nstep=num_steps,
+                state=states[part],
+                sensordata=sensors[part],
+            )
 
     def close(self) -> None:
         """Stop the worker threads; the pool cannot be used afterwards.

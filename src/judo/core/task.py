@@ -117,6 +117,10 @@ class Task(ABC, Generic[ConfigT]):
                     f"plant model {sim_model_path} has {size}={getattr(self.sim_model, size)} but the "
                     f"planning model {model_path} has {size}={getattr(self.model, size)}; they must match"
                 )
+        self.model_overrides: dict[str, dict[str, Any]] = {}
+        """MjModel fields set on the planning model by element name (judo.core.model_overrides); {} for the MJCF's."""
+        self.plant_overrides: dict[str, dict[str, Any]] = {}
+        """MjModel fields set on the plant model (`sim_model`), which every plant built from this task gets."""
         owner = type(self).__name__
         self.measured: MeasuredLayout = measured_layout(self.model, self.measured_sensors, owner)
         """Where `measured_sensors` lie in the planning model's sensordata."""
@@ -205,6 +209,11 @@ class Task(ABC, Generic[ConfigT]):
     def get_sim_metadata(self) -> dict[str, Any]:
         """Extra values the simulator publishes with the state; passed on to `reward`."""
         return {}
+
+    def readout(self, system_metadata: dict[str, Any]) -> str | None:
+        """One line the GUI shows under its figures, from the plant's latest metadata (e.g. the command a task
+        tracks); None (the default) shows nothing."""
+        return None
 
     def success(self, metrics: dict[str, float]) -> bool | None:
         """Whether an episode with these `metrics` (from `metrics`) counts as a success, for

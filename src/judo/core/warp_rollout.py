@@ -14,7 +14,7 @@ Under `set_models` the fields in which the models differ are MuJoCo Warp's per-w
 core/warp_models.py), and `rollout_problems` rolls out several problems, each from its own state, in one batch
 (core/problem_batch.py).
 
-Importing this module imports warp and mujoco_warp (the `judo[warp]` extra); `make_rollout_backend`
+Importing this module imports warp and mujoco_warp (the `judo-mpc[warp]` extra); `make_rollout_backend`
 (core/backend.py) imports it only when the "warp" backend is asked for.
 """
 

@@ -62,7 +62,7 @@ class BenchmarkArgs:
     )
     """Rollout worker threads (cpu backend)."""
     backend: RolloutBackendName = "cpu"
-    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
+    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install -e ".[warp]")."""
     json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also write one row per pair to this JSON file."""
     controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]

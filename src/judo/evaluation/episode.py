@@ -146,3 +146,16 @@ def step_reward(task: Task, log: EpisodeLog, step: int, metadata: dict) -> float
     row = slice(step, step + 1)
     reward = task.reward(log.states[None, row], log.sensors[None, row], log.controls[None, row], task.config, metadata)
     return float(np.asarray(reward, dtype=float).reshape(-1)[0])
+
+
+def unserved_line(failed_updates: int, num_updates: int, policy: bool, where: str) -> str | None:
+    """The loud line for `where` ("seed 3", "2 episodes") when every one of its `num_updates` control updates
+    failed, so every action served was the task's safe action; None when at least one update worked."""
+    if num_updates == 0 or failed_updates < num_updates:
+        return None
+    what = "non-finite actions" if policy else "no finite reward"
+    planner = "policy" if policy else "optimizer"
+    return (
+        f"warning: {where}: every one of its {num_updates} control updates gave {what}, so every action served was "
+        f"the task's safe action; these figures measure the safe action, not the {planner}"
+    )

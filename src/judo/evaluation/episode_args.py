@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal
 import tyro
 
 from judo.cli_shared import episode_latency
+from judo.core.config import require, require_between
 from judo.core.estimator import estimator_in_force
 from judo.core.registry import lookup_task
 from judo.core.rollout import RolloutBackendName
@@ -33,16 +34,20 @@ class EpisodeArgs(SensingFlags):
     )
     """Optimizer to run, by registered name."""
     policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
-    """A policy (an ONNX file, needs pip install 'judo[policy]') that drives the plant instead of the optimizer,
+    """A policy (an ONNX file, run on onnxruntime) that drives the plant instead of the optimizer,
     through the same closed loop (docs/policies.md); its metadata's control_freq, horizon and spline_order are the
     defaults of --controller.*."""
     proposal_policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
     """Policy whose candidates replace --controller.policy-samples of the optimizer's num_rollouts each update
-    (the policy as a proposal, docs/policies.md); needs pip install 'judo[policy]'. With collect --policy, the
+    (the policy as a proposal, docs/policies.md). With collect --policy, the
     MPC that labels samples from it (gpc's augmented controller)."""
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
     (docs/configuration.md); read before anything else."""
+    plant_overrides: Annotated[tuple[str, ...], tyro.conf.arg(metavar="FIELD.ELEMENT=VALUE")] = ()
+    """MjModel fields of the simulated plant only, by element name (a plant unlike the planning model, to rehearse
+    on), e.g. body_mass.pole=0.13 "geom_friction.cube=[0.9, 0.005, 0.0001]"; after the --config file's
+    [plant_overrides.TASK] (docs/sysid.md)."""
     duration: float = 20.0
     """Length of each episode in seconds of sim time."""
     latency: Literal["none", "measured"] = "none"
@@ -50,15 +55,34 @@ class EpisodeArgs(SensingFlags):
     latency_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
     """Fixed planning latency in milliseconds of sim time (reproducible); instead of --latency."""
     backend: RolloutBackendName = "cpu"
-    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install "judo[warp]")."""
+    """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install -e ".[warp]")."""
+    episodes_per_batch: int = 1
+    """Run this many seeds side by side (threads of one process), their rollouts one batch of the warp backend per
+    planning cycle (P episodes x N rollouts per launch): a GPU rolls out 4 x 256 worlds in little more time than
+    256. Needs --backend warp; not with --policy or randomized models."""
     controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
     """Controller settings to change from the task's defaults, e.g. --controller.horizon 1.0."""
+    strict: bool = False
+    """Exit with status 1 when a control update failed in any episode (non-finite actions from a policy, or no
+    finite reward from the optimizer, so the task's safe action was served) or the simulation diverged; without
+    it such runs are reported and exit 0."""
 
     def check(self) -> None:
         """Raise a JudoError naming the argument that is wrong (names, duration, latency, backend, config
         fields, sensing flags, a policy that does not fit the task)."""
         check_episode_args(self)
         self.sensing()
+        require_between("--episodes-per-batch", self.episodes_per_batch, 1, 1024)
+        require(
+            self.episodes_per_batch == 1 or (self.backend == "warp" and self.policy is None),
+            f"--episodes-per-batch {self.episodes_per_batch} batches episodes' rollouts on one warp backend; "
+            f"expected --backend warp (got {self.backend}) and no --policy",
+        )
+        if self.plant_overrides:
+            from judo.core.model_overrides import parse_override_entries
+            from judo.core.registry import set_model_overrides
+
+            set_model_overrides(self.task, parse_override_entries(self.plant_overrides), plant=True)
         if self.policy is not None:
             from judo.core.policy_controller import make_policy_controller
 
@@ -116,6 +140,7 @@ class EpisodeArgs(SensingFlags):
             self.sensing(),
             self.policy_file(),
             None if self.proposal_policy is None else str(self.proposal_policy.resolve()),
+            self.plant_overrides,
         )
 
     def sensing_label(self) -> str:

@@ -1,11 +1,9 @@
 """`python -m judo evaluate`: closed-loop episodes over seeds, the task's success metrics with 95% CIs."""
 
 import sys
-from collections.abc import Callable
-from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import Annotated, Any
 
 import numpy as np
 import tyro
@@ -21,19 +19,17 @@ from judo.cli_shared import (
     progress_console,
     seeds_label,
 )
+from judo.core.backend import RolloutBackend
 from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import make_task
 from judo.evaluation.cli import given_fields, set_field_overrides, write_json
-from judo.evaluation.episode import EpisodeResult
+from judo.evaluation.episode import EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
-from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
-from judo.evaluation.stats import Summary, summarize
-
-if TYPE_CHECKING:
-    from judo.core.warp_rollout import WarpRollout
+from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode, run_side_by_side
+from judo.evaluation.stats import Summary, shown_interval, summarize
 
 DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
@@ -60,14 +56,10 @@ class EvaluateArgs(EpisodeArgs):
     """Rollout worker threads (cpu backend)."""
     workers: Annotated[int | None, tyro.conf.arg(metavar="K", help_behavior_hint="(default: in this process)")] = None
     """Run the seeds as Ray tasks, K at once, on a local Ray with K CPUs (each on one rollout thread unless
-    --num-workers is given); the metrics are those of the in-process run. Needs pip install 'judo[tune]'."""
+    --num-workers is given); the metrics are those of the in-process run. Needs pip install -e '.[tune]'."""
     address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(optional)")] = None
     """Run the seeds as Ray tasks on a running Ray cluster: auto (the one `ray start --head` started on this
     machine) or ray://HOST:10001; with --workers, at most K at once."""
-    episodes_per_batch: int = 1
-    """Run this many seeds side by side in this process, their rollouts as one batch of the warp backend (P
-    episodes x N rollouts per launch, their planning cycles in lockstep): a GPU rolls out 4 x 256 worlds in little
-    more time than 256. Needs --backend warp; not with --workers, --address, --policy or randomized models."""
     json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also write each episode's metrics and the summary to this JSON file."""
     plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
@@ -85,13 +77,11 @@ class EvaluateArgs(EpisodeArgs):
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
         )
-        require_between("--episodes-per-batch", self.episodes_per_batch, 1, 1024)
-        if self.episodes_per_batch > 1:
-            require(
-                self.backend == "warp" and self.workers is None and self.address is None and self.policy is None,
-                f"--episodes-per-batch {self.episodes_per_batch} batches episodes' rollouts on one warp backend in "
-                "this process; expected --backend warp without --workers, --address or --policy",
-            )
+        require(
+            self.episodes_per_batch == 1 or (self.workers is None and self.address is None),
+            f"--episodes-per-batch {self.episodes_per_batch} runs the episodes side by side in this process; "
+            "expected no --workers or --address",
+        )
         if self.plot is not None:
             check_plot_path(self.plot)
         require(
@@ -123,8 +113,7 @@ def metrics_table(title: str, summaries: dict[str, Summary]) -> Table:
     table.add_column("min", justify="right")
     table.add_column("max", justify="right")
     for name, summary in summaries.items():
-        ci = "n/a" if np.isnan(summary.ci95) else f"{summary.ci95:.3g}"
-        table.add_row(name, f"{summary.mean:.3g} ± {ci}", f"{summary.min:.3g}", f"{summary.max:.3g}")
+        table.add_row(name, shown_interval(summary), f"{summary.min:.3g}", f"{summary.max:.3g}")
     return table
 
 
@@ -166,55 +155,30 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
 
 
 def evaluate_batched(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
-    """Run the seeds of `args.seed_range()` in groups of `args.episodes_per_batch`, each group's episodes on threads
-    of this process with their rollouts batched on one WarpRollout (core/problem_batch.py); advance `progress`
-    (if given) by sim seconds. Raises the first failed episode's error, after the group's others ended."""
+    """Run the seeds of `args.seed_range()` in groups of `args.episodes_per_batch`, each group side by side with its
+    rollouts batched on one WarpRollout (`run_side_by_side`); advance `progress` (if given) by sim seconds."""
     from judo.core.warp_rollout import WarpRollout
 
     bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
     spec, seeds = args.episode_spec(), list(args.seed_range())
     size = args.episodes_per_batch
-    backend = WarpRollout(make_task(args.task).model)
     results: list[EpisodeResult] = []
-    try:
+    with WarpRollout(make_task(args.task).model) as backend:
         for start in range(0, len(seeds), size):
             group = seeds[start : start + size]
+            times = dict.fromkeys(group, 0.0)
 
-            def show(sim_seconds: float, start: int = start, group: list[int] = group) -> None:
-                if progress is not None and bar is not None:
-                    completed = start * args.duration + sim_seconds
-                    progress.update(bar, completed=completed, description=f"seeds {group[0]}-{group[-1]}")
+            def run(seed: int, slot: RolloutBackend, start: int = start, times: dict = times) -> EpisodeResult:
+                def show(now: float) -> None:
+                    times[seed] = now
+                    if progress is not None and bar is not None:
+                        done = start * args.duration + sum(times.values())
+                        progress.update(bar, completed=done, description=f"seeds {min(times)}-{max(times)}")
 
-            results.extend(run_group(spec, group, backend, show))
-    finally:
-        backend.close()
+                return run_seeded_episode(spec, seed, on_update=show, backend=slot)
+
+            results.extend(run_side_by_side(backend, group, run))
     return results
-
-
-def run_group(
-    spec: EpisodeSpec, seeds: list[int], backend: "WarpRollout", on_time: Callable[[float], None]
-) -> list[EpisodeResult]:
-    """The episodes of `seeds`, side by side on threads, their rollouts one batch of `backend` per planning cycle;
-    `on_time` gets the sim seconds run so far, summed over the group."""
-    from judo.core.problem_batch import ProblemBatch
-
-    batch = ProblemBatch(backend, len(seeds))
-    times = [0.0] * len(seeds)
-
-    def episode(i: int) -> EpisodeResult:
-        def show(now: float) -> None:
-            times[i] = now
-            on_time(sum(times))
-
-        slot = batch.slots[i]
-        try:
-            return run_seeded_episode(spec, seeds[i], on_update=show, backend=slot)
-        finally:
-            slot.close()  # the others no longer wait for this episode, however it ended
-
-    with ThreadPoolExecutor(len(seeds), thread_name_prefix="judo-episode") as pool:
-        futures = [pool.submit(episode, i) for i in range(len(seeds))]
-        return [future.result() for future in futures]
 
 
 def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, str]]]:
@@ -232,11 +196,12 @@ def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, 
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, or 1 when a seed failed on Ray; exits
-    with status 2 on bad arguments."""
+    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, or 1 when a seed failed on Ray (or, with
+    --strict, when an update failed or the simulation diverged); exits with status 2 on bad arguments."""
     args = parse_args_with_config_fields(
         EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing()
     )
+    troubled = 0  # episodes with failed updates or divergences
     try:
         check_count("--num-workers", args.num_workers, MAX_WORKERS)
         check_count("--workers", args.workers, MAX_WORKERS)
@@ -268,11 +233,17 @@ def main(argv: list[str] | None = None) -> int:
         console.print(table)
         for result in results:
             if result.divergences or result.failed_updates:
+                troubled += 1
                 console.print(
                     f"seed {result.seed}: {result.divergences} simulation divergences, "
                     f"{result.failed_updates} updates with "
                     + ("non-finite actions" if args.policy is not None else "no finite reward")
                 )
+            loud = unserved_line(
+                result.failed_updates, len(result.update_ms), args.policy is not None, f"seed {result.seed}"
+            )
+            if loud is not None:
+                print(loud, file=sys.stderr)
         if args.json is not None:
             write_json(
                 args.json,
@@ -300,4 +271,10 @@ def main(argv: list[str] | None = None) -> int:
             console.print(f"wrote {args.plot}")
     except JudoError as err:
         fail(str(err))
+    if args.strict and troubled:
+        print(
+            f"--strict: {troubled} of {len(results)} episodes had failed control updates or simulation divergences",
+            file=sys.stderr,
+        )
+        return 1
     return 1 if failures else 0

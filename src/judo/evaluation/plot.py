@@ -82,7 +82,7 @@ def _import_pyplot():  # noqa: ANN202  (matplotlib is optional, so it is not imp
     plt = optional_pyplot()
     if plt is None:
         raise JudoError(
-            "a PNG plot needs matplotlib, which is not installed: pip install 'judo[plot]', or give a .html path"
+            "a PNG plot needs matplotlib, which is not installed: pip install -e '.[plot]', or give a .html path"
         )
     return plt
 

@@ -9,9 +9,10 @@ episodes of a tune trial, collect), and gives the same episode bit for bit where
 
 import traceback
 from collections.abc import Callable, Iterable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from judo.core.backend import RolloutBackend
 from judo.core.config import Config, require
@@ -20,15 +21,19 @@ from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.core.policy import Policy
 from judo.core.registry import ConfigKind
+from judo.core.task import Task
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
 from judo.runtime.records import Recorder
 from judo.runtime.sensing import SensedSystem
 from judo.runtime.session import Sensing, choose_estimator, observed_plant
 from judo.runtime.system import MujocoSystem
 
+T = TypeVar("T")
+
 if TYPE_CHECKING:
     from judo.core.controller import ControllerConfig
     from judo.core.policy_controller import PolicyController
+    from judo.core.problem_batch import ProblemBackend
 
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
@@ -70,6 +75,8 @@ class EpisodeSpec:
     sensing: Sensing = field(default_factory=Sensing)
     policy: str | None = None
     proposal_policy: str | None = None
+    plant_overrides: tuple[str, ...] = ()
+    """--plant-overrides entries, FIELD.ELEMENT=VALUE: the simulated plant's model fields."""
 
 
 def load_config_once(path: str | None) -> None:
@@ -145,7 +152,7 @@ def run_seeded_episode(
     proposals = load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
     with spec_controller(spec, configs, seed, backend, proposal_policy=proposals) as controller:
         controller.task.config = configs["task"]
-        system = observed_plant(controller.task, seed, spec.sensing)
+        system = observed_plant(with_spec_plant(controller.task, spec), seed, spec.sensing)
         _, estimator = choose_estimator(controller.task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
         return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
@@ -214,10 +221,25 @@ def run_policy_episode(
     task = controller.task
     with controller:
         task.config = configs["task"]
-        system = observed_plant(task, seed, spec.sensing)
+        system = observed_plant(with_spec_plant(task, spec), seed, spec.sensing)
         _, estimator = choose_estimator(task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
         return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)  # type: ignore[arg-type]  # a PolicyController stands in for a Controller (duck-typed; ClosedLoop has no Protocol for both)
+
+
+def with_spec_plant(task: Task, spec: EpisodeSpec) -> Task:
+    """`task` with `spec.plant_overrides` (--plant-overrides) added to the plant overrides that every plant built
+    from it gets (`MujocoSystem.from_task`); its own models are left as they are."""
+    if spec.plant_overrides:
+        from judo.core.model_overrides import check_model_overrides, parse_override_entries
+
+        merged = {field: dict(values) for field, values in task.plant_overrides.items()}
+        for field, values in check_model_overrides(
+            task.sim_model, parse_override_entries(spec.plant_overrides)
+        ).items():
+            merged.setdefault(field, {}).update(values)
+        task.plant_overrides = merged
+    return task
 
 
 def plant_of(system: MujocoSystem | SensedSystem) -> MujocoSystem:
@@ -232,6 +254,27 @@ def failure_reason(err: BaseException) -> str:
         return f"{type(err).__name__}: {err}"
     where = traceback.extract_tb(err.__traceback__)[-1]
     return f"{type(err).__name__}: {err} ({Path(where.filename).name}:{where.lineno})"
+
+
+def run_side_by_side(backend: "ProblemBackend", seeds: list[int], run: Callable[[int, RolloutBackend], T]) -> list[T]:
+    """`run(seed, slot)` for every seed at once, on threads, each seed's controller rolling out on `slot`, its share
+    of a ProblemBatch of `backend`: every planning cycle of the group is one launch of P x N rollouts
+    (evaluate and collect --episodes-per-batch). A slot is closed when its run returns or raises, so the others
+    never wait for an episode that ended. Returns the runs' results in the order of `seeds`; raises the first
+    run's error after all of them ended."""
+    from judo.core.problem_batch import ProblemBatch
+
+    batch = ProblemBatch(backend, len(seeds))
+
+    def one(i: int) -> T:
+        try:
+            return run(seeds[i], batch.slots[i])
+        finally:
+            batch.slots[i].close()
+
+    with ThreadPoolExecutor(len(seeds), thread_name_prefix="judo-episode") as threads:
+        futures = [threads.submit(one, i) for i in range(len(seeds))]
+        return [future.result() for future in futures]
 
 
 @dataclass

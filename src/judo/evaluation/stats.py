@@ -57,3 +57,16 @@ def summarize(values: np.ndarray) -> Summary:
     if n > 1:
         ci95 = t_quantile(0.975, n - 1) * float(values.std(ddof=1)) / math.sqrt(n)
     return Summary(float(values.mean()), ci95, float(values.min()), float(values.max()), n)
+
+
+def shown_interval(summary: Summary) -> str:
+    """ "mean ± ci95" for a table, with "n too small" in place of an interval that says nothing: one from a single
+    episode, or one wider than [0, 1] for a metric whose every value lies in [0, 1] (a fraction, a success, a
+    share), which a sample that small cannot bound."""
+    mean = f"{summary.mean:.3g}"
+    if math.isnan(summary.ci95):
+        return f"{mean} (n = {summary.n}: no interval)"
+    fraction_like = 0.0 <= summary.min and summary.max <= 1.0
+    if fraction_like and (summary.mean - summary.ci95 < 0.0 and summary.mean + summary.ci95 > 1.0):
+        return f"{mean} (n = {summary.n} too small: the interval spans all of 0-1)"
+    return f"{mean} ± {summary.ci95:.3g}"

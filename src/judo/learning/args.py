@@ -1,14 +1,18 @@
 """`DistillArgs`: the arguments of `python -m judo distill`, their bounds, and the TrainSettings they ask for."""
 
+import json
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Literal
 
 import tyro
 
 from judo.core.boundary import check_output_file
 from judo.core.config import require, require_between
 from judo.learning.settings import TrainSettings
+
+ROUNDS_SUFFIX = "_rounds"
+"""The teacher rounds' folder is OUT_rounds beside --out (OUT being --out's stem)."""
 
 
 @dataclass
@@ -42,6 +46,9 @@ class DistillArgs(TrainSettings):
     """Episodes collected at once in the teacher rounds (the CPUs of a local Ray)."""
     address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")] = None
     """A running Ray cluster for the teacher rounds' episodes: auto, or ray://HOST:10001."""
+    overwrite: bool = False
+    """Replace an --out file that exists (without it, distill refuses, unless it resumes the teacher rounds that
+    wrote that file)."""
 
     def validate(self) -> None:
         """Raise a JudoError (one line) for an argument out of range or an --out that cannot be written."""
@@ -59,13 +66,35 @@ class DistillArgs(TrainSettings):
         require_between("--rounds", self.rounds, 0, 100)
         require_between("--episodes-per-round", self.episodes_per_round, 1, 100_000)
         require_between("--proposals", self.proposals, 0, 100_000)
+        require(
+            self.proposals == 0 or self.rounds > 0,
+            f"--proposals {self.proposals} samples candidates in the teacher rounds; give --rounds 1 or more with it",
+        )
         require_between("--eval-seeds", self.eval_seeds, 0, 10_000)
         require(self.seed >= 0, f"--seed must be at least 0, got {self.seed}")
         require(
             0 < self.validation_fraction < 1,
             f"--validation-fraction must be in (0, 1), got {self.validation_fraction}",
         )
-        check_output_file("--out", self.out)
+        check_output_file("--out", self.out, (self.out.stem + ".losses.png", self.out.stem + ROUNDS_SUFFIX))
+
+    def rounds_folder(self) -> Path:
+        """Where the teacher rounds' files go: OUT_rounds beside --out."""
+        return self.out.with_name(self.out.stem + ROUNDS_SUFFIX)
+
+    def run_record(self) -> dict[str, Any]:
+        """What makes a teacher round's files: the training settings, the kind, the datasets and the teacher's
+        flags, as JSON values. A resume must ask for the same (more --rounds is fine)."""
+        record: dict[str, Any] = {item.name: getattr(self, item.name) for item in fields(TrainSettings)}
+        record.update(
+            kind=self.kind,
+            noise_scale=self.noise_scale,
+            datasets=[str(path.absolute()) for path in self.datasets],
+            episodes_per_round=self.episodes_per_round,
+            optimizer=self.optimizer,
+            proposals=self.proposals,
+        )
+        return json.loads(json.dumps(record))  # tuples become lists, as they are read back
 
     def settings(self) -> TrainSettings:
         """The TrainSettings these arguments ask for."""

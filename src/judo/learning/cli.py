@@ -20,7 +20,7 @@ DESCRIPTION = (
     "are saved beside the ONNX file as a PNG. With --rounds R the MPC is then the teacher (DAgger): each round "
     "collects --episodes-per-round new episodes on Ray in which the policy drives and the MPC labels the states it "
     "visits, retrains on everything, and prints the policy alone and the MPC with its proposals on fresh seeds. "
-    "Needs the `learn` extra: pip install 'judo[learn]'."
+    "Needs the `learn` extra: pip install -e '.[learn]'."
 )
 
 

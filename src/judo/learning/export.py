@@ -1,7 +1,7 @@
 """A TrainedPolicy as an ONNX file that needs nothing else to run, and its loss curves as a PNG.
 
 A small MLP is simpler to write straight to an ONNX graph with the onnx helper API than to trace through an
-exporter, so distill does that (no exporter dependency; onnx comes with judo[policy]):
+exporter, so distill does that (no exporter dependency; onnx is a core dependency):
   - regression: `judo.core.onnx_policy.mlp_policy_model` with the normalization inside the graph;
   - flow: the same layers as a velocity field, unrolled `flow_steps` Euler steps from RandomNormalLike noise
     (times `noise_scale`; 0 gives the deterministic sample, the flow's mean path) in the graph.

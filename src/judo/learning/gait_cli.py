@@ -26,9 +26,11 @@ DESCRIPTION = (
     "judo's CEM tunes a gait policy (a trot's clock harmonics, shaped linearly by the command, plus feedback on the "
     "trunk's gyro and tilt; judo.learning.gait_policy) on closed-loop episodes scored by quadruped_velocity's own "
     "reward, the objective its MPC plans with. Writes an ONNX file for --policy and quadruped_navigate, and the "
-    "reward curve beside it as a PNG. Needs the `policy` extra: pip install 'judo[policy]'."
+    "reward curve beside it as a PNG (with matplotlib). The file holds the best iteration's mean; Ctrl-C ends the search early and writes the best so far (exit 130)."
 )
 TASK = "quadruped_velocity"
+SEARCH_PNG = ".search.png"
+"""The reward curve's file name beside --out: OUT.search.png."""
 
 
 @dataclass
@@ -37,11 +39,17 @@ class GaitSearchArgs(GaitSearchSettings):
 
     out: Annotated[Path, tyro.conf.arg(metavar="POLICY.onnx")] = field(kw_only=True)
     """The ONNX file to write (its reward curve goes beside it, as POLICY.search.png)."""
+    overwrite: bool = False
+    """Replace an --out file that exists (without it, gait-search refuses before searching)."""
 
     def validate(self) -> None:
         super().validate()
         require(self.out.suffix == ".onnx", f"--out must name an .onnx file, got {str(self.out)!r}")
-        check_output_file("--out", self.out)
+        check_output_file("--out", self.out, (self.out.stem + SEARCH_PNG,))
+        require(
+            self.overwrite or not self.out.exists(),
+            f"--out {str(self.out)!r} exists; give --overwrite to replace it, or another --out",
+        )
 
 
 def write_gait_policy(out: Path, parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]) -> Path:
@@ -72,8 +80,10 @@ def plot_search(path: Path, history: list[Iteration]) -> Path | None:
     return path
 
 
-def run(args: GaitSearchArgs, command: str) -> None:
-    """Search with a progress bar, then write the ONNX file and its reward curve, and say how to use them."""
+def run(args: GaitSearchArgs, command: str) -> int:
+    """Search with a progress bar, then write the ONNX file (the best iteration's mean) and its reward curve, and
+    say how to use them. Returns the exit status: 0, or 130 when Ctrl-C ended the search (the best so far is
+    written all the same)."""
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     from judo.learning.gait_search import quadruped_gait_layout, search_gait
@@ -90,7 +100,8 @@ def run(args: GaitSearchArgs, command: str) -> None:
             progress.update(bar, completed=record.index + 1, description=text)
 
         task = QuadrupedVelocity()
-        parameters, history = search_gait(task, settings, show)
+        result = search_gait(task, settings, show)
+    history, best = result.history, result.history[result.best_index]
     layout = quadruped_gait_layout(task)
     metadata = {
         "name": args.out.stem,
@@ -102,18 +113,31 @@ def run(args: GaitSearchArgs, command: str) -> None:
         "control_freq": repr(1.0 / (EVERY * float(task.model.opt.timestep))),
         "training_command": command,
         "training_seconds": f"{history[-1].seconds:.1f}",
-        "search": json.dumps({**asdict(settings), "final_reward": history[-1].mean_reward}),
+        "search": json.dumps(
+            {
+                **asdict(settings),
+                "iterations_run": len(history),
+                "best_iteration": best.index + 1,
+                "best_reward": best.mean_reward,
+                "final_reward": history[-1].mean_reward,
+            }
+        ),
     }
-    write_gait_policy(args.out, parameters, layout, metadata)
-    plot = plot_search(args.out.with_name(args.out.stem + ".search.png"), history)
+    write_gait_policy(args.out, result.parameters, layout, metadata)
+    plot = plot_search(args.out.with_name(args.out.stem + SEARCH_PNG), history)
+    stopped = "interrupted: " if result.interrupted else ""
     console.print(
-        f"wrote {args.out} after {len(history)} iterations in {history[-1].seconds / 60:.1f} min: the mean's reward "
-        f"{history[0].mean_reward:.3f} -> {history[-1].mean_reward:.3f}, falls {history[-1].falls:.0%}"
-        + (f"; the reward curve is {plot}" if plot else "")
+        f"{stopped}wrote {args.out}, the mean of iteration {best.index + 1}, the best of {len(history)} in "
+        f"{history[-1].seconds / 60:.1f} min: the mean's reward {history[0].mean_reward:.3f} -> "
+        f"{best.mean_reward:.3f} (last {history[-1].mean_reward:.3f}), falls {best.falls:.0%}"
+        + (f"; the reward curve is {plot}" if plot else ""),
+        soft_wrap=True,
     )
     console.print(
-        f"score it on fresh seeds: python -m judo evaluate --task {TASK} --policy {args.out} --seeds 5 --first-seed 1000"
+        f"score it on fresh seeds: python -m judo evaluate --task {TASK} --policy {args.out} --seeds 5 --first-seed 1000",
+        soft_wrap=True,
     )
+    return 130 if result.interrupted else 0
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -125,7 +149,6 @@ def main(argv: list[str] | None = None) -> int:
         from judo.core.errors import import_extra
 
         import_extra("onnx", "python -m judo gait-search", "policy")
-        run(args, "python -m judo gait-search " + shlex.join(argv))
+        return run(args, "python -m judo gait-search " + shlex.join(argv))
     except JudoError as err:
         fail(str(err))
-    return 0

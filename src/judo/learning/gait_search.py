@@ -112,6 +112,24 @@ class Iteration:
     seconds: float
 
 
+@dataclass
+class GaitSearchResult:
+    """What a search found: the best iteration's mean, and every iteration's figures.
+
+    Attributes:
+        parameters: (P,) the mean that scored best (an iteration's candidate 0, scored on that iteration's
+            commands), not the last one, which a late noisy update may have made worse.
+        best_index: the iteration it was scored in.
+        history: every finished iteration's figures.
+        interrupted: whether Ctrl-C ended the search early (after at least one iteration).
+    """
+
+    parameters: np.ndarray
+    best_index: int
+    history: list[Iteration]
+    interrupted: bool = False
+
+
 class GaitEpisodes:
     """Steps B closed-loop episodes of the quadruped at once, each with its own gait policy parameters, on a
     `RolloutPool` (its worker threads and MjData kept for every tick of every run; `close` ends them)."""
@@ -158,8 +176,9 @@ def search_gait(
     task: QuadrupedVelocity,
     settings: GaitSearchSettings,
     on_iteration: Callable[[Iteration], None] | None = None,
-) -> tuple[np.ndarray, list[Iteration]]:
-    """Run the search; returns the final (P,) mean parameters and each iteration's figures."""
+) -> GaitSearchResult:
+    """Run the search; returns the best-scoring mean and each iteration's figures. Ctrl-C after the first
+    iteration ends it early with the best so far (`interrupted`); before, it is raised as it is."""
     layout = quadruped_gait_layout(task)
     config: QuadrupedVelocityConfig = task.config
     cem = CEM(
@@ -175,6 +194,8 @@ def search_gait(
     rng = np.random.default_rng(settings.seed)
     cem.rng = np.random.default_rng(settings.seed + 1)
     mean, history, start = stepping_in_place(layout)[None], [], time.perf_counter()
+    best: GaitSearchResult | None = None
+    best_score = -np.inf
     episodes = GaitEpisodes(task, layout, settings.workers)
     try:
         population, count = settings.population, settings.commands
@@ -197,8 +218,16 @@ def search_gait(
             seconds = time.perf_counter() - start
             record = Iteration(index, float(scores[0]), float(scores.max()), float(fell[0].mean()), seconds)
             history.append(record)
+            score = record.mean_reward if np.isfinite(record.mean_reward) else -np.inf  # NaN never wins
+            if best is None or score > best_score:
+                best, best_score = GaitSearchResult(candidates[0].copy(), index, history), score
             if on_iteration is not None:
                 on_iteration(record)
+    except KeyboardInterrupt:
+        if best is None:
+            raise
+        best.interrupted = True
     finally:
         episodes.close()
-    return mean[0], history
+    assert best is not None  # iterations >= 1 (validated)
+    return best

@@ -204,11 +204,18 @@ def _read_file(path: Path, file: Any, kind: str, pairs: TrainingPairs | None) ->
     if not demos:
         raise DistillError(f"{str(path)!r} holds no episodes; run python -m judo collect into it first")
     task = make_task(task_name)
+    low_level = task.low_level()
+    if low_level is not None:
+        raise DistillError(
+            f"distill cannot learn task {task_name!r}: its MPC plans {low_level.command_size} commands for a "
+            f"low-level policy that drives the {task.nu} actuators, while a distilled policy is served to the "
+            "actuators; give datasets of a task without a low-level policy"
+        )
     controller = {**config_dict(make_config(ControllerConfig, task_name, env_args.get("optimizer")))}
     controller.update(env_args.get("env_kwargs", {}).get("controller", {}))
     time_step = float(env_args.get("plant_timestep", task.sim_model.opt.timestep))
     if pairs is None:
-        pairs = TrainingPairs(task_name, kind, action_size=task.nu)
+        pairs = TrainingPairs(task_name, kind, action_size=task.command_size)
         pairs.observation_layout = observation_layout(task)
         if kind == "action":
             pairs.controller = {"control_freq": repr(1.0 / time_step)}  # acts at every step, as it was trained
@@ -218,7 +225,7 @@ def _read_file(path: Path, file: Any, kind: str, pairs: TrainingPairs | None) ->
         demo = file["data"][name]
         observations, targets = _demo_pairs(path, name, demo, task, kind, time_step)
         if kind == "chunk":
-            horizon = targets.shape[1] // task.nu
+            horizon = targets.shape[1] // task.command_size
             if pairs.episodes and horizon != pairs.horizon:
                 raise DistillError(f"{str(path)!r} plans {horizon} knots, the other datasets {pairs.horizon}")
             pairs.horizon = horizon

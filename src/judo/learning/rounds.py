@@ -6,12 +6,14 @@ Each teacher round r (DAgger; gpc's loop with --proposals):
      (`collect --policy`; with --proposals K the MPC also samples K candidates from the policy);
   2. retrain from scratch on the datasets and every round file so far: ROUNDS/policy_round_<r>.onnx;
   3. measure the policy alone, and the MPC with its proposals, on fresh seeds, and print the table so far.
-ROUNDS is the folder OUT_rounds beside --out. A rerun resumes: collect adds only missing seeds, and a round whose
-policy file exists is not trained again. The last round's policy is copied to --out at the end.
+ROUNDS is the folder OUT_rounds beside --out. A rerun with the same settings resumes (RUN_RECORD holds them; other
+settings are refused): collect adds only missing seeds, and a round whose policy file exists is not trained again.
+The last round's policy is copied to --out at the end, or the last finished one's on Ctrl-C.
 """
 
 import dataclasses
 import json
+import os
 import shutil
 from pathlib import Path
 from typing import Any
@@ -26,15 +28,16 @@ from judo.learning.export import copy_policy, losses_path, plot_losses, policy_m
 from judo.learning.pairs import DistillError, TrainingPairs, read_pairs
 from judo.learning.training import TrainedPolicy, train
 
+RUN_RECORD = "distill_run.json"
+"""The file in the rounds folder that records the run's settings (`DistillArgs.run_record`), checked on resume."""
 ROUND_SEED_STRIDE = 100_000
 """Round r collects seeds r * ROUND_SEED_STRIDE onwards: never a seed of another round or of a usual dataset."""
 
 
 def train_and_write(
-    datasets: list[Path], args: DistillArgs, command: str, out: Path, progress_console: Console
-) -> tuple[TrainedPolicy, TrainingPairs]:
-    """Read `datasets`, train with a progress bar showing the losses, write the ONNX file and its loss PNG."""
-    pairs = read_pairs(datasets, args.kind)
+    pairs: TrainingPairs, args: DistillArgs, command: str, out: Path, progress_console: Console
+) -> TrainedPolicy:
+    """Train on `pairs` with a progress bar showing the losses, write the ONNX file and its loss PNG."""
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("epoch {task.completed:.0f}"))
     with Progress(*columns, TimeElapsedColumn(), console=progress_console, transient=True) as progress:
         bar = progress.add_task(f"training {out.name}", total=args.epochs)
@@ -49,7 +52,7 @@ def train_and_write(
         f"{pairs.task}, {pairs.kind} policy, {trained.head}: {pairs.num_pairs} pairs of {len(pairs.episodes)} episodes"
     )
     plot_losses(losses_path(out), trained, title)
-    return trained, pairs
+    return trained
 
 
 def summary_line(out: Path, trained: TrainedPolicy, pairs: TrainingPairs) -> str:
@@ -63,40 +66,151 @@ def summary_line(out: Path, trained: TrainedPolicy, pairs: TrainingPairs) -> str
 
 
 def distill(args: DistillArgs, command: str, console: Console, progress_console: Console) -> None:
-    """Train on the datasets (and run the teacher rounds), writing `args.out`. Lines that name a file are never
-    wrapped (soft_wrap), so its path can be copied whole, however long."""
+    """Train on the datasets (and run the teacher rounds), writing `args.out`. Everything that can be refused
+    (the datasets, an --out that exists, a resume of other settings, the teacher's flags) is refused before any
+    training. Lines that name a file are never wrapped (soft_wrap), so its path can be copied whole."""
     datasets = list(args.datasets)
+    pairs = read_pairs(datasets, args.kind)
+    resuming = args.rounds > 0 and check_resume(args)
+    if args.out.exists() and not (args.overwrite or resuming):
+        raise DistillError(f"--out {str(args.out)!r} exists; give --overwrite to replace it, or another --out")
     if args.rounds == 0:
-        trained, pairs = train_and_write(datasets, args, command, args.out, progress_console)
+        trained = train_and_write(pairs, args, command, args.out, progress_console)
         console.print(summary_line(args.out, trained, pairs), soft_wrap=True)
         console.print(f"serve it: python -m judo evaluate --task {pairs.task} --policy {args.out}", soft_wrap=True)
         return
-    folder = args.out.with_name(args.out.stem + "_rounds")
-    folder.mkdir(parents=True, exist_ok=True)
     env_args = dataset_env_args(datasets[0])
+    check_teacher(args, env_args)
+    from judo.ray_cluster import start_ray, stop_ray
+
+    # Ray's processes start before JAX trains (and starts its threads), never forked from a JAX process.
+    connected = start_ray(args.address, args.workers or os.cpu_count() or 1)
+    try:
+        teacher_rounds(args, command, pairs, env_args, console, progress_console)
+    finally:
+        if connected:
+            stop_ray()
+
+
+def teacher_rounds(
+    args: DistillArgs,
+    command: str,
+    pairs: TrainingPairs,
+    env_args: dict[str, Any],
+    console: Console,
+    progress_console: Console,
+) -> None:
+    """Round 0 on `pairs` (the datasets' own), then --rounds teacher rounds; on Ctrl-C, --out gets the last
+    finished round's policy before the interrupt goes on."""
+    folder = args.rounds_folder()
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / RUN_RECORD).write_text(json.dumps(args.run_record(), indent=1) + "\n")
+    datasets = list(args.datasets)
     rows: list[list[str]] = []
+    finished: Path | None = None
     policy = folder / "policy_round_0.onnx"
-    for round_index in range(args.rounds + 1):
-        if round_index > 0:
-            round_file = folder / f"round_{round_index}.h5"
-            collect_round(args, env_args, policy, round_file, round_index)
-            datasets.append(round_file)
-            policy = folder / f"policy_round_{round_index}.onnx"
-        if policy.exists():
-            console.print(f"round {round_index}: {policy} exists; resumed without training it again", soft_wrap=True)
-            pairs, seconds = read_pairs(datasets, args.kind), float("nan")
-        else:
-            trained, pairs = train_and_write(datasets, args, command, policy, progress_console)
-            console.print(summary_line(policy, trained, pairs), soft_wrap=True)
-            seconds = trained.seconds
-        rows.append([str(round_index), str(len(pairs.episodes)), str(pairs.num_pairs), f"{seconds:.1f}"])
-        rows[-1] += evaluate_round(args, env_args, policy)
-        console.print(round_table(rows, args, env_args))
-    copy_policy(policy, args.out)
-    shutil.copyfile(losses_path(policy), losses_path(args.out))
+    try:
+        for round_index in range(args.rounds + 1):
+            if round_index > 0:
+                round_file = folder / f"round_{round_index}.h5"
+                collect_round(args, env_args, policy, round_file, round_index)
+                datasets.append(round_file)
+                policy = folder / f"policy_round_{round_index}.onnx"
+                pairs = read_pairs(datasets, args.kind)
+            if policy.exists():
+                console.print(
+                    f"round {round_index}: {policy} exists; resumed without training it again", soft_wrap=True
+                )
+                seconds = float("nan")
+            else:
+                trained = train_and_write(pairs, args, command, policy, progress_console)
+                console.print(summary_line(policy, trained, pairs), soft_wrap=True)
+                seconds = trained.seconds
+            finished = policy
+            rows.append([str(round_index), str(len(pairs.episodes)), str(pairs.num_pairs), f"{seconds:.1f}"])
+            rows[-1] += evaluate_round(args, env_args, policy)
+            console.print(round_table(rows, args, env_args))
+    except KeyboardInterrupt:
+        if finished is not None:
+            keep_policy(finished, args.out)
+            console.print(
+                f"interrupted: wrote {args.out} ({finished.stem.replace('policy_', '').replace('_', ' ')}'s policy, "
+                "the last one finished); the same command resumes the rounds",
+                soft_wrap=True,
+            )
+        raise
+    keep_policy(policy, args.out)
     console.print(
         f"wrote {args.out} (round {args.rounds}'s policy); every round's files are in {folder}", soft_wrap=True
     )
+
+
+def keep_policy(policy: Path, out: Path) -> None:
+    """Copy a round's `policy` (and its loss curves) to `out`."""
+    copy_policy(policy, out)
+    shutil.copyfile(losses_path(policy), losses_path(out))
+
+
+def check_resume(args: DistillArgs) -> bool:
+    """Whether the rounds folder holds rounds of this very run (the same settings, `DistillArgs.run_record`),
+    which a rerun resumes. DistillError (one line, naming the settings that differ) for rounds of other
+    settings, or of settings that were not recorded; False when there are none yet."""
+    folder = args.rounds_folder()
+    record_path = folder / RUN_RECORD
+    if not record_path.is_file():
+        if any(folder.glob("policy_round_*.onnx")):
+            raise DistillError(
+                f"{str(folder)!r} holds teacher rounds whose settings were not recorded, so they cannot be "
+                "resumed; remove it, or give another --out"
+            )
+        return False
+    try:
+        recorded = json.loads(record_path.read_text())
+    except ValueError:
+        recorded = None
+    if not isinstance(recorded, dict):
+        raise DistillError(f"{str(record_path)!r} is not a distill run record; remove {str(folder)!r} to start again")
+    wanted = args.run_record()
+    differ = [name for name in wanted if recorded.get(name) != wanted[name]]
+    if differ:
+        raise DistillError(
+            f"{str(folder)!r} holds teacher rounds of {run_flags(recorded, differ)}, not {run_flags(wanted, differ)}; "
+            "rerun with those to resume them, or give another --out to start new rounds"
+        )
+    return True
+
+
+def run_flags(record: dict[str, Any], names: list[str]) -> str:
+    """The distill flags that give `record`'s values of `names`, e.g. "--kind action --hidden 16 16"."""
+    parts = []
+    for name in names:
+        value = record.get(name)
+        if name == "datasets":
+            parts.append(" ".join(map(str, value)) if isinstance(value, list) else "(unrecorded datasets)")
+            continue
+        shown_value = (
+            " ".join(map(str, value)) if isinstance(value, list) else ("(default)" if value is None else value)
+        )
+        parts.append(f"--{name.replace('_', '-')} {shown_value}")
+    return " ".join(parts)
+
+
+def check_teacher(args: DistillArgs, env_args: dict[str, Any]) -> None:
+    """DistillError now, before any training, unless the teacher rounds can run: an optimizer to label with,
+    and --proposals below its num_rollouts (the nominal, rollout 0, is never replaced)."""
+    from judo.core.registry import lookup_optimizer, make_config
+
+    teacher_flags(args, env_args)
+    optimizer = args.optimizer or env_args["optimizer"]
+    config_cls = lookup_optimizer(optimizer)[1]
+    rollouts = env_args.get("env_kwargs", {}).get("optimizer", {}).get("num_rollouts")  # teacher_flags passes it on
+    if rollouts is None:
+        rollouts = make_config(config_cls, env_args["task"], optimizer).num_rollouts
+    if args.proposals >= int(rollouts):
+        raise DistillError(
+            f"--proposals {args.proposals} must be below the teacher's num_rollouts ({rollouts}, {optimizer} on "
+            f"{env_args['task']}): the nominal, rollout 0, is never replaced; expected 0 to {int(rollouts) - 1}"
+        )
 
 
 def dataset_env_args(path: Path) -> dict[str, Any]:
@@ -139,6 +253,8 @@ def collect_round(args: DistillArgs, env_args: dict[str, Any], policy: Path, out
     if args.address is not None:
         argv += ["--address", args.address]
     status = collect_main(argv)
+    if status == 130:  # collect was interrupted (Ctrl-C); the rounds stop the same way
+        raise KeyboardInterrupt
     if status:
         raise DistillError(f"round {round_index}'s collect ended with status {status}; rerun to resume it")
 

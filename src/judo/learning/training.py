@@ -2,7 +2,7 @@
 
 The validation episodes are never trained on; the parameters kept are those of the epoch with the lowest
 validation loss, and training stops once `patience` epochs passed without a new lowest. JAX and optax are
-imported when `train` runs (the judo[learn] extra).
+imported when `train` runs (the judo-mpc[learn] extra).
 """
 
 import time

@@ -22,6 +22,7 @@ short, planning stops between optimizer iterations, and a call stuck in a rollou
 import asyncio
 import functools
 import logging
+import math
 import threading
 from pathlib import Path
 from typing import Any
@@ -42,6 +43,7 @@ from judo.runtime.address import check_port, check_token
 from judo.runtime.app_commands import Commands
 from judo.runtime.app_settings import check_app_settings
 from judo.runtime.app_state import AppState
+from judo.runtime.cycles import CycleCost, cycle_size
 from judo.runtime.frontend import FrontendFactory, viser_frontend
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
@@ -56,7 +58,7 @@ from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
 from judo.runtime.status_line import Level, Status, StatusLine
 from judo.runtime.supervisor import Supervisor
-from judo.runtime.system import System
+from judo.runtime.system import System, missing_halt
 
 __all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]
 
@@ -150,6 +152,8 @@ class App:
             Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
         )
         self._reports = reports = Reports(StatusLine(), state)
+        if system is not None and (warning := missing_halt(system)) is not None:
+            reports.report(warning, "warning")
         clock = None if system is None else state.clock  # a robot's plans age in wall time; the simulator waits
         proposals = None if proposal_policy is None else as_policy(proposal_policy)
         driver = None if policy is None else as_policy(policy)
@@ -276,6 +280,19 @@ class App:
     def configs(self) -> dict[ConfigKind, Config]:
         """The latest accepted config of each kind; a planning cycle may not have picked them up yet."""
         return self._state.configs.as_dict()
+
+    def planning_cost(self) -> CycleCost:
+        """The cycle's size (N x R x iterations x T; None where a policy drives) and estimated seconds under the latest
+        configs, the last update's seconds, and the late cycle's seconds so far (else None); judo.runtime.cycles."""
+        state = self._state
+        with state.lock:
+            session, configs, cycle, step_cost = state.session, state.configs, state.cycle, state.step_cost
+        task = session.controller.task
+        size = None if configs.optimizer is None else cycle_size(task, configs.controller, configs.optimizer)
+        times = session.closed_loop.update_ms
+        last = times[-1] / 1e3 if times else math.nan
+        running = cycle.elapsed() if cycle is not None and cycle.late() else None
+        return CycleCost(size, math.nan if size is None else step_cost.estimate(size), last, running)
 
     # ---- commands (judo.runtime.app_commands), callable from any thread ------------------------------
     def update_config(

@@ -10,9 +10,10 @@ from typing import Any
 import numpy as np
 
 from judo.core.config import Config, with_updates
-from judo.core.controller import check_configs
+from judo.core.controller import ControllerConfig, check_configs
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
+from judo.core.optimizer import OptimizerConfig
 from judo.core.proposals import check_proposal_policy
 from judo.core.registry import (
     CONFIG_KINDS,
@@ -22,6 +23,7 @@ from judo.core.registry import (
     make_estimator,
 )
 from judo.runtime.app_state import AppState
+from judo.runtime.cycles import MAX_CYCLE_SECONDS, cycle_size
 from judo.runtime.reports import Reports
 from judo.runtime.session import POLICY_OPTIMIZER, check_estimator
 from judo.runtime.session_maker import SessionMaker
@@ -48,8 +50,9 @@ class Commands:
 
         Returns the new config. Raises UnknownNameError or ConfigError, keeping the previous config,
         if a field does not exist, a value is invalid, or the configs would not work together (e.g.
-        num_rollouts 0, a horizon shorter than one timestep). `generation` (from `session`) refuses
-        an edit made for a session that has since been replaced.
+        num_rollouts 0, a horizon shorter than one timestep), or the edit would grow a planning cycle past an
+        estimated MAX_CYCLE_SECONDS (`judo.runtime.cycles`). An edit that resizes a late cycle cancels it.
+        `generation` (from `session`) refuses an edit made for a session that has since been replaced.
         """
         if kind not in CONFIG_KINDS:
             raise ConfigError(f"config kind must be one of {list(CONFIG_KINDS)}, got {kind!r}")
@@ -69,8 +72,20 @@ class Commands:
                 check_configs(session.controller.task, candidate.controller, candidate.optimizer)
                 proposals = getattr(session.controller, "proposal_policy", None)  # refused here, not every cycle
                 check_proposal_policy(proposals, candidate.controller.policy_samples)
+                resized = self._check_cycle_cost(updates, candidate.controller, candidate.optimizer)
+                if resized and state.cycle is not None and state.cycle.late():
+                    state.cancel_cycle("the planning cycle was resized")
             state.accept_config(kind, updated, from_gui=from_gui)
             task = session.controller.task
+        if (
+            kind == "controller"
+            and getattr(updated, "max_plan_age", 1) == 0
+            and getattr(current, "max_plan_age", 0) != 0
+        ):
+            self._reports.report(
+                "max_plan_age 0 turns the watchdog off: a stalled planner's last plan is served however old it is",
+                "warning",
+            )
         rate = getattr(updated, "control_freq", None)
         if kind == "controller" and rate is not None and rate < type(task).min_control_freq:
             self._reports.report(
@@ -79,6 +94,26 @@ class Commands:
                 "warning",
             )
         return updated
+
+    def _check_cycle_cost(
+        self, updates: dict[str, Any], controller: ControllerConfig, optimizer: OptimizerConfig
+    ) -> bool:
+        """True if these configs change the size of a planning cycle (see `judo.runtime.cycles`); ConfigError if
+        they grow it beyond an estimated MAX_CYCLE_SECONDS (a smaller cycle is always accepted). Under the lock."""
+        state = self._state
+        task = state.session.controller.task
+        current = state.configs
+        before = None if current.optimizer is None else cycle_size(task, current.controller, current.optimizer)
+        after = cycle_size(task, controller, optimizer)
+        seconds = state.step_cost.estimate(after)
+        if seconds > MAX_CYCLE_SECONDS and (before is None or after.total > before.total):
+            edit = ", ".join(f"{name} = {value}" for name, value in updates.items())
+            raise ConfigError(
+                f"{edit} would make a planning cycle of about {seconds:.0f} s (num_rollouts x num_randomizations x "
+                f"max_opt_iters x horizon steps: {after}); expected at most {MAX_CYCLE_SECONDS:g} s: lower "
+                "num_rollouts, num_randomizations, max_opt_iters or the horizon"
+            )
+        return after != before
 
     def update_estimator_config(
         self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False

@@ -24,6 +24,7 @@ from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import ConfigKind
 from judo.core.task import TaskConfig
+from judo.runtime.cycles import PlanningCycle, StepCost
 from judo.runtime.records import LiveRecorder
 from judo.runtime.session import Sensing, Session
 from judo.runtime.stop_signal import StopSignal
@@ -123,13 +124,16 @@ class AppState:
         self.external_edits = 0  # config changes not made through the GUI, so it refreshes its widgets
         self.resets_done = 0  # plant resets carried out, so the GUI reframes its camera
         self.recording: LiveRecorder | None = None
+        self.cycle: PlanningCycle | None = None  # the planning cycle in flight (the planner runner's)
+        self.step_cost: StepCost  # the session's cost of one rollout step, from `begin`
         self._plant = PlantRequests()
         self._planner = PlannerRequests()
 
     def begin(self, session: Session) -> None:
         """Start with `session` and its configs."""
+        cost = session_step_cost(session)
         with self.lock:
-            self.session, self.configs = session, ConfigSet.of(session)
+            self.session, self.configs, self.step_cost = session, ConfigSet.of(session), cost
 
     # ---- configs ----------------------------------------------------------------------------------
     def accept_config(self, kind: ConfigKind, config: Config, *, from_gui: bool) -> None:
@@ -150,8 +154,9 @@ class AppState:
                 self.recording.on_config("estimator", config, name=self.session.estimator_name)
 
     def reset_configs(self, defaults: ConfigSet) -> None:
-        """Put `defaults` in force from the planner's next cycle."""
+        """Put `defaults` in force from the planner's next cycle (cancelling the cycle in flight)."""
         with self.lock:
+            self.cancel_cycle("the configs were reset")
             self.configs = defaults
             self._planner.configs = PendingConfigs(defaults.controller, defaults.optimizer, defaults.task)
             self._count_edit(from_gui=False)
@@ -172,9 +177,22 @@ class AppState:
             recorder, self.recording = self.recording, None
         return recorder
 
+    # ---- the planning cycle in flight ----------------------------------------------------------------
+    def start_cycle(self, cycle: PlanningCycle | None) -> None:
+        """Make `cycle` the one in flight (None: none is)."""
+        with self.lock:
+            self.cycle = cycle
+
+    def cancel_cycle(self, reason: str) -> None:
+        """End the planning cycle in flight, if any, at its next check (the plan before stays in force)."""
+        with self.lock:
+            if self.cycle is not None:
+                self.cycle.cancel(reason)
+
     # ---- pause ------------------------------------------------------------------------------------
     def pause(self) -> None:
         with self.lock:
+            self.cancel_cycle("paused")
             self.paused = True
             self.clock.pause()
 
@@ -187,6 +205,8 @@ class AppState:
     def request_reset(self, *, from_user: bool) -> None:
         """Reset the plant before its next step (and the plan once that worked)."""
         with self.lock:
+            if from_user:  # a plan of the plant before the reset is of no use
+                self.cancel_cycle("the task was reset")
             self._plant.reset = True
             self._plant.reset_from_user = self._plant.reset_from_user or from_user
 
@@ -217,6 +237,7 @@ class AppState:
         with self.lock:
             current = self._planner.switch or (self.session.task_name, self.session.optimizer_name)
             self._planner.switch = (task or current[0], optimizer or current[1])
+            self.cancel_cycle(f"switching to {self._planner.switch[0]} with {self._planner.switch[1]}")
             self._planner.rebuild = self._planner.rebuild or rebuild
 
     def request_estimator(self, estimator: str | None, *, rebuild: bool) -> None:
@@ -235,8 +256,18 @@ class AppState:
 
     def install_session(self, session: Session) -> None:
         """Use `session` from now on, with its own configs (the planner runner's, on a switch)."""
+        cost = session_step_cost(session)
         with self.lock:
-            self.session = session
+            self.session, self.step_cost = session, cost
             self.configs = ConfigSet.of(session)
             self._planner.configs = PendingConfigs()
             self.external_edits += 1
+
+
+def session_step_cost(session: Session) -> StepCost:
+    """The cost of one rollout step of `session`'s controller: probed on its planning model on the CPU backend;
+    measured from cycles only on another backend, and unknown where a policy drives (no rollouts)."""
+    controller = session.controller
+    backend = getattr(controller, "backend_name", None)  # a PolicyController has no rollouts
+    workers = getattr(getattr(controller, "backend", None), "num_workers", 1)
+    return StepCost(controller.task.model, workers, probe=backend == "cpu")

@@ -31,10 +31,11 @@ import tyro.constructors
 from judo.core.backend import RolloutBackendName
 from judo.core.boundary import MAX_DURATION
 from judo.core.config import Config, ConfigT, with_updates
-from judo.core.config_file import load_config
+from judo.core.config_file import LoadedConfig, load_config
 from judo.core.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig, estimator_in_force
+from judo.core.model_overrides import parse_override_entries
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import (
     default_configs,
@@ -43,10 +44,12 @@ from judo.core.registry import (
     lookup_estimator,
     lookup_task,
     make_config,
+    set_model_overrides,
 )
 from judo.core.task import TaskConfig
 from judo.runtime.app import App
 from judo.runtime.sensing_flags import SensingFlags, merge_repeated
+from judo.runtime.system_choice import Ros2Options, SystemOptions, build_system, ros2_options
 
 PROG = "python -m judo"
 CONFIG_GROUPS = {
@@ -68,6 +71,9 @@ class RunOptions:
     """Registered task to run (the config file's `task` when it names one)."""
     optimizer: str = "mppi"
     """Registered optimizer to plan with (the config file's `optimizer` when it names one)."""
+    plant_overrides: Annotated[tuple[str, ...], tyro.conf.arg(metavar="FIELD.ELEMENT=VALUE")] = ()
+    """MjModel fields of the simulated plant only, by element name (a plant unlike the planning model, to rehearse
+    on), e.g. body_mass.pole=0.13; after the --config file's [plant_overrides.TASK] (docs/sysid.md)."""
     host: str = "127.0.0.1"
     """Address the GUI listens on: this machine only by default. 0.0.0.0 (every interface) exposes the app
     to the network, behind a token; prefer an SSH tunnel (docs/gui.md)."""
@@ -84,15 +90,21 @@ class RunOptions:
     seed: int | None = None
     """Seed of the optimizer, the task and the simulated plant."""
     backend: RolloutBackendName = "cpu"
-    """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install "judo[warp]")."""
+    """Rollout backend: cpu (a thread per core) or warp (MuJoCo Warp on the GPU; needs pip install -e ".[warp]")."""
     policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
-    """A policy (an ONNX file; needs pip install 'judo[policy]') that drives the plant instead of --optimizer, through
+    """A policy (an ONNX file, run on onnxruntime) that drives the plant instead of --optimizer, through
     the same closed loop (docs/policies.md); its metadata's control_freq, horizon and spline_order are the defaults
     of --controller.*. The GUI's optimizer dropdown switches to MPC (--optimizer's configs) and back to "policy"."""
     proposal_policy: Annotated[Path | None, tyro.conf.arg(metavar="FILE.onnx", help_behavior_hint="(optional)")] = None
     """Policy whose candidates replace --controller.policy-samples of the optimizer's num_rollouts each update (the
-    policy as a proposal, docs/policies.md; the GUI's policy_samples slider sets how many); needs pip install
-    'judo[policy]'."""
+    policy as a proposal, docs/policies.md; the GUI's policy_samples slider sets how many)."""
+    system: str | None = None
+    """The plant: judo's simulator by default; ros2, a robot on a ROS 2 graph over DDS (needs pip install -e
+    ".[ros2]"; docs/hardware.md); or module:Class, a user's System subclass built with Class(task)."""
+    record: Annotated[Path | None, tyro.conf.arg(metavar="FILE.mcap", help_behavior_hint="(optional)")] = None
+    """With --system ros2: log what the robot sent and what judo commanded to this MCAP file, with ROS 2 schemas."""
+    ros2: tyro.conf.Suppress[Ros2Options] = field(default_factory=Ros2Options)
+    """The ROS 2 bridge's domain, topics, rate and joint names (--ros2.*, a group of its own)."""
     sensing: Annotated[SensingFlags, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")] = field(
         default_factory=SensingFlags
     )
@@ -103,7 +115,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Parse `argv` (default: sys.argv[1:]), run the app, and return the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        task, optimizer = _peek_names(argv)
+        task, optimizer, loaded = _peek_names(argv)
+        ros2 = ros2_options(loaded.ros2 if loaded is not None else {}, "the config file's [ros2]")
         estimator, pinned = _peek_estimator(argv, task)
         defaults: dict[str, Config] = {**default_configs(task, optimizer)}  # the estimator may join the three kinds
         if estimator is not None:
@@ -113,7 +126,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     argv = ["--task", task, "--optimizer", optimizer, *merge_repeated(argv)]
     try:
-        options, configs = parse(argv, defaults)
+        options, configs = parse(argv, defaults, ros2)
         if options.duration is not None and math.isfinite(options.duration) and options.duration > MAX_DURATION:
             raise ConfigError(  # its step count would not fit an integer
                 "duration must be a positive, finite number of seconds of sim time, "
@@ -122,12 +135,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         controller_config = _as_kind(configs["controller"], ControllerConfig)
         if options.policy is not None and controller_config == defaults["controller"]:
             controller_config = None  # no --controller.* given: the policy's metadata's rate and chunk layout
+        task_config = _as_kind(configs["task"], TaskConfig)
+        system_name = options.system or (loaded.system if loaded is not None else None)  # the flag wins
+        system = build_system(SystemOptions(system_name, options.record, options.ros2), options.task, task_config)
         app = App(
             options.task,
             options.optimizer,
             controller_config=controller_config,
             optimizer_config=_as_kind(configs["optimizer"], OptimizerConfig),
-            task_config=_as_kind(configs["task"], TaskConfig),
+            task_config=task_config,
+            system=system,
             gui=not options.headless,
             host=options.host,
             port=options.port,
@@ -156,6 +173,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # Ctrl-C before the app's own handler was in place
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
+    finally:
+        close = getattr(system, "close", None)  # a robot link: its last command acknowledged, its log finished
+        if callable(close):
+            close()
     print(summary)
     if options.headless and summary.num_plans == 0:
         why = app.status.message if app.status.level != "info" else "no planning cycle completed"
@@ -164,8 +185,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     return 0
 
 
-def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[str, Config]]:
-    """The run options and the validated controller, optimizer and task configs from `argv`.
+def parse(
+    argv: list[str], defaults: dict[str, Any], ros2: Ros2Options | None = None
+) -> tuple[RunOptions, dict[str, Config]]:
+    """The run options and the validated controller, optimizer and task configs from `argv` (the --ros2.*
+    options over `ros2`'s values).
 
     Raises ConfigError for a value the configs refuse (e.g. a wrong-length array).
     """
@@ -175,7 +199,12 @@ def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[s
     ]
     flat = Annotated[RunOptions, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")]  # its flags without a prefix
     options_field = ("options", flat, field(default_factory=RunOptions))
-    arguments_cls = dataclasses.make_dataclass("JudoArguments", [options_field, *groups])
+    ros2_field = (
+        "ros2",
+        Ros2Options,
+        field(default_factory=lambda: ros2 or Ros2Options()),
+    )  # --ros2.domain-id, ... (with --system ros2)
+    arguments_cls = dataclasses.make_dataclass("JudoArguments", [options_field, ros2_field, *groups])
     parsed = tyro.cli(
         arguments_cls,
         args=argv,
@@ -187,7 +216,7 @@ def parse(argv: list[str], defaults: dict[str, Any]) -> tuple[RunOptions, dict[s
     for kind, config in defaults.items():
         given = getattr(parsed, CONFIG_GROUPS[kind])
         configs[kind] = with_updates(config, {f.name: getattr(given, f.name) for f in fields(given)})
-    return parsed.options, configs
+    return dataclasses.replace(parsed.options, ros2=parsed.ros2), configs
 
 
 def _as_kind(config: Config | None, cls: type[ConfigT]) -> ConfigT | None:
@@ -197,8 +226,9 @@ def _as_kind(config: Config | None, cls: type[ConfigT]) -> ConfigT | None:
     return config
 
 
-def _peek_names(argv: list[str]) -> tuple[str, str]:
-    """The task and optimizer to run, read before tyro builds the options that depend on them.
+def _peek_names(argv: list[str]) -> tuple[str, str, LoadedConfig | None]:
+    """The task and optimizer to run, read before tyro builds the options that depend on them, and the loaded
+    --config file (None without one).
 
     Loads the --config file first (registering its classes and overrides), whose names stand in
     for --task and --optimizer when those are not given. Raises JudoError for a bad file.
@@ -207,11 +237,14 @@ def _peek_names(argv: list[str]) -> tuple[str, str]:
     peek.add_argument("--config", default=None)
     peek.add_argument("--task", default=None)
     peek.add_argument("--optimizer", default=None)
+    peek.add_argument("--plant-overrides", "--plant_overrides", nargs="*", default=())
     known, _ = peek.parse_known_args(argv)
     loaded = load_config(known.config) if known.config is not None else None
     task = known.task or (loaded and loaded.task) or RunOptions.task
     optimizer = known.optimizer or (loaded and loaded.optimizer) or RunOptions.optimizer
-    return task, optimizer
+    if known.plant_overrides:
+        set_model_overrides(task, parse_override_entries(known.plant_overrides), plant=True)
+    return task, optimizer, loaded
 
 
 def _peek_estimator(argv: list[str], task: str) -> tuple[str | None, bool]:
@@ -239,8 +272,9 @@ def _description() -> str:
         "The controller, optimizer and task options below belong to the chosen --task and --optimizer; "
         f"pass those first to see their fields. Tasks: {tasks}. Optimizers: {optimizers}. "
         f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...`, `{PROG} tune ...`, `{PROG} collect ...`, "
-        f"`{PROG} replay FILE.h5`, `{PROG} distill DATA.h5 --out POLICY.onnx` and `{PROG} gait-search --out "
-        "POLICY.onnx` (each with --help)."
+        f"`{PROG} replay FILE.h5`, `{PROG} distill DATA.h5 --out POLICY.onnx`, `{PROG} gait-search --out "
+        f"POLICY.onnx`, `{PROG} plant --task T` (judo's simulator as a ROS 2 robot process) and `{PROG} sysid LOG.h5 "
+        "--task T --params ... --out FITTED.toml` (each with --help)."
     )
 
 

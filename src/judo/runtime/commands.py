@@ -20,6 +20,7 @@ import numpy as np
 from judo.core.config import Config
 from judo.core.estimator import EstimatorConfig
 from judo.core.registry import CONFIG_KINDS, ConfigKind
+from judo.runtime.cycles import CycleCost
 from judo.runtime.records import LiveRecorder
 from judo.runtime.session import POLICY_OPTIMIZER, Session
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
@@ -34,6 +35,7 @@ __all__ = [
     "POLICY_OPTIMIZER",
     "AppPort",
     "ConfigKind",
+    "CycleCost",
     "FigureSource",
     "LiveFigures",
     "PlanSnapshot",
@@ -109,6 +111,11 @@ class AppPort(Protocol):
 
     def configs(self) -> dict[ConfigKind, Config]:
         """The latest accepted config of each kind."""
+        ...
+
+    def planning_cost(self) -> CycleCost:
+        """The planning cycle's size and estimated seconds under the latest configs, the last update's seconds, and
+        how long the cycle in flight has run once it is late."""
         ...
 
     def update_config(

@@ -8,6 +8,7 @@ the closed loop's latest reading on its worker thread (`run_in_executor`), so th
 rollouts, and publishes the plan, rewards, traces and timing under "plan" in the StateBuffer (the GUI's view).
 """
 
+import math
 import time
 
 from judo.core.controller import PlanningCancelled
@@ -15,6 +16,7 @@ from judo.core.errors import JudoError
 from judo.core.workers import DaemonThreadPool
 from judo.runtime.app_state import AppState, PendingConfigs
 from judo.runtime.control_clock import ControlClock
+from judo.runtime.cycles import PlanningCycle, cycle_size
 from judo.runtime.recordings import Recordings
 from judo.runtime.reports import Reports
 from judo.runtime.session import Session
@@ -89,17 +91,35 @@ class PlannerRunner:
     async def _plan(self, session: Session, reading: SystemState, start: float, resets: int) -> None:
         """One planning cycle from `reading`, read after `resets` plant resets, published under "plan"; a failed
         cycle is reported and skipped."""
-        controller, reports = session.controller, self._reports
+        controller, reports, state = session.controller, self._reports, self._state
+        with state.lock:
+            configs = state.configs  # what the cycle will take up (the planner is their only writer)
+            size = (
+                None
+                if configs.optimizer is None
+                else cycle_size(session.controller.task, configs.controller, configs.optimizer)
+            )
+            cycle = PlanningCycle(state.stop, size, math.nan if size is None else state.step_cost.estimate(size))
+        state.start_cycle(cycle)
         try:
-            plan = await self._state.stop.in_worker(self._executor, session.closed_loop.plan, reading, self._state.stop)
-        except (PlanningCancelled, Stopping):
-            raise Stopping from None
+            plan = await state.stop.in_worker(self._executor, session.closed_loop.plan, reading, cycle)
+        except Stopping:
+            raise
+        except PlanningCancelled:
+            if state.stop.is_set():
+                raise Stopping from None
+            reports.report(
+                f"planning cycle cancelled after {cycle.elapsed():.1f} s: {cycle.reason}; the plan before stays"
+            )
+            return
         except JudoError as err:  # ConfigError, a bad reading: skip this cycle
             reports.failed("planner", f"planning cycle skipped: {err}", "warning")
             return
         except Exception as err:  # an exception in the user's reward or hooks
             reports.failed("planner", f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}")
             return
+        finally:
+            state.start_cycle(None)
         if plan is None:  # no finite reward, or non-finite knots: the plan before stays in force
             reports.failed("planner", f"planning cycle skipped: {session.closed_loop.last_failure}", "warning")
             return
@@ -108,6 +128,10 @@ class PlannerRunner:
         rewards = controller.rewards
         assert controller.nominal_knots is not None  # set by every completed cycle
         self._stats.record_plan(start, plan_time, float(rewards[0]) if len(rewards) else float("nan"))
+        if size is not None:
+            state.step_cost.record(size, plan_time)
+        if cycle.late():  # the status line counted its time: say it is over
+            reports.report(f"planned in {plan_time:.1f} s: {reports.running()}")
         snapshot = PlanSnapshot(
             session.generation, reading.time, controller.nominal_knots, rewards, controller.traces, plan_time, resets
         )

@@ -97,7 +97,7 @@ class PlantRunner:
     def _drive_plant(self) -> None:
         """The plant thread: step the plant at real-time pace until a stop; halt it on a pause and at the end."""
         generation = -1
-        origin = last_wall = 0.0
+        origin, last_wall = 0.0, time.perf_counter()
         steps_done = 0
         paced = halted = False
         session = self._state.session
@@ -114,11 +114,12 @@ class PlantRunner:
                         halted = self._halt(session, "paused")
                     paced = False
                     self._state.stop.wait(IDLE_POLL)
+                    last_wall = time.perf_counter()  # paused time is not run time
                     continue
                 halted = False
                 now = time.perf_counter()
-                if not paced:
-                    origin, last_wall, steps_done, paced = now, now, 0, True
+                if not paced:  # a wait for the planner stays in the run's wall time: the real-time factor shows it
+                    origin, steps_done, paced = now, 0, True
                 dt = session.system.timestep
                 due = int((now - origin) / dt) + 1 - steps_done
                 max_steps = max(1, round(MAX_CATCH_UP / dt))

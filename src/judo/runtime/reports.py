@@ -24,6 +24,10 @@ class Reports:
         """Show `message` (each message logged at most once every few seconds)."""
         self.line.report(message, level)
 
+    def progress(self, message: str, level: Level = "info") -> None:
+        """Show `message` without writing it to the log (a count that changes every second)."""
+        self.line.report(message, level, log=False)
+
     def failed(self, part: str, message: str, level: Level = "error") -> None:
         """`part` (e.g. "planner") failed; it stays in trouble until it recovers."""
         self.line.failed(part, message, level)
@@ -33,9 +37,15 @@ class Reports:
         self.line.recovered(part, f"{news}: {self.running()}")
 
     def running(self) -> str:
-        """'running TASK with OPTIMIZER'."""
+        """'running TASK with OPTIMIZER', and ', planning with a fitted model (body_mass.pole, ...)' where the
+        planning model has model overrides ([model_overrides.TASK], e.g. sysid's fitted.toml)."""
         session = self._state.session
-        return f"running {session.task_name} with {session.optimizer_name}"
+        message = f"running {session.task_name} with {session.optimizer_name}"
+        fitted = session.controller.task.model_overrides
+        if fitted:
+            fields = ", ".join(f"{field}.{element}" for field, values in fitted.items() for element in values)
+            message += f", planning with a fitted model ({fields})"
+        return message
 
     def on_watchdog(self, reason: str | None) -> None:
         """The closed loop's watchdog tripped (`reason`) or recovered (None): say so once per episode."""

@@ -23,6 +23,7 @@ from judo.runtime.closed_loop import ClosedLoop
 from judo.runtime.estimator_thread import EstimatorThread
 from judo.runtime.sensing import PerType, SensedSystem
 from judo.runtime.system import MujocoSystem, System, SystemState
+from judo.runtime.system_calls import check_reading
 
 Observe = Literal["state", "sensors"]
 """What the simulated plant serves: its full state, or only the task's measured sensors (rehearsed sensing)."""
@@ -197,7 +198,7 @@ def choose_estimator(
     """
     name = sensing.estimator
     if reading is None and (name is not None or not isinstance(system, MujocoSystem)):
-        reading = system.read_state()
+        reading = check_reading(system, system.read_state())
     if name is None and not isinstance(system, MujocoSystem):  # the simulator reads its full state
         assert reading is not None
         name = default_estimator_name(reading, task)

@@ -37,11 +37,14 @@ class StatusLine:
         self._logged_at: dict[str, float] = {}
         self.trouble: set[str] = set()
 
-    def report(self, message: str, level: Level = "info") -> None:
-        """Show `message` and write it to the log (each message at most once every REPEAT_LOG_INTERVAL s)."""
+    def report(self, message: str, level: Level = "info", log: bool = True) -> None:
+        """Show `message` and write it to the log (each message at most once every REPEAT_LOG_INTERVAL s; never
+        without `log`, for a count that changes every second)."""
         with self._lock:
             self.status = Status(message, level, self.status.count + 1)
             now = time.monotonic()
+            if not log:
+                return
             if now - self._logged_at.get(message, -math.inf) < REPEAT_LOG_INTERVAL:
                 return
             if len(self._logged_at) >= 64:  # forget messages not logged lately, so the table stays small

@@ -21,6 +21,7 @@ from collections.abc import Callable, Coroutine
 from typing import Any
 
 from judo.runtime.app_state import AppState
+from judo.runtime.cycles import seconds_text
 from judo.runtime.frontend import Frontend
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
@@ -118,13 +119,19 @@ class Supervisor:
         state.session.close()
 
     async def _watch_plant(self) -> None:
-        """Report a System call that has blocked longer than `system_call_limit` (once per block) and halt the
-        robot where the System offers a halt; report when it returns. Ends on a stop."""
+        """Report a call into a user's System that has blocked longer than `system_call_limit` (once per block) and
+        halt the robot where the System offers a halt; report when it returns. Show a late planning cycle's time.
+        Ends on a stop."""
         state, reports = self._state, self._reports
         reported: tuple[str, float] | None = None
+        late: tuple[object, int] | None = None  # the late cycle and the whole seconds last shown of it
         while not state.stop.is_set():
-            calls = state.session.closed_loop.calls
-            blocked = calls.blocked(self._system_call_limit)
+            late = self._show_late_cycle(late)
+            session = state.session
+            calls = session.closed_loop.calls
+            # judo's own simulator never hangs in a call: a late step there is this process busy elsewhere (a page
+            # that connects is sent the whole scene), not a driver to halt
+            blocked = None if session.simulated is not None else calls.blocked(self._system_call_limit)
             if blocked is not None and reported is None:
                 reported = blocked
                 halting = calls.offers_halt()
@@ -142,6 +149,22 @@ class Supervisor:
                 reports.report("the plant thread ended unexpectedly; stopping", "error")
                 state.stop.set()
             await state.stop.sleep(PLANT_WATCH_PERIOD)
+
+    def _show_late_cycle(self, shown: tuple[object, int] | None) -> tuple[object, int] | None:
+        """Count a late planning cycle's seconds on the status line, once a second (logged once per cycle)."""
+        cycle = self._state.cycle
+        if cycle is None or not cycle.late() or cycle.is_set():
+            return shown
+        seconds = int(cycle.elapsed())
+        if shown is not None and shown == (cycle, seconds):
+            return shown
+        size = "" if cycle.size is None else f" ({cycle.size}, est. {seconds_text(cycle.estimate)})"
+        message = f"planning: {seconds} s so far{size}; Pause, Reset task or a smaller setting cancels it"
+        if shown is None or shown[0] is not cycle:
+            self._reports.report(message, "warning")
+        else:
+            self._reports.progress(message, "warning")
+        return cycle, seconds
 
     def _halt_quietly(self) -> None:
         try:

@@ -87,7 +87,8 @@ class MujocoSystem(System):
 
     @classmethod
     def from_task(cls, task: Task, seed: int | None = None) -> "MujocoSystem":
-        """The simulated plant of `task`: a new instance of its class sharing its config, reset to its start.
+        """The simulated plant of `task`: a new instance of its class sharing its config, reset to its start, with
+        `task.plant_overrides` set on its plant model (never `task.model_overrides`: the plant is the MJCF's).
 
         The one seeding rule of every simulated plant: the plant's `rng` is seeded with
         [seed, PLANT_STREAM] (a stream apart from the controller's), so the same seed gives the same
@@ -95,6 +96,10 @@ class MujocoSystem(System):
         arguments, as every registered task is.
         """
         plant: Task = new_task(type(task))
+        if task.plant_overrides:  # only the plant's: the planning model's overrides are the controller's
+            from judo.core.model_overrides import override_task_models
+
+            override_task_models(plant, {}, task.plant_overrides)
         plant.config = task.config
         plant.rng = np.random.default_rng(None if seed is None else [seed, PLANT_STREAM])
         plant.reset()
@@ -161,6 +166,17 @@ class MujocoSystem(System):
             raise SimulationDiverged(
                 f"simulation of {type(self.task).__name__} diverged at t={start_time:.3f} s; reset the task"
             )
+
+
+def missing_halt(system: System) -> str | None:
+    """The start-up warning for a user System without its own `halt()`, or None when it has one."""
+    if type(system).halt is not System.halt:
+        return None
+    return (
+        f"your System {type(system).__name__} defines no halt(): while a call into it blocks, nothing reaches the "
+        "robot, which keeps its last action until the call returns; define halt() to bring it to rest from another "
+        "thread (docs/hardware.md)"
+    )
 
 
 class DynamicsSystem(MujocoSystem):

@@ -39,6 +39,21 @@ class SystemCallError(JudoError):
         return "apply" not in self.failed and "step" not in self.failed
 
 
+class SystemReadingError(JudoError, TypeError):
+    """A System's `read_state()` returned something other than a SystemState."""
+
+
+def check_reading(system: System, reading: Any) -> SystemState:
+    """`reading`, which `system.read_state()` returned, if it is a SystemState; else SystemReadingError (one line,
+    naming the System's class, the method and the expected type)."""
+    if not isinstance(reading, SystemState):
+        raise SystemReadingError(
+            f"{type(system).__name__}.read_state() returned {type(reading).__name__}; expected a judo.SystemState "
+            "(state, time, metadata, sensors)"
+        )
+    return reading
+
+
 class SystemCalls:
     """Makes calls into `system` one gate at a time; safe to use from several threads.
 
@@ -64,7 +79,7 @@ class SystemCalls:
             self.in_flight = None
 
     def read_state(self) -> SystemState:
-        return self._call("read_state")
+        return check_reading(self.system, self._call("read_state"))
 
     def apply(self, action: np.ndarray) -> None:
         self._call("apply", action)

@@ -2,7 +2,7 @@
 (an ONNX graph this module writes, nothing downloaded) turns target and state into the push, every 2 steps.
 
 The same hierarchy as a quadruped planned over its locomotion policy (judo.core.low_level), on a model small
-enough to test: the rollouts and the simulated plant both run the policy on onnxruntime (the judo[policy] extra).
+enough to test: the rollouts and the simulated plant both run the policy on onnxruntime (a core dependency).
 """
 
 import atexit
@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from judo.core.errors import import_extra
 from judo.core.low_level import LowLevel
 from judo.core.onnx_policy import OnnxPolicy, write_linear_policy
 from judo.tasks.cartpole import MODEL_PATH, Cartpole
@@ -51,7 +52,11 @@ class CartpolePD(Cartpole):
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
-        self._low_level = LowLevel(OnnxPolicy(pd_policy_path()), command_range=[TARGET_RANGE], every=EVERY)
+        feature = "task cartpole_pd (its PD policy, written and run with onnx)"
+        import_extra("onnx", feature, "policy")  # the PD law is written as ONNX before onnxruntime loads it
+        self._low_level = LowLevel(
+            OnnxPolicy(pd_policy_path(), feature=feature), command_range=[TARGET_RANGE], every=EVERY
+        )
 
     def low_level(self) -> LowLevel:
         return self._low_level

@@ -5,7 +5,7 @@ models/policies/quadruped_locomotion.onnx, docs/tasks.md) turns the command into
 inside every rollout and on the plant (judo.core.low_level), as the seed paper's Spot tasks plan over an RL policy.
 
 Pass your own as `QuadrupedNavigate(policy_path=...)`: it gets quadruped_velocity's 35-value observation (with the
-gait's clock, from each rollout's sim time). The policy runs on onnxruntime: the judo[policy] extra.
+gait's clock, from each rollout's sim time). The policy runs on onnxruntime, a core dependency.
 """
 
 from dataclasses import dataclass
@@ -83,7 +83,7 @@ class QuadrupedNavigate(WalkToGoalBase[QuadrupedNavigateConfig]):
     ) -> None:
         super().__init__(model_path, sim_model_path)
         self._low_level = LowLevel(
-            OnnxPolicy(policy_path),
+            OnnxPolicy(policy_path, feature="task quadruped_navigate (its shipped locomotion policy)"),
             command_range=COMMAND_RANGE,
             every=EVERY,
             observation=self.locomotion_observation,

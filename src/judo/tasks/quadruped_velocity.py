@@ -191,6 +191,13 @@ class QuadrupedVelocity(QuadrupedBase[QuadrupedVelocityConfig]):
         """{"velocity_command": (3,) the command in force}, for the planner's reward."""
         return {COMMAND_KEY: self.command.copy()}
 
+    def readout(self, system_metadata: dict[str, Any]) -> str | None:
+        """The command being tracked, e.g. 'command: forward 0.50 m/s · left 0.00 m/s · turn 0.30 rad/s'."""
+        if COMMAND_KEY not in system_metadata:
+            return None
+        vx, vy, yaw = (float(v) for v in system_metadata[COMMAND_KEY])
+        return f"command: forward {vx:.2f} m/s · left {vy:.2f} m/s · turn {yaw:.2f} rad/s"
+
     def commands_at(self, times: np.ndarray) -> np.ndarray:
         """(S, 3) the command in force at each of (S,) plant `times` (s), from `command_log`."""
         if not self.command_log:

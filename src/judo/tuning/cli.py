@@ -63,7 +63,7 @@ DESCRIPTION = (
     "cluster (--address). The study is stored in a database (SQLite by default), so the same command resumes "
     "it. Writes to --out: trials.csv, plots (PNG and HTML), summary.json, and best.toml, which "
     "`python -m judo --config` and `evaluate --config` read. With --observe sensors (--sensor-*, --estimator) "
-    "every episode plans from the task's measured sensors through the estimator. Needs the `tune` extra: pip install 'judo[tune]'."
+    "every episode plans from the task's measured sensors through the estimator. Needs the `tune` extra: pip install -e '.[tune]'."
 )
 PROBE_DURATION = 0.2
 """Seconds of sim time of the check episode run before the study, which also lists the task's metrics."""
@@ -144,6 +144,9 @@ class TuneArgs(SensingFlags):
     """Folder for trials.csv, the plots, summary.json and best.toml."""
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides."""
+    plant_overrides: Annotated[tuple[str, ...], tyro.conf.arg(metavar="FIELD.ELEMENT=VALUE")] = ()
+    """MjModel fields of the simulated plant only, by element name (tune for a plant unlike the planning model),
+    e.g. body_mass.pole=0.13; after the --config file's [plant_overrides.TASK] (docs/sysid.md)."""
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range or a name that is not registered."""
@@ -228,6 +231,10 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     cluster.import_ray()
     apply_config_file(args.config)
     args.validate()
+    if args.plant_overrides:  # checked now against the plant, in one line
+        from judo.core.model_overrides import check_model_overrides, parse_override_entries
+
+        check_model_overrides(make_task(args.task).sim_model, parse_override_entries(args.plant_overrides))
     configs = default_configs(args.task, args.optimizer)
     fixed = parse_fixed(args.fix, configs)
     apply_values(configs, fixed)  # a pinned value the configs refuse fails now, not in every trial
@@ -250,6 +257,7 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
         maximize=objective.direction == "maximize",
         sensing=args.sensing(),
         first_seed=args.first_seed,
+        plant_overrides=args.plant_overrides,
     )
     target = args.trials
     if args.sampler == "grid":

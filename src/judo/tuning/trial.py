@@ -38,6 +38,7 @@ class TrialSpec:
         maximize: whether the metric is better higher (which condition is the worst).
         sensing: how every episode's plant is observed and estimated (--observe, --sensor-*, --estimator).
         first_seed: the seed of each condition's first episode (tune --first-seed).
+        plant_overrides: --plant-overrides entries (FIELD.ELEMENT=VALUE), the simulated plant's model fields.
     """
 
     task: str
@@ -55,6 +56,7 @@ class TrialSpec:
     maximize: bool = True
     sensing: Sensing = field(default_factory=Sensing)
     first_seed: int = 0
+    plant_overrides: tuple[str, ...] = ()
 
     def seed_range(self) -> range:
         """The seeds every condition of a trial runs: first_seed to first_seed + seeds - 1."""
@@ -107,6 +109,7 @@ def run_seeded_episodes(
         spec.config_file,
         num_workers=spec.num_workers,
         sensing=spec.sensing,
+        plant_overrides=spec.plant_overrides,
     )
     return [run_seeded_episode(episode, seed) for seed in seeds]
 

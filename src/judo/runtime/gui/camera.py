@@ -172,6 +172,26 @@ def frame_points(model: mujoco.MjModel, points: np.ndarray, aspect: float = VISI
     return look_at - distance * forward, look_at
 
 
+def distance_to_see(offset: np.ndarray, look_at: np.ndarray, points: np.ndarray, aspect: float = VISIBLE_ASPECT):
+    """The camera's distance from `look_at` along its view, `offset` (3,) = position - look_at, kept unless some
+    of (n, 3) `points` (the goals) would then project beyond FRAMING_FILL of the view: then the distance that
+    brings them all within it. The view's direction and look-at stay (a zoom out, never in)."""
+    distance = float(np.linalg.norm(offset))
+    if len(points) == 0 or distance < 1e-9:
+        return distance
+    forward = -offset / distance
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    if np.linalg.norm(right) < 1e-9:  # looking straight down or up: any horizontal axis will do
+        right = np.array([1.0, 0.0, 0.0])
+    right = right / np.linalg.norm(right)
+    up = np.cross(right, forward)
+    offsets = np.asarray(points, dtype=float) - look_at
+    across, along, depth = np.abs(offsets @ right), np.abs(offsets @ up), offsets @ forward
+    tan_y = FRAMING_FILL * np.tan(VERTICAL_FOV / 2)
+    needed = np.maximum(across / (tan_y * aspect), along / tan_y) - depth  # (n,) each point's distance
+    return max(distance, float(needed.max()))
+
+
 def model_camera(model: mujoco.MjModel, data: mujoco.MjData, look_distance: float):
     """(position (3,), look_at (3,)) of the model's first camera, or None if it has none.
 

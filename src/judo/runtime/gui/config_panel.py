@@ -1,7 +1,7 @@
 """A GUI folder of widgets generated from a config dataclass, one widget per field.
 
     int, float   -> slider, over the field's `@slider` range or a default one around the value
-    float over decades (log range) -> text box in real units, and a slider over log10 under it
+    float over decades (log range) -> one text box in real units (typed: 1e-3), its range in the hint
     bool         -> checkbox
     Literal[...] -> dropdown of the literal's values
     str          -> text box
@@ -31,6 +31,9 @@ import viser
 from judo.core.config import Config, field_types
 from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import SliderRange, array_field_spec, slider_ranges
+from judo.core.policy_controller import POLICY_USES_FIELDS
+from judo.core.registry import ConfigKind
+from judo.runtime.commands import POLICY_OPTIMIZER
 from judo.runtime.gui.field_docs import field_docs
 
 EditFn = Callable[[dict[str, Any]], Config]
@@ -57,7 +60,8 @@ class ConfigPanel:
     (the caller reports why); if it is accepted beyond a slider's range, the range widens to show
     it. `show(config)` puts a config that changed elsewhere (reset, switch) into the widgets without
     calling `on_edit`. `ranges` ({field: SliderRange}) replaces the config class's own `@slider`
-    ranges, e.g. a wider num_rollouts on a GPU backend.
+    ranges, e.g. a wider num_rollouts on a GPU backend. The fields in `hidden` get no widget (fields of no use
+    to the session, e.g. policy_samples without a proposal policy).
     """
 
     def __init__(
@@ -69,6 +73,7 @@ class ConfigPanel:
         order: float,
         ranges: dict[str, SliderRange] | None = None,
         on_refused: ReportFn | None = None,
+        hidden: tuple[str, ...] = (),
     ) -> None:
         self._on_edit = on_edit
         self._on_refused = on_refused
@@ -88,6 +93,8 @@ class ConfigPanel:
         ranges = {**slider_ranges(cls), **(ranges or {})}
         with self.folder:
             for f in fields(config):
+                if f.name in hidden:
+                    continue
                 self._add_field(
                     gui, f.name, types[f.name], getattr(config, f.name), ranges.get(f.name), docs.get(f.name)
                 )
@@ -172,31 +179,18 @@ class ConfigPanel:
             self._bind(name, handles, lambda values: np.array(values, dtype=float), lambda v: [float(x) for x in v])
 
     def _add_log(self, gui: viser.GuiApi, label: str, value: float, rng: SliderRange, doc: str) -> list[Any]:
-        """A box for the value in real units, and under it a slider over log10 marked at each power of ten.
+        """One box for the value in real units (a field over decades: typed, e.g. 1e-3), its range in the hint.
 
         The box is a text box: a page sends whatever is typed there, so text that is not a number is
         refused with a message and replaced by the value in force (a page's number box sends nothing
         for it and is left blank).
         """
-        low, high = math.log10(min(rng.min, value)), math.log10(max(rng.max, value))
-        number = gui.add_text(label, format_number(value), hint=doc)
-        decades = range(math.ceil(low - 1e-9), math.floor(high + 1e-9) + 1)
-        marks = tuple((float(d), f"{10.0**d:g}") for d in decades)
-        log_slider = gui.add_slider(
-            f"{label} (log10)", min=low, max=high, step=0.01, initial_value=round(math.log10(value), 2), marks=marks
-        )
-        return [number, log_slider]
+        span = f"{format_number(min(rng.min, value))} to {format_number(max(rng.max, value))}"
+        return [gui.add_text(label, format_number(value), hint=f"{doc} (usually {span}; type e.g. 1e-3)")]
 
     def _decode_log(self, name: str, values: list[Any]) -> float:
-        """The value a log field's widgets ask for: the box's if it changed, else 10**slider.
-
-        Raises ConfigError when the box holds text that is not a number.
-        """
-        number, exponent = parse_number(name, values[0]), float(values[1])
-        in_force = float(getattr(self._config, name))
-        if number != in_force or in_force <= 0 or abs(exponent - round(math.log10(in_force), 2)) < 1e-9:
-            return number
-        return float(f"{10.0**exponent:.3g}")
+        """The value a log field's box asks for. Raises ConfigError when it holds text that is not a number."""
+        return parse_number(name, values[0])
 
     def _add_array(self, gui: viser.GuiApi, name: str, value: np.ndarray, doc: str) -> list[Any]:
         spec = array_field_spec(type(self._config), name)
@@ -281,8 +275,8 @@ def field_hint(name: str, doc: str | None) -> str:
 
 
 def encode_log(value: float) -> list[Any]:
-    """[value as text, log10(value) to the slider's 0.01 step] for a log field's box and slider."""
-    return [format_number(value), round(math.log10(value), 2) if value > 0 else -12.0]
+    """[value as text] for a log field's box."""
+    return [format_number(value)]
 
 
 def format_number(value: float) -> str:
@@ -328,3 +322,13 @@ def nice_step(span: float) -> float:
     raw = span / 100.0
     power = 10.0 ** math.floor(math.log10(raw))
     return max(m * power for m in (1.0, 2.0, 5.0) if m * power <= raw * (1 + 1e-9))
+
+
+def hidden_fields(session: Any, kind: ConfigKind, config: Config) -> tuple[str, ...]:
+    """The fields of `session`'s `kind` config that get no widget: while a policy drives, the controller fields
+    only an optimizer uses; without a proposal policy, policy_samples (every value but 0 would be refused)."""
+    if kind != "controller":
+        return ()
+    if session.optimizer_name == POLICY_OPTIMIZER:
+        return tuple(f.name for f in fields(config) if f.name not in POLICY_USES_FIELDS)
+    return () if getattr(session.controller, "proposal_policy", None) is not None else ("policy_samples",)

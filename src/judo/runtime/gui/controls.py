@@ -6,6 +6,7 @@ loops carry it out at their next iteration.
 
 import math
 
+import numpy as np
 import viser
 
 from judo.core.errors import JudoError
@@ -15,6 +16,8 @@ from judo.runtime.commands import POLICY_OPTIMIZER, AppPort, LiveFigures, Status
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
 NO_ESTIMATOR = "none"
 """The estimator dropdown's entry for planning from full-state readings as they are."""
+INFERENCE_WINDOW = 100
+"""Latest updates whose median the readout shows as a policy's inference time."""
 STATUS_PREFIX = {"info": "", "warning": "warning: ", "error": "error: "}
 
 
@@ -57,12 +60,14 @@ class Controls:
             "record",
             False,
             order=order + 0.47,
-            hint="Record every step, plan and config edit to judo-recording-TASK-TIME.h5 (needs judo[collect]); "
+            hint="Record every step, plan and config edit to judo-recording-TASK-TIME.h5 (needs judo-mpc[collect]); "
             "untick to write it, then: python -m judo replay FILE",
         )
         self.record.on_update(lambda event: self._toggle_recording(event))
         self.status = gui.add_markdown("", order=order + 0.5)
         self.readout = gui.add_markdown("", order=order + 0.6)
+        self.cost = gui.add_markdown("", order=order + 0.65)
+        self.task_readout = gui.add_markdown("", order=order + 0.67)  # the task's own line (`Task.readout`)
         self._shown_status: tuple[int, bool] = (-1, False)
         self._recording_seen: bool | None = None  # whether the app was recording at the last `show_recording`
         self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))
@@ -90,18 +95,28 @@ class Controls:
             self._shown_status = (status.count, paused)
             self.status.content = status_markdown(status, paused)
 
-    def show_readout(self, sim_time: float, figures: LiveFigures) -> None:
-        """Sim time, plan time, control rate and real-time factor as numbers ("-" before there is data)."""
+    def show_readout(self, sim_time: float, figures: LiveFigures, metadata: dict | None = None) -> None:
+        """Sim time, plan time, control rate and real-time factor as numbers ("-" before there is data), the
+        planning cycle's cost, and the task's own line from the plant's `metadata` (`Task.readout`)."""
 
         def shown(value: float, unit: str, digits: int) -> str:
             return f"{value:.{digits}f}{unit}" if math.isfinite(value) else "-"
 
-        policy = self.app.policy_name if self.app.session.optimizer_name == POLICY_OPTIMIZER else None
-        update = "plan" if policy is None else f"policy {policy} · inference"  # its update is one `act`
+        session = self.app.session
+        policy = self.app.policy_name if session.optimizer_name == POLICY_OPTIMIZER else None
+        if policy is None:
+            update = f"plan {shown(figures.plan_time_ms, ' ms', 1)}"
+        else:  # the span `evaluate` reports: the closed loop's update (observation, `act`, plan), its median
+            recent = session.closed_loop.update_ms[-INFERENCE_WINDOW:]
+            median = 1e3 * float(np.median(recent)) if recent else math.nan
+            update = f"policy {policy} · inference {shown(median, ' µs', 0)} (median, as evaluate)"
         self.readout.content = (
-            f"sim time {shown(sim_time, ' s', 1)} · {update} {shown(figures.plan_time_ms, ' ms', 1)} · "
+            f"sim time {shown(sim_time, ' s', 1)} · {update} · "
             f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor {shown(figures.real_time_factor, '', 2)}"
         )
+        self.cost.content = self.app.planning_cost().line().replace(" x ", " × ")
+        line = session.controller.task.readout(metadata or {})
+        self.task_readout.content = "" if line is None else markdown_text(line)
 
     def _toggle_recording(self, event: viser.GuiEvent) -> None:
         if event.client is None:
@@ -141,15 +156,24 @@ class Controls:
     def _switch(self, event: viser.GuiEvent, command, dropdown: viser.GuiDropdownHandle, what: str) -> None:
         if event.client is None:
             return
+        wanted = dropdown.value
         try:
-            command(dropdown.value)
+            command(wanted)
         except JudoError as err:
             self.app.report(f"{what} not switched: {err}", "error")
-            self.show_session()
+        else:
+            self.app.report(f"switching {what} to {wanted}...")
+        # the dropdowns name what runs: the session in use until the switch is carried out (`Gui._rebuild`)
+        self.show_session()
+
+
+def markdown_text(text: str) -> str:
+    """`text` on one line, with markdown's special characters escaped."""
+    return "".join("\\" + c if c in MARKDOWN_SPECIAL else c for c in text.replace("\n", " "))
 
 
 def status_markdown(status: Status, paused: bool = False) -> str:
     """The status line as markdown; warnings and errors are marked as such, and a paused app says so first."""
-    text = "".join("\\" + c if c in MARKDOWN_SPECIAL else c for c in status.message.replace("\n", " "))
+    text = markdown_text(status.message)
     state = "**paused** · " if paused and status.message != "paused" else ""
     return f"**status:** {state}{STATUS_PREFIX[status.level]}{text}"

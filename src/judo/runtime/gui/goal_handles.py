@@ -32,7 +32,12 @@ HANDLE_SCALE = 0.2
 HANDLE_SIZES = (0.06, 0.4)
 """Smallest and largest handle, in metres."""
 MOCAP_HANDLE_FRACTION = 0.7
-"""A mocap goal's handle reaches at most this fraction of its geoms' half-size, so it never hides the goal."""
+"""A mocap goal's handle reaches at most this fraction of its geoms' half-size, so it never hides the goal..."""
+MIN_HANDLE_FRACTION = 0.05
+"""...but never less than this fraction of the model's extent (about the camera's framing): a goal sphere of a few
+centimetres on a robot a metre long got a handle of 15 pixels, which a mouse could not grab."""
+HANDLE_LINE_WIDTH = 5.0
+"""Width of a handle's arrows and rings in pixels (viser's default 2.5 is hard to hit)."""
 
 _commands = ThreadPoolExecutor(max_workers=1, thread_name_prefix="judo-goal-drag")
 """Makes the app's commands for drags, one at a time in the order the drag messages came."""
@@ -40,12 +45,13 @@ _commands = ThreadPoolExecutor(max_workers=1, thread_name_prefix="judo-goal-drag
 
 def mocap_handle_size(model: mujoco.MjModel, body: int, scale: float) -> float:
     """The handle size for mocap `body`: `scale`, shrunk to MOCAP_HANDLE_FRACTION of the half-size of
-    the body's largest geom (its bounding box), so a goal cube stays visible around its handle."""
+    the body's largest geom (its bounding box), so a goal cube stays visible around its handle, and grown to
+    MIN_HANDLE_FRACTION of the model's extent, so a small goal's handle can still be grabbed."""
     geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == body]
     if not geoms:
         return scale
     half = float(model.geom_aabb[geoms, 3:].max())
-    return min(scale, MOCAP_HANDLE_FRACTION * half)
+    return max(min(scale, MOCAP_HANDLE_FRACTION * half), MIN_HANDLE_FRACTION * float(model.stat.extent))
 
 
 class GoalHandles:
@@ -116,6 +122,7 @@ class GoalHandles:
         control = self.scene.add_transform_controls(
             f"/goals/{key}",
             scale=scale,
+            line_width=HANDLE_LINE_WIDTH,
             active_axes=axes,
             disable_rotations=not turns,
             disable_sliders=not all(axes[:2]),

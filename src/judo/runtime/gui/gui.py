@@ -17,8 +17,8 @@ from judo.core.dynamics import drawn_model, drawn_qpos
 from judo.core.errors import JudoError
 from judo.core.fields import SliderRange
 from judo.runtime.commands import AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
-from judo.runtime.gui.camera import Follower, focus_body_id
-from judo.runtime.gui.config_panel import ConfigPanel
+from judo.runtime.gui.camera import Follower, distance_to_see, focus_body_id
+from judo.runtime.gui.config_panel import ConfigPanel, hidden_fields
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.goal_handles import GoalHandles
 from judo.runtime.gui.plots import Plots, estimation_error
@@ -86,24 +86,37 @@ class Gui:
         return None if offset is None else (self._look_at + offset, self._look_at.copy())
 
     def update(self) -> None:
-        """Follow the app: rebuild after a switch, refresh widgets, pose the scene, draw traces and plots."""
+        """Follow the app: rebuild after a switch, refresh widgets, pose the scene, draw traces and plots.
+
+        The status line and the pause button are refreshed whatever happens to the rest of the frame (a frame
+        skipped while a switch is under way, or one that fails), so a page never shows a stale status."""
+        try:
+            self._update()
+        finally:
+            self.controls.update()
+
+    def _update(self) -> None:
         app = self.app
         session = app.session
         state: Snapshot[SystemSnapshot] | None = app.buffer.latest("system")
         if session.generation != self._generation:
             if state is None or state.value.generation != session.generation:
                 return  # the new plant has not published its first state yet
-            self._rebuild(state.value.reading)
-        if app.external_edits != self._external_edits:
-            self._external_edits = app.external_edits
+            if not self._rebuild(session, state.value.reading):
+                return  # another switch came meanwhile: the next frame builds for it
+        edits = app.external_edits
+        configs = app.configs()
+        if app.session.generation != self._generation:  # these configs may be the next session's
+            return
+        if edits != self._external_edits:
+            self._external_edits = edits
             redraw, self.controls.redraw_requested = self.controls.redraw_requested, False
-            for kind, config in app.configs().items():
+            for kind, config in configs.items():
                 self.panels[kind].show(config, redraw=redraw)
             estimator = session.closed_loop.estimator
             if self.estimator_panel is not None and estimator is not None:
                 self.estimator_panel.show(estimator.config, redraw=redraw)
         assert self.scene is not None and state is not None
-        configs = app.configs()
         if configs["task"] is not self._shown_task_config:
             self._shown_task_config = configs["task"]
             self.scene.set_markers(configs["task"])
@@ -127,7 +140,7 @@ class Gui:
         if plan is not None and plan.version != self._plan_version and plan.value.generation == self._generation:
             self._plan_version = plan.version
             if plan.value.resets == self._resets_done:  # never a plan of the plant as it was before a reset
-                self.scene.set_traces(plan.value.traces)
+                self.scene.set_traces(plan.value.traces, anchored=True)
         now = time.perf_counter()
         if now - self._last_plot >= PLOT_PERIOD:
             self._last_plot = now
@@ -137,32 +150,35 @@ class Gui:
             if truth is not None and state.value.generation == self._generation:
                 errors = estimation_error(app.session.controller.task.model, truth, state.value.reading.state)
                 self.plots.add_estimation(now - self._start, *errors)
-            self.controls.show_readout(state.value.reading.time, figures)
+            self.controls.show_readout(state.value.reading.time, figures, state.value.reading.metadata)
         for panel in self.panels.values():
             panel.flush()
         if self.estimator_panel is not None:
             self.estimator_panel.flush()
-        self.controls.update()
 
     def close(self) -> None:
         """Stop the server."""
         self.server.stop()
 
-    def _rebuild(self, reading: SystemState) -> None:
-        """New config panels for the session in use, and for a new task a new scene whose camera frames
-        the plant's `reading`."""
+    def _rebuild(self, session: Any, reading: SystemState) -> bool:
+        """New config panels for `session`, and for a new task a new scene whose camera frames the plant's
+        `reading`; False (nothing changed) if another session replaced it meanwhile."""
         app = self.app
-        session, configs = app.session, app.configs()
+        configs = app.configs()
+        if app.session is not session:  # the configs read may be of the session after it
+            return False
         self._external_edits = app.external_edits
         for panel in [*self.panels.values(), *([self.estimator_panel] if self.estimator_panel else [])]:
             panel.remove()
-        self.estimator_panel = None
+        self.panels, self.estimator_panel = {}, None
         if session.task_name != self._scene_task:  # a new model; a new optimizer keeps scene and camera
-            self._scene_task = session.task_name
+            self._scene_task = None  # until the new scene is built: a frame that fails here builds it again
             if self.scene is not None:
                 self.scene.remove()
+                self.scene = None
             if self.goals is not None:
                 self.goals.remove()
+                self.goals = None
             if self.ghost is not None:
                 self.ghost.remove()
                 self.ghost = None
@@ -176,6 +192,7 @@ class Gui:
             )
             self.follower = Follower(model, focus_body_id(model, type(task).focus_body))
             self.frame_task()
+            self._scene_task = session.task_name
         self._shown_task_config = None
         assert self.scene is not None
         self.scene.set_traces(np.zeros((0, 0, 0, 3)))  # a new optimizer: the old one's plan and figures go
@@ -196,6 +213,7 @@ class Gui:
                 10 * order,
                 ranges.get(kind),
                 on_refused=lambda why: self.app.report(f"edit refused: {why}", "warning"),
+                hidden=hidden_fields(session, kind, config),
             )
             for order, (kind, config) in enumerate(configs.items(), start=1)
         }
@@ -205,6 +223,7 @@ class Gui:
         # viser keeps every removed widget's and scene node's tombstone for clients that connect later,
         # and purges them only when one does: purge now, or each switch would grow the app's memory.
         purge_removed(self.server)
+        return True
 
     def _show_estimator(self, session: Any, reading: SystemState) -> None:
         """The estimator's config panel, and while it runs on the app's own simulation (the snapshots carry
@@ -281,6 +300,7 @@ class Gui:
         if not self.controls.follow.value or not np.any(np.abs(delta) > 1e-6):
             return
         sent = np.array(self._sent).reshape(-1, 2, 3)  # (n, 2, 3) position and look-at of each pose sent
+        goals = self.scene.goal_positions()
         for client in self.server.get_clients().values():
             camera = client.camera
             position, look_at = np.asarray(camera.position), np.asarray(camera.look_at)
@@ -289,6 +309,9 @@ class Gui:
                 np.linalg.norm(sent[:, 1] - look_at, axis=1) < 1e-3
             )
             offset = kept if kept is not None and ours else position - look_at
+            if goals is not None:  # pull back until the goals are in view too
+                length = float(np.linalg.norm(offset))
+                offset = offset * (distance_to_see(offset, self._look_at, goals) / length) if length else offset
             self._offsets[client.client_id] = offset
             self._sent.append(np.stack([self._look_at + offset, self._look_at]))
             with client.atomic():

@@ -13,6 +13,7 @@ import viser
 
 from judo.core.config import Config
 from judo.core.fields import array_field_spec
+from judo.core.model import trace_sensor_columns
 from judo.runtime.gui.camera import frame_points, model_camera, reach_points
 
 logger = logging.getLogger("judo.gui")
@@ -51,6 +52,8 @@ class SceneView:
         self.geom_nodes: dict[int, Any] = {}
         self.markers: dict[str, Any] = {}
         self.floors: dict[int, tuple[Any, float]] = {}
+        columns = trace_sensor_columns(model)  # the traces' sensors, in the order of their columns
+        self._trace_sensors = [int(np.flatnonzero(model.sensor_adr == c)[0]) for c in columns[::3]]
         jointed = [b for b in range(1, model.nbody) if model.body_weldid[b] != 0]
         self._moving = (
             jointed if ghost else [b for b in range(1, model.nbody) if b in jointed or model.body_mocapid[b] >= 0]
@@ -113,8 +116,13 @@ class SceneView:
             if np.any(shift != np.asarray(frame.position)[:2]):
                 frame.position = (float(shift[0]), float(shift[1]), 0.0)
 
-    def set_traces(self, traces: np.ndarray) -> None:
-        """Draw (num_traces, T, num_sensors, 3) trace positions as polylines, index 0 (the nominal) in red."""
+    def set_traces(self, traces: np.ndarray, anchored: bool = False) -> None:
+        """Draw (num_traces, T, num_sensors, 3) trace positions as polylines, index 0 (the nominal) in red.
+
+        `anchored` moves each sensor's traces to start where the scene draws that sensor now (the live GUI: a plan
+        is made from a reading some tens of milliseconds old, in which a trotting foot was centimetres from where
+        it is drawn); a replay draws them as recorded."""
+        traces = self._anchored(traces) if anchored else traces
         for index, (name, rgb, thickness) in enumerate(
             [("nominal", NOMINAL_TRACE_RGB, 0.012), ("samples", SAMPLE_TRACE_RGB, 0.005)]
         ):
@@ -125,6 +133,38 @@ class SceneView:
                 self.scene.remove_by_name(path)
                 continue
             self.scene.add_line_segments(path, points, rgb, thickness=thickness)
+
+    def _anchored(self, traces: np.ndarray) -> np.ndarray:
+        """`traces` (num_traces, T, num_sensors, 3) shifted per sensor so that each trace's first point is the
+        sensor's position in the scene as posed (a framepos of a site, body or geom in the world frame)."""
+        drawn = self._trace_positions()
+        if traces.size == 0 or drawn is None or drawn.shape != traces.shape[2:]:
+            return traces
+        return traces + (drawn - traces[0, 0])[None, None]
+
+    def _trace_positions(self) -> np.ndarray | None:
+        """(num_trace_sensors, 3) where the trace sensors' objects are drawn now; None if one is not in the world
+        frame or not of a site, body or geom."""
+        model, data = self.model, self.data
+        places = {
+            mujoco.mjtObj.mjOBJ_SITE: data.site_xpos,
+            mujoco.mjtObj.mjOBJ_BODY: data.xipos,
+            mujoco.mjtObj.mjOBJ_XBODY: data.xpos,
+            mujoco.mjtObj.mjOBJ_GEOM: data.geom_xpos,
+        }
+        positions = []
+        for sensor in self._trace_sensors:
+            where = places.get(mujoco.mjtObj(model.sensor_objtype[sensor]))
+            if where is None or model.sensor_reftype[sensor] != mujoco.mjtObj.mjOBJ_UNKNOWN:
+                return None
+            positions.append(where[model.sensor_objid[sensor]])
+        return np.array(positions).reshape(-1, 3)
+
+    def goal_positions(self) -> np.ndarray | None:
+        """(n, 3) where the goals are drawn: the mocap bodies and the config's markers; None when there are none."""
+        mocap = [self.data.xpos[b] for b in range(1, self.model.nbody) if self.model.body_mocapid[b] >= 0]
+        points = mocap + [np.asarray(marker.position, dtype=float) for marker in self.markers.values()]
+        return np.array(points).reshape(-1, 3) if points else None
 
     def set_markers(self, config: Config) -> None:
         """A sphere at the first three entries of every `np_1d_field` with a `vis_name` (missing ones are 0)."""

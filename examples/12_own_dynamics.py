@@ -1,10 +1,10 @@
-"""10: a task on your own dynamics, no MJCF: a unicycle drives around a round obstacle to a goal.
+"""12: a task on your own dynamics, no MJCF: a unicycle drives around a round obstacle to a goal.
 
 `judo.DynamicsTask` takes the state's length, the control limits and the step; `dynamics` steps a batch of
 states in numpy. The Controller rolls it out in T vectorized calls and the plant steps the same equations
 (judo.core.dynamics), so the rest of judo (optimizers, evaluate, tune, the GUI) is unchanged.
 
-    python examples/10_own_dynamics.py
+    python examples/12_own_dynamics.py
 """
 
 from dataclasses import dataclass

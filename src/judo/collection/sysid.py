@@ -1,0 +1,388 @@
+"""Fit planning-model parameters to judo's logs with MuJoCo's own system identification (`mujoco.sysid`).
+
+A log (collect's HDF5, or a GUI recording in the same layout) holds each step's plant state and the action
+served during it. The fit cuts every episode into windows of K steps, rolls each window out from its logged
+start state under its logged actions on the planning model with candidate parameters, and minimises the
+normalised difference to the logged states (`mujoco.sysid`'s residual and least-squares optimizer). The
+parameters are named MjModel fields by element (judo.core.model_overrides), so the result is a
+[model_overrides.TASK] section that `--config` reads.
+
+mujoco.sysid (the `sysid` extra, `mujoco[sysid]`) is imported only by `fit`.
+"""
+
+import contextlib
+import io
+import json
+import logging
+import re
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from judo.collection.dataset import DatasetError, import_h5py
+from judo.core.errors import ConfigError, import_extra
+from judo.core.model_overrides import check_model_overrides, model_value, overridden
+from judo.core.task import Task
+
+EXTRA = "sysid"
+"""The optional extra holding mujoco.sysid's dependencies (`mujoco[sysid]`)."""
+EXCITED_REL_INTERVAL = 0.25
+"""A fitted parameter whose 95% confidence half-width exceeds this fraction of its value is not excited by the
+data: it is reported, not written."""
+
+
+@dataclass(frozen=True)
+class FitParameter:
+    """One parameter to fit: entry `index` of `element`'s row of the MjModel `field` (None: the leading entry, the
+    row's one value or, as MJCF reads friction="0.9" or gear="9.1", its first)."""
+
+    field: str
+    element: str
+    index: int | None = None
+
+    @property
+    def name(self) -> str:
+        """How the command line and the report name it: "body_mass.pole" or "geom_friction.cube[0]"."""
+        return f"{self.field}.{self.element}" + ("" if self.index is None else f"[{self.index}]")
+
+
+def parse_parameters(texts: list[str] | tuple[str, ...], model: mujoco.MjModel) -> list[FitParameter]:
+    """`--params` entries ("FIELD.ELEMENT" or "FIELD.ELEMENT[i]") checked against `model`: UnknownNameError for an
+    unknown field or element (listing the valid names), ConfigError for another form or an index out of range."""
+    parameters = []
+    for text in texts:
+        match = re.fullmatch(r"([a-z0-9_]+)\.([^\[\]]+)(?:\[(\d+)\])?", text)
+        if match is None:
+            raise ConfigError(f"--params takes FIELD.ELEMENT or FIELD.ELEMENT[i] (e.g. body_mass.pole), got {text!r}")
+        field, element, index = match.group(1), match.group(2), match.group(3)
+        check_model_overrides(model, {field: {element: 0.0}})  # the field and element exist
+        current = model_value(model, field, element)
+        if index is not None and int(index) >= current.size:
+            raise ConfigError(
+                f"--params {text}: {field}.{element} has {current.size} entries, index 0 to {current.size - 1}"
+            )
+        parameters.append(FitParameter(field, element, None if index is None else int(index)))
+    if not parameters:
+        raise ConfigError("--params needs at least one FIELD.ELEMENT to fit, e.g. body_mass.pole")
+    return parameters
+
+
+@dataclass
+class Episode:
+    """One logged episode: qpos (S, nq), qvel (S, nv) after each step and actions (S, nu) served during it."""
+
+    name: str
+    qpos: np.ndarray
+    qvel: np.ndarray
+    actions: np.ndarray
+
+
+def read_logs(paths: list[Path], task_name: str, model: mujoco.MjModel) -> list[Episode]:
+    """Every episode of the HDF5 logs at `paths` (collect's files, GUI recordings). Raises DatasetError, in one
+    line naming the file, for a file that is missing, empty, not HDF5 or corrupt, holds another task's episodes,
+    has no episodes, or an episode without actions or of other sizes than `model`."""
+    h5py = import_h5py("python -m judo sysid")
+    episodes = []
+    for path in paths:
+        if not path.is_file():
+            raise DatasetError(f"{path}: no such log file; give collect's .h5 files or GUI recordings")
+        if path.stat().st_size == 0:
+            raise DatasetError(f"{path}: the file is empty; give a log that collect or the GUI's recorder wrote")
+        try:
+            with h5py.File(path, "r") as file:
+                episodes.extend(_read_file(file, path, task_name, model))
+        except OSError as err:
+            raise DatasetError(f"{path}: not a readable HDF5 log ({str(err).splitlines()[0][:120]})") from None
+    return episodes
+
+
+def _read_file(file: Any, path: Path, task_name: str, model: mujoco.MjModel) -> list[Episode]:
+    data = file.get("data")
+    if data is None or "env_args" not in data.attrs:
+        raise DatasetError(f"{path}: not a judo log (no data group with env_args); give collect's or the GUI's files")
+    try:
+        env_args = json.loads(data.attrs["env_args"])
+    except (TypeError, ValueError):
+        raise DatasetError(f"{path}: its env_args are not JSON; the file is corrupt") from None
+    logged_task = env_args.get("task")
+    if logged_task != task_name:
+        raise DatasetError(f"{path}: a log of task {logged_task!r}, not of --task {task_name!r}")
+    step = env_args.get("plant_timestep")
+    if step is not None and not np.isclose(float(step), model.opt.timestep):
+        raise DatasetError(f"{path}: logged at a plant timestep of {step} s, the model steps {model.opt.timestep} s")
+    episodes = []
+    for name in sorted(data):
+        demo = data[name]
+        if "actions" not in demo:
+            raise DatasetError(f"{path}: episode {name} has no actions; sysid needs the actions served to the plant")
+        if "obs" not in demo or "qpos" not in demo["obs"] or "qvel" not in demo["obs"]:
+            raise DatasetError(f"{path}: episode {name} has no obs/qpos and obs/qvel")
+        qpos, qvel, actions = (
+            np.asarray(x, dtype=float) for x in (demo["obs/qpos"], demo["obs/qvel"], demo["actions"])
+        )
+        sizes = (qpos.shape[1:], qvel.shape[1:], actions.shape[1:])
+        if sizes != ((model.nq,), (model.nv,), (model.nu,)) or not len(qpos) == len(qvel) == len(actions):
+            raise DatasetError(
+                f"{path}: episode {name} has qpos, qvel, actions of widths {sizes}; the model needs "
+                f"({model.nq},), ({model.nv},), ({model.nu},) on every step"
+            )
+        episodes.append(Episode(f"{path.name}:{name}", qpos, qvel, actions))
+    if not episodes:
+        raise DatasetError(f"{path}: the log holds no episodes")
+    return episodes
+
+
+@dataclass
+class Windows:
+    """K-step windows cut from the episodes: each rolled out from its start state under its logged actions.
+
+    Attributes:
+        starts: (W, nq + nv) logged state before each window's first step.
+        controls: (W, K, nu) actions served during the window's steps.
+        measured: (W, K, nq + nv) logged state after each of the window's steps.
+    """
+
+    starts: np.ndarray
+    controls: np.ndarray
+    measured: np.ndarray
+
+
+def cut_windows(episodes: list[Episode], steps: int) -> Windows:
+    """Non-overlapping windows of `steps` steps from every episode (an episode's first row is a window's start
+    only, since the state before it is not logged); ConfigError where no episode is long enough for one."""
+    starts, controls, measured = [], [], []
+    for episode in episodes:
+        states = np.concatenate([episode.qpos, episode.qvel], axis=1)
+        for first in range(1, len(states) - steps + 1, steps):
+            starts.append(states[first - 1])
+            controls.append(episode.actions[first : first + steps])
+            measured.append(states[first : first + steps])
+    if not starts:
+        longest = max((len(e.qpos) for e in episodes), default=0)
+        raise ConfigError(f"--window of {steps} steps is longer than every logged episode (the longest has {longest})")
+    return Windows(np.array(starts), np.array(controls), np.array(measured))
+
+
+def prediction_error(model: mujoco.MjModel, windows: Windows) -> float:
+    """RMS over windows and steps of the difference between `model`'s K-step predictions and the logged states,
+    each state coordinate divided by its spread in the log (so angles, positions and velocities weigh alike)."""
+    from mujoco import rollout
+
+    state_size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    initial = np.zeros((len(windows.starts), state_size))
+    data = mujoco.MjData(model)
+    for row, start in enumerate(windows.starts):
+        data.qpos[:], data.qvel[:] = start[: model.nq], start[model.nq :]
+        mujoco.mj_getState(model, data, initial[row], mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    states, _ = rollout.rollout(model, data, initial, windows.controls)
+    qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)  # rows are [time, qpos, qvel, ...]
+    predicted = states[..., qpos_at : qpos_at + model.nq + model.nv]
+    error = (predicted - windows.measured) / _spread(windows)
+    return float(np.sqrt(np.mean(np.square(error))))
+
+
+def _spread(windows: Windows) -> np.ndarray:
+    """(nq + nv,) each state coordinate's standard deviation over the logged windows (1 where it never moves)."""
+    spread = windows.measured.reshape(-1, windows.measured.shape[-1]).std(axis=0)
+    return np.where(spread > 1e-9, spread, 1.0)
+
+
+@dataclass
+class FitResult:
+    """What a fit found.
+
+    Attributes:
+        parameters: the fitted parameters, in --params order.
+        planning: (P,) each parameter's value in the planning model before the fit.
+        fitted: (P,) each parameter's fitted value.
+        interval: (P,) the 95% confidence half-width of each (inf where the data do not determine it).
+        excited: (P,) whether the data determine each parameter (interval within EXCITED_REL_INTERVAL of it).
+        condition: cond(J) of the residual's Jacobian at the fit, columns scaled by the parameters' values.
+        error_before, error_after: the K-step prediction error (`prediction_error`) on the planning model
+            and on the fitted one.
+        num_windows, window_steps: the windows fitted.
+        seconds: the fit's wall time.
+    """
+
+    parameters: list[FitParameter]
+    planning: np.ndarray
+    fitted: np.ndarray
+    interval: np.ndarray
+    excited: np.ndarray
+    condition: float
+    error_before: float
+    error_after: float
+    num_windows: int
+    window_steps: int
+    seconds: float
+
+    def overrides(self, model: mujoco.MjModel) -> dict[str, dict[str, Any]]:
+        """{field: {element: row}} of the excited parameters, each whole row as `model` holds it otherwise."""
+        chosen = [(p, v) for p, v, excited in zip(self.parameters, self.fitted, self.excited, strict=True) if excited]
+        return parameter_rows(model, chosen)
+
+
+def parameter_rows(model: mujoco.MjModel, values: list[tuple[FitParameter, float]]) -> dict[str, dict[str, Any]]:
+    """{field: {element: row}}: each parameter's value set in its row of `model` (the rest of the row as it is)."""
+    rows: dict[tuple[str, str], np.ndarray] = {}
+    for parameter, value in values:
+        key = (parameter.field, parameter.element)
+        rows.setdefault(key, model_value(model, *key).copy())[parameter.index or 0] = value
+    overrides: dict[str, dict[str, Any]] = {}
+    for (field, element), row in rows.items():
+        overrides.setdefault(field, {})[element] = row
+    return overrides
+
+
+def fitted_model(model: mujoco.MjModel, parameters: list[FitParameter], values: np.ndarray) -> mujoco.MjModel:
+    """A copy of `model` with each parameter set to its value in `values` (P,)."""
+    return overridden(model, parameter_rows(model, list(zip(parameters, values, strict=True))))
+
+
+def fit(
+    task: Task,
+    parameters: list[FitParameter],
+    episodes: list[Episode],
+    window_steps: int,
+    max_iters: int = 50,
+    on_evaluation: Callable[[int], None] | None = None,
+) -> FitResult:
+    """Fit `parameters` of `task`'s planning model to `episodes` over windows of `window_steps` steps.
+
+    Each parameter starts at the planning model's value (the first entry of its row, or entry `index`) and is
+    bounded to [value / 10, value * 10] (to [0, 1] where the model holds 0). `on_evaluation(n)` is called after
+    the n-th evaluation of the residual (a progress bar).
+    """
+    sysid = import_extra("mujoco.sysid", "python -m judo sysid", EXTRA)
+    if not hasattr(sysid, "optimize"):  # mujoco.sysid swallows its own ImportError
+        import_extra("scipy", "python -m judo sysid", EXTRA)
+        import_extra("colorama", "python -m judo sysid", EXTRA)
+    absl = logging.getLogger("absl")  # mujoco.sysid's warnings (a sensor layout it does not use) stay quiet
+    level = absl.level
+    absl.setLevel(logging.ERROR)
+    try:
+        return _fit(sysid, task, parameters, episodes, window_steps, max_iters, on_evaluation)
+    finally:
+        absl.setLevel(level)
+
+
+def _fit(
+    sysid: Any,
+    task: Task,
+    parameters: list[FitParameter],
+    episodes: list[Episode],
+    window_steps: int,
+    max_iters: int,
+    on_evaluation: Callable[[int], None] | None,
+) -> FitResult:
+    began = time.perf_counter()
+    model = task.model
+    windows = cut_windows(episodes, window_steps)
+    nominal = np.array([_entry(model, p) for p in parameters])
+    params = sysid.ParameterDict()
+    for parameter, value in zip(parameters, nominal, strict=True):
+        low, high = (value / 10, value * 10) if value > 0 else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
+        params.add(sysid.Parameter(parameter.name, nominal=value, min_value=low, max_value=high))
+
+    def build_model(candidate: Any, spec: mujoco.MjSpec) -> mujoco.MjModel:
+        del spec  # the candidate is set on the planning model itself, as [model_overrides] will set it
+        return fitted_model(model, parameters, np.array([candidate[p.name].value[0] for p in parameters]))
+
+    sequences = _model_sequences(sysid, model, windows)
+    evaluations = [0]
+    residual = sysid.build_residual_fn(
+        models_sequences=[sequences],
+        build_model=build_model,
+        modify_residual=_state_residual(sysid, _spread(windows)),
+    )
+
+    def counted(x: np.ndarray, candidate: Any, **kwargs: Any) -> Any:
+        evaluations[0] += 1
+        if on_evaluation is not None:
+            on_evaluation(evaluations[0])
+        return residual(x, candidate, **kwargs)
+
+    scale = np.where(np.abs(nominal) > 0, np.abs(nominal), 1.0)
+    with contextlib.redirect_stdout(io.StringIO()):
+        opt_params, result = sysid.optimize(
+            params, counted, optimizer="mujoco", verbose=False, max_iters=max_iters, x_scale=scale, output=io.StringIO()
+        )
+        fitted = np.array([opt_params[p.name].value[0] for p in parameters])
+        residuals, _, _ = residual(fitted, opt_params)
+        jacobian = np.asarray(result.jac, dtype=float)
+        _, interval = sysid.calculate_intervals(residuals, jacobian)
+    scaled = jacobian * scale[None, :]
+    condition = float(np.linalg.cond(scaled)) if scaled.size else float("inf")
+    interval = np.asarray(interval, dtype=float)
+    excited = np.isfinite(interval) & (interval <= EXCITED_REL_INTERVAL * np.maximum(np.abs(fitted), 1e-12))
+    return FitResult(
+        parameters,
+        nominal,
+        fitted,
+        interval,
+        excited,
+        condition,
+        prediction_error(model, windows),
+        prediction_error(fitted_model(model, parameters, fitted), windows),
+        len(windows.starts),
+        window_steps,
+        time.perf_counter() - began,
+    )
+
+
+def _entry(model: mujoco.MjModel, parameter: FitParameter) -> float:
+    return float(model_value(model, parameter.field, parameter.element)[parameter.index or 0])
+
+
+def _model_sequences(sysid: Any, model: mujoco.MjModel, windows: Windows) -> Any:
+    """mujoco.sysid's ModelSequences of the windows: each a sequence with its start state, its actions (K, nu) at
+    times 0, dt, ... and its logged states, the start's and those after each step (K + 1, nq + nv) at times 0, dt,
+    ..., as one custom observation ("state"; `_state_residual` compares it: joint-named signals need every joint
+    named, and the LEAP hand's are not)."""
+    times = np.arange(windows.controls.shape[1] + 1) * float(model.opt.timestep)
+    mapping = {"state": (sysid.SignalType.CustomObs, np.arange(model.nq + model.nv))}
+    data = mujoco.MjData(model)
+    starts, controls, measured = [], [], []
+    for start, control, states in zip(windows.starts, windows.controls, windows.measured, strict=True):
+        data.qpos[:], data.qvel[:] = start[: model.nq], start[model.nq :]
+        starts.append(sysid.create_initial_state(model, data.qpos.copy(), data.qvel.copy(), data.act.copy()))
+        # mujoco.sysid's layout: N states from the start and N controls, the last of which it never applies
+        controls.append(sysid.TimeSeries.from_control_names(times, np.vstack([control, control[-1:]]), model))
+        measured.append(sysid.TimeSeries(times, np.vstack([start, states]), mapping))
+    sequence_names = [f"window_{i}" for i in range(len(starts))]
+    return sysid.ModelSequences(
+        "judo", _PlanningModel(model), sequence_names, starts, controls, measured, allow_missing_sensors=True
+    )
+
+
+def _state_residual(sysid: Any, spread: np.ndarray) -> Callable[..., Any]:
+    """mujoco.sysid's modify_residual hook: the rolled-out [qpos, qvel] after each step against the logged one,
+    each coordinate divided by its spread (nq + nv,) in the whole log; returns (residual (K, nq + nv), predicted,
+    measured) as TimeSeries of the same layout."""
+
+    def residual(params: Any, predicted: Any, measured: Any, model: mujoco.MjModel, *args: Any, **kwargs: Any) -> Any:
+        del params, predicted, args
+        width = model.nq + model.nv
+        state = np.asarray(kwargs["state"])[:, 1 : 1 + width]  # a row [time, qpos, qvel, ...] after each step
+        after = sysid.TimeSeries(measured.times[1:], measured.data[1:], measured.signal_mapping)  # the start is given
+        prediction = sysid.TimeSeries(after.times, state, after.signal_mapping)
+        return (after.data - state) / spread, prediction, after
+
+    return residual
+
+
+class _PlanningModel:
+    """Stands for the MjSpec that mujoco.sysid.ModelSequences compiles once for the measured trajectories' layout:
+    the planning model itself (a task holds a compiled model, not its spec; `fit`'s build_model never reads it)."""
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self.model = model
+
+    def compile(self) -> mujoco.MjModel:
+        """A copy of the planning model."""
+        return overridden(self.model, {})

@@ -1,0 +1,375 @@
+# pyright: reportArgumentType=false
+# (cyclonedds types a message's list fields as its IDL `sequence`, which is a plain list at run time)
+"""`Ros2System`: a robot reached over ROS 2's DDS wire, with no ROS install, as judo's `System`.
+
+    python -m judo --task cartpole --system ros2 --headless [--ros2.domain-id 7] [--record run.mcap]
+
+State in: sensor_msgs/JointState on /joint_states (matched by joint name), nav_msgs/Odometry on /odom for a
+task with a free joint, sensor_msgs/Imu on /imu (passed on in the reading's metadata["imu"]); best effort, keep
+last 1. Commands out: std_msgs/Float64MultiArray on /judo/commands in actuator order, reliable: what a
+ros2_control forward command controller takes. The reading's time is the JointState's header stamp, the
+robot's clock, so a late reading is known as late. A JointState with a velocity for every joint (and, for a
+free base, an Odometry) is the full state; one with positions only becomes the task's `measured_sensors`
+(jointpos from the positions, gyro and accelerometer from the latest Imu) for its estimator.
+
+A message that cannot be a reading is refused, and the reason is logged (once, then every few seconds with a
+count): wrong lengths, a missing or unknown joint, a non-finite value, a stamp that jumps backwards or from the
+future. While nothing valid arrives the reading's time stands still, and the closed loop's watchdog serves the
+task's safe action once the plan is older than `max_plan_age`. A robot that restarts its clock is followed
+after a second of consistent stamps (`judo.ros2.clock`), with the reading's time carried on from where it was.
+"""
+
+import logging
+import math
+import threading
+import time
+from typing import Any
+
+import numpy as np
+
+from judo.core.errors import ConfigError, JudoError
+from judo.core.task import Task
+from judo.ros2 import link
+from judo.ros2 import messages as msg
+from judo.ros2.clock import RobotClock
+from judo.ros2.mcap_log import McapLog
+from judo.runtime.system import System, SystemState
+from judo.runtime.system_choice import Ros2Options, SystemOptions
+
+logger = logging.getLogger("judo.ros2")
+
+REPORT_EVERY = 5.0
+"""Wall seconds between log lines of the same refusal."""
+DISCOVERY_S = 0.3
+"""Seconds the bridge gives discovery, after the robot's first reading, to find another writer of its commands."""
+WRITER_CHECK_EVERY = 1.0
+"""Wall seconds between checks for another writer of the commands topic."""
+
+
+class Ros2System(System):
+    """The robot behind a ROS 2 graph, driven by judo's closed loop.
+
+    Args:
+        task: the task the robot runs; its model's joint names are the JointState's (through
+            `options.joint_map`), and `halt()` writes its `safe_action`.
+        options: domain, topics, rate and joint map (`judo.runtime.system_choice.Ros2Options`).
+        record: an MCAP log of every message read and written (None: none).
+        refuse_other_writer: raise JudoError at start when another writer already commands the robot.
+
+    Waits up to `options.wait_s` for the robot's first valid JointState (JudoError if none came).
+
+    Attributes:
+        refused: {reason kind: count} of the messages refused so far.
+        commands_sent: commands written so far.
+    """
+
+    def __init__(
+        self,
+        task: Task,
+        options: Ros2Options | None = None,
+        record: McapLog | None = None,
+        refuse_other_writer: bool = True,
+    ) -> None:
+        from cyclonedds.core import Policy, Qos
+        from cyclonedds.pub import DataWriter
+        from cyclonedds.sub import DataReader
+
+        self.task = task
+        self.options = options = options or Ros2Options()
+        if not (math.isfinite(options.rate_hz) and options.rate_hz > 0):
+            raise ConfigError(f"the bridge's rate must be a positive number of Hz, got {options.rate_hz}")
+        self.timestep = 1.0 / options.rate_hz
+        self.layout = link.JointLayout.of(task.model, options.joint_map)
+        self.domain = link.domain_id(options.domain_id)
+        self.log = record
+        self.refused: dict[str, int] = {}
+        self.commands_sent = 0
+        self._reported: dict[str, float] = {}
+        self._index = {name: i for i, name in enumerate(self.layout.names)}
+        self._lock = threading.Lock()
+        self._clock = RobotClock()
+        self._reading: SystemState | None = None
+        self._odom: tuple[np.ndarray, np.ndarray] | None = None
+        self._imu: dict[str, np.ndarray] | None = None
+        self._command: np.ndarray | None = None
+        self._next_tick: float | None = None
+        self._next_writer_check = 0.0
+        self._other_writer_warned = False
+        self._closed = False
+        self._participant = part = link.participant(self.domain)
+        try:
+            self._joint_reader = DataReader(
+                part, link.topic(part, options.joint_states, msg.JointState), link.SENSOR_QOS
+            )
+            self._odom_reader = None
+            if self.layout.free is not None:
+                self._odom_reader = DataReader(part, link.topic(part, options.odom, msg.Odometry), link.SENSOR_QOS)
+            self._imu_reader = DataReader(part, link.topic(part, options.imu, msg.Imu), link.SENSOR_QOS)
+            command_topic = link.topic(part, options.commands, msg.Float64MultiArray)
+            self._writer = DataWriter(part, command_topic, link.COMMAND_QOS)
+            others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)  # writers of other processes
+            self._writer_check = DataReader(part, command_topic, others)
+            self._wait_for_robot(options.wait_s)
+            if refuse_other_writer and self._other_writer_seen(DISCOVERY_S):
+                raise JudoError(
+                    f"another participant (a judo, a teleop node) already writes commands on "
+                    f"{msg.ros_topic(options.commands)} in DDS domain {self.domain}: two controllers would fight "
+                    "over the robot; stop it, or use another --ros2.commands topic or --ros2.domain-id"
+                )
+        except BaseException:
+            link.close_participant(part)
+            raise
+
+    @classmethod
+    def from_options(cls, task: Task, options: SystemOptions) -> "Ros2System":
+        """The bridge the app's `--system ros2 [--record FILE.mcap] [--ros2.*]` options describe."""
+        log = None if options.record is None else McapLog(options.record)
+        try:
+            return cls(task, options.ros2, log)
+        except BaseException:
+            if log is not None:
+                log.close()
+            raise
+
+    def _wait_for_robot(self, seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self._take()
+            if self._reading is not None:
+                return
+            time.sleep(0.01)
+        why = "; ".join(f"{n} refused ({kind})" for kind, n in self.refused.items()) or "nothing arrived"
+        raise JudoError(
+            f"no valid sensor_msgs/JointState on {msg.ros_topic(self.options.joint_states)} in DDS domain "
+            f"{self.domain} within {seconds:g} s ({why}); is the robot's process running, on this ROS_DOMAIN_ID? "
+            f"It must name the joints {list(self.layout.names)}"
+        )
+
+    def _other_writer_seen(self, seconds: float) -> bool:
+        """Whether another process writes commands, waiting up to `seconds` for discovery to find one."""
+        deadline = time.monotonic() + seconds
+        while not self.other_writers():
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.02)
+        return True
+
+    def other_writers(self) -> int:
+        """How many writers of other processes the commands topic has (another judo, or a teleop)."""
+        return len(self._writer_check.get_matched_publications())
+
+    def _refuse(self, kind: str, detail: str) -> None:
+        self.refused[kind] = self.refused.get(kind, 0) + 1
+        now = time.monotonic()
+        if now - self._reported.get(kind, -math.inf) >= REPORT_EVERY:
+            self._reported[kind] = now
+            logger.warning("refused %s (%d so far): %s", kind, self.refused[kind], detail)
+
+    def _take(self) -> None:
+        """Read every message that arrived since the last call."""
+        wall = time.monotonic()
+        if self._odom_reader is not None:
+            for odom in link.take(self._odom_reader, 8):
+                self._note_odometry(odom)
+        for sample in link.take(self._imu_reader, 8):
+            self._note_imu(sample)
+        for joints in link.take(self._joint_reader, 8):
+            self._note_joint_state(joints, wall)
+
+    def _note_odometry(self, odom: msg.Odometry) -> None:
+        try:
+            qpos, qvel = link.base_from_odometry(odom)
+        except JudoError as err:
+            return self._refuse("odometry", str(err))
+        if not (np.isfinite(qpos).all() and np.isfinite(qvel).all()):
+            return self._refuse("odometry", "an Odometry with a non-finite pose or twist")
+        if self.log is not None:
+            self.log.write(self.options.odom, odom, _ns(odom.header.stamp))
+        self._odom = (qpos, qvel)
+
+    def _note_imu(self, sample: msg.Imu) -> None:
+        q, w, a = sample.orientation, sample.angular_velocity, sample.linear_acceleration
+        values = {
+            "orientation": np.array([q.w, q.x, q.y, q.z]),
+            "angular_velocity": np.array([w.x, w.y, w.z]),
+            "linear_acceleration": np.array([a.x, a.y, a.z]),
+            "stamp": np.array([msg.seconds_of(sample.header.stamp)]),
+        }
+        if not all(np.isfinite(v).all() for v in values.values()):
+            return self._refuse("imu", "an Imu with a non-finite value")
+        if self.log is not None:
+            self.log.write(self.options.imu, sample, _ns(sample.header.stamp))
+        self._imu = values
+
+    def _note_joint_state(self, joints: msg.JointState, wall: float) -> None:
+        names, n = list(joints.name), len(joints.name)
+        with_velocity = len(joints.velocity) == n
+        if len(joints.position) != n or not (with_velocity or len(joints.velocity) == 0):
+            return self._refuse(
+                "joint state (wrong lengths)",
+                f"{n} names, {len(joints.position)} positions, {len(joints.velocity)} velocities; "
+                "each joint needs a position, and a velocity each or none",
+            )
+        unknown = [name for name in names if name not in self._index]
+        missing = [name for name in self.layout.names if name not in set(names)]
+        if unknown or missing:
+            return self._refuse(
+                "joint state (names)",
+                f"missing joints {missing}, unknown joints {unknown}; expected {list(self.layout.names)} "
+                "(map names with --ros2.joint-map mjcf_name=robot_name)",
+            )
+        position = np.asarray(joints.position, float)
+        velocity = np.asarray(joints.velocity, float) if with_velocity else np.zeros(n)
+        bad = [name for name, p, v in zip(names, position, velocity, strict=True) if not math.isfinite(p + v)]
+        if bad:
+            return self._refuse("joint state (non-finite)", f"non-finite position or velocity of joints {bad}")
+        full = with_velocity and (self.layout.free is None or self._odom is not None)
+        order = [self._index[name] for name in names]
+        sensors = None
+        if not full:  # positions only (or no odometry): the task's measured sensors, for its estimator
+            sensors, why = self._measured(position, order)
+            if sensors is None:
+                return self._refuse("joint state (not enough to plan from)", str(why))
+        reading_time, why = self._clock.accept(msg.seconds_of(joints.header.stamp), wall)
+        if reading_time is None:
+            return self._refuse("joint state (stamp)", str(why))
+        state = None
+        if full:
+            model = self.task.model
+            qpos, qvel = model.qpos0.copy(), np.zeros(model.nv)
+            qpos[self.layout.qpos[order]] = position
+            qvel[self.layout.qvel[order]] = velocity
+            if self.layout.free is not None and self._odom is not None:
+                a, d = self.layout.free
+                qpos[a : a + 7], qvel[d : d + 6] = self._odom
+            state = np.concatenate([qpos, qvel])
+        metadata: dict[str, Any] = {}
+        if self._imu is not None:
+            metadata["imu"] = {key: value.copy() for key, value in self._imu.items()}
+        if self.log is not None:
+            self.log.write(self.options.joint_states, joints, _ns(joints.header.stamp))
+        with self._lock:
+            self._reading = SystemState(state, reading_time, metadata, sensors)
+
+    def _measured(self, position: np.ndarray, order: list[int]) -> tuple[np.ndarray | None, str | None]:
+        """((task.measured.size,) the task's measured sensors from the JointState's `position` (in message
+        order; `order` their layout indices) and the latest Imu, None) or (None, why they cannot be made)."""
+        model, layout = self.task.model, self.task.measured
+        if layout.size == 0:
+            return None, (
+                f"{type(self.task).__name__} declares no measured sensors, so each JointState needs a velocity "
+                "per joint" + (" and an Odometry on " + self.options.odom if self.layout.free is not None else "")
+            )
+        by_qpos = dict(zip(self.layout.qpos[order].tolist(), position.tolist(), strict=True))
+        values = np.empty(layout.size)
+        for name, kind, sensor, where in zip(layout.names, layout.types, layout.ids, layout.slices, strict=True):
+            if kind == "jointpos":
+                address = int(model.jnt_qposadr[model.sensor_objid[sensor]])
+                if address not in by_qpos:
+                    return None, f"measured sensor {name!r} is on a joint the JointState lacks"
+                values[where] = by_qpos[address]
+            elif kind in ("gyro", "accelerometer") and self._imu is not None:
+                key = "angular_velocity" if kind == "gyro" else "linear_acceleration"
+                values[where] = self._imu[key]
+            else:
+                source = "no Imu has arrived yet" if kind in ("gyro", "accelerometer") else "no ROS 2 source"
+                return (
+                    None,
+                    f"measured sensor {name!r} ({kind}) has {source}; the bridge fills jointpos, gyro, accelerometer",
+                )
+        return values, None
+
+    def reset(self) -> None:
+        """A robot is not reset by judo: the loop starts again from its latest reading."""
+
+    def read_state(self) -> SystemState:
+        self._take()
+        with self._lock:
+            reading = self._reading
+        assert reading is not None  # the constructor waited for the first one
+        state, sensors = reading.state, reading.sensors
+        return SystemState(
+            None if state is None else state.copy(),
+            reading.time,
+            dict(reading.metadata),
+            None if sensors is None else sensors.copy(),
+        )
+
+    def apply(self, action: np.ndarray) -> None:
+        """Keep the (command_size,) `action`, clamped to the task's command range, to be written by `step`.
+        JudoError for a wrong size or a non-finite value (nothing is written then)."""
+        action = np.asarray(action, dtype=float)
+        size = self.task.command_size
+        if action.shape != (size,) or not np.isfinite(action).all():
+            raise JudoError(f"refused a command of shape {action.shape} (expected ({size},), finite): {action}")
+        low, high = self.task.command_range.T
+        with self._lock:
+            self._command = np.clip(action, low, high)
+
+    def step(self) -> None:
+        """Write the command in force, then wait for the next tick of the bridge's rate, in wall time."""
+        with self._lock:
+            command = self._command
+        if command is not None:
+            self._write(command)
+        now = time.monotonic()
+        if now >= self._next_writer_check:
+            self._next_writer_check = now + WRITER_CHECK_EVERY
+            self._check_other_writers()
+        if self._next_tick is None or self._next_tick < now - 0.1:  # first tick, or far behind: pace from now
+            self._next_tick = now
+        self._next_tick += self.timestep
+        time.sleep(max(0.0, self._next_tick - time.monotonic()))
+
+    def _check_other_writers(self) -> None:
+        others = self.other_writers()
+        if others and not self._other_writer_warned:
+            logger.warning(
+                "%d other writer(s) command %s in domain %d: the robot hears more than one controller",
+                others,
+                msg.ros_topic(self.options.commands),
+                self.domain,
+            )
+        self._other_writer_warned = bool(others)
+
+    def _write(self, command: np.ndarray) -> None:
+        message = link.commands(command)
+        self._writer.write(message)
+        self.commands_sent += 1
+        if self.log is not None:
+            self.log.write(self.options.commands, message)
+
+    def halt(self) -> bool:
+        """Write the task's safe action from the latest reading now (and keep it in force). True."""
+        with self._lock:
+            reading = self._reading
+        state = None if reading is None else reading.state
+        if state is None:
+            model = self.task.model
+            state = np.concatenate([model.qpos0, np.zeros(model.nv)])
+        low, high = self.task.command_range.T
+        safe = np.clip(np.asarray(self.task.safe_action(state), float), low, high)
+        with self._lock:
+            self._command = safe
+        self._write(safe)
+        return True
+
+    def close(self) -> None:
+        """Wait briefly for the robot to acknowledge the last command, leave the DDS domain and finish the MCAP
+        log. The bridge cannot be used after."""
+        from cyclonedds.util import duration
+
+        if self._closed:
+            return
+        self._closed = True
+        try:
+            self._writer.wait_for_acks(duration(milliseconds=200))
+        except Exception:  # noqa: BLE001  (no reader, or the robot gone: nothing to wait for)
+            pass
+        link.close_participant(self._participant)
+        if self.log is not None:
+            self.log.close()
+
+
+def _ns(stamp: msg.Time) -> int:
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)

@@ -1,0 +1,183 @@
+# pyright: reportArgumentType=false
+# (cyclonedds types a message's list fields as its IDL `sequence`, which is a plain list at run time)
+"""What both ends of a ROS 2 link share: the DDS domain and QoS, and a MuJoCo model's joints as JointState names.
+
+QoS, as ROS 2 sets it: sensor streams are best effort, keep last 1 (the sensor-data profile); commands are
+reliable, keep last 1 (a command is never replaced by an older one on the way).
+"""
+
+import math
+import os
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from judo.core.errors import ConfigError, JudoError, import_extra
+from judo.ros2 import messages as msg
+
+dds = import_extra("cyclonedds.domain", "the ROS 2 bridge", "ros2")
+from cyclonedds.core import Policy, Qos  # noqa: E402
+from cyclonedds.util import duration  # noqa: E402
+
+MAX_DOMAIN_ID = 232
+"""Largest DDS domain id ROS 2 allows."""
+SENSOR_QOS = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1), Policy.Durability.Volatile)
+"""ROS 2's sensor-data profile."""
+COMMAND_QOS = Qos(
+    Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
+    Policy.History.KeepLast(1),
+    Policy.Durability.Volatile,
+)
+"""Reliable, keep last 1: what judo writes commands with."""
+
+
+def domain_id(given: int | None) -> int:
+    """The DDS domain: `given`, else $ROS_DOMAIN_ID, else 0. ConfigError outside 0..232."""
+    if given is None:
+        text = os.environ.get("ROS_DOMAIN_ID", "").strip()
+        try:
+            given = int(text) if text else 0
+        except ValueError:
+            raise ConfigError(f"ROS_DOMAIN_ID must be an integer 0..{MAX_DOMAIN_ID}, got {text!r}") from None
+    if not 0 <= given <= MAX_DOMAIN_ID:
+        raise ConfigError(f"the DDS domain id must be 0..{MAX_DOMAIN_ID}, got {given}")
+    return given
+
+
+def participant(domain: int):  # noqa: ANN201  (a cyclonedds DomainParticipant)
+    """A DDS participant on `domain`."""
+    return dds.DomainParticipant(domain)
+
+
+def take(reader, n: int = 16) -> list:  # noqa: ANN001
+    """The data samples `reader` holds, up to `n`, taken; without the notices that a writer went away."""
+    from cyclonedds.internal import InvalidSample
+
+    return [sample for sample in reader.take(n) if not isinstance(sample, InvalidSample)]
+
+
+def close_participant(participant) -> None:  # noqa: ANN001
+    """Delete `participant` and everything it made (readers, writers, topics) now, not when it is collected."""
+    participant.__del__()  # cyclonedds deletes an entity, with its children, in __del__ only
+
+
+def topic(participant, name: str, message_type: type):  # noqa: ANN001, ANN201
+    """The DDS topic of the ROS 2 topic `name` carrying `message_type`."""
+    from cyclonedds.topic import Topic
+
+    return Topic(participant, msg.ros_topic(name), message_type)
+
+
+@dataclass(frozen=True)
+class JointLayout:
+    """A model's joints as a robot names them in its JointState, and where each sits in [qpos, qvel].
+
+    Attributes:
+        names: (k,) the robot's names of the model's hinge and slide joints, in model order.
+        model_names: (k,) their MJCF names.
+        qpos: (k,) int, each joint's qpos address.
+        qvel: (k,) int, each joint's dof address.
+        free: (qpos address, dof address) of the model's free joint (the base, in /odom), or None.
+    """
+
+    names: tuple[str, ...]
+    model_names: tuple[str, ...]
+    qpos: np.ndarray
+    qvel: np.ndarray
+    free: tuple[int, int] | None
+
+    @classmethod
+    def of(cls, model: mujoco.MjModel, joint_map: tuple[str, ...] = ()) -> "JointLayout":
+        """The layout of `model`; `joint_map` holds "mjcf_name=robot_name" entries for names that differ.
+        ConfigError for a ball joint, a second free joint or a map entry naming no joint."""
+        mapping: dict[str, str] = {}
+        for entry in joint_map:
+            model_name, sep, robot_name = entry.partition("=")
+            if not sep or not model_name or not robot_name:
+                raise ConfigError(f"a joint map entry must read mjcf_name=robot_name, got {entry!r}")
+            mapping[model_name] = robot_name
+        names, model_names, qpos, qvel, free = [], [], [], [], None
+        all_names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j in range(model.njnt)]
+        for unknown in sorted(set(mapping) - set(all_names)):
+            raise ConfigError(f"the joint map names {unknown!r}, which the model lacks; its joints: {all_names}")
+        for j, name in enumerate(all_names):
+            kind = int(model.jnt_type[j])
+            if kind == mujoco.mjtJoint.mjJNT_FREE:
+                if free is not None:
+                    raise ConfigError(f"a robot link carries one free joint (the base in /odom); {name!r} is a second")
+                free = (int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]))
+            elif kind == mujoco.mjtJoint.mjJNT_BALL:
+                raise ConfigError(f"ball joint {name!r} has no JointState form; only hinge, slide and one free joint")
+            else:
+                names.append(mapping.get(name, name))
+                model_names.append(name)
+                qpos.append(int(model.jnt_qposadr[j]))
+                qvel.append(int(model.jnt_dofadr[j]))
+        return cls(tuple(names), tuple(model_names), np.array(qpos, int), np.array(qvel, int), free)
+
+
+def joint_state(layout: JointLayout, qpos: np.ndarray, qvel: np.ndarray, stamp: float) -> msg.JointState:
+    """The JointState of the (nq,) `qpos` and (nv,) `qvel`, stamped `stamp` seconds."""
+    return msg.JointState(
+        msg.Header(msg.stamp_of(stamp), ""),
+        list(layout.names),
+        qpos[layout.qpos].tolist(),
+        qvel[layout.qvel].tolist(),
+        [],
+    )
+
+
+def odometry(layout: JointLayout, qpos: np.ndarray, qvel: np.ndarray, stamp: float) -> msg.Odometry:
+    """The base's Odometry: pose in the world ("odom") frame, twist in the body ("base_link") frame, as ROS 2's
+    convention has it (MuJoCo's free joint has its linear velocity in the world frame)."""
+    assert layout.free is not None
+    a, d = layout.free
+    w, x, y, z = qpos[a + 3 : a + 7]
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, qpos[a + 3 : a + 7])
+    linear = rot.reshape(3, 3).T @ qvel[d : d + 3]
+    pose = msg.Pose(msg.Point(*qpos[a : a + 3].tolist()), msg.Quaternion(float(x), float(y), float(z), float(w)))
+    twist = msg.Twist(msg.Vector3(*linear.tolist()), msg.Vector3(*qvel[d + 3 : d + 6].tolist()))
+    return msg.Odometry(
+        msg.Header(msg.stamp_of(stamp), "odom"),
+        "base_link",
+        msg.PoseWithCovariance(pose),
+        msg.TwistWithCovariance(twist),
+    )
+
+
+def base_from_odometry(odom: msg.Odometry) -> tuple[np.ndarray, np.ndarray]:
+    """((7,) free-joint qpos [x y z qw qx qy qz], (6,) qvel [world linear, body angular]) of `odom`."""
+    p, q = odom.pose.pose.position, odom.pose.pose.orientation
+    quat = np.array([q.w, q.x, q.y, q.z])
+    norm = float(np.linalg.norm(quat))
+    if not math.isfinite(norm) or norm < 1e-6:
+        raise JudoError(f"an Odometry with orientation {quat.tolist()} (not a unit quaternion)")
+    quat /= norm
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, quat)
+    t = odom.twist.twist
+    linear = rot.reshape(3, 3) @ np.array([t.linear.x, t.linear.y, t.linear.z])
+    qpos = np.concatenate([[p.x, p.y, p.z], quat])
+    return qpos, np.concatenate([linear, [t.angular.x, t.angular.y, t.angular.z]])
+
+
+def imu(qpos: np.ndarray, qvel: np.ndarray, accel: np.ndarray, layout: JointLayout, stamp: float) -> msg.Imu:
+    """The base's Imu: orientation, body angular velocity and (3,) body linear acceleration `accel`."""
+    assert layout.free is not None
+    a, d = layout.free
+    w, x, y, z = qpos[a + 3 : a + 7]
+    return msg.Imu(
+        msg.Header(msg.stamp_of(stamp), "base_link"),
+        msg.Quaternion(float(x), float(y), float(z), float(w)),
+        angular_velocity=msg.Vector3(*qvel[d + 3 : d + 6].tolist()),
+        linear_acceleration=msg.Vector3(*np.asarray(accel, float).tolist()),
+    )
+
+
+def commands(action: np.ndarray) -> msg.Float64MultiArray:
+    """The Float64MultiArray of the (nu,) `action`, one dimension labelled "actuators"."""
+    n = len(action)
+    layout = msg.MultiArrayLayout([msg.MultiArrayDimension("actuators", n, n)], 0)
+    return msg.Float64MultiArray(layout, np.asarray(action, float).tolist())

@@ -1,0 +1,67 @@
+"""An MCAP log of a robot link, with ROS 2 schemas: Foxglove and `ros2 bag` open it as a ROS 2 bag.
+
+Each message is stored as its CDR bytes (the bytes on the DDS wire), on a channel named by its ROS 2 topic,
+with the message's ROS 2 definition as the channel's "ros2msg" schema. The log time is the wall clock of the
+process that logs (ns since the Unix epoch); the publish time is the message's header stamp where it has one.
+"""
+
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+from judo.core.errors import JudoError, import_extra
+from judo.ros2.messages import MSGDEFS, ROS_NAMES
+
+
+class McapLog:
+    """Writes ROS 2 messages to the MCAP file at `path` (replaced if it exists); safe to use from several threads.
+
+    Call `close()` to finish the file (its summary and index); a log never closed cannot be read back whole.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        writer_module = import_extra("mcap.writer", "an MCAP log (--record)", "ros2")
+        self.path = Path(path)
+        try:
+            self._file = self.path.open("wb")
+        except OSError as err:
+            raise JudoError(f"cannot write the MCAP log {self.path}: {err.strerror or err}") from err
+        self._writer = writer_module.Writer(self._file)
+        self._writer.start(profile="ros2", library="judo")
+        self._schemas: dict[str, int] = {}
+        self._channels: dict[str, int] = {}
+        self._sequence = 0
+        self._lock = threading.Lock()
+        self._closed = False
+        self.messages = 0
+        """Messages written so far."""
+
+    def write(self, topic: str, message: Any, publish_ns: int | None = None) -> None:
+        """Log `message` (one of judo.ros2.messages' classes) on the ROS 2 `topic` (e.g. "/joint_states")."""
+        name = ROS_NAMES[type(message)]
+        data = message.serialize()
+        now = time.time_ns()
+        with self._lock:
+            if self._closed:
+                return
+            channel = self._channels.get(topic)
+            if channel is None:
+                schema = self._schemas.get(name)
+                if schema is None:
+                    schema = self._schemas[name] = self._writer.register_schema(name, "ros2msg", MSGDEFS[name].encode())
+                channel = self._channels[topic] = self._writer.register_channel(topic, "cdr", schema)
+            self._sequence += 1
+            self._writer.add_message(
+                channel, now, bytes(data), now if publish_ns is None else publish_ns, self._sequence
+            )
+            self.messages += 1
+
+    def close(self) -> None:
+        """Finish the file; later writes are ignored."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            self._writer.finish()
+            self._file.close()

@@ -1,0 +1,227 @@
+"""`python -m judo plant --task T`: judo's simulator as a robot process on a ROS 2 graph.
+
+    python -m judo plant --task cartpole                                  # then, in another shell:
+    python -m judo --task cartpole --system ros2 --headless
+    python -m judo plant --task cartpole --latency-ms 20 --jitter-ms 10 --drop 0.1 --ros2.domain-id 7
+
+It steps the task's simulated plant in wall time, publishes its joint states (and, for a task with a free
+joint, odometry and IMU) at --rate-hz stamped with its own clock (the simulation's time), and applies each
+Float64MultiArray it reads on /judo/commands in actuator order, as a ros2_control forward command controller
+does. A command of the wrong length or with a non-finite value is refused and logged. The faults delay
+(--latency-ms, plus up to --jitter-ms at random, which reorders), drop (--drop) and duplicate (--duplicate)
+each outgoing message.
+"""
+
+import heapq
+import logging
+import math
+import signal
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Annotated, Any
+
+import mujoco
+import numpy as np
+import tyro
+
+from judo.core.errors import ConfigError, JudoError, import_extra
+from judo.core.registry import get_registered_tasks, lookup_task
+from judo.core.task import new_task
+from judo.runtime.system import MujocoSystem, SimulationDiverged
+from judo.runtime.system_choice import Ros2Options
+
+PROG = "python -m judo plant"
+DESCRIPTION = "judo's simulator as a robot process on a ROS 2 graph (DDS, no ROS install), with link faults."
+logger = logging.getLogger("judo.ros2.plant")
+
+MAX_CATCH_UP = 0.1
+"""Most seconds of simulation the plant steps at once to catch up (after a pause it falls behind instead)."""
+
+
+@dataclass
+class PlantOptions:
+    """judo's simulated plant as a robot process speaking ROS 2 over DDS."""
+
+    task: str = "cartpole"
+    """Registered task whose simulated plant runs."""
+    seed: int | None = 0
+    """Seed of the plant's randomised start state."""
+    rate_hz: float = 100.0
+    """Joint states (and odometry, IMU) published per second."""
+    latency_ms: float = 0.0
+    """Delay of every outgoing message, in milliseconds."""
+    jitter_ms: float = 0.0
+    """Up to this much more delay, uniform at random per message (messages then arrive out of order)."""
+    drop: float = 0.0
+    """Fraction of outgoing messages dropped, 0..1."""
+    duplicate: float = 0.0
+    """Fraction of outgoing messages sent twice, 0..1."""
+    duration: float | None = None
+    """Stop after this many wall seconds; by default run until Ctrl-C or SIGTERM."""
+    echo: bool = False
+    """Write every command read back on <commands>_echo at once (benchmarks/ros2_bridge.py times the round trip)."""
+    ros2: Annotated[Ros2Options, tyro.conf.arg(name="ros2")] = field(default_factory=Ros2Options)
+
+
+class Outbox:
+    """Outgoing messages held for the link's faults: each is delayed, dropped or duplicated at random."""
+
+    def __init__(self, options: PlantOptions, rng: np.random.Generator) -> None:
+        self.options, self.rng = options, rng
+        self._queue: list[tuple[float, int, object, object]] = []
+        self._count = 0
+
+    def send(self, writer, message, now: float) -> None:  # noqa: ANN001
+        o = self.options
+        if o.drop > 0 and self.rng.random() < o.drop:
+            return
+        copies = 2 if o.duplicate > 0 and self.rng.random() < o.duplicate else 1
+        for _ in range(copies):
+            delay = 1e-3 * (o.latency_ms + (self.rng.uniform(0, o.jitter_ms) if o.jitter_ms > 0 else 0.0))
+            if delay <= 0:
+                writer.write(message)
+                continue
+            self._count += 1
+            heapq.heappush(self._queue, (now + delay, self._count, writer, message))
+
+    def next_due(self) -> float:
+        """Monotonic time the next held message is due (inf when none is held)."""
+        return self._queue[0][0] if self._queue else math.inf
+
+    def flush(self, now: float) -> None:
+        """Write every held message whose time has come."""
+        while self._queue and self._queue[0][0] <= now:
+            _, _, writer, message = heapq.heappop(self._queue)
+            writer.write(message)  # type: ignore[attr-defined]
+
+
+def check(options: PlantOptions) -> None:
+    """ConfigError for a fault or rate out of range."""
+    for name in ("drop", "duplicate"):
+        value = getattr(options, name)
+        if not 0 <= value <= 1:
+            raise ConfigError(f"--{name} must be a fraction 0..1, got {value}")
+    for name in ("latency_ms", "jitter_ms"):
+        value = getattr(options, name)
+        if not (math.isfinite(value) and value >= 0):
+            raise ConfigError(f"--{name.replace('_', '-')} must be at least 0, got {value}")
+    if not (math.isfinite(options.rate_hz) and options.rate_hz > 0):
+        raise ConfigError(f"--rate-hz must be above 0, got {options.rate_hz}")
+
+
+def run_plant(options: PlantOptions, stop: threading.Event) -> None:
+    """Run the plant until `stop` is set (or `options.duration` wall seconds have passed)."""
+    from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
+    from cyclonedds.pub import DataWriter
+    from cyclonedds.sub import DataReader
+    from cyclonedds.util import duration
+
+    from judo.ros2 import link
+    from judo.ros2 import messages as msg
+
+    check(options)
+    task = new_task(lookup_task(options.task)[0])
+    system = MujocoSystem.from_task(task, options.seed)
+    model, data = system.task.sim_model, system.task.data
+    layout = link.JointLayout.of(model, options.ros2.joint_map)
+    domain = link.domain_id(options.ros2.domain_id)
+    part = link.participant(domain)
+    writers: dict[str, Any] = {
+        "joints": DataWriter(part, link.topic(part, options.ros2.joint_states, msg.JointState), link.SENSOR_QOS)
+    }
+    if layout.free is not None:
+        writers["odom"] = DataWriter(part, link.topic(part, options.ros2.odom, msg.Odometry), link.SENSOR_QOS)
+        writers["imu"] = DataWriter(part, link.topic(part, options.ros2.imu, msg.Imu), link.SENSOR_QOS)
+    reader = DataReader(part, link.topic(part, options.ros2.commands, msg.Float64MultiArray), link.COMMAND_QOS)
+    echo = None
+    if options.echo:
+        echo_topic = link.topic(part, options.ros2.commands + "_echo", msg.Float64MultiArray)
+        echo = DataWriter(part, echo_topic, link.COMMAND_QOS)
+    waitset = WaitSet(part)  # wakes the loop when a command arrives, so it is read at once, not at the next tick
+    waitset.attach(ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any))
+    outbox = Outbox(options, np.random.default_rng(None if options.seed is None else [options.seed, 1]))
+    size, (low, high) = system.task.command_size, system.task.command_range.T
+    dt, period = system.timestep, 1.0 / options.rate_hz
+    print(
+        f"{PROG}: {options.task} on DDS domain {domain}, publishing {msg.ros_topic(options.ros2.joint_states)} at "
+        f"{options.rate_hz:g} Hz, reading {msg.ros_topic(options.ros2.commands)}",
+        flush=True,
+    )
+    refused = writers_seen = 0
+    start = origin = time.monotonic()
+    steps = 0
+    next_publish = next_check = 0.0
+    while not stop.is_set():
+        now = time.monotonic()
+        if options.duration is not None and now - start >= options.duration:
+            break
+        for command in link.take(reader, 16):
+            values = np.asarray(command.data, float)
+            if echo is not None:
+                echo.write(command)
+            if values.shape != (size,) or not np.isfinite(values).all():
+                refused += 1
+                logger.warning("refused command %d: expected %d finite values, got %s", refused, size, values.tolist())
+                continue
+            system.apply(np.clip(values, low, high))
+        due = int((now - origin) / dt) + 1 - steps
+        if due > round(MAX_CATCH_UP / dt):  # paused or starved: fall behind rather than race
+            origin += (due - 1) * dt
+            due = 1
+        for _ in range(max(0, due)):
+            try:
+                system.step()
+            except SimulationDiverged as err:
+                logger.warning("%s", err)
+            steps += 1
+        if data.time >= next_publish - 1e-9:
+            next_publish = max(next_publish + period, data.time)
+            qpos, qvel, stamp = data.qpos.copy(), data.qvel.copy(), float(data.time)
+            outbox.send(writers["joints"], link.joint_state(layout, qpos, qvel, stamp), now)
+            if layout.free is not None:
+                outbox.send(writers["odom"], link.odometry(layout, qpos, qvel, stamp), now)
+                outbox.send(writers["imu"], link.imu(qpos, qvel, _body_accel(model, data, layout), layout, stamp), now)
+        outbox.flush(time.monotonic())
+        if now >= next_check:
+            next_check = now + 1.0
+            count = len(reader.get_matched_publications())
+            if count > 1 and count != writers_seen:
+                logger.warning("%d writers command this robot on %s", count, msg.ros_topic(options.ros2.commands))
+            writers_seen = count
+        wait = min(origin + steps * dt, outbox.next_due(), now + 0.05) - time.monotonic()  # 50 ms: see a stop
+        if wait > 0:
+            waitset.wait(duration(nanoseconds=int(wait * 1e9)))
+
+
+def _body_accel(model: mujoco.MjModel, data: mujoco.MjData, layout) -> np.ndarray:  # noqa: ANN001
+    """(3,) what an accelerometer on the base reads: its linear acceleration less gravity, in the body frame."""
+    a, d = layout.free
+    rot = np.empty(9)
+    mujoco.mju_quat2Mat(rot, data.qpos[a + 3 : a + 7])
+    return rot.reshape(3, 3).T @ (data.qacc[d : d + 3] - model.opt.gravity)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """`python -m judo plant`: parse `argv`, run the plant until stopped, return the exit status."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    options = tyro.cli(PlantOptions, args=argv, prog=PROG, description=DESCRIPTION)
+    if options.task not in get_registered_tasks():
+        print(
+            f"{PROG}: unknown task {options.task!r}; valid tasks are: {', '.join(sorted(get_registered_tasks()))}",
+            file=sys.stderr,
+        )
+        return 2
+    logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
+    stop = threading.Event()
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(sig, lambda *_: stop.set())
+    try:
+        import_extra("cyclonedds", PROG, "ros2")
+        run_plant(options, stop)
+    except JudoError as err:
+        print(f"{PROG}: {err}", file=sys.stderr)
+        return 2
+    return 0

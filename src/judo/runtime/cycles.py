@@ -1,0 +1,159 @@
+"""The app's planning cycle: its size (N x R x iterations x T steps), its estimated wall time, and the cycle in
+flight with its cancel.
+
+A cycle's cost is its rollout steps, num_rollouts x num_randomizations x max_opt_iters x T, times the seconds one
+step takes on the session's rollout backend (`StepCost`): probed on the planning model when the session is built,
+then measured from each completed cycle large enough for its fixed overhead not to count. The commands refuse an
+edit whose estimated cycle exceeds MAX_CYCLE_SECONDS (`judo.runtime.app_commands`), and the GUI shows the cost.
+
+The planner runner plans under a `PlanningCycle`: the controller polls it (`is_set`) between optimizer iterations
+and the CPU rollout pool between pieces of a batch, so a pause, reset, switch or resize that cancels it ends it
+within a fraction of a second, keeping the plan before.
+"""
+
+import math
+import os
+import threading
+import time
+from dataclasses import dataclass
+
+import mujoco
+
+from judo.core.controller_config import ControllerConfig, rollout_steps
+from judo.core.optimizer import OptimizerConfig
+from judo.core.task import Task
+
+MAX_CYCLE_SECONDS = 10.0
+"""Longest estimated planning cycle a config edit may ask for; a bigger one is refused (the plant would run on
+an ever older plan, and Pause would be the only way out)."""
+LATE_CYCLE = 1.0
+"""Seconds after which a cycle in flight is late: the status line counts its time, and an edit that resizes the
+cycle cancels it."""
+CALIBRATION_STEPS = 20_000
+"""Rollout steps a completed cycle needs for its time to re-estimate the cost of one step."""
+PROBE_STEPS = 50
+"""Physics steps timed on the planning model to estimate one step's cost before any cycle has run."""
+
+
+@dataclass(frozen=True)
+class CycleSize:
+    """How many rollout steps one planning cycle takes: rollouts x models x iterations x steps."""
+
+    rollouts: int
+    models: int
+    iterations: int
+    steps: int
+
+    @property
+    def total(self) -> int:
+        """Rollout steps of the whole cycle (at most: an optimizer may stop its iterations early)."""
+        return self.rollouts * self.models * self.iterations * self.steps
+
+    def __str__(self) -> str:
+        return f"{self.rollouts} x {self.models} x {self.iterations} x {self.steps} = {self.total:,} steps"
+
+
+def cycle_size(task: Task, controller: ControllerConfig, optimizer: OptimizerConfig) -> CycleSize:
+    """The size of a cycle of `task` under these configs: num_rollouts x num_randomizations x max_opt_iters x T."""
+    steps = rollout_steps(controller.horizon, task.dt)
+    return CycleSize(optimizer.num_rollouts, controller.num_randomizations, controller.max_opt_iters, steps)
+
+
+class StepCost:
+    """Wall seconds one rollout step takes on a session's backend.
+
+    Args:
+        model: the planning model, probed for PROBE_STEPS physics steps (a few ms) when `probe` is True.
+        workers: the rollout threads that share a batch.
+        probe: whether to probe now; a GPU backend is not (its time does not scale with the steps), and its
+            cost is known only from measured cycles.
+    """
+
+    def __init__(self, model: mujoco.MjModel, workers: int, probe: bool = True) -> None:
+        self.probed = self.probe(model, workers) if probe else 0.0
+        self.seconds = self.probed if probe else math.nan
+
+    @staticmethod
+    def probe(model: mujoco.MjModel, workers: int) -> float:
+        """Seconds per step of `model` from its first keyframe (else its default pose), spread over `workers`."""
+        data = mujoco.MjData(model)
+        if model.nkey:
+            mujoco.mj_resetDataKeyframe(model, data, 0)
+        start = time.perf_counter()
+        for _ in range(PROBE_STEPS):
+            mujoco.mj_step(model, data)
+        per_step = (time.perf_counter() - start) / PROBE_STEPS
+        return per_step / max(1, min(workers, os.cpu_count() or 1))
+
+    def record(self, size: CycleSize, seconds: float) -> None:
+        """A cycle of `size` took `seconds`: the new cost of one step. A cycle of fewer than CALIBRATION_STEPS
+        steps counts its fixed overhead (a low-level policy's inference, the reward) as steps, so it never lowers
+        the cost below the probe's: the estimate errs towards refusing, until a large cycle tells."""
+        if seconds <= 0 or size.total <= 0:
+            return
+        per_step = seconds / size.total
+        self.seconds = per_step if size.total >= CALIBRATION_STEPS else max(self.probed, per_step)
+
+    def estimate(self, size: CycleSize) -> float:
+        """Estimated wall seconds of a cycle of `size` (NaN while the cost is unknown)."""
+        return size.total * self.seconds
+
+
+class PlanningCycle:
+    """One planning cycle in flight: when it started, its size, and its cancel.
+
+    The controller and the rollout pool poll `is_set`, which is also true once the app stops.
+    """
+
+    def __init__(self, stop: threading.Event | object, size: CycleSize | None, estimate: float) -> None:
+        self._stop = stop
+        self._cancelled = threading.Event()
+        self.size, self.estimate = size, estimate
+        self.started = time.perf_counter()
+        self.reason: str | None = None  # why it was cancelled
+
+    def is_set(self) -> bool:
+        """True once the cycle is cancelled or the app stops."""
+        return self._cancelled.is_set() or self._stop.is_set()  # type: ignore[attr-defined]  # a StopSignal
+
+    def cancel(self, reason: str) -> None:
+        """End the cycle at its next check (`reason` goes on the status line)."""
+        if not self._cancelled.is_set():
+            self.reason = reason
+            self._cancelled.set()
+
+    def elapsed(self) -> float:
+        """Wall seconds since the cycle started."""
+        return time.perf_counter() - self.started
+
+    def late(self) -> bool:
+        """True once the cycle has run longer than LATE_CYCLE."""
+        return self.elapsed() > LATE_CYCLE
+
+
+@dataclass(frozen=True)
+class CycleCost:
+    """What the GUI shows of the cycle: the configs' size and estimated seconds, the last completed cycle's
+    seconds, and how long the cycle in flight has run when it is late (else None)."""
+
+    size: CycleSize | None
+    estimate: float
+    last: float
+    running_for: float | None
+
+    def line(self) -> str:
+        """The cost as one line: 'cycle 64 x 1 x 1 x 100 = 6,400 steps, est. 12 ms; last plan 9.8 ms'."""
+        if self.size is None:
+            return f"last update {seconds_text(self.last)}"
+        estimated = f", est. {seconds_text(self.estimate)}" if math.isfinite(self.estimate) else ""
+        text = f"cycle {self.size}{estimated}; last plan {seconds_text(self.last)}"
+        if self.running_for is not None:
+            text += f"; planning: {self.running_for:.0f} s so far"
+        return text
+
+
+def seconds_text(seconds: float) -> str:
+    """'9.8 ms', '1.2 s', '-' for NaN."""
+    if not math.isfinite(seconds):
+        return "-"
+    return f"{1e3 * seconds:.1f} ms" if seconds < 1 else f"{seconds:.1f} s"

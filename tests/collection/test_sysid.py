@@ -1,0 +1,154 @@
+"""python -m judo sysid: real mujoco.sysid fits on a short collect of a mismatched plant, the fitted --config file,
+and one-line errors (exit 2, nothing written) for the logs and arguments it cannot use."""
+
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from judo.collection.dataset import DatasetFile
+from judo.collection.episode import collect_episode
+from judo.collection.sysid_cli import main as sysid_main
+from judo.core.config_file import load_config
+from judo.core.registry import make_controller
+from judo.evaluation.seeded import EpisodeSpec
+from judo.runtime.system import MujocoSystem
+
+h5py = pytest.importorskip("h5py")
+pytest.importorskip("scipy")
+pytest.importorskip("colorama")
+
+TRUE_MASS, TRUE_DAMPING = 0.13, 0.005
+"""The plant's pole mass and slider damping: x1.3 and x5 the cartpole MJCF's 0.1 and 0.001."""
+
+
+def write_log(path, task="cartpole", seconds=2.0):
+    """A collect file of one cartpole x mppi episode of `seconds` on the mismatched plant (written as `task`)."""
+    overrides = (f"body_mass.pole={TRUE_MASS}", f"dof_damping.slider={TRUE_DAMPING}")
+    outcome = collect_episode(EpisodeSpec("cartpole", "mppi", seconds, plant_overrides=overrides), 0)
+    assert outcome.failure is None
+    DatasetFile(path, {"task": task, "optimizer": "mppi", "plant_timestep": 0.01}).write_episode(outcome.episode)
+    return path
+
+
+@pytest.fixture(scope="module")
+def log(tmp_path_factory):
+    return write_log(tmp_path_factory.mktemp("sysid") / "cartpole.h5")
+
+
+@pytest.mark.slow
+def test_a_fit_finds_the_plants_mass_and_damping_and_the_file_changes_only_the_planning_model(log, tmp_path, capsys):
+    out = tmp_path / "fitted.toml"
+    argv = [str(log), "--task", "cartpole", "--params", "body_mass.pole", "dof_damping.slider", "geom_friction.pole"]
+    assert sysid_main([*argv, "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "| geom_friction.pole | 1 | 1 | unbounded | no: not excited by the data, left out of --out |" in printed
+    assert "cond(J) = inf" in printed  # the unexcited friction makes the fit's Jacobian singular
+    assert re.search(
+        r"\| body_mass.pole \| 0.1 \| 0.1[23]\d* \| ± [\d.e-]+ \| yes \|", (tmp_path / "fitted.md").read_text()
+    )
+    load_config(out)
+    with make_controller("cartpole", "mppi", num_workers=1) as controller:
+        model = controller.task.model
+        assert model.body_mass[model.body("pole").id] == pytest.approx(TRUE_MASS, rel=0.05)
+        assert model.dof_damping[model.joint("slider").dofadr[0]] == pytest.approx(TRUE_DAMPING, rel=0.05)
+        np.testing.assert_array_equal(model.geom_friction[model.geom("pole").id], [1.0, 0.005, 0.0001])
+        plant = MujocoSystem.from_task(controller.task, seed=0).task.sim_model
+    assert plant.body_mass[plant.body("pole").id] == 0.1  # the plant stays the MJCF's
+    assert "geom_friction" not in out.read_text().split("[model_overrides.cartpole]")[1]
+
+
+def corrupt(path):
+    path.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(range(256)) * 4)
+    return path
+
+
+def without_actions(path, log):
+    path.write_bytes(log.read_bytes())
+    with h5py.File(path, "a") as file:
+        del file["data/demo_0/actions"]
+    return path
+
+
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        ("another_task", "another.h5: a log of task 'acrobot', not of --task 'cartpole'"),
+        ("no_actions", "no_actions.h5: episode demo_0 has no actions; sysid needs the actions served to the plant"),
+        ("unknown_field", "unknown model field 'body_mas'; valid model fields are: body_gravcomp,"),
+        ("unknown_element", "body_mass.pol: the model has no body 'pol'; its body names are: cart, pole, world"),
+        ("unwritable_out", "is a file, so"),
+        ("empty", "empty.h5: the file is empty"),
+        ("corrupt", "corrupt.h5: not a readable HDF5 log"),
+    ],
+)
+def test_mistakes_exit_2_in_one_line_and_write_nothing(log, tmp_path, capsys, case, message):
+    logs = {
+        "another_task": lambda: write_log(tmp_path / "another.h5", task="acrobot", seconds=0.2),
+        "no_actions": lambda: without_actions(tmp_path / "no_actions.h5", log),
+        "empty": lambda: (tmp_path / "empty.h5").touch() or tmp_path / "empty.h5",
+        "corrupt": lambda: corrupt(tmp_path / "corrupt.h5"),
+    }
+    path = logs[case]() if case in logs else log
+    params = {"unknown_field": "body_mas.pole", "unknown_element": "body_mass.pol"}.get(case, "body_mass.pole")
+    (tmp_path / "afile").write_text("")
+    out = tmp_path / ("afile/fitted.toml" if case == "unwritable_out" else "out/fitted.toml")
+    with pytest.raises(SystemExit) as caught:
+        sysid_main([str(path), "--task", "cartpole", "--params", params, "--out", str(out)])
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: ") and message in err
+    assert not (tmp_path / "out").exists()
+
+
+def test_import_judo_imports_no_sysid_dependency():
+    code = "import sys, judo, judo.collection.sysid_cli; print(sorted({'mujoco.sysid', 'scipy', 'colorama'} & set(sys.modules)))"
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout == "[]\n"
+
+
+@pytest.mark.slow
+def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_file_registers_it(tmp_path, capsys):
+    """examples/11_sysid: a custom task whose sim_model_path has a 0.13 kg pole; the fit (mass and the inertia the
+    heavier geom brings) lands on it, and the written file registers the task beside its module."""
+    import shutil
+    from pathlib import Path
+
+    from judo.core.registry import make_task
+
+    folder = tmp_path / "robot"
+    shutil.copytree(Path(__file__).resolve().parents[2] / "examples" / "11_sysid", folder)
+    load_config(folder / "judo.toml")
+    outcome = collect_episode(EpisodeSpec("heavy_cartpole", "mppi", 2.0), 0)
+    assert outcome.failure is None
+    log = folder / "run.h5"
+    DatasetFile(log, {"task": "heavy_cartpole", "optimizer": "mppi"}).write_episode(outcome.episode)
+    argv = [str(log), "--config", str(folder / "judo.toml"), "--task", "heavy_cartpole"]
+    out = folder / "fitted.toml"
+    assert sysid_main([*argv, "--params", "body_mass.pole", "body_inertia.pole[1]", "--out", str(out)]) == 0
+    assert "[custom_tasks.heavy_cartpole]" in out.read_text()
+    load_config(out)
+    task = make_task("heavy_cartpole")
+    assert task.model.body_mass[2] == pytest.approx(0.13, rel=0.05)
+    assert task.model.body_inertia[2, 1] == pytest.approx(task.sim_model.body_inertia[2, 1], rel=0.05)
+
+
+def test_excite_stays_within_the_actuator_limits_and_logs_what_sysid_fits(tmp_path, capsys):
+    from judo.collection.excite import main as excite_main
+
+    log = tmp_path / "excite.h5"
+    overrides = ["--plant-overrides", f"body_mass.pole={TRUE_MASS}"]
+    assert (
+        excite_main(["--task", "cartpole", "--duration", "3", "--amplitude", "0.8", *overrides, "--out", str(log)]) == 0
+    )
+    with h5py.File(log, "r") as file:
+        actions = file["data/demo_0/actions"][:]
+    assert actions.shape == (300, 1) and np.abs(actions).max() <= 0.8 + 1e-12 and np.abs(actions).max() > 0.7
+    out = tmp_path / "fitted.toml"
+    assert sysid_main([str(log), "--task", "cartpole", "--params", "body_mass.pole", "--out", str(out)]) == 0
+    assert float(out.read_text().split("body_mass.pole = ")[1].split()[0]) == pytest.approx(TRUE_MASS, rel=0.01)
+    with pytest.raises(SystemExit) as caught:
+        excite_main(["--task", "cartpole", "--amplitude", "2", "--out", str(tmp_path / "never.h5")])
+    assert caught.value.code == 2 and not (tmp_path / "never.h5").exists()
+    assert "error: --amplitude must be in (0, 1], got 2.0" in capsys.readouterr().err

@@ -1,0 +1,118 @@
+"""Helpers for real ROS 2 links on loopback: plant processes (`python -m judo plant`) and in-process DDS robots,
+each on a DDS domain of its own, so tests never hear each other."""
+
+import os
+import random
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def free_domain() -> int:
+    """A random DDS domain id for one test's link."""
+    return random.SystemRandom().randint(100, 232)
+
+
+def env(domain: int | None = None) -> dict[str, str]:
+    """The environment of a judo subprocess: this checkout's src first, on `domain`."""
+    extra = {} if domain is None else {"ROS_DOMAIN_ID": str(domain)}
+    pythonpath = os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])
+    return {**os.environ, "PYTHONPATH": pythonpath, **extra}
+
+
+def start_plant(domain: int, *flags: str) -> subprocess.Popen:
+    """`python -m judo plant --task cartpole` on `domain`, once it says it publishes."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "judo", "plant", "--task", "cartpole", "--ros2.domain-id", str(domain), *flags],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env(),
+        cwd=ROOT,
+    )
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    assert "publishing rt/joint_states" in line, line
+    return proc
+
+
+def stop_process(proc: subprocess.Popen) -> None:
+    proc.terminate()
+    try:
+        proc.wait(timeout=5)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        proc.wait()
+
+
+class DdsRobot:
+    """A robot written in the test on cyclonedds: publishes the JointStates it is given, and a valid one every
+    10 ms until `stop_streaming` (positions only where `velocity` is False)."""
+
+    def __init__(self, domain: int, velocity: bool = True) -> None:
+        from cyclonedds.pub import DataWriter
+
+        from judo.ros2 import link
+        from judo.ros2 import messages as msg
+
+        self.msg, self.link = msg, link
+        self.participant = link.participant(domain)
+        self.writer = DataWriter(
+            self.participant, link.topic(self.participant, "/joint_states", msg.JointState), link.SENSOR_QOS
+        )
+        self.stamp = 1.0
+        self.velocity = velocity
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._stream, daemon=True)
+        self._thread.start()
+
+    def send(self, names: list[str], position: list[float], velocity: list[float], stamp: float) -> None:
+        msg = self.msg
+        self.writer.write(msg.JointState(msg.Header(msg.stamp_of(stamp)), names, position, velocity, []))
+
+    def _stream(self) -> None:
+        while not self._stop.is_set():
+            self.stamp += 0.01
+            self.send(["slider", "hinge"], [0.1, 3.0], [0.0, 0.0] if self.velocity else [], self.stamp)
+            time.sleep(0.01)
+
+    def stop_streaming(self) -> None:
+        self._stop.set()
+        self._thread.join()
+
+    def close(self) -> None:
+        self.stop_streaming()
+        self.link.close_participant(self.participant)
+
+
+def poll(condition: Callable[[], bool], timeout: float = 5.0, what: str = "condition") -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            pytest.fail(f"timed out after {timeout} s waiting for {what}")
+        time.sleep(0.005)
+
+
+def echo_reader(domain: int):  # noqa: ANN201
+    """A participant and reader of the plant's echo of the commands it read, on `domain`."""
+    from cyclonedds.sub import DataReader
+
+    from judo.ros2 import link
+    from judo.ros2 import messages as msg
+
+    part = link.participant(domain)
+    return part, DataReader(part, link.topic(part, "/judo/commands_echo", msg.Float64MultiArray), link.COMMAND_QOS)
+
+
+def echoes(reader) -> list[np.ndarray]:  # noqa: ANN001
+    from judo.ros2 import link
+
+    return [np.asarray(m.data) for m in link.take(reader, 64)]

@@ -1,0 +1,158 @@
+"""A planning cycle the user cannot wait for: its cost is shown, an edit that would make it longer than
+MAX_CYCLE_SECONDS is refused, and a cycle in flight is cancelled by a pause, a reset, a switch or a resize."""
+
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import judo
+from judo.core import registry
+from judo.core.errors import ConfigError, JudoError
+from judo.core.rollout import RolloutPool
+from judo.runtime.app import App
+from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleSize, StepCost
+from judo.tasks.cartpole import Cartpole, CartpoleConfig
+
+CANCEL_BUDGET = 1.5
+"""Seconds from a command to the end of the cycle it cancels (a piece of rollouts, on a loaded machine)."""
+
+
+def big_app(num_rollouts: int = 20_000) -> App:
+    """Cart-pole whose every cycle takes tens of seconds: 20 iterations of 20,000 rollouts of 200 steps."""
+    controller = judo.ControllerConfig(horizon=2.0, max_opt_iters=20, control_freq=10.0)
+    optimizer = judo.get_registered_optimizers()["ps"][1](num_rollouts=num_rollouts)
+    app = App("cartpole", "ps", controller_config=controller, optimizer_config=optimizer, gui=False, num_workers=2)
+    app.start()
+    return app
+
+
+def late_cycle(app: App):
+    """A condition: a planning cycle has been in flight longer than LATE_CYCLE (the status line counts it)."""
+    return lambda: app.planning_cost().running_for is not None and app.status.message.startswith("planning: ")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    ("command", "reason"),
+    [
+        ("pause", "paused"),
+        ("reset_task", "the task was reset"),
+        ("switch", "switching to cartpole with mppi"),
+        ("resize", "the planning cycle was resized"),
+    ],
+)
+def test_a_late_cycle_is_cancelled_by_the_user(wait_until, command, reason):
+    app = big_app()
+    try:
+        wait_until(late_cycle(app), what="a late planning cycle")
+        cycle = app._state.cycle
+        assert cycle is not None
+        start = time.perf_counter()
+        if command == "pause":
+            app.pause()
+        elif command == "reset_task":
+            app.reset_task()
+        elif command == "switch":
+            app.switch_optimizer("mppi")
+        else:
+            app.update_config("optimizer", {"num_rollouts": 64})
+        wait_until(lambda: app._state.cycle is not cycle, timeout=CANCEL_BUDGET, what="the cycle to end")
+        assert time.perf_counter() - start < CANCEL_BUDGET
+        assert app.stats.num_plans() == 0  # cancelled, not completed
+        assert app.summary().num_plans == 0
+        assert cycle.reason == reason
+        summary = app.summary()  # the simulator waited for the cycle: the run's wall time holds the wait
+        assert summary.wall_time > 1.0 and summary.real_time_factor < 0.5, summary
+        if command == "switch":
+            wait_until(lambda: app.session.optimizer_name == "mppi", timeout=5.0, what="the switch")
+        if command in ("switch", "resize"):  # planning goes on, at the new size or in the new session
+            wait_until(lambda: app.stats.num_plans() >= 1, timeout=10.0, what="a plan after the cancelled cycle")
+    finally:
+        app.stop()
+
+
+def test_an_edit_whose_cycle_would_be_too_long_is_refused_and_a_smaller_one_is_not():
+    app = App("cartpole", "ps", gui=False, num_workers=1)
+    try:
+        app.update_config("controller", {"horizon": 2.0, "max_opt_iters": 10, "num_randomizations": 8})
+        before = app.configs()["optimizer"]
+        cost = app.planning_cost()
+        size = CycleSize(before.num_rollouts, 8, 10, 200)
+        assert cost.size == size and np.isnan(cost.last) and cost.running_for is None
+        with pytest.raises(ConfigError) as refused:
+            app.update_config("optimizer", {"num_rollouts": 20_000})
+        estimate = app._state.step_cost.estimate(CycleSize(20_000, 8, 10, 200))
+        assert estimate > MAX_CYCLE_SECONDS
+        assert str(refused.value) == (
+            f"num_rollouts = 20000 would make a planning cycle of about {estimate:.0f} s (num_rollouts x "
+            "num_randomizations x max_opt_iters x horizon steps: 20000 x 8 x 10 x 200 = 320,000,000 steps); "
+            f"expected at most {MAX_CYCLE_SECONDS:g} s: lower num_rollouts, num_randomizations, max_opt_iters or "
+            "the horizon"
+        )
+        assert app.configs()["optimizer"] is before  # nothing changed
+        app.update_config("controller", {"max_opt_iters": 1})  # smaller: accepted
+        assert app.planning_cost().size == CycleSize(before.num_rollouts, 8, 1, 200)
+    finally:
+        app.stop()
+
+
+def test_the_step_cost_is_probed_then_measured_from_large_cycles():
+    model = judo.make_controller("cartpole", "ps", num_workers=1)
+    try:
+        cost = StepCost(model.task.model, 1)
+        assert 0 < cost.seconds < 1e-3
+        probed = cost.seconds
+        cost.record(CycleSize(10, 1, 1, 10), 1e-9)  # a small cycle never lowers it below the probe
+        assert cost.seconds == probed
+        cost.record(CycleSize(10, 1, 1, 10), 5.0)  # its overhead counts as steps: the estimate errs high
+        assert cost.seconds == pytest.approx(0.05)
+        cost.record(CycleSize(1000, 1, 1, 100), 0.5)
+        assert cost.seconds == pytest.approx(5e-6)
+        assert cost.estimate(CycleSize(2000, 2, 1, 100)) == pytest.approx(2.0)
+    finally:
+        model.close()
+
+
+def test_a_cancelled_batch_ends_part_way_and_a_whole_one_matches_one_call(upright_task):
+    pool = RolloutPool(upright_task.model, num_workers=2)
+    try:
+        rng = np.random.default_rng(0)
+        controls = rng.uniform(-1, 1, (40, 3000, upright_task.model.nu))  # 120,000 steps: 2 pieces a worker
+        state = np.zeros(pool.nstate)
+        whole = [a.copy() for a in pool.rollout(state, controls)]
+        never = threading.Event()
+        pool.set_cancel(never)
+        pieces = pool.rollout(state, controls)
+        assert all(np.array_equal(a, b) for a, b in zip(whole, pieces, strict=True))  # bit for bit
+        cancelled = threading.Event()
+        cancelled.set()
+        pool.set_cancel(cancelled)
+        with pytest.raises(JudoError, match="planning cycle cancelled part-way through a batch of rollouts"):
+            pool.rollout(state, controls)
+    finally:
+        pool.close()
+
+
+class PausingCartpole(Cartpole):
+    """Cart-pole whose simulator stalls once for 0.8 s, as this process does while a page is sent the scene."""
+
+    stalled = False
+
+    def pre_sim_step(self) -> None:
+        if not PausingCartpole.stalled and self.data.time > 0.2:
+            PausingCartpole.stalled = True
+            time.sleep(0.8)
+
+
+def test_judos_own_simulator_is_never_reported_as_a_blocked_driver(monkeypatch, wait_until, caplog):
+    monkeypatch.setitem(registry._TASKS, "pausing_cartpole", (PausingCartpole, CartpoleConfig))
+    PausingCartpole.stalled = False
+    app = App("pausing_cartpole", "ps", gui=False, num_workers=1, system_call_limit=0.3)
+    app.start()
+    try:
+        wait_until(lambda: PausingCartpole.stalled and app.stats.sim_time() > 0.5, what="the stall and after")
+    finally:
+        app.stop()
+    assert "has not returned" not in caplog.text and "responds again" not in caplog.text

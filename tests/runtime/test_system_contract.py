@@ -1,0 +1,70 @@
+"""A user System is checked where it meets the app: a read_state() of the wrong type is named in one line, and a
+System without halt() is warned about at start-up (a blocked driver cannot be brought to rest without it)."""
+
+import logging
+
+import numpy as np
+import pytest
+
+import judo
+from judo.runtime.app import App
+from judo.runtime.system import MujocoSystem, System, SystemState
+from judo.runtime.system_calls import SystemCalls, SystemReadingError
+
+
+class Driver(System):
+    """The simulated cartpole behind a user driver; `wrong_reading` makes read_state return a plain dict."""
+
+    def __init__(self, wrong_reading: bool = False) -> None:
+        with judo.make_controller("cartpole", "ps", seed=0) as controller:
+            self.plant = MujocoSystem.from_task(controller.task, seed=0)
+        self.timestep = self.plant.timestep
+        self.wrong_reading = wrong_reading
+
+    def reset(self) -> None:
+        self.plant.reset()
+
+    def read_state(self) -> SystemState:
+        reading = self.plant.read_state()
+        if self.wrong_reading:
+            return {"state": reading.state, "time": reading.time}  # type: ignore[return-value]
+        return reading
+
+    def apply(self, action: np.ndarray) -> None:
+        self.plant.apply(action)
+
+    def step(self) -> None:
+        self.plant.step()
+
+
+class HaltingDriver(Driver):
+    def halt(self) -> bool:
+        self.plant.apply(np.zeros(1))
+        return True
+
+
+WRONG = "Driver.read_state() returned dict; expected a judo.SystemState (state, time, metadata, sensors)"
+
+
+def test_a_reading_of_the_wrong_type_is_named_in_one_line():
+    with pytest.raises(SystemReadingError) as caught:
+        App("cartpole", "ps", system=Driver(wrong_reading=True), gui=False)
+    assert str(caught.value) == WRONG
+    with pytest.raises(SystemReadingError, match=f"^{WRONG}$".replace("(", r"\(").replace(")", r"\)")):
+        SystemCalls(Driver(wrong_reading=True)).read_state()  # every read of the running loop goes through it
+
+
+def test_a_system_without_halt_is_warned_about_at_start_up_and_one_with_halt_is_not(caplog):
+    with caplog.at_level(logging.WARNING, logger="judo.app"):
+        App("cartpole", "ps", system=Driver(), gui=False)
+    warnings = [record.getMessage() for record in caplog.records if record.levelno == logging.WARNING]
+    assert warnings == [
+        "your System Driver defines no halt(): while a call into it blocks, nothing reaches the robot, which keeps "
+        "its last action until the call returns; define halt() to bring it to rest from another thread "
+        "(docs/hardware.md)"
+    ]
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="judo.app"):
+        App("cartpole", "ps", system=HaltingDriver(), gui=False)
+        App("cartpole", "ps", gui=False)  # judo's own simulator needs none
+    assert [record for record in caplog.records if "halt()" in record.getMessage()] == []
