@@ -15,7 +15,7 @@ GUI read it as any other task's state. MuJoCo never steps that model.
 import math
 from abc import abstractmethod
 from collections.abc import Sequence
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import mujoco
 import numpy as np
@@ -144,6 +144,8 @@ class DynamicsTask(Task[ConfigT]):
             reason = " ".join(str(err).split())
             raise ModelLoadError(f"{name}: could not compile its scene_xml and robot_xml: {reason}") from None
         self.sim_model = self.model
+        self.model_overrides: dict[str, dict[str, Any]] = {}  # what Task.__init__ sets, which this one replaces
+        self.plant_overrides: dict[str, dict[str, Any]] = {}
         self.measured = self.sim_measured = measured_layout(self.model, (), type(self).__name__)
         self.data = mujoco.MjData(self.model)
         self.config = self.config_cls()  # pyright: ignore[reportAttributeAccessIssue]
