@@ -265,3 +265,18 @@ def test_feedback_prints_each_optimizer_with_and_without_gains_and_the_update_an
     assert "| mppi | " in result.stdout and "| mppi + feedback | " in result.stdout
     assert "mppi update in the episodes: median " in result.stdout and "from one state, alternating" in result.stdout
     assert "us with gains" in result.stdout
+
+
+def test_pytorch_mppi_comparison_runs_its_judo_half_and_asks_for_the_torch_venv():
+    """The judo half prints its figures as JSON (the torch half needs a venv of its own, never CI's)."""
+    result = run_script(
+        "pytorch_mppi_comparison.py", "--side", "judo", "--samples", "8", "--seeds", "1", "--repeats", "2"
+    )
+    assert result.returncode == 0, result.stderr
+    figures = json.loads(result.stdout.strip().splitlines()[-1])
+    assert set(figures["update_ms"]) == {"8x75"} and figures["update_ms"]["8x75"] > 0
+    assert figures["upright"] == [1.0]  # seed 0 swings up and holds
+    refused = run_script("pytorch_mppi_comparison.py")
+    assert refused.returncode == 1 and refused.stderr.strip() == (
+        "--torch-python is needed: the interpreter of a throwaway venv with torch and pytorch-mppi"
+    )

@@ -112,3 +112,9 @@ def test_example_09_plans_the_quadruped_over_its_shipped_policy_without_falling(
     metrics = load_example("09_quadruped_navigate.py").main(duration=1.0)
     assert metrics["falls"] == 0.0 and metrics["final_distance"] < 0.85  # the first goal lies 1 m ahead: it walks
     assert "over 'quadruped_locomotion'" in capsys.readouterr().out
+
+
+def test_example_12_own_dynamics_drives_around_the_obstacle_to_the_goal():
+    result = load_example("12_own_dynamics.py").main(duration=6.0)
+    assert result["final_distance"] < 0.1
+    assert result["closest_approach"] > 0.3 + 0.05  # the obstacle's radius and a margin

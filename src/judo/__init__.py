@@ -16,6 +16,7 @@ from judo.core.backend import RandomizedRolloutError
 from judo.core.config import Config
 from judo.core.config_file import ConfigFileError, LoadedConfig, load_config
 from judo.core.controller import Controller, ControllerConfig, NonFiniteKnotsError, NonFiniteRewardError
+from judo.core.dynamics import DynamicsTask
 from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig
 from judo.core.fields import np_1d_field, slider
@@ -44,7 +45,7 @@ from judo.core.task import Task, TaskConfig
 from judo.runtime.app import App
 from judo.runtime.closed_loop import ClosedLoop
 from judo.runtime.records import PlanRecord, Recorder, StepRecord
-from judo.runtime.system import MujocoSystem, System, SystemState
+from judo.runtime.system import DynamicsSystem, MujocoSystem, System, SystemState
 from judo.version import __version__ as __version__
 
 __all__ = [
@@ -56,6 +57,8 @@ __all__ = [
     "ControlHistory",
     "Controller",
     "ControllerConfig",
+    "DynamicsSystem",
+    "DynamicsTask",
     "Estimator",
     "EstimatorConfig",
     "InvalidRandomizedModelError",

@@ -45,6 +45,8 @@ BUILTIN_TASKS = (
     "quadruped",
     "quadruped_velocity",
     "quadruped_navigate",
+    "car",
+    "quadrotor",
 )
 BUILTIN_OPTIMIZERS = ("ps", "cem", "mppi", "dial", "cmaes", "icem")
 

@@ -44,6 +44,9 @@ class RolloutBackend(abc.ABC):
     reward_threads: int = 1
     """Host threads the Controller may score a large batch's rewards on (core/parallel_reward.py): 1, one plain
     call, unless the backend leaves the host's cores idle while it rolls out (the GPU backend)."""
+    diverged: np.ndarray | bool = False
+    """(num_rollouts,) True for each row of the last batch whose states went non-finite, for a backend that tracks
+    it (a task's own dynamics, core/dynamics.py); the Controller scores those rows -inf. False: none tracked."""
 
     @abc.abstractmethod
     def rollout(

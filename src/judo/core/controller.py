@@ -10,7 +10,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.backend import CancelFlag, PlanningCancelled, RolloutBackend, make_rollout_backend
+from judo.core.backend import CancelFlag, PlanningCancelled, RolloutBackend
 from judo.core.config import snapshot
 from judo.core.controller_config import (
     MAX_CONTROL_FREQ,
@@ -24,6 +24,7 @@ from judo.core.controller_config import (
     check_configs,
     rollout_steps,
 )
+from judo.core.dynamics import task_rollout_backend
 from judo.core.errors import ConfigError, JudoError
 from judo.core.feedback import FeedbackGains
 from judo.core.low_level import check_low_level_backend, with_low_level
@@ -69,10 +70,9 @@ class Controller:
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
         backend: the RolloutBackend every rollout runs on, built from the constructor's `backend` name
-            ("cpu": `RolloutPool`, a thread pool; "warp": `WarpRollout`, MuJoCo Warp on a GPU) or given built
-            (a `ProblemSlot`, one episode's share of a batch of episodes); for a task
-            with a low-level policy (`Task.low_level`), a `LowLevelRollout` around the pool, and the plan,
-            its knots and clamps are the policy's commands (`task.command_size`, `task.command_range`).
+            ("cpu": `RolloutPool`, threads; "warp": `WarpRollout`, MuJoCo Warp on a GPU) or given built (a
+            `ProblemSlot`); `DynamicsRollout` for a task with its own dynamics (judo.core.dynamics); under a
+            low-level policy (`Task.low_level`), a `LowLevelRollout` whose plan is its commands (`command_size`).
         backend_name: that name (read-only).
         nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update (here and
             below, nu is `task.command_size`: the actuators, or a low-level policy's commands).
@@ -104,7 +104,7 @@ class Controller:
         self.optimizer = optimizer
         if isinstance(backend, str):
             check_low_level_backend(backend, task.low_level())
-            self.backend: RolloutBackend = make_rollout_backend(backend, task.model, num_workers)
+            self.backend: RolloutBackend = task_rollout_backend(task, backend, num_workers)  # own dynamics or MuJoCo
         else:  # a backend built by the caller (a ProblemBatch's slot), owned from now on
             self.backend = backend
         self.backend = with_low_level(self.backend, task.low_level())  # the pool itself without one
@@ -298,7 +298,7 @@ class Controller:
                     raise JudoError(
                         f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)"
                     )
-                rewards[np.isnan(rewards) | (rewards == np.inf)] = -np.inf  # NaN or +inf never wins a ranking
+                rewards[np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged] = -np.inf  # these never win
                 if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
                     rewards = reduce_rewards(
                         rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale

@@ -98,7 +98,8 @@ class Task(ABC, Generic[ConfigT]):
         super().__init_subclass__(**kwargs)
         for base in cls.__dict__.get("__orig_bases__", ()):
             args = typing.get_args(base)
-            if typing.get_origin(base) is Task and args and isinstance(args[0], type):
+            origin = typing.get_origin(base)  # Task[C], or a generic subclass's (DynamicsTask[C])
+            if isinstance(origin, type) and issubclass(origin, Task) and args and isinstance(args[0], type):
                 cls.config_cls = args[0]
         keys = cls.recorded_metadata
         if not isinstance(keys, tuple) or not all(isinstance(k, str) and k and "/" not in k for k in keys):

@@ -16,6 +16,7 @@ import mujoco
 import numpy as np
 
 from judo.core.config import require
+from judo.core.dynamics import DynamicsTask
 from judo.core.model import set_mocap_poses
 from judo.core.task import Task
 from judo.runtime.system import SystemState
@@ -47,6 +48,7 @@ class LatencyPredictor:
     """
 
     def __init__(self, task: Task) -> None:
+        self.task = task  # a DynamicsTask predicts on its own dynamics
         self.model = task.model
         self.data = mujoco.MjData(self.model)
 
@@ -66,7 +68,12 @@ class LatencyPredictor:
         set_mocap_poses(self.model, data, reading.metadata)
         for _ in range(steps):
             data.ctrl[:] = control_at(float(data.time))
-            mujoco.mj_step(self.model, data)
+            if isinstance(self.task, DynamicsTask):
+                state = np.concatenate([data.qpos, data.qvel])
+                state[: self.task.nx] = self.task.step_checked(state[None, : self.task.nx], data.ctrl[None].copy())[0]
+                data.qpos[:], data.qvel[:], data.time = state[:nq], state[nq:], data.time + self.model.opt.timestep
+            else:
+                mujoco.mj_step(self.model, data)
         if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
             return reading  # the prediction blew up: plan from what was read
         state = np.concatenate([data.qpos, data.qvel])

@@ -9,6 +9,7 @@ from abc import ABC, abstractmethod
 import mujoco
 import numpy as np
 
+from judo.core.dynamics import DynamicsTask
 from judo.core.errors import JudoError
 from judo.core.low_level import LowLevelPlant
 from judo.core.reading import SystemState
@@ -102,6 +103,8 @@ class MujocoSystem(System):
         plant.config = task.config
         plant.rng = np.random.default_rng(None if seed is None else [seed, PLANT_STREAM])
         plant.reset()
+        if isinstance(plant, DynamicsTask) and cls is MujocoSystem:
+            return DynamicsSystem(plant)  # a task with its own dynamics is simulated by them, not by MuJoCo
         return cls(plant)
 
     def plant_sensors(self) -> np.ndarray:
@@ -174,3 +177,45 @@ def missing_halt(system: System) -> str | None:
         "robot, which keeps its last action until the call returns; define halt() to bring it to rest from another "
         "thread (docs/hardware.md)"
     )
+
+
+class DynamicsSystem(MujocoSystem):
+    """The simulated plant of a DynamicsTask: steps the task's own `dynamics` on one row, seeded, with optional
+    process noise, instead of MuJoCo's physics.
+
+    The state x lives in the task's carrier `data` ([qpos, qvel], judo.core.dynamics), so reading the state,
+    logs, datasets and the GUI work as for any MuJoCo plant. `MujocoSystem.from_task` builds one for such a task.
+
+    Args:
+        task: the plant's own DynamicsTask instance, reset to its start.
+        process_noise: (nx,) or scalar standard deviation of the Gaussian noise added to x after each step, drawn
+            from `task.rng` (seeded by `from_task`); None: the task's `process_noise`.
+    """
+
+    def __init__(self, task: DynamicsTask, process_noise: float | np.ndarray | None = None) -> None:
+        super().__init__(task)
+        self.dynamics_task = task
+        noise = task.process_noise if process_noise is None else process_noise
+        self.process_noise = np.broadcast_to(np.asarray(noise, dtype=float), (task.nx,)).copy()
+        self._low, self._high = task.actuator_ctrlrange.T.copy()
+
+    def step(self) -> None:
+        """One step of the task's dynamics under the applied control. Raises SimulationDiverged (after resetting
+        the task) when the state turns non-finite."""
+        task, data = self.dynamics_task, self.dynamics_task.data
+        start_time = data.time
+        task.pre_sim_step()
+        control = np.clip(data.ctrl, self._low, self._high)  # as MuJoCo clamps a limited actuator's ctrl
+        x = task.step_checked(task.state[None], control[None])[0]
+        if self.process_noise.any():
+            x = x + self.process_noise * task.rng.standard_normal(task.nx)
+        task.state = x
+        data.sensordata[:] = task.trace_points(x).ravel()  # the carrier's only sensors: the traced points
+        data.time = start_time + task.dt
+        task.post_sim_step()
+        if not np.isfinite(x).all():
+            task.reset()
+            data.time = start_time + task.dt  # the plant's clock keeps running
+            raise SimulationDiverged(
+                f"{type(task).__name__}.dynamics gave a non-finite state at t={start_time:.3f} s; reset the task"
+            )

@@ -11,6 +11,7 @@ import judo.optimizers  # noqa: F401  (the defaults files name the built-in opti
 from judo.core.config_file import load_config
 from judo.core.registry import register_task
 from judo.tasks.acrobot import Acrobot, AcrobotConfig
+from judo.tasks.car import Car, CarConfig
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 from judo.tasks.cartpole_pd import CartpolePD
 from judo.tasks.cylinder_push import CylinderPush, CylinderPushConfig
@@ -21,6 +22,7 @@ from judo.tasks.leap_cube import LeapCube, LeapCubeConfig, LeapCubeDown, LeapCub
 from judo.tasks.particle import Particle, ParticleConfig
 from judo.tasks.pendulum import Pendulum, PendulumConfig
 from judo.tasks.push_t import PushT, PushTConfig
+from judo.tasks.quadrotor import Quadrotor, QuadrotorConfig
 from judo.tasks.quadruped import Quadruped, QuadrupedConfig
 from judo.tasks.quadruped_navigate import QuadrupedNavigate, QuadrupedNavigateConfig
 from judo.tasks.quadruped_velocity import QuadrupedVelocity, QuadrupedVelocityConfig
@@ -52,6 +54,10 @@ BUILTIN_TASKS = {
     "leap_cube": (LeapCube, LeapCubeConfig),
     "leap_cube_down": (LeapCubeDown, LeapCubeDownConfig),
     "fr3_pick": (FR3Pick, FR3PickConfig),
+    # Tasks on their own numpy dynamics (judo.core.dynamics), not MuJoCo: a kinematic-bicycle car.
+    "car": (Car, CarConfig),
+    # A quadrotor rigid body on its four rotor thrusts (numpy equations of motion).
+    "quadrotor": (Quadrotor, QuadrotorConfig),
 }
 
 
@@ -68,6 +74,8 @@ for _name, (_task_cls, _config_cls) in BUILTIN_TASKS.items():
 __all__ = [  # every built-in task class and its config
     "Acrobot",
     "AcrobotConfig",
+    "Car",
+    "CarConfig",
     "Cartpole",
     "CartpoleConfig",
     "CartpolePD",
@@ -89,6 +97,8 @@ __all__ = [  # every built-in task class and its config
     "PendulumConfig",
     "PushT",
     "PushTConfig",
+    "Quadrotor",
+    "QuadrotorConfig",
     "Quadruped",
     "QuadrupedConfig",
     "QuadrupedNavigate",

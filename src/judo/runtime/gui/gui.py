@@ -13,6 +13,7 @@ import numpy as np
 import viser
 
 from judo.core.config import Config
+from judo.core.dynamics import drawn_model, drawn_qpos
 from judo.core.errors import JudoError
 from judo.core.fields import SliderRange
 from judo.runtime.commands import AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
@@ -125,11 +126,11 @@ class Gui:
         if state.version != self._state_version and state.value.generation == self._generation:
             self._state_version = state.version
             reading, truth = state.value.reading, state.value.true_state
-            nq = self.scene.model.nq
+            task = app.session.controller.task
             with self.server.atomic():
-                self.scene.update((reading.state if truth is None else truth)[:nq], reading.metadata)
+                self.scene.update(drawn_qpos(task, reading.state if truth is None else truth), reading.metadata)
                 if self.ghost is not None and truth is not None:
-                    self.ghost.update(reading.state[:nq], reading.metadata)
+                    self.ghost.update(drawn_qpos(task, reading.state), reading.metadata)
             if app.resets_done != self._resets_done:  # the plant is back at its start: frame it again
                 self._resets_done = app.resets_done
                 self.frame_task()
@@ -147,7 +148,7 @@ class Gui:
             self.plots.add(now - self._start, figures)
             truth = state.value.true_state
             if truth is not None and state.value.generation == self._generation:
-                errors = estimation_error(self.scene.model, truth, state.value.reading.state)
+                errors = estimation_error(app.session.controller.task.model, truth, state.value.reading.state)
                 self.plots.add_estimation(now - self._start, *errors)
             self.controls.show_readout(state.value.reading.time, figures, state.value.reading.metadata)
         for panel in self.panels.values():
@@ -181,14 +182,15 @@ class Gui:
             if self.ghost is not None:
                 self.ghost.remove()
                 self.ghost = None
-            self.scene = SceneView(self.server.scene, session.controller.task.model)
-            self.scene.update(reading.state[: self.scene.model.nq], reading.metadata)
-            self.scene.set_markers(configs["task"])
             task = session.controller.task
+            model = drawn_model(task)  # the planning model, or a task with its own dynamics' drawing model
+            self.scene = SceneView(self.server.scene, model)
+            self.scene.update(drawn_qpos(task, reading.state), reading.metadata)
+            self.scene.set_markers(configs["task"])
             self.goals = GoalHandles(
-                self.server.scene, task.model, configs["task"], self._drag_field(session.generation), self._drag_mocap
+                self.server.scene, model, configs["task"], self._drag_field(session.generation), self._drag_mocap
             )
-            self.follower = Follower(task.model, focus_body_id(task.model, type(task).focus_body))
+            self.follower = Follower(model, focus_body_id(model, type(task).focus_body))
             self.frame_task()
             self._scene_task = session.task_name
         self._shown_task_config = None
@@ -229,8 +231,8 @@ class Gui:
         estimator = session.closed_loop.estimator
         simulated = estimator is not None and session.simulated is not None
         if simulated and self.ghost is None:
-            self.ghost = SceneView(self.server.scene, session.controller.task.model, "/ghost", ghost=True)
-            self.ghost.update(reading.state[: self.ghost.model.nq], reading.metadata)
+            self.ghost = SceneView(self.server.scene, drawn_model(session.controller.task), "/ghost", ghost=True)
+            self.ghost.update(drawn_qpos(session.controller.task, reading.state), reading.metadata)
         elif not simulated and self.ghost is not None:
             self.ghost.remove()
             self.ghost = None
