@@ -1,6 +1,7 @@
 """Helpers for real ROS 2 links on loopback: plant processes (`python -m judo plant`) and in-process DDS robots,
 each on a DDS domain of its own, so tests never hear each other."""
 
+import dataclasses
 import os
 import random
 import subprocess
@@ -12,6 +13,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+import judo
+from judo.core.registry import make_config
+from judo.optimizers.mppi import MPPIConfig
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -116,3 +121,19 @@ def echoes(reader) -> list[np.ndarray]:  # noqa: ANN001
     from judo.ros2 import link
 
     return [np.asarray(m.data) for m in link.take(reader, 64)]
+
+
+def small_controller(**config) -> judo.Controller:  # noqa: ANN003
+    """cartpole's mppi with few rollouts, so it keeps up on a busy machine; `config` changes ControllerConfig fields."""
+    controller_config = dataclasses.replace(
+        make_config(judo.ControllerConfig, "cartpole"), horizon=0.5, control_freq=20.0, **config
+    )
+    optimizer_config = dataclasses.replace(make_config(MPPIConfig, "cartpole"), num_rollouts=16)
+    return judo.make_controller(
+        "cartpole",
+        "mppi",
+        controller_config=controller_config,
+        optimizer_config=optimizer_config,
+        seed=0,
+        num_workers=1,
+    )

@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("cyclonedds")
 mcap_reader = pytest.importorskip("mcap_ros2.reader")
 
-from ros2_links import echo_reader, echoes, poll  # noqa: E402
+from ros2_links import echo_reader, echoes, poll, small_controller  # noqa: E402
 
 import judo  # noqa: E402
 from judo.core.errors import JudoError  # noqa: E402
@@ -29,22 +29,6 @@ from judo.tasks.cartpole import Cartpole  # noqa: E402
 
 def bridge(domain: int, log: McapLog | None = None) -> Ros2System:
     return Ros2System(Cartpole(), Ros2Options(domain_id=domain), log)
-
-
-def small_controller(**config) -> judo.Controller:  # noqa: ANN003
-    """cartpole's mppi with few rollouts, so it keeps up on a busy machine."""
-    controller_config = dataclasses.replace(
-        make_config(judo.ControllerConfig, "cartpole"), horizon=0.5, control_freq=20.0, **config
-    )
-    optimizer_config = dataclasses.replace(make_config(MPPIConfig, "cartpole"), num_rollouts=16)
-    return judo.make_controller(
-        "cartpole",
-        "mppi",
-        controller_config=controller_config,
-        optimizer_config=optimizer_config,
-        seed=0,
-        num_workers=1,
-    )
 
 
 def test_readings_come_from_the_plant_and_commands_reach_it_and_a_second_writer_is_refused(plant, tmp_path):

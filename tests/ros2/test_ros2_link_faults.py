@@ -2,7 +2,6 @@
 restarts its clock is followed, and a lossy, late, jittery link (a plant process with faults) never makes the
 bridge read a stale or out-of-order state or command anything out of range."""
 
-import dataclasses
 import logging
 import threading
 import time
@@ -12,11 +11,18 @@ import pytest
 
 pytest.importorskip("cyclonedds")
 
-from ros2_links import DdsRobot, echo_reader, echoes, free_domain, poll, start_plant, stop_process  # noqa: E402
+from ros2_links import (  # noqa: E402
+    DdsRobot,
+    echo_reader,
+    echoes,
+    free_domain,
+    poll,
+    small_controller,
+    start_plant,
+    stop_process,
+)
 
 import judo  # noqa: E402
-from judo.core.registry import make_config  # noqa: E402
-from judo.optimizers.mppi import MPPIConfig  # noqa: E402
 from judo.ros2 import bridge as bridge_module  # noqa: E402
 from judo.ros2 import clock as clock_module  # noqa: E402
 from judo.ros2 import link  # noqa: E402
@@ -25,22 +31,6 @@ from judo.runtime.closed_loop import ClosedLoop  # noqa: E402
 from judo.runtime.session import Sensing, choose_estimator  # noqa: E402
 from judo.runtime.system_choice import Ros2Options  # noqa: E402
 from judo.tasks.cartpole import Cartpole  # noqa: E402
-
-
-def small_controller() -> judo.Controller:
-    """cartpole's mppi with few rollouts, so it keeps up on a busy machine."""
-    controller_config = dataclasses.replace(
-        make_config(judo.ControllerConfig, "cartpole"), horizon=0.5, control_freq=20.0, max_plan_age=0.5
-    )
-    optimizer_config = dataclasses.replace(make_config(MPPIConfig, "cartpole"), num_rollouts=16)
-    return judo.make_controller(
-        "cartpole",
-        "mppi",
-        controller_config=controller_config,
-        optimizer_config=optimizer_config,
-        seed=0,
-        num_workers=1,
-    )
 
 
 def test_malformed_joint_states_and_bad_stamps_are_refused_and_named(caplog, monkeypatch):
@@ -110,7 +100,7 @@ def test_joint_positions_alone_become_the_tasks_measured_sensors_and_the_ekf_est
         np.testing.assert_array_equal(reading.sensors, [0.1, 3.0])  # slider_pos, hinge_pos: cartpole's measured
         name, estimator = choose_estimator(system.task, "cartpole", system, Sensing(), reading)
         assert name == "ekf"
-        loop = ClosedLoop(small_controller(), system, clock=time.monotonic, estimator=estimator)
+        loop = ClosedLoop(small_controller(max_plan_age=0.5), system, clock=time.monotonic, estimator=estimator)
         for _ in range(20):
             loop.step()
         estimate = loop.reading.state  # the EKF's: it tracks the measured positions; the pushes it sends move
@@ -194,7 +184,7 @@ def test_a_lossy_late_jittery_link_keeps_plans_fresh_and_a_killed_robot_gets_the
     )
     part, echo = echo_reader(domain)
     system = Ros2System(Cartpole(), Ros2Options(domain_id=domain))
-    loop = ClosedLoop(small_controller(), system, clock=time.monotonic)
+    loop = ClosedLoop(small_controller(max_plan_age=0.5), system, clock=time.monotonic)
     times, commands = [], []
     try:
         deadline = time.monotonic() + 1.5

@@ -35,6 +35,7 @@ def test_panels_hold_the_fields_of_the_running_configs(app, wait_until):
         "redraw_every",
         "max_plan_age",
         "latency_compensation",
+        "feedback",
     ]  # no policy_samples: without a proposal policy every value but 0 would be refused
     age = panels["controller"].handles("max_plan_age")[0]  # its left end is a short age, not the watchdog off
     assert (age.min, age.max, age.value) == (0.05, 5.0, 0.5)
