@@ -273,8 +273,9 @@ def _description() -> str:
         f"pass those first to see their fields. Tasks: {tasks}. Optimizers: {optimizers}. "
         f"Also: `{PROG} benchmark ...`, `{PROG} evaluate ...`, `{PROG} tune ...`, `{PROG} collect ...`, "
         f"`{PROG} replay FILE.h5`, `{PROG} distill DATA.h5 --out POLICY.onnx`, `{PROG} gait-search --out "
-        f"POLICY.onnx`, `{PROG} plant --task T` (judo's simulator as a ROS 2 robot process) and `{PROG} sysid LOG.h5 "
-        "--task T --params ... --out FITTED.toml` (each with --help)."
+        f"POLICY.onnx`, `{PROG} plant --task T` (judo's simulator as a ROS 2 robot process), `{PROG} excite --task T "
+        f"--out LOG.h5` (a log worth fitting) and `{PROG} sysid LOG.h5 --task T --params ... --out FITTED.toml` (each "
+        "with --help)."
     )
 
 
