@@ -147,3 +147,12 @@ def test_an_option_override_is_leap_cube_plant_xml_bit_for_bit():
     assert not np.array_equal(finals[0], finals[2])
     with pytest.raises(judo.UnknownNameError, match=r"^opt.o_frict: MjOption has no float field 'o_frict'; its fields"):
         check_model_overrides(planning, {"opt": {"o_frict": 1.0}})
+
+
+def test_a_backend_shared_by_episodes_plans_on_the_config_files_fitted_model(tmp_path):
+    from judo.evaluation.seeded import EpisodeSpec, planning_model
+
+    config = tmp_path / "fitted.toml"
+    config.write_text("[model_overrides.cartpole]\nbody_mass.pole = 0.5\n")
+    model = planning_model(EpisodeSpec("cartpole", "ps", 1.0, config_file=str(config)))
+    assert model.body_mass[model.body("pole").id] == 0.5  # the file was read before the model was built

@@ -13,7 +13,13 @@ from judo.core.backend import RolloutBackend
 from judo.core.controller import Controller
 from judo.core.policy_controller import PolicyController
 from judo.evaluation.episode import EpisodeResult
-from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode, run_side_by_side
+from judo.evaluation.seeded import (
+    EpisodeSpec,
+    failure_reason,
+    planning_model,
+    run_seeded_episode,
+    run_side_by_side,
+)
 from judo.runtime.system import MujocoSystem
 
 
@@ -43,10 +49,9 @@ def collect_group(spec: EpisodeSpec, seeds: list[int], traces: bool = False) -> 
     if len(seeds) == 1 or spec.backend != "warp":
         return [collect_episode(spec, seed, traces) for seed in seeds]
     try:
-        from judo.core.registry import make_task
         from judo.core.warp_rollout import WarpRollout
 
-        with WarpRollout(make_task(spec.task).model) as backend:
+        with WarpRollout(planning_model(spec)) as backend:
             return run_side_by_side(backend, seeds, lambda seed, slot: collect_episode(spec, seed, traces, slot))
     except Exception as err:  # noqa: BLE001  (the backend itself failed: every seed of the group failed)
         return [EpisodeOutcome(seed, None, failure_reason(err)) for seed in seeds]

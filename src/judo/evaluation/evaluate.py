@@ -28,7 +28,7 @@ from judo.evaluation.cli import given_fields, set_field_overrides, write_json
 from judo.evaluation.episode import EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
-from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode, run_side_by_side
+from judo.evaluation.seeded import EpisodeSpec, planning_model, run_seeded_episode, run_side_by_side
 from judo.evaluation.stats import Summary, shown_interval, summarize
 
 DESCRIPTION = (
@@ -163,7 +163,7 @@ def evaluate_batched(args: EvaluateArgs, progress: Progress | None = None) -> li
     spec, seeds = args.episode_spec(), list(args.seed_range())
     size = args.episodes_per_batch
     results: list[EpisodeResult] = []
-    with WarpRollout(make_task(args.task).model) as backend:
+    with WarpRollout(planning_model(spec)) as backend:
         for start in range(0, len(seeds), size):
             group = seeds[start : start + size]
             times = dict.fromkeys(group, 0.0)

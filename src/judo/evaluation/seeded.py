@@ -14,6 +14,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
+import mujoco
+
 from judo.core.backend import RolloutBackend
 from judo.core.config import Config, require
 from judo.core.config_values import controller_config_of, optimizer_config_of
@@ -254,6 +256,15 @@ def failure_reason(err: BaseException) -> str:
         return f"{type(err).__name__}: {err}"
     where = traceback.extract_tb(err.__traceback__)[-1]
     return f"{type(err).__name__}: {err} ({Path(where.filename).name}:{where.lineno})"
+
+
+def planning_model(spec: EpisodeSpec) -> mujoco.MjModel:
+    """The planning model of `spec`'s task as its episodes' controllers build it: after the --config file (custom
+    tasks, [model_overrides]), for a backend that several episodes share."""
+    from judo.core.registry import make_task
+
+    load_config_once(spec.config_file)
+    return make_task(spec.task).model
 
 
 def run_side_by_side(backend: "ProblemBackend", seeds: list[int], run: Callable[[int, RolloutBackend], T]) -> list[T]:
