@@ -33,10 +33,10 @@ def env(domain: int | None = None) -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": pythonpath, **extra}
 
 
-def start_plant(domain: int, *flags: str) -> subprocess.Popen:
-    """`python -m judo plant --task cartpole` on `domain`, once it says it publishes."""
+def start_plant(domain: int, *flags: str, task: str = "cartpole") -> subprocess.Popen:
+    """`python -m judo plant --task TASK` on `domain`, once it says it publishes."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "judo", "plant", "--task", "cartpole", "--ros2.domain-id", str(domain), *flags],
+        [sys.executable, "-m", "judo", "plant", "--task", task, "--ros2.domain-id", str(domain), *flags],
         stdout=subprocess.PIPE,
         stderr=subprocess.STDOUT,
         text=True,

@@ -12,7 +12,7 @@ import pytest
 pytest.importorskip("cyclonedds")
 mcap_reader = pytest.importorskip("mcap_ros2.reader")
 
-from ros2_links import echo_reader, echoes, poll, small_controller  # noqa: E402
+from ros2_links import echo_reader, echoes, free_domain, poll, small_controller, start_plant, stop_process  # noqa: E402
 
 import judo  # noqa: E402
 from judo.core.errors import JudoError  # noqa: E402
@@ -23,8 +23,10 @@ from judo.ros2.bridge import Ros2System  # noqa: E402
 from judo.ros2.mcap_log import McapLog  # noqa: E402
 from judo.runtime.app import App  # noqa: E402
 from judo.runtime.closed_loop import ClosedLoop  # noqa: E402
+from judo.runtime.system import MujocoSystem  # noqa: E402
 from judo.runtime.system_choice import Ros2Options  # noqa: E402
 from judo.tasks.cartpole import Cartpole  # noqa: E402
+from judo.tasks.particle import Particle  # noqa: E402
 
 
 def bridge(domain: int, log: McapLog | None = None) -> Ros2System:
@@ -134,3 +136,21 @@ def test_the_app_on_the_bridge_records_hdf5_stops_within_a_second_and_leaves_the
     _, demos = read_demos(path)
     demo = demos[0]
     assert demo.qpos.shape[1] == 2 and len(demo.qpos) > 5 and np.isfinite(demo.qpos).all()
+
+
+def test_a_task_with_a_goal_plans_from_the_robot_sides_goal_as_in_process():
+    domain = free_domain()
+    proc = start_plant(domain, "--seed", "3", task="particle")  # particle's goal is a mocap body, drawn by the seed
+    try:
+        system = Ros2System(Particle(), Ros2Options(domain_id=domain))
+        try:
+            poll(lambda: "mocap_pos" in system.read_state().metadata, what="the goal's PoseArray")
+            reading = system.read_state()
+        finally:
+            system.close()
+    finally:
+        stop_process(proc)
+    expected = MujocoSystem.from_task(Particle(), 3).read_state().metadata
+    assert np.abs(expected["mocap_pos"]).max() > 0.0  # a goal away from the origin, as the plant drew it
+    np.testing.assert_allclose(reading.metadata["mocap_pos"], expected["mocap_pos"], atol=1e-12)
+    np.testing.assert_allclose(reading.metadata["mocap_quat"], expected["mocap_quat"], atol=1e-12)

@@ -9,6 +9,7 @@ rosbags_typesys = pytest.importorskip("rosbags.typesys")
 
 import mujoco  # noqa: E402
 
+from judo.core.errors import JudoError  # noqa: E402
 from judo.ros2 import link  # noqa: E402
 from judo.ros2 import messages as msg  # noqa: E402
 from judo.ros2.mcap_log import McapLog  # noqa: E402
@@ -53,6 +54,20 @@ def test_every_message_the_bridge_reads_or_writes_decodes_with_rosbags_into_the_
     assert imu.linear_acceleration.z == 9.81 and imu.angular_velocity.y == 0.02
     assert len(imu.orientation_covariance) == 9
 
+    goal_pos, goal_quat = np.array([[0.3, -0.2, 0.5], [1.0, 2.0, 3.0]]), np.array([[1.0, 0, 0, 0], [0, 0, 0, 1.0]])
+    poses = link.mocap_poses(goal_pos, goal_quat, 2.0)
+    mocap = decoded(poses)
+    assert mocap.header.frame_id == "odom" and len(mocap.poses) == 2
+    assert [mocap.poses[1].position.x, mocap.poses[1].orientation.z] == [1.0, 1.0]
+    back_pos, back_quat = link.mocap_from_poses(poses, 2)
+    np.testing.assert_array_equal(back_pos, goal_pos)
+    np.testing.assert_array_equal(back_quat, goal_quat)
+    with pytest.raises(JudoError, match="a PoseArray of 2 poses; expected the model's 1 mocap bodies"):
+        link.mocap_from_poses(poses, 1)
+    poses.poses[0].position.x = float("nan")
+    with pytest.raises(JudoError, match="non-finite position"):
+        link.mocap_from_poses(poses, 2)
+
     commands = decoded(link.commands(np.array([0.25, -1.0])))
     assert commands.data.tolist() == [0.25, -1.0]
     assert (commands.layout.dim[0].label, commands.layout.dim[0].size, commands.layout.dim[0].stride) == (
@@ -72,6 +87,7 @@ def test_an_mcap_log_opens_with_mcaps_ros2_reader_with_its_topics_and_schemas(tm
     log.write("/odom", link.odometry(layout, qpos, qvel, 1.0))
     log.write("/imu", link.imu(qpos, qvel, np.zeros(3), layout, 1.0))
     log.write("/judo/commands", link.commands(np.array([0.5])))
+    log.write("/judo/mocap", link.mocap_poses(np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0, 0, 0]]), 1.0))
     log.close()
     seen = {m.channel.topic: (m.schema.name, m.ros_msg) for m in reader.read_ros2_messages(tmp_path / "run.mcap")}
     assert {topic: name for topic, (name, _) in seen.items()} == {
@@ -79,7 +95,9 @@ def test_an_mcap_log_opens_with_mcaps_ros2_reader_with_its_topics_and_schemas(tm
         "/odom": "nav_msgs/msg/Odometry",
         "/imu": "sensor_msgs/msg/Imu",
         "/judo/commands": "std_msgs/msg/Float64MultiArray",
+        "/judo/mocap": "geometry_msgs/msg/PoseArray",
     }
+    assert seen["/judo/mocap"][1].poses[0].position.z == 1.0
     assert list(seen["/joint_states"][1].position) == [0.2]
     assert seen["/odom"][1].pose.pose.position.z == 0.5
     assert list(seen["/judo/commands"][1].data) == [0.5]

@@ -5,8 +5,9 @@
     python -m judo --task cartpole --system ros2 --headless [--ros2.domain-id 7] [--record run.mcap]
 
 State in: sensor_msgs/JointState on /joint_states (matched by joint name), nav_msgs/Odometry on /odom for a
-task with a free joint, sensor_msgs/Imu on /imu (passed on in the reading's metadata["imu"]); best effort, keep
-last 1. Commands out: std_msgs/Float64MultiArray on /judo/commands in actuator order, reliable: what a
+task with a free joint, sensor_msgs/Imu on /imu (passed on in the reading's metadata["imu"]), and for a task with
+mocap bodies (a goal) geometry_msgs/PoseArray on /judo/mocap (metadata["mocap_pos"], ["mocap_quat"]); best
+effort, keep last 1. Commands out: std_msgs/Float64MultiArray on /judo/commands in actuator order, reliable: what a
 ros2_control forward command controller takes. The reading's time is the JointState's header stamp, the
 robot's clock, so a late reading is known as late. A JointState with a velocity for every joint (and, for a
 free base, an Odometry) is the full state; one with positions only becomes the task's `measured_sensors`
@@ -91,6 +92,7 @@ class Ros2System(System):
         self._reading: SystemState | None = None
         self._odom: tuple[np.ndarray, np.ndarray] | None = None
         self._imu: dict[str, np.ndarray] | None = None
+        self._mocap: tuple[np.ndarray, np.ndarray] | None = None  # (nmocap, 3), (nmocap, 4) from the robot side
         self._command: np.ndarray | None = None
         self._next_tick: float | None = None
         self._next_writer_check = 0.0
@@ -105,6 +107,10 @@ class Ros2System(System):
             if self.layout.free is not None:
                 self._odom_reader = DataReader(part, link.topic(part, options.odom, msg.Odometry), link.SENSOR_QOS)
             self._imu_reader = DataReader(part, link.topic(part, options.imu, msg.Imu), link.SENSOR_QOS)
+            self._mocap_reader = None
+            if task.model.nmocap:
+                mocap_topic = link.topic(part, options.mocap, msg.PoseArray)
+                self._mocap_reader = DataReader(part, mocap_topic, link.SENSOR_QOS)
             command_topic = link.topic(part, options.commands, msg.Float64MultiArray)
             self._writer = DataWriter(part, command_topic, link.COMMAND_QOS)
             others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)  # writers of other processes
@@ -173,6 +179,14 @@ class Ros2System(System):
                 self._note_odometry(odom)
         for sample in link.take(self._imu_reader, 8):
             self._note_imu(sample)
+        for poses in [] if self._mocap_reader is None else link.take(self._mocap_reader, 8):
+            try:
+                self._mocap = link.mocap_from_poses(poses, self.task.model.nmocap)
+            except JudoError as err:
+                self._refuse("mocap poses", str(err))
+                continue
+            if self.log is not None:
+                self.log.write(self.options.mocap, poses, _ns(poses.header.stamp))
         for joints in link.take(self._joint_reader, 8):
             self._note_joint_state(joints, wall)
 
@@ -246,6 +260,8 @@ class Ros2System(System):
         metadata: dict[str, Any] = {}
         if self._imu is not None:
             metadata["imu"] = {key: value.copy() for key, value in self._imu.items()}
+        if self._mocap is not None:  # as judo's simulator publishes them in-process
+            metadata["mocap_pos"], metadata["mocap_quat"] = (value.copy() for value in self._mocap)
         if self.log is not None:
             self.log.write(self.options.joint_states, joints, _ns(joints.header.stamp))
         with self._lock:

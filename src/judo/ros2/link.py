@@ -176,6 +176,29 @@ def imu(qpos: np.ndarray, qvel: np.ndarray, accel: np.ndarray, layout: JointLayo
     )
 
 
+def mocap_poses(mocap_pos: np.ndarray, mocap_quat: np.ndarray, stamp: float) -> msg.PoseArray:
+    """The PoseArray of the model's mocap bodies, (nmocap, 3) positions and (nmocap, 4) [w x y z] orientations,
+    in the world ("odom") frame."""
+    poses = [
+        msg.Pose(msg.Point(*p.tolist()), msg.Quaternion(float(q[1]), float(q[2]), float(q[3]), float(q[0])))
+        for p, q in zip(np.asarray(mocap_pos, float), np.asarray(mocap_quat, float), strict=True)
+    ]
+    return msg.PoseArray(msg.Header(msg.stamp_of(stamp), "odom"), poses)
+
+
+def mocap_from_poses(poses: msg.PoseArray, nmocap: int) -> tuple[np.ndarray, np.ndarray]:
+    """((nmocap, 3) positions, (nmocap, 4) [w x y z] unit orientations) of `poses`; JudoError for another count,
+    a non-finite value or an orientation that is not a quaternion."""
+    if len(poses.poses) != nmocap:
+        raise JudoError(f"a PoseArray of {len(poses.poses)} poses; expected the model's {nmocap} mocap bodies")
+    pos = np.array([[p.position.x, p.position.y, p.position.z] for p in poses.poses], float).reshape(nmocap, 3)
+    quat = np.array([[p.orientation.w, p.orientation.x, p.orientation.y, p.orientation.z] for p in poses.poses])
+    norms = np.linalg.norm(quat.reshape(nmocap, 4), axis=1, keepdims=True)
+    if not (np.isfinite(pos).all() and np.isfinite(norms).all() and (norms > 1e-6).all()):
+        raise JudoError("a PoseArray with a non-finite position or an orientation that is not a quaternion")
+    return pos, quat.reshape(nmocap, 4) / norms
+
+
 def commands(action: np.ndarray) -> msg.Float64MultiArray:
     """The Float64MultiArray of the (nu,) `action`, one dimension labelled "actuators"."""
     n = len(action)

@@ -78,6 +78,13 @@ class Pose(IdlStruct, typename="geometry_msgs::msg::dds_::Pose_"):
 
 @dataclass
 @annotate.final
+class PoseArray(IdlStruct, typename="geometry_msgs::msg::dds_::PoseArray_"):
+    header: Header = field(default_factory=Header)
+    poses: sequence[Pose] = field(default_factory=list)
+
+
+@dataclass
+@annotate.final
 class PoseWithCovariance(IdlStruct, typename="geometry_msgs::msg::dds_::PoseWithCovariance_"):
     pose: Pose = field(default_factory=Pose)
     covariance: array[float64, 36] = field(default_factory=lambda: [0.0] * 36)
@@ -194,6 +201,13 @@ MSGDEFS = {
         ("geometry_msgs/Quaternion", _QUATERNION),
         ("geometry_msgs/Vector3", _VECTOR),
     ),
+    "geometry_msgs/msg/PoseArray": _msgdef(
+        "std_msgs/Header header\ngeometry_msgs/Pose[] poses",
+        *_HEADER_DEPS,
+        ("geometry_msgs/Pose", "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation"),
+        ("geometry_msgs/Point", _VECTOR),
+        ("geometry_msgs/Quaternion", _QUATERNION),
+    ),
     "std_msgs/msg/Float64MultiArray": _msgdef(
         "std_msgs/MultiArrayLayout layout\nfloat64[] data",
         ("std_msgs/MultiArrayLayout", "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset"),
@@ -204,4 +218,5 @@ MSGDEFS = {
 
 ROS_NAMES = {JointState: "sensor_msgs/msg/JointState", Odometry: "nav_msgs/msg/Odometry", Imu: "sensor_msgs/msg/Imu"}
 ROS_NAMES[Float64MultiArray] = "std_msgs/msg/Float64MultiArray"
+ROS_NAMES[PoseArray] = "geometry_msgs/msg/PoseArray"
 """Message class -> its ROS 2 name."""

@@ -135,6 +135,8 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
     if layout.free is not None:
         writers["odom"] = DataWriter(part, link.topic(part, options.ros2.odom, msg.Odometry), link.SENSOR_QOS)
         writers["imu"] = DataWriter(part, link.topic(part, options.ros2.imu, msg.Imu), link.SENSOR_QOS)
+    if model.nmocap:  # goals and targets the planner reads, as in-process from the reading's metadata
+        writers["mocap"] = DataWriter(part, link.topic(part, options.ros2.mocap, msg.PoseArray), link.SENSOR_QOS)
     reader = DataReader(part, link.topic(part, options.ros2.commands, msg.Float64MultiArray), link.COMMAND_QOS)
     echo = None
     if options.echo:
@@ -180,6 +182,8 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
         if data.time >= next_publish - 1e-9:
             next_publish = max(next_publish + period, data.time)
             qpos, qvel, stamp = data.qpos.copy(), data.qvel.copy(), float(data.time)
+            if model.nmocap:  # before the joints, so the reading they make carries the goal they were taken with
+                outbox.send(writers["mocap"], link.mocap_poses(data.mocap_pos, data.mocap_quat, stamp), now)
             outbox.send(writers["joints"], link.joint_state(layout, qpos, qvel, stamp), now)
             if layout.free is not None:
                 outbox.send(writers["odom"], link.odometry(layout, qpos, qvel, stamp), now)

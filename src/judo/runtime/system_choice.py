@@ -33,6 +33,10 @@ class Ros2Options:
     """Topic of the robot's nav_msgs/Odometry, read for a task with a free joint (its base)."""
     imu: str = "/imu"
     """Topic of the robot's sensor_msgs/Imu, passed to the task in the reading's metadata["imu"]."""
+    mocap: str = "/judo/mocap"
+    """Topic of the robot side's geometry_msgs/PoseArray of the model's mocap bodies (a goal, a target), in the
+    model's mocap order, read for a task that has them; the planner gets them as in-process, in the reading's
+    metadata["mocap_pos"] and ["mocap_quat"]."""
     commands: str = "/judo/commands"
     """Topic judo writes std_msgs/Float64MultiArray commands to, in actuator order (reliable)."""
     rate_hz: float = 100.0
