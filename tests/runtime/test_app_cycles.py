@@ -115,6 +115,23 @@ def test_the_step_cost_is_probed_then_measured_from_large_cycles():
         model.close()
 
 
+def test_one_slow_cycle_does_not_inflate_the_estimate_that_refuses_edits():
+    model = judo.make_controller("cartpole", "ps", num_workers=1)
+    try:
+        cost, small = StepCost(model.task.model, 1), CycleSize(64, 1, 1, 40)
+        for _ in range(4):
+            cost.record(small, 2560 * 4e-5)  # 40 us a step
+        cost.record(small, 1.0)  # a page loading held this cycle up: 390 us a step
+        big = CycleSize(64, 1, 1, 800)  # the horizon typed up to 8 s
+        usual = max(cost.probed, 4e-5)  # a small cycle never counts below the probe
+        assert cost.estimate(big) == pytest.approx(51_200 * usual)  # the median of the recent cycles
+        assert cost.estimate(big) < MAX_CYCLE_SECONDS
+        assert cost.seconds == pytest.approx(1.0 / 2560)  # what the last cycle alone says
+        assert 51_200 * cost.seconds > MAX_CYCLE_SECONDS  # it alone would have refused the edit
+    finally:
+        model.close()
+
+
 def test_a_cancelled_batch_ends_part_way_and_a_whole_one_matches_one_call(upright_task):
     pool = RolloutPool(upright_task.model, num_workers=2)
     try:

@@ -15,9 +15,11 @@ import math
 import os
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass
 
 import mujoco
+import numpy as np
 
 from judo.core.controller_config import ControllerConfig, rollout_steps
 from judo.core.optimizer import OptimizerConfig
@@ -33,6 +35,8 @@ CALIBRATION_STEPS = 20_000
 """Rollout steps a completed cycle needs for its time to re-estimate the cost of one step."""
 PROBE_STEPS = 50
 """Physics steps timed on the planning model to estimate one step's cost before any cycle has run."""
+RECENT_CYCLES = 9
+"""Cycles since the last large one whose median per-step cost makes the estimate."""
 
 
 @dataclass(frozen=True)
@@ -72,6 +76,7 @@ class StepCost:
     def __init__(self, model: mujoco.MjModel, workers: int, probe: bool = True) -> None:
         self.probed = self.probe(model, workers) if probe else 0.0
         self.seconds = self.probed if probe else math.nan
+        self._recent: deque[float] = deque(maxlen=RECENT_CYCLES)  # per-step costs since the last large cycle
 
     @staticmethod
     def probe(model: mujoco.MjModel, workers: int) -> float:
@@ -93,10 +98,14 @@ class StepCost:
             return
         per_step = seconds / size.total
         self.seconds = per_step if size.total >= CALIBRATION_STEPS else max(self.probed, per_step)
+        if size.total >= CALIBRATION_STEPS:  # a large cycle measures the steps themselves: it replaces the rest
+            self._recent.clear()
+        self._recent.append(self.seconds)
 
     def estimate(self, size: CycleSize) -> float:
-        """Estimated wall seconds of a cycle of `size` (NaN while the cost is unknown)."""
-        return size.total * self.seconds
+        """Estimated wall seconds of a cycle of `size` (NaN while the cost is unknown), from the median per-step
+        cost of the recent cycles: one slow cycle (a page loading, a busy core) does not refuse the next edit."""
+        return size.total * (float(np.median(self._recent)) if self._recent else self.seconds)
 
 
 class PlanningCycle:
