@@ -1,10 +1,7 @@
 """The judo app: a plant thread, a planner and a browser GUI side by side, sharing one lock-protected state.
 
     app = judo.App(task="cartpole", optimizer="mppi")   # GUI at http://127.0.0.1:8080
-    app.start()          # returns at once; the loops run in a background thread
-    app.update_config("optimizer", {"sigma": 0.2})
-    app.stop()
-    print(app.summary())
+    app.start(); app.update_config("optimizer", {"sigma": 0.2}); app.stop(); print(app.summary())
 
 The App is composed of parts that own their state and are handed what they use (docs/architecture.md):
 - `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the counters;
@@ -13,7 +10,7 @@ The App is composed of parts that own their state and are handed what they use (
 - `PlannerRunner` (`judo.runtime.planner_runner`): the control clock, planning and switches;
 - `Supervisor` (`judo.runtime.supervisor`): the event loop, signals, the monitor and the stop order;
 - `Recordings` (`judo.runtime.recordings`) and the frontend (the GUI, given to the App, which never imports it).
-The App implements the command port the GUI uses (`judo.runtime.commands.AppPort`) and delegates.
+The App implements the GUI's command port (`judo.runtime.commands.AppPort`); `start()` returns at once.
 
 A stop (`stop()`, Ctrl-C, SIGTERM) takes effect within about a second whatever the configs: every wait is cut
 short, planning stops between optimizer iterations, and a call stuck in a rollout is left to its daemon thread.
@@ -338,13 +335,16 @@ class App:
         """The file a recording under way will be written to, or None."""
         return self._recordings.path
 
+    @property
+    def recording_changes(self) -> int:
+        """Recordings begun and ended so far."""
+        return self._state.recording_changes
+
     def start_recording(self, recorder: LiveRecorder | str | Path | None = None) -> Path:
-        """Record every step, plan and config edit until `stop_recording()` (or a switch of task or optimizer) with
-        `recorder` (any `LiveRecorder` of `app.session`), or into a path by the app's recorder factory (by default
-        collect's HDF5 layout, judo-recording-TASK-TIME.h5 for None; the `collect` extra). Returns its file."""
+        """Record every step, plan and config edit until `stop_recording()` (or a switch) with `recorder` (a LiveRecorder
+        of `app.session`), or into a path by the recorder factory (collect's layout by default). Returns its file."""
         return self._recordings.start(recorder)
 
     def stop_recording(self) -> Path | None:
-        """Write the recording under way as the next demo of its file (`python -m judo replay FILE` plays it);
-        returns the file, or None when nothing was recording. JudoError if it cannot be written."""
+        """Write the recording under way as its file's next demo (for replay); its file, or None; JudoError on failure."""
         return self._recordings.stop()

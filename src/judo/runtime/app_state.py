@@ -124,6 +124,7 @@ class AppState:
         self.external_edits = 0  # config changes not made through the GUI, so it refreshes its widgets
         self.resets_done = 0  # plant resets carried out, so the GUI reframes its camera
         self.recording: LiveRecorder | None = None
+        self.recording_changes = 0  # recordings begun and ended so far (the GUI shows each change, however quick)
         self.cycle: PlanningCycle | None = None  # the planning cycle in flight (the planner runner's)
         self.step_cost: StepCost  # the session's cost of one rollout step, from `begin`
         self._plant = PlantRequests()
@@ -170,11 +171,13 @@ class AppState:
         """`recorder` hears every config edit from now on (`judo.runtime.recordings`)."""
         with self.lock:
             self.recording = recorder
+            self.recording_changes += 1
 
     def end_recording(self) -> LiveRecorder | None:
         """The recorder under way, which hears no more edits; None when nothing records."""
         with self.lock:
             recorder, self.recording = self.recording, None
+            self.recording_changes += recorder is not None
         return recorder
 
     # ---- the planning cycle in flight ----------------------------------------------------------------

@@ -172,6 +172,11 @@ class AppPort(Protocol):
         """The file a recording under way will be written to, or None."""
         ...
 
+    @property
+    def recording_changes(self) -> int:
+        """Recordings begun and ended so far."""
+        ...
+
     def start_recording(self, recorder: LiveRecorder | str | Path | None = None) -> Path:
         """Record every step, plan and config edit with `recorder`, or into the file `recorder` names with the
         app's recorder factory (by default an HDF5 file in the collect layout); returns the file."""

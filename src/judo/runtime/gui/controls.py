@@ -69,7 +69,7 @@ class Controls:
         self.cost = gui.add_markdown("", order=order + 0.65)
         self.task_readout = gui.add_markdown("", order=order + 0.67)  # the task's own line (`Task.readout`)
         self._shown_status: tuple[int, bool] = (-1, False)
-        self._recording_seen: bool | None = None  # whether the app was recording at the last `show_recording`
+        self._changes_seen: int | None = None  # the app's recording_changes at the last `show_recording`
         self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))
         self.optimizer.on_update(lambda event: self._switch(event, app.switch_optimizer, self.optimizer, "optimizer"))
         self.estimator.on_update(
@@ -137,9 +137,9 @@ class Controls:
         Between those the box is left alone: a page's toggle is applied by viser before its callback runs on
         viser's thread pool, and putting the box back to the app's state meanwhile (the GUI loop runs 30 times a
         second) made that callback read the box put back, so an untick started a second recording."""
-        recording = self.app.recording is not None
-        if after_toggle or recording != self._recording_seen:
-            self._recording_seen = recording
+        changes, recording = self.app.recording_changes, self.app.recording is not None
+        if after_toggle or changes != self._changes_seen:  # a start and a stop between two frames count too
+            self._changes_seen = changes
             if self.record.value != recording:
                 self.record.value = recording
 
