@@ -53,9 +53,8 @@ from judo.estimators.ekf import EKFConfig
 from judo.estimators.ukf import UKFConfig
 from judo.evaluation.episode import run_episode
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
-from judo.runtime.sensing import SensedSystem
-from judo.runtime.session import Sensing
-from judo.runtime.system import MujocoSystem, System, SystemState
+from judo.loop.sensing import SensedSystem, Sensing
+from judo.loop.system import MujocoSystem, System, SystemState
 
 ENCODERS = {"noise": 0.005, "rate": 100.0, "delay": 0.01}
 """The issue's encoder setting for cartpole, pendulum, acrobot and double_cartpole."""

@@ -30,7 +30,7 @@ import numpy as np
 from judo.core.feedback import FeedbackPlan
 from judo.evaluation.episode import run_episode
 from judo.evaluation.seeded import EpisodeSpec, configs_in_force, spec_controller
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 CONDITIONS = [(20.0, 0.0), (10.0, 0.0), (5.0, 0.0), (10.0, 25.0)]
 """(planning rate in Hz, latency in ms) of each column."""

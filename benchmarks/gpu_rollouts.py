@@ -31,7 +31,7 @@ from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.core.rollout import RolloutPool, check_rollout_backend
 from judo.evaluation.timing import benchmark_controller, rollout_start
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 
 @dataclass

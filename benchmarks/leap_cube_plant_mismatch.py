@@ -13,7 +13,7 @@ import numpy as np
 
 import judo
 from judo.evaluation.episode import run_episode
-from judo.runtime.system import PLANT_STREAM, MujocoSystem
+from judo.loop.system import PLANT_STREAM, MujocoSystem
 from judo.tasks.leap_cube import PLANT_MODEL_PATH, LeapCube
 
 

@@ -30,7 +30,7 @@ from judo.core.policy import Policy
 from judo.core.registry import lookup_optimizer, make_config
 from judo.core.rollout import RolloutPool
 from judo.evaluation.timing import rollout_start
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 
 @dataclass

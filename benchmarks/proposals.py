@@ -29,7 +29,7 @@ from judo.core.norms import wrap_angle
 from judo.core.registry import lookup_optimizer, lookup_task, make_config
 from judo.evaluation.episode import run_episode
 from judo.evaluation.stats import summarize
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 TASK = "cartpole"
 METRICS = ("balanced_fraction", "swung_up", "mean_reward")

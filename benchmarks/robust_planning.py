@@ -31,7 +31,7 @@ from judo.core.registry import lookup_optimizer, make_config
 from judo.core.risk import RISK_MEASURES
 from judo.core.task import Task
 from judo.evaluation.episode import run_episode
-from judo.runtime.system import PLANT_STREAM, MujocoSystem
+from judo.loop.system import PLANT_STREAM, MujocoSystem
 from judo.tasks.fr3_pick import FR3Pick
 from judo.tasks.leap_cube import LeapCube
 

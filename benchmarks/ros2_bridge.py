@@ -29,14 +29,14 @@ import tyro
 import judo
 from judo.core.registry import make_config
 from judo.core.task import EpisodeLog
+from judo.loop.closed_loop import ClosedLoop
+from judo.loop.records import StepRecord
+from judo.loop.system import MujocoSystem
+from judo.loop.system_choice import Ros2Options
 from judo.optimizers.mppi import MPPIConfig
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.bridge import Ros2System
-from judo.runtime.closed_loop import ClosedLoop
-from judo.runtime.records import StepRecord
-from judo.runtime.system import MujocoSystem
-from judo.runtime.system_choice import Ros2Options
 from judo.tasks.cartpole import Cartpole
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -18,7 +18,7 @@ from rich.table import Table
 
 import judo
 from judo.evaluation.episode import run_episode
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 
 @dataclass

@@ -25,8 +25,8 @@ import numpy as np
 import tyro
 
 import judo
+from judo.loop.system import MujocoSystem, System, SystemState
 from judo.runtime.app import App
-from judo.runtime.system import MujocoSystem, System, SystemState
 
 SWITCH_CYCLE = (("cartpole", "mppi"), ("cartpole", "cem"), ("acrobot", "cem"), ("acrobot", "mppi"))
 """(task, optimizer) pairs the switch phase goes round: two optimizer switches and two task switches."""

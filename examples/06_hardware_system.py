@@ -1,6 +1,6 @@
 """Going to hardware: drive your own `System` with the unchanged app, controller and GUI.
 
-The app only talks to its plant through `judo.runtime.system.System`: `read_state()`, `apply(action)`,
+The app only talks to its plant through `judo.loop.system.System`: `read_state()`, `apply(action)`,
 `step()` and `reset()`. Here a stand-in "robot" implements it: an in-process cart-pole that is not
 quite the model the controller plans with (its pole is 10% heavier), whose motor takes a while to
 respond, and which measures what a real one does: its two joint encoders (the task's
@@ -21,7 +21,7 @@ import numpy as np
 
 import judo
 from judo.estimators.ekf import EKFConfig
-from judo.runtime.system import System, SystemState
+from judo.loop.system import System, SystemState
 from judo.tasks.cartpole import MODEL_PATH
 
 

@@ -21,8 +21,8 @@ import judo
 from judo.core.low_level import LowLevel
 from judo.core.onnx_policy import write_linear_policy
 from judo.evaluation.episode import run_episode
+from judo.loop.system import MujocoSystem
 from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
-from judo.runtime.system import MujocoSystem
 from judo.tasks.cartpole import Cartpole
 
 POLICY_FILE = Path(tempfile.mkdtemp(prefix="judo-example-07-")) / "pd.onnx"

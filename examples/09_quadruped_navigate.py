@@ -17,7 +17,7 @@ import numpy as np
 
 import judo
 from judo.evaluation.episode import run_episode
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 
 def main(duration: float = 10.0, seed: int = 0) -> dict[str, float]:

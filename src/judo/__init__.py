@@ -42,10 +42,10 @@ from judo.core.registry import (
 )
 from judo.core.spline import Spline, SplineBasis
 from judo.core.task import Task, TaskConfig
+from judo.loop.closed_loop import ClosedLoop
+from judo.loop.records import PlanRecord, Recorder, StepRecord
+from judo.loop.system import DynamicsSystem, MujocoSystem, System, SystemState
 from judo.runtime.app import App
-from judo.runtime.closed_loop import ClosedLoop
-from judo.runtime.records import PlanRecord, Recorder, StepRecord
-from judo.runtime.system import DynamicsSystem, MujocoSystem, System, SystemState
 from judo.version import __version__ as __version__
 
 __all__ = [

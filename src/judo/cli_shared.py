@@ -26,8 +26,8 @@ from judo.core.registry import (
     lookup_optimizer,
     lookup_task,
 )
-from judo.runtime.closed_loop import Latency
-from judo.runtime.sensing_flags import merge_repeated
+from judo.loop.closed_loop import Latency
+from judo.loop.sensing import merge_repeated
 
 ArgsT = TypeVar("ArgsT")
 

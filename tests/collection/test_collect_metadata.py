@@ -12,7 +12,7 @@ from judo.collection.recorder import EpisodeRecorder
 from judo.collection.replay import check_demos, read_demos
 from judo.core.errors import JudoError
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
-from judo.runtime.records import StepRecord
+from judo.loop.records import StepRecord
 from judo.tasks import Pendulum, QuadrupedVelocity
 
 h5py = pytest.importorskip("h5py")

@@ -14,7 +14,7 @@ from judo.collection.sysid_cli import main as sysid_main
 from judo.core.config_file import load_config
 from judo.core.registry import make_controller
 from judo.evaluation.seeded import EpisodeSpec
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 h5py = pytest.importorskip("h5py")
 pytest.importorskip("scipy")

@@ -143,7 +143,7 @@ def test_mppi_balances_the_tiny_cartpole_near_upright(upright_task):
     optimizer = MPPI(MPPIConfig(num_rollouts=32, sigma=0.3, temperature=0.05), upright_task.nu)
     optimizer.rng = np.random.default_rng(1)
     controller = judo.Controller(judo.ControllerConfig(horizon=1.0), upright_task, optimizer, num_workers=2)
-    from judo.runtime.system import MujocoSystem
+    from judo.loop.system import MujocoSystem
 
     upright_task.data.qpos[:] = [0.0, 0.15]
     system = MujocoSystem(upright_task)

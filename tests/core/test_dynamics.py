@@ -13,8 +13,8 @@ from judo.core.norms import wrap_angle
 from judo.core.registry import get_registered_optimizers
 from judo.core.task import TaskConfig
 from judo.evaluation.episode import run_episode
+from judo.loop.system import DynamicsSystem, MujocoSystem, SimulationDiverged
 from judo.optimizers import CEM, MPPI, CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
-from judo.runtime.system import DynamicsSystem, MujocoSystem, SimulationDiverged
 
 
 @dataclass
@@ -165,7 +165,7 @@ def test_the_plant_is_seeded_noisy_and_resets_on_nan():
 
 def test_latency_compensation_predicts_on_the_task_s_own_dynamics():
     from judo.core.reading import SystemState
-    from judo.runtime.latency import LatencyPredictor
+    from judo.loop.latency import LatencyPredictor
 
     task = UserPendulum()
     reading = SystemState(np.array([2.0, 0.5]), 1.0, {})

@@ -10,9 +10,9 @@ import judo
 from judo.core.controller import ControllerConfig
 from judo.core.feedback import FeedbackError, FeedbackGains, FeedbackPlan, tvlqr_gains
 from judo.core.model import STATE_SPEC
+from judo.loop.closed_loop import ClosedLoop
+from judo.loop.system import MujocoSystem
 from judo.optimizers.mppi import MPPI, MPPIConfig
-from judo.runtime.closed_loop import ClosedLoop
-from judo.runtime.system import MujocoSystem
 from judo.tasks.cartpole import Cartpole
 
 MASS, TIMESTEP = 2.0, 0.01

@@ -13,8 +13,8 @@ from judo.core.low_level import LowLevel, LowLevelBackendError, LowLevelRollout,
 from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
 from judo.core.rollout import RolloutPool
+from judo.loop.system import MujocoSystem
 from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
-from judo.runtime.system import MujocoSystem
 
 # A cart on a limited rail (its limit is active in the test's states, so the solver has work) and a pole.
 LIMITED_XML = """

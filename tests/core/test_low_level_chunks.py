@@ -11,7 +11,7 @@ from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
 from judo.core.rollout import RolloutPool
 from judo.core.spline import SplineBasis
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 CART_XML = """
 <mujoco>

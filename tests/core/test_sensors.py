@@ -9,7 +9,7 @@ import judo
 from judo.core.errors import ConfigError, UnknownNameError
 from judo.core.sensors import InvalidSensorError, measured_layout, parse_per_type, per_sensor
 from judo.core.task import Task
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 XML = """
 <mujoco>

@@ -12,9 +12,10 @@ from judo.core.registry import lookup_task
 from judo.estimators.ekf import EKFConfig
 from judo.estimators.ukf import UnscentedKalmanFilter
 from judo.evaluation.episode_args import EpisodeArgs
+from judo.loop.sensing import Sensing
+from judo.loop.system import SystemState
 from judo.runtime.cli import _peek_estimator
-from judo.runtime.session import Sensing, build_session
-from judo.runtime.system import SystemState
+from judo.runtime.session import build_session
 
 DEFAULTS = {"walker": "ukf", "leap_cube": "ukf", "cartpole": "ekf", "acrobot": "ekf", "pendulum": "ekf"}
 

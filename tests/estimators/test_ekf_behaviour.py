@@ -8,8 +8,8 @@ from judo.core.estimator import ControlHistory
 from judo.core.task import Task
 from judo.estimators.ekf import EKFConfig, ExtendedKalmanFilter
 from judo.estimators.ukf import UKFConfig, UnscentedKalmanFilter
-from judo.runtime.sensing import SensedSystem
-from judo.runtime.system import MujocoSystem, SystemState
+from judo.loop.sensing import SensedSystem
+from judo.loop.system import MujocoSystem, SystemState
 
 FREE_BODY_XML = """
 <mujoco>

@@ -8,7 +8,7 @@ from judo.core.estimator import ControlHistory
 from judo.core.task import Task
 from judo.estimators.ekf import RESET_ITERATIONS, EKFConfig, ExtendedKalmanFilter
 from judo.estimators.ukf import UKFConfig, UnscentedKalmanFilter
-from judo.runtime.system import SystemState
+from judo.loop.system import SystemState
 
 SLIDER_XML = """
 <mujoco>

@@ -9,7 +9,7 @@ from judo.core.estimator import ControlHistory, ReadingError, default_estimator_
 from judo.core.fields import slider_ranges
 from judo.core.registry import lookup_estimator
 from judo.estimators.ekf import EKFConfig
-from judo.runtime.system import SystemState
+from judo.loop.system import SystemState
 
 
 def test_unknown_estimator_names_list_the_valid_ones():

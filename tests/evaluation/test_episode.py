@@ -7,8 +7,8 @@ from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import ConfigError
 from judo.core.task import Task, TaskConfig
 from judo.evaluation.episode import run_episode
+from judo.loop.system import MujocoSystem
 from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
-from judo.runtime.system import MujocoSystem
 
 SLIDER_XML = """
 <mujoco>

@@ -9,7 +9,7 @@ import pytest
 import judo
 from judo.core.policy_controller import make_policy_controller
 from judo.evaluation.episode import run_episode
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 POLICY_PATH = Path(judo.__file__).parent / "tasks" / "models" / "policies" / "cartpole_action.onnx"
 

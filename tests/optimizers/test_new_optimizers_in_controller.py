@@ -6,7 +6,7 @@ import pytest
 
 import judo
 from judo.core.config import with_updates
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 NEW_OPTIMIZERS = ["dial", "cmaes", "icem"]
 NEAR_UPRIGHT = np.array([0.1, 0.2, 0.0, 0.0])  # cart x, pole angle (0 = up), velocities

@@ -17,14 +17,14 @@ from ros2_links import echo_reader, echoes, free_domain, poll, small_controller,
 import judo  # noqa: E402
 from judo.core.errors import JudoError  # noqa: E402
 from judo.core.registry import make_config  # noqa: E402
+from judo.loop.closed_loop import ClosedLoop  # noqa: E402
+from judo.loop.system import MujocoSystem  # noqa: E402
+from judo.loop.system_choice import Ros2Options  # noqa: E402
 from judo.optimizers.mppi import MPPIConfig  # noqa: E402
 from judo.ros2 import link  # noqa: E402
 from judo.ros2.bridge import Ros2System  # noqa: E402
 from judo.ros2.mcap_log import McapLog  # noqa: E402
 from judo.runtime.app import App  # noqa: E402
-from judo.runtime.closed_loop import ClosedLoop  # noqa: E402
-from judo.runtime.system import MujocoSystem  # noqa: E402
-from judo.runtime.system_choice import Ros2Options  # noqa: E402
 from judo.tasks.cartpole import Cartpole  # noqa: E402
 from judo.tasks.particle import Particle  # noqa: E402
 

@@ -10,10 +10,10 @@ pytest.importorskip("cyclonedds")
 
 from ros2_links import ROOT, env, free_domain, stop_process  # noqa: E402
 
+from judo.loop.system import System  # noqa: E402
+from judo.loop.system_choice import SystemOptions, build_system, system_class  # noqa: E402
 from judo.ros2 import plant  # noqa: E402
 from judo.runtime import cli  # noqa: E402
-from judo.runtime.system import System  # noqa: E402
-from judo.runtime.system_choice import SystemOptions, build_system, system_class  # noqa: E402
 
 
 def one_line_error(capsys, argv: list[str], main=cli.main) -> str:  # noqa: ANN001
@@ -26,8 +26,8 @@ def one_line_error(capsys, argv: list[str], main=cli.main) -> str:  # noqa: ANN0
 def test_a_bad_system_or_record_is_one_line_naming_the_choices(capsys, tmp_path):
     err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "ros3"])
     assert "--system expects ros2 or module:Class (a System subclass), got 'ros3'" in err
-    err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "judo.runtime.system:SystemState"])
-    assert "expected a System subclass 'SystemState' in judo.runtime.system, got SystemState" in err
+    err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "judo.loop.system:SystemState"])
+    assert "expected a System subclass 'SystemState' in judo.loop.system, got SystemState" in err
     err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--record", str(tmp_path / "run.mcap")])
     assert "give it with --system ros2" in err
     err = one_line_error(
@@ -51,7 +51,7 @@ def test_a_bad_system_or_record_is_one_line_naming_the_choices(capsys, tmp_path)
 
 def test_a_users_system_class_is_loaded_by_module_and_class_and_built_on_the_task(tmp_path, monkeypatch):
     (tmp_path / "my_robot.py").write_text(
-        "from judo.runtime.system import MujocoSystem\nclass MyRobot(MujocoSystem):\n    pass\n"
+        "from judo.loop.system import MujocoSystem\nclass MyRobot(MujocoSystem):\n    pass\n"
     )
     monkeypatch.syspath_prepend(str(tmp_path))
     assert issubclass(system_class("my_robot:MyRobot"), System)

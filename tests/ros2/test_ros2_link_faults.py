@@ -23,13 +23,13 @@ from ros2_links import (  # noqa: E402
 )
 
 import judo  # noqa: E402
+from judo.loop.closed_loop import ClosedLoop  # noqa: E402
+from judo.loop.sensing import Sensing, choose_estimator  # noqa: E402
+from judo.loop.system_choice import Ros2Options  # noqa: E402
 from judo.ros2 import bridge as bridge_module  # noqa: E402
 from judo.ros2 import clock as clock_module  # noqa: E402
 from judo.ros2 import link  # noqa: E402
 from judo.ros2.bridge import Ros2System  # noqa: E402
-from judo.runtime.closed_loop import ClosedLoop  # noqa: E402
-from judo.runtime.session import Sensing, choose_estimator  # noqa: E402
-from judo.runtime.system_choice import Ros2Options  # noqa: E402
 from judo.tasks.cartpole import Cartpole  # noqa: E402
 
 

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import judo
+from judo.loop.system import System, SystemState
 from judo.runtime.app import App
-from judo.runtime.system import System, SystemState
 
 USER_SETTINGS = {
     "controller": {"max_num_traces": 3, "horizon": 0.4},

@@ -14,10 +14,10 @@ import pytest
 
 import judo
 import judo.runtime
+from judo.loop.control_clock import ControlClock
+from judo.loop.sensing import Sensing
 from judo.runtime.app import App
 from judo.runtime.app_state import AppState, ConfigSet, PendingConfigs
-from judo.runtime.control_clock import ControlClock
-from judo.runtime.session import Sensing
 
 RUNTIME = Path(judo.runtime.__file__).parent
 APP_PARTS = (

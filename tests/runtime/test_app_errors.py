@@ -8,8 +8,8 @@ import pytest
 
 import judo
 from judo.core import registry
+from judo.loop.system import System, SystemState
 from judo.runtime.app import App
-from judo.runtime.system import System, SystemState
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 
 

@@ -8,8 +8,8 @@ import pytest
 import judo
 from judo.core.errors import JudoError
 from judo.core.registry import make_config
+from judo.loop.system import System, SystemState
 from judo.runtime.app import App
-from judo.runtime.system import System, SystemState
 
 CARTPOLE_HORIZON = make_config(judo.ControllerConfig, "cartpole").horizon
 """cartpole's default horizon (src/judo/tasks/models/cartpole.toml)."""

@@ -9,10 +9,10 @@ import pytest
 import judo
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.task import Task, TaskConfig
+from judo.loop.closed_loop import ClosedLoop
+from judo.loop.records import PlanRecord, StepRecord
+from judo.loop.system import MujocoSystem
 from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
-from judo.runtime.closed_loop import ClosedLoop
-from judo.runtime.records import PlanRecord, StepRecord
-from judo.runtime.system import MujocoSystem
 
 SLIDER_XML = """
 <mujoco>
@@ -203,7 +203,7 @@ def test_the_watchdog_serves_the_safe_action_once_the_plan_is_too_old_and_resume
 
 
 def test_a_frozen_reading_trips_the_watchdog_and_a_reading_running_backwards_is_refused(hold_task_cls):
-    from judo.runtime.watchdog import ReadingTimeError
+    from judo.loop.watchdog import ReadingTimeError
 
     events = []
     with hold_controller(hold_task_cls) as controller:
@@ -241,7 +241,7 @@ def test_max_plan_age_zero_turns_the_watchdog_off_and_halt_applies_the_safe_acti
 
 
 def test_an_estimator_plans_from_late_noisy_encoders_and_the_records_hold_truth_measurement_and_estimate():
-    from judo.runtime.sensing import SensedSystem
+    from judo.loop.sensing import SensedSystem
 
     recorder = ListRecorder()
     with judo.make_controller("pendulum", "mppi", seed=0) as controller:

@@ -7,9 +7,9 @@ import pytest
 from judo.core.controller import ControllerConfig
 from judo.core.registry import make_controller
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
-from judo.runtime.closed_loop import ClosedLoop
-from judo.runtime.latency import LatencyPredictor
-from judo.runtime.system import MujocoSystem
+from judo.loop.closed_loop import ClosedLoop
+from judo.loop.latency import LatencyPredictor
+from judo.loop.system import MujocoSystem
 
 
 def test_the_prediction_is_the_plant_stepped_under_the_same_controls():

@@ -11,9 +11,9 @@ from judo.core.controller import Controller, ControllerConfig
 from judo.core.policy import Policy, PolicyError
 from judo.core.policy_controller import PolicyController, make_policy_controller
 from judo.core.task import Task, TaskConfig
+from judo.loop.closed_loop import ClosedLoop
+from judo.loop.system import MujocoSystem
 from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
-from judo.runtime.closed_loop import ClosedLoop
-from judo.runtime.system import MujocoSystem
 
 SLIDER_XML = """
 <mujoco>

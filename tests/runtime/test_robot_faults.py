@@ -17,8 +17,8 @@ import numpy as np
 import pytest
 
 import judo
+from judo.loop.system import MujocoSystem, System, SystemState
 from judo.runtime.app import App
-from judo.runtime.system import MujocoSystem, System, SystemState
 
 MAX_PLAN_AGE = 0.3
 CONTROL_FREQ = 20.0

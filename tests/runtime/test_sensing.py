@@ -6,8 +6,8 @@ import pytest
 
 from judo.core.errors import ConfigError
 from judo.core.task import Task
-from judo.runtime.sensing import SensedSystem
-from judo.runtime.system import MujocoSystem
+from judo.loop.sensing import SensedSystem
+from judo.loop.system import MujocoSystem
 
 XML = """
 <mujoco>

@@ -11,8 +11,8 @@ import time
 import numpy as np
 
 import judo
+from judo.loop.system import MujocoSystem, System, SystemState
 from judo.runtime.app import App
-from judo.runtime.system import MujocoSystem, System, SystemState
 
 SLOW_REWARD = 0.25
 CONTROL_FREQ = 20.0

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import judo
+from judo.loop.system import MujocoSystem, System, SystemState
+from judo.loop.system_calls import SystemCalls, SystemReadingError
 from judo.runtime.app import App
-from judo.runtime.system import MujocoSystem, System, SystemState
-from judo.runtime.system_calls import SystemCalls, SystemReadingError
 
 
 class Driver(System):

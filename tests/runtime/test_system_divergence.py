@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from judo.runtime.system import MujocoSystem, SimulationDiverged
+from judo.loop.system import MujocoSystem, SimulationDiverged
 
 
 def test_a_huge_velocity_is_reported_even_though_mujoco_resets_it(upright_task):

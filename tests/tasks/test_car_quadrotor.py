@@ -7,7 +7,7 @@ import pytest
 import judo
 from judo.core.dynamics import DynamicsRollout, drawn_model, drawn_qpos
 from judo.evaluation.episode import run_episode
-from judo.runtime.system import DynamicsSystem, MujocoSystem
+from judo.loop.system import DynamicsSystem, MujocoSystem
 from judo.tasks.car import LF, LR, MAX_ACCEL, MAX_STEER, Car, penetration
 from judo.tasks.quadrotor import HOVER, MASS, Quadrotor, z_axis
 

@@ -9,7 +9,7 @@ from judo.core.low_level import LowLevelRollout
 from judo.core.onnx_policy import OnnxPolicy
 from judo.core.registry import make_controller
 from judo.evaluation.evaluate import main
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 from judo.tasks.cartpole_pd import EVERY, TARGET_RANGE, CartpolePD, pd_policy_path, pd_weight
 
 

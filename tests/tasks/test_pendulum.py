@@ -5,7 +5,7 @@ import judo
 from judo.core.norms import wrap_angle
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import run_episode
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 from judo.tasks.pendulum import Pendulum, PendulumConfig
 
 

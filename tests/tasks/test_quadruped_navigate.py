@@ -9,7 +9,7 @@ import judo
 from judo.core.low_level import LowLevelRollout
 from judo.core.onnx_policy import OnnxPolicy
 from judo.evaluation.episode import run_episode
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 from judo.tasks.quadruped_navigate import COMMAND_RANGE, EVERY, POLICY_PATH, QuadrupedNavigate
 from judo.tasks.quadruped_velocity import COMMAND_KEY, QuadrupedVelocity
 

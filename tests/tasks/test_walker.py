@@ -5,7 +5,7 @@ import pytest
 import judo
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import run_episode
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 from judo.tasks.walker import Walker, WalkerConfig
 
 

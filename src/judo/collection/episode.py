@@ -1,7 +1,7 @@
 """One collect episode, run as a Ray task: the one seeded episode runner with an EpisodeRecorder on its closed loop.
 
 The episode is exactly evaluate's seed `seed` (`judo.evaluation.seeded.run_seeded_episode`); the recorder
-gets every plan and step from the one closed-loop step (`judo.runtime.closed_loop.ClosedLoop`).
+gets every plan and step from the one closed-loop step (`judo.loop.closed_loop.ClosedLoop`).
 """
 
 import math
@@ -20,7 +20,7 @@ from judo.evaluation.seeded import (
     run_seeded_episode,
     run_side_by_side,
 )
-from judo.runtime.system import MujocoSystem
+from judo.loop.system import MujocoSystem
 
 
 @dataclass

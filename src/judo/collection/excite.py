@@ -92,7 +92,7 @@ def run(args: ExciteArgs) -> None:
     from judo.collection.dataset import DatasetFile, EpisodeArrays
     from judo.core.model_overrides import parse_override_entries
     from judo.core.registry import make_task, set_model_overrides
-    from judo.runtime.system import MujocoSystem
+    from judo.loop.system import MujocoSystem
 
     if args.plant_overrides:
         set_model_overrides(args.task, parse_override_entries(args.plant_overrides), plant=True)

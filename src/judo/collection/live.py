@@ -1,6 +1,6 @@
 """Recording a running app: every step, every plan and every config edit, to a collect file.
 
-`LiveRecording` is a Recorder on the app's closed loop (`judo.runtime.closed_loop`), so it records exactly
+`LiveRecording` is a Recorder on the app's closed loop (`judo.loop.closed_loop`), so it records exactly
 what `collect` records. `finish()` writes the recording as the next `data/demo_<n>` of an HDF5 file in the
 collect layout (docs/collect.md), so `python -m judo replay FILE` plays it back. Recordings of one task,
 optimizer and models share a file; each demo's attrs hold the configs at its start (`env_kwargs`, JSON)
@@ -24,7 +24,7 @@ from judo.core.config import Config
 from judo.core.errors import JudoError
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import step_reward
-from judo.runtime.records import PlanRecord, StepRecord
+from judo.loop.records import PlanRecord, StepRecord
 from judo.runtime.session import Session
 
 

@@ -10,7 +10,7 @@ from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.core.policy_controller import PolicyController
 from judo.core.task import Task
-from judo.runtime.records import PlanRecord, StepRecord
+from judo.loop.records import PlanRecord, StepRecord
 
 
 class EpisodeRecorder:

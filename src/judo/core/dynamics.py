@@ -8,7 +8,7 @@ picks this backend by itself for such a task (`task_rollout_backend`).
 The rest of judo passes states around as a MuJoCo model's [qpos, qvel]. A DynamicsTask therefore carries a
 small generated model (`carrier_xml`): ceil(nx / 2) slide joints, no contacts, no gravity, one motor per
 control holding its limits, the timestep `dt`. Its [qpos, qvel] is the task's state x, with one trailing zero
-when nx is odd; the plant (`DynamicsSystem`, in judo.runtime.system) keeps x there, so logs, datasets and the
+when nx is odd; the plant (`DynamicsSystem`, in judo.loop.system) keeps x there, so logs, datasets and the
 GUI read it as any other task's state. MuJoCo never steps that model.
 """
 

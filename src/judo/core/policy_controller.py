@@ -1,6 +1,6 @@
 """A policy as the controller: each control update is one `act`, and its action or chunk is the plan.
 
-`PolicyController` has the surface the one closed loop (`judo.runtime.closed_loop.ClosedLoop`) and evaluate use
+`PolicyController` has the surface the one closed loop (`judo.loop.closed_loop.ClosedLoop`) and evaluate use
 from `Controller`: `update_action` returns a plan `Spline`, `action(t)` serves it, `config` holds the control rate
 and the watchdog's `max_plan_age`, and `reset`, `close` and `warm_start_action` behave alike. So the watchdog, the
 estimator, the latency model and the recorders serve and watch a policy's plan as they do an optimizer's, with no

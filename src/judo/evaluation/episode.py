@@ -1,6 +1,6 @@
 """Closed-loop episodes: a controller drives a simulated plant, optionally with planning latency.
 
-An episode is the one closed-loop step (`judo.runtime.closed_loop.ClosedLoop.step`) repeated for
+An episode is the one closed-loop step (`judo.loop.closed_loop.ClosedLoop.step`) repeated for
 `duration` seconds of sim time: every 1/control_freq of sim time the controller plans from the plant's
 reading. Without latency the new plan drives the plant at once. With latency the plant keeps running on
 the previous plan while the new one is computed, and the new plan takes effect `latency` seconds of sim
@@ -18,10 +18,10 @@ from judo.core.config import require
 from judo.core.controller import Controller
 from judo.core.estimator import Estimator
 from judo.core.task import EpisodeLog, Task
-from judo.runtime.closed_loop import ClosedLoop, Latency, check_latency
-from judo.runtime.records import PlanRecord, Recorder, StepRecord
-from judo.runtime.sensing import SensedSystem
-from judo.runtime.system import MujocoSystem
+from judo.loop.closed_loop import ClosedLoop, Latency, check_latency
+from judo.loop.records import PlanRecord, Recorder, StepRecord
+from judo.loop.sensing import SensedSystem
+from judo.loop.system import MujocoSystem
 
 __all__ = ["EpisodeLogRecorder", "EpisodeResult", "Latency", "run_episode", "step_reward"]
 

@@ -19,8 +19,8 @@ from judo.core.registry import lookup_task
 from judo.core.rollout import RolloutBackendName
 from judo.evaluation.cli import ControllerOverrides, check_episode_args, given_fields, latency_label
 from judo.evaluation.seeded import EpisodeSpec
-from judo.runtime.closed_loop import Latency
-from judo.runtime.sensing_flags import SensingFlags
+from judo.loop.closed_loop import Latency
+from judo.loop.sensing import SensingFlags
 
 
 @dataclass

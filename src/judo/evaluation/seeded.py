@@ -25,10 +25,9 @@ from judo.core.policy import Policy
 from judo.core.registry import ConfigKind
 from judo.core.task import Task
 from judo.evaluation.episode import EpisodeResult, Latency, run_episode
-from judo.runtime.records import Recorder
-from judo.runtime.sensing import SensedSystem
-from judo.runtime.session import Sensing, choose_estimator, observed_plant
-from judo.runtime.system import MujocoSystem
+from judo.loop.records import Recorder
+from judo.loop.sensing import SensedSystem, Sensing, choose_estimator, observed_plant
+from judo.loop.system import MujocoSystem
 
 T = TypeVar("T")
 

@@ -20,8 +20,8 @@ from judo.core.config import require, with_updates
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.model import STATE_SPEC, set_mocap_poses
 from judo.core.registry import lookup_optimizer, make_config, make_controller
-from judo.runtime.closed_loop import ClosedLoop
-from judo.runtime.system import MujocoSystem, SystemState
+from judo.loop.closed_loop import ClosedLoop
+from judo.loop.system import MujocoSystem, SystemState
 
 
 @dataclass

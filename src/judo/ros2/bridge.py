@@ -30,12 +30,12 @@ import numpy as np
 
 from judo.core.errors import ConfigError, JudoError
 from judo.core.task import Task
+from judo.loop.system import System, SystemState
+from judo.loop.system_choice import Ros2Options, SystemOptions
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
 from judo.ros2.mcap_log import McapLog
-from judo.runtime.system import System, SystemState
-from judo.runtime.system_choice import Ros2Options, SystemOptions
 
 logger = logging.getLogger("judo.ros2")
 
@@ -53,7 +53,7 @@ class Ros2System(System):
     Args:
         task: the task the robot runs; its model's joint names are the JointState's (through
             `options.joint_map`), and `halt()` writes its `safe_action`.
-        options: domain, topics, rate and joint map (`judo.runtime.system_choice.Ros2Options`).
+        options: domain, topics, rate and joint map (`judo.loop.system_choice.Ros2Options`).
         record: an MCAP log of every message read and written (None: none).
         refuse_other_writer: raise JudoError at start when another writer already commands the robot.
 

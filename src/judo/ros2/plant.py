@@ -30,8 +30,8 @@ import tyro
 from judo.core.errors import ConfigError, JudoError, import_extra
 from judo.core.registry import get_registered_tasks, lookup_task
 from judo.core.task import new_task
-from judo.runtime.system import MujocoSystem, SimulationDiverged
-from judo.runtime.system_choice import Ros2Options
+from judo.loop.system import MujocoSystem, SimulationDiverged
+from judo.loop.system_choice import Ros2Options
 
 PROG = "python -m judo plant"
 DESCRIPTION = "judo's simulator as a robot process on a ROS 2 graph (DDS, no ROS install), with link faults."

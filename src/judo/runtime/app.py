@@ -35,6 +35,9 @@ from judo.core.policy import Policy
 from judo.core.policy_controller import as_policy
 from judo.core.registry import CONFIG_KINDS, ConfigKind
 from judo.core.task import TaskConfig
+from judo.loop.records import LiveRecorder, RecorderFactory
+from judo.loop.sensing import Observe, PerType, Sensing
+from judo.loop.system import System, missing_halt
 from judo.runtime import exit_guard
 from judo.runtime.address import check_port, check_token
 from judo.runtime.app_commands import Commands
@@ -45,17 +48,14 @@ from judo.runtime.frontend import FrontendFactory, viser_frontend
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
 from judo.runtime.recordings import Recordings
-from judo.runtime.records import LiveRecorder, RecorderFactory
 from judo.runtime.reports import Reports
-from judo.runtime.sensing import PerType
-from judo.runtime.session import POLICY_OPTIMIZER, Observe, Sensing, Session
+from judo.runtime.session import POLICY_OPTIMIZER, Session
 from judo.runtime.session_maker import SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary
 from judo.runtime.status_line import Level, Status, StatusLine
 from judo.runtime.supervisor import Supervisor
-from judo.runtime.system import System, missing_halt
 
 __all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]
 
@@ -94,7 +94,7 @@ class App:
             only measured sensors (observe="sensors", or a System whose reading has state None), chosen again
             for each task switched to. Edit its config live with `update_estimator_config`.
         observe: "state" (the simulated plant's full state) or "sensors" (only the task's measured sensors,
-            through `judo.runtime.sensing.SensedSystem`: rehearsed sensing, its noise seeded from `seed`).
+            through `judo.loop.sensing.SensedSystem`: rehearsed sensing, its noise seeded from `seed`).
         sensor_noise, sensor_delay, sensor_rate: the rehearsed sensors' noise std, delay (s) and rate (Hz),
             one value for all or {sensor type: value} with an optional "default"; used with observe="sensors".
         proposal_policy: a `judo.Policy`, or an ONNX file (needs the `policy` extra), whose candidates replace

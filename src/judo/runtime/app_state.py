@@ -24,11 +24,12 @@ from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import ConfigKind
 from judo.core.task import TaskConfig
+from judo.loop.records import LiveRecorder
+from judo.loop.sensing import Sensing
+from judo.loop.watchdog import PausableClock
 from judo.runtime.cycles import PlanningCycle, StepCost
-from judo.runtime.records import LiveRecorder
-from judo.runtime.session import Sensing, Session
+from judo.runtime.session import Session
 from judo.runtime.stop_signal import StopSignal
-from judo.runtime.watchdog import PausableClock
 
 
 @dataclass(frozen=True)

@@ -47,9 +47,9 @@ from judo.core.registry import (
     set_model_overrides,
 )
 from judo.core.task import TaskConfig
+from judo.loop.sensing import SensingFlags, merge_repeated
+from judo.loop.system_choice import Ros2Options, SystemOptions, build_system, ros2_options
 from judo.runtime.app import App
-from judo.runtime.sensing_flags import SensingFlags, merge_repeated
-from judo.runtime.system_choice import Ros2Options, SystemOptions, build_system, ros2_options
 
 PROG = "python -m judo"
 CONFIG_GROUPS = {

@@ -20,15 +20,15 @@ import numpy as np
 from judo.core.config import Config
 from judo.core.estimator import EstimatorConfig
 from judo.core.registry import CONFIG_KINDS, ConfigKind
+from judo.loop.records import LiveRecorder
+from judo.loop.system import SystemState
 from judo.runtime.cycles import CycleCost
-from judo.runtime.records import LiveRecorder
 from judo.runtime.session import POLICY_OPTIMIZER, Session
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
 from judo.runtime.state_buffer import Snapshot
 from judo.runtime.stats import LiveFigures
 from judo.runtime.status_line import Level as StatusLevel
 from judo.runtime.status_line import Status
-from judo.runtime.system import SystemState
 
 __all__ = [
     "CONFIG_KINDS",

@@ -3,7 +3,7 @@
 A coroutine on the app's event loop. At the top of each iteration it carries out what the commands queued in the
 app's state (a switch of task, optimizer or estimator; config edits; forgetting the plans after a reset), so it
 is the only writer of the session's configs and the only builder of sessions after the first. When the control
-clock (`judo.runtime.control_clock`, the one `ClosedLoop.step` uses in sim time) says a plan is due, it plans from
+clock (`judo.loop.control_clock`, the one `ClosedLoop.step` uses in sim time) says a plan is due, it plans from
 the closed loop's latest reading on its worker thread (`run_in_executor`), so the event loop never blocks on
 rollouts, and publishes the plan, rewards, traces and timing under "plan" in the StateBuffer (the GUI's view).
 """
@@ -15,8 +15,9 @@ from judo.core.controller import PlanningCancelled
 from judo.core.errors import JudoError
 from judo.core.feedback import FeedbackPlan
 from judo.core.workers import DaemonThreadPool
+from judo.loop.control_clock import ControlClock
+from judo.loop.system import SystemState
 from judo.runtime.app_state import AppState, PendingConfigs
-from judo.runtime.control_clock import ControlClock
 from judo.runtime.cycles import PlanningCycle, cycle_size
 from judo.runtime.recordings import Recordings
 from judo.runtime.reports import Reports
@@ -26,7 +27,6 @@ from judo.runtime.snapshots import PlanSnapshot
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats
 from judo.runtime.stop_signal import Stopping
-from judo.runtime.system import SystemState
 
 IDLE_POLL = 0.01
 """Seconds the planner sleeps while paused or waiting for its first reading."""

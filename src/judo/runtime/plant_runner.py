@@ -8,7 +8,7 @@ A user's System (a robot) is never held back.
 
 Step k of a stretch is due at wall time origin + k * timestep; a loop that falls further behind than
 MAX_CATCH_UP steps at once falls behind instead (the real-time factor shows it). Each step is the closed
-loop's `advance` (`judo.runtime.closed_loop`): serve, apply, step, read back. Off the event loop, a driver
+loop's `advance` (`judo.loop.closed_loop`): serve, apply, step, read back. Off the event loop, a driver
 that blocks freezes neither the GUI nor planning; the supervisor's monitor (`judo.runtime.supervisor`)
 reports a call that blocks and halts the robot where the System can. The plant is halted on a pause and
 on the way out of a stop.
@@ -22,15 +22,15 @@ from collections.abc import Callable
 
 import numpy as np
 
+from judo.loop.closed_loop import ClosedLoop, SystemCallError
+from judo.loop.system import SimulationDiverged, SystemState
+from judo.loop.system_calls import SystemClosedError
 from judo.runtime.app_state import AppState
-from judo.runtime.closed_loop import ClosedLoop, SystemCallError
 from judo.runtime.reports import Reports
 from judo.runtime.session import Session
 from judo.runtime.snapshots import SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats
-from judo.runtime.system import SimulationDiverged, SystemState
-from judo.runtime.system_calls import SystemClosedError
 
 logger = logging.getLogger("judo.app")
 

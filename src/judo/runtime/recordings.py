@@ -1,6 +1,6 @@
 """Recording a running app: the recorder under way, started and stopped from any thread.
 
-Recording is injected: `start` takes any `LiveRecorder` (`judo.runtime.records`), or a path, which the app's
+Recording is injected: `start` takes any `LiveRecorder` (`judo.loop.records`), or a path, which the app's
 recorder factory turns into one. The default factory, `judo.collection.live.start_live_recording`, writes an
 HDF5 file in collect's layout; it is looked up by name when first used, like a plugin, so the runtime never
 imports collection (or h5py) and an app that never records never needs the `collect` extra.
@@ -10,8 +10,8 @@ import importlib
 from pathlib import Path
 
 from judo.core.errors import JudoError
+from judo.loop.records import LiveRecorder, RecorderFactory
 from judo.runtime.app_state import AppState
-from judo.runtime.records import LiveRecorder, RecorderFactory
 from judo.runtime.reports import Reports
 from judo.runtime.session import Session
 

@@ -14,9 +14,10 @@ from judo.core.policy import Policy
 from judo.core.policy_controller import policy_config
 from judo.core.registry import default_configs, lookup_task, make_config
 from judo.core.task import TaskConfig
+from judo.loop.sensing import Sensing
+from judo.loop.system import System
 from judo.runtime.app_state import ConfigSet
-from judo.runtime.session import POLICY_OPTIMIZER, Sensing, Session, build_session
-from judo.runtime.system import System
+from judo.runtime.session import POLICY_OPTIMIZER, Session, build_session
 
 
 @dataclass(frozen=True)
@@ -132,7 +133,7 @@ class SessionMaker:
             on_watchdog=self.on_watchdog,
             sensing=sensing,
             reading=old.closed_loop.raw_reading if old is not None and system is old.system else None,  # being read
-            estimator_thread=True,  # the plant thread only reads, steps and serves (judo.runtime.estimator_thread)
+            estimator_thread=True,  # the plant thread only reads, steps and serves (judo.loop.estimator_thread)
             proposal_policy=self.proposal_policy if task == self.proposal_task else None,
             policy=self.policy if optimizer == POLICY_OPTIMIZER else None,
         )

@@ -4,7 +4,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judo.runtime.system import SystemState
+from judo.loop.system import SystemState
 
 
 @dataclass(frozen=True)

@@ -38,8 +38,7 @@ from judo.core.errors import JudoError
 from judo.core.registry import default_configs, make_task
 from judo.evaluation.episode import Latency
 from judo.evaluation.plot import write_episode_plot
-from judo.runtime.sensing_flags import SensingFlags, merge_repeated
-from judo.runtime.session import Sensing
+from judo.loop.sensing import Sensing, SensingFlags, merge_repeated
 from judo.tuning.best_file import write_best_toml
 from judo.tuning.conditions import (
     Aggregate,

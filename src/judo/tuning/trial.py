@@ -15,7 +15,7 @@ import numpy as np
 
 from judo.evaluation.episode import EpisodeResult, Latency
 from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode
-from judo.runtime.session import Sensing
+from judo.loop.sensing import Sensing
 from judo.tuning.conditions import Aggregate, Condition
 
 

@@ -5,7 +5,7 @@ Everything that drives a plant with a controller calls this module, and nothing 
   when the control clock says, in wall time, and the plant runner (`judo.runtime.plant_runner`) calls `advance`
   on the System's thread at real-time pace;
 - `evaluate`'s episodes (`judo.evaluation.episode.run_episode`), and through them `tune`'s trials, call
-  `step`, which plans when the control clock (`judo.runtime.control_clock`) says, in sim time, then advances;
+  `step`, which plans when the control clock (`judo.loop.control_clock`) says, in sim time, then advances;
 - the benchmark's timing (`judo.evaluation.timing`) calls `plan` for each timed update.
 
     reading = system.read_state()  --[estimator]-->  plan(reading)  --latency-->  serve(t)  --[watchdog]-->
@@ -14,15 +14,15 @@ Everything that drives a plant with a controller calls this module, and nothing 
 Where the features plug in, each once, here:
 - the estimator between the reading and the plan (`judo.core.estimator`): `read` fuses the System's raw
   reading (sensors, the time they were taken) into the state planned from, as of the plant's now;
-- the watchdog on the served action (`judo.runtime.watchdog`): `serve` gives the plant the task's
+- the watchdog on the served action (`judo.loop.watchdog`): `serve` gives the plant the task's
   `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one control period;
-- recorders of every step and plan: the `recorders` given to the loop (`judo.runtime.records.Recorder`).
+- recorders of every step and plan: the `recorders` given to the loop (`judo.loop.records.Recorder`).
 
 The latency model: a plan computed from the reading at time t is served from plant time t + delay, where the
 delay is a fixed number of seconds of sim time or "measured" (the update's wall time). Until then the plant
 keeps the plan in force before it (or the task's warm start before the first plan). The app uses delay 0: a
 plan is served from the first step after it is done, which in real time is its real latency. The
-controller's `latency_compensation` plans from the reading predicted to then (`judo.runtime.latency`).
+controller's `latency_compensation` plans from the reading predicted to then (`judo.loop.latency`).
 
 The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (plant_runner.py).
 """
@@ -38,12 +38,12 @@ from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewar
 from judo.core.errors import JudoError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.spline import Spline
-from judo.runtime.control_clock import TIME_TOLERANCE, ControlClock
-from judo.runtime.latency import Latency, LatencyPredictor, check_latency, prediction_delay
-from judo.runtime.records import PlanRecord, Recorder, StepRecord
-from judo.runtime.system import SimulationDiverged, System, SystemState
-from judo.runtime.system_calls import SystemCallError, SystemCalls, SystemClosedError
-from judo.runtime.watchdog import Watchdog
+from judo.loop.control_clock import TIME_TOLERANCE, ControlClock
+from judo.loop.latency import Latency, LatencyPredictor, check_latency, prediction_delay
+from judo.loop.records import PlanRecord, Recorder, StepRecord
+from judo.loop.system import SimulationDiverged, System, SystemState
+from judo.loop.system_calls import SystemCallError, SystemCalls, SystemClosedError
+from judo.loop.watchdog import Watchdog
 
 __all__ = ["ClosedLoop", "Latency", "SystemCallError", "check_latency"]
 
@@ -71,7 +71,7 @@ class ClosedLoop:
         failed_updates: updates whose rollouts all scored NaN or -inf, or whose knots were non-finite
             (the plan before them stayed in force); `last_failure` is the latest one's error.
         divergences: times the plant's simulation blew up and was reset.
-        control_clock: when `step` makes the next control update, in plant time (`judo.runtime.control_clock`).
+        control_clock: when `step` makes the next control update, in plant time (`judo.loop.control_clock`).
 
     `plan` may run on another thread than `serve` and `advance` (the app's worker thread): the hand-over
     of a new plan is locked.
@@ -90,7 +90,7 @@ class ClosedLoop:
     ) -> None:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
-        self.calls = SystemCalls(system)  # every System call goes through it (see judo.runtime.system_calls)
+        self.calls = SystemCalls(system)  # every System call goes through it (see judo.loop.system_calls)
         self.recorders = list(recorders)
         self.estimator = estimator
         self.controls = ControlHistory(controller.task.command_size)  # every served action, for the estimator

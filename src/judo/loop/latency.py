@@ -1,6 +1,6 @@
 """Planning latency: the closed loop's latency model, and the prediction that compensates for it.
 
-A plan computed from the reading at time t is served from t + delay (`judo.runtime.closed_loop`). Until then
+A plan computed from the reading at time t is served from t + delay (`judo.loop.closed_loop`). Until then
 the plant goes on under the plan in force before it, so a plan whose rollouts start from the reading's state
 plans the first `delay` seconds for a state the plant has already left. With the controller's
 `latency_compensation`, the closed loop first predicts the plant's state at t + delay on the planning model,
@@ -19,7 +19,7 @@ from judo.core.config import require
 from judo.core.dynamics import DynamicsTask
 from judo.core.model import set_mocap_poses
 from judo.core.task import Task
-from judo.runtime.system import SystemState
+from judo.loop.system import SystemState
 
 Latency = float | Literal["measured"]
 """Planning latency: seconds of sim time (0 for none), or "measured" for each update's wall time."""

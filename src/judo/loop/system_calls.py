@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from judo.core.errors import JudoError
-from judo.runtime.system import System, SystemState
+from judo.loop.system import System, SystemState
 
 
 class SystemClosedError(JudoError):

@@ -15,7 +15,7 @@ from typing import Any, cast
 from judo.core.errors import ConfigError, JudoError
 from judo.core.registry import lookup_task
 from judo.core.task import Task, TaskConfig, new_task
-from judo.runtime.system import System
+from judo.loop.system import System
 
 BUILT_IN_SYSTEMS = {"ros2": "judo.ros2.bridge:Ros2System"}
 """--system names judo knows -> the "module:Class" they load (by name, so the app never imports an extra)."""

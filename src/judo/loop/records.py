@@ -1,6 +1,6 @@
 """What the closed loop reports to its recorders: one record per plant step and one per control update.
 
-A recorder is any object with `on_plan` and `on_step`; the closed loop (`judo.runtime.closed_loop`) calls
+A recorder is any object with `on_plan` and `on_step`; the closed loop (`judo.loop.closed_loop`) calls
 every recorder it was given, so evaluate's episode log, a dataset writer and the GUI's recording all see
 the same thing.
 """

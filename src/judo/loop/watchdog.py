@@ -14,7 +14,7 @@ import threading
 import time
 
 from judo.core.errors import JudoError
-from judo.runtime.system import SystemState
+from judo.loop.system import SystemState
 
 TIME_TOLERANCE = 1e-9
 """Seconds within which two reading times count as the same."""
