@@ -191,8 +191,8 @@ def test_no_file_is_over_its_line_limit():
     assert not over, f"files over {MAX_LINES} lines ({MAX_RUNTIME_LINES} in runtime/): {over}"
 
 
-LIBRARY_LAYERS = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks")
-"""The library a notebook imports: what plans and estimates."""
+LIBRARY_LAYERS = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks", "judo.loop")
+"""The library a notebook imports: what plans and estimates, and the closed loop that drives a plant with it."""
 APPLICATION_LAYERS = (
     "judo.ray_cluster",
     "judo.runtime",
@@ -223,6 +223,21 @@ def test_the_library_layers_never_import_the_runtime_or_the_commands():
     assert not upward, "\n".join(upward)
 
 
+def test_the_loop_library_imports_nothing_from_the_app_the_gui_or_the_commands():
+    """judo.loop is what a robot bridge and every command build on: it imports only the library below it."""
+    graph = import_graph()
+    loop_modules = [module for module in graph if in_layer(module, ("judo.loop",))]
+    assert "judo.loop.closed_loop" in loop_modules and "judo.loop.system" in loop_modules
+    allowed = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks", "judo.loop")
+    outside = sorted(
+        f"{module} imports {target}"
+        for module in loop_modules
+        for target in graph[module]
+        if not in_layer(target, allowed)
+    )
+    assert not outside, "\n".join(outside)
+
+
 def test_nothing_below_learning_imports_it():
     """distill sits on top: it reads datasets and runs collect and evaluate; nothing else imports it."""
     graph = import_graph()
@@ -244,6 +259,7 @@ PACKAGE_ORDER = (
     "judo.estimators",
     "judo.optimizers",
     "judo.tasks",
+    "judo.loop",
     "judo.ray_cluster",
     "judo.runtime",
     "judo.ros2",
@@ -254,7 +270,8 @@ PACKAGE_ORDER = (
     "judo.learning",
 )
 """judo's packages (and top-level modules), lowest first: each imports only those before it, lazy imports
-included. The library (core < estimators, optimizers < tasks), then what runs it: Ray, the app, the command
+included. The library (core < estimators, optimizers < tasks), the closed loop (judo.loop), then what runs it:
+Ray, the app, the command
 lines' shared pieces, and the commands; collect runs evaluate's seeded episodes, tune none of collect's, and
 distill runs both."""
 
