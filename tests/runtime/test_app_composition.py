@@ -17,7 +17,8 @@ import judo.runtime
 from judo.loop.control_clock import ControlClock
 from judo.loop.sensing import Sensing
 from judo.runtime.app import App
-from judo.runtime.app_state import AppState, ConfigSet, PendingConfigs
+from judo.runtime.app_state import AppState, PendingConfigs
+from judo.runtime.session import ConfigSet
 
 RUNTIME = Path(judo.runtime.__file__).parent
 APP_PARTS = (

@@ -49,8 +49,7 @@ from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
 from judo.runtime.recordings import Recordings
 from judo.runtime.reports import Reports
-from judo.runtime.session import POLICY_OPTIMIZER, Session
-from judo.runtime.session_maker import SessionMaker
+from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats, RunSummary

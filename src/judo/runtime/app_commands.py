@@ -26,8 +26,7 @@ from judo.loop.sensing import check_estimator
 from judo.runtime.app_state import AppState
 from judo.runtime.cycles import MAX_CYCLE_SECONDS, cycle_size
 from judo.runtime.reports import Reports
-from judo.runtime.session import POLICY_OPTIMIZER
-from judo.runtime.session_maker import SessionMaker
+from judo.runtime.session import POLICY_OPTIMIZER, SessionMaker
 
 
 class Commands:

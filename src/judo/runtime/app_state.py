@@ -28,49 +28,8 @@ from judo.loop.records import LiveRecorder
 from judo.loop.sensing import Sensing
 from judo.loop.watchdog import PausableClock
 from judo.runtime.cycles import PlanningCycle, StepCost
-from judo.runtime.session import Session
+from judo.runtime.session import ConfigSet, Session
 from judo.runtime.stop_signal import StopSignal
-
-
-@dataclass(frozen=True)
-class ConfigSet:
-    """The configs of a session, one typed field per kind; `optimizer` None where a policy drives the session."""
-
-    controller: ControllerConfig
-    optimizer: OptimizerConfig | None
-    task: TaskConfig
-
-    @classmethod
-    def of(cls, session: Session) -> "ConfigSet":
-        """The configs `session`'s controller uses."""
-        controller = session.controller
-        optimizer = getattr(controller, "optimizer", None)  # a PolicyController has none
-        return cls(controller.config, None if optimizer is None else optimizer.config, controller.task.config)
-
-    @classmethod
-    def from_dict(cls, configs: dict[ConfigKind, Config]) -> "ConfigSet":
-        """{kind: config} (e.g. `judo.core.registry.default_configs`) as a ConfigSet; TypeError for a wrong type."""
-        made = cls(configs["controller"], configs.get("optimizer"), configs["task"])  # type: ignore[arg-type]  # checked below
-        for kind, cls_ in (("controller", ControllerConfig), ("optimizer", OptimizerConfig), ("task", TaskConfig)):
-            if not isinstance(getattr(made, kind), cls_) and not (kind == "optimizer" and made.optimizer is None):
-                raise TypeError(f"the {kind} config must be a {cls_.__name__}, got {type(getattr(made, kind))}")
-        return made
-
-    def get(self, kind: ConfigKind) -> Config | None:
-        """The config of `kind` (None: the session has none of that kind)."""
-        return getattr(self, kind)
-
-    def with_config(self, kind: ConfigKind, config: Config) -> "ConfigSet":
-        """A copy with `config` as the `kind` config."""
-        return replace(self, **{kind: config})
-
-    def as_dict(self) -> dict[ConfigKind, Config]:
-        """{kind: config} of the kinds the session has, for the GUI and recordings."""
-        configs: dict[ConfigKind, Config] = {"controller": self.controller}
-        if self.optimizer is not None:
-            configs["optimizer"] = self.optimizer
-        configs["task"] = self.task
-        return configs
 
 
 @dataclass

@@ -21,8 +21,7 @@ from judo.runtime.app_state import AppState, PendingConfigs
 from judo.runtime.cycles import PlanningCycle, cycle_size
 from judo.runtime.recordings import Recordings
 from judo.runtime.reports import Reports
-from judo.runtime.session import Session
-from judo.runtime.session_maker import SessionMaker
+from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot
 from judo.runtime.state_buffer import StateBuffer
 from judo.runtime.stats import RunStats
