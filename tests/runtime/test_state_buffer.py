@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from judo.runtime.state_buffer import StateBuffer
+from judo.runtime.snapshots import StateBuffer
 
 
 @dataclass

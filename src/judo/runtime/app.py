@@ -44,17 +44,15 @@ from judo.runtime.app_commands import Commands
 from judo.runtime.app_settings import check_app_settings
 from judo.runtime.app_state import AppState
 from judo.runtime.cycles import CycleCost, cycle_size
-from judo.runtime.frontend import FrontendFactory, viser_frontend
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
 from judo.runtime.recordings import Recordings
 from judo.runtime.reports import Reports
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
-from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
-from judo.runtime.state_buffer import StateBuffer
+from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
 from judo.runtime.stats import RunStats, RunSummary
 from judo.runtime.status_line import Level, Status, StatusLine
-from judo.runtime.supervisor import Supervisor
+from judo.runtime.supervisor import FrontendFactory, Supervisor, viser_frontend
 
 __all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]
 

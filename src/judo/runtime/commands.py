@@ -24,8 +24,7 @@ from judo.loop.records import LiveRecorder
 from judo.loop.system import SystemState
 from judo.runtime.cycles import CycleCost
 from judo.runtime.session import POLICY_OPTIMIZER, Session
-from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
-from judo.runtime.state_buffer import Snapshot
+from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
 from judo.runtime.stats import LiveFigures
 from judo.runtime.status_line import Level as StatusLevel
 from judo.runtime.status_line import Status

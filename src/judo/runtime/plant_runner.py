@@ -28,8 +28,7 @@ from judo.loop.system_calls import SystemClosedError
 from judo.runtime.app_state import AppState
 from judo.runtime.reports import Reports
 from judo.runtime.session import Session
-from judo.runtime.snapshots import SystemSnapshot
-from judo.runtime.state_buffer import StateBuffer
+from judo.runtime.snapshots import StateBuffer, SystemSnapshot
 from judo.runtime.stats import RunStats
 
 logger = logging.getLogger("judo.app")

@@ -1,6 +1,19 @@
-"""What the app's loops publish in the StateBuffer for the GUI and scripts: plant readings and plans."""
+"""What the app's loops publish in the StateBuffer for the GUI and scripts: plant readings and plans.
 
+`StateBuffer` is the one place the app's loops exchange data: the latest value of each topic, as a versioned snapshot.
+
+A writer publishes a value; the buffer stores a deep copy whose arrays are read-only, under a lock,
+and stamps it with the next version number. A reader gets that stored snapshot whole. Since a
+published snapshot is never written again, a reader can never see half of one write and half of
+another (no torn reads), however the threads interleave.
+"""
+
+import copy
+import dataclasses
+import threading
+import time
 from dataclasses import dataclass
+from typing import Any, Generic, TypeVar
 
 import numpy as np
 
@@ -45,3 +58,68 @@ class PlanSnapshot:
     traces: np.ndarray
     plan_time: float
     resets: int = 0
+
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True)
+class Snapshot(Generic[T]):
+    """One published value.
+
+    Attributes:
+        version: position of this publication among all of the buffer's, counting from 1.
+        value: a private deep copy of what was published; its numpy arrays are read-only.
+        wall_time: `time.perf_counter()` when it was published.
+    """
+
+    version: int
+    value: T
+    wall_time: float
+
+
+class StateBuffer:
+    """Latest snapshot per topic (e.g. "system", "plan"), safe to share between threads."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._latest: dict[str, Snapshot[Any]] = {}
+        self._version = 0
+
+    def publish(self, topic: str, value: T) -> Snapshot[T]:
+        """Store a frozen copy of `value` as the newest snapshot of `topic` and return it.
+
+        The copy is made before taking the lock, so the caller may reuse or change `value` at once.
+        """
+        frozen = _freeze(copy.deepcopy(value))
+        with self._lock:
+            self._version += 1
+            snapshot = Snapshot(self._version, frozen, time.perf_counter())
+            self._latest[topic] = snapshot
+        return snapshot
+
+    def latest(self, topic: str) -> Snapshot[Any] | None:
+        """The newest snapshot of `topic`, or None if nothing was published to it yet."""
+        with self._lock:
+            return self._latest.get(topic)
+
+    def clear(self, topic: str) -> None:
+        """Forget `topic`, e.g. the old plan after a switch of task."""
+        with self._lock:
+            self._latest.pop(topic, None)
+
+
+def _freeze(value: Any) -> Any:
+    """Mark every numpy array reachable through dicts, lists, tuples and dataclasses read-only."""
+    if isinstance(value, np.ndarray):
+        value.flags.writeable = False
+    elif isinstance(value, dict):
+        for item in value.values():
+            _freeze(item)
+    elif isinstance(value, (list, tuple)):
+        for item in value:
+            _freeze(item)
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        for f in dataclasses.fields(value):
+            _freeze(getattr(value, f.name))
+    return value

@@ -11,22 +11,95 @@ The stop order, whatever started it (`App.stop()`, Ctrl-C, SIGTERM, the duration
 the stop signal wakes every wait; the plant thread gets PLANT_THREAD_JOIN s to halt the plant and end, then no
 System call may start; the recording under way is written; the frontend closes; the planning thread ends (a
 cycle still in flight is abandoned to its daemon thread); the session's rollout and filter threads end.
+
+The frontend is the GUI given to the App, which draws it on its event loop and never imports it.
+
+A frontend is anything with `url`, `update()` (one frame, about 30 Hz) and `close()`, built from the App's command
+port (`judo.runtime.commands.AppPort`) by a `FrontendFactory`. judo's own is the viser GUI (`judo.runtime.gui.Gui`),
+looked up by name (VISER_FRONTEND) when an App is started with gui=True, so viser is imported only then.
 """
 
 import asyncio
+import importlib
 import logging
 import signal
 import threading
 from collections.abc import Callable, Coroutine
-from typing import Any
+from typing import Any, Protocol
 
+from judo.runtime.address import is_loopback
 from judo.runtime.app_state import AppState
+from judo.runtime.commands import AppPort
 from judo.runtime.cycles import seconds_text
-from judo.runtime.frontend import Frontend
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
 from judo.runtime.recordings import Recordings
 from judo.runtime.reports import Reports
+
+logger = logging.getLogger("judo.app")
+
+VISER_FRONTEND = "judo.runtime.gui:Gui"
+"""module:class of the browser GUI built for gui=True."""
+
+
+class Frontend(Protocol):
+    """A GUI the app draws on its event loop."""
+
+    @property
+    def url(self) -> str:
+        """Where a browser finds it."""
+        ...
+
+    def update(self) -> None:
+        """Draw one frame: follow the app's state."""
+        ...
+
+    def close(self) -> None:
+        """Stop serving."""
+        ...
+
+
+FrontendFactory = Callable[[AppPort], Frontend]
+"""Builds a frontend of the App (its command port), on the app's event loop."""
+
+
+class ServedApp(AppPort, Protocol):
+    """An App with the settings of the GUI's server."""
+
+    host: str
+    port: int
+    token: str | None
+    share: bool
+
+
+def viser_frontend(app: ServedApp) -> Callable[[], Frontend]:
+    """Builds judo's viser GUI of `app` at http://app.host:app.port (the next free port if it is taken), warning
+    when it listens beyond loopback. The function raises GuiStartError if the server cannot start."""
+
+    def make() -> Frontend:
+        module, _, name = VISER_FRONTEND.partition(":")
+        gui_class = getattr(importlib.import_module(module), name)
+        gui = gui_class(app, app.host, app.port, token=app.token, share=app.share)
+        warn_if_exposed(app.host, gui.server.get_port())
+        logger.info("GUI at %s", gui.url)
+        return gui
+
+    return make
+
+
+def warn_if_exposed(host: str, port: int) -> None:
+    """Log what a GUI listening on `host` beyond loopback exposes."""
+    if is_loopback(host):
+        return
+    logger.warning(
+        "the GUI listens on %s (%s): anyone who can reach port %d of this machine and has the URL with its "
+        "token can change every config, switch the task, pause the plant or reset it, a real robot too. "
+        "Prefer the default 127.0.0.1 and an SSH tunnel (docs/gui.md).",
+        host,
+        "every network interface" if host in ("0.0.0.0", "::") else "reachable from the network",
+        port,
+    )
+
 
 logger = logging.getLogger("judo.app")
 
