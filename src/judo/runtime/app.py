@@ -47,11 +47,9 @@ from judo.runtime.cycles import CycleCost, cycle_size
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
 from judo.runtime.recordings import Recordings
-from judo.runtime.reports import Reports
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
-from judo.runtime.stats import RunStats, RunSummary
-from judo.runtime.status_line import Level, Status, StatusLine
+from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
 from judo.runtime.supervisor import FrontendFactory, Supervisor, viser_frontend
 
 __all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]

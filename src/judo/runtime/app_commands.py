@@ -25,8 +25,8 @@ from judo.core.registry import (
 from judo.loop.sensing import check_estimator
 from judo.runtime.app_state import AppState
 from judo.runtime.cycles import MAX_CYCLE_SECONDS, cycle_size
-from judo.runtime.reports import Reports
 from judo.runtime.session import POLICY_OPTIMIZER, SessionMaker
+from judo.runtime.status import Reports
 
 
 class Commands:

@@ -25,9 +25,8 @@ from judo.loop.system import SystemState
 from judo.runtime.cycles import CycleCost
 from judo.runtime.session import POLICY_OPTIMIZER, Session
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
-from judo.runtime.stats import LiveFigures
-from judo.runtime.status_line import Level as StatusLevel
-from judo.runtime.status_line import Status
+from judo.runtime.status import Level as StatusLevel
+from judo.runtime.status import LiveFigures, Status
 
 __all__ = [
     "CONFIG_KINDS",

@@ -20,10 +20,9 @@ from judo.loop.system import SystemState
 from judo.runtime.app_state import AppState, PendingConfigs, Stopping
 from judo.runtime.cycles import PlanningCycle, cycle_size
 from judo.runtime.recordings import Recordings
-from judo.runtime.reports import Reports
 from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer
-from judo.runtime.stats import RunStats
+from judo.runtime.status import Reports, RunStats
 
 IDLE_POLL = 0.01
 """Seconds the planner sleeps while paused or waiting for its first reading."""

@@ -26,10 +26,9 @@ from judo.loop.closed_loop import ClosedLoop, SystemCallError
 from judo.loop.system import SimulationDiverged, SystemState
 from judo.loop.system_calls import SystemClosedError
 from judo.runtime.app_state import AppState
-from judo.runtime.reports import Reports
 from judo.runtime.session import Session
 from judo.runtime.snapshots import StateBuffer, SystemSnapshot
-from judo.runtime.stats import RunStats
+from judo.runtime.status import Reports, RunStats
 
 logger = logging.getLogger("judo.app")
 

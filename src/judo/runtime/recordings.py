@@ -12,8 +12,8 @@ from pathlib import Path
 from judo.core.errors import JudoError
 from judo.loop.records import LiveRecorder, RecorderFactory
 from judo.runtime.app_state import AppState
-from judo.runtime.reports import Reports
 from judo.runtime.session import Session
+from judo.runtime.status import Reports
 
 DEFAULT_RECORDER = "judo.collection.live:start_live_recording"
 """module:function of the default recorder factory (needs the `collect` extra)."""

@@ -1,11 +1,79 @@
-"""Timing figures of a running app (plan times, control rate, real-time factor) and the end-of-run summary."""
+"""What a running app tells its user: the status line, the timing figures, and the end-of-run summary.
 
+- `StatusLine`: the latest message for the GUI, written to the log without flooding it;
+- `Reports`: the status line worded with the session in use, for every part of the app;
+- `RunStats` / `LiveFigures` / `RunSummary`: plan times, control rate, real-time factor, and the summary at exit.
+"""
+
+import logging
+import math
 import threading
 import time
 from collections import deque
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
+
+from judo.runtime.app_state import AppState
+
+logger = logging.getLogger("judo.app")
+
+REPEAT_LOG_INTERVAL = 5.0
+"""Seconds before the same status message is written to the log again."""
+
+Level = Literal["info", "warning", "error"]
+
+
+@dataclass(frozen=True)
+class Status:
+    """The GUI's status line: the latest message, its level, and a count that grows with each report."""
+
+    message: str
+    level: Level
+    count: int
+
+
+class StatusLine:
+    """The latest status, safe to report from any thread.
+
+    Each message is logged at most once every REPEAT_LOG_INTERVAL seconds, however messages alternate.
+    Parts of the app that failed (`trouble`) are remembered until they report a recovery.
+    """
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.status = Status("starting", "info", 0)
+        self._logged_at: dict[str, float] = {}
+        self.trouble: set[str] = set()
+
+    def report(self, message: str, level: Level = "info", log: bool = True) -> None:
+        """Show `message` and write it to the log (each message at most once every REPEAT_LOG_INTERVAL s; never
+        without `log`, for a count that changes every second)."""
+        with self._lock:
+            self.status = Status(message, level, self.status.count + 1)
+            now = time.monotonic()
+            if not log:
+                return
+            if now - self._logged_at.get(message, -math.inf) < REPEAT_LOG_INTERVAL:
+                return
+            if len(self._logged_at) >= 64:  # forget messages not logged lately, so the table stays small
+                self._logged_at = {m: t for m, t in self._logged_at.items() if now - t < REPEAT_LOG_INTERVAL}
+            self._logged_at[message] = now
+        logger.log({"info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}[level], message)
+
+    def failed(self, part: str, message: str, level: Level = "error") -> None:
+        """Report that `part` (e.g. "planner") failed; it stays in trouble until `recovered`."""
+        self.trouble.add(part)
+        self.report(message, level)
+
+    def recovered(self, part: str, message: str) -> None:
+        """After a success of `part`: if its failure is on the status line, replace it with `message`."""
+        if part not in self.trouble:
+            return
+        self.trouble.discard(part)
+        if self.status.level != "info":
+            self.report(message)
 
 
 @dataclass(frozen=True)
@@ -151,3 +219,55 @@ class RunStats:
                 real_time_factor=self._sim_time / self._wall_time if self._wall_time > 0 else float("nan"),
                 final_reward=self._nominal_reward,
             )
+
+
+class Reports:
+    """Reports to the app's status line (and the log) from any thread.
+
+    Args:
+        line: the status line the GUI shows.
+        state: the app's state, for the names of the session in use.
+    """
+
+    def __init__(self, line: StatusLine, state: AppState) -> None:
+        self.line, self._state = line, state
+
+    @property
+    def status(self) -> Status:
+        """The latest status message."""
+        return self.line.status
+
+    def report(self, message: str, level: Level = "info") -> None:
+        """Show `message` (each message logged at most once every few seconds)."""
+        self.line.report(message, level)
+
+    def progress(self, message: str, level: Level = "info") -> None:
+        """Show `message` without writing it to the log (a count that changes every second)."""
+        self.line.report(message, level, log=False)
+
+    def failed(self, part: str, message: str, level: Level = "error") -> None:
+        """`part` (e.g. "planner") failed; it stays in trouble until it recovers."""
+        self.line.failed(part, message, level)
+
+    def recovered(self, part: str, news: str) -> None:
+        """`part` works again: say `news` and that the app is running, if its failure is on the status line."""
+        self.line.recovered(part, f"{news}: {self.running()}")
+
+    def running(self) -> str:
+        """'running TASK with OPTIMIZER', and ', planning with a fitted model (body_mass.pole, ...)' where the
+        planning model has model overrides ([model_overrides.TASK], e.g. sysid's fitted.toml)."""
+        session = self._state.session
+        message = f"running {session.task_name} with {session.optimizer_name}"
+        fitted = session.controller.task.model_overrides
+        if fitted:
+            fields = ", ".join(f"{field}.{element}" for field, values in fitted.items() for element in values)
+            message += f", planning with a fitted model ({fields})"
+        return message
+
+    def on_watchdog(self, reason: str | None) -> None:
+        """The closed loop's watchdog tripped (`reason`) or recovered (None): say so once per episode."""
+        if reason is not None:
+            self.line.failed("watchdog", f"watchdog: {reason}; serving the safe action", "warning")
+        elif "watchdog" in self.line.trouble:  # said even when another part's recovery came first
+            self.line.trouble.discard("watchdog")
+            self.report(f"fresh plans are served again: {self.running()}")
