@@ -14,7 +14,7 @@ from judo.estimators.ukf import UnscentedKalmanFilter
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.loop.sensing import Sensing
 from judo.loop.system import SystemState
-from judo.runtime.cli import _peek_estimator
+from judo.runtime.cli import _peek
 from judo.runtime.session import build_session
 
 DEFAULTS = {"walker": "ukf", "leap_cube": "ukf", "cartpole": "ekf", "acrobot": "ekf", "pendulum": "ekf"}
@@ -49,11 +49,11 @@ def test_evaluate_tune_and_collect_titles_and_json_name_the_tasks_filter():
 
 
 def test_the_app_cli_pins_a_filter_only_when_one_is_named():
-    assert _peek_estimator(["--observe", "sensors"], "walker") == ("ukf", False)
-    assert _peek_estimator(["--observe", "sensors"], "cartpole") == ("ekf", False)
-    assert _peek_estimator([], "walker") == (None, False)
-    assert _peek_estimator(["--observe", "sensors", "--estimator", "ekf"], "walker") == ("ekf", True)
-    assert _peek_estimator(["--observe", "sensors", "--estimator-config.spread", "0.5"], "walker") == ("ukf", True)
+    assert _peek(["--task", "walker", "--observe", "sensors"])[3:] == ("ukf", False)
+    assert _peek(["--task", "cartpole", "--observe", "sensors"])[3:] == ("ekf", False)
+    assert _peek(["--task", "walker"])[3:] == (None, False)
+    assert _peek(["--task", "walker", "--observe", "sensors", "--estimator", "ekf"])[3:] == ("ekf", True)
+    assert _peek(["--task", "walker", "--observe", "sensors", "--estimator-config.spread", "0.5"])[3:] == ("ukf", True)
 
 
 def test_one_sensing_builds_each_tasks_own_filter_as_a_gui_switch_does():

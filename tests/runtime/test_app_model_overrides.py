@@ -7,7 +7,7 @@ import pytest
 
 from judo.core.config_file import load_config
 from judo.runtime.app import App
-from judo.runtime.cli import _peek_names
+from judo.runtime.cli import _peek
 
 
 def test_the_app_plans_on_the_fitted_model_simulates_the_plant_and_says_so(tmp_path):
@@ -37,7 +37,7 @@ def test_the_app_plans_on_the_fitted_model_simulates_the_plant_and_says_so(tmp_p
 
 
 def test_the_apps_plant_overrides_flag_sets_the_plant_and_names_a_mistake():
-    assert _peek_names(["--task", "cartpole", "--plant-overrides", "body_mass.pole=0.2"]) == ("cartpole", "mppi", None)
+    assert _peek(["--task", "cartpole", "--plant-overrides", "body_mass.pole=0.2"])[:3] == ("cartpole", "mppi", None)
     app = App("cartpole", "ps", gui=False, seed=0, num_workers=1)
     try:
         assert app.session.simulated.task.sim_model.body_mass[2] == 0.2
@@ -46,7 +46,7 @@ def test_the_apps_plant_overrides_flag_sets_the_plant_and_names_a_mistake():
     finally:
         app.stop()
     with pytest.raises(Exception, match=r"^body_mass.pol: the model has no body 'pol'; its body names are"):
-        _peek_names(["--task", "cartpole", "--plant-overrides", "body_mass.pol=0.2"])
+        _peek(["--task", "cartpole", "--plant-overrides", "body_mass.pol=0.2"])
 
 
 @pytest.mark.slow

@@ -62,7 +62,7 @@ def test_a_config_file_names_the_task_and_sets_defaults_that_options_still_overr
     text = capsys.readouterr().out
     assert "Balance-task weights." in text  # the file's task, registered from its module
     assert "Planning horizon in seconds. (default: 0.6)" in text  # the file's override
-    task, optimizer, _ = cli._peek_names(["--config", str(CONFIG_FILE), "--task", "cartpole"])
+    task, optimizer, *_ = cli._peek(["--config", str(CONFIG_FILE), "--task", "cartpole"])
     assert (task, optimizer) == ("cartpole", "cooling_mppi")
 
 

@@ -3,9 +3,10 @@
     app = judo.App(task="cartpole", optimizer="mppi")   # GUI at http://127.0.0.1:8080
     app.start(); app.update_config("optimizer", {"sigma": 0.2}); app.stop(); print(app.summary())
 
-The App is composed of parts that own their state and are handed what they use (docs/architecture.md):
+The App checks its run settings (`check_app_settings`: a bad one is a one-line ConfigError before anything is
+built), then composes parts that own their state and are handed what they use (docs/architecture.md):
 - `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the counters;
-- `Commands` (`judo.runtime.app_commands`): validate each command and queue it in the state;
+- `Commands` (`judo.runtime.commands`): validate each command and queue it in the state;
 - `PlantRunner` (`judo.runtime.plant_runner`): the System's thread;
 - `PlannerRunner` (`judo.runtime.planner_runner`): the control clock, planning and switches;
 - `Supervisor` (`judo.runtime.supervisor`): the event loop, signals, the monitor and the stop order;
@@ -26,9 +27,9 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.config import Config
+from judo.core.config import Config, check_seed
 from judo.core.controller import Controller, ControllerConfig
-from judo.core.errors import JudoError
+from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.policy import Policy
@@ -38,19 +39,50 @@ from judo.core.task import TaskConfig
 from judo.loop.records import LiveRecorder, RecorderFactory
 from judo.loop.sensing import Observe, PerType, Sensing
 from judo.loop.system import System, missing_halt
-from judo.runtime import exit_guard
 from judo.runtime.address import check_port, check_token
-from judo.runtime.app_commands import Commands
-from judo.runtime.app_settings import check_app_settings
 from judo.runtime.app_state import AppState
-from judo.runtime.cycles import CycleCost, cycle_size
+from judo.runtime.commands import Commands
+from judo.runtime.cycles import CycleCost
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
 from judo.runtime.recordings import Recordings
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
-from judo.runtime.supervisor import FrontendFactory, Supervisor, viser_frontend
+from judo.runtime.supervisor import FrontendFactory, Supervisor, stop_at_exit, viser_frontend
+
+MAX_WORKERS = 1024
+"""Most rollout threads an app may ask for."""
+
+
+def check_app_settings(
+    duration: float | None,
+    num_workers: int | None,
+    seed: int | None,
+    system_call_limit: float,
+    user_system: bool,
+    observe: str,
+) -> None:
+    """Raise ConfigError, saying what is wrong and what is valid, for a duration, rollout-thread count, seed or
+    System-call limit out of range, or rehearsed sensing (`observe` not "state") asked of a `user_system`."""
+    if duration is not None and not 0 < duration < math.inf:
+        raise ConfigError(
+            f"duration must be a positive, finite number of seconds of sim time (or None to run until stopped), "
+            f"got {duration}"
+        )
+    if num_workers is not None and not (isinstance(num_workers, int) and 1 <= num_workers <= MAX_WORKERS):
+        raise ConfigError(
+            f"num_workers must be an integer from 1 to {MAX_WORKERS} (or None: one per core), got {num_workers!r}"
+        )
+    check_seed(seed)
+    if not 0 < system_call_limit < math.inf:
+        raise ConfigError(f"system_call_limit must be a positive, finite number of seconds, got {system_call_limit}")
+    if user_system and observe != "state":
+        raise ConfigError(
+            f"observe={observe!r} rehearses sensing on the app's own simulation; your System chooses what it "
+            "measures (return SystemState.sensors, state None), so leave observe at 'state'"
+        )
+
 
 __all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]
 
@@ -143,27 +175,52 @@ class App:
         self._state = state = AppState(
             Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
         )
-        self._reports = reports = Reports(StatusLine(), state)
+        self._reports = reports = Reports(line=StatusLine(), state=state)
         if system is not None and (warning := missing_halt(system)) is not None:
             reports.report(warning, "warning")
         clock = None if system is None else state.clock  # a robot's plans age in wall time; the simulator waits
         proposals = None if proposal_policy is None else as_policy(proposal_policy)
         driver = None if policy is None else as_policy(policy)
         maker = SessionMaker(
-            system, seed, num_workers, backend, clock, reports.on_watchdog, proposals, task, driver, task, optimizer
+            user_system=system,
+            seed=seed,
+            num_workers=num_workers,
+            backend=backend,
+            clock=clock,
+            on_watchdog=reports.on_watchdog,
+            proposal_policy=proposals,
+            proposal_task=task,
+            policy=driver,
+            policy_task=task,
+            fallback_optimizer=optimizer,
         )
         first = optimizer if driver is None else POLICY_OPTIMIZER
         state.begin(maker.first(task, first, state.sensing, controller_config, optimizer_config, task_config))
         self._policy_name = None if driver is None else driver.name
-        self._commands = Commands(state, reports, maker)
-        self._recordings = Recordings(state, reports, recorder_factory)
-        plant = PlantRunner(state, self.buffer, self.stats, reports, duration, state.stop.set)
-        planner = PlannerRunner(state, maker, self.buffer, self.stats, reports, self._recordings)
+        self._commands = Commands(state=state, reports=reports, maker=maker)
+        self._recordings = Recordings(state=state, reports=reports, factory=recorder_factory)
+        plant = PlantRunner(
+            state=state,
+            buffer=self.buffer,
+            stats=self.stats,
+            reports=reports,
+            duration=duration,
+            request_stop=state.stop.set,
+        )
+        planner = PlannerRunner(
+            state=state, maker=maker, buffer=self.buffer, stats=self.stats, reports=reports, recordings=self._recordings
+        )
         make_frontend = (
             None if gui is False else functools.partial(gui, self) if callable(gui) else viser_frontend(self)
         )
         self._supervisor = Supervisor(
-            state, plant, planner, self._recordings, reports, system_call_limit, make_frontend
+            state=state,
+            plant=plant,
+            planner=planner,
+            recordings=self._recordings,
+            reports=reports,
+            system_call_limit=system_call_limit,
+            make_frontend=make_frontend,
         )
         self._thread: threading.Thread | None = None
         self._ran = False
@@ -180,7 +237,7 @@ class App:
         if self._supervisor.start_error is not None:
             self._thread.join()
             raise self._supervisor.start_error
-        exit_guard.register(self)  # stopped at interpreter exit if the script never calls stop()
+        stop_at_exit(self)  # stopped at interpreter exit if the script never calls stop()
 
     def run(self) -> RunSummary:
         """Run the loops in this thread until `duration` is reached, `stop()`, Ctrl-C or SIGTERM.
@@ -276,17 +333,9 @@ class App:
     def planning_cost(self) -> CycleCost:
         """The cycle's size (N x R x iterations x T; None where a policy drives) and estimated seconds under the latest
         configs, the last update's seconds, and the late cycle's seconds so far (else None); judo.runtime.cycles."""
-        state = self._state
-        with state.lock:
-            session, configs, cycle, step_cost = state.session, state.configs, state.cycle, state.step_cost
-        task = session.controller.task
-        size = None if configs.optimizer is None else cycle_size(task, configs.controller, configs.optimizer)
-        times = session.closed_loop.update_ms
-        last = times[-1] / 1e3 if times else math.nan
-        running = cycle.elapsed() if cycle is not None and cycle.late() else None
-        return CycleCost(size, math.nan if size is None else step_cost.estimate(size), last, running)
+        return self._state.planning_cost()
 
-    # ---- commands (judo.runtime.app_commands), callable from any thread ------------------------------
+    # ---- commands (judo.runtime.commands), callable from any thread ------------------------------
     def update_config(
         self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
     ) -> Config:

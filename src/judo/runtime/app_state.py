@@ -19,6 +19,7 @@ Threads see it with `is_set` / `wait`; the event loop's coroutines sleep with `s
 """
 
 import asyncio
+import math
 import threading
 from collections.abc import Callable
 from concurrent.futures import Executor
@@ -36,7 +37,7 @@ from judo.core.task import TaskConfig
 from judo.loop.records import LiveRecorder
 from judo.loop.sensing import Sensing
 from judo.loop.watchdog import PausableClock
-from judo.runtime.cycles import PlanningCycle, StepCost
+from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_size
 from judo.runtime.session import ConfigSet, Session
 
 
@@ -297,6 +298,18 @@ class AppState:
             self.configs = ConfigSet.of(session)
             self._planner.configs = PendingConfigs()
             self.external_edits += 1
+
+    def planning_cost(self) -> CycleCost:
+        """The planning cycle's size and estimated seconds under the latest configs, the last update's seconds, and
+        the late cycle's seconds so far (`App.planning_cost`)."""
+        with self.lock:
+            session, configs, cycle, step_cost = self.session, self.configs, self.cycle, self.step_cost
+        task = session.controller.task
+        size = None if configs.optimizer is None else cycle_size(task, configs.controller, configs.optimizer)
+        times = session.closed_loop.update_ms
+        last = times[-1] / 1e3 if times else math.nan
+        running = cycle.elapsed() if cycle is not None and cycle.late() else None
+        return CycleCost(size, math.nan if size is None else step_cost.estimate(size), last, running)
 
 
 def session_step_cost(session: Session) -> StepCost:

@@ -115,9 +115,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Parse `argv` (default: sys.argv[1:]), run the app, and return the exit status."""
     argv = list(sys.argv[1:] if argv is None else argv)
     try:
-        task, optimizer, loaded = _peek_names(argv)
+        task, optimizer, loaded, estimator, pinned = _peek(argv)
         ros2 = ros2_options(loaded.ros2 if loaded is not None else {}, "the config file's [ros2]")
-        estimator, pinned = _peek_estimator(argv, task)
         defaults: dict[str, Config] = {**default_configs(task, optimizer)}  # the estimator may join the three kinds
         if estimator is not None:
             defaults["estimator"] = make_config(lookup_estimator(estimator)[1], task)
@@ -226,42 +225,30 @@ def _as_kind(config: Config | None, cls: type[ConfigT]) -> ConfigT | None:
     return config
 
 
-def _peek_names(argv: list[str]) -> tuple[str, str, LoadedConfig | None]:
-    """The task and optimizer to run, read before tyro builds the options that depend on them, and the loaded
-    --config file (None without one).
+def _peek(argv: list[str]) -> tuple[str, str, LoadedConfig | None, str | None, bool]:
+    """What tyro's options depend on, read in one pass before tyro builds them: (task, optimizer, the loaded
+    --config file or None, the estimator to run, whether it is pinned).
 
-    Loads the --config file first (registering its classes and overrides), whose names stand in
-    for --task and --optimizer when those are not given. Raises JudoError for a bad file.
+    Loads the --config file first (registering its classes and overrides), whose names stand in for --task and
+    --optimizer when those are not given; applies --plant-overrides. The estimator, whose config fields become
+    --estimator-config.* options, is --estimator's, else the task's default with --observe sensors
+    (`estimator_in_force`), else None; it is pinned (kept across task switches, with the config given) when
+    --estimator or an --estimator-config.* field names it, else each task runs its own default. Raises JudoError
+    for a bad file, UnknownNameError for an unknown task.
     """
     peek = argparse.ArgumentParser(prog=PROG, add_help=False)
-    peek.add_argument("--config", default=None)
-    peek.add_argument("--task", default=None)
-    peek.add_argument("--optimizer", default=None)
+    for flag in ("--config", "--task", "--optimizer", "--estimator", "--observe"):
+        peek.add_argument(flag, default=None)
     peek.add_argument("--plant-overrides", "--plant_overrides", nargs="*", default=())
-    known, _ = peek.parse_known_args(argv)
+    known, rest = peek.parse_known_args(argv)
     loaded = load_config(known.config) if known.config is not None else None
     task = known.task or (loaded and loaded.task) or RunOptions.task
     optimizer = known.optimizer or (loaded and loaded.optimizer) or RunOptions.optimizer
     if known.plant_overrides:
         set_model_overrides(task, parse_override_entries(known.plant_overrides), plant=True)
-    return task, optimizer, loaded
-
-
-def _peek_estimator(argv: list[str], task: str) -> tuple[str | None, bool]:
-    """(the estimator to run, whose config fields become --estimator-config.* options; whether it is pinned).
-    The estimator is --estimator's, else `task`'s default with --observe sensors (`estimator_in_force`), else
-    None. It is pinned (kept across task switches, with the config given) when --estimator or an
-    --estimator-config.* field names it; else each task runs its own default. UnknownNameError for an
-    unknown task."""
-    peek = argparse.ArgumentParser(prog=PROG, add_help=False)
-    peek.add_argument("--estimator", default=None)
-    peek.add_argument("--observe", default=None)
-    known, rest = peek.parse_known_args(argv)
     fields_given = any(arg.startswith(("--estimator-config.", "--estimator_config.")) for arg in rest)
-    task_cls = lookup_task(task)[0]
-    return estimator_in_force(known.observe or "state", known.estimator, task_cls), (
-        known.estimator is not None or fields_given
-    )
+    estimator = estimator_in_force(known.observe or "state", known.estimator, lookup_task(task)[0])
+    return task, optimizer, loaded, estimator, known.estimator is not None or fields_given
 
 
 def _description() -> str:

@@ -10,6 +10,12 @@ The GUI (`judo.runtime.gui`) imports this module and never `judo.runtime.app`; `
 
 The loops publish under two topics of the app's StateBuffer: "system" a `SystemSnapshot`, "plan" a
 `PlanSnapshot`.
+
+The App's commands: what the GUI, a notebook or a script asks of a running app, from any thread.
+
+Each command validates at once (raising UnknownNameError, ConfigError or JudoError) and only queues its request
+in the app's state (`judo.runtime.app_state`); the plant runner and the planner runner carry it out at the top
+of their next iteration. `App` (`judo.runtime.app`) owns one `Commands` and delegates to it.
 """
 
 from pathlib import Path
@@ -17,16 +23,28 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from judo.core.config import Config
+from judo.core.config import Config, with_updates
+from judo.core.controller import ControllerConfig, check_configs
+from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
-from judo.core.registry import CONFIG_KINDS, ConfigKind
+from judo.core.optimizer import OptimizerConfig
+from judo.core.proposals import check_proposal_policy
+from judo.core.registry import (
+    CONFIG_KINDS,
+    ConfigKind,
+    lookup_optimizer,
+    lookup_task,
+    make_estimator,
+)
 from judo.loop.records import LiveRecorder
+from judo.loop.sensing import check_estimator
 from judo.loop.system import SystemState
-from judo.runtime.cycles import CycleCost
-from judo.runtime.session import POLICY_OPTIMIZER, Session
+from judo.runtime.app_state import AppState
+from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleCost, cycle_size
+from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
 from judo.runtime.status import Level as StatusLevel
-from judo.runtime.status import LiveFigures, Status
+from judo.runtime.status import LiveFigures, Reports, Status
 
 __all__ = [
     "CONFIG_KINDS",
@@ -183,3 +201,195 @@ class AppPort(Protocol):
     def stop_recording(self) -> Path | None:
         """Write the recording under way as the next demo of its file; returns the file, or None."""
         ...
+
+
+class Commands:
+    """Config edits, pause and resume, resets, goal moves and switches (see `judo.runtime.app.App`).
+
+    Args:
+        state: the app's state, where every command queues its request.
+        reports: the status line.
+        maker: how the app builds sessions: the user's System (which stays for the whole run), the policy, the
+            defaults.
+    """
+
+    def __init__(self, *, state: AppState, reports: Reports, maker: SessionMaker) -> None:
+        self._state, self._reports, self._maker = state, reports, maker
+        self._user_system = maker.user_system
+
+    def update_config(
+        self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+    ) -> Config:
+        """Validate `updates` ({field: value}) to the `kind` config and queue it for the next cycle.
+
+        Returns the new config. Raises UnknownNameError or ConfigError, keeping the previous config,
+        if a field does not exist, a value is invalid, or the configs would not work together (e.g.
+        num_rollouts 0, a horizon shorter than one timestep), or the edit would grow a planning cycle past an
+        estimated MAX_CYCLE_SECONDS (`judo.runtime.cycles`). An edit that resizes a late cycle cancels it.
+        `generation` (from `session`) refuses an edit made for a session that has since been replaced.
+        """
+        if kind not in CONFIG_KINDS:
+            raise ConfigError(f"config kind must be one of {list(CONFIG_KINDS)}, got {kind!r}")
+        state = self._state
+        with state.lock:
+            session = state.session
+            if generation is not None and generation != session.generation:
+                raise ConfigError("the task or optimizer changed since this edit was made; it was not applied")
+            current = state.configs.get(kind)
+            if current is None:
+                raise ConfigError(
+                    f"a policy drives {session.task_name}: it has no {kind} config; choose an optimizer to plan with MPC"
+                )
+            updated = with_updates(current, updates)
+            candidate = state.configs.with_config(kind, updated)
+            if candidate.optimizer is not None:  # a policy's session has no rollouts to check against
+                check_configs(session.controller.task, candidate.controller, candidate.optimizer)
+                proposals = getattr(session.controller, "proposal_policy", None)  # refused here, not every cycle
+                check_proposal_policy(proposals, candidate.controller.policy_samples)
+                resized = self._check_cycle_cost(updates, candidate.controller, candidate.optimizer)
+                if resized and state.cycle is not None and state.cycle.late():
+                    state.cancel_cycle("the planning cycle was resized")
+            state.accept_config(kind, updated, from_gui=from_gui)
+            task = session.controller.task
+        if (
+            kind == "controller"
+            and getattr(updated, "max_plan_age", 1) == 0
+            and getattr(current, "max_plan_age", 0) != 0
+        ):
+            self._reports.report(
+                "max_plan_age 0 turns the watchdog off: a stalled planner's last plan is served however old it is",
+                "warning",
+            )
+        rate = getattr(updated, "control_freq", None)
+        if kind == "controller" and rate is not None and rate < type(task).min_control_freq:
+            self._reports.report(
+                f"control_freq {rate:g} Hz is below the {type(task).min_control_freq:g} Hz that {type(task).__name__}'s "
+                "defaults need (docs/tasks.md); expect it to fail",
+                "warning",
+            )
+        return updated
+
+    def _check_cycle_cost(
+        self, updates: dict[str, Any], controller: ControllerConfig, optimizer: OptimizerConfig
+    ) -> bool:
+        """True if these configs change the size of a planning cycle (see `judo.runtime.cycles`); ConfigError if
+        they grow it beyond an estimated MAX_CYCLE_SECONDS (a smaller cycle is always accepted). Under the lock."""
+        state = self._state
+        task = state.session.controller.task
+        current = state.configs
+        before = None if current.optimizer is None else cycle_size(task, current.controller, current.optimizer)
+        after = cycle_size(task, controller, optimizer)
+        seconds = state.step_cost.estimate(after)
+        if seconds > MAX_CYCLE_SECONDS and (before is None or after.total > before.total):
+            edit = ", ".join(f"{name} = {value}" for name, value in updates.items())
+            raise ConfigError(
+                f"{edit} would make a planning cycle of about {seconds:.0f} s (num_rollouts x num_randomizations x "
+                f"max_opt_iters x horizon steps: {after}); expected at most {MAX_CYCLE_SECONDS:g} s: lower "
+                "num_rollouts, num_randomizations, max_opt_iters or the horizon"
+            )
+        return after != before
+
+    def update_estimator_config(
+        self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+    ) -> EstimatorConfig:
+        """Validate `updates` ({field: value}) to the running estimator's config and use it from its next
+        update. Returns the new config. Raises ConfigError, keeping the config before, for an unknown field
+        or a bad value, and JudoError when no estimator runs or the session changed (`generation`)."""
+        state = self._state
+        with state.lock:
+            session = state.session
+            if generation is not None and generation != session.generation:
+                raise ConfigError("the task or optimizer changed since this edit was made; it was not applied")
+            estimator = session.closed_loop.estimator
+            if estimator is None:
+                raise JudoError(
+                    "no estimator runs: the app plans from the plant's full state; start it with "
+                    "estimator='ekf' (or observe='sensors') to have one"
+                )
+            updated = with_updates(estimator.config, updates)
+            assert isinstance(updated, EstimatorConfig)
+            state.accept_estimator_config(estimator, updated, from_gui=from_gui)  # used from its next update
+        return updated
+
+    def reset_configs(self) -> None:
+        """Put every config back to the task's registered defaults (at the next cycle)."""
+        state = self._state
+        with state.lock:
+            session = state.session
+            state.reset_configs(self._maker.default_configs(session.task_name, session.optimizer_name))
+        self._reports.report("configs reset to the defaults")
+
+    def pause(self) -> None:
+        """Freeze the plant and the planner (a paused simulation keeps its time)."""
+        self._state.pause()
+        self._reports.report("paused")
+
+    def resume(self) -> None:
+        """Undo `pause()`."""
+        self._state.resume()
+        self._reports.report(self._reports.running())
+
+    def reset_task(self) -> None:
+        """Reset the plant to its start state and forget the plan."""
+        self._state.request_reset(from_user=True)  # the plan is forgotten once the plant's reset worked
+
+    def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
+        """Move mocap body `index` (a goal) of the simulated plant to `position` (3,), and turn it to
+        `quat` (4,) wxyz if given, before its next step.
+
+        The planner sees it with the next state (the plant publishes its mocap poses). Raises JudoError
+        for a user's System, whose goals the app cannot move, or an index the model does not have.
+        """
+        session = self._state.session
+        plant = session.simulated
+        if plant is None:
+            raise JudoError(f"cannot move goal {index}: the app drives your own {type(session.system).__name__}")
+        nmocap = plant.task.sim_model.nmocap
+        if not 0 <= index < nmocap:
+            raise JudoError(f"goal index must be in [0, {nmocap}), got {index}")
+        try:
+            moved = np.array(position, dtype=float).reshape(3)
+            turn = None if quat is None else np.array(quat, dtype=float).reshape(4)
+        except (TypeError, ValueError) as err:
+            raise JudoError(f"goal {index}: a position needs 3 numbers and a quat 4: {err}") from None
+        if not np.isfinite(moved).all() or (turn is not None and not (np.isfinite(turn).all() and turn.any())):
+            raise JudoError(f"goal {index} not moved: position {moved.tolist()} and quat must be finite (quat not 0)")
+        self._state.request_goal_move(index, moved, turn)
+
+    def switch_task(self, task: str) -> None:
+        """Use the registered task `task` from the next cycle, with its default configs."""
+        lookup_task(task)
+        running = self._state.session.task_name
+        if self._user_system is not None and task != running:
+            raise JudoError(
+                f"cannot switch to task {task!r}: the app drives your own System, which is "
+                f"{running!r}; start a new App for another task"
+            )
+        self._state.request_switch(task=task)
+
+    def switch_estimator(self, estimator: str | None) -> None:
+        """Run the registered estimator `estimator` (None: none, planning from full-state readings as they are)
+        from the next cycle, keeping the plant running: restarted from the next reading, with its registered
+        defaults (its live config when it is the one running). Raises UnknownNameError for
+        an unregistered name, JudoError when the plant's readings lack what it needs (a full state)."""
+        state = self._state
+        session = state.session
+        if estimator is not None:  # tried on the plant's latest reading (its own thread may be reading it now)
+            latest = session.closed_loop.raw_reading or session.system.read_state()
+            check_estimator(estimator, make_estimator(estimator, session.controller.task), latest)
+        with state.lock:
+            raw = session.closed_loop.raw_reading
+            if estimator is None and raw is not None and raw.state is None:
+                raise JudoError(
+                    "cannot plan without an estimator: the plant measures only sensors (state None); choose "
+                    "an estimator that fuses them, e.g. 'ekf'"
+                )
+            state.request_estimator(estimator, rebuild=not (estimator is None and session.estimator_name is None))
+
+    def switch_optimizer(self, optimizer: str) -> None:
+        """Use the registered optimizer `optimizer` from the next cycle, keeping the plant running."""
+        if optimizer == POLICY_OPTIMIZER:
+            self._maker.check_policy_session(self._state.session.task_name)
+        else:
+            lookup_optimizer(optimizer)
+        self._state.request_switch(optimizer=optimizer)

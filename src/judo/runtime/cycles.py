@@ -4,7 +4,7 @@ flight with its cancel.
 A cycle's cost is its rollout steps, num_rollouts x num_randomizations x max_opt_iters x T, times the seconds one
 step takes on the session's rollout backend (`StepCost`): probed on the planning model when the session is built,
 then measured from each completed cycle large enough for its fixed overhead not to count. The commands refuse an
-edit whose estimated cycle exceeds MAX_CYCLE_SECONDS (`judo.runtime.app_commands`), and the GUI shows the cost.
+edit whose estimated cycle exceeds MAX_CYCLE_SECONDS (`judo.runtime.commands`), and the GUI shows the cost.
 
 The planner runner plans under a `PlanningCycle`: the controller polls it (`is_set`) between optimizer iterations
 and the CPU rollout pool between pieces of a batch, so a pause, reset, switch or resize that cancels it ends it

@@ -46,6 +46,7 @@ class PlannerRunner:
 
     def __init__(
         self,
+        *,
         state: AppState,
         maker: SessionMaker,
         buffer: StateBuffer,

@@ -76,6 +76,7 @@ class PlantRunner:
 
     def __init__(
         self,
+        *,
         state: AppState,
         buffer: StateBuffer,
         stats: RunStats,

@@ -34,7 +34,7 @@ class Recordings:
         factory: makes a recorder from a path; None uses DEFAULT_RECORDER.
     """
 
-    def __init__(self, state: AppState, reports: Reports, factory: RecorderFactory | None = None) -> None:
+    def __init__(self, *, state: AppState, reports: Reports, factory: RecorderFactory | None = None) -> None:
         self._state, self._reports, self._factory = state, reports, factory
 
     @property

@@ -176,7 +176,7 @@ def build_session(
     return Session(task_name, optimizer_name, controller, system, closed_loop, generation, name)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class SessionMaker:
     """Builds the app's sessions.
 

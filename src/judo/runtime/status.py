@@ -229,7 +229,7 @@ class Reports:
         state: the app's state, for the names of the session in use.
     """
 
-    def __init__(self, line: StatusLine, state: AppState) -> None:
+    def __init__(self, *, line: StatusLine, state: AppState) -> None:
         self.line, self._state = line, state
 
     @property

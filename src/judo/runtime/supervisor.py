@@ -17,13 +17,27 @@ The frontend is the GUI given to the App, which draws it on its event loop and n
 A frontend is anything with `url`, `update()` (one frame, about 30 Hz) and `close()`, built from the App's command
 port (`judo.runtime.commands.AppPort`) by a `FrontendFactory`. judo's own is the viser GUI (`judo.runtime.gui.Gui`),
 looked up by name (VISER_FRONTEND) when an App is started with gui=True, so viser is imported only then.
+
+The exit guard (`stop_at_exit`) stops every running App before the interpreter finalizes, so a script that
+ends without `app.stop()` never segfaults at exit.
+
+A script that starts an App and ends (or raises) without stopping it leaves the app's thread and the
+rollout threads running: they are daemon threads, so Python finalizes the interpreter under them while
+they are still inside MuJoCo, and the process dies with SIGSEGV (rc 139) in most runs. `atexit` hooks
+run after the main thread ends and before finalization, so the one hook here stops each App that
+`stop_at_exit` was given and waits for its threads.
+
+The hook is (re-)registered on each `stop_at_exit`, after the GUI server started, so it runs before
+viser's own exit hook (atexit runs the last registered first): the app stops its GUI itself.
 """
 
 import asyncio
+import atexit
 import importlib
 import logging
 import signal
 import threading
+import weakref
 from collections.abc import Callable, Coroutine
 from typing import Any, Protocol
 
@@ -126,6 +140,7 @@ class Supervisor:
 
     def __init__(
         self,
+        *,
         state: AppState,
         plant: PlantRunner,
         planner: PlannerRunner,
@@ -254,3 +269,38 @@ class Supervisor:
             except Exception as err:
                 self._reports.report(f"GUI update failed: {type(err).__name__}: {err}", "error")
             await self._state.stop.sleep(start + GUI_PERIOD - loop.time())
+
+
+class Stoppable(Protocol):
+    """What the hook needs of an App."""
+
+    def stop(self, timeout: float | None = ...) -> None: ...
+
+
+EXIT_STOP_TIMEOUT = 5.0
+"""Seconds the exit hook waits for each running App to stop (its planning cycle in flight to end)."""
+
+_running: "weakref.WeakSet[Stoppable]" = weakref.WeakSet()
+_lock = threading.Lock()
+
+
+def stop_at_exit(app: Stoppable) -> None:
+    """Have `app` stopped (`app.stop(EXIT_STOP_TIMEOUT)`) at interpreter exit if it is still running then.
+
+    Call it once the app has started; stopping an app that already stopped does nothing harmful."""
+    with _lock:
+        _running.add(app)
+        atexit.unregister(stop_running_apps)
+        atexit.register(stop_running_apps)
+
+
+def stop_running_apps() -> None:
+    """Stop every registered App, each waited for at most EXIT_STOP_TIMEOUT seconds."""
+    with _lock:
+        apps = list(_running)
+        _running.clear()
+    for app in apps:
+        try:
+            app.stop(timeout=EXIT_STOP_TIMEOUT)
+        except Exception:  # noqa: BLE001  (at exit, one app failing to stop must not skip the others)
+            pass
