@@ -126,7 +126,7 @@ def test_the_status_types_are_defined_once_and_the_app_module_still_exports_them
 
     for name in ("Status", "ConfigKind", "CONFIG_KINDS", "SystemSnapshot", "PlanSnapshot"):
         assert getattr(app_module, name) is getattr(commands, name), name
-    homes = {"Status": "status_line", "SystemSnapshot": "snapshots", "PlanSnapshot": "snapshots"}
+    homes = {"Status": "status", "SystemSnapshot": "snapshots", "PlanSnapshot": "snapshots"}
     for name, home in homes.items():  # defined in their own module, re-exported by the port
         assert getattr(commands, name).__module__ == f"judo.runtime.{home}", name
     assert commands.CONFIG_KINDS == typing.get_args(commands.ConfigKind) == ("controller", "optimizer", "task")

@@ -6,7 +6,7 @@ import logging
 import numpy as np
 import pytest
 
-from judo.runtime import status_line as app_module
+from judo.runtime import status as app_module
 from judo.runtime.app import App
 from judo.runtime.status import PLAN_TIMES_KEPT, RunStats
 
