@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from judo.core.config import Config
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
@@ -48,7 +48,7 @@ from judo.runtime.recordings import Recordings
 from judo.runtime.records import LiveRecorder, RecorderFactory
 from judo.runtime.reports import Reports
 from judo.runtime.sensing import PerType
-from judo.runtime.session import POLICY_OPTIMIZER, Observe, Sensing, Session
+from judo.runtime.session import POLICY_OPTIMIZER, Observe, Planner, Sensing, Session
 from judo.runtime.session_maker import SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, SystemSnapshot
 from judo.runtime.state_buffer import StateBuffer
@@ -249,7 +249,7 @@ class App:
         return self._state.session
 
     @property
-    def controller(self) -> Controller:
+    def controller(self) -> Planner:
         """The controller in use; its configs change only at the top of a planning cycle."""
         return self._state.session.controller
 

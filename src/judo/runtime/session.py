@@ -11,10 +11,11 @@ from typing import Literal
 import numpy as np
 
 from judo.core.config import require
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.controller import ControllerConfig
 from judo.core.errors import ConfigError
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, default_estimator_name
 from judo.core.optimizer import OptimizerConfig
+from judo.core.planner import Planner
 from judo.core.policy import Policy
 from judo.core.policy_controller import make_policy_controller
 from judo.core.registry import lookup_estimator, make_controller, make_estimator
@@ -74,7 +75,8 @@ class Session:
 
     Attributes:
         task_name, optimizer_name: registry names.
-        controller: plans on its own Task instance (`controller.task`).
+        controller: the Planner (a Controller, or a PolicyController where a policy drives); plans on its own Task
+            instance (`controller.task`).
         system: the plant; a MujocoSystem simulating its own task instance (behind a SensedSystem when
             observing sensors), or the user's own System.
         closed_loop: the one closed-loop step on `controller` and `system`.
@@ -85,7 +87,7 @@ class Session:
 
     task_name: str
     optimizer_name: str
-    controller: Controller
+    controller: Planner
     system: System
     closed_loop: ClosedLoop
     generation: int
@@ -147,8 +149,7 @@ def build_session(
     sensing = sensing if sensing is not None else Sensing()
     sensing.check()
     if policy is not None:  # the policy is the controller (judo.core.policy_controller); the loop is the same
-        made = make_policy_controller(task_name, policy, controller_config=controller_config, seed=seed)
-        controller: Controller = made  # type: ignore[assignment]  # a PolicyController serves as one (duck-typed)
+        controller: Planner = make_policy_controller(task_name, policy, controller_config=controller_config, seed=seed)
     else:
         controller = make_controller(
             task_name,
