@@ -53,8 +53,7 @@ class ClosedLoop:
     """A controller driving a plant: read, plan, serve, step.
 
     Args:
-        controller: a Planner (a Controller, or a PolicyController); plans on its own task instance and never
-            reads the plant's data.
+        controller: a Planner (a Controller or a PolicyController); it never reads the plant's data.
         system: the plant (a simulator, rehearsed sensing or hardware).
         latency: seconds of sim time between a plan's reading and its being served, or "measured".
         recorders: objects with `on_plan(PlanRecord)` and `on_step(StepRecord)`, called in order.
@@ -145,9 +144,8 @@ class ClosedLoop:
         return reading
 
     def read(self) -> SystemState:
-        """Read the plant: the reading the next plan starts from, kept as `reading`.
-
-        Raises ReadingTimeError, keeping the reading before, if its time went backwards."""
+        """Read the plant: the reading the next plan starts from, kept as `reading`. Raises ReadingTimeError,
+        keeping the reading before, if its time went backwards."""
         raw = self.calls.read_state()
         self.watchdog.note_reading(raw, self.clock())
         self.raw_reading = raw
