@@ -10,13 +10,15 @@ from dataclasses import dataclass
 from judo.collection.dataset import EpisodeArrays
 from judo.collection.recorder import EpisodeRecorder, PolicyServedRecorder
 from judo.core.backend import RolloutBackend
-from judo.core.controller import Controller
+from judo.core.planner import Planner
 from judo.core.policy_controller import PolicyController
 from judo.evaluation.episode import EpisodeResult
 from judo.evaluation.seeded import (
     EpisodeSpec,
+    configs_in_force,
     failure_reason,
     planning_model,
+    run_policy_episode,
     run_seeded_episode,
     run_side_by_side,
 )
@@ -64,16 +66,19 @@ def collect_episode(
     `backend` (built from `spec.backend` when None); never raises: a failure comes back with its reason."""
     made: list[tuple[EpisodeRecorder, MujocoSystem]] = []
 
-    def recorders(controller: Controller | PolicyController, system: MujocoSystem) -> list[EpisodeRecorder]:
-        if isinstance(controller, PolicyController):  # collect --policy: the MPC's plans are the labels
-            recorder: EpisodeRecorder = PolicyServedRecorder.for_policy(controller, system.task, traces)
-        else:
-            recorder = EpisodeRecorder.for_loop(controller, system.task, traces)
-        made.append((recorder, system))
-        return [recorder]
+    def plans(planner: Planner, system: MujocoSystem) -> list[EpisodeRecorder]:
+        made.append((EpisodeRecorder.for_loop(planner, system.task, traces), system))
+        return [made[-1][0]]
+
+    def served(controller: PolicyController, system: MujocoSystem) -> list[EpisodeRecorder]:
+        made.append((PolicyServedRecorder.for_policy(controller, system.task, traces), system))
+        return [made[-1][0]]
 
     try:
-        result = run_seeded_episode(spec, seed, recorders, backend=backend)
+        if spec.policy is None:
+            result = run_seeded_episode(spec, seed, plans, backend=backend)
+        else:  # collect --policy: the policy drives; its expert MPC labels the states it is served from
+            result = run_policy_episode(spec, seed, configs_in_force(spec), served)
         failure = episode_failure(result)
         if failure is not None:
             return EpisodeOutcome(seed, None, failure)

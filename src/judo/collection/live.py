@@ -36,7 +36,7 @@ def default_recording_path(task: str) -> Path:
 def start_live_recording(path: str | Path | None, session: Session, configs: dict[str, Config]) -> "LiveRecording":
     """The app's default recorder (`judo.runtime.recordings.DEFAULT_RECORDER`): a LiveRecording of `session` into
     `path` (`default_recording_path` for None), from the `configs` in force."""
-    if getattr(session.controller, "optimizer", None) is None:
+    if session.controller.optimizer is None:
         raise JudoError(
             "the GUI's recording holds an optimizer's plans; a policy drives this session: switch to an optimizer to "
             "record, or record the policy with python -m judo collect --policy FILE.onnx"

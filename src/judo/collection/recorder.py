@@ -6,8 +6,8 @@ from typing import Any
 import numpy as np
 
 from judo.collection.dataset import EpisodeArrays
-from judo.core.controller import Controller
 from judo.core.errors import JudoError
+from judo.core.planner import Planner
 from judo.core.policy_controller import PolicyController
 from judo.core.task import Task
 from judo.loop.records import PlanRecord, StepRecord
@@ -48,10 +48,12 @@ class EpisodeRecorder:
         self.plans: list[PlanRecord] = []
 
     @classmethod
-    def for_loop(cls, controller: Controller, plant_task: Task, traces: bool = False) -> "EpisodeRecorder":
-        """A recorder for `controller`'s plans and the plant model (`sim_model`) of `plant_task`."""
+    def for_loop(cls, planner: Planner, plant_task: Task, traces: bool = False) -> "EpisodeRecorder":
+        """A recorder for the plans of `planner`, which has an optimizer, and the plant model (`sim_model`) of
+        `plant_task`."""
         model = plant_task.sim_model
-        sizes = (model.nq, model.nv, model.nmocap, controller.optimizer.num_nodes, controller.task.command_size)
+        assert planner.optimizer is not None, "an EpisodeRecorder of the loop records an optimizer's plans"
+        sizes = (model.nq, model.nv, model.nmocap, planner.optimizer.num_nodes, planner.task.command_size)
         return cls(*sizes, tuple(plant_task.measured_sensors), traces, *metadata_settings(plant_task))
 
     def with_records(self, steps: list[StepRecord], plans: list[PlanRecord]) -> "EpisodeRecorder":

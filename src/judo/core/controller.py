@@ -31,6 +31,7 @@ from judo.core.low_level import check_low_level_backend, with_low_level
 from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
 from judo.core.optimizer import Optimizer, PlanningStart
 from judo.core.parallel_reward import ParallelReward
+from judo.core.planner import checked_reading
 from judo.core.policy import Policy
 from judo.core.proposals import Proposer, insert_proposals
 from judo.core.randomize import randomized_models
@@ -223,14 +224,7 @@ class Controller:
         NonFiniteKnotsError if the optimizer produced NaN or infinite knots; in each case the
         previous plan stays in force.
         """
-        state = np.asarray(state, dtype=float)
-        if state.shape != (self._num_state,):
-            raise ConfigError(f"state must have shape ({self._num_state},) = (nq + nv,), got {state.shape}")
-        if not (np.isfinite(state).all() and math.isfinite(time)):
-            bad = np.flatnonzero(~np.isfinite(state)).tolist()
-            what = f"non-finite state entries {bad}" if bad else f"non-finite time {time}"
-            # no reading time in the message: the same fault must read the same, so the log's repeat filter holds
-            raise JudoError(f"cannot plan from a non-finite reading ({what}); keeping the previous plan")
+        state = checked_reading(state, time, self._num_state, "plan from")
         self._apply_config_changes()
         self._redraw_models_if_due()
         opt, task, cfg = self.optimizer, self.task, self.config

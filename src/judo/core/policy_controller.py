@@ -1,8 +1,9 @@
 """A policy as the controller: each control update is one `act`, and its action or chunk is the plan.
 
-`PolicyController` has the surface the one closed loop (`judo.loop.closed_loop.ClosedLoop`) and evaluate use
-from `Controller`: `update_action` returns a plan `Spline`, `action(t)` serves it, `config` holds the control rate
-and the watchdog's `max_plan_age`, and `reset`, `close` and `warm_start_action` behave alike. So the watchdog, the
+`PolicyController` is a `Planner` (judo.core.planner), as `Controller` is, so the one closed loop
+(`judo.loop.closed_loop.ClosedLoop`), evaluate and the app drive either: `update_action` returns a plan `Spline`,
+`action(t)` serves it, `config` holds the control rate and the watchdog's `max_plan_age`, and `reset`, `close` and
+`warm_start_action` behave alike. So the watchdog, the
 estimator, the latency model and the recorders serve and watch a policy's plan as they do an optimizer's, with no
 second loop:
   - a per-step policy (horizon H = 1): the plan holds its action until the next update;
@@ -18,7 +19,6 @@ delays the policy's plan within the update): the policy drives the plant while t
 """
 
 import math
-import threading
 from pathlib import Path
 from time import perf_counter_ns
 from typing import Any
@@ -26,6 +26,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from judo.core.backend import CancelFlag
 from judo.core.config import check_seed, with_updates
 from judo.core.controller import (
     Controller,
@@ -37,6 +38,7 @@ from judo.core.controller import (
 from judo.core.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.model import set_mocap_poses
+from judo.core.planner import checked_reading
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
 from judo.core.task import Task, new_task
@@ -101,7 +103,14 @@ class PolicyController:
         nominal_knots: (H, nu) the latest chunk (clamped to the ctrlrange), or None before the first update.
         inference_ms: wall time of each update's observation and `act`, in milliseconds (the expert's not counted).
         expert_failures: expert updates that failed on non-finite rewards or knots (its plan before stayed).
+        optimizer, backend, backend_name, proposal_policy: None, as a `Planner` where a policy plans: nothing of
+            its own is optimized, rolled out or proposed (an expert's are the expert's).
     """
+
+    optimizer: None = None
+    backend: None = None
+    backend_name: None = None
+    proposal_policy: None = None
 
     def __init__(
         self,
@@ -187,7 +196,7 @@ class PolicyController:
         state: np.ndarray,
         time: float,
         system_metadata: dict[str, Any] | None = None,
-        cancel: threading.Event | None = None,
+        cancel: CancelFlag | None = None,
     ) -> Spline:
         """One inference from `state` (nq + nv,) at sim `time`: the policy's action (held) or chunk becomes the plan,
         which is published and returned. With an expert, the MPC then plans from the same state.
@@ -196,13 +205,7 @@ class PolicyController:
         shape, and NonFiniteKnotsError when the policy returned NaN or infinite actions (the plan before stays in
         force; the closed loop counts it as a failed update). What the policy's `act` raises propagates.
         """
-        state = np.asarray(state, dtype=float)
-        if state.shape != (self._num_state,):
-            raise ConfigError(f"state must have shape ({self._num_state},) = (nq + nv,), got {state.shape}")
-        if not (np.isfinite(state).all() and math.isfinite(time)):
-            bad = np.flatnonzero(~np.isfinite(state)).tolist()
-            what = f"non-finite state entries {bad}" if bad else f"non-finite time {time}"
-            raise JudoError(f"cannot act on a non-finite reading ({what}); keeping the previous plan")
+        state = checked_reading(state, time, self._num_state, "act on")
         basis = self._chunk_basis()
         started = perf_counter_ns()
         observation = self.observe(state, time, system_metadata)

@@ -78,16 +78,6 @@ def task_config(task: str, overrides: Any) -> Config:
     return with_updates(make_config(lookup_task(task)[1], task), given_fields(overrides))
 
 
-def set_field_overrides(task: str, optimizer: str | None, optimizer_overrides: Any, task_overrides: Any) -> None:
-    """Make the given `--optimizer-config.*` and `--task-config.*` fields the pair's defaults in this process,
-    as a --config file's [optimizer_config_overrides] and [task_config_overrides] entries do."""
-    from judo.core.registry import set_config_overrides
-
-    if optimizer is not None:
-        set_config_overrides(task, lookup_optimizer(optimizer)[1], given_fields(optimizer_overrides))
-    set_config_overrides(task, lookup_task(task)[1], given_fields(task_overrides))
-
-
 def controller_config(task: str, overrides: Any, optimizer: str | None = None) -> ControllerConfig:
     """The task's ControllerConfig (its registered defaults, and `optimizer`'s own when given) with the given
     `--controller.*` fields applied; ConfigError for a value the config refuses."""

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from judo.core.config import require
-from judo.core.controller import Controller
 from judo.core.estimator import Estimator
+from judo.core.planner import Planner
 from judo.core.task import EpisodeLog, Task
 from judo.loop.closed_loop import ClosedLoop, Latency, check_latency
 from judo.loop.records import PlanRecord, Recorder, StepRecord
@@ -88,7 +88,7 @@ class EpisodeLogRecorder:
 
 
 def run_episode(
-    controller: Controller,
+    controller: Planner,
     system: "MujocoSystem | SensedSystem",
     duration: float,
     latency: Latency = 0.0,
@@ -100,7 +100,7 @@ def run_episode(
     """Drive the simulated plant `system` with `controller` for `duration` seconds of sim time.
 
     Args:
-        controller: plans on its own task instance; seed it (make_controller(..., seed=...)) for a
+        controller: a Planner; plans on its own task instance; seed it (make_controller(..., seed=...)) for a
             reproducible episode. Its plan is reset first.
         system: the plant, from `MujocoSystem.from_task(controller.task, seed)` at its start state, or a
             `SensedSystem` around it (rehearsed sensing: the controller sees only the measured sensors).

@@ -78,11 +78,13 @@ class EpisodeArgs(SensingFlags):
             f"--episodes-per-batch {self.episodes_per_batch} batches episodes' rollouts on one warp backend; "
             f"expected --backend warp (got {self.backend}) and no --policy",
         )
-        if self.plant_overrides:
-            from judo.core.model_overrides import parse_override_entries
-            from judo.core.registry import set_model_overrides
+        if self.plant_overrides:  # checked here; the episodes apply them from their spec (`with_spec_plant`)
+            from judo.core.model_overrides import check_model_overrides, parse_override_entries
+            from judo.core.task import new_task
 
-            set_model_overrides(self.task, parse_override_entries(self.plant_overrides), plant=True)
+            check_model_overrides(
+                new_task(lookup_task(self.task)[0]).sim_model, parse_override_entries(self.plant_overrides)
+            )
         if self.policy is not None:
             from judo.core.policy_controller import make_policy_controller
 

@@ -24,7 +24,7 @@ from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, chec
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import make_task
-from judo.evaluation.cli import given_fields, set_field_overrides, write_json
+from judo.evaluation.cli import given_fields, write_json
 from judo.evaluation.episode import EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
@@ -209,10 +209,7 @@ def main(argv: list[str] | None = None) -> int:
         check_output_file("--plot", args.plot)
         apply_config_file(args.config)
         args.validate()
-        set_field_overrides(
-            args.task, args.optimizer, getattr(args, "optimizer_config", None), getattr(args, "task_config", None)
-        )
-        results, failures = run_seeds(args)
+        results, failures = run_seeds(args)  # the episodes' configs: the registered ones and the flags (spec.values)
         for seed, reason in failures:
             print(f"seed {seed} failed: {reason}", file=sys.stderr)
         if not results:

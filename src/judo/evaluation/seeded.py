@@ -21,6 +21,7 @@ from judo.core.config import Config, require
 from judo.core.config_values import controller_config_of, optimizer_config_of
 from judo.core.controller import Controller
 from judo.core.errors import JudoError
+from judo.core.planner import Planner
 from judo.core.policy import Policy
 from judo.core.registry import ConfigKind
 from judo.core.task import Task
@@ -39,9 +40,13 @@ if TYPE_CHECKING:
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
 
-RecorderFactory = Callable[["Controller | PolicyController", MujocoSystem], Iterable[Recorder]]
-"""Makes an episode's extra recorders once its controller (a PolicyController where a policy drives) and plant
-exist (they size their buffers from them)."""
+RecorderFactory = Callable[[Planner, MujocoSystem], Iterable[Recorder]]
+"""Makes an episode's extra recorders once its planner (a Controller, or a PolicyController where a policy drives)
+and plant exist (they size their buffers from them)."""
+
+PolicyRecorderFactory = Callable[["PolicyController", MujocoSystem], Iterable[Recorder]]
+"""A RecorderFactory of an episode where a policy drives, for recorders that read the PolicyController itself (its
+expert, its inference times); every RecorderFactory is one."""
 
 
 @dataclass(frozen=True)
@@ -203,7 +208,7 @@ def run_policy_episode(
     spec: EpisodeSpec,
     seed: int,
     configs: dict[ConfigKind, Config],
-    recorders: RecorderFactory | None = None,
+    recorders: PolicyRecorderFactory | None = None,
     on_update: Callable[[float], None] | None = None,
 ) -> EpisodeResult:
     """`run_seeded_episode` of a spec with a policy: a PolicyController drives the plant (with the optimizer, if the
@@ -225,7 +230,7 @@ def run_policy_episode(
         system = observed_plant(with_spec_plant(task, spec), seed, spec.sensing)
         _, estimator = choose_estimator(task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
-        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)  # type: ignore[arg-type]  # a PolicyController stands in for a Controller (duck-typed; ClosedLoop has no Protocol for both)
+        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
 
 
 def with_spec_plant(task: Task, spec: EpisodeSpec) -> Task:

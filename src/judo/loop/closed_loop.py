@@ -34,9 +34,10 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 
-from judo.core.controller import Controller, NonFiniteKnotsError, NonFiniteRewardError
+from judo.core.controller import NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.errors import JudoError
 from judo.core.estimator import ControlHistory, Estimator
+from judo.core.planner import Planner
 from judo.core.spline import Spline
 from judo.loop.control_clock import TIME_TOLERANCE, ControlClock
 from judo.loop.latency import Latency, LatencyPredictor, check_latency, prediction_delay
@@ -52,7 +53,7 @@ class ClosedLoop:
     """A controller driving a plant: read, plan, serve, step.
 
     Args:
-        controller: plans on its own task instance; it never reads the plant's data.
+        controller: a Planner (a Controller or a PolicyController); it never reads the plant's data.
         system: the plant (a simulator, rehearsed sensing or hardware).
         latency: seconds of sim time between a plan's reading and its being served, or "measured".
         recorders: objects with `on_plan(PlanRecord)` and `on_step(StepRecord)`, called in order.
@@ -79,7 +80,7 @@ class ClosedLoop:
 
     def __init__(
         self,
-        controller: Controller,
+        controller: Planner,
         system: System,
         *,
         latency: Latency = 0.0,
@@ -143,9 +144,8 @@ class ClosedLoop:
         return reading
 
     def read(self) -> SystemState:
-        """Read the plant: the reading the next plan starts from, kept as `reading`.
-
-        Raises ReadingTimeError, keeping the reading before, if its time went backwards."""
+        """Read the plant: the reading the next plan starts from, kept as `reading`. Raises ReadingTimeError,
+        keeping the reading before, if its time went backwards."""
         raw = self.calls.read_state()
         self.watchdog.note_reading(raw, self.clock())
         self.raw_reading = raw

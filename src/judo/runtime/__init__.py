@@ -1,17 +1,17 @@
 """The app: a plant thread, a planner and a browser GUI around one closed loop (`judo.loop`); its CLI.
 
-    app.py            App: checks its settings, builds the parts, start/run/stop; the commands' public face
-    app_state.py      AppState (the one lock and what the parts share) and StopSignal
-    commands.py       AppPort (all the GUI sees) and Commands (validate each command, queue it in the state)
-    session.py        Session (a controller, its plant and their ClosedLoop), ConfigSet, SessionMaker
-    plant_runner.py   the System's own thread: ClosedLoop.advance at real-time pace
-    planner_runner.py the control clock in wall time, ClosedLoop.plan on a worker thread, switches
-    cycles.py         a planning cycle's size, estimated cost, and the cycle in flight
-    supervisor.py     the event loop, the frontend, the stop order, the exit guard
-    recordings.py     the recorder under way
-    snapshots.py      StateBuffer and what the loops publish in it for the GUI
-    status.py         the status line, the timing figures, the reports
-    address.py        where the GUI listens
-    cli.py            `python -m judo`
-    gui/              the viser GUI (the app never imports it)
+app.py            App: checks its settings, builds the parts, start/run/stop; the commands' public face
+app_state.py      AppState (the one lock and what the parts share) and StopSignal
+commands.py       AppPort (all the GUI sees) and Commands (validate each command, queue it in the state)
+session.py        Session (a controller, its plant and their ClosedLoop), ConfigSet, SessionMaker
+plant_runner.py   the System's own thread: ClosedLoop.advance at real-time pace
+planner_runner.py the control clock in wall time, ClosedLoop.plan on a worker thread, switches
+cycles.py         a planning cycle's size, estimated cost, and the cycle in flight
+supervisor.py     the event loop, the frontend, the stop order, the exit guard
+recordings.py     the recorder under way
+snapshots.py      StateBuffer and what the loops publish in it for the GUI
+status.py         the status line, the timing figures, the reports
+address.py        where the GUI listens
+cli.py            `python -m judo`
+gui/              the viser GUI (the app never imports it)
 """

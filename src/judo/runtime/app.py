@@ -28,10 +28,11 @@ from typing import Any
 import numpy as np
 
 from judo.core.config import Config, check_seed
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.controller import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
+from judo.core.planner import Planner
 from judo.core.policy import Policy
 from judo.core.policy_controller import as_policy
 from judo.core.registry import CONFIG_KINDS, ConfigKind
@@ -301,7 +302,7 @@ class App:
         return self._state.session
 
     @property
-    def controller(self) -> Controller:
+    def controller(self) -> Planner:
         """The controller in use; its configs change only at the top of a planning cycle."""
         return self._state.session.controller
 

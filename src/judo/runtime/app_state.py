@@ -316,6 +316,5 @@ def session_step_cost(session: Session) -> StepCost:
     """The cost of one rollout step of `session`'s controller: probed on its planning model on the CPU backend;
     measured from cycles only on another backend, and unknown where a policy drives (no rollouts)."""
     controller = session.controller
-    backend = getattr(controller, "backend_name", None)  # a PolicyController has no rollouts
-    workers = getattr(getattr(controller, "backend", None), "num_workers", 1)
-    return StepCost(controller.task.model, workers, probe=backend == "cpu")
+    workers = 1 if controller.backend is None else controller.backend.num_workers  # None where a policy plans
+    return StepCost(controller.task.model, workers, probe=controller.backend_name == "cpu")

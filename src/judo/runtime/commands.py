@@ -244,7 +244,7 @@ class Commands:
             candidate = state.configs.with_config(kind, updated)
             if candidate.optimizer is not None:  # a policy's session has no rollouts to check against
                 check_configs(session.controller.task, candidate.controller, candidate.optimizer)
-                proposals = getattr(session.controller, "proposal_policy", None)  # refused here, not every cycle
+                proposals = session.controller.proposal_policy  # refused here, not every cycle
                 check_proposal_policy(proposals, candidate.controller.policy_samples)
                 resized = self._check_cycle_cost(updates, candidate.controller, candidate.optimizer)
                 if resized and state.cycle is not None and state.cycle.late():

@@ -150,6 +150,7 @@ class PlannerRunner:
         if pending.controller is not None:
             controller.config = pending.controller
         if pending.optimizer is not None:
+            assert controller.optimizer is not None, "a session where a policy plans takes no optimizer edits"
             controller.optimizer.config = pending.optimizer
         if pending.task is not None:
             controller.task.config = pending.task

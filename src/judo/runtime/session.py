@@ -12,9 +12,10 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from judo.core.config import Config
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
 from judo.core.optimizer import OptimizerConfig
+from judo.core.planner import Planner
 from judo.core.policy import Policy
 from judo.core.policy_controller import make_policy_controller, policy_config
 from judo.core.registry import ConfigKind, default_configs, lookup_task, make_config, make_controller
@@ -40,7 +41,7 @@ class ConfigSet:
     def of(cls, session: "Session") -> "ConfigSet":
         """The configs `session`'s controller uses."""
         controller = session.controller
-        optimizer = getattr(controller, "optimizer", None)  # a PolicyController has none
+        optimizer = controller.optimizer  # None where a policy plans
         return cls(controller.config, None if optimizer is None else optimizer.config, controller.task.config)
 
     @classmethod
@@ -75,7 +76,8 @@ class Session:
 
     Attributes:
         task_name, optimizer_name: registry names.
-        controller: plans on its own Task instance (`controller.task`).
+        controller: the Planner (a Controller, or a PolicyController where a policy drives); plans on its own Task
+            instance (`controller.task`).
         system: the plant; a MujocoSystem simulating its own task instance (behind a SensedSystem when
             observing sensors), or the user's own System.
         closed_loop: the one closed-loop step on `controller` and `system`.
@@ -86,7 +88,7 @@ class Session:
 
     task_name: str
     optimizer_name: str
-    controller: Controller
+    controller: Planner
     system: System
     closed_loop: ClosedLoop
     generation: int
@@ -148,8 +150,7 @@ def build_session(
     sensing = sensing if sensing is not None else Sensing()
     sensing.check()
     if policy is not None:  # the policy is the controller (judo.core.policy_controller); the loop is the same
-        made = make_policy_controller(task_name, policy, controller_config=controller_config, seed=seed)
-        controller: Controller = made  # type: ignore[assignment]  # a PolicyController serves as one (duck-typed)
+        controller: Planner = make_policy_controller(task_name, policy, controller_config=controller_config, seed=seed)
     else:
         controller = make_controller(
             task_name,

@@ -331,4 +331,4 @@ def hidden_fields(session: Any, kind: ConfigKind, config: Config) -> tuple[str, 
         return ()
     if session.optimizer_name == POLICY_OPTIMIZER:
         return tuple(f.name for f in fields(config) if f.name not in POLICY_USES_FIELDS)
-    return () if getattr(session.controller, "proposal_policy", None) is not None else ("policy_samples",)
+    return () if session.controller.proposal_policy is not None else ("policy_samples",)

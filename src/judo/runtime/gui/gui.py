@@ -202,7 +202,7 @@ class Gui:
             "optimizer": f"Optimizer: {session.optimizer_name}",
             "task": f"Task: {session.task_name}",
         }
-        max_rollouts = MAX_ROLLOUTS_BY_BACKEND.get(getattr(session.controller, "backend_name", ""))  # a policy: none
+        max_rollouts = MAX_ROLLOUTS_BY_BACKEND.get(session.controller.backend_name or "")  # a policy: none
         ranges = {"optimizer": {"num_rollouts": SliderRange(1, max_rollouts, 1)}} if max_rollouts else {}
         self.panels = {
             kind: ConfigPanel(

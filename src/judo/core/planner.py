@@ -1,0 +1,111 @@
+"""The `Planner` contract: what the closed loop, the app's sessions, collect and the GUI use of a controller.
+
+Two classes satisfy it: `judo.core.controller.Controller` (an optimizer plans on rollouts) and
+`judo.core.policy_controller.PolicyController` (a policy's action or chunk is the plan). Code that drives a plant
+types against `Planner` only, so either serves through the same loop with no probing of which one it holds.
+`checked_reading` is the state and time check both run at the top of every update.
+"""
+
+import math
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from judo.core.backend import CancelFlag, RolloutBackend
+from judo.core.controller_config import ControllerConfig
+from judo.core.errors import ConfigError, JudoError
+from judo.core.optimizer import Optimizer
+from judo.core.policy import Policy
+from judo.core.spline import Spline
+from judo.core.task import Task
+
+
+@runtime_checkable
+class Planner(Protocol):
+    """Plans from a reading and serves the plan; nu below is `task.command_size`.
+
+    Attributes:
+        config: the loop's settings (control_freq, horizon, max_plan_age, latency_compensation, ...); the app's
+            planner runner replaces it between updates.
+        task: the planning task, its own instance (the plant is the System's); its `config` may be replaced
+            between updates.
+        nominal_knots: (num_knots, nu) the knots of the latest plan, or None before the first update.
+        rewards: (num_rollouts,) the rewards of the latest update's rollouts; (0,) where nothing is scored.
+        traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the trace sensors along the latest plan's
+            rollouts; (0, 0, 0, 3) where nothing is rolled out.
+        optimizer: the optimizer whose config the app edits, or None where a policy plans.
+        backend: the rollout backend, or None where nothing is rolled out.
+        backend_name: the name the backend was built from ("cpu", "warp"), or None where nothing is rolled out.
+        proposal_policy: the policy whose candidates join the optimizer's samples, or None.
+    """
+
+    config: ControllerConfig
+
+    @property
+    def task(self) -> Task: ...
+
+    @property
+    def nominal_knots(self) -> np.ndarray | None: ...
+
+    @property
+    def rewards(self) -> np.ndarray: ...
+
+    @property
+    def traces(self) -> np.ndarray: ...
+
+    @property
+    def optimizer(self) -> Optimizer | None: ...
+
+    @property
+    def backend(self) -> RolloutBackend | None: ...
+
+    @property
+    def backend_name(self) -> str | None: ...
+
+    @property
+    def proposal_policy(self) -> Policy | None: ...
+
+    def update_action(
+        self,
+        state: np.ndarray,
+        time: float,
+        system_metadata: dict[str, Any] | None = None,
+        cancel: CancelFlag | None = None,
+    ) -> Spline:
+        """Plan from `state` (nq + nv,) at sim `time`, publish the new plan and return it; a failed update raises
+        a JudoError and keeps the plan before in force."""
+        ...
+
+    def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
+        """(nu,) control of the plan in force at sim `time`; the warm start from the (nq + nv,) `state` before
+        the first plan."""
+        ...
+
+    def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
+        """(nu,) what the plant gets before the first plan, from the (nq + nv,) plant `state`."""
+        ...
+
+    def reset(self) -> None:
+        """Forget the plan; the next update starts from the warm start again."""
+        ...
+
+    def close(self) -> None:
+        """Release threads, device memory and whatever else the planner holds."""
+        ...
+
+
+def checked_reading(state: Any, time: float, num_state: int, doing: str) -> np.ndarray:
+    """`state` as a (num_state,) float array, checked before an update uses it.
+
+    Raises ConfigError for another shape, and JudoError "cannot {doing} a non-finite reading (...); keeping the
+    previous plan" for a non-finite state entry or time (no reading time in the message: the same fault reads
+    the same, so the log's repeat filter holds).
+    """
+    state = np.asarray(state, dtype=float)
+    if state.shape != (num_state,):
+        raise ConfigError(f"state must have shape ({num_state},) = (nq + nv,), got {state.shape}")
+    if not (np.isfinite(state).all() and math.isfinite(time)):
+        bad = np.flatnonzero(~np.isfinite(state)).tolist()
+        what = f"non-finite state entries {bad}" if bad else f"non-finite time {time}"
+        raise JudoError(f"cannot {doing} a non-finite reading ({what}); keeping the previous plan")
+    return state
