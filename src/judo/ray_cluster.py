@@ -4,17 +4,22 @@ Ray runs offline: no usage statistics and no dashboard. `address` None starts a 
 `workers` CPUs, listening on 127.0.0.1 only (as the GUI does); "auto" joins the cluster started on this machine with `ray start --head`;
 "HOST:PORT" or "ray://HOST:PORT" joins a remote one. Every episode (of a trial, a collect run, an
 evaluate --workers run) is a task needing one CPU, so a cluster runs as many episodes at once as it has CPUs.
-This module knows no command: each command's own module (evaluation/on_ray.py, tuning/on_ray.py,
-collection/run.py) submits its episodes through it.
+`run_windowed` is the one loop that runs a command's episodes here, a window of them in flight under a progress
+bar (evaluate --workers/--address in evaluation/evaluate.py, collect in collection/run.py); tune's study
+(tuning/study.py) asks Optuna for trials between the same `submit` and `wait_any`. This module knows no command.
 """
 
 import logging
 import os
 import socket
-from collections.abc import Iterator
+import time
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from judo.core.errors import JudoError, import_extra
 from judo.core.interrupts import sigint_as_flag
@@ -25,6 +30,9 @@ WAIT_SLICE_S = 0.5
 """How long one `ray.wait` may block before a pending Ctrl-C is checked."""
 LOCAL_RAY_HOST = "127.0.0.1"
 """The address a local Ray (no --address) listens on: this machine only, as the GUI by default."""
+
+
+T = TypeVar("T")
 
 
 class RayClusterError(JudoError):
@@ -144,6 +152,85 @@ def wait_any(refs: list[Any]) -> tuple[list[Any], list[Any]]:
             raise KeyboardInterrupt
         if done:
             return done, running
+
+
+def get(ref: Any, lost: Callable[[str], T]) -> T:
+    """The value of a finished ref, or `lost(reason)` when the Ray task itself died (a worker crash, a cancel)."""
+    ray = import_ray()
+    try:
+        return ray.get(ref)
+    except Exception as err:  # RayTaskError, WorkerCrashedError, TaskCancelledError, ...
+        return lost(f"Ray task failed: {type(err).__name__}: {err}")
+
+
+class EpisodeCounts:
+    """Finished and failed episodes and their rate, the description of `run_windowed`'s progress bar; a command
+    that counts more says so in `detail`."""
+
+    def __init__(self) -> None:
+        self.done = self.failed = 0
+        self.started = time.perf_counter()
+
+    def detail(self) -> str:
+        """What the command counts besides done and failed (", kept 3"), shown between them and the rate."""
+        return ""
+
+    def line(self) -> str:
+        """done, failed, the detail and episodes per minute."""
+        minutes = (time.perf_counter() - self.started) / 60.0
+        rate = self.done / minutes if minutes > 0 else 0.0
+        return f"done {self.done}, failed {self.failed}{self.detail()}, {rate:.1f} episodes/min"
+
+
+def run_windowed(
+    function: Callable[..., Any],
+    tasks: Sequence[tuple[Any, ...]],
+    take: Callable[[tuple[Any, ...], Any], None],
+    lost: Callable[[tuple[Any, ...], str], Any],
+    counts: EpisodeCounts,
+    *,
+    label: str,
+    episodes: int,
+    address: str | None,
+    local_cpus: int,
+    window: int | None,
+    console: Console,
+    per_task: int = 1,
+) -> None:
+    """Run `function(*args)` for each `args` of `tasks` as a Ray task on a local Ray with `local_cpus` CPUs (address
+    None) or the cluster at `address`, at most `window` episodes in flight (twice the Ray's CPUs when None; a task
+    holds `per_task` episodes), and hand each finished one to `take(args, value)` as it finishes; a task that died
+    gives `lost(args, reason)` as its value. A transient progress bar on `console` labelled `label` shows
+    `counts.done` of `episodes` with `counts.line()`; `take` keeps the counts.
+
+    Ray is stopped after if this call started or joined it. On any exception (Ctrl-C's KeyboardInterrupt, or
+    one `take` raised) the tasks still running are cancelled and it is raised again.
+    """
+    running: dict[Any, tuple[Any, ...]] = {}
+    pending = iter(tasks)
+    columns = (TextColumn(label), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"))
+    connected = False
+    try:
+        connected = start_ray(address, local_cpus)
+        window = window or 2 * cluster_cpus()
+        with Progress(*columns, TimeElapsedColumn(), console=console, transient=True) as progress:
+            bar = progress.add_task(counts.line(), total=episodes)
+            while True:
+                while len(running) * per_task < window and (args := next(pending, None)) is not None:
+                    running[submit(function, *args)] = args
+                if not running:
+                    break
+                ready, _ = wait_any(list(running))
+                for ref in ready:
+                    args = running.pop(ref)
+                    take(args, get(ref, lambda reason, args=args: lost(args, reason)))
+                progress.update(bar, completed=counts.done, description=counts.line())
+    except BaseException:
+        cancel(list(running))
+        raise
+    finally:
+        if connected:
+            stop_ray()
 
 
 def cancel(refs: list[Any]) -> None:

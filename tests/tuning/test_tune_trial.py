@@ -7,10 +7,10 @@ import pytest
 
 import judo
 from judo.core.task import EpisodeLog
-from judo.evaluation.episode import EpisodeResult
+from judo.evaluation.episode import EpisodeResult, episode_failure
 from judo.evaluation.evaluate import EvaluateArgs, evaluate
 from judo.tuning.objective import UnknownMetricError, make_objective, metric_direction
-from judo.tuning.trial import TrialSpec, episode_failure, run_trial
+from judo.tuning.trial import TrialSpec, run_trial
 from tests.conftest import TINY_CARTPOLE_XML, UprightConfig, UprightTask
 
 CARTPOLE = TrialSpec("cartpole", "ps", "balanced_fraction", seeds=2, duration=0.4)

@@ -4,15 +4,12 @@ The episode is exactly evaluate's seed `seed` (`judo.evaluation.seeded.run_seede
 gets every plan and step from the one closed-loop step (`judo.loop.closed_loop.ClosedLoop`).
 """
 
-import math
-from dataclasses import dataclass
-
 from judo.collection.dataset import EpisodeArrays
 from judo.collection.recorder import EpisodeRecorder, PolicyServedRecorder
 from judo.core.backend import RolloutBackend
 from judo.core.planner import Planner
 from judo.core.policy_controller import PolicyController
-from judo.evaluation.episode import EpisodeResult
+from judo.evaluation.episode import EpisodeOutcome, episode_failure
 from judo.evaluation.seeded import (
     EpisodeSpec,
     configs_in_force,
@@ -25,27 +22,7 @@ from judo.evaluation.seeded import (
 from judo.loop.system import MujocoSystem
 
 
-@dataclass
-class EpisodeOutcome:
-    """What one Ray task sends back: the episode, or why it failed."""
-
-    seed: int
-    episode: EpisodeArrays | None
-    failure: str | None = None
-    failed_updates: int = 0
-    """Control updates that failed (non-finite actions, or no finite reward): the safe action was served."""
-    num_updates: int = 0
-
-
-def episode_failure(result: EpisodeResult) -> str | None:
-    """Why an episode is not fit for a dataset (its plant diverged and was reset, a metric is not finite), or None."""
-    if result.divergences:
-        return f"the simulation diverged {result.divergences} times"
-    bad = [name for name, value in result.metrics.items() if not math.isfinite(value)]
-    return f"non-finite metrics: {', '.join(bad)}" if bad else None
-
-
-def collect_group(spec: EpisodeSpec, seeds: list[int], traces: bool = False) -> list[EpisodeOutcome]:
+def collect_group(spec: EpisodeSpec, seeds: list[int], traces: bool = False) -> list[EpisodeOutcome[EpisodeArrays]]:
     """`collect_episode` of each seed: one after the other, or with more than one seed on the warp backend, side by
     side with their rollouts one batch per planning cycle (collect --episodes-per-batch); never raises."""
     if len(seeds) == 1 or spec.backend != "warp":
@@ -55,15 +32,16 @@ def collect_group(spec: EpisodeSpec, seeds: list[int], traces: bool = False) -> 
 
         with WarpRollout(planning_model(spec)) as backend:
             return run_side_by_side(backend, seeds, lambda seed, slot: collect_episode(spec, seed, traces, slot))
-    except Exception as err:  # noqa: BLE001  (the backend itself failed: every seed of the group failed)
-        return [EpisodeOutcome(seed, None, failure_reason(err)) for seed in seeds]
+    except Exception as err:  # the backend itself failed: every seed of the group failed
+        return [EpisodeOutcome.failed(seed, failure_reason(err)) for seed in seeds]
 
 
 def collect_episode(
     spec: EpisodeSpec, seed: int, traces: bool = False, backend: RolloutBackend | None = None
-) -> EpisodeOutcome:
+) -> EpisodeOutcome[EpisodeArrays]:
     """Run and record seed `seed`'s episode, each plan's traces too with `traces` (collect --traces), rolling out on
-    `backend` (built from `spec.backend` when None); never raises: a failure comes back with its reason."""
+    `backend` (built from `spec.backend` when None); never raises: a failure comes back with its reason. An episode
+    with failed control updates is kept (`episode_failure`'s `failed_updates_fail=False`), their count with it."""
     made: list[tuple[EpisodeRecorder, MujocoSystem]] = []
 
     def plans(planner: Planner, system: MujocoSystem) -> list[EpisodeRecorder]:
@@ -79,11 +57,11 @@ def collect_episode(
             result = run_seeded_episode(spec, seed, plans, backend=backend)
         else:  # collect --policy: the policy drives; its expert MPC labels the states it is served from
             result = run_policy_episode(spec, seed, configs_in_force(spec), served)
-        failure = episode_failure(result)
+        failure = episode_failure(result, failed_updates_fail=False)
         if failure is not None:
-            return EpisodeOutcome(seed, None, failure)
+            return EpisodeOutcome.of(result, None, failure)
         recorder, system = made[0]
         episode = recorder.episode(seed, result.rewards, result.metrics, system.task.success(result.metrics))
-        return EpisodeOutcome(seed, episode, None, result.failed_updates, len(result.update_ms))
-    except Exception as err:  # noqa: BLE001  (a user's task may raise anything; the run goes on)
-        return EpisodeOutcome(seed, None, failure_reason(err))
+        return EpisodeOutcome.of(result, episode, None)
+    except Exception as err:  # a user's task may raise anything; the run goes on
+        return EpisodeOutcome.failed(seed, failure_reason(err))

@@ -6,16 +6,15 @@ in memory and --workers means the same on a local Ray and a cluster.
 """
 
 import sys
-import time
 from typing import Any
 
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
 from judo.cli_shared import output_console, progress_console
-from judo.collection.dataset import DatasetFile
-from judo.collection.episode import EpisodeOutcome, collect_group
+from judo.collection.dataset import DatasetFile, EpisodeArrays
+from judo.collection.episode import collect_group
 from judo.core.errors import JudoError
+from judo.evaluation.episode import EpisodeOutcome
 from judo.evaluation.seeded import EpisodeSpec
+from judo.ray_cluster import EpisodeCounts
 
 SHOWN_FAILURES = 5
 """Failed seeds listed with their reasons at the end of a run (all of them are in the file)."""
@@ -25,24 +24,23 @@ class NoSuccessRuleError(JudoError):
     """--success-only for a task whose `success(metrics)` has no rule for its metrics."""
 
 
-class Tally:
+class Tally(EpisodeCounts):
     """Counts of this run's episodes, for the progress bar and the closing line."""
 
     def __init__(self) -> None:
-        self.done = self.failed = self.kept = self.dropped = 0
+        super().__init__()
+        self.kept = self.dropped = 0
         self.with_failed_updates = self.unserved = 0  # episodes with some, and with only, failed control updates
         self.failures: list[tuple[int, str]] = []
-        self.started = time.perf_counter()
 
-    def line(self) -> str:
-        """done, failed, kept, dropped and episodes per minute."""
-        minutes = (time.perf_counter() - self.started) / 60.0
-        rate = self.done / minutes if minutes > 0 else 0.0
-        dropped = f", dropped {self.dropped}" if self.dropped else ""
-        return f"done {self.done}, failed {self.failed}, kept {self.kept}{dropped}, {rate:.1f} episodes/min"
+    def detail(self) -> str:
+        """kept, and dropped when some were."""
+        return f", kept {self.kept}" + (f", dropped {self.dropped}" if self.dropped else "")
 
 
-def write_outcome(file: DatasetFile, outcome: EpisodeOutcome, success_only: bool, tally: Tally, task: str) -> None:
+def write_outcome(
+    file: DatasetFile, outcome: EpisodeOutcome[EpisodeArrays], success_only: bool, tally: Tally, task: str
+) -> None:
     """Write one finished episode (or its failure, or its dropping) to `file` and count it."""
     tally.done += 1
     episode = outcome.episode
@@ -68,15 +66,6 @@ def write_outcome(file: DatasetFile, outcome: EpisodeOutcome, success_only: bool
     file.write_episode(episode)
 
 
-def outcomes_of(ray: Any, ref: Any, seeds: list[int]) -> list[EpisodeOutcome]:
-    """The EpisodeOutcomes of a finished ref (a group of seeds); a failure for each seed when the Ray task itself
-    died (e.g. a worker crash)."""
-    try:
-        return ray.get(ref)
-    except Exception as err:  # noqa: BLE001  (RayTaskError, WorkerCrashedError, ...)
-        return [EpisodeOutcome(seed, None, f"Ray task failed: {type(err).__name__}: {err}") for seed in seeds]
-
-
 def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
     """Run the seeds of args.first_seed..args.first_seed+args.episodes-1 missing from `args.out` and write them there; returns the exit status
     (130 after Ctrl-C, with the command that resumes printed; 1 with --strict when a control update failed)."""
@@ -93,41 +82,38 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
         return 0
     if len(todo) < len(wanted):
         console.print(f"{args.out}: {len(wanted) - len(todo)} seeds done; running the {len(todo)} missing ones")
-    ray = cluster.import_ray("python -m judo collect", "collect")
+    cluster.import_ray("python -m judo collect", "collect")
     tally = Tally()
-    running: dict[Any, list[int]] = {}
     size = args.episodes_per_batch  # seeds per Ray task: side by side on one warp backend when more than one
-    pending = iter([todo[i : i + size] for i in range(0, len(todo), size)])
-    columns = (TextColumn("collect"), BarColumn(), MofNCompleteColumn(), TextColumn("{task.description}"))
-    connected = False
+
+    def take(_: tuple, outcomes: list[EpisodeOutcome[EpisodeArrays]]) -> None:
+        for outcome in outcomes:
+            write_outcome(file, outcome, args.success_only, tally, spec.task)
+
+    def lost(task: tuple, reason: str) -> list[EpisodeOutcome[EpisodeArrays]]:
+        return [EpisodeOutcome.failed(seed, reason) for seed in task[1]]
+
     try:
-        connected = cluster.start_ray(args.address, workers)
-        window = args.workers or 2 * cluster.cluster_cpus()  # --workers caps the episodes run at once on any Ray
-        with Progress(*columns, TimeElapsedColumn(), console=progress_console(), transient=True) as progress:
-            bar = progress.add_task(tally.line(), total=len(todo))
-            while True:
-                while len(running) * size < window and (group := next(pending, None)) is not None:
-                    running[cluster.submit(collect_group, spec, group, args.traces)] = group
-                if not running:
-                    break
-                ready, _ = cluster.wait_any(list(running))
-                for ref in ready:
-                    for outcome in outcomes_of(ray, ref, running.pop(ref)):
-                        write_outcome(file, outcome, args.success_only, tally, spec.task)
-                progress.update(bar, completed=tally.done, description=tally.line())
+        cluster.run_windowed(
+            collect_group,
+            [(spec, todo[i : i + size], args.traces) for i in range(0, len(todo), size)],
+            take,
+            lost,
+            tally,
+            label="collect",
+            episodes=len(todo),
+            address=args.address,
+            local_cpus=workers,
+            window=args.workers,  # --workers caps the episodes run at once on any Ray
+            console=progress_console(),
+            per_task=size,
+        )
     except KeyboardInterrupt:
-        cluster.cancel(list(running))
         print(
             f"interrupted: {tally.kept} finished episodes of this run are in {args.out}; resume with:\n  {command}",
             file=sys.stderr,
         )
         return 130
-    except JudoError:
-        cluster.cancel(list(running))
-        raise
-    finally:
-        if connected:
-            cluster.stop_ray()
     report(console, file, args, tally)
     if args.strict and tally.with_failed_updates:
         print(

@@ -9,8 +9,10 @@ before the current one is done. Everything is seeded, so an episode with a fixed
 reproducible bit for bit; "measured" latency uses each update's wall time and so varies from run to run.
 """
 
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Generic, TypeVar
 
 import numpy as np
 
@@ -23,7 +25,17 @@ from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
 
-__all__ = ["EpisodeLogRecorder", "EpisodeResult", "Latency", "run_episode", "step_reward"]
+__all__ = [
+    "EpisodeLogRecorder",
+    "EpisodeOutcome",
+    "EpisodeResult",
+    "Latency",
+    "episode_failure",
+    "run_episode",
+    "step_reward",
+]
+
+T = TypeVar("T")
 
 
 @dataclass
@@ -159,3 +171,67 @@ def unserved_line(failed_updates: int, num_updates: int, policy: bool, where: st
         f"warning: {where}: every one of its {num_updates} control updates gave {what}, so every action served was "
         f"the task's safe action; these figures measure the safe action, not the {planner}"
     )
+
+
+def episode_failure(result: EpisodeResult, failed_updates_fail: bool = True) -> str | None:
+    """Why an episode's numbers cannot be used, or None: its plant diverged (and was reset), a metric is not finite,
+    or (with `failed_updates_fail`) a control update failed.
+
+    A failed update (no finite reward, or a policy's non-finite action) left the plant on the task's safe action
+    until the next update, so the episode's metrics measure the controller and the safe action together: by
+    default that fails the episode, as tune needs, since a trial's settings are written as others' defaults and a
+    score the safe action earned is not theirs. collect keeps such episodes (`failed_updates_fail=False`): a
+    dataset episode records what the plant did and which action was served, it counts them and says so at the end,
+    and its --strict exits 1 for them, as evaluate reports each seed's failed updates and --strict exits 1.
+    """
+    if result.divergences:
+        return f"seed {result.seed}: the simulation diverged {result.divergences} times"
+    if failed_updates_fail and result.failed_updates:
+        return f"seed {result.seed}: {result.failed_updates} control updates had no finite reward"
+    bad = [name for name, value in result.metrics.items() if not math.isfinite(value)]
+    if bad:
+        return f"seed {result.seed}: non-finite {', '.join(bad)}"
+    return None
+
+
+@dataclass
+class EpisodeOutcome(Generic[T]):
+    """One seeded episode as a command gets it back, from a Ray task or run here: its figures, or why it failed.
+
+    Attributes:
+        condition: which of the command's episode settings it ran under (tune's conditions; 0 elsewhere).
+        seed: the episode's seed.
+        metrics: the episode's metrics ({} when it failed before finishing).
+        update_ms: (num_updates,) wall time of each control update, in milliseconds.
+        failure: why the episode failed (`episode_failure`, an exception, a Ray task that died), or None.
+        failed_updates: control updates that failed, so that the task's safe action was served.
+        episode: what the command keeps of it besides the figures (evaluate its EpisodeResult, log included;
+            collect its recorded EpisodeArrays); None when it failed, and for tune.
+    """
+
+    condition: int
+    seed: int
+    metrics: dict[str, float]
+    update_ms: np.ndarray
+    failure: str | None = None
+    failed_updates: int = 0
+    episode: T | None = None
+
+    @classmethod
+    def of(
+        cls, result: EpisodeResult, episode: T | None, failure: str | None, condition: int = 0
+    ) -> "EpisodeOutcome[T]":
+        """The outcome of a finished episode `result`: its figures, with `episode` unless `failure` is given."""
+        kept = episode if failure is None else None
+        update_ms = np.asarray(result.update_ms)
+        return cls(condition, result.seed, result.metrics, update_ms, failure, result.failed_updates, kept)
+
+    @classmethod
+    def failed(cls, seed: int, reason: str, condition: int = 0) -> "EpisodeOutcome[T]":
+        """The outcome of an episode that did not finish (an exception, or its Ray task died), with the reason."""
+        return cls(condition, seed, {}, np.zeros(0), reason)
+
+    @property
+    def num_updates(self) -> int:
+        """How many control updates the episode ran."""
+        return len(self.update_ms)

@@ -25,10 +25,10 @@ from judo.core.config import require, require_between
 from judo.core.errors import JudoError
 from judo.core.registry import make_task
 from judo.evaluation.cli import given_fields, write_json
-from judo.evaluation.episode import EpisodeResult, unserved_line
+from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
-from judo.evaluation.seeded import EpisodeSpec, planning_model, run_seeded_episode, run_side_by_side
+from judo.evaluation.seeded import EpisodeSpec, evaluate_seed, planning_model, run_seeded_episode, run_side_by_side
 from judo.evaluation.stats import Summary, shown_interval, summarize
 
 DESCRIPTION = (
@@ -181,12 +181,49 @@ def evaluate_batched(args: EvaluateArgs, progress: Progress | None = None) -> li
     return results
 
 
+def evaluate_on_ray(
+    spec: EpisodeSpec, seeds: range, workers: int | None, address: str | None
+) -> tuple[list[EpisodeResult], list[tuple[int, str]]]:
+    """Run the seeds `seeds` of `spec` as Ray tasks (`evaluate_seed`, each sending its EpisodeResult back, log
+    included) on a local Ray with `workers` CPUs (address None) or the cluster at `address`, at most `workers`
+    at once (twice the Ray's CPUs without it); returns (the episodes that ran, by seed; (seed, reason) of those
+    that failed). Ctrl-C cancels the running tasks and raises KeyboardInterrupt."""
+    import os
+
+    import judo.ray_cluster as cluster
+
+    cluster.import_ray("python -m judo evaluate --workers/--address", "tune")
+    outcomes: list[EpisodeOutcome[EpisodeResult]] = []
+    counts = cluster.EpisodeCounts()
+
+    def take(_: tuple, outcome: EpisodeOutcome[EpisodeResult]) -> None:
+        outcomes.append(outcome)
+        counts.done += 1
+        counts.failed += outcome.episode is None
+
+    cluster.run_windowed(
+        evaluate_seed,
+        [(spec, seed) for seed in seeds],
+        take,
+        lambda args, reason: EpisodeOutcome.failed(args[1], reason),
+        counts,
+        label="evaluate",
+        episodes=len(seeds),
+        address=address,
+        local_cpus=workers or os.cpu_count() or 1,
+        window=workers,
+        console=progress_console(),
+    )
+    outcomes.sort(key=lambda outcome: outcome.seed)
+    results = [outcome.episode for outcome in outcomes if outcome.episode is not None]
+    failures = [(outcome.seed, outcome.failure or "unknown failure") for outcome in outcomes if outcome.episode is None]
+    return results, failures
+
+
 def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, str]]]:
     """(the episodes, by seed; (seed, reason) of those that failed): in this process, or as Ray tasks with
     --workers or --address (where a failed seed does not stop the others)."""
     if args.workers is not None or args.address is not None:
-        from judo.evaluation.on_ray import evaluate_on_ray
-
         return evaluate_on_ray(args.episode_spec(), args.seed_range(), args.workers, args.address)
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
     with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:

@@ -25,7 +25,7 @@ from judo.core.planner import Planner
 from judo.core.policy import Policy
 from judo.core.registry import ConfigKind
 from judo.core.task import Task
-from judo.evaluation.episode import EpisodeResult, Latency, run_episode
+from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, Latency, run_episode
 from judo.loop.records import Recorder
 from judo.loop.sensing import SensedSystem, Sensing, choose_estimator, observed_plant
 from judo.loop.system import MujocoSystem
@@ -292,18 +292,12 @@ def run_side_by_side(backend: "ProblemBackend", seeds: list[int], run: Callable[
         return [future.result() for future in futures]
 
 
-@dataclass
-class SeedOutcome:
-    """What one Ray task of evaluate sends back: seed `seed`'s episode (with its log), or why it failed."""
-
-    seed: int
-    result: EpisodeResult | None
-    failure: str | None = None
-
-
-def evaluate_seed(spec: EpisodeSpec, seed: int) -> SeedOutcome:
-    """`run_seeded_episode(spec, seed)` as a Ray task: never raises, a failure comes back with its reason."""
+def evaluate_seed(spec: EpisodeSpec, seed: int) -> EpisodeOutcome[EpisodeResult]:
+    """`run_seeded_episode(spec, seed)` as a Ray task of evaluate: the EpisodeResult as the outcome's episode
+    (evaluate reports failed updates and divergences, and fails none for them); never raises, a failure comes
+    back with its reason."""
     try:
-        return SeedOutcome(seed, run_seeded_episode(spec, seed))
-    except Exception as err:  # noqa: BLE001  (a user's task may raise anything; the other seeds go on)
-        return SeedOutcome(seed, None, failure_reason(err))
+        result = run_seeded_episode(spec, seed)
+    except Exception as err:  # a user's task may raise anything; the other seeds go on
+        return EpisodeOutcome.failed(seed, failure_reason(err))
+    return EpisodeOutcome.of(result, result, None)

@@ -4,11 +4,11 @@ space.py      the search space, from the config dataclasses and their @slider ra
 objective.py  the metric being optimised and its direction
 trial.py      one trial: seeded closed-loop episodes (evaluate's runner) with the trial's settings
 best_file.py  the best settings as a `--config` TOML file
-on_ray.py     a trial's episodes as Ray tasks (judo.ray_cluster starts or joins Ray)
-study.py      the Optuna study: storage, sampler, ask/tell while trials run
+study.py      the Optuna study: storage, sampler, ask/tell while each trial's episodes run as Ray tasks
+              (judo.ray_cluster starts or joins Ray)
 report.py     the outputs: table, trials.csv, plots
 cli.py        the command line
 
-Nothing here imports optuna or ray at import time: study.py and on_ray.py import them when called, and
-only the command imports those two (they need the `tune` extra).
+Nothing here imports optuna or ray at import time: study.py imports them when called, and
+only the command imports it (it needs the `tune` extra).
 """

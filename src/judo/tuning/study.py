@@ -12,6 +12,7 @@ import math
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any, Literal
 
@@ -20,11 +21,11 @@ import numpy as np
 from judo.core.config import Config
 from judo.core.errors import JudoError, import_extra
 from judo.core.registry import ConfigKind
-from judo.ray_cluster import cancel, wait_any
+from judo.evaluation.episode import EpisodeOutcome
+from judo.ray_cluster import cancel, get, submit, wait_any
 from judo.tuning.objective import Objective
-from judo.tuning.on_ray import outcome_of, submit_trial
 from judo.tuning.space import Param
-from judo.tuning.trial import EpisodeOutcome, TrialOutcome, TrialSpec, score_trial
+from judo.tuning.trial import TrialOutcome, TrialSpec, run_condition_seed, score_trial
 
 SamplerName = Literal["tpe", "cmaes", "random", "grid"]
 GRID_POINTS = 3
@@ -197,22 +198,25 @@ def run_trials(
     finished = len(finished_trials(study))
     to_start = target - finished
     pending: dict[Any, tuple[int, int, int]] = {}  # ObjectRef -> (trial number, condition, seed)
-    running: dict[int, tuple[Any, list[EpisodeOutcome]]] = {}  # trial number -> (optuna Trial, episodes so far)
+    running: dict[int, tuple[Any, list[EpisodeOutcome[None]]]] = {}  # trial number -> (optuna Trial, episodes so far)
     per_trial = len(spec.conditions) * spec.seeds
     try:
         while to_start > 0 or running:
             while to_start > 0 and (not running or len(pending) < concurrency):
                 trial = study.ask()
-                refs = submit_trial(spec, suggest(trial, space))
-                keys = [(c, s) for c in range(len(spec.conditions)) for s in spec.seed_range()]
-                pending.update({ref: (trial.number, c, s) for ref, (c, s) in zip(refs, keys, strict=True)})
+                values = suggest(trial, space)
+                for condition in range(len(spec.conditions)):
+                    for seed in spec.seed_range():
+                        ref = submit(run_condition_seed, spec, values, condition, seed)
+                        pending[ref] = (trial.number, condition, seed)
                 running[trial.number] = (trial, [])
                 to_start -= 1
             done, _ = wait_any(list(pending))
             for ref in done:
                 number, condition, seed = pending.pop(ref)
                 trial, episodes = running[number]
-                episodes.append(outcome_of(ref, condition, seed))
+                lost = partial(EpisodeOutcome.failed, seed, condition=condition)  # for a Ray task that died
+                episodes.append(get(ref, lost))
                 if len(episodes) < per_trial:
                     continue
                 del running[number]

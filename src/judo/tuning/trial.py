@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from judo.evaluation.episode import EpisodeResult, Latency
+from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, Latency, episode_failure
 from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode
 from judo.loop.sensing import Sensing
 from judo.tuning.conditions import Aggregate, Condition
@@ -114,46 +114,17 @@ def run_seeded_episodes(
     return [run_seeded_episode(episode, seed) for seed in seeds]
 
 
-def episode_failure(result: EpisodeResult) -> str | None:
-    """Why an episode counts as failed (diverged, no finite reward, a non-finite metric), or None."""
-    if result.divergences:
-        return f"seed {result.seed}: the simulation diverged {result.divergences} times"
-    if result.failed_updates:
-        return f"seed {result.seed}: {result.failed_updates} control updates had no finite reward"
-    bad = [name for name, value in result.metrics.items() if not math.isfinite(value)]
-    if bad:
-        return f"seed {result.seed}: non-finite {', '.join(bad)}"
-    return None
-
-
-@dataclass
-class EpisodeOutcome:
-    """One episode of a trial, a Ray task of its own: seed `seed` under `spec.conditions[condition]`.
-
-    Attributes:
-        condition, seed: which episode it is.
-        metrics: the episode's metrics ({} when it failed before finishing).
-        update_ms: (num_updates,) wall time of each control update, in milliseconds.
-        failure: why the episode failed, or None.
-    """
-
-    condition: int
-    seed: int
-    metrics: dict[str, float]
-    update_ms: np.ndarray
-    failure: str | None = None
-
-
-def run_condition_seed(spec: TrialSpec, values: dict[str, Any], condition: int, seed: int) -> EpisodeOutcome:
-    """Run one episode of the trial (seed `seed` under condition number `condition`); never raises."""
+def run_condition_seed(spec: TrialSpec, values: dict[str, Any], condition: int, seed: int) -> EpisodeOutcome[None]:
+    """Run one episode of the trial (seed `seed` under condition number `condition`), what each Ray task of a study
+    runs; never raises. A failed control update fails the episode, and so the trial (`episode_failure`)."""
     try:
         (result,) = run_seeded_episodes(spec, values, range(seed, seed + 1), spec.conditions[condition])
-    except Exception as err:  # noqa: BLE001  (a user's task may raise anything; the study goes on)
-        return EpisodeOutcome(condition, seed, {}, np.zeros(0), failure_reason(err))
-    return EpisodeOutcome(condition, seed, result.metrics, np.asarray(result.update_ms), episode_failure(result))
+    except Exception as err:  # a user's task may raise anything; the study goes on
+        return EpisodeOutcome.failed(seed, failure_reason(err), condition)
+    return EpisodeOutcome.of(result, None, episode_failure(result, failed_updates_fail=True), condition)
 
 
-def score_trial(spec: TrialSpec, episodes: list[EpisodeOutcome]) -> TrialOutcome:
+def score_trial(spec: TrialSpec, episodes: list[EpisodeOutcome[None]]) -> TrialOutcome:
     """The trial's outcome from all its episodes: each condition's mean of `spec.metric` over seeds,
     aggregated by `spec.aggregate`; `metrics` are means over every episode. Failed when any episode failed."""
     from judo.tuning.conditions import aggregate
