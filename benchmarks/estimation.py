@@ -1,4 +1,4 @@
-"""Planning from what a robot measures (issue #22): closed-loop quality with sensors + EKF against the full
+"""Planning from what a robot measures: closed-loop quality with sensors + EKF against the full
 state, and the EKF's cost on leap_cube.
 
     PYTHONPATH=src python benchmarks/estimation.py                     # cartpole, pendulum: 5 seeds x 8 s
@@ -57,7 +57,7 @@ from judo.loop.sensing import SensedSystem, Sensing
 from judo.loop.system import MujocoSystem, System, SystemState
 
 ENCODERS = {"noise": 0.005, "rate": 100.0, "delay": 0.01}
-"""The issue's encoder setting for cartpole, pendulum, acrobot and double_cartpole."""
+"""The encoder setting of docs/estimation.md for cartpole, pendulum, acrobot and double_cartpole."""
 WALKER_SENSING = {
     "noise": {"jointpos": 0.005, "framequat": float(np.deg2rad(0.5)), "gyro": 0.01, "accelerometer": 0.1},
     "rate": 200.0,
@@ -69,7 +69,7 @@ LEAP_SENSING = {
     "rate": {"jointpos": 100.0, "framepos": 30.0, "framequat": 30.0},
     "delay": {"jointpos": 0.0, "framepos": 0.04, "framequat": 0.04},
 }
-"""The issue's leap_cube setting: encoders at 100 Hz, the cube's pose at 30 Hz, 2 mm and 1 degree, 40 ms late."""
+"""The leap_cube setting of docs/estimation.md: encoders at 100 Hz, the cube's pose at 30 Hz, 2 mm and 1 degree, 40 ms late."""
 SENSING = {"walker": WALKER_SENSING, "leap_cube": LEAP_SENSING, "leap_cube_down": LEAP_SENSING}
 """Each task's sensing (ENCODERS for the others)."""
 
@@ -241,7 +241,7 @@ def quality_table(args: argparse.Namespace) -> None:
 
 
 def leap_cube_cost(steps: int = 500) -> None:
-    """The EKF's update time on leap_cube with the issue's sensing, fresh and reused Jacobians, and the UKF's, with
+    """The EKF's update time on leap_cube with docs/estimation.md's sensing, fresh and reused Jacobians, and the UKF's, with
     the estimate's error against the plant's true state for each (mean and 95th percentile over the steps)."""
     print(
         f"\nEKF and UKF on leap_cube, {steps} steps of a hand waving the cube: encoders 100 Hz; cube pose 30 Hz, 2 mm, 1 deg, "

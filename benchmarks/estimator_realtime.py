@@ -1,4 +1,4 @@
-"""The app's real-time factor with a filter between the sensors and the plan (issue #31 item 2).
+"""The app's real-time factor with a filter between the sensors and the plan.
 
 Starts the real App headless (no GUI) on each task with `observe="sensors"` and each filter, lets it run
 `--warmup` s, then measures `--duration` s of wall time: the real-time factor (sim seconds per wall second, 1 =
@@ -6,7 +6,7 @@ real time), the planning rate, and, where the estimator runs on a thread of its 
 estimate lagged behind the plant (mean and max, in ms of sim time) and how often it started over to catch up
 (`EstimatorThread.catch_ups`). A "state" row (the full state, no filter)
 gives each task's figure without one. Each filter runs twice in a row, at the same load: on the plant thread
-(as before #31: the App's EstimatorThread unwrapped) and on its own thread (the app's default). Run from the
+(the App's EstimatorThread unwrapped) and on its own thread (the app's default). Run from the
 repository root:
 
     PYTHONPATH=src python benchmarks/estimator_realtime.py
@@ -44,7 +44,7 @@ class Args:
     seed: int = 0
     """Seeds the optimizer, the plant and the sensor noise."""
     threads: tuple[str, ...] = ("plant", "own")
-    """Where each filter runs: "plant" (on the plant thread, as before #31 item 2) and/or "own" (its own thread)."""
+    """Where each filter runs: "plant" (on the plant thread) and/or "own" (its own thread)."""
 
 
 def load() -> str:

@@ -87,7 +87,7 @@ def device_header() -> str:
     )
 
 
-def time_task(task: str, num_rollouts: int, args: Args, advance) -> Row:  # noqa: ANN001
+def time_task(task: str, num_rollouts: int, args: Args, advance) -> Row:
     """Time the warp controller's updates and the CPU pool's raw rollouts for one task and N."""
     controller = benchmark_controller(
         task, args.optimizer, num_rollouts=num_rollouts, horizon=args.horizon, backend="warp"
@@ -98,14 +98,14 @@ def time_task(task: str, num_rollouts: int, args: Args, advance) -> Row:  # noqa
         controller.close()
 
 
-def time_controller(controller: Controller, task: str, args: Args, advance) -> Row:  # noqa: ANN001
+def time_controller(controller: Controller, task: str, args: Args, advance) -> Row:
     start = MujocoSystem.from_task(controller.task, 0).read_state()
     state, metadata, now = start.state, start.metadata, start.time
     period = 1.0 / controller.config.control_freq
     reward_span = [math.inf, -math.inf]  # first start and last end of the reward calls of one update
     reward = controller.task.reward
 
-    def timed_reward(*reward_args, **reward_kwargs):  # noqa: ANN002, ANN003, ANN202
+    def timed_reward(*reward_args, **reward_kwargs):
         started = time.perf_counter()  # blocks of rows may run on several threads: time their wall span
         try:
             return reward(*reward_args, **reward_kwargs)

@@ -62,14 +62,14 @@ class RecordingPool(RolloutPool):
         self.ctrl = np.zeros((num_rollouts, num_steps, self.model.nu))
         self.steps_done = [0] * len(self.blocks(num_rollouts))
 
-    def rollout_block(self, block, initial_states, inputs, control_spec, states, sensors) -> None:  # noqa: ANN001
+    def rollout_block(self, block, initial_states, inputs, control_spec, states, sensors) -> None:
         rows, start = self.blocks(len(initial_states))[block], self.steps_done[block]
         self.ctrl[rows, start : start + inputs.shape[1]] = inputs[rows, :, : self.model.nu]
         self.steps_done[block] += inputs.shape[1]
         super().rollout_block(block, initial_states, inputs, control_spec, states, sensors)
 
 
-def ctrl_of(low: LowLevel, pool: RolloutPool, initial, commands, mocap) -> np.ndarray:  # noqa: ANN001
+def ctrl_of(low: LowLevel, pool: RolloutPool, initial, commands, mocap) -> np.ndarray:
     """(N, T, nu) the ctrl the low-level policy gives in the rollouts of (N, T, C) `commands` from `initial`."""
     recording = RecordingPool(pool.model, pool.num_workers)
     recording.record(*commands.shape[:2])
@@ -94,13 +94,13 @@ class OneRowAtATime(Policy):
         return np.concatenate([self.policy.act(observations[i : i + 1]) for i in range(len(observations))])
 
 
-def time_ms(call, clock) -> float:  # noqa: ANN001
+def time_ms(call, clock) -> float:
     started = clock()
     call()
     return 1e3 * (clock() - started)
 
 
-def row(args: Args, num_rollouts: int, progress: Progress, bar) -> list[str]:  # noqa: ANN001
+def row(args: Args, num_rollouts: int, progress: Progress, bar) -> list[str]:
     optimizer_config = make_config(lookup_optimizer(args.optimizer)[1], args.task)
     optimizer_config.num_rollouts = num_rollouts  # type: ignore[attr-defined]
     with judo.make_controller(

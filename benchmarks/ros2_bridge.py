@@ -60,7 +60,7 @@ class WallClockMujoco(MujocoSystem):
     """judo's simulator in-process, advanced in wall time: each `step` runs the physics steps due since the
     last one (the plant runs on while the planner thinks, as a robot does)."""
 
-    def __init__(self, task) -> None:  # noqa: ANN001
+    def __init__(self, task) -> None:
         super().__init__(task)
         self._origin: float | None = None
         self._steps = 0
@@ -85,7 +85,7 @@ class Steps:
     def __init__(self) -> None:
         self.records: list[StepRecord] = []
 
-    def on_plan(self, record) -> None:  # noqa: ANN001
+    def on_plan(self, record) -> None:
         pass
 
     def on_step(self, record: StepRecord) -> None:
@@ -131,7 +131,7 @@ def balanced_fraction(records: list[StepRecord]) -> float:
     return Cartpole().metrics(log)["balanced_fraction"]
 
 
-def episode(system, seed: int, duration: float, latency_compensation: bool) -> float:  # noqa: ANN001
+def episode(system, seed: int, duration: float, latency_compensation: bool) -> float:
     steps = Steps()
     loop = ClosedLoop(controller(seed, latency_compensation), system, clock=time.monotonic, recorders=[steps])
     end = time.monotonic() + duration

@@ -47,7 +47,7 @@ def episode_row(task: str, optimizer: str, duration: float) -> list[str]:
     served_plans: list[judo.Spline] = []
     update = controller.update_action
 
-    def recording_update(*args, **kwargs):  # noqa: ANN002, ANN003, ANN202
+    def recording_update(*args, **kwargs):
         plan = update(*args, **kwargs)
         served_plans.append(plan)
         return plan

@@ -26,7 +26,7 @@ def test_judo_tasks_exports_every_built_in_task_class_and_its_config():
         assert getattr(judo.tasks, config_cls.__name__) is config_cls
     assert (
         len(judo.tasks.BUILTIN_TASKS) == 18
-    )  # the twelve, cartpole_pd, quadruped, quadruped_velocity, quadruped_navigate, car and quadrotor
+    )  # the first twelve, cartpole_pd, quadruped, quadruped_velocity, quadruped_navigate, car and quadrotor
     assert sorted(judo.tasks.__all__) == sorted(
         {name for task, config in judo.tasks.BUILTIN_TASKS.values() for name in (task.__name__, config.__name__)}
         | {"register_task"}

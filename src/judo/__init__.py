@@ -9,9 +9,9 @@ loop = judo.ClosedLoop(controller, judo.MujocoSystem.from_task(controller.task, 
 loop.step()                             # plan when due, serve, step the plant once
 """
 
-import judo.estimators  # noqa: E402,F401  (registers the built-in estimators)
-import judo.optimizers  # noqa: E402,F401  (registers the built-in optimizers)
-import judo.tasks  # noqa: E402,F401  (registers the built-in tasks)
+import judo.estimators  # registers the built-in estimators
+import judo.optimizers  # registers the built-in optimizers
+import judo.tasks  # noqa: F401  (registers the built-in tasks)
 from judo.core.backend import RandomizedRolloutError
 from judo.core.config import Config
 from judo.core.config_file import ConfigFileError, LoadedConfig, load_config

@@ -26,7 +26,7 @@ from collections.abc import Sequence
 PROG = "python -m judo"
 
 
-def one_line_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int, line=None) -> str:  # noqa: ANN001
+def one_line_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int, line=None) -> str:
     """A warning as the commands print it: one clean line, without the file path and source line Python adds."""
     text = str(message).strip().splitlines()
     return f"warning: {text[0] if text else category.__name__}\n"

@@ -1,4 +1,4 @@
-"""What judo refuses to read or write (#31 item 6), on real HDF5 files written here: collect never writes into
+"""What judo refuses to read or write, on real HDF5 files written here: collect never writes into
 another program's file (and leaves it byte for byte as it was), and replay checks a file's keys, shapes and
 finiteness as it loads it, naming what is missing or wrong in one line."""
 

@@ -8,9 +8,9 @@ import pytest
 pytest.importorskip("onnxruntime")
 pytest.importorskip("onnx")
 
-from judo.core.errors import MissingExtraError  # noqa: E402
-from judo.core.onnx_policy import OnnxPolicy, write_linear_policy, write_mlp_policy  # noqa: E402
-from judo.core.policy import PolicyError  # noqa: E402
+from judo.core.errors import MissingExtraError
+from judo.core.onnx_policy import OnnxPolicy, write_linear_policy, write_mlp_policy
+from judo.core.policy import PolicyError
 
 RNG = np.random.default_rng(0)
 W = RNG.normal(size=(3, 5))

@@ -19,12 +19,12 @@ import pytest
 pytest.importorskip("warp")
 pytest.importorskip("mujoco_warp")
 
-import judo  # noqa: E402
-from judo.core.backend import RandomizedRolloutError  # noqa: E402
-from judo.core.model import STATE_SPEC  # noqa: E402
-from judo.core.problem_batch import ProblemBatch, ProblemBatchError  # noqa: E402
-from judo.core.rollout import RolloutPool  # noqa: E402
-from judo.core.warp_rollout import (  # noqa: E402
+import judo
+from judo.core.backend import RandomizedRolloutError
+from judo.core.model import STATE_SPEC
+from judo.core.problem_batch import ProblemBatch, ProblemBatchError
+from judo.core.rollout import RolloutPool
+from judo.core.warp_rollout import (
     RolloutOverflowWarning,
     WarpRollout,
     WarpUnsupportedModelError,

@@ -1,4 +1,4 @@
-"""Each task's own filter by default (#31 item 3): `Task.default_estimator` ("ukf" for walker and leap_cube, "ekf"
+"""Each task's own filter by default: `Task.default_estimator` ("ukf" for walker and leap_cube, "ekf"
 for the others) wherever --estimator is not given, as the app, evaluate, tune, collect, titles and JSON resolve it,
 an explicit --estimator winning; and a filter that cannot read the plant names itself in the error."""
 

@@ -13,7 +13,7 @@ from judo.loop.sensing import Sensing
 from judo.tuning.trial import TrialSpec, run_seeded_episodes
 
 ENCODERS = Sensing("sensors", noise=0.005, delay=0.01, rate=100.0)
-"""The issue's encoder setting: std 0.005 rad, 100 Hz, 10 ms late (the EKF by default)."""
+"""The encoder setting of docs/estimation.md: std 0.005 rad, 100 Hz, 10 ms late (the EKF by default)."""
 
 
 class Steps:

@@ -106,7 +106,7 @@ def poll(condition: Callable[[], bool], timeout: float = 5.0, what: str = "condi
         time.sleep(0.005)
 
 
-def echo_reader(domain: int):  # noqa: ANN201
+def echo_reader(domain: int):
     """A participant and reader of the plant's echo of the commands it read, on `domain`."""
     from cyclonedds.sub import DataReader
 
@@ -117,13 +117,13 @@ def echo_reader(domain: int):  # noqa: ANN201
     return part, DataReader(part, link.topic(part, "/judo/commands_echo", msg.Float64MultiArray), link.COMMAND_QOS)
 
 
-def echoes(reader) -> list[np.ndarray]:  # noqa: ANN001
+def echoes(reader) -> list[np.ndarray]:
     from judo.ros2 import link
 
     return [np.asarray(m.data) for m in link.take(reader, 64)]
 
 
-def small_controller(**config) -> judo.Controller:  # noqa: ANN003
+def small_controller(**config) -> judo.Controller:
     """cartpole's mppi with few rollouts, so it keeps up on a busy machine; `config` changes ControllerConfig fields."""
     controller_config = dataclasses.replace(
         make_config(judo.ControllerConfig, "cartpole"), horizon=0.5, control_freq=20.0, **config

@@ -8,15 +8,15 @@ import pytest
 
 pytest.importorskip("cyclonedds")
 
-from ros2_links import ROOT, env, free_domain, stop_process  # noqa: E402
+from ros2_links import ROOT, env, free_domain, stop_process
 
-from judo.loop.system import System  # noqa: E402
-from judo.loop.system_choice import SystemOptions, build_system, system_class  # noqa: E402
-from judo.ros2 import plant  # noqa: E402
-from judo.runtime import cli  # noqa: E402
+from judo.loop.system import System
+from judo.loop.system_choice import SystemOptions, build_system, system_class
+from judo.ros2 import plant
+from judo.runtime import cli
 
 
-def one_line_error(capsys, argv: list[str], main=cli.main) -> str:  # noqa: ANN001
+def one_line_error(capsys, argv: list[str], main=cli.main) -> str:
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "Traceback" not in err

@@ -11,7 +11,7 @@ import pytest
 
 pytest.importorskip("cyclonedds")
 
-from ros2_links import (  # noqa: E402
+from ros2_links import (
     DdsRobot,
     echo_reader,
     echoes,
@@ -22,15 +22,15 @@ from ros2_links import (  # noqa: E402
     stop_process,
 )
 
-import judo  # noqa: E402
-from judo.loop.closed_loop import ClosedLoop  # noqa: E402
-from judo.loop.sensing import Sensing, choose_estimator  # noqa: E402
-from judo.loop.system_choice import Ros2Options  # noqa: E402
-from judo.ros2 import bridge as bridge_module  # noqa: E402
-from judo.ros2 import clock as clock_module  # noqa: E402
-from judo.ros2 import link  # noqa: E402
-from judo.ros2.bridge import Ros2System  # noqa: E402
-from judo.tasks.cartpole import Cartpole  # noqa: E402
+import judo
+from judo.loop.closed_loop import ClosedLoop
+from judo.loop.sensing import Sensing, choose_estimator
+from judo.loop.system_choice import Ros2Options
+from judo.ros2 import bridge as bridge_module
+from judo.ros2 import clock as clock_module
+from judo.ros2 import link
+from judo.ros2.bridge import Ros2System
+from judo.tasks.cartpole import Cartpole
 
 
 def test_malformed_joint_states_and_bad_stamps_are_refused_and_named(caplog, monkeypatch):
@@ -122,7 +122,7 @@ FREE_BASE = """
 
 
 class FreeBase(judo.Task):
-    def reward(self, states, sensors, controls, config, system_metadata=None):  # noqa: ANN001, ANN201
+    def reward(self, states, sensors, controls, config, system_metadata=None):
         return np.zeros(states.shape[0])
 
 

@@ -23,7 +23,7 @@ FREE_BODY = """
 """
 
 
-def decoded(message):  # noqa: ANN001, ANN201
+def decoded(message):
     store = rosbags_typesys.get_typestore(rosbags_typesys.Stores.ROS2_HUMBLE)
     return store.deserialize_cdr(bytes(message.serialize()), msg.ROS_NAMES[type(message)])
 

@@ -1,4 +1,4 @@
-"""The app with rehearsed sensing and an estimator (#22): the plant it builds, the estimate it publishes, the
+"""The app with rehearsed sensing and an estimator: the plant it builds, the estimate it publishes, the
 estimator config edits it takes, the names it refuses, and the GUI's ghost, panel and error chart (no browser)."""
 
 import mujoco

@@ -1,4 +1,4 @@
-"""A policy as the app's controller (#33 use 1): App(policy=...) and python -m judo --policy serve it through the one
+"""A policy as the app's controller: App(policy=...) and python -m judo --policy serve it through the one
 closed loop; the optimizer dropdown hands the plant to MPC and back; the GUI names the policy and its inference time."""
 
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""Recording the running app (#24): every step, plan and config edit (the estimator's too) into a collect file
+"""Recording the running app: every step, plan and config edit (the estimator's too) into a collect file
 that replay reads, with the measured sensors, the estimate and the plans' traces."""
 
 import json

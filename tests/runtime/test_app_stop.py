@@ -14,7 +14,7 @@ from judo.runtime.app import App
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 
 STOP_BUDGET = 1.0
-"""Seconds `stop()` may take (the issue: a stop takes effect within about a second)."""
+"""Seconds `stop()` may take (a stop takes effect within about a second)."""
 
 
 class SlowRewardCartpole(Cartpole):

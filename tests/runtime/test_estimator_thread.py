@@ -1,4 +1,4 @@
-"""The app's estimator on a thread of its own (#31 item 2): a slow filter neither slows the plant nor stops the
+"""The app's estimator on a thread of its own: a slow filter neither slows the plant nor stops the
 estimates the planner plans from; a reset restarts it, its failure is reported, a stop ends it; config edits
 are handed over. Real physics (cartpole, 10 ms steps, sensors at 100 Hz, 10 ms late) and a real EKF, slowed
 by a sleep in its update. The plant is the simulator behind a user's System, which the app steps at wall-clock

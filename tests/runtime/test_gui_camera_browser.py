@@ -6,7 +6,7 @@ page reports them) sees the robot: the corners of the bounding box of every draw
 body that moves, projected to the view's [-1, 1] coordinates. The docked GUI panel covers none of
 the canvas, so the whole canvas counts. One app and one page serve all twelve tasks (switching
 between them), so the test costs one app start. Each task runs JUDO_CAMERA_SECONDS wall seconds
-(3 by default; 10 for the issue's full check). Screenshots go to test-artifacts/camera_<task>.png; the page
+(3 by default; 10 for a full check). Screenshots go to test-artifacts/camera_<task>.png; the page
 draws its view at half resolution (conftest.SCENE_DPR): the camera it reports is the same (its aspect to
 within a pixel's rounding).
 """

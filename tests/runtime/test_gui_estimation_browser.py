@@ -1,4 +1,4 @@
-"""The estimate in a real browser (headless Chromium, #22): the ghost of the estimated robot is drawn over the
+"""The estimate in a real browser (headless Chromium): the ghost of the estimated robot is drawn over the
 true one and follows the estimate, and the estimation-error chart updates. Screenshots go to test-artifacts/."""
 
 import io

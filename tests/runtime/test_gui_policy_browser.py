@@ -1,4 +1,4 @@
-"""A policy in the GUI, in headless Chromium (#33): the page names the policy and its inference time (the
+"""A policy in the GUI, in headless Chromium: the page names the policy and its inference time (the
 closed loop's update, the span evaluate reports), offers "policy"
 in the optimizer dropdown, and shows the policy_samples slider of a controller with a proposal policy."""
 

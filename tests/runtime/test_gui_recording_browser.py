@@ -1,4 +1,4 @@
-"""The GUI's record toggle in headless Chromium (#24): ticking and unticking it writes a file replay opens.
+"""The GUI's record toggle in headless Chromium: ticking and unticking it writes a file replay opens.
 
 (A browser test lives in a test_gui_*_browser.py file: the session's Chromium keeps playwright's event loop in
 the main thread once it starts, so it must start after the tests that call App.run() there.)"""

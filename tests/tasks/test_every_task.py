@@ -1,4 +1,4 @@
-"""What issue #5 asks of every registered task, checked for each: shipped model, traces, slider weights,
+"""What every registered task must have, checked for each: shipped model, traces, slider weights,
 tuned overrides, a finite reward of the right shape, and metrics that are plain floats."""
 
 from dataclasses import fields

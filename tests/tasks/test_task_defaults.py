@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-import judo  # noqa: F401  (registers the built-in tasks and optimizers)
+import judo  # registers the built-in tasks and optimizers
 from judo.core.controller import ControllerConfig
 from judo.core.registry import get_registered_optimizers, get_registered_tasks, make_config
 

@@ -41,7 +41,7 @@ class MissingExtraError(JudoError, ImportError):
         )
 
 
-def import_extra(module: str, feature: str, extra: str):  # noqa: ANN201  (returns the module)
+def import_extra(module: str, feature: str, extra: str):  # returns the module
     """Import `module` from an optional extra, or raise MissingExtraError naming the extra to install."""
     import importlib
 

@@ -68,7 +68,7 @@ class OnnxPolicy(Policy):
         try:
             model = onnx.load(str(self.path))
             onnx.checker.check_model(model)
-        except Exception as err:  # noqa: BLE001  (onnx raises several unrelated types for a bad file)
+        except Exception as err:  # onnx raises several unrelated types for a bad file
             raise PolicyError(
                 f"cannot read policy file {str(self.path)!r} as ONNX: {str(err).splitlines()[0]}"
             ) from None
@@ -106,7 +106,7 @@ class OnnxPolicy(Policy):
         if self.fixed_batch:
             try:
                 self._run(np.zeros((2, self.observation_size), dtype=self._dtype))
-            except Exception:  # noqa: BLE001  (onnxruntime's errors for a hard-coded batch vary)
+            except Exception:  # onnxruntime's errors for a hard-coded batch vary
                 self._row_by_row = True
                 warnings.warn(
                     f"policy {str(self.path)!r} hard-codes a batch of 1 inside its graph; it runs one row at a time",

@@ -105,7 +105,7 @@ class ProblemBatch:
             for i, p in enumerate(order):
                 self._results[p] = (states[i * rows : (i + 1) * rows], sensors[i * rows : (i + 1) * rows])
             self.launches += 1
-        except Exception as err:  # noqa: BLE001  (every waiting slot gets the failure, then raises it)
+        except Exception as err:  # every waiting slot gets the failure, then raises it
             for p in order:
                 self._results[p] = err
         self._inputs.clear()

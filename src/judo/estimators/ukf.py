@@ -32,7 +32,7 @@ class UKFConfig(KalmanConfig):
 
     spread: float = 1.0
     """How far out the sigma points lie, as a fraction of the cubature rule's sqrt(n) stds. 1 is the cubature rule;
-    smaller probes closer to the estimate, like a finite difference (walker with the issue's sensing, seeds 0-4:
+    smaller probes closer to the estimate, like a finite difference (walker with docs/estimation.md's sensing, seeds 0-4:
     1.42 m/s at 1, 1.41 at 0.3, 0.83 at 0.1)."""
 
 

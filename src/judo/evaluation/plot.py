@@ -78,7 +78,7 @@ def write_episode_plot(result: EpisodeResult, model: mujoco.MjModel, path: Path,
         path.write_text(_html_page(result.log.times, panels, title))
 
 
-def _import_pyplot():  # noqa: ANN202  (matplotlib is optional, so it is not imported for annotations)
+def _import_pyplot():  # matplotlib is optional, so it is not imported for annotations
     plt = optional_pyplot()
     if plt is None:
         raise JudoError(

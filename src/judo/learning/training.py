@@ -116,7 +116,7 @@ def train(
     head = settings.head
 
     @jax.jit
-    def step(params, state, x, y, key):  # noqa: ANN001, ANN202
+    def step(params, state, x, y, key):
         value, grads = jax.value_and_grad(networks.loss)(params, head, x, y, key)
         updates, state = optimizer.update(grads, state, params)
         return optax.apply_updates(params, updates), state, value

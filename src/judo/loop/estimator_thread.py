@@ -1,4 +1,4 @@
-"""The app's estimator on a thread of its own, off the plant thread's critical path (#31 item 2).
+"""The app's estimator on a thread of its own, off the plant thread's critical path.
 
     estimator = EstimatorThread(make_estimator("ukf", task))   # an Estimator: the closed loop calls it as one
     closed_loop = ClosedLoop(controller, system, estimator=estimator)

@@ -380,7 +380,7 @@ class Ros2System(System):
         self._closed = True
         try:
             self._writer.wait_for_acks(duration(milliseconds=200))
-        except Exception:  # noqa: BLE001  (no reader, or the robot gone: nothing to wait for)
+        except Exception:  # no reader, or the robot gone: nothing to wait for
             pass
         link.close_participant(self._participant)
         if self.log is not None:

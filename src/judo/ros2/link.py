@@ -45,24 +45,24 @@ def domain_id(given: int | None) -> int:
     return given
 
 
-def participant(domain: int):  # noqa: ANN201  (a cyclonedds DomainParticipant)
+def participant(domain: int):  # a cyclonedds DomainParticipant
     """A DDS participant on `domain`."""
     return dds.DomainParticipant(domain)
 
 
-def take(reader, n: int = 16) -> list:  # noqa: ANN001
+def take(reader, n: int = 16) -> list:
     """The data samples `reader` holds, up to `n`, taken; without the notices that a writer went away."""
     from cyclonedds.internal import InvalidSample
 
     return [sample for sample in reader.take(n) if not isinstance(sample, InvalidSample)]
 
 
-def close_participant(participant) -> None:  # noqa: ANN001
+def close_participant(participant) -> None:
     """Delete `participant` and everything it made (readers, writers, topics) now, not when it is collected."""
     participant.__del__()  # cyclonedds deletes an entity, with its children, in __del__ only
 
 
-def topic(participant, name: str, message_type: type):  # noqa: ANN001, ANN201
+def topic(participant, name: str, message_type: type):
     """The DDS topic of the ROS 2 topic `name` carrying `message_type`."""
     from cyclonedds.topic import Topic
 

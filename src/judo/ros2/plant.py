@@ -74,7 +74,7 @@ class Outbox:
         self._queue: list[tuple[float, int, object, object]] = []
         self._count = 0
 
-    def send(self, writer, message, now: float) -> None:  # noqa: ANN001
+    def send(self, writer, message, now: float) -> None:
         o = self.options
         if o.drop > 0 and self.rng.random() < o.drop:
             return
@@ -200,7 +200,7 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
             waitset.wait(duration(nanoseconds=int(wait * 1e9)))
 
 
-def _body_accel(model: mujoco.MjModel, data: mujoco.MjData, layout) -> np.ndarray:  # noqa: ANN001
+def _body_accel(model: mujoco.MjModel, data: mujoco.MjData, layout) -> np.ndarray:
     """(3,) what an accelerometer on the base reads: its linear acceleration less gravity, in the body frame."""
     a, d = layout.free
     rot = np.empty(9)

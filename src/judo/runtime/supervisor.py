@@ -302,5 +302,5 @@ def stop_running_apps() -> None:
     for app in apps:
         try:
             app.stop(timeout=EXIT_STOP_TIMEOUT)
-        except Exception:  # noqa: BLE001  (at exit, one app failing to stop must not skip the others)
+        except Exception:  # at exit, one app failing to stop must not skip the others
             pass

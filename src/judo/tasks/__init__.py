@@ -6,7 +6,7 @@ sweep that chose it) are data: models/<task>.toml, in the `--config` file format
 
 from pathlib import Path
 
-import judo.estimators  # noqa: F401  (the defaults files name the built-in estimators)
+import judo.estimators  # the defaults files name the built-in estimators
 import judo.optimizers  # noqa: F401  (the defaults files name the built-in optimizers)
 from judo.core.config_file import load_config
 from judo.core.registry import register_task

@@ -73,7 +73,7 @@ class LeapCube(Task[LeapCubeConfig]):
     )
     """16 joint encoders, and the cube's position (relative to the palm) and orientation from a camera."""
     default_estimator = "ukf"
-    """The UKF keeps 0.74 of the full-state goals reached with the issue's sensing, the EKF 0.46 (docs/estimation.md)."""
+    """The UKF keeps 0.74 of the full-state goals reached with docs/estimation.md's sensing, the EKF 0.46 (docs/estimation.md)."""
     check_latency_ms = 50.0
 
     goal_tolerance: ClassVar[float] = 0.4

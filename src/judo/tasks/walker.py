@@ -52,7 +52,7 @@ class Walker(Task[WalkerConfig]):
         "imu_accel",
     )
     default_estimator = "ukf"
-    """The UKF keeps 0.99 of the full-state forward speed with the issue's sensing, the EKF 0.48 (docs/estimation.md)."""
+    """The UKF keeps 0.99 of the full-state forward speed with docs/estimation.md's sensing, the EKF 0.48 (docs/estimation.md)."""
     lower_is_better = ("fallen_fraction",)
     focus_body = "torso"
 

@@ -203,7 +203,7 @@ def probe(args: TuneArgs, fixed: dict[str, Any]) -> list[str]:
         (result,) = run_seeded_episodes(spec, {}, range(1))
     except JudoError:
         raise
-    except Exception as err:  # noqa: BLE001  (a user's task may raise anything)
+    except Exception as err:  # a user's task may raise anything
         raise JudoError(
             f"a {spec.duration:g} s check episode of {args.task} x {args.optimizer} with the default settings failed: "
             f"{type(err).__name__}: {err}"

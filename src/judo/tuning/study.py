@@ -106,7 +106,7 @@ def open_study(
         study = optuna.create_study(
             storage=rdb, study_name=study_name, direction=objective.direction, sampler=sampler, load_if_exists=True
         )
-    except Exception as err:  # noqa: BLE001  (sqlalchemy and optuna raise many kinds for a bad URL)
+    except Exception as err:  # sqlalchemy and optuna raise many kinds for a bad URL
         first_line = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
         raise StudyError(
             f"cannot open the study storage {storage!r}: {first_line}. Expected an Optuna RDB URL such as "

@@ -81,7 +81,7 @@ class AccessPolicy:
             return "This judo GUI needs its access token: open the URL the app printed (http://HOST:PORT/TOKEN).\n"
         return request
 
-    def guard(self, serve_files):  # noqa: ANN001, ANN201  (viser's process_request callable, and ours)
+    def guard(self, serve_files):  # viser's process_request callable, and ours
         """A websockets `process_request` hook that applies this policy, then hands page requests to
         `serve_files` (viser's own file server)."""
 

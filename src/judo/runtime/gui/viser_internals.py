@@ -158,7 +158,7 @@ def guarded_handshakes(guard: Callable[[Any], Any], guarded: list[bool], timeout
     module: Any = websockets.asyncio.server  # typed Any: its `serve` is swapped for the start
     serve = module.serve
 
-    def guarded_serve(handler, *args, process_request=None, **kwargs):  # noqa: ANN001, ANN202
+    def guarded_serve(handler, *args, process_request=None, **kwargs):
         if getattr(handler, "__qualname__", "") == VISER_HANDLER:
             process_request = guard(process_request)
             guarded.append(True)
