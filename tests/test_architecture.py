@@ -13,6 +13,7 @@ those below it, inside functions too. No module imports the root package.
 """
 
 import ast
+import re
 from collections.abc import Set
 from pathlib import Path
 
@@ -369,3 +370,20 @@ def test_the_package_check_sees_a_lazy_import_that_the_module_check_cannot(tmp_p
         "pkg.low.a -> pkg.high.c  (pkg.low is below pkg.high in the order)"
     ]
     assert package_cycles(edges, {("pkg.low", "pkg.high")}) == ""
+
+
+def control_update_files() -> list[str]:
+    """The files docs/architecture.md lists on the path of one control update ("One control update, file by file")."""
+    text = (SRC.parent / "docs" / "architecture.md").read_text()
+    section = text.split("## One control update, file by file", 1)[1].split("\n## ", 1)[0]
+    rows = [line for line in section.splitlines() if line.startswith("| ") and line[2:3].isdigit()]
+    files = [name for row in rows for name in re.findall(r"`([\w/]+\.py)`", row.split("|")[2] + row.split("|")[3])]
+    return list(dict.fromkeys(files))
+
+
+def test_the_documented_path_of_a_control_update_names_files_that_exist():
+    files = control_update_files()
+    assert 15 <= len(files) <= 22, files
+    missing = [name for name in files if not (SRC / PACKAGE / name).is_file()]
+    assert not missing, f"docs/architecture.md names files that are not in src/judo: {missing}"
+    assert "loop/closed_loop.py" in files and "core/controller.py" in files
