@@ -32,7 +32,7 @@ import mujoco.rollout
 import numpy as np
 
 from judo.core.errors import ConfigError
-from judo.core.model import STATE_SPEC
+from judo.core.model import mocap_metadata, model_at
 from judo.core.policy import Policy, PolicyError
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
 from judo.core.task import Task
@@ -174,10 +174,7 @@ class Proposer:
         if data is None:
             data = self._data = mujoco.MjData(model)
             self._runner = mujoco.rollout.Rollout(nthread=0)
-        mujoco.mj_setState(model, data, initial_state, STATE_SPEC)
-        data.mocap_pos[:] = initial_mocap[: 3 * model.nmocap].reshape(-1, 3)
-        data.mocap_quat[:] = initial_mocap[3 * model.nmocap :].reshape(-1, 4)
-        mujoco.mj_forward(model, data)
+        model_at(model, data, initial_state, metadata=mocap_metadata(model, initial_mocap))
         states = np.tile(initial_state[1 : 1 + self._num_state], (count, 1))
         sensors = np.tile(data.sensordata, (count, 1))
         observations = self._observe(states, sensors, system_metadata, previous)
