@@ -28,7 +28,7 @@ from judo.core.dynamics import task_rollout_backend
 from judo.core.errors import ConfigError, JudoError
 from judo.core.feedback import FeedbackGains
 from judo.core.low_level import check_low_level_backend, with_low_level
-from judo.core.model import STATE_SPEC, set_mocap_poses, trace_sensor_columns
+from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_columns
 from judo.core.optimizer import Optimizer, PlanningStart
 from judo.core.parallel_reward import ParallelReward
 from judo.core.planner import checked_reading
@@ -197,13 +197,9 @@ class Controller:
         self._cycles_since_draw += 1
 
     def _set_initial_state(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None) -> None:
-        data = self._scratch
-        data.time = time
-        data.qpos[:] = state[: self.task.model.nq]
-        data.qvel[:] = state[self.task.model.nq : self._num_state]
-        set_mocap_poses(self.task.model, data, system_metadata)
+        data = model_at(self.task.model, self._scratch, state, time, system_metadata, forward=False)
         mujoco.mj_getState(self.task.model, data, self._initial_state, STATE_SPEC)
-        self._initial_mocap[:] = np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
+        self._initial_mocap[:] = mocap_vector(data)
 
     def update_action(
         self,

@@ -4,7 +4,7 @@ A task declares one with `Task.low_level()`: the optimizer then plans the policy
 step within `command_range`, e.g. a target position or a base velocity) instead of the actuators' ctrl, and
 every `every` (k) physics steps the policy turns each rollout's command, state, previous action and sim time
 (a gait's clock) into the ctrl held for the next k steps (or, for a chunk policy, the ctrl of each of those k
-steps read off the chunk's spline). Three places run it, the same way:
+steps read off the chunk's spline). Three places run it, the first two on one `PolicyStepper` (core/stepper.py):
   - `LowLevelRollout`, the CPU rollout backend's wrapper: each of the pool's workers runs the whole tick loop of
     its own block of rows (`mujoco.rollout` k steps at a time, states carried between ticks), and at every tick
     one batched `Policy.act` on its block's (B, O) observations makes the next ctrl: one thread hand-off per
@@ -12,14 +12,14 @@ steps read off the chunk's spline). Three places run it, the same way:
     are therefore called from several threads at once (as they already were by the plant's thread and the
     planner's): they must not keep shared mutable state;
   - `LowLevelPlant`, inside `MujocoSystem`: the simulated plant runs the policy on the command it is served,
-    every k of its steps, as the robot's own controller would (a robot's `System` runs it itself);
+    every k of its steps, as the robot's own controller would (a robot's `System` runs it itself), turning its
+    actions into ctrl exactly as the rollouts do;
   - `with_low_level`, which the Controller calls on its backend: the wrapper, or a LowLevelBackendError for
     a backend that cannot run a policy between its steps (MuJoCo Warp, for now).
 Each chunk starts MuJoCo's solver cold (`qacc_warmstart` zero, as every rollout of a planning cycle starts);
 models without active constraints are unaffected.
 """
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import cast
@@ -29,10 +29,10 @@ import numpy as np
 
 from judo.core.backend import RolloutBackend
 from judo.core.errors import JudoError
-from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
-from judo.core.rollout import MOCAP_CONTROL_SPEC, RolloutPool
+from judo.core.rollout import RolloutPool
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
+from judo.core.stepper import PolicyStepper
 
 ObservationFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
 """(commands (B, C), states (B, nq + nv), previous_actions (B, A), times (B,)) -> (B, O) observations."""
@@ -121,12 +121,30 @@ class LowLevel:
         return len(self.command_range)
 
     def observe(
-        self, commands: np.ndarray, states: np.ndarray, previous_actions: np.ndarray, times: np.ndarray
+        self,
+        commands: np.ndarray,
+        states: np.ndarray,
+        previous_actions: np.ndarray,
+        times: np.ndarray,
+        out: np.ndarray | None = None,
     ) -> np.ndarray:
-        """(B, O) the policy's observations: the task's `observation`, or [commands, states] without one."""
+        """(B, O) the policy's observations: the task's `observation`, or [commands, states] without one (written
+        into the (B, O) `out` where given, with no temporary)."""
         if self.observation is not None:
             return self.observation(commands, states, previous_actions, times)
-        return np.concatenate([commands, states], axis=1)
+        if out is None:
+            return np.concatenate([commands, states], axis=1)
+        out[:, : commands.shape[1]] = commands
+        out[:, commands.shape[1] :] = states
+        return out
+
+    def stepper(self, model: mujoco.MjModel) -> PolicyStepper:
+        """A `PolicyStepper` that runs this policy on `model`: every k steps, its actions held or off its chunk."""
+        timestep = model.opt.timestep
+        weights = None if self.chunk is None else (lambda n: self.step_weights(n, timestep))
+        return PolicyStepper(
+            model, self.policy.action_size, self.every, weights, self.to_ctrl, self.policy.observation_size
+        )
 
     def ctrl(self, actions: np.ndarray) -> np.ndarray:
         """(B, nu) ctrl of (B, A) `actions`: the task's `to_ctrl`, or the actions themselves."""
@@ -139,14 +157,14 @@ class LowLevel:
         try:
             previous = np.zeros((1, self.policy.action_size))
             observation = self.observe(np.zeros((1, self.command_size)), state, previous, np.zeros(1))
-        except Exception as err:  # noqa: BLE001  (a user hook: report it in one line)
+        except Exception as err:
             raise PolicyError(f"the low-level observation hook failed on a batch of one: {err!r}") from err
         if np.ndim(observation) != 2 or len(observation) != 1:
             raise PolicyError(f"the low-level observation hook must return (B, O), got shape {np.shape(observation)}")
         self.policy.check_fits(None, np.shape(observation)[1], self.policy.action_size)
         try:
             ctrl = self.ctrl(np.zeros((1, self.policy.action_size)))
-        except Exception as err:  # noqa: BLE001
+        except Exception as err:
             raise PolicyError(
                 f"to_ctrl failed on the (1, {self.policy.action_size}) actions of policy {self.policy.name!r}: {err!r}"
             ) from err
@@ -201,33 +219,12 @@ class LowLevelRollout(RolloutBackend):
         self.inner, self.low_level = inner, low_level
         self.model, self.num_workers = inner.model, inner.num_workers
         self.act_calls = 0
+        self._stepper = low_level.stepper(inner.model)
         self._shape: tuple[int, int] | None = None
 
-    def set_models(self, models) -> None:  # noqa: ANN001  (see RolloutBackend.set_models)
+    def set_models(self, models) -> None:
         """See `RolloutBackend.set_models`: the inner pool rolls each block of rows out on its model."""
         self.inner.set_models(models)
-
-    def _allocate(self, num_rollouts: int, num_steps: int) -> None:
-        model, k = self.model, self.low_level.every
-        nstate, width = mujoco.mj_stateSize(model, STATE_SPEC), model.nu + 7 * model.nmocap
-        self._shape = (num_rollouts, num_steps)
-        self._states = np.zeros((num_rollouts, num_steps, nstate))
-        self._sensors = np.zeros((num_rollouts, num_steps, model.nsensordata))
-        self._current = np.zeros((num_rollouts, nstate))  # each rollout's state at the tick
-        self._previous = np.zeros((num_rollouts, self.low_level.policy.action_size))
-        self._finite = np.ones(num_rollouts, dtype=bool)  # False: the policy gave that rollout a non-finite action
-        self._ticks = [(t, min(t + k, num_steps)) for t in range(0, num_steps, k)]
-        lengths = {b - a for a, b in self._ticks}
-        self._weights = {n: self.low_level.step_weights(n, model.opt.timestep) for n in lengths}
-        # One set of contiguous buffers per tick length (k, and a shorter last one if T % k).
-        self._tick_buffers = {
-            n: (
-                np.zeros((num_rollouts, n, width)),
-                np.zeros((num_rollouts, n, nstate)),
-                np.zeros((num_rollouts, n, model.nsensordata)),
-            )
-            for n in lengths
-        }
 
     def rollout(
         self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
@@ -241,53 +238,32 @@ class LowLevelRollout(RolloutBackend):
                 f"the low-level rollout takes (N, T, {self.low_level.command_size}) commands, got {commands.shape}"
             )
         if self._shape != (num_rollouts, num_steps):
-            self._allocate(num_rollouts, num_steps)
-        spec = mujoco.mjtState.mjSTATE_CTRL
-        if mocap is not None and self.model.nmocap:
-            spec = MOCAP_CONTROL_SPEC
-            for inputs, _, _ in self._tick_buffers.values():
-                inputs[..., self.model.nu :] = mocap
-        self._current[:] = initial_state
-        self._previous[:] = 0.0
-        self._finite[:] = True
-        blocks = self.inner.blocks(num_rollouts)
+            self._shape = (num_rollouts, num_steps)
+            self._states = np.zeros((num_rollouts, num_steps, self._stepper.nstate))
+            self._sensors = np.zeros((num_rollouts, num_steps, self.model.nsensordata))
+        stepper, low = self._stepper, self.low_level
+        stepper.start(num_rollouts, num_steps, initial_state, mocap)
+        num_state = 1 + self.model.nq + self.model.nv  # STATE_SPEC starts [time, qpos, qvel]
 
-        def roll(block: int) -> None:
-            self._roll_block(blocks[block], block, commands, spec)
+        def observe(rows: slice, start: int, current: np.ndarray, previous: np.ndarray) -> np.ndarray:
+            out = stepper.observations[rows]
+            return low.observe(commands[rows, start], current[:, 1:num_state], previous, current[:, 0], out)
 
-        self.inner.for_each_block(num_rollouts, roll)
-        self.act_calls += len(self._ticks) * len(blocks)
-        if not self._finite.all():
-            self._states[~self._finite] = np.nan
-            self._sensors[~self._finite] = np.nan
+        def act(rows: slice, observations: np.ndarray) -> np.ndarray:
+            return low.policy.checked_act(observations, require_finite=False)  # (B, H, A); NaN: that rollout loses
+
+        def record(rows: slice, start: int, stop: int) -> None:
+            self._states[rows, start:stop] = stepper.states[stop - start][rows]
+            self._sensors[rows, start:stop] = stepper.sensors[stop - start][rows]
+
+        blocks = stepper.run_blocks(self.inner, observe, act, record)
+        self.act_calls += len(stepper.ticks) * blocks
+        if not stepper.finite.all():
+            self._states[~stepper.finite] = np.nan
+            self._sensors[~stepper.finite] = np.nan
         return self._states, self._sensors
 
-    def _roll_block(self, rows: slice, block: int, commands: np.ndarray, spec: int) -> None:
-        """Every tick of the rollouts in `rows`, one worker's block, on the calling thread: build their (B, O)
-        observations, one batched `act`, then k steps of each with the ctrl held (or off the chunk's spline).
-        Blocks only read and write their own rows of the shared buffers."""
-        model, low, policy = self.model, self.low_level, self.low_level.policy
-        nu, num_state = model.nu, 1 + model.nq + model.nv  # STATE_SPEC starts [time, qpos, qvel]
-        current, previous, finite = self._current[rows], self._previous[rows], self._finite[rows]  # views
-        for start, stop in self._ticks:
-            observations = low.observe(commands[rows, start], current[:, 1:num_state], previous, current[:, 0])
-            chunk = policy.checked_act(observations, require_finite=False)  # (B, H, A); NaN: that rollout loses
-            if not math.isfinite(chunk.sum()):  # one cheap reduction per tick; rows only when it fails
-                finite &= np.isfinite(chunk).all(axis=(1, 2))
-            inputs, states, sensors = self._tick_buffers[stop - start]
-            if low.chunk is None:  # one action, held for the tick
-                previous[:] = chunk[:, 0]
-                inputs[rows, :, :nu] = low.ctrl(chunk[:, 0])[:, None, :]
-            else:  # each step's action off the chunk's spline
-                actions = np.einsum("sh,bha->bsa", self._weights[stop - start], chunk)
-                previous[:] = actions[:, -1]
-                inputs[rows, :, :nu] = low.ctrl(actions.reshape(-1, actions.shape[-1])).reshape(len(chunk), -1, nu)
-            self.inner.rollout_block(block, self._current, inputs, spec, states, sensors)
-            self._states[rows, start:stop] = states[rows]
-            self._sensors[rows, start:stop] = sensors[rows]
-            current[:] = states[rows, -1]
-
-    def set_cancel(self, cancel) -> None:  # noqa: ANN001  (see RolloutBackend.set_cancel)
+    def set_cancel(self, cancel) -> None:
         """See `RolloutBackend.set_cancel`: the inner pool polls it between its pieces, every tick."""
         self.cancel = cancel
         self.inner.set_cancel(cancel)
@@ -311,14 +287,14 @@ class LowLevelPlant:
         low_level.check(model)
         self.low_level = low_level
         self.command = np.zeros(low_level.command_size)
-        self._previous = np.zeros((1, low_level.policy.action_size))
-        self._weights = low_level.step_weights(low_level.every, model.opt.timestep)  # (k, H)
-        self._tick_ctrl = np.zeros((low_level.every, model.nu))
+        self._stepper = low_level.stepper(model)
+        self._stepper.start(1, low_level.every, np.zeros(self._stepper.nstate))
+        self._tick_ctrl = self._stepper.inputs[low_level.every][0]  # (k, nu): this tick's ctrl
         self._steps = 0
 
     def reset(self) -> None:
         """Forget the previous action and restart the tick count (after a reset of the plant)."""
-        self._previous[:] = 0.0
+        self._stepper.previous[:] = 0.0
         self._steps = 0
 
     def before_step(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -326,14 +302,13 @@ class LowLevelPlant:
         step's into `data.ctrl`. PolicyError for a non-finite action."""
         tick_step = self._steps % self.low_level.every
         if tick_step == 0:
+            stepper, policy = self._stepper, self.low_level.policy
             state = np.concatenate([data.qpos, data.qvel])[None]
-            observation = self.low_level.observe(self.command[None], state, self._previous, np.array([data.time]))
-            policy = self.low_level.policy
-            chunk = policy.checked_act(np.asarray(observation, dtype=float), require_finite=False)[0]  # (H, A)
+            times = np.array([data.time])
+            observation = self.low_level.observe(self.command[None], state, stepper.previous, times)
+            chunk = policy.checked_act(np.asarray(observation, dtype=float), require_finite=False)  # (1, H, A)
             if not np.isfinite(chunk).all():
                 raise PolicyError(f"low-level policy {policy.name!r} returned non-finite actions on the plant")
-            actions = self._weights @ chunk  # (k, A): held, or off the chunk's spline
-            self._previous[:] = actions[-1]
-            self._tick_ctrl[:] = self.low_level.ctrl(actions)
+            stepper.act(slice(0, 1), chunk, self.low_level.every)  # the tick's ctrl, held or off the chunk
         data.ctrl[:] = self._tick_ctrl[tick_step]
         self._steps += 1

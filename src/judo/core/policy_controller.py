@@ -37,7 +37,7 @@ from judo.core.controller import (
 )
 from judo.core.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
-from judo.core.model import set_mocap_poses
+from judo.core.model import model_at
 from judo.core.planner import checked_reading
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
@@ -176,12 +176,7 @@ class PolicyController:
         it when the task overrides the hook, and the action in force as the previous action."""
         sensors = None
         if self._scratch is not None:
-            data, model = self._scratch, self.task.model
-            data.time = time
-            data.qpos[:], data.qvel[:] = state[: model.nq], state[model.nq :]
-            set_mocap_poses(model, data, system_metadata)
-            mujoco.mj_forward(model, data)
-            sensors = data.sensordata[None].copy()
+            sensors = model_at(self.task.model, self._scratch, state, time, system_metadata).sensordata[None].copy()
         previous = self.action(time, state)[None]
         observation = np.asarray(self.task.policy_observation(state[None], sensors, system_metadata, previous), float)
         if observation.shape != (1, self.policy.observation_size):

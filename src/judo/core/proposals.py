@@ -32,13 +32,11 @@ import mujoco.rollout
 import numpy as np
 
 from judo.core.errors import ConfigError
-from judo.core.model import STATE_SPEC
+from judo.core.model import mocap_metadata, model_at
 from judo.core.policy import Policy, PolicyError
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
+from judo.core.stepper import PolicyStepper
 from judo.core.task import Task
-
-CONTROL_SPEC = mujoco.mjtState.mjSTATE_CTRL
-MOCAP_CONTROL_SPEC = CONTROL_SPEC | mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT
 
 
 def chunk_to_knots(chunks: np.ndarray, knot_offsets: np.ndarray, order: SplineOrder = "linear") -> np.ndarray:
@@ -116,6 +114,7 @@ class Proposer:
         model = task.model
         self._data: mujoco.MjData | None = None  # made at the first proposal: most controllers never propose
         self._runner: mujoco.rollout.Rollout | None = None
+        self._stepper: PolicyStepper | None = None
         self._num_state = model.nq + model.nv
         self._fit_key: tuple | None = None
         self._fit = np.zeros((0, 0))
@@ -174,10 +173,8 @@ class Proposer:
         if data is None:
             data = self._data = mujoco.MjData(model)
             self._runner = mujoco.rollout.Rollout(nthread=0)
-        mujoco.mj_setState(model, data, initial_state, STATE_SPEC)
-        data.mocap_pos[:] = initial_mocap[: 3 * model.nmocap].reshape(-1, 3)
-        data.mocap_quat[:] = initial_mocap[3 * model.nmocap :].reshape(-1, 4)
-        mujoco.mj_forward(model, data)
+        # the initial sensors, on the MjData the closed loop's runner steps (its ctrl and warm start as it left them)
+        model_at(model, data, initial_state, metadata=mocap_metadata(model, initial_mocap))
         states = np.tile(initial_state[1 : 1 + self._num_state], (count, 1))
         sensors = np.tile(data.sensordata, (count, 1))
         observations = self._observe(states, sensors, system_metadata, previous)
@@ -210,27 +207,36 @@ class Proposer:
     ) -> np.ndarray:
         """(count, T + 1, nu) the action policy's actions along `count` closed-loop rollouts of T steps on the
         planning model, clamped to the ctrlrange as the plant would get them, and its action at the end."""
-        assert self._runner is not None  # made with self._data by _candidates, the only caller
-        model, nu = self.task.model, self.task.nu
+        assert self._runner is not None and self._data is not None  # made by _candidates, the only caller
+        model, nu, runner, data = self.task.model, self.task.nu, self._runner, self._data
         low, high = self.task.actuator_ctrlrange.T
+        if self._stepper is None:
+            self._stepper = PolicyStepper(model, nu)  # one step per tick, the action held for it
+        stepper, num_state = self._stepper, self._num_state
+        stepper.start(count, num_steps, initial_state, initial_mocap)  # the mocap poses held as inputs
         actions = np.zeros((count, num_steps + 1, nu))
-        current = np.tile(initial_state, (count, 1))
-        inputs = np.zeros((count, 1, nu + 7 * model.nmocap))
-        inputs[:, 0, nu:] = initial_mocap  # rollout resets mocap poses unless they are inputs
-        spec = MOCAP_CONTROL_SPEC if model.nmocap else CONTROL_SPEC
         models = [model] * count  # skip_checks wants one per rollout
-        state_out = np.zeros((count, 1, len(initial_state)))
-        sensor_out = np.zeros((count, 1, model.nsensordata))
-        for step in range(num_steps + 1):
-            np.minimum(np.maximum(policy.checked_act(observations)[:, 0], low), high, out=actions[:, step])
-            if step == num_steps:
-                break
-            inputs[:, 0, :nu] = actions[:, step]
-            self._runner.rollout(
-                models, [self._data], current, inputs, control_spec=spec, skip_checks=True,
-                nstep=1, state=state_out, sensordata=sensor_out,
+
+        def observe(rows: slice, start: int, current: np.ndarray, previous: np.ndarray) -> np.ndarray:
+            if start == 0:
+                return observations  # at the initial state, made by the caller
+            sensors = stepper.sensors[1][:, -1]
+            return self._observe(current[:, 1 : 1 + num_state], sensors, system_metadata, previous)
+
+        def act(rows: slice, observations: np.ndarray) -> np.ndarray:
+            """(K, 1, nu) the policy's actions, clamped to the ctrlrange as the plant would get them."""
+            return np.minimum(np.maximum(policy.checked_act(observations)[:, :1], low), high)
+
+        def physics(initial: np.ndarray, inputs: np.ndarray, spec: int, states: np.ndarray, sensors: np.ndarray):
+            runner.rollout(
+                models, [data], initial, inputs, control_spec=spec, skip_checks=True,
+                nstep=1, state=states, sensordata=sensors,
             )  # fmt: skip
-            current = state_out[:, 0].copy()
-            states = current[:, 1 : 1 + self._num_state]
-            observations = self._observe(states, sensor_out[:, 0], system_metadata, actions[:, step])
+
+        def record(rows: slice, start: int, stop: int) -> None:
+            actions[:, start] = stepper.previous
+
+        stepper.run(slice(0, count), observe, act, physics, record)
+        final = observe(slice(0, count), num_steps, stepper.current, stepper.previous)
+        actions[:, num_steps] = act(slice(0, count), final)[:, 0]
         return actions

@@ -18,7 +18,7 @@ import numpy as np
 
 from judo.core.config import require, with_updates
 from judo.core.controller import Controller, ControllerConfig
-from judo.core.model import STATE_SPEC, set_mocap_poses
+from judo.core.model import STATE_SPEC, mocap_vector, model_at
 from judo.core.registry import lookup_optimizer, make_config, make_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem, SystemState
@@ -121,14 +121,10 @@ def rollout_start(
 ) -> tuple[np.ndarray, np.ndarray]:
     """What `RolloutPool.rollout` starts from for [qpos, qvel] `state` and mocap poses in `metadata`:
     the (nstate,) full-physics state and the (7 * nmocap,) mocap vector, as the controller builds them."""
-    data = mujoco.MjData(model)
-    data.time = time
-    data.qpos[:] = state[: model.nq]
-    data.qvel[:] = state[model.nq : model.nq + model.nv]
-    set_mocap_poses(model, data, metadata)
+    data = model_at(model, mujoco.MjData(model), state, time, metadata, forward=False)
     initial = np.zeros(mujoco.mj_stateSize(model, STATE_SPEC))
     mujoco.mj_getState(model, data, initial, STATE_SPEC)
-    return initial, np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
+    return initial, mocap_vector(data)
 
 
 def time_control_update(

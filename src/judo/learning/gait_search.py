@@ -20,6 +20,7 @@ import numpy as np
 from judo.core.config import require, require_between
 from judo.core.model import STATE_SPEC
 from judo.core.rollout import RolloutPool
+from judo.core.stepper import PolicyStepper
 from judo.learning.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout, gait_actions
 from judo.optimizers.cem import CEM, CEMConfig
 from judo.tasks.quadruped import GAITS, STANDING_HEIGHT
@@ -132,11 +133,13 @@ class GaitSearchResult:
 
 class GaitEpisodes:
     """Steps B closed-loop episodes of the quadruped at once, each with its own gait policy parameters, on a
-    `RolloutPool` (its worker threads and MjData kept for every tick of every run; `close` ends them)."""
+    `PolicyStepper` block by block on a `RolloutPool`'s workers (its threads and MjData kept for every tick of
+    every run; `close` ends them)."""
 
     def __init__(self, task: QuadrupedVelocity, layout: GaitLayout, workers: int) -> None:
         self.task, self.layout, self.model = task, layout, task.model
         self.pool = RolloutPool(self.model, workers)
+        self.stepper = PolicyStepper(self.model, self.model.nu, EVERY)
         data = mujoco.MjData(self.model)
         data.qpos[:] = self.model.key_qpos[0]
         data.ctrl[:] = task.home_ctrl
@@ -149,22 +152,26 @@ class GaitEpisodes:
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Walk (B, P) `parameters` rows on (B, 3) `commands` from standing at (B,) sim `start_times` for `seconds`;
         returns each tick's (B, ticks, nq + nv) states, (B, ticks, nsensordata) sensors and (B, ticks, 12) ctrl."""
-        model, batch = self.model, len(parameters)
+        model, batch, stepper, layout = self.model, len(parameters), self.stepper, self.layout
         ticks = max(1, round(seconds / (EVERY * model.opt.timestep)))
-        current = np.tile(self._standing, (batch, 1))
-        current[:, 0] = start_times
+        stepper.start(batch, ticks * EVERY, self._standing)
+        stepper.current[:, 0] = start_times
         states = np.zeros((batch, ticks, model.nq + model.nv))
         sensors = np.zeros((batch, ticks, model.nsensordata))
         ctrl = np.zeros((batch, ticks, model.nu))
-        held = np.zeros((batch, EVERY, model.nu))  # one tick's ctrl, and what its steps reach
-        stepped, read = np.zeros((batch, EVERY, self.pool.nstate)), np.zeros((batch, EVERY, model.nsensordata))
-        for tick in range(ticks):
-            observation = self.task.locomotion_observation(commands, current[:, 1:], None, current[:, 0])
-            ctrl[:, tick] = gait_actions(parameters, observation, self.layout)
-            held[:] = ctrl[:, tick, None]
-            self.pool.rollout_rows(current, held, mujoco.mjtState.mjSTATE_CTRL, stepped, read)
-            current[:] = stepped[:, -1]
-            states[:, tick], sensors[:, tick] = current[:, 1:], read[:, -1]
+
+        def observe(rows: slice, start: int, current: np.ndarray, previous: np.ndarray) -> np.ndarray:
+            return self.task.locomotion_observation(commands[rows], current[:, 1:], None, current[:, 0])
+
+        def act(rows: slice, observations: np.ndarray) -> np.ndarray:
+            return gait_actions(parameters[rows], observations, layout)[:, None]  # (B, 1, 12), held for the tick
+
+        def record(rows: slice, start: int, stop: int) -> None:  # each tick keeps its last step's row
+            tick = start // EVERY
+            ctrl[rows, tick] = stepper.inputs[EVERY][rows, 0]
+            states[rows, tick], sensors[rows, tick] = stepper.current[rows, 1:], stepper.sensors[EVERY][rows, -1]
+
+        stepper.run_blocks(self.pool, observe, act, record)
         return states, sensors, ctrl
 
     def close(self) -> None:

@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 
 from judo.core.errors import JudoError
-from judo.core.model import set_mocap_poses
+from judo.core.model import model_at
 from judo.core.task import Task
 
 FEATURE = "python -m judo distill"
@@ -110,11 +110,7 @@ def episode_observations(
         if wants_sensors:
             sensors = np.zeros((len(index), model.nsensordata))
             for j, row in enumerate(index):
-                data.time = (row + 1) * time_step
-                data.qpos[:], data.qvel[:] = states[row, : model.nq], states[row, model.nq :]
-                set_mocap_poses(model, data, metadata)
-                mujoco.mj_forward(model, data)
-                sensors[j] = data.sensordata
+                sensors[j] = model_at(model, data, states[row], (row + 1) * time_step, metadata).sensordata
         block = np.asarray(task.policy_observation(states[index], sensors, metadata, previous[index]), dtype=float)
         if rows.shape[1] != block.shape[1]:
             rows = np.zeros((len(states), block.shape[1]))
