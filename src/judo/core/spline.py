@@ -35,8 +35,13 @@ class SplineBasis:
         self.knot_times = knot_times
         self.order: SplineOrder = order
         self._knot_list = knot_times.tolist()
+        # What `weights` looks up per segment, computed once: the interior knots (searching them gives the
+        # segment, already within 0..num_nodes - 2), each segment's length h and its cubic factor h**2 / 6.
+        self._interior = knot_times[1:-1]
+        self._lengths = np.diff(knot_times)
         if order == "cubic":
             self._second_derivative_map = _not_a_knot_second_derivatives(knot_times)
+            self._curvatures = self._lengths**2 / 6.0
 
     def weights(self, query_times: np.ndarray) -> np.ndarray:
         """(num_queries, num_nodes) matrix W with spline(query_times) = W @ knots."""
@@ -47,22 +52,20 @@ class SplineBasis:
         if num_nodes == 1:
             weights[:, 0] = 1.0
             return weights
-        segment = np.clip(np.searchsorted(self.knot_times, t, side="right") - 1, 0, num_nodes - 2)
+        segment = np.searchsorted(self._interior, t, side="right")  # within 0..num_nodes - 2
         if self.order == "zero":
             at_end = t >= self.knot_times[-1]
             weights[rows, np.where(at_end, num_nodes - 1, segment)] = 1.0
             return weights
-        h = self.knot_times[segment + 1] - self.knot_times[segment]
-        a = (t - self.knot_times[segment]) / h  # position within the segment, 0..1
-        weights[rows, segment] = 1.0 - a
-        weights[rows, segment + 1] += a
+        following = segment + 1
+        a = (t - self.knot_times[segment]) / self._lengths[segment]  # position within the segment, 0..1
+        b = 1.0 - a
+        weights[rows, segment] = b
+        weights[rows, following] += a
         if self.order == "cubic":
-            b = 1.0 - a
-            curvature = h**2 / 6.0
+            curvature = self._curvatures[segment]
             m = self._second_derivative_map
-            weights += (curvature * (b**3 - b))[:, None] * m[segment] + (curvature * (a**3 - a))[:, None] * m[
-                segment + 1
-            ]
+            weights += (curvature * (b**3 - b))[:, None] * m[segment] + (curvature * (a**3 - a))[:, None] * m[following]
         return weights
 
     def weights_at(self, query_time: float) -> np.ndarray:
