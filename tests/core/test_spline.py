@@ -67,3 +67,37 @@ def test_one_time_weights_equal_the_batched_weights(order, num_knots):
         np.testing.assert_allclose(basis.weights_at(query), row, atol=1e-12)
     spline = Spline(0.5, basis, np.random.default_rng(0).normal(size=(num_knots, 2)))
     np.testing.assert_allclose(spline(0.9), spline(np.array([0.9]))[0], atol=1e-12)
+
+
+def plain_weights(basis: SplineBasis, query_times: np.ndarray) -> np.ndarray:
+    """`SplineBasis.weights` as first written: every segment's length and factor looked up per query."""
+    knot_times = basis.knot_times
+    t = np.minimum(np.maximum(np.asarray(query_times, dtype=float), knot_times[0]), knot_times[-1])
+    num_nodes, rows = len(knot_times), np.arange(len(t))
+    weights = np.zeros((len(t), num_nodes))
+    if num_nodes == 1:
+        weights[:, 0] = 1.0
+        return weights
+    segment = np.clip(np.searchsorted(knot_times, t, side="right") - 1, 0, num_nodes - 2)
+    if basis.order == "zero":
+        weights[rows, np.where(t >= knot_times[-1], num_nodes - 1, segment)] = 1.0
+        return weights
+    h = knot_times[segment + 1] - knot_times[segment]
+    a = (t - knot_times[segment]) / h
+    weights[rows, segment] = 1.0 - a
+    weights[rows, segment + 1] += a
+    if basis.order == "cubic":
+        b, curvature, m = 1.0 - a, h**2 / 6.0, basis._second_derivative_map
+        weights += (curvature * (b**3 - b))[:, None] * m[segment] + (curvature * (a**3 - a))[:, None] * m[segment + 1]
+    return weights
+
+
+@pytest.mark.parametrize("order", list(MIN_KNOTS))
+def test_weights_equal_the_plain_formula_bit_for_bit(order):
+    rng = np.random.default_rng(7)
+    for num_knots in range(MIN_KNOTS[order], 9):
+        for knot_times in (np.linspace(0.0, 0.25, num_knots), np.cumsum(rng.uniform(0.01, 1.0, num_knots)) - 0.5):
+            basis = SplineBasis(knot_times, order)
+            ends = [knot_times[0] - 1.0, knot_times[-1] + 1.0, np.nan, np.inf, -np.inf]
+            for queries in (knot_times + 0.02, rng.uniform(-1.0, 3.0, 37), np.concatenate([knot_times, ends])):
+                assert basis.weights(queries).tobytes() == plain_weights(basis, queries).tobytes()

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from judo.core.optimizer import weighted_knots
 from judo.optimizers import CEM, MPPI, CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
 
 
@@ -87,3 +88,28 @@ def test_cem_keeps_its_std_free_of_the_noise_ramp():
     np.testing.assert_allclose(samples[1:].std(0)[:, 0], 0.2 * np.array([0.5, 1.0, 1.5, 2.0]), rtol=0.06)
     opt.update_nominal_knots(samples, np.zeros(4000))
     np.testing.assert_allclose(opt.sigma, 0.2, rtol=0.06)
+
+
+@pytest.mark.parametrize("use_noise_ramp", [False, True])
+@pytest.mark.parametrize("sigma", [0.3, np.array([[0.1], [0.2], [0.4]]), np.full((3, 2), 0.7)])
+def test_perturb_draws_the_same_numbers_as_a_fresh_noise_array(use_noise_ramp, sigma):
+    config = MPPIConfig(num_rollouts=7, num_nodes=3, use_noise_ramp=use_noise_ramp, noise_ramp=3.0)
+    fast, reference = MPPI(config, nu=2), MPPI(config, nu=2)
+    fast.rng, reference.rng = np.random.default_rng(4), np.random.default_rng(4)
+    nominal = np.random.default_rng(1).normal(size=(3, 2))
+    noise = reference.rng.standard_normal((6, 3, 2))  # the plain formula, bit for bit
+    noise *= sigma * reference.noise_ramp_scale()
+    noise += nominal
+    expected = np.concatenate([nominal[None], noise])
+    assert fast.perturb(nominal, sigma).tobytes() == expected.tobytes()
+    assert fast.rng.standard_normal() == reference.rng.standard_normal()  # the generators stay in step
+
+
+def test_weighted_knots_is_tensordot_bit_for_bit():
+    rng = np.random.default_rng(2)
+    for num_rollouts, num_nodes, nu in [(1, 2, 1), (32, 4, 1), (33, 5, 3), (256, 8, 12)]:
+        weights, knots = rng.random(num_rollouts), rng.normal(size=(num_rollouts, num_nodes, nu))
+        expected = np.tensordot(weights, knots, axes=1)
+        assert weighted_knots(weights, knots).tobytes() == expected.tobytes()
+        strided = np.repeat(knots, 2, axis=0)[::2]  # not contiguous: copied as tensordot copies it
+        assert weighted_knots(weights, strided).tobytes() == np.tensordot(weights, strided, axes=1).tobytes()

@@ -180,6 +180,8 @@ class Controller:
         self._rollout_weights, self._controls = rollout_weights, controls
         self._batch_controls = batch_controls
         self._control_blocks = batch_controls.reshape(num_models, *controls.shape)
+        self._num_steps = num_steps
+        self._trace_rows = np.zeros(num_rollouts + 1, dtype=int)  # [0, the best rollouts...], see `update_action`
         self._layout_key = key
 
     def _set_models(self, num_models: int) -> None:
@@ -246,7 +248,7 @@ class Controller:
             self._initial_state,
             self._initial_mocap,
             self._basis,
-            self.num_steps,
+            self._num_steps,
             system_metadata,
             nominal[0],  # the action served now
         )
@@ -288,7 +290,8 @@ class Controller:
                     raise JudoError(
                         f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)"
                     )
-                rewards[np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged] = -np.inf  # these never win
+                if self.backend.diverged is not False or not np.isfinite(rewards).all():
+                    rewards[np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged] = -np.inf  # these never win
                 if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
                     rewards = reduce_rewards(
                         rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale
@@ -312,7 +315,9 @@ class Controller:
             start = (self._initial_state, self._initial_mocap, opt.num_rollouts * len(self.models))
             self._plan = self._gains.add_to(self._plan, self._rollout_weights, *start)
         shown = np.argsort(-rewards, kind="stable")[: self.config.max_num_traces]
-        self.traces = sensors[np.r_[0, shown]][..., self._trace_columns].reshape(len(shown) + 1, self.num_steps, -1, 3)
+        rows = self._trace_rows[: len(shown) + 1]  # row 0 stays 0: the nominal
+        rows[1:] = shown
+        self.traces = sensors[rows][..., self._trace_columns].reshape(len(rows), self._num_steps, -1, 3)
         return self._plan
 
     def _restart_search(self, what: str) -> None:

@@ -135,7 +135,17 @@ class Optimizer(ABC, Generic[ConfigT]):
     def perturb(self, nominal_knots: np.ndarray, sigma: float | np.ndarray) -> np.ndarray:
         """(num_rollouts, num_nodes, nu): the nominal first, then the nominal plus Gaussian noise of
         std `sigma` (scalar or (num_nodes, nu)) times the noise ramp."""
-        noise = self.rng.standard_normal((self.num_rollouts - 1, self.num_nodes, self.nu))
-        noise *= sigma * self.noise_ramp_scale()
+        samples = np.empty((self.num_rollouts, self.num_nodes, self.nu))
+        samples[0] = nominal_knots
+        noise = samples[1:]  # drawn in place: the same numbers as a new array of this shape
+        self.rng.standard_normal(out=noise)
+        noise *= sigma * self.noise_ramp_scale() if self.config.use_noise_ramp else sigma  # without: ones
         noise += nominal_knots
-        return np.concatenate([nominal_knots[None], noise])
+        return samples
+
+
+def weighted_knots(weights: np.ndarray, knots: np.ndarray) -> np.ndarray:
+    """(num_nodes, nu) sum over i of weights[i] * knots[i], for (num_rollouts,) `weights` and (num_rollouts,
+    num_nodes, nu) `knots`: the one matrix product `np.tensordot(weights, knots, axes=1)` makes, bit for bit,
+    without its axis bookkeeping."""
+    return np.dot(weights.reshape(1, -1), knots.reshape(len(weights), -1)).reshape(knots.shape[1:])

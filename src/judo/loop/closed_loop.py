@@ -201,10 +201,11 @@ class ClosedLoop:
         self.last_cycle_failed, self.newest_stamp = False, stamp
         with self._lock:
             self._pending.append((reading.time + delay, plan, stamp))
-        traces = self._traces_if_wanted()
-        record = PlanRecord.of_update(reading.time, delay, plan.knots, wall, self.controller.rewards, traces)
-        for recorder in self.recorders:
-            recorder.on_plan(record)
+        if self.recorders:  # the record is built only for someone to read it
+            traces = self._traces_if_wanted()
+            record = PlanRecord.of_update(reading.time, delay, plan.knots, wall, self.controller.rewards, traces)
+            for recorder in self.recorders:
+                recorder.on_plan(record)
         return plan
 
     def _predicted(self, reading: SystemState) -> SystemState:

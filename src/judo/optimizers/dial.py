@@ -11,7 +11,7 @@ import numpy as np
 from judo.core.config import require, require_between
 from judo.core.controller import MAX_OPT_ITERS
 from judo.core.fields import slider
-from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.optimizer import Optimizer, OptimizerConfig, weighted_knots
 
 
 @slider("sigma", 0.001, 2.0, 0.001)
@@ -91,7 +91,7 @@ class Dial(Optimizer[DialConfig]):
     def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
         self.iteration += 1
         weights = standardised_softmax_weights(rewards, self.config.temperature)
-        return np.tensordot(weights, sampled_knots, axes=1)
+        return weighted_knots(weights, sampled_knots)
 
     def stop_cond(self) -> bool:
         return self.iteration >= self.config.anneal_iters

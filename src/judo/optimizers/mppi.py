@@ -6,7 +6,7 @@ import numpy as np
 
 from judo.core.config import require
 from judo.core.fields import slider
-from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.optimizer import Optimizer, OptimizerConfig, weighted_knots
 
 
 @slider("sigma", 0.001, 2.0, 0.001)
@@ -35,7 +35,7 @@ class MPPI(Optimizer[MPPIConfig]):
 
     def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
         weights = softmax_weights(rewards, self.config.temperature)
-        return np.tensordot(weights, sampled_knots, axes=1)
+        return weighted_knots(weights, sampled_knots)
 
 
 def softmax_weights(rewards: np.ndarray, temperature: float) -> np.ndarray:
