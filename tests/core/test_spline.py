@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from judo import ConfigError, Spline, SplineBasis
-from judo.core.spline import MIN_KNOTS
+from judo.core.spline import MIN_KNOTS, clip_ufunc
 
 KNOT_TIMES = np.array([0.0, 0.3, 0.5, 0.9, 1.4])
 QUERIES = np.linspace(0.0, 1.4, 57)
@@ -101,3 +101,12 @@ def test_weights_equal_the_plain_formula_bit_for_bit(order):
             ends = [knot_times[0] - 1.0, knot_times[-1] + 1.0, np.nan, np.inf, -np.inf]
             for queries in (knot_times + 0.02, rng.uniform(-1.0, 3.0, 37), np.concatenate([knot_times, ends])):
                 assert basis.weights(queries).tobytes() == plain_weights(basis, queries).tobytes()
+
+
+def test_clip_ufunc_is_np_clip_bit_for_bit_with_signed_zeros_nan_and_inf():
+    values = np.array([[-0.0, 0.0, np.nan, -np.inf, np.inf, 0.3, -2.0, 5.0]] * 3).T.copy()  # (8, 3)
+    low, high = np.array([0.0, -0.0, -1.0]), np.array([1.0, 0.0, np.inf])
+    assert clip_ufunc(values, low, high).tobytes() == np.clip(values, low, high).tobytes()
+    out = values.copy()
+    clip_ufunc(out, low, high, out=out)
+    assert out.tobytes() == np.clip(values, low, high).tobytes()

@@ -36,7 +36,7 @@ from judo.core.policy import Policy
 from judo.core.proposals import Proposer, insert_proposals
 from judo.core.randomize import randomized_models
 from judo.core.risk import reduce_rewards
-from judo.core.spline import Spline, SplineBasis
+from judo.core.spline import Spline, SplineBasis, clip_ufunc
 from judo.core.task import Task, legacy_warm_start, warm_start_takes_state
 
 __all__ = [
@@ -265,7 +265,7 @@ class Controller:
                 if not np.isfinite(knots).all():
                     self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
                 rows = None if candidates is None else insert_proposals(knots, candidates)
-                np.clip(knots, self._ctrl_low, self._ctrl_high, out=knots)
+                clip_ufunc(knots, self._ctrl_low, self._ctrl_high, out=knots)
                 if rows is not None:
                     opt.samples_replaced(rows, knots[rows])
                 np.matmul(self._rollout_weights, knots, out=self._controls)
@@ -291,7 +291,9 @@ class Controller:
                         f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)"
                     )
                 if self.backend.diverged is not False or not np.isfinite(rewards).all():
-                    rewards[np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged] = -np.inf  # these never win
+                    rewards[
+                        np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged
+                    ] = -np.inf  # these never win
                 if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
                     rewards = reduce_rewards(
                         rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale
@@ -309,8 +311,8 @@ class Controller:
                     break
 
         self.rewards = rewards
-        self.nominal_knots = np.clip(nominal, self._ctrl_low, self._ctrl_high)
-        self._plan = Spline(time, self._basis, self.nominal_knots, self._ctrl_low, self._ctrl_high)
+        self.nominal_knots = nominal = clip_ufunc(nominal, self._ctrl_low, self._ctrl_high)
+        self._plan = Spline(time, self._basis, nominal, self._ctrl_low, self._ctrl_high)
         if cfg.feedback:  # with the gains around its nominal rollout (judo.core.feedback)
             start = (self._initial_state, self._initial_mocap, opt.num_rollouts * len(self.models))
             self._plan = self._gains.add_to(self._plan, self._rollout_weights, *start)
