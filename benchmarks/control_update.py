@@ -1,13 +1,22 @@
 """Median control-update time of every task x optimizer against its floor: the raw rollouts of the same work.
 
 All pairs at the same sizes (N = 32 rollouts, 4 knots, 1 s horizon) so rows compare; the other
-settings are each task's defaults. Run from the repository root:
+settings are each task's defaults. The fixed cost is what an update costs beyond its physics: the
+median update minus the floor, in microseconds (and the same of the minima, steadier on a busy
+machine). Run from the repository root:
 
     PYTHONPATH=src python benchmarks/control_update.py [--samples 100] [--num-workers N]
+
+A small update, the size of judo-rai's cart-pole (N = 32, T = 25), on the calling thread's CPU time:
+
+    PYTHONPATH=src python benchmarks/control_update.py --tasks cartpole --optimizers mppi --horizon 0.25 \\
+        --num-workers 1 --cpu-time --samples 1000
 """
 
+import time
 from dataclasses import dataclass
 
+import numpy as np
 import tyro
 from rich.console import Console
 from rich.table import Table
@@ -30,17 +39,35 @@ class Args:
     """Planning horizon in seconds (T = horizon / timestep steps)."""
     num_workers: int | None = None
     """Rollout worker threads (default: one per core)."""
+    tasks: tuple[str, ...] = ()
+    """Tasks to time (default: every registered one)."""
+    optimizers: tuple[str, ...] = ()
+    """Optimizers to time (default: every registered one)."""
+    cpu_time: bool = False
+    """Time the calling thread's CPU time instead of wall time (needs --num-workers 1, so that every rollout runs
+    on the timed thread; far steadier on a busy machine)."""
 
 
 def main() -> None:
     args = tyro.cli(Args, description=__doc__)
+    if args.cpu_time and args.num_workers != 1:
+        raise SystemExit("--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread")
+    tasks = args.tasks or tuple(get_registered_tasks())
+    optimizers = args.optimizers or tuple(get_registered_optimizers())
+    for name, known in (("task", get_registered_tasks()), ("optimizer", get_registered_optimizers())):
+        unknown = [n for n in (tasks if name == "task" else optimizers) if n not in known]
+        if unknown:
+            raise SystemExit(f"unknown {name} {unknown[0]!r}; expected one of {', '.join(known)}")
+    clock = time.thread_time if args.cpu_time else time.perf_counter
     table = Table(
-        title=f"control update vs rollout floor, N={args.num_rollouts}, {args.num_nodes} knots, {args.horizon:g} s"
+        title=f"control update vs rollout floor, N={args.num_rollouts}, {args.num_nodes} knots, {args.horizon:g} s, "
+        + ("thread CPU time" if args.cpu_time else "wall time")
     )
-    for column in ("task", "optimizer", "N x T", "workers", "update median (ms)", "rollout floor (ms)", "ratio"):
+    columns = ("task", "optimizer", "N x T", "workers", "update median (ms)", "rollout floor (ms)", "ratio")
+    for column in (*columns, "fixed cost (us)", "ratio of minima", "fixed cost of minima (us)"):
         table.add_column(column, justify="left" if column in ("task", "optimizer") else "right")
-    for task in get_registered_tasks():
-        for optimizer in get_registered_optimizers():
+    for task in tasks:
+        for optimizer in optimizers:
             timing = time_pair(
                 task,
                 optimizer,
@@ -49,18 +76,24 @@ def main() -> None:
                 num_nodes=args.num_nodes,
                 horizon=args.horizon,
                 num_workers=args.num_workers,
+                clock=clock,
             )
             row = timing.row()
+            min_floor = timing.max_opt_iters * float(np.min(timing.raw_rollout_ms))
+            min_update = float(np.min(timing.update_ms))
             table.add_row(
                 task,
                 optimizer,
                 f"{row['num_rollouts']} x {row['T']}",
                 str(row["num_workers"]),
-                f"{row['median_ms']:.2f}",
-                f"{row['floor_ms']:.2f}",
-                f"{row['overhead_ratio']:.2f}x",
+                f"{row['median_ms']:.3f}",
+                f"{row['floor_ms']:.3f}",
+                f"{row['overhead_ratio']:.3f}x",
+                f"{row['fixed_cost_us']:.0f}",
+                f"{min_update / min_floor:.3f}x",
+                f"{1e3 * (min_update - min_floor):.0f}",
             )
-    Console(width=120).print(table)
+    Console(width=160).print(table)
 
 
 if __name__ == "__main__":

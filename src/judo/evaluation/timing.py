@@ -60,6 +60,10 @@ class UpdateTiming:
         that ends its cycle early (stop_cond) can score below 1."""
         return float(np.median(self.update_ms)) / self.floor_ms()
 
+    def fixed_cost_us(self) -> float:
+        """The update's cost beyond its physics, in microseconds: the median update minus `floor_ms`."""
+        return 1e3 * (float(np.median(self.update_ms)) - self.floor_ms())
+
     def row(self) -> dict[str, Any]:
         """The JSON row of `python -m judo benchmark --json`."""
         return {
@@ -81,6 +85,7 @@ class UpdateTiming:
             "raw_rollout_ms": float(np.median(self.raw_rollout_ms)),
             "floor_ms": self.floor_ms(),
             "overhead_ratio": self.overhead_ratio(),
+            "fixed_cost_us": self.fixed_cost_us(),
         }
 
 
@@ -194,9 +199,10 @@ def time_pair(
     backend: str = "cpu",
     on_sample: Callable[[], None] | None = None,
     controller_updates: dict[str, Any] | None = None,
+    clock: Callable[[], float] = time.perf_counter,
 ) -> UpdateTiming:
     """Build a controller for the pair on `backend` (default settings except the sizes and controller fields
-    given), time it, close it."""
+    given), time it on `clock` (see `time_control_update`), close it."""
     with benchmark_controller(
         task_name,
         optimizer_name,
@@ -207,7 +213,7 @@ def time_pair(
         backend=backend,
         controller_updates=controller_updates,
     ) as controller:
-        update_ms, raw_ms = time_control_update(controller, samples, warmup, on_sample=on_sample)
+        update_ms, raw_ms = time_control_update(controller, samples, warmup, on_sample=on_sample, clock=clock)
     return UpdateTiming(
         task=task_name,
         optimizer=optimizer_name,
