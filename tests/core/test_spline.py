@@ -110,3 +110,19 @@ def test_clip_ufunc_is_np_clip_bit_for_bit_with_signed_zeros_nan_and_inf():
     out = values.copy()
     clip_ufunc(out, low, high, out=out)
     assert out.tobytes() == np.clip(values, low, high).tobytes()
+
+
+def test_last_weights_are_the_weights_of_these_times_and_read_only():
+    basis = SplineBasis(np.linspace(0.0, 1.0, 4), "cubic")
+    shifted = np.linspace(0.0, 1.0, 4) + 0.02
+    first = basis.last_weights(shifted)
+    assert first.tobytes() == basis.weights(shifted).tobytes()
+    assert basis.last_weights(shifted.copy()) is first  # the same times again: kept
+    assert not first.flags.writeable
+    other = shifted + np.array([0.0, 0.0, 0.0, 1e-12])  # one time a hair later: computed afresh
+    assert basis.last_weights(other).tobytes() == basis.weights(other).tobytes()
+    assert basis.last_weights(shifted[:3]).shape == (3, 4)
+    spline = Spline(0.5, basis, np.random.default_rng(3).normal(size=(4, 2)), -np.ones(2), np.ones(2))
+    times = 0.5 + shifted
+    expected = np.minimum(np.maximum(basis.weights(times - 0.5) @ spline.knots, -1.0), 1.0)
+    assert spline(times).tobytes() == spline(times).tobytes() == expected.tobytes()

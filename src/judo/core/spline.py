@@ -49,6 +49,7 @@ class SplineBasis:
         self.knot_times = knot_times
         self.order: SplineOrder = order
         self._knot_list = knot_times.tolist()
+        self._last_query: tuple[tuple[tuple[int, ...], bytes], np.ndarray] | None = None  # see `last_weights`
         # What `weights` looks up per segment, computed once: the interior knots (searching them gives the
         # segment, already within 0..num_nodes - 2), each segment's length h and its cubic factor h**2 / 6.
         self._interior = knot_times[1:-1]
@@ -80,6 +81,20 @@ class SplineBasis:
             curvature = self._curvatures[segment]
             m = self._second_derivative_map
             weights += (curvature * (b**3 - b))[:, None] * m[segment] + (curvature * (a**3 - a))[:, None] * m[following]
+        return weights
+
+    def last_weights(self, query_times: np.ndarray) -> np.ndarray:
+        """`weights` of the (num_queries,) float `query_times`, read-only, kept for the times of the last call: a
+        plan shifted by one control period is asked for the same times bit for bit update after update. Thread
+        safe: the times and their weights are kept as one pair."""
+        query_times = np.asarray(query_times, dtype=float)
+        key = (query_times.shape, query_times.tobytes())
+        last = self._last_query
+        if last is not None and last[0] == key:
+            return last[1]
+        weights = self.weights(query_times)
+        weights.flags.writeable = False
+        self._last_query = (key, weights)
         return weights
 
     def weights_at(self, query_time: float) -> np.ndarray:
@@ -133,8 +148,7 @@ class Spline:
         # Zero-order and linear splines never leave the range of their knots, so only a cubic, or
         # knots beyond the bounds, need clamping: the common linear case pays nothing.
         has_bounds = bool(np.isfinite(self.low).any() or np.isfinite(self.high).any())
-        knots_inside = bool(((self.knots >= self.low) & (self.knots <= self.high)).all())
-        self._bounded = has_bounds and (basis.order == "cubic" or not knots_inside)
+        self._bounded = has_bounds and (basis.order == "cubic" or not self._knots_inside())
 
     @property
     def knot_times(self) -> np.ndarray:
@@ -147,10 +161,13 @@ class Spline:
         if np.ndim(times) == 0:
             values = self.basis.weights_at(float(times) - self.start_time) @ self.knots
         else:
-            values = self.basis.weights(np.asarray(times) - self.start_time) @ self.knots
+            values = self.basis.last_weights(np.asarray(times) - self.start_time) @ self.knots
         if self._bounded:
             return np.minimum(np.maximum(values, self.low), self.high)  # faster than np.clip or out=
         return values
+
+    def _knots_inside(self) -> bool:
+        return bool(((self.knots >= self.low) & (self.knots <= self.high)).all())
 
 
 def _bounds(value: np.ndarray | None, default: float, nu: int) -> np.ndarray:
