@@ -1,12 +1,13 @@
 """Finite values and sane bounds at the boundary, and a refused change that leaves the running layout intact."""
 
+import copy
 import dataclasses
 
 import numpy as np
 import pytest
 
 import judo
-from judo.core.config import with_updates
+from judo.core.config import snapshot, with_updates
 from judo.core.controller import MAX_ROLLOUT_BYTES, NonFiniteKnotsError, check_configs
 from judo.core.fields import slider_ranges
 from judo.optimizers import CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
@@ -193,3 +194,25 @@ def test_update_config_raises_config_errors_only_with_values_cut_short(updates, 
     with pytest.raises(judo.ConfigError) as error:
         with_updates(judo.ControllerConfig(), updates)  # type: ignore[arg-type]
     assert message in str(error.value) and len(str(error.value)) < 400
+
+
+@dataclasses.dataclass
+class _PlainConfig(judo.TaskConfig):
+    gain: float = 1.0
+    goal: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(2))
+
+
+class _CopyHookConfig(_PlainConfig):
+    def __copy__(self):  # a hook that copy.copy honours, so snapshot does too
+        return _PlainConfig(self.gain * 2, self.goal)
+
+
+@pytest.mark.parametrize("config", [_PlainConfig(3.0), _CopyHookConfig(3.0)])
+def test_snapshot_is_copy_copy_with_its_arrays_copied(config):
+    copied, expected = snapshot(config), copy.copy(config)
+    assert type(copied) is type(expected) and copied is not config
+    for field in dataclasses.fields(config):
+        got, want = getattr(copied, field.name), getattr(expected, field.name)
+        assert np.array_equal(got, want)
+        if isinstance(want, np.ndarray):
+            assert got is not getattr(config, field.name)  # later edits of the original cannot reach it

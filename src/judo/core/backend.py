@@ -12,9 +12,8 @@ back a module that imports it.
 """
 
 import abc
-import contextlib
 import importlib
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from typing import Literal, Protocol, TypeVar, cast, get_args
 
 import mujoco
@@ -95,14 +94,9 @@ class RolloutBackend(abc.ABC):
         """Poll `cancel` during the rollouts from now on (None: never)."""
         self.cancel = cancel
 
-    @contextlib.contextmanager
-    def cancelled_by(self, cancel: "CancelFlag | None") -> Iterator[None]:
+    def cancelled_by(self, cancel: "CancelFlag | None") -> "CancelScope":
         """Within the block, poll `cancel` during the rollouts (`set_cancel`); never after it."""
-        self.set_cancel(cancel)
-        try:
-            yield
-        finally:
-            self.set_cancel(None)
+        return CancelScope(self, cancel)
 
     def close(self) -> None:  # noqa: B027  (no resources by default)
         """Release threads or device memory; the backend cannot be used afterwards."""
@@ -112,6 +106,22 @@ class RolloutBackend(abc.ABC):
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+class CancelScope:
+    """`RolloutBackend.cancelled_by`'s block: `backend` polls `cancel` inside it, and nothing once it is left (a
+    plain class, not a generator: it is entered every planning cycle)."""
+
+    __slots__ = ("backend", "cancel")
+
+    def __init__(self, backend: RolloutBackend, cancel: "CancelFlag | None") -> None:
+        self.backend, self.cancel = backend, cancel
+
+    def __enter__(self) -> None:
+        self.backend.set_cancel(self.cancel)
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.backend.set_cancel(None)
 
 
 class CancelFlag(Protocol):

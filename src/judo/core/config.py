@@ -1,6 +1,7 @@
 """The config base class and the one place where a config field is set from outside (file, CLI, GUI)."""
 
 import copy
+import copyreg
 import functools
 import math
 import typing
@@ -173,8 +174,27 @@ def with_updates(config: ConfigT, updates: dict[str, Any]) -> ConfigT:
 
 def snapshot(config: ConfigT) -> ConfigT:
     """A copy of `config` that later edits of the original cannot reach (arrays are copied too)."""
-    copied = copy.copy(config)
+    if _copies_its_dict(type(config)):  # what copy.copy does for such a class, without its lookups
+        copied = object.__new__(type(config))
+        copied.__dict__.update(config.__dict__)
+    else:
+        copied = copy.copy(config)
     for name, value in vars(copied).items():
         if isinstance(value, np.ndarray):
             setattr(copied, name, value.copy())
     return copied
+
+
+@functools.cache
+def _copies_its_dict(cls: type) -> bool:
+    """Whether copy.copy of a `cls` instance is a new instance whose __dict__ is updated from the original's:
+    a plain class (a dataclass config) that defines none of the hooks that change copying, nor slots."""
+    hooks = ("__copy__", "__setstate__", "__getnewargs__", "__getnewargs_ex__", "__slots__")
+    return (
+        cls.__new__ is object.__new__
+        and cls.__reduce_ex__ is object.__reduce_ex__
+        and cls.__reduce__ is object.__reduce__
+        and getattr(cls, "__getstate__", None) in (None, getattr(object, "__getstate__", None))
+        and not any(hasattr(cls, hook) for hook in hooks)
+        and cls not in copyreg.dispatch_table
+    )

@@ -201,7 +201,8 @@ class Controller:
     def _set_initial_state(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None) -> None:
         data = model_at(self.task.model, self._scratch, state, time, system_metadata, forward=False)
         mujoco.mj_getState(self.task.model, data, self._initial_state, STATE_SPEC)
-        self._initial_mocap[:] = mocap_vector(data)
+        if len(self._initial_mocap):  # a model without mocap bodies has none to copy
+            self._initial_mocap[:] = mocap_vector(data)
 
     def update_action(
         self,
