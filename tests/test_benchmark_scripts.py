@@ -280,3 +280,13 @@ def test_pytorch_mppi_comparison_runs_its_judo_half_and_asks_for_the_torch_venv(
     assert refused.returncode == 1 and refused.stderr.strip() == (
         "--torch-python is needed: the interpreter of a throwaway venv with torch and pytorch-mppi"
     )
+
+
+def test_control_update_prints_the_fixed_cost_of_a_small_update_on_cpu_time():
+    small = ["--tasks", "cartpole", "--optimizers", "mppi", "--horizon", "0.05", "--samples", "3", "--num-workers", "1"]
+    result = run_script("control_update.py", *small, "--cpu-time")
+    assert result.returncode == 0, result.stderr
+    assert "thread CPU time" in result.stdout and "fixed cost (us)" in result.stdout
+    assert "│ cartpole │ mppi      │ 32 x 5 │       1 │" in result.stdout
+    refused = run_script("control_update.py", "--tasks", "cartpole", "--cpu-time")
+    assert refused.returncode != 0 and "--cpu-time needs --num-workers 1" in refused.stderr

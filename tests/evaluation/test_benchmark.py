@@ -30,6 +30,8 @@ def test_benchmark_writes_one_row_per_pair(tmp_path, capsys):
     out = capsys.readouterr().out
     assert "cartpole: control update time (ms), 1 rollout workers" in out
     assert "median (IQR)" in out and "raw rollout" in out and "overhead" in out
+    for row in rows:  # what an update costs beyond its physics
+        assert row["fixed_cost_us"] == pytest.approx(1e3 * (row["median_ms"] - row["floor_ms"]))
 
 
 def test_timing_uses_the_sizes_asked_for():
@@ -75,3 +77,4 @@ def test_the_rollout_floor_counts_one_batch_per_iteration():
     assert timing.floor_ms() == 3 * 3.0
     assert timing.overhead_ratio() == 9.0 / 9.0  # the update against the same work: three raw rollouts
     assert timing.row()["floor_ms"] == 9.0
+    assert timing.fixed_cost_us() == 0.0
