@@ -11,6 +11,9 @@ A small update, the size of judo-rai's cart-pole (N = 32, T = 25), on the callin
 
     PYTHONPATH=src python benchmarks/control_update.py --tasks cartpole --optimizers mppi --horizon 0.25 \\
         --num-workers 1 --cpu-time --samples 1000
+
+It uses only what judo.evaluation.timing has had since the closed loop became a library, so an older
+checkout's judo can be timed by the same script: PYTHONPATH=<that checkout>/src.
 """
 
 import time
@@ -22,7 +25,7 @@ from rich.console import Console
 from rich.table import Table
 
 from judo import get_registered_optimizers, get_registered_tasks
-from judo.evaluation.timing import time_pair
+from judo.evaluation.timing import benchmark_controller, time_control_update
 
 
 @dataclass
@@ -68,30 +71,24 @@ def main() -> None:
         table.add_column(column, justify="left" if column in ("task", "optimizer") else "right")
     for task in tasks:
         for optimizer in optimizers:
-            timing = time_pair(
-                task,
-                optimizer,
-                args.samples,
-                num_rollouts=args.num_rollouts,
-                num_nodes=args.num_nodes,
-                horizon=args.horizon,
-                num_workers=args.num_workers,
-                clock=clock,
-            )
-            row = timing.row()
-            min_floor = timing.max_opt_iters * float(np.min(timing.raw_rollout_ms))
-            min_update = float(np.min(timing.update_ms))
+            sizes = {"num_rollouts": args.num_rollouts, "num_nodes": args.num_nodes, "horizon": args.horizon}
+            with benchmark_controller(task, optimizer, num_workers=args.num_workers, **sizes) as controller:
+                update_ms, raw_ms = time_control_update(controller, args.samples, clock=clock)
+                iters, shape = controller.config.max_opt_iters, controller.batch_controls.shape
+                workers = controller.backend.num_workers
+            median, floor = float(np.median(update_ms)), iters * float(np.median(raw_ms))  # one batch per iteration
+            least, least_floor = float(np.min(update_ms)), iters * float(np.min(raw_ms))
             table.add_row(
                 task,
                 optimizer,
-                f"{row['num_rollouts']} x {row['T']}",
-                str(row["num_workers"]),
-                f"{row['median_ms']:.3f}",
-                f"{row['floor_ms']:.3f}",
-                f"{row['overhead_ratio']:.3f}x",
-                f"{row['fixed_cost_us']:.0f}",
-                f"{min_update / min_floor:.3f}x",
-                f"{1e3 * (min_update - min_floor):.0f}",
+                f"{shape[0]} x {shape[1]}",
+                str(workers),
+                f"{median:.3f}",
+                f"{floor:.3f}",
+                f"{median / floor:.3f}x",
+                f"{1e3 * (median - floor):.0f}",
+                f"{least / least_floor:.3f}x",
+                f"{1e3 * (least - least_floor):.0f}",
             )
     Console(width=160).print(table)
 
