@@ -290,3 +290,12 @@ def test_control_update_prints_the_fixed_cost_of_a_small_update_on_cpu_time():
     assert "│ cartpole │ mppi      │ 32 x 5 │       1 │" in result.stdout
     refused = run_script("control_update.py", "--tasks", "cartpole", "--cpu-time")
     assert refused.returncode != 0 and "--cpu-time needs --num-workers 1" in refused.stderr
+
+
+def test_fixed_cost_splits_an_update_without_physics_into_reward_and_the_rest():
+    small = ["--tasks", "cartpole", "--num-rollouts", "8", "--horizon", "0.05", "--updates", "3", "--profile", "5"]
+    result = run_script("fixed_cost.py", *small)
+    assert result.returncode == 0, result.stderr
+    assert "update without physics" in result.stdout and "│ cartpole │ 8 x 5 │     1 │" in result.stdout
+    assert "--- cartpole: the 5 costliest functions of 3 updates without physics" in result.stdout
+    assert "update_action" in result.stdout  # the profile names the controller's own lines
