@@ -78,3 +78,14 @@ def test_the_rollout_floor_counts_one_batch_per_iteration():
     assert timing.overhead_ratio() == 9.0 / 9.0  # the update against the same work: three raw rollouts
     assert timing.row()["floor_ms"] == 9.0
     assert timing.fixed_cost_us() == 0.0
+
+
+def test_cpu_time_needs_one_worker_and_names_the_clock(capsys):
+    with pytest.raises(SystemExit) as exit_info:
+        main(["--tasks", "pendulum", "--cpu-time", "--num-workers", "2"])
+    assert exit_info.value.code == 2
+    expected = "--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread; got --num-workers 2"
+    assert capsys.readouterr().err == f"error: {expected}\n"
+    argv = ["--tasks", "pendulum", "--optimizers", "ps", "--samples", "2", "--warmup", "0", "--num-workers", "1"]
+    assert main([*argv, "--cpu-time"]) == 0
+    assert "pendulum: control update time (ms of thread CPU time), 1 rollout workers" in capsys.readouterr().out

@@ -1,5 +1,6 @@
 """`python -m judo benchmark`: time the control update of every task x optimizer pair against raw rollouts."""
 
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated
@@ -63,6 +64,9 @@ class BenchmarkArgs:
     """Rollout worker threads (cpu backend)."""
     backend: RolloutBackendName = "cpu"
     """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install -e ".[warp]")."""
+    cpu_time: bool = False
+    """Time the calling thread's CPU time instead of wall time: far steadier on a busy machine. Needs
+    --num-workers 1, so that every rollout runs on the timed thread."""
     json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also write one row per pair to this JSON file."""
     controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
@@ -78,18 +82,23 @@ class BenchmarkArgs:
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
         )
+        workers = "no --num-workers (one per core)" if self.num_workers is None else f"--num-workers {self.num_workers}"
+        require(
+            not self.cpu_time or self.num_workers == 1,
+            f"--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread; got {workers}",
+        )
         check_names(self.tasks or (), self.optimizers or ())
         check_rollout_backend(self.backend)
         for task in chosen_tasks(self.tasks or ()):
             controller_config(task, self.controller)
 
 
-def timing_table(task: str, timings: list[UpdateTiming]) -> Table:
-    """One row per optimizer: update-time statistics (ms), the raw rollout, the floor (raw rollout x iterations)
-    and the overhead ratio (median update / floor)."""
+def timing_table(task: str, timings: list[UpdateTiming], clock: str = "ms") -> Table:
+    """One row per optimizer: update-time statistics (ms, of wall time or of the `clock` the title names), the raw
+    rollout, the floor (raw rollout x iterations) and the overhead ratio (median update / floor)."""
     backend = timings[0].backend
     on = f"{timings[0].num_workers} rollout workers" if backend == "cpu" else f"the {backend} backend"
-    table = Table(title=f"{task}: control update time (ms), {on}")
+    table = Table(title=f"{task}: control update time ({clock}), {on}")
     table.add_column("optimizer")
     table.add_column("N x R x T", justify="right")
     table.add_column("mean ± std", justify="right")
@@ -143,11 +152,12 @@ def main(argv: list[str] | None = None) -> int:
                         backend=args.backend,
                         on_sample=lambda: progress.advance(bar),
                         controller_updates=given_fields(args.controller),
+                        clock=time.thread_time if args.cpu_time else time.perf_counter,
                     )
                     results[task].append(timing)
         console = output_console()
         for task in tasks:
-            console.print(timing_table(task, results[task]))
+            console.print(timing_table(task, results[task], "ms of thread CPU time" if args.cpu_time else "ms"))
         if args.json is not None:
             write_json(args.json, [timing.row() for task in tasks for timing in results[task]])
             console.print(f"wrote {args.json}")
