@@ -12,6 +12,10 @@ A small update, the size of judo-rai's cart-pole (N = 32, T = 25), on the callin
     PYTHONPATH=src python benchmarks/control_update.py --tasks cartpole --optimizers mppi --horizon 0.25 \\
         --num-workers 1 --cpu-time --samples 1000
 
+Every task at its own defaults, as the targets for own models read them:
+
+    PYTHONPATH=src python benchmarks/control_update.py --task-defaults --optimizers mppi --num-workers 1 --cpu-time
+
 It uses only what judo.evaluation.timing has had since the closed loop became a library, so an older
 checkout's judo can be timed by the same script: PYTHONPATH=<that checkout>/src.
 """
@@ -46,6 +50,8 @@ class Args:
     """Tasks to time (default: every registered one)."""
     optimizers: tuple[str, ...] = ()
     """Optimizers to time (default: every registered one)."""
+    task_defaults: bool = False
+    """Each task's own N, knots and horizon (its defaults), instead of --num-rollouts, --num-nodes and --horizon."""
     cpu_time: bool = False
     """Time the calling thread's CPU time instead of wall time (needs --num-workers 1, so that every rollout runs
     on the timed thread; far steadier on a busy machine)."""
@@ -62,9 +68,13 @@ def main() -> None:
         if unknown:
             raise SystemExit(f"unknown {name} {unknown[0]!r}; expected one of {', '.join(known)}")
     clock = time.thread_time if args.cpu_time else time.perf_counter
+    sized = (
+        "each task's defaults"
+        if args.task_defaults
+        else f"N={args.num_rollouts}, {args.num_nodes} knots, {args.horizon:g} s"
+    )
     table = Table(
-        title=f"control update vs rollout floor, N={args.num_rollouts}, {args.num_nodes} knots, {args.horizon:g} s, "
-        + ("thread CPU time" if args.cpu_time else "wall time")
+        title=f"control update vs rollout floor, {sized}, " + ("thread CPU time" if args.cpu_time else "wall time")
     )
     columns = ("task", "optimizer", "N x T", "workers", "update median (ms)", "rollout floor (ms)", "ratio")
     for column in (*columns, "fixed cost (us)", "ratio of minima", "fixed cost of minima (us)"):
@@ -72,6 +82,7 @@ def main() -> None:
     for task in tasks:
         for optimizer in optimizers:
             sizes = {"num_rollouts": args.num_rollouts, "num_nodes": args.num_nodes, "horizon": args.horizon}
+            sizes = {} if args.task_defaults else sizes
             with benchmark_controller(task, optimizer, num_workers=args.num_workers, **sizes) as controller:
                 update_ms, raw_ms = time_control_update(controller, args.samples, clock=clock)
                 iters, shape = controller.config.max_opt_iters, controller.batch_controls.shape
