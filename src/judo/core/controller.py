@@ -291,10 +291,8 @@ class Controller:
                     raise JudoError(
                         f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)"
                     )
-                if self.backend.diverged is not False or not np.isfinite(rewards).all():
-                    rewards[
-                        np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged
-                    ] = -np.inf  # these never win
+                if self.backend.diverged is not False or not np.isfinite(rewards).all():  # NaN, +inf, diverged:
+                    rewards[np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged] = -np.inf  # never win
                 if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
                     rewards = reduce_rewards(
                         rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale
