@@ -4,10 +4,13 @@ For each task (its default settings, one rollout worker, the calling thread's CP
 the last batch's states and sensors, and from then on replays them in place of the rollouts: what is left of an update
 is its fixed cost (sampling, clamping, the spline, the reward, the optimizer's update, the plan and its traces). It
 prints that per optimizer iteration next to the task's reward alone on the same batch, and the rest. `--profile N`
-adds cProfile's N costliest functions of those updates (call counts do not depend on the machine's load).
+adds cProfile's N costliest functions of those updates (call counts do not depend on the machine's load; its
+times, wall times, do). The reward column is timed alone, on warm caches; `--after-rollout` puts a real rollout
+(untimed) before each timed update, so that the update finds the caches as a rollout leaves them.
 
     PYTHONPATH=src python benchmarks/fixed_cost.py [--tasks cartpole acrobot] [--optimizer mppi] [--profile 25]
     PYTHONPATH=src python benchmarks/fixed_cost.py --tasks cartpole --num-rollouts 32 --horizon 0.25
+    PYTHONPATH=src python benchmarks/fixed_cost.py --tasks pendulum --after-rollout   # with the caches a rollout leaves
 """
 
 import cProfile
@@ -40,6 +43,9 @@ class Args:
     """Rollouts per update (default: the task's)."""
     horizon: float | None = None
     """Planning horizon in seconds (default: the task's)."""
+    after_rollout: bool = False
+    """Roll the batch out for real (untimed) before each timed update, as an update's own rollout does: the caches
+    the update needs are then as cold as in a real update."""
     profile: int = 0
     """Print cProfile's this many costliest functions (by own time) of each task's updates; 0: none."""
 
@@ -61,20 +67,26 @@ def measure(task: str, args: Args) -> tuple[tuple[str, ...], cProfile.Profile | 
             update()
         initial, mocap = rollout_start(controller.task.model, start.state, plan_time, start.metadata)
         controls = controller.batch_controls
-        states, sensors = (array.copy() for array in controller.backend.rollout(initial, controls, mocap))
+        real_rollout = controller.backend.rollout
+        states, sensors = (array.copy() for array in real_rollout(initial, controls, mocap))
         controller.backend.rollout = lambda *_: (states, sensors)  # the physics replayed: what is left is fixed
+        batch = controls.copy()
         for _ in range(5):
             update()
         profiler = cProfile.Profile() if args.profile else None
-        started = time.thread_time()
-        if profiler is not None:
-            profiler.enable()
+        elapsed = 0.0
         for _ in range(args.updates):
+            if args.after_rollout:
+                real_rollout(initial, batch, mocap)
+            started = time.thread_time()
+            if profiler is not None:
+                profiler.enable()
             update()
-        if profiler is not None:
-            profiler.disable()
+            if profiler is not None:
+                profiler.disable()
+            elapsed += time.thread_time() - started
         iters = controller.config.max_opt_iters
-        per_iteration = 1e6 * (time.thread_time() - started) / args.updates / iters
+        per_iteration = 1e6 * elapsed / args.updates / iters
         config, num_state = snapshot(controller.task.config), controller.task.model.nq + controller.task.model.nv
         planned = states[..., 1 : 1 + num_state]  # [qpos, qvel], as the controller hands them to the reward
         started = time.thread_time()
@@ -93,8 +105,9 @@ def main() -> None:
     for task in tasks:
         if task not in known:
             raise SystemExit(f"unknown task {task!r}; expected one of {', '.join(known)}")
+    after = ", each after a real rollout" if args.after_rollout else ""
     table = Table(
-        title=f"an update without its physics, per optimizer iteration ({args.optimizer}, thread CPU time, us)"
+        title=f"an update without its physics, per optimizer iteration ({args.optimizer}, thread CPU time, us{after})"
     )
     for column in ("task", "N x T", "iters", "update without physics", "reward", "the rest"):
         table.add_column(column, justify="left" if column == "task" else "right")
