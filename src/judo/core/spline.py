@@ -5,6 +5,7 @@ query times is one matrix product: `values = weights(query_times) @ knots`. The 
 precomputes the (T, num_nodes) weights once per configuration and reuses them every update.
 """
 
+import math
 from bisect import bisect_right
 from typing import Literal
 
@@ -147,7 +148,7 @@ class Spline:
         self.high = _bounds(high, np.inf, nu)
         # Zero-order and linear splines never leave the range of their knots, so only a cubic, or
         # knots beyond the bounds, need clamping: the common linear case pays nothing.
-        has_bounds = bool(np.isfinite(self.low).any() or np.isfinite(self.high).any())
+        has_bounds = any(map(math.isfinite, self.low.tolist())) or any(map(math.isfinite, self.high.tolist()))
         self._bounded = has_bounds and (basis.order == "cubic" or not self._knots_inside())
 
     @property
