@@ -44,9 +44,9 @@ from judo.runtime.address import check_port, check_token
 from judo.runtime.app_state import AppState
 from judo.runtime.commands import Commands
 from judo.runtime.cycles import CycleCost
+from judo.runtime.live_recording import Recordings
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
-from judo.runtime.live_recording import Recordings
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
