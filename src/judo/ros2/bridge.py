@@ -129,7 +129,7 @@ class Ros2System(System):
     @classmethod
     def from_options(cls, task: Task, options: SystemOptions) -> "Ros2System":
         """The bridge the app's `--system ros2 [--record FILE.mcap] [--ros2.*]` options describe."""
-        log = None if options.record is None else McapLog(options.record)
+        log = None if options.record is None else McapLog(options.record, log_metadata(task, options.ros2))
         try:
             return cls(task, options.ros2, log)
         except BaseException:
@@ -385,6 +385,19 @@ class Ros2System(System):
         link.close_participant(self._participant)
         if self.log is not None:
             self.log.close()
+
+
+def log_metadata(task: Task, options: Ros2Options) -> dict[str, str]:
+    """The MCAP log's "judo" record: the task's registered name (where one name has its class), the joint map
+    ("mjcf=robot" entries, comma-separated) and the topics, so that `replay` and `sysid` read the log alone."""
+    from judo.core.registry import get_registered_tasks
+
+    names = [name for name, (cls, _) in get_registered_tasks().items() if cls is type(task)]
+    metadata = {"joint_map": ",".join(options.joint_map), "joint_states": options.joint_states}
+    metadata.update({"odom": options.odom, "mocap": options.mocap, "commands": options.commands})
+    if len(names) == 1:
+        metadata["task"] = names[0]
+    return metadata
 
 
 def _ns(stamp: msg.Time) -> int:
