@@ -103,14 +103,14 @@ def test_sysid_finds_the_plants_pole_mass_from_the_log(bridge_log, tmp_path, cap
     assert model.body_mass[model.body("pole").id] == pytest.approx(TRUE_MASS, rel=0.05)
 
 
-def write_log(path, joint_names=("slider", "hinge"), commands=True, metadata=None, stamps=20):
-    """A log written with the bridge's own writer, no DDS: `stamps` JointStates 10 ms apart, each followed by a
-    command where `commands`."""
+def write_log(path, joint_names=("slider", "hinge"), commands=True, metadata=None, stamps=20, every=0.01):
+    """A log written with the bridge's own writer, no DDS: `stamps` JointStates `every` seconds apart, each followed
+    by a command where `commands`."""
     log = McapLog(path, {"task": "cartpole"} if metadata is None else metadata)
     layout = link.JointLayout.of(Cartpole().model)
     for step in range(1, stamps + 1):
         if joint_names is not None:
-            message = link.joint_state(layout, np.array([0.1, 3.0]), np.zeros(2), 0.01 * step)
+            message = link.joint_state(layout, np.array([0.1, 3.0]), np.zeros(2), every * step)
             message.name = list(joint_names)
             log.write("/joint_states", message, step * 10_000_000)
         if commands:
@@ -162,6 +162,13 @@ def test_sysid_refuses_a_log_without_commands_or_of_another_task_and_writes_noth
     cases = [
         (write_log(tmp_path / "quiet.mcap", commands=False), "cartpole", "pole", "no std_msgs/msg/Float64MultiArray"),
         (write_log(tmp_path / "run.mcap"), "acrobot", "upper_arm", "a log of task 'cartpole', not of --task 'acrobot'"),
+        (
+            write_log(tmp_path / "sparse.mcap", every=0.05),
+            "cartpole",
+            "pole",
+            "sparse.mcap: no two joint states one model step (0.01 s) apart with a command in force (they are 0.05 s "
+            "apart); the robot must publish one each step (python -m judo plant --rate-hz 100)",
+        ),
     ]
     for path, task, body, message in cases:
         argv = [str(path), "--task", task, "--params", f"body_mass.{body}", "--out", str(tmp_path / "o/f.toml")]

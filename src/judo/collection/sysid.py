@@ -1,10 +1,10 @@
 """Fit planning-model parameters to judo's logs with MuJoCo's own system identification (`mujoco.sysid`).
 
-A log (collect's HDF5, a GUI recording in the same layout, or the ROS 2 bridge's MCAP, read by
-judo.ros2.mcap_read) holds each step's plant state and the action served during it. The fit cuts every episode into windows of K steps, rolls each window out from its logged
-start state under its logged actions on the planning model with candidate parameters, and minimises the
-normalised difference to the logged states (`mujoco.sysid`'s residual and least-squares optimizer). The
-parameters are named MjModel fields by element (judo.core.model_overrides), so the result is a
+A log (collect's HDF5, a GUI recording in the same layout, or the ROS 2 bridge's MCAP) holds each step's plant
+state and the action served during it. The fit cuts every episode into windows of K steps, rolls each window
+out from its logged start state under its logged actions on the planning model with candidate parameters, and
+minimises the normalised difference to the logged states (`mujoco.sysid`'s residual and least-squares
+optimizer). The parameters are named MjModel fields by element (judo.core.model_overrides), so the result is a
 [model_overrides.TASK] section that `--config` reads.
 
 mujoco.sysid (the `sysid` extra, `mujoco[sysid]`) is imported only by `fit`.
@@ -14,7 +14,6 @@ import contextlib
 import io
 import json
 import logging
-import math
 import re
 import time
 from collections.abc import Callable
@@ -84,22 +83,20 @@ class Episode:
 
 
 def read_logs(paths: list[Path], task_name: str, model: mujoco.MjModel) -> list[Episode]:
-    """Every episode of the logs at `paths`: HDF5 (collect's files, GUI recordings) or the bridge's MCAP
-    (`read_mcap_log`). Raises DatasetError, in one line naming the file, for a file that is missing, empty, not
-    HDF5 or corrupt, holds another task's episodes, has no episodes, or an episode without actions or of other
-    sizes than `model`."""
+    """Every episode of the logs at `paths`: HDF5 (collect's, the GUI's) or the bridge's MCAP (`read_mcap_log`).
+    Raises DatasetError, in one line naming the file, for a file that is missing, empty, not HDF5 or corrupt, holds
+    another task's episodes, has no episodes, or an episode without actions or of other sizes than `model`."""
     episodes = []
     for path in paths:
         if path.suffix.lower() == ".mcap":
             episodes.extend(read_mcap_log(path, task_name, model))
             continue
-        h5py = import_h5py("python -m judo sysid")
         if not path.is_file():
             raise DatasetError(f"{path}: no such log file; give collect's .h5 files or GUI recordings")
         if path.stat().st_size == 0:
             raise DatasetError(f"{path}: the file is empty; give a log that collect or the GUI's recorder wrote")
         try:
-            with h5py.File(path, "r") as file:
+            with import_h5py("python -m judo sysid").File(path, "r") as file:
                 episodes.extend(_read_file(file, path, task_name, model))
         except OSError as err:
             raise DatasetError(f"{path}: not a readable HDF5 log ({str(err).splitlines()[0][:120]})") from None
@@ -143,40 +140,13 @@ def _read_file(file: Any, path: Path, task_name: str, model: mujoco.MjModel) -> 
 
 
 def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Episode]:
-    """The episodes of the ROS 2 bridge's MCAP log at `path`: each run of joint states one plant step apart with a
-    command in force (`BridgeLog.segments`; a JointState the bridge missed ends one). JudoError, in one line naming
-    the file, for a log sysid cannot fit from (no commands, no velocities, no such runs) or that
-    `judo.ros2.mcap_read.read_bridge_log` cannot read for `task_name`."""
-    from judo.ros2.mcap_read import COMMANDS, read_bridge_log
+    """The episodes of the ROS 2 bridge's MCAP log at `path`: its runs of rows one step of `model` apart with a
+    command in force (`judo.ros2.mcap_read.BridgeLog.step_runs`, whose errors name the file)."""
+    from judo.ros2.mcap_read import read_bridge_log
 
     log = read_bridge_log(path, task_name, "python -m judo sysid LOG.mcap")
-    if not len(log.commands):
-        raise DatasetError(
-            f"{path}: no {COMMANDS} on {log.topics['commands']}; sysid needs the commands the robot applied"
-        )
-    if np.isnan(log.qvel).all():
-        raise DatasetError(f"{path}: its joint states carry no velocities; sysid fits the logged qpos and qvel")
-    if not np.isclose(log.timestep, model.opt.timestep):
-        raise DatasetError(
-            f"{path}: logged at a plant timestep of {log.timestep} s, the model steps {model.opt.timestep} s"
-        )
-    widths = (log.qpos.shape[1], log.qvel.shape[1], log.actions.shape[1])
-    if widths != (model.nq, model.nv, model.nu):
-        raise DatasetError(
-            f"{path}: qpos, qvel, actions of widths {widths}; the model needs {(model.nq, model.nv, model.nu)}"
-        )
-    episodes = [
-        Episode(f"{path.name}:rows {rows.start}-{rows.stop - 1}", log.qpos[rows], log.qvel[rows], log.actions[rows])
-        for rows in log.segments()
-    ]
-    if not episodes:
-        spacing = float(np.median(np.diff(log.times))) if len(log.times) > 1 else math.nan
-        raise DatasetError(
-            f"{path}: no two joint states one plant step ({log.timestep:g} s) apart with a command in force (they are "
-            f"{spacing:.3g} s apart); sysid compares each plant step: publish joint states every step "
-            f"(python -m judo plant --rate-hz {1 / log.timestep:g})"
-        )
-    return episodes
+    runs = log.step_runs(float(model.opt.timestep))
+    return [Episode(f"{path.name}:rows {r.start}-{r.stop - 1}", log.qpos[r], log.qvel[r], log.actions[r]) for r in runs]
 
 
 @dataclass

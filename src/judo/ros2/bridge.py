@@ -35,7 +35,7 @@ from judo.loop.system_choice import Ros2Options, SystemOptions
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
-from judo.ros2.mcap_log import McapLog
+from judo.ros2.mcap_log import McapLog, log_metadata
 
 logger = logging.getLogger("judo.ros2")
 
@@ -385,19 +385,6 @@ class Ros2System(System):
         link.close_participant(self._participant)
         if self.log is not None:
             self.log.close()
-
-
-def log_metadata(task: Task, options: Ros2Options) -> dict[str, str]:
-    """The MCAP log's "judo" record: the task's registered name (where one name has its class), the joint map
-    ("mjcf=robot" entries, comma-separated) and the topics, so that `replay` and `sysid` read the log alone."""
-    from judo.core.registry import get_registered_tasks
-
-    names = [name for name, (cls, _) in get_registered_tasks().items() if cls is type(task)]
-    metadata = {"joint_map": ",".join(options.joint_map), "joint_states": options.joint_states}
-    metadata.update({"odom": options.odom, "mocap": options.mocap, "commands": options.commands})
-    if len(names) == 1:
-        metadata["task"] = names[0]
-    return metadata
 
 
 def _ns(stamp: msg.Time) -> int:

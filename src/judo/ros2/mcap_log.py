@@ -13,6 +13,8 @@ from pathlib import Path
 from typing import Any
 
 from judo.core.errors import JudoError, import_extra
+from judo.core.task import Task
+from judo.loop.system_choice import Ros2Options
 from judo.ros2.messages import MSGDEFS, ROS_NAMES
 
 METADATA = "judo"
@@ -73,3 +75,16 @@ class McapLog:
             self._closed = True
             self._writer.finish()
             self._file.close()
+
+
+def log_metadata(task: Task, options: Ros2Options) -> dict[str, str]:
+    """The MCAP log's "judo" record: the task's registered name (where one name has its class), the joint map
+    ("mjcf=robot" entries, comma-separated) and the topics, so that `replay` and `sysid` read the log alone."""
+    from judo.core.registry import get_registered_tasks
+
+    names = [name for name, (cls, _) in get_registered_tasks().items() if cls is type(task)]
+    metadata = {"joint_map": ",".join(options.joint_map), "joint_states": options.joint_states}
+    metadata.update({"odom": options.odom, "mocap": options.mocap, "commands": options.commands})
+    if len(names) == 1:
+        metadata["task"] = names[0]
+    return metadata

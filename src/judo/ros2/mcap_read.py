@@ -83,11 +83,30 @@ class BridgeLog:
     timestep: float
     topics: dict[str, str]
 
-    def segments(self) -> Iterator[slice]:
-        """The runs of at least two rows, each row one plant step after the one before, with a command in force
-        and a velocity: the rows a rollout from a run's first row is compared with step by step (a JointState the
-        bridge missed ends a run)."""
-        steps = np.diff(self.times) / self.timestep
+    def step_runs(self, step: float) -> list[slice]:
+        """`segments(step)`, or BridgeLogError (one line naming the file) for a log that cannot be compared with a
+        rollout of `step` seconds a step: without commands, without velocities, or no two rows `step` apart."""
+        if not len(self.commands):
+            raise BridgeLogError(
+                f"{self.path}: no {COMMANDS} on {self.topics['commands']}; sysid needs the commands the robot applied"
+            )
+        if np.isnan(self.qvel).all():
+            raise BridgeLogError(f"{self.path}: its joint states carry no velocities; sysid fits qpos and qvel")
+        runs = list(self.segments(step))
+        if not runs:
+            spacing = float(np.median(np.diff(self.times))) if len(self.times) > 1 else math.nan
+            raise BridgeLogError(
+                f"{self.path}: no two joint states one model step ({step:g} s) apart with a command in force (they "
+                f"are {spacing:.3g} s apart); the robot must publish one each step (python -m judo plant --rate-hz "
+                f"{1 / step:g})"
+            )
+        return runs
+
+    def segments(self, step: float | None = None) -> Iterator[slice]:
+        """The runs of at least two rows, each row `step` seconds (default: one plant step) after the one before,
+        with a command in force and a velocity: the rows a rollout from a run's first row is compared with step by
+        step (a JointState the bridge missed ends a run)."""
+        steps = np.diff(self.times) / (self.timestep if step is None else step)
         usable = np.zeros(len(self.times), bool)
         usable[1:] = (np.abs(steps - 1.0) < 1e-3) & np.isfinite(self.actions[1:]).all(axis=1)
         usable &= np.isfinite(self.qvel).all(axis=1)
