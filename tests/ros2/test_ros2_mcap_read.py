@@ -103,15 +103,14 @@ def test_sysid_finds_the_plants_pole_mass_from_the_log(bridge_log, tmp_path, cap
     assert model.body_mass[model.body("pole").id] == pytest.approx(TRUE_MASS, rel=0.05)
 
 
-def write_log(path, joint_names=("slider", "hinge"), commands=True, metadata=None, stamps=20, every=0.01):
-    """A log written with the bridge's own writer, no DDS: `stamps` JointStates `every` seconds apart, each followed
-    by a command where `commands`."""
+def write_log(path, joint_map=(), joints=True, commands=True, metadata=None, stamps=20, every=0.01):
+    """A log written with the bridge's own writer, no DDS: `stamps` JointStates (named through `joint_map`, where
+    `joints`) `every` seconds apart, each followed by a command where `commands`."""
     log = McapLog(path, {"task": "cartpole"} if metadata is None else metadata)
-    layout = link.JointLayout.of(Cartpole().model)
+    layout = link.JointLayout.of(Cartpole().model, joint_map)
     for step in range(1, stamps + 1):
-        if joint_names is not None:
+        if joints:
             message = link.joint_state(layout, np.array([0.1, 3.0]), np.zeros(2), every * step)
-            message.name = list(joint_names)
             log.write("/joint_states", message, step * 10_000_000)
         if commands:
             log.write("/judo/commands", link.commands(np.array([0.5])))
@@ -144,8 +143,8 @@ def corrupt(path):
 )
 def test_logs_replay_cannot_play_are_one_line_errors_naming_what_they_hold(tmp_path, capsys, case, message):
     logs = {
-        "no_joint_states": lambda p: write_log(p, joint_names=None),
-        "other_joints": lambda p: write_log(p, joint_names=("cart", "pole")),
+        "no_joint_states": lambda p: write_log(p, joints=False),
+        "other_joints": lambda p: write_log(p, joint_map=("slider=cart", "hinge=pole")),
         "no_task": lambda p: write_log(p, metadata={}),
         "corrupt": corrupt,
         "empty": lambda p: p.touch() or p,
@@ -181,6 +180,10 @@ def test_sysid_refuses_a_log_without_commands_or_of_another_task_and_writes_noth
     # A log of the bridge without --task in a log that names none: `--task` on replay fills it in.
     replay = Replay(write_log(tmp_path / "anonymous.mcap", metadata={}), task="cartpole")
     assert replay.env_args["task"] == "cartpole" and replay.demo.qpos.shape == (20, 2)
+    # A robot's own joint names are mapped back by the joint map the bridge wrote into the log.
+    renamed = {"task": "cartpole", "joint_map": "slider=cart,hinge=pole"}
+    log = read_bridge_log(write_log(tmp_path / "renamed.mcap", ("slider=cart", "hinge=pole"), metadata=renamed))
+    np.testing.assert_array_equal(log.qpos, np.tile([0.1, 3.0], (20, 1)))
 
 
 def test_the_reader_needs_no_dds_and_without_mcap_says_what_to_install(tmp_path):

@@ -173,7 +173,7 @@ def _read(reader_module: Any, decoder_module: Any, file: Any) -> tuple[dict[str,
     for schema, channel, message in reader.iter_messages(log_time_order=True):
         name = schema.name if schema is not None else ""
         entry = _Message(message.log_time, channel.topic, name, None)
-        if name in wanted:
+        if schema is not None and name in wanted:
             decoder = decoders.get(schema.id)
             if decoder is None:
                 decoder = decoders[schema.id] = factory.decoder_for(channel.message_encoding, schema)
