@@ -118,11 +118,6 @@ class BridgeLog:
                 start = row
 
 
-def is_mcap(path: Path) -> bool:
-    """Whether `path` names an MCAP file (by its suffix)."""
-    return Path(path).suffix.lower() == ".mcap"
-
-
 def read_bridge_log(path: Path, task: str | None = None, feature: str = "reading an MCAP log") -> BridgeLog:
     """The bridge log at `path` for `task` (None: the task the log names). BridgeLogError, in one line naming the
     file, for a file that is missing, empty or not MCAP, a log of another task, one that names no task when `task`
