@@ -12,21 +12,21 @@ import pytest
 pytest.importorskip("cyclonedds")
 pytest.importorskip("mcap_ros2.decoder")
 
-from ros2_links import env, free_domain, start_plant, stop_process  # noqa: E402
+from ros2_links import env, free_domain, start_plant, stop_process
 
-from judo.collection.excite import multisine  # noqa: E402
-from judo.collection.replay import Replay  # noqa: E402
-from judo.collection.replay import main as replay_main  # noqa: E402
-from judo.collection.sysid_cli import main as sysid_main  # noqa: E402
-from judo.core.config_file import load_config  # noqa: E402
-from judo.core.model_overrides import overridden  # noqa: E402
-from judo.core.registry import make_task  # noqa: E402
-from judo.loop.system_choice import Ros2Options, SystemOptions  # noqa: E402
-from judo.ros2 import link  # noqa: E402
-from judo.ros2.bridge import Ros2System  # noqa: E402
-from judo.ros2.mcap_log import McapLog  # noqa: E402
-from judo.ros2.mcap_read import read_bridge_log  # noqa: E402
-from judo.tasks.cartpole import Cartpole  # noqa: E402
+from judo.collection.excite import multisine
+from judo.collection.replay import Replay
+from judo.collection.replay import main as replay_main
+from judo.collection.sysid_cli import main as sysid_main
+from judo.core.config_file import load_config
+from judo.core.model_overrides import overridden
+from judo.core.registry import make_task
+from judo.loop.system_choice import Ros2Options, SystemOptions
+from judo.ros2 import link
+from judo.ros2.bridge import Ros2System
+from judo.ros2.mcap_log import McapLog
+from judo.ros2.mcap_read import read_bridge_log
+from judo.tasks.cartpole import Cartpole
 
 TRUE_MASS = 0.13
 """The plant process's pole mass: x1.3 the cartpole MJCF's 0.1."""

@@ -134,7 +134,7 @@ def read_bridge_log(path: Path, task: str | None = None, feature: str = "reading
     try:
         with path.open("rb") as file:
             metadata, raw = _read(reader_module, decoder_module, file)
-    except Exception as err:  # noqa: BLE001  (mcap raises its own errors, struct's and EOF for a corrupt file)
+    except Exception as err:  # mcap raises its own errors, struct's and EOF for a corrupt file
         text = " ".join(str(err).split())[:120] or type(err).__name__
         raise BridgeLogError(f"{path}: not a readable MCAP log ({text})") from None
     logged_task = metadata.get("task") or None
