@@ -266,9 +266,19 @@ class LowLevelRollout(RolloutBackend):
         stepper.start(num_rollouts, num_steps, initial_state, mocap)
         num_state = 1 + self.model.nq + self.model.nv  # STATE_SPEC starts [time, qpos, qvel]
 
+        views = {  # per block: its (B, O) buffer, (B, T, C) commands, and the states and times in `current`
+            rows.start: (
+                stepper.observations[rows],
+                commands[rows],
+                stepper.current[rows, 1:num_state],
+                stepper.current[rows, 0],
+            )
+            for rows in self.inner.blocks(num_rollouts)
+        }
+
         def observe(rows: slice, start: int, current: np.ndarray, previous: np.ndarray) -> np.ndarray:
-            out = stepper.observations[rows]
-            return low.observe(commands[rows, start], current[:, 1:num_state], previous, current[:, 0], out)
+            out, block_commands, states, times = views[rows.start]
+            return low.observe(block_commands[:, start], states, previous, times, out)
 
         def act(rows: slice, observations: np.ndarray) -> np.ndarray:
             return low.policy.checked_act(observations, require_finite=False)  # (B, H, A); NaN: that rollout loses
