@@ -25,8 +25,9 @@ import tyro
 from rich.console import Console
 from rich.table import Table
 
-import judo
+from judo.core.errors import JudoError
 from judo.core.low_level import LowLevelRollout
+from judo.core.registry import make_task
 from judo.core.rollout import RolloutPool
 from judo.evaluation.timing import rollout_start
 from judo.loop.system import MujocoSystem
@@ -69,12 +70,19 @@ def cpu_us(call: Callable[[], object], repeats: int) -> float:
 
 def measure(task_name: str, rows: int, args: Args) -> dict[str, list[float]]:
     """Per-tick thread CPU times (us) of each round: tick, observation, act."""
-    task = judo.get_registered_tasks()[task_name][0]()
+    try:
+        task = make_task(task_name)
+    except JudoError as err:
+        raise SystemExit(str(err)) from None  # names the valid tasks
     low, model = task.low_level(), task.model
-    assert low is not None, f"task {task_name!r} declares no low-level policy"
+    if low is None:
+        raise SystemExit(
+            f"task {task_name!r} declares no low-level policy; expected cartpole_pd, quadruped_navigate, ..."
+        )
     pool = ReplayPool(model, 1)
     backend = LowLevelRollout(pool, low)
     reading = MujocoSystem.from_task(task, 0).read_state()
+    assert reading.state is not None, f"task {task_name!r}'s plant gives no state"
     initial, mocap = rollout_start(model, reading.state, reading.time, reading.metadata)
     rng = np.random.default_rng(0)
     commands = rng.uniform(*low.command_range.T, size=(rows, args.num_steps, low.command_size))
