@@ -70,14 +70,24 @@ def test_the_log_reads_back_as_the_plants_states_under_the_commands_sent(bridge_
     # under the action the reader holds for it, lands on it (float64 on the wire, so to rounding).
     plant = overridden(make_task("cartpole").sim_model, {"body_mass": {"pole": np.array([TRUE_MASS])}})
     data = mujoco.MjData(plant)
-    errors = []
-    for rows in log.segments():
-        for row in range(rows.start + 1, rows.stop):
-            data.qpos[:], data.qvel[:], data.ctrl[:] = log.qpos[row - 1], log.qvel[row - 1], log.actions[row]
-            mujoco.mj_step(plant, data)
-            errors.append(np.abs(np.r_[data.qpos - log.qpos[row], data.qvel - log.qvel[row]]).max())
-    assert len(errors) > 50
-    assert np.mean(np.array(errors) < 1e-9) >= 0.8, np.sort(errors)[-10:]  # a command placed a step off: 0.02
+
+    def exact_fraction(offset: int) -> tuple[float, int]:
+        """The fraction of steps that re-simulate to rounding with each row's action read `offset` rows late."""
+        errors = []
+        for rows in log.segments():
+            for row in range(rows.start + 1 + max(offset, 0), rows.stop + min(offset, 0)):
+                data.qpos[:], data.qvel[:] = log.qpos[row - 1], log.qvel[row - 1]
+                data.ctrl[:] = log.actions[row - offset]
+                mujoco.mj_step(plant, data)
+                errors.append(np.abs(np.r_[data.qpos - log.qpos[row], data.qvel - log.qvel[row]]).max())
+        return float(np.mean(np.array(errors) < 1e-9)), len(errors)
+
+    exact, steps = exact_fraction(0)
+    off = max(exact_fraction(1)[0], exact_fraction(-1)[0])
+    assert steps > 50
+    # On an idle machine about every step; a machine loaded to several times its cores delays some commands past
+    # the plant's step. Reading the actions a step off matches a few percent (under load, up to about a tenth).
+    assert exact >= 0.5 and exact >= 3 * off, (exact, off)
 
 
 @pytest.mark.slow
