@@ -193,6 +193,16 @@ def test_low_level_policy_prints_update_floor_and_what_batching_buys():
     assert "4 x 100 │ 2 (50) │" in out and "batching buys" in out
 
 
+def test_low_level_ticks_prints_a_tick_s_python_observation_and_act_per_task():
+    result = run_script("low_level_ticks.py", "--rounds", "1", "--repeats", "1", "--num-steps", "10")
+    assert result.returncode == 0, result.stderr
+    out = " ".join(result.stdout.split())
+    assert "a low-level tick's Python, one worker's block, thread CPU time" in out
+    assert "quadruped_navigate │ 4 x 10 │ 5 │" in out and "cartpole_pd │ 32 x 10 │ 5 │" in out
+    bad = run_script("low_level_ticks.py", "--tasks", "cartpole_pd", "--rows", "4", "8")
+    assert bad.returncode != 0 and "--rows needs one block size per task: 1 tasks, got 2 sizes" in bad.stderr
+
+
 def test_proposals_prints_a_row_per_rollout_count_and_policy_samples():
     small = ["--optimizers", "ps", "--seeds", "1", "--duration", "0.3", "--num-workers", "1", "--num-rollouts", "16"]
     result = run_script("proposals.py", *small, "--policy-samples", "1")

@@ -138,6 +138,33 @@ def test_hierarchical_rollout_equals_a_plain_loop_bit_for_bit(limited_model, num
     assert np.abs(states[..., 1]).max() >= 0.3 - 1e-3  # the rail's limit was reached
 
 
+def test_a_hook_that_takes_out_writes_each_tick_s_buffer_and_changes_no_bit(limited_model):
+    """A hook with an `out` keyword is handed its block's rows of the stepper's (N, O) buffer in the rollouts (None
+    where it is tried on a batch of one), and the rollouts are the plain loop's bit for bit."""
+    handed: list[np.ndarray | None] = []
+
+    def into_buffer(commands, states, previous_actions, times, out=None):
+        handed.append(out)
+        if out is None:
+            return with_previous(commands, states, previous_actions, times)
+        out[:, :2], out[:, 2:6], out[:, 6:8], out[:, 8] = commands, states, previous_actions, times
+        return out
+
+    plain = make_low_level(3)
+    low = LowLevel(plain.policy, plain.command_range, 3, into_buffer, to_ctrl)
+    initial_state = initial_state_of(limited_model, [0.28, 2.5], [0.8, -0.2])
+    commands = np.random.default_rng(2).uniform(-1, 1, (6, 20, 2))
+    expected_states, expected_sensors = reference(limited_model, plain, initial_state, commands)
+    with LowLevelRollout(RolloutPool(limited_model, 2), low) as backend:
+        assert handed == [None]  # `check`, as the backend is built, tries it on a batch of one
+        states, sensors = backend.rollout(initial_state, commands)
+        buffer = backend._stepper.observations
+    np.testing.assert_array_equal(states, expected_states)
+    np.testing.assert_array_equal(sensors, expected_sensors)
+    assert len(handed) == 1 + 2 * 7  # 7 ticks of 3 steps for each of 2 blocks
+    assert all(out is not None and out.base is buffer and len(out) == 3 for out in handed[1:])
+
+
 def test_non_finite_actions_make_that_rollout_nan_and_no_other(limited_model):
     class NanForNegative(Policy):
         observation_size, action_size, metadata = 6, 1, {}

@@ -1,6 +1,7 @@
 """OnnxPolicy on real onnxruntime, with ONNX files written here by judo's own writers (the onnx helper API)."""
 
 import sys
+import threading
 
 import numpy as np
 import pytest
@@ -85,3 +86,37 @@ def test_checked_act_refuses_non_finite_actions(tmp_path):
     policy = OnnxPolicy(write_linear_policy(tmp_path / "p.onnx", W, B))
     with pytest.raises(PolicyError, match="non-finite"):
         policy.checked_act(np.full((2, 5), np.inf))
+
+
+def test_bound_runs_give_the_bits_of_a_plain_run_on_every_thread_and_batch_size(tmp_path):
+    """`act` runs on each thread's I/O binding per batch size (preallocated buffers): the actions are those of
+    `InferenceSession.run` bit for bit, from several threads at once, and a returned array is the caller's (the
+    next call does not overwrite it)."""
+    layers = [(RNG.normal(size=(16, 5)), RNG.normal(size=16)), (RNG.normal(size=(2 * 3, 16)), RNG.normal(size=6))]
+    policy = OnnxPolicy(write_mlp_policy(tmp_path / "mlp.onnx", layers, horizon=2))
+    batches = [RNG.normal(size=(batch, 5)) for batch in (1, 4, 4, 33, 1, 7)]
+    session = policy._session
+
+    def plain(observations):
+        run = session.run(None, {session.get_inputs()[0].name: observations.astype(np.float32)})[0]
+        return run.astype(np.float64)
+
+    expected = [plain(observations) for observations in batches]
+    first = policy.act(batches[0])
+    results: dict[int, list[np.ndarray]] = {}
+
+    def work(thread: int) -> None:
+        results[thread] = [policy.act(observations) for _ in range(20) for observations in batches]
+
+    threads = [threading.Thread(target=work, args=(thread,)) for thread in range(3)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    for thread in range(3):
+        assert len(results[thread]) == 20 * len(batches)
+        for i, actions in enumerate(results[thread]):
+            assert actions.dtype == np.float64 and actions.shape == (len(batches[i % 6]), 2, 3)
+            np.testing.assert_array_equal(actions, expected[i % 6])
+    np.testing.assert_array_equal(first, expected[0])  # unchanged by the calls since
+    assert not np.array_equal(expected[0], expected[4])  # the two batches of one row differ

@@ -29,7 +29,7 @@ APP_PARTS = (
     "plant_runner",
     "planner_runner",
     "supervisor",
-    "recordings",
+    "live_recording",
     "status",
     "session",
 )

@@ -38,6 +38,23 @@ def test_the_navigate_observation_is_the_velocity_task_s_policy_observation():
     np.testing.assert_allclose(got[:, 33:], np.stack([np.cos(5 * np.pi * times), np.sin(5 * np.pi * times)], 1))
 
 
+def test_the_observation_written_into_a_tick_s_buffer_is_the_allocated_one_bit_for_bit():
+    """The low-level rollouts hand `locomotion_observation` a view of their (N, 35) buffer; what it writes there
+    is what it returns without one, for every row and batch size."""
+    task = QuadrupedNavigate()
+    rng = np.random.default_rng(1)
+    for batch in (1, 4, 9):
+        states = np.concatenate([task.model.qpos0, np.zeros(task.model.nv)]) + rng.normal(0, 0.3, (batch, 37))
+        states[:, 3:7] /= np.linalg.norm(states[:, 3:7], axis=1, keepdims=True)
+        commands, times = rng.uniform(-0.5, 0.5, (batch, 3)), rng.uniform(0, 100, batch)
+        expected = task.locomotion_observation(commands, states, None, times)
+        buffer = np.full((batch + 2, 35), np.nan)
+        written = task.low_level().observe(commands, states, None, times, out=buffer[1 : batch + 1])
+        assert np.shares_memory(written, buffer)
+        np.testing.assert_array_equal(buffer[1 : batch + 1], expected)
+        assert np.isnan(buffer[[0, -1]]).all()  # the rows of other blocks are untouched
+
+
 def test_the_task_plans_commands_and_the_plant_runs_the_shipped_policy_on_the_served_one():
     task = QuadrupedNavigate()
     assert (task.nu, task.command_size, task.low_level().every) == (12, 3, EVERY)

@@ -34,7 +34,7 @@ def default_recording_path(task: str) -> Path:
 
 
 def start_live_recording(path: str | Path | None, session: Session, configs: dict[str, Config]) -> "LiveRecording":
-    """The app's default recorder (`judo.runtime.recordings.DEFAULT_RECORDER`): a LiveRecording of `session` into
+    """The app's default recorder (`judo.runtime.live_recording.DEFAULT_RECORDER`): a LiveRecording of `session` into
     `path` (`default_recording_path` for None), from the `configs` in force."""
     if session.controller.optimizer is None:
         raise JudoError(

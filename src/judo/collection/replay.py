@@ -1,5 +1,8 @@
 """`python -m judo replay FILE.h5 [--demo N]`: play a collect file's episodes back in the GUI's 3-D scene.
 
+`python -m judo replay LOG.mcap [--task T]` plays a ROS 2 bridge's log (`--record`, judo.ros2.mcap_read) the same
+way: one episode, its rows at the robot's JointState stamps.
+
 Nothing is re-simulated: each frame poses the task's plant model at a recorded qpos (and mocap
 positions), so a replay is exactly what happened. Where the file has `plan/traces` (collect --traces, GUI
 recordings), each frame also draws the traces of the latest plan made by its time, with the live GUI's
@@ -34,7 +37,9 @@ class ReplayArgs:
     """Arguments of `python -m judo replay`."""
 
     file: tyro.conf.Positional[Path]
-    """The HDF5 file `python -m judo collect` wrote."""
+    """The HDF5 file `python -m judo collect` (or the GUI's recorder) wrote, or a ROS 2 bridge's MCAP log."""
+    task: Annotated[str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: the log's)")] = None
+    """The task of an MCAP log that does not name it (the bridge's logs do; `ros2 bag record`'s do not)."""
     demo: Annotated[int | None, tyro.conf.arg(metavar="SEED", help_behavior_hint="(default: the first)")] = None
     """Seed of the demo shown first."""
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
@@ -52,15 +57,16 @@ class ReplayArgs:
 
 @dataclass
 class Demo:
-    """One recorded episode: qpos (S, nq), mocap_pos (S, nmocap, 3) or None, times (S,), metrics, success;
-    plan_times (U,) the reading times of its plans, and has_traces: whether the file holds their traces."""
+    """One recorded episode: qpos (S, nq), mocap_pos (S, nmocap, 3) or None, times (S,), metrics, success (None:
+    not judged, a bridge log); plan_times (U,) the reading times of its plans, and has_traces: whether the file
+    holds their traces."""
 
     seed: int
     qpos: np.ndarray
     mocap_pos: np.ndarray | None
     times: np.ndarray
     metrics: dict[str, float]
-    success: bool
+    success: bool | None
     plan_times: np.ndarray
     has_traces: bool
 
@@ -101,6 +107,23 @@ def read_demos(path: Path) -> tuple[dict[str, Any], dict[int, Demo]]:
     if not demos:
         raise DatasetError(f"{path} holds no episodes")
     return env_args, demos
+
+
+def read_episodes(path: Path, task: str | None = None) -> tuple[dict[str, Any], dict[int, Demo]]:
+    """(env_args, {seed: Demo}) of a collect file (`read_demos`), or of a ROS 2 bridge's MCAP log: one demo of seed
+    0, its times the JointState stamps from one plant step on. `task` names an MCAP log's task where the log does
+    not (a collect file names its own: DatasetError for another)."""
+    if path.suffix.lower() != ".mcap":
+        env_args, demos = read_demos(path)
+        if task is not None and task != env_args["task"]:
+            raise DatasetError(f"{path}: a file of task {env_args['task']!r}, not of --task {task!r}")
+        return env_args, demos
+    from judo.ros2.mcap_read import read_bridge_log
+
+    log = read_bridge_log(path, task, "python -m judo replay LOG.mcap")
+    times = log.times - log.times[0] + log.timestep
+    env_args = {"task": log.task, "optimizer": "ROS 2 bridge log", "plant_timestep": log.timestep}
+    return env_args, {0: Demo(0, log.qpos, log.mocap_pos, times, {}, None, np.zeros(0), False)}
 
 
 def member(container: Any, key: str, where: str, kind: str) -> Any:
@@ -185,6 +208,7 @@ class Replay:
         port: int = 8080,
         speed: float = 1.0,
         token: str | None = None,
+        task: str | None = None,
     ) -> None:
         from judo.core.registry import make_task
         from judo.runtime.address import check_port, check_token
@@ -192,7 +216,7 @@ class Replay:
         check_port(port)
         self.token = check_token(token, host)  # the app's rules: generated beyond loopback, never empty
         require_between("--speed", speed, 0.1, 4.0)
-        self.env_args, self.demos = read_demos(path)
+        self.env_args, self.demos = read_episodes(path, task)
         if demo is not None and demo not in self.demos:
             raise DatasetError(f"{path} has no demo of seed {demo}; its seeds are: {', '.join(map(str, self.demos))}")
         self.demo = self.demos[demo if demo is not None else next(iter(self.demos))]
@@ -240,9 +264,9 @@ class Replay:
             self.scene.set_traces(np.zeros((0, 0, 0, 3)))
         self.time_slider.max = self._duration()
         metrics = ", ".join(f"{name} {value:.3g}" for name, value in self.demo.metrics.items())
+        verdict = "" if self.demo.success is None else ", success" if self.demo.success else ", no success"
         self.readout.content = (
-            f"**{self.env_args['task']} x {self.env_args['optimizer']}**, seed {seed}, "
-            f"{'success' if self.demo.success else 'no success'}  \n{metrics}"
+            f"**{self.env_args['task']} x {self.env_args['optimizer']}**, seed {seed}{verdict}  \n{metrics}"
         )
         self.seek(0)
 
@@ -302,7 +326,12 @@ class Replay:
         return float(self.demo.times[-1])
 
     def _row(self, seconds: float) -> int:
-        return int(round(seconds / self._dt())) - 1
+        """The row whose time is nearest `seconds` (the earlier of two as near)."""
+        times = self.demo.times
+        row = int(np.searchsorted(times, seconds))
+        if row == len(times) or (row > 0 and seconds - times[row - 1] <= times[row] - seconds):
+            row -= 1
+        return row
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -310,7 +339,7 @@ def main(argv: list[str] | None = None) -> int:
     args = tyro.cli(ReplayArgs, args=argv, prog="python -m judo replay", description=__doc__)
     try:
         apply_config_file(args.config)
-        replay = Replay(args.file, args.demo, args.host, args.port, args.speed, args.token)
+        replay = Replay(args.file, args.demo, args.host, args.port, args.speed, args.token, args.task)
         replay.start()
     except JudoError as err:
         fail(str(err))

@@ -1,10 +1,10 @@
 """Fit planning-model parameters to judo's logs with MuJoCo's own system identification (`mujoco.sysid`).
 
-A log (collect's HDF5, or a GUI recording in the same layout) holds each step's plant state and the action
-served during it. The fit cuts every episode into windows of K steps, rolls each window out from its logged
-start state under its logged actions on the planning model with candidate parameters, and minimises the
-normalised difference to the logged states (`mujoco.sysid`'s residual and least-squares optimizer). The
-parameters are named MjModel fields by element (judo.core.model_overrides), so the result is a
+A log (collect's HDF5, a GUI recording in the same layout, or the ROS 2 bridge's MCAP) holds each step's plant
+state and the action served during it. The fit cuts every episode into windows of K steps, rolls each window
+out from its logged start state under its logged actions on the planning model with candidate parameters, and
+minimises the normalised difference to the logged states (`mujoco.sysid`'s residual and least-squares
+optimizer). The parameters are named MjModel fields by element (judo.core.model_overrides), so the result is a
 [model_overrides.TASK] section that `--config` reads.
 
 mujoco.sysid (the `sysid` extra, `mujoco[sysid]`) is imported only by `fit`.
@@ -83,18 +83,20 @@ class Episode:
 
 
 def read_logs(paths: list[Path], task_name: str, model: mujoco.MjModel) -> list[Episode]:
-    """Every episode of the HDF5 logs at `paths` (collect's files, GUI recordings). Raises DatasetError, in one
-    line naming the file, for a file that is missing, empty, not HDF5 or corrupt, holds another task's episodes,
-    has no episodes, or an episode without actions or of other sizes than `model`."""
-    h5py = import_h5py("python -m judo sysid")
+    """Every episode of the logs at `paths`: HDF5 (collect's, the GUI's) or the bridge's MCAP (`read_mcap_log`).
+    Raises DatasetError, in one line naming the file, for a file that is missing, empty, not HDF5 or corrupt, holds
+    another task's episodes, has no episodes, or an episode without actions or of other sizes than `model`."""
     episodes = []
     for path in paths:
+        if path.suffix.lower() == ".mcap":
+            episodes.extend(read_mcap_log(path, task_name, model))
+            continue
         if not path.is_file():
             raise DatasetError(f"{path}: no such log file; give collect's .h5 files or GUI recordings")
         if path.stat().st_size == 0:
             raise DatasetError(f"{path}: the file is empty; give a log that collect or the GUI's recorder wrote")
         try:
-            with h5py.File(path, "r") as file:
+            with import_h5py("python -m judo sysid").File(path, "r") as file:
                 episodes.extend(_read_file(file, path, task_name, model))
         except OSError as err:
             raise DatasetError(f"{path}: not a readable HDF5 log ({str(err).splitlines()[0][:120]})") from None
@@ -135,6 +137,16 @@ def _read_file(file: Any, path: Path, task_name: str, model: mujoco.MjModel) -> 
     if not episodes:
         raise DatasetError(f"{path}: the log holds no episodes")
     return episodes
+
+
+def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Episode]:
+    """The episodes of the ROS 2 bridge's MCAP log at `path`: its runs of rows one step of `model` apart with a
+    command in force (`judo.ros2.mcap_read.BridgeLog.step_runs`, whose errors name the file)."""
+    from judo.ros2.mcap_read import read_bridge_log
+
+    log = read_bridge_log(path, task_name, "python -m judo sysid LOG.mcap")
+    runs = log.step_runs(float(model.opt.timestep))
+    return [Episode(f"{path.name}:rows {r.start}-{r.stop - 1}", log.qpos[r], log.qvel[r], log.actions[r]) for r in runs]
 
 
 @dataclass

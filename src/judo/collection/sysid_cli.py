@@ -25,7 +25,8 @@ DESCRIPTION = (
     "difference to the logged states. Writes --out, a --config file whose [model_overrides.TASK] section holds the "
     "parameters the data determine, and a report beside it (OUT.md): each parameter before and after with its 95% "
     "confidence interval, the fit's conditioning, and the prediction error before and after. A parameter the data "
-    "do not excite is reported and left out. Needs the `sysid` and `collect` extras: pip install -e '.[sysid]'."
+    "do not excite is reported and left out. Needs the `sysid` extra, and `collect` for HDF5 logs or `ros2` for the "
+    "bridge's MCAP logs: pip install -e '.[sysid]'."
 )
 
 
@@ -34,7 +35,7 @@ class SysidArgs:
     """The logs, the task, the parameters and where the fit goes."""
 
     logs: tyro.conf.Positional[tuple[Path, ...]]
-    """Logs to fit: collect's HDF5 files or the GUI's recordings of --task."""
+    """Logs to fit: collect's HDF5 files, the GUI's recordings or the ROS 2 bridge's MCAP logs (--record) of --task."""
     task: Annotated[str, tyro.conf.arg(metavar="NAME")] = field(kw_only=True)
     """The task whose planning model is fitted, by registered name."""
     params: Annotated[tuple[str, ...], tyro.conf.arg(metavar="FIELD.ELEMENT")] = field(kw_only=True)
@@ -71,7 +72,10 @@ def main(argv: list[str] | None = None) -> int:
         apply_config_file(args.config)
         from judo.core.errors import import_extra
 
-        import_extra("h5py", "python -m judo sysid", "collect")
+        if any(path.suffix.lower() != ".mcap" for path in args.logs):
+            import_extra("h5py", "python -m judo sysid", "collect")
+        else:
+            import_extra("mcap_ros2.decoder", "python -m judo sysid LOG.mcap", "ros2")
         import_extra("scipy", "python -m judo sysid", "sysid")
         import_extra("colorama", "python -m judo sysid", "sysid")
         run(args, command)

@@ -20,9 +20,10 @@ Each chunk starts MuJoCo's solver cold (`qacc_warmstart` zero, as every rollout 
 models without active constraints are unaffected.
 """
 
+import inspect
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import cast
+from typing import Any, cast
 
 import mujoco
 import numpy as np
@@ -34,10 +35,23 @@ from judo.core.rollout import RolloutPool
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
 from judo.core.stepper import PolicyStepper
 
-ObservationFn = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
-"""(commands (B, C), states (B, nq + nv), previous_actions (B, A), times (B,)) -> (B, O) observations."""
+ObservationFn = Callable[..., np.ndarray]
+"""(commands (B, C), states (B, nq + nv), previous_actions (B, A), times (B,)[, out=(B, O)]) -> (B, O) observations;
+a hook with an `out` keyword parameter is handed the buffer to write into and return."""
 ToCtrlFn = Callable[[np.ndarray], np.ndarray]
 """(B, A) actions -> (B, nu) ctrl."""
+
+
+def takes_out(hook: Callable[..., Any]) -> bool:
+    """Whether `hook` can be called with an `out` keyword argument (a parameter of that name, or **kwargs)."""
+    try:
+        parameters = inspect.signature(hook).parameters.values()
+    except (TypeError, ValueError):  # a callable without a signature Python can read
+        return False
+    return any(
+        (p.name == "out" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)) or p.kind == p.VAR_KEYWORD
+        for p in parameters
+    )
 
 
 class LowLevelBackendError(JudoError):
@@ -59,7 +73,9 @@ class LowLevel:
         observation: (commands (B, C), states (B, nq + nv), previous_actions (B, A), times (B,)) -> (B, O),
             vectorized numpy; previous_actions are the policy's own outputs of the last tick (zeros at a
             rollout's or a plant's start), times each row's sim time (s; the plant's clock, carried on through
-            the rollouts, for a policy that keeps a gait's rhythm). None: [commands, states], so O = C + nq + nv.
+            the rollouts, for a policy that keeps a gait's rhythm). A hook that also takes an `out` keyword is handed
+            the (B, O) buffer of the rollouts' tick to write into and return (no temporaries; it may be None, on
+            the plant and in `check`: then the hook allocates). None: [commands, states], so O = C + nq + nv.
         to_ctrl: (B, A) actions -> (B, nu) ctrl, held for the next k steps (MuJoCo clamps it to the
             ctrlrange). None: the actions are the ctrl (A = nu).
         chunk_horizon: seconds a chunk's knots span (chunk policies only); None: the policy's "horizon" metadata.
@@ -75,6 +91,7 @@ class LowLevel:
     chunk_spline_order: str | None = None
     chunk: SplineBasis | None = field(init=False, default=None)
     """The chunk's knot layout (set from the two fields above), or None for a per-step policy."""
+    _hook_with_out: ObservationFn | None = field(init=False, default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.command_range = np.array(self.command_range, dtype=float)
@@ -86,6 +103,7 @@ class LowLevel:
         if isinstance(self.every, bool) or not isinstance(self.every, (int, np.integer)) or self.every < 1:
             raise PolicyError(f"every (physics steps per policy tick) must be an integer >= 1, got {self.every!r}")
         self.chunk = None if self.policy.horizon == 1 else self._chunk_basis()
+        self._hook_with_out = self.observation if self.observation is not None and takes_out(self.observation) else None
 
     def _chunk_basis(self) -> SplineBasis:
         """The knot layout of the policy's chunks; PolicyError (one line) where it is not known or does not fit."""
@@ -129,9 +147,12 @@ class LowLevel:
         out: np.ndarray | None = None,
     ) -> np.ndarray:
         """(B, O) the policy's observations: the task's `observation`, or [commands, states] without one (written
-        into the (B, O) `out` where given, with no temporary)."""
-        if self.observation is not None:
-            return self.observation(commands, states, previous_actions, times)
+        into the (B, O) `out` where given, by the default and by a hook that takes `out`)."""
+        hook = self.observation
+        if hook is not None:
+            if hook is self._hook_with_out:  # (a hook set after construction is called without `out`)
+                return hook(commands, states, previous_actions, times, out=out)
+            return hook(commands, states, previous_actions, times)
         if out is None:
             return np.concatenate([commands, states], axis=1)
         out[:, : commands.shape[1]] = commands
@@ -245,9 +266,19 @@ class LowLevelRollout(RolloutBackend):
         stepper.start(num_rollouts, num_steps, initial_state, mocap)
         num_state = 1 + self.model.nq + self.model.nv  # STATE_SPEC starts [time, qpos, qvel]
 
+        views = {  # per block: its (B, O) buffer, (B, T, C) commands, and the states and times in `current`
+            rows.start: (
+                stepper.observations[rows],
+                commands[rows],
+                stepper.current[rows, 1:num_state],
+                stepper.current[rows, 0],
+            )
+            for rows in self.inner.blocks(num_rollouts)
+        }
+
         def observe(rows: slice, start: int, current: np.ndarray, previous: np.ndarray) -> np.ndarray:
-            out = stepper.observations[rows]
-            return low.observe(commands[rows, start], current[:, 1:num_state], previous, current[:, 0], out)
+            out, block_commands, states, times = views[rows.start]
+            return low.observe(block_commands[:, start], states, previous, times, out)
 
         def act(rows: slice, observations: np.ndarray) -> np.ndarray:
             return low.policy.checked_act(observations, require_finite=False)  # (B, H, A); NaN: that rollout loses

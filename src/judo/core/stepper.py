@@ -107,32 +107,49 @@ class PolicyStepper:
         """Turn the (B, H, A) actions of one `act` for `rows` into the ctrl of a tick of `num_steps` steps (held,
         or each step's off the chunk's spline), written into those rows of `inputs[num_steps]`, and keep the
         last step's actions as the rows' `previous`; returns the rows' (B, num_steps, nu) ctrl (a view)."""
-        nu, weights = self.model.nu, self._weights[num_steps]
-        ctrl = self.inputs[num_steps][rows, :, :nu]
+        ctrl = self.inputs[num_steps][rows, :, : self.model.nu]
+        self._write_ctrl(chunk, self.previous[rows], ctrl, self._weights[num_steps])
+        return ctrl
+
+    def _write_ctrl(
+        self, chunk: np.ndarray, previous: np.ndarray, ctrl: np.ndarray, weights: np.ndarray | None
+    ) -> None:
+        """`act` on the rows' (B, A) `previous` and (B, n, nu) `ctrl` views."""
         if weights is None:  # one action, held for the tick
-            self.previous[rows] = chunk[:, 0]
-            ctrl[:] = (chunk[:, 0] if self.to_ctrl is None else self.to_ctrl(chunk[:, 0]))[:, None, :]
+            previous[:] = chunk[:, 0]
+            if self.to_ctrl is None:
+                ctrl[:] = previous[:, None, :]
+            else:
+                ctrl[:] = self.to_ctrl(chunk[:, 0])[:, None, :]
         else:  # each step's action off the chunk's spline
             actions = np.einsum("sh,bha->bsa", weights, chunk)
-            self.previous[rows] = actions[:, -1]
+            previous[:] = actions[:, -1]
             flat = actions.reshape(-1, actions.shape[-1])
-            ctrl[:] = (flat if self.to_ctrl is None else self.to_ctrl(flat)).reshape(len(chunk), -1, nu)
-        return ctrl
+            ctrl[:] = (flat if self.to_ctrl is None else self.to_ctrl(flat)).reshape(len(chunk), -1, ctrl.shape[-1])
 
     def run(self, rows: slice, observe: Observe, act: Act, physics: Physics, record: Record | None = None) -> None:
         """Every tick of the rows `rows` (one block), on the calling thread: their (B, O) observations, one batched
         `act`, the tick's ctrl, then `physics` steps them on from `current`, which then holds the last step's
-        states. A row whose actions are not finite is marked in `finite` and steps on regardless."""
+        states. A row whose actions are not finite is marked in `finite` and steps on regardless.
+
+        The block's views of the buffers are taken once per run, so that a tick's own Python (which holds the GIL
+        while the other blocks' physics runs without it) is the observation, `act` and two small copies."""
         current, previous, finite = self.current[rows], self.previous[rows], self.finite[rows]  # views
+        nu, spec, everything = self.model.nu, self.control_spec, self.current
+        views = {  # per tick length n: the tick's buffers, the block's ctrl in them and its last step's states
+            n: (self.inputs[n], self.states[n], self.sensors[n], self.inputs[n][rows, :, :nu], self.states[n][rows, -1])
+            for n in self.inputs
+        }
+        weights, write = self._weights, self._write_ctrl
         for start, stop in self.ticks:
             n = stop - start
+            inputs, states, sensors, ctrl, last = views[n]
             chunk = act(rows, observe(rows, start, current, previous))
             if not math.isfinite(chunk.sum()):  # one cheap reduction per tick; rows only when it fails
                 finite &= np.isfinite(chunk).all(axis=(1, 2))
-            self.act(rows, chunk, n)
-            states = self.states[n]
-            physics(self.current, self.inputs[n], self.control_spec, states, self.sensors[n])
-            current[:] = states[rows, -1]
+            write(chunk, previous, ctrl, weights[n])
+            physics(everything, inputs, spec, states, sensors)
+            current[:] = last
             if record is not None:
                 record(rows, start, stop)
 

@@ -139,7 +139,7 @@ class GaitEpisodes:
     def __init__(self, task: QuadrupedVelocity, layout: GaitLayout, workers: int) -> None:
         self.task, self.layout, self.model = task, layout, task.model
         self.pool = RolloutPool(self.model, workers)
-        self.stepper = PolicyStepper(self.model, self.model.nu, EVERY)
+        self.stepper = PolicyStepper(self.model, self.model.nu, EVERY, observation_size=layout.observation_size)
         data = mujoco.MjData(self.model)
         data.qpos[:] = self.model.key_qpos[0]
         data.ctrl[:] = task.home_ctrl
@@ -161,7 +161,8 @@ class GaitEpisodes:
         ctrl = np.zeros((batch, ticks, model.nu))
 
         def observe(rows: slice, start: int, current: np.ndarray, previous: np.ndarray) -> np.ndarray:
-            return self.task.locomotion_observation(commands[rows], current[:, 1:], None, current[:, 0])
+            out = stepper.observations[rows]  # written in place: no temporaries per tick
+            return self.task.locomotion_observation(commands[rows], current[:, 1:], None, current[:, 0], out=out)
 
         def act(rows: slice, observations: np.ndarray) -> np.ndarray:
             return gait_actions(parameters[rows], observations, layout)[:, None]  # (B, 1, 12), held for the tick

@@ -35,7 +35,7 @@ from judo.loop.system_choice import Ros2Options, SystemOptions
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
-from judo.ros2.mcap_log import McapLog
+from judo.ros2.mcap_log import McapLog, log_metadata
 
 logger = logging.getLogger("judo.ros2")
 
@@ -129,7 +129,7 @@ class Ros2System(System):
     @classmethod
     def from_options(cls, task: Task, options: SystemOptions) -> "Ros2System":
         """The bridge the app's `--system ros2 [--record FILE.mcap] [--ros2.*]` options describe."""
-        log = None if options.record is None else McapLog(options.record)
+        log = None if options.record is None else McapLog(options.record, log_metadata(task, options.ros2))
         try:
             return cls(task, options.ros2, log)
         except BaseException:

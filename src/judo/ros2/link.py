@@ -1,20 +1,21 @@
 # pyright: reportArgumentType=false
 # (cyclonedds types a message's list fields as its IDL `sequence`, which is a plain list at run time)
-"""What both ends of a ROS 2 link share: the DDS domain and QoS, and a MuJoCo model's joints as JointState names.
+"""What both ends of a ROS 2 link share: the DDS domain and QoS, and a MuJoCo model's state as ROS 2 messages
+(`JointLayout` and `base_from_odometry`, which need no DDS, live in judo.ros2.joints).
 
 QoS, as ROS 2 sets it: sensor streams are best effort, keep last 1 (the sensor-data profile); commands are
 reliable, keep last 1 (a command is never replaced by an older one on the way).
 """
 
-import math
 import os
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 
 from judo.core.errors import ConfigError, JudoError, import_extra
 from judo.ros2 import messages as msg
+from judo.ros2.joints import JointLayout as JointLayout  # re-exported: the bridge and the plant use link.*
+from judo.ros2.joints import base_from_odometry as base_from_odometry
 
 dds = import_extra("cyclonedds.domain", "the ROS 2 bridge", "ros2")
 from cyclonedds.core import Policy, Qos  # noqa: E402
@@ -69,54 +70,6 @@ def topic(participant, name: str, message_type: type):
     return Topic(participant, msg.ros_topic(name), message_type)
 
 
-@dataclass(frozen=True)
-class JointLayout:
-    """A model's joints as a robot names them in its JointState, and where each sits in [qpos, qvel].
-
-    Attributes:
-        names: (k,) the robot's names of the model's hinge and slide joints, in model order.
-        model_names: (k,) their MJCF names.
-        qpos: (k,) int, each joint's qpos address.
-        qvel: (k,) int, each joint's dof address.
-        free: (qpos address, dof address) of the model's free joint (the base, in /odom), or None.
-    """
-
-    names: tuple[str, ...]
-    model_names: tuple[str, ...]
-    qpos: np.ndarray
-    qvel: np.ndarray
-    free: tuple[int, int] | None
-
-    @classmethod
-    def of(cls, model: mujoco.MjModel, joint_map: tuple[str, ...] = ()) -> "JointLayout":
-        """The layout of `model`; `joint_map` holds "mjcf_name=robot_name" entries for names that differ.
-        ConfigError for a ball joint, a second free joint or a map entry naming no joint."""
-        mapping: dict[str, str] = {}
-        for entry in joint_map:
-            model_name, sep, robot_name = entry.partition("=")
-            if not sep or not model_name or not robot_name:
-                raise ConfigError(f"a joint map entry must read mjcf_name=robot_name, got {entry!r}")
-            mapping[model_name] = robot_name
-        names, model_names, qpos, qvel, free = [], [], [], [], None
-        all_names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_JOINT, j) or f"joint{j}" for j in range(model.njnt)]
-        for unknown in sorted(set(mapping) - set(all_names)):
-            raise ConfigError(f"the joint map names {unknown!r}, which the model lacks; its joints: {all_names}")
-        for j, name in enumerate(all_names):
-            kind = int(model.jnt_type[j])
-            if kind == mujoco.mjtJoint.mjJNT_FREE:
-                if free is not None:
-                    raise ConfigError(f"a robot link carries one free joint (the base in /odom); {name!r} is a second")
-                free = (int(model.jnt_qposadr[j]), int(model.jnt_dofadr[j]))
-            elif kind == mujoco.mjtJoint.mjJNT_BALL:
-                raise ConfigError(f"ball joint {name!r} has no JointState form; only hinge, slide and one free joint")
-            else:
-                names.append(mapping.get(name, name))
-                model_names.append(name)
-                qpos.append(int(model.jnt_qposadr[j]))
-                qvel.append(int(model.jnt_dofadr[j]))
-        return cls(tuple(names), tuple(model_names), np.array(qpos, int), np.array(qvel, int), free)
-
-
 def joint_state(layout: JointLayout, qpos: np.ndarray, qvel: np.ndarray, stamp: float) -> msg.JointState:
     """The JointState of the (nq,) `qpos` and (nv,) `qvel`, stamped `stamp` seconds."""
     return msg.JointState(
@@ -145,22 +98,6 @@ def odometry(layout: JointLayout, qpos: np.ndarray, qvel: np.ndarray, stamp: flo
         msg.PoseWithCovariance(pose),
         msg.TwistWithCovariance(twist),
     )
-
-
-def base_from_odometry(odom: msg.Odometry) -> tuple[np.ndarray, np.ndarray]:
-    """((7,) free-joint qpos [x y z qw qx qy qz], (6,) qvel [world linear, body angular]) of `odom`."""
-    p, q = odom.pose.pose.position, odom.pose.pose.orientation
-    quat = np.array([q.w, q.x, q.y, q.z])
-    norm = float(np.linalg.norm(quat))
-    if not math.isfinite(norm) or norm < 1e-6:
-        raise JudoError(f"an Odometry with orientation {quat.tolist()} (not a unit quaternion)")
-    quat /= norm
-    rot = np.empty(9)
-    mujoco.mju_quat2Mat(rot, quat)
-    t = odom.twist.twist
-    linear = rot.reshape(3, 3) @ np.array([t.linear.x, t.linear.y, t.linear.z])
-    qpos = np.concatenate([[p.x, p.y, p.z], quat])
-    return qpos, np.concatenate([linear, [t.angular.x, t.angular.y, t.angular.z]])
 
 
 def imu(qpos: np.ndarray, qvel: np.ndarray, accel: np.ndarray, layout: JointLayout, stamp: float) -> msg.Imu:

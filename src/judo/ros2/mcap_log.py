@@ -3,6 +3,8 @@
 Each message is stored as its CDR bytes (the bytes on the DDS wire), on a channel named by its ROS 2 topic,
 with the message's ROS 2 definition as the channel's "ros2msg" schema. The log time is the wall clock of the
 process that logs (ns since the Unix epoch); the publish time is the message's header stamp where it has one.
+A metadata record named "judo" (`METADATA`) says what the bridge knew: the task, the joint map and the topics;
+`judo.ros2.mcap_read` reads the log back.
 """
 
 import threading
@@ -11,16 +13,22 @@ from pathlib import Path
 from typing import Any
 
 from judo.core.errors import JudoError, import_extra
+from judo.core.task import Task
+from judo.loop.system_choice import Ros2Options
 from judo.ros2.messages import MSGDEFS, ROS_NAMES
+
+METADATA = "judo"
+"""Name of the log's metadata record of judo's own entries ({"task": ..., "joint_map": ..., topics})."""
 
 
 class McapLog:
     """Writes ROS 2 messages to the MCAP file at `path` (replaced if it exists); safe to use from several threads.
 
     Call `close()` to finish the file (its summary and index); a log never closed cannot be read back whole.
+    `metadata` ({name: text}) is written as the "judo" metadata record.
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(self, path: str | Path, metadata: dict[str, str] | None = None) -> None:
         writer_module = import_extra("mcap.writer", "an MCAP log (--record)", "ros2")
         self.path = Path(path)
         try:
@@ -29,6 +37,8 @@ class McapLog:
             raise JudoError(f"cannot write the MCAP log {self.path}: {err.strerror or err}") from err
         self._writer = writer_module.Writer(self._file)
         self._writer.start(profile="ros2", library="judo")
+        if metadata:
+            self._writer.add_metadata(METADATA, dict(metadata))
         self._schemas: dict[str, int] = {}
         self._channels: dict[str, int] = {}
         self._sequence = 0
@@ -65,3 +75,16 @@ class McapLog:
             self._closed = True
             self._writer.finish()
             self._file.close()
+
+
+def log_metadata(task: Task, options: Ros2Options) -> dict[str, str]:
+    """The MCAP log's "judo" record: the task's registered name (where one name has its class), the joint map
+    ("mjcf=robot" entries, comma-separated) and the topics, so that `replay` and `sysid` read the log alone."""
+    from judo.core.registry import get_registered_tasks
+
+    names = [name for name, (cls, _) in get_registered_tasks().items() if cls is type(task)]
+    metadata = {"joint_map": ",".join(options.joint_map), "joint_states": options.joint_states}
+    metadata.update({"odom": options.odom, "mocap": options.mocap, "commands": options.commands})
+    if len(names) == 1:
+        metadata["task"] = names[0]
+    return metadata

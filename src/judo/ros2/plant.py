@@ -28,6 +28,7 @@ import numpy as np
 import tyro
 
 from judo.core.errors import ConfigError, JudoError, import_extra
+from judo.core.model_overrides import check_model_overrides, override_task_models, parse_override_entries
 from judo.core.registry import get_registered_tasks, lookup_task
 from judo.core.task import new_task
 from judo.loop.system import MujocoSystem, SimulationDiverged
@@ -61,6 +62,9 @@ class PlantOptions:
     """Fraction of outgoing messages sent twice, 0..1."""
     duration: float | None = None
     """Stop after this many wall seconds; by default run until Ctrl-C or SIGTERM."""
+    plant_overrides: Annotated[tuple[str, ...], tyro.conf.arg(metavar="FIELD.ELEMENT=VALUE")] = ()
+    """MjModel fields of the simulated plant, by element name, e.g. body_mass.pole=0.13: a robot unlike the
+    planning model, to rehearse `python -m judo sysid` on its logs."""
     echo: bool = False
     """Write every command read back on <commands>_echo at once (benchmarks/ros2_bridge.py times the round trip)."""
     ros2: Annotated[Ros2Options, tyro.conf.arg(name="ros2")] = field(default_factory=Ros2Options)
@@ -124,6 +128,9 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
 
     check(options)
     task = new_task(lookup_task(options.task)[0])
+    if options.plant_overrides:
+        overrides = check_model_overrides(task.sim_model, parse_override_entries(options.plant_overrides))
+        task = override_task_models(task, {}, overrides)
     system = MujocoSystem.from_task(task, options.seed)
     model, data = system.task.sim_model, system.task.data
     layout = link.JointLayout.of(model, options.ros2.joint_map)

@@ -10,7 +10,7 @@ built), then composes parts that own their state and are handed what they use (d
 - `PlantRunner` (`judo.runtime.plant_runner`): the System's thread;
 - `PlannerRunner` (`judo.runtime.planner_runner`): the control clock, planning and switches;
 - `Supervisor` (`judo.runtime.supervisor`): the event loop, signals, the monitor and the stop order;
-- `Recordings` (`judo.runtime.recordings`) and the frontend (the GUI, given to the App, which never imports it).
+- `Recordings` (`judo.runtime.live_recording`) and the frontend (the GUI, given to the App, which never imports it).
 The App implements the GUI's command port (`judo.runtime.commands.AppPort`); `start()` returns at once.
 
 A stop (`stop()`, Ctrl-C, SIGTERM) takes effect within about a second whatever the configs: every wait is cut
@@ -44,9 +44,9 @@ from judo.runtime.address import check_port, check_token
 from judo.runtime.app_state import AppState
 from judo.runtime.commands import Commands
 from judo.runtime.cycles import CycleCost
+from judo.runtime.live_recording import Recordings
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
-from judo.runtime.recordings import Recordings
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine

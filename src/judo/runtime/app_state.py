@@ -201,7 +201,7 @@ class AppState:
 
     # ---- recording ----------------------------------------------------------------------------------
     def begin_recording(self, recorder: LiveRecorder) -> None:
-        """`recorder` hears every config edit from now on (`judo.runtime.recordings`)."""
+        """`recorder` hears every config edit from now on (`judo.runtime.live_recording`)."""
         with self.lock:
             self.recording = recorder
             self.recording_changes += 1

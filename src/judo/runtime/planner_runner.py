@@ -19,7 +19,7 @@ from judo.loop.control_clock import ControlClock
 from judo.loop.system import SystemState
 from judo.runtime.app_state import AppState, PendingConfigs, Stopping
 from judo.runtime.cycles import PlanningCycle, cycle_size
-from judo.runtime.recordings import Recordings
+from judo.runtime.live_recording import Recordings
 from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer
 from judo.runtime.status import Reports, RunStats

@@ -45,9 +45,9 @@ from judo.runtime.address import is_loopback
 from judo.runtime.app_state import AppState
 from judo.runtime.commands import AppPort
 from judo.runtime.cycles import seconds_text
+from judo.runtime.live_recording import Recordings
 from judo.runtime.planner_runner import PlannerRunner
 from judo.runtime.plant_runner import PlantRunner
-from judo.runtime.recordings import Recordings
 from judo.runtime.status import Reports
 
 logger = logging.getLogger("judo.app")

@@ -40,11 +40,11 @@ DOWN_IN_BODY_FORMS = -np.array(
 """(3, 4, 4) symmetric Q_k with q^T Q_k q the k-th component of R(q)^T [0, 0, -1] for a unit q = [w, x, y, z]."""
 
 
-def gravity_in_body(quat: np.ndarray) -> np.ndarray:
+def gravity_in_body(quat: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
     """(..., 3) the world's down direction in the frame of (..., 4) unit quaternions [w, x, y, z]: R^T [0, 0, -1],
     as three quadratic forms in one einsum (a fifth of the cost of the twelve small array operations it replaces,
-    on the 4-row batches a low-level tick observes)."""
-    return np.einsum("...i,kij,...j->...k", quat, DOWN_IN_BODY_FORMS, quat)
+    on the 4-row batches a low-level tick observes); written into the (..., 3) `out` where given."""
+    return np.einsum("...i,kij,...j->...k", quat, DOWN_IN_BODY_FORMS, quat, out=out)
 
 
 @dataclass(frozen=True)
@@ -77,12 +77,16 @@ def gait_of(name: str) -> Gait:
 
 CLOCK_HZ = GAITS["trot"].frequency
 """Frequency (Hz) of the clock in the locomotion observation: the trot's, so its phase is the reward's schedule."""
+CLOCK_RAD_PER_S = 2.0 * np.pi * CLOCK_HZ
+"""The clock's phase rate (rad/s)."""
+LOCOMOTION_OBSERVATION_SIZE = 35
+"""Width of `locomotion_observation`: 12 joint angles, 12 joint speeds, gyro, gravity, command, clock."""
 
 
 def gait_clock(times: np.ndarray) -> np.ndarray:
     """(B, 2) [cos, sin] of the trot's phase 2 pi CLOCK_HZ t at (B,) sim `times` (s): a front-right foot's
     swing starts at phase 0 (GAITS["trot"])."""
-    phase = 2.0 * np.pi * CLOCK_HZ * np.asarray(times, dtype=float)
+    phase = CLOCK_RAD_PER_S * np.asarray(times, dtype=float)
     return np.stack([np.cos(phase), np.sin(phase)], axis=1)
 
 
@@ -154,6 +158,9 @@ class QuadrupedBase(Task[ConfigT]):
         """(12,) the standing pose's joint targets."""
         self._joint_qpos = np.array([self.get_joint_position_start_index(j) for j in JOINTS])
         self._joint_qvel = np.array([self.get_joint_velocity_start_index(j) for j in JOINTS])
+        nq = self.model.nq
+        self._proprioception = np.concatenate([self._joint_qpos, self._joint_qvel, np.arange(nq + 3, nq + 6)])
+        """(27,) the state columns the locomotion observation starts with: joint angles, joint speeds, gyro."""
         self._torso = self.get_sensor_start_index("trace_torso")
         self._feet = np.array([self.get_sensor_start_index(f"trace_{leg}_foot") + 2 for leg in LEGS])
         self._up = self.get_sensor_start_index("torso_up")
@@ -202,25 +209,29 @@ class QuadrupedBase(Task[ConfigT]):
         mujoco.mj_forward(self.sim_model, self.data)
 
     def locomotion_observation(
-        self, commands: np.ndarray, states: np.ndarray, previous: np.ndarray | None, times: np.ndarray
+        self,
+        commands: np.ndarray,
+        states: np.ndarray,
+        previous: np.ndarray | None,
+        times: np.ndarray,
+        out: np.ndarray | None = None,
     ) -> np.ndarray:
         """(B, 35) the locomotion observation (quadruped_velocity.OBSERVATION) of (B, 3) commands [vx, vy, yaw rate],
         (B, nq + nv) states and (B,) sim times (s), one command per row: what quadruped_velocity's
         `policy_observation` gives, and quadruped_navigate's low-level hook (hence a hook's argument order). The
         (B, 12) `previous` joint targets are not part of it: a policy cloned from the MPC with them learned to copy
-        them (the copycat problem of behaviour cloning; docs/tasks.md)."""
-        nq = self.model.nq
-        return np.concatenate(
-            [
-                states[:, self._joint_qpos] - self.home_ctrl,
-                states[:, self._joint_qvel],
-                states[:, nq + 3 : nq + 6],
-                gravity_in_body(states[:, 3:7]),
-                commands,
-                gait_clock(times),
-            ],
-            axis=1,
-        )
+        them (the copycat problem of behaviour cloning; docs/tasks.md). Written into the (B, 35) `out` where given
+        (a low-level tick's buffer: one gather and a few small writes, no concatenated temporaries)."""
+        if out is None:
+            out = np.empty((len(states), LOCOMOTION_OBSERVATION_SIZE))
+        np.take(states, self._proprioception, axis=1, out=out[:, :27], mode="clip")  # in range: no bounds buffer
+        out[:, :12] -= self.home_ctrl  # joint angles from the standing pose
+        gravity_in_body(states[:, 3:7], out=out[:, 27:30])
+        out[:, 30:33] = commands
+        phase = CLOCK_RAD_PER_S * np.asarray(times, dtype=float)
+        out[:, 33] = np.cos(phase)  # gait_clock's columns, each computed on the contiguous phases as there
+        out[:, 34] = np.sin(phase)
+        return out
 
     def post_sim_step(self) -> None:
         """Count a fall (trunk below half its standing height) and stand the robot up where it lies."""

@@ -1,0 +1,213 @@
+"""The bridge's MCAP log read back (judo.ros2.mcap_read): a real log of the bridge driving a plant process with a
+heavier pole over DDS holds the plant's states and the commands sent, `replay` loads it, and `sysid` finds the
+pole's mass from it; logs it cannot use are one-line errors naming what they hold."""
+
+import subprocess
+import sys
+
+import mujoco
+import numpy as np
+import pytest
+
+pytest.importorskip("cyclonedds")
+pytest.importorskip("mcap_ros2.decoder")
+
+from ros2_links import env, free_domain, start_plant, stop_process
+
+from judo.collection.excite import multisine
+from judo.collection.replay import Replay
+from judo.collection.replay import main as replay_main
+from judo.collection.sysid_cli import main as sysid_main
+from judo.core.config_file import load_config
+from judo.core.model_overrides import overridden
+from judo.core.registry import make_task
+from judo.loop.system_choice import Ros2Options, SystemOptions
+from judo.ros2 import link
+from judo.ros2.bridge import Ros2System
+from judo.ros2.mcap_log import McapLog
+from judo.ros2.mcap_read import read_bridge_log
+from judo.tasks.cartpole import Cartpole
+
+TRUE_MASS = 0.13
+"""The plant process's pole mass: x1.3 the cartpole MJCF's 0.1."""
+SECONDS = 3.0
+
+
+@pytest.fixture(scope="module")
+def bridge_log(tmp_path_factory):
+    """(path, commands (C, 1) sent): the bridge, as the app builds it with --record, driving a cartpole plant process
+    with a heavier pole by a multisine at its 100 Hz for 3 s."""
+    path = tmp_path_factory.mktemp("mcap") / "run.mcap"
+    domain = free_domain()
+    proc = start_plant(domain, "--plant-overrides", f"body_mass.pole={TRUE_MASS}")
+    try:
+        task = Cartpole()
+        options = SystemOptions(system="ros2", record=path, ros2=Ros2Options(domain_id=domain))
+        system = Ros2System.from_options(task, options)
+        steps = round(SECONDS * 100)
+        commands = multisine(task.model.actuator_ctrlrange, np.arange(steps) * 0.01, 0.5, 2.0, seed=0)
+        try:
+            for command in commands:
+                system.read_state()
+                system.apply(command)
+                system.step()
+        finally:
+            system.close()
+    finally:
+        stop_process(proc)
+    return path, commands
+
+
+@pytest.mark.slow
+def test_the_log_reads_back_as_the_plants_states_under_the_commands_sent(bridge_log):
+    path, sent = bridge_log
+    log = read_bridge_log(path)
+    assert log.task == "cartpole" and log.topics["joint_states"] == "/joint_states"
+    np.testing.assert_array_equal(log.commands, sent)  # every command, in order, as written
+    assert len(log.times) > 100 and (np.diff(log.times) > 0).all()
+    np.testing.assert_allclose(log.times / 0.01, np.round(log.times / 0.01), atol=1e-6)  # on the plant's steps
+    # Each logged state is the plant's own: one step of the plant's model (the heavier pole) from the row before,
+    # under the action the reader holds for it, lands on it (float64 on the wire, so to rounding).
+    plant = overridden(make_task("cartpole").sim_model, {"body_mass": {"pole": np.array([TRUE_MASS])}})
+    data = mujoco.MjData(plant)
+
+    def exact_fraction(offset: int) -> tuple[float, int]:
+        """The fraction of steps that re-simulate to rounding with each row's action read `offset` rows late."""
+        errors = []
+        for rows in log.segments():
+            for row in range(rows.start + 1 + max(offset, 0), rows.stop + min(offset, 0)):
+                data.qpos[:], data.qvel[:] = log.qpos[row - 1], log.qvel[row - 1]
+                data.ctrl[:] = log.actions[row - offset]
+                mujoco.mj_step(plant, data)
+                errors.append(np.abs(np.r_[data.qpos - log.qpos[row], data.qvel - log.qvel[row]]).max())
+        return float(np.mean(np.array(errors) < 1e-9)), len(errors)
+
+    exact, steps = exact_fraction(0)
+    off = max(exact_fraction(1)[0], exact_fraction(-1)[0])
+    assert steps > 50
+    # On an idle machine about every step; a machine loaded to several times its cores delays some commands past
+    # the plant's step. Reading the actions a step off matches a few percent (under load, up to about a tenth).
+    assert exact >= 0.5 and exact >= 3 * off, (exact, off)
+
+
+@pytest.mark.slow
+def test_replay_loads_the_log_as_one_demo_on_the_robots_clock(bridge_log):
+    path, _ = bridge_log
+    log = read_bridge_log(path)
+    replay = Replay(path)  # the GUI's loading, without serving it
+    assert replay.env_args["task"] == "cartpole" and list(replay.demos) == [0]
+    np.testing.assert_array_equal(replay.demo.qpos, log.qpos)
+    np.testing.assert_allclose(replay.demo.times, log.times - log.times[0] + 0.01)
+    assert replay.demo.success is None and not replay.demo.has_traces
+    assert [replay._row(t) for t in replay.demo.times[[0, 5, -1]]] == [0, 5, len(log.times) - 1]
+
+
+@pytest.mark.slow
+def test_sysid_finds_the_plants_pole_mass_from_the_log(bridge_log, tmp_path, capsys):
+    path, _ = bridge_log
+    out = tmp_path / "fitted.toml"
+    assert sysid_main([str(path), "--task", "cartpole", "--params", "body_mass.pole", "--out", str(out)]) == 0
+    assert "| body_mass.pole | 0.1 | 0.1" in capsys.readouterr().out
+    load_config(out)
+    model = make_task("cartpole").model
+    assert model.body_mass[model.body("pole").id] == pytest.approx(TRUE_MASS, rel=0.05)
+
+
+def write_log(path, joint_map=(), joints=True, commands=True, metadata=None, stamps=20, every=0.01):
+    """A log written with the bridge's own writer, no DDS: `stamps` JointStates (named through `joint_map`, where
+    `joints`) `every` seconds apart, each followed by a command where `commands`."""
+    log = McapLog(path, {"task": "cartpole"} if metadata is None else metadata)
+    layout = link.JointLayout.of(Cartpole().model, joint_map)
+    for step in range(1, stamps + 1):
+        if joints:
+            message = link.joint_state(layout, np.array([0.1, 3.0]), np.zeros(2), every * step)
+            log.write("/joint_states", message, step * 10_000_000)
+        if commands:
+            log.write("/judo/commands", link.commands(np.array([0.5])))
+    log.close()
+    return path
+
+
+def corrupt(path):
+    path.write_bytes(b"\x89MCAP0\r\n" + bytes(range(256)) * 4)
+    return path
+
+
+@pytest.mark.parametrize(
+    "case, message",
+    [
+        (
+            "no_joint_states",
+            "no_joint_states.mcap: no sensor_msgs/msg/JointState on /joint_states; the log holds /judo/commands "
+            "(std_msgs/msg/Float64MultiArray)",
+        ),
+        (
+            "other_joints",
+            "other_joints.mcap: its joint states name the joints ['cart', 'pole']; cartpole's model has ['slider', "
+            "'hinge'] (missing ['slider', 'hinge'], unknown ['cart', 'pole'])",
+        ),
+        ("no_task", "no_task.mcap: the log does not name its task (the bridge's record does); give --task"),
+        ("corrupt", "corrupt.mcap: not a readable MCAP log"),
+        ("empty", "empty.mcap: the file is empty"),
+    ],
+)
+def test_logs_replay_cannot_play_are_one_line_errors_naming_what_they_hold(tmp_path, capsys, case, message):
+    logs = {
+        "no_joint_states": lambda p: write_log(p, joints=False),
+        "other_joints": lambda p: write_log(p, joint_map=("slider=cart", "hinge=pole")),
+        "no_task": lambda p: write_log(p, metadata={}),
+        "corrupt": corrupt,
+        "empty": lambda p: p.touch() or p,
+    }
+    path = logs[case](tmp_path / f"{case}.mcap")
+    with pytest.raises(SystemExit) as caught:
+        replay_main([str(path), "--port", "8499"])
+    assert caught.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("error: ") and message in err, err
+
+
+def test_sysid_refuses_a_log_without_commands_or_of_another_task_and_writes_nothing(tmp_path, capsys):
+    cases = [
+        (write_log(tmp_path / "quiet.mcap", commands=False), "cartpole", "pole", "no std_msgs/msg/Float64MultiArray"),
+        (write_log(tmp_path / "run.mcap"), "acrobot", "upper_arm", "a log of task 'cartpole', not of --task 'acrobot'"),
+        (
+            write_log(tmp_path / "sparse.mcap", every=0.05),
+            "cartpole",
+            "pole",
+            "sparse.mcap: no two joint states one model step (0.01 s) apart with a command in force (they are 0.05 s "
+            "apart); the robot must publish one each step (python -m judo plant --rate-hz 100)",
+        ),
+    ]
+    for path, task, body, message in cases:
+        argv = [str(path), "--task", task, "--params", f"body_mass.{body}", "--out", str(tmp_path / "o/f.toml")]
+        with pytest.raises(SystemExit) as caught:
+            sysid_main(argv)
+        assert caught.value.code == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and message in err, err
+    assert not (tmp_path / "o").exists()
+    # A log of the bridge without --task in a log that names none: `--task` on replay fills it in.
+    replay = Replay(write_log(tmp_path / "anonymous.mcap", metadata={}), task="cartpole")
+    assert replay.env_args["task"] == "cartpole" and replay.demo.qpos.shape == (20, 2)
+    # A robot's own joint names are mapped back by the joint map the bridge wrote into the log.
+    renamed = {"task": "cartpole", "joint_map": "slider=cart,hinge=pole"}
+    log = read_bridge_log(write_log(tmp_path / "renamed.mcap", ("slider=cart", "hinge=pole"), metadata=renamed))
+    np.testing.assert_array_equal(log.qpos, np.tile([0.1, 3.0], (20, 1)))
+
+
+def test_the_reader_needs_no_dds_and_without_mcap_says_what_to_install(tmp_path):
+    path = write_log(tmp_path / "run.mcap")
+    code = (
+        "import sys; sys.modules['cyclonedds'] = None\n"  # any import of cyclonedds now fails
+        "from judo.ros2.mcap_read import read_bridge_log\n"
+        f"log = read_bridge_log({str(path)!r})\n"
+        "print(log.task, log.qpos.shape, log.commands.tolist()[:2])"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env())
+    assert out.stdout == "cartpole (20, 2) [[0.5], [0.5]]\n", out.stderr
+    code = "import sys; sys.modules['mcap.reader'] = None\nfrom judo.collection.replay import main\nmain([sys.argv[1]])"
+    out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, env=env())
+    assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
+    assert "python -m judo replay LOG.mcap needs the optional extra judo-mpc[ros2]" in out.stderr
+    assert 'pip install -e ".[ros2]"' in out.stderr
