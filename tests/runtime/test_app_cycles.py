@@ -87,8 +87,9 @@ def test_an_edit_whose_cycle_would_be_too_long_is_refused_and_a_smaller_one_is_n
         assert estimate > MAX_CYCLE_SECONDS
         assert str(refused.value) == (
             f"num_rollouts = 20000 would make a planning cycle of about {estimate:.0f} s (num_rollouts x "
-            "num_randomizations x max_opt_iters x horizon steps: 20000 x 8 x 10 x 200 = 320,000,000 steps); "
-            f"expected at most {MAX_CYCLE_SECONDS:g} s: lower num_rollouts, num_randomizations, max_opt_iters or "
+            "num_randomizations x iterations x horizon steps: 20000 x 8 x 10 x 200 = 320,000,000 steps); "
+            f"expected at most {MAX_CYCLE_SECONDS:g} s: lower num_rollouts, num_randomizations, max_opt_iters, "
+            "iterations_per_second or "
             "the horizon"
         )
         assert app.configs()["optimizer"] is before  # nothing changed

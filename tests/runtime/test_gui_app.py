@@ -27,6 +27,7 @@ def test_panels_hold_the_fields_of_the_running_configs(app, wait_until):
         "spline_order",
         "control_freq",
         "max_opt_iters",
+        "iterations_per_second",
         "max_num_traces",
         "num_randomizations",
         "risk",

@@ -255,7 +255,7 @@ class Controller:
         )
 
         with self.backend.cancelled_by(cancel):  # polled between pieces of a big batch too
-            for _ in range(self.config.max_opt_iters):
+            for _ in range(self.config.iterations_per_cycle):
                 if cancel is not None and cancel.is_set():
                     raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
                 knots = opt.sample_control_knots(nominal)

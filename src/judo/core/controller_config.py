@@ -1,5 +1,6 @@
 """The planning loop's settings (`ControllerConfig`), their bounds, and the check that configs work together."""
 
+import math
 from dataclasses import dataclass
 
 import mujoco
@@ -20,6 +21,8 @@ MIN_CONTROL_FREQ, MAX_CONTROL_FREQ = 0.1, 1000.0
 out a longer period), and no faster than a plant is stepped."""
 MAX_OPT_ITERS = 100
 """Most optimizer iterations per planning cycle."""
+MAX_ITERATIONS_PER_SECOND = 10_000.0
+"""Most optimizer iterations per second of control that `iterations_per_second` may ask for."""
 MAX_NUM_TRACES = 64
 """Most best-rollout traces drawn besides the nominal."""
 MAX_RANDOMIZATIONS = 64
@@ -34,6 +37,7 @@ config may ask for:
 @slider("horizon", 0.05, 5.0, 0.05, log=False)
 @slider("control_freq", 1.0, 200.0, 1.0)
 @slider("max_opt_iters", 1, 20, 1)
+@slider("iterations_per_second", 0.0, 200.0, 1.0, log=False)
 @slider("max_num_traces", 0, 32, 1)
 @slider("num_randomizations", 1, 16, 1)
 @slider("cvar_alpha", 0.05, 1.0, 0.05)
@@ -52,7 +56,11 @@ class ControllerConfig(Config):
     control_freq: float = 20.0
     """Planning cycles per second that the app aims for."""
     max_opt_iters: int = 1
-    """Optimizer iterations per planning cycle."""
+    """Optimizer iterations per planning cycle (at least: see iterations_per_second)."""
+    iterations_per_second: float = 0.0
+    """Optimizer iterations per second of control, at least: each cycle runs `iterations_per_cycle`, the larger of
+    max_opt_iters and ceil(iterations_per_second / control_freq), so a slower planning rate searches as much per
+    second as a faster one (20 at 5 Hz: 4 iterations a cycle, as 1 a cycle at 20 Hz); 0: max_opt_iters a cycle."""
     max_num_traces: int = 5
     """Best rollouts drawn as traces, besides the nominal."""
     num_randomizations: int = 1
@@ -86,11 +94,23 @@ class ControllerConfig(Config):
     (generative predictive control): the last policy_samples of the num_rollouts, scored and ranked with the
     others, so worse ones are not chosen; at most num_rollouts - 1, 0 turns it off (judo.core.proposals)."""
 
+    @property
+    def iterations_per_cycle(self) -> int:
+        """Optimizer iterations each planning cycle runs (`iterations_per_second`)."""
+        return cycle_iterations(self.max_opt_iters, self.iterations_per_second, self.control_freq)
+
     def validate(self) -> None:
         super().validate()
         require_between("horizon", self.horizon, 0, MAX_HORIZON, " s", above=True)
         require_between("control_freq", self.control_freq, MIN_CONTROL_FREQ, MAX_CONTROL_FREQ, " Hz")
         require_between("max_opt_iters", self.max_opt_iters, 1, MAX_OPT_ITERS)
+        require_between("iterations_per_second", self.iterations_per_second, 0, MAX_ITERATIONS_PER_SECOND, " (0: off)")
+        require(
+            self.iterations_per_cycle <= MAX_OPT_ITERS,
+            f"iterations_per_second {self.iterations_per_second:g} at control_freq {self.control_freq:g} Hz asks for "
+            f"{self.iterations_per_cycle} iterations a cycle; at most {MAX_OPT_ITERS}: lower iterations_per_second or "
+            "raise control_freq",
+        )
         require_between("max_num_traces", self.max_num_traces, 0, MAX_NUM_TRACES)
         require_between("num_randomizations", self.num_randomizations, 1, MAX_RANDOMIZATIONS)
         require(0 < self.cvar_alpha <= 1, f"cvar_alpha must be in (0, 1], got {self.cvar_alpha}")
@@ -101,6 +121,14 @@ class ControllerConfig(Config):
         require(self.redraw_every >= 0, f"redraw_every must be at least 0 (0: draw once), got {self.redraw_every}")
         require_between("max_plan_age", self.max_plan_age, 0, MAX_HORIZON, " s (0: no watchdog)")
         require_between("policy_samples", self.policy_samples, 0, MAX_NUM_ROLLOUTS - 1, " (0: off)")
+
+
+def cycle_iterations(max_opt_iters: int, iterations_per_second: float, control_freq: float) -> int:
+    """Optimizer iterations in one planning cycle: max_opt_iters, or more where iterations_per_second asks for more
+    at this control_freq (Hz)."""
+    if iterations_per_second <= 0:
+        return max_opt_iters
+    return max(max_opt_iters, math.ceil(iterations_per_second / control_freq - 1e-9))
 
 
 def rollout_steps(horizon: float, dt: float) -> int:

@@ -221,7 +221,7 @@ def time_pair(
         num_steps=controller.num_steps,
         num_randomizations=len(controller.models),
         num_workers=controller.backend.num_workers,
-        max_opt_iters=controller.config.max_opt_iters,
+        max_opt_iters=controller.config.iterations_per_cycle,
         update_ms=update_ms,
         raw_rollout_ms=raw_ms,
         backend=backend,

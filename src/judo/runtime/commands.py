@@ -284,8 +284,8 @@ class Commands:
             edit = ", ".join(f"{name} = {value}" for name, value in updates.items())
             raise ConfigError(
                 f"{edit} would make a planning cycle of about {seconds:.0f} s (num_rollouts x num_randomizations x "
-                f"max_opt_iters x horizon steps: {after}); expected at most {MAX_CYCLE_SECONDS:g} s: lower "
-                "num_rollouts, num_randomizations, max_opt_iters or the horizon"
+                f"iterations x horizon steps: {after}); expected at most {MAX_CYCLE_SECONDS:g} s: lower "
+                "num_rollouts, num_randomizations, max_opt_iters, iterations_per_second or the horizon"
             )
         return after != before
 

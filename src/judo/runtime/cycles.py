@@ -1,7 +1,7 @@
 """The app's planning cycle: its size (N x R x iterations x T steps), its estimated wall time, and the cycle in
 flight with its cancel.
 
-A cycle's cost is its rollout steps, num_rollouts x num_randomizations x max_opt_iters x T, times the seconds one
+A cycle's cost is its rollout steps, num_rollouts x num_randomizations x iterations x T, times the seconds one
 step takes on the session's rollout backend (`StepCost`): probed on the planning model when the session is built,
 then measured from each completed cycle large enough for its fixed overhead not to count. The commands refuse an
 edit whose estimated cycle exceeds MAX_CYCLE_SECONDS (`judo.runtime.commands`), and the GUI shows the cost.
@@ -58,9 +58,9 @@ class CycleSize:
 
 
 def cycle_size(task: Task, controller: ControllerConfig, optimizer: OptimizerConfig) -> CycleSize:
-    """The size of a cycle of `task` under these configs: num_rollouts x num_randomizations x max_opt_iters x T."""
+    """The size of a cycle of `task` under these configs: num_rollouts x num_randomizations x iterations (`ControllerConfig.iterations_per_cycle`) x T."""
     steps = rollout_steps(controller.horizon, task.dt)
-    return CycleSize(optimizer.num_rollouts, controller.num_randomizations, controller.max_opt_iters, steps)
+    return CycleSize(optimizer.num_rollouts, controller.num_randomizations, controller.iterations_per_cycle, steps)
 
 
 class StepCost:

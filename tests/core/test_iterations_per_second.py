@@ -1,0 +1,51 @@
+"""`ControllerConfig.iterations_per_second`: a slower planning rate runs more optimizer iterations a cycle, so it
+searches as much per second of control as a faster one; off (0) by default, and checked like every field."""
+
+import numpy as np
+import pytest
+
+import judo
+from judo.core.config import with_updates
+from judo.core.controller_config import MAX_OPT_ITERS, ControllerConfig, cycle_iterations
+from judo.core.errors import ConfigError
+from judo.core.registry import make_task
+from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
+
+
+def test_the_iterations_of_a_cycle_follow_the_rate():
+    assert ControllerConfig().iterations_per_cycle == 1  # off by default: max_opt_iters
+    assert cycle_iterations(1, 20.0, 20.0) == 1
+    assert cycle_iterations(1, 20.0, 5.0) == 4
+    assert cycle_iterations(1, 20.0, 3.0) == 7  # at least: 6.67 rounds up
+    assert cycle_iterations(1, 0.3, 0.1) == 3  # no float fuzz: 0.3 / 0.1 is 2.9999999999999996
+    assert cycle_iterations(5, 20.0, 20.0) == 5  # never fewer than max_opt_iters
+    config = ControllerConfig(control_freq=5.0, iterations_per_second=20.0)
+    assert config.iterations_per_cycle == 4
+
+
+def test_a_rate_that_would_need_too_many_iterations_is_refused_in_one_line():
+    with pytest.raises(ConfigError, match=f"asks for 200 iterations a cycle; at most {MAX_OPT_ITERS}"):
+        with_updates(ControllerConfig(), {"control_freq": 1.0, "iterations_per_second": 200.0})
+    with pytest.raises(ConfigError, match="iterations_per_second"):
+        with_updates(ControllerConfig(), {"iterations_per_second": -1.0})
+
+
+class CountingSampling(PredictiveSampling):
+    """Predictive sampling that counts its iterations (one `update_nominal_knots` per iteration)."""
+
+    iterations = 0
+
+    def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
+        self.iterations += 1
+        return super().update_nominal_knots(sampled_knots, rewards)
+
+
+@pytest.mark.parametrize(("control_freq", "expected"), [(20.0, 1), (5.0, 4)])
+def test_a_controller_runs_the_cycles_iterations(control_freq, expected):
+    task = make_task("cartpole")
+    config = ControllerConfig(horizon=0.2, control_freq=control_freq, iterations_per_second=20.0)
+    optimizer = CountingSampling(PredictiveSamplingConfig(num_rollouts=8), task.nu)
+    with judo.Controller(config, task, optimizer, num_workers=1) as controller:
+        state = np.concatenate([task.data.qpos, task.data.qvel])
+        controller.update_action(state, 0.0)
+        assert optimizer.iterations == expected
