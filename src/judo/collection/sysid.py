@@ -31,6 +31,11 @@ from judo.core.task import Task
 
 EXTRA = "sysid"
 """The optional extra holding mujoco.sysid's dependencies (`mujoco[sysid]`)."""
+MAX_DELAY = 0.1
+"""Seconds: the most actuation delay `--fit-delay` considers (the fit reads this much action history before each
+window)."""
+DELAY = "delay"
+"""The field of the FitParameter that stands for the actuation delay (--fit-delay), in seconds, of every actuator."""
 EXCITED_REL_INTERVAL = 0.25
 """A fitted parameter whose 95% confidence half-width exceeds this fraction of its value is not excited by the
 data: it is reported, not written."""
@@ -47,8 +52,15 @@ class FitParameter:
 
     @property
     def name(self) -> str:
-        """How the command line and the report name it: "body_mass.pole" or "geom_friction.cube[0]"."""
+        """How the command line and the report name it: "body_mass.pole" or "geom_friction.cube[0]"; "delay" for
+        the actuation delay."""
+        if self.field == DELAY:
+            return DELAY
         return f"{self.field}.{self.element}" + ("" if self.index is None else f"[{self.index}]")
+
+
+DELAY_PARAMETER = FitParameter(DELAY, "actuators")
+"""The actuation delay (s) of every actuator, fitted with --fit-delay: each logged action takes effect that late."""
 
 
 def parse_parameters(texts: list[str] | tuple[str, ...], model: mujoco.MjModel) -> list[FitParameter]:
@@ -157,32 +169,59 @@ class Windows:
         starts: (W, nq + nv) logged state before each window's first step.
         controls: (W, K, nu) actions served during the window's steps.
         measured: (W, K, nq + nv) logged state after each of the window's steps.
+        history: (W, H, nu) actions served during the H steps before the window (H = 0 unless a delay is fitted).
     """
 
     starts: np.ndarray
     controls: np.ndarray
     measured: np.ndarray
+    history: np.ndarray
 
 
-def cut_windows(episodes: list[Episode], steps: int) -> Windows:
-    """Non-overlapping windows of `steps` steps from every episode (an episode's first row is a window's start
-    only, since the state before it is not logged); ConfigError where no episode is long enough for one."""
-    starts, controls, measured = [], [], []
+def cut_windows(episodes: list[Episode], steps: int, history: int = 0, stride: int = 1) -> Windows:
+    """Non-overlapping windows of `steps` steps from every episode, each with the `history` actions before it
+    (an episode's first row is a window's start only, since the state before it is not logged), keeping every
+    `stride`-th window; ConfigError where no episode is long enough for one."""
+    starts, controls, measured, before = [], [], [], []
     for episode in episodes:
         states = np.concatenate([episode.qpos, episode.qvel], axis=1)
-        for first in range(1, len(states) - steps + 1, steps):
+        firsts = range(1 + history, len(states) - steps + 1, steps)
+        for first in list(firsts)[::stride]:
             starts.append(states[first - 1])
             controls.append(episode.actions[first : first + steps])
             measured.append(states[first : first + steps])
+            before.append(episode.actions[first - history : first])
     if not starts:
         longest = max((len(e.qpos) for e in episodes), default=0)
-        raise ConfigError(f"--window of {steps} steps is longer than every logged episode (the longest has {longest})")
-    return Windows(np.array(starts), np.array(controls), np.array(measured))
+        raise ConfigError(
+            f"--window of {steps} steps (after {history} steps of action history) is longer than every logged "
+            f"episode (the longest has {longest})"
+        )
+    nu = episodes[0].actions.shape[1]
+    return Windows(
+        np.array(starts), np.array(controls), np.array(measured), np.array(before).reshape(len(starts), history, nu)
+    )
 
 
-def prediction_error(model: mujoco.MjModel, windows: Windows) -> float:
-    """RMS over windows and steps of the difference between `model`'s K-step predictions and the logged states,
-    each state coordinate divided by its spread in the log (so angles, positions and velocities weigh alike)."""
+def delayed_controls(windows: Windows, delay: float, timestep: float) -> np.ndarray:
+    """(W, K, nu) the control in force during each window's steps when every logged action takes effect `delay`
+    seconds late: the logged actions (piecewise constant, one per step) read at t - delay, interpolated linearly
+    between steps (so the residual is continuous in the delay). `delay` is at most H steps of `windows.history`."""
+    if delay <= 0.0:
+        return windows.controls
+    history = windows.history.shape[1]
+    extended = np.concatenate([windows.history, windows.controls], axis=1)  # (W, H + K, nu)
+    at = history + np.arange(windows.controls.shape[1]) - delay / timestep  # fractional row of each step's control
+    low = np.clip(np.floor(at).astype(int), 0, extended.shape[1] - 1)
+    high = np.clip(low + 1, 0, extended.shape[1] - 1)
+    fraction = (at - np.floor(at))[None, :, None]
+    return (1.0 - fraction) * extended[:, low] + fraction * extended[:, high]
+
+
+def prediction_error(model: mujoco.MjModel, windows: Windows, delay: float = 0.0) -> float:
+    """RMS over windows and steps of the difference between `model`'s K-step predictions (under the logged actions
+    `delay` seconds late) and the logged states, each state coordinate divided by its spread in the log (so angles,
+    positions and velocities weigh alike)."""
     from mujoco import rollout
 
     state_size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
@@ -191,7 +230,8 @@ def prediction_error(model: mujoco.MjModel, windows: Windows) -> float:
     for row, start in enumerate(windows.starts):
         data.qpos[:], data.qvel[:] = start[: model.nq], start[model.nq :]
         mujoco.mj_getState(model, data, initial[row], mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    states, _ = rollout.rollout(model, data, initial, windows.controls)
+    controls = delayed_controls(windows, delay, float(model.opt.timestep))
+    states, _ = rollout.rollout(model, data, initial, controls)
     qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)  # rows are [time, qpos, qvel, ...]
     predicted = states[..., qpos_at : qpos_at + model.nq + model.nv]
     error = (predicted - windows.measured) / _spread(windows)
@@ -234,15 +274,38 @@ class FitResult:
     seconds: float
 
     def overrides(self, model: mujoco.MjModel) -> dict[str, dict[str, Any]]:
-        """{field: {element: row}} of the excited parameters, each whole row as `model` holds it otherwise."""
+        """{field: {element: row}} of the excited model parameters, each whole row as `model` holds it otherwise;
+        the delay is among them (as actuator_delay of every actuator) only where `model` keeps the action history
+        that MuJoCo's actuator delay needs (`delay_fits_model`)."""
         chosen = [(p, v) for p, v, excited in zip(self.parameters, self.fitted, self.excited, strict=True) if excited]
-        return parameter_rows(model, chosen)
+        overrides = parameter_rows(model, [(p, v) for p, v in chosen if p.field != DELAY])
+        if self.delay is not None and delay_fits_model(model, self.delay):
+            names = [model.actuator(i).name for i in range(model.nu)]
+            overrides["actuator_delay"] = {name: np.array([self.delay]) for name in names}
+        return overrides
+
+    @property
+    def delay(self) -> float | None:
+        """The fitted actuation delay (s), where --fit-delay fitted one the data determine; else None."""
+        for parameter, value, excited in zip(self.parameters, self.fitted, self.excited, strict=True):
+            if parameter.field == DELAY and excited:
+                return float(value)
+        return None
+
+
+def delay_fits_model(model: mujoco.MjModel, delay: float) -> bool:
+    """Whether every actuator of `model` keeps enough action history (MJCF's nsample, compiled in) for MuJoCo's
+    actuator_delay to hold `delay` seconds: without it MuJoCo ignores actuator_delay."""
+    needed = int(np.ceil(delay / float(model.opt.timestep) - 1e-9)) + 1
+    return model.nu > 0 and bool(np.all(model.actuator_history[:, 0] >= needed))
 
 
 def parameter_rows(model: mujoco.MjModel, values: list[tuple[FitParameter, float]]) -> dict[str, dict[str, Any]]:
     """{field: {element: row}}: each parameter's value set in its row of `model` (the rest of the row as it is)."""
     rows: dict[tuple[str, str], np.ndarray] = {}
     for parameter, value in values:
+        if parameter.field == DELAY:  # a delay of the actions, not of the model
+            continue
         key = (parameter.field, parameter.element)
         rows.setdefault(key, model_value(model, *key).copy())[parameter.index or 0] = value
     overrides: dict[str, dict[str, Any]] = {}
@@ -266,7 +329,8 @@ def fit(
 ) -> FitResult:
     """Fit `parameters` of `task`'s planning model to `episodes` over windows of `window_steps` steps.
 
-    Each parameter starts at the planning model's value (the first entry of its row, or entry `index`) and is
+    With DELAY_PARAMETER among them, also the actuation delay (s, within [0, MAX_DELAY]): every window's logged
+    actions take effect that late (`delayed_controls`), read from the actions before it. Each parameter starts at the planning model's value (the first entry of its row, or entry `index`) and is
     bounded to [value / 10, value * 10] (to [0, 1] where the model holds 0). `on_evaluation(n)` is called after
     the n-th evaluation of the residual (a progress bar).
     """
@@ -294,24 +358,32 @@ def _fit(
 ) -> FitResult:
     began = time.perf_counter()
     model = task.model
-    windows = cut_windows(episodes, window_steps)
-    nominal = np.array([_entry(model, p) for p in parameters])
+    timestep = float(model.opt.timestep)
+    delay_at = next((i for i, p in enumerate(parameters) if p.field == DELAY), None)
+    history = int(np.ceil(MAX_DELAY / timestep)) + 1 if delay_at is not None else 0
+    windows = cut_windows(episodes, window_steps, history)
+    nominal = np.array([0.0 if p.field == DELAY else _entry(model, p) for p in parameters])
+    scale = np.where(np.abs(nominal) > 0, np.abs(nominal), 1.0)
     params = sysid.ParameterDict()
-    for parameter, value in zip(parameters, nominal, strict=True):
-        low, high = (value / 10, value * 10) if value > 0 else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
-        params.add(sysid.Parameter(parameter.name, nominal=value, min_value=low, max_value=high))
+    for index, (parameter, value) in enumerate(zip(parameters, nominal, strict=True)):
+        if index == delay_at:  # from half a step, inside its bounds, on the scale of a step
+            low, high, start, scale[index] = 0.0, MAX_DELAY, 0.5 * timestep, timestep
+        else:
+            low, high = (
+                (value / 10, value * 10) if value > 0 else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
+            )
+            start = value
+        params.add(sysid.Parameter(parameter.name, nominal=start, min_value=low, max_value=high))
 
-    def build_model(candidate: Any, spec: mujoco.MjSpec) -> mujoco.MjModel:
-        del spec  # the candidate is set on the planning model itself, as [model_overrides] will set it
+    def build_model(candidate: Any) -> mujoco.MjModel:
         return fitted_model(model, parameters, np.array([candidate[p.name].value[0] for p in parameters]))
 
     sequences = _model_sequences(sysid, model, windows)
+    residual = _batched_residual(
+        sysid, sequences.measured_rollout, build_model, _state_residual(sysid, _spread(windows)),
+        _delayed_rollout(sysid, model, windows, DELAY) if delay_at is not None else None,
+    )  # fmt: skip
     evaluations = [0]
-    residual = sysid.build_residual_fn(
-        models_sequences=[sequences],
-        build_model=build_model,
-        modify_residual=_state_residual(sysid, _spread(windows)),
-    )
 
     def counted(x: np.ndarray, candidate: Any, **kwargs: Any) -> Any:
         evaluations[0] += 1
@@ -319,7 +391,6 @@ def _fit(
             on_evaluation(evaluations[0])
         return residual(x, candidate, **kwargs)
 
-    scale = np.where(np.abs(nominal) > 0, np.abs(nominal), 1.0)
     with contextlib.redirect_stdout(io.StringIO()):
         opt_params, result = sysid.optimize(
             params, counted, optimizer="mujoco", verbose=False, max_iters=max_iters, x_scale=scale, output=io.StringIO()
@@ -331,7 +402,11 @@ def _fit(
     scaled = jacobian * scale[None, :]
     condition = float(np.linalg.cond(scaled)) if scaled.size else float("inf")
     interval = np.asarray(interval, dtype=float)
-    excited = np.isfinite(interval) & (interval <= EXCITED_REL_INTERVAL * np.maximum(np.abs(fitted), 1e-12))
+    size = np.maximum(np.abs(fitted), 1e-12)
+    if delay_at is not None:  # a delay near 0 is determined when known to within a quarter of a step
+        size[delay_at] = max(size[delay_at], timestep)
+    excited = np.isfinite(interval) & (interval <= EXCITED_REL_INTERVAL * size)
+    delay = float(fitted[delay_at]) if delay_at is not None else 0.0
     return FitResult(
         parameters,
         nominal,
@@ -340,11 +415,64 @@ def _fit(
         excited,
         condition,
         prediction_error(model, windows),
-        prediction_error(fitted_model(model, parameters, fitted), windows),
+        prediction_error(fitted_model(model, parameters, fitted), windows, delay),
         len(windows.starts),
         window_steps,
         time.perf_counter() - began,
     )
+
+
+def _batched_residual(
+    sysid: Any,
+    trajectories: list[Any],
+    build_model: Callable[[Any], mujoco.MjModel],
+    modify_residual: Callable[..., Any],
+    custom_rollout: Callable[..., Any] | None,
+) -> Callable[..., Any]:
+    """mujoco.sysid's residual over all windows at once: `sysid.model_residual` on the list of the windows'
+    trajectories builds each candidate model once and rolls every window out in one threaded `mujoco.rollout`
+    call (`sysid.residual` calls it once per window, building the model and its threads each time). Returns
+    fn(x, params) -> ([residual (W * K * (nq + nv),) or (W * K * (nq + nv), n) for a batch x of n columns],
+    predicted, measured) in `sysid.residual`'s row order, window after window."""
+    count = len(trajectories)
+
+    def residual(x: np.ndarray, params: Any, **kwargs: Any) -> Any:
+        values, predicted, measured = sysid.model_residual(
+            x,
+            params,
+            build_model,
+            trajectories,
+            modify_residual,
+            custom_rollout,
+            return_pred_all=kwargs.get("return_pred_all", False),
+            resample_true=False,  # the logged actions are one per model step already
+        )
+        if np.ndim(x) > 1:  # (rows of one window, columns * windows) -> (windows * rows of one, columns)
+            columns = np.shape(x)[1]
+            values = values.reshape(-1, columns, count).transpose(2, 0, 1).reshape(-1, columns)
+        return [values], predicted, measured
+
+    return residual
+
+
+def _delayed_rollout(sysid: Any, model: mujoco.MjModel, windows: Windows, name: str) -> Callable[..., Any]:
+    """mujoco.sysid's custom_rollout hook for --fit-delay: rolls each window out under its logged actions delayed
+    by the candidate's parameter `name` (s), `delayed_controls` of the action history before it, the control
+    signal delayed as mujoco.sysid's signal delay reads a sensor (at t - delay, linearly interpolated)."""
+    count = len(windows.starts)
+    times = np.arange(windows.controls.shape[1] + 1) * float(model.opt.timestep)
+
+    def rollout(*, models: Any, datas: Any, control_signal: Any, initial_states: Any, param_dicts: Any, **kwargs: Any):
+        del control_signal
+        signals = []
+        for candidate in param_dicts:  # one per finite-difference column, each over every window
+            delayed = delayed_controls(windows, float(candidate[name].value[0]), float(model.opt.timestep))
+            for controls in delayed:
+                signals.append(sysid.TimeSeries.from_control_names(times, np.vstack([controls, controls[-1:]]), model))
+        assert len(signals) == len(param_dicts) * count
+        return sysid.sysid_rollout(models, datas, signals, initial_states, **kwargs)
+
+    return rollout
 
 
 def _entry(model: mujoco.MjModel, parameter: FitParameter) -> float:
