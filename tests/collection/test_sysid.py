@@ -152,3 +152,42 @@ def test_excite_stays_within_the_actuator_limits_and_logs_what_sysid_fits(tmp_pa
         excite_main(["--task", "cartpole", "--amplitude", "2", "--out", str(tmp_path / "never.h5")])
     assert caught.value.code == 2 and not (tmp_path / "never.h5").exists()
     assert "error: --amplitude must be in (0, 1], got 2.0" in capsys.readouterr().err
+
+
+def test_fit_delay_finds_the_motor_lag_and_mass_of_examples_06_robot_driven_through_its_own_system(tmp_path, capsys):
+    """examples/06's robot (pole 10% heavier, each action reaching the motor 20 ms late), excited open loop through
+    its `System` interface and logged in collect's layout: --fit-delay finds the lag beside the mass, and writes it
+    as a comment (cartpole.xml keeps no actuator history for MuJoCo's actuator_delay)."""
+    import importlib.util
+    from pathlib import Path
+
+    from judo.collection.excite import excitation_episode, multisine
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "06_hardware_system.py"
+    spec = importlib.util.spec_from_file_location("hardware_system", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    robot = example.LaggyNoisyCartpole(actuation_latency=0.02, noise_std=0.0, seed=0)
+    controls = multisine(robot.model.actuator_ctrlrange, np.arange(300) * robot.timestep, 0.5, 2.0, 0)
+    states = np.zeros((300, 4))
+    for step, control in enumerate(controls):
+        robot.apply(control)
+        robot.step()
+        states[step] = np.concatenate([robot.data.qpos, robot.data.qvel])  # the stand-in's true state
+    log = tmp_path / "robot.h5"
+    episode = excitation_episode(0, robot.model, states, np.zeros((300, robot.model.nsensordata)), controls)
+    DatasetFile(log, {"task": "cartpole", "plant_timestep": 0.01}).write_episode(episode)
+    out = tmp_path / "fitted.toml"
+    argv = [str(log), "--task", "cartpole", "--params", "body_mass.pole", "--fit-delay", "--out", str(out)]
+    assert sysid_main(argv) == 0
+    report = (tmp_path / "fitted.md").read_text()
+    delay = re.search(r"\| delay \(s\) \| 0 \| ([\d.e-]+) \| ± [\d.e-]+ \| yes \|", report)
+    assert delay is not None and float(delay.group(1)) == pytest.approx(0.02, rel=0.05)
+    mass = re.search(r"\| body_mass.pole \| 0.1 \| ([\d.e-]+) \|", report)
+    assert float(mass.group(1)) == pytest.approx(0.11, rel=0.05)
+    written = out.read_text()
+    assert "actuator_delay" not in written.split("# fitted actuation delay")[0]
+    assert re.search(r'# fitted actuation delay: 0.0[12]\d* s\.', written) and 'nsample="3"' in written
+    load_config(out)
+    with make_controller("cartpole", "mppi", num_workers=1) as controller:
+        assert controller.task.model.body_mass[2] == pytest.approx(0.11, rel=0.05)
