@@ -110,8 +110,9 @@ def test_import_judo_imports_no_sysid_dependency():
 
 @pytest.mark.slow
 def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_file_registers_it(tmp_path, capsys):
-    """examples/11_sysid: a custom task whose sim_model_path has a 0.13 kg pole; the fit (mass and the inertia the
-    heavier geom brings) lands on it, and the written file registers the task beside its module."""
+    """examples/11_sysid: a custom task whose sim_model_path has a 0.3 kg pole; the fit (mass and the inertia the
+    heavier geom brings) lands on it, and the written file registers the task beside its module and keeps the
+    --config file's settings, so that it changes the planning model and nothing else."""
     import shutil
     from pathlib import Path
 
@@ -127,10 +128,13 @@ def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_fil
     argv = [str(log), "--config", str(folder / "judo.toml"), "--task", "heavy_cartpole"]
     out = folder / "fitted.toml"
     assert sysid_main([*argv, "--params", "body_mass.pole", "body_inertia.pole[1]", "--out", str(out)]) == 0
-    assert "[custom_tasks.heavy_cartpole]" in out.read_text()
-    load_config(out)
+    written = out.read_text()
+    assert "[custom_tasks.heavy_cartpole]" in written
+    assert "[optimizer_config_overrides.heavy_cartpole.mppi]\nsigma = 0.3\ntemperature = 0.1" in written
+    assert load_config(out) is not None
     task = make_task("heavy_cartpole")
-    assert task.model.body_mass[2] == pytest.approx(0.13, rel=0.05)
+    assert task.model.body_mass[2] == pytest.approx(task.sim_model.body_mass[2], rel=0.05)
+    assert task.sim_model.body_mass[2] == 0.3
     assert task.model.body_inertia[2, 1] == pytest.approx(task.sim_model.body_inertia[2, 1], rel=0.05)
 
 
@@ -187,7 +191,31 @@ def test_fit_delay_finds_the_motor_lag_and_mass_of_examples_06_robot_driven_thro
     assert float(mass.group(1)) == pytest.approx(0.11, rel=0.05)
     written = out.read_text()
     assert "actuator_delay" not in written.split("# fitted actuation delay")[0]
-    assert re.search(r'# fitted actuation delay: 0.0[12]\d* s\.', written) and 'nsample="3"' in written
+    assert re.search(r"# fitted actuation delay: 0.0[12]\d* s\.", written) and 'nsample="3"' in written
     load_config(out)
     with make_controller("cartpole", "mppi", num_workers=1) as controller:
         assert controller.task.model.body_mass[2] == pytest.approx(0.11, rel=0.05)
+
+
+def test_the_fitted_file_is_the_config_given_with_the_fitted_values_in_its_model_overrides():
+    import tomllib
+
+    from judo.collection.sysid_cli import fitted_toml
+
+    config = {
+        "task": "cartpole",
+        "ros2": {"domain_id": 7, "joint_map": {"slider": "cart joint"}},
+        "controller_config_overrides": {"cartpole": {"horizon": 1.0, "mppi": {"horizon": 0.8}}},
+        "model_overrides": {"cartpole": {"body_mass": {"pole": 0.1}, "dof_damping": {"slider": 0.5}}, "pendulum": {}},
+        "plant_overrides": {"cartpole": {"body_mass": {"pole": 0.13}}},
+    }
+    fitted = {"body_mass": {"pole": np.array([0.13])}, "geom_friction": {"pole": np.array([0.9, 0.005, 0.0001])}}
+    text = fitted_toml("cartpole", fitted, ["a header"], config, ["a note"])
+    expected = {**config, "model_overrides": {"pendulum": {}, "cartpole": {}}}
+    expected["model_overrides"]["cartpole"] = {
+        "body_mass": {"pole": 0.13},
+        "dof_damping": {"slider": 0.5},
+        "geom_friction": {"pole": [0.9, 0.005, 0.0001]},
+    }
+    assert tomllib.loads(text) == expected
+    assert text.startswith("# a header\n") and text.endswith("# a note\n")
