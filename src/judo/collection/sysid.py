@@ -178,15 +178,14 @@ class Windows:
     history: np.ndarray
 
 
-def cut_windows(episodes: list[Episode], steps: int, history: int = 0, stride: int = 1) -> Windows:
+def cut_windows(episodes: list[Episode], steps: int, history: int = 0) -> Windows:
     """Non-overlapping windows of `steps` steps from every episode, each with the `history` actions before it
-    (an episode's first row is a window's start only, since the state before it is not logged), keeping every
-    `stride`-th window; ConfigError where no episode is long enough for one."""
+    (an episode's first row is a window's start only, since the state before it is not logged); ConfigError
+    where no episode is long enough for one."""
     starts, controls, measured, before = [], [], [], []
     for episode in episodes:
         states = np.concatenate([episode.qpos, episode.qvel], axis=1)
-        firsts = range(1 + history, len(states) - steps + 1, steps)
-        for first in list(firsts)[::stride]:
+        for first in range(1 + history, len(states) - steps + 1, steps):
             starts.append(states[first - 1])
             controls.append(episode.actions[first : first + steps])
             measured.append(states[first : first + steps])
