@@ -36,6 +36,10 @@ MAX_DELAY = 0.1
 window)."""
 DELAY = "delay"
 """The field of the FitParameter that stands for the actuation delay (--fit-delay), in seconds, of every actuator."""
+POSITION_SPAN = 0.5
+"""Metres a fitted position (body_ipos.trunk[0], ...) may move from the planning model's value, either way."""
+POSITION_SCALE = 0.01
+"""Metres: the size of a fitted position near 0, for the optimizer's scaling and the excited test."""
 EXCITED_REL_INTERVAL = 0.25
 """A fitted parameter whose 95% confidence half-width exceeds this fraction of its value is not excited by the
 data: it is reported, not written."""
@@ -329,9 +333,11 @@ def fit(
     """Fit `parameters` of `task`'s planning model to `episodes` over windows of `window_steps` steps.
 
     With DELAY_PARAMETER among them, also the actuation delay (s, within [0, MAX_DELAY]): every window's logged
-    actions take effect that late (`delayed_controls`), read from the actions before it. Each parameter starts at the planning model's value (the first entry of its row, or entry `index`) and is
-    bounded to [value / 10, value * 10] (to [0, 1] where the model holds 0). `on_evaluation(n)` is called after
-    the n-th evaluation of the residual (a progress bar).
+    actions take effect that late (`delayed_controls`), read from the actions before it. Each parameter starts at
+    the planning model's value (the first entry of its row, or entry `index`) and is bounded to [value / 10,
+    value * 10] (to [0, 1] where the model holds 0); a position (a field ending in "pos", e.g. body_ipos, a body's
+    centre of mass) to value ± POSITION_SPAN, since it may cross 0. `on_evaluation(n)` is called after the n-th
+    evaluation of the residual (a progress bar).
     """
     sysid = import_extra("mujoco.sysid", "python -m judo sysid", EXTRA)
     if not hasattr(sysid, "optimize"):  # mujoco.sysid swallows its own ImportError
@@ -363,10 +369,14 @@ def _fit(
     windows = cut_windows(episodes, window_steps, history)
     nominal = np.array([0.0 if p.field == DELAY else _entry(model, p) for p in parameters])
     scale = np.where(np.abs(nominal) > 0, np.abs(nominal), 1.0)
+    positions = np.array([p.field.endswith("pos") for p in parameters], dtype=bool)
+    scale[positions] = np.maximum(np.abs(nominal[positions]), POSITION_SCALE)
     params = sysid.ParameterDict()
     for index, (parameter, value) in enumerate(zip(parameters, nominal, strict=True)):
         if index == delay_at:  # from half a step, inside its bounds, on the scale of a step
             low, high, start, scale[index] = 0.0, MAX_DELAY, 0.5 * timestep, timestep
+        elif positions[index]:
+            low, high, start = value - POSITION_SPAN, value + POSITION_SPAN, value
         else:
             low, high = (
                 (value / 10, value * 10) if value > 0 else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
@@ -402,6 +412,7 @@ def _fit(
     condition = float(np.linalg.cond(scaled)) if scaled.size else float("inf")
     interval = np.asarray(interval, dtype=float)
     size = np.maximum(np.abs(fitted), 1e-12)
+    size[positions] = np.maximum(size[positions], POSITION_SCALE)
     if delay_at is not None:  # a delay near 0 is determined when known to within a quarter of a step
         size[delay_at] = max(size[delay_at], timestep)
     excited = np.isfinite(interval) & (interval <= EXCITED_REL_INTERVAL * size)
