@@ -219,3 +219,17 @@ def test_the_fitted_file_is_the_config_given_with_the_fitted_values_in_its_model
     }
     assert tomllib.loads(text) == expected
     assert text.startswith("# a header\n") and text.endswith("# a note\n")
+
+
+def test_a_centre_of_mass_is_fitted_across_zero(tmp_path):
+    """A position is bounded by metres either way, not by a factor of its value: the pole's centre of mass moved
+    from x = 0 to -0.02 m (a payload on one side) is found."""
+    from judo.collection.excite import main as excite_main
+
+    log = tmp_path / "excite.h5"
+    overrides = ["--plant-overrides", "body_ipos.pole=[-0.02, 0.0, 0.3]"]
+    assert excite_main(["--task", "cartpole", "--duration", "3", *overrides, "--out", str(log)]) == 0
+    out = tmp_path / "fitted.toml"
+    assert sysid_main([str(log), "--task", "cartpole", "--params", "body_ipos.pole[0]", "--out", str(out)]) == 0
+    fitted = float(out.read_text().split("body_ipos.pole = [")[1].split(",")[0])
+    assert fitted == pytest.approx(-0.02, abs=1e-3)
