@@ -30,7 +30,8 @@ import numpy as np
 from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
 from judo.collection.excite import excitation_episode, multisine
-from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters, read_logs
+from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters
+from judo.collection.sysid_data import read_logs
 from judo.core import registry
 from judo.core.model_overrides import check_model_overrides, model_value, parse_override_entries
 from judo.core.registry import make_task, register_task, set_model_overrides

@@ -93,7 +93,8 @@ def run(args: SysidArgs, command: str) -> None:
     """Read the logs, fit, and write --out and its report."""
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters, read_logs
+    from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters
+    from judo.collection.sysid_data import read_logs
     from judo.core.registry import make_task
 
     task = make_task(args.task)
