@@ -25,7 +25,7 @@ DESCRIPTION = (
     "difference to the logged states. Writes --out, a --config file whose [model_overrides.TASK] section holds the "
     "parameters the data determine, and a report beside it (OUT.md): each parameter before and after with its 95% "
     "confidence interval, the fit's conditioning, and the prediction error before and after. A parameter the data "
-    "do not excite is reported and left out. Needs the `sysid` extra, and `collect` for HDF5 logs or `ros2` for the "
+    "do not excite is reported and left out. --fit-delay also fits how late the logged actions take effect. Needs the `sysid` extra, and `collect` for HDF5 logs or `ros2` for the "
     "bridge's MCAP logs: pip install -e '.[sysid]'."
 )
 
