@@ -132,12 +132,13 @@ def log_hardware06(path: Path, seconds: float, seed: int) -> None:
     DatasetFile(path, {"task": "laggy_cartpole", "plant_timestep": robot.timestep}).write_episode(episode)
 
 
-def closed_loop(case: Case, overrides: dict | None, seeds: range) -> float:
+def closed_loop(case: Case, overrides: dict | None, seeds: range, control_freq: float | None = None) -> float:
     """Mean `case.metric` over `seeds` on the mismatched plant, planning with `overrides` (None: the MJCF's)."""
     registry._MODEL_OVERRIDES.pop((case.task, False), None)
     if overrides:
         set_model_overrides(case.task, overrides)
-    spec = EpisodeSpec(case.task, case.optimizer, case.duration, plant_overrides=case.plant)
+    values = {} if control_freq is None else {"controller.control_freq": control_freq}
+    spec = EpisodeSpec(case.task, case.optimizer, case.duration, values=values, plant_overrides=case.plant)
     values = [run_seeded_episode(spec, seed).metrics[case.metric] for seed in seeds]
     registry._MODEL_OVERRIDES.pop((case.task, False), None)
     return float(np.mean(values))
@@ -162,9 +163,9 @@ def run_case(name: str, case: Case, args: argparse.Namespace, folder: Path) -> l
     result = fit(task, parameters, episodes, steps, args.max_iters)
     truth_overrides = check_model_overrides(task.model, parse_override_entries(case.plant))
     seeds = range(args.first_seed, args.first_seed + args.seeds)
-    true_metric = closed_loop(case, truth_overrides, seeds)
-    wrong_metric = closed_loop(case, None, seeds)
-    fitted_metric = closed_loop(case, result.overrides(task.model), seeds)
+    true_metric = closed_loop(case, truth_overrides, seeds, args.control_freq)
+    wrong_metric = closed_loop(case, None, seeds, args.control_freq)
+    fitted_metric = closed_loop(case, result.overrides(task.model), seeds, args.control_freq)
     lost = true_metric - wrong_metric
     recovered = f"{(fitted_metric - wrong_metric) / lost:.0%}" if lost > 1e-9 else "n/a: the wrong model lost nothing"
     rows = []
@@ -214,6 +215,12 @@ def main() -> None:
     parser.add_argument("--first-seed", type=int, default=1000, help="fresh seeds, apart from the log's")
     parser.add_argument("--window", type=float, default=0.05, help="seconds of each fitted window (sysid --window)")
     parser.add_argument("--max-iters", type=int, default=50)
+    parser.add_argument(
+        "--control-freq",
+        type=float,
+        default=None,
+        help="replanning rate (Hz) of the compared closed loops (task's default)",
+    )
     args = parser.parse_args()
     register_task("laggy_cartpole", LaggyCartpole, CartpoleConfig)
     set_config_overrides_like_cartpole("laggy_cartpole")
