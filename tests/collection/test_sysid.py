@@ -110,8 +110,9 @@ def test_import_judo_imports_no_sysid_dependency():
 
 @pytest.mark.slow
 def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_file_registers_it(tmp_path, capsys):
-    """examples/11_sysid: a custom task whose sim_model_path has a 0.13 kg pole; the fit (mass and the inertia the
-    heavier geom brings) lands on it, and the written file registers the task beside its module."""
+    """examples/11_sysid: a custom task whose sim_model_path has a 0.3 kg pole; the fit (mass and the inertia the
+    heavier geom brings) lands on it, and the written file registers the task beside its module and keeps the
+    --config file's settings, so that it changes the planning model and nothing else."""
     import shutil
     from pathlib import Path
 
@@ -127,10 +128,13 @@ def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_fil
     argv = [str(log), "--config", str(folder / "judo.toml"), "--task", "heavy_cartpole"]
     out = folder / "fitted.toml"
     assert sysid_main([*argv, "--params", "body_mass.pole", "body_inertia.pole[1]", "--out", str(out)]) == 0
-    assert "[custom_tasks.heavy_cartpole]" in out.read_text()
-    load_config(out)
+    written = out.read_text()
+    assert "[custom_tasks.heavy_cartpole]" in written
+    assert "[optimizer_config_overrides.heavy_cartpole.mppi]\nsigma = 0.3\ntemperature = 0.1" in written
+    assert load_config(out) is not None
     task = make_task("heavy_cartpole")
-    assert task.model.body_mass[2] == pytest.approx(0.13, rel=0.05)
+    assert task.model.body_mass[2] == pytest.approx(task.sim_model.body_mass[2], rel=0.05)
+    assert task.sim_model.body_mass[2] == 0.3
     assert task.model.body_inertia[2, 1] == pytest.approx(task.sim_model.body_inertia[2, 1], rel=0.05)
 
 
@@ -152,3 +156,80 @@ def test_excite_stays_within_the_actuator_limits_and_logs_what_sysid_fits(tmp_pa
         excite_main(["--task", "cartpole", "--amplitude", "2", "--out", str(tmp_path / "never.h5")])
     assert caught.value.code == 2 and not (tmp_path / "never.h5").exists()
     assert "error: --amplitude must be in (0, 1], got 2.0" in capsys.readouterr().err
+
+
+def test_fit_delay_finds_the_motor_lag_and_mass_of_examples_06_robot_driven_through_its_own_system(tmp_path, capsys):
+    """examples/06's robot (pole 10% heavier, each action reaching the motor 20 ms late), excited open loop through
+    its `System` interface and logged in collect's layout: --fit-delay finds the lag beside the mass, and writes it
+    as a comment (cartpole.xml keeps no actuator history for MuJoCo's actuator_delay)."""
+    import importlib.util
+    from pathlib import Path
+
+    from judo.collection.excite import excitation_episode, multisine
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "06_hardware_system.py"
+    spec = importlib.util.spec_from_file_location("hardware_system", path)
+    example = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(example)
+    robot = example.LaggyNoisyCartpole(actuation_latency=0.02, noise_std=0.0, seed=0)
+    controls = multisine(robot.model.actuator_ctrlrange, np.arange(300) * robot.timestep, 0.5, 2.0, 0)
+    states = np.zeros((300, 4))
+    for step, control in enumerate(controls):
+        robot.apply(control)
+        robot.step()
+        states[step] = np.concatenate([robot.data.qpos, robot.data.qvel])  # the stand-in's true state
+    log = tmp_path / "robot.h5"
+    episode = excitation_episode(0, robot.model, states, np.zeros((300, robot.model.nsensordata)), controls)
+    DatasetFile(log, {"task": "cartpole", "plant_timestep": 0.01}).write_episode(episode)
+    out = tmp_path / "fitted.toml"
+    argv = [str(log), "--task", "cartpole", "--params", "body_mass.pole", "--fit-delay", "--out", str(out)]
+    assert sysid_main(argv) == 0
+    report = (tmp_path / "fitted.md").read_text()
+    delay = re.search(r"\| delay \(s\) \| 0 \| ([\d.e-]+) \| ± [\d.e-]+ \| yes \|", report)
+    assert delay is not None and float(delay.group(1)) == pytest.approx(0.02, rel=0.05)
+    mass = re.search(r"\| body_mass.pole \| 0.1 \| ([\d.e-]+) \|", report)
+    assert float(mass.group(1)) == pytest.approx(0.11, rel=0.05)
+    written = out.read_text()
+    assert "actuator_delay" not in written.split("# fitted actuation delay")[0]
+    assert re.search(r"# fitted actuation delay: 0.0[12]\d* s\.", written) and 'nsample="3"' in written
+    load_config(out)
+    with make_controller("cartpole", "mppi", num_workers=1) as controller:
+        assert controller.task.model.body_mass[2] == pytest.approx(0.11, rel=0.05)
+
+
+def test_the_fitted_file_is_the_config_given_with_the_fitted_values_in_its_model_overrides():
+    import tomllib
+
+    from judo.collection.sysid_cli import fitted_toml
+
+    config = {
+        "task": "cartpole",
+        "ros2": {"domain_id": 7, "joint_map": {"slider": "cart joint"}},
+        "controller_config_overrides": {"cartpole": {"horizon": 1.0, "mppi": {"horizon": 0.8}}},
+        "model_overrides": {"cartpole": {"body_mass": {"pole": 0.1}, "dof_damping": {"slider": 0.5}}, "pendulum": {}},
+        "plant_overrides": {"cartpole": {"body_mass": {"pole": 0.13}}},
+    }
+    fitted = {"body_mass": {"pole": np.array([0.13])}, "geom_friction": {"pole": np.array([0.9, 0.005, 0.0001])}}
+    text = fitted_toml("cartpole", fitted, ["a header"], config, ["a note"])
+    expected = {**config, "model_overrides": {"pendulum": {}, "cartpole": {}}}
+    expected["model_overrides"]["cartpole"] = {
+        "body_mass": {"pole": 0.13},
+        "dof_damping": {"slider": 0.5},
+        "geom_friction": {"pole": [0.9, 0.005, 0.0001]},
+    }
+    assert tomllib.loads(text) == expected
+    assert text.startswith("# a header\n") and text.endswith("# a note\n")
+
+
+def test_a_centre_of_mass_is_fitted_across_zero(tmp_path):
+    """A position is bounded by metres either way, not by a factor of its value: the pole's centre of mass moved
+    from x = 0 to -0.02 m (a payload on one side) is found."""
+    from judo.collection.excite import main as excite_main
+
+    log = tmp_path / "excite.h5"
+    overrides = ["--plant-overrides", "body_ipos.pole=[-0.02, 0.0, 0.3]"]
+    assert excite_main(["--task", "cartpole", "--duration", "3", *overrides, "--out", str(log)]) == 0
+    out = tmp_path / "fitted.toml"
+    assert sysid_main([str(log), "--task", "cartpole", "--params", "body_ipos.pole[0]", "--out", str(out)]) == 0
+    fitted = float(out.read_text().split("body_ipos.pole = [")[1].split(",")[0])
+    assert fitted == pytest.approx(-0.02, abs=1e-3)

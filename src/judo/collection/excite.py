@@ -13,7 +13,7 @@ import math
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import tyro
@@ -21,6 +21,11 @@ import tyro
 from judo.cli_shared import apply_config_file, fail, parse_args
 from judo.core.boundary import check_output_file, require
 from judo.core.errors import ConfigError, JudoError
+
+if TYPE_CHECKING:
+    import mujoco
+
+    from judo.collection.dataset import EpisodeArrays
 
 DESCRIPTION = (
     "Drive a task's simulated plant open loop with a safe band-limited excitation (a multisine per actuator within "
@@ -74,6 +79,35 @@ def multisine(ranges: np.ndarray, times: np.ndarray, amplitude: float, bandwidth
     return np.clip(centre + amplitude * half * waves, ranges[:, 0], ranges[:, 1])
 
 
+def excitation_episode(
+    seed: int,
+    model: "mujoco.MjModel",
+    states: np.ndarray,
+    sensors: np.ndarray,
+    controls: np.ndarray,
+    mocap_pos: np.ndarray | None = None,
+) -> "EpisodeArrays":
+    """An open-loop episode in collect's layout (no plans): `states` (S, nq + nv) after each step, `sensors`
+    (S, nsensordata), `controls` (S, nu) served during each step, and `mocap_pos` (nmocap * 3,) held throughout."""
+    from judo.collection.dataset import EpisodeArrays
+
+    steps = len(states)
+    empty = np.zeros(0)
+    plan = {"times": empty, "takes_effect": empty, "update_ms": empty, "best_reward": empty, "mean_reward": empty}
+    return EpisodeArrays(
+        seed,
+        states[:, : model.nq],
+        states[:, model.nq :],
+        sensors,
+        None if mocap_pos is None else np.tile(mocap_pos, (steps, 1)),
+        controls,
+        np.zeros(steps),
+        {**plan, "knots": np.zeros((0, 1, model.nu))},
+        {},
+        None,
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo excite` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -89,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def run(args: ExciteArgs) -> None:
     """Excite the plant and write the log."""
-    from judo.collection.dataset import DatasetFile, EpisodeArrays
+    from judo.collection.dataset import DatasetFile
     from judo.core.model_overrides import parse_override_entries
     from judo.core.registry import make_task, set_model_overrides
     from judo.loop.system import MujocoSystem
@@ -116,20 +150,8 @@ def run(args: ExciteArgs) -> None:
         system.step()
         states[step] = system.plant_state()
         sensors[step] = system.plant_sensors()
-    empty = np.zeros(0)
-    plan = {"times": empty, "takes_effect": empty, "update_ms": empty, "best_reward": empty, "mean_reward": empty}
-    episode = EpisodeArrays(
-        args.seed,
-        states[:, : model.nq],
-        states[:, model.nq :],
-        sensors,
-        None if not model.nmocap else np.tile(system.task.data.mocap_pos.reshape(-1), (steps, 1)),
-        controls,
-        np.zeros(steps),
-        {**plan, "knots": np.zeros((0, 1, model.nu))},
-        {},
-        None,
-    )
+    mocap = None if not model.nmocap else system.task.data.mocap_pos.reshape(-1)
+    episode = excitation_episode(args.seed, model, states, sensors, controls, mocap)
     excitation = {"amplitude": args.amplitude, "bandwidth_hz": args.bandwidth, "duration": args.duration}
     env_args = {"task": args.task, "excite": excitation, "plant_timestep": float(model.opt.timestep)}
     DatasetFile(args.out, env_args).write_episode(episode)

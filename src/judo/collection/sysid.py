@@ -12,25 +12,32 @@ mujoco.sysid (the `sysid` extra, `mujoco[sysid]`) is imported only by `fit`.
 
 import contextlib
 import io
-import json
 import logging
 import re
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from judo.collection.dataset import DatasetError, import_h5py
+from judo.collection.sysid_data import Episode, Windows, cut_windows, delayed_controls, prediction_error, spread
 from judo.core.errors import ConfigError, import_extra
 from judo.core.model_overrides import check_model_overrides, model_value, overridden
 from judo.core.task import Task
 
 EXTRA = "sysid"
 """The optional extra holding mujoco.sysid's dependencies (`mujoco[sysid]`)."""
+MAX_DELAY = 0.1
+"""Seconds: the most actuation delay `--fit-delay` considers (the fit reads this much action history before each
+window)."""
+DELAY = "delay"
+"""The field of the FitParameter that stands for the actuation delay (--fit-delay), in seconds, of every actuator."""
+POSITION_SPAN = 0.5
+"""Metres a fitted position (body_ipos.trunk[0], ...) may move from the planning model's value, either way."""
+POSITION_SCALE = 0.01
+"""Metres: the size of a fitted position near 0, for the optimizer's scaling and the excited test."""
 EXCITED_REL_INTERVAL = 0.25
 """A fitted parameter whose 95% confidence half-width exceeds this fraction of its value is not excited by the
 data: it is reported, not written."""
@@ -47,8 +54,15 @@ class FitParameter:
 
     @property
     def name(self) -> str:
-        """How the command line and the report name it: "body_mass.pole" or "geom_friction.cube[0]"."""
+        """How the command line and the report name it: "body_mass.pole" or "geom_friction.cube[0]"; "delay" for
+        the actuation delay."""
+        if self.field == DELAY:
+            return DELAY
         return f"{self.field}.{self.element}" + ("" if self.index is None else f"[{self.index}]")
+
+
+DELAY_PARAMETER = FitParameter(DELAY, "actuators")
+"""The actuation delay (s) of every actuator, fitted with --fit-delay: each logged action takes effect that late."""
 
 
 def parse_parameters(texts: list[str] | tuple[str, ...], model: mujoco.MjModel) -> list[FitParameter]:
@@ -70,138 +84,6 @@ def parse_parameters(texts: list[str] | tuple[str, ...], model: mujoco.MjModel) 
     if not parameters:
         raise ConfigError("--params needs at least one FIELD.ELEMENT to fit, e.g. body_mass.pole")
     return parameters
-
-
-@dataclass
-class Episode:
-    """One logged episode: qpos (S, nq), qvel (S, nv) after each step and actions (S, nu) served during it."""
-
-    name: str
-    qpos: np.ndarray
-    qvel: np.ndarray
-    actions: np.ndarray
-
-
-def read_logs(paths: list[Path], task_name: str, model: mujoco.MjModel) -> list[Episode]:
-    """Every episode of the logs at `paths`: HDF5 (collect's, the GUI's) or the bridge's MCAP (`read_mcap_log`).
-    Raises DatasetError, in one line naming the file, for a file that is missing, empty, not HDF5 or corrupt, holds
-    another task's episodes, has no episodes, or an episode without actions or of other sizes than `model`."""
-    episodes = []
-    for path in paths:
-        if path.suffix.lower() == ".mcap":
-            episodes.extend(read_mcap_log(path, task_name, model))
-            continue
-        if not path.is_file():
-            raise DatasetError(f"{path}: no such log file; give collect's .h5 files or GUI recordings")
-        if path.stat().st_size == 0:
-            raise DatasetError(f"{path}: the file is empty; give a log that collect or the GUI's recorder wrote")
-        try:
-            with import_h5py("python -m judo sysid").File(path, "r") as file:
-                episodes.extend(_read_file(file, path, task_name, model))
-        except OSError as err:
-            raise DatasetError(f"{path}: not a readable HDF5 log ({str(err).splitlines()[0][:120]})") from None
-    return episodes
-
-
-def _read_file(file: Any, path: Path, task_name: str, model: mujoco.MjModel) -> list[Episode]:
-    data = file.get("data")
-    if data is None or "env_args" not in data.attrs:
-        raise DatasetError(f"{path}: not a judo log (no data group with env_args); give collect's or the GUI's files")
-    try:
-        env_args = json.loads(data.attrs["env_args"])
-    except (TypeError, ValueError):
-        raise DatasetError(f"{path}: its env_args are not JSON; the file is corrupt") from None
-    logged_task = env_args.get("task")
-    if logged_task != task_name:
-        raise DatasetError(f"{path}: a log of task {logged_task!r}, not of --task {task_name!r}")
-    step = env_args.get("plant_timestep")
-    if step is not None and not np.isclose(float(step), model.opt.timestep):
-        raise DatasetError(f"{path}: logged at a plant timestep of {step} s, the model steps {model.opt.timestep} s")
-    episodes = []
-    for name in sorted(data):
-        demo = data[name]
-        if "actions" not in demo:
-            raise DatasetError(f"{path}: episode {name} has no actions; sysid needs the actions served to the plant")
-        if "obs" not in demo or "qpos" not in demo["obs"] or "qvel" not in demo["obs"]:
-            raise DatasetError(f"{path}: episode {name} has no obs/qpos and obs/qvel")
-        qpos, qvel, actions = (
-            np.asarray(x, dtype=float) for x in (demo["obs/qpos"], demo["obs/qvel"], demo["actions"])
-        )
-        sizes = (qpos.shape[1:], qvel.shape[1:], actions.shape[1:])
-        if sizes != ((model.nq,), (model.nv,), (model.nu,)) or not len(qpos) == len(qvel) == len(actions):
-            raise DatasetError(
-                f"{path}: episode {name} has qpos, qvel, actions of widths {sizes}; the model needs "
-                f"({model.nq},), ({model.nv},), ({model.nu},) on every step"
-            )
-        episodes.append(Episode(f"{path.name}:{name}", qpos, qvel, actions))
-    if not episodes:
-        raise DatasetError(f"{path}: the log holds no episodes")
-    return episodes
-
-
-def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Episode]:
-    """The episodes of the ROS 2 bridge's MCAP log at `path`: its runs of rows one step of `model` apart with a
-    command in force (`judo.ros2.mcap_read.BridgeLog.step_runs`, whose errors name the file)."""
-    from judo.ros2.mcap_read import read_bridge_log
-
-    log = read_bridge_log(path, task_name, "python -m judo sysid LOG.mcap")
-    runs = log.step_runs(float(model.opt.timestep))
-    return [Episode(f"{path.name}:rows {r.start}-{r.stop - 1}", log.qpos[r], log.qvel[r], log.actions[r]) for r in runs]
-
-
-@dataclass
-class Windows:
-    """K-step windows cut from the episodes: each rolled out from its start state under its logged actions.
-
-    Attributes:
-        starts: (W, nq + nv) logged state before each window's first step.
-        controls: (W, K, nu) actions served during the window's steps.
-        measured: (W, K, nq + nv) logged state after each of the window's steps.
-    """
-
-    starts: np.ndarray
-    controls: np.ndarray
-    measured: np.ndarray
-
-
-def cut_windows(episodes: list[Episode], steps: int) -> Windows:
-    """Non-overlapping windows of `steps` steps from every episode (an episode's first row is a window's start
-    only, since the state before it is not logged); ConfigError where no episode is long enough for one."""
-    starts, controls, measured = [], [], []
-    for episode in episodes:
-        states = np.concatenate([episode.qpos, episode.qvel], axis=1)
-        for first in range(1, len(states) - steps + 1, steps):
-            starts.append(states[first - 1])
-            controls.append(episode.actions[first : first + steps])
-            measured.append(states[first : first + steps])
-    if not starts:
-        longest = max((len(e.qpos) for e in episodes), default=0)
-        raise ConfigError(f"--window of {steps} steps is longer than every logged episode (the longest has {longest})")
-    return Windows(np.array(starts), np.array(controls), np.array(measured))
-
-
-def prediction_error(model: mujoco.MjModel, windows: Windows) -> float:
-    """RMS over windows and steps of the difference between `model`'s K-step predictions and the logged states,
-    each state coordinate divided by its spread in the log (so angles, positions and velocities weigh alike)."""
-    from mujoco import rollout
-
-    state_size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    initial = np.zeros((len(windows.starts), state_size))
-    data = mujoco.MjData(model)
-    for row, start in enumerate(windows.starts):
-        data.qpos[:], data.qvel[:] = start[: model.nq], start[model.nq :]
-        mujoco.mj_getState(model, data, initial[row], mujoco.mjtState.mjSTATE_FULLPHYSICS)
-    states, _ = rollout.rollout(model, data, initial, windows.controls)
-    qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)  # rows are [time, qpos, qvel, ...]
-    predicted = states[..., qpos_at : qpos_at + model.nq + model.nv]
-    error = (predicted - windows.measured) / _spread(windows)
-    return float(np.sqrt(np.mean(np.square(error))))
-
-
-def _spread(windows: Windows) -> np.ndarray:
-    """(nq + nv,) each state coordinate's standard deviation over the logged windows (1 where it never moves)."""
-    spread = windows.measured.reshape(-1, windows.measured.shape[-1]).std(axis=0)
-    return np.where(spread > 1e-9, spread, 1.0)
 
 
 @dataclass
@@ -234,15 +116,38 @@ class FitResult:
     seconds: float
 
     def overrides(self, model: mujoco.MjModel) -> dict[str, dict[str, Any]]:
-        """{field: {element: row}} of the excited parameters, each whole row as `model` holds it otherwise."""
+        """{field: {element: row}} of the excited model parameters, each whole row as `model` holds it otherwise;
+        the delay is among them (as actuator_delay of every actuator) only where `model` keeps the action history
+        that MuJoCo's actuator delay needs (`delay_fits_model`)."""
         chosen = [(p, v) for p, v, excited in zip(self.parameters, self.fitted, self.excited, strict=True) if excited]
-        return parameter_rows(model, chosen)
+        overrides = parameter_rows(model, [(p, v) for p, v in chosen if p.field != DELAY])
+        if self.delay is not None and delay_fits_model(model, self.delay):
+            names = [model.actuator(i).name for i in range(model.nu)]
+            overrides["actuator_delay"] = {name: np.array([self.delay]) for name in names}
+        return overrides
+
+    @property
+    def delay(self) -> float | None:
+        """The fitted actuation delay (s), where --fit-delay fitted one the data determine; else None."""
+        for parameter, value, excited in zip(self.parameters, self.fitted, self.excited, strict=True):
+            if parameter.field == DELAY and excited:
+                return float(value)
+        return None
+
+
+def delay_fits_model(model: mujoco.MjModel, delay: float) -> bool:
+    """Whether every actuator of `model` keeps enough action history (MJCF's nsample, compiled in) for MuJoCo's
+    actuator_delay to hold `delay` seconds: without it MuJoCo ignores actuator_delay."""
+    needed = int(np.ceil(delay / float(model.opt.timestep) - 1e-9)) + 1
+    return model.nu > 0 and bool(np.all(model.actuator_history[:, 0] >= needed))
 
 
 def parameter_rows(model: mujoco.MjModel, values: list[tuple[FitParameter, float]]) -> dict[str, dict[str, Any]]:
     """{field: {element: row}}: each parameter's value set in its row of `model` (the rest of the row as it is)."""
     rows: dict[tuple[str, str], np.ndarray] = {}
     for parameter, value in values:
+        if parameter.field == DELAY:  # a delay of the actions, not of the model
+            continue
         key = (parameter.field, parameter.element)
         rows.setdefault(key, model_value(model, *key).copy())[parameter.index or 0] = value
     overrides: dict[str, dict[str, Any]] = {}
@@ -266,9 +171,12 @@ def fit(
 ) -> FitResult:
     """Fit `parameters` of `task`'s planning model to `episodes` over windows of `window_steps` steps.
 
-    Each parameter starts at the planning model's value (the first entry of its row, or entry `index`) and is
-    bounded to [value / 10, value * 10] (to [0, 1] where the model holds 0). `on_evaluation(n)` is called after
-    the n-th evaluation of the residual (a progress bar).
+    With DELAY_PARAMETER among them, also the actuation delay (s, within [0, MAX_DELAY]): every window's logged
+    actions take effect that late (`delayed_controls`), read from the actions before it. Each parameter starts at
+    the planning model's value (the first entry of its row, or entry `index`) and is bounded to [value / 10,
+    value * 10] (to [0, 1] where the model holds 0); a position (a field ending in "pos", e.g. body_ipos, a body's
+    centre of mass) to value ± POSITION_SPAN, since it may cross 0. `on_evaluation(n)` is called after the n-th
+    evaluation of the residual (a progress bar).
     """
     sysid = import_extra("mujoco.sysid", "python -m judo sysid", EXTRA)
     if not hasattr(sysid, "optimize"):  # mujoco.sysid swallows its own ImportError
@@ -294,24 +202,36 @@ def _fit(
 ) -> FitResult:
     began = time.perf_counter()
     model = task.model
-    windows = cut_windows(episodes, window_steps)
-    nominal = np.array([_entry(model, p) for p in parameters])
+    timestep = float(model.opt.timestep)
+    delay_at = next((i for i, p in enumerate(parameters) if p.field == DELAY), None)
+    history = int(np.ceil(MAX_DELAY / timestep)) + 1 if delay_at is not None else 0
+    windows = cut_windows(episodes, window_steps, history)
+    nominal = np.array([0.0 if p.field == DELAY else _entry(model, p) for p in parameters])
+    scale = np.where(np.abs(nominal) > 0, np.abs(nominal), 1.0)
+    positions = np.array([p.field.endswith("pos") for p in parameters], dtype=bool)
+    scale[positions] = np.maximum(np.abs(nominal[positions]), POSITION_SCALE)
     params = sysid.ParameterDict()
-    for parameter, value in zip(parameters, nominal, strict=True):
-        low, high = (value / 10, value * 10) if value > 0 else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
-        params.add(sysid.Parameter(parameter.name, nominal=value, min_value=low, max_value=high))
+    for index, (parameter, value) in enumerate(zip(parameters, nominal, strict=True)):
+        if index == delay_at:  # from half a step, inside its bounds, on the scale of a step
+            low, high, start, scale[index] = 0.0, MAX_DELAY, 0.5 * timestep, timestep
+        elif positions[index]:
+            low, high, start = value - POSITION_SPAN, value + POSITION_SPAN, value
+        else:
+            low, high = (
+                (value / 10, value * 10) if value > 0 else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
+            )
+            start = value
+        params.add(sysid.Parameter(parameter.name, nominal=start, min_value=low, max_value=high))
 
-    def build_model(candidate: Any, spec: mujoco.MjSpec) -> mujoco.MjModel:
-        del spec  # the candidate is set on the planning model itself, as [model_overrides] will set it
+    def build_model(candidate: Any) -> mujoco.MjModel:
         return fitted_model(model, parameters, np.array([candidate[p.name].value[0] for p in parameters]))
 
     sequences = _model_sequences(sysid, model, windows)
+    residual = _batched_residual(
+        sysid, sequences.measured_rollout, build_model, _state_residual(sysid, spread(windows)),
+        _delayed_rollout(sysid, model, windows, DELAY) if delay_at is not None else None,
+    )  # fmt: skip
     evaluations = [0]
-    residual = sysid.build_residual_fn(
-        models_sequences=[sequences],
-        build_model=build_model,
-        modify_residual=_state_residual(sysid, _spread(windows)),
-    )
 
     def counted(x: np.ndarray, candidate: Any, **kwargs: Any) -> Any:
         evaluations[0] += 1
@@ -319,7 +239,6 @@ def _fit(
             on_evaluation(evaluations[0])
         return residual(x, candidate, **kwargs)
 
-    scale = np.where(np.abs(nominal) > 0, np.abs(nominal), 1.0)
     with contextlib.redirect_stdout(io.StringIO()):
         opt_params, result = sysid.optimize(
             params, counted, optimizer="mujoco", verbose=False, max_iters=max_iters, x_scale=scale, output=io.StringIO()
@@ -331,7 +250,12 @@ def _fit(
     scaled = jacobian * scale[None, :]
     condition = float(np.linalg.cond(scaled)) if scaled.size else float("inf")
     interval = np.asarray(interval, dtype=float)
-    excited = np.isfinite(interval) & (interval <= EXCITED_REL_INTERVAL * np.maximum(np.abs(fitted), 1e-12))
+    size = np.maximum(np.abs(fitted), 1e-12)
+    size[positions] = np.maximum(size[positions], POSITION_SCALE)
+    if delay_at is not None:  # a delay near 0 is determined when known to within a quarter of a step
+        size[delay_at] = max(size[delay_at], timestep)
+    excited = np.isfinite(interval) & (interval <= EXCITED_REL_INTERVAL * size)
+    delay = float(fitted[delay_at]) if delay_at is not None else 0.0
     return FitResult(
         parameters,
         nominal,
@@ -340,11 +264,64 @@ def _fit(
         excited,
         condition,
         prediction_error(model, windows),
-        prediction_error(fitted_model(model, parameters, fitted), windows),
+        prediction_error(fitted_model(model, parameters, fitted), windows, delay),
         len(windows.starts),
         window_steps,
         time.perf_counter() - began,
     )
+
+
+def _batched_residual(
+    sysid: Any,
+    trajectories: list[Any],
+    build_model: Callable[[Any], mujoco.MjModel],
+    modify_residual: Callable[..., Any],
+    custom_rollout: Callable[..., Any] | None,
+) -> Callable[..., Any]:
+    """mujoco.sysid's residual over all windows at once: `sysid.model_residual` on the list of the windows'
+    trajectories builds each candidate model once and rolls every window out in one threaded `mujoco.rollout`
+    call (`sysid.residual` calls it once per window, building the model and its threads each time). Returns
+    fn(x, params) -> ([residual (W * K * (nq + nv),) or (W * K * (nq + nv), n) for a batch x of n columns],
+    predicted, measured) in `sysid.residual`'s row order, window after window."""
+    count = len(trajectories)
+
+    def residual(x: np.ndarray, params: Any, **kwargs: Any) -> Any:
+        values, predicted, measured = sysid.model_residual(
+            x,
+            params,
+            build_model,
+            trajectories,
+            modify_residual,
+            custom_rollout,
+            return_pred_all=kwargs.get("return_pred_all", False),
+            resample_true=False,  # the logged actions are one per model step already
+        )
+        if np.ndim(x) > 1:  # (rows of one window, columns * windows) -> (windows * rows of one, columns)
+            columns = np.shape(x)[1]
+            values = values.reshape(-1, columns, count).transpose(2, 0, 1).reshape(-1, columns)
+        return [values], predicted, measured
+
+    return residual
+
+
+def _delayed_rollout(sysid: Any, model: mujoco.MjModel, windows: Windows, name: str) -> Callable[..., Any]:
+    """mujoco.sysid's custom_rollout hook for --fit-delay: rolls each window out under its logged actions delayed
+    by the candidate's parameter `name` (s), `delayed_controls` of the action history before it, the control
+    signal delayed as mujoco.sysid's signal delay reads a sensor (at t - delay, linearly interpolated)."""
+    count = len(windows.starts)
+    times = np.arange(windows.controls.shape[1] + 1) * float(model.opt.timestep)
+
+    def rollout(*, models: Any, datas: Any, control_signal: Any, initial_states: Any, param_dicts: Any, **kwargs: Any):
+        del control_signal
+        signals = []
+        for candidate in param_dicts:  # one per finite-difference column, each over every window
+            delayed = delayed_controls(windows, float(candidate[name].value[0]), float(model.opt.timestep))
+            for controls in delayed:
+                signals.append(sysid.TimeSeries.from_control_names(times, np.vstack([controls, controls[-1:]]), model))
+        assert len(signals) == len(param_dicts) * count
+        return sysid.sysid_rollout(models, datas, signals, initial_states, **kwargs)
+
+    return rollout
 
 
 def _entry(model: mujoco.MjModel, parameter: FitParameter) -> float:

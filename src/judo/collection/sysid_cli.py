@@ -25,7 +25,7 @@ DESCRIPTION = (
     "difference to the logged states. Writes --out, a --config file whose [model_overrides.TASK] section holds the "
     "parameters the data determine, and a report beside it (OUT.md): each parameter before and after with its 95% "
     "confidence interval, the fit's conditioning, and the prediction error before and after. A parameter the data "
-    "do not excite is reported and left out. Needs the `sysid` extra, and `collect` for HDF5 logs or `ros2` for the "
+    "do not excite is reported and left out. --fit-delay also fits how late the logged actions take effect. Needs the `sysid` extra, and `collect` for HDF5 logs or `ros2` for the "
     "bridge's MCAP logs: pip install -e '.[sysid]'."
 )
 
@@ -44,13 +44,18 @@ class SysidArgs:
     out: Annotated[Path, tyro.conf.arg(metavar="FITTED.toml")] = field(kw_only=True)
     """The --config file to write; the report goes beside it (FITTED.md)."""
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
-    """TOML file that registers a custom task (copied into --out) or whose [model_overrides] the fit starts from."""
+    """TOML file of the run: its custom task, settings and [model_overrides] (the fit starts from them); --out
+    carries it over with the fitted parameters in its [model_overrides.TASK]."""
     window: float = 0.05
     """Seconds of each window rolled out from a logged state (the prediction horizon fitted). Short windows keep
     the residual smooth through contacts (leap_cube fits its friction over 0.05 s and misses it over 0.1 s);
     longer ones average noisy measurements on smooth systems."""
     max_iters: int = 50
     """Most iterations of mujoco.sysid's least-squares optimizer."""
+    fit_delay: bool = False
+    """Also fit the actuation delay (s, 0 to 0.1): how late each logged action takes effect, the same for every
+    actuator. Reported with the parameters; written as actuator_delay where the planning model keeps the action
+    history MuJoCo's delay needs (MJCF nsample), else as a comment saying what to add."""
 
     def validate(self) -> None:
         """Raise a JudoError (one line) for an argument that is wrong, before anything is read or written."""
@@ -88,11 +93,12 @@ def run(args: SysidArgs, command: str) -> None:
     """Read the logs, fit, and write --out and its report."""
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-    from judo.collection.sysid import fit, parse_parameters, read_logs
+    from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters
+    from judo.collection.sysid_data import read_logs
     from judo.core.registry import make_task
 
     task = make_task(args.task)
-    parameters = parse_parameters(args.params, task.model)
+    parameters = parse_parameters(args.params, task.model) + ([DELAY_PARAMETER] if args.fit_delay else [])
     episodes = read_logs(list(args.logs), args.task, task.model)
     steps = max(1, round(args.window / float(task.model.opt.timestep)))
     columns = (SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn())
@@ -104,7 +110,9 @@ def run(args: SysidArgs, command: str) -> None:
 
         result = fit(task, parameters, episodes, steps, args.max_iters, on_evaluation)
     header = [command, f"fitted to {result.num_windows} windows of {steps} steps from {len(episodes)} episode(s)"]
-    text = fitted_toml(args.task, result.overrides(task.model), header, _custom_tables(args.config))
+    text = fitted_toml(
+        args.task, result.overrides(task.model), header, _config_tables(args.config), delay_note(result, task.model)
+    )
     report = report_text(args, result, command, len(episodes))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)
@@ -115,35 +123,85 @@ def run(args: SysidArgs, command: str) -> None:
     console.print(f"wrote {args.out} and {report_path}")
 
 
-def _custom_tables(config: Path | None) -> dict[str, Any]:
-    """The [custom_tasks] and [custom_optimizers] of the --config file, so --out registers the same task."""
+def _config_tables(config: Path | None) -> dict[str, Any]:
+    """The --config file's table (empty without one): --out carries it over, so that `--config FITTED.toml` plans
+    as `--config CONFIG` did (the same custom tasks, controller, optimizer and plant settings) but for the fitted
+    parameters."""
     if config is None:
         return {}
     if sys.version_info >= (3, 11):
         import tomllib
     else:  # pragma: no cover
         import tomli as tomllib
-    table = tomllib.loads(config.read_text())
-    return {key: table[key] for key in ("custom_tasks", "custom_optimizers") if key in table}
+    return tomllib.loads(config.read_text())
 
 
-def fitted_toml(task: str, overrides: dict[str, dict[str, Any]], header: list[str], custom: dict[str, Any]) -> str:
-    """The --config file of the fit: `header` as comments, `custom` tables, then [model_overrides.TASK]."""
+def delay_note(result: Any, model: Any) -> list[str]:
+    """Comment lines for a fitted delay that the planning model cannot hold (no actuator history), else []."""
+    from judo.collection.sysid import delay_fits_model
+
+    delay = result.delay
+    if delay is None or delay_fits_model(model, delay):
+        return []
+    samples = int(math.ceil(delay / float(model.opt.timestep) - 1e-9)) + 1
+    return [
+        f"fitted actuation delay: {delay:.6g} s. The planning model keeps no action history, so MuJoCo would ignore",
+        f'an actuator_delay here: add delay="{delay:.6g}" nsample="{samples}" interp="linear" to its actuators in the',
+        f"MJCF, or plan ahead of it with --latency-ms {delay * 1000:.3g} --controller.latency-compensation.",
+    ]
+
+
+def fitted_toml(
+    task: str,
+    overrides: dict[str, dict[str, Any]],
+    header: list[str],
+    config: dict[str, Any],
+    notes: list[str] | tuple[str, ...] = (),
+) -> str:
+    """The --config file of the fit: `header` as comments, then `config` (the --config file's table), whose
+    [model_overrides.TASK] gets the fitted `overrides` (replacing the entries they fit, keeping the others), with
+    `notes` as comments at its end."""
     from judo.core.model_overrides import toml_value
 
-    lines = [f"# {line}" for line in header]
-    for section, entries in custom.items():
-        for name, entry in entries.items():
-            lines += ["", f"[{section}.{name}]"] + [f"{key} = {json.dumps(value)}" for key, value in entry.items()]
-    lines += ["", f"[model_overrides.{task}]"]
+    model_overrides = {name: dict(value) for name, value in config.get("model_overrides", {}).items()}
+    merged: dict[str, dict[str, Any]] = {f: dict(v) for f, v in model_overrides.pop(task, {}).items()}
     for field_name, values in overrides.items():
         for element, value in values.items():
-            written = toml_value(value)
-            literal_value = repr(written) if isinstance(written, float) else "[" + ", ".join(map(repr, written)) + "]"
-            lines.append(f"{field_name}.{_key(element)} = {literal_value}")
+            merged.setdefault(field_name, {})[element] = toml_value(value)
+    rest = {key: value for key, value in config.items() if key != "model_overrides"}
+    if model_overrides:
+        rest["model_overrides"] = model_overrides
+    lines = [f"# {line}" for line in header] + _toml_lines([], rest) + ["", f"[model_overrides.{task}]"]
+    for field_name, values in merged.items():
+        for element, value in values.items():
+            lines.append(f"{field_name}.{_key(element)} = {_toml_literal(value)}")
     if not overrides:
         lines.append("# no parameter was determined by the data; see the report")
+    lines += [f"# {line}" for line in notes]
     return "\n".join(lines) + "\n"
+
+
+def _toml_lines(path: list[str], table: dict[str, Any]) -> list[str]:
+    """TOML lines of `table` under the header `path`: its plain keys, then each sub-table as its own section."""
+    plain = {key: value for key, value in table.items() if not isinstance(value, dict)}
+    has_tables = any(isinstance(value, dict) for value in table.values())
+    lines = ["", "[" + ".".join(_key(part) for part in path) + "]"] if path and (plain or not has_tables) else []
+    lines += [f"{_key(key)} = {_toml_literal(value)}" for key, value in plain.items()]
+    for key, value in table.items():
+        if isinstance(value, dict):
+            lines += _toml_lines([*path, key], value)
+    return lines
+
+
+def _toml_literal(value: Any) -> str:
+    """A TOML value: a string (JSON's escapes are TOML's), a boolean, a number or a list of them."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_literal(item) for item in value) + "]"
+    return json.dumps(str(value))
 
 
 def _key(name: str) -> str:
@@ -169,7 +227,8 @@ def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -
     ):
         interval = f"± {half:.3g}" if math.isfinite(half) else "unbounded"
         verdict = "yes" if excited else "no: not excited by the data, left out of --out"
-        lines.append(f"| {parameter.name} | {before:.6g} | {after:.6g} | {interval} | {verdict} |")
+        name = f"{parameter.name} (s)" if parameter.field == "delay" else parameter.name
+        lines.append(f"| {name} | {before:.6g} | {after:.6g} | {interval} | {verdict} |")
     lines += [
         "",
         f"Conditioning: cond(J) = {result.condition:.3g} (the residual's Jacobian at the fit, each column scaled by its "
