@@ -11,9 +11,8 @@ The GUI (`judo.runtime.gui`) imports this module and never `judo.runtime.app`; `
 The loops publish under two topics of the app's StateBuffer: "system" a `SystemSnapshot`, "plan" a
 `PlanSnapshot`.
 
-The App's commands: what the GUI, a notebook or a script asks of a running app, from any thread.
-
-Each command validates at once (raising UnknownNameError, ConfigError or JudoError) and only queues its request
+`Commands` carries the App's commands out: what the GUI, a notebook or a script asks of a running app, from any
+thread. Each command validates at once (raising UnknownNameError, ConfigError or JudoError) and only queues its request
 in the app's state (`judo.runtime.app_state`); the plant runner and the planner runner carry it out at the top
 of their next iteration. `App` (`judo.runtime.app`) owns one `Commands` and delegates to it.
 """
