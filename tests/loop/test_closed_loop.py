@@ -1,52 +1,24 @@
 """The one closed-loop step: recorders see every plan and step, the latency model, the warm start from the
 plant's state, and the deprecated warm start without a state."""
 
-from dataclasses import dataclass
-
 import numpy as np
 import pytest
+from slider_task import SLIDER_XML, HoldConfig, hold_base
 
 import judo
 from judo.core.controller import Controller, ControllerConfig
-from judo.core.task import Task, TaskConfig
+from judo.core.task import Task
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import PlanRecord, StepRecord
 from judo.loop.system import MujocoSystem
 from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
 
-SLIDER_XML = """
-<mujoco>
-  <option timestep="0.01"/>
-  <worldbody>
-    <body name="block">
-      <joint name="x" type="slide" axis="1 0 0" damping="1"/>
-      <geom type="box" size="0.1 0.1 0.1" mass="1"/>
-    </body>
-  </worldbody>
-  <actuator><position joint="x" kp="10" ctrlrange="-2 2" ctrllimited="true"/></actuator>
-  <sensor><jointpos name="x_pos" joint="x"/></sensor>
-</mujoco>
-"""
-
-
-@dataclass
-class HoldConfig(TaskConfig):
-    """No settings."""
-
 
 @pytest.fixture
 def hold_task_cls(tmp_path):
     """A block on a rail with a position actuator; the reward wants the block at 0.5."""
-    path = tmp_path / "slider.xml"
-    path.write_text(SLIDER_XML)
 
-    class Hold(Task[HoldConfig]):
-        def __init__(self):
-            super().__init__(path)
-
-        def reward(self, states, sensors, controls, config, system_metadata=None):
-            return -np.abs(states[..., 0] - 0.5).sum(-1)
-
+    class Hold(hold_base(tmp_path)):
         def reset(self):
             self.data.qpos[:] = 0.3 + 0.1 * self.rng.uniform()
             self.data.qvel[:] = 0.0

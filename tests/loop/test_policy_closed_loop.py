@@ -2,52 +2,23 @@
 the watchdog's safe action when it raises or returns NaN, the fit check at construction, and an MPC expert
 labelling the states it visits. Hand-written policies (numpy subclasses of judo.Policy); no mocks."""
 
-from dataclasses import dataclass
-
 import numpy as np
 import pytest
+from slider_task import hold_base
 
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.policy import Policy, PolicyError
 from judo.core.policy_controller import PolicyController, make_policy_controller
-from judo.core.task import Task, TaskConfig
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
-
-SLIDER_XML = """
-<mujoco>
-  <option timestep="0.01"/>
-  <worldbody>
-    <body name="block">
-      <joint name="x" type="slide" axis="1 0 0" damping="1"/>
-      <geom type="box" size="0.1 0.1 0.1" mass="1"/>
-    </body>
-  </worldbody>
-  <actuator><position joint="x" kp="10" ctrlrange="-2 2" ctrllimited="true"/></actuator>
-  <sensor><jointpos name="x_pos" joint="x"/></sensor>
-</mujoco>
-"""
-
-
-@dataclass
-class HoldConfig(TaskConfig):
-    """No settings."""
 
 
 @pytest.fixture
 def hold_task_cls(tmp_path):
     """A block on a rail with a position actuator; the reward wants the block at 0.5."""
-    path = tmp_path / "slider.xml"
-    path.write_text(SLIDER_XML)
 
-    class Hold(Task[HoldConfig]):
-        def __init__(self):
-            super().__init__(path)
-
-        def reward(self, states, sensors, controls, config, system_metadata=None):
-            return -np.abs(states[..., 0] - 0.5).sum(-1)
-
+    class Hold(hold_base(tmp_path)):
         def reset(self):
             self.data.qpos[:] = 0.3
             self.data.qvel[:] = 0.0
