@@ -21,7 +21,13 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 PACKAGE = "judo"
 
 MAX_LINES = 400
-"""Most lines in any file in src/judo."""
+"""Most lines in any file in src/judo, but those below."""
+
+LONGER_FILES = {
+    "loop/closed_loop.py": 500,  # the loop with its control clock and watchdog: one room a robot integrator reads
+    "runtime/runners.py": 720,  # the app's three running parts (planner, plant, supervisor), read together
+}
+"""Files allowed more lines, and why: one control update crosses fewer files when these stay whole."""
 
 
 def module_name(path: Path, root: Path) -> str:
@@ -179,17 +185,17 @@ def lines_over_the_limit() -> dict[str, int]:
     over = {}
     for path in sorted((SRC / PACKAGE).rglob("*.py")):
         lines = len(path.read_text().splitlines())
-        if lines > MAX_LINES:
+        if lines > LONGER_FILES.get(path.relative_to(SRC / PACKAGE).as_posix(), MAX_LINES):
             over[path.relative_to(SRC / PACKAGE).as_posix()] = lines
     return over
 
 
 def test_no_file_is_over_its_line_limit():
     over = lines_over_the_limit()
-    assert not over, f"files over {MAX_LINES} lines: {over}"
+    assert not over, f"files over {MAX_LINES} lines (or their own limit in LONGER_FILES): {over}"
 
 
-APP_MODULES = 13
+APP_MODULES = 11
 """Most modules in the app package (src/judo/runtime, its gui/ and __init__ aside): a few rooms, each one idea."""
 
 
@@ -383,7 +389,7 @@ def control_update_files() -> list[str]:
 
 def test_the_documented_path_of_a_control_update_names_files_that_exist():
     files = control_update_files()
-    assert 15 <= len(files) <= 22, files
+    assert 10 <= len(files) <= 15, files  # at most 15 files from the command line to the served action
     missing = [name for name in files if not (SRC / PACKAGE / name).is_file()]
     assert not missing, f"docs/architecture.md names files that are not in src/judo: {missing}"
     assert "loop/closed_loop.py" in files and "core/controller.py" in files

@@ -15,7 +15,7 @@ import pytest
 import judo
 import judo.loop
 import judo.runtime
-from judo.loop.control_clock import ControlClock
+from judo.loop.closed_loop import ControlClock
 from judo.loop.sensing import Sensing
 from judo.runtime.app import App
 from judo.runtime.app_state import AppState, PendingConfigs
@@ -26,9 +26,7 @@ APP_PARTS = (
     "app",
     "app_state",
     "commands",
-    "plant_runner",
-    "planner_runner",
-    "supervisor",
+    "runners",
     "live_recording",
     "status",
     "session",
@@ -83,8 +81,8 @@ def root_name(node: ast.expr) -> str | None:
     return node.id if isinstance(node, ast.Name) else None
 
 
-def test_the_apps_parts_and_the_control_clock_write_only_their_own_attributes():
-    paths = [RUNTIME / f"{part}.py" for part in APP_PARTS] + [Path(judo.loop.__file__).parent / "control_clock.py"]
+def test_the_apps_parts_and_the_closed_loop_write_only_their_own_attributes():
+    paths = [RUNTIME / f"{part}.py" for part in APP_PARTS] + [Path(judo.loop.__file__).parent / "closed_loop.py"]
     writes = [write for path in paths for write in foreign_attribute_writes(path)]
     assert not writes, "attributes written outside their class:\n" + "\n".join(writes)
 

@@ -7,8 +7,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.loop.system import MujocoSystem, System, SystemState
-from judo.loop.system_calls import SystemCalls, SystemReadingError
+from judo.loop.system import MujocoSystem, System, SystemCalls, SystemReadingError, SystemState
 from judo.runtime.app import App
 
 

@@ -2,12 +2,12 @@
 
 What a robot integrator reads, below the app, the GUI and the commands (it imports none of them):
 
-    system.py           System (read_state, apply, step, reset, halt), MujocoSystem, DynamicsSystem
-    closed_loop.py      ClosedLoop: read -> plan (latency model) -> serve (watchdog, feedback) -> apply, step
-    control_clock.py    ControlClock: when the next plan is due, in sim time or wall time
+    system.py           System (read_state, apply, step, reset, halt), MujocoSystem, DynamicsSystem; the one
+                        gate every System call goes through (what is in flight, nothing after a stop)
+    closed_loop.py      ClosedLoop: read -> plan (latency model) -> serve (watchdog, feedback) -> apply, step;
+                        the control clock (when the next plan is due, in sim time or wall time) and the
+                        watchdog (how fresh the readings and the plan in force are)
     latency.py          the latency model, and the prediction that compensates for it
-    watchdog.py         how fresh the readings and the plan in force are
-    system_calls.py     every System call through one gate: what is in flight, nothing after a stop
     records.py          PlanRecord and StepRecord, what the loop tells its recorders
     sensing.py          rehearsed sensing (SensedSystem), the estimator choice, the sensing flags
     estimator_thread.py an estimator on a thread of its own, off the plant's critical path
@@ -18,8 +18,7 @@ package read it too) and exported here.
 """
 
 from judo.core.reading import SystemState
-from judo.loop.closed_loop import ClosedLoop
-from judo.loop.control_clock import ControlClock
+from judo.loop.closed_loop import ClosedLoop, ControlClock
 from judo.loop.records import PlanRecord, StepRecord
 from judo.loop.system import DynamicsSystem, MujocoSystem, System
 

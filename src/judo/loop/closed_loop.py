@@ -1,11 +1,11 @@
 """The one closed-loop step: read the plant, plan (with the latency model), serve the plan, step the plant.
 
 Everything that drives a plant with a controller calls this module, and nothing else writes the loop:
-- the app's two runners: the planner runner (`judo.runtime.planner_runner`) calls `plan` on its worker thread
-  when the control clock says, in wall time, and the plant runner (`judo.runtime.plant_runner`) calls `advance`
+- the app's two runners: the planner runner (`judo.runtime.runners`) calls `plan` on its worker thread
+  when the control clock says, in wall time, and the plant runner (`judo.runtime.runners`) calls `advance`
   on the System's thread at real-time pace;
 - `evaluate`'s episodes (`judo.evaluation.episode.run_episode`), and through them `tune`'s trials, call
-  `step`, which plans when the control clock (`judo.loop.control_clock`) says, in sim time, then advances;
+  `step`, which plans when the control clock (`ControlClock`, below) says, in sim time, then advances;
 - the benchmark's timing (`judo.evaluation.timing`) calls `plan` for each timed update.
 
     reading = system.read_state()  --[estimator]-->  plan(reading)  --latency-->  serve(t)  --[watchdog]-->
@@ -14,7 +14,7 @@ Everything that drives a plant with a controller calls this module, and nothing 
 Where the features plug in, each once, here:
 - the estimator between the reading and the plan (`judo.core.estimator`): `read` fuses the System's raw
   reading (sensors, the time they were taken) into the state planned from, as of the plant's now;
-- the watchdog on the served action (`judo.loop.watchdog`): `serve` gives the plant the task's
+- the watchdog on the served action (`Watchdog`, below): `serve` gives the plant the task's
   `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one control period;
 - recorders of every step and plan: the `recorders` given to the loop (`judo.loop.records.Recorder`).
 
@@ -24,10 +24,27 @@ keeps the plan in force before it (or the task's warm start before the first pla
 plan is served from the first step after it is done, which in real time is its real latency. The
 controller's `latency_compensation` plans from the reading predicted to then (`judo.loop.latency`).
 
-The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (plant_runner.py).
+The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (`judo.runtime.runners.PlantRunner`).
+
+**The control clock** (`ControlClock`): when the next control update is due, in one time base. One clock serves both schedulers: `ClosedLoop.step` ticks it in sim time (evaluate, tune, collect), and the
+app's planner runner (`judo.runtime.runners`) in wall time.
+
+The clock ticks every 1 / control_freq s. An update that overran its tick (its plan takes effect later than the
+next tick: a delay longer than the period) moves the next tick to when its plan takes effect, since a controller
+cannot start a plan before the current one is done. The period is read when the clock is asked, so an edit of
+control_freq takes effect at once.
+
+**The watchdog** (`Watchdog`): how fresh the readings and the plan in force are. Ages are measured on the closed loop's clock: in `evaluate` and `tune` the plant time the loop has stepped,
+in the app the wall clock. A reading is fresh when its time advanced past the one before; a plan is as old
+as the freshest reading it was planned from. Once the plan in force is older than `max_plan_age` beyond one
+control period, the plant is served the task's `safe_action` until a fresh plan arrives. The plan may be
+old because planning stalled (a hung reward, a 4 s cycle), failed (a reward that raises, a NaN or
+wrong-shape reading), was cancelled, or last read a reading whose time did not advance (a frozen sensor
+stream). A reading whose time goes backwards is refused.
 """
 
 import dataclasses
+import math
 import threading
 import time
 from collections.abc import Callable, Iterable
@@ -39,12 +56,137 @@ from judo.core.errors import JudoError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.planner import Planner
 from judo.core.spline import Spline
-from judo.loop.control_clock import TIME_TOLERANCE, ControlClock
 from judo.loop.latency import Latency, LatencyPredictor, check_latency, prediction_delay
 from judo.loop.records import PlanRecord, Recorder, StepRecord
-from judo.loop.system import SimulationDiverged, System, SystemState
-from judo.loop.system_calls import SystemCallError, SystemCalls, SystemClosedError
-from judo.loop.watchdog import Watchdog
+from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError, SystemState
+
+TIME_TOLERANCE = 1e-9
+"""Seconds within which two times count as the same (an update due at t is due at t)."""
+
+
+class ControlClock:
+    """When the next control update is due.
+
+    `restart(now)` makes an update due at `now`; `ticked(now, delay, period)` records an update made at `now`
+    whose plan takes effect `delay` s later. Before the first restart every time is due.
+    """
+
+    def __init__(self) -> None:
+        self._tick = -math.inf  # the time the latest update came due
+        self._not_before = -math.inf  # when the latest update's plan takes effect
+
+    def restart(self, now: float) -> None:
+        """Make an update due at `now` (after a reset, whose time may start again, or a pause)."""
+        self._tick, self._not_before = -math.inf, now
+
+    def next_time(self, period: float) -> float:
+        """The time the next update is due: one `period` after the latest tick, or when its plan takes effect
+        if later."""
+        return max(self._tick + period, self._not_before)
+
+    def due(self, now: float, period: float) -> bool:
+        """Whether an update is due at `now`."""
+        return now >= self.next_time(period) - TIME_TOLERANCE
+
+    def ticked(self, now: float, delay: float, period: float) -> None:
+        """An update came due and was made at `now`; its plan takes effect at `now + delay`."""
+        self._tick, self._not_before = self.next_time(period), now + delay
+
+    def remaining(self, now: float, period: float) -> float:
+        """Seconds from `now` until the next update is due (0 when it is due)."""
+        return max(0.0, self.next_time(period) - now)
+
+
+TIME_TOLERANCE = 1e-9
+"""Seconds within which two reading times count as the same."""
+
+
+class ReadingTimeError(JudoError):
+    """A reading's time went backwards (a System's clock must never run back); the reading is refused."""
+
+
+class Watchdog:
+    """Freshness of the readings and of the plan in force, on the loop's clock.
+
+    Attributes:
+        fresh_at: clock time at which the latest reading's time last advanced.
+        tripped: why the safe action is being served, or None while plans are fresh.
+        trips: episodes of trouble so far (each trip counts once until plans are fresh again).
+    """
+
+    def __init__(self) -> None:
+        self.fresh_at = 0.0
+        self.tripped: str | None = None
+        self.trips = 0
+        self._last_time: float | None = None
+
+    def restart(self, now: float) -> None:
+        """Start afresh at clock time `now` (after a reset of the plant, whose time may start again at 0)."""
+        self.fresh_at, self._last_time, self.tripped = now, None, None
+
+    def note_reading(self, reading: SystemState, now: float) -> None:
+        """Stamp `reading` at clock time `now`: fresh if its time advanced. Raises ReadingTimeError if its
+        time went backwards, and keeps the stamps as they were."""
+        time = reading.time
+        if not math.isfinite(time):  # never fresh; planning refuses it anyway
+            return
+        if self._last_time is not None and time < self._last_time - TIME_TOLERANCE:
+            raise ReadingTimeError(
+                f"refused a reading whose time went backwards, from {self._last_time:.6g} s to {time:.6g} s; "
+                "a System's read_state().time must never decrease (reset the plant to start it again)"
+            )
+        if self._last_time is None or time > self._last_time + TIME_TOLERANCE:
+            self.fresh_at = now
+        self._last_time = time
+
+    def verdict(self, now: float, plan_stamp: float, max_plan_age: float, control_freq: float) -> str | None:
+        """Why the plan stamped `plan_stamp` must not be served at clock time `now`, or None if it may.
+
+        Updates `tripped` and `trips`. `max_plan_age` 0 turns the watchdog off.
+        """
+        if max_plan_age <= 0:
+            self.tripped = None
+            return None
+        limit = max_plan_age + 1.0 / control_freq
+        age = now - plan_stamp
+        if age <= limit:
+            self.tripped = None
+            return None
+        if now - self.fresh_at > limit:
+            reason = f"the readings' time has not advanced for {now - self.fresh_at:.2f} s (a frozen sensor stream?)"
+        else:
+            reason = f"the plan in force is {age:.2f} s old (planning stalled or failed)"
+        if self.tripped is None:
+            self.trips += 1
+        self.tripped = reason
+        return reason
+
+
+class PausableClock:
+    """Wall-clock seconds (monotonic) that stand still while paused: the app's watchdog clock, so a pause
+    does not age the plan in force."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._paused_at: float | None = None
+        self._paused_for = 0.0
+
+    def __call__(self) -> float:
+        with self._lock:
+            now = self._paused_at if self._paused_at is not None else time.monotonic()
+            return now - self._paused_for
+
+    def pause(self) -> None:
+        with self._lock:
+            if self._paused_at is None:
+                self._paused_at = time.monotonic()
+
+    def resume(self) -> None:
+        with self._lock:
+            if self._paused_at is not None:
+                self._paused_for += time.monotonic() - self._paused_at
+                self._paused_at = None
+
 
 __all__ = ["ClosedLoop", "Latency", "SystemCallError", "check_latency"]
 
@@ -72,7 +214,7 @@ class ClosedLoop:
         failed_updates: updates whose rollouts all scored NaN or -inf, or whose knots were non-finite
             (the plan before them stayed in force); `last_failure` is the latest one's error.
         divergences: times the plant's simulation blew up and was reset.
-        control_clock: when `step` makes the next control update, in plant time (`judo.loop.control_clock`).
+        control_clock: when `step` makes the next control update, in plant time.
 
     `plan` may run on another thread than `serve` and `advance` (the app's worker thread): the hand-over
     of a new plan is locked.
@@ -91,7 +233,7 @@ class ClosedLoop:
     ) -> None:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
-        self.calls = SystemCalls(system)  # every System call goes through it (see judo.loop.system_calls)
+        self.calls = SystemCalls(system)  # every System call goes through it (see judo.loop.system)
         self.recorders = list(recorders)
         self.estimator = estimator
         self.controls = ControlHistory(controller.task.command_size)  # every served action, for the estimator

@@ -32,8 +32,7 @@ from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, Read
 from judo.core.registry import lookup_estimator, make_estimator
 from judo.core.sensors import DEFAULT_KEY, QUATERNION_TYPES, parse_per_type, per_sensor
 from judo.core.task import Task
-from judo.loop.system import MujocoSystem, System, SystemState
-from judo.loop.system_calls import check_reading
+from judo.loop.system import MujocoSystem, System, SystemState, check_reading
 
 TIME_TOLERANCE = 1e-9
 """Seconds within which a sample counts as due or a reading as arrived."""

@@ -4,11 +4,11 @@ app.py            App: checks its settings, builds the parts, start/run/stop; th
 app_state.py      AppState (the one lock and what the parts share) and StopSignal
 commands.py       AppPort (all the GUI sees) and Commands (validate each command, queue it in the state)
 session.py        Session (a controller, its plant and their ClosedLoop), ConfigSet, SessionMaker
-plant_runner.py   the System's own thread: ClosedLoop.advance at real-time pace
-planner_runner.py the control clock in wall time, ClosedLoop.plan on a worker thread, switches
+runners.py        who runs what: the planner runner (the control clock in wall time, ClosedLoop.plan on a
+                  worker thread, switches), the plant runner (the System's own thread: ClosedLoop.advance at
+                  real-time pace) and the supervisor (the event loop, the frontend, the stop order, the exit guard)
 cycles.py         a planning cycle's size, estimated cost, and the cycle in flight
-supervisor.py     the event loop, the frontend, the stop order, the exit guard
-recordings.py     the recorder under way
+live_recording.py the recording under way
 snapshots.py      StateBuffer and what the loops publish in it for the GUI
 status.py         the status line, the timing figures, the reports
 address.py        where the GUI listens

@@ -7,9 +7,9 @@ The App checks its run settings (`check_app_settings`: a bad one is a one-line C
 built), then composes parts that own their state and are handed what they use (docs/architecture.md):
 - `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the counters;
 - `Commands` (`judo.runtime.commands`): validate each command and queue it in the state;
-- `PlantRunner` (`judo.runtime.plant_runner`): the System's thread;
-- `PlannerRunner` (`judo.runtime.planner_runner`): the control clock, planning and switches;
-- `Supervisor` (`judo.runtime.supervisor`): the event loop, signals, the monitor and the stop order;
+- `PlantRunner` (`judo.runtime.runners`): the System's thread;
+- `PlannerRunner` (`judo.runtime.runners`): the control clock, planning and switches;
+- `Supervisor` (`judo.runtime.runners`): the event loop, signals, the monitor and the stop order;
 - `Recordings` (`judo.runtime.live_recording`) and the frontend (the GUI, given to the App, which never imports it).
 The App implements the GUI's command port (`judo.runtime.commands.AppPort`); `start()` returns at once.
 
@@ -45,12 +45,10 @@ from judo.runtime.app_state import AppState
 from judo.runtime.commands import Commands
 from judo.runtime.cycles import CycleCost
 from judo.runtime.live_recording import Recordings
-from judo.runtime.planner_runner import PlannerRunner
-from judo.runtime.plant_runner import PlantRunner
+from judo.runtime.runners import FrontendFactory, PlannerRunner, PlantRunner, Supervisor, stop_at_exit, viser_frontend
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
-from judo.runtime.supervisor import FrontendFactory, Supervisor, stop_at_exit, viser_frontend
 
 MAX_WORKERS = 1024
 """Most rollout threads an app may ask for."""

@@ -3,9 +3,9 @@
 The App's parts (`judo.runtime.app`) share one `AppState` and take what is theirs from it:
 - the commands (any thread: the GUI's callbacks, a notebook) validate, then `accept_config`, `request_*`,
   `pause`, `resume`;
-- the plant runner (`judo.runtime.plant_runner`, the System's thread) takes the plant's requests
+- the plant runner (`judo.runtime.runners`, the System's thread) takes the plant's requests
   (`take_plant_requests`) and counts the resets it carries out;
-- the planner runner (`judo.runtime.planner_runner`) takes the planner's requests (`take_planner_requests`)
+- the planner runner (`judo.runtime.runners`) takes the planner's requests (`take_planner_requests`)
   and installs a new session on a switch (`install_session`); it is the only writer of the session's configs.
 
 Reads of a single field (`session`, `paused`, the counters) need no lock: each is one reference, replaced
@@ -34,9 +34,9 @@ from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import ConfigKind
 from judo.core.task import TaskConfig
+from judo.loop.closed_loop import PausableClock
 from judo.loop.records import LiveRecorder
 from judo.loop.sensing import Sensing
-from judo.loop.watchdog import PausableClock
 from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_size
 from judo.runtime.session import ConfigSet, Session
 
