@@ -56,6 +56,7 @@ def test_both_planners_satisfy_the_contract_and_report_what_they_have(
     assert controller.backend is not None and controller.backend.num_workers == 1
     assert policy_controller.optimizer is None and policy_controller.backend is None
     assert policy_controller.backend_name is None and policy_controller.proposal_policy is None
+    assert policy_controller.iterations_run == 0 and controller.iterations_run == 0  # before any update
 
 
 def test_a_class_missing_part_of_the_contract_is_not_a_planner(controller):
@@ -66,6 +67,7 @@ def test_a_class_missing_part_of_the_contract_is_not_a_planner(controller):
             self.config, self.task, self.nominal_knots = inner.config, inner.task, None
             self.rewards, self.traces, self.optimizer = inner.rewards, inner.traces, inner.optimizer
             self.backend, self.backend_name, self.proposal_policy = inner.backend, inner.backend_name, None
+            self.iterations_run = 0
             self.update_action, self.action = inner.update_action, inner.action
             self.reset, self.close = inner.reset, inner.close
 

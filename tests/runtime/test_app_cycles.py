@@ -174,3 +174,20 @@ def test_judos_own_simulator_is_never_reported_as_a_blocked_driver(monkeypatch, 
     finally:
         app.stop()
     assert "has not returned" not in caplog.text and "responds again" not in caplog.text
+
+
+def test_the_extra_iterations_of_a_slow_rate_stop_at_the_control_period(wait_until):
+    # 500 iterations a second at 5 Hz asks for 100 a cycle, about 5 s of rollouts; the app gives each cycle its
+    # 0.2 s period, so it runs the required one and as many more as fit.
+    controller = judo.ControllerConfig(horizon=1.0, control_freq=5.0, iterations_per_second=500.0)
+    optimizer = judo.get_registered_optimizers()["ps"][1](num_rollouts=512)
+    app = App("cartpole", "ps", controller_config=controller, optimizer_config=optimizer, gui=False, num_workers=1)
+    app.start()
+    try:
+        wait_until(lambda: app.stats.num_plans() >= 3, what="three plans")
+        assert 1 <= app.controller.iterations_run < 100
+        cost = app.planning_cost()
+        assert cost.size is not None and cost.size.iterations == 100
+        assert cost.estimate < app._state.step_cost.estimate(cost.size)  # what the GUI shows counts the deadline
+    finally:
+        app.stop()

@@ -5,6 +5,7 @@ imported here too, where they have always been importable from.
 """
 
 import math
+from time import perf_counter
 from typing import Any
 
 import mujoco
@@ -79,6 +80,7 @@ class Controller:
             below, nu is `task.command_size`: the actuators, or a low-level policy's commands).
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf); with
             num_randomizations R > 1, each sequence's R rewards reduced by the config's risk measure.
+        iterations_run: optimizer iterations the last cycle ran (0 before the first).
         models: the R models the last cycle rolled out under: the task's planning model, then the
             R - 1 copies its `randomize_model` hook perturbed (drawn from `task.rng`).
         traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the "trace" framepos sensors
@@ -114,6 +116,7 @@ class Controller:
         self.nominal_knots: np.ndarray | None = None
         self.rewards = np.zeros(0)
         self.traces = np.zeros((0, 0, 0, 3))
+        self.iterations_run = 0
         self._plan: Spline | None = None
         self._layout_key: tuple | None = None
         self._scratch = mujoco.MjData(task.model)
@@ -210,8 +213,13 @@ class Controller:
         time: float,
         system_metadata: dict[str, Any] | None = None,
         cancel: CancelFlag | None = None,
+        deadline: float | None = None,
     ) -> Spline:
         """Run one planning cycle from `state` (nq + nv,) at sim `time`, publish the new plan and return it.
+
+        The cycle runs `config.iterations_per_cycle` optimizer iterations. With a `deadline` (a time.perf_counter()
+        value: the app gives each cycle its control period) the iterations beyond `config.max_opt_iters` run only
+        while one more, as long as the last, ends before it; `iterations_run` says how many ran.
 
         A set `cancel` (a threading.Event, the app's stop or planning cycle) ends the cycle with PlanningCancelled,
         keeping the previous plan: before its next optimizer iteration, or between pieces of a batch of rollouts
@@ -254,10 +262,17 @@ class Controller:
             nominal[0],  # the action served now
         )
 
+        required, iteration_started = cfg.max_opt_iters, 0.0
         with self.backend.cancelled_by(cancel):  # polled between pieces of a big batch too
-            for _ in range(self.config.iterations_per_cycle):
+            for iteration in range(cfg.iterations_per_cycle):
                 if cancel is not None and cancel.is_set():
                     raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
+                if deadline is not None:  # an extra iteration starts only if one as long as the last fits
+                    now = perf_counter()
+                    if iteration >= required and 2 * now - iteration_started > deadline:
+                        break
+                    iteration_started = now
+                self.iterations_run = iteration + 1
                 knots = opt.sample_control_knots(nominal)
                 if knots.shape != expected:
                     raise JudoError(

@@ -37,6 +37,7 @@ class Planner(Protocol):
         backend: the rollout backend, or None where nothing is rolled out.
         backend_name: the name the backend was built from ("cpu", "warp"), or None where nothing is rolled out.
         proposal_policy: the policy whose candidates join the optimizer's samples, or None.
+        iterations_run: optimizer iterations the latest update ran (0 where a policy plans).
     """
 
     config: ControllerConfig
@@ -64,6 +65,8 @@ class Planner(Protocol):
 
     @property
     def proposal_policy(self) -> Policy | None: ...
+    @property
+    def iterations_run(self) -> int: ...
 
     def update_action(
         self,
@@ -71,9 +74,12 @@ class Planner(Protocol):
         time: float,
         system_metadata: dict[str, Any] | None = None,
         cancel: CancelFlag | None = None,
+        deadline: float | None = None,
     ) -> Spline:
         """Plan from `state` (nq + nv,) at sim `time`, publish the new plan and return it; a failed update raises
-        a JudoError and keeps the plan before in force."""
+        a JudoError and keeps the plan before in force. A set `cancel` ends it (PlanningCancelled); a `deadline`
+        (a time.perf_counter() value) ends the optimizer iterations beyond `config.max_opt_iters` that would end
+        after it."""
         ...
 
     def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:

@@ -105,12 +105,14 @@ class PolicyController:
         expert_failures: expert updates that failed on non-finite rewards or knots (its plan before stayed).
         optimizer, backend, backend_name, proposal_policy: None, as a `Planner` where a policy plans: nothing of
             its own is optimized, rolled out or proposed (an expert's are the expert's).
+        iterations_run: 0, as a `Planner`: a policy runs no optimizer iterations of its own.
     """
 
     optimizer: None = None
     backend: None = None
     backend_name: None = None
     proposal_policy: None = None
+    iterations_run: int = 0
 
     def __init__(
         self,
@@ -192,6 +194,7 @@ class PolicyController:
         time: float,
         system_metadata: dict[str, Any] | None = None,
         cancel: CancelFlag | None = None,
+        deadline: float | None = None,
     ) -> Spline:
         """One inference from `state` (nq + nv,) at sim `time`: the policy's action (held) or chunk becomes the plan,
         which is published and returned. With an expert, the MPC then plans from the same state.
@@ -214,7 +217,7 @@ class PolicyController:
         self._plan = Spline(time, basis, knots, self._ctrl_low, self._ctrl_high)
         if self.expert is not None:
             try:
-                self.expert.update_action(state, time, system_metadata, cancel)
+                self.expert.update_action(state, time, system_metadata, cancel, deadline)
             except (NonFiniteRewardError, NonFiniteKnotsError):
                 self.expert_failures += 1  # the policy's plan is served all the same
         return self._plan

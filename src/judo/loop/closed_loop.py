@@ -313,8 +313,11 @@ class ClosedLoop:
             self._estimator_started = True
         return dataclasses.replace(self.estimator.update(raw, now, self.controls), time=now)
 
-    def plan(self, reading: SystemState, cancel: threading.Event | None = None) -> Spline | None:
-        """One control update from `reading`, scheduled to be served after the latency model's delay.
+    def plan(
+        self, reading: SystemState, cancel: threading.Event | None = None, deadline: float | None = None
+    ) -> Spline | None:
+        """One control update from `reading`, scheduled to be served after the latency model's delay. A `deadline`
+        (a time.perf_counter() value) ends the optimizer iterations beyond `max_opt_iters` that would end after it.
 
         Returns the new plan, or None when the update failed on non-finite rewards or knots (counted in
         `failed_updates`; the plan before stays in force). Other errors (a reward that raises, an invalid
@@ -325,7 +328,7 @@ class ClosedLoop:
         self.cycle_started, self.last_cycle_failed, stepped = self.stepped_time, True, self.stepped_time
         try:
             start = self._predicted(reading) if self.controller.config.latency_compensation else reading
-            plan = self.controller.update_action(start.state, start.time, start.metadata, cancel)
+            plan = self.controller.update_action(start.state, start.time, start.metadata, cancel, deadline)
         except (NonFiniteRewardError, NonFiniteKnotsError) as err:
             plan = None
             self.failed_updates += 1

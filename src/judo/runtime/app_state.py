@@ -37,7 +37,7 @@ from judo.core.task import TaskConfig
 from judo.loop.closed_loop import PausableClock
 from judo.loop.records import LiveRecorder
 from judo.loop.sensing import Sensing
-from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_size
+from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_seconds, cycle_size
 from judo.runtime.session import ConfigSet, Session
 
 
@@ -309,7 +309,8 @@ class AppState:
         times = session.closed_loop.update_ms
         last = times[-1] / 1e3 if times else math.nan
         running = cycle.elapsed() if cycle is not None and cycle.late() else None
-        return CycleCost(size, math.nan if size is None else step_cost.estimate(size), last, running)
+        estimate = math.nan if size is None else cycle_seconds(step_cost, size, configs.controller)
+        return CycleCost(size, estimate, last, running)
 
 
 def session_step_cost(session: Session) -> StepCost:

@@ -39,7 +39,7 @@ from judo.loop.records import LiveRecorder
 from judo.loop.sensing import check_estimator
 from judo.loop.system import SystemState
 from judo.runtime.app_state import AppState
-from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleCost, cycle_size
+from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleCost, cycle_seconds, cycle_size
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
 from judo.runtime.status import Level as StatusLevel
@@ -278,7 +278,7 @@ class Commands:
         current = state.configs
         before = None if current.optimizer is None else cycle_size(task, current.controller, current.optimizer)
         after = cycle_size(task, controller, optimizer)
-        seconds = state.step_cost.estimate(after)
+        seconds = cycle_seconds(state.step_cost, after, controller)
         if seconds > MAX_CYCLE_SECONDS and (before is None or after.total > before.total):
             edit = ", ".join(f"{name} = {value}" for name, value in updates.items())
             raise ConfigError(

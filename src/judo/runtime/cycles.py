@@ -16,7 +16,7 @@ import os
 import threading
 import time
 from collections import deque
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import mujoco
 import numpy as np
@@ -61,6 +61,18 @@ def cycle_size(task: Task, controller: ControllerConfig, optimizer: OptimizerCon
     """The size of a cycle of `task` under these configs: num_rollouts x num_randomizations x iterations (`ControllerConfig.iterations_per_cycle`) x T."""
     steps = rollout_steps(controller.horizon, task.dt)
     return CycleSize(optimizer.num_rollouts, controller.num_randomizations, controller.iterations_per_cycle, steps)
+
+
+def cycle_seconds(step_cost: "StepCost", size: CycleSize, controller: ControllerConfig) -> float:
+    """Estimated wall seconds of a cycle of `size` in the app (NaN while the cost is unknown), where the optimizer
+    iterations beyond `controller.max_opt_iters` stop at the control period (`Controller.update_action`'s
+    deadline): at most the required iterations, or the period and one iteration more."""
+    full = step_cost.estimate(size)
+    required = min(controller.max_opt_iters, size.iterations)
+    if required == size.iterations:
+        return full
+    one = step_cost.estimate(replace(size, iterations=1))
+    return min(full, max(required * one, 1.0 / controller.control_freq + one))
 
 
 class StepCost:

@@ -41,6 +41,7 @@ hook (atexit runs the last registered first): the app stops its GUI itself.
 
 import asyncio
 import atexit
+import dataclasses
 import importlib
 import logging
 import math
@@ -62,7 +63,7 @@ from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedEr
 from judo.runtime.address import is_loopback
 from judo.runtime.app_state import AppState, PendingConfigs, Stopping
 from judo.runtime.commands import AppPort
-from judo.runtime.cycles import PlanningCycle, cycle_size, seconds_text
+from judo.runtime.cycles import PlanningCycle, cycle_seconds, cycle_size, seconds_text
 from judo.runtime.live_recording import Recordings
 from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
@@ -120,7 +121,7 @@ class PlannerRunner:
                 elif not self.clock.due(now, period):
                     await state.stop.sleep(min(self.clock.remaining(now, period), CONFIG_POLL))
                 else:
-                    await self._plan(session, reading, now, resets)
+                    await self._plan(session, reading, now, resets, period)
                     self.clock.ticked(now, time.perf_counter() - now, period)
         except Stopping:
             return
@@ -130,9 +131,10 @@ class PlannerRunner:
         not waited for beyond IDLE_THREAD_JOIN and ends on its own daemon thread."""
         self._executor.shutdown(wait=True, timeout=IDLE_THREAD_JOIN)
 
-    async def _plan(self, session: Session, reading: SystemState, start: float, resets: int) -> None:
+    async def _plan(self, session: Session, reading: SystemState, start: float, resets: int, period: float) -> None:
         """One planning cycle from `reading`, read after `resets` plant resets, published under "plan"; a failed
-        cycle is reported and skipped."""
+        cycle is reported and skipped. The optimizer iterations beyond max_opt_iters (iterations_per_second) run
+        only while they fit in the control `period` (s) from `start`."""
         controller, reports, state = session.controller, self._reports, self._state
         with state.lock:
             configs = state.configs  # what the cycle will take up (the planner is their only writer)
@@ -141,10 +143,11 @@ class PlannerRunner:
                 if configs.optimizer is None
                 else cycle_size(session.controller.task, configs.controller, configs.optimizer)
             )
-            cycle = PlanningCycle(state.stop, size, math.nan if size is None else state.step_cost.estimate(size))
+            estimate = math.nan if size is None else cycle_seconds(state.step_cost, size, configs.controller)
+            cycle = PlanningCycle(state.stop, size, estimate)
         state.start_cycle(cycle)
         try:
-            plan = await state.stop.in_worker(self._executor, session.closed_loop.plan, reading, cycle)
+            plan = await state.stop.in_worker(self._executor, session.closed_loop.plan, reading, cycle, start + period)
         except Stopping:
             raise
         except PlanningCancelled:
@@ -172,8 +175,8 @@ class PlannerRunner:
         rewards = controller.rewards
         assert controller.nominal_knots is not None  # set by every completed cycle
         self._stats.record_plan(start, plan_time, float(rewards[0]) if len(rewards) else float("nan"))
-        if size is not None:
-            state.step_cost.record(size, plan_time)
+        if size is not None and controller.iterations_run > 0:  # the iterations that fitted in the period
+            state.step_cost.record(dataclasses.replace(size, iterations=controller.iterations_run), plan_time)
         if cycle.late():  # the status line counted its time: say it is over
             reports.report(f"planned in {plan_time:.1f} s: {reports.running()}")
         snapshot = PlanSnapshot(
