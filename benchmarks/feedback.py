@@ -18,11 +18,12 @@ and the spline with the gains.
     PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole walker --first-seed 500
     PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole --optimizers mppi ilqr --plants heavier
     PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole walker quadruped --timing-only
-    PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole --iterations-per-second 20
+    PYTHONPATH=src python benchmarks/feedback.py --tasks cartpole --iterations-per-second 0
 
-With --iterations-per-second, every cell plans with `controller.iterations_per_second` (each cycle at least that
-many optimizer iterations per second of control: 4 a cycle at 5 Hz for 20), so a slow planning rate searches as
-much per second as 20 Hz does with one iteration a cycle.
+Every cell plans with `controller.iterations_per_second` (each cycle at least that many optimizer iterations per
+second of control: 4 a cycle at 5 Hz for the default 20), so a slow planning rate searches as much per second as
+20 Hz does with one iteration a cycle; `--iterations-per-second 0` plans with max_opt_iters a cycle, whatever the
+rate (the default before it was 20).
 """
 
 import argparse
@@ -62,10 +63,10 @@ def run_cell(
     mass_scale: float,
     seeds: Iterable[int],
     duration: float,
-    iterations_per_second: float = 0.0,
+    iterations_per_second: float | None = None,
 ) -> Cell:
     values = {"controller.control_freq": rate, "controller.feedback": feedback}
-    if iterations_per_second:
+    if iterations_per_second is not None:  # else the config's own (20 by default)
         values["controller.iterations_per_second"] = iterations_per_second
     spec = EpisodeSpec(task, optimizer, duration, latency_ms / 1e3, values, num_workers=2)
     configs = configs_in_force(spec)
@@ -123,8 +124,8 @@ def main() -> None:
     parser.add_argument(
         "--iterations-per-second",
         type=float,
-        default=0.0,
-        help="plan with controller.iterations_per_second (0: the task's max_opt_iters a cycle)",
+        default=None,
+        help="plan with this controller.iterations_per_second (default: the task's own, 20; 0: max_opt_iters a cycle)",
     )
     args = parser.parse_args()
     header = " | ".join(f"{rate:g} Hz" + (f" + {lat:g} ms" if lat else "") for rate, lat in CONDITIONS)
