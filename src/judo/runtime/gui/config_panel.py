@@ -83,7 +83,8 @@ class ConfigPanel:
         self._on_refused = on_refused
         self._kind = kind
         self._arrays: set[str] = set()  # fields shown as one slider per entry
-        self._refused: dict[str, tuple[float, str]] = {}  # field -> (when, why) of a refusal not yet shown
+        # field -> (when, why, the widget values refused) of a refusal not yet shown
+        self._refused: dict[str, tuple[float, str, list[Any]]] = {}
         self._config = config
         self._lock = threading.Lock()
         self._widgets: dict[str, list[Any]] = {}
@@ -142,17 +143,19 @@ class ConfigPanel:
                     handle.value = value
             for name in [n for n, t in self._last_change.items() if now - t >= EDIT_SETTLE]:
                 del self._last_change[name]
-                self._refused.pop(name, None)
                 seen = self._settled(name, self._pending.pop(name))
+                if self._echoes_refusal(name, seen):
+                    continue  # a box put a refused value back to its slider's end: the refusal stands
+                self._refused.pop(name, None)
                 try:
                     flag = config_flag(self._kind, name) if self._kind is not None else None
                     check_slider_range(name, self._widgets[name], seen, name in self._arrays, flag)
                     self._config = self._on_edit({name: self._decode[name](seen)})
                 except JudoError as err:
-                    self._refused[name] = (now, str(err))  # shown and put back once the user stops typing
+                    self._refused[name] = (now, str(err), seen)  # shown and put back once the user stops typing
                     continue
                 self._write(name, getattr(self._config, name), resync=True)
-            for name, (when, why) in list(self._refused.items()):
+            for name, (when, why, _) in list(self._refused.items()):
                 if now - when >= REFUSAL_HOLD and name not in self._last_change:
                     del self._refused[name]
                     if self._on_refused is not None:
@@ -247,6 +250,18 @@ class ConfigPanel:
             if beyond:
                 settled[i] = beyond[-1]
         return settled
+
+    def _echoes_refusal(self, name: str, seen: list[Any]) -> bool:
+        """True when `seen` is field `name`'s refused values put back to their sliders' ends: a page's number box
+        does that when it loses focus, after the refused value reached the app (as `_settled` reads it before)."""
+        refused = self._refused.get(name)
+        if refused is None:
+            return False
+        ends = [
+            min(max(value, handle.min), handle.max) if isinstance(handle, viser.GuiSliderHandle) else value
+            for handle, value in zip(self._widgets[name], refused[2], strict=True)
+        ]
+        return ends != refused[2] and seen == ends
 
     def _write(self, name: str, value: Any, resync: bool = False) -> None:
         """Show `value` in field `name`'s widgets, widening slider ranges to hold it.
