@@ -10,7 +10,16 @@ import viser
 from judo.core.config import Config
 from judo.core.errors import ConfigError
 from judo.core.fields import np_1d_field, slider
-from judo.runtime.gui.config_panel import ConfigPanel, default_range, format_number, nice_step, parse_number
+from judo.core.registry import config_flag, default_configs
+from judo.runtime.cli import parse
+from judo.runtime.gui.config_panel import (
+    ConfigPanel,
+    check_slider_range,
+    default_range,
+    format_number,
+    nice_step,
+    parse_number,
+)
 
 
 @slider("rollouts", 1, 64, 1)
@@ -101,6 +110,45 @@ def test_show_puts_a_config_into_the_widgets_and_widens_ranges(panel):
     assert widgets(panel, "rollouts")[0].max == 100 and panel.value_of("rollouts") == 100
     assert panel.value_of("mode") == "fast" and panel.value_of("enabled") is False
     np.testing.assert_array_equal(panel.value_of("goal"), [0.5, 0.5])
+
+
+def test_a_value_outside_a_sliders_range_is_refused_naming_the_range_and_the_option_that_sets_it(panel):
+    def check(name, values, flag=None):
+        check_slider_range(name, widgets(panel, name), values, name in ("goal", "weights"), flag)
+
+    check("rollouts", [64])  # the ends are in range
+    check("rollouts", [1])
+    with pytest.raises(ConfigError) as refused:  # 1e9 typed into a slider's box arrives as 19
+        check("rollouts", [65], "--optimizer-config.rollouts")
+    assert str(refused.value) == (
+        "rollouts 65 is outside the slider's 1 to 64; set a larger value with --config or --optimizer-config.rollouts"
+    )
+    check("gain", [3.0])  # a range widened to a value set elsewhere keeps it
+    with pytest.raises(
+        ConfigError, match=r"^gain 3.5 is outside the slider's 0 to 3; set a larger value with --config "
+    ):
+        check("gain", [3.5])
+    with pytest.raises(ConfigError, match=r"^free_float -0.1 is outside the slider's 0 to 0.5; set a smaller value"):
+        check("free_float", [-0.1])
+    check("goal", [1.0, -1.0])  # each entry of an array against its own slider
+    with pytest.raises(
+        ConfigError,
+        match=r"^goal\[1\] -1.5 is outside the slider's -1 to 1; set a smaller value with "
+        r"--config or on the command line$",
+    ):
+        check("goal", [0.0, -1.5])
+    check("label", ["any text"])  # only sliders have a range
+    panel.show(DemoConfig(rollouts=100))  # a value set elsewhere widens the slider, which then takes it
+    check("rollouts", [100])
+
+
+def test_a_refusal_names_the_command_line_option_that_really_sets_the_field():
+    flags = {
+        kind: config_flag(kind, field) for kind, field in (("controller", "max_plan_age"), ("optimizer", "num_nodes"))
+    }
+    assert flags == {"controller": "--controller.max-plan-age", "optimizer": "--optimizer-config.num-nodes"}
+    _, configs = parse([flags["controller"], "0", flags["optimizer"], "6"], default_configs("cartpole", "mppi"))
+    assert (configs["controller"].max_plan_age, configs["optimizer"].num_nodes) == (0.0, 6)
 
 
 @pytest.mark.parametrize(

@@ -43,7 +43,7 @@ config may ask for:
 @slider("cvar_alpha", 0.05, 1.0, 0.05)
 @slider("risk_scale", 0.1, 100.0, 0.1)
 @slider("redraw_every", 0, 100, 1)
-@slider("max_plan_age", 0.05, 5.0, 0.05, log=False)  # from 0.05: 0 (the watchdog off) is only typed
+@slider("max_plan_age", 0.05, 5.0, 0.05, log=False)  # from 0.05: 0 (the watchdog off) is set outside the GUI
 @slider("policy_samples", 0, 64, 1)
 @dataclass
 class ControllerConfig(Config):

@@ -19,6 +19,20 @@ from judo.core.task import Task, TaskConfig, new_task
 ConfigKind = Literal["controller", "optimizer", "task"]
 """The three configs of a running pair: the controller's, the optimizer's and the task's."""
 CONFIG_KINDS: tuple[ConfigKind, ...] = ("controller", "optimizer", "task")
+CONFIG_GROUPS = {
+    "controller": "controller",
+    "optimizer": "optimizer_config",
+    "task": "task_config",
+    "estimator": "estimator_config",
+}
+"""Config kind -> the option group holding its fields (`--controller.horizon`, `--optimizer-config.sigma`, ...)."""
+
+
+def config_flag(kind: str, field_name: str) -> str:
+    """The command-line option that sets field `field_name` of the `kind` config (a key of CONFIG_GROUPS):
+    ("controller", "max_plan_age") -> "--controller.max-plan-age"."""
+    return f"--{CONFIG_GROUPS[kind]}.{field_name}".replace("_", "-")
+
 
 _TASKS: dict[str, tuple[type[Task], type[TaskConfig]]] = {}
 _OPTIMIZERS: dict[str, tuple[type[Optimizer], type[OptimizerConfig]]] = {}

@@ -38,6 +38,7 @@ from judo.core.estimator import EstimatorConfig, estimator_in_force
 from judo.core.model_overrides import parse_override_entries
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import (
+    CONFIG_GROUPS,
     default_configs,
     get_registered_optimizers,
     get_registered_tasks,
@@ -52,13 +53,6 @@ from judo.loop.system_choice import Ros2Options, SystemOptions, build_system, ro
 from judo.runtime.app import App
 
 PROG = "python -m judo"
-CONFIG_GROUPS = {
-    "controller": "controller",
-    "optimizer": "optimizer_config",
-    "task": "task_config",
-    "estimator": "estimator_config",
-}
-"""Config kind -> the option group holding its fields (`--controller.horizon`, `--optimizer-config.sigma`, ...)."""
 
 
 @dataclass

@@ -12,8 +12,10 @@ starts with the exact name.
 
 A page sends a number box's value at every keystroke and a slider's at every step of a drag, so an
 edit is applied once it has settled (EDIT_SETTLE seconds without a change): typing 0.001 never
-applies 0. After each applied edit, accepted or refused, every page is made to show the value in
-force, even one whose box holds stale text.
+applies 0. A value typed into a slider's box outside the slider's range is refused with a message
+naming the range and the command-line option that sets it: the box drops letters, so `1e9` arrives as
+19, and the server cannot tell it from a 19 typed on purpose. After each applied edit, accepted or
+refused, every page is made to show the value in force, even one whose box holds stale text.
 """
 
 import functools
@@ -32,7 +34,7 @@ from judo.core.config import Config, field_types
 from judo.core.errors import ConfigError, JudoError
 from judo.core.fields import SliderRange, array_field_spec, slider_ranges
 from judo.core.policy_controller import POLICY_USES_FIELDS
-from judo.core.registry import ConfigKind
+from judo.core.registry import ConfigKind, config_flag
 from judo.runtime.commands import POLICY_OPTIMIZER
 from judo.runtime.gui.field_docs import field_docs
 
@@ -57,11 +59,12 @@ class ConfigPanel:
 
     A user's change is queued; `flush()` (called every GUI frame) calls `on_edit({field: value})`
     once it has settled. If that raises JudoError, the widget goes back to the last accepted value
-    (the caller reports why); if it is accepted beyond a slider's range, the range widens to show
-    it. `show(config)` puts a config that changed elsewhere (reset, switch) into the widgets without
-    calling `on_edit`. `ranges` ({field: SliderRange}) replaces the config class's own `@slider`
+    (the caller reports why). `show(config)` puts a config that changed elsewhere (reset, switch, a
+    script) into the widgets without calling `on_edit`, widening a slider's range to hold a value beyond it. `ranges` ({field: SliderRange}) replaces the config class's own `@slider`
     ranges, e.g. a wider num_rollouts on a GPU backend. The fields in `hidden` get no widget (fields of no use
-    to the session, e.g. policy_samples without a proposal policy).
+    to the session, e.g. policy_samples without a proposal policy). A page's value outside a slider's range is
+    refused (`check_slider_range`); with `kind` (a key of `judo.core.registry.CONFIG_GROUPS`) the refusal names
+    the command-line option that sets the field.
     """
 
     def __init__(
@@ -74,10 +77,14 @@ class ConfigPanel:
         ranges: dict[str, SliderRange] | None = None,
         on_refused: ReportFn | None = None,
         hidden: tuple[str, ...] = (),
+        kind: str | None = None,
     ) -> None:
         self._on_edit = on_edit
         self._on_refused = on_refused
-        self._refused: dict[str, tuple[float, str]] = {}  # field -> (when, why) of a refusal not yet shown
+        self._kind = kind
+        self._arrays: set[str] = set()  # fields shown as one slider per entry
+        # field -> (when, why, the widget values refused) of a refusal not yet shown
+        self._refused: dict[str, tuple[float, str, list[Any]]] = {}
         self._config = config
         self._lock = threading.Lock()
         self._widgets: dict[str, list[Any]] = {}
@@ -136,15 +143,19 @@ class ConfigPanel:
                     handle.value = value
             for name in [n for n, t in self._last_change.items() if now - t >= EDIT_SETTLE]:
                 del self._last_change[name]
-                self._refused.pop(name, None)
                 seen = self._settled(name, self._pending.pop(name))
+                if self._echoes_refusal(name, seen):
+                    continue  # a box put a refused value back to its slider's end: the refusal stands
+                self._refused.pop(name, None)
                 try:
+                    flag = config_flag(self._kind, name) if self._kind is not None else None
+                    check_slider_range(name, self._widgets[name], seen, name in self._arrays, flag)
                     self._config = self._on_edit({name: self._decode[name](seen)})
                 except JudoError as err:
-                    self._refused[name] = (now, str(err))  # shown and put back once the user stops typing
+                    self._refused[name] = (now, str(err), seen)  # shown and put back once the user stops typing
                     continue
                 self._write(name, getattr(self._config, name), resync=True)
-            for name, (when, why) in list(self._refused.items()):
+            for name, (when, why, _) in list(self._refused.items()):
                 if now - when >= REFUSAL_HOLD and name not in self._last_change:
                     del self._refused[name]
                     if self._on_refused is not None:
@@ -194,6 +205,7 @@ class ConfigPanel:
 
     def _add_array(self, gui: viser.GuiApi, name: str, value: np.ndarray, doc: str) -> list[Any]:
         spec = array_field_spec(type(self._config), name)
+        self._arrays.add(name)
         spans = 2.0 * np.abs(value) + 1.0
         names = spec.names if spec else [str(i) for i in range(len(value))]
         mins = spec.mins if spec else list(-spans)
@@ -227,7 +239,8 @@ class ConfigPanel:
         """The widget values to apply: the last seen, except where a number box clamped a typed value.
 
         A page's number box puts a value typed beyond the slider's range back to the range's end
-        when it loses focus; that end, right after a value beyond it, means the typed value.
+        when it loses focus; that end, right after a value beyond it, means the typed value (which
+        `check_slider_range` then refuses).
         """
         settled = list(seen[-1])
         for i, handle in enumerate(self._widgets[name]):
@@ -237,6 +250,18 @@ class ConfigPanel:
             if beyond:
                 settled[i] = beyond[-1]
         return settled
+
+    def _echoes_refusal(self, name: str, seen: list[Any]) -> bool:
+        """True when `seen` is field `name`'s refused values put back to their sliders' ends: a page's number box
+        does that when it loses focus, after the refused value reached the app (as `_settled` reads it before)."""
+        refused = self._refused.get(name)
+        if refused is None:
+            return False
+        ends = [
+            min(max(value, handle.min), handle.max) if isinstance(handle, viser.GuiSliderHandle) else value
+            for handle, value in zip(self._widgets[name], refused[2], strict=True)
+        ]
+        return ends != refused[2] and seen == ends
 
     def _write(self, name: str, value: Any, resync: bool = False) -> None:
         """Show `value` in field `name`'s widgets, widening slider ranges to hold it.
@@ -322,6 +347,25 @@ def nice_step(span: float) -> float:
     raw = span / 100.0
     power = 10.0 ** math.floor(math.log10(raw))
     return max(m * power for m in (1.0, 2.0, 5.0) if m * power <= raw * (1 + 1e-9))
+
+
+def check_slider_range(name: str, handles: list[Any], values: list[Any], indexed: bool, flag: str | None) -> None:
+    """Refuse `values` (one per handle of field `name`'s widgets, entry i of an array if `indexed`) where one lies
+    outside its slider's range (which includes the value in force: a range widened to a value set elsewhere keeps
+    it). `flag` is the command-line option that sets the field, named in the message.
+
+    Raises ConfigError, e.g. "horizon 19 is outside the slider's 0.05 to 5; set a larger value with --config or
+    --controller.horizon".
+    """
+    for i, (handle, value) in enumerate(zip(handles, values, strict=True)):
+        if not isinstance(handle, viser.GuiSliderHandle) or handle.min <= value <= handle.max:
+            continue
+        what = f"{name}[{i}]" if indexed else name
+        where = f"--config or {flag}" if flag is not None else "--config or on the command line"
+        raise ConfigError(
+            f"{what} {format_number(value)} is outside the slider's {format_number(handle.min)} to "
+            f"{format_number(handle.max)}; set a {'larger' if value > handle.max else 'smaller'} value with {where}"
+        )
 
 
 def hidden_fields(session: Any, kind: ConfigKind, config: Config) -> tuple[str, ...]:

@@ -214,6 +214,7 @@ class Gui:
                 ranges.get(kind),
                 on_refused=lambda why: self.app.report(f"edit refused: {why}", "warning"),
                 hidden=hidden_fields(session, kind, config),
+                kind=kind,
             )
             for order, (kind, config) in enumerate(configs.items(), start=1)
         }
@@ -253,6 +254,7 @@ class Gui:
                 edit,
                 40,
                 on_refused=lambda why: self.app.report(f"edit refused: {why}", "warning"),
+                kind="estimator",
             )
 
     def frame_task(self) -> None:
