@@ -60,8 +60,9 @@ class ConfigPanel:
     A user's change is queued; `flush()` (called every GUI frame) calls `on_edit({field: value})`
     once it has settled. If that raises JudoError, the widget goes back to the last accepted value
     (the caller reports why). `show(config)` puts a config that changed elsewhere (reset, switch, a
-    script) into the widgets without calling `on_edit`, widening a slider's range to hold a value beyond it. `ranges` ({field: SliderRange}) replaces the config class's own `@slider`
-    ranges, e.g. a wider num_rollouts on a GPU backend. The fields in `hidden` get no widget (fields of no use
+    script) into the widgets without calling `on_edit`, widening a slider's range to hold a value beyond
+    it. `ranges` ({field: SliderRange}) replaces the config class's own `@slider` ranges, e.g. a wider
+    num_rollouts on a GPU backend. The fields in `hidden` get no widget (fields of no use
     to the session, e.g. policy_samples without a proposal policy). A page's value outside a slider's range is
     refused (`check_slider_range`); with `kind` (a key of `judo.core.registry.CONFIG_GROUPS`) the refusal names
     the command-line option that sets the field.
