@@ -22,7 +22,15 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.collection.sysid_data import Episode, Windows, cut_windows, delayed_controls, prediction_error, spread
+from judo.collection.sysid_data import (
+    Episode,
+    Windows,
+    compared,
+    cut_windows,
+    delayed_controls,
+    prediction_error,
+    spread,
+)
 from judo.core.errors import ConfigError, import_extra
 from judo.core.model_overrides import check_model_overrides, model_value, overridden
 from judo.core.task import Task
@@ -101,6 +109,8 @@ class FitResult:
             and on the fitted one.
         num_windows, window_steps: the windows fitted.
         seconds: the fit's wall time.
+        compare: what the fit compared: "states" (the logged plant states) or "sensors" (the measured sensors).
+        from_estimate: whether each window started from the logged estimate (else from the logged state).
     """
 
     parameters: list[FitParameter]
@@ -114,6 +124,8 @@ class FitResult:
     num_windows: int
     window_steps: int
     seconds: float
+    compare: str = "states"
+    from_estimate: bool = False
 
     def overrides(self, model: mujoco.MjModel) -> dict[str, dict[str, Any]]:
         """{field: {element: row}} of the excited model parameters, each whole row as `model` holds it otherwise;
@@ -168,8 +180,14 @@ def fit(
     window_steps: int,
     max_iters: int = 50,
     on_evaluation: Callable[[int], None] | None = None,
+    compare: str = "auto",
 ) -> FitResult:
     """Fit `parameters` of `task`'s planning model to `episodes` over windows of `window_steps` steps.
+
+    `compare` (sysid_data.COMPARE_CHOICES) says what the model's predictions are compared with: the logged plant
+    states, or the task's measured sensors as the plant reported them (the sensordata mujoco.sysid rolls out,
+    at the steps they were taken), each window then starting from the logged estimate where there is one; auto
+    takes the sensors where every episode holds them.
 
     With DELAY_PARAMETER among them, also the actuation delay (s, within [0, MAX_DELAY]): every window's logged
     actions take effect that late (`delayed_controls`), read from the actions before it. Each parameter starts at
@@ -186,7 +204,7 @@ def fit(
     level = absl.level
     absl.setLevel(logging.ERROR)
     try:
-        return _fit(sysid, task, parameters, episodes, window_steps, max_iters, on_evaluation)
+        return _fit(sysid, task, parameters, episodes, window_steps, max_iters, on_evaluation, compare)
     finally:
         absl.setLevel(level)
 
@@ -199,13 +217,15 @@ def _fit(
     window_steps: int,
     max_iters: int,
     on_evaluation: Callable[[int], None] | None,
+    compare: str,
 ) -> FitResult:
     began = time.perf_counter()
     model = task.model
     timestep = float(model.opt.timestep)
     delay_at = next((i for i, p in enumerate(parameters) if p.field == DELAY), None)
     history = int(np.ceil(MAX_DELAY / timestep)) + 1 if delay_at is not None else 0
-    windows = cut_windows(episodes, window_steps, history)
+    compare = compared(episodes, compare)
+    windows = cut_windows(episodes, window_steps, history, compare, task.measured, timestep)
     nominal = np.array([0.0 if p.field == DELAY else _entry(model, p) for p in parameters])
     scale = np.where(np.abs(nominal) > 0, np.abs(nominal), 1.0)
     positions = np.array([p.field.endswith("pos") for p in parameters], dtype=bool)
@@ -228,7 +248,7 @@ def _fit(
 
     sequences = _model_sequences(sysid, model, windows)
     residual = _batched_residual(
-        sysid, sequences.measured_rollout, build_model, _state_residual(sysid, spread(windows)),
+        sysid, sequences.measured_rollout, build_model, _observed_residual(sysid, spread(windows), windows.columns),
         _delayed_rollout(sysid, model, windows, DELAY) if delay_at is not None else None,
     )  # fmt: skip
     evaluations = [0]
@@ -268,6 +288,8 @@ def _fit(
         len(windows.starts),
         window_steps,
         time.perf_counter() - began,
+        compare,
+        windows.from_estimate,
     )
 
 
@@ -330,37 +352,52 @@ def _entry(model: mujoco.MjModel, parameter: FitParameter) -> float:
 
 def _model_sequences(sysid: Any, model: mujoco.MjModel, windows: Windows) -> Any:
     """mujoco.sysid's ModelSequences of the windows: each a sequence with its start state, its actions (K, nu) at
-    times 0, dt, ... and its logged states, the start's and those after each step (K + 1, nq + nv) at times 0, dt,
-    ..., as one custom observation ("state"; `_state_residual` compares it: joint-named signals need every joint
-    named, and the LEAP hand's are not)."""
+    times 0, dt, ... and what it is compared with, (K + 1, D) at times 0, dt, ..., as one custom observation
+    ("observed"; `_observed_residual` compares it: joint-named signals need every joint named, and the LEAP hand's
+    are not). Comparing states, the rows are the start and the logged state after each step; comparing sensors,
+    the measured sensors taken after 0, 1, ..., K - 1 steps, then a row of NaN."""
     times = np.arange(windows.controls.shape[1] + 1) * float(model.opt.timestep)
-    mapping = {"state": (sysid.SignalType.CustomObs, np.arange(model.nq + model.nv))}
+    width = windows.measured.shape[-1]
+    mapping = {"observed": (sysid.SignalType.CustomObs, np.arange(width))}
     data = mujoco.MjData(model)
     starts, controls, measured = [], [], []
-    for start, control, states in zip(windows.starts, windows.controls, windows.measured, strict=True):
+    for start, control, observed in zip(windows.starts, windows.controls, windows.measured, strict=True):
         data.qpos[:], data.qvel[:] = start[: model.nq], start[model.nq :]
         starts.append(sysid.create_initial_state(model, data.qpos.copy(), data.qvel.copy(), data.act.copy()))
         # mujoco.sysid's layout: N states from the start and N controls, the last of which it never applies
         controls.append(sysid.TimeSeries.from_control_names(times, np.vstack([control, control[-1:]]), model))
-        measured.append(sysid.TimeSeries(times, np.vstack([start, states]), mapping))
+        rows = (
+            np.vstack([start, observed]) if windows.columns is None else np.vstack([observed, np.full(width, np.nan)])
+        )
+        measured.append(sysid.TimeSeries(times, rows, mapping))
     sequence_names = [f"window_{i}" for i in range(len(starts))]
     return sysid.ModelSequences(
         "judo", _PlanningModel(model), sequence_names, starts, controls, measured, allow_missing_sensors=True
     )
 
 
-def _state_residual(sysid: Any, spread: np.ndarray) -> Callable[..., Any]:
-    """mujoco.sysid's modify_residual hook: the rolled-out [qpos, qvel] after each step against the logged one,
-    each coordinate divided by its spread (nq + nv,) in the whole log; returns (residual (K, nq + nv), predicted,
-    measured) as TimeSeries of the same layout."""
+def _observed_residual(sysid: Any, spread: np.ndarray, columns: np.ndarray | None) -> Callable[..., Any]:
+    """mujoco.sysid's modify_residual hook: what the rollout predicts against what the window compares, each
+    coordinate divided by its spread (D,) in the whole log, 0 where nothing was measured; returns (residual (K, D),
+    predicted, measured) as TimeSeries of the same layout.
+
+    `columns` None compares states: the rolled-out [qpos, qvel] after each step against the logged one. Else the
+    rollout's sensordata columns `columns` (the task's measured sensors; its row j is the sensors of the state
+    after j steps) against the measured sensors taken after 0, ..., K - 1 steps."""
 
     def residual(params: Any, predicted: Any, measured: Any, model: mujoco.MjModel, *args: Any, **kwargs: Any) -> Any:
-        del params, predicted, args
-        width = model.nq + model.nv
-        state = np.asarray(kwargs["state"])[:, 1 : 1 + width]  # a row [time, qpos, qvel, ...] after each step
-        after = sysid.TimeSeries(measured.times[1:], measured.data[1:], measured.signal_mapping)  # the start is given
-        prediction = sysid.TimeSeries(after.times, state, after.signal_mapping)
-        return (after.data - state) / spread, prediction, after
+        del params, args
+        if columns is None:
+            width = model.nq + model.nv
+            values = np.asarray(kwargs["state"])[:, 1 : 1 + width]  # a row [time, qpos, qvel, ...] after each step
+            target = sysid.TimeSeries(measured.times[1:], measured.data[1:], measured.signal_mapping)  # start given
+        else:
+            steps = len(measured.times) - 1
+            values = np.asarray(predicted.data)[:steps, columns]
+            target = sysid.TimeSeries(measured.times[:steps], measured.data[:steps], measured.signal_mapping)
+        prediction = sysid.TimeSeries(target.times, values, target.signal_mapping)
+        difference = (target.data - values) / spread
+        return np.where(np.isnan(difference), 0.0, difference), prediction, target
 
     return residual
 

@@ -10,7 +10,7 @@ import shlex
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import tyro
 
@@ -22,7 +22,8 @@ DESCRIPTION = (
     "Fit named parameters of a task's planning model (MjModel fields by element name, as [model_overrides] sets "
     "them) to logged episodes with MuJoCo's system identification (mujoco.sysid): each episode is cut into windows "
     "rolled out from their logged start states under the logged actions, and the parameters minimise the "
-    "difference to the logged states. Writes --out, a --config file whose [model_overrides.TASK] section holds the "
+    "difference to the logged states, or, for a log whose plant reported only its measured sensors (--observe "
+    "sensors, a robot's encoders), to the measured sensors, each window starting from the logged estimate. Writes --out, a --config file whose [model_overrides.TASK] section holds the "
     "parameters the data determine, and a report beside it (OUT.md): each parameter before and after with its 95% "
     "confidence interval, the fit's conditioning, and the prediction error before and after. A parameter the data "
     "do not excite is reported and left out. --fit-delay also fits how late the logged actions take effect. Needs the `sysid` extra, and `collect` for HDF5 logs or `ros2` for the "
@@ -56,6 +57,11 @@ class SysidArgs:
     """Also fit the actuation delay (s, 0 to 0.1): how late each logged action takes effect, the same for every
     actuator. Reported with the parameters; written as actuator_delay where the planning model keeps the action
     history MuJoCo's delay needs (MJCF nsample), else as a comment saying what to add."""
+    compare: Literal["auto", "states", "sensors"] = "auto"
+    """What the predictions are compared with: the logged plant states, or the task's measured sensors as the plant
+    reported them (noisy, late or slow: each value at the step it was taken), each window then starting from the
+    logged estimate where there is one. auto: the sensors where every log holds them (an --observe sensors run, a
+    System that reports no state), else the states."""
 
     def validate(self) -> None:
         """Raise a JudoError (one line) for an argument that is wrong, before anything is read or written."""
@@ -108,7 +114,7 @@ def run(args: SysidArgs, command: str) -> None:
         def on_evaluation(count: int) -> None:
             progress.update(bar, description=f"fitting {len(parameters)} parameters: {count} residual evaluations")
 
-        result = fit(task, parameters, episodes, steps, args.max_iters, on_evaluation)
+        result = fit(task, parameters, episodes, steps, args.max_iters, on_evaluation, args.compare)
     header = [command, f"fitted to {result.num_windows} windows of {steps} steps from {len(episodes)} episode(s)"]
     text = fitted_toml(
         args.task, result.overrides(task.model), header, _config_tables(args.config), delay_note(result, task.model)
@@ -209,6 +215,15 @@ def _key(name: str) -> str:
     return name if name.replace("_", "").replace("-", "").isalnum() else '"' + name.replace('"', '\\"') + '"'
 
 
+def compared_line(result: Any) -> str:
+    """The report's one line on what the fit compared: the logged states, or the measured sensors and where each
+    window started."""
+    if result.compare == "states":
+        return "Compared: the logged plant states, each window from the logged state."
+    start = "the logged estimate" if result.from_estimate else "the logged state"
+    return f"Compared: the measured sensors (their sensordata, at the step each value was taken), each window from {start}."
+
+
 def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -> str:
     """The fit's report as Markdown: the parameters before and after, the conditioning and the prediction error."""
     lines = [
@@ -218,6 +233,8 @@ def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -
         "",
         f"{num_episodes} episode(s) from {', '.join(str(p) for p in args.logs)}: {result.num_windows} windows of "
         f"{result.window_steps} steps ({args.window:g} s); fit in {result.seconds:.1f} s.",
+        "",
+        compared_line(result),
         "",
         "| parameter | planning model | fitted | 95% interval | determined by the data |",
         "|---|---|---|---|---|",
@@ -234,7 +251,7 @@ def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -
         f"Conditioning: cond(J) = {result.condition:.3g} (the residual's Jacobian at the fit, each column scaled by its "
         "parameter's value; above about 1e6 the data cannot tell the parameters apart).",
         "",
-        f"{result.window_steps}-step prediction error (RMS, each state coordinate over its spread in the log): "
+        f"{result.window_steps}-step prediction error (RMS, each {'measured value' if result.compare == 'sensors' else 'state coordinate'} over its spread in the log): "
         f"{result.error_before:.4g} on the planning model, {result.error_after:.4g} on the fitted one.",
     ]
     missing = [p.name for p, excited in zip(result.parameters, result.excited, strict=True) if not excited]
