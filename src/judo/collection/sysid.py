@@ -111,6 +111,7 @@ class FitResult:
         seconds: the fit's wall time.
         compare: what the fit compared: "states" (the logged plant states) or "sensors" (the measured sensors).
         from_estimate: whether each window started from the logged estimate (else from the logged state).
+        timestep: the planning model's step (s): a window lasts window_steps of it.
     """
 
     parameters: list[FitParameter]
@@ -126,6 +127,7 @@ class FitResult:
     seconds: float
     compare: str = "states"
     from_estimate: bool = False
+    timestep: float = 0.0
 
     def overrides(self, model: mujoco.MjModel) -> dict[str, dict[str, Any]]:
         """{field: {element: row}} of the excited model parameters, each whole row as `model` holds it otherwise;
@@ -230,8 +232,8 @@ def _fit(
     scale = np.where(np.abs(nominal) > 0, np.abs(nominal), 1.0)
     positions = np.array([p.field.endswith("pos") for p in parameters], dtype=bool)
     scale[positions] = np.maximum(np.abs(nominal[positions]), POSITION_SCALE)
-    params = sysid.ParameterDict()
-    for index, (parameter, value) in enumerate(zip(parameters, nominal, strict=True)):
+    bounds = []
+    for index, value in enumerate(nominal):
         if index == delay_at:  # from half a step, inside its bounds, on the scale of a step
             low, high, start, scale[index] = 0.0, MAX_DELAY, 0.5 * timestep, timestep
         elif positions[index]:
@@ -241,15 +243,22 @@ def _fit(
                 (value / 10, value * 10) if value > 0 else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
             )
             start = value
-        params.add(sysid.Parameter(parameter.name, nominal=start, min_value=low, max_value=high))
+        bounds.append((low, high, start))
 
     def build_model(candidate: Any) -> mujoco.MjModel:
         return fitted_model(model, parameters, np.array([candidate[p.name].value[0] for p in parameters]))
 
+    params = sysid.ParameterDict()
+    for parameter, (low, high, start) in zip(parameters, bounds, strict=True):
+        params.add(sysid.Parameter(parameter.name, nominal=start, min_value=low, max_value=high))
     sequences = _model_sequences(sysid, model, windows)
+    if compare == "sensors":  # each candidate's windows start where its own motion best explains their measurements
+        rollout = _refined_rollout(sysid, model, windows, delay_at is not None)
+    else:
+        rollout = _delayed_rollout(sysid, model, windows, DELAY) if delay_at is not None else None
     residual = _batched_residual(
         sysid, sequences.measured_rollout, build_model, _observed_residual(sysid, spread(windows), windows.columns),
-        _delayed_rollout(sysid, model, windows, DELAY) if delay_at is not None else None,
+        rollout,
     )  # fmt: skip
     evaluations = [0]
 
@@ -283,14 +292,116 @@ def _fit(
         interval,
         excited,
         condition,
-        prediction_error(model, windows),
-        prediction_error(fitted_model(model, parameters, fitted), windows, delay),
+        _prediction_error(model, windows, 0.0),
+        _prediction_error(fitted_model(model, parameters, fitted), windows, delay),
         len(windows.starts),
         window_steps,
         time.perf_counter() - began,
         compare,
         windows.from_estimate,
+        timestep,
     )
+
+
+def refine_starts(model: mujoco.MjModel, windows: Windows, delay: float = 0.0, iterations: int = 3) -> Windows:
+    """`windows` (comparing sensors) with each start state moved to the one from which `model`, under the logged
+    actions `delay` s late, best predicts the window's own measured sensors: a few damped Gauss-Newton steps on
+    the (2 nv,) start (qpos moved on its manifold, mj_integratePos), one window at a time but every window's
+    rollouts in one `mujoco.rollout` call (the Jacobian by forward differences). The logged estimate a window
+    starts from was made by the planning model, whose errors it carries; refined, it is the state the measurements
+    themselves say, and the fit compares the model's motion rather than the estimator's lag."""
+    from dataclasses import replace
+
+    from mujoco import rollout
+
+    assert windows.columns is not None
+    count, nv, nq = len(windows.starts), model.nv, model.nq
+    tangent = 2 * nv
+    controls = delayed_controls(windows, delay, float(model.opt.timestep))
+    controls = np.repeat(controls, tangent + 1, axis=0)  # (W * (2 nv + 1), K, nu): the start, then each nudge
+    scale = spread(windows)
+    mask = np.isfinite(windows.measured)
+    measured = np.where(mask, windows.measured, 0.0)
+    eps = 1e-6
+    qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)  # a state row is [time, qpos, qvel, ...]
+    qvel_at = qpos_at + nq
+    starts = windows.starts.copy()
+    data = mujoco.MjData(model)
+    for _ in range(iterations):
+        base = full_states(model, starts, data)
+        initial = np.repeat(base[:, None], tangent + 1, axis=1)  # (W, 2 nv + 1, state size)
+        for dof in range(nv):
+            initial[:, 1 + nv + dof, qvel_at + dof] += eps
+            if nq == nv:  # no ball or free joint: qpos moves as the tangent does
+                initial[:, 1 + dof, qpos_at + dof] += eps
+            else:
+                for w in range(count):
+                    qpos, step = starts[w, :nq].copy(), np.zeros(nv)
+                    step[dof] = eps
+                    mujoco.mj_integratePos(model, qpos, step, 1.0)
+                    initial[w, 1 + dof, qpos_at : qpos_at + nq] = qpos
+        _, sensordata = rollout.rollout(model, data, initial.reshape(count * (tangent + 1), -1), controls)
+        predicted = sensordata[..., windows.columns].reshape(count, tangent + 1, *windows.measured.shape[1:])
+        residual = np.where(mask, (measured - predicted[:, 0]) / scale, 0.0).reshape(count, -1)  # (W, K * m)
+        nudged = (predicted[:, 1:] - predicted[:, :1]) / eps / scale  # (W, 2 nv, K, m)
+        jacobian = np.where(mask[:, None], nudged, 0.0).reshape(count, tangent, -1).transpose(0, 2, 1)
+        normal = np.einsum("wri,wrj->wij", jacobian, jacobian)
+        damping = 1e-3 * np.einsum("wii->wi", normal)[:, :, None] * np.eye(tangent) + 1e-9 * np.eye(tangent)
+        moves = np.linalg.solve(normal + damping, np.einsum("wri,wr->wi", jacobian, residual)[..., None])[..., 0]
+        starts[:, nq:] += moves[:, nv:]
+        if nq == nv:
+            starts[:, :nq] += moves[:, :nv]
+        else:
+            for w in range(count):
+                qpos = starts[w, :nq].copy()
+                mujoco.mj_integratePos(model, qpos, moves[w, :nv], 1.0)
+                starts[w, :nq] = qpos
+    return replace(windows, starts=starts)
+
+
+def full_states(model: mujoco.MjModel, starts: np.ndarray, data: mujoco.MjData | None = None) -> np.ndarray:
+    """(W, state size) mjSTATE_FULLPHYSICS rows, for `mujoco.rollout`, of the (W, nq + nv) [qpos, qvel] `starts`
+    (the rest of the state as MjData's defaults)."""
+    data = data if data is not None else mujoco.MjData(model)
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    mujoco.mj_resetData(model, data)
+    rows = np.zeros((len(starts), mujoco.mj_stateSize(model, spec)))
+    for row, start in zip(rows, starts, strict=True):
+        data.qpos[:], data.qvel[:] = start[: model.nq], start[model.nq :]
+        mujoco.mj_getState(model, data, row, spec)
+    return rows
+
+
+def _prediction_error(model: mujoco.MjModel, windows: Windows, delay: float) -> float:
+    """`prediction_error` of `model`; comparing sensors, from the starts refined under `model` itself."""
+    if windows.columns is not None:
+        windows = refine_starts(model, windows, delay)
+    return prediction_error(model, windows, delay)
+
+
+def _refined_rollout(sysid: Any, model: mujoco.MjModel, windows: Windows, with_delay: bool) -> Callable[..., Any]:
+    """mujoco.sysid's custom_rollout hook when comparing sensors: each candidate model (one per finite-difference
+    column) rolls every window out from its start refined under that candidate (`refine_starts`: the start state
+    from which the candidate best predicts the window's own measurements, found from the logged estimate), under
+    the logged actions, delayed by the candidate's delay where `with_delay`. So the residual of a candidate is its
+    best over the windows' start states (variable projection), and the fit weighs the model's motion rather than
+    the planning model's errors that the logged estimate carries."""
+    count = len(windows.starts)
+    timestep = float(model.opt.timestep)
+    times = np.arange(windows.controls.shape[1] + 1) * timestep
+
+    def rollout(*, models: Any, datas: Any, control_signal: Any, initial_states: Any, param_dicts: Any, **kwargs: Any):
+        del control_signal, initial_states
+        signals, starts = [], []
+        for column, candidate in enumerate(param_dicts):
+            delay = float(candidate[DELAY].value[0]) if with_delay else 0.0
+            refined = refine_starts(models[column * count], windows, delay)
+            starts.append(full_states(model, refined.starts))
+            for controls in delayed_controls(windows, delay, timestep):
+                signals.append(sysid.TimeSeries.from_control_names(times, np.vstack([controls, controls[-1:]]), model))
+        return sysid.sysid_rollout(models, datas, signals, np.concatenate(starts), **kwargs)
+
+    return rollout
 
 
 def _batched_residual(
