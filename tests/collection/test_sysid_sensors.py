@@ -42,7 +42,7 @@ def test_excite_drives_examples_06_robot_through_the_cli_and_sysid_fits_its_pole
 ):
     """examples/06's LaggyNoisyCartpole (pole 10% heavier, encoders only, noisy and 20 ms late, motor 10 ms late),
     loaded as module:Class from its folder: the log holds no state, its measured encoders with their ages and the
-    EKF's estimate; the fit compares the encoders and finds the pole's mass."""
+    EKF's estimate; the fit compares the encoders and finds the pole's mass and the motor's lag."""
     log = tmp_path / "robot.h5"
     argv = ["excite", "--task", "cartpole", "--system", "06_hardware_system:LaggyNoisyCartpole", "--duration", "5"]
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
@@ -65,11 +65,14 @@ def test_excite_drives_examples_06_robot_through_the_cli_and_sysid_fits_its_pole
         np.testing.assert_allclose(age[5:], 0.02, atol=1e-9)  # the encoders arrive 20 ms after they are taken
         assert np.isfinite(demo["obs/estimate_qpos"][:]).all()
     out = tmp_path / "fitted.toml"
-    assert sysid_main([str(log), "--task", "cartpole", "--params", "body_mass.pole", "--out", str(out)]) == 0
+    argv = [str(log), "--task", "cartpole", "--params", "body_mass.pole", "--fit-delay", "--out", str(out)]
+    assert sysid_main(argv) == 0
     report = (tmp_path / "fitted.md").read_text()
     assert "windows of 50 steps (0.5 s)" in report  # the default window when comparing sensors
     assert "Compared: the measured sensors" in report and "each window from the logged estimate" in report
     assert fitted_mass(report) == pytest.approx(0.11, rel=0.03)
+    delay = re.search(r"\| delay \(s\) \| 0 \| ([\d.e-]+) \| ± [\d.e-]+ \| yes \|", report)
+    assert delay is not None and float(delay.group(1)) == pytest.approx(0.01, abs=0.003)
     capsys.readouterr()
 
 
