@@ -4,8 +4,10 @@ A log (collect's HDF5, a GUI recording in the same layout, or the ROS 2 bridge's
 state and the action served during it. The fit cuts every episode into windows of K steps, rolls each window
 out from its logged start state under its logged actions on the planning model with candidate parameters, and
 minimises the normalised difference to the logged states (`mujoco.sysid`'s residual and least-squares
-optimizer). The parameters are named MjModel fields by element (judo.core.model_overrides), so the result is a
-[model_overrides.TASK] section that `--config` reads.
+optimizer). A log whose plant reported only its measured sensors is compared on those instead (the rollouts'
+sensordata against each value at the step it was taken), each window starting from the logged estimate refined,
+for each candidate, to the window's own measurements (`refine_starts`). The parameters are named MjModel fields
+by element (judo.core.model_overrides), so the result is a [model_overrides.TASK] section that `--config` reads.
 
 mujoco.sysid (the `sysid` extra, `mujoco[sysid]`) is imported only by `fit`.
 """

@@ -51,12 +51,14 @@ class SysidArgs:
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """TOML file of the run: its custom task, settings and [model_overrides] (the fit starts from them); --out
     carries it over with the fitted parameters in its [model_overrides.TASK]."""
-    window: float | None = None
-    """Seconds of each window rolled out from a logged state (the prediction horizon fitted); by default 0.05
-    comparing states and 0.5 comparing sensors. Short windows keep the residual smooth through contacts (leap_cube
-    fits its friction over 0.05 s and misses it over 0.1 s); longer ones average noisy measurements and estimated
-    start states on smooth systems (examples/06's noisy encoders: the pole's mass 4% off over 0.5 s, 300% over
-    0.05 s)."""
+    window: Annotated[
+        float | None,
+        tyro.conf.arg(metavar="SECONDS", help_behavior_hint="(default: 0.05 comparing states, 0.5 comparing sensors)"),
+    ] = None
+    """Seconds of each window rolled out from a logged state (the prediction horizon fitted). Short windows keep
+    the residual smooth through contacts (leap_cube fits its friction over 0.05 s and misses it over 0.1 s);
+    longer ones average noisy measurements and estimated start states (a pole's mass from noisy encoders: within 4%
+    over 0.5 s, not determined over 0.2 s)."""
     max_iters: int = 50
     """Most iterations of mujoco.sysid's least-squares optimizer."""
     fit_delay: bool = False
