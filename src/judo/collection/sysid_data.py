@@ -152,13 +152,23 @@ def _measurements(demo: Any, path: Path, name: str, model: mujoco.MjModel) -> tu
 
 
 def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Episode]:
-    """The episodes of the ROS 2 bridge's MCAP log at `path`: its runs of rows one step of `model` apart with a
-    command in force (`judo.ros2.mcap_read.BridgeLog.step_runs`, whose errors name the file)."""
+    """The episodes of the ROS 2 bridge's MCAP log at `path`, one per run of rows a whole number of steps of
+    `model` apart with a command in force (`judo.ros2.mcap_read.BridgeLog.grid_runs`, whose errors name the file),
+    laid on the model's step grid: a row every step, its state NaN where no joint state fell on it (a robot that
+    publishes every k steps) and its action the command in force at the end of that step."""
     from judo.ros2.mcap_read import read_bridge_log
 
     log = read_bridge_log(path, task_name, "python -m judo sysid LOG.mcap")
-    runs = log.step_runs(float(model.opt.timestep))
-    return [Episode(f"{path.name}:rows {r.start}-{r.stop - 1}", log.qpos[r], log.qvel[r], log.actions[r]) for r in runs]
+    step = float(model.opt.timestep)
+    episodes = []
+    for rows, offsets in log.grid_runs(step):
+        qpos = np.full((offsets[-1] + 1, model.nq), np.nan)
+        qvel = np.full((offsets[-1] + 1, model.nv), np.nan)
+        qpos[offsets], qvel[offsets] = log.qpos[rows], log.qvel[rows]
+        actions = log.actions_at(log.times[rows.start] + np.arange(offsets[-1] + 1) * step)
+        name = f"{path.name}:rows {rows.start}-{rows.stop - 1}"
+        episodes.append(Episode(name, qpos, qvel, actions))
+    return episodes
 
 
 @dataclass
@@ -170,8 +180,9 @@ class Windows:
             comparing sensors, the logged estimate there where the log has one.
         controls: (W, K, nu) actions served during the window's steps.
         measured: (W, K, D) what the model's prediction is compared with: comparing states, the logged state
-            after each of the window's steps (D = nq + nv); comparing sensors, the measured sensors taken at the
-            window's start and after each of its first K - 1 steps (D = m; NaN where no value was taken then).
+            after each of the window's steps (D = nq + nv; NaN where none was logged); comparing sensors, the
+            measured sensors taken at the window's start and after each of its first K - 1 steps (D = m; NaN where
+            no value was taken then).
         history: (W, H, nu) actions served during the H steps before the window (H = 0 unless a delay is fitted).
         compare: "states" or "sensors".
         columns: (m,) the columns of sensordata the measured sensors are, when comparing sensors; else None.
@@ -196,7 +207,8 @@ def cut_windows(
     timestep: float = 0.0,
 ) -> Windows:
     """Non-overlapping windows of `steps` steps from every episode, each with the `history` actions before it
-    (an episode's first row is a window's start only, since the state before it is not logged).
+    (an episode's first row is a window's start only, since the state before it is not logged). A window starts
+    at a row with a logged state: where a row has none (a robot that reports every k steps), the next one is tried.
 
     `compare` "states" compares the logged states. "sensors" compares the measured sensors, laid out as `layout`
     (the planning model's measured sensors) says, each value placed at the step it was taken (its logged age over
@@ -212,15 +224,20 @@ def cut_windows(
             targets = taken_samples(episode, layout, timestep)  # (S + 1, m): index n is after n steps
             if episode.estimate is not None and np.isfinite(episode.estimate).all(axis=1).any():
                 states, from_estimate = episode.estimate, True
-        for first in range(1 + history, len(states) - steps + 1, steps):
+        first = 1 + history
+        while first <= len(states) - steps:
             start = states[first - 1]
-            target = targets[first : first + steps] if compare == "sensors" else states[first : first + steps]
-            if not np.isfinite(start).all() or np.isnan(target).all():
+            if not np.isfinite(start).all():  # a step without a logged state: the next one may start a window
+                first += 1
                 continue
-            starts.append(start)
-            controls.append(episode.actions[first : first + steps])
-            measured.append(target)
-            before.append(episode.actions[first - history : first])
+            target = targets[first : first + steps] if compare == "sensors" else states[first : first + steps]
+            window_actions = episode.actions[first - history : first + steps]
+            if not np.isnan(target).all() and np.isfinite(window_actions).all():
+                starts.append(start)
+                controls.append(episode.actions[first : first + steps])
+                measured.append(target)
+                before.append(episode.actions[first - history : first])
+            first += steps
     if not starts:
         longest = max((len(e.qpos) for e in episodes), default=0)
         raise ConfigError(
