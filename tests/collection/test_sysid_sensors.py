@@ -190,3 +190,25 @@ def test_compare_sensors_on_a_log_of_states_says_what_the_log_holds(tmp_path, ca
         "excite.h5:demo_0: the log holds no measured sensors (obs/measured) to compare; its plant reported its " in err
     )
     assert not (tmp_path / "fitted.toml").exists()
+
+
+def test_each_measured_value_is_compared_at_the_step_it_was_taken():
+    """A rehearsed sensor at 50 Hz under a 0.01 s model, 20 ms late, noiseless: read after every step (held between
+    samples), logged with its age, and placed back at every other step, where it equals the plant's joint positions
+    (cartpole's measured sensors) of that step."""
+    from judo.collection.sysid_data import Episode, taken_samples
+    from judo.core.registry import make_task
+
+    outcome = collect_episode(EpisodeSpec("cartpole", "ps", 0.3, sensing=Sensing("sensors", delay=0.02, rate=50.0)), 0)
+    e = outcome.episode
+    episode = Episode("e", e.qpos, e.qvel, e.actions, e.measured, e.measured_age, e.estimate, e.measured_sensors)
+    samples = taken_samples(episode, make_task("cartpole").measured, 0.01)  # row n: taken after n steps
+    taken = np.flatnonzero(np.isfinite(samples).all(axis=1))
+    assert taken[0] == 0 and (np.diff(taken) == 2).all() and taken[-1] >= len(e.qpos) - 3
+    np.testing.assert_allclose(samples[taken[1:]], e.qpos[taken[1:] - 1], atol=1e-12)  # qpos after step n - 1
+
+
+def test_sim_is_judos_simulator_by_name():
+    from judo.loop.system_choice import SystemOptions, build_system
+
+    assert build_system(SystemOptions("sim"), "cartpole") is None  # the caller builds judo's own plant
