@@ -8,8 +8,9 @@ true model, the wrong one and the fitted one ([model_overrides]), on the same mi
     PYTHONPATH=src python benchmarks/sysid_cases.py --cases cartpole leap_cube quadruped hardware06
 
 The hardware06 case is examples/06's cart-pole robot (`LaggyNoisyCartpole`: pole 10% heavier, each action reaching
-the motor 10 ms late), driven through its own `System` (apply, step) by `excite`'s multisine and logged from the
-stand-in's simulated state (its encoders are noisy and it reports no velocities); the fit adds --fit-delay. Its
+the motor 10 ms late), driven through its own `System` by `excite`'s multisine and logged as `excite --system`
+logs it: what the robot reports, its noisy, 20 ms late encoders (it reports no state), and the EKF's estimate; the
+fit compares the encoders (over 0.5 s windows, each from the estimate refined to them) and adds --fit-delay. Its
 closed loop plans through a plant of the same physics, MuJoCo's own actuator delay on a model that keeps the
 action history (`delay` and `nsample` on the motor), since the episode runner drives MujocoSystem plants.
 
@@ -29,7 +30,7 @@ import numpy as np
 
 from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
-from judo.collection.excite import excitation_episode, multisine
+from judo.collection.excite import drive, excitation_episode, multisine
 from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters
 from judo.collection.sysid_data import read_logs
 from judo.core import registry
@@ -54,6 +55,8 @@ class Case:
     """Seconds of each closed-loop episode compared."""
     fit_delay: bool = False
     """Fit the actuation delay too (sysid --fit-delay)."""
+    window: float | None = None
+    """Seconds of each fitted window; None: --window."""
 
 
 CASES = {
@@ -94,6 +97,7 @@ CASES = {
         "mean_reward",
         10.0,
         fit_delay=True,
+        window=0.5,
     ),
 }
 
@@ -116,19 +120,19 @@ class LaggyCartpole(Cartpole):
 
 def log_hardware06(path: Path, seconds: float, seed: int) -> None:
     """examples/06's robot (pole x1.1, motor 10 ms late) excited through its own System: 0.5 of the push range,
-    up to 2 Hz, logged from the stand-in's simulated state in collect's layout as a log of laggy_cartpole."""
+    up to 2 Hz, logged as `excite --system` logs it (`drive`: its encoders, their ages and the EKF's estimate) in
+    collect's layout as a log of laggy_cartpole."""
     spec = importlib.util.spec_from_file_location("hardware_system", ROOT / "examples" / "06_hardware_system.py")
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
     robot = example.LaggyNoisyCartpole(seed=seed)
+    task = make_task("cartpole")  # the EKF linearises cartpole.xml: MuJoCo has no derivatives of an action history
     steps = round(seconds / robot.timestep)
     controls = multisine(robot.model.actuator_ctrlrange, np.arange(steps) * robot.timestep, 0.5, 2.0, seed)
-    states = np.zeros((steps, robot.model.nq + robot.model.nv))
-    for step, control in enumerate(controls):
-        robot.apply(control)
-        robot.step()
-        states[step] = np.concatenate([robot.data.qpos, robot.data.qvel])
-    episode = excitation_episode(seed, robot.model, states, np.zeros((steps, robot.model.nsensordata)), controls)
+    logged = drive(robot, task, "cartpole", controls)
+    episode = excitation_episode(
+        seed, task.model, logged.states, logged.sensors, controls, measurements=logged.measurements(task)
+    )
     DatasetFile(path, {"task": "laggy_cartpole", "plant_timestep": robot.timestep}).write_episode(episode)
 
 
@@ -159,7 +163,7 @@ def run_case(name: str, case: Case, args: argparse.Namespace, folder: Path) -> l
         DatasetFile(log, env_args).write_episode(outcome.episode)
     parameters = parse_parameters(case.params, task.model) + ([DELAY_PARAMETER] if case.fit_delay else [])
     episodes = read_logs([log], case.task, task.model)
-    steps = round(args.window / float(task.model.opt.timestep))
+    steps = round((case.window or args.window) / float(task.model.opt.timestep))
     result = fit(task, parameters, episodes, steps, args.max_iters)
     truth_overrides = check_model_overrides(task.model, parse_override_entries(case.plant))
     seeds = range(args.first_seed, args.first_seed + args.seeds)

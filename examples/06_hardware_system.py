@@ -11,6 +11,11 @@ Swap this class for one that talks to your robot's drivers and nothing else chan
 
     python examples/06_hardware_system.py                          # GUI at http://localhost:8080
     python examples/06_hardware_system.py --headless --duration 5  # prints a summary
+
+Any judo command that takes `--system module:Class` builds it as `Class(task)`, e.g. from this folder a log of
+the robot for `python -m judo sysid` (docs/sysid.md):
+
+    python -m judo excite --task cartpole --system 06_hardware_system:LaggyNoisyCartpole --duration 20 --out robot.h5
 """
 
 import argparse
@@ -29,6 +34,7 @@ class LaggyNoisyCartpole(System):
     """A simulated cart-pole robot that measures only its encoders, noisy, late and at their own rate.
 
     Args:
+        task: the task instance `--system` builds it with (unused: the robot is its own physics).
         sensor_latency: seconds from taking an encoder sample to its reaching `read_state`.
         actuation_latency: seconds before an applied action reaches the motor.
         noise_std: std of the Gaussian noise on each encoder (m for the cart, rad for the pole).
@@ -39,6 +45,7 @@ class LaggyNoisyCartpole(System):
 
     def __init__(
         self,
+        task: object = None,
         sensor_latency: float = 0.02,
         actuation_latency: float = 0.01,
         noise_std: float = 0.005,
@@ -57,6 +64,7 @@ class LaggyNoisyCartpole(System):
         self._measurements: deque[tuple[float, np.ndarray]] = deque()  # (time taken, noisy encoders (2,))
         self._next_sample = 0.0
         self._commands: deque[tuple[float, np.ndarray]] = deque()  # (time due at the motor, action)
+        del task
         self.reset()
 
     def reset(self) -> None:

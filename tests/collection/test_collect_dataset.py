@@ -41,8 +41,9 @@ def leap_cube_file(tmp_path_factory):
 
 def test_the_layout_and_dtypes_are_the_documented_ones(leap_cube_file):
     layout = documented_layout()
-    assert len(layout) == 21
-    sensed = {"obs/measured", "obs/estimate_qpos", "obs/estimate_qvel", "plan/traces"}  # test_collect_sensing.py
+    assert len(layout) == 22
+    sensed = {"obs/measured", "obs/measured_age", "obs/estimate_qpos", "obs/estimate_qvel"}  # test_collect_sensing
+    sensed |= {"plan/traces"}  # test_collect_sensing.py
     sensed |= {"mpc_actions", "policy/knots", "policy/inference_ms"}  # collect --policy: test_collect_policy.py
     sensed |= {"obs/metadata/<key>"}  # a task's recorded_metadata (leap_cube has none): test_collect_metadata.py
     model = lookup_task("leap_cube")[0]().sim_model

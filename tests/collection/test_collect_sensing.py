@@ -50,7 +50,7 @@ def test_a_sensed_episode_keeps_the_measured_sensors_and_the_estimate(sensed_fil
         demo = file["data/demo_0"]
         qpos = demo["obs/qpos"][:]
         assert json.loads(demo.attrs["measured_sensors"]) == ["slider_pos", "hinge_pos"]
-        for key in ("measured", "estimate_qpos", "estimate_qvel"):  # m = nq = nv = 2: two encoders
+        for key in ("measured", "measured_age", "estimate_qpos", "estimate_qvel"):  # m = k = nq = nv = 2: encoders
             assert demo["obs"][key].shape == (STEPS, 2) and demo["obs"][key].dtype == np.float64, key
             assert LAYOUT[f"obs/{key}"][1] == "float64"
         measured, estimate = demo["obs/measured"][:], demo["obs/estimate_qpos"][:]

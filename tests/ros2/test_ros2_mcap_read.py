@@ -2,6 +2,7 @@
 heavier pole over DDS holds the plant's states and the commands sent, `replay` loads it, and `sysid` finds the
 pole's mass from it; logs it cannot use are one-line errors naming what they hold."""
 
+import re
 import subprocess
 import sys
 
@@ -113,6 +114,37 @@ def test_sysid_finds_the_plants_pole_mass_from_the_log(bridge_log, tmp_path, cap
     assert model.body_mass[model.body("pole").id] == pytest.approx(TRUE_MASS, rel=0.05)
 
 
+@pytest.mark.slow
+def test_sysid_compares_a_robot_publishing_every_fourth_model_step_at_its_joint_states(tmp_path, capsys):
+    """The plant process publishing its JointStates at 25 Hz under cartpole's 0.01 s model (every 4th step), the
+    bridge commanding at 100 Hz: the log's rows lie 4 steps apart (more where the bridge missed one); the fit rolls
+    every step out under the commands in force and compares the steps that have a joint state."""
+    path = tmp_path / "slow.mcap"
+    domain = free_domain()
+    proc = start_plant(domain, "--plant-overrides", f"body_mass.pole={TRUE_MASS}", "--rate-hz", "25")
+    try:
+        task = Cartpole()
+        options = SystemOptions(system="ros2", record=path, ros2=Ros2Options(domain_id=domain))
+        system = Ros2System.from_options(task, options)
+        commands = multisine(task.model.actuator_ctrlrange, np.arange(300) * 0.01, 0.5, 2.0, seed=0)
+        try:
+            for command in commands:
+                system.read_state()
+                system.apply(command)
+                system.step()
+        finally:
+            system.close()
+    finally:
+        stop_process(proc)
+    log = read_bridge_log(path)
+    gaps = np.round(np.diff(log.times) / 0.01).astype(int)
+    assert np.median(gaps) == 4 and not (gaps == 1).any()  # never one step apart: refused before
+    out = tmp_path / "fitted.toml"
+    assert sysid_main([str(path), "--task", "cartpole", "--params", "body_mass.pole", "--out", str(out)]) == 0
+    found = re.search(r"\| body_mass.pole \| 0.1 \| ([\d.e-]+) \| ± [\d.e-]+ \| yes \|", capsys.readouterr().out)
+    assert found is not None and float(found.group(1)) == pytest.approx(TRUE_MASS, rel=0.05)
+
+
 def write_log(path, joint_map=(), joints=True, commands=True, metadata=None, stamps=20, every=0.01):
     """A log written with the bridge's own writer, no DDS: `stamps` JointStates (named through `joint_map`, where
     `joints`) `every` seconds apart, each followed by a command where `commands`."""
@@ -172,11 +204,11 @@ def test_sysid_refuses_a_log_without_commands_or_of_another_task_and_writes_noth
         (write_log(tmp_path / "quiet.mcap", commands=False), "cartpole", "pole", "no std_msgs/msg/Float64MultiArray"),
         (write_log(tmp_path / "run.mcap"), "acrobot", "upper_arm", "a log of task 'cartpole', not of --task 'acrobot'"),
         (
-            write_log(tmp_path / "sparse.mcap", every=0.05),
+            write_log(tmp_path / "offgrid.mcap", every=0.015),
             "cartpole",
             "pole",
-            "sparse.mcap: no two joint states one model step (0.01 s) apart with a command in force (they are 0.05 s "
-            "apart); the robot must publish one each step (python -m judo plant --rate-hz 100)",
+            "offgrid.mcap: no two joint states a whole number of model steps (0.01 s, at most 100) apart with a "
+            "command in force (they are 0.015 s apart); the robot must publish on the model's step grid",
         ),
     ]
     for path, task, body, message in cases:

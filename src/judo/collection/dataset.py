@@ -7,6 +7,8 @@
     data/demo_<seed>/obs/mocap_pos  (S, 3 * nmocap) float64, only for a task with mocap bodies
     data/demo_<seed>/obs/metadata/<key>  (S, *shape) float64, each key of the task's `recorded_metadata`
     data/demo_<seed>/obs/measured   (S, m)   float64    the measured sensors read (only with --observe sensors)
+    data/demo_<seed>/obs/measured_age   (S, k) float64  seconds between taking each measured sensor's value and
+                                    the step it was read after (only where the System stamps its readings)
     data/demo_<seed>/obs/estimate_qpos, estimate_qvel   (S, nq), (S, nv) float64, the estimator's state after
                                     each step (only where an estimator ran; NaN rows before it started)
     data/demo_<seed>/actions        (S, nu)  float64    control served during each step
@@ -75,6 +77,8 @@ class EpisodeArrays:
         measured: (S, m) the measured sensors the System served after each step, or None (full state).
         estimate: (S, nq + nv) the estimator's state after each step (NaN rows where none ran), or None.
         measured_sensors: names of the task's measured sensors, in the order of `measured`'s columns.
+        measured_age: (S, k) for each of the k measured sensors, the seconds between taking the value `measured`
+            holds and the end of the step it was read after (0: taken then), or None (not stamped).
         mpc_actions: (S, nu) the MPC's action at the time each step was served, where a policy drove the plant
             (collect --policy): the label beside `actions`; else None.
         policy_plan: {"knots": (U, H, nu), "inference_ms": (U,)} the policy's chunks, where a policy drove.
@@ -98,6 +102,7 @@ class EpisodeArrays:
     mpc_actions: np.ndarray | None = None
     policy_plan: dict[str, np.ndarray] | None = None
     metadata: dict[str, np.ndarray] = field(default_factory=dict)
+    measured_age: np.ndarray | None = None
 
     @property
     def num_samples(self) -> int:
@@ -225,6 +230,8 @@ def write_demo(group: Any, episode: EpisodeArrays) -> None:
     if episode.measured is not None:
         obs["measured"] = episode.measured
         group.attrs["measured_sensors"] = json.dumps(list(episode.measured_sensors))
+        if episode.measured_age is not None:
+            obs["measured_age"] = episode.measured_age
     if episode.estimate is not None:
         nq = episode.qpos.shape[1]
         obs["estimate_qpos"], obs["estimate_qvel"] = episode.estimate[:, :nq], episode.estimate[:, nq:]

@@ -80,8 +80,9 @@ class EpisodeRecorder:
         state = None if record.state is None else np.array(record.state)
         measured = None if record.measured is None else np.array(record.measured, dtype=float)
         estimate = None if record.estimate is None else np.array(record.estimate, dtype=float)
+        age = None if record.measured_age is None else np.array(record.measured_age, dtype=float)
         sensors, action = np.array(record.sensors), np.array(record.action)
-        self.steps.append(StepRecord(record.time, state, sensors, action, metadata, measured, estimate))
+        self.steps.append(StepRecord(record.time, state, sensors, action, metadata, measured, estimate, age))
 
     def episode(self, seed: int, rewards: np.ndarray, metrics: dict[str, float], success: bool | None) -> EpisodeArrays:
         """The recorded episode as the dataset's arrays, with its (S,) per-step `rewards`, metrics and success."""
@@ -108,6 +109,7 @@ class EpisodeRecorder:
             estimate=rows_where_given([step.estimate for step in steps]),
             measured_sensors=self.measured_sensors,
             metadata=metadata,
+            measured_age=rows_where_given([step.measured_age for step in steps]),
         )
 
     def recorded_value(self, record: StepRecord, key: str) -> np.ndarray:

@@ -4,8 +4,11 @@ A log (collect's HDF5, a GUI recording in the same layout, or the ROS 2 bridge's
 state and the action served during it. The fit cuts every episode into windows of K steps, rolls each window
 out from its logged start state under its logged actions on the planning model with candidate parameters, and
 minimises the normalised difference to the logged states (`mujoco.sysid`'s residual and least-squares
-optimizer). The parameters are named MjModel fields by element (judo.core.model_overrides), so the result is a
-[model_overrides.TASK] section that `--config` reads.
+optimizer). A log whose plant reported only its measured sensors is compared on those instead (the rollouts'
+sensordata against each value at the step it was taken), each window starting from the logged estimate refined,
+for each candidate, to the window's own measurements (`sysid_hooks.refine_starts`). The parameters are named
+MjModel fields by element (judo.core.model_overrides), so the result is a [model_overrides.TASK] section that
+`--config` reads.
 
 mujoco.sysid (the `sysid` extra, `mujoco[sysid]`) is imported only by `fit`.
 """
@@ -22,7 +25,20 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.collection.sysid_data import Episode, Windows, cut_windows, delayed_controls, prediction_error, spread
+from judo.collection.sysid_data import (
+    Episode,
+    compared,
+    cut_windows,
+    spread,
+)
+from judo.collection.sysid_hooks import (
+    batched_residual,
+    delayed_rollout,
+    model_sequences,
+    observed_residual,
+    refined_prediction_error,
+    refined_rollout,
+)
 from judo.core.errors import ConfigError, import_extra
 from judo.core.model_overrides import check_model_overrides, model_value, overridden
 from judo.core.task import Task
@@ -101,6 +117,9 @@ class FitResult:
             and on the fitted one.
         num_windows, window_steps: the windows fitted.
         seconds: the fit's wall time.
+        compare: what the fit compared: "states" (the logged plant states) or "sensors" (the measured sensors).
+        from_estimate: whether each window started from the logged estimate (else from the logged state).
+        timestep: the planning model's step (s): a window lasts window_steps of it.
     """
 
     parameters: list[FitParameter]
@@ -114,6 +133,9 @@ class FitResult:
     num_windows: int
     window_steps: int
     seconds: float
+    compare: str = "states"
+    from_estimate: bool = False
+    timestep: float = 0.0
 
     def overrides(self, model: mujoco.MjModel) -> dict[str, dict[str, Any]]:
         """{field: {element: row}} of the excited model parameters, each whole row as `model` holds it otherwise;
@@ -168,8 +190,14 @@ def fit(
     window_steps: int,
     max_iters: int = 50,
     on_evaluation: Callable[[int], None] | None = None,
+    compare: str = "auto",
 ) -> FitResult:
     """Fit `parameters` of `task`'s planning model to `episodes` over windows of `window_steps` steps.
+
+    `compare` (sysid_data.COMPARE_CHOICES) says what the model's predictions are compared with: the logged plant
+    states, or the task's measured sensors as the plant reported them (the sensordata mujoco.sysid rolls out,
+    at the steps they were taken), each window then starting from the logged estimate where there is one; auto
+    takes the sensors where every episode holds them.
 
     With DELAY_PARAMETER among them, also the actuation delay (s, within [0, MAX_DELAY]): every window's logged
     actions take effect that late (`delayed_controls`), read from the actions before it. Each parameter starts at
@@ -186,7 +214,7 @@ def fit(
     level = absl.level
     absl.setLevel(logging.ERROR)
     try:
-        return _fit(sysid, task, parameters, episodes, window_steps, max_iters, on_evaluation)
+        return _fit(sysid, task, parameters, episodes, window_steps, max_iters, on_evaluation, compare)
     finally:
         absl.setLevel(level)
 
@@ -199,19 +227,21 @@ def _fit(
     window_steps: int,
     max_iters: int,
     on_evaluation: Callable[[int], None] | None,
+    compare: str,
 ) -> FitResult:
     began = time.perf_counter()
     model = task.model
     timestep = float(model.opt.timestep)
     delay_at = next((i for i, p in enumerate(parameters) if p.field == DELAY), None)
     history = int(np.ceil(MAX_DELAY / timestep)) + 1 if delay_at is not None else 0
-    windows = cut_windows(episodes, window_steps, history)
+    compare = compared(episodes, compare)
+    windows = cut_windows(episodes, window_steps, history, compare, task.measured, timestep)
     nominal = np.array([0.0 if p.field == DELAY else _entry(model, p) for p in parameters])
     scale = np.where(np.abs(nominal) > 0, np.abs(nominal), 1.0)
     positions = np.array([p.field.endswith("pos") for p in parameters], dtype=bool)
     scale[positions] = np.maximum(np.abs(nominal[positions]), POSITION_SCALE)
-    params = sysid.ParameterDict()
-    for index, (parameter, value) in enumerate(zip(parameters, nominal, strict=True)):
+    bounds = []
+    for index, value in enumerate(nominal):
         if index == delay_at:  # from half a step, inside its bounds, on the scale of a step
             low, high, start, scale[index] = 0.0, MAX_DELAY, 0.5 * timestep, timestep
         elif positions[index]:
@@ -221,15 +251,22 @@ def _fit(
                 (value / 10, value * 10) if value > 0 else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
             )
             start = value
-        params.add(sysid.Parameter(parameter.name, nominal=start, min_value=low, max_value=high))
+        bounds.append((low, high, start))
 
     def build_model(candidate: Any) -> mujoco.MjModel:
         return fitted_model(model, parameters, np.array([candidate[p.name].value[0] for p in parameters]))
 
-    sequences = _model_sequences(sysid, model, windows)
-    residual = _batched_residual(
-        sysid, sequences.measured_rollout, build_model, _state_residual(sysid, spread(windows)),
-        _delayed_rollout(sysid, model, windows, DELAY) if delay_at is not None else None,
+    params = sysid.ParameterDict()
+    for parameter, (low, high, start) in zip(parameters, bounds, strict=True):
+        params.add(sysid.Parameter(parameter.name, nominal=start, min_value=low, max_value=high))
+    sequences = model_sequences(sysid, model, windows)
+    if compare == "sensors":  # each candidate's windows start where its own motion best explains their measurements
+        rollout = refined_rollout(sysid, model, windows, DELAY if delay_at is not None else None)
+    else:
+        rollout = delayed_rollout(sysid, model, windows, DELAY) if delay_at is not None else None
+    residual = batched_residual(
+        sysid, sequences.measured_rollout, build_model, observed_residual(sysid, spread(windows), windows.columns),
+        rollout,
     )  # fmt: skip
     evaluations = [0]
 
@@ -263,115 +300,16 @@ def _fit(
         interval,
         excited,
         condition,
-        prediction_error(model, windows),
-        prediction_error(fitted_model(model, parameters, fitted), windows, delay),
+        refined_prediction_error(model, windows, 0.0),
+        refined_prediction_error(fitted_model(model, parameters, fitted), windows, delay),
         len(windows.starts),
         window_steps,
         time.perf_counter() - began,
+        compare,
+        windows.from_estimate,
+        timestep,
     )
-
-
-def _batched_residual(
-    sysid: Any,
-    trajectories: list[Any],
-    build_model: Callable[[Any], mujoco.MjModel],
-    modify_residual: Callable[..., Any],
-    custom_rollout: Callable[..., Any] | None,
-) -> Callable[..., Any]:
-    """mujoco.sysid's residual over all windows at once: `sysid.model_residual` on the list of the windows'
-    trajectories builds each candidate model once and rolls every window out in one threaded `mujoco.rollout`
-    call (`sysid.residual` calls it once per window, building the model and its threads each time). Returns
-    fn(x, params) -> ([residual (W * K * (nq + nv),) or (W * K * (nq + nv), n) for a batch x of n columns],
-    predicted, measured) in `sysid.residual`'s row order, window after window."""
-    count = len(trajectories)
-
-    def residual(x: np.ndarray, params: Any, **kwargs: Any) -> Any:
-        values, predicted, measured = sysid.model_residual(
-            x,
-            params,
-            build_model,
-            trajectories,
-            modify_residual,
-            custom_rollout,
-            return_pred_all=kwargs.get("return_pred_all", False),
-            resample_true=False,  # the logged actions are one per model step already
-        )
-        if np.ndim(x) > 1:  # (rows of one window, columns * windows) -> (windows * rows of one, columns)
-            columns = np.shape(x)[1]
-            values = values.reshape(-1, columns, count).transpose(2, 0, 1).reshape(-1, columns)
-        return [values], predicted, measured
-
-    return residual
-
-
-def _delayed_rollout(sysid: Any, model: mujoco.MjModel, windows: Windows, name: str) -> Callable[..., Any]:
-    """mujoco.sysid's custom_rollout hook for --fit-delay: rolls each window out under its logged actions delayed
-    by the candidate's parameter `name` (s), `delayed_controls` of the action history before it, the control
-    signal delayed as mujoco.sysid's signal delay reads a sensor (at t - delay, linearly interpolated)."""
-    count = len(windows.starts)
-    times = np.arange(windows.controls.shape[1] + 1) * float(model.opt.timestep)
-
-    def rollout(*, models: Any, datas: Any, control_signal: Any, initial_states: Any, param_dicts: Any, **kwargs: Any):
-        del control_signal
-        signals = []
-        for candidate in param_dicts:  # one per finite-difference column, each over every window
-            delayed = delayed_controls(windows, float(candidate[name].value[0]), float(model.opt.timestep))
-            for controls in delayed:
-                signals.append(sysid.TimeSeries.from_control_names(times, np.vstack([controls, controls[-1:]]), model))
-        assert len(signals) == len(param_dicts) * count
-        return sysid.sysid_rollout(models, datas, signals, initial_states, **kwargs)
-
-    return rollout
 
 
 def _entry(model: mujoco.MjModel, parameter: FitParameter) -> float:
     return float(model_value(model, parameter.field, parameter.element)[parameter.index or 0])
-
-
-def _model_sequences(sysid: Any, model: mujoco.MjModel, windows: Windows) -> Any:
-    """mujoco.sysid's ModelSequences of the windows: each a sequence with its start state, its actions (K, nu) at
-    times 0, dt, ... and its logged states, the start's and those after each step (K + 1, nq + nv) at times 0, dt,
-    ..., as one custom observation ("state"; `_state_residual` compares it: joint-named signals need every joint
-    named, and the LEAP hand's are not)."""
-    times = np.arange(windows.controls.shape[1] + 1) * float(model.opt.timestep)
-    mapping = {"state": (sysid.SignalType.CustomObs, np.arange(model.nq + model.nv))}
-    data = mujoco.MjData(model)
-    starts, controls, measured = [], [], []
-    for start, control, states in zip(windows.starts, windows.controls, windows.measured, strict=True):
-        data.qpos[:], data.qvel[:] = start[: model.nq], start[model.nq :]
-        starts.append(sysid.create_initial_state(model, data.qpos.copy(), data.qvel.copy(), data.act.copy()))
-        # mujoco.sysid's layout: N states from the start and N controls, the last of which it never applies
-        controls.append(sysid.TimeSeries.from_control_names(times, np.vstack([control, control[-1:]]), model))
-        measured.append(sysid.TimeSeries(times, np.vstack([start, states]), mapping))
-    sequence_names = [f"window_{i}" for i in range(len(starts))]
-    return sysid.ModelSequences(
-        "judo", _PlanningModel(model), sequence_names, starts, controls, measured, allow_missing_sensors=True
-    )
-
-
-def _state_residual(sysid: Any, spread: np.ndarray) -> Callable[..., Any]:
-    """mujoco.sysid's modify_residual hook: the rolled-out [qpos, qvel] after each step against the logged one,
-    each coordinate divided by its spread (nq + nv,) in the whole log; returns (residual (K, nq + nv), predicted,
-    measured) as TimeSeries of the same layout."""
-
-    def residual(params: Any, predicted: Any, measured: Any, model: mujoco.MjModel, *args: Any, **kwargs: Any) -> Any:
-        del params, predicted, args
-        width = model.nq + model.nv
-        state = np.asarray(kwargs["state"])[:, 1 : 1 + width]  # a row [time, qpos, qvel, ...] after each step
-        after = sysid.TimeSeries(measured.times[1:], measured.data[1:], measured.signal_mapping)  # the start is given
-        prediction = sysid.TimeSeries(after.times, state, after.signal_mapping)
-        return (after.data - state) / spread, prediction, after
-
-    return residual
-
-
-class _PlanningModel:
-    """Stands for the MjSpec that mujoco.sysid.ModelSequences compiles once for the measured trajectories' layout:
-    the planning model itself (a task holds a compiled model, not its spec; `fit`'s build_model never reads it)."""
-
-    def __init__(self, model: mujoco.MjModel) -> None:
-        self.model = model
-
-    def compile(self) -> mujoco.MjModel:
-        """A copy of the planning model."""
-        return overridden(self.model, {})

@@ -10,7 +10,7 @@ import shlex
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import tyro
 
@@ -22,12 +22,17 @@ DESCRIPTION = (
     "Fit named parameters of a task's planning model (MjModel fields by element name, as [model_overrides] sets "
     "them) to logged episodes with MuJoCo's system identification (mujoco.sysid): each episode is cut into windows "
     "rolled out from their logged start states under the logged actions, and the parameters minimise the "
-    "difference to the logged states. Writes --out, a --config file whose [model_overrides.TASK] section holds the "
+    "difference to the logged states, or, for a log whose plant reported only its measured sensors (--observe "
+    "sensors, a robot's encoders), to the measured sensors, each window starting from the logged estimate. Writes --out, a --config file whose [model_overrides.TASK] section holds the "
     "parameters the data determine, and a report beside it (OUT.md): each parameter before and after with its 95% "
     "confidence interval, the fit's conditioning, and the prediction error before and after. A parameter the data "
     "do not excite is reported and left out. --fit-delay also fits how late the logged actions take effect. Needs the `sysid` extra, and `collect` for HDF5 logs or `ros2` for the "
     "bridge's MCAP logs: pip install -e '.[sysid]'."
 )
+
+
+DEFAULT_WINDOW = {"states": 0.05, "sensors": 0.5}
+"""Seconds of a window when --window is not given, by what the fit compares."""
 
 
 @dataclass
@@ -46,22 +51,34 @@ class SysidArgs:
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """TOML file of the run: its custom task, settings and [model_overrides] (the fit starts from them); --out
     carries it over with the fitted parameters in its [model_overrides.TASK]."""
-    window: float = 0.05
+    window: Annotated[
+        float | None,
+        tyro.conf.arg(metavar="SECONDS", help_behavior_hint="(default: 0.05 comparing states, 0.5 comparing sensors)"),
+    ] = None
     """Seconds of each window rolled out from a logged state (the prediction horizon fitted). Short windows keep
     the residual smooth through contacts (leap_cube fits its friction over 0.05 s and misses it over 0.1 s);
-    longer ones average noisy measurements on smooth systems."""
+    longer ones average noisy measurements and estimated start states (a pole's mass from noisy encoders: within 4%
+    over 0.5 s, not determined over 0.2 s)."""
     max_iters: int = 50
     """Most iterations of mujoco.sysid's least-squares optimizer."""
     fit_delay: bool = False
     """Also fit the actuation delay (s, 0 to 0.1): how late each logged action takes effect, the same for every
     actuator. Reported with the parameters; written as actuator_delay where the planning model keeps the action
     history MuJoCo's delay needs (MJCF nsample), else as a comment saying what to add."""
+    compare: Literal["auto", "states", "sensors"] = "auto"
+    """What the predictions are compared with: the logged plant states, or the task's measured sensors as the plant
+    reported them (noisy, late or slow: each value at the step it was taken), each window then starting from the
+    logged estimate where there is one. auto: the sensors where every log holds them (an --observe sensors run, a
+    System that reports no state), else the states."""
 
     def validate(self) -> None:
         """Raise a JudoError (one line) for an argument that is wrong, before anything is read or written."""
         require(len(self.logs) > 0, "give at least one log file: python -m judo sysid LOG.h5 ... --task T ...")
         require(self.out.suffix == ".toml", f"--out must name a .toml file, got {str(self.out)!r}")
-        require(math.isfinite(self.window) and self.window > 0, f"--window must be > 0 seconds, got {self.window}")
+        require(
+            self.window is None or (math.isfinite(self.window) and self.window > 0),
+            f"--window must be > 0 seconds, got {self.window}",
+        )
         require(self.max_iters >= 1, f"--max-iters must be at least 1, got {self.max_iters}")
         check_output_file("--out", self.out)
 
@@ -94,13 +111,15 @@ def run(args: SysidArgs, command: str) -> None:
     from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters
-    from judo.collection.sysid_data import read_logs
+    from judo.collection.sysid_data import compared, read_logs
     from judo.core.registry import make_task
 
     task = make_task(args.task)
     parameters = parse_parameters(args.params, task.model) + ([DELAY_PARAMETER] if args.fit_delay else [])
     episodes = read_logs(list(args.logs), args.task, task.model)
-    steps = max(1, round(args.window / float(task.model.opt.timestep)))
+    compare = compared(episodes, args.compare)
+    window = args.window if args.window is not None else DEFAULT_WINDOW[compare]
+    steps = max(1, round(window / float(task.model.opt.timestep)))
     columns = (SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn())
     with Progress(*columns, console=progress_console(), transient=True) as progress:
         bar = progress.add_task(f"fitting {len(parameters)} parameters", total=None)
@@ -108,7 +127,7 @@ def run(args: SysidArgs, command: str) -> None:
         def on_evaluation(count: int) -> None:
             progress.update(bar, description=f"fitting {len(parameters)} parameters: {count} residual evaluations")
 
-        result = fit(task, parameters, episodes, steps, args.max_iters, on_evaluation)
+        result = fit(task, parameters, episodes, steps, args.max_iters, on_evaluation, compare)
     header = [command, f"fitted to {result.num_windows} windows of {steps} steps from {len(episodes)} episode(s)"]
     text = fitted_toml(
         args.task, result.overrides(task.model), header, _config_tables(args.config), delay_note(result, task.model)
@@ -209,6 +228,15 @@ def _key(name: str) -> str:
     return name if name.replace("_", "").replace("-", "").isalnum() else '"' + name.replace('"', '\\"') + '"'
 
 
+def compared_line(result: Any) -> str:
+    """The report's one line on what the fit compared: the logged states, or the measured sensors and where each
+    window started."""
+    if result.compare == "states":
+        return "Compared: the logged plant states, each window from the logged state."
+    start = "the logged estimate" if result.from_estimate else "the logged state"
+    return f"Compared: the measured sensors (their sensordata, at the step each value was taken), each window from {start}."
+
+
 def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -> str:
     """The fit's report as Markdown: the parameters before and after, the conditioning and the prediction error."""
     lines = [
@@ -217,7 +245,9 @@ def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -
         f"`{command}`",
         "",
         f"{num_episodes} episode(s) from {', '.join(str(p) for p in args.logs)}: {result.num_windows} windows of "
-        f"{result.window_steps} steps ({args.window:g} s); fit in {result.seconds:.1f} s.",
+        f"{result.window_steps} steps ({result.window_steps * result.timestep:g} s); fit in {result.seconds:.1f} s.",
+        "",
+        compared_line(result),
         "",
         "| parameter | planning model | fitted | 95% interval | determined by the data |",
         "|---|---|---|---|---|",
@@ -234,7 +264,7 @@ def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -
         f"Conditioning: cond(J) = {result.condition:.3g} (the residual's Jacobian at the fit, each column scaled by its "
         "parameter's value; above about 1e6 the data cannot tell the parameters apart).",
         "",
-        f"{result.window_steps}-step prediction error (RMS, each state coordinate over its spread in the log): "
+        f"{result.window_steps}-step prediction error (RMS, each {'measured value' if result.compare == 'sensors' else 'state coordinate'} over its spread in the log): "
         f"{result.error_before:.4g} on the planning model, {result.error_after:.4g} on the fitted one.",
     ]
     missing = [p.name for p, excited in zip(result.parameters, result.excited, strict=True) if not excited]

@@ -14,16 +14,64 @@ import numpy as np
 
 from judo.collection.dataset import DatasetError, import_h5py
 from judo.core.errors import ConfigError
+from judo.core.sensors import MeasuredLayout
 
 
 @dataclass
 class Episode:
-    """One logged episode: qpos (S, nq), qvel (S, nv) after each step and actions (S, nu) served during it."""
+    """One logged episode: qpos (S, nq), qvel (S, nv) after each step (NaN rows where the plant reported no state)
+    and actions (S, nu) served during it; where the plant was observed through its sensors, also what it measured.
+
+    Attributes:
+        measured: (S, m) the task's measured sensors the plant reported after each step, or None.
+        measured_age: (S, k) seconds between taking each of the k measured sensors' values and the end of the step
+            it was read after, or None (each taken at the end of its step).
+        estimate: (S, nq + nv) the estimator's state after each step (NaN before it started), or None.
+        measured_sensors: (k,) the names of the measured sensors, in `measured`'s order.
+    """
 
     name: str
     qpos: np.ndarray
     qvel: np.ndarray
     actions: np.ndarray
+    measured: np.ndarray | None = None
+    measured_age: np.ndarray | None = None
+    estimate: np.ndarray | None = None
+    measured_sensors: tuple[str, ...] = ()
+
+    @property
+    def states(self) -> np.ndarray:
+        """(S, nq + nv) the logged plant state after each step."""
+        return np.concatenate([self.qpos, self.qvel], axis=1)
+
+    @property
+    def has_states(self) -> bool:
+        """Whether the plant reported its state (a simulator, or a robot's bridge) on any step."""
+        return bool(np.isfinite(self.states).all(axis=1).any())
+
+
+COMPARE_CHOICES = ("auto", "states", "sensors")
+"""What a fit compares: auto (the measured sensors where every log holds them, else the states), the logged
+plant states, or the measured sensors."""
+
+
+def compared(episodes: list["Episode"], compare: str) -> str:
+    """ "states" or "sensors": what the fit of `episodes` compares for `compare` (one of COMPARE_CHOICES).
+    ConfigError, in one line naming the episode, where the logs hold no such data."""
+    if compare == "auto":
+        compare = "sensors" if all(e.measured is not None for e in episodes) else "states"
+    for episode in episodes:
+        if compare == "sensors" and episode.measured is None:
+            raise ConfigError(
+                f"{episode.name}: the log holds no measured sensors (obs/measured) to compare; its plant reported "
+                "its state: fit with --compare states"
+            )
+        if compare == "states" and not episode.has_states:
+            raise ConfigError(
+                f"{episode.name}: the log holds no plant states (its plant reported only sensors): fit with "
+                "--compare sensors"
+            )
+    return compare
 
 
 def read_logs(paths: list[Path], task_name: str, model: mujoco.MjModel) -> list[Episode]:
@@ -77,20 +125,50 @@ def _read_file(file: Any, path: Path, task_name: str, model: mujoco.MjModel) -> 
                 f"{path}: episode {name} has qpos, qvel, actions of widths {sizes}; the model needs "
                 f"({model.nq},), ({model.nv},), ({model.nu},) on every step"
             )
-        episodes.append(Episode(f"{path.name}:{name}", qpos, qvel, actions))
+        episodes.append(Episode(f"{path.name}:{name}", qpos, qvel, actions, *_measurements(demo, path, name, model)))
     if not episodes:
         raise DatasetError(f"{path}: the log holds no episodes")
     return episodes
 
 
+def _measurements(demo: Any, path: Path, name: str, model: mujoco.MjModel) -> tuple[Any, ...]:
+    """(measured (S, m), measured_age (S, k), estimate (S, nq + nv), measured sensor names) of an h5py demo
+    group, each None (the names ()) where the log has none."""
+    obs = demo["obs"]
+    measured = np.asarray(obs["measured"], dtype=float) if "measured" in obs else None
+    age = np.asarray(obs["measured_age"], dtype=float) if "measured_age" in obs else None
+    estimate = None
+    if "estimate_qpos" in obs and "estimate_qvel" in obs:
+        estimate = np.concatenate([np.asarray(obs["estimate_qpos"]), np.asarray(obs["estimate_qvel"])], axis=1)
+        if estimate.shape[1] != model.nq + model.nv:
+            raise DatasetError(f"{path}: episode {name}'s estimate has width {estimate.shape[1]}, not nq + nv")
+    names: tuple[str, ...] = ()
+    if measured is not None:
+        try:
+            names = tuple(json.loads(demo.attrs.get("measured_sensors", "[]")))
+        except (TypeError, ValueError):
+            raise DatasetError(f"{path}: episode {name}'s measured_sensors are not JSON; the file is corrupt") from None
+    return measured, age, estimate, names
+
+
 def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Episode]:
-    """The episodes of the ROS 2 bridge's MCAP log at `path`: its runs of rows one step of `model` apart with a
-    command in force (`judo.ros2.mcap_read.BridgeLog.step_runs`, whose errors name the file)."""
+    """The episodes of the ROS 2 bridge's MCAP log at `path`, one per run of rows a whole number of steps of
+    `model` apart with a command in force (`judo.ros2.mcap_read.BridgeLog.grid_runs`, whose errors name the file),
+    laid on the model's step grid: a row every step, its state NaN where no joint state fell on it (a robot that
+    publishes every k steps) and its action the command in force at the end of that step."""
     from judo.ros2.mcap_read import read_bridge_log
 
     log = read_bridge_log(path, task_name, "python -m judo sysid LOG.mcap")
-    runs = log.step_runs(float(model.opt.timestep))
-    return [Episode(f"{path.name}:rows {r.start}-{r.stop - 1}", log.qpos[r], log.qvel[r], log.actions[r]) for r in runs]
+    step = float(model.opt.timestep)
+    episodes = []
+    for rows, offsets in log.grid_runs(step):
+        qpos = np.full((offsets[-1] + 1, model.nq), np.nan)
+        qvel = np.full((offsets[-1] + 1, model.nv), np.nan)
+        qpos[offsets], qvel[offsets] = log.qpos[rows], log.qvel[rows]
+        actions = log.actions_at(log.times[rows.start] + np.arange(offsets[-1] + 1) * step)
+        name = f"{path.name}:rows {rows.start}-{rows.stop - 1}"
+        episodes.append(Episode(name, qpos, qvel, actions))
+    return episodes
 
 
 @dataclass
@@ -98,40 +176,111 @@ class Windows:
     """K-step windows cut from the episodes: each rolled out from its start state under its logged actions.
 
     Attributes:
-        starts: (W, nq + nv) logged state before each window's first step.
+        starts: (W, nq + nv) the state each window starts from: the logged state before its first step, or, when
+            comparing sensors, the logged estimate there where the log has one.
         controls: (W, K, nu) actions served during the window's steps.
-        measured: (W, K, nq + nv) logged state after each of the window's steps.
+        measured: (W, K, D) what the model's prediction is compared with: comparing states, the logged state
+            after each of the window's steps (D = nq + nv; NaN where none was logged); comparing sensors, the
+            measured sensors taken at the window's start and after each of its first K - 1 steps (D = m; NaN where
+            no value was taken then).
         history: (W, H, nu) actions served during the H steps before the window (H = 0 unless a delay is fitted).
+        compare: "states" or "sensors".
+        columns: (m,) the columns of sensordata the measured sensors are, when comparing sensors; else None.
+        from_estimate: whether the windows start from the logged estimate (else from the logged states).
     """
 
     starts: np.ndarray
     controls: np.ndarray
     measured: np.ndarray
     history: np.ndarray
+    compare: str = "states"
+    columns: np.ndarray | None = None
+    from_estimate: bool = False
 
 
-def cut_windows(episodes: list[Episode], steps: int, history: int = 0) -> Windows:
+def cut_windows(
+    episodes: list[Episode],
+    steps: int,
+    history: int = 0,
+    compare: str = "states",
+    layout: MeasuredLayout | None = None,
+    timestep: float = 0.0,
+) -> Windows:
     """Non-overlapping windows of `steps` steps from every episode, each with the `history` actions before it
-    (an episode's first row is a window's start only, since the state before it is not logged); ConfigError
-    where no episode is long enough for one."""
+    (an episode's first row is a window's start only, since the state before it is not logged). A window starts
+    at a row with a logged state: where a row has none (a robot that reports every k steps), the next one is tried.
+
+    `compare` "states" compares the logged states. "sensors" compares the measured sensors, laid out as `layout`
+    (the planning model's measured sensors) says, each value placed at the step it was taken (its logged age over
+    `timestep`); each window starts from the logged estimate where the episode has one, else from the logged
+    state. A window without a finite start state, or with nothing to compare, is left out. ConfigError where no
+    window is left, or the log's measured sensors are not the task's."""
     starts, controls, measured, before = [], [], [], []
+    from_estimate = False
     for episode in episodes:
-        states = np.concatenate([episode.qpos, episode.qvel], axis=1)
-        for first in range(1 + history, len(states) - steps + 1, steps):
-            starts.append(states[first - 1])
-            controls.append(episode.actions[first : first + steps])
-            measured.append(states[first : first + steps])
-            before.append(episode.actions[first - history : first])
+        states = episode.states
+        if compare == "sensors":
+            assert layout is not None and timestep > 0
+            targets = taken_samples(episode, layout, timestep)  # (S + 1, m): index n is after n steps
+            if episode.estimate is not None and np.isfinite(episode.estimate).all(axis=1).any():
+                states, from_estimate = episode.estimate, True
+        first = 1 + history
+        while first <= len(states) - steps:
+            start = states[first - 1]
+            if not np.isfinite(start).all():  # a step without a logged state: the next one may start a window
+                first += 1
+                continue
+            target = targets[first : first + steps] if compare == "sensors" else states[first : first + steps]
+            window_actions = episode.actions[first - history : first + steps]
+            if not np.isnan(target).all() and np.isfinite(window_actions).all():
+                starts.append(start)
+                controls.append(episode.actions[first : first + steps])
+                measured.append(target)
+                before.append(episode.actions[first - history : first])
+            first += steps
     if not starts:
         longest = max((len(e.qpos) for e in episodes), default=0)
         raise ConfigError(
-            f"--window of {steps} steps (after {history} steps of action history) is longer than every logged "
-            f"episode (the longest has {longest})"
+            f"no window of {steps} steps (after {history} steps of action history) with a logged start state and "
+            f"something to compare fits the logs (the longest episode has {longest} steps)"
         )
     nu = episodes[0].actions.shape[1]
     return Windows(
-        np.array(starts), np.array(controls), np.array(measured), np.array(before).reshape(len(starts), history, nu)
+        np.array(starts),
+        np.array(controls),
+        np.array(measured),
+        np.array(before).reshape(len(starts), history, nu),
+        compare,
+        None if compare == "states" else np.asarray(layout.columns) if layout is not None else None,
+        from_estimate,
     )
+
+
+def taken_samples(episode: Episode, layout: MeasuredLayout, timestep: float) -> np.ndarray:
+    """(S + 1, m) the episode's measured sensor values by the step they were taken at: row n holds the values
+    taken after n steps (row 0 at the start), NaN where none was. A value read after step i with age a was taken
+    round(a / timestep) steps earlier; a value held over several readings lands on the same row each time.
+    ConfigError where the log's measured sensors are not `layout`'s."""
+    assert episode.measured is not None
+    if episode.measured_sensors and tuple(episode.measured_sensors) != tuple(layout.names):
+        raise ConfigError(
+            f"{episode.name}: measured sensors {list(episode.measured_sensors)}, but the task measures "
+            f"{list(layout.names)}"
+        )
+    if episode.measured.shape[1] != layout.size:
+        raise ConfigError(
+            f"{episode.name}: {episode.measured.shape[1]} measured values a step, the task's measured sensors "
+            f"have {layout.size}"
+        )
+    rows = len(episode.measured)
+    samples = np.full((rows + 1, layout.size), np.nan)
+    age = np.zeros((rows, len(layout.names))) if episode.measured_age is None else episode.measured_age
+    for sensor, columns in enumerate(layout.slices):
+        ages = np.nan_to_num(age[:, sensor], nan=np.inf)
+        taken = np.arange(1, rows + 1) - np.round(ages / timestep)
+        valid = np.isfinite(taken) & (taken >= 0) & np.isfinite(episode.measured[:, columns]).all(axis=1)
+        samples[taken[valid].astype(int), columns] = episode.measured[valid, columns]
+    return samples
 
 
 def delayed_controls(windows: Windows, delay: float, timestep: float) -> np.ndarray:
@@ -151,8 +300,9 @@ def delayed_controls(windows: Windows, delay: float, timestep: float) -> np.ndar
 
 def prediction_error(model: mujoco.MjModel, windows: Windows, delay: float = 0.0) -> float:
     """RMS over windows and steps of the difference between `model`'s K-step predictions (under the logged actions
-    `delay` seconds late) and the logged states, each state coordinate divided by its spread in the log (so angles,
-    positions and velocities weigh alike)."""
+    `delay` seconds late) and what the windows compare (the logged states, or the measured sensors where a value
+    was taken), each coordinate divided by its spread in the log (so angles, positions and velocities weigh
+    alike)."""
     from mujoco import rollout
 
     state_size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
@@ -162,14 +312,18 @@ def prediction_error(model: mujoco.MjModel, windows: Windows, delay: float = 0.0
         data.qpos[:], data.qvel[:] = start[: model.nq], start[model.nq :]
         mujoco.mj_getState(model, data, initial[row], mujoco.mjtState.mjSTATE_FULLPHYSICS)
     controls = delayed_controls(windows, delay, float(model.opt.timestep))
-    states, _ = rollout.rollout(model, data, initial, controls)
-    qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)  # rows are [time, qpos, qvel, ...]
-    predicted = states[..., qpos_at : qpos_at + model.nq + model.nv]
+    states, sensordata = rollout.rollout(model, data, initial, controls)
+    if windows.columns is not None:  # sensordata row j: the sensors of the state after j steps
+        predicted = sensordata[..., windows.columns]
+    else:
+        qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)  # rows are [time, qpos, qvel, ...]
+        predicted = states[..., qpos_at : qpos_at + model.nq + model.nv]
     error = (predicted - windows.measured) / spread(windows)
-    return float(np.sqrt(np.mean(np.square(error))))
+    return float(np.sqrt(np.nanmean(np.square(error))))
 
 
 def spread(windows: Windows) -> np.ndarray:
-    """(nq + nv,) each state coordinate's standard deviation over the logged windows (1 where it never moves)."""
-    spread = windows.measured.reshape(-1, windows.measured.shape[-1]).std(axis=0)
+    """(D,) the standard deviation of each compared coordinate over the logged windows (1 where it never moves)."""
+    flat = windows.measured.reshape(-1, windows.measured.shape[-1])
+    spread = np.array([np.std(column[np.isfinite(column)]) if np.isfinite(column).any() else 0.0 for column in flat.T])
     return np.where(spread > 1e-9, spread, 1.0)

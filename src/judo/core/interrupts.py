@@ -10,18 +10,20 @@ from contextlib import contextmanager
 
 
 @contextmanager
-def sigint_as_flag() -> Iterator[list[int]]:
-    """Within the block a SIGINT is appended to the yielded list instead of raising; the previous handler is
-    restored at the end. Outside the main thread the list stays empty and signals are left alone."""
+def sigint_as_flag(signals: tuple[int, ...] = (signal.SIGINT,)) -> Iterator[list[int]]:
+    """Within the block each of `signals` (SIGINT; add SIGTERM for a stop request) is appended to the yielded list
+    instead of raising; the previous handlers are restored at the end. Outside the main thread the list stays
+    empty and signals are left alone."""
     caught: list[int] = []
     if threading.current_thread() is not threading.main_thread():
         yield caught
         return
-    previous = signal.signal(signal.SIGINT, lambda signum, frame: caught.append(signum))
+    previous = {signum: signal.signal(signum, lambda signum, frame: caught.append(signum)) for signum in signals}
     try:
         yield caught
     finally:
-        signal.signal(signal.SIGINT, previous)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
 
 
 @contextmanager

@@ -304,6 +304,12 @@ class ClosedLoop:
         now = getattr(self.system, "time", None)
         return float(now) if isinstance(now, int | float) else raw.time
 
+    def measured_age(self, raw: SystemState) -> np.ndarray:
+        """(k,) seconds between taking each measured sensor's value in `raw` (its metadata's "sensor_times", else
+        its time) and the plant's now."""
+        stamps = np.asarray(raw.metadata.get("sensor_times", raw.time), dtype=float)
+        return self.plant_time(raw) - np.broadcast_to(stamps, (len(self.controller.task.measured_sensors),))
+
     def _estimate(self, raw: SystemState) -> SystemState:
         """The estimator's state from `raw`, as of the plant's now (started from the first reading)."""
         assert self.estimator is not None
@@ -467,6 +473,7 @@ class ClosedLoop:
             reading.metadata,
             measured=None if raw is None else raw.sensors,
             estimate=None if self.estimator is None else reading.state,
+            measured_age=None if raw is None or raw.sensors is None else self.measured_age(raw),
         )
         if "read_state" not in failed:
             for recorder in self.recorders:

@@ -26,6 +26,8 @@ class StepRecord:
         metadata: the reading's metadata, e.g. "mocap_pos" (nmocap, 3).
         measured: the measured sensors of the reading (task.measured.size,), where the System gives them.
         estimate: (nq + nv,) the estimator's state after the step, where an estimator runs.
+        measured_age: (k,) seconds between taking each measured sensor's value in `measured` and the plant's time
+            after the step (its reading's "sensor_times", else its time), where the System gives measured sensors.
     """
 
     time: float
@@ -35,6 +37,7 @@ class StepRecord:
     metadata: dict[str, Any] = field(default_factory=dict)
     measured: np.ndarray | None = None
     estimate: np.ndarray | None = None
+    measured_age: np.ndarray | None = None
 
 
 @dataclass

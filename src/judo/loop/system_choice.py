@@ -2,6 +2,7 @@
 
     python -m judo --task cartpole --system ros2 --headless          # the ROS 2 bridge (judo.ros2.bridge)
     python -m judo --task cartpole --system my_robot:MyRobot         # a user's System subclass
+    python -m judo --task cartpole --system sim                      # judo's simulator (the default)
 
 A class is found by its "module:Class" path, loaded by name, and built with `Class.from_options(task, options)`
 where it has that classmethod (the bridge does), else `Class(task)`: the task instance is the System's own.
@@ -19,6 +20,8 @@ from judo.loop.system import System
 
 BUILT_IN_SYSTEMS = {"ros2": "judo.ros2.bridge:Ros2System"}
 """--system names judo knows -> the "module:Class" they load (by name, so the app never imports an extra)."""
+SIM = "sim"
+"""--system's name for judo's own simulator, the default."""
 
 
 @dataclass
@@ -52,7 +55,7 @@ class SystemOptions:
     """The plant: `system` None is judo's simulator; "ros2" the ROS 2 bridge; "module:Class" a user's System."""
 
     system: str | None = None
-    """None (judo's simulator), ros2 (the ROS 2 bridge on DDS, needs pip install -e ".[ros2]"), or module:Class."""
+    """None or sim (judo's simulator), ros2 (the ROS 2 bridge on DDS, needs pip install -e ".[ros2]"), or module:Class."""
     record: Path | None = None
     """With --system ros2: log what the robot sent and what judo commanded to this MCAP file (ROS 2 schemas)."""
     ros2: Ros2Options = field(default_factory=Ros2Options)
@@ -90,7 +93,7 @@ def system_class(name: str) -> type[System]:
     path = BUILT_IN_SYSTEMS.get(name, name)
     module_name, sep, class_name = path.partition(":")
     if not sep or not module_name or not class_name:
-        valid = ", ".join(sorted(BUILT_IN_SYSTEMS))
+        valid = ", ".join(sorted([SIM, *BUILT_IN_SYSTEMS]))
         raise ConfigError(f"--system expects {valid} or module:Class (a System subclass), got {name!r}")
     try:
         module = importlib.import_module(module_name)
@@ -107,8 +110,8 @@ def system_class(name: str) -> type[System]:
 
 def build_system(options: SystemOptions, task_name: str, task_config: TaskConfig | None = None) -> System | None:
     """The plant `options` name for `task_name` (a new task instance, with `task_config` when given), or None
-    for judo's own simulator."""
-    if options.system is None:
+    for judo's own simulator (`system` None or "sim")."""
+    if options.system is None or options.system == SIM:
         if options.record is not None:
             raise ConfigError(f"--record {options.record} logs a robot's link: give it with --system ros2")
         return None

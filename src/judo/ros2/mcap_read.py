@@ -45,6 +45,8 @@ DEFAULT_TOPICS = {
     "mocap": "/judo/mocap",
 }
 """The bridge's default topics, for a log without the "judo" record."""
+MAX_GAP_STEPS = 100
+"""The most model steps between two joint states of one run compared every k steps (`BridgeLog.grid_runs`)."""
 OFFSET_WINDOW_S = 1.0
 """Wall seconds of joint states before a command whose least delayed one places it on the robot's clock."""
 
@@ -83,9 +85,10 @@ class BridgeLog:
     timestep: float
     topics: dict[str, str]
 
-    def step_runs(self, step: float) -> list[slice]:
+    def step_runs(self, step: float, needed: bool = True) -> list[slice]:
         """`segments(step)`, or BridgeLogError (one line naming the file) for a log that cannot be compared with a
-        rollout of `step` seconds a step: without commands, without velocities, or no two rows `step` apart."""
+        rollout of `step` seconds a step: without commands, without velocities, or (where `needed`) no two rows
+        `step` apart."""
         if not len(self.commands):
             raise BridgeLogError(
                 f"{self.path}: no {COMMANDS} on {self.topics['commands']}; sysid needs the commands the robot applied"
@@ -93,7 +96,7 @@ class BridgeLog:
         if np.isnan(self.qvel).all():
             raise BridgeLogError(f"{self.path}: its joint states carry no velocities; sysid fits qpos and qvel")
         runs = list(self.segments(step))
-        if not runs:
+        if not runs and needed:
             spacing = float(np.median(np.diff(self.times))) if len(self.times) > 1 else math.nan
             raise BridgeLogError(
                 f"{self.path}: no two joint states one model step ({step:g} s) apart with a command in force (they "
@@ -101,6 +104,45 @@ class BridgeLog:
                 f"{1 / step:g})"
             )
         return runs
+
+    def grid_runs(self, step: float) -> list[tuple[slice, np.ndarray]]:
+        """The runs of at least two rows, each row a whole number of steps (1 to MAX_GAP_STEPS, within 1e-3 of a
+        step) of `step` seconds after the one before, with a command in force and a velocity: (rows, (R,) each
+        row's step count from the run's first row). A robot that publishes every k model steps (a 50 Hz driver
+        under a 0.01 s model: k = 2) gives runs with offsets 0, k, 2k, ...; a row the bridge missed is a gap of
+        more steps, not the run's end. BridgeLogError (one line naming the file) as `step_runs`, where no two rows
+        are a whole number of steps apart."""
+        self.step_runs(step, needed=False)
+        gaps = np.diff(self.times) / step
+        whole = np.round(gaps)
+        usable = np.zeros(len(self.times), bool)
+        usable[1:] = (np.abs(gaps - whole) < 1e-3) & (whole >= 1) & (whole <= MAX_GAP_STEPS)
+        usable[1:] &= np.isfinite(self.actions[1:]).all(axis=1)
+        usable &= np.isfinite(self.qvel).all(axis=1)
+        runs, start = [], 0
+        for row in range(1, len(self.times) + 1):
+            if row == len(self.times) or not usable[row]:
+                if row - start >= 2:
+                    offsets = np.concatenate([[0], np.cumsum(whole[start : row - 1])]).astype(int)
+                    runs.append((slice(start, row), offsets))
+                start = row
+        if not runs:
+            spacing = float(np.median(np.diff(self.times))) if len(self.times) > 1 else math.nan
+            raise BridgeLogError(
+                f"{self.path}: no two joint states a whole number of model steps ({step:g} s, at most "
+                f"{MAX_GAP_STEPS}) apart with a command in force (they are {spacing:.3g} s apart); the robot must "
+                "publish on the model's step grid (python -m judo plant --rate-hz 100)"
+            )
+        return runs
+
+    def actions_at(self, times: np.ndarray) -> np.ndarray:
+        """(T, nu) the command in force at each of `times` (the latest at or before it, as `actions` holds for each
+        row); NaN before the first command."""
+        actions = np.full((len(times), self.commands.shape[1] if self.commands.ndim == 2 else 0), np.nan)
+        if len(self.commands):
+            in_force = np.searchsorted(self.command_times, np.asarray(times) + 1e-9, side="right") - 1
+            actions[in_force >= 0] = self.commands[in_force[in_force >= 0]]
+        return actions
 
     def segments(self, step: float | None = None) -> Iterator[slice]:
         """The runs of at least two rows, each row `step` seconds (default: one plant step) after the one before,

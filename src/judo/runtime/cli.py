@@ -93,7 +93,7 @@ class RunOptions:
     """Policy whose candidates replace --controller.policy-samples of the optimizer's num_rollouts each update (the
     policy as a proposal, docs/policies.md; the GUI's policy_samples slider sets how many)."""
     system: str | None = None
-    """The plant: judo's simulator by default; ros2, a robot on a ROS 2 graph over DDS (needs pip install -e
+    """The plant: judo's simulator by default (sim); ros2, a robot on a ROS 2 graph over DDS (needs pip install -e
     ".[ros2]"; docs/hardware.md); or module:Class, a user's System subclass built with Class(task)."""
     record: Annotated[Path | None, tyro.conf.arg(metavar="FILE.mcap", help_behavior_hint="(optional)")] = None
     """With --system ros2: log what the robot sent and what judo commanded to this MCAP file, with ROS 2 schemas."""
