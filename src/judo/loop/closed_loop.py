@@ -24,23 +24,19 @@ keeps the plan in force before it (or the task's warm start before the first pla
 plan is served from the first step after it is done, which in real time is its real latency. The
 controller's `latency_compensation` plans from the reading predicted to then (`judo.loop.latency`).
 
-The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (`judo.runtime.runners.PlantRunner`).
+The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (`PlantRunner`).
 
-**The control clock** (`ControlClock`): when the next control update is due, in one time base. One clock serves both schedulers: `ClosedLoop.step` ticks it in sim time (evaluate, tune, collect), and the
-app's planner runner (`judo.runtime.runners`) in wall time.
+**The control clock** (`ControlClock`): when the next control update is due, ticked in sim time by
+`ClosedLoop.step` (evaluate, tune, collect) and in wall time by the app's planner runner. It ticks every
+1 / control_freq s, read when asked (an edit takes effect at once); an update whose plan takes effect after the
+next tick moves that tick to then, since a controller cannot start a plan before the current one is done.
 
-The clock ticks every 1 / control_freq s. An update that overran its tick (its plan takes effect later than the
-next tick: a delay longer than the period) moves the next tick to when its plan takes effect, since a controller
-cannot start a plan before the current one is done. The period is read when the clock is asked, so an edit of
-control_freq takes effect at once.
-
-**The watchdog** (`Watchdog`): how fresh the readings and the plan in force are. Ages are measured on the closed loop's clock: in `evaluate` and `tune` the plant time the loop has stepped,
-in the app the wall clock. A reading is fresh when its time advanced past the one before; a plan is as old
-as the freshest reading it was planned from. Once the plan in force is older than `max_plan_age` beyond one
-control period, the plant is served the task's `safe_action` until a fresh plan arrives. The plan may be
-old because planning stalled (a hung reward, a 4 s cycle), failed (a reward that raises, a NaN or
-wrong-shape reading), was cancelled, or last read a reading whose time did not advance (a frozen sensor
-stream). A reading whose time goes backwards is refused.
+**The watchdog** (`Watchdog`): how fresh the readings and the plan in force are, on the loop's clock (plant
+time in evaluate and tune, the wall clock in the app). A reading is fresh when its time advanced past the one
+before (one that goes backwards is refused); a plan is as old as the freshest reading it was planned from.
+Once the plan in force is older than `max_plan_age` beyond one control period, the plant is served the task's
+`safe_action` until a fresh plan arrives: planning stalled (a hung reward, a 4 s cycle), failed (a reward that
+raises, a bad reading), was cancelled, or read a reading whose time did not advance (a frozen sensor stream).
 """
 
 import dataclasses
