@@ -6,13 +6,14 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from judo.core.controller import Controller, ControllerConfig
-from judo.core.dynamics import DynamicsError, DynamicsRollout, DynamicsTask
+from judo.core.controller import Controller, ControllerConfig, NonFiniteRewardError
+from judo.core.dynamics import DivergedDynamicsError, DynamicsError, DynamicsRollout, DynamicsTask
 from judo.core.errors import ConfigError, ModelLoadError
 from judo.core.norms import wrap_angle
 from judo.core.registry import get_registered_optimizers
 from judo.core.task import TaskConfig
 from judo.evaluation.episode import run_episode
+from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import DynamicsSystem, MujocoSystem, SimulationDiverged
 from judo.optimizers import CEM, MPPI, CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
 
@@ -136,6 +137,21 @@ def test_a_nan_rollout_never_wins_and_all_nan_is_one_line():
         "NanAfterAWhile.dynamics gave NaN or infinite states in all 4 rollouts; expected finite states "
         "(check the step for divisions by zero or a too large dt)"
     )
+    assert isinstance(err.value, NonFiniteRewardError)  # a failed update, like every rollout scoring -inf
+
+
+def test_a_cycle_whose_rollouts_all_diverge_fails_and_the_loop_goes_on():
+    task = NanAfterAWhile()
+    config = ControllerConfig(horizon=0.2, max_num_traces=0)
+    controller = Controller(config, task, MPPI(MPPIConfig(num_rollouts=8, sigma=0.01), 1))
+    with controller:
+        controller.optimizer.sample_control_knots = lambda nominal: np.ones((8, *nominal.shape))  # all push hard
+        loop = ClosedLoop(controller, MujocoSystem.from_task(task, seed=0))
+        reading = loop.restart()
+        assert loop.plan(reading) is None  # the plan before (none yet: the warm start) stays in force
+        assert loop.failed_updates == 1 and isinstance(loop.last_failure, DivergedDynamicsError)
+        assert "in all 8 rollouts" in str(loop.last_failure)
+        assert np.isfinite(loop.serve(reading.time)).all()
 
 
 def test_the_plant_is_seeded_noisy_and_resets_on_nan():

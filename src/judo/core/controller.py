@@ -11,7 +11,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.backend import CancelFlag, PlanningCancelled, RolloutBackend
+from judo.core.backend import CancelFlag, NonFiniteRewardError, PlanningCancelled, RolloutBackend
 from judo.core.config import snapshot
 from judo.core.controller_config import (
     MAX_CONTROL_FREQ,
@@ -56,10 +56,6 @@ __all__ = [
     "check_configs",
     "rollout_steps",
 ]
-
-
-class NonFiniteRewardError(JudoError):
-    """Every rollout of a cycle scored NaN or -inf, so there is nothing to learn from; the plan is kept."""
 
 
 class NonFiniteKnotsError(JudoError):

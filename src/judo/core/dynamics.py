@@ -20,7 +20,7 @@ from typing import Any, ClassVar
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend, make_rollout_backend
+from judo.core.backend import NonFiniteRewardError, RolloutBackend, make_rollout_backend
 from judo.core.errors import ConfigError, JudoError, ModelLoadError
 from judo.core.model import STATE_SPEC
 from judo.core.sensors import measured_layout
@@ -29,6 +29,11 @@ from judo.core.task import ConfigT, Task
 
 class DynamicsError(JudoError):
     """A DynamicsTask's `dynamics` returned the wrong shape, or non-finite states in every rollout."""
+
+
+class DivergedDynamicsError(DynamicsError, NonFiniteRewardError):
+    """Every rollout of a cycle diverged (NaN or infinite states): like every rollout scoring -inf, a failed update
+    that keeps the plan before (the closed loop counts it), not the end of an episode."""
 
 
 def state_size(nx: int) -> int:
@@ -253,7 +258,7 @@ class DynamicsRollout(RolloutBackend):
         if task.num_traces:
             self._sensors[:] = task.trace_points(states[:, :, 1 : 1 + nx]).reshape(self._sensors.shape)
         if diverged.all():
-            raise DynamicsError(
+            raise DivergedDynamicsError(
                 f"{type(task).__name__}.dynamics gave NaN or infinite states in all {num_rollouts} rollouts; "
                 "expected finite states (check the step for divisions by zero or a too large dt)"
             )
