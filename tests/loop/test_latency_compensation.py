@@ -1,6 +1,8 @@
 """Latency compensation: the reading predicted on the planning model to when the plan takes effect, under the
 controls the plant gets meanwhile, is what the controller plans from (real MuJoCo physics, cartpole)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -28,6 +30,18 @@ def test_the_prediction_is_the_plant_stepped_under_the_same_controls():
         assert predicted.metadata is reading.metadata
         same = LatencyPredictor(controller.task).predict_reading(reading, 0.2 * plant.timestep, push)
         assert same is reading  # under half a step: nothing to predict
+
+
+def test_a_bad_reading_or_a_diverging_prediction_is_never_passed_off_as_a_prediction():
+    # MuJoCo resets the data on a NaN or huge state: a finite qpos0 must not come back as "the prediction".
+    controller = make_controller("cartpole", "ps", seed=0, num_workers=1)
+    with controller:
+        reading = MujocoSystem.from_task(controller.task, 0).read_state()
+        predictor = LatencyPredictor(controller.task)
+        nan = dataclasses.replace(reading, state=np.full_like(reading.state, np.nan))
+        assert predictor.predict_reading(nan, 0.05, lambda now: np.zeros(1)) is nan  # the planner refuses it
+        huge = dataclasses.replace(reading, state=np.full_like(reading.state, 1e300))
+        assert predictor.predict_reading(huge, 0.05, lambda now: np.zeros(1)) is huge
 
 
 def test_a_compensated_plan_starts_where_the_plant_will_be_when_it_takes_effect():

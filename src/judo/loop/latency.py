@@ -19,7 +19,7 @@ from judo.core.config import require
 from judo.core.dynamics import DynamicsTask
 from judo.core.model import set_mocap_poses
 from judo.core.task import Task
-from judo.loop.system import SystemState
+from judo.loop.system import DIVERGENCE_WARNINGS, SystemState
 
 Latency = float | Literal["measured"]
 """Planning latency: seconds of sim time (0 for none), or "measured" for each update's wall time."""
@@ -57,10 +57,14 @@ class LatencyPredictor:
     ) -> SystemState:
         """`reading` moved `delay` seconds ahead: its (nq + nv,) state stepped round(delay / timestep) steps with
         `control_at(time)` ((nu,), the control the plant gets at that plant time), its time advanced as far.
-        The reading as it is when the delay is under half a step or it has no full state."""
+        The reading as it is when the delay is under half a step, it has no full state or a non-finite one (the
+        planner refuses that itself), or the prediction diverged (MuJoCo resets the data on a bad state, which
+        would otherwise pass for a prediction)."""
         steps = round(delay / self.model.opt.timestep)
         nq, nv = self.model.nq, self.model.nv
         if steps <= 0 or reading.state is None or np.shape(reading.state) != (nq + nv,):
+            return reading
+        if not (np.isfinite(reading.state).all() and math.isfinite(reading.time)):
             return reading
         data = self.data
         mujoco.mj_resetData(self.model, data)
@@ -74,7 +78,8 @@ class LatencyPredictor:
                 data.qpos[:], data.qvel[:], data.time = state[:nq], state[nq:], data.time + self.model.opt.timestep
             else:
                 mujoco.mj_step(self.model, data)
-        if not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+        diverged = any(data.warning[warning].number for warning in DIVERGENCE_WARNINGS)
+        if diverged or not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
             return reading  # the prediction blew up: plan from what was read
         state = np.concatenate([data.qpos, data.qvel])
         return dataclasses.replace(reading, state=state, time=reading.time + steps * self.model.opt.timestep)
