@@ -86,9 +86,11 @@ def test_the_log_reads_back_as_the_plants_states_under_the_commands_sent(bridge_
     exact, steps = exact_fraction(0)
     off = max(exact_fraction(1)[0], exact_fraction(-1)[0])
     assert steps > 50
-    # On an idle machine about every step; a machine loaded to several times its cores delays some commands past
-    # the plant's step. Reading the actions a step off matches a few percent (under load, up to about a tenth).
-    assert exact >= 0.5 and exact >= 3 * off, (exact, off)
+    # On an idle machine about every step. On 2 busy cores some commands reach the plant after its step, which then
+    # ran under the command before: those steps re-simulate with the action read one row off (up to about 0.3 of
+    # them in a CI run). So the row's own command explains most steps and more than a shifted reading does (the
+    # reader's alignment), and the two together explain nearly every one (the states are the plant's own).
+    assert exact >= 0.5 and exact > off and exact + off >= 0.9, (exact, off)
 
 
 @pytest.mark.slow
