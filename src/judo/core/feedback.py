@@ -73,13 +73,14 @@ def tvlqr_gains(
     q, r = np.diag(state_weights), np.diag(control_weights)
     p = np.diag(final_weights).astype(float)
     gains = np.empty((num_steps, m, n))
+    ab = np.concatenate([a, b], axis=2)  # (L, n, n + m): [A_t B_t], so one product gives every block below
     with np.errstate(over="ignore", invalid="ignore"):
         for t in range(num_steps - 1, -1, -1):
-            at, bt = a[source[t]], b[source[t]]
-            pb = p @ bt
-            k = np.linalg.solve(r + bt.T @ pb, pb.T @ at)
+            abt = ab[source[t]]
+            h = abt.T @ (p @ abt)  # [[A'PA, A'PB], [B'PA, B'PB]]
+            k = np.linalg.solve(r + h[n:, n:], h[n:, :n])
             gains[t] = -k
-            p = q + at.T @ p @ (at - bt @ k)
+            p = q + h[:n, :n] - h[:n, n:] @ k  # Q + A'P(A - BK)
             p = 0.5 * (p + p.T)
     if not np.isfinite(gains).all():
         raise FeedbackError("the LQR backward pass gave non-finite gains")
