@@ -39,13 +39,18 @@ def bridge_log(tmp_path_factory):
     """(path, commands (C, 1) sent): the bridge, as the app builds it with --record, driving a cartpole plant process
     with a heavier pole by a multisine at its 100 Hz for 3 s."""
     path = tmp_path_factory.mktemp("mcap") / "run.mcap"
+    return path, log_multisine(path, round(SECONDS * 100))
+
+
+def log_multisine(path, steps: int, *plant_args: str) -> np.ndarray:
+    """Drive a cartpole plant process with the heavier pole (more `plant_args` for `python -m judo plant`) through
+    the bridge, recording to `path`, by `steps` commands of a multisine at the bridge's 100 Hz; returns them (C, 1)."""
     domain = free_domain()
-    proc = start_plant(domain, "--plant-overrides", f"body_mass.pole={TRUE_MASS}")
+    proc = start_plant(domain, "--plant-overrides", f"body_mass.pole={TRUE_MASS}", *plant_args)
     try:
         task = Cartpole()
         options = SystemOptions(system="ros2", record=path, ros2=Ros2Options(domain_id=domain))
         system = Ros2System.from_options(task, options)
-        steps = round(SECONDS * 100)
         commands = multisine(task.model.actuator_ctrlrange, np.arange(steps) * 0.01, 0.5, 2.0, seed=0)
         try:
             for command in commands:
@@ -56,7 +61,7 @@ def bridge_log(tmp_path_factory):
             system.close()
     finally:
         stop_process(proc)
-    return path, commands
+    return commands
 
 
 @pytest.mark.slow
@@ -122,22 +127,7 @@ def test_sysid_compares_a_robot_publishing_every_fourth_model_step_at_its_joint_
     bridge commanding at 100 Hz: the log's rows lie 4 steps apart (more where the bridge missed one); the fit rolls
     every step out under the commands in force and compares the steps that have a joint state."""
     path = tmp_path / "slow.mcap"
-    domain = free_domain()
-    proc = start_plant(domain, "--plant-overrides", f"body_mass.pole={TRUE_MASS}", "--rate-hz", "25")
-    try:
-        task = Cartpole()
-        options = SystemOptions(system="ros2", record=path, ros2=Ros2Options(domain_id=domain))
-        system = Ros2System.from_options(task, options)
-        commands = multisine(task.model.actuator_ctrlrange, np.arange(300) * 0.01, 0.5, 2.0, seed=0)
-        try:
-            for command in commands:
-                system.read_state()
-                system.apply(command)
-                system.step()
-        finally:
-            system.close()
-    finally:
-        stop_process(proc)
+    log_multisine(path, 300, "--rate-hz", "25")
     log = read_bridge_log(path)
     gaps = np.round(np.diff(log.times) / 0.01).astype(int)
     assert np.median(gaps) == 4 and not (gaps == 1).any()  # never one step apart: refused before
