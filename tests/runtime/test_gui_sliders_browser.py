@@ -69,6 +69,11 @@ def test_every_slider_dragged_to_its_end_and_back_leaves_the_app_serving(
         x, y, end = slider
         starts.append(x)
         drag(page, x, y, end + 40)  # past the right end: the thumb stops at the end
+        for _ in range(2):  # the panel may still be laying out (a longer line moves it): drag on from where it is
+            x, y, end = page.evaluate(SLIDER, len(starts) - 1)
+            if x >= end - 15:
+                break
+            drag(page, x, y, end + 40)
     assert len(starts) >= 15  # the controller's, the optimizer's and the task's sliders
     wait_until(lambda: settled(app), timeout=30, what="every edit to settle")
     page.screenshot(path=artifacts / "sliders_right.png")
