@@ -2,7 +2,7 @@
 sim time, here with the app's real planning latency (a plan is served once its cycle is done).
 
     PYTHONPATH=src python benchmarks/app_episode.py --task cartpole --control-freq 5 --seeds 11 12 13 \\
-        [--iterations-per-second 0] [--latency-compensation | --no-latency-compensation] [--seconds 15]
+        [--iterations-per-second 0] [--latency-compensation | --no-latency-compensation] [--feedback | --no-feedback] [--seconds 15]
 
 Each seed starts an App on the task's defaults with the given overrides, lets it run `--seconds` of wall time,
 samples the plant's state from the app's own snapshots (every 20 ms, each new reading once), rebuilds the sensors
@@ -74,6 +74,7 @@ def main() -> None:
     parser.add_argument(
         "--latency-compensation", action=argparse.BooleanOptionalAction, help="default: the task's own setting"
     )
+    parser.add_argument("--feedback", action=argparse.BooleanOptionalAction, help="default: the task's own setting")
     parser.add_argument("--seeds", type=int, nargs="+", default=[11, 12, 13])
     parser.add_argument("--seconds", type=float, default=15.0, help="wall seconds per episode")
     args = parser.parse_args()
@@ -81,12 +82,14 @@ def main() -> None:
         "control_freq": args.control_freq,
         "iterations_per_second": args.iterations_per_second,
         "latency_compensation": args.latency_compensation,
+        "feedback": args.feedback,
     }
     config = make_config(judo.ControllerConfig, args.task)
     config = dataclasses.replace(config, **{k: v for k, v in overrides.items() if v is not None})
     print(
         f"{args.task} with {args.optimizer} in the app: control_freq {config.control_freq:g} Hz, "
-        f"iterations_per_second {config.iterations_per_second:g}, latency_compensation {config.latency_compensation}"
+        f"iterations_per_second {config.iterations_per_second:g}, latency_compensation {config.latency_compensation}, "
+        f"feedback {config.feedback}"
     )
     for seed in args.seeds:
         print(episode(args.task, args.optimizer, config, seed, args.seconds), flush=True)

@@ -185,7 +185,7 @@ def test_latency_compensation_predicts_on_the_task_s_own_dynamics():
 
     task = UserPendulum()
     reading = SystemState(np.array([2.0, 0.5]), 1.0, {})
-    predicted = LatencyPredictor(task).predict_reading(reading, 0.1, lambda t: np.array([0.3]))
+    predicted = LatencyPredictor(task).predict_reading(reading, 0.1, lambda t, state: np.array([0.3]))
     x = np.array([[2.0, 0.5]])
     for _ in range(5):
         x = task.dynamics(x, np.array([[0.3]]), 0.02)

@@ -89,8 +89,9 @@ class ControllerConfig(Config):
     feedback: bool = False
     """Serve the plan with time-varying LQR gains around its nominal rollout, u = u_plan(t) + K(t) (x - x_nom(t)),
     clamped to the actuators' range: each update also linearises the planning model along the plan
-    (judo.core.feedback) and the task's feedback_cost weighs the deviations. A task with a low-level policy gets its
-    plans without gains (the status line says so)."""
+    (judo.core.feedback) and the task's feedback_cost weighs the deviations. The plan is made from the reading
+    predicted to when it takes effect, as with latency_compensation, so that its nominal starts where the plant
+    will be. A task with a low-level policy gets its plans without gains (the status line says so)."""
     policy_samples: int = 0
     """Candidates of each update that come from the controller's proposal policy instead of the optimizer
     (generative predictive control): the last policy_samples of the num_rollouts, scored and ranked with the

@@ -22,7 +22,9 @@ The latency model: a plan computed from the reading at time t is served from pla
 delay is a fixed number of seconds of sim time or "measured" (the update's wall time). Until then the plant
 keeps the plan in force before it (or the task's warm start before the first plan). The app uses delay 0: a
 plan is served from the first step after it is done, which in real time is its real latency. The
-controller's `latency_compensation` plans from the reading predicted to then (`judo.loop.latency`).
+controller's `latency_compensation` (and `feedback`) plans from the reading predicted to the first plant step
+at or after then (`judo.loop.latency`), and such a plan takes effect no earlier than that step, where its
+rollouts start.
 
 The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (`PlantRunner`).
 
@@ -39,6 +41,7 @@ Once the plan in force is older than `max_plan_age` beyond one control period, t
 raises, a bad reading), was cancelled, or read a reading whose time did not advance (a frozen sensor stream).
 """
 
+import collections
 import dataclasses
 import math
 import threading
@@ -52,7 +55,7 @@ from judo.core.errors import JudoError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.planner import Planner
 from judo.core.spline import Spline
-from judo.loop.latency import Latency, LatencyPredictor, check_latency, prediction_delay
+from judo.loop.latency import RECENT_CYCLES, Latency, LatencyPredictor, check_latency, prediction_delay
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError, SystemState
 
@@ -257,6 +260,8 @@ class ClosedLoop:
         self.cycle_started: float | None = None  # stepped_time when the planning cycle in flight began
         self.last_cycle_failed, self.newest_stamp = False, self.plan_stamp  # and the newest scheduled plan's stamp
         self.last_cycle_plant_time = 0.0  # plant time stepped (by another thread) while the last cycle ran
+        # plant time from each recent cycle's reading to the newest reading when the cycle ended (its plan's start)
+        self.cycle_plant_times: collections.deque[float] = collections.deque(maxlen=RECENT_CYCLES)
 
     def restart_estimator(self) -> None:
         """Start the estimator afresh from the next reading (after a reset of the plant)."""
@@ -329,7 +334,7 @@ class ClosedLoop:
         started = time.perf_counter()
         self.cycle_started, self.last_cycle_failed, stepped = self.stepped_time, True, self.stepped_time
         try:
-            start = self._predicted(reading) if self.controller.config.latency_compensation else reading
+            start = self._predicted(reading) if self.predicts() else reading
             plan = self.controller.update_action(start.state, start.time, start.metadata, cancel, deadline)
         except (NonFiniteRewardError, NonFiniteKnotsError) as err:
             plan = None
@@ -338,8 +343,12 @@ class ClosedLoop:
         finally:
             self.cycle_started = None
             self.last_cycle_plant_time = self.stepped_time - stepped
+            latest = self.reading  # the plant thread's newest: the plan is served from its time on
+            self.cycle_plant_times.append(0.0 if latest is None else max(0.0, latest.time - reading.time))
         wall = time.perf_counter() - started
         delay = wall if self.latency == "measured" else float(self.latency)
+        if plan is not None:  # a plan made for a predicted reading takes effect no earlier than that reading's time
+            delay = max(delay, start.time - reading.time)
         self.update_ms.append(1e3 * wall)
         self.latency_s.append(delay)
         self.last_delay = delay
@@ -355,15 +364,24 @@ class ClosedLoop:
                 recorder.on_plan(record)
         return plan
 
+    def predicts(self) -> bool:
+        """Whether a plan is made from the reading predicted to when it takes effect: with latency compensation,
+        and with feedback gains, whose nominal rollout must start where the plant will be when they act (from
+        the reading itself, the gains pull the plant toward a start it has already left)."""
+        config = self.controller.config
+        return config.latency_compensation or (config.feedback and self.controller.optimizer is not None)
+
     def _predicted(self, reading: SystemState) -> SystemState:
         """`reading` predicted to when the plan made from it takes effect, under the plans due meanwhile."""
-        delay = prediction_delay(self.latency, self.real_time, self.update_ms, self.last_cycle_plant_time)
+        delay = prediction_delay(self.latency, self.real_time, self.update_ms, self.cycle_plant_times)
+        step = self.system.timestep
+        delay = math.ceil(delay / step - 1e-6) * step  # a plan due between two plant steps takes effect at the later
 
-        def control_at(now: float) -> np.ndarray:
+        def control_at(now: float, state: np.ndarray) -> np.ndarray:  # what `serve` gives the plant in `state`
             with self._lock:
                 due = [plan for at, plan, _ in self._pending if at <= now + TIME_TOLERANCE]
                 plan = due[-1] if due else self._active
-            return self.controller.warm_start_action(reading.state) if plan is None else plan(now)
+            return self.controller.warm_start_action(reading.state) if plan is None else plan(now, state)
 
         return self._predictor.predict_reading(reading, delay, control_at)
 

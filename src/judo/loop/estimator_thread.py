@@ -167,7 +167,7 @@ class EstimatorThread(Estimator):
         assert estimate is not None  # fused on the calling thread after every reset
         base = estimate if version != self._bridged_version or self._bridge is None else self._bridge
         self._bridged_version, self.lag = version, max(0.0, time - estimate.time)
-        ahead = self._predictor.predict_reading(base, time - base.time, controls.at)
+        ahead = self._predictor.predict_reading(base, time - base.time, lambda now, _state: controls.at(now))
         self._bridge = ahead
         return estimate_of(reading, np.asarray(ahead.state), ahead.time)
 

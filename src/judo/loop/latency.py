@@ -9,7 +9,7 @@ under the controls it will actually be served meanwhile, and plans from there (`
 
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Literal
 
 import mujoco
@@ -31,13 +31,22 @@ def check_latency(latency: Latency) -> None:
         require(0 <= latency < math.inf, f"latency must be at least 0 s and finite, got {latency}")
 
 
-def prediction_delay(latency: Latency, real_time: bool, update_ms: list[float], cycle_plant_time: float) -> float:
-    """Seconds ahead that latency compensation predicts a reading: the last update's wall time for a robot (or
-    "measured"), the fixed latency, else the plant time the last cycle took (the app's simulator steps
-    while planning; evaluate's does not, so 0 there)."""
+RECENT_CYCLES = 5
+"""Cycles whose slowest sets how far ahead a wall-clock loop predicts: a plan that comes early waits for the
+time it was planned for, one that comes late starts from a state its rollouts never saw."""
+
+
+def prediction_delay(
+    latency: Latency, real_time: bool, update_ms: list[float], cycle_plant_times: Sequence[float]
+) -> float:
+    """Seconds ahead that latency compensation predicts a reading: the slowest of the last RECENT_CYCLES updates'
+    wall time for a robot (or "measured"), the fixed latency, else the most plant time one of the last
+    RECENT_CYCLES cycles took (the app's simulator steps while planning; evaluate's does not, so 0 there)."""
     if latency == "measured" or real_time:
-        return update_ms[-1] / 1e3 if update_ms else 0.0
-    return float(latency) if float(latency) > 0 else cycle_plant_time
+        return max(update_ms[-RECENT_CYCLES:]) / 1e3 if update_ms else 0.0
+    if float(latency) > 0:
+        return float(latency)
+    return max(list(cycle_plant_times)[-RECENT_CYCLES:], default=0.0)
 
 
 class LatencyPredictor:
@@ -53,10 +62,11 @@ class LatencyPredictor:
         self.data = mujoco.MjData(self.model)
 
     def predict_reading(
-        self, reading: SystemState, delay: float, control_at: Callable[[float], np.ndarray]
+        self, reading: SystemState, delay: float, control_at: Callable[[float, np.ndarray], np.ndarray]
     ) -> SystemState:
         """`reading` moved `delay` seconds ahead: its (nq + nv,) state stepped round(delay / timestep) steps with
-        `control_at(time)` ((nu,), the control the plant gets at that plant time), its time advanced as far.
+        `control_at(time, state)` ((nu,), the control the plant gets at that plant time in that (nq + nv,) state:
+        a plan with feedback gains serves by the state), its time advanced as far.
         The reading as it is when the delay is under half a step, it has no full state or a non-finite one (the
         planner refuses that itself), or the prediction diverged (MuJoCo resets the data on a bad state, which
         would otherwise pass for a prediction)."""
@@ -71,9 +81,9 @@ class LatencyPredictor:
         data.qpos[:], data.qvel[:], data.time = reading.state[:nq], reading.state[nq:], reading.time
         set_mocap_poses(self.model, data, reading.metadata)
         for _ in range(steps):
-            data.ctrl[:] = control_at(float(data.time))
+            state = np.concatenate([data.qpos, data.qvel])
+            data.ctrl[:] = control_at(float(data.time), state)
             if isinstance(self.task, DynamicsTask):
-                state = np.concatenate([data.qpos, data.qvel])
                 state[: self.task.nx] = self.task.step_checked(state[None, : self.task.nx], data.ctrl[None].copy())[0]
                 data.qpos[:], data.qvel[:], data.time = state[:nq], state[nq:], data.time + self.model.opt.timestep
             else:
