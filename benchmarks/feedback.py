@@ -2,7 +2,9 @@
 
 For each task, planning rate (20, 10, 5 Hz, and 10 Hz with 25 ms of latency) and plant, runs closed-loop
 episodes (the evaluate machinery: `run_episode` on the task's defaults, sim time, seeds from --first-seed)
-with each optimizer, without and with feedback, and prints each task's two headline metrics (mean over seeds).
+with each optimizer: on the task's defaults, with latency compensation (where the task has it off), and with
+feedback (whose plans start from the predicted reading too), and prints each task's two headline metrics (mean
+over seeds).
 
 Two plants:
 - "same": the plant is the planning model. Without latency the plant then follows the nominal rollout to
@@ -42,6 +44,13 @@ CONDITIONS = [(20.0, 0.0), (10.0, 0.0), (5.0, 0.0), (10.0, 25.0)]
 """(planning rate in Hz, latency in ms) of each column."""
 DEFAULT_SEEDS = {"cartpole": (3, 10.0), "walker": (2, 8.0), "quadruped": (2, 15.0)}
 """Seeds and seconds per episode of each task (others: 2 seeds of 10 s)."""
+VARIANTS = {
+    "": {"controller.feedback": False},
+    " + latency compensation": {"controller.feedback": False, "controller.latency_compensation": True},
+    " + feedback": {"controller.feedback": True},
+}
+"""Each optimizer's rows: the task's defaults, with latency compensation (left out where the task has it on),
+and with feedback gains (which plan from the predicted reading as latency compensation does)."""
 HEADLINE = {"quadruped": ["goals_per_minute", "falls"], "humanoid_standup": ["standing_fraction", "final_head_height"]}
 """The two metrics printed for a task; by default the first two of its `metrics`."""
 
@@ -59,13 +68,13 @@ def run_cell(
     optimizer: str,
     rate: float,
     latency_ms: float,
-    feedback: bool,
+    variant: str,
     mass_scale: float,
     seeds: Iterable[int],
     duration: float,
     iterations_per_second: float | None = None,
 ) -> Cell:
-    values = {"controller.control_freq": rate, "controller.feedback": feedback}
+    values = {"controller.control_freq": rate, **VARIANTS[variant]}
     if iterations_per_second is not None:  # else the config's own (20 by default)
         values["controller.iterations_per_second"] = iterations_per_second
     spec = EpisodeSpec(task, optimizer, duration, latency_ms / 1e3, values, num_workers=2)
@@ -82,6 +91,11 @@ def run_cell(
         rows.append(result.metrics)
         update_ms += result.update_ms.tolist()
     return Cell({k: float(np.mean([r[k] for r in rows])) for k in rows[0]}, update_ms)
+
+
+def default_compensation(task: str) -> bool:
+    """Whether the task's own controller config plans with latency compensation."""
+    return bool(configs_in_force(EpisodeSpec(task, "mppi", 1.0))["controller"].latency_compensation)
 
 
 def timings(task: str, optimizer: str, updates: int = 10) -> tuple[float, float, float, float]:
@@ -134,28 +148,30 @@ def main() -> None:
         num_seeds, duration = args.seeds or num_seeds, args.duration or duration
         seeds = range(args.first_seed, args.first_seed + num_seeds)
         print(f"\n{task}, {num_seeds} seeds x {duration:g} s (seeds {seeds.start}-{seeds.stop - 1})", flush=True)
-        times: dict[tuple[str, bool], list[float]] = {(o, f): [] for o in args.optimizers for f in (False, True)}
+        variants = [v for v in VARIANTS if v != " + latency compensation" or not default_compensation(task)]
+        times: dict[tuple[str, str], list[float]] = {(o, v): [] for o in args.optimizers for v in variants}
         names: list[str] = []
         for plant in [] if args.timing_only else args.plants:
             scale = args.mass_scale if plant == "heavier" else 1.0
-            lines: dict[tuple[str, bool], list[str]] = {key: [] for key in times}
-            for optimizer, feedback in times:
+            lines: dict[tuple[str, str], list[str]] = {key: [] for key in times}
+            for optimizer, variant in times:
                 for rate, latency in CONDITIONS:
                     cell = run_cell(
-                        task, optimizer, rate, latency, feedback, scale, seeds, duration, args.iterations_per_second
+                        task, optimizer, rate, latency, variant, scale, seeds, duration, args.iterations_per_second
                     )
                     headline = [k for k in HEADLINE.get(task, []) if k in cell.metrics]
                     names = names or headline or [k for k in cell.metrics if k != "mean_reward"][:2]
-                    lines[optimizer, feedback].append(" / ".join(f"{cell.metrics[k]:.2f}" for k in names))
-                    times[optimizer, feedback] += cell.update_ms
+                    lines[optimizer, variant].append(" / ".join(f"{cell.metrics[k]:.2f}" for k in names))
+                    times[optimizer, variant] += cell.update_ms
             label = f"plant {plant}" + (f" (mass x {scale:g})" if plant == "heavier" else "")
             print(f"| {label}: {' / '.join(names)} | {header} |")
             print("|---|" + "---|" * len(CONDITIONS))
-            for (optimizer, feedback), cells in lines.items():
-                print(f"| {optimizer}{' + feedback' if feedback else ''} | {' | '.join(cells)} |", flush=True)
-        base = np.median(times[args.optimizers[0], False]) if not args.timing_only else np.nan
+            for (optimizer, variant), cells in lines.items():
+                print(f"| {optimizer}{variant} | {' | '.join(cells)} |", flush=True)
+        base = np.median(times[args.optimizers[0], ""]) if not args.timing_only else np.nan
         for optimizer in args.optimizers:
-            plain, gains = np.median(times[optimizer, False] or [np.nan]), np.median(times[optimizer, True] or [np.nan])
+            plain = np.median(times[optimizer, ""] or [np.nan])
+            gains = np.median(times[optimizer, " + feedback"] or [np.nan])
             alone, with_gains, spline_us, feedback_us = timings(task, optimizer)
             print(
                 f"{optimizer} update in the episodes: median {plain:.2f} ms without gains (x {plain / base:.2f} of "

@@ -55,8 +55,10 @@ def test_gains_of_a_linear_system_match_the_discrete_riccati_solution() -> None:
     model = mujoco.MjModel.from_xml_string(SLIDER.format(damping=0))
     q, r = np.array([1.0, 0.1]), np.array([0.01])
     gains_of = FeedbackGains(None, num_workers=2, model=model)
-    try:
-        gains, nominal = gains_of.compute(initial_state(model, [0.0], [0.0]), np.zeros(0), np.zeros((2000, 1)), q, r)
+    try:  # every step linearised: the exact per-step recursion
+        start = initial_state(model, [0.0], [0.0])
+        gains, nominal = gains_of.compute(start, np.zeros(0), np.zeros((2000, 1)), q, r, max_points=2000)
+        held, _ = gains_of.compute(start, np.zeros(0), np.zeros((2000, 1)), q, r, 400, exact_steps=0)  # 5 steps each
     finally:
         gains_of.close()
     # Euler on a free mass: v' = v + h u / m, x' = x + h v'.
@@ -69,6 +71,15 @@ def test_gains_of_a_linear_system_match_the_discrete_riccati_solution() -> None:
     # The backward pass alone, on the exact matrices, converges to the same gain (20 s: long enough to converge).
     exact = tvlqr_gains(np.repeat(a[None], 2000, 0), np.repeat(b[None], 2000, 0), q, r, q)
     np.testing.assert_allclose(exact[0], expected, rtol=1e-9, atol=1e-9)
+    # A linearisation standing for 5 steps sets their one gain: the Riccati gain of the 5-step map with the
+    # correction held, x -> A^5 x + (I + A + ... + A^4) B u, at 5 times the running cost.
+    lifted_a = np.linalg.matrix_power(a, 5)
+    lifted_b = sum(np.linalg.matrix_power(a, j) for j in range(5)) @ b
+    expected_held = dare_gain(lifted_a, lifted_b, 5 * np.diag(q), 5 * np.diag(r))
+    assert held.shape == (2000, 1, 2)
+    np.testing.assert_array_equal(held[:5], np.repeat(held[:1], 5, axis=0))
+    np.testing.assert_allclose(held[0], expected_held, rtol=1e-6, atol=1e-6)
+    assert not np.allclose(expected_held, expected, rtol=1e-3)  # a different law from the per-step one
 
 
 def test_a_model_that_yields_nan_fails_with_a_named_error_and_nan_in_the_backward_pass_too() -> None:

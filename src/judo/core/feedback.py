@@ -38,12 +38,15 @@ FD_EPS = 1e-6
 """Finite-difference step of `mjd_transitionFD` (MuJoCo's own default); forward differences."""
 MAX_LINEARISATIONS = 20
 """Most steps of the nominal rollout that are linearised: every ceil(T / L)-th step, each linearisation
-standing for the steps up to the next (the backward pass still runs every step). A linearisation costs
+standing for the steps up to the next (`tvlqr_gains`). A linearisation costs
 2 nv + na + nu + 1 model steps; along all T steps they would cost about as much as the rollouts themselves."""
-MIN_LINEARISATIONS = 5
+MIN_LINEARISATIONS = 4
 """Fewest steps linearised, whatever the budget."""
-LINEARISATION_SHARE = 0.2
+LINEARISATION_SHARE = 0.15
 """The gains' budget: their linearisations may cost this share of the model steps of one update's rollouts."""
+SERVED_PERIODS = 2
+"""Control periods from a plan's start with exact per-step gains (a plan is served for about one; the watchdog
+keeps an older one at most max_plan_age); the gains beyond are held per linearisation (`tvlqr_gains`)."""
 MAX_GAIN = 1e6
 """Largest |K| entry accepted; larger gains mean a degenerate linearisation and the plan is served without."""
 
@@ -60,28 +63,54 @@ def tvlqr_gains(
     control_weights: np.ndarray,
     final_weights: np.ndarray,
     source: np.ndarray | None = None,
+    exact_steps: int | None = None,
 ) -> np.ndarray:
     """(T, m, n) feedback gains K_t of the finite-horizon time-varying LQR, du_t = K_t dx_t.
 
     Minimises sum_t (dx_t' Q dx_t + du_t' R du_t) + dx_T' Q_f dx_T subject to dx_{t+1} = A_t dx_t + B_t du_t,
     with Q, R and Q_f the diagonals `state_weights` (n,), `control_weights` (m,) and `final_weights` (n,);
-    `a` is (L, n, n), `b` is (L, n, m) and step t uses linearisation `source[t]` ((T,) ints; by default
-    t itself, T = L). Raises FeedbackError when a gain is not finite.
+    `a` is (L, n, n), `b` is (L, n, m) and step t uses linearisation `source[t]` ((T,) nondecreasing ints; by
+    default t itself, T = L).
+
+    The first `exact_steps` steps (all by default) get the exact per-step recursion. Beyond them, the steps of
+    one linearisation share one gain, designed for a correction held over them: the backward pass takes their
+    s-step map dx -> A^s dx + (I + A + ... + A^(s-1)) B du at s times the running cost, once per linearisation
+    instead of once per step. A plan is served only until the next one takes effect, so the held gains are
+    rarely served; they carry the cost-to-go back to the exact ones. Raises FeedbackError when a gain is not
+    finite or the recursion is singular.
     """
-    source = np.arange(len(a)) if source is None else source
+    source = np.arange(len(a)) if source is None else np.asarray(source)
     num_steps, n, m = len(source), b.shape[1], b.shape[2]
-    q, r = np.diag(state_weights), np.diag(control_weights)
-    p = np.diag(final_weights).astype(float)
-    gains = np.empty((num_steps, m, n))
-    ab = np.concatenate([a, b], axis=2)  # (L, n, n + m): [A_t B_t], so one product gives every block below
+    exact = num_steps if exact_steps is None else min(max(exact_steps, 0), num_steps)
+    # segments (linearisation, steps) from the end: one per linearisation in the tail, one per step before it
+    tail = source[exact:]
+    starts = np.flatnonzero(np.r_[True, tail[1:] != tail[:-1]]) if len(tail) else np.zeros(0, dtype=int)
+    counts = np.diff(np.r_[starts, len(tail)])
+    segments = [(int(tail[k]), int(c)) for k, c in zip(starts, counts, strict=True)]
+    segments = [(int(source[t]), 1) for t in range(exact)] + segments
     with np.errstate(over="ignore", invalid="ignore"):
-        for t in range(num_steps - 1, -1, -1):
-            abt = ab[source[t]]
-            h = abt.T @ (p @ abt)  # [[A'PA, A'PB], [B'PA, B'PB]]
-            k = np.linalg.solve(r + h[n:, n:], h[n:, :n])
-            gains[t] = -k
-            p = q + h[:n, :n] - h[:n, n:] @ k  # Q + A'P(A - BK)
-            p = 0.5 * (p + p.T)
+        longest = max((c for _, c in segments), default=1)
+        lifted = [np.concatenate([a, b], axis=2)]  # lifted[c - 1]: (L, n, n + m) [A^c, (I + ... + A^(c-1)) B]
+        power, total = a, b
+        for _ in range(1, longest):
+            total = total + power @ b
+            power = power @ a
+            lifted.append(np.concatenate([power, total], axis=2))
+        q, r = np.diag(state_weights), np.diag(control_weights)
+        p = np.diag(final_weights).astype(float)
+        gains = np.empty((num_steps, m, n))
+        end = num_steps
+        try:
+            for point, count in reversed(segments):
+                ab = lifted[count - 1][point]
+                h = ab.T @ (p @ ab)  # [[A'PA, A'PB], [B'PA, B'PB]]
+                k = np.linalg.solve(count * r + h[n:, n:], h[n:, :n])
+                gains[end - count : end] = -k
+                end -= count
+                p = count * q + h[:n, :n] - h[:n, n:] @ k  # sQ + A'P(A - BK)
+                p = 0.5 * (p + p.T)
+        except np.linalg.LinAlgError as err:
+            raise FeedbackError(f"the LQR backward pass is singular ({err})") from None
     if not np.isfinite(gains).all():
         raise FeedbackError("the LQR backward pass gave non-finite gains")
     return gains
@@ -162,10 +191,13 @@ class FeedbackGains:
 
     def num_points(self, num_steps: int, num_rollouts: int | None) -> int:
         """Steps to linearise along a T = `num_steps` rollout: MAX_LINEARISATIONS for `num_rollouts` None, else as
-        many as LINEARISATION_SHARE of `num_rollouts` x T model steps pay for (MIN_LINEARISATIONS at least)."""
+        many as LINEARISATION_SHARE of `num_rollouts` x T model steps pay for (MIN_LINEARISATIONS at least),
+        rounded down to a multiple of the workers, who share them."""
         if num_rollouts is None:
             return min(MAX_LINEARISATIONS, num_steps)
         affordable = int(LINEARISATION_SHARE * num_rollouts * num_steps / (self.ndx + self.model.nu + 1))
+        if affordable > self.num_workers:
+            affordable -= affordable % self.num_workers
         return min(max(affordable, MIN_LINEARISATIONS), MAX_LINEARISATIONS, num_steps)
 
     def _allocate(self, num_steps: int, max_points: int) -> None:
@@ -255,6 +287,7 @@ class FeedbackGains:
         state_weights: np.ndarray,
         control_weights: np.ndarray,
         max_points: int = MAX_LINEARISATIONS,
+        exact_steps: int | None = None,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Gains and nominal states of the (T, nu) `controls` rolled out from the (nstate,) `initial_state`
         (STATE_SPEC) with the (7 nmocap,) `mocap` poses held.
@@ -262,6 +295,7 @@ class FeedbackGains:
         Args:
             state_weights: (2 nv,) Q on [dq, dv]; control_weights: (nu,) R.
             max_points: most steps linearised (see `linearise`).
+            exact_steps: steps from the start with exact per-step gains (all by default; `tvlqr_gains`).
         Returns:
             (T, nu, 2 nv) gains and the (T, nq + nv) nominal [qpos, qvel] at steps 0..T-1.
         Raises FeedbackError for non-finite states, derivatives or gains, or gains beyond MAX_GAIN.
@@ -269,7 +303,7 @@ class FeedbackGains:
         model, nq, nv = self.model, self.model.nq, self.model.nv
         path, a, b = self.linearise(initial_state, mocap, controls, max_points)
         weights = np.concatenate([state_weights, np.full(model.na, 1e-6)])
-        gains = tvlqr_gains(a, b, weights, control_weights, weights, self.source)[:, :, : 2 * nv]
+        gains = tvlqr_gains(a, b, weights, control_weights, weights, self.source, exact_steps)[:, :, : 2 * nv]
         largest = float(np.abs(gains).max()) if gains.size else 0.0
         if not largest <= MAX_GAIN:
             raise FeedbackError(f"gains of {largest:.3g} exceed {MAX_GAIN:g}: a degenerate linearisation")
@@ -277,12 +311,19 @@ class FeedbackGains:
         return gains, path[:, 1 : 1 + nq + nv].copy()
 
     def add_to(
-        self, plan: Spline, weights: np.ndarray, initial_state: np.ndarray, mocap: np.ndarray, num_rollouts: int
+        self,
+        plan: Spline,
+        weights: np.ndarray,
+        initial_state: np.ndarray,
+        mocap: np.ndarray,
+        num_rollouts: int,
+        served_seconds: float | None = None,
     ) -> FeedbackPlan:
         """`plan` with the TVLQR gains around its controls at the T steps (`weights` (T, num_nodes) @ its knots,
         clamped) rolled out from `initial_state` (STATE_SPEC) under the (7 nmocap,) `mocap` poses, weighed by
         `task.feedback_cost()`, linearised at as many steps as an update of `num_rollouts` rollouts pays for
-        (`num_points`); without gains, and saying why in `feedback_error`, when they failed."""
+        (`num_points`), with exact per-step gains over its first `served_seconds` (all of it by default) and
+        held ones beyond (`tvlqr_gains`); without gains, and saying why in `feedback_error`, when they failed."""
         task = self.task
         assert task is not None, "FeedbackGains.add_to needs the task"
         gains = nominal_states = error = None
@@ -296,7 +337,10 @@ class FeedbackGains:
             state_weights, control_weights = (np.asarray(w, dtype=float) for w in task.feedback_cost())
             finite_weights(state_weights, control_weights, self.model, task.nu)
             points = self.num_points(len(controls), num_rollouts)
-            gains, nominal_states = self.compute(initial_state, mocap, controls, state_weights, control_weights, points)
+            exact = None if served_seconds is None else math.ceil(served_seconds / self.model.opt.timestep)
+            gains, nominal_states = self.compute(
+                initial_state, mocap, controls, state_weights, control_weights, points, exact
+            )
         except FeedbackError as err:
             error = str(err)
         return FeedbackPlan(plan, self.model, gains, nominal_states, error)
