@@ -173,9 +173,14 @@ def main() -> None:
             plain = np.median(times[optimizer, ""] or [np.nan])
             gains = np.median(times[optimizer, " + feedback"] or [np.nan])
             alone, with_gains, spline_us, feedback_us = timings(task, optimizer)
+            in_episodes = (
+                ""
+                if args.timing_only
+                else f" in the episodes: median {plain:.2f} ms without gains (x {plain / base:.2f} of "
+                f"{args.optimizers[0]}'s), {gains:.2f} ms with;"
+            )
             print(
-                f"{optimizer} update in the episodes: median {plain:.2f} ms without gains (x {plain / base:.2f} of "
-                f"{args.optimizers[0]}'s), {gains:.2f} ms with; from one state, alternating: {alone:.2f} ms, "
+                f"{optimizer} update{in_episodes} from one state, alternating: {alone:.2f} ms, "
                 f"{with_gains:.2f} ms with gains (x {with_gains / alone:.2f}); serving one action: "
                 f"{spline_us:.1f} us plain, {feedback_us:.1f} us with gains",
                 flush=True,

@@ -94,6 +94,17 @@ def test_a_model_that_yields_nan_fails_with_a_named_error_and_nan_in_the_backwar
         tvlqr_gains(a, np.ones((3, 2, 1)), np.ones(2), np.ones(1), np.ones(2))
 
 
+def test_a_singular_backward_pass_is_a_feedback_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    # LAPACK calls a zero pivot singular (seen once on walker's held gains): the update's plan goes without gains.
+    def singular(*args: object) -> None:
+        raise np.linalg.LinAlgError("Singular matrix")
+
+    monkeypatch.setattr(np.linalg, "solve", singular)
+    a, b = np.repeat(np.eye(2)[None], 3, 0), np.ones((3, 2, 1))
+    with pytest.raises(FeedbackError, match="singular"):
+        tvlqr_gains(a, b, np.ones(2), np.ones(1), np.ones(2))
+
+
 def upright_loop(feedback_on_serve: bool) -> tuple[ClosedLoop, np.ndarray]:
     """A cartpole held upright by one plan (made from rest at upright, never replanned), its plant then pushed."""
     config = ControllerConfig(horizon=1.0, control_freq=0.2, feedback=True, max_plan_age=0.0)

@@ -65,9 +65,14 @@ def test_a_fixed_latency_changes_the_result_reproducibly(tmp_path):
 
 
 def test_measured_latency_is_recorded(tmp_path):
-    report = evaluate_json(tmp_path, "--latency", "measured")
+    report = evaluate_json(tmp_path, "--latency", "measured", "--controller.latency-compensation", "False")
     assert report["latency"] == "measured"
     assert report["episodes"][0]["latency_ms_median"] == pytest.approx(report["episodes"][0]["update_ms_median"])
+    # With compensation (cartpole's default) a plan takes effect at the plant step it was predicted to: no
+    # earlier than its update's wall time.
+    report = evaluate_json(tmp_path, "--latency", "measured")
+    episode = report["episodes"][0]
+    assert episode["latency_ms_median"] >= episode["update_ms_median"] - 1e-6
 
 
 def test_the_plot_is_written_as_html_without_extra_dependencies(tmp_path):

@@ -276,12 +276,13 @@ class Task(ABC, Generic[ConfigT]):
         """The tracking cost of the feedback gains (`ControllerConfig.feedback`): (2 nv,) weights on the deviation
         [dq, dv] from the nominal rollout (dq in the tangent space: a free joint's is 3 + 3) and (nu,) weights on
         the control correction. The default weighs every position by 1, every velocity by 0.1 and each control
-        by 0.01 / (half its range)^2 (an unbounded one: half range 1), so that a deviation of 0.1 rad costs as
-        much as a tenth of an actuator's half range; raise the control weights for softer gains."""
+        by 0.1 / (half its range)^2 (an unbounded one: half range 1), so that a deviation of 0.1 rad costs as
+        much as a correction of a third of an actuator's half range (ten times stiffer gains made the heavier
+        walker, humanoid and leap_cube worse at 5 Hz: docs/tasks.md); raise the control weights for softer gains."""
         low, high = self.actuator_ctrlrange.T
         half = 0.5 * (high - low)
         half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
-        return np.concatenate([np.ones(self.model.nv), np.full(self.model.nv, 0.1)]), 0.01 / half**2
+        return np.concatenate([np.ones(self.model.nv), np.full(self.model.nv, 0.1)]), 0.1 / half**2
 
     def safe_action(self, state: np.ndarray) -> np.ndarray:
         """The (command_size,) control that brings the plant to rest from the (nq + nv,) `state`: what the watchdog
