@@ -60,7 +60,7 @@ from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError, SystemState
 
 TIME_TOLERANCE = 1e-9
-"""Seconds within which two times count as the same (an update due at t is due at t)."""
+"""Seconds within which two times count as the same (an update due at t is due at t, and so are two readings)."""
 
 
 class ControlClock:
@@ -94,10 +94,6 @@ class ControlClock:
     def remaining(self, now: float, period: float) -> float:
         """Seconds from `now` until the next update is due (0 when it is due)."""
         return max(0.0, self.next_time(period) - now)
-
-
-TIME_TOLERANCE = 1e-9
-"""Seconds within which two reading times count as the same."""
 
 
 class ReadingTimeError(JudoError):
@@ -375,7 +371,8 @@ class ClosedLoop:
         """`reading` predicted to when the plan made from it takes effect, under the plans due meanwhile."""
         delay = prediction_delay(self.latency, self.real_time, self.update_ms, self.cycle_plant_times)
         step = self.system.timestep
-        delay = math.ceil(delay / step - 1e-6) * step  # a plan due between two plant steps takes effect at the later
+        if step > 0:  # a plan due between two plant steps takes effect at the later one
+            delay = math.ceil(delay / step - 1e-6) * step
 
         def control_at(now: float, state: np.ndarray) -> np.ndarray:  # what `serve` gives the plant in `state`
             with self._lock:
