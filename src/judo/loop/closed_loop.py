@@ -157,32 +157,6 @@ class Watchdog:
         return reason
 
 
-class PausableClock:
-    """Wall-clock seconds (monotonic) that stand still while paused: the app's watchdog clock, so a pause
-    does not age the plan in force."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._paused_at: float | None = None
-        self._paused_for = 0.0
-
-    def __call__(self) -> float:
-        with self._lock:
-            now = self._paused_at if self._paused_at is not None else time.monotonic()
-            return now - self._paused_for
-
-    def pause(self) -> None:
-        with self._lock:
-            if self._paused_at is None:
-                self._paused_at = time.monotonic()
-
-    def resume(self) -> None:
-        with self._lock:
-            if self._paused_at is not None:
-                self._paused_for += time.monotonic() - self._paused_at
-                self._paused_at = None
-
-
 __all__ = ["ClosedLoop", "Latency", "SystemCallError", "check_latency"]
 
 

@@ -21,6 +21,7 @@ Threads see it with `is_set` / `wait`; the event loop's coroutines sleep with `s
 import asyncio
 import math
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import Executor
 from dataclasses import dataclass, field, fields, replace
@@ -34,12 +35,37 @@ from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.registry import ConfigKind
 from judo.core.task import TaskConfig
-from judo.loop.closed_loop import PausableClock
 from judo.loop.records import LiveRecorder
 from judo.loop.sensing import Sensing
 from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_seconds, cycle_size
 from judo.runtime.session import ConfigSet, Session
 
+
+
+class PausableClock:
+    """Wall-clock seconds (monotonic) that stand still while paused: the app's watchdog clock, so a pause
+    does not age the plan in force."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._paused_at: float | None = None
+        self._paused_for = 0.0
+
+    def __call__(self) -> float:
+        with self._lock:
+            now = self._paused_at if self._paused_at is not None else time.monotonic()
+            return now - self._paused_for
+
+    def pause(self) -> None:
+        with self._lock:
+            if self._paused_at is None:
+                self._paused_at = time.monotonic()
+
+    def resume(self) -> None:
+        with self._lock:
+            if self._paused_at is not None:
+                self._paused_for += time.monotonic() - self._paused_at
+                self._paused_at = None
 
 class Stopping(Exception):
     """Raised inside the app's coroutines when a stop arrives while they wait for a worker thread."""
