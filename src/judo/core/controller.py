@@ -27,7 +27,7 @@ from judo.core.controller_config import (
 )
 from judo.core.dynamics import task_rollout_backend
 from judo.core.errors import ConfigError, JudoError
-from judo.core.feedback import SERVED_PERIODS, FeedbackGains
+from judo.core.feedback import FeedbackGains
 from judo.core.low_level import check_low_level_backend, with_low_level
 from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_columns
 from judo.core.optimizer import Optimizer, PlanningStart
@@ -325,8 +325,7 @@ class Controller:
         self._plan = Spline(time, self._basis, nominal, self._ctrl_low, self._ctrl_high)
         if cfg.feedback:  # with the gains around its nominal rollout (judo.core.feedback)
             start = (self._initial_state, self._initial_mocap, opt.num_rollouts * len(self.models))
-            served = SERVED_PERIODS / cfg.control_freq  # exact gains where they are served, held ones beyond
-            self._plan = self._gains.add_to(self._plan, self._rollout_weights, *start, served)
+            self._plan = self._gains.add_to(self._plan, self._rollout_weights, *start, 1.0 / cfg.control_freq)
         shown = np.argsort(-rewards, kind="stable")[: self.config.max_num_traces]
         rows = self._trace_rows[: len(shown) + 1]  # row 0 stays 0: the nominal
         rows[1:] = shown

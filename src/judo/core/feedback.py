@@ -317,13 +317,14 @@ class FeedbackGains:
         initial_state: np.ndarray,
         mocap: np.ndarray,
         num_rollouts: int,
-        served_seconds: float | None = None,
+        period: float | None = None,
     ) -> FeedbackPlan:
         """`plan` with the TVLQR gains around its controls at the T steps (`weights` (T, num_nodes) @ its knots,
         clamped) rolled out from `initial_state` (STATE_SPEC) under the (7 nmocap,) `mocap` poses, weighed by
         `task.feedback_cost()`, linearised at as many steps as an update of `num_rollouts` rollouts pays for
-        (`num_points`), with exact per-step gains over its first `served_seconds` (all of it by default) and
-        held ones beyond (`tvlqr_gains`); without gains, and saying why in `feedback_error`, when they failed."""
+        (`num_points`), with exact per-step gains over its first SERVED_PERIODS control `period`s (s; all of it by
+        default) and held ones beyond (`tvlqr_gains`); without gains, and saying why in `feedback_error`, when they
+        failed."""
         task = self.task
         assert task is not None, "FeedbackGains.add_to needs the task"
         gains = nominal_states = error = None
@@ -337,7 +338,7 @@ class FeedbackGains:
             state_weights, control_weights = (np.asarray(w, dtype=float) for w in task.feedback_cost())
             finite_weights(state_weights, control_weights, self.model, task.nu)
             points = self.num_points(len(controls), num_rollouts)
-            exact = None if served_seconds is None else math.ceil(served_seconds / self.model.opt.timestep)
+            exact = None if period is None else math.ceil(SERVED_PERIODS * period / self.model.opt.timestep)
             gains, nominal_states = self.compute(
                 initial_state, mocap, controls, state_weights, control_weights, points, exact
             )
