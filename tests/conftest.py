@@ -66,12 +66,14 @@ def restore_the_registry():
     tasks, optimizers = dict(registry._TASKS), dict(registry._OPTIMIZERS)
     overrides = {key: dict(value) for key, value in registry._OVERRIDES.items()}
     model_overrides = {key: dict(value) for key, value in registry._MODEL_OVERRIDES.items()}
+    fitted = {key: set(value) for key, value in registry._FITTED.items()}
     yield
     for table, saved in (
         (registry._TASKS, tasks),
         (registry._OPTIMIZERS, optimizers),
         (registry._OVERRIDES, overrides),
         (registry._MODEL_OVERRIDES, model_overrides),
+        (registry._FITTED, fitted),
     ):
         table.clear()
         table.update(saved)

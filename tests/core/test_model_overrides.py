@@ -156,3 +156,89 @@ def test_a_backend_shared_by_episodes_plans_on_the_config_files_fitted_model(tmp
     config.write_text("[model_overrides.cartpole]\nbody_mass.pole = 0.5\n")
     model = planning_model(EpisodeSpec("cartpole", "ps", 1.0, config_file=str(config)))
     assert model.body_mass[model.body("pole").id] == 0.5  # the file was read before the model was built
+
+
+@pytest.mark.parametrize(
+    "entry, message",
+    [
+        ("opt.timestep=0", "opt.timestep must be above 0 for MuJoCo to simulate it, got 0"),
+        ("opt.timestep=-0.01", "opt.timestep must be above 0 for MuJoCo to simulate it, got -0.01"),
+        ("body_mass.pole=-1", "body_mass.pole must be at least 0 for MuJoCo to simulate it, got -1"),
+        (
+            "body_mass.pole=0",
+            "body 'pole' moves, so MuJoCo's compiler requires its mass and inertia at least mjMINVAL = 1e-15; "
+            "got body_mass.pole = 0, body_inertia.pole = [0.00369089, 0.00369089, 9.94091e-05]",
+        ),
+        (
+            "body_mass.cart=1e300",
+            "body_mass.cart must be within ±1e+10 (mjMAXVAL: MuJoCo takes a magnitude beyond it as diverged), got 1e+300",
+        ),
+        (
+            "body_inertia.pole=[1, 1, 3]",
+            "body_inertia.pole must be principal inertias of which any two add up to at least the third (A + B >= C), "
+            "as MuJoCo's compiler requires, got [1, 1, 3]",
+        ),
+        (
+            "geom_size.cart=[0, 0.1, 0.1]",
+            "geom_size.cart must have size[0], size[1], size[2] above 0 for a box geom, as MuJoCo's compiler "
+            "requires, got [0, 0.1, 0.1]",
+        ),
+        (
+            "jnt_range.slider=[1, -1]",
+            "jnt_range.slider must have its lower end below its upper, as MuJoCo's compiler requires for a limited "
+            "joint, got [1, -1]",
+        ),
+        ("dof_damping.slider=-1", "dof_damping.slider must be at least 0 for MuJoCo to simulate it, got -1"),
+        (
+            "jnt_axis.hinge=[0, 0, 0]",  # no rule of judo's: MuJoCo's own mass matrix turns singular
+            "jnt_axis.hinge = [0, 0, 0]: MuJoCo cannot simulate the model this makes: Inertia matrix is too close to "
+            "singular, or the effective-metric solve failed to converge, at DOF 1 (in 10 steps from qpos0, where the "
+            "model without it runs clean)",
+        ),
+    ],
+)
+def test_a_model_mujoco_cannot_simulate_is_refused_in_one_line(entry, message, capfd):
+    model = make_task("cartpole").sim_model
+    with pytest.raises(judo.ConfigError) as caught:
+        check_model_overrides(model, parse_override_entries([entry]))
+    assert str(caught.value) == message
+    assert capfd.readouterr() == ("", "")  # MuJoCo's own warning lines are counted, never printed
+
+
+def test_a_config_files_absurd_mass_is_refused_and_overrides_are_checked_with_the_earlier_ones(tmp_path):
+    path = write(tmp_path, "[model_overrides.cartpole]\nbody_mass.pole = -1\n")
+    with pytest.raises(ConfigFileError) as caught:
+        load_config(path)
+    expected = f"{path}: [model_overrides.cartpole]: body_mass.pole must be at least 0 for MuJoCo to simulate it"
+    assert str(caught.value) == f"{expected}, got -1"
+    set_model_overrides("cartpole", {"jnt_axis": {"hinge": [0.0, 1.0, 0.0]}}, plant=True)
+    with pytest.raises(judo.ConfigError, match=r"^jnt_axis.hinge = \[0, 1, 0\], jnt_axis.slider = \[0, 0, 0\]: MuJoCo"):
+        set_model_overrides("cartpole", {"jnt_axis": {"slider": [0.0, 0.0, 0.0]}}, plant=True)
+    assert make_task("cartpole").sim_model.jnt_axis[0].tolist() == [1, 0, 0]  # the refused entry was never set
+
+
+@pytest.mark.slow
+def test_a_sensible_override_of_every_task_passes():
+    """No task's model warns in MuJoCo's steps: a heavier first moving body and more damping are simulable."""
+    for name in judo.get_registered_tasks():
+        model = make_task(name).sim_model
+        body = next(b for b in range(1, model.nbody) if model.body_jntnum[b] and model.body(b).name)
+        overrides = {"body_mass": {model.body(body).name: 1.1 * model.body_mass[body]}}
+        overrides["dof_damping"] = {model.joint(0).name: 0.1}
+        assert set(check_model_overrides(model, overrides)) == {"body_mass", "dof_damping"}, name
+
+
+@pytest.mark.parametrize(
+    "section, message",
+    [
+        ('fitted = ["body_mass.cart"]', "fitted names 'body_mass.cart', which [model_overrides.cartpole] does not set; "
+         "it sets: body_mass.pole"),
+        ("fitted = 1", 'fitted must be a list of "FIELD.ELEMENT" strings, got 1'),
+        ('fit = ["body_mass.pole"]', "must hold only fitted = [\"FIELD.ELEMENT\", ...], got {'fit': ['body_mass.pole']}"),
+    ],
+)  # fmt: skip
+def test_a_sysid_section_names_only_the_entries_its_file_sets(tmp_path, section, message):
+    path = write(tmp_path, f"[model_overrides.cartpole]\nbody_mass.pole = 0.13\n[sysid.cartpole]\n{section}\n")
+    with pytest.raises(ConfigFileError) as caught:
+        load_config(path)
+    assert str(caught.value).startswith(f"{path}: [sysid.cartpole]") and str(caught.value).endswith(message)

@@ -1,11 +1,12 @@
-"""The app with model and plant overrides: it plans on the fitted model, simulates the plant's own, says so on its
-status line, and Reset configs keeps both."""
+"""The app with model and plant overrides: it plans on the overridden model, simulates the plant's own, says so on
+its status line (a fitted model only where sysid fitted it), and Reset configs keeps both."""
 
 import textwrap
 
 import pytest
 
 from judo.core.config_file import load_config
+from judo.core.registry import set_model_overrides
 from judo.runtime.app import App
 from judo.runtime.cli import _peek
 
@@ -29,9 +30,39 @@ def test_the_app_plans_on_the_fitted_model_simulates_the_plant_and_says_so(tmp_p
         plant = app.session.simulated.task.sim_model
         assert planning.body_mass[2] == 0.13 and plant.body_mass[2] == 0.1
         assert plant.dof_damping[0] == 0.005 and planning.dof_damping[0] == 0.001
-        assert app._reports.running() == "running cartpole with ps, planning with a fitted model (body_mass.pole)"
+        expected = "running cartpole with ps, planning with a model with overrides (body_mass.pole)"  # by hand
+        assert app._reports.running() == expected
         app.reset_configs()
         assert app.controller.task.model.body_mass[2] == 0.13
+    finally:
+        app.stop()
+
+
+def test_the_app_says_fitted_only_for_the_entries_sysid_fitted(tmp_path):
+    path = tmp_path / "fitted.toml"
+    path.write_text(
+        textwrap.dedent(
+            """
+            [model_overrides.cartpole]
+            body_mass.pole = 0.13
+            dof_damping.slider = 0.05
+            [sysid.cartpole]
+            fitted = ["body_mass.pole", "dof_damping.slider"]
+            """
+        )
+    )
+    load_config(path)
+    app = App("cartpole", "ps", gui=False, seed=0, num_workers=1)
+    try:
+        expected = "running cartpole with ps, planning with a fitted model (body_mass.pole, dof_damping.slider)"
+        assert app._reports.running() == expected
+    finally:
+        app.stop()
+    set_model_overrides("cartpole", {"dof_damping": {"slider": 0.07}})  # by hand, over the fitted value
+    app = App("cartpole", "ps", gui=False, seed=0, num_workers=1)
+    try:
+        expected = "planning with a model with overrides (body_mass.pole fitted by sysid, dof_damping.slider)"
+        assert app._reports.running() == f"running cartpole with ps, {expected}"
     finally:
         app.stop()
 
@@ -55,7 +86,6 @@ def test_sysid_fits_the_plant_from_a_gui_recording(tmp_path, wait_until, capsys)
     pytest.importorskip("h5py")
     pytest.importorskip("scipy")
     from judo.collection.sysid_cli import main as sysid_main
-    from judo.core.registry import set_model_overrides
 
     set_model_overrides("cartpole", {"body_mass": {"pole": 0.13}}, plant=True)
     app = App("cartpole", "ps", gui=False, seed=0, num_workers=1)

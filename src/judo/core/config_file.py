@@ -31,6 +31,8 @@ body_mass.pole = 0.13
 geom_friction.cart = [0.9, 0.005, 0.0001]
 [plant_overrides.cartpole]                      # the simulated plant's only (a mismatched plant to rehearse on)
 dof_damping.slider = 0.5
+[sysid.cartpole]                                # written by sysid: the [model_overrides.cartpole] entries it fitted
+fitted = ["body_mass.pole"]
 """
 
 import importlib
@@ -74,6 +76,7 @@ TOP_LEVEL_KEYS = (
     "ros2",
     "model_overrides",
     "plant_overrides",
+    "sysid",
 )
 
 ALL_OPTIMIZERS = "all"
@@ -189,11 +192,15 @@ def load_config(path: str | Path) -> LoadedConfig:
                 raise fail(where, err) from None
             _apply(path, where, task_name, config_cls, overrides)
 
+    fitted = _fitted(table, path)
     for section in ("model_overrides", "plant_overrides"):
         for task_name, overrides in _table(table, section, path).items():
+            plant = section == "plant_overrides"
             try:
                 lookup_task(task_name)
-                set_model_overrides(task_name, overrides, plant=section == "plant_overrides")
+                set_model_overrides(
+                    task_name, overrides, plant=plant, fitted=() if plant else fitted.get(task_name, ())
+                )
             except JudoError as err:
                 raise fail(f"{section}.{task_name}", err) from None
 
@@ -261,6 +268,31 @@ def optimizer_config_class(name: str) -> type[OptimizerConfig]:
     if name not in get_registered_optimizers():
         raise UnknownNameError("optimizer", name, [*get_registered_optimizers(), ALL_OPTIMIZERS])
     return lookup_optimizer(name)[1]
+
+
+def _fitted(table: dict[str, Any], path: Path) -> dict[str, list[str]]:
+    """task -> the entries of its [model_overrides.TASK] that sysid fitted: [sysid.TASK] fitted = ["FIELD.ELEMENT",
+    ...], which sysid writes in its --out file; ConfigFileError for another form or an entry the file does not set."""
+    fitted = {}
+    for task_name, entry in _table(table, "sysid", path).items():
+        where = f"{path}: [sysid.{task_name}]"
+        if not isinstance(entry, dict) or set(entry) != {"fitted"}:
+            raise ConfigFileError(f'{where} must hold only fitted = ["FIELD.ELEMENT", ...], got {entry!r}')
+        names = entry["fitted"]
+        if not (isinstance(names, list) and all(isinstance(name, str) for name in names)):
+            raise ConfigFileError(f'{where}: fitted must be a list of "FIELD.ELEMENT" strings, got {names!r}')
+        sections = table.get("model_overrides")
+        overrides = sections.get(task_name) if isinstance(sections, dict) else None
+        overrides = overrides if isinstance(overrides, dict) else {}
+        entries = [f"{f}.{e}" for f, values in overrides.items() if isinstance(values, dict) for e in values]
+        for name in names:
+            if name not in entries:
+                raise ConfigFileError(
+                    f"{where}: fitted names {name!r}, which [model_overrides.{task_name}] does not set; "
+                    f"it sets: {', '.join(entries) or 'nothing'}"
+                )
+        fitted[task_name] = names
+    return fitted
 
 
 def _table(table: dict[str, Any], key: str, path: Path) -> dict[str, Any]:

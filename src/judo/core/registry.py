@@ -1,6 +1,6 @@
 """Name -> class registries for tasks, optimizers and estimators, per-task config overrides, and make_controller."""
 
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 from typing import Any, Literal, cast
 
 import numpy as np
@@ -41,6 +41,8 @@ _OVERRIDES: dict[tuple[Any, ...], dict[str, Any]] = {}
 """(task, config class) -> overrides for every optimizer; (task, config class, optimizer) -> that optimizer's."""
 _MODEL_OVERRIDES: dict[tuple[str, bool], ModelOverrides] = {}
 """(task, plant?) -> {field: {element: value}} for the planning model (False) or the simulated plant (True)."""
+_FITTED: dict[str, set[str]] = {}
+"""task -> the "FIELD.ELEMENT" entries of its planning-model overrides that sysid fitted (its file's [sysid.TASK])."""
 
 
 def _check_class(what: str, cls: Any, base: type) -> None:
@@ -116,18 +118,31 @@ def make_task(name: str) -> Task:
     return with_model_overrides(task_cls(), name)
 
 
-def set_model_overrides(task_name: str, overrides: ModelOverrides, *, plant: bool = False) -> None:
+def set_model_overrides(
+    task_name: str, overrides: ModelOverrides, *, plant: bool = False, fitted: Collection[str] = ()
+) -> None:
     """Set MjModel fields by element name whenever `task_name` is built: `overrides` is {field: {element: value}},
     e.g. {"body_mass": {"pole": 0.13}} (judo.core.model_overrides). They go to the planning model, or with `plant`
-    to the simulated plant only ([model_overrides.TASK] and [plant_overrides.TASK] in a config file). Later calls
-    merge into earlier ones. Names and shapes are checked now, against the task's model: UnknownNameError lists
-    the valid fields or elements, ConfigError names the shape expected."""
+    to the simulated plant only ([model_overrides.TASK] and [plant_overrides.TASK] in a config file); `fitted` names
+    the "FIELD.ELEMENT" entries sysid fitted (`fitted_overrides`). Later calls merge into earlier ones. Names, shapes
+    and values are checked now, with the earlier ones, against the task's model: UnknownNameError lists the valid
+    fields or elements, ConfigError names the shape expected or what MuJoCo cannot simulate."""
     task = new_task(lookup_task(task_name)[0])
     model = task.sim_model if plant else task.model
     merged = {field: dict(values) for field, values in _MODEL_OVERRIDES.get((task_name, plant), {}).items()}
-    for field, values in check_model_overrides(model, overrides).items():
+    for field, values in check_model_overrides(model, overrides, simulable=False).items():
         merged.setdefault(field, {}).update(values)
+    check_model_overrides(model, merged)  # what they make together, as every task built from now on has it
     _MODEL_OVERRIDES[(task_name, plant)] = merged
+    if not plant:
+        entries = {f"{field}.{element}" for field, values in overrides.items() for element in values}
+        _FITTED[task_name] = (_FITTED.get(task_name, set()) - entries) | (entries & set(fitted))
+
+
+def fitted_overrides(task_name: str) -> frozenset[str]:
+    """The "FIELD.ELEMENT" entries of `task_name`'s planning-model overrides that sysid fitted: those its --out file
+    lists under [sysid.TASK] fitted (a later override of the same entry by hand is not fitted)."""
+    return frozenset(_FITTED.get(task_name, ()))
 
 
 def model_overrides(task_name: str, *, plant: bool = False) -> ModelOverrides:

@@ -15,6 +15,7 @@ from typing import Literal
 
 import numpy as np
 
+from judo.core.registry import fitted_overrides
 from judo.runtime.app_state import AppState
 
 logger = logging.getLogger("judo.app")
@@ -254,14 +255,18 @@ class Reports:
         self.line.recovered(part, f"{news}: {self.running()}")
 
     def running(self) -> str:
-        """'running TASK with OPTIMIZER', and ', planning with a fitted model (body_mass.pole, ...)' where the
-        planning model has model overrides ([model_overrides.TASK], e.g. sysid's fitted.toml)."""
+        """'running TASK with OPTIMIZER', and where the planning model has model overrides ([model_overrides.TASK]),
+        ', planning with a fitted model (body_mass.pole, ...)' when sysid fitted them all (its fitted.toml says so in
+        [sysid.TASK]), else ', planning with a model with overrides (dof_damping.slider, ...)'."""
         session = self._state.session
         message = f"running {session.task_name} with {session.optimizer_name}"
-        fitted = session.controller.task.model_overrides
-        if fitted:
-            fields = ", ".join(f"{field}.{element}" for field, values in fitted.items() for element in values)
-            message += f", planning with a fitted model ({fields})"
+        entries = [f"{f}.{e}" for f, values in session.controller.task.model_overrides.items() for e in values]
+        fitted = fitted_overrides(session.task_name)
+        if entries and all(entry in fitted for entry in entries):
+            message += f", planning with a fitted model ({', '.join(entries)})"
+        elif entries:
+            shown = [f"{entry} fitted by sysid" if entry in fitted else entry for entry in entries]
+            message += f", planning with a model with overrides ({', '.join(shown)})"
         return message
 
     def on_watchdog(self, reason: str | None) -> None:
