@@ -7,6 +7,8 @@ What a robot integrator reads, below the app, the GUI and the commands (it impor
     closed_loop.py      ClosedLoop: read -> plan (latency model) -> serve (watchdog, feedback) -> apply, step;
                         the control clock (when the next plan is due, in sim time or wall time) and the
                         watchdog (how fresh the readings and the plan in force are)
+    plant_clock.py      PlantClock: when a System's next step() is due in wall time (the app's plant thread and
+                        excite pace by it)
     latency.py          the latency model, and the prediction that compensates for it
     records.py          PlanRecord and StepRecord, what the loop tells its recorders
     sensing.py          rehearsed sensing (SensedSystem), the estimator choice, the sensing flags

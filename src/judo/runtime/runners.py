@@ -11,8 +11,9 @@ Who runs what:
   rewards, traces and timing under "plan" in the StateBuffer (the GUI's view).
 - **The plant runner** (`PlantRunner`), the System driven from one thread of its own at real-time pace: the
   only caller of the closed loop's `advance` (serve, apply, step, read back), of the plant's resets and of
-  `halt`. Step k of a stretch is due at wall time origin + k * timestep; a loop that falls further behind than
-  MAX_CATCH_UP steps at once falls behind instead (the real-time factor shows it). judo's own simulator waits
+  `halt`. The plant clock (`judo.loop.plant_clock.PlantClock`, the one `excite` paces by) says which steps are
+  due: step k of a stretch at wall time origin + k * timestep; a loop that falls further behind than
+  MAX_CATCH_UP s at once falls behind instead (the real-time factor shows it). judo's own simulator waits
   for a slow planner (`sim_waits`), so on a slow machine the simulation slows down; a user's System (a robot)
   is never held back. Off the event loop, a driver that blocks freezes neither the GUI nor planning. The plant
   is halted on a pause and on the way out of a stop.
@@ -59,6 +60,7 @@ from judo.core.errors import JudoError
 from judo.core.feedback import FeedbackPlan
 from judo.core.workers import DaemonThreadPool
 from judo.loop.closed_loop import ClosedLoop, ControlClock
+from judo.loop.plant_clock import PlantClock
 from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedError, SystemState
 from judo.runtime.address import is_loopback
 from judo.runtime.app_state import AppState, PendingConfigs, Stopping
@@ -244,8 +246,6 @@ class PlannerRunner:
 
 logger = logging.getLogger("judo.app")
 
-MAX_CATCH_UP = 0.1
-"""Most seconds of sim time the plant loop steps at once to catch up; beyond that it falls behind."""
 IDLE_POLL = 0.01
 """Seconds the plant loop sleeps while paused."""
 WAIT_REPORT = 2.0
@@ -308,35 +308,29 @@ class PlantRunner:
     def _drive_plant(self) -> None:
         """The plant thread: step the plant at real-time pace until a stop; halt it on a pause and at the end."""
         generation = -1
-        origin, last_wall = 0.0, time.perf_counter()
-        steps_done = 0
-        paced = halted = False
+        last_wall = time.perf_counter()
+        clock, halted = PlantClock(), False
         session = self._state.session
         try:
             while not self._state.stop.is_set():
                 session = self._state.session
                 if session.generation != generation:
-                    generation, paced = session.generation, False
+                    generation = session.generation
+                    clock.restart()
                     self._read_and_publish(session)
                 if self._carry_out_plant_requests(session):
-                    paced = False
+                    clock.restart()
                 if self._state.paused:
                     if not halted:
                         halted = self._halt(session, "paused")
-                    paced = False
+                    clock.restart()
                     self._state.stop.wait(IDLE_POLL)
                     last_wall = time.perf_counter()  # paused time is not run time
                     continue
                 halted = False
                 now = time.perf_counter()
-                if not paced:  # a wait for the planner stays in the run's wall time: the real-time factor shows it
-                    origin, steps_done, paced = now, 0, True
                 dt = session.system.timestep
-                due = int((now - origin) / dt) + 1 - steps_done
-                max_steps = max(1, round(MAX_CATCH_UP / dt))
-                if due > max_steps:  # too far behind to catch up: fall behind instead (the RTF shows it)
-                    origin += (due - max_steps) * dt
-                    due = max_steps
+                due = clock.due(now, dt)  # a wait for the planner stays in the run's wall time: the RTF shows it
                 if self._duration is not None:  # never step past the requested duration
                     due = min(due, max(0, math.ceil((self._duration - self._stats.sim_time()) / dt - 1e-9)))
                 waits = not session.closed_loop.real_time  # judo's own simulator waits for a slow planner
@@ -346,9 +340,9 @@ class PlantRunner:
                         break
                     served += self._step(session)
                     stepped += 1
-                steps_done += stepped
+                clock.stepped(stepped)
                 if stepped < due:  # waiting for the planner: resume pacing from when it is done
-                    paced = False
+                    clock.restart()
                     self._note_wait(True)
                 elif stepped:
                     self._note_wait(False)
@@ -359,7 +353,7 @@ class PlantRunner:
                 if self._duration is not None and self._stats.sim_time() >= self._duration - 1e-9:
                     self._request_stop()
                     break
-                wait = IDLE_POLL / 10 if not paced else max(0.0, origin + steps_done * dt - time.perf_counter())
+                wait = clock.wait(time.perf_counter(), dt) if clock.running else IDLE_POLL / 10
                 self._state.stop.wait(wait)
             self._halt(session, "stopped")
         except SystemClosedError:  # the app stopped while a call was blocked: no further call
