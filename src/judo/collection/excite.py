@@ -7,7 +7,9 @@ python -m judo sysid excite.h5 --task cartpole --params body_mass.pole dof_dampi
 Each actuator gets a multisine: components at frequencies spread evenly up to --bandwidth Hz, with random phases
 (seeded), scaled so that the signal spans --amplitude of the actuator's control range about its centre and never
 leaves the range. The plant is judo's simulator with the task's plant overrides (--plant-overrides, --config), or
-the System --system names (as the app's --system: ros2 or module:Class). What the plant reports is logged: its
+the System --system names (as the app's --system: ros2 or module:Class), whose step() is called once per timestep
+of wall clock, paced by the app's plant clock (judo.loop.plant_clock); judo's simulator, which has no wall clock of
+its own, is stepped as fast as it goes, as collect steps it. What the plant reports is logged: its
 state where it gives one, its sensors, and, where its readings hold only measured sensors, those sensors, when
 each was taken, and the task's default estimator's state (what `sysid` starts each window from). At the end, or
 on Ctrl-C or SIGTERM, the plant is brought to rest (its halt(), else the task's safe action) and what was logged
@@ -46,6 +48,10 @@ DESCRIPTION = (
 )
 NUM_COMPONENTS = 8
 """Sines per actuator."""
+MAX_DURATION = 3600.0
+"""Most seconds of excitation (--duration): an hour; sysid fits a few minutes."""
+MAX_STEPS = 400_000
+"""Most steps of excitation (--duration / the plant's timestep): what the log holds in memory until it is written."""
 
 
 @dataclass
@@ -72,16 +78,20 @@ class ExciteArgs:
     bandwidth: float = 2.0
     """Highest frequency (Hz) in the excitation."""
     seed: int = 0
-    """Seeds the phases and the plant's start state."""
+    """Seeds the phases and the plant's start state (>= 0)."""
 
     def validate(self) -> None:
         """Raise a JudoError (one line) for an argument that is wrong, before anything is run or written."""
         require(self.out.suffix in (".h5", ".hdf5"), f"--out must name an .h5 file, got {str(self.out)!r}")
-        require(math.isfinite(self.duration) and self.duration > 0, f"--duration must be > 0, got {self.duration}")
+        require(
+            0 < self.duration <= MAX_DURATION,
+            f"--duration must be in (0, {MAX_DURATION:g}] s (at most an hour of excitation), got {self.duration}",
+        )
         require(0 < self.amplitude <= 1, f"--amplitude must be in (0, 1], got {self.amplitude}")
         require(
             math.isfinite(self.bandwidth) and self.bandwidth > 0, f"--bandwidth must be > 0 Hz, got {self.bandwidth}"
         )
+        require(self.seed >= 0, f"--seed must be >= 0, got {self.seed}")
         check_output_file("--out", self.out)
 
 
@@ -170,11 +180,11 @@ def run(args: ExciteArgs) -> int:
     system = build_system(SystemOptions(args.system), args.task) if own else None
     system = system if system is not None else MujocoSystem.from_task(task, args.seed)
     try:
-        steps = round(args.duration / system.timestep)
+        steps = excitation_steps(args, system)
         controls = multisine(
             model.actuator_ctrlrange, np.arange(steps) * system.timestep, args.amplitude, args.bandwidth, args.seed
         )
-        logged = drive(system, task, args.task, controls)
+        logged = drive(system, task, args.task, controls, paced=own)
     finally:
         close = getattr(system, "close", None)  # a robot link: its last command acknowledged, its log finished
         if callable(close):
@@ -203,6 +213,33 @@ def run(args: ExciteArgs) -> int:
         f"wrote {logged.steps} steps of excitation of {args.task} {where} ({observed}) to {args.out}; {logged.halted}"
     )
     return 0
+
+
+def excitation_steps(args: ExciteArgs, system: "System") -> int:
+    """The steps of `system` --duration spans; a JudoError (one line) for a timestep that is not seconds > 0, a
+    duration under one step or over MAX_STEPS, and a --bandwidth above the plant's Nyquist frequency."""
+    timestep, name = getattr(system, "timestep", None), type(system).__name__
+    require(
+        isinstance(timestep, int | float) and not isinstance(timestep, bool) and 0 < timestep < math.inf,
+        f"{name}.timestep must be the seconds one step() advances (a number > 0), got {timestep!r}",
+    )
+    assert isinstance(timestep, int | float)
+    steps = round(args.duration / timestep)
+    require(
+        steps >= 1, f"--duration {args.duration} s is less than one step of {name} ({timestep:g} s); give at least that"
+    )
+    require(
+        steps <= MAX_STEPS,
+        f"--duration {args.duration:g} s is {steps} steps of {timestep:g} s; excite logs at most {MAX_STEPS} steps "
+        f"({MAX_STEPS * timestep:g} s at this timestep)",
+    )
+    nyquist = 0.5 / timestep
+    require(
+        args.bandwidth <= nyquist,
+        f"--bandwidth must be at most the plant's Nyquist frequency, {nyquist:g} Hz (a step of {timestep:g} s), "
+        f"got {args.bandwidth:g}",
+    )
+    return steps
 
 
 @dataclass
@@ -256,14 +293,16 @@ class Measurements:
     names: tuple[str, ...]
 
 
-def drive(system: "System", task: "Task", task_name: str, controls: np.ndarray) -> Excited:
-    """Serve `controls` (S, nu), one per step of `system`, and log what it reports after each step: its state
+def drive(system: "System", task: "Task", task_name: str, controls: np.ndarray, paced: bool = False) -> Excited:
+    """Serve `controls` (S, nu), one per step of `system` (`paced`: step k when the app's plant clock says, at
+    wall time k * timestep from the first; else as fast as it goes), and log what it reports after each step: its state
     (`plant_state()`, else the reading's), its sensors (`plant_sensors()`), the measured sensors of its reading
     with their ages, and, where the reading holds no state, the state `task`'s default estimator makes of them
     (`choose_estimator`, as the app picks it). A stop request (Ctrl-C, SIGTERM) ends the run after the step under
     way; at the end, stopped or not, or on an error, the plant is brought to rest: its `halt()`, else the task's
     `safe_action` from the last state known."""
     from judo.core.estimator import ControlHistory
+    from judo.loop.plant_clock import PlantClock
     from judo.loop.sensing import Sensing, choose_estimator
     from judo.loop.system import check_reading
 
@@ -280,14 +319,16 @@ def drive(system: "System", task: "Task", task_name: str, controls: np.ndarray) 
     estimate = np.full((steps, width), np.nan)
     last_state = np.concatenate([model.qpos0, np.zeros(model.nv)])
     any_measured, done = False, 0
+    clock = PlantClock()
     with sigint_as_flag((signal.SIGINT, signal.SIGTERM)) as stop:
         try:
             for step, control in enumerate(controls):
-                if stop:
+                if stop or (paced and not clock.sleep_until_due(system.timestep, lambda: bool(stop))):
                     break
                 history.append(_now(system, reading), control)
                 system.apply(control)
                 system.step()
+                clock.stepped(1)
                 reading = check_reading(system, system.read_state())
                 now = _now(system, reading)
                 true = system.plant_state()
