@@ -137,3 +137,39 @@ def small_controller(**config) -> judo.Controller:
         seed=0,
         num_workers=1,
     )
+
+
+PUBLISHER = """
+import json, sys, time
+from cyclonedds.pub import DataWriter
+from judo.ros2 import link, messages as msg
+domain, names, states = int(sys.argv[1]), json.loads(sys.argv[2]), json.loads(sys.argv[3])
+part = link.participant(domain)
+writer = DataWriter(part, link.topic(part, "/joint_states", msg.JointState), link.SENSOR_QOS)
+print("publishing", flush=True)
+stamp = 1.0
+while True:
+    for position, velocity in states:
+        stamp += 0.01
+        writer.write(msg.JointState(msg.Header(msg.stamp_of(stamp)), names, position, velocity, []))
+        time.sleep(0.01)
+"""
+
+
+def start_publisher(domain: int, names: list[str], states: list[tuple[list[float], list[float]]]) -> subprocess.Popen:
+    """A process of its own that publishes JointStates of `names` on `domain`: each (positions, velocities) of
+    `states` in turn, over and over, every 10 ms, stamped 10 ms apart; started once it says it publishes."""
+    import json
+
+    proc = subprocess.Popen(
+        [sys.executable, "-c", PUBLISHER, str(domain), json.dumps(names), json.dumps(states)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env(),
+        cwd=ROOT,
+    )
+    assert proc.stdout is not None
+    line = proc.stdout.readline()
+    assert line.strip() == "publishing", line
+    return proc

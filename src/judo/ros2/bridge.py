@@ -14,11 +14,12 @@ free base, an Odometry) is the full state; one with positions only becomes the t
 (jointpos from the positions, gyro and accelerometer from the latest Imu) for its estimator.
 
 A message that cannot be a reading is refused, and the reason is logged (once, then every few seconds with a
-count): wrong lengths, a missing or unknown joint, a non-finite value, a stamp that jumps backwards or from the
-future. While nothing valid arrives the reading's time stands still, and the closed loop's watchdog serves the
-task's safe action once the plan is older than `max_plan_age`. A robot that restarts its clock is followed
-after a second of consistent stamps (`judo.ros2.clock`), with the reading's time carried on from where it was.
-"""
+count): wrong lengths, a missing or unknown joint, a non-finite value, a joint where the robot cannot be (beyond
+its range with a margin, or faster than the model can move it: `judo.ros2.joints.JointLayout`), a stamp that
+jumps backwards or from the future. While nothing valid arrives the reading's time stands still, and the closed
+loop's watchdog serves the task's safe action once the plan is older than `max_plan_age`. A robot that restarts
+its clock is followed after a second of consistent stamps (`judo.ros2.clock`), with the reading's time carried on
+from where it was. Another commander or a second robot on the topics is refused at start (`judo.ros2.peers`)."""
 
 import logging
 import math
@@ -30,21 +31,19 @@ import numpy as np
 
 from judo.core.errors import ConfigError, JudoError
 from judo.core.task import Task
+from judo.loop.mujoco_warnings import count_mujoco_warnings
 from judo.loop.system import System, SystemState
 from judo.loop.system_choice import Ros2Options, SystemOptions
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
 from judo.ros2.mcap_log import McapLog, log_metadata
+from judo.ros2.peers import Peers
 
 logger = logging.getLogger("judo.ros2")
 
 REPORT_EVERY = 5.0
 """Wall seconds between log lines of the same refusal."""
-DISCOVERY_S = 0.3
-"""Seconds the bridge gives discovery, after the robot's first reading, to find another writer of its commands."""
-WRITER_CHECK_EVERY = 1.0
-"""Wall seconds between checks for another writer of the commands topic."""
 
 
 class Ros2System(System):
@@ -55,11 +54,13 @@ class Ros2System(System):
             `options.joint_map`), and `halt()` writes its `safe_action`.
         options: domain, topics, rate and joint map (`judo.loop.system_choice.Ros2Options`).
         record: an MCAP log of every message read and written (None: none).
-        refuse_other_writer: raise JudoError at start when another writer already commands the robot.
+        refuse_other_writer: raise JudoError at start when another writer already commands the robot, or a second
+            robot publishes joint states (`judo.ros2.peers`); either is warned of while running.
 
     Waits up to `options.wait_s` for the robot's first valid JointState (JudoError if none came).
 
     Attributes:
+        peers: the other processes on its topics (`judo.ros2.peers.Peers`).
         refused: {reason kind: count} of the messages refused so far.
         commands_sent: commands written so far.
     """
@@ -95,9 +96,8 @@ class Ros2System(System):
         self._mocap: tuple[np.ndarray, np.ndarray] | None = None  # (nmocap, 3), (nmocap, 4) from the robot side
         self._command: np.ndarray | None = None
         self._next_tick: float | None = None
-        self._next_writer_check = 0.0
-        self._other_writer_warned = False
         self._closed = False
+        count_mujoco_warnings()  # the planner's rollouts from a reading MuJoCo cannot simulate would flood the terminal
         self._participant = part = link.participant(self.domain)
         try:
             self._joint_reader = DataReader(
@@ -114,14 +114,11 @@ class Ros2System(System):
             command_topic = link.topic(part, options.commands, msg.Float64MultiArray)
             self._writer = DataWriter(part, command_topic, link.COMMAND_QOS)
             others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)  # writers of other processes
-            self._writer_check = DataReader(part, command_topic, others)
+            topics = (options.commands, options.joint_states)
+            self.peers = Peers(DataReader(part, command_topic, others), self._joint_reader, topics, self.domain)
             self._wait_for_robot(options.wait_s)
-            if refuse_other_writer and self._other_writer_seen(DISCOVERY_S):
-                raise JudoError(
-                    f"another participant (a judo, a teleop node) already writes commands on "
-                    f"{msg.ros_topic(options.commands)} in DDS domain {self.domain}: two controllers would fight "
-                    "over the robot; stop it, or use another --ros2.commands topic or --ros2.domain-id"
-                )
+            if refuse_other_writer:
+                self.peers.refuse_at_start()
         except BaseException:
             link.close_participant(part)
             raise
@@ -150,19 +147,6 @@ class Ros2System(System):
             f"{self.domain} within {seconds:g} s ({why}); is the robot's process running, on this ROS_DOMAIN_ID? "
             f"It must name the joints {list(self.layout.names)}"
         )
-
-    def _other_writer_seen(self, seconds: float) -> bool:
-        """Whether another process writes commands, waiting up to `seconds` for discovery to find one."""
-        deadline = time.monotonic() + seconds
-        while not self.other_writers():
-            if time.monotonic() >= deadline:
-                return False
-            time.sleep(0.02)
-        return True
-
-    def other_writers(self) -> int:
-        """How many writers of other processes the commands topic has (another judo, or a teleop)."""
-        return len(self._writer_check.get_matched_publications())
 
     def _refuse(self, kind: str, detail: str) -> None:
         self.refused[kind] = self.refused.get(kind, 0) + 1
@@ -197,6 +181,9 @@ class Ros2System(System):
             return self._refuse("odometry", str(err))
         if not (np.isfinite(qpos).all() and np.isfinite(qvel).all()):
             return self._refuse("odometry", "an Odometry with a non-finite pose or twist")
+        why = link.implausible_base(self.task.model, qpos, qvel)
+        if why is not None:
+            return self._refuse("odometry (out of bounds)", why)
         if self.log is not None:
             self.log.write(self.options.odom, odom, _ns(odom.header.stamp))
         self._odom = (qpos, qvel)
@@ -237,8 +224,11 @@ class Ros2System(System):
         bad = [name for name, p, v in zip(names, position, velocity, strict=True) if not math.isfinite(p + v)]
         if bad:
             return self._refuse("joint state (non-finite)", f"non-finite position or velocity of joints {bad}")
-        full = with_velocity and (self.layout.free is None or self._odom is not None)
         order = [self._index[name] for name in names]
+        why = self.layout.implausible(order, position, velocity)
+        if why is not None:
+            return self._refuse("joint state (out of bounds)", why)
+        full = with_velocity and (self.layout.free is None or self._odom is not None)
         sensors = None
         if not full:  # positions only (or no odometry): the task's measured sensors, for its estimator
             sensors, why = self._measured(position, order)
@@ -329,24 +319,11 @@ class Ros2System(System):
         if command is not None:
             self._write(command)
         now = time.monotonic()
-        if now >= self._next_writer_check:
-            self._next_writer_check = now + WRITER_CHECK_EVERY
-            self._check_other_writers()
+        self.peers.check(now)
         if self._next_tick is None or self._next_tick < now - 0.1:  # first tick, or far behind: pace from now
             self._next_tick = now
         self._next_tick += self.timestep
         time.sleep(max(0.0, self._next_tick - time.monotonic()))
-
-    def _check_other_writers(self) -> None:
-        others = self.other_writers()
-        if others and not self._other_writer_warned:
-            logger.warning(
-                "%d other writer(s) command %s in domain %d: the robot hears more than one controller",
-                others,
-                msg.ros_topic(self.options.commands),
-                self.domain,
-            )
-        self._other_writer_warned = bool(others)
 
     def _write(self, command: np.ndarray) -> None:
         message = link.commands(command)

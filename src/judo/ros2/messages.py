@@ -153,9 +153,10 @@ def ros_topic(name: str) -> str:
 
 
 def stamp_of(seconds: float) -> Time:
-    """A ROS 2 Time of `seconds` (>= 0)."""
-    sec = int(seconds // 1)
-    return Time(sec, min(int(round((seconds - sec) * 1e9)), 999_999_999))
+    """A ROS 2 Time of `seconds` (>= 0), to the nearest nanosecond: rounded first, then split, so a sum of steps a
+    hair below a whole second is that second, 0 ns."""
+    sec, nanosec = divmod(round(seconds * 1e9), 1_000_000_000)
+    return Time(sec, nanosec)
 
 
 def seconds_of(stamp: Time) -> float:

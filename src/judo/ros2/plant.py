@@ -9,7 +9,8 @@ joint, odometry and IMU) at --rate-hz stamped with its own clock (the simulation
 Float64MultiArray it reads on /judo/commands in actuator order, as a ros2_control forward command controller
 does. A command of the wrong length or with a non-finite value is refused and logged. The faults delay
 (--latency-ms, plus up to --jitter-ms at random, which reorders), drop (--drop) and duplicate (--duplicate)
-each outgoing message.
+each outgoing message. Another writer of its commands, or another publisher of its joint states (a second plant
+on the domain), is warned of.
 """
 
 import heapq
@@ -118,7 +119,7 @@ def check(options: PlantOptions) -> None:
 
 def run_plant(options: PlantOptions, stop: threading.Event) -> None:
     """Run the plant until `stop` is set (or `options.duration` wall seconds have passed)."""
-    from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState, WaitSet
+    from cyclonedds.core import InstanceState, Policy, Qos, ReadCondition, SampleState, ViewState, WaitSet
     from cyclonedds.pub import DataWriter
     from cyclonedds.sub import DataReader
     from cyclonedds.util import duration
@@ -136,9 +137,10 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
     layout = link.JointLayout.of(model, options.ros2.joint_map)
     domain = link.domain_id(options.ros2.domain_id)
     part = link.participant(domain)
-    writers: dict[str, Any] = {
-        "joints": DataWriter(part, link.topic(part, options.ros2.joint_states, msg.JointState), link.SENSOR_QOS)
-    }
+    joints_topic = link.topic(part, options.ros2.joint_states, msg.JointState)
+    writers: dict[str, Any] = {"joints": DataWriter(part, joints_topic, link.SENSOR_QOS)}
+    others = Qos(Policy.Reliability.BestEffort, Policy.IgnoreLocal.Participant)  # publishers of other processes
+    other_robots = DataReader(part, joints_topic, others)
     if layout.free is not None:
         writers["odom"] = DataWriter(part, link.topic(part, options.ros2.odom, msg.Odometry), link.SENSOR_QOS)
         writers["imu"] = DataWriter(part, link.topic(part, options.ros2.imu, msg.Imu), link.SENSOR_QOS)
@@ -159,7 +161,7 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
         f"{options.rate_hz:g} Hz, reading {msg.ros_topic(options.ros2.commands)}",
         flush=True,
     )
-    refused = writers_seen = 0
+    refused = writers_seen = robots_seen = 0
     start = origin = time.monotonic()
     steps = 0
     next_publish = next_check = 0.0
@@ -202,6 +204,16 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
             if count > 1 and count != writers_seen:
                 logger.warning("%d writers command this robot on %s", count, msg.ros_topic(options.ros2.commands))
             writers_seen = count
+            robots = len(other_robots.get_matched_publications())
+            if robots > robots_seen:
+                logger.warning(
+                    "%d other publisher(s) write %s on domain %d: a second robot or plant mixes its readings with this "
+                    "one's",
+                    robots,
+                    msg.ros_topic(options.ros2.joint_states),
+                    domain,
+                )
+            robots_seen = robots
         wait = min(origin + steps * dt, outbox.next_due(), now + 0.05) - time.monotonic()  # 50 ms: see a stop
         if wait > 0:
             waitset.wait(duration(nanoseconds=int(wait * 1e9)))
