@@ -23,6 +23,7 @@ from judo.core.errors import JudoError
 from judo.core.low_level import LowLevelPlant
 from judo.core.reading import SystemState
 from judo.core.task import Task, new_task
+from judo.loop.mujoco_warnings import count_mujoco_warnings
 
 DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQACC,
@@ -93,6 +94,7 @@ class MujocoSystem(System):
         self._scratch: mujoco.MjData | None = None  # for sensor_values
         low_level = task.low_level()
         self.low_level = None if low_level is None else LowLevelPlant(low_level, task.sim_model)
+        count_mujoco_warnings()  # a diverging plant warns every step: one counting line every few seconds instead
 
     @classmethod
     def from_task(cls, task: Task, seed: int | None = None) -> "MujocoSystem":
