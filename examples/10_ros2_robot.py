@@ -80,6 +80,13 @@ class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiAr
     data: sequence[float64] = field(default_factory=list)
 
 
+def stamp_of(seconds: float) -> Time:
+    """The ROS 2 Time of `seconds`: whole nanoseconds first, then split, so 0.9999999999999999 s (a hundred
+    0.01 s steps) is 1 s 0 ns, never 0 s plus a rounded-up billion nanoseconds."""
+    sec, nanosec = divmod(round(seconds * 1e9), 1_000_000_000)
+    return Time(sec, nanosec)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
@@ -110,9 +117,7 @@ def main() -> None:
                 last_command, commanded_at = data.time, time.monotonic()
         mujoco.mj_step(model, data)
         steps += 1
-        sec = int(data.time)
-        stamp = Time(sec, int(round((data.time - sec) * 1e9)) % 1_000_000_000)
-        states.write(JointState(Header(stamp), names, data.qpos.tolist(), data.qvel.tolist(), []))
+        states.write(JointState(Header(stamp_of(data.time)), names, data.qpos.tolist(), data.qvel.tolist(), []))
         angle = math.remainder(data.qpos[1], 2 * math.pi)
         upright.append((data.time, abs(angle) < 0.3))
         time.sleep(max(0.0, start + steps * dt - time.monotonic()))  # real time
