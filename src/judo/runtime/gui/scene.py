@@ -212,8 +212,13 @@ class SceneView:
                 # MuJoCo's planes are infinite: a floor the robot can touch is drawn under it wherever it goes
                 self.floors[g] = (scene.add_frame(f"{path}/floor", show_axes=False), section)
                 path = f"{path}/floor"
-            scene.add_box(
-                f"{path}/slab", color=color, dimensions=(width, height, 0.01), opacity=opacity, position=(0, 0, -0.005)
+            scene.add_box(  # the grid draws the shadows: a slab taking them too speckled the floor with shadow acne
+                f"{path}/slab",
+                color=color,
+                dimensions=(width, height, 0.01),
+                opacity=opacity,
+                position=(0, 0, -0.005),
+                receive_shadow=False,
             )
             scene.add_grid(
                 f"{path}/grid",

@@ -32,6 +32,8 @@ logger = logging.getLogger("judo.gui")
 
 START_TIMEOUT = 20.0
 """Seconds to wait for the server to start listening before reporting that it could not."""
+FILL_LIGHT = {"sky_color": (255, 255, 255), "ground_color": (90, 90, 90), "intensity": 1.5}
+"""The hemisphere light that stands in for viser's environment map: white from above (+z), dim grey from below."""
 
 
 def start_server(host: str, port: int, *, token: str | None, share: bool, label: str) -> viser.ViserServer:
@@ -76,12 +78,24 @@ def start_server(host: str, port: int, *, token: str | None, share: bool, label:
         check_server(server)
         guard_gui_updates(server)  # one client's edit can never close other pages (see incoming.py)
         server.gui.configure_theme(show_share_button=share)
+        light_without_environment_map(server)
         if not share:  # a client could still send the request the hidden button sends
             replace_handler(server, "ShareUrlRequest", _refuse_share)
     except BaseException:  # never leave a server running that start_server did not hand over
         server.stop()
         raise
     return server
+
+
+def light_without_environment_map(server: viser.ViserServer) -> None:
+    """Light `server`'s scene with viser's two default directional lights and `FILL_LIGHT`, and no environment map.
+
+    Until viser's environment map has loaded and faded in, its page draws the whole 3-D view at 5 % opacity: in a
+    browser that renders WebGL in software (a VM, a remote desktop, headless Chromium) the scene then stayed washed
+    out for the first 10 to 30 seconds. Without a map the view is opaque from the first frame with the scene in it.
+    """
+    server.scene.configure_environment_map(hdri=None)
+    server.scene.add_light_hemisphere("/judo_fill_light", position=(0.0, 0.0, 1.0), **FILL_LIGHT)
 
 
 def gui_url(server: viser.ViserServer, token: str | None) -> str:
