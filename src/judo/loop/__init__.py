@@ -5,8 +5,9 @@ What a robot integrator reads, below the app, the GUI and the commands (it impor
     system.py           System (read_state, apply, step, reset, halt), MujocoSystem, DynamicsSystem; the one
                         gate every System call goes through (what is in flight, nothing after a stop)
     closed_loop.py      ClosedLoop: read -> plan (latency model) -> serve (watchdog, feedback) -> apply, step;
-                        the control clock (when the next plan is due, in sim time or wall time) and the
-                        watchdog (how fresh the readings and the plan in force are)
+                        the control clock (when the next plan is due, in sim time or wall time)
+    watchdog.py         the watchdog: how fresh the readings and the plan in force are, which of them is
+                        to blame, and when to tell it
     plant_clock.py      PlantClock: when a System's next step() is due in wall time (the app's plant thread and
                         excite pace by it)
     latency.py          the latency model, and the prediction that compensates for it

@@ -33,12 +33,11 @@ The app's own simulator: no clock (plans age in plant time), and it waits for a 
 1 / control_freq s, read when asked (an edit takes effect at once); an update whose plan takes effect after the
 next tick moves that tick to then, since a controller cannot start a plan before the current one is done.
 
-**The watchdog** (`Watchdog`): how fresh the readings and the plan in force are, on the loop's clock (plant
-time in evaluate and tune, the wall clock in the app). A reading is fresh when its time advanced past the one
-before (one that goes backwards is refused); a plan is as old as the freshest reading it was planned from.
-Once the plan in force is older than `max_plan_age` beyond one control period, the plant is served the task's
-`safe_action` until a fresh plan arrives: planning stalled (a hung reward, a 4 s cycle), failed (a reward that
-raises, a bad reading), was cancelled, or read a reading whose time did not advance (a frozen sensor stream).
+**The watchdog** (`judo.loop.watchdog.Watchdog`): how fresh the readings and the plan in force are, on the loop's
+clock (plant time in evaluate and tune, the wall clock in the app). Once the plan in force is older than
+`max_plan_age` beyond one control period, the plant is served the task's `safe_action` until a fresh plan is
+served; `on_watchdog` is told why (the readings stopped, or planning stalled or failed), again every few seconds
+while it lasts, and when it ends.
 """
 
 import collections
@@ -58,9 +57,7 @@ from judo.core.spline import Spline
 from judo.loop.latency import RECENT_CYCLES, Latency, LatencyPredictor, check_latency, prediction_delay
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError, SystemState
-
-TIME_TOLERANCE = 1e-9
-"""Seconds within which two times count as the same (an update due at t is due at t, and so are two readings)."""
+from judo.loop.watchdog import TIME_TOLERANCE, ReadingTimeError, Watchdog
 
 
 class ControlClock:
@@ -96,68 +93,7 @@ class ControlClock:
         return max(0.0, self.next_time(period) - now)
 
 
-class ReadingTimeError(JudoError):
-    """A reading's time went backwards (a System's clock must never run back); the reading is refused."""
-
-
-class Watchdog:
-    """Freshness of the readings and of the plan in force, on the loop's clock.
-
-    Attributes:
-        fresh_at: clock time at which the latest reading's time last advanced.
-        tripped: why the safe action is being served, or None while plans are fresh.
-        trips: episodes of trouble so far (each trip counts once until plans are fresh again).
-    """
-
-    def __init__(self) -> None:
-        self.fresh_at = 0.0
-        self.tripped: str | None = None
-        self.trips = 0
-        self._last_time: float | None = None
-
-    def restart(self, now: float) -> None:
-        """Start afresh at clock time `now` (after a reset of the plant, whose time may start again at 0)."""
-        self.fresh_at, self._last_time, self.tripped = now, None, None
-
-    def note_reading(self, reading: SystemState, now: float) -> None:
-        """Stamp `reading` at clock time `now`: fresh if its time advanced. Raises ReadingTimeError if its
-        time went backwards, and keeps the stamps as they were."""
-        time = reading.time
-        if not math.isfinite(time):  # never fresh; planning refuses it anyway
-            return
-        if self._last_time is not None and time < self._last_time - TIME_TOLERANCE:
-            raise ReadingTimeError(
-                f"refused a reading whose time went backwards, from {self._last_time:.6g} s to {time:.6g} s; "
-                "a System's read_state().time must never decrease (reset the plant to start it again)"
-            )
-        if self._last_time is None or time > self._last_time + TIME_TOLERANCE:
-            self.fresh_at = now
-        self._last_time = time
-
-    def verdict(self, now: float, plan_stamp: float, max_plan_age: float, control_freq: float) -> str | None:
-        """Why the plan stamped `plan_stamp` must not be served at clock time `now`, or None if it may.
-
-        Updates `tripped` and `trips`. `max_plan_age` 0 turns the watchdog off.
-        """
-        if max_plan_age <= 0:
-            self.tripped = None
-            return None
-        limit = max_plan_age + 1.0 / control_freq
-        age = now - plan_stamp
-        if age <= limit:
-            self.tripped = None
-            return None
-        if now - self.fresh_at > limit:
-            reason = f"the readings' time has not advanced for {now - self.fresh_at:.2f} s (a frozen sensor stream?)"
-        else:
-            reason = f"the plan in force is {age:.2f} s old (planning stalled or failed)"
-        if self.tripped is None:
-            self.trips += 1
-        self.tripped = reason
-        return reason
-
-
-__all__ = ["ClosedLoop", "Latency", "SystemCallError", "check_latency"]
+__all__ = ["ClosedLoop", "Latency", "ReadingTimeError", "SystemCallError", "Watchdog", "check_latency"]
 
 
 class ClosedLoop:
@@ -170,8 +106,11 @@ class ClosedLoop:
         recorders: objects with `on_plan(PlanRecord)` and `on_step(StepRecord)`, called in order.
         clock: the watchdog's clock in seconds; None counts the plant time the loop has stepped (evaluate,
             tune), the app passes the wall clock.
-        on_watchdog: called with the reason when the watchdog starts serving the safe action, and with None
-            when a fresh plan is served again (once per episode of trouble).
+        on_watchdog: called with the reason when the watchdog starts serving the safe action, again when the
+            readings turn out to have stopped and every REPORT_EVERY s while it serves it (the reason says for how
+            long), and with None when a fresh plan is served again (`watchdog.episode_s` and `resumed_s` then say
+            how long it took); a trouble that starts again soon after one was told is counted instead
+            (`judo.loop.watchdog`).
         estimator: turns each raw reading into the state planned from (None: plan from the reading's state).
             It is fed every served action, and estimates as of the plant's now: the System's `time` where it
             has one (a reading may be late), else the reading's.
@@ -325,8 +264,10 @@ class ClosedLoop:
         if plan is None:
             return None
         self.last_cycle_failed, self.newest_stamp = False, stamp
-        with self._lock:
-            self._pending.append((reading.time + delay, plan, stamp))
+        with self._lock:  # a plan that takes effect no later than one pending before it replaces that one
+            at = reading.time + delay
+            self._pending = [entry for entry in self._pending if entry[0] < at - TIME_TOLERANCE]
+            self._pending.append((at, plan, stamp))
         if self.recorders:  # the record is built only for someone to read it
             traces = self._traces_if_wanted()
             record = PlanRecord.of_update(reading.time, delay, plan.knots, wall, self.controller.rewards, traces)
@@ -375,15 +316,12 @@ class ClosedLoop:
             if active is None and self._hold is None:  # held from the first reading after a restart
                 self._hold = self.controller.warm_start_action(None if self.reading is None else self.reading.state)
             hold = self._hold
-        config = self.controller.config
-        was_tripped = self.watchdog.tripped
-        reason = self.watchdog.verdict(self.clock(), stamp, config.max_plan_age, config.control_freq)
+        config, newest = self.controller.config, max(stamp, self.newest_stamp)
+        reason = self.watchdog.verdict(self.clock(), stamp, config.max_plan_age, config.control_freq, newest)
+        if self.watchdog.news and self.on_watchdog is not None:
+            self.on_watchdog(reason)
         if reason is not None:
-            if was_tripped is None and self.on_watchdog is not None:
-                self.on_watchdog(reason)
             return self.safe_action()
-        if was_tripped is not None and self.on_watchdog is not None:
-            self.on_watchdog(None)
         if active is None:
             return hold
         return active(now, None if self.reading is None else self.reading.state)  # the state feeds back gains
