@@ -48,15 +48,16 @@ class StatusLine:
         self._logged_at: dict[str, float] = {}
         self.trouble: set[str] = set()
 
-    def report(self, message: str, level: Level = "info", log: bool = True) -> None:
-        """Show `message` and write it to the log (each message at most once every REPEAT_LOG_INTERVAL s; never
-        without `log`, for a count that changes every second)."""
+    def report(self, message: str, level: Level = "info", log: bool = True, paced: bool = False) -> None:
+        """Show `message` and write it to the log (each message at most once every REPEAT_LOG_INTERVAL s, or every
+        time where its sender paces its reports itself, `paced`; never without `log`, for a count that changes
+        every second)."""
         with self._lock:
             self.status = Status(message, level, self.status.count + 1)
             now = time.monotonic()
             if not log:
                 return
-            if now - self._logged_at.get(message, -math.inf) < REPEAT_LOG_INTERVAL:
+            if not paced and now - self._logged_at.get(message, -math.inf) < REPEAT_LOG_INTERVAL:
                 return
             if len(self._logged_at) >= 64:  # forget messages not logged lately, so the table stays small
                 self._logged_at = {m: t for m, t in self._logged_at.items() if now - t < REPEAT_LOG_INTERVAL}
@@ -270,9 +271,15 @@ class Reports:
         return message
 
     def on_watchdog(self, reason: str | None) -> None:
-        """The closed loop's watchdog tripped (`reason`) or recovered (None): say so once per episode."""
+        """The closed loop's watchdog serves the safe action (`reason`, at the start of a trouble and every few
+        seconds while it lasts) or fresh plans again (None, once per trouble, with how long it took). Every line
+        is logged: the watchdog paces them (`judo.loop.watchdog`), and each trouble told is paired with its end."""
         if reason is not None:
-            self.line.failed("watchdog", f"watchdog: {reason}; serving the safe action", "warning")
-        elif "watchdog" in self.line.trouble:  # said even when another part's recovery came first
-            self.line.trouble.discard("watchdog")
-            self.report(f"fresh plans are served again: {self.running()}")
+            self.line.trouble.add("watchdog")
+            self.line.report(f"watchdog: {reason}; serving the safe action", "warning", paced=True)
+            return
+        self.line.trouble.discard("watchdog")  # said even when another part's recovery came first
+        watchdog = self._state.session.closed_loop.watchdog
+        resumed = "" if watchdog.resumed_s is None else f", {watchdog.resumed_s:.2f} s after the readings resumed"
+        news = f"fresh plans are served again after {watchdog.episode_s:.2f} s of the safe action{resumed}"
+        self.line.report(f"{news}: {self.running()}", paced=True)
