@@ -6,17 +6,20 @@ python -m judo evaluate --task cartpole --optimizer mppi --config fitted.toml   
 
 import json
 import math
+import os
 import shlex
 import sys
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import tyro
 
-from judo.cli_shared import apply_config_file, fail, output_console, parse_args, progress_console
+from judo.cli_shared import apply_config_file, fail, output_console, parse_args, progress_display
 from judo.core.boundary import check_output_file, require
-from judo.core.errors import JudoError
+from judo.core.config import shown
+from judo.core.errors import ConfigError, JudoError
 
 DESCRIPTION = (
     "Fit named parameters of a task's planning model (MjModel fields by element name, as [model_overrides] sets "
@@ -26,13 +29,18 @@ DESCRIPTION = (
     "sensors, a robot's encoders), to the measured sensors, each window starting from the logged estimate. Writes --out, a --config file whose [model_overrides.TASK] section holds the "
     "parameters the data determine, and a report beside it (OUT.md): each parameter before and after with its 95% "
     "confidence interval, the fit's conditioning, and the prediction error before and after. A parameter the data "
-    "do not excite is reported and left out. --fit-delay also fits how late the logged actions take effect. Needs the `sysid` extra, and `collect` for HDF5 logs or `ros2` for the "
+    "do not excite is reported and left out, and so is every parameter of a fit that explains little of the log "
+    "(the report names what is likely missing). Whole steps of command delay are tried (--command-delay), and every "
+    "fifth window is held out and its error reported. --fit-delay also fits how late the logged actions take "
+    "effect in seconds. Needs the `sysid` extra, and `collect` for HDF5 logs or `ros2` for the "
     "bridge's MCAP logs: pip install -e '.[sysid]'."
 )
 
 
 DEFAULT_WINDOW = {"states": 0.05, "sensors": 0.5}
 """Seconds of a window when --window is not given, by what the fit compares."""
+MAX_GIVEN_DELAY = 100
+"""Most steps of command delay --command-delay may give."""
 
 
 @dataclass
@@ -44,8 +52,8 @@ class SysidArgs:
     task: Annotated[str, tyro.conf.arg(metavar="NAME")] = field(kw_only=True)
     """The task whose planning model is fitted, by registered name."""
     params: Annotated[tuple[str, ...], tyro.conf.arg(metavar="FIELD.ELEMENT")] = field(kw_only=True)
-    """Parameters to fit: MjModel fields by element name, e.g. body_mass.pole dof_damping.slider, or one entry of
-    a row, geom_friction.cube[0]."""
+    """Parameters to fit: MjModel fields by element name, e.g. body_mass.pole dof_damping.slider, and one entry of
+    a longer row by its index, geom_friction.cube[0] or body_inertia.pole[1]."""
     out: Annotated[Path, tyro.conf.arg(metavar="FITTED.toml")] = field(kw_only=True)
     """The --config file to write; the report goes beside it (FITTED.md)."""
     config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
@@ -65,6 +73,10 @@ class SysidArgs:
     """Also fit the actuation delay (s, 0 to 0.1): how late each logged action takes effect, the same for every
     actuator. Reported with the parameters; written as actuator_delay where the planning model keeps the action
     history MuJoCo's delay needs (MJCF nsample), else as a comment saying what to add."""
+    command_delay: Annotated[str, tyro.conf.arg(metavar="{auto,STEPS}")] = "auto"
+    """Whole model steps each logged action reached the plant late (a bridge under load applies some commands a
+    step after they were sent). auto: fit the parameters with each delay from 0 to 3 steps and keep the one that
+    predicts the log best (reported). Without --fit-delay only."""
     compare: Literal["auto", "states", "sensors"] = "auto"
     """What the predictions are compared with: the logged plant states, or the task's measured sensors as the plant
     reported them (noisy, late or slow: each value at the step it was taken), each window then starting from the
@@ -80,7 +92,41 @@ class SysidArgs:
             f"--window must be > 0 seconds, got {self.window}",
         )
         require(self.max_iters >= 1, f"--max-iters must be at least 1, got {self.max_iters}")
-        check_output_file("--out", self.out)
+        require(
+            self.command_delay == "auto"
+            or (self.command_delay.isdigit() and int(self.command_delay) <= MAX_GIVEN_DELAY),
+            f"--command-delay takes auto or a whole number of steps from 0 to {MAX_GIVEN_DELAY}, got "
+            f"{self.command_delay!r}",
+        )
+        require(
+            self.command_delay in ("auto", "0") or not self.fit_delay,
+            f"--command-delay {self.command_delay} and --fit-delay both delay the actions; give one",
+        )
+        for path in (self.out, self.out.with_suffix(".md")):
+            check_output_file("--out", path)
+            check_can_write("--out", path)
+
+
+def check_can_write(option: str, path: Path) -> None:
+    """ConfigError now unless a file can be made at `path`: the first folder it lacks made and removed again, or a
+    scratch file written and removed beside it. So what permission bits do not tell (a folder under /proc, a
+    read-only mount, a full disk) fails before the fit, with nothing left behind."""
+    existing, missing = path.absolute().parent, None
+    while not existing.exists():
+        existing, missing = existing.parent, existing
+    try:
+        if missing is not None:
+            missing.mkdir()
+            missing.rmdir()
+        else:
+            handle, scratch = tempfile.mkstemp(dir=existing, prefix=".judo-sysid-")
+            os.close(handle)
+            os.unlink(scratch)
+    except OSError as err:
+        raise ConfigError(
+            f"{option} {shown(str(path))}: cannot write in {shown(str(existing))} ({err.strerror or err}); give a "
+            "path in a folder this user can write"
+        ) from None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -108,7 +154,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def run(args: SysidArgs, command: str) -> None:
     """Read the logs, fit, and write --out and its report."""
-    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+    from rich.progress import SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters
     from judo.collection.sysid_data import compared, read_logs
@@ -121,17 +167,17 @@ def run(args: SysidArgs, command: str) -> None:
     window = args.window if args.window is not None else DEFAULT_WINDOW[compare]
     steps = max(1, round(window / float(task.model.opt.timestep)))
     columns = (SpinnerColumn(), TextColumn("{task.description}"), TimeElapsedColumn())
-    with Progress(*columns, console=progress_console(), transient=True) as progress:
+    with progress_display(*columns) as progress:
         bar = progress.add_task(f"fitting {len(parameters)} parameters", total=None)
 
         def on_evaluation(count: int) -> None:
             progress.update(bar, description=f"fitting {len(parameters)} parameters: {count} residual evaluations")
 
-        result = fit(task, parameters, episodes, steps, args.max_iters, on_evaluation, compare)
+        delay = None if args.command_delay == "auto" else int(args.command_delay)
+        result = fit(task, parameters, episodes, steps, args.max_iters, on_evaluation, compare, delay)
     header = [command, f"fitted to {result.num_windows} windows of {steps} steps from {len(episodes)} episode(s)"]
-    text = fitted_toml(
-        args.task, result.overrides(task.model), header, _config_tables(args.config), delay_note(result, task.model)
-    )
+    notes = delay_note(result, task.model) + command_delay_note(result)
+    text = fitted_toml(args.task, result.overrides(task.model), header, _config_tables(args.config), notes)
     report = report_text(args, result, command, len(episodes))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)
@@ -170,6 +216,17 @@ def delay_note(result: Any, model: Any) -> list[str]:
     ]
 
 
+def command_delay_note(result: Any) -> list[str]:
+    """A comment line for a command delay found in the log, else []."""
+    if result.command_delay == 0:
+        return []
+    seconds = result.command_delay * result.timestep
+    return [
+        f"commands reached the plant {seconds:.3g} s ({result.command_delay} model steps) late in this log: plan "
+        f"ahead of it with --latency-ms {seconds * 1000:.3g} --controller.latency-compensation"
+    ]
+
+
 def fitted_toml(
     task: str,
     overrides: dict[str, dict[str, Any]],
@@ -179,7 +236,8 @@ def fitted_toml(
 ) -> str:
     """The --config file of the fit: `header` as comments, then `config` (the --config file's table), whose
     [model_overrides.TASK] gets the fitted `overrides` (replacing the entries they fit, keeping the others), with
-    `notes` as comments at its end."""
+    `notes` as comments at its end, and whose [sysid.TASK] names the entries sysid fitted (these and those the
+    config's own [sysid.TASK] named), so that judo announces a fitted model."""
     from judo.core.model_overrides import toml_value
 
     model_overrides = {name: dict(value) for name, value in config.get("model_overrides", {}).items()}
@@ -188,6 +246,14 @@ def fitted_toml(
         for element, value in values.items():
             merged.setdefault(field_name, {})[element] = toml_value(value)
     rest = {key: value for key, value in config.items() if key != "model_overrides"}
+    sysid_tables = {name: dict(value) for name, value in rest.pop("sysid", {}).items()}
+    named = [name.partition(".") for name in sysid_tables.pop(task, {}).get("fitted", [])]
+    before = [f"{f}.{e}" for f, _, e in named if e in merged.get(f, {})]  # still set: fitted by an earlier sysid
+    fitted = before + [f"{f}.{e}" for f, values in overrides.items() for e in values if f"{f}.{e}" not in before]
+    if fitted:
+        sysid_tables[task] = {"fitted": fitted}
+    if sysid_tables:
+        rest["sysid"] = sysid_tables
     if model_overrides:
         rest["model_overrides"] = model_overrides
     lines = [f"# {line}" for line in header] + _toml_lines([], rest) + ["", f"[model_overrides.{task}]"]
@@ -238,14 +304,17 @@ def compared_line(result: Any) -> str:
 
 
 def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -> str:
-    """The fit's report as Markdown: the parameters before and after, the conditioning and the prediction error."""
+    """The fit's report as Markdown: the parameters before and after, the command delay, the conditioning, the
+    prediction error on the windows fitted and on those held out, and whether the fit explains the log."""
+    held = f", {result.num_held_out} more held out" if result.num_held_out else ""
     lines = [
         f"# sysid: {args.task}",
         "",
         f"`{command}`",
         "",
         f"{num_episodes} episode(s) from {', '.join(str(p) for p in args.logs)}: {result.num_windows} windows of "
-        f"{result.window_steps} steps ({result.window_steps * result.timestep:g} s); fit in {result.seconds:.1f} s.",
+        f"{result.window_steps} steps ({result.window_steps * result.timestep:g} s) fitted{held}; fit in "
+        f"{result.seconds:.1f} s.",
         "",
         compared_line(result),
         "",
@@ -256,22 +325,68 @@ def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -
         result.parameters, result.planning, result.fitted, result.interval, result.excited, strict=True
     ):
         interval = f"± {half:.3g}" if math.isfinite(half) else "unbounded"
-        verdict = "yes" if excited else "no: not excited by the data, left out of --out"
+        if not excited:
+            verdict = "no: not excited by the data, left out of --out"
+        else:
+            verdict = "yes" if result.explains_log else "no: the fit explains little of the log (below), left out"
         name = f"{parameter.name} (s)" if parameter.field == "delay" else parameter.name
+        name += " (a factor on its whole row)" if parameter.whole else ""
         lines.append(f"| {name} | {before:.6g} | {after:.6g} | {interval} | {verdict} |")
+    quantity = "measured value" if result.compare == "sensors" else "state coordinate"
     lines += [
+        "",
+        command_delay_line(args, result),
         "",
         f"Conditioning: cond(J) = {result.condition:.3g} (the residual's Jacobian at the fit, each column scaled by its "
         "parameter's value; above about 1e6 the data cannot tell the parameters apart).",
         "",
-        f"{result.window_steps}-step prediction error (RMS, each {'measured value' if result.compare == 'sensors' else 'state coordinate'} over its spread in the log): "
-        f"{result.error_before:.4g} on the planning model, {result.error_after:.4g} on the fitted one.",
+        f"{result.window_steps}-step prediction error (RMS, each {quantity} over its spread in the log) on the windows "
+        f"fitted: {result.error_before:.4g} on the planning model, {result.error_after:.4g} on the fitted one: the "
+        f"fit removed {100 * result.removed:.1f}% of it."
+        + (
+            f" On the windows held out: {result.held_out_before:.4g} and {result.held_out_after:.4g}."
+            if result.num_held_out
+            else " No window held out (fewer than 5)."
+        ),
+        f"Measurement noise alone would leave about {result.noise:.3g} (the residuals' scatter from step to step).",
     ]
+    if not result.explains_log:
+        missing = ", ".join(f"{name} ({100 * share:.0f}%)" for name, share in result.likely_missing)
+        lines += [
+            "",
+            f"**Not determined: the fit explains little of the log.** It removed {100 * result.removed:.1f}% of the "
+            f"prediction error, and what is left ({result.error_after:.3g}) is not the noise ({result.noise:.3g}): "
+            "the model lacks something the fitted parameters cannot stand in for, so their intervals do not hold and "
+            "--out gets none of them. "
+            + (
+                f"Likely missing (the share of what is left each would remove, to first order): {missing}; add "
+                "them to --params."
+                if missing
+                else "No body's mass, inertia or centre of mass, nor any joint's damping or armature, explains it "
+                "alone: look for a longer command delay, contacts or a part the model lacks."
+            ),
+        ]
     missing = [p.name for p, excited in zip(result.parameters, result.excited, strict=True) if not excited]
     if missing:
         lines += [
             "",
-            f"Not determined: {', '.join(missing)}. Their confidence intervals exceed 25% of the value: the logged "
+            f"Not excited: {', '.join(missing)}. Their confidence intervals exceed 25% of the value: the logged "
             "motion hardly depends on them. Log motion that does (python -m judo excite), or fit fewer parameters.",
         ]
     return "\n".join(lines) + "\n"
+
+
+def command_delay_line(args: SysidArgs, result: Any) -> str:
+    """The report's line on the command delay: given, or chosen among those tried with their errors."""
+    steps = result.command_delay
+    said = f"Command delay: {steps} step{'' if steps == 1 else 's'} ({steps * result.timestep:g} s)"
+    if args.command_delay != "auto":
+        return f"{said}, as given (--command-delay {args.command_delay})."
+    if args.fit_delay:
+        return f"{said}: not tried, --fit-delay fits the delay in seconds."
+    tried = ", ".join(f"{d}: {error:.4g}" for d, error in result.delay_errors.items())
+    applied = "in the step it was served" if steps == 0 else f"{steps} step{'' if steps == 1 else 's'} later"
+    return (
+        f"{said}: each logged action applied {applied}, the delay whose fitted model predicts the windows best "
+        f"(fitted error by steps of delay: {tried})."
+    )

@@ -28,6 +28,8 @@ class Episode:
             it was read after, or None (each taken at the end of its step).
         estimate: (S, nq + nv) the estimator's state after each step (NaN before it started), or None.
         measured_sensors: (k,) the names of the measured sensors, in `measured`'s order.
+        lead_actions: (L, nu) the actions served during the L steps before the first row (an MCAP log's commands
+            in force then), or None where the log holds none (collect's HDF5: the episode starts there).
     """
 
     name: str
@@ -38,6 +40,7 @@ class Episode:
     measured_age: np.ndarray | None = None
     estimate: np.ndarray | None = None
     measured_sensors: tuple[str, ...] = ()
+    lead_actions: np.ndarray | None = None
 
     @property
     def states(self) -> np.ndarray:
@@ -151,11 +154,17 @@ def _measurements(demo: Any, path: Path, name: str, model: mujoco.MjModel) -> tu
     return measured, age, estimate, names
 
 
+LEAD_STEPS = 16
+"""Steps of commands before each run of an MCAP log kept with its episode (`Episode.lead_actions`): the history a
+fitted delay reads (up to sysid.MAX_DELAY) and the commands a command delay shifts into the run's first windows."""
+
+
 def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Episode]:
     """The episodes of the ROS 2 bridge's MCAP log at `path`, one per run of rows a whole number of steps of
     `model` apart with a command in force (`judo.ros2.mcap_read.BridgeLog.grid_runs`, whose errors name the file),
     laid on the model's step grid: a row every step, its state NaN where no joint state fell on it (a robot that
-    publishes every k steps) and its action the command in force at the end of that step."""
+    publishes every k steps) and its action the command in force at the end of that step; with the commands in
+    force during the LEAD_STEPS steps before the run as its lead_actions."""
     from judo.ros2.mcap_read import read_bridge_log
 
     log = read_bridge_log(path, task_name, "python -m judo sysid LOG.mcap")
@@ -165,9 +174,9 @@ def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Epi
         qpos = np.full((offsets[-1] + 1, model.nq), np.nan)
         qvel = np.full((offsets[-1] + 1, model.nv), np.nan)
         qpos[offsets], qvel[offsets] = log.qpos[rows], log.qvel[rows]
-        actions = log.actions_at(log.times[rows.start] + np.arange(offsets[-1] + 1) * step)
+        actions = log.actions_at(log.times[rows.start] + np.arange(-LEAD_STEPS, offsets[-1] + 1) * step)
         name = f"{path.name}:rows {rows.start}-{rows.stop - 1}"
-        episodes.append(Episode(name, qpos, qvel, actions))
+        episodes.append(Episode(name, qpos, qvel, actions[LEAD_STEPS:], lead_actions=actions[:LEAD_STEPS]))
     return episodes
 
 
@@ -205,10 +214,16 @@ def cut_windows(
     compare: str = "states",
     layout: MeasuredLayout | None = None,
     timestep: float = 0.0,
+    shift: int = 0,
+    reserve: int = 0,
 ) -> Windows:
     """Non-overlapping windows of `steps` steps from every episode, each with the `history` actions before it
     (an episode's first row is a window's start only, since the state before it is not logged). A window starts
     at a row with a logged state: where a row has none (a robot that reports every k steps), the next one is tried.
+
+    `shift` is a command delay in steps: the action applied during each step is the one served `shift` steps
+    before it. Every window needs the `reserve` (at least `shift`) + `history` actions served before it (from the
+    episode's lead_actions where it has them), so that fits of each shift up to `reserve` compare the same windows.
 
     `compare` "states" compares the logged states. "sensors" compares the measured sensors, laid out as `layout`
     (the planning model's measured sensors) says, each value placed at the step it was taken (its logged age over
@@ -217,6 +232,8 @@ def cut_windows(
     window is left, or the log's measured sensors are not the task's."""
     starts, controls, measured, before = [], [], [], []
     from_estimate = False
+    reserve = max(reserve, shift)
+    nu = episodes[0].actions.shape[1]
     for episode in episodes:
         states = episode.states
         if compare == "sensors":
@@ -224,27 +241,29 @@ def cut_windows(
             targets = taken_samples(episode, layout, timestep)  # (S + 1, m): index n is after n steps
             if episode.estimate is not None and np.isfinite(episode.estimate).all(axis=1).any():
                 states, from_estimate = episode.estimate, True
-        first = 1 + history
+        lead = np.zeros((0, nu)) if episode.lead_actions is None else episode.lead_actions
+        actions = np.concatenate([lead, episode.actions])  # row len(lead) + i: the action served during step i
+        first = 1 + max(0, reserve + history - len(lead))
         while first <= len(states) - steps:
             start = states[first - 1]
             if not np.isfinite(start).all():  # a step without a logged state: the next one may start a window
                 first += 1
                 continue
             target = targets[first : first + steps] if compare == "sensors" else states[first : first + steps]
-            window_actions = episode.actions[first - history : first + steps]
-            if not np.isnan(target).all() and np.isfinite(window_actions).all():
+            row = len(lead) + first
+            applied = actions[row - shift - history : row - shift + steps]  # (history + steps, nu)
+            if not np.isnan(target).all() and np.isfinite(actions[row - reserve - history : row + steps]).all():
                 starts.append(start)
-                controls.append(episode.actions[first : first + steps])
+                controls.append(applied[history:])
                 measured.append(target)
-                before.append(episode.actions[first - history : first])
+                before.append(applied[:history])
             first += steps
     if not starts:
         longest = max((len(e.qpos) for e in episodes), default=0)
         raise ConfigError(
-            f"no window of {steps} steps (after {history} steps of action history) with a logged start state and "
-            f"something to compare fits the logs (the longest episode has {longest} steps)"
+            f"no window of {steps} steps (after {history + reserve} steps of action history) with a logged start "
+            f"state and something to compare fits the logs (the longest episode has {longest} steps)"
         )
-    nu = episodes[0].actions.shape[1]
     return Windows(
         np.array(starts),
         np.array(controls),
@@ -298,11 +317,10 @@ def delayed_controls(windows: Windows, delay: float, timestep: float) -> np.ndar
     return (1.0 - fraction) * extended[:, low] + fraction * extended[:, high]
 
 
-def prediction_error(model: mujoco.MjModel, windows: Windows, delay: float = 0.0) -> float:
-    """RMS over windows and steps of the difference between `model`'s K-step predictions (under the logged actions
-    `delay` seconds late) and what the windows compare (the logged states, or the measured sensors where a value
-    was taken), each coordinate divided by its spread in the log (so angles, positions and velocities weigh
-    alike)."""
+def prediction_residuals(model: mujoco.MjModel, windows: Windows, delay: float = 0.0) -> np.ndarray:
+    """(W, K, D) `model`'s K-step predictions (under the logged actions `delay` seconds late) less what the windows
+    compare (the logged states, or the measured sensors where a value was taken; NaN where nothing was), each
+    coordinate divided by its spread in the log (so angles, positions and velocities weigh alike)."""
     from mujoco import rollout
 
     state_size = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
@@ -318,8 +336,17 @@ def prediction_error(model: mujoco.MjModel, windows: Windows, delay: float = 0.0
     else:
         qpos_at = mujoco.mj_stateSize(model, mujoco.mjtState.mjSTATE_TIME)  # rows are [time, qpos, qvel, ...]
         predicted = states[..., qpos_at : qpos_at + model.nq + model.nv]
-    error = (predicted - windows.measured) / spread(windows)
-    return float(np.sqrt(np.nanmean(np.square(error))))
+    return (predicted - windows.measured) / spread(windows)
+
+
+def prediction_error(model: mujoco.MjModel, windows: Windows, delay: float = 0.0) -> float:
+    """RMS over windows, steps and coordinates of `prediction_residuals` where something was compared."""
+    return rms(prediction_residuals(model, windows, delay))
+
+
+def rms(residuals: np.ndarray) -> float:
+    """The RMS of the finite entries of `residuals` (any shape)."""
+    return float(np.sqrt(np.nanmean(np.square(residuals))))
 
 
 def spread(windows: Windows) -> np.ndarray:

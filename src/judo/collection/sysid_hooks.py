@@ -4,14 +4,59 @@ call, the logged actions delayed (--fit-delay), and, comparing sensors, each win
 measurements under the candidate (`refine_starts`).
 """
 
+import contextlib
+import io
 from collections.abc import Callable
 from typing import Any
 
 import mujoco
 import numpy as np
 
-from judo.collection.sysid_data import Windows, delayed_controls, prediction_error, spread
+from judo.collection.sysid_data import Windows, delayed_controls, prediction_residuals, spread
 from judo.core.model_overrides import overridden
+
+
+def least_squares(
+    sysid: Any,
+    model: mujoco.MjModel,
+    windows: Windows,
+    names: list[str],
+    bounds: list[tuple[float, float, float]],
+    scale: np.ndarray,
+    build_model: Callable[[Any], mujoco.MjModel],
+    delay_name: str | None,
+    max_iters: int,
+    counted: Callable[[], None],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """mujoco.sysid's least-squares fit to `windows` of the parameters `names`, each (low, high, start) in `bounds`
+    and of size `scale` (P,), a candidate's model built by `build_model`, the actions delayed by the parameter
+    `delay_name` where given; `counted()` after each evaluation of the residual. Returns ((P,) fitted, (P,) 95%
+    half-widths, (rows, P) the residual's Jacobian at the fit)."""
+    params = sysid.ParameterDict()
+    for name, (low, high, start) in zip(names, bounds, strict=True):
+        params.add(sysid.Parameter(name, nominal=start, min_value=low, max_value=high))
+    sequences = model_sequences(sysid, model, windows)
+    if windows.columns is not None:  # each candidate's windows start where its own motion best explains them
+        rollout = refined_rollout(sysid, model, windows, delay_name)
+    else:
+        rollout = delayed_rollout(sysid, model, windows, delay_name) if delay_name is not None else None
+    compare = observed_residual(sysid, spread(windows), windows.columns)
+    residual = batched_residual(sysid, sequences.measured_rollout, build_model, compare, rollout)
+
+    def evaluated(x: np.ndarray, candidate: Any, **kwargs: Any) -> Any:
+        counted()
+        return residual(x, candidate, **kwargs)
+
+    with contextlib.redirect_stdout(io.StringIO()):
+        opt_params, result = sysid.optimize(
+            params, evaluated, optimizer="mujoco", verbose=False, max_iters=max_iters, x_scale=scale,
+            output=io.StringIO(),
+        )  # fmt: skip
+        fitted = np.array([opt_params[name].value[0] for name in names])
+        residuals, _, _ = residual(fitted, opt_params)
+        jacobian = np.asarray(result.jac, dtype=float)
+        _, interval = sysid.calculate_intervals(residuals, jacobian)
+    return fitted, np.asarray(interval, dtype=float), jacobian
 
 
 def refine_starts(model: mujoco.MjModel, windows: Windows, delay: float = 0.0, iterations: int = 3) -> Windows:
@@ -83,11 +128,11 @@ def full_states(model: mujoco.MjModel, starts: np.ndarray, data: mujoco.MjData |
     return rows
 
 
-def refined_prediction_error(model: mujoco.MjModel, windows: Windows, delay: float) -> float:
-    """`prediction_error` of `model`; comparing sensors, from the starts refined under `model` itself."""
+def refined_residuals(model: mujoco.MjModel, windows: Windows, delay: float) -> np.ndarray:
+    """(W, K, D) `prediction_residuals` of `model`; comparing sensors, from the starts refined under `model` itself."""
     if windows.columns is not None:
         windows = refine_starts(model, windows, delay)
-    return prediction_error(model, windows, delay)
+    return prediction_residuals(model, windows, delay)
 
 
 def refined_rollout(sysid: Any, model: mujoco.MjModel, windows: Windows, delay_name: str | None) -> Callable[..., Any]:
