@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import tyro
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
 
 from judo.cli_shared import (
     apply_config_file,
@@ -21,7 +21,7 @@ from judo.cli_shared import (
     fail,
     name_listing,
     output_console,
-    progress_console,
+    progress_display,
     seeds_label,
 )
 from judo.core.boundary import (
@@ -48,6 +48,7 @@ from judo.tuning.conditions import (
     check_conditions,
     parse_conditions,
 )
+from judo.tuning.heartbeat import dead_trial_notes, failure_of
 from judo.tuning.objective import Direction, Objective, make_objective
 from judo.tuning.space import Param, build_space, parse_fixed
 from judo.tuning.trial import TrialSpec, run_seeded_episodes
@@ -274,7 +275,7 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
         identity["sensing"] = repr(spec.sensing)
     out = args.out_dir()
     storage = args.storage_url()
-    study, already = studies.open_study(storage, study_name, objective, sampler, identity)
+    study, already, notes = studies.open_study(storage, study_name, objective, sampler, identity)
     if not study.trials and args.sampler != "grid":  # a grid runs its own points only
         studies.enqueue_defaults(study, space, configs)
     out.mkdir(parents=True, exist_ok=True)
@@ -284,6 +285,8 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
         f"over {len(spec.conditions)} conditions ({identity['conditions']}), searching "
         f"{', '.join(p.name for p in space)}" + (f"; resuming with {already} finished trials" if already else "")
     )
+    for note in notes:  # e.g. "resumed: trial 0 was left RUNNING by a process that died; marked FAIL"
+        console.print(f"resumed: {note}")
     connected = cluster.start_ray(args.address, args.workers or os.cpu_count() or 1)
     capacity = args.workers or cluster.cluster_cpus()
     best_so_far = studies.best_trial(study, objective)
@@ -291,7 +294,7 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     started = time.perf_counter()
     try:
-        with Progress(*columns, console=progress_console(), transient=True) as progress:
+        with progress_display(*columns) as progress:
             bar = progress.add_task(progress_text(objective, best_value), total=target, completed=min(already, target))
 
             def show(update: studies.Progress) -> None:
@@ -311,10 +314,12 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     finally:
         if connected:
             cluster.stop_ray()
+    for note in dead_trial_notes(study):  # a process that died while this one ran
+        console.print(note)
     write_outputs(args, study, objective, space, spec, out, time.perf_counter() - started, command)
     finished = studies.finished_trials(study)
-    if finished and all(trial.user_attrs.get("failure") for trial in finished):
-        reason = finished[0].user_attrs["failure"]
+    if finished and all(failure_of(trial) for trial in finished):
+        reason = failure_of(finished[0])
         print(f"python -m judo tune: every trial failed; the first reason: {reason}", file=sys.stderr)
         return 1
     return 0

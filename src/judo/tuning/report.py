@@ -19,6 +19,7 @@ from rich.table import Table
 
 from judo.cli_shared import optional_pyplot
 from judo.core.errors import JudoError
+from judo.tuning.heartbeat import failure_of
 from judo.tuning.objective import Objective
 from judo.tuning.space import Param
 from judo.tuning.study import import_optuna, is_baseline, is_feasible, ranked_trials
@@ -101,7 +102,7 @@ def write_trials_csv(path: Path, study: Any, metric: str = "value") -> None:
                         *(trial.user_attrs.get("conditions", {}).get(label, "") for label in conditions),
                         trial.user_attrs.get("plan_ms", ""),
                         is_feasible(trial),
-                        trial.user_attrs.get("failure", ""),
+                        failure_of(trial) or "",
                         *(trial.params.get(name, "") for name in params),
                         *(trial.user_attrs.get("metrics", {}).get(name, "") for name in metrics),
                     ]

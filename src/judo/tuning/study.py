@@ -1,7 +1,11 @@
 """The Optuna study of a tune: its storage, its sampler, and the ask/tell loop that keeps the Ray workers busy.
 
 Each trial's settings are asked for while other trials run; a finished trial is told at once, so
-the study in the database holds every finished trial and a crash or Ctrl-C loses none of them.
+the study in the database holds every finished trial and a crash or Ctrl-C loses none of them. A Ctrl-C
+is held off while a trial is asked for, submitted or told, so that every trial the loop started is
+either told or known to it (and failed as "interrupted"). Each running trial's heartbeat is kept in
+the storage (Optuna's RDB heartbeat): a trial left RUNNING by a process that died (kill -9, a crash)
+stops beating, and opening the study again marks it FAIL (tuning/heartbeat.py).
 Trial user attributes: "metrics" (each metric's mean over seeds and conditions), "conditions" (the
 objective metric's mean over seeds under each condition, by label), "plan_ms" (median control update),
 "failure" (why a trial failed), and with --max-plan-ms "constraint" ([plan_ms - max_plan_ms],
@@ -20,9 +24,11 @@ import numpy as np
 
 from judo.core.config import Config
 from judo.core.errors import JudoError, import_extra
+from judo.core.interrupts import sigint_deferred
 from judo.core.registry import ConfigKind
 from judo.evaluation.episode import EpisodeOutcome
 from judo.ray_cluster import cancel, get, submit, wait_any
+from judo.tuning.heartbeat import HEARTBEAT_S, STALE_AFTER_S, Heartbeats, dead_trial_notes
 from judo.tuning.objective import Objective
 from judo.tuning.space import Param
 from judo.tuning.trial import TrialOutcome, TrialSpec, run_condition_seed, score_trial
@@ -41,6 +47,8 @@ def import_optuna() -> Any:
     optuna = import_extra("optuna", "python -m judo tune", "tune")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+    # Optuna records heartbeats in study.optimize only and warns of ask-and-tell with them: tune records them itself
+    warnings.filterwarnings("ignore", message="Heartbeat of storage is supposed to be used with Study.optimize")
     return optuna
 
 
@@ -91,8 +99,9 @@ def sqlite_folder(storage: str) -> Path | None:
 
 def open_study(
     storage: str, study_name: str, objective: Objective, sampler: Any, identity: dict[str, str]
-) -> tuple[Any, int]:
-    """Create the study, or load it when it exists; returns (study, number of finished trials it already has).
+) -> tuple[Any, int, list[str]]:
+    """Create the study, or load it when it exists; returns (study, number of finished trials it already has,
+    `dead_trial_notes`: the trials of a dead process it marked FAIL first, and those still RUNNING).
 
     `identity` ({"task": ..., "optimizer": ..., "metric": ...}) is stored with a new study and must match
     on resume. Raises StudyError for a storage URL Optuna cannot open.
@@ -102,7 +111,7 @@ def open_study(
     if folder is not None:
         folder.mkdir(parents=True, exist_ok=True)
     try:
-        rdb = optuna.storages.RDBStorage(storage)
+        rdb = optuna.storages.RDBStorage(storage, heartbeat_interval=HEARTBEAT_S, grace_period=STALE_AFTER_S)
         study = optuna.create_study(
             storage=rdb, study_name=study_name, direction=objective.direction, sampler=sampler, load_if_exists=True
         )
@@ -128,7 +137,8 @@ def open_study(
             f"study {study_name!r} {study.direction.name.lower()}s its metric, not {objective.direction}; "
             "pick another --study name"
         )
-    return study, len(finished_trials(study))
+    notes = dead_trial_notes(study)
+    return study, len(finished_trials(study)), notes
 
 
 def finished_trials(study: Any) -> list[Any]:
@@ -192,7 +202,9 @@ def run_trials(
     Each trial's episodes (a condition x a seed each) are Ray tasks of their own; a new trial is asked for
     while fewer than `concurrency` episodes are pending, and a trial is told once all its episodes are in.
     On Ctrl-C the running trials are cancelled and stored as failed ("interrupted"), and
-    KeyboardInterrupt is raised again; every finished trial is already in the storage.
+    KeyboardInterrupt is raised again; every finished trial is already in the storage. A Ctrl-C that lands
+    while trials are asked for and submitted, or told, takes effect once that is done, so that no trial is
+    left RUNNING. Each running trial's heartbeat is recorded every HEARTBEAT_S seconds (`Heartbeats`).
     """
     optuna = import_optuna()
     finished = len(finished_trials(study))
@@ -200,37 +212,43 @@ def run_trials(
     pending: dict[Any, tuple[int, int, int]] = {}  # ObjectRef -> (trial number, condition, seed)
     running: dict[int, tuple[Any, list[EpisodeOutcome[None]]]] = {}  # trial number -> (optuna Trial, episodes so far)
     per_trial = len(spec.conditions) * spec.seeds
-    try:
-        while to_start > 0 or running:
-            while to_start > 0 and (not running or len(pending) < concurrency):
-                trial = study.ask()
-                values = suggest(trial, space)
-                for condition in range(len(spec.conditions)):
-                    for seed in spec.seed_range():
-                        ref = submit(run_condition_seed, spec, values, condition, seed)
-                        pending[ref] = (trial.number, condition, seed)
-                running[trial.number] = (trial, [])
-                to_start -= 1
-            done, _ = wait_any(list(pending))
-            for ref in done:
-                number, condition, seed = pending.pop(ref)
-                trial, episodes = running[number]
-                lost = partial(EpisodeOutcome.failed, seed, condition=condition)  # for a Ray task that died
-                episodes.append(get(ref, lost))
-                if len(episodes) < per_trial:
-                    continue
-                del running[number]
-                outcome = score_trial(spec, episodes)
-                tell(study, trial, outcome, max_plan_ms)
-                finished += 1
-                if on_trial is not None:
-                    on_trial(Progress(finished, target, outcome))
-    except KeyboardInterrupt:
-        cancel(list(pending))
-        for trial, _ in running.values():
-            trial.set_user_attr("failure", "interrupted")
-            study.tell(trial, state=optuna.trial.TrialState.FAIL)
-        raise
+    with Heartbeats(study) as heartbeats:
+        try:
+            while to_start > 0 or running:
+                with sigint_deferred():  # raised once every trial asked for is in `running`
+                    while to_start > 0 and (not running or len(pending) < concurrency):
+                        trial = study.ask()
+                        running[trial.number] = (trial, [])
+                        heartbeats.beat(trial)
+                        values = suggest(trial, space)
+                        for condition in range(len(spec.conditions)):
+                            for seed in spec.seed_range():
+                                ref = submit(run_condition_seed, spec, values, condition, seed)
+                                pending[ref] = (trial.number, condition, seed)
+                        to_start -= 1
+                done, _ = wait_any(list(pending))
+                with sigint_deferred():  # raised once the finished trials are told
+                    for ref in done:
+                        number, condition, seed = pending.pop(ref)
+                        trial, episodes = running[number]
+                        lost = partial(EpisodeOutcome.failed, seed, condition=condition)  # a Ray task that died
+                        episodes.append(get(ref, lost))
+                        if len(episodes) < per_trial:
+                            continue
+                        outcome = score_trial(spec, episodes)
+                        tell(study, trial, outcome, max_plan_ms)
+                        del running[number]
+                        heartbeats.stop(trial)
+                        finished += 1
+                        if on_trial is not None:
+                            on_trial(Progress(finished, target, outcome))
+        except KeyboardInterrupt:
+            with sigint_deferred():  # a second Ctrl-C does not cut the failing of the running trials short
+                cancel(list(pending))
+                for trial, _ in running.values():
+                    trial.set_user_attr("failure", "interrupted")
+                    study.tell(trial, state=optuna.trial.TrialState.FAIL)
+            raise
 
 
 BASELINE_ATTR = "baseline"
