@@ -21,15 +21,18 @@ def test_ctrl_c_during_a_wait_raises_within_a_slice_and_the_tasks_cancel(local_r
         return seconds
 
     remote = ray.remote(num_cpus=1)(busy)
-    refs = [remote.remote(30.0)]
+    refs = [remote.remote(60.0)]
     assert cluster.wait_any([remote.remote(0.0)])[0]  # a finished task returns at once
     timer = threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT))
     started = time.monotonic()
     timer.start()
     with pytest.raises(KeyboardInterrupt):
         cluster.wait_any(refs)
-    assert time.monotonic() - started < 1.0 + cluster.WAIT_SLICE_S + 1.0
+    # Within a slice of the Ctrl-C, not when the 60 s task ends: 1 s + WAIT_SLICE_S on an idle machine, and a
+    # loaded one may start the timer's thread and Ray's wait late, so the bound is generous.
+    answered_after = time.monotonic() - started
+    assert answered_after < 20.0, f"the Ctrl-C was answered after {answered_after:.1f} s"
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the flag handler is gone again
     cluster.cancel(refs)
     with pytest.raises(ray.exceptions.TaskCancelledError):
-        ray.get(refs[0], timeout=20)
+        ray.get(refs[0], timeout=120)  # cancelled: never the task's 60.0, however late the cancel lands
