@@ -120,7 +120,8 @@ def progress_console() -> Console:
 
 def optional_fields(config_cls: type, name: str) -> type:
     """A dataclass called `name` with every field of `config_cls` as `T | None = None` and the same --help
-    text, so that a command line can tell the fields a user gave from those left to the task's defaults."""
+    text, so that a command line can tell the fields a user gave from those left to the task's defaults. A bool field
+    is a pair of flags, --NAME and --no-NAME, as in the app (whose fields have their defaults)."""
     docs, types = field_docs(config_cls), field_types(config_cls)
 
     def option(name: str) -> Any:
@@ -129,6 +130,9 @@ def optional_fields(config_cls: type, name: str) -> type:
         metavar = "{" + ",".join(map(str, choices)) + "}" if choices else getattr(kind, "__name__", "VALUE").upper()
         metavar = "NUMBER ..." if types[name] is np.ndarray else metavar
         text = " ".join(docs.get(name, "").split())
+        if kind is bool:  # --NAME and --no-NAME, the app's flags (tyro's for a bool with a default); None when neither
+            hint = "(default: the task's)"
+            return Annotated[bool | None, tyro.conf.DisallowNone, tyro.conf.arg(help=text, help_behavior_hint=hint)]
         return Annotated[
             kind | None, tyro.conf.arg(help=text, metavar=metavar, help_behavior_hint="(default: the task's)")
         ]
