@@ -65,7 +65,7 @@ def test_a_fixed_latency_changes_the_result_reproducibly(tmp_path):
 
 
 def test_measured_latency_is_recorded(tmp_path):
-    report = evaluate_json(tmp_path, "--latency", "measured", "--controller.latency-compensation", "False")
+    report = evaluate_json(tmp_path, "--latency", "measured", "--controller.no-latency-compensation")
     assert report["latency"] == "measured"
     assert report["episodes"][0]["latency_ms_median"] == pytest.approx(report["episodes"][0]["update_ms_median"])
     # With compensation (cartpole's default) a plan takes effect at the plant step it was predicted to: no

@@ -5,10 +5,13 @@
     python -m judo --task cartpole --system sim                      # judo's simulator (the default)
 
 A class is found by its "module:Class" path, loaded by name, and built with `Class.from_options(task, options)`
-where it has that classmethod (the bridge does), else `Class(task)`: the task instance is the System's own.
+where it has that classmethod (the bridge does), else `Class(task)`: the task instance is the System's own. An
+abstract class, or one whose constructor cannot take the task, is refused in one line before it is built.
 """
 
 import importlib
+import inspect
+import typing
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, cast
@@ -105,6 +108,12 @@ def system_class(name: str) -> type[System]:
     if not (isinstance(cls, type) and issubclass(cls, System)):
         got = "nothing" if cls is None else type(cls).__name__ if not isinstance(cls, type) else cls.__name__
         raise ConfigError(f"--system {name}: expected a System subclass {class_name!r} in {module_name}, got {got}")
+    if inspect.isabstract(cls):
+        missing = ", ".join(sorted(cls.__abstractmethods__))
+        raise ConfigError(
+            f"--system {name}: expected a System subclass that writes every method, got {cls.__name__}, which leaves "
+            f"{missing} abstract (judo.loop.system:MujocoSystem is judo's simulator)"
+        )
     return cls
 
 
@@ -124,4 +133,29 @@ def build_system(options: SystemOptions, task_name: str, task_config: TaskConfig
         return cast(System, from_options(task, options))
     if options.record is not None:
         raise ConfigError(f"--record logs the ROS 2 bridge's link; {cls.__name__} takes no --record")
+    _check_builds_with(cls, task, options.system)
     return cls(task)  # type: ignore[call-arg]
+
+
+def _check_builds_with(cls: type[System], task: Task, name: str) -> None:
+    """ConfigError unless `cls(task)` can be called: its constructor takes the task as its one required argument,
+    of the type it annotates (e.g. DynamicsSystem's DynamicsTask)."""
+    try:
+        signature = inspect.signature(cls)
+        bound = signature.bind(task)
+    except TypeError:
+        raise ConfigError(
+            f"--system {name}: expected a System subclass built with Class(task) or Class.from_options(task, "
+            f"options), got {cls.__name__}{signature}"
+        ) from None
+    except ValueError:  # a constructor without a signature Python can read: tried as it is
+        return
+    try:
+        hints = typing.get_type_hints(cls.__init__)
+    except Exception:  # an annotation that does not resolve: not checked
+        return
+    wanted = hints.get(next(iter(bound.arguments)))
+    if isinstance(wanted, type) and not isinstance(task, wanted):
+        raise ConfigError(
+            f"--system {name}: {cls.__name__} needs a task that is a {wanted.__name__}, got {type(task).__name__}"
+        )
