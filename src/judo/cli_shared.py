@@ -8,6 +8,7 @@ It sits below the command packages (evaluation, collection, tuning, learning) an
 
 import dataclasses
 import sys
+import threading
 import typing
 from pathlib import Path
 from typing import Annotated, Any, Literal, NoReturn, TypeVar
@@ -15,6 +16,7 @@ from typing import Annotated, Any, Literal, NoReturn, TypeVar
 import numpy as np
 import tyro
 from rich.console import Console
+from rich.progress import Progress, ProgressColumn, Task, TaskID, TextColumn
 
 from judo.core.config import field_types
 from judo.core.errors import JudoError
@@ -116,6 +118,90 @@ def output_console() -> Console:
 def progress_console() -> Console:
     """Console for progress bars on stderr, so stdout holds only the results."""
     return Console(stderr=True)
+
+
+PROGRESS_PERIOD = 5.0
+"""Seconds between the plain progress lines a long command prints where its progress console is no terminal."""
+
+
+def progress_display(
+    *columns: str | ProgressColumn, console: Console | None = None, transient: bool = True
+) -> Progress:
+    """The progress display of a long command: rich's `Progress(*columns)` bar on `console` (`progress_console()`
+    when None) where it is a terminal; elsewhere (a pipe, a log file, CI) a `ProgressLines`, which prints a plain
+    line every PROGRESS_PERIOD seconds. Both are used alike: `with progress_display(...) as progress:`,
+    `progress.add_task(...)`, `progress.update(...)`."""
+    console = progress_console() if console is None else console
+    if console.is_terminal:
+        return Progress(*columns, console=console, transient=transient)
+    return ProgressLines(*columns, console=console)
+
+
+class ProgressLines(Progress):
+    """A rich `Progress` that draws no bar and instead prints, every `period` seconds while it runs, one plain line
+    per visible task: its text columns, then done/total, the time elapsed and the time left at the rate so far
+    ("ETA unknown" before anything is done), e.g. `fitting 2 parameters: 40 residual evaluations | elapsed 0:25`
+    or `collect done 1, failed 0, kept 1, 0.5 episodes/min | 1/4, elapsed 2:03, ETA 6:09`. Nothing is printed by work shorter than
+    `period`."""
+
+    def __init__(self, *columns: str | ProgressColumn, console: Console, period: float = PROGRESS_PERIOD) -> None:
+        super().__init__(*columns, console=console, disable=True)
+        self.period = period
+        self._first: dict[TaskID, float] = {}  # each task's completed count when it was added (a resumed run's)
+        self._done = threading.Event()
+        self._printer = threading.Thread(target=self._print_lines, name="judo-progress-lines", daemon=True)
+
+    def add_task(
+        self,
+        description: str,
+        start: bool = True,
+        total: float | None = 100.0,
+        completed: int = 0,
+        visible: bool = True,
+        **fields: Any,
+    ) -> TaskID:
+        """rich's add_task, keeping where the task started for its ETA."""
+        task = super().add_task(description, start, total, completed, visible, **fields)
+        self._first[task] = completed
+        return task
+
+    def start(self) -> None:
+        """Start printing lines (no bar is drawn)."""
+        super().start()
+        if not self._printer.is_alive() and not self._done.is_set():
+            self._printer.start()
+
+    def stop(self) -> None:
+        """Stop printing lines."""
+        self._done.set()
+        if self._printer.is_alive() and self._printer is not threading.current_thread():
+            self._printer.join()
+        super().stop()
+
+    def line(self, task: Task) -> str:
+        """The plain line for `task`."""
+        text = [column(task).plain.strip() for column in self.columns if isinstance(column, TextColumn)]
+        elapsed = task.elapsed or 0.0
+        figures = [f"elapsed {clock_time(elapsed)}"]
+        if task.total is not None:
+            rate = (task.completed - self._first.get(task.id, 0)) / elapsed if elapsed > 0 else 0.0
+            eta = clock_time((task.total - task.completed) / rate) if rate > 0 else "unknown"
+            figures = [f"{task.completed:.4g}/{task.total:.4g}", *figures, f"ETA {eta}"]
+        return " ".join(part for part in text if part) + " | " + ", ".join(figures)
+
+    def _print_lines(self) -> None:
+        while not self._done.wait(self.period):
+            with self._lock:
+                lines = [self.line(task) for task in self.tasks if task.visible and not task.finished]
+            for line in lines:
+                self.console.print(line, markup=False, highlight=False, soft_wrap=True)
+
+
+def clock_time(seconds: float) -> str:
+    """`seconds` as H:MM:SS, or M:SS under an hour."""
+    minutes, secs = divmod(int(round(seconds)), 60)
+    hours, minutes = divmod(minutes, 60)
+    return f"{hours}:{minutes:02d}:{secs:02d}" if hours else f"{minutes}:{secs:02d}"
 
 
 def optional_fields(config_cls: type, name: str) -> type:

@@ -196,12 +196,14 @@ def run_windowed(
     window: int | None,
     console: Console,
     per_task: int = 1,
+    progress: Callable[..., Progress] = Progress,
 ) -> None:
     """Run `function(*args)` for each `args` of `tasks` as a Ray task on a local Ray with `local_cpus` CPUs (address
     None) or the cluster at `address`, at most `window` episodes in flight (twice the Ray's CPUs when None; a task
     holds `per_task` episodes), and hand each finished one to `take(args, value)` as it finishes; a task that died
-    gives `lost(args, reason)` as its value. A transient progress bar on `console` labelled `label` shows
-    `counts.done` of `episodes` with `counts.line()`; `take` keeps the counts.
+    gives `lost(args, reason)` as its value. A transient `progress(*columns, console=console, transient=True)` display
+    (cli_shared.progress_display: plain lines where `console` is no terminal) labelled `label` shows `counts.done` of
+    `episodes` with `counts.line()`; `take` keeps the counts.
 
     Ray is stopped after if this call started or joined it. On any exception (Ctrl-C's KeyboardInterrupt, or
     one `take` raised) the tasks still running are cancelled and it is raised again.
@@ -213,8 +215,8 @@ def run_windowed(
     try:
         connected = start_ray(address, local_cpus)
         window = window or 2 * cluster_cpus()
-        with Progress(*columns, TimeElapsedColumn(), console=console, transient=True) as progress:
-            bar = progress.add_task(counts.line(), total=episodes)
+        with progress(*columns, TimeElapsedColumn(), console=console, transient=True) as display:
+            bar = display.add_task(counts.line(), total=episodes)
             while True:
                 while len(running) * per_task < window and (args := next(pending, None)) is not None:
                     running[submit(function, *args)] = args
@@ -224,7 +226,7 @@ def run_windowed(
                 for ref in ready:
                     args = running.pop(ref)
                     take(args, get(ref, lambda reason, args=args: lost(args, reason)))
-                progress.update(bar, completed=counts.done, description=counts.line())
+                display.update(bar, completed=counts.done, description=counts.line())
     except BaseException:
         cancel(list(running))
         raise

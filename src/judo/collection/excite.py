@@ -19,14 +19,16 @@ is written. The log has collect's layout, so `sysid` reads it.
 import math
 import signal
 import sys
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
 
 import numpy as np
 import tyro
+from rich.progress import BarColumn, MofNCompleteColumn, TextColumn
 
-from judo.cli_shared import apply_config_file, fail, parse_args
+from judo.cli_shared import apply_config_file, fail, parse_args, progress_display
 from judo.core.boundary import check_output_file, require
 from judo.core.errors import ConfigError, JudoError
 from judo.core.interrupts import sigint_as_flag
@@ -184,7 +186,11 @@ def run(args: ExciteArgs) -> int:
         controls = multisine(
             model.actuator_ctrlrange, np.arange(steps) * system.timestep, args.amplitude, args.bandwidth, args.seed
         )
-        logged = drive(system, task, args.task, controls, paced=own)
+        with progress_display(TextColumn(f"exciting {args.task}"), BarColumn(), MofNCompleteColumn()) as progress:
+            bar = progress.add_task("steps", total=steps)
+            logged = drive(
+                system, task, args.task, controls, paced=own, on_step=lambda done: progress.update(bar, completed=done)
+            )
     finally:
         close = getattr(system, "close", None)  # a robot link: its last command acknowledged, its log finished
         if callable(close):
@@ -293,14 +299,21 @@ class Measurements:
     names: tuple[str, ...]
 
 
-def drive(system: "System", task: "Task", task_name: str, controls: np.ndarray, paced: bool = False) -> Excited:
+def drive(
+    system: "System",
+    task: "Task",
+    task_name: str,
+    controls: np.ndarray,
+    paced: bool = False,
+    on_step: Callable[[int], None] | None = None,
+) -> Excited:
     """Serve `controls` (S, nu), one per step of `system` (`paced`: step k when the app's plant clock says, at
     wall time k * timestep from the first; else as fast as it goes), and log what it reports after each step: its state
     (`plant_state()`, else the reading's), its sensors (`plant_sensors()`), the measured sensors of its reading
     with their ages, and, where the reading holds no state, the state `task`'s default estimator makes of them
     (`choose_estimator`, as the app picks it). A stop request (Ctrl-C, SIGTERM) ends the run after the step under
     way; at the end, stopped or not, or on an error, the plant is brought to rest: its `halt()`, else the task's
-    `safe_action` from the last state known."""
+    `safe_action` from the last state known. `on_step(steps done)` is called after each step (a progress display)."""
     from judo.core.estimator import ControlHistory
     from judo.loop.plant_clock import PlantClock
     from judo.loop.sensing import Sensing, choose_estimator
@@ -349,6 +362,8 @@ def drive(system: "System", task: "Task", task_name: str, controls: np.ndarray, 
                 if np.isfinite(known).all():
                     last_state = known
                 done = step + 1
+                if on_step is not None:
+                    on_step(done)
         finally:
             halted = halt(system, task, last_state)
     return Excited(

@@ -8,7 +8,7 @@ in memory and --workers means the same on a local Ray and a cluster.
 import sys
 from typing import Any
 
-from judo.cli_shared import output_console, progress_console
+from judo.cli_shared import output_console, progress_console, progress_display
 from judo.collection.dataset import DatasetFile, EpisodeArrays
 from judo.collection.episode import collect_group
 from judo.core.errors import JudoError
@@ -107,6 +107,7 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
             window=args.workers,  # --workers caps the episodes run at once on any Ray
             console=progress_console(),
             per_task=size,
+            progress=progress_display,  # plain lines every few seconds where stderr is no terminal
         )
     except KeyboardInterrupt:
         print(

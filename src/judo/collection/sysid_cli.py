@@ -363,7 +363,8 @@ def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -
                 "them to --params."
                 if missing
                 else "No body's mass, inertia or centre of mass, nor any joint's damping or armature, explains it "
-                "alone: look for a longer command delay, contacts or a part the model lacks."
+                "alone: look for commands applied at varying delays (a bridge under load), contacts or a part the "
+                "model lacks."
             ),
         ]
     missing = [p.name for p, excited in zip(result.parameters, result.excited, strict=True) if not excited]

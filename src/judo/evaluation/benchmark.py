@@ -7,7 +7,7 @@ from typing import Annotated
 
 import numpy as np
 import tyro
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
 from judo.cli_shared import (
@@ -17,7 +17,7 @@ from judo.cli_shared import (
     name_listing,
     output_console,
     parse_args,
-    progress_console,
+    progress_display,
 )
 from judo.core.backend import RolloutBackendName, check_rollout_backend
 from judo.core.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_file
@@ -138,7 +138,7 @@ def main(argv: list[str] | None = None) -> int:
         tasks, optimizers = chosen_tasks(args.tasks or ()), chosen_optimizers(args.optimizers or ())
         results: dict[str, list[UpdateTiming]] = {task: [] for task in tasks}
         columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
-        with Progress(*columns, console=progress_console(), transient=True) as progress:
+        with progress_display(*columns) as progress:
             bar = progress.add_task("benchmark", total=len(tasks) * len(optimizers) * args.samples)
             for task in tasks:
                 for optimizer in optimizers:

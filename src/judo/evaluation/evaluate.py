@@ -17,6 +17,7 @@ from judo.cli_shared import (
     output_console,
     parse_args_with_config_fields,
     progress_console,
+    progress_display,
     seeds_label,
 )
 from judo.core.backend import RolloutBackend
@@ -213,6 +214,7 @@ def evaluate_on_ray(
         local_cpus=workers or os.cpu_count() or 1,
         window=workers,
         console=progress_console(),
+        progress=progress_display,
     )
     outcomes.sort(key=lambda outcome: outcome.seed)
     results = [outcome.episode for outcome in outcomes if outcome.episode is not None]
@@ -226,7 +228,7 @@ def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, 
     if args.workers is not None or args.address is not None:
         return evaluate_on_ray(args.episode_spec(), args.seed_range(), args.workers, args.address)
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
-    with Progress(*columns, TimeRemainingColumn(), console=progress_console(), transient=True) as progress:
+    with progress_display(*columns, TimeRemainingColumn()) as progress:
         if args.episodes_per_batch > 1:
             return evaluate_batched(args, progress), []
         return evaluate(args, progress), []

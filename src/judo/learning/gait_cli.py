@@ -14,7 +14,7 @@ from typing import Annotated
 import numpy as np
 import tyro
 
-from judo.cli_shared import fail, optional_pyplot, output_console, parse_args, progress_console
+from judo.cli_shared import fail, optional_pyplot, output_console, parse_args, progress_display
 from judo.core.boundary import check_output_file
 from judo.core.config import require
 from judo.core.errors import JudoError
@@ -84,7 +84,7 @@ def run(args: GaitSearchArgs, command: str) -> int:
     """Search with a progress bar, then write the ONNX file (the best iteration's mean) and its reward curve, and
     say how to use them. Returns the exit status: 0, or 130 when Ctrl-C ended the search (the best so far is
     written all the same)."""
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     from judo.learning.gait_search import quadruped_gait_layout, search_gait
     from judo.tasks.quadruped_velocity import OBSERVATION, QuadrupedVelocity
@@ -92,7 +92,7 @@ def run(args: GaitSearchArgs, command: str) -> int:
     console = output_console()
     settings = GaitSearchSettings(**{name: getattr(args, name) for name in asdict(GaitSearchSettings())})
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"))
-    with Progress(*columns, TimeElapsedColumn(), console=progress_console(), transient=True) as progress:
+    with progress_display(*columns, TimeElapsedColumn()) as progress:
         bar = progress.add_task("searching", total=args.iterations)
 
         def show(record: Iteration) -> None:

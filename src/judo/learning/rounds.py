@@ -20,9 +20,10 @@ from typing import Any
 
 import numpy as np
 from rich.console import Console
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from judo.cli_shared import progress_display
 from judo.learning.args import DistillArgs
 from judo.learning.export import copy_policy, losses_path, plot_losses, policy_metadata, write_policy
 from judo.learning.pairs import DistillError, TrainingPairs, read_pairs
@@ -39,7 +40,7 @@ def train_and_write(
 ) -> TrainedPolicy:
     """Train on `pairs` with a progress bar showing the losses, write the ONNX file and its loss PNG."""
     columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("epoch {task.completed:.0f}"))
-    with Progress(*columns, TimeElapsedColumn(), console=progress_console, transient=True) as progress:
+    with progress_display(*columns, TimeElapsedColumn(), console=progress_console) as progress:
         bar = progress.add_task(f"training {out.name}", total=args.epochs)
 
         def show(epoch: int, train_loss: float, validation_loss: float) -> None:
