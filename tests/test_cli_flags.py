@@ -2,6 +2,8 @@
 config fields (benchmark, evaluate, collect), and a model override MuJoCo cannot simulate is a one-line exit 2
 before anything runs, in the app, evaluate, tune, collect, plant and excite alike."""
 
+from pathlib import Path
+
 import pytest
 
 from judo.__main__ import main
@@ -102,3 +104,20 @@ def test_a_timestep_mujoco_cannot_step_is_a_one_line_exit_2_before_anything_runs
 def test_a_system_judo_cannot_build_is_a_one_line_exit_2(system, message, capsys):
     assert exit_status(["--task", "cartpole", "--headless", "--duration", "1", "--system", system]) == 2
     assert capsys.readouterr().err.strip() == f"python -m judo: {message}"
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc, where no file can be made")
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["evaluate", "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--json", "/proc/nope/x.json"],
+        ["tune", "--task", "cartpole", "--optimizer", "ps", "--trials", "1", "--out", "/proc/nope"],
+    ],
+)
+def test_an_output_where_nothing_can_be_made_is_a_one_line_exit_2_even_for_root(argv, capsys):
+    """os.access lets root write anywhere, /proc included; the check makes a real file where the output would go."""
+    if argv[0] == "tune":
+        pytest.importorskip("optuna")
+    assert exit_status(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and err.startswith(f"error: {argv[-2]}: cannot write in '/proc' ("), err

@@ -3,6 +3,7 @@ sizes, output paths checked before any work starts, and a user's exception told 
 """
 
 import os
+import tempfile
 import traceback
 from pathlib import Path
 
@@ -86,6 +87,14 @@ def _check_writable_folder(option: str, folder: Path) -> None:
         raise ConfigError(f"{option}: {shown(str(existing))} is a file, so {shown(str(folder))} cannot be made")
     if not os.access(existing, os.W_OK | os.X_OK):
         raise ConfigError(f"{option}: cannot write in {shown(str(existing))} (permission denied)")
+    try:  # os.access allows root everything, also where nothing can be made (/proc, a read-only mount): a real file
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as err:
+        why = err.strerror or type(err).__name__
+        raise ConfigError(
+            f"{option}: cannot write in {shown(str(existing))} (no file can be made there: {why})"
+        ) from None
 
 
 def user_error_line(err: BaseException) -> str:
