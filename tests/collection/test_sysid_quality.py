@@ -130,7 +130,7 @@ def test_an_out_that_cannot_be_written_exits_2_before_the_fit_and_writes_nothing
     log = write_log(tmp_path / "run.h5", seconds=0.5)
     (tmp_path / "taken.md").mkdir()  # where the report of --out taken.toml would go
     for out, message in [
-        ("/proc/nope/f.toml", "--out '/proc/nope/f.toml': cannot write in '/proc'"),
+        ("/proc/nope/f.toml", "--out: cannot write in '/proc'"),
         (str(tmp_path / "taken.toml"), "is a folder; give a file path"),
     ]:
         with pytest.raises(SystemExit) as caught:
@@ -150,3 +150,32 @@ def test_the_noise_floor_is_the_white_noise_under_a_smooth_drift():
     assert rms(drift) > 10 * 0.01
     assert noise_floor(drift + noise) == pytest.approx(0.01, rel=0.1)
     assert noise_floor(drift) < 0.01 * rms(drift)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (
+            ["--command-delay", "soon"],
+            "--command-delay takes auto or a whole number of steps from 0 to 100, got 'soon'",
+        ),
+        (["--command-delay", "2", "--fit-delay"], "--command-delay 2 and --fit-delay both delay the actions; give one"),
+    ],
+)
+def test_a_command_delay_sysid_cannot_use_exits_2_in_one_line(tmp_path, capsys, args, message):
+    with pytest.raises(SystemExit) as caught:
+        sysid_main(
+            [
+                str(tmp_path / "run.h5"),
+                "--task",
+                "cartpole",
+                "--params",
+                "body_mass.pole",
+                *args,
+                "--out",
+                str(tmp_path / "f.toml"),
+            ]
+        )
+    err = capsys.readouterr().err
+    assert caught.value.code == 2 and err == f"error: {message}\n"
+    assert list(tmp_path.iterdir()) == []

@@ -6,10 +6,8 @@ python -m judo evaluate --task cartpole --optimizer mppi --config fitted.toml   
 
 import json
 import math
-import os
 import shlex
 import sys
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -18,8 +16,7 @@ import tyro
 
 from judo.cli_shared import apply_config_file, fail, output_console, parse_args, progress_display
 from judo.core.boundary import check_output_file, require
-from judo.core.config import shown
-from judo.core.errors import ConfigError, JudoError
+from judo.core.errors import JudoError
 
 DESCRIPTION = (
     "Fit named parameters of a task's planning model (MjModel fields by element name, as [model_overrides] sets "
@@ -102,31 +99,8 @@ class SysidArgs:
             self.command_delay in ("auto", "0") or not self.fit_delay,
             f"--command-delay {self.command_delay} and --fit-delay both delay the actions; give one",
         )
-        for path in (self.out, self.out.with_suffix(".md")):
+        for path in (self.out, self.out.with_suffix(".md")):  # the fitted file and the report beside it
             check_output_file("--out", path)
-            check_can_write("--out", path)
-
-
-def check_can_write(option: str, path: Path) -> None:
-    """ConfigError now unless a file can be made at `path`: the first folder it lacks made and removed again, or a
-    scratch file written and removed beside it. So what permission bits do not tell (a folder under /proc, a
-    read-only mount, a full disk) fails before the fit, with nothing left behind."""
-    existing, missing = path.absolute().parent, None
-    while not existing.exists():
-        existing, missing = existing.parent, existing
-    try:
-        if missing is not None:
-            missing.mkdir()
-            missing.rmdir()
-        else:
-            handle, scratch = tempfile.mkstemp(dir=existing, prefix=".judo-sysid-")
-            os.close(handle)
-            os.unlink(scratch)
-    except OSError as err:
-        raise ConfigError(
-            f"{option} {shown(str(path))}: cannot write in {shown(str(existing))} ({err.strerror or err}); give a "
-            "path in a folder this user can write"
-        ) from None
 
 
 def main(argv: list[str] | None = None) -> int:
