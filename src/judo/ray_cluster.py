@@ -30,6 +30,8 @@ WAIT_SLICE_S = 0.5
 """How long one `ray.wait` may block before a pending Ctrl-C is checked."""
 LOCAL_RAY_HOST = "127.0.0.1"
 """The address a local Ray (no --address) listens on: this machine only, as the GUI by default."""
+LOCAL_START_ATTEMPTS = 2
+"""How many times a local Ray is started before giving up (a loaded machine can miss Ray's fixed start-up wait)."""
 
 
 T = TypeVar("T")
@@ -86,14 +88,24 @@ def start_ray(address: str | None, workers: int) -> bool:
     options: dict[str, Any] = {"include_dashboard": False, "log_to_driver": False, "configure_logging": False}
     if address is None:
         options.update(num_cpus=workers, runtime_env=local_runtime_env(), _node_ip_address=LOCAL_RAY_HOST)
-    try:
-        with _on_loopback(address is None):
-            ray.init(address=address, **options)
-    except (ConnectionError, RuntimeError, ValueError) as err:
-        raise RayClusterError(
-            f"could not {'start a local Ray' if address is None else f'join the Ray cluster at {address!r}'}: "
-            f"{str(err).splitlines()[0]}. For a cluster, start it with `ray start --head` first"
-        ) from None
+    # A local Ray on a loaded machine can miss Ray's own fixed 30 s wait for its raylet (a bare Exception, "timed
+    # out during startup"): the start is tried again from scratch before giving up.
+    attempts = LOCAL_START_ATTEMPTS if address is None else 1
+    for attempt in range(1, attempts + 1):
+        try:
+            with _on_loopback(address is None):
+                ray.init(address=address, **options)
+            return True
+        except Exception as err:  # Ray raises a bare Exception for a node that timed out starting
+            if not isinstance(err, (ConnectionError, RuntimeError, ValueError)) and "timed out" not in str(err):
+                raise
+            ray.shutdown()
+            if attempt == attempts:
+                raise RayClusterError(
+                    f"could not {'start a local Ray' if address is None else f'join the Ray cluster at {address!r}'}"
+                    f"{f' in {attempts} tries' if attempts > 1 else ''}: {str(err).splitlines()[0]}. "
+                    "For a cluster, start it with `ray start --head` first"
+                ) from None
     return True
 
 
