@@ -1,4 +1,5 @@
-"""A MuJoCo model's joints as a robot's ROS 2 messages name them: what the bridge, the plant and the MCAP reader
+"""A MuJoCo model's joints as a robot's ROS 2 messages name them, and the readings a robot cannot give (a joint
+beyond its range with a margin, faster than the model can move it): what the bridge, the plant and the MCAP reader
 share. It needs no DDS: a decoded message is read by its fields, whichever library decoded it."""
 
 import math
