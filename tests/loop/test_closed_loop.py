@@ -113,6 +113,32 @@ def test_a_warm_start_without_the_state_still_works_with_a_deprecation_warning(t
         assert controller.nominal_knots is not None
 
 
+def test_a_loop_that_keeps_few_updates_holds_the_latest_and_no_more_than_twice_as_many(hold_task_cls):
+    """The app's loop runs for days: with `keep_updates` its update times stay bounded (a list of every update's grew
+    about 80 kB a minute at 20 Hz over the wire), and the latest are the ones kept."""
+    with hold_controller(hold_task_cls) as controller:
+        kept = ClosedLoop(controller, MujocoSystem.from_task(controller.task, seed=0), keep_updates=3)
+        every = ClosedLoop(controller, MujocoSystem.from_task(controller.task, seed=0))
+        sizes = []
+        for loop in (kept, every):
+            loop.restart()
+            for _ in range(100):  # 20 updates
+                loop.step()
+                if loop is kept:
+                    sizes.append(len(kept.update_ms))
+    assert len(every.update_ms) == len(every.latency_s) == 20
+    assert max(sizes) == 6 and 3 <= len(kept.update_ms) == len(kept.latency_s) <= 6
+    assert kept.latency_s == every.latency_s[-len(kept.latency_s) :]  # latency 0: every update's delay is 0
+    from judo.runtime.gui.controls import INFERENCE_WINDOW
+    from judo.runtime.session import KEPT_UPDATES, build_session
+
+    session = build_session("cartpole", "ps", 0, seed=0, num_workers=1)  # the app's loop keeps as many
+    try:
+        assert session.closed_loop.keep_updates == KEPT_UPDATES >= INFERENCE_WINDOW
+    finally:
+        session.controller.close()
+
+
 def test_the_public_loop_runs_a_registered_task():
     with judo.make_controller("cartpole", "ps", seed=0) as controller:
         loop = judo.ClosedLoop(controller, judo.MujocoSystem.from_task(controller.task, seed=0))

@@ -114,11 +114,13 @@ class ClosedLoop:
         estimator: turns each raw reading into the state planned from (None: plan from the reading's state).
             It is fed every served action, and estimates as of the plant's now: the System's `time` where it
             has one (a reading may be late), else the reading's.
+        keep_updates: keep at least the latest this many entries of `update_ms` and `latency_s` (at most twice as
+            many), for a loop that runs for days (the app); None keeps every update's (an episode's log).
 
     Attributes:
         reading: the latest reading of the plant (None until the first `read`).
-        update_ms: wall times of every control update, in milliseconds (failed ones too).
-        latency_s: the delay after which each update's plan took effect, in seconds.
+        update_ms: wall times of every control update (the latest `keep_updates`), in milliseconds (failed ones too).
+        latency_s: the delay after which each update's plan took effect, in seconds (as many).
         failed_updates: updates whose rollouts all scored NaN or -inf, or whose knots were non-finite
             (the plan before them stayed in force); `last_failure` is the latest one's error.
         divergences: times the plant's simulation blew up and was reset.
@@ -138,6 +140,7 @@ class ClosedLoop:
         clock: Callable[[], float] | None = None,
         on_watchdog: Callable[[str | None], None] | None = None,
         estimator: Estimator | None = None,
+        keep_updates: int | None = None,
     ) -> None:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
@@ -157,6 +160,7 @@ class ClosedLoop:
         self.reading: SystemState | None = None
         self.update_ms: list[float] = []
         self.latency_s: list[float] = []
+        self.keep_updates = keep_updates
         self.failed_updates = self.divergences = 0
         self.control_clock = ControlClock()
         self.last_delay = 0.0
@@ -260,6 +264,8 @@ class ClosedLoop:
             delay = max(delay, start.time - reading.time)
         self.update_ms.append(1e3 * wall)
         self.latency_s.append(delay)
+        if self.keep_updates is not None and len(self.update_ms) > 2 * self.keep_updates:
+            del self.update_ms[: -self.keep_updates], self.latency_s[: -self.keep_updates]  # amortised O(1)
         self.last_delay = delay
         if plan is None:
             return None
