@@ -65,6 +65,15 @@ def test_the_plant_refuses_faults_out_of_range_in_one_line(capsys):
     assert err == "python -m judo plant: --drop must be a fraction 0..1, got 1.5"
     err = one_line_error(capsys, ["--task", "cartpol"], plant.main)
     assert "unknown task 'cartpol'; valid tasks are:" in err and "cartpole" in err
+    absurd = {  # accepted before, and run to exit 0 (a seed of -1 was numpy's ValueError, exit 1)
+        ("--seed", "-1"): "--seed must be an integer from 0 to 2**63 - 1, got -1",
+        ("--rate-hz", "1e300"): "--rate-hz must be above 0 and at most 10000 Hz, got 1e+300",
+        ("--duration", "-1"): "--duration must be in (0, 604800] s (a week), got -1.0",
+        ("--latency-ms", "1e300"): "--latency-ms must be from 0 to 10000 ms, got 1e+300",
+        ("--jitter-ms", "nan"): "--jitter-ms must be from 0 to 10000 ms, got nan",
+    }
+    for argv, message in absurd.items():
+        assert one_line_error(capsys, list(argv), plant.main) == f"python -m judo plant: {message}"
 
 
 @pytest.mark.slow

@@ -28,10 +28,12 @@ import mujoco
 import numpy as np
 import tyro
 
+from judo.core.config import check_seed
 from judo.core.errors import ConfigError, JudoError, import_extra
 from judo.core.model_overrides import check_model_overrides, override_task_models, parse_override_entries
 from judo.core.registry import get_registered_tasks, lookup_task
 from judo.core.task import new_task
+from judo.loop.plant_clock import PlantClock
 from judo.loop.system import MujocoSystem, SimulationDiverged
 from judo.loop.system_choice import Ros2Options
 
@@ -39,8 +41,12 @@ PROG = "python -m judo plant"
 DESCRIPTION = "judo's simulator as a robot process on a ROS 2 graph (DDS, no ROS install), with link faults."
 logger = logging.getLogger("judo.ros2.plant")
 
-MAX_CATCH_UP = 0.1
-"""Most seconds of simulation the plant steps at once to catch up (after a pause it falls behind instead)."""
+MAX_FAULT_MS = 10_000.0
+"""Most milliseconds of --latency-ms or --jitter-ms: a link slower than 10 s is a dead one."""
+MAX_RATE_HZ = 10_000.0
+"""Most readings a second --rate-hz asks for (the plant publishes at most once a physics step in any case)."""
+MAX_DURATION_S = 7 * 24 * 3600.0
+"""Most wall seconds of --duration (a week)."""
 
 
 @dataclass
@@ -104,17 +110,23 @@ class Outbox:
 
 
 def check(options: PlantOptions) -> None:
-    """ConfigError for a fault or rate out of range."""
+    """ConfigError for a seed, fault, rate or duration out of range."""
+    try:
+        check_seed(options.seed)
+    except ConfigError as err:
+        raise ConfigError(f"--{err}") from None
     for name in ("drop", "duplicate"):
         value = getattr(options, name)
         if not 0 <= value <= 1:
             raise ConfigError(f"--{name} must be a fraction 0..1, got {value}")
     for name in ("latency_ms", "jitter_ms"):
         value = getattr(options, name)
-        if not (math.isfinite(value) and value >= 0):
-            raise ConfigError(f"--{name.replace('_', '-')} must be at least 0, got {value}")
-    if not (math.isfinite(options.rate_hz) and options.rate_hz > 0):
-        raise ConfigError(f"--rate-hz must be above 0, got {options.rate_hz}")
+        if not (math.isfinite(value) and 0 <= value <= MAX_FAULT_MS):
+            raise ConfigError(f"--{name.replace('_', '-')} must be from 0 to {MAX_FAULT_MS:g} ms, got {value}")
+    if not (math.isfinite(options.rate_hz) and 0 < options.rate_hz <= MAX_RATE_HZ):
+        raise ConfigError(f"--rate-hz must be above 0 and at most {MAX_RATE_HZ:g} Hz, got {options.rate_hz}")
+    if options.duration is not None and not 0 < options.duration <= MAX_DURATION_S:
+        raise ConfigError(f"--duration must be in (0, {MAX_DURATION_S:g}] s (a week), got {options.duration}")
 
 
 def run_plant(options: PlantOptions, stop: threading.Event) -> None:
@@ -162,8 +174,8 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
         flush=True,
     )
     refused = writers_seen = robots_seen = 0
-    start = origin = time.monotonic()
-    steps = 0
+    start = time.monotonic()
+    clock = PlantClock()  # one step per timestep of wall clock, as the app paces its plant
     next_publish = next_check = 0.0
     while not stop.is_set():
         now = time.monotonic()
@@ -178,16 +190,13 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
                 logger.warning("refused command %d: expected %d finite values, got %s", refused, size, values.tolist())
                 continue
             system.apply(np.clip(values, low, high))
-        due = int((now - origin) / dt) + 1 - steps
-        if due > round(MAX_CATCH_UP / dt):  # paused or starved: fall behind rather than race
-            origin += (due - 1) * dt
-            due = 1
-        for _ in range(max(0, due)):
+        due = clock.due(now, dt)  # paused or starved: it falls behind rather than race
+        for _ in range(due):
             try:
                 system.step()
             except SimulationDiverged as err:
                 logger.warning("%s", err)
-            steps += 1
+        clock.stepped(due)
         if data.time >= next_publish - 1e-9:
             next_publish = max(next_publish + period, data.time)
             qpos, qvel, stamp = data.qpos.copy(), data.qvel.copy(), float(data.time)
@@ -214,7 +223,8 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
                     domain,
                 )
             robots_seen = robots
-        wait = min(origin + steps * dt, outbox.next_due(), now + 0.05) - time.monotonic()  # 50 ms: see a stop
+        later = time.monotonic()
+        wait = min(later + clock.wait(later, dt), outbox.next_due(), now + 0.05) - later  # 50 ms: see a stop
         if wait > 0:
             waitset.wait(duration(nanoseconds=int(wait * 1e9)))
 
