@@ -77,7 +77,11 @@ def test_a_plan_with_gains_takes_effect_where_its_nominal_starts(monkeypatch):
     def recording(plan, times, state=None):
         if state is not None and plan.gains is not None and id(plan) not in first_serves:
             step = round((float(times) - plan.start_time) / plan.model.opt.timestep)
-            first_serves[id(plan)] = (float(times) - plan.start_time, step, float(np.abs(state - plan.nominal_states[step]).max()))
+            first_serves[id(plan)] = (
+                float(times) - plan.start_time,
+                step,
+                float(np.abs(state - plan.nominal_states[step]).max()),
+            )
         return serve(plan, times, state)
 
     monkeypatch.setattr(FeedbackPlan, "__call__", recording)

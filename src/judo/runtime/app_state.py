@@ -41,7 +41,6 @@ from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_second
 from judo.runtime.session import ConfigSet, Session
 
 
-
 class PausableClock:
     """Wall-clock seconds (monotonic) that stand still while paused: the app's watchdog clock, so a pause
     does not age the plan in force."""
@@ -66,6 +65,7 @@ class PausableClock:
             if self._paused_at is not None:
                 self._paused_for += time.monotonic() - self._paused_at
                 self._paused_at = None
+
 
 class Stopping(Exception):
     """Raised inside the app's coroutines when a stop arrives while they wait for a worker thread."""
