@@ -32,6 +32,12 @@ COMMAND_QOS = Qos(
     Policy.Durability.Volatile,
 )
 """Reliable, keep last 1: what judo writes commands with."""
+APPLIED_QOS = Qos(
+    Policy.Reliability.Reliable(max_blocking_time=duration(milliseconds=100)),
+    Policy.History.KeepLast(256),
+    Policy.Durability.Volatile,
+)
+"""Reliable, keep last 256: the plant's record of the commands it applied (`applied`), each one kept for the log."""
 
 
 def domain_id(given: int | None) -> int:
@@ -142,3 +148,14 @@ def commands(action: np.ndarray) -> msg.Float64MultiArray:
     n = len(action)
     layout = msg.MultiArrayLayout([msg.MultiArrayDimension("actuators", n, n)], 0)
     return msg.Float64MultiArray(layout, np.asarray(action, float).tolist())
+
+
+APPLIED_SUFFIX = "_applied"
+"""The applied commands' topic is the commands' topic with this suffix: /judo/commands -> /judo/commands_applied."""
+
+
+def applied(names: list[str], action: np.ndarray, stamp: float) -> msg.JointState:
+    """The plant's record of a command it applied: a JointState named by the actuators (`names`), the (nu,)
+    `action` in `effort` (each actuator's own units) and no positions or velocities, stamped `stamp` seconds, the
+    plant's time at the start of the first step it was in force."""
+    return msg.JointState(msg.Header(msg.stamp_of(stamp), ""), list(names), [], [], np.asarray(action, float).tolist())

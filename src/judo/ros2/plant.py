@@ -7,10 +7,14 @@
 It steps the task's simulated plant in wall time, publishes its joint states (and, for a task with a free
 joint, odometry and IMU) at --rate-hz stamped with its own clock (the simulation's time), and applies each
 Float64MultiArray it reads on /judo/commands in actuator order, as a ros2_control forward command controller
-does. A command of the wrong length or with a non-finite value is refused and logged. The faults delay
+does. A command of the wrong length or with a non-finite value is refused and logged. Each command that takes
+effect is published once on <commands>_applied (/judo/commands_applied), reliable: a sensor_msgs/JointState named by
+the actuators with the command as applied (clamped) in `effort`, stamped with the plant's time at the start of the
+first step it was in force, so a log pairs each step with the command the plant applied however late it came
+(`judo.ros2.mcap_read`); a command replaced before any step ran under it is not. The faults delay
 (--latency-ms, plus up to --jitter-ms at random, which reorders), drop (--drop) and duplicate (--duplicate)
-each outgoing message. Another writer of its commands, or another publisher of its joint states (a second plant
-on the domain), is warned of.
+each outgoing reading (not the applied commands: a stamped record, read after the fact). Another writer of its
+commands, or another publisher of its joint states (a second plant on the domain), is warned of.
 """
 
 import heapq
@@ -163,6 +167,10 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
     if options.echo:
         echo_topic = link.topic(part, options.ros2.commands + "_echo", msg.Float64MultiArray)
         echo = DataWriter(part, echo_topic, link.COMMAND_QOS)
+    applied_topic = link.topic(part, options.ros2.commands + link.APPLIED_SUFFIX, msg.JointState)
+    applied = DataWriter(part, applied_topic, link.APPLIED_QOS)  # no reader (no bridge recording): nearly free
+    actuators = [model.actuator(i).name or f"actuator{i}" for i in range(model.nu)]
+    pending: np.ndarray | None = None  # the command applied since the last step, published when a step runs under it
     waitset = WaitSet(part)  # wakes the loop when a command arrives, so it is read at once, not at the next tick
     waitset.attach(ReadCondition(reader, SampleState.Any | ViewState.Any | InstanceState.Any))
     outbox = Outbox(options, np.random.default_rng(None if options.seed is None else [options.seed, 1]))
@@ -189,8 +197,12 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
                 refused += 1
                 logger.warning("refused command %d: expected %d finite values, got %s", refused, size, values.tolist())
                 continue
-            system.apply(np.clip(values, low, high))
+            pending = np.clip(values, low, high)
+            system.apply(pending)
         due = clock.due(now, dt)  # paused or starved: it falls behind rather than race
+        if due and pending is not None:
+            applied.write(link.applied(actuators, pending, float(data.time)))
+            pending = None
         for _ in range(due):
             try:
                 system.step()
