@@ -19,7 +19,8 @@ its range with a margin, or faster than the model can move it: `judo.ros2.joints
 jumps backwards or from the future. While nothing valid arrives the reading's time stands still, and the closed
 loop's watchdog serves the task's safe action once the plan is older than `max_plan_age`. A robot that restarts
 its clock is followed after a second of consistent stamps (`judo.ros2.clock`), with the reading's time carried on
-from where it was. Another commander or a second robot on the topics is refused at start (`judo.ros2.peers`)."""
+from where it was. When recording, the commands the robot reports it applied (a JointState on <commands>_applied,
+as `python -m judo plant` publishes them) are logged too, for `sysid` to pair each step with. Another commander or a second robot on the topics is refused at start (`judo.ros2.peers`)."""
 
 import logging
 import math
@@ -53,7 +54,7 @@ class Ros2System(System):
         task: the task the robot runs; its model's joint names are the JointState's (through
             `options.joint_map`), and `halt()` writes its `safe_action`.
         options: domain, topics, rate and joint map (`judo.loop.system_choice.Ros2Options`).
-        record: an MCAP log of every message read and written (None: none).
+        record: an MCAP log of every message read and written, and of the commands the robot applied (None: none).
         refuse_other_writer: raise JudoError at start when another writer already commands the robot, or a second
             robot publishes joint states (`judo.ros2.peers`); either is warned of while running.
 
@@ -113,6 +114,10 @@ class Ros2System(System):
                 self._mocap_reader = DataReader(part, mocap_topic, link.SENSOR_QOS)
             command_topic = link.topic(part, options.commands, msg.Float64MultiArray)
             self._writer = DataWriter(part, command_topic, link.COMMAND_QOS)
+            self._applied_reader = None
+            if record is not None:  # the robot's own record of the commands it applied, only to be logged
+                applied_topic = link.topic(part, options.commands + link.APPLIED_SUFFIX, msg.JointState)
+                self._applied_reader = DataReader(part, applied_topic, link.APPLIED_QOS)
             others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)  # writers of other processes
             topics = (options.commands, options.joint_states)
             self.peers = Peers(DataReader(part, command_topic, others), self._joint_reader, topics, self.domain)
@@ -173,6 +178,14 @@ class Ros2System(System):
                 self.log.write(self.options.mocap, poses, _ns(poses.header.stamp))
         for joints in link.take(self._joint_reader, 8):
             self._note_joint_state(joints, wall)
+        self._log_applied()
+
+    def _log_applied(self) -> None:
+        """Log every applied command the robot reported since the last call (recording only)."""
+        if self._applied_reader is None or self.log is None:
+            return
+        for applied in link.take(self._applied_reader, 256):
+            self.log.write(self.options.commands + link.APPLIED_SUFFIX, applied, _ns(applied.header.stamp))
 
     def _note_odometry(self, odom: msg.Odometry) -> None:
         try:
@@ -359,6 +372,7 @@ class Ros2System(System):
             self._writer.wait_for_acks(duration(milliseconds=200))
         except Exception:  # no reader, or the robot gone: nothing to wait for
             pass
+        self._log_applied()  # the robot's record of the last commands, which came after the last reading
         link.close_participant(self._participant)
         if self.log is not None:
             self.log.close()

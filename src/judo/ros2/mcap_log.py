@@ -3,7 +3,8 @@
 Each message is stored as its CDR bytes (the bytes on the DDS wire), on a channel named by its ROS 2 topic,
 with the message's ROS 2 definition as the channel's "ros2msg" schema. The log time is the wall clock of the
 process that logs (ns since the Unix epoch); the publish time is the message's header stamp where it has one.
-A metadata record named "judo" (`METADATA`) says what the bridge knew: the task, the joint map and the topics;
+A metadata record named "judo" (`METADATA`) says what the bridge knew: the task, the joint map and the topics (with
+"applied", the topic of the commands the robot applied, logged beside those sent);
 `judo.ros2.mcap_read` reads the log back.
 """
 
@@ -15,6 +16,7 @@ from typing import Any
 from judo.core.errors import JudoError, import_extra
 from judo.core.task import Task
 from judo.loop.system_choice import Ros2Options
+from judo.ros2.link import APPLIED_SUFFIX
 from judo.ros2.messages import MSGDEFS, ROS_NAMES
 
 METADATA = "judo"
@@ -79,12 +81,13 @@ class McapLog:
 
 def log_metadata(task: Task, options: Ros2Options) -> dict[str, str]:
     """The MCAP log's "judo" record: the task's registered name (where one name has its class), the joint map
-    ("mjcf=robot" entries, comma-separated) and the topics, so that `replay` and `sysid` read the log alone."""
+    ("mjcf=robot" entries, comma-separated) and the topics (the commands sent and applied), so that `replay` and `sysid` read the log alone."""
     from judo.core.registry import get_registered_tasks
 
     names = [name for name, (cls, _) in get_registered_tasks().items() if cls is type(task)]
     metadata = {"joint_map": ",".join(options.joint_map), "joint_states": options.joint_states}
     metadata.update({"odom": options.odom, "mocap": options.mocap, "commands": options.commands})
+    metadata["applied"] = options.commands + APPLIED_SUFFIX
     if len(names) == 1:
         metadata["task"] = names[0]
     return metadata
