@@ -11,13 +11,19 @@ judo.ros2.messages' own), so reading needs the `ros2` extra's `mcap` and `mcap-r
   their header stamps: the robot's clock. Each joint is placed in qpos and qvel by name, as the bridge maps it
   (`JointLayout`, with the joint map the log's "judo" metadata record holds). A free base comes from the latest
   nav_msgs/Odometry logged before the row, mocap bodies from the latest geometry_msgs/PoseArray.
+- The applied commands, where the log holds them, are what the robot reports it applied: the JointStates on
+  <commands>_applied (`python -m judo plant` publishes them, the bridge logs them when recording), the command in
+  `effort` in actuator order, each stamped with the robot's time at the start of the first step it was in force.
+  The action of a row (applied during the plant step that ended at it) is then the latest applied command stamped
+  before the row's stamp: exact however late each command reached the robot. A log without them (an older
+  bridge's, or a robot that reports none) pairs each row with the commands sent, as follows.
 - The commands are the std_msgs/Float64MultiArray messages judo wrote. The bridge logs them at its wall clock, so
   each is placed on the robot's clock by the offset between the two that the joint states show: the largest
   (stamp - log time) of those logged in the second before it, the least delayed. The robot holds a command until
   the next: the action of a row, applied during the plant step that ended at it, is the latest command at or
   before its stamp. That is exactly what judo's plant process applied (it computes a step when its time comes,
-  with the command it holds then); a robot whose state moves during the step counts a command that arrived
-  within it as the step's.
+  with the command it holds then) where each command reached it in time; one that came a step late was applied a
+  step late, which this pairing cannot see (`sysid` fits a command delay for it).
 """
 
 import math
@@ -44,7 +50,13 @@ DEFAULT_TOPICS = {
     "odom": "/odom",
     "mocap": "/judo/mocap",
 }
-"""The bridge's default topics, for a log without the "judo" record."""
+"""The bridge's default topics, for a log without the "judo" record (the applied commands': the commands' topic
+with APPLIED_SUFFIX)."""
+APPLIED_SUFFIX = "_applied"
+"""judo.ros2.link.APPLIED_SUFFIX (not imported from there, which needs DDS)."""
+STAMP_TOLERANCE = 1e-6
+"""Seconds within which an applied command's stamp is the row's own (a command applied from the row's time on is
+in force for the step after it, not the step that ended there); stamps are whole nanoseconds."""
 MAX_GAP_STEPS = 100
 """The most model steps between two joint states of one run compared every k steps (`BridgeLog.grid_runs`)."""
 OFFSET_WINDOW_S = 1.0
@@ -64,13 +76,16 @@ class BridgeLog:
         task: the task's registered name (the log's own, else the one given).
         times: (S,) each row's JointState header stamp, seconds, increasing.
         qpos, qvel: (S, nq), (S, nv) the plant's state at each row; qvel NaN where the JointState had no velocities.
-        actions: (S, nu) the command applied during the plant step that ended at each row (the latest at or before
-            its stamp); NaN before the first command.
+        actions: (S, nu) the command applied during the plant step that ended at each row (`actions_at`); NaN
+            before the first command.
         mocap_pos: (S, 3 * nmocap) the latest mocap positions at each row, or None without a PoseArray.
         command_times: (C,) each command's time on the robot's clock, seconds.
         commands: (C, nu) the commands, in the order judo wrote them.
         timestep: the plant model's step, seconds.
-        topics: {"joint_states", "commands", ...: the topic read}.
+        topics: {"joint_states", "commands", "applied", ...: the topic read}.
+        applied_times: (A,) the robot's time each applied command took effect (the start of the first step it was
+            in force), seconds, increasing; empty where the log holds no applied commands.
+        applied: (A, nu) the commands the robot applied, as it reported them.
     """
 
     path: Path
@@ -84,12 +99,19 @@ class BridgeLog:
     commands: np.ndarray
     timestep: float
     topics: dict[str, str]
+    applied_times: np.ndarray
+    applied: np.ndarray
+
+    @property
+    def source(self) -> str:
+        """ "applied" where the rows are paired with the commands the robot reported applying, else "sent"."""
+        return "applied" if len(self.applied) else "sent"
 
     def step_runs(self, step: float, needed: bool = True) -> list[slice]:
         """`segments(step)`, or BridgeLogError (one line naming the file) for a log that cannot be compared with a
         rollout of `step` seconds a step: without commands, without velocities, or (where `needed`) no two rows
         `step` apart."""
-        if not len(self.commands):
+        if not len(self.commands) and not len(self.applied):
             raise BridgeLogError(
                 f"{self.path}: no {COMMANDS} on {self.topics['commands']}; sysid needs the commands the robot applied"
             )
@@ -136,13 +158,13 @@ class BridgeLog:
         return runs
 
     def actions_at(self, times: np.ndarray) -> np.ndarray:
-        """(T, nu) the command in force at each of `times` (the latest at or before it, as `actions` holds for each
-        row); NaN before the first command."""
-        actions = np.full((len(times), self.commands.shape[1] if self.commands.ndim == 2 else 0), np.nan)
-        if len(self.commands):
-            in_force = np.searchsorted(self.command_times, np.asarray(times) + 1e-9, side="right") - 1
-            actions[in_force >= 0] = self.commands[in_force[in_force >= 0]]
-        return actions
+        """(T, nu) the command applied during the plant step that ended at each of `times`: with applied commands
+        (`source` "applied"), the latest stamped before it (by more than STAMP_TOLERANCE); else the latest command
+        sent at or before it on the robot's clock. NaN before the first."""
+        times = np.asarray(times, float)
+        if len(self.applied):
+            return _latest(self.applied_times, self.applied, times - STAMP_TOLERANCE, "left")
+        return _latest(self.command_times, self.commands, times + 1e-9, "right")
 
     def segments(self, step: float | None = None) -> Iterator[slice]:
         """The runs of at least two rows, each row `step` seconds (default: one plant step) after the one before,
@@ -188,6 +210,7 @@ def read_bridge_log(path: Path, task: str | None = None, feature: str = "reading
     assert name is not None
     model = make_task(name).sim_model
     topics = {key: metadata.get(key) or value for key, value in DEFAULT_TOPICS.items()}
+    topics["applied"] = metadata.get("applied") or topics["commands"] + APPLIED_SUFFIX
     joint_map = tuple(entry for entry in metadata.get("joint_map", "").split(",") if entry)
     return _arrays(path, name, model, JointLayout.of(model, joint_map), raw, topics)
 
@@ -282,29 +305,55 @@ def _arrays(
         raise BridgeLogError(f"{path}: no joint state came after an {ODOMETRY} on {topics['odom']} for the free base")
     times = np.array([row[0] for row in rows])
     command_times, commands = _commands(path, raw, topics["commands"], rows, model.nu)
+    applied_times, applied = _applied(path, raw, topics["applied"], model.nu)
     timestep = float(model.opt.timestep)
-    actions = np.full((len(times), model.nu), np.nan)
-    if len(commands):
-        in_force = np.searchsorted(command_times, times + 1e-9, side="right") - 1
-        actions[in_force >= 0] = commands[in_force[in_force >= 0]]
     mocaps = [row[4] for row in rows]
     mocap_pos = None
     if model.nmocap and any(m is not None for m in mocaps):
         first = next(m for m in mocaps if m is not None)
         mocap_pos = np.array([first if m is None else m for m in mocaps])
-    return BridgeLog(
+    log = BridgeLog(
         path,
         task,
         times,
         np.array([row[2] for row in rows]),
         np.array([row[3] for row in rows]),
-        actions,
+        np.empty((0, model.nu)),
         mocap_pos,
         command_times,
         commands,
         timestep,
         topics,
+        applied_times,
+        applied,
     )
+    log.actions = log.actions_at(times)
+    return log
+
+
+def _latest(stamps: np.ndarray, values: np.ndarray, at: np.ndarray, side: str) -> np.ndarray:
+    """(T, nu) the row of the (N, nu) `values` with the latest of the (N,) increasing `stamps` before each of the
+    (T,) `at` (`side` "right": at or before), NaN before the first."""
+    out = np.full((len(at), values.shape[1]), np.nan)
+    index = np.searchsorted(stamps, at, side=side) - 1  # type: ignore[call-overload]
+    out[index >= 0] = values[index[index >= 0]]
+    return out
+
+
+def _applied(path: Path, raw: list[_Message], topic: str, nu: int) -> tuple[np.ndarray, np.ndarray]:
+    """((A,) the stamps, (A, nu) the commands) the robot reported applying on `topic` (JointStates, each command
+    in `effort`), in stamp order (a command of the same stamp as one before it replaced it); both empty without.
+    BridgeLogError for a record of another size than the model's `nu` actuators."""
+    found = [m.message for m in raw if m.schema == JOINT_STATE and m.topic == topic]
+    values = [np.asarray(message.effort, float) for message in found]
+    wrong = sorted({len(v) for v in values if len(v) != nu})
+    if wrong:
+        raise BridgeLogError(
+            f"{path}: applied commands on {topic} of {wrong} values; the task's model has {nu} actuators"
+        )
+    stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in found], float)
+    order = np.argsort(stamps, kind="stable")
+    return stamps[order], np.array(values, float).reshape(len(found), nu)[order]
 
 
 def _commands(path: Path, raw: list[_Message], topic: str, rows: list[Any], nu: int) -> tuple[np.ndarray, np.ndarray]:
