@@ -131,7 +131,7 @@ def run(args: SysidArgs, command: str) -> None:
     from rich.progress import SpinnerColumn, TextColumn, TimeElapsedColumn
 
     from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters
-    from judo.collection.sysid_data import compared, read_logs
+    from judo.collection.sysid_data import commands_line, compared, read_logs
     from judo.core.registry import make_task
 
     task = make_task(args.task)
@@ -152,7 +152,7 @@ def run(args: SysidArgs, command: str) -> None:
     header = [command, f"fitted to {result.num_windows} windows of {steps} steps from {len(episodes)} episode(s)"]
     notes = delay_note(result, task.model) + command_delay_note(result)
     text = fitted_toml(args.task, result.overrides(task.model), header, _config_tables(args.config), notes)
-    report = report_text(args, result, command, len(episodes))
+    report = report_text(args, result, command, len(episodes), commands_line(episodes))
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(text)
     report_path = args.out.with_suffix(".md")
@@ -277,9 +277,10 @@ def compared_line(result: Any) -> str:
     return f"Compared: the measured sensors (their sensordata, at the step each value was taken), each window from {start}."
 
 
-def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -> str:
+def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int, commands: str = "") -> str:
     """The fit's report as Markdown: the parameters before and after, the command delay, the conditioning, the
-    prediction error on the windows fitted and on those held out, and whether the fit explains the log."""
+    prediction error on the windows fitted and on those held out, and whether the fit explains the log; `commands`,
+    the line on which commands the steps were paired with, after what it compared."""
     held = f", {result.num_held_out} more held out" if result.num_held_out else ""
     lines = [
         f"# sysid: {args.task}",
@@ -292,6 +293,7 @@ def report_text(args: SysidArgs, result: Any, command: str, num_episodes: int) -
         "",
         compared_line(result),
         "",
+        *([commands, ""] if commands else []),
         "| parameter | planning model | fitted | 95% interval | determined by the data |",
         "|---|---|---|---|---|",
     ]

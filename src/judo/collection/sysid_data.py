@@ -30,6 +30,9 @@ class Episode:
         measured_sensors: (k,) the names of the measured sensors, in `measured`'s order.
         lead_actions: (L, nu) the actions served during the L steps before the first row (an MCAP log's commands
             in force then), or None where the log holds none (collect's HDF5: the episode starts there).
+        commands: where the actions come from: "served" (collect's and the GUI's logs: the plant's own, in
+            process), "applied" (a bridge log's commands the robot reported applying) or "sent" (a bridge log
+            without them: the commands sent, which a command delay may shift).
     """
 
     name: str
@@ -41,6 +44,7 @@ class Episode:
     estimate: np.ndarray | None = None
     measured_sensors: tuple[str, ...] = ()
     lead_actions: np.ndarray | None = None
+    commands: str = "served"
 
     @property
     def states(self) -> np.ndarray:
@@ -163,8 +167,9 @@ def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Epi
     """The episodes of the ROS 2 bridge's MCAP log at `path`, one per run of rows a whole number of steps of
     `model` apart with a command in force (`judo.ros2.mcap_read.BridgeLog.grid_runs`, whose errors name the file),
     laid on the model's step grid: a row every step, its state NaN where no joint state fell on it (a robot that
-    publishes every k steps) and its action the command in force at the end of that step; with the commands in
-    force during the LEAD_STEPS steps before the run as its lead_actions."""
+    publishes every k steps) and its action the command applied during that step (`BridgeLog.actions_at`: the
+    commands the robot reported applying where the log holds them, else those sent); with the commands in force
+    during the LEAD_STEPS steps before the run as its lead_actions."""
     from judo.ros2.mcap_read import read_bridge_log
 
     log = read_bridge_log(path, task_name, "python -m judo sysid LOG.mcap")
@@ -176,8 +181,22 @@ def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Epi
         qpos[offsets], qvel[offsets] = log.qpos[rows], log.qvel[rows]
         actions = log.actions_at(log.times[rows.start] + np.arange(-LEAD_STEPS, offsets[-1] + 1) * step)
         name = f"{path.name}:rows {rows.start}-{rows.stop - 1}"
-        episodes.append(Episode(name, qpos, qvel, actions[LEAD_STEPS:], lead_actions=actions[:LEAD_STEPS]))
+        lead = actions[:LEAD_STEPS]
+        episodes.append(Episode(name, qpos, qvel, actions[LEAD_STEPS:], lead_actions=lead, commands=log.source))
     return episodes
+
+
+def commands_line(episodes: list[Episode]) -> str:
+    """The report's line on which commands each step was paired with, by how many episodes each."""
+    said = {
+        "applied": "the commands the robot reported applying, logged on its side (exact however late they came)",
+        "sent": "the commands the bridge sent (the log holds none the robot reported applying; a command that came "
+        "late is the command delay's to model)",
+        "served": "the actions the plant was served, in process",
+    }
+    counts = {kind: sum(e.commands == kind for e in episodes) for kind in said}
+    parts = [f"{said[kind]} ({n} episode{'' if n == 1 else 's'})" for kind, n in counts.items() if n]
+    return "Commands: each step paired with " + "; ".join(parts) + "."
 
 
 @dataclass
