@@ -62,8 +62,10 @@ def test_readings_come_from_the_plant_and_commands_reach_it_and_a_second_writer_
     assert {topic: ms[0].schema.name for topic, ms in logged.items()} == {
         "/joint_states": "sensor_msgs/msg/JointState",
         "/judo/commands": "std_msgs/msg/Float64MultiArray",
+        "/judo/commands_applied": "sensor_msgs/msg/JointState",  # the plant's record of what it applied
     }
     assert [list(m.ros_msg.data) for m in logged["/judo/commands"]] == [[0.5], [high]]
+    assert list(logged["/judo/commands_applied"][-1].ros_msg.effort) == [high]
     assert list(logged["/joint_states"][0].ros_msg.name) == ["slider", "hinge"]
 
 

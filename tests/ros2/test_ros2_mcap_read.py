@@ -26,7 +26,7 @@ from judo.loop.system_choice import Ros2Options, SystemOptions
 from judo.ros2 import link
 from judo.ros2.bridge import Ros2System
 from judo.ros2.mcap_log import McapLog
-from judo.ros2.mcap_read import read_bridge_log
+from judo.ros2.mcap_read import BridgeLogError, read_bridge_log
 from judo.tasks.cartpole import Cartpole
 
 TRUE_MASS = 0.13
@@ -65,7 +65,7 @@ def log_multisine(path, steps: int, *plant_args: str) -> np.ndarray:
 
 
 @pytest.mark.slow
-def test_the_log_reads_back_as_the_plants_states_under_the_commands_sent(bridge_log):
+def test_the_log_reads_back_as_the_plants_states_under_the_commands_applied_and_sent(bridge_log):
     path, sent = bridge_log
     log = read_bridge_log(path)
     assert log.task == "cartpole" and log.topics["joint_states"] == "/joint_states"
@@ -88,16 +88,22 @@ def test_the_log_reads_back_as_the_plants_states_under_the_commands_sent(bridge_
                 errors.append(np.abs(np.r_[data.qpos - log.qpos[row], data.qvel - log.qvel[row]]).max())
         return float(np.mean(np.array(errors) < 1e-9)), len(errors)
 
+    # Paired with the commands the plant reported applying, every step re-simulates to rounding, however loaded.
+    assert log.source == "applied"
     exact, steps = exact_fraction(0)
+    assert steps > 50 and exact == 1.0, (exact, steps)
+    # Paired with the commands sent (a log without the applied ones): on an idle machine the row's own command
+    # explains every step. On loaded cores some commands reach the plant after its step, which then ran under the
+    # command before: those steps re-simulate with the action read one row off (0 to 0.32 of them with two cores
+    # kept busy, up to 0.77 in one full CI run), which depends on the load, not on the reader. So the states are
+    # the plant's own under the commands sent when nearly every step is explained by its row's command or a
+    # neighbour's, and the rows are paired when commands two rows off explain almost none (the multisine changes
+    # every step).
+    log.applied = log.applied[:0]
+    log.actions = log.actions_at(log.times)
+    exact = exact_fraction(0)[0]
     off = max(exact_fraction(1)[0], exact_fraction(-1)[0])
     far = max(exact_fraction(2)[0], exact_fraction(-2)[0])
-    assert steps > 50
-    # On an idle machine the row's own command explains every step. On loaded cores some commands reach the plant
-    # after its step, which then ran under the command before: those steps re-simulate with the action read one
-    # row off (0 to 0.32 of them with two cores kept busy, up to 0.77 in one full CI run), which depends on the
-    # load, not on the reader. So the states are the plant's own under the commands sent when nearly every step
-    # is explained by its row's command or a neighbour's, and the rows are paired when commands two rows off
-    # explain almost none (the multisine changes every step).
     assert exact + off >= 0.9 and far < 0.1, (exact, off, far)
 
 
@@ -140,11 +146,14 @@ def test_sysid_compares_a_robot_publishing_every_fourth_model_step_at_its_joint_
     assert found is not None and float(found.group(1)) == pytest.approx(TRUE_MASS, rel=0.05)
 
 
-def write_log(path, joint_map=(), joints=True, commands=True, metadata=None, stamps=20, every=0.01):
+def write_log(path, joint_map=(), joints=True, commands=True, metadata=None, stamps=20, every=0.01, applied=()):
     """A log written with the bridge's own writer, no DDS: `stamps` JointStates (named through `joint_map`, where
-    `joints`) `every` seconds apart, each followed by a command where `commands`."""
+    `joints`) `every` seconds apart, each followed by a command where `commands`; first the plant's records of the
+    commands it applied, (stamp, values) each of `applied`."""
     log = McapLog(path, {"task": "cartpole"} if metadata is None else metadata)
     layout = link.JointLayout.of(Cartpole().model, joint_map)
+    for stamp, values in applied:
+        log.write("/judo/commands_applied", link.applied(["slide"], np.array(values), stamp), round(stamp * 1e9))
     for step in range(1, stamps + 1):
         if joints:
             message = link.joint_state(layout, np.array([0.1, 3.0]), np.zeros(2), every * step)
@@ -153,6 +162,27 @@ def write_log(path, joint_map=(), joints=True, commands=True, metadata=None, sta
             log.write("/judo/commands", link.commands(np.array([0.5])))
     log.close()
     return path
+
+
+def test_each_row_is_paired_with_the_command_the_plant_applied_before_it_and_else_with_those_sent(tmp_path):
+    # The plant applied 1.0 from 0.05 s and -1.0 from 0.10 s on (the bridge sent 0.5 each step): the step ending
+    # at a row ran under the latest applied at its start, stamped before the row.
+    path = write_log(tmp_path / "applied.mcap", applied=[(0.05, [1.0]), (0.10, [-1.0])])
+    log = read_bridge_log(path)
+    assert log.source == "applied" and log.topics["applied"] == "/judo/commands_applied"
+    np.testing.assert_array_equal(log.applied_times, [0.05, 0.10])
+    rows = {round(t * 100): a[0] for t, a in zip(log.times, log.actions, strict=True)}
+    assert np.isnan(rows[5]) and rows[6] == rows[10] == 1.0 and rows[11] == rows[20] == -1.0, rows
+    np.testing.assert_array_equal(log.actions_at(np.array([0.0501, 0.1, 0.1001])), [[1.0], [1.0], [-1.0]])
+    # A log without them (an older bridge's) is paired with the commands sent.
+    log = read_bridge_log(write_log(tmp_path / "sent.mcap"))
+    assert log.source == "sent" and len(log.applied) == 0 and (log.actions[1:] == 0.5).all()
+    with pytest.raises(BridgeLogError) as caught:
+        read_bridge_log(write_log(tmp_path / "wide.mcap", applied=[(0.05, [1.0, 2.0])]))
+    assert str(caught.value) == (
+        f"{tmp_path / 'wide.mcap'}: applied commands on /judo/commands_applied of [2] values; the task's model has 1 "
+        "actuators"
+    )
 
 
 def corrupt(path):
@@ -227,7 +257,7 @@ def test_the_reader_needs_no_dds_and_without_mcap_says_what_to_install(tmp_path)
     path = write_log(tmp_path / "run.mcap")
     code = (
         "import sys; sys.modules['cyclonedds'] = None\n"  # any import of cyclonedds now fails
-        "from judo.ros2.mcap_read import read_bridge_log\n"
+        "from judo.ros2.mcap_read import BridgeLogError, read_bridge_log\n"
         f"log = read_bridge_log({str(path)!r})\n"
         "print(log.task, log.qpos.shape, log.commands.tolist()[:2])"
     )
