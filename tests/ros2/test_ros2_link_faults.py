@@ -187,13 +187,15 @@ def test_a_lossy_late_jittery_link_keeps_plans_fresh_and_a_killed_robot_gets_the
     loop = ClosedLoop(small_controller(max_plan_age=0.5), system, clock=time.monotonic)
     times, commands = [], []
     try:
-        deadline = time.monotonic() + 1.5
-        while time.monotonic() < deadline:
+        started = time.monotonic()  # 1.5 s and 150 commands sent (fewer steps fit in 1.5 s on a loaded machine)
+        while (time.monotonic() - started < 1.5 or len(times) < 150) and time.monotonic() - started < 60:
             record = loop.step()  # raises ReadingTimeError if a reading's time ever went backwards
             assert record is not None
             times.append(record.time)
             commands.extend(echoes(echo))
-        poll(lambda: bool(commands.extend(echoes(echo))) or len(commands) >= 100, what="the plant's echoes")
+        poll(  # of 150 sent, a fifth lost and a tenth sent twice: about 130 echoed
+            lambda: bool(commands.extend(echoes(echo))) or len(commands) >= 100, timeout=20.0, what="the plant's echoes"
+        )
         assert loop.watchdog.trips == 0  # 50-80 ms late and a fifth lost: plans stay within max_plan_age
         assert len(loop.update_ms) >= 10
         assert system.refused.get("joint state (stamp)", 0) > 0  # the jitter reordered messages: late ones refused
@@ -203,7 +205,8 @@ def test_a_lossy_late_jittery_link_keeps_plans_fresh_and_a_killed_robot_gets_the
         killed_at = time.monotonic()
         while loop.watchdog.tripped is None and time.monotonic() - killed_at < 3:
             loop.step()
-        assert time.monotonic() - killed_at < 0.5 + 1 / 20 + 0.3  # the last reading was up to 80 ms late
+        # max_plan_age, a control period and the last reading up to 80 ms late, with a second's slack for a busy CI
+        assert time.monotonic() - killed_at < 0.5 + 1 / 20 + 1.0
         np.testing.assert_array_equal(system._command, loop.safe_action())
         proc = start_plant(domain)  # and comes back, its clock from 0: followed after a second, plans resume
         back_at, stale_time = time.monotonic(), loop.reading.time

@@ -20,7 +20,7 @@ import pytest
 import judo
 
 SRC = str(Path(judo.__file__).resolve().parents[1])
-TIMEOUT = 60.0
+TIMEOUT = 180.0
 """Seconds a row may take before it counts as a hang."""
 
 USER_CLASSES = """
