@@ -137,7 +137,7 @@ def test_sysid_fits_commands_made_late_on_the_way_exactly_from_those_the_plant_a
     log_late_commands(path, 400, 0.025)
     log = read_bridge_log(path)
     assert log.source == "applied" and log.topics["applied"] == "/judo/commands_applied"
-    assert len(log.applied) > 200 and (np.diff(log.applied_times) > 0).all()
+    assert len(log.applied) > 100 and (np.diff(log.applied_times) > 0).all()  # of 400 sent: some replaced unapplied
     # The relay made commands late: many a step ran under another command than the latest sent before it.
     applied_pairing = log.actions
     log.applied = log.applied[:0]  # the same log read as the commands sent alone

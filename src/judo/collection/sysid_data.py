@@ -189,9 +189,9 @@ def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Epi
 def commands_line(episodes: list[Episode]) -> str:
     """The report's line on which commands each step was paired with, by how many episodes each."""
     said = {
-        "applied": "the commands the robot reported applying, logged on its side (exact however late they came)",
-        "sent": "the commands the bridge sent (the log holds none the robot reported applying; a command that came "
-        "late is the command delay's to model)",
+        "applied": "the commands the robot reported applying, logged on its side, exact however late they came",
+        "sent": "the commands the bridge sent, as the log holds none the robot reported applying: a command that "
+        "came late is the command delay's to model",
         "served": "the actions the plant was served, in process",
     }
     counts = {kind: sum(e.commands == kind for e in episodes) for kind in said}
