@@ -33,20 +33,42 @@ def env(domain: int | None = None) -> dict[str, str]:
     return {**os.environ, "PYTHONPATH": pythonpath, **extra}
 
 
-def start_plant(domain: int, *flags: str, task: str = "cartpole") -> subprocess.Popen:
-    """`python -m judo plant --task TASK` on `domain`, once it says it publishes."""
+def started(args: list[str], ready: str) -> subprocess.Popen:
+    """`python ARGS` in the repository with the test's DDS settings, once its first line of output holds `ready`."""
     proc = subprocess.Popen(
-        [sys.executable, "-m", "judo", "plant", "--task", task, "--ros2.domain-id", str(domain), *flags],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        env=env(),
-        cwd=ROOT,
+        [sys.executable, *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env(), cwd=ROOT
     )
     assert proc.stdout is not None
     line = proc.stdout.readline()
-    assert "publishing rt/joint_states" in line, line
+    assert ready in line, line
     return proc
+
+
+def start_plant(domain: int, *flags: str, task: str = "cartpole") -> subprocess.Popen:
+    """`python -m judo plant --task TASK` on `domain`, once it says it publishes."""
+    return started(["-m", "judo", "plant", "--task", task, "--ros2.domain-id", str(domain), *flags], "publishing rt/")
+
+
+def record_multisine(path, domain: int, steps: int) -> np.ndarray:
+    """Drive the cart-pole robot on `domain` through the bridge, recording to `path`, by `steps` commands of a
+    multisine at the bridge's 100 Hz; returns them (C, 1)."""
+    from judo.collection.excite import multisine
+    from judo.loop.system_choice import Ros2Options, SystemOptions
+    from judo.ros2.bridge import Ros2System
+    from judo.tasks.cartpole import Cartpole
+
+    task = Cartpole()
+    options = SystemOptions(system="ros2", record=path, ros2=Ros2Options(domain_id=domain))
+    system = Ros2System.from_options(task, options)
+    commands = multisine(task.model.actuator_ctrlrange, np.arange(steps) * 0.01, 0.5, 2.0, seed=0)
+    try:
+        for command in commands:
+            system.read_state()
+            system.apply(command)
+            system.step()
+    finally:
+        system.close()
+    return commands
 
 
 def stop_process(proc: subprocess.Popen) -> None:
@@ -161,15 +183,4 @@ def start_publisher(domain: int, names: list[str], states: list[tuple[list[float
     `states` in turn, over and over, every 10 ms, stamped 10 ms apart; started once it says it publishes."""
     import json
 
-    proc = subprocess.Popen(
-        [sys.executable, "-c", PUBLISHER, str(domain), json.dumps(names), json.dumps(states)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        env=env(),
-        cwd=ROOT,
-    )
-    assert proc.stdout is not None
-    line = proc.stdout.readline()
-    assert line.strip() == "publishing", line
-    return proc
+    return started(["-c", PUBLISHER, str(domain), json.dumps(names), json.dumps(states)], "publishing")

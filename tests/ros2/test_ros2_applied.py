@@ -5,7 +5,6 @@ exactly, where the commands sent alone cannot be."""
 
 import re
 import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -13,15 +12,11 @@ import pytest
 pytest.importorskip("cyclonedds")
 pytest.importorskip("mcap_ros2.decoder")
 
-from ros2_links import ROOT, env, free_domain, start_plant, stop_process
+from ros2_links import free_domain, record_multisine, start_plant, started, stop_process
 from test_ros2_mcap_read import TRUE_MASS
 
-from judo.collection.excite import multisine
 from judo.collection.sysid_cli import main as sysid_main
-from judo.loop.system_choice import Ros2Options, SystemOptions
-from judo.ros2.bridge import Ros2System
 from judo.ros2.mcap_read import read_bridge_log
-from judo.tasks.cartpole import Cartpole
 
 RELAY = """
 import heapq, sys, time
@@ -56,18 +51,7 @@ def start_relay(domain: int, late_s: float) -> subprocess.Popen:
     /judo/late, half of them (at random, seeded) `late_s` seconds late and the rest at once, in order (a command
     behind a late one waits for it); and the plant's applied commands on /judo/late_applied back to
     /judo/commands_applied at once, where the bridge records them."""
-    proc = subprocess.Popen(
-        [sys.executable, "-c", RELAY, str(domain), str(late_s)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.STDOUT,
-        text=True,
-        env=env(),
-        cwd=ROOT,
-    )
-    assert proc.stdout is not None
-    line = proc.stdout.readline()
-    assert line.strip() == "relaying", line
-    return proc
+    return started(["-c", RELAY, str(domain), str(late_s)], "relaying")
 
 
 def log_late_commands(path, steps: int, late_s: float) -> np.ndarray:
@@ -77,17 +61,7 @@ def log_late_commands(path, steps: int, late_s: float) -> np.ndarray:
     plant = start_plant(domain, "--plant-overrides", f"body_mass.pole={TRUE_MASS}", "--ros2.commands", "/judo/late")
     relay = start_relay(domain, late_s)
     try:
-        task = Cartpole()
-        options = SystemOptions(system="ros2", record=path, ros2=Ros2Options(domain_id=domain))
-        system = Ros2System.from_options(task, options)
-        commands = multisine(task.model.actuator_ctrlrange, np.arange(steps) * 0.01, 0.5, 2.0, seed=0)
-        try:
-            for command in commands:
-                system.read_state()
-                system.apply(command)
-                system.step()
-        finally:
-            system.close()
+        commands = record_multisine(path, domain, steps)
     finally:
         stop_process(relay)
         stop_process(plant)

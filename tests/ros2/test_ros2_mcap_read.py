@@ -13,18 +13,15 @@ import pytest
 pytest.importorskip("cyclonedds")
 pytest.importorskip("mcap_ros2.decoder")
 
-from ros2_links import env, free_domain, start_plant, stop_process
+from ros2_links import env, free_domain, record_multisine, start_plant, stop_process
 
-from judo.collection.excite import multisine
 from judo.collection.replay import Replay
 from judo.collection.replay import main as replay_main
 from judo.collection.sysid_cli import main as sysid_main
 from judo.core.config_file import load_config
 from judo.core.model_overrides import overridden
 from judo.core.registry import make_task
-from judo.loop.system_choice import Ros2Options, SystemOptions
 from judo.ros2 import link
-from judo.ros2.bridge import Ros2System
 from judo.ros2.mcap_log import McapLog
 from judo.ros2.mcap_read import BridgeLogError, read_bridge_log
 from judo.tasks.cartpole import Cartpole
@@ -48,20 +45,9 @@ def log_multisine(path, steps: int, *plant_args: str) -> np.ndarray:
     domain = free_domain()
     proc = start_plant(domain, "--plant-overrides", f"body_mass.pole={TRUE_MASS}", *plant_args)
     try:
-        task = Cartpole()
-        options = SystemOptions(system="ros2", record=path, ros2=Ros2Options(domain_id=domain))
-        system = Ros2System.from_options(task, options)
-        commands = multisine(task.model.actuator_ctrlrange, np.arange(steps) * 0.01, 0.5, 2.0, seed=0)
-        try:
-            for command in commands:
-                system.read_state()
-                system.apply(command)
-                system.step()
-        finally:
-            system.close()
+        return record_multisine(path, domain, steps)
     finally:
         stop_process(proc)
-    return commands
 
 
 @pytest.mark.slow
