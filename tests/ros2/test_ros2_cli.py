@@ -1,6 +1,7 @@
 """`--system`, `--record` and `python -m judo plant` on the command line, and the "done when" run: a robot
 process with no judo code (examples/10_ros2_robot.py) swung up and balanced by `python -m judo --system ros2`."""
 
+import signal
 import subprocess
 import sys
 
@@ -72,8 +73,10 @@ def test_the_plant_refuses_faults_out_of_range_in_one_line(capsys):
         ("--latency-ms", "1e300"): "--latency-ms must be from 0 to 10000 ms, got 1e+300",
         ("--jitter-ms", "nan"): "--jitter-ms must be from 0 to 10000 ms, got nan",
     }
+    handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
     for argv, message in absurd.items():
         assert one_line_error(capsys, list(argv), plant.main) == f"python -m judo plant: {message}"
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == handlers  # the caller's, again
 
 
 @pytest.mark.slow

@@ -261,12 +261,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     logging.basicConfig(level=logging.INFO, format="%(levelname)s %(name)s: %(message)s")
     stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+    saved = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         import_extra("cyclonedds", PROG, "ros2")
         run_plant(options, stop)
     except JudoError as err:
         print(f"{PROG}: {err}", file=sys.stderr)
         return 2
+    finally:  # a caller's own handlers again (a test, a script that runs the plant in-process)
+        for sig, handler in saved.items():
+            signal.signal(sig, handler)
     return 0
