@@ -272,6 +272,7 @@ PACKAGE_ORDER = (
     "judo.estimators",
     "judo.optimizers",
     "judo.tasks",
+    "judo.safety",
     "judo.loop",
     "judo.ray_cluster",
     "judo.runtime",
