@@ -17,6 +17,7 @@ from judo.tasks.cartpole_pd import CartpolePD
 from judo.tasks.cylinder_push import CylinderPush, CylinderPushConfig
 from judo.tasks.double_cartpole import DoubleCartpole, DoubleCartpoleConfig
 from judo.tasks.fr3_pick import FR3Pick, FR3PickConfig
+from judo.tasks.g1 import G1Stand, G1StandConfig
 from judo.tasks.go2 import Go2Stand, Go2StandConfig
 from judo.tasks.humanoid_standup import HumanoidStandup, HumanoidStandupConfig
 from judo.tasks.leap_cube import LeapCube, LeapCubeConfig, LeapCubeDown, LeapCubeDownConfig
@@ -55,6 +56,8 @@ BUILTIN_TASKS = {
     "leap_cube": (LeapCube, LeapCubeConfig),
     "leap_cube_down": (LeapCubeDown, LeapCubeDownConfig),
     "fr3_pick": (FR3Pick, FR3PickConfig),
+    # Unitree's G1 humanoid (29 DoF, Unitree's joint PD) standing under random pushes.
+    "g1_stand": (G1Stand, G1StandConfig),
     # Unitree Go2 (Menagerie model, Unitree's motor order and PD): stand up from lying and hold under pushes.
     "go2_stand": (Go2Stand, Go2StandConfig),
     # Tasks on their own numpy dynamics (judo.core.dynamics), not MuJoCo: a kinematic-bicycle car.
@@ -88,6 +91,8 @@ __all__ = [  # every built-in task class and its config
     "DoubleCartpoleConfig",
     "FR3Pick",
     "FR3PickConfig",
+    "G1Stand",
+    "G1StandConfig",
     "Go2Stand",
     "Go2StandConfig",
     "HumanoidStandup",
