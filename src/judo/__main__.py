@@ -1,10 +1,11 @@
-"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune`, `collect`,
-`replay`, `distill`, `gait-search`, `sysid` and `excite` commands.
+"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune`, `leaderboard`,
+`collect`, `replay`, `distill`, `gait-search`, `sysid` and `excite` commands.
 
 python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
 python -m judo benchmark ...                        # judo.evaluation.benchmark
 python -m judo evaluate ...                         # judo.evaluation.evaluate
 python -m judo tune ...                             # judo.tuning.cli (needs the `tune` extra)
+python -m judo leaderboard --tasks ...              # judo.tuning.leaderboard: which optimizer wins where
 python -m judo collect ...                          # judo.collection.cli (needs the `collect` extra)
 python -m judo replay FILE.h5                       # judo.collection.replay: a collect file in the GUI
 python -m judo distill DATA.h5 --out POLICY.onnx    # judo.learning.cli: a policy from collect's files
@@ -43,6 +44,7 @@ def main(argv: Sequence[str] | None = None) -> int | None:
         "benchmark",
         "evaluate",
         "tune",
+        "leaderboard",
         "collect",
         "replay",
         "distill",
@@ -80,6 +82,10 @@ def dispatch(argv: list[str]) -> int | None:
         from judo.tuning.cli import main as tune_main
 
         return tune_main(argv[1:])
+    if argv and argv[0] == "leaderboard":
+        from judo.tuning.leaderboard import main as leaderboard_main
+
+        return leaderboard_main(argv[1:])
     if argv and argv[0] == "collect":
         from judo.collection.cli import main as collect_main
 
