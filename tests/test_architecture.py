@@ -204,7 +204,7 @@ def test_the_app_is_a_few_rooms():
     assert 8 <= len(modules) <= APP_MODULES, f"{len(modules)} app modules (at most {APP_MODULES}): {modules}"
 
 
-LIBRARY_LAYERS = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks", "judo.loop")
+LIBRARY_LAYERS = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks", "judo.safety", "judo.loop")
 """The library a notebook imports: what plans and estimates, and the closed loop that drives a plant with it."""
 APPLICATION_LAYERS = (
     "judo.ray_cluster",
@@ -241,7 +241,7 @@ def test_the_loop_library_imports_nothing_from_the_app_the_gui_or_the_commands()
     graph = import_graph()
     loop_modules = [module for module in graph if in_layer(module, ("judo.loop",))]
     assert "judo.loop.closed_loop" in loop_modules and "judo.loop.system" in loop_modules
-    allowed = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks", "judo.loop")
+    allowed = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks", "judo.safety", "judo.loop")
     outside = sorted(
         f"{module} imports {target}"
         for module in loop_modules

@@ -17,6 +17,8 @@ Where the features plug in, each once, here:
 - the watchdog on the served action (`Watchdog`, below): `serve` gives the plant the task's
   `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one control period;
 - recorders of every step and plan: the `recorders` given to the loop (`judo.loop.records.Recorder`).
+- the latched stop (`judo.safety.stop.StopLatch`, the loop's `stop`): while engaged, `serve` gives the safe action
+  and `advance` holds the plant by the System's halt where it offers one, until the stop is cleared.
 
 The latency model: a plan computed from the reading at time t is served from plant time t + delay, where the
 delay is a fixed number of seconds of sim time or "measured" (the update's wall time). Until then the plant
@@ -58,6 +60,7 @@ from judo.loop.latency import RECENT_CYCLES, Latency, LatencyPredictor, check_la
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError, SystemState
 from judo.loop.watchdog import TIME_TOLERANCE, ReadingTimeError, Watchdog
+from judo.safety.stop import StopLatch
 
 
 class ControlClock:
@@ -116,6 +119,8 @@ class ClosedLoop:
             has one (a reading may be late), else the reading's.
         keep_updates: keep at least the latest this many entries of `update_ms` and `latency_s` (at most twice as
             many), for a loop that runs for days (the app); None keeps every update's (an episode's log).
+        stop: the latched stop (`judo.safety.stop`): while it is engaged the plant is served the safe action, or
+            held by the System's own `halt()` (called once per latch, then nothing is applied) where it offers one.
 
     Attributes:
         reading: the latest reading of the plant (None until the first `read`).
@@ -141,6 +146,7 @@ class ClosedLoop:
         on_watchdog: Callable[[str | None], None] | None = None,
         estimator: Estimator | None = None,
         keep_updates: int | None = None,
+        stop: StopLatch | None = None,
     ) -> None:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
@@ -161,6 +167,7 @@ class ClosedLoop:
         self.update_ms: list[float] = []
         self.latency_s: list[float] = []
         self.keep_updates = keep_updates
+        self.stop, self._stop_halted = stop, False  # the latched stop, and whether the System's halt holds the plant
         self.failed_updates = self.divergences = 0
         self.control_clock = ControlClock()
         self.last_delay = 0.0
@@ -326,7 +333,7 @@ class ClosedLoop:
         reason = self.watchdog.verdict(self.clock(), stamp, config.max_plan_age, config.control_freq, newest)
         if self.watchdog.news and self.on_watchdog is not None:
             self.on_watchdog(reason)
-        if reason is not None:
+        if reason is not None or (self.stop is not None and self.stop.latched):
             return self.safe_action()
         if active is None:
             return hold
@@ -371,7 +378,8 @@ class ClosedLoop:
         failed: dict[str, Exception] = {}
         diverged: SimulationDiverged | None = None
         try:
-            self.calls.apply(action)
+            if not self._held_by_stop():
+                self.calls.apply(action)
         except SystemClosedError:
             raise
         except Exception as err:
@@ -412,6 +420,18 @@ class ClosedLoop:
         if diverged is not None:
             raise diverged
         return record
+
+    def _held_by_stop(self) -> bool:
+        """Whether the latched stop holds the plant by the System's own halt, so no action is applied: halted once
+        per latch where the System offers a halt (else the safe action `serve` gave is applied)."""
+        stop = self.stop
+        if stop is None or not stop.latched:
+            self._stop_halted = False
+            return False
+        if not self._stop_halted and self.calls.offers_halt():
+            self._stop_halted = self.calls.halt()
+        stop.took_effect()
+        return self._stop_halted
 
     def step(self) -> StepRecord | None:
         """Plan when the control clock is due (in sim time), then advance the plant one step.

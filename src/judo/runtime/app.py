@@ -49,6 +49,7 @@ from judo.runtime.runners import FrontendFactory, PlannerRunner, PlantRunner, Su
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
+from judo.safety.stop import StopLatch, default_stop_file
 
 MAX_WORKERS = 1024
 """Most rollout threads an app may ask for."""
@@ -132,6 +133,7 @@ class App:
             `switch_optimizer(name)` hands the plant to MPC, `switch_optimizer("policy")` back; another task: MPC.
         recorder_factory: makes the recorder of `start_recording(path)`; None writes collect's HDF5 layout
             (`judo.collection.live`, needs the `collect` extra).
+        stop_file: the latched stop's state file (`judo.safety.stop`, the app's `stop_latch`); None: the default one.
 
     Raises UnknownNameError or ConfigError at once for bad names or configs.
     """
@@ -164,6 +166,7 @@ class App:
         recorder_factory: RecorderFactory | None = None,
         proposal_policy: Policy | str | Path | None = None,
         policy: Policy | str | Path | None = None,
+        stop_file: str | Path | None = None,
     ) -> None:
         check_app_settings(duration, num_workers, seed, system_call_limit, system is not None, observe)
         self.gui_enabled, self.host, self.port, self.duration = gui is not False, host, check_port(port), duration
@@ -175,6 +178,7 @@ class App:
             Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
         )
         self._reports = reports = Reports(line=StatusLine(), state=state)
+        self.stop_latch = StopLatch(default_stop_file() if stop_file is None else stop_file, reports.on_stop)
         if system is not None and (warning := missing_halt(system)) is not None:
             reports.report(warning, "warning")
         clock = None if system is None else state.clock  # a robot's plans age in wall time; the simulator waits
@@ -192,6 +196,7 @@ class App:
             policy=driver,
             policy_task=task,
             fallback_optimizer=optimizer,
+            stop=self.stop_latch,
         )
         first = optimizer if driver is None else POLICY_OPTIMIZER
         state.begin(maker.first(task, first, state.sensing, controller_config, optimizer_config, task_config))
@@ -220,6 +225,7 @@ class App:
             reports=reports,
             system_call_limit=system_call_limit,
             make_frontend=make_frontend,
+            stop_latch=self.stop_latch,
         )
         self._thread: threading.Thread | None = None
         self._ran = False
@@ -269,7 +275,7 @@ class App:
     def summary(self) -> RunSummary:
         """Control rate, plan times, real-time factor and final reward of the run so far."""
         session = self._state.session
-        return self.stats.summary(session.task_name, session.optimizer_name)
+        return self.stats.summary(session.task_name, session.optimizer_name, self.stop_latch)
 
     def _claim_run(self) -> None:
         if self._ran:

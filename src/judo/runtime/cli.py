@@ -97,6 +97,9 @@ class RunOptions:
     ".[ros2]"; docs/hardware.md); or module:Class, a user's System subclass built with Class(task)."""
     record: Annotated[Path | None, tyro.conf.arg(metavar="FILE.mcap", help_behavior_hint="(optional)")] = None
     """With --system ros2: log what the robot sent and what judo commanded to this MCAP file, with ROS 2 schemas."""
+    stop_file: Annotated[Path | None, tyro.conf.arg(metavar="FILE.json", help_behavior_hint="(optional)")] = None
+    """The latched stop's state file (docs/safety.md): while it exists the app starts stopped; by default
+    $JUDO_STOP_FILE, else ~/.local/state/judo/stop.json."""
     ros2: tyro.conf.Suppress[Ros2Options] = field(default_factory=Ros2Options)
     """The ROS 2 bridge's domain, topics, rate and joint names (--ros2.*, a group of its own)."""
     sensing: Annotated[SensingFlags, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")] = field(
@@ -149,6 +152,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             observe=options.sensing.observe,
             proposal_policy=options.proposal_policy,
             policy=options.policy,
+            stop_file=options.stop_file,
             estimator=estimator if pinned else None,  # None: each task's own default, at start and on a switch
             estimator_config=_as_kind(configs.get("estimator"), EstimatorConfig) if pinned else None,
             **{f"sensor_{key}": value for key, value in options.sensing.sensor_settings().items()},

@@ -44,6 +44,7 @@ from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
 from judo.runtime.status import Level as StatusLevel
 from judo.runtime.status import LiveFigures, Reports, Status
+from judo.safety.stop import StopLatch
 
 __all__ = [
     "CONFIG_KINDS",
@@ -199,6 +200,11 @@ class AppPort(Protocol):
 
     def stop_recording(self) -> Path | None:
         """Write the recording under way as the next demo of its file; returns the file, or None."""
+        ...
+
+    @property
+    def stop_latch(self) -> StopLatch:
+        """The latched stop (`judo.safety.stop`): whether it is engaged, and its engage and clear (any thread)."""
         ...
 
 

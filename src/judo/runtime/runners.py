@@ -70,6 +70,7 @@ from judo.runtime.live_recording import Recordings
 from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Reports, RunStats
+from judo.safety.stop import StopLatch
 
 IDLE_POLL = 0.01
 """Seconds the planner sleeps while paused or waiting for its first reading."""
@@ -529,6 +530,7 @@ class Supervisor:
         reports: the status line.
         system_call_limit: seconds a System call may block before it is reported and the robot halted.
         make_frontend: builds the GUI on the event loop's thread (None: no GUI); raises if it cannot start.
+        stop_latch: the latched stop, engaged by SIGUSR1 where signals are handled, and said at start when latched.
     """
 
     def __init__(
@@ -541,10 +543,11 @@ class Supervisor:
         reports: Reports,
         system_call_limit: float,
         make_frontend: Callable[[], Frontend] | None,
+        stop_latch: StopLatch | None = None,
     ) -> None:
         self._state, self._plant, self._planner = state, plant, planner
         self._recordings, self._reports = recordings, reports
-        self._system_call_limit, self._make_frontend = system_call_limit, make_frontend
+        self._system_call_limit, self._make_frontend, self._stop_latch = system_call_limit, make_frontend, stop_latch
         self.frontend: Frontend | None = None  # while the loops run with a GUI
         self.start_error: BaseException | None = None  # why the GUI could not start
         self.ready = threading.Event()  # the loops run (or failed to start)
@@ -557,6 +560,8 @@ class Supervisor:
         if handle_signals:
             for sig in (signal.SIGINT, signal.SIGTERM):
                 loop.add_signal_handler(sig, state.stop.set)
+            if (latch := self._stop_latch) is not None:
+                loop.add_signal_handler(signal.SIGUSR1, latch.engage, "SIGUSR1")
         running = False
         try:
             if self._make_frontend is not None:
@@ -566,6 +571,8 @@ class Supervisor:
             if self.frontend is not None:
                 coroutines.append(self._draw_frontend(self.frontend))
             self._reports.report(self._reports.running())
+            if self._stop_latch is not None and self._stop_latch.latched:
+                self._reports.report(self._stop_latch.start_line(), "warning")
             tasks = [asyncio.create_task(coroutine) for coroutine in coroutines]
             running = True
             self.ready.set()
@@ -581,7 +588,7 @@ class Supervisor:
         finally:
             self._stop_in_order()
             if handle_signals:
-                for sig in (signal.SIGINT, signal.SIGTERM):
+                for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1):
                     loop.remove_signal_handler(sig)
             state.stop.unbind()
             self.finished.set()
@@ -598,6 +605,8 @@ class Supervisor:
             self.frontend.close()
         self._planner.close()
         state.session.close()
+        if self._stop_latch is not None:
+            self._stop_latch.close()
 
     async def _watch_plant(self) -> None:
         """Report a call into a user's System that has blocked longer than `system_call_limit` (once per block) and

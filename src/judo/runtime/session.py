@@ -24,6 +24,7 @@ from judo.loop.closed_loop import ClosedLoop
 from judo.loop.estimator_thread import EstimatorThread
 from judo.loop.sensing import SensedSystem, Sensing, choose_estimator, observed_plant
 from judo.loop.system import MujocoSystem, System, SystemState
+from judo.safety.stop import StopLatch
 
 POLICY_OPTIMIZER = "policy"
 """The optimizer name of a session that a policy drives instead of an optimizer (`App(policy=...)`)."""
@@ -130,13 +131,15 @@ def build_session(
     estimator_thread: bool = False,
     proposal_policy: Policy | None = None,
     policy: Policy | None = None,
+    stop: StopLatch | None = None,
 ) -> Session:
     """A new Session. Configs left out get the task's registered defaults.
 
     With no `system`, the plant is `MujocoSystem.from_task` of the controller's task (its config shared,
     seeded by `seed`, at its start state). A given `system` is kept as it is, e.g. the user's hardware or
     the running plant when only the optimizer changes. `backend` names the controller's rollout backend;
-    `clock` and `on_watchdog` go to the closed loop (its watchdog's clock, and its trip/recovery callback).
+    `clock`, `on_watchdog` and `stop` go to the closed loop (its watchdog's clock, its trip/recovery callback, and
+    the latched stop).
 
     `sensing` says how a new simulated plant is observed (observe="sensors" wraps it in a SensedSystem whose
     noise draws from [seed, SENSING_STREAM]) and which estimator the closed loop runs: the named one, else
@@ -174,7 +177,13 @@ def build_session(
         if estimator is not None and estimator_thread:
             estimator = EstimatorThread(estimator)
         closed_loop = ClosedLoop(
-            controller, system, clock=clock, on_watchdog=on_watchdog, estimator=estimator, keep_updates=KEPT_UPDATES
+            controller,
+            system,
+            clock=clock,
+            on_watchdog=on_watchdog,
+            estimator=estimator,
+            keep_updates=KEPT_UPDATES,
+            stop=stop,
         )
     except BaseException:
         controller.close()
@@ -201,6 +210,7 @@ class SessionMaker:
         policy_task: the task `policy` is for.
         fallback_optimizer: the optimizer of a session of another task than `policy_task` switched to from the
             policy's.
+        stop: the app's latched stop, given to every session's closed loop (a switch keeps it).
     """
 
     user_system: System | None
@@ -214,6 +224,7 @@ class SessionMaker:
     policy: Policy | None = None
     policy_task: str | None = None
     fallback_optimizer: str = "mppi"
+    stop: StopLatch | None = None
 
     def default_configs(self, task: str, optimizer: str) -> ConfigSet:
         """The registered defaults of a session of `task` with `optimizer`; for the policy's, the controller's as the
@@ -298,4 +309,5 @@ class SessionMaker:
             estimator_thread=True,  # the plant thread only reads, steps and serves (judo.loop.estimator_thread)
             proposal_policy=self.proposal_policy if task == self.proposal_task else None,
             policy=self.policy if optimizer == POLICY_OPTIMIZER else None,
+            stop=self.stop,
         )

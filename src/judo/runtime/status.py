@@ -17,6 +17,7 @@ import numpy as np
 
 from judo.core.registry import fitted_overrides
 from judo.runtime.app_state import AppState
+from judo.safety.stop import StopEvent, StopLatch
 
 logger = logging.getLogger("judo.app")
 
@@ -92,6 +93,7 @@ class RunSummary:
         plan_time_p95_ms: its 95th percentile over the last PLAN_TIMES_KEPT cycles.
         real_time_factor: sim_time / wall_time (1 = real time).
         final_reward: reward of the nominal rollout in the last cycle (NaN if none ran).
+        stops: each latch and clear of the latched stop in the run (`judo.safety.stop`); stop_latched: still at exit.
     """
 
     task: str
@@ -104,6 +106,8 @@ class RunSummary:
     plan_time_p95_ms: float
     real_time_factor: float
     final_reward: float
+    stops: tuple[StopEvent, ...] = ()
+    stop_latched: bool = False
 
     def __str__(self) -> str:
         rows = [
@@ -118,6 +122,9 @@ class RunSummary:
                 f"{self.final_reward:.4g}" if np.isfinite(self.final_reward) else "none (no rollout scored)",
             ),
         ]
+        rows += [("stop", event.line()) for event in self.stops]
+        if self.stop_latched:
+            rows.append(("stop", "still latched at exit: the next start serves the safe action until it is cleared"))
         return "\n".join(f"{name:>16}: {value}" for name, value in rows)
 
 
@@ -202,8 +209,8 @@ class RunStats:
                 rtf = (s1 - s0) / (w1 - w0) if w1 > w0 else float("nan")
             return LiveFigures(self._nominal_reward, plan_ms, rate, rtf)
 
-    def summary(self, task: str, optimizer: str) -> RunSummary:
-        """Figures over the whole run so far."""
+    def summary(self, task: str, optimizer: str, stop: StopLatch | None = None) -> RunSummary:
+        """Figures over the whole run so far, with the events of the latched `stop`."""
         with self._lock:
             times, count = np.array(self._plan_times), self._num_plans
             span = 0.0
@@ -220,6 +227,8 @@ class RunStats:
                 plan_time_p95_ms=1000.0 * float(np.percentile(times, 95)) if len(times) else float("nan"),
                 real_time_factor=self._sim_time / self._wall_time if self._wall_time > 0 else float("nan"),
                 final_reward=self._nominal_reward,
+                stops=() if stop is None else tuple(stop.events),
+                stop_latched=stop is not None and stop.latched,
             )
 
 
@@ -269,6 +278,16 @@ class Reports:
             shown = [f"{entry} fitted by sysid" if entry in fitted else entry for entry in entries]
             message += f", planning with a model with overrides ({', '.join(shown)})"
         return message
+
+    def on_stop(self, event: StopEvent) -> None:
+        """The latched stop was latched or cleared (`judo.safety.stop`): say so, and tell the recording under way."""
+        if event.engaged:
+            self.line.report(f"stop {event.line()}: serving the safe action until it is cleared", "warning", paced=True)
+        else:
+            self.line.report(f"stop {event.line()}: {self.running()}", paced=True)
+        recording = self._state.recording
+        if recording is not None:
+            recording.on_config("stop", None, source=event.source, engaged=event.engaged, wall_time=event.time)
 
     def on_watchdog(self, reason: str | None) -> None:
         """The closed loop's watchdog serves the safe action (`reason`, at the start of a trouble and every few

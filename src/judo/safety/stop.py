@@ -96,8 +96,7 @@ class StopLatch:
         self._latched = False
         self._since: float | None = None  # time.monotonic() of the latest latch, until it took effect
         if self.path is not None and self.path.exists():
-            self._latched = True
-            self._since = time.monotonic()
+            self._latched = True  # served from the first step on: no time to take effect to measure
             self.events.append(self._persisted_event())
         with _open_lock:
             _open.add(self)
@@ -151,7 +150,7 @@ class StopLatch:
     def start_line(self) -> str:
         """What the app says at start when the latch is engaged: since when, and how to clear it."""
         latest = self.latest
-        story = "" if latest is None else f" ({latest.line()})"
+        story = "" if latest is None else f", {latest.line()}"
         return (
             f"the stop is latched{story}: the plant is served the safe action until it is cleared with the GUI's "
             f"Clear stop button or std_msgs/Bool false on /judo/estop (or remove {self.path} before the next start)"
@@ -180,18 +179,18 @@ class StopLatch:
             logger.error("the stop is latched, but its state file %s could not be written: %s", self.path, err)
 
     def _persisted_event(self) -> StopEvent:
-        """The event the state file tells of (a file that cannot be read still latches)."""
+        """The latch the state file tells of, at its time (a file that cannot be read still latches, as of now)."""
         assert self.path is not None
         try:
             record = json.loads(self.path.read_text())
-            told = f"{record['source']} at {time.strftime('%Y-%m-%d %H:%M:%S UTC', time.gmtime(record['time']))}"
+            return StopEvent(float(record["time"]), f"{record['source']} (from the state file {self.path})", True)
         except (OSError, ValueError, KeyError, TypeError) as err:
-            told = f"an unreadable record ({type(err).__name__})"
-        return StopEvent(time.time(), f"the state file {self.path} (latched by {told})", True)
+            return StopEvent(time.time(), f"the state file {self.path} (unreadable: {type(err).__name__})", True)
 
     def _tell(self, event: StopEvent) -> None:
-        logger.warning("stop %s", event.line())
-        if self.on_change is not None:
+        if self.on_change is None:
+            logger.warning("stop %s", event.line())
+        else:
             self.on_change(event)
 
 

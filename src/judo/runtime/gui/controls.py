@@ -1,4 +1,5 @@
-"""The top of the GUI panel: task and optimizer dropdowns, pause/resume, reset buttons and the status line.
+"""The top of the GUI panel: task and optimizer dropdowns, the latched stop, pause/resume, reset buttons and the
+status line.
 
 Every control only calls a command of the app's port (`judo.runtime.commands.AppPort`); the app's
 loops carry it out at their next iteration.
@@ -19,6 +20,8 @@ NO_ESTIMATOR = "none"
 INFERENCE_WINDOW = 100
 """Latest updates whose median the readout shows as a policy's inference time."""
 STATUS_PREFIX = {"info": "", "warning": "warning: ", "error": "error: "}
+STOP_KEY = "escape"
+"""The key that latches the stop, from anywhere on the page (a command of viser's command palette)."""
 
 
 class Controls:
@@ -48,6 +51,20 @@ class Controls:
             order=order + 0.15,
             hint="Registered estimators, between the plant's readings and the plan (none: plan from the full state)",
         )
+        self.stop = gui.add_button(
+            "Stop",
+            color="red",
+            order=order + 0.18,
+            hint=f"Latch the stop ({STOP_KEY.capitalize()} key): the safe action (or the robot's halt) until Clear stop",
+        )
+        self.clear_stop = gui.add_button(
+            "Clear stop", disabled=True, order=order + 0.19, hint="Clear the latched stop: the plan is served again"
+        )
+        self.stop_key = gui.add_command("Stop (latched)", description="Latch the stop", hotkey=STOP_KEY)
+        self.stop.on_click(lambda _: app.stop_latch.engage("the GUI's Stop button"))
+        self.clear_stop.on_click(lambda _: app.stop_latch.clear("the GUI's Clear stop button"))
+        self.stop_key.on_trigger(lambda _: app.stop_latch.engage(f"the GUI's {STOP_KEY.capitalize()} key"))
+        self._shown_latched: bool | None = None
         self.pause = gui.add_button("Pause", order=order + 0.2, hint="Pause or resume the plant and the planner")
         self.reset_task = gui.add_button("Reset task", order=order + 0.3, hint="Put the plant in its start state")
         self.reset_configs = gui.add_button(
@@ -89,6 +106,12 @@ class Controls:
         """Show the app's pause state, names and latest status."""
         paused = self.app.paused
         self.pause.label = "Resume" if paused else "Pause"
+        latched = self.app.stop_latch.latched
+        if latched != self._shown_latched:
+            self._shown_latched = latched
+            self.stop.label, self.stop.disabled, self.clear_stop.disabled = (
+                ("STOPPED", True, False) if latched else ("Stop", False, True)
+            )
         self.show_recording()
         status = self.app.status
         if (status.count, paused) != self._shown_status:
