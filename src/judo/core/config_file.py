@@ -33,6 +33,8 @@ geom_friction.cart = [0.9, 0.005, 0.0001]
 dof_damping.slider = 0.5
 [sysid.cartpole]                                # written by sysid: the [model_overrides.cartpole] entries it fitted
 fitted = ["body_mass.pole"]
+[safety.cartpole]                               # the owner's limits (judo.safety, docs/safety.md)
+position = ["slider=-1:1"]
 """
 
 import importlib
@@ -49,6 +51,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
+from judo.core.config import with_updates
 from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.optimizer import OptimizerConfig
@@ -57,6 +60,7 @@ from judo.core.registry import (
     lookup_estimator,
     lookup_optimizer,
     lookup_task,
+    make_config,
     register_optimizer,
     register_task,
     set_config_overrides,
@@ -77,7 +81,13 @@ TOP_LEVEL_KEYS = (
     "model_overrides",
     "plant_overrides",
     "sysid",
+    "safety",
 )
+
+TASK_SECTIONS = {"safety": "judo.safety.limits"}
+"""Per-task sections whose config class lives above core, by the module that holds it: its `SECTION_CONFIG` (the
+class whose task defaults the table sets) and `check_section(task_name, config)` (the checks against the task's
+model). Imported by name when a file has the section, as the rollout backends are (judo.core.backend)."""
 
 ALL_OPTIMIZERS = "all"
 """The optimizer name in [optimizer_config_overrides.<task>.all]: OptimizerConfig, so every optimizer."""
@@ -203,6 +213,19 @@ def load_config(path: str | Path) -> LoadedConfig:
                 )
             except JudoError as err:
                 raise fail(f"{section}.{task_name}", err) from None
+
+    for section, module_name in TASK_SECTIONS.items():
+        module = importlib.import_module(module_name)
+        for task_name, overrides in _table(table, section, path).items():
+            where = f"{section}.{task_name}"
+            try:
+                lookup_task(task_name)
+                if not isinstance(overrides, dict):
+                    raise JudoError(f"expected a table of field = value, got {overrides!r}")
+                module.check_section(task_name, with_updates(make_config(module.SECTION_CONFIG, task_name), overrides))
+            except JudoError as err:
+                raise fail(where, err) from None
+            _apply(path, where, task_name, module.SECTION_CONFIG, overrides)
 
     for key, lookup in (("task", lookup_task), ("optimizer", lookup_optimizer)):
         if key in table:

@@ -6,7 +6,7 @@ imported here too, where they have always been importable from.
 
 import math
 from time import perf_counter
-from typing import Any
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -62,6 +62,13 @@ class NonFiniteKnotsError(JudoError):
     """The optimizer sampled or returned NaN or infinite knots; its search was restarted and the plan is kept."""
 
 
+class RolloutLimits(Protocol):
+    """Hard limits (`judo.safety.feasibility.RolloutScreen`): (R * N,) rewards, each rollout that crosses a limit
+    scored below every feasible one, from (R * N, T, ...) states, sensors, controls and the (nu,) control served now."""
+
+    def screen(self, rewards: Any, states: Any, sensors: Any, controls: Any, served: Any, models: int) -> Any: ...
+
+
 class Controller:
     """Plans with `optimizer` on `task` and serves the resulting control spline.
 
@@ -83,6 +90,7 @@ class Controller:
             along the nominal rollout (index 0) and the best `max_num_traces` rollouts.
         proposal_policy: the Policy whose candidates replace the last `config.policy_samples` of the
             optimizer's samples every iteration (judo.core.proposals), or None.
+        limits: the RolloutLimits that screen each iteration's rollouts before ranking ([safety], via the loop), or None.
     """
 
     def __init__(
@@ -125,6 +133,7 @@ class Controller:
         self._cycles_since_draw = 0
         self._warm_start_takes_state = warm_start_takes_state(task)
         self._gains = FeedbackGains(task, self.backend.num_workers if backend == "cpu" else None)
+        self.limits: RolloutLimits | None = None
 
     @property
     def num_steps(self) -> int:
@@ -259,6 +268,7 @@ class Controller:
         )
 
         required, iteration_started = cfg.max_opt_iters, 0.0
+        served = nominal[0].copy()  # the plan in force now (or the warm start): the rate limits' step before
         with self.backend.cancelled_by(cancel):  # polled between pieces of a big batch too
             for iteration in range(cfg.iterations_per_cycle):
                 if cancel is not None and cancel.is_set():
@@ -304,6 +314,8 @@ class Controller:
                     )
                 if self.backend.diverged is not False or not np.isfinite(rewards).all():  # NaN, +inf, diverged:
                     rewards[np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged] = -np.inf  # never win
+                if self.limits is not None:  # a rollout that crosses a hard limit never wins either
+                    rewards = self.limits.screen(rewards, states, sensors, self._batch_controls, served, num_models)
                 if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
                     rewards = reduce_rewards(
                         rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale

@@ -11,12 +11,13 @@ reproducible bit for bit; "measured" latency uses each update's wall time and so
 
 import math
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
 import numpy as np
 
 from judo.core.config import require
+from judo.core.controller import Controller
 from judo.core.estimator import Estimator
 from judo.core.planner import Planner
 from judo.core.task import EpisodeLog, Task
@@ -24,6 +25,7 @@ from judo.loop.closed_loop import ClosedLoop, Latency, check_latency
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
+from judo.safety.limits import SafetyConfig
 
 __all__ = [
     "EpisodeLogRecorder",
@@ -52,6 +54,8 @@ class EpisodeResult:
         latency_s: (num_updates,) sim-time delay after which each update's plan took effect.
         failed_updates: updates whose rollouts all scored NaN or -inf (the previous plan was kept).
         divergences: times the plant's simulation blew up and was reset.
+        limit_hits: with [safety] limits, the serve filter's hits by limit ({} without); "limit_hits" in `metrics`
+            is their total. no_feasible: planning iterations in which no rollout kept the limits.
     """
 
     seed: int
@@ -62,6 +66,8 @@ class EpisodeResult:
     latency_s: np.ndarray
     failed_updates: int
     divergences: int
+    limit_hits: dict[str, int] = field(default_factory=dict)
+    no_feasible: int = 0
 
 
 class EpisodeLogRecorder:
@@ -108,6 +114,7 @@ def run_episode(
     on_update: Callable[[float], None] | None = None,
     recorders: Iterable[Recorder] = (),
     estimator: Estimator | None = None,
+    safety: SafetyConfig | None = None,
 ) -> EpisodeResult:
     """Drive the simulated plant `system` with `controller` for `duration` seconds of sim time.
 
@@ -123,6 +130,7 @@ def run_episode(
         recorders: more recorders of every plan and step (e.g. a dataset writer), after the episode log.
         estimator: between the reading and the plan (needed when the plant serves only sensors). The log
             and the metrics hold the plant's true state either way.
+        safety: the owner's limits (judo.safety): planned within and filtered at serve time; None for none.
     """
     require(0 < duration < np.inf, f"duration must be positive and finite, got {duration}")
     check_latency(latency)
@@ -130,7 +138,9 @@ def run_episode(
     model = system.task.sim_model
     sizes = (model.nq, model.nv, controller.task.command_size, model.nsensordata)  # controls: what is served
     episode_log = EpisodeLogRecorder(controller.task, sizes, num_steps)
-    loop = ClosedLoop(controller, system, latency=latency, recorders=[episode_log, *recorders], estimator=estimator)
+    loop = ClosedLoop(
+        controller, system, latency=latency, recorders=[episode_log, *recorders], estimator=estimator, safety=safety
+    )
     loop.restart()
     updates = 0
     for _ in range(num_steps):
@@ -141,6 +151,10 @@ def run_episode(
             on_update(now)
     log, rewards = episode_log.log, episode_log.rewards
     metrics = {**system.task.metrics(log), "mean_reward": float(rewards.mean())}
+    hits = {} if loop.guard is None else dict(loop.guard.counts)
+    if loop.guard is not None:
+        metrics["limit_hits"] = float(sum(hits.values()))
+    screen = controller.limits if isinstance(controller, Controller) else None
     return EpisodeResult(
         seed=seed,
         log=log,
@@ -150,6 +164,8 @@ def run_episode(
         latency_s=np.array(loop.latency_s),
         failed_updates=loop.failed_updates,
         divergences=loop.divergences,
+        limit_hits=hits,
+        no_feasible=0 if screen is None else screen.no_feasible,
     )
 
 

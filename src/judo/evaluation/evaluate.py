@@ -136,6 +136,11 @@ def episode_record(result: EpisodeResult) -> dict[str, Any]:
         "latency_ms_median": float(1e3 * np.median(result.latency_s)) if len(result.latency_s) else None,
         "failed_updates": result.failed_updates,
         "divergences": result.divergences,
+        **(
+            {"limit_hits": result.limit_hits, "no_feasible": result.no_feasible}
+            if "limit_hits" in result.metrics
+            else {}
+        ),
     }
 
 
@@ -274,6 +279,12 @@ def main(argv: list[str] | None = None) -> int:
                     f"seed {result.seed}: {result.divergences} simulation divergences, "
                     f"{result.failed_updates} updates with "
                     + ("non-finite actions" if args.policy is not None else "no finite reward")
+                )
+            if "limit_hits" in result.metrics:  # [safety] limits in force: what the serve filter and the screen did
+                hits = ", ".join(f"{name} {count}" for name, count in sorted(result.limit_hits.items())) or "none"
+                console.print(
+                    f"seed {result.seed}: limit hits: {hits}; {result.no_feasible} planning iterations had no "
+                    "feasible sample (the least-violating plan was served)"
                 )
             loud = unserved_line(
                 result.failed_updates, len(result.update_ms), args.policy is not None, f"seed {result.seed}"

@@ -23,12 +23,13 @@ from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.core.planner import Planner
 from judo.core.policy import Policy
-from judo.core.registry import ConfigKind
+from judo.core.registry import ConfigKind, make_config
 from judo.core.task import Task
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, Latency, run_episode
 from judo.loop.records import Recorder
 from judo.loop.sensing import SensedSystem, Sensing, choose_estimator, observed_plant
 from judo.loop.system import MujocoSystem
+from judo.safety.limits import SafetyConfig
 
 T = TypeVar("T")
 
@@ -161,7 +162,8 @@ def run_seeded_episode(
         system = observed_plant(with_spec_plant(controller.task, spec), seed, spec.sensing)
         _, estimator = choose_estimator(controller.task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
-        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
+        safety = make_config(SafetyConfig, spec.task)  # [safety.TASK] of the task's and the --config file
+        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator, safety)
 
 
 def spec_controller(
@@ -230,7 +232,8 @@ def run_policy_episode(
         system = observed_plant(with_spec_plant(task, spec), seed, spec.sensing)
         _, estimator = choose_estimator(task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
-        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator)
+        safety = make_config(SafetyConfig, spec.task)  # [safety.TASK] of the task's and the --config file
+        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator, safety)
 
 
 def with_spec_plant(task: Task, spec: EpisodeSpec) -> Task:

@@ -60,6 +60,8 @@ from judo.loop.latency import RECENT_CYCLES, Latency, LatencyPredictor, check_la
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError, SystemState
 from judo.loop.watchdog import TIME_TOLERANCE, ReadingTimeError, Watchdog
+from judo.safety.limits import SafetyConfig
+from judo.safety.serve_filter import guard
 from judo.safety.stop import StopLatch
 
 
@@ -121,6 +123,8 @@ class ClosedLoop:
             many), for a loop that runs for days (the app); None keeps every update's (an episode's log).
         stop: the latched stop (`judo.safety.stop`): while it is engaged the plant is served the safe action, or
             held by the System's own `halt()` (called once per latch, then nothing is applied) where it offers one.
+        safety: the owner's limits ([safety], judo.safety): each served action passes `guard`, the serve filter, and
+            a Controller's rollouts are screened by them; None or no limit set changes nothing.
 
     Attributes:
         reading: the latest reading of the plant (None until the first `read`).
@@ -146,6 +150,7 @@ class ClosedLoop:
         on_watchdog: Callable[[str | None], None] | None = None,
         estimator: Estimator | None = None,
         keep_updates: int | None = None,
+        safety: SafetyConfig | None = None,
         stop: StopLatch | None = None,
     ) -> None:
         check_latency(latency)
@@ -168,6 +173,7 @@ class ClosedLoop:
         self.latency_s: list[float] = []
         self.keep_updates = keep_updates
         self.stop, self._stop_halted = stop, False  # the latched stop, and whether the System's halt holds the plant
+        self.guard = guard(controller, safety)  # [safety]: the serve filter (and a Controller's rollout screen), or None
         self.failed_updates = self.divergences = 0
         self.control_clock = ControlClock()
         self.last_delay = 0.0
@@ -373,6 +379,8 @@ class ClosedLoop:
         """
         reading = self.reading if self.reading is not None else self.read()
         action = self.serve(reading.time)
+        if self.guard is not None and not (self.stop is not None and self.stop.latched):  # the owner's limits
+            action = self.guard.filter(action, reading.state, reading.time, self.safe_action, reading.metadata)
         if self.estimator is not None:
             self.controls.append(reading.time, action)
         failed: dict[str, Exception] = {}
@@ -411,6 +419,7 @@ class ClosedLoop:
             measured=None if raw is None else raw.sensors,
             estimate=None if self.estimator is None else reading.state,
             measured_age=None if raw is None or raw.sensors is None else self.measured_age(raw),
+            limit_hits=() if self.guard is None else self.guard.step_hits,
         )
         if "read_state" not in failed:
             for recorder in self.recorders:

@@ -28,6 +28,8 @@ class StepRecord:
         estimate: (nq + nv,) the estimator's state after the step, where an estimator runs.
         measured_age: (k,) seconds between taking each measured sensor's value in `measured` and the plant's time
             after the step (its reading's "sensor_times", else its time), where the System gives measured sensors.
+        limit_hits: the limits the serve filter enforced on this step's action (`judo.safety.serve_filter.LimitHit`:
+            time, limit, value); empty without [safety] limits.
     """
 
     time: float
@@ -38,6 +40,7 @@ class StepRecord:
     measured: np.ndarray | None = None
     estimate: np.ndarray | None = None
     measured_age: np.ndarray | None = None
+    limit_hits: tuple[Any, ...] = ()
 
 
 @dataclass
