@@ -18,7 +18,7 @@ from judo.tasks.cylinder_push import CylinderPush, CylinderPushConfig
 from judo.tasks.double_cartpole import DoubleCartpole, DoubleCartpoleConfig
 from judo.tasks.fr3_pick import FR3Pick, FR3PickConfig
 from judo.tasks.g1 import G1Stand, G1StandConfig
-from judo.tasks.go2 import Go2Stand, Go2StandConfig
+from judo.tasks.go2 import Go2Stand, Go2StandConfig, Go2Walk, Go2WalkConfig
 from judo.tasks.humanoid_standup import HumanoidStandup, HumanoidStandupConfig
 from judo.tasks.leap_cube import LeapCube, LeapCubeConfig, LeapCubeDown, LeapCubeDownConfig
 from judo.tasks.particle import Particle, ParticleConfig
@@ -60,6 +60,8 @@ BUILTIN_TASKS = {
     "g1_stand": (G1Stand, G1StandConfig),
     # Unitree Go2 (Menagerie model, Unitree's motor order and PD): stand up from lying and hold under pushes.
     "go2_stand": (Go2Stand, Go2StandConfig),
+    # The same Go2 trotting to a velocity command [vx, vy, yaw rate] (--task-config.velocity-command 0.5 0 0).
+    "go2_walk": (Go2Walk, Go2WalkConfig),
     # Tasks on their own numpy dynamics (judo.core.dynamics), not MuJoCo: a kinematic-bicycle car.
     "car": (Car, CarConfig),
     # A quadrotor rigid body on its four rotor thrusts (numpy equations of motion).
@@ -95,6 +97,8 @@ __all__ = [  # every built-in task class and its config
     "G1StandConfig",
     "Go2Stand",
     "Go2StandConfig",
+    "Go2Walk",
+    "Go2WalkConfig",
     "HumanoidStandup",
     "HumanoidStandupConfig",
     "LeapCube",

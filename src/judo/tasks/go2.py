@@ -8,14 +8,17 @@ sensors rt/lowstate carries. The rewards reuse the quadruped task's gait schedul
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeVar
 
 import mujoco
 import numpy as np
 
-from judo.core.fields import slider
+from judo.core.fields import np_1d_field, slider
 from judo.core.randomize import contact_geom_ids, scale_geom_friction
-from judo.core.task import ConfigT, EpisodeLog, Task, TaskConfig
+from judo.core.task import EpisodeLog, Task, TaskConfig
+from judo.tasks.pushes import RandomPushes
+from judo.tasks.quadruped import GaitName, gait_of, swing_heights
+from judo.tasks.quadruped_velocity import AVERAGE_WINDOW, trailing_mean
 
 MODEL_PATH = Path(__file__).parent / "models" / "unitree_go2" / "scene.xml"
 LEGS = ("FR", "FL", "RR", "RL")
@@ -38,39 +41,85 @@ STAND_HOLD_TIME = 1.0
 
 @slider("target_height", 0.15, 0.38, 0.005)
 @slider("push_force", 0.0, 150.0, 1.0)
-@slider("push_interval", 0.5, 10.0, 0.5)
+@slider("push_interval", 0.5, 10.0, 0.1)
+@slider("push_duration", 0.02, 1.0, 0.01)
 @slider("w_height", 0.0, 1000.0, 1.0)
 @slider("w_upright", 0.0, 50.0, 0.1)
 @slider("w_balance", 0.0, 100.0, 0.1)
-@slider("w_velocity", 0.0, 20.0, 0.1)
 @slider("w_posture", 0.0, 5.0, 0.01)
 @slider("w_effort", 0.0, 1.0, 0.001)
 @dataclass
-class Go2StandConfig(TaskConfig):
-    """What go2_stand weighs: height, uprightness, balance over the feet, base motion, posture and effort; and
-    the pushes the plant gets."""
+class Go2BaseConfig(TaskConfig):
+    """What both Go2 tasks weigh (height, uprightness, balance over the feet, posture, effort) and the pushes the
+    plant gets."""
 
     target_height: float = 0.30
     """Base height (m) to hold; the crouched stand puts it at 0.25 m, Unitree's stand pose at 0.333 m."""
     push_force: float = 40.0
-    """Horizontal force (N) of each push on the base, in a random direction (0: no pushes). Plant only."""
+    """Horizontal force (N) of each push on the plant's base, in a random direction; 0 turns pushes off."""
     push_interval: float = 3.0
-    """Seconds of sim time between pushes; each lasts 0.1 s (40 N: a 4 N s shove, about 0.27 m/s on 15 kg)."""
+    """Seconds between pushes (the first comes this long after a reset); read at each reset."""
+    push_duration: float = 0.1
+    """Seconds each push lasts (40 N for 0.1 s gives the 15 kg robot about 0.27 m/s)."""
     w_height: float = 400.0
     """Weight on the base height error (squared, m^2)."""
     w_upright: float = 20.0
     """Weight on the base tilting (1 - cos of its angle from vertical)."""
     w_balance: float = 20.0
     """Weight on the base's horizontal offset from the middle of the four feet (squared, m^2)."""
-    w_velocity: float = 1.0
-    """Weight on the base's linear and angular speed (squared, m^2/s^2 and rad^2/s^2): come to rest."""
     w_posture: float = 0.1
     """Weight on the joint angles differing from the crouched stand (squared, summed, rad^2)."""
     w_effort: float = 0.01
     """Weight on the joint torques the PD spends, as a share of the motor limit (squared, summed)."""
 
 
-class Go2Base(Task[ConfigT]):
+@slider("w_velocity", 0.0, 20.0, 0.1)
+@dataclass
+class Go2StandConfig(Go2BaseConfig):
+    """go2_stand: the common weights and the base's motion, which standing still should not have."""
+
+    w_velocity: float = 1.0
+    """Weight on the base's linear and angular speed (squared, m^2/s^2 and rad^2/s^2): come to rest."""
+
+
+@slider("step_height", 0.0, 0.15, 0.005)
+@slider("w_gait", 0.0, 1000.0, 1.0)
+@slider("w_velocity", 0.0, 20.0, 0.1)
+@slider("w_yaw_rate", 0.0, 10.0, 0.1)
+@dataclass
+class Go2WalkConfig(Go2BaseConfig):
+    """go2_walk: the common weights, a gait schedule and the velocity command to track (in the base's heading
+    frame). Pushes are off unless asked for."""
+
+    velocity_command: np.ndarray = np_1d_field(
+        [0.5, 0.0, 0.0],
+        names=["vx", "vy", "yaw_rate"],
+        mins=[-1.0, -0.6, -1.5],
+        maxs=[1.5, 0.6, 1.5],
+        steps=[0.05, 0.05, 0.05],
+    )
+    """(3,) the command [forward (m/s), left (m/s), yaw rate (rad/s, counter-clockwise)] in the heading frame;
+    `--task-config.velocity-command 0.5 0 0` on the command line, `velocity_command = [0.5, 0, 0]` in TOML."""
+    gait: GaitName = "trot"
+    """The foot schedule (judo.tasks.quadruped.GAITS): "trot", "walk" or "stand" (no foot asked to lift)."""
+    step_height: float = 0.08
+    """How high (m) a swinging foot is lifted at mid-swing."""
+    push_force: float = 0.0
+    """Horizontal force (N) of each push on the plant's base; 0 (the default here) turns pushes off."""
+    w_balance: float = 0.0
+    """Weight on the base's offset from the middle of the feet: none while walking (the stride moves them)."""
+    w_gait: float = 200.0
+    """Weight on each foot's height differing from the gait's schedule (squared, summed over feet, m^2)."""
+    w_velocity: float = 4.0
+    """Weight on the base's horizontal velocity differing from the command's (squared, m^2/s^2)."""
+    w_yaw_rate: float = 1.0
+    """Weight on the base's yaw rate differing from the command's (squared, rad^2/s^2)."""
+
+
+Go2ConfigT = TypeVar("Go2ConfigT", bound=Go2BaseConfig)
+
+
+class Go2Base(Task[Go2ConfigT]):
     """What both Go2 tasks share: the model, its sensor columns, the reward's common terms, pushes and falls.
 
     State [base position (3), quaternion (4), 12 joint angles, base velocity (6), 12 joint velocities]; the 12
@@ -79,6 +128,7 @@ class Go2Base(Task[ConfigT]):
 
     focus_body = "base"
     lower_is_better: ClassVar[tuple[str, ...]] = ("falls", "time_to_stand")
+    check_latency_ms: ClassVar[float] = 20.0
     measured_sensors = (
         *(f"{joint}_pos" for joint in JOINTS),
         *(f"{joint}_vel" for joint in JOINTS),
@@ -104,9 +154,7 @@ class Go2Base(Task[ConfigT]):
         self._angvel = self.get_sensor_start_index("base_world_angvel")
         self._clock = self.get_sensor_start_index("clock")
         self._torque_per_rad = self.model.actuator_gainprm[:, 0] / np.abs(self.model.actuator_forcerange[:, 1])
-        self._base_body = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_BODY, "base")
-        self._next_push = 0.0
-        self._push_until = -1.0
+        self.pushes = RandomPushes(self.sim_model, "base")
         self.reset()
 
     def base_height(self, sensors: np.ndarray) -> np.ndarray:
@@ -125,7 +173,9 @@ class Go2Base(Task[ConfigT]):
         c, s = np.cos(yaw), np.sin(yaw)
         return np.stack([c * vx + s * vy, -s * vx + c * vy, sensors[..., self._angvel + 2]], axis=-1)
 
-    def base_cost(self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, config: Any) -> np.ndarray:
+    def base_cost(
+        self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, config: Go2BaseConfig
+    ) -> np.ndarray:
         """(num_rollouts, T) the per-step cost of height, tilt, balance over the feet, posture and effort from
         (num_rollouts, T, nq + nv) states, (num_rollouts, T, nsensordata) sensors and (num_rollouts, T, 12)
         controls."""
@@ -144,26 +194,16 @@ class Go2Base(Task[ConfigT]):
         )
 
     def reset(self) -> None:
-        """At rest in the `start_key` keyframe at the origin; the first push one interval away."""
+        """At rest in the `start_key` keyframe at the origin, facing +x; the first push one interval away."""
         key = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_KEY, self.start_key)
         mujoco.mj_resetDataKeyframe(self.sim_model, self.data, key)
         mujoco.mj_forward(self.sim_model, self.data)
-        self._next_push = float(getattr(self.config, "push_interval", 0.0))
-        self._push_until = -1.0
+        self.pushes.reset(self.config.push_interval)
 
     def pre_sim_step(self) -> None:
-        """Push the base: every `push_interval` s of sim time, `push_force` N horizontally in a random direction
-        for 0.1 s (through xfrc_applied, which only the plant has)."""
-        config: Any = self.config
-        force = self.data.xfrc_applied[self._base_body]
-        now = self.data.time
-        if config.push_force > 0.0 and now >= self._next_push:
-            angle = self.rng.uniform(-np.pi, np.pi)
-            force[:2] = config.push_force * np.array([np.cos(angle), np.sin(angle)])
-            self._push_until = now + 0.1
-            self._next_push = now + config.push_interval
-        elif now >= self._push_until:
-            force[:] = 0.0
+        """Push the plant's base when a push is due (config.push_force, push_interval, push_duration)."""
+        config = self.config
+        self.pushes.apply(self.data, self.rng, config.push_force, config.push_interval, config.push_duration)
 
     def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
         """(12,) the crouched stand's joint targets: with no noise, the plan stands up."""
@@ -182,14 +222,13 @@ class Go2Base(Task[ConfigT]):
     def standing(self, sensors: np.ndarray) -> np.ndarray:
         """(T,) whether the base is up (above STANDING_FRACTION_OF_TARGET of the target height) and upright, from
         (T, nsensordata) sensor rows."""
-        config: Any = self.config
-        up = self.base_height(sensors) > STANDING_FRACTION_OF_TARGET * config.target_height
+        up = self.base_height(sensors) > STANDING_FRACTION_OF_TARGET * self.config.target_height
         return up & (sensors[..., self._up + 2] > UPRIGHT_COS)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """standing_fraction: share of the episode standing (`standing`); time_to_stand: when (s) the base first
         stood and stayed so for STAND_HOLD_TIME, or the episode's length if never; falls: times the base, having
-        stood, dropped below FALLEN_HEIGHT or tilted past 60 degrees; final_height (m)."""
+        stood, dropped below FALLEN_HEIGHT or tilted past 60 degrees; final_height (m); pushes given."""
         standing = self.standing(log.sensors)
         dt = float(self.sim_model.opt.timestep)
         hold = max(1, round(STAND_HOLD_TIME / dt))
@@ -207,6 +246,7 @@ class Go2Base(Task[ConfigT]):
             "time_to_stand": float(log.times[start] - log.times[0] + dt),
             "falls": float(falls),
             "final_height": float(self.base_height(log.sensors[-1])),
+            "pushes": float(self.pushes.count),
         }
 
 
@@ -227,3 +267,51 @@ class Go2Stand(Go2Base[Go2StandConfig]):
         spin = np.square(sensors[..., self._angvel : self._angvel + 3]).sum(-1)
         cost = self.base_cost(states, sensors, controls, config) + config.w_velocity * (speed + spin)
         return -cost.mean(-1)
+
+
+class Go2Walk(Go2Base[Go2WalkConfig]):
+    """Track `velocity_command` [vx, vy, yaw rate] in the base's heading frame from the crouched stand, lifting
+    the feet on the gait's schedule (the model's "clock" sensor places each rollout step in the stride)."""
+
+    start_key = "home"
+    lower_is_better = ("falls", "time_to_stand", "velocity_error", "yaw_rate_error")
+
+    def reward(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray,
+        controls: np.ndarray,
+        config: Go2WalkConfig,
+        system_metadata: dict[str, Any] | None = None,
+    ) -> np.ndarray:
+        """Minus the time-averaged cost, (num_rollouts,): `base_cost`, the feet's heights against the gait, and the
+        heading-frame velocity and yaw rate against the command."""
+        targets = swing_heights(sensors[..., self._clock], gait_of(config.gait), config.step_height)
+        foot_error = sensors[..., self._feet + 2] - FOOT_RADIUS - targets
+        velocity = self.body_velocity(sensors)
+        command = config.velocity_command
+        cost = (
+            self.base_cost(states, sensors, controls, config)
+            + config.w_gait * np.square(foot_error).sum(-1)
+            + config.w_velocity * np.square(velocity[..., :2] - command[:2]).sum(-1)
+            + config.w_yaw_rate * np.square(velocity[..., 2] - command[2])
+        )
+        return -cost.mean(-1)
+
+    def metrics(self, log: EpisodeLog) -> dict[str, float]:
+        """`Go2Base.metrics` and velocity_error: mean horizontal velocity error (m/s) in the heading frame;
+        yaw_rate_error: mean absolute yaw-rate error (rad/s); each compares the command with the velocities averaged
+        over the AVERAGE_WINDOW (0.5 s) before the step, from the first second on (the start from rest)."""
+        velocity = self.body_velocity(log.sensors)
+        window = max(1, round(AVERAGE_WINDOW / float(self.sim_model.opt.timestep)))
+        averaged = np.stack([trailing_mean(velocity[:, i], window) for i in range(3)], axis=1)
+        after = log.times - log.times[0] >= 1.0
+        if not after.any():
+            after[:] = True
+        command = self.config.velocity_command
+        error = np.hypot(*(averaged[after, :2] - command[:2]).T)
+        return {
+            **super().metrics(log),
+            "velocity_error": float(error.mean()),
+            "yaw_rate_error": float(np.abs(averaged[after, 2] - command[2]).mean()),
+        }
