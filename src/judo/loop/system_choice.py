@@ -21,7 +21,7 @@ from judo.core.registry import lookup_task
 from judo.core.task import Task, TaskConfig, new_task
 from judo.loop.system import System
 
-BUILT_IN_SYSTEMS = {"ros2": "judo.ros2.bridge:Ros2System"}
+BUILT_IN_SYSTEMS = {"ros2": "judo.ros2.bridge:Ros2System", "unitree": "judo.unitree.bridge:UnitreeSystem"}
 """--system names judo knows -> the "module:Class" they load (by name, so the app never imports an extra)."""
 SIM = "sim"
 """--system's name for judo's own simulator, the default."""
@@ -54,14 +54,57 @@ class Ros2Options:
 
 
 @dataclass
+class UnitreeOptions:
+    """How the Unitree bridge (`--system unitree`) reaches the robot: rt/lowstate in, rt/lowcmd out."""
+
+    robot: str = "go2"
+    """go2 (unitree_go messages, 12 motors) or g1 (unitree_hg messages, 29 motors)."""
+    domain: int = 0
+    """DDS domain, 0..232: Unitree's robots use 0."""
+    interface: str | None = None
+    """Network interface DDS uses (the one wired to the robot, e.g. eth0; lo for a robot process on this machine);
+    None: Cyclone DDS's default choice."""
+    rate_hz: float = 500.0
+    """LowCmd_ messages written per second (the robot runs its PD between them); step() paces the loop to it."""
+    soft_start_s: float = 2.0
+    """Seconds over which gains and targets ramp in from the robot's pose at the first command, and again after a
+    halt or a silence."""
+    wait_s: float = 5.0
+    """Seconds to wait at start for the robot's first valid LowState_."""
+
+
+@dataclass
 class SystemOptions:
     """The plant: `system` None is judo's simulator; "ros2" the ROS 2 bridge; "module:Class" a user's System."""
 
     system: str | None = None
-    """None or sim (judo's simulator), ros2 (the ROS 2 bridge on DDS, needs pip install -e ".[ros2]"), or module:Class."""
+    """None or sim (judo's simulator), ros2 (the ROS 2 bridge on DDS, needs pip install -e ".[ros2]"), unitree (a
+    Unitree Go2 or G1 over its own DDS messages, pip install -e ".[unitree]"), or module:Class."""
     record: Path | None = None
     """With --system ros2: log what the robot sent and what judo commanded to this MCAP file (ROS 2 schemas)."""
     ros2: Ros2Options = field(default_factory=Ros2Options)
+    unitree: UnitreeOptions = field(default_factory=UnitreeOptions)
+
+
+def unitree_options(table: dict[str, Any], where: str) -> UnitreeOptions:
+    """UnitreeOptions from a TOML table of its fields. ConfigError naming the field for an unknown name or a value
+    of the wrong type."""
+    valid = {f.name for f in fields(UnitreeOptions)}
+    values: dict[str, Any] = {}
+    for key, value in table.items():
+        if key not in valid:
+            raise ConfigError(f"{where}: unknown field {key!r}; valid fields are: {', '.join(sorted(valid))}")
+        number = isinstance(value, int | float) and not isinstance(value, bool)
+        if key == "domain" and not (isinstance(value, int) and not isinstance(value, bool)):
+            raise ConfigError(f"{where}: domain must be an integer 0..232, got {value!r}")
+        if key in ("rate_hz", "soft_start_s", "wait_s"):
+            if not number:
+                raise ConfigError(f"{where}: {key} must be a number, got {value!r}")
+            value = float(value)
+        if key in ("robot", "interface") and not isinstance(value, str):
+            raise ConfigError(f"{where}: {key} must be a string, got {value!r}")
+        values[key] = value
+    return UnitreeOptions(**values)
 
 
 def ros2_options(table: dict[str, Any], where: str) -> Ros2Options:

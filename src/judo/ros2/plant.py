@@ -18,6 +18,7 @@ commands, or another publisher of its joint states (a second plant on the domain
 """
 
 import heapq
+import importlib
 import logging
 import math
 import signal
@@ -26,7 +27,7 @@ import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 import mujoco
 import numpy as np
@@ -39,7 +40,7 @@ from judo.core.registry import get_registered_tasks, lookup_task
 from judo.core.task import new_task
 from judo.loop.plant_clock import PlantClock
 from judo.loop.system import MujocoSystem, SimulationDiverged
-from judo.loop.system_choice import Ros2Options
+from judo.loop.system_choice import Ros2Options, UnitreeOptions
 
 PROG = "python -m judo plant"
 DESCRIPTION = "judo's simulator as a robot process on a ROS 2 graph (DDS, no ROS install), with link faults."
@@ -79,6 +80,10 @@ class PlantOptions:
     echo: bool = False
     """Write every command read back on <commands>_echo at once (benchmarks/ros2_bridge.py times the round trip)."""
     ros2: Annotated[Ros2Options, tyro.conf.arg(name="ros2")] = field(default_factory=Ros2Options)
+    protocol: Literal["ros2", "unitree"] = "ros2"
+    """ros2 (this module) or unitree: a Unitree robot under low-level control, rt/lowstate out and rt/lowcmd in
+    through the robot's own PD (judo.unitree.robot; --unitree.*)."""
+    unitree: Annotated[UnitreeOptions, tyro.conf.arg(name="unitree")] = field(default_factory=UnitreeOptions)
 
 
 class Outbox:
@@ -143,6 +148,8 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
     from judo.ros2 import link
     from judo.ros2 import messages as msg
 
+    if options.protocol == "unitree":  # loaded by name: judo.unitree sits above judo.ros2
+        return importlib.import_module("judo.unitree.robot").run_robot(options, stop)
     check(options)
     task = new_task(lookup_task(options.task)[0])
     if options.plant_overrides:
