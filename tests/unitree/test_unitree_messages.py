@@ -9,8 +9,8 @@ import pytest
 
 pytest.importorskip("cyclonedds")
 
-from judo.unitree import crc  # noqa: E402
-from judo.unitree import messages as msg  # noqa: E402
+from judo.unitree import crc
+from judo.unitree import messages as msg
 
 FIELDS = {
     msg.GoLowCmd: "head level_flag frame_reserve sn version bandwidth motor_cmd bms_cmd wireless_remote led fan gpio "
