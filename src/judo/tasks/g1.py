@@ -137,7 +137,7 @@ class G1Stand(Task[G1StandConfig]):
         cost = (
             config.w_height * np.square(height_error)
             + config.w_upright * tilt
-            + config.w_balance * smooth_l1_norm(capture_point - feet_middle, 0.05).sum(-1)
+            + config.w_balance * smooth_l1_norm(capture_point - feet_middle, 0.05)
             + config.w_posture * np.square(joints - self.home_ctrl).sum(-1)
             + config.w_velocity * np.square(com_velocity).sum(-1)
             + config.w_effort * np.square(torque_share).sum(-1)
