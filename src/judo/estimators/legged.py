@@ -64,7 +64,8 @@ class LeggedConfig(EstimatorConfig):
     joint_velocity_time_constant: float = 0.01
     """Without measured joint velocities, the time constant (s) smoothing the encoders' differences."""
     accelerometer_std: float = 0.5
-    """Std (m/s^2) of the base's acceleration about the accelerometer's (its noise, and what it misses)."""
+    """How far (m/s per sqrt(s)) the base's velocity strays from the accelerometer's integral: its noise and bias,
+    and the vibration between readings that one sample a reading misses."""
     kinematics_std: float = 0.005
     """Std (m) of a foot's position relative to the base by the leg's kinematics."""
     foot_velocity_std: float = 0.1
@@ -93,6 +94,7 @@ class LeggedEstimator(Estimator[LeggedConfig]):
     Attributes:
         layout: where the base, joints, IMU and feet lie (`judo.estimators.legged_layout`).
         stance: (k,) which feet stood at the latest reading.
+        acceleration: (3,) the base's world acceleration at the latest reading (m/s^2), which carries it to the next.
         mean: (6 + 3k,) the Kalman filter's [p, v, feet] at the latest reading; cov: its (6 + 3k, 6 + 3k) covariance.
     """
 
@@ -111,6 +113,7 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         self.omega = np.zeros(3)
         self.joints = self.model.qpos0[self.layout.joint_qpos].copy()
         self.joint_speeds = np.zeros(len(self.layout.joint_qpos))
+        self.acceleration = np.zeros(3)
         self._jacobian = np.zeros((3, self.model.nv))
         self._started = False
 
@@ -138,6 +141,7 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         stds = np.repeat([INITIAL_STD[0], INITIAL_STD[1], *([INITIAL_STD[2]] * k)], 3)
         self.cov = np.diag(stds**2)
         self.stance = self._contacts(sensors, relative)
+        self.acceleration = self._acceleration(sensors)
         self.time = float(reading.time)
         self._started = True
 
@@ -175,7 +179,8 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         self.joints = joints.copy()
         relative, foot_velocity = self._kinematics()
         self.stance = self._contacts(sensors, relative)
-        self._predict(self._acceleration(sensors), dt)
+        self._predict(self.acceleration, dt)  # the acceleration since the reading before: that reading's
+        self.acceleration = self._acceleration(sensors)
         self._correct(relative, foot_velocity)
 
     def _predict(self, acceleration: np.ndarray, dt: float) -> None:
@@ -186,8 +191,8 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         F = np.eye(n)
         F[:3, 3:6] = dt * np.eye(3)
         noise = np.zeros(n)
-        noise[:3] = (0.5 * cfg.accelerometer_std * dt**2) ** 2
-        noise[3:6] = cfg.accelerometer_std**2 * dt**2
+        noise[:3] = (0.5 * cfg.accelerometer_std * dt**1.5) ** 2
+        noise[3:6] = cfg.accelerometer_std**2 * dt
         foot_std = np.where(self.stance, cfg.slip_std, cfg.swing_std)
         noise[6:] = np.repeat(foot_std**2 * dt, 3)
         self.cov = F @ self.cov @ F.T + np.diag(noise)
