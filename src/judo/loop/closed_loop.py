@@ -327,7 +327,7 @@ class ClosedLoop:
         """(nu,) the control the plant gets at plant time `now`: the latest plan whose time has come (with
         feedback gains, corrected by the latest reading's deviation from its nominal), or the task's warm
         start (from the latest reading) before the first one; the task's `safe_action` instead while the
-        watchdog finds that plan too old."""
+        watchdog finds that plan too old, and while the latched stop is engaged."""
         with self._lock:
             while self._pending and self._pending[0][0] <= now + TIME_TOLERANCE:
                 _, self._active, self.plan_stamp = self._pending.pop(0)
@@ -339,7 +339,10 @@ class ClosedLoop:
         reason = self.watchdog.verdict(self.clock(), stamp, config.max_plan_age, config.control_freq, newest)
         if self.watchdog.news and self.on_watchdog is not None:
             self.on_watchdog(reason)
-        if reason is not None or (self.stop is not None and self.stop.latched):
+        stopped = self.stop if self.stop is not None and self.stop.latched else None
+        if stopped is not None:
+            stopped.took_effect()
+        if reason is not None or stopped is not None:
             return self.safe_action()
         if active is None:
             return hold
@@ -439,7 +442,6 @@ class ClosedLoop:
             return False
         if not self._stop_halted and self.calls.offers_halt():
             self._stop_halted = self.calls.halt()
-        stop.took_effect()
         return self._stop_halted
 
     def step(self) -> StepRecord | None:

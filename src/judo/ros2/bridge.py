@@ -20,7 +20,10 @@ jumps backwards or from the future. While nothing valid arrives the reading's ti
 loop's watchdog serves the task's safe action once the plan is older than `max_plan_age`. A robot that restarts
 its clock is followed after a second of consistent stamps (`judo.ros2.clock`), with the reading's time carried on
 from where it was. When recording, the commands the robot reports it applied (a JointState on <commands>_applied,
-as `python -m judo plant` publishes them) are logged too, for `sysid` to pair each step with. Another commander or a second robot on the topics is refused at start (`judo.ros2.peers`)."""
+as `python -m judo plant` publishes them) are logged too, for `sysid` to pair each step with. Another commander or a second robot on the topics is refused at start (`judo.ros2.peers`).
+
+The e-stop: a std_msgs/Bool on /judo/estop (reliable), true latches the app's stop and false clears it
+(`judo.safety.stop.wire_request`); each is taken when the loop next reads the robot, and logged when recording."""
 
 import logging
 import math
@@ -40,11 +43,14 @@ from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
 from judo.ros2.mcap_log import McapLog, log_metadata
 from judo.ros2.peers import Peers
+from judo.safety.stop import wire_request
 
 logger = logging.getLogger("judo.ros2")
 
 REPORT_EVERY = 5.0
 """Wall seconds between log lines of the same refusal."""
+ESTOP_TOPIC = "/judo/estop"
+"""The ROS 2 topic of the e-stop: std_msgs/Bool, true latches the app's stop, false clears it."""
 
 
 class Ros2System(System):
@@ -112,6 +118,8 @@ class Ros2System(System):
             if task.model.nmocap:
                 mocap_topic = link.topic(part, options.mocap, msg.PoseArray)
                 self._mocap_reader = DataReader(part, mocap_topic, link.SENSOR_QOS)
+            estop_topic = link.topic(part, ESTOP_TOPIC, msg.Bool)  # reliable and deep: a true then a false both count
+            self._estop_reader = DataReader(part, estop_topic, link.APPLIED_QOS)
             command_topic = link.topic(part, options.commands, msg.Float64MultiArray)
             self._writer = DataWriter(part, command_topic, link.COMMAND_QOS)
             self._applied_reader = None
@@ -303,6 +311,10 @@ class Ros2System(System):
 
     def read_state(self) -> SystemState:
         self._take()
+        for estop in link.take(self._estop_reader, 64):  # in the order sent (not while waiting for the robot)
+            if self.log is not None:
+                self.log.write(ESTOP_TOPIC, estop)
+            wire_request(bool(estop.data), ESTOP_TOPIC)
         with self._lock:
             reading = self._reading
         assert reading is not None  # the constructor waited for the first one

@@ -147,6 +147,12 @@ class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiAr
     data: sequence[float64] = field(default_factory=list)
 
 
+@dataclass
+@annotate.final
+class Bool(IdlStruct, typename="std_msgs::msg::dds_::Bool_"):
+    data: bool = False
+
+
 def ros_topic(name: str) -> str:
     """The DDS topic of the ROS 2 topic `name`: "/joint_states" -> "rt/joint_states"."""
     return "rt/" + name.lstrip("/")
@@ -214,10 +220,12 @@ MSGDEFS = {
         ("std_msgs/MultiArrayLayout", "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset"),
         ("std_msgs/MultiArrayDimension", "string label\nuint32 size\nuint32 stride"),
     ),
+    "std_msgs/msg/Bool": "bool data",
 }
 """ROS 2 message name -> its definition text with its dependencies (MCAP's "ros2msg" schema encoding)."""
 
 ROS_NAMES = {JointState: "sensor_msgs/msg/JointState", Odometry: "nav_msgs/msg/Odometry", Imu: "sensor_msgs/msg/Imu"}
 ROS_NAMES[Float64MultiArray] = "std_msgs/msg/Float64MultiArray"
 ROS_NAMES[PoseArray] = "geometry_msgs/msg/PoseArray"
+ROS_NAMES[Bool] = "std_msgs/msg/Bool"
 """Message class -> its ROS 2 name."""

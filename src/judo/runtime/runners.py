@@ -562,6 +562,8 @@ class Supervisor:
                 loop.add_signal_handler(sig, state.stop.set)
             if (latch := self._stop_latch) is not None:
                 loop.add_signal_handler(signal.SIGUSR1, latch.engage, "SIGUSR1")
+        if self._stop_latch is not None:
+            self._stop_latch.listen()  # a robot link's e-stop reaches it while the app runs
         running = False
         try:
             if self._make_frontend is not None:

@@ -280,7 +280,13 @@ class Reports:
         return message
 
     def on_stop(self, event: StopEvent) -> None:
-        """The latched stop was latched or cleared (`judo.safety.stop`): say so, and tell the recording under way."""
+        """The latched stop was latched or cleared (`judo.safety.stop`): say so, and tell the recording under way; then
+        say when a latch took effect (the first safe action served under it)."""
+        if event.effect_s is not None:
+            self.line.report(
+                f"stop in effect after {event.effect_s:.3f} s: serving the safe action", "warning", paced=True
+            )
+            return
         if event.engaged:
             self.line.report(f"stop {event.line()}: serving the safe action until it is cleared", "warning", paced=True)
         else:

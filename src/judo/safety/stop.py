@@ -81,7 +81,8 @@ class StopLatch:
     Args:
         path: its state file (None: kept in memory only, for a loop outside the app); a latch made where the file
             exists starts engaged.
-        on_change: called with each StopEvent, on the thread that made the change, outside the latch's lock.
+        on_change: called with each StopEvent, on the thread that made the change, outside the latch's lock, and
+            once more with a latch's event when it took effect (its `effect_s` set, on the loop's thread).
 
     Attributes:
         path: the state file.
@@ -98,8 +99,6 @@ class StopLatch:
         if self.path is not None and self.path.exists():
             self._latched = True  # served from the first step on: no time to take effect to measure
             self.events.append(self._persisted_event())
-        with _open_lock:
-            _open.add(self)
 
     @property
     def latched(self) -> bool:
@@ -138,14 +137,16 @@ class StopLatch:
         return True
 
     def took_effect(self) -> None:
-        """Note that an action was served under the latch: the latest latch's `effect_s`, once."""
-        since = self._since
-        if since is None:
+        """Note that an action was served under the latch: the latest latch's `effect_s`, once (then told)."""
+        if self._since is None:
             return
         with self._lock:
-            if self._since is not None and self.events and self.events[-1].engaged:
-                self.events[-1].effect_s = time.monotonic() - self._since
-            self._since = None
+            since, self._since = self._since, None
+            event = self.events[-1] if since is not None and self.events and self.events[-1].engaged else None
+            if event is not None and since is not None:
+                event.effect_s = time.monotonic() - since
+        if event is not None:
+            self._tell(event)
 
     def start_line(self) -> str:
         """What the app says at start when the latch is engaged: since when, and how to clear it."""
@@ -155,6 +156,11 @@ class StopLatch:
             f"the stop is latched{story}: the plant is served the safe action until it is cleared with the GUI's "
             f"Clear stop button or std_msgs/Bool false on /judo/estop (or remove {self.path} before the next start)"
         )
+
+    def listen(self) -> None:
+        """Be reached by `wire_request` until `close()` (the app does so while it runs)."""
+        with _open_lock:
+            _open.add(self)
 
     def close(self) -> None:
         """No longer reached by `wire_request` (the app stopped); the latch and its file stay as they are."""
@@ -189,14 +195,16 @@ class StopLatch:
 
     def _tell(self, event: StopEvent) -> None:
         if self.on_change is None:
-            logger.warning("stop %s", event.line())
+            logger.warning(
+                "stop %s", event.line() if event.effect_s is None else f"in effect after {event.effect_s:.3f} s"
+            )
         else:
             self.on_change(event)
 
 
 def wire_request(engaged: bool, source: str) -> int:
-    """A robot link's e-stop: engage (`engaged` True) or clear every open StopLatch of this process (the running
-    app's), saying `source` (e.g. "/judo/estop", "unitree wireless remote"). Returns how many latches changed.
+    """A robot link's e-stop: engage (`engaged` True) or clear every listening StopLatch of this process (the
+    running app's, `StopLatch.listen`), saying `source` (e.g. "/judo/estop", "unitree wireless remote"). Returns how many latches changed.
 
     Call it from a System's thread whenever the wire says so; a repeated request changes nothing."""
     with _open_lock:
