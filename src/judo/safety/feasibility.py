@@ -32,12 +32,14 @@ class RolloutScreen:
         no_feasible: iterations in which no sample was feasible.
         infeasible: samples found infeasible, over all iterations.
         feasible_fraction: share of the last iteration's samples that were feasible.
+        last_infeasible: (N,) bool, the last iteration's infeasible sequences.
     """
 
     def __init__(self, limits: Limits, dt: float, nq: int) -> None:
         self.limits, self.dt, self.nq = limits, dt, nq
         self.iterations = self.no_feasible = self.infeasible = 0
         self.feasible_fraction = 1.0
+        self.last_infeasible = np.zeros(0, dtype=bool)
 
     def violations(
         self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, served: np.ndarray
@@ -93,7 +95,7 @@ class RolloutScreen:
         each sequence's total violation instead. Arrays as in `violations`; rewards (rows,) is changed in place."""
         per_row = self.violations(states, sensors, controls, served)
         per_sequence = per_row.reshape(num_models, -1).max(axis=0)
-        infeasible = per_sequence > 0
+        infeasible = self.last_infeasible = per_sequence > 0
         self.iterations += 1
         self.infeasible += int(infeasible.sum())
         self.feasible_fraction = 1.0 - float(infeasible.mean()) if len(infeasible) else 1.0

@@ -86,7 +86,7 @@ class SafetyConfig(Config):
             bad = np.flatnonzero(low > high)
             require(
                 not len(bad),
-                f"{where}: workspace_low {list(low)} is above workspace_high {list(high)} in {'xyz'[bad[0]] if len(bad) else ''}",
+                f"{where}: workspace_low {low.tolist()} is above workspace_high {high.tolist()} in {'xyz'[bad[0]] if len(bad) else ''}",
             )
         else:
             require(not any(box), f'{where}: workspace_low/high need a workspace_frame ("base", a site or a body)')
@@ -238,7 +238,7 @@ def resolve(task: Task, config: SafetyConfig) -> Limits:
                 low, high = model.jnt_range[j] + np.array([config.range_margin, -config.range_margin])
                 if low > high:
                     raise LimitError(
-                        f"safety limits: range_margin {config.range_margin:g} is more than half of joint {name!r}'s range {list(model.jnt_range[j])}"
+                        f"safety limits: range_margin {config.range_margin:g} is more than half of joint {name}'s range {model.jnt_range[j].tolist()}"
                     )
                 bounds[name] = (float(low), float(high))
     for name, bound in position_entries(config.position).items():

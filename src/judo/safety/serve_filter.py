@@ -104,11 +104,10 @@ class ServeFilter:
         if state is not None:
             self._clamp_effort(u, state, time, hits)
             if self._predicts:
-                crossed = self._predict(u, state, time, metadata or {})
+                crossed, _ = self._predict(u, state, time, metadata or {})
                 if crossed:
                     hits += crossed
-                    u = np.array(safe_action(), dtype=float)
-                    self._clamp_effort(u, state, time, [])
+                    u = self._fallback(np.array(safe_action(), dtype=float), state, time, metadata or {})
                     self.replaced += 1
         self.filtered += 1
         self._previous, self._previous_time = u, time
@@ -154,8 +153,26 @@ class ServeFilter:
             hits.append(LimitHit(time, f"effort:{lim.effort[k]}", float(force[k])))
         u[lim.effort_actuator] = held
 
-    def _predict(self, u: np.ndarray, state: np.ndarray, time: float, metadata: dict[str, Any]) -> list[LimitHit]:
-        """The limits one step of the planning model from `state` under `u` takes further beyond (each a hit)."""
+    def _fallback(self, safe: np.ndarray, state: np.ndarray, time: float, metadata: dict[str, Any]) -> np.ndarray:
+        """(nu,) what is served instead of a command predicted to cross a limit: the safe action (effort-clamped),
+        unless its own prediction crosses one too (momentum a zero push cannot stop); then the first of the
+        ctrlrange's two corners whose prediction crosses none, else the candidate predicted to cross least."""
+        low, high = self.task.command_range.T
+        best, least = safe, np.inf
+        for candidate in (safe, low.copy(), high.copy()):
+            self._clamp_effort(candidate, state, time, [])
+            crossed, excess = self._predict(candidate, state, time, metadata)
+            if not crossed:
+                return candidate
+            if excess < least:
+                best, least = candidate, excess
+        return best
+
+    def _predict(
+        self, u: np.ndarray, state: np.ndarray, time: float, metadata: dict[str, Any]
+    ) -> tuple[list[LimitHit], float]:
+        """The limits one step of the planning model from `state` under `u` takes further beyond (each a hit), and
+        by how much in all (the sum of each one's growth beyond its limit)."""
         model, data, lim = self.model, self.data, self.limits
         data.qpos[:], data.qvel[:], data.time = state[: self.nq], state[self.nq :], time
         data.act[:] = 0.0
@@ -165,26 +182,33 @@ class ServeFilter:
                 target[:] = metadata[key]
         before = self._frame(data) if lim.workspace_frame else None
         mujoco.mj_step(model, data)
-        hits = []
+        hits, excess = [], 0.0
         if len(lim.contact_ids):
             hits += self._contact_hits(time)
+            excess += sum(h.value - lim.max_contact_force for h in hits)
         qpos, qvel = data.qpos, data.qvel
         q0, q1 = state[lim.position_index], qpos[lim.position_index]
         out0 = np.maximum(lim.position_low - q0, q0 - lim.position_high)
         out1 = np.maximum(lim.position_low - q1, q1 - lim.position_high)
-        for k in np.flatnonzero(out1 > np.maximum(out0, 0.0) + TOLERANCE):
+        growth = out1 - np.maximum(out0, 0.0)
+        excess += float(growth[growth > TOLERANCE].sum())
+        for k in np.flatnonzero(growth > TOLERANCE):
             hits.append(LimitHit(time, f"position:{lim.position[k]}", float(q1[k])))
         v0, v1 = np.abs(state[self.nq :][lim.velocity_index]), np.abs(qvel[lim.velocity_index])
-        for k in np.flatnonzero(v1 - lim.velocity_max > np.maximum(v0 - lim.velocity_max, 0.0) + TOLERANCE):
+        growth = v1 - lim.velocity_max - np.maximum(v0 - lim.velocity_max, 0.0)
+        excess += float(growth[growth > TOLERANCE].sum())
+        for k in np.flatnonzero(growth > TOLERANCE):
             hits.append(LimitHit(time, f"velocity:{lim.velocity[k]}", float(qvel[lim.velocity_index][k])))
         if before is not None:
             mujoco.mj_kinematics(model, data)
             after = self._frame(data)
             out0 = np.maximum(lim.workspace_low - before, before - lim.workspace_high)
             out1 = np.maximum(lim.workspace_low - after, after - lim.workspace_high)
-            for k in np.flatnonzero(out1 > np.maximum(out0, 0.0) + TOLERANCE):
+            growth = out1 - np.maximum(out0, 0.0)
+            excess += float(growth[growth > TOLERANCE].sum())
+            for k in np.flatnonzero(growth > TOLERANCE):
                 hits.append(LimitHit(time, f"workspace:{lim.workspace_frame}.{'xyz'[k]}", float(after[k])))
-        return hits
+        return hits, excess
 
     def _frame(self, data: mujoco.MjData) -> np.ndarray:
         """(3,) the workspace frame's world position in `data` (its kinematics computed)."""
