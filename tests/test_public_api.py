@@ -25,8 +25,9 @@ def test_judo_tasks_exports_every_built_in_task_class_and_its_config():
         assert getattr(judo.tasks, task_cls.__name__) is task_cls
         assert getattr(judo.tasks, config_cls.__name__) is config_cls
     assert (
-        len(judo.tasks.BUILTIN_TASKS) == 18
-    )  # the first twelve, cartpole_pd, quadruped, quadruped_velocity, quadruped_navigate, car and quadrotor
+        len(judo.tasks.BUILTIN_TASKS) == 21
+    )  # the first twelve, cartpole_pd, quadruped, quadruped_velocity, quadruped_navigate, car, quadrotor, g1_stand,
+    # go2_stand and go2_walk
     assert sorted(judo.tasks.__all__) == sorted(
         {name for task, config in judo.tasks.BUILTIN_TASKS.values() for name in (task.__name__, config.__name__)}
         | {"register_task"}
