@@ -71,6 +71,9 @@ class UnitreeOptions:
     halt or a silence."""
     wait_s: float = 5.0
     """Seconds to wait at start for the robot's first valid LowState_."""
+    silence_s: float = 0.1
+    """Seconds without a valid LowState_ after which judo sends damping instead of the plan (and a robot process
+    without a valid LowCmd_ applies it)."""
 
 
 @dataclass
@@ -97,7 +100,7 @@ def unitree_options(table: dict[str, Any], where: str) -> UnitreeOptions:
         number = isinstance(value, int | float) and not isinstance(value, bool)
         if key == "domain" and not (isinstance(value, int) and not isinstance(value, bool)):
             raise ConfigError(f"{where}: domain must be an integer 0..232, got {value!r}")
-        if key in ("rate_hz", "soft_start_s", "wait_s"):
+        if key in ("rate_hz", "soft_start_s", "wait_s", "silence_s"):
             if not number:
                 raise ConfigError(f"{where}: {key} must be a number, got {value!r}")
             value = float(value)

@@ -15,7 +15,7 @@ header fields and CRC (`judo.unitree.crc`). A soft start ramps targets and gains
 `soft_start_s`: at the first command, after `halt()` and after a silence.
 
 `halt()` sends Unitree's damping (kp = 0, kd = `DAMPING_KD`, tau = 0) and keeps sending it until the next `apply`.
-The same damping goes out while no valid reading has come for `SILENT_AFTER` seconds, so a robot whose readings
+The same damping goes out while no valid reading has come for `silence_s` seconds, so a robot whose readings
 stopped (or whose process died) never gets a stiff command from a plan made before. A reading with a non-finite
 value, the wrong number of motors, a joint where the robot cannot be (`judo.ros2.joints.JointLayout`) or a tick that
 runs backwards is refused, and the reason logged (once, then every few seconds with a count).
@@ -44,8 +44,6 @@ logger = logging.getLogger("judo.unitree")
 
 REPORT_EVERY = 5.0
 """Wall seconds between log lines of the same refusal."""
-SILENT_AFTER = 0.1
-"""Wall seconds without a valid reading after which the bridge sends damping instead of the plan."""
 
 
 class UnitreeSystem(System):
@@ -72,7 +70,7 @@ class UnitreeSystem(System):
 
         self.task = task
         self.options = options = options or UnitreeOptions()
-        for name in ("rate_hz", "wait_s"):
+        for name in ("rate_hz", "wait_s", "silence_s"):
             value = getattr(options, name)
             if not (math.isfinite(value) and value > 0):
                 raise ConfigError(f"--unitree.{name.replace('_', '-')} must be a positive number, got {value}")
@@ -212,7 +210,7 @@ class UnitreeSystem(System):
     def _send(self, now: float) -> None:
         motors = self.motors
         with self._lock:
-            silent = now - self._last_valid > SILENT_AFTER
+            silent = now - self._last_valid > self.options.silence_s
             if silent or self._halted or self._command is None:
                 self._ramp = None  # the next command ramps in again from the pose then
                 command = None

@@ -6,14 +6,15 @@
     python -m judo --task go2_stand --system unitree --headless
     python -m judo plant --task go2_stand --protocol unitree --latency-ms 5 --drop 0.05 --unitree.domain 7
 
-It simulates the task's plant with its actuators made torque motors (gain 1, no bias, ctrlrange = forcerange) and
-runs the robot's own PD every physics step from the latest valid LowCmd_: tau = clip(kp (q - q_meas) + kd (dq -
+It simulates the task's plant with its actuators made torque motors (gain 1, no bias, ctrlrange = forcerange), its
+physics step divided to `PD_HZ` (500 Hz) or faster, and runs the robot's own PD every physics step from the latest
+valid LowCmd_: tau = clip(kp (q - q_meas) + kd (dq -
 dq_meas) + tau, forcerange). It publishes rt/lowstate (LowState_) at `--unitree.rate-hz`: each motor's q, dq and
 tau_est (the torque applied), the IMU (the task's framequat, gyro and accelerometer sensors, [w x y z]), the Go2's
 foot forces (its touch sensors, newtons) and the tick (milliseconds of the simulation's clock), with its CRC. Each
 LowCmd_ whose CRC is wrong is dropped, as a robot drops it (counted, logged); one with a non-finite value for a
-driven motor too. When no valid command has come for `SILENT_AFTER` seconds (and before the first), the motors
-get damping. The link faults (--latency-ms, --jitter-ms, --drop, --duplicate) apply to each outgoing LowState_.
+driven motor too. When no valid command has come for `--unitree.silence-s` seconds (and before the first), the
+motors get damping. The link faults (--latency-ms, --jitter-ms, --drop, --duplicate) apply to each outgoing LowState_.
 """
 
 import logging
@@ -34,11 +35,12 @@ from judo.ros2 import link as ros2_link
 from judo.ros2.plant import PROG, Outbox, PlantOptions, check
 from judo.unitree import crc
 from judo.unitree import motors as mt
-from judo.unitree.bridge import SILENT_AFTER
 from judo.unitree.link import COMMAND_QOS, STATE_QOS, Link
 from judo.unitree.messages import LOWCMD, LOWSTATE
 
 logger = logging.getLogger("judo.unitree.robot")
+PD_HZ = 500.0
+"""Least rate (Hz) the robot's PD runs at: the plant's physics step is the model's, divided to reach it."""
 ECHO = LOWCMD + "_echo"
 """With --echo, each LowCmd_ read is written back at once on this topic (benchmarks/unitree_link.py's round trip)."""
 
@@ -71,8 +73,10 @@ def run_robot(options: PlantOptions, stop: threading.Event) -> None:
 
     check(options)
     unitree = options.unitree
-    if not (math.isfinite(unitree.rate_hz) and unitree.rate_hz > 0):
-        raise ConfigError(f"--unitree.rate-hz must be a positive number, got {unitree.rate_hz}")
+    for name in ("rate_hz", "silence_s"):
+        value = getattr(unitree, name)
+        if not (math.isfinite(value) and value > 0):
+            raise ConfigError(f"--unitree.{name.replace('_', '-')} must be a positive number, got {value}")
     task = new_task(lookup_task(options.task)[0])
     if options.plant_overrides:
         overrides = check_model_overrides(task.sim_model, parse_override_entries(options.plant_overrides))
@@ -81,6 +85,8 @@ def run_robot(options: PlantOptions, stop: threading.Event) -> None:
     model, data = system.task.sim_model, system.task.data
     motors = mt.Motors.of(model, unitree.robot)  # the gains are read before the actuators become motors
     torque_motors(model)
+    model.opt.timestep /= math.ceil(model.opt.timestep * PD_HZ - 1e-9)  # the PD at PD_HZ or faster
+    system.timestep = float(model.opt.timestep)
     sensors = mt.Sensors.of(model, system.task.sim_measured, motors) if system.task.sim_measured.size else None
     robot = motors.robot
     link = Link(unitree.domain, unitree.interface, robot.low_state, robot.low_cmd)
@@ -122,7 +128,7 @@ def run_robot(options: PlantOptions, stop: threading.Event) -> None:
                     logger.warning("refused command %d: non-finite targets or gains", refused)
                     continue
                 targets, last_command = values, now
-            live = targets if now - last_command <= SILENT_AFTER else damping
+            live = targets if now - last_command <= unitree.silence_s else damping
             due = clock.due(now, dt)
             for _ in range(due):
                 tau = robot_pd(live, data.qpos[motors.qpos], data.qvel[motors.qvel], motors)
