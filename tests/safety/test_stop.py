@@ -166,6 +166,7 @@ def test_the_app_serves_the_safe_action_from_a_latch_through_new_plans_a_reset_a
         assert app.session.closed_loop.stop is latch
         latch.engage("the test")
         wait_until(lambda: latch.latest is not None and latch.latest.effect_s is not None, what="the stop's effect")
+        print(f"app.stop_latch.engage -> the safe action served: {latch.latest.effect_s:.3f} s")
         index, plans = len(served), app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 3, what="new plans")  # a new plan does not clear it
         app.reset_task()

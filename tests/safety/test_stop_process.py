@@ -79,6 +79,7 @@ def test_sigusr1_latches_a_headless_app_and_the_next_start_begins_latched(tmp_pa
     summary = output[output.index("task: cartpole") :]
     assert "stop: latched by SIGUSR1 at" in summary and "(in effect after" in summary, summary
     assert "still latched at exit" in summary, summary
+    print("SIGUSR1 -> the safe action served:", summary.split("(in effect after ")[1].split(")")[0])
 
     second = Judo(["--task", "cartpole", "--headless", "--seed", "0", "--duration", "0.2"], stop_file)
     output = second.finish()

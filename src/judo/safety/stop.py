@@ -34,6 +34,8 @@ STOP_FILE_ENV = "JUDO_STOP_FILE"
 """Environment variable naming the latched stop's state file (the default's default is the user-state dir)."""
 MAX_EVENTS = 1000
 """Most events a latch keeps (the latest ones), so a run that lasts for days stays bounded."""
+UNHEARD_EVERY = 5.0
+"""Seconds between log lines of wire requests that no latch listens to (a wire may repeat ten times a second)."""
 
 
 def default_stop_file() -> Path:
@@ -73,6 +75,7 @@ class StopEvent:
 
 _open: "weakref.WeakSet[StopLatch]" = weakref.WeakSet()
 _open_lock = threading.Lock()
+_unheard_at = -float("inf")  # time.monotonic() of the last line logged of a request no latch listened to
 
 
 class StopLatch:
@@ -204,12 +207,18 @@ class StopLatch:
 
 def wire_request(engaged: bool, source: str) -> int:
     """A robot link's e-stop: engage (`engaged` True) or clear every listening StopLatch of this process (the
-    running app's, `StopLatch.listen`), saying `source` (e.g. "/judo/estop", "unitree wireless remote"). Returns how many latches changed.
+    running app's, `StopLatch.listen`), saying `source` (e.g. "/judo/estop", "the Unitree remote"). Returns how many
+    latches changed.
 
-    Call it from a System's thread whenever the wire says so; a repeated request changes nothing."""
+    Call it from a System's thread whenever the wire says so; a repeated request changes nothing. A request while
+    no app runs changes nothing either, and is logged (at most every UNHEARD_EVERY s)."""
+    global _unheard_at
     with _open_lock:
         latches = list(_open)
-    if not latches:
+        unheard = not latches and time.monotonic() - _unheard_at >= UNHEARD_EVERY
+        if unheard:
+            _unheard_at = time.monotonic()
+    if unheard:
         logger.warning(
             "%s asked to %s the stop, but no app runs in this process", source, "engage" if engaged else "clear"
         )
