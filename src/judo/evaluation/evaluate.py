@@ -1,7 +1,7 @@
 """`python -m judo evaluate`: closed-loop episodes over seeds, the task's success metrics with 95% CIs."""
 
 import sys
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -14,6 +14,7 @@ from judo.cli_shared import (
     apply_config_file,
     fail,
     name_listing,
+    optional_fields,
     output_console,
     parse_args_with_config_fields,
     progress_console,
@@ -24,13 +25,14 @@ from judo.core.backend import RolloutBackend
 from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
-from judo.core.registry import make_task
+from judo.core.registry import make_task, set_config_overrides
 from judo.evaluation.cli import given_fields, write_json
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
 from judo.evaluation.seeded import EpisodeSpec, evaluate_seed, planning_model, run_seeded_episode, run_side_by_side
 from judo.evaluation.stats import Summary, shown_interval, summarize
+from judo.safety.limits import SafetyConfig, check_section
 
 DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
@@ -40,6 +42,10 @@ DESCRIPTION = (
     "task's measured sensors (noisy, late, at their rates: --sensor-*) through --estimator (by default the "
     "task's own: ukf for walker and leap_cube, else ekf)."
 )
+
+
+SafetyOverrides = optional_fields(SafetyConfig, "SafetyOverrides")
+"""`--safety.FIELD VALUE` options of evaluate: every SafetyConfig field (docs/safety.md), None when not given."""
 
 
 @dataclass
@@ -65,6 +71,8 @@ class EvaluateArgs(EpisodeArgs):
     """Also write each episode's metrics and the summary to this JSON file."""
     plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also plot the first seed's episode against time to this .png (needs matplotlib) or .html file."""
+    safety: SafetyOverrides = field(default_factory=SafetyOverrides)  # pyright: ignore[reportInvalidTypeForm]
+    """The owner's limits (docs/safety.md), over the task's and the --config file's [safety.TASK]."""
     # EpisodeArgs has the task, optimizer, episode, latency, backend, --controller.FIELD and sensing options;
     # parse_args_with_config_fields adds `optimizer_config` (--optimizer-config.FIELD, e.g.
     # --optimizer-config.sigma 0.3) and `task_config` (--task-config.FIELD), typed for the pair named.
@@ -142,6 +150,23 @@ def episode_record(result: EpisodeResult) -> dict[str, Any]:
             else {}
         ),
     }
+
+
+def apply_safety_flags(args: EvaluateArgs) -> None:
+    """Make the given `--safety.*` fields the task's [safety] defaults in this process, checked against its model;
+    a JudoError for a bad value, or for Ray episodes, whose processes read limits only from --config."""
+    given = given_fields(args.safety)
+    if not given:
+        return
+    require(
+        args.workers is None and args.address is None,
+        "--safety.* sets limits in this process only; with --workers or --address give them as [safety.TASK] in --config",
+    )
+    from judo.core.config import with_updates
+    from judo.core.registry import make_config
+
+    check_section(args.task, with_updates(make_config(SafetyConfig, args.task), given))
+    set_config_overrides(args.task, SafetyConfig, given)
 
 
 def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
@@ -253,6 +278,7 @@ def main(argv: list[str] | None = None) -> int:
         check_output_file("--plot", args.plot)
         apply_config_file(args.config)
         args.validate()
+        apply_safety_flags(args)
         results, failures = run_seeds(args)  # the episodes' configs: the registered ones and the flags (spec.values)
         for seed, reason in failures:
             print(f"seed {seed} failed: {reason}", file=sys.stderr)

@@ -7,7 +7,11 @@
    kp (q_des - q) - kv dq for a position actuator) stays within the cap;
 4. one MuJoCo step of the planning model from the latest reading under the command predicts the next state:
    if it takes a joint further beyond its position or velocity limit, the workspace frame further out of its
-   box, or a capped geom's contact force over its cap, the task's safe action (effort-clamped) is served instead.
+   box, or a capped geom's contact force over its cap, the task's safe action (effort-clamped) is served instead;
+   where the safe action's own step crosses too (momentum a zero push cannot stop), the first corner of the
+   command range whose step crosses nothing, else the candidate that crosses least.
+   One step sees one step ahead: a position limit holds to within what the actuators can stop in a step, so
+   pair it with a velocity limit (docs/safety.md).
 Each limit that acted is a `LimitHit` (time, limit, value): kept in `hits` (the latest MAX_KEPT), counted in
 `counts`, handed to the step's record, and told once on the log and in `status` when a new limit starts acting.
 """
@@ -75,6 +79,7 @@ class ServeFilter:
         self._previous: np.ndarray | None = None
         self._previous_time = 0.0
         self._acting: frozenset[str] = frozenset()
+        self._ctrl_low, self._ctrl_high = task.actuator_ctrlrange.T.copy()
 
     def restart(self) -> None:
         """Forget the previous command (after a reset of the plant): the next one is not rate-limited."""
@@ -131,11 +136,13 @@ class ServeFilter:
         previous = self._previous[lim.rate_actuator]
         step = lim.rate_max * dt
         asked = u[lim.rate_actuator]
-        held = np.clip(asked, previous - step, previous + step)
-        for k in np.flatnonzero(np.abs(asked - held) > TOLERANCE * np.maximum(1.0, np.abs(asked))):
-            rate = abs(asked[k] - previous[k]) / dt if dt > 0 else float("inf")
-            hits.append(LimitHit(time, f"rate:{lim.rate[k]}", float(rate)))
-        u[lim.rate_actuator] = held
+        held = np.minimum(np.maximum(asked, previous - step), previous + step)
+        clamped = np.abs(asked - held) > TOLERANCE * np.maximum(1.0, np.abs(asked))
+        if clamped.any():
+            for k in np.flatnonzero(clamped):
+                rate = abs(asked[k] - previous[k]) / dt if dt > 0 else float("inf")
+                hits.append(LimitHit(time, f"rate:{lim.rate[k]}", float(rate)))
+            u[lim.rate_actuator] = held
 
     def _clamp_effort(self, u: np.ndarray, state: np.ndarray, time: float, hits: list[LimitHit]) -> None:
         lim = self.limits
@@ -143,12 +150,14 @@ class ServeFilter:
             return
         qpos, qvel = state[: self.nq], state[self.nq :]
         force = lim.effort_of(u, qpos, qvel)
+        over = np.abs(force) > lim.effort_max * (1 + TOLERANCE) + TOLERANCE
+        if not over.any():
+            return
         bias = force - lim.gain * u[lim.effort_actuator]
         with np.errstate(divide="ignore", invalid="ignore"):  # a zero gain: the command cannot change the force
             ends = np.stack([(-lim.effort_max - bias) / lim.gain, (lim.effort_max - bias) / lim.gain])
         low, high = np.nanmin(ends, axis=0), np.nanmax(ends, axis=0)
         held = np.where(lim.gain != 0, np.clip(u[lim.effort_actuator], low, high), u[lim.effort_actuator])
-        over = np.abs(force) > lim.effort_max * (1 + TOLERANCE) + TOLERANCE
         for k in np.flatnonzero(over):
             hits.append(LimitHit(time, f"effort:{lim.effort[k]}", float(force[k])))
         u[lim.effort_actuator] = held
@@ -176,12 +185,12 @@ class ServeFilter:
         model, data, lim = self.model, self.data, self.limits
         data.qpos[:], data.qvel[:], data.time = state[: self.nq], state[self.nq :], time
         data.act[:] = 0.0
-        data.ctrl[:] = np.clip(u, *self.task.actuator_ctrlrange.T)
+        data.ctrl[:] = np.minimum(np.maximum(u, self._ctrl_low), self._ctrl_high)
         for key, target in (("mocap_pos", data.mocap_pos), ("mocap_quat", data.mocap_quat)):
             if key in metadata and np.shape(metadata[key]) == target.shape:
                 target[:] = metadata[key]
+        mujoco.mj_step(model, data)  # its kinematics stay those of `state`: the frame before the step
         before = self._frame(data) if lim.workspace_frame else None
-        mujoco.mj_step(model, data)
         hits, excess = [], 0.0
         if len(lim.contact_ids):
             hits += self._contact_hits(time)
@@ -191,23 +200,33 @@ class ServeFilter:
         out0 = np.maximum(lim.position_low - q0, q0 - lim.position_high)
         out1 = np.maximum(lim.position_low - q1, q1 - lim.position_high)
         growth = out1 - np.maximum(out0, 0.0)
-        excess += float(growth[growth > TOLERANCE].sum())
-        for k in np.flatnonzero(growth > TOLERANCE):
-            hits.append(LimitHit(time, f"position:{lim.position[k]}", float(q1[k])))
+        if (growth > TOLERANCE).any():
+            excess += float(growth[growth > TOLERANCE].sum())
+            hits += [
+                LimitHit(time, f"position:{lim.position[k]}", float(q1[k])) for k in np.flatnonzero(growth > TOLERANCE)
+            ]
         v0, v1 = np.abs(state[self.nq :][lim.velocity_index]), np.abs(qvel[lim.velocity_index])
         growth = v1 - lim.velocity_max - np.maximum(v0 - lim.velocity_max, 0.0)
-        excess += float(growth[growth > TOLERANCE].sum())
-        for k in np.flatnonzero(growth > TOLERANCE):
-            hits.append(LimitHit(time, f"velocity:{lim.velocity[k]}", float(qvel[lim.velocity_index][k])))
+        if (growth > TOLERANCE).any():
+            excess += float(growth[growth > TOLERANCE].sum())
+            speeds = qvel[lim.velocity_index]
+            hits += [
+                LimitHit(time, f"velocity:{lim.velocity[k]}", float(speeds[k]))
+                for k in np.flatnonzero(growth > TOLERANCE)
+            ]
         if before is not None:
             mujoco.mj_kinematics(model, data)
             after = self._frame(data)
             out0 = np.maximum(lim.workspace_low - before, before - lim.workspace_high)
             out1 = np.maximum(lim.workspace_low - after, after - lim.workspace_high)
             growth = out1 - np.maximum(out0, 0.0)
-            excess += float(growth[growth > TOLERANCE].sum())
-            for k in np.flatnonzero(growth > TOLERANCE):
-                hits.append(LimitHit(time, f"workspace:{lim.workspace_frame}.{'xyz'[k]}", float(after[k])))
+            if (growth > TOLERANCE).any():
+                excess += float(growth[growth > TOLERANCE].sum())
+                frame = lim.workspace_frame
+                hits += [
+                    LimitHit(time, f"workspace:{frame}.{'xyz'[k]}", float(after[k]))
+                    for k in np.flatnonzero(growth > TOLERANCE)
+                ]
         return hits, excess
 
     def _frame(self, data: mujoco.MjData) -> np.ndarray:
