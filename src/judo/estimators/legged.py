@@ -55,6 +55,9 @@ class LeggedConfig(EstimatorConfig):
     foot_sites: tuple[str, ...] = ()
     """The sites at the feet (for a point foot, its centre); () takes the sites of the task's measured touch
     sensors, else the model's sites named "*foot"."""
+    foot_sink: float | None = None
+    """How deep (m) a standing foot sinks into the floor (a soft contact, a rubber foot); None: as deep as the
+    planning model's feet sink once it has stood a second in its "home" keyframe (0 without one)."""
     contact_force: float = 10.0
     """A foot stands while its touch sensor reads above this (N)."""
     stance_band: float = 0.02
@@ -84,6 +87,10 @@ class LeggedConfig(EstimatorConfig):
         for name, value in vars(self).items():
             if name == "attitude_time_constant" or name == "joint_velocity_time_constant":
                 require(value >= 0, f"LeggedConfig.{name} must be at least 0 s, got {value}")
+            elif name == "foot_sink":
+                require(
+                    value is None or value >= 0, f"LeggedConfig.foot_sink must be None or at least 0 m, got {value}"
+                )
             elif name != "foot_sites":
                 require(value > 0, f"LeggedConfig.{name} must be positive, got {value}")
 
@@ -104,7 +111,7 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         super().__init__(task, config)
         self.model = task.model
         self.data = mujoco.MjData(self.model)  # the estimator's own kinematics; the plant's is never read
-        self.layout = legged_layout(task, self.config.foot_sites)
+        self.layout = legged_layout(task, self.config.foot_sites, self.config.foot_sink)
         k = len(self.layout.feet)
         self.stance = np.zeros(k, dtype=bool)
         self.mean, self.cov = np.zeros(6 + 3 * k), np.eye(6 + 3 * k)

@@ -28,7 +28,8 @@ class LeggedLayout:
         imu: {"framequat": slice, "gyro": slice, "accelerometer": slice} of the measured vector.
         imu_quat: (4,) [w, x, y, z] of the framequat sensor's site in the base body (the same for all three).
         feet: (k,) the foot sites' ids; foot_bodies: (k,) their bodies.
-        ground_offset: (k,) each foot site's height above the floor when the foot stands flat on it (m).
+        ground_offset: (k,) each foot site's height above the floor when the foot stands flat on it (m), less how
+            deep it sinks into the floor (`foot_sink`).
         touch: (k,) where each foot's touch sensor value lies in the measured vector, or None when not every
             foot has one (then a foot stands when it is near the lowest).
     """
@@ -47,8 +48,9 @@ class LeggedLayout:
     touch: np.ndarray | None
 
 
-def legged_layout(task: Task, foot_sites: tuple[str, ...]) -> LeggedLayout:
-    """The LeggedLayout of `task`'s planning model and measured sensors; ConfigError saying what is missing."""
+def legged_layout(task: Task, foot_sites: tuple[str, ...], foot_sink: float | None) -> LeggedLayout:
+    """The LeggedLayout of `task`'s planning model and measured sensors, with the feet sinking `foot_sink` m into
+    the floor (None: as deep as in the model standing, `standing_sink`); ConfigError saying what is missing."""
     model, measured, owner = task.model, task.measured, type(task).__name__
     free = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
     if len(free) != 1:
@@ -97,6 +99,8 @@ def legged_layout(task: Task, foot_sites: tuple[str, ...]) -> LeggedLayout:
 
     sites = foot_site_ids(task, foot_sites)
     touch = measured_of("touch", sites)
+    offsets = np.array([ground_offset(model, s) for s in sites])
+    sink = standing_sink(model, np.array(sites), offsets) if foot_sink is None else np.full(len(sites), foot_sink)
     return LeggedLayout(
         base_qpos=int(model.jnt_qposadr[free[0]]),
         base_qvel=int(model.jnt_dofadr[free[0]]),
@@ -108,7 +112,7 @@ def legged_layout(task: Task, foot_sites: tuple[str, ...]) -> LeggedLayout:
         imu_quat=model.site_quat[imu_sites["framequat"]].copy(),
         feet=np.array(sites, dtype=int),
         foot_bodies=np.array([model.site_bodyid[s] for s in sites], dtype=int),
-        ground_offset=np.array([ground_offset(model, s) for s in sites]),
+        ground_offset=offsets - sink,
         touch=None if None in touch else np.array(touch, dtype=int),
     )
 
@@ -138,16 +142,53 @@ def foot_site_ids(task: Task, foot_sites: tuple[str, ...]) -> list[int]:
 
 def ground_offset(model: mujoco.MjModel, site: int) -> float:
     """The height (m) of `site` above the floor when its body stands flat on it (its z axis up): above the lowest
-    point of the body's colliding geoms (a sphere's bottom; another geom's bounding sphere's), 0 without any."""
+    point of the body's colliding geoms (a sphere's, capsule's or box's own; another geom's bounding sphere's),
+    0 without any."""
     body = int(model.site_bodyid[site])
-    lowest = []
-    for g in np.flatnonzero(model.geom_bodyid == body):
-        if not (model.geom_contype[g] or model.geom_conaffinity[g]):
-            continue
-        is_sphere = model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE
-        reach = model.geom_size[g, 0] if is_sphere else model.geom_rbound[g]
-        lowest.append(model.geom_pos[g, 2] - reach)
+    lowest = [lowest_point(model, g) for g in np.flatnonzero(model.geom_bodyid == body) if collides(model, g)]
     return float(model.site_pos[site, 2] - min(lowest)) if lowest else 0.0
+
+
+STAND_KEY = "home"
+"""The keyframe of the standing pose that `standing_sink` lets the model stand in."""
+STAND_SECONDS = 1.0
+"""How long `standing_sink` lets the model settle."""
+
+
+def standing_sink(model: mujoco.MjModel, sites: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """(k,) how deep (m) each foot site sinks below its (k,) `offsets` once the model has stood STAND_SECONDS
+    from its STAND_KEY keyframe holding that pose's controls (a soft contact, or a rubber foot, gives way under
+    the robot's weight); 0 for a foot off the floor there, and for every foot without such a keyframe."""
+    key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, STAND_KEY)
+    if key < 0:
+        return np.zeros(len(sites))
+    data = mujoco.MjData(model)
+    mujoco.mj_resetDataKeyframe(model, data, key)
+    for _ in range(round(STAND_SECONDS / model.opt.timestep)):
+        mujoco.mj_step(model, data)
+    sink = offsets - data.site_xpos[sites, 2]
+    return np.where((sink > 0) & (sink < offsets + 0.05), sink, 0.0)
+
+
+def collides(model: mujoco.MjModel, geom: int) -> bool:
+    return bool(model.geom_contype[geom] or model.geom_conaffinity[geom])
+
+
+def lowest_point(model: mujoco.MjModel, geom: int) -> float:
+    """The lowest z (m) of `geom` in its body's frame."""
+    kind, size, pos = model.geom_type[geom], model.geom_size[geom], model.geom_pos[geom]
+    rotation = np.zeros(9)
+    mujoco.mju_quat2Mat(rotation, model.geom_quat[geom])
+    z_row = rotation.reshape(3, 3)[2]  # the body-frame z of each of the geom's axes
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return float(pos[2] - size[0])
+    if kind in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER):
+        radius, half = size[0], size[1]
+        disc = radius * np.sqrt(max(0.0, 1.0 - z_row[2] ** 2)) if kind == mujoco.mjtGeom.mjGEOM_CYLINDER else radius
+        return float(pos[2] - half * abs(z_row[2]) - disc)
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        return float(pos[2] - np.abs(z_row * size).sum())
+    return float(pos[2] - model.geom_rbound[geom])
 
 
 def name_of(model: mujoco.MjModel, kind: mujoco.mjtObj, index: int) -> str:
