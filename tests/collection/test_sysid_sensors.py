@@ -162,7 +162,7 @@ def test_a_stop_halts_the_system_and_keeps_what_was_logged(tmp_path, capsys, sys
     "argv, message",
     [
         (["--system", "nowhere:Robot"], "--system nowhere:Robot: cannot import module 'nowhere'"),
-        (["--system", "robot"], "--system expects ros2, sim or module:Class (a System subclass), got 'robot'"),
+        (["--system", "robot"], "--system expects ros2, sim, unitree or module:Class (a System subclass), got 'robot'"),
         (
             ["--system", f"{__name__}:RecordingCartpole", "--plant-overrides", "body_mass.pole=0.2"],
             f"--plant-overrides set judo's simulated plant; --system {__name__}:RecordingCartpole is its own plant",

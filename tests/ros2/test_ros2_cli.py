@@ -26,7 +26,7 @@ def one_line_error(capsys, argv: list[str], main=cli.main) -> str:
 
 def test_a_bad_system_or_record_is_one_line_naming_the_choices(capsys, tmp_path):
     err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "ros3"])
-    assert "--system expects ros2, sim or module:Class (a System subclass), got 'ros3'" in err
+    assert "--system expects ros2, sim, unitree or module:Class (a System subclass), got 'ros3'" in err
     err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "judo.loop.system:SystemState"])
     assert "expected a System subclass 'SystemState' in judo.loop.system, got SystemState" in err
     err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--record", str(tmp_path / "run.mcap")])

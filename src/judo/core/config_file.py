@@ -78,6 +78,7 @@ TOP_LEVEL_KEYS = (
     "estimator_config_overrides",
     "system",
     "ros2",
+    "unitree",
     "model_overrides",
     "plant_overrides",
     "sysid",
@@ -112,6 +113,8 @@ class LoadedConfig:
     """The plant the file names (`system = "ros2"` or "module:Class")."""
     ros2: dict[str, Any] = field(default_factory=dict)
     """The [ros2] table: the ROS 2 bridge's settings by field name, checked where they are used."""
+    unitree: dict[str, Any] = field(default_factory=dict)
+    """The [unitree] table: the Unitree bridge's settings by field name, checked where they are used."""
 
 
 def load_config(path: str | Path) -> LoadedConfig:
@@ -239,7 +242,10 @@ def load_config(path: str | Path) -> LoadedConfig:
     ros2 = table.get("ros2", {})
     if not isinstance(ros2, dict):
         raise ConfigFileError(f"{path}: [ros2] must be a table of field = value, got {ros2!r}")
-    return LoadedConfig(table.get("task"), table.get("optimizer"), path, system, ros2)
+    unitree = table.get("unitree", {})
+    if not isinstance(unitree, dict):
+        raise ConfigFileError(f"{path}: [unitree] must be a table of field = value, got {unitree!r}")
+    return LoadedConfig(table.get("task"), table.get("optimizer"), path, system, ros2, unitree)
 
 
 def read_config_text(path: str | Path) -> str:

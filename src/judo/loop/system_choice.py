@@ -14,7 +14,7 @@ import inspect
 import typing
 from dataclasses import dataclass, field, fields
 from pathlib import Path
-from typing import Any, cast
+from typing import Any, Literal, cast
 
 from judo.core.errors import ConfigError, JudoError
 from judo.core.registry import lookup_task
@@ -57,7 +57,7 @@ class Ros2Options:
 class UnitreeOptions:
     """How the Unitree bridge (`--system unitree`) reaches the robot: rt/lowstate in, rt/lowcmd out."""
 
-    robot: str = "go2"
+    robot: Literal["go2", "g1"] = "go2"
     """go2 (unitree_go messages, 12 motors) or g1 (unitree_hg messages, 29 motors)."""
     domain: int = 0
     """DDS domain, 0..232: Unitree's robots use 0."""

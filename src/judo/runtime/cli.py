@@ -49,7 +49,14 @@ from judo.core.registry import (
 )
 from judo.core.task import TaskConfig
 from judo.loop.sensing import SensingFlags, merge_repeated
-from judo.loop.system_choice import Ros2Options, SystemOptions, build_system, ros2_options
+from judo.loop.system_choice import (
+    Ros2Options,
+    SystemOptions,
+    UnitreeOptions,
+    build_system,
+    ros2_options,
+    unitree_options,
+)
 from judo.runtime.app import App
 
 PROG = "python -m judo"
@@ -102,6 +109,8 @@ class RunOptions:
     $JUDO_STOP_FILE, else ~/.local/state/judo/stop.json."""
     ros2: tyro.conf.Suppress[Ros2Options] = field(default_factory=Ros2Options)
     """The ROS 2 bridge's domain, topics, rate and joint names (--ros2.*, a group of its own)."""
+    unitree: tyro.conf.Suppress[UnitreeOptions] = field(default_factory=UnitreeOptions)
+    """The Unitree bridge's robot, domain, interface, rate and soft start (--unitree.*, a group of its own)."""
     sensing: Annotated[SensingFlags, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")] = field(
         default_factory=SensingFlags
     )
@@ -114,6 +123,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         task, optimizer, loaded, estimator, pinned = _peek(argv)
         ros2 = ros2_options(loaded.ros2 if loaded is not None else {}, "the config file's [ros2]")
+        unitree = unitree_options(loaded.unitree if loaded is not None else {}, "the config file's [unitree]")
         defaults: dict[str, Config] = {**default_configs(task, optimizer)}  # the estimator may join the three kinds
         if estimator is not None:
             defaults["estimator"] = make_config(lookup_estimator(estimator)[1], task)
@@ -122,7 +132,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     argv = ["--task", task, "--optimizer", optimizer, *merge_repeated(argv)]
     try:
-        options, configs = parse(argv, defaults, ros2)
+        options, configs = parse(argv, defaults, ros2, unitree)
         if options.duration is not None and math.isfinite(options.duration) and options.duration > MAX_DURATION:
             raise ConfigError(  # its step count would not fit an integer
                 "duration must be a positive, finite number of seconds of sim time, "
@@ -133,7 +143,9 @@ def main(argv: Sequence[str] | None = None) -> int:
             controller_config = None  # no --controller.* given: the policy's metadata's rate and chunk layout
         task_config = _as_kind(configs["task"], TaskConfig)
         system_name = options.system or (loaded.system if loaded is not None else None)  # the flag wins
-        system = build_system(SystemOptions(system_name, options.record, options.ros2), options.task, task_config)
+        system = build_system(
+            SystemOptions(system_name, options.record, options.ros2, options.unitree), options.task, task_config
+        )
         app = App(
             options.task,
             options.optimizer,
@@ -183,7 +195,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def parse(
-    argv: list[str], defaults: dict[str, Any], ros2: Ros2Options | None = None
+    argv: list[str], defaults: dict[str, Any], ros2: Ros2Options | None = None, unitree: UnitreeOptions | None = None
 ) -> tuple[RunOptions, dict[str, Config]]:
     """The run options and the validated controller, optimizer and task configs from `argv` (the --ros2.*
     options over `ros2`'s values).
@@ -201,7 +213,8 @@ def parse(
         Ros2Options,
         field(default_factory=lambda: ros2 or Ros2Options()),
     )  # --ros2.domain-id, ... (with --system ros2)
-    arguments_cls = dataclasses.make_dataclass("JudoArguments", [options_field, ros2_field, *groups])
+    unitree_field = ("unitree", UnitreeOptions, field(default_factory=lambda: unitree or UnitreeOptions()))
+    arguments_cls = dataclasses.make_dataclass("JudoArguments", [options_field, ros2_field, unitree_field, *groups])
     parsed = tyro.cli(
         arguments_cls,
         args=argv,
@@ -213,7 +226,7 @@ def parse(
     for kind, config in defaults.items():
         given = getattr(parsed, CONFIG_GROUPS[kind])
         configs[kind] = with_updates(config, {f.name: getattr(given, f.name) for f in fields(given)})
-    return dataclasses.replace(parsed.options, ros2=parsed.ros2), configs
+    return dataclasses.replace(parsed.options, ros2=parsed.ros2, unitree=parsed.unitree), configs
 
 
 def _as_kind(config: Config | None, cls: type[ConfigT]) -> ConfigT | None:
