@@ -275,7 +275,8 @@ class App:
     def summary(self) -> RunSummary:
         """Control rate, plan times, real-time factor and final reward of the run so far."""
         session = self._state.session
-        return self.stats.summary(session.task_name, session.optimizer_name, self.stop_latch)
+        guard = session.closed_loop.guard  # the [safety] limits' serve filter, or None
+        return self.stats.summary(session.task_name, session.optimizer_name, self.stop_latch, guard and guard.summary())
 
     def _claim_run(self) -> None:
         if self._ran:

@@ -24,6 +24,7 @@ from judo.loop.closed_loop import ClosedLoop
 from judo.loop.estimator_thread import EstimatorThread
 from judo.loop.sensing import SensedSystem, Sensing, choose_estimator, observed_plant
 from judo.loop.system import MujocoSystem, System, SystemState
+from judo.safety.limits import SafetyConfig
 from judo.safety.stop import StopLatch
 
 POLICY_OPTIMIZER = "policy"
@@ -184,6 +185,7 @@ def build_session(
             estimator=estimator,
             keep_updates=KEPT_UPDATES,
             stop=stop,
+            safety=make_config(SafetyConfig, task_name),  # [safety.TASK]: docs/safety.md
         )
     except BaseException:
         controller.close()

@@ -108,6 +108,8 @@ class RunSummary:
     final_reward: float
     stops: tuple[StopEvent, ...] = ()
     stop_latched: bool = False
+    limits: str | None = None
+    """The [safety] limits' serve filter's line (commands filtered, replaced, hits by limit); None without limits."""
 
     def __str__(self) -> str:
         rows = [
@@ -125,6 +127,8 @@ class RunSummary:
         rows += [("stop", event.line()) for event in self.stops]
         if self.stop_latched:
             rows.append(("stop", "still latched at exit: the next start serves the safe action until it is cleared"))
+        if self.limits is not None:
+            rows.append(("limits", self.limits))
         return "\n".join(f"{name:>16}: {value}" for name, value in rows)
 
 
@@ -209,8 +213,10 @@ class RunStats:
                 rtf = (s1 - s0) / (w1 - w0) if w1 > w0 else float("nan")
             return LiveFigures(self._nominal_reward, plan_ms, rate, rtf)
 
-    def summary(self, task: str, optimizer: str, stop: StopLatch | None = None) -> RunSummary:
-        """Figures over the whole run so far, with the events of the latched `stop`."""
+    def summary(
+        self, task: str, optimizer: str, stop: StopLatch | None = None, limits: str | None = None
+    ) -> RunSummary:
+        """Figures over the whole run so far, with the events of the latched `stop` and the `limits` line."""
         with self._lock:
             times, count = np.array(self._plan_times), self._num_plans
             span = 0.0
@@ -229,6 +235,7 @@ class RunStats:
                 final_reward=self._nominal_reward,
                 stops=() if stop is None else tuple(stop.events),
                 stop_latched=stop is not None and stop.latched,
+                limits=limits,
             )
 
 
