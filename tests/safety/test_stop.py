@@ -205,3 +205,24 @@ def test_an_app_started_on_a_latched_state_file_serves_the_safe_action_from_its_
     told = [r.getMessage() for r in caplog.records if "the stop is latched" in r.getMessage()]
     assert told and "an earlier run (from the state file" in told[0] and "Clear stop" in told[0], told
     assert "still latched at exit" in str(app.summary())
+
+
+def test_each_latch_and_clear_is_a_config_edit_in_a_recording(stop_file, tmp_path):
+    h5py = pytest.importorskip("h5py")
+    served = Served()
+    app = started_app(stop_file, served)
+    try:
+        wait_until(lambda: len(served) > 5, what="steps")
+        path = app.start_recording(tmp_path / "run.h5")
+        count = len(served)
+        app.stop_latch.engage("the test")
+        app.stop_latch.clear("the test")
+        wait_until(lambda: len(served) > count + 5, what="steps recorded")
+        app.stop_recording()
+    finally:
+        app.stop()
+    with h5py.File(path) as file:
+        edits = json.loads(file["data"]["demo_0"].attrs["config_edits"])
+    stops = [(edit["kind"], edit["source"], edit["engaged"]) for edit in edits if edit["kind"] == "stop"]
+    assert stops == [("stop", "the test", True), ("stop", "the test", False)]
+    assert all(isinstance(edit["time"], float) and edit["wall_time"] > 0 for edit in edits if edit["kind"] == "stop")
