@@ -1,5 +1,6 @@
 """The latched stop in the GUI, in headless Chromium: the Stop button latches it (the plant is served the safe action),
-Clear stop clears it, and the Escape key latches it from anywhere on the page. Screenshot: test-artifacts/stop_*.png.
+a page that reconnects is shown it, Clear stop clears it, and the Escape key latches it from anywhere on the page.
+Screenshot: test-artifacts/stop_latched.png.
 
 Playwright runs on a thread of its own here: its sync API keeps an event loop on the thread that starts it, and
 tests/runtime's session browser may already hold the main thread's.
@@ -116,6 +117,9 @@ def test_the_stop_button_the_clear_button_and_the_escape_key(tmp_path):
         assert np.all(np.array(served.actions[index:]) == 0.0), "cartpole's safe action is 0"
         assert stop_file.exists()
         page.screenshot(path=artifacts / "stop_latched.png")
+        page.reload()  # a page that connects while latched is shown it
+        page.get_by_role("button", name="STOPPED", exact=True).wait_for()
+        assert latch.latched
 
         page.get_by_role("button", name="Clear stop", exact=True).click()
         wait_until(lambda: not latch.latched, what="the clear")
