@@ -79,6 +79,13 @@ def restore_the_registry():
         table.update(saved)
 
 
+@pytest.fixture(autouse=True)
+def stop_file_of_the_test(tmp_path_factory, monkeypatch):
+    """Every app a test runs (in-process or a subprocess) keeps its latched stop in a file of the test's own
+    (judo.safety.stop), never the user's: a stop latched by hand does not stop the suite, nor a test's the user."""
+    monkeypatch.setenv("JUDO_STOP_FILE", str(tmp_path_factory.mktemp("stop") / "stop.json"))
+
+
 @pytest.fixture(scope="module")
 def local_ray():
     """A local Ray with 2 CPUs for the module, started by the call collect, evaluate --workers and tune make
