@@ -95,7 +95,8 @@ class MPPICMA(Optimizer[MPPICMAConfig]):
             self.restart()  # a new initial sigma from the GUI, or a covariance that does not belong to the old plan
             return
         shift = knot_shift_matrix(old_times, new_times)
-        self._set_covariance(np.einsum("nk,kij->nij", shift, self.covariance))
+        shifted = (shift @ self.covariance.reshape(len(old_times), -1)).reshape(len(new_times), self.nu, self.nu)
+        self._set_covariance(shifted, clamp=False)  # a convex combination keeps the eigenvalues within the bounds
 
     def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
         if len(self.covariance) != self.num_nodes:  # sizes changed without pre_optimization
@@ -110,8 +111,8 @@ class MPPICMA(Optimizer[MPPICMAConfig]):
 
     def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
         weights = softmax_weights(rewards, self.config.temperature)
-        deviations = sampled_knots - self._mean
-        weighted = np.einsum("i,ikj,ikl->kjl", weights, deviations, deviations)
+        deviations = (sampled_knots - self._mean).transpose(1, 0, 2)  # (num_nodes, num_rollouts, nu)
+        weighted = np.matmul(deviations.transpose(0, 2, 1) * weights, deviations)  # sum_i w_i d_ik d_ik^T
         weighted *= self.covariance_gain()[:, None, None]
         rate = self.config.adaptation_rate
         self._set_covariance((1 - rate) * self.covariance + rate * weighted)
@@ -121,18 +122,21 @@ class MPPICMA(Optimizer[MPPICMAConfig]):
         """(num_nodes,) factor g_k on each knot's weighted sample covariance: ones (ER-CMA inflates it)."""
         return np.ones(self.num_nodes)
 
-    def _set_covariance(self, covariance: np.ndarray) -> None:
+    def _set_covariance(self, covariance: np.ndarray, clamp: bool = True) -> None:
         """Store (num_nodes, nu, nu) `covariance` with its eigenvalues clamped to [sigma_min^2, sigma_max^2]
-        (its diagonal only, with full_covariance off), and the square root the noise is drawn with."""
+        (its diagonal only, with full_covariance off or one control), and the square root the noise is drawn
+        with. `clamp=False` is for a covariance already within the bounds: its root is its Cholesky factor."""
         cfg = self.config
         low, high = cfg.sigma_min**2, cfg.sigma_max**2
-        if not cfg.full_covariance:
-            variances = np.clip(np.diagonal(covariance, axis1=1, axis2=2), low, high)
+        if not cfg.full_covariance or self.nu == 1:
+            variances = np.diagonal(covariance, axis1=1, axis2=2)
+            variances = np.clip(variances, low, high) if clamp else variances.copy()
             self.covariance = variances[:, :, None] * np.eye(self.nu)
             self.root = np.sqrt(variances)[:, :, None] * np.eye(self.nu)
-            return
-        symmetric = 0.5 * (covariance + covariance.transpose(0, 2, 1))
-        eigenvalues, eigenvectors = np.linalg.eigh(symmetric)
-        eigenvalues = np.clip(eigenvalues, low, high)
-        self.root = eigenvectors * np.sqrt(eigenvalues)[:, None, :]
-        self.covariance = np.matmul(self.root, self.root.transpose(0, 2, 1))
+        elif not clamp:
+            self.covariance = covariance
+            self.root = np.linalg.cholesky(covariance)
+        else:
+            eigenvalues, eigenvectors = np.linalg.eigh(0.5 * (covariance + covariance.transpose(0, 2, 1)))
+            self.root = eigenvectors * np.sqrt(np.clip(eigenvalues, low, high))[:, None, :]
+            self.covariance = np.matmul(self.root, self.root.transpose(0, 2, 1))

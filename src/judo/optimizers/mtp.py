@@ -16,7 +16,7 @@ from judo.core.config import require, require_between
 from judo.core.fields import slider
 from judo.core.optimizer import Optimizer, OptimizerConfig, PlanningStart, weighted_knots
 from judo.optimizers.cem import check_elite_settings
-from judo.optimizers.knot_shift import knot_shift_matrix, shift_knots
+from judo.optimizers.knot_shift import knot_shift_matrix
 from judo.optimizers.mppi import softmax_weights
 
 PathSmoothing = Literal["linear", "bspline"]
@@ -125,9 +125,10 @@ class MTP(Optimizer[MTPConfig]):
         if len(self.sigma) != len(old_times):  # state that does not belong to the old plan
             self.restart()
             return
-        self.sigma = shift_knots(self.sigma, old_times, new_times)
+        shift = knot_shift_matrix(old_times, new_times)
+        self.sigma = shift @ self.sigma
         if self.best is not None:
-            self.best = shift_knots(self.best, old_times, new_times)
+            self.best = shift @ self.best
 
     def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
         if len(self.sigma) != self.num_nodes:  # sizes changed without pre_optimization
@@ -167,12 +168,15 @@ class MTP(Optimizer[MTPConfig]):
 
     def _graph_range(self, nominal_knots: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(nu,) low and high of the graph's nodes: the control range, or the nominal +- 3 sigma_max where unbounded."""
+        limits = self.command_range if self.command_range is not None and len(self.command_range) == self.nu else None
+        if limits is not None and np.isfinite(limits).all():
+            return limits[:, 0], limits[:, 1]
         span = UNBOUNDED_SPAN * self.config.sigma_max
         low, high = nominal_knots.min(axis=0) - span, nominal_knots.max(axis=0) + span
-        if self.command_range is not None and len(self.command_range) == self.nu:
-            bounded = np.isfinite(self.command_range)
-            low = np.where(bounded[:, 0], self.command_range[:, 0], low)
-            high = np.where(bounded[:, 1], self.command_range[:, 1], high)
+        if limits is not None:
+            bounded = np.isfinite(limits)
+            low = np.where(bounded[:, 0], limits[:, 0], low)
+            high = np.where(bounded[:, 1], limits[:, 1], high)
         return low, high
 
 
