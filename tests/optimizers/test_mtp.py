@@ -96,7 +96,9 @@ def test_unbounded_controls_span_the_nominal_and_state_shifts_between_cycles():
 def test_bad_values_are_refused_with_a_clear_message():
     with pytest.raises(judo.ConfigError, match=r"^path_smoothing must be one of \['linear', 'bspline'\], got 'akima'$"):
         MTPConfig(path_smoothing="akima")  # type: ignore[arg-type]
-    with pytest.raises(judo.ConfigError, match=r"^a quadratic B-spline needs num_waypoints >= 3, got 2$"):
+    with pytest.raises(
+        judo.ConfigError, match=r"^path_smoothing 'bspline' \(quadratic\) needs num_waypoints >= 3, got 2$"
+    ):
         MTPConfig(num_waypoints=2)
     with pytest.raises(judo.ConfigError, match=r"^momentum must be at least 0 and below 1, got 1.0$"):
         MTPConfig(momentum=1.0)

@@ -74,7 +74,7 @@ class MTPConfig(OptimizerConfig):
         if self.path_smoothing == "bspline":
             require(
                 self.num_waypoints > BSPLINE_DEGREE,
-                f"a quadratic B-spline needs num_waypoints >= {BSPLINE_DEGREE + 1}, got {self.num_waypoints}",
+                f"path_smoothing 'bspline' (quadratic) needs num_waypoints >= {BSPLINE_DEGREE + 1}, got {self.num_waypoints}",
             )
 
 
