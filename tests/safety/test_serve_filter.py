@@ -104,3 +104,31 @@ def test_an_episode_reports_its_limit_hits_as_a_metric():
     assert np.abs(np.diff(result.log.controls[:, 0])).max() <= 5 * system.timestep + 1e-12
     plain = run_episode(controller, MujocoSystem.from_task(controller.task, seed=5), 0.1)
     assert "limit_hits" not in plain.metrics and plain.limit_hits == {}
+
+
+def test_the_hits_reach_the_dataset(tmp_path):
+    import h5py
+
+    from judo.collection.dataset import write_demo
+    from judo.collection.recorder import EpisodeRecorder
+
+    controller = make_policy_controller("cartpole", BangBang(), seed=6)
+    model = controller.task.model
+    recorder = EpisodeRecorder(model.nq, model.nv, model.nmocap, 1, model.nu)
+    loop = ClosedLoop(
+        controller,
+        MujocoSystem.from_task(controller.task, seed=6),
+        safety=SafetyConfig(rate=("push=5",)),
+        recorders=[recorder],
+    )
+    loop.restart()
+    for _ in range(50):
+        loop.step()
+    episode = recorder.episode(6, np.zeros(50), {}, None)
+    with h5py.File(tmp_path / "d.h5", "w") as file:
+        write_demo(file.create_group("demo_6"), episode)
+    with h5py.File(tmp_path / "d.h5", "r") as file:
+        limits = [name.decode() for name in file["demo_6/limit_hits/limit"][:]]
+        times = file["demo_6/limit_hits/time"][:]
+    assert limits == [hit.limit for hit in loop.guard.hits] and set(limits) == {"rate:push"}
+    assert len(times) == sum(loop.guard.counts.values()) > 0

@@ -16,6 +16,8 @@
     data/demo_<seed>/policy/...     knots (U, H, nu), inference_ms (U,): the driving policy's chunks
     data/demo_<seed>/rewards        (S,)     float64    the task's reward of each step
     data/demo_<seed>/dones          (S,)     uint8      1 on the last step only
+    data/demo_<seed>/limit_hits/... time (K,) float64, limit (K,) bytes, value (K,) float64: each hit of the
+                                    [safety] limits' serve filter (only where a limit acted; docs/safety.md)
     data/demo_<seed>/plan/...       times, takes_effect, update_ms, best_reward, mean_reward (U,);
                                     knots (U, num_nodes, nu); traces (U, 1 + num_shown, T, num_trace_sensors,
                                     3) float32, only with --traces and in GUI recordings (NaN-padded)
@@ -103,6 +105,8 @@ class EpisodeArrays:
     policy_plan: dict[str, np.ndarray] | None = None
     metadata: dict[str, np.ndarray] = field(default_factory=dict)
     measured_age: np.ndarray | None = None
+    limit_hits: list[Any] | None = None
+    """The serve filter's hits (judo.safety.serve_filter.LimitHit: time, limit, value), where a [safety] limit acted."""
 
     @property
     def num_samples(self) -> int:
@@ -251,6 +255,11 @@ def write_demo(group: Any, episode: EpisodeArrays) -> None:
         group.create_dataset(f"plan/{key}", data=np.asarray(episode.plan[key], dtype=np.float64))
     if "traces" in episode.plan:
         group.create_dataset("plan/traces", data=np.asarray(episode.plan["traces"], dtype=np.float32))
+    if episode.limit_hits is not None:
+        hits = episode.limit_hits
+        group.create_dataset("limit_hits/time", data=np.array([hit.time for hit in hits], dtype=np.float64))
+        group.create_dataset("limit_hits/limit", data=np.array([hit.limit.encode() for hit in hits], dtype="S"))
+        group.create_dataset("limit_hits/value", data=np.array([hit.value for hit in hits], dtype=np.float64))
     group.attrs["num_samples"] = episode.num_samples
     group.attrs["seed"] = episode.seed
     group.attrs["metrics"] = json.dumps(episode.metrics)

@@ -82,7 +82,8 @@ class EpisodeRecorder:
         estimate = None if record.estimate is None else np.array(record.estimate, dtype=float)
         age = None if record.measured_age is None else np.array(record.measured_age, dtype=float)
         sensors, action = np.array(record.sensors), np.array(record.action)
-        self.steps.append(StepRecord(record.time, state, sensors, action, metadata, measured, estimate, age))
+        hits = record.limit_hits
+        self.steps.append(StepRecord(record.time, state, sensors, action, metadata, measured, estimate, age, hits))
 
     def episode(self, seed: int, rewards: np.ndarray, metrics: dict[str, float], success: bool | None) -> EpisodeArrays:
         """The recorded episode as the dataset's arrays, with its (S,) per-step `rewards`, metrics and success."""
@@ -110,6 +111,7 @@ class EpisodeRecorder:
             measured_sensors=self.measured_sensors,
             metadata=metadata,
             measured_age=rows_where_given([step.measured_age for step in steps]),
+            limit_hits=[hit for step in steps for hit in step.limit_hits] or None,  # where a [safety] limit acted
         )
 
     def recorded_value(self, record: StepRecord, key: str) -> np.ndarray:
