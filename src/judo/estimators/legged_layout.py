@@ -145,7 +145,8 @@ def ground_offset(model: mujoco.MjModel, site: int) -> float:
     point of the body's colliding geoms (a sphere's, capsule's or box's own; another geom's bounding sphere's),
     0 without any."""
     body = int(model.site_bodyid[site])
-    lowest = [lowest_point(model, g) for g in np.flatnonzero(model.geom_bodyid == body) if collides(model, g)]
+    geoms = [int(g) for g in np.flatnonzero(model.geom_bodyid == body)]
+    lowest = [lowest_point(model, g) for g in geoms if collides(model, g)]
     return float(model.site_pos[site, 2] - min(lowest)) if lowest else 0.0
 
 
