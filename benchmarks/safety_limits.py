@@ -2,13 +2,18 @@
 
     PYTHONPATH=src python benchmarks/safety_limits.py --seeds 3 --duration 4
 
-Cases (cartpole, closed loop on judo's simulator, seeded):
-- fence: a cart-position fence |x| <= 0.3 m (with a 1.5 m/s speed cap), MPPI;
-- rate: a rate limit of 20 units/s on the push, MPPI;
-- rogue: a hand-written Policy that pushes into the fence at 1e9, under |x| <= 0.5 m, 0.5 m/s and an effort cap of 0.8.
+Cases (closed loop on judo's simulator, seeded):
+- fence: cartpole with a cart-position fence |x| <= 0.3 m (with a 1.5 m/s speed cap), MPPI;
+- rate: cartpole with a rate limit of 20 units/s on the push, MPPI;
+- rogue: cartpole driven by a hand-written Policy that pushes into the fence at 1e9, under |x| <= 0.5 m, 0.5 m/s and an
+  effort cap of 0.8;
+- goal_outside: particle whose goals are drawn in +-0.45 m, inside a workspace box of +-0.2 m (0.5 m/s cap), MPPI;
+- torque: quadruped at a tight torque limit, |kp (q_des - q) - kv dq| <= 12 N m on every joint (its forcerange is
+  23.7), MPPI (slow: --cases torque).
 For each: the served commands outside an effort or rate limit (recomputed from the log, not from the filter's count),
-the plant steps beyond a position limit and the largest overshoot, the serve filter's hits, the planning iterations
-with no feasible sample, and the task's mean reward and balanced_fraction with the limits and without them.
+the plant steps beyond a position limit or the box and the largest overshoot (after the plant was first inside: a
+random start may lie beyond), the serve filter's hits, the planning
+iterations with no feasible sample, and the task's mean reward and quality metric with the limits and without them.
 """
 
 import argparse
@@ -32,15 +37,22 @@ class Rogue(Policy):
         return np.full((len(observations), 1, 1), 1e9)
 
 
-CASES = {
-    "fence": ("mppi", SafetyConfig(position=("slider=-0.3:0.3",), velocity=("slider=1.5",))),
-    "rate": ("mppi", SafetyConfig(rate=("push=20",))),
-    "rogue": (None, SafetyConfig(position=("slider=-0.5:0.5",), velocity=("slider=0.5",), effort=("push=0.8",))),
-}
+BOX = {"workspace_frame": "particle", "workspace_low": (-0.2, -0.2, -1.0), "workspace_high": (0.2, 0.2, 1.0)}
+CASES = {  # task, optimizer (None: the rogue Policy), limits, quality metric
+    "fence": ("cartpole", "mppi", SafetyConfig(position=("slider=-0.3:0.3",), velocity=("slider=1.5",)), "balanced_fraction"),
+    "rate": ("cartpole", "mppi", SafetyConfig(rate=("push=20",)), "balanced_fraction"),
+    "rogue": (
+        "cartpole", None, SafetyConfig(position=("slider=-0.5:0.5",), velocity=("slider=0.5",), effort=("push=0.8",)),
+        "balanced_fraction",
+    ),
+    "goal_outside": ("particle", "mppi", SafetyConfig(velocity=("x=0.5", "y=0.5"), **BOX), "goals_reached"),
+    "torque": ("quadruped", "mppi", SafetyConfig(effort=("*=12",)), "final_distance"),
+}  # fmt: skip
 
 
 def outside(task, config: SafetyConfig, log) -> tuple[int, int, float]:
-    """(commands outside an effort or rate limit, steps beyond a position limit, largest overshoot in m or rad)."""
+    """(commands outside an effort or rate limit, steps beyond a position limit or the box once the plant had been
+    inside, the largest such overshoot in m or rad)."""
     limits = resolve(task, config)
     nq, dt = task.model.nq, task.model.opt.timestep
     before = np.vstack([log.states[:1], log.states[:-1]])  # the state each command was served in
@@ -55,15 +67,23 @@ def outside(task, config: SafetyConfig, log) -> tuple[int, int, float]:
     if len(limits.position):
         q = log.states[:, limits.position_index]
         over = np.maximum(limits.position_low - q, q - limits.position_high).max(axis=1)
+    if limits.workspace_frame:
+        frame = (
+            log.states[:, limits.frame_qpos] if limits.frame_qpos is not None else log.sensors[:, limits.frame_sensor]
+        )
+        beyond = np.maximum(limits.workspace_low - frame, frame - limits.workspace_high).max(axis=1)
+        over = np.maximum(over, beyond)
+    entered = np.maximum.accumulate(over <= 1e-9)  # a start beyond a limit counts only once the plant was inside
+    over = np.where(entered, over, 0.0)
     return int(bad.sum()), int((over > 1e-9).sum()), float(max(0.0, over.max()))
 
 
 def episode(case: str, seed: int, duration: float, limited: bool):
-    optimizer, config = CASES[case]
+    task, optimizer, config, _ = CASES[case]
     if optimizer is None:
-        controller = make_policy_controller("cartpole", Rogue(), seed=seed)
+        controller = make_policy_controller(task, Rogue(), seed=seed)
     else:
-        controller = make_controller("cartpole", optimizer, seed=seed)
+        controller = make_controller(task, optimizer, seed=seed)
     with controller:
         system = MujocoSystem.from_task(controller.task, seed=seed)
         result = run_episode(controller, system, duration, seed=seed, safety=config if limited else None)
@@ -114,13 +134,14 @@ def costs(repeats: int = 200) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    parser.add_argument("--cases", nargs="+", default=[c for c in CASES if c != "torque"], choices=list(CASES))
+    parser.add_argument("--no-cost", action="store_true", help="skip the filter's and the screen's cost")
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--duration", type=float, default=4.0)
     args = parser.parse_args()
     print(
-        f"{'case':6} {'limits':6} {'cmds outside':>12} {'steps beyond':>12} {'overshoot':>9} {'hits':>6} "
-        f"{'no feasible':>11} {'mean reward':>11} {'balanced':>8}"
+        f"{'case':12} {'limits':6} {'cmds outside':>12} {'steps beyond':>12} {'overshoot':>9} {'hits':>6} "
+        f"{'no feasible':>11} {'mean reward':>11} quality"
     )
     for case in args.cases:
         for limited in (False, True):
@@ -131,13 +152,15 @@ def main() -> None:
             hits = sum(sum(row[0].limit_hits.values()) for row in rows)
             no_feasible = sum(row[0].no_feasible for row in rows)
             reward = np.mean([row[0].metrics["mean_reward"] for row in rows])
-            balanced = np.mean([row[0].metrics["balanced_fraction"] for row in rows])
+            metric = CASES[case][3]
+            quality = np.mean([row[0].metrics[metric] for row in rows])
             print(
-                f"{case:6} {'on' if limited else 'off':6} {cmds:12d} {beyond:12d} {overshoot:9.3f} {hits:6d} "
-                f"{no_feasible:11d} {reward:11.2f} {balanced:8.2f}",
+                f"{case:12} {'on' if limited else 'off':6} {cmds:12d} {beyond:12d} {overshoot:9.3f} {hits:6d} "
+                f"{no_feasible:11d} {reward:11.2f} {metric} {quality:.2f}",
                 flush=True,
             )
-    print(costs())
+    if not args.no_cost:
+        print(costs())
 
 
 if __name__ == "__main__":

@@ -107,3 +107,14 @@ def test_a_config_file_section_is_checked_at_load(tmp_path):
     path.write_text('[safety.nosuchtask]\nvelocity = ["hinge=3"]\n')
     with pytest.raises(ConfigFileError, match=r"\[safety.nosuchtask\]: unknown task 'nosuchtask'"):
         load_config(path)
+
+
+def test_a_config_files_section_reaches_evaluates_episodes(tmp_path, monkeypatch):
+    import judo.core.registry as registry
+    from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
+
+    monkeypatch.setattr(registry, "_OVERRIDES", dict(registry._OVERRIDES))  # the file's defaults end with the test
+    path = tmp_path / "limits.toml"
+    path.write_text('[safety.cartpole]\nposition = ["slider=-0.05:0.05"]\n')
+    result = run_seeded_episode(EpisodeSpec("cartpole", "ps", 0.1, config_file=str(path)), seed=0)
+    assert "limit_hits" in result.metrics and result.no_feasible > 0  # the random start lies beyond 5 cm
