@@ -11,6 +11,7 @@ import pytest
 
 import judo
 from judo.core.controller import ControllerConfig
+from judo.core.errors import ConfigError
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.runtime.app import App
@@ -75,6 +76,18 @@ def test_a_state_file_that_cannot_be_read_still_latches(tmp_path):
     assert latch.latched
     assert latch.latest is not None and "unreadable: JSONDecodeError" in latch.latest.source
     latch.close()
+
+
+def test_a_state_file_that_cannot_be_written_is_refused_in_one_line(tmp_path):
+    with pytest.raises(ConfigError) as refused:
+        StopLatch(tmp_path)
+    assert (
+        str(refused.value)
+        == f"the stop's state file (--stop-file, $JUDO_STOP_FILE) '{tmp_path}' is a folder; give a file path"
+    )
+    (tmp_path / "a_file").write_text("")
+    with pytest.raises(ConfigError, match="is a file, so .* cannot be made"):
+        App("cartpole", "ps", gui=False, stop_file=tmp_path / "a_file" / "stop.json")
 
 
 def test_the_state_file_is_named_by_the_environment_else_the_user_state_dir(monkeypatch, tmp_path):

@@ -28,8 +28,12 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+from judo.core.boundary import check_output_file
+
 logger = logging.getLogger("judo.safety")
 
+STOP_FILE_OPTION = "the stop's state file (--stop-file, $JUDO_STOP_FILE)"
+"""How a refused state file is named."""
 STOP_FILE_ENV = "JUDO_STOP_FILE"
 """Environment variable naming the latched stop's state file (the default's default is the user-state dir)."""
 MAX_EVENTS = 1000
@@ -83,7 +87,8 @@ class StopLatch:
 
     Args:
         path: its state file (None: kept in memory only, for a loop outside the app); a latch made where the file
-            exists starts engaged.
+            exists starts engaged. ConfigError at once for a path where no file can be written (a folder, a
+            read-only place): a latch that cannot outlive the process would not keep its promise.
         on_change: called with each StopEvent, on the thread that made the change, outside the latch's lock, and
             once more with a latch's event when it took effect (its `effect_s` set, on the loop's thread).
 
@@ -94,6 +99,7 @@ class StopLatch:
 
     def __init__(self, path: str | Path | None = None, on_change: Callable[[StopEvent], None] | None = None) -> None:
         self.path = None if path is None else Path(path)
+        check_output_file(STOP_FILE_OPTION, self.path)
         self.on_change = on_change
         self.events: list[StopEvent] = []
         self._lock = threading.Lock()
