@@ -54,7 +54,9 @@ def test_the_bridge_names_a_model_that_is_not_the_robots_motors():
     model = mujoco.MjModel.from_xml_string(xml)
     with pytest.raises(ConfigError, match="actuator 'FR_hip' is not a position actuator"):
         mt.Motors.of(model, "go2")
-    with pytest.raises(ConfigError, match="actuator 'FR_hip' drives 'FR_hip_joint', not one of the g1's joints left_hip_pitch_joint"):
+    with pytest.raises(
+        ConfigError, match="actuator 'FR_hip' drives 'FR_hip_joint', not one of the g1's joints left_hip_pitch_joint"
+    ):
         mt.Motors.of(mujoco.MjModel.from_xml_path(str(leg_task.MODEL)), "g1")
     with pytest.raises(ConfigError, match="--unitree.robot must be one of go2, g1, got 'h1'"):
         mt.Motors.of(mujoco.MjModel.from_xml_path(str(leg_task.MODEL)), "h1")

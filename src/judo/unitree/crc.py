@@ -32,11 +32,11 @@ _REVERSED_BYTE = np.array([int(f"{b:08b}"[::-1], 2) for b in range(256)], np.uin
 
 
 @cache
-def _fields(cls: type) -> list[tuple[str, Any]]:
+def fields_of(cls: type) -> list[tuple[str, Any]]:
     return list(typing.get_type_hints(cls, include_extras=True).items())
 
 
-def _kind(hint: Any) -> tuple[str, Any, int]:
+def kind_of(hint: Any) -> tuple[str, Any, int]:
     """("prim", code name, 1), ("array", element hint, n) or ("struct", class, 1) of one field's type hint."""
     if isinstance(hint, type):
         return "struct", hint, 1
@@ -55,7 +55,7 @@ def _layout(cls: type) -> tuple[list[str], int]:
 
     def place(hint: Any, count: int) -> None:
         nonlocal offset, align
-        kind, what, _ = _kind(hint) if not isinstance(hint, str) else ("prim", hint, 1)
+        kind, what, _ = kind_of(hint) if not isinstance(hint, str) else ("prim", hint, 1)
         if kind == "struct":
             inner, inner_align = _layout(what)
             size = struct.calcsize("<" + "".join(inner))
@@ -71,8 +71,8 @@ def _layout(cls: type) -> tuple[list[str], int]:
         offset += pad + size * count
         align = max(align, size)
 
-    for _, hint in _fields(cls):
-        kind, what, n = _kind(hint)
+    for _, hint in fields_of(cls):
+        kind, what, n = kind_of(hint)
         if kind == "array":
             place(what if isinstance(what, type) else what.__metadata__[0], n)
         else:
@@ -95,23 +95,23 @@ def packed_size(cls: type) -> int:
 
 
 @cache
-def _plan(cls: type) -> list[tuple[str, str]]:
+def plan_of(cls: type) -> list[tuple[str, str]]:
     """(field name, "struct" | "structs" | "array" | "prim") of each field of `cls`, in order."""
     plan = []
-    for name, hint in _fields(cls):
-        kind, what, _ = _kind(hint)
+    for name, hint in fields_of(cls):
+        kind, what, _ = kind_of(hint)
         plan.append((name, "structs" if kind == "array" and isinstance(what, type) else kind))
     return plan
 
 
-def _values(message: Any, out: list) -> None:
-    for name, kind in _plan(type(message)):
+def values_of(message: Any, out: list) -> None:
+    for name, kind in plan_of(type(message)):
         value = getattr(message, name)
         if kind == "struct":
-            _values(value, out)
+            values_of(value, out)
         elif kind == "structs":
             for element in value:
-                _values(element, out)
+                values_of(element, out)
         elif kind == "array":
             out.extend(value)
         else:
@@ -121,7 +121,7 @@ def _values(message: Any, out: list) -> None:
 def pack(message: Any) -> bytes:
     """`message` (an IDL struct of judo.unitree.messages) as the bytes of its C struct."""
     values: list = []
-    _values(message, values)
+    values_of(message, values)
     return struct.pack(struct_format(type(message)), *values)
 
 

@@ -231,3 +231,12 @@ LOWSTATE = "rt/lowstate"
 """The DDS topic of the robot's readings."""
 LOWCMD = "rt/lowcmd"
 """The DDS topic of the commands to the robot."""
+
+
+def _fast_cdr() -> None:
+    from judo.unitree import cdr
+
+    cdr.install(GoLowCmd, GoLowState, HgLowCmd, HgLowState)
+
+
+_fast_cdr()  # the four messages on the wire serialize through judo.unitree.cdr

@@ -15,6 +15,7 @@ foot forces (its touch sensors, newtons) and the tick (milliseconds of the simul
 LowCmd_ whose CRC is wrong is dropped, as a robot drops it (counted, logged); one with a non-finite value for a
 driven motor too. When no valid command has come for `--unitree.silence-s` seconds (and before the first), the
 motors get damping. The link faults (--latency-ms, --jitter-ms, --drop, --duplicate) apply to each outgoing LowState_.
+With a free base, its height and tilt (which no LowState_ carries) are logged every second of simulation.
 """
 
 import logging
@@ -41,6 +42,8 @@ from judo.unitree.messages import LOWCMD, LOWSTATE
 logger = logging.getLogger("judo.unitree.robot")
 PD_HZ = 500.0
 """Least rate (Hz) the robot's PD runs at: the plant's physics step is the model's, divided to reach it."""
+REPORT_EVERY = 1.0
+"""Seconds of the simulation between log lines of the base's height and tilt (a robot with a free base)."""
 ECHO = LOWCMD + "_echo"
 """With --echo, each LowCmd_ read is written back at once on this topic (benchmarks/unitree_link.py's round trip)."""
 
@@ -109,7 +112,8 @@ def run_robot(options: PlantOptions, stop: threading.Event) -> None:
     bad_crc = refused = 0
     start = time.monotonic()
     clock = PlantClock()
-    next_publish, tau = 0.0, np.zeros(motors.count)
+    next_publish, next_report, tau = 0.0, 0.0, np.zeros(motors.count)
+    base = motors.joints.free[0] if motors.joints.free is not None else None  # the free joint's qpos address
     try:
         while not stop.is_set():
             now = time.monotonic()
@@ -138,6 +142,9 @@ def run_robot(options: PlantOptions, stop: threading.Event) -> None:
                 except SimulationDiverged as err:
                     logger.warning("%s", err)
             clock.stepped(due)
+            if base is not None and data.time >= next_report:
+                next_report = data.time + REPORT_EVERY
+                report_base(data, base)
             if due and data.time >= next_publish - 1e-9:
                 next_publish = max(next_publish + period, data.time)
                 values = system.sensor_values() if sensors is not None else None
@@ -150,6 +157,14 @@ def run_robot(options: PlantOptions, stop: threading.Event) -> None:
                 waitset.wait(duration(nanoseconds=int(wait * 1e9)))
     finally:
         link.close()
+
+
+def report_base(data: mujoco.MjData, address: int) -> None:
+    """Log the free base's height and tilt from vertical (its qpos at `address`): what no rt/lowstate carries."""
+    w, x, y, z = data.qpos[address + 3 : address + 7]
+    up = 1.0 - 2.0 * (x * x + y * y)  # the base's z axis against the world's
+    tilt = math.degrees(math.acos(max(-1.0, min(1.0, up))))
+    logger.info("t=%.1f s: base at height %.3f m, tilted %.0f deg", data.time, data.qpos[address + 2], tilt)
 
 
 def lowstate(motors: mt.Motors, sensors: mt.Sensors | None, data: mujoco.MjData, tau: np.ndarray, values):
