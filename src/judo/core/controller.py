@@ -66,7 +66,7 @@ class RolloutLimits(Protocol):
     """Hard limits (`judo.safety.feasibility.RolloutScreen`): (R * N,) rewards, each rollout that crosses a limit
     scored below every feasible one, from (R * N, T, ...) states, sensors, controls and the (nu,) control served now."""
 
-    def screen(self, rewards: Any, states: Any, sensors: Any, controls: Any, served: Any, models: int) -> Any: ...
+    def screen(self, rewards: Any, states: Any, sensors: Any, controls: Any, served: Any, num_models: int) -> Any: ...
 
 
 class Controller:

@@ -25,6 +25,7 @@ from judo.loop.closed_loop import ClosedLoop, Latency, check_latency
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
+from judo.safety.feasibility import RolloutScreen
 from judo.safety.limits import SafetyConfig
 
 __all__ = [
@@ -155,6 +156,7 @@ def run_episode(
     if loop.guard is not None:
         metrics["limit_hits"] = float(sum(hits.values()))
     screen = controller.limits if isinstance(controller, Controller) else None
+    no_feasible = screen.no_feasible if isinstance(screen, RolloutScreen) else 0
     return EpisodeResult(
         seed=seed,
         log=log,
@@ -165,7 +167,7 @@ def run_episode(
         failed_updates=loop.failed_updates,
         divergences=loop.divergences,
         limit_hits=hits,
-        no_feasible=0 if screen is None else screen.no_feasible,
+        no_feasible=no_feasible,
     )
 
 
