@@ -100,6 +100,15 @@ def test_a_task_without_a_protocol_and_a_metric_it_does_not_report_are_refused(c
     assert err.startswith("error: task 'pendulum' reports no metric 'smiles'; its metrics are: upright_fraction")
 
 
+def test_tuning_seeds_that_overlap_the_validation_seeds_are_refused(capsys, tmp_path):
+    (tmp_path / "pendulum.toml").write_text(PENDULUM + "tuning_first_seed = 5\n")
+    err = refusal(capsys, "--tasks", "pendulum", "--seeds", "6", "--protocols", str(tmp_path), "--out", str(tmp_path))
+    assert err == (
+        f"error: {tmp_path / 'pendulum.toml'}: its tuning seeds (from tuning_first_seed = 5) overlap the validation "
+        "seeds 0 to 5; give fewer --seeds or a tuning_first_seed of 6 or more"
+    )
+
+
 def test_the_winner_is_the_best_mean_in_the_protocols_direction_and_bold_in_markdown(tmp_path):
     (tmp_path / "pendulum.toml").write_text(PENDULUM)
     (tmp_path / "push_t.toml").write_text('metric = "final_position_error"\n')

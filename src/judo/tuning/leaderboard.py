@@ -32,7 +32,7 @@ from judo.cli_shared import (
     progress_display,
 )
 from judo.core.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_folder, check_seed_range
-from judo.core.config import require_between
+from judo.core.config import require, require_between
 from judo.core.config_values import apply_values
 from judo.core.errors import JudoError
 from judo.core.registry import default_configs, get_registered_optimizers
@@ -172,6 +172,11 @@ def open_pairs(args: LeaderboardArgs, storage: str, console: Any) -> list[Pair]:
     pairs = []
     for task in args.task_names():
         protocol = load_protocol(task, args.protocols)
+        require(
+            protocol.tuning_first_seed >= args.seeds,
+            f"{protocol.path}: its tuning seeds (from tuning_first_seed = {protocol.tuning_first_seed}) overlap the "
+            f"validation seeds 0 to {args.seeds - 1}; give fewer --seeds or a tuning_first_seed of {args.seeds} or more",
+        )
         objective = make_objective(task, protocol.metric, probe_metrics(protocol, args.optimizer_names()[0]))
         objective = Objective(objective.metric, protocol.direction)
         for optimizer in args.optimizer_names():
