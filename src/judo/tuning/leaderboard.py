@@ -207,17 +207,21 @@ def tune_pairs(pairs: list[Pair], trials: int, capacity: int) -> None:
         TimeElapsedColumn(),
         TimeRemainingColumn(),
     )
-    total = sum(trials if pair.space else 1 for pair in pairs)
+    budgets = [trials if pair.space else 1 for pair in pairs]
+    done = [pair.done(trials) for pair in pairs]
     with progress_display(*columns) as progress:
-        bar = progress.add_task("trials", total=total, completed=sum(pair.done(trials) for pair in pairs))
-        for pair in pairs:
-            if pair.done(trials) >= (trials if pair.space else 1):
+        bar = progress.add_task("trials", total=sum(budgets), completed=sum(done))
+        for index, pair in enumerate(pairs):
+            if done[index] >= budgets[index]:
                 continue
             label = f"{pair.task} x {pair.optimizer}"
             progress.update(bar, description=label)
 
-            def show(_: Any, label: str = label) -> None:
-                progress.update(bar, completed=sum(pair.done(trials) for pair in pairs), description=label)
+            def show(_: Any, index: int = index, pair: Pair = pair, label: str = label) -> None:
+                done[index] += 1  # one more trial told (a Ctrl-C's are not)
+                best = studies.best_trial(pair.study, pair.objective)
+                score = "" if best is None else f", best {pair.objective.metric} {best.value:.4g}"
+                progress.update(bar, completed=sum(done), description=label + score)
 
             studies.run_trials(pair.study, pair.space, pair.spec, pair.target(trials), capacity, None, show)
 
