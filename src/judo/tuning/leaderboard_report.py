@@ -258,11 +258,12 @@ def record_run(out: Path, seconds: float, cpus: int, finished: bool) -> list[dic
 
 
 def hours_line(runs: list[dict[str, Any]]) -> str:
-    """E.g. "wall time 0:12:30 on 2 cores (0.42 core-hours); 2 runs of this leaderboard: 0:15:00, 0.5 core-hours"."""
+    """E.g. "wall time 12:30 on 2 cores (0.42 core-hours held: wall time x cores); all 2 runs into this folder:
+    15:00, 0.50 core-hours": this run's, from Ray's start to the last validation, and every run's recorded."""
     last = runs[-1]
     line = (
         f"wall time {clock_time(last['wall_s'])} on {last['cpus']} cores ({last['wall_s'] * last['cpus'] / 3600:.2f} "
-        "core-hours)"
+        "core-hours held: wall time x cores)"
     )
     if len(runs) > 1:
         total = sum(run["wall_s"] for run in runs)
