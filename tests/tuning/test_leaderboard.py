@@ -128,3 +128,17 @@ def test_the_winner_is_the_best_mean_in_the_protocols_direction_and_bold_in_mark
     assert lines[2] == "| ps | **0.95 ± 0.635** | 2 ± 12.7 |"
     assert lines[3] == "| mppi | 0.65 ± 0.635 | **1 ± 6.35** |"
     assert lines[4] == "| cem | failed | **1 ± 0** |"
+
+
+def test_the_validation_store_is_written_whole_and_a_broken_one_is_refused(tmp_path):
+    from judo.core.errors import JudoError
+    from judo.tuning.leaderboard_validation import load_store, save_store
+
+    path = tmp_path / "validation.json"
+    assert load_store(path) == {}
+    save_store(path, {"pendulum|ps|x|trial 0|2 seeds": {"scores": [0.5, 1.0], "failure": None, "plan_ms": 3.0}})
+    assert load_store(path)["pendulum|ps|x|trial 0|2 seeds"]["scores"] == [0.5, 1.0]
+    assert [p.name for p in tmp_path.iterdir()] == ["validation.json"]
+    path.write_text('{"pendulum|ps": ')  # cut short by hand
+    with pytest.raises(JudoError, match=r"validation.json holds no stored validations \(.*\); delete it to validate"):
+        load_store(path)

@@ -7,12 +7,14 @@ running and the same command resumes with the others.
 """
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from judo.cli_shared import progress_console, progress_display
+from judo.core.errors import JudoError
 from judo.evaluation.cli import write_json
 from judo.evaluation.episode import EpisodeOutcome
 from judo.tuning.trial import TrialSpec, run_condition_seed
@@ -28,8 +30,24 @@ def validation_episode(key: str, spec: TrialSpec, values: dict[str, Any], seed: 
 
 
 def load_store(path: Path) -> dict[str, Any]:
-    """The validations stored at `path` ({} when there is no file yet)."""
-    return json.loads(path.read_text()) if path.is_file() else {}
+    """The validations stored at `path` ({} when there is no file yet); JudoError for a file that is not one."""
+    if not path.is_file():
+        return {}
+    try:
+        store = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        raise JudoError(f"{path} holds no stored validations ({err}); delete it to validate again") from None
+    if not isinstance(store, dict):
+        raise JudoError(f"{path} holds no stored validations (expected a JSON object); delete it to validate again")
+    return store
+
+
+def save_store(path: Path, store: dict[str, Any]) -> None:
+    """Write `store` to `path` whole or not at all (a temporary file, then renamed), so that a Ctrl-C while it is
+    written leaves the previous store."""
+    temporary = path.with_name(path.name + ".tmp")
+    write_json(temporary, store)
+    os.replace(temporary, path)
 
 
 def stored_job(spec: TrialSpec, outcomes: list[EpisodeOutcome[None]]) -> dict[str, Any]:
@@ -63,7 +81,7 @@ def validate(jobs: Jobs, store_path: Path, address: str | None, cpus: int) -> di
         outcomes[key].append(outcome)
         if len(outcomes[key]) == spec.seeds:
             store[key] = stored_job(spec, outcomes[key])
-            write_json(store_path, store)
+            save_store(store_path, store)
 
     tasks = [(key, spec, values, seed) for key, (spec, values) in todo.items() for seed in spec.seed_range()]
     if tasks:
