@@ -217,7 +217,7 @@ def load_config(path: str | Path) -> LoadedConfig:
             except JudoError as err:
                 raise fail(f"{section}.{task_name}", err) from None
 
-    for section, module_name in TASK_SECTIONS.items():
+    for section, module_name in [(name, module) for name, module in TASK_SECTIONS.items() if name in table]:
         module = importlib.import_module(module_name)
         for task_name, overrides in _table(table, section, path).items():
             where = f"{section}.{task_name}"
