@@ -61,6 +61,7 @@ class ServeFilter:
         counts: hits by limit name, over the filter's life.
         filtered: commands filtered so far; `replaced` how many of them became the safe action.
         status: the latest line told ("safety: ... ; serving the safe action"), or None before any.
+        screen: the planner's RolloutScreen where `guard` set one (its counts join `summary`), else None.
     """
 
     def __init__(self, task: Task, limits: Limits) -> None:
@@ -76,6 +77,7 @@ class ServeFilter:
         self.counts: collections.Counter[str] = collections.Counter()
         self.filtered = self.replaced = 0
         self.status: str | None = None
+        self.screen: RolloutScreen | None = None
         self._previous: np.ndarray | None = None
         self._previous_time = 0.0
         self._acting: frozenset[str] = frozenset()
@@ -256,9 +258,11 @@ class ServeFilter:
         ]
 
     def summary(self) -> str:
-        """One line: commands filtered, how many became the safe action, and the hits by limit."""
+        """One line: commands filtered, how many became the safe action, the hits by limit, and the planner's
+        iterations with no feasible sample (where a screen is set)."""
         shown = ", ".join(f"{name} {count}" for name, count in self.counts.most_common()) or "none"
-        return f"safety: {self.filtered} commands filtered, {self.replaced} replaced by the safe action; limit hits: {shown}"
+        line = f"safety: {self.filtered} commands filtered, {self.replaced} replaced by the safe action; limit hits: {shown}"
+        return line if self.screen is None else f"{line}; {self.screen.summary()}"
 
 
 def guard(planner: Planner, config: SafetyConfig | None) -> ServeFilter | None:
@@ -269,6 +273,7 @@ def guard(planner: Planner, config: SafetyConfig | None) -> ServeFilter | None:
         return None
     task = planner.task
     limits = resolve(task, config)
+    last_line = ServeFilter(task, limits)
     if isinstance(planner, Controller):
-        planner.limits = RolloutScreen(limits, task.dt, task.model.nq)
-    return ServeFilter(task, limits)
+        planner.limits = last_line.screen = RolloutScreen(limits, task.dt, task.model.nq)
+    return last_line
