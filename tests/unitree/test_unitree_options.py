@@ -77,3 +77,17 @@ def test_a_reading_with_the_wrong_motor_count_is_refused():
     state.motor_state = state.motor_state[:12]
     assert reading_of(state, motors, sensors) == ("lowstate (motor count)", "12 motors; a go2 sends 20")
     assert len(msg.HgLowState().motor_state) == mt.ROBOTS["g1"].slots
+
+
+def test_a_g1_command_echoes_the_robots_mode_machine_and_verifies():
+    from judo.core.registry import make_task
+    from judo.unitree import crc
+
+    motors = mt.Motors.of(make_task("g1_stand").model, "g1")
+    assert motors.slot.tolist() == list(range(29)) and motors.robot.low_cmd is msg.HgLowCmd
+    command = crc.with_crc(mt.low_cmd(motors, np.zeros(29), motors.kp, motors.kd, mode_machine=5))
+    assert (command.mode_pr, command.mode_machine) == (0, 5)
+    assert [c.mode for c in command.motor_cmd] == [mt.ENABLE] * 29 + [0] * 6  # slots 29-34 unused
+    assert command.motor_cmd[3].kp == pytest.approx(motors.kp[3]) and crc.crc_ok(
+        msg.HgLowCmd.deserialize(command.serialize())
+    )

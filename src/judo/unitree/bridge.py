@@ -25,6 +25,7 @@ import logging
 import math
 import threading
 import time
+from typing import NamedTuple
 
 import numpy as np
 
@@ -161,8 +162,8 @@ class UnitreeSystem(System):
 
     def _note(self, message, wall: float) -> None:
         parsed = reading_of(message, self.motors, self.sensors)
-        if isinstance(parsed[0], str):
-            return self._refuse(*parsed)
+        if isinstance(parsed, Refusal):
+            return self._refuse(parsed.kind, parsed.why)
         sensors, q = parsed
         reading_time, why = self._clock.accept(int(message.tick) / 1000.0, wall)
         if reading_time is None:
@@ -263,13 +264,22 @@ def damping(motors: mt.Motors, mode_machine: int = 0):
     return mt.low_cmd(motors, zeros, zeros, np.full(motors.count, mt.DAMPING_KD), mode_machine)
 
 
-def reading_of(message, motors: mt.Motors, sensors: mt.Sensors) -> tuple[np.ndarray, np.ndarray] | tuple[str, str]:
-    """((measured size,) the task's measured sensors, (nu,) motor q) of a LowState_ `message`, or (refusal kind,
-    why) for one that cannot be the robot's: the wrong number of motors, a non-finite value, a joint out of its
+class Refusal(NamedTuple):
+    """Why a reading was refused: its kind (the key of `UnitreeSystem.refused`) and the detail logged."""
+
+    kind: str
+    why: str
+
+
+def reading_of(message, motors: mt.Motors, sensors: mt.Sensors) -> tuple[np.ndarray, np.ndarray] | Refusal:
+    """((measured size,) the task's measured sensors, (nu,) motor q) of a LowState_ `message`, or the `Refusal` of
+    one that cannot be the robot's: the wrong number of motors, a non-finite value, a joint out of its
     bounds."""
     slots = motors.robot.slots
     if len(message.motor_state) != slots:
-        return "lowstate (motor count)", f"{len(message.motor_state)} motors; a {motors.robot.name} sends {slots}"
+        return Refusal(
+            "lowstate (motor count)", f"{len(message.motor_state)} motors; a {motors.robot.name} sends {slots}"
+        )
     q, dq, _ = mt.motors_of(message, motors)
     imu = message.imu_state
     values = {
@@ -281,12 +291,14 @@ def reading_of(message, motors: mt.Motors, sensors: mt.Sensors) -> tuple[np.ndar
     bad = [motors.joints.names[i] for i, v in zip(motors.order, q + dq, strict=True) if not math.isfinite(v)]
     bad += [f"imu {key}" for key, value in values.items() if not np.isfinite(value).all()]
     if bad:
-        return "lowstate (non-finite)", f"non-finite values of {', '.join(bad)}"
+        return Refusal("lowstate (non-finite)", f"non-finite values of {', '.join(bad)}")
     norm = float(np.linalg.norm(values["quat"]))
     if not 0.5 < norm < 1.5:
-        return "lowstate (imu)", f"an IMU quaternion {values['quat'].tolist()} of norm {norm:.3g}, not a unit one"
+        return Refusal(
+            "lowstate (imu)", f"an IMU quaternion {values['quat'].tolist()} of norm {norm:.3g}, not a unit one"
+        )
     why = motors.joints.implausible(motors.order, q, dq)
     if why is not None:
-        return "lowstate (out of bounds)", why
+        return Refusal("lowstate (out of bounds)", why)
     values["quat"] = values["quat"] / norm
     return sensors.from_lowstate(q, dq, values, feet), q

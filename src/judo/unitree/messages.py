@@ -1,4 +1,5 @@
 # pyright: reportCallIssue=false, reportGeneralTypeIssues=false, reportAssignmentType=false, reportInvalidTypeForm=false
+# pyright: reportArgumentType=false
 # (cyclonedds' IDL dataclasses take `typename=` in the class line and sizes in `array[float32, 4]`, which its type
 # hints do not describe)
 """Unitree's low-level DDS messages, written on `cyclonedds` (Unitree's IDL, as unitree_sdk2 publishes it).
