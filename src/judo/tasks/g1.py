@@ -46,6 +46,7 @@ GRAVITY = 9.81
 @slider("w_posture", 0.0, 5.0, 0.01)
 @slider("w_velocity", 0.0, 20.0, 0.1)
 @slider("w_effort", 0.0, 1.0, 0.001)
+@slider("w_feet", 0.0, 5000.0, 10.0)
 @slider("push_force", 0.0, 200.0, 1.0)
 @slider("push_interval", 0.5, 10.0, 0.1)
 @slider("push_duration", 0.02, 1.0, 0.01)
@@ -68,6 +69,8 @@ class G1StandConfig(TaskConfig):
     """Weight on the centre of mass's horizontal speed (squared, m^2/s^2), so it comes to rest."""
     w_effort: float = 0.01
     """Weight on the servos' torques as a share of their limits (squared, summed)."""
+    w_feet: float = 0.0
+    """Weight on the feet's soles rising off the floor (squared height, summed over both feet, m^2)."""
     push_force: float = 40.0
     """Force (N) of each random horizontal push on the plant's pelvis; 0 turns pushes off."""
     push_interval: float = 4.0
@@ -91,6 +94,8 @@ class G1Stand(Task[G1StandConfig]):
         "imu_acc",
     )
     """What the G1's rt/lowstate carries: 29 joint encoders (q, then dq, in motor order) and the pelvis IMU."""
+    default_estimator = "ekf"
+    """The filter that makes the floating base from those readings (no base pose or foot force is measured)."""
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
         super().__init__(model_path, sim_model_path)
@@ -141,6 +146,7 @@ class G1Stand(Task[G1StandConfig]):
             + config.w_posture * np.square(joints - self.home_ctrl).sum(-1)
             + config.w_velocity * np.square(com_velocity).sum(-1)
             + config.w_effort * np.square(torque_share).sum(-1)
+            + config.w_feet * np.square(sensors[..., self._feet + 2]).sum(-1)
         )
         return -cost.mean(-1)
 
