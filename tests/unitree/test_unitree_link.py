@@ -34,7 +34,7 @@ pytestmark = pytest.mark.slow
 def test_bridge_holds_the_leg_with_verified_ramped_commands():
     domain = free_domain()
     robot = start_robot(domain, "--unitree.interface", "lo")  # both ends on the loopback interface by name
-    wire = Wire(domain)
+    wire = Wire(domain, interface="lo")
     task = leg_task.UnitreeLeg()
     system = UnitreeSystem(task, leg_options(domain, soft_start_s=2.0, interface="lo"))
     try:

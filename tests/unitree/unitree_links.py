@@ -38,12 +38,12 @@ class Wire:
     """A test's own participant on `domain`: reads every rt/lowcmd and rt/lowstate, writes rt/lowstate, and
     rt/lowcmd too where `commands` (another commander, which the bridge refuses at start)."""
 
-    def __init__(self, domain: int, commands: bool = False) -> None:
+    def __init__(self, domain: int, commands: bool = False, interface: str | None = None) -> None:
         from cyclonedds.core import Policy, Qos
         from cyclonedds.pub import DataWriter
         from cyclonedds.sub import DataReader
 
-        self.link = Link(domain, None, msg.GoLowState, msg.GoLowCmd)
+        self.link = Link(domain, interface, msg.GoLowState, msg.GoLowCmd)
         keep_all = Qos(Policy.Reliability.Reliable(0), Policy.History.KeepLast(4096))
         self.commands = DataReader(self.link.participant, self.link.command_topic, keep_all)
         self.states = DataReader(self.link.participant, self.link.state_topic, STATE_QOS)

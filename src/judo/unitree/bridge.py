@@ -6,7 +6,8 @@
 
 In: `rt/lowstate` (LowState_) becomes a reading with no `state`: the task's measured sensors (joint q and dq of each
 actuator's motor, the IMU's quaternion [w x y z], gyroscope and accelerometer, the Go2's foot forces), stamped by the
-robot's tick (milliseconds, made a reading time that never runs back: `judo.ros2.clock.RobotClock`); the task's
+robot's tick (milliseconds, made a reading time that never runs back: `judo.ros2.clock.RobotClock`), with the tick
+and judo's receive time (monotonic seconds) in the reading's metadata["tick"] and ["received"]; the task's
 estimator makes the state. `rt/sportmodestate` is never read: a robot under low-level control does not publish it.
 
 Out: `rt/lowcmd` (LowCmd_) once per `step()`, at `rate_hz`, with the action in force (the plan evaluated at each
@@ -169,7 +170,8 @@ class UnitreeSystem(System):
         if reading_time is None:
             return self._refuse("lowstate (tick)", str(why))
         with self._lock:
-            self._reading = SystemState(None, reading_time, {"tick": int(message.tick)}, sensors)
+            metadata = {"tick": int(message.tick), "received": wall}
+            self._reading = SystemState(None, reading_time, metadata, sensors)
             self._q, self._last_valid = q, wall
             self._mode_machine = int(getattr(message, "mode_machine", 0))
 
