@@ -73,3 +73,13 @@ def test_a_start_beyond_a_limit_is_counted_and_planned_back_toward_it():
     assert controller.limits.no_feasible == controller.iterations_run >= 1
     assert np.isfinite(controller.rewards).all()  # ranked by how far each sample goes beyond
     controller.close()
+
+
+def test_the_rate_limits_first_step_is_checked_against_the_command_the_filter_served_last():
+    controller = make_controller("cartpole", "ps", seed=0)
+    screen = screen_of(controller.task, rate=("push=10",))
+    arrays = (np.zeros((1, 3, 4)), np.zeros((1, 3, 0)), np.full((1, 3, 1), 0.5))
+    assert screen.violations(*arrays, np.array([0.5])).tolist() == [0.0]  # the plan in force: no jump
+    screen.last_served = np.array([0.0])  # what the serve filter set: a jump of 0.5 in 0.01 s
+    assert screen.violations(*arrays, np.array([0.5])) == pytest.approx([0.5 / 0.01 - 10])
+    controller.close()

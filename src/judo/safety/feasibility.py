@@ -33,6 +33,8 @@ class RolloutScreen:
         infeasible: samples found infeasible, over all iterations.
         feasible_fraction: share of the last iteration's samples that were feasible.
         last_infeasible: (N,) bool, the last iteration's infeasible sequences.
+        last_served: (nu,) the command the serve filter served last (it sets it), or None; where set, the rate
+            limits' step before the rollouts' first is this one rather than the planner's (the plan in force).
     """
 
     def __init__(self, limits: Limits, dt: float, nq: int) -> None:
@@ -40,6 +42,7 @@ class RolloutScreen:
         self.iterations = self.no_feasible = self.infeasible = 0
         self.feasible_fraction = 1.0
         self.last_infeasible = np.zeros(0, dtype=bool)
+        self.last_served: np.ndarray | None = None
 
     def violations(
         self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, served: np.ndarray
@@ -68,6 +71,7 @@ class RolloutScreen:
             force = lim.effort_of(controls, before[..., : self.nq], before[..., self.nq :])
             total += _worst(np.abs(force) - lim.effort_max, lim.effort_max)
         if len(lim.rate):
+            served = served if self.last_served is None else self.last_served
             u = controls[..., lim.rate_actuator]
             steps = np.abs(
                 np.diff(u, axis=1, prepend=np.broadcast_to(served[lim.rate_actuator], (rows, 1, len(lim.rate))))

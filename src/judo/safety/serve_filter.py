@@ -118,6 +118,8 @@ class ServeFilter:
                     self.replaced += 1
         self.filtered += 1
         self._previous, self._previous_time = u, time
+        if self.screen is not None:  # the next plan's first command is rate-checked against this one
+            self.screen.last_served = u
         self.step_hits = tuple(hits)
         self.hits.extend(hits)
         self.counts.update(hit.limit for hit in hits)
