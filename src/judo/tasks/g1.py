@@ -94,7 +94,7 @@ class G1Stand(Task[G1StandConfig]):
         "imu_acc",
     )
     """What the G1's rt/lowstate carries: 29 joint encoders (q, then dq, in motor order) and the pelvis IMU."""
-    default_estimator = "ekf"
+    default_estimator = "legged"
     """The filter that makes the floating base from those readings (no base pose or foot force is measured)."""
 
     def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
