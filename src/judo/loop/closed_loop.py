@@ -173,7 +173,7 @@ class ClosedLoop:
         self.latency_s: list[float] = []
         self.keep_updates = keep_updates
         self.stop, self._stop_halted = stop, False  # the latched stop, and whether the System's halt holds the plant
-        self.guard = guard(controller, safety)  # [safety]: the serve filter (and a Controller's rollout screen), or None
+        self.guard = guard(controller, safety)  # [safety]: the serve filter (a Controller gets its screen), or None
         self.failed_updates = self.divergences = 0
         self.control_clock = ControlClock()
         self.last_delay = 0.0
