@@ -155,7 +155,7 @@ def test_the_all_section_sets_every_optimizers_base_fields_and_a_named_one_wins(
 
 def test_an_unknown_optimizer_section_lists_all_among_the_valid_names(tmp_path):
     path = write(tmp_path, "[optimizer_config_overrides.pendulum.mpi]\nsigma = 0.1\n")
-    with pytest.raises(judo.ConfigFileError, match=r"unknown optimizer 'mpi'; valid optimizers are: all, cem"):
+    with pytest.raises(judo.ConfigFileError, match=r"unknown optimizer 'mpi'; valid optimizers are: all, cbo, cem"):
         judo.load_config(path)
 
 
