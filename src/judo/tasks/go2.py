@@ -29,6 +29,11 @@ FOOT_RADIUS = 0.022
 """Radius (m) of the foot spheres: a foot on the floor has its site this high."""
 STAND_POSE = np.tile([0.0, 0.9, -1.8], 4)
 """(12,) the crouched stand's joint targets (keyframe "home", base 0.25 m up): the safe action."""
+RISE_POSE = np.tile([0.0, 0.8, -1.5], 4)
+"""(12,) joint targets the PD holds the base at about 0.30 m with (the default target height): the warm start."""
+POSTURE = np.tile([0.0, 0.8, -1.6], 4)
+"""(12,) the joint angles the robot stands at under RISE_POSE (the servos sag 0.09 rad at the calves): the posture
+the reward keeps the legs near."""
 STANDING_FRACTION_OF_TARGET = 0.8
 """The base counts as standing above this share of the target height, upright within UPRIGHT_COS."""
 UPRIGHT_COS = np.cos(np.deg2rad(30.0))
@@ -68,7 +73,7 @@ class Go2BaseConfig(TaskConfig):
     w_balance: float = 20.0
     """Weight on the base's horizontal offset from the middle of the four feet (squared, m^2)."""
     w_posture: float = 0.1
-    """Weight on the joint angles differing from the crouched stand (squared, summed, rad^2)."""
+    """Weight on the joint angles differing from POSTURE, the stand at 0.30 m (squared, summed, rad^2)."""
     w_effort: float = 0.01
     """Weight on the joint torques the PD spends, as a share of the motor limit (squared, summed)."""
 
@@ -102,17 +107,19 @@ class Go2WalkConfig(Go2BaseConfig):
     `--task-config.velocity-command 0.5 0 0` on the command line, `velocity_command = [0.5, 0, 0]` in TOML."""
     gait: GaitName = "trot"
     """The foot schedule (judo.tasks.quadruped.GAITS): "trot", "walk" or "stand" (no foot asked to lift)."""
-    step_height: float = 0.08
+    step_height: float = 0.06
     """How high (m) a swinging foot is lifted at mid-swing."""
     push_force: float = 0.0
     """Horizontal force (N) of each push on the plant's base; 0 (the default here) turns pushes off."""
+    w_height: float = 800.0
+    """Weight on the base height error (squared, m^2): twice go2_stand's, or the trot sags below 0.24 m."""
     w_balance: float = 0.0
     """Weight on the base's offset from the middle of the feet: none while walking (the stride moves them)."""
-    w_gait: float = 200.0
+    w_gait: float = 100.0
     """Weight on each foot's height differing from the gait's schedule (squared, summed over feet, m^2)."""
-    w_velocity: float = 4.0
+    w_velocity: float = 6.0
     """Weight on the base's horizontal velocity differing from the command's (squared, m^2/s^2)."""
-    w_yaw_rate: float = 1.0
+    w_yaw_rate: float = 2.0
     """Weight on the base's yaw rate differing from the command's (squared, rad^2/s^2)."""
 
 
@@ -127,7 +134,7 @@ class Go2Base(Task[Go2ConfigT]):
     """
 
     focus_body = "base"
-    lower_is_better: ClassVar[tuple[str, ...]] = ("falls", "time_to_stand")
+    lower_is_better: ClassVar[tuple[str, ...]] = ("falls", "time_to_stand", "height_error")
     check_latency_ms: ClassVar[float] = 20.0
     measured_sensors = (
         *(f"{joint}_pos" for joint in JOINTS),
@@ -189,7 +196,7 @@ class Go2Base(Task[Go2ConfigT]):
             config.w_height * np.square(height_error)
             + config.w_upright * tilt
             + config.w_balance * np.square(offset).sum(-1)
-            + config.w_posture * np.square(joints - STAND_POSE).sum(-1)
+            + config.w_posture * np.square(joints - POSTURE).sum(-1)
             + config.w_effort * np.square(torque_share).sum(-1)
         )
 
@@ -206,8 +213,8 @@ class Go2Base(Task[Go2ConfigT]):
         self.pushes.apply(self.data, self.rng, config.push_force, config.push_interval, config.push_duration)
 
     def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
-        """(12,) the crouched stand's joint targets: with no noise, the plan stands up."""
-        return STAND_POSE.copy()
+        """(12,) RISE_POSE: with no noise, the plan stands up to about the default target height."""
+        return RISE_POSE.copy()
 
     def safe_action(self, state: np.ndarray) -> np.ndarray:
         """(12,) the crouched stand's joint targets (0, 0.9, -1.8 per leg), whatever the `state`. Holding the
@@ -228,7 +235,9 @@ class Go2Base(Task[Go2ConfigT]):
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """standing_fraction: share of the episode standing (`standing`); time_to_stand: when (s) the base first
         stood and stayed so for STAND_HOLD_TIME, or the episode's length if never; falls: times the base, having
-        stood, dropped below FALLEN_HEIGHT or tilted past 60 degrees; final_height (m); pushes given."""
+        stood, dropped below FALLEN_HEIGHT or tilted past 60 degrees; height_error: mean absolute distance (m) of the
+        base from the target height from time_to_stand on (the target itself if it never stood); final_height (m);
+        pushes given."""
         standing = self.standing(log.sensors)
         dt = float(self.sim_model.opt.timestep)
         hold = max(1, round(STAND_HOLD_TIME / dt))
@@ -241,8 +250,10 @@ class Go2Base(Task[Go2ConfigT]):
                 stood = True
             elif stood and is_down:
                 falls, stood = falls + 1, False
+        after = self.base_height(log.sensors[start:]) - self.config.target_height
         return {
             "standing_fraction": float(standing.mean()),
+            "height_error": float(np.abs(after).mean()) if held.any() else float(self.config.target_height),
             "time_to_stand": float(log.times[start] - log.times[0] + dt),
             "falls": float(falls),
             "final_height": float(self.base_height(log.sensors[-1])),
@@ -274,7 +285,7 @@ class Go2Walk(Go2Base[Go2WalkConfig]):
     the feet on the gait's schedule (the model's "clock" sensor places each rollout step in the stride)."""
 
     start_key = "home"
-    lower_is_better = ("falls", "time_to_stand", "velocity_error", "yaw_rate_error")
+    lower_is_better = ("falls", "time_to_stand", "height_error", "velocity_error", "yaw_rate_error")
 
     def reward(
         self,
