@@ -25,14 +25,14 @@ from judo.core.backend import RolloutBackend
 from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
 from judo.core.config import require, require_between
 from judo.core.errors import JudoError
-from judo.core.registry import make_task, set_config_overrides
+from judo.core.registry import make_task
 from judo.evaluation.cli import given_fields, write_json
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
 from judo.evaluation.seeded import EpisodeSpec, evaluate_seed, planning_model, run_seeded_episode, run_side_by_side
 from judo.evaluation.stats import Summary, shown_interval, summarize
-from judo.safety.limits import SafetyConfig, check_section
+from judo.safety.limits import SafetyConfig, set_task_limits
 
 DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
@@ -162,11 +162,7 @@ def apply_safety_flags(args: EvaluateArgs) -> None:
         args.workers is None and args.address is None,
         "--safety.* sets limits in this process only; with --workers or --address give them as [safety.TASK] in --config",
     )
-    from judo.core.config import with_updates
-    from judo.core.registry import make_config
-
-    check_section(args.task, with_updates(make_config(SafetyConfig, args.task), given))
-    set_config_overrides(args.task, SafetyConfig, given)
+    set_task_limits(args.task, given)
 
 
 def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:

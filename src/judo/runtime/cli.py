@@ -58,6 +58,7 @@ from judo.loop.system_choice import (
     unitree_options,
 )
 from judo.runtime.app import App
+from judo.safety.limits import SafetyConfig, set_task_limits
 
 PROG = "python -m judo"
 
@@ -111,6 +112,8 @@ class RunOptions:
     """The ROS 2 bridge's domain, topics, rate and joint names (--ros2.*, a group of its own)."""
     unitree: tyro.conf.Suppress[UnitreeOptions] = field(default_factory=UnitreeOptions)
     """The Unitree bridge's robot, domain, interface, rate and soft start (--unitree.*, a group of its own)."""
+    safety: tyro.conf.Suppress[SafetyConfig] = field(default_factory=SafetyConfig)
+    """The owner's limits of --task (--safety.*, a group of its own; docs/safety.md), over its [safety.TASK]."""
     sensing: Annotated[SensingFlags, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")] = field(
         default_factory=SensingFlags
     )
@@ -132,7 +135,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     argv = ["--task", task, "--optimizer", optimizer, *merge_repeated(argv)]
     try:
-        options, configs = parse(argv, defaults, ros2, unitree)
+        safety = make_config(SafetyConfig, task)  # the task's and the --config file's [safety.TASK]
+        options, configs = parse(argv, defaults, ros2, unitree, safety)
+        set_task_limits(options.task, changed_fields(safety, options.safety))  # what --safety.* changed
         if options.duration is not None and math.isfinite(options.duration) and options.duration > MAX_DURATION:
             raise ConfigError(  # its step count would not fit an integer
                 "duration must be a positive, finite number of seconds of sim time, "
@@ -195,10 +200,14 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def parse(
-    argv: list[str], defaults: dict[str, Any], ros2: Ros2Options | None = None, unitree: UnitreeOptions | None = None
+    argv: list[str],
+    defaults: dict[str, Any],
+    ros2: Ros2Options | None = None,
+    unitree: UnitreeOptions | None = None,
+    safety: SafetyConfig | None = None,
 ) -> tuple[RunOptions, dict[str, Config]]:
     """The run options and the validated controller, optimizer and task configs from `argv` (the --ros2.*
-    options over `ros2`'s values).
+    options over `ros2`'s values, the --safety.* ones over `safety`'s).
 
     Raises ConfigError for a value the configs refuse (e.g. a wrong-length array).
     """
@@ -214,7 +223,10 @@ def parse(
         field(default_factory=lambda: ros2 or Ros2Options()),
     )  # --ros2.domain-id, ... (with --system ros2)
     unitree_field = ("unitree", UnitreeOptions, field(default_factory=lambda: unitree or UnitreeOptions()))
-    arguments_cls = dataclasses.make_dataclass("JudoArguments", [options_field, ros2_field, unitree_field, *groups])
+    safety_field = ("safety", SafetyConfig, field(default_factory=lambda: safety or SafetyConfig()))
+    arguments_cls = dataclasses.make_dataclass(
+        "JudoArguments", [options_field, ros2_field, unitree_field, safety_field, *groups]
+    )
     parsed = tyro.cli(
         arguments_cls,
         args=argv,
@@ -226,7 +238,13 @@ def parse(
     for kind, config in defaults.items():
         given = getattr(parsed, CONFIG_GROUPS[kind])
         configs[kind] = with_updates(config, {f.name: getattr(given, f.name) for f in fields(given)})
-    return dataclasses.replace(parsed.options, ros2=parsed.ros2, unitree=parsed.unitree), configs
+    options = dataclasses.replace(parsed.options, ros2=parsed.ros2, unitree=parsed.unitree, safety=parsed.safety)
+    return options, configs
+
+
+def changed_fields(before: Config, after: Config) -> dict[str, Any]:
+    """{field: value} of `after` that differ from `before` (the fields a command line changed in a group)."""
+    return {f.name: getattr(after, f.name) for f in fields(after) if getattr(after, f.name) != getattr(before, f.name)}
 
 
 def _as_kind(config: Config | None, cls: type[ConfigT]) -> ConfigT | None:

@@ -13,6 +13,7 @@ the gear. A position actuator's force is so kp (q_des - q) - kv dq, the torque i
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -378,3 +379,16 @@ def check_section(task_name: str, config: SafetyConfig) -> None:
         from judo.core.registry import make_task
 
         resolve(make_task(task_name), config)
+
+
+def set_task_limits(task_name: str, given: dict[str, Any]) -> None:
+    """Make `given` ({SafetyConfig field: value}, e.g. the `--safety.*` flags of the app and evaluate) the task's
+    [safety] defaults in this process, over its own and the config file's; checked against its planning model first
+    (ConfigError or LimitError, one line). Nothing changes for {}."""
+    if not given:
+        return
+    from judo.core.config import with_updates
+    from judo.core.registry import make_config, set_config_overrides
+
+    check_section(task_name, with_updates(make_config(SafetyConfig, task_name), given))
+    set_config_overrides(task_name, SafetyConfig, given)

@@ -22,6 +22,7 @@ from judo.runtime.gui.config_panel import ConfigPanel, hidden_fields
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.goal_handles import GoalHandles
 from judo.runtime.gui.plots import Plots, estimation_error
+from judo.runtime.gui.safety_panel import SafetyPanel
 from judo.runtime.gui.scene import SceneView
 from judo.runtime.gui.server import gui_url, start_server
 from judo.runtime.gui.viser_internals import purge_removed
@@ -55,6 +56,7 @@ class Gui:
         self.scene: SceneView | None = None
         self.ghost: SceneView | None = None  # the estimate, while an estimator runs on the app's simulation
         self.estimator_panel: ConfigPanel | None = None
+        self.safety_panel: SafetyPanel | None = None  # the limits in force, read-only
         self.follower: Follower | None = None
         self.goals: GoalHandles | None = None
         self._look_at = np.zeros(3)  # where the cameras look while following: the framed centre plus the focus's moves
@@ -219,6 +221,10 @@ class Gui:
             for order, (kind, config) in enumerate(configs.items(), start=1)
         }
         self._show_estimator(session, reading)
+        if self.safety_panel is not None:
+            self.safety_panel.remove()
+        guard = session.closed_loop.guard  # the [safety] limits' serve filter, or None
+        self.safety_panel = SafetyPanel(self.server.gui, None if guard is None else guard.limits, 45)
         self.controls.show_session()
         self._generation = session.generation
         # viser keeps every removed widget's and scene node's tombstone for clients that connect later,
