@@ -24,6 +24,14 @@ from judo.tuning.objective import Objective
 from judo.tuning.space import Param
 from judo.tuning.study import import_optuna, is_baseline, is_feasible, ranked_trials
 
+LIMIT_HITS = "limit_hits"
+"""Evaluate's metric of the [safety] limits' hits per episode (judo.evaluation.episode), shown beside the score."""
+
+
+def has_limit_hits(trials: list[Any]) -> bool:
+    """Whether any trial ran under [safety] limits (its metrics have LIMIT_HITS)."""
+    return any(LIMIT_HITS in trial.user_attrs.get("metrics", {}) for trial in trials)
+
 
 def fmt(value: Any) -> str:
     """A short text for a number or other value."""
@@ -33,7 +41,8 @@ def fmt(value: Any) -> str:
 
 
 def top_trials_table(study: Any, objective: Objective, space: list[Param], count: int = 10) -> Table:
-    """The best `count` completed trials: value, median plan time, feasibility and parameters."""
+    """The best `count` completed trials: value (and the mean limit hits per episode under [safety] limits), median
+    plan time, feasibility and parameters."""
     trials = ranked_trials(study, objective)
     failed = len(study.get_trials(deepcopy=False, states=(import_optuna().trial.TrialState.FAIL,)))
     table = Table(title=f"top trials of {study.study_name}: {objective.metric} ({objective.direction})")
@@ -42,12 +51,14 @@ def top_trials_table(study: Any, objective: Objective, space: list[Param], count
     labels = [p.field if fields.count(p.field) == 1 else p.name for p in space]
     conditions = condition_labels(trials)
     shown = conditions if len(conditions) > 1 else []
-    for column in ("trial", objective.metric, *map(short_label, shown), "plan ms", "feasible", *labels):
+    hits = ["limit hits"] if has_limit_hits(trials) else []
+    for column in ("trial", objective.metric, *hits, *map(short_label, shown), "plan ms", "feasible", *labels):
         table.add_column(column, justify="left" if column in ("feasible",) else "right")
     for trial in trials[:count]:
         table.add_row(
             f"{trial.number} (defaults)" if is_baseline(trial) else str(trial.number),
             fmt(trial.value),
+            *(fmt(trial.user_attrs.get("metrics", {}).get(LIMIT_HITS, math.nan)) for _ in hits),
             *(fmt(trial.user_attrs.get("conditions", {}).get(label, math.nan)) for label in shown),
             fmt(trial.user_attrs.get("plan_ms") or math.nan),
             "yes" if is_feasible(trial) else "no",
@@ -72,16 +83,20 @@ def condition_labels(trials: list[Any]) -> list[str]:
 
 
 def write_trials_csv(path: Path, study: Any, metric: str = "value") -> None:
-    """One row per trial: number, state, value, the objective `metric` under each condition (a column
-    `METRIC@LABEL` per condition), plan_ms, feasible, failure, each parameter and each metric's mean."""
+    """One row per trial: number, state, value, under [safety] limits `limit_hits` (the mean hits per episode), the
+    objective `metric` under each condition (a column `METRIC@LABEL` per condition), plan_ms, feasible, failure, each
+    parameter and each other metric's mean."""
     trials = study.get_trials(deepcopy=False)
     params = list(dict.fromkeys(name for trial in trials for name in trial.params))
     metrics = list(dict.fromkeys(name for trial in trials for name in trial.user_attrs.get("metrics", {})))
+    hits = [LIMIT_HITS] if LIMIT_HITS in metrics else []
+    metrics = [name for name in metrics if name not in hits]
     conditions = condition_labels(trials)
     header = [
         "number",
         "state",
         "value",
+        *hits,
         *(f"{metric}@{label}" for label in conditions),
         "plan_ms",
         "feasible",
@@ -99,6 +114,7 @@ def write_trials_csv(path: Path, study: Any, metric: str = "value") -> None:
                         trial.number,
                         trial.state.name,
                         "" if trial.value is None else trial.value,
+                        *(trial.user_attrs.get("metrics", {}).get(name, "") for name in hits),
                         *(trial.user_attrs.get("conditions", {}).get(label, "") for label in conditions),
                         trial.user_attrs.get("plan_ms", ""),
                         is_feasible(trial),
