@@ -71,13 +71,13 @@ class Cell:
 
 
 def winners(cells: list[Cell], protocol: Protocol) -> set[str]:
-    """The entries of one task's `cells` with the best mean (ties all win); none without a score."""
+    """The entries of one task's `cells` with the best mean (ties, to rounding, all win); none without a score."""
     means = {cell.entry: summary.mean for cell in cells if (summary := cell.summary) is not None}
     finite = {entry: mean for entry, mean in means.items() if math.isfinite(mean)}
     if not finite:
         return set()
     best = max(finite.values()) if protocol.direction == "maximize" else min(finite.values())
-    return {entry for entry, mean in finite.items() if mean == best}
+    return {entry for entry, mean in finite.items() if math.isclose(mean, best, rel_tol=1e-9, abs_tol=1e-12)}
 
 
 def entries_of(cells: list[Cell]) -> list[str]:
