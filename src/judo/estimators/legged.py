@@ -269,12 +269,16 @@ class LeggedEstimator(Estimator[LeggedConfig]):
 
     def _slipping(self, foot_velocity: np.ndarray) -> np.ndarray:
         """(k,) which standing feet move: the base velocity their (k, 3) `foot_velocity` gives lies more than
-        SLIP_GATE normalised stds (chi-square, 3 degrees of freedom) from the filter's."""
+        SLIP_GATE normalised stds (chi-square, 3 degrees of freedom) from the filter's. The standing foot that agrees
+        best never slips: were all of them to, nothing would pull a filter whose velocity is off back again."""
         R = self.config.foot_velocity_std**2 * np.eye(3)
         S = self.cov[3:6, 3:6] + R
         innovation = -foot_velocity - self.mean[3:6]
         distance = np.einsum("ki,ij,kj->k", innovation, np.linalg.inv(S), innovation)
-        return distance > SLIP_GATE
+        slipping = distance > SLIP_GATE
+        if self.stance.any() and (slipping | ~self.stance).all():
+            slipping[int(np.argmin(np.where(self.stance, distance, np.inf)))] = False
+        return slipping
 
     # Measurements through the model.
     def _base_quat(self, sensors: np.ndarray) -> np.ndarray:
