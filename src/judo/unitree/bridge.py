@@ -20,6 +20,10 @@ The same damping goes out while no valid reading has come for `silence_s` second
 stopped (or whose process died) never gets a stiff command from a plan made before. A reading with a non-finite
 value, the wrong number of motors, a joint where the robot cannot be (`judo.ros2.joints.JointLayout`) or a tick that
 runs backwards is refused, and the reason logged (once, then every few seconds with a count).
+
+The remote's stop: a LowState_ whose `wireless_remote` shows L2 and B held together (`REMOTE_STOP`, Unitree's own
+damping combination) latches judo's stop (`judo.safety.stop.wire_request`) at every such reading, refused or not;
+the remote never clears it (the GUI's Clear stop button does).
 """
 
 import logging
@@ -37,6 +41,7 @@ from judo.loop.system import System, SystemState
 from judo.loop.system_choice import SystemOptions, UnitreeOptions
 from judo.ros2 import link as ros2_link
 from judo.ros2.clock import RobotClock
+from judo.safety.stop import wire_request
 from judo.unitree import crc
 from judo.unitree import motors as mt
 from judo.unitree.link import COMMAND_QOS, STATE_QOS, Link
@@ -46,6 +51,13 @@ logger = logging.getLogger("judo.unitree")
 
 REPORT_EVERY = 5.0
 """Wall seconds between log lines of the same refusal."""
+REMOTE_KEYS = ("R1", "L1", "start", "select", "R2", "L2", "F1", "F2", "A", "B", "X", "Y", "up", "right", "down", "left")
+"""The remote's keys by bit of its 16-bit key field: bytes 2 and 3 (little-endian) of a LowState_'s 40
+`wireless_remote` bytes (Unitree's xRockerBtnDataStruct: 2 head bytes, the keys, then the sticks)."""
+REMOTE_STOP = frozenset({"L2", "B"})
+"""The keys that, held together, latch judo's stop."""
+REMOTE_SOURCE = "the Unitree remote (L2+B)"
+"""How the latched stop names a latch from the remote."""
 
 
 class UnitreeSystem(System):
@@ -162,6 +174,8 @@ class UnitreeSystem(System):
             self._note(message, time.monotonic())
 
     def _note(self, message, wall: float) -> None:
+        if REMOTE_STOP <= remote_keys(message.wireless_remote):
+            wire_request(True, REMOTE_SOURCE)
         parsed = reading_of(message, self.motors, self.sensors)
         if isinstance(parsed, Refusal):
             return self._refuse(parsed.kind, parsed.why)
@@ -264,6 +278,13 @@ def damping(motors: mt.Motors, mode_machine: int = 0):
     """Unitree's damping mode for `motors` (kp = 0, kd = `DAMPING_KD`, tau = 0), as a LowCmd_ without its CRC."""
     zeros = np.zeros(motors.count)
     return mt.low_cmd(motors, zeros, zeros, np.full(motors.count, mt.DAMPING_KD), mode_machine)
+
+
+def remote_keys(wireless_remote) -> frozenset[str]:
+    """The remote's keys held (names of REMOTE_KEYS) in a LowState_'s (40,) `wireless_remote` bytes."""
+    raw = bytes(wireless_remote)
+    bits = int.from_bytes(raw[2:4], "little") if len(raw) >= 4 else 0
+    return frozenset(key for i, key in enumerate(REMOTE_KEYS) if bits >> i & 1)
 
 
 class Refusal(NamedTuple):
