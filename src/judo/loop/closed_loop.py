@@ -156,7 +156,7 @@ class ClosedLoop:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
         self.calls = SystemCalls(system)  # every System call goes through it (see judo.loop.system)
-        self.recorders = list(recorders)
+        self.recorders = [*recorders, *filter(None, [system.recorder()])]  # and the System's own log, if it has one
         self.estimator = estimator
         self.controls = ControlHistory(controller.task.command_size)  # every served action, for the estimator
         self.raw_reading: SystemState | None = None  # the System's latest reading, before the estimator

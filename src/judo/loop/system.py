@@ -24,6 +24,7 @@ from judo.core.low_level import LowLevelPlant
 from judo.core.reading import SystemState
 from judo.core.task import Task, new_task
 from judo.loop.mujoco_warnings import count_mujoco_warnings
+from judo.loop.records import Recorder
 
 DIVERGENCE_WARNINGS = (
     mujoco.mjtWarning.mjWARN_BADQACC,
@@ -67,6 +68,11 @@ class System(ABC):
         pause, a stop and a watchdog trip, possibly from another thread than `step`. Return True if done;
         the default returns False, and the app then applies the task's `safe_action` instead."""
         return False
+
+    def recorder(self) -> Recorder | None:
+        """The System's own recorder of the closed loop's plans and steps (the ROS 2 bridge's MCAP log of each
+        limit hit), which a ClosedLoop on it adds to its recorders; None by default."""
+        return None
 
     def plant_sensors(self) -> np.ndarray:
         """(nsensordata,) every sensor value of the plant, for logs and datasets; empty by default (a robot

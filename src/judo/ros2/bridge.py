@@ -41,7 +41,7 @@ from judo.loop.system_choice import Ros2Options, SystemOptions
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
-from judo.ros2.mcap_log import McapLog, log_metadata
+from judo.ros2.mcap_log import LimitHitLog, McapLog, log_metadata
 from judo.ros2.peers import Peers
 from judo.safety.stop import wire_request
 
@@ -308,6 +308,10 @@ class Ros2System(System):
 
     def reset(self) -> None:
         """A robot is not reset by judo: the loop starts again from its latest reading."""
+
+    def recorder(self) -> LimitHitLog | None:
+        """When recording, the log of each limit hit of the closed loop on the bridge (`LimitHitLog`)."""
+        return None if self.log is None else LimitHitLog(self.log)
 
     def read_state(self) -> SystemState:
         self._take()

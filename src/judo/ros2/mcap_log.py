@@ -5,7 +5,8 @@ with the message's ROS 2 definition as the channel's "ros2msg" schema. The log t
 process that logs (ns since the Unix epoch); the publish time is the message's header stamp where it has one.
 A metadata record named "judo" (`METADATA`) says what the bridge knew: the task, the joint map and the topics (with
 "applied", the topic of the commands the robot applied, logged beside those sent);
-`judo.ros2.mcap_read` reads the log back.
+`judo.ros2.mcap_read` reads the log back. Each [safety] limit hit of the closed loop on the bridge is a
+judo_msgs/LimitHit (stamp: the plant time, limit, value) on LIMIT_HITS_TOPIC (`LimitHitLog`).
 """
 
 import threading
@@ -15,9 +16,10 @@ from typing import Any
 
 from judo.core.errors import JudoError, import_extra
 from judo.core.task import Task
+from judo.loop.records import PlanRecord, StepRecord
 from judo.loop.system_choice import Ros2Options
 from judo.ros2.link import APPLIED_SUFFIX
-from judo.ros2.messages import MSGDEFS, ROS_NAMES
+from judo.ros2.messages import MSGDEFS, ROS_NAMES, LimitHit, stamp_of
 
 METADATA = "judo"
 """Name of the log's metadata record of judo's own entries ({"task": ..., "joint_map": ..., topics})."""
@@ -77,6 +79,27 @@ class McapLog:
             self._closed = True
             self._writer.finish()
             self._file.close()
+
+
+LIMIT_HITS_TOPIC = "/judo/limit_hits"
+"""The log's topic of the serve filter's limit hits (judo_msgs/LimitHit: stamp, limit, value)."""
+
+
+class LimitHitLog:
+    """The closed loop's recorder that writes each step's limit hits (`StepRecord.limit_hits`) to `log`, one
+    judo_msgs/LimitHit each on LIMIT_HITS_TOPIC, stamped (and published) at the hit's plant time."""
+
+    def __init__(self, log: McapLog) -> None:
+        self.log = log
+
+    def on_plan(self, record: PlanRecord) -> None:
+        """Plans are not logged here."""
+
+    def on_step(self, record: StepRecord) -> None:
+        for hit in record.limit_hits:
+            stamp = stamp_of(max(0.0, hit.time))
+            message = LimitHit(stamp, hit.limit, float(hit.value))
+            self.log.write(LIMIT_HITS_TOPIC, message, stamp.sec * 1_000_000_000 + stamp.nanosec)
 
 
 def log_metadata(task: Task, options: Ros2Options) -> dict[str, str]:

@@ -153,6 +153,16 @@ class Bool(IdlStruct, typename="std_msgs::msg::dds_::Bool_"):
     data: bool = False
 
 
+@dataclass
+@annotate.final
+class LimitHit(IdlStruct, typename="judo_msgs::msg::dds_::LimitHit_"):
+    """One [safety] limit acting on one served command (`judo.safety.serve_filter.LimitHit`), as the MCAP logs it."""
+
+    stamp: Time = field(default_factory=Time)
+    limit: str = ""
+    value: float64 = 0.0
+
+
 def ros_topic(name: str) -> str:
     """The DDS topic of the ROS 2 topic `name`: "/joint_states" -> "rt/joint_states"."""
     return "rt/" + name.lstrip("/")
@@ -221,6 +231,9 @@ MSGDEFS = {
         ("std_msgs/MultiArrayDimension", "string label\nuint32 size\nuint32 stride"),
     ),
     "std_msgs/msg/Bool": "bool data",
+    "judo_msgs/msg/LimitHit": _msgdef(
+        "builtin_interfaces/Time stamp\nstring limit\nfloat64 value", ("builtin_interfaces/Time", _TIME)
+    ),
 }
 """ROS 2 message name -> its definition text with its dependencies (MCAP's "ros2msg" schema encoding)."""
 
@@ -228,4 +241,5 @@ ROS_NAMES = {JointState: "sensor_msgs/msg/JointState", Odometry: "nav_msgs/msg/O
 ROS_NAMES[Float64MultiArray] = "std_msgs/msg/Float64MultiArray"
 ROS_NAMES[PoseArray] = "geometry_msgs/msg/PoseArray"
 ROS_NAMES[Bool] = "std_msgs/msg/Bool"
+ROS_NAMES[LimitHit] = "judo_msgs/msg/LimitHit"
 """Message class -> its ROS 2 name."""
