@@ -15,7 +15,7 @@ from judo.loop.system import SystemState
 def test_unknown_estimator_names_list_the_valid_ones():
     with pytest.raises(UnknownNameError) as err:
         lookup_estimator("particle")
-    assert str(err.value) == "unknown estimator 'particle'; valid estimators are: ekf, state, ukf"
+    assert str(err.value) == "unknown estimator 'particle'; valid estimators are: ekf, legged, state, ukf"
 
 
 def test_estimators_are_made_by_name_with_their_config():
@@ -84,6 +84,6 @@ def test_a_config_file_sets_an_estimator_s_fields_per_task(tmp_path):
     path.write_text("[estimator_config_overrides.pendulum.kalman]\nnoise_jointpos = 0.003\n")
     with pytest.raises(
         judo.ConfigFileError,
-        match=r"\[estimator_config_overrides.pendulum.kalman\]: unknown estimator 'kalman'; valid estimators are: ekf, state, ukf",
+        match=r"\[estimator_config_overrides.pendulum.kalman\]: unknown estimator 'kalman'; valid estimators are: ekf, legged, state, ukf",
     ):
         judo.load_config(path)

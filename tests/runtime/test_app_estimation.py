@@ -104,7 +104,7 @@ def test_estimator_config_edits_are_applied_and_bad_ones_refused(wait_until):
 
 
 def test_bad_names_and_settings_are_refused_at_once():
-    with pytest.raises(UnknownNameError, match="unknown estimator 'nope'; valid estimators are: ekf, state, ukf"):
+    with pytest.raises(UnknownNameError, match="unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"):
         App("cartpole", gui=False, estimator="nope")
     with pytest.raises(ConfigError, match="observe must be one of"):
         App("cartpole", gui=False, observe="camera")  # type: ignore[arg-type]
@@ -134,7 +134,7 @@ def test_switches_keep_the_sensing_and_the_live_estimator_config(wait_until):
 
 def test_switching_the_estimator_rebuilds_the_session_on_the_running_plant(wait_until):
     app = App("cartpole", "mppi", gui=False, seed=0, num_workers=1)
-    with pytest.raises(UnknownNameError, match="valid estimators are: ekf, state, ukf"):
+    with pytest.raises(UnknownNameError, match="valid estimators are: ekf, legged, state, ukf"):
         app.switch_estimator("nope")
     with pytest.raises(ConfigError, match="the 'ekf' estimator cannot run on this plant's readings"):
         app.switch_estimator("ekf")

@@ -95,7 +95,7 @@ NOISE_BOUND = "--sensor-noise must be between 0 and 100 (a std in the sensor's u
 RATE_BOUND = "--sensor-rate-hz must be between 0.1 and 1000000 Hz, got"
 DELAY_BOUND = "--sensor-delay-ms must be between 0 and 10000 ms, got"
 NOT_A_SENSOR_VALUE = "--sensor-noise expects NUMBER or TYPE=NUMBER (e.g. framepos=30), got '=0.1'"
-NO_ESTIMATOR = "unknown estimator ''; valid estimators are: ekf, state, ukf"
+NO_ESTIMATOR = "unknown estimator ''; valid estimators are: ekf, legged, state, ukf"
 HAVE_H5PY = importlib.util.find_spec("h5py") is not None
 BAD_EVALUATE = tuple("bad" if arg == "cartpole" else arg for arg in EVALUATE)
 BAD_BENCHMARK = tuple("bad" if arg == "cartpole" else arg for arg in BENCHMARK)
@@ -223,7 +223,7 @@ TABLE = [
     Row(("--task", "-x"), 2, "python -m judo: error: argument --task: expected one argument", one_line=False),
     Row(("--task", "x" * 3000, *APP), 2, "unknown task 'xxxxxxxx"),
     # sensing and estimation
-    Row((*APP, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
+    Row((*APP, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"),
     Row(
         ("--task", "bad", *APP, *config("no_sensors.toml"), "--observe", "sensors"),
         2,
@@ -248,7 +248,7 @@ TABLE = [
     Row((*COLLECT, "--observe", "sensors", "--sensor-noise", "inf"), 2, f"{NOISE_BOUND} inf"),
     Row((*BENCHMARK, "--tasks"), 2, "--tasks needs at least one name; leave --tasks out for all of them"),
     Row((*APP, "--sensor-noise", "0.1"), 2, "--sensor-noise set the rehearsed sensors, which run only with --observe"),
-    Row((*EVALUATE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
+    Row((*EVALUATE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"),
     Row(
         (*BAD_EVALUATE, *config("no_sensors.toml"), "--observe", "sensors"),
         2,
@@ -260,9 +260,9 @@ TABLE = [
         2,
         "--sensor-rate-hz expects",
     ),
-    Row((*TUNE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
+    Row((*TUNE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"),
     Row((*TUNE, "--sensor-delay-ms", "10"), 2, "--sensor-delay-ms set the rehearsed sensors, which run only with"),
-    Row((*COLLECT, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, state, ukf"),
+    Row((*COLLECT, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"),
     # HDF5 files (written by write_h5_files): another program's is never written into; a broken one never played
     Row(
         (*COLLECT[:-1], "other.h5"),
