@@ -104,7 +104,9 @@ def test_estimator_config_edits_are_applied_and_bad_ones_refused(wait_until):
 
 
 def test_bad_names_and_settings_are_refused_at_once():
-    with pytest.raises(UnknownNameError, match="unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"):
+    with pytest.raises(
+        UnknownNameError, match="unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"
+    ):
         App("cartpole", gui=False, estimator="nope")
     with pytest.raises(ConfigError, match="observe must be one of"):
         App("cartpole", gui=False, observe="camera")  # type: ignore[arg-type]

@@ -248,7 +248,9 @@ TABLE = [
     Row((*COLLECT, "--observe", "sensors", "--sensor-noise", "inf"), 2, f"{NOISE_BOUND} inf"),
     Row((*BENCHMARK, "--tasks"), 2, "--tasks needs at least one name; leave --tasks out for all of them"),
     Row((*APP, "--sensor-noise", "0.1"), 2, "--sensor-noise set the rehearsed sensors, which run only with --observe"),
-    Row((*EVALUATE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"),
+    Row(
+        (*EVALUATE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"
+    ),
     Row(
         (*BAD_EVALUATE, *config("no_sensors.toml"), "--observe", "sensors"),
         2,
@@ -262,7 +264,9 @@ TABLE = [
     ),
     Row((*TUNE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"),
     Row((*TUNE, "--sensor-delay-ms", "10"), 2, "--sensor-delay-ms set the rehearsed sensors, which run only with"),
-    Row((*COLLECT, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"),
+    Row(
+        (*COLLECT, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"
+    ),
     # HDF5 files (written by write_h5_files): another program's is never written into; a broken one never played
     Row(
         (*COLLECT[:-1], "other.h5"),
