@@ -26,16 +26,15 @@ import judo
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.sensing import Sensing, choose_estimator
 from judo.loop.system_choice import Ros2Options
-from judo.ros2 import bridge as bridge_module
 from judo.ros2 import clock as clock_module
-from judo.ros2 import link
+from judo.ros2 import link, refusals
 from judo.ros2.bridge import Ros2System
 from judo.tasks.cartpole import Cartpole
 
 
 def test_malformed_joint_states_and_bad_stamps_are_refused_and_named(caplog, monkeypatch):
     monkeypatch.setattr(clock_module, "RESTART_AFTER", 0.3)
-    monkeypatch.setattr(bridge_module, "REPORT_EVERY", 0.0)  # every refusal logged, for the test
+    monkeypatch.setattr(refusals, "REPORT_EVERY", 0.0)  # every refusal logged, for the test
     domain = free_domain()
     robot = DdsRobot(domain)
     system = Ros2System(Cartpole(), Ros2Options(domain_id=domain))

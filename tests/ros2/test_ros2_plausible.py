@@ -15,8 +15,7 @@ from ros2_links import ROOT, env, free_domain, poll, start_plant, start_publishe
 
 from judo.core.errors import JudoError
 from judo.loop.system_choice import Ros2Options
-from judo.ros2 import bridge as bridge_module
-from judo.ros2 import link
+from judo.ros2 import link, refusals
 from judo.ros2.bridge import Ros2System
 from judo.ros2.joints import JointLayout
 from judo.tasks.cartpole import Cartpole
@@ -48,7 +47,7 @@ def test_cartpoles_bounds_are_its_range_with_a_margin_and_a_step_across_it():
 def test_a_rogue_publisher_of_absurd_joint_states_is_refused_and_named_and_never_becomes_the_reading(
     caplog, monkeypatch
 ):
-    monkeypatch.setattr(bridge_module, "REPORT_EVERY", 0.0)  # every refusal logged, for the test
+    monkeypatch.setattr(refusals, "REPORT_EVERY", 0.0)  # every refusal logged, for the test
     domain = free_domain()
     states = [VALID] + list(ABSURD.values())
     rogue = start_publisher(domain, ["slider", "hinge"], states)

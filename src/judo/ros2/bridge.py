@@ -43,12 +43,11 @@ from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
 from judo.ros2.mcap_log import LimitHitLog, McapLog, log_metadata
 from judo.ros2.peers import Peers
+from judo.ros2.refusals import Refusals
 from judo.safety.stop import wire_request
 
 logger = logging.getLogger("judo.ros2")
 
-REPORT_EVERY = 5.0
-"""Wall seconds between log lines of the same refusal."""
 ESTOP_TOPIC = "/judo/estop"
 """The ROS 2 topic of the e-stop: std_msgs/Bool, true latches the app's stop, false clears it."""
 
@@ -91,9 +90,9 @@ class Ros2System(System):
         self.layout = link.JointLayout.of(task.model, options.joint_map)
         self.domain = link.domain_id(options.domain_id)
         self.log = record
-        self.refused: dict[str, int] = {}
+        self._refusals = Refusals(logger)
+        self.refused = self._refusals.counts
         self.commands_sent = 0
-        self._reported: dict[str, float] = {}
         self._index = {name: i for i, name in enumerate(self.layout.names)}
         self._lock = threading.Lock()
         self._clock = RobotClock()
@@ -154,7 +153,7 @@ class Ros2System(System):
             if self._reading is not None:
                 return
             time.sleep(0.01)
-        why = "; ".join(f"{n} refused ({kind})" for kind, n in self.refused.items()) or "nothing arrived"
+        why = self._refusals.summary()
         raise JudoError(
             f"no valid sensor_msgs/JointState on {msg.ros_topic(self.options.joint_states)} in DDS domain "
             f"{self.domain} within {seconds:g} s ({why}); is the robot's process running, on this ROS_DOMAIN_ID? "
@@ -162,11 +161,7 @@ class Ros2System(System):
         )
 
     def _refuse(self, kind: str, detail: str) -> None:
-        self.refused[kind] = self.refused.get(kind, 0) + 1
-        now = time.monotonic()
-        if now - self._reported.get(kind, -math.inf) >= REPORT_EVERY:
-            self._reported[kind] = now
-            logger.warning("refused %s (%d so far): %s", kind, self.refused[kind], detail)
+        self._refusals.note(kind, detail)
 
     def _take(self) -> None:
         """Read every message that arrived since the last call."""

@@ -41,6 +41,7 @@ from judo.loop.system import System, SystemState
 from judo.loop.system_choice import SystemOptions, UnitreeOptions
 from judo.ros2 import link as ros2_link
 from judo.ros2.clock import RobotClock
+from judo.ros2.refusals import Refusals
 from judo.safety.stop import wire_request
 from judo.unitree import crc
 from judo.unitree import motors as mt
@@ -49,8 +50,6 @@ from judo.unitree.messages import LOWCMD, LOWSTATE
 
 logger = logging.getLogger("judo.unitree")
 
-REPORT_EVERY = 5.0
-"""Wall seconds between log lines of the same refusal."""
 REMOTE_KEYS = ("R1", "L1", "start", "select", "R2", "L2", "F1", "F2", "A", "B", "X", "Y", "up", "right", "down", "left")
 """The remote's keys by bit of its 16-bit key field: bytes 2 and 3 (little-endian) of a LowState_'s 40
 `wireless_remote` bytes (Unitree's xRockerBtnDataStruct: 2 head bytes, the keys, then the sticks)."""
@@ -100,9 +99,9 @@ class UnitreeSystem(System):
         if task.measured.size == 0:
             raise ConfigError(f"{type(task).__name__} declares no measured sensors; a Unitree robot gives no state")
         self.sensors = mt.Sensors.of(task.model, task.measured, self.motors)
-        self.refused: dict[str, int] = {}
+        self._refusals = Refusals(logger)
+        self.refused = self._refusals.counts
         self.commands_sent = self.damping_sent = 0
-        self._reported: dict[str, float] = {}
         self._lock = threading.Lock()
         self._clock = RobotClock()
         self._reading: SystemState | None = None
@@ -144,7 +143,7 @@ class UnitreeSystem(System):
             if self._reading is not None:
                 return
             time.sleep(0.005)
-        why = "; ".join(f"{n} refused ({kind})" for kind, n in self.refused.items()) or "nothing arrived"
+        why = self._refusals.summary()
         raise JudoError(
             f"no valid {self.motors.robot.low_state.__idl_typename__} on {LOWSTATE} in DDS domain {self.link.domain} "
             f"within {seconds:g} s ({why}); is the robot on, in low-level mode (sport mode off), on this domain and "
@@ -162,11 +161,7 @@ class UnitreeSystem(System):
             )
 
     def _refuse(self, kind: str, detail: str) -> None:
-        self.refused[kind] = self.refused.get(kind, 0) + 1
-        now = time.monotonic()
-        if now - self._reported.get(kind, -math.inf) >= REPORT_EVERY:
-            self._reported[kind] = now
-            logger.warning("refused %s (%d so far): %s", kind, self.refused[kind], detail)
+        self._refusals.note(kind, detail)
 
     def _take(self) -> None:
         """Read every LowState_ that arrived since the last call."""
