@@ -1,23 +1,33 @@
 """Safety limits, per case: commands served outside the limits (target 0), limit hits, and quality with vs without.
 
     PYTHONPATH=src python benchmarks/safety_limits.py --seeds 3 --duration 4
+    PYTHONPATH=src python benchmarks/safety_limits.py --cases torque go2 grasp --seeds 2 --duration 2
 
 Cases (closed loop on judo's simulator, seeded):
+- joint_stop: pendulum, whose reward wants the pole upright (pi), with its hinge stopped at |q| <= 2 rad (3 rad/s cap),
+  MPPI;
 - fence: cartpole with a cart-position fence |x| <= 0.3 m (with a 1.5 m/s speed cap), MPPI;
 - rate: cartpole with a rate limit of 20 units/s on the push, MPPI;
 - rogue: cartpole driven by a hand-written Policy that pushes into the fence at 1e9, under |x| <= 0.5 m, 0.5 m/s and an
   effort cap of 0.8;
 - goal_outside: particle whose goals are drawn in +-0.45 m, inside a workspace box of +-0.2 m (0.5 m/s cap), MPPI;
+- goal_jumps: particle, whose goal jumps to a new place when reached, with a rate limit of 4 units/s on both forces
+  (their full range in 0.5 s), MPPI;
+- grasp: fr3_pick with a cap of GRASP_CAP N on the total normal contact force on the cube (fingers and table), MPPI;
+- go2: go2_stand at a tight torque limit, |kp (q_des - q) - kd dq| <= 15 N m on every motor (its forcerange 23.7 and
+  45.4), MPPI;
 - torque: quadruped at a tight torque limit, |kp (q_des - q) - kv dq| <= 12 N m on every joint (its forcerange is
   23.7), MPPI (slow: --cases torque).
 For each: the served commands outside an effort or rate limit (recomputed from the log, not from the filter's count),
-the plant steps beyond a position limit or the box and the largest overshoot (after the plant was first inside: a
+the plant steps beyond a position limit, the box or the contact cap (the cube's contact force recomputed by
+mj_forward of each logged state and command on the plant's model) and the largest overshoot (after the plant was first inside: a
 random start may lie beyond), the serve filter's hits, the planning
 iterations with no feasible sample, and the task's mean reward and quality metric with the limits and without them.
 """
 
 import argparse
 
+import mujoco
 import numpy as np
 
 from judo.core.policy import Policy
@@ -37,8 +47,11 @@ class Rogue(Policy):
         return np.full((len(observations), 1, 1), 1e9)
 
 
+GRASP_CAP = 20.0
+"""N on the cube's contacts: 20 times its weight, a seventh of what the closed gripper squeezes it with (140 N)."""
 BOX = {"workspace_frame": "particle", "workspace_low": (-0.2, -0.2, -1.0), "workspace_high": (0.2, 0.2, 1.0)}
 CASES = {  # task, optimizer (None: the rogue Policy), limits, quality metric
+    "joint_stop": ("pendulum", "mppi", SafetyConfig(position=("hinge=-2:2",), velocity=("hinge=3",)), "final_angle_error"),
     "fence": ("cartpole", "mppi", SafetyConfig(position=("slider=-0.3:0.3",), velocity=("slider=1.5",)), "balanced_fraction"),
     "rate": ("cartpole", "mppi", SafetyConfig(rate=("push=20",)), "balanced_fraction"),
     "rogue": (
@@ -46,13 +59,38 @@ CASES = {  # task, optimizer (None: the rogue Policy), limits, quality metric
         "balanced_fraction",
     ),
     "goal_outside": ("particle", "mppi", SafetyConfig(velocity=("x=0.5", "y=0.5"), **BOX), "goals_reached"),
+    "goal_jumps": ("particle", "mppi", SafetyConfig(rate=("force_x=4", "force_y=4")), "goals_reached"),
     "torque": ("quadruped", "mppi", SafetyConfig(effort=("*=12",)), "final_distance"),
+    "go2": ("go2_stand", "mppi", SafetyConfig(effort=("*=15",)), "standing_fraction"),
+    "grasp": ("fr3_pick", "mppi", SafetyConfig(contact_geoms=("object",), max_contact_force=GRASP_CAP), "phase_reached"),
 }  # fmt: skip
+SLOW = ("torque", "go2", "grasp")
+"""Cases left out by default (their updates take longer): --cases names them."""
 
 
-def outside(task, config: SafetyConfig, log) -> tuple[int, int, float]:
-    """(commands outside an effort or rate limit, steps beyond a position limit or the box once the plant had been
-    inside, the largest such overshoot in m or rad)."""
+def contact_force(model, limits, states: np.ndarray, controls: np.ndarray) -> np.ndarray:
+    """(T,) the largest total normal contact force (N) on a capped geom at each of the (T, nq + nv) states under
+    the (T, nu) commands served in them: mj_forward on the plant's model, the contacts the step starts from."""
+    data, wrench, nq = mujoco.MjData(model), np.zeros(6), model.nq
+    force = np.zeros(len(states))
+    for t, (state, ctrl) in enumerate(zip(states, controls, strict=True)):
+        data.qpos[:], data.qvel[:], data.ctrl[:] = state[:nq], state[nq:], ctrl
+        mujoco.mj_forward(model, data)
+        totals = dict.fromkeys(limits.contact_ids.tolist(), 0.0)
+        for i in range(data.ncon):
+            contact = data.contact[i]
+            touched = [g for g in (contact.geom1, contact.geom2) if g in totals]
+            if touched and contact.efc_address >= 0:
+                mujoco.mj_contactForce(model, data, i, wrench)
+                for g in touched:
+                    totals[g] += abs(wrench[0])
+        force[t] = max(totals.values())
+    return force
+
+
+def outside(task, config: SafetyConfig, log, plant_model) -> tuple[int, int, float]:
+    """(commands outside an effort or rate limit, steps beyond a position limit, the box or the contact cap once the
+    plant had been inside, the largest such overshoot in m, rad or N)."""
     limits = resolve(task, config)
     nq, dt = task.model.nq, task.model.opt.timestep
     before = np.vstack([log.states[:1], log.states[:-1]])  # the state each command was served in
@@ -73,6 +111,8 @@ def outside(task, config: SafetyConfig, log) -> tuple[int, int, float]:
         )
         beyond = np.maximum(limits.workspace_low - frame, frame - limits.workspace_high).max(axis=1)
         over = np.maximum(over, beyond)
+    if len(limits.contact_ids):
+        over = np.maximum(over, contact_force(plant_model, limits, before, log.controls) - limits.max_contact_force)
     entered = np.maximum.accumulate(over <= 1e-9)  # a start beyond a limit counts only once the plant was inside
     over = np.where(entered, over, 0.0)
     return int(bad.sum()), int((over > 1e-9).sum()), float(max(0.0, over.max()))
@@ -87,28 +127,33 @@ def episode(case: str, seed: int, duration: float, limited: bool):
     with controller:
         system = MujocoSystem.from_task(controller.task, seed=seed)
         result = run_episode(controller, system, duration, seed=seed, safety=config if limited else None)
-    return result, outside(controller.task, config, result.log)
+    return result, outside(controller.task, config, result.log, system.task.sim_model)
 
 
-def costs(repeats: int = 200) -> str:
-    """The filter's cost per served action and the screen's per planning cycle, against the update's (cartpole, mppi,
-    every kind of limit the filter predicts)."""
+ALL_KINDS = SafetyConfig(
+    position=("slider=-0.5:0.5",), velocity=("slider=1.5",), effort=("push=0.8",), rate=("push=20",),
+    workspace_frame="tip", workspace_low=(-1.0, -1.0, -1.0), workspace_high=(1.0, 1.0, 2.0),
+)  # fmt: skip
+"""The cost case: cartpole under every kind of limit the rollout screen checks and the filter predicts."""
+
+
+def costs(case: str, repeats: int = 200) -> str:
+    """The filter's cost per served action and the screen's per planning cycle, against the update's, on `case`'s
+    task and limits ("all_kinds": cartpole, mppi, ALL_KINDS), from the task's start state."""
     from time import perf_counter
 
     from judo.safety.feasibility import RolloutScreen
     from judo.safety.serve_filter import ServeFilter
 
-    config = SafetyConfig(
-        position=("slider=-0.5:0.5",), velocity=("slider=1.5",), effort=("push=0.8",), rate=("push=20",),
-        workspace_frame="tip", workspace_low=(-1.0, -1.0, -1.0), workspace_high=(1.0, 1.0, 2.0),
-    )  # fmt: skip
-    controller = make_controller("cartpole", "mppi", seed=0)
-    task, state = controller.task, np.array([0.1, np.pi, 0.2, 0.0])
+    task_name, optimizer, config, _ = ("cartpole", "mppi", ALL_KINDS, "") if case == "all_kinds" else CASES[case]
+    controller = make_controller(task_name, optimizer or "mppi", seed=0)
+    task = controller.task
+    state = np.concatenate([task.data.qpos, task.data.qvel])
     limits = resolve(task, config)
-    guard = ServeFilter(task, limits)
+    guard, command = ServeFilter(task, limits), task.optimizer_warm_start(state)
     started = perf_counter()
     for i in range(repeats):
-        guard.filter(np.array([0.3]), state, 0.01 * i, lambda: np.zeros(1))
+        guard.filter(command, state, 0.01 * i, lambda: task.safe_action(state))
     filter_us = 1e6 * (perf_counter() - started) / repeats
     update = []
     for i in range(20):
@@ -120,22 +165,26 @@ def costs(repeats: int = 200) -> str:
     screen = RolloutScreen(limits, task.dt, task.model.nq)
     started = perf_counter()
     for _ in range(20):
-        screen.screen(np.zeros(len(states)), states, sensors, controls, np.zeros(1), 1)
+        screen.screen(np.zeros(len(states)), states, sensors, controls, command, 1)
     screen_ms = 1e3 * (perf_counter() - started) / 20 * controller.config.iterations_per_cycle
     update_ms = 1e3 * float(np.median(update))
+    per_plan = max(1.0, 1.0 / (controller.config.control_freq * task.sim_model.opt.timestep))  # plant steps a plan
     controller.close()
     return (
-        f"cost: the serve filter {filter_us:.0f} us per served action; the rollout screen {screen_ms:.2f} ms per "
-        f"planning cycle of {states.shape[0]} x {states.shape[1]} steps = {100 * screen_ms / update_ms:.1f}% of the "
-        f"median update ({update_ms:.1f} ms), and the filter at 50 Hz x 2 steps per plan "
-        f"{100 * 2 * filter_us / 1e3 / update_ms:.1f}%"
+        f"cost {case} ({task_name}): the serve filter {filter_us:.0f} us per served action; the rollout screen "
+        f"{screen_ms:.2f} ms per planning cycle of {states.shape[0]} x {states.shape[1]} steps = "
+        f"{100 * screen_ms / update_ms:.1f}% of the median update ({update_ms:.1f} ms); the filter at "
+        f"{per_plan:.0f} served actions per plan {100 * per_plan * filter_us / 1e3 / update_ms:.1f}%"
     )
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--cases", nargs="+", default=[c for c in CASES if c != "torque"], choices=list(CASES))
+    parser.add_argument("--cases", nargs="+", default=[c for c in CASES if c not in SLOW], choices=list(CASES))
     parser.add_argument("--no-cost", action="store_true", help="skip the filter's and the screen's cost")
+    parser.add_argument(
+        "--cost-cases", nargs="+", default=["all_kinds"], choices=["all_kinds", *CASES], help="where to time them"
+    )
     parser.add_argument("--seeds", type=int, default=3)
     parser.add_argument("--duration", type=float, default=4.0)
     args = parser.parse_args()
@@ -160,7 +209,8 @@ def main() -> None:
                 flush=True,
             )
     if not args.no_cost:
-        print(costs())
+        for case in args.cost_cases:
+            print(costs(case), flush=True)
 
 
 if __name__ == "__main__":

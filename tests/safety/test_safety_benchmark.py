@@ -22,3 +22,30 @@ def test_the_rogue_case_serves_no_command_outside_the_limits():
     off, on = rows
     assert int(off[2]) > 0 and int(on[2]) == 0  # commands outside the effort cap: the Policy's, and none served
     assert int(on[5]) > 0  # the filter's hits
+
+
+def test_the_grasp_case_recomputes_the_cube_resting_on_the_table_as_its_weight():
+    import importlib.util
+
+    import mujoco
+    import numpy as np
+
+    from judo.core.registry import make_task
+    from judo.safety.limits import resolve
+
+    spec = importlib.util.spec_from_file_location("safety_limits", ROOT / "benchmarks" / "safety_limits.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    task = make_task("fr3_pick")
+    _, _, config, _ = bench.CASES["grasp"]
+    limits = resolve(task, config)
+    model, data = task.sim_model, mujoco.MjData(task.sim_model)
+    data.qpos[:] = task.data.qpos
+    for _ in range(300):  # let the cube settle on the table, the arm held where it starts
+        data.ctrl[:] = task.optimizer_warm_start(np.concatenate([data.qpos, data.qvel]))
+        mujoco.mj_step(model, data)
+    state = np.concatenate([data.qpos, data.qvel])[None]
+    force = bench.contact_force(model, limits, state, data.ctrl[None].copy())
+    weight = float(model.body_subtreemass[model.geom_bodyid[limits.contact_ids[0]]]) * 9.81
+    assert abs(force[0] - weight) < 0.1 * weight, (force, weight)
+    assert force[0] < config.max_contact_force
