@@ -1,28 +1,29 @@
 """Safety limits, per case: commands served outside the limits (target 0), limit hits, and quality with vs without.
 
-    PYTHONPATH=src python benchmarks/safety_limits.py --seeds 3 --duration 4
-    PYTHONPATH=src python benchmarks/safety_limits.py --cases torque go2 grasp --seeds 2 --duration 2
+    PYTHONPATH=src python benchmarks/safety_limits.py --seeds 20 --duration 4
+    PYTHONPATH=src python benchmarks/safety_limits.py --cases grasp go2 --seeds 20 --duration 4 --no-cost
+    PYTHONPATH=src python benchmarks/safety_limits.py --cases torque --seeds 20 --duration 2 --no-cost
 
-Cases (closed loop on judo's simulator, seeded):
-- joint_stop: pendulum, whose reward wants the pole upright (pi), with its hinge stopped at |q| <= 2 rad (3 rad/s cap),
-  MPPI;
+Cases (closed loop on judo's simulator, seeded; the last three are slow and run only when named):
+- joint_stop: pendulum, whose reward wants the pole upright (q = 0), with its hinge stopped 2 rad either side of
+  hanging down (q in [pi - 2, pi + 2]) and 3 rad/s, MPPI;
 - fence: cartpole with a cart-position fence |x| <= 0.3 m (with a 1.5 m/s speed cap), MPPI;
 - rate: cartpole with a rate limit of 20 units/s on the push, MPPI;
-- rogue: cartpole driven by a hand-written Policy that pushes into the fence at 1e9, under |x| <= 0.5 m, 0.5 m/s and an
-  effort cap of 0.8;
+- rogue: cartpole driven by a hand-written Policy that pushes into the fence at 1e9, under |x| <= 0.5 m, 0.5 m/s and
+  an effort cap of 0.8;
 - goal_outside: particle whose goals are drawn in +-0.45 m, inside a workspace box of +-0.2 m (0.5 m/s cap), MPPI;
-- goal_jumps: particle, whose goal jumps to a new place when reached, with a rate limit of 4 units/s on both forces
+- goal_jumps: particle, whose goal jumps to a new place when reached, under a rate limit of 4 units/s on both forces
   (their full range in 0.5 s), MPPI;
-- grasp: fr3_pick with a cap of GRASP_CAP N on the total normal contact force on the cube (fingers and table), MPPI;
-- go2: go2_stand at a tight torque limit, |kp (q_des - q) - kd dq| <= 15 N m on every motor (its forcerange 23.7 and
+- torque: quadruped at a tight torque limit, |kp (q_des - q) - kv dq| <= 12 N m on every joint (forcerange 23.7);
+- go2: go2_stand at a tight torque limit, |kp (q_des - q) - kd dq| <= 15 N m on every motor (forcerange 23.7 and
   45.4), MPPI;
-- torque: quadruped at a tight torque limit, |kp (q_des - q) - kv dq| <= 12 N m on every joint (its forcerange is
-  23.7), MPPI (slow: --cases torque).
-For each: the served commands outside an effort or rate limit (recomputed from the log, not from the filter's count),
+- grasp: fr3_pick with a cap of 20 N (GRASP_CAP) on the total normal contact force on the cube (fingers and table).
+For each: the served commands outside an effort or rate limit (recomputed from the log, not from the filter's count);
 the plant steps beyond a position limit, the box or the contact cap (the cube's contact force recomputed by
-mj_forward of each logged state and command on the plant's model) and the largest overshoot (after the plant was first inside: a
-random start may lie beyond), the serve filter's hits, the planning
-iterations with no feasible sample, and the task's mean reward and quality metric with the limits and without them.
+mj_forward of each logged state and served command on the plant's model) and the largest overshoot, counted once
+the plant was first inside (a random start may lie beyond); the serve filter's hits; the planning iterations with
+no feasible sample; and the task's mean reward and quality metric with the limits and without them. Last, the
+filter's cost per served action and the rollout screen's per planning cycle against the update (--cost-cases).
 """
 
 import argparse
@@ -47,11 +48,13 @@ class Rogue(Policy):
         return np.full((len(observations), 1, 1), 1e9)
 
 
+STOP = f"hinge={np.pi - 2:.2f}:{np.pi + 2:.2f}"
+"""The pendulum's stops, 2 rad either side of hanging down (pi): upright (0 or 2 pi) lies 1.14 rad beyond each."""
 GRASP_CAP = 20.0
 """N on the cube's contacts: 20 times its weight, a seventh of what the closed gripper squeezes it with (140 N)."""
 BOX = {"workspace_frame": "particle", "workspace_low": (-0.2, -0.2, -1.0), "workspace_high": (0.2, 0.2, 1.0)}
 CASES = {  # task, optimizer (None: the rogue Policy), limits, quality metric
-    "joint_stop": ("pendulum", "mppi", SafetyConfig(position=("hinge=-2:2",), velocity=("hinge=3",)), "final_angle_error"),
+    "joint_stop": ("pendulum", "mppi", SafetyConfig(position=(STOP,), velocity=("hinge=3",)), "final_angle_error"),
     "fence": ("cartpole", "mppi", SafetyConfig(position=("slider=-0.3:0.3",), velocity=("slider=1.5",)), "balanced_fraction"),
     "rate": ("cartpole", "mppi", SafetyConfig(rate=("push=20",)), "balanced_fraction"),
     "rogue": (
