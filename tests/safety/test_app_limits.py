@@ -1,5 +1,7 @@
 """The app's --safety.* flags (the same fields and checks as evaluate's) and the GUI's read-only list of the limits."""
 
+import concurrent.futures
+
 import pytest
 import viser
 
@@ -71,7 +73,10 @@ def test_the_gui_lists_each_limit_in_force_read_only():
 def test_the_headless_app_serves_under_the_flags_limits(capsys):
     argv = [*CARTPOLE, "--headless", "--duration", "0.3", "--seed", "0", "--safety.position", "slider=-0.3:0.3"]
     argv += ["--safety.velocity", "slider=1.5"]
-    assert cli.main(argv) == 0
+    # On its own thread: a browser test earlier in the run may hold an event loop on the main thread, and the app
+    # runs its own with asyncio.run.
+    with concurrent.futures.ThreadPoolExecutor(1) as pool:
+        assert pool.submit(cli.main, argv).result(timeout=300) == 0
     out = capsys.readouterr().out
     assert "limits" in out and "safety:" in out and "commands filtered" in out
 
