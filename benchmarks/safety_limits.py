@@ -1,6 +1,6 @@
 """Safety limits, per case: commands served outside the limits (target 0), limit hits, and quality with vs without.
 
-    PYTHONPATH=src python benchmarks/safety_limits.py --seeds 20 --duration 4
+    PYTHONPATH=src python benchmarks/safety_limits.py --seeds 20 --duration 4 --cost-cases all_kinds go2 grasp torque
     PYTHONPATH=src python benchmarks/safety_limits.py --cases grasp go2 --seeds 20 --duration 4 --no-cost
     PYTHONPATH=src python benchmarks/safety_limits.py --cases torque --seeds 20 --duration 2 --no-cost
 
