@@ -207,6 +207,8 @@ def put_object_in_the_gripper(task: FR3Pick, opening: float) -> None:
 def test_plant_goes_back_to_lift_when_the_object_lies_loose_on_the_table() -> None:
     task = FR3Pick()
     put_object_in_the_gripper(task, 0.02)
+    held_at = task.data.qpos[task._object_qpos : task._object_qpos + 2]
+    task.data.mocap_pos[0, :2] = held_at + [0.0, 0.2]  # the goal well away: the random one may lie under the gripper
     task.phase = MOVE
     task.pre_sim_step()
     assert task.phase == MOVE  # carried
