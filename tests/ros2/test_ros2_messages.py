@@ -101,3 +101,8 @@ def test_an_mcap_log_opens_with_mcaps_ros2_reader_with_its_topics_and_schemas(tm
     assert list(seen["/joint_states"][1].position) == [0.2]
     assert seen["/odom"][1].pose.pose.position.z == 0.5
     assert list(seen["/judo/commands"][1].data) == [0.5]
+
+
+def test_the_estop_message_decodes_with_rosbags_as_std_msgs_bool():
+    for data in (True, False):
+        assert decoded(msg.Bool(data=data)).data is data
