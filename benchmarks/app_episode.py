@@ -19,7 +19,7 @@ import mujoco
 import numpy as np
 
 import judo
-from judo.core.registry import make_config
+from judo.core.configuration.registry import make_config
 from judo.core.task import EpisodeLog
 from judo.runtime.app import App
 

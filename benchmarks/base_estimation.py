@@ -26,8 +26,8 @@ import mujoco
 import numpy as np
 
 import judo  # noqa: F401  (registers the tasks, optimizers and estimators)
+from judo.core.configuration.registry import lookup_estimator
 from judo.core.estimator import ControlHistory, Estimator
-from judo.core.registry import lookup_estimator
 from judo.evaluation.episode import run_episode
 from judo.evaluation.seeded import EpisodeSpec, configs_in_force, plant_of, spec_controller, with_spec_plant
 from judo.loop.records import PlanRecord, StepRecord

@@ -26,8 +26,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import judo
+from judo.core.configuration.registry import get_registered_tasks, lookup_optimizer, lookup_task
 from judo.core.errors import JudoError
-from judo.core.registry import get_registered_tasks, lookup_optimizer, lookup_task
 from judo.evaluation.evaluate import summarize_metrics
 from judo.evaluation.stats import Summary
 from judo.tuning.conditions import Condition, check_conditions, parse_conditions

@@ -19,8 +19,8 @@ import numpy as np
 import tyro
 
 from judo.collection.cli import main as collect_main
-from judo.core.onnx_policy import OnnxPolicy
-from judo.core.registry import lookup_optimizer, make_config
+from judo.core.configuration.registry import lookup_optimizer, make_config
+from judo.core.policies.onnx_policy import OnnxPolicy
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.learning.cli import main as distill_main
 from judo.learning.rounds import headline_metric

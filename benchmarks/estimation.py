@@ -47,8 +47,8 @@ import mujoco
 import numpy as np
 
 import judo
+from judo.core.configuration.registry import make_controller, make_estimator
 from judo.core.estimator import ControlHistory, Estimator
-from judo.core.registry import make_controller, make_estimator
 from judo.estimators.ekf import EKFConfig
 from judo.estimators.ukf import UKFConfig
 from judo.evaluation.episode import run_episode

@@ -23,7 +23,7 @@ from rich.console import Console
 from rich.table import Table
 
 from judo import get_registered_tasks
-from judo.core.config import snapshot
+from judo.core.configuration.config import snapshot
 from judo.evaluation.timing import benchmark_controller, rollout_start
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem, SystemState

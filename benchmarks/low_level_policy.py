@@ -2,7 +2,7 @@
 
 For each N, timed interleaved from the task's start state (seed 0):
   - update: one control update of a task with a low-level policy (the optimizer plans commands; every k steps
-    one batched `act` per worker's block of rollouts turns them into ctrl; judo.core.low_level);
+    one batched `act` per worker's block of rollouts turns them into ctrl; judo.core.rollouts.low_level);
   - floor: the raw `mujoco.rollout` of the same N x T steps on the same pool (the very ctrl the policy gave in
     those rollouts, recorded once, so that the physics and its contacts are the same), plus ceil(T / k) batched
     `act` calls of the same (N, O) size (times max_opt_iters); the target is update / floor <= 1.3;
@@ -25,10 +25,10 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 import judo
-from judo.core.low_level import LowLevel, LowLevelRollout
+from judo.core.configuration.registry import lookup_optimizer, make_config
 from judo.core.policy import Policy
-from judo.core.registry import lookup_optimizer, make_config
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.low_level import LowLevel, LowLevelRollout
+from judo.core.rollouts.rollout import RolloutPool
 from judo.evaluation.timing import rollout_start
 from judo.loop.system import MujocoSystem
 

@@ -1,6 +1,6 @@
 """Where a low-level policy's tick goes: the Python of one worker's block per tick, in thread CPU time.
 
-A worker of a low-level rollout (judo.core.low_level, core/stepper.py) runs, per tick of k physics steps, its
+A worker of a low-level rollout (judo.core.rollouts.low_level, core/rollouts/stepper.py) runs, per tick of k physics steps, its
 block's observation, one batched `act`, the copies into MuJoCo's inputs and out of its outputs, then the physics
 (`mujoco.rollout`, which releases the GIL). Everything but the physics and onnxruntime's run holds the GIL while the
 other worker steps its rollouts. For each task, on one worker and its block of B rows (the block of one of two
@@ -25,10 +25,10 @@ import tyro
 from rich.console import Console
 from rich.table import Table
 
+from judo.core.configuration.registry import make_task
 from judo.core.errors import JudoError
-from judo.core.low_level import LowLevelRollout
-from judo.core.registry import make_task
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.low_level import LowLevelRollout
+from judo.core.rollouts.rollout import RolloutPool
 from judo.evaluation.timing import rollout_start
 from judo.loop.system import MujocoSystem
 

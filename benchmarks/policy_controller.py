@@ -23,7 +23,7 @@ from rich.table import Table
 
 import judo
 from judo.cli_shared import seeds_label
-from judo.core.onnx_policy import write_linear_policy, write_mlp_policy
+from judo.core.policies.onnx_policy import write_linear_policy, write_mlp_policy
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 
 

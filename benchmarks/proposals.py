@@ -5,7 +5,7 @@ law of the planning model linearised upright, u = -K (x - x*), on the pole angle
 observation [cart x, cos, sin, velocities], saturated by the actuator, with its cart target x* moved off centre by
 --offset (the task wants the cart at 0). It balances a pole near the top, but cannot swing one up and balances the
 cart in the wrong place. It is an action policy (H = 1), so each update rolls it out in closed loop on the planning
-model and fits it to the knots (judo.core.proposals). Each row runs the task's default controller with num_rollouts
+model and fits it to the knots (judo.core.policies.proposals). Each row runs the task's default controller with num_rollouts
 N (or N/8) and policy_samples 0 or K, over fresh seeds (--first-seed; the task's defaults were tuned on seeds 0-4),
 and shows the task's metrics (mean and 95% CI over seeds) in sim time, and the median update time in wall time
 (which the machine's load moves; the metrics do not depend on it).
@@ -23,10 +23,10 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TaskID, TextC
 from rich.table import Table
 
 import judo
-from judo.core.config import with_updates
+from judo.core.configuration.config import with_updates
+from judo.core.configuration.registry import lookup_optimizer, lookup_task, make_config
 from judo.core.lqr import lqr_cost_to_go
 from judo.core.norms import wrap_angle
-from judo.core.registry import lookup_optimizer, lookup_task, make_config
 from judo.evaluation.episode import run_episode
 from judo.evaluation.stats import summarize
 from judo.loop.system import MujocoSystem

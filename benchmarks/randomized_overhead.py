@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from judo.core.randomize import randomized_models
+from judo.core.rollouts.randomize import randomized_models
 from judo.evaluation.timing import benchmark_controller, time_control_update
 
 

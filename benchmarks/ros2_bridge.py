@@ -27,7 +27,7 @@ import numpy as np
 import tyro
 
 import judo
-from judo.core.registry import make_config
+from judo.core.configuration.registry import make_config
 from judo.core.task import EpisodeLog
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import StepRecord

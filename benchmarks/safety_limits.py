@@ -31,9 +31,9 @@ import argparse
 import mujoco
 import numpy as np
 
+from judo.core.configuration.registry import make_controller
+from judo.core.policies.policy_controller import make_policy_controller
 from judo.core.policy import Policy
-from judo.core.policy_controller import make_policy_controller
-from judo.core.registry import make_controller
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
 from judo.safety.limits import SafetyConfig, resolve

@@ -33,9 +33,9 @@ from judo.collection.episode import collect_episode
 from judo.collection.excite import drive, excitation_episode, multisine
 from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters
 from judo.collection.sysid_data import read_logs
-from judo.core import registry
-from judo.core.model_overrides import check_model_overrides, model_value, parse_override_entries
-from judo.core.registry import make_task, register_task, set_model_overrides
+from judo.core.configuration import registry
+from judo.core.configuration.model_overrides import check_model_overrides, model_value, parse_override_entries
+from judo.core.configuration.registry import make_task, register_task, set_model_overrides
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.tasks.cartpole import MODEL_PATH, Cartpole, CartpoleConfig
 
@@ -202,7 +202,7 @@ def run_case(name: str, case: Case, args: argparse.Namespace, folder: Path) -> l
 def set_config_overrides_like_cartpole(name: str) -> None:
     """Give the task `name` judo's cartpole's tuned controller and optimizer settings (a registered task gets
     the defaults otherwise)."""
-    from judo.core.config_file import load_config
+    from judo.core.configuration.config_file import load_config
 
     text = (Path(registry.__file__).parents[1] / "tasks" / "models" / "cartpole.toml").read_text()
     path = Path(tempfile.gettempdir()) / f"judo_sysid_{name}.toml"

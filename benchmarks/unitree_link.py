@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import tyro
 
-from judo.core.registry import make_task
+from judo.core.configuration.registry import make_task
 from judo.loop.system_choice import UnitreeOptions
 from judo.ros2 import link as ros2_link
 from judo.unitree import crc

@@ -18,8 +18,8 @@ from pathlib import Path
 import numpy as np
 
 import judo
-from judo.core.low_level import LowLevel
-from judo.core.onnx_policy import write_linear_policy
+from judo.core.policies.onnx_policy import write_linear_policy
+from judo.core.rollouts.low_level import LowLevel
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
 from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig

@@ -2,7 +2,7 @@
 
 `judo.DynamicsTask` takes the state's length, the control limits and the step; `dynamics` steps a batch of
 states in numpy. The Controller rolls it out in T vectorized calls and the plant steps the same equations
-(judo.core.dynamics), so the rest of judo (optimizers, evaluate, tune, the GUI) is unchanged.
+(judo.core.rollouts.dynamics), so the rest of judo (optimizers, evaluate, tune, the GUI) is unchanged.
 
     python examples/12_own_dynamics.py
 """

@@ -61,7 +61,7 @@ def upright_task(tiny_model_path):
 def restore_the_registry():
     """Each test starts from the registry `import judo` builds: a doc snippet or config file that
     registers a task or sets overrides (on cartpole, say) must not change what later tests see."""
-    from judo.core import registry
+    from judo.core.configuration import registry
 
     tasks, optimizers = dict(registry._TASKS), dict(registry._OPTIMIZERS)
     overrides = {key: dict(value) for key, value in registry._OVERRIDES.items()}

@@ -4,7 +4,7 @@ An import circle is counted from every `import` and `from ... import` statement 
 level or inside a function or an `if TYPE_CHECKING:` block: modules are nodes, an import of a judo
 module is an edge to it, and each strongly connected component of more than one module (or a module
 importing itself) is one circle. A module named by a string and loaded with importlib (the rollout
-backend factory's `BACKEND_CLASSES` in core/backend.py) is not an import statement and not an edge: the
+backend factory's `BACKEND_CLASSES` in core/rollouts/backend.py) is not an import statement and not an edge: the
 factory depends on the backends only when called, by name, as a plugin table does.
 
 The same imports, gathered by package (judo.core, judo.runtime, ..., and a module directly in judo such as
@@ -31,7 +31,7 @@ LONGER_FILES = {
 
 
 def module_name(path: Path, root: Path) -> str:
-    """`judo/core/rollout.py` -> "judo.core.rollout"; `judo/core/__init__.py` -> "judo.core"."""
+    """`judo/core/rollouts/rollout.py` -> "judo.core.rollouts.rollout"; `judo/core/__init__.py` -> "judo.core"."""
     parts = list(path.relative_to(root).with_suffix("").parts)
     if parts[-1] == "__init__":
         parts.pop()
@@ -42,7 +42,7 @@ def imported_modules(path: Path, module: str, modules: set[str]) -> set[str]:
     """The modules among `modules` that the file at `path` (module `module`) imports, anywhere in it.
 
     `import a.b.c` and `from a.b import c` name the module a.b.c when it is one of `modules`, else the
-    longest prefix that is (`from judo.core.rollout import RolloutPool` -> judo.core.rollout). Relative
+    longest prefix that is (`from judo.core.rollouts.rollout import RolloutPool` -> judo.core.rollouts.rollout). Relative
     imports are resolved against `module`'s package."""
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     found: set[str] = set()
@@ -144,11 +144,11 @@ def test_no_import_circles():
 
 def test_the_rollout_backends_import_only_the_interface_module():
     graph = import_graph()
-    assert "judo.core.backend" in graph["judo.core.rollout"]
-    assert "judo.core.backend" in graph["judo.core.warp_rollout"]
-    assert "judo.core.warp_rollout" not in graph["judo.core.rollout"]
-    assert "judo.core.rollout" not in graph["judo.core.warp_rollout"]
-    assert not graph["judo.core.backend"] & {"judo.core.rollout", "judo.core.warp_rollout"}
+    assert "judo.core.rollouts.backend" in graph["judo.core.rollouts.rollout"]
+    assert "judo.core.rollouts.backend" in graph["judo.core.rollouts.warp_rollout"]
+    assert "judo.core.rollouts.warp_rollout" not in graph["judo.core.rollouts.rollout"]
+    assert "judo.core.rollouts.rollout" not in graph["judo.core.rollouts.warp_rollout"]
+    assert not graph["judo.core.rollouts.backend"] & {"judo.core.rollouts.rollout", "judo.core.rollouts.warp_rollout"}
     assert not [cycle for cycle in import_cycles() if any(m.startswith("judo.core.") for m in cycle)]
 
 
@@ -293,7 +293,7 @@ distill runs both."""
 
 
 def package_of(module: str, package: str = PACKAGE) -> str:
-    """The package a module counts for: "judo.core.rollout" -> "judo.core"; a module directly in the package
+    """The package a module counts for: "judo.core.rollouts.rollout" -> "judo.core"; a module directly in the package
     ("judo.ray_cluster", "judo.__main__") and the package itself count for themselves."""
     parts = module.split(".")
     return module if len(parts) <= 2 or parts[0] != package else ".".join(parts[:2])

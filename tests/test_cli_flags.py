@@ -9,7 +9,7 @@ import pytest
 from judo.__main__ import main
 from judo.cli_shared import parse_args, parse_args_with_config_fields
 from judo.collection.cli import CollectArgs
-from judo.core.registry import default_configs
+from judo.core.configuration.registry import default_configs
 from judo.evaluation.benchmark import BenchmarkArgs
 from judo.evaluation.evaluate import EvaluateArgs
 from judo.runtime.cli import parse
@@ -95,9 +95,9 @@ def test_a_timestep_mujoco_cannot_step_is_a_one_line_exit_2_before_anything_runs
             "--system judo.loop.system:DynamicsSystem: DynamicsSystem needs a task that is a DynamicsTask, got Cartpole",
         ),
         (
-            "judo.core.registry:set_model_overrides",
-            "--system judo.core.registry:set_model_overrides: expected a System subclass 'set_model_overrides' in "
-            "judo.core.registry, got function",
+            "judo.core.configuration.registry:set_model_overrides",
+            "--system judo.core.configuration.registry:set_model_overrides: expected a System subclass 'set_model_overrides' in "
+            "judo.core.configuration.registry, got function",
         ),
     ],
 )

@@ -52,7 +52,7 @@ def test_the_distribution_is_judo_mpc_with_mujoco_bounded():
     ("task", "missing"), [("quadruped_navigate", "onnxruntime"), ("cartpole_pd", "onnx")], ids=["quadruped", "pd"]
 )
 def test_a_task_with_a_shipped_policy_names_itself_and_the_extra_when_onnx_is_missing(task, missing, monkeypatch):
-    from judo.core.registry import lookup_task
+    from judo.core.configuration.registry import lookup_task
 
     task_cls, _ = lookup_task(task)
     monkeypatch.setitem(sys.modules, missing, None)  # makes the import raise ImportError, as without the package

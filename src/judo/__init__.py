@@ -12,23 +12,10 @@ loop.step()                             # plan when due, serve, step the plant o
 import judo.estimators  # registers the built-in estimators
 import judo.optimizers  # registers the built-in optimizers
 import judo.tasks  # noqa: F401  (registers the built-in tasks)
-from judo.core.backend import RandomizedRolloutError
-from judo.core.config import Config
-from judo.core.config_file import ConfigFileError, LoadedConfig, load_config
-from judo.core.controller import Controller, ControllerConfig, NonFiniteKnotsError, NonFiniteRewardError
-from judo.core.dynamics import DynamicsTask
-from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
-from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig
-from judo.core.fields import np_1d_field, slider
-from judo.core.low_level import LowLevel
-from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
-from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
-from judo.core.onnx_policy import OnnxPolicy
-from judo.core.optimizer import Optimizer, OptimizerConfig
-from judo.core.policy import Policy, PolicyError
-from judo.core.policy_controller import PolicyController, make_policy_controller
-from judo.core.randomize import InvalidRandomizedModelError
-from judo.core.registry import (
+from judo.core.configuration.config import Config
+from judo.core.configuration.config_file import ConfigFileError, LoadedConfig, load_config
+from judo.core.configuration.fields import np_1d_field, slider
+from judo.core.configuration.registry import (
     get_registered_estimators,
     get_registered_optimizers,
     get_registered_tasks,
@@ -40,6 +27,19 @@ from judo.core.registry import (
     set_config_overrides,
     set_model_overrides,
 )
+from judo.core.controller import Controller, ControllerConfig, NonFiniteKnotsError, NonFiniteRewardError
+from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
+from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig
+from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
+from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
+from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.policies.onnx_policy import OnnxPolicy
+from judo.core.policies.policy_controller import PolicyController, make_policy_controller
+from judo.core.policy import Policy, PolicyError
+from judo.core.rollouts.backend import RandomizedRolloutError
+from judo.core.rollouts.dynamics import DynamicsTask
+from judo.core.rollouts.low_level import LowLevel
+from judo.core.rollouts.randomize import InvalidRandomizedModelError
 from judo.core.spline import Spline, SplineBasis
 from judo.core.task import Task, TaskConfig
 from judo.loop.closed_loop import ClosedLoop

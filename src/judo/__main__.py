@@ -62,7 +62,7 @@ def main(argv: Sequence[str] | None = None) -> int | None:
     except Exception as err:  # the user's code failed (judo's own errors are told by each command)
         if debug:
             raise
-        from judo.core.boundary import user_error_line
+        from judo.core.commandline.boundary import user_error_line
 
         print(f"{prog}: {user_error_line(err)} (--debug shows the traceback)", file=sys.stderr)
         return 1

@@ -18,16 +18,16 @@ import tyro
 from rich.console import Console
 from rich.progress import Progress, ProgressColumn, Task, TaskID, TextColumn
 
-from judo.core.config import field_types
-from judo.core.errors import JudoError
-from judo.core.field_docs import field_docs
-from judo.core.optimizer import OptimizerConfig
-from judo.core.registry import (
+from judo.core.configuration.config import field_types
+from judo.core.configuration.field_docs import field_docs
+from judo.core.configuration.registry import (
     get_registered_optimizers,
     get_registered_tasks,
     lookup_optimizer,
     lookup_task,
 )
+from judo.core.errors import JudoError
+from judo.core.optimizer import OptimizerConfig
 from judo.loop.closed_loop import Latency
 from judo.loop.sensing import merge_repeated
 
@@ -92,7 +92,7 @@ def apply_config_file(path: Path | None) -> None:
     """Read the `--config` TOML file when one is given (registering its classes and applying its overrides),
     the same way the app does; ConfigFileError names the file and the entry that is wrong."""
     if path is not None:
-        from judo.core.config_file import load_config
+        from judo.core.configuration.config_file import load_config
 
         load_config(path)
 

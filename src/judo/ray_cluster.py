@@ -21,8 +21,8 @@ from typing import Any, TypeVar
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
+from judo.core.commandline.interrupts import sigint_as_flag
 from judo.core.errors import JudoError, import_extra
-from judo.core.interrupts import sigint_as_flag
 
 CONNECT_TIMEOUT_S = 5.0
 """How long to try reaching a cluster's address before giving up."""

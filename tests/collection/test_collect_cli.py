@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from judo.collection.cli import main as collect_main
-from judo.core import registry
+from judo.core.configuration import registry
 from tests.conftest import TINY_CARTPOLE_XML
 
 h5py = pytest.importorskip("h5py")

@@ -12,7 +12,7 @@ import pytest
 from judo.collection.cli import main as collect_main
 from judo.collection.dataset import DatasetError, DatasetFile
 from judo.collection.episode import collect_episode
-from judo.core.registry import lookup_optimizer, lookup_task, make_config
+from judo.core.configuration.registry import lookup_optimizer, lookup_task, make_config
 from judo.evaluation.seeded import EpisodeSpec
 
 h5py = pytest.importorskip("h5py")
@@ -122,7 +122,7 @@ def test_importing_judo_and_the_collect_command_imports_neither_h5py_nor_ray():
 
 def test_a_failed_episode_is_recorded_with_its_reason_and_run_again_on_resume(tmp_path):
     from judo.collection.run import Tally, write_outcome
-    from judo.core.registry import register_task
+    from judo.core.configuration.registry import register_task
     from tests.conftest import TINY_CARTPOLE_XML, UprightConfig, UprightTask
 
     model_path = tmp_path / "tiny.xml"

@@ -97,7 +97,7 @@ def test_a_declared_key_missing_from_a_step_or_changing_shape_is_an_error_naming
 
 def test_a_task_that_declares_an_unpublished_key_fails_its_episode_naming_both(tmp_path):
     from judo.collection.episode import collect_episode
-    from judo.core.registry import register_task
+    from judo.core.configuration.registry import register_task
     from tests.conftest import TINY_CARTPOLE_XML, UprightConfig, UprightTask
 
     model_path = tmp_path / "tiny.xml"

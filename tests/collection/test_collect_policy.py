@@ -16,7 +16,7 @@ from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 
 h5py = pytest.importorskip("h5py")
 pytest.importorskip("onnxruntime")
-from judo.core.onnx_policy import write_linear_policy  # noqa: E402
+from judo.core.policies.onnx_policy import write_linear_policy  # noqa: E402
 
 DOC = (Path(__file__).resolve().parents[2] / "docs" / "collect.md").read_text()
 CONSTANT = 0.25

@@ -8,7 +8,7 @@ import pytest
 
 from judo.collection.dataset import DatasetFile
 from judo.collection.recorder import EpisodeRecorder
-from judo.core.registry import make_controller, make_estimator
+from judo.core.configuration.registry import make_controller, make_estimator
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import PlanRecord
 from judo.loop.sensing import SensedSystem

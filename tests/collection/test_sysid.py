@@ -11,8 +11,8 @@ import pytest
 from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
 from judo.collection.sysid_cli import main as sysid_main
-from judo.core.config_file import load_config
-from judo.core.registry import make_controller
+from judo.core.configuration.config_file import load_config
+from judo.core.configuration.registry import make_controller
 from judo.evaluation.seeded import EpisodeSpec
 from judo.loop.system import MujocoSystem
 
@@ -117,7 +117,7 @@ def test_a_user_task_with_a_heavier_plant_model_gets_its_pole_fitted_and_the_fil
     import shutil
     from pathlib import Path
 
-    from judo.core.registry import make_task
+    from judo.core.configuration.registry import make_task
 
     folder = tmp_path / "robot"
     shutil.copytree(Path(__file__).resolve().parents[2] / "examples" / "11_sysid", folder)

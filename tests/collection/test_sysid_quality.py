@@ -14,8 +14,8 @@ from judo.collection.sysid import FitParameter, parse_parameters
 from judo.collection.sysid_cli import main as sysid_main
 from judo.collection.sysid_data import rms
 from judo.collection.sysid_quality import noise_floor
+from judo.core.configuration.model_overrides import overridden
 from judo.core.errors import ConfigError
-from judo.core.model_overrides import overridden
 from judo.tasks.cartpole import Cartpole
 
 pytest.importorskip("h5py")

@@ -197,7 +197,7 @@ def test_each_measured_value_is_compared_at_the_step_it_was_taken():
     samples), logged with its age, and placed back at every other step, where it equals the plant's joint positions
     (cartpole's measured sensors) of that step."""
     from judo.collection.sysid_data import Episode, taken_samples
-    from judo.core.registry import make_task
+    from judo.core.configuration.registry import make_task
 
     outcome = collect_episode(EpisodeSpec("cartpole", "ps", 0.3, sensing=Sensing("sensors", delay=0.02, rate=50.0)), 0)
     e = outcome.episode

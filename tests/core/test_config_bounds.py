@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.config import snapshot, with_updates
+from judo.core.configuration.config import snapshot, with_updates
+from judo.core.configuration.fields import slider_ranges
 from judo.core.controller import MAX_ROLLOUT_BYTES, NonFiniteKnotsError, check_configs
-from judo.core.fields import slider_ranges
 from judo.optimizers import CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
 
 
@@ -158,7 +158,7 @@ def test_a_cem_whose_search_went_nan_is_restarted(upright_task):
 @pytest.mark.parametrize("config_cls", every_config_class(), ids=lambda cls: cls.__name__)
 def test_every_float_field_refuses_a_magnitude_whose_use_overflows(config_cls):
     """1e308 weights, noise or goals pass "finite" but overflow every planning cycle: one bound, every field."""
-    from judo.core.config import MAX_MAGNITUDE
+    from judo.core.configuration.config import MAX_MAGNITUDE
 
     config = config_cls()
     for field in dataclasses.fields(config):

@@ -5,7 +5,7 @@ import textwrap
 import pytest
 
 import judo
-from judo.core.registry import make_config
+from judo.core.configuration.registry import make_config
 from judo.optimizers import MPPIConfig
 
 USER_MODULE = '''

@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.backend import RolloutBackend
 from judo.core.model import STATE_SPEC
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.backend import RolloutBackend
+from judo.core.rollouts.rollout import RolloutPool
 
 
 def zero_state(model: mujoco.MjModel) -> np.ndarray:

@@ -7,7 +7,7 @@ import pytest
 
 import judo
 from judo.core.model import STATE_SPEC
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.rollout import RolloutPool
 from judo.core.spline import SplineBasis
 from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
 from tests.core.test_randomized_rollouts import MassyTask
@@ -134,7 +134,7 @@ def test_settings_are_validated_with_clear_messages(fields, message):
 
 
 def test_risk_choices_are_listed():
-    from judo.core.config import with_updates
+    from judo.core.configuration.config import with_updates
 
     with pytest.raises(
         judo.ConfigError,

@@ -1,4 +1,4 @@
-"""Tasks on their own numpy dynamics (judo.core.dynamics): the backend against a plain loop, a user's pendulum
+"""Tasks on their own numpy dynamics (judo.core.rollouts.dynamics): the backend against a plain loop, a user's pendulum
 swung up by three optimizers, and bad dynamics refused with one line naming the task."""
 
 from dataclasses import dataclass
@@ -6,11 +6,11 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from judo.core.configuration.registry import get_registered_optimizers
 from judo.core.controller import Controller, ControllerConfig, NonFiniteRewardError
-from judo.core.dynamics import DivergedDynamicsError, DynamicsError, DynamicsRollout, DynamicsTask
 from judo.core.errors import ConfigError, ModelLoadError
 from judo.core.norms import wrap_angle
-from judo.core.registry import get_registered_optimizers
+from judo.core.rollouts.dynamics import DivergedDynamicsError, DynamicsError, DynamicsRollout, DynamicsTask
 from judo.core.task import TaskConfig
 from judo.evaluation.episode import run_episode
 from judo.loop.closed_loop import ClosedLoop

@@ -5,7 +5,7 @@ from dataclasses import dataclass
 import pytest
 
 import judo
-from judo.core.fields import slider_ranges
+from judo.core.configuration.fields import slider_ranges
 
 TYPO = (
     "@slider('nmae', ...) on Cfg: Cfg has no field 'nmae' (did you mean 'name'?); "

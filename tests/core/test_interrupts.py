@@ -6,7 +6,7 @@ import threading
 
 import pytest
 
-from judo.core.interrupts import sigint_as_flag, sigint_deferred
+from judo.core.commandline.interrupts import sigint_as_flag, sigint_deferred
 
 
 def test_a_sigint_inside_the_flag_block_is_recorded_and_the_handler_restored() -> None:

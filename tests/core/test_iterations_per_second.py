@@ -8,10 +8,10 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.config import with_updates
-from judo.core.controller_config import MAX_OPT_ITERS, ControllerConfig, cycle_iterations
+from judo.core.configuration.config import with_updates
+from judo.core.configuration.controller_config import MAX_OPT_ITERS, ControllerConfig, cycle_iterations
+from judo.core.configuration.registry import make_task
 from judo.core.errors import ConfigError
-from judo.core.registry import make_task
 from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
 
 

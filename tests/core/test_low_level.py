@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.backend import RolloutBackend
-from judo.core.low_level import LowLevel, LowLevelBackendError, LowLevelRollout, with_low_level
 from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.backend import RolloutBackend
+from judo.core.rollouts.low_level import LowLevel, LowLevelBackendError, LowLevelRollout, with_low_level
+from judo.core.rollouts.rollout import RolloutPool
 from judo.loop.system import MujocoSystem
 from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.low_level import LowLevel, LowLevelRollout
 from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.low_level import LowLevel, LowLevelRollout
+from judo.core.rollouts.rollout import RolloutPool
 from judo.core.spline import SplineBasis
 from judo.loop.system import MujocoSystem
 

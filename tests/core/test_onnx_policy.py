@@ -10,7 +10,7 @@ pytest.importorskip("onnxruntime")
 pytest.importorskip("onnx")
 
 from judo.core.errors import MissingExtraError
-from judo.core.onnx_policy import OnnxPolicy, write_linear_policy, write_mlp_policy
+from judo.core.policies.onnx_policy import OnnxPolicy, write_linear_policy, write_mlp_policy
 from judo.core.policy import PolicyError
 
 RNG = np.random.default_rng(0)

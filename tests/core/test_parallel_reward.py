@@ -7,7 +7,7 @@ import pytest
 
 import judo
 from judo.core.errors import JudoError
-from judo.core.parallel_reward import MIN_BLOCK_ROWS, ParallelReward
+from judo.core.rollouts.parallel_reward import MIN_BLOCK_ROWS, ParallelReward
 
 
 class CountingReward:

@@ -12,8 +12,8 @@ import judo
 from judo.core.controller import Controller
 from judo.core.errors import ConfigError, JudoError
 from judo.core.planner import Planner, checked_reading
+from judo.core.policies.policy_controller import PolicyController, make_policy_controller
 from judo.core.policy import Policy
-from judo.core.policy_controller import PolicyController, make_policy_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.optimizers import PredictiveSamplingConfig

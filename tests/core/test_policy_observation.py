@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.registry import lookup_task
+from judo.core.configuration.registry import lookup_task
 from tests.conftest import UprightTask
 
 OWN_OBSERVATION = ("acrobot", "cartpole", "cartpole_pd", "particle", "pendulum", "push_t", "quadruped_velocity")

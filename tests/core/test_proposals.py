@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.proposals import chunk_to_knots, fit_matrix, fit_times
-from judo.core.registry import lookup_optimizer
+from judo.core.configuration.registry import lookup_optimizer
+from judo.core.policies.proposals import chunk_to_knots, fit_matrix, fit_times
 from judo.core.spline import SplineBasis
 from judo.optimizers import CMAES, CMAESConfig, PredictiveSampling, PredictiveSamplingConfig
 from tests.conftest import UprightTask

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.registry import make_config
+from judo.core.configuration.registry import make_config
 from judo.optimizers import CEMConfig, MPPIConfig
 
 
@@ -125,7 +125,7 @@ def test_task_helpers_read_without_mutating_the_model(upright_task):
 
 
 def test_slider_and_np_1d_field_attach_metadata_only():
-    from judo.core.fields import array_field_spec, slider_ranges
+    from judo.core.configuration.fields import array_field_spec, slider_ranges
 
     @judo.slider("gain", 0.0, 10.0, 0.5)
     @dataclass

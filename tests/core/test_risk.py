@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from judo.core.errors import UnknownNameError
-from judo.core.risk import reduce_rewards
+from judo.core.rollouts.risk import reduce_rewards
 
 REWARDS = np.array([[1.0, 2.0, 3.0, 6.0], [-4.0, 0.0, 0.0, 0.0]])  # (num_rollouts=2, R=4)
 

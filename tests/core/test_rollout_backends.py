@@ -10,7 +10,8 @@ import mujoco
 import pytest
 
 import judo
-from judo.core.backend import (
+from judo.core.errors import MissingExtraError, UnknownNameError
+from judo.core.rollouts.backend import (
     BACKEND_CLASSES,
     ROLLOUT_BACKENDS,
     RolloutBackend,
@@ -18,8 +19,7 @@ from judo.core.backend import (
     check_rollout_backend,
     make_rollout_backend,
 )
-from judo.core.errors import MissingExtraError, UnknownNameError
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.rollout import RolloutPool
 from judo.evaluation import benchmark, evaluate
 from judo.runtime import cli
 
@@ -35,13 +35,11 @@ def without_warp(monkeypatch):
     """warp and mujoco_warp cannot be imported (as on a machine without judo-mpc[warp]) for this test."""
     monkeypatch.setitem(sys.modules, "warp", None)
     monkeypatch.setitem(sys.modules, "mujoco_warp", None)
-    monkeypatch.delitem(sys.modules, "judo.core.warp_rollout", raising=False)
+    monkeypatch.delitem(sys.modules, "judo.core.rollouts.warp_rollout", raising=False)
 
 
 def test_import_judo_imports_no_warp():
-    code = (
-        "import sys, judo, judo.core.backend, judo.core.rollout; print(sorted(m for m in sys.modules if 'warp' in m))"
-    )
+    code = "import sys, judo, judo.core.rollouts.backend, judo.core.rollouts.rollout; print(sorted(m for m in sys.modules if 'warp' in m))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
 

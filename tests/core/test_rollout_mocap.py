@@ -4,7 +4,7 @@ import mujoco
 import numpy as np
 
 from judo.core.model import STATE_SPEC
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.rollout import RolloutPool
 
 GOAL_XML = """
 <mujoco>

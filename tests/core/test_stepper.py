@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from judo.core.model import STATE_SPEC, mocap_metadata, mocap_vector, model_at
-from judo.core.rollout import RolloutPool
-from judo.core.stepper import PolicyStepper
+from judo.core.rollouts.rollout import RolloutPool
+from judo.core.rollouts.stepper import PolicyStepper
 
 XML = """
 <mujoco>

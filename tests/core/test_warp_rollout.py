@@ -20,11 +20,11 @@ pytest.importorskip("warp")
 pytest.importorskip("mujoco_warp")
 
 import judo
-from judo.core.backend import RandomizedRolloutError
 from judo.core.model import STATE_SPEC
-from judo.core.problem_batch import ProblemBatch, ProblemBatchError
-from judo.core.rollout import RolloutPool
-from judo.core.warp_rollout import (
+from judo.core.rollouts.backend import RandomizedRolloutError
+from judo.core.rollouts.problem_batch import ProblemBatch, ProblemBatchError
+from judo.core.rollouts.rollout import RolloutPool
+from judo.core.rollouts.warp_rollout import (
     RolloutOverflowWarning,
     WarpRollout,
     WarpUnsupportedModelError,

@@ -6,7 +6,7 @@ import time
 
 import pytest
 
-from judo.core.workers import DaemonThreadPool
+from judo.core.rollouts.workers import DaemonThreadPool
 
 
 def alive(name: str) -> list[threading.Thread]:

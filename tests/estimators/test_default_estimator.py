@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 import judo
+from judo.core.configuration.registry import lookup_task
 from judo.core.errors import ConfigError
 from judo.core.estimator import ReadingError, default_estimator_name, estimator_in_force
-from judo.core.registry import lookup_task
 from judo.estimators.ekf import EKFConfig
 from judo.estimators.ukf import UnscentedKalmanFilter
 from judo.evaluation.episode_args import EpisodeArgs

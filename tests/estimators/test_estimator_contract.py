@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 import judo
+from judo.core.configuration.fields import slider_ranges
+from judo.core.configuration.registry import lookup_estimator
 from judo.core.errors import UnknownNameError
 from judo.core.estimator import ControlHistory, ReadingError, default_estimator_name
-from judo.core.fields import slider_ranges
-from judo.core.registry import lookup_estimator
 from judo.estimators.ekf import EKFConfig
 from judo.loop.system import SystemState
 

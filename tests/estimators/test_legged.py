@@ -5,9 +5,9 @@ import mujoco
 import numpy as np
 import pytest
 
+from judo.core.configuration.registry import make_estimator
 from judo.core.errors import ConfigError
 from judo.core.estimator import ControlHistory
-from judo.core.registry import make_estimator
 from judo.core.task import Task
 from judo.estimators.legged import LeggedConfig, LeggedEstimator
 from judo.loop.sensing import SensedSystem

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import judo
+from judo.core.configuration.registry import make_estimator
 from judo.core.estimator import ControlHistory
-from judo.core.registry import make_estimator
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
 

@@ -3,7 +3,7 @@ import json
 import numpy as np
 import pytest
 
-from judo.core.registry import get_registered_tasks
+from judo.core.configuration.registry import get_registered_tasks
 from judo.evaluation.benchmark import main
 from judo.evaluation.timing import UpdateTiming, time_pair
 

@@ -4,8 +4,8 @@ import json
 
 import pytest
 
-from judo.core import registry
-from judo.core.registry import make_config
+from judo.core.configuration import registry
+from judo.core.configuration.registry import make_config
 from judo.evaluation import evaluate
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.optimizers.mppi import MPPIConfig

@@ -4,8 +4,8 @@ import json
 
 import pytest
 
+from judo.core.configuration.registry import lookup_task, make_config
 from judo.core.controller import ControllerConfig
-from judo.core.registry import lookup_task, make_config
 from judo.evaluation import benchmark, evaluate
 from judo.evaluation import cli as evaluation_cli
 from judo.optimizers.ps import PredictiveSamplingConfig

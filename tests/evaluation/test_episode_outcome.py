@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from judo.collection.episode import collect_episode
-from judo.core.registry import register_task
+from judo.core.configuration.registry import register_task
 from judo.evaluation.episode import episode_failure
 from judo.evaluation.seeded import EpisodeSpec, evaluate_seed, run_seeded_episode
 from judo.tuning.trial import TrialSpec, run_condition_seed

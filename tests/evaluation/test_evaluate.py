@@ -2,8 +2,8 @@ import json
 
 import pytest
 
+from judo.core.configuration.registry import get_registered_optimizers, get_registered_tasks, make_config
 from judo.core.controller import ControllerConfig
-from judo.core.registry import get_registered_optimizers, get_registered_tasks, make_config
 from judo.evaluation.cli import write_json
 from judo.evaluation.evaluate import main
 

@@ -9,7 +9,7 @@ import pytest
 from judo.evaluation.evaluate import main
 
 pytest.importorskip("onnxruntime")
-from judo.core.onnx_policy import write_linear_policy
+from judo.core.policies.onnx_policy import write_linear_policy
 
 TINY = ["--task", "cartpole", "--seeds", "2", "--duration", "0.4", "--num-workers", "1"]
 

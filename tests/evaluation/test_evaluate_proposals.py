@@ -13,7 +13,7 @@ TINY = ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration",
 
 @pytest.fixture
 def policy_file(tmp_path):
-    from judo.core.onnx_policy import write_linear_policy
+    from judo.core.policies.onnx_policy import write_linear_policy
 
     weight = np.array([[1.0, 0.0, -2.0, 0.5, -0.5]])  # any linear law on the observation: proposals can only help
     return write_linear_policy(tmp_path / "law.onnx", weight, metadata={"task": "cartpole"})
@@ -73,7 +73,7 @@ def test_a_failing_proposal_policy_is_told_in_one_clean_warning_line(tmp_path):
     import subprocess
     import sys
 
-    from judo.core.onnx_policy import write_linear_policy
+    from judo.core.policies.onnx_policy import write_linear_policy
 
     nan = write_linear_policy(tmp_path / "nan.onnx", np.full((1, 5), np.nan), metadata={"task": "cartpole"})
     argv = [*TINY, "--duration", "0.1", "--controller.policy-samples", "2", "--proposal-policy", str(nan)]

@@ -17,10 +17,10 @@ pytest.importorskip("onnxruntime")
 from judo.collection.dataset import DatasetFile  # noqa: E402
 from judo.collection.episode import collect_episode  # noqa: E402
 from judo.collection.model_info import config_dict  # noqa: E402
-from judo.core.config import shown  # noqa: E402
-from judo.core.onnx_policy import OnnxPolicy  # noqa: E402
+from judo.core.configuration.config import shown  # noqa: E402
+from judo.core.policies.onnx_policy import OnnxPolicy  # noqa: E402
+from judo.core.policies.policy_controller import make_policy_controller  # noqa: E402
 from judo.core.policy import PolicyError  # noqa: E402
-from judo.core.policy_controller import make_policy_controller  # noqa: E402
 from judo.evaluation.seeded import EpisodeSpec, configs_in_force  # noqa: E402
 from judo.learning.cli import main as distill_main  # noqa: E402
 from judo.learning.export import policy_metadata, write_policy  # noqa: E402

@@ -6,7 +6,7 @@ import json
 import numpy as np
 import pytest
 
-from judo.core.onnx_policy import OnnxPolicy
+from judo.core.policies.onnx_policy import OnnxPolicy
 from judo.learning.gait_cli import main as gait_search_main
 from judo.learning.gait_policy import gait_actions, gait_policy_model, phase_features
 from judo.learning.gait_search import (

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.policy_controller import make_policy_controller
+from judo.core.policies.policy_controller import make_policy_controller
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
 

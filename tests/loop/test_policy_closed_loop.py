@@ -7,8 +7,8 @@ import pytest
 from slider_task import hold_base
 
 from judo.core.controller import Controller, ControllerConfig
+from judo.core.policies.policy_controller import PolicyController, make_policy_controller
 from judo.core.policy import Policy, PolicyError
-from judo.core.policy_controller import PolicyController, make_policy_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
@@ -174,7 +174,7 @@ def test_an_onnx_chunk_policy_is_served_through_the_loop_as_its_matrix_product(h
     """A chunk policy file (3 knots of W o + b; fixed batch 1 or dynamic) on onnxruntime, made for the task at
     10 Hz: each plan's knots are the product (to float32), and the plant gets the linear plan between them."""
     pytest.importorskip("onnxruntime")
-    from judo.core.onnx_policy import write_linear_policy
+    from judo.core.policies.onnx_policy import write_linear_policy
 
     weight, bias = np.array([[1.0, 0.0], [0.5, 0.1], [0.0, 0.2]]), np.array([0.0, 0.1, 0.2])
     metadata = {"task": "hold", "control_freq": "10", "horizon": "0.2", "spline_order": "linear"}
@@ -196,7 +196,7 @@ def test_an_onnx_chunk_policy_is_served_through_the_loop_as_its_matrix_product(h
 
 
 def make_policy_controller_for(task_cls, path):
-    from judo.core.policy_controller import as_policy, policy_config
+    from judo.core.policies.policy_controller import as_policy, policy_config
 
     policy = as_policy(path)
     return PolicyController(task_cls(), policy, policy_config(policy), task_name="hold")

@@ -4,8 +4,8 @@ update through robust planning, proposals and a low-level policy (not a test mod
 import numpy as np
 
 import judo
-from judo.core.config import with_updates
-from judo.core.registry import make_config
+from judo.core.configuration.config import with_updates
+from judo.core.configuration.registry import make_config
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
 from judo.tasks.cartpole_pd import CartpolePD

@@ -102,7 +102,7 @@ def test_editing_sigma_restarts_the_distribution():
     cmaes = make_cmaes(num_nodes=4)
     optimize(cmaes, lambda k: -np.square(k - 0.5).sum(axis=(1, 2)), np.zeros((4, 2)), 5)
     assert cmaes.generation == 5
-    cmaes.config = judo.core.config.with_updates(cmaes.config, {"sigma": 0.2})
+    cmaes.config = judo.core.configuration.config.with_updates(cmaes.config, {"sigma": 0.2})
     times = np.linspace(0.0, 1.0, 4)
     cmaes.pre_optimization(times, times)
     assert cmaes.generation == 0 and cmaes.step_size == pytest.approx(0.2)

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.config import with_updates
+from judo.core.configuration.config import with_updates
 from judo.optimizers.dial import Dial, DialConfig, standardised_softmax_weights
 
 

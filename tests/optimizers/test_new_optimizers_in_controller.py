@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.config import with_updates
+from judo.core.configuration.config import with_updates
 from judo.loop.system import MujocoSystem
 
 NEW_OPTIMIZERS = ["dial", "cmaes", "icem"]

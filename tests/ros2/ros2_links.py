@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.registry import make_config
+from judo.core.configuration.registry import make_config
 from judo.optimizers.mppi import MPPIConfig
 
 ROOT = Path(__file__).resolve().parents[2]

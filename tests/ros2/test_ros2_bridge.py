@@ -15,8 +15,8 @@ mcap_reader = pytest.importorskip("mcap_ros2.reader")
 from ros2_links import echo_reader, echoes, free_domain, poll, small_controller, start_plant, stop_process  # noqa: E402
 
 import judo  # noqa: E402
+from judo.core.configuration.registry import make_config  # noqa: E402
 from judo.core.errors import JudoError  # noqa: E402
-from judo.core.registry import make_config  # noqa: E402
 from judo.loop.closed_loop import ClosedLoop  # noqa: E402
 from judo.loop.system import MujocoSystem  # noqa: E402
 from judo.loop.system_choice import Ros2Options  # noqa: E402

@@ -18,9 +18,9 @@ from ros2_links import env, free_domain, record_multisine, start_plant, stop_pro
 from judo.collection.replay import Replay
 from judo.collection.replay import main as replay_main
 from judo.collection.sysid_cli import main as sysid_main
-from judo.core.config_file import load_config
-from judo.core.model_overrides import overridden
-from judo.core.registry import make_task
+from judo.core.configuration.config_file import load_config
+from judo.core.configuration.model_overrides import overridden
+from judo.core.configuration.registry import make_task
 from judo.ros2 import link
 from judo.ros2.mcap_log import McapLog
 from judo.ros2.mcap_read import BridgeLogError, read_bridge_log

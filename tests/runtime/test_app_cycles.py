@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core import registry
+from judo.core.configuration import registry
 from judo.core.errors import ConfigError, JudoError
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.rollout import RolloutPool
 from judo.runtime.app import App
 from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleSize, StepCost
 from judo.tasks.cartpole import Cartpole, CartpoleConfig

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core import registry
+from judo.core.configuration import registry
 from judo.loop.system import System, SystemState
 from judo.runtime.app import App
 from judo.tasks.cartpole import Cartpole, CartpoleConfig

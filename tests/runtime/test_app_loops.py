@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import judo
+from judo.core.configuration.registry import make_config
 from judo.core.errors import JudoError
-from judo.core.registry import make_config
 from judo.loop.system import System, SystemState
 from judo.runtime.app import App
 

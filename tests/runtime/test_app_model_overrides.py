@@ -5,8 +5,8 @@ import textwrap
 
 import pytest
 
-from judo.core.config_file import load_config
-from judo.core.registry import set_model_overrides
+from judo.core.configuration.config_file import load_config
+from judo.core.configuration.registry import set_model_overrides
 from judo.runtime.app import App
 from judo.runtime.cli import _peek
 

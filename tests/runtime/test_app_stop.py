@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core import registry
+from judo.core.configuration import registry
 from judo.core.controller import MAX_OPT_ITERS, MIN_CONTROL_FREQ
 from judo.runtime.app import App
 from judo.tasks.cartpole import Cartpole, CartpoleConfig

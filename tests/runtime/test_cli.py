@@ -11,7 +11,7 @@ import pytest
 
 import judo.__main__
 from judo import get_registered_optimizers, get_registered_tasks
-from judo.core.registry import default_configs
+from judo.core.configuration.registry import default_configs
 from judo.runtime import cli
 
 SRC = str(Path(judo.__main__.__file__).parents[1])

@@ -9,8 +9,8 @@ import pytest
 import viser
 
 import judo
+from judo.core.configuration.registry import make_config
 from judo.core.controller import ControllerConfig
-from judo.core.registry import make_config
 from judo.runtime.app import App
 
 

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 import viser
 
-from judo.core.config import Config
+from judo.core.configuration.config import Config
+from judo.core.configuration.fields import np_1d_field, slider
+from judo.core.configuration.registry import config_flag, default_configs
 from judo.core.errors import ConfigError
-from judo.core.fields import np_1d_field, slider
-from judo.core.registry import config_flag, default_configs
 from judo.runtime.cli import parse
 from judo.runtime.gui.config_panel import (
     ConfigPanel,
@@ -183,7 +183,7 @@ class LogConfig(Config):
 
 
 def test_a_range_over_two_decades_gets_one_box_in_real_units(server):
-    from judo.core.fields import slider_ranges
+    from judo.core.configuration.fields import slider_ranges
 
     ranges = slider_ranges(LogConfig)
     assert ranges["temperature"].is_log and not ranges["weight"].is_log

@@ -3,9 +3,9 @@
 import pytest
 import viser
 
-from judo.core.backend import ROLLOUT_BACKENDS
+from judo.core.configuration.fields import SliderRange
 from judo.core.controller import ControllerConfig
-from judo.core.fields import SliderRange
+from judo.core.rollouts.backend import ROLLOUT_BACKENDS
 from judo.optimizers import MPPIConfig
 from judo.runtime.app import App
 from judo.runtime.gui.config_panel import ConfigPanel

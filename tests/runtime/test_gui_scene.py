@@ -8,8 +8,8 @@ import pytest
 import viser
 
 import judo
-from judo.core.config import Config
-from judo.core.fields import np_1d_field
+from judo.core.configuration.config import Config
+from judo.core.configuration.fields import np_1d_field
 from judo.core.model import trace_sensor_columns
 from judo.runtime.gui.camera import FRAMING_FILL, VERTICAL_FOV, VISIBLE_ASPECT, distance_to_see, project
 from judo.runtime.gui.goal_handles import HANDLE_SCALE, HANDLE_SIZES, mocap_handle_size

@@ -53,7 +53,7 @@ def test_the_example_robot_reports_only_late_noisy_encoders_stamped_when_taken()
 
 
 def test_the_ekf_tracks_the_example_robot_through_the_closed_loop():
-    from judo.core.registry import make_controller, make_estimator
+    from judo.core.configuration.registry import make_controller, make_estimator
     from judo.loop.closed_loop import ClosedLoop
 
     robot = example_module().LaggyNoisyCartpole(seed=2)

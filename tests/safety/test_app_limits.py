@@ -5,7 +5,7 @@ import concurrent.futures
 import pytest
 import viser
 
-from judo.core.registry import default_configs, make_config, make_task
+from judo.core.configuration.registry import default_configs, make_config, make_task
 from judo.runtime import cli
 from judo.runtime.gui.safety_panel import SafetyPanel, limit_lines
 from judo.safety.limits import SafetyConfig, resolve

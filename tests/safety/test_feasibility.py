@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from judo.core.registry import get_registered_optimizers, make_controller
+from judo.core.configuration.registry import get_registered_optimizers, make_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.safety.feasibility import RolloutScreen

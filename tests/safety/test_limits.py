@@ -2,10 +2,10 @@
 
 import pytest
 
-from judo.core.config import with_updates
-from judo.core.config_file import ConfigFileError, load_config
+from judo.core.configuration.config import with_updates
+from judo.core.configuration.config_file import ConfigFileError, load_config
+from judo.core.configuration.registry import make_config, make_task
 from judo.core.errors import ConfigError
-from judo.core.registry import make_config, make_task
 from judo.safety.limits import LimitError, SafetyConfig, resolve
 
 
@@ -110,7 +110,7 @@ def test_a_config_file_section_is_checked_at_load(tmp_path):
 
 
 def test_a_config_files_section_reaches_evaluates_episodes(tmp_path, monkeypatch):
-    import judo.core.registry as registry
+    import judo.core.configuration.registry as registry
     from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 
     monkeypatch.setattr(registry, "_OVERRIDES", dict(registry._OVERRIDES))  # the file's defaults end with the test

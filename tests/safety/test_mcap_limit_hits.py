@@ -13,8 +13,8 @@ pytest.importorskip("mcap_ros2")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "ros2"))
 from ros2_links import free_domain, started, stop_process
 
+from judo.core.policies.policy_controller import make_policy_controller
 from judo.core.policy import Policy
-from judo.core.policy_controller import make_policy_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system_choice import Ros2Options
 from judo.ros2 import messages as msg

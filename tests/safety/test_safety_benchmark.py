@@ -30,7 +30,7 @@ def test_the_grasp_case_recomputes_the_cube_resting_on_the_table_as_its_weight()
     import mujoco
     import numpy as np
 
-    from judo.core.registry import make_task
+    from judo.core.configuration.registry import make_task
     from judo.safety.limits import resolve
 
     spec = importlib.util.spec_from_file_location("safety_limits", ROOT / "benchmarks" / "safety_limits.py")

@@ -2,9 +2,9 @@
 
 import numpy as np
 
+from judo.core.configuration.registry import make_controller, make_task
+from judo.core.policies.policy_controller import make_policy_controller
 from judo.core.policy import Policy
-from judo.core.policy_controller import make_policy_controller
-from judo.core.registry import make_controller, make_task
 from judo.evaluation.episode import run_episode
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import StepRecord

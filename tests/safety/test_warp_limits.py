@@ -4,7 +4,7 @@ device: the CPU device where there is no GPU)."""
 import numpy as np
 import pytest
 
-from judo.core.registry import make_controller
+from judo.core.configuration.registry import make_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.safety.limits import SafetyConfig

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.dynamics import DynamicsRollout, drawn_model, drawn_qpos
+from judo.core.rollouts.dynamics import DynamicsRollout, drawn_model, drawn_qpos
 from judo.evaluation.episode import run_episode
 from judo.loop.system import DynamicsSystem, MujocoSystem
 from judo.tasks.car import LF, LR, MAX_ACCEL, MAX_STEER, Car, penetration

@@ -9,10 +9,8 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.controller import ControllerConfig, check_configs
-from judo.core.fields import slider_ranges
-from judo.core.model import trace_sensor_columns
-from judo.core.registry import (
+from judo.core.configuration.fields import slider_ranges
+from judo.core.configuration.registry import (
     _OVERRIDES,
     get_registered_optimizers,
     get_registered_tasks,
@@ -20,6 +18,8 @@ from judo.core.registry import (
     lookup_task,
     make_config,
 )
+from judo.core.controller import ControllerConfig, check_configs
+from judo.core.model import trace_sensor_columns
 from judo.core.task import EpisodeLog
 
 PACKAGE = Path(judo.__file__).parent

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.registry import default_configs, make_config
+from judo.core.configuration.registry import default_configs, make_config
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem

@@ -5,10 +5,10 @@ it), pendulum, acrobot and cartpole see cos and sin of their unlimited hinges; b
 import numpy as np
 import pytest
 
+from judo.core.configuration.registry import lookup_task
 from judo.core.model import model_mocap_poses
+from judo.core.policies.policy_controller import make_policy_controller
 from judo.core.policy import Policy
-from judo.core.policy_controller import make_policy_controller
-from judo.core.registry import lookup_task
 
 SIZES = {"particle": 6, "push_t": 13, "pendulum": 3, "acrobot": 6, "cartpole": 5, "cartpole_pd": 5}
 

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.low_level import LowLevelRollout
-from judo.core.onnx_policy import OnnxPolicy
+from judo.core.policies.onnx_policy import OnnxPolicy
+from judo.core.rollouts.low_level import LowLevelRollout
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
 from judo.tasks.quadruped_navigate import COMMAND_RANGE, EVERY, POLICY_PATH, QuadrupedNavigate

@@ -2,7 +2,7 @@
 
 import pytest
 
-from judo.core.registry import lookup_task
+from judo.core.configuration.registry import lookup_task
 from judo.tasks import BUILTIN_TASKS
 from judo.tuning.leaderboard import main as leaderboard_main
 from judo.tuning.leaderboard_protocol import SHIPPED, ProtocolError, load_protocol

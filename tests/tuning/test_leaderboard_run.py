@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from judo.cli_shared import apply_config_file
-from judo.core import registry
-from judo.core.registry import default_configs
+from judo.core.configuration import registry
+from judo.core.configuration.registry import default_configs
 from judo.tuning.leaderboard import main as leaderboard_main
 from judo.tuning.leaderboard_protocol import load_protocol
 from tests.tuning.test_tune_cli import stored_trials, trial_states_read_only, wait_for

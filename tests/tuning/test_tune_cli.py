@@ -17,9 +17,9 @@ from pathlib import Path
 
 import pytest
 
-from judo.core import registry
+from judo.core.configuration import registry
+from judo.core.configuration.registry import make_config
 from judo.core.controller import ControllerConfig
-from judo.core.registry import make_config
 from judo.evaluation.evaluate import main as evaluate_main
 from judo.optimizers import PredictiveSamplingConfig
 from judo.tuning.cli import main as tune_main

@@ -3,8 +3,8 @@
 import pytest
 
 import judo
-from judo.core.config_values import SearchSpaceError, apply_values
-from judo.core.registry import default_configs
+from judo.core.configuration.config_values import SearchSpaceError, apply_values
+from judo.core.configuration.registry import default_configs
 from judo.tuning.space import Param, build_space, parse_fixed
 from tests.conftest import UprightConfig, UprightTask
 

@@ -7,7 +7,7 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.registry import register_task
+from judo.core.configuration.registry import register_task
 from judo.core.task import Task, TaskConfig
 
 MODEL = Path(__file__).with_name("leg.xml")

@@ -10,7 +10,7 @@ import leg_task
 import mujoco
 from unitree_links import free_domain, leg_state
 
-from judo.core.config_file import load_config
+from judo.core.configuration.config_file import load_config
 from judo.core.errors import ConfigError
 from judo.loop.system_choice import UnitreeOptions, system_class, unitree_options
 from judo.ros2 import plant
@@ -80,7 +80,7 @@ def test_a_reading_with_the_wrong_motor_count_is_refused():
 
 
 def test_a_g1_command_echoes_the_robots_mode_machine_and_verifies():
-    from judo.core.registry import make_task
+    from judo.core.configuration.registry import make_task
     from judo.unitree import crc
 
     motors = mt.Motors.of(make_task("g1_stand").model, "g1")

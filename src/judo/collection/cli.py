@@ -16,8 +16,8 @@ import tyro
 
 from judo.cli_shared import fail, name_listing, parse_args_with_config_fields
 from judo.collection.model_info import config_dict, model_sha256
-from judo.core.boundary import check_seed_range
-from judo.core.config import Config, require, require_between
+from judo.core.commandline.boundary import check_seed_range
+from judo.core.configuration.config import Config, require, require_between
 from judo.core.errors import JudoError
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.version import __version__
@@ -80,7 +80,7 @@ class CollectArgs(EpisodeArgs):
 
 def env_args(args: CollectArgs, configs: dict[Any, Config]) -> dict[str, Any]:
     """The `data` group's env_args: everything that determines the episodes, plus versions and model hashes."""
-    from judo.core.registry import make_task
+    from judo.core.configuration.registry import make_task
 
     task = make_task(args.task)
     latency = args.episode_latency()
@@ -115,7 +115,7 @@ def file_record(path: Path) -> dict[str, str]:
 def policy_record(args: CollectArgs) -> dict[str, Any]:
     """The driving policy in env_args: its file, the file's SHA-256 (another policy is another run), its name,
     horizon and metadata, and the ControllerConfig it was served under."""
-    from judo.core.policy_controller import as_policy
+    from judo.core.policies.policy_controller import as_policy
     from judo.evaluation.seeded import policy_config_in_force
 
     assert args.policy is not None, "env_args records a policy only when --policy is given"
@@ -135,7 +135,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo collect` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
     from judo.collection.dataset import import_h5py
     from judo.collection.run import collect
-    from judo.core.config_values import controller_config_of
+    from judo.core.configuration.config_values import controller_config_of
     from judo.evaluation.seeded import configs_in_force, load_proposal_policy
 
     argv = list(sys.argv[1:] if argv is None else argv)

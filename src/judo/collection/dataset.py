@@ -41,8 +41,8 @@ from typing import Any
 
 import numpy as np
 
+from judo.core.commandline.interrupts import sigint_deferred
 from judo.core.errors import JudoError, import_extra
-from judo.core.interrupts import sigint_deferred
 
 EXTRA = "collect"
 """The optional extra holding h5py and ray."""

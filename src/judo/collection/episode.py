@@ -6,9 +6,9 @@ gets every plan and step from the one closed-loop step (`judo.loop.closed_loop.C
 
 from judo.collection.dataset import EpisodeArrays
 from judo.collection.recorder import EpisodeRecorder, PolicyServedRecorder
-from judo.core.backend import RolloutBackend
 from judo.core.planner import Planner
-from judo.core.policy_controller import PolicyController
+from judo.core.policies.policy_controller import PolicyController
+from judo.core.rollouts.backend import RolloutBackend
 from judo.evaluation.episode import EpisodeOutcome, episode_failure
 from judo.evaluation.seeded import (
     EpisodeSpec,
@@ -28,7 +28,7 @@ def collect_group(spec: EpisodeSpec, seeds: list[int], traces: bool = False) -> 
     if len(seeds) == 1 or spec.backend != "warp":
         return [collect_episode(spec, seed, traces) for seed in seeds]
     try:
-        from judo.core.warp_rollout import WarpRollout
+        from judo.core.rollouts.warp_rollout import WarpRollout
 
         with WarpRollout(planning_model(spec)) as backend:
             return run_side_by_side(backend, seeds, lambda seed, slot: collect_episode(spec, seed, traces, slot))

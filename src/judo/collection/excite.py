@@ -29,9 +29,9 @@ import tyro
 from rich.progress import BarColumn, MofNCompleteColumn, TextColumn
 
 from judo.cli_shared import apply_config_file, fail, parse_args, progress_display
-from judo.core.boundary import check_output_file, require
+from judo.core.commandline.boundary import check_output_file, require
+from judo.core.commandline.interrupts import sigint_as_flag
 from judo.core.errors import ConfigError, JudoError
-from judo.core.interrupts import sigint_as_flag
 
 if TYPE_CHECKING:
     import mujoco
@@ -159,8 +159,8 @@ def main(argv: list[str] | None = None) -> int:
 def run(args: ExciteArgs) -> int:
     """Excite the plant and write the log; 130 where a stop request (Ctrl-C, SIGTERM) ended it early, else 0."""
     from judo.collection.dataset import DatasetFile
-    from judo.core.model_overrides import parse_override_entries
-    from judo.core.registry import make_task, set_model_overrides
+    from judo.core.configuration.model_overrides import parse_override_entries
+    from judo.core.configuration.registry import make_task, set_model_overrides
     from judo.loop.system import MujocoSystem
     from judo.loop.system_choice import SIM, SystemOptions, build_system
 

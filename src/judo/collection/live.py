@@ -20,7 +20,7 @@ import numpy as np
 from judo.collection.dataset import DatasetFile, import_h5py
 from judo.collection.model_info import config_dict, model_sha256
 from judo.collection.recorder import EpisodeRecorder
-from judo.core.config import Config
+from judo.core.configuration.config import Config
 from judo.core.errors import JudoError
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import step_reward

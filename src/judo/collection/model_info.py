@@ -7,7 +7,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.config import Config
+from judo.core.configuration.config import Config
 
 
 def config_dict(config: Config) -> dict[str, Any]:

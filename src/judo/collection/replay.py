@@ -23,7 +23,7 @@ import tyro
 
 from judo.cli_shared import apply_config_file, fail
 from judo.collection.dataset import DatasetError, demo_name, import_h5py
-from judo.core.config import require_between
+from judo.core.configuration.config import require_between
 from judo.core.errors import JudoError
 
 FRAME_S = 1 / 30
@@ -210,7 +210,7 @@ class Replay:
         token: str | None = None,
         task: str | None = None,
     ) -> None:
-        from judo.core.registry import make_task
+        from judo.core.configuration.registry import make_task
         from judo.runtime.address import check_port, check_token
 
         check_port(port)

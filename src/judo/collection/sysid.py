@@ -7,7 +7,7 @@ minimises the normalised difference to the logged states (`mujoco.sysid`'s resid
 optimizer). A log whose plant reported only its measured sensors is compared on those instead (the rollouts'
 sensordata against each value at the step it was taken), each window starting from the logged estimate refined,
 for each candidate, to the window's own measurements (`sysid_hooks.refine_starts`). The parameters are named
-MjModel fields by element (judo.core.model_overrides), so the result is a [model_overrides.TASK] section that
+MjModel fields by element (judo.core.configuration.model_overrides), so the result is a [model_overrides.TASK] section that
 `--config` reads. Commands that reach the plant whole steps late (a bridge under load) are a command delay, fitted
 by trying each; some windows are held out of the fit and the fitted model's error is reported on them; a fit that
 leaves most of the error it could explain is flagged, with the parameters most likely missing (sysid_quality).
@@ -30,8 +30,8 @@ import numpy as np
 from judo.collection import sysid_quality as quality
 from judo.collection.sysid_data import Episode, Windows, compared, cut_windows, rms
 from judo.collection.sysid_hooks import least_squares, refined_residuals
+from judo.core.configuration.model_overrides import check_model_overrides, model_value, overridden
 from judo.core.errors import ConfigError, import_extra
-from judo.core.model_overrides import check_model_overrides, model_value, overridden
 from judo.core.task import Task
 
 EXTRA = "sysid"

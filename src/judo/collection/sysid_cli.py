@@ -15,7 +15,7 @@ from typing import Annotated, Any, Literal
 import tyro
 
 from judo.cli_shared import apply_config_file, fail, output_console, parse_args, progress_display
-from judo.core.boundary import check_output_file, require
+from judo.core.commandline.boundary import check_output_file, require
 from judo.core.errors import JudoError
 
 DESCRIPTION = (
@@ -132,7 +132,7 @@ def run(args: SysidArgs, command: str) -> None:
 
     from judo.collection.sysid import DELAY_PARAMETER, fit, parse_parameters
     from judo.collection.sysid_data import commands_line, compared, read_logs
-    from judo.core.registry import make_task
+    from judo.core.configuration.registry import make_task
 
     task = make_task(args.task)
     parameters = parse_parameters(args.params, task.model) + ([DELAY_PARAMETER] if args.fit_delay else [])
@@ -212,7 +212,7 @@ def fitted_toml(
     [model_overrides.TASK] gets the fitted `overrides` (replacing the entries they fit, keeping the others), with
     `notes` as comments at its end, and whose [sysid.TASK] names the entries sysid fitted (these and those the
     config's own [sysid.TASK] named), so that judo announces a fitted model."""
-    from judo.core.model_overrides import toml_value
+    from judo.core.configuration.model_overrides import toml_value
 
     model_overrides = {name: dict(value) for name, value in config.get("model_overrides", {}).items()}
     merged: dict[str, dict[str, Any]] = {f: dict(v) for f, v in model_overrides.pop(task, {}).items()}

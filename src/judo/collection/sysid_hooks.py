@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from judo.collection.sysid_data import Windows, delayed_controls, prediction_residuals, spread
-from judo.core.model_overrides import overridden
+from judo.core.configuration.model_overrides import overridden
 
 
 def least_squares(

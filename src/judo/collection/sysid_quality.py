@@ -10,8 +10,8 @@ import numpy as np
 
 from judo.collection.sysid_data import Windows
 from judo.collection.sysid_hooks import refined_residuals
+from judo.core.configuration.model_overrides import model_value, overridden
 from judo.core.errors import JudoError
-from judo.core.model_overrides import model_value, overridden
 
 HOLD_OUT_EVERY = 5
 """Every HOLD_OUT_EVERY-th window is held out of the fit, to report the fitted model's error on windows it never saw."""

@@ -1,6 +1,6 @@
 """The sampling-based MPC loop, written once: shift, sample, clamp, interpolate, roll out, score, update.
 
-Its settings, `ControllerConfig`, and `check_configs` live in `judo.core.controller_config`; they are
+Its settings, `ControllerConfig`, and `check_configs` live in `judo.core.configuration.controller_config`; they are
 imported here too, where they have always been importable from.
 """
 
@@ -11,9 +11,8 @@ from typing import Any, Protocol
 import mujoco
 import numpy as np
 
-from judo.core.backend import CancelFlag, NonFiniteRewardError, PlanningCancelled, RolloutBackend
-from judo.core.config import snapshot
-from judo.core.controller_config import (
+from judo.core.configuration.config import snapshot
+from judo.core.configuration.controller_config import (
     MAX_CONTROL_FREQ,
     MAX_HORIZON,
     MAX_NUM_TRACES,
@@ -25,18 +24,19 @@ from judo.core.controller_config import (
     check_configs,
     rollout_steps,
 )
-from judo.core.dynamics import task_rollout_backend
 from judo.core.errors import ConfigError, JudoError
 from judo.core.feedback import FeedbackGains
-from judo.core.low_level import check_low_level_backend, with_low_level
 from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_columns
 from judo.core.optimizer import Optimizer, PlanningStart
-from judo.core.parallel_reward import ParallelReward
 from judo.core.planner import checked_reading
+from judo.core.policies.proposals import Proposer, insert_proposals
 from judo.core.policy import Policy
-from judo.core.proposals import Proposer, insert_proposals
-from judo.core.randomize import randomized_models
-from judo.core.risk import reduce_rewards
+from judo.core.rollouts.backend import CancelFlag, NonFiniteRewardError, PlanningCancelled, RolloutBackend
+from judo.core.rollouts.dynamics import task_rollout_backend
+from judo.core.rollouts.low_level import check_low_level_backend, with_low_level
+from judo.core.rollouts.parallel_reward import ParallelReward
+from judo.core.rollouts.randomize import randomized_models
+from judo.core.rollouts.risk import reduce_rewards
 from judo.core.spline import Spline, SplineBasis, clip_ufunc
 from judo.core.task import Task, legacy_warm_start, warm_start_takes_state
 
@@ -76,7 +76,7 @@ class Controller:
         config, task, optimizer: the parts; their configs may be edited between cycles.
         backend: the RolloutBackend every rollout runs on, built from the constructor's `backend` name
             ("cpu": `RolloutPool`, threads; "warp": `WarpRollout`, MuJoCo Warp on a GPU) or given built (a
-            `ProblemSlot`); `DynamicsRollout` for a task with its own dynamics (judo.core.dynamics); under a
+            `ProblemSlot`); `DynamicsRollout` for a task with its own dynamics (judo.core.rollouts.dynamics); under a
             low-level policy (`Task.low_level`), a `LowLevelRollout` whose plan is its commands (`command_size`).
         backend_name: that name (read-only).
         nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update (here and
@@ -89,7 +89,7 @@ class Controller:
         traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the "trace" framepos sensors
             along the nominal rollout (index 0) and the best `max_num_traces` rollouts.
         proposal_policy: the Policy whose candidates replace the last `config.policy_samples` of the
-            optimizer's samples every iteration (judo.core.proposals), or None.
+            optimizer's samples every iteration (judo.core.policies.proposals), or None.
         limits: the RolloutLimits that screen each iteration's rollouts before ranking ([safety], via the loop), or None.
     """
 

@@ -18,7 +18,7 @@ from typing import Any, ClassVar, Generic, TypeVar, cast
 
 import numpy as np
 
-from judo.core.config import Config
+from judo.core.configuration.config import Config
 from judo.core.errors import JudoError
 from judo.core.reading import SystemState
 from judo.core.task import Task

@@ -28,8 +28,8 @@ import numpy as np
 
 from judo.core.errors import JudoError
 from judo.core.model import STATE_SPEC
+from judo.core.rollouts.workers import DaemonThreadPool
 from judo.core.spline import Spline
-from judo.core.workers import DaemonThreadPool
 
 if typing.TYPE_CHECKING:
     from judo.core.task import Task

@@ -7,8 +7,8 @@ from typing import Any, Generic, TypeVar
 
 import numpy as np
 
-from judo.core.config import Config, require_between
-from judo.core.fields import slider
+from judo.core.configuration.config import Config, require_between
+from judo.core.configuration.fields import slider
 
 if typing.TYPE_CHECKING:
     from judo.core.task import Task

@@ -1,7 +1,7 @@
 """The `Planner` contract: what the closed loop, the app's sessions, collect and the GUI use of a controller.
 
 Two classes satisfy it: `judo.core.controller.Controller` (an optimizer plans on rollouts) and
-`judo.core.policy_controller.PolicyController` (a policy's action or chunk is the plan). Code that drives a plant
+`judo.core.policies.policy_controller.PolicyController` (a policy's action or chunk is the plan). Code that drives a plant
 types against `Planner` only, so either serves through the same loop with no probing of which one it holds.
 `checked_reading` is the state and time check both run at the top of every update.
 """
@@ -11,11 +11,11 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from judo.core.backend import CancelFlag, RolloutBackend
-from judo.core.controller_config import ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.optimizer import Optimizer
 from judo.core.policy import Policy
+from judo.core.rollouts.backend import CancelFlag, RolloutBackend
 from judo.core.spline import Spline
 from judo.core.task import Task
 

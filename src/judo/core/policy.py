@@ -8,7 +8,7 @@ A policy plugs into judo's one closed loop at three places (docs/policies.md):
     (several threads call `act` at once: a policy must not keep shared mutable state between calls).
 
 Write one by hand as a subclass (numpy, any library), or load an exported network with `OnnxPolicy`
-(core/onnx_policy.py, on onnxruntime). What a policy sees is the task's to say:
+(core/policies/onnx_policy.py, on onnxruntime). What a policy sees is the task's to say:
 `Task.policy_observation` builds the (B, observation_size) batch.
 """
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from judo.core.config import shown
+from judo.core.configuration.config import shown
 from judo.core.errors import ConfigError, JudoError, UnknownNameError
 from judo.core.model import names
 

@@ -173,7 +173,7 @@ class Spline:
 
 def _bounds(value: np.ndarray | None, default: float, nu: int) -> np.ndarray:
     """(nu,) float copy of `value` broadcast to nu entries, or `default` everywhere for None. The (nu,) array of
-    every plan skips the broadcast, which costs more than the rest of a policy's plan (judo.core.policy_controller)."""
+    every plan skips the broadcast, which costs more than the rest of a policy's plan (judo.core.policies.policy_controller)."""
     if value is None:
         return np.full(nu, default)
     array = np.asarray(value, dtype=float)

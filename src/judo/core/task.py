@@ -12,13 +12,13 @@ from typing import Any, ClassVar, Generic, TypeVar, cast
 import mujoco
 import numpy as np
 
-from judo.core.config import Config
+from judo.core.configuration.config import Config
 from judo.core.errors import ModelLoadError, UnknownNameError
 from judo.core.model import load_model, model_mocap_poses, names
 from judo.core.sensors import MeasuredLayout, measured_layout
 
 if typing.TYPE_CHECKING:
-    from judo.core.low_level import LowLevel
+    from judo.core.rollouts.low_level import LowLevel
 
 
 @dataclass
@@ -120,7 +120,7 @@ class Task(ABC, Generic[ConfigT]):
                     f"planning model {model_path} has {size}={getattr(self.model, size)}; they must match"
                 )
         self.model_overrides: dict[str, dict[str, Any]] = {}
-        """MjModel fields set on the planning model by element name (judo.core.model_overrides); {} for the MJCF's."""
+        """MjModel fields set on the planning model by element name (judo.core.configuration.model_overrides); {} for the MJCF's."""
         self.plant_overrides: dict[str, dict[str, Any]] = {}
         """MjModel fields set on the plant model (`sim_model`), which every plant built from this task gets."""
         owner = type(self).__name__
@@ -161,7 +161,7 @@ class Task(ABC, Generic[ConfigT]):
             (num_rollouts,) rewards. NaN counts as -inf: it never wins.
 
         On the warp backend a large batch is scored in blocks of rows, several at once on host threads
-        (core/parallel_reward.py): read the arguments and the task's constants, and write nothing shared.
+        (core/rollouts/parallel_reward.py): read the arguments and the task's constants, and write nothing shared.
         """
 
     # Hooks. Each has a no-op default; override the ones the task needs.
@@ -174,7 +174,7 @@ class Task(ABC, Generic[ConfigT]):
         mujoco.mj_forward(self.sim_model, self.data)
 
     def low_level(self) -> "LowLevel | None":
-        """A low-level policy to plan over (judo.core.low_level), or None (the default): plan the actuators.
+        """A low-level policy to plan over (judo.core.rollouts.low_level), or None (the default): plan the actuators.
 
         With one, the optimizer plans its C commands (`command_size`, `command_range`), every rollout and the
         simulated plant run the policy every k physics steps to turn them into ctrl, and `reward` gets the
@@ -204,7 +204,7 @@ class Task(ABC, Generic[ConfigT]):
 
         Called when the controller plans under several models (`ControllerConfig.num_randomizations`
         > 1), once per randomized model per redraw. Scale what the real system gets wrong (frictions,
-        masses, dampings, gains; helpers in `judo.core.randomize`); never change sizes. The default
+        masses, dampings, gains; helpers in `judo.core.rollouts.randomize`); never change sizes. The default
         does nothing, so every randomized model equals the planning model.
         """
 

@@ -1,6 +1,6 @@
 """Built-in estimators, registered by name. Each file holds one estimator and its config."""
 
-from judo.core.registry import register_estimator
+from judo.core.configuration.registry import register_estimator
 from judo.estimators.ekf import EKFConfig, ExtendedKalmanFilter
 from judo.estimators.legged import LeggedConfig, LeggedEstimator
 from judo.estimators.state import StateEstimator, StateEstimatorConfig

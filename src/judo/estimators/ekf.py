@@ -16,9 +16,9 @@ from typing import ClassVar
 import mujoco
 import numpy as np
 
-from judo.core.config import require
+from judo.core.configuration.config import require
+from judo.core.configuration.fields import slider
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, check_sensors, estimate_of
-from judo.core.fields import slider
 from judo.core.model import set_mocap_poses
 from judo.core.reading import SystemState
 from judo.core.task import Task

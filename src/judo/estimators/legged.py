@@ -28,9 +28,9 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from judo.core.config import require
+from judo.core.configuration.config import require
+from judo.core.configuration.fields import slider
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, check_sensors, estimate_of
-from judo.core.fields import slider
 from judo.core.reading import SystemState
 from judo.core.task import Task
 from judo.estimators.legged_layout import legged_layout

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from judo.core.fields import slider
+from judo.core.configuration.fields import slider
 from judo.core.task import Task
 from judo.estimators.ekf import RESET_ITERATIONS, ExtendedKalmanFilter, KalmanConfig, _Node
 

@@ -19,10 +19,10 @@ from judo.cli_shared import (
     parse_args,
     progress_display,
 )
-from judo.core.backend import RolloutBackendName, check_rollout_backend
-from judo.core.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_file
-from judo.core.config import require
+from judo.core.commandline.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_file
+from judo.core.configuration.config import require
 from judo.core.errors import JudoError
+from judo.core.rollouts.backend import RolloutBackendName, check_rollout_backend
 from judo.evaluation.cli import (
     ControllerOverrides,
     chosen_optimizers,

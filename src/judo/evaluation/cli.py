@@ -8,18 +8,18 @@ from pathlib import Path
 from typing import Any
 
 from judo.cli_shared import check_names, optional_fields
-from judo.core.backend import check_rollout_backend
-from judo.core.config import Config, require, require_between, with_updates
-from judo.core.controller import ControllerConfig
-from judo.core.errors import JudoError
-from judo.core.optimizer import OptimizerConfig
-from judo.core.registry import (
+from judo.core.configuration.config import Config, require, require_between, with_updates
+from judo.core.configuration.registry import (
     get_registered_optimizers,
     get_registered_tasks,
     lookup_optimizer,
     lookup_task,
     make_config,
 )
+from judo.core.controller import ControllerConfig
+from judo.core.errors import JudoError
+from judo.core.optimizer import OptimizerConfig
+from judo.core.rollouts.backend import check_rollout_backend
 
 
 def all_or(names: tuple[str, ...], registered: dict[str, Any]) -> list[str]:

@@ -16,7 +16,7 @@ from typing import Generic, TypeVar
 
 import numpy as np
 
-from judo.core.config import require
+from judo.core.configuration.config import require
 from judo.core.controller import Controller
 from judo.core.estimator import Estimator
 from judo.core.planner import Planner

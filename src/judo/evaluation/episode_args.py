@@ -13,10 +13,10 @@ from typing import Annotated, Any, Literal
 import tyro
 
 from judo.cli_shared import episode_latency
-from judo.core.config import require, require_between
+from judo.core.configuration.config import require, require_between
+from judo.core.configuration.registry import lookup_task
 from judo.core.estimator import estimator_in_force
-from judo.core.registry import lookup_task
-from judo.core.rollout import RolloutBackendName
+from judo.core.rollouts.rollout import RolloutBackendName
 from judo.evaluation.cli import ControllerOverrides, check_episode_args, given_fields, latency_label
 from judo.evaluation.seeded import EpisodeSpec
 from judo.loop.closed_loop import Latency
@@ -79,14 +79,14 @@ class EpisodeArgs(SensingFlags):
             f"expected --backend warp (got {self.backend}) and no --policy",
         )
         if self.plant_overrides:  # checked here; the episodes apply them from their spec (`with_spec_plant`)
-            from judo.core.model_overrides import check_model_overrides, parse_override_entries
+            from judo.core.configuration.model_overrides import check_model_overrides, parse_override_entries
             from judo.core.task import new_task
 
             check_model_overrides(
                 new_task(lookup_task(self.task)[0]).sim_model, parse_override_entries(self.plant_overrides)
             )
         if self.policy is not None:
-            from judo.core.policy_controller import make_policy_controller
+            from judo.core.policies.policy_controller import make_policy_controller
 
             make_policy_controller(self.task, self.policy).close()  # PolicyError, one line, if it does not fit
 

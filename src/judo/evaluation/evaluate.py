@@ -21,11 +21,11 @@ from judo.cli_shared import (
     progress_display,
     seeds_label,
 )
-from judo.core.backend import RolloutBackend
-from judo.core.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
-from judo.core.config import require, require_between
+from judo.core.commandline.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
+from judo.core.configuration.config import require, require_between
+from judo.core.configuration.registry import make_task
 from judo.core.errors import JudoError
-from judo.core.registry import make_task
+from judo.core.rollouts.backend import RolloutBackend
 from judo.evaluation.cli import given_fields, write_json
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
@@ -184,7 +184,7 @@ def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[Episo
 def evaluate_batched(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
     """Run the seeds of `args.seed_range()` in groups of `args.episodes_per_batch`, each group side by side with its
     rollouts batched on one WarpRollout (`run_side_by_side`); advance `progress` (if given) by sim seconds."""
-    from judo.core.warp_rollout import WarpRollout
+    from judo.core.rollouts.warp_rollout import WarpRollout
 
     bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
     spec, seeds = args.episode_spec(), list(args.seed_range())

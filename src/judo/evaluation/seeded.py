@@ -16,14 +16,14 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 import mujoco
 
-from judo.core.backend import RolloutBackend
-from judo.core.config import Config, require
-from judo.core.config_values import controller_config_of, optimizer_config_of
+from judo.core.configuration.config import Config, require
+from judo.core.configuration.config_values import controller_config_of, optimizer_config_of
+from judo.core.configuration.registry import ConfigKind, make_config
 from judo.core.controller import Controller
 from judo.core.errors import JudoError
 from judo.core.planner import Planner
 from judo.core.policy import Policy
-from judo.core.registry import ConfigKind, make_config
+from judo.core.rollouts.backend import RolloutBackend
 from judo.core.task import Task
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, Latency, run_episode
 from judo.loop.records import Recorder
@@ -35,8 +35,8 @@ T = TypeVar("T")
 
 if TYPE_CHECKING:
     from judo.core.controller import ControllerConfig
-    from judo.core.policy_controller import PolicyController
-    from judo.core.problem_batch import ProblemBackend
+    from judo.core.policies.policy_controller import PolicyController
+    from judo.core.rollouts.problem_batch import ProblemBackend
 
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
@@ -68,7 +68,7 @@ class EpisodeSpec:
         policy: an .onnx file (absolute path) that drives the plant instead of the optimizer; with an optimizer
             too, the MPC plans from every state the policy is served from, for labels (collect --policy).
         proposal_policy: an .onnx file whose policy makes the controller's `policy_samples` candidates
-            (judo.core.proposals), or None.
+            (judo.core.policies.proposals), or None.
     """
 
     task: str
@@ -90,7 +90,7 @@ def load_config_once(path: str | None) -> None:
     """Read the user's --config file in this process, once (registering its classes and overrides)."""
     if path is None or path in _LOADED_CONFIG_FILES:
         return
-    from judo.core.config_file import load_config
+    from judo.core.configuration.config_file import load_config
 
     load_config(path)
     _LOADED_CONFIG_FILES.add(path)
@@ -99,13 +99,13 @@ def load_config_once(path: str | None) -> None:
 def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
     """{"controller", "optimizer", "task"}: the pair's registered configs with `spec.values` applied; reads
     `spec.config_file` first. ConfigError (or SearchSpaceError for an unknown field) if they do not fit."""
-    from judo.core.config_values import apply_values
-    from judo.core.registry import default_configs
+    from judo.core.configuration.config_values import apply_values
+    from judo.core.configuration.registry import default_configs
 
     load_config_once(spec.config_file)
     if spec.optimizer is None:  # a policy alone: no optimizer's config
+        from judo.core.configuration.registry import lookup_task, make_config
         from judo.core.controller import ControllerConfig
-        from judo.core.registry import lookup_task, make_config
 
         configs: dict[ConfigKind, Config] = {
             "controller": make_config(ControllerConfig, spec.task),
@@ -118,10 +118,10 @@ def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
 def policy_config_in_force(spec: EpisodeSpec, policy: "Policy") -> "ControllerConfig":
     """The policy's ControllerConfig: the task's (and optimizer's) defaults, then the fields the policy's metadata
     sets, then the --controller.* fields given in `spec.values`, which win."""
-    from judo.core.config_values import apply_values
+    from judo.core.configuration.config_values import apply_values
+    from judo.core.configuration.registry import make_config
     from judo.core.controller import ControllerConfig
-    from judo.core.policy_controller import policy_config
-    from judo.core.registry import make_config
+    from judo.core.policies.policy_controller import policy_config
 
     base = policy_config(policy, make_config(ControllerConfig, spec.task, spec.optimizer))
     given = {name: value for name, value in spec.values.items() if name.startswith("controller.")}
@@ -176,7 +176,7 @@ def spec_controller(
     """The Controller of `spec`'s task and optimizer with `configs` (of `configs_in_force`) in force, seeded by
     `seed`, rolling out on `backend` (built from `spec.backend` when None); its callers call it only for a spec
     that names an optimizer."""
-    from judo.core.registry import make_controller
+    from judo.core.configuration.registry import make_controller
 
     assert spec.optimizer is not None, "spec_controller runs a spec that names an optimizer"
     return make_controller(
@@ -201,7 +201,7 @@ def load_proposal_policy(path: str | None, policy_samples: int) -> Policy | None
         f"--proposal-policy {path} is given but policy_samples is 0, so it would never be used; set "
         "--controller.policy-samples K (1 to num_rollouts - 1)",
     )
-    from judo.core.onnx_policy import OnnxPolicy  # onnxruntime only when a policy is asked for
+    from judo.core.policies.onnx_policy import OnnxPolicy  # onnxruntime only when a policy is asked for
 
     return OnnxPolicy(path)
 
@@ -216,7 +216,7 @@ def run_policy_episode(
     """`run_seeded_episode` of a spec with a policy: a PolicyController drives the plant (with the optimizer, if the
     spec names one, as its expert labelling every state the policy is served from, sampling `policy_samples` of its
     candidates from `spec.proposal_policy` where one is given)."""
-    from judo.core.policy_controller import as_policy, make_policy_controller
+    from judo.core.policies.policy_controller import as_policy, make_policy_controller
 
     assert spec.policy is not None, "run_policy_episode runs a spec with a policy"
     policy = as_policy(spec.policy)
@@ -240,7 +240,7 @@ def with_spec_plant(task: Task, spec: EpisodeSpec) -> Task:
     """`task` with `spec.plant_overrides` (--plant-overrides) added to the plant overrides that every plant built
     from it gets (`MujocoSystem.from_task`); its own models are left as they are."""
     if spec.plant_overrides:
-        from judo.core.model_overrides import check_model_overrides, parse_override_entries
+        from judo.core.configuration.model_overrides import check_model_overrides, parse_override_entries
 
         merged = {field: dict(values) for field, values in task.plant_overrides.items()}
         for field, values in check_model_overrides(
@@ -268,7 +268,7 @@ def failure_reason(err: BaseException) -> str:
 def planning_model(spec: EpisodeSpec) -> mujoco.MjModel:
     """The planning model of `spec`'s task as its episodes' controllers build it: after the --config file (custom
     tasks, [model_overrides]), for a backend that several episodes share."""
-    from judo.core.registry import make_task
+    from judo.core.configuration.registry import make_task
 
     load_config_once(spec.config_file)
     return make_task(spec.task).model
@@ -280,7 +280,7 @@ def run_side_by_side(backend: "ProblemBackend", seeds: list[int], run: Callable[
     (evaluate and collect --episodes-per-batch). A slot is closed when its run returns or raises, so the others
     never wait for an episode that ended. Returns the runs' results in the order of `seeds`; raises the first
     run's error after all of them ended."""
-    from judo.core.problem_batch import ProblemBatch
+    from judo.core.rollouts.problem_batch import ProblemBatch
 
     batch = ProblemBatch(backend, len(seeds))
 

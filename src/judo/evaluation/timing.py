@@ -16,10 +16,10 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.config import require, with_updates
+from judo.core.configuration.config import require, with_updates
+from judo.core.configuration.registry import lookup_optimizer, make_config, make_controller
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.model import STATE_SPEC, mocap_vector, model_at
-from judo.core.registry import lookup_optimizer, make_config, make_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem, SystemState
 

@@ -7,8 +7,8 @@ from typing import Annotated, Any, Literal
 
 import tyro
 
-from judo.core.boundary import check_output_file
-from judo.core.config import require, require_between
+from judo.core.commandline.boundary import check_output_file
+from judo.core.configuration.config import require, require_between
 from judo.learning.settings import TrainSettings
 
 ROUNDS_SUFFIX = "_rounds"

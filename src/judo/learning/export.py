@@ -2,7 +2,7 @@
 
 A small MLP is simpler to write straight to an ONNX graph with the onnx helper API than to trace through an
 exporter, so distill does that (no exporter dependency; onnx is a core dependency):
-  - regression: `judo.core.onnx_policy.mlp_policy_model` with the normalization inside the graph;
+  - regression: `judo.core.policies.onnx_policy.mlp_policy_model` with the normalization inside the graph;
   - flow: the same layers as a velocity field, unrolled `flow_steps` Euler steps from RandomNormalLike noise
     (times `noise_scale`; 0 gives the deterministic sample, the flow's mean path) in the graph.
 Both take (B, O) observations and give (B, A) actions or (B, H, A) chunks, float32.
@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from judo.cli_shared import optional_pyplot
-from judo.core.onnx_policy import _onnx, mlp_policy_model, model_of_graph, save_model
+from judo.core.policies.onnx_policy import _onnx, mlp_policy_model, model_of_graph, save_model
 from judo.learning.networks import ACTIVATION
 from judo.learning.pairs import DistillError, TrainingPairs
 from judo.learning.training import TrainedPolicy

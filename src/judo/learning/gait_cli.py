@@ -15,8 +15,8 @@ import numpy as np
 import tyro
 
 from judo.cli_shared import fail, optional_pyplot, output_console, parse_args, progress_display
-from judo.core.boundary import check_output_file
-from judo.core.config import require
+from judo.core.commandline.boundary import check_output_file
+from judo.core.configuration.config import require
 from judo.core.errors import JudoError
 from judo.learning.gait_policy import GaitLayout
 from judo.learning.gait_search import EVERY, GaitSearchSettings, Iteration
@@ -55,7 +55,7 @@ class GaitSearchArgs(GaitSearchSettings):
 def write_gait_policy(out: Path, parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]) -> Path:
     """Write the gait policy of (P,) `parameters` on `layout` to `out` through a temporary file (no half file on
     failure)."""
-    from judo.core.onnx_policy import save_model
+    from judo.core.policies.onnx_policy import save_model
     from judo.learning.gait_policy import gait_policy_model
 
     return save_model(out, gait_policy_model(parameters, layout, metadata), JudoError)

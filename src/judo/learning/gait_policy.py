@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.onnx_policy import _onnx, model_of_graph
+from judo.core.policies.onnx_policy import _onnx, model_of_graph
 
 HARMONICS = 5
 """Phase features per leg: [1, cos p, sin p, cos 2p, sin 2p]."""

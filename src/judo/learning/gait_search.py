@@ -17,10 +17,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from judo.core.config import require, require_between
+from judo.core.configuration.config import require, require_between
 from judo.core.model import STATE_SPEC
-from judo.core.rollout import RolloutPool
-from judo.core.stepper import PolicyStepper
+from judo.core.rollouts.rollout import RolloutPool
+from judo.core.rollouts.stepper import PolicyStepper
 from judo.learning.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout, gait_actions
 from judo.optimizers.cem import CEM, CEMConfig
 from judo.tasks.quadruped import GAITS, STANDING_HEIGHT

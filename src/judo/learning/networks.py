@@ -7,7 +7,7 @@
     x_t = (1 - t) x_0 + t x_1; sampled by `flow_steps` Euler steps from x_0 = noise_scale * N(0, I). It can
     give several modes for one observation (push the T from either side) where regression averages them.
 
-Parameters are [(W (out, in), b (out,))] per layer, the layout `judo.core.onnx_policy.mlp_policy_model` writes,
+Parameters are [(W (out, in), b (out,))] per layer, the layout `judo.core.policies.onnx_policy.mlp_policy_model` writes,
 with ELU between layers (ONNX "Elu", alpha 1). JAX is imported by this module: import it only to train.
 """
 

@@ -189,8 +189,8 @@ def _env_args(path: Path, file: Any) -> dict[str, Any]:
 def _read_file(path: Path, file: Any, kind: str, pairs: TrainingPairs | None) -> TrainingPairs:
     """Add the episodes of the open h5py `file` to `pairs` (a new TrainingPairs when None)."""
     from judo.collection.model_info import config_dict
-    from judo.core.controller_config import ControllerConfig
-    from judo.core.registry import make_config, make_task
+    from judo.core.configuration.controller_config import ControllerConfig
+    from judo.core.configuration.registry import make_config, make_task
 
     env_args = _env_args(path, file)
     task_name = env_args["task"]

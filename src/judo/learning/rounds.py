@@ -199,7 +199,7 @@ def run_flags(record: dict[str, Any], names: list[str]) -> str:
 def check_teacher(args: DistillArgs, env_args: dict[str, Any]) -> None:
     """DistillError now, before any training, unless the teacher rounds can run: an optimizer to label with,
     and --proposals below its num_rollouts (the nominal, rollout 0, is never replaced)."""
-    from judo.core.registry import lookup_optimizer, make_config
+    from judo.core.configuration.registry import lookup_optimizer, make_config
 
     teacher_flags(args, env_args)
     optimizer = args.optimizer or env_args["optimizer"]

@@ -15,9 +15,9 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from judo.core.config import require
-from judo.core.dynamics import DynamicsTask
+from judo.core.configuration.config import require
 from judo.core.model import set_mocap_poses
+from judo.core.rollouts.dynamics import DynamicsTask
 from judo.core.task import Task
 from judo.loop.system import DIVERGENCE_WARNINGS, SystemState
 

@@ -26,10 +26,10 @@ from typing import Literal
 import mujoco
 import numpy as np
 
-from judo.core.config import require, require_between
+from judo.core.configuration.config import require, require_between
+from judo.core.configuration.registry import lookup_estimator, make_estimator
 from judo.core.errors import ConfigError
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, default_estimator_name
-from judo.core.registry import lookup_estimator, make_estimator
 from judo.core.sensors import DEFAULT_KEY, QUATERNION_TYPES, parse_per_type, per_sensor
 from judo.core.task import Task
 from judo.loop.system import MujocoSystem, System, SystemState, check_reading

@@ -18,10 +18,10 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.dynamics import DynamicsTask
 from judo.core.errors import JudoError
-from judo.core.low_level import LowLevelPlant
 from judo.core.reading import SystemState
+from judo.core.rollouts.dynamics import DynamicsTask
+from judo.core.rollouts.low_level import LowLevelPlant
 from judo.core.task import Task, new_task
 from judo.loop.mujoco_warnings import count_mujoco_warnings
 from judo.loop.records import Recorder
@@ -114,7 +114,7 @@ class MujocoSystem(System):
         """
         plant: Task = new_task(type(task))
         if task.plant_overrides:  # only the plant's: the planning model's overrides are the controller's
-            from judo.core.model_overrides import override_task_models
+            from judo.core.configuration.model_overrides import override_task_models
 
             override_task_models(plant, {}, task.plant_overrides)
         plant.config = task.config
@@ -200,7 +200,7 @@ class DynamicsSystem(MujocoSystem):
     """The simulated plant of a DynamicsTask: steps the task's own `dynamics` on one row, seeded, with optional
     process noise, instead of MuJoCo's physics.
 
-    The state x lives in the task's carrier `data` ([qpos, qvel], judo.core.dynamics), so reading the state,
+    The state x lives in the task's carrier `data` ([qpos, qvel], judo.core.rollouts.dynamics), so reading the state,
     logs, datasets and the GUI work as for any MuJoCo plant. `MujocoSystem.from_task` builds one for such a task.
 
     Args:

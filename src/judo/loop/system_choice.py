@@ -16,8 +16,8 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, Literal, cast
 
+from judo.core.configuration.registry import lookup_task
 from judo.core.errors import ConfigError, JudoError
-from judo.core.registry import lookup_task
 from judo.core.task import Task, TaskConfig, new_task
 from judo.loop.system import System
 

@@ -1,6 +1,6 @@
 """Built-in optimizers, registered by name. Each file holds one algorithm and its config."""
 
-from judo.core.registry import register_optimizer
+from judo.core.configuration.registry import register_optimizer
 from judo.optimizers.cbo import CBO, CBOConfig
 from judo.optimizers.cem import CEM, CEMConfig
 from judo.optimizers.cmaes import CMAES, CMAESConfig

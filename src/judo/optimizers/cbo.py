@@ -11,8 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judo.core.config import require, require_between
-from judo.core.fields import slider
+from judo.core.configuration.config import require, require_between
+from judo.core.configuration.fields import slider
 from judo.core.optimizer import Optimizer, OptimizerConfig, weighted_knots
 from judo.optimizers.knot_shift import shift_knots
 from judo.optimizers.mppi import softmax_weights

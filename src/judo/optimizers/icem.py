@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judo.core.config import require, require_between
-from judo.core.fields import slider
+from judo.core.configuration.config import require, require_between
+from judo.core.configuration.fields import slider
 from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.optimizers.cem import check_elite_settings
 from judo.optimizers.knot_shift import shift_knots

@@ -20,10 +20,10 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from judo.core.config import require
+from judo.core.configuration.config import require
+from judo.core.configuration.fields import slider
 from judo.core.errors import JudoError
 from judo.core.feedback import FeedbackError, FeedbackGains
-from judo.core.fields import slider
 from judo.core.optimizer import Optimizer, OptimizerConfig, PlanningStart
 
 MAX_REGULARIZATION = 1e8

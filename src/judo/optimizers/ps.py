@@ -4,8 +4,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judo.core.config import require
-from judo.core.fields import slider
+from judo.core.configuration.config import require
+from judo.core.configuration.fields import slider
 from judo.core.optimizer import Optimizer, OptimizerConfig
 
 

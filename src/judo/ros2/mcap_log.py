@@ -105,7 +105,7 @@ class LimitHitLog:
 def log_metadata(task: Task, options: Ros2Options) -> dict[str, str]:
     """The MCAP log's "judo" record: the task's registered name (where one name has its class), the joint map
     ("mjcf=robot" entries, comma-separated) and the topics (the commands sent and applied), so that `replay` and `sysid` read the log alone."""
-    from judo.core.registry import get_registered_tasks
+    from judo.core.configuration.registry import get_registered_tasks
 
     names = [name for name, (cls, _) in get_registered_tasks().items() if cls is type(task)]
     metadata = {"joint_map": ",".join(options.joint_map), "joint_states": options.joint_states}

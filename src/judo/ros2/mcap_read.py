@@ -186,7 +186,7 @@ def read_bridge_log(path: Path, task: str | None = None, feature: str = "reading
     """The bridge log at `path` for `task` (None: the task the log names). BridgeLogError, in one line naming the
     file, for a file that is missing, empty or not MCAP, a log of another task, one that names no task when `task`
     is None, one without JointStates, or joints the task's model lacks (each listing what the log holds)."""
-    from judo.core.registry import make_task
+    from judo.core.configuration.registry import make_task
 
     reader_module = import_extra("mcap.reader", feature, "ros2")
     decoder_module = import_extra("mcap_ros2.decoder", feature, "ros2")

@@ -33,10 +33,10 @@ import mujoco
 import numpy as np
 import tyro
 
-from judo.core.config import check_seed
+from judo.core.configuration.config import check_seed
+from judo.core.configuration.model_overrides import check_model_overrides, override_task_models, parse_override_entries
+from judo.core.configuration.registry import get_registered_tasks, lookup_task
 from judo.core.errors import ConfigError, JudoError, import_extra
-from judo.core.model_overrides import check_model_overrides, override_task_models, parse_override_entries
-from judo.core.registry import get_registered_tasks, lookup_task
 from judo.core.task import new_task
 from judo.loop.plant_clock import PlantClock
 from judo.loop.system import MujocoSystem, SimulationDiverged

@@ -27,15 +27,15 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.config import Config, check_seed
+from judo.core.configuration.config import Config, check_seed
+from judo.core.configuration.registry import CONFIG_KINDS, ConfigKind
 from judo.core.controller import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.planner import Planner
+from judo.core.policies.policy_controller import as_policy
 from judo.core.policy import Policy
-from judo.core.policy_controller import as_policy
-from judo.core.registry import CONFIG_KINDS, ConfigKind
 from judo.core.task import TaskConfig
 from judo.loop.records import LiveRecorder, RecorderFactory
 from judo.loop.sensing import Observe, PerType, Sensing

@@ -29,11 +29,11 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.config import Config
+from judo.core.configuration.config import Config
+from judo.core.configuration.registry import ConfigKind
 from judo.core.controller import ControllerConfig
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
-from judo.core.registry import ConfigKind
 from judo.core.task import TaskConfig
 from judo.loop.records import LiveRecorder
 from judo.loop.sensing import Sensing

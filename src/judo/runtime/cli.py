@@ -28,16 +28,12 @@ import numpy as np
 import tyro
 import tyro.constructors
 
-from judo.core.backend import RolloutBackendName
-from judo.core.boundary import MAX_DURATION
-from judo.core.config import Config, ConfigT, with_updates
-from judo.core.config_file import LoadedConfig, load_config
-from judo.core.controller_config import ControllerConfig
-from judo.core.errors import ConfigError, JudoError
-from judo.core.estimator import EstimatorConfig, estimator_in_force
-from judo.core.model_overrides import parse_override_entries
-from judo.core.optimizer import OptimizerConfig
-from judo.core.registry import (
+from judo.core.commandline.boundary import MAX_DURATION
+from judo.core.configuration.config import Config, ConfigT, with_updates
+from judo.core.configuration.config_file import LoadedConfig, load_config
+from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.configuration.model_overrides import parse_override_entries
+from judo.core.configuration.registry import (
     CONFIG_GROUPS,
     default_configs,
     get_registered_optimizers,
@@ -47,6 +43,10 @@ from judo.core.registry import (
     make_config,
     set_model_overrides,
 )
+from judo.core.errors import ConfigError, JudoError
+from judo.core.estimator import EstimatorConfig, estimator_in_force
+from judo.core.optimizer import OptimizerConfig
+from judo.core.rollouts.backend import RolloutBackendName
 from judo.core.task import TaskConfig
 from judo.loop.sensing import SensingFlags, merge_repeated
 from judo.loop.system_choice import (

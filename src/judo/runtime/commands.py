@@ -22,19 +22,19 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from judo.core.config import Config, with_updates
-from judo.core.controller import ControllerConfig, check_configs
-from judo.core.errors import ConfigError, JudoError
-from judo.core.estimator import EstimatorConfig
-from judo.core.optimizer import OptimizerConfig
-from judo.core.proposals import check_proposal_policy
-from judo.core.registry import (
+from judo.core.configuration.config import Config, with_updates
+from judo.core.configuration.registry import (
     CONFIG_KINDS,
     ConfigKind,
     lookup_optimizer,
     lookup_task,
     make_estimator,
 )
+from judo.core.controller import ControllerConfig, check_configs
+from judo.core.errors import ConfigError, JudoError
+from judo.core.estimator import EstimatorConfig
+from judo.core.optimizer import OptimizerConfig
+from judo.core.policies.proposals import check_proposal_policy
 from judo.loop.records import LiveRecorder
 from judo.loop.sensing import check_estimator
 from judo.loop.system import SystemState

@@ -21,7 +21,7 @@ from dataclasses import dataclass, replace
 import mujoco
 import numpy as np
 
-from judo.core.controller_config import ControllerConfig, rollout_steps
+from judo.core.configuration.controller_config import ControllerConfig, rollout_steps
 from judo.core.optimizer import OptimizerConfig
 from judo.core.task import Task
 

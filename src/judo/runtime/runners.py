@@ -58,7 +58,7 @@ import numpy as np
 from judo.core.controller import PlanningCancelled
 from judo.core.errors import JudoError
 from judo.core.feedback import FeedbackPlan
-from judo.core.workers import DaemonThreadPool
+from judo.core.rollouts.workers import DaemonThreadPool
 from judo.loop.closed_loop import ClosedLoop, ControlClock
 from judo.loop.plant_clock import PlantClock
 from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedError, SystemState

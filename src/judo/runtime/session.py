@@ -11,14 +11,14 @@ watchdog's clock and its reports) are given once; `first` and `switched` build a
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 
-from judo.core.config import Config
+from judo.core.configuration.config import Config
+from judo.core.configuration.registry import ConfigKind, default_configs, lookup_task, make_config, make_controller
 from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
 from judo.core.optimizer import OptimizerConfig
 from judo.core.planner import Planner
+from judo.core.policies.policy_controller import make_policy_controller, policy_config
 from judo.core.policy import Policy
-from judo.core.policy_controller import make_policy_controller, policy_config
-from judo.core.registry import ConfigKind, default_configs, lookup_task, make_config, make_controller
 from judo.core.task import TaskConfig
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.estimator_thread import EstimatorThread
@@ -51,7 +51,7 @@ class ConfigSet:
 
     @classmethod
     def from_dict(cls, configs: dict[ConfigKind, Config]) -> "ConfigSet":
-        """{kind: config} (e.g. `judo.core.registry.default_configs`) as a ConfigSet; TypeError for a wrong type."""
+        """{kind: config} (e.g. `judo.core.configuration.registry.default_configs`) as a ConfigSet; TypeError for a wrong type."""
         made = cls(configs["controller"], configs.get("optimizer"), configs["task"])  # type: ignore[arg-type]  # checked below
         for kind, cls_ in (("controller", ControllerConfig), ("optimizer", OptimizerConfig), ("task", TaskConfig)):
             if not isinstance(getattr(made, kind), cls_) and not (kind == "optimizer" and made.optimizer is None):
@@ -146,7 +146,7 @@ def build_session(
     noise draws from [seed, SENSING_STREAM]) and which estimator the closed loop runs: the named one, else
     the task's `default_estimator` when the plant's first reading has no full state, else none (plan from the reading as it is).
     `reading` is the given `system`'s latest reading, when another thread is driving it (a switch); None
-    reads it here. `proposal_policy` makes the controller's `policy_samples` candidates (judo.core.proposals;
+    reads it here. `proposal_policy` makes the controller's `policy_samples` candidates (judo.core.policies.proposals;
     PolicyError unless it fits the task). `policy` drives the plant instead of an optimizer (`optimizer_name` is then
     POLICY_OPTIMIZER and `optimizer_config` unused; `controller_config` None takes the policy's metadata's rate).
     `estimator_thread` runs the estimator on a thread of its own (`EstimatorThread`), for the
@@ -156,7 +156,7 @@ def build_session(
     """
     sensing = sensing if sensing is not None else Sensing()
     sensing.check()
-    if policy is not None:  # the policy is the controller (judo.core.policy_controller); the loop is the same
+    if policy is not None:  # the policy is the controller (judo.core.policies.policy_controller); the loop is the same
         controller: Planner = make_policy_controller(task_name, policy, controller_config=controller_config, seed=seed)
     else:
         controller = make_controller(

@@ -15,7 +15,7 @@ from typing import Literal
 
 import numpy as np
 
-from judo.core.registry import fitted_overrides
+from judo.core.configuration.registry import fitted_overrides
 from judo.runtime.app_state import AppState
 from judo.safety.stop import StopEvent, StopLatch
 

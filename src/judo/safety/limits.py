@@ -18,7 +18,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.config import Config, require
+from judo.core.configuration.config import Config, require
 from judo.core.errors import ConfigError
 from judo.core.model import names
 from judo.core.task import Task
@@ -370,13 +370,13 @@ def _resolve_frame(model: mujoco.MjModel, frame: str, limits: Limits) -> None:
 
 
 SECTION_CONFIG = SafetyConfig
-"""The class a config file's [safety.TASK] table sets the task's defaults of (judo.core.config_file)."""
+"""The class a config file's [safety.TASK] table sets the task's defaults of (judo.core.configuration.config_file)."""
 
 
 def check_section(task_name: str, config: SafetyConfig) -> None:
     """The load checks of a [safety.TASK] table against the task's planning model (`resolve`); LimitError if not."""
     if config.active:
-        from judo.core.registry import make_task
+        from judo.core.configuration.registry import make_task
 
         resolve(make_task(task_name), config)
 
@@ -387,8 +387,8 @@ def set_task_limits(task_name: str, given: dict[str, Any]) -> None:
     (ConfigError or LimitError, one line). Nothing changes for {}."""
     if not given:
         return
-    from judo.core.config import with_updates
-    from judo.core.registry import make_config, set_config_overrides
+    from judo.core.configuration.config import with_updates
+    from judo.core.configuration.registry import make_config, set_config_overrides
 
     check_section(task_name, with_updates(make_config(SafetyConfig, task_name), given))
     set_config_overrides(task_name, SafetyConfig, given)

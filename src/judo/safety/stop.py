@@ -28,7 +28,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from judo.core.boundary import check_output_file
+from judo.core.commandline.boundary import check_output_file
 
 logger = logging.getLogger("judo.safety")
 

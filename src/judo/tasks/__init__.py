@@ -8,8 +8,8 @@ from pathlib import Path
 
 import judo.estimators  # the defaults files name the built-in estimators
 import judo.optimizers  # noqa: F401  (the defaults files name the built-in optimizers)
-from judo.core.config_file import load_config
-from judo.core.registry import register_task
+from judo.core.configuration.config_file import load_config
+from judo.core.configuration.registry import register_task
 from judo.tasks.acrobot import Acrobot, AcrobotConfig
 from judo.tasks.car import Car, CarConfig
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
@@ -35,7 +35,7 @@ DEFAULTS_DIR = Path(__file__).parent / "models"
 
 BUILTIN_TASKS = {
     "cartpole": (Cartpole, CartpoleConfig),
-    # Cart-pole planned through a low-level PD policy: the MPC plans the cart's target (judo.core.low_level).
+    # Cart-pole planned through a low-level PD policy: the MPC plans the cart's target (judo.core.rollouts.low_level).
     "cartpole_pd": (CartpolePD, CartpoleConfig),
     "cylinder_push": (CylinderPush, CylinderPushConfig),
     # Classic MPC benchmarks (after MJPC and hydrax).
@@ -62,7 +62,7 @@ BUILTIN_TASKS = {
     "go2_stand": (Go2Stand, Go2StandConfig),
     # The same Go2 trotting to a velocity command [vx, vy, yaw rate] (--task-config.velocity-command 0.5 0 0).
     "go2_walk": (Go2Walk, Go2WalkConfig),
-    # Tasks on their own numpy dynamics (judo.core.dynamics), not MuJoCo: a kinematic-bicycle car.
+    # Tasks on their own numpy dynamics (judo.core.rollouts.dynamics), not MuJoCo: a kinematic-bicycle car.
     "car": (Car, CarConfig),
     # A quadrotor rigid body on its four rotor thrusts (numpy equations of motion).
     "quadrotor": (Quadrotor, QuadrotorConfig),

@@ -7,7 +7,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.fields import slider
+from judo.core.configuration.fields import slider
 from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm
 from judo.core.task import EpisodeLog, Task, TaskConfig

@@ -7,7 +7,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.fields import slider
+from judo.core.configuration.fields import slider
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "cartpole.xml"

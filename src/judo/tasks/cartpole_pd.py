@@ -1,7 +1,7 @@
 """Cart-pole swing-up planned through a low-level policy: the MPC plans the cart's target position, and a PD law
 (an ONNX graph this module writes, nothing downloaded) turns target and state into the push, every 2 steps.
 
-The same hierarchy as a quadruped planned over its locomotion policy (judo.core.low_level), on a model small
+The same hierarchy as a quadruped planned over its locomotion policy (judo.core.rollouts.low_level), on a model small
 enough to test: the rollouts and the simulated plant both run the policy on onnxruntime (a core dependency).
 """
 
@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from judo.core.errors import import_extra
-from judo.core.low_level import LowLevel
-from judo.core.onnx_policy import OnnxPolicy, write_linear_policy
+from judo.core.policies.onnx_policy import OnnxPolicy, write_linear_policy
+from judo.core.rollouts.low_level import LowLevel
 from judo.tasks.cartpole import MODEL_PATH, Cartpole
 
 KP = 2.0

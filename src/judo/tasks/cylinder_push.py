@@ -7,9 +7,15 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.fields import np_1d_field, slider
+from judo.core.configuration.fields import np_1d_field, slider
 from judo.core.norms import quadratic_norm
-from judo.core.randomize import body_id, contact_geom_ids, scale_body_mass, scale_dof_frictionloss, scale_geom_friction
+from judo.core.rollouts.randomize import (
+    body_id,
+    contact_geom_ids,
+    scale_body_mass,
+    scale_dof_frictionloss,
+    scale_geom_friction,
+)
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "cylinder_push.xml"

@@ -8,8 +8,8 @@ from typing import Any, ClassVar
 import mujoco
 import numpy as np
 
-from judo.core.fields import slider
-from judo.core.randomize import body_id, contact_geom_ids, scale_body_mass, scale_geom_friction
+from judo.core.configuration.fields import slider
+from judo.core.rollouts.randomize import body_id, contact_geom_ids, scale_body_mass, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "fr3_pick.xml"

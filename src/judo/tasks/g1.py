@@ -13,7 +13,7 @@ from typing import Any, ClassVar
 import mujoco
 import numpy as np
 
-from judo.core.fields import slider
+from judo.core.configuration.fields import slider
 from judo.core.norms import smooth_l1_norm
 from judo.core.task import EpisodeLog, Task, TaskConfig
 from judo.tasks.pushes import RandomPushes

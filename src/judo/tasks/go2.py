@@ -13,8 +13,8 @@ from typing import Any, ClassVar, TypeVar
 import mujoco
 import numpy as np
 
-from judo.core.fields import np_1d_field, slider
-from judo.core.randomize import contact_geom_ids, scale_geom_friction
+from judo.core.configuration.fields import np_1d_field, slider
+from judo.core.rollouts.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 from judo.tasks.pushes import RandomPushes
 from judo.tasks.quadruped import GaitName, gait_of, swing_heights

@@ -7,10 +7,16 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.fields import slider
+from judo.core.configuration.fields import slider
 from judo.core.model import mocap_pose
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle
-from judo.core.randomize import body_id, contact_geom_ids, scale_body_mass, scale_dof_frictionloss, scale_geom_friction
+from judo.core.rollouts.randomize import (
+    body_id,
+    contact_geom_ids,
+    scale_body_mass,
+    scale_dof_frictionloss,
+    scale_geom_friction,
+)
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "push_t.xml"

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.dynamics import DynamicsTask
-from judo.core.fields import slider
+from judo.core.configuration.fields import slider
 from judo.core.model import mocap_pose
 from judo.core.norms import smooth_l1_norm
+from judo.core.rollouts.dynamics import DynamicsTask
 from judo.core.task import EpisodeLog, TaskConfig
 
 MASS = 1.325

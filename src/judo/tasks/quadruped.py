@@ -12,10 +12,10 @@ from typing import Any, ClassVar, Literal
 import mujoco
 import numpy as np
 
+from judo.core.configuration.fields import slider
 from judo.core.errors import ConfigError
-from judo.core.fields import slider
 from judo.core.norms import smooth_l1_norm
-from judo.core.randomize import contact_geom_ids, scale_geom_friction
+from judo.core.rollouts.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import ConfigT, EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "quadruped.xml"

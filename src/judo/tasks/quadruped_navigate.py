@@ -2,7 +2,7 @@
 plans only a base-velocity command [vx, vy, yaw rate] with a few knots. The locomotion policy judo taught itself
 (`python -m judo gait-search`: its CEM tunes a clock-driven trot on quadruped_velocity's reward;
 models/policies/quadruped_locomotion.onnx, docs/tasks.md) turns the command into the 12 joint targets at 50 Hz,
-inside every rollout and on the plant (judo.core.low_level), as the seed paper's Spot tasks plan over an RL policy.
+inside every rollout and on the plant (judo.core.rollouts.low_level), as the seed paper's Spot tasks plan over an RL policy.
 
 Pass your own as `QuadrupedNavigate(policy_path=...)`: it gets quadruped_velocity's 35-value observation (with the
 gait's clock, from each rollout's sim time). The policy runs on onnxruntime, a core dependency.
@@ -14,9 +14,9 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.fields import slider
-from judo.core.low_level import LowLevel
-from judo.core.onnx_policy import OnnxPolicy
+from judo.core.configuration.fields import slider
+from judo.core.policies.onnx_policy import OnnxPolicy
+from judo.core.rollouts.low_level import LowLevel
 from judo.core.task import TaskConfig
 from judo.tasks.quadruped import MODEL_PATH, WalkToGoalBase
 

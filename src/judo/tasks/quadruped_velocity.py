@@ -12,8 +12,8 @@ from typing import Any
 
 import numpy as np
 
-from judo.core.config import require
-from judo.core.fields import slider
+from judo.core.configuration.config import require
+from judo.core.configuration.fields import slider
 from judo.core.policy import PolicyError
 from judo.core.task import EpisodeLog
 from judo.tasks.quadruped import MODEL_PATH, QuadrupedBase, QuadrupedBaseConfig

@@ -7,9 +7,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.fields import slider
+from judo.core.configuration.fields import slider
 from judo.core.norms import quadratic_norm, smooth_l1_norm
-from judo.core.randomize import contact_geom_ids, scale_geom_friction
+from judo.core.rollouts.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "walker.xml"

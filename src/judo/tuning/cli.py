@@ -24,7 +24,7 @@ from judo.cli_shared import (
     progress_display,
     seeds_label,
 )
-from judo.core.boundary import (
+from judo.core.commandline.boundary import (
     MAX_EPISODE,
     MAX_SAMPLES,
     MAX_WORKERS,
@@ -32,10 +32,10 @@ from judo.core.boundary import (
     check_output_folder,
     check_seed_range,
 )
-from judo.core.config import require, require_between
-from judo.core.config_values import apply_values
+from judo.core.configuration.config import require, require_between
+from judo.core.configuration.config_values import apply_values
+from judo.core.configuration.registry import default_configs, make_task
 from judo.core.errors import JudoError
-from judo.core.registry import default_configs, make_task
 from judo.evaluation.episode import Latency
 from judo.evaluation.plot import write_episode_plot
 from judo.loop.sensing import Sensing, SensingFlags, merge_repeated
@@ -232,7 +232,7 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     apply_config_file(args.config)
     args.validate()
     if args.plant_overrides:  # checked now against the plant, in one line
-        from judo.core.model_overrides import check_model_overrides, parse_override_entries
+        from judo.core.configuration.model_overrides import check_model_overrides, parse_override_entries
 
         check_model_overrides(make_task(args.task).sim_model, parse_override_entries(args.plant_overrides))
     configs = default_configs(args.task, args.optimizer)

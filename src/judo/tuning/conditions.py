@@ -15,9 +15,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
+from judo.core.configuration.registry import lookup_task, make_config
 from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
-from judo.core.registry import lookup_task, make_config
 
 Aggregate = Literal["mean", "worst", "cvar"]
 AGGREGATES: tuple[str, ...] = ("mean", "worst", "cvar")

@@ -31,11 +31,11 @@ from judo.cli_shared import (
     output_console,
     progress_display,
 )
-from judo.core.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_folder, check_seed_range
-from judo.core.config import require, require_between
-from judo.core.config_values import apply_values
+from judo.core.commandline.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_folder, check_seed_range
+from judo.core.configuration.config import require, require_between
+from judo.core.configuration.config_values import apply_values
+from judo.core.configuration.registry import default_configs, get_registered_optimizers
 from judo.core.errors import JudoError
-from judo.core.registry import default_configs, get_registered_optimizers
 from judo.tuning.best_file import write_best_toml
 from judo.tuning.conditions import Condition
 from judo.tuning.heartbeat import DEAD_PROCESS, failure_of

@@ -30,12 +30,12 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-from judo.core.boundary import MAX_EPISODE, MAX_SEED
-from judo.core.config import require, require_between
+from judo.core.commandline.boundary import MAX_EPISODE, MAX_SEED
+from judo.core.configuration.config import require, require_between
+from judo.core.configuration.registry import lookup_task, make_config
 from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
 from judo.core.optimizer import OptimizerConfig
-from judo.core.registry import lookup_task, make_config
 from judo.core.spline import MIN_KNOTS, SplineOrder
 from judo.tuning.conditions import MAX_LATENCY_MS
 from judo.tuning.objective import Direction, metric_direction

@@ -3,8 +3,8 @@
 from dataclasses import dataclass
 from typing import Literal
 
+from judo.core.configuration.registry import lookup_task
 from judo.core.errors import JudoError
-from judo.core.registry import lookup_task
 
 Direction = Literal["maximize", "minimize"]
 MEAN_REWARD = "mean_reward"

@@ -14,11 +14,16 @@ import typing
 from dataclasses import dataclass, fields
 from typing import Any, Literal
 
-from judo.core.config import MAX_MAGNITUDE, Config, coerce_field_value, field_types
-from judo.core.config_values import SearchSpaceError, controller_config_of, optimizer_config_of, split_name
+from judo.core.configuration.config import MAX_MAGNITUDE, Config, coerce_field_value, field_types
+from judo.core.configuration.config_values import (
+    SearchSpaceError,
+    controller_config_of,
+    optimizer_config_of,
+    split_name,
+)
+from judo.core.configuration.fields import slider_ranges
+from judo.core.configuration.registry import CONFIG_KINDS, ConfigKind, default_configs
 from judo.core.errors import ConfigError
-from judo.core.fields import slider_ranges
-from judo.core.registry import CONFIG_KINDS, ConfigKind, default_configs
 from judo.core.spline import MIN_KNOTS
 
 Kind = ConfigKind

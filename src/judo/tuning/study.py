@@ -22,10 +22,10 @@ from typing import Any, Literal
 
 import numpy as np
 
-from judo.core.config import Config
+from judo.core.commandline.interrupts import sigint_deferred
+from judo.core.configuration.config import Config
+from judo.core.configuration.registry import ConfigKind
 from judo.core.errors import JudoError, import_extra
-from judo.core.interrupts import sigint_deferred
-from judo.core.registry import ConfigKind
 from judo.evaluation.episode import EpisodeOutcome
 from judo.ray_cluster import cancel, get, submit, wait_any
 from judo.tuning.heartbeat import HEARTBEAT_S, STALE_AFTER_S, Heartbeats, dead_trial_notes

@@ -26,9 +26,9 @@ import time
 import mujoco
 import numpy as np
 
+from judo.core.configuration.model_overrides import check_model_overrides, override_task_models, parse_override_entries
+from judo.core.configuration.registry import lookup_task
 from judo.core.errors import ConfigError
-from judo.core.model_overrides import check_model_overrides, override_task_models, parse_override_entries
-from judo.core.registry import lookup_task
 from judo.core.task import new_task
 from judo.loop.plant_clock import PlantClock
 from judo.loop.system import MujocoSystem, SimulationDiverged

@@ -30,11 +30,11 @@ from typing import Any, Literal
 import numpy as np
 import viser
 
-from judo.core.config import Config, field_types
+from judo.core.configuration.config import Config, field_types
+from judo.core.configuration.fields import SliderRange, array_field_spec, slider_ranges
+from judo.core.configuration.registry import ConfigKind, config_flag
 from judo.core.errors import ConfigError, JudoError
-from judo.core.fields import SliderRange, array_field_spec, slider_ranges
-from judo.core.policy_controller import POLICY_USES_FIELDS
-from judo.core.registry import ConfigKind, config_flag
+from judo.core.policies.policy_controller import POLICY_USES_FIELDS
 from judo.runtime.commands import POLICY_OPTIMIZER
 from judo.runtime.gui.field_docs import field_docs
 
@@ -64,7 +64,7 @@ class ConfigPanel:
     it. `ranges` ({field: SliderRange}) replaces the config class's own `@slider` ranges, e.g. a wider
     num_rollouts on a GPU backend. The fields in `hidden` get no widget (fields of no use
     to the session, e.g. policy_samples without a proposal policy). A page's value outside a slider's range is
-    refused (`check_slider_range`); with `kind` (a key of `judo.core.registry.CONFIG_GROUPS`) the refusal names
+    refused (`check_slider_range`); with `kind` (a key of `judo.core.configuration.registry.CONFIG_GROUPS`) the refusal names
     the command-line option that sets the field.
     """
 

@@ -10,8 +10,8 @@ import math
 import numpy as np
 import viser
 
+from judo.core.configuration.registry import get_registered_estimators, get_registered_optimizers, get_registered_tasks
 from judo.core.errors import JudoError
-from judo.core.registry import get_registered_estimators, get_registered_optimizers, get_registered_tasks
 from judo.runtime.commands import POLICY_OPTIMIZER, AppPort, LiveFigures, Status
 
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")

@@ -1,5 +1,5 @@
 """The docstring line under each dataclass field, for the GUI's hover hints (shared with the CLIs, in core)."""
 
-from judo.core.field_docs import field_docs
+from judo.core.configuration.field_docs import field_docs
 
 __all__ = ["field_docs"]

@@ -22,8 +22,8 @@ import mujoco
 import numpy as np
 import viser
 
-from judo.core.config import Config
-from judo.core.fields import array_field_spec
+from judo.core.configuration.config import Config
+from judo.core.configuration.fields import array_field_spec
 
 logger = logging.getLogger("judo.gui")
 

@@ -12,10 +12,10 @@ from typing import Any
 import numpy as np
 import viser
 
-from judo.core.config import Config
-from judo.core.dynamics import drawn_model, drawn_qpos
+from judo.core.configuration.config import Config
+from judo.core.configuration.fields import SliderRange
 from judo.core.errors import JudoError
-from judo.core.fields import SliderRange
+from judo.core.rollouts.dynamics import drawn_model, drawn_qpos
 from judo.runtime.commands import AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
 from judo.runtime.gui.camera import Follower, distance_to_see, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel, hidden_fields

@@ -11,8 +11,8 @@ import mujoco
 import numpy as np
 import viser
 
-from judo.core.config import Config
-from judo.core.fields import array_field_spec
+from judo.core.configuration.config import Config
+from judo.core.configuration.fields import array_field_spec
 from judo.core.model import trace_sensor_columns
 from judo.runtime.gui.camera import frame_points, model_camera, reach_points
 

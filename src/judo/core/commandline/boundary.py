@@ -7,7 +7,7 @@ import tempfile
 import traceback
 from pathlib import Path
 
-from judo.core.config import require, shown
+from judo.core.configuration.config import require, shown
 from judo.core.errors import ConfigError
 
 MAX_WORKERS = 1024

@@ -6,11 +6,11 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from judo.core.config import Config, require, require_between
-from judo.core.fields import slider
+from judo.core.configuration.config import Config, require, require_between
+from judo.core.configuration.fields import slider
 from judo.core.model import STATE_SPEC
 from judo.core.optimizer import MAX_NUM_ROLLOUTS, OptimizerConfig
-from judo.core.risk import RiskMeasure
+from judo.core.rollouts.risk import RiskMeasure
 from judo.core.spline import MIN_KNOTS, SplineOrder
 from judo.core.task import Task
 
@@ -95,7 +95,7 @@ class ControllerConfig(Config):
     policy_samples: int = 0
     """Candidates of each update that come from the controller's proposal policy instead of the optimizer
     (generative predictive control): the last policy_samples of the num_rollouts, scored and ranked with the
-    others, so worse ones are not chosen; at most num_rollouts - 1, 0 turns it off (judo.core.proposals)."""
+    others, so worse ones are not chosen; at most num_rollouts - 1, 0 turns it off (judo.core.policies.proposals)."""
 
     @property
     def iterations_per_cycle(self) -> int:

@@ -19,8 +19,8 @@ from typing import Protocol
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend
 from judo.core.errors import JudoError
+from judo.core.rollouts.backend import RolloutBackend
 
 
 class ProblemBackend(Protocol):

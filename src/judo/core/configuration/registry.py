@@ -5,15 +5,15 @@ from typing import Any, Literal, cast
 
 import numpy as np
 
-from judo.core.backend import RolloutBackend
-from judo.core.config import Config, ConfigT, check_seed, coerce_field_value, with_updates
+from judo.core.configuration.config import Config, ConfigT, check_seed, coerce_field_value, with_updates
+from judo.core.configuration.model_overrides import ModelOverrides, check_model_overrides, override_task_models
 from judo.core.controller import Controller, ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.estimator import Estimator, EstimatorConfig
-from judo.core.model_overrides import ModelOverrides, check_model_overrides, override_task_models
 from judo.core.optimizer import Optimizer, OptimizerConfig
+from judo.core.policies.proposals import check_policy_fits
 from judo.core.policy import Policy
-from judo.core.proposals import check_policy_fits
+from judo.core.rollouts.backend import RolloutBackend
 from judo.core.task import Task, TaskConfig, new_task
 
 ConfigKind = Literal["controller", "optimizer", "task"]
@@ -122,7 +122,7 @@ def set_model_overrides(
     task_name: str, overrides: ModelOverrides, *, plant: bool = False, fitted: Collection[str] = ()
 ) -> None:
     """Set MjModel fields by element name whenever `task_name` is built: `overrides` is {field: {element: value}},
-    e.g. {"body_mass": {"pole": 0.13}} (judo.core.model_overrides). They go to the planning model, or with `plant`
+    e.g. {"body_mass": {"pole": 0.13}} (judo.core.configuration.model_overrides). They go to the planning model, or with `plant`
     to the simulated plant only ([model_overrides.TASK] and [plant_overrides.TASK] in a config file); `fitted` names
     the "FIELD.ELEMENT" entries sysid fitted (`fitted_overrides`). Later calls merge into earlier ones. Names, shapes
     and values are checked now, with the earlier ones, against the task's model: UnknownNameError lists the valid
@@ -221,7 +221,7 @@ def make_controller(
     Configs passed in are used as they are. `seed` seeds the optimizer's and the task's generators
     (ConfigError unless it is an integer from 0 to 2**63 - 1). `backend` names the rollout backend
     ("cpu" threads or "warp" for MuJoCo Warp; see ROLLOUT_BACKENDS), or is one already built. `proposal_policy` makes the candidates
-    that `controller_config.policy_samples` asks for (judo.core.proposals).
+    that `controller_config.policy_samples` asks for (judo.core.policies.proposals).
     """
     check_seed(seed)
     task_cls, task_config_cls = lookup_task(task_name)

@@ -4,7 +4,7 @@ A task declares one with `Task.low_level()`: the optimizer then plans the policy
 step within `command_range`, e.g. a target position or a base velocity) instead of the actuators' ctrl, and
 every `every` (k) physics steps the policy turns each rollout's command, state, previous action and sim time
 (a gait's clock) into the ctrl held for the next k steps (or, for a chunk policy, the ctrl of each of those k
-steps read off the chunk's spline). Three places run it, the first two on one `PolicyStepper` (core/stepper.py):
+steps read off the chunk's spline). Three places run it, the first two on one `PolicyStepper` (core/rollouts/stepper.py):
   - `LowLevelRollout`, the CPU rollout backend's wrapper: each of the pool's workers runs the whole tick loop of
     its own block of rows (`mujoco.rollout` k steps at a time, states carried between ticks), and at every tick
     one batched `Policy.act` on its block's (B, O) observations makes the next ctrl: one thread hand-off per
@@ -28,12 +28,12 @@ from typing import Any, cast
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend
 from judo.core.errors import JudoError
 from judo.core.policy import Policy, PolicyError
-from judo.core.rollout import RolloutPool
+from judo.core.rollouts.backend import RolloutBackend
+from judo.core.rollouts.rollout import RolloutPool
+from judo.core.rollouts.stepper import PolicyStepper
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
-from judo.core.stepper import PolicyStepper
 
 ObservationFn = Callable[..., np.ndarray]
 """(commands (B, C), states (B, nq + nv), previous_actions (B, A), times (B,)[, out=(B, O)]) -> (B, O) observations;

@@ -26,8 +26,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.backend import CancelFlag
-from judo.core.config import check_seed, with_updates
+from judo.core.configuration.config import check_seed, with_updates
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.controller import (
     Controller,
     NonFiniteKnotsError,
@@ -35,11 +35,11 @@ from judo.core.controller import (
     legacy_warm_start,
     warm_start_takes_state,
 )
-from judo.core.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.core.model import model_at
 from judo.core.planner import checked_reading
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError
+from judo.core.rollouts.backend import CancelFlag
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
 from judo.core.task import Task, new_task
 
@@ -58,7 +58,7 @@ def as_policy(policy: "Policy | str | Path") -> Policy:
     if isinstance(policy, Policy):
         return policy
     if isinstance(policy, (str, Path)):
-        from judo.core.onnx_policy import OnnxPolicy
+        from judo.core.policies.onnx_policy import OnnxPolicy
 
         return OnnxPolicy(policy)
     raise PolicyError(f"a policy must be a judo.Policy or the path of an .onnx file, got {type(policy).__name__}")
@@ -280,7 +280,7 @@ def make_policy_controller(
     `backend`), that plans from the same states for labels; the policy controller shares its task instance and
     closes it. Without one, `seed` seeds the task's generator as `make_controller` does.
     """
-    from judo.core.registry import lookup_task, make_config, make_controller, with_model_overrides
+    from judo.core.configuration.registry import lookup_task, make_config, make_controller, with_model_overrides
 
     loaded = as_policy(policy)
     if isinstance(expert, str):

@@ -1,8 +1,8 @@
 """`RolloutPool`, the CPU rollout backend: one shared MjModel, one MjData per worker thread, one C call per
 chunk.
 
-It implements `judo.core.backend.RolloutBackend`, as the MuJoCo Warp backend (core/warp_rollout.py) does;
-the factory `make_rollout_backend` lives in core/backend.py and is re-exported here, with the other
+It implements `judo.core.rollouts.backend.RolloutBackend`, as the MuJoCo Warp backend (core/rollouts/warp_rollout.py) does;
+the factory `make_rollout_backend` lives in core/rollouts/backend.py and is re-exported here, with the other
 backend names, for code that imports them from this module.
 """
 
@@ -13,7 +13,8 @@ import mujoco
 import mujoco.rollout
 import numpy as np
 
-from judo.core.backend import (
+from judo.core.model import STATE_SPEC
+from judo.core.rollouts.backend import (
     ROLLOUT_BACKENDS,
     PlanningCancelled,
     RandomizedRolloutError,
@@ -24,8 +25,7 @@ from judo.core.backend import (
     check_rollout_backend,
     make_rollout_backend,
 )
-from judo.core.model import STATE_SPEC
-from judo.core.workers import DaemonThreadPool
+from judo.core.rollouts.workers import DaemonThreadPool
 
 __all__ = [
     "CLOSE_TIMEOUT",
@@ -160,7 +160,7 @@ class RolloutPool(RolloutBackend):
         The arrays hold the whole batch, of which only the block's rows are read and written; all are
         C-contiguous float64: initial_states (N, nstate); inputs (N, k, ncontrol), the per-step values of
         `control_spec` ([ctrl] or [ctrl, mocap_pos, mocap_quat]); states (N, k, nstate) and sensors
-        (N, k, nsensordata). A low-level policy's worker (core/low_level.py) calls it once per tick.
+        (N, k, nsensordata). A low-level policy's worker (core/rollouts/low_level.py) calls it once per tick.
         """
         chunks, chunk_models = self._split(len(initial_states))
         self._run_chunk(block, chunks, chunk_models, initial_states, inputs, control_spec, states, sensors)

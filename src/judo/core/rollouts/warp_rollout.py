@@ -11,11 +11,11 @@ into preallocated pinned host arrays. On the CPU device (no GPU) the same kernel
 and the host arrays are the device arrays themselves.
 
 Under `set_models` the fields in which the models differ are MuJoCo Warp's per-world model arrays (see
-core/warp_models.py), and `rollout_problems` rolls out several problems, each from its own state, in one batch
-(core/problem_batch.py).
+core/rollouts/warp_models.py), and `rollout_problems` rolls out several problems, each from its own state, in one batch
+(core/rollouts/problem_batch.py).
 
 Importing this module imports warp and mujoco_warp (the `judo-mpc[warp]` extra); `make_rollout_backend`
-(core/backend.py) imports it only when the "warp" backend is asked for.
+(core/rollouts/backend.py) imports it only when the "warp" backend is asked for.
 """
 
 import os
@@ -27,10 +27,10 @@ from typing import TYPE_CHECKING, Any
 import mujoco
 import numpy as np
 
-from judo.core.backend import RolloutBackend, check_blocks, check_model_sizes
 from judo.core.errors import JudoError, import_extra
 from judo.core.model import STATE_SPEC
-from judo.core.warp_models import WarpUnsupportedModelError, probe_sizes, put_model, varying_fields
+from judo.core.rollouts.backend import RolloutBackend, check_blocks, check_model_sizes
+from judo.core.rollouts.warp_models import WarpUnsupportedModelError, probe_sizes, put_model, varying_fields
 
 FEATURE = "the warp rollout backend (--backend warp)"
 wp = import_extra("warp", FEATURE, "warp")

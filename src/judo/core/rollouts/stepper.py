@@ -4,11 +4,11 @@ Every tick of k physics steps, each block of rows (a worker's share of the batch
 (B, O) observations from the rows' states at the tick, one batched `act` gives each row an action (or a chunk of
 H, read off its spline at each of the tick's steps), the ctrl of the tick's steps is written into the inputs of
 `mujoco.rollout`, and the physics steps every row on from its own state. Four places run it:
-  - `LowLevelRollout` (core/low_level.py): a task's low-level policy inside every rollout, block by block on a
+  - `LowLevelRollout` (core/rollouts/low_level.py): a task's low-level policy inside every rollout, block by block on a
     `RolloutPool`'s workers (`run_blocks`);
-  - `LowLevelPlant` (core/low_level.py): the same policy on the plant, one row, whose physics is the plant's own
+  - `LowLevelPlant` (core/rollouts/low_level.py): the same policy on the plant, one row, whose physics is the plant's own
     steps (`act` alone makes each tick's ctrl);
-  - `Proposer` (core/proposals.py): an action policy's closed loop from the current state, one step per tick;
+  - `Proposer` (core/policies/proposals.py): an action policy's closed loop from the current state, one step per tick;
   - `GaitEpisodes` (learning/gait_search.py): every candidate gait policy on its own commands, block by block.
 Buffers are allocated per (N, T) and reused; a block reads and writes only its own rows of them, so blocks run
 on several threads at once.
@@ -21,7 +21,7 @@ import mujoco
 import numpy as np
 
 from judo.core.model import STATE_SPEC
-from judo.core.rollout import MOCAP_CONTROL_SPEC, RolloutPool
+from judo.core.rollouts.rollout import MOCAP_CONTROL_SPEC, RolloutPool
 
 Observe = Callable[[slice, int, np.ndarray, np.ndarray], np.ndarray]
 """(rows, the tick's first step, the rows' (B, nstate) states at the tick, their (B, A) previous actions) -> (B, O)."""

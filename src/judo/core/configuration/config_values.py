@@ -9,14 +9,14 @@ import typing
 from collections.abc import Mapping
 from typing import Any, Literal, TypeVar, cast
 
-from judo.core.config import Config, field_types, with_updates
-from judo.core.controller_config import ControllerConfig
+from judo.core.configuration.config import Config, field_types, with_updates
+from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.configuration.registry import ConfigKind
 from judo.core.errors import JudoError
 from judo.core.optimizer import OptimizerConfig
-from judo.core.registry import ConfigKind
 
 KindT = TypeVar("KindT", bound=str)
-"""The keys of a configs dict: judo.core.registry.ConfigKind, or str where the kinds are not known statically."""
+"""The keys of a configs dict: judo.core.configuration.registry.ConfigKind, or str where the kinds are not known statically."""
 
 
 class SearchSpaceError(JudoError):

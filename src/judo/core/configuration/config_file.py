@@ -51,11 +51,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-from judo.core.config import with_updates
-from judo.core.controller import ControllerConfig
-from judo.core.errors import JudoError, UnknownNameError
-from judo.core.optimizer import OptimizerConfig
-from judo.core.registry import (
+from judo.core.configuration.config import with_updates
+from judo.core.configuration.registry import (
     get_registered_optimizers,
     lookup_estimator,
     lookup_optimizer,
@@ -66,6 +63,9 @@ from judo.core.registry import (
     set_config_overrides,
     set_model_overrides,
 )
+from judo.core.controller import ControllerConfig
+from judo.core.errors import JudoError, UnknownNameError
+from judo.core.optimizer import OptimizerConfig
 
 TOP_LEVEL_KEYS = (
     "task",
@@ -88,7 +88,7 @@ TOP_LEVEL_KEYS = (
 TASK_SECTIONS = {"safety": "judo.safety.limits"}
 """Per-task sections whose config class lives above core, by the module that holds it: its `SECTION_CONFIG` (the
 class whose task defaults the table sets) and `check_section(task_name, config)` (the checks against the task's
-model). Imported by name when a file has the section, as the rollout backends are (judo.core.backend)."""
+model). Imported by name when a file has the section, as the rollout backends are (judo.core.rollouts.backend)."""
 
 ALL_OPTIMIZERS = "all"
 """The optimizer name in [optimizer_config_overrides.<task>.all]: OptimizerConfig, so every optimizer."""

@@ -1,8 +1,8 @@
 """The rollout backend interface, and the factory that builds a backend from its name.
 
 A rollout backend is the one call the Controller makes: from one initial state and per-step controls to
-per-step states and sensor values. `RolloutPool` (core/rollout.py, CPU threads) and `WarpRollout`
-(core/warp_rollout.py, MuJoCo Warp on a GPU) implement `RolloutBackend`, so the Controller's loop stays
+per-step states and sensor values. `RolloutPool` (core/rollouts/rollout.py, CPU threads) and `WarpRollout`
+(core/rollouts/warp_rollout.py, MuJoCo Warp on a GPU) implement `RolloutBackend`, so the Controller's loop stays
 written once.
 
 The dependencies point one way: each backend module imports this one, and this module imports neither.
@@ -41,11 +41,11 @@ class RolloutBackend(abc.ABC):
     name: str = ""
     """The name `make_rollout_backend` builds it from (one of ROLLOUT_BACKENDS)."""
     reward_threads: int = 1
-    """Host threads the Controller may score a large batch's rewards on (core/parallel_reward.py): 1, one plain
+    """Host threads the Controller may score a large batch's rewards on (core/rollouts/parallel_reward.py): 1, one plain
     call, unless the backend leaves the host's cores idle while it rolls out (the GPU backend)."""
     diverged: np.ndarray | bool = False
     """(num_rollouts,) True for each row of the last batch whose states went non-finite, for a backend that tracks
-    it (a task's own dynamics, core/dynamics.py); the Controller scores those rows -inf. False: none tracked."""
+    it (a task's own dynamics, core/rollouts/dynamics.py); the Controller scores those rows -inf. False: none tracked."""
 
     @abc.abstractmethod
     def rollout(
@@ -179,8 +179,8 @@ ROLLOUT_BACKENDS: tuple[str, ...] = get_args(RolloutBackendName)
 warp's default device, a GPU when there is one; needs the judo-mpc[warp] extra)."""
 
 BACKEND_CLASSES: dict[str, str] = {
-    "cpu": "judo.core.rollout.RolloutPool",
-    "warp": "judo.core.warp_rollout.WarpRollout",
+    "cpu": "judo.core.rollouts.rollout.RolloutPool",
+    "warp": "judo.core.rollouts.warp_rollout.WarpRollout",
 }
 """Each name in ROLLOUT_BACKENDS and the dotted path of its class, imported when the backend is asked for."""
 

@@ -14,9 +14,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.backend import RandomizedRolloutError
 from judo.core.errors import JudoError, import_extra
 from judo.core.model import STATE_SPEC
+from judo.core.rollouts.backend import RandomizedRolloutError
 
 FEATURE = "the warp rollout backend (--backend warp)"
 wp = import_extra("warp", FEATURE, "warp")
