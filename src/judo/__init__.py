@@ -27,8 +27,15 @@ from judo.core.configuration.registry import (
     set_config_overrides,
     set_model_overrides,
 )
-from judo.core.controller import Controller, ControllerConfig, NonFiniteKnotsError, NonFiniteRewardError
-from judo.core.errors import ConfigError, JudoError, ModelLoadError, UnknownNameError
+from judo.core.controller import Controller, ControllerConfig
+from judo.core.errors import (
+    ConfigError,
+    JudoError,
+    ModelLoadError,
+    NonFiniteKnotsError,
+    NonFiniteRewardError,
+    UnknownNameError,
+)
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig
 from judo.core.lqr import capped_cost_to_go, lqr_cost_to_go
 from judo.core.norms import quadratic_norm, smooth_l1_norm, wrap_angle

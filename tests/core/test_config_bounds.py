@@ -9,7 +9,8 @@ import pytest
 import judo
 from judo.core.configuration.config import snapshot, with_updates
 from judo.core.configuration.fields import slider_ranges
-from judo.core.controller import MAX_ROLLOUT_BYTES, NonFiniteKnotsError, check_configs
+from judo.core.controller import MAX_ROLLOUT_BYTES, check_configs
+from judo.core.errors import NonFiniteKnotsError
 from judo.optimizers import CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
 
 

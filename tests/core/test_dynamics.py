@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from judo.core.configuration.registry import get_registered_optimizers
-from judo.core.controller import Controller, ControllerConfig, NonFiniteRewardError
-from judo.core.errors import ConfigError, ModelLoadError
+from judo.core.controller import Controller, ControllerConfig
+from judo.core.errors import ConfigError, ModelLoadError, NonFiniteRewardError
 from judo.core.norms import wrap_angle
 from judo.core.rollouts.dynamics import DivergedDynamicsError, DynamicsError, DynamicsRollout, DynamicsTask
 from judo.core.task import TaskConfig

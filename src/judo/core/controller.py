@@ -24,14 +24,14 @@ from judo.core.configuration.controller_config import (
     check_configs,
     rollout_steps,
 )
-from judo.core.errors import ConfigError, JudoError
+from judo.core.errors import ConfigError, JudoError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.feedback import FeedbackGains
 from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_columns
 from judo.core.optimizer import Optimizer, PlanningStart
 from judo.core.planner import checked_reading
 from judo.core.policies.proposals import Proposer, insert_proposals
 from judo.core.policy import Policy
-from judo.core.rollouts.backend import CancelFlag, NonFiniteRewardError, PlanningCancelled, RolloutBackend
+from judo.core.rollouts.backend import CancelFlag, PlanningCancelled, RolloutBackend
 from judo.core.rollouts.dynamics import task_rollout_backend
 from judo.core.rollouts.low_level import check_low_level_backend, with_low_level
 from judo.core.rollouts.parallel_reward import ParallelReward
@@ -50,16 +50,10 @@ __all__ = [
     "MIN_CONTROL_FREQ",
     "Controller",
     "ControllerConfig",
-    "NonFiniteKnotsError",
-    "NonFiniteRewardError",
     "PlanningCancelled",
     "check_configs",
     "rollout_steps",
 ]
-
-
-class NonFiniteKnotsError(JudoError):
-    """The optimizer sampled or returned NaN or infinite knots; its search was restarted and the plan is kept."""
 
 
 class RolloutLimits(Protocol):

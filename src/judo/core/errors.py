@@ -54,3 +54,12 @@ def import_extra(module: str, feature: str, extra: str):  # returns the module
 
 class GuiStartError(JudoError):
     """The GUI server could not start (an address that is not this machine's, a port out of range, ...)."""
+
+
+class NonFiniteRewardError(JudoError):
+    """Every rollout of a cycle scored NaN or -inf (or diverged), so there is nothing to learn from; the plan is
+    kept, and the closed loop counts a failed update."""
+
+
+class NonFiniteKnotsError(JudoError):
+    """The optimizer sampled or returned NaN or infinite knots; its search was restarted and the plan is kept."""

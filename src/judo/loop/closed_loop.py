@@ -51,8 +51,7 @@ from collections.abc import Callable, Iterable
 
 import numpy as np
 
-from judo.core.controller import NonFiniteKnotsError, NonFiniteRewardError
-from judo.core.errors import JudoError
+from judo.core.errors import JudoError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.planner import Planner
 from judo.core.spline import Spline

@@ -28,14 +28,8 @@ import numpy as np
 
 from judo.core.configuration.config import check_seed, with_updates
 from judo.core.configuration.controller_config import ControllerConfig
-from judo.core.controller import (
-    Controller,
-    NonFiniteKnotsError,
-    NonFiniteRewardError,
-    legacy_warm_start,
-    warm_start_takes_state,
-)
-from judo.core.errors import ConfigError, JudoError
+from judo.core.controller import Controller, legacy_warm_start, warm_start_takes_state
+from judo.core.errors import ConfigError, JudoError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.model import model_at
 from judo.core.planner import checked_reading
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError

@@ -135,11 +135,6 @@ class PlanningCancelled(JudoError):
     part-way through a batch of rollouts whose outputs are then partial) and the previous plan stays."""
 
 
-class NonFiniteRewardError(JudoError):
-    """Every rollout of a cycle scored NaN or -inf (or diverged), so there is nothing to learn from; the plan is
-    kept, and the closed loop counts a failed update. Importable from `judo.core.controller` too."""
-
-
 class RandomizedRolloutError(JudoError):
     """A rollout backend was asked to roll out under several models and cannot, or the models do not fit."""
 
