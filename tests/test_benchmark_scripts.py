@@ -310,3 +310,38 @@ def test_fixed_cost_splits_an_update_without_physics_into_reward_and_the_rest():
     assert "update without physics" in result.stdout and "│ cartpole │ 8 x 5 │     1 │" in result.stdout
     assert "--- cartpole: the 5 costliest functions of 3 updates without physics" in result.stdout
     assert "update_action" in result.stdout  # the profile names the controller's own lines
+
+
+def test_house_figures_counts_each_figure_on_a_small_checkout_and_this_one(tmp_path):
+    files = {
+        "judo/__init__.py": "",
+        "judo/loop/__init__.py": "from judo.loop.run import go\n",
+        "judo/loop/run.py": "from judo.core.task import Task\n\ndef go():\n    from judo.core import spline\n",
+        "judo/core/__init__.py": "",
+        "judo/core/task.py": "from judo.core.errors import E\nTIME_TOLERANCE = 1e-9\n",
+        "judo/core/errors.py": "class E(Exception): ...  # type: ignore[misc]\n",
+        "judo/core/spline.py": "x = 1\n",
+        "judo/core/unused.py": 'POLICY = "policy"\nif a.optimizer is None or name == POLICY or isinstance(t, DynamicsTask):\n    pass\n',
+        "judo/runtime/gui/gui.py": "if s.version != self._plan_version or self._edits != n:\n    pass\n"
+        + "#" * 101
+        + "\n",
+        "judo/runtime/cli.py": "",
+    }
+    for name, text in files.items():
+        path = tmp_path / "src" / name
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(text)
+    result = run_script("house_figures.py", "--skip-run", "--root", str(tmp_path))
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    assert "files run per steady-state update" not in out
+    assert "loop/ import closure (judo modules outside loop/): 3 (4 with packages)" in out
+    assert "largest package (.py files): 5 (core)" in out and "largest file (lines): 4 (loop/run.py)" in out
+    assert 'branches on planner or task kind: 3 (is None 1, DynamicsTask 1, PolicyController 0, "policy" 1)' in out
+    assert "GUI polled change counters: 2" in out and "type: ignore: 1" in out
+    assert "lines over 100 characters: 1 of 15 (6.7%)" in out
+    assert "re-exporting package __init__ files (names): 1 (1 names)" in out
+    assert "modules named cli.py: 1" in out and "TIME_TOLERANCE definitions: 1" in out
+    both = run_script("house_figures.py", "--skip-run", "--compare", str(tmp_path))
+    assert both.returncode == 0, both.stderr
+    assert "before (" in both.stdout and "GUI polled change counters:" in both.stdout
