@@ -64,32 +64,31 @@ class Task(ABC, Generic[ConfigT]):
 
     config_cls: ClassVar[type[TaskConfig]] = TaskConfig
     lower_is_better: ClassVar[tuple[str, ...]] = ()
-    """Names of the `metrics` that are better lower (errors, distances, times, drops); every other metric,
-    and evaluate's "mean_reward", is better higher. `python -m judo tune` reads this for the direction."""
+    """Names of the `metrics` that are better lower (errors, distances, times, drops); every other metric, and
+    evaluate's "mean_reward", is better higher (`tune` reads the direction here)."""
     check_latency_ms: ClassVar[float] = 25.0
     """The fixed planning latency (ms) the task's defaults are checked under, besides none (a `tune`'s default
     conditions and benchmarks/defaults_under_conditions.py); slower tasks check a larger one."""
     min_control_freq: ClassVar[float] = 20.0
-    """The slowest replanning rate (Hz) the task's defaults are checked at and hold at (docs/tasks.md). 20 Hz,
-    what a loaded laptop reaches, unless the task is too unstable for it (double_cartpole's upright pose
-    diverges with a 0.14 s time constant); the slow rate of a `tune`'s default conditions."""
+    """The slowest replanning rate (Hz) the task's defaults are checked at and hold at (docs/tasks.md): 20 Hz, what
+    a loaded laptop reaches, unless the task is too unstable for it; the slow rate of a `tune`'s default conditions."""
     focus_body: ClassVar[str | None] = None
-    """The body the GUI's camera follows while the task runs. None: the first body with a free joint,
-    and no following when there is none (the camera stays where it framed the task)."""
+    """The body the GUI's camera follows while the task runs; None: the first body with a free joint, if any."""
     measured_sensors: ClassVar[tuple[str, ...]] = ()
     """Names of the MJCF sensors a robot running this task would have (encoders, a camera's pose, an IMU),
     in the order a System's `SystemState.sensors` holds their values. Trace sensors are never measured.
     Checked against both models when the task is built; `measured` says where the values lie."""
     default_estimator: ClassVar[str] = "ekf"
-    """The registered estimator that fuses `measured_sensors` when none is named (`--estimator`): with
-    `--observe sensors`, or under a System whose readings have no full state. The app, evaluate, tune, collect
-    and the GUI read it only through `judo.core.estimator` (`estimator_in_force`, `default_estimator_name`). A
-    class attribute beside `measured_sensors`, whose filter it names: the task's TOML holds only config fields."""
+    """The registered estimator that fuses `measured_sensors` when none is named (`--estimator`): with `--observe
+    sensors`, or under a System whose readings have no full state; read through `judo.core.estimator`
+    (`estimator_in_force`, `default_estimator_name`). A class attribute: the task's TOML holds only config fields."""
     recorded_metadata: ClassVar[tuple[str, ...]] = ()
     """Keys of the system metadata (`get_sim_metadata`) that the task's `reward` or `policy_observation` reads, each
     a number or a fixed-shape array of numbers: `collect` keeps every step's value (`obs/metadata/KEY`) and
     `distill` gives it back to `policy_observation`. "mocap_pos" is kept for every task with mocap bodies
     (`obs/mocap_pos`) and is not listed here."""
+    simulator: ClassVar[str] = "mujoco"
+    """The simulated plant the task needs: "mujoco" steps `sim_model`, "dynamics" a DynamicsTask's own dynamics."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Take `config_cls` from `Task[ConfigT]` among the class's own bases. A subclass of a task
@@ -120,7 +119,7 @@ class Task(ABC, Generic[ConfigT]):
                     f"planning model {model_path} has {size}={getattr(self.model, size)}; they must match"
                 )
         self.model_overrides: dict[str, dict[str, Any]] = {}
-        """MjModel fields set on the planning model by element name (judo.core.configuration.model_overrides); {} for the MJCF's."""
+        """MjModel fields set on the planning model by element name (configuration/model_overrides); {}: the MJCF's."""
         self.plant_overrides: dict[str, dict[str, Any]] = {}
         """MjModel fields set on the plant model (`sim_model`), which every plant built from this task gets."""
         owner = type(self).__name__
@@ -164,7 +163,7 @@ class Task(ABC, Generic[ConfigT]):
         (core/rollouts/parallel_reward.py): read the arguments and the task's constants, and write nothing shared.
         """
 
-    # Hooks. Each has a no-op default; override the ones the task needs.
+    # Hooks, each with a no-op default; override the ones the task needs. Helpers below them.
     def reset(self) -> None:
         """Put the plant (`self.data`) in a start state; the default is the model's keyframe 0 or qpos0."""
         if self.sim_model.nkey:
@@ -176,12 +175,28 @@ class Task(ABC, Generic[ConfigT]):
     def low_level(self) -> "LowLevel | None":
         """A low-level policy to plan over (judo.core.rollouts.low_level), or None (the default): plan the actuators.
 
-        With one, the optimizer plans its C commands (`command_size`, `command_range`), every rollout and the
-        simulated plant run the policy every k physics steps to turn them into ctrl, and `reward` gets the
-        commands as `controls`. Return the same object on every call (build it once, in `__init__`): the
-        Controller, the plant and the size properties each ask for it.
+        With one, the optimizer plans its C commands (`command_size`, `command_range`), every rollout and the plant
+        run the policy every k physics steps to turn them into ctrl, and `reward` gets the commands as `controls`.
+        Return the same object on every call (build it once, in `__init__`).
         """
         return None
+
+    # What a task with its own dynamics (judo.core.rollouts.dynamics.DynamicsTask) answers otherwise:
+    def rollout_backend(self, name: str) -> Any:
+        """The task's own RolloutBackend, or None (the default): the backend `name` rolls out the planning model."""
+        return None
+
+    def predict_step(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Advance `data` one step of `model` under `data.ctrl` (the latency model's prediction): mj_step."""
+        mujoco.mj_step(model, data)
+
+    def drawn_model(self) -> mujoco.MjModel:
+        """The model the GUI draws the task with: the planning model."""
+        return self.model
+
+    def drawn_qpos(self, state: np.ndarray) -> np.ndarray:
+        """(drawn_model().nq,) the drawn qpos at the (nq + nv,) `state`: its qpos."""
+        return state[: self.model.nq]
 
     def pre_rollout(self, state: np.ndarray) -> None:
         """Called once per planning cycle with the (nq + nv,) state, before any rollout."""
@@ -202,10 +217,9 @@ class Task(ABC, Generic[ConfigT]):
     def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
         """Perturb `model`, a private copy of the planning model, in place, drawing from `rng`.
 
-        Called when the controller plans under several models (`ControllerConfig.num_randomizations`
-        > 1), once per randomized model per redraw. Scale what the real system gets wrong (frictions,
-        masses, dampings, gains; helpers in `judo.core.rollouts.randomize`); never change sizes. The default
-        does nothing, so every randomized model equals the planning model.
+        Called when the controller plans under several models (`ControllerConfig.num_randomizations` > 1), once per
+        randomized model per redraw. Scale what the real system gets wrong (frictions, masses, dampings, gains;
+        helpers in `judo.core.rollouts.randomize`); never change sizes. The default does nothing.
         """
 
     def get_sim_metadata(self) -> dict[str, Any]:
@@ -218,19 +232,13 @@ class Task(ABC, Generic[ConfigT]):
         return None
 
     def success(self, metrics: dict[str, float]) -> bool | None:
-        """Whether an episode with these `metrics` (from `metrics`) counts as a success, for
-        `python -m judo collect --success-only`; None when the task has no rule.
-
-        The default reads a "success" metric (true when above 0.5) and has no rule without one.
-        """
+        """Whether an episode with these `metrics` (from `metrics`) counts as a success, for `collect --success-only`;
+        None when the task has no rule. The default reads a "success" metric (true when above 0.5), if any."""
         return metrics["success"] > 0.5 if "success" in metrics else None
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """Success figures of a finished episode for `evaluate`, e.g. {"final_distance": 0.02}.
-
-        Goal-reaching tasks report "goals_reached" and "goals_per_minute" (they may count goals in
-        `pre_sim_step` on the plant task this is called on). The default reports nothing.
-        """
+        """Success figures of a finished episode for `evaluate`, e.g. {"final_distance": 0.02}; none by default.
+        Goal-reaching tasks report "goals_reached" and "goals_per_minute" (counted in the plant task's `pre_sim_step`)."""
         return {}
 
     def policy_observation(
@@ -244,21 +252,18 @@ class Task(ABC, Generic[ConfigT]):
 
         Args:
             states: (B, nq + nv) [qpos, qvel].
-            sensors: (B, nsensordata) the planning model's sensor values at those states, or None where the
-                caller has none to give (a task that reads them says so in its own error).
+            sensors: (B, nsensordata) the planning model's sensor values at those states, or None (none to give).
             system_metadata: what the system published with the state (e.g. "mocap_pos" (nmocap, 3)), or None;
                 judo.core.model.mocap_pose reads a mocap pose from it, falling back to the model's own.
             previous_actions: (B, nu) the action each row was served last, or None where there is none.
         Returns:
-            (B, O) float observations; the default is the states themselves, O = nq + nv. Override it to give
-            a policy what it was trained on (sensors, a goal, the previous action), e.g.
-            `np.concatenate([states, sensors[:, self.measured.columns]], axis=1)`.
+            (B, O) float observations; the default is the states themselves, O = nq + nv. Override it to give a
+            policy what it was trained on, e.g. `np.concatenate([states, sensors[:, self.measured.columns]], axis=1)`.
         """
         return np.asarray(states, dtype=float)
 
     def policy_observation_size(self) -> int:
-        """O, the length of one `policy_observation`: the hook called on one zero row (zero sensors and
-        previous action, the model's own mocap poses)."""
+        """O, the length of one `policy_observation`: the hook called on one zero row (and the model's mocap poses)."""
         model = self.model
         metadata = model_mocap_poses(model)
         row = self.policy_observation(
@@ -274,11 +279,9 @@ class Task(ABC, Generic[ConfigT]):
 
     def feedback_cost(self) -> tuple[np.ndarray, np.ndarray]:
         """The tracking cost of the feedback gains (`ControllerConfig.feedback`): (2 nv,) weights on the deviation
-        [dq, dv] from the nominal rollout (dq in the tangent space: a free joint's is 3 + 3) and (nu,) weights on
-        the control correction. The default weighs every position by 1, every velocity by 0.1 and each control
-        by 0.1 / (half its range)^2 (an unbounded one: half range 1), so that a deviation of 0.1 rad costs as
-        much as a correction of a third of an actuator's half range (ten times stiffer gains made the heavier
-        walker, humanoid and leap_cube worse at 5 Hz: docs/tasks.md); raise the control weights for softer gains."""
+        [dq, dv] from the nominal rollout (dq in the tangent space) and (nu,) weights on the control correction.
+        By default 1 per position, 0.1 per velocity, 0.1 / (half its range)^2 per control (unbounded: half range 1):
+        0.1 rad costs as much as a third of a half range (stiffer gains did worse at 5 Hz: docs/tasks.md)."""
         low, high = self.actuator_ctrlrange.T
         half = 0.5 * (high - low)
         half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
@@ -288,10 +291,9 @@ class Task(ABC, Generic[ConfigT]):
         """The (command_size,) control that brings the plant to rest from the (nq + nv,) `state`: what the watchdog
         serves when the plan in force is too old, and what `System.halt` applies by default.
 
-        The default sets motor, force and velocity actuators to 0 and holds position actuators at their
-        joint's current position (never a jump to 0), clamped to the ctrlrange. Override it for anything
-        else (a gripper that must keep its grip, a drone that must hover). Under a low-level policy the
-        default is each command's zero clamped to its range; a task says what holds its robot still.
+        The default sets motor, force and velocity actuators to 0 and holds position actuators at their joint's
+        current position, clamped to the ctrlrange (override it for a gripper that must keep its grip, a drone that
+        must hover); under a low-level policy, each command's zero clamped to its range.
         """
         if self.low_level() is not None:
             low, high = self.command_range.T
@@ -310,7 +312,6 @@ class Task(ABC, Generic[ConfigT]):
         low, high = self.actuator_ctrlrange.T
         return np.clip(action, low, high)
 
-    # Helpers.
     @property
     def nu(self) -> int:
         """Number of actuators."""

@@ -17,9 +17,9 @@ import numpy as np
 
 from judo.core.configuration.config import require
 from judo.core.model import set_mocap_poses
-from judo.core.rollouts.dynamics import DynamicsTask
+from judo.core.reading import SystemState
 from judo.core.task import Task
-from judo.loop.system import DIVERGENCE_WARNINGS, SystemState
+from judo.loop.system import DIVERGENCE_WARNINGS
 
 Latency = float | Literal["measured"]
 """Planning latency: seconds of sim time (0 for none), or "measured" for each update's wall time."""
@@ -57,7 +57,7 @@ class LatencyPredictor:
     """
 
     def __init__(self, task: Task) -> None:
-        self.task = task  # a DynamicsTask predicts on its own dynamics
+        self.task = task  # its `predict_step` steps the prediction (a DynamicsTask's: its own dynamics)
         self.model = task.model
         self.data = mujoco.MjData(self.model)
 
@@ -83,11 +83,7 @@ class LatencyPredictor:
         for _ in range(steps):
             state = np.concatenate([data.qpos, data.qvel])
             data.ctrl[:] = control_at(float(data.time), state)
-            if isinstance(self.task, DynamicsTask):
-                state[: self.task.nx] = self.task.step_checked(state[None, : self.task.nx], data.ctrl[None].copy())[0]
-                data.qpos[:], data.qvel[:], data.time = state[:nq], state[nq:], data.time + self.model.opt.timestep
-            else:
-                mujoco.mj_step(self.model, data)
+            self.task.predict_step(self.model, data)
         diverged = any(data.warning[warning].number for warning in DIVERGENCE_WARNINGS)
         if diverged or not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
             return reading  # the prediction blew up: plan from what was read

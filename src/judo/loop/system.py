@@ -20,8 +20,6 @@ import numpy as np
 
 from judo.core.errors import JudoError
 from judo.core.reading import SystemState
-from judo.core.rollouts.dynamics import DynamicsTask
-from judo.core.rollouts.low_level import LowLevelPlant
 from judo.core.task import Task, new_task
 from judo.loop.mujoco_warnings import count_mujoco_warnings
 from judo.loop.records import Recorder
@@ -99,7 +97,7 @@ class MujocoSystem(System):
         self.timestep = float(task.sim_model.opt.timestep)
         self._scratch: mujoco.MjData | None = None  # for sensor_values
         low_level = task.low_level()
-        self.low_level = None if low_level is None else LowLevelPlant(low_level, task.sim_model)
+        self.low_level = None if low_level is None else low_level.plant(task.sim_model)  # a LowLevelPlant
         count_mujoco_warnings()  # a diverging plant warns every step: one counting line every few seconds instead
 
     @classmethod
@@ -120,8 +118,8 @@ class MujocoSystem(System):
         plant.config = task.config
         plant.rng = np.random.default_rng(None if seed is None else [seed, PLANT_STREAM])
         plant.reset()
-        if isinstance(plant, DynamicsTask) and cls is MujocoSystem:
-            return DynamicsSystem(plant)  # a task with its own dynamics is simulated by them, not by MuJoCo
+        if cls is MujocoSystem:  # the task answers which simulated plant it needs
+            return SIMULATORS[plant.simulator](plant)
         return cls(plant)
 
     def plant_sensors(self) -> np.ndarray:
@@ -201,7 +199,8 @@ class DynamicsSystem(MujocoSystem):
     process noise, instead of MuJoCo's physics.
 
     The state x lives in the task's carrier `data` ([qpos, qvel], judo.core.rollouts.dynamics), so reading the state,
-    logs, datasets and the GUI work as for any MuJoCo plant. `MujocoSystem.from_task` builds one for such a task.
+    logs, datasets and the GUI work as for any MuJoCo plant. `MujocoSystem.from_task` builds one for a task whose
+    `simulator` is "dynamics".
 
     Args:
         task: the plant's own DynamicsTask instance, reset to its start.
@@ -209,9 +208,9 @@ class DynamicsSystem(MujocoSystem):
             from `task.rng` (seeded by `from_task`); None: the task's `process_noise`.
     """
 
-    def __init__(self, task: DynamicsTask, process_noise: float | np.ndarray | None = None) -> None:
+    def __init__(self, task: Task, process_noise: float | np.ndarray | None = None) -> None:
         super().__init__(task)
-        self.dynamics_task = task
+        self.dynamics_task: Any = task  # a DynamicsTask: its nx, state, step_checked, trace_points, process_noise
         noise = task.process_noise if process_noise is None else process_noise
         self.process_noise = np.broadcast_to(np.asarray(noise, dtype=float), (task.nx,)).copy()
         self._low, self._high = task.actuator_ctrlrange.T.copy()
@@ -236,6 +235,10 @@ class DynamicsSystem(MujocoSystem):
             raise SimulationDiverged(
                 f"{type(task).__name__}.dynamics gave a non-finite state at t={start_time:.3f} s; reset the task"
             )
+
+
+SIMULATORS: dict[str, type[MujocoSystem]] = {"mujoco": MujocoSystem, "dynamics": DynamicsSystem}
+"""The simulated plant of each `Task.simulator`: MuJoCo's physics, or a DynamicsTask's own dynamics."""
 
 
 class SystemClosedError(JudoError):

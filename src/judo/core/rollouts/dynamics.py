@@ -2,8 +2,9 @@
 
 A `DynamicsTask` writes `dynamics(states (N, nx), controls (N, nu), dt) -> (N, nx)`; `DynamicsRollout` rolls a
 batch out as T vectorized calls behind the same `RolloutBackend` interface as the MuJoCo pool, so the
-Controller's loop, every optimizer, the splines, evaluate, tune and collect stay as they are. The Controller
-picks this backend by itself for such a task (`task_rollout_backend`).
+Controller's loop, every optimizer, the splines, evaluate, tune and collect stay as they are. The task answers
+for itself: its `rollout_backend` is this one, its `simulator` "dynamics" (the plant `DynamicsSystem`), its
+`predict_step` its own dynamics, and the GUI draws its `drawn_model`.
 
 The rest of judo passes states around as a MuJoCo model's [qpos, qvel]. A DynamicsTask therefore carries a
 small generated model (`carrier_xml`): ceil(nx / 2) slide joints, no contacts, no gravity, one motor per
@@ -162,9 +163,35 @@ class DynamicsTask(Task[ConfigT]):
         """One step of every row: (N, nx) states and (N, nu) controls (within their limits) to (N, nx) states
         `dt` seconds later. Vectorized numpy; return a new array (the inputs are the backend's)."""
 
+    simulator: ClassVar[str] = "dynamics"  # the simulated plant steps `dynamics` (judo.loop.system.DynamicsSystem)
+
     def draw_qpos(self, states: np.ndarray) -> np.ndarray:
         """(B, draw_model.nq) the drawn robot's joint positions at (B, nx) states; none by default."""
         return np.zeros((len(states), self.draw_model.nq))
+
+    def drawn_model(self) -> mujoco.MjModel:
+        """`draw_model`: the scene and the robot, which the GUI draws instead of the carrier."""
+        return self.draw_model
+
+    def drawn_qpos(self, state: np.ndarray) -> np.ndarray:
+        """(draw_model.nq,) `draw_qpos` at the (nq + nv,) carrier `state`'s x."""
+        return np.asarray(self.draw_qpos(np.asarray(state, dtype=float)[None, : self.nx]), dtype=float)[0]
+
+    def rollout_backend(self, name: str) -> "DynamicsRollout":
+        """`DynamicsRollout` on this task, asked for by the default backend name "cpu" (ConfigError for another)."""
+        if name != "cpu":
+            raise ConfigError(
+                f"{type(self).__name__} rolls out its own dynamics, which run on the host: expected backend 'cpu' "
+                f"(the default), got {name!r}"
+            )
+        return DynamicsRollout(self)
+
+    def predict_step(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """One step of `dynamics` from `data`'s [qpos, qvel] under its ctrl; time advances by `model`'s timestep."""
+        state = np.concatenate([data.qpos, data.qvel])
+        state[: self.nx] = self.step_checked(state[None, : self.nx], data.ctrl[None].copy())[0]
+        nq = model.nq
+        data.qpos[:], data.qvel[:], data.time = state[:nq], state[nq:], data.time + model.opt.timestep
 
     def trace_points(self, states: np.ndarray) -> np.ndarray:
         """(..., num_traces, 3) world points the GUI traces, at (..., nx) states; none by default."""
@@ -266,28 +293,18 @@ class DynamicsRollout(RolloutBackend):
 
 
 def drawn_model(task: Task) -> mujoco.MjModel:
-    """The model the GUI draws `task` with: a DynamicsTask's `draw_model`, else its planning model."""
-    return task.draw_model if isinstance(task, DynamicsTask) else task.model
+    """The model the GUI draws `task` with: the task's `drawn_model()` (a DynamicsTask's `draw_model`)."""
+    return task.drawn_model()
 
 
 def drawn_qpos(task: Task, state: np.ndarray | None) -> np.ndarray:
-    """(drawn_model(task).nq,) the drawn qpos at the (nq + nv,) `state`: `draw_qpos` of a DynamicsTask, else the
-    state's qpos; the drawn model's qpos0 for a reading without a state."""
-    if state is None:
-        return drawn_model(task).qpos0.copy()
-    if isinstance(task, DynamicsTask):
-        return np.asarray(task.draw_qpos(np.asarray(state, dtype=float)[None, : task.nx]), dtype=float)[0]
-    return state[: task.model.nq]
+    """(drawn_model(task).nq,) the drawn qpos at the (nq + nv,) `state` (the task's `drawn_qpos`); the drawn
+    model's qpos0 for a reading without a state."""
+    return task.drawn_model().qpos0.copy() if state is None else task.drawn_qpos(state)
 
 
 def task_rollout_backend(task: Task, name: str, num_workers: int | None) -> RolloutBackend:
-    """The backend a Controller rolls `task` out on: `DynamicsRollout` for a DynamicsTask (asked for by the
-    default name "cpu"), else `make_rollout_backend(name, task.model, num_workers)`."""
-    if not isinstance(task, DynamicsTask):
-        return make_rollout_backend(name, task.model, num_workers)
-    if name != "cpu":
-        raise ConfigError(
-            f"{type(task).__name__} rolls out its own dynamics, which run on the host: expected backend 'cpu' "
-            f"(the default), got {name!r}"
-        )
-    return DynamicsRollout(task)
+    """The backend a Controller rolls `task` out on: the task's own (`Task.rollout_backend`, a DynamicsTask's
+    `DynamicsRollout`), else `make_rollout_backend(name, task.model, num_workers)`."""
+    own = task.rollout_backend(name)
+    return own if own is not None else make_rollout_backend(name, task.model, num_workers)

@@ -11,7 +11,7 @@ steps read off the chunk's spline). Three places run it, the first two on one `P
     update rather than one per tick, and one worker's `act` overlaps the other's physics. `act` and the hooks
     are therefore called from several threads at once (as they already were by the plant's thread and the
     planner's): they must not keep shared mutable state;
-  - `LowLevelPlant`, inside `MujocoSystem`: the simulated plant runs the policy on the command it is served,
+  - `LowLevelPlant` (`LowLevel.plant`), inside `MujocoSystem`: the simulated plant runs the policy on the command it is served,
     every k of its steps, as the robot's own controller would (a robot's `System` runs it itself), turning its
     actions into ctrl exactly as the rollouts do;
   - `with_low_level`, which the Controller calls on its backend: the wrapper, or a LowLevelBackendError for
@@ -158,6 +158,10 @@ class LowLevel:
         out[:, : commands.shape[1]] = commands
         out[:, commands.shape[1] :] = states
         return out
+
+    def plant(self, model: mujoco.MjModel) -> "LowLevelPlant":
+        """The simulated plant's side of this policy on the plant model `model` (what `MujocoSystem` runs)."""
+        return LowLevelPlant(self, model)
 
     def stepper(self, model: mujoco.MjModel) -> PolicyStepper:
         """A `PolicyStepper` that runs this policy on `model`: every k steps, its actions held or off its chunk."""
