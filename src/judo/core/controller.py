@@ -4,6 +4,7 @@ Its settings, `ControllerConfig`, and `check_configs` live in `judo.core.configu
 imported here too, where they have always been importable from.
 """
 
+import dataclasses
 import math
 from time import perf_counter
 from typing import Any, Protocol
@@ -13,13 +14,6 @@ import numpy as np
 
 from judo.core.configuration.config import snapshot
 from judo.core.configuration.controller_config import (
-    MAX_CONTROL_FREQ,
-    MAX_HORIZON,
-    MAX_NUM_TRACES,
-    MAX_OPT_ITERS,
-    MAX_RANDOMIZATIONS,
-    MAX_ROLLOUT_BYTES,
-    MIN_CONTROL_FREQ,
     ControllerConfig,
     check_configs,
     rollout_steps,
@@ -28,7 +22,8 @@ from judo.core.errors import ConfigError, JudoError, NonFiniteKnotsError, NonFin
 from judo.core.feedback import FeedbackGains
 from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_columns
 from judo.core.optimizer import Optimizer, PlanningStart
-from judo.core.planner import checked_reading
+from judo.core.planner import checked_reading, task_warm_start
+from judo.core.planner_view import CycleSize, PlannerKind
 from judo.core.policies.proposals import Proposer, insert_proposals
 from judo.core.policy import Policy
 from judo.core.rollouts.backend import CancelFlag, PlanningCancelled, RolloutBackend
@@ -36,24 +31,11 @@ from judo.core.rollouts.dynamics import task_rollout_backend
 from judo.core.rollouts.low_level import check_low_level_backend, with_low_level
 from judo.core.rollouts.parallel_reward import ParallelReward
 from judo.core.rollouts.randomize import randomized_models
-from judo.core.rollouts.risk import reduce_rewards
+from judo.core.rollouts.risk import checked_rewards, reduce_rewards
 from judo.core.spline import Spline, SplineBasis, clip_ufunc
-from judo.core.task import Task, legacy_warm_start, warm_start_takes_state
+from judo.core.task import Task, warm_start_takes_state
 
-__all__ = [
-    "MAX_CONTROL_FREQ",
-    "MAX_HORIZON",
-    "MAX_NUM_TRACES",
-    "MAX_OPT_ITERS",
-    "MAX_RANDOMIZATIONS",
-    "MAX_ROLLOUT_BYTES",
-    "MIN_CONTROL_FREQ",
-    "Controller",
-    "ControllerConfig",
-    "PlanningCancelled",
-    "check_configs",
-    "rollout_steps",
-]
+__all__ = ["Controller"]
 
 
 class RolloutLimits(Protocol):
@@ -129,6 +111,22 @@ class Controller:
         self._gains = FeedbackGains(task, self.backend.num_workers if backend == "cpu" else None)
         self.limits: RolloutLimits | None = None
 
+    kind = PlannerKind.MPC
+    config_kinds = ("controller", "optimizer", "task")
+
+    @property
+    def controller_fields(self) -> tuple[str, ...]:
+        """Every ControllerConfig field, but policy_samples without a proposal policy (only 0 would be accepted)."""
+        names = tuple(f.name for f in dataclasses.fields(self.config))
+        return names if self.proposal_policy is not None else tuple(n for n in names if n != "policy_samples")
+
+    def cycle_size(self, configs: dict[Any, Any]) -> CycleSize:
+        """num_rollouts x num_randomizations x iterations (`ControllerConfig.iterations_per_cycle`) x T under
+        `configs` ({"controller": ..., "optimizer": ..., ...})."""
+        controller, optimizer = configs["controller"], configs["optimizer"]
+        steps = rollout_steps(controller.horizon, self.task.dt)
+        return CycleSize(optimizer.num_rollouts, controller.num_randomizations, controller.iterations_per_cycle, steps)
+
     @property
     def num_steps(self) -> int:
         """Rollout length T in steps: the horizon divided by the timestep, rounded."""
@@ -200,12 +198,6 @@ class Controller:
             self._set_models(cfg.num_randomizations)
         self._cycles_since_draw += 1
 
-    def _set_initial_state(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None) -> None:
-        data = model_at(self.task.model, self._scratch, state, time, system_metadata, forward=False)
-        mujoco.mj_getState(self.task.model, data, self._initial_state, STATE_SPEC)
-        if len(self._initial_mocap):  # a model without mocap bodies has none to copy
-            self._initial_mocap[:] = mocap_vector(data)
-
     def update_action(
         self,
         state: np.ndarray,
@@ -218,7 +210,8 @@ class Controller:
 
         The cycle runs `config.iterations_per_cycle` optimizer iterations. With a `deadline` (a time.perf_counter()
         value: the app gives each cycle its control period) the iterations beyond `config.max_opt_iters` run only
-        while one more, as long as the last, ends before it; `iterations_run` says how many ran.
+        while one more, as long as the last, ends before it; `iterations_run` says how many ran. Each iteration
+        runs the phases in order: `_sample`, `_clamp`, `_roll_out`, `_score_rollouts`, `_update`; `_publish` ends the cycle.
 
         A set `cancel` (a threading.Event, the app's stop or planning cycle) ends the cycle with PlanningCancelled,
         keeping the previous plan: before its next optimizer iteration, or between pieces of a batch of rollouts
@@ -230,41 +223,11 @@ class Controller:
         NonFiniteKnotsError if the optimizer produced NaN or infinite knots; in each case the
         previous plan stays in force.
         """
-        state = checked_reading(state, time, self._num_state, "plan from")
-        self._apply_config_changes()
-        self._redraw_models_if_due()
-        opt, task, cfg = self.optimizer, self.task, self.config
-        knot_times = time + self._knot_offsets
-        if self._plan is None:
-            nominal = np.tile(self._warm_start(state), (opt.num_nodes, 1)).astype(float)
-            old_times = knot_times
-        else:
-            nominal = self._plan(knot_times)
-            old_times = self._plan.knot_times
-        opt.pre_optimization(old_times, knot_times)
-        self._set_initial_state(state, time, system_metadata)
-        task.pre_rollout(state)
-        task_config = snapshot(task.config)
-        start = (self._initial_state, self._initial_mocap, self._rollout_weights, task_config, system_metadata)
-        opt.set_start(PlanningStart(task, *start))
-        expected = (opt.num_rollouts, opt.num_nodes, task.command_size)
-        num_models = len(self.models)
-        num_rows = num_models * opt.num_rollouts
-        candidates = self._proposer.candidates(
-            self.proposal_policy,
-            cfg.policy_samples,
-            self._initial_state,
-            self._initial_mocap,
-            self._basis,
-            self._num_steps,
-            system_metadata,
-            nominal[0],  # the action served now
-        )
-
-        required, iteration_started = cfg.max_opt_iters, 0.0
+        nominal, task_config, candidates = self._begin(state, time, system_metadata)
+        required, iteration_started = self.config.max_opt_iters, 0.0
         served = nominal[0].copy()  # the plan in force now (or the warm start): the rate limits' step before
         with self.backend.cancelled_by(cancel):  # polled between pieces of a big batch too
-            for iteration in range(cfg.iterations_per_cycle):
+            for iteration in range(self.config.iterations_per_cycle):
                 if cancel is not None and cancel.is_set():
                     raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
                 if deadline is not None:  # an extra iteration starts only if one as long as the last fits
@@ -273,66 +236,114 @@ class Controller:
                         break
                     iteration_started = now
                 self.iterations_run = iteration + 1
-                knots = opt.sample_control_knots(nominal)
-                if knots.shape != expected:
-                    raise JudoError(
-                        f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
-                    )
-                if not np.isfinite(knots).all():
-                    self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
-                rows = None if candidates is None else insert_proposals(knots, candidates)
-                clip_ufunc(knots, self._ctrl_low, self._ctrl_high, out=knots)
-                if rows is not None:
-                    opt.samples_replaced(rows, knots[rows])
-                np.matmul(self._rollout_weights, knots, out=self._controls)
-                # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
-                # the plan that is scored is the plan that is served (a cubic overshoots its knots).
-                np.minimum(self._controls, self._ctrl_high, out=self._controls)
-                np.maximum(self._controls, self._ctrl_low, out=self._controls)
-                if num_models > 1:
-                    self._control_blocks[:] = self._controls  # every sequence once per model
-                full_states, sensors = self.backend.rollout(
-                    self._initial_state, self._batch_controls, self._initial_mocap
-                )
-                states = full_states[..., 1 : 1 + self._num_state]  # drop time; keep [qpos, qvel]
-                returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
-                try:
-                    rewards = np.asarray(returned, dtype=float)
-                except (TypeError, ValueError) as err:
-                    raise JudoError(
-                        f"{type(task).__name__}.reward must return ({num_rows},) numbers, got {' '.join(str(returned).split())[:200]} ({err})"
-                    ) from None
-                if rewards.shape != (num_rows,):
-                    raise JudoError(
-                        f"{type(task).__name__}.reward returned shape {rewards.shape}, expected ({num_rows},)"
-                    )
-                if self.backend.diverged is not False or not np.isfinite(rewards).all():  # NaN, +inf, diverged:
-                    rewards[np.isnan(rewards) | (rewards == np.inf) | self.backend.diverged] = -np.inf  # never win
-                if self.limits is not None:  # a rollout that crosses a hard limit never wins either
-                    rewards = self.limits.screen(rewards, states, sensors, self._batch_controls, served, num_models)
-                if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
-                    rewards = reduce_rewards(
-                        rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale
-                    )
-                    states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
-                task.post_rollout(states, sensors, self._controls, rewards)
-                if not np.isfinite(rewards).any():
-                    raise NonFiniteRewardError(
-                        f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
-                    )
-                nominal = opt.update_nominal_knots(knots, rewards)
-                if not np.isfinite(nominal).all():
-                    self._restart_search(f"{type(opt).__name__}.update_nominal_knots returned non-finite knots")
-                if opt.stop_cond():
+                knots = self._sample(nominal)
+                self._clamp(knots, candidates)
+                states, sensors = self._roll_out()
+                rewards, sensors = self._score_rollouts(states, sensors, served, task_config, system_metadata)
+                nominal = self._update(knots, rewards)
+                if self.optimizer.stop_cond():
                     break
+        return self._publish(time, nominal, rewards, sensors)
 
+    def _begin(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None) -> tuple:
+        """Check the reading, apply config edits, and set the optimizer's start: (nominal knots, the task config's
+        snapshot, the proposal policy's candidates or None)."""
+        state = checked_reading(state, time, self._num_state, "plan from")
+        self._apply_config_changes()
+        self._redraw_models_if_due()
+        opt, task = self.optimizer, self.task
+        knot_times = time + self._knot_offsets
+        if self._plan is None:
+            warm = task_warm_start(task, state, self._warm_start_takes_state)
+            nominal = np.tile(warm, (opt.num_nodes, 1)).astype(float)
+            old_times = knot_times
+        else:
+            nominal = self._plan(knot_times)
+            old_times = self._plan.knot_times
+        opt.pre_optimization(old_times, knot_times)
+        data = model_at(task.model, self._scratch, state, time, system_metadata, forward=False)
+        mujoco.mj_getState(task.model, data, self._initial_state, STATE_SPEC)
+        if len(self._initial_mocap):  # a model without mocap bodies has none to copy
+            self._initial_mocap[:] = mocap_vector(data)
+        task.pre_rollout(state)
+        task_config = snapshot(task.config)
+        start = (self._initial_state, self._initial_mocap, self._rollout_weights, task_config, system_metadata)
+        opt.set_start(PlanningStart(task, *start))
+        start = (self._initial_state, self._initial_mocap, self._basis, self._num_steps, system_metadata)
+        candidates = self._proposer.candidates(self.proposal_policy, self.config.policy_samples, *start, nominal[0])
+        return nominal, task_config, candidates
+
+    def _sample(self, nominal: np.ndarray) -> np.ndarray:
+        """The optimizer's (num_rollouts, num_nodes, nu) knots around `nominal`, checked."""
+        opt = self.optimizer
+        knots = opt.sample_control_knots(nominal)
+        expected = (opt.num_rollouts, opt.num_nodes, self.task.command_size)
+        if knots.shape != expected:
+            raise JudoError(
+                f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
+            )
+        if not np.isfinite(knots).all():
+            self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
+        return knots
+
+    def _clamp(self, knots: np.ndarray, candidates: Any) -> None:
+        """Put the proposals into `knots`, clamp them (in place) and interpolate them into the rollouts' controls."""
+        rows = None if candidates is None else insert_proposals(knots, candidates)
+        clip_ufunc(knots, self._ctrl_low, self._ctrl_high, out=knots)
+        if rows is not None:
+            self.optimizer.samples_replaced(rows, knots[rows])
+        np.matmul(self._rollout_weights, knots, out=self._controls)
+        # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
+        # the plan that is scored is the plan that is served (a cubic overshoots its knots).
+        np.minimum(self._controls, self._ctrl_high, out=self._controls)
+        np.maximum(self._controls, self._ctrl_low, out=self._controls)
+        if len(self.models) > 1:
+            self._control_blocks[:] = self._controls  # every sequence once per model
+
+    def _roll_out(self) -> tuple[np.ndarray, np.ndarray]:
+        """(R * N, T, nq + nv) states (time dropped) and (R * N, T, nsensordata) sensors of the batch's rollouts."""
+        full_states, sensors = self.backend.rollout(self._initial_state, self._batch_controls, self._initial_mocap)
+        return full_states[..., 1 : 1 + self._num_state], sensors  # drop time; keep [qpos, qvel]
+
+    def _score_rollouts(
+        self, states: Any, sensors: Any, served: np.ndarray, task_config: Any, system_metadata: dict[str, Any] | None
+    ) -> tuple[np.ndarray, Any]:
+        """(N,) rewards of the rollouts (NaN, +inf, diverged and over-limit: -inf; R models reduced by the risk
+        measure), and the planning model's block of `sensors`; the task's `post_rollout` sees them."""
+        opt, task, cfg, num_models = self.optimizer, self.task, self.config, len(self.models)
+        num_rows = num_models * opt.num_rollouts
+        returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
+        rewards = checked_rewards(returned, type(task).__name__, num_rows, self.backend.diverged)
+        if self.limits is not None:  # a rollout that crosses a hard limit never wins either
+            rewards = self.limits.screen(rewards, states, sensors, self._batch_controls, served, num_models)
+        if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
+            rewards = reduce_rewards(rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale)
+            states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
+        task.post_rollout(states, sensors, self._controls, rewards)
+        if not np.isfinite(rewards).any():
+            raise NonFiniteRewardError(
+                f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
+            )
+        return rewards, sensors
+
+    def _update(self, knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
+        """The optimizer's new nominal knots from the scored `knots`, checked."""
+        nominal = self.optimizer.update_nominal_knots(knots, rewards)
+        if not np.isfinite(nominal).all():
+            self._restart_search(f"{type(self.optimizer).__name__}.update_nominal_knots returned non-finite knots")
+        return nominal
+
+    def _publish(self, time: float, nominal: np.ndarray, rewards: np.ndarray, sensors: Any) -> Spline:
+        """Make the clamped `nominal` the plan from `time` (with the gains where `config.feedback`), keep the
+        rewards and the traces of the best rollouts, and return the plan."""
+        cfg = self.config
         self.rewards = rewards
         self.nominal_knots = nominal = clip_ufunc(nominal, self._ctrl_low, self._ctrl_high)
         self._plan = Spline(time, self._basis, nominal, self._ctrl_low, self._ctrl_high)
         if cfg.feedback:  # with the gains around its nominal rollout (judo.core.feedback)
-            start = (self._initial_state, self._initial_mocap, opt.num_rollouts * len(self.models))
+            start = (self._initial_state, self._initial_mocap, self.optimizer.num_rollouts * len(self.models))
             self._plan = self._gains.add_to(self._plan, self._rollout_weights, *start, 1.0 / cfg.control_freq)
-        shown = np.argsort(-rewards, kind="stable")[: self.config.max_num_traces]
+        shown = np.argsort(-rewards, kind="stable")[: cfg.max_num_traces]
         rows = self._trace_rows[: len(shown) + 1]  # row 0 stays 0: the nominal
         rows[1:] = shown
         self.traces = sensors[rows][..., self._trace_columns].reshape(len(rows), self._num_steps, -1, 3)
@@ -357,16 +368,7 @@ class Controller:
         """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped to the ctrlrange: what a
         plant gets before the first plan. Without a state, the planning model's start state (keyframe 0 or
         qpos0, at rest) stands in."""
-        return np.clip(self._warm_start(state), self._ctrl_low, self._ctrl_high)
-
-    def _warm_start(self, state: np.ndarray | None) -> np.ndarray:
-        if not self._warm_start_takes_state:
-            return np.asarray(legacy_warm_start(self.task), dtype=float)
-        if state is None:
-            model = self.task.model
-            qpos = model.key_qpos[0] if model.nkey else model.qpos0
-            state = np.concatenate([qpos, np.zeros(model.nv)])
-        return np.asarray(self.task.optimizer_warm_start(state), dtype=float)
+        return np.clip(task_warm_start(self.task, state, self._warm_start_takes_state), self._ctrl_low, self._ctrl_high)
 
     @property
     def batch_controls(self) -> np.ndarray:

@@ -3,7 +3,8 @@
 Two classes satisfy it: `judo.core.controller.Controller` (an optimizer plans on rollouts) and
 `judo.core.policies.policy_controller.PolicyController` (a policy's action or chunk is the plan). Code that drives a plant
 types against `Planner` only, so either serves through the same loop with no probing of which one it holds.
-`checked_reading` is the state and time check both run at the top of every update.
+`checked_reading` is the state and time check both run at the top of every update, and `task_warm_start` the
+warm start both serve before their first plan.
 """
 
 import math
@@ -13,60 +14,27 @@ import numpy as np
 
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
-from judo.core.optimizer import Optimizer
-from judo.core.policy import Policy
-from judo.core.rollouts.backend import CancelFlag, RolloutBackend
+from judo.core.rollouts.backend import CancelFlag
 from judo.core.spline import Spline
-from judo.core.task import Task
+from judo.core.task import Task, legacy_warm_start
 
 
 @runtime_checkable
 class Planner(Protocol):
-    """Plans from a reading and serves the plan; nu below is `task.command_size`.
+    """Plans from a reading and serves the plan; nu below is `task.command_size`. What the app reads besides
+    (rewards, traces, the optimizer, the backend, its kind) is `judo.core.planner_view.PlannerView`.
 
     Attributes:
         config: the loop's settings (control_freq, horizon, max_plan_age, latency_compensation, ...); the app's
             planner runner replaces it between updates.
         task: the planning task, its own instance (the plant is the System's); its `config` may be replaced
             between updates.
-        nominal_knots: (num_knots, nu) the knots of the latest plan, or None before the first update.
-        rewards: (num_rollouts,) the rewards of the latest update's rollouts; (0,) where nothing is scored.
-        traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the trace sensors along the latest plan's
-            rollouts; (0, 0, 0, 3) where nothing is rolled out.
-        optimizer: the optimizer whose config the app edits, or None where a policy plans.
-        backend: the rollout backend, or None where nothing is rolled out.
-        backend_name: the name the backend was built from ("cpu", "warp"), or None where nothing is rolled out.
-        proposal_policy: the policy whose candidates join the optimizer's samples, or None.
-        iterations_run: optimizer iterations the latest update ran (0 where a policy plans).
     """
 
     config: ControllerConfig
 
     @property
     def task(self) -> Task: ...
-
-    @property
-    def nominal_knots(self) -> np.ndarray | None: ...
-
-    @property
-    def rewards(self) -> np.ndarray: ...
-
-    @property
-    def traces(self) -> np.ndarray: ...
-
-    @property
-    def optimizer(self) -> Optimizer | None: ...
-
-    @property
-    def backend(self) -> RolloutBackend | None: ...
-
-    @property
-    def backend_name(self) -> str | None: ...
-
-    @property
-    def proposal_policy(self) -> Policy | None: ...
-    @property
-    def iterations_run(self) -> int: ...
 
     def update_action(
         self,
@@ -115,3 +83,15 @@ def checked_reading(state: Any, time: float, num_state: int, doing: str) -> np.n
         what = f"non-finite state entries {bad}" if bad else f"non-finite time {time}"
         raise JudoError(f"cannot {doing} a non-finite reading ({what}); keeping the previous plan")
     return state
+
+
+def task_warm_start(task: Task, state: np.ndarray | None, takes_state: bool) -> np.ndarray:
+    """(nu,) `task.optimizer_warm_start(state)` as floats, unclamped; the planning model's start state (keyframe 0
+    or qpos0, at rest) stands in for a None `state`. `takes_state` False: the deprecated form without a state."""
+    if not takes_state:
+        return np.asarray(legacy_warm_start(task), dtype=float)
+    if state is None:
+        model = task.model
+        qpos = model.key_qpos[0] if model.nkey else model.qpos0
+        state = np.concatenate([qpos, np.zeros(model.nv)])
+    return np.asarray(task.optimizer_warm_start(state), dtype=float)

@@ -28,14 +28,15 @@ import numpy as np
 
 from judo.core.configuration.config import check_seed, with_updates
 from judo.core.configuration.controller_config import ControllerConfig
-from judo.core.controller import Controller, legacy_warm_start, warm_start_takes_state
+from judo.core.controller import Controller
 from judo.core.errors import ConfigError, JudoError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.model import model_at
-from judo.core.planner import checked_reading
+from judo.core.planner import checked_reading, task_warm_start
+from judo.core.planner_view import PlannerKind
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError
 from judo.core.rollouts.backend import CancelFlag
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
-from judo.core.task import Task, new_task
+from judo.core.task import Task, new_task, warm_start_takes_state
 
 POLICY_CONFIG_FIELDS = ("control_freq", "horizon", "spline_order")
 """ControllerConfig fields a policy's metadata may set (as strings): the rate it was trained to act at, and for a
@@ -97,11 +98,16 @@ class PolicyController:
         nominal_knots: (H, nu) the latest chunk (clamped to the ctrlrange), or None before the first update.
         inference_ms: wall time of each update's observation and `act`, in milliseconds (the expert's not counted).
         expert_failures: expert updates that failed on non-finite rewards or knots (its plan before stayed).
-        optimizer, backend, backend_name, proposal_policy: None, as a `Planner` where a policy plans: nothing of
-            its own is optimized, rolled out or proposed (an expert's are the expert's).
-        iterations_run: 0, as a `Planner`: a policy runs no optimizer iterations of its own.
+        kind, config_kinds, controller_fields: as a `PlannerView` (judo.core.planner_view): PlannerKind.POLICY,
+            ("controller", "task") (no optimizer config), and POLICY_USES_FIELDS.
+        optimizer, backend, backend_name, proposal_policy: None, as a `PlannerView` where a policy plans: nothing
+            of its own is optimized, rolled out or proposed (an expert's are the expert's).
+        iterations_run: 0, as a `PlannerView`: a policy runs no optimizer iterations of its own.
     """
 
+    kind = PlannerKind.POLICY
+    config_kinds = ("controller", "task")
+    controller_fields = POLICY_USES_FIELDS
     optimizer: None = None
     backend: None = None
     backend_name: None = None
@@ -147,6 +153,10 @@ class PolicyController:
     def traces(self) -> np.ndarray:
         """The expert's traces (see `Controller.traces`); (0, 0, 0, 3) without an expert."""
         return self.expert.traces if self.expert is not None else np.zeros((0, 0, 0, 3))
+
+    def cycle_size(self, configs: dict[Any, Any]) -> None:
+        """None: a policy's update rolls nothing out of its own (an expert's cycle is not the app's to size)."""
+        return None
 
     def _chunk_basis(self) -> SplineBasis:
         """The knot layout of a chunk under the config in force, rebuilt when horizon or spline_order change."""
@@ -226,13 +236,8 @@ class PolicyController:
     def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
         """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped: what the plant gets before the
         first plan (the planning model's start state stands in without a state)."""
-        task = self.task
-        if not self._warm_start_takes_state:
-            return np.clip(np.asarray(legacy_warm_start(task), float), self._ctrl_low, self._ctrl_high)
-        if state is None:
-            model = task.model
-            state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])
-        return np.clip(np.asarray(task.optimizer_warm_start(state), float), self._ctrl_low, self._ctrl_high)
+        warm = task_warm_start(self.task, state, self._warm_start_takes_state)
+        return np.clip(warm, self._ctrl_low, self._ctrl_high)
 
     def reset(self) -> None:
         """Forget the plan (and the expert's); the next update starts from the warm start again."""
