@@ -25,7 +25,8 @@ import numpy as np
 import tyro
 
 import judo
-from judo.loop.system import MujocoSystem, System, SystemState
+from judo.core.reading import SystemState
+from judo.loop.system import MujocoSystem, System
 from judo.runtime.app import App
 
 SWITCH_CYCLE = (("cartpole", "mppi"), ("cartpole", "cem"), ("acrobot", "cem"), ("acrobot", "mppi"))
@@ -165,9 +166,9 @@ def switch_phase(app: App, args: Args) -> None:
             optimizer = "cem" if session.optimizer_name != "cem" else "mppi"
         generation = session.generation
         if task != session.task_name:
-            app.switch_task(task)
+            app.commands.switch_task(task)
         if optimizer != session.optimizer_name:
-            app.switch_optimizer(optimizer)  # queued with the task switch: one new session
+            app.commands.switch_optimizer(optimizer)  # queued with the task switch: one new session
         deadline = time.monotonic() + 30
         while app.gui.shown_generation <= generation:
             if time.monotonic() > deadline:

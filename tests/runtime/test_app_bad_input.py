@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import judo
-from judo.loop.system import System, SystemState
+from judo.core.reading import SystemState
+from judo.loop.system import System
 from judo.runtime import commands
 from judo.runtime.app import App
 
@@ -32,7 +33,7 @@ def app():
         num_workers=1,
     )
     for kind, updates in USER_SETTINGS.items():
-        app.update_config(kind, updates)  # type: ignore[arg-type]
+        app.commands.update_config(kind, updates)  # type: ignore[arg-type]
     app.start()
     yield app
     app.stop()
@@ -80,7 +81,7 @@ def wait_for_plans(app: App, count: int, timeout: float = 10.0) -> None:
 def test_a_bad_value_is_refused_with_its_range_and_the_app_keeps_the_users_settings(app, kind, updates, message):
     before = app.configs()
     with pytest.raises(judo.ConfigError) as caught:
-        app.update_config(kind, updates)
+        app.commands.update_config(kind, updates)
     assert message in str(caught.value)
     assert app.configs() == before
     wait_for_plans(app, 2)
@@ -96,10 +97,10 @@ def test_rollout_buffers_beyond_the_memory_limit_are_refused_before_they_are_all
     # The memory limit alone: the cycle's estimated time (about 2 s here, from the cycles measured so far) is
     # another check, which a loaded machine's slow cycles trip first (tests/runtime/test_app_cycles.py has it).
     monkeypatch.setattr(commands, "MAX_CYCLE_SECONDS", math.inf)
-    app.update_config("optimizer", {"num_rollouts": 16384})
+    app.commands.update_config("optimizer", {"num_rollouts": 16384})
     with pytest.raises(judo.ConfigError, match="GiB of rollout buffers, more than the 4 GiB limit"):
-        app.update_config("controller", {"horizon": 60.0})
-    app.update_config("optimizer", {"num_rollouts": 12})
+        app.commands.update_config("controller", {"horizon": 60.0})
+    app.commands.update_config("optimizer", {"num_rollouts": 12})
     wait_for_plans(app, 2)
     assert app.controller.config.horizon == 0.4
 
@@ -165,9 +166,9 @@ def test_a_goal_move_to_a_non_finite_pose_is_refused_and_the_goal_stays():
     goal = app.session.simulated.task.data.mocap_pos[0].copy()
     for position, quat in (([np.nan, 0, 0], None), ([0, 0, 0], [0, 0, 0, 0]), ([0, np.inf, 0], [1, 0, 0, 0])):
         with pytest.raises(judo.JudoError, match="must be finite"):
-            app.move_goal(0, np.array(position, dtype=float), None if quat is None else np.array(quat, dtype=float))
+            app.commands.move_goal(0, np.array(position, dtype=float), None if quat is None else np.array(quat, dtype=float))
     with pytest.raises(judo.JudoError, match="a position needs 3 numbers"):
-        app.move_goal(0, np.zeros(2))
-    app.move_goal(0, np.array([0.1, 0.2, 0.0]))  # a finite pose is queued for the plant
+        app.commands.move_goal(0, np.zeros(2))
+    app.commands.move_goal(0, np.array([0.1, 0.2, 0.0]))  # a finite pose is queued for the plant
     assert np.array_equal(app.session.simulated.task.data.mocap_pos[0], goal)  # not applied before the loops run
     app.session.close()

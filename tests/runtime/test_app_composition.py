@@ -126,7 +126,7 @@ def test_the_state_merges_requests_until_taken():
     state.request_reset(from_user=False)
     state.request_reset(from_user=True)
     state.request_goal_move(0, np.zeros(3), None)
-    config = app.update_config("optimizer", {"num_rollouts": 12})
+    config = app.commands.update_config("optimizer", {"num_rollouts": 12})
     planner = state.take_planner_requests()
     assert planner.switch == ("pendulum", "cem") and planner.configs.optimizer is config
     assert state.take_planner_requests().switch is None and not state.take_planner_requests().configs.any()
@@ -184,7 +184,7 @@ def test_any_recorder_can_be_injected(tmp_path, wait_until):
     app.start()
     try:
         assert app.start_recording(recorder) == tmp_path / "list" and app.recording == tmp_path / "list"
-        app.update_config("task", {"w_vertical": 2.0})
+        app.commands.update_config("task", {"w_vertical": 2.0})
         wait_until(lambda: recorder.num_steps > 10 and recorder.plans, timeout=20)
         assert app.stop_recording() == tmp_path / "list" and recorder.finished and recorder.edits == ["task"]
         assert app.recording is None

@@ -52,13 +52,13 @@ def test_a_late_cycle_is_cancelled_by_the_user(wait_until, command, reason):
         assert cycle is not None
         start = time.perf_counter()
         if command == "pause":
-            app.pause()
+            app.commands.pause()
         elif command == "reset_task":
-            app.reset_task()
+            app.commands.reset_task()
         elif command == "switch":
-            app.switch_optimizer("mppi")
+            app.commands.switch_optimizer("mppi")
         else:
-            app.update_config("optimizer", {"num_rollouts": 64})
+            app.commands.update_config("optimizer", {"num_rollouts": 64})
         wait_until(lambda: app._state.cycle is not cycle, timeout=CANCEL_BUDGET, what="the cycle to end")
         assert time.perf_counter() - start < CANCEL_BUDGET
         assert app.stats.num_plans() == 0  # cancelled, not completed
@@ -77,13 +77,13 @@ def test_a_late_cycle_is_cancelled_by_the_user(wait_until, command, reason):
 def test_an_edit_whose_cycle_would_be_too_long_is_refused_and_a_smaller_one_is_not():
     app = App("cartpole", "ps", gui=False, num_workers=1)
     try:
-        app.update_config("controller", {"horizon": 2.0, "max_opt_iters": 10, "num_randomizations": 8})
+        app.commands.update_config("controller", {"horizon": 2.0, "max_opt_iters": 10, "num_randomizations": 8})
         before = app.configs()["optimizer"]
         cost = app.planning_cost()
         size = CycleSize(before.num_rollouts, 8, 10, 200)
         assert cost.size == size and np.isnan(cost.last) and cost.running_for is None
         with pytest.raises(ConfigError) as refused:
-            app.update_config("optimizer", {"num_rollouts": 20_000})
+            app.commands.update_config("optimizer", {"num_rollouts": 20_000})
         estimate = app._state.step_cost.estimate(CycleSize(20_000, 8, 10, 200))
         assert estimate > MAX_CYCLE_SECONDS
         assert str(refused.value) == (
@@ -94,7 +94,7 @@ def test_an_edit_whose_cycle_would_be_too_long_is_refused_and_a_smaller_one_is_n
             "the horizon"
         )
         assert app.configs()["optimizer"] is before  # nothing changed
-        app.update_config("controller", {"max_opt_iters": 1})  # smaller: accepted
+        app.commands.update_config("controller", {"max_opt_iters": 1})  # smaller: accepted
         assert app.planning_cost().size == CycleSize(before.num_rollouts, 8, 1, 200)
     finally:
         app.stop()

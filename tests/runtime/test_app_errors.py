@@ -8,7 +8,8 @@ import pytest
 
 import judo
 from judo.core.configuration import registry
-from judo.loop.system import System, SystemState
+from judo.core.reading import SystemState
+from judo.loop.system import System
 from judo.runtime.app import App
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 
@@ -64,7 +65,7 @@ def keeps_running(app: App, wait_until) -> None:
     """Sim time advances, and once the failure is switched off, planning resumes."""
     sim_time = app.stats.sim_time()
     wait_until(lambda: app.stats.sim_time() > sim_time + 0.2, what="sim time to advance")
-    app.update_config("task", {"failure": "none"})
+    app.commands.update_config("task", {"failure": "none"})
     plans = app.stats.num_plans()
     wait_until(lambda: app.stats.num_plans() >= plans + 2, what="planning to resume")
     assert app.running
@@ -83,7 +84,7 @@ def test_a_failing_reward_skips_cycles_is_reported_and_the_loops_survive(
 ):
     with caplog.at_level("WARNING", logger="judo.app"):
         plans = flaky_app.stats.num_plans()
-        flaky_app.update_config("task", {"failure": failure})
+        flaky_app.commands.update_config("task", {"failure": failure})
         wait_until(lambda: flaky_app.status.message.startswith(message), what=f"the status {message!r}")
         assert flaky_app.status.level == level
         assert flaky_app.stats.num_plans() <= plans + 2  # failed cycles publish no plan
@@ -92,7 +93,7 @@ def test_a_failing_reward_skips_cycles_is_reported_and_the_loops_survive(
 
 
 def test_a_diverging_simulation_is_reset_reported_and_the_loops_survive(flaky_app, wait_until):
-    flaky_app.update_config("task", {"failure": "diverge"})
+    flaky_app.commands.update_config("task", {"failure": "diverge"})
     wait_until(lambda: "diverged" in flaky_app.status.message, what="the divergence report")
     assert flaky_app.status.message.startswith("simulation of FlakyCartpole diverged at t=")
     assert flaky_app.status.level == "warning"

@@ -57,7 +57,7 @@ def test_full_state_runs_no_estimator_and_publishes_no_truth(wait_until):
     app = App("cartpole", "mppi", gui=False, seed=0, num_workers=1)
     assert isinstance(app.session.system, MujocoSystem) and app.session.closed_loop.estimator is None
     with pytest.raises(JudoError, match="no estimator runs"):
-        app.update_estimator_config({"noise_jointpos": 0.01})
+        app.commands.update_estimator_config({"noise_jointpos": 0.01})
     app.start()
     try:
         assert published(app, wait_until, count=5).true_state is None
@@ -90,16 +90,17 @@ def test_a_users_sensors_only_system_gets_the_ekf_by_default():
 def test_estimator_config_edits_are_applied_and_bad_ones_refused(wait_until):
     app = sensed_app()
     estimator = app.session.closed_loop.estimator
-    edits = app.external_edits
-    updated = app.update_estimator_config({"noise_jointpos": 0.02, "relinearize_every": 3})
+    edits: list = []
+    app.on_config_change(lambda kind, config, from_gui: edits.append((kind, config, from_gui)))
+    updated = app.commands.update_estimator_config({"noise_jointpos": 0.02, "relinearize_every": 3})
     assert estimator.config is updated and updated.noise_jointpos == 0.02 and updated.relinearize_every == 3
-    assert app.external_edits == edits + 1
+    assert edits == [("estimator", updated, False)]
     with pytest.raises(ConfigError, match="must be positive"):
-        app.update_estimator_config({"noise_jointpos": -1.0})
+        app.commands.update_estimator_config({"noise_jointpos": -1.0})
     with pytest.raises(JudoError, match="no_such_field"):
-        app.update_estimator_config({"no_such_field": 1.0})
+        app.commands.update_estimator_config({"no_such_field": 1.0})
     with pytest.raises(ConfigError, match="changed since this edit"):
-        app.update_estimator_config({"noise_jointpos": 0.03}, generation=app.session.generation + 1)
+        app.commands.update_estimator_config({"noise_jointpos": 0.03}, generation=app.session.generation + 1)
     assert estimator.config.noise_jointpos == 0.02
 
 
@@ -118,14 +119,14 @@ def test_bad_names_and_settings_are_refused_at_once():
 
 def test_switches_keep_the_sensing_and_the_live_estimator_config(wait_until):
     app = sensed_app()
-    app.update_estimator_config({"noise_jointpos": 0.02})
+    app.commands.update_estimator_config({"noise_jointpos": 0.02})
     app.start()
     try:
-        app.switch_optimizer("cem")
+        app.commands.switch_optimizer("cem")
         wait_until(lambda: app.session.optimizer_name == "cem", timeout=30, what="the optimizer switch")
         assert isinstance(app.session.system, SensedSystem)
         assert app.session.closed_loop.estimator.config.noise_jointpos == 0.02
-        app.switch_task("acrobot")
+        app.commands.switch_task("acrobot")
         wait_until(lambda: app.session.task_name == "acrobot", timeout=30, what="the task switch")
         session = app.session
         assert isinstance(session.system, SensedSystem) and session.system.delay.tolist() == [0.01, 0.01]
@@ -137,30 +138,30 @@ def test_switches_keep_the_sensing_and_the_live_estimator_config(wait_until):
 def test_switching_the_estimator_rebuilds_the_session_on_the_running_plant(wait_until):
     app = App("cartpole", "mppi", gui=False, seed=0, num_workers=1)
     with pytest.raises(UnknownNameError, match="valid estimators are: ekf, legged, state, ukf"):
-        app.switch_estimator("nope")
+        app.commands.switch_estimator("nope")
     with pytest.raises(ConfigError, match="the 'ekf' estimator cannot run on this plant's readings"):
-        app.switch_estimator("ekf")
+        app.commands.switch_estimator("ekf")
     app.start()
     try:
         plant = app.session.system
-        app.switch_estimator("state")
+        app.commands.switch_estimator("state")
         wait_until(lambda: app.session.estimator_name == "state", timeout=30, what="the estimator switch")
         assert app.session.system is plant and app.session.generation == 1
         assert app.status.message.startswith("switched to cartpole with mppi and the state estimator")
-        app.switch_estimator(None)
+        app.commands.switch_estimator(None)
         wait_until(lambda: app.session.closed_loop.estimator is None, timeout=30, what="the estimator removed")
     finally:
         app.stop()
     sensed = sensed_app()
     sensed.session.closed_loop.read()
     with pytest.raises(JudoError, match="cannot plan without an estimator"):
-        sensed.switch_estimator(None)
+        sensed.commands.switch_estimator(None)
     with pytest.raises(ConfigError, match="the 'state' estimator cannot run"):
-        sensed.switch_estimator("state")
+        sensed.commands.switch_estimator("state")
     sensed.start()
     try:
-        sensed.update_estimator_config({"noise_jointpos": 0.02})
-        sensed.switch_estimator("ekf")  # the one running: restarted, its tuned config kept
+        sensed.commands.update_estimator_config({"noise_jointpos": 0.02})
+        sensed.commands.switch_estimator("ekf")  # the one running: restarted, its tuned config kept
         wait_until(lambda: sensed.session.generation == 1, timeout=30, what="the estimator switch")
         assert sensed.session.closed_loop.estimator.config.noise_jointpos == 0.02
     finally:
@@ -202,8 +203,8 @@ def test_the_app_runs_the_ukf_tracks_the_plant_and_takes_its_spread_edits(wait_u
     assert isinstance(estimator.estimator, UnscentedKalmanFilter)
     assert estimator.config.process_noise_velocity == 0.02  # cartpole's TOML section for the ukf
     with pytest.raises(JudoError, match="relinearize_every"):
-        app.update_estimator_config({"relinearize_every": 3})  # the EKF's field, not the UKF's
-    assert app.update_estimator_config({"spread": 0.5}).spread == 0.5
+        app.commands.update_estimator_config({"relinearize_every": 3})  # the EKF's field, not the UKF's
+    assert app.commands.update_estimator_config({"spread": 0.5}).spread == 0.5
     app.start()
     try:
         snapshot = published(app, wait_until)

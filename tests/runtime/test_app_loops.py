@@ -8,7 +8,8 @@ import pytest
 import judo
 from judo.core.configuration.registry import make_config
 from judo.core.errors import JudoError
-from judo.loop.system import System, SystemState
+from judo.core.reading import SystemState
+from judo.loop.system import System
 from judo.runtime.app import App
 
 CARTPOLE_HORIZON = make_config(judo.ControllerConfig, "cartpole").horizon
@@ -78,14 +79,14 @@ def test_pause_freezes_sim_time_and_resume_continues(wait_until):
     app.start()
     try:
         wait_until(lambda: app.stats.sim_time() > 0.2, what="sim time to pass 0.2 s")
-        app.pause()
+        app.commands.pause()
         time.sleep(0.1)
         frozen = app.buffer.latest("system").value.reading.time
         plans = app.stats.num_plans()
         time.sleep(0.3)
         assert app.buffer.latest("system").value.reading.time == frozen
         assert app.stats.num_plans() <= plans + 1  # at most the cycle that was in flight
-        app.resume()
+        app.commands.resume()
         wait_until(lambda: app.buffer.latest("system").value.reading.time > frozen + 0.1, what="sim to resume")
     finally:
         app.stop()
@@ -95,15 +96,15 @@ def test_config_edit_reaches_the_controller_at_the_next_cycle(wait_until):
     app = small_app()
     app.start()
     try:
-        app.update_config("controller", {"horizon": 0.5})
-        app.update_config("optimizer", {"sigma": 0.4})
+        app.commands.update_config("controller", {"horizon": 0.5})
+        app.commands.update_config("optimizer", {"sigma": 0.4})
         # One cycle applies the controller config, then the optimizer's: wait for both, not the first alone.
         wait_until(
             lambda: app.controller.config.horizon == 0.5 and app.controller.optimizer.config.sigma == 0.4,
             what="the horizon and sigma edits",
         )
         wait_until(lambda: latest_plan_steps(app) == 50, what="a plan over 50 steps")
-        app.reset_configs()
+        app.commands.reset_configs()
         wait_until(
             lambda: app.controller.config.horizon == CARTPOLE_HORIZON and app.controller.optimizer.config.sigma == 0.3,
             what="cartpole's default horizon and sigma",
@@ -125,26 +126,26 @@ def test_invalid_edit_is_refused_and_the_previous_config_stays(kind, updates, me
     app = small_app()
     before = app.configs()[kind]
     with pytest.raises(JudoError, match=message):
-        app.update_config(kind, updates)
+        app.commands.update_config(kind, updates)
     assert app.configs()[kind] is before
     assert app.controller.config.horizon == 0.3
 
 
 def test_a_control_rate_below_the_task_minimum_is_applied_with_a_warning():
     app = small_app("acrobot")  # Acrobot.min_control_freq: 50 Hz
-    updated = app.update_config("controller", {"control_freq": 20.0})
+    updated = app.commands.update_config("controller", {"control_freq": 20.0})
     assert updated.control_freq == 20.0
     assert app.status.level == "warning"
     assert "control_freq 20 Hz is below the 50 Hz that Acrobot's defaults need" in app.status.message
     reports = app.status.count
-    app.update_config("controller", {"control_freq": 50.0})
+    app.commands.update_config("controller", {"control_freq": 50.0})
     assert app.status.count == reports  # at the minimum: no warning
 
 
 def test_edits_for_a_replaced_session_are_refused():
     app = small_app()
     with pytest.raises(JudoError, match="the task or optimizer changed since this edit was made"):
-        app.update_config("controller", {"horizon": 0.5}, generation=app.session.generation + 1)
+        app.commands.update_config("controller", {"horizon": 0.5}, generation=app.session.generation + 1)
 
 
 def test_switching_optimizer_mid_run_keeps_the_plant_and_the_tuned_configs(wait_until):
@@ -153,7 +154,7 @@ def test_switching_optimizer_mid_run_keeps_the_plant_and_the_tuned_configs(wait_
     try:
         wait_until(lambda: app.stats.num_plans() >= 2, what="two plans")
         old = app.session
-        app.switch_optimizer("cem")
+        app.commands.switch_optimizer("cem")
         wait_until(lambda: app.session.optimizer_name == "cem", what="the switch to cem")
         new = app.session
         assert new.system is old.system and new.generation == old.generation + 1
@@ -172,7 +173,7 @@ def test_switching_task_mid_run_builds_a_new_plant_with_the_task_defaults(wait_u
     app.start()
     try:
         wait_until(lambda: app.stats.num_plans() >= 1, what="a plan")
-        app.switch_task("cylinder_push")
+        app.commands.switch_task("cylinder_push")
         wait_until(lambda: app.session.task_name == "cylinder_push", what="the switch to cylinder_push")
         assert app.session.optimizer_name == "mppi"
         assert type(app.configs()["task"]).__name__ == "CylinderPushConfig"
@@ -194,7 +195,7 @@ def test_unknown_names_are_refused_with_the_valid_choices():
     assert str(refused.value) == f"unknown task 'nope'; valid tasks are: {tasks}"
     app = small_app()
     with pytest.raises(JudoError) as refused:
-        app.switch_optimizer("nope")
+        app.commands.switch_optimizer("nope")
     assert str(refused.value) == f"unknown optimizer 'nope'; valid optimizers are: {optimizers}"
 
 
@@ -228,11 +229,11 @@ def test_a_user_system_is_driven_in_place_of_the_simulator(wait_until):
         assert app.session.simulated is None and app.session.system is clock
         assert clock.steps > 0 and len(clock.actions) == clock.steps
         assert all(action.shape == (1,) for action in clock.actions)
-        app.reset_task()
+        app.commands.reset_task()
         wait_until(lambda: clock.resets == 1, what="the reset to reach the user's system")
         with pytest.raises(JudoError, match="cannot switch to task 'cylinder_push': the app drives your own System"):
-            app.switch_task("cylinder_push")
-        app.switch_optimizer("ps")
+            app.commands.switch_task("cylinder_push")
+        app.commands.switch_optimizer("ps")
         wait_until(lambda: app.session.optimizer_name == "ps", what="the switch to ps")
         assert app.session.system is clock
     finally:

@@ -8,7 +8,7 @@ import pytest
 from judo.core.configuration.config_file import load_config
 from judo.core.configuration.registry import set_model_overrides
 from judo.runtime.app import App
-from judo.runtime.cli import _peek
+from judo.runtime.launch import _peek
 
 
 def test_the_app_plans_on_the_fitted_model_simulates_the_plant_and_says_so(tmp_path):
@@ -32,7 +32,7 @@ def test_the_app_plans_on_the_fitted_model_simulates_the_plant_and_says_so(tmp_p
         assert plant.dof_damping[0] == 0.005 and planning.dof_damping[0] == 0.001
         expected = "running cartpole with ps, planning with a model with overrides (body_mass.pole)"  # by hand
         assert app._reports.running() == expected
-        app.reset_configs()
+        app.commands.reset_configs()
         assert app.controller.task.model.body_mass[2] == 0.13
     finally:
         app.stop()
@@ -85,7 +85,7 @@ def test_sysid_fits_the_plant_from_a_gui_recording(tmp_path, wait_until, capsys)
     """A recording of the running app on a heavier-pole plant is a log sysid reads: the fit finds the pole."""
     pytest.importorskip("h5py")
     pytest.importorskip("scipy")
-    from judo.collection.sysid_cli import main as sysid_main
+    from judo.sysid.sysid import main as sysid_main
 
     set_model_overrides("cartpole", {"body_mass": {"pole": 0.13}}, plant=True)
     app = App("cartpole", "ps", gui=False, seed=0, num_workers=1)

@@ -24,26 +24,26 @@ def test_a_policy_drives_the_app_and_the_optimizer_switches_hand_the_plant_to_mp
         wait_until(lambda: app.stats.num_plans() > 3, timeout=20, what="the policy's updates")
         assert app.controller.inference_ms and app.status.level == "info", app.status.message
         with pytest.raises(judo.ConfigError, match="a policy drives pendulum: it has no optimizer config"):
-            app.update_config("optimizer", {"num_rollouts": 8})
-        app.update_config("controller", {"max_plan_age": 0.5})
+            app.commands.update_config("optimizer", {"num_rollouts": 8})
+        app.commands.update_config("controller", {"max_plan_age": 0.5})
         wait_until(lambda: app.controller.config.max_plan_age == 0.5, what="the edit to reach the policy's loop")
         with pytest.raises(judo.JudoError, match="recording holds an optimizer's plans"):
             app.start_recording()
 
-        app.switch_optimizer("ps")  # MPC takes over the running plant
+        app.commands.switch_optimizer("ps")  # MPC takes over the running plant
         wait_until(lambda: app.session.optimizer_name == "ps", timeout=30, what="the switch to ps")
         assert "optimizer" in app.configs() and app.controller.optimizer is not None
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() > plans + 2, timeout=20, what="MPC's plans")
-        app.switch_optimizer("policy")  # and back
+        app.commands.switch_optimizer("policy")  # and back
         wait_until(lambda: app.session.optimizer_name == "policy", timeout=30, what="the switch back")
         assert app.controller.config.control_freq == float(judo.OnnxPolicy(POLICY).metadata["control_freq"])
 
-        app.switch_task("cartpole")  # the policy is the pendulum's: cartpole plans with the app's optimizer
+        app.commands.switch_task("cartpole")  # the policy is the pendulum's: cartpole plans with the app's optimizer
         wait_until(lambda: app.session.task_name == "cartpole", timeout=30, what="the task switch")
         assert app.session.optimizer_name == "ps" and "switched to cartpole with ps" in app.status.message
         with pytest.raises(judo.JudoError, match="the policy 'pendulum_chunk' is for 'pendulum', not 'cartpole'"):
-            app.switch_optimizer("policy")
+            app.commands.switch_optimizer("policy")
     finally:
         app.stop()
 
@@ -52,7 +52,7 @@ def test_an_app_without_a_policy_has_none_to_switch_to_and_a_policy_for_another_
     app = App("pendulum", "ps", gui=False, num_workers=1)
     assert app.policy_name is None
     with pytest.raises(judo.JudoError, match=r"no policy to switch to: start the app with one \(App\(policy=\.\.\.\)"):
-        app.switch_optimizer("policy")
+        app.commands.switch_optimizer("policy")
     app.stop()
     with pytest.raises(judo.PolicyError, match="'pendulum', not 'cartpole'"):
         App("cartpole", "ps", gui=False, num_workers=1, policy=POLICY)

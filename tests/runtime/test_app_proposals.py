@@ -13,7 +13,7 @@ def test_the_app_refuses_policy_samples_without_a_proposal_policy_and_keeps_plan
         r"proposal_policy=\.\.\.\), evaluate --proposal-policy FILE\.onnx\) or set it to 0$"
     )
     with pytest.raises(judo.ConfigError, match=message):
-        app.update_config("controller", {"policy_samples": 2})
+        app.commands.update_config("controller", {"policy_samples": 2})
     plans = app.stats.num_plans()
     wait_until(lambda: app.stats.num_plans() > plans + 2, what="planning to go on with the config before")
 
@@ -27,16 +27,16 @@ def test_the_app_plans_with_a_proposal_policy_and_its_slider_and_a_switch_drops_
     assert app.controller.proposal_policy is not None and app.controller.proposal_policy.name
     app.start()
     try:
-        app.update_config("controller", {"policy_samples": 4})  # the GUI's slider
+        app.commands.update_config("controller", {"policy_samples": 4})  # the GUI's slider
         wait_until(lambda: app.controller.config.policy_samples == 4, what="the edit to reach the controller")
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() > plans + 3, what="plans with the policy's candidates")
         assert app.status.level == "info", app.status.message
-        app.switch_task("cartpole")  # the policy is the pendulum's: cartpole plans without it
+        app.commands.switch_task("cartpole")  # the policy is the pendulum's: cartpole plans without it
         wait_until(lambda: app.session.task_name == "cartpole", timeout=30, what="the switch")
         assert app.controller.proposal_policy is None
         with pytest.raises(judo.ConfigError, match="no proposal policy"):
-            app.update_config("controller", {"policy_samples": 2})
+            app.commands.update_config("controller", {"policy_samples": 2})
     finally:
         app.stop()
 

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import judo
-from judo.collection.replay import read_demos
 from judo.runtime.app import App
+from judo.runtime.gui.replay import read_demos
 
 h5py = pytest.importorskip("h5py")
 
@@ -30,7 +30,7 @@ def test_a_recording_holds_the_steps_plans_and_config_edits_and_replay_reads_it(
             app.start_recording(tmp_path / "other.h5")
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 4, what="four more plans")
-        app.update_config("optimizer", {"sigma": 0.2})
+        app.commands.update_config("optimizer", {"sigma": 0.2})
         time.sleep(0.2)
         assert app.stop_recording() == path
         assert app.recording is None and app.stop_recording() is None
@@ -72,7 +72,7 @@ def test_a_sensed_recording_keeps_the_measurements_the_estimate_traces_and_estim
         path = app.start_recording(tmp_path / "sensed.h5")
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 3, what="three more plans")
-        app.update_estimator_config({"noise_jointpos": 0.01})  # what the GUI's estimator panel calls
+        app.commands.update_estimator_config({"noise_jointpos": 0.01})  # what the GUI's estimator panel calls
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 3, what="three more plans")
     finally:
@@ -96,15 +96,15 @@ def test_a_change_of_estimator_is_recorded_and_the_recording_goes_on(tmp_path, w
     try:
         wait_until(lambda: app.stats.num_plans() >= 2, what="two plans")
         path = app.start_recording(tmp_path / "switch.h5")
-        app.update_config("optimizer", {"sigma": 0.2})
+        app.commands.update_config("optimizer", {"sigma": 0.2})
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 3, what="three more plans")
-        app.switch_estimator("state")  # what the GUI's estimator dropdown calls
+        app.commands.switch_estimator("state")  # what the GUI's estimator dropdown calls
         wait_until(lambda: app.session.estimator_name == "state", what="the switch")
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 3, what="three more plans")
         assert app.recording == path and app.controller.optimizer.config.sigma == 0.2  # both carried over
-        app.switch_estimator(None)
+        app.commands.switch_estimator(None)
         wait_until(lambda: app.session.estimator_name is None, what="the switch back")
         time.sleep(0.2)
     finally:

@@ -9,7 +9,7 @@ import pytest
 
 import judo
 from judo.core.configuration import registry
-from judo.core.controller import MAX_OPT_ITERS, MIN_CONTROL_FREQ
+from judo.core.configuration.controller_config import MAX_OPT_ITERS, MIN_CONTROL_FREQ
 from judo.runtime.app import App
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 
@@ -113,7 +113,7 @@ def test_lowering_control_freq_is_followed_without_waiting_out_the_old_period(wa
     app = started(controller={"control_freq": MIN_CONTROL_FREQ})
     try:
         wait_until(lambda: app.stats.num_plans() >= 1, what="the first plan")
-        app.update_config("controller", {"control_freq": 10.0})
+        app.commands.update_config("controller", {"control_freq": 10.0})
         wait_until(lambda: app.stats.num_plans() >= 4, timeout=5.0, what="plans at the new rate")
     finally:
         app.stop()

@@ -11,7 +11,8 @@ import time
 import pytest
 
 import judo
-from judo.loop.system import MujocoSystem, System, SystemState
+from judo.core.reading import SystemState
+from judo.loop.system import MujocoSystem, System
 from judo.loop.watchdog import REPORT_EVERY
 from judo.runtime.app import App
 

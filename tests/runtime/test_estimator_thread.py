@@ -119,7 +119,7 @@ def test_a_reset_restarts_the_filter_from_the_plants_start(wait_until):
         resets, done = int(switches["resets"]), app.resets_done  # type: ignore[call-overload]
         assert threaded.estimator.start_time < 0.05  # the filter's timeline began with the plant
         requested = app.session.system.time  # cartpole's reset keeps the plant's clock going
-        app.reset_task()
+        app.commands.reset_task()
         wait_until(lambda: app.resets_done == done + 1, what="the plant's reset")
         assert switches["resets"] == resets + 1 and threaded.estimator.start_time >= requested  # begun afresh
         fused = threaded.fused
@@ -165,7 +165,7 @@ def test_a_stop_ends_a_slow_filters_thread_within_a_second(wait_until):
 
 def test_config_edits_are_handed_to_the_filter_at_its_next_update(wait_until):
     app, threaded, switches = slowed_app(sleep=0.005)
-    updated = app.update_estimator_config({"noise_jointpos": 0.02})
+    updated = app.commands.update_estimator_config({"noise_jointpos": 0.02})
     assert threaded.config is updated and threaded.estimator.config is not updated  # not while it may run
     app.start()
     try:

@@ -245,7 +245,7 @@ def test_replay_follows_the_apps_access_rules(port, tmp_path):
 
     import numpy as np
 
-    from judo.collection.replay import Replay
+    from judo.runtime.gui.replay import Replay
 
     path = tmp_path / "cartpole.h5"
     with h5py.File(path, "w") as file:  # a one-demo cartpole file in collect's layout

@@ -9,8 +9,8 @@ import pytest
 import viser
 
 import judo
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import make_config
-from judo.core.controller import ControllerConfig
 from judo.runtime.app import App
 
 
@@ -65,37 +65,37 @@ def test_the_scene_follows_the_plant_and_draws_traces(app, wait_until):
 
 def test_reset_configs_refreshes_the_widgets(app, wait_until):
     wait_until(lambda: shows_session(app), what="the GUI to build")
-    app.update_config("controller", {"horizon": 2.0})
+    app.commands.update_config("controller", {"horizon": 2.0})
     wait_until(lambda: app.gui.panels["controller"].value_of("horizon") == 2.0, what="the widget to show 2.0")
     # Paused, nothing plans: no late cycle at horizon 2.0 on a loaded machine reports over the reset's status
     # (the pause cancels a cycle in flight, whose report comes once it ends: wait for that too).
-    app.pause()
+    app.commands.pause()
     wait_until(lambda: app._state.cycle is None, what="the cycle in flight to end")
-    app.reset_configs()
+    app.commands.reset_configs()
     default = make_config(ControllerConfig, "cartpole").horizon
     wait_until(
         lambda: app.gui.panels["controller"].value_of("horizon") == default, what=f"the widget to show {default}"
     )
     # The status line is set just after the configs, so a GUI frame may fall in between: wait for it too.
     wait_until(lambda: "configs reset to the defaults" in app.gui.controls.status.content, what="the status line")
-    app.resume()
+    app.commands.resume()
 
 
 def test_an_optimizer_switch_keeps_the_scene_and_a_task_switch_replaces_it(app, wait_until):
     wait_until(lambda: shows_session(app), what="the GUI to build")
     scene = app.gui.scene
-    app.switch_optimizer("ps")
+    app.commands.switch_optimizer("ps")
     wait_until(lambda: app.session.optimizer_name == "ps" and shows_session(app), what="the ps panel")
     assert app.gui.scene is scene and app.gui.controls.optimizer.value == "ps"
     assert "temperature" not in app.gui.panels["optimizer"].field_names
-    app.switch_task("cylinder_push")
+    app.commands.switch_task("cylinder_push")
     wait_until(lambda: app.session.task_name == "cylinder_push" and shows_session(app), what="a new scene")
     assert app.gui.scene is not scene
     assert app.gui.controls.task.value == "cylinder_push"
     assert app.gui.panels["task"].field_names[-1] == "goal_pos"
     marker = app.gui.server.scene.get_handle_by_name("/markers/goal")
     assert isinstance(marker, viser.IcosphereHandle)
-    app.update_config("task", {"goal_pos": [0.4, -0.3]})
+    app.commands.update_config("task", {"goal_pos": [0.4, -0.3]})
     wait_until(lambda: np.allclose(marker.position, [0.4, -0.3, 0.0]), what="the goal marker to move")
 
 
@@ -139,10 +139,10 @@ def test_a_plan_made_before_a_reset_never_draws_its_traces_over_the_reset_plant(
         return app.gui.server.scene.get_handle_by_name("/traces/nominal")
 
     wait_until(lambda: shows_session(app) and nominal_trace() is not None, what="traces")
-    app.pause()
+    app.commands.pause()
     stale = app.buffer.latest("plan").value  # planned from the plant before the reset
     resets = app.resets_done
-    app.reset_task()
+    app.commands.reset_task()
     wait_until(lambda: app.resets_done == resets + 1 and nominal_trace() is None, what="the reset to clear the traces")
     app.buffer.publish("plan", stale)  # as a cycle still in flight at the reset, or not yet drawn, would publish it
     time.sleep(0.5)  # many GUI updates
@@ -161,7 +161,7 @@ def test_a_policy_session_shows_only_the_fields_a_policy_uses_and_proposals_thei
     try:
         wait_until(lambda: shows_session(app), what="the GUI to build")
         assert app.gui.panels["controller"].field_names == list(POLICY_USES_FIELDS_IN_ORDER)
-        app.switch_optimizer("ps")  # MPC with the policy's proposals: every field, policy_samples among them
+        app.commands.switch_optimizer("ps")  # MPC with the policy's proposals: every field, policy_samples among them
         wait_until(lambda: shows_session(app) and app.session.optimizer_name == "ps", what="the switch")
         names = app.gui.panels["controller"].field_names
         assert names[-1] == "policy_samples" and len(names) == len(dataclasses.fields(ControllerConfig))

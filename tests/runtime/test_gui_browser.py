@@ -8,8 +8,8 @@ import re
 import pytest
 
 import judo
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import make_config
-from judo.core.controller import ControllerConfig
 from judo.runtime.gui.config_panel import field_label
 
 pytestmark = pytest.mark.browser

@@ -134,7 +134,7 @@ def floor_is_under(app: App, point: np.ndarray) -> bool:
 @pytest.mark.parametrize("task", TASKS)
 def test_every_task_is_framed_with_a_margin_while_it_runs(task, app, page, wait_until, artifacts):
     if app.session.task_name != task:
-        app.switch_task(task)
+        app.commands.switch_task(task)
     wait_until(
         lambda: app.session.task_name == task and app.gui.shown_generation == app.session.generation,
         timeout=60,
@@ -170,10 +170,10 @@ def test_following_keeps_the_pages_view_direction_and_distance(app, page, wait_u
     """A page may report its camera halfway through a follow move; taken as the user's view, that
     made the camera fall behind a walking walker and tilt until the walker left the view."""
     if app.session.task_name != "walker":
-        app.switch_task("walker")
+        app.commands.switch_task("walker")
     wait_until(lambda: app.gui.shown_generation == app.session.generation, timeout=60, what="the GUI to show walker")
     page.get_by_text("Task: walker", exact=True).wait_for()
-    app.reset_task()
+    app.commands.reset_task()
     (client,) = app.gui.server.get_clients().values()
     torso = app.gui.follower.body
     wait_until(lambda: app.resets_done >= 1, timeout=30, what="the reset")

@@ -11,7 +11,6 @@ from judo.core.configuration.config import Config
 from judo.core.configuration.fields import np_1d_field, slider
 from judo.core.configuration.registry import config_flag, default_configs
 from judo.core.errors import ConfigError
-from judo.runtime.cli import parse
 from judo.runtime.gui.config_panel import (
     ConfigPanel,
     check_slider_range,
@@ -20,6 +19,7 @@ from judo.runtime.gui.config_panel import (
     nice_step,
     parse_number,
 )
+from judo.runtime.launch import parse
 
 
 @slider("rollouts", 1, 64, 1)

@@ -53,7 +53,7 @@ def test_the_ghost_follows_the_estimate_and_the_error_chart_updates(
         wait_until(lambda: gui.ghost is not None and gui.plots.estimation is not None, what="the ghost and chart")
         model = app.session.controller.task.model
         data = mujoco.MjData(model)
-        app.pause()
+        app.commands.pause()
         page.wait_for_timeout(500)
         snapshot = app.buffer.latest("system").value
         data.qpos[:] = snapshot.reading.state[: model.nq]
@@ -83,7 +83,7 @@ def test_the_ghost_follows_the_estimate_and_the_error_chart_updates(
         pause_scene(page)
 
         # the estimation-error chart is on the page and redraws as points come in
-        app.resume()
+        app.commands.resume()
         chart = page.locator(".uplot", has=page.locator(".u-title", has_text="estimation error"))
         chart.scroll_into_view_if_needed()
         last = gui.plots.estimation.data[0][-1]  # wall time of the newest point (the chart keeps the last 120)

@@ -50,9 +50,9 @@ def test_every_panel_label_fits_or_wraps_between_words(
     task, optimizer, app, panel_page, wait_until, artifacts, pause_scene
 ):
     if task != app.session.task_name:
-        app.switch_task(task)
+        app.commands.switch_task(task)
     if optimizer != app.session.optimizer_name:
-        app.switch_optimizer(optimizer)
+        app.commands.switch_optimizer(optimizer)
     wait_until(
         lambda: (
             (app.session.task_name, app.session.optimizer_name) == (task, optimizer)

@@ -35,12 +35,12 @@ def test_the_page_names_the_driving_policy_its_inference_time_and_the_proposals_
         assert page.get_by_text("Optimizer:", exact=False).count() == 0  # a policy has no optimizer panel
         page.screenshot(path=artifacts / "policy_pendulum.png")
 
-        app.switch_optimizer("ps")  # MPC with the policy's proposals: the optimizer panel and the slider
+        app.commands.switch_optimizer("ps")  # MPC with the policy's proposals: the optimizer panel and the slider
         wait_until(lambda: app.gui.shown_generation == app.session.generation and app.session.optimizer_name == "ps")
         page.get_by_text("Optimizer: ps", exact=True).wait_for()
         page.get_by_text("policy samples", exact=False).first.wait_for()
         page.get_by_text("· plan ", exact=False).wait_for()  # the readout names the plan time again
-        app.update_config("controller", {"policy_samples": 4})
+        app.commands.update_config("controller", {"policy_samples": 4})
         wait_until(lambda: app.controller.config.policy_samples == 4, what="the proposals to be in force")
     finally:
         page.close()

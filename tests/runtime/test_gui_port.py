@@ -10,7 +10,7 @@ import pytest
 
 import judo.runtime.gui
 from judo.runtime.app import App
-from judo.runtime.commands import AppPort
+from judo.runtime.commands import AppPort, CommandPort
 
 GUI_DIR = Path(judo.runtime.gui.__file__).parent
 ALLOWED_RUNTIME_IMPORTS = {"judo.runtime.commands", "judo.runtime.address"}
@@ -79,7 +79,19 @@ def test_the_gui_reads_and_calls_only_members_of_the_port():
             )
             if is_app:
                 used.setdefault(node.attr, set()).add(path.name)
-    assert {"session", "update_config", "report", "pause"} <= set(used), f"the GUI's uses of the app: {used}"
+    assert {"session", "commands", "report", "on_state"} <= set(used), f"the GUI's uses of the app: {used}"
+    assert {name: files for name, files in used.items() if name not in members} == {}
+
+
+def test_the_gui_calls_only_commands_of_the_command_port():
+    members = {name for name in vars(CommandPort) if not name.startswith("_")}
+    used: dict[str, set[str]] = {}
+    for path in sorted(GUI_DIR.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Attribute):
+                if node.value.attr == "commands" and ast.unparse(node.value.value) in ("app", "self.app"):
+                    used.setdefault(node.attr, set()).add(path.name)
+    assert {"update_config", "pause", "move_goal"} <= set(used), f"the GUI's commands: {used}"
     assert {name: files for name, files in used.items() if name not in members} == {}
 
 

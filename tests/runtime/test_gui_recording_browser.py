@@ -6,8 +6,8 @@ the main thread once it starts, so it must start after the tests that call App.r
 import pytest
 
 import judo
-from judo.collection.replay import read_demos
 from judo.runtime.app import App
+from judo.runtime.gui.replay import read_demos
 
 pytest.importorskip("h5py")
 

@@ -10,7 +10,7 @@ def test_switches_leave_no_removed_widgets_in_the_servers_replay_buffer(port, wa
         buffer = app.gui.server._websock_server._broadcast_buffer.message_from_id
 
         def switch(optimizer: str) -> None:
-            app.switch_optimizer(optimizer)
+            app.commands.switch_optimizer(optimizer)
             wait_until(
                 lambda: app.session.optimizer_name == optimizer and app.gui.shown_generation == app.session.generation,
                 what=f"the GUI to show {optimizer}",

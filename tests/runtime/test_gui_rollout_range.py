@@ -3,10 +3,10 @@
 import pytest
 import viser
 
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.fields import SliderRange
-from judo.core.controller import ControllerConfig
 from judo.core.rollouts.backend import ROLLOUT_BACKENDS
-from judo.optimizers import MPPIConfig
+from judo.optimizers.mppi import MPPIConfig
 from judo.runtime.app import App
 from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.gui import MAX_ROLLOUTS_BY_BACKEND

@@ -35,7 +35,7 @@ def test_the_page_keeps_updating_through_rapid_task_switches(app, panel_page, pa
     page.get_by_text("Controller", exact=True).wait_for()
     pause_scene(page)
     for i in range(SWITCHES):
-        app.switch_task(TASKS[i % len(TASKS)])
+        app.commands.switch_task(TASKS[i % len(TASKS)])
         time.sleep(SWITCH_PERIOD)
     last = TASKS[(SWITCHES - 1) % len(TASKS)]
     # The last switch may still be building its session when the GUI catches up with the one before it: wait

@@ -99,7 +99,7 @@ def test_1e9_typed_into_horizon_is_refused_and_a_value_set_elsewhere_widens_the_
     # On a loaded machine the watchdog's warning (a plan older than 0.5 s) could replace the refusal this test
     # reads, and an 8 s horizon below plans for about that long: the watchdog is off here
     # (tests/runtime/test_robot_faults.py has it).
-    app.update_config("controller", {"max_plan_age": 0.0})
+    app.commands.update_config("controller", {"max_plan_age": 0.0})
     horizon = app.configs()["controller"].horizon
     box = number_box(page, "horizon")
     box.fill("")  # a blank sends nothing
@@ -113,7 +113,7 @@ def test_1e9_typed_into_horizon_is_refused_and_a_value_set_elsewhere_widens_the_
     assert app.configs()["controller"].horizon == horizon and app.controller.config.horizon == horizon
     wait_until(lambda: shows(box, horizon), timeout=30, what=f"the box to show {horizon} again")
     page.screenshot(path=artifacts / "widgets_1e9_refused.png")
-    app.update_config("controller", {"horizon": 8.0})  # as a script or --config does
+    app.commands.update_config("controller", {"horizon": 8.0})  # as a script or --config does
     thumb = slider(page, "horizon")
     wait_until(lambda: float(thumb.get_attribute("aria-valuemax")) >= 8.0, timeout=30, what="the slider to widen")
     type_into(page, "horizon", "7")  # inside the widened range: accepted
@@ -176,7 +176,7 @@ def test_reset_while_paused_says_so_clears_the_traces_and_stays_paused(app, page
 def test_a_switch_while_paused_is_shown_as_paused(app, page, wait_until, artifacts):
     page.get_by_role("button", name="Pause").click()
     wait_until(lambda: app.paused, what="the pause")
-    app.switch_task("pendulum")
+    app.commands.switch_task("pendulum")
     page.get_by_text("Task: pendulum", exact=True).wait_for()
     page.get_by_text(re.compile("^status: paused · switched to pendulum with mppi")).wait_for()
     assert "running" not in status_text(page) and app.paused
@@ -253,7 +253,7 @@ def wait_for_the_plant_to_run(app: App, task: str, wait_until) -> None:
 
 
 def test_dragging_a_field_goal_moves_the_config_the_sliders_and_the_plan(app, page, wait_until, artifacts):
-    app.switch_task("cylinder_push")
+    app.commands.switch_task("cylinder_push")
     page.get_by_text("Task: cylinder_push", exact=True).wait_for()
     wait_until(lambda: app.gui.goals is not None and "field/goal_pos" in app.gui.goals.controls, what="the handle")
     wait_for_the_plant_to_run(app, "cylinder_push", wait_until)
@@ -267,7 +267,7 @@ def test_dragging_a_field_goal_moves_the_config_the_sliders_and_the_plan(app, pa
 
 
 def test_dragging_a_mocap_goal_moves_the_plants_goal_that_the_planner_reads(app, page, wait_until):
-    app.switch_task("particle")
+    app.commands.switch_task("particle")
     page.get_by_text("Task: particle", exact=True).wait_for()
     wait_until(lambda: app.gui.goals is not None and "mocap/goal" in app.gui.goals.controls, what="the handle")
 

@@ -6,8 +6,8 @@ import pytest
 
 from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
-from judo.collection.replay import Replay
 from judo.evaluation.seeded import EpisodeSpec
+from judo.runtime.gui.replay import Replay
 
 pytest.importorskip("h5py")
 pytestmark = pytest.mark.browser

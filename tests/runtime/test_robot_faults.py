@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 import judo
-from judo.loop.system import MujocoSystem, System, SystemState
+from judo.core.reading import SystemState
+from judo.loop.system import MujocoSystem, System
 from judo.runtime.app import App
 
 MAX_PLAN_AGE = 0.3
@@ -191,15 +192,15 @@ def test_pause_and_stop_halt_the_robot_and_a_failed_reset_is_reported_as_a_failu
     app.start()
     try:
         wait_until(lambda: app.stats.num_plans() >= 3, what="three plans")
-        app.pause()
+        app.commands.pause()
         wait_until(lambda: len(driver.halts) == 1, what="a halt on pause")
-        app.resume()
+        app.commands.resume()
 
         def refuse_reset():
             raise OSError("cannot home the robot")
 
         driver.plant.reset = refuse_reset  # type: ignore[method-assign]
-        app.reset_task()
+        app.commands.reset_task()
         wait_until(lambda: "system reset failed" in app.status.message, what="the failed reset reported")
         assert "OSError: cannot home the robot" in app.status.message and app.status.level == "error"
         assert "reset to its start state" not in caplog.text

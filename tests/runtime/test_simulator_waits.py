@@ -11,7 +11,8 @@ import time
 import numpy as np
 
 import judo
-from judo.loop.system import MujocoSystem, System, SystemState
+from judo.core.reading import SystemState
+from judo.loop.system import MujocoSystem, System
 from judo.runtime.app import App
 
 SLOW_REWARD = 0.25

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 import judo
-from judo.loop.system import MujocoSystem, System, SystemCalls, SystemReadingError, SystemState
+from judo.core.reading import SystemState
+from judo.loop.system import MujocoSystem, System, SystemCalls, SystemReadingError
 from judo.runtime.app import App
 
 

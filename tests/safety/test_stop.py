@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.controller import ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.errors import ConfigError
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
@@ -182,10 +182,10 @@ def test_the_app_serves_the_safe_action_from_a_latch_through_new_plans_a_reset_a
         print(f"app.stop_latch.engage -> the safe action served: {latch.latest.effect_s:.3f} s")
         index, plans = len(served), app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 3, what="new plans")  # a new plan does not clear it
-        app.reset_task()
+        app.commands.reset_task()
         wait_until(lambda: app.resets_done >= 1, what="the reset")
         generation = app.session.generation
-        app.switch_optimizer("ps")
+        app.commands.switch_optimizer("ps")
         wait_until(lambda: app.session.generation > generation, what="the switch")
         session = app.session
         assert session.closed_loop.stop is latch

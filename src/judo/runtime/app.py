@@ -1,17 +1,21 @@
 """The judo app: a plant thread, a planner and a browser GUI side by side, sharing one lock-protected state.
 
     app = judo.App(task="cartpole", optimizer="mppi")   # GUI at http://127.0.0.1:8080
-    app.start(); app.update_config("optimizer", {"sigma": 0.2}); app.stop(); print(app.summary())
+    app.start(); app.commands.update_config("optimizer", {"sigma": 0.2}); app.stop(); print(app.summary())
 
 The App checks its run settings (`check_app_settings`: a bad one is a one-line ConfigError before anything is
 built), then composes parts that own their state and are handed what they use (docs/architecture.md):
 - `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the counters;
-- `Commands` (`judo.runtime.commands`): validate each command and queue it in the state;
+- `Commands` (`judo.runtime.commands`): validate each command and queue it in the state; the App's `commands`
+  (`app.commands.update_config(...)`, `app.commands.pause()`, `app.commands.switch_task(...)`);
 - `PlantRunner` (`judo.runtime.runners`): the System's thread;
 - `PlannerRunner` (`judo.runtime.runners`): the control clock, planning and switches;
 - `Supervisor` (`judo.runtime.runners`): the event loop, signals, the monitor and the stop order;
 - `Recordings` (`judo.runtime.live_recording`) and the frontend (the GUI, given to the App, which never imports it).
-The App implements the GUI's command port (`judo.runtime.commands.AppPort`); `start()` returns at once.
+The App implements the GUI's command port (`judo.runtime.commands.AppPort`); `start()` returns at once. What the
+app publishes arrives by callback, on the thread that made it (keep a callback cheap): `on_state` each plant
+reading, `on_plan` each plan, `on_config_change` each accepted config, `on_reset` each plant reset, `on_session`
+each switch, `on_recording` each recording begun or ended, `on_status` each status line.
 
 A stop (`stop()`, Ctrl-C, SIGTERM) takes effect within about a second whatever the configs: every wait is cut
 short, planning stops between optimizer iterations, and a call stuck in a rollout is left to its daemon thread.
@@ -22,14 +26,14 @@ import functools
 import logging
 import math
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
+from judo.collection.live import LiveRecorder, RecorderFactory
 from judo.core.configuration.config import Config, check_seed
-from judo.core.configuration.registry import CONFIG_KINDS, ConfigKind
-from judo.core.controller import ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.configuration.registry import ConfigKind
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
@@ -37,7 +41,6 @@ from judo.core.planner import Planner
 from judo.core.policies.policy_controller import as_policy
 from judo.core.policy import Policy
 from judo.core.task import TaskConfig
-from judo.loop.records import LiveRecorder, RecorderFactory
 from judo.loop.sensing import Observe, PerType, Sensing
 from judo.loop.system import System, missing_halt
 from judo.runtime.address import check_port, check_token
@@ -47,7 +50,7 @@ from judo.runtime.cycles import CycleCost
 from judo.runtime.live_recording import Recordings
 from judo.runtime.runners import FrontendFactory, PlannerRunner, PlantRunner, Supervisor, stop_at_exit, viser_frontend
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
-from judo.runtime.snapshots import PlanSnapshot, StateBuffer, SystemSnapshot
+from judo.runtime.snapshots import PlanSnapshot, Snapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
 from judo.safety.stop import StopLatch, default_stop_file
 
@@ -84,7 +87,7 @@ def check_app_settings(
         )
 
 
-__all__ = ["CONFIG_KINDS", "App", "ConfigKind", "PlanSnapshot", "Status", "SystemSnapshot"]
+__all__ = ["App"]
 
 logger = logging.getLogger("judo.app")
 
@@ -201,7 +204,7 @@ class App:
         first = optimizer if driver is None else POLICY_OPTIMIZER
         state.begin(maker.first(task, first, state.sensing, controller_config, optimizer_config, task_config))
         self._policy_name = None if driver is None else driver.name
-        self._commands = Commands(state=state, reports=reports, maker=maker)
+        self.commands = Commands(state=state, reports=reports, maker=maker)  # app.commands.pause(), ...
         self._recordings = Recordings(state=state, reports=reports, factory=recorder_factory)
         plant = PlantRunner(
             state=state,
@@ -293,7 +296,7 @@ class App:
     # ---- what the GUI and scripts read ---------------------------------------------------------
     @property
     def gui(self) -> Any:
-        """The GUI (`judo.runtime.gui.Gui`, or the frontend given) while the app runs with one, else None."""
+        """The GUI (`judo.runtime.gui.gui.Gui`, or the frontend given) while the app runs with one, else None."""
         return self._supervisor.frontend
 
     @property
@@ -323,14 +326,8 @@ class App:
 
     @property
     def resets_done(self) -> int:
-        """Counts task resets the plant has carried out, so the GUI knows when to reframe its camera."""
+        """Task resets the plant has carried out so far."""
         return self._state.resets_done
-
-    @property
-    def external_edits(self) -> int:
-        """Counts config changes not made through the GUI (reset, switch, `update_config`), so the GUI
-        knows when to refresh its widgets."""
-        return self._state.external_edits
 
     def configs(self) -> dict[ConfigKind, Config]:
         """The latest accepted config of each kind; a planning cycle may not have picked them up yet."""
@@ -341,40 +338,35 @@ class App:
         configs, the last update's seconds, and the late cycle's seconds so far (else None); judo.runtime.cycles."""
         return self._state.planning_cost()
 
-    # ---- commands (judo.runtime.commands), callable from any thread ------------------------------
-    def update_config(
-        self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
-    ) -> Config:
-        return self._commands.update_config(kind, updates, generation=generation, from_gui=from_gui)
+    # ---- news by callback, on the thread that made it: a callback keeps the value and returns at once ------------
+    def on_state(self, callback: Callable[[Snapshot[SystemSnapshot]], None]) -> None:
+        """Call `callback(snapshot)` with each plant reading published (`app.buffer`'s "system"), on the plant's thread."""
+        self.buffer.subscribe("system", callback)
 
-    def update_estimator_config(
-        self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
-    ) -> EstimatorConfig:
-        return self._commands.update_estimator_config(updates, generation=generation, from_gui=from_gui)
+    def on_plan(self, callback: Callable[[Snapshot[PlanSnapshot]], None]) -> None:
+        """Call `callback(snapshot)` with each plan published (`app.buffer`'s "plan"), on the planner's thread."""
+        self.buffer.subscribe("plan", callback)
 
-    def reset_configs(self) -> None:
-        self._commands.reset_configs()
+    def on_config_change(self, callback: Callable[[str, Config, bool], None]) -> None:
+        """Call `callback(kind, config, from_gui)` with each config accepted ("controller", "optimizer", "task" or
+        "estimator"; `from_gui` for the GUI's own panel edits), on the thread of the command."""
+        self._state.config_changed.add(callback)
 
-    def pause(self) -> None:
-        self._commands.pause()
+    def on_reset(self, callback: Callable[[int], None]) -> None:
+        """Call `callback(resets_done)` after each reset the plant carried out, on the plant's thread."""
+        self._state.plant_reset.add(callback)
 
-    def resume(self) -> None:
-        self._commands.resume()
+    def on_session(self, callback: Callable[[Session], None]) -> None:
+        """Call `callback(session)` once a switch installed the new session, on the planner's thread."""
+        self._state.session_changed.add(callback)
 
-    def reset_task(self) -> None:
-        self._commands.reset_task()
+    def on_recording(self, callback: Callable[[Path | None], None]) -> None:
+        """Call `callback(path)` when a recording begins (its file) or ends (None)."""
+        self._state.recording_changed.add(lambda recorder: callback(None if recorder is None else recorder.path))
 
-    def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
-        self._commands.move_goal(index, position, quat)
-
-    def switch_task(self, task: str) -> None:
-        self._commands.switch_task(task)
-
-    def switch_optimizer(self, optimizer: str) -> None:
-        self._commands.switch_optimizer(optimizer)
-
-    def switch_estimator(self, estimator: str | None) -> None:
-        self._commands.switch_estimator(estimator)
+    def on_status(self, callback: Callable[[Status], None]) -> None:
+        """Call `callback(status)` with each new status line, on the thread that reported it."""
+        self._reports.line.changed.add(callback)
 
     def report(self, message: str, level: Level = "info") -> None:
         """Show `message` on the status line and write it to the log (each message at most every few seconds)."""
@@ -384,11 +376,6 @@ class App:
     def recording(self) -> Path | None:
         """The file a recording under way will be written to, or None."""
         return self._recordings.path
-
-    @property
-    def recording_changes(self) -> int:
-        """Recordings begun and ended so far."""
-        return self._state.recording_changes
 
     def start_recording(self, recorder: LiveRecorder | str | Path | None = None) -> Path:
         """Record every step, plan and config edit until `stop_recording()` (or a switch) with `recorder` (a LiveRecorder

@@ -8,7 +8,12 @@ The App's parts (`judo.runtime.app`) share one `AppState` and take what is their
 - the planner runner (`judo.runtime.runners`) takes the planner's requests (`take_planner_requests`)
   and installs a new session on a switch (`install_session`); it is the only writer of the session's configs.
 
-Reads of a single field (`session`, `paused`, the counters) need no lock: each is one reference, replaced
+What the GUI (or a notebook) follows arrives by callback, fired on the thread that made the change, under the lock:
+`config_changed(kind, config, from_gui)` for each accepted config, `plant_reset(resets_done)` after each reset the
+plant carried out, `session_changed(session)` after a switch and `recording_changed(recorder or None)` when a
+recording begins or ends (`judo.runtime.snapshots.Subscribers`).
+
+Reads of a single field (`session`, `paused`, `resets_done`) need no lock: each is one reference, replaced
 whole. Everything read or written together is taken under `lock`.
 
 `StopSignal` is the app's stop: one flag that every thread polls and every asyncio wait is cut short by.
@@ -29,16 +34,17 @@ from typing import Any
 
 import numpy as np
 
+from judo.collection.live import LiveRecorder
 from judo.core.configuration.config import Config
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import ConfigKind
-from judo.core.controller import ControllerConfig
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.task import TaskConfig
-from judo.loop.records import LiveRecorder
 from judo.loop.sensing import Sensing
 from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_seconds, cycle_size
 from judo.runtime.session import ConfigSet, Session
+from judo.runtime.snapshots import Subscribers
 
 
 class PausableClock:
@@ -180,10 +186,12 @@ class AppState:
         self.clock = PausableClock()  # the watchdog's wall clock for a user's System: stands still while paused
         self.clock.resume()
         self.paused = False
-        self.external_edits = 0  # config changes not made through the GUI, so it refreshes its widgets
-        self.resets_done = 0  # plant resets carried out, so the GUI reframes its camera
+        self.resets_done = 0  # plant resets carried out; a plan stamped with fewer is of the plant before a reset
         self.recording: LiveRecorder | None = None
-        self.recording_changes = 0  # recordings begun and ended so far (the GUI shows each change, however quick)
+        self.config_changed = Subscribers()  # (kind, config, from_gui) for each config accepted
+        self.plant_reset = Subscribers()  # (resets_done) after each reset the plant carried out
+        self.session_changed = Subscribers()  # (session) after a switch
+        self.recording_changed = Subscribers()  # (recorder, or None) when a recording begins or ends
         self.cycle: PlanningCycle | None = None  # the planning cycle in flight (the planner runner's)
         self.step_cost: StepCost  # the session's cost of one rollout step, from `begin`
         self._plant = PlantRequests()
@@ -201,17 +209,17 @@ class AppState:
         with self.lock:
             self.configs = self.configs.with_config(kind, config)
             setattr(self._planner.configs, kind, config)
-            self._count_edit(from_gui)
             if self.recording is not None:
                 self.recording.on_config(kind, config)
+            self.config_changed.fire(kind, config, from_gui)
 
     def accept_estimator_config(self, estimator: Any, config: EstimatorConfig, *, from_gui: bool) -> None:
         """Hand `config` to the running `estimator` (its own hand-over takes effect before its next update)."""
         with self.lock:
             estimator.config = config
-            self._count_edit(from_gui)
             if self.recording is not None:
                 self.recording.on_config("estimator", config, name=self.session.estimator_name)
+            self.config_changed.fire("estimator", config, from_gui)
 
     def reset_configs(self, defaults: ConfigSet) -> None:
         """Put `defaults` in force from the planner's next cycle (cancelling the cycle in flight)."""
@@ -219,24 +227,22 @@ class AppState:
             self.cancel_cycle("the configs were reset")
             self.configs = defaults
             self._planner.configs = PendingConfigs(defaults.controller, defaults.optimizer, defaults.task)
-            self._count_edit(from_gui=False)
-
-    def _count_edit(self, from_gui: bool) -> None:
-        if not from_gui:
-            self.external_edits += 1
+            for kind, config in defaults.as_dict().items():
+                self.config_changed.fire(kind, config, False)
 
     # ---- recording ----------------------------------------------------------------------------------
     def begin_recording(self, recorder: LiveRecorder) -> None:
         """`recorder` hears every config edit from now on (`judo.runtime.live_recording`)."""
         with self.lock:
             self.recording = recorder
-            self.recording_changes += 1
+            self.recording_changed.fire(recorder)
 
     def end_recording(self) -> LiveRecorder | None:
         """The recorder under way, which hears no more edits; None when nothing records."""
         with self.lock:
             recorder, self.recording = self.recording, None
-            self.recording_changes += recorder is not None
+            if recorder is not None:
+                self.recording_changed.fire(None)
         return recorder
 
     # ---- the planning cycle in flight ----------------------------------------------------------------
@@ -287,6 +293,7 @@ class AppState:
         with self.lock:
             self.resets_done += 1
             self._planner.forget_plans = True
+            self.plant_reset.fire(self.resets_done)
 
     def note_divergence(self) -> None:
         """The plant's simulation blew up and reset itself: the planner forgets its plans."""
@@ -323,7 +330,7 @@ class AppState:
             self.session, self.step_cost = session, cost
             self.configs = ConfigSet.of(session)
             self._planner.configs = PendingConfigs()
-            self.external_edits += 1
+            self.session_changed.fire(session)
 
     def planning_cost(self) -> CycleCost:
         """The planning cycle's size and estimated seconds under the latest configs, the last update's seconds, and

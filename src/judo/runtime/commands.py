@@ -3,7 +3,9 @@
 The GUI (`judo.runtime.gui`) imports this module and never `judo.runtime.app`; `App` implements
 `AppPort`. What goes through the port, and nothing else:
 - read-only status: the session in use, the latest configs, the snapshots the loops publish, the
-  live figures, the status line and a few counters that tell the GUI when to redraw;
+  live figures and the status line;
+- news by callback (`on_state`, `on_plan`, `on_config_change`, `on_reset`, `on_session`, `on_recording`,
+  `on_status`), called on the thread that made it: a callback keeps the newest value and returns at once;
 - commands, callable from any thread (the GUI's callbacks run on viser's): config edits, pause and
   resume, resets, goal moves, switches of task or optimizer, and status reports. Each is queued and
   carried out by the app's loops at their next iteration.
@@ -14,15 +16,18 @@ The loops publish under two topics of the app's StateBuffer: "system" a `SystemS
 `Commands` carries the App's commands out: what the GUI, a notebook or a script asks of a running app, from any
 thread. Each command validates at once (raising UnknownNameError, ConfigError or JudoError) and only queues its request
 in the app's state (`judo.runtime.app_state`); the plant runner and the planner runner carry it out at the top
-of their next iteration. `App` (`judo.runtime.app`) owns one `Commands` and delegates to it.
+of their next iteration. `App` (`judo.runtime.app`) owns one, its public `commands`: `app.commands.pause()`.
 """
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
+from judo.collection.live import LiveRecorder
 from judo.core.configuration.config import Config, with_updates
+from judo.core.configuration.controller_config import ControllerConfig, check_configs
 from judo.core.configuration.registry import (
     CONFIG_KINDS,
     ConfigKind,
@@ -30,14 +35,12 @@ from judo.core.configuration.registry import (
     lookup_task,
     make_estimator,
 )
-from judo.core.controller import ControllerConfig, check_configs
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.policies.proposals import check_proposal_policy
-from judo.loop.records import LiveRecorder
+from judo.core.reading import SystemState
 from judo.loop.sensing import check_estimator
-from judo.loop.system import SystemState
 from judo.runtime.app_state import AppState
 from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleCost, cycle_seconds, cycle_size
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
@@ -50,6 +53,7 @@ __all__ = [
     "CONFIG_KINDS",
     "POLICY_OPTIMIZER",
     "AppPort",
+    "CommandPort",
     "ConfigKind",
     "CycleCost",
     "FigureSource",
@@ -81,58 +85,8 @@ class FigureSource(Protocol):
         ...
 
 
-@runtime_checkable
-class AppPort(Protocol):
-    """The commands and read-only status the GUI uses; `judo.App` implements it."""
-
-    @property
-    def session(self) -> Session:
-        """The session in use (names, generation, controller); replaced, never changed, on a switch."""
-        ...
-
-    @property
-    def policy_name(self) -> str | None:
-        """The name of the policy the app can serve as its controller (its optimizer dropdown's "policy"), or None."""
-        ...
-
-    @property
-    def buffer(self) -> SnapshotSource:
-        """The latest "system" and "plan" snapshots."""
-        ...
-
-    @property
-    def stats(self) -> FigureSource:
-        """The live figures for the plots and the readout."""
-        ...
-
-    @property
-    def paused(self) -> bool:
-        """True while the plant and the planner are paused."""
-        ...
-
-    @property
-    def status(self) -> Status:
-        """The latest status message."""
-        ...
-
-    @property
-    def resets_done(self) -> int:
-        """Counts plant resets carried out, so the GUI knows when to reframe its camera."""
-        ...
-
-    @property
-    def external_edits(self) -> int:
-        """Counts config changes not made through the GUI, so the GUI knows when to refresh its widgets."""
-        ...
-
-    def configs(self) -> dict[ConfigKind, Config]:
-        """The latest accepted config of each kind."""
-        ...
-
-    def planning_cost(self) -> CycleCost:
-        """The planning cycle's size and estimated seconds under the latest configs, the last update's seconds, and
-        how long the cycle in flight has run once it is late."""
-        ...
+class CommandPort(Protocol):
+    """What a running app is asked to do, from any thread: `App.commands` (a `Commands`)."""
 
     def update_config(
         self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
@@ -179,6 +133,83 @@ class AppPort(Protocol):
         """Use the registered optimizer `optimizer` from the next cycle; raises JudoError if unknown."""
         ...
 
+
+@runtime_checkable
+class AppPort(Protocol):
+    """The commands and read-only status the GUI uses; `judo.App` implements it."""
+
+    @property
+    def session(self) -> Session:
+        """The session in use (names, generation, controller); replaced, never changed, on a switch."""
+        ...
+
+    @property
+    def policy_name(self) -> str | None:
+        """The name of the policy the app can serve as its controller (its optimizer dropdown's "policy"), or None."""
+        ...
+
+    @property
+    def buffer(self) -> SnapshotSource:
+        """The latest "system" and "plan" snapshots."""
+        ...
+
+    @property
+    def stats(self) -> FigureSource:
+        """The live figures for the plots and the readout."""
+        ...
+
+    @property
+    def paused(self) -> bool:
+        """True while the plant and the planner are paused."""
+        ...
+
+    @property
+    def status(self) -> Status:
+        """The latest status message."""
+        ...
+
+    def on_state(self, callback: Callable[[Snapshot[SystemSnapshot]], None]) -> None:
+        """Call `callback(snapshot)` with each plant reading published, on the plant's thread."""
+        ...
+
+    def on_plan(self, callback: Callable[[Snapshot[PlanSnapshot]], None]) -> None:
+        """Call `callback(snapshot)` with each plan published, on the planner's thread."""
+        ...
+
+    def on_config_change(self, callback: Callable[[str, Config, bool], None]) -> None:
+        """Call `callback(kind, config, from_gui)` with each config accepted, on the thread of the command."""
+        ...
+
+    def on_reset(self, callback: Callable[[int], None]) -> None:
+        """Call `callback(resets_done)` after each reset the plant carried out, on the plant's thread."""
+        ...
+
+    def on_session(self, callback: Callable[[Session], None]) -> None:
+        """Call `callback(session)` once a switch installed the new session, on the planner's thread."""
+        ...
+
+    def on_recording(self, callback: Callable[[Path | None], None]) -> None:
+        """Call `callback(path)` when a recording begins (its file) or ends (None)."""
+        ...
+
+    def on_status(self, callback: Callable[[Status], None]) -> None:
+        """Call `callback(status)` with each new status line, on the thread that reported it."""
+        ...
+
+    def configs(self) -> dict[ConfigKind, Config]:
+        """The latest accepted config of each kind."""
+        ...
+
+    def planning_cost(self) -> CycleCost:
+        """The planning cycle's size and estimated seconds under the latest configs, the last update's seconds, and
+        how long the cycle in flight has run once it is late."""
+        ...
+
+    @property
+    def commands(self) -> "CommandPort":
+        """The commands (config edits, pause, resets, goal moves, switches), callable from any thread."""
+        ...
+
     def report(self, message: str, level: StatusLevel = "info") -> None:
         """Show `message` on the status line and write it to the log."""
         ...
@@ -186,11 +217,6 @@ class AppPort(Protocol):
     @property
     def recording(self) -> Path | None:
         """The file a recording under way will be written to, or None."""
-        ...
-
-    @property
-    def recording_changes(self) -> int:
-        """Recordings begun and ended so far."""
         ...
 
     def start_recording(self, recorder: LiveRecorder | str | Path | None = None) -> Path:

@@ -28,7 +28,7 @@ System call may start; the recording under way is written; the frontend closes; 
 cycle still in flight is abandoned to its daemon thread); the session's rollout and filter threads end.
 
 The frontend is anything with `url`, `update()` (one frame) and `close()`, built from the App's command port
-(`judo.runtime.commands.AppPort`) by a `FrontendFactory`. judo's own is the viser GUI (`judo.runtime.gui.Gui`),
+(`judo.runtime.commands.AppPort`) by a `FrontendFactory`. judo's own is the viser GUI (`judo.runtime.gui.gui.Gui`),
 looked up by name (VISER_FRONTEND) when an App is started with gui=True, so viser is imported only then.
 
 The exit guard (`stop_at_exit`) stops every running App before the interpreter finalizes. A script that ends
@@ -55,13 +55,14 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from judo.core.controller import PlanningCancelled
 from judo.core.errors import JudoError
 from judo.core.feedback import FeedbackPlan
+from judo.core.reading import SystemState
+from judo.core.rollouts.backend import PlanningCancelled
 from judo.core.rollouts.workers import DaemonThreadPool
 from judo.loop.closed_loop import ClosedLoop, ControlClock
 from judo.loop.plant_clock import PlantClock
-from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedError, SystemState
+from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedError
 from judo.runtime.address import is_loopback
 from judo.runtime.app_state import AppState, PendingConfigs, Stopping
 from judo.runtime.commands import AppPort
@@ -446,7 +447,7 @@ class PlantRunner:
 
 logger = logging.getLogger("judo.app")
 
-VISER_FRONTEND = "judo.runtime.gui:Gui"
+VISER_FRONTEND = "judo.runtime.gui.gui:Gui"
 """module:class of the browser GUI built for gui=True."""
 
 

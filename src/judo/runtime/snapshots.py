@@ -6,18 +6,25 @@ A writer publishes a value; the buffer stores a deep copy whose arrays are read-
 and stamps it with the next version number. A reader gets that stored snapshot whole. Since a
 published snapshot is never written again, a reader can never see half of one write and half of
 another (no torn reads), however the threads interleave.
+
+A reader that wants each snapshot as it comes subscribes (`subscribe(topic, callback)`): the callback runs on
+the publisher's thread (the plant's or the planner's) right after the snapshot is stored. `Subscribers` holds the
+callbacks of one event for the app's other news (config changes, resets, switches). A callback must be cheap: keep
+the newest value and let its own thread act on it; one that raises is logged and the publisher goes on.
 """
 
 import copy
 import dataclasses
+import logging
 import threading
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
 import numpy as np
 
-from judo.loop.system import SystemState
+from judo.core.reading import SystemState
 
 
 @dataclass(frozen=True)
@@ -62,6 +69,29 @@ class PlanSnapshot:
 
 T = TypeVar("T")
 
+logger = logging.getLogger("judo.app")
+
+
+class Subscribers:
+    """The callbacks of one event, called in the order added on the thread that fires it."""
+
+    def __init__(self) -> None:
+        self._callbacks: tuple[Callable[..., None], ...] = ()
+        self._lock = threading.Lock()
+
+    def add(self, callback: Callable[..., None]) -> None:
+        """Call `callback` with the event's arguments each time it fires, from now on."""
+        with self._lock:
+            self._callbacks = (*self._callbacks, callback)
+
+    def fire(self, *args: Any) -> None:
+        """Call every callback with `args`; one that raises is logged, and the others are still called."""
+        for callback in self._callbacks:
+            try:
+                callback(*args)
+            except Exception:
+                logger.exception("a subscriber's callback failed")
+
 
 @dataclass(frozen=True)
 class Snapshot(Generic[T]):
@@ -85,6 +115,13 @@ class StateBuffer:
         self._lock = threading.Lock()
         self._latest: dict[str, Snapshot[Any]] = {}
         self._version = 0
+        self._subscribers: dict[str, Subscribers] = {}
+
+    def subscribe(self, topic: str, callback: Callable[[Snapshot[Any]], None]) -> None:
+        """Call `callback(snapshot)` with each snapshot of `topic` published from now on, on the publisher's thread."""
+        with self._lock:
+            subscribers = self._subscribers.setdefault(topic, Subscribers())
+        subscribers.add(callback)
 
     def publish(self, topic: str, value: T) -> Snapshot[T]:
         """Store a frozen copy of `value` as the newest snapshot of `topic` and return it.
@@ -96,6 +133,9 @@ class StateBuffer:
             self._version += 1
             snapshot = Snapshot(self._version, frozen, time.perf_counter())
             self._latest[topic] = snapshot
+            subscribers = self._subscribers.get(topic)
+        if subscribers is not None:
+            subscribers.fire(snapshot)
         return snapshot
 
     def latest(self, topic: str) -> Snapshot[Any] | None:

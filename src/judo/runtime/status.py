@@ -17,6 +17,7 @@ import numpy as np
 
 from judo.core.configuration.registry import fitted_overrides
 from judo.runtime.app_state import AppState
+from judo.runtime.snapshots import Subscribers
 from judo.safety.stop import StopEvent, StopLatch
 
 logger = logging.getLogger("judo.app")
@@ -48,21 +49,23 @@ class StatusLine:
         self.status = Status("starting", "info", 0)
         self._logged_at: dict[str, float] = {}
         self.trouble: set[str] = set()
+        self.changed = Subscribers()  # (status) after each report, on the reporting thread
 
     def report(self, message: str, level: Level = "info", log: bool = True, paced: bool = False) -> None:
         """Show `message` and write it to the log (each message at most once every REPEAT_LOG_INTERVAL s, or every
         time where its sender paces its reports itself, `paced`; never without `log`, for a count that changes
         every second)."""
         with self._lock:
-            self.status = Status(message, level, self.status.count + 1)
+            self.status = status = Status(message, level, self.status.count + 1)
             now = time.monotonic()
-            if not log:
-                return
-            if not paced and now - self._logged_at.get(message, -math.inf) < REPEAT_LOG_INTERVAL:
-                return
-            if len(self._logged_at) >= 64:  # forget messages not logged lately, so the table stays small
-                self._logged_at = {m: t for m, t in self._logged_at.items() if now - t < REPEAT_LOG_INTERVAL}
-            self._logged_at[message] = now
+            logged = log and (paced or now - self._logged_at.get(message, -math.inf) >= REPEAT_LOG_INTERVAL)
+            if logged:
+                if len(self._logged_at) >= 64:  # forget messages not logged lately, so the table stays small
+                    self._logged_at = {m: t for m, t in self._logged_at.items() if now - t < REPEAT_LOG_INTERVAL}
+                self._logged_at[message] = now
+        self.changed.fire(status)  # outside the lock: a callback may report
+        if not logged:
+            return
         logger.log({"info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}[level], message)
 
     def failed(self, part: str, message: str, level: Level = "error") -> None:

@@ -2,7 +2,8 @@
 status line.
 
 Every control only calls a command of the app's port (`judo.runtime.commands.AppPort`); the app's
-loops carry it out at their next iteration.
+loops carry it out at their next iteration. The status line follows the app's `on_status` news (a pause, a resume
+and each change of the latched stop are reported on it), the record box its `on_recording` news.
 """
 
 import math
@@ -13,6 +14,7 @@ import viser
 from judo.core.configuration.registry import get_registered_estimators, get_registered_optimizers, get_registered_tasks
 from judo.core.errors import JudoError
 from judo.runtime.commands import POLICY_OPTIMIZER, AppPort, LiveFigures, Status
+from judo.runtime.gui.news import Latest
 
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
 NO_ESTIMATOR = "none"
@@ -64,7 +66,6 @@ class Controls:
         self.stop.on_click(lambda _: app.stop_latch.engage("the GUI's Stop button"))
         self.clear_stop.on_click(lambda _: app.stop_latch.clear("the GUI's Clear stop button"))
         self.stop_key.on_trigger(lambda _: app.stop_latch.engage(f"the GUI's {STOP_KEY.capitalize()} key"))
-        self._shown_latched: bool | None = None
         self.pause = gui.add_button("Pause", order=order + 0.2, hint="Pause or resume the plant and the planner")
         self.reset_task = gui.add_button("Reset task", order=order + 0.3, hint="Put the plant in its start state")
         self.reset_configs = gui.add_button(
@@ -85,38 +86,39 @@ class Controls:
         self.readout = gui.add_markdown("", order=order + 0.6)
         self.cost = gui.add_markdown("", order=order + 0.65)
         self.task_readout = gui.add_markdown("", order=order + 0.67)  # the task's own line (`Task.readout`)
-        self._shown_status: tuple[int, bool] = (-1, False)
-        self._changes_seen: int | None = None  # the app's recording_changes at the last `show_recording`
-        self.task.on_update(lambda event: self._switch(event, app.switch_task, self.task, "task"))
-        self.optimizer.on_update(lambda event: self._switch(event, app.switch_optimizer, self.optimizer, "optimizer"))
+        self._status: Latest[Status] = Latest(app.status)  # a status line not yet shown
+        self._recording: Latest[bool] = Latest()  # a recording began or ended: tick or untick the box
+        app.on_status(self._status.put)
+        app.on_recording(lambda _path: self._recording.put(True))
+        self.task.on_update(lambda event: self._switch(event, app.commands.switch_task, self.task, "task"))
+        self.optimizer.on_update(
+            lambda event: self._switch(event, app.commands.switch_optimizer, self.optimizer, "optimizer")
+        )
         self.estimator.on_update(
             lambda event: self._switch(
                 event,
-                lambda name: app.switch_estimator(None if name == NO_ESTIMATOR else name),
+                lambda name: app.commands.switch_estimator(None if name == NO_ESTIMATOR else name),
                 self.estimator,
                 "estimator",
             )
         )
-        self.pause.on_click(lambda _: app.resume() if app.paused else app.pause())
-        self.reset_task.on_click(lambda _: app.reset_task())
+        self.pause.on_click(lambda _: app.commands.resume() if app.paused else app.commands.pause())
+        self.reset_task.on_click(lambda _: app.commands.reset_task())
         self.redraw_requested = False  # set by Reset configs: every page redraws every widget
         self.reset_configs.on_click(lambda _: self._reset_configs())
 
     def update(self) -> None:
-        """Show the app's pause state, names and latest status."""
-        paused = self.app.paused
+        """Show a recording begun or ended, and a new status line with the pause state and the latched stop."""
+        if self._recording.take():
+            self.show_recording()
+        if self._status.take() is None:
+            return
+        paused, latched = self.app.paused, self.app.stop_latch.latched
         self.pause.label = "Resume" if paused else "Pause"
-        latched = self.app.stop_latch.latched
-        if latched != self._shown_latched:
-            self._shown_latched = latched
-            self.stop.label, self.stop.disabled, self.clear_stop.disabled = (
-                ("STOPPED", True, False) if latched else ("Stop", False, True)
-            )
-        self.show_recording()
-        status = self.app.status
-        if (status.count, paused) != self._shown_status:
-            self._shown_status = (status.count, paused)
-            self.status.content = status_markdown(status, paused)
+        self.stop.label, self.stop.disabled, self.clear_stop.disabled = (
+            ("STOPPED", True, False) if latched else ("Stop", False, True)
+        )
+        self.status.content = status_markdown(self.app.status, paused)
 
     def show_readout(self, sim_time: float, figures: LiveFigures, metadata: dict | None = None) -> None:
         """Sim time, plan time, control rate and real-time factor as numbers ("-" before there is data), the
@@ -151,24 +153,22 @@ class Controls:
                 self.app.stop_recording()
         except JudoError as err:
             self.app.report(f"recording: {err}", "error")
-        self.show_recording(after_toggle=True)
+        self.show_recording()
 
-    def show_recording(self, after_toggle: bool = False) -> None:
-        """Tick the record box when a recording starts and untick it when one ends (a switch ends it by itself),
-        and `after_toggle` show what came of a page's toggle (a refused start unticks it).
+    def show_recording(self) -> None:
+        """Tick the record box while a recording is under way: called when one starts or ends (a switch ends it by
+        itself), and after a page's toggle, to show what came of it (a refused start unticks it).
 
         Between those the box is left alone: a page's toggle is applied by viser before its callback runs on
         viser's thread pool, and putting the box back to the app's state meanwhile (the GUI loop runs 30 times a
         second) made that callback read the box put back, so an untick started a second recording."""
-        changes, recording = self.app.recording_changes, self.app.recording is not None
-        if after_toggle or changes != self._changes_seen:  # a start and a stop between two frames count too
-            self._changes_seen = changes
-            if self.record.value != recording:
-                self.record.value = recording
+        recording = self.app.recording is not None
+        if self.record.value != recording:
+            self.record.value = recording
 
     def _reset_configs(self) -> None:
         self.redraw_requested = True
-        self.app.reset_configs()
+        self.app.commands.reset_configs()
 
     def show_session(self) -> None:
         """Point the dropdowns at the session in use (after a switch, or a refused one)."""

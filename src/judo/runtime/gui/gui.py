@@ -2,7 +2,9 @@
 
 `update()` is called by the app's GUI loop about 30 times a second, on the event-loop thread. The
 widgets' callbacks run on viser's threads. The GUI knows the app only through the command port
-(`judo.runtime.commands.AppPort`): it reads status from it and calls its commands, nothing else.
+(`judo.runtime.commands.AppPort`): it reads status from it, calls its commands and subscribes to its news. The
+subscriptions (readings, plans, config edits, resets, switches) run on the app's threads and only keep the newest
+of each (`judo.runtime.gui.news.Latest`); `update()` draws what came since the last frame.
 """
 
 import collections
@@ -16,11 +18,12 @@ from judo.core.configuration.config import Config
 from judo.core.configuration.fields import SliderRange
 from judo.core.errors import JudoError
 from judo.core.rollouts.dynamics import drawn_model, drawn_qpos
-from judo.runtime.commands import AppPort, ConfigKind, Snapshot, SystemSnapshot, SystemState
+from judo.runtime.commands import AppPort, ConfigKind, PlanSnapshot, Snapshot, SystemSnapshot, SystemState
 from judo.runtime.gui.camera import Follower, distance_to_see, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel, hidden_fields
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.goal_handles import GoalHandles
+from judo.runtime.gui.news import Latest
 from judo.runtime.gui.plots import Plots, estimation_error
 from judo.runtime.gui.safety_panel import SafetyPanel
 from judo.runtime.gui.scene import SceneView
@@ -62,14 +65,33 @@ class Gui:
         self._look_at = np.zeros(3)  # where the cameras look while following: the framed centre plus the focus's moves
         self._offsets: dict[int, np.ndarray] = {}  # client id -> (3,) camera position minus look-at that we keep
         self._sent: collections.deque[np.ndarray] = collections.deque(maxlen=SENT_POSES_KEPT)  # (2, 3) poses sent
-        self._resets_done = app.resets_done
         self._scene_task: str | None = None
-        self._generation = -1
-        self._external_edits = -1
-        self._state_version = self._plan_version = 0
-        self._shown_task_config: Config | None = None
+        self._generation = -1  # the session the panels and scene show
+        self._resets = 0  # plant resets the app has said it carried out: a plan stamped with fewer is stale
+        self._shown: Snapshot[SystemSnapshot] | None = app.buffer.latest("system")  # the reading shown
+        self._session: Latest[Any] = Latest(app.session)  # a session to build the panels and scene for
+        self._state: Latest[Snapshot[SystemSnapshot]] = Latest(self._shown)  # a reading not yet drawn
+        self._plan: Latest[Snapshot[PlanSnapshot]] = Latest()  # a plan not yet drawn
+        self._edited: Latest[bool] = Latest()  # a config edit made outside the panels: show it in them
+        self._task_edited: Latest[bool] = Latest()  # a task config edit: move the markers and goal handles
+        self._reset: Latest[bool] = Latest()  # the plant was reset: frame it again with its next reading
+        app.on_session(self._session.put)
+        app.on_state(self._state.put)
+        app.on_plan(self._plan.put)
+        app.on_config_change(self._config_changed)
+        app.on_reset(self._plant_reset)
         self._start = self._last_plot = time.perf_counter()
         self.server.on_client_connect(self._frame_new_page)
+
+    def _config_changed(self, kind: str, config: Config, from_gui: bool) -> None:
+        if not from_gui:
+            self._edited.put(True)
+        if kind == "task":
+            self._task_edited.put(True)
+
+    def _plant_reset(self, resets: int) -> None:
+        self._resets = resets
+        self._reset.put(True)
 
     @property
     def url(self) -> str:
@@ -98,65 +120,82 @@ class Gui:
             self.controls.update()
 
     def _update(self) -> None:
-        app = self.app
-        session = app.session
-        state: Snapshot[SystemSnapshot] | None = app.buffer.latest("system")
-        if session.generation != self._generation:
-            if state is None or state.value.generation != session.generation:
-                return  # the new plant has not published its first state yet
-            if not self._rebuild(session, state.value.reading):
-                return  # another switch came meanwhile: the next frame builds for it
-        edits = app.external_edits
-        configs = app.configs()
-        if app.session.generation != self._generation:  # these configs may be the next session's
+        session = self._session.take()
+        if session is not None and not self._build_for(session):
+            self._session.restore(session)  # its plant has not published its first reading yet
             return
-        if edits != self._external_edits:
-            self._external_edits = edits
+        if self._generation < 0:
+            return
+        app = self.app
+        assert self.scene is not None and self._shown is not None
+        if self._edited.take():  # a script's edit, Reset configs, a switch: the panels show the configs in force
+            configs = app.configs()
+            if self._session.waiting():  # these configs may be the next session's: it rebuilds the panels
+                return
             redraw, self.controls.redraw_requested = self.controls.redraw_requested, False
             for kind, config in configs.items():
                 self.panels[kind].show(config, redraw=redraw)
-            estimator = session.closed_loop.estimator
+            estimator = app.session.closed_loop.estimator
             if self.estimator_panel is not None and estimator is not None:
                 self.estimator_panel.show(estimator.config, redraw=redraw)
-        assert self.scene is not None and state is not None
-        if configs["task"] is not self._shown_task_config:
-            self._shown_task_config = configs["task"]
-            self.scene.set_markers(configs["task"])
-        if self.goals is not None:
-            metadata = state.value.reading.metadata
-            self.goals.update(configs["task"], metadata.get("mocap_pos"), metadata.get("mocap_quat"))
-        if state.version != self._state_version and state.value.generation == self._generation:
-            self._state_version = state.version
-            reading, truth = state.value.reading, state.value.true_state
-            task = app.session.controller.task
-            with self.server.atomic():
-                self.scene.update(drawn_qpos(task, reading.state if truth is None else truth), reading.metadata)
-                if self.ghost is not None and truth is not None:
-                    self.ghost.update(drawn_qpos(task, reading.state), reading.metadata)
-            if app.resets_done != self._resets_done:  # the plant is back at its start: frame it again
-                self._resets_done = app.resets_done
-                self.frame_task()
-            else:
-                self._follow()
-        plan = app.buffer.latest("plan")
-        if plan is not None and plan.version != self._plan_version and plan.value.generation == self._generation:
-            self._plan_version = plan.version
-            if plan.value.resets == self._resets_done:  # never a plan of the plant as it was before a reset
-                self.scene.set_traces(plan.value.traces, anchored=True)
+        state = self._state.take()
+        if state is not None and state.value.generation != self._generation:
+            state = None  # a reading of the session before
+        task_edited = self._task_edited.take()
+        if task_edited:
+            self.scene.set_markers(app.configs()["task"])
+        if state is not None:
+            self._draw_state(state)
+        if self.goals is not None and (state is not None or task_edited):
+            metadata = self._shown.value.reading.metadata
+            self.goals.update(app.configs()["task"], metadata.get("mocap_pos"), metadata.get("mocap_quat"))
+        plan = self._plan.take()
+        if plan is not None and plan.value.generation == self._generation and plan.value.resets == self._resets:
+            self.scene.set_traces(plan.value.traces, anchored=True)  # never a plan of the plant before a reset
         now = time.perf_counter()
         if now - self._last_plot >= PLOT_PERIOD:
             self._last_plot = now
             figures = app.stats.live()
             self.plots.add(now - self._start, figures)
-            truth = state.value.true_state
-            if truth is not None and state.value.generation == self._generation:
-                errors = estimation_error(app.session.controller.task.model, truth, state.value.reading.state)
+            shown = self._shown.value
+            if shown.true_state is not None:
+                errors = estimation_error(app.session.controller.task.model, shown.true_state, shown.reading.state)
                 self.plots.add_estimation(now - self._start, *errors)
-            self.controls.show_readout(state.value.reading.time, figures, state.value.reading.metadata)
+            self.controls.show_readout(shown.reading.time, figures, shown.reading.metadata)
         for panel in self.panels.values():
             panel.flush()
         if self.estimator_panel is not None:
             self.estimator_panel.flush()
+
+    def _build_for(self, session: Any) -> bool:
+        """Build the panels and scene for `session` from its plant's first reading; False until there is one."""
+        state = self._state.take()
+        if state is not None and state.value.generation != session.generation:
+            state = None  # the plant before the switch
+        if state is None and self._shown is not None and self._shown.value.generation == session.generation:
+            state = self._shown
+        if state is None:
+            return False
+        self._shown = state
+        if not self._rebuild(session, state.value.reading):
+            self._state.restore(state)
+            return False
+        return True
+
+    def _draw_state(self, state: Snapshot[SystemSnapshot]) -> None:
+        """Pose the scene (and the estimate's ghost) at `state`, and move the cameras with it."""
+        assert self.scene is not None
+        self._shown = state
+        reading, truth = state.value.reading, state.value.true_state
+        task = self.app.session.controller.task
+        with self.server.atomic():
+            self.scene.update(drawn_qpos(task, reading.state if truth is None else truth), reading.metadata)
+            if self.ghost is not None and truth is not None:
+                self.ghost.update(drawn_qpos(task, reading.state), reading.metadata)
+        if self._reset.take():  # the plant is back at its start: frame it again
+            self.frame_task()
+        else:
+            self._follow()
 
     def close(self) -> None:
         """Stop the server."""
@@ -167,9 +206,10 @@ class Gui:
         `reading`; False (nothing changed) if another session replaced it meanwhile."""
         app = self.app
         configs = app.configs()
-        if app.session is not session:  # the configs read may be of the session after it
+        if app.session is not session or self._session.waiting():  # the configs read may be of the session after it
             return False
-        self._external_edits = app.external_edits
+        self._edited.take()  # the panels are built from these configs
+        self._task_edited.take()
         for panel in [*self.panels.values(), *([self.estimator_panel] if self.estimator_panel else [])]:
             panel.remove()
         self.panels, self.estimator_panel = {}, None
@@ -195,8 +235,8 @@ class Gui:
             self.follower = Follower(model, focus_body_id(model, type(task).focus_body))
             self.frame_task()
             self._scene_task = session.task_name
-        self._shown_task_config = None
         assert self.scene is not None
+        self.scene.set_markers(configs["task"])
         self.scene.set_traces(np.zeros((0, 0, 0, 3)))  # a new optimizer: the old one's plan and figures go
         self.plots.clear()
         titles = {
@@ -248,7 +288,7 @@ class Gui:
             generation = session.generation
 
             def edit(updates: dict[str, Any]) -> Config:
-                config = self.app.update_estimator_config(updates, generation=generation, from_gui=True)
+                config = self.app.commands.update_estimator_config(updates, generation=generation, from_gui=True)
                 shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
                 self.app.report(f"estimator config: {shown}")
                 return config
@@ -329,7 +369,7 @@ class Gui:
     def _drag_field(self, generation: int) -> Any:
         def drag(name: str, value: np.ndarray) -> None:
             try:
-                self.app.update_config("task", {name: value}, generation=generation)  # the sliders follow
+                self.app.commands.update_config("task", {name: value}, generation=generation)  # the sliders follow
             except JudoError as err:
                 self.app.report(f"goal not moved: {err}", "warning")
 
@@ -337,13 +377,13 @@ class Gui:
 
     def _drag_mocap(self, index: int, position: np.ndarray, wxyz: np.ndarray) -> None:
         try:
-            self.app.move_goal(index, position, wxyz)
+            self.app.commands.move_goal(index, position, wxyz)
         except JudoError as err:
             self.app.report(f"goal not moved: {err}", "warning")
 
     def _editor(self, kind: ConfigKind, generation: int) -> Any:
         def edit(updates: dict[str, Any]) -> Config:
-            config = self.app.update_config(kind, updates, generation=generation, from_gui=True)
+            config = self.app.commands.update_config(kind, updates, generation=generation, from_gui=True)
             shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
             self.app.report(f"{kind} config: {shown}")
             return config
