@@ -22,7 +22,7 @@ from rich.console import Console
 from rich.table import Table
 
 from judo import ray_cluster as cluster
-from judo.collection.cli import CollectArgs, env_args
+from judo.collection.collect import CollectArgs, env_args
 from judo.collection.run import collect
 from judo.evaluation.seeded import EpisodeSpec, configs_in_force
 

@@ -18,11 +18,11 @@ from pathlib import Path
 import numpy as np
 import tyro
 
-from judo.collection.cli import main as collect_main
+from judo.collection.collect import main as collect_main
 from judo.core.configuration.registry import lookup_optimizer, make_config
 from judo.core.policies.onnx_policy import OnnxPolicy
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
-from judo.learning.cli import main as distill_main
+from judo.learning.distill import main as distill_main
 from judo.learning.rounds import headline_metric
 
 

@@ -14,7 +14,7 @@ import numpy as np
 
 import judo
 from judo.optimizers.mppi import MPPI, MPPIConfig
-from judo.runtime.cli import main
+from judo.runtime.launch import main
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 
 

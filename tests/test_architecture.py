@@ -276,20 +276,21 @@ PACKAGE_ORDER = (
     "judo.safety",
     "judo.loop",
     "judo.ray_cluster",
-    "judo.runtime",
     "judo.ros2",
     "judo.unitree",
     "judo.cli_shared",
     "judo.evaluation",
     "judo.collection",
+    "judo.sysid",
     "judo.tuning",
     "judo.learning",
+    "judo.runtime",
 )
 """judo's packages (and top-level modules), lowest first: each imports only those before it, lazy imports
 included. The library (core < estimators, optimizers < tasks), the closed loop (judo.loop), then what runs it:
-Ray, the app, the command
-lines' shared pieces, and the commands; collect runs evaluate's seeded episodes, tune none of collect's, and
-distill runs both."""
+Ray, the bridges, the command lines' shared pieces, and the commands; collect runs evaluate's seeded episodes,
+sysid reads and writes collect's files, tune runs none of collect's, and distill runs both. The app sits on top:
+it records into collect's files and replays them."""
 
 
 def package_of(module: str, package: str = PACKAGE) -> str:

@@ -8,11 +8,11 @@ import pytest
 
 from judo.__main__ import main
 from judo.cli_shared import parse_args, parse_args_with_config_fields
-from judo.collection.cli import CollectArgs
+from judo.collection.collect import CollectArgs
 from judo.core.configuration.registry import default_configs
 from judo.evaluation.benchmark import BenchmarkArgs
 from judo.evaluation.evaluate import EvaluateArgs
-from judo.runtime.cli import parse
+from judo.runtime.launch import parse
 
 
 def parsed_controllers(flags: list[str]) -> dict[str, object]:

@@ -1,18 +1,17 @@
-"""`python -m judo` (and the `judo` script): the app, or the `benchmark`, `evaluate`, `tune`, `leaderboard`,
-`collect`, `replay`, `distill`, `gait-search`, `sysid` and `excite` commands.
+"""`python -m judo` (and the `judo` script): the app, or one of the commands in COMMANDS.
 
-python -m judo --task cartpole --optimizer mppi     # the app; --help lists its options
+python -m judo --task cartpole --optimizer mppi     # the app (judo.runtime.launch); --help lists its options
 python -m judo benchmark ...                        # judo.evaluation.benchmark
 python -m judo evaluate ...                         # judo.evaluation.evaluate
-python -m judo tune ...                             # judo.tuning.cli (needs the `tune` extra)
+python -m judo tune ...                             # judo.tuning.tune (needs the `tune` extra)
 python -m judo leaderboard --tasks ...              # judo.tuning.leaderboard: which optimizer wins where
-python -m judo collect ...                          # judo.collection.cli (needs the `collect` extra)
-python -m judo replay FILE.h5                       # judo.collection.replay: a collect file in the GUI
-python -m judo distill DATA.h5 --out POLICY.onnx    # judo.learning.cli: a policy from collect's files
-python -m judo gait-search --out POLICY.onnx        # judo.learning.gait_cli: the quadruped's locomotion policy
+python -m judo collect ...                          # judo.collection.collect (needs the `collect` extra)
+python -m judo replay FILE.h5                       # judo.runtime.gui.replay: a collect file in the GUI
+python -m judo distill DATA.h5 --out POLICY.onnx    # judo.learning.distill: a policy from collect's files
+python -m judo gait-search --out POLICY.onnx        # judo.learning.gait_search: the quadruped's locomotion policy
 python -m judo plant --task cartpole                # judo.ros2.plant: the simulator as a ROS 2 robot process
-python -m judo sysid LOG.h5 --task T --params ... --out FITTED.toml   # judo.collection.sysid_cli: fit the model
-python -m judo excite --task T --out LOG.h5         # judo.collection.excite: a log worth fitting
+python -m judo sysid LOG.h5 --task T --params ... --out FITTED.toml   # judo.sysid.sysid: fit the model
+python -m judo excite --task T --out LOG.h5         # judo.sysid.excite: a log worth fitting
 
 Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
 task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
@@ -20,11 +19,31 @@ status 1 (`--debug` anywhere on the line shows the whole traceback instead); Ctr
 printed as one line, "warning: MESSAGE", without Python's file path and source line.
 """
 
+import importlib
 import sys
 import warnings
 from collections.abc import Sequence
 
 PROG = "python -m judo"
+
+COMMANDS = {
+    "benchmark": "judo.evaluation.benchmark:main",
+    "evaluate": "judo.evaluation.evaluate:main",
+    "tune": "judo.tuning.tune:main",
+    "leaderboard": "judo.tuning.leaderboard:main",
+    "collect": "judo.collection.collect:main",
+    "replay": "judo.runtime.gui.replay:main",
+    "distill": "judo.learning.distill:main",
+    "gait-search": "judo.learning.gait_search:main",
+    "plant": "judo.ros2.plant:main",
+    "sysid": "judo.sysid.sysid:main",
+    "excite": "judo.sysid.excite:main",
+}
+"""Each command's name -> "module:function" of its entry point, which takes the arguments after the name and
+returns the exit status. The module is imported only when its command runs."""
+
+APP = "judo.runtime.launch:main"
+"""The entry point of the app, run when the first argument names no command."""
 
 
 def one_line_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int, line=None) -> str:
@@ -40,20 +59,7 @@ def main(argv: Sequence[str] | None = None) -> int | None:
     if not debug:  # --debug keeps Python's own form, with the file and line
         warnings.formatwarning = one_line_warning
     argv = [arg for arg in argv if arg != "--debug"]
-    commands = (
-        "benchmark",
-        "evaluate",
-        "tune",
-        "leaderboard",
-        "collect",
-        "replay",
-        "distill",
-        "gait-search",
-        "plant",
-        "sysid",
-        "excite",
-    )
-    prog = f"{PROG} {argv[0]}" if argv and argv[0] in commands else PROG
+    prog = f"{PROG} {argv[0]}" if argv and argv[0] in COMMANDS else PROG
     try:
         return dispatch(argv)
     except KeyboardInterrupt:
@@ -69,54 +75,11 @@ def main(argv: Sequence[str] | None = None) -> int | None:
 
 
 def dispatch(argv: list[str]) -> int | None:
-    """Run the command `argv` names and return its exit status."""
-    if argv and argv[0] == "benchmark":
-        from judo.evaluation.benchmark import main as benchmark_main
-
-        return benchmark_main(argv[1:])
-    if argv and argv[0] == "evaluate":
-        from judo.evaluation.evaluate import main as evaluate_main
-
-        return evaluate_main(argv[1:])
-    if argv and argv[0] == "tune":
-        from judo.tuning.cli import main as tune_main
-
-        return tune_main(argv[1:])
-    if argv and argv[0] == "leaderboard":
-        from judo.tuning.leaderboard import main as leaderboard_main
-
-        return leaderboard_main(argv[1:])
-    if argv and argv[0] == "collect":
-        from judo.collection.cli import main as collect_main
-
-        return collect_main(argv[1:])
-    if argv and argv[0] == "replay":
-        from judo.collection.replay import main as replay_main
-
-        return replay_main(argv[1:])
-    if argv and argv[0] == "distill":
-        from judo.learning.cli import main as distill_main
-
-        return distill_main(argv[1:])
-    if argv and argv[0] == "plant":
-        from judo.ros2.plant import main as plant_main
-
-        return plant_main(argv[1:])
-    if argv and argv[0] == "sysid":
-        from judo.collection.sysid_cli import main as sysid_main
-
-        return sysid_main(argv[1:])
-    if argv and argv[0] == "excite":
-        from judo.collection.excite import main as excite_main
-
-        return excite_main(argv[1:])
-    if argv and argv[0] == "gait-search":
-        from judo.learning.gait_cli import main as gait_search_main
-
-        return gait_search_main(argv[1:])
-    from judo.runtime.cli import main as app_main
-
-    return app_main(argv)
+    """Run the command `argv` names (the app when it names none) and return its exit status."""
+    command = argv[0] if argv and argv[0] in COMMANDS else None
+    module, _, function = (APP if command is None else COMMANDS[command]).partition(":")
+    entry = getattr(importlib.import_module(module), function)
+    return entry(argv if command is None else argv[1:])
 
 
 if __name__ == "__main__":

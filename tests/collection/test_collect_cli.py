@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from judo.collection.cli import main as collect_main
+from judo.collection.collect import main as collect_main
 from judo.core.configuration import registry
 from tests.conftest import TINY_CARTPOLE_XML
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from judo.collection.cli import main as collect_main
+from judo.collection.collect import main as collect_main
 from judo.collection.dataset import DatasetError, DatasetFile
 from judo.collection.episode import collect_episode
 from judo.core.configuration.registry import lookup_optimizer, lookup_task, make_config
@@ -113,9 +113,7 @@ def test_without_the_extra_collect_names_it(monkeypatch, tmp_path, capsys):
 
 
 def test_importing_judo_and_the_collect_command_imports_neither_h5py_nor_ray():
-    code = (
-        "import sys, judo, judo.collection.cli, judo.collection.run; print(sorted({'h5py', 'ray'} & set(sys.modules)))"
-    )
+    code = "import sys, judo, judo.collection.collect, judo.collection.run; print(sorted({'h5py', 'ray'} & set(sys.modules)))"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stdout.strip() == "[]"
 

@@ -9,11 +9,12 @@ import pytest
 
 from judo.collection.dataset import DatasetFile
 from judo.collection.recorder import EpisodeRecorder
-from judo.collection.replay import check_demos, read_demos
 from judo.core.errors import JudoError
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.loop.records import StepRecord
-from judo.tasks import Pendulum, QuadrupedVelocity
+from judo.runtime.gui.replay import check_demos, read_demos
+from judo.tasks.pendulum import Pendulum
+from judo.tasks.quadruped_velocity import QuadrupedVelocity
 
 h5py = pytest.importorskip("h5py")
 

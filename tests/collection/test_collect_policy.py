@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from judo.collection.cli import main as collect_main
+from judo.collection.collect import main as collect_main
 from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from judo.collection.dataset import DatasetError, DatasetFile
-from judo.collection.replay import Replay, read_demos
+from judo.runtime.gui.replay import Replay, read_demos
 
 h5py = pytest.importorskip("h5py")
 

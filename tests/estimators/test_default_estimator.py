@@ -9,12 +9,12 @@ import judo
 from judo.core.configuration.registry import lookup_task
 from judo.core.errors import ConfigError
 from judo.core.estimator import ReadingError, default_estimator_name, estimator_in_force
+from judo.core.reading import SystemState
 from judo.estimators.ekf import EKFConfig
 from judo.estimators.ukf import UnscentedKalmanFilter
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.loop.sensing import Sensing
-from judo.loop.system import SystemState
-from judo.runtime.cli import _peek
+from judo.runtime.launch import _peek
 from judo.runtime.session import build_session
 
 DEFAULTS = {"walker": "ukf", "leap_cube": "ukf", "cartpole": "ekf", "acrobot": "ekf", "pendulum": "ekf"}

@@ -4,10 +4,9 @@ import json
 
 import pytest
 
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import lookup_task, make_config
-from judo.core.controller import ControllerConfig
-from judo.evaluation import benchmark, evaluate
-from judo.evaluation import cli as evaluation_cli
+from judo.evaluation import benchmark, evaluate, shared_options
 from judo.optimizers.ps import PredictiveSamplingConfig
 
 TINY = ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "0.3", "--num-workers", "1"]
@@ -26,7 +25,7 @@ def test_evaluate_plans_under_the_randomization_given(tmp_path, capsys):
 def test_fields_not_given_keep_the_task_defaults():
     args = evaluate.EvaluateArgs(task="cartpole", optimizer="ps")
     args.controller.num_randomizations = 2
-    config = evaluation_cli.controller_config("cartpole", args.controller)
+    config = shared_options.controller_config("cartpole", args.controller)
     task_default = make_config(ControllerConfig, "cartpole")
     assert config.num_randomizations == 2 and config.horizon == task_default.horizon
     assert config.spline_order == task_default.spline_order == "cubic"  # cartpole's override, not the class default

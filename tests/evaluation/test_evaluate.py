@@ -2,10 +2,10 @@ import json
 
 import pytest
 
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import get_registered_optimizers, get_registered_tasks, make_config
-from judo.core.controller import ControllerConfig
-from judo.evaluation.cli import write_json
 from judo.evaluation.evaluate import main
+from judo.evaluation.shared_options import write_json
 
 TINY = ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "0.5", "--num-workers", "1"]
 

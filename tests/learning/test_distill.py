@@ -22,10 +22,11 @@ from judo.core.policies.onnx_policy import OnnxPolicy  # noqa: E402
 from judo.core.policies.policy_controller import make_policy_controller  # noqa: E402
 from judo.core.policy import PolicyError  # noqa: E402
 from judo.evaluation.seeded import EpisodeSpec, configs_in_force  # noqa: E402
-from judo.learning.cli import main as distill_main  # noqa: E402
+from judo.learning.distill import main as distill_main  # noqa: E402
 from judo.learning.export import policy_metadata, write_policy  # noqa: E402
 from judo.learning.pairs import read_pairs  # noqa: E402
-from judo.learning.training import TrainSettings, train  # noqa: E402
+from judo.learning.settings import TrainSettings  # noqa: E402
+from judo.learning.training import train  # noqa: E402
 
 SPEC = EpisodeSpec("cartpole", "ps", 1.0, values={"controller.control_freq": 20.0})
 """Short cartpole episodes, 100 steps and 20 plans each."""
@@ -166,7 +167,7 @@ def test_bad_datasets_and_outputs_are_refused_in_one_line(cartpole_file, tmp_pat
 
 
 def test_import_judo_does_not_import_jax():
-    code = "import sys, judo, judo.learning.cli; print(sorted({'jax', 'optax', 'h5py'} & set(sys.modules)))"
+    code = "import sys, judo, judo.learning.distill; print(sorted({'jax', 'optax', 'h5py'} & set(sys.modules)))"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stdout.strip() == "[]"
 

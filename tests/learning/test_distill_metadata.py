@@ -9,7 +9,7 @@ from judo.collection.recorder import EpisodeRecorder
 from judo.core.policy import Policy
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.learning.pairs import DistillError, episode_observations, read_pairs
-from judo.tasks import QuadrupedVelocity
+from judo.tasks.quadruped_velocity import QuadrupedVelocity
 
 h5py = pytest.importorskip("h5py")
 
@@ -90,7 +90,7 @@ def test_a_file_without_the_command_is_refused_in_one_line_saying_to_collect_aga
     assert str(err.value) == message
     for module in ("jax", "optax", "onnx"):
         pytest.importorskip(module)
-    from judo.learning.cli import main as distill_main
+    from judo.learning.distill import main as distill_main
 
     with pytest.raises(SystemExit) as exit_info:
         distill_main([str(old), "--out", str(tmp_path / "p.onnx")])

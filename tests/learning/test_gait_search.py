@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from judo.core.policies.onnx_policy import OnnxPolicy
-from judo.learning.gait_cli import main as gait_search_main
 from judo.learning.gait_policy import gait_actions, gait_policy_model, phase_features
-from judo.learning.gait_search import (
+from judo.learning.gait_search import main as gait_search_main
+from judo.learning.policy_search import (
     GaitEpisodes,
     GaitSearchSettings,
     quadruped_gait_layout,

@@ -15,8 +15,8 @@ pytest.importorskip("mcap_ros2.decoder")
 from ros2_links import free_domain, record_multisine, start_plant, started, stop_process
 from test_ros2_mcap_read import TRUE_MASS
 
-from judo.collection.sysid_cli import main as sysid_main
 from judo.ros2.mcap_read import read_bridge_log
+from judo.sysid.sysid import main as sysid_main
 
 RELAY = """
 import heapq, sys, time

@@ -122,9 +122,7 @@ def test_without_the_ros2_extra_both_commands_say_what_to_install_in_one_line(ca
 
 
 def test_import_judo_and_its_app_import_no_dds():
-    code = (
-        "import sys, judo, judo.runtime.cli; print(sorted(m for m in sys.modules if 'cyclonedds' in m or 'mcap' in m))"
-    )
+    code = "import sys, judo, judo.runtime.launch; print(sorted(m for m in sys.modules if 'cyclonedds' in m or 'mcap' in m))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env()).stdout
     assert out.strip() == "[]"
 

@@ -15,15 +15,16 @@ pytest.importorskip("mcap_ros2.decoder")
 
 from ros2_links import env, free_domain, record_multisine, start_plant, stop_process
 
-from judo.collection.replay import Replay
-from judo.collection.replay import main as replay_main
-from judo.collection.sysid_cli import main as sysid_main
 from judo.core.configuration.config_file import load_config
 from judo.core.configuration.model_overrides import overridden
 from judo.core.configuration.registry import make_task
 from judo.ros2 import link
+from judo.ros2.joints import JointLayout
 from judo.ros2.mcap_log import McapLog
 from judo.ros2.mcap_read import BridgeLogError, read_bridge_log
+from judo.runtime.gui.replay import Replay
+from judo.runtime.gui.replay import main as replay_main
+from judo.sysid.sysid import main as sysid_main
 from judo.tasks.cartpole import Cartpole
 
 TRUE_MASS = 0.13
@@ -137,7 +138,7 @@ def write_log(path, joint_map=(), joints=True, commands=True, metadata=None, sta
     `joints`) `every` seconds apart, each followed by a command where `commands`; first the plant's records of the
     commands it applied, (stamp, values) each of `applied`."""
     log = McapLog(path, {"task": "cartpole"} if metadata is None else metadata)
-    layout = link.JointLayout.of(Cartpole().model, joint_map)
+    layout = JointLayout.of(Cartpole().model, joint_map)
     for stamp, values in applied:
         log.write("/judo/commands_applied", link.applied(["slide"], np.array(values), stamp), round(stamp * 1e9))
     for step in range(1, stamps + 1):
@@ -249,7 +250,9 @@ def test_the_reader_needs_no_dds_and_without_mcap_says_what_to_install(tmp_path)
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env())
     assert out.stdout == "cartpole (20, 2) [[0.5], [0.5]]\n", out.stderr
-    code = "import sys; sys.modules['mcap.reader'] = None\nfrom judo.collection.replay import main\nmain([sys.argv[1]])"
+    code = (
+        "import sys; sys.modules['mcap.reader'] = None\nfrom judo.runtime.gui.replay import main\nmain([sys.argv[1]])"
+    )
     out = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, env=env())
     assert out.returncode == 2 and out.stderr.count("\n") == 1, out.stderr
     assert "python -m judo replay LOG.mcap needs the optional extra judo-mpc[ros2]" in out.stderr

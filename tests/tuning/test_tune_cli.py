@@ -18,12 +18,12 @@ from pathlib import Path
 import pytest
 
 from judo.core.configuration import registry
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import make_config
-from judo.core.controller import ControllerConfig
 from judo.evaluation.evaluate import main as evaluate_main
-from judo.optimizers import PredictiveSamplingConfig
-from judo.tuning.cli import main as tune_main
+from judo.optimizers.ps import PredictiveSamplingConfig
 from judo.tuning.heartbeat import DEAD_PROCESS, STALE_AFTER_S
+from judo.tuning.tune import main as tune_main
 
 optuna = pytest.importorskip("optuna")
 pytest.importorskip("ray")  # skipped without the extra; the local_ray fixture is in tests/conftest.py
@@ -205,7 +205,7 @@ def test_without_the_extra_tune_names_it(monkeypatch, tmp_path, capsys):
 
 
 def test_importing_judo_and_the_tune_command_imports_neither_optuna_nor_ray():
-    code = "import sys, judo, judo.tuning.cli; print(sorted({'optuna', 'ray'} & set(sys.modules)))"
+    code = "import sys, judo, judo.tuning.tune; print(sorted({'optuna', 'ray'} & set(sys.modules)))"
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert result.stdout.strip() == "[]"
 

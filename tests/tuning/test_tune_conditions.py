@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from judo.evaluation.episode import EpisodeOutcome
-from judo.tuning.cli import TuneArgs
 from judo.tuning.conditions import Condition, ConditionError, aggregate, check_conditions, parse_conditions
 from judo.tuning.trial import TrialSpec, score_trial
+from judo.tuning.tune import TuneArgs
 
 
 def test_lists_are_crossed_by_default_and_paired_when_listed():

@@ -1,6 +1,8 @@
-"""Recording a running app: every step, every plan and every config edit, to a collect file.
+"""Recording a running app: what a recorder of it does, and the default one, which writes every step, every
+plan and every config edit to a collect file.
 
-`LiveRecording` is a Recorder on the app's closed loop (`judo.loop.closed_loop`), so it records exactly
+`LiveRecorder` is what `App.start_recording` takes and `RecorderFactory` what makes one from a path (the app's
+`recorder_factory=`); `start_live_recording` is the default factory. `LiveRecording` is a Recorder on the app's closed loop (`judo.loop.closed_loop`), so it records exactly
 what `collect` records. `finish()` writes the recording as the next `data/demo_<n>` of an HDF5 file in the
 collect layout (docs/collect.md), so `python -m judo replay FILE` plays it back. Recordings of one task,
 optimizer and models share a file; each demo's attrs hold the configs at its start (`env_kwargs`, JSON)
@@ -12,7 +14,7 @@ import json
 import threading
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 import mujoco
 import numpy as np
@@ -24,8 +26,42 @@ from judo.core.configuration.config import Config
 from judo.core.errors import JudoError
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import step_reward
-from judo.loop.records import PlanRecord, StepRecord
-from judo.runtime.session import Session
+from judo.loop.records import PlanRecord, Recorder, StepRecord
+
+
+class LiveRecorder(Recorder, Protocol):
+    """A recorder of a running app (`App.start_recording`), e.g. `LiveRecording`.
+
+    The app adds it to its session's closed loop, tells it of every config edit, moves it to the next session
+    on a change of estimator, and calls `finish` when the recording stops (or the task or optimizer is switched).
+
+    Attributes:
+        path: the file it writes.
+        session: the session it records (`judo.runtime.session.Session`).
+        num_steps: plant steps recorded so far.
+    """
+
+    path: Path
+    session: Any
+    num_steps: int
+
+    def on_config(self, kind: str, config: Any, **details: Any) -> None:
+        """A config edit (`kind` "controller", "optimizer", "task" or "estimator"), with `details`."""
+        ...
+
+    def move_to(self, session: Any) -> None:
+        """Go on recording `session`, which replaced the recorded one (a change of estimator)."""
+        ...
+
+    def finish(self) -> tuple[Path, int]:
+        """Write the recording; returns (file, index of the recording in it)."""
+        ...
+
+
+class RecorderFactory(Protocol):
+    """Makes the app's default recorder of `session` into `path` (None: a name of its own), from `configs`."""
+
+    def __call__(self, path: str | Path | None, session: Any, configs: dict[Any, Any]) -> LiveRecorder: ...
 
 
 def default_recording_path(task: str) -> Path:
@@ -33,9 +69,9 @@ def default_recording_path(task: str) -> Path:
     return Path(f"judo-recording-{task}-{time.strftime('%Y%m%d-%H%M%S')}.h5")
 
 
-def start_live_recording(path: str | Path | None, session: Session, configs: dict[str, Config]) -> "LiveRecording":
-    """The app's default recorder (`judo.runtime.live_recording.DEFAULT_RECORDER`): a LiveRecording of `session` into
-    `path` (`default_recording_path` for None), from the `configs` in force."""
+def start_live_recording(path: str | Path | None, session: Any, configs: dict[str, Config]) -> "LiveRecording":
+    """The app's default RecorderFactory (`judo.runtime.live_recording`): a LiveRecording of `session` (a
+    `judo.runtime.session.Session`) into `path` (`default_recording_path` for None), from the `configs` in force."""
     if session.controller.optimizer is None:
         raise JudoError(
             "the GUI's recording holds an optimizer's plans; a policy drives this session: switch to an optimizer to "
@@ -54,7 +90,7 @@ class LiveRecording:
         configs: the configs in force when the recording starts, by kind.
     """
 
-    def __init__(self, path: str | Path, session: Session, configs: dict[str, Config]) -> None:
+    def __init__(self, path: str | Path, session: Any, configs: dict[str, Config]) -> None:
         import_h5py("recording from the GUI")
         self.path, self.session = Path(path), session
         task = session.controller.task
@@ -95,7 +131,7 @@ class LiveRecording:
             edit = {"time": now, "kind": kind, **details, "config": None if config is None else config_dict(config)}
             self.config_edits.append(edit)
 
-    def move_to(self, session: Session) -> None:
+    def move_to(self, session: Any) -> None:
         """Go on recording `session`, which replaced the one recorded on the same task, optimizer and plant (a
         change of estimator): the steps and plans of both are one recording, with the change as an
         "estimator" edit."""

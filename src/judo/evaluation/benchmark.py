@@ -23,7 +23,7 @@ from judo.core.commandline.boundary import MAX_SAMPLES, MAX_WORKERS, check_count
 from judo.core.configuration.config import require
 from judo.core.errors import JudoError
 from judo.core.rollouts.backend import RolloutBackendName, check_rollout_backend
-from judo.evaluation.cli import (
+from judo.evaluation.shared_options import (
     ControllerOverrides,
     chosen_optimizers,
     chosen_tasks,

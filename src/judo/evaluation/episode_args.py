@@ -12,15 +12,14 @@ from typing import Annotated, Any, Literal
 
 import tyro
 
-from judo.cli_shared import episode_latency
+from judo.cli_shared import SensingFlags, episode_latency
 from judo.core.configuration.config import require, require_between
 from judo.core.configuration.registry import lookup_task
 from judo.core.estimator import estimator_in_force
-from judo.core.rollouts.rollout import RolloutBackendName
-from judo.evaluation.cli import ControllerOverrides, check_episode_args, given_fields, latency_label
+from judo.core.rollouts.backend import RolloutBackendName
 from judo.evaluation.seeded import EpisodeSpec
-from judo.loop.closed_loop import Latency
-from judo.loop.sensing import SensingFlags
+from judo.evaluation.shared_options import ControllerOverrides, check_episode_args, given_fields, latency_label
+from judo.loop.latency import Latency
 
 
 @dataclass

@@ -26,11 +26,11 @@ from judo.core.configuration.config import require, require_between
 from judo.core.configuration.registry import make_task
 from judo.core.errors import JudoError
 from judo.core.rollouts.backend import RolloutBackend
-from judo.evaluation.cli import given_fields, write_json
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
 from judo.evaluation.seeded import EpisodeSpec, evaluate_seed, planning_model, run_seeded_episode, run_side_by_side
+from judo.evaluation.shared_options import given_fields, write_json
 from judo.evaluation.stats import Summary, shown_interval, summarize
 from judo.safety.limits import SafetyConfig, set_task_limits
 

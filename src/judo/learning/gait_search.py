@@ -1,241 +1,154 @@
-"""Policy search: judo's own CEM tunes a gait policy (judo.learning.gait_policy) on closed-loop episodes.
+"""`python -m judo gait-search`: teach the quadruped a locomotion policy by policy search, and write it as ONNX.
 
-Each iteration draws `commands` velocity commands from quadruped_velocity's ranges. Every one of the CEM's
-`population` candidate parameter rows then walks every command for `episode_seconds` from the standing pose
-(at a random point of the gait's cycle), all population x commands episodes stepped together with
-`mujoco.rollout` on `workers` threads, the policy run between ticks as the low-level hook runs it (every
-`every` steps). A candidate's score is the mean over its commands of quadruped_velocity's own reward, the
-objective the MPC plans with (height, uprightness, the trot's foot schedule, posture, effort, and the command's
-velocity and yaw rate), so the search teaches the policy what the MPC would do, without the MPC's sampling
-noise in the labels that defeated cloning it (docs/tasks.md).
+python -m judo gait-search --out quadruped_locomotion.onnx
+python -m judo evaluate --task quadruped_velocity --policy quadruped_locomotion.onnx --seeds 5 --first-seed 1000
 """
 
-import time
-from collections.abc import Callable
-from dataclasses import dataclass
+import json
+import shlex
+import sys
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Annotated
 
-import mujoco
 import numpy as np
+import tyro
 
-from judo.core.configuration.config import require, require_between
-from judo.core.model import STATE_SPEC
-from judo.core.rollouts.rollout import RolloutPool
-from judo.core.rollouts.stepper import PolicyStepper
-from judo.learning.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout, gait_actions
-from judo.optimizers.cem import CEM, CEMConfig
-from judo.tasks.quadruped import GAITS, STANDING_HEIGHT
-from judo.tasks.quadruped_velocity import (
-    COMMAND_KEY,
-    OBSERVATION_COLUMNS,
-    QuadrupedVelocity,
-    QuadrupedVelocityConfig,
-    draw_command,
+from judo.cli_shared import fail, optional_pyplot, output_console, parse_args, progress_display
+from judo.core.commandline.boundary import check_output_file
+from judo.core.configuration.config import require
+from judo.core.errors import JudoError
+from judo.learning.gait_policy import GaitLayout
+from judo.learning.policy_search import EVERY, GaitSearchSettings, Iteration
+
+DESCRIPTION = (
+    "Teach the quadruped a locomotion policy for quadruped_velocity's commands [vx, vy, yaw rate] by policy search: "
+    "judo's CEM tunes a gait policy (a trot's clock harmonics, shaped linearly by the command, plus feedback on the "
+    "trunk's gyro and tilt; judo.learning.gait_policy) on closed-loop episodes scored by quadruped_velocity's own "
+    "reward, the objective its MPC plans with. Writes an ONNX file for --policy and quadruped_navigate, and the "
+    "reward curve beside it as a PNG (with matplotlib). The file holds the best iteration's mean; Ctrl-C ends the search early and writes the best so far (exit 130)."
 )
-
-EVERY = 2
-"""Physics steps per policy tick: 50 Hz on the quadruped's 0.01 s timestep (quadruped_navigate's rate)."""
+TASK = "quadruped_velocity"
+SEARCH_PNG = ".search.png"
+"""The reward curve's file name beside --out: OUT.search.png."""
 
 
 @dataclass
-class GaitSearchSettings:
-    """What one search runs: the CEM's sizes, the episodes each candidate walks, and the seed."""
+class GaitSearchArgs(GaitSearchSettings):
+    """Arguments of `python -m judo gait-search`: the search's settings and the file to write."""
 
-    iterations: int = 150
-    """CEM iterations."""
-    population: int = 64
-    """Candidate parameter rows per iteration, the current mean included."""
-    elites: int = 8
-    """Best candidates the CEM's Gaussian is fitted to."""
-    commands: int = 12
-    """Commands drawn per iteration; every candidate walks each of them."""
-    episode_seconds: float = 3.0
-    """Sim seconds of each episode, from standing."""
-    sigma_min: float = 0.02
-    """Smallest std (rad per unit feature) the CEM samples with."""
-    sigma_max: float = 0.05
-    """Largest std, and the first iteration's."""
-    seed: int = 0
-    """Seeds the commands, the start phases and the CEM's samples."""
-    workers: int = 2
-    """Threads stepping the episodes."""
+    out: Annotated[Path, tyro.conf.arg(metavar="POLICY.onnx")] = field(kw_only=True)
+    """The ONNX file to write (its reward curve goes beside it, as POLICY.search.png)."""
+    overwrite: bool = False
+    """Replace an --out file that exists (without it, gait-search refuses before searching)."""
 
     def validate(self) -> None:
-        """Raise a JudoError (one line) for a setting out of range."""
-        require_between("--iterations", self.iterations, 1, 100_000)
-        require_between("--population", self.population, 2, 100_000)
-        require_between("--elites", self.elites, 1, self.population)
-        require_between("--commands", self.commands, 1, 10_000)
-        require(0.1 <= self.episode_seconds <= 60, f"--episode-seconds must be 0.1 to 60, got {self.episode_seconds}")
+        super().validate()
+        require(self.out.suffix == ".onnx", f"--out must name an .onnx file, got {str(self.out)!r}")
+        check_output_file("--out", self.out, (self.out.stem + SEARCH_PNG,))
         require(
-            0 < self.sigma_min <= self.sigma_max <= 2,
-            f"need 0 < --sigma-min <= --sigma-max <= 2, got {self.sigma_min}, {self.sigma_max}",
+            self.overwrite or not self.out.exists(),
+            f"--out {str(self.out)!r} exists; give --overwrite to replace it, or another --out",
         )
-        require(self.seed >= 0, f"--seed must be at least 0, got {self.seed}")
-        require_between("--workers", self.workers, 1, 1024)
 
 
-def quadruped_gait_layout(task: QuadrupedVelocity) -> GaitLayout:
-    """The gait policy's layout on quadruped_velocity's OBSERVATION: the trot's diagonal pairs half a cycle apart,
-    feedback on the trunk's gyro and gravity direction."""
-    offsets = np.array(GAITS["trot"].offsets)
-    signs = np.repeat(np.where(offsets == 0.0, 1.0, -1.0), 3)  # a leg half a cycle behind: its first harmonic flips
-    return GaitLayout(
-        home=task.home_ctrl.copy(),
-        command_columns=OBSERVATION_COLUMNS["command"],
-        clock_columns=OBSERVATION_COLUMNS["clock"],
-        feedback_columns=OBSERVATION_COLUMNS["gyro_and_gravity"],
-        phase_signs=signs,
-        observation_size=task.policy_observation_size(),
-    )
+def write_gait_policy(out: Path, parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]) -> Path:
+    """Write the gait policy of (P,) `parameters` on `layout` to `out` through a temporary file (no half file on
+    failure)."""
+    from judo.core.policies.onnx_policy import save_model
+    from judo.learning.gait_policy import gait_policy_model
+
+    return save_model(out, gait_policy_model(parameters, layout, metadata), JudoError)
 
 
-def stepping_in_place(layout: GaitLayout) -> np.ndarray:
-    """(P,) the search's first mean: each hip flexes by up to 0.25 rad and each knee by up to 0.5 rad in its leg's
-    swing half of the cycle (a half-wave sine), whatever the command: a trot on the spot."""
-    half_wave = np.array([1 / np.pi, 0.0, 0.5, -2 / (3 * np.pi), 0.0])  # max(0, sin p) in [1, cos, sin, cos2, sin2]
-    weights = np.zeros((layout.num_joints, HARMONICS, COMMAND_FEATURES))
-    weights[1::3, :, 0] = 0.25 * half_wave  # hips (abduction, hip, knee per leg)
-    weights[2::3, :, 0] = -0.5 * half_wave  # knees bend further (more negative)
-    gains = np.zeros((layout.num_joints, len(layout.feedback_columns)))
-    return np.concatenate([weights.ravel(), gains.ravel()])
+def plot_search(path: Path, history: list[Iteration]) -> Path | None:
+    """The mean's and the best candidate's reward per iteration as a PNG at `path`; None without matplotlib."""
+    plt = optional_pyplot()
+    if plt is None:
+        return None
+    figure, axes = plt.subplots(figsize=(6, 3.5), dpi=110)
+    index = [record.index + 1 for record in history]
+    axes.plot(index, [record.mean_reward for record in history], label="the CEM's mean")
+    axes.plot(index, [record.best_reward for record in history], label="best candidate", alpha=0.6)
+    axes.set_xlabel("iteration")
+    axes.set_ylabel("quadruped_velocity reward (higher is better)")
+    axes.set_title("gait-search: reward on each iteration's drawn commands", fontsize=9)
+    axes.legend(fontsize=8)
+    figure.tight_layout()
+    figure.savefig(path)
+    plt.close(figure)
+    return path
 
 
-@dataclass
-class Iteration:
-    """One CEM iteration's figures, for the progress bar and the history."""
+def run(args: GaitSearchArgs, command: str) -> int:
+    """Search with a progress bar, then write the ONNX file (the best iteration's mean) and its reward curve, and
+    say how to use them. Returns the exit status: 0, or 130 when Ctrl-C ended the search (the best so far is
+    written all the same)."""
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
-    index: int
-    mean_reward: float
-    """The current mean's reward (candidate 0), averaged over this iteration's commands."""
-    best_reward: float
-    falls: float
-    """Share of the mean's episodes that fell (trunk below half its standing height)."""
-    seconds: float
+    from judo.learning.policy_search import quadruped_gait_layout, search_gait
+    from judo.tasks.quadruped_velocity import OBSERVATION, QuadrupedVelocity
 
+    console = output_console()
+    settings = GaitSearchSettings(**{name: getattr(args, name) for name in asdict(GaitSearchSettings())})
+    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"))
+    with progress_display(*columns, TimeElapsedColumn()) as progress:
+        bar = progress.add_task("searching", total=args.iterations)
 
-@dataclass
-class GaitSearchResult:
-    """What a search found: the best iteration's mean, and every iteration's figures.
+        def show(record: Iteration) -> None:
+            text = f"reward {record.mean_reward:.3f} (best {record.best_reward:.3f}), falls {record.falls:.0%}"
+            progress.update(bar, completed=record.index + 1, description=text)
 
-    Attributes:
-        parameters: (P,) the mean that scored best (an iteration's candidate 0, scored on that iteration's
-            commands), not the last one, which a late noisy update may have made worse.
-        best_index: the iteration it was scored in.
-        history: every finished iteration's figures.
-        interrupted: whether Ctrl-C ended the search early (after at least one iteration).
-    """
-
-    parameters: np.ndarray
-    best_index: int
-    history: list[Iteration]
-    interrupted: bool = False
-
-
-class GaitEpisodes:
-    """Steps B closed-loop episodes of the quadruped at once, each with its own gait policy parameters, on a
-    `PolicyStepper` block by block on a `RolloutPool`'s workers (its threads and MjData kept for every tick of
-    every run; `close` ends them)."""
-
-    def __init__(self, task: QuadrupedVelocity, layout: GaitLayout, workers: int) -> None:
-        self.task, self.layout, self.model = task, layout, task.model
-        self.pool = RolloutPool(self.model, workers)
-        self.stepper = PolicyStepper(self.model, self.model.nu, EVERY, observation_size=layout.observation_size)
-        data = mujoco.MjData(self.model)
-        data.qpos[:] = self.model.key_qpos[0]
-        data.ctrl[:] = task.home_ctrl
-        mujoco.mj_forward(self.model, data)
-        self._standing = np.zeros(mujoco.mj_stateSize(self.model, STATE_SPEC))
-        mujoco.mj_getState(self.model, data, self._standing, STATE_SPEC)
-
-    def run(
-        self, parameters: np.ndarray, commands: np.ndarray, start_times: np.ndarray, seconds: float
-    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Walk (B, P) `parameters` rows on (B, 3) `commands` from standing at (B,) sim `start_times` for `seconds`;
-        returns each tick's (B, ticks, nq + nv) states, (B, ticks, nsensordata) sensors and (B, ticks, 12) ctrl."""
-        model, batch, stepper, layout = self.model, len(parameters), self.stepper, self.layout
-        ticks = max(1, round(seconds / (EVERY * model.opt.timestep)))
-        stepper.start(batch, ticks * EVERY, self._standing)
-        stepper.current[:, 0] = start_times
-        states = np.zeros((batch, ticks, model.nq + model.nv))
-        sensors = np.zeros((batch, ticks, model.nsensordata))
-        ctrl = np.zeros((batch, ticks, model.nu))
-
-        def observe(rows: slice, start: int, current: np.ndarray, previous: np.ndarray) -> np.ndarray:
-            out = stepper.observations[rows]  # written in place: no temporaries per tick
-            return self.task.locomotion_observation(commands[rows], current[:, 1:], None, current[:, 0], out=out)
-
-        def act(rows: slice, observations: np.ndarray) -> np.ndarray:
-            return gait_actions(parameters[rows], observations, layout)[:, None]  # (B, 1, 12), held for the tick
-
-        def record(rows: slice, start: int, stop: int) -> None:  # each tick keeps its last step's row
-            tick = start // EVERY
-            ctrl[rows, tick] = stepper.inputs[EVERY][rows, 0]
-            states[rows, tick], sensors[rows, tick] = stepper.current[rows, 1:], stepper.sensors[EVERY][rows, -1]
-
-        stepper.run_blocks(self.pool, observe, act, record)
-        return states, sensors, ctrl
-
-    def close(self) -> None:
-        """End the pool's worker threads."""
-        self.pool.close()
-
-
-def search_gait(
-    task: QuadrupedVelocity,
-    settings: GaitSearchSettings,
-    on_iteration: Callable[[Iteration], None] | None = None,
-) -> GaitSearchResult:
-    """Run the search; returns the best-scoring mean and each iteration's figures. Ctrl-C after the first
-    iteration ends it early with the best so far (`interrupted`); before, it is raised as it is."""
+        task = QuadrupedVelocity()
+        result = search_gait(task, settings, show)
+    history, best = result.history, result.history[result.best_index]
     layout = quadruped_gait_layout(task)
-    config: QuadrupedVelocityConfig = task.config
-    cem = CEM(
-        CEMConfig(
-            num_rollouts=settings.population,
-            num_nodes=1,
-            num_elites=settings.elites,
-            sigma_min=settings.sigma_min,
-            sigma_max=settings.sigma_max,
+    metadata = {
+        "name": args.out.stem,
+        "task": TASK,
+        "kind": "action",
+        "head": "gait",
+        "observation": OBSERVATION,
+        "observation_size": str(layout.observation_size),
+        "control_freq": repr(1.0 / (EVERY * float(task.model.opt.timestep))),
+        "training_command": command,
+        "training_seconds": f"{history[-1].seconds:.1f}",
+        "search": json.dumps(
+            {
+                **asdict(settings),
+                "iterations_run": len(history),
+                "best_iteration": best.index + 1,
+                "best_reward": best.mean_reward,
+                "final_reward": history[-1].mean_reward,
+            }
         ),
-        layout.num_parameters,
+    }
+    write_gait_policy(args.out, result.parameters, layout, metadata)
+    plot = plot_search(args.out.with_name(args.out.stem + SEARCH_PNG), history)
+    stopped = "interrupted: " if result.interrupted else ""
+    console.print(
+        f"{stopped}wrote {args.out}, the mean of iteration {best.index + 1}, the best of {len(history)} in "
+        f"{history[-1].seconds / 60:.1f} min: the mean's reward {history[0].mean_reward:.3f} -> "
+        f"{best.mean_reward:.3f} (last {history[-1].mean_reward:.3f}), falls {best.falls:.0%}"
+        + (f"; the reward curve is {plot}" if plot else ""),
+        soft_wrap=True,
     )
-    rng = np.random.default_rng(settings.seed)
-    cem.rng = np.random.default_rng(settings.seed + 1)
-    mean, history, start = stepping_in_place(layout)[None], [], time.perf_counter()
-    best: GaitSearchResult | None = None
-    best_score = -np.inf
-    episodes = GaitEpisodes(task, layout, settings.workers)
+    console.print(
+        f"score it on fresh seeds: python -m judo evaluate --task {TASK} --policy {args.out} --seeds 5 --first-seed 1000",
+        soft_wrap=True,
+    )
+    return 130 if result.interrupted else 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run `python -m judo gait-search` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = parse_args(GaitSearchArgs, argv, "python -m judo gait-search", DESCRIPTION)
     try:
-        population, count = settings.population, settings.commands
-        period = 1.0 / GAITS["trot"].frequency
-        for index in range(settings.iterations):
-            commands = np.array([draw_command(config, rng) for _ in range(count)])
-            candidates = cem.sample_control_knots(mean)[:, 0]  # (population, P), row 0 the mean
-            rows = np.repeat(candidates, count, axis=0)
-            row_commands = np.tile(commands, (population, 1))
-            starts = rng.uniform(0.0, period, len(rows))
-            states, sensors, ctrl = episodes.run(rows, row_commands, starts, settings.episode_seconds)
-            rewards = np.zeros((population, count))
-            for j, command in enumerate(commands):
-                block = slice(j, None, count)  # rows of command j, one per candidate
-                metadata = {COMMAND_KEY: command}
-                rewards[:, j] = task.reward(states[block], sensors[block], ctrl[block], config, metadata)
-            fell = (states[..., 2] < 0.5 * STANDING_HEIGHT).any(axis=1).reshape(population, count)
-            scores = rewards.mean(axis=1)
-            mean = cem.update_nominal_knots(candidates[:, None], scores)
-            seconds = time.perf_counter() - start
-            record = Iteration(index, float(scores[0]), float(scores.max()), float(fell[0].mean()), seconds)
-            history.append(record)
-            score = record.mean_reward if np.isfinite(record.mean_reward) else -np.inf  # NaN never wins
-            if best is None or score > best_score:
-                best, best_score = GaitSearchResult(candidates[0].copy(), index, history), score
-            if on_iteration is not None:
-                on_iteration(record)
-    except KeyboardInterrupt:
-        if best is None:
-            raise
-        best.interrupted = True
-    finally:
-        episodes.close()
-    assert best is not None  # iterations >= 1 (validated)
-    return best
+        args.validate()
+        from judo.core.errors import import_extra
+
+        import_extra("onnx", "python -m judo gait-search", "policy")
+        return run(args, "python -m judo gait-search " + shlex.join(argv))
+    except JudoError as err:
+        fail(str(err))

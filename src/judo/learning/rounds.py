@@ -243,7 +243,7 @@ def teacher_flags(args: DistillArgs, env_args: dict[str, Any]) -> list[str]:
 
 def collect_round(args: DistillArgs, env_args: dict[str, Any], policy: Path, out: Path, round_index: int) -> None:
     """Collect round `round_index`'s episodes (resuming `out`) with `policy` driving and the MPC labelling."""
-    from judo.collection.cli import main as collect_main
+    from judo.collection.collect import main as collect_main
 
     argv = ["--out", str(out), "--episodes", str(args.episodes_per_round), "--policy", str(policy)]
     argv += ["--first-seed", str(round_index * ROUND_SEED_STRIDE), *teacher_flags(args, env_args)]

@@ -17,21 +17,5 @@ What a robot integrator reads, below the app, the GUI and the commands (it impor
     system_choice.py    a System by name: judo's simulator, the ROS 2 bridge, or module:Class
 
 `SystemState`, the reading a System serves, is defined in `judo.core.reading` (the estimators below this
-package read it too) and exported here.
+package read it too). Import each name from the module that defines it; `judo` exports those a user needs.
 """
-
-from judo.core.reading import SystemState
-from judo.loop.closed_loop import ClosedLoop, ControlClock
-from judo.loop.records import PlanRecord, StepRecord
-from judo.loop.system import DynamicsSystem, MujocoSystem, System
-
-__all__ = [
-    "ClosedLoop",
-    "ControlClock",
-    "DynamicsSystem",
-    "MujocoSystem",
-    "PlanRecord",
-    "StepRecord",
-    "System",
-    "SystemState",
-]

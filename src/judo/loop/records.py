@@ -7,7 +7,6 @@ the same thing.
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
@@ -92,38 +91,3 @@ class Recorder(Protocol):
     def on_step(self, record: StepRecord) -> None:
         """Called after each plant step."""
         ...
-
-
-class LiveRecorder(Recorder, Protocol):
-    """A recorder of a running app (`App.start_recording`), e.g. `judo.collection.live.LiveRecording`.
-
-    The app adds it to its session's closed loop, tells it of every config edit, moves it to the next session
-    on a change of estimator, and calls `finish` when the recording stops (or the task or optimizer is switched).
-
-    Attributes:
-        path: the file it writes.
-        session: the session it records (`judo.runtime.session.Session`).
-        num_steps: plant steps recorded so far.
-    """
-
-    path: Path
-    session: Any
-    num_steps: int
-
-    def on_config(self, kind: str, config: Any, **details: Any) -> None:
-        """A config edit (`kind` "controller", "optimizer", "task" or "estimator"), with `details`."""
-        ...
-
-    def move_to(self, session: Any) -> None:
-        """Go on recording `session`, which replaced the recorded one (a change of estimator)."""
-        ...
-
-    def finish(self) -> tuple[Path, int]:
-        """Write the recording; returns (file, index of the recording in it)."""
-        ...
-
-
-class RecorderFactory(Protocol):
-    """Makes the app's default recorder of `session` into `path` (None: a name of its own), from `configs`."""
-
-    def __call__(self, path: str | Path | None, session: Any, configs: dict[Any, Any]) -> LiveRecorder: ...

@@ -12,6 +12,6 @@ live_recording.py the recording under way
 snapshots.py      StateBuffer and what the loops publish in it for the GUI
 status.py         the status line, the timing figures, the reports
 address.py        where the GUI listens
-cli.py            `python -m judo`
+launch.py         `python -m judo`: the app's command line
 gui/              the viser GUI (the app never imports it)
 """

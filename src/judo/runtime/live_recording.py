@@ -1,28 +1,18 @@
 """Recording a running app: the recorder under way, started and stopped from any thread.
 
-Recording is injected: `start` takes any `LiveRecorder` (`judo.loop.records`), or a path, which the app's
+Recording is injected: `start` takes any `LiveRecorder` (`judo.collection.live`), or a path, which the app's
 recorder factory turns into one. The default factory, `judo.collection.live.start_live_recording`, writes an
-HDF5 file in collect's layout; it is looked up by name when first used, like a plugin, so the runtime never
-imports collection (or h5py) and an app that never records never needs the `collect` extra.
+HDF5 file in collect's layout; it imports h5py only when a recording starts, so an app that never records never
+needs the `collect` extra.
 """
 
-import importlib
 from pathlib import Path
 
+from judo.collection.live import LiveRecorder, RecorderFactory, start_live_recording
 from judo.core.errors import JudoError
-from judo.loop.records import LiveRecorder, RecorderFactory
 from judo.runtime.app_state import AppState
 from judo.runtime.session import Session
 from judo.runtime.status import Reports
-
-DEFAULT_RECORDER = "judo.collection.live:start_live_recording"
-"""module:function of the default recorder factory (needs the `collect` extra)."""
-
-
-def default_recorder_factory() -> RecorderFactory:
-    """The factory named by DEFAULT_RECORDER."""
-    module, _, name = DEFAULT_RECORDER.partition(":")
-    return getattr(importlib.import_module(module), name)
 
 
 class Recordings:
@@ -31,7 +21,7 @@ class Recordings:
     Args:
         state: the app's state.
         reports: the status line.
-        factory: makes a recorder from a path; None uses DEFAULT_RECORDER.
+        factory: makes a recorder from a path; None uses `start_live_recording`.
     """
 
     def __init__(self, *, state: AppState, reports: Reports, factory: RecorderFactory | None = None) -> None:
@@ -53,7 +43,7 @@ class Recordings:
                 raise JudoError(f"already recording to {state.recording.path}; stop that recording first")
             session = state.session
             if recorder is None or isinstance(recorder, str | Path):
-                factory = self._factory or default_recorder_factory()
+                factory = self._factory or start_live_recording
                 recorder = factory(recorder, session, state.configs.as_dict())
             elif recorder.session is not session:
                 raise JudoError("the recorder records another session than the one running; make it for app.session")

@@ -1,7 +1,7 @@
 """Quadruped velocity tracking: the Go1-class quadruped follows a commanded base velocity (forward, sideways, yaw
 rate), planned directly in its 12 joint targets. The command is redrawn every few seconds of sim time.
 
-Its reward is what `python -m judo gait-search` teaches the shipped locomotion policy on (judo.learning.gait_search),
+Its reward is what `python -m judo gait-search` teaches the shipped locomotion policy on (judo.learning.policy_search),
 and `policy_observation` gives what such a policy sees on the robot (proprioception, the command and the gait's
 clock).
 """

@@ -7,7 +7,7 @@ best_file.py  the best settings as a `--config` TOML file
 study.py      the Optuna study: storage, sampler, ask/tell while each trial's episodes run as Ray tasks
               (judo.ray_cluster starts or joins Ray)
 report.py     the outputs: table, trials.csv, plots
-cli.py        the command line
+tune.py       the command line
 
 Nothing here imports optuna or ray at import time: study.py imports them when called, and
 only the command imports it (it needs the `tune` extra).

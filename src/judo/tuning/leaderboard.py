@@ -58,7 +58,7 @@ DESCRIPTION = (
     "`tune` extra: pip install -e '.[tune]'."
 )
 SHIPPED_OPTIMIZER = "mppi"
-"""The optimizer the app runs when none is named (runtime/cli.py): the shipped default's."""
+"""The optimizer the app runs when none is named (runtime/launch.py): the shipped default's."""
 PROBE_S = 0.2
 """Seconds of sim time of the check episode run per task before any study, which also lists its metrics."""
 RESTARTED = ("interrupted", DEAD_PROCESS)
@@ -158,7 +158,7 @@ def protocol_spec(protocol: Protocol, optimizer: str, config_file: str | None, f
 
 def probe_metrics(protocol: Protocol, optimizer: str) -> list[str]:
     """The metrics a short episode of the task reports (tune's probe, at the protocol); JudoError if it fails."""
-    from judo.tuning.cli import TuneArgs, probe
+    from judo.tuning.tune import TuneArgs, probe
 
     args = TuneArgs(task=protocol.task, optimizer=optimizer, duration=PROBE_S)
     return probe(args, protocol.fixed())

@@ -19,7 +19,7 @@ from rich.text import Text
 
 from judo.cli_shared import clock_time, optional_pyplot
 from judo.core.errors import JudoError
-from judo.evaluation.cli import write_json
+from judo.evaluation.shared_options import write_json
 from judo.evaluation.stats import Summary, shown_interval, summarize
 from judo.tuning.leaderboard_protocol import Protocol
 

@@ -15,8 +15,8 @@ import numpy as np
 
 from judo.cli_shared import progress_console, progress_display
 from judo.core.errors import JudoError
-from judo.evaluation.cli import write_json
 from judo.evaluation.episode import EpisodeOutcome
+from judo.evaluation.shared_options import write_json
 from judo.tuning.trial import TrialSpec, run_condition_seed
 
 Jobs = dict[str, tuple[TrialSpec, dict[str, Any]]]

@@ -9,7 +9,7 @@ H, read off its spline at each of the tick's steps), the ctrl of the tick's step
   - `LowLevelPlant` (core/rollouts/low_level.py): the same policy on the plant, one row, whose physics is the plant's own
     steps (`act` alone makes each tick's ctrl);
   - `Proposer` (core/policies/proposals.py): an action policy's closed loop from the current state, one step per tick;
-  - `GaitEpisodes` (learning/gait_search.py): every candidate gait policy on its own commands, block by block.
+  - `GaitEpisodes` (learning/policy_search.py): every candidate gait policy on its own commands, block by block.
 Buffers are allocated per (N, T) and reused; a block reads and writes only its own rows of them, so blocks run
 on several threads at once.
 """

@@ -1,5 +1,4 @@
-"""The browser GUI (viser): scene, config panels generated from the dataclasses, controls and plots."""
+"""The browser GUI (viser): scene, config panels generated from the dataclasses, controls and plots.
 
-from judo.runtime.gui.gui import Gui
-
-__all__ = ["Gui"]
+The app builds it from judo.runtime.gui.gui.Gui.
+"""
