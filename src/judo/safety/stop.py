@@ -93,6 +93,8 @@ class StopLatch:
             once more with a latch's event when it took effect (its `effect_s` set, on the loop's thread).
 
     Attributes:
+        latched: whether the stop is engaged; `engage` and `clear` set it under the latch's lock (a plain attribute,
+            so the loop's read before each served action runs no code here).
         path: the state file.
         events: the changes so far (the latest MAX_EVENTS), the first one "the state file" when it started engaged.
     """
@@ -103,16 +105,11 @@ class StopLatch:
         self.on_change = on_change
         self.events: list[StopEvent] = []
         self._lock = threading.Lock()
-        self._latched = False
+        self.latched = False
         self._since: float | None = None  # time.monotonic() of the latest latch, until it took effect
         if self.path is not None and self.path.exists():
-            self._latched = True  # served from the first step on: no time to take effect to measure
+            self.latched = True  # served from the first step on: no time to take effect to measure
             self.events.append(self._persisted_event())
-
-    @property
-    def latched(self) -> bool:
-        """Whether the stop is engaged."""
-        return self._latched
 
     @property
     def latest(self) -> StopEvent | None:
@@ -122,9 +119,9 @@ class StopLatch:
     def engage(self, source: str) -> bool:
         """Latch the stop (`source` says who); True if it was clear. Persisted before it returns."""
         with self._lock:
-            if self._latched:
+            if self.latched:
                 return False
-            self._latched, self._since = True, time.monotonic()
+            self.latched, self._since = True, time.monotonic()
             event = self._add(StopEvent(time.time(), source, True))
             self._persist(event)
         self._tell(event)
@@ -133,9 +130,9 @@ class StopLatch:
     def clear(self, source: str) -> bool:
         """Clear the stop (`source` says who) and remove its state file; True if it was latched."""
         with self._lock:
-            if not self._latched:
+            if not self.latched:
                 return False
-            self._latched, self._since = False, None
+            self.latched, self._since = False, None
             event = self._add(StopEvent(time.time(), source, False))
             if self.path is not None:
                 try:
