@@ -7,7 +7,7 @@ import textwrap
 
 import pytest
 
-from judo.runtime import runners as exit_guard
+from judo.runtime.running import supervisor as exit_guard
 from judo.runtime.app import App
 
 SCRIPT = textwrap.dedent(

@@ -1,8 +1,8 @@
 """The one closed-loop step: read the plant, plan (with the latency model), serve the plan, step the plant.
 
 Everything that drives a plant with a controller calls this module, and nothing else writes the loop:
-- the app's two runners: the planner runner (`judo.runtime.runners`) calls `plan` on its worker thread
-  when the control clock says, in wall time, and the plant runner (`judo.runtime.runners`) calls `advance`
+- the app's two runners: the planner runner (`judo.runtime.running.planner`) calls `plan` on its worker thread
+  when the control clock says, in wall time, and the plant runner (`judo.runtime.running.plant`) calls `advance`
   on the System's thread at real-time pace;
 - `evaluate`'s episodes (`judo.evaluation.episode.run_episode`), and through them `tune`'s trials, call
   `step`, which plans when the control clock (`ControlClock`, below) says, in sim time, then advances;
@@ -54,11 +54,12 @@ import numpy as np
 from judo.core.errors import JudoError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.planner import Planner
+from judo.core.reading import SystemState
 from judo.core.spline import Spline
 from judo.loop.latency import RECENT_CYCLES, Latency, LatencyPredictor, check_latency, prediction_delay
 from judo.loop.records import PlanRecord, Recorder, StepRecord
-from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError, SystemState
-from judo.loop.watchdog import TIME_TOLERANCE, ReadingTimeError, Watchdog
+from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError
+from judo.loop.watchdog import TIME_TOLERANCE, Watchdog
 from judo.safety.limits import SafetyConfig
 from judo.safety.serve_filter import guard
 from judo.safety.stop import StopLatch
@@ -97,7 +98,7 @@ class ControlClock:
         return max(0.0, self.next_time(period) - now)
 
 
-__all__ = ["ClosedLoop", "Latency", "ReadingTimeError", "SystemCallError", "Watchdog", "check_latency"]
+__all__ = ["ClosedLoop"]
 
 
 class ClosedLoop:

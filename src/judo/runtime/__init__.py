@@ -4,9 +4,9 @@ app.py            App: checks its settings, builds the parts, start/run/stop; th
 app_state.py      AppState (the one lock and what the parts share) and StopSignal
 commands.py       AppPort (all the GUI sees) and Commands (validate each command, queue it in the state)
 session.py        Session (a controller, its plant and their ClosedLoop), ConfigSet, SessionMaker
-runners.py        who runs what: the planner runner (the control clock in wall time, ClosedLoop.plan on a
-                  worker thread, switches), the plant runner (the System's own thread: ClosedLoop.advance at
-                  real-time pace) and the supervisor (the event loop, the frontend, the stop order, the exit guard)
+running/          who runs what, a room each: planner.py (the control clock in wall time, ClosedLoop.plan on a
+                  worker thread, switches), plant.py (the System's own thread: ClosedLoop.advance at real-time
+                  pace) and supervisor.py (the event loop, the frontend, the stop order, the exit guard)
 cycles.py         a planning cycle's size, estimated cost, and the cycle in flight
 live_recording.py the recording under way
 snapshots.py      StateBuffer and what the loops publish in it for the GUI

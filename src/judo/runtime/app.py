@@ -8,9 +8,9 @@ built), then composes parts that own their state and are handed what they use (d
 - `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the counters;
 - `Commands` (`judo.runtime.commands`): validate each command and queue it in the state; the App's `commands`
   (`app.commands.update_config(...)`, `app.commands.pause()`, `app.commands.switch_task(...)`);
-- `PlantRunner` (`judo.runtime.runners`): the System's thread;
-- `PlannerRunner` (`judo.runtime.runners`): the control clock, planning and switches;
-- `Supervisor` (`judo.runtime.runners`): the event loop, signals, the monitor and the stop order;
+- `PlantRunner` (`judo.runtime.running.plant`): the System's thread;
+- `PlannerRunner` (`judo.runtime.running.planner`): the control clock, planning and switches;
+- `Supervisor` (`judo.runtime.running.supervisor`): the event loop, signals, the monitor and the stop order;
 - `Recordings` (`judo.runtime.live_recording`) and the frontend (the GUI, given to the App, which never imports it).
 The App implements the GUI's command port (`judo.runtime.commands.AppPort`); `start()` returns at once. What the
 app publishes arrives by callback, on the thread that made it (keep a callback cheap): `on_state` each plant
@@ -48,7 +48,9 @@ from judo.runtime.app_state import AppState
 from judo.runtime.commands import Commands
 from judo.runtime.cycles import CycleCost
 from judo.runtime.live_recording import Recordings
-from judo.runtime.runners import FrontendFactory, PlannerRunner, PlantRunner, Supervisor, stop_at_exit, viser_frontend
+from judo.runtime.running.planner import PlannerRunner
+from judo.runtime.running.plant import PlantRunner
+from judo.runtime.running.supervisor import FrontendFactory, Supervisor, stop_at_exit, viser_frontend
 from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine

@@ -3,9 +3,9 @@
 The App's parts (`judo.runtime.app`) share one `AppState` and take what is theirs from it:
 - the commands (any thread: the GUI's callbacks, a notebook) validate, then `accept_config`, `request_*`,
   `pause`, `resume`;
-- the plant runner (`judo.runtime.runners`, the System's thread) takes the plant's requests
+- the plant runner (`judo.runtime.running.plant`, the System's thread) takes the plant's requests
   (`take_plant_requests`) and counts the resets it carries out;
-- the planner runner (`judo.runtime.runners`) takes the planner's requests (`take_planner_requests`)
+- the planner runner (`judo.runtime.running.planner`) takes the planner's requests (`take_planner_requests`)
   and installs a new session on a switch (`install_session`); it is the only writer of the session's configs.
 
 What the GUI (or a notebook) follows arrives by callback, fired on the thread that made the change, under the lock:
