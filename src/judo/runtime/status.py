@@ -281,7 +281,7 @@ class Reports:
         session = self._state.session
         message = f"running {session.task_name} with {session.optimizer_name}"
         entries = [f"{f}.{e}" for f, values in session.controller.task.model_overrides.items() for e in values]
-        fitted = fitted_overrides(session.task_name)
+        fitted = fitted_overrides(session.task_name) if entries else frozenset()  # no overrides: none to look up
         if entries and all(entry in fitted for entry in entries):
             message += f", planning with a fitted model ({', '.join(entries)})"
         elif entries:
