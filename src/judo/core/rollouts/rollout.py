@@ -92,8 +92,8 @@ class RolloutPool(RolloutBackend):
     def _split(self, num_rollouts: int) -> tuple[list[slice], list[list[mujoco.MjModel]]]:
         """The rows of each worker's contiguous chunk and each chunk's per-row models, kept per batch size
         until `set_models` changes the models."""
-        check_blocks(num_rollouts, len(self._models))
-        if num_rollouts not in self._splits:
+        if num_rollouts not in self._splits:  # checked once per batch size and models, as the split is made
+            check_blocks(num_rollouts, len(self._models))
             bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(int)
             chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
             block = num_rollouts // len(self._models)
