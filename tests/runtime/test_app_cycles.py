@@ -10,9 +10,10 @@ import pytest
 import judo
 from judo.core.configuration import registry
 from judo.core.errors import ConfigError, JudoError
+from judo.core.planner_view import CycleSize
 from judo.core.rollouts.rollout import RolloutPool
 from judo.runtime.app import App
-from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleSize, StepCost
+from judo.runtime.cycles import MAX_CYCLE_SECONDS, StepCost
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 
 CANCEL_BUDGET = 3.0

@@ -72,7 +72,7 @@ def default_recording_path(task: str) -> Path:
 def start_live_recording(path: str | Path | None, session: Any, configs: dict[str, Config]) -> "LiveRecording":
     """The app's default RecorderFactory (`judo.runtime.live_recording`): a LiveRecording of `session` (a
     `judo.runtime.session.Session`) into `path` (`default_recording_path` for None), from the `configs` in force."""
-    if session.controller.optimizer is None:
+    if "optimizer" not in session.controller.config_kinds:  # the planner has no optimizer's plans to record
         raise JudoError(
             "the GUI's recording holds an optimizer's plans; a policy drives this session: switch to an optimizer to "
             "record, or record the policy with python -m judo collect --policy FILE.onnx"

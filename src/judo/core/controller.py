@@ -1,8 +1,5 @@
-"""The sampling-based MPC loop, written once: shift, sample, clamp, interpolate, roll out, score, update.
-
-Its settings, `ControllerConfig`, and `check_configs` live in `judo.core.configuration.controller_config`; they are
-imported here too, where they have always been importable from.
-"""
+"""The sampling-based MPC loop, written once: shift, sample, clamp, interpolate, roll out, score, update, publish.
+Its settings (`ControllerConfig`, `check_configs`) live in `judo.core.configuration.controller_config`."""
 
 import dataclasses
 import math
@@ -24,7 +21,7 @@ from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_col
 from judo.core.optimizer import Optimizer, PlanningStart
 from judo.core.planner import checked_reading, task_warm_start
 from judo.core.planner_view import CycleSize, PlannerKind
-from judo.core.policies.proposals import Proposer, insert_proposals
+from judo.core.policies.proposals import Proposer, check_proposal_policy, insert_proposals
 from judo.core.policy import Policy
 from judo.core.rollouts.backend import CancelFlag, PlanningCancelled, RolloutBackend
 from judo.core.rollouts.dynamics import task_rollout_backend
@@ -120,9 +117,17 @@ class Controller:
         names = tuple(f.name for f in dataclasses.fields(self.config))
         return names if self.proposal_policy is not None else tuple(n for n in names if n != "policy_samples")
 
+    def configs(self) -> dict[str, Any]:
+        """{"controller": ..., "optimizer": ..., "task": ...}: the configs it plans with now."""
+        return {"controller": self.config, "optimizer": self.optimizer.config, "task": self.task.config}
+
+    def check_configs(self, configs: dict[Any, Any]) -> None:
+        """ConfigError unless `configs` work together; PolicyError unless the proposal policy fits their samples."""
+        check_configs(self.task, configs["controller"], configs["optimizer"])
+        check_proposal_policy(self.proposal_policy, configs["controller"].policy_samples)
+
     def cycle_size(self, configs: dict[Any, Any]) -> CycleSize:
-        """num_rollouts x num_randomizations x iterations (`ControllerConfig.iterations_per_cycle`) x T under
-        `configs` ({"controller": ..., "optimizer": ..., ...})."""
+        """num_rollouts x num_randomizations x iterations (`iterations_per_cycle`) x T under these `configs`."""
         controller, optimizer = configs["controller"], configs["optimizer"]
         steps = rollout_steps(controller.horizon, self.task.dt)
         return CycleSize(optimizer.num_rollouts, controller.num_randomizations, controller.iterations_per_cycle, steps)
@@ -334,8 +339,7 @@ class Controller:
         return nominal
 
     def _publish(self, time: float, nominal: np.ndarray, rewards: np.ndarray, sensors: Any) -> Spline:
-        """Make the clamped `nominal` the plan from `time` (with the gains where `config.feedback`), keep the
-        rewards and the traces of the best rollouts, and return the plan."""
+        """The clamped `nominal` as the plan from `time` (with gains under `config.feedback`); keeps rewards, traces."""
         cfg = self.config
         self.rewards = rewards
         self.nominal_knots = nominal = clip_ufunc(nominal, self._ctrl_low, self._ctrl_high)

@@ -2,8 +2,9 @@
 
 The loop drives a `judo.core.planner.Planner`; the app's sessions, commands and GUI also show and edit what it
 plans with. They ask the planner instead of probing which kind it is: its `kind` (a `PlannerKind`), the config
-kinds it has (`config_kinds`), what one planning cycle rolls out (`cycle_size`), and which controller fields it
-uses (`controller_fields`). `Controller` and `PolicyController` implement both protocols.
+kinds it has (`config_kinds`, `configs`), whether it takes edited configs (`check_configs`), what one planning
+cycle rolls out (`cycle_size`), and which controller fields it uses (`controller_fields`). `Controller` and
+`PolicyController` implement both protocols (`AppPlanner`).
 """
 
 import enum
@@ -14,6 +15,7 @@ import numpy as np
 
 from judo.core.configuration.config import Config
 from judo.core.optimizer import Optimizer
+from judo.core.planner import Planner
 from judo.core.policy import Policy
 from judo.core.rollouts.backend import RolloutBackend
 
@@ -105,7 +107,21 @@ class PlannerView(Protocol):
     @property
     def iterations_run(self) -> int: ...
 
-    def cycle_size(self, configs: "dict[Any, Config]") -> CycleSize | None:
+    def configs(self) -> dict[Any, Config]:
+        """{kind: config} of its `config_kinds`, the configs it plans with now."""
+        ...
+
+    def check_configs(self, configs: dict[Any, Config]) -> None:
+        """ConfigError (or PolicyError) unless it can plan with `configs` ({kind: config} of its `config_kinds`),
+        so that an edit is refused when it is made, not at the next update."""
+        ...
+
+    def cycle_size(self, configs: dict[Any, Config]) -> CycleSize | None:
         """The size of one planning cycle under `configs` ({kind: config} of its `config_kinds`), or None where
         a cycle rolls nothing out (a policy)."""
         ...
+
+
+@runtime_checkable
+class AppPlanner(Planner, PlannerView, Protocol):
+    """A planner the app runs: the closed loop drives it (`Planner`), the app and the GUI read it (`PlannerView`)."""

@@ -38,6 +38,7 @@ from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.planner import Planner
+from judo.core.planner_view import PlannerKind
 from judo.core.policies.policy_controller import as_policy
 from judo.core.policy import Policy
 from judo.core.task import TaskConfig
@@ -51,7 +52,7 @@ from judo.runtime.live_recording import Recordings
 from judo.runtime.running.planner import PlannerRunner
 from judo.runtime.running.plant import PlantRunner
 from judo.runtime.running.supervisor import FrontendFactory, Supervisor, stop_at_exit, viser_frontend
-from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
+from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
 from judo.safety.stop import StopLatch, default_stop_file
@@ -203,7 +204,7 @@ class App:
             fallback_optimizer=optimizer,
             stop=self.stop_latch,
         )
-        first = optimizer if driver is None else POLICY_OPTIMIZER
+        first = optimizer if driver is None else PlannerKind.POLICY.value
         state.begin(maker.first(task, first, state.sensing, controller_config, optimizer_config, task_config))
         self._policy_name = None if driver is None else driver.name
         self.commands = Commands(state=state, reports=reports, maker=maker)  # app.commands.pause(), ...

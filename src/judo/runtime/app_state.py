@@ -42,7 +42,7 @@ from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.task import TaskConfig
 from judo.loop.sensing import Sensing
-from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_seconds, cycle_size
+from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_seconds
 from judo.runtime.session import ConfigSet, Session
 from judo.runtime.snapshots import Subscribers
 
@@ -337,8 +337,7 @@ class AppState:
         the late cycle's seconds so far (`App.planning_cost`)."""
         with self.lock:
             session, configs, cycle, step_cost = self.session, self.configs, self.cycle, self.step_cost
-        task = session.controller.task
-        size = None if configs.optimizer is None else cycle_size(task, configs.controller, configs.optimizer)
+        size = session.controller.cycle_size(configs.as_dict())  # None: a policy rolls nothing out
         times = session.closed_loop.update_ms
         last = times[-1] / 1e3 if times else math.nan
         running = cycle.elapsed() if cycle is not None and cycle.late() else None

@@ -27,46 +27,25 @@ import numpy as np
 
 from judo.collection.live import LiveRecorder
 from judo.core.configuration.config import Config, with_updates
-from judo.core.configuration.controller_config import ControllerConfig, check_configs
 from judo.core.configuration.registry import (
     CONFIG_KINDS,
     ConfigKind,
-    lookup_optimizer,
     lookup_task,
     make_estimator,
 )
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
-from judo.core.optimizer import OptimizerConfig
-from judo.core.policies.proposals import check_proposal_policy
-from judo.core.reading import SystemState
 from judo.loop.sensing import check_estimator
+from judo.loop.system import System
 from judo.runtime.app_state import AppState
-from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleCost, cycle_seconds, cycle_size
-from judo.runtime.session import POLICY_OPTIMIZER, Session, SessionMaker
+from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleCost, cycle_seconds
+from judo.runtime.session import ConfigSet, Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
 from judo.runtime.status import Level as StatusLevel
 from judo.runtime.status import LiveFigures, Reports, Status
 from judo.safety.stop import StopLatch
 
-__all__ = [
-    "CONFIG_KINDS",
-    "POLICY_OPTIMIZER",
-    "AppPort",
-    "CommandPort",
-    "ConfigKind",
-    "CycleCost",
-    "FigureSource",
-    "LiveFigures",
-    "PlanSnapshot",
-    "Session",
-    "Snapshot",
-    "SnapshotSource",
-    "Status",
-    "StatusLevel",
-    "SystemSnapshot",
-    "SystemState",
-]
+__all__ = ["AppPort", "CommandPort", "FigureSource", "SnapshotSource"]
 
 
 class SnapshotSource(Protocol):
@@ -266,20 +245,18 @@ class Commands:
             session = state.session
             if generation is not None and generation != session.generation:
                 raise ConfigError("the task or optimizer changed since this edit was made; it was not applied")
-            current = state.configs.get(kind)
-            if current is None:
+            planner = session.controller
+            if kind not in planner.config_kinds:
                 raise ConfigError(
                     f"a policy drives {session.task_name}: it has no {kind} config; choose an optimizer to plan with MPC"
                 )
+            current = state.configs.get(kind)
             updated = with_updates(current, updates)
             candidate = state.configs.with_config(kind, updated)
-            if candidate.optimizer is not None:  # a policy's session has no rollouts to check against
-                check_configs(session.controller.task, candidate.controller, candidate.optimizer)
-                proposals = session.controller.proposal_policy  # refused here, not every cycle
-                check_proposal_policy(proposals, candidate.controller.policy_samples)
-                resized = self._check_cycle_cost(updates, candidate.controller, candidate.optimizer)
-                if resized and state.cycle is not None and state.cycle.late():
-                    state.cancel_cycle("the planning cycle was resized")
+            planner.check_configs(candidate.as_dict())  # refused here, not at the next cycle
+            resized = self._check_cycle_cost(updates, candidate)
+            if resized and state.cycle is not None and state.cycle.late():
+                state.cancel_cycle("the planning cycle was resized")
             state.accept_config(kind, updated, from_gui=from_gui)
             task = session.controller.task
         if (
@@ -300,17 +277,16 @@ class Commands:
             )
         return updated
 
-    def _check_cycle_cost(
-        self, updates: dict[str, Any], controller: ControllerConfig, optimizer: OptimizerConfig
-    ) -> bool:
-        """True if these configs change the size of a planning cycle (see `judo.runtime.cycles`); ConfigError if
-        they grow it beyond an estimated MAX_CYCLE_SECONDS (a smaller cycle is always accepted). Under the lock."""
+    def _check_cycle_cost(self, updates: dict[str, Any], candidate: ConfigSet) -> bool:
+        """True if the `candidate` configs change the size of a planning cycle (the planner's `cycle_size`; a policy
+        rolls nothing out); ConfigError if they grow it beyond an estimated MAX_CYCLE_SECONDS (a smaller cycle is
+        always accepted). Under the lock."""
         state = self._state
-        task = state.session.controller.task
-        current = state.configs
-        before = None if current.optimizer is None else cycle_size(task, current.controller, current.optimizer)
-        after = cycle_size(task, controller, optimizer)
-        seconds = cycle_seconds(state.step_cost, after, controller)
+        planner = state.session.controller
+        before, after = planner.cycle_size(state.configs.as_dict()), planner.cycle_size(candidate.as_dict())
+        if after is None:
+            return False
+        seconds = cycle_seconds(state.step_cost, after, candidate.controller)
         if seconds > MAX_CYCLE_SECONDS and (before is None or after.total > before.total):
             edit = ", ".join(f"{name} = {value}" for name, value in updates.items())
             raise ConfigError(
@@ -365,17 +341,17 @@ class Commands:
         self._state.request_reset(from_user=True)  # the plan is forgotten once the plant's reset worked
 
     def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
-        """Move mocap body `index` (a goal) of the simulated plant to `position` (3,), and turn it to
-        `quat` (4,) wxyz if given, before its next step.
+        """Move mocap body `index` (a goal) to `position` (3,), and turn it to `quat` (4,) wxyz if given, before
+        the plant's next step, through the System's `move_goal` (the simulated plant writes its MjData).
 
-        The planner sees it with the next state (the plant publishes its mocap poses). Raises JudoError
-        for a user's System, whose goals the app cannot move, or an index the model does not have.
+        The planner sees it with the next state (the reading's metadata carries the mocap poses). Raises
+        JudoError for a user's System without `move_goal`, or an index the model does not have.
         """
         session = self._state.session
         plant = session.simulated
-        if plant is None:
-            raise JudoError(f"cannot move goal {index}: the app drives your own {type(session.system).__name__}")
-        nmocap = plant.task.sim_model.nmocap
+        if plant is None and type(session.system).move_goal is System.move_goal:
+            raise JudoError(f"cannot move goal {index}: your {type(session.system).__name__} has no System.move_goal")
+        nmocap = session.controller.task.model.nmocap if plant is None else plant.task.sim_model.nmocap
         if not 0 <= index < nmocap:
             raise JudoError(f"goal index must be in [0, {nmocap}), got {index}")
         try:
@@ -419,8 +395,5 @@ class Commands:
 
     def switch_optimizer(self, optimizer: str) -> None:
         """Use the registered optimizer `optimizer` from the next cycle, keeping the plant running."""
-        if optimizer == POLICY_OPTIMIZER:
-            self._maker.check_policy_session(self._state.session.task_name)
-        else:
-            lookup_optimizer(optimizer)
+        self._maker.check_choice(self._state.session.task_name, optimizer)  # or the policy's (the GUI's "policy")
         self._state.request_switch(optimizer=optimizer)

@@ -1,10 +1,11 @@
 """The app's planning cycle: its size (N x R x iterations x T steps), its estimated wall time, and the cycle in
 flight with its cancel.
 
-A cycle's cost is its rollout steps, num_rollouts x num_randomizations x iterations x T, times the seconds one
-step takes on the session's rollout backend (`StepCost`): probed on the planning model when the session is built,
-then measured from each completed cycle large enough for its fixed overhead not to count. The commands refuse an
-edit whose estimated cycle exceeds MAX_CYCLE_SECONDS (`judo.runtime.commands`), and the GUI shows the cost.
+A cycle's cost is its rollout steps (`CycleSize`, the planner's `cycle_size`: num_rollouts x num_randomizations x
+iterations x T), times the seconds one step takes on the session's rollout backend (`StepCost`): probed on the
+planning model when the session is built, then measured from each completed cycle large enough for its fixed
+overhead not to count. The commands refuse an edit whose estimated cycle exceeds MAX_CYCLE_SECONDS
+(`judo.runtime.commands`), and the GUI shows the cost.
 
 The planner runner plans under a `PlanningCycle`: the controller polls it (`is_set`) between optimizer iterations
 and the CPU rollout pool between pieces of a batch, so a pause, reset, switch or resize that cancels it ends it
@@ -21,9 +22,8 @@ from dataclasses import dataclass, replace
 import mujoco
 import numpy as np
 
-from judo.core.configuration.controller_config import ControllerConfig, rollout_steps
-from judo.core.optimizer import OptimizerConfig
-from judo.core.task import Task
+from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.planner_view import CycleSize
 
 MAX_CYCLE_SECONDS = 10.0
 """Longest estimated planning cycle a config edit may ask for; a bigger one is refused (the plant would run on
@@ -39,30 +39,6 @@ PROBE_REPEATS = 5
 """Runs of PROBE_STEPS timed; the fastest one counts (on a loaded machine one run in a few is not preempted)."""
 RECENT_CYCLES = 9
 """Cycles since the last large one whose median per-step cost makes the estimate."""
-
-
-@dataclass(frozen=True)
-class CycleSize:
-    """How many rollout steps one planning cycle takes: rollouts x models x iterations x steps."""
-
-    rollouts: int
-    models: int
-    iterations: int
-    steps: int
-
-    @property
-    def total(self) -> int:
-        """Rollout steps of the whole cycle (at most: an optimizer may stop its iterations early)."""
-        return self.rollouts * self.models * self.iterations * self.steps
-
-    def __str__(self) -> str:
-        return f"{self.rollouts} x {self.models} x {self.iterations} x {self.steps} = {self.total:,} steps"
-
-
-def cycle_size(task: Task, controller: ControllerConfig, optimizer: OptimizerConfig) -> CycleSize:
-    """The size of a cycle of `task` under these configs: num_rollouts x num_randomizations x iterations (`ControllerConfig.iterations_per_cycle`) x T."""
-    steps = rollout_steps(controller.horizon, task.dt)
-    return CycleSize(optimizer.num_rollouts, controller.num_randomizations, controller.iterations_per_cycle, steps)
 
 
 def cycle_seconds(step_cost: "StepCost", size: CycleSize, controller: ControllerConfig) -> float:

@@ -12,23 +12,32 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 from judo.core.configuration.config import Config
-from judo.core.configuration.registry import ConfigKind, default_configs, lookup_task, make_config, make_controller
-from judo.core.controller import ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.configuration.registry import (
+    CONFIG_KINDS,
+    ConfigKind,
+    default_configs,
+    lookup_optimizer,
+    lookup_task,
+    make_config,
+    make_controller,
+)
 from judo.core.errors import JudoError
 from judo.core.optimizer import OptimizerConfig
-from judo.core.planner import Planner
+from judo.core.planner_view import AppPlanner, PlannerKind
 from judo.core.policies.policy_controller import make_policy_controller, policy_config
 from judo.core.policy import Policy
+from judo.core.reading import SystemState
 from judo.core.task import TaskConfig
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.estimator_thread import EstimatorThread
 from judo.loop.sensing import SensedSystem, Sensing, choose_estimator, observed_plant
-from judo.loop.system import MujocoSystem, System, SystemState
+from judo.loop.system import MujocoSystem, System
 from judo.safety.limits import SafetyConfig
 from judo.safety.stop import StopLatch
 
-POLICY_OPTIMIZER = "policy"
-"""The optimizer name of a session that a policy drives instead of an optimizer (`App(policy=...)`)."""
+CONFIG_CLASSES: dict[str, type] = {"controller": ControllerConfig, "optimizer": OptimizerConfig, "task": TaskConfig}
+"""The class of each kind of config."""
 KEPT_UPDATES = 1000
 """Control updates whose times the app's loop keeps (the GUI reads the latest 100, the latency estimate the latest 5):
 an app runs for days, and a list of every update's grew about 80 kB a minute at 20 Hz."""
@@ -36,27 +45,28 @@ an app runs for days, and a list of every update's grew about 80 kB a minute at 
 
 @dataclass(frozen=True)
 class ConfigSet:
-    """The configs of a session, one typed field per kind; `optimizer` None where a policy drives the session."""
+    """The configs of a session, one typed field per kind; `kinds` are those its planner has (its `config_kinds`:
+    no "optimizer" where a policy drives the session, whose `optimizer` is then None)."""
 
     controller: ControllerConfig
     optimizer: OptimizerConfig | None
     task: TaskConfig
+    kinds: tuple[ConfigKind, ...] = CONFIG_KINDS
 
     @classmethod
     def of(cls, session: "Session") -> "ConfigSet":
-        """The configs `session`'s controller uses."""
-        controller = session.controller
-        optimizer = controller.optimizer  # None where a policy plans
-        return cls(controller.config, None if optimizer is None else optimizer.config, controller.task.config)
+        """The configs `session`'s controller uses (`PlannerView.configs`)."""
+        return cls.from_dict(session.controller.configs())
 
     @classmethod
     def from_dict(cls, configs: dict[ConfigKind, Config]) -> "ConfigSet":
-        """{kind: config} (e.g. `judo.core.configuration.registry.default_configs`) as a ConfigSet; TypeError for a wrong type."""
-        made = cls(configs["controller"], configs.get("optimizer"), configs["task"])  # type: ignore[arg-type]  # checked below
-        for kind, cls_ in (("controller", ControllerConfig), ("optimizer", OptimizerConfig), ("task", TaskConfig)):
-            if not isinstance(getattr(made, kind), cls_) and not (kind == "optimizer" and made.optimizer is None):
-                raise TypeError(f"the {kind} config must be a {cls_.__name__}, got {type(getattr(made, kind))}")
-        return made
+        """{kind: config} (e.g. `judo.core.configuration.registry.default_configs`; "controller" and "task" at least)
+        as a ConfigSet; TypeError for a config of the wrong type."""
+        for kind, config in configs.items():
+            if not isinstance(config, CONFIG_CLASSES[kind]):
+                raise TypeError(f"the {kind} config must be a {CONFIG_CLASSES[kind].__name__}, got {type(config)}")
+        kinds = tuple(kind for kind in CONFIG_KINDS if kind in configs)
+        return cls(configs["controller"], configs.get("optimizer"), configs["task"], kinds)  # type: ignore[arg-type]
 
     def get(self, kind: ConfigKind) -> Config | None:
         """The config of `kind` (None: the session has none of that kind)."""
@@ -68,11 +78,7 @@ class ConfigSet:
 
     def as_dict(self) -> dict[ConfigKind, Config]:
         """{kind: config} of the kinds the session has, for the GUI and recordings."""
-        configs: dict[ConfigKind, Config] = {"controller": self.controller}
-        if self.optimizer is not None:
-            configs["optimizer"] = self.optimizer
-        configs["task"] = self.task
-        return configs
+        return {kind: getattr(self, kind) for kind in self.kinds}
 
 
 @dataclass
@@ -81,8 +87,8 @@ class Session:
 
     Attributes:
         task_name, optimizer_name: registry names.
-        controller: the Planner (a Controller, or a PolicyController where a policy drives); plans on its own Task
-            instance (`controller.task`).
+        controller: the Planner (a Controller, or a PolicyController where a policy drives), and the PlannerView
+            the app and the GUI read (`judo.core.planner_view`); plans on its own Task instance (`controller.task`).
         system: the plant; a MujocoSystem simulating its own task instance (behind a SensedSystem when
             observing sensors), or the user's own System.
         closed_loop: the one closed-loop step on `controller` and `system`.
@@ -93,7 +99,7 @@ class Session:
 
     task_name: str
     optimizer_name: str
-    controller: Planner
+    controller: AppPlanner
     system: System
     closed_loop: ClosedLoop
     generation: int
@@ -148,7 +154,7 @@ def build_session(
     `reading` is the given `system`'s latest reading, when another thread is driving it (a switch); None
     reads it here. `proposal_policy` makes the controller's `policy_samples` candidates (judo.core.policies.proposals;
     PolicyError unless it fits the task). `policy` drives the plant instead of an optimizer (`optimizer_name` is then
-    POLICY_OPTIMIZER and `optimizer_config` unused; `controller_config` None takes the policy's metadata's rate).
+    PlannerKind.POLICY.value and `optimizer_config` unused; `controller_config` None takes the policy's metadata's rate).
     `estimator_thread` runs the estimator on a thread of its own (`EstimatorThread`), for the
     app's plant thread, which must not wait for the filter; evaluate's sim-time episodes leave it off.
     Raises UnknownNameError for an unregistered name and ConfigError for configs that do not work together
@@ -157,7 +163,9 @@ def build_session(
     sensing = sensing if sensing is not None else Sensing()
     sensing.check()
     if policy is not None:  # the policy is the controller (judo.core.policies.policy_controller); the loop is the same
-        controller: Planner = make_policy_controller(task_name, policy, controller_config=controller_config, seed=seed)
+        controller: AppPlanner = make_policy_controller(
+            task_name, policy, controller_config=controller_config, seed=seed
+        )
     else:
         controller = make_controller(
             task_name,
@@ -208,7 +216,8 @@ class SessionMaker:
         proposal_policy: makes the `policy_samples` candidates of every session of `proposal_task`, the task it
             was made for (a session of another task plans without it).
         proposal_task: the task `proposal_policy` is for.
-        policy: the policy that drives the plant in sessions whose optimizer is POLICY_OPTIMIZER (of `policy_task`).
+        policy: the policy that drives the plant in sessions whose optimizer choice is PlannerKind.POLICY.value, the
+            GUI's "policy" (of `policy_task`).
         policy_task: the task `policy` is for.
         fallback_optimizer: the optimizer of a session of another task than `policy_task` switched to from the
             policy's.
@@ -231,10 +240,26 @@ class SessionMaker:
     def default_configs(self, task: str, optimizer: str) -> ConfigSet:
         """The registered defaults of a session of `task` with `optimizer`; for the policy's, the controller's as the
         policy's metadata sets them, and no optimizer config."""
-        if optimizer != POLICY_OPTIMIZER or self.policy is None:
+        policy = self.driver(task, optimizer)
+        if policy is None:
             return ConfigSet.from_dict(default_configs(task, optimizer))
-        controller = policy_config(self.policy, make_config(ControllerConfig, task))
-        return ConfigSet(controller, None, make_config(lookup_task(task)[1], task))
+        controller = policy_config(policy, make_config(ControllerConfig, task))
+        return ConfigSet.from_dict({"controller": controller, "task": make_config(lookup_task(task)[1], task)})
+
+    def driver(self, task: str, optimizer: str) -> Policy | None:
+        """The policy that drives a session of `task` whose optimizer choice is `optimizer`: the app's policy where
+        the choice names it (PlannerKind.POLICY.value, the GUI's "policy"), None where a registered optimizer plans.
+        JudoError where the choice names the policy but the app has none, or it is for another task."""
+        if PlannerKind.of_choice(optimizer) is PlannerKind.MPC:
+            return None
+        self.check_policy_session(task)
+        return self.policy
+
+    def check_choice(self, task: str, optimizer: str) -> None:
+        """UnknownNameError or JudoError unless `optimizer` can plan a session of `task`: a registered optimizer's
+        name, or the policy's (`driver`)."""
+        if self.driver(task, optimizer) is None:
+            lookup_optimizer(optimizer)
 
     def check_policy_session(self, task: str) -> None:
         """JudoError unless the policy can drive a session of `task`."""
@@ -255,8 +280,6 @@ class SessionMaker:
         task_config: TaskConfig | None = None,
     ) -> Session:
         """The app's first session (generation 0); configs left out get the task's registered defaults."""
-        if optimizer == POLICY_OPTIMIZER:
-            self.check_policy_session(task)
         return self._build(task, optimizer, 0, sensing, controller_config, optimizer_config, task_config, None)
 
     def switched(self, old: Session, task: str, optimizer: str, sensing: Sensing, configs: ConfigSet) -> Session:
@@ -266,8 +289,9 @@ class SessionMaker:
         the optimizer when only the estimator changes), and the running estimator's live config unless another
         estimator is asked for; another task starts from its registered defaults on a new plant (or the
         user's System)."""
-        if optimizer == POLICY_OPTIMIZER and task != self.policy_task:  # the policy is its own task's only
-            optimizer = self.fallback_optimizer
+        kind = PlannerKind.of_choice(optimizer)
+        if kind is PlannerKind.POLICY and task != self.policy_task:  # the policy is its own task's only
+            optimizer, kind = self.fallback_optimizer, PlannerKind.MPC
         estimator_only = (task, optimizer) == (old.task_name, old.optimizer_name)
         if task != old.task_name:
             return self._build(task, optimizer, old.generation + 1, sensing, None, None, None, old)
@@ -275,7 +299,7 @@ class SessionMaker:
         if estimator is not None and sensing.estimator in (None, old.estimator_name):
             sensing = replace(sensing, estimator_config=estimator.config)
         optimizer_config = configs.optimizer if estimator_only else None
-        same_kind = (optimizer == POLICY_OPTIMIZER) == (old.optimizer_name == POLICY_OPTIMIZER)
+        same_kind = kind is old.controller.kind
         controller_config = configs.controller if same_kind else None  # a policy's rate is not an optimizer's
         return self._build(
             task, optimizer, old.generation + 1, sensing, controller_config, optimizer_config, configs.task, old
@@ -310,6 +334,6 @@ class SessionMaker:
             reading=old.closed_loop.raw_reading if old is not None and system is old.system else None,  # being read
             estimator_thread=True,  # the plant thread only reads, steps and serves (judo.loop.estimator_thread)
             proposal_policy=self.proposal_policy if task == self.proposal_task else None,
-            policy=self.policy if optimizer == POLICY_OPTIMIZER else None,
+            policy=self.driver(task, optimizer),
             stop=self.stop,
         )

@@ -154,6 +154,13 @@ class PolicyController:
         """The expert's traces (see `Controller.traces`); (0, 0, 0, 3) without an expert."""
         return self.expert.traces if self.expert is not None else np.zeros((0, 0, 0, 3))
 
+    def configs(self) -> dict[str, Any]:
+        """{"controller": ..., "task": ...}: a policy has no optimizer config."""
+        return {"controller": self.config, "task": self.task.config}
+
+    def check_configs(self, configs: dict[Any, Any]) -> None:
+        """Nothing to check before the next update: a policy rolls nothing out of its own."""
+
     def cycle_size(self, configs: dict[Any, Any]) -> None:
         """None: a policy's update rolls nothing out of its own (an expert's cycle is not the app's to size)."""
         return None

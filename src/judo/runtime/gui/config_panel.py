@@ -31,12 +31,10 @@ import numpy as np
 import viser
 
 from judo.core.configuration.config import Config, field_types
+from judo.core.configuration.field_docs import field_docs
 from judo.core.configuration.fields import SliderRange, array_field_spec, slider_ranges
 from judo.core.configuration.registry import ConfigKind, config_flag
 from judo.core.errors import ConfigError, JudoError
-from judo.core.policies.policy_controller import POLICY_USES_FIELDS
-from judo.runtime.commands import POLICY_OPTIMIZER
-from judo.runtime.gui.field_docs import field_docs
 
 EditFn = Callable[[dict[str, Any]], Config]
 """Applies {field: value} and returns the accepted config, or raises JudoError to refuse it."""
@@ -374,6 +372,5 @@ def hidden_fields(session: Any, kind: ConfigKind, config: Config) -> tuple[str, 
     only an optimizer uses; without a proposal policy, policy_samples (every value but 0 would be refused)."""
     if kind != "controller":
         return ()
-    if session.optimizer_name == POLICY_OPTIMIZER:
-        return tuple(f.name for f in fields(config) if f.name not in POLICY_USES_FIELDS)
-    return () if session.controller.proposal_policy is not None else ("policy_samples",)
+    used = session.controller.controller_fields  # the planner says which it uses
+    return tuple(f.name for f in fields(config) if f.name not in used)

@@ -13,8 +13,10 @@ import viser
 
 from judo.core.configuration.registry import get_registered_estimators, get_registered_optimizers, get_registered_tasks
 from judo.core.errors import JudoError
-from judo.runtime.commands import POLICY_OPTIMIZER, AppPort, LiveFigures, Status
+from judo.core.planner_view import PlannerKind
+from judo.runtime.commands import AppPort
 from judo.runtime.gui.news import Latest
+from judo.runtime.status import LiveFigures, Status
 
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
 NO_ESTIMATOR = "none"
@@ -41,7 +43,7 @@ class Controls:
         )
         self.optimizer = gui.add_dropdown(
             "optimizer",
-            sorted(get_registered_optimizers()) + ([POLICY_OPTIMIZER] if app.policy_name else []),
+            sorted(get_registered_optimizers()) + ([PlannerKind.POLICY.value] if app.policy_name else []),
             initial_value=session.optimizer_name,
             order=order + 0.1,
             hint="Registered optimizers" + (f"; policy: {app.policy_name} drives the plant" if app.policy_name else ""),
@@ -128,7 +130,7 @@ class Controls:
             return f"{value:.{digits}f}{unit}" if math.isfinite(value) else "-"
 
         session = self.app.session
-        policy = self.app.policy_name if session.optimizer_name == POLICY_OPTIMIZER else None
+        policy = self.app.policy_name if session.controller.kind is PlannerKind.POLICY else None
         if policy is None:
             update = f"plan {shown(figures.plan_time_ms, ' ms', 1)}"
         else:  # the span `evaluate` reports: the closed loop's update (observation, `act`, plan), its median

@@ -12,7 +12,7 @@ from judo.core.rollouts.workers import DaemonThreadPool
 from judo.loop.closed_loop import ControlClock
 from judo.loop.system import SystemState
 from judo.runtime.app_state import AppState, PendingConfigs, Stopping
-from judo.runtime.cycles import PlanningCycle, cycle_seconds, cycle_size
+from judo.runtime.cycles import PlanningCycle, cycle_seconds
 from judo.runtime.live_recording import Recordings
 from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer
@@ -87,11 +87,7 @@ class PlannerRunner:
         controller, reports, state = session.controller, self._reports, self._state
         with state.lock:
             configs = state.configs  # what the cycle will take up (the planner is their only writer)
-            size = (
-                None
-                if configs.optimizer is None
-                else cycle_size(session.controller.task, configs.controller, configs.optimizer)
-            )
+            size = session.controller.cycle_size(configs.as_dict())  # None: a policy rolls nothing out
             estimate = math.nan if size is None else cycle_seconds(state.step_cost, size, configs.controller)
             cycle = PlanningCycle(state.stop, size, estimate)
         state.start_cycle(cycle)
