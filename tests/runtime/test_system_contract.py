@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 import judo
+from judo.core.errors import JudoError
 from judo.core.reading import SystemState
 from judo.loop.system import MujocoSystem, System, SystemCalls, SystemReadingError
 from judo.runtime.app import App
@@ -68,3 +69,19 @@ def test_a_system_without_halt_is_warned_about_at_start_up_and_one_with_halt_is_
         App("cartpole", "ps", system=HaltingDriver(), gui=False)
         App("cartpole", "ps", gui=False)  # judo's own simulator needs none
     assert [record for record in caplog.records if "halt()" in record.getMessage()] == []
+
+
+def test_a_goal_moves_through_the_system_and_one_without_move_goal_refuses_it():
+    with judo.make_controller("car", "ps", seed=0) as controller:
+        plant = MujocoSystem.from_task(controller.task, seed=0)
+    plant.move_goal(0, np.array([1.0, 2.0, 0.0]), np.array([2.0, 0.0, 0.0, 0.0]))
+    metadata = plant.read_state().metadata  # the reading carries the goal back
+    assert metadata["mocap_pos"][0].tolist() == [1.0, 2.0, 0.0] and metadata["mocap_quat"][0].tolist() == [1, 0, 0, 0]
+    with pytest.raises(JudoError, match="Driver cannot move goals: it does not implement System.move_goal"):
+        Driver().move_goal(0, np.zeros(3))
+    app = App("cartpole", "ps", gui=False, system=Driver(), seed=0, num_workers=1)
+    try:
+        with pytest.raises(JudoError, match="your Driver has no System.move_goal"):
+            app.commands.move_goal(0, np.zeros(3))
+    finally:
+        app.session.close()

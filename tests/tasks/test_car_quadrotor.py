@@ -71,8 +71,8 @@ def test_the_quadrotor_reaches_a_goal_pose():
 
 
 def test_the_car_drives_to_a_goal_moved_on_the_plant():
-    """What the GUI's drag does (App.move_goal writes the plant's mocap goal): the planner sees the goal in the
-    plant's published metadata and the car drives there."""
+    """What the GUI's drag does (app.commands.move_goal, through the plant's System.move_goal): the planner sees
+    the goal in the plant's published metadata and the car drives there."""
     controller = judo.make_controller("car", "mppi", seed=1)
     controller.task.config.new_goal_on_reach = False
     plant = MujocoSystem.from_task(controller.task, seed=1)

@@ -18,7 +18,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.errors import JudoError
+from judo.core.errors import ConfigError, JudoError
 from judo.core.reading import SystemState
 from judo.core.task import Task, new_task
 from judo.loop.mujoco_warnings import count_mujoco_warnings
@@ -66,6 +66,12 @@ class System(ABC):
         pause, a stop and a watchdog trip, possibly from another thread than `step`. Return True if done;
         the default returns False, and the app then applies the task's `safe_action` instead."""
         return False
+
+    def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
+        """Move the task's goal `index` (mocap body `index`) to `position` (3,), turned to the unit `quat` (4,) wxyz
+        if given, before the next step; the next reading's metadata carries it back ("mocap_pos", "mocap_quat").
+        The default refuses: a System that can move its goals (a simulator, a bridge with a goal topic) says how."""
+        raise JudoError(f"{type(self).__name__} cannot move goals: it does not implement System.move_goal")
 
     def recorder(self) -> Recorder | None:
         """The System's own recorder of the closed loop's plans and steps (the ROS 2 bridge's MCAP log of each
@@ -132,6 +138,11 @@ class MujocoSystem(System):
         self.task.reset()
         if self.low_level is not None:
             self.low_level.reset()
+
+    def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
+        self.task.data.mocap_pos[index] = position
+        if quat is not None:
+            self.task.data.mocap_quat[index] = quat / np.linalg.norm(quat)
 
     def read_state(self) -> SystemState:
         data = self.task.data
@@ -209,6 +220,8 @@ class DynamicsSystem(MujocoSystem):
     """
 
     def __init__(self, task: Task, process_noise: float | np.ndarray | None = None) -> None:
+        if task.simulator != "dynamics":
+            raise ConfigError(f"{type(self).__name__} needs a task that is a DynamicsTask, got {type(task).__name__}")
         super().__init__(task)
         self.dynamics_task: Any = task  # a DynamicsTask: its nx, state, step_checked, trace_points, process_noise
         noise = task.process_noise if process_noise is None else process_noise

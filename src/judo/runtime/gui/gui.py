@@ -1,10 +1,9 @@
 """The browser GUI of an App: a viser server whose panel and scene follow the app's session.
 
-`update()` is called by the app's GUI loop about 30 times a second, on the event-loop thread. The
-widgets' callbacks run on viser's threads. The GUI knows the app only through the command port
-(`judo.runtime.commands.AppPort`): it reads status from it, calls its commands and subscribes to its news. The
-subscriptions (readings, plans, config edits, resets, switches) run on the app's threads and only keep the newest
-of each (`judo.runtime.gui.news.Latest`); `update()` draws what came since the last frame.
+`update()` is called by the app's GUI loop about 30 times a second, on the event-loop thread; the widgets' callbacks
+run on viser's threads. The GUI knows the app only through the command port (`judo.runtime.commands.AppPort`): it
+reads status, calls commands and subscribes to news (readings, plans, config edits, resets, switches), whose
+callbacks run on the app's threads and keep the newest of each (`gui.news.Latest`) for `update()` to draw.
 """
 
 import collections
@@ -16,9 +15,11 @@ import viser
 
 from judo.core.configuration.config import Config
 from judo.core.configuration.fields import SliderRange
+from judo.core.configuration.registry import ConfigKind
 from judo.core.errors import JudoError
+from judo.core.reading import SystemState
 from judo.core.rollouts.dynamics import drawn_model, drawn_qpos
-from judo.runtime.commands import AppPort, ConfigKind, PlanSnapshot, Snapshot, SystemSnapshot, SystemState
+from judo.runtime.commands import AppPort
 from judo.runtime.gui.camera import Follower, distance_to_see, focus_body_id
 from judo.runtime.gui.config_panel import ConfigPanel, hidden_fields
 from judo.runtime.gui.controls import Controls
@@ -29,6 +30,7 @@ from judo.runtime.gui.safety_panel import SafetyPanel
 from judo.runtime.gui.scene import SceneView
 from judo.runtime.gui.server import gui_url, start_server
 from judo.runtime.gui.viser_internals import purge_removed
+from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
 
 SENT_POSES_KEPT = 400
 """Camera poses sent to the pages that a late camera report is matched against (a few seconds' worth)."""

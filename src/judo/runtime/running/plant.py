@@ -7,8 +7,6 @@ import threading
 import time
 from collections.abc import Callable
 
-import numpy as np
-
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.plant_clock import PlantClock
 from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedError, SystemState
@@ -177,12 +175,15 @@ class PlantRunner:
                 self._state.note_plant_reset()
                 if requests.reset_from_user:
                     self._reports.report(f"{session.task_name} reset to its start state; the plan starts afresh")
-        plant = session.simulated
-        if moves and plant is not None:
-            for index, (position, quat) in moves.items():
-                plant.task.data.mocap_pos[index] = position
-                if quat is not None:
-                    plant.task.data.mocap_quat[index] = quat / np.linalg.norm(quat)
+        plant = session.system if session.simulated is None else session.simulated  # where the goals are
+        if moves:
+            try:
+                for index, (position, quat) in moves.items():
+                    plant.move_goal(index, position, quat)
+            except SystemClosedError:
+                raise
+            except Exception as err:
+                self._reports.report(f"goal not moved: {type(err).__name__}: {err}", "warning")
             self._read_and_publish(session)
         return reset
 
