@@ -1,6 +1,6 @@
 """The figures of the house: how a checkout of judo is laid out, measured from its source.
 
-    PYTHONPATH=src python benchmarks/house_figures.py [--root PATH] [--compare ROOT] [--skip-run]
+    PYTHONPATH=src python benchmarks/house_figures.py [--root PATH] [--compare ROOT] [--skip-run] [--show]
 
 Each figure is one line, `name: value`, counted the same way on any checkout (old ones too):
 
@@ -19,7 +19,8 @@ Each figure is one line, `name: value`, counted the same way on any checkout (ol
   and how many names;
 - modules named cli.py, and assignments to TIME_TOLERANCE at the start of a line.
 
-With `--compare ROOT`, ROOT is "before" and `--root` "after", side by side.
+With `--compare ROOT`, ROOT is "before" and `--root` "after", side by side; `--show` lists the lines that the
+branch and counter figures count (of `--root`).
 """
 
 import argparse
@@ -102,14 +103,27 @@ def policy_names(texts: dict[str, str]) -> list[str]:
     return ['"policy"', *sorted(constants)]
 
 
-def policy_comparisons(texts: dict[str, str]) -> int:
-    """Lines that compare a name with "policy" (or its constant) by ==, != or in."""
+def policy_comparison(texts: dict[str, str]) -> re.Pattern:
+    """What compares a name with "policy" (or its constant) by ==, != or in."""
     names = "|".join(re.escape(name) for name in policy_names(texts))
-    either = re.compile(
+    return re.compile(
         rf"(?:==|!=)\s*(?:{names})\b|(?:{names})\s*(?:==|!=|\bnot in\b|\bin\b)"
         rf"|\bin\s*[(\[{{][^)\]}}]*(?:{names})"
     )
-    return sum(1 for text in texts.values() for line in text.splitlines() if either.search(line.split("#")[0]))
+
+
+def matching(
+    src: Path, files: dict[str, Path], texts: dict[str, str], pattern: re.Pattern, under: str = ""
+) -> list[str]:
+    """ "path:line: text" of each line (its code, before a comment) that `pattern` finds, in files under `under`."""
+    found = []
+    for module, path in files.items():
+        where = path.relative_to(src).as_posix()
+        if where.startswith(under):
+            for number, line in enumerate(texts[module].splitlines(), 1):
+                if pattern.search(line.split("  #")[0]):
+                    found.append(f"{where}:{number}: {line.strip()}")
+    return found
 
 
 def reexports(files: dict[str, Path]) -> tuple[int, int]:
@@ -145,8 +159,8 @@ def files_crossed(root: Path) -> str:
     return match.group(1) if match else lines[-1]
 
 
-def figures(root: Path, run: bool = True) -> dict[str, str]:
-    """Each figure's name -> its value on the checkout at `root`."""
+def figures(root: Path, run: bool = True) -> tuple[dict[str, str], list[str]]:
+    """Each figure's name -> its value on the checkout at `root`, and the lines the branch and counter figures count."""
     files = sources(root)
     texts = {module: path.read_text() for module, path in files.items()}
     lines = [line for text in texts.values() for line in text.splitlines()]
@@ -164,15 +178,13 @@ def figures(root: Path, run: bool = True) -> dict[str, str]:
     sizes = {path: len(texts[module].splitlines()) for module, path in files.items()}
     longest = max(sizes, key=lambda path: (sizes[path], str(path)))
     out["largest file (lines)"] = f"{sizes[longest]} ({longest.relative_to(src / PACKAGE).as_posix()})"
-    counts = {
-        name: sum(1 for text in texts.values() for line in text.splitlines() if pattern.search(line))
-        for name, pattern in KIND_PATTERNS.items()
-    }
-    counts['"policy"'] = policy_comparisons(texts)
-    detail = ", ".join(f"{name} {count}" for name, count in counts.items())
-    out["branches on planner or task kind"] = f"{sum(counts.values())} ({detail})"
-    gui = [p for p in files.values() if p.parent.as_posix().endswith("runtime/gui")]
-    out["GUI polled change counters"] = str(sum(len(POLLED.findall(p.read_text())) for p in gui))
+    patterns = {**KIND_PATTERNS, '"policy"': policy_comparison(texts)}
+    branches = {name: matching(src, files, texts, pattern) for name, pattern in patterns.items()}
+    detail = ", ".join(f"{name} {len(found)}" for name, found in branches.items())
+    out["branches on planner or task kind"] = f"{sum(len(found) for found in branches.values())} ({detail})"
+    polled = matching(src, files, texts, POLLED, "judo/runtime/gui/")
+    out["GUI polled change counters"] = str(len(polled))
+    shown = [line for found in branches.values() for line in found] + polled
     out["type: ignore"] = str(sum(line.count("type: ignore") for line in lines))
     long = sum(1 for line in lines if len(line) > 100)
     out["lines over 100 characters"] = f"{long} of {len(lines)} ({100 * long / max(len(lines), 1):.1f}%)"
@@ -180,7 +192,7 @@ def figures(root: Path, run: bool = True) -> dict[str, str]:
     out["re-exporting package __init__ files (names)"] = f"{modules} ({names} names)"
     out["modules named cli.py"] = str(sum(1 for p in files.values() if p.name == "cli.py"))
     out["TIME_TOLERANCE definitions"] = str(sum(1 for line in lines if TOLERANCE.match(line)))
-    return out
+    return out, shown
 
 
 def main() -> None:
@@ -188,17 +200,19 @@ def main() -> None:
     parser.add_argument("--root", type=Path, default=HERE, help="a checkout of judo (default: this one)")
     parser.add_argument("--compare", type=Path, metavar="ROOT", help="a checkout to print beside --root, as before")
     parser.add_argument("--skip-run", action="store_true", help="leave out files_crossed.py (the slow figure)")
+    parser.add_argument("--show", action="store_true", help="list the lines the branch and counter figures count")
     args = parser.parse_args()
     for root in [args.root, args.compare]:
         if root is not None and not (root / "src" / PACKAGE).is_dir():
             parser.error(f"{root} has no src/{PACKAGE}")
-    after = figures(args.root.resolve(), run=not args.skip_run)
+    after, shown = figures(args.root.resolve(), run=not args.skip_run)
     if args.compare is None:
         print(f"figures of {args.root}")
         for name, value in after.items():
             print(f"{name}: {value}")
+        print(*(f"  {line}" for line in shown if args.show), sep="\n", end="\n" if args.show and shown else "")
         return
-    before = figures(args.compare.resolve(), run=not args.skip_run)
+    before, _ = figures(args.compare.resolve(), run=not args.skip_run)
     width = max(len(name) for name in after) + 1
     column = max(len(value) for value in before.values())
     print(f"{'':{width}}  {'before (' + str(args.compare) + ')':{column}}  after ({args.root})")

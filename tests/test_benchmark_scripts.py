@@ -342,6 +342,8 @@ def test_house_figures_counts_each_figure_on_a_small_checkout_and_this_one(tmp_p
     assert "lines over 100 characters: 1 of 15 (6.7%)" in out
     assert "re-exporting package __init__ files (names): 1 (1 names)" in out
     assert "modules named cli.py: 1" in out and "TIME_TOLERANCE definitions: 1" in out
+    shown = run_script("house_figures.py", "--skip-run", "--root", str(tmp_path), "--show").stdout
+    assert "  judo/core/unused.py:2: if a.optimizer is None" in shown and "  judo/runtime/gui/gui.py:1: " in shown
     both = run_script("house_figures.py", "--skip-run", "--compare", str(tmp_path))
     assert both.returncode == 0, both.stderr
     assert "before (" in both.stdout and "GUI polled change counters:" in both.stdout
