@@ -32,11 +32,11 @@ from judo.core.task import EpisodeLog
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import StepRecord
 from judo.loop.system import MujocoSystem
-from judo.loop.system_choice import Ros2Options
 from judo.optimizers.mppi import MPPIConfig
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.bridge import Ros2System
+from judo.ros2.options import Ros2Options
 from judo.tasks.cartpole import Cartpole
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -23,8 +23,8 @@ import numpy as np
 import tyro
 
 from judo.core.configuration.registry import make_task
-from judo.loop.system_choice import UnitreeOptions
 from judo.ros2 import link as ros2_link
+from judo.ros2.options import UnitreeOptions
 from judo.unitree import crc
 from judo.unitree import motors as mt
 from judo.unitree.bridge import UnitreeSystem

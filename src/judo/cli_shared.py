@@ -1,17 +1,28 @@
 """What the commands' command lines share (benchmark, evaluate, tune, collect, replay, distill, gait-search):
 parsing with tyro, the `--optimizer-config.FIELD` and `--task-config.FIELD` groups, the --config file, name checks and
-listings, the latency flags, consoles, and failing cleanly.
+listings, the latency flags, the repeated sensing flags (`merge_repeated`), consoles, failing cleanly, and the
+plant a command line names (`--system`: `SystemOptions`, `build_system`):
 
-It sits below the command packages (evaluation, collection, tuning, learning) and above the runtime, whose
-`sensing_flags.py` holds the sensing flags that the app's command line shares with them.
+    python -m judo --task cartpole --system ros2 --headless          # the ROS 2 bridge (judo.ros2.bridge)
+    python -m judo --task cartpole --system my_robot:MyRobot         # a user's System subclass
+    python -m judo --task cartpole --system sim                      # judo's simulator (the default)
+
+A class is found by its "module:Class" path, loaded by name, and built with `Class.from_options(task, options)`
+where it has that classmethod (the bridge does), else `Class(task)`: the task instance is the System's own. An
+abstract class, or one whose constructor cannot take the task, is refused in one line before it is built.
+
+It sits below the command packages (evaluation, collection, sysid, tuning, learning) and the runtime.
 """
 
 import dataclasses
+import importlib
+import inspect
 import sys
 import threading
 import typing
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated, Any, Literal, NoReturn, TypeVar
+from typing import Annotated, Any, Literal, NoReturn, TypeVar, cast
 
 import numpy as np
 import tyro
@@ -26,10 +37,13 @@ from judo.core.configuration.registry import (
     lookup_optimizer,
     lookup_task,
 )
-from judo.core.errors import JudoError
+from judo.core.errors import ConfigError, JudoError
 from judo.core.optimizer import OptimizerConfig
-from judo.loop.closed_loop import Latency
-from judo.loop.sensing import merge_repeated
+from judo.core.task import Task as JudoTask
+from judo.core.task import TaskConfig, new_task
+from judo.loop.latency import Latency
+from judo.loop.system import System
+from judo.ros2.options import Ros2Options, UnitreeOptions
 
 ArgsT = TypeVar("ArgsT")
 
@@ -64,8 +78,6 @@ def parse_args_with_config_fields(args_cls: type[ArgsT], argv: list[str] | None,
     tasks and optimizers count); without them, or with an unknown name, the groups are empty and the
     later name check says what is valid.
     """
-    from judo.core.task import TaskConfig
-
     argv = merge_repeated(list(sys.argv[1:] if argv is None else argv))
     try:
         apply_config_file(None if (path := option_value(argv, "config")) is None else Path(path))
@@ -255,3 +267,128 @@ def seeds_label(first: int, count: int) -> str:
     if first == 0:
         return f"{count} seeds"
     return f"{count} seeds ({first}-{first + count - 1})" if count > 1 else f"1 seed ({first})"
+
+
+PER_TYPE_FLAGS = ("--sensor-noise", "--sensor-delay-ms", "--sensor-rate-hz")
+"""Flags that may be repeated, each value NUMBER or TYPE=NUMBER (e.g. --sensor-rate-hz framepos=30)."""
+
+
+def merge_repeated(argv: list[str], flags: Sequence[str] = PER_TYPE_FLAGS) -> list[str]:
+    """`argv` with every repeat of each of `flags` gathered into its first occurrence:
+    ["--sensor-rate-hz", "100", "--sensor-rate-hz", "framepos=30"] -> ["--sensor-rate-hz", "100", "framepos=30"]."""
+    merged: list[str] = []
+    first: dict[str, int] = {}  # flag -> index in `merged` after its values so far
+    i = 0
+    while i < len(argv):
+        arg = argv[i]
+        flag, eq, inline = arg.partition("=")
+        if flag not in flags:
+            merged.append(arg)
+            i += 1
+            continue
+        values = [inline] if eq else []
+        i += 1
+        while not eq and i < len(argv) and not argv[i].startswith("--"):
+            values.append(argv[i])
+            i += 1
+        if flag in first:
+            at = first[flag]
+            merged[at:at] = values
+            first = {f: (n + len(values) if n >= at and f != flag else n) for f, n in first.items()}
+            first[flag] = at + len(values)
+        else:
+            merged += [flag, *values]
+            first[flag] = len(merged)
+    return merged
+
+
+BUILT_IN_SYSTEMS = {"ros2": "judo.ros2.bridge:Ros2System", "unitree": "judo.unitree.bridge:UnitreeSystem"}
+"""--system names judo knows -> the "module:Class" they load (by name, so the app never imports an extra)."""
+SIM = "sim"
+"""--system's name for judo's own simulator, the default."""
+
+
+@dataclasses.dataclass
+class SystemOptions:
+    """The plant: `system` None is judo's simulator; "ros2" the ROS 2 bridge; "module:Class" a user's System."""
+
+    system: str | None = None
+    """None or sim (judo's simulator), ros2 (the ROS 2 bridge on DDS, needs pip install -e ".[ros2]"), unitree (a
+    Unitree Go2 or G1 over its own DDS messages, pip install -e ".[unitree]"), or module:Class."""
+    record: Path | None = None
+    """With --system ros2: log what the robot sent and what judo commanded to this MCAP file (ROS 2 schemas)."""
+    ros2: Ros2Options = dataclasses.field(default_factory=Ros2Options)
+    unitree: UnitreeOptions = dataclasses.field(default_factory=UnitreeOptions)
+
+
+def system_class(name: str) -> type[System]:
+    """The System class `name` names: "ros2" or "module:Class". Raises JudoError naming what was expected."""
+    path = BUILT_IN_SYSTEMS.get(name, name)
+    module_name, sep, class_name = path.partition(":")
+    if not sep or not module_name or not class_name:
+        valid = ", ".join(sorted([SIM, *BUILT_IN_SYSTEMS]))
+        raise ConfigError(f"--system expects {valid} or module:Class (a System subclass), got {name!r}")
+    try:
+        module = importlib.import_module(module_name)
+    except JudoError:
+        raise
+    except ImportError as err:
+        raise ConfigError(f"--system {name}: cannot import module {module_name!r}: {err}") from err
+    cls = getattr(module, class_name, None)
+    if not (isinstance(cls, type) and issubclass(cls, System)):
+        got = "nothing" if cls is None else type(cls).__name__ if not isinstance(cls, type) else cls.__name__
+        raise ConfigError(f"--system {name}: expected a System subclass {class_name!r} in {module_name}, got {got}")
+    if inspect.isabstract(cls):
+        missing = ", ".join(sorted(cls.__abstractmethods__))
+        raise ConfigError(
+            f"--system {name}: expected a System subclass that writes every method, got {cls.__name__}, which leaves "
+            f"{missing} abstract (judo.loop.system:MujocoSystem is judo's simulator)"
+        )
+    return cls
+
+
+def build_system(options: SystemOptions, task_name: str, task_config: TaskConfig | None = None) -> System | None:
+    """The plant `options` name for `task_name` (a new task instance, with `task_config` when given), or None
+    for judo's own simulator (`system` None or "sim")."""
+    if options.system is None or options.system == SIM:
+        if options.record is not None:
+            raise ConfigError(f"--record {options.record} logs a robot's link: give it with --system ros2")
+        return None
+    cls = system_class(options.system)
+    task: JudoTask = new_task(lookup_task(task_name)[0])
+    if task_config is not None:
+        task.config = task_config
+    from_options = getattr(cls, "from_options", None)
+    if callable(from_options):
+        return cast(System, from_options(task, options))
+    if options.record is not None:
+        raise ConfigError(f"--record logs the ROS 2 bridge's link; {cls.__name__} takes no --record")
+    _check_builds_with(cls, task, options.system)
+    try:
+        return cls(task)  # type: ignore[call-arg]
+    except ConfigError as err:  # the class refused the task (DynamicsSystem a task without its own dynamics)
+        raise ConfigError(f"--system {options.system}: {err}") from None
+
+
+def _check_builds_with(cls: type[System], task: JudoTask, name: str) -> None:
+    """ConfigError unless `cls(task)` can be called: its constructor takes the task as its one required argument,
+    of the type it annotates."""
+    try:
+        signature = inspect.signature(cls)
+        bound = signature.bind(task)
+    except TypeError:
+        raise ConfigError(
+            f"--system {name}: expected a System subclass built with Class(task) or Class.from_options(task, "
+            f"options), got {cls.__name__}{signature}"
+        ) from None
+    except ValueError:  # a constructor without a signature Python can read: tried as it is
+        return
+    try:
+        hints = typing.get_type_hints(cls.__init__)
+    except Exception:  # an annotation that does not resolve: not checked
+        return
+    wanted = hints.get(next(iter(bound.arguments)))
+    if isinstance(wanted, type) and not isinstance(task, wanted):
+        raise ConfigError(
+            f"--system {name}: {cls.__name__} needs a task that is a {wanted.__name__}, got {type(task).__name__}"
+        )

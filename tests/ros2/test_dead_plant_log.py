@@ -17,9 +17,9 @@ from ros2_links import free_domain, poll, start_plant, stop_process
 
 import judo
 from judo.core.configuration.registry import make_config
-from judo.loop.system_choice import Ros2Options
 from judo.optimizers.mppi import MPPIConfig
 from judo.ros2.bridge import Ros2System
+from judo.ros2.options import Ros2Options
 from judo.runtime.app import App
 from judo.tasks.cartpole import Cartpole
 

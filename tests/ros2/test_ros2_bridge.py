@@ -19,11 +19,11 @@ from judo.core.configuration.registry import make_config  # noqa: E402
 from judo.core.errors import JudoError  # noqa: E402
 from judo.loop.closed_loop import ClosedLoop  # noqa: E402
 from judo.loop.system import MujocoSystem  # noqa: E402
-from judo.loop.system_choice import Ros2Options  # noqa: E402
 from judo.optimizers.mppi import MPPIConfig  # noqa: E402
 from judo.ros2 import link  # noqa: E402
 from judo.ros2.bridge import Ros2System  # noqa: E402
 from judo.ros2.mcap_log import McapLog  # noqa: E402
+from judo.ros2.options import Ros2Options  # noqa: E402
 from judo.runtime.app import App  # noqa: E402
 from judo.tasks.cartpole import Cartpole  # noqa: E402
 from judo.tasks.particle import Particle  # noqa: E402

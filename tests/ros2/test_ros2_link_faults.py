@@ -25,10 +25,11 @@ from ros2_links import (
 import judo
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.sensing import Sensing, choose_estimator
-from judo.loop.system_choice import Ros2Options
 from judo.ros2 import clock as clock_module
 from judo.ros2 import link, refusals
 from judo.ros2.bridge import Ros2System
+from judo.ros2.joints import JointLayout
+from judo.ros2.options import Ros2Options
 from judo.tasks.cartpole import Cartpole
 
 
@@ -141,7 +142,7 @@ def test_a_free_base_comes_from_odometry_and_the_imu_rides_along_in_the_metadata
             ("imu", "/imu", msg.Imu),
         )
     }
-    layout = link.JointLayout.of(FreeBase(tmp_path / "free_base.xml").model)
+    layout = JointLayout.of(FreeBase(tmp_path / "free_base.xml").model)
     qpos = np.array([1.0, 2.0, 0.5, np.cos(0.3), 0.0, 0.0, np.sin(0.3), -0.4])  # yawed 0.6 rad
     qvel = np.array([0.5, -0.2, 0.1, 0.01, 0.02, 0.3, 1.5])
     stop = threading.Event()

@@ -14,10 +14,10 @@ pytest.importorskip("cyclonedds")
 from ros2_links import ROOT, env, free_domain, poll, start_plant, start_publisher, stop_process
 
 from judo.core.errors import JudoError
-from judo.loop.system_choice import Ros2Options
 from judo.ros2 import link, refusals
 from judo.ros2.bridge import Ros2System
 from judo.ros2.joints import JointLayout
+from judo.ros2.options import Ros2Options
 from judo.tasks.cartpole import Cartpole
 
 VALID = ([2.3, 50.0], [-399.0, 300.0])  # within the slider's -2..2 with 10% margin, and below the speed bounds

@@ -16,10 +16,10 @@ from ros2_links import free_domain, started, stop_process
 from judo.core.policies.policy_controller import make_policy_controller
 from judo.core.policy import Policy
 from judo.loop.closed_loop import ClosedLoop
-from judo.loop.system_choice import Ros2Options
 from judo.ros2 import messages as msg
 from judo.ros2.bridge import Ros2System
 from judo.ros2.mcap_log import LIMIT_HITS_TOPIC, LimitHitLog, McapLog
+from judo.ros2.options import Ros2Options
 from judo.safety.limits import SafetyConfig
 
 pytestmark = pytest.mark.slow

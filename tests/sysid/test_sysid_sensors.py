@@ -210,6 +210,6 @@ def test_each_measured_value_is_compared_at_the_step_it_was_taken():
 
 
 def test_sim_is_judos_simulator_by_name():
-    from judo.loop.system_choice import SystemOptions, build_system
+    from judo.cli_shared import SystemOptions, build_system
 
     assert build_system(SystemOptions("sim"), "cartpole") is None  # the caller builds judo's own plant

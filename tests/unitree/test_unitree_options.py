@@ -10,10 +10,11 @@ import leg_task
 import mujoco
 from unitree_links import free_domain, leg_state
 
+from judo.cli_shared import system_class
 from judo.core.configuration.config_file import load_config
 from judo.core.errors import ConfigError
-from judo.loop.system_choice import UnitreeOptions, system_class, unitree_options
 from judo.ros2 import plant
+from judo.ros2.options import UnitreeOptions, unitree_options
 from judo.runtime import cli
 from judo.unitree import messages as msg
 from judo.unitree import motors as mt

@@ -29,7 +29,7 @@ def start_robot(domain: int, *flags: str, task: str = "unitree_leg"):
 
 
 def leg_options(domain: int, **changes):
-    from judo.loop.system_choice import UnitreeOptions
+    from judo.ros2.options import UnitreeOptions
 
     return UnitreeOptions(domain=domain, **{"soft_start_s": 0.3, "silence_s": 0.5, **changes})
 

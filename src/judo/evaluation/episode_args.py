@@ -12,13 +12,19 @@ from typing import Annotated, Any, Literal
 
 import tyro
 
-from judo.cli_shared import SensingFlags, episode_latency
+from judo.cli_shared import episode_latency
 from judo.core.configuration.config import require, require_between
 from judo.core.configuration.registry import lookup_task
 from judo.core.estimator import estimator_in_force
 from judo.core.rollouts.backend import RolloutBackendName
 from judo.evaluation.seeded import EpisodeSpec
-from judo.evaluation.shared_options import ControllerOverrides, check_episode_args, given_fields, latency_label
+from judo.evaluation.shared_options import (
+    ControllerOverrides,
+    SensingFlags,
+    check_episode_args,
+    given_fields,
+    latency_label,
+)
 from judo.loop.latency import Latency
 
 

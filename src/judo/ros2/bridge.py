@@ -34,14 +34,16 @@ from typing import Any
 import numpy as np
 
 from judo.core.errors import ConfigError, JudoError
+from judo.core.reading import SystemState
 from judo.core.task import Task
 from judo.loop.mujoco_warnings import count_mujoco_warnings
-from judo.loop.system import System, SystemState
-from judo.loop.system_choice import Ros2Options, SystemOptions
+from judo.loop.system import System
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
+from judo.ros2.joints import JointLayout, base_from_odometry, implausible_base
 from judo.ros2.mcap_log import LimitHitLog, McapLog, log_metadata
+from judo.ros2.options import Ros2Options
 from judo.ros2.peers import Peers
 from judo.ros2.refusals import Refusals
 from judo.safety.stop import wire_request
@@ -58,7 +60,7 @@ class Ros2System(System):
     Args:
         task: the task the robot runs; its model's joint names are the JointState's (through
             `options.joint_map`), and `halt()` writes its `safe_action`.
-        options: domain, topics, rate and joint map (`judo.loop.system_choice.Ros2Options`).
+        options: domain, topics, rate and joint map (`judo.ros2.options.Ros2Options`).
         record: an MCAP log of every message read and written, and of the commands the robot applied (None: none).
         refuse_other_writer: raise JudoError at start when another writer already commands the robot, or a second
             robot publishes joint states (`judo.ros2.peers`); either is warned of while running.
@@ -87,7 +89,7 @@ class Ros2System(System):
         if not (math.isfinite(options.rate_hz) and options.rate_hz > 0):
             raise ConfigError(f"the bridge's rate must be a positive number of Hz, got {options.rate_hz}")
         self.timestep = 1.0 / options.rate_hz
-        self.layout = link.JointLayout.of(task.model, options.joint_map)
+        self.layout = JointLayout.of(task.model, options.joint_map)
         self.domain = link.domain_id(options.domain_id)
         self.log = record
         self._refusals = Refusals(logger)
@@ -136,8 +138,9 @@ class Ros2System(System):
             raise
 
     @classmethod
-    def from_options(cls, task: Task, options: SystemOptions) -> "Ros2System":
-        """The bridge the app's `--system ros2 [--record FILE.mcap] [--ros2.*]` options describe."""
+    def from_options(cls, task: Task, options: Any) -> "Ros2System":
+        """The bridge the app's `--system ros2 [--record FILE.mcap] [--ros2.*]` options describe (a
+        `judo.cli_shared.SystemOptions`: its `ros2` and `record`)."""
         log = None if options.record is None else McapLog(options.record, log_metadata(task, options.ros2))
         try:
             return cls(task, options.ros2, log)
@@ -192,12 +195,12 @@ class Ros2System(System):
 
     def _note_odometry(self, odom: msg.Odometry) -> None:
         try:
-            qpos, qvel = link.base_from_odometry(odom)
+            qpos, qvel = base_from_odometry(odom)
         except JudoError as err:
             return self._refuse("odometry", str(err))
         if not (np.isfinite(qpos).all() and np.isfinite(qvel).all()):
             return self._refuse("odometry", "an Odometry with a non-finite pose or twist")
-        why = link.implausible_base(self.task.model, qpos, qvel)
+        why = implausible_base(self.task.model, qpos, qvel)
         if why is not None:
             return self._refuse("odometry (out of bounds)", why)
         if self.log is not None:

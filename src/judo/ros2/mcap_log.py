@@ -17,9 +17,9 @@ from typing import Any
 from judo.core.errors import JudoError, import_extra
 from judo.core.task import Task
 from judo.loop.records import PlanRecord, StepRecord
-from judo.loop.system_choice import Ros2Options
 from judo.ros2.link import APPLIED_SUFFIX
 from judo.ros2.messages import MSGDEFS, ROS_NAMES, LimitHit, stamp_of
+from judo.ros2.options import Ros2Options
 
 METADATA = "judo"
 """Name of the log's metadata record of judo's own entries ({"task": ..., "joint_map": ..., topics})."""

@@ -40,7 +40,7 @@ from judo.core.errors import ConfigError, JudoError, import_extra
 from judo.core.task import new_task
 from judo.loop.plant_clock import PlantClock
 from judo.loop.system import MujocoSystem, SimulationDiverged
-from judo.loop.system_choice import Ros2Options, UnitreeOptions
+from judo.ros2.options import Ros2Options, UnitreeOptions
 
 PROG = "python -m judo plant"
 DESCRIPTION = "judo's simulator as a robot process on a ROS 2 graph (DDS, no ROS install), with link faults."
@@ -147,6 +147,7 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
 
     from judo.ros2 import link
     from judo.ros2 import messages as msg
+    from judo.ros2.joints import JointLayout
 
     if options.protocol == "unitree":  # loaded by name: judo.unitree sits above judo.ros2
         return importlib.import_module("judo.unitree.robot").run_robot(options, stop)
@@ -157,7 +158,7 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
         task = override_task_models(task, {}, overrides)
     system = MujocoSystem.from_task(task, options.seed)
     model, data = system.task.sim_model, system.task.data
-    layout = link.JointLayout.of(model, options.ros2.joint_map)
+    layout = JointLayout.of(model, options.ros2.joint_map)
     domain = link.domain_id(options.ros2.domain_id)
     part = link.participant(domain)
     joints_topic = link.topic(part, options.ros2.joint_states, msg.JointState)

@@ -28,7 +28,7 @@ import numpy as np
 import tyro
 import tyro.constructors
 
-from judo.cli_shared import SensingFlags, merge_repeated
+from judo.cli_shared import SystemOptions, build_system, merge_repeated
 from judo.core.commandline.boundary import MAX_DURATION
 from judo.core.configuration.config import Config, ConfigT, with_updates
 from judo.core.configuration.config_file import LoadedConfig, load_config
@@ -49,14 +49,8 @@ from judo.core.estimator import EstimatorConfig, estimator_in_force
 from judo.core.optimizer import OptimizerConfig
 from judo.core.rollouts.backend import RolloutBackendName
 from judo.core.task import TaskConfig
-from judo.loop.system_choice import (
-    Ros2Options,
-    SystemOptions,
-    UnitreeOptions,
-    build_system,
-    ros2_options,
-    unitree_options,
-)
+from judo.evaluation.shared_options import SensingFlags
+from judo.ros2.options import Ros2Options, UnitreeOptions, ros2_options, unitree_options
 from judo.runtime.app import App
 from judo.safety.limits import SafetyConfig, set_task_limits
 

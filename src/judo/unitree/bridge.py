@@ -30,17 +30,18 @@ import logging
 import math
 import threading
 import time
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from judo.core.errors import ConfigError, JudoError
+from judo.core.reading import SystemState
 from judo.core.task import Task
 from judo.loop.mujoco_warnings import count_mujoco_warnings
-from judo.loop.system import System, SystemState
-from judo.loop.system_choice import SystemOptions, UnitreeOptions
+from judo.loop.system import System
 from judo.ros2 import link as ros2_link
 from judo.ros2.clock import RobotClock
+from judo.ros2.options import UnitreeOptions
 from judo.ros2.refusals import Refusals
 from judo.safety.stop import wire_request
 from judo.unitree import crc
@@ -65,7 +66,7 @@ class UnitreeSystem(System):
     Args:
         task: the task the robot runs; its model's actuators are the robot's motors (`judo.unitree.motors.Motors`)
             and its `measured_sensors` what a reading holds.
-        options: robot, domain, interface, rate, soft start (`judo.loop.system_choice.UnitreeOptions`).
+        options: robot, domain, interface, rate, soft start (`judo.ros2.options.UnitreeOptions`).
         refuse_other_writer: raise JudoError at start when another process already writes rt/lowcmd.
 
     Waits up to `options.wait_s` for the robot's first valid LowState_ (JudoError if none came).
@@ -130,8 +131,9 @@ class UnitreeSystem(System):
             raise
 
     @classmethod
-    def from_options(cls, task: Task, options: SystemOptions) -> "UnitreeSystem":
-        """The bridge the app's `--system unitree [--unitree.*]` options describe."""
+    def from_options(cls, task: Task, options: Any) -> "UnitreeSystem":
+        """The bridge the app's `--system unitree [--unitree.*]` options describe (a `judo.cli_shared.SystemOptions`:
+        its `unitree` and `record`)."""
         if options.record is not None:
             raise ConfigError(f"--record {options.record} logs the ROS 2 bridge's link; --system unitree has none")
         return cls(task, options.unitree)
