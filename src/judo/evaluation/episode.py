@@ -17,26 +17,18 @@ from typing import Generic, TypeVar
 import numpy as np
 
 from judo.core.configuration.config import require
-from judo.core.controller import Controller
 from judo.core.estimator import Estimator
 from judo.core.planner import Planner
 from judo.core.task import EpisodeLog, Task
-from judo.loop.closed_loop import ClosedLoop, Latency, check_latency
+from judo.loop.closed_loop import ClosedLoop
+from judo.loop.latency import Latency, check_latency
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
 from judo.safety.feasibility import RolloutScreen
 from judo.safety.limits import SafetyConfig
 
-__all__ = [
-    "EpisodeLogRecorder",
-    "EpisodeOutcome",
-    "EpisodeResult",
-    "Latency",
-    "episode_failure",
-    "run_episode",
-    "step_reward",
-]
+__all__ = ["EpisodeLogRecorder", "EpisodeOutcome", "EpisodeResult", "episode_failure", "run_episode", "step_reward"]
 
 T = TypeVar("T")
 
@@ -155,7 +147,7 @@ def run_episode(
     hits = {} if loop.guard is None else dict(loop.guard.counts)
     if loop.guard is not None:
         metrics["limit_hits"] = float(sum(hits.values()))
-    screen = controller.limits if isinstance(controller, Controller) else None
+    screen = None if loop.guard is None else loop.guard.screen  # what `guard` set as the planner's `limits`
     no_feasible = screen.no_feasible if isinstance(screen, RolloutScreen) else 0
     return EpisodeResult(
         seed=seed,

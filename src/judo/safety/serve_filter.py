@@ -20,18 +20,24 @@ import collections
 import logging
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol, runtime_checkable
 
 import mujoco
 import numpy as np
 
-from judo.core.controller import Controller
 from judo.core.planner import Planner
 from judo.core.task import Task
 from judo.safety.feasibility import TOLERANCE, RolloutScreen
 from judo.safety.limits import Limits, SafetyConfig, resolve
 
 LOG = logging.getLogger("judo.safety")
+
+
+@runtime_checkable
+class ScreensRollouts(Protocol):
+    """A planner that screens its rollouts before ranking them (a Controller's `limits`); a policy rolls nothing out."""
+
+    limits: Any
 MAX_KEPT = 10_000
 """Latest hits kept in `ServeFilter.hits` (a loop that runs for days counts every hit in `counts`)."""
 
@@ -276,6 +282,6 @@ def guard(planner: Planner, config: SafetyConfig | None) -> ServeFilter | None:
     task = planner.task
     limits = resolve(task, config)
     last_line = ServeFilter(task, limits)
-    if isinstance(planner, Controller):
+    if isinstance(planner, ScreensRollouts):  # the planner says whether it rolls out
         planner.limits = last_line.screen = RolloutScreen(limits, task.dt, task.model.nq)
     return last_line
