@@ -113,6 +113,18 @@ def test_config_edit_reaches_the_controller_at_the_next_cycle(wait_until):
         app.stop()
 
 
+def test_a_task_config_edit_reaches_the_plant_from_the_planners_task(wait_until):
+    app = small_app()
+    app.start()
+    try:
+        app.commands.update_config("task", {"w_vertical": 7.0})
+        # one Task instance owns the config (the planner's); the simulated plant's task reads it on its own thread
+        wait_until(lambda: app.controller.task.config.w_vertical == 7.0, what="the edit at the planner")
+        wait_until(lambda: app.session.simulated.task.config is app.controller.task.config, what="the plant")
+    finally:
+        app.stop()
+
+
 @pytest.mark.parametrize(
     ("kind", "updates", "message"),
     [

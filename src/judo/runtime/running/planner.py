@@ -144,10 +144,8 @@ class PlannerRunner:
         if pending.optimizer is not None:
             assert controller.optimizer is not None, "a session where a policy plans takes no optimizer edits"
             controller.optimizer.config = pending.optimizer
-        if pending.task is not None:
+        if pending.task is not None:  # the planner's task owns the task config; the plant reads it from there
             controller.task.config = pending.task
-            if session.simulated is not None:
-                session.simulated.task.config = pending.task
         if requests.forget_plans:
             session.closed_loop.forget_plans()
 

@@ -160,7 +160,10 @@ class PlantRunner:
         return True
 
     def _carry_out_plant_requests(self, session: Session) -> bool:
-        """A reset or goal moves queued for the plant; True if the plant was reset."""
+        """Take up the task config in force, then a reset or goal moves queued for the plant; True if the plant was
+        reset. The planner's task owns the task config: the simulated plant's task reads it here, on its own thread."""
+        if (simulated := session.simulated) is not None:
+            simulated.task.config = session.controller.task.config
         requests = self._state.take_plant_requests()
         reset, moves = requests.reset, requests.goal_moves
         if reset:
@@ -175,7 +178,7 @@ class PlantRunner:
                 self._state.note_plant_reset()
                 if requests.reset_from_user:
                     self._reports.report(f"{session.task_name} reset to its start state; the plan starts afresh")
-        plant = session.system if session.simulated is None else session.simulated  # where the goals are
+        plant = session.system if simulated is None else simulated  # the System whose goals they are
         if moves:
             try:
                 for index, (position, quat) in moves.items():
