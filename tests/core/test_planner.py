@@ -1,6 +1,7 @@
 """Both planners, the optimizer's Controller and the PolicyController, satisfy the one `Planner` contract the
-closed loop, the app's sessions, collect and the GUI type against; a class missing part of it does not; and
-both refuse a bad reading with the one shared check. Real controllers on the registered cart-pole."""
+closed loop types against, and the `PlannerView` the app reads (they answer their kind, config kinds and cycle
+size instead of being branched on); a class missing part of it does not; and both refuse a bad reading with the
+one shared check. Real controllers on the registered cart-pole."""
 
 import math
 from collections.abc import Iterator
@@ -12,11 +13,12 @@ import judo
 from judo.core.controller import Controller
 from judo.core.errors import ConfigError, JudoError
 from judo.core.planner import Planner, checked_reading
+from judo.core.planner_view import AppPlanner, CycleSize, PlannerKind, PlannerView
 from judo.core.policies.policy_controller import PolicyController, make_policy_controller
 from judo.core.policy import Policy
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
-from judo.optimizers import PredictiveSamplingConfig
+from judo.optimizers.ps import PredictiveSamplingConfig
 
 
 class Push(Policy):
@@ -57,6 +59,47 @@ def test_both_planners_satisfy_the_contract_and_report_what_they_have(
     assert policy_controller.optimizer is None and policy_controller.backend is None
     assert policy_controller.backend_name is None and policy_controller.proposal_policy is None
     assert policy_controller.iterations_run == 0 and controller.iterations_run == 0  # before any update
+
+
+PLANNER_MEMBERS = {"config", "task", "update_action", "action", "warm_start_action", "reset", "close"}
+
+
+def test_the_loop_contract_holds_only_what_the_loop_calls_and_the_view_the_rest():
+    members = {name for name in [*dir(Planner), *Planner.__annotations__] if not name.startswith("_")}
+    assert members == PLANNER_MEMBERS
+    view = {name for name in [*dir(PlannerView), *PlannerView.__annotations__] if not name.startswith("_")}
+    assert not view & PLANNER_MEMBERS and {"kind", "rewards", "traces", "backend", "iterations_run"} <= view
+
+
+def test_both_planners_answer_what_the_app_asks(controller: Controller, policy_controller: PolicyController):
+    planners: list[AppPlanner] = [controller, policy_controller]
+    assert all(isinstance(planner, PlannerView) and isinstance(planner, AppPlanner) for planner in planners)
+    assert (controller.kind, policy_controller.kind) == (PlannerKind.MPC, PlannerKind.POLICY)
+    assert PlannerKind.of_choice("policy") is PlannerKind.POLICY and PlannerKind.of_choice("mppi") is PlannerKind.MPC
+    assert controller.config_kinds == tuple(controller.configs()) == ("controller", "optimizer", "task")
+    assert policy_controller.config_kinds == tuple(policy_controller.configs()) == ("controller", "task")
+    assert controller.cycle_size(controller.configs()) == CycleSize(8, 1, controller.config.iterations_per_cycle, 20)
+    assert policy_controller.cycle_size(policy_controller.configs()) is None  # a policy rolls nothing out
+    assert "policy_samples" not in controller.controller_fields and "horizon" in controller.controller_fields
+    assert "num_randomizations" not in policy_controller.controller_fields
+    with pytest.raises(ConfigError, match="policy_samples is 2 but the controller has no proposal policy"):
+        configs = controller.configs()
+        controller.check_configs({**configs, "controller": judo.ControllerConfig(horizon=0.2, policy_samples=2)})
+
+
+def test_an_update_runs_its_phases_in_order(controller: Controller, monkeypatch):
+    ran: list[str] = []
+    for phase in ("_begin", "_sample", "_clamp", "_roll_out", "_score_rollouts", "_update", "_publish"):
+        inner = getattr(controller, phase)
+
+        def recorded(*args, _inner=inner, _phase=phase):
+            ran.append(_phase)
+            return _inner(*args)
+
+        monkeypatch.setattr(controller, phase, recorded)
+    controller.update_action(np.zeros(4), 0.0)
+    iteration = ["_sample", "_clamp", "_roll_out", "_score_rollouts", "_update"]
+    assert ran == ["_begin", *iteration * controller.iterations_run, "_publish"]
 
 
 def test_a_class_missing_part_of_the_contract_is_not_a_planner(controller):

@@ -1,4 +1,4 @@
-"""The `Planner` contract: what the closed loop, the app's sessions, collect and the GUI use of a controller.
+"""The `Planner` contract: what the closed loop calls of a controller (the app reads more: `PlannerView`).
 
 Two classes satisfy it: `judo.core.controller.Controller` (an optimizer plans on rollouts) and
 `judo.core.policies.policy_controller.PolicyController` (a policy's action or chunk is the plan). Code that drives a plant
