@@ -10,11 +10,7 @@ import mujoco
 import numpy as np
 
 from judo.core.configuration.config import snapshot
-from judo.core.configuration.controller_config import (
-    ControllerConfig,
-    check_configs,
-    rollout_steps,
-)
+from judo.core.configuration.controller_config import ControllerConfig, check_configs, rollout_steps
 from judo.core.errors import ConfigError, JudoError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.feedback import FeedbackGains
 from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_columns
@@ -77,8 +73,7 @@ class Controller:
     ) -> None:
         check_configs(task, controller_config, optimizer.config)
         self.proposal_policy = proposal_policy
-        self._proposer = Proposer(task)
-        self._proposer.check(proposal_policy, controller_config.policy_samples)
+        self._proposer = Proposer(task, proposal_policy, controller_config.policy_samples)  # checks them
         self.config = controller_config
         self.task = task
         self.optimizer = optimizer
@@ -231,7 +226,8 @@ class Controller:
         nominal, task_config, candidates = self._begin(state, time, system_metadata)
         required, iteration_started = self.config.max_opt_iters, 0.0
         served = nominal[0].copy()  # the plan in force now (or the warm start): the rate limits' step before
-        with self.backend.cancelled_by(cancel):  # polled between pieces of a big batch too
+        self.backend.cancel = cancel  # polled between pieces of a big batch too, and None again after the cycle
+        try:
             for iteration in range(self.config.iterations_per_cycle):
                 if cancel is not None and cancel.is_set():
                     raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
@@ -248,6 +244,8 @@ class Controller:
                 nominal = self._update(knots, rewards)
                 if self.optimizer.stop_cond():
                     break
+        finally:
+            self.backend.cancel = None
         return self._publish(time, nominal, rewards, sensors)
 
     def _begin(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None) -> tuple:
@@ -274,9 +272,11 @@ class Controller:
         task_config = snapshot(task.config)
         start = (self._initial_state, self._initial_mocap, self._rollout_weights, task_config, system_metadata)
         opt.set_start(PlanningStart(task, *start))
+        policy, count = self.proposal_policy, self.config.policy_samples
+        if policy is None and not count and self._proposer.last_error is None:  # none to check or make
+            return nominal, task_config, None
         start = (self._initial_state, self._initial_mocap, self._basis, self._num_steps, system_metadata)
-        candidates = self._proposer.candidates(self.proposal_policy, self.config.policy_samples, *start, nominal[0])
-        return nominal, task_config, candidates
+        return nominal, task_config, self._proposer.candidates(policy, count, *start, nominal[0])
 
     def _sample(self, nominal: np.ndarray) -> np.ndarray:
         """The optimizer's (num_rollouts, num_nodes, nu) knots around `nominal`, checked."""
@@ -316,9 +316,9 @@ class Controller:
         """(N,) rewards of the rollouts (NaN, +inf, diverged and over-limit: -inf; R models reduced by the risk
         measure), and the planning model's block of `sensors`; the task's `post_rollout` sees them."""
         opt, task, cfg, num_models = self.optimizer, self.task, self.config, len(self.models)
-        num_rows = num_models * opt.num_rollouts
-        returned = self._score(task.reward, states, sensors, self._batch_controls, task_config, system_metadata)
-        rewards = checked_rewards(returned, type(task).__name__, num_rows, self.backend.diverged)
+        args = (states, sensors, self._batch_controls, task_config, system_metadata)  # one plain call on one thread
+        returned = self._score(task.reward, *args) if self._score.num_threads > 1 else task.reward(*args)
+        rewards = checked_rewards(returned, type(task).__name__, num_models * opt.num_rollouts, self.backend.diverged)
         if self.limits is not None:  # a rollout that crosses a hard limit never wins either
             rewards = self.limits.screen(rewards, states, sensors, self._batch_controls, served, num_models)
         if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block

@@ -105,11 +105,13 @@ class Proposer:
     PolicyError: non-finite actions, another shape) costs that update its proposals, not its plan: the
     optimizer's own N samples run, a RuntimeWarning says why, and `last_error` keeps the message.
 
+    Made with the controller's `policy` and `count` (its policy_samples), which are checked at once (see `check`).
+
     Attributes:
         last_error: why the last update went without proposals, or None when it had them (or asked for none).
     """
 
-    def __init__(self, task: Task) -> None:
+    def __init__(self, task: Task, policy: Policy | None = None, count: int = 0) -> None:
         self.task = task
         model = task.model
         self._data: mujoco.MjData | None = None  # made at the first proposal: most controllers never propose
@@ -120,6 +122,7 @@ class Proposer:
         self._fit = np.zeros((0, 0))
         self._checked: tuple[int, int] | None = None
         self.last_error: str | None = None
+        self.check(policy, count)
 
     def check(self, policy: Policy | None, count: int) -> None:
         """ConfigError (one line) when `count` > 0 proposals are asked for and there is no `policy`; PolicyError

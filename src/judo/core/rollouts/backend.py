@@ -87,16 +87,13 @@ class RolloutBackend(abc.ABC):
         )
 
     cancel: "CancelFlag | None" = None
-    """Set by the Controller for one cycle (`cancelled_by`): a backend that can stop part-way through a batch polls
-    it and raises PlanningCancelled once it is set; the default backend never looks."""
+    """Set by the Controller for one cycle, and None again once the cycle ends: a backend that can stop part-way
+    through a batch polls it and raises PlanningCancelled once it is set; the default backend never looks. A plain
+    attribute (a wrapping backend makes it a property that reaches its inner one), so a cycle runs no code here."""
 
     def set_cancel(self, cancel: "CancelFlag | None") -> None:
-        """Poll `cancel` during the rollouts from now on (None: never)."""
+        """Poll `cancel` during the rollouts from now on (None: never): sets `cancel`."""
         self.cancel = cancel
-
-    def cancelled_by(self, cancel: "CancelFlag | None") -> "CancelScope":
-        """Within the block, poll `cancel` during the rollouts (`set_cancel`); never after it."""
-        return CancelScope(self, cancel)
 
     def close(self) -> None:  # noqa: B027  (no resources by default)
         """Release threads or device memory; the backend cannot be used afterwards."""
@@ -106,22 +103,6 @@ class RolloutBackend(abc.ABC):
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
-
-
-class CancelScope:
-    """`RolloutBackend.cancelled_by`'s block: `backend` polls `cancel` inside it, and nothing once it is left (a
-    plain class, not a generator: it is entered every planning cycle)."""
-
-    __slots__ = ("backend", "cancel")
-
-    def __init__(self, backend: RolloutBackend, cancel: "CancelFlag | None") -> None:
-        self.backend, self.cancel = backend, cancel
-
-    def __enter__(self) -> None:
-        self.backend.set_cancel(self.cancel)
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.backend.set_cancel(None)
 
 
 class CancelFlag(Protocol):

@@ -30,7 +30,7 @@ import numpy as np
 
 from judo.core.errors import JudoError
 from judo.core.policy import Policy, PolicyError
-from judo.core.rollouts.backend import RolloutBackend
+from judo.core.rollouts.backend import CancelFlag, RolloutBackend
 from judo.core.rollouts.rollout import RolloutPool
 from judo.core.rollouts.stepper import PolicyStepper
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
@@ -298,10 +298,14 @@ class LowLevelRollout(RolloutBackend):
             self._sensors[~stepper.finite] = np.nan
         return self._states, self._sensors
 
-    def set_cancel(self, cancel) -> None:
-        """See `RolloutBackend.set_cancel`: the inner pool polls it between its pieces, every tick."""
-        self.cancel = cancel
-        self.inner.set_cancel(cancel)
+    @property
+    def cancel(self) -> CancelFlag | None:
+        """See `RolloutBackend.cancel`: the inner pool's, which it polls between its pieces, every tick."""
+        return self.inner.cancel
+
+    @cancel.setter
+    def cancel(self, cancel: CancelFlag | None) -> None:
+        self.inner.cancel = cancel
 
     def close(self) -> None:
         """Close the inner pool."""
