@@ -5,7 +5,7 @@ Who runs what:
 - **The planner runner** (`PlannerRunner`, planner.py), a coroutine on the app's event loop. At the top of each iteration it
   carries out what the commands queued in the app's state (a switch of task, optimizer or estimator; config
   edits; forgetting the plans after a reset), so it is the only writer of the session's configs and the only
-  builder of sessions after the first. When the control clock (`judo.loop.closed_loop.ControlClock`, the one
+  builder of sessions after the first. When the control clock (`judo.loop.plant_clock.ControlClock`, the one
   `ClosedLoop.step` uses in sim time) says a plan is due, it plans from the closed loop's latest reading on its
   worker thread (`run_in_executor`), so the event loop never blocks on rollouts, and publishes the plan,
   rewards, traces and timing under "plan" in the StateBuffer (the GUI's view).
@@ -17,9 +17,10 @@ Who runs what:
   for a slow planner (`sim_waits`), so on a slow machine the simulation slows down; a user's System (a robot)
   is never held back. Off the event loop, a driver that blocks freezes neither the GUI nor planning. The plant
   is halted on a pause and on the way out of a stop.
-- **The supervisor** (`Supervisor`, supervisor.py), one asyncio event loop that runs the planner runner, watches the plant
-  thread's System calls (it reports a call that blocks and halts the robot where the System can) and draws
-  the frontend's frames (about 30 Hz). viser's own threads serve the browser and run the GUI's callbacks,
+- **The supervisor** (`Supervisor`, supervisor.py), one asyncio event loop that runs the planner runner (and its
+  count of a late cycle's seconds), the plant runner's watch of the plant thread's System calls (`PlantRunner.watch`:
+  it reports a call that blocks and halts the robot where the System can) and draws the frontend's frames (about
+  30 Hz). viser's own threads serve the browser and run the GUI's callbacks,
   which only queue commands.
 
 The stop order, whatever started it (`App.stop()`, Ctrl-C, SIGTERM, the duration reached, a dead plant thread):

@@ -9,10 +9,10 @@ from judo.core.controller import PlanningCancelled
 from judo.core.errors import JudoError
 from judo.core.feedback import FeedbackPlan
 from judo.core.rollouts.workers import DaemonThreadPool
-from judo.loop.closed_loop import ControlClock
+from judo.loop.plant_clock import ControlClock
 from judo.loop.system import SystemState
 from judo.runtime.app_state import AppState, PendingConfigs, Stopping
-from judo.runtime.cycles import PlanningCycle, cycle_seconds
+from judo.runtime.cycles import PlanningCycle, cycle_seconds, seconds_text
 from judo.runtime.live_recording import Recordings
 from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer
@@ -22,6 +22,8 @@ IDLE_POLL = 0.01
 """Seconds the planner sleeps while paused or waiting for its first reading."""
 CONFIG_POLL = 0.25
 """Most seconds the planner waits before looking again (an edit of control_freq takes effect)."""
+LATE_CYCLE_LOOK = 0.05
+"""Seconds between looks at the planning cycle in flight, to show a late one's time."""
 IDLE_THREAD_JOIN = 0.1
 """Seconds a stop waits for the planning thread to end before leaving it to finish on its own."""
 
@@ -74,6 +76,29 @@ class PlannerRunner:
                     self.clock.ticked(now, time.perf_counter() - now, period)
         except Stopping:
             return
+
+    async def show_late_cycles(self) -> None:
+        """Count a late planning cycle's seconds on the status line, once a second (logged once per cycle), until a
+        stop."""
+        shown: tuple[object, int] | None = None  # the late cycle and the whole seconds last shown of it
+        while not self._state.stop.is_set():
+            shown = self._show_late_cycle(shown)
+            await self._state.stop.sleep(LATE_CYCLE_LOOK)
+
+    def _show_late_cycle(self, shown: tuple[object, int] | None) -> tuple[object, int] | None:
+        cycle = self._state.cycle
+        if cycle is None or not cycle.late() or cycle.is_set():
+            return shown
+        seconds = int(cycle.elapsed())
+        if shown is not None and shown == (cycle, seconds):
+            return shown
+        size = "" if cycle.size is None else f" ({cycle.size}, est. {seconds_text(cycle.estimate)})"
+        message = f"planning: {seconds} s so far{size}; Pause, Reset task or a smaller setting cancels it"
+        if shown is None or shown[0] is not cycle:
+            self._reports.report(message, "warning")
+        else:
+            self._reports.progress(message, "warning")
+        return cycle, seconds
 
     def close(self) -> None:
         """End the planning thread: at once when idle; a cycle still in flight (a huge batch, a slow reward) is

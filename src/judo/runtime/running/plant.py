@@ -19,6 +19,8 @@ logger = logging.getLogger("judo.app")
 
 IDLE_POLL = 0.01
 """Seconds the plant loop sleeps while paused."""
+PLANT_WATCH_PERIOD = 0.05
+"""Seconds between the event loop's looks at the plant thread's System call."""
 WAIT_REPORT = 2.0
 """Wall seconds the simulation waits for one planning cycle before the status line says so."""
 
@@ -218,3 +220,39 @@ class PlantRunner:
             self._reports.report(f"system read_state failed: {type(err).__name__}: {err}", "error")
             return
         self._buffer.publish("system", system_snapshot(session, reading))
+
+    async def watch(self, system_call_limit: float) -> None:
+        """On the event loop: report a call into a user's System that has blocked longer than `system_call_limit` s
+        (once per block) and halt the robot where the System offers a halt; report when it returns; stop the app if
+        the plant thread died. Ends on a stop."""
+        state, reports = self._state, self._reports
+        reported: tuple[str, float] | None = None
+        while not state.stop.is_set():
+            session = state.session
+            calls = session.closed_loop.calls
+            # judo's own simulator never hangs in a call: a late step there is this process busy elsewhere (a page
+            # that connects is sent the whole scene), not a driver to halt
+            blocked = None if session.simulated is not None else calls.blocked(system_call_limit)
+            if blocked is not None and reported is None:
+                reported = blocked
+                halting = calls.offers_halt()
+                reports.report(
+                    f"system {blocked[0]}() has not returned for {blocked[1]:.1f} s; "
+                    + ("halting the robot" if halting else "the watchdog serves the safe action once it returns"),
+                    "error",
+                )
+                if halting:  # on a thread of its own: the driver's halt may block too
+                    threading.Thread(target=self._halt_quietly, daemon=True, name="judo-halt").start()
+            elif blocked is None and reported is not None:
+                reported = None
+                reports.report(f"the system responds again: {reports.running()}")
+            if not self.thread.is_alive() and not state.stop.is_set():
+                reports.report("the plant thread ended unexpectedly; stopping", "error")
+                state.stop.set()
+            await state.stop.sleep(PLANT_WATCH_PERIOD)
+
+    def _halt_quietly(self) -> None:
+        try:
+            self._state.session.closed_loop.calls.halt()
+        except Exception as err:
+            self._reports.report(f"system halt failed: {type(err).__name__}: {err}", "error")

@@ -1,5 +1,5 @@
-"""The supervisor: one asyncio event loop that runs the planner runner, watches the plant thread and draws the
-frontend until a stop, then stops every part in order; the frontend's factory and the exit guard (the package's
+"""The supervisor: one asyncio event loop that runs the planner runner, the plant thread's watch and the frontend's
+frames until a stop, then stops every part in order; the frontend's factory and the exit guard (the package's
 docstring tells who runs what)."""
 
 import asyncio
@@ -15,7 +15,6 @@ from typing import Any, Protocol
 from judo.runtime.address import is_loopback
 from judo.runtime.app_state import AppState
 from judo.runtime.commands import AppPort
-from judo.runtime.cycles import seconds_text
 from judo.runtime.live_recording import Recordings
 from judo.runtime.running.planner import PlannerRunner
 from judo.runtime.running.plant import PlantRunner
@@ -91,8 +90,6 @@ logger = logging.getLogger("judo.app")
 
 GUI_PERIOD = 1.0 / 30.0
 """Seconds between GUI frames."""
-PLANT_WATCH_PERIOD = 0.05
-"""Seconds between the monitor's looks at the plant thread's System call."""
 PLANT_THREAD_JOIN = 1.0
 """Seconds a stop waits for the plant thread to halt the plant and end; a driver blocked longer is left."""
 
@@ -147,7 +144,11 @@ class Supervisor:
             if self._make_frontend is not None:
                 self.frontend = self._make_frontend()
             self._plant.start()
-            coroutines: list[Coroutine[Any, Any, None]] = [self._planner.run(), self._watch_plant()]
+            coroutines: list[Coroutine[Any, Any, None]] = [
+                self._planner.run(),
+                self._planner.show_late_cycles(),
+                self._plant.watch(self._system_call_limit),
+            ]
             if self.frontend is not None:
                 coroutines.append(self._draw_frontend(self.frontend))
             self._reports.report(self._reports.running())
@@ -187,60 +188,6 @@ class Supervisor:
         state.session.close()
         if self._stop_latch is not None:
             self._stop_latch.close()
-
-    async def _watch_plant(self) -> None:
-        """Report a call into a user's System that has blocked longer than `system_call_limit` (once per block) and
-        halt the robot where the System offers a halt; report when it returns. Show a late planning cycle's time.
-        Ends on a stop."""
-        state, reports = self._state, self._reports
-        reported: tuple[str, float] | None = None
-        late: tuple[object, int] | None = None  # the late cycle and the whole seconds last shown of it
-        while not state.stop.is_set():
-            late = self._show_late_cycle(late)
-            session = state.session
-            calls = session.closed_loop.calls
-            # judo's own simulator never hangs in a call: a late step there is this process busy elsewhere (a page
-            # that connects is sent the whole scene), not a driver to halt
-            blocked = None if session.simulated is not None else calls.blocked(self._system_call_limit)
-            if blocked is not None and reported is None:
-                reported = blocked
-                halting = calls.offers_halt()
-                reports.report(
-                    f"system {blocked[0]}() has not returned for {blocked[1]:.1f} s; "
-                    + ("halting the robot" if halting else "the watchdog serves the safe action once it returns"),
-                    "error",
-                )
-                if halting:  # on a thread of its own: the driver's halt may block too
-                    threading.Thread(target=self._halt_quietly, daemon=True, name="judo-halt").start()
-            elif blocked is None and reported is not None:
-                reported = None
-                reports.report(f"the system responds again: {reports.running()}")
-            if not self._plant.thread.is_alive() and not state.stop.is_set():
-                reports.report("the plant thread ended unexpectedly; stopping", "error")
-                state.stop.set()
-            await state.stop.sleep(PLANT_WATCH_PERIOD)
-
-    def _show_late_cycle(self, shown: tuple[object, int] | None) -> tuple[object, int] | None:
-        """Count a late planning cycle's seconds on the status line, once a second (logged once per cycle)."""
-        cycle = self._state.cycle
-        if cycle is None or not cycle.late() or cycle.is_set():
-            return shown
-        seconds = int(cycle.elapsed())
-        if shown is not None and shown == (cycle, seconds):
-            return shown
-        size = "" if cycle.size is None else f" ({cycle.size}, est. {seconds_text(cycle.estimate)})"
-        message = f"planning: {seconds} s so far{size}; Pause, Reset task or a smaller setting cancels it"
-        if shown is None or shown[0] is not cycle:
-            self._reports.report(message, "warning")
-        else:
-            self._reports.progress(message, "warning")
-        return cycle, seconds
-
-    def _halt_quietly(self) -> None:
-        try:
-            self._state.session.closed_loop.calls.halt()
-        except Exception as err:
-            self._reports.report(f"system halt failed: {type(err).__name__}: {err}", "error")
 
     async def _draw_frontend(self, frontend: Frontend) -> None:
         loop = asyncio.get_running_loop()
