@@ -345,3 +345,13 @@ def test_house_figures_counts_each_figure_on_a_small_checkout_and_this_one(tmp_p
     both = run_script("house_figures.py", "--skip-run", "--compare", str(tmp_path))
     assert both.returncode == 0, both.stderr
     assert "before (" in both.stdout and "GUI polled change counters:" in both.stdout
+
+
+@pytest.mark.slow  # about 6 s: the app warms up for 4 s before it records
+def test_files_crossed_lists_each_file_with_its_callers_and_counts_them():
+    result = run_script("files_crossed.py", "--seconds", "0.3", "--callers")
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[-1].endswith("files run code during steady-state updates")
+    assert any(line.strip().endswith("core/controller.py") for line in lines)
+    assert any("update_action <- loop/closed_loop.py:plan" in line for line in lines)
