@@ -24,7 +24,6 @@ MAX_LINES = 400
 """Most lines in any file in src/judo, but those below."""
 
 LONGER_FILES = {
-    "loop/closed_loop.py": 500,  # the loop with its control clock and watchdog: one room a robot integrator reads
 }
 """Files allowed more lines, and why: one control update crosses fewer files when these stay whole."""
 
@@ -63,7 +62,48 @@ def imported_modules(path: Path, module: str, modules: set[str]) -> set[str]:
         else:
             continue
         found.update(target for name in targets if (target := longest_known(name)))
-    return found
+    return found | named_modules(path, module, modules)
+
+
+PLUGIN_PATH = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)+(:[A-Za-z_]\w*(\.[A-Za-z_]\w*)*)?")
+"""A dotted name, optionally followed by ":attr": how a plugin table or an importlib call names a module."""
+
+
+def calls_import_module(tree: ast.AST) -> bool:
+    """Whether the code calls `importlib.import_module` (or an `import_module` imported from importlib)."""
+    return any(
+        isinstance(node, ast.Call)
+        and (getattr(node.func, "attr", None) == "import_module" or getattr(node.func, "id", None) == "import_module")
+        for node in ast.walk(tree)
+    )
+
+
+def named_modules(path: Path, module: str, modules: set[str]) -> set[str]:
+    """The modules among `modules` that string constants in the file at `path` (module `module`) name for importlib.
+
+    "pkg.mod:attr" counts wherever it stands (a plugin table such as __main__'s commands or system_choice's systems,
+    handed to a loader elsewhere); in a file that calls importlib.import_module, so do "pkg.mod" and "pkg.mod.attr"
+    (core/rollouts' backend table names "judo.core.rollouts.rollout.RolloutPool"). The root package, the module
+    itself, docstrings and other strings (a logger's "judo.app", an f-string's pieces) name no module."""
+    tree = ast.parse(path.read_text(), str(path))
+    docstrings = {id(node.value) for node in ast.walk(tree) if isinstance(node, ast.Expr)}
+    loads = calls_import_module(tree)
+    found: set[str] = set()
+    for node in ast.walk(tree):
+        if not (isinstance(node, ast.Constant) and isinstance(node.value, str)) or id(node) in docstrings:
+            continue
+        if not PLUGIN_PATH.fullmatch(node.value):
+            continue
+        dotted, colon, _ = node.value.partition(":")
+        if colon:
+            target = dotted
+        elif loads:
+            target = dotted if dotted in modules else dotted.rpartition(".")[0]
+        else:
+            continue
+        if target in modules and "." in target:
+            found.add(target)
+    return found - {module}
 
 
 def import_graph(root: Path = SRC, package: str = PACKAGE) -> dict[str, set[str]]:

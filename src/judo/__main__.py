@@ -9,7 +9,7 @@ python -m judo collect ...                          # judo.collection.collect (n
 python -m judo replay FILE.h5                       # judo.runtime.gui.replay: a collect file in the GUI
 python -m judo distill DATA.h5 --out POLICY.onnx    # judo.learning.distill: a policy from collect's files
 python -m judo gait-search --out POLICY.onnx        # judo.learning.gait_search: the quadruped's locomotion policy
-python -m judo plant --task cartpole                # judo.ros2.plant: the simulator as a ROS 2 robot process
+python -m judo plant --task cartpole                # judo.ros2.plant (judo.unitree.robot too): the simulator as a robot
 python -m judo sysid LOG.h5 --task T --params ... --out FITTED.toml   # judo.sysid.sysid: fit the model
 python -m judo excite --task T --out LOG.h5         # judo.sysid.excite: a log worth fitting
 
@@ -35,7 +35,7 @@ COMMANDS = {
     "replay": "judo.runtime.gui.replay:main",
     "distill": "judo.learning.distill:main",
     "gait-search": "judo.learning.gait_search:main",
-    "plant": "judo.ros2.plant:main",
+    "plant": "judo.unitree.robot:main",
     "sysid": "judo.sysid.sysid:main",
     "excite": "judo.sysid.excite:main",
 }

@@ -15,7 +15,7 @@ import pytest
 import judo
 import judo.loop
 import judo.runtime
-from judo.loop.closed_loop import ControlClock
+from judo.loop.plant_clock import ControlClock
 from judo.loop.sensing import Sensing
 from judo.runtime.app import App
 from judo.runtime.app_state import AppState, PendingConfigs

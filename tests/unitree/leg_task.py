@@ -46,6 +46,6 @@ class UnitreeLeg(Task[TaskConfig]):
 register_task("unitree_leg", UnitreeLeg, TaskConfig)
 
 if __name__ == "__main__":  # python leg_task.py plant ARGS: the plant command with this task registered
-    from judo.ros2.plant import main
+    from judo.unitree.robot import main
 
     sys.exit(main(sys.argv[2:]))

@@ -13,12 +13,12 @@ from unitree_links import free_domain, leg_state
 from judo.cli_shared import system_class
 from judo.core.configuration.config_file import load_config
 from judo.core.errors import ConfigError
-from judo.ros2 import plant
 from judo.ros2.options import UnitreeOptions, unitree_options
 from judo.runtime import cli
 from judo.unitree import messages as msg
 from judo.unitree import motors as mt
 from judo.unitree.bridge import UnitreeSystem, reading_of
+from judo.unitree.robot import main as plant_main
 
 
 def test_unitree_options_from_toml_and_the_command_line(tmp_path):
@@ -40,11 +40,11 @@ def test_unitree_options_from_toml_and_the_command_line(tmp_path):
 
 
 def test_plant_protocol_and_a_bad_unitree_option_are_one_line(capsys):
-    assert plant.main(["--task", "go2_stand", "--protocol", "unitree", "--unitree.rate-hz", "0"]) == 2
+    assert plant_main(["--task", "go2_stand", "--protocol", "unitree", "--unitree.rate-hz", "0"]) == 2
     err = capsys.readouterr().err.strip()
     assert err == "python -m judo plant: --unitree.rate-hz must be a positive number, got 0.0"
     with pytest.raises(SystemExit):
-        plant.main(["--task", "go2_stand", "--protocol", "dds"])
+        plant_main(["--task", "go2_stand", "--protocol", "dds"])
     assert "unitree" in capsys.readouterr().err
 
 

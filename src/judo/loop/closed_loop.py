@@ -5,7 +5,7 @@ Everything that drives a plant with a controller calls this module, and nothing 
   when the control clock says, in wall time, and the plant runner (`judo.runtime.running.plant`) calls `advance`
   on the System's thread at real-time pace;
 - `evaluate`'s episodes (`judo.evaluation.episode.run_episode`), and through them `tune`'s trials, call
-  `step`, which plans when the control clock (`ControlClock`, below) says, in sim time, then advances;
+  `step`, which plans when the control clock (`ControlClock`) says, in sim time, then advances;
 - the benchmark's timing (`judo.evaluation.timing`) calls `plan` for each timed update.
 
     reading = system.read_state()  --[estimator]-->  plan(reading)  --latency-->  serve(t)  --[watchdog]-->
@@ -14,32 +14,18 @@ Everything that drives a plant with a controller calls this module, and nothing 
 Where the features plug in, each once, here:
 - the estimator between the reading and the plan (`judo.core.estimator`): `read` fuses the System's raw
   reading (sensors, the time they were taken) into the state planned from, as of the plant's now;
-- the watchdog on the served action (`Watchdog`, below): `serve` gives the plant the task's
-  `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one control period;
+- the watchdog on the served action (`judo.loop.watchdog.Watchdog`): `serve` gives the plant the task's
+  `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one control period
+  (`on_watchdog` is told why);
 - recorders of every step and plan: the `recorders` given to the loop (`judo.loop.records.Recorder`).
 - the latched stop (`judo.safety.stop.StopLatch`, the loop's `stop`): while engaged, `serve` gives the safe action
   and `advance` holds the plant by the System's halt where it offers one, until the stop is cleared.
 
-The latency model: a plan computed from the reading at time t is served from plant time t + delay, where the
-delay is a fixed number of seconds of sim time or "measured" (the update's wall time). Until then the plant
-keeps the plan in force before it (or the task's warm start before the first plan). The app uses delay 0: a
-plan is served from the first step after it is done, which in real time is its real latency. The
-controller's `latency_compensation` (and `feedback`) plans from the reading predicted to the first plant step
-at or after then (`judo.loop.latency`), and such a plan takes effect no earlier than that step, where its
-rollouts start.
-
-The app's own simulator: no clock (plans age in plant time), and it waits for a slow planner (`PlantRunner`).
-
-**The control clock** (`ControlClock`): when the next control update is due, ticked in sim time by
-`ClosedLoop.step` (evaluate, tune, collect) and in wall time by the app's planner runner. It ticks every
-1 / control_freq s, read when asked (an edit takes effect at once); an update whose plan takes effect after the
-next tick moves that tick to then, since a controller cannot start a plan before the current one is done.
-
-**The watchdog** (`judo.loop.watchdog.Watchdog`): how fresh the readings and the plan in force are, on the loop's
-clock (plant time in evaluate and tune, the wall clock in the app). Once the plan in force is older than
-`max_plan_age` beyond one control period, the plant is served the task's `safe_action` until a fresh plan is
-served; `on_watchdog` is told why (the readings stopped, or planning stalled or failed), again every few seconds
-while it lasts, and when it ends.
+The latency model (`judo.loop.latency`): a plan computed from the reading at time t is served from plant time
+t + delay (seconds of sim time, or "measured": the update's wall time); until then the plant keeps the plan in
+force before it (or the task's warm start). The app uses delay 0: in real time a plan's latency is its own.
+The control clock (`judo.loop.plant_clock.ControlClock`) says when `step` plans. The app's own simulator has no
+clock (plans age in plant time), and it waits for a slow planner (`PlantRunner`).
 """
 
 import collections
@@ -57,46 +43,13 @@ from judo.core.planner import Planner
 from judo.core.reading import SystemState
 from judo.core.spline import Spline
 from judo.loop.latency import RECENT_CYCLES, Latency, LatencyPredictor, check_latency, prediction_delay
+from judo.loop.plant_clock import ControlClock
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError
-from judo.loop.watchdog import TIME_TOLERANCE, Watchdog
+from judo.loop.watchdog import TIME_TOLERANCE, Watchdog, safe_action
 from judo.safety.limits import SafetyConfig
 from judo.safety.serve_filter import guard
 from judo.safety.stop import StopLatch
-
-
-class ControlClock:
-    """When the next control update is due.
-
-    `restart(now)` makes an update due at `now`; `ticked(now, delay, period)` records an update made at `now`
-    whose plan takes effect `delay` s later. Before the first restart every time is due.
-    """
-
-    def __init__(self) -> None:
-        self._tick = -math.inf  # the time the latest update came due
-        self._not_before = -math.inf  # when the latest update's plan takes effect
-
-    def restart(self, now: float) -> None:
-        """Make an update due at `now` (after a reset, whose time may start again, or a pause)."""
-        self._tick, self._not_before = -math.inf, now
-
-    def next_time(self, period: float) -> float:
-        """The time the next update is due: one `period` after the latest tick, or when its plan takes effect
-        if later."""
-        return max(self._tick + period, self._not_before)
-
-    def due(self, now: float, period: float) -> bool:
-        """Whether an update is due at `now`."""
-        return now >= self.next_time(period) - TIME_TOLERANCE
-
-    def ticked(self, now: float, delay: float, period: float) -> None:
-        """An update came due and was made at `now`; its plan takes effect at `now + delay`."""
-        self._tick, self._not_before = self.next_time(period), now + delay
-
-    def remaining(self, now: float, period: float) -> float:
-        """Seconds from `now` until the next update is due (0 when it is due)."""
-        return max(0.0, self.next_time(period) - now)
-
 
 __all__ = ["ClosedLoop"]
 
@@ -111,11 +64,9 @@ class ClosedLoop:
         recorders: objects with `on_plan(PlanRecord)` and `on_step(StepRecord)`, called in order.
         clock: the watchdog's clock in seconds; None counts the plant time the loop has stepped (evaluate,
             tune), the app passes the wall clock.
-        on_watchdog: called with the reason when the watchdog starts serving the safe action, again when the
-            readings turn out to have stopped and every REPORT_EVERY s while it serves it (the reason says for how
-            long), and with None when a fresh plan is served again (`watchdog.episode_s` and `resumed_s` then say
-            how long it took); a trouble that starts again soon after one was told is counted instead
-            (`judo.loop.watchdog`).
+        on_watchdog: called with the reason when the watchdog starts serving the safe action, again as it learns
+            more and every REPORT_EVERY s while it lasts, and with None when a fresh plan is served again
+            (`judo.loop.watchdog`: what is told and when).
         estimator: turns each raw reading into the state planned from (None: plan from the reading's state).
             It is fed every served action, and estimates as of the plant's now: the System's `time` where it
             has one (a reading may be late), else the reading's.
@@ -253,9 +204,8 @@ class ClosedLoop:
         (a time.perf_counter() value) ends the optimizer iterations beyond `max_opt_iters` that would end after it.
 
         Returns the new plan, or None when the update failed on non-finite rewards or knots (counted in
-        `failed_updates`; the plan before stays in force). Other errors (a reward that raises, an invalid
-        config, a set `cancel`) propagate, with nothing scheduled.
-        """
+        `failed_updates`; the plan before stays in force). Other errors (a reward that raises, an invalid config, a
+        set `cancel`) propagate, with nothing scheduled."""
         stamp = self.watchdog.fresh_at
         started = time.perf_counter()
         self.cycle_started, self.last_cycle_failed, stepped = self.stepped_time, True, self.stepped_time
@@ -349,15 +299,8 @@ class ClosedLoop:
         return active(now, None if self.reading is None else self.reading.state)  # the state feeds back gains
 
     def safe_action(self) -> np.ndarray:
-        """(nu,) the task's `safe_action` from the latest finite reading (the planning model's start state
-        before any), clamped to the ctrlrange."""
-        task = self.controller.task
-        state = self._safe_state
-        if state is None:
-            model = task.model
-            state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])
-        low, high = task.command_range.T
-        return np.clip(np.asarray(task.safe_action(state), dtype=float), low, high)
+        """(nu,) the task's `safe_action` from the latest finite reading, clamped (`judo.loop.watchdog.safe_action`)."""
+        return safe_action(self.controller.task, self._safe_state)
 
     def halt(self) -> None:
         """Bring the plant to rest: the System's own `halt()` where it offers one, else apply the safe action."""
@@ -375,11 +318,9 @@ class ClosedLoop:
     def advance(self) -> StepRecord:
         """Serve the plan at the plant's time, step the plant once, read it back and record the step.
 
-        apply, step and read_state are each tried on their own, so a failed reading or apply never skips
-        the step (a robot's driver exchanges its data in `step`). A diverged simulation (the plant reset
-        itself) is counted in `divergences` and re-raised after the step is read back and recorded; other
-        failed calls are raised together as a SystemCallError once all three were tried.
-        """
+        apply, step and read_state are each tried on their own, so a failed reading or apply never skips the step
+        (a robot's driver exchanges its data in `step`). A diverged simulation (the plant reset itself) is counted
+        in `divergences` and re-raised after the step is recorded; other failures raise one SystemCallError."""
         reading = self.reading if self.reading is not None else self.read()
         action = self.serve(reading.time)
         if self.guard is not None and not (self.stop is not None and self.stop.latched):  # the owner's limits
@@ -445,13 +386,9 @@ class ClosedLoop:
         return self._stop_halted
 
     def step(self) -> StepRecord | None:
-        """Plan when the control clock is due (in sim time), then advance the plant one step.
-
-        The control clock ticks every 1 / control_freq s of plant time; an update that overran its tick
-        (a delay longer than the period) moves the next one to when its plan takes effect, since the
-        controller cannot start a plan before the current one is done. Returns the step's record, or None
-        when the simulation diverged (counted in `divergences`; the plant reset itself).
-        """
+        """Plan when the control clock is due (in sim time: `ControlClock`), then advance the plant one step.
+        Returns the step's record, or None when the simulation diverged (counted in `divergences`; the plant
+        reset itself)."""
         reading = self.reading if self.reading is not None else self.restart()
         now, period = reading.time, 1.0 / self.controller.config.control_freq
         if self.control_clock.due(now, period):

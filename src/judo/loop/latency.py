@@ -3,8 +3,10 @@
 A plan computed from the reading at time t is served from t + delay (`judo.loop.closed_loop`). Until then
 the plant goes on under the plan in force before it, so a plan whose rollouts start from the reading's state
 plans the first `delay` seconds for a state the plant has already left. With the controller's
-`latency_compensation`, the closed loop first predicts the plant's state at t + delay on the planning model,
-under the controls it will actually be served meanwhile, and plans from there (`predict_reading`).
+`latency_compensation` (and with `feedback` gains), the closed loop first predicts the plant's state at the first
+plant step at or after t + delay on the planning model, under the controls it will actually be served meanwhile,
+and plans from there (`predict_reading`); such a plan takes effect no earlier than that step, where its rollouts
+start.
 """
 
 import dataclasses

@@ -1,6 +1,8 @@
-"""The plant clock: when a System's next `step()` is due in wall time, so that a plant is stepped once per
-`timestep` of wall clock (docs/hardware.md). The app's plant thread and `python -m judo excite` both pace a
-System by it.
+"""The loop's two clocks: the plant clock (`PlantClock`), when a System's next `step()` is due in wall time, and the
+control clock (`ControlClock`), when the next control update is due.
+
+The plant clock steps a plant once per `timestep` of wall clock (docs/hardware.md). The app's plant thread and
+`python -m judo excite` both pace a System by it.
 
 Step k of a stretch is due at wall time origin + k * timestep, the origin being the wall time the stretch
 began (its first step is due at once). `restart` ends the stretch: the next `due` begins a new one (after a
@@ -17,10 +19,18 @@ than bursting to catch up.
             system.step()
         clock.stepped(due)
         time.sleep(clock.wait(time.perf_counter(), system.timestep))
+
+The control clock is ticked in sim time by `ClosedLoop.step` (evaluate, tune, collect) and in wall time by the
+app's planner runner. It ticks every 1 / control_freq s, read when asked (an edit takes effect at once); an update
+whose plan takes effect after the next tick moves that tick to then, since a controller cannot start a plan before
+the current one is done.
 """
 
+import math
 import time
 from collections.abc import Callable
+
+from judo.loop.watchdog import TIME_TOLERANCE
 
 MAX_CATCH_UP = 0.1
 """Most seconds of sim time due at once to catch up; beyond that the plant falls behind."""
@@ -80,3 +90,36 @@ class PlantClock:
                 return True
             time.sleep(min(self.wait(now, timestep), STOP_POLL))
         return False
+
+
+class ControlClock:
+    """When the next control update is due.
+
+    `restart(now)` makes an update due at `now`; `ticked(now, delay, period)` records an update made at `now`
+    whose plan takes effect `delay` s later. Before the first restart every time is due.
+    """
+
+    def __init__(self) -> None:
+        self._tick = -math.inf  # the time the latest update came due
+        self._not_before = -math.inf  # when the latest update's plan takes effect
+
+    def restart(self, now: float) -> None:
+        """Make an update due at `now` (after a reset, whose time may start again, or a pause)."""
+        self._tick, self._not_before = -math.inf, now
+
+    def next_time(self, period: float) -> float:
+        """The time the next update is due: one `period` after the latest tick, or when its plan takes effect
+        if later."""
+        return max(self._tick + period, self._not_before)
+
+    def due(self, now: float, period: float) -> bool:
+        """Whether an update is due at `now`."""
+        return now >= self.next_time(period) - TIME_TOLERANCE
+
+    def ticked(self, now: float, delay: float, period: float) -> None:
+        """An update came due and was made at `now`; its plan takes effect at `now + delay`."""
+        self._tick, self._not_before = self.next_time(period), now + delay
+
+    def remaining(self, now: float, period: float) -> float:
+        """Seconds from `now` until the next update is due (0 when it is due)."""
+        return max(0.0, self.next_time(period) - now)

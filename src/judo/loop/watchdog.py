@@ -22,8 +22,11 @@ instead, and the next line told says how many; its end is told only if its start
 
 import math
 
+import numpy as np
+
 from judo.core.errors import JudoError
 from judo.core.reading import SystemState
+from judo.core.task import Task
 
 TIME_TOLERANCE = 1e-9
 """Seconds within which two times count as the same (an update due at t is due at t, and so are two readings)."""
@@ -153,3 +156,13 @@ class Watchdog:
             self.episode_s = now - self._began
             self.resumed_s = None if self._resumed_at is None else now - self._resumed_at
         self.tripped, self._cause, self._told = None, None, False
+
+
+def safe_action(task: Task, state: np.ndarray | None) -> np.ndarray:
+    """(command_size,) what the watchdog serves: the task's `safe_action` from the (nq + nv,) `state`, the latest
+    finite reading (the planning model's start state when None), clamped to the command range."""
+    if state is None:
+        model = task.model
+        state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])
+    low, high = task.command_range.T
+    return np.clip(np.asarray(task.safe_action(state), dtype=float), low, high)

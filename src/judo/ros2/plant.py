@@ -18,14 +18,13 @@ commands, or another publisher of its joint states (a second plant on the domain
 """
 
 import heapq
-import importlib
 import logging
 import math
 import signal
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Annotated, Any, Literal
 
@@ -138,8 +137,13 @@ def check(options: PlantOptions) -> None:
         raise ConfigError(f"--duration must be in (0, {MAX_DURATION_S:g}] s (a week), got {options.duration}")
 
 
-def run_plant(options: PlantOptions, stop: threading.Event) -> None:
-    """Run the plant until `stop` is set (or `options.duration` wall seconds have passed)."""
+Runner = Callable[[PlantOptions, threading.Event], None]
+"""Runs a robot process of one protocol until the event is set (`run_plant` for ros2)."""
+
+
+def run_plant(options: PlantOptions, stop: threading.Event, protocols: Mapping[str, Runner] | None = None) -> None:
+    """Run the plant until `stop` is set (or `options.duration` wall seconds have passed); a protocol other than
+    ros2 by its runner in `protocols` (judo.unitree.robot.main passes unitree's: judo.unitree sits above judo.ros2)."""
     from cyclonedds.core import InstanceState, Policy, Qos, ReadCondition, SampleState, ViewState, WaitSet
     from cyclonedds.pub import DataWriter
     from cyclonedds.sub import DataReader
@@ -149,8 +153,13 @@ def run_plant(options: PlantOptions, stop: threading.Event) -> None:
     from judo.ros2 import messages as msg
     from judo.ros2.joints import JointLayout
 
-    if options.protocol == "unitree":  # loaded by name: judo.unitree sits above judo.ros2
-        return importlib.import_module("judo.unitree.robot").run_robot(options, stop)
+    if options.protocol != "ros2":
+        runner = (protocols or {}).get(options.protocol)
+        if runner is None:
+            raise ConfigError(
+                f"--protocol {options.protocol} runs from `python -m judo plant` (judo.unitree.robot.main)"
+            )
+        return runner(options, stop)
     check(options)
     task = new_task(lookup_task(options.task)[0])
     if options.plant_overrides:
@@ -257,8 +266,9 @@ def _body_accel(model: mujoco.MjModel, data: mujoco.MjData, layout) -> np.ndarra
     return rot.reshape(3, 3).T @ (data.qacc[d : d + 3] - model.opt.gravity)
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """`python -m judo plant`: parse `argv`, run the plant until stopped, return the exit status."""
+def main(argv: Sequence[str] | None = None, protocols: Mapping[str, Runner] | None = None) -> int:
+    """`python -m judo plant`: parse `argv`, run the plant until stopped, return the exit status. `protocols`: the
+    runners of the protocols beyond ros2 (`run_plant`)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     options = tyro.cli(PlantOptions, args=argv, prog=PROG, description=DESCRIPTION)
     if options.task not in get_registered_tasks():
@@ -272,7 +282,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     saved = {sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         import_extra("cyclonedds", PROG, "ros2")
-        run_plant(options, stop)
+        run_plant(options, stop, protocols)
     except JudoError as err:
         print(f"{PROG}: {err}", file=sys.stderr)
         return 2

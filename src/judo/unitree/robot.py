@@ -22,6 +22,7 @@ import logging
 import math
 import threading
 import time
+from collections.abc import Sequence
 
 import mujoco
 import numpy as np
@@ -34,6 +35,7 @@ from judo.loop.plant_clock import PlantClock
 from judo.loop.system import MujocoSystem, SimulationDiverged
 from judo.ros2 import link as ros2_link
 from judo.ros2.plant import PROG, Outbox, PlantOptions, check
+from judo.ros2.plant import main as ros2_plant_main
 from judo.unitree import crc
 from judo.unitree import motors as mt
 from judo.unitree.link import COMMAND_QOS, STATE_QOS, Link
@@ -184,3 +186,8 @@ def lowstate(motors: mt.Motors, sensors: mt.Sensors | None, data: mujoco.MjData,
             message.foot_force = np.clip(np.round(feet), -32768, 32767).astype(int).tolist()
     message.tick = int(round(data.time * 1000)) & 0xFFFFFFFF
     return message
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """`python -m judo plant`: judo.ros2.plant's command, with this module's robot for `--protocol unitree`."""
+    return ros2_plant_main(argv, {"unitree": run_robot})
