@@ -303,13 +303,13 @@ def test_control_update_prints_the_fixed_cost_of_a_small_update_on_cpu_time():
 
 
 def test_fixed_cost_splits_an_update_without_physics_into_reward_and_the_rest():
-    small = ["--tasks", "cartpole", "--num-rollouts", "8", "--horizon", "0.05", "--updates", "3", "--profile", "5"]
+    small = ["--tasks", "cartpole", "--num-rollouts", "8", "--horizon", "0.05", "--updates", "3", "--profile", "10"]
     result = run_script("fixed_cost.py", *small, "--after-rollout")
     assert result.returncode == 0, result.stderr
     assert "each after a real rollout" in result.stdout
     assert "update without physics" in result.stdout and "│ cartpole │ 8 x 5 │     1 │" in result.stdout
-    assert "--- cartpole: the 5 costliest functions of 3 updates without physics" in result.stdout
-    assert "update_action" in result.stdout  # the profile names the controller's own lines
+    assert "--- cartpole: the 10 costliest functions of 3 updates without physics" in result.stdout
+    assert "core/controller.py" in result.stdout  # the profile names the controller's own lines (its phases)
 
 
 def test_house_figures_counts_each_figure_on_a_small_checkout_and_this_one(tmp_path):
