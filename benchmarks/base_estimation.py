@@ -30,8 +30,8 @@ from judo.core.configuration.registry import lookup_estimator
 from judo.core.estimator import ControlHistory, Estimator
 from judo.evaluation.episode import run_episode
 from judo.evaluation.seeded import EpisodeSpec, configs_in_force, plant_of, spec_controller, with_spec_plant
+from judo.evaluation.sensing import Sensing, choose_estimator, observed_plant
 from judo.loop.records import PlanRecord, StepRecord
-from judo.loop.sensing import Sensing, choose_estimator, observed_plant
 
 ROBOT: dict[str, Any] = {
     "noise": {

@@ -49,12 +49,14 @@ import numpy as np
 import judo
 from judo.core.configuration.registry import make_controller, make_estimator
 from judo.core.estimator import ControlHistory, Estimator
+from judo.core.reading import SystemState
 from judo.estimators.ekf import EKFConfig
 from judo.estimators.ukf import UKFConfig
 from judo.evaluation.episode import run_episode
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
-from judo.loop.sensing import SensedSystem, Sensing
-from judo.loop.system import MujocoSystem, System, SystemState
+from judo.evaluation.sensing import Sensing
+from judo.loop.sensing import SensedSystem
+from judo.loop.system import MujocoSystem, System
 
 ENCODERS = {"noise": 0.005, "rate": 100.0, "delay": 0.01}
 """The encoder setting of docs/estimation.md for cartpole, pendulum, acrobot and double_cartpole."""

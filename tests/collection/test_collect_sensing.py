@@ -6,13 +6,13 @@ import json
 import numpy as np
 import pytest
 
-from judo.collection.dataset import DatasetFile
-from judo.collection.recorder import EpisodeRecorder
 from judo.core.configuration.registry import make_controller, make_estimator
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import PlanRecord
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
+from judo.recording.dataset import DatasetFile
+from judo.recording.recorder import EpisodeRecorder
 from tests.collection.test_collect_dataset import documented_layout
 
 h5py = pytest.importorskip("h5py")
@@ -119,7 +119,7 @@ def test_the_loop_copies_traces_only_for_a_recorder_that_wants_them():
 
 
 def test_traces_of_plans_that_differ_in_shape_are_padded_and_replay_unpads_them():
-    from judo.collection.recorder import padded_stack
+    from judo.recording.recorder import padded_stack
     from judo.runtime.gui.replay import unpadded
 
     rng = np.random.default_rng(0)
@@ -133,7 +133,7 @@ def test_traces_of_plans_that_differ_in_shape_are_padded_and_replay_unpads_them(
 def test_collect_with_observe_sensors_records_what_was_measured_and_estimated():
     from judo.collection.episode import collect_episode
     from judo.evaluation.seeded import EpisodeSpec
-    from judo.loop.sensing import Sensing
+    from judo.evaluation.sensing import Sensing
 
     sensing = Sensing("sensors", noise=0.005, delay=0.01, rate=100.0)  # collect --observe sensors --sensor-* ...
     outcome = collect_episode(EpisodeSpec("cartpole", "ps", 0.3, sensing=sensing), 0)

@@ -13,7 +13,7 @@ from judo.core.reading import SystemState
 from judo.estimators.ekf import EKFConfig
 from judo.estimators.ukf import UnscentedKalmanFilter
 from judo.evaluation.episode_args import EpisodeArgs
-from judo.loop.sensing import Sensing
+from judo.evaluation.sensing import Sensing
 from judo.runtime.launch import _peek
 from judo.runtime.session import build_session
 

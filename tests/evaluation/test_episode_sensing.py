@@ -8,8 +8,8 @@ import numpy as np
 
 from judo.evaluation.evaluate import main as evaluate_main
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
+from judo.evaluation.sensing import Sensing
 from judo.loop.records import PlanRecord, StepRecord
-from judo.loop.sensing import Sensing
 from judo.tuning.trial import TrialSpec, run_seeded_episodes
 
 ENCODERS = Sensing("sensors", noise=0.005, delay=0.01, rate=100.0)

@@ -23,8 +23,8 @@ from ros2_links import (
 )
 
 import judo
+from judo.evaluation.sensing import Sensing, choose_estimator
 from judo.loop.closed_loop import ClosedLoop
-from judo.loop.sensing import Sensing, choose_estimator
 from judo.ros2 import clock as clock_module
 from judo.ros2 import link, refusals
 from judo.ros2.bridge import Ros2System

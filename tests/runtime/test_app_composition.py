@@ -15,8 +15,8 @@ import pytest
 import judo
 import judo.loop
 import judo.runtime
+from judo.evaluation.sensing import Sensing
 from judo.loop.plant_clock import ControlClock
-from judo.loop.sensing import Sensing
 from judo.runtime.app import App
 from judo.runtime.app_state import AppState, PendingConfigs
 from judo.runtime.session import ConfigSet

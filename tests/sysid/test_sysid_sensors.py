@@ -13,12 +13,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
 from judo.core.reading import SystemState
 from judo.evaluation.seeded import EpisodeSpec
-from judo.loop.sensing import Sensing
+from judo.evaluation.sensing import Sensing
 from judo.loop.system import System
+from judo.recording.dataset import DatasetFile
 from judo.sysid.excite import main as excite_main
 from judo.sysid.sysid import main as sysid_main
 from judo.tasks.cartpole import MODEL_PATH

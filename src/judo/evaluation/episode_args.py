@@ -18,9 +18,9 @@ from judo.core.configuration.registry import lookup_task
 from judo.core.estimator import estimator_in_force
 from judo.core.rollouts.backend import RolloutBackendName
 from judo.evaluation.seeded import EpisodeSpec
+from judo.evaluation.sensing import SensingFlags
 from judo.evaluation.shared_options import (
     ControllerOverrides,
-    SensingFlags,
     check_episode_args,
     given_fields,
     latency_label,

@@ -25,16 +25,18 @@ from judo.core.planner import Planner
 from judo.core.policy import Policy
 from judo.core.rollouts.backend import RolloutBackend
 from judo.core.task import Task
-from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, Latency, run_episode
+from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, run_episode
+from judo.evaluation.sensing import Sensing, choose_estimator, observed_plant
+from judo.loop.latency import Latency
 from judo.loop.records import Recorder
-from judo.loop.sensing import SensedSystem, Sensing, choose_estimator, observed_plant
+from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
 from judo.safety.limits import SafetyConfig
 
 T = TypeVar("T")
 
 if TYPE_CHECKING:
-    from judo.core.controller import ControllerConfig
+    from judo.core.configuration.controller_config import ControllerConfig
     from judo.core.policies.policy_controller import PolicyController
     from judo.core.rollouts.problem_batch import ProblemBackend
 
@@ -104,8 +106,8 @@ def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
 
     load_config_once(spec.config_file)
     if spec.optimizer is None:  # a policy alone: no optimizer's config
+        from judo.core.configuration.controller_config import ControllerConfig
         from judo.core.configuration.registry import lookup_task, make_config
-        from judo.core.controller import ControllerConfig
 
         configs: dict[ConfigKind, Config] = {
             "controller": make_config(ControllerConfig, spec.task),
@@ -119,8 +121,8 @@ def policy_config_in_force(spec: EpisodeSpec, policy: "Policy") -> "ControllerCo
     """The policy's ControllerConfig: the task's (and optimizer's) defaults, then the fields the policy's metadata
     sets, then the --controller.* fields given in `spec.values`, which win."""
     from judo.core.configuration.config_values import apply_values
+    from judo.core.configuration.controller_config import ControllerConfig
     from judo.core.configuration.registry import make_config
-    from judo.core.controller import ControllerConfig
     from judo.core.policies.policy_controller import policy_config
 
     base = policy_config(policy, make_config(ControllerConfig, spec.task, spec.optimizer))

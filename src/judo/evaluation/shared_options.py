@@ -1,21 +1,13 @@
 """What `benchmark` and `evaluate` (and through EpisodeArgs, collect) share on the command line beyond
 judo.cli_shared: the `--controller.FIELD` overrides and the configs they make, the episode checks, the
-chosen tasks and optimizers, and JSON output; and `SensingFlags`, how a simulated plant is observed, which the
-app's and tune's command lines share too:
+chosen tasks and optimizers, and JSON output (the sensing flags: `judo.evaluation.sensing.SensingFlags`)."""
 
-    --observe sensors --sensor-noise 0.005 --sensor-rate-hz 100 --sensor-rate-hz framepos=30 \\
-        --sensor-delay-ms framepos=40 --estimator ekf
-
-The per-type flags may be repeated, each value NUMBER (every measured sensor) or TYPE=NUMBER (one sensor type,
-e.g. framepos); `judo.cli_shared.merge_repeated` gathers the repeats before tyro parses them."""
-
-import dataclasses
 import json
 import math
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
-from judo.cli_shared import PER_TYPE_FLAGS, check_names, optional_fields
+from judo.cli_shared import check_names, optional_fields
 from judo.core.configuration.config import Config, require, require_between, with_updates
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import (
@@ -28,8 +20,6 @@ from judo.core.configuration.registry import (
 from judo.core.errors import JudoError
 from judo.core.optimizer import OptimizerConfig
 from judo.core.rollouts.backend import check_rollout_backend
-from judo.core.sensors import DEFAULT_KEY, parse_per_type
-from judo.loop.sensing import PerType, Sensing
 
 
 def all_or(names: tuple[str, ...], registered: dict[str, Any]) -> list[str]:
@@ -121,64 +111,3 @@ def check_episode_args(args: Any) -> None:
     if args.optimizer is not None:
         optimizer_config(args.task, args.optimizer, getattr(args, "optimizer_config", None))
     task_config(args.task, getattr(args, "task_config", None))
-
-
-FLAG_BOUNDS: dict[str, tuple[float, float, str]] = {
-    "--sensor-noise": (0, 100, " (a std in the sensor's unit: m, rad, m/s, rad/s, m/s^2)"),
-    "--sensor-delay-ms": (0, 10_000, " ms"),
-    "--sensor-rate-hz": (0.1, 1_000_000, " Hz"),
-}
-"""flag -> (lowest, highest, unit) of each of its values: a finite std no sensor exceeds (100 m/s^2 is 10 g), a
-delay up to 10 s, a rate of one sample per 10 s up to 1 MHz. Beyond them a value is a typo, not a sensor."""
-
-
-@dataclasses.dataclass(kw_only=True)
-class SensingFlags:
-    """How the simulated plant is observed, and the estimator between its readings and the plan."""
-
-    observe: Literal["state", "sensors"] = "state"
-    """What the planner gets from the simulated plant: its full state, or only the task's measured sensors
-    (noisy, late, at their rates: rehearsed sensing, fused by --estimator)."""
-    sensor_noise: tuple[str, ...] = ()
-    """Std of the measured sensors' noise (their units; rad per axis for a quaternion): STD for all, or
-    TYPE=STD per sensor type (e.g. framepos=0.002); repeatable. With --observe sensors."""
-    sensor_delay_ms: tuple[str, ...] = ()
-    """Milliseconds from taking a sample to delivering it: MS, or TYPE=MS (e.g. framepos=40); repeatable."""
-    sensor_rate_hz: tuple[str, ...] = ()
-    """Samples per second: HZ, or TYPE=HZ (e.g. framepos=30); every plant step when not given; repeatable."""
-    estimator: str | None = None
-    """Registered estimator between the readings and the plan (ekf, ukf, state, ...). By default the task's own
-    with --observe sensors (ukf for walker and leap_cube, else ekf), none (the true state as it is) with
-    --observe state."""
-
-    def sensor_settings(self) -> dict[str, PerType]:
-        """{"noise": std, "delay": seconds, "rate": Hz} from the per-type flags, each None when not given, a
-        float, or {type: value} (ConfigError for a value that is not a number, one outside FLAG_BOUNDS, or a
-        setting without --observe sensors)."""
-        given = [flag for flag, values in zip(PER_TYPE_FLAGS, self.per_type_values(), strict=True) if values]
-        require(
-            not given or self.observe == "sensors",
-            f"{', '.join(given)} set the rehearsed sensors, which run only with --observe sensors",
-        )
-        noise, delay_ms, rate = (
-            parse_per_type(values, flag) if values else None
-            for flag, values in zip(PER_TYPE_FLAGS, self.per_type_values(), strict=True)
-        )
-        for flag, setting in zip(PER_TYPE_FLAGS, (noise, delay_ms, rate), strict=True):
-            low, high, unit = FLAG_BOUNDS[flag]
-            per_type = setting if isinstance(setting, dict) else {DEFAULT_KEY: setting} if setting is not None else {}
-            for key, value in per_type.items():
-                require_between(flag if key == DEFAULT_KEY else f"{flag} {key}", value, low, high, unit)
-        delay = {key: value / 1e3 for key, value in delay_ms.items()} if isinstance(delay_ms, dict) else delay_ms
-        delay = delay / 1e3 if isinstance(delay, float) else delay
-        return {"noise": noise, "delay": delay, "rate": rate}
-
-    def per_type_values(self) -> tuple[tuple[str, ...], tuple[str, ...], tuple[str, ...]]:
-        """The raw values of --sensor-noise, --sensor-delay-ms and --sensor-rate-hz, in that order."""
-        return self.sensor_noise, self.sensor_delay_ms, self.sensor_rate_hz
-
-    def sensing(self) -> Sensing:
-        """The flags as a `Sensing` (checked: ConfigError, or UnknownNameError listing the estimators)."""
-        sensing = Sensing(self.observe, **self.sensor_settings(), estimator=self.estimator)
-        sensing.check()
-        return sensing

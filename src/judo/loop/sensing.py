@@ -6,27 +6,20 @@
 Each setting is one value for every measured sensor or a mapping {sensor type: value} with an optional
 "default" (see `judo.core.sensors.per_sensor`).
 
-Also here, for every command that runs a simulated plant (the app, evaluate, tune and collect): `Sensing`, how
-the plant is observed; `observed_plant`, the plant it builds; and `choose_estimator`, the filter between its
-readings and the plan. Their command-line flags (`SensingFlags`, `merge_repeated`) are in `judo.cli_shared`.
+How a command's simulated plant is observed (`Sensing`, `observed_plant`, `choose_estimator` and their flags) is
+the commands' choice: `judo.evaluation.sensing`.
 """
 
 from collections import deque
 from collections.abc import Mapping
-from dataclasses import dataclass
-from typing import Literal
 
 import mujoco
 import numpy as np
 
 from judo.core.configuration.config import require
-from judo.core.configuration.registry import lookup_estimator, make_estimator
-from judo.core.errors import ConfigError
-from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, default_estimator_name
 from judo.core.reading import SystemState
 from judo.core.sensors import QUATERNION_TYPES, per_sensor
-from judo.core.task import Task
-from judo.loop.system import MujocoSystem, System, check_reading
+from judo.loop.system import MujocoSystem, System
 
 TIME_TOLERANCE = 1e-9
 """Seconds within which a sample counts as due or a reading as arrived."""
@@ -145,97 +138,3 @@ class SensedSystem(System):
             mujoco.mju_quatIntegrate(quat, self.rng.normal(0.0, std, 3), 1.0)
             return quat
         return values + self.rng.normal(0.0, std, values.shape)
-
-
-Observe = Literal["state", "sensors"]
-"""What the simulated plant serves: its full state, or only the task's measured sensors (rehearsed sensing)."""
-OBSERVE_CHOICES = ("state", "sensors")
-SENSING_STREAM = 0x73656E7365
-"""Second entry of the sensor noise's seed sequence ([seed, SENSING_STREAM]): a stream apart from the plant's."""
-
-
-@dataclass(frozen=True)
-class Sensing:
-    """How the app's simulated plant is observed, kept across switches.
-
-    Attributes:
-        observe: "state" (the full state) or "sensors" (the measured sensors through `SensedSystem`).
-        noise, delay, rate: `SensedSystem`'s per-type settings (std, seconds, Hz), for observe="sensors".
-        estimator: registered estimator name; None picks by the first reading (`default_estimator_name`).
-        estimator_config: its config; None takes the registered defaults (with the task's overrides).
-    """
-
-    observe: Observe = "state"
-    noise: PerType = None
-    delay: PerType = None
-    rate: PerType = None
-    estimator: str | None = None
-    estimator_config: EstimatorConfig | None = None
-
-    def check(self) -> None:
-        """Raise ConfigError for an unknown observe or a config of another estimator; UnknownNameError
-        (listing the valid names) for an unregistered estimator."""
-        require(
-            self.observe in OBSERVE_CHOICES, f"observe must be one of {list(OBSERVE_CHOICES)}, got {self.observe!r}"
-        )
-        if self.estimator is not None:
-            _, config_cls = lookup_estimator(self.estimator)
-            if self.estimator_config is not None:
-                require(
-                    isinstance(self.estimator_config, config_cls),
-                    f"estimator_config for {self.estimator!r} must be a {config_cls.__name__}, "
-                    f"got {type(self.estimator_config).__name__}",
-                )
-
-
-def observed_plant(task: Task, seed: int | None, sensing: Sensing) -> MujocoSystem | SensedSystem:
-    """The simulated plant of `task` (`MujocoSystem.from_task(task, seed)`), behind a SensedSystem serving
-    only the measured sensors when `sensing.observe` is "sensors" (its noise drawn from [seed, SENSING_STREAM]).
-    ConfigError for a task that declares no measured sensors."""
-    plant = MujocoSystem.from_task(task, seed)
-    if sensing.observe != "sensors":
-        return plant
-    rng = np.random.default_rng(None if seed is None else [seed, SENSING_STREAM])
-    return SensedSystem(plant, sensing.noise, sensing.delay, sensing.rate, rng)
-
-
-def choose_estimator(
-    task: Task, task_name: str, system: System, sensing: Sensing, reading: SystemState | None = None
-) -> tuple[str | None, Estimator | None]:
-    """(name, estimator) between `system`'s readings and the plan: `sensing.estimator`, else the task's
-    `default_estimator` for a plant whose readings have no full state, else (None, None) (plan from the reading
-    as it is).
-
-    `reading` is the plant's latest reading when another thread drives it; None reads it here. ConfigError
-    when the estimator cannot fuse the plant's readings.
-    """
-    name = sensing.estimator
-    if reading is None and (name is not None or not isinstance(system, MujocoSystem)):
-        reading = check_reading(system, system.read_state())
-    if name is None and not isinstance(system, MujocoSystem):  # the simulator reads its full state
-        assert reading is not None
-        name = default_estimator_name(reading, task)
-        name = None if name == "state" else name
-    if name is None:
-        return None, None
-    assert reading is not None
-    config_cls = lookup_estimator(name)[1]
-    if sensing.estimator is None and not isinstance(sensing.estimator_config, (config_cls, type(None))):
-        raise ConfigError(  # a config given for another filter than the task's default
-            f"estimator_config is a {type(sensing.estimator_config).__name__}, but {task_name}'s default "
-            f"estimator {name!r} takes a {config_cls.__name__}; name the estimator it is for (estimator=...)"
-        )
-    estimator = make_estimator(name, task, sensing.estimator_config, task_name)
-    check_estimator(name, estimator, reading)
-    return name, estimator
-
-
-def check_estimator(name: str, estimator: Estimator, reading: SystemState) -> None:
-    """Raise ConfigError unless `estimator` can fuse the plant's `reading` (a filter of sensors on a full-state
-    reading, or "state" on a sensors-only one, would fail at every step). Resets it."""
-    try:
-        estimator.reset(reading)
-        estimator.update(reading, reading.time, ControlHistory(estimator.task.nu))
-    except ReadingError as err:
-        hint = " (observe='sensors' rehearses a robot's sensors in simulation)" if reading.sensors is None else ""
-        raise ConfigError(f"the {name!r} estimator cannot run on this plant's readings: {err}{hint}") from None

@@ -30,7 +30,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from judo.collection.live import LiveRecorder, RecorderFactory
 from judo.core.configuration.config import Config, check_seed
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import ConfigKind
@@ -42,8 +41,10 @@ from judo.core.planner_view import PlannerKind
 from judo.core.policies.policy_controller import as_policy
 from judo.core.policy import Policy
 from judo.core.task import TaskConfig
-from judo.loop.sensing import Observe, PerType, Sensing
+from judo.evaluation.sensing import Observe, Sensing
+from judo.loop.sensing import PerType
 from judo.loop.system import System, missing_halt
+from judo.recording.live import LiveRecorder, RecorderFactory
 from judo.runtime.address import check_port, check_token
 from judo.runtime.app_state import AppState
 from judo.runtime.commands import Commands
@@ -138,7 +139,7 @@ class App:
             controller config the policy's metadata's rate and chunk layout (where `controller_config` is None).
             `switch_optimizer(name)` hands the plant to MPC, `switch_optimizer("policy")` back; another task: MPC.
         recorder_factory: makes the recorder of `start_recording(path)`; None writes collect's HDF5 layout
-            (`judo.collection.live`, needs the `collect` extra).
+            (`judo.recording.live`, needs the `collect` extra).
         stop_file: the latched stop's state file (`judo.safety.stop`, the app's `stop_latch`); None: the default one.
 
     Raises UnknownNameError or ConfigError at once for bad names or configs.

@@ -34,14 +34,14 @@ from typing import Any
 
 import numpy as np
 
-from judo.collection.live import LiveRecorder
 from judo.core.configuration.config import Config
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import ConfigKind
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.task import TaskConfig
-from judo.loop.sensing import Sensing
+from judo.evaluation.sensing import Sensing
+from judo.recording.live import LiveRecorder
 from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_seconds
 from judo.runtime.session import ConfigSet, Session
 from judo.runtime.snapshots import Subscribers

@@ -25,7 +25,6 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from judo.collection.live import LiveRecorder
 from judo.core.configuration.config import Config, with_updates
 from judo.core.configuration.registry import (
     CONFIG_KINDS,
@@ -35,8 +34,9 @@ from judo.core.configuration.registry import (
 )
 from judo.core.errors import ConfigError, JudoError
 from judo.core.estimator import EstimatorConfig
-from judo.loop.sensing import check_estimator
+from judo.evaluation.sensing import check_estimator
 from judo.loop.system import System
+from judo.recording.live import LiveRecorder
 from judo.runtime.app_state import AppState
 from judo.runtime.cycles import MAX_CYCLE_SECONDS, CycleCost, cycle_seconds
 from judo.runtime.session import ConfigSet, Session, SessionMaker

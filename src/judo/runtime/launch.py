@@ -49,7 +49,7 @@ from judo.core.estimator import EstimatorConfig, estimator_in_force
 from judo.core.optimizer import OptimizerConfig
 from judo.core.rollouts.backend import RolloutBackendName
 from judo.core.task import TaskConfig
-from judo.evaluation.shared_options import SensingFlags
+from judo.evaluation.sensing import SensingFlags
 from judo.ros2.options import Ros2Options, UnitreeOptions, ros2_options, unitree_options
 from judo.runtime.app import App
 from judo.safety.limits import SafetyConfig, set_task_limits

@@ -29,9 +29,10 @@ from judo.core.policies.policy_controller import make_policy_controller, policy_
 from judo.core.policy import Policy
 from judo.core.reading import SystemState
 from judo.core.task import TaskConfig
+from judo.evaluation.sensing import Sensing, choose_estimator, observed_plant
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.estimator_thread import EstimatorThread
-from judo.loop.sensing import SensedSystem, Sensing, choose_estimator, observed_plant
+from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem, System
 from judo.safety.limits import SafetyConfig
 from judo.safety.stop import StopLatch

@@ -37,10 +37,10 @@ from judo.core.errors import ConfigError, JudoError
 if TYPE_CHECKING:
     import mujoco
 
-    from judo.collection.dataset import EpisodeArrays
     from judo.core.reading import SystemState
     from judo.core.task import Task
     from judo.loop.system import System
+    from judo.recording.dataset import EpisodeArrays
 
 DESCRIPTION = (
     "Drive a task's plant open loop with a safe band-limited excitation (a multisine per actuator within its "
@@ -122,7 +122,7 @@ def excitation_episode(
     """An open-loop episode in collect's layout (no plans): `states` (S, nq + nv) after each step, `sensors`
     (S, nsensordata), `controls` (S, nu) served during each step, `mocap_pos` (nmocap * 3,) held throughout, and
     the measured sensors, their ages and the estimate where the plant reported measured sensors."""
-    from judo.collection.dataset import EpisodeArrays
+    from judo.recording.dataset import EpisodeArrays
 
     steps = len(states)
     empty = np.zeros(0)
@@ -160,10 +160,10 @@ def main(argv: list[str] | None = None) -> int:
 def run(args: ExciteArgs) -> int:
     """Excite the plant and write the log; 130 where a stop request (Ctrl-C, SIGTERM) ended it early, else 0."""
     from judo.cli_shared import SIM, SystemOptions, build_system
-    from judo.collection.dataset import DatasetFile
     from judo.core.configuration.model_overrides import parse_override_entries
     from judo.core.configuration.registry import make_task, set_model_overrides
     from judo.loop.system import MujocoSystem
+    from judo.recording.dataset import DatasetFile
 
     own = args.system is not None and args.system != SIM
     if own and args.plant_overrides:
@@ -316,8 +316,8 @@ def drive(
     way; at the end, stopped or not, or on an error, the plant is brought to rest: its `halt()`, else the task's
     `safe_action` from the last state known. `on_step(steps done)` is called after each step (a progress display)."""
     from judo.core.estimator import ControlHistory
+    from judo.evaluation.sensing import Sensing, choose_estimator
     from judo.loop.plant_clock import PlantClock
-    from judo.loop.sensing import Sensing, choose_estimator
     from judo.loop.system import check_reading
 
     model = task.model

@@ -13,9 +13,10 @@ from typing import Any
 
 import numpy as np
 
-from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, Latency, episode_failure
+from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, episode_failure
 from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode
-from judo.loop.sensing import Sensing
+from judo.evaluation.sensing import Sensing
+from judo.loop.latency import Latency
 from judo.tuning.conditions import Aggregate, Condition
 
 

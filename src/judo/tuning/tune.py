@@ -38,9 +38,8 @@ from judo.core.configuration.config_values import apply_values
 from judo.core.configuration.registry import default_configs, make_task
 from judo.core.errors import JudoError
 from judo.evaluation.plot import write_episode_plot
-from judo.evaluation.shared_options import SensingFlags
+from judo.evaluation.sensing import Sensing, SensingFlags
 from judo.loop.latency import Latency
-from judo.loop.sensing import Sensing
 from judo.tuning.best_file import write_best_toml
 from judo.tuning.conditions import (
     Aggregate,
