@@ -28,12 +28,12 @@ from pathlib import Path
 
 import numpy as np
 
-from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
 from judo.core.configuration import registry
 from judo.core.configuration.model_overrides import check_model_overrides, model_value, parse_override_entries
 from judo.core.configuration.registry import make_task, register_task, set_model_overrides
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
+from judo.recording.dataset import DatasetFile
 from judo.sysid.data import read_logs
 from judo.sysid.excite import drive, excitation_episode, multisine
 from judo.sysid.fit import DELAY_PARAMETER, fit, parse_parameters

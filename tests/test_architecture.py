@@ -3,9 +3,10 @@
 An import circle is counted from every `import` and `from ... import` statement in src/judo, at module
 level or inside a function or an `if TYPE_CHECKING:` block: modules are nodes, an import of a judo
 module is an edge to it, and each strongly connected component of more than one module (or a module
-importing itself) is one circle. A module named by a string and loaded with importlib (the rollout
-backend factory's `BACKEND_CLASSES` in core/rollouts/backend.py) is not an import statement and not an edge: the
-factory depends on the backends only when called, by name, as a plugin table does.
+importing itself) is one circle. A module named by a string for importlib is an edge too (`named_modules`):
+"judo.x.y:attr" in a plugin table anywhere (__main__'s commands, a System by name), and "judo.x.y" or
+"judo.x.y.Attr" in a module that calls importlib.import_module (the rollout factory's `BACKEND_CLASSES`), since
+the module that loads it depends on it as surely as an import would.
 
 The same imports, gathered by package (judo.core, judo.runtime, ..., and a module directly in judo such as
 judo.ray_cluster as its own), must form no circle either, and follow PACKAGE_ORDER: a package imports only
@@ -187,6 +188,10 @@ def test_the_rollout_backends_import_only_the_interface_module():
     assert "judo.core.rollouts.warp_rollout" not in graph["judo.core.rollouts.rollout"]
     assert "judo.core.rollouts.rollout" not in graph["judo.core.rollouts.warp_rollout"]
     assert not graph["judo.core.rollouts.backend"] & {"judo.core.rollouts.rollout", "judo.core.rollouts.warp_rollout"}
+    # the factory names both backends by string, counted as imports; neither backend imports the factory
+    factory = "judo.core.rollouts.factory"
+    assert {"judo.core.rollouts.rollout", "judo.core.rollouts.warp_rollout"} <= graph[factory]
+    assert not any(factory in graph[m] for m in ("judo.core.rollouts.rollout", "judo.core.rollouts.warp_rollout"))
     assert not [cycle for cycle in import_cycles() if any(m.startswith("judo.core.") for m in cycle)]
 
 
@@ -242,7 +247,15 @@ def test_the_app_is_a_few_rooms():
     assert 8 <= len(modules) <= APP_MODULES, f"{len(modules)} app modules (at most {APP_MODULES}): {modules}"
 
 
-LIBRARY_LAYERS = ("judo.core", "judo.estimators", "judo.optimizers", "judo.tasks", "judo.safety", "judo.loop")
+LIBRARY_LAYERS = (
+    "judo.core",
+    "judo.estimators",
+    "judo.optimizers",
+    "judo.tasks",
+    "judo.safety",
+    "judo.builtin",
+    "judo.loop",
+)
 """The library a notebook imports: what plans and estimates, and the closed loop that drives a plant with it."""
 APPLICATION_LAYERS = (
     "judo.ray_cluster",
@@ -314,6 +327,7 @@ PACKAGE_ORDER = (
     "judo.optimizers",
     "judo.tasks",
     "judo.safety",
+    "judo.builtin",
     "judo.loop",
     "judo.ray_cluster",
     "judo.ros2",

@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from judo.collection.collect import main as collect_main
-from judo.collection.dataset import DatasetError, DatasetFile
 from judo.collection.episode import collect_episode
 from judo.core.configuration.registry import lookup_optimizer, lookup_task, make_config
 from judo.evaluation.seeded import EpisodeSpec
+from judo.recording.dataset import DatasetError, DatasetFile
 
 h5py = pytest.importorskip("h5py")
 

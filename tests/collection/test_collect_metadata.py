@@ -7,11 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from judo.collection.dataset import DatasetFile
-from judo.collection.recorder import EpisodeRecorder
 from judo.core.errors import JudoError
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.loop.records import StepRecord
+from judo.recording.dataset import DatasetFile
+from judo.recording.recorder import EpisodeRecorder
 from judo.runtime.gui.replay import check_demos, read_demos
 from judo.tasks.pendulum import Pendulum
 from judo.tasks.quadruped_velocity import QuadrupedVelocity

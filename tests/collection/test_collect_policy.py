@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 
 from judo.collection.collect import main as collect_main
-from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
+from judo.recording.dataset import DatasetFile
 
 h5py = pytest.importorskip("h5py")
 pytest.importorskip("onnxruntime")

@@ -7,7 +7,7 @@ import json
 import numpy as np
 import pytest
 
-from judo.collection.dataset import DatasetError, DatasetFile
+from judo.recording.dataset import DatasetError, DatasetFile
 from judo.runtime.gui.replay import Replay, read_demos
 
 h5py = pytest.importorskip("h5py")

@@ -14,9 +14,7 @@ pytest.importorskip("jax")
 pytest.importorskip("optax")
 pytest.importorskip("onnxruntime")
 
-from judo.collection.dataset import DatasetFile  # noqa: E402
 from judo.collection.episode import collect_episode  # noqa: E402
-from judo.collection.model_info import config_dict  # noqa: E402
 from judo.core.configuration.config import shown  # noqa: E402
 from judo.core.policies.onnx_policy import OnnxPolicy  # noqa: E402
 from judo.core.policies.policy_controller import make_policy_controller  # noqa: E402
@@ -27,6 +25,8 @@ from judo.learning.export import policy_metadata, write_policy  # noqa: E402
 from judo.learning.pairs import read_pairs  # noqa: E402
 from judo.learning.settings import TrainSettings  # noqa: E402
 from judo.learning.training import train  # noqa: E402
+from judo.recording.dataset import DatasetFile  # noqa: E402
+from judo.recording.model_info import config_dict  # noqa: E402
 
 SPEC = EpisodeSpec("cartpole", "ps", 1.0, values={"controller.control_freq": 20.0})
 """Short cartpole episodes, 100 steps and 20 plans each."""

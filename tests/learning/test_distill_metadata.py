@@ -4,11 +4,11 @@ command): row for row what the closed loop fed a policy at run time; a file with
 import numpy as np
 import pytest
 
-from judo.collection.dataset import DatasetFile
-from judo.collection.recorder import EpisodeRecorder
 from judo.core.policy import Policy
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.learning.pairs import DistillError, episode_observations, read_pairs
+from judo.recording.dataset import DatasetFile
+from judo.recording.recorder import EpisodeRecorder
 from judo.tasks.quadruped_velocity import QuadrupedVelocity
 
 h5py = pytest.importorskip("h5py")

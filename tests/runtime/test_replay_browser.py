@@ -4,9 +4,9 @@ recorded plans' traces are drawn and follow the scrubber."""
 import numpy as np
 import pytest
 
-from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
 from judo.evaluation.seeded import EpisodeSpec
+from judo.recording.dataset import DatasetFile
 from judo.runtime.gui.replay import Replay
 
 pytest.importorskip("h5py")

@@ -109,8 +109,8 @@ def test_an_episode_reports_its_limit_hits_as_a_metric():
 def test_the_hits_reach_the_dataset(tmp_path):
     import h5py
 
-    from judo.collection.dataset import write_demo
-    from judo.collection.recorder import EpisodeRecorder
+    from judo.recording.dataset import write_demo
+    from judo.recording.recorder import EpisodeRecorder
 
     controller = make_policy_controller("cartpole", BangBang(), seed=6)
     model = controller.task.model

@@ -8,12 +8,12 @@ import sys
 import numpy as np
 import pytest
 
-from judo.collection.dataset import DatasetFile
 from judo.collection.episode import collect_episode
 from judo.core.configuration.config_file import load_config
 from judo.core.configuration.registry import make_controller
 from judo.evaluation.seeded import EpisodeSpec
 from judo.loop.system import MujocoSystem
+from judo.recording.dataset import DatasetFile
 from judo.sysid.sysid import main as sysid_main
 
 h5py = pytest.importorskip("h5py")

@@ -8,9 +8,9 @@ import mujoco
 import numpy as np
 import pytest
 
-from judo.collection.dataset import DatasetFile
 from judo.core.configuration.model_overrides import overridden
 from judo.core.errors import ConfigError
+from judo.recording.dataset import DatasetFile
 from judo.sysid.data import rms
 from judo.sysid.excite import excitation_episode, multisine
 from judo.sysid.fit import FitParameter, parse_parameters

@@ -15,11 +15,11 @@ import mujoco
 import tyro
 
 from judo.cli_shared import fail, name_listing, parse_args_with_config_fields
-from judo.collection.model_info import config_dict, model_sha256
 from judo.core.commandline.boundary import check_seed_range
 from judo.core.configuration.config import Config, require, require_between
 from judo.core.errors import JudoError
 from judo.evaluation.episode_args import EpisodeArgs
+from judo.recording.model_info import config_dict, model_sha256
 from judo.version import __version__
 
 DESCRIPTION = (
@@ -133,10 +133,10 @@ def policy_record(args: CollectArgs) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     """Run `python -m judo collect` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
-    from judo.collection.dataset import import_h5py
     from judo.collection.run import collect
     from judo.core.configuration.config_values import controller_config_of
     from judo.evaluation.seeded import configs_in_force, load_proposal_policy
+    from judo.recording.dataset import import_h5py
 
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args_with_config_fields(

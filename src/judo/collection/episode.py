@@ -4,8 +4,6 @@ The episode is exactly evaluate's seed `seed` (`judo.evaluation.seeded.run_seede
 gets every plan and step from the one closed-loop step (`judo.loop.closed_loop.ClosedLoop`).
 """
 
-from judo.collection.dataset import EpisodeArrays
-from judo.collection.recorder import EpisodeRecorder, PolicyServedRecorder
 from judo.core.planner import Planner
 from judo.core.policies.policy_controller import PolicyController
 from judo.core.rollouts.backend import RolloutBackend
@@ -20,6 +18,8 @@ from judo.evaluation.seeded import (
     run_side_by_side,
 )
 from judo.loop.system import MujocoSystem
+from judo.recording.dataset import EpisodeArrays
+from judo.recording.recorder import EpisodeRecorder, PolicyServedRecorder
 
 
 def collect_group(spec: EpisodeSpec, seeds: list[int], traces: bool = False) -> list[EpisodeOutcome[EpisodeArrays]]:

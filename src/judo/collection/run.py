@@ -1,6 +1,6 @@
 """The collect driver: submit the missing seeds as Ray tasks, write each finished episode, show progress.
 
-Only this driver writes the file, one finished episode at a time (judo.collection.dataset.DatasetFile).
+Only this driver writes the file, one finished episode at a time (judo.recording.dataset.DatasetFile).
 At most --workers episodes are in flight (two per CPU of the Ray without it), so a long run holds little
 in memory and --workers means the same on a local Ray and a cluster.
 """
@@ -9,12 +9,12 @@ import sys
 from typing import Any
 
 from judo.cli_shared import output_console, progress_console, progress_display
-from judo.collection.dataset import DatasetFile, EpisodeArrays
 from judo.collection.episode import collect_group
 from judo.core.errors import JudoError
 from judo.evaluation.episode import EpisodeOutcome
 from judo.evaluation.seeded import EpisodeSpec
 from judo.ray_cluster import EpisodeCounts
+from judo.recording.dataset import DatasetFile, EpisodeArrays
 
 SHOWN_FAILURES = 5
 """Failed seeds listed with their reasons at the end of a run (all of them are in the file)."""

@@ -153,7 +153,7 @@ def read_pairs(paths: list[Path], kind: str) -> TrainingPairs:
     Raises DistillError (one line) for a missing, unreadable, foreign or empty file, files of different tasks
     or plan layouts, and a "chunk" request on files without `plan/knots`.
     """
-    from judo.collection.dataset import import_h5py
+    from judo.recording.dataset import import_h5py
 
     h5py = import_h5py(FEATURE)
     pairs: TrainingPairs | None = None
@@ -188,9 +188,9 @@ def _env_args(path: Path, file: Any) -> dict[str, Any]:
 
 def _read_file(path: Path, file: Any, kind: str, pairs: TrainingPairs | None) -> TrainingPairs:
     """Add the episodes of the open h5py `file` to `pairs` (a new TrainingPairs when None)."""
-    from judo.collection.model_info import config_dict
     from judo.core.configuration.controller_config import ControllerConfig
     from judo.core.configuration.registry import make_config, make_task
+    from judo.recording.model_info import config_dict
 
     env_args = _env_args(path, file)
     task_name = env_args["task"]

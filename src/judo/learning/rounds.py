@@ -216,7 +216,7 @@ def check_teacher(args: DistillArgs, env_args: dict[str, Any]) -> None:
 
 def dataset_env_args(path: Path) -> dict[str, Any]:
     """The env_args of the collect dataset at `path` (read_pairs has checked it is one)."""
-    from judo.collection.dataset import import_h5py
+    from judo.recording.dataset import import_h5py
 
     with import_h5py("python -m judo distill").File(path, "r") as file:
         return json.loads(file["data"].attrs["env_args"])

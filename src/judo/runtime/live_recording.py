@@ -1,15 +1,15 @@
 """Recording a running app: the recorder under way, started and stopped from any thread.
 
-Recording is injected: `start` takes any `LiveRecorder` (`judo.collection.live`), or a path, which the app's
-recorder factory turns into one. The default factory, `judo.collection.live.start_live_recording`, writes an
+Recording is injected: `start` takes any `LiveRecorder` (`judo.recording.live`), or a path, which the app's
+recorder factory turns into one. The default factory, `judo.recording.live.start_live_recording`, writes an
 HDF5 file in collect's layout; it imports h5py only when a recording starts, so an app that never records never
 needs the `collect` extra.
 """
 
 from pathlib import Path
 
-from judo.collection.live import LiveRecorder, RecorderFactory, start_live_recording
 from judo.core.errors import JudoError
+from judo.recording.live import LiveRecorder, RecorderFactory, start_live_recording
 from judo.runtime.app_state import AppState
 from judo.runtime.session import Session
 from judo.runtime.status import Reports

@@ -12,9 +12,9 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.collection.dataset import DatasetError, import_h5py
 from judo.core.errors import ConfigError
 from judo.core.sensors import MeasuredLayout
+from judo.recording.dataset import DatasetError, import_h5py
 
 
 @dataclass

@@ -22,9 +22,9 @@ import numpy as np
 import tyro
 
 from judo.cli_shared import apply_config_file, fail
-from judo.collection.dataset import DatasetError, demo_name, import_h5py
 from judo.core.configuration.config import require_between
 from judo.core.errors import JudoError
+from judo.recording.dataset import DatasetError, demo_name, import_h5py
 
 FRAME_S = 1 / 30
 """Seconds between frames while playing."""

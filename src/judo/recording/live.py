@@ -19,14 +19,14 @@ from typing import Any, Protocol
 import mujoco
 import numpy as np
 
-from judo.collection.dataset import DatasetFile, import_h5py
-from judo.collection.model_info import config_dict, model_sha256
-from judo.collection.recorder import EpisodeRecorder
 from judo.core.configuration.config import Config
 from judo.core.errors import JudoError
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import step_reward
 from judo.loop.records import PlanRecord, Recorder, StepRecord
+from judo.recording.dataset import DatasetFile, import_h5py
+from judo.recording.model_info import config_dict, model_sha256
+from judo.recording.recorder import EpisodeRecorder
 
 
 class LiveRecorder(Recorder, Protocol):

@@ -5,12 +5,12 @@ from typing import Any
 
 import numpy as np
 
-from judo.collection.dataset import EpisodeArrays
 from judo.core.errors import JudoError
 from judo.core.planner import Planner
 from judo.core.policies.policy_controller import PolicyController
 from judo.core.task import Task
 from judo.loop.records import PlanRecord, StepRecord
+from judo.recording.dataset import EpisodeArrays
 
 
 class EpisodeRecorder:
