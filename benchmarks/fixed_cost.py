@@ -24,9 +24,10 @@ from rich.table import Table
 
 from judo import get_registered_tasks
 from judo.core.configuration.config import snapshot
+from judo.core.reading import SystemState
 from judo.evaluation.timing import benchmark_controller, rollout_start
 from judo.loop.closed_loop import ClosedLoop
-from judo.loop.system import MujocoSystem, SystemState
+from judo.loop.system import MujocoSystem
 
 
 @dataclass

@@ -29,7 +29,8 @@ from rich.table import Table
 from judo.cli_shared import check_names
 from judo.core.controller import Controller
 from judo.core.errors import JudoError
-from judo.core.rollouts.rollout import RolloutPool, check_rollout_backend
+from judo.core.rollouts.factory import check_rollout_backend
+from judo.core.rollouts.rollout import RolloutPool
 from judo.evaluation.timing import benchmark_controller, rollout_start
 from judo.loop.system import MujocoSystem
 

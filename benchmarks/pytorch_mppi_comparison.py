@@ -55,7 +55,7 @@ def judo_side(sizes: list[tuple[int, int]], seeds: int, repeats: int) -> dict:
     from dataclasses import dataclass
 
     import judo
-    from judo.optimizers import MPPI, MPPIConfig
+    from judo.optimizers.mppi import MPPI, MPPIConfig
 
     @dataclass
     class Config(judo.TaskConfig):

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 
 import judo
-from judo.loop.system import MujocoSystem
+from judo import MujocoSystem
 
 REACH_XML = """
 <mujoco>

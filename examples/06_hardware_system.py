@@ -25,8 +25,8 @@ import mujoco
 import numpy as np
 
 import judo
+from judo import System, SystemState
 from judo.estimators.ekf import EKFConfig
-from judo.loop.system import System, SystemState
 from judo.tasks.cartpole import MODEL_PATH
 
 

@@ -18,10 +18,9 @@ from pathlib import Path
 import numpy as np
 
 import judo
+from judo import LowLevel, MujocoSystem
 from judo.core.policies.onnx_policy import write_linear_policy
-from judo.core.rollouts.low_level import LowLevel
 from judo.evaluation.episode import run_episode
-from judo.loop.system import MujocoSystem
 from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 from judo.tasks.cartpole import Cartpole
 

@@ -16,8 +16,8 @@ import argparse
 import numpy as np
 
 import judo
+from judo import MujocoSystem
 from judo.evaluation.episode import run_episode
-from judo.loop.system import MujocoSystem
 
 
 def main(duration: float = 10.0, seed: int = 0) -> dict[str, float]:

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import judo
-from judo.optimizers import MPPIConfig
+from judo.optimizers.mppi import MPPIConfig
 
 GOAL = np.array([2.0, 0.0])
 OBSTACLE, RADIUS = np.array([1.0, 0.2]), 0.3

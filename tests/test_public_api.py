@@ -15,20 +15,23 @@ def test_every_public_name_exists_and_is_documented():
     assert all(hasattr(judo, name) for name in judo.__all__)
 
 
-def test_judo_tasks_exports_every_built_in_task_class_and_its_config():
-    import judo.tasks
+def test_import_judo_registers_every_built_in_task_optimizer_and_estimator_from_its_own_module():
+    from judo.builtin import BUILTIN_ESTIMATORS, BUILTIN_OPTIMIZERS, BUILTIN_TASKS
 
-    registered = judo.get_registered_tasks()
-    assert len(registered) >= 12 and set(judo.tasks.BUILTIN_TASKS) <= set(registered)
-    for task_cls, config_cls in judo.tasks.BUILTIN_TASKS.values():
-        assert task_cls.__name__ in judo.tasks.__all__ and config_cls.__name__ in judo.tasks.__all__
-        assert getattr(judo.tasks, task_cls.__name__) is task_cls
-        assert getattr(judo.tasks, config_cls.__name__) is config_cls
+    tables = {
+        "tasks": (BUILTIN_TASKS, judo.get_registered_tasks()),
+        "optimizers": (BUILTIN_OPTIMIZERS, judo.get_registered_optimizers()),
+        "estimators": (BUILTIN_ESTIMATORS, judo.get_registered_estimators()),
+    }
+    for package, (builtin, registered) in tables.items():
+        for name, (cls, config_cls) in builtin.items():
+            assert registered[name] == (cls, config_cls), name
+            # each class and its config are defined in one module of the package, not gathered in its __init__
+            assert cls.__module__.startswith(f"judo.{package}.") and config_cls.__module__.startswith(
+                f"judo.{package}."
+            )
     assert (
-        len(judo.tasks.BUILTIN_TASKS) == 21
+        len(BUILTIN_TASKS) == 21
     )  # the first twelve, cartpole_pd, quadruped, quadruped_velocity, quadruped_navigate, car, quadrotor, g1_stand,
     # go2_stand and go2_walk
-    assert sorted(judo.tasks.__all__) == sorted(
-        {name for task, config in judo.tasks.BUILTIN_TASKS.values() for name in (task.__name__, config.__name__)}
-        | {"register_task"}
-    )  # cartpole_pd shares CartpoleConfig
+    assert len(BUILTIN_OPTIMIZERS) == 11 and set(BUILTIN_ESTIMATORS) == {"state", "ekf", "ukf", "legged"}

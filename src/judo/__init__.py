@@ -9,11 +9,10 @@ loop = judo.ClosedLoop(controller, judo.MujocoSystem.from_task(controller.task, 
 loop.step()                             # plan when due, serve, step the plant once
 """
 
-import judo.estimators  # registers the built-in estimators
-import judo.optimizers  # registers the built-in optimizers
-import judo.tasks  # noqa: F401  (registers the built-in tasks)
+from judo.builtin import register_builtins
 from judo.core.configuration.config import Config
 from judo.core.configuration.config_file import ConfigFileError, LoadedConfig, load_config
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.fields import np_1d_field, slider
 from judo.core.configuration.registry import (
     get_registered_estimators,
@@ -27,7 +26,7 @@ from judo.core.configuration.registry import (
     set_config_overrides,
     set_model_overrides,
 )
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.controller import Controller
 from judo.core.errors import (
     ConfigError,
     JudoError,
@@ -43,6 +42,7 @@ from judo.core.optimizer import Optimizer, OptimizerConfig
 from judo.core.policies.onnx_policy import OnnxPolicy
 from judo.core.policies.policy_controller import PolicyController, make_policy_controller
 from judo.core.policy import Policy, PolicyError
+from judo.core.reading import SystemState
 from judo.core.rollouts.backend import RandomizedRolloutError
 from judo.core.rollouts.dynamics import DynamicsTask
 from judo.core.rollouts.low_level import LowLevel
@@ -51,9 +51,11 @@ from judo.core.spline import Spline, SplineBasis
 from judo.core.task import Task, TaskConfig
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import PlanRecord, Recorder, StepRecord
-from judo.loop.system import DynamicsSystem, MujocoSystem, System, SystemState
+from judo.loop.system import DynamicsSystem, MujocoSystem, System
 from judo.runtime.app import App
 from judo.version import __version__ as __version__
+
+register_builtins()  # every built-in estimator, optimizer and task, selectable by name
 
 __all__ = [
     "App",

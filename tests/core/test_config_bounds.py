@@ -8,10 +8,12 @@ import pytest
 
 import judo
 from judo.core.configuration.config import snapshot, with_updates
+from judo.core.configuration.controller_config import MAX_ROLLOUT_BYTES, check_configs
 from judo.core.configuration.fields import slider_ranges
-from judo.core.controller import MAX_ROLLOUT_BYTES, check_configs
 from judo.core.errors import NonFiniteKnotsError
-from judo.optimizers import CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.cem import CEMConfig
+from judo.optimizers.mppi import MPPIConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 
 def every_config_class() -> list[type[judo.Config]]:
@@ -142,7 +144,7 @@ def test_a_nan_sigma_never_reaches_the_plan_and_reverting_it_plans_again(upright
 
 
 def test_a_cem_whose_search_went_nan_is_restarted(upright_task):
-    from judo.optimizers import CEM
+    from judo.optimizers.cem import CEM
 
     optimizer = CEM(CEMConfig(num_rollouts=8, num_elites=2), upright_task.nu)
     controller = judo.Controller(judo.ControllerConfig(horizon=0.3), upright_task, optimizer, num_workers=1)

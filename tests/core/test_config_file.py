@@ -6,7 +6,7 @@ import pytest
 
 import judo
 from judo.core.configuration.registry import make_config
-from judo.optimizers import MPPIConfig
+from judo.optimizers.mppi import MPPIConfig
 
 USER_MODULE = '''
 from dataclasses import dataclass
@@ -147,7 +147,7 @@ def test_the_all_section_sets_every_optimizers_base_fields_and_a_named_one_wins(
         """,
     )
     judo.load_config(path)
-    from judo.optimizers import CEMConfig
+    from judo.optimizers.cem import CEMConfig
 
     assert make_config(CEMConfig, "all_section_task").num_rollouts == 48
     assert make_config(MPPIConfig, "all_section_task").num_rollouts == 40

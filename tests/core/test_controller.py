@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 import judo
-from judo.optimizers import MPPI, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.mppi import MPPI, MPPIConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 
 def make(task, optimizer_config=None, **controller_fields):

@@ -9,7 +9,7 @@ import judo
 from judo.core.model import STATE_SPEC
 from judo.core.rollouts.rollout import RolloutPool
 from judo.core.spline import SplineBasis
-from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 from tests.core.test_randomized_rollouts import MassyTask
 
 

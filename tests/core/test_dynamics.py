@@ -6,8 +6,9 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import get_registered_optimizers
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.controller import Controller
 from judo.core.errors import ConfigError, ModelLoadError, NonFiniteRewardError
 from judo.core.norms import wrap_angle
 from judo.core.rollouts.dynamics import DivergedDynamicsError, DynamicsError, DynamicsRollout, DynamicsTask
@@ -15,7 +16,9 @@ from judo.core.task import TaskConfig
 from judo.evaluation.episode import run_episode
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import DynamicsSystem, MujocoSystem, SimulationDiverged
-from judo.optimizers import CEM, MPPI, CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.cem import CEM, CEMConfig
+from judo.optimizers.mppi import MPPI, MPPIConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 
 @dataclass

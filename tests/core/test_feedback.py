@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.controller import ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.feedback import FeedbackError, FeedbackGains, FeedbackPlan, tvlqr_gains
 from judo.core.model import STATE_SPEC
 from judo.loop.closed_loop import ClosedLoop

@@ -12,7 +12,7 @@ from judo.core.configuration.config import with_updates
 from judo.core.configuration.controller_config import MAX_OPT_ITERS, ControllerConfig, cycle_iterations
 from judo.core.configuration.registry import make_task
 from judo.core.errors import ConfigError
-from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 
 def test_the_iterations_of_a_cycle_follow_the_rate():

@@ -4,7 +4,7 @@ observation and its size, with sensors, mocap goals and the previous action."""
 import numpy as np
 import pytest
 
-import judo
+from judo.builtin import BUILTIN_TASKS
 from judo.core.configuration.registry import lookup_task
 from tests.conftest import UprightTask
 
@@ -12,7 +12,7 @@ OWN_OBSERVATION = ("acrobot", "cartpole", "cartpole_pd", "particle", "pendulum",
 """Built-in tasks with their own observation (tests/tasks/test_policy_observations.py, test_quadruped.py)."""
 
 
-@pytest.mark.parametrize("name", sorted(set(judo.tasks.BUILTIN_TASKS) - set(OWN_OBSERVATION)))
+@pytest.mark.parametrize("name", sorted(set(BUILTIN_TASKS) - set(OWN_OBSERVATION)))
 def test_the_default_observation_is_the_state_for_the_other_built_in_tasks(name):
     task = lookup_task(name)[0]()
     size = task.model.nq + task.model.nv

@@ -13,7 +13,8 @@ import judo
 from judo.core.configuration.registry import lookup_optimizer
 from judo.core.policies.proposals import chunk_to_knots, fit_matrix, fit_times
 from judo.core.spline import SplineBasis
-from judo.optimizers import CMAES, CMAESConfig, PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.cmaes import CMAES, CMAESConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 from tests.conftest import UprightTask
 
 OPTIMIZERS = ["ps", "cem", "mppi", "dial", "cmaes", "icem"]

@@ -9,8 +9,9 @@ import pytest
 
 import judo
 from judo.core.model import STATE_SPEC
+from judo.core.rollouts.backend import RandomizedRolloutError, RolloutBackend
 from judo.core.rollouts.randomize import InvalidRandomizedModelError, randomized_models
-from judo.core.rollouts.rollout import RandomizedRolloutError, RolloutBackend, RolloutPool
+from judo.core.rollouts.rollout import RolloutPool
 from tests.core.test_rollout import sequential_rollouts
 
 

@@ -7,7 +7,8 @@ import pytest
 
 import judo
 from judo.core.configuration.registry import make_config
-from judo.optimizers import CEMConfig, MPPIConfig
+from judo.optimizers.cem import CEMConfig
+from judo.optimizers.mppi import MPPIConfig
 
 
 def test_builtins_are_registered_by_name():
@@ -80,7 +81,7 @@ def test_invalid_configs_fail_at_construction(upright_task):
         judo.OptimizerConfig(num_rollouts=0)
     with pytest.raises(judo.ConfigError, match="num_elites must be between 1 and num_rollouts"):
         CEMConfig(num_rollouts=4, num_elites=8)
-    from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
+    from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
     optimizer = PredictiveSampling(PredictiveSamplingConfig(num_nodes=3), upright_task.nu)
     with pytest.raises(judo.ConfigError, match=r"horizon \(0.005 s\) is shorter than one timestep \(0.01 s\)"):
@@ -90,7 +91,7 @@ def test_invalid_configs_fail_at_construction(upright_task):
 
 
 def test_an_invalid_live_edit_raises_at_the_next_cycle(upright_task):
-    from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
+    from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
     controller = judo.Controller(
         judo.ControllerConfig(), upright_task, PredictiveSampling(PredictiveSamplingConfig(), 1), num_workers=1

@@ -8,7 +8,8 @@ import pytest
 
 from judo.core.errors import MissingExtraError, UnknownNameError, import_extra
 from judo.core.model import STATE_SPEC
-from judo.core.rollouts.rollout import RolloutPool, make_rollout_backend
+from judo.core.rollouts.factory import make_rollout_backend
+from judo.core.rollouts.rollout import RolloutPool
 
 
 def sequential_rollouts(model, initial_state, controls):

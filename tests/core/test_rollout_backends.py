@@ -11,14 +11,8 @@ import pytest
 
 import judo
 from judo.core.errors import MissingExtraError, UnknownNameError
-from judo.core.rollouts.backend import (
-    BACKEND_CLASSES,
-    ROLLOUT_BACKENDS,
-    RolloutBackend,
-    backend_class,
-    check_rollout_backend,
-    make_rollout_backend,
-)
+from judo.core.rollouts.backend import ROLLOUT_BACKENDS, RolloutBackend
+from judo.core.rollouts.factory import BACKEND_CLASSES, backend_class, check_rollout_backend, make_rollout_backend
 from judo.core.rollouts.rollout import RolloutPool
 from judo.evaluation import benchmark, evaluate
 from judo.runtime import cli

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.optimizers import MPPI, MPPIConfig
+from judo.optimizers.mppi import MPPI, MPPIConfig
 
 PENDULUM_XML = """
 <mujoco>

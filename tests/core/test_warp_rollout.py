@@ -24,11 +24,8 @@ from judo.core.model import STATE_SPEC
 from judo.core.rollouts.backend import RandomizedRolloutError
 from judo.core.rollouts.problem_batch import ProblemBatch, ProblemBatchError
 from judo.core.rollouts.rollout import RolloutPool
-from judo.core.rollouts.warp_rollout import (
-    RolloutOverflowWarning,
-    WarpRollout,
-    WarpUnsupportedModelError,
-)
+from judo.core.rollouts.warp_models import WarpUnsupportedModelError
+from judo.core.rollouts.warp_rollout import RolloutOverflowWarning, WarpRollout
 
 pytestmark = pytest.mark.warp
 

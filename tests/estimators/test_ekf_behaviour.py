@@ -5,11 +5,12 @@ import numpy as np
 import pytest
 
 from judo.core.estimator import ControlHistory
+from judo.core.reading import SystemState
 from judo.core.task import Task
 from judo.estimators.ekf import EKFConfig, ExtendedKalmanFilter
 from judo.estimators.ukf import UKFConfig, UnscentedKalmanFilter
 from judo.loop.sensing import SensedSystem
-from judo.loop.system import MujocoSystem, SystemState
+from judo.loop.system import MujocoSystem
 
 FREE_BODY_XML = """
 <mujoco>

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 from judo.core.estimator import ControlHistory
+from judo.core.reading import SystemState
 from judo.core.task import Task
 from judo.estimators.ekf import RESET_ITERATIONS, EKFConfig, ExtendedKalmanFilter
 from judo.estimators.ukf import UKFConfig, UnscentedKalmanFilter
-from judo.loop.system import SystemState
 
 SLIDER_XML = """
 <mujoco>

@@ -8,8 +8,8 @@ from judo.core.configuration.fields import slider_ranges
 from judo.core.configuration.registry import lookup_estimator
 from judo.core.errors import UnknownNameError
 from judo.core.estimator import ControlHistory, ReadingError, default_estimator_name
+from judo.core.reading import SystemState
 from judo.estimators.ekf import EKFConfig
-from judo.loop.system import SystemState
 
 
 def test_unknown_estimator_names_list_the_valid_ones():

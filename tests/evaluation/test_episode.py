@@ -3,12 +3,13 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.controller import Controller
 from judo.core.errors import ConfigError
 from judo.core.task import Task, TaskConfig
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
-from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 SLIDER_XML = """
 <mujoco>

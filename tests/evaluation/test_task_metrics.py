@@ -2,7 +2,8 @@ import numpy as np
 import pytest
 
 from judo.core.task import EpisodeLog
-from judo.tasks import Cartpole, CylinderPush
+from judo.tasks.cartpole import Cartpole
+from judo.tasks.cylinder_push import CylinderPush
 
 
 def log_of(states: np.ndarray, dt: float) -> EpisodeLog:

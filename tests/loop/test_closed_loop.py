@@ -6,12 +6,13 @@ import pytest
 from slider_task import SLIDER_XML, HoldConfig, hold_base
 
 import judo
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.controller import Controller
 from judo.core.task import Task
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import PlanRecord, StepRecord
 from judo.loop.system import MujocoSystem
-from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 
 @pytest.fixture
@@ -201,7 +202,7 @@ def test_the_watchdog_serves_the_safe_action_once_the_plan_is_too_old_and_resume
 
 
 def test_a_frozen_reading_trips_the_watchdog_and_a_reading_running_backwards_is_refused(hold_task_cls):
-    from judo.loop.closed_loop import ReadingTimeError
+    from judo.loop.watchdog import ReadingTimeError
 
     events = []
     with hold_controller(hold_task_cls) as controller:

@@ -6,8 +6,8 @@ import dataclasses
 import numpy as np
 import pytest
 
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import make_controller
-from judo.core.controller import ControllerConfig
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.latency import LatencyPredictor

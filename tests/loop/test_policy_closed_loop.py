@@ -6,12 +6,13 @@ import numpy as np
 import pytest
 from slider_task import hold_base
 
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.controller import Controller
 from judo.core.policies.policy_controller import PolicyController, make_policy_controller
 from judo.core.policy import Policy, PolicyError
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
-from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 
 @pytest.fixture

@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 from slider_task import hold_base
 
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.controller import Controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.loop.watchdog import REPORT_EVERY, Watchdog
-from judo.optimizers import PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 CONTROL_FREQ, MAX_PLAN_AGE = 20.0, 0.2
 LIMIT = MAX_PLAN_AGE + 1.0 / CONTROL_FREQ

@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from judo.core.optimizer import weighted_knots
-from judo.optimizers import CEM, MPPI, CEMConfig, MPPIConfig, PredictiveSampling, PredictiveSamplingConfig
+from judo.optimizers.cem import CEM, CEMConfig
+from judo.optimizers.mppi import MPPI, MPPIConfig
+from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 
 def hand_made_samples(num_rollouts=6, num_nodes=3, nu=2):

@@ -5,7 +5,7 @@ import pytest
 from closed_loop import plan_with_everything, swing_up_metric
 
 import judo
-from judo.optimizers import CBO, CBOConfig
+from judo.optimizers.cbo import CBO, CBOConfig
 from judo.optimizers.knot_shift import shift_knots
 from judo.optimizers.mppi import softmax_weights
 

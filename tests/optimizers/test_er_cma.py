@@ -5,7 +5,8 @@ import pytest
 from closed_loop import plan_with_everything, swing_up_metric
 
 import judo
-from judo.optimizers import ERCMA, MPPICMA, ERCMAConfig, MPPICMAConfig
+from judo.optimizers.er_cma import ERCMA, ERCMAConfig
+from judo.optimizers.mppi_cma import MPPICMA, MPPICMAConfig
 
 
 def test_the_bonus_inflates_the_learned_covariance_more_at_the_far_knots():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.controller import ControllerConfig
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
 from judo.optimizers.ilqr import ILQR, ILQRConfig
 

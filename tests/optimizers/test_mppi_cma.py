@@ -6,9 +6,9 @@ import pytest
 from closed_loop import plan_with_everything, swing_up_metric
 
 import judo
-from judo.optimizers import MPPI, MPPICMA, MPPICMAConfig, MPPIConfig
 from judo.optimizers.knot_shift import knot_shift_matrix
-from judo.optimizers.mppi import softmax_weights
+from judo.optimizers.mppi import MPPI, MPPIConfig, softmax_weights
+from judo.optimizers.mppi_cma import MPPICMA, MPPICMAConfig
 
 
 def make(nu: int = 2, seed: int = 0, **fields) -> MPPICMA:

@@ -6,10 +6,9 @@ import pytest
 from closed_loop import plan_with_everything, swing_up_metric
 
 import judo
-from judo.optimizers import MTP, MTPConfig
 from judo.optimizers.knot_shift import shift_knots
 from judo.optimizers.mppi import softmax_weights
-from judo.optimizers.mtp import bspline_basis, path_matrix
+from judo.optimizers.mtp import MTP, MTPConfig, bspline_basis, path_matrix
 
 
 def make(nu: int = 2, seed: int = 0, **fields) -> MTP:

@@ -12,6 +12,7 @@ import mujoco  # noqa: E402
 from judo.core.errors import JudoError  # noqa: E402
 from judo.ros2 import link  # noqa: E402
 from judo.ros2 import messages as msg  # noqa: E402
+from judo.ros2.joints import JointLayout, base_from_odometry  # noqa: E402
 from judo.ros2.mcap_log import McapLog  # noqa: E402
 
 FREE_BODY = """
@@ -30,7 +31,7 @@ def decoded(message):
 
 def test_every_message_the_bridge_reads_or_writes_decodes_with_rosbags_into_the_same_values():
     model = mujoco.MjModel.from_xml_string(FREE_BODY)
-    layout = link.JointLayout.of(model, ("knee=left_knee",))
+    layout = JointLayout.of(model, ("knee=left_knee",))
     qpos = np.array([1.0, 2.0, 0.5, np.cos(0.3), 0.0, 0.0, np.sin(0.3), -0.4])  # yawed 0.6 rad
     qvel = np.array([0.5, -0.2, 0.1, 0.01, 0.02, 0.3, 1.5])
 
@@ -46,7 +47,7 @@ def test_every_message_the_bridge_reads_or_writes_decodes_with_rosbags_into_the_
     assert [q.w, q.x, q.y, q.z] == pytest.approx(qpos[3:7].tolist())
     assert [back.pose.pose.position.x, back.pose.pose.position.y, back.pose.pose.position.z] == [1.0, 2.0, 0.5]
     assert back.twist.twist.angular.z == 0.3 and len(back.pose.covariance) == 36
-    base_qpos, base_qvel = link.base_from_odometry(odom)  # the body-frame twist back to MuJoCo's world frame
+    base_qpos, base_qvel = base_from_odometry(odom)  # the body-frame twist back to MuJoCo's world frame
     np.testing.assert_allclose(base_qpos, qpos[:7], atol=1e-12)
     np.testing.assert_allclose(base_qvel, qvel[:6], atol=1e-12)
 
@@ -81,7 +82,7 @@ def test_an_mcap_log_opens_with_mcaps_ros2_reader_with_its_topics_and_schemas(tm
     reader = pytest.importorskip("mcap_ros2.reader")
     log = McapLog(tmp_path / "run.mcap")
     model = mujoco.MjModel.from_xml_string(FREE_BODY)
-    layout = link.JointLayout.of(model)
+    layout = JointLayout.of(model)
     qpos, qvel = np.array([0, 0, 0.5, 1, 0, 0, 0, 0.2]), np.zeros(7)
     log.write("/joint_states", link.joint_state(layout, qpos, qvel, 1.0), 1_000_000_000)
     log.write("/odom", link.odometry(layout, qpos, qvel, 1.0))

@@ -13,8 +13,15 @@ from judo.runtime.app import App
 from judo.runtime.commands import AppPort, CommandPort
 
 GUI_DIR = Path(judo.runtime.gui.__file__).parent
-ALLOWED_RUNTIME_IMPORTS = {"judo.runtime.commands", "judo.runtime.address"}
-"""What the GUI may import from judo.runtime besides its own package: the port, and address checks for its server."""
+ALLOWED_RUNTIME_IMPORTS = {
+    "judo.runtime.commands",
+    "judo.runtime.address",
+    "judo.runtime.status",
+    "judo.runtime.snapshots",
+}
+"""What the GUI may import from judo.runtime besides its own package: the port, the value types the port's members
+return (the status line and figures, the published snapshots), each from the module that defines it, and address
+checks for its server."""
 
 
 def _imports(path: Path) -> set[str]:
@@ -132,13 +139,16 @@ def test_the_app_implements_every_member_of_the_port(unstarted_app):
             assert _parameters(on_class) == _parameters(declared), f"App.{name} takes other parameters than the port"
 
 
-def test_the_status_types_are_defined_once_and_the_app_module_still_exports_them():
+def test_the_status_types_are_defined_once_and_neither_the_app_nor_the_port_re_exports_them():
     import judo.runtime.app as app_module
     import judo.runtime.commands as commands
+    import judo.runtime.snapshots as snapshots
+    import judo.runtime.status as status
+    from judo.core.configuration import registry
 
-    for name in ("Status", "ConfigKind", "CONFIG_KINDS", "SystemSnapshot", "PlanSnapshot"):
-        assert getattr(app_module, name) is getattr(commands, name), name
-    homes = {"Status": "status", "SystemSnapshot": "snapshots", "PlanSnapshot": "snapshots"}
-    for name, home in homes.items():  # defined in their own module, re-exported by the port
-        assert getattr(commands, name).__module__ == f"judo.runtime.{home}", name
-    assert commands.CONFIG_KINDS == typing.get_args(commands.ConfigKind) == ("controller", "optimizer", "task")
+    homes = {"Status": status, "SystemSnapshot": snapshots, "PlanSnapshot": snapshots}
+    for name, home in homes.items():  # each imported from the module that defines it
+        assert getattr(home, name).__module__ == home.__name__, name
+    for name in (*homes, "ConfigKind", "CONFIG_KINDS"):
+        assert name not in app_module.__all__ and name not in commands.__all__, name
+    assert registry.CONFIG_KINDS == typing.get_args(registry.ConfigKind) == ("controller", "optimizer", "task")

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import judo
+from judo.core.configuration.controller_config import ControllerConfig, check_configs
 from judo.core.configuration.fields import slider_ranges
 from judo.core.configuration.registry import (
     _OVERRIDES,
@@ -18,7 +19,6 @@ from judo.core.configuration.registry import (
     lookup_task,
     make_config,
 )
-from judo.core.controller import ControllerConfig, check_configs
 from judo.core.model import trace_sensor_columns
 from judo.core.task import EpisodeLog
 

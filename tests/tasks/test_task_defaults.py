@@ -25,8 +25,8 @@ import numpy as np
 import pytest
 
 import judo  # registers the built-in tasks and optimizers
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import get_registered_optimizers, get_registered_tasks, make_config
-from judo.core.controller import ControllerConfig
 
 RECORD = Path(__file__).with_name("task_defaults.json")
 BUILTIN_TASKS = (

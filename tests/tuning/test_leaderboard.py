@@ -2,8 +2,8 @@
 
 import pytest
 
+from judo.builtin import BUILTIN_TASKS
 from judo.core.configuration.registry import lookup_task
-from judo.tasks import BUILTIN_TASKS
 from judo.tuning.leaderboard import main as leaderboard_main
 from judo.tuning.leaderboard_protocol import SHIPPED, ProtocolError, load_protocol
 from judo.tuning.leaderboard_report import Cell, markdown_table, winners

@@ -4,10 +4,10 @@ import pytest
 
 import judo
 from judo.core.configuration.config_file import tomllib
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import make_config
-from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
-from judo.optimizers import MPPIConfig
+from judo.optimizers.mppi import MPPIConfig
 from judo.tuning.best_file import best_toml, toml_value, write_best_toml
 from tests.conftest import UprightConfig, UprightTask
 

@@ -1,7 +1,7 @@
 """`SystemState`, one reading of the plant: the type a `System` returns and an `Estimator` consumes.
 
 It lives in core so that the estimator contract (core/estimator.py) and the estimators do not import the
-runtime; `judo.loop.system` re-exports it beside the `System` interface.
+runtime; `judo.loop.system` uses it beside the `System` interface, and `judo` exports it to users.
 """
 
 from dataclasses import dataclass, field

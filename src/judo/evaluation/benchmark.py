@@ -22,7 +22,8 @@ from judo.cli_shared import (
 from judo.core.commandline.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_file
 from judo.core.configuration.config import require
 from judo.core.errors import JudoError
-from judo.core.rollouts.backend import RolloutBackendName, check_rollout_backend
+from judo.core.rollouts.backend import RolloutBackendName
+from judo.core.rollouts.factory import check_rollout_backend
 from judo.evaluation.shared_options import (
     ControllerOverrides,
     chosen_optimizers,

@@ -19,7 +19,7 @@ from judo.core.configuration.registry import (
 )
 from judo.core.errors import JudoError
 from judo.core.optimizer import OptimizerConfig
-from judo.core.rollouts.backend import check_rollout_backend
+from judo.core.rollouts.factory import check_rollout_backend
 
 
 def all_or(names: tuple[str, ...], registered: dict[str, Any]) -> list[str]:

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from judo.core.configuration.config import require, require_between
+from judo.core.configuration.controller_config import MAX_OPT_ITERS
 from judo.core.configuration.fields import slider
-from judo.core.controller import MAX_OPT_ITERS
 from judo.core.optimizer import Optimizer, OptimizerConfig, weighted_knots
 
 

@@ -14,9 +14,7 @@ import numpy as np
 
 from judo.core.errors import ConfigError, JudoError, import_extra
 from judo.ros2 import messages as msg
-from judo.ros2.joints import JointLayout as JointLayout  # re-exported: the bridge and the plant use link.*
-from judo.ros2.joints import base_from_odometry as base_from_odometry
-from judo.ros2.joints import implausible_base as implausible_base
+from judo.ros2.joints import JointLayout
 
 dds = import_extra("cyclonedds.domain", "the ROS 2 bridge", "ros2")
 from cyclonedds.core import Policy, Qos  # noqa: E402

@@ -15,8 +15,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Literal
 
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import lookup_task, make_config
-from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
 
 Aggregate = Literal["mean", "worst", "cvar"]

@@ -32,8 +32,8 @@ else:  # pragma: no cover
 
 from judo.core.commandline.boundary import MAX_EPISODE, MAX_SEED
 from judo.core.configuration.config import require, require_between
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import lookup_task, make_config
-from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError
 from judo.core.optimizer import OptimizerConfig
 from judo.core.spline import MIN_KNOTS, SplineOrder

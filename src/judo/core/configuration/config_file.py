@@ -42,6 +42,7 @@ import os
 import stat
 import sys
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -51,7 +52,8 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover
     import tomli as tomllib
 
-from judo.core.configuration.config import with_updates
+from judo.core.configuration.config import Config, with_updates
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import (
     get_registered_optimizers,
     lookup_estimator,
@@ -63,7 +65,6 @@ from judo.core.configuration.registry import (
     set_config_overrides,
     set_model_overrides,
 )
-from judo.core.controller import ControllerConfig
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.optimizer import OptimizerConfig
 
@@ -85,10 +86,17 @@ TOP_LEVEL_KEYS = (
     "safety",
 )
 
-TASK_SECTIONS = {"safety": "judo.safety.limits"}
-"""Per-task sections whose config class lives above core, by the module that holds it: its `SECTION_CONFIG` (the
-class whose task defaults the table sets) and `check_section(task_name, config)` (the checks against the task's
-model). Imported by name when a file has the section, as the rollout backends are (judo.core.rollouts.backend)."""
+TASK_SECTIONS: dict[str, tuple[type[Config], Callable[[str, Any], None]]] = {}
+"""Per-task sections whose config class lives above core ([safety.TASK]): section -> (the class whose task defaults
+the table sets, `check(task_name, config)`, the checks against the task's model). `register_task_section` fills it;
+`judo.builtin.register_builtins` registers safety's (judo.safety.limits)."""
+
+
+def register_task_section(section: str, config_cls: type[Config], check: Callable[[str, Any], None]) -> None:
+    """Let a config file's [`section`.TASK] tables set `config_cls`'s defaults for a task, each checked by
+    `check(task_name, config)` first; replaces an earlier entry."""
+    TASK_SECTIONS[section] = (config_cls, check)
+
 
 ALL_OPTIMIZERS = "all"
 """The optimizer name in [optimizer_config_overrides.<task>.all]: OptimizerConfig, so every optimizer."""
@@ -217,18 +225,17 @@ def load_config(path: str | Path) -> LoadedConfig:
             except JudoError as err:
                 raise fail(f"{section}.{task_name}", err) from None
 
-    for section, module_name in [(name, module) for name, module in TASK_SECTIONS.items() if name in table]:
-        module = importlib.import_module(module_name)
+    for section, (section_config, check_section) in [(n, entry) for n, entry in TASK_SECTIONS.items() if n in table]:
         for task_name, overrides in _table(table, section, path).items():
             where = f"{section}.{task_name}"
             try:
                 lookup_task(task_name)
                 if not isinstance(overrides, dict):
                     raise JudoError(f"expected a table of field = value, got {overrides!r}")
-                module.check_section(task_name, with_updates(make_config(module.SECTION_CONFIG, task_name), overrides))
+                check_section(task_name, with_updates(make_config(section_config, task_name), overrides))
             except JudoError as err:
                 raise fail(where, err) from None
-            _apply(path, where, task_name, module.SECTION_CONFIG, overrides)
+            _apply(path, where, task_name, section_config, overrides)
 
     for key, lookup in (("task", lookup_task), ("optimizer", lookup_optimizer)):
         if key in table:

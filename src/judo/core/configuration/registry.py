@@ -6,8 +6,9 @@ from typing import Any, Literal, cast
 import numpy as np
 
 from judo.core.configuration.config import Config, ConfigT, check_seed, coerce_field_value, with_updates
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.model_overrides import ModelOverrides, check_model_overrides, override_task_models
-from judo.core.controller import Controller, ControllerConfig
+from judo.core.controller import Controller
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.estimator import Estimator, EstimatorConfig
 from judo.core.optimizer import Optimizer, OptimizerConfig

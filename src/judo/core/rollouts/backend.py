@@ -1,4 +1,4 @@
-"""The rollout backend interface, and the factory that builds a backend from its name.
+"""The rollout backend interface and the backends' names; core/rollouts/factory.py builds a backend from its name.
 
 A rollout backend is the one call the Controller makes: from one initial state and per-step controls to
 per-step states and sensor values. `RolloutPool` (core/rollouts/rollout.py, CPU threads) and `WarpRollout`
@@ -6,20 +6,18 @@ per-step states and sensor values. `RolloutPool` (core/rollouts/rollout.py, CPU 
 written once.
 
 The dependencies point one way: each backend module imports this one, and this module imports neither.
-The factory names each backend class by its dotted path (`BACKEND_CLASSES`, data) and imports that
-module only when the backend is asked for, so `import judo` never imports warp and no module imports
-back a module that imports it.
+The factory (core/rollouts/factory.py), above them, names each backend class by its dotted path and imports
+that module only when the backend is asked for, so `import judo` never imports warp.
 """
 
 import abc
-import importlib
-from collections.abc import Callable, Sequence
-from typing import Literal, Protocol, TypeVar, cast, get_args
+from collections.abc import Sequence
+from typing import Literal, Protocol, TypeVar, get_args
 
 import mujoco
 import numpy as np
 
-from judo.core.errors import JudoError, UnknownNameError
+from judo.core.errors import JudoError
 
 BackendT = TypeVar("BackendT", bound="RolloutBackend")
 
@@ -153,42 +151,3 @@ RolloutBackendName = Literal["cpu", "warp"]
 ROLLOUT_BACKENDS: tuple[str, ...] = get_args(RolloutBackendName)
 """Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`; "warp" is `WarpRollout` (MuJoCo Warp on
 warp's default device, a GPU when there is one; needs the judo-mpc[warp] extra)."""
-
-BACKEND_CLASSES: dict[str, str] = {
-    "cpu": "judo.core.rollouts.rollout.RolloutPool",
-    "warp": "judo.core.rollouts.warp_rollout.WarpRollout",
-}
-"""Each name in ROLLOUT_BACKENDS and the dotted path of its class, imported when the backend is asked for."""
-
-
-def check_rollout_backend(name: str) -> None:
-    """Raise UnknownNameError for a name not in ROLLOUT_BACKENDS, and MissingExtraError when the backend's
-    optional extra is not installed; builds nothing."""
-    backend_class(name)
-
-
-def backend_class(name: str) -> type[RolloutBackend]:
-    """The class of the rollout backend called `name`, importing its module (and so its extra) now.
-
-    Raises UnknownNameError for a name not in ROLLOUT_BACKENDS and MissingExtraError (from the module's
-    import) when the backend's extra is not installed."""
-    if name not in ROLLOUT_BACKENDS:
-        raise UnknownNameError("rollout backend", name, ROLLOUT_BACKENDS)
-    module, _, attribute = BACKEND_CLASSES[name].rpartition(".")
-    return getattr(importlib.import_module(module), attribute)
-
-
-def make_rollout_backend(name: str, model: mujoco.MjModel, num_workers: int | None = None) -> RolloutBackend:
-    """The rollout backend called `name` (one of ROLLOUT_BACKENDS) for `model`.
-
-    `num_workers` sets the CPU pool's threads (one per core by default); a GPU backend runs every rollout
-    on its device and takes no worker count. Raises UnknownNameError for an unknown name,
-    MissingExtraError when "warp" is asked for without the judo-mpc[warp] extra, and WarpUnsupportedModelError
-    for a model MuJoCo Warp cannot run.
-    """
-    # The constructors take different arguments (only the CPU pool's takes num_workers), which RolloutBackend,
-    # declaring none, cannot describe: the class is called as a plain callable (a widening cast).
-    cls = cast(Callable[..., RolloutBackend], backend_class(name))
-    if name == "cpu":
-        return cls(model, num_workers)
-    return cls(model)

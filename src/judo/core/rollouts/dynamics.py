@@ -23,7 +23,8 @@ import numpy as np
 
 from judo.core.errors import ConfigError, JudoError, ModelLoadError, NonFiniteRewardError
 from judo.core.model import STATE_SPEC
-from judo.core.rollouts.backend import RolloutBackend, make_rollout_backend
+from judo.core.rollouts.backend import RolloutBackend
+from judo.core.rollouts.factory import make_rollout_backend
 from judo.core.sensors import measured_layout
 from judo.core.task import ConfigT, Task
 

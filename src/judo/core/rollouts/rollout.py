@@ -1,9 +1,8 @@
 """`RolloutPool`, the CPU rollout backend: one shared MjModel, one MjData per worker thread, one C call per
 chunk.
 
-It implements `judo.core.rollouts.backend.RolloutBackend`, as the MuJoCo Warp backend (core/rollouts/warp_rollout.py) does;
-the factory `make_rollout_backend` lives in core/rollouts/backend.py and is re-exported here, with the other
-backend names, for code that imports them from this module.
+It implements `judo.core.rollouts.backend.RolloutBackend`, as the MuJoCo Warp backend (core/rollouts/warp_rollout.py)
+does; the factory `make_rollout_backend` lives in core/rollouts/factory.py.
 """
 
 import os
@@ -15,29 +14,14 @@ import numpy as np
 
 from judo.core.model import STATE_SPEC
 from judo.core.rollouts.backend import (
-    ROLLOUT_BACKENDS,
     PlanningCancelled,
-    RandomizedRolloutError,
     RolloutBackend,
-    RolloutBackendName,
     check_blocks,
     check_model_sizes,
-    check_rollout_backend,
-    make_rollout_backend,
 )
 from judo.core.rollouts.workers import DaemonThreadPool
 
-__all__ = [
-    "CLOSE_TIMEOUT",
-    "MOCAP_CONTROL_SPEC",
-    "ROLLOUT_BACKENDS",
-    "RandomizedRolloutError",
-    "RolloutBackend",
-    "RolloutBackendName",
-    "RolloutPool",
-    "check_rollout_backend",
-    "make_rollout_backend",
-]
+__all__ = ["CLOSE_TIMEOUT", "MOCAP_CONTROL_SPEC", "RolloutPool"]
 
 MOCAP_CONTROL_SPEC = (
     mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT

@@ -30,13 +30,13 @@ import numpy as np
 from judo.core.errors import JudoError, import_extra
 from judo.core.model import STATE_SPEC
 from judo.core.rollouts.backend import RolloutBackend, check_blocks, check_model_sizes
-from judo.core.rollouts.warp_models import WarpUnsupportedModelError, probe_sizes, put_model, varying_fields
+from judo.core.rollouts.warp_models import probe_sizes, put_model, varying_fields
 
 FEATURE = "the warp rollout backend (--backend warp)"
 wp = import_extra("warp", FEATURE, "warp")
 mjw = import_extra("mujoco_warp", FEATURE, "warp")
 
-__all__ = ["RolloutOverflowError", "RolloutOverflowWarning", "WarpRollout", "WarpUnsupportedModelError"]
+__all__ = ["RolloutOverflowError", "RolloutOverflowWarning", "WarpRollout"]
 
 if TYPE_CHECKING:  # warp's array types are call expressions, which a type checker cannot read as annotations
     Float32Array = Any

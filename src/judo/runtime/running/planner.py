@@ -5,12 +5,12 @@ import dataclasses
 import math
 import time
 
-from judo.core.controller import PlanningCancelled
 from judo.core.errors import JudoError
 from judo.core.feedback import FeedbackPlan
+from judo.core.reading import SystemState
+from judo.core.rollouts.backend import PlanningCancelled
 from judo.core.rollouts.workers import DaemonThreadPool
 from judo.loop.plant_clock import ControlClock
-from judo.loop.system import SystemState
 from judo.runtime.app_state import AppState, PendingConfigs, Stopping
 from judo.runtime.cycles import PlanningCycle, cycle_seconds, seconds_text
 from judo.runtime.live_recording import Recordings

@@ -7,9 +7,10 @@ import threading
 import time
 from collections.abc import Callable
 
+from judo.core.reading import SystemState
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.plant_clock import PlantClock
-from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedError, SystemState
+from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedError
 from judo.runtime.app_state import AppState
 from judo.runtime.session import Session
 from judo.runtime.snapshots import StateBuffer, SystemSnapshot
