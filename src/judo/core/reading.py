@@ -9,6 +9,10 @@ from typing import Any
 
 import numpy as np
 
+TIME_TOLERANCE = 1e-9
+"""Seconds within which two times count as the same: a reading's stamp, a sample or an update due, a plan's time
+and a row's (all sums of timesteps, so equal times may differ in their last bits)."""
+
 
 @dataclass
 class SystemState:

@@ -20,7 +20,7 @@ from judo.core.configuration.config import require
 from judo.core.configuration.fields import slider
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, check_sensors, estimate_of
 from judo.core.model import set_mocap_poses
-from judo.core.reading import SystemState
+from judo.core.reading import TIME_TOLERANCE, SystemState
 from judo.core.task import Task
 from judo.estimators.tangent import Residuals, TangentSpace
 
@@ -28,8 +28,6 @@ RESET_ITERATIONS = 5
 """Gauss-Newton iterations of the first correction (an iterated EKF), which starts far from the truth."""
 COVARIANCE_CAP = 10.0
 """No variance grows past this many times the initial std, squared (see `_capped`)."""
-TIME_TOLERANCE = 1e-9
-"""Seconds within which two stamps count as the same instant."""
 
 
 @slider("process_noise_position", 1e-5, 1.0, log=True)

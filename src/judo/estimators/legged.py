@@ -31,12 +31,10 @@ import numpy as np
 from judo.core.configuration.config import require
 from judo.core.configuration.fields import slider
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, check_sensors, estimate_of
-from judo.core.reading import SystemState
+from judo.core.reading import TIME_TOLERANCE, SystemState
 from judo.core.task import Task
 from judo.estimators.legged_layout import legged_layout
 
-TIME_TOLERANCE = 1e-9
-"""Seconds within which two stamps count as the same reading."""
 INITIAL_STD = (0.02, 0.2, 0.02)
 """Std of the first estimate's base position (m), velocity (m/s) and feet (m) about the first reading's kinematics."""
 SLIP_GATE = 16.27

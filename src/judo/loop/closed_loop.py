@@ -40,13 +40,13 @@ import numpy as np
 from judo.core.errors import JudoError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.estimator import ControlHistory, Estimator
 from judo.core.planner import Planner
-from judo.core.reading import SystemState
+from judo.core.reading import TIME_TOLERANCE, SystemState
 from judo.core.spline import Spline
 from judo.loop.latency import RECENT_CYCLES, Latency, LatencyPredictor, check_latency, prediction_delay
 from judo.loop.plant_clock import ControlClock
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError
-from judo.loop.watchdog import TIME_TOLERANCE, Watchdog, safe_action
+from judo.loop.watchdog import Watchdog, safe_action
 from judo.safety.limits import SafetyConfig
 from judo.safety.serve_filter import guard
 from judo.safety.stop import StopLatch

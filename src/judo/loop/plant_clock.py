@@ -30,7 +30,7 @@ import math
 import time
 from collections.abc import Callable
 
-from judo.loop.watchdog import TIME_TOLERANCE
+from judo.core.reading import TIME_TOLERANCE
 
 MAX_CATCH_UP = 0.1
 """Most seconds of sim time due at once to catch up; beyond that the plant falls behind."""

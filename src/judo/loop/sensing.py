@@ -17,12 +17,9 @@ import mujoco
 import numpy as np
 
 from judo.core.configuration.config import require
-from judo.core.reading import SystemState
+from judo.core.reading import TIME_TOLERANCE, SystemState
 from judo.core.sensors import QUATERNION_TYPES, per_sensor
 from judo.loop.system import MujocoSystem, System
-
-TIME_TOLERANCE = 1e-9
-"""Seconds within which a sample counts as due or a reading as arrived."""
 
 PerType = float | Mapping[str, float | None] | None
 """One value for every measured sensor, or {sensor type: value} with an optional "default" key."""

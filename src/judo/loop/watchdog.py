@@ -25,11 +25,9 @@ import math
 import numpy as np
 
 from judo.core.errors import JudoError
-from judo.core.reading import SystemState
+from judo.core.reading import TIME_TOLERANCE, SystemState
 from judo.core.task import Task
 
-TIME_TOLERANCE = 1e-9
-"""Seconds within which two times count as the same (an update due at t is due at t, and so are two readings)."""
 REPORT_EVERY = 5.0
 """Seconds of the watchdog's clock between two lines told of the same trouble."""
 READINGS_STOPPED = "the readings stopped"

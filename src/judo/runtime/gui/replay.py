@@ -24,12 +24,11 @@ import tyro
 from judo.cli_shared import apply_config_file, fail
 from judo.core.configuration.config import require_between
 from judo.core.errors import JudoError
+from judo.core.reading import TIME_TOLERANCE
 from judo.recording.dataset import DatasetError, demo_name, import_h5py
 
 FRAME_S = 1 / 30
 """Seconds between frames while playing."""
-TIME_TOLERANCE = 1e-9
-"""Seconds within which a plan's time counts as a row's (both are sums of plant timesteps)."""
 
 
 @dataclass
