@@ -21,8 +21,8 @@ from dataclasses import dataclass
 
 import tyro
 
-from judo.loop.estimator_thread import EstimatorThread
 from judo.runtime.app import App
+from judo.runtime.running.estimator_thread import EstimatorThread
 
 
 @dataclass

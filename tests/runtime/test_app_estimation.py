@@ -8,11 +8,11 @@ import pytest
 from judo.core.errors import ConfigError, JudoError, UnknownNameError
 from judo.estimators.ekf import EKFConfig, ExtendedKalmanFilter
 from judo.estimators.ukf import UnscentedKalmanFilter
-from judo.loop.estimator_thread import EstimatorThread
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
 from judo.runtime.app import App
 from judo.runtime.gui.plots import estimation_error
+from judo.runtime.running.estimator_thread import EstimatorThread
 from judo.tasks.cartpole import Cartpole
 
 SENSING = {"observe": "sensors", "sensor_noise": 0.005, "sensor_delay": 0.01, "sensor_rate": 100}

@@ -11,11 +11,11 @@ import numpy as np
 import pytest
 
 from judo.estimators.ekf import ExtendedKalmanFilter
-from judo.loop.estimator_thread import CATCH_UP_LAG, EstimatorThread
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
 from judo.runtime.app import App
 from judo.runtime.gui.plots import estimation_error
+from judo.runtime.running.estimator_thread import CATCH_UP_LAG, EstimatorThread
 from judo.tasks.cartpole import Cartpole
 
 SENSING = {"noise": 0.005, "delay": 0.01, "rate": 100.0}

@@ -10,6 +10,7 @@ watchdog's clock and its reports) are given once; `first` and `switched` build a
 
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import cast
 
 from judo.core.configuration.config import Config
 from judo.core.configuration.controller_config import ControllerConfig
@@ -31,9 +32,9 @@ from judo.core.reading import SystemState
 from judo.core.task import TaskConfig
 from judo.evaluation.sensing import Sensing, choose_estimator, observed_plant
 from judo.loop.closed_loop import ClosedLoop
-from judo.loop.estimator_thread import EstimatorThread
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem, System
+from judo.runtime.running.estimator_thread import EstimatorThread
 from judo.safety.limits import SafetyConfig
 from judo.safety.stop import StopLatch
 
@@ -66,8 +67,12 @@ class ConfigSet:
         for kind, config in configs.items():
             if not isinstance(config, CONFIG_CLASSES[kind]):
                 raise TypeError(f"the {kind} config must be a {CONFIG_CLASSES[kind].__name__}, got {type(config)}")
-        kinds = tuple(kind for kind in CONFIG_KINDS if kind in configs)
-        return cls(configs["controller"], configs.get("optimizer"), configs["task"], kinds)  # type: ignore[arg-type]
+        kinds: tuple[ConfigKind, ...] = tuple(kind for kind in CONFIG_KINDS if kind in configs)
+        controller, optimizer = (
+            cast(ControllerConfig, configs["controller"]),
+            cast(OptimizerConfig | None, configs.get("optimizer")),
+        )
+        return cls(controller, optimizer, cast(TaskConfig, configs["task"]), kinds)  # the types checked above
 
     def get(self, kind: ConfigKind) -> Config | None:
         """The config of `kind` (None: the session has none of that kind)."""

@@ -13,8 +13,9 @@ lag (`lag`), not the plant: judo's own simulator keeps real time. A filter more 
 over from the prediction at the plant's now and the newest reading (`catch_ups`), so its lag stays within
 CATCH_UP_LAG and one update.
 
-The app's plant runs through it (`build_session(..., estimator_thread=True)`); evaluate, tune and collect call
-their estimator on the stepping thread, so their episodes stay deterministic.
+The app's plant runs through it (`build_session(..., estimator_thread=True)`, beside the plant runner of this
+package); evaluate, tune and collect call their estimator on the stepping thread, so their episodes stay
+deterministic.
 
 A reset (`ClosedLoop.restart_estimator`, after the plant's reset or a switch) restarts the filter from the next
 reading on the plant thread, waiting for an update in flight: readings of before it are dropped. A config edit
