@@ -20,7 +20,7 @@ import inspect
 import sys
 import threading
 import typing
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal, NoReturn, TypeVar, cast
 
@@ -365,7 +365,7 @@ def build_system(options: SystemOptions, task_name: str, task_config: TaskConfig
         raise ConfigError(f"--record logs the ROS 2 bridge's link; {cls.__name__} takes no --record")
     _check_builds_with(cls, task, options.system)
     try:
-        return cls(task)  # type: ignore[call-arg]
+        return cast(Callable[[JudoTask], System], cls)(task)  # a System built from the task alone (checked above)
     except ConfigError as err:  # the class refused the task (DynamicsSystem a task without its own dynamics)
         raise ConfigError(f"--system {options.system}: {err}") from None
 

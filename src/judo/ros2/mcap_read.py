@@ -30,7 +30,7 @@ import math
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import mujoco
 import numpy as np
@@ -331,11 +331,11 @@ def _arrays(
     return log
 
 
-def _latest(stamps: np.ndarray, values: np.ndarray, at: np.ndarray, side: str) -> np.ndarray:
+def _latest(stamps: np.ndarray, values: np.ndarray, at: np.ndarray, side: Literal["left", "right"]) -> np.ndarray:
     """(T, nu) the row of the (N, nu) `values` with the latest of the (N,) increasing `stamps` before each of the
     (T,) `at` (`side` "right": at or before), NaN before the first."""
     out = np.full((len(at), values.shape[1]), np.nan)
-    index = np.searchsorted(stamps, at, side=side) - 1  # type: ignore[call-overload]
+    index = np.searchsorted(stamps, at, side=side) - 1
     out[index >= 0] = values[index[index >= 0]]
     return out
 

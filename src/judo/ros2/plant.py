@@ -90,7 +90,7 @@ class Outbox:
 
     def __init__(self, options: PlantOptions, rng: np.random.Generator) -> None:
         self.options, self.rng = options, rng
-        self._queue: list[tuple[float, int, object, object]] = []
+        self._queue: list[tuple[float, int, Any, object]] = []  # (due, order, DataWriter, message)
         self._count = 0
 
     def send(self, writer, message, now: float) -> None:
@@ -114,7 +114,7 @@ class Outbox:
         """Write every held message whose time has come."""
         while self._queue and self._queue[0][0] <= now:
             _, _, writer, message = heapq.heappop(self._queue)
-            writer.write(message)  # type: ignore[attr-defined]
+            writer.write(message)
 
 
 def check(options: PlantOptions) -> None:

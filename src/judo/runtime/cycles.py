@@ -24,6 +24,7 @@ import numpy as np
 
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.planner_view import CycleSize
+from judo.core.rollouts.backend import CancelFlag
 
 MAX_CYCLE_SECONDS = 10.0
 """Longest estimated planning cycle a config edit may ask for; a bigger one is refused (the plant would run on
@@ -107,7 +108,7 @@ class PlanningCycle:
     The controller and the rollout pool poll `is_set`, which is also true once the app stops.
     """
 
-    def __init__(self, stop: threading.Event | object, size: CycleSize | None, estimate: float) -> None:
+    def __init__(self, stop: CancelFlag, size: CycleSize | None, estimate: float) -> None:
         self._stop = stop
         self._cancelled = threading.Event()
         self.size, self.estimate = size, estimate
@@ -116,7 +117,7 @@ class PlanningCycle:
 
     def is_set(self) -> bool:
         """True once the cycle is cancelled or the app stops."""
-        return self._cancelled.is_set() or self._stop.is_set()  # type: ignore[attr-defined]  # a StopSignal
+        return self._cancelled.is_set() or self._stop.is_set()
 
     def cancel(self, reason: str) -> None:
         """End the cycle at its next check (`reason` goes on the status line)."""

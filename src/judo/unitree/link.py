@@ -2,6 +2,8 @@
 QoS. The QoS are the ROS 2 link's (`judo.ros2.link`): readings best effort, keep last 1 (a reader that matches any
 writer); commands reliable, keep last 1 (a writer that matches a reliable or a best-effort reader)."""
 
+from typing import Any
+
 from judo.core.errors import ConfigError
 from judo.ros2 import link
 from judo.unitree.messages import LOWCMD, LOWSTATE
@@ -21,7 +23,7 @@ def interface_config(interface: str) -> str:
     )
 
 
-_DOMAINS: dict[int, tuple[str, object, int]] = {}
+_DOMAINS: dict[int, tuple[str, Any, int]] = {}
 """The domains this process opened on an interface: domain -> (interface, cyclonedds Domain, links using it). A
 domain is configured once per process, before its first participant."""
 
@@ -54,7 +56,7 @@ def _close_domain(domain: int) -> None:
         _DOMAINS[domain] = (named, handle, users - 1)
         return
     del _DOMAINS[domain]
-    handle.__del__()  # type: ignore[attr-defined]
+    handle.__del__()
 
 
 class Link:

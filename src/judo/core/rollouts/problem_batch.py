@@ -14,7 +14,7 @@ forever. Randomized models (`set_models`) are refused: the shared backend holds 
 
 import threading
 from collections.abc import Sequence
-from typing import Protocol
+from typing import Protocol, cast
 
 import mujoco
 import numpy as np
@@ -99,7 +99,7 @@ class ProblemBatch:
                 )
             initial = np.stack([state for state, _, _ in inputs])
             controls = np.concatenate([c for _, c, _ in inputs])
-            mocaps = None if inputs[0][2] is None else np.stack([m for _, _, m in inputs])  # type: ignore[misc]
+            mocaps = None if inputs[0][2] is None else np.stack([cast(np.ndarray, m) for _, _, m in inputs])
             states, sensors = self.backend.rollout_problems(initial, controls, mocaps)
             rows = len(inputs[0][1])
             for i, p in enumerate(order):
