@@ -482,3 +482,112 @@ def test_the_loop_library_imports_only_contracts_and_few_modules_beyond_them():
     if len(outside) > target and "judo.core.configuration.registry" in outside:
         pytest.xfail(f"{len(outside)} judo modules in the loop's import closure (the registry among them): {outside}")
     assert len(outside) <= target, f"{len(outside)} judo modules in the loop's import closure: {outside}"
+
+
+def test_the_circle_finder_counts_a_module_named_for_importlib(tmp_path):
+    write_package(
+        tmp_path,
+        {
+            "pkg/__init__.py": "",
+            "pkg/low.py": 'import importlib\nPLUGINS = {"high": "pkg.high.Thing"}\n'
+            "def load(name):\n    module, _, attr = PLUGINS[name].rpartition('.')\n"
+            "    return getattr(importlib.import_module(module), attr)\n",
+            "pkg/high.py": "from pkg.low import load\nclass Thing: ...\n",  # low <-> high through the string
+            "pkg/table.py": 'COMMANDS = {"run": "pkg.cmd:main"}\n',  # "module:attr" counts without importlib
+            "pkg/cmd.py": "import pkg.table\ndef main(): ...\n",  # table <-> cmd
+            "pkg/quiet.py": '"""pkg.cmd"""\nimport logging\nlog = logging.getLogger("pkg.cmd")\nNAME = "pkg.cmd"\n',
+            "pkg/dot.py": 'import importlib\nimport pkg.doc\nNAME = f"pkg.{1}"\nROOT = "pkg.nothing"\n',
+            "pkg/doc.py": '"""Loaded as "pkg.dot" by name."""\nimport pkg.quiet\n',
+        },
+    )
+    graph = import_graph(tmp_path, "pkg")
+    assert graph["pkg.low"] == {"pkg.high"} and graph["pkg.table"] == {"pkg.cmd"}
+    assert graph["pkg.quiet"] == set()  # a docstring and a logger's or a constant's name, in a module with no loader
+    assert graph["pkg.dot"] == {"pkg.doc"}  # an f-string's piece and a name that is no module are no edge
+    assert import_cycles(tmp_path, "pkg") == [["pkg.cmd", "pkg.table"], ["pkg.high", "pkg.low"]]
+
+
+PACKAGE_INIT = "__init__.py"
+
+
+def test_no_package_init_but_the_root_imports_a_name():
+    """One public path per name: `judo.X` for users (src/judo/__init__.py), else the module that defines it. A
+    package's __init__.py holds its docstring only (judo.builtin registers the built-in tasks, optimizers and
+    estimators; `import judo` calls it)."""
+    importing = {}
+    for path in sorted((SRC / PACKAGE).rglob(PACKAGE_INIT)):
+        if path.parent == SRC / PACKAGE:
+            continue
+        tree = ast.parse(path.read_text(), str(path))
+        found = [ast.unparse(node) for node in ast.walk(tree) if isinstance(node, (ast.Import, ast.ImportFrom))]
+        if found:
+            importing[path.relative_to(SRC).as_posix()] = found
+    assert not importing, f"package __init__.py files that import (import from the defining module): {importing}"
+
+
+def re_exports(root: Path = SRC, package: str = PACKAGE) -> dict[str, list[str]]:
+    """Each module of `package` but the root -> the imported names it re-exports: those its `__all__` lists, and
+    those imported as themselves (`from a import b as b`, `import a as a`)."""
+    found: dict[str, list[str]] = {}
+    for path in sorted((root / package).rglob("*.py")):
+        if path == root / package / PACKAGE_INIT:
+            continue
+        tree = ast.parse(path.read_text(), str(path))
+        imported: set[str] = set()
+        names: list[str] = []
+        for node in tree.body:
+            if isinstance(node, (ast.Import, ast.ImportFrom)):
+                imported |= {alias.asname or alias.name.partition(".")[0] for alias in node.names}
+                names += [alias.asname for alias in node.names if alias.asname and alias.asname == alias.name]
+            elif isinstance(node, ast.Assign) and any(getattr(t, "id", None) == "__all__" for t in node.targets):
+                listed = [e.value for e in getattr(node.value, "elts", []) if isinstance(e, ast.Constant)]
+                names += [name for name in listed if name in imported]
+        if names:
+            found[module_name(path, root)] = sorted(set(names))
+    return found
+
+
+def test_no_module_re_exports_an_imported_name():
+    exported = re_exports()
+    assert not exported, f"import these from the module that defines them, not from: {exported}"
+
+
+def test_the_re_export_finder_sees_all_and_redundant_aliases(tmp_path):
+    write_package(
+        tmp_path,
+        {
+            "pkg/__init__.py": "from pkg.a import f\n__all__ = ['f']\n",  # the root is the user surface
+            "pkg/a.py": "def f(): ...\n__all__ = ['f']\n",
+            "pkg/b.py": "from pkg.a import f\nfrom os import sep as sep\n__all__ = ['f', 'g']\ndef g(): ...\n",
+        },
+    )
+    assert re_exports(tmp_path, "pkg") == {"pkg.b": ["f", "sep"]}
+
+
+TYPE_IGNORES = 2
+"""Most `type: ignore` comments in src/judo: the typing is fixed instead (a Protocol, a Literal, a cast of what
+was just checked)."""
+
+
+def test_few_type_ignores():
+    found = [
+        f"{path.relative_to(SRC).as_posix()}:{number}"
+        for path in sorted((SRC / PACKAGE).rglob("*.py"))
+        for number, line in enumerate(path.read_text().splitlines(), 1)
+        if re.search(r"#\s*type:\s*ignore", line)
+    ]
+    assert len(found) <= TYPE_IGNORES, f"{len(found)} type: ignore (at most {TYPE_IGNORES}): {found}"
+
+
+PACKAGE_MODULES = 20
+"""Most modules in one package of src/judo (its __init__.py aside): a room a reader can take in at once."""
+
+
+def test_no_package_holds_more_than_twenty_modules():
+    sizes = {
+        directory.relative_to(SRC).as_posix(): len([p for p in directory.glob("*.py") if p.name != PACKAGE_INIT])
+        for directory in sorted({path.parent for path in (SRC / PACKAGE).rglob("*.py")})
+    }
+    over = {name: size for name, size in sizes.items() if size > PACKAGE_MODULES}
+    assert not over, f"packages over {PACKAGE_MODULES} modules: {over}"
+    assert max(sizes.values()) >= 10  # the walk found the packages
