@@ -174,8 +174,6 @@ class Gui:
         state = self._state.take()
         if state is not None and state.value.generation != session.generation:
             state = None  # the plant before the switch
-        if state is None and self._shown is not None and self._shown.value.generation == session.generation:
-            state = self._shown
         if state is None:
             return False
         self._shown = state
