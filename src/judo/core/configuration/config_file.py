@@ -87,14 +87,12 @@ TOP_LEVEL_KEYS = (
 )
 
 TASK_SECTIONS: dict[str, tuple[type[Config], Callable[[str, Any], None]]] = {}
-"""Per-task sections whose config class lives above core ([safety.TASK]): section -> (the class whose task defaults
-the table sets, `check(task_name, config)`, the checks against the task's model). `register_task_section` fills it;
-`judo.builtin.register_builtins` registers safety's (judo.safety.limits)."""
+"""Per-task sections whose config class lives above core ([safety.TASK], registered by judo.builtin): section ->
+(the class whose task defaults the table sets, `check(task_name, config)`: the checks against the task's model)."""
 
 
 def register_task_section(section: str, config_cls: type[Config], check: Callable[[str, Any], None]) -> None:
-    """Let a config file's [`section`.TASK] tables set `config_cls`'s defaults for a task, each checked by
-    `check(task_name, config)` first; replaces an earlier entry."""
+    """Let a file's [`section`.TASK] tables set `config_cls`'s defaults, each `check(task_name, config)`ed first."""
     TASK_SECTIONS[section] = (config_cls, check)
 
 
