@@ -223,9 +223,10 @@ class DynamicsSystem(MujocoSystem):
         if task.simulator != "dynamics":
             raise ConfigError(f"{type(self).__name__} needs a task that is a DynamicsTask, got {type(task).__name__}")
         super().__init__(task)
-        self.dynamics_task: Any = task  # a DynamicsTask: its nx, state, step_checked, trace_points, process_noise
-        noise = task.process_noise if process_noise is None else process_noise
-        self.process_noise = np.broadcast_to(np.asarray(noise, dtype=float), (task.nx,)).copy()
+        own: Any = task  # a DynamicsTask: its nx, state, step_checked, trace_points, process_noise
+        self.dynamics_task = own
+        noise = own.process_noise if process_noise is None else process_noise
+        self.process_noise = np.broadcast_to(np.asarray(noise, dtype=float), (own.nx,)).copy()
         self._low, self._high = task.actuator_ctrlrange.T.copy()
 
     def step(self) -> None:
