@@ -14,10 +14,10 @@ from ros2_links import ROOT, env, free_domain, stop_process
 from judo.cli_shared import SystemOptions, build_system, system_class
 from judo.loop.system import System
 from judo.ros2 import plant
-from judo.runtime import cli
+from judo.runtime import launch
 
 
-def one_line_error(capsys, argv: list[str], main=cli.main) -> str:
+def one_line_error(capsys, argv: list[str], main=launch.main) -> str:
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and "Traceback" not in err

@@ -14,7 +14,7 @@ from judo.cli_shared import system_class
 from judo.core.configuration.config_file import load_config
 from judo.core.errors import ConfigError
 from judo.ros2.options import UnitreeOptions, unitree_options
-from judo.runtime import cli
+from judo.runtime import launch
 from judo.unitree import messages as msg
 from judo.unitree import motors as mt
 from judo.unitree.bridge import UnitreeSystem, reading_of
@@ -33,7 +33,7 @@ def test_unitree_options_from_toml_and_the_command_line(tmp_path):
         unitree_options({"rate": 1}, "[unitree]")
     with pytest.raises(ConfigError, match=r"\[unitree\]: domain must be an integer 0..232, got '3'"):
         unitree_options({"domain": "3"}, "[unitree]")
-    parsed, _ = cli.parse(
+    parsed, _ = launch.parse(
         ["--task", "cartpole", "--unitree.domain", "9", "--unitree.soft-start-s", "1"], {}, None, options
     )
     assert parsed.unitree == UnitreeOptions(robot="g1", domain=9, interface="eth0", rate_hz=250.0, soft_start_s=1.0)
