@@ -15,11 +15,11 @@ from judo.core.errors import ConfigError, JudoError, NonFiniteKnotsError, NonFin
 from judo.core.feedback import FeedbackGains
 from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_columns
 from judo.core.optimizer import Optimizer, PlanningStart
-from judo.core.planner import checked_reading, task_warm_start
+from judo.core.planner import CancelFlag, checked_reading, task_warm_start
 from judo.core.planner_view import CycleSize, PlannerKind
 from judo.core.policies.proposals import Proposer, check_proposal_policy, insert_proposals
 from judo.core.policy import Policy
-from judo.core.rollouts.backend import CancelFlag, PlanningCancelled, RolloutBackend
+from judo.core.rollouts.backend import PlanningCancelled, RolloutBackend
 from judo.core.rollouts.dynamics import task_rollout_backend
 from judo.core.rollouts.low_level import check_low_level_backend, with_low_level
 from judo.core.rollouts.parallel_reward import ParallelReward

@@ -12,11 +12,26 @@ from typing import Any, Protocol, runtime_checkable
 
 import numpy as np
 
-from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.errors import ConfigError, JudoError
-from judo.core.rollouts.backend import CancelFlag
 from judo.core.spline import Spline
 from judo.core.task import Task, legacy_warm_start
+
+
+class CancelFlag(Protocol):
+    """Anything with `is_set()`: a threading.Event, the app's stop signal, a planning cycle."""
+
+    def is_set(self) -> bool: ...
+
+
+class LoopSettings(Protocol):
+    """What the loop reads of a planner's `config` (a `judo.core.configuration.controller_config.ControllerConfig`):
+    the control rate (Hz), the watchdog's plan age (s), and whether a plan starts from the reading predicted to when
+    it takes effect (latency compensation, feedback gains)."""
+
+    control_freq: float
+    max_plan_age: float
+    latency_compensation: bool
+    feedback: bool
 
 
 @runtime_checkable
@@ -25,13 +40,14 @@ class Planner(Protocol):
     (rewards, traces, the optimizer, the backend, its kind) is `judo.core.planner_view.PlannerView`.
 
     Attributes:
-        config: the loop's settings (control_freq, horizon, max_plan_age, latency_compensation, ...); the app's
-            planner runner replaces it between updates.
+        config: the loop's settings (a ControllerConfig: control_freq, max_plan_age, latency_compensation, ...); the
+            app's planner runner replaces it between updates.
         task: the planning task, its own instance (the plant is the System's); its `config` may be replaced
             between updates.
     """
 
-    config: ControllerConfig
+    @property
+    def config(self) -> LoopSettings: ...
 
     @property
     def task(self) -> Task: ...

@@ -14,6 +14,7 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from judo.core.configuration.config import Config
+from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.optimizer import Optimizer
 from judo.core.planner import Planner
 from judo.core.policy import Policy
@@ -125,3 +126,6 @@ class PlannerView(Protocol):
 @runtime_checkable
 class AppPlanner(Planner, PlannerView, Protocol):
     """A planner the app runs: the closed loop drives it (`Planner`), the app and the GUI read it (`PlannerView`)."""
+
+    config: ControllerConfig
+    """The whole ControllerConfig (the loop reads only its `LoopSettings`); the planner runner replaces it."""

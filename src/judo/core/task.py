@@ -7,7 +7,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, ClassVar, Generic, TypeVar, cast
+from typing import Any, ClassVar, Generic, Protocol, TypeVar, cast
 
 import mujoco
 import numpy as np
@@ -17,8 +17,15 @@ from judo.core.errors import ModelLoadError, UnknownNameError
 from judo.core.model import load_model, model_mocap_poses, names
 from judo.core.sensors import MeasuredLayout, measured_layout
 
-if typing.TYPE_CHECKING:
-    from judo.core.rollouts.low_level import LowLevel
+
+class LowLevelCommands(Protocol):
+    """What `Task.low_level()` returns (a `judo.core.rollouts.low_level.LowLevel`): a low-level policy that turns
+    the C commands the optimizer plans, each within its row of the (C, 2) `command_range`, into the actuators' ctrl."""
+
+    command_range: np.ndarray
+
+    @property
+    def command_size(self) -> int: ...
 
 
 @dataclass
@@ -172,13 +179,11 @@ class Task(ABC, Generic[ConfigT]):
             mujoco.mj_resetData(self.sim_model, self.data)
         mujoco.mj_forward(self.sim_model, self.data)
 
-    def low_level(self) -> "LowLevel | None":
+    def low_level(self) -> LowLevelCommands | None:
         """A low-level policy to plan over (judo.core.rollouts.low_level), or None (the default): plan the actuators.
-
         With one, the optimizer plans its C commands (`command_size`, `command_range`), every rollout and the plant
         run the policy every k physics steps to turn them into ctrl, and `reward` gets the commands as `controls`.
-        Return the same object on every call (build it once, in `__init__`).
-        """
+        Return the same object on every call (build it once, in `__init__`)."""
         return None
 
     # What a task with its own dynamics (judo.core.rollouts.dynamics.DynamicsTask) answers otherwise:
@@ -202,11 +207,9 @@ class Task(ABC, Generic[ConfigT]):
         """Called once per planning cycle with the (nq + nv,) state, before any rollout."""
 
     def post_rollout(self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, rewards: np.ndarray) -> None:
-        """Called after each optimizer iteration with the rollouts' arrays and (num_rollouts,) rewards.
-
-        Under randomized models (num_randomizations > 1) the arrays are the rollouts on the planning
-        model and the rewards are each sequence's rewards over all models, reduced by the risk measure.
-        """
+        """Called after each optimizer iteration with the rollouts' arrays and (num_rollouts,) rewards. Under randomized
+        models (num_randomizations > 1) the arrays are the rollouts on the planning model and the rewards are each
+        sequence's rewards over all models, reduced by the risk measure."""
 
     def pre_sim_step(self) -> None:
         """Called by the simulator before each plant step, e.g. to resample a reached goal."""
@@ -215,12 +218,10 @@ class Task(ABC, Generic[ConfigT]):
         """Called by the simulator after each plant step, e.g. to reset a dropped object."""
 
     def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
-        """Perturb `model`, a private copy of the planning model, in place, drawing from `rng`.
-
-        Called when the controller plans under several models (`ControllerConfig.num_randomizations` > 1), once per
-        randomized model per redraw. Scale what the real system gets wrong (frictions, masses, dampings, gains;
-        helpers in `judo.core.rollouts.randomize`); never change sizes. The default does nothing.
-        """
+        """Perturb `model`, a private copy of the planning model, in place, drawing from `rng`. Called when the
+        controller plans under several models (`ControllerConfig.num_randomizations` > 1), once per randomized model
+        per redraw. Scale what the real system gets wrong (frictions, masses, dampings, gains; helpers in
+        `judo.core.rollouts.randomize`); never change sizes. The default does nothing."""
 
     def get_sim_metadata(self) -> dict[str, Any]:
         """Extra values the simulator publishes with the state; passed on to `reward`."""

@@ -23,8 +23,8 @@ import mujoco
 import numpy as np
 
 from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.planner import CancelFlag
 from judo.core.planner_view import CycleSize
-from judo.core.rollouts.backend import CancelFlag
 
 MAX_CYCLE_SECONDS = 10.0
 """Longest estimated planning cycle a config edit may ask for; a bigger one is refused (the plant would run on

@@ -31,10 +31,9 @@ from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.controller import Controller
 from judo.core.errors import ConfigError, JudoError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.model import model_at
-from judo.core.planner import checked_reading, task_warm_start
+from judo.core.planner import CancelFlag, checked_reading, task_warm_start
 from judo.core.planner_view import PlannerKind
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError
-from judo.core.rollouts.backend import CancelFlag
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
 from judo.core.task import Task, new_task, warm_start_takes_state
 

@@ -12,12 +12,13 @@ that module only when the backend is asked for, so `import judo` never imports w
 
 import abc
 from collections.abc import Sequence
-from typing import Literal, Protocol, TypeVar, get_args
+from typing import Literal, TypeVar, get_args
 
 import mujoco
 import numpy as np
 
 from judo.core.errors import JudoError
+from judo.core.planner import CancelFlag
 
 BackendT = TypeVar("BackendT", bound="RolloutBackend")
 
@@ -101,12 +102,6 @@ class RolloutBackend(abc.ABC):
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
-
-
-class CancelFlag(Protocol):
-    """Anything with `is_set()`: a threading.Event, the app's stop signal, a planning cycle."""
-
-    def is_set(self) -> bool: ...
 
 
 class PlanningCancelled(JudoError):

@@ -29,8 +29,9 @@ import mujoco
 import numpy as np
 
 from judo.core.errors import JudoError
+from judo.core.planner import CancelFlag
 from judo.core.policy import Policy, PolicyError
-from judo.core.rollouts.backend import CancelFlag, RolloutBackend
+from judo.core.rollouts.backend import RolloutBackend
 from judo.core.rollouts.rollout import RolloutPool
 from judo.core.rollouts.stepper import PolicyStepper
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
