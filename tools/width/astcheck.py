@@ -13,7 +13,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from equiv import compare  # noqa: E402
+from equiv import compare
 
 
 def main() -> int:

@@ -48,7 +48,7 @@ def _same_const(a, b, docs: set[str]) -> bool:
             return False
         if isinstance(a, frozenset):
             return a == b
-        return all(_same_const(x, y, docs) for x, y in zip(a, b))
+        return all(_same_const(x, y, docs) for x, y in zip(a, b, strict=False))
     if isinstance(a, float) and a != a:
         return b != b
     return a == b
@@ -67,7 +67,7 @@ def compare(before: str, after: str, filename: str = "<file>") -> str | None:
     consts_after = _constants(compile(after, filename, "exec", dont_inherit=True), [])
     if len(consts_before) != len(consts_after):
         return "number of compiled constants differs"
-    for a, b in zip(consts_before, consts_after):
+    for a, b in zip(consts_before, consts_after, strict=False):
         if not _same_const(a, b, docs):
             return f"compiled constant differs: {a!r} != {b!r}"
     return None

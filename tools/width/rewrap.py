@@ -24,7 +24,7 @@ import time
 import tokenize
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from equiv import compare  # noqa: E402
+from equiv import compare
 
 PRAGMA = re.compile(r"^#\s*(noqa|type:|pragma|fmt:|pyright:|isort:|ruff:|mypy:|-\*-|!)|^#!")
 LIST_MARK = re.compile(r"^([-*+]|\d+[.)]|\(\d+\)|[a-z][.)])\s+")
@@ -77,7 +77,7 @@ def _field_doc_ids(tree: ast.AST) -> set[int]:
     ids = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.ClassDef):
-            for prev, cur in zip(node.body, node.body[1:]):
+            for prev, cur in zip(node.body, node.body[1:], strict=False):
                 if isinstance(prev, ast.AnnAssign) and isinstance(cur, ast.Expr):
                     ids.add(id(cur))
     return ids
@@ -367,7 +367,6 @@ def pass_strings(source: str, width: int, doc_rows: set[int]) -> str:
     toks = _tokens(source)
     depth = 0
     edits = []
-    line_indent = 0
     for k, tok in enumerate(toks):
         if tok.type == tokenize.OP and tok.string in "([{":
             depth += 1
@@ -501,7 +500,7 @@ def _reflow_comment_block(out: list, block: list[int], col: int, width: int) -> 
         text = raw.rstrip("\r\n")[col:]
         items.append((r, text, newline))
     paras: list[list] = []  # [kind, hang, [indices]]
-    for i, (r, text, _) in enumerate(items):
+    for i, (_r, text, _) in enumerate(items):
         body = text[1:]
         if body.startswith(" "):
             body = body[1:]
