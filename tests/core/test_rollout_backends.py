@@ -15,7 +15,7 @@ from judo.core.rollouts.backend import ROLLOUT_BACKENDS, RolloutBackend
 from judo.core.rollouts.factory import BACKEND_CLASSES, backend_class, check_rollout_backend, make_rollout_backend
 from judo.core.rollouts.rollout import RolloutPool
 from judo.evaluation import benchmark, evaluate
-from judo.runtime import cli
+from judo.runtime import launch
 
 MISSING_WARP = (
     "the warp rollout backend (--backend warp) needs the optional extra judo-mpc[warp], which is not installed "
@@ -63,7 +63,7 @@ def test_without_the_extra_the_warp_backend_names_it(without_warp, tiny_model_pa
 
 
 def test_without_the_extra_every_command_fails_at_once_naming_it(without_warp, capsys):
-    assert cli.main(["--task", "cartpole", "--backend", "warp", "--headless", "--duration", "1"]) == 2
+    assert launch.main(["--task", "cartpole", "--backend", "warp", "--headless", "--duration", "1"]) == 2
     assert capsys.readouterr().err.strip() == f"python -m judo: {MISSING_WARP}"
     for command in (
         lambda: benchmark.main(["--tasks", "cartpole", "--backend", "warp", "--samples", "1"]),
@@ -79,7 +79,7 @@ def test_without_the_extra_every_command_fails_at_once_naming_it(without_warp, c
 
 def test_an_unknown_backend_on_the_command_line_lists_the_valid_ones(capsys):
     with pytest.raises(SystemExit) as exit_info:
-        cli.main(["--task", "cartpole", "--backend", "gpu", "--headless", "--duration", "1"])
+        launch.main(["--task", "cartpole", "--backend", "gpu", "--headless", "--duration", "1"])
     assert exit_info.value.code == 2
     err = capsys.readouterr().err
     assert "--backend" in err and "cpu" in err and "warp" in err

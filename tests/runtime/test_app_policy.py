@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 
 import judo
-from judo.runtime import cli
+from judo.runtime import launch
 from judo.runtime.app import App
 
 pytest.importorskip("onnxruntime")
@@ -60,7 +60,7 @@ def test_an_app_without_a_policy_has_none_to_switch_to_and_a_policy_for_another_
 
 def test_python_m_judo_policy_runs_headless_and_prints_the_summary(capsys):
     argv = ["--task", "pendulum", "--policy", str(POLICY), "--headless", "--duration", "0.5", "--seed", "0"]
-    assert cli.main(argv) == 0
+    assert launch.main(argv) == 0
     out = capsys.readouterr().out
     assert "task: pendulum" in out and "optimizer: policy" in out and "control rate:" in out
 

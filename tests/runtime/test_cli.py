@@ -12,7 +12,7 @@ import pytest
 import judo.__main__
 from judo import get_registered_optimizers, get_registered_tasks
 from judo.core.configuration.registry import default_configs
-from judo.runtime import cli
+from judo.runtime import launch
 
 SRC = str(Path(judo.__main__.__file__).parents[1])
 CONFIG_FILE = Path(__file__).resolve().parents[2] / "examples" / "04_config_file" / "judo.toml"
@@ -32,7 +32,7 @@ def test_unknown_task_exits_2_with_the_valid_names_and_no_traceback():
 
 
 def test_unknown_optimizer_exits_2_with_the_valid_names(capsys):
-    assert cli.main(["--optimizer=no_such_optimizer"]) == 2
+    assert launch.main(["--optimizer=no_such_optimizer"]) == 2
     err = capsys.readouterr().err
     optimizers = ", ".join(sorted(get_registered_optimizers()))
     assert err.strip() == f"python -m judo: unknown optimizer 'no_such_optimizer'; valid optimizers are: {optimizers}"
@@ -45,7 +45,7 @@ def test_overrides_reach_the_chosen_configs():
         "--optimizer-config.sigma-max", "0.3", "--optimizer-config.num-rollouts", "16",
         "--task-config.goal-pos", "0.25", "-0.5", "--task-config.w-cart-position", "2",
     ]  # fmt: skip
-    options, configs = cli.parse(argv, default_configs("cylinder_push", "cem"))
+    options, configs = launch.parse(argv, default_configs("cylinder_push", "cem"))
     assert (options.task, options.optimizer, options.headless, options.duration, options.port) == (
         "cylinder_push", "cem", True, 3.0, 9000,
     )  # fmt: skip
@@ -58,22 +58,22 @@ def test_overrides_reach_the_chosen_configs():
 
 def test_a_config_file_names_the_task_and_sets_defaults_that_options_still_override(capsys):
     with pytest.raises(SystemExit):
-        cli.main(["--config", str(CONFIG_FILE), "--controller.max-opt-iters", "2", "--help"])
+        launch.main(["--config", str(CONFIG_FILE), "--controller.max-opt-iters", "2", "--help"])
     text = capsys.readouterr().out
     assert "Balance-task weights." in text  # the file's task, registered from its module
     assert "Planning horizon in seconds. (default: 0.6)" in text  # the file's override
-    task, optimizer, *_ = cli._peek(["--config", str(CONFIG_FILE), "--task", "cartpole"])
+    task, optimizer, *_ = launch._peek(["--config", str(CONFIG_FILE), "--task", "cartpole"])
     assert (task, optimizer) == ("cartpole", "cooling_mppi")
 
 
 def test_a_missing_config_file_exits_2_with_its_name(capsys):
-    assert cli.main(["--config", "no/such/judo.toml"]) == 2
+    assert launch.main(["--config", "no/such/judo.toml"]) == 2
     assert capsys.readouterr().err.strip() == "python -m judo: config file not found: no/such/judo.toml"
 
 
 def test_help_documents_the_fields_of_the_chosen_configs(capsys):
     with pytest.raises(SystemExit) as exit_info:
-        cli.main(["--task", "cylinder_push", "--optimizer", "cem", "--help"])
+        launch.main(["--task", "cylinder_push", "--optimizer", "cem", "--help"])
     assert exit_info.value.code == 0
     text = capsys.readouterr().out
     for option in ("--headless", "--duration", "--controller.horizon", "--optimizer-config.num-elites"):
@@ -93,12 +93,12 @@ def test_help_documents_the_fields_of_the_chosen_configs(capsys):
     ],
 )
 def test_invalid_overrides_exit_2_with_the_reason(capsys, argv, message):
-    assert cli.main([*argv, "--headless"]) == 2
+    assert launch.main([*argv, "--headless"]) == 2
     assert message in capsys.readouterr().err
 
 
 def test_duration_runs_headless_and_prints_the_summary(capsys):
-    status = cli.main(["--headless", "--duration", "0.5", "--seed", "0", "--optimizer-config.num-rollouts", "8"])
+    status = launch.main(["--headless", "--duration", "0.5", "--seed", "0", "--optimizer-config.num-rollouts", "8"])
     assert status == 0
     out = capsys.readouterr().out
     for label in ("task: cartpole", "optimizer: mppi", "control rate:", "plan time: mean", "real-time factor:"):
@@ -108,11 +108,11 @@ def test_duration_runs_headless_and_prints_the_summary(capsys):
 
 def test_a_proposal_policy_plans_with_the_app_and_one_for_another_task_exits_2(capsys):
     pytest.importorskip("onnxruntime")
-    policy = str(Path(cli.__file__).parents[1] / "tasks" / "models" / "policies" / "pendulum_chunk.onnx")
+    policy = str(Path(launch.__file__).parents[1] / "tasks" / "models" / "policies" / "pendulum_chunk.onnx")
     argv = ["--headless", "--duration", "0.5", "--seed", "0", "--proposal-policy", policy]
-    status = cli.main([*argv, "--task", "pendulum", "--optimizer", "ps", "--controller.policy-samples", "4"])
+    status = launch.main([*argv, "--task", "pendulum", "--optimizer", "ps", "--controller.policy-samples", "4"])
     assert status == 0 and "task: pendulum" in capsys.readouterr().out
-    assert cli.main([*argv, "--task", "cartpole"]) == 2
+    assert launch.main([*argv, "--task", "cartpole"]) == 2
     assert "was made for task 'pendulum', not 'cartpole'" in capsys.readouterr().err
 
 

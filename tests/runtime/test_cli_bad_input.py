@@ -8,15 +8,15 @@ from pathlib import Path
 import pytest
 
 import judo
-from judo.runtime import cli
+from judo.runtime import launch
 
 SRC = str(Path(judo.__file__).resolve().parents[1])
 
 
 def run_cli(argv: list[str], capsys) -> tuple[int, str]:
-    """cli.main's exit status (tyro's own usage errors exit through SystemExit) and its stderr."""
+    """launch.main's exit status (tyro's own usage errors exit through SystemExit) and its stderr."""
     try:
-        status = cli.main([*argv, "--headless"])
+        status = launch.main([*argv, "--headless"])
     except SystemExit as exit_:
         status = exit_.code
     return status, " ".join(capsys.readouterr().err.replace("│", " ").split())

@@ -14,7 +14,7 @@ from websockets.http11 import Request
 from websockets.sync.client import connect
 
 from judo.core.errors import ConfigError, GuiStartError
-from judo.runtime import cli
+from judo.runtime import launch
 from judo.runtime.address import check_host, check_port, check_token, is_loopback
 from judo.runtime.app import App
 from judo.runtime.gui.access import AccessPolicy
@@ -51,7 +51,7 @@ def app(port):
 def test_the_gui_listens_on_loopback_by_default(app):
     assert app.host == "127.0.0.1" and app.token is None
     assert app.gui.server.get_host() == "127.0.0.1"
-    assert cli.RunOptions().host == "127.0.0.1"
+    assert launch.RunOptions().host == "127.0.0.1"
 
 
 def test_a_cross_origin_websocket_is_refused_and_a_same_origin_one_accepted(app, caplog):
@@ -198,7 +198,7 @@ def test_a_token_is_kept_generated_beyond_loopback_and_optional_on_loopback():
 
 
 def test_an_empty_token_on_the_command_line_exits_2(capsys):
-    assert cli.main(["--host", "0.0.0.0", "--token", "", "--headless", "--duration", "0.01"]) == 2
+    assert launch.main(["--host", "0.0.0.0", "--token", "", "--headless", "--duration", "0.01"]) == 2
     err = capsys.readouterr().err
     assert "token must not be empty or blank" in err and "Traceback" not in err
 

@@ -6,7 +6,7 @@ import pytest
 import viser
 
 from judo.core.configuration.registry import default_configs, make_config, make_task
-from judo.runtime import cli
+from judo.runtime import launch
 from judo.runtime.gui.safety_panel import SafetyPanel, limit_lines
 from judo.safety.limits import SafetyConfig, resolve
 
@@ -23,23 +23,23 @@ def test_the_apps_safety_flags_become_the_tasks_limits_over_its_defaults():
         "slider=1.5",
         "--safety.joint-ranges",
     ]
-    options, _ = cli.parse(argv, default_configs("cartpole", "ps"), safety=before)
-    given = cli.changed_fields(before, options.safety)
+    options, _ = launch.parse(argv, default_configs("cartpole", "ps"), safety=before)
+    given = launch.changed_fields(before, options.safety)
     assert given == {"joint_ranges": True, "position": ("slider=-0.3:0.3",), "velocity": ("slider=1.5",)}
-    cli.set_task_limits("cartpole", given)
+    launch.set_task_limits("cartpole", given)
     assert make_config(SafetyConfig, "cartpole") == options.safety  # what every session of the task is built with
     assert make_config(SafetyConfig, "cylinder_push") == SafetyConfig()  # another task keeps its own
 
 
 def test_no_safety_flag_changes_nothing():
     before = make_config(SafetyConfig, "cartpole")
-    options, _ = cli.parse(CARTPOLE, default_configs("cartpole", "ps"), safety=before)
-    assert cli.changed_fields(before, options.safety) == {}
+    options, _ = launch.parse(CARTPOLE, default_configs("cartpole", "ps"), safety=before)
+    assert launch.changed_fields(before, options.safety) == {}
     assert not make_config(SafetyConfig, "cartpole").active
 
 
 def test_a_limit_the_model_lacks_is_a_one_line_error_before_the_app_starts(capsys):
-    assert cli.main([*CARTPOLE, "--safety.position", "slidr=-0.3:0.3", "--headless", "--duration", "0.1"]) == 2
+    assert launch.main([*CARTPOLE, "--safety.position", "slidr=-0.3:0.3", "--headless", "--duration", "0.1"]) == 2
     assert capsys.readouterr().err.strip() == (
         "python -m judo: safety limits: unknown hinge or slide joint 'slidr'; valid hinge or slide joints are: "
         "slider, hinge"
@@ -76,7 +76,7 @@ def test_the_headless_app_serves_under_the_flags_limits(capsys):
     # On its own thread: a browser test earlier in the run may hold an event loop on the main thread, and the app
     # runs its own with asyncio.run.
     with concurrent.futures.ThreadPoolExecutor(1) as pool:
-        assert pool.submit(cli.main, argv).result(timeout=300) == 0
+        assert pool.submit(launch.main, argv).result(timeout=300) == 0
     out = capsys.readouterr().out
     assert "limits" in out and "safety:" in out and "commands filtered" in out
 

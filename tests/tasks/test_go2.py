@@ -10,7 +10,7 @@ from judo.core.configuration.registry import default_configs, make_config
 from judo.core.task import EpisodeLog
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
-from judo.runtime import cli
+from judo.runtime import launch
 from judo.tasks.go2 import JOINTS, LEGS, STAND_POSE, Go2Stand, Go2Walk, Go2WalkConfig
 
 MOTOR_ORDER = [f"{leg}_{part}_joint" for leg in ("FR", "FL", "RR", "RL") for part in ("hip", "thigh", "calf")]
@@ -116,7 +116,7 @@ def test_pushes_shove_the_plant_s_base_on_schedule():
 
 def test_velocity_command_parses_from_the_command_line():
     argv = ["--task", "go2_walk", "--optimizer", "mppi", "--task-config.velocity-command", "0.5", "0", "-0.3"]
-    _, configs = cli.parse(argv, default_configs("go2_walk", "mppi"))
+    _, configs = launch.parse(argv, default_configs("go2_walk", "mppi"))
     np.testing.assert_array_equal(configs["task"].velocity_command, [0.5, 0.0, -0.3])
 
 
