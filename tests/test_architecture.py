@@ -456,14 +456,10 @@ def test_the_documented_path_of_a_control_update_names_files_that_exist():
 
 def test_the_loop_library_imports_only_contracts_and_few_modules_beyond_them():
     """What loop/'s own files import, followed transitively (lazy imports and importlib strings counted): the judo
-    modules outside judo.loop that a robot integrator's loop depends on, at most TARGET. The loop itself imports only
-    contracts and the safety layer, never the concrete controller, the rollout machinery, the registry, the bridges
-    or the app. While the registry is still reached through the layers below (judo.safety.limits imports it, and it
-    imports the Controller and every rollout module), the count is reported as an expected failure; the other
-    known excess: judo.core.task names LowLevel (judo.core.rollouts.low_level), the Planner contract imports
-    ControllerConfig and the rollout backend, and the safety layer is four modules."""
-    import pytest
-
+    modules outside judo.loop that a robot integrator's loop depends on, at most `target`: the contracts (task,
+    planner, estimator, reading, spline, errors) and what they stand on (config, model, sensors). The loop imports
+    no concrete controller, rollout machinery, registry, safety layer, bridge or app: the safety objects are handed
+    in (judo.loop.guard's protocols), the Task types its low-level policy and the Planner its config by protocols."""
     target = 10
     graph = import_graph()
     loop = [module for module in graph if in_layer(module, ("judo.loop",))]
@@ -479,8 +475,6 @@ def test_the_loop_library_imports_only_contracts_and_few_modules_beyond_them():
             closure.add(imported)
             todo.append(imported)
     outside = sorted(module for module in closure if not in_layer(module, ("judo.loop",)))
-    if len(outside) > target and "judo.core.configuration.registry" in outside:
-        pytest.xfail(f"{len(outside)} judo modules in the loop's import closure (the registry among them): {outside}")
     assert len(outside) <= target, f"{len(outside)} judo modules in the loop's import closure: {outside}"
 
 

@@ -53,6 +53,7 @@ from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import DynamicsSystem, MujocoSystem, System
 from judo.runtime.app import App
+from judo.safety.serve_filter import safety_guard
 from judo.version import __version__ as __version__
 
 register_builtins()  # every built-in estimator, optimizer and task, selectable by name
@@ -109,6 +110,7 @@ __all__ = [
     "register_estimator",
     "register_optimizer",
     "register_task",
+    "safety_guard",
     "set_config_overrides",
     "set_model_overrides",
     "slider",

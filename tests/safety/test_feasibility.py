@@ -8,6 +8,7 @@ from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.safety.feasibility import RolloutScreen
 from judo.safety.limits import SafetyConfig, resolve
+from judo.safety.serve_filter import safety_guard
 
 
 def screen_of(task, **limits) -> RolloutScreen:
@@ -32,7 +33,9 @@ def test_the_screen_scores_infeasible_rows_minus_infinity_and_counts_an_iteratio
 def test_no_optimizer_chooses_an_infeasible_rollout_when_a_feasible_one_exists(optimizer):
     controller = make_controller("cartpole", optimizer, seed=1)
     loop = ClosedLoop(
-        controller, MujocoSystem.from_task(controller.task, seed=1), safety=SafetyConfig(position=("slider=-0.3:0.3",))
+        controller,
+        MujocoSystem.from_task(controller.task, seed=1),
+        guard=safety_guard(controller, SafetyConfig(position=("slider=-0.3:0.3",))),
     )
     screen = controller.limits
     assert isinstance(screen, RolloutScreen)
@@ -52,7 +55,9 @@ def test_no_optimizer_chooses_an_infeasible_rollout_when_a_feasible_one_exists(o
 def test_the_plan_predictive_sampling_serves_is_a_feasible_sample():
     controller = make_controller("cartpole", "ps", seed=2)
     ClosedLoop(
-        controller, MujocoSystem.from_task(controller.task, seed=2), safety=SafetyConfig(position=("slider=-0.3:0.3",))
+        controller,
+        MujocoSystem.from_task(controller.task, seed=2),
+        guard=safety_guard(controller, SafetyConfig(position=("slider=-0.3:0.3",))),
     )
     state = np.array([0.1, np.pi, 0.5, 0.0])  # three in four samples cross the limit
     controller.update_action(state, 0.0)
@@ -67,7 +72,9 @@ def test_the_plan_predictive_sampling_serves_is_a_feasible_sample():
 def test_a_start_beyond_a_limit_is_counted_and_planned_back_toward_it():
     controller = make_controller("cartpole", "ps", seed=3)
     ClosedLoop(
-        controller, MujocoSystem.from_task(controller.task, seed=3), safety=SafetyConfig(position=("slider=-0.3:0.3",))
+        controller,
+        MujocoSystem.from_task(controller.task, seed=3),
+        guard=safety_guard(controller, SafetyConfig(position=("slider=-0.3:0.3",))),
     )
     controller.update_action(np.array([0.6, np.pi, 0.0, 0.0]), 0.0)  # already beyond: no sample keeps the limit
     assert controller.limits.no_feasible == controller.iterations_run >= 1

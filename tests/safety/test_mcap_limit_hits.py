@@ -21,6 +21,7 @@ from judo.ros2.bridge import Ros2System
 from judo.ros2.mcap_log import LIMIT_HITS_TOPIC, LimitHitLog, McapLog
 from judo.ros2.options import Ros2Options
 from judo.safety.limits import SafetyConfig
+from judo.safety.serve_filter import safety_guard
 
 pytestmark = pytest.mark.slow
 
@@ -43,7 +44,7 @@ def test_each_limit_hit_is_a_record_of_the_bridges_log(tmp_path):
     system = Ros2System(controller.task, Ros2Options(domain_id=domain), McapLog(tmp_path / "run.mcap"))
     try:
         assert isinstance(system.recorder(), LimitHitLog)
-        loop = ClosedLoop(controller, system, safety=SafetyConfig(effort=("push=0.8",)))
+        loop = ClosedLoop(controller, system, guard=safety_guard(controller, SafetyConfig(effort=("push=0.8",))))
         loop.restart()
         for _ in range(10):
             loop.step()

@@ -10,7 +10,7 @@ from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import StepRecord
 from judo.loop.system import MujocoSystem
 from judo.safety.limits import SafetyConfig, resolve
-from judo.safety.serve_filter import ServeFilter
+from judo.safety.serve_filter import ServeFilter, safety_guard
 
 
 class Rogue(Policy):
@@ -44,7 +44,12 @@ def test_the_filter_holds_a_rogue_policy_within_effort_speed_and_position():
     controller = make_policy_controller("cartpole", Rogue(), seed=0)
     limits = SafetyConfig(position=("slider=-0.5:0.5",), velocity=("slider=0.5",), effort=("push=0.8",))
     steps = Steps()
-    loop = ClosedLoop(controller, MujocoSystem.from_task(controller.task, seed=0), safety=limits, recorders=[steps])
+    loop = ClosedLoop(
+        controller,
+        MujocoSystem.from_task(controller.task, seed=0),
+        guard=safety_guard(controller, limits),
+        recorders=[steps],
+    )
     loop.restart()
     for _ in range(300):
         loop.step()
@@ -84,7 +89,12 @@ def test_no_limits_change_nothing():
     def actions(safety):
         controller = make_controller("cartpole", "ps", seed=4)
         steps = Steps()
-        loop = ClosedLoop(controller, MujocoSystem.from_task(controller.task, seed=4), safety=safety, recorders=[steps])
+        loop = ClosedLoop(
+            controller,
+            MujocoSystem.from_task(controller.task, seed=4),
+            guard=safety_guard(controller, safety),
+            recorders=[steps],
+        )
         loop.restart()
         for _ in range(25):
             loop.step()
@@ -118,7 +128,7 @@ def test_the_hits_reach_the_dataset(tmp_path):
     loop = ClosedLoop(
         controller,
         MujocoSystem.from_task(controller.task, seed=6),
-        safety=SafetyConfig(rate=("push=5",)),
+        guard=safety_guard(controller, SafetyConfig(rate=("push=5",))),
         recorders=[recorder],
     )
     loop.restart()

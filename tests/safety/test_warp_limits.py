@@ -8,6 +8,7 @@ from judo.core.configuration.registry import make_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.safety.limits import SafetyConfig
+from judo.safety.serve_filter import safety_guard
 
 pytestmark = [pytest.mark.warp, pytest.mark.slow]
 
@@ -19,7 +20,7 @@ def test_warp_rollouts_that_cross_a_limit_never_win():
         loop = ClosedLoop(
             controller,
             MujocoSystem.from_task(controller.task, seed=7),
-            safety=SafetyConfig(position=("slider=-0.3:0.3",)),
+            guard=safety_guard(controller, SafetyConfig(position=("slider=-0.3:0.3",))),
         )
         state = np.array([0.1, np.pi, 0.5, 0.0])  # as on the CPU pool: most samples cross the limit
         controller.update_action(state, 0.0)

@@ -27,6 +27,7 @@ from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
 from judo.safety.feasibility import RolloutScreen
 from judo.safety.limits import SafetyConfig
+from judo.safety.serve_filter import safety_guard
 
 __all__ = ["EpisodeLogRecorder", "EpisodeOutcome", "EpisodeResult", "episode_failure", "run_episode", "step_reward"]
 
@@ -131,8 +132,9 @@ def run_episode(
     model = system.task.sim_model
     sizes = (model.nq, model.nv, controller.task.command_size, model.nsensordata)  # controls: what is served
     episode_log = EpisodeLogRecorder(controller.task, sizes, num_steps)
+    guard = safety_guard(controller, safety)  # the serve filter of the limits, and a Controller's rollout screen
     loop = ClosedLoop(
-        controller, system, latency=latency, recorders=[episode_log, *recorders], estimator=estimator, safety=safety
+        controller, system, latency=latency, recorders=[episode_log, *recorders], estimator=estimator, guard=guard
     )
     loop.restart()
     updates = 0
@@ -144,10 +146,10 @@ def run_episode(
             on_update(now)
     log, rewards = episode_log.log, episode_log.rewards
     metrics = {**system.task.metrics(log), "mean_reward": float(rewards.mean())}
-    hits = {} if loop.guard is None else dict(loop.guard.counts)
-    if loop.guard is not None:
+    hits = {} if guard is None else dict(guard.counts)
+    if guard is not None:
         metrics["limit_hits"] = float(sum(hits.values()))
-    screen = None if loop.guard is None else loop.guard.screen  # what `guard` set as the planner's `limits`
+    screen = None if guard is None else guard.screen  # what `safety_guard` set as the planner's `limits`
     no_feasible = screen.no_feasible if isinstance(screen, RolloutScreen) else 0
     return EpisodeResult(
         seed=seed,

@@ -18,8 +18,9 @@ Where the features plug in, each once, here:
   `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one control period
   (`on_watchdog` is told why);
 - recorders of every step and plan: the `recorders` given to the loop (`judo.loop.records.Recorder`).
-- the latched stop (`judo.safety.stop.StopLatch`, the loop's `stop`): while engaged, `serve` gives the safe action
-  and `advance` holds the plant by the System's halt where it offers one, until the stop is cleared.
+- the guard on every served action (`judo.loop.guard.Guard`; the owner's limits: `judo.safety_guard`), and the
+  latched stop (`judo.loop.guard.Stop`, e.g. `judo.safety.stop.StopLatch`): while engaged, `serve` gives the safe
+  action and `advance` holds the plant by the System's halt where it offers one, until the stop is cleared.
 
 The latency model (`judo.loop.latency`): a plan computed from the reading at time t is served from plant time
 t + delay (seconds of sim time, or "measured": the update's wall time); until then the plant keeps the plan in
@@ -42,14 +43,12 @@ from judo.core.estimator import ControlHistory, Estimator
 from judo.core.planner import Planner
 from judo.core.reading import TIME_TOLERANCE, SystemState
 from judo.core.spline import Spline
+from judo.loop.guard import Guard, Stop
 from judo.loop.latency import RECENT_CYCLES, Latency, LatencyPredictor, check_latency, prediction_delay
 from judo.loop.plant_clock import ControlClock
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError
 from judo.loop.watchdog import Watchdog, safe_action
-from judo.safety.limits import SafetyConfig
-from judo.safety.serve_filter import guard
-from judo.safety.stop import StopLatch
 
 __all__ = ["ClosedLoop"]
 
@@ -72,10 +71,11 @@ class ClosedLoop:
             has one (a reading may be late), else the reading's.
         keep_updates: keep at least the latest this many entries of `update_ms` and `latency_s` (at most twice as
             many), for a loop that runs for days (the app); None keeps every update's (an episode's log).
-        stop: the latched stop (`judo.safety.stop`): while it is engaged the plant is served the safe action, or
-            held by the System's own `halt()` (called once per latch, then nothing is applied) where it offers one.
-        safety: the owner's limits ([safety], judo.safety): each served action passes `guard`, the serve filter, and
-            a Controller's rollouts are screened by them; None or no limit set changes nothing.
+        stop: the latched stop (a `judo.loop.guard.Stop`, as `judo.safety.stop.StopLatch`): while it is engaged the
+            plant is served the safe action, or held by the System's own `halt()` (called once per latch, then
+            nothing is applied) where it offers one.
+        guard: each served action passes its `filter` (a `judo.loop.guard.Guard`: the owner's limits, built with
+            `judo.safety_guard(controller, SafetyConfig(...))`, which also screens a Controller's rollouts); None: none.
 
     Attributes:
         reading: the latest reading of the plant (None until the first `read`).
@@ -101,8 +101,8 @@ class ClosedLoop:
         on_watchdog: Callable[[str | None], None] | None = None,
         estimator: Estimator | None = None,
         keep_updates: int | None = None,
-        safety: SafetyConfig | None = None,
-        stop: StopLatch | None = None,
+        guard: Guard | None = None,
+        stop: Stop | None = None,
     ) -> None:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
@@ -124,7 +124,7 @@ class ClosedLoop:
         self.latency_s: list[float] = []
         self.keep_updates = keep_updates
         self.stop, self._stop_halted = stop, False  # the latched stop, and whether the System's halt holds the plant
-        self.guard = guard(controller, safety)  # [safety]: the serve filter (a Controller gets its screen), or None
+        self.guard = guard  # the owner's limits: the serve filter, or None
         self.failed_updates = self.divergences = 0
         self.control_clock = ControlClock()
         self.last_delay = 0.0

@@ -36,6 +36,7 @@ from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem, System
 from judo.runtime.running.estimator_thread import EstimatorThread
 from judo.safety.limits import SafetyConfig
+from judo.safety.serve_filter import safety_guard
 from judo.safety.stop import StopLatch
 
 CONFIG_CLASSES: dict[str, type] = {"controller": ControllerConfig, "optimizer": OptimizerConfig, "task": TaskConfig}
@@ -199,7 +200,7 @@ def build_session(
             estimator=estimator,
             keep_updates=KEPT_UPDATES,
             stop=stop,
-            safety=make_config(SafetyConfig, task_name),  # [safety.TASK]: docs/safety.md
+            guard=safety_guard(controller, make_config(SafetyConfig, task_name)),  # [safety.TASK]: docs/safety.md
         )
     except BaseException:
         controller.close()

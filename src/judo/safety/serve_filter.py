@@ -67,7 +67,7 @@ class ServeFilter:
         counts: hits by limit name, over the filter's life.
         filtered: commands filtered so far; `replaced` how many of them became the safe action.
         status: the latest line told ("safety: ... ; serving the safe action"), or None before any.
-        screen: the planner's RolloutScreen where `guard` set one (its counts join `summary`), else None.
+        screen: the planner's RolloutScreen where `safety_guard` set one (its counts join `summary`), else None.
     """
 
     def __init__(self, task: Task, limits: Limits) -> None:
@@ -273,10 +273,11 @@ class ServeFilter:
         return line if self.screen is None else f"{line}; {self.screen.summary()}"
 
 
-def guard(planner: Planner, config: SafetyConfig | None) -> ServeFilter | None:
+def safety_guard(planner: Planner, config: SafetyConfig | None) -> ServeFilter | None:
     """The serve filter of `config`'s limits on `planner`'s task, and the rollout screen set as a Controller's
-    `limits` (a PolicyController rolls nothing out: the filter alone holds it); None, changing nothing, when
-    `config` is None or sets no limit. LimitError for a limit the planning model cannot take."""
+    `limits` (a PolicyController rolls nothing out: the filter alone holds it), to hand to `ClosedLoop(guard=...)`;
+    None, changing nothing, when `config` is None or sets no limit. LimitError for a limit the planning model
+    cannot take."""
     if config is None or not config.active:
         return None
     task = planner.task
