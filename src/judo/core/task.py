@@ -19,13 +19,15 @@ from judo.core.sensors import MeasuredLayout, measured_layout
 
 
 class LowLevelCommands(Protocol):
-    """What `Task.low_level()` returns (a `judo.core.rollouts.low_level.LowLevel`): a low-level policy that turns
-    the C commands the optimizer plans, each within its row of the (C, 2) `command_range`, into the actuators' ctrl."""
+    """What `Task.low_level()` returns (a `judo.core.rollouts.low_level.LowLevel`): a policy that turns the C planned
+    commands (each within its row of `command_range`) into ctrl; `plant(model)` is its side on the simulated plant."""
 
     command_range: np.ndarray
 
     @property
     def command_size(self) -> int: ...
+
+    def plant(self, model: mujoco.MjModel) -> Any: ...
 
 
 @dataclass
@@ -290,12 +292,10 @@ class Task(ABC, Generic[ConfigT]):
 
     def safe_action(self, state: np.ndarray) -> np.ndarray:
         """The (command_size,) control that brings the plant to rest from the (nq + nv,) `state`: what the watchdog
-        serves when the plan in force is too old, and what `System.halt` applies by default.
-
-        The default sets motor, force and velocity actuators to 0 and holds position actuators at their joint's
-        current position, clamped to the ctrlrange (override it for a gripper that must keep its grip, a drone that
-        must hover); under a low-level policy, each command's zero clamped to its range.
-        """
+        serves when the plan in force is too old, and what `System.halt` applies by default. The default sets
+        motor, force and velocity actuators to 0 and holds position actuators at their joint's current position,
+        clamped to the ctrlrange (override it for a gripper that must keep its grip, a drone that must hover);
+        under a low-level policy, each command's zero clamped to its range."""
         if self.low_level() is not None:
             low, high = self.command_range.T
             return np.clip(np.zeros(self.command_size), low, high)

@@ -35,6 +35,7 @@ from judo.core.rollouts.backend import RolloutBackend
 from judo.core.rollouts.rollout import RolloutPool
 from judo.core.rollouts.stepper import PolicyStepper
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
+from judo.core.task import LowLevelCommands
 
 ObservationFn = Callable[..., np.ndarray]
 """(commands (B, C), states (B, nq + nv), previous_actions (B, A), times (B,)[, out=(B, O)]) -> (B, O) observations;
@@ -199,7 +200,7 @@ class LowLevel:
             raise PolicyError(f"{what} shape {np.shape(ctrl)[1:]} per row, but the model has nu = {model.nu} actuators")
 
 
-def check_low_level_backend(name: str, low_level: "LowLevel | None") -> None:
+def check_low_level_backend(name: str, low_level: LowLevelCommands | None) -> None:
     """Raise LowLevelBackendError, before any backend is built, when a task with a low-level policy asks for a
     rollout backend other than "cpu" (MuJoCo Warp cannot run a policy between its steps yet)."""
     if low_level is not None and name != "cpu":
@@ -209,7 +210,7 @@ def check_low_level_backend(name: str, low_level: "LowLevel | None") -> None:
         )
 
 
-def with_low_level(backend: RolloutBackend, low_level: "LowLevel | None") -> RolloutBackend:
+def with_low_level(backend: RolloutBackend, low_level: LowLevelCommands | None) -> RolloutBackend:
     """`backend` itself without a low-level policy, else a `LowLevelRollout` around it. A backend that cannot
     run the policy between its steps is closed and LowLevelBackendError raised."""
     if low_level is None:
@@ -220,7 +221,7 @@ def with_low_level(backend: RolloutBackend, low_level: "LowLevel | None") -> Rol
             f"the {type(backend).__name__} rollout backend cannot run a low-level policy inside its rollouts yet; "
             "expected the cpu backend (RolloutPool) for a task whose low_level() returns a policy"
         )
-    return LowLevelRollout(backend, low_level)
+    return LowLevelRollout(backend, cast(LowLevel, low_level))  # what a task's low_level() returns
 
 
 class LowLevelRollout(RolloutBackend):
