@@ -585,3 +585,48 @@ def test_no_package_holds_more_than_twenty_modules():
     over = {name: size for name, size in sizes.items() if size > PACKAGE_MODULES}
     assert not over, f"packages over {PACKAGE_MODULES} modules: {over}"
     assert max(sizes.values()) >= 10  # the walk found the packages
+
+
+KIND_BRANCHES = (
+    re.compile(r"optimizer is (not )?None"),
+    re.compile(r"isinstance\([^)]*\bDynamicsTask\b"),
+    re.compile(r"isinstance\([^)]*\bPolicyController\b"),
+)
+"""Lines that branch on the kind of planner or task instead of asking it (`PlannerKind`, `spec.runs_mpc`, the task's
+own hooks); the rule of benchmarks/house_figures.py (its KIND_PATTERNS and `policy_comparison`), copied here."""
+
+
+def kind_branches(root: Path = SRC, package: str = PACKAGE) -> list[str]:
+    """ "path:line: code" of each line (its code before a `  #` comment) that branches on a planner's or task's kind:
+    a KIND_BRANCHES match, or a ==, != or `in` comparison with "policy" or a module constant bound to it."""
+    texts = {path: path.read_text() for path in sorted((root / package).rglob("*.py"))}
+    bound = re.compile(r'^([A-Z_][A-Z0-9_]*)\s*(?::[^=]*)?=\s*"policy"\s*$', re.MULTILINE)  # NAME = "policy"
+    constants = {name for text in texts.values() for name in bound.findall(text)}
+    names = "|".join(re.escape(name) for name in ['"policy"', *sorted(constants)])
+    policy = re.compile(
+        rf"(?:==|!=)\s*(?:{names})\b|(?:{names})\s*(?:==|!=|\bnot in\b|\bin\b)|\bin\s*[(\[{{][^)\]}}]*(?:{names})"
+    )
+    return [
+        f"{path.relative_to(root).as_posix()}:{number}: {line.strip()}"
+        for path, text in texts.items()
+        for number, line in enumerate(text.splitlines(), 1)
+        if any(pattern.search(line.split("  #")[0]) for pattern in (*KIND_BRANCHES, policy))
+    ]
+
+
+def test_no_branch_on_the_kind_of_planner_or_task(tmp_path):
+    write_package(
+        tmp_path,
+        {
+            "pkg/__init__.py": "",
+            "pkg/a.py": 'POLICY = "policy"\nif spec.optimizer is None:\n    pass\nok = name == POLICY\n',
+            "pkg/b.py": "if isinstance(task, DynamicsTask):\n    pass\nx = 1  # optimizer is None here\n",
+        },
+    )
+    assert [line.split(":")[0:2] for line in kind_branches(tmp_path, "pkg")] == [
+        ["pkg/a.py", "2"],
+        ["pkg/a.py", "4"],
+        ["pkg/b.py", "1"],
+    ]
+    found = kind_branches()
+    assert not found, f"{len(found)} branches on the kind of planner or task (ask it instead):\n" + "\n".join(found)

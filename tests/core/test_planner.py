@@ -153,3 +153,15 @@ def test_both_refuse_a_bad_reading_with_the_one_check_and_keep_their_plan(make, 
 def test_the_check_returns_the_state_as_floats():
     state = checked_reading([1, 2], 0.0, 2, "plan from")
     assert state.dtype == float and state.tolist() == [1.0, 2.0]
+
+
+@pytest.mark.parametrize("make", ["controller", "policy_controller"])
+def test_the_plan_carries_what_the_loop_records_and_a_policy_keeps_feedback_off(make, request):
+    planner: AppPlanner = request.getfixturevalue(make)
+    planner.config = judo.ControllerConfig(horizon=0.2, max_opt_iters=1, feedback=True)
+    loop = ClosedLoop(planner, MujocoSystem.from_task(planner.task, seed=0))
+    assert loop.predicts() is (make == "controller")  # gains only on an optimizer's plans
+    assert planner.config.feedback is (make == "controller")
+    plan = planner.update_action(loop.restart().state, 0.0)
+    assert np.array_equal(plan.rewards, planner.rewards) and np.array_equal(plan.traces, planner.traces)
+    assert plan.rewards.shape == ((8,) if make == "controller" else (0,))

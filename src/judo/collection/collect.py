@@ -67,7 +67,7 @@ class CollectArgs(EpisodeArgs):
         require(self.out.suffix in (".h5", ".hdf5"), f"--out must name an .h5 or .hdf5 file, got {str(self.out)!r}")
         if self.policy is not None:
             require(
-                self.optimizer is not None,
+                self.runs_mpc,
                 "collect --policy needs --optimizer NAME: the MPC that plans from the states the policy visits, "
                 "for the labels",
             )

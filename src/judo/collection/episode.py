@@ -4,7 +4,7 @@ The episode is exactly evaluate's seed `seed` (`judo.evaluation.seeded.run_seede
 gets every plan and step from the one closed-loop step (`judo.loop.closed_loop.ClosedLoop`).
 """
 
-from judo.core.planner import Planner
+from judo.core.planner_view import AppPlanner
 from judo.core.policies.policy_controller import PolicyController
 from judo.core.rollouts.backend import RolloutBackend
 from judo.evaluation.episode import EpisodeOutcome, episode_failure
@@ -44,7 +44,7 @@ def collect_episode(
     with failed control updates is kept (`episode_failure`'s `failed_updates_fail=False`), their count with it."""
     made: list[tuple[EpisodeRecorder, MujocoSystem]] = []
 
-    def plans(planner: Planner, system: MujocoSystem) -> list[EpisodeRecorder]:
+    def plans(planner: AppPlanner, system: MujocoSystem) -> list[EpisodeRecorder]:
         made.append((EpisodeRecorder.for_loop(planner, system.task, traces), system))
         return [made[-1][0]]
 

@@ -340,8 +340,7 @@ class Controller:
 
     def _publish(self, time: float, nominal: np.ndarray, rewards: np.ndarray, sensors: Any) -> Spline:
         """The clamped `nominal` as the plan from `time` (with gains under `config.feedback`); keeps rewards, traces."""
-        cfg = self.config
-        self.rewards = rewards
+        cfg, self.rewards = self.config, rewards
         self.nominal_knots = nominal = clip_ufunc(nominal, self._ctrl_low, self._ctrl_high)
         self._plan = Spline(time, self._basis, nominal, self._ctrl_low, self._ctrl_high)
         if cfg.feedback:  # with the gains around its nominal rollout (judo.core.feedback)
@@ -351,6 +350,7 @@ class Controller:
         rows = self._trace_rows[: len(shown) + 1]  # row 0 stays 0: the nominal
         rows[1:] = shown
         self.traces = sensors[rows][..., self._trace_columns].reshape(len(rows), self._num_steps, -1, 3)
+        self._plan.rewards, self._plan.traces = rewards, self.traces  # what the loop records of the update
         return self._plan
 
     def _restart_search(self, what: str) -> None:

@@ -130,7 +130,14 @@ class Spline:
     With `low` and `high` ((nu,) bounds, e.g. the actuators' ctrlrange), every value it returns is
     clamped into [low, high]: a cubic through knots that lie within the bounds can still overshoot
     them between knots, and a plant must never be commanded beyond its range.
+
+    A planner's `update_action` sets what its update scored on the plan it returns, for the loop's records:
+    `rewards` (num_rollouts,) and `traces` (1 + num_shown, T, num_trace_sensors, 3), the planner's own
+    (`PlannerView`); empty where nothing was scored or rolled out.
     """
+
+    rewards: np.ndarray = np.zeros(0)
+    traces: np.ndarray = np.zeros((0, 0, 0, 3))
 
     def __init__(
         self,

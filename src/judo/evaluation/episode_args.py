@@ -95,6 +95,11 @@ class EpisodeArgs(SensingFlags):
 
             make_policy_controller(self.task, self.policy).close()  # PolicyError, one line, if it does not fit
 
+    @property
+    def runs_mpc(self) -> bool:
+        """Whether an optimizer plans: alone (it drives the plant), or as the expert that labels a policy's states."""
+        return isinstance(self.optimizer, str)
+
     def policy_file(self) -> str | None:
         """The --policy file as an absolute path (Ray workers read it from another directory), or None."""
         return None if self.policy is None else str(self.policy.resolve())
@@ -103,7 +108,7 @@ class EpisodeArgs(SensingFlags):
         """What drives the plant, for titles: the optimizer's name, or "policy NAME"."""
         if self.policy is not None:
             return f"policy {self.policy.stem}"
-        assert self.optimizer is not None, "check() asks for --optimizer or --policy"
+        assert isinstance(self.optimizer, str), "check() asks for --optimizer or --policy"
         return self.optimizer
 
     def changed_fields(self) -> dict[str, Any]:

@@ -21,7 +21,7 @@ from judo.core.configuration.config_values import controller_config_of, optimize
 from judo.core.configuration.registry import ConfigKind, make_config
 from judo.core.controller import Controller
 from judo.core.errors import JudoError
-from judo.core.planner import Planner
+from judo.core.planner_view import AppPlanner
 from judo.core.policy import Policy
 from judo.core.rollouts.backend import RolloutBackend
 from judo.core.task import Task
@@ -43,7 +43,7 @@ if TYPE_CHECKING:
 _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
 
-RecorderFactory = Callable[[Planner, MujocoSystem], Iterable[Recorder]]
+RecorderFactory = Callable[[AppPlanner, MujocoSystem], Iterable[Recorder]]
 """Makes an episode's extra recorders once its planner (a Controller, or a PolicyController where a policy drives)
 and plant exist (they size their buffers from them)."""
 
@@ -87,6 +87,17 @@ class EpisodeSpec:
     plant_overrides: tuple[str, ...] = ()
     """--plant-overrides entries, FIELD.ELEMENT=VALUE: the simulated plant's model fields."""
 
+    @property
+    def runs_mpc(self) -> bool:
+        """Whether an optimizer plans: alone (it drives the plant), or as the expert that labels a policy's states."""
+        return isinstance(self.optimizer, str)
+
+    def optimizer_name(self) -> str:
+        """The optimizer that plans; JudoError where the spec names none (a policy alone, or nothing)."""
+        if isinstance(self.optimizer, str):
+            return self.optimizer
+        raise JudoError(f"an episode of {self.task!r} needs an optimizer or a policy; the spec names neither")
+
 
 def load_config_once(path: str | None) -> None:
     """Read the user's --config file in this process, once (registering its classes and overrides)."""
@@ -105,7 +116,7 @@ def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
     from judo.core.configuration.registry import default_configs
 
     load_config_once(spec.config_file)
-    if spec.optimizer is None:  # a policy alone: no optimizer's config
+    if not spec.runs_mpc:  # a policy alone: no optimizer's config
         from judo.core.configuration.controller_config import ControllerConfig
         from judo.core.configuration.registry import lookup_task, make_config
 
@@ -114,7 +125,7 @@ def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
             "task": make_config(lookup_task(spec.task)[1], spec.task),
         }
         return apply_values(configs, spec.values)
-    return apply_values(default_configs(spec.task, spec.optimizer), spec.values)
+    return apply_values(default_configs(spec.task, spec.optimizer_name()), spec.values)
 
 
 def policy_config_in_force(spec: EpisodeSpec, policy: "Policy") -> "ControllerConfig":
@@ -156,8 +167,7 @@ def run_seeded_episode(
     configs = configs_in_force(spec)
     if spec.policy is not None:
         return run_policy_episode(spec, seed, configs, recorders, on_update)
-    if spec.optimizer is None:
-        raise JudoError(f"an episode of {spec.task!r} needs an optimizer or a policy; the spec names neither")
+    spec.optimizer_name()  # JudoError where the spec names neither an optimizer nor a policy
     proposals = load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
     with spec_controller(spec, configs, seed, backend, proposal_policy=proposals) as controller:
         controller.task.config = configs["task"]
@@ -180,10 +190,9 @@ def spec_controller(
     that names an optimizer."""
     from judo.core.configuration.registry import make_controller
 
-    assert spec.optimizer is not None, "spec_controller runs a spec that names an optimizer"
     return make_controller(
         spec.task,
-        spec.optimizer,
+        spec.optimizer_name(),
         controller_config=controller_config_of(configs),
         optimizer_config=optimizer_config_of(configs),
         num_workers=spec.num_workers,
@@ -223,7 +232,7 @@ def run_policy_episode(
     assert spec.policy is not None, "run_policy_episode runs a spec with a policy"
     policy = as_policy(spec.policy)
     expert = None
-    if spec.optimizer is not None:  # the MPC that labels; with a proposal policy, gpc's augmented controller
+    if spec.runs_mpc:  # the MPC that labels; with a proposal policy, gpc's augmented controller
         proposals = load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
         expert = spec_controller(spec, configs, seed, proposal_policy=proposals)
     config = policy_config_in_force(spec, policy)

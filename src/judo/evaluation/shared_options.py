@@ -95,10 +95,10 @@ def check_episode_args(args: Any) -> None:
     duration, the latency flags, the backend, and the --controller, --optimizer-config and --task-config
     fields against the pair's configs. Raises a JudoError saying which argument is wrong."""
     require(
-        args.optimizer is not None or getattr(args, "policy", None) is not None,
+        args.runs_mpc or getattr(args, "policy", None) is not None,
         "give --optimizer NAME (or --policy FILE.onnx to run a policy)",
     )
-    check_names([args.task], [] if args.optimizer is None else [args.optimizer])
+    check_names([args.task], [args.optimizer] if args.runs_mpc else [])
     require_between("--duration", args.duration, 0, 86_400.0, " s", above=True)
     require(
         args.latency_ms is None or args.latency == "none",
@@ -108,6 +108,6 @@ def check_episode_args(args: Any) -> None:
         require_between("--latency-ms", args.latency_ms, 0, 60_000.0)
     check_rollout_backend(args.backend)
     controller_config(args.task, args.controller, args.optimizer)
-    if args.optimizer is not None:
+    if args.runs_mpc:
         optimizer_config(args.task, args.optimizer, getattr(args, "optimizer_config", None))
     task_config(args.task, getattr(args, "task_config", None))

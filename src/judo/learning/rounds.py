@@ -226,7 +226,7 @@ def teacher_flags(args: DistillArgs, env_args: dict[str, Any]) -> list[str]:
     """The collect/evaluate flags that reproduce the dataset's MPC: optimizer, duration, latency, and the plan
     layout fields of its configs (so every round's knots have the dataset's shape)."""
     optimizer = args.optimizer or env_args.get("optimizer")
-    if optimizer is None:
+    if not optimizer:
         raise DistillError("the dataset names no optimizer (a policy drove it); give --optimizer NAME for the rounds")
     latency = env_args.get("latency_s", 0.0)
     flags = ["--task", env_args["task"], "--optimizer", optimizer, "--duration", repr(float(env_args["duration"]))]
@@ -285,7 +285,7 @@ def evaluate_round(args: DistillArgs, env_args: dict[str, Any], policy: Path) ->
     )
     specs = {
         "policy": dataclasses.replace(base, policy=str(policy)),
-        "proposals": with_proposals if optimizer is not None else None,
+        "proposals": with_proposals if with_proposals.runs_mpc else None,
     }
     cells = []
     seeds = range(args.eval_first_seed, args.eval_first_seed + args.eval_seeds)

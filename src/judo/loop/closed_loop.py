@@ -238,18 +238,18 @@ class ClosedLoop:
             self._pending = [entry for entry in self._pending if entry[0] < at - TIME_TOLERANCE]
             self._pending.append((at, plan, stamp))
         if self.recorders:  # the record is built only for someone to read it
-            traces = self._traces_if_wanted()
-            record = PlanRecord.of_update(reading.time, delay, plan.knots, wall, self.controller.rewards, traces)
+            traces = self._traces_if_wanted(plan)
+            record = PlanRecord.of_update(reading.time, delay, plan.knots, wall, plan.rewards, traces)
             for recorder in self.recorders:
                 recorder.on_plan(record)
         return plan
 
     def predicts(self) -> bool:
         """Whether a plan is made from the reading predicted to when it takes effect: with latency compensation,
-        and with feedback gains, whose nominal rollout must start where the plant will be when they act (from
-        the reading itself, the gains pull the plant toward a start it has already left)."""
+        and with feedback gains (a planner whose plans have none keeps `feedback` off), whose nominal rollout must
+        start where the plant will be when they act (else they pull it toward a start it has already left)."""
         config = self.controller.config
-        return config.latency_compensation or (config.feedback and self.controller.optimizer is not None)
+        return config.latency_compensation or config.feedback
 
     def _predicted(self, reading: SystemState) -> SystemState:
         """`reading` predicted to when the plan made from it takes effect, under the plans due meanwhile."""
@@ -266,11 +266,11 @@ class ClosedLoop:
 
         return self._predictor.predict_reading(reading, delay, control_at)
 
-    def _traces_if_wanted(self) -> np.ndarray | None:
-        """(1 + num_shown, T, num_trace_sensors, 3) float32 copy of the controller's traces when a recorder
-        has `wants_traces`, else None."""
+    def _traces_if_wanted(self, plan: Spline) -> np.ndarray | None:
+        """(1 + num_shown, T, num_trace_sensors, 3) float32 copy of the traces of the update that made `plan`
+        when a recorder has `wants_traces`, else None."""
         if any(getattr(recorder, "wants_traces", False) for recorder in self.recorders):
-            return self.controller.traces.astype(np.float32)
+            return plan.traces.astype(np.float32)
         return None
 
     def serve(self, now: float) -> np.ndarray:

@@ -6,7 +6,7 @@ from typing import Any
 import numpy as np
 
 from judo.core.errors import JudoError
-from judo.core.planner import Planner
+from judo.core.planner_view import AppPlanner, PlannerKind
 from judo.core.policies.policy_controller import PolicyController
 from judo.core.task import Task
 from judo.loop.records import PlanRecord, StepRecord
@@ -48,12 +48,12 @@ class EpisodeRecorder:
         self.plans: list[PlanRecord] = []
 
     @classmethod
-    def for_loop(cls, planner: Planner, plant_task: Task, traces: bool = False) -> "EpisodeRecorder":
-        """A recorder for the plans of `planner`, which has an optimizer, and the plant model (`sim_model`) of
-        `plant_task`."""
-        model = plant_task.sim_model
-        assert planner.optimizer is not None, "an EpisodeRecorder of the loop records an optimizer's plans"
-        sizes = (model.nq, model.nv, model.nmocap, planner.optimizer.num_nodes, planner.task.command_size)
+    def for_loop(cls, planner: AppPlanner, plant_task: Task, traces: bool = False) -> "EpisodeRecorder":
+        """A recorder for the plans of `planner`, where an optimizer plans (PlannerKind.MPC), and the plant model
+        (`sim_model`) of `plant_task`."""
+        model, optimizer = plant_task.sim_model, planner.optimizer
+        assert planner.kind is PlannerKind.MPC and optimizer, "an EpisodeRecorder of the loop records an MPC's plans"
+        sizes = (model.nq, model.nv, model.nmocap, optimizer.num_nodes, planner.task.command_size)
         return cls(*sizes, tuple(plant_task.measured_sensors), traces, *metadata_settings(plant_task))
 
     def with_records(self, steps: list[StepRecord], plans: list[PlanRecord]) -> "EpisodeRecorder":

@@ -18,6 +18,7 @@ delays the policy's plan within the update): the policy drives the plant while t
 (`python -m judo collect --policy FILE.onnx --optimizer O`). The expert's `rewards` and `traces` are reported.
 """
 
+import dataclasses
 import math
 from pathlib import Path
 from time import perf_counter_ns
@@ -93,7 +94,7 @@ class PolicyController:
         expert: a Controller on the same task that plans from every state the policy is served from, for labels.
 
     Attributes:
-        config, task, policy, expert: the parts.
+        config, task, policy, expert: the parts (`config.feedback` always off: a policy's plan has no gains).
         nominal_knots: (H, nu) the latest chunk (clamped to the ctrlrange), or None before the first update.
         inference_ms: wall time of each update's observation and `act`, in milliseconds (the expert's not counted).
         expert_failures: expert updates that failed on non-finite rewards or knots (its plan before stayed).
@@ -137,6 +138,13 @@ class PolicyController:
         self._wants_sensors = type(task).policy_observation is not Task.policy_observation
         self._scratch = mujoco.MjData(task.model) if self._wants_sensors else None
         self._warm_start_takes_state = warm_start_takes_state(task)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        """`config` is kept with `feedback` off (a config set with it on is taken as a copy with it off): a policy's
+        plan carries no gains, so the loop never predicts a start for them."""
+        if name == "config" and value.feedback:
+            value = dataclasses.replace(value, feedback=False)
+        super().__setattr__(name, value)
 
     @property
     def name(self) -> str:
@@ -230,6 +238,7 @@ class PolicyController:
                 self.expert.update_action(state, time, system_metadata, cancel, deadline)
             except (NonFiniteRewardError, NonFiniteKnotsError):
                 self.expert_failures += 1  # the policy's plan is served all the same
+        self._plan.rewards, self._plan.traces = self.rewards, self.traces  # the expert's, for the loop's records
         return self._plan
 
     def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:

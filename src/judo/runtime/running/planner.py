@@ -7,6 +7,7 @@ import time
 
 from judo.core.errors import JudoError
 from judo.core.feedback import FeedbackPlan
+from judo.core.planner_view import PlannerKind
 from judo.core.reading import SystemState
 from judo.core.rollouts.backend import PlanningCancelled
 from judo.core.rollouts.workers import DaemonThreadPool
@@ -166,9 +167,10 @@ class PlannerRunner:
         controller = session.controller
         if pending.controller is not None:
             controller.config = pending.controller
-        if pending.optimizer is not None:
-            assert controller.optimizer is not None, "a session where a policy plans takes no optimizer edits"
-            controller.optimizer.config = pending.optimizer
+        edited, optimizer = pending.optimizer, controller.optimizer  # an optimizer config's edit, if one is pending
+        if edited is not None:
+            assert controller.kind is PlannerKind.MPC and optimizer, "a session where a policy plans takes no such edit"
+            optimizer.config = edited
         if pending.task is not None:  # the planner's task owns the task config; the plant reads it from there
             controller.task.config = pending.task
         if requests.forget_plans:
