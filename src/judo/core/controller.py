@@ -24,7 +24,7 @@ from judo.core.rollouts.dynamics import task_rollout_backend
 from judo.core.rollouts.low_level import check_low_level_backend, with_low_level
 from judo.core.rollouts.parallel_reward import ParallelReward
 from judo.core.rollouts.randomize import randomized_models
-from judo.core.rollouts.risk import checked_rewards, reduce_rewards
+from judo.core.rollouts.risk import reduce_rewards
 from judo.core.spline import Spline, SplineBasis, clip_ufunc
 from judo.core.task import Task, warm_start_takes_state
 
@@ -86,8 +86,7 @@ class Controller:
         self._backend_name = backend if isinstance(backend, str) else backend.name
         self._score = ParallelReward(self.backend.reward_threads)  # one plain call unless the backend asks
         self.nominal_knots: np.ndarray | None = None
-        self.rewards = np.zeros(0)
-        self.traces = np.zeros((0, 0, 0, 3))
+        self.rewards, self.traces = np.zeros(0), np.zeros((0, 0, 0, 3))
         self.iterations_run = 0
         self._plan: Spline | None = None
         self._layout_key: tuple | None = None
@@ -102,6 +101,7 @@ class Controller:
         self._warm_start_takes_state = warm_start_takes_state(task)
         self._gains = FeedbackGains(task, self.backend.num_workers if backend == "cpu" else None)
         self.limits: RolloutLimits | None = None
+        self._sized: tuple[tuple, CycleSize] | None = None  # the last cycle_size, by the values it was made from
 
     kind = PlannerKind.MPC
     config_kinds = ("controller", "optimizer", "task")
@@ -122,10 +122,14 @@ class Controller:
         check_proposal_policy(self.proposal_policy, configs["controller"].policy_samples)
 
     def cycle_size(self, configs: dict[Any, Any]) -> CycleSize:
-        """num_rollouts x num_randomizations x iterations (`iterations_per_cycle`) x T under these `configs`."""
-        controller, optimizer = configs["controller"], configs["optimizer"]
-        steps = rollout_steps(controller.horizon, self.task.dt)
-        return CycleSize(optimizer.num_rollouts, controller.num_randomizations, controller.iterations_per_cycle, steps)
+        """num_rollouts x num_randomizations x iterations (`iterations_per_cycle`) x T under `configs`, kept by key."""
+        cfg, opt, dt = configs["controller"], configs["optimizer"], self.task.dt
+        key = (cfg.horizon, cfg.max_opt_iters, cfg.iterations_per_second, cfg.control_freq, cfg.num_randomizations)
+        key, sized = (*key, opt.num_rollouts, dt), self._sized
+        if sized is None or sized[0] != key:
+            steps, iterations = rollout_steps(cfg.horizon, dt), cfg.iterations_per_cycle
+            sized = self._sized = (key, CycleSize(opt.num_rollouts, cfg.num_randomizations, iterations, steps))
+        return sized[1]
 
     @property
     def num_steps(self) -> int:
@@ -146,15 +150,8 @@ class Controller:
         change leaves the previous layout (and its key) in force, and reverting the edit works.
         """
         opt, cfg = self.optimizer, self.config
-        key = (
-            cfg.horizon,
-            cfg.spline_order,
-            opt.config.num_rollouts,
-            opt.config.num_nodes,
-            self.task.dt,
-            cfg.num_randomizations,
-            cfg.policy_samples,  # checked against num_rollouts by check_configs
-        )
+        key = (cfg.horizon, cfg.spline_order, opt.config.num_rollouts, opt.config.num_nodes, self.task.dt)
+        key = (*key, cfg.num_randomizations, cfg.policy_samples)  # policy_samples: checked against num_rollouts
         if key == self._layout_key:
             return
         check_configs(self.task, cfg, opt.config)
@@ -191,13 +188,6 @@ class Controller:
         self.models = models
         self._cycles_since_draw = 0
 
-    def _redraw_models_if_due(self) -> None:
-        """Redraw the randomized models every `redraw_every` cycles (never when it is 0 or randomization is off)."""
-        cfg = self.config
-        if cfg.num_randomizations > 1 and cfg.redraw_every and self._cycles_since_draw >= cfg.redraw_every:
-            self._set_models(cfg.num_randomizations)
-        self._cycles_since_draw += 1
-
     def update_action(
         self,
         state: np.ndarray,
@@ -208,27 +198,26 @@ class Controller:
     ) -> Spline:
         """Run one planning cycle from `state` (nq + nv,) at sim `time`, publish the new plan and return it.
 
-        The cycle runs `config.iterations_per_cycle` optimizer iterations. With a `deadline` (a time.perf_counter()
-        value: the app gives each cycle its control period) the iterations beyond `config.max_opt_iters` run only
-        while one more, as long as the last, ends before it; `iterations_run` says how many ran. Each iteration
-        runs the phases in order: `_sample`, `_clamp`, `_roll_out`, `_score_rollouts`, `_update`; `_publish` ends the cycle.
+        The cycle runs `config.iterations_per_cycle` optimizer iterations, each the phases `_sample`, `_clamp`,
+        `_roll_out`, `_score_rollouts`, `_update`; `_publish` ends it. With a `deadline` (a time.perf_counter() value:
+        the app gives each cycle its control period) the iterations beyond `config.max_opt_iters` run only while one
+        more, as long as the last, ends before it; `iterations_run` says how many ran.
 
         A set `cancel` (a threading.Event, the app's stop or planning cycle) ends the cycle with PlanningCancelled,
         keeping the previous plan: before its next optimizer iteration, or between pieces of a batch of rollouts
         (the CPU pool). `action(t)` serves the returned plan from now on; a caller that models latency (the new
         plan taking effect only later) keeps the previous returned plan and evaluates it itself.
 
-        Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into
-        an invalid combination, NonFiniteRewardError if every rollout scored NaN or -inf, and
-        NonFiniteKnotsError if the optimizer produced NaN or infinite knots; in each case the
-        previous plan stays in force.
-        """
+        Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into an invalid
+        combination, NonFiniteRewardError if every rollout scored NaN or -inf, and NonFiniteKnotsError if the
+        optimizer produced NaN or infinite knots; in each case the previous plan stays in force."""
         nominal, task_config, candidates = self._begin(state, time, system_metadata)
         required, iteration_started = self.config.max_opt_iters, 0.0
+        iterations = self.cycle_size({"controller": self.config, "optimizer": self.optimizer.config}).iterations
         served = nominal[0].copy()  # the plan in force now (or the warm start): the rate limits' step before
         self.backend.cancel = cancel  # polled between pieces of a big batch too, and None again after the cycle
         try:
-            for iteration in range(self.config.iterations_per_cycle):
+            for iteration in range(iterations):
                 if cancel is not None and cancel.is_set():
                     raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
                 if deadline is not None:  # an extra iteration starts only if one as long as the last fits
@@ -253,7 +242,10 @@ class Controller:
         snapshot, the proposal policy's candidates or None)."""
         state = checked_reading(state, time, self._num_state, "plan from")
         self._apply_config_changes()
-        self._redraw_models_if_due()
+        cfg = self.config  # the randomized models are redrawn every `redraw_every` cycles (never when it is 0)
+        if cfg.num_randomizations > 1 and cfg.redraw_every and self._cycles_since_draw >= cfg.redraw_every:
+            self._set_models(cfg.num_randomizations)
+        self._cycles_since_draw += 1
         opt, task = self.optimizer, self.task
         knot_times = time + self._knot_offsets
         if self._plan is None:
@@ -318,7 +310,16 @@ class Controller:
         opt, task, cfg, num_models = self.optimizer, self.task, self.config, len(self.models)
         args = (states, sensors, self._batch_controls, task_config, system_metadata)  # one plain call on one thread
         returned = self._score(task.reward, *args) if self._score.num_threads > 1 else task.reward(*args)
-        rewards = checked_rewards(returned, type(task).__name__, num_models * opt.num_rollouts, self.backend.diverged)
+        owner, rows, diverged = type(task).__name__, num_models * opt.num_rollouts, self.backend.diverged
+        try:  # as (R * N,) floats, or a JudoError saying what came back
+            rewards = np.asarray(returned, dtype=float)
+        except (TypeError, ValueError) as err:
+            text = " ".join(str(returned).split())[:200]
+            raise JudoError(f"{owner}.reward must return ({rows},) numbers, got {text} ({err})") from None
+        if rewards.shape != (rows,):
+            raise JudoError(f"{owner}.reward returned shape {rewards.shape}, expected ({rows},)")
+        if diverged is not False or not np.isfinite(rewards).all():  # NaN, +inf, a diverged rollout (a mask): never win
+            rewards[np.isnan(rewards) | (rewards == np.inf) | diverged] = -np.inf
         if self.limits is not None:  # a rollout that crosses a hard limit never wins either
             rewards = self.limits.screen(rewards, states, sensors, self._batch_controls, served, num_models)
         if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
@@ -369,9 +370,8 @@ class Controller:
         return self._plan(time, state)
 
     def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped to the ctrlrange: what a
-        plant gets before the first plan. Without a state, the planning model's start state (keyframe 0 or
-        qpos0, at rest) stands in."""
+        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped to the ctrlrange: what a plant gets
+        before the first plan. Without a state, the planning model's start state (keyframe 0 or qpos0) stands in."""
         return np.clip(task_warm_start(self.task, state, self._warm_start_takes_state), self._ctrl_low, self._ctrl_high)
 
     @property

@@ -8,6 +8,7 @@ cycle rolls out (`cycle_size`), and which controller fields it uses (`controller
 """
 
 import enum
+import functools
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
@@ -46,9 +47,9 @@ class CycleSize:
     iterations: int
     steps: int
 
-    @property
+    @functools.cached_property
     def total(self) -> int:
-        """Rollout steps of the whole cycle (at most: an optimizer may stop its iterations early)."""
+        """Rollout steps of the whole cycle (at most: an optimizer may stop its iterations early); worked out once."""
         return self.rollouts * self.models * self.iterations * self.steps
 
     def __str__(self) -> str:

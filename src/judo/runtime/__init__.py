@@ -1,13 +1,13 @@
 """The app: a plant thread, a planner and a browser GUI around one closed loop (`judo.loop`); its CLI.
 
 app.py            App: checks its settings, builds the parts, start/run/stop; the commands' public face
-app_state.py      AppState (the one lock and what the parts share) and StopSignal
+app_state.py      AppState (the one lock and what the parts share)
 commands.py       AppPort (all the GUI sees) and Commands (validate each command, queue it in the state)
 session.py        Session (a controller, its plant and their ClosedLoop), ConfigSet, SessionMaker
 running/          who runs what, a room each: planner.py (the control clock in wall time, ClosedLoop.plan on a
                   worker thread, switches), plant.py (the System's own thread: ClosedLoop.advance at real-time
                   pace) and supervisor.py (the event loop, the frontend, the stop order, the exit guard)
-cycles.py         a planning cycle's size, estimated cost, and the cycle in flight
+cycles.py         a planning cycle's size, estimated cost, the cycle in flight, and StopSignal (the app's stop)
 live_recording.py the recording under way
 snapshots.py      StateBuffer and what the loops publish in it for the GUI
 status.py         the status line, the timing figures, the reports

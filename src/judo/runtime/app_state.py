@@ -4,31 +4,28 @@ The App's parts (`judo.runtime.app`) share one `AppState` and take what is their
 - the commands (any thread: the GUI's callbacks, a notebook) validate, then `accept_config`, `request_*`,
   `pause`, `resume`;
 - the plant runner (`judo.runtime.running.plant`, the System's thread) takes the plant's requests
-  (`take_plant_requests`) and counts the resets it carries out;
-- the planner runner (`judo.runtime.running.planner`) takes the planner's requests (`take_planner_requests`)
-  and installs a new session on a switch (`install_session`); it is the only writer of the session's configs.
+  (`take_plant_requests`, when `plant_pending`) and counts the resets it carries out;
+- the planner runner (`judo.runtime.running.planner`) takes the planner's requests (`take_planner_requests`, when
+  `planner_pending`), makes each planning cycle the one in flight (`in_flight`) and installs a new session on a switch
+  (`install_session`); it is the only writer of the session's configs.
 
 What the GUI (or a notebook) follows arrives by callback, fired on the thread that made the change, under the lock:
 `config_changed(kind, config, from_gui)` for each accepted config, `plant_reset(resets_done)` after each reset the
 plant carried out, `session_changed(session)` after a switch and `recording_changed(recorder or None)` when a
 recording begins or ends (`judo.runtime.snapshots.Subscribers`).
 
-Reads of a single field (`session`, `paused`, `resets_done`) need no lock: each is one reference, replaced
-whole. Everything read or written together is taken under `lock`.
+Reads of a single field (`session`, `paused`, `resets_done`, `in_flight.cycle`, and the flags `plant_pending` and
+`planner_pending` that say requests wait) need no lock: each is one reference, replaced whole. Everything read or
+written together is taken under `lock`. The runners look at the flags on every tick and take the requests only when
+one is up, so a steady-state tick runs no code here.
 
-`StopSignal` is the app's stop: one flag that every thread polls and every asyncio wait is cut short by.
-
-A stop (`App.stop()`, Ctrl-C, SIGTERM, the duration reached, a dead plant thread) calls `set` from any thread.
-Threads see it with `is_set` / `wait`; the event loop's coroutines sleep with `sleep` and run blocking calls with
-`in_worker`, both of which return, or raise `Stopping`, as soon as it is set.
+`stop` is the app's `StopSignal` (`judo.runtime.cycles`): one flag that every thread polls and every asyncio wait is
+cut short by.
 """
 
-import asyncio
 import math
 import threading
 import time
-from collections.abc import Callable
-from concurrent.futures import Executor
 from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
@@ -42,7 +39,7 @@ from judo.core.optimizer import OptimizerConfig
 from judo.core.task import TaskConfig
 from judo.evaluation.sensing import Sensing
 from judo.recording.live import LiveRecorder
-from judo.runtime.cycles import CycleCost, PlanningCycle, StepCost, cycle_seconds
+from judo.runtime.cycles import CycleCost, CycleInFlight, PlanningCycle, StepCost, StopSignal, cycle_seconds
 from judo.runtime.session import ConfigSet, Session
 from judo.runtime.snapshots import Subscribers
 
@@ -71,70 +68,6 @@ class PausableClock:
             if self._paused_at is not None:
                 self._paused_for += time.monotonic() - self._paused_at
                 self._paused_at = None
-
-
-class Stopping(Exception):
-    """Raised inside the app's coroutines when a stop arrives while they wait for a worker thread."""
-
-
-class StopSignal:
-    """The app's stop flag, with asyncio waits that a stop cuts short once `bind` has run on the event loop."""
-
-    def __init__(self) -> None:
-        self._flag = threading.Event()
-        self._loop: asyncio.AbstractEventLoop | None = None
-        self._stopping: asyncio.Future[None] | None = None  # done once a stop is requested, to end waits
-
-    def bind(self) -> None:
-        """Tie the asyncio waits to the running event loop (call it on that loop, before any wait)."""
-        loop = asyncio.get_running_loop()
-        self._stopping, self._loop = loop.create_future(), loop
-        if self._flag.is_set():  # the stop came before the loop existed
-            self._stopping.set_result(None)
-
-    def unbind(self) -> None:
-        """The event loop has ended."""
-        self._loop = None
-
-    def set(self) -> None:
-        """Stop (from any thread): set the flag and wake every wait."""
-        self._flag.set()
-        loop = self._loop
-        if loop is not None:
-            try:
-                loop.call_soon_threadsafe(self._wake)
-            except RuntimeError:  # the loop has already closed
-                pass
-
-    def _wake(self) -> None:
-        if self._stopping is not None and not self._stopping.done():
-            self._stopping.set_result(None)
-
-    def is_set(self) -> bool:
-        return self._flag.is_set()
-
-    def wait(self, timeout: float | None = None) -> bool:
-        """Block this thread for at most `timeout` s, until a stop; True if stopped."""
-        return self._flag.wait(timeout)
-
-    async def sleep(self, seconds: float) -> None:
-        """Wait `seconds`, or until a stop, whichever comes first."""
-        stopping = self._stopping
-        if seconds > 0 and stopping is not None and not stopping.done():
-            await asyncio.wait((stopping,), timeout=seconds)
-        else:
-            await asyncio.sleep(0)
-
-    async def in_worker(self, executor: Executor, fn: Callable[..., Any], *args: Any) -> Any:
-        """`fn(*args)` run on `executor`'s thread; raises Stopping if a stop comes first (the call is abandoned
-        to its thread, which ends after it)."""
-        assert self._stopping is not None, "bind() first"
-        future = asyncio.get_running_loop().run_in_executor(executor, fn, *args)
-        await asyncio.wait((future, self._stopping), return_when=asyncio.FIRST_COMPLETED)
-        if self._flag.is_set():
-            future.cancel()  # drops the result whenever it comes
-            raise Stopping
-        return future.result()
 
 
 @dataclass
@@ -192,10 +125,12 @@ class AppState:
         self.plant_reset = Subscribers()  # (resets_done) after each reset the plant carried out
         self.session_changed = Subscribers()  # (session) after a switch
         self.recording_changed = Subscribers()  # (recorder, or None) when a recording begins or ends
-        self.cycle: PlanningCycle | None = None  # the planning cycle in flight (the planner runner's)
+        self.in_flight = CycleInFlight()  # the planning cycle in flight (the planner runner starts each one)
         self.step_cost: StepCost  # the session's cost of one rollout step, from `begin`
         self._plant = PlantRequests()
         self._planner = PlannerRequests()
+        self.plant_pending = False  # the plant's requests wait to be taken
+        self.planner_pending = False  # the planner's requests wait to be taken
 
     def begin(self, session: Session) -> None:
         """Start with `session` and its configs."""
@@ -209,6 +144,7 @@ class AppState:
         with self.lock:
             self.configs = self.configs.with_config(kind, config)
             setattr(self._planner.configs, kind, config)
+            self.planner_pending = True
             if self.recording is not None:
                 self.recording.on_config(kind, config)
             self.config_changed.fire(kind, config, from_gui)
@@ -227,6 +163,7 @@ class AppState:
             self.cancel_cycle("the configs were reset")
             self.configs = defaults
             self._planner.configs = PendingConfigs(defaults.controller, defaults.optimizer, defaults.task)
+            self.planner_pending = True
             for kind, config in defaults.as_dict().items():
                 self.config_changed.fire(kind, config, False)
 
@@ -246,16 +183,16 @@ class AppState:
         return recorder
 
     # ---- the planning cycle in flight ----------------------------------------------------------------
-    def start_cycle(self, cycle: PlanningCycle | None) -> None:
-        """Make `cycle` the one in flight (None: none is)."""
-        with self.lock:
-            self.cycle = cycle
+    @property
+    def cycle(self) -> PlanningCycle | None:
+        """The planning cycle in flight, or None (`in_flight.cycle`)."""
+        return self.in_flight.cycle
 
     def cancel_cycle(self, reason: str) -> None:
         """End the planning cycle in flight, if any, at its next check (the plan before stays in force)."""
         with self.lock:
-            if self.cycle is not None:
-                self.cycle.cancel(reason)
+            if (cycle := self.in_flight.cycle) is not None:
+                cycle.cancel(reason)
 
     # ---- pause ------------------------------------------------------------------------------------
     def pause(self) -> None:
@@ -277,28 +214,30 @@ class AppState:
                 self.cancel_cycle("the task was reset")
             self._plant.reset = True
             self._plant.reset_from_user = self._plant.reset_from_user or from_user
+            self.plant_pending = True
 
     def request_goal_move(self, index: int, position: np.ndarray, quat: np.ndarray | None) -> None:
         with self.lock:
             self._plant.goal_moves[index] = (position, quat)
+            self.plant_pending = True
 
     def take_plant_requests(self) -> PlantRequests:
-        """The plant's requests since the last take (the plant runner's)."""
+        """The plant's requests since the last take (the plant runner's, when `plant_pending`)."""
         with self.lock:
-            requests, self._plant = self._plant, PlantRequests()
+            requests, self._plant, self.plant_pending = self._plant, PlantRequests(), False
         return requests
 
     def note_plant_reset(self) -> None:
         """The plant was reset (or reset itself): count it, and have the planner forget its plans."""
         with self.lock:
             self.resets_done += 1
-            self._planner.forget_plans = True
+            self._planner.forget_plans = self.planner_pending = True
             self.plant_reset.fire(self.resets_done)
 
     def note_divergence(self) -> None:
         """The plant's simulation blew up and reset itself: the planner forgets its plans."""
         with self.lock:
-            self._planner.forget_plans = True
+            self._planner.forget_plans = self.planner_pending = True
 
     # ---- the planner's requests ---------------------------------------------------------------------
     def request_switch(self, task: str | None = None, optimizer: str | None = None, *, rebuild: bool = False) -> None:
@@ -308,6 +247,7 @@ class AppState:
             self._planner.switch = (task or current[0], optimizer or current[1])
             self.cancel_cycle(f"switching to {self._planner.switch[0]} with {self._planner.switch[1]}")
             self._planner.rebuild = self._planner.rebuild or rebuild
+            self.planner_pending = True
 
     def request_estimator(self, estimator: str | None, *, rebuild: bool) -> None:
         """Run `estimator` (None: none) in every session from now on, with its registered defaults; `rebuild` the
@@ -318,9 +258,9 @@ class AppState:
                 self.request_switch(rebuild=True)
 
     def take_planner_requests(self) -> PlannerRequests:
-        """The planner's requests since the last take (the planner runner's)."""
+        """The planner's requests since the last take (the planner runner's, when `planner_pending`)."""
         with self.lock:
-            requests, self._planner = self._planner, PlannerRequests()
+            requests, self._planner, self.planner_pending = self._planner, PlannerRequests(), False
         return requests
 
     def install_session(self, session: Session) -> None:

@@ -1,5 +1,5 @@
-"""The app's planning cycle: its size (N x R x iterations x T steps), its estimated wall time, and the cycle in
-flight with its cancel.
+"""The app's planning cycle: its size (N x R x iterations x T steps), its estimated wall time, the cycle in flight
+with its cancel, and the app's stop that cancels it too.
 
 A cycle's cost is its rollout steps (`CycleSize`, the planner's `cycle_size`: num_rollouts x num_randomizations x
 iterations x T), times the seconds one step takes on the session's rollout backend (`StepCost`): probed on the
@@ -10,14 +10,23 @@ overhead not to count. The commands refuse an edit whose estimated cycle exceeds
 The planner runner plans under a `PlanningCycle`: the controller polls it (`is_set`) between optimizer iterations
 and the CPU rollout pool between pieces of a batch, so a pause, reset, switch or resize that cancels it ends it
 within a fraction of a second, keeping the plan before.
+
+`StopSignal` is the app's stop (`AppState.stop`): one flag that every thread polls and every asyncio wait is cut short
+by. A stop (`App.stop()`, Ctrl-C, SIGTERM, the duration reached, a dead plant thread) calls `set` from any thread.
+Threads see it with `is_set` / `wait` (a threading.Event's own); the event loop's coroutines sleep with `sleep` and
+run blocking calls with `in_worker`, both of which return, or raise `Stopping`, as soon as it is set.
 """
 
+import asyncio
 import math
 import os
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
+from concurrent.futures import Executor
 from dataclasses import dataclass, replace
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -102,6 +111,64 @@ class StepCost:
         return size.total * (float(np.median(self._recent)) if self._recent else self.seconds)
 
 
+class Stopping(Exception):
+    """Raised inside the app's coroutines when a stop arrives while they wait for a worker thread."""
+
+
+class StopSignal(threading.Event):
+    """The app's stop flag (a threading.Event: `is_set` and `wait` are its own), with asyncio waits that a stop cuts
+    short once `bind` has run on the event loop."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stopping: asyncio.Future[None] | None = None  # done once a stop is requested, to end waits
+
+    def bind(self) -> None:
+        """Tie the asyncio waits to the running event loop (call it on that loop, before any wait)."""
+        loop = asyncio.get_running_loop()
+        self._stopping, self._loop = loop.create_future(), loop
+        if self.is_set():  # the stop came before the loop existed
+            self._stopping.set_result(None)
+
+    def unbind(self) -> None:
+        """The event loop has ended."""
+        self._loop = None
+
+    def set(self) -> None:
+        """Stop (from any thread): set the flag and wake every wait."""
+        super().set()
+        loop = self._loop
+        if loop is not None:
+            try:
+                loop.call_soon_threadsafe(self._wake)
+            except RuntimeError:  # the loop has already closed
+                pass
+
+    def _wake(self) -> None:
+        if self._stopping is not None and not self._stopping.done():
+            self._stopping.set_result(None)
+
+    async def sleep(self, seconds: float) -> None:
+        """Wait `seconds`, or until a stop, whichever comes first."""
+        stopping = self._stopping
+        if seconds > 0 and stopping is not None and not stopping.done():
+            await asyncio.wait((stopping,), timeout=seconds)
+        else:
+            await asyncio.sleep(0)
+
+    async def in_worker(self, executor: Executor, fn: Callable[..., Any], *args: Any) -> Any:
+        """`fn(*args)` run on `executor`'s thread; raises Stopping if a stop comes first (the call is abandoned
+        to its thread, which ends after it)."""
+        assert self._stopping is not None, "bind() first"
+        future = asyncio.get_running_loop().run_in_executor(executor, fn, *args)
+        await asyncio.wait((future, self._stopping), return_when=asyncio.FIRST_COMPLETED)
+        if self.is_set():
+            future.cancel()  # drops the result whenever it comes
+            raise Stopping
+        return future.result()
+
+
 class PlanningCycle:
     """One planning cycle in flight: when it started, its size, and its cancel.
 
@@ -132,6 +199,18 @@ class PlanningCycle:
     def late(self) -> bool:
         """True once the cycle has run longer than LATE_CYCLE."""
         return self.elapsed() > LATE_CYCLE
+
+
+class CycleInFlight:
+    """The planning cycle in flight, or None (`cycle`): the planner runner starts and ends each one (`start`), and the
+    app's state cancels it (`AppState.cancel_cycle`, under its lock)."""
+
+    def __init__(self) -> None:
+        self.cycle: PlanningCycle | None = None
+
+    def start(self, cycle: PlanningCycle | None) -> None:
+        """Make `cycle` the one in flight (None: none is)."""
+        self.cycle = cycle
 
 
 @dataclass(frozen=True)

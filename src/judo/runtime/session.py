@@ -9,7 +9,7 @@ watchdog's clock and its reports) are given once; `first` and `switched` build a
 """
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import cast
 
 from judo.core.configuration.config import Config
@@ -55,6 +55,11 @@ class ConfigSet:
     optimizer: OptimizerConfig | None
     task: TaskConfig
     kinds: tuple[ConfigKind, ...] = CONFIG_KINDS
+    by_kind: dict[ConfigKind, Config] = field(init=False, repr=False, compare=False)
+    """{kind: config} of the kinds the session has, made once (read it, never change it; `as_dict` gives a copy)."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "by_kind", {kind: getattr(self, kind) for kind in self.kinds})  # frozen
 
     @classmethod
     def of(cls, session: "Session") -> "ConfigSet":
@@ -85,7 +90,7 @@ class ConfigSet:
 
     def as_dict(self) -> dict[ConfigKind, Config]:
         """{kind: config} of the kinds the session has, for the GUI and recordings."""
-        return {kind: getattr(self, kind) for kind in self.kinds}
+        return dict(self.by_kind)
 
 
 @dataclass
@@ -112,12 +117,13 @@ class Session:
     generation: int
     estimator_name: str | None = None
 
-    @property
-    def simulated(self) -> MujocoSystem | None:
-        """The plant when it is the app's own simulation (goals can be moved, configs shared), else None;
-        the simulator itself when it is observed through a SensedSystem."""
+    simulated: MujocoSystem | None = field(init=False, repr=False)
+    """The plant when it is the app's own simulation (goals can be moved, configs shared), else None; the simulator
+    itself when it is observed through a SensedSystem. Set once: the plant runner reads it on every tick."""
+
+    def __post_init__(self) -> None:
         system = self.system.system if isinstance(self.system, SensedSystem) else self.system
-        return system if isinstance(system, MujocoSystem) else None
+        self.simulated = system if isinstance(system, MujocoSystem) else None
 
     def close(self) -> None:
         """Stop the controller's rollout threads, and the estimator's thread where it runs on one."""

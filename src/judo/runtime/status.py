@@ -271,8 +271,10 @@ class Reports:
         self.line.failed(part, message, level)
 
     def recovered(self, part: str, news: str) -> None:
-        """`part` works again: say `news` and that the app is running, if its failure is on the status line."""
-        self.line.recovered(part, f"{news}: {self.running()}")
+        """`part` works again: say `news` and that the app is running, if its failure is on the status line (the
+        line is worded only then: a runner calls this after each success)."""
+        if part in self.line.trouble:
+            self.line.recovered(part, f"{news}: {self.running()}")
 
     def running(self) -> str:
         """'running TASK with OPTIMIZER', and where the planning model has model overrides ([model_overrides.TASK]),

@@ -7,11 +7,11 @@ and a risk-averse "exponential" score a sequence -inf if any of its models diver
 risk-seeking "exponential" look past it.
 """
 
-from typing import Any, Literal, get_args
+from typing import Literal, get_args
 
 import numpy as np
 
-from judo.core.errors import JudoError, UnknownNameError
+from judo.core.errors import UnknownNameError
 
 RiskMeasure = Literal["average", "worst", "best", "cvar", "exponential"]
 """How rewards under several models are reduced: mean, min, max, mean of the worst alpha fraction
@@ -90,18 +90,3 @@ def reduce_rewards(rewards: np.ndarray, measure: str, cvar_alpha: float = 0.5, r
     if measure == "exponential":
         return exponential(rewards, risk_scale)
     raise UnknownNameError("risk measure", measure, RISK_MEASURES)
-
-
-def checked_rewards(returned: Any, owner: str, num_rows: int, diverged: Any) -> np.ndarray:
-    """`returned` (what `owner`'s reward gave) as (num_rows,) floats, with NaN, +inf and the `diverged` rollouts (False,
-    or a (num_rows,) mask) set to -inf so that they never win; JudoError for anything but num_rows numbers."""
-    try:
-        rewards = np.asarray(returned, dtype=float)
-    except (TypeError, ValueError) as err:
-        text = " ".join(str(returned).split())[:200]
-        raise JudoError(f"{owner}.reward must return ({num_rows},) numbers, got {text} ({err})") from None
-    if rewards.shape != (num_rows,):
-        raise JudoError(f"{owner}.reward returned shape {rewards.shape}, expected ({num_rows},)")
-    if diverged is not False or not np.isfinite(rewards).all():  # NaN, +inf, diverged: never win
-        rewards[np.isnan(rewards) | (rewards == np.inf) | diverged] = -np.inf
-    return rewards

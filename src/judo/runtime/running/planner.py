@@ -12,8 +12,8 @@ from judo.core.reading import SystemState
 from judo.core.rollouts.backend import PlanningCancelled
 from judo.core.rollouts.workers import DaemonThreadPool
 from judo.loop.plant_clock import ControlClock
-from judo.runtime.app_state import AppState, PendingConfigs, Stopping
-from judo.runtime.cycles import PlanningCycle, cycle_seconds, seconds_text
+from judo.runtime.app_state import AppState, PendingConfigs
+from judo.runtime.cycles import PlanningCycle, Stopping, cycle_seconds, seconds_text
 from judo.runtime.live_recording import Recordings
 from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, StateBuffer
@@ -87,7 +87,7 @@ class PlannerRunner:
             await self._state.stop.sleep(LATE_CYCLE_LOOK)
 
     def _show_late_cycle(self, shown: tuple[object, int] | None) -> tuple[object, int] | None:
-        cycle = self._state.cycle
+        cycle = self._state.in_flight.cycle
         if cycle is None or not cycle.late() or cycle.is_set():
             return shown
         seconds = int(cycle.elapsed())
@@ -113,10 +113,10 @@ class PlannerRunner:
         controller, reports, state = session.controller, self._reports, self._state
         with state.lock:
             configs = state.configs  # what the cycle will take up (the planner is their only writer)
-            size = session.controller.cycle_size(configs.as_dict())  # None: a policy rolls nothing out
+            size = session.controller.cycle_size(configs.by_kind)  # None: a policy rolls nothing out
             estimate = math.nan if size is None else cycle_seconds(state.step_cost, size, configs.controller)
             cycle = PlanningCycle(state.stop, size, estimate)
-        state.start_cycle(cycle)
+            state.in_flight.start(cycle)  # under the lock: a cancel from now on reaches it
         try:
             plan = await state.stop.in_worker(self._executor, session.closed_loop.plan, reading, cycle, start + period)
         except Stopping:
@@ -135,7 +135,7 @@ class PlannerRunner:
             reports.failed("planner", f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}")
             return
         finally:
-            state.start_cycle(None)
+            state.in_flight.start(None)
         if plan is None:  # no finite reward, or non-finite knots: the plan before stays in force
             reports.failed("planner", f"planning cycle skipped: {session.closed_loop.last_failure}", "warning")
             return
@@ -147,7 +147,10 @@ class PlannerRunner:
         assert controller.nominal_knots is not None  # set by every completed cycle
         self._stats.record_plan(start, plan_time, float(rewards[0]) if len(rewards) else float("nan"))
         if size is not None and controller.iterations_run > 0:  # the iterations that fitted in the period
-            state.step_cost.record(dataclasses.replace(size, iterations=controller.iterations_run), plan_time)
+            ran = controller.iterations_run  # the same size object when all ran: its total is worked out already
+            state.step_cost.record(
+                size if ran == size.iterations else dataclasses.replace(size, iterations=ran), plan_time
+            )
         if cycle.late():  # the status line counted its time: say it is over
             reports.report(f"planned in {plan_time:.1f} s: {reports.running()}")
         snapshot = PlanSnapshot(
@@ -157,6 +160,8 @@ class PlannerRunner:
 
     async def _carry_out_requests(self) -> None:
         """Switches, config edits and resets queued since the last look; no cycle is in flight here."""
+        if not self._state.planner_pending:  # nothing queued: the steady state
+            return
         requests = self._state.take_planner_requests()
         old, pending = self._state.session, requests.configs
         names = (old.task_name, old.optimizer_name)

@@ -167,6 +167,8 @@ class PlantRunner:
         reset. The planner's task owns the task config: the simulated plant's task reads it here, on its own thread."""
         if (simulated := session.simulated) is not None:
             simulated.task.config = session.controller.task.config
+        if not self._state.plant_pending:  # nothing queued: the steady state
+            return False
         requests = self._state.take_plant_requests()
         reset, moves = requests.reset, requests.goal_moves
         if reset:
