@@ -26,7 +26,7 @@ class CancelFlag(Protocol):
 class LoopSettings(Protocol):
     """What the loop reads of a planner's `config` (a `judo.core.configuration.controller_config.ControllerConfig`):
     the control rate (Hz), the watchdog's plan age (s), and whether a plan starts from the reading predicted to when
-    it takes effect (latency compensation, feedback gains)."""
+    it takes effect (latency compensation, feedback gains: a planner whose plans have none keeps `feedback` off)."""
 
     control_freq: float
     max_plan_age: float
@@ -63,7 +63,8 @@ class Planner(Protocol):
         """Plan from `state` (nq + nv,) at sim `time`, publish the new plan and return it; a failed update raises
         a JudoError and keeps the plan before in force. A set `cancel` ends it (PlanningCancelled); a `deadline`
         (a time.perf_counter() value) ends the optimizer iterations beyond `config.max_opt_iters` that would end
-        after it."""
+        after it. The plan carries what the update scored (`Spline.rewards`, `Spline.traces`) for the loop's
+        records."""
         ...
 
     def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
