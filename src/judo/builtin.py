@@ -34,8 +34,6 @@ from judo.tasks.cartpole_pd import CartpolePD
 from judo.tasks.cylinder_push import CylinderPush, CylinderPushConfig
 from judo.tasks.double_cartpole import DoubleCartpole, DoubleCartpoleConfig
 from judo.tasks.fr3_pick import FR3Pick, FR3PickConfig
-from judo.tasks.g1 import G1Stand, G1StandConfig
-from judo.tasks.go2 import Go2Stand, Go2StandConfig, Go2Walk, Go2WalkConfig
 from judo.tasks.humanoid_standup import HumanoidStandup, HumanoidStandupConfig
 from judo.tasks.leap_cube import LeapCube, LeapCubeConfig, LeapCubeDown, LeapCubeDownConfig
 from judo.tasks.particle import Particle, ParticleConfig
@@ -45,6 +43,8 @@ from judo.tasks.quadrotor import Quadrotor, QuadrotorConfig
 from judo.tasks.quadruped import Quadruped, QuadrupedConfig
 from judo.tasks.quadruped_navigate import QuadrupedNavigate, QuadrupedNavigateConfig
 from judo.tasks.quadruped_velocity import QuadrupedVelocity, QuadrupedVelocityConfig
+from judo.tasks.unitree.g1 import G1Stand, G1StandConfig
+from judo.tasks.unitree.go2 import Go2Stand, Go2StandConfig, Go2Walk, Go2WalkConfig
 from judo.tasks.walker import Walker, WalkerConfig
 
 BUILTIN_ESTIMATORS = {

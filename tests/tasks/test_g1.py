@@ -8,8 +8,8 @@ import pytest
 import judo
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
-from judo.tasks.g1 import FALL_HEIGHT, MOTOR_JOINTS, G1Stand
-from judo.tasks.pushes import RandomPushes
+from judo.tasks.unitree.g1 import FALL_HEIGHT, MOTOR_JOINTS, G1Stand
+from judo.tasks.unitree.pushes import RandomPushes
 
 UNITREE_ORDER = (
     "left_hip_pitch", "left_hip_roll", "left_hip_yaw", "left_knee", "left_ankle_pitch", "left_ankle_roll",

@@ -11,7 +11,7 @@ from judo.core.task import EpisodeLog
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
 from judo.runtime import launch
-from judo.tasks.go2 import JOINTS, LEGS, STAND_POSE, Go2Stand, Go2Walk, Go2WalkConfig
+from judo.tasks.unitree.go2 import JOINTS, LEGS, STAND_POSE, Go2Stand, Go2Walk, Go2WalkConfig
 
 MOTOR_ORDER = [f"{leg}_{part}_joint" for leg in ("FR", "FL", "RR", "RL") for part in ("hip", "thigh", "calf")]
 """Unitree's Go2 motors 0..11, written out here rather than taken from the module under test."""

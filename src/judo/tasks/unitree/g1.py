@@ -16,9 +16,9 @@ import numpy as np
 from judo.core.configuration.fields import slider
 from judo.core.norms import smooth_l1_norm
 from judo.core.task import EpisodeLog, Task, TaskConfig
-from judo.tasks.pushes import RandomPushes
+from judo.tasks.unitree.pushes import RandomPushes
 
-MODEL_PATH = Path(__file__).parent / "models" / "unitree_g1" / "g1.xml"
+MODEL_PATH = Path(__file__).parents[1] / "models" / "unitree_g1" / "g1.xml"
 MOTOR_JOINTS = (
     *(f"{side}_{j}_joint" for side in ("left", "right")
       for j in ("hip_pitch", "hip_roll", "hip_yaw", "knee", "ankle_pitch", "ankle_roll")),

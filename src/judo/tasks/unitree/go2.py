@@ -16,11 +16,11 @@ import numpy as np
 from judo.core.configuration.fields import np_1d_field, slider
 from judo.core.rollouts.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
-from judo.tasks.pushes import RandomPushes
 from judo.tasks.quadruped import GaitName, gait_of, swing_heights
 from judo.tasks.quadruped_velocity import AVERAGE_WINDOW, trailing_mean
+from judo.tasks.unitree.pushes import RandomPushes
 
-MODEL_PATH = Path(__file__).parent / "models" / "unitree_go2" / "scene.xml"
+MODEL_PATH = Path(__file__).parents[1] / "models" / "unitree_go2" / "scene.xml"
 LEGS = ("FR", "FL", "RR", "RL")
 """The legs in Unitree's motor order: front right, front left, rear right, rear left."""
 JOINTS = tuple(f"{leg}_{part}_joint" for leg in LEGS for part in ("hip", "thigh", "calf"))
