@@ -226,6 +226,7 @@ class Replay:
         self.traces: np.ndarray | None = None  # (U, ...) the shown demo's plan traces, where the file has them
         self.plan_shown = -1  # the plan whose traces are drawn (-1: none)
         self._stop = threading.Event()
+        self._thread: threading.Thread | None = None  # the playback thread, from start()
         self.lock = threading.Lock()  # held while a demo is chosen or a row is shown: hold it to read a whole frame
 
     def start(self) -> None:
@@ -298,7 +299,7 @@ class Replay:
     def stop(self) -> None:
         """Stop playing and the server."""
         self._stop.set()
-        if hasattr(self, "_thread"):
+        if self._thread is not None:
             self._thread.join(timeout=2.0)
         if hasattr(self, "server"):
             self.server.stop()
