@@ -166,7 +166,9 @@ def test_a_goal_move_to_a_non_finite_pose_is_refused_and_the_goal_stays():
     goal = app.session.simulated.task.data.mocap_pos[0].copy()
     for position, quat in (([np.nan, 0, 0], None), ([0, 0, 0], [0, 0, 0, 0]), ([0, np.inf, 0], [1, 0, 0, 0])):
         with pytest.raises(judo.JudoError, match="must be finite"):
-            app.commands.move_goal(0, np.array(position, dtype=float), None if quat is None else np.array(quat, dtype=float))
+            app.commands.move_goal(
+                0, np.array(position, dtype=float), None if quat is None else np.array(quat, dtype=float)
+            )
     with pytest.raises(judo.JudoError, match="a position needs 3 numbers"):
         app.commands.move_goal(0, np.zeros(2))
     app.commands.move_goal(0, np.array([0.1, 0.2, 0.0]))  # a finite pose is queued for the plant

@@ -7,8 +7,8 @@ import textwrap
 
 import pytest
 
-from judo.runtime.running import supervisor as exit_guard
 from judo.runtime.app import App
+from judo.runtime.running import supervisor as exit_guard
 
 SCRIPT = textwrap.dedent(
     """

@@ -38,6 +38,8 @@ class ScreensRollouts(Protocol):
     """A planner that screens its rollouts before ranking them (a Controller's `limits`); a policy rolls nothing out."""
 
     limits: Any
+
+
 MAX_KEPT = 10_000
 """Latest hits kept in `ServeFilter.hits` (a loop that runs for days counts every hit in `counts`)."""
 
