@@ -50,7 +50,8 @@ def test_model_ships_in_the_package_and_has_traces(task_name):
     task_cls, _ = lookup_task(task_name)
     module_dir = Path(__import__(task_cls.__module__, fromlist=["_"]).__file__).parent
     assert module_dir.is_relative_to(PACKAGE)
-    assert any(module_dir.joinpath("models").glob("*.xml"))
+    models = [d / "models" for d in (module_dir, module_dir.parent) if (d / "models").is_dir()]  # tasks/unitree/
+    assert models and any(models[0].rglob("*.xml"))
     task = make_task(task_name)
     assert len(trace_sensor_columns(task.model)) > 0, "no framepos sensor named trace*"
 
