@@ -1,15 +1,17 @@
-"""Episodes of the app itself (wall time, no GUI) scored by the task's own metrics: what `evaluate` measures in
-sim time, here with the app's real planning latency (a plan is served once its cycle is done).
+"""Episodes of the app itself (wall time, no GUI) scored by the task's own metrics: what `evaluate`
+measures in sim time, here with the app's real planning latency (a plan is served once its cycle is
+done).
 
     PYTHONPATH=src python benchmarks/app_episode.py --task cartpole --control-freq 5 --seeds 11 12 13 \\
         [--iterations-per-second 0] [--latency-compensation | --no-latency-compensation] [--feedback | --no-feedback] [--seconds 15]
 
-Each seed starts an App on the task's defaults with the given overrides, lets it run `--seconds` of wall time,
-samples the plant's state from the app's own snapshots (every 20 ms, each new reading once), rebuilds the sensors
-on the task's plant model and prints `Task.metrics` of that log, with the plans made and the optimizer iterations
-a cycle ran (the app's deadline may cut the extra ones of `iterations_per_second`). The figures depend on the
-machine and its load: compare settings in one run, on an idle machine.
-"""
+Each seed starts an App on the task's defaults with the given overrides, lets it run `--seconds` of
+wall time, samples the plant's state from the app's own snapshots (every 20 ms, each new reading
+once), rebuilds the sensors on the task's plant model and prints `Task.metrics` of that log, with
+the plans made and the optimizer iterations a cycle ran (the app's deadline may cut the extra ones
+of `iterations_per_second`). The figures depend on the machine and its load: compare settings in one
+run, on an idle machine.
+"""  # noqa: E501
 
 import argparse
 import dataclasses
@@ -24,8 +26,11 @@ from judo.core.task import EpisodeLog
 from judo.runtime.app import App
 
 
-def episode(task: str, optimizer: str, config: judo.ControllerConfig, seed: int, seconds: float) -> str:
-    """One app episode of `seconds` wall seconds: a line with its plans, iterations and the task's metrics."""
+def episode(
+    task: str, optimizer: str, config: judo.ControllerConfig, seed: int, seconds: float
+) -> str:
+    """One app episode of `seconds` wall seconds: a line with its plans, iterations and the task's
+    metrics."""
     app = App(task, optimizer, controller_config=config, gui=False, seed=seed)
     app.start()
     rows: list[tuple[float, np.ndarray]] = []
@@ -60,7 +65,8 @@ def episode(task: str, optimizer: str, config: judo.ControllerConfig, seed: int,
     metrics = ", ".join(f"{name} {value:.2f}" for name, value in planning.metrics(log).items())
     sim = log.times[-1] - log.times[0]
     return (
-        f"seed {seed}: {sim:.1f} s of sim in {seconds:g} s, {plans} plans, iterations a cycle median "
+        f"seed {seed}: {sim:.1f} s of sim in {seconds:g} s, {plans} plans, iterations a "
+        "cycle median "
         f"{np.median(iterations):g} (max {max(iterations)}); {metrics}"
     )
 
@@ -72,9 +78,13 @@ def main() -> None:
     parser.add_argument("--control-freq", type=float, help="Hz (default: the task's)")
     parser.add_argument("--iterations-per-second", type=float, help="default: the task's (20)")
     parser.add_argument(
-        "--latency-compensation", action=argparse.BooleanOptionalAction, help="default: the task's own setting"
+        "--latency-compensation",
+        action=argparse.BooleanOptionalAction,
+        help="default: the task's own setting",
     )
-    parser.add_argument("--feedback", action=argparse.BooleanOptionalAction, help="default: the task's own setting")
+    parser.add_argument(
+        "--feedback", action=argparse.BooleanOptionalAction, help="default: the task's own setting"
+    )
     parser.add_argument("--seeds", type=int, nargs="+", default=[11, 12, 13])
     parser.add_argument("--seconds", type=float, default=15.0, help="wall seconds per episode")
     args = parser.parse_args()
@@ -88,7 +98,8 @@ def main() -> None:
     config = dataclasses.replace(config, **{k: v for k, v in overrides.items() if v is not None})
     print(
         f"{args.task} with {args.optimizer} in the app: control_freq {config.control_freq:g} Hz, "
-        f"iterations_per_second {config.iterations_per_second:g}, latency_compensation {config.latency_compensation}, "
+        f"iterations_per_second {config.iterations_per_second:g}, latency_compensation "
+        f"{config.latency_compensation}, "
         f"feedback {config.feedback}"
     )
     for seed in args.seeds:

@@ -1,22 +1,25 @@
-"""A legged robot's floating base, estimated from the IMU, the joint encoders and the foot contacts: how far
-each estimator's base is from the truth, and what planning from it costs.
+"""A legged robot's floating base, estimated from the IMU, the joint encoders and the foot contacts:
+how far each estimator's base is from the truth, and what planning from it costs.
 
     PYTHONPATH=src python benchmarks/base_estimation.py      # go2_stand, go2_walk, g1_stand: legged, ekf; 2 seeds x 8 s
     PYTHONPATH=src python benchmarks/base_estimation.py --tasks g1_stand --optimizer ps    # g1_stand's own optimizer
     PYTHONPATH=src python benchmarks/base_estimation.py --tasks go2_stand --estimators ukf --seeds 1  # 2n sigma points
     PYTHONPATH=src python benchmarks/base_estimation.py --tasks quadruped --sensing ideal
 
-Each row is seeded episodes of `evaluate` (the one seeded runner, `run_seeded_episode`'s pieces), planned from
-the true state ("full state") or from `--observe sensors` through an estimator, with a robot's sensing (ROBOT
-below, or "ideal": noiseless, every plant step, at once). Per estimator, from the plant's true state after each
-step, mean and max over the episode after its first SETTLE seconds, then mean over seeds:
+Each row is seeded episodes of `evaluate` (the one seeded runner, `run_seeded_episode`'s pieces),
+planned from the true state ("full state") or from `--observe sensors` through an estimator, with a
+robot's sensing (ROBOT below, or "ideal": noiseless, every plant step, at once). Per estimator, from
+the plant's true state after each step, mean and max over the episode after its first SETTLE
+seconds, then mean over seeds:
 - height: |z estimate - z true| of the base (m);
 - attitude: the angle of the rotation from the true base orientation to the estimate's (deg);
 - velocity: |linear velocity estimate - true| of the base, in the world frame (m/s);
-- drift: the base's planar distance from the truth at the episode's end (m; may drift: nothing measures it);
+- drift: the base's planar distance from the truth at the episode's end (m; may drift: nothing
+  measures it);
 - update: the estimator's median wall time per update (ms; varies with the machine's load);
-- the task's `--metrics` that it has (always from the plant's truth), and the first's ratio to the full state's.
-"""
+- the task's `--metrics` that it has (always from the plant's truth), and the first's ratio to the
+  full state's.
+"""  # noqa: E501
 
 import argparse
 import time
@@ -29,7 +32,13 @@ import judo  # noqa: F401  (registers the tasks, optimizers and estimators)
 from judo.core.configuration.registry import lookup_estimator
 from judo.core.estimator import ControlHistory, Estimator
 from judo.evaluation.episode import run_episode
-from judo.evaluation.seeded import EpisodeSpec, configs_in_force, plant_of, spec_controller, with_spec_plant
+from judo.evaluation.seeded import (
+    EpisodeSpec,
+    configs_in_force,
+    plant_of,
+    spec_controller,
+    with_spec_plant,
+)
 from judo.evaluation.sensing import Sensing, choose_estimator, observed_plant
 from judo.loop.records import PlanRecord, StepRecord
 
@@ -45,12 +54,13 @@ ROBOT: dict[str, Any] = {
     "rate": 500.0,
     "delay": 0.002,
 }
-"""A Unitree robot's rt/lowstate as rehearsed here: encoders 5 mrad and 0.1 rad/s, the IMU 0.5 deg, 0.01 rad/s and
-0.1 m/s^2, foot forces 5 N, at 500 Hz (every plant step of a model stepped at 2 ms or more), 2 ms late."""
+"""A Unitree robot's rt/lowstate as rehearsed here: encoders 5 mrad and 0.1 rad/s, the IMU 0.5 deg,
+0.01 rad/s and 0.1 m/s^2, foot forces 5 N, at 500 Hz (every plant step of a model stepped at 2 ms or
+more), 2 ms late."""
 KALMAN = {"noise_other": 20.0}
-"""The EKF's and UKF's settings here (their TOMLs' for quadruped): the std of a sensor type without a field of its
-own, the feet's touch sensors (N) and the joint speeds, which the default 0.01 trusts as exact (the EKF's estimate
-of a Go2 held at its standing pose flew off a metre high with it)."""
+"""The EKF's and UKF's settings here (their TOMLs' for quadruped): the std of a sensor type without
+a field of its own, the feet's touch sensors (N) and the joint speeds, which the default 0.01 trusts
+as exact (the EKF's estimate of a Go2 held at its standing pose flew off a metre high with it)."""
 SETTLE = 0.5
 """Seconds at an episode's start left out of the error figures (the estimator's first readings)."""
 
@@ -73,7 +83,8 @@ class Timed(Estimator):
 
 
 class BaseErrors:
-    """A recorder of the base estimate's errors against the plant's truth, one row per plant step after SETTLE.
+    """A recorder of the base estimate's errors against the plant's truth, one row per plant step
+    after SETTLE.
 
     Attributes:
         rows: per step, (height m, attitude deg, velocity m/s, planar distance m).
@@ -102,15 +113,19 @@ class BaseErrors:
         )
 
 
-def episode(task: str, optimizer: str, seed: int, duration: float, estimator: str | None, sensing: str) -> dict:
-    """One seeded episode of `task`: {"metrics": the task's metrics, "errors": (steps, 4) BaseErrors rows,
-    "walls": (updates,) s}; `estimator` None plans from the full state."""
+def episode(
+    task: str, optimizer: str, seed: int, duration: float, estimator: str | None, sensing: str
+) -> dict:
+    """One seeded episode of `task`: {"metrics": the task's metrics, "errors": (steps, 4) BaseErrors
+    rows, "walls": (updates,) s}; `estimator` None plans from the full state."""
     settings = {} if sensing == "ideal" else ROBOT
     config = None
     if estimator in ("ekf", "ukf"):
         config = lookup_estimator(estimator)[1](**KALMAN)
     observed = (
-        Sensing() if estimator is None else Sensing("sensors", **settings, estimator=estimator, estimator_config=config)
+        Sensing()
+        if estimator is None
+        else Sensing("sensors", **settings, estimator=estimator, estimator_config=config)
     )
     spec = EpisodeSpec(task, optimizer, duration, sensing=observed)
     configs = configs_in_force(spec)
@@ -132,30 +147,44 @@ def table(args: argparse.Namespace) -> None:
     """Print one block per task: a row for the full state, then one per estimator."""
     seeds = range(args.first_seed, args.first_seed + args.seeds)
     print(
-        f"seeds {seeds.start}-{seeds.stop - 1} x {args.duration:g} s, {args.optimizer}; ekf and ukf with {KALMAN}; "
+        f"seeds {seeds.start}-{seeds.stop - 1} x {args.duration:g} s, {args.optimizer}; ekf "
+        f"and ukf with {KALMAN}; "
         f"sensing {args.sensing}"
-        f"{'' if args.sensing == 'ideal' else f' {ROBOT}'}; errors after the first {SETTLE:g} s, mean (max) over "
+        f"{'' if args.sensing == 'ideal' else f' {ROBOT}'}; errors after the first "
+        f"{SETTLE:g} s, mean (max) over "
         "steps, mean over seeds"
     )
     for task in args.tasks:
-        full_runs = [episode(task, args.optimizer, seed, args.duration, None, args.sensing) for seed in seeds]
-        metric_names = [m for m in args.metrics if m in full_runs[0]["metrics"]] or list(full_runs[0]["metrics"])[:2]
+        full_runs = [
+            episode(task, args.optimizer, seed, args.duration, None, args.sensing) for seed in seeds
+        ]
+        metric_names = [m for m in args.metrics if m in full_runs[0]["metrics"]] or list(
+            full_runs[0]["metrics"]
+        )[:2]
         full = np.mean([r["metrics"][metric_names[0]] for r in full_runs])
         print(
-            f"\n{task}: {'row':11} {'height m':>15} {'attitude deg':>15} {'velocity m/s':>15} {'drift m':>8} "
+            f"\n{task}: {'row':11} {'height m':>15} {'attitude deg':>15} "
+            f"{'velocity m/s':>15} {'drift m':>8} "
             f"{'update ms':>9} " + " ".join(f"{m:>22}" for m in metric_names) + f" {'/full':>6}"
         )
         for name in [None, *args.estimators]:
             runs = (
                 full_runs
                 if name is None
-                else [episode(task, args.optimizer, seed, args.duration, name, args.sensing) for seed in seeds]
+                else [
+                    episode(task, args.optimizer, seed, args.duration, name, args.sensing)
+                    for seed in seeds
+                ]
             )
-            print(f"{'':{len(task) + 1}} {name or 'full state':11} {row(runs, metric_names, full)}", flush=True)
+            print(
+                f"{'':{len(task) + 1}} {name or 'full state':11} {row(runs, metric_names, full)}",
+                flush=True,
+            )
 
 
 def row(runs: list[dict], metric_names: list[str], full: float) -> str:
-    """One table row's cells: the base errors (blank for the full state), the update time and the metrics."""
+    """One table row's cells: the base errors (blank for the full state), the update time and the
+    metrics."""
     errors = [r["errors"] for r in runs if len(r["errors"])]
     if not errors:
         cells = [f"{'':>15} {'':>15} {'':>15} {'':>8} {'':>9}"]
@@ -175,7 +204,9 @@ def row(runs: list[dict], metric_names: list[str], full: float) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--tasks", nargs="+", default=["go2_stand", "go2_walk", "g1_stand"])
     parser.add_argument("--estimators", nargs="+", default=["legged", "ekf"])
     parser.add_argument("--optimizer", default="mppi")
@@ -186,7 +217,8 @@ def main() -> None:
         "--metrics",
         nargs="+",
         default=["standing_fraction", "falls", "time_to_stand", "velocity_error"],
-        help="the metrics to print, of those each task has (its first two where it has none of them)",
+        help="the metrics to print, of those each task has (its first two where it has none of "
+        "them)",
     )
     parser.add_argument("--sensing", choices=["robot", "ideal"], default="robot")
     table(parser.parse_args())

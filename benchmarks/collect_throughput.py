@@ -1,12 +1,14 @@
-"""Throughput of `python -m judo collect`: episodes per minute and samples per second with 1 and 2 workers.
+"""Throughput of `python -m judo collect`: episodes per minute and samples per second with 1 and 2
+workers.
 
-Each (task, workers) row runs `--episodes` episodes through the collect driver (judo.collection.run.collect,
-the code the command runs) on one local Ray with max(--workers) CPUs, after a warm-up round that starts the
-Ray workers; the scaling column is samples/s over the 1-worker row's. The file size per 1000 samples is
-that of the row's HDF5 file. Run from the repository root (needs the `collect` extra):
+Each (task, workers) row runs `--episodes` episodes through the collect
+driver (judo.collection.run.collect, the code the command runs) on one local Ray with max(--workers)
+CPUs, after a warm-up round that starts the Ray workers; the scaling column is samples/s over
+the 1-worker row's. The file size per 1000 samples is that of the row's HDF5 file. Run from the
+repository root (needs the `collect` extra):
 
     PYTHONPATH=src python benchmarks/collect_throughput.py [--tasks cartpole leap_cube] [--workers 1 2]
-"""
+"""  # noqa: E501
 
 import contextlib
 import io
@@ -43,13 +45,19 @@ class Args:
     """Seconds of sim time per episode."""
 
 
-def run(task: str, optimizer: str, workers: int, episodes: int, duration: float, out: Path) -> float:
+def run(
+    task: str, optimizer: str, workers: int, episodes: int, duration: float, out: Path
+) -> float:
     """Collect `episodes` episodes into `out` with `workers` at once; returns the wall seconds."""
-    args = CollectArgs(task, optimizer, out=out, episodes=episodes, duration=duration, workers=workers)
+    args = CollectArgs(
+        task, optimizer, out=out, episodes=episodes, duration=duration, workers=workers
+    )
     spec = EpisodeSpec(task, optimizer, duration)
     started = time.perf_counter()
     with contextlib.redirect_stdout(io.StringIO()):
-        collect(spec, env_args(args, configs_in_force(spec)), SimpleNamespace(**vars(args)), "", workers)
+        collect(
+            spec, env_args(args, configs_in_force(spec)), SimpleNamespace(**vars(args)), "", workers
+        )
     return time.perf_counter() - started
 
 
@@ -57,9 +65,17 @@ def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     cluster.start_ray(None, max(args.workers))
     table = Table(
-        title=f"collect throughput, {args.optimizer}, {args.episodes} episodes x {args.duration:g} s, {os.cpu_count()} cores"
+        title=f"collect throughput, {args.optimizer}, {args.episodes} episodes x {args.duration:g} "
+        f"s, {os.cpu_count()} cores"
     )
-    for column in ("task", "workers", "episodes/min", "samples/s", "scaling", "KB per 1000 samples"):
+    for column in (
+        "task",
+        "workers",
+        "episodes/min",
+        "samples/s",
+        "scaling",
+        "KB per 1000 samples",
+    ):
         table.add_column(column, justify="left" if column == "task" else "right")
     try:
         with tempfile.TemporaryDirectory() as folder:

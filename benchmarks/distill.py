@@ -1,14 +1,17 @@
-"""distill, measured: the MPC, its distilled policy (round 0 and after teacher rounds), and the MPC at N/8 rollouts
-with and without the policy's proposals, each on fresh seeds that no training episode used.
+"""distill, measured: the MPC, its distilled policy (round 0 and after teacher rounds), and the MPC
+at N/8 rollouts with and without the policy's proposals, each on fresh seeds that no training
+episode used.
 
-For each task: collect --episodes MPC episodes (seeds 0 .. episodes - 1) into WORKDIR/TASK.h5; distill a chunk
-policy with --rounds teacher rounds (round r collects seeds from r * 100000); then every column below runs
---seeds episodes from --first-seed (default 1000) in sim time. Reruns reuse WORKDIR's files (collect and distill
-resume). Prints one markdown table of the task's own metric, with each column's share of the MPC's, and the
-policy's inference time against the MPC's update time, the training time and the episodes used.
+For each task: collect --episodes MPC episodes (seeds 0 .. episodes - 1) into WORKDIR/TASK.h5;
+distill a chunk policy with --rounds teacher rounds (round r collects seeds from r * 100000); then
+every column below runs
+--seeds episodes from --first-seed (default 1000) in sim time. Reruns reuse WORKDIR's files (collect
+and distill resume). Prints one markdown table of the task's own metric, with each column's share of
+the MPC's, and the policy's inference time against the MPC's update time, the training time and the
+episodes used.
 
     PYTHONPATH=src python benchmarks/distill.py --tasks cartpole pendulum particle --episodes 30 --rounds 3
-"""
+"""  # noqa: E501
 
 import json
 import time
@@ -31,7 +34,14 @@ class Args:
     """Which tasks, how much data, how many teacher rounds, and which fresh seeds."""
 
     tasks: list[str] = field(
-        default_factory=lambda: ["cartpole", "pendulum", "acrobot", "double_cartpole", "particle", "push_t"]
+        default_factory=lambda: [
+            "cartpole",
+            "pendulum",
+            "acrobot",
+            "double_cartpole",
+            "particle",
+            "push_t",
+        ]
     )
     """Tasks, by registered name."""
     optimizer: str = "mppi"
@@ -69,14 +79,17 @@ def measure(spec: EpisodeSpec, seeds: range) -> tuple[dict[str, float], float]:
 def run_task(task: str, args: Args) -> dict:
     """Collect, distill and measure one task; returns its row."""
     args.workdir.mkdir(parents=True, exist_ok=True)
-    data, policy = args.workdir / f"{task}.h5", args.workdir / f"{task}_{args.kind}_{args.head}.onnx"
+    data, policy = (
+        args.workdir / f"{task}.h5",
+        args.workdir / f"{task}_{args.kind}_{args.head}.onnx",
+    )
     started = time.perf_counter()
-    collect_main(["--task", task, "--optimizer", args.optimizer, "--episodes", str(args.episodes), "--duration",
-                  str(args.duration), "--out", str(data), "--workers", str(args.workers)])  # fmt: skip
+    collect_main(["--task", task, "--optimizer", args.optimizer, "--episodes", str(args.episodes), "--duration",  # noqa: E501
+                  str(args.duration), "--out", str(data), "--workers", str(args.workers)])  # fmt: skip  # noqa: E501
     collect_s = time.perf_counter() - started
     started = time.perf_counter()
-    distill_main([str(data), "--out", str(policy), "--kind", args.kind, "--head", args.head, "--rounds",
-                  str(args.rounds), "--episodes-per-round", str(args.episodes_per_round), "--eval-seeds", "0",
+    distill_main([str(data), "--out", str(policy), "--kind", args.kind, "--head", args.head, "--rounds",  # noqa: E501
+                  str(args.rounds), "--episodes-per-round", str(args.episodes_per_round), "--eval-seeds", "0",  # noqa: E501
                   "--workers", str(args.workers)])  # fmt: skip
     distill_s = time.perf_counter() - started
     rounds = policy.with_name(policy.stem + "_rounds")
@@ -90,10 +103,17 @@ def run_task(task: str, args: Args) -> dict:
         "MPC": mpc,
         "policy, round 0": replace(mpc, optimizer=None, policy=str(first)),
         f"policy, round {args.rounds}": replace(mpc, optimizer=None, policy=str(policy)),
-        f"MPC + policy, N/8 (K={k})": replace(mpc, values={**few, "controller.policy_samples": k}, proposal_policy=str(policy)),
+        f"MPC + policy, N/8 (K={k})": replace(mpc, values={**few, "controller.policy_samples": k}, proposal_policy=str(policy)),  # noqa: E501
         "MPC, N/8": replace(mpc, values=few),
     }  # fmt: skip
-    row = {"task": task, "N": n, "N/8": small, "collect_s": collect_s, "distill_s": distill_s, "columns": {}}
+    row = {
+        "task": task,
+        "N": n,
+        "N/8": small,
+        "collect_s": collect_s,
+        "distill_s": distill_s,
+        "columns": {},
+    }
     for label, spec in specs.items():
         metrics, update_ms = measure(spec, seeds)
         row["columns"][label] = {"metrics": metrics, "update_ms": update_ms}
@@ -109,8 +129,10 @@ def run_task(task: str, args: Args) -> dict:
 def print_table(rows: list[dict], args: Args) -> None:
     """The figures as markdown: the metric (its share of the MPC's), then the timings."""
     labels = list(rows[0]["columns"])
-    print(f"\n### distill ({args.kind}, {args.head}, {args.optimizer}; {args.seeds} fresh seeds from {args.first_seed} x "
-          f"{args.duration:g} s; {args.episodes} MPC episodes + {args.rounds} rounds x {args.episodes_per_round})\n")  # fmt: skip
+    print(f"\n### distill ({args.kind}, {args.head}, {args.optimizer}; {args.seeds} fresh seeds "
+          f"from {args.first_seed} x "
+          f"{args.duration:g} s; {args.episodes} MPC episodes + {args.rounds} rounds x "
+          f"{args.episodes_per_round})\n")  # fmt: skip
     print("| task | metric | " + " | ".join(labels) + " |")
     print("|---|---|" + "---|" * len(labels))
     for row in rows:
@@ -122,13 +144,16 @@ def print_table(rows: list[dict], args: Args) -> None:
             cells.append(f"{value:.3g}{share}")
         print(f"| {row['task']} | {metric} | " + " | ".join(cells) + " |")
     print(
-        "\n| task | policy inference µs | MPC update ms (N) | training s (last round) | episodes used | collect + distill min |"
+        "\n| task | policy inference µs | MPC update ms (N) | training s (last round) | "
+        "episodes used | collect + distill min |"
     )
     print("|---|---|---|---|---|---|")
     for row in rows:
         inference = 1e3 * row["columns"]["policy, round 0"]["update_ms"]
-        print(f"| {row['task']} | {inference:.0f} | {row['columns']['MPC']['update_ms']:.1f} ({row['N']}) | "
-              f"{row['training_s']:.0f} | {row['episodes_used']} | {(row['collect_s'] + row['distill_s']) / 60:.1f} |")  # fmt: skip
+        print(f"| {row['task']} | {inference:.0f} | {row['columns']['MPC']['update_ms']:.1f} "
+              f"({row['N']}) | "
+              f"{row['training_s']:.0f} | {row['episodes_used']} | "
+              f"{(row['collect_s'] + row['distill_s']) / 60:.1f} |")  # fmt: skip
 
 
 def main() -> None:

@@ -2,13 +2,13 @@
 
     PYTHONPATH=src python benchmarks/files_crossed.py [--task cartpole] [--optimizer mppi] [--seconds 1] [--callers]
 
-Starts the app without a GUI, lets it warm up, then records for `--seconds` every judo file whose functions are
-called, on every thread (the planner, the plant, the rollout workers), with a profile hook. It prints each file
-with its calls per control update, and their count: the files a newcomer would step through, bookkeeping
-included. docs/architecture.md lists the logical path of one update beside it. With `--callers`, each file's
-functions follow it, each with its calls per update and the function (file:name) that called it: why the
-update crosses that file.
-"""
+Starts the app without a GUI, lets it warm up, then records for `--seconds` every judo file whose
+functions are called, on every thread (the planner, the plant, the rollout workers), with a profile
+hook. It prints each file with its calls per control update, and their count: the files a newcomer
+would step through, bookkeeping included. docs/architecture.md lists the logical path of one update
+beside it. With `--callers`, each file's functions follow it, each with its calls per update and the
+function (file:name) that called it: why the update crosses that file.
+"""  # noqa: E501
 
 import argparse
 import sys
@@ -20,24 +20,30 @@ from judo.runtime.app import App
 
 
 def where(frame) -> str:
-    """ "file:function" of `frame`, the file named from judo/ on, or by its name alone outside judo."""
+    """ "file:function" of `frame`, the file named from judo/ on, or by its name alone outside
+    judo."""
     if frame is None:
         return "?"
     name = frame.f_code.co_filename
-    return f"{name.split('/judo/', 1)[1] if '/judo/' in name else name.rsplit('/', 1)[-1]}:{frame.f_code.co_name}"
+    return f"{name.split('/judo/', 1)[1] if '/judo/' in name else name.rsplit('/', 1)[-1]}:{frame.f_code.co_name}"  # noqa: E501
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--task", default="cartpole")
     parser.add_argument("--optimizer", default="mppi")
-    parser.add_argument("--seconds", type=float, default=1.0, help="how long to record, after a 4 s warm-up")
-    parser.add_argument("--callers", action="store_true", help="list each file's functions and who called them")
+    parser.add_argument(
+        "--seconds", type=float, default=1.0, help="how long to record, after a 4 s warm-up"
+    )
+    parser.add_argument(
+        "--callers", action="store_true", help="list each file's functions and who called them"
+    )
     args = parser.parse_args()
 
     recording = threading.Event()
     calls: Counter[str] = Counter()
-    callers: Counter[tuple[str, str, str]] = Counter()  # (file, function, the caller's file:function)
+    # (file, function, the caller's file:function)
+    callers: Counter[tuple[str, str, str]] = Counter()
 
     def hook(frame, event, arg) -> None:
         if event == "call" and recording.is_set():
@@ -45,7 +51,9 @@ def main() -> None:
             if "/judo/" in name:
                 calls[name.split("/judo/", 1)[1]] += 1
                 if args.callers:
-                    callers[(name.split("/judo/", 1)[1], frame.f_code.co_name, where(frame.f_back))] += 1
+                    callers[
+                        (name.split("/judo/", 1)[1], frame.f_code.co_name, where(frame.f_back))
+                    ] += 1
 
     sys.setprofile(hook)
     threading.setprofile(hook)  # the app's threads start after this
@@ -65,7 +73,9 @@ def main() -> None:
     print(f"{'calls/update':>12}  file")
     for name, count in sorted(calls.items()):
         print(f"{count / max(updates, 1):12.1f}  {name}")
-        for (_, function, caller), times in sorted(item for item in callers.items() if item[0][0] == name):
+        for (_, function, caller), times in sorted(
+            item for item in callers.items() if item[0][0] == name
+        ):
             print(f"{times / max(updates, 1):16.1f}  {function} <- {caller}")
     print(f"{len(calls)} files run code during steady-state updates")
 

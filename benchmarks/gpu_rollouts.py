@@ -1,14 +1,16 @@
-"""The warp backend's control update against the CPU pool's raw rollouts of the same N x T, for large N.
+"""The warp backend's control update against the CPU pool's raw rollouts of the same N x T, for
+large N.
 
 For each task and N: the median control update on the warp backend (sample, roll out on the device,
-reward, update), the median raw rollout of the same N x T steps on the CPU `RolloutPool` (one thread per
-core), their ratio (the pool's rollout times the update's optimizer iterations over the warp update; above 1
-the whole warp update is faster than the CPU pool's physics alone), and the share of
-the warp update spent stepping on the device, copying inputs to the device and states back, and in the task's
-reward (what is left is the host's sampling, spline and optimizer update).
+reward, update), the median raw rollout of the same N x T steps on the CPU `RolloutPool` (one thread
+per core), their ratio (the pool's rollout times the update's optimizer iterations over the warp
+update; above 1 the whole warp update is faster than the CPU pool's physics alone), and the share of
+the warp update spent stepping on the device, copying inputs to the device and states back, and in
+the task's reward (what is left is the host's sampling, spline and optimizer update).
 
-Warp runs on its default device: the GPU when there is one, otherwise warp's CPU device, which launches
-every kernel of every step one after the other and is far slower than the pool; the header says which.
+Warp runs on its default device: the GPU when there is one, otherwise warp's CPU device, which
+launches every kernel of every step one after the other and is far slower than the pool; the header
+says which.
 
 PYTHONPATH=src python benchmarks/gpu_rollouts.py [--tasks cartpole leap_cube humanoid_standup]
     [--num-rollouts 64 256 1024 4096] [--horizon 0.5] [--samples 10] [--warmup 3]
@@ -46,11 +48,13 @@ class Args:
     optimizer: str = "mppi"
     """Optimizer, by registered name."""
     horizon: float = 0.5
-    """Planning horizon in seconds (T = horizon / timestep; 0.5 s is T = 50 for every built-in task)."""
+    """Planning horizon in seconds (T = horizon / timestep; 0.5 s is T = 50 for every built-in
+    task)."""
     samples: int = 10
     """Timed control updates (and CPU pool rollouts) per task and N."""
     warmup: int = 3
-    """Untimed updates first (the first one compiles kernels, captures the graph and sizes the buffers)."""
+    """Untimed updates first (the first one compiles kernels, captures the graph and sizes the
+    buffers)."""
     num_workers: int | None = None
     """CPU pool threads (default: one per core)."""
 
@@ -71,7 +75,8 @@ class Row:
 
 
 def device_header() -> str:
-    """Which device warp measured, with the versions; a CPU-device run says that it is not a GPU figure."""
+    """Which device warp measured, with the versions; a CPU-device run says that it is not a GPU
+    figure."""
     import mujoco_warp
     import warp as wp
 
@@ -80,10 +85,12 @@ def device_header() -> str:
     versions = f"warp {wp.config.version}, MuJoCo Warp {mujoco_warp.__version__}"
     if device.is_cuda:
         return (
-            f"warp device: {device.alias} ({device.name}), {versions}; CPU pool: {cores} cores ({platform.processor()})"
+            f"warp device: {device.alias} ({device.name}), {versions}; CPU pool: {cores} "
+            f"cores ({platform.processor()})"
         )
     return (
-        f"warp device: cpu -- no CUDA device found, so these are warp's CPU-device figures, not GPU ones; "
+        "warp device: cpu -- no CUDA device found, so these are warp's CPU-device figures, "
+        "not GPU ones; "
         f"{versions}; CPU pool: {cores} cores"
     )
 
@@ -103,15 +110,20 @@ def time_controller(controller: Controller, task: str, args: Args, advance) -> R
     start = MujocoSystem.from_task(controller.task, 0).read_state()
     state, metadata, now = start.state, start.metadata, start.time
     period = 1.0 / controller.config.control_freq
-    reward_span = [math.inf, -math.inf]  # first start and last end of the reward calls of one update
+    # first start and last end of the reward calls of one update
+    reward_span = [math.inf, -math.inf]
     reward = controller.task.reward
 
     def timed_reward(*reward_args, **reward_kwargs):
-        started = time.perf_counter()  # blocks of rows may run on several threads: time their wall span
+        # blocks of rows may run on several threads: time their wall span
+        started = time.perf_counter()
         try:
             return reward(*reward_args, **reward_kwargs)
         finally:
-            reward_span[0], reward_span[1] = min(reward_span[0], started), max(reward_span[1], time.perf_counter())
+            reward_span[0], reward_span[1] = (
+                min(reward_span[0], started),
+                max(reward_span[1], time.perf_counter()),
+            )
 
     controller.task.reward = timed_reward  # type: ignore[method-assign]
     for _ in range(args.warmup + 1):
@@ -127,11 +139,13 @@ def time_controller(controller: Controller, task: str, args: Args, advance) -> R
         update_ms.append(1e3 * (time.perf_counter() - started))
         copy_ms.append(1e3 * (backend.phase_seconds["copy_in"] + backend.phase_seconds["copy_out"]))  # type: ignore[attr-defined]
         physics_ms.append(1e3 * backend.phase_seconds["physics"])  # type: ignore[attr-defined]
-        reward_ms.append(1e3 * max(0.0, reward_span[1] - reward_span[0]))  # spans any physics between iterations too
+        # spans any physics between iterations too
+        reward_ms.append(1e3 * max(0.0, reward_span[1] - reward_span[0]))
         now += period
         advance()
 
-    controls = np.ascontiguousarray(controller.batch_controls)  # (num_rollouts, T, nu), as the updates roll out
+    # (num_rollouts, T, nu), as the updates roll out
+    controls = np.ascontiguousarray(controller.batch_controls)
     initial, mocap = rollout_start(controller.task.model, state, plan.start_time, metadata)
     pool = RolloutPool(controller.task.model, args.num_workers)
     try:
@@ -159,7 +173,10 @@ def time_controller(controller: Controller, task: str, args: Args, advance) -> R
 
 
 def results_table(rows: list[Row], args: Args) -> Table:
-    table = Table(title=f"{args.optimizer} control update on warp vs the CPU pool's raw rollouts (ms, medians)")
+    table = Table(
+        title=f"{args.optimizer} control update on warp vs "
+        "the CPU pool's raw rollouts (ms, medians)"
+    )
     for column in (
         "task",
         "N x T",
@@ -198,20 +215,31 @@ def main() -> None:
         console.print(f"error: {err}", style="red")
         raise SystemExit(2) from err
     console.print(header)
-    console.print(f"horizon {args.horizon:g} s, {args.samples} samples after {args.warmup} warm-up updates")
+    console.print(
+        f"horizon {args.horizon:g} s, {args.samples} samples after {args.warmup} warm-up updates"
+    )
     rows = []
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+    )
     with Progress(*columns, console=Console(stderr=True), transient=True) as progress:
-        bar = progress.add_task("gpu rollouts", total=2 * args.samples * len(args.tasks) * len(args.num_rollouts))
+        bar = progress.add_task(
+            "gpu rollouts", total=2 * args.samples * len(args.tasks) * len(args.num_rollouts)
+        )
         for task in args.tasks:
             for num_rollouts in args.num_rollouts:
                 progress.update(bar, description=f"{task}, N = {num_rollouts}")
                 rows.append(time_task(task, num_rollouts, args, lambda: progress.advance(bar)))
     console.print(results_table(rows, args))
     console.print(
-        "CPU / warp: iters x CPU pool rollout / warp update; above 1 the whole warp update beats the CPU pool's "
+        "CPU / warp: iters x CPU pool rollout / warp update; above 1 the whole warp update "
+        "beats the CPU pool's "
         "physics alone. "
-        "physics: the T steps on the device (waited for); copies: inputs to the device and states back; reward: the task's reward on the host (wall time, its row "
+        "physics: the T steps on the device (waited for); copies: inputs to the device and "
+        "states back; reward: the task's reward on the host (wall time, its row "
         f"blocks on up to {os.cpu_count()} threads)."
     )
 

@@ -4,25 +4,29 @@
 
 Each figure is one line, `name: value`, counted the same way on any checkout (old ones too):
 
-- files run per update: the last line of that checkout's benchmarks/files_crossed.py (cartpole, mppi), run with its
-  own src on PYTHONPATH (a few seconds; `--skip-run` leaves it out);
-- loop import closure: the judo modules outside judo.loop reached from loop/'s files by following every import
-  statement (at module level, in functions, under TYPE_CHECKING), as tests/test_architecture.py reads them; in
-  brackets, with the package __init__ files Python runs on the way (all but the root package's);
-- largest package: the most .py files directly in one directory of src/judo; largest file: its most lines;
-- kind branches: lines with `optimizer is None` / `optimizer is not None`, a ==, != or `in` comparison with "policy"
-  or with a module constant bound to "policy", `isinstance(..., DynamicsTask)`, `isinstance(..., PolicyController)`;
-- GUI polled counters: lines of runtime/gui/*.py that compare `self._X` with `!=` (either side), X naming a version,
-  generation, edits or resets: a counter the GUI keeps to see that the app's state changed (a delivered reading's
-  or plan's own `.value.generation` compared with the session shown is a filter on news, not a poll);
+- files run per update: the last line of that checkout's benchmarks/files_crossed.py (cartpole,
+  mppi), run with its own src on PYTHONPATH (a few seconds; `--skip-run` leaves it out);
+- loop import closure: the judo modules outside judo.loop reached from loop/'s files by following
+  every import statement (at module level, in functions, under TYPE_CHECKING), as
+  tests/test_architecture.py reads them; in brackets, with the package __init__ files Python runs on
+  the way (all but the root package's);
+- largest package: the most .py files directly in one directory of src/judo; largest file: its most
+  lines;
+- kind branches: lines with `optimizer is None` / `optimizer is not None`, a ==, != or `in`
+  comparison with "policy" or with a module constant bound to "policy", `isinstance(...,
+  DynamicsTask)`, `isinstance(..., PolicyController)`;
+- GUI polled counters: lines of runtime/gui/*.py that compare `self._X` with `!=` (either side), X
+  naming a version, generation, edits or resets: a counter the GUI keeps to see that the app's state
+  changed (a delivered reading's or plan's own `.value.generation` compared with the session shown
+  is a filter on news, not a poll);
 - `type: ignore` in src/judo, and lines over 100 characters there (of all lines in its .py files);
-- re-exports: package __init__.py files other than judo/__init__.py that import names (not submodules) from judo,
-  and how many names;
+- re-exports: package __init__.py files other than judo/__init__.py that import names (not
+  submodules) from judo, and how many names;
 - modules named cli.py, and assignments to TIME_TOLERANCE at the start of a line.
 
-With `--compare ROOT`, ROOT is "before" and `--root` "after", side by side; `--show` lists the lines that the
-branch and counter figures count (of `--root`).
-"""
+With `--compare ROOT`, ROOT is "before" and `--root` "after", side by side; `--show` lists the lines
+that the branch and counter figures count (of `--root`).
+"""  # noqa: E501
 
 import argparse
 import ast
@@ -45,7 +49,8 @@ TOLERANCE = re.compile(r"^\s*TIME_TOLERANCE\s*(:[^=]*)?=[^=]")
 
 
 def sources(root: Path) -> dict[str, Path]:
-    """Each module of src/judo under `root` -> its file ("judo.core.task" -> .../judo/core/task.py)."""
+    """Each module of src/judo under `root` -> its file ("judo.core.task" ->
+    .../judo/core/task.py)."""
     src = root / "src"
     found = {}
     for path in sorted((src / PACKAGE).rglob("*.py")):
@@ -57,8 +62,9 @@ def sources(root: Path) -> dict[str, Path]:
 
 
 def imports_of(path: Path, module: str, modules: set[str]) -> set[str]:
-    """The modules among `modules` that `path` imports anywhere; a name imported from a module counts as that module,
-    and a dotted name as its longest prefix that is a module (the rule of tests/test_architecture.py)."""
+    """The modules among `modules` that `path` imports anywhere; a name imported from a module
+    counts as that module, and a dotted name as its longest prefix that is a module (the rule of
+    tests/test_architecture.py)."""
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
 
     def known(dotted: str) -> str | None:
@@ -75,7 +81,9 @@ def imports_of(path: Path, module: str, modules: set[str]) -> set[str]:
             if node.level:
                 anchor = package.split(".")[: len(package.split(".")) - (node.level - 1)]
                 base = ".".join([*anchor, *([base] if base else [])])
-            targets = [f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names]
+            targets = [
+                f"{base}.{a.name}" if f"{base}.{a.name}" in modules else base for a in node.names
+            ]
         else:
             continue
         found.update(target for name in targets if (target := known(name)))
@@ -83,7 +91,8 @@ def imports_of(path: Path, module: str, modules: set[str]) -> set[str]:
 
 
 def loop_closure(files: dict[str, Path]) -> tuple[int, int]:
-    """(modules outside judo.loop reached from loop/'s files, the same with the package __init__ files on the way)."""
+    """(modules outside judo.loop reached from loop/'s files, the same with the package __init__
+    files on the way)."""
     graph = {module: imports_of(path, module, set(files)) for module, path in files.items()}
     inside = [m for m in graph if m == "judo.loop" or m.startswith("judo.loop.")]
     seen, todo = set(inside), list(inside)
@@ -91,8 +100,15 @@ def loop_closure(files: dict[str, Path]) -> tuple[int, int]:
         for successor in graph[todo.pop()] - seen:
             seen.add(successor)
             todo.append(successor)
-    outside = {m for m in seen if not (m == "judo.loop" or m.startswith("judo.loop.")) and m != PACKAGE}
-    parents = {p for m in outside for p in (m.rsplit(".", k)[0] for k in range(1, m.count("."))) if p in graph}
+    outside = {
+        m for m in seen if not (m == "judo.loop" or m.startswith("judo.loop.")) and m != PACKAGE
+    }
+    parents = {
+        p
+        for m in outside
+        for p in (m.rsplit(".", k)[0] for k in range(1, m.count(".")))
+        if p in graph
+    }
     return len(outside), len(outside | parents)
 
 
@@ -100,7 +116,9 @@ def policy_names(texts: dict[str, str]) -> list[str]:
     """ "policy" and the module constants bound to it (`NAME = "policy"`)."""
     constants = set()
     for text in texts.values():
-        constants.update(re.findall(r'^([A-Z_][A-Z0-9_]*)\s*(?::[^=]*)?=\s*"policy"\s*$', text, re.MULTILINE))
+        constants.update(
+            re.findall(r'^([A-Z_][A-Z0-9_]*)\s*(?::[^=]*)?=\s*"policy"\s*$', text, re.MULTILINE)
+        )
     return ['"policy"', *sorted(constants)]
 
 
@@ -116,7 +134,8 @@ def policy_comparison(texts: dict[str, str]) -> re.Pattern:
 def matching(
     src: Path, files: dict[str, Path], texts: dict[str, str], pattern: re.Pattern, under: str = ""
 ) -> list[str]:
-    """ "path:line: text" of each line (its code, before a comment) that `pattern` finds, in files under `under`."""
+    """ "path:line: text" of each line (its code, before a comment) that `pattern` finds, in files
+    under `under`."""
     found = []
     for module, path in files.items():
         where = path.relative_to(src).as_posix()
@@ -128,17 +147,22 @@ def matching(
 
 
 def reexports(files: dict[str, Path]) -> tuple[int, int]:
-    """(package __init__ files but the root's that import names from judo, how many names they import)."""
+    """(package __init__ files but the root's that import names from judo, how many names they
+    import)."""
     modules, count, names = set(files), 0, 0
     for module, path in files.items():
         if path.name != "__init__.py" or module == PACKAGE:
             continue
         here = 0
         for node in ast.parse(path.read_text()).body:
-            if isinstance(node, ast.ImportFrom) and (node.level or (node.module or "").split(".")[0] == PACKAGE):
+            if isinstance(node, ast.ImportFrom) and (
+                node.level or (node.module or "").split(".")[0] == PACKAGE
+            ):
                 base = node.module or ""
                 if node.level:
-                    base = ".".join([*module.split(".")[: len(module.split(".")) - (node.level - 1)], base]).strip(".")
+                    base = ".".join(
+                        [*module.split(".")[: len(module.split(".")) - (node.level - 1)], base]
+                    ).strip(".")
                 here += sum(1 for a in node.names if f"{base}.{a.name}" not in modules)
         count, names = count + (here > 0), names + here
     return count, names
@@ -151,7 +175,12 @@ def files_crossed(root: Path) -> str:
         return "no benchmarks/files_crossed.py"
     env = {**os.environ, "PYTHONPATH": str(root / "src")}
     result = subprocess.run(
-        [sys.executable, str(script)], capture_output=True, text=True, env=env, cwd=root, timeout=600
+        [sys.executable, str(script)],
+        capture_output=True,
+        text=True,
+        env=env,
+        cwd=root,
+        timeout=600,
     )
     lines = result.stdout.strip().splitlines()
     if result.returncode != 0 or not lines:
@@ -161,7 +190,8 @@ def files_crossed(root: Path) -> str:
 
 
 def figures(root: Path, run: bool = True) -> tuple[dict[str, str], list[str]]:
-    """Each figure's name -> its value on the checkout at `root`, and the lines the branch and counter figures count."""
+    """Each figure's name -> its value on the checkout at `root`, and the lines the branch and
+    counter figures count."""
     files = sources(root)
     texts = {module: path.read_text() for module, path in files.items()}
     lines = [line for text in texts.values() for line in text.splitlines()]
@@ -169,26 +199,36 @@ def figures(root: Path, run: bool = True) -> tuple[dict[str, str], list[str]]:
     if run:
         out["files run per steady-state update"] = files_crossed(root)
     outside, with_parents = loop_closure(files)
-    out["loop/ import closure (judo modules outside loop/)"] = f"{outside} ({with_parents} with packages)"
+    out["loop/ import closure (judo modules outside loop/)"] = (
+        f"{outside} ({with_parents} with packages)"
+    )
     per_dir: dict[Path, int] = {}
     for path in files.values():
         per_dir[path.parent] = per_dir.get(path.parent, 0) + 1
     biggest = max(per_dir, key=lambda d: (per_dir[d], str(d)))
     src = root / "src"
-    out["largest package (.py files)"] = f"{per_dir[biggest]} ({biggest.relative_to(src / PACKAGE).as_posix()})"
+    out["largest package (.py files)"] = (
+        f"{per_dir[biggest]} ({biggest.relative_to(src / PACKAGE).as_posix()})"
+    )
     sizes = {path: len(texts[module].splitlines()) for module, path in files.items()}
     longest = max(sizes, key=lambda path: (sizes[path], str(path)))
-    out["largest file (lines)"] = f"{sizes[longest]} ({longest.relative_to(src / PACKAGE).as_posix()})"
+    out["largest file (lines)"] = (
+        f"{sizes[longest]} ({longest.relative_to(src / PACKAGE).as_posix()})"
+    )
     patterns = {**KIND_PATTERNS, '"policy"': policy_comparison(texts)}
     branches = {name: matching(src, files, texts, pattern) for name, pattern in patterns.items()}
     detail = ", ".join(f"{name} {len(found)}" for name, found in branches.items())
-    out["branches on planner or task kind"] = f"{sum(len(found) for found in branches.values())} ({detail})"
+    out["branches on planner or task kind"] = (
+        f"{sum(len(found) for found in branches.values())} ({detail})"
+    )
     polled = matching(src, files, texts, POLLED, "judo/runtime/gui/")
     out["GUI polled change counters"] = str(len(polled))
     shown = [line for found in branches.values() for line in found] + polled
     out["type: ignore"] = str(sum(line.count("type: ignore") for line in lines))
     long = sum(1 for line in lines if len(line) > 100)
-    out["lines over 100 characters"] = f"{long} of {len(lines)} ({100 * long / max(len(lines), 1):.1f}%)"
+    out["lines over 100 characters"] = (
+        f"{long} of {len(lines)} ({100 * long / max(len(lines), 1):.1f}%)"
+    )
     modules, names = reexports(files)
     out["re-exporting package __init__ files (names)"] = f"{modules} ({names} names)"
     out["modules named cli.py"] = str(sum(1 for p in files.values() if p.name == "cli.py"))
@@ -198,10 +238,18 @@ def figures(root: Path, run: bool = True) -> tuple[dict[str, str], list[str]]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--root", type=Path, default=HERE, help="a checkout of judo (default: this one)")
-    parser.add_argument("--compare", type=Path, metavar="ROOT", help="a checkout to print beside --root, as before")
-    parser.add_argument("--skip-run", action="store_true", help="leave out files_crossed.py (the slow figure)")
-    parser.add_argument("--show", action="store_true", help="list the lines the branch and counter figures count")
+    parser.add_argument(
+        "--root", type=Path, default=HERE, help="a checkout of judo (default: this one)"
+    )
+    parser.add_argument(
+        "--compare", type=Path, metavar="ROOT", help="a checkout to print beside --root, as before"
+    )
+    parser.add_argument(
+        "--skip-run", action="store_true", help="leave out files_crossed.py (the slow figure)"
+    )
+    parser.add_argument(
+        "--show", action="store_true", help="list the lines the branch and counter figures count"
+    )
     args = parser.parse_args()
     for root in [args.root, args.compare]:
         if root is not None and not (root / "src" / PACKAGE).is_dir():
@@ -211,7 +259,11 @@ def main() -> None:
         print(f"figures of {args.root}")
         for name, value in after.items():
             print(f"{name}: {value}")
-        print(*(f"  {line}" for line in shown if args.show), sep="\n", end="\n" if args.show and shown else "")
+        print(
+            *(f"  {line}" for line in shown if args.show),
+            sep="\n",
+            end="\n" if args.show and shown else "",
+        )
         return
     before, _ = figures(args.compare.resolve(), run=not args.skip_run)
     width = max(len(name) for name in after) + 1

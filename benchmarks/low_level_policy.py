@@ -1,17 +1,21 @@
-"""A low-level policy inside every rollout: the control update against its floor, and what batching buys.
+"""A low-level policy inside every rollout: the control update against its floor, and what batching
+buys.
 
 For each N, timed interleaved from the task's start state (seed 0):
-  - update: one control update of a task with a low-level policy (the optimizer plans commands; every k steps
-    one batched `act` per worker's block of rollouts turns them into ctrl; judo.core.rollouts.low_level);
-  - floor: the raw `mujoco.rollout` of the same N x T steps on the same pool (the very ctrl the policy gave in
-    those rollouts, recorded once, so that the physics and its contacts are the same), plus ceil(T / k) batched
+  - update: one control update of a task with a low-level policy (the optimizer plans commands;
+    every k steps one batched `act` per worker's block of rollouts turns them into ctrl;
+    judo.core.rollouts.low_level);
+  - floor: the raw `mujoco.rollout` of the same N x T steps on the same pool (the very ctrl the
+    policy gave in those rollouts, recorded once, so that the physics and its contacts are the
+    same), plus ceil(T / k) batched
     `act` calls of the same (N, O) size (times max_opt_iters); the target is update / floor <= 1.3;
-  - the hierarchical rollout alone, batched (one `act` of N rows per tick) and the 0.1.0 way (one `act` of one
-    row per rollout per tick: N calls per tick), and the speed-up batching gives.
+  - the hierarchical rollout alone, batched (one `act` of N rows per tick) and the 0.1.0
+    way (one `act` of one row per rollout per tick: N calls per tick), and the speed-up batching
+    gives.
 Medians, and the ratio of the minima (the steadier figure on a loaded machine).
 
     PYTHONPATH=src python benchmarks/low_level_policy.py [--task cartpole_pd] [--num-rollouts 64 256]
-"""
+"""  # noqa: E501
 
 import dataclasses
 import math
@@ -50,12 +54,13 @@ class Args:
     num_workers: int | None = None
     """Rollout threads (default: one per core)."""
     cpu_time: bool = False
-    """Time the calling thread's CPU time instead of wall time (needs --num-workers 1, so that all the work runs
-    on the timed thread; far steadier on a loaded machine)."""
+    """Time the calling thread's CPU time instead of wall time (needs --num-workers 1, so that all
+    the work runs on the timed thread; far steadier on a loaded machine)."""
 
 
 class RecordingPool(RolloutPool):
-    """A rollout pool that keeps the ctrl of every step a low-level rollout takes on it: the floor's ctrl."""
+    """A rollout pool that keeps the ctrl of every step a low-level rollout takes on it: the floor's
+    ctrl."""
 
     def record(self, num_rollouts: int, num_steps: int) -> None:
         """Keep the next low-level rollout's (num_rollouts, num_steps, nu) ctrl in `ctrl`."""
@@ -70,7 +75,8 @@ class RecordingPool(RolloutPool):
 
 
 def ctrl_of(low: LowLevel, pool: RolloutPool, initial, commands, mocap) -> np.ndarray:
-    """(N, T, nu) the ctrl the low-level policy gives in the rollouts of (N, T, C) `commands` from `initial`."""
+    """(N, T, nu) the ctrl the low-level policy gives in the rollouts of (N, T, C) `commands` from
+    `initial`."""
     recording = RecordingPool(pool.model, pool.num_workers)
     recording.record(*commands.shape[:2])
     with LowLevelRollout(recording, low) as backend:
@@ -79,7 +85,8 @@ def ctrl_of(low: LowLevel, pool: RolloutPool, initial, commands, mocap) -> np.nd
 
 
 class OneRowAtATime(Policy):
-    """`policy` called once per row: the 0.1.0 way (one inference of batch 1 per rollout per tick)."""
+    """`policy` called once per row: the 0.1.0 way (one inference of batch 1 per rollout per
+    tick)."""
 
     def __init__(self, policy: Policy) -> None:
         self.policy = policy
@@ -88,10 +95,15 @@ class OneRowAtATime(Policy):
             policy.action_size,
             policy.horizon,
         )
-        self.metadata = {**getattr(policy, "metadata", {}), "name": f"{policy.name} one row at a time"}
+        self.metadata = {
+            **getattr(policy, "metadata", {}),
+            "name": f"{policy.name} one row at a time",
+        }
 
     def act(self, observations: np.ndarray) -> np.ndarray:
-        return np.concatenate([self.policy.act(observations[i : i + 1]) for i in range(len(observations))])
+        return np.concatenate(
+            [self.policy.act(observations[i : i + 1]) for i in range(len(observations))]
+        )
 
 
 def time_ms(call, clock) -> float:
@@ -104,15 +116,23 @@ def row(args: Args, num_rollouts: int, progress: Progress, bar) -> list[str]:
     optimizer_config = make_config(lookup_optimizer(args.optimizer)[1], args.task)
     optimizer_config.num_rollouts = num_rollouts  # type: ignore[attr-defined]
     with judo.make_controller(
-        args.task, args.optimizer, optimizer_config=optimizer_config, num_workers=args.num_workers, seed=0
+        args.task,
+        args.optimizer,
+        optimizer_config=optimizer_config,
+        num_workers=args.num_workers,
+        seed=0,
     ) as controller:
         backend = controller.backend
-        assert isinstance(backend, LowLevelRollout), f"task {args.task!r} declares no low-level policy"
+        assert isinstance(backend, LowLevelRollout), (
+            f"task {args.task!r} declares no low-level policy"
+        )
         low, pool, model = backend.low_level, backend.inner, controller.task.model
         reading = MujocoSystem.from_task(controller.task, 0).read_state()
         initial, mocap = rollout_start(model, reading.state, reading.time, reading.metadata)
         num_steps, ticks = controller.num_steps, math.ceil(controller.num_steps / low.every)
-        observations = np.random.default_rng(0).normal(size=(num_rollouts, low.policy.observation_size))
+        observations = np.random.default_rng(0).normal(
+            size=(num_rollouts, low.policy.observation_size)
+        )
         observations = observations.astype(float)
         one_row = LowLevelRollout(pool, dataclasses.replace(low, policy=OneRowAtATime(low.policy)))
         times: dict[str, list[float]] = {"update": [], "floor": [], "batched": [], "one_row": []}
@@ -129,7 +149,9 @@ def row(args: Args, num_rollouts: int, progress: Progress, bar) -> list[str]:
                 for _ in range(ticks):
                     low.policy.act(observations)
 
-        update()  # one plan first, so that the floor's ctrl is what the policy gives on the optimizer's commands
+        # one plan first, so that the floor's ctrl is what the policy gives on the optimizer's
+        # commands
+        update()
         ctrl = ctrl_of(low, pool, initial, controller.batch_controls, mocap)
         commands = controller.batch_controls  # (N, T, C), a view: what the last update rolled out
         clock = time.thread_time if args.cpu_time else time.perf_counter
@@ -161,16 +183,29 @@ def row(args: Args, num_rollouts: int, progress: Progress, bar) -> list[str]:
 def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     if args.cpu_time and args.num_workers != 1:
-        raise SystemExit("--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread")
+        raise SystemExit(
+            "--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread"
+        )
     what = "thread CPU time" if args.cpu_time else "wall time"
     table = Table(
-        title=f"{args.task} x {args.optimizer}: low-level policy inside every rollout, median of {args.samples} "
+        title=f"{args.task} x {args.optimizer}: low-level policy inside every rollout, median of "
+        f"{args.samples} "
         f"({what})"
     )
     columns = ("N x T", "k (ticks)", "update ms", "floor ms", "update / floor (min/min)")
-    for column in (*columns, "rollout ms, batched act", "rollout ms, one act per rollout", "batching buys"):
+    for column in (
+        *columns,
+        "rollout ms, batched act",
+        "rollout ms, one act per rollout",
+        "batching buys",
+    ):
         table.add_column(column, justify="right")
-    progress_columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+    progress_columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+    )
     with Progress(*progress_columns, console=Console(stderr=True), transient=True) as progress:
         bar = progress.add_task("low-level policy", total=args.samples * len(args.num_rollouts))
         rows = [row(args, num_rollouts, progress, bar) for num_rollouts in args.num_rollouts]

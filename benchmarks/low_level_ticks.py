@@ -1,20 +1,25 @@
-"""Where a low-level policy's tick goes: the Python of one worker's block per tick, in thread CPU time.
+"""Where a low-level policy's tick goes: the Python of one worker's block per tick, in thread CPU
+time.
 
-A worker of a low-level rollout (judo.core.rollouts.low_level, core/rollouts/stepper.py) runs, per tick of k physics steps, its
-block's observation, one batched `act`, the copies into MuJoCo's inputs and out of its outputs, then the physics
-(`mujoco.rollout`, which releases the GIL). Everything but the physics and onnxruntime's run holds the GIL while the
-other worker steps its rollouts. For each task, on one worker and its block of B rows (the block of one of two
-workers at N = 2 B), from the task's start state, timed interleaved in one process:
-  - Python per tick: the low-level rollout of B x T steps, minus the same physics replayed tick by tick from the
-    very states and ctrl the rollout took (`RolloutPool.rollout_block`, one call per tick), per tick (its minimum
-    is the rollout's least minus the replay's least);
+A worker of a low-level rollout (judo.core.rollouts.low_level, core/rollouts/stepper.py) runs, per
+tick of k physics steps, its block's observation, one batched `act`, the copies into MuJoCo's inputs
+and out of its outputs, then the physics
+(`mujoco.rollout`, which releases the GIL). Everything but the physics and onnxruntime's run holds
+the GIL while the other worker steps its rollouts. For each task, on one worker and its block of B
+rows (the block of one of two workers at N = 2 B), from the task's start state, timed interleaved in
+one process:
+  - Python per tick: the low-level rollout of B x T steps, minus the same physics replayed tick by
+    tick from the very states and ctrl the rollout took (`RolloutPool.rollout_block`, one call per
+    tick), per tick (its minimum is the rollout's least minus the replay's least);
   - observation: `LowLevel.observe` of the block into its buffer;
-  - act: the policy's `checked_act` on the block's observations (onnxruntime's run included, which holds no GIL).
-Medians and minima of `--rounds` rounds (the minima are the steadier figure on a loaded machine). The script runs
-on any commit since the stepper (`PolicyStepper`), so before and after compare with PYTHONPATH alone.
+  - act: the policy's `checked_act` on the block's observations (onnxruntime's run included, which
+    holds no GIL).
+Medians and minima of `--rounds` rounds (the minima are the steadier figure on a loaded machine).
+The script runs on any commit since the stepper (`PolicyStepper`), so before and after compare with
+PYTHONPATH alone.
 
     PYTHONPATH=src python benchmarks/low_level_ticks.py [--tasks quadruped_navigate cartpole_pd] [--rounds 15]
-"""
+"""  # noqa: E501
 
 import time
 from collections.abc import Callable
@@ -77,7 +82,8 @@ def measure(task_name: str, rows: int, args: Args) -> dict[str, list[float]]:
     low, model = task.low_level(), task.model
     if low is None:
         raise SystemExit(
-            f"task {task_name!r} declares no low-level policy; expected cartpole_pd, quadruped_navigate, ..."
+            f"task {task_name!r} declares no low-level policy; expected cartpole_pd, "
+            "quadruped_navigate, ..."
         )
     pool = ReplayPool(model, 1)
     backend = LowLevelRollout(pool, low)
@@ -90,12 +96,17 @@ def measure(task_name: str, rows: int, args: Args) -> dict[str, list[float]]:
     states, _ = backend.rollout(initial, commands, mocap)
     log, pool.log = pool.log, None
     stepper = backend._stepper
-    outputs = [(np.zeros((rows, n, stepper.nstate)), np.zeros((rows, n, model.nsensordata))) for n in stepper.states]
+    outputs = [
+        (np.zeros((rows, n, stepper.nstate)), np.zeros((rows, n, model.nsensordata)))
+        for n in stepper.states
+    ]
     by_length = dict(zip(stepper.states, outputs, strict=True))
 
     def replay() -> None:
         for initial_states, inputs in log:
-            pool.rollout_block(0, initial_states, inputs, stepper.control_spec, *by_length[inputs.shape[1]])
+            pool.rollout_block(
+                0, initial_states, inputs, stepper.control_spec, *by_length[inputs.shape[1]]
+            )
 
     # one tick's arguments, as the rollout hands them: the block's states at a tick half way through
     tick = len(log) // 2
@@ -103,7 +114,13 @@ def measure(task_name: str, rows: int, args: Args) -> dict[str, list[float]]:
     num_state = 1 + model.nq + model.nv
     previous = rng.normal(size=(rows, low.policy.action_size))
     buffer = np.zeros((rows, low.policy.observation_size))
-    observed = (commands[:, tick * low.every], current[:, 1:num_state], previous, current[:, 0], buffer)
+    observed = (
+        commands[:, tick * low.every],
+        current[:, 1:num_state],
+        previous,
+        current[:, 0],
+        buffer,
+    )
     observations = np.array(low.observe(*observed), dtype=float)
     calls = {
         "rollout": lambda: backend.rollout(initial, commands, mocap),
@@ -135,18 +152,31 @@ def measure(task_name: str, rows: int, args: Args) -> dict[str, list[float]]:
 def cell(figures: dict[str, list[float]], name: str) -> str:
     """ "median / min" of one measurement's rounds (us)."""
     values = np.array(figures[name])
-    least = figures["tick_min"][0] if name == "tick" else values.min()  # the rollout's least minus the replay's
+    # the rollout's least minus the replay's
+    least = figures["tick_min"][0] if name == "tick" else values.min()
     return f"{np.median(values):.1f} / {least:.1f}"
 
 
 def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     if len(args.rows) != len(args.tasks):
-        raise SystemExit(f"--rows needs one block size per task: {len(args.tasks)} tasks, got {len(args.rows)} sizes")
+        raise SystemExit(
+            f"--rows needs one block size per task: {len(args.tasks)} tasks, got "
+            f"{len(args.rows)} sizes"
+        )
     table = Table(
-        title=f"a low-level tick's Python, one worker's block, thread CPU time (median / min of {args.rounds})"
+        title="a low-level tick's Python, one worker's block, thread CPU time (median / min of "
+        f"{args.rounds})"
     )
-    for column in ("task", "B x T", "ticks", "physics us / tick", "Python us / tick", "observation us", "act us"):
+    for column in (
+        "task",
+        "B x T",
+        "ticks",
+        "physics us / tick",
+        "Python us / tick",
+        "observation us",
+        "act us",
+    ):
         table.add_column(column, justify="left" if column == "task" else "right")
     for task_name, rows in zip(args.tasks, args.rows, strict=True):
         figures = measure(task_name, rows, args)

@@ -1,16 +1,19 @@
-"""Control-update time of the newer optimizers against MPPI's at the same N, knots and horizon (target: within 10%).
+"""Control-update time of the newer optimizers against MPPI's at the same N, knots and
+horizon (target: within 10%).
 
-Every optimizer of a task runs the same sizes, and their timings are interleaved: each round times a few updates
-of every optimizer in turn, so a load that comes and goes on a shared machine lands on all of them alike. The
-figures are the median update, the rollout floor (the raw rollouts of the same batch), the update's fixed cost
-beyond the floor, the ratio of its median update to MPPI's, and the optimizer's own time per iteration
-(pre_optimization, sample_control_knots and update_nominal_knots on the update's last batch, outside the controller:
-the best of 5 means of 100 calls, far steadier than the update's median). Run from the repository root:
+Every optimizer of a task runs the same sizes, and their timings are interleaved: each round times a
+few updates of every optimizer in turn, so a load that comes and goes on a shared machine lands on
+all of them alike. The figures are the median update, the rollout floor (the raw rollouts of the
+same batch), the update's fixed cost beyond the floor, the ratio of its median update to MPPI's, and
+the optimizer's own time per iteration
+(pre_optimization, sample_control_knots and update_nominal_knots on the update's last batch, outside
+the controller: the best of 5 means of 100 calls, far steadier than the update's median). Run from
+the repository root:
 
     PYTHONPATH=src python benchmarks/optimizer_update_time.py [--tasks cartpole walker leap_cube] [--rounds 10]
 
 The defaults time one worker thread's CPU time (--no-cpu-time for wall time with --num-workers N).
-"""
+"""  # noqa: E501
 
 import time
 from collections.abc import Callable
@@ -46,11 +49,15 @@ class Args:
     num_workers: int = 1
     """Rollout worker threads."""
     cpu_time: bool = True
-    """Time the calling thread's CPU time (needs --num-workers 1); steadier than wall time on a busy machine."""
+    """Time the calling thread's CPU time (needs --num-workers 1); steadier than wall time on a busy
+    machine."""
 
 
-def optimizer_us(controller: Controller, clock: Callable[[], float], calls: int = 100, repeats: int = 5) -> float:
-    """Microseconds per iteration of the controller's optimizer alone, on the batch and rewards of its last update."""
+def optimizer_us(
+    controller: Controller, clock: Callable[[], float], calls: int = 100, repeats: int = 5
+) -> float:
+    """Microseconds per iteration of the controller's optimizer alone, on the batch and rewards of
+    its last update."""
     opt, rewards = controller.optimizer, controller.rewards.copy()
     nominal = np.asarray(controller.nominal_knots, dtype=float)
     times = np.linspace(0.0, controller.config.horizon, opt.num_nodes)
@@ -69,7 +76,9 @@ def optimizer_us(controller: Controller, clock: Callable[[], float], calls: int 
 def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     if args.cpu_time and args.num_workers != 1:
-        raise SystemExit("--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread")
+        raise SystemExit(
+            "--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread"
+        )
     for kind, names, known in (
         ("task", args.tasks, get_registered_tasks()),
         ("optimizer", args.optimizers, get_registered_optimizers()),
@@ -84,22 +93,44 @@ def main() -> None:
         + ("thread CPU time" if args.cpu_time else "wall time")
         + f", {args.rounds} x {args.per_round} updates each"
     )
-    columns = ("task", "optimizer", "N x T x nu", "update median (ms)", "rollout floor (ms)", "fixed cost (us)")
-    for column in (*columns, f"vs {reference}", "optimizer (us)", f"optimizer - {reference}'s (us)"):
+    columns = (
+        "task",
+        "optimizer",
+        "N x T x nu",
+        "update median (ms)",
+        "rollout floor (ms)",
+        "fixed cost (us)",
+    )
+    for column in (
+        *columns,
+        f"vs {reference}",
+        "optimizer (us)",
+        f"optimizer - {reference}'s (us)",
+    ):
         table.add_column(column, justify="left" if column in ("task", "optimizer") else "right")
-    sizes = {"num_rollouts": args.num_rollouts, "num_nodes": args.num_nodes, "horizon": args.horizon}
+    sizes = {
+        "num_rollouts": args.num_rollouts,
+        "num_nodes": args.num_nodes,
+        "horizon": args.horizon,
+    }
     for task in args.tasks:
         controllers = {
-            name: benchmark_controller(task, name, num_workers=args.num_workers, **sizes) for name in args.optimizers
+            name: benchmark_controller(task, name, num_workers=args.num_workers, **sizes)
+            for name in args.optimizers
         }
         update_ms = {name: [] for name in args.optimizers}
         floor_ms = {name: [] for name in args.optimizers}
         for _ in range(args.rounds):
             for name, controller in controllers.items():
-                updates, floors = time_control_update(controller, args.per_round, warmup=2, clock=clock)
+                updates, floors = time_control_update(
+                    controller, args.per_round, warmup=2, clock=clock
+                )
                 update_ms[name].append(updates)
-                floor_ms[name].append(floors * controller.config.max_opt_iters)  # one batch per iteration
-        medians = {name: float(np.median(np.concatenate(update_ms[name]))) for name in args.optimizers}
+                # one batch per iteration
+                floor_ms[name].append(floors * controller.config.max_opt_iters)
+        medians = {
+            name: float(np.median(np.concatenate(update_ms[name]))) for name in args.optimizers
+        }
         own = {name: optimizer_us(controller, clock) for name, controller in controllers.items()}
         for name, controller in controllers.items():
             floor = float(np.median(np.concatenate(floor_ms[name])))

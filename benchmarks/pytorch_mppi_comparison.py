@@ -1,21 +1,25 @@
-"""judo's MPPI against pytorch-mppi (UM-ARM-Lab's `pytorch_mppi`) on the same numpy/torch pendulum, on the CPU.
+"""judo's MPPI against pytorch-mppi (UM-ARM-Lab's `pytorch_mppi`) on the same numpy/torch pendulum,
+on the CPU.
 
-Two figures for a researcher choosing between them: the time of one control update at the same N samples x T
-steps, and closed-loop swing-up success (the share of the last 2 s of a 6 s episode within 0.3 rad of
-upright) over seeds, each planner replanning every 20 ms step of the same plant.
+Two figures for a researcher choosing between them: the time of one control update at the same N
+samples x T steps, and closed-loop swing-up success (the share of the last 2 s of a 6 s episode
+within 0.3 rad of upright) over seeds, each planner replanning every 20 ms step of the same plant.
 
-PyTorch's wheel from the package index pulls several gigabytes of CUDA libraries, so pytorch-mppi lives in a
-throwaway venv of its own, never in judo's extras or CI. This script runs its torch half there:
+PyTorch's wheel from the package index pulls several gigabytes of CUDA libraries, so pytorch-mppi
+lives in a throwaway venv of its own, never in judo's extras or CI. This script runs its torch half
+there:
 
     python -m venv /tmp/torch-bench-venv && /tmp/torch-bench-venv/bin/pip install torch pytorch-mppi
     PYTHONPATH=src python benchmarks/pytorch_mppi_comparison.py --torch-python /tmp/torch-bench-venv/bin/python
 
-Both run on one CPU thread by default (judo's DynamicsRollout is one thread of numpy; `--torch-threads` gives
-torch more). On a busy 2-core machine torch's default of one thread per core made its N = 1024 update 20 times
-slower (116-150 ms against 6.3 ms on one thread). The judo half runs in judo's own environment; the torch half (`--side torch`) imports only numpy, torch and
-pytorch_mppi. Both plan the same dynamics: the pendulum of tests/core/test_dynamics.py (1 kg, 0.5 m, at most
+Both run on one CPU thread by default (judo's DynamicsRollout is one thread of
+numpy; `--torch-threads` gives torch more). On a busy 2-core machine torch's default of one thread
+per core made its N = 1024 update 20 times slower (116-150 ms against 6.3 ms on one thread). The
+judo half runs in judo's own environment; the torch half (`--side torch`) imports only numpy, torch
+and pytorch_mppi. Both plan the same dynamics: the pendulum of tests/core/test_dynamics.py (1
+kg, 0.5 m, at most
 2 Nm against 4.9 Nm of gravity, semi-implicit Euler at 20 ms), with the same running cost.
-"""
+"""  # noqa: E501
 
 import argparse
 import json
@@ -34,7 +38,9 @@ UPRIGHT = 0.3
 def step(states: np.ndarray, controls: np.ndarray) -> np.ndarray:
     """(N, 2) [angle (0 up), velocity] and (N, 1) torque fractions -> (N, 2) one step later."""
     angle, velocity = states[:, 0], states[:, 1]
-    velocity = velocity + DT * (GRAVITY_OVER_LENGTH * np.sin(angle) + TORQUE_GAIN * controls[:, 0] - DAMPING * velocity)
+    velocity = velocity + DT * (
+        GRAVITY_OVER_LENGTH * np.sin(angle) + TORQUE_GAIN * controls[:, 0] - DAMPING * velocity
+    )
     return np.stack([angle + DT * velocity, velocity], axis=1)
 
 
@@ -72,9 +78,13 @@ def judo_side(sizes: list[tuple[int, int]], seeds: int, repeats: int) -> dict:
             return -(10.0 * np.abs(wrapped(states[..., 0])) + 0.05 * states[..., 1] ** 2).sum(-1)
 
     def controller(num_samples: int, num_steps: int, seed: int) -> judo.Controller:
-        optimizer = MPPI(MPPIConfig(num_rollouts=num_samples, num_nodes=4, sigma=0.3, temperature=0.1), 1)
+        optimizer = MPPI(
+            MPPIConfig(num_rollouts=num_samples, num_nodes=4, sigma=0.3, temperature=0.1), 1
+        )
         optimizer.rng = np.random.default_rng(seed)
-        config = judo.ControllerConfig(horizon=num_steps * DT, spline_order="cubic", control_freq=1 / DT)
+        config = judo.ControllerConfig(
+            horizon=num_steps * DT, spline_order="cubic", control_freq=1 / DT
+        )
         return judo.Controller(config, Pendulum(), optimizer)
 
     timings = {}
@@ -100,7 +110,8 @@ def judo_side(sizes: list[tuple[int, int]], seeds: int, repeats: int) -> dict:
 
 
 def torch_side(sizes: list[tuple[int, int]], seeds: int, repeats: int, threads: int) -> dict:
-    """The same with pytorch_mppi's MPPI (per-step noise, its own defaults), float64 on `threads` CPU threads."""
+    """The same with pytorch_mppi's MPPI (per-step noise, its own defaults), float64 on `threads`
+    CPU threads."""
     import torch
     from pytorch_mppi import MPPI
 
@@ -110,7 +121,9 @@ def torch_side(sizes: list[tuple[int, int]], seeds: int, repeats: int, threads: 
     def dynamics(states, controls):
         angle, velocity = states[:, 0], states[:, 1]
         torque = controls[:, 0].clamp(-1.0, 1.0)
-        velocity = velocity + DT * (GRAVITY_OVER_LENGTH * torch.sin(angle) + TORQUE_GAIN * torque - DAMPING * velocity)
+        velocity = velocity + DT * (
+            GRAVITY_OVER_LENGTH * torch.sin(angle) + TORQUE_GAIN * torque - DAMPING * velocity
+        )
         return torch.stack([angle + DT * velocity, velocity], dim=1)
 
     def cost(states, controls):
@@ -119,7 +132,7 @@ def torch_side(sizes: list[tuple[int, int]], seeds: int, repeats: int, threads: 
 
     def controller(num_samples: int, num_steps: int) -> MPPI:
         return MPPI(
-            dynamics, cost, 2, torch.tensor([[0.3]]), num_samples=num_samples, horizon=num_steps, device="cpu",
+            dynamics, cost, 2, torch.tensor([[0.3]]), num_samples=num_samples, horizon=num_steps, device="cpu",  # noqa: E501
             lambda_=0.1, u_min=torch.tensor([-1.0]), u_max=torch.tensor([1.0]),
         )  # fmt: skip
 
@@ -143,19 +156,31 @@ def torch_side(sizes: list[tuple[int, int]], seeds: int, repeats: int, threads: 
             x = step(x[None], np.clip(action, -1.0, 1.0))[0]
             angles.append(x[0])
         success.append(upright_fraction(np.array(angles)))
-    return {"update_ms": timings, "upright": success, "torch": torch.__version__, "threads": torch.get_num_threads()}
+    return {
+        "update_ms": timings,
+        "upright": success,
+        "torch": torch.__version__,
+        "threads": torch.get_num_threads(),
+    }
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--torch-python", help="the interpreter of the venv with torch and pytorch-mppi")
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    parser.add_argument(
+        "--torch-python", help="the interpreter of the venv with torch and pytorch-mppi"
+    )
     parser.add_argument("--side", choices=("both", "judo", "torch"), default="both")
     parser.add_argument("--samples", type=int, nargs="+", default=[32, 256, 1024])
     parser.add_argument("--steps", type=int, default=75)
     parser.add_argument("--seeds", type=int, default=5)
     parser.add_argument("--repeats", type=int, default=20)
     parser.add_argument(
-        "--torch-threads", type=int, default=1, help="torch's intra-op threads (judo's dynamics run on one)"
+        "--torch-threads",
+        type=int,
+        default=1,
+        help="torch's intra-op threads (judo's dynamics run on one)",
     )
     args = parser.parse_args()
     sizes = [(n, args.steps) for n in args.samples]
@@ -166,23 +191,44 @@ def main() -> None:
         print(json.dumps(torch_side(sizes, args.seeds, args.repeats, args.torch_threads)))
         return
     if not args.torch_python:
-        sys.exit("--torch-python is needed: the interpreter of a throwaway venv with torch and pytorch-mppi")
-    common = ["--samples", *map(str, args.samples), "--steps", str(args.steps), "--seeds", str(args.seeds)]
+        sys.exit(
+            "--torch-python is needed: the interpreter of a throwaway venv with torch and "
+            "pytorch-mppi"
+        )
+    common = [
+        "--samples",
+        *map(str, args.samples),
+        "--steps",
+        str(args.steps),
+        "--seeds",
+        str(args.seeds),
+    ]
     common += ["--repeats", str(args.repeats), "--torch-threads", str(args.torch_threads)]
     results = {}
     for side, python in (("judo", sys.executable), ("torch", args.torch_python)):
-        out = subprocess.run([python, __file__, "--side", side, *common], check=True, capture_output=True, text=True)
+        out = subprocess.run(
+            [python, __file__, "--side", side, *common], check=True, capture_output=True, text=True
+        )
         results[side] = json.loads(out.stdout.strip().splitlines()[-1])
     print(f"pendulum swing-up, CPU, float64; pytorch-mppi on torch {results['torch']['torch']} "
           f"({results['torch']['threads']} threads)\n")  # fmt: skip
     print("| N x T | judo mppi update ms | pytorch-mppi update ms |")
     print("|---|---|---|")
     for key in results["judo"]["update_ms"]:
-        print(f"| {key} | {results['judo']['update_ms'][key]:.2f} | {results['torch']['update_ms'][key]:.2f} |")
-    print(f"\nupright fraction of the last 2 s of 6 s, N x T = 256 x 75, replanning every step, {args.seeds} seeds:")
+        print(
+            f"| {key} | {results['judo']['update_ms'][key]:.2f} | "
+            f"{results['torch']['update_ms'][key]:.2f} |"
+        )
+    print(
+        "\nupright fraction of the last 2 s of 6 s, N x T = 256 x 75, replanning every step, "
+        f"{args.seeds} seeds:"
+    )
     for side in ("judo", "torch"):
         values = np.array(results[side]["upright"])
-        print(f"  {side}: mean {values.mean():.2f}, min {values.min():.2f} ({' '.join(f'{v:.2f}' for v in values)})")
+        print(
+            f"  {side}: mean {values.mean():.2f}, min {values.min():.2f} "
+            f"({' '.join(f'{v:.2f}' for v in values)})"
+        )
 
 
 if __name__ == "__main__":

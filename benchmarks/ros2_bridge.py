@@ -1,19 +1,23 @@
-"""The ROS 2 bridge across two processes on loopback: round trip, per-cycle overhead and closed-loop quality.
+"""The ROS 2 bridge across two processes on loopback: round trip, per-cycle overhead and closed-loop
+quality.
 
-- Round trip: a command written on /judo/commands, read by the plant process (`python -m judo plant --echo`),
-  which writes it straight back; median and p99 of write -> echo read, ms (two DDS hops; one way is about half).
-- Per-cycle overhead: the bridge's read_state + apply + step (its pacing sleep off) against MujocoSystem's
-  read_state + apply in-process (without its physics step, which the robot does), microseconds.
-- Closed-loop quality, cartpole with mppi, same seeds: the same ClosedLoop on the same wall clock, driving
-  (a) judo's simulator in-process, stepped in wall time (it keeps running while the planner thinks, as a robot
-  does), (b) the plant process over DDS, (c) the plant with --latency-ms 20 --drop 0.1. balanced_fraction is
-  cartpole's own metric (final 3 s), on the plant's true states in (a) and on the states the robot sent in (b, c).
+- Round trip: a command written on /judo/commands, read by the plant process (`python -m judo plant
+  --echo`), which writes it straight back; median and p99 of write -> echo read, ms (two DDS hops;
+  one way is about half).
+- Per-cycle overhead: the bridge's read_state + apply + step (its pacing sleep off) against
+  MujocoSystem's read_state + apply in-process (without its physics step, which the robot does),
+  microseconds.
+- Closed-loop quality, cartpole with mppi, same seeds: the same ClosedLoop on the same wall clock,
+  driving (a) judo's simulator in-process, stepped in wall time (it keeps running while the planner
+  thinks, as a robot does), (b) the plant process over DDS, (c) the plant with --latency-ms 20
+  --drop 0.1. balanced_fraction is cartpole's own metric (final 3 s), on the plant's true states in
+  (a) and on the states the robot sent in (b, c).
 
     PYTHONPATH=src python benchmarks/ros2_bridge.py [--seeds 3] [--duration 10] [--latency-compensation]
 
-Wall-clock closed loops on a shared, loaded machine are noisy: a planning cycle that a busy core delays is a
-late plan on the robot. Needs pip install -e ".[ros2]".
-"""
+Wall-clock closed loops on a shared, loaded machine are noisy: a planning cycle that a busy core
+delays is a late plan on the robot. Needs pip install -e ".[ros2]".
+"""  # noqa: E501
 
 import os
 import random
@@ -53,12 +57,13 @@ class Args:
     cycles: int = 2000
     """Cycles timed for the per-cycle overhead."""
     latency_compensation: bool = False
-    """Plan from the reading predicted to when the plan takes effect (ControllerConfig.latency_compensation)."""
+    """Plan from the reading predicted to when the plan takes effect
+    (ControllerConfig.latency_compensation)."""
 
 
 class WallClockMujoco(MujocoSystem):
-    """judo's simulator in-process, advanced in wall time: each `step` runs the physics steps due since the
-    last one (the plant runs on while the planner thinks, as a robot does)."""
+    """judo's simulator in-process, advanced in wall time: each `step` runs the physics steps due
+    since the last one (the plant runs on while the planner thinks, as a robot does)."""
 
     def __init__(self, task) -> None:
         super().__init__(task)
@@ -73,7 +78,8 @@ class WallClockMujoco(MujocoSystem):
         due = self._origin + self._steps * self.timestep
         if due > now:
             time.sleep(due - now)
-        while self._steps * self.timestep < time.monotonic() - self._origin:  # catch up on a slow cycle
+        # catch up on a slow cycle
+        while self._steps * self.timestep < time.monotonic() - self._origin:
             super().step()
             self._steps += 1
         super().step()
@@ -93,7 +99,10 @@ class Steps:
 
 
 def start_plant(domain: int, seed: int, *flags: str) -> subprocess.Popen:
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]),
+    }
     proc = subprocess.Popen(
         [sys.executable, "-m", "judo", "plant", "--task", "cartpole", "--seed", str(seed)]
         + ["--ros2.domain-id", str(domain), *flags],
@@ -127,13 +136,17 @@ def balanced_fraction(records: list[StepRecord]) -> float:
     times = np.array([r.time for r in records])
     states = np.array([r.state for r in records])
     controls = np.array([r.action for r in records])
-    log = EpisodeLog(times=times, states=states, controls=controls, sensors=np.zeros((len(records), 0)))
+    log = EpisodeLog(
+        times=times, states=states, controls=controls, sensors=np.zeros((len(records), 0))
+    )
     return Cartpole().metrics(log)["balanced_fraction"]
 
 
 def episode(system, seed: int, duration: float, latency_compensation: bool) -> float:
     steps = Steps()
-    loop = ClosedLoop(controller(seed, latency_compensation), system, clock=time.monotonic, recorders=[steps])
+    loop = ClosedLoop(
+        controller(seed, latency_compensation), system, clock=time.monotonic, recorders=[steps]
+    )
     end = time.monotonic() + duration
     while time.monotonic() < end:
         loop.step()
@@ -147,8 +160,12 @@ def round_trip(domain: int, count: int) -> np.ndarray:
 
     proc = start_plant(domain, 0, "--echo")
     part = link.participant(domain)
-    writer = DataWriter(part, link.topic(part, "/judo/commands", msg.Float64MultiArray), link.COMMAND_QOS)
-    echo = DataReader(part, link.topic(part, "/judo/commands_echo", msg.Float64MultiArray), link.COMMAND_QOS)
+    writer = DataWriter(
+        part, link.topic(part, "/judo/commands", msg.Float64MultiArray), link.COMMAND_QOS
+    )
+    echo = DataReader(
+        part, link.topic(part, "/judo/commands_echo", msg.Float64MultiArray), link.COMMAND_QOS
+    )
     times = []
     try:
         time.sleep(1.0)  # discovery
@@ -171,9 +188,11 @@ def round_trip(domain: int, count: int) -> np.ndarray:
 
 
 def overhead(domain: int, cycles: int) -> tuple[float, float]:
-    """(bridge read + apply + step, MujocoSystem read + apply) in microseconds per cycle, medians."""
+    """(bridge read + apply + step, MujocoSystem read + apply) in microseconds per cycle,
+    medians."""
     proc = start_plant(domain, 0)
-    bridge = Ros2System(Cartpole(), Ros2Options(domain_id=domain, rate_hz=1e6))  # no pacing sleep to speak of
+    # no pacing sleep to speak of
+    bridge = Ros2System(Cartpole(), Ros2Options(domain_id=domain, rate_hz=1e6))
     sim = MujocoSystem.from_task(Cartpole(), 0)
     action = np.array([0.1])
     try:
@@ -207,7 +226,11 @@ def main() -> None:
         f"per cycle: bridge read+apply+step {wire:.0f} us, MujocoSystem read+apply {local:.0f} us, "
         f"the bridge adds {wire - local:.0f} us"
     )
-    rows = {"in-process (wall clock)": [], "over DDS": [], "over DDS, --latency-ms 20 --drop 0.1": []}
+    rows = {
+        "in-process (wall clock)": [],
+        "over DDS": [],
+        "over DDS, --latency-ms 20 --drop 0.1": [],
+    }
     for seed in range(args.seeds):
         rows["in-process (wall clock)"].append(
             episode(
@@ -230,7 +253,8 @@ def main() -> None:
                 stop(proc)
     compensation = ", latency compensation" if args.latency_compensation else ""
     print(
-        f"\ncartpole, mppi{compensation}, {args.seeds} seeds x {args.duration:g} s wall: balanced_fraction (final 3 s)"
+        f"\ncartpole, mppi{compensation}, {args.seeds} seeds x {args.duration:g} s wall: "
+        "balanced_fraction (final 3 s)"
     )
     print("| plant | mean | per seed |\n|---|---|---|")
     for name, values in rows.items():

@@ -1,6 +1,8 @@
-"""How the control update scales with the number of rollouts N (16 to 512), next to the raw rollout floor.
+"""How the control update scales with the number of rollouts N (16 to 512), next to the raw rollout
+floor.
 
-PYTHONPATH=src python benchmarks/scaling_rollouts.py [--task cartpole] [--optimizer mppi] [--samples 30]
+PYTHONPATH=src python benchmarks/scaling_rollouts.py [--task cartpole] [--optimizer
+mppi] [--samples 30]
 """
 
 from dataclasses import dataclass
@@ -31,11 +33,21 @@ class Args:
 def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     table = Table(title=f"{args.task} x {args.optimizer}: control update vs number of rollouts")
-    for column in ("N x T", "update median (ms)", "rollout floor (ms)", "ratio", "update per rollout step (us)"):
+    for column in (
+        "N x T",
+        "update median (ms)",
+        "rollout floor (ms)",
+        "ratio",
+        "update per rollout step (us)",
+    ):
         table.add_column(column, justify="right")
     for num_rollouts in args.num_rollouts:
         row = time_pair(
-            args.task, args.optimizer, args.samples, num_rollouts=num_rollouts, num_workers=args.num_workers
+            args.task,
+            args.optimizer,
+            args.samples,
+            num_rollouts=num_rollouts,
+            num_workers=args.num_workers,
         ).row()
         table.add_row(
             f"{row['num_rollouts']} x {row['T']}",

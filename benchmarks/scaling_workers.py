@@ -1,6 +1,8 @@
-"""How the control update scales with the number of rollout worker threads (1 to the number of cores).
+"""How the control update scales with the number of rollout worker threads (1 to the number of
+cores).
 
-PYTHONPATH=src python benchmarks/scaling_workers.py [--task cartpole] [--optimizer mppi] [--num-rollouts 128]
+PYTHONPATH=src python benchmarks/scaling_workers.py [--task cartpole] [--optimizer
+mppi] [--num-rollouts 128]
 """
 
 import os
@@ -31,13 +33,26 @@ class Args:
 
 def main() -> None:
     args = tyro.cli(Args, description=__doc__)
-    table = Table(title=f"{args.task} x {args.optimizer}: control update vs rollout workers, N={args.num_rollouts}")
-    for column in ("workers", "update median (ms)", "rollout floor (ms)", "ratio", "speed-up vs 1 worker"):
+    table = Table(
+        title=f"{args.task} x {args.optimizer}: control update vs rollout workers, "
+        f"N={args.num_rollouts}"
+    )
+    for column in (
+        "workers",
+        "update median (ms)",
+        "rollout floor (ms)",
+        "ratio",
+        "speed-up vs 1 worker",
+    ):
         table.add_column(column, justify="right")
     single = None
     for workers in range(1, args.max_workers + 1):
         row = time_pair(
-            args.task, args.optimizer, args.samples, num_rollouts=args.num_rollouts, num_workers=workers
+            args.task,
+            args.optimizer,
+            args.samples,
+            num_rollouts=args.num_rollouts,
+            num_workers=workers,
         ).row()
         single = single or row["median_ms"]
         table.add_row(

@@ -5,7 +5,8 @@ ctrlrange (always 0 now), and at how many of them the plan's spline, unclamped, 
 one (what the clamp prevents: a cubic through knots at the limits overshoots them). Then the time of
 one `Spline(t)` call with and without bounds, interleaved in one run.
 
-PYTHONPATH=src python benchmarks/served_actions.py [--tasks cartpole pendulum acrobot particle] [--duration 10]
+PYTHONPATH=src python benchmarks/served_actions.py [--tasks cartpole pendulum acrobot
+particle] [--duration 10]
 """
 
 import timeit
@@ -25,7 +26,9 @@ from judo.loop.system import MujocoSystem
 class Args:
     """Which tasks to run and for how long."""
 
-    tasks: list[str] = field(default_factory=lambda: ["cartpole", "pendulum", "acrobot", "particle"])
+    tasks: list[str] = field(
+        default_factory=lambda: ["cartpole", "pendulum", "acrobot", "particle"]
+    )
     """Tasks, by registered name (the cubic-spline ones are where a spline overshoots its knots)."""
     optimizer: str = "mppi"
     """Optimizer, by registered name."""
@@ -58,7 +61,8 @@ def episode_row(task: str, optimizer: str, duration: float) -> list[str]:
     finally:
         controller.close()
     after_step, controls = result.log.times, result.log.controls
-    times = np.r_[2 * after_step[0] - after_step[1], after_step[:-1]]  # when each action was applied
+    # when each action was applied
+    times = np.r_[2 * after_step[0] - after_step[1], after_step[:-1]]
     starts = np.array([plan.start_time for plan in served_plans])
     for t in times:
         index = np.searchsorted(starts, t + 1e-9, side="right") - 1
@@ -80,12 +84,21 @@ def main() -> None:
     args = tyro.cli(Args, description=__doc__)
     console = Console()
     table = Table(title=f"served actions vs ctrlrange, {args.optimizer}, seed 0, {args.duration} s")
-    for column in ("task", "spline", "plant steps", "served beyond range", "unclamped plan beyond range"):
+    for column in (
+        "task",
+        "spline",
+        "plant steps",
+        "served beyond range",
+        "unclamped plan beyond range",
+    ):
         table.add_column(column, justify="right")
     for task in args.tasks:
         table.add_row(*episode_row(task, args.optimizer, args.duration))
     console.print(table)
-    timing = Table(title=f"one Spline(t) call, 6 knots, nu=1 (min of {args.timing_samples} interleaved samples)")
+    timing = Table(
+        title="one Spline(t) call, 6 knots, nu=1 (min of "
+        f"{args.timing_samples} interleaved samples)"
+    )
     for column in ("order", "no bounds (us)", "with bounds (us)", "ratio"):
         timing.add_column(column, justify="right")
     for order in ("linear", "cubic"):

@@ -1,4 +1,5 @@
-"""Soak test: the GUI app with a headless-Chromium client for N minutes, then 200 task/optimizer switches.
+"""Soak test: the GUI app with a headless-Chromium client for N minutes, then 200 task/optimizer
+switches.
 
 Every sample period (a minute by default) it prints the app process's resident memory and thread
 count, and the control rate and real-time factor over that period. Then it switches task and
@@ -7,12 +8,12 @@ memory growth under 5% from minute 2 to the end, and a flat thread count.
 
 With --driver-faults SECONDS the app drives the task through a stand-in robot driver (the simulator
 behind a System) that injects one fault every SECONDS for a second: a raising, NaN, wrong-shape or
-frozen reading, a raising apply or step, or a call that blocks. The run then also prints how many faults
-were injected, how many times the watchdog served the safe action, and how many calls blocked; a user
-System cannot switch task, so the switch phase switches optimizer only.
+frozen reading, a raising apply or step, or a call that blocks. The run then also prints how many
+faults were injected, how many times the watchdog served the safe action, and how many calls
+blocked; a user System cannot switch task, so the switch phase switches optimizer only.
 
-PYTHONPATH=src python benchmarks/soak.py [--minutes 30] [--task cartpole] [--optimizer mppi] [--switches 200]
-PYTHONPATH=src python benchmarks/soak.py --minutes 5 --driver-faults 10
+PYTHONPATH=src python benchmarks/soak.py [--minutes 30] [--task cartpole] [--optimizer
+mppi] [--switches 200] PYTHONPATH=src python benchmarks/soak.py --minutes 5 --driver-faults 10
 """
 
 import sys
@@ -30,7 +31,8 @@ from judo.loop.system import MujocoSystem, System
 from judo.runtime.app import App
 
 SWITCH_CYCLE = (("cartpole", "mppi"), ("cartpole", "cem"), ("acrobot", "cem"), ("acrobot", "mppi"))
-"""(task, optimizer) pairs the switch phase goes round: two optimizer switches and two task switches."""
+"""(task, optimizer) pairs the switch phase goes round: two optimizer switches and two task
+switches."""
 
 
 @dataclass
@@ -50,7 +52,8 @@ class Args:
     chromium: Path = Path("/usr/bin/chromium")
     """The Chromium binary playwright drives (never downloaded)."""
     driver_faults: float = 0.0
-    """Inject one driver fault every this many seconds, for a second each (0: a fault-free simulator)."""
+    """Inject one driver fault every this many seconds, for a second each (0: a fault-free
+    simulator)."""
 
 
 DRIVER_FAULTS = (
@@ -66,7 +69,8 @@ DRIVER_FAULTS = (
 
 
 class FaultyDriver(System):
-    """The task's simulator behind a System whose calls fail in turn: one fault every `every` s, for 1 s."""
+    """The task's simulator behind a System whose calls fail in turn: one fault every `every` s, for
+    1 s."""
 
     def __init__(self, task: str, every: float) -> None:
         with judo.make_controller(task, "ps", seed=0) as controller:
@@ -137,7 +141,8 @@ def soak(app: App, page, args: Args) -> list[tuple[float, float, int]]:
     last = (start, app.stats.num_plans(), app.stats.sim_time())
     say(f"{'minute':>7} {'rss MB':>8} {'threads':>8} {'control Hz':>11} {'RTF':>6}")
     while (now := time.perf_counter()) - start < 60 * args.minutes:
-        page.wait_for_timeout(1000 * min(args.sample_seconds, start + 60 * args.minutes - now))  # keeps the page alive
+        # keeps the page alive
+        page.wait_for_timeout(1000 * min(args.sample_seconds, start + 60 * args.minutes - now))
         now, plans, sim_time = time.perf_counter(), app.stats.num_plans(), app.stats.sim_time()
         rss, threads = process_status()
         rate = (plans - last[1]) / (now - last[0])
@@ -172,21 +177,29 @@ def switch_phase(app: App, args: Args) -> None:
         deadline = time.monotonic() + 30
         while app.gui.shown_generation <= generation:
             if time.monotonic() > deadline:
-                raise SystemExit(f"switch {k + 1} to {task}/{optimizer} did not show in the GUI within 30 s")
+                raise SystemExit(
+                    f"switch {k + 1} to {task}/{optimizer} did not show in the GUI within 30 s"
+                )
             time.sleep(0.01)
-        if k + 1 == len(SWITCH_CYCLE):  # every model has been loaded once: growth from here on is a leak
+        # every model has been loaded once: growth from here on is a leak
+        if k + 1 == len(SWITCH_CYCLE):
             warm_rss = process_status()[0]
         if (k + 1) % 50 == 0 or k + 1 == args.switches:
             rss, threads = process_status()
-            say(f"  {k + 1:4d} switches: rss {rss:.1f} MB ({rss - rss_before:+.1f}), threads {threads}")
+            say(
+                f"  {k + 1:4d} switches: rss {rss:.1f} MB ({rss - rss_before:+.1f}), threads "
+                f"{threads}"
+            )
     rss, threads = process_status()
     say(
-        f"switch phase: rss {rss_before:.1f} -> {rss:.1f} MB ({100 * (rss - rss_before) / rss_before:+.1f}%), "
+        f"switch phase: rss {rss_before:.1f} -> {rss:.1f} MB "
+        f"({100 * (rss - rss_before) / rss_before:+.1f}%), "
         f"threads {threads_before} -> {threads} over {args.switches} switches"
     )
     if args.switches > len(SWITCH_CYCLE):
         say(
-            f"switch phase after the first {len(SWITCH_CYCLE)} (each model loaded once): rss {warm_rss:.1f} -> "
+            f"switch phase after the first {len(SWITCH_CYCLE)} (each model loaded once): rss "
+            f"{warm_rss:.1f} -> "
             f"{rss:.1f} MB ({100 * (rss - warm_rss) / warm_rss:+.1f}%)"
         )
 
@@ -211,8 +224,10 @@ def main() -> None:
             minute, rss, _ = samples[-1]
             threads = [s[2] for s in samples]
             say(
-                f"soak: rss {baseline[1]:.1f} MB at minute {baseline[0]:.2f} -> {rss:.1f} MB at minute {minute:.2f} "
-                f"({100 * (rss - baseline[1]) / baseline[1]:+.1f}%), threads {min(threads)}..{max(threads)}"
+                f"soak: rss {baseline[1]:.1f} MB at minute {baseline[0]:.2f} -> {rss:.1f} MB "
+                f"at minute {minute:.2f} "
+                f"({100 * (rss - baseline[1]) / baseline[1]:+.1f}%), threads "
+                f"{min(threads)}..{max(threads)}"
             )
             if args.switches:
                 switch_phase(app, args)
@@ -223,8 +238,10 @@ def main() -> None:
     if driver is not None:
         trips = app.session.closed_loop.watchdog.trips
         say(
-            f"driver faults: {len(driver.injected)} injected ({', '.join(DRIVER_FAULTS)} in turn); the watchdog "
-            f"served the safe action {trips} times in the last session; app still running at the end: "
+            f"driver faults: {len(driver.injected)} injected ({', '.join(DRIVER_FAULTS)} in "
+            "turn); the watchdog "
+            f"served the safe action {trips} times in the last session; app still running at "
+            "the end: "
             f"{'no (stopped by the soak)' if not app.running else 'yes'}"
         )
 

@@ -1,22 +1,26 @@
-"""System identification on simulated plants with known wrong parameters: log, fit, plan with the fit.
+"""System identification on simulated plants with known wrong parameters: log, fit, plan with the
+fit.
 
-For each case: the plant differs from the planning model by known parameters (--plant-overrides); a closed-loop
-MPC episode on it is logged (collect's HDF5 file, planning with the wrong model); `python -m judo sysid`'s fit
-(mujoco.sysid over K-step windows) recovers the parameters; then closed-loop episodes on fresh seeds plan with the
-true model, the wrong one and the fitted one ([model_overrides]), on the same mismatched plant.
+For each case: the plant differs from the planning model by known parameters (--plant-overrides); a
+closed-loop MPC episode on it is logged (collect's HDF5 file, planning with the wrong
+model); `python -m judo sysid`'s fit
+(mujoco.sysid over K-step windows) recovers the parameters; then closed-loop episodes on fresh seeds
+plan with the true model, the wrong one and the fitted one ([model_overrides]), on the same
+mismatched plant.
 
     PYTHONPATH=src python benchmarks/sysid_cases.py --cases cartpole leap_cube quadruped hardware06
 
-The hardware06 case is examples/06's cart-pole robot (`LaggyNoisyCartpole`: pole 10% heavier, each action reaching
-the motor 10 ms late), driven through its own `System` by `excite`'s multisine and logged as `excite --system`
-logs it: what the robot reports, its noisy, 20 ms late encoders (it reports no state), and the EKF's estimate; the
-fit compares the encoders (over 0.5 s windows, each from the estimate refined to them) and adds --fit-delay. Its
-closed loop plans through a plant of the same physics, MuJoCo's own actuator delay on a model that keeps the
-action history (`delay` and `nsample` on the motor), since the episode runner drives MujocoSystem plants.
+The hardware06 case is examples/06's cart-pole robot (`LaggyNoisyCartpole`: pole 10% heavier, each
+action reaching the motor 10 ms late), driven through its own `System` by `excite`'s multisine and
+logged as `excite --system` logs it: what the robot reports, its noisy, 20 ms late encoders (it
+reports no state), and the EKF's estimate; the fit compares the encoders (over 0.5 s windows, each
+from the estimate refined to them) and adds --fit-delay. Its closed loop plans through a plant of
+the same physics, MuJoCo's own actuator delay on a model that keeps the action history (`delay`
+and `nsample` on the motor), since the episode runner drives MujocoSystem plants.
 
-Prints one Markdown row per fitted parameter: the true value, the planning model's, the fitted one, the K-step
-prediction error before and after, the closed-loop metric (true / wrong / fitted model, and the share of what the
-wrong model lost that the fitted one recovers) and the fit's wall time.
+Prints one Markdown row per fitted parameter: the true value, the planning model's, the fitted one,
+the K-step prediction error before and after, the closed-loop metric (true / wrong / fitted model,
+and the share of what the wrong model lost that the fitted one recovers) and the fit's wall time.
 """
 
 import argparse
@@ -30,7 +34,11 @@ import numpy as np
 
 from judo.collection.episode import collect_episode
 from judo.core.configuration import registry
-from judo.core.configuration.model_overrides import check_model_overrides, model_value, parse_override_entries
+from judo.core.configuration.model_overrides import (
+    check_model_overrides,
+    model_value,
+    parse_override_entries,
+)
 from judo.core.configuration.registry import make_task, register_task, set_model_overrides
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.recording.dataset import DatasetFile
@@ -44,7 +52,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 @dataclass(frozen=True)
 class Case:
-    """A task, its plant's true parameters, the parameters fitted and the closed-loop metric compared."""
+    """A task, its plant's true parameters, the parameters fitted and the closed-loop metric
+    compared."""
 
     task: str
     optimizer: str
@@ -76,14 +85,16 @@ CASES = {
         "goals_per_minute",
         20.0,
     ),
-    # A 2 kg payload on the trunk (5 kg), 0.1 m behind and 0.07 m above its centre of mass: the trunk's mass and
-    # centre as the plant has them (the payload's own inertia left out: the issue's two parameters).
+    # A 2 kg payload on the trunk (5 kg), 0.1 m behind and 0.07 m above its centre of mass: the
+    # trunk's mass and centre as the plant has them (the payload's own inertia left out: the issue's
+    # two parameters).
     "quadruped": Case(
         "quadruped",
         "mppi",
         (
             "body_mass.torso=7.0",
-            f"body_ipos.torso=[{(5 * 0.0534 - 2 * 0.0466) / 7}, 0.0, {(5 * 0.0008 + 2 * 0.0708) / 7}]",
+            f"body_ipos.torso=[{(5 * 0.0534 - 2 * 0.0466) / 7}, 0.0, "
+            f"{(5 * 0.0008 + 2 * 0.0708) / 7}]",
         ),
         ("body_mass.torso", "body_ipos.torso[0]", "body_ipos.torso[2]"),
         "goals_per_minute",
@@ -102,12 +113,13 @@ CASES = {
 }
 
 LAGGY_MODEL = Path(tempfile.gettempdir()) / "judo_sysid_laggy_cartpole.xml"
-"""judo's cartpole.xml with a motor that keeps 3 samples of action history, so that MuJoCo's actuator_delay (0
-here, set by [model_overrides]) can delay it up to 0.02 s."""
+"""judo's cartpole.xml with a motor that keeps 3 samples of action history, so that MuJoCo's
+actuator_delay (0 here, set by [model_overrides]) can delay it up to 0.02 s."""
 
 
 class LaggyCartpole(Cartpole):
-    """The cart-pole task on a model whose motor can be delayed (LAGGY_MODEL), planning and plant alike."""
+    """The cart-pole task on a model whose motor can be delayed (LAGGY_MODEL), planning and plant
+    alike."""
 
     def __init__(self) -> None:
         if not LAGGY_MODEL.exists():
@@ -119,30 +131,47 @@ class LaggyCartpole(Cartpole):
 
 
 def log_hardware06(path: Path, seconds: float, seed: int) -> None:
-    """examples/06's robot (pole x1.1, motor 10 ms late) excited through its own System: 0.5 of the push range,
-    up to 2 Hz, logged as `excite --system` logs it (`drive`: its encoders, their ages and the EKF's estimate) in
-    collect's layout as a log of laggy_cartpole."""
-    spec = importlib.util.spec_from_file_location("hardware_system", ROOT / "examples" / "06_hardware_system.py")
+    """examples/06's robot (pole x1.1, motor 10 ms late) excited through its own System: 0.5 of the
+    push range, up to 2 Hz, logged as `excite --system` logs it (`drive`: its encoders, their ages
+    and the EKF's estimate) in collect's layout as a log of laggy_cartpole."""
+    spec = importlib.util.spec_from_file_location(
+        "hardware_system", ROOT / "examples" / "06_hardware_system.py"
+    )
     example = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(example)
     robot = example.LaggyNoisyCartpole(seed=seed)
-    task = make_task("cartpole")  # the EKF linearises cartpole.xml: MuJoCo has no derivatives of an action history
+    # the EKF linearises cartpole.xml: MuJoCo has no derivatives of an action history
+    task = make_task("cartpole")
     steps = round(seconds / robot.timestep)
-    controls = multisine(robot.model.actuator_ctrlrange, np.arange(steps) * robot.timestep, 0.5, 2.0, seed)
+    controls = multisine(
+        robot.model.actuator_ctrlrange, np.arange(steps) * robot.timestep, 0.5, 2.0, seed
+    )
     logged = drive(robot, task, "cartpole", controls)
     episode = excitation_episode(
-        seed, task.model, logged.states, logged.sensors, controls, measurements=logged.measurements(task)
+        seed,
+        task.model,
+        logged.states,
+        logged.sensors,
+        controls,
+        measurements=logged.measurements(task),
     )
-    DatasetFile(path, {"task": "laggy_cartpole", "plant_timestep": robot.timestep}).write_episode(episode)
+    DatasetFile(path, {"task": "laggy_cartpole", "plant_timestep": robot.timestep}).write_episode(
+        episode
+    )
 
 
-def closed_loop(case: Case, overrides: dict | None, seeds: range, control_freq: float | None = None) -> float:
-    """Mean `case.metric` over `seeds` on the mismatched plant, planning with `overrides` (None: the MJCF's)."""
+def closed_loop(
+    case: Case, overrides: dict | None, seeds: range, control_freq: float | None = None
+) -> float:
+    """Mean `case.metric` over `seeds` on the mismatched plant, planning with `overrides` (None: the
+    MJCF's)."""
     registry._MODEL_OVERRIDES.pop((case.task, False), None)
     if overrides:
         set_model_overrides(case.task, overrides)
     values = {} if control_freq is None else {"controller.control_freq": control_freq}
-    spec = EpisodeSpec(case.task, case.optimizer, case.duration, values=values, plant_overrides=case.plant)
+    spec = EpisodeSpec(
+        case.task, case.optimizer, case.duration, values=values, plant_overrides=case.plant
+    )
     values = [run_seeded_episode(spec, seed).metrics[case.metric] for seed in seeds]
     registry._MODEL_OVERRIDES.pop((case.task, False), None)
     return float(np.mean(values))
@@ -161,7 +190,9 @@ def run_case(name: str, case: Case, args: argparse.Namespace, folder: Path) -> l
         timestep = float(task.sim_model.opt.timestep)
         env_args = {"task": case.task, "optimizer": case.optimizer, "plant_timestep": timestep}
         DatasetFile(log, env_args).write_episode(outcome.episode)
-    parameters = parse_parameters(case.params, task.model) + ([DELAY_PARAMETER] if case.fit_delay else [])
+    parameters = parse_parameters(case.params, task.model) + (
+        [DELAY_PARAMETER] if case.fit_delay else []
+    )
     episodes = read_logs([log], case.task, task.model)
     steps = round((case.window or args.window) / float(task.model.opt.timestep))
     result = fit(task, parameters, episodes, steps, args.max_iters)
@@ -171,10 +202,15 @@ def run_case(name: str, case: Case, args: argparse.Namespace, folder: Path) -> l
     wrong_metric = closed_loop(case, None, seeds, args.control_freq)
     fitted_metric = closed_loop(case, result.overrides(task.model), seeds, args.control_freq)
     lost = true_metric - wrong_metric
-    recovered = f"{(fitted_metric - wrong_metric) / lost:.0%}" if lost > 1e-9 else "n/a: the wrong model lost nothing"
+    recovered = (
+        f"{(fitted_metric - wrong_metric) / lost:.0%}"
+        if lost > 1e-9
+        else ("n/a: the wrong model lost nothing")
+    )
     rows = []
     for index, parameter in enumerate(parameters):
-        if parameter.field == DELAY_PARAMETER.field:  # every actuator's, as the plant's actuator_delay
+        # every actuator's, as the plant's actuator_delay
+        if parameter.field == DELAY_PARAMETER.field:
             truth = next(iter(truth_overrides.get("actuator_delay", {}).values()), None)
         else:
             truth = truth_overrides.get(parameter.field, {}).get(parameter.element)
@@ -182,17 +218,23 @@ def run_case(name: str, case: Case, args: argparse.Namespace, folder: Path) -> l
         if parameter.field == DELAY_PARAMETER.field:
             planning = 0.0
         else:
-            planning = float(model_value(task.model, parameter.field, parameter.element)[parameter.index or 0])
-        if parameter.field == "opt" and not task.model.opt.enableflags & 8:  # mjENBL_OVERRIDE off: unused
+            planning = float(
+                model_value(task.model, parameter.field, parameter.element)[parameter.index or 0]
+            )
+        # mjENBL_OVERRIDE off: unused
+        if parameter.field == "opt" and not task.model.opt.enableflags & 8:
             planning_text = f"{planning:.4g} (override off)"
         else:
             planning_text = f"{planning:.4g}"
         fitted = f"{result.fitted[index]:.4g}" + ("" if result.excited[index] else " (not excited)")
         true_size = abs(true_value) if abs(true_value) > 0 else 1.0
         error = abs(result.fitted[index] - true_value) / true_size
-        closed = f"{true_metric:.3g} / {wrong_metric:.3g} / {fitted_metric:.3g} ({recovered} recovered)"
+        closed = (
+            f"{true_metric:.3g} / {wrong_metric:.3g} / {fitted_metric:.3g} ({recovered} recovered)"
+        )
         rows.append(
-            f"| {name} | {parameter.name} | {true_value:.4g} | {planning_text} | {fitted} ({error:.1%} off) | "
+            f"| {name} | {parameter.name} | {true_value:.4g} | {planning_text} | {fitted} "
+            f"({error:.1%} off) | "
             f"{result.error_before:.3g} / {result.error_after:.3g} | "
             + (f"{case.metric}: {closed} | {result.seconds:.1f} s |" if index == 0 else "| |")
         )
@@ -200,8 +242,8 @@ def run_case(name: str, case: Case, args: argparse.Namespace, folder: Path) -> l
 
 
 def set_config_overrides_like_cartpole(name: str) -> None:
-    """Give the task `name` judo's cartpole's tuned controller and optimizer settings (a registered task gets
-    the defaults otherwise)."""
+    """Give the task `name` judo's cartpole's tuned controller and optimizer settings (a registered
+    task gets the defaults otherwise)."""
     from judo.core.configuration.config_file import load_config
 
     text = (Path(registry.__file__).parents[1] / "tasks" / "models" / "cartpole.toml").read_text()
@@ -211,13 +253,21 @@ def set_config_overrides_like_cartpole(name: str) -> None:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=sorted(CASES))
-    parser.add_argument("--log-seconds", type=float, default=60.0, help="seconds of the logged closed loop")
+    parser.add_argument(
+        "--log-seconds", type=float, default=60.0, help="seconds of the logged closed loop"
+    )
     parser.add_argument("--log-seed", type=int, default=500, help="seed of the logged episode")
     parser.add_argument("--seeds", type=int, default=5, help="closed-loop episodes per model")
-    parser.add_argument("--first-seed", type=int, default=1000, help="fresh seeds, apart from the log's")
-    parser.add_argument("--window", type=float, default=0.05, help="seconds of each fitted window (sysid --window)")
+    parser.add_argument(
+        "--first-seed", type=int, default=1000, help="fresh seeds, apart from the log's"
+    )
+    parser.add_argument(
+        "--window", type=float, default=0.05, help="seconds of each fitted window (sysid --window)"
+    )
     parser.add_argument("--max-iters", type=int, default=50)
     parser.add_argument(
         "--control-freq",
@@ -229,11 +279,13 @@ def main() -> None:
     register_task("laggy_cartpole", LaggyCartpole, CartpoleConfig)
     set_config_overrides_like_cartpole("laggy_cartpole")
     print(
-        f"{args.log_seconds:g} s logged (seed {args.log_seed}); closed loop on seeds {args.first_seed} to "
+        f"{args.log_seconds:g} s logged (seed {args.log_seed}); closed loop on seeds "
+        f"{args.first_seed} to "
         f"{args.first_seed + args.seeds - 1}; windows of {args.window:g} s\n"
     )
     print(
-        "| case | parameter | true | planning model | fitted | k-step prediction error before / after | "
+        "| case | parameter | true | planning model | fitted | k-step prediction error "
+        "before / after | "
         "closed-loop metric: true model / wrong / fitted | fit time |"
     )
     print("|---|---|---|---|---|---|---|---|", flush=True)

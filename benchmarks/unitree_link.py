@@ -1,16 +1,19 @@
-"""The Unitree bridge across two processes on loopback: its added time per cycle and the round trip to the robot.
+"""The Unitree bridge across two processes on loopback: its added time per cycle and the round trip
+to the robot.
 
-- Per cycle: the bridge's read_state + apply + step (a LowCmd_ built, its CRC, written; the pacing sleep off: a
-  rate of 1 MHz), microseconds, median and p99, with its parts: the CRC of one LowCmd_, and cyclonedds'
-  serialization of one LowCmd_ and deserialization of one LowState_ (pure Python in cyclonedds' wheel).
-- Round trip: a LowCmd_ written on rt/lowcmd, read by the robot process (`python -m judo plant --protocol unitree
-  --echo`), which writes it straight back on rt/lowcmd_echo; median and p99 of write -> echo read, ms (two DDS
-  hops, each with a serialization; one way is about half).
+- Per cycle: the bridge's read_state + apply + step (a LowCmd_ built, its CRC, written; the pacing
+  sleep off: a rate of 1 MHz), microseconds, median and p99, with its parts: the CRC of one LowCmd_,
+  and cyclonedds' serialization of one LowCmd_ and deserialization of one LowState_ (pure Python in
+  cyclonedds' wheel).
+- Round trip: a LowCmd_ written on rt/lowcmd, read by the robot process (`python -m judo plant
+  --protocol unitree --echo`), which writes it straight back on rt/lowcmd_echo; median and p99 of
+  write -> echo read, ms (two DDS hops, each with a serialization; one way is about half).
 
     PYTHONPATH=src python benchmarks/unitree_link.py [--task go2_stand] [--robot go2] [--cycles 1000]
 
-Needs pip install -e ".[unitree]". On a shared, loaded machine every figure is slower and its p99 much more so.
-"""
+Needs pip install -e ".[unitree]". On a shared, loaded machine every figure is slower and its p99
+much more so.
+"""  # noqa: E501
 
 import os
 import random
@@ -51,7 +54,11 @@ def per_part(motors: mt.Motors, repeats: int = 300) -> dict[str, list[float]]:
     """Seconds of each part of a cycle, `repeats` times each."""
     command = mt.low_cmd(motors, np.zeros(motors.count), motors.kp, motors.kd)
     state_bytes = crc.with_crc(motors.robot.low_state()).serialize()
-    parts: dict[str, list[float]] = {"CRC of a LowCmd_": [], "serialize a LowCmd_": [], "deserialize a LowState_": []}
+    parts: dict[str, list[float]] = {
+        "CRC of a LowCmd_": [],
+        "serialize a LowCmd_": [],
+        "deserialize a LowState_": [],
+    }
     for _ in range(repeats):
         for name, work in (
             ("CRC of a LowCmd_", lambda: crc.with_crc(command)),
@@ -67,7 +74,15 @@ def per_part(motors: mt.Motors, repeats: int = 300) -> dict[str, list[float]]:
 def main(options: Options) -> None:
     domain = random.SystemRandom().randint(100, 232)
     env = {**os.environ, "PYTHONPATH": os.pathsep.join(["src", os.environ.get("PYTHONPATH", "")])}
-    args = ["--task", options.task, "--protocol", "unitree", "--unitree.robot", options.robot, "--echo"]
+    args = [
+        "--task",
+        options.task,
+        "--protocol",
+        "unitree",
+        "--unitree.robot",
+        options.robot,
+        "--echo",
+    ]
     robot = subprocess.Popen(
         [sys.executable, "-m", "judo", "plant", *args, "--unitree.domain", str(domain)],
         stdout=subprocess.PIPE,
@@ -93,7 +108,10 @@ def main(options: Options) -> None:
         for name, seconds in per_part(system.motors).items():
             print(f"  {name}, us: {percentiles(seconds, 1e6)}")
         system.close()
-        print(f"round trip rt/lowcmd -> robot -> {ECHO}, ms: {percentiles(round_trips(options, domain), 1e3)}")
+        print(
+            f"round trip rt/lowcmd -> robot -> {ECHO}, ms: "
+            f"{percentiles(round_trips(options, domain), 1e3)}"
+        )
     finally:
         robot.terminate()
         robot.wait(timeout=10)
@@ -110,12 +128,16 @@ def round_trips(options: Options, domain: int) -> list[float]:
     link = Link(domain, None, kind.low_state, kind.low_cmd)
     try:
         writer = DataWriter(link.participant, link.command_topic, COMMAND_QOS)
-        echoes = DataReader(link.participant, Topic(link.participant, ECHO, kind.low_cmd), COMMAND_QOS)
+        echoes = DataReader(
+            link.participant, Topic(link.participant, ECHO, kind.low_cmd), COMMAND_QOS
+        )
         deadline = time.monotonic() + 10
         while not echoes.get_matched_publications() and time.monotonic() < deadline:
             time.sleep(0.01)
         trips = []
-        command = mt.low_cmd(motors, np.zeros(motors.count), np.zeros(motors.count), np.full(motors.count, 1.0))
+        command = mt.low_cmd(
+            motors, np.zeros(motors.count), np.zeros(motors.count), np.full(motors.count, 1.0)
+        )
         for i in range(options.cycles):
             command.motor_cmd[0].tau = float(i)  # which command the echo is
             crc.with_crc(command)

@@ -60,9 +60,12 @@ class Reach(judo.Task[ReachConfig]):
         self.reset()
 
     def reward(self, states, sensors, controls, config, system_metadata=None):
-        """(num_rollouts, T, 4) states and (num_rollouts, T, 2) controls -> (num_rollouts,) rewards."""
+        """(num_rollouts, T, 4) states and (num_rollouts, T, 2) controls -> (num_rollouts,)
+        rewards."""
         to_goal = judo.quadratic_norm(states[..., 0:2] - config.goal).sum(-1)
-        return -config.w_position * to_goal - config.w_control * judo.quadratic_norm(controls).sum(-1)
+        return -config.w_position * to_goal - config.w_control * judo.quadratic_norm(controls).sum(
+            -1
+        )
 
     def reset(self) -> None:
         self.data.qpos[:] = self.rng.uniform(-0.4, 0.4, 2)
@@ -74,7 +77,8 @@ def main(duration: float = 3.0) -> float:
     judo.register_task("reach", Reach, ReachConfig)
     judo.set_config_overrides("reach", judo.OptimizerConfig, {"num_rollouts": 16})
     with judo.make_controller("reach", "mppi", seed=0) as controller:
-        plant = MujocoSystem.from_task(controller.task, seed=0)  # a second Reach instance is the plant
+        # a second Reach instance is the plant
+        plant = MujocoSystem.from_task(controller.task, seed=0)
         loop = judo.ClosedLoop(controller, plant)  # read, plan, serve, step: the loop the app runs
         loop.restart()
         while loop.reading.time < duration:

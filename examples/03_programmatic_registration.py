@@ -48,17 +48,23 @@ class GreedyMPPI(MPPI):
 
     def update_nominal_knots(self, sampled_knots, rewards):
         mean = super().update_nominal_knots(sampled_knots, rewards)
-        return (1 - self.config.greed) * mean + self.config.greed * sampled_knots[np.argmax(rewards)]
+        return (1 - self.config.greed) * mean + self.config.greed * sampled_knots[
+            np.argmax(rewards)
+        ]
 
 
 judo.register_task("swing_high", SwingHigh, SwingHighConfig)
 judo.register_optimizer("greedy_mppi", GreedyMPPI, GreedyMPPIConfig)
-judo.set_config_overrides("swing_high", judo.ControllerConfig, {"horizon": 1.0, "spline_order": "cubic"})
+judo.set_config_overrides(
+    "swing_high", judo.ControllerConfig, {"horizon": 1.0, "spline_order": "cubic"}
+)
 judo.set_config_overrides("swing_high", judo.OptimizerConfig, {"num_rollouts": 32})
 judo.set_config_overrides("swing_high", GreedyMPPIConfig, {"sigma": 0.3, "greed": 0.3})
 judo.set_config_overrides("cylinder_push", GreedyMPPIConfig, {"sigma": 0.3, "temperature": 0.01})
 
 if __name__ == "__main__":
     # Start on our task and optimizer unless the command line names others.
-    defaults = [] if "--task" in sys.argv else ["--task", "swing_high", "--optimizer", "greedy_mppi"]
+    defaults = (
+        [] if "--task" in sys.argv else ["--task", "swing_high", "--optimizer", "greedy_mppi"]
+    )
     sys.exit(main(defaults + sys.argv[1:]))

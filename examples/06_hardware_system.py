@@ -6,17 +6,17 @@ quite the model the controller plans with (its pole is 10% heavier), whose motor
 respond, and which measures what a real one does: its two joint encoders (the task's
 `Cartpole.measured_sensors`), noisy, at 100 Hz and 20 ms late, each reading stamped with the time it
 was taken. It never reports velocities, so `read_state` returns `state=None`, and the app runs the
-extended Kalman filter, cartpole's default (`estimator="ekf"`), to estimate the full state the planner needs.
-Swap this class for one that talks to your robot's drivers and nothing else changes.
+extended Kalman filter, cartpole's default (`estimator="ekf"`), to estimate the full state the
+planner needs. Swap this class for one that talks to your robot's drivers and nothing else changes.
 
     python examples/06_hardware_system.py                          # GUI at http://localhost:8080
     python examples/06_hardware_system.py --headless --duration 5  # prints a summary
 
-Any judo command that takes `--system module:Class` builds it as `Class(task)`, e.g. from this folder a log of
-the robot for `python -m judo sysid` (docs/sysid.md):
+Any judo command that takes `--system module:Class` builds it as `Class(task)`, e.g. from this
+folder a log of the robot for `python -m judo sysid` (docs/sysid.md):
 
     python -m judo excite --task cartpole --system 06_hardware_system:LaggyNoisyCartpole --duration 20 --out robot.h5
-"""
+"""  # noqa: E501
 
 import argparse
 from collections import deque
@@ -31,7 +31,8 @@ from judo.tasks.cartpole import MODEL_PATH
 
 
 class LaggyNoisyCartpole(System):
-    """A simulated cart-pole robot that measures only its encoders, noisy, late and at their own rate.
+    """A simulated cart-pole robot that measures only its encoders, noisy, late and at their own
+    rate.
 
     Args:
         task: the task instance `--system` builds it with (unused: the robot is its own physics).
@@ -55,13 +56,19 @@ class LaggyNoisyCartpole(System):
     ) -> None:
         self.model = mujoco.MjModel.from_xml_path(str(MODEL_PATH))
         pole = mujoco.mj_name2id(self.model, mujoco.mjtObj.mjOBJ_BODY, "pole")
-        self.model.body_mass[pole] *= pole_mass_scale  # our own copy: the planner's model is untouched
+        # our own copy: the planner's model is untouched
+        self.model.body_mass[pole] *= pole_mass_scale
         self.data = mujoco.MjData(self.model)
         self.timestep = float(self.model.opt.timestep)
-        self.sensor_latency, self.actuation_latency, self.noise_std = sensor_latency, actuation_latency, noise_std
+        self.sensor_latency, self.actuation_latency, self.noise_std = (
+            sensor_latency,
+            actuation_latency,
+            noise_std,
+        )
         self.sensor_period = 1.0 / sensor_rate
         self.rng = np.random.default_rng(seed)
-        self._measurements: deque[tuple[float, np.ndarray]] = deque()  # (time taken, noisy encoders (2,))
+        # (time taken, noisy encoders (2,))
+        self._measurements: deque[tuple[float, np.ndarray]] = deque()
         self._next_sample = 0.0
         self._commands: deque[tuple[float, np.ndarray]] = deque()  # (time due at the motor, action)
         del task
@@ -84,16 +91,21 @@ class LaggyNoisyCartpole(System):
     def read_state(self) -> SystemState:
         """The newest encoder sample that has arrived by now, stamped with the time it was *taken*.
 
-        `state` is None (the robot does not know its velocities); `sensors` holds the (2,) encoder values
-        in the order of `Cartpole.measured_sensors`: cart position (m), pole angle (rad)."""
+        `state` is None (the robot does not know its velocities); `sensors` holds the (2,) encoder
+        values in the order of `Cartpole.measured_sensors`: cart position (m), pole angle (rad)."""
         now = self.data.time
-        while len(self._measurements) > 1 and self._measurements[1][0] <= now - self.sensor_latency + 1e-9:
+        while (
+            len(self._measurements) > 1
+            and self._measurements[1][0] <= now - self.sensor_latency + 1e-9
+        ):
             self._measurements.popleft()
         taken, encoders = self._measurements[0]
         return SystemState(None, taken, {}, encoders.copy())
 
     def apply(self, action: np.ndarray) -> None:
-        self._commands.append((self.data.time + self.actuation_latency, np.array(action, dtype=float)))
+        self._commands.append(
+            (self.data.time + self.actuation_latency, np.array(action, dtype=float))
+        )
 
     def step(self) -> None:
         while self._commands and self._commands[0][0] <= self.data.time + 1e-9:
@@ -106,8 +118,11 @@ class LaggyNoisyCartpole(System):
         if self.data.time < self._next_sample - 1e-9:
             return
         self._next_sample += self.sensor_period
-        encoders = self.data.qpos.copy()  # slider (m) and hinge (rad): what the two jointpos sensors read
-        self._measurements.append((self.data.time, encoders + self.rng.normal(0.0, self.noise_std, encoders.shape)))
+        # slider (m) and hinge (rad): what the two jointpos sensors read
+        encoders = self.data.qpos.copy()
+        self._measurements.append(
+            (self.data.time, encoders + self.rng.normal(0.0, self.noise_std, encoders.shape))
+        )
 
 
 def main() -> None:
@@ -120,7 +135,8 @@ def main() -> None:
     app = judo.App(
         task="cartpole",
         optimizer="mppi",
-        system=robot,  # its readings have state None: the app picks cartpole's default estimator, "ekf"
+        # its readings have state None: the app picks cartpole's default estimator, "ekf"
+        system=robot,
         estimator_config=EKFConfig(
             noise_jointpos=robot.noise_std
         ),  # the filter trusts the encoders as much as they deserve

@@ -1,16 +1,19 @@
-"""A robot judo drives over ROS 2, written with nothing but cyclonedds, MuJoCo and ROS 2's standard types.
+"""A robot judo drives over ROS 2, written with nothing but cyclonedds, MuJoCo and ROS 2's standard
+types.
 
-No judo code runs here: this process stands for a robot's driver. It simulates a cart-pole with MuJoCo (the
-hardware), publishes sensor_msgs/JointState on /joint_states at 100 Hz stamped with its own clock, and applies
-every std_msgs/Float64MultiArray it reads on /judo/commands to its motor, as a ros2_control forward command
-controller would. The types are ROS 2's own DDS types (`sensor_msgs::msg::dds_::JointState_` on the DDS topic
+No judo code runs here: this process stands for a robot's driver. It simulates a cart-pole with
+MuJoCo (the hardware), publishes sensor_msgs/JointState on /joint_states at 100 Hz stamped with its
+own clock, and applies every std_msgs/Float64MultiArray it reads on /judo/commands to its motor, as
+a ros2_control forward command controller would. The types are ROS 2's own DDS
+types (`sensor_msgs::msg::dds_::JointState_` on the DDS topic
 `rt/joint_states`), so a ROS 2 node on the same ROS_DOMAIN_ID hears it too. Two processes:
 
     PYTHONPATH=src python examples/10_ros2_robot.py &                     # the robot, hanging down
     PYTHONPATH=src python -m judo --task cartpole --system ros2 --headless --duration 20
 
-judo swings the pole up and balances it; at the end this process prints the fraction of the last 5 s before
-judo's last command that the pole spent upright (|angle| < 0.3 rad). Needs pip install -e ".[ros2]" (cyclonedds' wheel carries the DDS library).
+judo swings the pole up and balances it; at the end this process prints the fraction of the last 5 s
+before judo's last command that the pole spent upright (|angle| < 0.3 rad). Needs pip
+install -e ".[ros2]" (cyclonedds' wheel carries the DDS library).
 """
 
 import argparse
@@ -81,8 +84,8 @@ class Float64MultiArray(IdlStruct, typename="std_msgs::msg::dds_::Float64MultiAr
 
 
 def stamp_of(seconds: float) -> Time:
-    """The ROS 2 Time of `seconds`: whole nanoseconds first, then split, so 0.9999999999999999 s (a hundred
-    0.01 s steps) is 1 s 0 ns, never 0 s plus a rounded-up billion nanoseconds."""
+    """The ROS 2 Time of `seconds`: whole nanoseconds first, then split, so 0.9999999999999999 s (a
+    hundred 0.01 s steps) is 1 s 0 ns, never 0 s plus a rounded-up billion nanoseconds."""
     sec, nanosec = divmod(round(seconds * 1e9), 1_000_000_000)
     return Time(sec, nanosec)
 
@@ -90,7 +93,10 @@ def stamp_of(seconds: float) -> Time:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
-        "--seconds", type=float, default=60.0, help="most wall seconds to run (it stops 1 s after the last command)"
+        "--seconds",
+        type=float,
+        default=60.0,
+        help="most wall seconds to run (it stops 1 s after the last command)",
     )
     args = parser.parse_args()
 
@@ -100,29 +106,46 @@ def main() -> None:
     names = [model.joint(j).name for j in range(model.njnt)]  # "slider", "hinge"
 
     participant = DomainParticipant(int(os.environ.get("ROS_DOMAIN_ID", "0")))
-    sensor_qos = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))  # ROS 2's sensor-data profile
-    command_qos = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.History.KeepLast(1))
+    # ROS 2's sensor-data profile
+    sensor_qos = Qos(Policy.Reliability.BestEffort, Policy.History.KeepLast(1))
+    command_qos = Qos(
+        Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.History.KeepLast(1)
+    )
     states = DataWriter(participant, Topic(participant, "rt/joint_states", JointState), sensor_qos)
-    commands = DataReader(participant, Topic(participant, "rt/judo/commands", Float64MultiArray), command_qos)
-    print(f"robot: publishing rt/joint_states {names} on domain {participant.domain_id}", flush=True)
+    commands = DataReader(
+        participant, Topic(participant, "rt/judo/commands", Float64MultiArray), command_qos
+    )
+    print(
+        f"robot: publishing rt/joint_states {names} on domain {participant.domain_id}", flush=True
+    )
 
     dt, start, steps, upright, last_command = model.opt.timestep, time.monotonic(), 0, [], 0.0
     commanded_at = None  # wall time of the latest command: the robot stops 1 s after judo went away
-    while time.monotonic() - start < args.seconds and (commanded_at is None or time.monotonic() - commanded_at < 1):
+    while time.monotonic() - start < args.seconds and (
+        commanded_at is None or time.monotonic() - commanded_at < 1
+    ):
         for command in commands.take(8):
-            if isinstance(command, InvalidSample):  # a notice that a writer went away, not a command
+            # a notice that a writer went away, not a command
+            if isinstance(command, InvalidSample):
                 continue
             if len(command.data) == model.nu and all(math.isfinite(u) for u in command.data):
                 data.ctrl[:] = command.data
                 last_command, commanded_at = data.time, time.monotonic()
         mujoco.mj_step(model, data)
         steps += 1
-        states.write(JointState(Header(stamp_of(data.time)), names, data.qpos.tolist(), data.qvel.tolist(), []))
+        states.write(
+            JointState(
+                Header(stamp_of(data.time)), names, data.qpos.tolist(), data.qvel.tolist(), []
+            )
+        )
         angle = math.remainder(data.qpos[1], 2 * math.pi)
         upright.append((data.time, abs(angle) < 0.3))
         time.sleep(max(0.0, start + steps * dt - time.monotonic()))  # real time
     last = [up for t, up in upright if last_command - 5.0 < t <= last_command]
-    print(f"robot: upright {sum(last) / max(1, len(last)):.2f} of the last 5 s it was commanded", flush=True)
+    print(
+        f"robot: upright {sum(last) / max(1, len(last)):.2f} of the last 5 s it was commanded",
+        flush=True,
+    )
 
 
 if __name__ == "__main__":

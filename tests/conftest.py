@@ -49,7 +49,9 @@ class UprightTask(judo.Task[UprightConfig]):
     """Keep the tiny cart-pole's pole upright (angle 0) with little control."""
 
     def reward(self, states, sensors, controls, config, system_metadata=None):
-        return -config.w_upright * (1.0 - np.cos(states[..., 1])).sum(-1) - 0.01 * np.square(controls).sum((-1, -2))
+        return -config.w_upright * (1.0 - np.cos(states[..., 1])).sum(-1) - 0.01 * np.square(
+            controls
+        ).sum((-1, -2))
 
 
 @pytest.fixture
@@ -81,15 +83,17 @@ def restore_the_registry():
 
 @pytest.fixture(autouse=True)
 def stop_file_of_the_test(tmp_path_factory, monkeypatch):
-    """Every app a test runs (in-process or a subprocess) keeps its latched stop in a file of the test's own
-    (judo.safety.stop), never the user's: a stop latched by hand does not stop the suite, nor a test's the user."""
+    """Every app a test runs (in-process or a subprocess) keeps its latched stop in a file of the
+    test's own (judo.safety.stop), never the user's: a stop latched by hand does not stop the suite,
+    nor a test's the user."""
     monkeypatch.setenv("JUDO_STOP_FILE", str(tmp_path_factory.mktemp("stop") / "stop.json"))
 
 
 @pytest.fixture(scope="module")
 def local_ray():
-    """A local Ray with 2 CPUs for the module, started by the call collect, evaluate --workers and tune make
-    (`start_ray`: on 127.0.0.1). Ray is imported here, so the tests that do not use it never import it."""
+    """A local Ray with 2 CPUs for the module, started by the call collect, evaluate --workers and
+    tune make (`start_ray`: on 127.0.0.1). Ray is imported here, so the tests that do not use it
+    never import it."""
     pytest.importorskip("ray")
     from judo.ray_cluster import start_ray, stop_ray
 

@@ -1,6 +1,7 @@
-"""One syntax on every command line: a boolean is --NAME / --no-NAME in the app and in every command that takes
-config fields (benchmark, evaluate, collect), and a model override MuJoCo cannot simulate is a one-line exit 2
-before anything runs, in the app, evaluate, tune, collect, plant and excite alike."""
+"""One syntax on every command line: a boolean is --NAME / --no-NAME in the app and in every command
+that takes config fields (benchmark, evaluate, collect), and a model override MuJoCo cannot simulate
+is a one-line exit 2 before anything runs, in the app, evaluate, tune, collect, plant and excite
+alike."""
 
 from pathlib import Path
 
@@ -16,30 +17,45 @@ from judo.runtime.launch import parse
 
 
 def parsed_controllers(flags: list[str]) -> dict[str, object]:
-    """command -> the controller config (or overrides) its parser makes of `--task cartpole` and `flags`."""
+    """command -> the controller config (or overrides) its parser makes of `--task cartpole` and
+    `flags`."""
     argv = ["--task", "cartpole", "--optimizer", "mppi", *flags]
     _, configs = parse(argv, dict(default_configs("cartpole", "mppi")))
     return {
         "app": configs["controller"],
-        "benchmark": parse_args(BenchmarkArgs, ["--tasks", "cartpole", *flags], "benchmark", "").controller,
+        "benchmark": parse_args(
+            BenchmarkArgs, ["--tasks", "cartpole", *flags], "benchmark", ""
+        ).controller,
         "evaluate": parse_args_with_config_fields(EvaluateArgs, argv, "evaluate", "").controller,
-        "collect": parse_args_with_config_fields(CollectArgs, [*argv, "--out", "x.h5"], "collect", "").controller,
+        "collect": parse_args_with_config_fields(
+            CollectArgs, [*argv, "--out", "x.h5"], "collect", ""
+        ).controller,
     }
 
 
-@pytest.mark.parametrize("flag, value", [("--controller.feedback", True), ("--controller.no-feedback", False)])
+@pytest.mark.parametrize(
+    "flag, value", [("--controller.feedback", True), ("--controller.no-feedback", False)]
+)
 def test_every_command_takes_the_apps_boolean_flags(flag, value):
-    for command, controller in parsed_controllers([flag, "--controller.no-latency-compensation"]).items():
+    for command, controller in parsed_controllers(
+        [flag, "--controller.no-latency-compensation"]
+    ).items():
         assert (controller.feedback, controller.latency_compensation) == (value, False), command  # type: ignore[attr-defined]
     assert all(
-        controller.feedback is (False if command == "app" else None)  # type: ignore[attr-defined]  # a command's None: the task's
+        # a command's None: the task's
+        controller.feedback is (False if command == "app" else None)  # type: ignore[attr-defined]
         for command, controller in parsed_controllers([]).items()
     )
 
 
 def test_an_optimizer_configs_boolean_is_a_flag_too():
     argv = ["--task", "cartpole", "--optimizer", "mppi", "--optimizer-config.no-use-noise-ramp"]
-    assert parse_args_with_config_fields(EvaluateArgs, argv, "evaluate", "").optimizer_config.use_noise_ramp is False
+    assert (
+        parse_args_with_config_fields(
+            EvaluateArgs, argv, "evaluate", ""
+        ).optimizer_config.use_noise_ramp
+        is False
+    )
 
 
 def test_the_old_value_form_is_refused_in_one_syntax(capsys):
@@ -64,16 +80,52 @@ def exit_status(argv: list[str]) -> int | None:
     "command, extra",
     [
         ("app", ["--task", "cartpole", "--headless", "--duration", "2"]),
-        ("evaluate", ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "1"]),
-        ("collect", ["--task", "cartpole", "--optimizer", "ps", "--episodes", "1", "--duration", "1", "--out", "OUT"]),
-        ("tune", ["--task", "cartpole", "--optimizer", "ps", "--trials", "1", "--duration", "1", "--out", "OUT"]),
+        (
+            "evaluate",
+            ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "1"],
+        ),
+        (
+            "collect",
+            [
+                "--task",
+                "cartpole",
+                "--optimizer",
+                "ps",
+                "--episodes",
+                "1",
+                "--duration",
+                "1",
+                "--out",
+                "OUT",
+            ],
+        ),
+        (
+            "tune",
+            [
+                "--task",
+                "cartpole",
+                "--optimizer",
+                "ps",
+                "--trials",
+                "1",
+                "--duration",
+                "1",
+                "--out",
+                "OUT",
+            ],
+        ),
         ("plant", ["--task", "cartpole", "--duration", "1"]),
         ("excite", ["--task", "cartpole", "--duration", "1", "--out", "OUT"]),
     ],
 )
-def test_a_timestep_mujoco_cannot_step_is_a_one_line_exit_2_before_anything_runs(command, extra, tmp_path, capsys):
+def test_a_timestep_mujoco_cannot_step_is_a_one_line_exit_2_before_anything_runs(
+    command, extra, tmp_path, capsys
+):
     out = tmp_path / ("out.h5" if command in ("collect", "excite") else "out")
-    argv = [*([] if command == "app" else [command]), *[str(out) if a == "OUT" else a for a in extra]]
+    argv = [
+        *([] if command == "app" else [command]),
+        *[str(out) if a == "OUT" else a for a in extra],
+    ]
     if command in ("tune", "collect", "excite"):
         pytest.importorskip({"tune": "optuna", "collect": "h5py", "excite": "h5py"}[command])
     assert exit_status([*argv, "--plant-overrides", "opt.timestep=0"]) == 2
@@ -87,35 +139,55 @@ def test_a_timestep_mujoco_cannot_step_is_a_one_line_exit_2_before_anything_runs
     [
         (
             "judo.loop.system:System",
-            "--system judo.loop.system:System: expected a System subclass that writes every method, got System, which "
-            "leaves apply, read_state, reset, step abstract (judo.loop.system:MujocoSystem is judo's simulator)",
+            "--system judo.loop.system:System: expected a System subclass that "
+            "writes every method, got System, which "
+            "leaves apply, read_state, reset, step abstract "
+            "(judo.loop.system:MujocoSystem is judo's simulator)",
         ),
         (
             "judo.loop.system:DynamicsSystem",
-            "--system judo.loop.system:DynamicsSystem: DynamicsSystem needs a task that is a DynamicsTask, got Cartpole",
+            "--system judo.loop.system:DynamicsSystem: DynamicsSystem needs a task "
+            "that is a DynamicsTask, got Cartpole",
         ),
         (
             "judo.core.configuration.registry:set_model_overrides",
-            "--system judo.core.configuration.registry:set_model_overrides: expected a System subclass 'set_model_overrides' in "
+            "--system judo.core.configuration.registry:set_model_overrides: expected "
+            "a System subclass 'set_model_overrides' in "
             "judo.core.configuration.registry, got function",
         ),
     ],
 )
 def test_a_system_judo_cannot_build_is_a_one_line_exit_2(system, message, capsys):
-    assert exit_status(["--task", "cartpole", "--headless", "--duration", "1", "--system", system]) == 2
+    assert (
+        exit_status(["--task", "cartpole", "--headless", "--duration", "1", "--system", system])
+        == 2
+    )
     assert capsys.readouterr().err.strip() == f"python -m judo: {message}"
 
 
-@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="needs Linux's /proc, where no file can be made")
+@pytest.mark.skipif(
+    not Path("/proc/self").is_dir(), reason="needs Linux's /proc, where no file can be made"
+)
 @pytest.mark.parametrize(
     "argv",
     [
-        ["evaluate", "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--json", "/proc/nope/x.json"],
+        [
+            "evaluate",
+            "--task",
+            "cartpole",
+            "--optimizer",
+            "ps",
+            "--seeds",
+            "1",
+            "--json",
+            "/proc/nope/x.json",
+        ],
         ["tune", "--task", "cartpole", "--optimizer", "ps", "--trials", "1", "--out", "/proc/nope"],
     ],
 )
 def test_an_output_where_nothing_can_be_made_is_a_one_line_exit_2_even_for_root(argv, capsys):
-    """os.access lets root write anywhere, /proc included; the check makes a real file where the output would go."""
+    """os.access lets root write anywhere, /proc included; the check makes a real file where the
+    output would go."""
     if argv[0] == "tune":
         pytest.importorskip("optuna")
     assert exit_status(argv) == 2

@@ -1,5 +1,6 @@
-"""Long commands show their progress where stderr is no terminal (a pipe, a log file, CI): a plain line every few
-seconds with what is done of the total, the time elapsed and the time left, and rich's bar on a terminal."""
+"""Long commands show their progress where stderr is no terminal (a pipe, a log file, CI): a plain
+line every few seconds with what is done of the total, the time elapsed and the time left, and
+rich's bar on a terminal."""
 
 import io
 import queue
@@ -16,12 +17,16 @@ from rich.progress import BarColumn, Progress, TextColumn
 
 from judo.cli_shared import PROGRESS_PERIOD, ProgressLines, clock_time, progress_display
 
-LINE = re.compile(r"\| (?P<done>[\d.]+)/(?P<total>[\d.]+), elapsed (?P<elapsed>[\d:]+), ETA (?P<eta>[\d:]+|unknown)$")
+LINE = re.compile(
+    r"\| (?P<done>[\d.]+)/(?P<total>[\d.]+), elapsed (?P<elapsed>[\d:]+), ETA "
+    r"(?P<eta>[\d:]+|unknown)$"
+)
 """A progress line's figures: done/total, elapsed and ETA."""
 
 
 def wait_for_output(stream: io.StringIO, pattern: str, timeout: float = 30.0) -> str:
-    """The first line of `stream` so far that matches `pattern`, waiting up to `timeout` s for it."""
+    """The first line of `stream` so far that matches `pattern`, waiting up to `timeout` s for
+    it."""
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         found = [line for line in stream.getvalue().splitlines() if re.search(pattern, line)]
@@ -32,13 +37,17 @@ def wait_for_output(stream: io.StringIO, pattern: str, timeout: float = 30.0) ->
 
 
 def test_the_display_is_richs_bar_on_a_terminal_and_plain_lines_elsewhere():
-    assert type(progress_display(console=Console(file=io.StringIO(), force_terminal=True))) is Progress
+    assert (
+        type(progress_display(console=Console(file=io.StringIO(), force_terminal=True))) is Progress
+    )
     assert isinstance(progress_display(console=Console(file=io.StringIO())), ProgressLines)
 
 
 def test_plain_lines_say_what_is_done_of_the_total_the_time_elapsed_and_left_while_the_work_runs():
     out = io.StringIO()
-    with ProgressLines(TextColumn("{task.description}"), BarColumn(), console=Console(file=out), period=0.05) as shown:
+    with ProgressLines(
+        TextColumn("{task.description}"), BarColumn(), console=Console(file=out), period=0.05
+    ) as shown:
         task = shown.add_task("fitting", total=4)
         first = wait_for_output(out, r"^fitting \| 0/4, elapsed")
         assert first.endswith("ETA unknown"), first  # nothing done yet: no rate to go by
@@ -53,9 +62,15 @@ def test_plain_lines_say_what_is_done_of_the_total_the_time_elapsed_and_left_whi
 
 def test_plain_lines_without_a_total_give_the_time_elapsed():
     out = io.StringIO()
-    with ProgressLines(TextColumn("{task.description}"), console=Console(file=out), period=0.05) as shown:
+    with ProgressLines(
+        TextColumn("{task.description}"), console=Console(file=out), period=0.05
+    ) as shown:
         shown.add_task("fitting 2 parameters: 40 residual evaluations", total=None)
-        line = wait_for_output(out, r"^fitting 2 parameters: 40 residual evaluations \| elapsed \d+:\d\d$")
+        line = wait_for_output(
+            out,
+            r"^fitting 2 parameters: 40 residual "
+            r"evaluations \| elapsed \d+:\d\d$",
+        )
     assert "ETA" not in line
 
 
@@ -68,8 +83,8 @@ def test_short_work_prints_no_line_and_times_read_as_a_clock():
 
 
 def stderr_lines(process: subprocess.Popen) -> "queue.Queue[tuple[float, str, bool]]":
-    """(monotonic time, line, whether the process was still running) for each line of `process`'s stderr, as it
-    arrives (a reader thread)."""
+    """(monotonic time, line, whether the process was still running) for each line of `process`'s
+    stderr, as it arrives (a reader thread)."""
     lines: queue.Queue[tuple[float, str, bool]] = queue.Queue()
 
     def read() -> None:
@@ -83,9 +98,20 @@ def stderr_lines(process: subprocess.Popen) -> "queue.Queue[tuple[float, str, bo
 
 @pytest.mark.slow
 def test_evaluate_with_its_output_piped_prints_progress_lines_during_the_episode():
-    """An episode of 120 s of sim time takes minutes on a loaded machine; the test reads two progress lines from the
-    pipe while evaluate runs, then stops it with Ctrl-C."""
-    argv = ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "120", "--num-workers", "1"]
+    """An episode of 120 s of sim time takes minutes on a loaded machine; the test reads two
+    progress lines from the pipe while evaluate runs, then stops it with Ctrl-C."""
+    argv = [
+        "--task",
+        "cartpole",
+        "--optimizer",
+        "ps",
+        "--seeds",
+        "1",
+        "--duration",
+        "120",
+        "--num-workers",
+        "1",
+    ]
     evaluate = subprocess.Popen(
         [sys.executable, "-m", "judo", "evaluate", *argv],
         stdout=subprocess.PIPE,
@@ -94,7 +120,8 @@ def test_evaluate_with_its_output_piped_prints_progress_lines_during_the_episode
     )
     try:
         lines, progress = stderr_lines(evaluate), []
-        deadline = time.monotonic() + 120 + 2 * PROGRESS_PERIOD  # the start (imports, the model) and two lines
+        # the start (imports, the model) and two lines
+        deadline = time.monotonic() + 120 + 2 * PROGRESS_PERIOD
         while len(progress) < 2 and time.monotonic() < deadline:
             try:
                 _, line, running = lines.get(timeout=1.0)
@@ -102,8 +129,12 @@ def test_evaluate_with_its_output_piped_prints_progress_lines_during_the_episode
                 continue
             if (figures := LINE.search(line)) is not None:
                 progress.append((line, figures, running))
-        assert len(progress) == 2, f"evaluate printed {len(progress)} progress lines to its pipe in 2 minutes"
-        assert all(running for _, _, running in progress), "the progress lines came only when evaluate had ended"
+        assert len(progress) == 2, (
+            f"evaluate printed {len(progress)} progress lines to its pipe in 2 minutes"
+        )
+        assert all(running for _, _, running in progress), (
+            "the progress lines came only when evaluate had ended"
+        )
         (first, a, _), (second, b, _) = progress
         assert first.startswith("seed 0") and float(a["total"]) == 120.0, first
         assert float(b["done"]) > float(a["done"]), (

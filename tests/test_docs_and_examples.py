@@ -1,4 +1,5 @@
-"""Every python snippet in the README and docs runs, and every example runs and does what it says."""
+"""Every python snippet in the README and docs runs, and every example runs and does what it
+says."""
 
 import importlib.util
 import re
@@ -59,7 +60,9 @@ def test_example_04_config_file_registers_and_overrides():
     controller = judo.make_controller(loaded.task, loaded.optimizer, seed=0, num_workers=1)
     assert controller.config.horizon == 0.6 and controller.optimizer.config.cooling == 0.3
     assert controller.task.config.w_control == 0.05
-    controller.update_action(controller.task.data.qpos.tolist() + controller.task.data.qvel.tolist(), 0.0)
+    controller.update_action(
+        controller.task.data.qpos.tolist() + controller.task.data.qvel.tolist(), 0.0
+    )
     assert controller.optimizer.temperature < controller.optimizer.config.temperature  # it cooled
     controller.close()
 
@@ -87,7 +90,13 @@ def test_example_03_registers_then_runs_the_app_headless():
 
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
     result = subprocess.run(
-        [sys.executable, str(ROOT / "examples" / "03_programmatic_registration.py"), "--headless", "--duration", "1"],
+        [
+            sys.executable,
+            str(ROOT / "examples" / "03_programmatic_registration.py"),
+            "--headless",
+            "--duration",
+            "1",
+        ],
         capture_output=True,
         text=True,
         timeout=120,
@@ -105,12 +114,14 @@ def test_example_07_low_level_policy_plans_targets_and_balances():
 @pytest.mark.slow
 def test_example_08_quadruped_walks_towards_its_goal_without_falling():
     metrics = load_example("08_quadruped.py").main(duration=1.5)
-    assert metrics["final_distance"] < 0.5 and metrics["falls"] == 0.0  # the first goal lies 1 m ahead
+    # the first goal lies 1 m ahead
+    assert metrics["final_distance"] < 0.5 and metrics["falls"] == 0.0
 
 
 def test_example_09_plans_the_quadruped_over_its_shipped_policy_without_falling(capsys):
     metrics = load_example("09_quadruped_navigate.py").main(duration=1.0)
-    assert metrics["falls"] == 0.0 and metrics["final_distance"] < 0.85  # the first goal lies 1 m ahead: it walks
+    # the first goal lies 1 m ahead: it walks
+    assert metrics["falls"] == 0.0 and metrics["final_distance"] < 0.85
     assert "over 'quadruped_locomotion'" in capsys.readouterr().out
 
 

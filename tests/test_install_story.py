@@ -1,6 +1,6 @@
-"""The install story: the distribution is judo-mpc (the index's `judo` is another project), so no doc, example or
-error message tells a user to install `judo[...]`; mujoco is bounded to what CI runs; and the built-in tasks that
-run ONNX policies name themselves when onnxruntime is missing."""
+"""The install story: the distribution is judo-mpc (the index's `judo` is another project), so no
+doc, example or error message tells a user to install `judo[...]`; mujoco is bounded to what CI
+runs; and the built-in tasks that run ONNX policies name themselves when onnxruntime is missing."""
 
 import re
 import sys
@@ -33,7 +33,9 @@ def test_no_doc_example_or_error_installs_the_other_judo():
         if WRONG_INSTALL.search(line)
     ]
     assert offenders == []
-    assert WRONG_INSTALL.search("""pip install "judo[tune]\"""") and WRONG_INSTALL.search("pip install 'judo[warp]'")
+    assert WRONG_INSTALL.search("""pip install "judo[tune]\"""") and WRONG_INSTALL.search(
+        "pip install 'judo[warp]'"
+    )
     assert not WRONG_INSTALL.search('''pip install -e ".[tune]" or pip install "judo-mpc[tune]"''')
 
 
@@ -45,20 +47,28 @@ def test_the_distribution_is_judo_mpc_with_mujoco_bounded():
     assert self_references and all(dep.startswith("judo-mpc[") for dep in self_references)
     (mujoco,) = [dep for dep in project["dependencies"] if dep.startswith("mujoco")]
     assert mujoco == "mujoco>=4.0,<4.1"
-    assert {"onnxruntime>=1.17", "onnx>=1.15"} <= set(project["dependencies"])  # the built-in tasks need them
+    # the built-in tasks need them
+    assert {"onnxruntime>=1.17", "onnx>=1.15"} <= set(project["dependencies"])
 
 
 @pytest.mark.parametrize(
-    ("task", "missing"), [("quadruped_navigate", "onnxruntime"), ("cartpole_pd", "onnx")], ids=["quadruped", "pd"]
+    ("task", "missing"),
+    [("quadruped_navigate", "onnxruntime"), ("cartpole_pd", "onnx")],
+    ids=["quadruped", "pd"],
 )
-def test_a_task_with_a_shipped_policy_names_itself_and_the_extra_when_onnx_is_missing(task, missing, monkeypatch):
+def test_a_task_with_a_shipped_policy_names_itself_and_the_extra_when_onnx_is_missing(
+    task, missing, monkeypatch
+):
     from judo.core.configuration.registry import lookup_task
 
     task_cls, _ = lookup_task(task)
-    monkeypatch.setitem(sys.modules, missing, None)  # makes the import raise ImportError, as without the package
+    # makes the import raise ImportError, as without the package
+    monkeypatch.setitem(sys.modules, missing, None)
     with pytest.raises(MissingExtraError) as caught:
         task_cls()
     message = str(caught.value)
     assert message.startswith(f"task {task} (") and f"(no module {missing!r})" in message
-    assert 'pip install -e ".[policy]" (from a checkout) or pip install "judo-mpc[policy]"' in message
+    assert (
+        'pip install -e ".[policy]" (from a checkout) or pip install "judo-mpc[policy]"' in message
+    )
     assert "--policy" not in message

@@ -13,7 +13,14 @@ ROOT = Path(__file__).resolve().parents[1]
 def test_policy_controller_prints_the_policies_inference_beside_the_mpc_update():
     pytest.importorskip("onnxruntime")
     result = subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / "policy_controller.py"), "--tasks", "cartpole", "--optimizer", "ps"]
+        [
+            sys.executable,
+            str(ROOT / "benchmarks" / "policy_controller.py"),
+            "--tasks",
+            "cartpole",
+            "--optimizer",
+            "ps",
+        ]
         + ["--seeds", "1", "--duration", "0.2", "--hidden", "8"],
         capture_output=True,
         text=True,
@@ -23,5 +30,9 @@ def test_policy_controller_prints_the_policies_inference_beside_the_mpc_update()
     )
     assert result.returncode == 0, result.stderr
     rows = [line for line in result.stdout.splitlines() if "cartpole" in line]
-    assert [row.split("│")[2].strip() for row in rows] == ["policy (linear)", "policy (mlp 8x8)", "ps"]
+    assert [row.split("│")[2].strip() for row in rows] == [
+        "policy (linear)",
+        "policy (mlp 8x8)",
+        "ps",
+    ]
     assert "µs" in rows[0] and "ms" in rows[2] and rows[2].split("│")[5].strip() == "1x"

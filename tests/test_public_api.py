@@ -26,12 +26,20 @@ def test_import_judo_registers_every_built_in_task_optimizer_and_estimator_from_
     for package, (builtin, registered) in tables.items():
         for name, (cls, config_cls) in builtin.items():
             assert registered[name] == (cls, config_cls), name
-            # each class and its config are defined in one module of the package, not gathered in its __init__
-            assert cls.__module__.startswith(f"judo.{package}.") and config_cls.__module__.startswith(
+            # each class and its config are defined in one module of the package, not gathered in
+            # its __init__
+            assert cls.__module__.startswith(
                 f"judo.{package}."
-            )
+            ) and config_cls.__module__.startswith(f"judo.{package}.")
     assert (
         len(BUILTIN_TASKS) == 21
-    )  # the first twelve, cartpole_pd, quadruped, quadruped_velocity, quadruped_navigate, car, quadrotor, g1_stand,
+        # the first twelve, cartpole_pd, quadruped, quadruped_velocity, quadruped_navigate, car,
+        # quadrotor, g1_stand,
+    )
     # go2_stand and go2_walk
-    assert len(BUILTIN_OPTIMIZERS) == 11 and set(BUILTIN_ESTIMATORS) == {"state", "ekf", "ukf", "legged"}
+    assert len(BUILTIN_OPTIMIZERS) == 11 and set(BUILTIN_ESTIMATORS) == {
+        "state",
+        "ekf",
+        "ukf",
+        "legged",
+    }

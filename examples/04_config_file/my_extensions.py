@@ -29,7 +29,9 @@ class Balance(judo.Task[BalanceConfig]):
 
     def reward(self, states, sensors, controls, config, system_metadata=None):
         upright = (1.0 - np.cos(states[..., 1])).sum(-1)
-        return -config.w_upright * upright - config.w_control * judo.quadratic_norm(controls).sum(-1)
+        return -config.w_upright * upright - config.w_control * judo.quadratic_norm(controls).sum(
+            -1
+        )
 
     def reset(self) -> None:
         self.data.qpos[:] = [0.0, 0.1 * self.rng.standard_normal()]

@@ -1,7 +1,9 @@
-"""A user's cart-pole robot whose pole is heavier than its MJCF says (examples/11_sysid, docs/sysid.md).
+"""A user's cart-pole robot whose pole is heavier than its MJCF says (examples/11_sysid,
+docs/sysid.md).
 
-The task plans with judo's cartpole.xml (pole 0.1 kg) while its plant, `sim_model_path`, is heavy_pole.xml
-(0.3 kg): the robot a user meets on hardware. `python -m judo sysid` finds the pole's mass from a logged run.
+The task plans with judo's cartpole.xml (pole 0.1 kg) while its plant, `sim_model_path`, is
+heavy_pole.xml (0.3 kg): the robot a user meets on hardware. `python -m judo sysid` finds the pole's
+mass from a logged run.
 """
 
 from pathlib import Path

@@ -13,11 +13,12 @@ python -m judo plant --task cartpole                # judo.ros2.plant (judo.unit
 python -m judo sysid LOG.h5 --task T --params ... --out FITTED.toml   # judo.sysid.sysid: fit the model
 python -m judo excite --task T --out LOG.h5         # judo.sysid.excite: a log worth fitting
 
-Every command ends the same way on what it cannot handle: an exception raised by the user's own code (a
-task, optimizer or config class, a reward) is told in one line naming the class, file and line, with exit
-status 1 (`--debug` anywhere on the line shows the whole traceback instead); Ctrl-C exits 130. A warning is
-printed as one line, "warning: MESSAGE", without Python's file path and source line.
-"""
+Every command ends the same way on what it cannot handle: an exception raised by the user's own code
+(a task, optimizer or config class, a reward) is told in one line naming the class, file and line,
+with exit status 1 (`--debug` anywhere on the line shows the whole traceback instead); Ctrl-C exits
+130. A warning is printed as one line, "warning: MESSAGE", without Python's file path and source
+line.
+"""  # noqa: E501
 
 import importlib
 import sys
@@ -39,15 +40,18 @@ COMMANDS = {
     "sysid": "judo.sysid.sysid:main",
     "excite": "judo.sysid.excite:main",
 }
-"""Each command's name -> "module:function" of its entry point, which takes the arguments after the name and
-returns the exit status. The module is imported only when its command runs."""
+"""Each command's name -> "module:function" of its entry point, which takes the arguments after the
+name and returns the exit status. The module is imported only when its command runs."""
 
 APP = "judo.runtime.launch:main"
 """The entry point of the app, run when the first argument names no command."""
 
 
-def one_line_warning(message: Warning | str, category: type[Warning], filename: str, lineno: int, line=None) -> str:
-    """A warning as the commands print it: one clean line, without the file path and source line Python adds."""
+def one_line_warning(
+    message: Warning | str, category: type[Warning], filename: str, lineno: int, line=None
+) -> str:
+    """A warning as the commands print it: one clean line, without the file path and source line
+    Python adds."""
     text = str(message).strip().splitlines()
     return f"warning: {text[0] if text else category.__name__}\n"
 

@@ -1,10 +1,11 @@
-"""judo's built-in estimators, optimizers and tasks by name, and `register_builtins`, which registers them all
-(and the config files' [safety.TASK] section, whose class lives in judo.safety).
+"""judo's built-in estimators, optimizers and tasks by name, and `register_builtins`, which
+registers them all (and the config files' [safety.TASK] section, whose class lives in judo.safety).
 
-`import judo` calls `register_builtins()`, so every name below is selectable (`make_controller("cartpole", "mppi")`,
-`--estimator ekf`) as soon as any part of judo is imported. Each task's defaults (the per-task overrides that solve
-it out of the box, each with a comment on the sweep that chose it) are data: tasks/models/<task>.toml, in the
-`--config` file format, loaded by the same loader right after the task is registered.
+`import judo` calls `register_builtins()`, so every name below is selectable
+(`make_controller("cartpole", "mppi")`, `--estimator ekf`) as soon as any part of judo is imported.
+Each task's defaults (the per-task overrides that solve it out of the box, each with a comment on
+the sweep that chose it) are data: tasks/models/<task>.toml, in the `--config` file format, loaded
+by the same loader right after the task is registered.
 """
 
 from pathlib import Path
@@ -53,7 +54,8 @@ BUILTIN_ESTIMATORS = {
     "ukf": (UnscentedKalmanFilter, UKFConfig),
     "legged": (LeggedEstimator, LeggedConfig),
 }
-"""Each built-in estimator's name -> (estimator class, config class); each lives in judo/estimators/."""
+"""Each built-in estimator's name -> (estimator class, config class); each lives in
+judo/estimators/."""
 
 BUILTIN_OPTIMIZERS = {
     "ps": (PredictiveSampling, PredictiveSamplingConfig),
@@ -68,14 +70,16 @@ BUILTIN_OPTIMIZERS = {
     "mtp": (MTP, MTPConfig),
     "cbo": (CBO, CBOConfig),
 }
-"""Each built-in optimizer's name -> (optimizer class, config class); each lives in judo/optimizers/."""
+"""Each built-in optimizer's name -> (optimizer class, config class); each lives in
+judo/optimizers/."""
 
 DEFAULTS_DIR = Path(__file__).parent / "tasks" / "models"
 """Where each built-in task's defaults file, <task>.toml, lies beside its MJCF."""
 
 BUILTIN_TASKS = {
     "cartpole": (Cartpole, CartpoleConfig),
-    # Cart-pole planned through a low-level PD policy: the MPC plans the cart's target (judo.core.rollouts.low_level).
+    # Cart-pole planned through a low-level PD policy: the MPC plans the cart's
+    # target (judo.core.rollouts.low_level).
     "cartpole_pd": (CartpolePD, CartpoleConfig),
     "cylinder_push": (CylinderPush, CylinderPushConfig),
     # Classic MPC benchmarks (after MJPC and hydrax).
@@ -88,9 +92,11 @@ BUILTIN_TASKS = {
     "humanoid_standup": (HumanoidStandup, HumanoidStandupConfig),
     # A Go1-class quadruped planned directly in its 12 joint targets: walk to goals.
     "quadruped": (Quadruped, QuadrupedConfig),
-    # The same robot tracking a commanded base velocity: the reward `gait-search` teaches the locomotion policy on.
+    # The same robot tracking a commanded base velocity: the reward `gait-search` teaches the
+    # locomotion policy on.
     "quadruped_velocity": (QuadrupedVelocity, QuadrupedVelocityConfig),
-    # The same walk to goals, planned in base-velocity commands over the locomotion policy judo taught itself.
+    # The same walk to goals, planned in base-velocity commands over the locomotion policy judo
+    # taught itself.
     "quadruped_navigate": (QuadrupedNavigate, QuadrupedNavigateConfig),
     # Robot tasks: LEAP hand cube rotation (palm up / palm down) and Franka-style pick-and-place.
     "leap_cube": (LeapCube, LeapCubeConfig),
@@ -98,11 +104,14 @@ BUILTIN_TASKS = {
     "fr3_pick": (FR3Pick, FR3PickConfig),
     # Unitree's G1 humanoid (29 DoF, Unitree's joint PD) standing under random pushes.
     "g1_stand": (G1Stand, G1StandConfig),
-    # Unitree Go2 (Menagerie model, Unitree's motor order and PD): stand up from lying and hold under pushes.
+    # Unitree Go2 (Menagerie model, Unitree's motor order and PD): stand up from lying and hold
+    # under pushes.
     "go2_stand": (Go2Stand, Go2StandConfig),
-    # The same Go2 trotting to a velocity command [vx, vy, yaw rate] (--task-config.velocity-command 0.5 0 0).
+    # The same Go2 trotting to a velocity command [vx, vy, yaw
+    # rate] (--task-config.velocity-command 0.5 0 0).
     "go2_walk": (Go2Walk, Go2WalkConfig),
-    # Tasks on their own numpy dynamics (judo.core.rollouts.dynamics), not MuJoCo: a kinematic-bicycle car.
+    # Tasks on their own numpy dynamics (judo.core.rollouts.dynamics), not MuJoCo: a
+    # kinematic-bicycle car.
     "car": (Car, CarConfig),
     # A quadrotor rigid body on its four rotor thrusts (numpy equations of motion).
     "quadrotor": (Quadrotor, QuadrotorConfig),
@@ -118,9 +127,10 @@ def defaults_path(task_name: str) -> Path:
 
 
 def register_builtins() -> None:
-    """Register the config files' [safety.TASK] section (judo.safety.limits), the built-in estimators, then the
-    optimizers, then each task followed by its defaults file (which names the built-in estimators and optimizers). Only the first call registers: a later one leaves the registries,
-    and whatever a user registered over a built-in name, as they are."""
+    """Register the config files' [safety.TASK] section (judo.safety.limits), the built-in
+    estimators, then the optimizers, then each task followed by its defaults file (which names the
+    built-in estimators and optimizers). Only the first call registers: a later one leaves the
+    registries, and whatever a user registered over a built-in name, as they are."""
     global _registered
     if _registered:
         return

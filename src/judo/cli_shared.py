@@ -1,18 +1,21 @@
-"""What the commands' command lines share (benchmark, evaluate, tune, collect, replay, distill, gait-search):
-parsing with tyro, the `--optimizer-config.FIELD` and `--task-config.FIELD` groups, the --config file, name checks and
-listings, the latency flags, the repeated sensing flags (`merge_repeated`), consoles, failing cleanly, and the
-plant a command line names (`--system`: `SystemOptions`, `build_system`):
+"""What the commands' command lines share (benchmark, evaluate, tune, collect, replay, distill,
+gait-search): parsing with tyro, the `--optimizer-config.FIELD` and `--task-config.FIELD` groups,
+the --config file, name checks and listings, the latency flags, the repeated sensing
+flags (`merge_repeated`), consoles, failing cleanly, and the plant a command line
+names (`--system`: `SystemOptions`, `build_system`):
 
     python -m judo --task cartpole --system ros2 --headless          # the ROS 2 bridge (judo.ros2.bridge)
     python -m judo --task cartpole --system my_robot:MyRobot         # a user's System subclass
     python -m judo --task cartpole --system sim                      # judo's simulator (the default)
 
-A class is found by its "module:Class" path, loaded by name, and built with `Class.from_options(task, options)`
-where it has that classmethod (the bridge does), else `Class(task)`: the task instance is the System's own. An
-abstract class, or one whose constructor cannot take the task, is refused in one line before it is built.
+A class is found by its "module:Class" path, loaded by name, and built
+with `Class.from_options(task, options)` where it has that classmethod (the bridge does),
+else `Class(task)`: the task instance is the System's own. An abstract class, or one whose
+constructor cannot take the task, is refused in one line before it is built.
 
-It sits below the command packages (evaluation, collection, sysid, tuning, learning) and the runtime.
-"""
+It sits below the command packages (evaluation, collection, sysid, tuning, learning) and the
+runtime.
+"""  # noqa: E501
 
 import dataclasses
 import importlib
@@ -55,12 +58,14 @@ def fail(message: str) -> NoReturn:
 
 
 def parse_args(args_cls: type[ArgsT], argv: list[str] | None, prog: str, description: str) -> ArgsT:
-    """Parse `argv` (sys.argv[1:] when None) into `args_cls` with tyro; --help comes from its field docstrings."""
+    """Parse `argv` (sys.argv[1:] when None) into `args_cls` with tyro; --help comes from its field
+    docstrings."""
     return tyro.cli(args_cls, args=argv, prog=prog, description=description)
 
 
 def option_value(argv: list[str], name: str) -> str | None:
-    """The value given to `--name` in `argv` ("--name VALUE" or "--name=VALUE"; the last one counts), or None."""
+    """The value given to `--name` in `argv` ("--name VALUE" or "--name=VALUE"; the last one
+    counts), or None."""
     value = None
     for index, arg in enumerate(argv):
         if arg == f"--{name}" and index + 1 < len(argv):
@@ -70,13 +75,16 @@ def option_value(argv: list[str], name: str) -> str | None:
     return value
 
 
-def parse_args_with_config_fields(args_cls: type[ArgsT], argv: list[str] | None, prog: str, description: str) -> ArgsT:
-    """`parse_args` with two more option groups built for the named pair: `--optimizer-config.FIELD` (every
-    field of the --optimizer's config) and `--task-config.FIELD` (every field of the --task's config).
+def parse_args_with_config_fields(
+    args_cls: type[ArgsT], argv: list[str] | None, prog: str, description: str
+) -> ArgsT:
+    """`parse_args` with two more option groups built for the named pair: `--optimizer-config.FIELD`
+    (every field of the --optimizer's config) and `--task-config.FIELD` (every field of the --task's
+    config).
 
-    --config, --task and --optimizer are read from `argv` first (the --config file is loaded, so that its
-    tasks and optimizers count); without them, or with an unknown name, the groups are empty and the
-    later name check says what is valid.
+    --config, --task and --optimizer are read from `argv` first (the --config file is loaded, so
+    that its tasks and optimizers count); without them, or with an unknown name, the groups are
+    empty and the later name check says what is valid.
     """
     argv = merge_repeated(list(sys.argv[1:] if argv is None else argv))
     try:
@@ -85,7 +93,11 @@ def parse_args_with_config_fields(args_cls: type[ArgsT], argv: list[str] | None,
         fail(str(err))
     task, optimizer = option_value(argv, "task"), option_value(argv, "optimizer")
     task_cls = lookup_task(task)[1] if task in get_registered_tasks() else TaskConfig
-    optimizer_cls = lookup_optimizer(optimizer)[1] if optimizer in get_registered_optimizers() else OptimizerConfig
+    optimizer_cls = (
+        lookup_optimizer(optimizer)[1]
+        if optimizer in get_registered_optimizers()
+        else OptimizerConfig
+    )
     groups = {
         "optimizer_config": (optimizer_cls, "OptimizerOverrides", "optimizer"),
         "task_config": (task_cls, "TaskOverrides", "task"),
@@ -93,7 +105,9 @@ def parse_args_with_config_fields(args_cls: type[ArgsT], argv: list[str] | None,
     specs = []
     for name, (config_cls, group_name, kind) in groups.items():
         group = optional_fields(config_cls, group_name)
-        option = tyro.conf.arg(help=f"Fields of the {kind}'s config ({config_cls.__name__}) to change.")
+        option = tyro.conf.arg(
+            help=f"Fields of the {kind}'s config ({config_cls.__name__}) to change."
+        )
         specs.append((name, Annotated[group, option], dataclasses.field(default_factory=group)))
     extended = dataclasses.make_dataclass(args_cls.__name__, specs, bases=(args_cls,))
     extended.__doc__ = args_cls.__doc__
@@ -101,16 +115,20 @@ def parse_args_with_config_fields(args_cls: type[ArgsT], argv: list[str] | None,
 
 
 def apply_config_file(path: Path | None) -> None:
-    """Read the `--config` TOML file when one is given (registering its classes and applying its overrides),
-    the same way the app does; ConfigFileError names the file and the entry that is wrong."""
+    """Read the `--config` TOML file when one is given (registering its classes and applying its
+    overrides), the same way the app does; ConfigFileError names the file and the entry that is
+    wrong."""
     if path is not None:
         from judo.core.configuration.config_file import load_config
 
         load_config(path)
 
 
-def check_names(tasks: tuple[str, ...] | list[str], optimizers: tuple[str, ...] | list[str]) -> None:
-    """Raise UnknownNameError (listing the valid names) for a task or optimizer that is not registered."""
+def check_names(
+    tasks: tuple[str, ...] | list[str], optimizers: tuple[str, ...] | list[str]
+) -> None:
+    """Raise UnknownNameError (listing the valid names) for a task or optimizer that is not
+    registered."""
     for name in tasks:
         lookup_task(name)
     for name in optimizers:
@@ -119,7 +137,10 @@ def check_names(tasks: tuple[str, ...] | list[str], optimizers: tuple[str, ...] 
 
 def name_listing() -> str:
     """One line naming the registered tasks and optimizers, for --help."""
-    return f"Tasks: {', '.join(get_registered_tasks())}. Optimizers: {', '.join(get_registered_optimizers())}."
+    return (
+        f"Tasks: {', '.join(get_registered_tasks())}. Optimizers: "
+        f"{', '.join(get_registered_optimizers())}."
+    )
 
 
 def output_console() -> Console:
@@ -133,16 +154,17 @@ def progress_console() -> Console:
 
 
 PROGRESS_PERIOD = 5.0
-"""Seconds between the plain progress lines a long command prints where its progress console is no terminal."""
+"""Seconds between the plain progress lines a long command prints where its progress console is no
+terminal."""
 
 
 def progress_display(
     *columns: str | ProgressColumn, console: Console | None = None, transient: bool = True
 ) -> Progress:
-    """The progress display of a long command: rich's `Progress(*columns)` bar on `console` (`progress_console()`
-    when None) where it is a terminal; elsewhere (a pipe, a log file, CI) a `ProgressLines`, which prints a plain
-    line every PROGRESS_PERIOD seconds. Both are used alike: `with progress_display(...) as progress:`,
-    `progress.add_task(...)`, `progress.update(...)`."""
+    """The progress display of a long command: rich's `Progress(*columns)` bar on `console`
+    (`progress_console()` when None) where it is a terminal; elsewhere (a pipe, a log file, CI) a
+    `ProgressLines`, which prints a plain line every PROGRESS_PERIOD seconds. Both are used alike:
+    `with progress_display(...) as progress:`, `progress.add_task(...)`, `progress.update(...)`."""
     console = progress_console() if console is None else console
     if console.is_terminal:
         return Progress(*columns, console=console, transient=transient)
@@ -150,18 +172,24 @@ def progress_display(
 
 
 class ProgressLines(Progress):
-    """A rich `Progress` that draws no bar and instead prints, every `period` seconds while it runs, one plain line
-    per visible task: its text columns, then done/total, the time elapsed and the time left at the rate so far
-    ("ETA unknown" before anything is done), e.g. `fitting 2 parameters: 40 residual evaluations | elapsed 0:25`
-    or `collect done 1, failed 0, kept 1, 0.5 episodes/min | 1/4, elapsed 2:03, ETA 6:09`. Nothing is printed by work shorter than
+    """A rich `Progress` that draws no bar and instead prints, every `period` seconds while it runs,
+    one plain line per visible task: its text columns, then done/total, the time elapsed and the
+    time left at the rate so far ("ETA unknown" before anything is done), e.g. `fitting 2
+    parameters: 40 residual evaluations | elapsed 0:25` or `collect done 1, failed 0, kept 1, 0.5
+    episodes/min | 1/4, elapsed 2:03, ETA 6:09`. Nothing is printed by work shorter than
     `period`."""
 
-    def __init__(self, *columns: str | ProgressColumn, console: Console, period: float = PROGRESS_PERIOD) -> None:
+    def __init__(
+        self, *columns: str | ProgressColumn, console: Console, period: float = PROGRESS_PERIOD
+    ) -> None:
         super().__init__(*columns, console=console, disable=True)
         self.period = period
-        self._first: dict[TaskID, float] = {}  # each task's completed count when it was added (a resumed run's)
+        # each task's completed count when it was added (a resumed run's)
+        self._first: dict[TaskID, float] = {}
         self._done = threading.Event()
-        self._printer = threading.Thread(target=self._print_lines, name="judo-progress-lines", daemon=True)
+        self._printer = threading.Thread(
+            target=self._print_lines, name="judo-progress-lines", daemon=True
+        )
 
     def add_task(
         self,
@@ -192,7 +220,9 @@ class ProgressLines(Progress):
 
     def line(self, task: Task) -> str:
         """The plain line for `task`."""
-        text = [column(task).plain.strip() for column in self.columns if isinstance(column, TextColumn)]
+        text = [
+            column(task).plain.strip() for column in self.columns if isinstance(column, TextColumn)
+        ]
         elapsed = task.elapsed or 0.0
         figures = [f"elapsed {clock_time(elapsed)}"]
         if task.total is not None:
@@ -204,7 +234,9 @@ class ProgressLines(Progress):
     def _print_lines(self) -> None:
         while not self._done.wait(self.period):
             with self._lock:
-                lines = [self.line(task) for task in self.tasks if task.visible and not task.finished]
+                lines = [
+                    self.line(task) for task in self.tasks if task.visible and not task.finished
+                ]
             for line in lines:
                 self.console.print(line, markup=False, highlight=False, soft_wrap=True)
 
@@ -217,41 +249,57 @@ def clock_time(seconds: float) -> str:
 
 
 def optional_fields(config_cls: type, name: str) -> type:
-    """A dataclass called `name` with every field of `config_cls` as `T | None = None` and the same --help
-    text, so that a command line can tell the fields a user gave from those left to the task's defaults. A bool field
-    is a pair of flags, --NAME and --no-NAME, as in the app (whose fields have their defaults)."""
+    """A dataclass called `name` with every field of `config_cls` as `T | None = None` and the same
+    --help text, so that a command line can tell the fields a user gave from those left to the
+    task's defaults. A bool field is a pair of flags, --NAME and --no-NAME, as in the app (whose
+    fields have their defaults)."""
     docs, types = field_docs(config_cls), field_types(config_cls)
 
     def option(name: str) -> Any:
-        kind = tuple[float, ...] if types[name] is np.ndarray else types[name]  # an array field takes numbers
+        # an array field takes numbers
+        kind = tuple[float, ...] if types[name] is np.ndarray else types[name]
         choices = typing.get_args(kind) if typing.get_origin(kind) is Literal else ()
-        metavar = "{" + ",".join(map(str, choices)) + "}" if choices else getattr(kind, "__name__", "VALUE").upper()
+        metavar = (
+            "{" + ",".join(map(str, choices)) + "}"
+            if choices
+            else getattr(kind, "__name__", "VALUE").upper()
+        )
         metavar = "NUMBER ..." if types[name] is np.ndarray else metavar
         text = " ".join(docs.get(name, "").split())
-        if kind is bool:  # --NAME and --no-NAME, the app's flags (tyro's for a bool with a default); None when neither
+        # --NAME and --no-NAME, the app's flags (tyro's for a bool with a default); None when
+        # neither
+        if kind is bool:
             hint = "(default: the task's)"
-            return Annotated[bool | None, tyro.conf.DisallowNone, tyro.conf.arg(help=text, help_behavior_hint=hint)]
+            return Annotated[
+                bool | None,
+                tyro.conf.DisallowNone,
+                tyro.conf.arg(help=text, help_behavior_hint=hint),
+            ]
         return Annotated[
-            kind | None, tyro.conf.arg(help=text, metavar=metavar, help_behavior_hint="(default: the task's)")
+            kind | None,
+            tyro.conf.arg(help=text, metavar=metavar, help_behavior_hint="(default: the task's)"),
         ]
 
-    specs = [(f.name, option(f.name), dataclasses.field(default=None)) for f in dataclasses.fields(config_cls)]
+    specs = [
+        (f.name, option(f.name), dataclasses.field(default=None))
+        for f in dataclasses.fields(config_cls)
+    ]
     overrides = dataclasses.make_dataclass(name, specs, namespace={"config_cls": config_cls})
     overrides.__doc__ = f"Fields of {config_cls.__name__} to change from the task's defaults."
     return overrides
 
 
 def episode_latency(latency: str, latency_ms: float | None) -> Latency:
-    """The latency `run_episode` takes for `--latency none|measured` and `--latency-ms MS`: seconds of sim
-    time, or "measured"."""
+    """The latency `run_episode` takes for `--latency none|measured` and `--latency-ms MS`: seconds
+    of sim time, or "measured"."""
     if latency_ms is not None:
         return latency_ms / 1e3
     return "measured" if latency == "measured" else 0.0
 
 
 def optional_pyplot() -> Any:
-    """matplotlib.pyplot on its file-only Agg backend, or None when matplotlib (the `plot` extra) is missing: the
-    commands' PNG figures are written only where it is installed."""
+    """matplotlib.pyplot on its file-only Agg backend, or None when matplotlib (the `plot` extra) is
+    missing: the commands' PNG figures are written only where it is installed."""
     try:
         import matplotlib
 
@@ -263,19 +311,22 @@ def optional_pyplot() -> Any:
 
 
 def seeds_label(first: int, count: int) -> str:
-    """How a run's seeds read in titles: "5 seeds" for seeds 0 to 4 (the default), "2 seeds (3-4)" otherwise."""
+    """How a run's seeds read in titles: "5 seeds" for seeds 0 to 4 (the default), "2 seeds (3-4)"
+    otherwise."""
     if first == 0:
         return f"{count} seeds"
     return f"{count} seeds ({first}-{first + count - 1})" if count > 1 else f"1 seed ({first})"
 
 
 PER_TYPE_FLAGS = ("--sensor-noise", "--sensor-delay-ms", "--sensor-rate-hz")
-"""Flags that may be repeated, each value NUMBER or TYPE=NUMBER (e.g. --sensor-rate-hz framepos=30)."""
+"""Flags that may be repeated, each value NUMBER or TYPE=NUMBER (e.g. --sensor-rate-hz
+framepos=30)."""
 
 
 def merge_repeated(argv: list[str], flags: Sequence[str] = PER_TYPE_FLAGS) -> list[str]:
     """`argv` with every repeat of each of `flags` gathered into its first occurrence:
-    ["--sensor-rate-hz", "100", "--sensor-rate-hz", "framepos=30"] -> ["--sensor-rate-hz", "100", "framepos=30"]."""
+    ["--sensor-rate-hz", "100", "--sensor-rate-hz", "framepos=30"] -> ["--sensor-rate-hz", "100",
+    "framepos=30"]."""
     merged: list[str] = []
     first: dict[str, int] = {}  # flag -> index in `merged` after its values so far
     i = 0
@@ -302,32 +353,42 @@ def merge_repeated(argv: list[str], flags: Sequence[str] = PER_TYPE_FLAGS) -> li
     return merged
 
 
-BUILT_IN_SYSTEMS = {"ros2": "judo.ros2.bridge:Ros2System", "unitree": "judo.unitree.bridge:UnitreeSystem"}
-"""--system names judo knows -> the "module:Class" they load (by name, so the app never imports an extra)."""
+BUILT_IN_SYSTEMS = {
+    "ros2": "judo.ros2.bridge:Ros2System",
+    "unitree": "judo.unitree.bridge:UnitreeSystem",
+}
+"""--system names judo knows -> the "module:Class" they load (by name, so the app never imports an
+extra)."""
 SIM = "sim"
 """--system's name for judo's own simulator, the default."""
 
 
 @dataclasses.dataclass
 class SystemOptions:
-    """The plant: `system` None is judo's simulator; "ros2" the ROS 2 bridge; "module:Class" a user's System."""
+    """The plant: `system` None is judo's simulator; "ros2" the ROS 2 bridge; "module:Class" a
+    user's System."""
 
     system: str | None = None
-    """None or sim (judo's simulator), ros2 (the ROS 2 bridge on DDS, needs pip install -e ".[ros2]"), unitree (a
-    Unitree Go2 or G1 over its own DDS messages, pip install -e ".[unitree]"), or module:Class."""
+    """None or sim (judo's simulator), ros2 (the ROS 2 bridge on DDS, needs pip install -e
+    ".[ros2]"), unitree (a Unitree Go2 or G1 over its own DDS messages, pip install -e
+    ".[unitree]"), or module:Class."""
     record: Path | None = None
-    """With --system ros2: log what the robot sent and what judo commanded to this MCAP file (ROS 2 schemas)."""
+    """With --system ros2: log what the robot sent and what judo commanded to this MCAP file (ROS 2
+    schemas)."""
     ros2: Ros2Options = dataclasses.field(default_factory=Ros2Options)
     unitree: UnitreeOptions = dataclasses.field(default_factory=UnitreeOptions)
 
 
 def system_class(name: str) -> type[System]:
-    """The System class `name` names: "ros2" or "module:Class". Raises JudoError naming what was expected."""
+    """The System class `name` names: "ros2" or "module:Class". Raises JudoError naming what was
+    expected."""
     path = BUILT_IN_SYSTEMS.get(name, name)
     module_name, sep, class_name = path.partition(":")
     if not sep or not module_name or not class_name:
         valid = ", ".join(sorted([SIM, *BUILT_IN_SYSTEMS]))
-        raise ConfigError(f"--system expects {valid} or module:Class (a System subclass), got {name!r}")
+        raise ConfigError(
+            f"--system expects {valid} or module:Class (a System subclass), got {name!r}"
+        )
     try:
         module = importlib.import_module(module_name)
     except JudoError:
@@ -336,23 +397,37 @@ def system_class(name: str) -> type[System]:
         raise ConfigError(f"--system {name}: cannot import module {module_name!r}: {err}") from err
     cls = getattr(module, class_name, None)
     if not (isinstance(cls, type) and issubclass(cls, System)):
-        got = "nothing" if cls is None else type(cls).__name__ if not isinstance(cls, type) else cls.__name__
-        raise ConfigError(f"--system {name}: expected a System subclass {class_name!r} in {module_name}, got {got}")
+        got = (
+            "nothing"
+            if cls is None
+            else type(cls).__name__
+            if not isinstance(cls, type)
+            else cls.__name__
+        )
+        raise ConfigError(
+            f"--system {name}: expected a System subclass {class_name!r} in {module_name}, got "
+            f"{got}"
+        )
     if inspect.isabstract(cls):
         missing = ", ".join(sorted(cls.__abstractmethods__))
         raise ConfigError(
-            f"--system {name}: expected a System subclass that writes every method, got {cls.__name__}, which leaves "
+            f"--system {name}: expected a System subclass that writes every method, got "
+            f"{cls.__name__}, which leaves "
             f"{missing} abstract (judo.loop.system:MujocoSystem is judo's simulator)"
         )
     return cls
 
 
-def build_system(options: SystemOptions, task_name: str, task_config: TaskConfig | None = None) -> System | None:
-    """The plant `options` name for `task_name` (a new task instance, with `task_config` when given), or None
-    for judo's own simulator (`system` None or "sim")."""
+def build_system(
+    options: SystemOptions, task_name: str, task_config: TaskConfig | None = None
+) -> System | None:
+    """The plant `options` name for `task_name` (a new task instance, with `task_config` when
+    given), or None for judo's own simulator (`system` None or "sim")."""
     if options.system is None or options.system == SIM:
         if options.record is not None:
-            raise ConfigError(f"--record {options.record} logs a robot's link: give it with --system ros2")
+            raise ConfigError(
+                f"--record {options.record} logs a robot's link: give it with --system ros2"
+            )
         return None
     cls = system_class(options.system)
     task: JudoTask = new_task(lookup_task(task_name)[0])
@@ -362,23 +437,28 @@ def build_system(options: SystemOptions, task_name: str, task_config: TaskConfig
     if callable(from_options):
         return cast(System, from_options(task, options))
     if options.record is not None:
-        raise ConfigError(f"--record logs the ROS 2 bridge's link; {cls.__name__} takes no --record")
+        raise ConfigError(
+            f"--record logs the ROS 2 bridge's link; {cls.__name__} takes no --record"
+        )
     _check_builds_with(cls, task, options.system)
     try:
-        return cast(Callable[[JudoTask], System], cls)(task)  # a System built from the task alone (checked above)
-    except ConfigError as err:  # the class refused the task (DynamicsSystem a task without its own dynamics)
+        # a System built from the task alone (checked above)
+        return cast(Callable[[JudoTask], System], cls)(task)
+    # the class refused the task (DynamicsSystem a task without its own dynamics)
+    except ConfigError as err:
         raise ConfigError(f"--system {options.system}: {err}") from None
 
 
 def _check_builds_with(cls: type[System], task: JudoTask, name: str) -> None:
-    """ConfigError unless `cls(task)` can be called: its constructor takes the task as its one required argument,
-    of the type it annotates."""
+    """ConfigError unless `cls(task)` can be called: its constructor takes the task as its one
+    required argument, of the type it annotates."""
     try:
         signature = inspect.signature(cls)
         bound = signature.bind(task)
     except TypeError:
         raise ConfigError(
-            f"--system {name}: expected a System subclass built with Class(task) or Class.from_options(task, "
+            f"--system {name}: expected a System subclass built with Class(task) or "
+            "Class.from_options(task, "
             f"options), got {cls.__name__}{signature}"
         ) from None
     except ValueError:  # a constructor without a signature Python can read: tried as it is
@@ -390,5 +470,6 @@ def _check_builds_with(cls: type[System], task: JudoTask, name: str) -> None:
     wanted = hints.get(next(iter(bound.arguments)))
     if isinstance(wanted, type) and not isinstance(task, wanted):
         raise ConfigError(
-            f"--system {name}: {cls.__name__} needs a task that is a {wanted.__name__}, got {type(task).__name__}"
+            f"--system {name}: {cls.__name__} needs a task that is a {wanted.__name__}, got "
+            f"{type(task).__name__}"
         )

@@ -1,4 +1,5 @@
-"""The collect dataset without Ray: its layout against docs/collect.md, the doc's loader, refusals, the extra."""
+"""The collect dataset without Ray: its layout against docs/collect.md, the doc's loader, refusals,
+the extra."""
 
 import json
 import re
@@ -42,19 +43,23 @@ def leap_cube_file(tmp_path_factory):
 def test_the_layout_and_dtypes_are_the_documented_ones(leap_cube_file):
     layout = documented_layout()
     assert len(layout) == 22
-    sensed = {"obs/measured", "obs/measured_age", "obs/estimate_qpos", "obs/estimate_qvel"}  # test_collect_sensing
+    # test_collect_sensing
+    sensed = {"obs/measured", "obs/measured_age", "obs/estimate_qpos", "obs/estimate_qvel"}
     sensed |= {"plan/traces"}  # test_collect_sensing.py
-    sensed |= {"mpc_actions", "policy/knots", "policy/inference_ms"}  # collect --policy: test_collect_policy.py
-    sensed |= {"obs/metadata/<key>"}  # a task's recorded_metadata (leap_cube has none): test_collect_metadata.py
+    # collect --policy: test_collect_policy.py
+    sensed |= {"mpc_actions", "policy/knots", "policy/inference_ms"}
+    # a task's recorded_metadata (leap_cube has none): test_collect_metadata.py
+    sensed |= {"obs/metadata/<key>"}
     model = lookup_task("leap_cube")[0]().sim_model
     sizes = {
         "nq": model.nq, "nv": model.nv, "nu": model.nu, "nsensordata": model.nsensordata,
-        "3 * nmocap": 3 * model.nmocap, "num_nodes": make_config(lookup_optimizer("ps")[1], "leap_cube").num_nodes,
+        "3 * nmocap": 3 * model.nmocap, "num_nodes": make_config(lookup_optimizer("ps")[1], "leap_cube").num_nodes,  # noqa: E501
     }  # fmt: skip
     with h5py.File(leap_cube_file, "r") as file:
         data = file["data"]
         assert sorted(data) == ["demo_0", "demo_1"]
-        assert json.loads(data.attrs["env_args"]) == {**ENV_ARGS, "type": "judo"}  # the mark of a file judo wrote
+        # the mark of a file judo wrote
+        assert json.loads(data.attrs["env_args"]) == {**ENV_ARGS, "type": "judo"}
         assert data.attrs["total"] == 2 * 20
         demo = data["demo_1"]
         steps, updates = demo.attrs["num_samples"], len(demo["plan/times"])
@@ -69,17 +74,28 @@ def test_the_layout_and_dtypes_are_the_documented_ones(leap_cube_file):
             assert demo[path].shape == expected, path
             assert demo[path].dtype == np.dtype(dtype), path
         assert demo["dones"][:].tolist() == [0] * 19 + [1]
-        assert set(json.loads(demo.attrs["metrics"])) == {"goals_reached", "goals_per_minute", "drops", "mean_reward"}
+        assert set(json.loads(demo.attrs["metrics"])) == {
+            "goals_reached",
+            "goals_per_minute",
+            "drops",
+            "mean_reward",
+        }
         assert demo.attrs["success"] in (True, False)
         plan = demo["plan"]
-        assert np.all(np.diff(plan["times"][:]) > 0) and np.array_equal(plan["takes_effect"][:], plan["times"][:])
+        assert np.all(np.diff(plan["times"][:]) > 0) and np.array_equal(
+            plan["takes_effect"][:], plan["times"][:]
+        )
         assert np.all(plan["best_reward"][:] >= plan["mean_reward"][:])
 
 
-def test_the_docs_loader_turns_a_file_into_observation_and_action_arrays(leap_cube_file, tmp_path, monkeypatch):
+def test_the_docs_loader_turns_a_file_into_observation_and_action_arrays(
+    leap_cube_file, tmp_path, monkeypatch
+):
     marker = "<!-- tests/collection/test_collect_dataset.py runs this loader on a real file -->"
     loader = re.search(re.escape(marker) + r"\n```python\n(.*?)\n```", DOC, flags=re.S).group(1)
-    code_lines = [line for line in loader.splitlines() if line.strip() and not line.strip().startswith('"""')]
+    code_lines = [
+        line for line in loader.splitlines() if line.strip() and not line.strip().startswith('"""')
+    ]
     assert len(code_lines) <= 15
     (tmp_path / "cartpole.h5").symlink_to(leap_cube_file)
     monkeypatch.chdir(tmp_path)
@@ -95,7 +111,11 @@ def test_the_docs_loader_turns_a_file_into_observation_and_action_arrays(leap_cu
 
 def test_a_file_of_other_settings_is_refused_naming_what_differs(leap_cube_file):
     other = {**ENV_ARGS, "env_kwargs": {"optimizer": {"sigma": 0.5}}, "judo_version": "9"}
-    with pytest.raises(DatasetError, match=r"env_kwargs\.optimizer\.sigma: file has 0\.3, this run 0\.5\);"):
+    with pytest.raises(
+        DatasetError,
+        match=r"env_kwargs\.optimizer\.sigma: "
+        r"file has 0\.3, this run 0\.5\);",
+    ):
         DatasetFile(leap_cube_file, other)
     assert DatasetFile(leap_cube_file, {**ENV_ARGS, "judo_version": "9"}).finished_seeds() == {0, 1}
 
@@ -106,15 +126,21 @@ def test_without_the_extra_collect_names_it(monkeypatch, tmp_path, capsys):
         collect_main(["--task", "cartpole", "--optimizer", "ps", "--out", str(tmp_path / "x.h5")])
     assert exit_info.value.code == 2
     assert capsys.readouterr().err.strip() == (
-        "error: python -m judo collect needs the optional extra judo-mpc[collect], which is not installed "
+        "error: python -m judo collect needs the optional extra judo-mpc[collect], which is "
+        "not installed "
         "(no module 'h5py'); install it with: pip install -e \".[collect]\" (from a checkout) or "
         'pip install "judo-mpc[collect]"'
     )
 
 
 def test_importing_judo_and_the_collect_command_imports_neither_h5py_nor_ray():
-    code = "import sys, judo, judo.collection.collect, judo.collection.run; print(sorted({'h5py', 'ray'} & set(sys.modules)))"
-    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    code = (
+        "import sys, judo, judo.collection.collect, judo.collection.run; print(sorted({'h5py', "
+        "'ray'} & set(sys.modules)))"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    )
     assert result.stdout.strip() == "[]"
 
 
@@ -153,7 +179,8 @@ def test_success_only_for_a_task_without_a_rule_says_what_to_add(tmp_path):
     with pytest.raises(NoSuccessRuleError) as error:
         write_outcome(dataset, outcome, True, Tally(), "my_task")
     assert str(error.value) == (
-        "--success-only: task 'my_task' has no success rule for its metrics ['distance']; give the task a "
+        "--success-only: task 'my_task' has no success rule for its metrics ['distance']; "
+        "give the task a "
         "`success(self, metrics) -> bool` method, or report a 'success' metric"
     )
     assert dataset.counts() == {"kept": 0, "dropped": 0, "failed": 0, "total": 0}

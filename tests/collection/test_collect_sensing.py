@@ -1,5 +1,6 @@
-"""What a sensed episode adds to a collect file: the measured sensors, the estimator's state, and each plan's
-traces; a full-state episode without --traces has none of them, and the loop copies no traces unasked."""
+"""What a sensed episode adds to a collect file: the measured sensors, the estimator's state, and
+each plan's traces; a full-state episode without --traces has none of them, and the loop copies no
+traces unasked."""
 
 import json
 
@@ -25,8 +26,8 @@ STEPS = 100
 
 @pytest.fixture(scope="module")
 def sensed_file(tmp_path_factory):
-    """(path, the controller's last traces): 1 s of cartpole x ps planned through the EKF from encoders (std
-    0.005 rad, 100 Hz, 10 ms late), recorded with traces and written as demo_0."""
+    """(path, the controller's last traces): 1 s of cartpole x ps planned through the EKF from
+    encoders (std 0.005 rad, 100 Hz, 10 ms late), recorded with traces and written as demo_0."""
     controller = make_controller("cartpole", "ps", seed=0, num_workers=1)
     plant = MujocoSystem.from_task(controller.task, 0)
     sensed = SensedSystem(plant, noise=0.005, delay=0.01, rate=100.0, rng=np.random.default_rng(0))
@@ -40,7 +41,9 @@ def sensed_file(tmp_path_factory):
         assert loop.failed_updates == 0
         last_traces = controller.traces.astype(np.float32)
     path = tmp_path_factory.mktemp("sensed") / "cartpole.h5"
-    DatasetFile(path, {"task": "cartpole"}).write_episode(recorder.episode(0, np.zeros(STEPS), {}, None))
+    DatasetFile(path, {"task": "cartpole"}).write_episode(
+        recorder.episode(0, np.zeros(STEPS), {}, None)
+    )
     return path, last_traces
 
 
@@ -50,11 +53,15 @@ def test_a_sensed_episode_keeps_the_measured_sensors_and_the_estimate(sensed_fil
         demo = file["data/demo_0"]
         qpos = demo["obs/qpos"][:]
         assert json.loads(demo.attrs["measured_sensors"]) == ["slider_pos", "hinge_pos"]
-        for key in ("measured", "measured_age", "estimate_qpos", "estimate_qvel"):  # m = k = nq = nv = 2: encoders
-            assert demo["obs"][key].shape == (STEPS, 2) and demo["obs"][key].dtype == np.float64, key
+        # m = k = nq = nv = 2: encoders
+        for key in ("measured", "measured_age", "estimate_qpos", "estimate_qvel"):
+            assert demo["obs"][key].shape == (STEPS, 2) and demo["obs"][key].dtype == np.float64, (
+                key
+            )
             assert LAYOUT[f"obs/{key}"][1] == "float64"
         measured, estimate = demo["obs/measured"][:], demo["obs/estimate_qpos"][:]
-    # the encoders read qpos with 0.005 rad noise, up to 10 ms late; the filter follows the true qpos
+    # the encoders read qpos with 0.005 rad noise, up to 10 ms late; the filter follows the true
+    # qpos
     assert np.abs(measured - qpos).max() < 0.2
     assert np.abs(estimate - qpos).max() < 0.05, np.abs(estimate - qpos).max(axis=0)
 
@@ -68,7 +75,8 @@ def test_traces_are_kept_for_every_plan_as_the_controller_drew_them(sensed_file)
             "(U, 1 + num_shown, T, num_trace_sensors, 3)",
             "float32",
         )
-        assert traces.shape == (updates, *last_traces.shape) and last_traces.shape[0] == 6  # nominal + 5 best
+        # nominal + 5 best
+        assert traces.shape == (updates, *last_traces.shape) and last_traces.shape[0] == 6
         assert last_traces.shape[2:] == (1, 3)  # cartpole's one trace sensor, the pole's tip
         assert np.array_equal(traces[-1], last_traces)
         assert not np.array_equal(traces[0], traces[-1])
@@ -103,14 +111,18 @@ def test_the_loop_copies_traces_only_for_a_recorder_that_wants_them():
     for wants in (False, True):
         recorder = Plans(wants)
         with make_controller("cartpole", "ps", seed=0, num_workers=1) as controller:
-            loop = ClosedLoop(controller, MujocoSystem.from_task(controller.task, 0), recorders=[recorder])
+            loop = ClosedLoop(
+                controller, MujocoSystem.from_task(controller.task, 0), recorders=[recorder]
+            )
             loop.restart()
             for _ in range(3):
                 loop.step()
             traces = [plan.traces for plan in recorder.plans]
             assert len(traces) == 2
             if wants:
-                assert all(t.dtype == np.float32 and t.shape == controller.traces.shape for t in traces)
+                assert all(
+                    t.dtype == np.float32 and t.shape == controller.traces.shape for t in traces
+                )
                 assert traces[-1] is not controller.traces and np.array_equal(
                     traces[-1], controller.traces.astype(np.float32)
                 )
@@ -123,7 +135,8 @@ def test_traces_of_plans_that_differ_in_shape_are_padded_and_replay_unpads_them(
     from judo.runtime.gui.replay import unpadded
 
     rng = np.random.default_rng(0)
-    before, after = rng.normal(size=(6, 50, 1, 3)), rng.normal(size=(3, 80, 1, 3))  # horizon and traces edited
+    # horizon and traces edited
+    before, after = rng.normal(size=(6, 50, 1, 3)), rng.normal(size=(3, 80, 1, 3))
     stacked = padded_stack([before, after])
     assert stacked.shape == (2, 6, 80, 1, 3) and stacked.dtype == np.float32
     assert np.array_equal(unpadded(stacked[0]), before.astype(np.float32))
@@ -135,7 +148,8 @@ def test_collect_with_observe_sensors_records_what_was_measured_and_estimated():
     from judo.evaluation.seeded import EpisodeSpec
     from judo.evaluation.sensing import Sensing
 
-    sensing = Sensing("sensors", noise=0.005, delay=0.01, rate=100.0)  # collect --observe sensors --sensor-* ...
+    # collect --observe sensors --sensor-* ...
+    sensing = Sensing("sensors", noise=0.005, delay=0.01, rate=100.0)
     outcome = collect_episode(EpisodeSpec("cartpole", "ps", 0.3, sensing=sensing), 0)
     episode = outcome.episode
     assert outcome.failure is None and episode is not None

@@ -1,4 +1,5 @@
-"""Finite values and sane bounds at the boundary, and a refused change that leaves the running layout intact."""
+"""Finite values and sane bounds at the boundary, and a refused change that leaves the running
+layout intact."""
 
 import copy
 import dataclasses
@@ -31,9 +32,13 @@ def test_every_numeric_field_refuses_nan_and_inf_naming_the_field(config_cls):
             continue
         for bad in (np.nan, np.inf, -np.inf):
             bad_value = np.full_like(value, bad) if isinstance(value, np.ndarray) else bad
-            with pytest.raises(judo.ConfigError, match=f"{config_cls.__name__}.{field.name} expects .*finite"):
+            with pytest.raises(
+                judo.ConfigError, match=f"{config_cls.__name__}.{field.name} expects .*finite"
+            ):
                 with_updates(config, {field.name: bad_value})  # the file, CLI and GUI path
-            with pytest.raises(judo.ConfigError, match=f"{config_cls.__name__}.{field.name} must .*finite"):
+            with pytest.raises(
+                judo.ConfigError, match=f"{config_cls.__name__}.{field.name} must .*finite"
+            ):
                 config_cls(**{field.name: bad_value})
 
 
@@ -48,14 +53,19 @@ def test_every_slider_range_lies_within_what_validate_accepts(config_cls):
                 config_cls(**{name: kind(end)})
             except judo.ConfigError as err:
                 others = [f.name for f in dataclasses.fields(config_cls) if f.name != name]
-                assert any(other in str(err) for other in others), f"slider of {name} reaches a refused value: {err}"
+                assert any(other in str(err) for other in others), (
+                    f"slider of {name} reaches a refused value: {err}"
+                )
 
 
 @pytest.mark.parametrize(
     ("updates", "message"),
     [
         ({"horizon": np.inf}, "ControllerConfig.horizon must be a finite number, got inf"),
-        ({"control_freq": np.nan}, "ControllerConfig.control_freq must be a finite number, got nan"),
+        (
+            {"control_freq": np.nan},
+            "ControllerConfig.control_freq must be a finite number, got nan",
+        ),
         ({"horizon": 1e6}, "horizon must be above 0 and at most 60.0 s, got 1000000.0"),
         ({"horizon": -1.0}, "horizon must be above 0 and at most 60.0 s, got -1.0"),
         ({"control_freq": 0.0}, "control_freq must be between 0.1 and 1000.0 Hz, got 0.0"),
@@ -67,7 +77,9 @@ def test_every_slider_range_lies_within_what_validate_accepts(config_cls):
     ],
 )
 def test_controller_config_bounds_name_the_valid_range(updates, message):
-    with pytest.raises(judo.ConfigError, match=f"^{message}$".replace("(", r"\(").replace(")", r"\)")):
+    with pytest.raises(
+        judo.ConfigError, match=f"^{message}$".replace("(", r"\(").replace(")", r"\)")
+    ):
         judo.ControllerConfig(**updates)
 
 
@@ -87,11 +99,19 @@ def test_optimizer_config_bounds_name_the_valid_range(updates, message):
         MPPIConfig(**updates)
 
 
-def test_65536_rollouts_are_allowed_but_buffers_beyond_the_memory_limit_are_refused_before_allocating(upright_task):
+def test_65536_rollouts_are_allowed_but_buffers_beyond_the_memory_limit_are_refused_before_allocating(  # noqa: E501
+    upright_task,
+):
     controller_config = judo.ControllerConfig(horizon=1.0)  # 100 steps of the tiny cart-pole
     check_configs(upright_task, controller_config, MPPIConfig(num_rollouts=65536))
-    with pytest.raises(judo.ConfigError, match=r"would need .* GiB of rollout buffers, more than the 4 GiB limit"):
-        check_configs(upright_task, judo.ControllerConfig(horizon=60.0), MPPIConfig(num_rollouts=2**20))
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"would need .* GiB of rollout "
+        r"buffers, more than the 4 GiB limit",
+    ):
+        check_configs(
+            upright_task, judo.ControllerConfig(horizon=60.0), MPPIConfig(num_rollouts=2**20)
+        )
     assert MAX_ROLLOUT_BYTES == 4 * 2**30
 
 
@@ -104,10 +124,17 @@ def small_controller(task, **optimizer_fields):
 
 @pytest.mark.parametrize(
     ("kind", "field", "bad"),
-    [("controller", "horizon", np.inf), ("optimizer", "num_nodes", 10**6), ("optimizer", "num_rollouts", 10**7)],
+    [
+        ("controller", "horizon", np.inf),
+        ("optimizer", "num_nodes", 10**6),
+        ("optimizer", "num_rollouts", 10**7),
+    ],
 )
-def test_a_refused_live_edit_keeps_the_layout_and_reverting_it_plans_again(upright_task, kind, field, bad):
-    """A config edited in place (bypassing validation) is refused each cycle; reverting it resumes planning."""
+def test_a_refused_live_edit_keeps_the_layout_and_reverting_it_plans_again(
+    upright_task, kind, field, bad
+):
+    """A config edited in place (bypassing validation) is refused each cycle; reverting it resumes
+    planning."""
     controller = small_controller(upright_task)
     try:
         state = np.zeros(4)
@@ -121,7 +148,10 @@ def test_a_refused_live_edit_keeps_the_layout_and_reverting_it_plans_again(uprig
         assert controller.action(0.02).shape == (1,)  # the previous plan is still served
         setattr(config, field, good)
         plan = controller.update_action(state, 0.04)
-        assert np.isfinite(plan.knots).all() and plan.knots.shape == (controller.optimizer.num_nodes, 1)
+        assert np.isfinite(plan.knots).all() and plan.knots.shape == (
+            controller.optimizer.num_nodes,
+            1,
+        )
     finally:
         controller.close()
 
@@ -132,7 +162,9 @@ def test_a_nan_sigma_never_reaches_the_plan_and_reverting_it_plans_again(upright
         state = np.zeros(4)
         previous = controller.update_action(state, 0.0).knots.copy()
         controller.optimizer.config.sigma = np.nan  # an in-place edit that skips validation
-        with pytest.raises(NonFiniteKnotsError, match="sample_control_knots returned non-finite knots"):
+        with pytest.raises(
+            NonFiniteKnotsError, match="sample_control_knots returned non-finite knots"
+        ):
             controller.update_action(state, 0.02)
         np.testing.assert_array_equal(controller.nominal_knots, np.clip(previous, -1, 1))
         assert np.isfinite(controller.action(0.03)).all()
@@ -147,7 +179,9 @@ def test_a_cem_whose_search_went_nan_is_restarted(upright_task):
     from judo.optimizers.cem import CEM
 
     optimizer = CEM(CEMConfig(num_rollouts=8, num_elites=2), upright_task.nu)
-    controller = judo.Controller(judo.ControllerConfig(horizon=0.3), upright_task, optimizer, num_workers=1)
+    controller = judo.Controller(
+        judo.ControllerConfig(horizon=0.3), upright_task, optimizer, num_workers=1
+    )
     try:
         controller.update_action(np.zeros(4), 0.0)
         optimizer.sigma[:] = np.nan  # a corrupted carried distribution
@@ -160,7 +194,8 @@ def test_a_cem_whose_search_went_nan_is_restarted(upright_task):
 
 @pytest.mark.parametrize("config_cls", every_config_class(), ids=lambda cls: cls.__name__)
 def test_every_float_field_refuses_a_magnitude_whose_use_overflows(config_cls):
-    """1e308 weights, noise or goals pass "finite" but overflow every planning cycle: one bound, every field."""
+    """1e308 weights, noise or goals pass "finite" but overflow every planning cycle: one bound,
+    every field."""
     from judo.core.configuration.config import MAX_MAGNITUDE
 
     config = config_cls()
@@ -170,10 +205,16 @@ def test_every_float_field_refuses_a_magnitude_whose_use_overflows(config_cls):
             continue
         for bad in (1e308, -1e308, 10 * MAX_MAGNITUDE):
             bad_value = np.full_like(value, bad) if isinstance(value, np.ndarray) else bad
-            with pytest.raises(judo.ConfigError, match=field.name):  # by its own range, or else the bound
+            # by its own range, or else the bound
+            with pytest.raises(judo.ConfigError, match=field.name):
                 with_updates(config, {field.name: bad_value})
-    weights = judo.get_registered_tasks()["cartpole"][1]()  # fields with no range of their own: the bound names it
-    with pytest.raises(judo.ConfigError, match=r"CartpoleConfig.w_vertical must be of magnitude at most 1e\+09"):
+    # fields with no range of their own: the bound names it
+    weights = judo.get_registered_tasks()["cartpole"][1]()
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"CartpoleConfig.w_vertical must "
+        r"be of magnitude at most 1e\+09",
+    ):
         with_updates(weights, {"w_vertical": -1e308})
 
 
@@ -218,4 +259,5 @@ def test_snapshot_is_copy_copy_with_its_arrays_copied(config):
         got, want = getattr(copied, field.name), getattr(expected, field.name)
         assert np.array_equal(got, want)
         if isinstance(want, np.ndarray):
-            assert got is not getattr(config, field.name)  # later edits of the original cannot reach it
+            # later edits of the original cannot reach it
+            assert got is not getattr(config, field.name)

@@ -1,4 +1,5 @@
-"""TOML config files: registration by import path, overrides, and one clear message per kind of mistake."""
+"""TOML config files: registration by import path, overrides, and one clear message per kind of
+mistake."""
 
 import textwrap
 
@@ -91,16 +92,22 @@ def test_a_full_file_registers_and_overrides(user_dir):
 @pytest.mark.parametrize(
     ("body", "message"),
     [
-        ('tsk = "cartpole"', r"unknown top-level key 'tsk'; valid keys are: task, optimizer, custom_tasks"),
+        (
+            'tsk = "cartpole"',
+            r"unknown top-level key 'tsk'; valid "
+            r"keys are: task, optimizer, custom_tasks",
+        ),
         ("task = [", r"TOML syntax error: .*line 1"),
         ('task = "cartpole"\noptimizer = = "ps"', r"TOML syntax error: .*at line 2, column"),
         (
             '[custom_tasks.x]\ntask = "nowhere_module.T"\nconfig = "nowhere_module.C"',
-            r"\[custom_tasks.x\]: cannot import module 'nowhere_module' \(named by task = \"nowhere_module.T\"\)",
+            r"\[custom_tasks.x\]: cannot import module 'nowhere_module' \(named by "
+            r"task = \"nowhere_module.T\"\)",
         ),
         (
             '[custom_tasks.x]\ntask = "{module}.Missing"\nconfig = "{module}.MyTaskConfig"',
-            r"module '{module}' has no attribute 'Missing' \(named by task = \"{module}.Missing\"\)",
+            r"module '{module}' has no attribute 'Missing' \(named by task = "
+            r"\"{module}.Missing\"\)",
         ),
         (
             '[custom_tasks.x]\ntask = "{module}.NotATask"\nconfig = "{module}.MyTaskConfig"',
@@ -108,7 +115,8 @@ def test_a_full_file_registers_and_overrides(user_dir):
         ),
         (
             "[controller_config_overrides.cartpole]\nhorizn = 1.0",
-            r"\[controller_config_overrides.cartpole\]: unknown field of ControllerConfig 'horizn'; .*horizon",
+            r"\[controller_config_overrides.cartpole\]: unknown field of "
+            r"ControllerConfig 'horizn'; .*horizon",
         ),
         (
             '[controller_config_overrides.cartpole]\nhorizon = "long"',
@@ -155,12 +163,19 @@ def test_the_all_section_sets_every_optimizers_base_fields_and_a_named_one_wins(
 
 def test_an_unknown_optimizer_section_lists_all_among_the_valid_names(tmp_path):
     path = write(tmp_path, "[optimizer_config_overrides.pendulum.mpi]\nsigma = 0.1\n")
-    with pytest.raises(judo.ConfigFileError, match=r"unknown optimizer 'mpi'; valid optimizers are: all, cbo, cem"):
+    with pytest.raises(
+        judo.ConfigFileError,
+        match=r"unknown optimizer 'mpi'; valid "
+        r"optimizers are: all, cbo, cem",
+    ):
         judo.load_config(path)
 
 
-def test_a_per_optimizer_controller_section_applies_after_the_task_wide_one_and_to_that_optimizer_only(tmp_path):
-    judo.register_task("per_optimizer_task", *judo.get_registered_tasks()["cartpole"])  # overrides need a task
+def test_a_per_optimizer_controller_section_applies_after_the_task_wide_one_and_to_that_optimizer_only(  # noqa: E501
+    tmp_path,
+):
+    # overrides need a task
+    judo.register_task("per_optimizer_task", *judo.get_registered_tasks()["cartpole"])
     path = write(
         tmp_path,
         """
@@ -181,7 +196,11 @@ def test_a_per_optimizer_controller_section_applies_after_the_task_wide_one_and_
     with judo.make_controller("cartpole", "ps", num_workers=1) as ps_controller:
         assert ps_controller.config.horizon == 0.9
     with judo.make_controller("cartpole", "cem", num_workers=1) as cem_controller:
-        assert cem_controller.config.horizon == make_config(judo.ControllerConfig, "cartpole").horizon != 0.9
+        assert (
+            cem_controller.config.horizon
+            == make_config(judo.ControllerConfig, "cartpole").horizon
+            != 0.9
+        )
 
 
 @pytest.mark.parametrize(
@@ -189,11 +208,13 @@ def test_a_per_optimizer_controller_section_applies_after_the_task_wide_one_and_
     [
         (
             "[controller_config_overrides.cartpole.mpi]\nhorizon = 1.0",
-            r"\[controller_config_overrides.cartpole.mpi\]: unknown optimizer 'mpi'; valid optimizers are: .*mppi",
+            r"\[controller_config_overrides.cartpole.mpi\]: unknown optimizer 'mpi'; "
+            r"valid optimizers are: .*mppi",
         ),
         (
             "[controller_config_overrides.cartpole.ps]\nhorizn = 1.0",
-            r"\[controller_config_overrides.cartpole.ps\]: unknown field of ControllerConfig 'horizn'; .*horizon",
+            r"\[controller_config_overrides.cartpole.ps\]: unknown field of "
+            r"ControllerConfig 'horizn'; .*horizon",
         ),
     ],
 )

@@ -1,4 +1,5 @@
-"""A config file's user code: its errors keep the user's own lines, and its folder shadows no installed package."""
+"""A config file's user code: its errors keep the user's own lines, and its folder shadows no
+installed package."""
 
 import os
 import subprocess
@@ -18,7 +19,9 @@ def write_module_and_config(directory: Path, module: str, source: str, **sibling
     for name, text in siblings.items():
         (directory / f"{name}.py").write_text(textwrap.dedent(text))
     path = directory / "judo.toml"
-    path.write_text(f'[custom_tasks.mine]\ntask = "{module}.MyTask"\nconfig = "{module}.MyConfig"\n')
+    path.write_text(
+        f'[custom_tasks.mine]\ntask = "{module}.MyTask"\nconfig = "{module}.MyConfig"\n'
+    )
     return path
 
 
@@ -33,7 +36,8 @@ def test_a_syntax_error_names_the_file_the_entry_and_the_users_line(tmp_path):
         judo.load_config(path)
     message = str(caught.value)
     assert message.startswith(
-        f'{path}: [custom_tasks.mine]: importing module {module!r} (named by task = "{module}.MyTask") failed:\n'
+        f"{path}: [custom_tasks.mine]: importing module {module!r} (named by task = "
+        f'"{module}.MyTask") failed:\n'
     )
     assert f'File "{tmp_path / module}.py", line 3' in message
     assert "def reward(x:" in message and "SyntaxError: " in message
@@ -82,13 +86,16 @@ def test_a_user_module_still_imports_its_sibling_files(tmp_path, tiny_model_path
 
 
 def test_a_file_beside_the_config_does_not_shadow_an_installed_package(tmp_path):
-    """websockets.py beside judo.toml, not named in it, must not replace the installed websockets."""
+    """websockets.py beside judo.toml, not named in it, must not replace the installed
+    websockets."""
     (tmp_path / "websockets.py").write_text("raise SystemExit('the shadowing websockets.py ran')\n")
     (tmp_path / "judo.toml").write_text('task = "cartpole"\n')
     script = (
-        "import judo, websockets; judo.load_config('judo.toml'); import websockets.sync; print(websockets.__file__)"
+        "import judo, websockets; judo.load_config('judo.toml'); import websockets.sync; "
+        "print(websockets.__file__)"
     )
-    env = {**os.environ, "PYTHONPATH": SRC, "PYTHONSAFEPATH": "1"}  # safe path: no cwd entry from -c itself
+    # safe path: no cwd entry from -c itself
+    env = {**os.environ, "PYTHONPATH": SRC, "PYTHONSAFEPATH": "1"}
     result = subprocess.run(
         [sys.executable, "-c", script.replace("import judo, websockets;", "import judo;")],
         cwd=tmp_path,
@@ -105,7 +112,11 @@ def test_a_named_module_hidden_by_an_installed_one_is_explained(tmp_path):
     (tmp_path / "json.py").write_text("class MyTask: pass\nclass MyConfig: pass\n")
     path = tmp_path / "judo.toml"
     path.write_text('[custom_tasks.mine]\ntask = "json.MyTask"\nconfig = "json.MyConfig"\n')
-    with pytest.raises(judo.ConfigFileError, match=r"names .*json.py, but 'json' is also an installed module .*rename"):
+    with pytest.raises(
+        judo.ConfigFileError,
+        match=r"names .*json.py, but 'json' is "
+        r"also an installed module .*rename",
+    ):
         judo.load_config(path)
 
 
@@ -117,7 +128,11 @@ def test_a_named_module_hidden_by_an_installed_one_is_explained(tmp_path):
             "sigma = nan",
             "MPPIConfig.sigma expects a finite number, got nan",
         ),
-        ("controller_config_overrides.cartpole", "horizon = inf", "ControllerConfig.horizon expects a finite number"),
+        (
+            "controller_config_overrides.cartpole",
+            "horizon = inf",
+            "ControllerConfig.horizon expects a finite number",
+        ),
         (
             "optimizer_config_overrides.cartpole.mppi",
             "num_rollouts = 10000000",
@@ -133,11 +148,21 @@ def test_a_named_module_hidden_by_an_installed_one_is_explained(tmp_path):
             "max_opt_iters = -1",
             "max_opt_iters must be between 1 and 100, got -1",
         ),
-        ("task_config_overrides.cartpole", "w_centered = -inf", "CartpoleConfig.w_centered expects a finite number"),
-        ("optimizer_config_overrides.cartpole.cem", "num_nodes = 1e6", "num_nodes must be between 1 and 100"),
+        (
+            "task_config_overrides.cartpole",
+            "w_centered = -inf",
+            "CartpoleConfig.w_centered expects a finite number",
+        ),
+        (
+            "optimizer_config_overrides.cartpole.cem",
+            "num_nodes = 1e6",
+            "num_nodes must be between 1 and 100",
+        ),
     ],
 )
-def test_bad_numbers_in_a_file_are_refused_at_load_naming_the_file_entry_and_range(tmp_path, section, line, message):
+def test_bad_numbers_in_a_file_are_refused_at_load_naming_the_file_entry_and_range(
+    tmp_path, section, line, message
+):
     path = tmp_path / "judo.toml"
     path.write_text(f"[{section}]\n{line}\n")
     with pytest.raises(judo.ConfigFileError) as caught:

@@ -1,4 +1,5 @@
-"""`with` closes what it opened: a rollout backend's threads, and a Controller's backend, also on an error."""
+"""`with` closes what it opened: a rollout backend's threads, and a Controller's backend, also on an
+error."""
 
 import mujoco
 import numpy as np
@@ -16,7 +17,9 @@ def zero_state(model: mujoco.MjModel) -> np.ndarray:
 
 def assert_pool_closed(pool: RolloutPool) -> None:
     """The pool's worker threads have ended and it takes no more work."""
-    assert pool._executor._threads and not any(thread.is_alive() for thread in pool._executor._threads)
+    assert pool._executor._threads and not any(
+        thread.is_alive() for thread in pool._executor._threads
+    )
     with pytest.raises(RuntimeError, match="cannot schedule new work after shutdown"):
         pool.rollout(zero_state(pool.model), np.zeros((4, 3, pool.model.nu)))
 
@@ -33,7 +36,10 @@ def test_with_a_rollout_pool_stops_its_threads(tiny_model_path):
 
 def test_an_error_inside_the_with_still_closes_the_pool_and_is_raised(tiny_model_path):
     model = mujoco.MjModel.from_xml_path(str(tiny_model_path))
-    with pytest.raises(ValueError, match="raised inside"), RolloutPool(model, num_workers=2) as pool:
+    with (
+        pytest.raises(ValueError, match="raised inside"),
+        RolloutPool(model, num_workers=2) as pool,
+    ):
         pool.rollout(zero_state(model), np.ones((4, 3, model.nu)))
         raise ValueError("raised inside")
     assert_pool_closed(pool)

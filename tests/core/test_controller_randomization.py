@@ -1,5 +1,5 @@
-"""The controller under randomized models: R = 1 is today's plan bit for bit, R models reduce by the risk
-measure, the models are seeded and redrawn on schedule, and the settings are validated."""
+"""The controller under randomized models: R = 1 is today's plan bit for bit, R models reduce by the
+risk measure, the models are seeded and redrawn on schedule, and the settings are validated."""
 
 import mujoco
 import numpy as np
@@ -14,17 +14,22 @@ from tests.core.test_randomized_rollouts import MassyTask
 
 
 def ps_optimizer(nu, seed=0):
-    optimizer = PredictiveSampling(PredictiveSamplingConfig(num_rollouts=8, num_nodes=4, sigma=0.5), nu)
+    optimizer = PredictiveSampling(
+        PredictiveSamplingConfig(num_rollouts=8, num_nodes=4, sigma=0.5), nu
+    )
     optimizer.rng = np.random.default_rng(seed)
     return optimizer
 
 
 def reference_plan(task, state, iterations):
-    """Plain loop without randomization: sample, clamp, interpolate, roll out, score, update (one cycle)."""
+    """Plain loop without randomization: sample, clamp, interpolate, roll out, score, update (one
+    cycle)."""
     optimizer = ps_optimizer(task.nu)
     config = judo.ControllerConfig(horizon=0.3, max_opt_iters=iterations)
     offsets = np.linspace(0.0, config.horizon, optimizer.num_nodes)
-    weights = SplineBasis(offsets, config.spline_order).weights(np.arange(round(config.horizon / task.dt)) * task.dt)
+    weights = SplineBasis(offsets, config.spline_order).weights(
+        np.arange(round(config.horizon / task.dt)) * task.dt
+    )
     data = mujoco.MjData(task.model)
     data.qpos[:], data.qvel[:] = state[: task.model.nq], state[task.model.nq :]
     initial = np.zeros(mujoco.mj_stateSize(task.model, STATE_SPEC))
@@ -54,20 +59,26 @@ def test_one_randomization_is_todays_plan_bit_for_bit(tiny_model_path):
     )
     controller.update_action(state, 0.0)
     controller.close()
-    np.testing.assert_array_equal(controller.nominal_knots, reference_plan(MassyTask(tiny_model_path), state, 3))
+    np.testing.assert_array_equal(
+        controller.nominal_knots, reference_plan(MassyTask(tiny_model_path), state, 3)
+    )
     assert len(controller.models) == 1 and controller.models[0] is task.model
 
 
 def test_identical_models_averaged_give_the_single_model_plan(upright_task, tiny_model_path):
-    """With the no-op hook every model is the planning model, so (r + r) / 2 = r: the same plan, which
-    checks that block r of the batch is every sequence under model r, in order."""
+    """With the no-op hook every model is the planning model, so (r + r) / 2 = r: the same plan,
+    which checks that block r of the batch is every sequence under model r, in order."""
     plans = []
     for num_models in (1, 2):
         config = judo.ControllerConfig(horizon=0.3, max_opt_iters=2, num_randomizations=num_models)
-        controller = judo.Controller(config, type(upright_task)(tiny_model_path), ps_optimizer(1), 2)
+        controller = judo.Controller(
+            config, type(upright_task)(tiny_model_path), ps_optimizer(1), 2
+        )
         for step in range(3):
             controller.update_action(np.array([0.0, 0.3, 0.0, 0.0]), 0.05 * step)
-        plans.append((controller.nominal_knots.copy(), controller.rewards.copy(), controller.traces.copy()))
+        plans.append(
+            (controller.nominal_knots.copy(), controller.rewards.copy(), controller.traces.copy())
+        )
         controller.close()
     for single, double in zip(*plans, strict=True):
         np.testing.assert_array_equal(single, double)
@@ -89,7 +100,8 @@ def test_rewards_are_reduced_by_the_risk_measure(tiny_model_path):
         controller.close()
         per_model = seen["rewards"].reshape(3, 8).T  # (num_rollouts, R)
         np.testing.assert_array_equal(controller.rewards, reduce(per_model, axis=1))
-        np.testing.assert_array_equal(seen["controls"][:8], seen["controls"][8:16])  # each sequence once per model
+        # each sequence once per model
+        np.testing.assert_array_equal(seen["controls"][:8], seen["controls"][8:16])
         assert not np.array_equal(per_model[:, 0], per_model[:, 1])  # the models really differ
         assert controller.traces.shape[0] == 1 + 5
 
@@ -111,7 +123,11 @@ def test_models_are_seeded_by_the_task_generator_and_redrawn_on_schedule(tiny_mo
     assert kept == pole_masses(3, 0, 4) and kept != pole_masses(4, 0, 4)
     assert len(set(kept)) == 1 and kept[0][0] == 0.1  # drawn once; model 0 is the planning model
     redrawn = pole_masses(3, 2, 5)
-    assert redrawn[0] == redrawn[1] == kept[0] and redrawn[2] == redrawn[3] != redrawn[1] and redrawn[4] != redrawn[3]
+    assert (
+        redrawn[0] == redrawn[1] == kept[0]
+        and redrawn[2] == redrawn[3] != redrawn[1]
+        and redrawn[4] != redrawn[3]
+    )
 
 
 @pytest.mark.parametrize(
@@ -122,7 +138,8 @@ def test_models_are_seeded_by_the_task_generator_and_redrawn_on_schedule(tiny_mo
         ({"cvar_alpha": 1.5}, "cvar_alpha must be in (0, 1], got 1.5"),
         (
             {"risk_scale": 0.0},
-            "risk_scale must be a finite nonzero number (> 0 risk-averse, < 0 risk-seeking), got 0.0",
+            "risk_scale must be a finite nonzero number (> 0 risk-averse, < 0 "
+            "risk-seeking), got 0.0",
         ),
         ({"redraw_every": -1}, "redraw_every must be at least 0 (0: draw once), got -1"),
     ],
@@ -138,6 +155,7 @@ def test_risk_choices_are_listed():
 
     with pytest.raises(
         judo.ConfigError,
-        match=r"ControllerConfig.risk expects one of \['average', 'worst', 'best', 'cvar', 'exponential'\], got 'mean'",
+        match=r"ControllerConfig.risk expects one of \['average', 'worst', 'best', 'cvar', "
+        r"'exponential'\], got 'mean'",
     ):
         with_updates(judo.ControllerConfig(), {"risk": "mean"})

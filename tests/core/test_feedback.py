@@ -1,4 +1,5 @@
-"""Feedback gains on the served plan: the TVLQR backward pass, the derivatives, serving, and failing safely."""
+"""Feedback gains on the served plan: the TVLQR backward pass, the derivatives, serving, and failing
+safely."""
 
 import mujoco
 import numpy as np
@@ -29,8 +30,8 @@ SLIDER = f"""
 
 
 def dare_gain(a: np.ndarray, b: np.ndarray, q: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """The infinite-horizon discrete LQR gain K (u = K x) from the stable eigenvectors of the symplectic matrix,
-    a method apart from the backward recursion."""
+    """The infinite-horizon discrete LQR gain K (u = K x) from the stable eigenvectors of the
+    symplectic matrix, a method apart from the backward recursion."""
     n = len(a)
     a_inv_t = np.linalg.inv(a).T
     g = b @ np.linalg.solve(r, b.T)
@@ -55,8 +56,13 @@ def test_gains_of_a_linear_system_match_the_discrete_riccati_solution() -> None:
     gains_of = FeedbackGains(None, num_workers=2, model=model)
     try:  # every step linearised: the exact per-step recursion
         start = initial_state(model, [0.0], [0.0])
-        gains, nominal = gains_of.compute(start, np.zeros(0), np.zeros((2000, 1)), q, r, max_points=2000)
-        held, _ = gains_of.compute(start, np.zeros(0), np.zeros((2000, 1)), q, r, 400, exact_steps=0)  # 5 steps each
+        gains, nominal = gains_of.compute(
+            start, np.zeros(0), np.zeros((2000, 1)), q, r, max_points=2000
+        )
+        # 5 steps each
+        held, _ = gains_of.compute(
+            start, np.zeros(0), np.zeros((2000, 1)), q, r, 400, exact_steps=0
+        )
     finally:
         gains_of.close()
     # Euler on a free mass: v' = v + h u / m, x' = x + h v'.
@@ -64,28 +70,39 @@ def test_gains_of_a_linear_system_match_the_discrete_riccati_solution() -> None:
     b = np.array([[TIMESTEP**2 / MASS], [TIMESTEP / MASS]])
     expected = dare_gain(a, b, np.diag(q), np.diag(r))
     assert gains.shape == (2000, 1, 2) and nominal.shape == (2000, 2)
-    np.testing.assert_array_equal(nominal, 0.0)  # no control: the nominal rests at the origin, where FD is exact
+    # no control: the nominal rests at the origin, where FD is exact
+    np.testing.assert_array_equal(nominal, 0.0)
     np.testing.assert_allclose(gains[0], expected, rtol=1e-6, atol=1e-6)
-    # The backward pass alone, on the exact matrices, converges to the same gain (20 s: long enough to converge).
+    # The backward pass alone, on the exact matrices, converges to the same gain (20 s: long enough
+    # to converge).
     exact = tvlqr_gains(np.repeat(a[None], 2000, 0), np.repeat(b[None], 2000, 0), q, r, q)
     np.testing.assert_allclose(exact[0], expected, rtol=1e-9, atol=1e-9)
-    # A linearisation standing for 5 steps sets their one gain: the Riccati gain of the 5-step map with the
-    # correction held, x -> A^5 x + (I + A + ... + A^4) B u, at 5 times the running cost.
+    # A linearisation standing for 5 steps sets their one gain: the Riccati gain of the 5-step map
+    # with the correction held, x -> A^5 x + (I + A + ... + A^4) B u, at 5 times the running cost.
     lifted_a = np.linalg.matrix_power(a, 5)
     lifted_b = sum(np.linalg.matrix_power(a, j) for j in range(5)) @ b
     expected_held = dare_gain(lifted_a, lifted_b, 5 * np.diag(q), 5 * np.diag(r))
     assert held.shape == (2000, 1, 2)
     np.testing.assert_array_equal(held[:5], np.repeat(held[:1], 5, axis=0))
     np.testing.assert_allclose(held[0], expected_held, rtol=1e-6, atol=1e-6)
-    assert not np.allclose(expected_held, expected, rtol=1e-3)  # a different law from the per-step one
+    # a different law from the per-step one
+    assert not np.allclose(expected_held, expected, rtol=1e-3)
 
 
-def test_a_model_that_yields_nan_fails_with_a_named_error_and_nan_in_the_backward_pass_too() -> None:
+def test_a_model_that_yields_nan_fails_with_a_named_error_and_nan_in_the_backward_pass_too() -> (
+    None
+):
     model = mujoco.MjModel.from_xml_string(SLIDER.format(damping=0))
     model.dof_damping[0] = np.nan
     gains_of = FeedbackGains(None, num_workers=1, model=model)
     with pytest.raises(FeedbackError, match="diverged|non-finite"):
-        gains_of.compute(initial_state(model, [0.0], [0.0]), np.zeros(0), np.zeros((10, 1)), np.ones(2), np.ones(1))
+        gains_of.compute(
+            initial_state(model, [0.0], [0.0]),
+            np.zeros(0),
+            np.zeros((10, 1)),
+            np.ones(2),
+            np.ones(1),
+        )
     gains_of.close()
     a = np.full((3, 2, 2), np.nan)
     with pytest.raises(FeedbackError, match="non-finite gains"):
@@ -93,7 +110,8 @@ def test_a_model_that_yields_nan_fails_with_a_named_error_and_nan_in_the_backwar
 
 
 def test_a_singular_backward_pass_is_a_feedback_error(monkeypatch: pytest.MonkeyPatch) -> None:
-    # LAPACK calls a zero pivot singular (seen once on walker's held gains): the update's plan goes without gains.
+    # LAPACK calls a zero pivot singular (seen once on walker's held gains): the update's plan goes
+    # without gains.
     def singular(*args: object) -> None:
         raise np.linalg.LinAlgError("Singular matrix")
 
@@ -104,9 +122,12 @@ def test_a_singular_backward_pass_is_a_feedback_error(monkeypatch: pytest.Monkey
 
 
 def upright_loop(feedback_on_serve: bool) -> tuple[ClosedLoop, np.ndarray]:
-    """A cartpole held upright by one plan (made from rest at upright, never replanned), its plant then pushed."""
+    """A cartpole held upright by one plan (made from rest at upright, never replanned), its plant
+    then pushed."""
     config = ControllerConfig(horizon=1.0, control_freq=0.2, feedback=True, max_plan_age=0.0)
-    controller = judo.make_controller("cartpole", "mppi", controller_config=config, num_workers=2, seed=0)
+    controller = judo.make_controller(
+        "cartpole", "mppi", controller_config=config, num_workers=2, seed=0
+    )
     plant = Cartpole()
     plant.data.qpos[:], plant.data.qvel[:] = [0.0, 0.0], [0.0, 0.0]
     mujoco.mj_forward(plant.sim_model, plant.data)
@@ -143,9 +164,15 @@ class NanCostCartpole(Cartpole):
 def test_gains_are_finite_and_bounded_and_a_failed_update_serves_the_plan_without_them() -> None:
     config = ControllerConfig(horizon=0.5, feedback=True)
     state = np.array([0.0, 0.1, 0.0, 0.0])
-    with judo.make_controller("cartpole", "mppi", controller_config=config, num_workers=2, seed=1) as controller:
+    with judo.make_controller(
+        "cartpole", "mppi", controller_config=config, num_workers=2, seed=1
+    ) as controller:
         plan = controller.update_action(state, 0.0)
-        assert isinstance(plan, FeedbackPlan) and plan.feedback_error is None and plan.gains is not None
+        assert (
+            isinstance(plan, FeedbackPlan)
+            and plan.feedback_error is None
+            and plan.gains is not None
+        )
         assert plan.gains.shape == (50, 1, 4) and np.isfinite(plan.gains).all()
         assert np.abs(plan.gains).max() < 1e3
         pushed = state + np.array([0.0, 0.05, 0.0, 0.0])
@@ -155,26 +182,37 @@ def test_gains_are_finite_and_bounded_and_a_failed_update_serves_the_plan_withou
         far = plan(0.02, state + 100.0)
         low, high = controller.task.command_range.T
         assert np.all((far >= low) & (far <= high))  # clamped to the actuator range
-        # (what serving with gains costs is a figure: benchmarks/feedback.py --timing-only prints it)
+        # (what serving with gains costs is a figure: benchmarks/feedback.py --timing-only prints
+        # it)
     task = NanCostCartpole()
     optimizer = MPPI(MPPIConfig(num_rollouts=16), task.nu)
     with judo.Controller(config, task, optimizer, num_workers=2) as controller:
         plan = controller.update_action(state, 0.0)
         assert isinstance(plan, FeedbackPlan) and plan.gains is None
         assert plan.feedback_error == "feedback_cost's control weights must be finite and above 0"
-        np.testing.assert_array_equal(plan(0.02, state + 0.05), plan(0.02))  # the plan alone is served
+        # the plan alone is served
+        np.testing.assert_array_equal(plan(0.02, state + 0.05), plan(0.02))
 
 
 def test_a_free_joint_s_deviation_is_taken_in_the_tangent_space() -> None:
     with judo.make_controller(
-        "quadruped", "mppi", controller_config=ControllerConfig(feedback=True), num_workers=2, seed=0
+        "quadruped",
+        "mppi",
+        controller_config=ControllerConfig(feedback=True),
+        num_workers=2,
+        seed=0,
     ) as controller:
         controller.task.reset()
         data = controller.task.data
         state = np.concatenate([data.qpos, data.qvel])
         plan = controller.update_action(state, 0.0, controller.task.get_sim_metadata())
-        assert isinstance(plan, FeedbackPlan) and plan.gains is not None and plan.nominal_states is not None
-        assert plan.gains.shape[1:] == (controller.task.nu, 2 * controller.task.model.nv)  # 3 + 3 for the free joint
+        assert (
+            isinstance(plan, FeedbackPlan)
+            and plan.gains is not None
+            and plan.nominal_states is not None
+        )
+        # 3 + 3 for the free joint
+        assert plan.gains.shape[1:] == (controller.task.nu, 2 * controller.task.model.nv)
         nominal = plan.nominal_states[0]
         np.testing.assert_allclose(plan(0.0, nominal), plan(0.0), atol=1e-12)
         flipped = nominal.copy()
@@ -182,7 +220,10 @@ def test_a_free_joint_s_deviation_is_taken_in_the_tangent_space() -> None:
         np.testing.assert_allclose(plan(0.0, flipped), plan(0.0), atol=1e-9)
         yawed = nominal.copy()
         mujoco.mj_integratePos(
-            controller.task.model, yawed[: controller.task.model.nq], np.r_[0, 0, 0, 0, 0, 0.05, np.zeros(12)], 1.0
+            controller.task.model,
+            yawed[: controller.task.model.nq],
+            np.r_[0, 0, 0, 0, 0, 0.05, np.zeros(12)],
+            1.0,
         )
         dx = np.zeros(2 * controller.task.model.nv)
         dx[5] = 0.05

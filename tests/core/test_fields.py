@@ -38,7 +38,11 @@ def test_a_slider_on_a_misspelt_field_below_dataclass_raises_the_same():
 
 
 def test_a_name_with_no_close_field_gets_no_guess():
-    with pytest.raises(judo.ConfigError, match=r"has no field 'zzz'; expected one of its fields: w_goal$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"has no field 'zzz'; expected "
+        r"one of its fields: w_goal$",
+    ):
 
         @judo.slider("zzz", 0.0, 1.0)
         @dataclass

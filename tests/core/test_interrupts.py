@@ -1,4 +1,5 @@
-"""The shared Ctrl-C helpers: a SIGINT inside the block is held, then reported (flag) or raised (deferred)."""
+"""The shared Ctrl-C helpers: a SIGINT inside the block is held, then reported (flag) or raised
+(deferred)."""
 
 import os
 import signal

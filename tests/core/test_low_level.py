@@ -1,5 +1,6 @@
-"""A low-level policy inside every rollout: the chunked, batched rollout equals a plain mj_step loop bit for bit,
-the policy is called once per tick for all rollouts, sizes are checked at construction, and the plant runs it."""
+"""A low-level policy inside every rollout: the chunked, batched rollout equals a plain mj_step loop
+bit for bit, the policy is called once per tick for all rollouts, sizes are checked at construction,
+and the plant runs it."""
 
 import math
 
@@ -11,12 +12,18 @@ import judo
 from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
 from judo.core.rollouts.backend import RolloutBackend
-from judo.core.rollouts.low_level import LowLevel, LowLevelBackendError, LowLevelRollout, with_low_level
+from judo.core.rollouts.low_level import (
+    LowLevel,
+    LowLevelBackendError,
+    LowLevelRollout,
+    with_low_level,
+)
 from judo.core.rollouts.rollout import RolloutPool
 from judo.loop.system import MujocoSystem
 from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
-# A cart on a limited rail (its limit is active in the test's states, so the solver has work) and a pole.
+# A cart on a limited rail (its limit is active in the test's states, so the solver has work) and a
+# pole.
 LIMITED_XML = """
 <mujoco>
   <option timestep="0.01"/>
@@ -34,12 +41,12 @@ LIMITED_XML = """
   <actuator><motor joint="slider" gear="10" ctrlrange="-1 1" ctrllimited="true"/></actuator>
   <sensor><framepos name="trace_tip" objtype="site" objname="tip"/></sensor>
 </mujoco>
-"""
+"""  # noqa: E501
 
 
 class RowwiseLinear(Policy):
-    """tanh(W obs + b), each row computed alone (so a batch of one gives the same bits as a row of a batch of N);
-    counts its calls and their batch sizes."""
+    """tanh(W obs + b), each row computed alone (so a batch of one gives the same bits as a row of a
+    batch of N); counts its calls and their batch sizes."""
 
     def __init__(self, weight: np.ndarray, bias: np.ndarray) -> None:
         self.weight, self.bias = np.asarray(weight, float), np.asarray(bias, float)
@@ -64,7 +71,11 @@ def make_low_level(every: int, seed: int = 0) -> LowLevel:
     rng = np.random.default_rng(seed)
     policy = RowwiseLinear(rng.normal(0.0, 1.0, (2, 2 + 4 + 2 + 1)), rng.normal(0.0, 0.1, 2))
     return LowLevel(
-        policy, command_range=[[-0.5, 0.5], [-1.0, 1.0]], every=every, observation=with_previous, to_ctrl=to_ctrl
+        policy,
+        command_range=[[-0.5, 0.5], [-1.0, 1.0]],
+        every=every,
+        observation=with_previous,
+        to_ctrl=to_ctrl,
     )
 
 
@@ -74,8 +85,8 @@ def to_ctrl(actions):
 
 
 def reference(model, low, initial_state, commands):
-    """One rollout at a time: mj_step per step, the policy on a batch of one every k steps (and, as MuJoCo's
-    rollout does at the start of each chunk, a cold solver start)."""
+    """One rollout at a time: mj_step per step, the policy on a batch of one every k steps (and, as
+    MuJoCo's rollout does at the start of each chunk, a cold solver start)."""
     data = mujoco.MjData(model)
     num_rollouts, num_steps, _ = commands.shape
     states = np.zeros((num_rollouts, num_steps, mujoco.mj_stateSize(model, STATE_SPEC)))
@@ -87,7 +98,9 @@ def reference(model, low, initial_state, commands):
             if t % low.every == 0:
                 state = np.concatenate([data.qpos, data.qvel])[None]
                 times = np.array([data.time])
-                previous = low.policy.act(low.observe(commands[i : i + 1, t], state, previous, times))[:, 0]
+                previous = low.policy.act(
+                    low.observe(commands[i : i + 1, t], state, previous, times)
+                )[:, 0]
                 data.ctrl[:] = low.ctrl(previous)[0]
                 data.qacc_warmstart[:] = 0.0
             mujoco.mj_step(model, data)
@@ -120,8 +133,10 @@ def initial_state_of(model, qpos, qvel):
 @pytest.mark.parametrize(("num_workers", "every"), [(1, 1), (2, 3), (3, 4)])
 def test_hierarchical_rollout_equals_a_plain_loop_bit_for_bit(limited_model, num_workers, every):
     low = make_low_level(every)
-    initial_state = initial_state_of(limited_model, [0.28, 2.5], [0.8, -0.2])  # driven into the rail's limit
-    commands = np.random.default_rng(1).uniform(-1, 1, (7, 41, 2))  # 41 steps: a short last chunk for k = 3, 4
+    # driven into the rail's limit
+    initial_state = initial_state_of(limited_model, [0.28, 2.5], [0.8, -0.2])
+    # 41 steps: a short last chunk for k = 3, 4
+    commands = np.random.default_rng(1).uniform(-1, 1, (7, 41, 2))
     expected_states, expected_sensors = reference(limited_model, low, initial_state, commands)
     low.policy.batches.clear()
 
@@ -129,7 +144,8 @@ def test_hierarchical_rollout_equals_a_plain_loop_bit_for_bit(limited_model, num
         states, sensors = backend.rollout(initial_state, commands)
         np.testing.assert_array_equal(states, expected_states)
         np.testing.assert_array_equal(sensors, expected_sensors)
-        # One batched act per tick for each worker's block of rows (all 7 on one worker), never 7 calls of one.
+        # One batched act per tick for each worker's block of rows (all 7 on one worker), never 7
+        # calls of one.
         blocks = [rows.stop - rows.start for rows in backend.inner.blocks(7)]
         assert len(blocks) == num_workers and sum(blocks) == 7
         assert sorted(low.policy.batches) == sorted(blocks * math.ceil(41 / every))
@@ -139,8 +155,9 @@ def test_hierarchical_rollout_equals_a_plain_loop_bit_for_bit(limited_model, num
 
 
 def test_a_hook_that_takes_out_writes_each_tick_s_buffer_and_changes_no_bit(limited_model):
-    """A hook with an `out` keyword is handed its block's rows of the stepper's (N, O) buffer in the rollouts (None
-    where it is tried on a batch of one), and the rollouts are the plain loop's bit for bit."""
+    """A hook with an `out` keyword is handed its block's rows of the stepper's (N, O) buffer in the
+    rollouts (None where it is tried on a batch of one), and the rollouts are the plain loop's bit
+    for bit."""
     handed: list[np.ndarray | None] = []
 
     def into_buffer(commands, states, previous_actions, times, out=None):
@@ -203,27 +220,39 @@ def test_the_controller_plans_the_commands_in_their_range(tmp_path):
     task = LowLevelTask(path)
     assert (task.nu, task.command_size) == (1, 2)
     np.testing.assert_array_equal(task.command_range, [[-0.5, 0.5], [-1.0, 1.0]])
-    optimizer = PredictiveSampling(PredictiveSamplingConfig(num_rollouts=8, num_nodes=3), task.command_size)
-    with judo.Controller(judo.ControllerConfig(horizon=0.2), task, optimizer, num_workers=2) as controller:
+    optimizer = PredictiveSampling(
+        PredictiveSamplingConfig(num_rollouts=8, num_nodes=3), task.command_size
+    )
+    with judo.Controller(
+        judo.ControllerConfig(horizon=0.2), task, optimizer, num_workers=2
+    ) as controller:
         assert isinstance(controller.backend, LowLevelRollout)
         controller.update_action(np.array([0.0, 0.1, 0.0, 0.0]), 0.0)
         assert controller.nominal_knots.shape == (3, 2)
         assert (np.abs(controller.nominal_knots[:, 0]) <= 0.5).all()
         assert controller.action(0.05).shape == (2,)
         assert task.seen_controls == [(8, 20, 2)]  # the reward got the commands
-        assert controller.backend.act_calls == 10 * 2  # 20 steps, a tick every 2, for each of the 2 workers
+        # 20 steps, a tick every 2, for each of the 2 workers
+        assert controller.backend.act_calls == 10 * 2
 
 
 @pytest.mark.parametrize(
     ("low", "message"),
     [
         (
-            LowLevel(RowwiseLinear(np.zeros((2, 7)), np.zeros(2)), [[-1, 1], [-1, 1]], 2, with_previous, to_ctrl),
+            LowLevel(
+                RowwiseLinear(np.zeros((2, 7)), np.zeros(2)),
+                [[-1, 1], [-1, 1]],
+                2,
+                with_previous,
+                to_ctrl,
+            ),
             "policy 'rowwise_linear' takes observations of size 7, but the task ? gives 9",
         ),
         (
             LowLevel(RowwiseLinear(np.zeros((2, 6)), np.zeros(2)), [[-1, 1], [-1, 1]], 2),
-            "policy 'rowwise_linear' gives actions of shape (2,) per row, but the model has nu = 1 actuators",
+            "policy 'rowwise_linear' gives actions of shape (2,) per row, but the "
+            "model has nu = 1 actuators",
         ),
     ],
 )
@@ -256,7 +285,9 @@ def test_a_backend_that_cannot_run_the_policy_is_closed_and_named(limited_model)
 
     backend = OpenLoopOnly(limited_model)
     assert with_low_level(backend, None) is backend
-    with pytest.raises(LowLevelBackendError, match="the OpenLoopOnly rollout backend cannot run a low-level policy"):
+    with pytest.raises(
+        LowLevelBackendError, match="the OpenLoopOnly rollout backend cannot run a low-level policy"
+    ):
         with_low_level(backend, make_low_level(2))
     assert backend.closed
 
@@ -273,7 +304,9 @@ def test_the_plant_runs_the_policy_on_the_served_command_every_k_steps(tmp_path)
     system.apply(command)
     for _ in range(9):
         system.step()
-    expected, _ = reference(task.sim_model, task.low_level(), initial_state, np.tile(command, (1, 9, 1)))
+    expected, _ = reference(
+        task.sim_model, task.low_level(), initial_state, np.tile(command, (1, 9, 1))
+    )
     np.testing.assert_array_equal(system.plant_state(), expected[0, -1, 1:5])
     assert task.low_level().policy.batches[-3:] == [1, 1, 1]  # ticks at steps 0, 3 and 6
 
@@ -283,8 +316,12 @@ def test_the_warp_backend_is_refused_before_it_is_built(tmp_path):
     path.write_text(LIMITED_XML)
     task = LowLevelTask(path)
     optimizer = PredictiveSampling(PredictiveSamplingConfig(num_rollouts=4), task.command_size)
-    with pytest.raises(LowLevelBackendError, match="^the warp rollout backend cannot run a low-level policy"):
-        judo.Controller(judo.ControllerConfig(horizon=0.2), task, optimizer, num_workers=1, backend="warp")
+    with pytest.raises(
+        LowLevelBackendError, match="^the warp rollout backend cannot run a low-level policy"
+    ):
+        judo.Controller(
+            judo.ControllerConfig(horizon=0.2), task, optimizer, num_workers=1, backend="warp"
+        )
 
 
 def test_randomized_models_roll_out_through_the_policy_block_by_block(limited_model):
@@ -295,12 +332,17 @@ def test_randomized_models_roll_out_through_the_policy_block_by_block(limited_mo
     with LowLevelRollout(RolloutPool(limited_model, 2), low) as backend:
         backend.set_models([limited_model, heavier])
         states, _ = backend.rollout(initial_state, commands)
-    np.testing.assert_array_equal(states[:2], reference(limited_model, low, initial_state, commands[:2])[0])
-    np.testing.assert_array_equal(states[2:], reference(heavier, low, initial_state, commands[2:])[0])
+    np.testing.assert_array_equal(
+        states[:2], reference(limited_model, low, initial_state, commands[:2])[0]
+    )
+    np.testing.assert_array_equal(
+        states[2:], reference(heavier, low, initial_state, commands[2:])[0]
+    )
 
 
 MOCAP_XML = LIMITED_XML.replace(
-    "  </worldbody>", '    <body name="goal" mocap="true" pos="0 0 1"><site name="goal"/></body>\n  </worldbody>'
+    "  </worldbody>",
+    '    <body name="goal" mocap="true" pos="0 0 1"><site name="goal"/></body>\n  </worldbody>',
 ).replace("<sensor>", '<sensor><framepos name="goal_pos" objtype="site" objname="goal"/>')
 
 
@@ -308,5 +350,7 @@ def test_mocap_poses_hold_through_every_chunk():
     model = mujoco.MjModel.from_xml_path(_write(MOCAP_XML))
     mocap = np.array([0.5, -0.2, 0.7, 1.0, 0.0, 0.0, 0.0])  # [pos, quat] of the one mocap body
     with LowLevelRollout(RolloutPool(model, 1), make_low_level(2)) as backend:
-        _, sensors = backend.rollout(initial_state_of(model, [0, 0], [0, 0]), np.zeros((3, 7, 2)), mocap)
+        _, sensors = backend.rollout(
+            initial_state_of(model, [0, 0], [0, 0]), np.zeros((3, 7, 2)), mocap
+        )
     np.testing.assert_allclose(sensors[..., :3], np.broadcast_to(mocap[:3], (3, 7, 3)))

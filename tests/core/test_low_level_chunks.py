@@ -1,5 +1,6 @@
-"""A chunk policy as a low-level policy: each tick's one batched `act` gives H knots, and every step of the tick
-gets its own action off their spline, in the rollouts and on the plant alike (what quadruped_navigate runs)."""
+"""A chunk policy as a low-level policy: each tick's one batched `act` gives H knots, and every step
+of the tick gets its own action off their spline, in the rollouts and on the plant alike (what
+quadruped_navigate runs)."""
 
 import mujoco
 import numpy as np
@@ -28,12 +29,13 @@ CART_XML = """
   </worldbody>
   <actuator><motor joint="slider" gear="10" ctrlrange="-1 1" ctrllimited="true"/></actuator>
 </mujoco>
-"""
+"""  # noqa: E501
 HORIZON, SPAN = 4, 0.3
 
 
 class LinearChunk(Policy):
-    """(B, O) -> (B, 4, 1) knots tanh(W_h obs): a chunk of 4 actions that differ from knot to knot."""
+    """(B, O) -> (B, 4, 1) knots tanh(W_h obs): a chunk of 4 actions that differ from knot to
+    knot."""
 
     def __init__(self, seed: int = 0, metadata: dict[str, str] | None = None) -> None:
         self.weight = np.random.default_rng(seed).normal(0.0, 0.5, (HORIZON, 5))
@@ -47,8 +49,9 @@ class LinearChunk(Policy):
 
 
 def reference(model, low, initial_state, commands):
-    """One rollout at a time with mj_step: at each tick the knots of one `act`, then each step its own ctrl, the
-    cubic through the knots at 0, dt, 2 dt, ... (and a cold solver start at each tick, as the pool's has)."""
+    """One rollout at a time with mj_step: at each tick the knots of one `act`, then each step its
+    own ctrl, the cubic through the knots at 0, dt, 2 dt, ... (and a cold solver start at each tick,
+    as the pool's has)."""
     data = mujoco.MjData(model)
     basis = SplineBasis(np.linspace(0.0, SPAN, HORIZON), "cubic")
     num_rollouts, num_steps, _ = commands.shape
@@ -58,7 +61,9 @@ def reference(model, low, initial_state, commands):
         for t in range(num_steps):
             if t % low.every == 0:
                 state = np.concatenate([data.qpos, data.qvel])[None]
-                observation = low.observe(commands[i : i + 1, t], state, np.zeros((1, 1)), np.array([data.time]))
+                observation = low.observe(
+                    commands[i : i + 1, t], state, np.zeros((1, 1)), np.array([data.time])
+                )
                 knots = low.policy.act(observation)[0]
                 tick_start = t
                 data.qacc_warmstart[:] = 0.0
@@ -91,12 +96,16 @@ def test_each_step_of_a_tick_takes_its_action_off_the_chunk_s_spline(cart):
     initial_state = initial_state_of(model)
     with LowLevelRollout(RolloutPool(model, 2), low) as backend:
         states, _ = backend.rollout(initial_state, commands)
-        np.testing.assert_allclose(states, reference(model, low, initial_state, commands), rtol=1e-10, atol=1e-12)
-        assert backend.act_calls == 5 * 2  # one batched act per tick (0, 5, 10, 15, 20) for each worker's rows
+        np.testing.assert_allclose(
+            states, reference(model, low, initial_state, commands), rtol=1e-10, atol=1e-12
+        )
+        # one batched act per tick (0, 5, 10, 15, 20) for each worker's rows
+        assert backend.act_calls == 5 * 2
     held = LowLevel(LinearChunk(), command_range=[[-1.0, 1.0]], every=5, chunk_spline_order="zero")
     with LowLevelRollout(RolloutPool(model, 1), held) as backend:
         zero_order, _ = backend.rollout(initial_state, commands)
-        assert not np.allclose(zero_order, states)  # the spline, not the first knot held, drove the steps
+        # the spline, not the first knot held, drove the steps
+        assert not np.allclose(zero_order, states)
 
 
 class ChunkTask(judo.Task[judo.TaskConfig]):
@@ -131,11 +140,21 @@ def test_the_plant_writes_each_step_s_action_off_the_chunk(cart):
 @pytest.mark.parametrize(
     ("metadata", "order", "message"),
     [
-        ({"name": "no_span"}, None, "gives chunks of 4 actions (not horizon 1) but no chunk_horizon"),
-        ({"name": "two", "horizon": "0.3"}, "quintic", "chunk_spline_order must be one of ['zero', 'linear', 'cubic']"),
+        (
+            {"name": "no_span"},
+            None,
+            "gives chunks of 4 actions (not horizon 1) but no chunk_horizon",
+        ),
+        (
+            {"name": "two", "horizon": "0.3"},
+            "quintic",
+            "chunk_spline_order must be one of ['zero', 'linear', 'cubic']",
+        ),
     ],
 )
 def test_a_chunk_without_a_known_layout_is_refused_in_one_line(metadata, order, message):
     with pytest.raises(PolicyError) as caught:
-        LowLevel(LinearChunk(metadata=metadata), command_range=[[-1.0, 1.0]], chunk_spline_order=order)
+        LowLevel(
+            LinearChunk(metadata=metadata), command_range=[[-1.0, 1.0]], chunk_spline_order=order
+        )
     assert message in str(caught.value) and "\n" not in str(caught.value)

@@ -27,7 +27,9 @@ def linearisation(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
     return a, b
 
 
-def test_cost_to_go_of_the_double_cartpole_is_positive_definite_and_its_gain_stabilises_upright() -> None:
+def test_cost_to_go_of_the_double_cartpole_is_positive_definite_and_its_gain_stabilises_upright() -> (  # noqa: E501
+    None
+):
     model = mujoco.MjModel.from_xml_path(str(DOUBLE_CARTPOLE))
     p = lqr_cost_to_go(model, np.array([1.0, 1.0, 1.0, 0.1, 0.1, 0.1]), 1.0)
     assert p.shape == (6, 6)
@@ -67,6 +69,8 @@ def test_capped_cost_is_zero_at_rest_quadratic_near_it_and_saturates_at_one() ->
 def test_capped_cost_wraps_the_angle_columns_only() -> None:
     matrix = np.diag([2.0, 1.0])
     turned = np.array([2 * np.pi + 1.0, 0.0])
-    assert capped_cost_to_go(turned, matrix, saturation=10.0, angle_columns=[0]) == pytest.approx(0.2)
+    assert capped_cost_to_go(turned, matrix, saturation=10.0, angle_columns=[0]) == pytest.approx(
+        0.2
+    )
     assert capped_cost_to_go(turned, matrix, saturation=10.0) == 1.0  # unwrapped: far from rest
     assert turned[0] == 2 * np.pi + 1.0  # the caller's array is left as it was

@@ -1,4 +1,5 @@
-"""OnnxPolicy on real onnxruntime, with ONNX files written here by judo's own writers (the onnx helper API)."""
+"""OnnxPolicy on real onnxruntime, with ONNX files written here by judo's own writers (the onnx
+helper API)."""
 
 import sys
 import threading
@@ -25,7 +26,12 @@ def test_a_linear_policy_gives_the_matrix_product(tmp_path, fixed_batch, batch):
     policy = OnnxPolicy(path)
     observations = RNG.normal(size=(batch, 5))
     actions = policy.act(observations)
-    assert (policy.observation_size, policy.action_size, policy.horizon, policy.kind) == (5, 3, 1, "action")
+    assert (policy.observation_size, policy.action_size, policy.horizon, policy.kind) == (
+        5,
+        3,
+        1,
+        "action",
+    )
     assert policy.fixed_batch is fixed_batch
     assert actions.shape == (batch, 1, 3) and actions.dtype == np.float64
     # float32 weights and arithmetic: exact to float32's precision
@@ -44,14 +50,21 @@ def test_a_chunk_policy_gives_batch_by_horizon_by_action(tmp_path):
 
 
 def test_an_mlp_with_normalization_matches_numpy(tmp_path):
-    layers = [(RNG.normal(size=(8, 5)), RNG.normal(size=8)), (RNG.normal(size=(3, 8)), RNG.normal(size=3))]
+    layers = [
+        (RNG.normal(size=(8, 5)), RNG.normal(size=8)),
+        (RNG.normal(size=(3, 8)), RNG.normal(size=3)),
+    ]
     mean, std = RNG.normal(size=5), RNG.uniform(0.5, 2, size=5)
     out_mean, out_std = RNG.normal(size=3), RNG.uniform(0.5, 2, size=3)
-    path = write_mlp_policy(tmp_path / "mlp.onnx", layers, input_scale=(mean, std), output_scale=(out_mean, out_std))
+    path = write_mlp_policy(
+        tmp_path / "mlp.onnx", layers, input_scale=(mean, std), output_scale=(out_mean, out_std)
+    )
     observations = RNG.normal(size=(11, 5))
     hidden = np.tanh(((observations - mean) / std) @ layers[0][0].T + layers[0][1])
     expected = (hidden @ layers[1][0].T + layers[1][1]) * out_std + out_mean
-    np.testing.assert_allclose(OnnxPolicy(path).act(observations)[:, 0], expected, rtol=1e-4, atol=1e-4)
+    np.testing.assert_allclose(
+        OnnxPolicy(path).act(observations)[:, 0], expected, rtol=1e-4, atol=1e-4
+    )
 
 
 def test_metadata_round_trips_and_a_mismatch_is_one_line(tmp_path):
@@ -59,9 +72,13 @@ def test_metadata_round_trips_and_a_mismatch_is_one_line(tmp_path):
     policy = OnnxPolicy(write_linear_policy(tmp_path / "p.onnx", W, B, metadata=meta))
     assert {k: policy.metadata[k] for k in meta} == meta and policy.name == "p"
     policy.check_fits("cartpole", 5, 3)
-    with pytest.raises(PolicyError, match="^policy 'p' was made for task 'cartpole', not 'pendulum'$"):
+    with pytest.raises(
+        PolicyError, match="^policy 'p' was made for task 'cartpole', not 'pendulum'$"
+    ):
         policy.check_fits("pendulum", 5, 3)
-    with pytest.raises(PolicyError, match="takes observations of size 5, but the task cartpole gives 4$"):
+    with pytest.raises(
+        PolicyError, match="takes observations of size 5, but the task cartpole gives 4$"
+    ):
         policy.check_fits("cartpole", 4, 3)
     with pytest.raises(PolicyError, match=r"takes observations of shape \(B, 5\), got \(2, 4\)"):
         policy.act(np.zeros((2, 4)))
@@ -77,7 +94,8 @@ def test_bad_files_are_one_line_errors(tmp_path):
 
 def test_without_the_extra_the_error_names_it(tmp_path, monkeypatch):
     path = write_linear_policy(tmp_path / "p.onnx", W, B)
-    monkeypatch.setitem(sys.modules, "onnxruntime", None)  # makes `import onnxruntime` raise ImportError
+    # makes `import onnxruntime` raise ImportError
+    monkeypatch.setitem(sys.modules, "onnxruntime", None)
     with pytest.raises(MissingExtraError, match=r'pip install -e "\.\[policy\]"'):
         OnnxPolicy(path)
 
@@ -89,10 +107,13 @@ def test_checked_act_refuses_non_finite_actions(tmp_path):
 
 
 def test_bound_runs_give_the_bits_of_a_plain_run_on_every_thread_and_batch_size(tmp_path):
-    """`act` runs on each thread's I/O binding per batch size (preallocated buffers): the actions are those of
-    `InferenceSession.run` bit for bit, from several threads at once, and a returned array is the caller's (the
-    next call does not overwrite it)."""
-    layers = [(RNG.normal(size=(16, 5)), RNG.normal(size=16)), (RNG.normal(size=(2 * 3, 16)), RNG.normal(size=6))]
+    """`act` runs on each thread's I/O binding per batch size (preallocated buffers): the actions
+    are those of `InferenceSession.run` bit for bit, from several threads at once, and a returned
+    array is the caller's (the next call does not overwrite it)."""
+    layers = [
+        (RNG.normal(size=(16, 5)), RNG.normal(size=16)),
+        (RNG.normal(size=(2 * 3, 16)), RNG.normal(size=6)),
+    ]
     policy = OnnxPolicy(write_mlp_policy(tmp_path / "mlp.onnx", layers, horizon=2))
     batches = [RNG.normal(size=(batch, 5)) for batch in (1, 4, 4, 33, 1, 7)]
     session = policy._session

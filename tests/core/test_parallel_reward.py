@@ -24,7 +24,11 @@ class CountingReward:
 
 
 def batch(rows, rng):
-    return rng.normal(size=(rows, 7, 4)), rng.normal(size=(rows, 7, 4)), rng.normal(size=(rows, 7, 1))
+    return (
+        rng.normal(size=(rows, 7, 4)),
+        rng.normal(size=(rows, 7, 4)),
+        rng.normal(size=(rows, 7, 1)),
+    )
 
 
 def test_blocks_on_threads_equal_one_call_bit_for_bit(upright_task):
@@ -56,17 +60,25 @@ def test_a_block_of_the_wrong_shape_is_named():
         return np.zeros(states.shape[0] + 1)
 
     rng = np.random.default_rng(2)
-    with pytest.raises(JudoError, match=r"reward returned shape \(257,\) for rows 0:256, expected \(256,\)"):
+    with pytest.raises(
+        JudoError,
+        match=r"reward returned shape \(257,\) "
+        r"for rows 0:256, expected \(256,\)",
+    ):
         ParallelReward(2)(bad, *batch(512, rng), None, None)
 
 
-def test_a_controller_on_a_backend_that_asks_for_reward_threads_plans_exactly_as_without(upright_task):
+def test_a_controller_on_a_backend_that_asks_for_reward_threads_plans_exactly_as_without(
+    upright_task,
+):
     from judo.optimizers.mppi import MPPI, MPPIConfig
 
     def plan(reward_threads):
         optimizer = MPPI(MPPIConfig(num_rollouts=600), upright_task.nu)
         optimizer.rng = np.random.default_rng(0)
-        controller = judo.Controller(judo.ControllerConfig(horizon=0.2), upright_task, optimizer, num_workers=1)
+        controller = judo.Controller(
+            judo.ControllerConfig(horizon=0.2), upright_task, optimizer, num_workers=1
+        )
         controller.backend.reward_threads = reward_threads  # as the warp backend sets it
         controller._score = ParallelReward(reward_threads)
         with controller:

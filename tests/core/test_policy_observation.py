@@ -1,5 +1,5 @@
-"""Task.policy_observation: the state by default for the built-in tasks without their own, batched; a task's own
-observation and its size, with sensors, mocap goals and the previous action."""
+"""Task.policy_observation: the state by default for the built-in tasks without their own, batched;
+a task's own observation and its size, with sensors, mocap goals and the previous action."""
 
 import numpy as np
 import pytest
@@ -8,8 +8,17 @@ from judo.builtin import BUILTIN_TASKS
 from judo.core.configuration.registry import lookup_task
 from tests.conftest import UprightTask
 
-OWN_OBSERVATION = ("acrobot", "cartpole", "cartpole_pd", "particle", "pendulum", "push_t", "quadruped_velocity")
-"""Built-in tasks with their own observation (tests/tasks/test_policy_observations.py, test_quadruped.py)."""
+OWN_OBSERVATION = (
+    "acrobot",
+    "cartpole",
+    "cartpole_pd",
+    "particle",
+    "pendulum",
+    "push_t",
+    "quadruped_velocity",
+)
+"""Built-in tasks with their own observation (tests/tasks/test_policy_observations.py,
+test_quadruped.py)."""
 
 
 @pytest.mark.parametrize("name", sorted(set(BUILTIN_TASKS) - set(OWN_OBSERVATION)))
@@ -23,7 +32,9 @@ def test_the_default_observation_is_the_state_for_the_other_built_in_tasks(name)
 
 def test_a_task_says_what_its_policy_sees(tiny_model_path):
     class Goal(UprightTask):
-        def policy_observation(self, states, sensors=None, system_metadata=None, previous_actions=None):
+        def policy_observation(
+            self, states, sensors=None, system_metadata=None, previous_actions=None
+        ):
             angle = sensors[:, self.get_sensor_start_index("angle")]
             return np.column_stack([np.cos(angle), np.sin(angle), states[:, 2:], previous_actions])
 

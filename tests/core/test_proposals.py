@@ -1,9 +1,11 @@
-"""The policy as a proposal (ControllerConfig.policy_samples), for all six optimizers, on real MuJoCo rollouts.
+"""The policy as a proposal (ControllerConfig.policy_samples), for all six optimizers, on real
+MuJoCo rollouts.
 
-"Never worse" is checked in this precise sense: the same seed's update with and without K proposals ranks the
-same N - K other candidates (the same knots and the same rewards, bit for bit, the nominal row 0 among them),
-so the best reward of the update with proposals is at least the best among those. It holds by construction:
-the proposals overwrite the last K rows after the optimizer sampled, and draw nothing from its generator.
+"Never worse" is checked in this precise sense: the same seed's update with and without K proposals
+ranks the same N - K other candidates (the same knots and the same rewards, bit for bit, the nominal
+row 0 among them), so the best reward of the update with proposals is at least the best among those.
+It holds by construction: the proposals overwrite the last K rows after the optimizer sampled, and
+draw nothing from its generator.
 """
 
 import numpy as np
@@ -36,7 +38,8 @@ CLOCK_XML = """
 
 
 class RandomPolicy(judo.Policy):
-    """Uniform actions in [-2, 2] (beyond the ctrlrange, so the clamp matters), from its own generator."""
+    """Uniform actions in [-2, 2] (beyond the ctrlrange, so the clamp matters), from its own
+    generator."""
 
     def __init__(self, horizon: int, observation_size: int = 4, seed: int = 7) -> None:
         self.observation_size, self.action_size, self.horizon = observation_size, 1, horizon
@@ -80,7 +83,11 @@ def update(controller, state=None):
     state = np.array([0.0, 0.4, 0.0, 0.0]) if state is None else state
     with controller:
         controller.update_action(state, 0.0)
-        return controller.rewards.copy(), controller.batch_controls.copy(), controller.nominal_knots.copy()
+        return (
+            controller.rewards.copy(),
+            controller.batch_controls.copy(),
+            controller.nominal_knots.copy(),
+        )
 
 
 @pytest.mark.parametrize("horizon", [1, NUM_NODES], ids=["action", "chunk"])
@@ -88,9 +95,12 @@ def update(controller, state=None):
 def test_random_proposals_never_make_an_update_worse(tiny_model_path, optimizer, horizon):
     k = 5
     without, _, _ = plain = update(make(UprightTask(tiny_model_path), optimizer))
-    rewards, controls, _ = update(make(UprightTask(tiny_model_path), optimizer, k, RandomPolicy(horizon)))
+    rewards, controls, _ = update(
+        make(UprightTask(tiny_model_path), optimizer, k, RandomPolicy(horizon))
+    )
     kept = NUM_ROLLOUTS - k
-    np.testing.assert_array_equal(controls[:kept], plain[1][:kept])  # the same draws, the nominal row 0 among them
+    # the same draws, the nominal row 0 among them
+    np.testing.assert_array_equal(controls[:kept], plain[1][:kept])
     np.testing.assert_array_equal(rewards[:kept], without[:kept])
     assert not np.array_equal(controls[kept:], plain[1][kept:])  # the policy's, not the optimizer's
     assert np.abs(controls).max() <= 1.0  # clamped like the optimizer's own
@@ -103,7 +113,8 @@ def test_a_policy_that_proposes_the_optimum_is_picked(tiny_model_path, optimizer
     _, _, plain = update(make(TrackTask(tiny_model_path), optimizer))
     policy = ConstantPolicy(target, NUM_NODES)
     rewards, _, nominal = update(make(TrackTask(tiny_model_path), optimizer, 3, policy))
-    assert np.argmax(rewards) == NUM_ROLLOUTS - 3  # the policy's own candidate; the two after it carry noise
+    # the policy's own candidate; the two after it carry noise
+    assert np.argmax(rewards) == NUM_ROLLOUTS - 3
     assert rewards.max() > -1e-30  # 0 up to the rounding of the spline weights
     if optimizer in ("ps", "cmaes", "icem"):  # they plan with their best sample
         np.testing.assert_array_equal(nominal, np.full((NUM_NODES, 1), target))
@@ -113,15 +124,22 @@ def test_a_policy_that_proposes_the_optimum_is_picked(tiny_model_path, optimizer
 
 @pytest.mark.parametrize("optimizer", OPTIMIZERS)
 def test_every_optimizer_runs_with_all_but_the_nominal_replaced(tiny_model_path, optimizer):
-    controller = make(UprightTask(tiny_model_path), optimizer, NUM_ROLLOUTS - 1, RandomPolicy(1), max_opt_iters=2)
+    controller = make(
+        UprightTask(tiny_model_path), optimizer, NUM_ROLLOUTS - 1, RandomPolicy(1), max_opt_iters=2
+    )
     with controller:
         for step in range(3):
             controller.update_action(np.array([0.0, 0.4, 0.0, 0.0]), 0.05 * step)
-            assert np.isfinite(controller.nominal_knots).all() and np.abs(controller.nominal_knots).max() <= 1.0
+            assert (
+                np.isfinite(controller.nominal_knots).all()
+                and np.abs(controller.nominal_knots).max() <= 1.0
+            )
 
 
 def test_an_action_policy_with_a_constant_action_is_fitted_to_constant_knots(tiny_model_path):
-    _, controls, nominal = update(make(TrackTask(tiny_model_path), "ps", 1, ConstantPolicy(TrackTask.TARGET, 1)))
+    _, controls, nominal = update(
+        make(TrackTask(tiny_model_path), "ps", 1, ConstantPolicy(TrackTask.TARGET, 1))
+    )
     np.testing.assert_allclose(controls[-1], TrackTask.TARGET, rtol=0, atol=1e-12)
     np.testing.assert_allclose(nominal, TrackTask.TARGET, rtol=0, atol=1e-12)
 
@@ -130,12 +148,14 @@ def test_an_action_policy_with_a_constant_action_is_fitted_to_constant_knots(tin
 def test_the_least_squares_fit_reproduces_knots_whose_spline_gives_the_actions(order):
     basis = SplineBasis(np.linspace(0.0, HORIZON, 5), order)
     knots = np.random.default_rng(0).normal(size=(5, 2))
-    actions = basis.weights(fit_times(30, 0.01, HORIZON)) @ knots  # (T + 1, nu), in the spline's span
+    # (T + 1, nu), in the spline's span
+    actions = basis.weights(fit_times(30, 0.01, HORIZON)) @ knots
     np.testing.assert_allclose(fit_matrix(basis, 30, 0.01) @ actions, knots, rtol=0, atol=1e-10)
 
 
 class ClockSplinePolicy(judo.Policy):
-    """An action policy that reads the time off the clock body and plays a spline: its actions lie in the span."""
+    """An action policy that reads the time off the clock body and plays a spline: its actions lie
+    in the span."""
 
     def __init__(self, basis: SplineBasis, knots: np.ndarray) -> None:
         self.observation_size, self.action_size, self.horizon = 4, 1, 1
@@ -156,9 +176,13 @@ def test_an_action_policy_rolled_out_in_closed_loop_is_fitted_exactly(tmp_path, 
     optimizer = PredictiveSampling(PredictiveSamplingConfig(num_rollouts=4, num_nodes=5), 1)
     config = judo.ControllerConfig(horizon=HORIZON, spline_order=order, policy_samples=1)
     task = UprightTask(path)
-    with judo.Controller(config, task, optimizer, num_workers=1, proposal_policy=policy) as controller:
+    with judo.Controller(
+        config, task, optimizer, num_workers=1, proposal_policy=policy
+    ) as controller:
         controller.update_action(np.array([0.0, 0.0, 1.0, 0.0]), 0.0)  # the clock moving at 1 m/s
-        weights = SplineBasis(knot_offsets, order).weights(np.arange(controller.num_steps) * task.dt)
+        weights = SplineBasis(knot_offsets, order).weights(
+            np.arange(controller.num_steps) * task.dt
+        )
         expected = np.clip(weights @ knots, -5, 5)
         np.testing.assert_allclose(controller.batch_controls[-1], expected, rtol=0, atol=1e-9)
 
@@ -178,24 +202,32 @@ def test_cmaes_takes_a_proposal_as_an_injected_solution():
     far = np.full((3, 2), 100.0)
     cmaes.samples_replaced(np.array([6, 7]), np.stack([near, far]))
     step = cmaes.step_size * np.sqrt(cmaes.variances)
-    np.testing.assert_allclose(cmaes.mean + step * cmaes._draws[5], near.ravel(), atol=1e-12)  # its own draw now
+    # its own draw now
+    np.testing.assert_allclose(cmaes.mean + step * cmaes._draws[5], near.ravel(), atol=1e-12)
     n = 6
-    assert np.linalg.norm(cmaes._draws[6]) == pytest.approx(np.sqrt(n) + 2 * n / (n + 2))  # clipped length
+    # clipped length
+    assert np.linalg.norm(cmaes._draws[6]) == pytest.approx(np.sqrt(n) + 2 * n / (n + 2))
     assert np.all(cmaes._draws[6] > 0)  # pointing at it
 
 
 def test_policy_samples_errors(tiny_model_path):
     task = UprightTask(tiny_model_path)
-    with pytest.raises(judo.ConfigError, match=r"^policy_samples must be between 0 and 1048575 \(0: off\), got -1$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^policy_samples must be between "
+        r"0 and 1048575 \(0: off\), got -1$",
+    ):
         judo.ControllerConfig(policy_samples=-1)
     with pytest.raises(
         judo.ConfigError,
-        match=r"^policy_samples \(16\) must be below num_rollouts \(16\): the nominal, rollout 0, is never replaced; "
+        match=r"^policy_samples \(16\) must be below num_rollouts \(16\): the nominal, rollout 0, "
+        r"is never replaced; "
         r"expected 0 to 15$",
     ):
         make(task, "ps", 16, ConstantPolicy(0.0, 1))
     message = (
-        r"^policy_samples is 2 but the controller has no proposal policy; give one \(make_controller\(\.\.\., "
+        r"^policy_samples is 2 but the controller has no proposal policy; give one "
+        r"\(make_controller\(\.\.\., "
         r"proposal_policy=\.\.\.\), evaluate --proposal-policy FILE\.onnx\) or set it to 0$"
     )
     with pytest.raises(judo.ConfigError, match=message):
@@ -205,7 +237,9 @@ def test_policy_samples_errors(tiny_model_path):
     with controller, pytest.raises(judo.ConfigError, match=message):
         controller.update_action(np.zeros(4), 0.0)
     with pytest.raises(
-        judo.PolicyError, match=r"^policy 'constant' takes observations of size 3, but the task \? gives 4$"
+        judo.PolicyError,
+        match=r"^policy 'constant' takes observations "
+        r"of size 3, but the task \? gives 4$",
     ):
         make(task, "ps", 1, ConstantPolicy(0.0, 1, observation_size=3))
 
@@ -213,7 +247,11 @@ def test_policy_samples_errors(tiny_model_path):
 def test_make_controller_names_the_task_a_policy_was_not_made_for():
     policy = ConstantPolicy(0.0, 1, observation_size=5)  # cartpole's size: only the task is wrong
     policy.metadata["task"] = "acrobot"
-    with pytest.raises(judo.PolicyError, match=r"^policy 'constant' was made for task 'acrobot', not 'cartpole'$"):
+    with pytest.raises(
+        judo.PolicyError,
+        match=r"^policy 'constant' was made for "
+        r"task 'acrobot', not 'cartpole'$",
+    ):
         judo.make_controller("cartpole", "ps", proposal_policy=policy)
 
 
@@ -222,7 +260,8 @@ def test_a_failing_policy_costs_the_update_its_proposals_not_its_plan(tiny_model
     controller = make(UprightTask(tiny_model_path), "ps", 3, policy)
     plain = update(make(UprightTask(tiny_model_path), "ps"))
     with pytest.warns(
-        RuntimeWarning, match="this update runs without proposals: policy 'constant' returned non-finite"
+        RuntimeWarning,
+        match="this update runs without proposals: policy 'constant' returned non-finite",
     ):
         rewards, controls, _ = update(controller)
     np.testing.assert_array_equal(controls, plain[1])  # the optimizer's own N samples
@@ -230,7 +269,8 @@ def test_a_failing_policy_costs_the_update_its_proposals_not_its_plan(tiny_model
 
 
 class ObservedTask(UprightTask):
-    """A task with its own policy observation: the state and the previous action (O = nq + nv + nu)."""
+    """A task with its own policy observation: the state and the previous action (O = nq + nv +
+    nu)."""
 
     def policy_observation(self, states, sensors, system_metadata=None, previous_actions=None):
         return np.concatenate([states, previous_actions], axis=1)
@@ -251,16 +291,22 @@ def test_the_task_s_policy_observation_gets_the_previous_action(tiny_model_path)
     with make(ObservedTask(tiny_model_path), "ps", 1, RampPolicy()) as controller:
         controller.update_action(np.array([0.0, 0.4, 0.0, 0.0]), 0.0)  # the warm start serves 0 now
         times = np.arange(controller.num_steps) * controller.task.dt
-        np.testing.assert_allclose(controller.batch_controls[-1, :, 0], 0.01 + times, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(
+            controller.batch_controls[-1, :, 0], 0.01 + times, rtol=0, atol=1e-12
+        )
 
 
 def test_on_a_task_that_plans_low_level_commands_a_chunk_policy_proposes_commands():
     with pytest.raises(
         judo.PolicyError,
-        match=r"^policy 'constant' is an action policy, but CartpolePD plans a low-level policy's commands, where "
-        r"only a chunk policy \(horizon > 1\) can propose; its closed loop would bypass the low-level policy$",
+        match=r"^policy 'constant' is an action policy, but CartpolePD plans a low-level policy's "
+        r"commands, where "
+        r"only a chunk policy \(horizon > 1\) can propose; its closed loop would bypass the "
+        r"low-level policy$",
     ):
-        judo.make_controller("cartpole_pd", "ps", proposal_policy=ConstantPolicy(0.0, 1, observation_size=5))
+        judo.make_controller(
+            "cartpole_pd", "ps", proposal_policy=ConstantPolicy(0.0, 1, observation_size=5)
+        )
     config = judo.ControllerConfig(horizon=0.3, policy_samples=1)
     # far beyond the command range: clamped to it, like the optimizer's knots
     policy = ConstantPolicy(99.0, 3, observation_size=5)
@@ -269,4 +315,5 @@ def test_on_a_task_that_plans_low_level_commands_a_chunk_policy_proposes_command
     ) as c:
         c.update_action(np.array([0.0, 3.1, 0.0, 0.0]), 0.0)
         expected = np.full((c.num_steps, 1), c.task.command_range[0, 1])
-        np.testing.assert_allclose(c.batch_controls[-1], expected, rtol=0, atol=1e-12)  # a cubic rounds
+        # a cubic rounds
+        np.testing.assert_allclose(c.batch_controls[-1], expected, rtol=0, atol=1e-12)

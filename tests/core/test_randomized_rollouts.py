@@ -1,5 +1,5 @@
-"""Randomized rollouts: a mixed-model batch equals each (sequence, model) pair alone, bit for bit; the hook
-is seeded and checked; backends that cannot mix models say so."""
+"""Randomized rollouts: a mixed-model batch equals each (sequence, model) pair alone, bit for bit;
+the hook is seeded and checked; backends that cannot mix models say so."""
 
 import copy
 
@@ -36,7 +36,8 @@ def test_mixed_model_batch_equals_each_pair_alone_bit_for_bit(tiny_model_path, n
 
     pool = RolloutPool(model, num_workers)
     pool.set_models(models)
-    states, sensors = pool.rollout(initial_state, np.concatenate([controls] * 3))  # (R * N, T, nstate)
+    # (R * N, T, nstate)
+    states, sensors = pool.rollout(initial_state, np.concatenate([controls] * 3))
     states, sensors = states.copy(), sensors.copy()
     pool.set_models(None)
     plain, _ = pool.rollout(initial_state, controls)
@@ -44,7 +45,9 @@ def test_mixed_model_batch_equals_each_pair_alone_bit_for_bit(tiny_model_path, n
 
     for r, each in enumerate(models):
         for i in range(len(controls)):
-            alone_states, alone_sensors = sequential_rollouts(each, initial_state, controls[i : i + 1])
+            alone_states, alone_sensors = sequential_rollouts(
+                each, initial_state, controls[i : i + 1]
+            )
             np.testing.assert_array_equal(states[r * 5 + i], alone_states[0])
             np.testing.assert_array_equal(sensors[r * 5 + i], alone_sensors[0])
     np.testing.assert_array_equal(plain, states[:5])  # None restores the planning model alone
@@ -57,10 +60,15 @@ def test_pool_refuses_models_of_other_sizes_and_uneven_batches(tiny_model_path):
         "<mujoco><worldbody><body><freejoint/><geom size='1'/></body></worldbody></mujoco>"
     )
     pool = RolloutPool(model, 1)
-    with pytest.raises(RandomizedRolloutError, match="model 1 passed to set_models has nq=7, expected 2"):
+    with pytest.raises(
+        RandomizedRolloutError, match="model 1 passed to set_models has nq=7, expected 2"
+    ):
         pool.set_models([model, other])
     pool.set_models([model, model])
-    with pytest.raises(RandomizedRolloutError, match="a batch of 5 rollouts cannot be split evenly over the 2 models"):
+    with pytest.raises(
+        RandomizedRolloutError,
+        match="a batch of 5 rollouts cannot be split evenly over the 2 models",
+    ):
         pool.rollout(np.zeros(mujoco.mj_stateSize(model, STATE_SPEC)), np.zeros((5, 3, 1)))
     pool.close()
 
@@ -75,7 +83,9 @@ class SingleModelBackend(RolloutBackend):
         raise NotImplementedError
 
 
-def test_backend_without_per_rollout_models_names_itself_and_the_setting(tiny_model_path, upright_task):
+def test_backend_without_per_rollout_models_names_itself_and_the_setting(
+    tiny_model_path, upright_task
+):
     backend = SingleModelBackend(upright_task.model)
     backend.set_models(None)
     backend.set_models([upright_task.model])  # a single model is always fine
@@ -89,7 +99,8 @@ def test_backend_without_per_rollout_models_names_itself_and_the_setting(tiny_mo
     controller.backend = backend
     with pytest.raises(
         RandomizedRolloutError,
-        match=r"the SingleModelBackend rollout backend cannot roll out under several models, so it cannot run "
+        match=r"the SingleModelBackend rollout backend cannot roll out under several models, so it "
+        r"cannot run "
         r"num_randomizations = 3; expected num_randomizations = 1",
     ):
         controller.update_action(np.zeros(4), 0.0)
@@ -117,7 +128,8 @@ def test_hook_is_seeded_and_leaves_the_planning_model_alone(tiny_model_path):
         np.testing.assert_array_equal(a.body_mass, b.body_mass)
     assert len({float(m.body_mass[2]) for m in first}) == 4  # each copy has its own draw
     assert not np.array_equal(first[1].body_mass, other[1].body_mass)
-    np.testing.assert_allclose(first[1].body_subtreemass[1], first[1].body_mass[1:].sum())  # mj_setConst ran
+    # mj_setConst ran
+    np.testing.assert_allclose(first[1].body_subtreemass[1], first[1].body_mass[1:].sum())
 
 
 @pytest.mark.parametrize(
@@ -125,11 +137,13 @@ def test_hook_is_seeded_and_leaves_the_planning_model_alone(tiny_model_path):
     [
         (
             lambda model: model.body_mass.__setitem__(2, -0.1),
-            r"BadTask.randomize_model set body_mass\[2\] \(body 'pole'\) to -0.1; expected a finite value >= 0 \(it was 0\.1\)",
+            r"BadTask.randomize_model set body_mass\[2\] \(body 'pole'\) to -0.1; "
+            r"expected a finite value >= 0 \(it was 0\.1\)",
         ),
         (
             lambda model: model.geom_friction.__setitem__((0, 0), np.nan),
-            r"BadTask.randomize_model set geom_friction\[0, 0\] to nan; expected a finite value >= 0 \(it was 1\.0\)",
+            r"BadTask.randomize_model set geom_friction\[0, 0\] to nan; expected a "
+            r"finite value >= 0 \(it was 1\.0\)",
         ),
         (
             lambda model: model.actuator_gainprm.__setitem__((0, 0), np.inf),
@@ -146,7 +160,9 @@ def test_invalid_model_from_a_hook_names_the_field(tiny_model_path, edit, messag
     with pytest.raises(InvalidRandomizedModelError, match=message):
         randomized_models(task, 2, np.random.default_rng(0))
     optimizer = judo.make_controller("cartpole", "ps").optimizer
-    controller = judo.Controller(judo.ControllerConfig(num_randomizations=2), task, optimizer, num_workers=1)
+    controller = judo.Controller(
+        judo.ControllerConfig(num_randomizations=2), task, optimizer, num_workers=1
+    )
     with pytest.raises(InvalidRandomizedModelError, match=message):
         controller.update_action(np.zeros(4), 0.0)
     controller.config.num_randomizations = 1  # the user turns it off: planning goes on

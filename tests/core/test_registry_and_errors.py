@@ -19,11 +19,15 @@ def test_builtins_are_registered_by_name():
 
 def test_unknown_names_list_the_valid_ones():
     with pytest.raises(
-        judo.UnknownNameError, match=r"unknown task 'cartpol'; valid tasks are: .*cartpole, .*cylinder_push"
+        judo.UnknownNameError,
+        match=r"unknown task 'cartpol'; valid tasks "
+        r"are: .*cartpole, .*cylinder_push",
     ):
         judo.make_controller("cartpol", "mppi")
     with pytest.raises(
-        judo.UnknownNameError, match=r"unknown optimizer 'mpi'; valid optimizers are: .*cem, .*mppi, .*ps"
+        judo.UnknownNameError,
+        match=r"unknown optimizer 'mpi'; valid "
+        r"optimizers are: .*cem, .*mppi, .*ps",
     ):
         judo.make_controller("cartpole", "mpi")
 
@@ -48,10 +52,14 @@ def test_register_a_user_task_and_override_its_configs(tiny_model_path):
     judo.set_config_overrides("my_task", MyConfig, {"weight": 3})
     controller = judo.make_controller("my_task", "mppi", num_workers=1)
     assert controller.config.horizon == 0.5
-    assert controller.optimizer.config.num_rollouts == 12 and controller.optimizer.config.sigma == 0.7
+    assert (
+        controller.optimizer.config.num_rollouts == 12 and controller.optimizer.config.sigma == 0.7
+    )
     assert controller.task.config.weight == 3.0 and isinstance(controller.task.config.weight, float)
-    assert make_config(CEMConfig, "my_task").num_rollouts == 12  # the base-class override reaches every optimizer
-    assert make_config(MPPIConfig, "cartpole").num_rollouts == 64  # other tasks keep their own (cartpole.toml)
+    # the base-class override reaches every optimizer
+    assert make_config(CEMConfig, "my_task").num_rollouts == 12
+    # other tasks keep their own (cartpole.toml)
+    assert make_config(MPPIConfig, "cartpole").num_rollouts == 64
     controller.update_action(np.zeros(4), 0.0)
     assert controller.rewards.shape == (12,)
     controller.close()
@@ -59,20 +67,25 @@ def test_register_a_user_task_and_override_its_configs(tiny_model_path):
 
 def test_overrides_are_checked_when_set():
     with pytest.raises(
-        judo.UnknownNameError, match=r"unknown field of MPPIConfig 'sigmaa'; valid field of MPPIConfigs are: .*sigma"
+        judo.UnknownNameError,
+        match=r"unknown field of MPPIConfig 'sigmaa'; "
+        r"valid field of MPPIConfigs are: .*sigma",
     ):
         judo.set_config_overrides("cartpole", MPPIConfig, {"sigmaa": 1.0})
     with pytest.raises(judo.ConfigError, match="MPPIConfig.sigma expects a number, got 'big'"):
         judo.set_config_overrides("cartpole", MPPIConfig, {"sigma": "big"})
     with pytest.raises(
         judo.ConfigError,
-        match=r"ControllerConfig.spline_order expects one of \['zero', 'linear', 'cubic'\], got 'quadratic'",
+        match=r"ControllerConfig.spline_order expects one of \['zero', 'linear', 'cubic'\], got "
+        r"'quadratic'",
     ):
         judo.set_config_overrides("cartpole", judo.ControllerConfig, {"spline_order": "quadratic"})
 
 
 def test_registering_a_non_task_is_refused():
-    with pytest.raises(judo.JudoError, match="task 'bad' must be a subclass of Task, got <class 'int'>"):
+    with pytest.raises(
+        judo.JudoError, match="task 'bad' must be a subclass of Task, got <class 'int'>"
+    ):
         judo.register_task("bad", int, judo.TaskConfig)  # type: ignore[arg-type]
 
 
@@ -84,7 +97,11 @@ def test_invalid_configs_fail_at_construction(upright_task):
     from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
     optimizer = PredictiveSampling(PredictiveSamplingConfig(num_nodes=3), upright_task.nu)
-    with pytest.raises(judo.ConfigError, match=r"horizon \(0.005 s\) is shorter than one timestep \(0.01 s\)"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"horizon \(0.005 s\) is shorter "
+        r"than one timestep \(0.01 s\)",
+    ):
         judo.Controller(judo.ControllerConfig(horizon=0.005), upright_task, optimizer)
     with pytest.raises(judo.ConfigError, match="a cubic spline needs num_nodes >= 4, got 3"):
         judo.Controller(judo.ControllerConfig(spline_order="cubic"), upright_task, optimizer)
@@ -94,7 +111,10 @@ def test_an_invalid_live_edit_raises_at_the_next_cycle(upright_task):
     from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
     controller = judo.Controller(
-        judo.ControllerConfig(), upright_task, PredictiveSampling(PredictiveSamplingConfig(), 1), num_workers=1
+        judo.ControllerConfig(),
+        upright_task,
+        PredictiveSampling(PredictiveSamplingConfig(), 1),
+        num_workers=1,
     )
     controller.update_action(np.zeros(4), 0.0)
     controller.optimizer.config.num_rollouts = 0
@@ -121,7 +141,9 @@ def test_task_helpers_read_without_mutating_the_model(upright_task):
     assert upright_task.get_sensor_start_index("angle") == 3
     assert upright_task.get_joint_position_start_index("hinge") == 1
     assert upright_task.get_joint_velocity_start_index("hinge") == 3
-    with pytest.raises(judo.UnknownNameError, match="unknown joint 'elbow'; valid joints are: hinge, slider"):
+    with pytest.raises(
+        judo.UnknownNameError, match="unknown joint 'elbow'; valid joints are: hinge, slider"
+    ):
         upright_task.get_joint_position_start_index("elbow")
 
 

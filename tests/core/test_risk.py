@@ -31,21 +31,33 @@ def test_average_worst_and_best(measure, expected):
     ],
 )
 def test_cvar_averages_the_worst_alpha_fraction(alpha, expected):
-    np.testing.assert_allclose(reduce_rewards(REWARDS, "cvar", cvar_alpha=alpha), expected, rtol=0, atol=1e-15)
+    np.testing.assert_allclose(
+        reduce_rewards(REWARDS, "cvar", cvar_alpha=alpha), expected, rtol=0, atol=1e-15
+    )
 
 
 def test_exponential_is_the_certainty_equivalent():
     rewards = np.array([[0.0, np.log(3.0)]])
     # scale 1: -log(mean(exp(-r))) = -log((1 + 1/3) / 2) = log(1.5)
-    np.testing.assert_allclose(reduce_rewards(rewards, "exponential", risk_scale=1.0), [np.log(1.5)], rtol=1e-14)
+    np.testing.assert_allclose(
+        reduce_rewards(rewards, "exponential", risk_scale=1.0), [np.log(1.5)], rtol=1e-14
+    )
     # scale -1 (risk-seeking): log(mean(exp(r))) = log((1 + 3) / 2) = log(2)
-    np.testing.assert_allclose(reduce_rewards(rewards, "exponential", risk_scale=-1.0), [np.log(2.0)], rtol=1e-14)
+    np.testing.assert_allclose(
+        reduce_rewards(rewards, "exponential", risk_scale=-1.0), [np.log(2.0)], rtol=1e-14
+    )
 
 
 def test_exponential_tends_to_worst_and_best_without_overflow():
-    np.testing.assert_allclose(reduce_rewards(REWARDS, "exponential", risk_scale=1e4), [1.0, -4.0], atol=1e-3)
-    np.testing.assert_allclose(reduce_rewards(REWARDS, "exponential", risk_scale=-1e4), [6.0, 0.0], atol=1e-3)
-    np.testing.assert_allclose(reduce_rewards(REWARDS, "exponential", risk_scale=1e-6), [3.0, -1.0], atol=1e-5)
+    np.testing.assert_allclose(
+        reduce_rewards(REWARDS, "exponential", risk_scale=1e4), [1.0, -4.0], atol=1e-3
+    )
+    np.testing.assert_allclose(
+        reduce_rewards(REWARDS, "exponential", risk_scale=-1e4), [6.0, 0.0], atol=1e-3
+    )
+    np.testing.assert_allclose(
+        reduce_rewards(REWARDS, "exponential", risk_scale=1e-6), [3.0, -1.0], atol=1e-5
+    )
 
 
 def test_nan_counts_as_minus_infinity_before_reduction():
@@ -58,5 +70,8 @@ def test_nan_counts_as_minus_infinity_before_reduction():
 
 
 def test_unknown_measure_lists_the_valid_ones():
-    with pytest.raises(UnknownNameError, match="unknown risk measure 'mean'; valid risk measures are: average, best"):
+    with pytest.raises(
+        UnknownNameError,
+        match="unknown risk measure 'mean'; valid risk measures are: average, best",
+    ):
         reduce_rewards(REWARDS, "mean")

@@ -45,7 +45,8 @@ def test_pool_matches_sequential_mj_step_bit_for_bit(tiny_model_path, num_worker
 
     np.testing.assert_array_equal(states, expected_states)
     np.testing.assert_array_equal(sensors, expected_sensors)
-    assert not np.allclose(states[0], states[1])  # different controls really gave different rollouts
+    # different controls really gave different rollouts
+    assert not np.allclose(states[0], states[1])
 
 
 def test_pool_reallocates_when_the_batch_shape_changes(tiny_model_path):
@@ -61,7 +62,10 @@ def test_pool_reallocates_when_the_batch_shape_changes(tiny_model_path):
 
 def test_unknown_backend_name_lists_the_valid_ones(tiny_model_path):
     model = mujoco.MjModel.from_xml_path(str(tiny_model_path))
-    with pytest.raises(UnknownNameError, match="unknown rollout backend 'gpu'; valid rollout backends are: cpu, warp"):
+    with pytest.raises(
+        UnknownNameError,
+        match="unknown rollout backend 'gpu'; valid rollout backends are: cpu, warp",
+    ):
         make_rollout_backend("gpu", model)
 
 
@@ -70,12 +74,15 @@ def test_missing_extra_names_the_extra_to_install():
         import_extra("judo_no_such_module", "the feature", "warp")
     assert str(caught.value) == (
         "the feature needs the optional extra judo-mpc[warp], which is not installed "
-        "(no module 'judo_no_such_module'); install it with: pip install -e \".[warp]\" (from a checkout) or "
+        "(no module 'judo_no_such_module'); install it with: pip install -e \".[warp]\" "
+        "(from a checkout) or "
         'pip install "judo-mpc[warp]"'
     )
 
 
-def test_each_block_runs_once_and_a_worker_s_error_is_raised_only_after_every_block_ended(tiny_model_path):
+def test_each_block_runs_once_and_a_worker_s_error_is_raised_only_after_every_block_ended(
+    tiny_model_path,
+):
     model = mujoco.MjModel.from_xml_path(str(tiny_model_path))
     with RolloutPool(model, 3) as pool:
         assert [(rows.start, rows.stop) for rows in pool.blocks(7)] == [(0, 2), (2, 4), (4, 7)]

@@ -12,13 +12,19 @@ import pytest
 import judo
 from judo.core.errors import MissingExtraError, UnknownNameError
 from judo.core.rollouts.backend import ROLLOUT_BACKENDS, RolloutBackend
-from judo.core.rollouts.factory import BACKEND_CLASSES, backend_class, check_rollout_backend, make_rollout_backend
+from judo.core.rollouts.factory import (
+    BACKEND_CLASSES,
+    backend_class,
+    check_rollout_backend,
+    make_rollout_backend,
+)
 from judo.core.rollouts.rollout import RolloutPool
 from judo.evaluation import benchmark, evaluate
 from judo.runtime import launch
 
 MISSING_WARP = (
-    "the warp rollout backend (--backend warp) needs the optional extra judo-mpc[warp], which is not installed "
+    "the warp rollout backend (--backend warp) needs the optional extra judo-mpc[warp], "
+    "which is not installed "
     "(no module 'warp'); install it with: pip install -e \".[warp]\" (from a checkout) or "
     'pip install "judo-mpc[warp]"'
 )
@@ -26,21 +32,30 @@ MISSING_WARP = (
 
 @pytest.fixture
 def without_warp(monkeypatch):
-    """warp and mujoco_warp cannot be imported (as on a machine without judo-mpc[warp]) for this test."""
+    """warp and mujoco_warp cannot be imported (as on a machine without judo-mpc[warp]) for this
+    test."""
     monkeypatch.setitem(sys.modules, "warp", None)
     monkeypatch.setitem(sys.modules, "mujoco_warp", None)
     monkeypatch.delitem(sys.modules, "judo.core.rollouts.warp_rollout", raising=False)
 
 
 def test_import_judo_imports_no_warp():
-    code = "import sys, judo, judo.core.rollouts.backend, judo.core.rollouts.rollout; print(sorted(m for m in sys.modules if 'warp' in m))"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    code = (
+        "import sys, judo, judo.core.rollouts.backend, judo.core.rollouts.rollout; "
+        "print(sorted(m for m in sys.modules if 'warp' in m))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True
+    ).stdout
     assert out.strip() == "[]"
 
 
 def test_backend_names_are_checked_and_listed(tiny_model_path):
     assert ROLLOUT_BACKENDS == ("cpu", "warp")
-    with pytest.raises(UnknownNameError, match="unknown rollout backend 'gpu'; valid rollout backends are: cpu, warp"):
+    with pytest.raises(
+        UnknownNameError,
+        match="unknown rollout backend 'gpu'; valid rollout backends are: cpu, warp",
+    ):
         check_rollout_backend("gpu")
     with pytest.raises(UnknownNameError, match="valid rollout backends are: cpu, warp"):
         judo.make_controller("cartpole", "mppi", backend="cuda")
@@ -63,12 +78,26 @@ def test_without_the_extra_the_warp_backend_names_it(without_warp, tiny_model_pa
 
 
 def test_without_the_extra_every_command_fails_at_once_naming_it(without_warp, capsys):
-    assert launch.main(["--task", "cartpole", "--backend", "warp", "--headless", "--duration", "1"]) == 2
+    assert (
+        launch.main(["--task", "cartpole", "--backend", "warp", "--headless", "--duration", "1"])
+        == 2
+    )
     assert capsys.readouterr().err.strip() == f"python -m judo: {MISSING_WARP}"
     for command in (
         lambda: benchmark.main(["--tasks", "cartpole", "--backend", "warp", "--samples", "1"]),
         lambda: evaluate.main(
-            ["--task", "cartpole", "--optimizer", "mppi", "--backend", "warp", "--seeds", "1", "--duration", "0.1"]
+            [
+                "--task",
+                "cartpole",
+                "--optimizer",
+                "mppi",
+                "--backend",
+                "warp",
+                "--seeds",
+                "1",
+                "--duration",
+                "0.1",
+            ]
         ),
     ):
         with pytest.raises(SystemExit) as exit_info:

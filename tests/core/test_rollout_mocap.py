@@ -1,4 +1,5 @@
-"""Mocap goals reach the rollouts: MuJoCo's rollout resets mocap poses unless they are passed as inputs."""
+"""Mocap goals reach the rollouts: MuJoCo's rollout resets mocap poses unless they are passed as
+inputs."""
 
 import mujoco
 import numpy as np
@@ -18,7 +19,7 @@ GOAL_XML = """
     <framequat name="goal_quat" objtype="body" objname="goal"/>
   </sensor>
 </mujoco>
-"""
+"""  # noqa: E501
 
 
 def test_rollouts_see_the_given_mocap_pose_at_every_step() -> None:

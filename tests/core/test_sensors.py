@@ -1,5 +1,5 @@
-"""Measured sensors: validation of Task.measured_sensors, their layout, per-type settings, and that every
-built-in task declares a realistic set without changing its rewards' columns."""
+"""Measured sensors: validation of Task.measured_sensors, their layout, per-type settings, and that
+every built-in task declares a realistic set without changing its rewards' columns."""
 
 import mujoco
 import numpy as np
@@ -60,12 +60,15 @@ def test_an_unknown_sensor_lists_the_measurable_ones(model_path):
     with pytest.raises(UnknownNameError) as err:
         task_measuring(("hinge_vel",))(model_path)
     assert str(err.value) == (
-        "unknown measured sensor of Arm 'hinge_vel'; valid measured sensor of Arms are: arm_quat, hinge_pos"
+        "unknown measured sensor of Arm 'hinge_vel'; valid measured sensor of Arms are: "
+        "arm_quat, hinge_pos"
     )
 
 
 def test_a_trace_sensor_is_never_measured(model_path):
-    with pytest.raises(InvalidSensorError, match="lists trace sensor 'trace_tip' as measured.*arm_quat, hinge_pos"):
+    with pytest.raises(
+        InvalidSensorError, match="lists trace sensor 'trace_tip' as measured.*arm_quat, hinge_pos"
+    ):
         task_measuring(("trace_tip",))(model_path)
 
 
@@ -75,20 +78,27 @@ def test_a_sensor_listed_twice_is_refused(model_path):
 
 
 def test_per_type_values_take_a_default_and_refuse_types_not_measured(model_path):
-    layout = measured_layout(mujoco.MjModel.from_xml_path(str(model_path)), ("hinge_pos", "arm_quat"), "Arm")
+    layout = measured_layout(
+        mujoco.MjModel.from_xml_path(str(model_path)), ("hinge_pos", "arm_quat"), "Arm"
+    )
     assert per_sensor(0.1, layout, "noise") == [0.1, 0.1]
     assert per_sensor({"default": 0.1, "framequat": 0.02}, layout, "noise") == [0.1, 0.02]
     assert per_sensor({"framequat": 0.02}, layout, "noise") == [None, 0.02]
-    assert per_sensor({"gyro": 0.1, "jointpos": 0.2}, layout, "noise") == [0.2, None]  # gyro: not measured here
+    # gyro: not measured here
+    assert per_sensor({"gyro": 0.1, "jointpos": 0.2}, layout, "noise") == [0.2, None]
     with pytest.raises(
-        ConfigError, match="'camera' is not a sensor type; valid keys here are: default, framequat, jointpos"
+        ConfigError,
+        match="'camera' is not a sensor type; valid keys here are: default, framequat, jointpos",
     ):
         per_sensor({"camera": 0.1}, layout, "noise")
 
 
 def test_parse_per_type_reads_command_line_values():
     assert parse_per_type(["100"], "--sensor-rate-hz") == 100.0
-    assert parse_per_type(["100", "framepos=30"], "--sensor-rate-hz") == {"default": 100.0, "framepos": 30.0}
+    assert parse_per_type(["100", "framepos=30"], "--sensor-rate-hz") == {
+        "default": 100.0,
+        "framepos": 30.0,
+    }
     with pytest.raises(ConfigError, match="expects NUMBER or TYPE=NUMBER"):
         parse_per_type(["framepos=fast"], "--sensor-rate-hz")
 
@@ -118,7 +128,8 @@ def test_every_builtin_task_measures_a_realistic_set(task_name):
     assert set(task.measured.types) == EXPECTED_TYPES[task_name]
     encoders = task.measured.types.count("jointpos")
     hinges_and_slides = sum(
-        int(t) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE) for t in task.model.jnt_type
+        int(t) in (mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_SLIDE)
+        for t in task.model.jnt_type
     )
     if task_name == "walker":  # the torso's planar root (x, z, pitch) is not an encoder
         hinges_and_slides -= 3

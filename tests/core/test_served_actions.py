@@ -1,4 +1,5 @@
-"""Served actions stay within the actuators' ctrlrange, and the rollouts are scored on exactly what is served."""
+"""Served actions stay within the actuators' ctrlrange, and the rollouts are scored on exactly what
+is served."""
 
 import mujoco
 import numpy as np
@@ -37,9 +38,12 @@ def swing_up(tmp_path):
 
 
 def test_a_cubic_plan_never_serves_or_rolls_out_a_torque_beyond_the_range(swing_up):
-    """The user's case: 6-knot cubic, ctrlrange -3 3, 10 s closed loop at 20 Hz (200 control periods)."""
+    """The user's case: 6-knot cubic, ctrlrange -3 3, 10 s closed loop at 20 Hz (200 control
+    periods)."""
     config = judo.ControllerConfig(horizon=1.0, spline_order="cubic", control_freq=20.0)
-    optimizer = MPPI(MPPIConfig(num_rollouts=16, num_nodes=6, sigma=2.0, temperature=0.05), swing_up.nu)
+    optimizer = MPPI(
+        MPPIConfig(num_rollouts=16, num_nodes=6, sigma=2.0, temperature=0.05), swing_up.nu
+    )
     optimizer.rng = np.random.default_rng(0)
     controller = judo.Controller(config, swing_up, optimizer, num_workers=1)
     model, data = swing_up.model, mujoco.MjData(swing_up.model)
@@ -65,7 +69,8 @@ def test_a_cubic_plan_never_serves_or_rolls_out_a_torque_beyond_the_range(swing_
 
 
 def test_the_plan_serves_what_its_rollouts_applied(swing_up):
-    """action(t) at every rollout step equals the nominal rollout's (index 0) controls, limits included."""
+    """action(t) at every rollout step equals the nominal rollout's (index 0) controls, limits
+    included."""
     config = judo.ControllerConfig(horizon=0.5, spline_order="cubic")
     optimizer = MPPI(MPPIConfig(num_rollouts=8, num_nodes=6, sigma=3.0), swing_up.nu)
     optimizer.rng = np.random.default_rng(1)
@@ -87,7 +92,8 @@ def test_the_plan_serves_what_its_rollouts_applied(swing_up):
 def test_a_bounded_spline_clamps_scalar_and_array_queries():
     basis = judo.SplineBasis(np.linspace(0.0, 1.0, 6), "cubic")
     knots = np.array([[3.0], [-3.0], [3.0], [-3.0], [3.0], [-3.0]])
-    assert np.abs(judo.Spline(0.0, basis, knots)(np.linspace(0, 1, 101))).max() > 3.5  # the overshoot
+    # the overshoot
+    assert np.abs(judo.Spline(0.0, basis, knots)(np.linspace(0, 1, 101))).max() > 3.5
     spline = judo.Spline(0.0, basis, knots, low=np.array([-3.0]), high=np.array([3.0]))
     values = spline(np.linspace(0, 1, 101))
     assert values.min() == -3.0 and values.max() == 3.0
@@ -96,24 +102,39 @@ def test_a_bounded_spline_clamps_scalar_and_array_queries():
 
 def test_a_linear_spline_is_clamped_only_when_its_knots_leave_the_bounds():
     basis = judo.SplineBasis(np.linspace(0.0, 1.0, 3), "linear")
-    inside = judo.Spline(0.0, basis, np.array([[1.0], [-1.0], [1.0]]), low=np.array([-1.0]), high=np.array([1.0]))
+    inside = judo.Spline(
+        0.0, basis, np.array([[1.0], [-1.0], [1.0]]), low=np.array([-1.0]), high=np.array([1.0])
+    )
     np.testing.assert_allclose(inside(np.array([0.25, 0.5])), [[0.0], [-1.0]])
-    outside = judo.Spline(0.0, basis, np.array([[5.0], [-5.0], [5.0]]), low=np.array([-1.0]), high=np.array([1.0]))
+    outside = judo.Spline(
+        0.0, basis, np.array([[5.0], [-5.0], [5.0]]), low=np.array([-1.0]), high=np.array([1.0])
+    )
     np.testing.assert_allclose(outside(np.array([0.1, 0.25, 0.5])), [[1.0], [0.0], [-1.0]])
     assert outside(0.5)[0] == -1.0
 
 
 def test_a_non_finite_reading_is_refused_and_never_served(swing_up):
-    """A sensor that returns NaN must not reach the rollouts (MuJoCo floods its log) or the served action."""
+    """A sensor that returns NaN must not reach the rollouts (MuJoCo floods its log) or the served
+    action."""
     controller = judo.Controller(
-        judo.ControllerConfig(horizon=0.3), swing_up, MPPI(MPPIConfig(num_rollouts=4), swing_up.nu), num_workers=1
+        judo.ControllerConfig(horizon=0.3),
+        swing_up,
+        MPPI(MPPIConfig(num_rollouts=4), swing_up.nu),
+        num_workers=1,
     )
     try:
         plan = controller.update_action(np.zeros(2), 0.0)
-        with pytest.raises(judo.JudoError, match=r"non-finite reading \(non-finite state entries \[1\]\)"):
+        with pytest.raises(
+            judo.JudoError,
+            match=r"non-finite reading \(non-finite "
+            r"state entries \[1\]\)",
+        ):
             controller.update_action(np.array([0.0, np.nan]), 0.01)
-        with pytest.raises(judo.JudoError, match="action time must be a finite number of seconds, got nan"):
+        with pytest.raises(
+            judo.JudoError, match="action time must be a finite number of seconds, got nan"
+        ):
             controller.action(float("nan"))
-        np.testing.assert_array_equal(controller.action(0.1), plan(0.1))  # the previous plan is still served
+        # the previous plan is still served
+        np.testing.assert_array_equal(controller.action(0.1), plan(0.1))
     finally:
         controller.close()

@@ -1,5 +1,6 @@
-"""`model_at` (a state into a scratch MjData) and `PolicyStepper` (a batch stepped with a policy between physics
-ticks), each against a plain-Python reference on a tiny inline model, bit for bit."""
+"""`model_at` (a state into a scratch MjData) and `PolicyStepper` (a batch stepped with a policy
+between physics ticks), each against a plain-Python reference on a tiny inline model, bit for
+bit."""
 
 import mujoco
 import mujoco.rollout
@@ -51,13 +52,21 @@ def test_model_at_puts_a_reading_and_its_mocap_into_the_data_and_runs_forward(mo
     data.ctrl[:] = [0.5, 0.0]  # left as it is: the actuator force sensor reads it
     assert model_at(model, data, state, 1.25, GOAL) is data
     expected = mujoco.MjData(model)
-    expected.time, expected.qpos[:], expected.qvel[:], expected.ctrl[:] = 1.25, state[:2], state[2:], [0.5, 0.0]
+    expected.time, expected.qpos[:], expected.qvel[:], expected.ctrl[:] = (
+        1.25,
+        state[:2],
+        state[2:],
+        [0.5, 0.0],
+    )
     expected.mocap_pos[:], expected.mocap_quat[:] = GOAL["mocap_pos"], GOAL["mocap_quat"]
     mujoco.mj_forward(model, expected)
     np.testing.assert_array_equal(data.sensordata, expected.sensordata)
     np.testing.assert_array_equal(data.sensordata[:3], GOAL["mocap_pos"][0])
-    assert data.sensordata[4] == 0.5 and data.sensordata[5] == 1.25  # the ctrl's force; the clock reads the time
-    np.testing.assert_array_equal(mocap_vector(data), np.concatenate([[0.3, -0.2, 0.8], [0.0, 1.0, 0.0, 0.0]]))
+    # the ctrl's force; the clock reads the time
+    assert data.sensordata[4] == 0.5 and data.sensordata[5] == 1.25
+    np.testing.assert_array_equal(
+        mocap_vector(data), np.concatenate([[0.3, -0.2, 0.8], [0.0, 1.0, 0.0, 0.0]])
+    )
 
 
 def test_model_at_takes_a_full_physics_state_and_keeps_what_it_is_not_given(model):
@@ -69,14 +78,16 @@ def test_model_at_takes_a_full_physics_state_and_keeps_what_it_is_not_given(mode
     model_at(model, other, full, metadata=mocap_metadata(model, mocap_vector(data)))  # its own time
     np.testing.assert_array_equal(other.sensordata, data.sensordata)
     before = other.sensordata.copy()
-    model_at(model, other, np.zeros(4), None, {"other": 1}, forward=False)  # no time, no mocap poses, no forward
+    # no time, no mocap poses, no forward
+    model_at(model, other, np.zeros(4), None, {"other": 1}, forward=False)
     assert other.time == 0.5 and other.qpos[1] == 0.0
     np.testing.assert_array_equal(other.mocap_pos, GOAL["mocap_pos"])
     np.testing.assert_array_equal(other.sensordata, before)
 
 
 def linear(weight, observations):
-    """(B, 2) tanh(W obs), each row computed alone (so a batch of one gives the bits of a row of a batch of N)."""
+    """(B, 2) tanh(W obs), each row computed alone (so a batch of one gives the bits of a row of a
+    batch of N)."""
     out = np.zeros((len(observations), len(weight)))
     for j in range(weight.shape[1]):
         out += observations[:, j : j + 1] * weight[:, j]
@@ -84,8 +95,8 @@ def linear(weight, observations):
 
 
 def reference(model, initial, weight, commands, every, mocap):
-    """One row at a time with mj_step: every k steps tanh(W [command, qpos, qvel]) held as the ctrl (a cold solver
-    start at each tick, as MuJoCo's rollout starts each call)."""
+    """One row at a time with mj_step: every k steps tanh(W [command, qpos, qvel]) held as the ctrl
+    (a cold solver start at each tick, as MuJoCo's rollout starts each call)."""
     data = mujoco.MjData(model)
     num_rows, num_steps = len(commands), commands.shape[1]
     states = np.zeros((num_rows, num_steps, len(initial)))
@@ -109,7 +120,9 @@ def test_the_stepper_runs_block_by_block_as_a_plain_loop_bit_for_bit(model, work
     commands = np.random.default_rng(1).uniform(-1, 1, (5, num_steps, 1))
     commands[3, 3] = np.nan  # row 3's policy gives NaN at its second tick
     initial = np.zeros(mujoco.mj_stateSize(model, STATE_SPEC))
-    data = model_at(model, mujoco.MjData(model), np.array([0.1, 0.2, 0.0, -0.1]), 0.0, forward=False)
+    data = model_at(
+        model, mujoco.MjData(model), np.array([0.1, 0.2, 0.0, -0.1]), 0.0, forward=False
+    )
     mujoco.mj_getState(model, data, initial, STATE_SPEC)
     mocap = np.concatenate([GOAL["mocap_pos"][0], GOAL["mocap_quat"][0]])
     stepper = PolicyStepper(model, action_size=2, every=every, observation_size=5)
@@ -137,16 +150,24 @@ def test_the_stepper_runs_block_by_block_as_a_plain_loop_bit_for_bit(model, work
     np.testing.assert_array_equal(states[finite], expected[finite])
     np.testing.assert_array_equal(stepper.current[finite], expected[finite, -1])
     assert stepper.finite.tolist() == finite.tolist()
-    assert blocks == workers and len(calls) == 3 * workers and sum(calls) == 3 * 5  # one act per tick and block
-    np.testing.assert_array_equal(stepper.sensors[2][finite, -1, :3], np.broadcast_to(GOAL["mocap_pos"], (4, 3)))
+    # one act per tick and block
+    assert blocks == workers and len(calls) == 3 * workers and sum(calls) == 3 * 5
+    np.testing.assert_array_equal(
+        stepper.sensors[2][finite, -1, :3], np.broadcast_to(GOAL["mocap_pos"], (4, 3))
+    )
 
 
 def test_a_chunk_gives_each_step_its_action_and_the_last_one_is_the_previous(model):
     weights = np.array([[1.0, 0.0], [0.5, 0.5], [0.0, 1.0]])  # three steps from two knots, linearly
-    stepper = PolicyStepper(model, 2, every=3, step_weights=lambda n: weights[:n], to_ctrl=lambda a: 2.0 * a)
+    stepper = PolicyStepper(
+        model, 2, every=3, step_weights=lambda n: weights[:n], to_ctrl=lambda a: 2.0 * a
+    )
     stepper.start(2, 3, np.zeros(stepper.nstate))
     chunk = np.array([[[0.1, 0.2], [0.3, 0.4]], [[-0.1, 0.0], [0.1, 0.2]]])  # (B, H, A)
     ctrl = stepper.act(slice(0, 2), chunk, 3)
     np.testing.assert_allclose(ctrl, 2.0 * np.einsum("sh,bha->bsa", weights, chunk))
     np.testing.assert_array_equal(stepper.previous, chunk[:, -1])
-    assert np.shares_memory(ctrl, stepper.inputs[3]) and stepper.control_spec == mujoco.mjtState.mjSTATE_CTRL
+    assert (
+        np.shares_memory(ctrl, stepper.inputs[3])
+        and stepper.control_spec == mujoco.mjtState.mjSTATE_CTRL
+    )

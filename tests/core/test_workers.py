@@ -1,4 +1,5 @@
-"""DaemonThreadPool: results and errors through futures, daemon workers, a bounded shutdown, no leak."""
+"""DaemonThreadPool: results and errors through futures, daemon workers, a bounded shutdown, no
+leak."""
 
 import gc
 import threading

@@ -1,4 +1,5 @@
-"""The EKF and the UKF on tiny nonlinear models: a free body's quaternion and covariance, and delay compensation."""
+"""The EKF and the UKF on tiny nonlinear models: a free body's quaternion and covariance, and delay
+compensation."""
 
 import mujoco
 import numpy as np
@@ -62,10 +63,15 @@ def make_task(xml, tmp_path, sensors):
 
 
 @pytest.mark.parametrize("name", FILTERS)
-def test_a_free_body_s_quaternion_stays_normalized_and_its_covariance_positive_definite(tmp_path, name):
+def test_a_free_body_s_quaternion_stays_normalized_and_its_covariance_positive_definite(
+    tmp_path, name
+):
     filter_cls, config_cls = FILTERS[name]
     sensors = ("box_pos", "box_quat", "box_gyro")
-    plant, planner = make_task(FREE_BODY_XML, tmp_path, sensors), make_task(FREE_BODY_XML, tmp_path, sensors)
+    plant, planner = (
+        make_task(FREE_BODY_XML, tmp_path, sensors),
+        make_task(FREE_BODY_XML, tmp_path, sensors),
+    )
     plant.data.qvel[:] = [0.3, 0.0, 2.0, 4.0, -3.0, 6.0]  # tumbling while it falls
     mujoco.mj_forward(plant.sim_model, plant.data)
     noise = {"framepos": 0.002, "framequat": 0.02, "gyro": 0.01}
@@ -85,15 +91,19 @@ def test_a_free_body_s_quaternion_stays_normalized_and_its_covariance_positive_d
     mujoco.mju_subQuat(rotation, estimate.state[3:7], plant.data.qpos[3:7])
     assert np.linalg.norm(rotation) < 0.02  # rad: within the camera's noise
     assert np.linalg.norm(estimate.state[:3] - plant.data.qpos[:3]) < 0.004  # m
-    assert np.linalg.norm(estimate.state[10:] - plant.data.qvel[3:]) < 0.05  # rad/s: the gyro's noise
+    # rad/s: the gyro's noise
+    assert np.linalg.norm(estimate.state[10:] - plant.data.qvel[3:]) < 0.05
 
 
 def run_pendulum(tmp_path, delay, stamp_as_taken=True, steps=300, name="ekf"):
-    """Estimate errors (steps,) of the pole angle with readings `delay` s late, noise 0.002 rad, by filter `name`."""
+    """Estimate errors (steps,) of the pole angle with readings `delay` s late, noise 0.002 rad, by
+    filter `name`."""
     filter_cls, config_cls = FILTERS[name]
     plant = make_task(PENDULUM_XML, tmp_path, ("hinge_pos",))
     planner = make_task(PENDULUM_XML, tmp_path, ("hinge_pos",))
-    system = SensedSystem(MujocoSystem(plant), noise=0.002, delay=delay, rng=np.random.default_rng(0))
+    system = SensedSystem(
+        MujocoSystem(plant), noise=0.002, delay=delay, rng=np.random.default_rng(0)
+    )
     ekf = filter_cls(planner, config_cls(noise_jointpos=0.002))
     controls = ControlHistory(1)
     ekf.reset(system.read_state())
@@ -104,7 +114,8 @@ def run_pendulum(tmp_path, delay, stamp_as_taken=True, steps=300, name="ekf"):
         system.apply(np.array([torques[k]]))
         system.step()
         reading = system.read_state()
-        if not stamp_as_taken:  # what a filter without delay compensation sees: a late value called current
+        # what a filter without delay compensation sees: a late value called current
+        if not stamp_as_taken:
             reading = SystemState(None, system.time, {}, reading.sensors)
         estimate = ekf.update(reading, system.time, controls)
         assert estimate.time == pytest.approx(system.time)

@@ -1,4 +1,5 @@
-"""On a linear model the EKF and the UKF are the Kalman filter: a slide joint with a motor under Euler integration."""
+"""On a linear model the EKF and the UKF are the Kalman filter: a slide joint with a motor under
+Euler integration."""
 
 import mujoco
 import numpy as np
@@ -34,7 +35,8 @@ class Slider(Task):
 
 
 def kalman_filter(readings, controls, config):
-    """The textbook Kalman filter of x' = A x + B u, y = x[0] + noise: (K, 2) estimates, (K, 2, 2) covariances."""
+    """The textbook Kalman filter of x' = A x + B u, y = x[0] + noise: (K, 2) estimates, (K, 2, 2)
+    covariances."""
     A = np.array([[1.0, DT], [0.0, 1.0]])  # Euler: v' = v + dt a, q' = q + dt v'
     B = np.array([DT * DT, DT]) * GEAR / MASS
     H = np.array([[1.0, 0.0]])
@@ -60,20 +62,26 @@ def kalman_filter(readings, controls, config):
     "filter_cls, config_cls, extra",
     [
         (ExtendedKalmanFilter, EKFConfig, {}),
-        (UnscentedKalmanFilter, UKFConfig, {"spread": 1.0}),  # the cubature rule: exact on linear models
+        # the cubature rule: exact on linear models
+        (UnscentedKalmanFilter, UKFConfig, {"spread": 1.0}),
         (UnscentedKalmanFilter, UKFConfig, {"spread": 0.3}),  # and at any spread
     ],
     ids=["ekf", "ukf", "ukf-spread-0.3"],
 )
-def test_the_filter_equals_the_exact_kalman_filter_on_a_linear_system(tmp_path, filter_cls, config_cls, extra):
+def test_the_filter_equals_the_exact_kalman_filter_on_a_linear_system(
+    tmp_path, filter_cls, config_cls, extra
+):
     path = tmp_path / "slider.xml"
     path.write_text(SLIDER_XML)
     task = Slider(path)
     rng = np.random.default_rng(0)
     steps = 200
     controls = rng.uniform(-1.0, 1.0, steps)
-    readings = np.cumsum(rng.normal(0.0, 0.01, steps)) + 0.3  # any sequence will do: both filters see the same
-    config = config_cls(process_noise_position=0.02, process_noise_velocity=0.5, noise_jointpos=0.01, **extra)
+    # any sequence will do: both filters see the same
+    readings = np.cumsum(rng.normal(0.0, 0.01, steps)) + 0.3
+    config = config_cls(
+        process_noise_position=0.02, process_noise_velocity=0.5, noise_jointpos=0.01, **extra
+    )
     ekf = filter_cls(task, config)
     history = ControlHistory(task.nu)
     expected, expected_cov = kalman_filter(readings, controls, config)
@@ -89,7 +97,8 @@ def test_the_filter_equals_the_exact_kalman_filter_on_a_linear_system(tmp_path, 
         assert estimate.time == k * DT
         history.append(k * DT, np.array([controls[k]]))
     if filter_cls is ExtendedKalmanFilter:
-        assert ekf.linearizations >= steps  # one finite-difference Jacobian per step at relinearize_every=1
+        # one finite-difference Jacobian per step at relinearize_every=1
+        assert ekf.linearizations >= steps
     else:
         assert ekf.linearizations <= RESET_ITERATIONS  # sigma points after the first reading
 
@@ -101,4 +110,6 @@ def test_model_is_linear_as_the_reference_assumes(tmp_path):
     data.qpos[:], data.qvel[:], data.ctrl[:] = 0.2, -0.4, 0.7
     mujoco.mj_step(model, data)
     velocity = -0.4 + DT * GEAR * 0.7 / MASS
-    np.testing.assert_allclose([data.qpos[0], data.qvel[0]], [0.2 + DT * velocity, velocity], atol=1e-15)
+    np.testing.assert_allclose(
+        [data.qpos[0], data.qvel[0]], [0.2 + DT * velocity, velocity], atol=1e-15
+    )

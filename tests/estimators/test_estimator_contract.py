@@ -15,7 +15,9 @@ from judo.estimators.ekf import EKFConfig
 def test_unknown_estimator_names_list_the_valid_ones():
     with pytest.raises(UnknownNameError) as err:
         lookup_estimator("particle")
-    assert str(err.value) == "unknown estimator 'particle'; valid estimators are: ekf, legged, state, ukf"
+    assert str(err.value) == (
+        "unknown estimator 'particle'; valid estimators are: ekf, legged, state, ukf"
+    )
 
 
 def test_estimators_are_made_by_name_with_their_config():
@@ -25,8 +27,11 @@ def test_estimators_are_made_by_name_with_their_config():
     assert isinstance(judo.make_estimator("state", task).config, judo.EstimatorConfig)
     judo.set_config_overrides("unregistered_task", EKFConfig, {"history": 0.1})
     assert judo.make_estimator("ekf", task, task_name="unregistered_task").config.history == 0.1
-    assert {"noise_jointpos", "process_noise_velocity", "relinearize_every"} <= set(slider_ranges(EKFConfig))
-    ukf = judo.make_estimator("ukf", task, task_name="cartpole")  # the task's TOML section for the ukf
+    assert {"noise_jointpos", "process_noise_velocity", "relinearize_every"} <= set(
+        slider_ranges(EKFConfig)
+    )
+    # the task's TOML section for the ukf
+    ukf = judo.make_estimator("ukf", task, task_name="cartpole")
     assert ukf.config.process_noise_velocity == 0.02 and ukf.config.spread == 1.0
     assert {"noise_jointpos", "spread"} <= set(slider_ranges(type(ukf.config)))
     assert "relinearize_every" not in slider_ranges(type(ukf.config))  # the EKF's alone
@@ -48,7 +53,11 @@ def test_the_ekf_refuses_readings_without_the_measured_sensors():
     ekf = judo.make_estimator("ekf", task)
     with pytest.raises(ReadingError, match="needs SystemState.sensors .* got None"):
         ekf.reset(SystemState(np.zeros(4), 0.0))
-    with pytest.raises(ReadingError, match=r"must have shape \(2,\) .*\('slider_pos', 'hinge_pos'\), got \(3,\)"):
+    with pytest.raises(
+        ReadingError,
+        match=r"must have shape \(2,\) .*\('slider_pos', "
+        r"'hinge_pos'\), got \(3,\)",
+    ):
         ekf.reset(SystemState(None, 0.0, {}, np.zeros(3)))
 
 
@@ -70,7 +79,8 @@ def test_control_history_gives_the_action_in_force_and_forgets_old_ones():
         history.append(0.01 * k, np.array([float(k)]))
     assert history.at(0.255).tolist() == [25.0]
     assert history.at(0.29).tolist() == [29.0]
-    assert history.at(0.0).tolist() == [18.0]  # before the span: the action in force at its start (0.19 s)
+    # before the span: the action in force at its start (0.19 s)
+    assert history.at(0.0).tolist() == [18.0]
     history.append(0.29, np.array([-1.0]))  # the same instant again: replaced
     assert history.at(0.3).tolist() == [-1.0]
 
@@ -80,10 +90,14 @@ def test_a_config_file_sets_an_estimator_s_fields_per_task(tmp_path):
     path.write_text("[estimator_config_overrides.unregistered_task.ekf]\nnoise_jointpos = 0.003\n")
     judo.load_config(path)
     task = judo.get_registered_tasks()["pendulum"][0]()
-    assert judo.make_estimator("ekf", task, task_name="unregistered_task").config.noise_jointpos == 0.003
+    assert (
+        judo.make_estimator("ekf", task, task_name="unregistered_task").config.noise_jointpos
+        == 0.003
+    )
     path.write_text("[estimator_config_overrides.pendulum.kalman]\nnoise_jointpos = 0.003\n")
     with pytest.raises(
         judo.ConfigFileError,
-        match=r"\[estimator_config_overrides.pendulum.kalman\]: unknown estimator 'kalman'; valid estimators are: ekf, legged, state, ukf",
+        match=r"\[estimator_config_overrides.pendulum.kalman\]: unknown estimator 'kalman'; valid "
+        r"estimators are: ekf, legged, state, ukf",
     ):
         judo.load_config(path)

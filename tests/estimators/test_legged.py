@@ -1,5 +1,6 @@
-"""The legged estimator on a tiny four-legged robot: the base's height, attitude and velocity from the IMU, the
-encoders and the foot contacts, against the simulated truth; and the one-line errors for a model it cannot read."""
+"""The legged estimator on a tiny four-legged robot: the base's height, attitude and velocity from
+the IMU, the encoders and the foot contacts, against the simulated truth; and the one-line errors
+for a model it cannot read."""
 
 import mujoco
 import numpy as np
@@ -53,13 +54,20 @@ ROBOT_XML = f"""
   </keyframe>
 </mujoco>
 """
-"""A 4.6 kg robot standing on four point feet, with a turned IMU off the base's origin (the estimator must take
-the site's rotation off), encoders, joint speeds and a touch sensor in each foot."""
+"""A 4.6 kg robot standing on four point feet, with a turned IMU off the base's origin (the
+estimator must take the site's rotation off), encoders, joint speeds and a touch sensor in each
+foot."""
 POSITIONS = tuple(f"{j}_pos" for j in JOINTS)
 VELOCITIES = tuple(f"{j}_vel" for j in JOINTS)
 IMU = ("imu_quat", "imu_gyro", "imu_acc")
 TOUCH = tuple(f"{n}_touch" for n, _, _ in LEGS)
-NOISE = {"jointpos": 0.005, "jointvel": 0.1, "framequat": float(np.deg2rad(0.5)), "gyro": 0.01, "accelerometer": 0.1}
+NOISE = {
+    "jointpos": 0.005,
+    "jointvel": 0.1,
+    "framequat": float(np.deg2rad(0.5)),
+    "gyro": 0.01,
+    "accelerometer": 0.1,
+}
 """A robot's sensors (the touch sensors' 5 N is added where they are measured)."""
 
 
@@ -82,19 +90,22 @@ def robot_task(tmp_path, sensors, xml=ROBOT_XML):
 
 
 SWAY = 0.12 * np.tile([1.0, -2.0], 4)
-"""(8,) each joint's sway about the pose (rad): the knees twice the hips, the opposite way, so the base bobs."""
+"""(8,) each joint's sway about the pose (rad): the knees twice the hips, the opposite way, so the
+base bobs."""
 SWAY_PHASE = np.repeat([0.0, 0.0, np.pi / 2, np.pi / 2], 2)
 """(8,) the rear legs a quarter cycle after the front: the base pitches too."""
 
 
 def run(tmp_path, sensors, steps=400, config=None, delay=0.0, push=10.0):
-    """(steps, 4) per step: |height error| (m), attitude error (deg), |velocity error| (m/s), planar distance (m),
-    the robot bobbing and pitching at 1.5 Hz and pushed sideways (`push` N) for 0.2 s from 1 s on; the first
-    0.25 s left out."""
+    """(steps, 4) per step: |height error| (m), attitude error (deg), |velocity error| (m/s), planar
+    distance (m), the robot bobbing and pitching at 1.5 Hz and pushed sideways (`push` N) for 0.2 s
+    from 1 s on; the first 0.25 s left out."""
     robot = robot_task(tmp_path, sensors)
     plant, planner = robot(), robot()
     noise = {**NOISE, "touch": 5.0}
-    system = SensedSystem(MujocoSystem(plant), noise=noise, delay=delay, rng=np.random.default_rng(0))
+    system = SensedSystem(
+        MujocoSystem(plant), noise=noise, delay=delay, rng=np.random.default_rng(0)
+    )
     estimator = LeggedEstimator(planner, config or LeggedConfig(contact_force=3.0))
     controls = ControlHistory(planner.nu)
     estimator.reset(system.read_state())
@@ -126,14 +137,18 @@ def run(tmp_path, sensors, steps=400, config=None, delay=0.0, push=10.0):
 def test_a_swaying_pushed_robot_keeps_its_height_attitude_and_velocity(tmp_path):
     errors = run(tmp_path, POSITIONS + VELOCITIES + IMU + TOUCH)
     mean, worst = errors.mean(axis=0), errors.max(axis=0)
-    # Measured: height 0.7 (2.3) mm, attitude 0.27 (0.70) deg, velocity 0.046 (0.18) m/s, drift 13 mm.
+    # Measured: height 0.7 (2.3) mm, attitude 0.27 (0.70) deg, velocity 0.046 (0.18) m/s, drift 13
+    # mm.
     assert mean[0] < 0.003 and worst[0] < 0.01, (mean, worst)  # m
-    assert mean[1] < 0.6 and worst[1] < 1.5, (mean, worst)  # deg: the IMU's 0.5 deg per axis, smoothed
+    # deg: the IMU's 0.5 deg per axis, smoothed
+    assert mean[1] < 0.6 and worst[1] < 1.5, (mean, worst)
     assert mean[2] < 0.1 and worst[2] < 0.35, (mean, worst)  # m/s: the base swings at up to 0.4 m/s
     assert errors[-1, 3] < 0.06, errors[-1]  # m: the plane drifts, slowly
 
 
-def test_without_touch_sensors_or_joint_speeds_the_lowest_feet_stand_and_the_encoders_are_differenced(tmp_path):
+def test_without_touch_sensors_or_joint_speeds_the_lowest_feet_stand_and_the_encoders_are_differenced(  # noqa: E501
+    tmp_path,
+):
     errors = run(tmp_path, POSITIONS + IMU)
     mean, worst = errors.mean(axis=0), errors.max(axis=0)
     # Measured: height 1.2 (4.3) mm, attitude 0.27 (0.70) deg, velocity 0.11 (0.17) m/s.
@@ -169,12 +184,20 @@ def test_a_robot_at_rest_is_estimated_at_rest_on_the_floor_exactly(tmp_path):
 def test_a_task_without_what_the_estimator_needs_is_one_line_naming_it(tmp_path):
     with pytest.raises(ConfigError, match="needs an IMU .* found \\['framequat', 'gyro'\\]"):
         LeggedEstimator(robot_task(tmp_path, POSITIONS + IMU[:2])())
-    with pytest.raises(ConfigError, match="needs a jointpos sensor of every joint .* none measures RL_hip, RL_knee"):
+    with pytest.raises(
+        ConfigError, match="needs a jointpos sensor of every joint .* none measures RL_hip, RL_knee"
+    ):
         LeggedEstimator(robot_task(tmp_path, POSITIONS[:6] + IMU)())
-    with pytest.raises(ConfigError, match="foot_sites \\['paw'\\] are not sites of Robot; its sites are \\['imu', "):
+    with pytest.raises(
+        ConfigError, match="foot_sites \\['paw'\\] are not sites of Robot; its sites are \\['imu', "
+    ):
         LeggedEstimator(robot_task(tmp_path, POSITIONS + IMU)(), LeggedConfig(foot_sites=("paw",)))
-    fixed = ROBOT_XML.replace("<freejoint/>", "").replace(f'qpos="0 0 0.2728 1 0 -0.0017 0 {POSE}"', f'qpos="{POSE}"')
-    with pytest.raises(ConfigError, match="needs a model with one floating base \\(a free joint\\); Robot's has 0"):
+    fixed = ROBOT_XML.replace("<freejoint/>", "").replace(
+        f'qpos="0 0 0.2728 1 0 -0.0017 0 {POSE}"', f'qpos="{POSE}"'
+    )
+    with pytest.raises(
+        ConfigError, match="needs a model with one floating base \\(a free joint\\); Robot's has 0"
+    ):
         LeggedEstimator(robot_task(tmp_path, POSITIONS + IMU, fixed)())
     with pytest.raises(ConfigError, match="LeggedConfig.ground_std must be positive, got -1"):
         LeggedConfig(ground_std=-1.0).validate()
@@ -182,7 +205,11 @@ def test_a_task_without_what_the_estimator_needs_is_one_line_naming_it(tmp_path)
 
 def test_feet_default_to_the_touch_sensors_sites_and_stand_above_their_spheres(tmp_path):
     estimator = LeggedEstimator(robot_task(tmp_path, POSITIONS + IMU + TOUCH)())
-    names = [mujoco.mj_id2name(estimator.model, mujoco.mjtObj.mjOBJ_SITE, s) for s in estimator.layout.feet]
+    names = [
+        mujoco.mj_id2name(estimator.model, mujoco.mjtObj.mjOBJ_SITE, s)
+        for s in estimator.layout.feet
+    ]
     assert names == ["FR_foot", "FL_foot", "RR_foot", "RL_foot"]
-    np.testing.assert_allclose(estimator.layout.ground_offset, 0.02)  # the site at the sphere's centre
+    # the site at the sphere's centre
+    np.testing.assert_allclose(estimator.layout.ground_offset, 0.02)
     assert estimator.layout.touch is not None and estimator.layout.joint_vel is None

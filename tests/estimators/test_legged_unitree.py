@@ -1,7 +1,8 @@
-"""The Unitree tasks' estimators on the shipped models, from what rt/lowstate carries (a robot's noise, 500 Hz,
-2 ms late): the Go2 standing up from its lying start, the G1 standing, each held by its servos alone at the
-standing pose's targets (no planner), the base estimate against the simulated truth. The Go2 plans from the EKF
-(with its TOML's noise), the G1 from the legged estimator (benchmarks/base_estimation.py measures why)."""
+"""The Unitree tasks' estimators on the shipped models, from what rt/lowstate carries (a robot's
+noise, 500 Hz, 2 ms late): the Go2 standing up from its lying start, the G1 standing, each held by
+its servos alone at the standing pose's targets (no planner), the base estimate against the
+simulated truth. The Go2 plans from the EKF (with its TOML's noise), the G1 from the legged
+estimator (benchmarks/base_estimation.py measures why)."""
 
 import mujoco
 import numpy as np
@@ -25,12 +26,14 @@ SENSING = {
     "rate": 500.0,
     "delay": 0.002,
 }
-"""benchmarks/base_estimation.py's ROBOT: encoders 5 mrad and 0.1 rad/s, IMU 0.5 deg, 0.01 rad/s, 0.1 m/s^2, feet 5 N."""
+"""benchmarks/base_estimation.py's ROBOT: encoders 5 mrad and 0.1 rad/s, IMU 0.5 deg, 0.01 rad/s,
+0.1 m/s^2, feet 5 N."""
 
 
 def held(task_name: str, estimator_name: str, steps: int, skip: int) -> np.ndarray:
-    """(steps - skip, 4) |height error| m, attitude error deg, |velocity error| m/s and planar distance m of
-    `estimator_name` (with the task's TOML settings), its plant (seed 0) served the task's safe action every step."""
+    """(steps - skip, 4) |height error| m, attitude error deg, |velocity error| m/s and planar
+    distance m of `estimator_name` (with the task's TOML settings), its plant (seed 0) served the
+    task's safe action every step."""
     task_cls = judo.get_registered_tasks()[task_name][0]
     planner = task_cls()
     plant = MujocoSystem.from_task(planner, 0)
@@ -69,7 +72,8 @@ def test_each_unitree_task_names_its_estimator(task_name, estimator):
 
 @pytest.mark.slow
 def test_the_go2_s_ekf_keeps_its_height_attitude_and_velocity_as_it_stands_up():
-    errors = held("go2_stand", "ekf", steps=150, skip=10)  # 1.5 s at 0.01 s: up from the floor in the first second
+    # 1.5 s at 0.01 s: up from the floor in the first second
+    errors = held("go2_stand", "ekf", steps=150, skip=10)
     mean, worst = errors.mean(axis=0), errors.max(axis=0)
     # Measured: height 0.6 (11) mm, attitude 0.25 (2.2) deg, velocity 0.029 (0.31) m/s, drift 18 mm.
     assert mean[0] < 0.003 and worst[0] < 0.03, (mean, worst)  # m
@@ -80,9 +84,11 @@ def test_the_go2_s_ekf_keeps_its_height_attitude_and_velocity_as_it_stands_up():
 
 @pytest.mark.slow  # a few seconds: the Go2's model and 200 steps of it
 def test_the_legged_estimator_keeps_a_go2_s_height_attitude_and_velocity_as_it_stands_up():
-    errors = held("go2_stand", "legged", steps=200, skip=10)  # 2 s at 0.01 s: up from the floor in the first second
+    # 2 s at 0.01 s: up from the floor in the first second
+    errors = held("go2_stand", "legged", steps=200, skip=10)
     mean, worst = errors.mean(axis=0), errors.max(axis=0)
-    # Measured: height 0.5 (4.0) mm, attitude 0.17 (0.35) deg, velocity 0.018 (0.15) m/s, drift 16 mm.
+    # Measured: height 0.5 (4.0) mm, attitude 0.17 (0.35) deg, velocity 0.018 (0.15) m/s, drift 16
+    # mm.
     assert mean[0] < 0.003 and worst[0] < 0.012, (mean, worst)  # m
     assert mean[1] < 0.6 and worst[1] < 1.5, (mean, worst)  # deg: the IMU's 0.5 deg per axis
     assert mean[2] < 0.05 and worst[2] < 0.3, (mean, worst)  # m/s: the base rises at up to 0.5 m/s
@@ -91,7 +97,8 @@ def test_the_legged_estimator_keeps_a_go2_s_height_attitude_and_velocity_as_it_s
 
 @pytest.mark.slow  # a few seconds: the G1's model and 100 steps of it
 def test_the_legged_estimator_keeps_a_standing_g1_s_height_attitude_and_velocity():
-    errors = held("g1_stand", "legged", steps=100, skip=10)  # 1 s: before the servos alone let it topple
+    # 1 s: before the servos alone let it topple
+    errors = held("g1_stand", "legged", steps=100, skip=10)
     mean, worst = errors.mean(axis=0), errors.max(axis=0)
     # Measured: height 0.4 (0.9) mm, attitude 0.24 (0.40) deg, velocity 0.040 (0.096) m/s.
     assert mean[0] < 0.003 and worst[0] < 0.01, (mean, worst)

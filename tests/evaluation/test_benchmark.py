@@ -11,7 +11,10 @@ from judo.evaluation.timing import UpdateTiming, time_pair
 def test_benchmark_writes_one_row_per_pair(tmp_path, capsys):
     path = tmp_path / "bench.json"
     argv = ["--tasks", "cartpole", "cylinder_push", "--optimizers", "ps", "mppi"]
-    assert main([*argv, "--samples", "3", "--warmup", "1", "--num-workers", "1", "--json", str(path)]) == 0
+    assert (
+        main([*argv, "--samples", "3", "--warmup", "1", "--num-workers", "1", "--json", str(path)])
+        == 0
+    )
     rows = json.loads(path.read_text())
     assert [(row["task"], row["optimizer"]) for row in rows] == [
         ("cartpole", "ps"),
@@ -19,13 +22,23 @@ def test_benchmark_writes_one_row_per_pair(tmp_path, capsys):
         ("cylinder_push", "ps"),
         ("cylinder_push", "mppi"),
     ]
-    expected_keys = {"task", "optimizer", "num_rollouts", "T", "median_ms", "mean_ms", "std_ms", "raw_rollout_ms"}
+    expected_keys = {
+        "task",
+        "optimizer",
+        "num_rollouts",
+        "T",
+        "median_ms",
+        "mean_ms",
+        "std_ms",
+        "raw_rollout_ms",
+    }
     for row in rows:
         assert expected_keys <= row.keys()
         assert row["median_ms"] > 0 and row["raw_rollout_ms"] > 0 and row["std_ms"] >= 0
         assert row["min_ms"] <= row["median_ms"] <= row["max_ms"]
         assert row["num_workers"] == 1
-    # T is the horizon over the timestep: cartpole plans 1.0 s at 0.01 s, cylinder_push 1 s at 0.02 s
+    # T is the horizon over the timestep: cartpole plans 1.0 s at 0.01 s, cylinder_push 1 s at 0.02
+    # s
     assert [row["T"] for row in rows] == [100, 100, 50, 50]
     out = capsys.readouterr().out
     assert "cartpole: control update time (ms), 1 rollout workers" in out
@@ -53,13 +66,17 @@ def test_an_unknown_optimizer_is_refused_before_any_timing(capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["--optimizers", "ps", "sgd", "--samples", "100000"])
     assert exit_info.value.code == 2
-    assert capsys.readouterr().err.startswith("error: unknown optimizer 'sgd'; valid optimizers are: ")
+    assert capsys.readouterr().err.startswith(
+        "error: unknown optimizer 'sgd'; valid optimizers are: "
+    )
 
 
 def test_samples_must_be_positive(capsys):
     with pytest.raises(SystemExit):
         main(["--samples", "0"])
-    assert capsys.readouterr().err == "error: --samples must be an integer from 1 to 100000, got 0\n"
+    assert capsys.readouterr().err == (
+        "error: --samples must be an integer from 1 to 100000, got 0\n"
+    )
 
 
 def test_help_names_the_flags_and_the_choices(capsys):
@@ -75,7 +92,8 @@ def test_help_names_the_flags_and_the_choices(capsys):
 def test_the_rollout_floor_counts_one_batch_per_iteration():
     timing = UpdateTiming("t", "o", 8, 10, 1, 3, np.array([9.0, 9.0]), np.array([2.0, 4.0]))
     assert timing.floor_ms() == 3 * 3.0
-    assert timing.overhead_ratio() == 9.0 / 9.0  # the update against the same work: three raw rollouts
+    # the update against the same work: three raw rollouts
+    assert timing.overhead_ratio() == 9.0 / 9.0
     assert timing.row()["floor_ms"] == 9.0
     assert timing.fixed_cost_us() == 0.0
 
@@ -84,8 +102,25 @@ def test_cpu_time_needs_one_worker_and_names_the_clock(capsys):
     with pytest.raises(SystemExit) as exit_info:
         main(["--tasks", "pendulum", "--cpu-time", "--num-workers", "2"])
     assert exit_info.value.code == 2
-    expected = "--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread; got --num-workers 2"
+    expected = (
+        "--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread; got "
+        "--num-workers 2"
+    )
     assert capsys.readouterr().err == f"error: {expected}\n"
-    argv = ["--tasks", "pendulum", "--optimizers", "ps", "--samples", "2", "--warmup", "0", "--num-workers", "1"]
+    argv = [
+        "--tasks",
+        "pendulum",
+        "--optimizers",
+        "ps",
+        "--samples",
+        "2",
+        "--warmup",
+        "0",
+        "--num-workers",
+        "1",
+    ]
     assert main([*argv, "--cpu-time"]) == 0
-    assert "pendulum: control update time (ms of thread CPU time), 1 rollout workers" in capsys.readouterr().out
+    assert (
+        "pendulum: control update time (ms of thread CPU time), 1 rollout workers"
+        in capsys.readouterr().out
+    )

@@ -1,4 +1,5 @@
-"""`evaluate` takes the pair's optimizer and task config fields as --optimizer-config.FIELD and --task-config.FIELD."""
+"""`evaluate` takes the pair's optimizer and task config fields as --optimizer-config.FIELD and
+--task-config.FIELD."""
 
 import json
 
@@ -11,13 +12,26 @@ from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.optimizers.mppi import MPPIConfig
 from judo.tasks.cartpole import CartpoleConfig
 
-TINY = ["--task", "cartpole", "--optimizer", "mppi", "--seeds", "1", "--duration", "0.3", "--num-workers", "1"]
+TINY = [
+    "--task",
+    "cartpole",
+    "--optimizer",
+    "mppi",
+    "--seeds",
+    "1",
+    "--duration",
+    "0.3",
+    "--num-workers",
+    "1",
+]
 
 
 def registry_tables() -> list[dict]:
-    """Copies of the process-wide config and model overrides that every later make_config and make_task read."""
+    """Copies of the process-wide config and model overrides that every later make_config and
+    make_task read."""
     return [
-        {key: dict(value) for key, value in table.items()} for table in (registry._OVERRIDES, registry._MODEL_OVERRIDES)
+        {key: dict(value) for key, value in table.items()}
+        for table in (registry._OVERRIDES, registry._MODEL_OVERRIDES)
     ]
 
 
@@ -25,7 +39,9 @@ def test_the_fields_given_are_the_configs_the_episodes_run_with(tmp_path, capsys
     assert evaluate.main([*TINY, "--json", str(tmp_path / "default.json")]) == 0
     fields = ["--optimizer-config.num-rollouts", "8", "--task-config.w-control", "1000"]
     assert evaluate.main([*TINY, *fields, "--json", str(tmp_path / "changed.json")]) == 0
-    default, changed = (json.loads((tmp_path / f"{name}.json").read_text()) for name in ("default", "changed"))
+    default, changed = (
+        json.loads((tmp_path / f"{name}.json").read_text()) for name in ("default", "changed")
+    )
     assert changed["overrides"] == {"optimizer.num_rollouts": 8, "task.w_control": 1000.0}
     mean_reward = [report["episodes"][0]["metrics"]["mean_reward"] for report in (default, changed)]
     assert mean_reward[1] != mean_reward[0]  # the same seed under other weights and rollouts
@@ -33,8 +49,8 @@ def test_the_fields_given_are_the_configs_the_episodes_run_with(tmp_path, capsys
 
 
 def test_the_flags_never_touch_the_process_wide_registry(tmp_path):
-    """The flags travel in the episodes' spec (bit for bit the episode of that spec): the registry every later
-    make_config and make_task reads stays as it was."""
+    """The flags travel in the episodes' spec (bit for bit the episode of that spec): the registry
+    every later make_config and make_task reads stays as it was."""
     before = registry_tables()
     default_rollouts = make_config(MPPIConfig, "cartpole").num_rollouts
     flags = ["--optimizer-config.num-rollouts", "8", "--task-config.w-control", "1000"]
@@ -45,16 +61,23 @@ def test_the_flags_never_touch_the_process_wide_registry(tmp_path):
     assert make_config(CartpoleConfig, "cartpole").w_control == CartpoleConfig().w_control
     metrics = json.loads((tmp_path / "out.json").read_text())["episodes"][0]["metrics"]
     values = {"optimizer.num_rollouts": 8, "task.w_control": 1000.0, "controller.horizon": 0.5}
-    heavier = EpisodeSpec("cartpole", "mppi", 0.3, values=values, plant_overrides=("body_mass.pole=0.2",))
+    heavier = EpisodeSpec(
+        "cartpole", "mppi", 0.3, values=values, plant_overrides=("body_mass.pole=0.2",)
+    )
     assert run_seeded_episode(heavier, 0).metrics == metrics
-    assert run_seeded_episode(EpisodeSpec("cartpole", "mppi", 0.3, values=values), 0).metrics != metrics
+    assert (
+        run_seeded_episode(EpisodeSpec("cartpole", "mppi", 0.3, values=values), 0).metrics
+        != metrics
+    )
 
 
 def test_help_lists_the_fields_of_the_pair_named(capsys):
     with pytest.raises(SystemExit):
         evaluate.main(["--task", "cartpole", "--optimizer", "mppi", "--help"])
     text = capsys.readouterr().out
-    assert "--optimizer-config.temperature FLOAT" in text and "--task-config.w-vertical FLOAT" in text
+    assert (
+        "--optimizer-config.temperature FLOAT" in text and "--task-config.w-vertical FLOAT" in text
+    )
     assert "Fields of the optimizer's config (MPPIConfig) to change." in text
 
 

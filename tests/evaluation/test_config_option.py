@@ -1,4 +1,5 @@
-"""`evaluate --config` and `benchmark --config`: a task registered by a user's TOML file runs from the command line."""
+"""`evaluate --config` and `benchmark --config`: a task registered by a user's TOML file runs from
+the command line."""
 
 import json
 import textwrap
@@ -35,7 +36,8 @@ class TinyBalance(judo.Task[TinyBalanceConfig]):
 
 @pytest.fixture
 def user_config(tmp_path):
-    """A --config file registering `tiny_balance_<n>` from a module beside it, with a horizon override."""
+    """A --config file registering `tiny_balance_<n>` from a module beside it, with a horizon
+    override."""
     module = f"tiny_balance_{tmp_path.name.replace('-', '_')}"
     (tmp_path / f"{module}.py").write_text(USER_MODULE)
     (tmp_path / "tiny.xml").write_text(TINY_CARTPOLE_XML)
@@ -57,7 +59,18 @@ def user_config(tmp_path):
 def test_evaluate_runs_a_task_registered_by_the_config_file(user_config, tmp_path):
     task, path = user_config
     report_path = tmp_path / "report.json"
-    argv = ["--config", str(path), "--task", task, "--optimizer", "ps", "--seeds", "1", "--duration", "0.4"]
+    argv = [
+        "--config",
+        str(path),
+        "--task",
+        task,
+        "--optimizer",
+        "ps",
+        "--seeds",
+        "1",
+        "--duration",
+        "0.4",
+    ]
     assert evaluate_main([*argv, "--num-workers", "1", "--json", str(report_path)]) == 0
     report = json.loads(report_path.read_text())
     assert report["task"] == task
@@ -68,14 +81,30 @@ def test_evaluate_runs_a_task_registered_by_the_config_file(user_config, tmp_pat
 def test_benchmark_times_a_task_registered_by_the_config_file(user_config, tmp_path):
     task, path = user_config
     rows_path = tmp_path / "rows.json"
-    argv = ["--config", str(path), "--tasks", task, "--optimizers", "ps", "--samples", "2", "--warmup", "0"]
+    argv = [
+        "--config",
+        str(path),
+        "--tasks",
+        task,
+        "--optimizers",
+        "ps",
+        "--samples",
+        "2",
+        "--warmup",
+        "0",
+    ]
     assert benchmark_main([*argv, "--num-workers", "1", "--json", str(rows_path)]) == 0
     (row,) = json.loads(rows_path.read_text())
-    assert (row["task"], row["num_rollouts"]) == (task, 8)  # the file's override reached the controller
+    # the file's override reached the controller
+    assert (row["task"], row["num_rollouts"]) == (task, 8)
 
 
 def test_a_missing_config_file_fails_with_one_line(tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_info:
-        evaluate_main(["--config", str(tmp_path / "nope.toml"), "--task", "cartpole", "--optimizer", "ps"])
+        evaluate_main(
+            ["--config", str(tmp_path / "nope.toml"), "--task", "cartpole", "--optimizer", "ps"]
+        )
     assert exit_info.value.code == 2
-    assert capsys.readouterr().err.strip() == f"error: config file not found: {tmp_path / 'nope.toml'}"
+    assert capsys.readouterr().err.strip() == (
+        f"error: config file not found: {tmp_path / 'nope.toml'}"
+    )

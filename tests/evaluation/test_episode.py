@@ -51,9 +51,16 @@ def push_task_cls(tmp_path):
 
 
 def push_controller(task_cls, seed=0, control_freq=20.0):
-    optimizer = PredictiveSampling(PredictiveSamplingConfig(num_rollouts=8, num_nodes=2, sigma=0.5), nu=1)
+    optimizer = PredictiveSampling(
+        PredictiveSamplingConfig(num_rollouts=8, num_nodes=2, sigma=0.5), nu=1
+    )
     optimizer.rng = np.random.default_rng(seed)
-    return Controller(ControllerConfig(horizon=0.1, control_freq=control_freq), task_cls(), optimizer, num_workers=1)
+    return Controller(
+        ControllerConfig(horizon=0.1, control_freq=control_freq),
+        task_cls(),
+        optimizer,
+        num_workers=1,
+    )
 
 
 def test_without_latency_the_first_plan_drives_the_first_step(push_task_cls):
@@ -68,7 +75,9 @@ def test_without_latency_the_first_plan_drives_the_first_step(push_task_cls):
 def test_a_fixed_latency_holds_the_previous_plan_until_the_new_one_takes_effect(push_task_cls):
     latency = 0.03  # three plant steps
     controller = push_controller(push_task_cls)
-    result = run_episode(controller, MujocoSystem.from_task(controller.task, seed=0), duration=0.2, latency=latency)
+    result = run_episode(
+        controller, MujocoSystem.from_task(controller.task, seed=0), duration=0.2, latency=latency
+    )
     controls = result.log.controls[:, 0]
     assert np.all(controls[:3] == 0.0)  # the warm start, until the first plan arrives at t = 0.03
     assert np.all(controls[3:] > 0.0)
@@ -83,20 +92,29 @@ def test_a_fixed_latency_holds_the_previous_plan_until_the_new_one_takes_effect(
 
 def test_a_latency_longer_than_the_control_period_delays_the_next_plan(push_task_cls):
     controller = push_controller(push_task_cls)  # period 0.05 s
-    result = run_episode(controller, MujocoSystem.from_task(controller.task, seed=0), duration=0.5, latency=0.12)
+    result = run_episode(
+        controller, MujocoSystem.from_task(controller.task, seed=0), duration=0.5, latency=0.12
+    )
     assert len(result.update_ms) == 5  # plans start at 0, 0.12, 0.24, 0.36, 0.48
 
 
 def test_measured_latency_is_the_update_wall_time(push_task_cls):
     controller = push_controller(push_task_cls)
-    result = run_episode(controller, MujocoSystem.from_task(controller.task, seed=0), duration=0.2, latency="measured")
+    result = run_episode(
+        controller,
+        MujocoSystem.from_task(controller.task, seed=0),
+        duration=0.2,
+        latency="measured",
+    )
     assert result.latency_s == pytest.approx(result.update_ms / 1e3)
 
 
 def test_the_same_seed_gives_the_same_episode(push_task_cls):
     def episode(seed):
         controller = push_controller(push_task_cls, seed)
-        return run_episode(controller, MujocoSystem.from_task(controller.task, seed), duration=0.3, latency=0.02)
+        return run_episode(
+            controller, MujocoSystem.from_task(controller.task, seed), duration=0.3, latency=0.02
+        )
 
     first, again, other = episode(3), episode(3), episode(4)
     assert np.array_equal(first.log.states, again.log.states)

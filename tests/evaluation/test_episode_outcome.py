@@ -1,5 +1,6 @@
-"""The one episode outcome and its one failure rule: an episode whose controller failed some control updates
-is a failed tune episode, a kept collect episode, and an evaluate episode reported as it ran."""
+"""The one episode outcome and its one failure rule: an episode whose controller failed some control
+updates is a failed tune episode, a kept collect episode, and an evaluate episode reported as it
+ran."""
 
 import numpy as np
 import pytest
@@ -17,8 +18,8 @@ FAILED_PLANS = 2
 
 @pytest.fixture
 def failing_task(tmp_path):
-    """A registered tiny cart-pole task whose first FAILED_PLANS plans score NaN for every rollout; the one-step
-    rewards of the log (a batch of one rollout) stay finite, so the metrics do too."""
+    """A registered tiny cart-pole task whose first FAILED_PLANS plans score NaN for every rollout;
+    the one-step rewards of the log (a batch of one rollout) stay finite, so the metrics do too."""
     path = tmp_path / "tiny.xml"
     path.write_text(TINY_CARTPOLE_XML)
 
@@ -48,7 +49,9 @@ def test_failed_updates_fail_a_tune_episode_but_not_a_collect_or_evaluate_one(fa
     assert episode_failure(result) == reason
     assert episode_failure(result, failed_updates_fail=False) is None
 
-    trial = run_condition_seed(TrialSpec(failing_task, "ps", "mean_reward", 1, 0.2, first_seed=4), {}, 0, 4)
+    trial = run_condition_seed(
+        TrialSpec(failing_task, "ps", "mean_reward", 1, 0.2, first_seed=4), {}, 0, 4
+    )
     assert (trial.seed, trial.failure, trial.failed_updates) == (4, reason, FAILED_PLANS)
 
     kept = collect_episode(spec, 4)
@@ -66,7 +69,9 @@ def test_a_diverged_or_non_finite_episode_fails_whatever_the_failed_updates_rule
     result = run_seeded_episode(EpisodeSpec(failing_task, "ps", 0.1, num_workers=1), 0)
     result.failed_updates, result.divergences = 0, 1
     for failed_updates_fail in (True, False):
-        assert episode_failure(result, failed_updates_fail) == "seed 0: the simulation diverged 1 times"
+        assert episode_failure(result, failed_updates_fail) == (
+            "seed 0: the simulation diverged 1 times"
+        )
     result.divergences, result.metrics = 0, {**result.metrics, "mean_reward": np.nan}
     for failed_updates_fail in (True, False):
         assert episode_failure(result, failed_updates_fail) == "seed 0: non-finite mean_reward"

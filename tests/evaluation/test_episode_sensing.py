@@ -1,6 +1,6 @@
-"""Rehearsed sensing in the one seeded episode runner: evaluate, tune and collect plan from the task's measured
-sensors through the estimator when asked (--observe sensors, --sensor-*, --estimator), with real MuJoCo
-physics and the real EKF."""
+"""Rehearsed sensing in the one seeded episode runner: evaluate, tune and collect plan from the
+task's measured sensors through the estimator when asked (--observe sensors, --sensor-*,
+--estimator), with real MuJoCo physics and the real EKF."""
 
 import json
 
@@ -13,7 +13,8 @@ from judo.loop.records import PlanRecord, StepRecord
 from judo.tuning.trial import TrialSpec, run_seeded_episodes
 
 ENCODERS = Sensing("sensors", noise=0.005, delay=0.01, rate=100.0)
-"""The encoder setting of docs/estimation.md: std 0.005 rad, 100 Hz, 10 ms late (the EKF by default)."""
+"""The encoder setting of docs/estimation.md: std 0.005 rad, 100 Hz, 10 ms late (the EKF by
+default)."""
 
 
 class Steps:
@@ -45,7 +46,8 @@ def test_an_episode_on_sensors_plans_from_the_ekf_estimate_and_logs_the_true_sta
     position_error = np.abs(estimate[:, :2] - true[:, :2])
     assert position_error.mean() < 0.02, position_error.mean()
     measured = np.array([record.measured for record in records])[settled:]
-    assert 0.001 < np.abs(measured - true[:, :2]).mean() < 0.05  # noisy, late readings, not the truth
+    # noisy, late readings, not the truth
+    assert 0.001 < np.abs(measured - true[:, :2]).mean() < 0.05
     assert set(metrics) >= {"balanced_fraction", "mean_reward"}
 
 
@@ -69,7 +71,18 @@ def test_a_tune_trial_runs_its_episodes_with_the_study_sensing():
 
 def test_evaluate_merges_repeated_sensor_flags_and_records_the_sensing(tmp_path, capsys):
     out = tmp_path / "metrics.json"
-    argv = ["--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "0.2", "--observe", "sensors"]
+    argv = [
+        "--task",
+        "cartpole",
+        "--optimizer",
+        "ps",
+        "--seeds",
+        "1",
+        "--duration",
+        "0.2",
+        "--observe",
+        "sensors",
+    ]
     argv += [
         "--sensor-rate-hz",
         "100",
@@ -89,4 +102,5 @@ def test_evaluate_merges_repeated_sensor_flags_and_records_the_sensing(tmp_path,
         "rate_hz": {"default": 100.0, "jointpos": 50.0},
         "estimator": "ekf",
     }
-    assert "sensors + ekf" in " ".join(capsys.readouterr().out.split())  # the table title, however wrapped
+    # the table title, however wrapped
+    assert "sensors + ekf" in " ".join(capsys.readouterr().out.split())

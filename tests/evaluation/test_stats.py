@@ -27,9 +27,12 @@ def test_summary_of_one_value_has_no_interval():
 
 def test_an_interval_that_spans_all_of_0_to_1_says_n_is_too_small_instead():
     two_seeds = summarize(np.array([0.2, 0.9]))  # half-width 12.7 * 0.35 = 4.4
-    assert two_seeds.ci95 > 1 and shown_interval(two_seeds) == "0.55 (n = 2 too small: the interval spans all of 0-1)"
+    assert two_seeds.ci95 > 1 and shown_interval(two_seeds) == (
+        "0.55 (n = 2 too small: the interval spans all of 0-1)"
+    )
     assert shown_interval(summarize(np.array([0.5]))) == "0.5 (n = 1: no interval)"
     narrow = summarize(np.array([0.5, 0.52, 0.54]))
     assert shown_interval(narrow) == f"0.52 ± {narrow.ci95:.3g}"
-    unbounded = summarize(np.array([-3.0, 5.0]))  # a reward: its interval is shown whatever its width
+    # a reward: its interval is shown whatever its width
+    unbounded = summarize(np.array([-3.0, 5.0]))
     assert shown_interval(unbounded) == f"1 ± {unbounded.ci95:.3g}"

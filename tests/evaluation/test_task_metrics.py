@@ -8,7 +8,9 @@ from judo.tasks.cylinder_push import CylinderPush
 
 def log_of(states: np.ndarray, dt: float) -> EpisodeLog:
     steps = len(states)
-    return EpisodeLog(dt * np.arange(1, steps + 1), states, np.zeros((steps, 1)), np.zeros((steps, 3)))
+    return EpisodeLog(
+        dt * np.arange(1, steps + 1), states, np.zeros((steps, 1)), np.zeros((steps, 3))
+    )
 
 
 def test_cartpole_counts_the_final_three_seconds_upright_and_centred():
@@ -37,4 +39,7 @@ def test_cylinder_push_reports_the_final_distance_to_the_goal():
     metrics = task.metrics(log_of(states, 0.02))
     assert metrics["final_distance"] == pytest.approx(0.05)
     states[-1, 2:4] = [0.22, -0.1]
-    assert task.metrics(log_of(states, 0.02)) == {"final_distance": pytest.approx(0.02), "reached": 1.0}
+    assert task.metrics(log_of(states, 0.02)) == {
+        "final_distance": pytest.approx(0.02),
+        "reached": 1.0,
+    }

@@ -11,12 +11,15 @@ MOCAP_XML = """
     <body><joint name="x" type="slide" axis="1 0 0"/><geom type="box" size="0.1 0.1 0.1"/></body>
   </worldbody>
 </mujoco>
-"""
+"""  # noqa: E501
 
 
 def test_rollout_start_carries_the_state_time_and_mocap_pose():
     model = mujoco.MjModel.from_xml_string(MOCAP_XML)
-    metadata = {"mocap_pos": np.array([[0.1, 0.2, 0.3]]), "mocap_quat": np.array([[0.0, 1.0, 0.0, 0.0]])}
+    metadata = {
+        "mocap_pos": np.array([[0.1, 0.2, 0.3]]),
+        "mocap_quat": np.array([[0.0, 1.0, 0.0, 0.0]]),
+    }
     initial, mocap = rollout_start(model, np.array([0.4, -0.5]), 2.5, metadata)
     data = mujoco.MjData(model)
     mujoco.mj_setState(model, data, initial, STATE_SPEC)

@@ -1,5 +1,6 @@
-"""distill rebuilds a task's policy observation with the system metadata collect recorded (quadruped_velocity's
-command): row for row what the closed loop fed a policy at run time; a file without it is refused in one line."""
+"""distill rebuilds a task's policy observation with the system metadata collect recorded
+(quadruped_velocity's command): row for row what the closed loop fed a policy at run time; a file
+without it is refused in one line."""
 
 import numpy as np
 import pytest
@@ -18,31 +19,41 @@ DURATION, PERIOD = 1.3, 0.5
 
 
 class SeeingPolicy(Policy):
-    """quadruped_velocity's per-step policy that keeps every observation it is given, and walks by the command."""
+    """quadruped_velocity's per-step policy that keeps every observation it is given, and walks by
+    the command."""
 
     observation_size, action_size, horizon = 35, 12, 1
 
     def __init__(self) -> None:
-        self.metadata = {"task": "quadruped_velocity", "control_freq": "100.0"}  # acts at every plant step
+        # acts at every plant step
+        self.metadata = {"task": "quadruped_velocity", "control_freq": "100.0"}
         self.home = QuadrupedVelocity().home_ctrl
         self.seen: list[np.ndarray] = []
 
     def act(self, observations: np.ndarray) -> np.ndarray:
         self.seen.append(np.array(observations))
-        swing = 0.1 * np.tanh(observations[:, 30:31] + observations[:, :12])  # the command's vx, the joints
+        # the command's vx, the joints
+        swing = 0.1 * np.tanh(observations[:, 30:31] + observations[:, :12])
         return (self.home + swing)[:, None, :]
 
 
 @pytest.fixture(scope="module")
 def policy_file(tmp_path_factory):
-    """(file, what the policy saw at each update): seed 0 of a policy-driven quadruped_velocity episode, recorded
-    as collect records it."""
+    """(file, what the policy saw at each update): seed 0 of a policy-driven quadruped_velocity
+    episode, recorded as collect records it."""
     policy, made = SeeingPolicy(), []
 
     def recorders(controller, system):
         model = system.task.sim_model
         made.append(
-            EpisodeRecorder(model.nq, model.nv, model.nmocap, 1, model.nu, recorded_metadata=("velocity_command",))
+            EpisodeRecorder(
+                model.nq,
+                model.nv,
+                model.nmocap,
+                1,
+                model.nu,
+                recorded_metadata=("velocity_command",),
+            )
         )
         return made
 
@@ -58,10 +69,12 @@ def policy_file(tmp_path_factory):
 
 def test_the_rebuilt_observations_are_what_the_policy_saw_in_the_closed_loop(policy_file):
     path, seen = policy_file
-    assert seen.shape == (130, 35)  # at t = 0 (before any step) and after each of the first 129 steps
+    # at t = 0 (before any step) and after each of the first 129 steps
+    assert seen.shape == (130, 35)
     pairs = read_pairs([path], "action")
-    # the state after step s (its observation) gives the action of step s + 1: rows 0..128, seen at t = 0.01..1.29
-    # equal but for the gait clock's last bits: the rebuild's time is (row + 1) dt, the plant's a running sum
+    # the state after step s (its observation) gives the action of step s + 1: rows 0..128, seen at
+    # t = 0.01..1.29 equal but for the gait clock's last bits: the rebuild's time is (row + 1) dt,
+    # the plant's a running sum
     np.testing.assert_allclose(pairs.observations[0], seen[1:], rtol=0, atol=1e-12)
     commands = np.unique(seen[:, 30:33], axis=0)
     assert len(commands) == 3  # the command changed twice, and the rebuilt rows followed it
@@ -71,18 +84,23 @@ def test_the_rebuilt_observations_are_what_the_policy_saw_in_the_closed_loop(pol
         demo = file["data/demo_0"]
         states = np.concatenate([demo["obs/qpos"][:], demo["obs/qvel"][:]], axis=1)
         served = demo["actions"][:]
-    without = episode_observations(QuadrupedVelocity(), states, None, served, 0.01)  # no command recorded
-    assert not np.array_equal(without[:-1], seen[1:])  # a fresh task's own command instead of the plant's
+    # no command recorded
+    without = episode_observations(QuadrupedVelocity(), states, None, served, 0.01)
+    # a fresh task's own command instead of the plant's
+    assert not np.array_equal(without[:-1], seen[1:])
 
 
-def test_a_file_without_the_command_is_refused_in_one_line_saying_to_collect_again(policy_file, tmp_path, capsys):
+def test_a_file_without_the_command_is_refused_in_one_line_saying_to_collect_again(
+    policy_file, tmp_path, capsys
+):
     path, _ = policy_file
     old = tmp_path / "old.h5"
     old.write_bytes(path.read_bytes())
     with h5py.File(old, "a") as file:
         del file["data/demo_0/obs/metadata"]  # as collect wrote it before it kept the metadata
     message = (
-        f"'{old}' demo_0 has no obs/metadata/velocity_command, the system metadata QuadrupedVelocity's observation "
+        f"'{old}' demo_0 has no obs/metadata/velocity_command, the system metadata "
+        "QuadrupedVelocity's observation "
         "reads; collect the dataset again with this judo, which records it"
     )
     with pytest.raises(DistillError) as err:

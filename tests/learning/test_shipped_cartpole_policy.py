@@ -1,5 +1,6 @@
-"""The distilled cartpole policy that ships in the package: it loads with onnxruntime, its metadata says what it
-was trained on and how, and alone it swings the pole up and balances it on a seed it never saw in training."""
+"""The distilled cartpole policy that ships in the package: it loads with onnxruntime, its metadata
+says what it was trained on and how, and alone it swings the pole up and balances it on a seed it
+never saw in training."""
 
 from pathlib import Path
 
@@ -21,7 +22,8 @@ def policy():
 
 
 def test_the_shipped_policy_is_small_and_names_its_task_observation_and_training_command(policy):
-    assert (policy.observation_size, policy.action_size, policy.horizon) == (5, 1, 1)  # [x, cos, sin, x_vel, w]
+    # [x, cos, sin, x_vel, w]
+    assert (policy.observation_size, policy.action_size, policy.horizon) == (5, 1, 1)
     assert policy.metadata["task"] == "cartpole" and policy.metadata["kind"] == "action"
     assert policy.metadata["training_command"].startswith("python -m judo distill cartpole.h5")
     assert "--rounds 3" in policy.metadata["training_command"]

@@ -1,4 +1,5 @@
-"""The loop tests' plant: a block on a rail with a position actuator, whose reward wants the block at 0.5."""
+"""The loop tests' plant: a block on a rail with a position actuator, whose reward wants the block
+at 0.5."""
 
 from dataclasses import dataclass
 from pathlib import Path
@@ -28,7 +29,8 @@ class HoldConfig(TaskConfig):
 
 
 def hold_base(folder: Path) -> type[Task[HoldConfig]]:
-    """A Task class on SLIDER_XML (written into `folder`) with the hold reward; each test file adds its reset."""
+    """A Task class on SLIDER_XML (written into `folder`) with the hold reward; each test file adds
+    its reset."""
     path = folder / "slider.xml"
     path.write_text(SLIDER_XML)
 

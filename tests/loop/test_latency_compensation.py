@@ -1,5 +1,6 @@
-"""Latency compensation: the reading predicted on the planning model to when the plan takes effect, under the
-controls the plant gets meanwhile, is what the controller plans from (real MuJoCo physics, cartpole)."""
+"""Latency compensation: the reading predicted on the planning model to when the plan takes effect,
+under the controls the plant gets meanwhile, is what the controller plans from (real MuJoCo physics,
+cartpole)."""
 
 import dataclasses
 
@@ -28,18 +29,22 @@ def test_the_prediction_is_the_plant_stepped_under_the_same_controls():
         assert predicted.time == pytest.approx(truth.time)
         np.testing.assert_allclose(predicted.state, truth.state, atol=1e-12)
         assert predicted.metadata is reading.metadata
-        same = LatencyPredictor(controller.task).predict_reading(reading, 0.2 * plant.timestep, push)
+        same = LatencyPredictor(controller.task).predict_reading(
+            reading, 0.2 * plant.timestep, push
+        )
         assert same is reading  # under half a step: nothing to predict
 
 
 def test_a_bad_reading_or_a_diverging_prediction_is_never_passed_off_as_a_prediction():
-    # MuJoCo resets the data on a NaN or huge state: a finite qpos0 must not come back as "the prediction".
+    # MuJoCo resets the data on a NaN or huge state: a finite qpos0 must not come back as "the
+    # prediction".
     controller = make_controller("cartpole", "ps", seed=0, num_workers=1)
     with controller:
         reading = MujocoSystem.from_task(controller.task, 0).read_state()
         predictor = LatencyPredictor(controller.task)
         nan = dataclasses.replace(reading, state=np.full_like(reading.state, np.nan))
-        assert predictor.predict_reading(nan, 0.05, lambda now, state: np.zeros(1)) is nan  # the planner refuses it
+        # the planner refuses it
+        assert predictor.predict_reading(nan, 0.05, lambda now, state: np.zeros(1)) is nan
         huge = dataclasses.replace(reading, state=np.full_like(reading.state, 1e300))
         assert predictor.predict_reading(huge, 0.05, lambda now, state: np.zeros(1)) is huge
 
@@ -66,9 +71,10 @@ def test_compensation_keeps_a_cartpole_balanced_at_a_latency_that_topples_it_wit
 
 
 def test_a_plan_with_gains_takes_effect_where_its_nominal_starts(monkeypatch):
-    # A latency between two plant steps: the plan takes effect at the later step, so its reading is predicted that
-    # far, and with feedback it is planned from the prediction whatever latency_compensation says. Each plan's first
-    # served state is then its nominal rollout's start, and the gains correct nothing on a plant that is the model.
+    # A latency between two plant steps: the plan takes effect at the later step, so its reading is
+    # predicted that far, and with feedback it is planned from the prediction whatever
+    # latency_compensation says. Each plan's first served state is then its nominal rollout's start,
+    # and the gains correct nothing on a plant that is the model.
     from judo.core.feedback import FeedbackPlan
 
     first_serves: dict[int, tuple[float, float, float]] = {}
@@ -85,15 +91,20 @@ def test_a_plan_with_gains_takes_effect_where_its_nominal_starts(monkeypatch):
         return serve(plan, times, state)
 
     monkeypatch.setattr(FeedbackPlan, "__call__", recording)
-    config = dataclasses.replace(ControllerConfig(), feedback=True, latency_compensation=False, control_freq=10.0)
-    controller = make_controller("cartpole", "mppi", controller_config=config, seed=0, num_workers=1)
+    config = dataclasses.replace(
+        ControllerConfig(), feedback=True, latency_compensation=False, control_freq=10.0
+    )
+    controller = make_controller(
+        "cartpole", "mppi", controller_config=config, seed=0, num_workers=1
+    )
     with controller:
         plant = MujocoSystem.from_task(controller.task, 0)
         loop = ClosedLoop(controller, plant, latency=2.5 * plant.timestep)
         loop.restart()
         for _ in range(round(1.0 / plant.timestep)):
             loop.step()
-        assert loop.latency_s[-1] == pytest.approx(3 * plant.timestep)  # took effect at the next step
+        # took effect at the next step
+        assert loop.latency_s[-1] == pytest.approx(3 * plant.timestep)
     assert len(first_serves) >= 8
     for age, step, deviation in first_serves.values():
         assert abs(age) < 1e-9 and step == 0

@@ -1,4 +1,5 @@
-"""MuJoCo's own warnings are counted into one line every few seconds, never one terminal line each."""
+"""MuJoCo's own warnings are counted into one line every few seconds, never one terminal line
+each."""
 
 import logging
 import subprocess
@@ -40,7 +41,9 @@ def test_a_plant_that_diverges_every_step_prints_two_lines_not_five_hundred():
     assert lines[0].startswith("MuJoCo: Nan, Inf or huge value in QPOS at DOF 1.")
     assert "further MuJoCo warnings are counted every 5 s" in lines[0]
     assert "MuJoCo warned 499 more times" in lines[1] and "(500 total)" in lines[1]  # said at exit
-    assert "499 x 'Nan, Inf or huge value in QPOS at DOF 1. The simulation is unstable.'" in lines[1]
+    assert (
+        "499 x 'Nan, Inf or huge value in QPOS at DOF 1. The simulation is unstable.'" in lines[1]
+    )
 
 
 def test_the_counter_says_the_first_of_each_kind_then_counts_every_few_seconds(caplog):
@@ -64,7 +67,11 @@ def test_the_counter_says_the_first_of_each_kind_then_counts_every_few_seconds(c
             data.qvel[0] = 1e300
             mujoco.mj_step(model, data)
             assert len(caplog.records) == 2
-            assert caplog.records[1].getMessage().startswith("MuJoCo warned 300 more times in the last 5 s (301 total)")
+            assert (
+                caplog.records[1]
+                .getMessage()
+                .startswith("MuJoCo warned 300 more times in the last 5 s (301 total)")
+            )
             counter.flush()  # nothing new since: no line
             assert len(caplog.records) == 2
     finally:

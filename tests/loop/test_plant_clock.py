@@ -1,5 +1,5 @@
-"""The plant clock (judo.loop.plant_clock): which steps of a plant are due at a wall time, on given times (no
-sleeping), and a wait that ends on a stop."""
+"""The plant clock (judo.loop.plant_clock): which steps of a plant are due at a wall time, on given
+times (no sleeping), and a wait that ends on a stop."""
 
 import time
 

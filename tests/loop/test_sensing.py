@@ -1,4 +1,5 @@
-"""SensedSystem: the simulator seen through measured sensors, with per-type noise, delay and rate."""
+"""SensedSystem: the simulator seen through measured sensors, with per-type noise, delay and
+rate."""
 
 import mujoco
 import numpy as np
@@ -64,7 +65,9 @@ def test_it_serves_only_the_measured_sensors_noiseless_by_default(task):
 
 
 def test_a_slow_late_camera_is_held_and_stamped_when_taken(task):
-    system = SensedSystem(MujocoSystem(task), delay={"framepos": 0.03, "framequat": 0.03}, rate={"framepos": 50})
+    system = SensedSystem(
+        MujocoSystem(task), delay={"framepos": 0.03, "framequat": 0.03}, rate={"framepos": 50}
+    )
     taken = {}
     for _ in range(10):
         system.step()
@@ -73,16 +76,24 @@ def test_a_slow_late_camera_is_held_and_stamped_when_taken(task):
         hinge_time, tip_time, quat_time = reading.metadata["sensor_times"]
         assert hinge_time == pytest.approx(system.time)  # the encoder: every step, at once
         np.testing.assert_allclose(reading.sensors[0], taken[round(hinge_time, 6)][0], atol=1e-12)
-        expected_tip = max([0.0, *[t for t in np.arange(0.02, 0.11, 0.02) if t + 0.03 <= system.time + 1e-9]])
+        expected_tip = max(
+            [0.0, *[t for t in np.arange(0.02, 0.11, 0.02) if t + 0.03 <= system.time + 1e-9]]
+        )
         assert tip_time == pytest.approx(expected_tip)  # 50 Hz, 30 ms late, held between
         assert quat_time == pytest.approx(max(0.0, system.time - 0.03))
         if tip_time > 0:
-            np.testing.assert_allclose(reading.sensors[1:4], taken[round(tip_time, 6)][1:4], atol=1e-12)
+            np.testing.assert_allclose(
+                reading.sensors[1:4], taken[round(tip_time, 6)][1:4], atol=1e-12
+            )
         assert reading.time == pytest.approx(system.time)  # the newest stamp
 
 
 def test_noise_has_the_std_asked_for_per_type_and_quaternions_stay_unit(task):
-    system = SensedSystem(MujocoSystem(task), noise={"jointpos": 0.01, "framequat": 0.05}, rng=np.random.default_rng(0))
+    system = SensedSystem(
+        MujocoSystem(task),
+        noise={"jointpos": 0.01, "framequat": 0.05},
+        rng=np.random.default_rng(0),
+    )
     errors, angles = [], []
     for _ in range(1000):
         system.step()
@@ -113,13 +124,15 @@ def test_a_task_without_measured_sensors_says_what_to_add(task, tmp_path):
             return np.zeros(len(states))
 
     with pytest.raises(
-        ConfigError, match="Unsensed declares no measured sensors; list .* in Unsensed.measured_sensors"
+        ConfigError,
+        match="Unsensed declares no measured sensors; list .* in Unsensed.measured_sensors",
     ):
         SensedSystem(MujocoSystem(Unsensed(tmp_path / "pole.xml")))
 
 
 def test_sensing_never_changes_the_physics(task, tmp_path):
-    """A plant read through SensedSystem every step follows the same trajectory as one never read."""
+    """A plant read through SensedSystem every step follows the same trajectory as one never
+    read."""
     other = type(task)(tmp_path / "pole.xml")
     other.data.qvel[0] = 2.0
     mujoco.mj_forward(other.sim_model, other.data)

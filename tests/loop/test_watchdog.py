@@ -1,6 +1,7 @@
-"""The watchdog's verdicts and what it tells: readings that stop are named as such, every few seconds, until they
-resume; the end of each trouble told is told with how long it took; a trouble that comes back at once is counted
-rather than told again; a newer plan due sooner replaces a pending one (no backlog while the readings stand still)."""
+"""The watchdog's verdicts and what it tells: readings that stop are named as such, every few
+seconds, until they resume; the end of each trouble told is told with how long it took; a trouble
+that comes back at once is counted rather than told again; a newer plan due sooner replaces a
+pending one (no backlog while the readings stand still)."""
 
 import numpy as np
 import pytest
@@ -20,7 +21,8 @@ LIMIT = MAX_PLAN_AGE + 1.0 / CONTROL_FREQ
 
 @pytest.fixture
 def controller(tmp_path):
-    """A tiny planner for the block on a rail, planning from the reading predicted to when its plan takes effect."""
+    """A tiny planner for the block on a rail, planning from the reading predicted to when its plan
+    takes effect."""
 
     class Hold(hold_base(tmp_path)):
         def reset(self):
@@ -30,15 +32,18 @@ def controller(tmp_path):
     config = ControllerConfig(
         horizon=0.1, control_freq=CONTROL_FREQ, max_plan_age=MAX_PLAN_AGE, latency_compensation=True
     )
-    optimizer = PredictiveSampling(PredictiveSamplingConfig(num_rollouts=4, num_nodes=2, sigma=0.3), nu=1)
+    optimizer = PredictiveSampling(
+        PredictiveSamplingConfig(num_rollouts=4, num_nodes=2, sigma=0.3), nu=1
+    )
     optimizer.rng = np.random.default_rng(0)
     with Controller(config, Hold(), optimizer, num_workers=1) as controller:
         yield controller
 
 
 def run_as_the_app(loop: ClosedLoop, seconds: float) -> None:
-    """Step the plant for `seconds` of plant time, planning every control period from the latest reading whether
-    or not its time advanced, as the app's planner does on the wall clock (the loop's clock here is plant time)."""
+    """Step the plant for `seconds` of plant time, planning every control period from the latest
+    reading whether or not its time advanced, as the app's planner does on the wall clock (the
+    loop's clock here is plant time)."""
     every = round(1.0 / (CONTROL_FREQ * loop.system.timestep))
     for i in range(round(seconds / loop.system.timestep)):
         if i % every == 0:
@@ -46,7 +51,9 @@ def run_as_the_app(loop: ClosedLoop, seconds: float) -> None:
         loop.advance()
 
 
-def test_readings_that_stop_are_named_every_few_seconds_until_they_resume_and_the_end_says_how_long(controller):
+def test_readings_that_stop_are_named_every_few_seconds_until_they_resume_and_the_end_says_how_long(
+    controller,
+):
     events: list[str | None] = []
     plant = MujocoSystem.from_task(controller.task, seed=0)
     loop = ClosedLoop(controller, plant, latency=0.02, on_watchdog=events.append)
@@ -55,13 +62,17 @@ def test_readings_that_stop_are_named_every_few_seconds_until_they_resume_and_th
     assert events == [] and loop.watchdog.trips == 0  # fresh plans while the readings flow
     read = plant.read_state
     frozen = read()
-    plant.read_state = lambda: frozen  # the robot's process dies: its last reading stays the reading
+    # the robot's process dies: its last reading stays the reading
+    plant.read_state = lambda: frozen
     run_as_the_app(loop, 2 * REPORT_EVERY + 1.0)
     told = [event for event in events if event is not None]
     assert len(told) == 3 and None not in events  # at the trip, then every REPORT_EVERY s
-    assert all(event.startswith("the readings stopped: their time has not advanced for ") for event in told)
+    assert all(
+        event.startswith("the readings stopped: their time has not advanced for ") for event in told
+    )
     stood = [float(event.split("advanced for ")[1].split(" s")[0]) for event in told]
-    # named at the trip, not blamed on planning: the plan's age is past LIMIT, less than a period of it planning's
+    # named at the trip, not blamed on planning: the plan's age is past LIMIT, less than a period of
+    # it planning's
     assert LIMIT - 1.0 / CONTROL_FREQ - 0.03 < stood[0] <= LIMIT
     assert stood[1] == pytest.approx(stood[0] + REPORT_EVERY, abs=0.035)
     assert stood[2] == pytest.approx(stood[0] + 2 * REPORT_EVERY, abs=0.035)
@@ -72,33 +83,43 @@ def test_readings_that_stop_are_named_every_few_seconds_until_they_resume_and_th
     assert events[-1] is None and events.count(None) == 1 and loop.watchdog.tripped is None
     resumed = loop.watchdog.resumed_s  # fresh plans a cycle or two after the readings resumed
     assert resumed is not None and 0 < resumed <= 3 / CONTROL_FREQ
-    assert loop.watchdog.episode_s == pytest.approx(2 * REPORT_EVERY + 1.0 - stood[0] + resumed, abs=0.035)
+    assert loop.watchdog.episode_s == pytest.approx(
+        2 * REPORT_EVERY + 1.0 - stood[0] + resumed, abs=0.035
+    )
 
 
 def test_a_stalled_planner_is_still_blamed_on_planning_while_the_readings_flow(controller):
     events: list[str | None] = []
-    loop = ClosedLoop(controller, MujocoSystem.from_task(controller.task, seed=0), on_watchdog=events.append)
+    loop = ClosedLoop(
+        controller, MujocoSystem.from_task(controller.task, seed=0), on_watchdog=events.append
+    )
     loop.restart()
     run_as_the_app(loop, 0.3)
-    for _ in range(round((REPORT_EVERY + 0.5) / loop.system.timestep)):  # no plan: the planner hangs
+    # no plan: the planner hangs
+    for _ in range(round((REPORT_EVERY + 0.5) / loop.system.timestep)):
         loop.advance()
-    assert len(events) == 2 and all(event is not None for event in events)  # at the trip, then REPORT_EVERY s on
+    # at the trip, then REPORT_EVERY s on
+    assert len(events) == 2 and all(event is not None for event in events)
     assert all(
-        event.startswith("the plan in force is ") and event.endswith(" s old (planning stalled or failed)")
+        event.startswith("the plan in force is ")
+        and event.endswith(" s old (planning stalled or failed)")
         for event in events
     )
     ages = [float(event.split("is ")[1].split(" s")[0]) for event in events]
-    assert LIMIT - 0.006 < ages[0] <= LIMIT + 0.016 and ages[1] == pytest.approx(ages[0] + REPORT_EVERY, abs=0.035)
+    assert LIMIT - 0.006 < ages[0] <= LIMIT + 0.016 and ages[1] == pytest.approx(
+        ages[0] + REPORT_EVERY, abs=0.035
+    )
     run_as_the_app(loop, 0.2)
     assert events[-1] is None and loop.watchdog.resumed_s is None  # the readings never stopped
 
 
-def test_a_trouble_that_comes_back_at_once_is_counted_not_told_and_its_end_is_told_only_if_its_start_was():
+def test_a_trouble_that_comes_back_at_once_is_counted_not_told_and_its_end_is_told_only_if_its_start_was():  # noqa: E501
     watchdog, period = Watchdog(), 1.0 / CONTROL_FREQ
     watchdog.restart(0.0)
     told = []
 
-    def serve(now: float, stamp: float) -> None:  # readings at every call; the plan in force is stamped `stamp`
+    # readings at every call; the plan in force is stamped `stamp`
+    def serve(now: float, stamp: float) -> None:
         watchdog.fresh_at = now
         reason = watchdog.verdict(now, stamp, MAX_PLAN_AGE, CONTROL_FREQ)
         if watchdog.news:
@@ -113,11 +134,13 @@ def test_a_trouble_that_comes_back_at_once_is_counted_not_told_and_its_end_is_to
     assert [(now, reason is None) for now, reason in told] == [(1.0, False), (1.1, True)]
     assert watchdog.trips == 3
     serve(4.0, 3.5)  # within REPORT_EVERY of the last line: counted, but it lasts
-    serve(1.0 + REPORT_EVERY, 3.5)  # ... until REPORT_EVERY after the last line: told, with the count
+    # ... until REPORT_EVERY after the last line: told, with the count
+    serve(1.0 + REPORT_EVERY, 3.5)
     assert told[-1][0] == 1.0 + REPORT_EVERY
     assert (
         told[-1][1]
-        == "the plan in force is 2.50 s old (planning stalled or failed) (2 shorter episodes since the last report)"
+        == "the plan in force is 2.50 s old (planning stalled or failed) (2 shorter episodes "
+        "since the last report)"
     )
     serve(6.1, 6.0)
     assert told[-1] == (6.1, None) and watchdog.episode_s == pytest.approx(6.1 - 4.0)

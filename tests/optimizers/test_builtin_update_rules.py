@@ -10,7 +10,9 @@ from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 
 def hand_made_samples(num_rollouts=6, num_nodes=3, nu=2):
-    return np.arange(num_rollouts * num_nodes * nu, dtype=float).reshape(num_rollouts, num_nodes, nu)
+    return np.arange(num_rollouts * num_nodes * nu, dtype=float).reshape(
+        num_rollouts, num_nodes, nu
+    )
 
 
 def test_predictive_sampling_keeps_the_nominal_first_and_picks_the_best():
@@ -21,20 +23,26 @@ def test_predictive_sampling_keeps_the_nominal_first_and_picks_the_best():
     np.testing.assert_array_equal(samples[0], nominal)
     assert 0.03 < np.std(samples[1:] - nominal) < 0.3
     knots = hand_made_samples()
-    np.testing.assert_array_equal(opt.update_nominal_knots(knots, np.array([0, 1, 5, 2, -np.inf, 3.0])), knots[2])
+    np.testing.assert_array_equal(
+        opt.update_nominal_knots(knots, np.array([0, 1, 5, 2, -np.inf, 3.0])), knots[2]
+    )
 
 
 def test_mppi_with_tiny_temperature_picks_the_argmax():
     opt = MPPI(MPPIConfig(num_rollouts=6, num_nodes=3, temperature=1e-6), nu=2)
     knots = hand_made_samples()
-    np.testing.assert_allclose(opt.update_nominal_knots(knots, np.array([0, 1, 5, 2, 4.9, 3.0])), knots[2])
+    np.testing.assert_allclose(
+        opt.update_nominal_knots(knots, np.array([0, 1, 5, 2, 4.9, 3.0])), knots[2]
+    )
 
 
 def test_mppi_with_huge_temperature_averages_and_ignores_minus_inf():
     opt = MPPI(MPPIConfig(num_rollouts=6, num_nodes=3, temperature=1e9), nu=2)
     knots = hand_made_samples()
     rewards = np.array([0, 1, 5, 2, -np.inf, 3.0])
-    np.testing.assert_allclose(opt.update_nominal_knots(knots, rewards), knots[[0, 1, 2, 3, 5]].mean(0), rtol=1e-6)
+    np.testing.assert_allclose(
+        opt.update_nominal_knots(knots, rewards), knots[[0, 1, 2, 3, 5]].mean(0), rtol=1e-6
+    )
 
 
 def test_mppi_weights_follow_the_softmax_formula():
@@ -42,11 +50,15 @@ def test_mppi_weights_follow_the_softmax_formula():
     knots = np.array([[[0.0]], [[1.0]], [[2.0]]])
     rewards = np.array([0.0, 2.0, 4.0])
     weights = np.exp(rewards / 2.0) / np.exp(rewards / 2.0).sum()
-    assert opt.update_nominal_knots(knots, rewards)[0, 0] == pytest.approx(weights @ [0.0, 1.0, 2.0])
+    assert opt.update_nominal_knots(knots, rewards)[0, 0] == pytest.approx(
+        weights @ [0.0, 1.0, 2.0]
+    )
 
 
 def test_cem_fits_mean_and_clipped_std_of_its_elites():
-    opt = CEM(CEMConfig(num_rollouts=6, num_nodes=3, num_elites=2, sigma_min=0.01, sigma_max=100.0), nu=2)
+    opt = CEM(
+        CEMConfig(num_rollouts=6, num_nodes=3, num_elites=2, sigma_min=0.01, sigma_max=100.0), nu=2
+    )
     knots = hand_made_samples()
     rewards = np.array([0, 1, 5, 2, 4, 3.0])  # elites: samples 2 and 4
     np.testing.assert_allclose(opt.update_nominal_knots(knots, rewards), knots[[2, 4]].mean(0))
@@ -65,7 +77,9 @@ def test_cem_resets_its_std_when_num_nodes_changes():
 
 
 def test_noise_ramp_grows_linearly_to_noise_ramp_at_the_last_knot():
-    opt = PredictiveSampling(PredictiveSamplingConfig(num_nodes=4, use_noise_ramp=True, noise_ramp=2.0), nu=1)
+    opt = PredictiveSampling(
+        PredictiveSamplingConfig(num_nodes=4, use_noise_ramp=True, noise_ramp=2.0), nu=1
+    )
     np.testing.assert_allclose(opt.noise_ramp_scale()[:, 0], [0.5, 1.0, 1.5, 2.0])
 
 
@@ -80,14 +94,18 @@ def test_sampling_is_deterministic_for_a_seed():
 
 
 def test_cem_keeps_its_std_free_of_the_noise_ramp():
-    """With the ramp on, the samples' std is sigma times the ramp; refitting the elites divides it out
-    again, so the ramp is applied once per draw instead of compounding across cycles."""
-    config = CEMConfig(num_rollouts=4000, num_nodes=4, num_elites=4000, sigma_min=0.01, sigma_max=1.0)
+    """With the ramp on, the samples' std is sigma times the ramp; refitting the elites divides it
+    out again, so the ramp is applied once per draw instead of compounding across cycles."""
+    config = CEMConfig(
+        num_rollouts=4000, num_nodes=4, num_elites=4000, sigma_min=0.01, sigma_max=1.0
+    )
     config.use_noise_ramp, config.noise_ramp = True, 2.0
     opt = CEM(config, nu=1)
     opt.sigma[:] = 0.2
     samples = opt.sample_control_knots(np.zeros((4, 1)))
-    np.testing.assert_allclose(samples[1:].std(0)[:, 0], 0.2 * np.array([0.5, 1.0, 1.5, 2.0]), rtol=0.06)
+    np.testing.assert_allclose(
+        samples[1:].std(0)[:, 0], 0.2 * np.array([0.5, 1.0, 1.5, 2.0]), rtol=0.06
+    )
     opt.update_nominal_knots(samples, np.zeros(4000))
     np.testing.assert_allclose(opt.sigma, 0.2, rtol=0.06)
 
@@ -104,7 +122,8 @@ def test_perturb_draws_the_same_numbers_as_a_fresh_noise_array(use_noise_ramp, s
     noise += nominal
     expected = np.concatenate([nominal[None], noise])
     assert fast.perturb(nominal, sigma).tobytes() == expected.tobytes()
-    assert fast.rng.standard_normal() == reference.rng.standard_normal()  # the generators stay in step
+    # the generators stay in step
+    assert fast.rng.standard_normal() == reference.rng.standard_normal()
 
 
 def test_weighted_knots_is_tensordot_bit_for_bit():
@@ -114,4 +133,7 @@ def test_weighted_knots_is_tensordot_bit_for_bit():
         expected = np.tensordot(weights, knots, axes=1)
         assert weighted_knots(weights, knots).tobytes() == expected.tobytes()
         strided = np.repeat(knots, 2, axis=0)[::2]  # not contiguous: copied as tensordot copies it
-        assert weighted_knots(weights, strided).tobytes() == np.tensordot(weights, strided, axes=1).tobytes()
+        assert (
+            weighted_knots(weights, strided).tobytes()
+            == np.tensordot(weights, strided, axes=1).tobytes()
+        )

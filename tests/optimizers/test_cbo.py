@@ -1,4 +1,5 @@
-"""cbo: the consensus, the particles' Euler-Maruyama step, the swarm carried across cycles, closed-loop swing-ups."""
+"""cbo: the consensus, the particles' Euler-Maruyama step, the swarm carried across cycles,
+closed-loop swing-ups."""
 
 import numpy as np
 import pytest
@@ -17,7 +18,15 @@ def make(nu: int = 2, seed: int = 0, **fields) -> CBO:
 
 
 def test_the_consensus_is_the_plan_and_particles_step_the_sde():
-    opt = make(num_rollouts=8, num_nodes=3, drift=2.0, noise=0.5, step_size=0.25, sigma_min=0.1, temperature=0.5)
+    opt = make(
+        num_rollouts=8,
+        num_nodes=3,
+        drift=2.0,
+        noise=0.5,
+        step_size=0.25,
+        sigma_min=0.1,
+        temperature=0.5,
+    )
     nominal = np.zeros((3, 2))
     knots = opt.sample_control_knots(nominal)
     np.testing.assert_array_equal(knots[0], nominal)
@@ -37,7 +46,8 @@ def test_the_consensus_is_the_plan_and_particles_step_the_sde():
 
 
 def test_the_swarm_contracts_onto_the_optimum_of_a_quadratic():
-    """With no noise floor and a temperature far below the rewards' spread, the consensus finds the optimum."""
+    """With no noise floor and a temperature far below the rewards' spread, the consensus finds the
+    optimum."""
     opt = make(num_rollouts=64, num_nodes=2, sigma=1.0, sigma_min=0.0, temperature=0.001)
     target = np.array([[0.3, -0.2], [0.1, 0.4]])
     nominal = np.zeros((2, 2))
@@ -74,9 +84,17 @@ def test_the_swarm_shifts_with_the_knots_and_resizes_with_num_rollouts():
 
 
 def test_bad_values_are_refused_with_a_clear_message():
-    with pytest.raises(judo.ConfigError, match=r"^CBO needs num_rollouts >= 2 \(the plan plus a particle\), got 1$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^CBO needs num_rollouts >= 2 \(the "
+        r"plan plus a particle\), got 1$",
+    ):
         CBOConfig(num_rollouts=1)
-    with pytest.raises(judo.ConfigError, match=r"^step_size must be above 0 and at most 1, got 0.0$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^step_size must be above "
+        r"0 and at most 1, got 0.0$",
+    ):
         CBOConfig(step_size=0.0)
     with pytest.raises(judo.ConfigError, match=r"^sigma_min must be non-negative, got -0.1$"):
         CBOConfig(sigma_min=-0.1)

@@ -1,4 +1,5 @@
-"""CMA-ES (diagonal): Hansen's parameters, the update rule on hand-made rewards, and carried state."""
+"""CMA-ES (diagonal): Hansen's parameters, the update rule on hand-made rewards, and carried
+state."""
 
 import numpy as np
 import pytest
@@ -14,7 +15,8 @@ def make_cmaes(nu: int = 2, seed: int = 0, **fields) -> CMAES:
 
 
 def optimize(cmaes: CMAES, reward, nominal: np.ndarray, generations: int) -> np.ndarray:
-    """Run `generations` iterations maximising `reward` (num_rollouts, num_nodes, nu) -> (num_rollouts,)."""
+    """Run `generations` iterations maximising `reward` (num_rollouts, num_nodes, nu) ->
+    (num_rollouts,)."""
     for _ in range(generations):
         knots = cmaes.sample_control_knots(nominal)
         nominal = cmaes.update_nominal_knots(knots, reward(knots))
@@ -48,22 +50,33 @@ def test_plan_is_the_best_sample_when_execute_best():
     cmaes = make_cmaes(num_rollouts=8)
     knots = cmaes.sample_control_knots(np.zeros((cmaes.num_nodes, 2)))
     rewards = np.random.default_rng(1).normal(size=8)
-    np.testing.assert_array_equal(cmaes.update_nominal_knots(knots, rewards), knots[np.argmax(rewards)])
+    np.testing.assert_array_equal(
+        cmaes.update_nominal_knots(knots, rewards), knots[np.argmax(rewards)]
+    )
 
 
 def test_converges_on_a_quadratic_with_a_positive_covariance():
-    cmaes = make_cmaes(num_rollouts=16, num_nodes=5, sigma=0.5, sigma_min=1e-9, sigma_max=10.0, execute_best=False)
+    cmaes = make_cmaes(
+        num_rollouts=16, num_nodes=5, sigma=0.5, sigma_min=1e-9, sigma_max=10.0, execute_best=False
+    )
     target = np.linspace(-1.0, 1.0, 10).reshape(5, 2)
-    final = optimize(cmaes, lambda k: -np.square(k - target).sum(axis=(1, 2)), np.zeros((5, 2)), 150)
+    final = optimize(
+        cmaes, lambda k: -np.square(k - target).sum(axis=(1, 2)), np.zeros((5, 2)), 150
+    )
     np.testing.assert_allclose(final, target, atol=1e-3)
     assert np.isfinite(cmaes.variances).all() and (cmaes.variances > 0).all()
-    assert cmaes.variances.mean() == pytest.approx(1.0)  # C keeps mean 1; its scale lives in step_size
+    # C keeps mean 1; its scale lives in step_size
+    assert cmaes.variances.mean() == pytest.approx(1.0)
 
 
 def test_diagonal_adapts_to_the_scaling_of_each_coordinate():
-    cmaes = make_cmaes(num_rollouts=16, num_nodes=2, sigma=0.5, sigma_min=1e-9, sigma_max=10.0, execute_best=False)
+    cmaes = make_cmaes(
+        num_rollouts=16, num_nodes=2, sigma=0.5, sigma_min=1e-9, sigma_max=10.0, execute_best=False
+    )
     curvature = np.array([[1.0, 100.0], [1.0, 100.0]])  # the second control is 10x more sensitive
-    optimize(cmaes, lambda k: -(curvature * np.square(k - 0.3)).sum(axis=(1, 2)), np.zeros((2, 2)), 50)
+    optimize(
+        cmaes, lambda k: -(curvature * np.square(k - 0.3)).sum(axis=(1, 2)), np.zeros((2, 2)), 50
+    )
     stds = np.sqrt(cmaes.variances.reshape(2, 2))
     assert (stds[:, 0] / stds[:, 1] > 6).all()  # ideally 10: C ~ inverse Hessian
 
@@ -95,7 +108,9 @@ def test_state_is_reinterpolated_when_knots_shift_or_change_count():
     assert cmaes.variances.shape == cmaes.path_c.shape == cmaes.path_sigma.shape == (14,)
     per_knot = cmaes.variances.reshape(7, 2)[:, 0]
     assert (np.diff(per_knot) > 0).all() and cmaes.variances.mean() == pytest.approx(1.0)
-    np.testing.assert_allclose(cmaes.path_c.reshape(7, 2)[[0, 3, 6], 0] * np.sqrt(1.25), [1.0, 2.5, 4.0])
+    np.testing.assert_allclose(
+        cmaes.path_c.reshape(7, 2)[[0, 3, 6], 0] * np.sqrt(1.25), [1.0, 2.5, 4.0]
+    )
 
 
 def test_editing_sigma_restarts_the_distribution():
@@ -110,7 +125,9 @@ def test_editing_sigma_restarts_the_distribution():
 
 def test_needs_a_population():
     with pytest.raises(
-        judo.ConfigError, match=r"^CMA-ES needs num_rollouts >= 2 \(the plan plus a population\), got 1$"
+        judo.ConfigError,
+        match=r"^CMA-ES needs num_rollouts >= 2 "
+        r"\(the plan plus a population\), got 1$",
     ):
         CMAESConfig(num_rollouts=1)
     with pytest.raises(judo.ConfigError, match=r"^need 0 < sigma_min <= sigma_max, got 0.5, 0.2$"):
@@ -120,7 +137,9 @@ def test_needs_a_population():
 def test_same_seed_same_run():
     def run(seed: int) -> np.ndarray:
         cmaes = make_cmaes(seed=seed, num_rollouts=8)
-        return optimize(cmaes, lambda k: -np.abs(k - 0.2).sum(axis=(1, 2)), np.zeros((cmaes.num_nodes, 2)), 4)
+        return optimize(
+            cmaes, lambda k: -np.abs(k - 0.2).sum(axis=(1, 2)), np.zeros((cmaes.num_nodes, 2)), 4
+        )
 
     np.testing.assert_array_equal(run(3), run(3))
     assert not np.array_equal(run(3), run(4))

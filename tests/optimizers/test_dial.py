@@ -59,7 +59,8 @@ def test_large_temperature_averages_and_failed_rollouts_get_no_weight():
 def test_weights_do_not_depend_on_the_reward_scale():
     rewards = np.array([-3.0, 1.0, 0.5, 2.0])
     np.testing.assert_allclose(
-        standardised_softmax_weights(rewards, 0.5), standardised_softmax_weights(100.0 * rewards - 7.0, 0.5)
+        standardised_softmax_weights(rewards, 0.5),
+        standardised_softmax_weights(100.0 * rewards - 7.0, 0.5),
     )
 
 
@@ -99,4 +100,6 @@ def test_same_seed_same_samples():
     nominal = np.zeros((4, 2))
     a, b = make_dial(seed=5), make_dial(seed=5)
     np.testing.assert_array_equal(a.sample_control_knots(nominal), b.sample_control_knots(nominal))
-    assert not np.array_equal(make_dial(seed=6).sample_control_knots(nominal), a.sample_control_knots(nominal))
+    assert not np.array_equal(
+        make_dial(seed=6).sample_control_knots(nominal), a.sample_control_knots(nominal)
+    )

@@ -19,8 +19,12 @@ def test_the_bonus_inflates_the_learned_covariance_more_at_the_far_knots():
     knots = er.sample_control_knots(nominal)
     np.testing.assert_array_equal(knots, plain.sample_control_knots(nominal))
     rewards = -np.abs(knots - 0.3).sum(axis=(1, 2))
-    np.testing.assert_array_equal(er.update_nominal_knots(knots, rewards), plain.update_nominal_knots(knots, rewards))
-    np.testing.assert_allclose(er.covariance, plain.covariance * er.covariance_gain()[:, None, None], rtol=1e-10)
+    np.testing.assert_array_equal(
+        er.update_nominal_knots(knots, rewards), plain.update_nominal_knots(knots, rewards)
+    )
+    np.testing.assert_allclose(
+        er.covariance, plain.covariance * er.covariance_gain()[:, None, None], rtol=1e-10
+    )
 
 
 def test_no_bonus_is_mppi_cma_bit_for_bit():
@@ -37,7 +41,14 @@ def test_no_bonus_is_mppi_cma_bit_for_bit():
 
 def test_the_eigenvalues_stay_within_the_bounds_under_a_large_bonus():
     er = ERCMA(
-        ERCMAConfig(num_rollouts=32, entropy_bonus_end=0.95, sigma_min=0.1, sigma_max=0.4, adaptation_rate=1.0), 2
+        ERCMAConfig(
+            num_rollouts=32,
+            entropy_bonus_end=0.95,
+            sigma_min=0.1,
+            sigma_max=0.4,
+            adaptation_rate=1.0,
+        ),
+        2,
     )
     nominal = np.zeros((4, 2))
     for _ in range(5):
@@ -52,9 +63,17 @@ def test_the_eigenvalues_stay_within_the_bounds_under_a_large_bonus():
 
 
 def test_bad_values_are_refused_with_a_clear_message():
-    with pytest.raises(judo.ConfigError, match=r"^entropy_bonus_end must be between 0 and 0.95, got 1.0$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^entropy_bonus_end must be "
+        r"between 0 and 0.95, got 1.0$",
+    ):
         ERCMAConfig(entropy_bonus_end=1.0)
-    with pytest.raises(judo.ConfigError, match=r"^entropy_bonus_start must be between 0 and 0.95, got -0.1$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^entropy_bonus_start must be "
+        r"between 0 and 0.95, got -0.1$",
+    ):
         ERCMAConfig(entropy_bonus_start=-0.1)
     with pytest.raises(judo.ConfigError, match=r"^need 0 < sigma_min <= sigma_max, got 0.5, 0.2$"):
         ERCMAConfig(sigma_min=0.5, sigma_max=0.2)

@@ -27,7 +27,8 @@ def test_colored_noise_has_the_requested_spectral_slope_and_unit_variance(beta):
     noise = colored_noise(np.random.default_rng(0), beta, (2000, 128))
     assert spectral_slope(noise) == pytest.approx(-beta, abs=0.1)
     assert noise.var() == pytest.approx(1.0, rel=0.05)
-    np.testing.assert_allclose(noise.var(axis=0), 1.0, rtol=0.15)  # stationary: every position alike
+    # stationary: every position alike
+    np.testing.assert_allclose(noise.var(axis=0), 1.0, rtol=0.15)
 
 
 def test_colored_noise_handles_short_sequences_and_empty_batches():
@@ -57,7 +58,8 @@ def test_samples_are_plan_mean_kept_elites_then_fresh():
     np.testing.assert_array_equal(plan, knots[ranked[0]])
     np.testing.assert_allclose(icem.mean, knots[ranked[:5]].mean(axis=0))
     np.testing.assert_allclose(icem.sigma, np.clip(knots[ranked[:5]].std(axis=0), 0.15, 0.5))
-    np.testing.assert_array_equal(icem.kept_elites, knots[ranked[1:3]])  # 3 kept, the best is the plan
+    # 3 kept, the best is the plan
+    np.testing.assert_array_equal(icem.kept_elites, knots[ranked[1:3]])
 
     again = icem.sample_control_knots(plan)
     np.testing.assert_array_equal(again[0], plan)
@@ -96,19 +98,29 @@ def test_few_rollouts_truncate_the_fixed_samples():
 
 
 def test_bad_values_are_refused_with_a_clear_message():
-    with pytest.raises(judo.ConfigError, match=r"^elite_keep_fraction must be between 0 and 1, got 1.5$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^elite_keep_fraction must "
+        r"be between 0 and 1, got 1.5$",
+    ):
         ICEMConfig(elite_keep_fraction=1.5)
     with pytest.raises(judo.ConfigError, match=r"^beta must be between 0 and 10, got -1.0$"):
         ICEMConfig(beta=-1.0)
-    with pytest.raises(judo.ConfigError, match=r"^num_elites must be between 1 and num_rollouts \(8\), got 9$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^num_elites must be between 1 "
+        r"and num_rollouts \(8\), got 9$",
+    ):
         ICEMConfig(num_rollouts=8, num_elites=9)
 
 
 def test_same_seed_same_samples():
     nominal = np.zeros((4, 2))
     np.testing.assert_array_equal(
-        make_icem(seed=2).sample_control_knots(nominal), make_icem(seed=2).sample_control_knots(nominal)
+        make_icem(seed=2).sample_control_knots(nominal),
+        make_icem(seed=2).sample_control_knots(nominal),
     )
     assert not np.array_equal(
-        make_icem(seed=2).sample_control_knots(nominal), make_icem(seed=3).sample_control_knots(nominal)
+        make_icem(seed=2).sample_control_knots(nominal),
+        make_icem(seed=3).sample_control_knots(nominal),
     )

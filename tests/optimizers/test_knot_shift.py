@@ -15,7 +15,9 @@ def test_linear_values_shift_exactly_and_hold_past_the_end():
     values = np.stack([2.0 * old_times, -old_times + 1.0], axis=1)  # (5, 2), linear in time
     new_times = old_times + 0.1
     shifted = shift_knots(values, old_times, new_times)
-    np.testing.assert_allclose(shifted[:-1], np.stack([2.0 * new_times[:-1], -new_times[:-1] + 1.0], axis=1))
+    np.testing.assert_allclose(
+        shifted[:-1], np.stack([2.0 * new_times[:-1], -new_times[:-1] + 1.0], axis=1)
+    )
     np.testing.assert_allclose(shifted[-1], values[-1])  # 1.1 is past the old plan: held
 
 

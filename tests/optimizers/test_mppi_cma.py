@@ -1,5 +1,5 @@
-"""mppi_cma: MPPI's mean, the weighted covariance with its moving average and eigenvalue clamp, carried state,
-and closed-loop swing-ups."""
+"""mppi_cma: MPPI's mean, the weighted covariance with its moving average and eigenvalue clamp,
+carried state, and closed-loop swing-ups."""
 
 import numpy as np
 import pytest
@@ -18,7 +18,14 @@ def make(nu: int = 2, seed: int = 0, **fields) -> MPPICMA:
 
 
 def test_the_mean_is_mppi_s_and_the_covariance_the_weighted_one_smoothed():
-    opt = make(num_rollouts=64, num_nodes=3, sigma=0.3, sigma_min=1e-3, sigma_max=10.0, adaptation_rate=0.25)
+    opt = make(
+        num_rollouts=64,
+        num_nodes=3,
+        sigma=0.3,
+        sigma_min=1e-3,
+        sigma_max=10.0,
+        adaptation_rate=0.25,
+    )
     nominal = np.full((3, 2), 0.1)
     knots = opt.sample_control_knots(nominal)
     np.testing.assert_array_equal(knots[0], nominal)
@@ -58,7 +65,10 @@ def test_minus_inf_rewards_get_no_weight():
     knots[4] = 50.0
     plan = opt.update_nominal_knots(knots, np.array([0.0, 1.0, 2.0, 3.0, -np.inf, 4.0]))
     np.testing.assert_allclose(plan, knots[[0, 1, 2, 3, 5]].mean(axis=0), rtol=1e-6)
-    assert np.isfinite(opt.covariance).all() and np.linalg.eigvalsh(opt.covariance).max() <= 1.0 + 1e-12
+    assert (
+        np.isfinite(opt.covariance).all()
+        and np.linalg.eigvalsh(opt.covariance).max() <= 1.0 + 1e-12
+    )
 
 
 def test_the_covariance_shifts_with_the_knots_and_restarts_on_a_new_sigma():
@@ -78,7 +88,11 @@ def test_the_covariance_shifts_with_the_knots_and_restarts_on_a_new_sigma():
 def test_bad_values_are_refused_with_a_clear_message():
     with pytest.raises(judo.ConfigError, match=r"^need 0 < sigma_min <= sigma_max, got 0.5, 0.2$"):
         MPPICMAConfig(sigma_min=0.5, sigma_max=0.2)
-    with pytest.raises(judo.ConfigError, match=r"^adaptation_rate must be between 0 and 1, got 1.5$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^adaptation_rate must be "
+        r"between 0 and 1, got 1.5$",
+    ):
         MPPICMAConfig(adaptation_rate=1.5)
     with pytest.raises(judo.ConfigError, match=r"^temperature must be positive, got 0.0$"):
         MPPICMAConfig(temperature=0.0)

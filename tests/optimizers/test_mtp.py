@@ -1,5 +1,5 @@
-"""mtp: the path matrices, tensor samples over the command range, the elite refit with momentum, carried state,
-and closed-loop swing-ups."""
+"""mtp: the path matrices, tensor samples over the command range, the elite refit with momentum,
+carried state, and closed-loop swing-ups."""
 
 import numpy as np
 import pytest
@@ -27,7 +27,9 @@ def test_path_matrices_are_convex_and_go_through_the_end_waypoints(smoothing):
 
 
 def test_linear_paths_interpolate_the_waypoints_and_the_bspline_matches_de_casteljau():
-    np.testing.assert_allclose(path_matrix(5, 3, "linear") @ [0.0, 1.0, 0.0], [0.0, 0.5, 1.0, 0.5, 0.0])
+    np.testing.assert_allclose(
+        path_matrix(5, 3, "linear") @ [0.0, 1.0, 0.0], [0.0, 0.5, 1.0, 0.5, 0.0]
+    )
     x = np.linspace(0.0, 1.0, 9)  # three control points, degree 2: a quadratic Bezier curve
     bezier = np.stack([(1 - x) ** 2, 2 * x * (1 - x), x**2], axis=1)
     np.testing.assert_allclose(bspline_basis(x, 3, 2), bezier, atol=1e-12)
@@ -51,7 +53,13 @@ def test_samples_are_plan_best_tensor_then_local_within_the_command_range():
 
 def test_the_refit_follows_the_weighted_elites_with_momentum():
     opt = make(
-        num_rollouts=16, num_nodes=3, num_elites=5, momentum=0.25, sigma_min=0.01, sigma_max=2.0, temperature=2.0
+        num_rollouts=16,
+        num_nodes=3,
+        num_elites=5,
+        momentum=0.25,
+        sigma_min=0.01,
+        sigma_max=2.0,
+        temperature=2.0,
     )
     nominal = np.zeros((3, 2))
     knots = opt.sample_control_knots(nominal)
@@ -63,7 +71,9 @@ def test_the_refit_follows_the_weighted_elites_with_momentum():
     mean = np.tensordot(w, knots[elites], axes=1)
     std = np.sqrt(np.tensordot(w, (knots[elites] - mean) ** 2, axes=1))
     np.testing.assert_allclose(plan, 0.75 * mean)
-    np.testing.assert_allclose(opt.sigma, np.sqrt(0.25 * 2.0**2 + 0.75 * np.clip(std, 0.01, 2.0) ** 2))
+    np.testing.assert_allclose(
+        opt.sigma, np.sqrt(0.25 * 2.0**2 + 0.75 * np.clip(std, 0.01, 2.0) ** 2)
+    )
     assert 0.05 < std.min()  # the elites' spread is in the refit, not only the clip
     np.testing.assert_array_equal(opt.best, knots[elites[0]])
 
@@ -93,15 +103,29 @@ def test_unbounded_controls_span_the_nominal_and_state_shifts_between_cycles():
 
 
 def test_bad_values_are_refused_with_a_clear_message():
-    with pytest.raises(judo.ConfigError, match=r"^path_smoothing must be one of \['linear', 'bspline'\], got 'akima'$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^path_smoothing must be one of "
+        r"\['linear', 'bspline'\], got 'akima'$",
+    ):
         MTPConfig(path_smoothing="akima")  # type: ignore[arg-type]
     with pytest.raises(
-        judo.ConfigError, match=r"^path_smoothing 'bspline' \(quadratic\) needs num_waypoints >= 3, got 2$"
+        judo.ConfigError,
+        match=r"^path_smoothing 'bspline' \(quadratic\) "
+        r"needs num_waypoints >= 3, got 2$",
     ):
         MTPConfig(num_waypoints=2)
-    with pytest.raises(judo.ConfigError, match=r"^momentum must be at least 0 and below 1, got 1.0$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^momentum must be at least "
+        r"0 and below 1, got 1.0$",
+    ):
         MTPConfig(momentum=1.0)
-    with pytest.raises(judo.ConfigError, match=r"^num_elites must be between 1 and num_rollouts \(8\), got 9$"):
+    with pytest.raises(
+        judo.ConfigError,
+        match=r"^num_elites must be between 1 "
+        r"and num_rollouts \(8\), got 9$",
+    ):
         MTPConfig(num_rollouts=8, num_elites=9)
     assert MTPConfig(num_waypoints=2, path_smoothing="linear").num_waypoints == 2
 
@@ -114,7 +138,8 @@ def test_it_is_registered_for_the_cli_and_the_gui():
 def test_it_plans_through_robust_planning_proposals_and_a_low_level_policy():
     controller = plan_with_everything("mtp")
     assert np.isfinite(controller.rewards).all() and controller.rewards.shape == (16,)
-    np.testing.assert_array_equal(controller.optimizer.command_range, controller.task.command_range)  # the commands'
+    # the commands'
+    np.testing.assert_array_equal(controller.optimizer.command_range, controller.task.command_range)
     assert np.abs(controller.nominal_knots).max() <= controller.task.command_range[0, 1]
 
 

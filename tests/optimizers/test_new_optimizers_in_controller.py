@@ -1,4 +1,5 @@
-"""dial, cmaes and icem inside a Controller: determinism, size edits from the GUI, and balancing a cart-pole."""
+"""dial, cmaes and icem inside a Controller: determinism, size edits from the GUI, and balancing a
+cart-pole."""
 
 import mujoco
 import numpy as np
@@ -47,7 +48,11 @@ def test_state_survives_num_nodes_and_num_rollouts_edits(name):
     if name == "cmaes":  # carried, not restarted: the generation count went on
         assert opt.variances.shape == (5,) and opt.generation == generation + 4
     if name == "icem":
-        assert opt.sigma.shape == (5, 1) and opt.mean.shape == (5, 1) and opt.kept_elites.shape[1:] == (5, 1)
+        assert (
+            opt.sigma.shape == (5, 1)
+            and opt.mean.shape == (5, 1)
+            and opt.kept_elites.shape[1:] == (5, 1)
+        )
     ctrl.close()
 
 

@@ -9,7 +9,8 @@ from ros2_links import free_domain, start_plant, stop_process
 
 @pytest.fixture(scope="module")
 def plant() -> Iterator[tuple[subprocess.Popen, int]]:
-    """One cartpole plant process for the tests of a module that echoes every command it reads: (process, domain)."""
+    """One cartpole plant process for the tests of a module that echoes every command it reads:
+    (process, domain)."""
     domain = free_domain()
     proc = start_plant(domain, "--echo")
     yield proc, domain

@@ -1,5 +1,5 @@
-"""Helpers for real ROS 2 links on loopback: plant processes (`python -m judo plant`) and in-process DDS robots,
-each on a DDS domain of its own, so tests never hear each other."""
+"""Helpers for real ROS 2 links on loopback: plant processes (`python -m judo plant`) and in-process
+DDS robots, each on a DDS domain of its own, so tests never hear each other."""
 
 import dataclasses
 import os
@@ -34,9 +34,15 @@ def env(domain: int | None = None) -> dict[str, str]:
 
 
 def started(args: list[str], ready: str) -> subprocess.Popen:
-    """`python ARGS` in the repository with the test's DDS settings, once its first line of output holds `ready`."""
+    """`python ARGS` in the repository with the test's DDS settings, once its first line of output
+    holds `ready`."""
     proc = subprocess.Popen(
-        [sys.executable, *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env(), cwd=ROOT
+        [sys.executable, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=env(),
+        cwd=ROOT,
     )
     assert proc.stdout is not None
     line = proc.stdout.readline()
@@ -46,12 +52,15 @@ def started(args: list[str], ready: str) -> subprocess.Popen:
 
 def start_plant(domain: int, *flags: str, task: str = "cartpole") -> subprocess.Popen:
     """`python -m judo plant --task TASK` on `domain`, once it says it publishes."""
-    return started(["-m", "judo", "plant", "--task", task, "--ros2.domain-id", str(domain), *flags], "publishing rt/")
+    return started(
+        ["-m", "judo", "plant", "--task", task, "--ros2.domain-id", str(domain), *flags],
+        "publishing rt/",
+    )
 
 
 def record_multisine(path, domain: int, steps: int) -> np.ndarray:
-    """Drive the cart-pole robot on `domain` through the bridge, recording to `path`, by `steps` commands of a
-    multisine at the bridge's 100 Hz; returns them (C, 1)."""
+    """Drive the cart-pole robot on `domain` through the bridge, recording to `path`, by `steps`
+    commands of a multisine at the bridge's 100 Hz; returns them (C, 1)."""
     from judo.cli_shared import SystemOptions
     from judo.ros2.bridge import Ros2System
     from judo.ros2.options import Ros2Options
@@ -82,8 +91,8 @@ def stop_process(proc: subprocess.Popen) -> None:
 
 
 class DdsRobot:
-    """A robot written in the test on cyclonedds: publishes the JointStates it is given, and a valid one every
-    10 ms until `stop_streaming` (positions only where `velocity` is False)."""
+    """A robot written in the test on cyclonedds: publishes the JointStates it is given, and a valid
+    one every 10 ms until `stop_streaming` (positions only where `velocity` is False)."""
 
     def __init__(self, domain: int, velocity: bool = True) -> None:
         from cyclonedds.pub import DataWriter
@@ -94,7 +103,9 @@ class DdsRobot:
         self.msg, self.link = msg, link
         self.participant = link.participant(domain)
         self.writer = DataWriter(
-            self.participant, link.topic(self.participant, "/joint_states", msg.JointState), link.SENSOR_QOS
+            self.participant,
+            link.topic(self.participant, "/joint_states", msg.JointState),
+            link.SENSOR_QOS,
         )
         self.stamp = 1.0
         self.velocity = velocity
@@ -102,14 +113,20 @@ class DdsRobot:
         self._thread = threading.Thread(target=self._stream, daemon=True)
         self._thread.start()
 
-    def send(self, names: list[str], position: list[float], velocity: list[float], stamp: float) -> None:
+    def send(
+        self, names: list[str], position: list[float], velocity: list[float], stamp: float
+    ) -> None:
         msg = self.msg
-        self.writer.write(msg.JointState(msg.Header(msg.stamp_of(stamp)), names, position, velocity, []))
+        self.writer.write(
+            msg.JointState(msg.Header(msg.stamp_of(stamp)), names, position, velocity, [])
+        )
 
     def _stream(self) -> None:
         while not self._stop.is_set():
             self.stamp += 0.01
-            self.send(["slider", "hinge"], [0.1, 3.0], [0.0, 0.0] if self.velocity else [], self.stamp)
+            self.send(
+                ["slider", "hinge"], [0.1, 3.0], [0.0, 0.0] if self.velocity else [], self.stamp
+            )
             time.sleep(0.01)
 
     def stop_streaming(self) -> None:
@@ -137,7 +154,9 @@ def echo_reader(domain: int):
     from judo.ros2 import messages as msg
 
     part = link.participant(domain)
-    return part, DataReader(part, link.topic(part, "/judo/commands_echo", msg.Float64MultiArray), link.COMMAND_QOS)
+    return part, DataReader(
+        part, link.topic(part, "/judo/commands_echo", msg.Float64MultiArray), link.COMMAND_QOS
+    )
 
 
 def echoes(reader) -> list[np.ndarray]:
@@ -147,7 +166,8 @@ def echoes(reader) -> list[np.ndarray]:
 
 
 def small_controller(**config) -> judo.Controller:
-    """cartpole's mppi with few rollouts, so it keeps up on a busy machine; `config` changes ControllerConfig fields."""
+    """cartpole's mppi with few rollouts, so it keeps up on a busy machine; `config` changes
+    ControllerConfig fields."""
     controller_config = dataclasses.replace(
         make_config(judo.ControllerConfig, "cartpole"), horizon=0.5, control_freq=20.0, **config
     )
@@ -179,9 +199,14 @@ while True:
 """
 
 
-def start_publisher(domain: int, names: list[str], states: list[tuple[list[float], list[float]]]) -> subprocess.Popen:
-    """A process of its own that publishes JointStates of `names` on `domain`: each (positions, velocities) of
-    `states` in turn, over and over, every 10 ms, stamped 10 ms apart; started once it says it publishes."""
+def start_publisher(
+    domain: int, names: list[str], states: list[tuple[list[float], list[float]]]
+) -> subprocess.Popen:
+    """A process of its own that publishes JointStates of `names` on `domain`: each (positions,
+    velocities) of `states` in turn, over and over, every 10 ms, stamped 10 ms apart; started once
+    it says it publishes."""
     import json
 
-    return started(["-c", PUBLISHER, str(domain), json.dumps(names), json.dumps(states)], "publishing")
+    return started(
+        ["-c", PUBLISHER, str(domain), json.dumps(names), json.dumps(states)], "publishing"
+    )

@@ -1,5 +1,6 @@
-"""`--system`, `--record` and `python -m judo plant` on the command line, and the "done when" run: a robot
-process with no judo code (examples/10_ros2_robot.py) swung up and balanced by `python -m judo --system ros2`."""
+"""`--system`, `--record` and `python -m judo plant` on the command line, and the "done when" run: a
+robot process with no judo code (examples/10_ros2_robot.py) swung up and balanced by `python -m judo
+--system ros2`."""
 
 import signal
 import subprocess
@@ -26,10 +27,16 @@ def one_line_error(capsys, argv: list[str], main=launch.main) -> str:
 
 def test_a_bad_system_or_record_is_one_line_naming_the_choices(capsys, tmp_path):
     err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "ros3"])
-    assert "--system expects ros2, sim, unitree or module:Class (a System subclass), got 'ros3'" in err
-    err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "judo.loop.system:SystemState"])
+    assert (
+        "--system expects ros2, sim, unitree or module:Class (a System subclass), got 'ros3'" in err
+    )
+    err = one_line_error(
+        capsys, ["--task", "cartpole", "--headless", "--system", "judo.loop.system:SystemState"]
+    )
     assert "expected a System subclass 'SystemState' in judo.loop.system, got SystemState" in err
-    err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--record", str(tmp_path / "run.mcap")])
+    err = one_line_error(
+        capsys, ["--task", "cartpole", "--headless", "--record", str(tmp_path / "run.mcap")]
+    )
     assert "give it with --system ros2" in err
     err = one_line_error(
         capsys,
@@ -45,12 +52,18 @@ def test_a_bad_system_or_record_is_one_line_naming_the_choices(capsys, tmp_path)
             "0.2",
         ],
     )
-    assert "no valid sensor_msgs/JointState on rt/joint_states" in err and "['slider', 'hinge']" in err
-    err = one_line_error(capsys, ["--task", "cartpole", "--system", "ros2", "--ros2.domain-id", "400"])
+    assert (
+        "no valid sensor_msgs/JointState on rt/joint_states" in err and "['slider', 'hinge']" in err
+    )
+    err = one_line_error(
+        capsys, ["--task", "cartpole", "--system", "ros2", "--ros2.domain-id", "400"]
+    )
     assert "the DDS domain id must be 0..232, got 400" in err
 
 
-def test_a_users_system_class_is_loaded_by_module_and_class_and_built_on_the_task(tmp_path, monkeypatch):
+def test_a_users_system_class_is_loaded_by_module_and_class_and_built_on_the_task(
+    tmp_path, monkeypatch
+):
     (tmp_path / "my_robot.py").write_text(
         "from judo.loop.system import MujocoSystem\nclass MyRobot(MujocoSystem):\n    pass\n"
     )
@@ -76,7 +89,8 @@ def test_the_plant_refuses_faults_out_of_range_in_one_line(capsys):
     handlers = signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)
     for argv, message in absurd.items():
         assert one_line_error(capsys, list(argv), plant.main) == f"python -m judo plant: {message}"
-    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == handlers  # the caller's, again
+    # the caller's, again
+    assert (signal.getsignal(signal.SIGINT), signal.getsignal(signal.SIGTERM)) == handlers
 
 
 @pytest.mark.slow
@@ -93,7 +107,18 @@ def test_a_robot_with_no_judo_code_is_swung_up_and_balanced_over_ros2():
     try:
         assert "publishing rt/joint_states" in robot.stdout.readline()
         app = subprocess.run(
-            [sys.executable, "-m", "judo", "--task", "cartpole", "--system", "ros2", "--headless", "--duration", "9"],
+            [
+                sys.executable,
+                "-m",
+                "judo",
+                "--task",
+                "cartpole",
+                "--system",
+                "ros2",
+                "--headless",
+                "--duration",
+                "9",
+            ],
             capture_output=True,
             text=True,
             env=env(domain),
@@ -112,22 +137,32 @@ def test_a_robot_with_no_judo_code_is_swung_up_and_balanced_over_ros2():
 
 def test_without_the_ros2_extra_both_commands_say_what_to_install_in_one_line(capsys, monkeypatch):
     for name in ("cyclonedds", "cyclonedds.domain", "mcap", "mcap.writer"):
-        monkeypatch.setitem(sys.modules, name, None)  # makes the import raise ImportError, as without the extra
+        # makes the import raise ImportError, as without the extra
+        monkeypatch.setitem(sys.modules, name, None)
     for name in ("judo.ros2.bridge", "judo.ros2.messages", "judo.ros2.link", "judo.ros2.mcap_log"):
         monkeypatch.delitem(sys.modules, name, raising=False)
     err = one_line_error(capsys, ["--task", "cartpole", "--headless", "--system", "ros2"])
-    assert "the ROS 2 bridge needs the optional extra judo-mpc[ros2]" in err and "pip install" in err
+    assert (
+        "the ROS 2 bridge needs the optional extra judo-mpc[ros2]" in err and "pip install" in err
+    )
     err = one_line_error(capsys, ["--task", "cartpole"], plant.main)
     assert "python -m judo plant needs the optional extra judo-mpc[ros2]" in err
 
 
 def test_import_judo_and_its_app_import_no_dds():
-    code = "import sys, judo, judo.runtime.launch; print(sorted(m for m in sys.modules if 'cyclonedds' in m or 'mcap' in m))"
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env()).stdout
+    code = (
+        "import sys, judo, judo.runtime.launch; print(sorted(m for m in sys.modules if "
+        "'cyclonedds' in m or 'mcap' in m))"
+    )
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=True, env=env()
+    ).stdout
     assert out.strip() == "[]"
 
 
-def test_the_config_file_names_the_system_and_the_bridges_settings_under_the_flags(capsys, tmp_path):
+def test_the_config_file_names_the_system_and_the_bridges_settings_under_the_flags(
+    capsys, tmp_path
+):
     domain = free_domain()
     config = tmp_path / "judo.toml"
     config.write_text(
@@ -135,8 +170,13 @@ def test_the_config_file_names_the_system_and_the_bridges_settings_under_the_fla
         'joint_states = "/robot/joint_states"\njoint_map = { slider = "cart_joint" }\n'
     )
     err = one_line_error(capsys, ["--config", str(config), "--headless", "--ros2.wait-s", "0.2"])
-    assert f"no valid sensor_msgs/JointState on rt/robot/joint_states in DDS domain {domain} within 0.2 s" in err
+    assert (
+        f"no valid sensor_msgs/JointState on rt/robot/joint_states in DDS domain {domain} within "
+        "0.2 s"
+    ) in err
     assert "['cart_joint', 'hinge']" in err  # the file's joint map
     config.write_text('system = "ros2"\n[ros2]\ndomian_id = 3\n')
     err = one_line_error(capsys, ["--config", str(config), "--headless"])
-    assert "the config file's [ros2]: unknown field 'domian_id'; valid fields are: domain_id," in err
+    assert (
+        "the config file's [ros2]: unknown field 'domian_id'; valid fields are: domain_id," in err
+    )

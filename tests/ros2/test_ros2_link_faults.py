@@ -1,6 +1,7 @@
-"""The link fails the way links fail: malformed JointStates and bad stamps are refused and named, a robot that
-restarts its clock is followed, and a lossy, late, jittery link (a plant process with faults) never makes the
-bridge read a stale or out-of-order state or command anything out of range."""
+"""The link fails the way links fail: malformed JointStates and bad stamps are refused and named, a
+robot that restarts its clock is followed, and a lossy, late, jittery link (a plant process with
+faults) never makes the bridge read a stale or out-of-order state or command anything out of
+range."""
 
 import logging
 import threading
@@ -44,7 +45,11 @@ def test_malformed_joint_states_and_bad_stamps_are_refused_and_named(caplog, mon
         good = system.read_state()
         stamp = robot.stamp
         cases = [
-            ("joint state (names)", "missing joints ['hinge']", (["slider"], [0.0], [0.0], stamp + 0.01)),
+            (
+                "joint state (names)",
+                "missing joints ['hinge']",
+                (["slider"], [0.0], [0.0], stamp + 0.01),
+            ),
             (
                 "joint state (names)",
                 "unknown joints ['elbow']",
@@ -65,19 +70,28 @@ def test_malformed_joint_states_and_bad_stamps_are_refused_and_named(caplog, mon
                 f"went backwards, from {stamp:.3f} s",
                 (["slider", "hinge"], [0.0, 0.0], [0.0, 0.0], stamp - 1.0),
             ),
-            ("joint state (stamp)", "from the future", (["slider", "hinge"], [0.0, 0.0], [0.0, 0.0], stamp + 60.0)),
+            (
+                "joint state (stamp)",
+                "from the future",
+                (["slider", "hinge"], [0.0, 0.0], [0.0, 0.0], stamp + 60.0),
+            ),
         ]
         for kind, named, message in cases:
             before = system.refused.get(kind, 0)
             caplog.clear()
             with caplog.at_level(logging.WARNING, logger="judo.ros2"):
                 robot.send(*message)
-                poll(lambda kind=kind, before=before: (system.read_state(), system.refused.get(kind, 0))[1] > before)
+                poll(
+                    lambda kind=kind, before=before: (
+                        (system.read_state(), system.refused.get(kind, 0))[1] > before
+                    )
+                )
             assert named in caplog.text, (kind, caplog.text)
             reading = system.read_state()
             assert reading.time == good.time  # nothing refused ever becomes the reading
             np.testing.assert_array_equal(reading.state, good.state)
-        # a robot whose clock restarted at 0 is followed once its stamps stay consistent, its time carried on
+        # a robot whose clock restarted at 0 is followed once its stamps stay consistent, its time
+        # carried on
         restart_stamps = iter(np.arange(0.01, 5.0, 0.01))
         deadline = time.monotonic() + 3.0
         while system.read_state().time == good.time and time.monotonic() < deadline:
@@ -97,14 +111,19 @@ def test_joint_positions_alone_become_the_tasks_measured_sensors_and_the_ekf_est
     try:
         reading = system.read_state()
         assert reading.state is None
-        np.testing.assert_array_equal(reading.sensors, [0.1, 3.0])  # slider_pos, hinge_pos: cartpole's measured
+        # slider_pos, hinge_pos: cartpole's measured
+        np.testing.assert_array_equal(reading.sensors, [0.1, 3.0])
         name, estimator = choose_estimator(system.task, "cartpole", system, Sensing(), reading)
         assert name == "ekf"
-        loop = ClosedLoop(small_controller(max_plan_age=0.5), system, clock=time.monotonic, estimator=estimator)
+        loop = ClosedLoop(
+            small_controller(max_plan_age=0.5), system, clock=time.monotonic, estimator=estimator
+        )
         for _ in range(20):
             loop.step()
-        estimate = loop.reading.state  # the EKF's: it tracks the measured positions; the pushes it sends move
-        assert np.isfinite(estimate).all()  # its model's velocities a little while this robot stands still
+        # the EKF's: it tracks the measured positions; the pushes it sends move
+        estimate = loop.reading.state
+        # its model's velocities a little while this robot stands still
+        assert np.isfinite(estimate).all()
         np.testing.assert_allclose(estimate[:2], [0.1, 3.0], atol=0.02)
     finally:
         system.close()
@@ -172,43 +191,66 @@ def test_a_free_base_comes_from_odometry_and_the_imu_rides_along_in_the_metadata
 
 
 def test_the_bridge_waits_for_a_robot_and_says_what_it_expected():
-    with pytest.raises(judo.JudoError, match=r"no valid sensor_msgs/JointState on rt/joint_states in DDS domain \d+"):
+    with pytest.raises(
+        judo.JudoError,
+        match=r"no valid sensor_msgs/JointState on "
+        r"rt/joint_states in DDS domain \d+",
+    ):
         Ros2System(Cartpole(), Ros2Options(domain_id=free_domain(), wait_s=0.2))
 
 
 @pytest.mark.slow
-def test_a_lossy_late_jittery_link_keeps_plans_fresh_and_a_killed_robot_gets_the_safe_action_until_it_is_back():
+def test_a_lossy_late_jittery_link_keeps_plans_fresh_and_a_killed_robot_gets_the_safe_action_until_it_is_back():  # noqa: E501
     domain = free_domain()
     proc = start_plant(
-        domain, "--echo", "--latency-ms", "50", "--jitter-ms", "30", "--drop", "0.2", "--duplicate", "0.1"
+        domain,
+        "--echo",
+        "--latency-ms",
+        "50",
+        "--jitter-ms",
+        "30",
+        "--drop",
+        "0.2",
+        "--duplicate",
+        "0.1",
     )
     part, echo = echo_reader(domain)
     system = Ros2System(Cartpole(), Ros2Options(domain_id=domain))
     loop = ClosedLoop(small_controller(max_plan_age=0.5), system, clock=time.monotonic)
     times, commands = [], []
     try:
-        started = time.monotonic()  # 1.5 s and 150 commands sent (fewer steps fit in 1.5 s on a loaded machine)
-        while (time.monotonic() - started < 1.5 or len(times) < 150) and time.monotonic() - started < 60:
+        # 1.5 s and 150 commands sent (fewer steps fit in 1.5 s on a loaded machine)
+        started = time.monotonic()
+        while (
+            time.monotonic() - started < 1.5 or len(times) < 150
+        ) and time.monotonic() - started < 60:
             record = loop.step()  # raises ReadingTimeError if a reading's time ever went backwards
             assert record is not None
             times.append(record.time)
             commands.extend(echoes(echo))
         poll(  # of 150 sent, a fifth lost and a tenth sent twice: about 130 echoed
-            lambda: bool(commands.extend(echoes(echo))) or len(commands) >= 100, timeout=20.0, what="the plant's echoes"
+            lambda: bool(commands.extend(echoes(echo))) or len(commands) >= 100,
+            timeout=20.0,
+            what="the plant's echoes",
         )
-        assert loop.watchdog.trips == 0  # 50-80 ms late and a fifth lost: plans stay within max_plan_age
+        # 50-80 ms late and a fifth lost: plans stay within max_plan_age
+        assert loop.watchdog.trips == 0
         assert len(loop.update_ms) >= 10
-        assert system.refused.get("joint state (stamp)", 0) > 0  # the jitter reordered messages: late ones refused
+        # the jitter reordered messages: late ones refused
+        assert system.refused.get("joint state (stamp)", 0) > 0
 
-        proc.kill()  # the robot's process dies: the safe action within max_plan_age beyond a control period
+        # the robot's process dies: the safe action within max_plan_age beyond a control period
+        proc.kill()
         proc.wait()
         killed_at = time.monotonic()
         while loop.watchdog.tripped is None and time.monotonic() - killed_at < 3:
             loop.step()
-        # max_plan_age, a control period and the last reading up to 80 ms late, with a second's slack for a busy CI
+        # max_plan_age, a control period and the last reading up to 80 ms late, with a second's
+        # slack for a busy CI
         assert time.monotonic() - killed_at < 0.5 + 1 / 20 + 1.0
         np.testing.assert_array_equal(system._command, loop.safe_action())
-        proc = start_plant(domain)  # and comes back, its clock from 0: followed after a second, plans resume
+        # and comes back, its clock from 0: followed after a second, plans resume
+        proc = start_plant(domain)
         back_at, stale_time = time.monotonic(), loop.reading.time
         while loop.watchdog.tripped is not None and time.monotonic() - back_at < 5:
             loop.step()

@@ -1,5 +1,5 @@
-"""The bridge's messages are ROS 2's: their CDR bytes decode with rosbags' ROS 2 typestore (an independent
-implementation) into the same values, and an MCAP log opens with mcap's ROS 2 reader."""
+"""The bridge's messages are ROS 2's: their CDR bytes decode with rosbags' ROS 2 typestore (an
+independent implementation) into the same values, and an MCAP log opens with mcap's ROS 2 reader."""
 
 import numpy as np
 import pytest
@@ -45,9 +45,14 @@ def test_every_message_the_bridge_reads_or_writes_decodes_with_rosbags_into_the_
     assert (back.header.frame_id, back.child_frame_id) == ("odom", "base_link")
     q = back.pose.pose.orientation
     assert [q.w, q.x, q.y, q.z] == pytest.approx(qpos[3:7].tolist())
-    assert [back.pose.pose.position.x, back.pose.pose.position.y, back.pose.pose.position.z] == [1.0, 2.0, 0.5]
+    assert [back.pose.pose.position.x, back.pose.pose.position.y, back.pose.pose.position.z] == [
+        1.0,
+        2.0,
+        0.5,
+    ]
     assert back.twist.twist.angular.z == 0.3 and len(back.pose.covariance) == 36
-    base_qpos, base_qvel = base_from_odometry(odom)  # the body-frame twist back to MuJoCo's world frame
+    # the body-frame twist back to MuJoCo's world frame
+    base_qpos, base_qvel = base_from_odometry(odom)
     np.testing.assert_allclose(base_qpos, qpos[:7], atol=1e-12)
     np.testing.assert_allclose(base_qvel, qvel[:6], atol=1e-12)
 
@@ -55,7 +60,10 @@ def test_every_message_the_bridge_reads_or_writes_decodes_with_rosbags_into_the_
     assert imu.linear_acceleration.z == 9.81 and imu.angular_velocity.y == 0.02
     assert len(imu.orientation_covariance) == 9
 
-    goal_pos, goal_quat = np.array([[0.3, -0.2, 0.5], [1.0, 2.0, 3.0]]), np.array([[1.0, 0, 0, 0], [0, 0, 0, 1.0]])
+    goal_pos, goal_quat = (
+        np.array([[0.3, -0.2, 0.5], [1.0, 2.0, 3.0]]),
+        np.array([[1.0, 0, 0, 0], [0, 0, 0, 1.0]]),
+    )
     poses = link.mocap_poses(goal_pos, goal_quat, 2.0)
     mocap = decoded(poses)
     assert mocap.header.frame_id == "odom" and len(mocap.poses) == 2
@@ -63,7 +71,9 @@ def test_every_message_the_bridge_reads_or_writes_decodes_with_rosbags_into_the_
     back_pos, back_quat = link.mocap_from_poses(poses, 2)
     np.testing.assert_array_equal(back_pos, goal_pos)
     np.testing.assert_array_equal(back_quat, goal_quat)
-    with pytest.raises(JudoError, match="a PoseArray of 2 poses; expected the model's 1 mocap bodies"):
+    with pytest.raises(
+        JudoError, match="a PoseArray of 2 poses; expected the model's 1 mocap bodies"
+    ):
         link.mocap_from_poses(poses, 1)
     poses.poses[0].position.x = float("nan")
     with pytest.raises(JudoError, match="non-finite position"):
@@ -71,7 +81,11 @@ def test_every_message_the_bridge_reads_or_writes_decodes_with_rosbags_into_the_
 
     commands = decoded(link.commands(np.array([0.25, -1.0])))
     assert commands.data.tolist() == [0.25, -1.0]
-    assert (commands.layout.dim[0].label, commands.layout.dim[0].size, commands.layout.dim[0].stride) == (
+    assert (
+        commands.layout.dim[0].label,
+        commands.layout.dim[0].size,
+        commands.layout.dim[0].stride,
+    ) == (
         "actuators",
         2,
         2,
@@ -88,9 +102,15 @@ def test_an_mcap_log_opens_with_mcaps_ros2_reader_with_its_topics_and_schemas(tm
     log.write("/odom", link.odometry(layout, qpos, qvel, 1.0))
     log.write("/imu", link.imu(qpos, qvel, np.zeros(3), layout, 1.0))
     log.write("/judo/commands", link.commands(np.array([0.5])))
-    log.write("/judo/mocap", link.mocap_poses(np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0, 0, 0]]), 1.0))
+    log.write(
+        "/judo/mocap",
+        link.mocap_poses(np.array([[0.0, 0.0, 1.0]]), np.array([[1.0, 0, 0, 0]]), 1.0),
+    )
     log.close()
-    seen = {m.channel.topic: (m.schema.name, m.ros_msg) for m in reader.read_ros2_messages(tmp_path / "run.mcap")}
+    seen = {
+        m.channel.topic: (m.schema.name, m.ros_msg)
+        for m in reader.read_ros2_messages(tmp_path / "run.mcap")
+    }
     assert {topic: name for topic, (name, _) in seen.items()} == {
         "/joint_states": "sensor_msgs/msg/JointState",
         "/odom": "nav_msgs/msg/Odometry",

@@ -1,5 +1,6 @@
-"""The App is composed of parts that own their state: no runtime class inherits another's, every attribute is
-written by the class that owns it, one control clock schedules plans, and recording and the GUI are injected."""
+"""The App is composed of parts that own their state: no runtime class inherits another's, every
+attribute is written by the class that owns it, one control clock schedules plans, and recording and
+the GUI are injected."""
 
 import abc
 import ast
@@ -35,8 +36,8 @@ APP_PARTS = (
 )
 """The modules of the App's parts."""
 LIBRARY_SETTERS = {"config"}
-"""Attributes of library objects (controller, optimizer, task, estimator) that are theirs to be assigned: the
-documented live edit of a config, which each object checks and takes over itself."""
+"""Attributes of library objects (controller, optimizer, task, estimator) that are theirs to be
+assigned: the documented live edit of a config, which each object checks and takes over itself."""
 
 
 def runtime_modules():
@@ -56,13 +57,15 @@ def test_no_runtime_class_inherits_from_another_runtime_class_except_abcs_and_pr
                 continue
             for base in cls.__mro__[1:]:
                 if base.__module__.startswith("judo.runtime") and not is_interface(base):
-                    inherited.append(f"{module.__name__}.{name} inherits {base.__module__}.{base.__qualname__}")
+                    inherited.append(
+                        f"{module.__name__}.{name} inherits {base.__module__}.{base.__qualname__}"
+                    )
     assert not inherited, "\n".join(inherited)
 
 
 def foreign_attribute_writes(path: Path) -> list[str]:
-    """`x.attr = ...` (and augmented or tuple targets) in `path` where x is not `self` or an attribute of it, as
-    'file:line x.attr'."""
+    """`x.attr = ...` (and augmented or tuple targets) in `path` where x is not `self` or an
+    attribute of it, as 'file:line x.attr'."""
     writes = []
     for node in ast.walk(ast.parse(path.read_text())):
         if isinstance(node, ast.Assign | ast.AugAssign | ast.AnnAssign):
@@ -77,21 +80,26 @@ def foreign_attribute_writes(path: Path) -> list[str]:
 
 
 def root_name(node: ast.expr) -> str | None:
-    """`self` for self.a.b: the name an attribute chain starts from (a record a class holds is its own)."""
+    """`self` for self.a.b: the name an attribute chain starts from (a record a class holds is its
+    own)."""
     while isinstance(node, ast.Attribute | ast.Subscript):
         node = node.value
     return node.id if isinstance(node, ast.Name) else None
 
 
 def test_the_apps_parts_and_the_closed_loop_write_only_their_own_attributes():
-    paths = [RUNTIME / f"{part}.py" for part in APP_PARTS] + [Path(judo.loop.__file__).parent / "closed_loop.py"]
+    paths = [RUNTIME / f"{part}.py" for part in APP_PARTS] + [
+        Path(judo.loop.__file__).parent / "closed_loop.py"
+    ]
     writes = [write for path in paths for write in foreign_attribute_writes(path)]
     assert not writes, "attributes written outside their class:\n" + "\n".join(writes)
 
 
 def test_the_attribute_scan_sees_a_foreign_write(tmp_path):
     source = tmp_path / "part.py"
-    source.write_text("class A:\n    def f(self, state):\n        self.x.y = 1\n        state.y, z = 2, 3\n")
+    source.write_text(
+        "class A:\n    def f(self, state):\n        self.x.y = 1\n        state.y, z = 2, 3\n"
+    )
     assert foreign_attribute_writes(source) == ["part.py:4 state.y"]
 
 
@@ -100,9 +108,16 @@ def test_the_app_never_imports_the_gui_or_collection():
         if module.__name__.startswith("judo.runtime.gui"):
             continue
         tree = ast.parse(Path(module.__file__).read_text())
-        names = {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
+        names = {
+            alias.name
+            for node in ast.walk(tree)
+            if isinstance(node, ast.Import)
+            for alias in node.names
+        }
         names |= {node.module or "" for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
-        assert not {n for n in names if n.startswith(("judo.runtime.gui", "judo.collection"))}, module.__name__
+        assert not {n for n in names if n.startswith(("judo.runtime.gui", "judo.collection"))}, (
+            module.__name__
+        )
 
 
 def test_the_control_clock_ticks_every_period_and_after_a_late_plan():
@@ -112,9 +127,12 @@ def test_the_control_clock_ticks_every_period_and_after_a_late_plan():
     assert clock.due(1.0, 0.1) and not clock.due(0.99, 0.1)
     clock.ticked(1.0, 0.02, 0.1)
     assert clock.next_time(0.1) == pytest.approx(1.1) and not clock.due(1.05, 0.1)
-    assert clock.next_time(0.01) == pytest.approx(1.02)  # an edit of control_freq takes effect at once
+    # an edit of control_freq takes effect at once
+    assert clock.next_time(0.01) == pytest.approx(1.02)
     clock.ticked(1.1, 0.35, 0.1)  # a plan that takes effect after the next tick moves it
-    assert clock.next_time(0.1) == pytest.approx(1.45) and clock.remaining(1.4, 0.1) == pytest.approx(0.05)
+    assert clock.next_time(0.1) == pytest.approx(1.45) and clock.remaining(
+        1.4, 0.1
+    ) == pytest.approx(0.05)
     clock.ticked(1.45, 0.0, 0.1)
     assert clock.next_time(0.1) == pytest.approx(1.55)
     assert ControlClock().next_time(0.1) == -math.inf
@@ -131,7 +149,10 @@ def test_the_state_merges_requests_until_taken():
     config = app.commands.update_config("optimizer", {"num_rollouts": 12})
     planner = state.take_planner_requests()
     assert planner.switch == ("pendulum", "cem") and planner.configs.optimizer is config
-    assert state.take_planner_requests().switch is None and not state.take_planner_requests().configs.any()
+    assert (
+        state.take_planner_requests().switch is None
+        and not state.take_planner_requests().configs.any()
+    )
     plant = state.take_plant_requests()
     assert plant.reset and plant.reset_from_user and list(plant.goal_moves) == [0]
     assert not state.take_plant_requests().reset
@@ -185,10 +206,17 @@ def test_any_recorder_can_be_injected(tmp_path, wait_until):
     recorder = ListRecorder(app.session, tmp_path / "list")
     app.start()
     try:
-        assert app.start_recording(recorder) == tmp_path / "list" and app.recording == tmp_path / "list"
+        assert (
+            app.start_recording(recorder) == tmp_path / "list"
+            and app.recording == tmp_path / "list"
+        )
         app.commands.update_config("task", {"w_vertical": 2.0})
         wait_until(lambda: recorder.num_steps > 10 and recorder.plans, timeout=20)
-        assert app.stop_recording() == tmp_path / "list" and recorder.finished and recorder.edits == ["task"]
+        assert (
+            app.stop_recording() == tmp_path / "list"
+            and recorder.finished
+            and recorder.edits == ["task"]
+        )
         assert app.recording is None
         stranger = ListRecorder(object(), tmp_path / "other")
         with pytest.raises(judo.JudoError, match="records another session"):

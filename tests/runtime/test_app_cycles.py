@@ -1,5 +1,6 @@
-"""A planning cycle the user cannot wait for: its cost is shown, an edit that would make it longer than
-MAX_CYCLE_SECONDS is refused, and a cycle in flight is cancelled by a pause, a reset, a switch or a resize."""
+"""A planning cycle the user cannot wait for: its cost is shown, an edit that would make it longer
+than MAX_CYCLE_SECONDS is refused, and a cycle in flight is cancelled by a pause, a reset, a switch
+or a resize."""
 
 import threading
 import time
@@ -17,22 +18,33 @@ from judo.runtime.cycles import MAX_CYCLE_SECONDS, StepCost
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 
 CANCEL_BUDGET = 3.0
-"""Seconds from a command to the end of the cycle it cancels (a piece of rollouts: well under a second idle, and
-more than 1.5 s on a CI machine at a load of 15 on its 2 cores)."""
+"""Seconds from a command to the end of the cycle it cancels (a piece of rollouts: well under a
+second idle, and more than 1.5 s on a CI machine at a load of 15 on its 2 cores)."""
 
 
 def big_app(num_rollouts: int = 20_000) -> App:
-    """Cart-pole whose every cycle takes tens of seconds: 20 iterations of 20,000 rollouts of 200 steps."""
+    """Cart-pole whose every cycle takes tens of seconds: 20 iterations of 20,000 rollouts of 200
+    steps."""
     controller = judo.ControllerConfig(horizon=2.0, max_opt_iters=20, control_freq=10.0)
     optimizer = judo.get_registered_optimizers()["ps"][1](num_rollouts=num_rollouts)
-    app = App("cartpole", "ps", controller_config=controller, optimizer_config=optimizer, gui=False, num_workers=2)
+    app = App(
+        "cartpole",
+        "ps",
+        controller_config=controller,
+        optimizer_config=optimizer,
+        gui=False,
+        num_workers=2,
+    )
     app.start()
     return app
 
 
 def late_cycle(app: App):
-    """A condition: a planning cycle has been in flight longer than LATE_CYCLE (the status line counts it)."""
-    return lambda: app.planning_cost().running_for is not None and app.status.message.startswith("planning: ")
+    """A condition: a planning cycle has been in flight longer than LATE_CYCLE (the status line
+    counts it)."""
+    return lambda: (
+        app.planning_cost().running_for is not None and app.status.message.startswith("planning: ")
+    )
 
 
 @pytest.mark.slow
@@ -60,17 +72,25 @@ def test_a_late_cycle_is_cancelled_by_the_user(wait_until, command, reason):
             app.commands.switch_optimizer("mppi")
         else:
             app.commands.update_config("optimizer", {"num_rollouts": 64})
-        wait_until(lambda: app._state.cycle is not cycle, timeout=CANCEL_BUDGET, what="the cycle to end")
+        wait_until(
+            lambda: app._state.cycle is not cycle, timeout=CANCEL_BUDGET, what="the cycle to end"
+        )
         assert time.perf_counter() - start < CANCEL_BUDGET
         assert app.stats.num_plans() == 0  # cancelled, not completed
         assert app.summary().num_plans == 0
         assert cycle.reason == reason
-        summary = app.summary()  # the simulator waited for the cycle: the run's wall time holds the wait
+        # the simulator waited for the cycle: the run's wall time holds the wait
+        summary = app.summary()
         assert summary.wall_time > 1.0 and summary.real_time_factor < 0.5, summary
         if command == "switch":
             wait_until(lambda: app.session.optimizer_name == "mppi", timeout=5.0, what="the switch")
-        if command in ("switch", "resize"):  # planning goes on, at the new size or in the new session
-            wait_until(lambda: app.stats.num_plans() >= 1, timeout=10.0, what="a plan after the cancelled cycle")
+        # planning goes on, at the new size or in the new session
+        if command in ("switch", "resize"):
+            wait_until(
+                lambda: app.stats.num_plans() >= 1,
+                timeout=10.0,
+                what="a plan after the cancelled cycle",
+            )
     finally:
         app.stop()
 
@@ -78,7 +98,9 @@ def test_a_late_cycle_is_cancelled_by_the_user(wait_until, command, reason):
 def test_an_edit_whose_cycle_would_be_too_long_is_refused_and_a_smaller_one_is_not():
     app = App("cartpole", "ps", gui=False, num_workers=1)
     try:
-        app.commands.update_config("controller", {"horizon": 2.0, "max_opt_iters": 10, "num_randomizations": 8})
+        app.commands.update_config(
+            "controller", {"horizon": 2.0, "max_opt_iters": 10, "num_randomizations": 8}
+        )
         before = app.configs()["optimizer"]
         cost = app.planning_cost()
         size = CycleSize(before.num_rollouts, 8, 10, 200)
@@ -88,9 +110,12 @@ def test_an_edit_whose_cycle_would_be_too_long_is_refused_and_a_smaller_one_is_n
         estimate = app._state.step_cost.estimate(CycleSize(20_000, 8, 10, 200))
         assert estimate > MAX_CYCLE_SECONDS
         assert str(refused.value) == (
-            f"num_rollouts = 20000 would make a planning cycle of about {estimate:.0f} s (num_rollouts x "
-            "num_randomizations x iterations x horizon steps: 20000 x 8 x 10 x 200 = 320,000,000 steps); "
-            f"expected at most {MAX_CYCLE_SECONDS:g} s: lower num_rollouts, num_randomizations, max_opt_iters, "
+            f"num_rollouts = 20000 would make a planning cycle of about {estimate:.0f} s "
+            "(num_rollouts x "
+            "num_randomizations x iterations x horizon steps: 20000 x 8 x 10 x 200 = "
+            "320,000,000 steps); "
+            f"expected at most {MAX_CYCLE_SECONDS:g} s: lower num_rollouts, "
+            "num_randomizations, max_opt_iters, "
             "iterations_per_second or "
             "the horizon"
         )
@@ -109,7 +134,8 @@ def test_the_step_cost_is_probed_then_measured_from_large_cycles():
         probed = cost.seconds
         cost.record(CycleSize(10, 1, 1, 10), 1e-9)  # a small cycle never lowers it below the probe
         assert cost.seconds == probed
-        cost.record(CycleSize(10, 1, 1, 10), 5.0)  # its overhead counts as steps: the estimate errs high
+        # its overhead counts as steps: the estimate errs high
+        cost.record(CycleSize(10, 1, 1, 10), 5.0)
         assert cost.seconds == pytest.approx(0.05)
         cost.record(CycleSize(1000, 1, 1, 100), 0.5)
         assert cost.seconds == pytest.approx(5e-6)
@@ -127,7 +153,8 @@ def test_one_slow_cycle_does_not_inflate_the_estimate_that_refuses_edits():
         cost.record(small, 1.0)  # a page loading held this cycle up: 390 us a step
         big = CycleSize(64, 1, 1, 800)  # the horizon typed up to 8 s
         usual = max(cost.probed, 4e-5)  # a small cycle never counts below the probe
-        assert cost.estimate(big) == pytest.approx(51_200 * usual)  # the median of the recent cycles
+        # the median of the recent cycles
+        assert cost.estimate(big) == pytest.approx(51_200 * usual)
         assert cost.estimate(big) < MAX_CYCLE_SECONDS
         assert cost.seconds == pytest.approx(1.0 / 2560)  # what the last cycle alone says
         assert 51_200 * cost.seconds > MAX_CYCLE_SECONDS  # it alone would have refused the edit
@@ -139,7 +166,8 @@ def test_a_cancelled_batch_ends_part_way_and_a_whole_one_matches_one_call(uprigh
     pool = RolloutPool(upright_task.model, num_workers=2)
     try:
         rng = np.random.default_rng(0)
-        controls = rng.uniform(-1, 1, (40, 3000, upright_task.model.nu))  # 120,000 steps: 2 pieces a worker
+        # 120,000 steps: 2 pieces a worker
+        controls = rng.uniform(-1, 1, (40, 3000, upright_task.model.nu))
         state = np.zeros(pool.nstate)
         whole = [a.copy() for a in pool.rollout(state, controls)]
         never = threading.Event()
@@ -149,14 +177,17 @@ def test_a_cancelled_batch_ends_part_way_and_a_whole_one_matches_one_call(uprigh
         cancelled = threading.Event()
         cancelled.set()
         pool.set_cancel(cancelled)
-        with pytest.raises(JudoError, match="planning cycle cancelled part-way through a batch of rollouts"):
+        with pytest.raises(
+            JudoError, match="planning cycle cancelled part-way through a batch of rollouts"
+        ):
             pool.rollout(state, controls)
     finally:
         pool.close()
 
 
 class PausingCartpole(Cartpole):
-    """Cart-pole whose simulator stalls once for 0.8 s, as this process does while a page is sent the scene."""
+    """Cart-pole whose simulator stalls once for 0.8 s, as this process does while a page is sent
+    the scene."""
 
     stalled = False
 
@@ -172,24 +203,36 @@ def test_judos_own_simulator_is_never_reported_as_a_blocked_driver(monkeypatch, 
     app = App("pausing_cartpole", "ps", gui=False, num_workers=1, system_call_limit=0.3)
     app.start()
     try:
-        wait_until(lambda: PausingCartpole.stalled and app.stats.sim_time() > 0.5, what="the stall and after")
+        wait_until(
+            lambda: PausingCartpole.stalled and app.stats.sim_time() > 0.5,
+            what="the stall and after",
+        )
     finally:
         app.stop()
     assert "has not returned" not in caplog.text and "responds again" not in caplog.text
 
 
 def test_the_extra_iterations_of_a_slow_rate_stop_at_the_control_period(wait_until):
-    # 500 iterations a second at 5 Hz asks for 100 a cycle, about 5 s of rollouts; the app gives each cycle its
+    # 500 iterations a second at 5 Hz asks for 100 a cycle, about 5 s of rollouts; the app gives
+    # each cycle its
     # 0.2 s period, so it runs the required one and as many more as fit.
     controller = judo.ControllerConfig(horizon=1.0, control_freq=5.0, iterations_per_second=500.0)
     optimizer = judo.get_registered_optimizers()["ps"][1](num_rollouts=512)
-    app = App("cartpole", "ps", controller_config=controller, optimizer_config=optimizer, gui=False, num_workers=1)
+    app = App(
+        "cartpole",
+        "ps",
+        controller_config=controller,
+        optimizer_config=optimizer,
+        gui=False,
+        num_workers=1,
+    )
     app.start()
     try:
         wait_until(lambda: app.stats.num_plans() >= 3, what="three plans")
         assert 1 <= app.controller.iterations_run < 100
         cost = app.planning_cost()
         assert cost.size is not None and cost.size.iterations == 100
-        assert cost.estimate < app._state.step_cost.estimate(cost.size)  # what the GUI shows counts the deadline
+        # what the GUI shows counts the deadline
+        assert cost.estimate < app._state.step_cost.estimate(cost.size)
     finally:
         app.stop()

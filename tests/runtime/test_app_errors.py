@@ -1,4 +1,5 @@
-"""A user's failing reward, a diverging simulation and a broken System are reported; the loops keep running."""
+"""A user's failing reward, a diverging simulation and a broken System are reported; the loops keep
+running."""
 
 from dataclasses import dataclass
 from typing import Literal
@@ -19,7 +20,8 @@ class FlakyConfig(CartpoleConfig):
     """Cart-pole weights, plus a switch that breaks the reward or the simulation on purpose."""
 
     failure: Literal["none", "nan", "raise", "shape", "diverge"] = "none"
-    """How to fail: NaN rewards, an exception in the reward, rewards of the wrong shape, or an absurd force on the plant."""
+    """How to fail: NaN rewards, an exception in the reward, rewards of the wrong shape, or an
+    absurd force on the plant."""
 
 
 class FlakyCartpole(Cartpole):
@@ -37,7 +39,8 @@ class FlakyCartpole(Cartpole):
         return super().reward(states, sensors, controls, config, system_metadata)
 
     def pre_sim_step(self) -> None:
-        if self.config.failure == "diverge":  # an absurd force: MuJoCo flags the acceleration and resets
+        # an absurd force: MuJoCo flags the acceleration and resets
+        if self.config.failure == "diverge":
             self.data.qfrc_applied[1] = 1e30
 
 
@@ -45,7 +48,8 @@ class FlakyCartpole(Cartpole):
 def flaky_app(monkeypatch, wait_until, tmp_path):
     """A running headless app on the flaky task, registered only for this test."""
     monkeypatch.setitem(registry._TASKS, "flaky_cartpole", (FlakyCartpole, FlakyConfig))
-    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working directory
+    # MuJoCo writes its warnings to MUJOCO_LOG.TXT in the working directory
+    monkeypatch.chdir(tmp_path)
     app = App(
         "flaky_cartpole",
         "ps",
@@ -74,9 +78,21 @@ def keeps_running(app: App, wait_until) -> None:
 @pytest.mark.parametrize(
     ("failure", "level", "message"),
     [
-        ("nan", "warning", "planning cycle skipped: all 8 rollouts of FlakyCartpole scored NaN or -inf"),
-        ("raise", "error", "planning cycle skipped: ValueError in flaky_cartpole: boom in the user's reward"),
-        ("shape", "warning", "planning cycle skipped: FlakyCartpole.reward returned shape (8, 2), expected (8,)"),
+        (
+            "nan",
+            "warning",
+            "planning cycle skipped: all 8 rollouts of FlakyCartpole scored NaN or -inf",
+        ),
+        (
+            "raise",
+            "error",
+            "planning cycle skipped: ValueError in flaky_cartpole: boom in the user's reward",
+        ),
+        (
+            "shape",
+            "warning",
+            "planning cycle skipped: FlakyCartpole.reward returned shape (8, 2), expected (8,)",
+        ),
     ],
 )
 def test_a_failing_reward_skips_cycles_is_reported_and_the_loops_survive(
@@ -85,7 +101,9 @@ def test_a_failing_reward_skips_cycles_is_reported_and_the_loops_survive(
     with caplog.at_level("WARNING", logger="judo.app"):
         plans = flaky_app.stats.num_plans()
         flaky_app.commands.update_config("task", {"failure": failure})
-        wait_until(lambda: flaky_app.status.message.startswith(message), what=f"the status {message!r}")
+        wait_until(
+            lambda: flaky_app.status.message.startswith(message), what=f"the status {message!r}"
+        )
         assert flaky_app.status.level == level
         assert flaky_app.stats.num_plans() <= plans + 2  # failed cycles publish no plan
         keeps_running(flaky_app, wait_until)
@@ -127,7 +145,10 @@ def test_a_failing_user_system_is_reported_and_the_loops_survive(wait_until):
     app = App("cartpole", "ps", system=system, gui=False, seed=0, num_workers=1)
     app.start()
     try:
-        wait_until(lambda: app.status.message == "system step failed: OSError: sensor cable unplugged", what="report")
+        wait_until(
+            lambda: app.status.message == "system step failed: OSError: sensor cable unplugged",
+            what="report",
+        )
         assert app.status.level == "error"
         steps = system.steps
         wait_until(lambda: system.steps > steps + 10, what="more steps")

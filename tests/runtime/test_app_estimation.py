@@ -1,5 +1,6 @@
-"""The app with rehearsed sensing and an estimator: the plant it builds, the estimate it publishes, the
-estimator config edits it takes, the names it refuses, and the GUI's ghost, panel and error chart (no browser)."""
+"""The app with rehearsed sensing and an estimator: the plant it builds, the estimate it publishes,
+the estimator config edits it takes, the names it refuses, and the GUI's ghost, panel and error
+chart (no browser)."""
 
 import mujoco
 import numpy as np
@@ -34,17 +35,23 @@ def test_observing_sensors_builds_a_sensed_plant_and_the_ekf(wait_until):
     app = sensed_app()
     session = app.session
     assert isinstance(session.system, SensedSystem)
-    assert isinstance(session.simulated, MujocoSystem) and session.simulated is session.system.system
+    assert (
+        isinstance(session.simulated, MujocoSystem) and session.simulated is session.system.system
+    )
     assert session.estimator_name == "ekf"
     assert isinstance(session.closed_loop.estimator, EstimatorThread)  # off the plant thread
     assert isinstance(session.closed_loop.estimator.estimator, ExtendedKalmanFilter)
-    assert session.system.delay.tolist() == [0.01, 0.01] and session.system.period.tolist() == [0.01, 0.01]
+    assert session.system.delay.tolist() == [0.01, 0.01] and session.system.period.tolist() == [
+        0.01,
+        0.01,
+    ]
     app.start()
     try:
         snapshot = published(app, wait_until)
         assert snapshot.true_state is not None and snapshot.true_state.shape == (4,)
         assert snapshot.reading.state is not None  # the estimate the plan starts from
-        assert not np.array_equal(snapshot.reading.state, snapshot.true_state)  # noisy, late readings
+        # noisy, late readings
+        assert not np.array_equal(snapshot.reading.state, snapshot.true_state)
         position, velocity = estimation_error(
             session.controller.task.model, snapshot.true_state, snapshot.reading.state
         )
@@ -55,7 +62,9 @@ def test_observing_sensors_builds_a_sensed_plant_and_the_ekf(wait_until):
 
 def test_full_state_runs_no_estimator_and_publishes_no_truth(wait_until):
     app = App("cartpole", "mppi", gui=False, seed=0, num_workers=1)
-    assert isinstance(app.session.system, MujocoSystem) and app.session.closed_loop.estimator is None
+    assert (
+        isinstance(app.session.system, MujocoSystem) and app.session.closed_loop.estimator is None
+    )
     with pytest.raises(JudoError, match="no estimator runs"):
         app.commands.update_estimator_config({"noise_jointpos": 0.01})
     app.start()
@@ -72,15 +81,21 @@ def test_a_named_estimator_and_its_config_are_used_and_one_that_cannot_read_the_
     app = App("cartpole", gui=False, seed=0, num_workers=1, estimator="state")  # the pass-through
     assert app.session.estimator_name == "state" and isinstance(app.session.system, MujocoSystem)
     with pytest.raises(
-        ConfigError, match="the 'ekf' estimator cannot run on this plant's readings: .*observe='sensors'"
+        ConfigError,
+        match="the 'ekf' estimator cannot run on this plant's readings: .*observe='sensors'",
     ):
-        App("cartpole", gui=False, estimator="ekf")  # a full-state plant has no sensor readings to fuse
-    with pytest.raises(ConfigError, match="the 'state' estimator cannot run on this plant's readings"):
+        # a full-state plant has no sensor readings to fuse
+        App("cartpole", gui=False, estimator="ekf")
+    with pytest.raises(
+        ConfigError, match="the 'state' estimator cannot run on this plant's readings"
+    ):
         sensed_app(estimator="state")
 
 
 def test_a_users_sensors_only_system_gets_the_ekf_by_default():
-    plant = SensedSystem(MujocoSystem.from_task(Cartpole(), seed=0), noise=0.005, rng=np.random.default_rng(0))
+    plant = SensedSystem(
+        MujocoSystem.from_task(Cartpole(), seed=0), noise=0.005, rng=np.random.default_rng(0)
+    )
     app = App("cartpole", gui=False, seed=0, num_workers=1, system=plant)
     assert app.session.estimator_name == "ekf" and app.session.system is plant
     with pytest.raises(ConfigError, match="your System chooses what it measures"):
@@ -93,20 +108,27 @@ def test_estimator_config_edits_are_applied_and_bad_ones_refused(wait_until):
     edits: list = []
     app.on_config_change(lambda kind, config, from_gui: edits.append((kind, config, from_gui)))
     updated = app.commands.update_estimator_config({"noise_jointpos": 0.02, "relinearize_every": 3})
-    assert estimator.config is updated and updated.noise_jointpos == 0.02 and updated.relinearize_every == 3
+    assert (
+        estimator.config is updated
+        and updated.noise_jointpos == 0.02
+        and updated.relinearize_every == 3
+    )
     assert edits == [("estimator", updated, False)]
     with pytest.raises(ConfigError, match="must be positive"):
         app.commands.update_estimator_config({"noise_jointpos": -1.0})
     with pytest.raises(JudoError, match="no_such_field"):
         app.commands.update_estimator_config({"no_such_field": 1.0})
     with pytest.raises(ConfigError, match="changed since this edit"):
-        app.commands.update_estimator_config({"noise_jointpos": 0.03}, generation=app.session.generation + 1)
+        app.commands.update_estimator_config(
+            {"noise_jointpos": 0.03}, generation=app.session.generation + 1
+        )
     assert estimator.config.noise_jointpos == 0.02
 
 
 def test_bad_names_and_settings_are_refused_at_once():
     with pytest.raises(
-        UnknownNameError, match="unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"
+        UnknownNameError,
+        match="unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf",
     ):
         App("cartpole", gui=False, estimator="nope")
     with pytest.raises(ConfigError, match="observe must be one of"):
@@ -123,13 +145,18 @@ def test_switches_keep_the_sensing_and_the_live_estimator_config(wait_until):
     app.start()
     try:
         app.commands.switch_optimizer("cem")
-        wait_until(lambda: app.session.optimizer_name == "cem", timeout=30, what="the optimizer switch")
+        wait_until(
+            lambda: app.session.optimizer_name == "cem", timeout=30, what="the optimizer switch"
+        )
         assert isinstance(app.session.system, SensedSystem)
         assert app.session.closed_loop.estimator.config.noise_jointpos == 0.02
         app.commands.switch_task("acrobot")
         wait_until(lambda: app.session.task_name == "acrobot", timeout=30, what="the task switch")
         session = app.session
-        assert isinstance(session.system, SensedSystem) and session.system.delay.tolist() == [0.01, 0.01]
+        assert isinstance(session.system, SensedSystem) and session.system.delay.tolist() == [
+            0.01,
+            0.01,
+        ]
         assert isinstance(session.closed_loop.estimator.estimator, ExtendedKalmanFilter)
     finally:
         app.stop()
@@ -139,17 +166,27 @@ def test_switching_the_estimator_rebuilds_the_session_on_the_running_plant(wait_
     app = App("cartpole", "mppi", gui=False, seed=0, num_workers=1)
     with pytest.raises(UnknownNameError, match="valid estimators are: ekf, legged, state, ukf"):
         app.commands.switch_estimator("nope")
-    with pytest.raises(ConfigError, match="the 'ekf' estimator cannot run on this plant's readings"):
+    with pytest.raises(
+        ConfigError, match="the 'ekf' estimator cannot run on this plant's readings"
+    ):
         app.commands.switch_estimator("ekf")
     app.start()
     try:
         plant = app.session.system
         app.commands.switch_estimator("state")
-        wait_until(lambda: app.session.estimator_name == "state", timeout=30, what="the estimator switch")
+        wait_until(
+            lambda: app.session.estimator_name == "state", timeout=30, what="the estimator switch"
+        )
         assert app.session.system is plant and app.session.generation == 1
-        assert app.status.message.startswith("switched to cartpole with mppi and the state estimator")
+        assert app.status.message.startswith(
+            "switched to cartpole with mppi and the state estimator"
+        )
         app.commands.switch_estimator(None)
-        wait_until(lambda: app.session.closed_loop.estimator is None, timeout=30, what="the estimator removed")
+        wait_until(
+            lambda: app.session.closed_loop.estimator is None,
+            timeout=30,
+            what="the estimator removed",
+        )
     finally:
         app.stop()
     sensed = sensed_app()
@@ -173,9 +210,15 @@ def test_the_gui_draws_the_estimate_as_a_ghost_with_its_panel_and_error_chart(po
     app.start()
     try:
         gui = app.gui
-        wait_until(lambda: gui.shown_generation == app.session.generation and gui.ghost is not None, what="the GUI")
-        assert gui.estimator_panel is not None and "noise_jointpos" in gui.estimator_panel.field_names
-        assert gui.server.scene.get_handle_by_name("/ghost/body_2/geom_3") is not None  # the pole's ghost
+        wait_until(
+            lambda: gui.shown_generation == app.session.generation and gui.ghost is not None,
+            what="the GUI",
+        )
+        assert (
+            gui.estimator_panel is not None and "noise_jointpos" in gui.estimator_panel.field_names
+        )
+        # the pole's ghost
+        assert gui.server.scene.get_handle_by_name("/ghost/body_2/geom_3") is not None
         model = app.session.controller.task.model
         data = mujoco.MjData(model)
 
@@ -188,8 +231,13 @@ def test_the_gui_draws_the_estimate_as_a_ghost_with_its_panel_and_error_chart(po
             mujoco.mj_kinematics(model, data)
             return ghost_ok and np.allclose(gui.scene.body_frames[2].wxyz, data.xquat[2], atol=0.05)
 
-        wait_until(ghost_follows_estimate, what="the ghost to follow the estimate and the robot the truth")
-        wait_until(lambda: len(gui.plots.estimation.data[0]) >= 3, what="points on the estimation-error chart")
+        wait_until(
+            ghost_follows_estimate, what="the ghost to follow the estimate and the robot the truth"
+        )
+        wait_until(
+            lambda: len(gui.plots.estimation.data[0]) >= 3,
+            what="points on the estimation-error chart",
+        )
         gui.estimator_panel._on_edit({"noise_jointpos": 0.03})  # what a slider's edit calls
         assert app.session.closed_loop.estimator.config.noise_jointpos == 0.03
         assert gui.controls.estimator.value == "ekf"
@@ -203,7 +251,8 @@ def test_the_app_runs_the_ukf_tracks_the_plant_and_takes_its_spread_edits(wait_u
     assert isinstance(estimator.estimator, UnscentedKalmanFilter)
     assert estimator.config.process_noise_velocity == 0.02  # cartpole's TOML section for the ukf
     with pytest.raises(JudoError, match="relinearize_every"):
-        app.commands.update_estimator_config({"relinearize_every": 3})  # the EKF's field, not the UKF's
+        # the EKF's field, not the UKF's
+        app.commands.update_estimator_config({"relinearize_every": 3})
     assert app.commands.update_estimator_config({"spread": 0.5}).spread == 0.5
     app.start()
     try:

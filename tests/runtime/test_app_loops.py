@@ -1,4 +1,5 @@
-"""The App's real loops, headless: real-time pace, control rate, commands, switches and a user System."""
+"""The App's real loops, headless: real-time pace, control rate, commands, switches and a user
+System."""
 
 import time
 
@@ -87,7 +88,10 @@ def test_pause_freezes_sim_time_and_resume_continues(wait_until):
         assert app.buffer.latest("system").value.reading.time == frozen
         assert app.stats.num_plans() <= plans + 1  # at most the cycle that was in flight
         app.commands.resume()
-        wait_until(lambda: app.buffer.latest("system").value.reading.time > frozen + 0.1, what="sim to resume")
+        wait_until(
+            lambda: app.buffer.latest("system").value.reading.time > frozen + 0.1,
+            what="sim to resume",
+        )
     finally:
         app.stop()
 
@@ -98,15 +102,22 @@ def test_config_edit_reaches_the_controller_at_the_next_cycle(wait_until):
     try:
         app.commands.update_config("controller", {"horizon": 0.5})
         app.commands.update_config("optimizer", {"sigma": 0.4})
-        # One cycle applies the controller config, then the optimizer's: wait for both, not the first alone.
+        # One cycle applies the controller config, then the optimizer's: wait for both, not the
+        # first alone.
         wait_until(
-            lambda: app.controller.config.horizon == 0.5 and app.controller.optimizer.config.sigma == 0.4,
+            lambda: (
+                app.controller.config.horizon == 0.5
+                and app.controller.optimizer.config.sigma == 0.4
+            ),
             what="the horizon and sigma edits",
         )
         wait_until(lambda: latest_plan_steps(app) == 50, what="a plan over 50 steps")
         app.commands.reset_configs()
         wait_until(
-            lambda: app.controller.config.horizon == CARTPOLE_HORIZON and app.controller.optimizer.config.sigma == 0.3,
+            lambda: (
+                app.controller.config.horizon == CARTPOLE_HORIZON
+                and app.controller.optimizer.config.sigma == 0.3
+            ),
             what="cartpole's default horizon and sigma",
         )
     finally:
@@ -118,9 +129,15 @@ def test_a_task_config_edit_reaches_the_plant_from_the_planners_task(wait_until)
     app.start()
     try:
         app.commands.update_config("task", {"w_vertical": 7.0})
-        # one Task instance owns the config (the planner's); the simulated plant's task reads it on its own thread
-        wait_until(lambda: app.controller.task.config.w_vertical == 7.0, what="the edit at the planner")
-        wait_until(lambda: app.session.simulated.task.config is app.controller.task.config, what="the plant")
+        # one Task instance owns the config (the planner's); the simulated plant's task reads it on
+        # its own thread
+        wait_until(
+            lambda: app.controller.task.config.w_vertical == 7.0, what="the edit at the planner"
+        )
+        wait_until(
+            lambda: app.session.simulated.task.config is app.controller.task.config,
+            what="the plant",
+        )
     finally:
         app.stop()
 
@@ -129,8 +146,17 @@ def test_a_task_config_edit_reaches_the_plant_from_the_planners_task(wait_until)
     ("kind", "updates", "message"),
     [
         ("optimizer", {"num_rollouts": 0}, "num_rollouts must be between 1 and 1048576, got 0"),
-        ("controller", {"horizon": 0.001}, r"horizon \(0.001 s\) is shorter than one timestep \(0.01 s\)"),
-        ("controller", {"spline_order": "quintic"}, "expects one of \\['zero', 'linear', 'cubic'\\]"),
+        (
+            "controller",
+            {"horizon": 0.001},
+            r"horizon \(0.001 s\) is shorter "
+            r"than one timestep \(0.01 s\)",
+        ),
+        (
+            "controller",
+            {"spline_order": "quintic"},
+            "expects one of \\['zero', 'linear', 'cubic'\\]",
+        ),
         ("task", {"no_such_weight": 1.0}, "unknown field of CartpoleConfig 'no_such_weight'"),
     ],
 )
@@ -148,7 +174,9 @@ def test_a_control_rate_below_the_task_minimum_is_applied_with_a_warning():
     updated = app.commands.update_config("controller", {"control_freq": 20.0})
     assert updated.control_freq == 20.0
     assert app.status.level == "warning"
-    assert "control_freq 20 Hz is below the 50 Hz that Acrobot's defaults need" in app.status.message
+    assert (
+        "control_freq 20 Hz is below the 50 Hz that Acrobot's defaults need" in app.status.message
+    )
     reports = app.status.count
     app.commands.update_config("controller", {"control_freq": 50.0})
     assert app.status.count == reports  # at the minimum: no warning
@@ -157,7 +185,9 @@ def test_a_control_rate_below_the_task_minimum_is_applied_with_a_warning():
 def test_edits_for_a_replaced_session_are_refused():
     app = small_app()
     with pytest.raises(JudoError, match="the task or optimizer changed since this edit was made"):
-        app.commands.update_config("controller", {"horizon": 0.5}, generation=app.session.generation + 1)
+        app.commands.update_config(
+            "controller", {"horizon": 0.5}, generation=app.session.generation + 1
+        )
 
 
 def test_switching_optimizer_mid_run_keeps_the_plant_and_the_tuned_configs(wait_until):
@@ -186,10 +216,15 @@ def test_switching_task_mid_run_builds_a_new_plant_with_the_task_defaults(wait_u
     try:
         wait_until(lambda: app.stats.num_plans() >= 1, what="a plan")
         app.commands.switch_task("cylinder_push")
-        wait_until(lambda: app.session.task_name == "cylinder_push", what="the switch to cylinder_push")
+        wait_until(
+            lambda: app.session.task_name == "cylinder_push", what="the switch to cylinder_push"
+        )
         assert app.session.optimizer_name == "mppi"
         assert type(app.configs()["task"]).__name__ == "CylinderPushConfig"
-        wait_until(lambda: app.buffer.latest("system").value.reading.state.shape == (8,), what="the new plant's state")
+        wait_until(
+            lambda: app.buffer.latest("system").value.reading.state.shape == (8,),
+            what="the new plant's state",
+        )
         plans = app.stats.num_plans()
         wait_until(lambda: app.stats.num_plans() >= plans + 2, what="plans on the new task")
         assert "switched to cylinder_push with mppi" in app.status.message
@@ -212,7 +247,8 @@ def test_unknown_names_are_refused_with_the_valid_choices():
 
 
 class Clock(System):
-    """A plant without MuJoCo: the cart-pole state never changes; only time passes. Counts its calls."""
+    """A plant without MuJoCo: the cart-pole state never changes; only time passes. Counts its
+    calls."""
 
     def __init__(self) -> None:
         self.timestep, self.time, self.steps, self.resets = 0.01, 0.0, 0, 0
@@ -243,7 +279,9 @@ def test_a_user_system_is_driven_in_place_of_the_simulator(wait_until):
         assert all(action.shape == (1,) for action in clock.actions)
         app.commands.reset_task()
         wait_until(lambda: clock.resets == 1, what="the reset to reach the user's system")
-        with pytest.raises(JudoError, match="cannot switch to task 'cylinder_push': the app drives your own System"):
+        with pytest.raises(
+            JudoError, match="cannot switch to task 'cylinder_push': the app drives your own System"
+        ):
             app.commands.switch_task("cylinder_push")
         app.commands.switch_optimizer("ps")
         wait_until(lambda: app.session.optimizer_name == "ps", what="the switch to ps")

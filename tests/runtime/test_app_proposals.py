@@ -1,4 +1,5 @@
-"""The app refuses a policy_samples edit (the GUI's slider) when its controller has no proposal policy."""
+"""The app refuses a policy_samples edit (the GUI's slider) when its controller has no proposal
+policy."""
 
 from pathlib import Path
 
@@ -7,15 +8,20 @@ import pytest
 import judo
 
 
-def test_the_app_refuses_policy_samples_without_a_proposal_policy_and_keeps_planning(app, wait_until):
+def test_the_app_refuses_policy_samples_without_a_proposal_policy_and_keeps_planning(
+    app, wait_until
+):
     message = (
-        r"^policy_samples is 2 but the controller has no proposal policy; give one \(make_controller\(\.\.\., "
+        r"^policy_samples is 2 but the controller has no proposal policy; give one "
+        r"\(make_controller\(\.\.\., "
         r"proposal_policy=\.\.\.\), evaluate --proposal-policy FILE\.onnx\) or set it to 0$"
     )
     with pytest.raises(judo.ConfigError, match=message):
         app.commands.update_config("controller", {"policy_samples": 2})
     plans = app.stats.num_plans()
-    wait_until(lambda: app.stats.num_plans() > plans + 2, what="planning to go on with the config before")
+    wait_until(
+        lambda: app.stats.num_plans() > plans + 2, what="planning to go on with the config before"
+    )
 
 
 POLICY = Path(judo.__file__).parent / "tasks" / "models" / "policies" / "pendulum_chunk.onnx"
@@ -28,11 +34,17 @@ def test_the_app_plans_with_a_proposal_policy_and_its_slider_and_a_switch_drops_
     app.start()
     try:
         app.commands.update_config("controller", {"policy_samples": 4})  # the GUI's slider
-        wait_until(lambda: app.controller.config.policy_samples == 4, what="the edit to reach the controller")
+        wait_until(
+            lambda: app.controller.config.policy_samples == 4,
+            what="the edit to reach the controller",
+        )
         plans = app.stats.num_plans()
-        wait_until(lambda: app.stats.num_plans() > plans + 3, what="plans with the policy's candidates")
+        wait_until(
+            lambda: app.stats.num_plans() > plans + 3, what="plans with the policy's candidates"
+        )
         assert app.status.level == "info", app.status.message
-        app.commands.switch_task("cartpole")  # the policy is the pendulum's: cartpole plans without it
+        # the policy is the pendulum's: cartpole plans without it
+        app.commands.switch_task("cartpole")
         wait_until(lambda: app.session.task_name == "cartpole", timeout=30, what="the switch")
         assert app.controller.proposal_policy is None
         with pytest.raises(judo.ConfigError, match="no proposal policy"):

@@ -31,7 +31,9 @@ def judo_threads() -> list[str]:
 
 def started(task: str = "cartpole", *, controller: dict, num_rollouts: int = 8) -> App:
     optimizer_config = judo.get_registered_optimizers()["ps"][1](num_rollouts=num_rollouts)
-    controller_config = judo.ControllerConfig(**{"horizon": 0.3, "control_freq": 10.0, **controller})
+    controller_config = judo.ControllerConfig(
+        **{"horizon": 0.3, "control_freq": 10.0, **controller}
+    )
     app = App(
         task,
         "ps",
@@ -58,13 +60,15 @@ def test_stop_cuts_a_long_control_period_short(wait_until):
     wait_until(lambda: app.stats.num_plans() >= 1, what="the first plan")
     time.sleep(0.2)  # the controller loop now sleeps out its period
     assert stop_time(app) < STOP_BUDGET
-    # The idle planning thread is joined by the stop; allow a loaded machine a moment to schedule it.
+    # The idle planning thread is joined by the stop; allow a loaded machine a moment to schedule
+    # it.
     wait_until(lambda: judo_threads() == [], timeout=1.0, what="no judo thread left")
 
 
 def in_flight_for(app: App, seconds: float):
-    """A condition for wait_until: one planning cycle has been in flight for `seconds` of wall time, and the
-    plant has run (judo's simulator waits for a cycle that takes more than one control period of sim time)."""
+    """A condition for wait_until: one planning cycle has been in flight for `seconds` of wall time,
+    and the plant has run (judo's simulator waits for a cycle that takes more than one control
+    period of sim time)."""
     seen: list[float] = []
 
     def condition() -> bool:
@@ -82,13 +86,18 @@ def test_stop_ends_a_cycle_of_the_most_optimizer_iterations(wait_until):
     wait_until(in_flight_for(app, 0.3), what="a planning cycle in flight for 0.3 s")
     assert app.stats.num_plans() == 0  # the first cycle is still iterating
     assert stop_time(app) < STOP_BUDGET
-    wait_until(lambda: judo_threads() == [], timeout=3.0, what="the planning thread to end its last iteration")
+    wait_until(
+        lambda: judo_threads() == [],
+        timeout=3.0,
+        what="the planning thread to end its last iteration",
+    )
 
 
 def test_stop_does_not_wait_for_a_slow_user_reward(monkeypatch, wait_until):
     monkeypatch.setitem(registry._TASKS, "slow_cartpole", (SlowRewardCartpole, CartpoleConfig))
     app = started("slow_cartpole", controller={})
-    wait_until(in_flight_for(app, 0.3), what="a planning cycle in flight for 0.3 s")  # a reward sleeps now
+    # a reward sleeps now
+    wait_until(in_flight_for(app, 0.3), what="a planning cycle in flight for 0.3 s")
     assert stop_time(app) < STOP_BUDGET
     wait_until(lambda: judo_threads() == [], timeout=2.0, what="the abandoned reward call to end")
 
@@ -97,7 +106,8 @@ def test_stop_abandons_one_huge_batch_of_rollouts(wait_until):
     app = started(controller={}, num_rollouts=100_000)
     wait_until(in_flight_for(app, 0.2), what="a planning cycle in flight for 0.2 s")
     assert stop_time(app) < STOP_BUDGET
-    # the rollout threads finish their chunk in their own time; they are daemons, so they never hold up an exit
+    # the rollout threads finish their chunk in their own time; they are daemons, so they never hold
+    # up an exit
     assert all(t.daemon for t in threading.enumerate() if t.name.startswith("judo"))
 
 
@@ -123,7 +133,9 @@ def test_lowering_control_freq_is_followed_without_waiting_out_the_old_period(wa
 def test_update_action_stops_between_iterations_when_cancelled(upright_task, cancel_after):
     optimizer_cls, config_cls = judo.get_registered_optimizers()["ps"]
     optimizer = optimizer_cls(config_cls(num_rollouts=4, num_nodes=4), upright_task.nu)
-    controller = judo.Controller(judo.ControllerConfig(max_opt_iters=100), upright_task, optimizer, num_workers=1)
+    controller = judo.Controller(
+        judo.ControllerConfig(max_opt_iters=100), upright_task, optimizer, num_workers=1
+    )
     cancel = threading.Event()
     calls = []
     sample = optimizer.sample_control_knots

@@ -1,7 +1,8 @@
-"""The command-line boundary of every command (the app, evaluate, benchmark, tune, collect, replay), as one
-table: each row runs `python -m judo` in a subprocess and expects an exit status, a one-line message, and no
-traceback and no hang. Bad config files, user classes and rewards that raise, sizes and sensing values beyond
-their bounds, output paths that cannot be written, HDF5 files that are not judo's or are broken, and Ctrl-C."""
+"""The command-line boundary of every command (the app, evaluate, benchmark, tune, collect, replay),
+as one table: each row runs `python -m judo` in a subprocess and expects an exit status, a one-line
+message, and no traceback and no hang. Bad config files, user classes and rewards that raise, sizes
+and sensing values beyond their bounds, output paths that cannot be written, HDF5 files that are not
+judo's or are broken, and Ctrl-C."""
 
 import importlib.util
 import json
@@ -85,13 +86,50 @@ FILES: dict[str, str | bytes] = {
 }
 
 APP = ("--headless", "--duration", "0.05")
-EVALUATE = ("evaluate", "--task", "cartpole", "--optimizer", "ps", "--seeds", "1", "--duration", "0.05")
-BENCHMARK = ("benchmark", "--tasks", "cartpole", "--optimizers", "ps", "--samples", "2", "--warmup", "0")
-TUNE = ("tune", "--task", "cartpole", "--optimizer", "ps", "--trials", "1", "--seeds", "1", "--duration", "0.05")
-COLLECT = tuple("collect --task cartpole --optimizer ps --episodes 1 --duration 0.05 --out x.h5".split())
+EVALUATE = (
+    "evaluate",
+    "--task",
+    "cartpole",
+    "--optimizer",
+    "ps",
+    "--seeds",
+    "1",
+    "--duration",
+    "0.05",
+)
+BENCHMARK = (
+    "benchmark",
+    "--tasks",
+    "cartpole",
+    "--optimizers",
+    "ps",
+    "--samples",
+    "2",
+    "--warmup",
+    "0",
+)
+TUNE = (
+    "tune",
+    "--task",
+    "cartpole",
+    "--optimizer",
+    "ps",
+    "--trials",
+    "1",
+    "--seeds",
+    "1",
+    "--duration",
+    "0.05",
+)
+COLLECT = tuple(
+    "collect --task cartpole --optimizer ps --episodes 1 --duration 0.05 --out x.h5".split()
+)
 SENSED_APP = (*APP, "--observe", "sensors")
 SENSED_EVALUATE = (*EVALUATE, "--observe", "sensors")
-NOISE_BOUND = "--sensor-noise must be between 0 and 100 (a std in the sensor's unit: m, rad, m/s, rad/s, m/s^2), got"
+NOISE_BOUND = (
+    "--sensor-noise must be between 0 and 100 (a std in the sensor's unit: m, rad, m/s, rad/s, "
+    "m/s^2), got"
+)
 RATE_BOUND = "--sensor-rate-hz must be between 0.1 and 1000000 Hz, got"
 DELAY_BOUND = "--sensor-delay-ms must be between 0 and 10000 ms, got"
 NOT_A_SENSOR_VALUE = "--sensor-noise expects NUMBER or TYPE=NUMBER (e.g. framepos=30), got '=0.1'"
@@ -105,7 +143,8 @@ USER_FAILED = "--debug shows the traceback"
 
 @dataclass(frozen=True)
 class Row:
-    """One case: `python -m judo ARGS` (in the folder of FILES) exits `status` with `message` on stderr."""
+    """One case: `python -m judo ARGS` (in the folder of FILES) exits `status` with `message` on
+    stderr."""
 
     args: tuple[str, ...]
     status: int
@@ -125,15 +164,37 @@ def config(name: str) -> tuple[str, ...]:
 TABLE = [
     # one config-file reader, for every command: refused before it is opened or parsed
     Row((*APP, *config("adir")), 2, "config file adir is a directory"),
-    Row((*APP, *config("binary.toml")), 2, "config file binary.toml is binary (it holds NUL bytes)"),
-    Row((*APP, *config("latin1.toml")), 2, "config file latin1.toml is not UTF-8 text (byte 11, line 1)"),
-    Row((*APP, *config("big.toml")), 2, "config file big.toml is 1100003 bytes; a config file is at most 1000000"),
-    Row((*APP, *config("fifo")), 2, "config file fifo is not a regular file (a FIFO, device or socket)"),
+    Row(
+        (*APP, *config("binary.toml")), 2, "config file binary.toml is binary (it holds NUL bytes)"
+    ),
+    Row(
+        (*APP, *config("latin1.toml")),
+        2,
+        "config file latin1.toml is not UTF-8 text (byte 11, line 1)",
+    ),
+    Row(
+        (*APP, *config("big.toml")),
+        2,
+        "config file big.toml is 1100003 bytes; a config file is at most 1000000",
+    ),
+    Row(
+        (*APP, *config("fifo")),
+        2,
+        "config file fifo is not a regular file (a FIFO, device or socket)",
+    ),
     Row((*APP, *config("/dev/zero")), 2, "config file /dev/zero is not a regular file"),
     Row((*APP, *config("missing.toml")), 2, "config file not found: missing.toml"),
     Row((*APP, *config("")), 2, "--config needs the path of a TOML file, got an empty path"),
-    Row((*APP, *config("bigint.toml")), 2, "CartpoleConfig.w_vertical expects a finite number, got 99999"),
-    Row((*APP, *config("unknown_task.toml")), 2, "[controller_config_overrides.no_such_task]: unknown task"),
+    Row(
+        (*APP, *config("bigint.toml")),
+        2,
+        "CartpoleConfig.w_vertical expects a finite number, got 99999",
+    ),
+    Row(
+        (*APP, *config("unknown_task.toml")),
+        2,
+        "[controller_config_overrides.no_such_task]: unknown task",
+    ),
     Row((*EVALUATE, *config("fifo")), 2, "config file fifo is not a regular file"),
     Row((*EVALUATE, *config("adir")), 2, "config file adir is a directory"),
     Row((*EVALUATE, *config("")), 2, "--config needs the path of a TOML file"),
@@ -165,18 +226,30 @@ TABLE = [
     Row(  # the app logs each skipped cycle, then says why the run failed
         ("--headless", "--duration", "0.3", "--task", "bad", *config("reward_fails.toml")),
         1,
-        "no plan ever succeeded in this run: planning cycle skipped: ZeroDivisionError in bad: reward blew up",
+        "no plan ever succeeded in this run: planning cycle skipped: ZeroDivisionError "
+        "in bad: reward blew up",
         one_line=False,
     ),
     Row((*BAD_BENCHMARK, *config("reward_strings.toml")), 2, "RewardStrings.reward must return"),
     Row((*BAD_TUNE, *config("init_fails.toml")), 2, "cannot build the task"),
     # sizes, latencies and durations beyond their bounds
-    Row((*EVALUATE, "--num-workers", "5000"), 2, "--num-workers must be an integer from 1 to 1024, got 5000"),
+    Row(
+        (*EVALUATE, "--num-workers", "5000"),
+        2,
+        "--num-workers must be an integer from 1 to 1024, got 5000",
+    ),
     Row((*EVALUATE, "--workers", "0"), 2, "--workers must be an integer from 1 to 1024, got 0"),
-    Row((*EVALUATE, "--workers", "5000"), 2, "--workers must be an integer from 1 to 1024, got 5000"),
-    Row((*BENCHMARK, "--num-workers", "5000"), 2, "--num-workers must be an integer from 1 to 1024, got 5000"),
+    Row(
+        (*EVALUATE, "--workers", "5000"), 2, "--workers must be an integer from 1 to 1024, got 5000"
+    ),
+    Row(
+        (*BENCHMARK, "--num-workers", "5000"),
+        2,
+        "--num-workers must be an integer from 1 to 1024, got 5000",
+    ),
     Row((*TUNE, "--workers", "5000"), 2, "--workers must be an integer from 1 to 1024, got 5000"),
-    Row(  # the defaults pass the check episode; every grid trial's w_vertical makes the reward raise
+    # the defaults pass the check episode; every grid trial's w_vertical makes the reward raise
+    Row(
         (
             *BAD_TUNE,
             *config("reward_fails_above.toml"),
@@ -193,26 +266,57 @@ TABLE = [
         "every trial failed; the first reason: ValueError: w_vertical too low for this test",
         one_line=False,
     ),
-    Row((*BENCHMARK[:-4], "--samples", str(10**12)), 2, "--samples must be an integer from 1 to 100000"),
-    Row((*EVALUATE, "--latency-ms", "-1"), 2, "--latency-ms must be between 0 and 60000.0, got -1.0"),
+    Row(
+        (*BENCHMARK[:-4], "--samples", str(10**12)),
+        2,
+        "--samples must be an integer from 1 to 100000",
+    ),
+    Row(
+        (*EVALUATE, "--latency-ms", "-1"), 2, "--latency-ms must be between 0 and 60000.0, got -1.0"
+    ),
     Row((*TUNE, "--latency-ms", "-1"), 2, "--latency-ms must be between 0 and 60000.0, got -1.0"),
     Row(
         ("--headless", "--duration", "1e308"),
         2,
         "duration must be a positive, finite number of seconds of sim time, at most 1e+09",
     ),
-    Row((*TUNE[:-2], "--duration", "inf"), 2, "--duration must be above 0 and at most 86400.0 s, got inf"),
-    Row((*EVALUATE, "--first-seed", "-1"), 2, f"--first-seed must be an integer from 0 to {2**31 - 1} (the last seed"),
+    Row(
+        (*TUNE[:-2], "--duration", "inf"),
+        2,
+        "--duration must be above 0 and at most 86400.0 s, got inf",
+    ),
+    Row(
+        (*EVALUATE, "--first-seed", "-1"),
+        2,
+        f"--first-seed must be an integer from 0 to {2**31 - 1} (the last seed",
+    ),
     Row(
         (*EVALUATE[:-4], "--seeds", "3", "--first-seed", str(2**31 - 2)),
         2,
-        f"--first-seed must be an integer from 0 to {2**31 - 3} (the last seed, --first-seed + --seeds - 1, is at "
+        f"--first-seed must be an integer from 0 to {2**31 - 3} (the last seed, "
+        "--first-seed + --seeds - 1, is at "
         f"most {2**31 - 1}), got {2**31 - 2}",
     ),
-    Row((*COLLECT, "--first-seed", str(2**31)), 2, "(the last seed, --first-seed + --episodes - 1, is at most"),
-    Row((*TUNE, "--first-seed", "-5"), 2, "--first-seed must be an integer from 0 to 2147483647 (the last seed"),
-    Row((*TUNE, "--params", "optimizer.sigma=0:inf"), 2, "LOW and HIGH must be finite numbers of magnitude"),
-    Row((*TUNE, "--params", "optimizer.sigma=0:" + "9" * 5000), 2, "LOW and HIGH must be finite numbers"),
+    Row(
+        (*COLLECT, "--first-seed", str(2**31)),
+        2,
+        "(the last seed, --first-seed + --episodes - 1, is at most",
+    ),
+    Row(
+        (*TUNE, "--first-seed", "-5"),
+        2,
+        "--first-seed must be an integer from 0 to 2147483647 (the last seed",
+    ),
+    Row(
+        (*TUNE, "--params", "optimizer.sigma=0:inf"),
+        2,
+        "LOW and HIGH must be finite numbers of magnitude",
+    ),
+    Row(
+        (*TUNE, "--params", "optimizer.sigma=0:" + "9" * 5000),
+        2,
+        "LOW and HIGH must be finite numbers",
+    ),
     # output paths, checked before any work
     Row((*EVALUATE, "--json", "adir"), 2, "--json 'adir' is a folder; give a file path"),
     Row((*EVALUATE, "--plot", "a_file/plot.png"), 2, "--plot: "),
@@ -220,81 +324,159 @@ TABLE = [
     Row((*TUNE, "--out", "a_file"), 2, "--out 'a_file' is a file; give a folder"),
     # access, usage and messages
     Row(("--host", "0.0.0.0", "--token", "", *APP), 2, "token must not be empty or blank"),
-    Row(("--task", "-x"), 2, "python -m judo: error: argument --task: expected one argument", one_line=False),
+    Row(
+        ("--task", "-x"),
+        2,
+        "python -m judo: error: argument --task: expected one argument",
+        one_line=False,
+    ),
     Row(("--task", "x" * 3000, *APP), 2, "unknown task 'xxxxxxxx"),
     # sensing and estimation
-    Row((*APP, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"),
+    Row(
+        (*APP, "--estimator", "nope"),
+        2,
+        "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf",
+    ),
     Row(
         ("--task", "bad", *APP, *config("no_sensors.toml"), "--observe", "sensors"),
         2,
-        "NoSensors declares no measured sensors; list the MJCF sensors a robot has in NoSensors.measured_sensors",
+        "NoSensors declares no measured sensors; list the MJCF sensors a robot has in "
+        "NoSensors.measured_sensors",
     ),
-    Row((*APP, "--observe", "sensors", "--sensor-rate-hz", "framepos=x"), 2, "--sensor-rate-hz expects NUMBER or"),
-    Row((*APP, "--observe", "sensors", "--sensor-noise", "bogus=0.1"), 2, "sensor noise: 'bogus' is not a sensor type"),
+    Row(
+        (*APP, "--observe", "sensors", "--sensor-rate-hz", "framepos=x"),
+        2,
+        "--sensor-rate-hz expects NUMBER or",
+    ),
+    Row(
+        (*APP, "--observe", "sensors", "--sensor-noise", "bogus=0.1"),
+        2,
+        "sensor noise: 'bogus' is not a sensor type",
+    ),
     Row((*SENSED_APP, "--sensor-delay-ms", "-5"), 2, f"{DELAY_BOUND} -5.0"),
     Row((*SENSED_APP, "--sensor-noise", "=0.1"), 2, NOT_A_SENSOR_VALUE),
     Row((*SENSED_APP, "--sensor-noise", "1e308"), 2, f"{NOISE_BOUND} 1e+308"),
     Row((*SENSED_APP, "--sensor-delay-ms", "1e12"), 2, f"{DELAY_BOUND} 1000000000000.0"),
     Row((*SENSED_APP, "--sensor-rate-hz", "1e-9"), 2, f"{RATE_BOUND} 1e-09"),
-    Row((*SENSED_APP, "--sensor-noise", "framepos=nan"), 2, NOISE_BOUND.replace("noise", "noise framepos") + " nan"),
+    Row(
+        (*SENSED_APP, "--sensor-noise", "framepos=nan"),
+        2,
+        NOISE_BOUND.replace("noise", "noise framepos") + " nan",
+    ),
     Row((*APP, "--estimator", ""), 2, NO_ESTIMATOR),
     Row((*SENSED_EVALUATE, "--sensor-noise", "=0.1"), 2, NOT_A_SENSOR_VALUE),
     Row((*SENSED_EVALUATE, "--sensor-noise", "1e308"), 2, f"{NOISE_BOUND} 1e+308"),
     Row((*SENSED_EVALUATE, "--sensor-delay-ms", "1e12"), 2, f"{DELAY_BOUND} 1000000000000.0"),
     Row((*SENSED_EVALUATE, "--sensor-rate-hz", "1e-9"), 2, f"{RATE_BOUND} 1e-09"),
     Row((*EVALUATE, "--estimator", ""), 2, NO_ESTIMATOR),
-    Row((*TUNE, "--observe", "sensors", "--sensor-delay-ms", "1e12"), 2, f"{DELAY_BOUND} 1000000000000.0"),
+    Row(
+        (*TUNE, "--observe", "sensors", "--sensor-delay-ms", "1e12"),
+        2,
+        f"{DELAY_BOUND} 1000000000000.0",
+    ),
     Row((*COLLECT, "--observe", "sensors", "--sensor-rate-hz", "-1"), 2, f"{RATE_BOUND} -1.0"),
     Row((*COLLECT, "--observe", "sensors", "--sensor-noise", "inf"), 2, f"{NOISE_BOUND} inf"),
-    Row((*BENCHMARK, "--tasks"), 2, "--tasks needs at least one name; leave --tasks out for all of them"),
-    Row((*APP, "--sensor-noise", "0.1"), 2, "--sensor-noise set the rehearsed sensors, which run only with --observe"),
     Row(
-        (*EVALUATE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"
+        (*BENCHMARK, "--tasks"),
+        2,
+        "--tasks needs at least one name; leave --tasks out for all of them",
+    ),
+    Row(
+        (*APP, "--sensor-noise", "0.1"),
+        2,
+        "--sensor-noise set the rehearsed sensors, which run only with --observe",
+    ),
+    Row(
+        (*EVALUATE, "--estimator", "nope"),
+        2,
+        "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf",
     ),
     Row(
         (*BAD_EVALUATE, *config("no_sensors.toml"), "--observe", "sensors"),
         2,
-        "NoSensors declares no measured sensors; list the MJCF sensors a robot has in NoSensors.measured_sensors",
+        "NoSensors declares no measured sensors; list the MJCF sensors a robot has in "
+        "NoSensors.measured_sensors",
     ),
-    Row((*EVALUATE, "--observe", "sensors", "--estimator", "state"), 2, "the 'state' estimator cannot run on this"),
+    Row(
+        (*EVALUATE, "--observe", "sensors", "--estimator", "state"),
+        2,
+        "the 'state' estimator cannot run on this",
+    ),
     Row(
         (*EVALUATE, "--observe", "sensors", "--sensor-rate-hz", "9", "--sensor-rate-hz", "a=x"),
         2,
         "--sensor-rate-hz expects",
     ),
-    Row((*TUNE, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"),
-    Row((*TUNE, "--sensor-delay-ms", "10"), 2, "--sensor-delay-ms set the rehearsed sensors, which run only with"),
     Row(
-        (*COLLECT, "--estimator", "nope"), 2, "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf"
+        (*TUNE, "--estimator", "nope"),
+        2,
+        "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf",
     ),
-    # HDF5 files (written by write_h5_files): another program's is never written into; a broken one never played
+    Row(
+        (*TUNE, "--sensor-delay-ms", "10"),
+        2,
+        "--sensor-delay-ms set the rehearsed sensors, which run only with",
+    ),
+    Row(
+        (*COLLECT, "--estimator", "nope"),
+        2,
+        "unknown estimator 'nope'; valid estimators are: ekf, legged, state, ukf",
+    ),
+    # HDF5 files (written by write_h5_files): another program's is never written into; a broken one
+    # never played
     Row(
         (*COLLECT[:-1], "other.h5"),
         2,
-        "other.h5 is an HDF5 file judo did not write (it holds images and no judo env_args); judo writes only into "
+        "other.h5 is an HDF5 file judo did not write (it holds images and no judo "
+        "env_args); judo writes only into "
         "its own datasets: give another file",
     ),
     *(
         Row(("replay", f"{name}.h5"), 2, f"{name}.h5{message}")
         for name, message in [
-            ("nan", ": data/demo_0/obs/qpos holds non-finite values (NaN or inf) in 1 of its 5 rows, the first row 2"),
-            ("narrow", ": data/demo_0/obs/qpos must have shape (S, 2) for cartpole's nq = 2, got (5, 1)"),
+            (
+                "nan",
+                ": data/demo_0/obs/qpos holds non-finite values (NaN or inf) in 1 of "
+                "its 5 rows, the first row 2",
+            ),
+            (
+                "narrow",
+                ": data/demo_0/obs/qpos must have shape (S, 2) for cartpole's nq = 2, got (5, 1)",
+            ),
             (
                 "no_timestep",
-                " is not a file of `python -m judo collect`: data's env_args has no entry 'plant_timestep'",
+                " is not a file of `python -m judo collect`: data's env_args has "
+                "no entry 'plant_timestep'",
             ),
         ]
     ),
-    Row(("replay", "nan.h5", "--host", "0.0.0.0", "--token", ""), 2, "token must not be empty or blank"),
+    Row(
+        ("replay", "nan.h5", "--host", "0.0.0.0", "--token", ""),
+        2,
+        "token must not be empty or blank",
+    ),
     # Ctrl-C
-    Row((*EVALUATE[:-2], "--duration", "3000", "--num-workers", "2"), 130, "interrupted", interrupt=True),
-    Row((*BENCHMARK[:-4], "--samples", "100000", "--num-workers", "2"), 130, "interrupted", interrupt=True),
+    Row(
+        (*EVALUATE[:-2], "--duration", "3000", "--num-workers", "2"),
+        130,
+        "interrupted",
+        interrupt=True,
+    ),
+    Row(
+        (*BENCHMARK[:-4], "--samples", "100000", "--num-workers", "2"),
+        130,
+        "interrupted",
+        interrupt=True,
+    ),
 ]
 
 
 def run_row(row: Row, folder: Path) -> tuple[int | None, str]:
     """The exit status (None: it hung) and stderr of `row` run in `folder`."""
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [SRC, os.environ.get("PYTHONPATH")]))}
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join(filter(None, [SRC, os.environ.get("PYTHONPATH")])),
+    }
     env["RAY_AUTH_MODE"] = "disabled"
     process = subprocess.Popen(
         [sys.executable, "-m", "judo", *row.args],
@@ -315,14 +497,17 @@ def run_row(row: Row, folder: Path) -> tuple[int | None, str]:
 
 
 def interrupt_at_work(process: subprocess.Popen) -> None:
-    """SIGINT `process` once its 2 rollout threads run, so the signal reaches the work, not `import judo`
-    (a Ctrl-C there is Python's own, before judo runs)."""
+    """SIGINT `process` once its 2 rollout threads run, so the signal reaches the work, not `import
+    judo` (a Ctrl-C there is Python's own, before judo runs)."""
     deadline = time.monotonic() + TIMEOUT
 
     def threads() -> int:
         return len(os.listdir(f"/proc/{process.pid}/task"))
 
-    while "mujoco" not in Path(f"/proc/{process.pid}/maps").read_text() and time.monotonic() < deadline:
+    while (
+        "mujoco" not in Path(f"/proc/{process.pid}/maps").read_text()
+        and time.monotonic() < deadline
+    ):
         time.sleep(0.05)
     loaded = threads()  # numpy's and MuJoCo's own threads are up by now
     while threads() < loaded + 2 and time.monotonic() < deadline:
@@ -342,12 +527,19 @@ def outcomes(tmp_path_factory) -> dict[str, tuple[int | None, str]]:
     if HAVE_H5PY:
         write_h5_files(folder)
     with ThreadPoolExecutor(4) as pool:
-        return dict(zip((row.id for row in TABLE), pool.map(lambda row: run_row(row, folder), TABLE), strict=True))
+        return dict(
+            zip(
+                (row.id for row in TABLE),
+                pool.map(lambda row: run_row(row, folder), TABLE),
+                strict=True,
+            )
+        )
 
 
 def write_h5_files(folder: Path) -> None:
-    """other.h5, another program's HDF5 file, and cartpole replays in judo's layout that are broken: a NaN row in
-    qpos (nan.h5), qpos one column short (narrow.h5), and no plant_timestep in env_args (no_timestep.h5)."""
+    """other.h5, another program's HDF5 file, and cartpole replays in judo's layout that are broken:
+    a NaN row in qpos (nan.h5), qpos one column short (narrow.h5), and no plant_timestep in env_args
+    (no_timestep.h5)."""
     import h5py
 
     with h5py.File(folder / "other.h5", "w") as file:
@@ -361,7 +553,9 @@ def write_h5_files(folder: Path) -> None:
         ("no_timestep", np.zeros((5, 2)), {**env_args, "plant_timestep": None}),
     ]:
         with h5py.File(folder / f"{name}.h5", "w") as file:
-            file.create_group("data").attrs["env_args"] = json.dumps({k: v for k, v in args.items() if v is not None})
+            file.create_group("data").attrs["env_args"] = json.dumps(
+                {k: v for k, v in args.items() if v is not None}
+            )
             demo = file.create_group("data/demo_0")
             demo["obs/qpos"], demo["plan/times"] = rows, np.array([0.0, 0.02])
             demo.attrs.update({"seed": 0, "metrics": "{}", "success": False})
@@ -396,5 +590,9 @@ def test_the_table_covers_every_command():
 def test_debug_shows_the_users_own_traceback(tmp_path):
     for name in ("user_classes.py", "init_fails.toml"):
         (tmp_path / name).write_text(str(FILES[name]))
-    status, err = run_row(Row((*BAD_EVALUATE, *config("init_fails.toml"), "--debug"), 1, ""), tmp_path)
-    assert status == 1 and "Traceback" in err and 'raise RuntimeError("cannot build the task")' in err
+    status, err = run_row(
+        Row((*BAD_EVALUATE, *config("init_fails.toml"), "--debug"), 1, ""), tmp_path
+    )
+    assert (
+        status == 1 and "Traceback" in err and 'raise RuntimeError("cannot build the task")' in err
+    )

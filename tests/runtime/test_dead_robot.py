@@ -1,7 +1,8 @@
-"""A robot whose readings stop, in a running App: the log names the readings (not planning) and how long they have
-stood still, again every few seconds while they do, and ends the trouble with how long the safe action was served
-and how long after the readings resumed fresh plans came. The robot is the simulated cartpole behind a user System
-(wall clock, as on hardware) whose readings freeze, as a dead robot process's last JointState does on the bridge."""
+"""A robot whose readings stop, in a running App: the log names the readings (not planning) and how
+long they have stood still, again every few seconds while they do, and ends the trouble with how
+long the safe action was served and how long after the readings resumed fresh plans came. The robot
+is the simulated cartpole behind a user System (wall clock, as on hardware) whose readings freeze,
+as a dead robot process's last JointState does on the bridge."""
 
 import logging
 import re
@@ -50,21 +51,29 @@ class DyingRobot(System):
 
 
 def watchdog_lines(caplog, since: float) -> list[str]:
-    """The watchdog's log lines (trouble and recovery) logged after wall time `since` (time.time())."""
+    """The watchdog's log lines (trouble and recovery) logged after wall time `since`
+    (time.time())."""
     return [
         record.getMessage()
         for record in caplog.records
         if record.created >= since
-        and (record.getMessage().startswith("watchdog: ") or record.getMessage().startswith("fresh plans are served"))
+        and (
+            record.getMessage().startswith("watchdog: ")
+            or record.getMessage().startswith("fresh plans are served")
+        )
     ]
 
 
 @pytest.mark.slow
-def test_readings_that_stop_are_told_every_few_seconds_as_such_and_their_end_with_the_recovery_time(caplog, wait_until):
+def test_readings_that_stop_are_told_every_few_seconds_as_such_and_their_end_with_the_recovery_time(
+    caplog, wait_until
+):
     robot = DyingRobot()
     config = judo.ControllerConfig(horizon=0.3, control_freq=20.0, max_plan_age=0.3)
     caplog.set_level(logging.INFO, logger="judo.app")
-    app = App("cartpole", "ps", system=robot, controller_config=config, gui=False, seed=0, num_workers=1)
+    app = App(
+        "cartpole", "ps", system=robot, controller_config=config, gui=False, seed=0, num_workers=1
+    )
     app.start()
     try:
         wait_until(lambda: app.stats.num_plans() >= 10, timeout=60, what="plans driving the robot")

@@ -1,8 +1,9 @@
 """The app's estimator on a thread of its own: a slow filter neither slows the plant nor stops the
-estimates the planner plans from; a reset restarts it, its failure is reported, a stop ends it; config edits
-are handed over. Real physics (cartpole, 10 ms steps, sensors at 100 Hz, 10 ms late) and a real EKF, slowed
-by a sleep in its update. The plant is the simulator behind a user's System, which the app steps at wall-clock
-pace whatever the planner does (judo's own simulator would wait for a planner starved on a loaded machine)."""
+estimates the planner plans from; a reset restarts it, its failure is reported, a stop ends it;
+config edits are handed over. Real physics (cartpole, 10 ms steps, sensors at 100 Hz, 10 ms late)
+and a real EKF, slowed by a sleep in its update. The plant is the simulator behind a user's System,
+which the app steps at wall-clock pace whatever the planner does (judo's own simulator would wait
+for a planner starved on a loaded machine)."""
 
 import threading
 import time
@@ -20,20 +21,27 @@ from judo.tasks.cartpole import Cartpole
 
 SENSING = {"noise": 0.005, "delay": 0.01, "rate": 100.0}
 SLOW_UPDATE = 0.1
-"""Seconds each filter update sleeps: ten plant steps, so a filter on the plant thread would hold the
-simulation to a real-time factor of at most STEP / SLOW_UPDATE = 0.1."""
+"""Seconds each filter update sleeps: ten plant steps, so a filter on the plant thread would hold
+the simulation to a real-time factor of at most STEP / SLOW_UPDATE = 0.1."""
 STEP = 0.01
 """Cartpole's timestep (s)."""
 
 
-def slowed_app(sleep: float = SLOW_UPDATE, per_sim_second: float = 0.0) -> tuple[App, EstimatorThread, dict]:
-    """A cartpole app observing sensors through an EKF whose update sleeps `sleep` s, plus `per_sim_second` s for
-    each second of plant time it steps the filter on, and the filter's switches: "fail" (raise in update while
-    true), "updates" and "resets" (counts)."""
-    plant = SensedSystem(MujocoSystem.from_task(Cartpole(), seed=0), **SENSING, rng=np.random.default_rng(0))
-    app = App("cartpole", "mppi", gui=False, seed=0, num_workers=1, system=plant)  # never waits for the planner
+def slowed_app(
+    sleep: float = SLOW_UPDATE, per_sim_second: float = 0.0
+) -> tuple[App, EstimatorThread, dict]:
+    """A cartpole app observing sensors through an EKF whose update sleeps `sleep` s, plus
+    `per_sim_second` s for each second of plant time it steps the filter on, and the filter's
+    switches: "fail" (raise in update while true), "updates" and "resets" (counts)."""
+    plant = SensedSystem(
+        MujocoSystem.from_task(Cartpole(), seed=0), **SENSING, rng=np.random.default_rng(0)
+    )
+    # never waits for the planner
+    app = App("cartpole", "mppi", gui=False, seed=0, num_workers=1, system=plant)
     threaded = app.session.closed_loop.estimator
-    assert isinstance(threaded, EstimatorThread) and isinstance(threaded.estimator, ExtendedKalmanFilter)
+    assert isinstance(threaded, EstimatorThread) and isinstance(
+        threaded.estimator, ExtendedKalmanFilter
+    )
     inner = threaded.estimator
     update, reset = inner.update, inner.reset
     switches: dict[str, object] = {"fail": False, "updates": 0, "resets": 0}
@@ -71,13 +79,19 @@ def test_a_slow_filter_neither_slows_the_plant_nor_stops_the_estimates_it_plans_
         first = app.buffer.latest("plan").value.time
         rtf = real_time_factor(app, 2.0)
         # 3 x what the filter would allow on the plant thread; 1 on an idle machine
-        assert rtf > 3 * STEP / SLOW_UPDATE, f"the plant ran at {rtf:.2f} x real time behind a slow filter"
-        # The filter fuses at its own rate (a newer reading overtakes the ones it had no time for) ...
+        assert rtf > 3 * STEP / SLOW_UPDATE, (
+            f"the plant ran at {rtf:.2f} x real time behind a slow filter"
+        )
+        # The filter fuses at its own rate (a newer reading overtakes the ones it had no time
+        # for) ...
         assert 5 <= threaded.fused - fused <= 2.0 / SLOW_UPDATE + 2
         assert threaded.passed_over > 0 and int(switches["updates"]) >= threaded.fused - 1  # type: ignore[call-overload]
         assert 0 < threaded.lag < 1.0  # its newest estimate is a few steps behind the plant's now
         # ... and the planner plans from estimates at the plant's now that follow the plant.
-        assert app.stats.num_plans() >= plans + 3 and app.buffer.latest("plan").value.time > first + 0.3
+        assert (
+            app.stats.num_plans() >= plans + 3
+            and app.buffer.latest("plan").value.time > first + 0.3
+        )
         snapshot = app.buffer.latest("system").value
         assert abs(snapshot.reading.time - app.session.system.time) < 0.05
         position, velocity = estimation_error(
@@ -89,23 +103,27 @@ def test_a_slow_filter_neither_slows_the_plant_nor_stops_the_estimates_it_plans_
 
 
 def test_a_filter_slower_than_the_plant_starts_over_and_its_lag_stays_bounded(wait_until):
-    app, threaded, _ = slowed_app(sleep=0.0, per_sim_second=2.0)  # each second of plant time costs it two
+    # each second of plant time costs it two
+    app, threaded, _ = slowed_app(sleep=0.0, per_sim_second=2.0)
     app.start()
     try:
         wait_until(lambda: threaded.catch_ups >= 1, timeout=30, what="the filter to start over")
         lags, errors = [], []
         model = app.session.controller.task.model
-        for _ in range(40):  # 2 s: left alone, the lag would triple at every update (0.5, 1.5, 4.5 s, ...)
+        # 2 s: left alone, the lag would triple at every update (0.5, 1.5, 4.5 s, ...)
+        for _ in range(40):
             time.sleep(0.05)
             lags.append(threaded.lag)
             snapshot = app.buffer.latest("system").value
             errors.append(estimation_error(model, snapshot.true_state, snapshot.reading.state)[0])
-        # at most CATCH_UP_LAG plus one update, which takes twice the lag it starts from: 3 x CATCH_UP_LAG
+        # at most CATCH_UP_LAG plus one update, which takes twice the lag it starts from: 3 x
+        # CATCH_UP_LAG
         assert max(lags) < 4 * CATCH_UP_LAG and threaded.catch_ups >= 2
-        # started over from the prediction, corrected by the newest reading: within 0.25 most of the time. The
-        # error grows with the lag, which wall-clock load sets: medians of 0.03-0.12 in clean CI runs (0.124 in
-        # session 14's), one snapshot at a start-over 0.6 (CI run 4). The lag bound above is what catches a filter
-        # left to fall behind; this one catches a start-over from a wrong state.
+        # started over from the prediction, corrected by the newest reading: within 0.25 most of the
+        # time. The error grows with the lag, which wall-clock load sets: medians of 0.03-0.12 in
+        # clean CI runs (0.124 in session 14's), one snapshot at a start-over 0.6 (CI run 4). The
+        # lag bound above is what catches a filter left to fall behind; this one catches a
+        # start-over from a wrong state.
         assert np.median(errors) < 0.25, errors
     finally:
         app.stop()
@@ -121,12 +139,16 @@ def test_a_reset_restarts_the_filter_from_the_plants_start(wait_until):
         requested = app.session.system.time  # cartpole's reset keeps the plant's clock going
         app.commands.reset_task()
         wait_until(lambda: app.resets_done == done + 1, what="the plant's reset")
-        assert switches["resets"] == resets + 1 and threaded.estimator.start_time >= requested  # begun afresh
+        # begun afresh
+        assert switches["resets"] == resets + 1 and threaded.estimator.start_time >= requested
         fused = threaded.fused
         wait_until(lambda: threaded.fused >= fused + 3, what="the filter to fuse after the reset")
         snapshot = app.buffer.latest("system").value
-        assert abs(snapshot.reading.time - app.session.system.time) < 0.05  # the estimate at the plant's now
-        position, _ = estimation_error(app.session.controller.task.model, snapshot.true_state, snapshot.reading.state)
+        # the estimate at the plant's now
+        assert abs(snapshot.reading.time - app.session.system.time) < 0.05
+        position, _ = estimation_error(
+            app.session.controller.task.model, snapshot.true_state, snapshot.reading.state
+        )
         assert position < 0.1
         assert app.status.level == "info"
     finally:
@@ -139,8 +161,13 @@ def test_a_failing_filter_is_reported_and_the_app_goes_on(wait_until):
     try:
         wait_until(lambda: app.stats.num_plans() >= 3, timeout=30, what="plans")
         switches["fail"] = True
-        wait_until(lambda: "the filter broke" in app.status.message, what="the failure on the status line")
-        assert app.status.level == "error" and "failed on its thread: RuntimeError" in app.status.message
+        wait_until(
+            lambda: "the filter broke" in app.status.message, what="the failure on the status line"
+        )
+        assert (
+            app.status.level == "error"
+            and "failed on its thread: RuntimeError" in app.status.message
+        )
         sim = app.stats.sim_time()
         wait_until(lambda: app.stats.sim_time() > sim + 0.3, what="the plant to go on stepping")
         assert app.running and threaded.failures > 0
@@ -166,10 +193,13 @@ def test_a_stop_ends_a_slow_filters_thread_within_a_second(wait_until):
 def test_config_edits_are_handed_to_the_filter_at_its_next_update(wait_until):
     app, threaded, switches = slowed_app(sleep=0.005)
     updated = app.commands.update_estimator_config({"noise_jointpos": 0.02})
-    assert threaded.config is updated and threaded.estimator.config is not updated  # not while it may run
+    # not while it may run
+    assert threaded.config is updated and threaded.estimator.config is not updated
     app.start()
     try:
-        wait_until(lambda: threaded.estimator.config is updated, timeout=30, what="the edit handed over")
+        wait_until(
+            lambda: threaded.estimator.config is updated, timeout=30, what="the edit handed over"
+        )
         assert threaded.estimator.config.noise_jointpos == pytest.approx(0.02)
     finally:
         app.stop()

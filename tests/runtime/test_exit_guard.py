@@ -1,5 +1,6 @@
-"""A script that ends or raises without `app.stop()` exits cleanly: the exit hook stops the App before
-the interpreter finalizes under its rollout threads (which segfaulted, rc 139, in most runs)."""
+"""A script that ends or raises without `app.stop()` exits cleanly: the exit hook stops the App
+before the interpreter finalizes under its rollout threads (which segfaulted, rc 139, in most
+runs)."""
 
 import subprocess
 import sys
@@ -29,7 +30,12 @@ def test_ten_scripts_that_end_without_stop_exit_without_a_crash(tmp_path):
     script = tmp_path / "no_stop.py"
     script.write_text(SCRIPT)
     runs = [
-        subprocess.Popen([sys.executable, str(script), mode], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        subprocess.Popen(
+            [sys.executable, str(script), mode],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         for mode in ["end", "raise"] * 5
     ]
     results = [(run.args[-1], *run.communicate(timeout=120), run.returncode) for run in runs]
@@ -37,7 +43,9 @@ def test_ten_scripts_that_end_without_stop_exit_without_a_crash(tmp_path):
         if mode == "end":
             assert code == 0, err[-2000:]
         else:  # the script's own exception, reported as usual, and nothing after it
-            assert code == 1 and err.rstrip().endswith("RuntimeError: the script failed"), err[-2000:]
+            assert code == 1 and err.rstrip().endswith("RuntimeError: the script failed"), err[
+                -2000:
+            ]
 
 
 def test_the_hook_stops_every_started_app():

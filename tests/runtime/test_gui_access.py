@@ -1,5 +1,5 @@
-"""Who may drive the GUI: same-origin websockets only, a token for remote use, no share tunnel unless
-asked for, and a loopback address by default."""
+"""Who may drive the GUI: same-origin websockets only, a token for remote use, no share tunnel
+unless asked for, and a loopback address by default."""
 
 import logging
 import socket
@@ -67,7 +67,8 @@ def test_a_cross_origin_websocket_is_refused_and_a_same_origin_one_accepted(app,
 
 
 def test_a_dns_rebinding_page_is_refused(app):
-    port = app.port  # evil.example resolving to 127.0.0.1: same "origin" as far as the browser knows
+    # evil.example resolving to 127.0.0.1: same "origin" as far as the browser knows
+    port = app.port
     assert refused(port, origin=f"http://evil.example:{port}", host="evil.example") == 403
 
 
@@ -85,7 +86,9 @@ def test_a_token_is_required_in_the_path_of_page_and_websocket(port):
         assert refused(port, origin=f"http://127.0.0.1:{port}") == 403
         assert refused(port, path="/wrong-token", origin=f"http://127.0.0.1:{port}") == 403
         assert refused(port, path="/s3cret-token", origin="http://evil.example") == 403
-        with open_websocket(port, path="/s3cret-token", origin=f"http://127.0.0.1:{port}") as websocket:
+        with open_websocket(
+            port, path="/s3cret-token", origin=f"http://127.0.0.1:{port}"
+        ) as websocket:
             assert websocket.recv(timeout=10)
         with pytest.raises(urllib.error.HTTPError) as page:
             urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=10)
@@ -123,7 +126,10 @@ def test_the_share_button_is_hidden_and_share_requests_refused_unless_asked_for(
     with caplog.at_level(logging.WARNING, logger="judo.gui"):
         for handler in server._websock_server._incoming_handlers[_messages.ShareUrlRequest]:
             handler(0, _messages.ShareUrlRequest())
-    assert "asked for a public share URL; refused (start the app with --share to allow it)" in caplog.text
+    assert (
+        "asked for a public share URL; refused (start the app with --share to allow it)"
+        in caplog.text
+    )
     assert server._share_tunnel is None
 
 
@@ -140,7 +146,11 @@ def test_share_shows_the_button(port):
 
 @pytest.mark.parametrize("port", [-1, 65536, 99999, 8080.5, "8080", True])
 def test_a_port_out_of_range_is_refused_at_the_boundary(port):
-    with pytest.raises(ConfigError, match=r"port must be an integer in 0\.\.65535 \(0 picks a free port\), got "):
+    with pytest.raises(
+        ConfigError,
+        match=r"port must be an integer in 0\.\.65535 "
+        r"\(0 picks a free port\), got ",
+    ):
         check_port(port)
     with pytest.raises(ConfigError):
         App("cartpole", "ps", port=port)  # type: ignore[arg-type]
@@ -151,7 +161,10 @@ def test_a_port_out_of_range_is_refused_at_the_boundary(port):
     [
         ("999.1.1.1", "cannot listen on '999.1.1.1': not a valid IPv4 address; use 127.0.0.1"),
         ("10.255.255.1", "it is not an address of this machine"),
-        ("no-such-host.invalid", "cannot listen on 'no-such-host.invalid': the name does not resolve"),
+        (
+            "no-such-host.invalid",
+            "cannot listen on 'no-such-host.invalid': the name does not resolve",
+        ),
     ],
 )
 def test_a_host_that_is_not_this_machine_fails_fast(host, message):
@@ -169,7 +182,11 @@ def test_a_host_that_is_not_this_machine_fails_fast(host, message):
     [
         ("", "token must not be empty or blank (it would let every URL in)"),
         ("   ", "token must not be empty or blank"),
-        ("a/b/c/d/e/f", "token may only hold the URL-safe characters A-Z, a-z, 0-9, '_' and '-', got 'a/b/c/d/e/f'"),
+        (
+            "a/b/c/d/e/f",
+            "token may only hold the URL-safe characters A-Z, a-z, 0-9, '_' and '-', got "
+            "'a/b/c/d/e/f'",
+        ),
         ("two words here", "with ' '"),
         ("tok?en=1#frag", "with '#', '=', '?'"),
         ("..........", "with '.'"),
@@ -198,14 +215,22 @@ def test_a_token_is_kept_generated_beyond_loopback_and_optional_on_loopback():
 
 
 def test_an_empty_token_on_the_command_line_exits_2(capsys):
-    assert launch.main(["--host", "0.0.0.0", "--token", "", "--headless", "--duration", "0.01"]) == 2
+    assert (
+        launch.main(["--host", "0.0.0.0", "--token", "", "--headless", "--duration", "0.01"]) == 2
+    )
     err = capsys.readouterr().err
     assert "token must not be empty or blank" in err and "Traceback" not in err
 
 
 def test_loopback_addresses():
-    assert all(is_loopback(h) for h in ("localhost", "127.0.0.1", "127.1.2.3", "::1", "[::1]", "app.localhost"))
-    assert not any(is_loopback(h) for h in ("0.0.0.0", "::", "192.168.1.5", "example.com", "localhost.evil.example"))
+    assert all(
+        is_loopback(h)
+        for h in ("localhost", "127.0.0.1", "127.1.2.3", "::1", "[::1]", "app.localhost")
+    )
+    assert not any(
+        is_loopback(h)
+        for h in ("0.0.0.0", "::", "192.168.1.5", "example.com", "localhost.evil.example")
+    )
 
 
 def handshake(path: str = "/", **headers: str) -> Request:
@@ -215,25 +240,35 @@ def handshake(path: str = "/", **headers: str) -> Request:
 def test_the_policy_without_a_token():
     policy = AccessPolicy()
     assert policy.refusal(handshake(Host="127.0.0.1:8080", Origin="http://127.0.0.1:8080")) is None
-    assert policy.refusal(handshake(Host="localhost:9000", Origin="http://localhost:9000")) is None  # an SSH tunnel
+    # an SSH tunnel
+    assert policy.refusal(handshake(Host="localhost:9000", Origin="http://localhost:9000")) is None
     assert policy.refusal(handshake(Host="[::1]:8080", Origin="http://[::1]:8080")) is None
     assert policy.refusal(handshake(Host="127.0.0.1:8080")) is None  # no Origin: not a browser
     assert "cross-origin" in policy.refusal(handshake(Host="127.0.0.1:8080", Origin="null"))
-    assert "cross-origin" in policy.refusal(handshake(Host="127.0.0.1:8080", Origin="http://127.0.0.1:8081"))
+    assert "cross-origin" in policy.refusal(
+        handshake(Host="127.0.0.1:8080", Origin="http://127.0.0.1:8081")
+    )
     assert "only answers loopback" in policy.refusal(
         handshake(Host="evil.example:8080", Origin="http://evil.example:8080")
     )
-    two_hosts = Request("/", Headers([("Upgrade", "websocket"), ("Host", "127.0.0.1:1"), ("Host", "evil.example")]))
+    two_hosts = Request(
+        "/", Headers([("Upgrade", "websocket"), ("Host", "127.0.0.1:1"), ("Host", "evil.example")])
+    )
     assert "expected one Host" in policy.refusal(two_hosts)
 
 
 def test_the_policy_with_a_token():
     policy = AccessPolicy("tok")
-    assert policy.refusal(handshake("/tok", Host="10.0.0.2:8080", Origin="http://10.0.0.2:8080")) is None
+    assert (
+        policy.refusal(handshake("/tok", Host="10.0.0.2:8080", Origin="http://10.0.0.2:8080"))
+        is None
+    )
     assert policy.refusal(handshake("/tok", Host="10.0.0.2:8080")) is None
     assert "access token" in policy.refusal(handshake("/", Host="10.0.0.2:8080"))
     assert "access token" in policy.refusal(handshake("/tokx", Host="10.0.0.2:8080"))
-    assert "cross-origin" in policy.refusal(handshake("/tok", Host="10.0.0.2:8080", Origin="http://evil.example"))
+    assert "cross-origin" in policy.refusal(
+        handshake("/tok", Host="10.0.0.2:8080", Origin="http://evil.example")
+    )
     page = Request("/tok/", Headers())
     assert policy.page_request(page).path == "/"  # type: ignore[union-attr]
     assert "needs its access token" in policy.page_request(Request("/", Headers()))  # type: ignore[operator]
@@ -258,15 +293,20 @@ def test_replay_follows_the_apps_access_rules(port, tmp_path):
     with pytest.raises(ConfigError, match="token must not be empty or blank"):
         Replay(path, host="0.0.0.0", token=" ")
     replay = Replay(path, host="0.0.0.0", port=port)
-    assert replay.token is not None and len(replay.token) >= 20  # generated beyond loopback, as the app's
+    # generated beyond loopback, as the app's
+    assert replay.token is not None and len(replay.token) >= 20
     replay.start()
     try:
         assert replay.url == f"http://localhost:{port}/{replay.token}"
         assert refused(port) == 403  # even a local program needs the token
         assert refused(port, path="/wrong-token", origin=f"http://127.0.0.1:{port}") == 403
-        with open_websocket(port, path=f"/{replay.token}", origin=f"http://127.0.0.1:{port}") as websocket:
+        with open_websocket(
+            port, path=f"/{replay.token}", origin=f"http://127.0.0.1:{port}"
+        ) as websocket:
             assert websocket.recv(timeout=10)
-        with urllib.request.urlopen(replay.url.replace("localhost", "127.0.0.1"), timeout=10) as page:
+        with urllib.request.urlopen(
+            replay.url.replace("localhost", "127.0.0.1"), timeout=10
+        ) as page:
             assert page.status == 200
     finally:
         replay.stop()

@@ -1,13 +1,13 @@
-"""The camera in a real browser: every built-in task opens framed with a margin, fills a fair share of
-the view, and stays framed, with a floor under it, while it runs (issue 31).
+"""The camera in a real browser: every built-in task opens framed with a margin, fills a fair share
+of the view, and stays framed, with a floor under it, while it runs (issue 31).
 
 Framing is measured as the page's own camera (position, look-at, field of view and aspect, as the
-page reports them) sees the robot: the corners of the bounding box of every drawn geom of every
-body that moves, projected to the view's [-1, 1] coordinates. The docked GUI panel covers none of
-the canvas, so the whole canvas counts. One app and one page serve all twelve tasks (switching
-between them), so the test costs one app start. Each task runs JUDO_CAMERA_SECONDS wall seconds
-(3 by default; 10 for a full check). Screenshots go to test-artifacts/camera_<task>.png; the page
-draws its view at half resolution (conftest.SCENE_DPR): the camera it reports is the same (its aspect to
+page reports them) sees the robot: the corners of the bounding box of every drawn geom of every body
+that moves, projected to the view's [-1, 1] coordinates. The docked GUI panel covers none of the
+canvas, so the whole canvas counts. One app and one page serve all twelve tasks (switching between
+them), so the test costs one app start. Each task runs JUDO_CAMERA_SECONDS wall seconds (3 by
+default; 10 for a full check). Screenshots go to test-artifacts/camera_<task>.png; the page draws
+its view at half resolution (conftest.SCENE_DPR): the camera it reports is the same (its aspect to
 within a pixel's rounding).
 """
 
@@ -24,12 +24,14 @@ from judo.runtime.app import App
 from judo.runtime.gui.camera import project, reach_points
 from judo.runtime.gui.scene import geom_box_corners
 
-pytestmark = [pytest.mark.browser, pytest.mark.slow]  # every task runs for RUN_SECONDS: about 2 min in all
+# every task runs for RUN_SECONDS: about 2 min in all
+pytestmark = [pytest.mark.browser, pytest.mark.slow]
 
 RUN_SECONDS = float(os.environ.get("JUDO_CAMERA_SECONDS", "3"))
 SAMPLE_PERIOD = 0.2
 IN_VIEW = 0.97
-"""Every projected box corner of the moving bodies stays within this much of the way to the view's edges."""
+"""Every projected box corner of the moving bodies stays within this much of the way to the view's
+edges."""
 REACH_SHARE = 0.2
 """The task's reach (its geoms, goals and where it can swing them) spans at least this share of the
 view's width or height while it runs: framed close, not from afar. Framing puts it at 0.8 when the
@@ -68,7 +70,10 @@ def in_view(app: App, points: np.ndarray) -> np.ndarray:
     sent = app.gui.camera_sent(client.client_id)
     assert sent is not None, "the GUI sent the page no camera"
     position, look_at = sent
-    view = [project(p, position, look_at, camera.up_direction, camera.fov, camera.aspect) for p in points]
+    view = [
+        project(p, position, look_at, camera.up_direction, camera.fov, camera.aspect)
+        for p in points
+    ]
     return np.array([(9.0, 9.0) if v is None else v for v in view]).reshape(-1, 2)
 
 
@@ -83,7 +88,8 @@ def framed_bodies(model: mujoco.MjModel, focus: int) -> set[int]:
             body = int(model.body_parentid[body])
         return body
 
-    def only_turns(body: int) -> bool:  # every joint between `body` and the world is a hinge or a ball
+    # every joint between `body` and the world is a hinge or a ball
+    def only_turns(body: int) -> bool:
         turning = {mujoco.mjtJoint.mjJNT_HINGE, mujoco.mjtJoint.mjJNT_BALL}
         while body != 0:
             first, count = model.body_jntadr[body], model.body_jntnum[body]
@@ -126,7 +132,9 @@ def floor_is_under(app: App, point: np.ndarray) -> bool:
     scene = app.gui.scene
     for g, (frame, _) in scene.floors.items():
         local = scene.data.geom_xmat[g].reshape(3, 3).T @ (point - scene.data.geom_xpos[g])
-        if np.any(np.abs(local[:2] - np.asarray(frame.position)[:2]) > scene.model.geom_size[g, :2]):
+        if np.any(
+            np.abs(local[:2] - np.asarray(frame.position)[:2]) > scene.model.geom_size[g, :2]
+        ):
             return False
     return True
 
@@ -136,14 +144,21 @@ def test_every_task_is_framed_with_a_margin_while_it_runs(task, app, page, wait_
     if app.session.task_name != task:
         app.commands.switch_task(task)
     wait_until(
-        lambda: app.session.task_name == task and app.gui.shown_generation == app.session.generation,
+        lambda: (
+            app.session.task_name == task and app.gui.shown_generation == app.session.generation
+        ),
         timeout=60,
         what=f"the GUI to show {task}",
     )
     page.get_by_text(f"Task: {task}", exact=True).wait_for()
     (client,) = app.gui.server.get_clients().values()
     wait_until(  # the page shows the framing the GUI sends it
-        lambda: np.linalg.norm(np.asarray(client.camera.look_at) - app.gui.camera_sent(client.client_id)[1]) < 0.05,
+        lambda: (
+            np.linalg.norm(
+                np.asarray(client.camera.look_at) - app.gui.camera_sent(client.client_id)[1]
+            )
+            < 0.05
+        ),
         timeout=30,
         what=f"the page's camera to take the framing of {task}",
     )
@@ -153,17 +168,24 @@ def test_every_task_is_framed_with_a_margin_while_it_runs(task, app, page, wait_
         robot, reach = (in_view(app, points) for points in robot_and_reach(app))
         robot_share, reach_share = max(robot_share, span(robot)), max(reach_share, span(reach))
         worst = max(worst, float(np.abs(robot).max()))
-        assert worst < IN_VIEW, f"{task}: the robot reached {worst:.2f} of the way to the view's edge"
+        assert worst < IN_VIEW, (
+            f"{task}: the robot reached {worst:.2f} of the way to the view's edge"
+        )
         focus = app.gui.scene.data.xpos[app.gui.follower.body]
-        assert floor_is_under(app, focus), f"{task}: the robot at {np.round(focus, 2)} is off the drawn floor"
+        assert floor_is_under(app, focus), (
+            f"{task}: the robot at {np.round(focus, 2)} is off the drawn floor"
+        )
         time.sleep(SAMPLE_PERIOD)
     assert app.stats.num_plans() > start_plans, f"{task} did not plan while the camera was watched"
     page.screenshot(path=artifacts / f"camera_{task}.png")
     print(
-        f"{task}: the robot came {worst:.2f} of the way to the view's edge, spanned {robot_share:.2f} of the view,"
+        f"{task}: the robot came {worst:.2f} of the way to the view's edge, spanned "
+        f"{robot_share:.2f} of the view,"
         f" and its reach {reach_share:.2f}"
     )
-    assert reach_share > REACH_SHARE, f"{task}: what it can reach spans only {reach_share:.2f} of the view"
+    assert reach_share > REACH_SHARE, (
+        f"{task}: what it can reach spans only {reach_share:.2f} of the view"
+    )
 
 
 def test_following_keeps_the_pages_view_direction_and_distance(app, page, wait_until):
@@ -171,7 +193,11 @@ def test_following_keeps_the_pages_view_direction_and_distance(app, page, wait_u
     made the camera fall behind a walking walker and tilt until the walker left the view."""
     if app.session.task_name != "walker":
         app.commands.switch_task("walker")
-    wait_until(lambda: app.gui.shown_generation == app.session.generation, timeout=60, what="the GUI to show walker")
+    wait_until(
+        lambda: app.gui.shown_generation == app.session.generation,
+        timeout=60,
+        what="the GUI to show walker",
+    )
     page.get_by_text("Task: walker", exact=True).wait_for()
     app.commands.reset_task()
     (client,) = app.gui.server.get_clients().values()
@@ -187,4 +213,6 @@ def test_following_keeps_the_pages_view_direction_and_distance(app, page, wait_u
         time.sleep(SAMPLE_PERIOD)
     moved = float(np.linalg.norm(app.gui.scene.data.xpos[torso] - start))
     assert moved > 0.3, f"the walker moved only {moved:.2f} m: nothing to follow"
-    assert worst < 0.25, f"the camera's offset from the walker changed by {worst:.2f} m while following"
+    assert worst < 0.25, (
+        f"the camera's offset from the walker changed by {worst:.2f} m while following"
+    )

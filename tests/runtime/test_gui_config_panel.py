@@ -42,7 +42,9 @@ class DemoConfig(Config):
     """A dropdown."""
     label: str = "demo"
     """A text box."""
-    goal: np.ndarray = np_1d_field([0.1, -0.2], names=["x", "y"], mins=[-1, -1], maxs=[1, 1], steps=[0.05, 0.05])
+    goal: np.ndarray = np_1d_field(
+        [0.1, -0.2], names=["x", "y"], mins=[-1, -1], maxs=[1, 1], steps=[0.05, 0.05]
+    )
     """A named array."""
     weights: np.ndarray = field(default_factory=lambda: np.array([1.0, 2.0, 3.0]))
     """An array without np_1d_field metadata."""
@@ -60,7 +62,9 @@ def server():
 @pytest.fixture
 def panel(server):
     edits = []
-    panel = ConfigPanel(server.gui, "Demo", DemoConfig(), lambda updates: edits.append(updates), order=1)
+    panel = ConfigPanel(
+        server.gui, "Demo", DemoConfig(), lambda updates: edits.append(updates), order=1
+    )
     yield panel
     panel.remove()
 
@@ -76,7 +80,11 @@ def test_each_supported_field_gets_the_widget_its_type_asks_for(panel):
     assert isinstance(widgets(panel, "rollouts")[0], viser.GuiSliderHandle)
     assert isinstance(widgets(panel, "enabled")[0], viser.GuiCheckboxHandle)
     mode = widgets(panel, "mode")[0]
-    assert isinstance(mode, viser.GuiDropdownHandle) and mode.options == ("fast", "slow") and mode.value == "slow"
+    assert (
+        isinstance(mode, viser.GuiDropdownHandle)
+        and mode.options == ("fast", "slow")
+        and mode.value == "slow"
+    )
     assert isinstance(widgets(panel, "label")[0], viser.GuiTextHandle)
     assert [w.label for w in widgets(panel, "goal")] == ["x", "y"]
     assert [w.label for w in widgets(panel, "weights")] == ["0", "1", "2"]
@@ -87,7 +95,8 @@ def test_sliders_use_the_declared_range_widened_to_the_value_or_a_default_one(pa
     assert (rollouts.min, rollouts.max, rollouts.step, rollouts.value) == (1, 64, 1, 16)
     assert isinstance(rollouts.value, int)
     gain = widgets(panel, "gain")[0]
-    assert (gain.min, gain.max, gain.step, gain.value) == (0.0, 3.0, 0.5, 3.0)  # widened to hold 3.0
+    # widened to hold 3.0
+    assert (gain.min, gain.max, gain.step, gain.value) == (0.0, 3.0, 0.5, 3.0)
     free_float = widgets(panel, "free_float")[0]
     assert (free_float.min, free_float.max, free_float.step) == (0.0, 0.5, 0.005)
     free_int = widgets(panel, "free_int")[0]
@@ -112,7 +121,9 @@ def test_show_puts_a_config_into_the_widgets_and_widens_ranges(panel):
     np.testing.assert_array_equal(panel.value_of("goal"), [0.5, 0.5])
 
 
-def test_a_value_outside_a_sliders_range_is_refused_naming_the_range_and_the_option_that_sets_it(panel):
+def test_a_value_outside_a_sliders_range_is_refused_naming_the_range_and_the_option_that_sets_it(
+    panel,
+):
     def check(name, values, flag=None):
         check_slider_range(name, widgets(panel, name), values, name in ("goal", "weights"), flag)
 
@@ -121,14 +132,21 @@ def test_a_value_outside_a_sliders_range_is_refused_naming_the_range_and_the_opt
     with pytest.raises(ConfigError) as refused:  # 1e9 typed into a slider's box arrives as 19
         check("rollouts", [65], "--optimizer-config.rollouts")
     assert str(refused.value) == (
-        "rollouts 65 is outside the slider's 1 to 64; set a larger value with --config or --optimizer-config.rollouts"
+        "rollouts 65 is outside the slider's 1 to 64; set a larger value with --config or "
+        "--optimizer-config.rollouts"
     )
     check("gain", [3.0])  # a range widened to a value set elsewhere keeps it
     with pytest.raises(
-        ConfigError, match=r"^gain 3.5 is outside the slider's 0 to 3; set a larger value with --config "
+        ConfigError,
+        match=r"^gain 3.5 is outside the slider's 0 "
+        r"to 3; set a larger value with --config ",
     ):
         check("gain", [3.5])
-    with pytest.raises(ConfigError, match=r"^free_float -0.1 is outside the slider's 0 to 0.5; set a smaller value"):
+    with pytest.raises(
+        ConfigError,
+        match=r"^free_float -0.1 is outside the "
+        r"slider's 0 to 0.5; set a smaller value",
+    ):
         check("free_float", [-0.1])
     check("goal", [1.0, -1.0])  # each entry of an array against its own slider
     with pytest.raises(
@@ -138,16 +156,23 @@ def test_a_value_outside_a_sliders_range_is_refused_naming_the_range_and_the_opt
     ):
         check("goal", [0.0, -1.5])
     check("label", ["any text"])  # only sliders have a range
-    panel.show(DemoConfig(rollouts=100))  # a value set elsewhere widens the slider, which then takes it
+    # a value set elsewhere widens the slider, which then takes it
+    panel.show(DemoConfig(rollouts=100))
     check("rollouts", [100])
 
 
 def test_a_refusal_names_the_command_line_option_that_really_sets_the_field():
     flags = {
-        kind: config_flag(kind, field) for kind, field in (("controller", "max_plan_age"), ("optimizer", "num_nodes"))
+        kind: config_flag(kind, field)
+        for kind, field in (("controller", "max_plan_age"), ("optimizer", "num_nodes"))
     }
-    assert flags == {"controller": "--controller.max-plan-age", "optimizer": "--optimizer-config.num-nodes"}
-    _, configs = parse([flags["controller"], "0", flags["optimizer"], "6"], default_configs("cartpole", "mppi"))
+    assert flags == {
+        "controller": "--controller.max-plan-age",
+        "optimizer": "--optimizer-config.num-nodes",
+    }
+    _, configs = parse(
+        [flags["controller"], "0", flags["optimizer"], "6"], default_configs("cartpole", "mppi")
+    )
     assert (configs["controller"].max_plan_age, configs["optimizer"].num_nodes) == (0.0, 6)
 
 
@@ -196,12 +221,15 @@ def test_a_range_over_two_decades_gets_one_box_in_real_units(server):
     panel = ConfigPanel(server.gui, "Log", LogConfig(), on_edit, order=2)
     try:
         (number,) = panel.handles("temperature")  # one widget: no second slider over log10
-        assert isinstance(number, viser.GuiTextHandle) and number.value == "0.1"  # a page sends any text typed
+        # a page sends any text typed
+        assert isinstance(number, viser.GuiTextHandle) and number.value == "0.1"
         assert number.hint.endswith("(usually 0.001 to 10; type e.g. 1e-3)")
         number.value = "1e-2"
         assert panel.value_of("temperature") == 0.01
         number.value = "abc"
-        with pytest.raises(ConfigError, match="temperature must be a number, like 0.25 or 1e-3; got 'abc'"):
+        with pytest.raises(
+            ConfigError, match="temperature must be a number, like 0.25 or 1e-3; got 'abc'"
+        ):
             panel.value_of("temperature")
         assert len(panel.handles("weight")) == 1
     finally:
@@ -209,7 +237,12 @@ def test_a_range_over_two_decades_gets_one_box_in_real_units(server):
 
 
 def test_a_log_fields_box_shows_numbers_briefly_and_exactly():
-    assert [format_number(v) for v in (20.0, 0.3, 1e-5, 0.1 + 0.2)] == ["20", "0.3", "1e-05", "0.30000000000000004"]
+    assert [format_number(v) for v in (20.0, 0.3, 1e-5, 0.1 + 0.2)] == [
+        "20",
+        "0.3",
+        "1e-05",
+        "0.30000000000000004",
+    ]
     assert parse_number("sigma", " 2.5e-3 ") == 0.0025
     with pytest.raises(ConfigError, match="sigma must be a number, like 0.25 or 1e-3; got ''"):
         parse_number("sigma", "")

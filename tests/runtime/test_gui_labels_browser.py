@@ -29,14 +29,18 @@ LAYOUTS = """(labels) => labels.map((label) => {
   }
   lines.push(line);
   return {lines: lines, overflows: label.parentElement.scrollWidth > label.parentElement.clientWidth + 1};
-})"""
-"""JS, for a list of labels: the text of each line each was laid out on, and whether its box overflows
-sideways (all in one round trip: a busy renderer answers each slowly)."""
+})"""  # noqa: E501
+"""JS, for a list of labels: the text of each line each was laid out on, and whether its box
+overflows sideways (all in one round trip: a busy renderer answers each slowly)."""
 
 
 def broken_inside_a_word(lines: list[str]) -> list[str]:
     """The line breaks of `lines` (a label's text as laid out) that do not fall at a space."""
-    return [f"{a!r} | {b!r}" for a, b in itertools.pairwise(lines) if not (a.endswith(" ") or b.startswith(" "))]
+    return [
+        f"{a!r} | {b!r}"
+        for a, b in itertools.pairwise(lines)
+        if not (a.endswith(" ") or b.startswith(" "))
+    ]
 
 
 def test_line_breaks_are_found_only_at_spaces():
@@ -68,13 +72,22 @@ def test_every_panel_label_fits_or_wraps_between_words(
         page.get_by_text(f"Task: {task}", exact=True).wait_for()
         page.get_by_text(f"Optimizer: {optimizer}", exact=True).wait_for()
         pause_scene(page)
-        expected = {field_label(name) for panel in app.gui.panels.values() for name in panel.field_names}
-        laid_out = {"".join(layout["lines"]): layout for layout in page.locator("label[for]").evaluate_all(LAYOUTS)}
+        expected = {
+            field_label(name) for panel in app.gui.panels.values() for name in panel.field_names
+        }
+        laid_out = {
+            "".join(layout["lines"]): layout
+            for layout in page.locator("label[for]").evaluate_all(LAYOUTS)
+        }
         assert expected <= set(laid_out), f"labels not on the page: {expected - set(laid_out)}"
-        wrapped = {text: layout["lines"] for text, layout in laid_out.items() if len(layout["lines"]) > 1}
+        wrapped = {
+            text: layout["lines"] for text, layout in laid_out.items() if len(layout["lines"]) > 1
+        }
         assert wrapped  # the check sees wraps: some labels take two lines
         for text, layout in laid_out.items():
-            assert broken_inside_a_word(layout["lines"]) == [], f"{text!r} wraps inside a word: {layout['lines']}"
+            assert broken_inside_a_word(layout["lines"]) == [], (
+                f"{text!r} wraps inside a word: {layout['lines']}"
+            )
             assert not layout["overflows"], f"{text!r} overflows its box"
         page.screenshot(path=artifacts / f"labels_{task}_{optimizer}.png")
     finally:

@@ -1,5 +1,6 @@
-"""One websocket message never takes the GUI down: raw clients send the edits a page never would, and
-every other page stays open, nothing is applied or kept in viser's state, and later pages still load."""
+"""One websocket message never takes the GUI down: raw clients send the edits a page never would,
+and every other page stays open, nothing is applied or kept in viser's state, and later pages still
+load."""
 
 import logging
 import math
@@ -52,11 +53,16 @@ def page(port: int, register: bool = True):
 
 def edit(websocket, handle, updates: dict) -> None:
     """Send `updates` for widget `handle` as a page's GuiUpdateMessage, whatever their values."""
-    websocket.send(msgspec.msgpack.encode({"type": "GuiUpdateMessage", "uuid": handle._impl.uuid, "updates": updates}))
+    websocket.send(
+        msgspec.msgpack.encode(
+            {"type": "GuiUpdateMessage", "uuid": handle._impl.uuid, "updates": updates}
+        )
+    )
 
 
 def frames_for(websocket, seconds: float) -> int:
-    """How many frames arrive in `seconds`; raises ConnectionClosed if the server closes the page."""
+    """How many frames arrive in `seconds`; raises ConnectionClosed if the server closes the
+    page."""
     count, end = 0, time.monotonic() + seconds
     while (left := end - time.monotonic()) > 0:
         try:
@@ -80,7 +86,8 @@ def poison(app: App) -> list[tuple[object, dict]]:
     (spline_order,) = app.gui.panels["controller"].handles("spline_order")
     (noise_ramp,) = app.gui.panels["optimizer"].handles("use_noise_ramp")
     return [
-        (num_rollouts, {"value": 1e20}),  # viser casts to int(1e20), which msgpack cannot send: 1011 for all
+        # viser casts to int(1e20), which msgpack cannot send: 1011 for all
+        (num_rollouts, {"value": 1e20}),
         (num_rollouts, {"value": 2**63}),
         (horizon, {"value": math.nan}),
         (horizon, {"value": "abc"}),
@@ -94,16 +101,22 @@ def poison(app: App) -> list[tuple[object, dict]]:
 def test_a_poison_edit_closes_no_page_and_is_neither_applied_nor_kept(app, caplog):
     port, configs = app.port, app.configs()
     before = [(handle, handle.value) for handle, _ in poison(app)]
-    with caplog.at_level(logging.WARNING, logger="judo.gui"), page(port) as first, page(port) as second:
+    with (
+        caplog.at_level(logging.WARNING, logger="judo.gui"),
+        page(port) as first,
+        page(port) as second,
+    ):
         assert frames_for(first, 1.0) > 0 and frames_for(second, 1.0) > 0
         with page(port, register=False) as stranger, page(port) as sender:
             frames_for(sender, 0.5)
-            edit(stranger, *poison(app)[0])  # alone first: unguarded, viser closes every page with 1011
+            # alone first: unguarded, viser closes every page with 1011
+            edit(stranger, *poison(app)[0])
             assert frames_for(first, 1.5) > 0 and frames_for(second, 0.5) > 0
             for handle, updates in poison(app):
                 edit(stranger, handle, updates)
                 edit(sender, handle, updates)
-            edit(stranger, app.gui.panels["optimizer"].handles("num_rollouts")[0], {"value": 20})  # unregistered
+            # unregistered
+            edit(stranger, app.gui.panels["optimizer"].handles("num_rollouts")[0], {"value": 20})
             assert frames_for(sender, 1.0) > 0  # its page is sent the values in force again
         for websocket in (first, second):  # both still served after the poison
             assert frames_for(websocket, 1.5) > 0
@@ -120,4 +133,8 @@ def test_an_ordinary_edit_from_a_registered_page_is_still_applied(app, wait_unti
     with page(app.port) as sender:
         frames_for(sender, 0.5)
         edit(sender, num_rollouts, {"value": 24.0})  # a browser sends every number as a float
-        wait_until(lambda: app.configs()["optimizer"].num_rollouts == 24, timeout=10, what="num_rollouts = 24")
+        wait_until(
+            lambda: app.configs()["optimizer"].num_rollouts == 24,
+            timeout=10,
+            what="num_rollouts = 24",
+        )

@@ -1,4 +1,5 @@
-"""The GUI depends on the command port (judo.runtime.commands.AppPort), never on the App; the App implements it."""
+"""The GUI depends on the command port (judo.runtime.commands.AppPort), never on the App; the App
+implements it."""
 
 import ast
 import inspect
@@ -19,14 +20,15 @@ ALLOWED_RUNTIME_IMPORTS = {
     "judo.runtime.status",
     "judo.runtime.snapshots",
 }
-"""What the GUI may import from judo.runtime besides its own package: the port, the value types the port's members
-return (the status line and figures, the published snapshots), each from the module that defines it, and address
-checks for its server."""
+"""What the GUI may import from judo.runtime besides its own package: the port, the value types the
+port's members return (the status line and figures, the published snapshots), each from the module
+that defines it, and address checks for its server."""
 
 
 def _imports(path: Path) -> set[str]:
-    """Every module `path` imports, at any level (under TYPE_CHECKING too), as absolute dotted names;
-    `from pkg import name` counts as both `pkg` and `pkg.name`, since `name` may be a module."""
+    """Every module `path` imports, at any level (under TYPE_CHECKING too), as absolute dotted
+    names; `from pkg import name` counts as both `pkg` and `pkg.name`, since `name` may be a
+    module."""
     package = "judo.runtime.gui"
     found: set[str] = set()
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
@@ -48,10 +50,14 @@ def _port_members() -> dict[str, object]:
 
 def test_the_gui_package_imports_nothing_from_the_app():
     files = sorted(GUI_DIR.glob("*.py"))
-    assert len(files) >= 10, f"expected the GUI package's modules in {GUI_DIR}, found {[f.name for f in files]}"
+    assert len(files) >= 10, (
+        f"expected the GUI package's modules in {GUI_DIR}, found {[f.name for f in files]}"
+    )
     imported = {f.name: _imports(f) for f in files}
     from_app = {
-        name: sorted(m for m in modules if m == "judo.runtime.app" or m.startswith("judo.runtime.app."))
+        name: sorted(
+            m for m in modules if m == "judo.runtime.app" or m.startswith("judo.runtime.app.")
+        )
         for name, modules in imported.items()
     }
     assert {name: found for name, found in from_app.items() if found} == {}
@@ -86,7 +92,9 @@ def test_the_gui_reads_and_calls_only_members_of_the_port():
             )
             if is_app:
                 used.setdefault(node.attr, set()).add(path.name)
-    assert {"session", "commands", "report", "on_state"} <= set(used), f"the GUI's uses of the app: {used}"
+    assert {"session", "commands", "report", "on_state"} <= set(used), (
+        f"the GUI's uses of the app: {used}"
+    )
     assert {name: files for name, files in used.items() if name not in members} == {}
 
 
@@ -96,7 +104,10 @@ def test_the_gui_calls_only_commands_of_the_command_port():
     for path in sorted(GUI_DIR.glob("*.py")):
         for node in ast.walk(ast.parse(path.read_text(), str(path))):
             if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Attribute):
-                if node.value.attr == "commands" and ast.unparse(node.value.value) in ("app", "self.app"):
+                if node.value.attr == "commands" and ast.unparse(node.value.value) in (
+                    "app",
+                    "self.app",
+                ):
                     used.setdefault(node.attr, set()).add(path.name)
     assert {"update_config", "pause", "move_goal"} <= set(used), f"the GUI's commands: {used}"
     assert {name: files for name, files in used.items() if name not in members} == {}
@@ -125,18 +136,30 @@ def test_the_app_implements_every_member_of_the_port(unstarted_app):
                 f"AppPort.{name} is a read-only property; App has {on_class!r} for it"
             )
             wanted = typing.get_type_hints(declared.fget)["return"]
-            if getattr(wanted, "_is_protocol", False):  # a nested port: its methods exist with the same signature
+            # a nested port: its methods exist with the same signature
+            if getattr(wanted, "_is_protocol", False):
                 value = getattr(app, name)
                 for method in (m for m in vars(wanted) if not m.startswith("_")):
                     got = getattr(value, method)
-                    assert _parameters(got) == _parameters(getattr(wanted, method))[1:], f"App.{name}.{method}"
+                    assert _parameters(got) == _parameters(getattr(wanted, method))[1:], (
+                        f"App.{name}.{method}"
+                    )
             else:
-                kinds = typing.get_args(wanted) if isinstance(wanted, types.UnionType) else (wanted,)
-                kinds = tuple(type(None) if kind is None else typing.get_origin(kind) or kind for kind in kinds)
+                kinds = (
+                    typing.get_args(wanted) if isinstance(wanted, types.UnionType) else (wanted,)
+                )
+                kinds = tuple(
+                    type(None) if kind is None else typing.get_origin(kind) or kind
+                    for kind in kinds
+                )
                 assert isinstance(getattr(app, name), kinds), f"App.{name}"
         else:
-            assert inspect.isfunction(on_class), f"AppPort.{name} is a method; App has {on_class!r} for it"
-            assert _parameters(on_class) == _parameters(declared), f"App.{name} takes other parameters than the port"
+            assert inspect.isfunction(on_class), (
+                f"AppPort.{name} is a method; App has {on_class!r} for it"
+            )
+            assert _parameters(on_class) == _parameters(declared), (
+                f"App.{name} takes other parameters than the port"
+            )
 
 
 def test_the_status_types_are_defined_once_and_neither_the_app_nor_the_port_re_exports_them():
@@ -151,4 +174,8 @@ def test_the_status_types_are_defined_once_and_neither_the_app_nor_the_port_re_e
         assert getattr(home, name).__module__ == home.__name__, name
     for name in (*homes, "ConfigKind", "CONFIG_KINDS"):
         assert name not in app_module.__all__ and name not in commands.__all__, name
-    assert registry.CONFIG_KINDS == typing.get_args(registry.ConfigKind) == ("controller", "optimizer", "task")
+    assert (
+        registry.CONFIG_KINDS
+        == typing.get_args(registry.ConfigKind)
+        == ("controller", "optimizer", "task")
+    )

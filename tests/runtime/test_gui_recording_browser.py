@@ -1,7 +1,9 @@
-"""The GUI's record toggle in headless Chromium: ticking and unticking it writes a file replay opens.
+"""The GUI's record toggle in headless Chromium: ticking and unticking it writes a file replay
+opens.
 
-(A browser test lives in a test_gui_*_browser.py file: the session's Chromium keeps playwright's event loop in
-the main thread once it starts, so it must start after the tests that call App.run() there.)"""
+(A browser test lives in a test_gui_*_browser.py file: the session's Chromium keeps playwright's
+event loop in the main thread once it starts, so it must start after the tests that call App.run()
+there.)"""
 
 import pytest
 
@@ -35,10 +37,14 @@ def test_the_record_toggle_in_the_browser_writes_a_file_that_replay_opens(
         record.click()
         wait_until(lambda: app.recording is not None, timeout=30, what="the recording to start")
         plans = app.stats.num_plans()
-        wait_until(lambda: app.stats.num_plans() >= plans + 3, timeout=30, what="three plans recorded")
+        wait_until(
+            lambda: app.stats.num_plans() >= plans + 3, timeout=30, what="three plans recorded"
+        )
         record.click()
         wait_until(lambda: app.recording is None, timeout=30, what="the recording to be written")
-        wait_until(lambda: "recorded " in app.status.message, timeout=10, what="the status to say so")
+        wait_until(
+            lambda: "recorded " in app.status.message, timeout=10, what="the status to say so"
+        )
     finally:
         page.close()
         app.stop()

@@ -12,7 +12,10 @@ def test_switches_leave_no_removed_widgets_in_the_servers_replay_buffer(port, wa
         def switch(optimizer: str) -> None:
             app.commands.switch_optimizer(optimizer)
             wait_until(
-                lambda: app.session.optimizer_name == optimizer and app.gui.shown_generation == app.session.generation,
+                lambda: (
+                    app.session.optimizer_name == optimizer
+                    and app.gui.shown_generation == app.session.generation
+                ),
                 what=f"the GUI to show {optimizer}",
             )
 

@@ -27,8 +27,14 @@ def test_a_panel_range_replaces_the_config_classes_slider_range():
         )
         own_slider, wide_slider = own.handles("num_rollouts")[0], wide.handles("num_rollouts")[0]
         assert (own_slider.min, own_slider.max) == (1, 512)
-        assert (wide_slider.min, wide_slider.max, wide_slider.step, wide_slider.value) == (1, 8192, 1, 32)
-        assert wide.handles("num_nodes")[0].max == own.handles("num_nodes")[0].max  # other fields keep theirs
+        assert (wide_slider.min, wide_slider.max, wide_slider.step, wide_slider.value) == (
+            1,
+            8192,
+            1,
+            32,
+        )
+        # other fields keep theirs
+        assert wide.handles("num_nodes")[0].max == own.handles("num_nodes")[0].max
     finally:
         server.stop()
 
@@ -42,11 +48,24 @@ def test_the_gui_widens_the_rollouts_slider_by_backend_name_only_for_warp():
 def test_the_rollouts_slider_reaches_8192_on_the_warp_backend(port, wait_until):
     pytest.importorskip("warp")
     pytest.importorskip("mujoco_warp")
-    short = ControllerConfig(horizon=0.2)  # warp's CPU device launches each step's kernels one by one: keep T small
-    app = App("cartpole", "mppi", controller_config=short, host="127.0.0.1", port=port, seed=0, backend="warp")
+    # warp's CPU device launches each step's kernels one by one: keep T small
+    short = ControllerConfig(horizon=0.2)
+    app = App(
+        "cartpole",
+        "mppi",
+        controller_config=short,
+        host="127.0.0.1",
+        port=port,
+        seed=0,
+        backend="warp",
+    )
     app.start()
     try:
-        wait_until(lambda: app.gui.shown_generation == app.session.generation, timeout=60, what="the GUI to build")
+        wait_until(
+            lambda: app.gui.shown_generation == app.session.generation,
+            timeout=60,
+            what="the GUI to build",
+        )
         slider = app.gui.panels["optimizer"].handles("num_rollouts")[0]
         assert (slider.min, slider.max) == (1, 8192)
         assert app.session.controller.backend_name == "warp"

@@ -1,4 +1,5 @@
-"""SceneView: every geom type drawn from a MuJoCo model, posed from the state; traces and markers."""
+"""SceneView: every geom type drawn from a MuJoCo model, posed from the state; traces and
+markers."""
 
 from dataclasses import dataclass
 
@@ -11,7 +12,13 @@ import judo
 from judo.core.configuration.config import Config
 from judo.core.configuration.fields import np_1d_field
 from judo.core.model import trace_sensor_columns
-from judo.runtime.gui.camera import FRAMING_FILL, VERTICAL_FOV, VISIBLE_ASPECT, distance_to_see, project
+from judo.runtime.gui.camera import (
+    FRAMING_FILL,
+    VERTICAL_FOV,
+    VISIBLE_ASPECT,
+    distance_to_see,
+    project,
+)
 from judo.runtime.gui.goal_handles import HANDLE_SCALE, HANDLE_SIZES, mocap_handle_size
 from judo.runtime.gui.scene import SceneView, capsule_mesh, geom_box_corners, polyline_segments
 
@@ -61,8 +68,11 @@ def geom(view: SceneView, name: str):
 
 
 def test_every_visible_geom_type_becomes_its_viser_shape_with_its_colour(view):
-    assert isinstance(geom(view, "floor"), viser.FrameHandle)  # a slab and grid lines under one frame
-    assert isinstance(geom(view, "ball"), viser.IcosphereHandle) and geom(view, "ball").radius == 0.1
+    # a slab and grid lines under one frame
+    assert isinstance(geom(view, "floor"), viser.FrameHandle)
+    assert (
+        isinstance(geom(view, "ball"), viser.IcosphereHandle) and geom(view, "ball").radius == 0.1
+    )
     assert geom(view, "ball").color == (255, 0, 0)
     egg = geom(view, "egg")
     assert isinstance(egg, viser.IcosphereHandle) and egg.scale == (0.1, 0.2, 0.3)
@@ -74,17 +84,25 @@ def test_every_visible_geom_type_becomes_its_viser_shape_with_its_colour(view):
     assert isinstance(geom(view, "crate"), viser.BoxHandle)
     assert geom(view, "crate").dimensions == pytest.approx((0.2, 0.4, 0.6))
     tetra = geom(view, "tetra")
-    assert isinstance(tetra, viser.MeshHandle) and tetra.vertices.shape == (4, 3) and tetra.faces.shape == (4, 3)
+    assert (
+        isinstance(tetra, viser.MeshHandle)
+        and tetra.vertices.shape == (4, 3)
+        and tetra.faces.shape == (4, 3)
+    )
     hidden = mujoco.mj_name2id(view.model, mujoco.mjtObj.mjOBJ_GEOM, "hidden")
     assert hidden not in view.geom_nodes  # group 3: collision-only by convention
-    np.testing.assert_allclose(geom(view, "egg").position, [0.5, 0, 0])  # offset within its body frame
+    # offset within its body frame
+    np.testing.assert_allclose(geom(view, "egg").position, [0.5, 0, 0])
 
 
 def test_update_poses_jointed_and_mocap_bodies(view):
     slider = mujoco.mj_name2id(view.model, mujoco.mjtObj.mjOBJ_BODY, "slider")
     goal = mujoco.mj_name2id(view.model, mujoco.mjtObj.mjOBJ_BODY, "goal")
     np.testing.assert_allclose(view.body_frames[goal].position, [1, 1, 0])
-    view.update(np.array([0.7]), {"mocap_pos": np.array([[0.2, -0.3, 0.1]]), "mocap_quat": np.array([[1, 0, 0, 0]])})
+    view.update(
+        np.array([0.7]),
+        {"mocap_pos": np.array([[0.2, -0.3, 0.1]]), "mocap_quat": np.array([[1, 0, 0, 0]])},
+    )
     np.testing.assert_allclose(view.body_frames[slider].position, [0.7, 0, 0.5])
     np.testing.assert_allclose(view.body_frames[goal].position, [0.2, -0.3, 0.1])
 
@@ -93,7 +111,8 @@ def test_camera_looks_at_the_solid_geoms_from_the_models_default_view(view):
     position, look_at = view.camera_pose()
     assert -0.5 < look_at[0] < 1.0 and look_at[2] > 0.0  # the bodies, not the 4 m floor
     direction = (look_at - position) / np.linalg.norm(look_at - position)
-    np.testing.assert_allclose(direction, [0, np.sqrt(0.5), -np.sqrt(0.5)], atol=1e-9)  # azimuth 90, elevation -45
+    # azimuth 90, elevation -45
+    np.testing.assert_allclose(direction, [0, np.sqrt(0.5), -np.sqrt(0.5)], atol=1e-9)
 
 
 CART_POLE = """
@@ -116,7 +135,9 @@ def framed_ndc(view: SceneView, points: np.ndarray) -> np.ndarray:
     """(n, 2) where `points` (n, 3) fall in the framing camera's view (|x|, |y| < 1 is inside)."""
     position, look_at = view.camera_pose()
     up = np.array([0.0, 0.0, 1.0])
-    return np.array([project(p, position, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT) for p in points])
+    return np.array(
+        [project(p, position, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT) for p in points]
+    )
 
 
 def test_a_walker_is_framed_with_its_legs_reach_not_the_reach_of_its_sliding_root(server):
@@ -132,7 +153,8 @@ def test_a_walker_is_framed_with_its_legs_reach_not_the_reach_of_its_sliding_roo
         height = ndc[:, 1].max() - ndc[:, 1].min()  # of the view's 2 units
         assert height > 0.5, f"the walker fills only {height / 2:.0%} of the view's height"
         position, look_at = view.camera_pose()
-        assert np.linalg.norm(look_at - position) < 3.0  # metres; the root slides' reach framed it from 4.2
+        # metres; the root slides' reach framed it from 4.2
+        assert np.linalg.norm(look_at - position) < 3.0
         rng = np.random.default_rng(0)
         low, high = model.jnt_range[3:].T  # the legs' hinges; the torso's pitch turns freely
         for _ in range(20):  # the legs and pitch anywhere in their ranges, the torso where it is
@@ -143,12 +165,20 @@ def test_a_walker_is_framed_with_its_legs_reach_not_the_reach_of_its_sliding_roo
             mujoco.mj_kinematics(model, posed)
             ndc = np.array(
                 [
-                    project(p, position, look_at, np.array([0.0, 0.0, 1.0]), VERTICAL_FOV, VISIBLE_ASPECT)
+                    project(
+                        p,
+                        position,
+                        look_at,
+                        np.array([0.0, 0.0, 1.0]),
+                        VERTICAL_FOV,
+                        VISIBLE_ASPECT,
+                    )
                     for p in geom_box_corners(model, posed, solid)
                 ]
             )
             assert np.abs(ndc).max() < 1.0, f"a leg leaves the view at pose {np.round(qpos, 2)}"
-        view.update(np.r_[10.0, np.zeros(model.nq - 1)], {})  # walked 10 m (as a page opened mid-run sees it)
+        # walked 10 m (as a page opened mid-run sees it)
+        view.update(np.r_[10.0, np.zeros(model.nq - 1)], {})
         far_position, far_look_at = view.camera_pose()
         np.testing.assert_allclose(far_look_at - look_at, [10.0, 0.0, 0.0], atol=1e-9)
         np.testing.assert_allclose(far_position - position, [10.0, 0.0, 0.0], atol=1e-9)
@@ -159,7 +189,8 @@ def test_a_walker_is_framed_with_its_legs_reach_not_the_reach_of_its_sliding_roo
 def test_a_pole_on_a_cart_is_framed_wherever_it_can_swing(server):
     view = SceneView(server.scene, mujoco.MjModel.from_xml_string(CART_POLE))
     try:
-        swung = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])  # up, and out to each side
+        # up, and out to each side
+        swung = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
         assert np.abs(framed_ndc(view, swung)).max() < 1.0
     finally:
         view.remove()
@@ -200,7 +231,8 @@ def test_capsule_mesh_is_closed_around_its_axis_with_outward_faces():
     a, b, c = (vertices[faces[:, i]] for i in range(3))
     normals = np.cross(b - a, c - a)
     centres = (a + b + c) / 3
-    outward = centres - np.clip(centres * [0, 0, 1], -0.3, 0.3)  # from the nearest point on the axis
+    # from the nearest point on the axis
+    outward = centres - np.clip(centres * [0, 0, 1], -0.3, 0.3)
     areas = np.linalg.norm(normals, axis=1)
     proper = areas > 1e-12  # the pole rows give degenerate triangles
     assert (np.einsum("ij,ij->i", normals[proper], outward[proper]) > 0).all()
@@ -227,14 +259,17 @@ def test_a_floor_the_robot_touches_is_drawn_under_it_wherever_it_walks(server):
             view.update(np.r_[x, np.zeros(model.nq - 1)], {})
             view.keep_floor_under(view.data.xpos[1])
             shift = np.asarray(frame.position)
-            assert abs(x - shift[0]) <= half_length / 2, f"the walker at x = {x} is near the drawn floor's end"
+            assert abs(x - shift[0]) <= half_length / 2, (
+                f"the walker at x = {x} is near the drawn floor's end"
+            )
             assert shift[0] / section == pytest.approx(round(shift[0] / section))
     finally:
         view.remove()
 
 
 def test_a_floor_nothing_touches_stays_where_the_model_puts_it(server):
-    model = judo.get_registered_tasks()["push_t"][0]().model  # its table is drawn, not collided with
+    # its table is drawn, not collided with
+    model = judo.get_registered_tasks()["push_t"][0]().model
     view = SceneView(server.scene, model)
     try:
         assert view.floors == {}
@@ -246,15 +281,21 @@ def test_the_goal_cubes_drag_handle_is_smaller_than_the_goal_cube():
     """leap_cube's handle was bigger than its 7 cm goal cube and hid it (issue 31)."""
     model = judo.get_registered_tasks()["leap_cube"][0]().model
     goal = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "goal")
-    half = model.geom_size[[g for g in range(model.ngeom) if model.geom_bodyid[g] == goal], :3].max()
-    size = mocap_handle_size(model, goal, float(np.clip(HANDLE_SCALE * model.stat.extent, *HANDLE_SIZES)))
-    assert size < half, f"the handle ({size:.3f} m) is not smaller than the goal cube's half-size ({half:.3f} m)"
+    half = model.geom_size[
+        [g for g in range(model.ngeom) if model.geom_bodyid[g] == goal], :3
+    ].max()
+    size = mocap_handle_size(
+        model, goal, float(np.clip(HANDLE_SCALE * model.stat.extent, *HANDLE_SIZES))
+    )
+    assert size < half, (
+        f"the handle ({size:.3f} m) is not smaller than the goal cube's half-size ({half:.3f} m)"
+    )
 
 
 @pytest.mark.parametrize("task", ["quadruped_navigate", "particle", "fr3_pick"])
 def test_a_small_goals_drag_handle_is_big_enough_to_grab_in_the_framed_view(server, task):
-    """quadruped_navigate's handle was about 15 pixels (issue 43): now at least 4% of the framed view's height at
-    the goal, about 40 pixels of a 900-pixel page."""
+    """quadruped_navigate's handle was about 15 pixels (issue 43): now at least 4% of the framed
+    view's height at the goal, about 40 pixels of a 900-pixel page."""
     model = judo.get_registered_tasks()[task][0]().model
     goal = int(np.flatnonzero(model.body_mocapid >= 0)[0])
     view = SceneView(server.scene, model)
@@ -263,13 +304,18 @@ def test_a_small_goals_drag_handle_is_big_enough_to_grab_in_the_framed_view(serv
         distance = float(np.linalg.norm(view.data.xpos[goal] - position))
     finally:
         view.remove()
-    size = mocap_handle_size(model, goal, float(np.clip(HANDLE_SCALE * model.stat.extent, *HANDLE_SIZES)))
-    assert size / distance >= 0.04, f"{task}: a {size:.3f} m handle {distance:.2f} m from the camera"
+    size = mocap_handle_size(
+        model, goal, float(np.clip(HANDLE_SCALE * model.stat.extent, *HANDLE_SIZES))
+    )
+    assert size / distance >= 0.04, (
+        f"{task}: a {size:.3f} m handle {distance:.2f} m from the camera"
+    )
 
 
 def test_a_plans_traces_start_where_the_robot_is_drawn(server):
-    """Foot traces were drawn beside the quadruped's feet (issue 43): a plan from a reading some tens of milliseconds
-    old is drawn with each sensor's traces moved to start at the sensor as the scene poses it now."""
+    """Foot traces were drawn beside the quadruped's feet (issue 43): a plan from a reading some
+    tens of milliseconds old is drawn with each sensor's traces moved to start at the sensor as the
+    scene poses it now."""
     controller = judo.make_controller("quadruped", "ps", num_workers=1)
     try:
         model = controller.task.model
@@ -283,22 +329,27 @@ def test_a_plans_traces_start_where_the_robot_is_drawn(server):
         moved = data.qpos.copy()
         moved[:2] += [0.1, -0.05]  # the robot as drawn now: 11 cm from where the plan started
         view.update(moved, {})
-        view.set_traces(traces, anchored=True)  # as the live GUI draws a plan (a replay draws it as recorded)
-        nominal = server.scene.get_handle_by_name("/traces/nominal").points  # (segments, 2, 3), sensor by sensor
+        # as the live GUI draws a plan (a replay draws it as recorded)
+        view.set_traces(traces, anchored=True)
+        # (segments, 2, 3), sensor by sensor
+        nominal = server.scene.get_handle_by_name("/traces/nominal").points
         columns = trace_sensor_columns(model)
         sensors = [int(np.flatnonzero(model.sensor_adr == c)[0]) for c in columns[::3]]
         feet = [view.data.site_xpos[model.sensor_objid[s]] for s in sensors]
-        starts = nominal.reshape(len(sensors), -1, 2, 3)[:, 0, 0]  # each sensor's first segment's first point
+        # each sensor's first segment's first point
+        starts = nominal.reshape(len(sensors), -1, 2, 3)[:, 0, 0]
         np.testing.assert_allclose(starts, feet, atol=1e-9)
-        assert np.linalg.norm(traces[0, 0] - np.array(feet), axis=1).min() > 0.05  # unmoved, they were beside
+        # unmoved, they were beside
+        assert np.linalg.norm(traces[0, 0] - np.array(feet), axis=1).min() > 0.05
         view.remove()
     finally:
         controller.close()
 
 
 def test_a_followed_camera_pulls_back_until_the_goal_is_in_view(server):
-    """quadruped_navigate's goal was out of view in 2 of 4 frames (issue 43): following the robot, the camera keeps
-    its direction and look-at and moves back just far enough for the goal to be inside the framed part of the view."""
+    """quadruped_navigate's goal was out of view in 2 of 4 frames (issue 43): following the robot,
+    the camera keeps its direction and look-at and moves back just far enough for the goal to be
+    inside the framed part of the view."""
     model = judo.get_registered_tasks()["quadruped_navigate"][0]().model
     view = SceneView(server.scene, model)
     try:
@@ -306,9 +357,11 @@ def test_a_followed_camera_pulls_back_until_the_goal_is_in_view(server):
         offset = position - look_at
         up = np.array([0.0, 0.0, 1.0])
         near = look_at + [0.1, 0.0, 0.0]
-        assert distance_to_see(offset, look_at, near[None]) == pytest.approx(np.linalg.norm(offset))  # kept
+        # kept
+        assert distance_to_see(offset, look_at, near[None]) == pytest.approx(np.linalg.norm(offset))
         far = look_at + [6.0, 0.0, 0.0]  # a goal drawn 6 m to the side
-        assert max(np.abs(project(far, position, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT))) > 1.0  # out of view
+        # out of view
+        assert max(np.abs(project(far, position, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT))) > 1.0
         distance = distance_to_see(offset, look_at, far[None])
         moved = look_at + offset * distance / np.linalg.norm(offset)
         seen = project(far, moved, look_at, up, VERTICAL_FOV, VISIBLE_ASPECT)

@@ -1,5 +1,6 @@
-"""viser's private internals: reached only from viser_internals.py, checked when the GUI starts, and a viser that
-lacks one is refused with an error naming the installed viser, the tested range and what is missing."""
+"""viser's private internals: reached only from viser_internals.py, checked when the GUI starts, and
+a viser that lacks one is refused with an error naming the installed viser, the tested range and
+what is missing."""
 
 import ast
 import socket
@@ -56,9 +57,17 @@ def test_the_installed_viser_has_every_internal_the_gui_relies_on(port):
 MISSING = [
     (viser.ViserServer, "_run_garbage_collector", "viser.ViserServer._run_garbage_collector"),
     (viser.GuiApi, "_handle_gui_updates", "viser.GuiApi._handle_gui_updates"),
-    (viser.infra.WebsockServer, "unregister_handler", "viser.infra.WebsockServer.unregister_handler"),
+    (
+        viser.infra.WebsockServer,
+        "unregister_handler",
+        "viser.infra.WebsockServer.unregister_handler",
+    ),
     (viser.infra.WebsockServer, "register_handler", "viser.infra.WebsockServer.register_handler"),
-    (viser.infra.WebsockClientConnection, "queue_message", "viser.infra.WebsockClientConnection.queue_message"),
+    (
+        viser.infra.WebsockClientConnection,
+        "queue_message",
+        "viser.infra.WebsockClientConnection.queue_message",
+    ),
     (_messages, "GuiUpdateMessage", "viser._messages.GuiUpdateMessage"),
     (_messages, "ShareUrlRequest", "viser._messages.ShareUrlRequest"),
 ]
@@ -72,8 +81,11 @@ def assert_refused(error: pytest.ExceptionInfo[GuiStartError], missing: str) -> 
 
 
 @pytest.mark.parametrize(("owner", "name", "missing"), MISSING, ids=[m[2] for m in MISSING])
-def test_a_viser_without_an_internal_is_refused_before_its_server_starts(monkeypatch, port, owner, name, missing):
-    defined_on = next((c for c in getattr(owner, "__mro__", ()) if name in vars(c)), owner)  # maybe a base class
+def test_a_viser_without_an_internal_is_refused_before_its_server_starts(
+    monkeypatch, port, owner, name, missing
+):
+    # maybe a base class
+    defined_on = next((c for c in getattr(owner, "__mro__", ()) if name in vars(c)), owner)
     monkeypatch.delattr(defined_on, name)
     with pytest.raises(GuiStartError) as error:
         start(port)
@@ -95,7 +107,8 @@ def test_a_viser_whose_websocket_handler_is_named_otherwise_is_refused(monkeypat
 
 
 def test_a_viser_whose_client_handles_lack_their_connection_is_refused(monkeypatch, port):
-    def init(self, conn, server):  # a release whose ClientHandle keeps its connection under another name
+    # a release whose ClientHandle keeps its connection under another name
+    def init(self, conn, server):
         self.connection, self._viser_server, self.client_id = conn, server, conn.client_id
 
     monkeypatch.setattr(viser.ClientHandle, "__init__", init)
@@ -107,7 +120,8 @@ def test_a_viser_whose_client_handles_lack_their_connection_is_refused(monkeypat
 def test_a_running_server_without_an_internal_is_refused_and_stopped(monkeypatch, port):
     init = viser.GuiApi.__init__
 
-    def without_widgets_by_uuid(self, *args, **kwargs):  # a release that keeps its widgets otherwise
+    # a release that keeps its widgets otherwise
+    def without_widgets_by_uuid(self, *args, **kwargs):
         init(self, *args, **kwargs)
         del self._gui_input_handle_from_uuid
 
@@ -133,16 +147,28 @@ def _private_uses(path: Path) -> list[str]:
     found = []
     for node in ast.walk(ast.parse(path.read_text(), str(path))):
         private = None
-        if isinstance(node, ast.Attribute) and not (isinstance(node.value, ast.Name) and node.value.id == "self"):
+        if isinstance(node, ast.Attribute) and not (
+            isinstance(node.value, ast.Name) and node.value.id == "self"
+        ):
             private = node.attr
-        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id.endswith("attr"):
+        elif (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Name)
+            and node.func.id.endswith("attr")
+        ):
             name = node.args[1] if len(node.args) > 1 else None
-            private = name.value if isinstance(name, ast.Constant) and isinstance(name.value, str) else None
+            private = (
+                name.value
+                if isinstance(name, ast.Constant) and isinstance(name.value, str)
+                else None
+            )
         elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("viser"):
             modules = [node.module or "", *(f"{node.module}.{a.name}" for a in node.names)]
             private = next((m.rsplit(".", 1)[1] for m in modules if "._" in m), None)
         elif isinstance(node, ast.Import):
-            private = next((a.name.rsplit(".", 1)[1] for a in node.names if a.name.startswith("viser._")), None)
+            private = next(
+                (a.name.rsplit(".", 1)[1] for a in node.names if a.name.startswith("viser._")), None
+            )
         if private and private.startswith("_") and not private.startswith("__"):
             found.append(f"{node.lineno}: {ast.unparse(node)}")
     return found

@@ -1,5 +1,5 @@
-"""`python -m judo replay` in headless Chromium: the robot moves while playing, the scrubber poses it, and the
-recorded plans' traces are drawn and follow the scrubber."""
+"""`python -m judo replay` in headless Chromium: the robot moves while playing, the scrubber poses
+it, and the recorded plans' traces are drawn and follow the scrubber."""
 
 import numpy as np
 import pytest
@@ -15,12 +15,16 @@ pytestmark = pytest.mark.browser
 
 @pytest.fixture
 def replay(tmp_path, port):
-    """A replay of seeds 0 and 1 of 2 s cartpole x ps episodes with their traces, showing seed 1, on a free port."""
+    """A replay of seeds 0 and 1 of 2 s cartpole x ps episodes with their traces, showing seed 1, on
+    a free port."""
     path = tmp_path / "cartpole.h5"
     dataset = DatasetFile(path, {"task": "cartpole", "optimizer": "ps", "plant_timestep": 0.01})
     for seed in (0, 1):
-        dataset.write_episode(collect_episode(EpisodeSpec("cartpole", "ps", 2.0), seed, traces=True).episode)
-    replay = Replay(path, demo=1, host="127.0.0.1", port=port, speed=0.1)  # 20 s to play the 2 s episode
+        dataset.write_episode(
+            collect_episode(EpisodeSpec("cartpole", "ps", 2.0), seed, traces=True).episode
+        )
+    # 20 s to play the 2 s episode
+    replay = Replay(path, demo=1, host="127.0.0.1", port=port, speed=0.1)
     replay.start()
     yield replay
     replay.stop()
@@ -53,20 +57,28 @@ def test_the_robot_moves_and_the_scrubber_changes_the_pose_shown(
         page.get_by_text("Play", exact=True).click()
         page.get_by_text("Pause", exact=True).wait_for()
         wait_until(lambda: replay.index >= 20, timeout=60, what="the replay to play 20 rows")
-        assert not np.allclose(cart_position(replay), start)  # the cart moved with the recorded qpos
+        # the cart moved with the recorded qpos
+        assert not np.allclose(cart_position(replay), start)
         page.get_by_text("Pause", exact=True).click()
         wait_until(lambda: not replay.playing, timeout=10, what="the replay to pause")
         paused = replay.index
         slider = page.locator(".mantine-Slider-root").first
         box = slider.locator(".mantine-Slider-track").bounding_box()
         page.mouse.click(box["x"] + 0.9 * box["width"], box["y"] + box["height"] / 2)
-        wait_until(lambda: replay.index > paused + 30, timeout=60, what="the scrubber to move the replay")
-        with replay.lock:  # the index is set first in a frame, the pose and traces after: read a whole frame
+        wait_until(
+            lambda: replay.index > paused + 30, timeout=60, what="the scrubber to move the replay"
+        )
+        # the index is set first in a frame, the pose and traces after: read a whole frame
+        with replay.lock:
             shown, plan_shown, qpos = replay.index, replay.plan_shown, replay.scene.data.qpos.copy()
-            moved_trace = nominal_trace(replay)  # the scrubbed-to time's plan, drawn as the live GUI draws it
+            # the scrubbed-to time's plan, drawn as the live GUI draws it
+            moved_trace = nominal_trace(replay)
         assert np.array_equal(qpos, replay.demos[1].qpos[shown])
         assert 160 <= shown <= 199
-        plan_times, row_time = np.append(replay.demos[1].plan_times, np.inf), replay.demos[1].times[shown]
+        plan_times, row_time = (
+            np.append(replay.demos[1].plan_times, np.inf),
+            replay.demos[1].times[shown],
+        )
         assert plan_times[plan_shown] <= row_time + 1e-9 < plan_times[plan_shown + 1]
         assert np.allclose(moved_trace[0, 0], replay.traces[plan_shown, 0, 0, 0])
         assert not np.allclose(moved_trace, start_trace)

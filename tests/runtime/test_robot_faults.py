@@ -1,11 +1,11 @@
 """A robot never gets a stale command: faults injected into a running App's System and reward.
 
-A user System (the simulated cartpole behind a driver that can fail) records every `apply()` with its wall
-time. Once plans drive the robot, one fault is switched on for a while, then cleared. While it lasts, the
-watchdog must serve the task's safe action (0 for cartpole's motor) within max_plan_age plus one control
-period (plus scheduling slack on a busy machine), the status line must say why, and plans must be served
-again once it clears. Every time is taken from the events themselves, not from the start, so a slow start
-on a loaded machine only delays the fault.
+A user System (the simulated cartpole behind a driver that can fail) records every `apply()` with
+its wall time. Once plans drive the robot, one fault is switched on for a while, then cleared. While
+it lasts, the watchdog must serve the task's safe action (0 for cartpole's motor) within
+max_plan_age plus one control period (plus scheduling slack on a busy machine), the status line must
+say why, and plans must be served again once it clears. Every time is taken from the events
+themselves, not from the start, so a slow start on a loaded machine only delays the fault.
 """
 
 import logging
@@ -32,7 +32,8 @@ DRIVEN_FOR = 40
 
 
 class FaultyDriver(System):
-    """The simulated cartpole behind a driver whose faults a test switches on: it records every apply."""
+    """The simulated cartpole behind a driver whose faults a test switches on: it records every
+    apply."""
 
     def __init__(self) -> None:
         with judo.make_controller("cartpole", "ps", seed=0) as controller:
@@ -83,7 +84,13 @@ class FaultyDriver(System):
         self.plant.step()
 
 
-READING_FAULTS = ["hung reading", "raising reading", "NaN reading", "wrong-shape reading", "frozen reading"]
+READING_FAULTS = [
+    "hung reading",
+    "raising reading",
+    "NaN reading",
+    "wrong-shape reading",
+    "frozen reading",
+]
 REWARD_FAULTS = ["hung reward", "raising reward", "4 s planning cycle"]
 
 
@@ -100,8 +107,18 @@ def faulty_reward(reward, driver: FaultyDriver):
 
 def run_with_fault(fault: str, caplog) -> tuple[FaultyDriver, App]:
     driver = FaultyDriver()
-    controller = judo.ControllerConfig(horizon=0.3, control_freq=CONTROL_FREQ, max_plan_age=MAX_PLAN_AGE)
-    app = App("cartpole", "ps", system=driver, controller_config=controller, gui=False, seed=0, num_workers=1)
+    controller = judo.ControllerConfig(
+        horizon=0.3, control_freq=CONTROL_FREQ, max_plan_age=MAX_PLAN_AGE
+    )
+    app = App(
+        "cartpole",
+        "ps",
+        system=driver,
+        controller_config=controller,
+        gui=False,
+        seed=0,
+        num_workers=1,
+    )
     task = app.session.controller.task
     task.reward = faulty_reward(task.reward, driver)  # type: ignore[method-assign]
     caplog.set_level(logging.INFO, logger="judo.app")
@@ -140,7 +157,8 @@ def test_every_fault_gets_the_safe_action_within_max_plan_age_and_serving_resume
     assert np.all(actions[times < on][-DRIVEN_FOR:] != 0.0)  # plans drove it
     deadline = on + MAX_PLAN_AGE + 1.0 / CONTROL_FREQ + SLACK
     during = actions[(times > deadline) & (times < off)]
-    if fault in ("hung reading",):  # nothing is applied while the driver hangs; the first apply after is safe
+    # nothing is applied while the driver hangs; the first apply after is safe
+    if fault in ("hung reading",):
         after_hang = actions[times > off][:1]
         assert after_hang.tolist() == [0.0]
     else:
@@ -152,7 +170,9 @@ def test_every_fault_gets_the_safe_action_within_max_plan_age_and_serving_resume
         assert "watchdog:" in logged and "serving the safe action" in logged
     end = actions[times > off + RUN_AFTER - 0.4]
     if fault != "4 s planning cycle":  # that cycle is still running when the run ends
-        assert len(end) > 10 and np.count_nonzero(end) > 0.8 * len(end), f"{fault}: serving did not resume"
+        assert len(end) > 10 and np.count_nonzero(end) > 0.8 * len(end), (
+            f"{fault}: serving did not resume"
+        )
         assert "fresh plans are served again" in logged or "the system responds again" in logged
 
 
@@ -185,7 +205,9 @@ class HaltingDriver(FaultyDriver):
         return True
 
 
-def test_pause_and_stop_halt_the_robot_and_a_failed_reset_is_reported_as_a_failure(caplog, wait_until):
+def test_pause_and_stop_halt_the_robot_and_a_failed_reset_is_reported_as_a_failure(
+    caplog, wait_until
+):
     driver = HaltingDriver()
     caplog.set_level(logging.INFO, logger="judo.app")
     app = App("cartpole", "ps", system=driver, gui=False, seed=0, num_workers=1)
@@ -201,15 +223,21 @@ def test_pause_and_stop_halt_the_robot_and_a_failed_reset_is_reported_as_a_failu
 
         driver.plant.reset = refuse_reset  # type: ignore[method-assign]
         app.commands.reset_task()
-        wait_until(lambda: "system reset failed" in app.status.message, what="the failed reset reported")
-        assert "OSError: cannot home the robot" in app.status.message and app.status.level == "error"
+        wait_until(
+            lambda: "system reset failed" in app.status.message, what="the failed reset reported"
+        )
+        assert (
+            "OSError: cannot home the robot" in app.status.message and app.status.level == "error"
+        )
         assert "reset to its start state" not in caplog.text
     finally:
         app.stop()
     assert len(driver.halts) == 2  # the pause, then the stop
 
 
-def test_a_failed_reading_or_apply_does_not_skip_the_step_and_unserved_ticks_are_not_counted(wait_until):
+def test_a_failed_reading_or_apply_does_not_skip_the_step_and_unserved_ticks_are_not_counted(
+    wait_until,
+):
     driver = FaultyDriver()
     stepped = threading.Event()
     step = driver.step

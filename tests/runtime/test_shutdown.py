@@ -1,6 +1,6 @@
-"""`python -m judo` stops on SIGINT and SIGTERM within 2 s, exit status 0, no traceback, no port left
-listening: headless, with the GUI, and with a client connected to the GUI. A GUI that cannot start
-ends the run at once with a message and a non-zero status."""
+"""`python -m judo` stops on SIGINT and SIGTERM within 2 s, exit status 0, no traceback, no port
+left listening: headless, with the GUI, and with a client connected to the GUI. A GUI that cannot
+start ends the run at once with a message and a non-zero status."""
 
 import os
 import signal
@@ -26,10 +26,23 @@ class JudoProcess:
     """`python -m judo ARGS` in a subprocess, its stderr collected line by line."""
 
     def __init__(self, *args: str) -> None:
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join(filter(None, [SRC, os.environ.get("PYTHONPATH")]))}
+        env = {
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join(filter(None, [SRC, os.environ.get("PYTHONPATH")])),
+        }
         small = ["--controller.horizon", "0.3", "--optimizer-config.num-rollouts", "16"]
         self.process = subprocess.Popen(
-            [sys.executable, "-m", "judo", "--task", "cartpole", "--optimizer", "ps", *small, *args],
+            [
+                sys.executable,
+                "-m",
+                "judo",
+                "--task",
+                "cartpole",
+                "--optimizer",
+                "ps",
+                *small,
+                *args,
+            ],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -94,7 +107,9 @@ def test_a_signal_stops_the_gui_app_quickly_and_cleanly(sig, client, port):
     websocket = None
     if client:  # a client speaking viser's protocol, as the browser does
         websocket = connect(
-            f"ws://127.0.0.1:{port}", subprotocols=[f"viser-v{viser.__version__}"], origin=f"http://127.0.0.1:{port}"
+            f"ws://127.0.0.1:{port}",
+            subprotocols=[f"viser-v{viser.__version__}"],
+            origin=f"http://127.0.0.1:{port}",
         )
         websocket.recv(timeout=10)  # the scene and panels start arriving
     status, elapsed = app.stop_with(sig)
@@ -126,9 +141,17 @@ def test_sigint_with_a_browser_connected_stops_cleanly(panel_page, port, pause_s
 @pytest.mark.parametrize(
     ("args", "status", "message"),
     [
-        (["--port", "99999"], 2, "port must be an integer in 0..65535 (0 picks a free port), got 99999"),
+        (
+            ["--port", "99999"],
+            2,
+            "port must be an integer in 0..65535 (0 picks a free port), got 99999",
+        ),
         (["--port", "-1"], 2, "port must be an integer in 0..65535 (0 picks a free port), got -1"),
-        (["--host", "999.1.1.1"], 1, "cannot listen on '999.1.1.1': not a valid IPv4 address; use 127.0.0.1"),
+        (
+            ["--host", "999.1.1.1"],
+            1,
+            "cannot listen on '999.1.1.1': not a valid IPv4 address; use 127.0.0.1",
+        ),
         (["--host", "10.255.255.1"], 1, "cannot listen on '10.255.255.1' (10.255.255.1): "),
     ],
 )

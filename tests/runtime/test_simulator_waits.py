@@ -1,9 +1,11 @@
-"""With a slow planner, judo's own simulator waits for it; a user's System (a robot) gets the safe action.
+"""With a slow planner, judo's own simulator waits for it; a user's System (a robot) gets the safe
+action.
 
-The planner is slowed by a reward that sleeps SLOW_REWARD s per call, well past one control period and past
-max_plan_age. The app's simulator must then never trip the watchdog, run slower than real time, and serve
-plans no cycle of which took more than one control period of sim time; the same planner driving a user's
-System (the simulator behind a thin driver) must trip the watchdog and serve the safe action.
+The planner is slowed by a reward that sleeps SLOW_REWARD s per call, well past one control period
+and past max_plan_age. The app's simulator must then never trip the watchdog, run slower than real
+time, and serve plans no cycle of which took more than one control period of sim time; the same
+planner driving a user's System (the simulator behind a thin driver) must trip the watchdog and
+serve the safe action.
 """
 
 import time
@@ -45,8 +47,18 @@ class Driver(System):
 
 
 def run_slowed(system: System | None) -> App:
-    controller = judo.ControllerConfig(horizon=0.3, control_freq=CONTROL_FREQ, max_plan_age=MAX_PLAN_AGE)
-    app = App("cartpole", "ps", system=system, controller_config=controller, gui=False, seed=0, num_workers=1)
+    controller = judo.ControllerConfig(
+        horizon=0.3, control_freq=CONTROL_FREQ, max_plan_age=MAX_PLAN_AGE
+    )
+    app = App(
+        "cartpole",
+        "ps",
+        system=system,
+        controller_config=controller,
+        gui=False,
+        seed=0,
+        num_workers=1,
+    )
     task = app.session.controller.task
     reward = task.reward
 
@@ -69,7 +81,8 @@ def test_judos_simulator_waits_for_a_slow_planner_and_the_watchdog_never_trips()
     period = 1.0 / CONTROL_FREQ
     assert app.stats.num_plans() >= 3
     assert loop.watchdog.trips == 0 and loop.watchdog.tripped is None
-    # the simulation ran slower than real time: about one control period per cycle of >= SLOW_REWARD s
+    # the simulation ran slower than real time: about one control period per cycle of >= SLOW_REWARD
+    # s
     assert 0.0 < app.stats.sim_time() < 0.6 * RUN_SECONDS
     # no cycle took more than one control period (and a step) of sim time
     assert loop.last_cycle_plant_time <= period + loop.system.timestep + 1e-9
@@ -79,14 +92,16 @@ def test_a_users_system_is_not_held_back_and_gets_the_safe_action_from_the_same_
     driver = Driver()
     app = run_slowed(driver)
     loop = app.session.closed_loop
-    assert loop.watchdog.trips >= 1  # the plan grew older than max_plan_age + one period of wall time
+    # the plan grew older than max_plan_age + one period of wall time
+    assert loop.watchdog.trips >= 1
     assert 0.0 in driver.applied  # cartpole's safe action: the motor off
-    assert app.stats.sim_time() > 0.6 * RUN_SECONDS  # the robot's time is never slowed for the planner
+    # the robot's time is never slowed for the planner
+    assert app.stats.sim_time() > 0.6 * RUN_SECONDS
 
 
 def test_the_apps_pendulum_swings_up_within_10_s_of_sim_time_however_slow_the_machine():
-    """The new-user tour's pendulum (mppi at its defaults): upright (within 0.3 rad) by 10 s of sim time,
-    read off the app's own plant while it runs at whatever pace this machine allows."""
+    """The new-user tour's pendulum (mppi at its defaults): upright (within 0.3 rad) by 10 s of sim
+    time, read off the app's own plant while it runs at whatever pace this machine allows."""
     app = App("pendulum", "mppi", gui=False, seed=0, duration=10.0, num_workers=1)
     plant = app.session.simulated
     assert plant is not None
@@ -100,13 +115,17 @@ def test_the_apps_pendulum_swings_up_within_10_s_of_sim_time_however_slow_the_ma
                 upright_at = app.stats.sim_time()
     finally:
         app.stop()
-    assert upright_at is not None and upright_at < 10.0, f"the pole was not upright by {app.stats.sim_time():.1f} s"
+    assert upright_at is not None and upright_at < 10.0, (
+        f"the pole was not upright by {app.stats.sim_time():.1f} s"
+    )
     assert np.cos(plant.task.data.qpos[0]) > np.cos(0.3)  # and it stays up
     assert app.session.closed_loop.watchdog.trips == 0
 
 
 def test_judos_simulator_does_not_wait_for_a_failing_planner_the_watchdog_serves_the_safe_action():
-    controller = judo.ControllerConfig(horizon=0.3, control_freq=CONTROL_FREQ, max_plan_age=MAX_PLAN_AGE)
+    controller = judo.ControllerConfig(
+        horizon=0.3, control_freq=CONTROL_FREQ, max_plan_age=MAX_PLAN_AGE
+    )
     app = App("cartpole", "ps", controller_config=controller, gui=False, seed=0, num_workers=1)
 
     def failing_reward(*args, **kwargs):

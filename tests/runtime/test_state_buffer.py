@@ -41,7 +41,8 @@ def test_published_value_is_a_private_read_only_copy():
 
 def test_concurrent_writers_and_readers_never_see_a_torn_snapshot():
     """Each writer fills one reused array with a single value and labels the reading with it; a
-    reader that saw a half-written array, or values not matching their label, would be a torn read."""
+    reader that saw a half-written array, or values not matching their label, would be a torn
+    read."""
     buffer = StateBuffer()
     stop = threading.Event()
     torn: list[str] = []

@@ -31,9 +31,17 @@ def test_alternating_messages_cannot_flood_the_log(monkeypatch, caplog):
     with caplog.at_level(logging.INFO, logger="judo.app"):
         for i in range(1000):  # 1000 reports in 1 s, two messages taking turns
             clock[0] += 0.001
-            app.report("system read_state failed: OSError: a" if i % 2 else "system step failed: OSError: b", "error")
+            app.report(
+                "system read_state failed: OSError: a"
+                if i % 2
+                else "system step failed: OSError: b",
+                "error",
+            )
         assert len(caplog.records) == 2
-        assert app.status.message == "system read_state failed: OSError: a" and app.status.count == 1000
+        assert (
+            app.status.message == "system read_state failed: OSError: a"
+            and app.status.count == 1000
+        )
         clock[0] += app_module.REPEAT_LOG_INTERVAL
         app.report("system step failed: OSError: b", "error")
         assert len(caplog.records) == 3  # once the interval is over, the message is logged again

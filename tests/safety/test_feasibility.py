@@ -1,4 +1,5 @@
-"""Planned within the limits: a rollout that crosses a hard limit never wins, whatever the optimizer."""
+"""Planned within the limits: a rollout that crosses a hard limit never wins, whatever the
+optimizer."""
 
 import numpy as np
 import pytest
@@ -15,17 +16,21 @@ def screen_of(task, **limits) -> RolloutScreen:
     return RolloutScreen(resolve(task, SafetyConfig(**limits)), task.dt, task.model.nq)
 
 
-def test_the_screen_scores_infeasible_rows_minus_infinity_and_counts_an_iteration_without_a_feasible_one():
+def test_the_screen_scores_infeasible_rows_minus_infinity_and_counts_an_iteration_without_a_feasible_one():  # noqa: E501
     controller = make_controller("cartpole", "ps", seed=0)
     screen = screen_of(controller.task, position=("slider=-1:1",), rate=("push=10",))
     states = np.zeros((3, 4, 4))
     states[1, 2, 0] = 1.5  # crosses the cart's limit at step 2
     controls = np.zeros((3, 4, 1))
     controls[2, 3, 0] = 0.5  # 0.5 in one step of 0.01 s: 50 per s, over the rate limit of 10
-    rewards = screen.screen(np.array([-3.0, -1.0, -2.0]), states, np.zeros((3, 4, 0)), controls, np.zeros(1), 1)
+    rewards = screen.screen(
+        np.array([-3.0, -1.0, -2.0]), states, np.zeros((3, 4, 0)), controls, np.zeros(1), 1
+    )
     assert rewards.tolist() == [-3.0, -np.inf, -np.inf] and screen.no_feasible == 0
     states[0, 0, 0] = -1.25
-    rewards = screen.screen(np.array([-3.0, -1.0, -2.0]), states, np.zeros((3, 4, 0)), controls, np.zeros(1), 1)
+    rewards = screen.screen(
+        np.array([-3.0, -1.0, -2.0]), states, np.zeros((3, 4, 0)), controls, np.zeros(1), 1
+    )
     assert rewards == pytest.approx([-0.25, -0.5, -(0.5 / 0.01 - 10)]) and screen.no_feasible == 1
 
 
@@ -63,7 +68,8 @@ def test_the_plan_predictive_sampling_serves_is_a_feasible_sample():
     controller.update_action(state, 0.0)
     feasible = ~controller.limits.last_infeasible
     assert feasible.any() and not feasible.all()
-    controller.update_action(state, 0.0)  # from its own plan: the nominal is the best sample, which kept the limit
+    # from its own plan: the nominal is the best sample, which kept the limit
+    controller.update_action(state, 0.0)
     best = int(np.argmax(controller.rewards))
     assert feasible.any() and not controller.limits.last_infeasible[best]
     controller.close()
@@ -76,7 +82,8 @@ def test_a_start_beyond_a_limit_is_counted_and_planned_back_toward_it():
         MujocoSystem.from_task(controller.task, seed=3),
         guard=safety_guard(controller, SafetyConfig(position=("slider=-0.3:0.3",))),
     )
-    controller.update_action(np.array([0.6, np.pi, 0.0, 0.0]), 0.0)  # already beyond: no sample keeps the limit
+    # already beyond: no sample keeps the limit
+    controller.update_action(np.array([0.6, np.pi, 0.0, 0.0]), 0.0)
     assert controller.limits.no_feasible == controller.iterations_run >= 1
     assert np.isfinite(controller.rewards).all()  # ranked by how far each sample goes beyond
     controller.close()
@@ -86,7 +93,8 @@ def test_the_rate_limits_first_step_is_checked_against_the_command_the_filter_se
     controller = make_controller("cartpole", "ps", seed=0)
     screen = screen_of(controller.task, rate=("push=10",))
     arrays = (np.zeros((1, 3, 4)), np.zeros((1, 3, 0)), np.full((1, 3, 1), 0.5))
-    assert screen.violations(*arrays, np.array([0.5])).tolist() == [0.0]  # the plan in force: no jump
+    # the plan in force: no jump
+    assert screen.violations(*arrays, np.array([0.5])).tolist() == [0.0]
     screen.last_served = np.array([0.0])  # what the serve filter set: a jump of 0.5 in 0.01 s
     assert screen.violations(*arrays, np.array([0.5])) == pytest.approx([0.5 / 0.01 - 10])
     controller.close()

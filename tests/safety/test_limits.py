@@ -1,4 +1,5 @@
-"""The [safety] section's load checks: one-line errors naming what is wrong and the valid choices."""
+"""The [safety] section's load checks: one-line errors naming what is wrong and the valid
+choices."""
 
 import pytest
 
@@ -17,22 +18,38 @@ def test_the_default_is_off():
 @pytest.mark.parametrize(
     ("updates", "message"),
     [
-        ({"position": ["slider=1:-1"]}, "SafetyConfig.position slider: the minimum 1 is above the maximum -1"),
+        (
+            {"position": ["slider=1:-1"]},
+            "SafetyConfig.position slider: the minimum 1 is above the maximum -1",
+        ),
         (
             {"position": ["slider=1"]},
             "SafetyConfig.position entry 'slider=1' is not \"JOINT=LOW:HIGH\" with finite numbers",
         ),
         ({"effort": ["push=-2"]}, "SafetyConfig.effort push: the cap must be at least 0, got -2"),
-        ({"rate": ["push=fast"]}, "SafetyConfig.rate entry 'push=fast' is not \"NAME=MAX\" with a finite number"),
+        (
+            {"rate": ["push=fast"]},
+            "SafetyConfig.rate entry 'push=fast' is not \"NAME=MAX\" with a finite number",
+        ),
         ({"velocity": ["hinge=1", "hinge=2"]}, "SafetyConfig.velocity names 'hinge' twice"),
         ({"range_margin": -0.1}, "SafetyConfig.range_margin must be at least 0, got -0.1"),
-        ({"max_contact_force": -1.0}, "SafetyConfig.max_contact_force must be a cap of at least 0 N, got -1.0"),
-        ({"contact_geoms": ["pole"]}, "SafetyConfig: contact_geoms ['pole'] and max_contact_force 0 go together"),
+        (
+            {"max_contact_force": -1.0},
+            "SafetyConfig.max_contact_force must be a cap of at least 0 N, got -1.0",
+        ),
+        (
+            {"contact_geoms": ["pole"]},
+            "SafetyConfig: contact_geoms ['pole'] and max_contact_force 0 go together",
+        ),
         (
             {"workspace_frame": "tip", "workspace_low": [1, 0, 0], "workspace_high": [0, 1, 1]},
-            "SafetyConfig: workspace_low [1.0, 0.0, 0.0] is above workspace_high [0.0, 1.0, 1.0] in x",
+            "SafetyConfig: workspace_low [1.0, 0.0, 0.0] is above workspace_high "
+            "[0.0, 1.0, 1.0] in x",
         ),
-        ({"workspace_frame": "tip", "workspace_low": [0, 0]}, "SafetyConfig.workspace_low expects 3 finite numbers"),
+        (
+            {"workspace_frame": "tip", "workspace_low": [0, 0]},
+            "SafetyConfig.workspace_low expects 3 finite numbers",
+        ),
     ],
 )
 def test_nonsense_is_refused_in_one_line(updates, message):
@@ -49,10 +66,14 @@ def test_nonsense_is_refused_in_one_line(updates, message):
             "unknown hinge or slide joint 'slidr'; valid hinge or slide joints are: slider, hinge",
         ),
         ({"effort": ["pusher=1"]}, "unknown actuator 'pusher'; valid actuators are: push"),
-        ({"contact_geoms": ["nope"], "max_contact_force": 5.0}, "unknown geom 'nope'; valid geoms are: "),
+        (
+            {"contact_geoms": ["nope"], "max_contact_force": 5.0},
+            "unknown geom 'nope'; valid geoms are: ",
+        ),
         (
             {"workspace_frame": "cart", "workspace_low": [0, 0, 0], "workspace_high": [1, 1, 1]},
-            "workspace_frame 'cart' is neither the base nor a site or body a framepos sensor reports; valid frames are: tip",
+            "workspace_frame 'cart' is neither the base nor a site or body a "
+            "framepos sensor reports; valid frames are: tip",
         ),
         (
             {"joint_ranges": True, "range_margin": 3.0},
@@ -69,9 +90,13 @@ def test_names_the_model_lacks_are_refused_listing_the_valid_ones(updates, messa
 def test_joint_ranges_take_the_mjcf_range_with_the_margin_and_an_entry_wins():
     limits = resolve(make_task("cartpole"), SafetyConfig(joint_ranges=True, range_margin=0.25))
     assert (
-        limits.position == ["slider"] and list(limits.position_low) == [-1.75] and list(limits.position_high) == [1.75]
+        limits.position == ["slider"]
+        and list(limits.position_low) == [-1.75]
+        and list(limits.position_high) == [1.75]
     )
-    limits = resolve(make_task("cartpole"), SafetyConfig(joint_ranges=True, position=("slider=-1:0.5",)))
+    limits = resolve(
+        make_task("cartpole"), SafetyConfig(joint_ranges=True, position=("slider=-1:0.5",))
+    )
     assert list(limits.position_low) == [-1.0] and list(limits.position_high) == [0.5]
 
 
@@ -113,8 +138,10 @@ def test_a_config_files_section_reaches_evaluates_episodes(tmp_path, monkeypatch
     import judo.core.configuration.registry as registry
     from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 
-    monkeypatch.setattr(registry, "_OVERRIDES", dict(registry._OVERRIDES))  # the file's defaults end with the test
+    # the file's defaults end with the test
+    monkeypatch.setattr(registry, "_OVERRIDES", dict(registry._OVERRIDES))
     path = tmp_path / "limits.toml"
     path.write_text('[safety.cartpole]\nposition = ["slider=-0.05:0.05"]\n')
     result = run_seeded_episode(EpisodeSpec("cartpole", "ps", 0.1, config_file=str(path)), seed=0)
-    assert "limit_hits" in result.metrics and result.no_feasible > 0  # the random start lies beyond 5 cm
+    # the random start lies beyond 5 cm
+    assert "limit_hits" in result.metrics and result.no_feasible > 0

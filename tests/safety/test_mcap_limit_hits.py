@@ -1,5 +1,6 @@
-"""Limit hits in the ROS 2 bridge's MCAP log: one judo_msgs/LimitHit (stamp, limit, value) per hit of the closed loop
-on the bridge, over a real DDS link to a robot process (`python -m judo plant`)."""
+"""Limit hits in the ROS 2 bridge's MCAP log: one judo_msgs/LimitHit (stamp, limit, value) per hit
+of the closed loop on the bridge, over a real DDS link to a robot process (`python -m judo
+plant`)."""
 
 import sys
 from pathlib import Path
@@ -39,12 +40,18 @@ def test_each_limit_hit_is_a_record_of_the_bridges_log(tmp_path):
     from mcap.reader import make_reader
 
     domain = free_domain()
-    plant = started(["-m", "judo", "plant", "--task", "cartpole", "--ros2.domain-id", str(domain)], "publishing")
+    plant = started(
+        ["-m", "judo", "plant", "--task", "cartpole", "--ros2.domain-id", str(domain)], "publishing"
+    )
     controller = make_policy_controller("cartpole", Rogue(), seed=0)
-    system = Ros2System(controller.task, Ros2Options(domain_id=domain), McapLog(tmp_path / "run.mcap"))
+    system = Ros2System(
+        controller.task, Ros2Options(domain_id=domain), McapLog(tmp_path / "run.mcap")
+    )
     try:
         assert isinstance(system.recorder(), LimitHitLog)
-        loop = ClosedLoop(controller, system, guard=safety_guard(controller, SafetyConfig(effort=("push=0.8",))))
+        loop = ClosedLoop(
+            controller, system, guard=safety_guard(controller, SafetyConfig(effort=("push=0.8",)))
+        )
         loop.restart()
         for _ in range(10):
             loop.step()
@@ -59,10 +66,15 @@ def test_each_limit_hit_is_a_record_of_the_bridges_log(tmp_path):
     with (tmp_path / "run.mcap").open("rb") as file:
         reader = make_reader(file)
         for schema, channel, message in reader.iter_messages(topics=[LIMIT_HITS_TOPIC]):
-            assert schema is not None and schema.name == "judo_msgs/msg/LimitHit" and channel.message_encoding == "cdr"
+            assert (
+                schema is not None
+                and schema.name == "judo_msgs/msg/LimitHit"
+                and channel.message_encoding == "cdr"
+            )
             hit = msg.LimitHit.deserialize(message.data)
             assert message.publish_time == hit.stamp.sec * 1_000_000_000 + hit.stamp.nanosec
             hits.append((msg.seconds_of(hit.stamp), hit.limit, hit.value))
     assert {limit for _, limit, _ in hits} == set(counts) and len(hits) == sum(counts.values())
-    assert all(value > 0.8 for _, limit, value in hits if limit == "effort:push")  # the force it asked for
+    # the force it asked for
+    assert all(value > 0.8 for _, limit, value in hits if limit == "effort:push")
     assert np.all(np.diff([t for t, _, _ in hits]) >= 0)

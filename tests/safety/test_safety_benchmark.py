@@ -1,4 +1,5 @@
-"""benchmarks/safety_limits.py prints a row per case with and without limits, and no command outside them."""
+"""benchmarks/safety_limits.py prints a row per case with and without limits, and no command outside
+them."""
 
 import subprocess
 import sys
@@ -12,15 +13,16 @@ ROOT = Path(__file__).resolve().parents[2]
 @pytest.mark.slow
 def test_the_rogue_case_serves_no_command_outside_the_limits():
     done = subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / "safety_limits.py"), "--cases", "rogue", "--seeds", "1",
+        [sys.executable, str(ROOT / "benchmarks" / "safety_limits.py"), "--cases", "rogue", "--seeds", "1",  # noqa: E501
          "--duration", "0.5", "--no-cost"],
-        capture_output=True, text=True, timeout=600, env={"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin:/bin"},
+        capture_output=True, text=True, timeout=600, env={"PYTHONPATH": str(ROOT / "src"), "PATH": "/usr/bin:/bin"},  # noqa: E501
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     rows = [line.split() for line in done.stdout.splitlines() if line.startswith("rogue")]
     assert [row[1] for row in rows] == ["off", "on"]
     off, on = rows
-    assert int(off[2]) > 0 and int(on[2]) == 0  # commands outside the effort cap: the Policy's, and none served
+    # commands outside the effort cap: the Policy's, and none served
+    assert int(off[2]) > 0 and int(on[2]) == 0
     assert int(on[5]) > 0  # the filter's hits
 
 
@@ -33,7 +35,9 @@ def test_the_grasp_case_recomputes_the_cube_resting_on_the_table_as_its_weight()
     from judo.core.configuration.registry import make_task
     from judo.safety.limits import resolve
 
-    spec = importlib.util.spec_from_file_location("safety_limits", ROOT / "benchmarks" / "safety_limits.py")
+    spec = importlib.util.spec_from_file_location(
+        "safety_limits", ROOT / "benchmarks" / "safety_limits.py"
+    )
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
     task = make_task("fr3_pick")

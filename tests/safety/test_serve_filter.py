@@ -1,4 +1,5 @@
-"""The last-line filter at serve time holds a bad Policy; without limits nothing changes, bit for bit."""
+"""The last-line filter at serve time holds a bad Policy; without limits nothing changes, bit for
+bit."""
 
 import numpy as np
 
@@ -23,7 +24,8 @@ class Rogue(Policy):
 
 
 class BangBang(Rogue):
-    """Pushes as hard as it can against the cart's velocity: a jump across the whole range at every sign change."""
+    """Pushes as hard as it can against the cart's velocity: a jump across the whole range at every
+    sign change."""
 
     def act(self, observations: np.ndarray) -> np.ndarray:
         return (-1e9 * np.sign(observations[:, 3]) + 1e-9)[:, None, None]
@@ -42,7 +44,9 @@ class Steps:
 
 def test_the_filter_holds_a_rogue_policy_within_effort_speed_and_position():
     controller = make_policy_controller("cartpole", Rogue(), seed=0)
-    limits = SafetyConfig(position=("slider=-0.5:0.5",), velocity=("slider=0.5",), effort=("push=0.8",))
+    limits = SafetyConfig(
+        position=("slider=-0.5:0.5",), velocity=("slider=0.5",), effort=("push=0.8",)
+    )
     steps = Steps()
     loop = ClosedLoop(
         controller,
@@ -55,7 +59,8 @@ def test_the_filter_holds_a_rogue_policy_within_effort_speed_and_position():
         loop.step()
     served = np.array([record.action[0] for record in steps.steps])
     cart = np.array([record.state[0] for record in steps.steps])
-    assert np.abs(served).max() <= 0.8  # the motor's force is 1 per unit of command: the cap holds every command
+    # the motor's force is 1 per unit of command: the cap holds every command
+    assert np.abs(served).max() <= 0.8
     assert cart.max() <= 0.5 + 0.02  # a step's overshoot at most, at the speed limit
     assert loop.guard.counts["effort:push"] == 300 and loop.guard.counts["position:slider"] > 0
     hits = [hit for record in steps.steps for hit in record.limit_hits]
@@ -71,8 +76,13 @@ def test_non_finite_commands_and_readings_get_the_safe_action():
     state = np.array([0.0, np.pi, 0.0, 0.0])
     assert guard.filter(np.array([np.nan]), state, 0.0, safe).tolist() == [0.0]
     assert guard.filter(np.array([1.0]), np.array([np.nan, 0, 0, 0]), 0.01, safe).tolist() == [0.0]
-    assert guard.filter(np.array([1.0]), state, 0.02, safe) == np.array([0.1])  # 10 per s for 0.01 s
-    assert [hit.limit for hit in guard.hits] == ["non-finite command", "non-finite reading", "rate:push"]
+    # 10 per s for 0.01 s
+    assert guard.filter(np.array([1.0]), state, 0.02, safe) == np.array([0.1])
+    assert [hit.limit for hit in guard.hits] == [
+        "non-finite command",
+        "non-finite reading",
+        "rate:push",
+    ]
 
 
 def test_a_position_actuators_command_is_clamped_to_the_torque_its_pd_implies():
@@ -80,7 +90,9 @@ def test_a_position_actuators_command_is_clamped_to_the_torque_its_pd_implies():
     guard = ServeFilter(task, resolve(task, SafetyConfig(effort=("*=2",))))
     model = task.model
     state = np.concatenate([model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)])
-    served = guard.filter(np.clip(state[7:19] + 1.0, *task.command_range.T), state, 0.0, lambda: np.zeros(model.nu))
+    served = guard.filter(
+        np.clip(state[7:19] + 1.0, *task.command_range.T), state, 0.0, lambda: np.zeros(model.nu)
+    )
     force = guard.limits.effort_of(served, state[: model.nq], state[model.nq :])
     assert np.abs(force).max() <= 2 + 1e-9 and len(guard.hits) == model.nu
 

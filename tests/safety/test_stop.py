@@ -1,5 +1,6 @@
-"""The latched stop (judo.safety.stop): persisted until an explicit clear, served by the closed loop as the safe action
-(or the System's own halt), through new plans, a reset, a switch and a restart of the app."""
+"""The latched stop (judo.safety.stop): persisted until an explicit clear, served by the closed loop
+as the safe action (or the System's own halt), through new plans, a reset, a switch and a restart of
+the app."""
 
 import json
 import logging
@@ -19,7 +20,8 @@ from judo.safety.stop import STOP_FILE_ENV, StopLatch, default_stop_file, wire_r
 
 
 def wait_until(condition, timeout: float = 60.0, what: str = "condition") -> None:
-    """Poll `condition()` until it is true, or fail saying `what` did not happen (a loaded machine is slow)."""
+    """Poll `condition()` until it is true, or fail saying `what` did not happen (a loaded machine
+    is slow)."""
     deadline = time.monotonic() + timeout
     while not condition():
         if time.monotonic() > deadline:
@@ -61,7 +63,9 @@ def test_a_latch_is_persisted_until_it_is_cleared_and_a_repeat_changes_nothing(t
     assert [(event.source, event.engaged) for event in latch.events] == [("the test", True)]
     again = StopLatch(path)  # a restart
     assert again.latched
-    assert again.latest is not None and again.latest.source == f"the test (from the state file {path})"
+    assert again.latest is not None and again.latest.source == (
+        f"the test (from the state file {path})"
+    )
     assert "Clear stop" in again.start_line() and str(path) in again.start_line()
     assert again.clear("the operator") and not again.latched and not path.exists()
     assert not again.clear("a repeat")
@@ -83,7 +87,8 @@ def test_a_state_file_that_cannot_be_written_is_refused_in_one_line(tmp_path):
         StopLatch(tmp_path)
     assert (
         str(refused.value)
-        == f"the stop's state file (--stop-file, $JUDO_STOP_FILE) '{tmp_path}' is a folder; give a file path"
+        == f"the stop's state file (--stop-file, $JUDO_STOP_FILE) '{tmp_path}' is a folder; "
+        "give a file path"
     )
     (tmp_path / "a_file").write_text("")
     with pytest.raises(ConfigError, match="is a file, so .* cannot be made"):
@@ -132,7 +137,9 @@ class HaltingPlant(MujocoSystem):
 
 def test_a_system_with_its_own_halt_is_halted_once_per_latch_and_applied_nothing_meanwhile():
     config = ControllerConfig(horizon=0.5, max_opt_iters=1)
-    with judo.make_controller("cartpole", "ps", controller_config=config, num_workers=1, seed=0) as controller:
+    with judo.make_controller(
+        "cartpole", "ps", controller_config=config, num_workers=1, seed=0
+    ) as controller:
         plant = HaltingPlant.from_task(controller.task, seed=0)
         assert isinstance(plant, HaltingPlant)
         latch = StopLatch(None)
@@ -144,7 +151,11 @@ def test_a_system_with_its_own_halt_is_halted_once_per_latch_and_applied_nothing
             latch.engage("the test")
             records = [loop.step() for _ in range(30)]
             assert (plant.halts, plant.applies) == (1, 20)  # halted once, then nothing applied
-            assert all(np.array_equal(record.action, loop.safe_action()) for record in records if record is not None)
+            assert all(
+                np.array_equal(record.action, loop.safe_action())
+                for record in records
+                if record is not None
+            )
             assert latch.latest is not None and latch.latest.effect_s is not None
             latch.clear("the test")
             for _ in range(5):
@@ -163,25 +174,34 @@ def stop_file(tmp_path):
 
 
 def started_app(stop_file, served: Served, optimizer: str = "mppi") -> App:
-    """A running headless cartpole App on `stop_file`, every served action recorded from its first step."""
+    """A running headless cartpole App on `stop_file`, every served action recorded from its first
+    step."""
     app = App("cartpole", optimizer, gui=False, seed=0, num_workers=1, stop_file=stop_file)
     app.session.closed_loop.recorders.append(served)
     app.start()
     return app
 
 
-def test_the_app_serves_the_safe_action_from_a_latch_through_new_plans_a_reset_and_a_switch_until_cleared(stop_file):
+def test_the_app_serves_the_safe_action_from_a_latch_through_new_plans_a_reset_and_a_switch_until_cleared(  # noqa: E501
+    stop_file,
+):
     served = Served()
     app = started_app(stop_file, served)
     try:
-        wait_until(lambda: app.stats.num_plans() >= 2 and np.any(served.since(0) != 0), what="plans served")
+        wait_until(
+            lambda: app.stats.num_plans() >= 2 and np.any(served.since(0) != 0), what="plans served"
+        )
         latch = app.stop_latch
         assert app.session.closed_loop.stop is latch
         latch.engage("the test")
-        wait_until(lambda: latch.latest is not None and latch.latest.effect_s is not None, what="the stop's effect")
+        wait_until(
+            lambda: latch.latest is not None and latch.latest.effect_s is not None,
+            what="the stop's effect",
+        )
         print(f"app.stop_latch.engage -> the safe action served: {latch.latest.effect_s:.3f} s")
         index, plans = len(served), app.stats.num_plans()
-        wait_until(lambda: app.stats.num_plans() >= plans + 3, what="new plans")  # a new plan does not clear it
+        # a new plan does not clear it
+        wait_until(lambda: app.stats.num_plans() >= plans + 3, what="new plans")
         app.commands.reset_task()
         wait_until(lambda: app.resets_done >= 1, what="the reset")
         generation = app.session.generation
@@ -196,15 +216,23 @@ def test_the_app_serves_the_safe_action_from_a_latch_through_new_plans_a_reset_a
         assert len(stopped) > 0 and np.all(stopped == 0.0), "cartpole's safe action is 0"
         index = len(served)
         latch.clear("the test")
-        wait_until(lambda: np.any(served.since(index) != 0), what="the plan served again after the clear")
+        wait_until(
+            lambda: np.any(served.since(index) != 0), what="the plan served again after the clear"
+        )
         assert not stop_file.exists()
     finally:
         app.stop()
     summary = str(app.summary())
-    assert "latched by the test at" in summary and "in effect after" in summary and "cleared by the test" in summary
+    assert (
+        "latched by the test at" in summary
+        and "in effect after" in summary
+        and "cleared by the test" in summary
+    )
 
 
-def test_an_app_started_on_a_latched_state_file_serves_the_safe_action_from_its_first_step(stop_file, caplog):
+def test_an_app_started_on_a_latched_state_file_serves_the_safe_action_from_its_first_step(
+    stop_file, caplog
+):
     StopLatch(stop_file).engage("an earlier run")
     served = Served()
     with caplog.at_level(logging.INFO, logger="judo.app"):
@@ -216,7 +244,9 @@ def test_an_app_started_on_a_latched_state_file_serves_the_safe_action_from_its_
     assert np.all(served.since(0) == 0.0)
     assert app.stop_latch.latched and stop_file.exists()
     told = [r.getMessage() for r in caplog.records if "the stop is latched" in r.getMessage()]
-    assert told and "an earlier run (from the state file" in told[0] and "Clear stop" in told[0], told
+    assert told and "an earlier run (from the state file" in told[0] and "Clear stop" in told[0], (
+        told
+    )
     assert "still latched at exit" in str(app.summary())
 
 
@@ -236,6 +266,12 @@ def test_each_latch_and_clear_is_a_config_edit_in_a_recording(stop_file, tmp_pat
         app.stop()
     with h5py.File(path) as file:
         edits = json.loads(file["data"]["demo_0"].attrs["config_edits"])
-    stops = [(edit["kind"], edit["source"], edit["engaged"]) for edit in edits if edit["kind"] == "stop"]
+    stops = [
+        (edit["kind"], edit["source"], edit["engaged"]) for edit in edits if edit["kind"] == "stop"
+    ]
     assert stops == [("stop", "the test", True), ("stop", "the test", False)]
-    assert all(isinstance(edit["time"], float) and edit["wall_time"] > 0 for edit in edits if edit["kind"] == "stop")
+    assert all(
+        isinstance(edit["time"], float) and edit["wall_time"] > 0
+        for edit in edits
+        if edit["kind"] == "stop"
+    )

@@ -1,9 +1,9 @@
-"""The latched stop in the GUI, in headless Chromium: the Stop button latches it (the plant is served the safe action),
-a page that reconnects is shown it, Clear stop clears it, and the Escape key latches it from anywhere on the page.
-Screenshot: test-artifacts/stop_latched.png.
+"""The latched stop in the GUI, in headless Chromium: the Stop button latches it (the plant is
+served the safe action), a page that reconnects is shown it, Clear stop clears it, and the Escape
+key latches it from anywhere on the page. Screenshot: test-artifacts/stop_latched.png.
 
-Playwright runs on a thread of its own here: its sync API keeps an event loop on the thread that starts it, and
-tests/runtime's session browser may already hold the main thread's.
+Playwright runs on a thread of its own here: its sync API keeps an event loop on the thread that
+starts it, and tests/runtime's session browser may already hold the main thread's.
 """
 
 import importlib.util
@@ -26,13 +26,17 @@ _spec = importlib.util.spec_from_file_location(
 )
 assert _spec is not None and _spec.loader is not None
 browser_fixtures = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(browser_fixtures)  # its Chromium path and the script that keeps the 3-D scene undrawn
+# its Chromium path and the script that keeps the 3-D scene undrawn
+_spec.loader.exec_module(browser_fixtures)
 
 
 def in_browser(work, timeout: float = 300.0):
-    """work(browser) with Debian's headless Chromium, on a thread of its own; what it returns, or what it raised."""
+    """work(browser) with Debian's headless Chromium, on a thread of its own; what it returns, or
+    what it raised."""
     chromium = browser_fixtures.CHROMIUM
-    problem = None if chromium.exists() else f"{chromium} not found (install Debian's chromium package)"
+    problem = (
+        None if chromium.exists() else (f"{chromium} not found (install Debian's chromium package)")
+    )
     try:
         from playwright.sync_api import sync_playwright
     except ImportError:
@@ -107,12 +111,18 @@ def test_the_stop_button_the_clear_button_and_the_escape_key(tmp_path):
         page.set_default_timeout(60_000)
         page.goto(app.gui.url)
         page.get_by_text("Controller", exact=True).wait_for()
-        wait_until(lambda: any(np.any(a != 0) for a in served.actions[-20:]), what="the plan served")
+        wait_until(
+            lambda: any(np.any(a != 0) for a in served.actions[-20:]), what="the plan served"
+        )
 
         page.get_by_role("button", name="Stop", exact=True).click()
-        wait_until(lambda: latch.latest is not None and latch.latest.effect_s is not None, what="the stop's effect")
+        wait_until(
+            lambda: latch.latest is not None and latch.latest.effect_s is not None,
+            what="the stop's effect",
+        )
         index = len(served.actions)
-        page.get_by_role("button", name="STOPPED", exact=True).wait_for()  # the page shows it latched
+        # the page shows it latched
+        page.get_by_role("button", name="STOPPED", exact=True).wait_for()
         wait_until(lambda: len(served.actions) > index + 20, what="steps under the stop")
         assert np.all(np.array(served.actions[index:]) == 0.0), "cartpole's safe action is 0"
         assert stop_file.exists()

@@ -1,5 +1,6 @@
-"""The latched stop in a real `python -m judo --headless` process: SIGUSR1 latches it, the exit summary says when it
-took effect, and the next start of the app begins latched and says how to clear it."""
+"""The latched stop in a real `python -m judo --headless` process: SIGUSR1 latches it, the exit
+summary says when it took effect, and the next start of the app begins latched and says how to clear
+it."""
 
 import os
 import signal
@@ -19,10 +20,14 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 class Judo:
-    """`python -m judo ARGS` in the repository on the stop file `stop_file`, its output (stdout and stderr) kept."""
+    """`python -m judo ARGS` in the repository on the stop file `stop_file`, its output (stdout and
+    stderr) kept."""
 
     def __init__(self, args: list[str], stop_file: Path) -> None:
-        env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")])}
+        env = {
+            **os.environ,
+            "PYTHONPATH": os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]),
+        }
         env[STOP_FILE_ENV] = str(stop_file)
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "judo", *args],
@@ -48,7 +53,9 @@ class Judo:
         deadline = time.monotonic() + timeout
         while text not in self.output():
             if self.proc.poll() is not None and not self._reader.is_alive():
-                pytest.fail(f"judo exited ({self.proc.returncode}) before saying {text!r}:\n{self.output()}")
+                pytest.fail(
+                    f"judo exited ({self.proc.returncode}) before saying {text!r}:\n{self.output()}"
+                )
             if time.monotonic() > deadline:
                 pytest.fail(f"judo did not say {text!r} within {timeout} s:\n{self.output()}")
             time.sleep(0.05)
@@ -75,7 +82,8 @@ def test_sigusr1_latches_a_headless_app_and_the_next_start_begins_latched(tmp_pa
     assert stop_file.exists()
     first.proc.send_signal(signal.SIGINT)
     output = first.finish()
-    # 1 only where the interrupt came before the first plan on a loaded machine (a headless run says so)
+    # 1 only where the interrupt came before the first plan on a loaded machine (a headless run says
+    # so)
     assert first.proc.returncode == 0 or "no plan ever succeeded" in output, output
     summary = output[output.index("task: cartpole") :]
     assert "stop: latched by SIGUSR1 at" in summary and "(in effect after" in summary, summary
@@ -83,7 +91,17 @@ def test_sigusr1_latches_a_headless_app_and_the_next_start_begins_latched(tmp_pa
     print("SIGUSR1 -> the safe action served:", summary.split("(in effect after ")[1].split(")")[0])
 
     # --stop-file names the file over $JUDO_STOP_FILE
-    args = ["--task", "cartpole", "--headless", "--seed", "0", "--duration", "0.2", "--stop-file", str(stop_file)]
+    args = [
+        "--task",
+        "cartpole",
+        "--headless",
+        "--seed",
+        "0",
+        "--duration",
+        "0.2",
+        "--stop-file",
+        str(stop_file),
+    ]
     second = Judo(args, tmp_path / "another.json")
     output = second.finish()
     assert second.proc.returncode == 0 or "no plan ever succeeded" in output, output

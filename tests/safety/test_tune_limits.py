@@ -1,4 +1,5 @@
-"""Tuning reports the [safety] limits' hits beside each trial's score: evaluate's limit_hits metric, per episode."""
+"""Tuning reports the [safety] limits' hits beside each trial's score: evaluate's limit_hits metric,
+per episode."""
 
 import csv
 
@@ -32,7 +33,8 @@ def test_a_trial_under_limits_has_its_limit_hits_beside_its_score(tmp_path):
     path.write_text('[safety.cartpole]\nposition = ["slider=-0.05:0.05"]\nrate = ["push=5"]\n')
     spec = TrialSpec("cartpole", "ps", "mean_reward", seeds=1, duration=0.2, config_file=str(path))
     outcome = run_trial(spec, {"optimizer.sigma": 0.3})
-    assert outcome.failure is None and LIMIT_HITS in outcome.metrics  # evaluate's metric, the mean per episode
+    # evaluate's metric, the mean per episode
+    assert outcome.failure is None and LIMIT_HITS in outcome.metrics
     study = optuna.create_study(direction="maximize")
     told(study, outcome)
     write_trials_csv(tmp_path / "trials.csv", study, "mean_reward")
@@ -48,6 +50,10 @@ def test_without_limits_no_column_is_added(tmp_path):
     told(study, run_trial(TrialSpec("cartpole", "ps", "mean_reward", seeds=1, duration=0.2), {}))
     write_trials_csv(tmp_path / "trials.csv", study, "mean_reward")
     header, _ = rows(tmp_path / "trials.csv")
-    assert LIMIT_HITS not in header and f"metric.{LIMIT_HITS}" not in header and header[3] == "mean_reward@default"
+    assert (
+        LIMIT_HITS not in header
+        and f"metric.{LIMIT_HITS}" not in header
+        and header[3] == "mean_reward@default"
+    )
     table = top_trials_table(study, Objective("mean_reward", "maximize"), SPACE)
     assert "limit hits" not in [column.header for column in table.columns]

@@ -1,5 +1,5 @@
-"""Rollout feasibility on the MuJoCo Warp backend: the same screen on the host arrays it hands back (warp's default
-device: the CPU device where there is no GPU)."""
+"""Rollout feasibility on the MuJoCo Warp backend: the same screen on the host arrays it hands back
+(warp's default device: the CPU device where there is no GPU)."""
 
 import numpy as np
 import pytest

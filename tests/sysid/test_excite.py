@@ -1,5 +1,6 @@
 """python -m judo excite's pacing and its boundary: a user's System is stepped once per timestep of wall clock (the
-app's plant clock), and every input it cannot run is refused in one line, exit 2, before anything is written."""
+app's plant clock), and every input it cannot run is refused in one line, exit 2, before anything is
+written."""  # noqa: E501
 
 import time
 
@@ -16,7 +17,8 @@ pytest.importorskip("h5py")
 
 
 class TimedProbe(System):
-    """A System whose step() returns at once and records the wall time (time.perf_counter()) of each call."""
+    """A System whose step() returns at once and records the wall time (time.perf_counter()) of each
+    call."""
 
     TIMESTEP = 0.01
     calls: list[float] = []
@@ -48,8 +50,9 @@ class FineStepProbe(TimedProbe):
 
 
 def test_a_users_system_is_stepped_once_per_timestep_of_wall_clock(tmp_path, capsys):
-    """100 steps of 0.01 s: step k is called no earlier than k timesteps after the first (the clock's origin), and
-    on average one timestep apart (the upper bound generous for a loaded machine, whose delays only add)."""
+    """100 steps of 0.01 s: step k is called no earlier than k timesteps after the first (the
+    clock's origin), and on average one timestep apart (the upper bound generous for a loaded
+    machine, whose delays only add)."""
     argv = ["--task", "cartpole", "--system", f"{__name__}:TimedProbe", "--duration", "1"]
     assert excite_main([*argv, "--out", str(tmp_path / "paced.h5")]) == 0
     assert "wrote 100 steps of excitation of cartpole through TimedProbe" in capsys.readouterr().out
@@ -59,15 +62,26 @@ def test_a_users_system_is_stepped_once_per_timestep_of_wall_clock(tmp_path, cap
     early = since_first - np.arange(100) * TimedProbe.TIMESTEP
     assert early.min() > -1e-3, f"step {early.argmin()} came {-early.min():.4f} s before it was due"
     mean = np.diff(calls).mean()
-    assert 0.9 * TimedProbe.TIMESTEP <= mean <= 3 * TimedProbe.TIMESTEP, f"mean spacing {mean:.5f} s"
+    assert 0.9 * TimedProbe.TIMESTEP <= mean <= 3 * TimedProbe.TIMESTEP, (
+        f"mean spacing {mean:.5f} s"
+    )
 
 
 @pytest.mark.parametrize(
     "argv, message",
     [
-        (["--duration", "1e9"], "--duration must be in (0, 3600] s (at most an hour of excitation), got 1000000000.0"),
-        (["--duration", "nan"], "--duration must be in (0, 3600] s (at most an hour of excitation), got nan"),
-        (["--duration", "0.001"], "--duration 0.001 s is less than one step of MujocoSystem (0.01 s); give at least"),
+        (
+            ["--duration", "1e9"],
+            "--duration must be in (0, 3600] s (at most an hour of excitation), got 1000000000.0",
+        ),
+        (
+            ["--duration", "nan"],
+            "--duration must be in (0, 3600] s (at most an hour of excitation), got nan",
+        ),
+        (
+            ["--duration", "0.001"],
+            "--duration 0.001 s is less than one step of MujocoSystem (0.01 s); give at least",
+        ),
         (["--seed", "-1"], "--seed must be >= 0, got -1"),
         (
             ["--bandwidth", "1000"],
@@ -75,11 +89,13 @@ def test_a_users_system_is_stepped_once_per_timestep_of_wall_clock(tmp_path, cap
         ),
         (
             ["--system", f"{__name__}:ZeroStepProbe"],
-            "ZeroStepProbe.timestep must be the seconds one step() advances (a number > 0), got 0.0",
+            "ZeroStepProbe.timestep must be the seconds one step() advances (a "
+            "number > 0), got 0.0",
         ),
         (
             ["--system", f"{__name__}:FineStepProbe", "--duration", "10"],
-            f"--duration 10 s is 1000000 steps of 1e-05 s; excite logs at most {MAX_STEPS} steps (4 s at this",
+            "--duration 10 s is 1000000 steps of 1e-05 s; excite logs at most "
+            f"{MAX_STEPS} steps (4 s at this",
         ),
     ],
     ids=[
@@ -92,7 +108,9 @@ def test_a_users_system_is_stepped_once_per_timestep_of_wall_clock(tmp_path, cap
         "too-many-steps",
     ],  # fmt: skip
 )
-def test_an_input_excite_cannot_run_is_one_line_exit_2_and_writes_nothing(tmp_path, capsys, argv, message):
+def test_an_input_excite_cannot_run_is_one_line_exit_2_and_writes_nothing(
+    tmp_path, capsys, argv, message
+):
     out = tmp_path / "never.h5"
     with pytest.raises(SystemExit) as caught:
         excite_main(["--task", "cartpole", *argv, "--out", str(out)])

@@ -1,6 +1,7 @@
-"""sysid on logs its old fit got confidently wrong: commands the plant applied a step late (a bridge under load),
-a heavier pole whose inertia grew with its mass, a row of several entries named without an index; every fifth
-window held out; and --out checked before the fit. Each log is real MuJoCo: a multisine on a mismatched plant."""
+"""sysid on logs its old fit got confidently wrong: commands the plant applied a step late (a bridge
+under load), a heavier pole whose inertia grew with its mass, a row of several entries named without
+an index; every fifth window held out; and --out checked before the fit. Each log is real MuJoCo: a
+multisine on a mismatched plant."""
 
 import re
 
@@ -27,8 +28,9 @@ TRUE_MASS = 0.13
 
 
 def write_log(path, late=0, inertia_factor=1.0, seconds=3.0):
-    """A collect-layout log of cartpole driven by excite's multisine, its plant's pole TRUE_MASS (its inertia row
-    times `inertia_factor`), each logged action applied by the plant `late` steps after it was served."""
+    """A collect-layout log of cartpole driven by excite's multisine, its plant's pole TRUE_MASS
+    (its inertia row times `inertia_factor`), each logged action applied by the plant `late` steps
+    after it was served."""
     model = Cartpole().model
     pole = model.body("pole").id
     plant = overridden(
@@ -59,7 +61,9 @@ def sysid(log, out, *args):
 
 def fitted(report, name):
     """(fitted value, verdict) of parameter `name` in a report's table."""
-    row = re.search(rf"\| {re.escape(name)}[^|]* \| [\d.e-]+ \| ([\d.e-]+) \| [^|]+ \| ([^|]+) \|", report)
+    row = re.search(
+        rf"\| {re.escape(name)}[^|]* \| [\d.e-]+ \| ([\d.e-]+) \| [^|]+ \| ([^|]+) \|", report
+    )
     assert row is not None, report
     return float(row.group(1)), row.group(2).strip()
 
@@ -70,17 +74,24 @@ def test_commands_applied_a_step_late_are_fitted_as_a_command_delay_and_the_mass
     mass, verdict = fitted(report, "body_mass.pole")
     assert mass == pytest.approx(TRUE_MASS, rel=1e-6) and verdict == "yes"
     assert "Command delay: 1 step (0.01 s): each logged action applied 1 step later" in report
-    assert "commands reached the plant 0.01 s (1 model steps) late" in (tmp_path / "fitted.toml").read_text()
+    assert (
+        "commands reached the plant 0.01 s (1 model steps) late"
+        in (tmp_path / "fitted.toml").read_text()
+    )
     # Paired with the actions as logged, the same log puts the mass 4% off, inside a tight interval.
     mass, _ = fitted(
-        sysid(log, tmp_path / "as_logged.toml", "--params", "body_mass.pole", "--command-delay", "0"), "body_mass.pole"
+        sysid(
+            log, tmp_path / "as_logged.toml", "--params", "body_mass.pole", "--command-delay", "0"
+        ),
+        "body_mass.pole",
     )
     assert abs(mass - TRUE_MASS) > 0.02 * TRUE_MASS
 
 
 def test_a_heavier_pole_fitted_by_its_mass_alone_is_flagged_and_its_inertia_named(tmp_path):
-    """A pole of the same shape 1.3 times as heavy has 1.3 times its inertia: its mass alone cannot explain the
-    log. The report says so and names the inertia; with the inertia's row (a factor on it) the fit is exact."""
+    """A pole of the same shape 1.3 times as heavy has 1.3 times its inertia: its mass alone cannot
+    explain the log. The report says so and names the inertia; with the inertia's row (a factor on
+    it) the fit is exact."""
     log = write_log(tmp_path / "heavy.h5", inertia_factor=1.3)
     out = tmp_path / "mass.toml"
     report = sysid(log, out, "--params", "body_mass.pole")
@@ -97,30 +108,43 @@ def test_a_heavier_pole_fitted_by_its_mass_alone_is_flagged_and_its_inertia_name
 
 
 def test_every_fifth_window_is_held_out_and_its_error_reported_beside_the_fitted_ones(tmp_path):
-    report = sysid(write_log(tmp_path / "run.h5"), tmp_path / "fitted.toml", "--params", "body_mass.pole")
+    report = sysid(
+        write_log(tmp_path / "run.h5"), tmp_path / "fitted.toml", "--params", "body_mass.pole"
+    )
     counts = re.search(r"(\d+) windows of 5 steps \(0.05 s\) fitted, (\d+) more held out", report)
-    assert counts is not None and int(counts.group(2)) == (int(counts.group(1)) + int(counts.group(2))) // 5
+    assert (
+        counts is not None
+        and int(counts.group(2)) == (int(counts.group(1)) + int(counts.group(2))) // 5
+    )
     before, after = (
-        float(x) for x in re.search(r"On the windows held out: ([\d.e-]+) and ([\d.e-]+)\.", report).groups()
+        float(x)
+        for x in re.search(r"On the windows held out: ([\d.e-]+) and ([\d.e-]+)\.", report).groups()
     )
     assert before > 1e-3 and after < 1e-9  # the fitted model predicts windows it never saw
 
 
 def test_a_row_of_several_entries_without_an_index_is_one_factor_or_refused_with_its_entries():
     model = Cartpole().model
-    assert parse_parameters(["body_inertia.pole"], model) == [FitParameter("body_inertia", "pole", None, True)]
-    assert parse_parameters(["body_inertia.pole[1]"], model) == [FitParameter("body_inertia", "pole", 1)]
+    assert parse_parameters(["body_inertia.pole"], model) == [
+        FitParameter("body_inertia", "pole", None, True)
+    ]
+    assert parse_parameters(["body_inertia.pole[1]"], model) == [
+        FitParameter("body_inertia", "pole", 1)
+    ]
     with pytest.raises(ConfigError) as caught:
         parse_parameters(["body_ipos.pole"], model)
     assert str(caught.value) == (
-        "--params body_ipos.pole: its 3 entries [0.0, 0.0, 0.3] are a position or orientation, which no factor fits; "
+        "--params body_ipos.pole: its 3 entries [0.0, 0.0, 0.3] are a position or "
+        "orientation, which no factor fits; "
         "name the entries to fit: body_ipos.pole[0], body_ipos.pole[1], body_ipos.pole[2]"
     )
     with pytest.raises(ConfigError, match="the same entries are named twice"):
         parse_parameters(["body_inertia.pole", "body_inertia.pole[1]"], model)
 
 
-def test_an_out_that_cannot_be_written_exits_2_before_the_fit_and_writes_nothing(tmp_path, capsys, monkeypatch):
+def test_an_out_that_cannot_be_written_exits_2_before_the_fit_and_writes_nothing(
+    tmp_path, capsys, monkeypatch
+):
     import judo.sysid.fit as sysid_module
 
     def no_fit(*args, **kwargs):
@@ -141,8 +165,9 @@ def test_an_out_that_cannot_be_written_exits_2_before_the_fit_and_writes_nothing
 
 
 def test_the_noise_floor_is_the_white_noise_under_a_smooth_drift():
-    """A model's error drifts smoothly over a window (its curvature per step far below the noise); white noise
-    does not: the floor finds the noise under a drift 10 times its size, and almost nothing in the drift alone."""
+    """A model's error drifts smoothly over a window (its curvature per step far below the noise);
+    white noise does not: the floor finds the noise under a drift 10 times its size, and almost
+    nothing in the drift alone."""
     rng = np.random.default_rng(0)
     steps = np.arange(10)[None, :, None]
     drift = (0.02 * steps + 0.001 * steps**2) * rng.normal(size=(400, 1, 3))
@@ -159,7 +184,10 @@ def test_the_noise_floor_is_the_white_noise_under_a_smooth_drift():
             ["--command-delay", "soon"],
             "--command-delay takes auto or a whole number of steps from 0 to 100, got 'soon'",
         ),
-        (["--command-delay", "2", "--fit-delay"], "--command-delay 2 and --fit-delay both delay the actions; give one"),
+        (
+            ["--command-delay", "2", "--fit-delay"],
+            "--command-delay 2 and --fit-delay both delay the actions; give one",
+        ),
     ],
 )
 def test_a_command_delay_sysid_cannot_use_exits_2_in_one_line(tmp_path, capsys, args, message):

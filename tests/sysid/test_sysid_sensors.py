@@ -1,6 +1,7 @@
 """python -m judo excite --system and sysid from measured sensors: a user's System driven through the CLI (examples/06's
-robot with noisy, late encoders, and Systems defined here), a stop that halts it and keeps the log, and fits that
-compare the measured sensors, each window from the logged estimate refined to its own measurements."""
+robot with noisy, late encoders, and Systems defined here), a stop that halts it and keeps the log,
+and fits that compare the measured sensors, each window from the logged estimate refined to its own
+measurements."""  # noqa: E501
 
 import os
 import re
@@ -38,14 +39,23 @@ def fitted_mass(report: str) -> float:
 
 
 @pytest.mark.slow
-def test_excite_drives_examples_06_robot_through_the_cli_and_sysid_fits_its_pole_from_the_noisy_encoders(
+def test_excite_drives_examples_06_robot_through_the_cli_and_sysid_fits_its_pole_from_the_noisy_encoders(  # noqa: E501
     tmp_path, capsys
 ):
-    """examples/06's LaggyNoisyCartpole (pole 10% heavier, encoders only, noisy and 20 ms late, motor 10 ms late),
-    loaded as module:Class from its folder: the log holds no state, its measured encoders with their ages and the
-    EKF's estimate; the fit compares the encoders and finds the pole's mass and the motor's lag."""
+    """examples/06's LaggyNoisyCartpole (pole 10% heavier, encoders only, noisy and 20 ms late,
+    motor 10 ms late), loaded as module:Class from its folder: the log holds no state, its measured
+    encoders with their ages and the EKF's estimate; the fit compares the encoders and finds the
+    pole's mass and the motor's lag."""
     log = tmp_path / "robot.h5"
-    argv = ["excite", "--task", "cartpole", "--system", "06_hardware_system:LaggyNoisyCartpole", "--duration", "5"]
+    argv = [
+        "excite",
+        "--task",
+        "cartpole",
+        "--system",
+        "06_hardware_system:LaggyNoisyCartpole",
+        "--duration",
+        "5",
+    ]
     env = {**os.environ, "PYTHONPATH": str(ROOT / "src")}
     run = subprocess.run(
         [sys.executable, "-m", "judo", *argv, "--out", str(log)],
@@ -56,21 +66,36 @@ def test_excite_drives_examples_06_robot_through_the_cli_and_sysid_fits_its_pole
         timeout=120,
     )
     assert run.returncode == 0, run.stderr
-    assert "through LaggyNoisyCartpole (its measured sensors and the estimator's state)" in run.stdout
+    assert (
+        "through LaggyNoisyCartpole (its measured sensors and the estimator's state)" in run.stdout
+    )
     assert "applied the task's safe action" in run.stdout  # it defines no halt()
     with h5py.File(log, "r") as file:
         demo = file["data/demo_0"]
         assert np.isnan(demo["obs/qpos"][:]).all()  # the robot reports no state
         measured, age = demo["obs/measured"][:], demo["obs/measured_age"][:]
         assert measured.shape == (500, 2) and np.isfinite(measured).all()
-        np.testing.assert_allclose(age[5:], 0.02, atol=1e-9)  # the encoders arrive 20 ms after they are taken
+        # the encoders arrive 20 ms after they are taken
+        np.testing.assert_allclose(age[5:], 0.02, atol=1e-9)
         assert np.isfinite(demo["obs/estimate_qpos"][:]).all()
     out = tmp_path / "fitted.toml"
-    argv = [str(log), "--task", "cartpole", "--params", "body_mass.pole", "--fit-delay", "--out", str(out)]
+    argv = [
+        str(log),
+        "--task",
+        "cartpole",
+        "--params",
+        "body_mass.pole",
+        "--fit-delay",
+        "--out",
+        str(out),
+    ]
     assert sysid_main(argv) == 0
     report = (tmp_path / "fitted.md").read_text()
     assert "windows of 50 steps (0.5 s)" in report  # the default window when comparing sensors
-    assert "Compared: the measured sensors" in report and "each window from the logged estimate" in report
+    assert (
+        "Compared: the measured sensors" in report
+        and "each window from the logged estimate" in report
+    )
     assert fitted_mass(report) == pytest.approx(0.11, rel=0.03)
     delay = re.search(r"\| delay \(s\) \| 0 \| ([\d.e-]+) \| ± [\d.e-]+ \| yes \|", report)
     assert delay is not None and float(delay.group(1)) == pytest.approx(0.01, abs=0.003)
@@ -78,26 +103,39 @@ def test_excite_drives_examples_06_robot_through_the_cli_and_sysid_fits_its_pole
 
 
 @pytest.mark.slow
-def test_a_collect_with_observe_sensors_on_a_heavier_pole_is_fitted_from_the_measured_sensors(tmp_path):
-    """collect --observe sensors (noisy encoders, 20 ms late) on a plant whose pole is 0.13 kg, planning with 0.1
-    kg: the fit compares the measured sensors, not the plant's true state the simulator also logged."""
+def test_a_collect_with_observe_sensors_on_a_heavier_pole_is_fitted_from_the_measured_sensors(
+    tmp_path,
+):
+    """collect --observe sensors (noisy encoders, 20 ms late) on a plant whose pole is 0.13 kg,
+    planning with 0.1 kg: the fit compares the measured sensors, not the plant's true state the
+    simulator also logged."""
     sensing = Sensing("sensors", noise=0.005, delay=0.02)
-    spec = EpisodeSpec("cartpole", "mppi", 3.0, sensing=sensing, plant_overrides=("body_mass.pole=0.13",))
+    spec = EpisodeSpec(
+        "cartpole", "mppi", 3.0, sensing=sensing, plant_overrides=("body_mass.pole=0.13",)
+    )
     outcome = collect_episode(spec, 0)
     assert outcome.failure is None
     np.testing.assert_allclose(outcome.episode.measured_age[5:], 0.02, atol=1e-9)
     log = tmp_path / "run.h5"
-    DatasetFile(log, {"task": "cartpole", "optimizer": "mppi", "plant_timestep": 0.01}).write_episode(outcome.episode)
+    DatasetFile(
+        log, {"task": "cartpole", "optimizer": "mppi", "plant_timestep": 0.01}
+    ).write_episode(outcome.episode)
     out = tmp_path / "fitted.toml"
-    assert sysid_main([str(log), "--task", "cartpole", "--params", "body_mass.pole", "--out", str(out)]) == 0
+    assert (
+        sysid_main(
+            [str(log), "--task", "cartpole", "--params", "body_mass.pole", "--out", str(out)]
+        )
+        == 0
+    )
     report = (tmp_path / "fitted.md").read_text()
     assert "Compared: the measured sensors" in report
     assert fitted_mass(report) == pytest.approx(0.13, rel=0.10)
 
 
 class RecordingCartpole(System):
-    """judo's cart-pole model as a robot that reports its full state, and, after STOP_AFTER steps, asks its own
-    process to stop (SIGINT, as a Ctrl-C); it keeps every action applied and every halt()."""
+    """judo's cart-pole model as a robot that reports its full state, and, after STOP_AFTER steps,
+    asks its own process to stop (SIGINT, as a Ctrl-C); it keeps every action applied and every
+    halt()."""
 
     STOP_AFTER = 50
     HALTS = True
@@ -135,22 +173,32 @@ class RecordingCartpole(System):
 
 
 class UnhaltableCartpole(RecordingCartpole):
-    """RecordingCartpole without a halt of its own: excite applies the task's safe action instead."""
+    """RecordingCartpole without a halt of its own: excite applies the task's safe action
+    instead."""
 
     HALTS = False
 
 
 @pytest.mark.parametrize("system_class, said", [(RecordingCartpole, "halted it (halt())"),
-                                                 (UnhaltableCartpole, "applied the task's safe action")])  # fmt: skip
+                                                 (UnhaltableCartpole, "applied the "
+                                                                      "task's safe action")])  # fmt: skip  # noqa: E501
 def test_a_stop_halts_the_system_and_keeps_what_was_logged(tmp_path, capsys, system_class, said):
     log = tmp_path / "stopped.h5"
-    argv = ["--task", "cartpole", "--system", f"{__name__}:{system_class.__name__}", "--duration", "3"]
+    argv = [
+        "--task",
+        "cartpole",
+        "--system",
+        f"{__name__}:{system_class.__name__}",
+        "--duration",
+        "3",
+    ]
     assert excite_main([*argv, "--out", str(log)]) == 130
     printed = capsys.readouterr().out
     assert f"stopped after 50 of 300 steps; {said}; wrote the 50 steps" in printed
     assert system_class.halts == [50]  # asked once, after the step under way
     if system_class is UnhaltableCartpole:
-        np.testing.assert_array_equal(system_class.applied[-1], [0.0])  # cartpole's safe action: the motor off
+        # cartpole's safe action: the motor off
+        np.testing.assert_array_equal(system_class.applied[-1], [0.0])
     with h5py.File(log, "r") as file:
         demo = file["data/demo_0"]
         assert demo["actions"].shape == (50, 1) and demo["obs/qpos"].shape == (50, 2)
@@ -163,10 +211,19 @@ def test_a_stop_halts_the_system_and_keeps_what_was_logged(tmp_path, capsys, sys
     "argv, message",
     [
         (["--system", "nowhere:Robot"], "--system nowhere:Robot: cannot import module 'nowhere'"),
-        (["--system", "robot"], "--system expects ros2, sim, unitree or module:Class (a System subclass), got 'robot'"),
         (
-            ["--system", f"{__name__}:RecordingCartpole", "--plant-overrides", "body_mass.pole=0.2"],
-            f"--plant-overrides set judo's simulated plant; --system {__name__}:RecordingCartpole is its own plant",
+            ["--system", "robot"],
+            "--system expects ros2, sim, unitree or module:Class (a System subclass), got 'robot'",
+        ),
+        (
+            [
+                "--system",
+                f"{__name__}:RecordingCartpole",
+                "--plant-overrides",
+                "body_mass.pole=0.2",
+            ],
+            "--plant-overrides set judo's simulated plant; --system "
+            f"{__name__}:RecordingCartpole is its own plant",
         ),
     ],
 )
@@ -183,33 +240,41 @@ def test_compare_sensors_on_a_log_of_states_says_what_the_log_holds(tmp_path, ca
     log = tmp_path / "excite.h5"
     assert excite_main(["--task", "cartpole", "--duration", "0.5", "--out", str(log)]) == 0
     with pytest.raises(SystemExit) as caught:
-        sysid_main([str(log), "--task", "cartpole", "--params", "body_mass.pole", "--compare", "sensors",
+        sysid_main([str(log), "--task", "cartpole", "--params", "body_mass.pole", "--compare", "sensors",  # noqa: E501
                     "--out", str(tmp_path / "fitted.toml")])  # fmt: skip
     err = capsys.readouterr().err
     assert caught.value.code == 2
     assert (
-        "excite.h5:demo_0: the log holds no measured sensors (obs/measured) to compare; its plant reported its " in err
+        "excite.h5:demo_0: the log holds no measured sensors (obs/measured) to compare; its "
+        "plant reported its " in err
     )
     assert not (tmp_path / "fitted.toml").exists()
 
 
 def test_each_measured_value_is_compared_at_the_step_it_was_taken():
-    """A rehearsed sensor at 50 Hz under a 0.01 s model, 20 ms late, noiseless: read after every step (held between
-    samples), logged with its age, and placed back at every other step, where it equals the plant's joint positions
-    (cartpole's measured sensors) of that step."""
+    """A rehearsed sensor at 50 Hz under a 0.01 s model, 20 ms late, noiseless: read after every
+    step (held between samples), logged with its age, and placed back at every other step, where it
+    equals the plant's joint positions (cartpole's measured sensors) of that step."""
     from judo.core.configuration.registry import make_task
     from judo.sysid.data import Episode, taken_samples
 
-    outcome = collect_episode(EpisodeSpec("cartpole", "ps", 0.3, sensing=Sensing("sensors", delay=0.02, rate=50.0)), 0)
+    outcome = collect_episode(
+        EpisodeSpec("cartpole", "ps", 0.3, sensing=Sensing("sensors", delay=0.02, rate=50.0)), 0
+    )
     e = outcome.episode
-    episode = Episode("e", e.qpos, e.qvel, e.actions, e.measured, e.measured_age, e.estimate, e.measured_sensors)
-    samples = taken_samples(episode, make_task("cartpole").measured, 0.01)  # row n: taken after n steps
+    episode = Episode(
+        "e", e.qpos, e.qvel, e.actions, e.measured, e.measured_age, e.estimate, e.measured_sensors
+    )
+    # row n: taken after n steps
+    samples = taken_samples(episode, make_task("cartpole").measured, 0.01)
     taken = np.flatnonzero(np.isfinite(samples).all(axis=1))
     assert taken[0] == 0 and (np.diff(taken) == 2).all() and taken[-1] >= len(e.qpos) - 3
-    np.testing.assert_allclose(samples[taken[1:]], e.qpos[taken[1:] - 1], atol=1e-12)  # qpos after step n - 1
+    # qpos after step n - 1
+    np.testing.assert_allclose(samples[taken[1:]], e.qpos[taken[1:] - 1], atol=1e-12)
 
 
 def test_sim_is_judos_simulator_by_name():
     from judo.cli_shared import SystemOptions, build_system
 
-    assert build_system(SystemOptions("sim"), "cartpole") is None  # the caller builds judo's own plant
+    # the caller builds judo's own plant
+    assert build_system(SystemOptions("sim"), "cartpole") is None

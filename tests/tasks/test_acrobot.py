@@ -45,12 +45,16 @@ def test_energy_of_a_state_matches_mujocos_own() -> None:
         data.qpos[:], data.qvel[:] = state[:2], state[2:]
         mujoco.mj_forward(model, data)
         assert task.energy.total(state) == pytest.approx(data.energy.sum(), rel=1e-9)
-    np.testing.assert_allclose(task.energy.total(states[None]), [[task.energy.total(s) for s in states]])
+    np.testing.assert_allclose(
+        task.energy.total(states[None]), [[task.energy.total(s) for s in states]]
+    )
 
 
 def test_balance_cost_is_zero_upright_grows_with_the_lean_and_saturates_far_away() -> None:
     task = Acrobot()
-    states = np.array([[0.0, 0.0, 0.0, 0.0], [0.01, 0.0, 0.0, 0.0], [0.03, 0.0, 0.0, 0.0], [np.pi, 0.0, 0.0, 0.0]])
+    states = np.array(
+        [[0.0, 0.0, 0.0, 0.0], [0.01, 0.0, 0.0, 0.0], [0.03, 0.0, 0.0, 0.0], [np.pi, 0.0, 0.0, 0.0]]
+    )
     cost = task.balance_cost(states)
     assert cost[0] == 0.0
     assert 0.0 < cost[1] < cost[2] < 1.0

@@ -1,5 +1,5 @@
-"""The built-in tasks on their own dynamics: the car's kinematic bicycle and the quadrotor's rigid body, their
-drawing models, and each reaching a goal in closed loop."""
+"""The built-in tasks on their own dynamics: the car's kinematic bicycle and the quadrotor's rigid
+body, their drawing models, and each reaching a goal in closed loop."""
 
 import numpy as np
 import pytest
@@ -13,7 +13,8 @@ from judo.tasks.quadrotor import HOVER, MASS, Quadrotor, z_axis
 
 
 def test_the_car_follows_the_kinematic_bicycle():
-    """Straight ahead the car speeds up by the acceleration; at full lock it turns at v / lr sin(beta)."""
+    """Straight ahead the car speeds up by the acceleration; at full lock it turns at v / lr
+    sin(beta)."""
     car = Car()
     state = np.array([[0.0, 0.0, 0.0, 2.0]])
     ahead = car.dynamics(state, np.array([[1.0, 0.0]]), 0.02)[0]
@@ -44,7 +45,8 @@ def test_the_quadrotor_hovers_and_tilts_the_right_way():
 def test_the_drawing_model_shows_the_plant(task_cls):
     task = task_cls()
     model = drawn_model(task)
-    assert model.nmocap == task.model.nmocap == 1  # the goal, in both, so the GUI's drag reaches the plant
+    # the goal, in both, so the GUI's drag reaches the plant
+    assert model.nmocap == task.model.nmocap == 1
     qpos = drawn_qpos(task, np.concatenate([task.data.qpos, task.data.qvel]))
     assert qpos.shape == (model.nq,)
     assert np.array_equal(qpos[:2], task.state[:2])
@@ -65,14 +67,16 @@ def test_the_car_reaches_goals_without_touching_an_obstacle():
 def test_the_quadrotor_reaches_a_goal_pose():
     controller = judo.make_controller("quadrotor", "mppi", seed=0)
     with controller:
-        result = run_episode(controller, MujocoSystem.from_task(controller.task, seed=0), duration=8.0)
+        result = run_episode(
+            controller, MujocoSystem.from_task(controller.task, seed=0), duration=8.0
+        )
     assert result.metrics["goals_reached"] >= 1
     assert result.metrics["crashes"] == 0
 
 
 def test_the_car_drives_to_a_goal_moved_on_the_plant():
-    """What the GUI's drag does (app.commands.move_goal, through the plant's System.move_goal): the planner sees
-    the goal in the plant's published metadata and the car drives there."""
+    """What the GUI's drag does (app.commands.move_goal, through the plant's System.move_goal): the
+    planner sees the goal in the plant's published metadata and the car drives there."""
     controller = judo.make_controller("car", "mppi", seed=1)
     controller.task.config.new_goal_on_reach = False
     plant = MujocoSystem.from_task(controller.task, seed=1)

@@ -1,4 +1,5 @@
-"""The cart-pole reward's fast elementwise form equals the plain formula written with the norm helpers."""
+"""The cart-pole reward's fast elementwise form equals the plain formula written with the norm
+helpers."""
 
 import numpy as np
 
@@ -21,8 +22,14 @@ def test_fast_reward_matches_the_reference_and_prefers_upright():
     states, controls = rng.normal(size=(8, 30, 4)), rng.normal(size=(8, 30, 1))
     config = CartpoleConfig(w_vertical=3.0, w_centered=2.0, w_velocity=0.5, w_control=0.2)
     task = Cartpole()
-    np.testing.assert_allclose(task.reward(states, None, controls, config), reference_reward(states, controls, config))
+    np.testing.assert_allclose(
+        task.reward(states, None, controls, config), reference_reward(states, controls, config)
+    )
     upright, hanging = np.zeros((1, 30, 4)), np.zeros((1, 30, 4))
     hanging[..., 1] = np.pi
     zero = np.zeros((1, 30, 1))
-    assert task.reward(upright, None, zero, config)[0] == 0.0 > task.reward(hanging, None, zero, config)[0]
+    assert (
+        task.reward(upright, None, zero, config)[0]
+        == 0.0
+        > task.reward(hanging, None, zero, config)[0]
+    )

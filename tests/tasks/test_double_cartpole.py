@@ -9,7 +9,9 @@ from judo.loop.system import MujocoSystem
 from judo.tasks.double_cartpole import POLE_LENGTH, DoubleCartpole, DoubleCartpoleConfig
 
 
-def rows(task: DoubleCartpole, qpos: tuple[float, float, float], qvel=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+def rows(
+    task: DoubleCartpole, qpos: tuple[float, float, float], qvel=(0.0, 0.0, 0.0)
+) -> tuple[np.ndarray, np.ndarray]:
     """(1, 3, 6) states and (1, 3, nsensordata) sensors holding one pose for three steps."""
     task.data.qpos[:], task.data.qvel[:] = qpos, qvel
     mujoco.mj_forward(task.sim_model, task.data)
@@ -52,7 +54,9 @@ def test_reward_prefers_both_poles_up_over_one_over_none() -> None:
     assert rewards[0] > rewards[2] > rewards[3]
     assert rewards[0] > rewards[4] and rewards[0] > rewards[5]
     assert rewards[4] > rewards[6]
-    without_wall = task.reward(states[6:], sensors[6:], np.zeros((1, 3, 1)), DoubleCartpoleConfig(w_rail_end=0.0))
+    without_wall = task.reward(
+        states[6:], sensors[6:], np.zeros((1, 3, 1)), DoubleCartpoleConfig(w_rail_end=0.0)
+    )
     assert without_wall[0] - rewards[6] == pytest.approx(100.0 * 0.5**2 * 3)
 
 

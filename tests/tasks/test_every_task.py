@@ -23,7 +23,11 @@ from judo.core.model import trace_sensor_columns
 from judo.core.task import EpisodeLog
 
 PACKAGE = Path(judo.__file__).parent
-BUILT_IN = [name for name in get_registered_tasks() if lookup_task(name)[0].__module__.startswith("judo.tasks.")]
+BUILT_IN = [
+    name
+    for name in get_registered_tasks()
+    if lookup_task(name)[0].__module__.startswith("judo.tasks.")
+]
 
 
 def test_the_issue_s_twelve_tasks_are_registered():
@@ -50,7 +54,8 @@ def test_model_ships_in_the_package_and_has_traces(task_name):
     task_cls, _ = lookup_task(task_name)
     module_dir = Path(__import__(task_cls.__module__, fromlist=["_"]).__file__).parent
     assert module_dir.is_relative_to(PACKAGE)
-    models = [d / "models" for d in (module_dir, module_dir.parent) if (d / "models").is_dir()]  # tasks/unitree/
+    # tasks/unitree/
+    models = [d / "models" for d in (module_dir, module_dir.parent) if (d / "models").is_dir()]
     assert models and any(models[0].rglob("*.xml"))
     task = make_task(task_name)
     assert len(trace_sensor_columns(task.model)) > 0, "no framepos sensor named trace*"
@@ -69,16 +74,21 @@ def test_every_reward_weight_has_a_slider(task_name):
 
 @pytest.mark.parametrize("optimizer", ["ps", "cem", "mppi"])
 def test_optimizer_defaults_are_tuned_per_task(task_name, optimizer):
-    # Registered, not merely different: a tuned value may equal the global default (double_cartpole's ps sigma).
+    # Registered, not merely different: a tuned value may equal the global
+    # default (double_cartpole's ps sigma).
     _, config_cls = lookup_optimizer(optimizer)
-    assert _OVERRIDES.get((task_name, config_cls)), f"{task_name} sets no {config_cls.__name__} overrides"
+    assert _OVERRIDES.get((task_name, config_cls)), (
+        f"{task_name} sets no {config_cls.__name__} overrides"
+    )
 
 
 def test_the_task_s_defaults_pass_the_controller_s_checks(task_name):
     task = make_task(task_name)
     for optimizer in get_registered_optimizers():
         config_cls = lookup_optimizer(optimizer)[1]
-        check_configs(task, make_config(ControllerConfig, task_name), make_config(config_cls, task_name))
+        check_configs(
+            task, make_config(ControllerConfig, task_name), make_config(config_cls, task_name)
+        )
 
 
 def test_reward_scores_each_rollout_finitely_from_a_reset_state(task_name):
@@ -87,7 +97,8 @@ def test_reward_scores_each_rollout_finitely_from_a_reset_state(task_name):
     state = np.concatenate([task.data.qpos, task.data.qvel])
     states = np.tile(state, (3, 5, 1))
     sensors = np.tile(task.data.sensordata, (3, 5, 1))
-    controls = np.tile(np.clip(task.optimizer_warm_start(state), *task.command_range.T), (3, 5, 1))  # planned controls
+    # planned controls
+    controls = np.tile(np.clip(task.optimizer_warm_start(state), *task.command_range.T), (3, 5, 1))
     task.pre_rollout(state)
     rewards = task.reward(states, sensors, controls, task.config, task.get_sim_metadata())
     assert np.shape(rewards) == (3,) and np.isfinite(rewards).all()

@@ -1,4 +1,5 @@
-"""FR3 pick and place: model, gripper, per-phase rewards, phase logic, metrics, and a short closed loop."""
+"""FR3 pick and place: model, gripper, per-phase rewards, phase logic, metrics, and a short closed
+loop."""
 
 import mujoco
 import numpy as np
@@ -32,7 +33,9 @@ def test_gripper_control_maps_zero_to_closed_and_one_to_open() -> None:
         for _ in range(150):
             mujoco.mj_step(task.sim_model, data)
         left, right = data.qpos[task._finger_qpos : task._finger_qpos + 2]
-        assert left == pytest.approx(opening, abs=2e-3) and right == pytest.approx(opening, abs=2e-3)
+        assert left == pytest.approx(opening, abs=2e-3) and right == pytest.approx(
+            opening, abs=2e-3
+        )
 
 
 def test_reset_puts_object_and_goal_apart_in_the_workspace_reproducibly() -> None:
@@ -45,7 +48,9 @@ def test_reset_puts_object_and_goal_apart_in_the_workspace_reproducibly() -> Non
             obj = task.data.qpos[task._object_qpos : task._object_qpos + 3].copy()
             goal = task.data.mocap_pos[0].copy()
             assert np.linalg.norm(obj[:2] - goal[:2]) >= 0.15
-            assert obj[2] == pytest.approx(task.rest_height) and goal[2] == pytest.approx(task.rest_height)
+            assert obj[2] == pytest.approx(task.rest_height) and goal[2] == pytest.approx(
+                task.rest_height
+            )
             assert 0.4 <= obj[0] <= 0.6 and -0.25 <= goal[1] <= 0.25
             spots.append(np.concatenate([obj, goal]))
     np.testing.assert_array_equal(spots[:10], spots[10:])
@@ -64,8 +69,8 @@ def phase_sensors(task: FR3Pick, tcp: np.ndarray, obj: np.ndarray, goal: np.ndar
 
 
 def score(task: FR3Pick, cases: list[tuple[np.ndarray, float]], phase: int) -> np.ndarray:
-    """Rewards of constant (sensors, gripper opening in m) rollouts of T = 3 steps in `phase`, with the
-    gripper commanded to the opening it has."""
+    """Rewards of constant (sensors, gripper opening in m) rollouts of T = 3 steps in `phase`, with
+    the gripper commanded to the opening it has."""
     sensors = np.stack([s for s, _ in cases])[:, None, :].repeat(3, axis=1)
     states = np.zeros((len(cases), 3, task.model.nq + task.model.nv))
     openings = np.array([o for _, o in cases])[:, None]
@@ -120,7 +125,12 @@ def test_move_place_and_done_rewards_point_at_the_goal() -> None:
     assert place[0] > place[1]
     above = goal + [0, 0, task.config.lift_height]
     done = score(
-        task, [(phase_sensors(task, above, goal, goal), 0.04), (phase_sensors(task, goal, goal, goal), 0.0)], DONE
+        task,
+        [
+            (phase_sensors(task, above, goal, goal), 0.04),
+            (phase_sensors(task, goal, goal, goal), 0.0),
+        ],
+        DONE,
     )
     assert done[0] > done[1]
     assert done[0] == pytest.approx(0.0, abs=1e-9)
@@ -134,7 +144,8 @@ def test_done_reward_charges_joint_targets_pressed_away_from_the_joints() -> Non
     states[..., task._finger_qpos] = task.max_opening
     controls = np.zeros((2, 3, task.nu))
     controls[..., task.model.actuator("gripper").id] = 1.0
-    controls[1, :, :7] = states[1, :, task._arm_qpos].T - 0.1  # every target 0.1 rad below its joint
+    # every target 0.1 rad below its joint
+    controls[1, :, :7] = states[1, :, task._arm_qpos].T - 0.1
     on_target, pressing = task.reward(states, sensors, controls, task.config, {"phase": DONE})
     assert on_target - pressing == pytest.approx(task.config.w_press * 7 * 0.1)
     before_release = task.reward(states, sensors, controls, task.config, {"phase": PLACE})
@@ -160,7 +171,9 @@ def test_reward_reads_the_phase_from_the_system_metadata() -> None:
     states = np.zeros((1, 1, task.model.nq + task.model.nv))
     controls = np.zeros((1, 1, task.nu))
     task.phase = MOVE
-    assert task.reward(states, sensors, controls, task.config)[0] == pytest.approx(score(task, cases, MOVE)[0])
+    assert task.reward(states, sensors, controls, task.config)[0] == pytest.approx(
+        score(task, cases, MOVE)[0]
+    )
 
 
 @pytest.mark.parametrize(
@@ -181,7 +194,9 @@ def test_reward_reads_the_phase_from_the_system_metadata() -> None:
         (DONE, [0.5, -0.1, 0.02], False, LIFT),
     ],
 )
-def test_phase_follows_the_object_and_the_grasp(phase: int, obj: list[float], held: bool, expected: int) -> None:
+def test_phase_follows_the_object_and_the_grasp(
+    phase: int, obj: list[float], held: bool, expected: int
+) -> None:
     task = FR3Pick()
     goal = np.array([0.5, -0.2, task.rest_height])
     assert task.next_phase(phase, np.array(obj), goal, 0.15, held) == expected
@@ -191,12 +206,14 @@ def test_object_counts_as_held_only_between_fingers_it_holds_apart() -> None:
     task = FR3Pick()
     obj = np.array([0.5, 0.1, 0.17])
     assert task.holds_object(obj + [0.0, 0.0, 0.01], obj, 0.02)
-    assert not task.holds_object(obj + [0.0, 0.0, 0.01], obj, 0.005)  # fingers shut: nothing between them
+    # fingers shut: nothing between them
+    assert not task.holds_object(obj + [0.0, 0.0, 0.01], obj, 0.005)
     assert not task.holds_object(obj + [0.0, 0.05, 0.0], obj, 0.02)  # beside the object
 
 
 def put_object_in_the_gripper(task: FR3Pick, opening: float) -> None:
-    """Move the plant's cube to its gripper centre with the fingers `opening` (m) apart, sensors updated."""
+    """Move the plant's cube to its gripper centre with the fingers `opening` (m) apart, sensors
+    updated."""
     mujoco.mj_forward(task.sim_model, task.data)
     tcp = task.data.sensordata[task._tcp : task._tcp + 3].copy()
     task.data.qpos[task._object_qpos : task._object_qpos + 3] = tcp
@@ -208,12 +225,14 @@ def test_plant_goes_back_to_lift_when_the_object_lies_loose_on_the_table() -> No
     task = FR3Pick()
     put_object_in_the_gripper(task, 0.02)
     held_at = task.data.qpos[task._object_qpos : task._object_qpos + 2]
-    task.data.mocap_pos[0, :2] = held_at + [0.0, 0.2]  # the goal well away: the random one may lie under the gripper
+    # the goal well away: the random one may lie under the gripper
+    task.data.mocap_pos[0, :2] = held_at + [0.0, 0.2]
     task.phase = MOVE
     task.pre_sim_step()
     assert task.phase == MOVE  # carried
     goal = task.data.mocap_pos[0]
-    short_of_goal = [goal[0] + 2.0 * task.place_radius, goal[1], task.rest_height]  # near: the old rule missed it
+    # near: the old rule missed it
+    short_of_goal = [goal[0] + 2.0 * task.place_radius, goal[1], task.rest_height]
     task.data.qpos[task._object_qpos : task._object_qpos + 3] = short_of_goal
     task.data.qpos[task._finger_qpos : task._finger_qpos + 2] = 0.003  # fingers closed on nothing
     mujoco.mj_forward(task.sim_model, task.data)
@@ -260,13 +279,16 @@ def test_warm_start_holds_the_arm_with_the_gripper_open() -> None:
     task = FR3Pick()
     task.reset()
     state = np.concatenate([task.data.qpos, task.data.qvel])
-    np.testing.assert_array_equal(task.optimizer_warm_start(state), np.append(task.data.qpos[task._arm_qpos], 1.0))
+    np.testing.assert_array_equal(
+        task.optimizer_warm_start(state), np.append(task.data.qpos[task._arm_qpos], 1.0)
+    )
 
 
 @pytest.mark.slow
 def test_fr3_pick_cem_grasps_and_lifts_the_cube() -> None:
     ctrl = judo.make_controller("fr3_pick", "cem", seed=1)
-    plant = MujocoSystem.from_task(ctrl.task, seed=1)  # seed 1 reaches the cube in about 3.4 s and lifts it by 6 s
+    # seed 1 reaches the cube in about 3.4 s and lifts it by 6 s
+    plant = MujocoSystem.from_task(ctrl.task, seed=1)
     result = run_episode(ctrl, plant, 8.0, seed=1)
     ctrl.close()
     tcp, obj = (
@@ -275,4 +297,6 @@ def test_fr3_pick_cem_grasps_and_lifts_the_cube() -> None:
     )
     gaps = np.linalg.norm(tcp - obj, axis=-1)
     assert gaps.min() < 0.02 < gaps[0]
-    assert result.metrics["phase_reached"] >= MOVE, f"closest approach {gaps.min():.3f} m, phase {plant.task.max_phase}"
+    assert result.metrics["phase_reached"] >= MOVE, (
+        f"closest approach {gaps.min():.3f} m, phase {plant.task.max_phase}"
+    )

@@ -1,5 +1,6 @@
-"""The Go2 model keeps to the Unitree contract (names, motor order, PD gains, measured sensors, the lying start),
-and its two tasks stand it up under pushes and take a velocity command from the CLI, TOML and config."""
+"""The Go2 model keeps to the Unitree contract (names, motor order, PD gains, measured sensors, the
+lying start), and its two tasks stand it up under pushes and take a velocity command from the CLI,
+TOML and config."""
 
 import mujoco
 import numpy as np
@@ -13,7 +14,9 @@ from judo.loop.system import MujocoSystem
 from judo.runtime import launch
 from judo.tasks.unitree.go2 import JOINTS, LEGS, STAND_POSE, Go2Stand, Go2Walk, Go2WalkConfig
 
-MOTOR_ORDER = [f"{leg}_{part}_joint" for leg in ("FR", "FL", "RR", "RL") for part in ("hip", "thigh", "calf")]
+MOTOR_ORDER = [
+    f"{leg}_{part}_joint" for leg in ("FR", "FL", "RR", "RL") for part in ("hip", "thigh", "calf")
+]
 """Unitree's Go2 motors 0..11, written out here rather than taken from the module under test."""
 
 
@@ -24,11 +27,16 @@ def name(model: mujoco.MjModel, kind: mujoco.mjtObj, index: int) -> str:
 def test_actuators_are_unitree_s_motors_in_order_named_after_their_joints():
     model = Go2Stand().model
     assert list(JOINTS) == MOTOR_ORDER and model.nu == 12
-    joints = [name(model, mujoco.mjtObj.mjOBJ_JOINT, model.actuator_trnid[i, 0]) for i in range(model.nu)]
+    joints = [
+        name(model, mujoco.mjtObj.mjOBJ_JOINT, model.actuator_trnid[i, 0]) for i in range(model.nu)
+    ]
     assert joints == MOTOR_ORDER
     actuators = [name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i) for i in range(model.nu)]
     assert actuators == [joint.removesuffix("_joint") for joint in MOTOR_ORDER]
-    assert model.body(model.jnt_bodyid[0]).name == "base" and model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
+    assert (
+        model.body(model.jnt_bodyid[0]).name == "base"
+        and model.jnt_type[0] == mujoco.mjtJoint.mjJNT_FREE
+    )
 
 
 def test_position_actuators_carry_unitree_s_pd_and_the_motor_limits():
@@ -36,7 +44,8 @@ def test_position_actuators_carry_unitree_s_pd_and_the_motor_limits():
     kp, kd = model.actuator_gainprm[:, 0], -model.actuator_biasprm[:, 2]
     np.testing.assert_array_equal(kp, np.full(12, 60.0))
     np.testing.assert_array_equal(kd, np.full(12, 5.0))
-    np.testing.assert_array_equal(model.actuator_biasprm[:, 1], -kp)  # a position servo: kp (q_des - q)
+    # a position servo: kp (q_des - q)
+    np.testing.assert_array_equal(model.actuator_biasprm[:, 1], -kp)
     np.testing.assert_array_equal(model.actuator_forcerange[:, 1], np.tile([23.7, 23.7, 45.43], 4))
     assert model.actuator_forcelimited.all()
     joint_ranges = model.jnt_range[model.actuator_trnid[:, 0]]
@@ -54,7 +63,12 @@ def test_measured_sensors_are_what_lowstate_carries_in_its_order():
         *(f"foot_force_{leg}" for leg in ("FR", "FL", "RR", "RL")),
     ]
     assert list(task.measured_sensors) == expected
-    types = ["jointpos"] * 12 + ["jointvel"] * 12 + ["framequat", "gyro", "accelerometer"] + ["touch"] * 4
+    types = (
+        ["jointpos"] * 12
+        + ["jointvel"] * 12
+        + ["framequat", "gyro", "accelerometer"]
+        + ["touch"] * 4
+    )
     assert list(task.measured.types) == types
     model = task.model
     imu = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, "imu")
@@ -71,7 +85,8 @@ def test_the_lying_start_is_unitree_s_stand_down_pose_resting_on_the_floor():
     task = Go2Stand()
     task.reset()
     np.testing.assert_allclose(task.data.qpos[7:], np.tile([0.0, 1.36, -2.65], 4), atol=0.1)
-    np.testing.assert_array_equal(task.data.ctrl, np.tile([0.0, 1.36, -2.65], 4))  # the servos hold the pose
+    # the servos hold the pose
+    np.testing.assert_array_equal(task.data.ctrl, np.tile([0.0, 1.36, -2.65], 4))
     for _ in range(100):  # held in the pose, it stays where it lies
         mujoco.mj_step(task.sim_model, task.data)
     assert task.data.qpos[2] < 0.12 and np.abs(task.data.qvel).max() < 0.05
@@ -91,7 +106,8 @@ def test_the_safe_action_is_the_crouched_stand_and_holds_the_robot_up_from_lying
     task = Go2Stand()
     task.reset()
     state = np.concatenate([task.data.qpos, task.data.qvel])
-    np.testing.assert_array_equal(task.safe_action(state), STAND_POSE)  # not the current joint angles
+    # not the current joint angles
+    np.testing.assert_array_equal(task.safe_action(state), STAND_POSE)
     task.data.ctrl[:] = task.safe_action(state)
     for _ in range(200):
         mujoco.mj_step(task.sim_model, task.data)
@@ -115,7 +131,16 @@ def test_pushes_shove_the_plant_s_base_on_schedule():
 
 
 def test_velocity_command_parses_from_the_command_line():
-    argv = ["--task", "go2_walk", "--optimizer", "mppi", "--task-config.velocity-command", "0.5", "0", "-0.3"]
+    argv = [
+        "--task",
+        "go2_walk",
+        "--optimizer",
+        "mppi",
+        "--task-config.velocity-command",
+        "0.5",
+        "0",
+        "-0.3",
+    ]
     _, configs = launch.parse(argv, default_configs("go2_walk", "mppi"))
     np.testing.assert_array_equal(configs["task"].velocity_command, [0.5, 0.0, -0.3])
 
@@ -124,7 +149,9 @@ def test_velocity_command_parses_from_toml(tmp_path):
     path = tmp_path / "walk.toml"
     path.write_text("[task_config_overrides.go2_walk]\nvelocity_command = [0.3, 0.1, 0.2]\n")
     judo.load_config(path)
-    np.testing.assert_array_equal(make_config(Go2WalkConfig, "go2_walk").velocity_command, [0.3, 0.1, 0.2])
+    np.testing.assert_array_equal(
+        make_config(Go2WalkConfig, "go2_walk").velocity_command, [0.3, 0.1, 0.2]
+    )
     path.write_text("[task_config_overrides.go2_walk]\nvelocity_command = [0.3, 0.1]\n")
     with pytest.raises(judo.JudoError, match="velocity_command expects 3 numbers"):
         judo.load_config(path)

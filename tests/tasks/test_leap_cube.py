@@ -1,4 +1,5 @@
-"""LEAP cube tasks: models, reward, goal resampling, drop reset, metrics, and a short closed loop."""
+"""LEAP cube tasks: models, reward, goal resampling, drop reset, metrics, and a short closed
+loop."""
 
 import mujoco
 import numpy as np
@@ -35,7 +36,9 @@ def turned(quat: np.ndarray, axis: np.ndarray, angle: float) -> np.ndarray:
 
 
 @pytest.mark.parametrize("task_cls", [LeapCube, LeapCubeDown])
-def test_models_compile_with_position_actuators_over_the_joint_ranges(task_cls: type[LeapCube]) -> None:
+def test_models_compile_with_position_actuators_over_the_joint_ranges(
+    task_cls: type[LeapCube],
+) -> None:
     task = task_cls()
     assert task.nu == 16 and task.model.nmocap == 1
     for i, name in enumerate(HAND_JOINTS):
@@ -46,7 +49,10 @@ def test_models_compile_with_position_actuators_over_the_joint_ranges(task_cls: 
     for sensor in ("cube_pos", "cube_quat", "goal_quat", "trace_cube", "hand/trace_thumb_tip"):
         task.get_sensor_start_index(sensor)
     goal_geoms = task.model.geom_bodyid == task.model.body("goal").id
-    assert not task.model.geom_contype[goal_geoms].any() and not task.model.geom_conaffinity[goal_geoms].any()
+    assert (
+        not task.model.geom_contype[goal_geoms].any()
+        and not task.model.geom_conaffinity[goal_geoms].any()
+    )
 
 
 def test_plant_model_differs_from_the_planning_model_in_friction_only() -> None:
@@ -73,7 +79,8 @@ def test_reward_prefers_the_goal_orientation_and_the_resting_spot() -> None:
     shifted = home.copy()
     shifted[task._cube_qpos] += 0.03
     displaced = sensors_at(task, shifted, cube_quat)
-    sensors = np.stack([at_goal, turned_away, displaced])[:, None, :].repeat(5, axis=1)  # (3, T=5, nsensordata)
+    # (3, T=5, nsensordata)
+    sensors = np.stack([at_goal, turned_away, displaced])[:, None, :].repeat(5, axis=1)
     states = np.zeros((3, 5, task.model.nq + task.model.nv))
     controls = np.tile(task.model.key_ctrl[0], (3, 5, 1))
     rewards = task.reward(states, sensors, controls, task.config)
@@ -89,8 +96,11 @@ def test_palm_down_reward_adds_the_slip_and_cube_speed_costs_to_the_palm_up_term
     assert isinstance(task.config, LeapCubeDownConfig)
     home = task.model.key_qpos[0].copy()
     slipped = home.copy()
-    slipped[task._cube_qpos : task._cube_qpos + 3] -= 0.02 * task._palm_axes[:, 0]  # 2 cm towards the wrist
-    sensors = np.stack([sensors_at(task, q, task.data.mocap_quat[0]) for q in (home, slipped, home)])
+    # 2 cm towards the wrist
+    slipped[task._cube_qpos : task._cube_qpos + 3] -= 0.02 * task._palm_axes[:, 0]
+    sensors = np.stack(
+        [sensors_at(task, q, task.data.mocap_quat[0]) for q in (home, slipped, home)]
+    )
     sensors = sensors[:, None, :].repeat(5, axis=1)  # (3, T=5, nsensordata)
     states = np.zeros((3, 5, task.model.nq + task.model.nv))
     states[2, :, task._cube_vel : task._cube_vel + 3] = [0.1, 0.0, 0.0]
@@ -98,11 +108,14 @@ def test_palm_down_reward_adds_the_slip_and_cube_speed_costs_to_the_palm_up_term
     config = task.config
     rewards = task.reward(states, sensors, controls, config)
     palm_up_terms = LeapCube.reward(task, states, sensors, controls, config)
-    offsets = sensors[:, 0, task._cube_pos : task._cube_pos + 2] - task.rest_position[:2]  # palm-frame x, y
+    # palm-frame x, y
+    offsets = sensors[:, 0, task._cube_pos : task._cube_pos + 2] - task.rest_position[:2]
     assert offsets[1, 0] == pytest.approx(offsets[0, 0] - 0.02)
     slip_cost = config.w_slip * np.square(offsets).sum(-1)
     assert palm_up_terms[1] - rewards[1] == pytest.approx(slip_cost[1])
-    assert palm_up_terms[2] - rewards[2] == pytest.approx(slip_cost[2] + config.w_cube_velocity * 0.1**2)
+    assert palm_up_terms[2] - rewards[2] == pytest.approx(
+        slip_cost[2] + config.w_cube_velocity * 0.1**2
+    )
     assert palm_up_terms[0] - rewards[0] == pytest.approx(slip_cost[0])
 
 
@@ -120,7 +133,9 @@ def test_reached_goal_is_counted_and_replaced_by_a_90_degree_turn_about_a_palm_a
     assert task.cube_goal_angle() == pytest.approx(np.pi / 2)
     task.pre_sim_step()
     assert task.goals_reached == 0
-    task.data.qpos[task._cube_qpos + 3 : task._cube_qpos + 7] = turned(old_goal, task._palm_axes[:, 0], 0.3)
+    task.data.qpos[task._cube_qpos + 3 : task._cube_qpos + 7] = turned(
+        old_goal, task._palm_axes[:, 0], 0.3
+    )
     task.pre_sim_step()
     assert task.goals_reached == 1
     new_goal = task.data.mocap_quat[0]
@@ -161,9 +176,16 @@ def test_metrics_report_goals_per_minute_and_drops() -> None:
     task.goals_reached, task.drops = 7, 1
     steps = round(30.0 / task.dt)
     log = EpisodeLog(
-        np.arange(1, steps + 1) * task.dt, np.zeros((steps, 1)), np.zeros((steps, 16)), np.zeros((steps, 1))
+        np.arange(1, steps + 1) * task.dt,
+        np.zeros((steps, 1)),
+        np.zeros((steps, 16)),
+        np.zeros((steps, 1)),
     )
-    assert task.metrics(log) == {"goals_reached": 7.0, "goals_per_minute": pytest.approx(14.0), "drops": 1.0}
+    assert task.metrics(log) == {
+        "goals_reached": 7.0,
+        "goals_per_minute": pytest.approx(14.0),
+        "drops": 1.0,
+    }
     task.reset()
     assert task.metrics(log)["goals_reached"] == 0.0
 
@@ -174,7 +196,9 @@ def test_warm_start_holds_the_current_joints_palm_up_and_squeezes_palm_down() ->
     np.testing.assert_array_equal(up.optimizer_warm_start(state), up.data.qpos[up._hand_qpos])
     state = np.concatenate([down.data.qpos, down.data.qvel])
     squeeze = down.optimizer_warm_start(state) - down.data.qpos[down._hand_qpos]
-    np.testing.assert_allclose(squeeze, down.model.key_ctrl[0] - down.model.key_qpos[0][down._hand_qpos])
+    np.testing.assert_allclose(
+        squeeze, down.model.key_ctrl[0] - down.model.key_qpos[0][down._hand_qpos]
+    )
     assert squeeze.max() > 0.05
 
 
@@ -182,7 +206,9 @@ def test_planner_rollouts_see_the_plants_goal() -> None:
     ctrl = judo.make_controller("leap_cube", "cem", seed=0)
     seen = []
     reward = ctrl.task.reward
-    ctrl.task.reward = lambda states, sensors, *args: seen.append(sensors.copy()) or reward(states, sensors, *args)
+    ctrl.task.reward = lambda states, sensors, *args: (
+        seen.append(sensors.copy()) or reward(states, sensors, *args)
+    )
     plant = LeapCube()
     plant.rng = np.random.default_rng(3)
     plant.reset()
@@ -191,17 +217,27 @@ def test_planner_rollouts_see_the_plants_goal() -> None:
     ctrl.close()
     goal = ctrl.task.get_sensor_start_index("goal_quat")
     assert not np.allclose(plant.data.mocap_quat[0], ctrl.task.model.body("goal").quat)
-    np.testing.assert_allclose(seen[0][..., goal : goal + 4], np.broadcast_to(plant.data.mocap_quat[0], (32, 50, 4)))
+    np.testing.assert_allclose(
+        seen[0][..., goal : goal + 4], np.broadcast_to(plant.data.mocap_quat[0], (32, 50, 4))
+    )
 
 
-def closed_loop_angles(task_name: str, seconds: float, seed: int) -> tuple[MujocoSystem, np.ndarray]:
-    """Default CEM on `task_name` for `seconds` (no latency); the plant and its (S,) cube-goal angles."""
+def closed_loop_angles(
+    task_name: str, seconds: float, seed: int
+) -> tuple[MujocoSystem, np.ndarray]:
+    """Default CEM on `task_name` for `seconds` (no latency); the plant and its (S,) cube-goal
+    angles."""
     ctrl = judo.make_controller(task_name, "cem", seed=seed)
     plant = MujocoSystem.from_task(ctrl.task, seed)
     result = run_episode(ctrl, plant, seconds, seed=seed)
     ctrl.close()
-    cube, goal = ctrl.task.get_sensor_start_index("cube_quat"), ctrl.task.get_sensor_start_index("goal_quat")
-    return plant, quat_angle(result.log.sensors[:, cube : cube + 4], result.log.sensors[:, goal : goal + 4])
+    cube, goal = (
+        ctrl.task.get_sensor_start_index("cube_quat"),
+        ctrl.task.get_sensor_start_index("goal_quat"),
+    )
+    return plant, quat_angle(
+        result.log.sensors[:, cube : cube + 4], result.log.sensors[:, goal : goal + 4]
+    )
 
 
 @pytest.mark.slow

@@ -29,7 +29,9 @@ def test_reset_draws_particle_and_goal_inside_the_walls() -> None:
     first = (task.data.qpos.copy(), task.data.mocap_pos[0].copy())
     task.reset()
     assert not np.allclose(first[1], task.data.mocap_pos[0])
-    assert np.all(np.abs(task.data.qpos) <= GOAL_SPAN) and np.all(np.abs(task.data.mocap_pos[0, :2]) <= GOAL_SPAN)
+    assert np.all(np.abs(task.data.qpos) <= GOAL_SPAN) and np.all(
+        np.abs(task.data.mocap_pos[0, :2]) <= GOAL_SPAN
+    )
     np.testing.assert_array_equal(task.data.qvel, 0.0)
 
 
@@ -37,11 +39,16 @@ def test_reward_prefers_the_particle_on_the_goal_slow_and_gentle() -> None:
     task = Particle()
     config = ParticleConfig()
     goal = np.array([0.2, -0.1])
-    particle = np.array([[0.2, -0.1], [0.2, -0.1], [0.0, 0.0], [-0.3, 0.3]])[:, None, :].repeat(3, axis=1)
+    particle = np.array([[0.2, -0.1], [0.2, -0.1], [0.0, 0.0], [-0.3, 0.3]])[:, None, :].repeat(
+        3, axis=1
+    )
     states = np.zeros((4, 3, 4))
     states[1, :, 2] = 1.0  # on the goal but moving
     rewards = task.reward(
-        states, sensors_for(particle, np.broadcast_to(goal, particle.shape)), np.zeros((4, 3, 2)), config
+        states,
+        sensors_for(particle, np.broadcast_to(goal, particle.shape)),
+        np.zeros((4, 3, 2)),
+        config,
     )
     assert rewards.shape == (4,)
     assert rewards[0] == pytest.approx(0.0)

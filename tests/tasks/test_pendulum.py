@@ -48,8 +48,11 @@ def test_reward_prefers_upright_still_and_gentle() -> None:
 def test_metrics_measure_the_upright_share_of_the_last_three_seconds() -> None:
     task = Pendulum()
     times = np.arange(1, 601) * 0.01  # 6 s
-    angles = np.where(times > 4.5, 2 * np.pi + 0.1, np.pi)  # upright (one turn on) for the last 1.5 s
-    log = EpisodeLog(times, np.stack([angles, np.zeros(600)], axis=1), np.zeros((600, 1)), np.zeros((600, 3)))
+    # upright (one turn on) for the last 1.5 s
+    angles = np.where(times > 4.5, 2 * np.pi + 0.1, np.pi)
+    log = EpisodeLog(
+        times, np.stack([angles, np.zeros(600)], axis=1), np.zeros((600, 1)), np.zeros((600, 3))
+    )
     metrics = task.metrics(log)
     assert metrics["upright_fraction"] == pytest.approx(0.5, abs=0.01)
     assert metrics["final_angle_error"] == pytest.approx(0.1)

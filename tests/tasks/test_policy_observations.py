@@ -1,6 +1,6 @@
-"""The built-in tasks' own policy observations: particle and push_t see their goal (relative to what must reach
-it), pendulum, acrobot and cartpole see cos and sin of their unlimited hinges; batched, and as long as
-`policy_observation_size()` says."""
+"""The built-in tasks' own policy observations: particle and push_t see their goal (relative to what
+must reach it), pendulum, acrobot and cartpole see cos and sin of their unlimited hinges; batched,
+and as long as `policy_observation_size()` says."""
 
 import numpy as np
 import pytest
@@ -42,9 +42,12 @@ def test_particle_sees_the_goal_relative_to_itself():
     moved = task.policy_observation(states, None, {"mocap_pos": np.array([[-0.3, 0.1, 0.0]])})
     np.testing.assert_allclose(moved[:, 4:] - observation[:, 4:], [[-0.6, 0.0]] * 2, atol=1e-15)
     own = model_mocap_poses(task.model)["mocap_pos"][0, :2]
-    np.testing.assert_allclose(task.policy_observation(states)[:, 4:], own - states[:, :2])  # no metadata
+    # no metadata
+    np.testing.assert_allclose(task.policy_observation(states)[:, 4:], own - states[:, :2])
     per_row = {"mocap_pos": np.array([[[0.3, 0.1, 0.0]], [[-0.3, 0.1, 0.0]]])}  # (B, nmocap, 3)
-    np.testing.assert_allclose(task.policy_observation(states, None, per_row)[:, 4:], [[0.2, 0.3], [-0.3, 0.1]])
+    np.testing.assert_allclose(
+        task.policy_observation(states, None, per_row)[:, 4:], [[0.2, 0.3], [-0.3, 0.1]]
+    )
 
 
 def test_push_t_sees_the_goal_and_heading_error_relative_to_the_block():
@@ -68,7 +71,8 @@ def test_push_t_sees_the_goal_and_heading_error_relative_to_the_block():
 
 
 def test_push_t_of_a_recorded_step_needs_only_its_mocap_pos():
-    """A collect file keeps obs/mocap_pos only; the goal's heading is the model's in every episode."""
+    """A collect file keeps obs/mocap_pos only; the goal's heading is the model's in every
+    episode."""
     task = make("push_t")
     states = np.random.default_rng(2).uniform(-0.3, 0.3, (4, 10))
     own = model_mocap_poses(task.model)
@@ -88,7 +92,9 @@ def test_hinge_angles_a_full_turn_apart_give_the_same_observation(name, angles):
     observation = task.policy_observation(states)
     np.testing.assert_allclose(task.policy_observation(turned), observation, atol=1e-12)
     nq = task.model.nq
-    np.testing.assert_allclose(observation[:, : 2 * nq], np.hstack([np.cos(states[:, :nq]), np.sin(states[:, :nq])]))
+    np.testing.assert_allclose(
+        observation[:, : 2 * nq], np.hstack([np.cos(states[:, :nq]), np.sin(states[:, :nq])])
+    )
     np.testing.assert_array_equal(observation[:, 2 * nq :], states[:, nq:])  # the rates as they are
 
 
@@ -113,9 +119,11 @@ def test_cartpole_sees_the_cart_cos_and_sin_of_the_pole_and_the_velocities(name)
         [0.0, 0.0, 1.0, 1.0, 2.0],
     ]
     np.testing.assert_allclose(observation, expected, atol=1e-12)
-    np.testing.assert_allclose(observation[1], observation[0], atol=1e-12)  # 0 and 2 pi: one pose, one observation
+    # 0 and 2 pi: one pose, one observation
+    np.testing.assert_allclose(observation[1], observation[0], atol=1e-12)
     small = task.policy_observation(np.array([[0.0, 0.01, 0.0, 0.0]]))
-    np.testing.assert_allclose(small[0, 2], 0.01, rtol=1e-4)  # sin angle reads as the angle near upright
+    # sin angle reads as the angle near upright
+    np.testing.assert_allclose(small[0, 2], 0.01, rtol=1e-4)
 
 
 class Recording(Policy):
@@ -136,7 +144,10 @@ def test_a_policy_controller_hands_the_systems_goal_to_the_policy():
     controller = make_policy_controller("particle", policy, seed=0)
     try:
         state = np.array([0.1, 0.1, 0.0, 0.0])
-        metadata = {"mocap_pos": np.array([[-0.2, 0.3, 0.0]]), "mocap_quat": np.array([[1.0, 0.0, 0.0, 0.0]])}
+        metadata = {
+            "mocap_pos": np.array([[-0.2, 0.3, 0.0]]),
+            "mocap_quat": np.array([[1.0, 0.0, 0.0, 0.0]]),
+        }
         controller.update_action(state, 0.0, metadata)
     finally:
         controller.close()

@@ -9,7 +9,9 @@ from judo.loop.system import MujocoSystem
 from judo.tasks.push_t import PushT, PushTConfig, yaw_of
 
 
-def place(task: PushT, block: tuple[float, float, float], pusher: tuple[float, float]) -> np.ndarray:
+def place(
+    task: PushT, block: tuple[float, float, float], pusher: tuple[float, float]
+) -> np.ndarray:
     """Sensor row (nsensordata,) with the block at (x, y, heading) and the pusher at (x, y)."""
     task.data.qpos[:] = [*block, *pusher]
     mujoco.mj_forward(task.sim_model, task.data)
@@ -20,12 +22,16 @@ def test_model_compiles_with_normalised_forces_traces_and_a_mocap_goal() -> None
     task = PushT()
     assert (task.model.nq, task.nu, task.model.nmocap) == (5, 2, 1)
     np.testing.assert_array_equal(task.actuator_ctrlrange, [[-1.0, 1.0], [-1.0, 1.0]])
-    assert {"trace_pusher", "trace_block"} <= {task.model.sensor(i).name for i in range(task.model.nsensor)}
+    assert {"trace_pusher", "trace_block"} <= {
+        task.model.sensor(i).name for i in range(task.model.nsensor)
+    }
 
 
 def test_yaw_of_reads_headings_about_the_vertical() -> None:
     angles = np.array([0.0, 0.5, -2.0])
-    quaternions = np.stack([np.cos(angles / 2), 0 * angles, 0 * angles, np.sin(angles / 2)], axis=-1)
+    quaternions = np.stack(
+        [np.cos(angles / 2), 0 * angles, 0 * angles, np.sin(angles / 2)], axis=-1
+    )
     np.testing.assert_allclose(yaw_of(quaternions), angles)
 
 

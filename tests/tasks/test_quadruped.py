@@ -1,5 +1,6 @@
-"""The quadruped model and its two tasks: the model stands, its sensors are the measured ones, the gait schedule,
-the goal task walks towards a goal, and the velocity task's commands and policy observation."""
+"""The quadruped model and its two tasks: the model stands, its sensors are the measured ones, the
+gait schedule, the goal task walks towards a goal, and the velocity task's commands and policy
+observation."""
 
 import mujoco
 import numpy as np
@@ -10,7 +11,15 @@ from judo.core.errors import ConfigError
 from judo.core.policy import PolicyError
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
-from judo.tasks.quadruped import GAITS, JOINTS, LEGS, Quadruped, gait_of, gravity_in_body, swing_heights
+from judo.tasks.quadruped import (
+    GAITS,
+    JOINTS,
+    LEGS,
+    Quadruped,
+    gait_of,
+    gravity_in_body,
+    swing_heights,
+)
 from judo.tasks.quadruped_velocity import COMMAND_KEY, QuadrupedVelocity, QuadrupedVelocityConfig
 
 
@@ -43,11 +52,16 @@ def test_its_sensors_are_the_measured_ones():
     assert set(layout.types) == {"jointpos", "framequat", "gyro", "accelerometer", "touch"}
     mujoco.mj_forward(task.sim_model, task.data)
     values = layout.read(task.data.sensordata)
-    np.testing.assert_allclose(values[:12], task.data.qpos[7:], atol=1e-12)  # encoders read the joints
+    # encoders read the joints
+    np.testing.assert_allclose(values[:12], task.data.qpos[7:], atol=1e-12)
     accel = values[layout.slices[layout.names.index("imu_accel")]]
-    assert accel[2] == pytest.approx(9.81, abs=0.3)  # standing still: the accelerometer reads gravity
-    touch = np.concatenate([values[layout.slices[layout.names.index(f"{leg}_touch")]] for leg in LEGS])
-    assert np.all(touch > 20.0) and touch.sum() == pytest.approx(12.08 * 9.81, rel=0.05)  # every foot carries its share
+    # standing still: the accelerometer reads gravity
+    assert accel[2] == pytest.approx(9.81, abs=0.3)
+    touch = np.concatenate(
+        [values[layout.slices[layout.names.index(f"{leg}_touch")]] for leg in LEGS]
+    )
+    # every foot carries its share
+    assert np.all(touch > 20.0) and touch.sum() == pytest.approx(12.08 * 9.81, rel=0.05)
 
 
 def test_the_trot_lifts_diagonal_pairs_together_and_stand_lifts_nothing():
@@ -119,15 +133,20 @@ def test_the_policy_observation_is_proprioception_and_command_without_the_previo
     previous[1, 0] += 0.1
     sensors = np.zeros((2, task.model.nsensordata))
     sensors[:, task._clock] = 0.1  # the sim time: a quarter of the trot's 0.4 s cycle
-    observation = task.policy_observation(np.tile(state, (2, 1)), sensors, {COMMAND_KEY: [0.5, 0.1, 0.3]}, previous)
+    observation = task.policy_observation(
+        np.tile(state, (2, 1)), sensors, {COMMAND_KEY: [0.5, 0.1, 0.3]}, previous
+    )
     assert observation.shape == (2, 35) == (2, task.policy_observation_size())
-    np.testing.assert_allclose(observation[:, 33:35], [[0.0, 1.0]] * 2, atol=1e-12)  # the clock: cos, sin
+    # the clock: cos, sin
+    np.testing.assert_allclose(observation[:, 33:35], [[0.0, 1.0]] * 2, atol=1e-12)
     with pytest.raises(PolicyError, match="needs the sensors, for the gait clock"):
         task.policy_observation(state[None], None, {COMMAND_KEY: [0.5, 0.1, 0.3]}, previous[:1])
     np.testing.assert_allclose(observation[:, :12], np.tile(state[7:19] - task.home_ctrl, (2, 1)))
-    np.testing.assert_allclose(observation[:, 27:30], [[0.0, 0.0, -1.0]] * 2, atol=0.01)  # gravity, trunk frame
+    # gravity, trunk frame
+    np.testing.assert_allclose(observation[:, 27:30], [[0.0, 0.0, -1.0]] * 2, atol=0.01)
     np.testing.assert_array_equal(observation[:, 30:33], [[0.5, 0.1, 0.3]] * 2)
-    np.testing.assert_array_equal(observation[0], observation[1])  # the previous action is not seen (copycat)
+    # the previous action is not seen (copycat)
+    np.testing.assert_array_equal(observation[0], observation[1])
 
 
 def test_gravity_in_body_is_mujoco_s_rotation_transposed_applied_to_down():

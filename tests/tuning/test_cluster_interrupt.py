@@ -1,5 +1,5 @@
-"""Ctrl-C while a Ray loop waits: `cluster.wait_any` answers it within a wait slice, and cancelling leaves the
-workers alive (no force-kill racing the tasks' replies)."""
+"""Ctrl-C while a Ray loop waits: `cluster.wait_any` answers it within a wait slice, and cancelling
+leaves the workers alive (no force-kill racing the tasks' replies)."""
 
 import os
 import signal
@@ -14,9 +14,12 @@ import judo.ray_cluster as cluster
 def test_ctrl_c_during_a_wait_raises_within_a_slice_and_the_tasks_cancel(local_ray):
     ray = pytest.importorskip("ray")
 
-    def busy(seconds: float) -> float:  # local, so Ray ships it by value (workers cannot import this module)
-        end = time.monotonic() + seconds  # Python code running, as an episode's loop is (a non-forced cancel
-        while time.monotonic() < end:  # lands between bytecodes; Ray does not interrupt a time.sleep)
+    # local, so Ray ships it by value (workers cannot import this module)
+    def busy(seconds: float) -> float:
+        # Python code running, as an episode's loop is (a non-forced cancel
+        end = time.monotonic() + seconds
+        # lands between bytecodes; Ray does not interrupt a time.sleep)
+        while time.monotonic() < end:
             pass
         return seconds
 
@@ -28,11 +31,14 @@ def test_ctrl_c_during_a_wait_raises_within_a_slice_and_the_tasks_cancel(local_r
     timer.start()
     with pytest.raises(KeyboardInterrupt):
         cluster.wait_any(refs)
-    # Within a slice of the Ctrl-C, not when the 60 s task ends: 1 s + WAIT_SLICE_S on an idle machine, and a
-    # loaded one may start the timer's thread and Ray's wait late, so the bound is generous.
+    # Within a slice of the Ctrl-C, not when the 60 s task ends: 1 s + WAIT_SLICE_S on an idle
+    # machine, and a loaded one may start the timer's thread and Ray's wait late, so the bound is
+    # generous.
     answered_after = time.monotonic() - started
     assert answered_after < 20.0, f"the Ctrl-C was answered after {answered_after:.1f} s"
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # the flag handler is gone again
+    # the flag handler is gone again
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     cluster.cancel(refs)
     with pytest.raises(ray.exceptions.TaskCancelledError):
-        ray.get(refs[0], timeout=120)  # cancelled: never the task's 60.0, however late the cancel lands
+        # cancelled: never the task's 60.0, however late the cancel lands
+        ray.get(refs[0], timeout=120)

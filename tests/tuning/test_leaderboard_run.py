@@ -1,5 +1,6 @@
-"""`python -m judo leaderboard` end to end: a tiny real leaderboard on a real local Ray and SQLite file, and a real
-Ctrl-C mid-run after which the same command resumes without redoing a finished trial."""
+"""`python -m judo leaderboard` end to end: a tiny real leaderboard on a real local Ray and SQLite
+file, and a real Ctrl-C mid-run after which the same command resumes without redoing a finished
+trial."""
 
 import csv
 import json
@@ -42,7 +43,9 @@ def restored_overrides():
 def protocols(folder: Path, duration: float) -> Path:
     """pendulum.toml and cartpole.toml of `duration` s episodes in `folder`."""
     folder.mkdir()
-    (folder / "pendulum.toml").write_text(SHORT.format(metric="upright_fraction", duration=duration))
+    (folder / "pendulum.toml").write_text(
+        SHORT.format(metric="upright_fraction", duration=duration)
+    )
     (folder / "cartpole.toml").write_text(SHORT.format(metric="mean_reward", duration=duration))
     return folder
 
@@ -57,7 +60,18 @@ def test_a_tiny_leaderboard_writes_its_table_csv_plot_and_configs_that_load(
     local_ray, restored_overrides, tmp_path, capsys
 ):
     folder, out = protocols(tmp_path / "protocols", 0.5), tmp_path / "out"
-    argv = ["--tasks", "pendulum", "cartpole", "--optimizers", "ps", "mppi", "--trials", "2", "--seeds", "2"]
+    argv = [
+        "--tasks",
+        "pendulum",
+        "cartpole",
+        "--optimizers",
+        "ps",
+        "mppi",
+        "--trials",
+        "2",
+        "--seeds",
+        "2",
+    ]
     assert leaderboard_main([*argv, "--protocols", str(folder), "--out", str(out)]) == 0
     printed = " ".join(capsys.readouterr().out.split())
     assert "pendulum upright_fraction ↑" in printed and "cartpole mean_reward ↑" in printed
@@ -79,10 +93,12 @@ def test_a_tiny_leaderboard_writes_its_table_csv_plot_and_configs_that_load(
         assert won and all(means[entry] == max(means.values()) for entry in won)
     markdown = (out / "leaderboard.md").read_text()
     assert (
-        markdown.startswith("| optimizer | pendulum upright_fraction ↑ | cartpole mean_reward ↑ |") and "**" in markdown
+        markdown.startswith("| optimizer | pendulum upright_fraction ↑ | cartpole mean_reward ↑ |")
+        and "**" in markdown
     )
     assert (out / "leaderboard.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    # A tuned config is a --config file: the app and evaluate get the protocol's settings and the best trial's.
+    # A tuned config is a --config file: the app and evaluate get the protocol's settings and the
+    # best trial's.
     row = rows[3]
     apply_config_file(Path(row["config"]))
     configs = default_configs("cartpole", "mppi")
@@ -96,7 +112,13 @@ def trials_by_study(storage: str, studies: list[str]) -> dict[str, list[tuple]]:
     """{study: [(number, state, value, start time, failure)]} of each study's stored trials."""
     return {
         study: [
-            (trial.number, trial.state.name, trial.value, trial.datetime_start, trial.user_attrs.get("failure"))
+            (
+                trial.number,
+                trial.state.name,
+                trial.value,
+                trial.datetime_start,
+                trial.user_attrs.get("failure"),
+            )
             for trial in stored_trials(storage, study)
         ]
         for study in studies
@@ -108,15 +130,35 @@ def test_ctrl_c_keeps_the_finished_trials_and_the_same_command_resumes_without_r
     local_ray, tmp_path, capsys
 ):
     folder, out = protocols(tmp_path / "protocols", 1.0), tmp_path / "out"
-    argv = ["--tasks", "pendulum", "--optimizers", "ps", "mppi", "--trials", "2", "--seeds", "2", "--workers", "1"]
+    argv = [
+        "--tasks",
+        "pendulum",
+        "--optimizers",
+        "ps",
+        "mppi",
+        "--trials",
+        "2",
+        "--seeds",
+        "2",
+        "--workers",
+        "1",
+    ]
     argv += ["--protocols", str(folder), "--out", str(out)]
     digest = load_protocol("pendulum", folder).digest()
     database, studies = out / "leaderboard.db", [f"pendulum-ps-{digest}", f"pendulum-mppi-{digest}"]
     command = subprocess.Popen(
-        [sys.executable, "-m", "judo", "leaderboard", *argv], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+        [sys.executable, "-m", "judo", "leaderboard", *argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     try:
-        wait_for(lambda: "COMPLETE" in trial_states_read_only(database, studies[0]), 600, "a trial finished", command)
+        wait_for(
+            lambda: "COMPLETE" in trial_states_read_only(database, studies[0]),
+            600,
+            "a trial finished",
+            command,
+        )
         command.send_signal(signal.SIGINT)
         _, err = command.communicate(timeout=300)
     finally:
@@ -129,15 +171,24 @@ def test_ctrl_c_keeps_the_finished_trials_and_the_same_command_resumes_without_r
     assert leaderboard_main(argv) == 0  # the same command, in this process (on the module's Ray)
     after = trials_by_study(storage, studies)
     for study in studies:
-        finished = [trial for trial in before[study] if trial[1] in ("COMPLETE", "FAIL")]  # the defaults may wait
-        assert [after[study][trial[0]] for trial in finished] == finished  # none redone, none changed
+        # the defaults may wait
+        finished = [trial for trial in before[study] if trial[1] in ("COMPLETE", "FAIL")]
+        # none redone, none changed
+        assert [after[study][trial[0]] for trial in finished] == finished
         states = [trial[1] for trial in after[study]]
         assert states.count("COMPLETE") == 2
-        # A trial the Ctrl-C stopped failed as interrupted, and does not count against the budget of 2.
+        # A trial the Ctrl-C stopped failed as interrupted, and does not count against the budget
+        # of 2.
         assert all(trial[4] == "interrupted" for trial in after[study] if trial[1] == "FAIL")
         assert len(after[study]) == 2 + states.count("FAIL")
     assert any(trial[1] == "COMPLETE" for trial in before[studies[0]])
     runs = json.loads((out / "runs.json").read_text())
-    assert [run["finished"] for run in runs] == [False, True] and runs[1]["wall_s"] <= time.monotonic() - started + 1
+    assert [run["finished"] for run in runs] == [False, True] and runs[1][
+        "wall_s"
+    ] <= time.monotonic() - started + 1
     assert "all 2 runs into this folder" in " ".join(capsys.readouterr().out.split())
-    assert [row["entry"] for row in csv_rows(out / "leaderboard.csv")] == ["ps", "mppi", "shipped default (mppi)"]
+    assert [row["entry"] for row in csv_rows(out / "leaderboard.csv")] == [
+        "ps",
+        "mppi",
+        "shipped default (mppi)",
+    ]

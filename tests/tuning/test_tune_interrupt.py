@@ -1,10 +1,11 @@
-"""A Ctrl-C that lands anywhere in the study's loop leaves no trial RUNNING, and a trial whose process died is
-found by its heartbeat: real signals to this process, a real local Ray and a real SQLite study.
+"""A Ctrl-C that lands anywhere in the study's loop leaves no trial RUNNING, and a trial whose
+process died is found by its heartbeat: real signals to this process, a real local Ray and a real
+SQLite study.
 
-A SIGINT sent with os.kill to this process is handled at the next bytecode, so sending it from inside the
-loop's own calls (Ray's submit, the study's tell) puts the Ctrl-C exactly where a loaded machine once put it
-by chance: between asking Optuna for a trial and the loop knowing of it, or between a trial's last episode
-and its tell.
+A SIGINT sent with os.kill to this process is handled at the next bytecode, so sending it from
+inside the loop's own calls (Ray's submit, the study's tell) puts the Ctrl-C exactly where a loaded
+machine once put it by chance: between asking Optuna for a trial and the loop knowing of it, or
+between a trial's last episode and its tell.
 """
 
 import os
@@ -29,7 +30,9 @@ SPEC = TrialSpec("cartpole", "ps", "mean_reward", 1, 0.2, fixed={"optimizer.num_
 def sqlite_study(tmp_path, name="interrupted"):
     storage = f"sqlite:///{tmp_path / 'tune.db'}"
     sampler = studies.make_sampler("random", 0, SPACE, constrained=False)
-    study, already, notes = studies.open_study(storage, name, Objective("mean_reward", "maximize"), sampler, {})
+    study, already, notes = studies.open_study(
+        storage, name, Objective("mean_reward", "maximize"), sampler, {}
+    )
     assert (already, notes) == (0, [])
     return study, storage
 
@@ -68,7 +71,9 @@ def test_ctrl_c_while_a_finished_trial_is_told_stores_it_complete(local_ray, tmp
     with pytest.raises(KeyboardInterrupt):
         studies.run_trials(study, SPACE, SPEC, target=3, concurrency=1, max_plan_ms=None)
     assert states(study) == ["COMPLETE"]  # told, and no second trial started
-    assert study.trials[0].value is not None and "mean_reward" in study.trials[0].user_attrs["metrics"]
+    assert (
+        study.trials[0].value is not None and "mean_reward" in study.trials[0].user_attrs["metrics"]
+    )
 
 
 def test_a_running_trial_beats_and_one_that_stopped_beating_is_failed_and_named(tmp_path):
@@ -77,11 +82,13 @@ def test_a_running_trial_beats_and_one_that_stopped_beating_is_failed_and_named(
     with heartbeat.Heartbeats(study) as beats:
         beats.beat(trial)
         assert heartbeat.dead_trial_notes(study) == [
-            f"trial 0 still RUNNING: another tune runs it, or its process died less than {heartbeat.STALE_AFTER_S} s "
+            "trial 0 still RUNNING: another tune runs it, or its process died less than "
+            f"{heartbeat.STALE_AFTER_S} s "
             "ago (a later resume marks it FAIL)"
         ]
-    # The same file seen by a storage with a 1 s grace period: trial 0's one heartbeat goes stale in a second
-    # or two (SQLite's clock counts whole seconds), as it does after STALE_AFTER_S for tune.
+    # The same file seen by a storage with a 1 s grace period: trial 0's one heartbeat goes stale in
+    # a second or two (SQLite's clock counts whole seconds), as it does after STALE_AFTER_S for
+    # tune.
     quick = optuna.storages.RDBStorage(storage, heartbeat_interval=1, grace_period=1)
     seen = optuna.load_study(study_name="beats", storage=quick)
     deadline, notes = time.monotonic() + 60, []

@@ -1,4 +1,5 @@
-"""One trial without Ray: evaluate's seeded episodes with the trial's values, and failures recorded with their reason."""
+"""One trial without Ray: evaluate's seeded episodes with the trial's values, and failures recorded
+with their reason."""
 
 import math
 
@@ -20,7 +21,9 @@ def test_a_trial_with_the_default_settings_gives_evaluates_result():
     outcome = run_trial(CARTPOLE, {})
     results = evaluate(EvaluateArgs("cartpole", "ps", seeds=2, duration=0.4, num_workers=1))
     assert outcome.failure is None
-    assert outcome.metrics["mean_reward"] == pytest.approx(np.mean([r.metrics["mean_reward"] for r in results]))
+    assert outcome.metrics["mean_reward"] == pytest.approx(
+        np.mean([r.metrics["mean_reward"] for r in results])
+    )
     assert outcome.value == outcome.metrics["balanced_fraction"]
     assert outcome.plan_ms > 0
 
@@ -29,20 +32,28 @@ def test_a_trial_from_a_first_seed_runs_evaluates_episodes_of_those_seeds():
     spec = TrialSpec("cartpole", "ps", "balanced_fraction", seeds=2, duration=0.4, first_seed=7)
     assert list(spec.seed_range()) == [7, 8]
     outcome = run_trial(spec, {})
-    results = evaluate(EvaluateArgs("cartpole", "ps", seeds=2, first_seed=7, duration=0.4, num_workers=1))
+    results = evaluate(
+        EvaluateArgs("cartpole", "ps", seeds=2, first_seed=7, duration=0.4, num_workers=1)
+    )
     assert [result.seed for result in results] == [7, 8]
-    assert outcome.metrics["mean_reward"] == pytest.approx(np.mean([r.metrics["mean_reward"] for r in results]))
+    assert outcome.metrics["mean_reward"] == pytest.approx(
+        np.mean([r.metrics["mean_reward"] for r in results])
+    )
 
 
 def test_the_trials_values_reach_the_episodes():
-    default, other = run_trial(CARTPOLE, {}), run_trial(CARTPOLE, {"optimizer.sigma": 1.5, "task.w_centered": 0.0})
+    default, other = (
+        run_trial(CARTPOLE, {}),
+        run_trial(CARTPOLE, {"optimizer.sigma": 1.5, "task.w_centered": 0.0}),
+    )
     assert other.failure is None
     assert other.metrics["mean_reward"] != default.metrics["mean_reward"]
 
 
 def test_values_the_configs_refuse_fail_the_trial_with_the_reason():
     outcome = run_trial(
-        TrialSpec("cartpole", "cem", "mean_reward", 1, 0.2), {"optimizer.sigma_min": 0.9, "optimizer.sigma_max": 0.1}
+        TrialSpec("cartpole", "cem", "mean_reward", 1, 0.2),
+        {"optimizer.sigma_min": 0.9, "optimizer.sigma_max": 0.1},
     )
     assert outcome.failed and math.isnan(outcome.value)
     assert outcome.failure is not None and outcome.failure.startswith("ConfigError: ")
@@ -90,8 +101,12 @@ def test_diverged_and_non_finite_episodes_are_failures():
 
     assert episode_failure(result()) is None
     assert episode_failure(result(divergences=2)) == "seed 3: the simulation diverged 2 times"
-    assert episode_failure(result(failed_updates=1)) == "seed 3: 1 control updates had no finite reward"
-    assert episode_failure(result(metrics={"mean_reward": math.nan})) == "seed 3: non-finite mean_reward"
+    assert episode_failure(result(failed_updates=1)) == (
+        "seed 3: 1 control updates had no finite reward"
+    )
+    assert episode_failure(result(metrics={"mean_reward": math.nan})) == (
+        "seed 3: non-finite mean_reward"
+    )
 
 
 def test_directions_come_from_the_tasks_lower_is_better():
@@ -102,5 +117,9 @@ def test_directions_come_from_the_tasks_lower_is_better():
 
 
 def test_an_unknown_metric_lists_the_tasks_metrics():
-    with pytest.raises(UnknownMetricError, match=r"^task 'cartpole' reports no metric 'upright'; its metrics are: "):
+    with pytest.raises(
+        UnknownMetricError,
+        match=r"^task 'cartpole' reports no "
+        r"metric 'upright'; its metrics are: ",
+    ):
         make_objective("cartpole", "upright", ["balanced_fraction", "swung_up", "mean_reward"])

@@ -1,4 +1,5 @@
-"""The Unitree tests import their helpers (unitree_links, leg_task) and the ROS 2 tests' (ros2_links) by name."""
+"""The Unitree tests import their helpers (unitree_links, leg_task) and the ROS 2 tests'
+(ros2_links) by name."""
 
 import sys
 from pathlib import Path

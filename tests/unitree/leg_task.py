@@ -1,5 +1,6 @@
-"""A registered task on one Go2-like leg (tests/unitree/leg.xml), for the Unitree link's tests: `python -m judo plant`
-runs it as a robot process through `python leg_task.py plant ...`, and the bridge drives it in the tests."""
+"""A registered task on one Go2-like leg (tests/unitree/leg.xml), for the Unitree link's tests:
+`python -m judo plant` runs it as a robot process through `python leg_task.py plant ...`, and the
+bridge drives it in the tests."""
 
 import sys
 from pathlib import Path
@@ -45,7 +46,8 @@ class UnitreeLeg(Task[TaskConfig]):
 
 register_task("unitree_leg", UnitreeLeg, TaskConfig)
 
-if __name__ == "__main__":  # python leg_task.py plant ARGS: the plant command with this task registered
+# python leg_task.py plant ARGS: the plant command with this task registered
+if __name__ == "__main__":
     from judo.unitree.robot import main
 
     sys.exit(main(sys.argv[2:]))

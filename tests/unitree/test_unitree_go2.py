@@ -1,7 +1,8 @@
-"""The "done when": against a robot process that speaks only Unitree's messages, `python -m judo --task go2_stand
---system unitree --headless` stands the Go2 up from its lying start, from rt/lowstate alone (the legged estimator
-makes the base from the IMU, encoders and foot forces). The robot process logs its true base height every second
-of its simulation, which no message carries: that is what the test reads."""
+"""The "done when": against a robot process that speaks only Unitree's messages, `python -m judo
+--task go2_stand --system unitree --headless` stands the Go2 up from its lying start, from
+rt/lowstate alone (the legged estimator makes the base from the IMU, encoders and foot forces). The
+robot process logs its true base height every second of its simulation, which no message carries:
+that is what the test reads."""
 
 import re
 import subprocess
@@ -19,11 +20,12 @@ pytestmark = pytest.mark.slow
 
 def test_go2_stands_up_over_the_unitree_wire():
     domain = free_domain()
-    flags = ["--unitree.domain", str(domain), "--unitree.silence-s", "0.5"]  # a loaded machine starves processes
+    # a loaded machine starves processes
+    flags = ["--unitree.domain", str(domain), "--unitree.silence-s", "0.5"]
     robot = start_robot(domain, "--unitree.silence-s", "0.5", task="go2_stand")
     try:
         app = subprocess.run(
-            [sys.executable, "-m", "judo", "--task", "go2_stand", "--system", "unitree", *flags, "--unitree.rate-hz",
+            [sys.executable, "-m", "judo", "--task", "go2_stand", "--system", "unitree", *flags, "--unitree.rate-hz",  # noqa: E501
              "100", "--estimator", "legged", "--headless", "--duration", "6"],
             capture_output=True, text=True, env=env(), cwd=ROOT, timeout=400,
         )  # fmt: skip

@@ -1,6 +1,7 @@
-"""The Unitree bridge against a real robot process (`python -m judo plant --protocol unitree`) and test-side DDS
-participants on loopback, each test on a random domain: it holds the test leg with verified commands that ramp in,
-the robot drops a command with a wrong CRC, and every fault gets damping, never a stiff command from a stale plan."""
+"""The Unitree bridge against a real robot process (`python -m judo plant --protocol unitree`) and
+test-side DDS participants on loopback, each test on a random domain: it holds the test leg with
+verified commands that ramp in, the robot drops a command with a wrong CRC, and every fault gets
+damping, never a stiff command from a stale plan."""
 
 import time
 
@@ -33,7 +34,8 @@ pytestmark = pytest.mark.slow
 
 def test_bridge_holds_the_leg_with_verified_ramped_commands():
     domain = free_domain()
-    robot = start_robot(domain, "--unitree.interface", "lo")  # both ends on the loopback interface by name
+    # both ends on the loopback interface by name
+    robot = start_robot(domain, "--unitree.interface", "lo")
     wire = Wire(domain, interface="lo")
     task = leg_task.UnitreeLeg()
     system = UnitreeSystem(task, leg_options(domain, soft_start_s=2.0, interface="lo"))
@@ -47,7 +49,8 @@ def test_bridge_holds_the_leg_with_verified_ramped_commands():
             return bool(np.abs(q - leg_task.STAND).max() < 0.08)
 
         poll(near_stand, timeout=30.0, what="the leg at its stand pose")
-        drive(system, leg_task.STAND, 2.5)  # past the end of the soft start however slowly the loop ran
+        # past the end of the soft start however slowly the loop ran
+        drive(system, leg_task.STAND, 2.5)
         commands = [c for c in wire.taken_commands() if stiff(c)]
         assert commands and all(crc.crc_ok(c) for c in commands)
         first, last = commands[0], commands[-1]
@@ -55,8 +58,11 @@ def test_bridge_holds_the_leg_with_verified_ramped_commands():
         assert [first.motor_cmd[s].mode for s in range(20)] == [mt.ENABLE] * 20
         kp = [c.motor_cmd[1].kp for c in commands]
         assert min(kp) < 0.5 * 20.0 and kp[-1] == pytest.approx(20.0)  # ramped in to the model's kp
-        assert last.motor_cmd[1].kd == pytest.approx(0.5) and last.motor_cmd[1].q == pytest.approx(0.67, abs=1e-6)
-        assert last.motor_cmd[5].kp == 0 and last.motor_cmd[5].q == pytest.approx(mt.POS_STOP)  # an unused motor
+        assert last.motor_cmd[1].kd == pytest.approx(0.5) and last.motor_cmd[1].q == pytest.approx(
+            0.67, abs=1e-6
+        )
+        # an unused motor
+        assert last.motor_cmd[5].kp == 0 and last.motor_cmd[5].q == pytest.approx(mt.POS_STOP)
         assert system.refused == {}
         system.halt()
         halted = wire.taken_commands()[-1]
@@ -101,13 +107,19 @@ def test_a_killed_robot_gets_damping_then_a_soft_start_from_its_new_pose():
     domain = free_domain()
     robot = start_robot(domain)
     wire = Wire(domain)
-    system = UnitreeSystem(leg_task.UnitreeLeg(), leg_options(domain, soft_start_s=1.0, silence_s=0.3))
+    system = UnitreeSystem(
+        leg_task.UnitreeLeg(), leg_options(domain, soft_start_s=1.0, silence_s=0.3)
+    )
     try:
         drive(system, leg_task.STAND, 1.5)
         robot.kill()  # no goodbye on the wire
         robot.wait()
         wire.taken_commands()
-        poll(lambda: (drive(system, leg_task.STAND, 0.05), system.damping_sent > 5)[1], timeout=20, what="damping")
+        poll(
+            lambda: (drive(system, leg_task.STAND, 0.05), system.damping_sent > 5)[1],
+            timeout=20,
+            what="damping",
+        )
         drive(system, leg_task.STAND, 0.3)
         tail = wire.taken_commands()[-20:]
         assert tail and not any(stiff(c) for c in tail) and all(crc.crc_ok(c) for c in tail)
@@ -120,7 +132,8 @@ def test_a_killed_robot_gets_damping_then_a_soft_start_from_its_new_pose():
             return bool(after)
 
         poll(stiff_again, 30, "stiff commands to the new robot")
-        assert after[0].motor_cmd[1].kp < 10.0  # the ramp begins again, not the plan at full stiffness
+        # the ramp begins again, not the plan at full stiffness
+        assert after[0].motor_cmd[1].kp < 10.0
     finally:
         system.close()
         wire.close()
@@ -132,7 +145,10 @@ def test_a_killed_robot_gets_damping_then_a_soft_start_from_its_new_pose():
     [
         ("lowstate (non-finite)", lambda tick: leg_state([np.nan, 0.67, -1.3], tick)),
         ("lowstate (tick)", lambda tick: leg_state(leg_task.STAND, tick - 500)),
-        ("lowstate (imu)", lambda tick: leg_state(leg_task.STAND, tick, quaternion=(0.0, 0.0, 0.0, 0.0))),
+        (
+            "lowstate (imu)",
+            lambda tick: leg_state(leg_task.STAND, tick, quaternion=(0.0, 0.0, 0.0, 0.0)),
+        ),
         ("lowstate (out of bounds)", lambda tick: leg_state([0.0, 0.67, 1.0], tick)),
     ],
 )
@@ -146,10 +162,17 @@ def test_refused_readings_are_named_and_get_damping(kind, bad):
         assert system.refused == {}
         wire.taken_commands()
         start_tick = streamer.tick
-        streamer.make = lambda tick: bad(tick) if tick > start_tick + 0 else leg_state(leg_task.STAND, tick)
-        poll(lambda: (drive(system, leg_task.STAND, 0.05), system.refused.get(kind, 0) > 10)[1], 20, kind)
+        streamer.make = lambda tick: (
+            bad(tick) if tick > start_tick + 0 else leg_state(leg_task.STAND, tick)
+        )
+        poll(
+            lambda: (drive(system, leg_task.STAND, 0.05), system.refused.get(kind, 0) > 10)[1],
+            20,
+            kind,
+        )
         drive(system, leg_task.STAND, 0.4)
-        assert not any(stiff(c) for c in wire.taken_commands()[-10:])  # silence of valid readings: damping
+        # silence of valid readings: damping
+        assert not any(stiff(c) for c in wire.taken_commands()[-10:])
     finally:
         streamer.stop()
         system.close()

@@ -1,5 +1,6 @@
-"""--system unitree's options on the command line and in TOML, `plant --protocol`, and what the bridge refuses
-before any DDS: a model whose actuators are not the robot's motors, a reading with the wrong motor count."""
+"""--system unitree's options on the command line and in TOML, `plant --protocol`, and what the
+bridge refuses before any DDS: a model whose actuators are not the robot's motors, a reading with
+the wrong motor count."""
 
 import numpy as np
 import pytest
@@ -24,23 +25,39 @@ from judo.unitree.robot import main as plant_main
 def test_unitree_options_from_toml_and_the_command_line(tmp_path):
     assert system_class("unitree") is UnitreeSystem
     path = tmp_path / "robot.toml"
-    path.write_text('system = "unitree"\n[unitree]\nrobot = "g1"\ndomain = 3\ninterface = "eth0"\nrate_hz = 250\n')
+    path.write_text(
+        'system = "unitree"\n[unitree]\nrobot = "g1"\ndomain = 3\ninterface = "eth0"\nrate_hz = '
+        "250\n"
+    )
     loaded = load_config(path)
     options = unitree_options(loaded.unitree, "[unitree]")
     assert loaded.system == "unitree"
     assert options == UnitreeOptions(robot="g1", domain=3, interface="eth0", rate_hz=250.0)
-    with pytest.raises(ConfigError, match="unknown field 'rate'; valid fields are: domain, interface"):
+    with pytest.raises(
+        ConfigError, match="unknown field 'rate'; valid fields are: domain, interface"
+    ):
         unitree_options({"rate": 1}, "[unitree]")
-    with pytest.raises(ConfigError, match=r"\[unitree\]: domain must be an integer 0..232, got '3'"):
+    with pytest.raises(
+        ConfigError,
+        match=r"\[unitree\]: domain must be "
+        r"an integer 0..232, got '3'",
+    ):
         unitree_options({"domain": "3"}, "[unitree]")
     parsed, _ = launch.parse(
-        ["--task", "cartpole", "--unitree.domain", "9", "--unitree.soft-start-s", "1"], {}, None, options
+        ["--task", "cartpole", "--unitree.domain", "9", "--unitree.soft-start-s", "1"],
+        {},
+        None,
+        options,
     )
-    assert parsed.unitree == UnitreeOptions(robot="g1", domain=9, interface="eth0", rate_hz=250.0, soft_start_s=1.0)
+    assert parsed.unitree == UnitreeOptions(
+        robot="g1", domain=9, interface="eth0", rate_hz=250.0, soft_start_s=1.0
+    )
 
 
 def test_plant_protocol_and_a_bad_unitree_option_are_one_line(capsys):
-    assert plant_main(["--task", "go2_stand", "--protocol", "unitree", "--unitree.rate-hz", "0"]) == 2
+    assert (
+        plant_main(["--task", "go2_stand", "--protocol", "unitree", "--unitree.rate-hz", "0"]) == 2
+    )
     err = capsys.readouterr().err.strip()
     assert err == "python -m judo plant: --unitree.rate-hz must be a positive number, got 0.0"
     with pytest.raises(SystemExit):
@@ -50,13 +67,16 @@ def test_plant_protocol_and_a_bad_unitree_option_are_one_line(capsys):
 
 def test_the_bridge_names_a_model_that_is_not_the_robots_motors():
     xml = leg_task.MODEL.read_text().replace(
-        '<position name="FR_hip" joint="FR_hip_joint" kp="20" kv="0.5"', '<motor name="FR_hip" joint="FR_hip_joint"'
+        '<position name="FR_hip" joint="FR_hip_joint" kp="20" kv="0.5"',
+        '<motor name="FR_hip" joint="FR_hip_joint"',
     )
     model = mujoco.MjModel.from_xml_string(xml)
     with pytest.raises(ConfigError, match="actuator 'FR_hip' is not a position actuator"):
         mt.Motors.of(model, "go2")
     with pytest.raises(
-        ConfigError, match="actuator 'FR_hip' drives 'FR_hip_joint', not one of the g1's joints left_hip_pitch_joint"
+        ConfigError,
+        match="actuator 'FR_hip' drives 'FR_hip_joint', not one of the g1's joints "
+        "left_hip_pitch_joint",
     ):
         mt.Motors.of(mujoco.MjModel.from_xml_path(str(leg_task.MODEL)), "g1")
     with pytest.raises(ConfigError, match="--unitree.robot must be one of go2, g1, got 'h1'"):
@@ -66,17 +86,22 @@ def test_the_bridge_names_a_model_that_is_not_the_robots_motors():
 
 
 def test_a_reading_with_the_wrong_motor_count_is_refused():
-    """A decoded LowState_ always has its type's 20 slots on the wire; a message of another length (another robot's
-    layout, a decoder of another IDL) is refused by name."""
+    """A decoded LowState_ always has its type's 20 slots on the wire; a message of another length
+    (another robot's layout, a decoder of another IDL) is refused by name."""
     task = leg_task.UnitreeLeg()
     motors = mt.Motors.of(task.model, "go2")
     sensors = mt.Sensors.of(task.model, task.measured, motors)
     state = leg_state(leg_task.STAND, 10)
     values, q = reading_of(state, motors, sensors)
-    assert np.allclose(q, leg_task.STAND, atol=1e-6) and np.allclose(values[:3], leg_task.STAND, atol=1e-6)
+    assert np.allclose(q, leg_task.STAND, atol=1e-6) and np.allclose(
+        values[:3], leg_task.STAND, atol=1e-6
+    )
     assert values[-4:-1].tolist() == pytest.approx([0.0, 0.0, 9.81])  # the accelerometer
     state.motor_state = state.motor_state[:12]
-    assert reading_of(state, motors, sensors) == ("lowstate (motor count)", "12 motors; a go2 sends 20")
+    assert reading_of(state, motors, sensors) == (
+        "lowstate (motor count)",
+        "12 motors; a go2 sends 20",
+    )
     assert len(msg.HgLowState().motor_state) == mt.ROBOTS["g1"].slots
 
 

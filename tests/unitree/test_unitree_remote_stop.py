@@ -1,4 +1,5 @@
-"""The Unitree remote's stop: L2+B held, read from a LowState_'s wireless_remote bytes, latches judo's stop."""
+"""The Unitree remote's stop: L2+B held, read from a LowState_'s wireless_remote bytes, latches
+judo's stop."""
 
 import time
 
@@ -15,7 +16,8 @@ from judo.unitree.bridge import REMOTE_KEYS, REMOTE_SOURCE, UnitreeSystem, remot
 
 
 def held(*keys: str) -> list[int]:
-    """(40,) wireless_remote bytes with `keys` held, laid out as Unitree's xRockerBtnDataStruct (head, keys, sticks)."""
+    """(40,) wireless_remote bytes with `keys` held, laid out as Unitree's xRockerBtnDataStruct
+    (head, keys, sticks)."""
     bits = sum(1 << REMOTE_KEYS.index(key) for key in keys)
     return [0x55, 0x51, *bits.to_bytes(2, "little"), *[0] * 36]
 

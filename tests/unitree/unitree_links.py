@@ -1,6 +1,7 @@
-"""Helpers for real Unitree links on loopback: robot processes (`python -m judo plant --protocol unitree`) on the
-test leg (leg_task.py) or a registered task, and test-side DDS readers and writers of rt/lowstate and rt/lowcmd,
-each on a DDS domain of its own (`free_domain`, from the ROS 2 tests' helpers)."""
+"""Helpers for real Unitree links on loopback: robot processes (`python -m judo plant --protocol
+unitree`) on the test leg (leg_task.py) or a registered task, and test-side DDS readers and writers
+of rt/lowstate and rt/lowcmd, each on a DDS domain of its own (`free_domain`, from the ROS 2 tests'
+helpers)."""
 
 import sys
 import threading
@@ -8,7 +9,12 @@ import time
 from pathlib import Path
 
 import numpy as np
-from ros2_links import free_domain, poll, started, stop_process  # noqa: F401 (re-exported for the tests)
+from ros2_links import (  # noqa: F401 (re-exported for the tests)
+    free_domain,
+    poll,
+    started,
+    stop_process,
+)
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -22,9 +28,20 @@ READY = "publishing rt/lowstate"
 
 
 def start_robot(domain: int, *flags: str, task: str = "unitree_leg"):
-    """The robot process of `task` (the test leg by default) on `domain`, once it says it publishes."""
+    """The robot process of `task` (the test leg by default) on `domain`, once it says it
+    publishes."""
     command = [str(HERE / "leg_task.py")] if task == "unitree_leg" else ["-m", "judo"]
-    args = [*command, "plant", "--task", task, "--protocol", "unitree", "--unitree.domain", str(domain), *flags]
+    args = [
+        *command,
+        "plant",
+        "--task",
+        task,
+        "--protocol",
+        "unitree",
+        "--unitree.domain",
+        str(domain),
+        *flags,
+    ]
     return started(args, READY)
 
 
@@ -35,8 +52,9 @@ def leg_options(domain: int, **changes):
 
 
 class Wire:
-    """A test's own participant on `domain`: reads every rt/lowcmd and rt/lowstate, writes rt/lowstate, and
-    rt/lowcmd too where `commands` (another commander, which the bridge refuses at start)."""
+    """A test's own participant on `domain`: reads every rt/lowcmd and rt/lowstate, writes
+    rt/lowstate, and rt/lowcmd too where `commands` (another commander, which the bridge refuses at
+    start)."""
 
     def __init__(self, domain: int, commands: bool = False, interface: str | None = None) -> None:
         from cyclonedds.core import Policy, Qos
@@ -48,7 +66,9 @@ class Wire:
         self.commands = DataReader(self.link.participant, self.link.command_topic, keep_all)
         self.states = DataReader(self.link.participant, self.link.state_topic, STATE_QOS)
         self.command_writer = (
-            DataWriter(self.link.participant, self.link.command_topic, COMMAND_QOS) if commands else None
+            DataWriter(self.link.participant, self.link.command_topic, COMMAND_QOS)
+            if commands
+            else None
         )
         self.state_writer = DataWriter(self.link.participant, self.link.state_topic, STATE_QOS)
 
@@ -84,8 +104,8 @@ def leg_state(q, tick: int, dq=(0.0, 0.0, 0.0), quaternion=(1.0, 0.0, 0.0, 0.0))
 
 
 class Streamer:
-    """Writes the test leg's LowState_ at `leg_task.STAND` every 5 ms, its tick 5 ms on each time, until told to send
-    `bad` (a function of the tick that makes the message) instead, or to stop."""
+    """Writes the test leg's LowState_ at `leg_task.STAND` every 5 ms, its tick 5 ms on each time,
+    until told to send `bad` (a function of the tick that makes the message) instead, or to stop."""
 
     def __init__(self, wire: Wire) -> None:
         self.wire, self.tick = wire, 1000

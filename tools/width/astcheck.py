@@ -2,8 +2,9 @@
 
     python tools/width/astcheck.py [--base HEAD] [--repo .]
 
-Same AST and the same compiled constants, ignoring only comments, docstring whitespace and how string literals are
-cut into implicitly concatenated pieces (equiv.compare). Exit 1 and name the files that differ.
+Same AST and the same compiled constants, ignoring only comments, docstring whitespace and how
+string literals are cut into implicitly concatenated pieces (equiv.compare). Exit 1 and name the
+files that differ.
 """
 
 import argparse
@@ -40,7 +41,10 @@ def main() -> int:
         if problem:
             bad += 1
             print(f"{name}: {problem}")
-    print(f"{len(names) - bad} of {len(names)} changed files behave the same ({time.perf_counter() - started:.1f} s)")
+    print(
+        f"{len(names) - bad} of {len(names)} changed files behave the same "
+        f"({time.perf_counter() - started:.1f} s)"
+    )
     return 1 if bad else 0
 
 

@@ -1,7 +1,8 @@
 """Behaviour checks for a rewrapped Python file: the same AST and the same compiled constants.
 
-Allowed differences: comments, the whitespace inside docstrings (any statement that is a bare string), and how a
-string literal is cut into implicitly concatenated pieces (the AST already joins those).
+Allowed differences: comments, the whitespace inside docstrings (any statement that is a bare
+string), and how a string literal is cut into implicitly concatenated pieces (the AST already joins
+those).
 """
 
 import ast
@@ -16,12 +17,15 @@ def _doc_nodes(tree: ast.AST) -> list[ast.Constant]:
     return [
         node.value
         for node in ast.walk(tree)
-        if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str)
+        if isinstance(node, ast.Expr)
+        and isinstance(node.value, ast.Constant)
+        and isinstance(node.value.value, str)
     ]
 
 
 def normalised_dump(source: str) -> str:
-    """The AST of `source` with every bare-string statement's whitespace collapsed, without positions."""
+    """The AST of `source` with every bare-string statement's whitespace collapsed, without
+    positions."""
     tree = ast.parse(source)
     for const in _doc_nodes(tree):
         const.value = _norm(const.value)
@@ -31,7 +35,9 @@ def normalised_dump(source: str) -> str:
 def _constants(code: types.CodeType, out: list) -> list:
     for const in code.co_consts:
         if isinstance(const, types.CodeType):
-            out.append(("code", const.co_name, const.co_qualname if hasattr(const, "co_qualname") else ""))
+            out.append(
+                ("code", const.co_name, const.co_qualname if hasattr(const, "co_qualname") else "")
+            )
             _constants(const, out)
         else:
             out.append(const)

@@ -3,15 +3,17 @@
     python tools/width/rewrap.py [--width 100] [--check] [--verbose] PATH...
 
 Passes, each checked on its own (a pass whose result fails the check is dropped for that file):
-  1. docstrings: prose paragraphs re-flowed at the docstring's indent (lists get a hanging indent; code blocks,
-     tables, doctests and ``` fences stay as they are). Field docstrings, the string right under a dataclass field,
-     are left alone unless --field-docs: tyro prints their line breaks in --help.
-  2. long string literals in code: cut at a space into adjacent literals (implicit concatenation), inside the
-     brackets around them or inside new parentheses; the value is the same.
+  1. docstrings: prose paragraphs re-flowed at the docstring's indent (lists get a hanging indent;
+     code blocks, tables, doctests and ``` fences stay as they are). Field docstrings, the string
+     right under a dataclass field, are left alone unless --field-docs: tyro prints their line
+     breaks in --help.
+  2. long string literals in code: cut at a space into adjacent literals (implicit concatenation),
+     inside the brackets around them or inside new parentheses; the value is the same.
   3. trailing comments that push a line over the width: moved onto their own line above the code.
   4. full-line comments over the width: runs of prose comment lines re-flowed at the same indent.
 Run `ruff format --line-length WIDTH` afterwards: it re-lays the code lines that are still long.
-Every file written is checked with equiv.compare (same AST and compiled constants, docstring whitespace aside).
+Every file written is checked with equiv.compare (same AST and compiled constants, docstring
+whitespace aside).
 """
 
 import argparse
@@ -28,11 +30,21 @@ from equiv import compare
 
 PRAGMA = re.compile(r"^#\s*(noqa|type:|pragma|fmt:|pyright:|isort:|ruff:|mypy:|-\*-|!)|^#!")
 LIST_MARK = re.compile(r"^([-*+]|\d+[.)]|\(\d+\)|[a-z][.)])\s+")
-SKIP_DIRS = {".venv", ".git", "__pycache__", "build", "dist", ".mypy_cache", ".ruff_cache", "node_modules"}
+SKIP_DIRS = {
+    ".venv",
+    ".git",
+    "__pycache__",
+    "build",
+    "dist",
+    ".mypy_cache",
+    ".ruff_cache",
+    "node_modules",
+}
 
 
 def wrap_words(words: list[str], first: int, rest: int) -> list[str]:
-    """Greedy fill: the first line holds `first` columns, the others `rest`; a word longer than a line stays whole."""
+    """Greedy fill: the first line holds `first` columns, the others `rest`; a word longer than a
+    line stays whole."""
     lines: list[str] = []
     cur = ""
     limit = first
@@ -51,21 +63,24 @@ def wrap_words(words: list[str], first: int, rest: int) -> list[str]:
 
 
 def _is_header(text: str) -> bool:
-    """A short line that ends with a colon (`Args:`, `Example:`): what follows starts a new paragraph."""
+    """A short line that ends with a colon (`Args:`, `Example:`): what follows starts a new
+    paragraph."""
     return text.endswith(":") and (len(text) < 40 or bool(SECTION.match(text)))
 
 
 def _is_table_or_code(text: str) -> bool:
     s = text.strip()
     return bool(
-        s.startswith((">>>", "... ", "|", "+-", "$ ", ".. ", "```", "python ", "pip ", "uv ", "git "))
+        s.startswith(
+            (">>>", "... ", "|", "+-", "$ ", ".. ", "```", "python ", "pip ", "uv ", "git ")
+        )
         or re.search(r"\S {2,}\S", s)
         or re.fullmatch(r"[-=~^+*#]{3,}", s)
         or s.endswith("::")
     )
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# --------------------------------------------------------------------------------------------------
 # 1. docstrings
 
 
@@ -84,25 +99,30 @@ def _field_doc_ids(tree: ast.AST) -> set[int]:
 
 
 def _label_doc_ids(tree: ast.AST) -> set[int]:
-    """Docstrings whose first paragraph stays as it is: learning/pairs.py labels a dataset with the first line of a
-    task's policy_observation docstring."""
+    """Docstrings whose first paragraph stays as it is: learning/pairs.py labels a dataset with the
+    first line of a task's policy_observation docstring."""
     ids = set()
     for node in ast.walk(tree):
-        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.name == "policy_observation":
+        if (
+            isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+            and node.name == "policy_observation"
+        ):
             if node.body and isinstance(node.body[0], ast.Expr):
                 ids.add(id(node.body[0]))
     return ids
 
 
 SECTION = re.compile(
-    r"^(Args|Arguments|Attributes|Returns|Yields|Raises|Parameters|Fields|Keys|Note|Notes)( \([^)]*\))?:\s*$"
+    r"^(Args|Arguments|Attributes|Returns|Yields|Raises|Parameters|Fields|Keys|Note|Notes)( "
+    r"\([^)]*\))?:\s*$"
 )
 ENTRY = re.compile(r"^[*\w`][\w.*`'\[\], |/-]*(\s\([^)]*\))?:(\s|$)")
 
 
 def wrap_words_joinable(words: list[str], first: int, rest: int) -> list[str]:
-    """`wrap_words`, but a line never starts with a word whose first character is not a letter: tyro's help
-    (remove_single_line_breaks) keeps a line break before such a line, so the shown text would change."""
+    """`wrap_words`, but a line never starts with a word whose first character is not a letter:
+    tyro's help (remove_single_line_breaks) keeps a line break before such a line, so the shown text
+    would change."""
     lines: list[list[str]] = [[]]
     limit = first
     for word in words:
@@ -130,9 +150,9 @@ def _reflow_doc_body(
 ) -> str | None:
     """The docstring's text between its quotes, re-flowed; None when nothing changes.
 
-    `joinable`: the docstring may be shown by tyro as a description, which joins single line breaks except before
-    a line that starts with something other than a letter: such a line is kept where it starts, and no new line
-    starts that way.
+    `joinable`: the docstring may be shown by tyro as a description, which joins single line breaks
+    except before a line that starts with something other than a letter: such a line is kept where
+    it starts, and no new line starts that way.
     """
     lines = body.split("\n")
     closing_on_last = lines[-1].strip() != "" or len(lines) == 1
@@ -150,10 +170,12 @@ def _reflow_doc_body(
             n += 3
         return n
 
-    # paragraphs: [kind, rel indent, hang, [line indices]]; kind "prose", "list" (hanging indent) or "fixed"
+    # paragraphs: [kind, rel indent, hang, [line indices]]; kind "prose", "list" (hanging indent)
+    # or "fixed"
     paras: list[list] = []
     in_fence = False
-    section = False  # inside an Args:/Attributes:/Returns: section, where indented lines are prose too
+    # inside an Args:/Attributes:/Returns: section, where indented lines are prose too
+    section = False
     for i, (rel, text, raw) in enumerate(items):
         last = paras[-1] if paras else None
         if text.startswith("```") or text.startswith("~~~"):
@@ -163,7 +185,8 @@ def _reflow_doc_body(
         if in_fence or not text or "\t" in raw or rel < 0 or _is_table_or_code(text):
             paras.append(["fixed", rel, 0, [i]])
             continue
-        if rel == 0:  # a section starts at its header, also one that ends a line of prose ("... Attributes:")
+        # a section starts at its header, also one that ends a line of prose ("... Attributes:")
+        if rel == 0:
             section = bool(SECTION.match(text) or SECTION.match(text.rsplit(". ", 1)[-1]))
         breaks_here = joinable and not text[0].isalpha()
         mark = LIST_MARK.match(text)
@@ -191,7 +214,8 @@ def _reflow_doc_body(
     changed = False
     for kind, rel, hang, idx in paras:
         if keep_first and idx[0] == 0:
-            idx = idx[1:]  # the first line stays as it is; the rest of its paragraph may be re-flowed
+            # the first line stays as it is; the rest of its paragraph may be re-flowed
+            idx = idx[1:]
         if kind == "fixed" or not idx or not any(physical_len(i) > width for i in idx):
             continue
         words = " ".join(items[i][1] for i in idx).split()
@@ -207,7 +231,11 @@ def _reflow_doc_body(
         new = []
         for j, text in enumerate(wrapped):
             if j == 0:
-                lead = lines[0][: len(lines[0]) - len(lines[0].lstrip())] if idx[0] == 0 else " " * (base + rel)
+                lead = (
+                    lines[0][: len(lines[0]) - len(lines[0].lstrip())]
+                    if idx[0] == 0
+                    else " " * (base + rel)
+                )
             else:
                 lead = " " * (base + cont)
             new.append(lead + text)
@@ -225,7 +253,8 @@ def pass_docstrings(source: str, width: int, field_docs: bool) -> str:
     lines = source.splitlines(keepends=True)
     labels = _label_doc_ids(tree)
     skip = set() if field_docs else _field_doc_ids(tree)
-    # docstrings tyro may show as a description: a module's passed as description=__doc__, and a dataclass's
+    # docstrings tyro may show as a description: a module's passed as description=__doc__, and a
+    # dataclass's
     # (tyro shows a nested dataclass's docstring above its group of flags)
     described = {id(tree.body[0])} if tree.body and "__doc__" in source else set()
     for node in ast.walk(tree):
@@ -236,7 +265,9 @@ def pass_docstrings(source: str, width: int, field_docs: bool) -> str:
     edits = []
     for node in ast.walk(tree):
         if not (
-            isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str)
+            isinstance(node, ast.Expr)
+            and isinstance(node.value, ast.Constant)
+            and isinstance(node.value.value, str)
         ):
             continue
         if id(node) in skip:
@@ -252,18 +283,24 @@ def pass_docstrings(source: str, width: int, field_docs: bool) -> str:
         if c.lineno == c.end_lineno:
             token = start_line[col:end_col]
         else:
-            token = start_line[col:] + "".join(lines[c.lineno : c.end_lineno - 1]) + end_line[:end_col]
+            token = (
+                start_line[col:] + "".join(lines[c.lineno : c.end_lineno - 1]) + end_line[:end_col]
+            )
         m = re.match(r'^([rRuU]?)("""|\'\'\')', token)
         if not m or not token.endswith(m.group(2)) or len(token) < 6:
             continue  # not one triple-quoted literal (maybe implicitly concatenated)
         prefix, quote = m.group(1), m.group(2)
         body = token[len(prefix) + 3 : -3]
-        if quote in body or (not prefix.lower().startswith("r") and re.search(r"(?<!\\)(\\\\)*\\\n", body)):
+        if quote in body or (
+            not prefix.lower().startswith("r") and re.search(r"(?<!\\)(\\\\)*\\\n", body)
+        ):
             continue
         base = _char_col(start_line, node.col_offset)
         if col != base:
             continue
-        new_body = _reflow_doc_body(body, base, len(prefix) + 3, width, id(node) in described, id(node) in labels)
+        new_body = _reflow_doc_body(
+            body, base, len(prefix) + 3, width, id(node) in described, id(node) in labels
+        )
         if new_body is None:
             continue
         edits.append((c.lineno, col, c.end_lineno, end_col, prefix + quote + new_body + quote))
@@ -271,7 +308,8 @@ def pass_docstrings(source: str, width: int, field_docs: bool) -> str:
 
 
 def apply_edits(lines: list[str], edits: list[tuple]) -> str:
-    """Replace (start row, start col, end row, end col) spans, in characters, with text; rows count from 1."""
+    """Replace (start row, start col, end row, end col) spans, in characters, with text; rows count
+    from 1."""
     lines = list(lines)
     for srow, scol, erow, ecol, text in sorted(edits, reverse=True):
         head = lines[srow - 1][:scol]
@@ -280,7 +318,7 @@ def apply_edits(lines: list[str], edits: list[tuple]) -> str:
     return "".join(lines)
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# --------------------------------------------------------------------------------------------------
 # 2. long string literals in code
 
 
@@ -318,7 +356,8 @@ def _split_points(body: str, is_f: bool, is_raw: bool) -> list[int]:
 
 
 def split_literal(token: str, room: int, force: bool = False) -> list[str] | None:
-    """`token` (one single-line literal) cut into pieces of at most `room` columns where it can be; None if not."""
+    """`token` (one single-line literal) cut into pieces of at most `room` columns where it can be;
+    None if not."""
     m = re.match(r"^([a-zA-Z]*)(['\"])", token)
     if not m:
         return None
@@ -380,10 +419,14 @@ def pass_strings(source: str, width: int, doc_rows: set[int]) -> str:
             continue
         prev = toks[k - 1] if k else None
         nxt = toks[k + 1] if k + 1 < len(toks) else None
-        # a literal glued to a neighbour's prefix or inside a decorator-free context only; skip odd spots
-        if (prev is not None and prev.type == tokenize.STRING) or (nxt is not None and nxt.type == tokenize.STRING):
+        # a literal glued to a neighbour's prefix or inside a decorator-free context only; skip odd
+        # spots
+        if (prev is not None and prev.type == tokenize.STRING) or (
+            nxt is not None and nxt.type == tokenize.STRING
+        ):
             if depth == 0:
-                continue  # `("a" "b") "c"` would not parse; inside brackets the pieces just join the run
+                # `("a" "b") "c"` would not parse; inside brackets the pieces just join the run
+                continue
         indent = len(line) - len(line.lstrip(" "))
         room = width - indent - 4 * max(depth, 1) - 2
         before, after = line[: tok.start[1]].strip(), line[tok.end[1] :].strip()
@@ -397,15 +440,21 @@ def pass_strings(source: str, width: int, doc_rows: set[int]) -> str:
             joined = "(\n" + pad + joined + "\n" + " " * tok.start[1] + ")"
             # a literal right after a keyword such as `assert x,` / `return` / `=` only
             if prev is None or not (
-                (prev.type == tokenize.OP and prev.string in ("=", ",", ":", "+=", "->", "==", "!=", "%", "+"))
-                or (prev.type == tokenize.NAME and prev.string in ("return", "yield", "assert", "raise", "in", "else"))
+                (
+                    prev.type == tokenize.OP
+                    and prev.string in ("=", ",", ":", "+=", "->", "==", "!=", "%", "+")
+                )
+                or (
+                    prev.type == tokenize.NAME
+                    and prev.string in ("return", "yield", "assert", "raise", "in", "else")
+                )
             ):
                 continue
         edits.append((row, tok.start[1], row, tok.end[1], joined))
     return apply_edits(lines, edits)
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# --------------------------------------------------------------------------------------------------
 # 3. trailing comments, 4. full-line comments
 
 
@@ -424,7 +473,13 @@ def pass_trailing_comments(source: str, width: int) -> str:
     inside = _string_rows(toks)
     first_on_row: dict[int, tokenize.TokenInfo] = {}
     for tok in toks:
-        if tok.type in (tokenize.NL, tokenize.NEWLINE, tokenize.INDENT, tokenize.DEDENT, tokenize.ENDMARKER):
+        if tok.type in (
+            tokenize.NL,
+            tokenize.NEWLINE,
+            tokenize.INDENT,
+            tokenize.DEDENT,
+            tokenize.ENDMARKER,
+        ):
             continue
         first_on_row.setdefault(tok.start[0], tok)
     edits = []
@@ -435,17 +490,36 @@ def pass_trailing_comments(source: str, width: int) -> str:
         line = lines[row - 1].rstrip("\r\n")
         if len(line) <= width or first_on_row.get(row) is tok or row in inside:
             continue
-        if PRAGMA.match(tok.string) or re.search(r"#\s*(noqa|type:\s*ignore|pragma|pyright:|fmt:)", tok.string):
-            # a pragma must stay on the statement's first line: `from m import (  # noqa: E402` keeps it there
+        if PRAGMA.match(tok.string) or re.search(
+            r"#\s*(noqa|type:\s*ignore|pragma|pyright:|fmt:)", tok.string
+        ):
+            # a pragma must stay on the statement's first line (an opened import keeps it)
             # when the formatter splits the import
             code = line[: tok.start[1]].rstrip()
             found = re.fullmatch(r"(\s*)from (\S+) import ([\w, ]+)", code)
-            reason = re.fullmatch(r"(#\s*(?:type:\s*ignore|pyright:\s*ignore|noqa)\S*)\s+(#.*)", tok.string)
-            if reason and not (row > 1 and lines[row - 2].rstrip("\r\n").endswith("\\")) and row not in inside:
+            reason = re.fullmatch(
+                r"(#\s*(?:type:\s*ignore|pyright:\s*ignore|noqa)\S*)\s+(#.*)", tok.string
+            )
+            if (
+                reason
+                and not (row > 1 and lines[row - 2].rstrip("\r\n").endswith("\\"))
+                and row not in inside
+            ):
                 # `code  # type: ignore[x]  # why`: the why goes above, the pragma stays on the line
                 indent = len(code) - len(code.lstrip(" "))
                 newline = lines[row - 1][len(lines[row - 1].rstrip("\r\n")) :]
-                edits.append((row, " " * indent + reason.group(2) + newline + code + "  " + reason.group(1) + newline))
+                edits.append(
+                    (
+                        row,
+                        " " * indent
+                        + reason.group(2)
+                        + newline
+                        + code
+                        + "  "
+                        + reason.group(1)
+                        + newline,
+                    )
+                )
                 continue
             if found and tok.string.startswith("# noqa") and first_on_row.get(row).string == "from":
                 pad, module, names = found.groups()
@@ -470,7 +544,13 @@ def pass_comments(source: str, width: int) -> str:
     comment_rows: dict[int, int] = {}  # row -> column of a comment that is alone on its line
     first_on_row: dict[int, tokenize.TokenInfo] = {}
     for tok in toks:
-        if tok.type in (tokenize.NL, tokenize.NEWLINE, tokenize.INDENT, tokenize.DEDENT, tokenize.ENDMARKER):
+        if tok.type in (
+            tokenize.NL,
+            tokenize.NEWLINE,
+            tokenize.INDENT,
+            tokenize.DEDENT,
+            tokenize.ENDMARKER,
+        ):
             continue
         first_on_row.setdefault(tok.start[0], tok)
     for row, tok in first_on_row.items():
@@ -505,7 +585,13 @@ def _reflow_comment_block(out: list, block: list[int], col: int, width: int) -> 
         if body.startswith(" "):
             body = body[1:]
         ruler = re.fullmatch(r"(#.*?)(([-=~*#])\3{3,})", text)
-        if ruler or PRAGMA.match(text) or not body.strip() or text.startswith("#:") or text.startswith("##"):
+        if (
+            ruler
+            or PRAGMA.match(text)
+            or not body.strip()
+            or text.startswith("#:")
+            or text.startswith("##")
+        ):
             paras.append(["fixed", 0, [i]])
             continue
         lead = len(body) - len(body.lstrip(" "))
@@ -522,9 +608,15 @@ def _reflow_comment_block(out: list, block: list[int], col: int, width: int) -> 
             last[2].append(i)
             continue
         if lead == 0:
-            # tyro reads a dataclass field's comment as its help and keeps a break before a non-letter: so do we
+            # tyro reads a dataclass field's comment as its help and keeps a break before a
+            # non-letter: so do we
             joins = stripped[0].isalpha()
-            if joins and last and last[0] == "prose" and not _is_header(items[last[2][-1]][1][1:].strip()):
+            if (
+                joins
+                and last
+                and last[0] == "prose"
+                and not _is_header(items[last[2][-1]][1][1:].strip())
+            ):
                 last[2].append(i)
             else:
                 paras.append(["prose", 0, [i]])
@@ -533,7 +625,8 @@ def _reflow_comment_block(out: list, block: list[int], col: int, width: int) -> 
     for kind, hang, idx in paras:
         rule = re.fullmatch(r"(#.*?)(([-=~*#])\3{3,})", items[idx[0]][1])
         if kind == "fixed" and len(idx) == 1 and rule and col + len(items[idx[0]][1]) > width:
-            r, text, newline = items[idx[0]]  # a ruler comment (# ---- name ----): its tail is cut to fit
+            # a ruler comment (# ---- name ----): its tail is cut to fit
+            r, text, newline = items[idx[0]]
             out[r - 1] = " " * col + text[: width - col] + newline
             continue
         if kind == "fixed" or not any(col + len(items[i][1]) > width for i in idx):
@@ -551,13 +644,17 @@ def _reflow_comment_block(out: list, block: list[int], col: int, width: int) -> 
         out[items[idx[0]][0] - 1] = newline.join(new) + newline
 
 
-# ----------------------------------------------------------------------------------------------------------------
+# --------------------------------------------------------------------------------------------------
 
 
 def doc_string_rows(source: str) -> set[int]:
     rows = set()
     for node in ast.walk(ast.parse(source)):
-        if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant) and isinstance(node.value.value, str):
+        if (
+            isinstance(node, ast.Expr)
+            and isinstance(node.value, ast.Constant)
+            and isinstance(node.value.value, str)
+        ):
             rows.update(range(node.lineno, node.end_lineno + 1))
     return rows
 
@@ -602,8 +699,12 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("paths", nargs="+")
     parser.add_argument("--width", type=int, default=100)
-    parser.add_argument("--check", action="store_true", help="write nothing; exit 1 if a file would change")
-    parser.add_argument("--field-docs", action="store_true", help="rewrap dataclass field docstrings too")
+    parser.add_argument(
+        "--check", action="store_true", help="write nothing; exit 1 if a file would change"
+    )
+    parser.add_argument(
+        "--field-docs", action="store_true", help="rewrap dataclass field docstrings too"
+    )
     parser.add_argument("--verbose", action="store_true")
     args = parser.parse_args()
     started = time.perf_counter()

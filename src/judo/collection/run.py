@@ -1,8 +1,10 @@
-"""The collect driver: submit the missing seeds as Ray tasks, write each finished episode, show progress.
+"""The collect driver: submit the missing seeds as Ray tasks, write each finished episode, show
+progress.
 
-Only this driver writes the file, one finished episode at a time (judo.recording.dataset.DatasetFile).
-At most --workers episodes are in flight (two per CPU of the Ray without it), so a long run holds little
-in memory and --workers means the same on a local Ray and a cluster.
+Only this driver writes the file, one finished episode at a time
+(judo.recording.dataset.DatasetFile). At most --workers episodes are in flight (two per CPU of the
+Ray without it), so a long run holds little in memory and --workers means the same on a local Ray
+and a cluster.
 """
 
 import sys
@@ -30,7 +32,8 @@ class Tally(EpisodeCounts):
     def __init__(self) -> None:
         super().__init__()
         self.kept = self.dropped = 0
-        self.with_failed_updates = self.unserved = 0  # episodes with some, and with only, failed control updates
+        # episodes with some, and with only, failed control updates
+        self.with_failed_updates = self.unserved = 0
         self.failures: list[tuple[int, str]] = []
 
     def detail(self) -> str:
@@ -39,7 +42,11 @@ class Tally(EpisodeCounts):
 
 
 def write_outcome(
-    file: DatasetFile, outcome: EpisodeOutcome[EpisodeArrays], success_only: bool, tally: Tally, task: str
+    file: DatasetFile,
+    outcome: EpisodeOutcome[EpisodeArrays],
+    success_only: bool,
+    tally: Tally,
+    task: str,
 ) -> None:
     """Write one finished episode (or its failure, or its dropping) to `file` and count it."""
     tally.done += 1
@@ -55,7 +62,8 @@ def write_outcome(
         tally.unserved += outcome.failed_updates >= outcome.num_updates > 0
     if success_only and episode.success is None:
         raise NoSuccessRuleError(
-            f"--success-only: task {task!r} has no success rule for its metrics {sorted(episode.metrics)}; "
+            f"--success-only: task {task!r} has no success rule for its metrics "
+            f"{sorted(episode.metrics)}; "
             "give the task a `success(self, metrics) -> bool` method, or report a 'success' metric"
         )
     if success_only and not episode.success:
@@ -66,9 +74,12 @@ def write_outcome(
     file.write_episode(episode)
 
 
-def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int) -> int:
-    """Run the seeds of args.first_seed..args.first_seed+args.episodes-1 missing from `args.out` and write them there; returns the exit status
-    (130 after Ctrl-C, with the command that resumes printed; 1 with --strict when a control update failed)."""
+def collect(
+    spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str, workers: int
+) -> int:
+    """Run the seeds of args.first_seed..args.first_seed+args.episodes-1 missing from `args.out` and
+    write them there; returns the exit status (130 after Ctrl-C, with the command that resumes
+    printed; 1 with --strict when a control update failed)."""
     import judo.ray_cluster as cluster
 
     file = DatasetFile(args.out, env_args)
@@ -78,13 +89,20 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
     console = output_console()
     if not todo:
         counts = file.counts()
-        console.print(f"{args.out} already holds seeds {wanted[0]} to {wanted[-1]}: {counts['kept']} episodes kept")
+        console.print(
+            f"{args.out} already holds seeds {wanted[0]} to {wanted[-1]}: {counts['kept']} "
+            "episodes kept"
+        )
         return 0
     if len(todo) < len(wanted):
-        console.print(f"{args.out}: {len(wanted) - len(todo)} seeds done; running the {len(todo)} missing ones")
+        console.print(
+            f"{args.out}: {len(wanted) - len(todo)} seeds done; running the {len(todo)} missing "
+            "ones"
+        )
     cluster.import_ray("python -m judo collect", "collect")
     tally = Tally()
-    size = args.episodes_per_batch  # seeds per Ray task: side by side on one warp backend when more than one
+    # seeds per Ray task: side by side on one warp backend when more than one
+    size = args.episodes_per_batch
 
     def take(_: tuple, outcomes: list[EpisodeOutcome[EpisodeArrays]]) -> None:
         for outcome in outcomes:
@@ -111,14 +129,16 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
         )
     except KeyboardInterrupt:
         print(
-            f"interrupted: {tally.kept} finished episodes of this run are in {args.out}; resume with:\n  {command}",
+            f"interrupted: {tally.kept} finished episodes of this run are in {args.out}; "
+            f"resume with:\n  {command}",
             file=sys.stderr,
         )
         return 130
     report(console, file, args, tally)
     if args.strict and tally.with_failed_updates:
         print(
-            f"--strict: {tally.with_failed_updates} of {tally.done} episodes had failed control updates",
+            f"--strict: {tally.with_failed_updates} of {tally.done} episodes had failed "
+            "control updates",
             file=sys.stderr,
         )
         return 1
@@ -128,19 +148,30 @@ def collect(spec: EpisodeSpec, env_args: dict[str, Any], args: Any, command: str
 def report(console: Any, file: DatasetFile, args: Any, tally: Tally) -> None:
     """The closing lines: what this run added, what was dropped and why episodes failed."""
     counts = file.counts()
-    console.print(f"{tally.line()}; {args.out} holds {counts['kept']} episodes, {counts['total']} samples")
+    console.print(
+        f"{tally.line()}; {args.out} holds {counts['kept']} episodes, {counts['total']} samples"
+    )
     if args.success_only:
-        console.print(f"--success-only: dropped {tally.dropped} of {tally.done - tally.failed} episodes run")
+        console.print(
+            f"--success-only: dropped {tally.dropped} of {tally.done - tally.failed} episodes run"
+        )
     for seed, reason in tally.failures[:SHOWN_FAILURES]:
         console.print(f"seed {seed} failed: {reason}")
     if len(tally.failures) > SHOWN_FAILURES:
-        console.print(f"... and {len(tally.failures) - SHOWN_FAILURES} more (attributes of judo/failed in the file)")
+        console.print(
+            f"... and {len(tally.failures) - SHOWN_FAILURES} more (attributes of judo/failed in "
+            "the file)"
+        )
     if tally.unserved:
         what = "non-finite actions" if args.policy is not None else "no finite reward"
         print(
-            f"warning: in {tally.unserved} of {tally.done} episodes every control update gave {what}, so every "
+            f"warning: in {tally.unserved} of {tally.done} episodes every control update "
+            f"gave {what}, so every "
             "action stored is the task's safe action, not a plan's; --strict makes this exit 1",
             file=sys.stderr,
         )
     elif tally.with_failed_updates:
-        console.print(f"{tally.with_failed_updates} episodes had control updates that failed (safe action served)")
+        console.print(
+            f"{tally.with_failed_updates} episodes had control updates that failed (safe action "
+            "served)"
+        )

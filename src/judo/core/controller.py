@@ -1,5 +1,6 @@
-"""The sampling-based MPC loop, written once: shift, sample, clamp, interpolate, roll out, score, update, publish.
-Its settings (`ControllerConfig`, `check_configs`) live in `judo.core.configuration.controller_config`."""
+"""The sampling-based MPC loop, written once: shift, sample, clamp, interpolate, roll out, score,
+update, publish. Its settings (`ControllerConfig`, `check_configs`) live in
+`judo.core.configuration.controller_config`."""
 
 import dataclasses
 import math
@@ -32,10 +33,13 @@ __all__ = ["Controller"]
 
 
 class RolloutLimits(Protocol):
-    """Hard limits (`judo.safety.feasibility.RolloutScreen`): (R * N,) rewards, each rollout that crosses a limit
-    scored below every feasible one, from (R * N, T, ...) states, sensors, controls and the (nu,) control served now."""
+    """Hard limits (`judo.safety.feasibility.RolloutScreen`): (R * N,) rewards, each rollout that
+    crosses a limit scored below every feasible one, from (R * N, T, ...) states, sensors, controls
+    and the (nu,) control served now."""
 
-    def screen(self, rewards: Any, states: Any, sensors: Any, controls: Any, served: Any, num_models: int) -> Any: ...
+    def screen(
+        self, rewards: Any, states: Any, sensors: Any, controls: Any, served: Any, num_models: int
+    ) -> Any: ...
 
 
 class Controller:
@@ -43,15 +47,18 @@ class Controller:
 
     Attributes:
         config, task, optimizer: the parts; their configs may be edited between cycles.
-        backend: the RolloutBackend every rollout runs on, built from the constructor's `backend` name
-            ("cpu": `RolloutPool`, threads; "warp": `WarpRollout`, MuJoCo Warp on a GPU) or given built (a
-            `ProblemSlot`); `DynamicsRollout` for a task with its own dynamics (judo.core.rollouts.dynamics); under a
-            low-level policy (`Task.low_level`), a `LowLevelRollout` whose plan is its commands (`command_size`).
+        backend: the RolloutBackend every rollout runs on, built from the constructor's `backend`
+            name ("cpu": `RolloutPool`, threads; "warp": `WarpRollout`, MuJoCo Warp on a GPU) or
+            given built (a `ProblemSlot`); `DynamicsRollout` for a task with its own dynamics
+            (judo.core.rollouts.dynamics); under a low-level policy (`Task.low_level`), a
+            `LowLevelRollout` whose plan is its commands (`command_size`).
         backend_name: that name (read-only).
-        nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update (here and
+        nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update
+            (here and
             below, nu is `task.command_size`: the actuators, or a low-level policy's commands).
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf); with
-            num_randomizations R > 1, each sequence's R rewards reduced by the config's risk measure.
+            num_randomizations R > 1, each sequence's R rewards reduced by the config's risk
+            measure.
         iterations_run: optimizer iterations the last cycle ran (0 before the first).
         models: the R models the last cycle rolled out under: the task's planning model, then the
             R - 1 copies its `randomize_model` hook perturbed (drawn from `task.rng`).
@@ -59,7 +66,8 @@ class Controller:
             along the nominal rollout (index 0) and the best `max_num_traces` rollouts.
         proposal_policy: the Policy whose candidates replace the last `config.policy_samples` of the
             optimizer's samples every iteration (judo.core.policies.proposals), or None.
-        limits: the RolloutLimits that screen each iteration's rollouts before ranking ([safety], via the loop), or None.
+        limits: the RolloutLimits that screen each iteration's rollouts before ranking ([safety],
+            via the loop), or None.
     """
 
     def __init__(
@@ -73,18 +81,21 @@ class Controller:
     ) -> None:
         check_configs(task, controller_config, optimizer.config)
         self.proposal_policy = proposal_policy
-        self._proposer = Proposer(task, proposal_policy, controller_config.policy_samples)  # checks them
+        # checks them
+        self._proposer = Proposer(task, proposal_policy, controller_config.policy_samples)
         self.config = controller_config
         self.task = task
         self.optimizer = optimizer
         if isinstance(backend, str):
             check_low_level_backend(backend, task.low_level())
-            self.backend: RolloutBackend = task_rollout_backend(task, backend, num_workers)  # own dynamics or MuJoCo
+            # own dynamics or MuJoCo
+            self.backend: RolloutBackend = task_rollout_backend(task, backend, num_workers)
         else:  # a backend built by the caller (a ProblemBatch's slot), owned from now on
             self.backend = backend
         self.backend = with_low_level(self.backend, task.low_level())  # the pool itself without one
         self._backend_name = backend if isinstance(backend, str) else backend.name
-        self._score = ParallelReward(self.backend.reward_threads)  # one plain call unless the backend asks
+        # one plain call unless the backend asks
+        self._score = ParallelReward(self.backend.reward_threads)
         self.nominal_knots: np.ndarray | None = None
         self.rewards, self.traces = np.zeros(0), np.zeros((0, 0, 0, 3))
         self.iterations_run = 0
@@ -101,34 +112,55 @@ class Controller:
         self._warm_start_takes_state = warm_start_takes_state(task)
         self._gains = FeedbackGains(task, self.backend.num_workers if backend == "cpu" else None)
         self.limits: RolloutLimits | None = None
-        self._sized: tuple[tuple, CycleSize] | None = None  # the last cycle_size, by the values it was made from
+        # the last cycle_size, by the values it was made from
+        self._sized: tuple[tuple, CycleSize] | None = None
 
     kind = PlannerKind.MPC
     config_kinds = ("controller", "optimizer", "task")
 
     @property
     def controller_fields(self) -> tuple[str, ...]:
-        """Every ControllerConfig field, but policy_samples without a proposal policy (only 0 would be accepted)."""
+        """Every ControllerConfig field, but policy_samples without a proposal policy (only 0 would
+        be accepted)."""
         names = tuple(f.name for f in dataclasses.fields(self.config))
-        return names if self.proposal_policy is not None else tuple(n for n in names if n != "policy_samples")
+        return (
+            names
+            if self.proposal_policy is not None
+            else tuple(n for n in names if n != "policy_samples")
+        )
 
     def configs(self) -> dict[str, Any]:
         """{"controller": ..., "optimizer": ..., "task": ...}: the configs it plans with now."""
-        return {"controller": self.config, "optimizer": self.optimizer.config, "task": self.task.config}
+        return {
+            "controller": self.config,
+            "optimizer": self.optimizer.config,
+            "task": self.task.config,
+        }
 
     def check_configs(self, configs: dict[Any, Any]) -> None:
-        """ConfigError unless `configs` work together; PolicyError unless the proposal policy fits their samples."""
+        """ConfigError unless `configs` work together; PolicyError unless the proposal policy fits
+        their samples."""
         check_configs(self.task, configs["controller"], configs["optimizer"])
         check_proposal_policy(self.proposal_policy, configs["controller"].policy_samples)
 
     def cycle_size(self, configs: dict[Any, Any]) -> CycleSize:
-        """num_rollouts x num_randomizations x iterations (`iterations_per_cycle`) x T under `configs`, kept by key."""
+        """num_rollouts x num_randomizations x iterations (`iterations_per_cycle`) x T under
+        `configs`, kept by key."""
         cfg, opt, dt = configs["controller"], configs["optimizer"], self.task.dt
-        key = (cfg.horizon, cfg.max_opt_iters, cfg.iterations_per_second, cfg.control_freq, cfg.num_randomizations)
+        key = (
+            cfg.horizon,
+            cfg.max_opt_iters,
+            cfg.iterations_per_second,
+            cfg.control_freq,
+            cfg.num_randomizations,
+        )
         key, sized = (*key, opt.num_rollouts, dt), self._sized
         if sized is None or sized[0] != key:
             steps, iterations = rollout_steps(cfg.horizon, dt), cfg.iterations_per_cycle
-            sized = self._sized = (key, CycleSize(opt.num_rollouts, cfg.num_randomizations, iterations, steps))
+            sized = self._sized = (
+                key,
+                CycleSize(opt.num_rollouts, cfg.num_randomizations, iterations, steps),
+            )
         return sized[1]
 
     @property
@@ -150,8 +182,15 @@ class Controller:
         change leaves the previous layout (and its key) in force, and reverting the edit works.
         """
         opt, cfg = self.optimizer, self.config
-        key = (cfg.horizon, cfg.spline_order, opt.config.num_rollouts, opt.config.num_nodes, self.task.dt)
-        key = (*key, cfg.num_randomizations, cfg.policy_samples)  # policy_samples: checked against num_rollouts
+        key = (
+            cfg.horizon,
+            cfg.spline_order,
+            opt.config.num_rollouts,
+            opt.config.num_nodes,
+            self.task.dt,
+        )
+        # policy_samples: checked against num_rollouts
+        key = (*key, cfg.num_randomizations, cfg.policy_samples)
         if key == self._layout_key:
             return
         check_configs(self.task, cfg, opt.config)
@@ -163,12 +202,19 @@ class Controller:
             basis = SplineBasis(knot_offsets, cfg.spline_order)
             rollout_weights = basis.weights(np.arange(num_steps) * self.task.dt)
             controls = np.zeros((num_rollouts, num_steps, self.task.command_size))
-            # (R * num_rollouts, T, nu): block r is every sequence again, rolled out on model r. R = 1: the same array.
-            batch_controls = controls if num_models == 1 else np.zeros((num_models * num_rollouts, *controls.shape[1:]))
+            # (R * num_rollouts, T, nu): block r is every sequence again, rolled out on model r.
+            # R = 1: the same array.
+            batch_controls = (
+                controls
+                if num_models == 1
+                else np.zeros((num_models * num_rollouts, *controls.shape[1:]))
+            )
         except MemoryError:
             raise ConfigError(
-                f"not enough memory for {num_models} x {num_rollouts} rollouts of {num_steps} steps with "
-                f"{num_nodes} knots; lower num_randomizations, num_rollouts, num_nodes or the horizon"
+                f"not enough memory for {num_models} x {num_rollouts} rollouts of "
+                f"{num_steps} steps with "
+                f"{num_nodes} knots; lower num_randomizations, num_rollouts, num_nodes or "
+                "the horizon"
             ) from None
         if num_models != len(self.models):
             self._set_models(num_models)  # a hook that fails raises here, before the layout changes
@@ -178,12 +224,18 @@ class Controller:
         self._batch_controls = batch_controls
         self._control_blocks = batch_controls.reshape(num_models, *controls.shape)
         self._num_steps = num_steps
-        self._trace_rows = np.zeros(num_rollouts + 1, dtype=int)  # [0, the best rollouts...], see `update_action`
+        # [0, the best rollouts...], see `update_action`
+        self._trace_rows = np.zeros(num_rollouts + 1, dtype=int)
         self._layout_key = key
 
     def _set_models(self, num_models: int) -> None:
-        """Draw `num_models` models (the planning model and perturbed copies) and give them to the backend."""
-        models = randomized_models(self.task, num_models, self.task.rng) if num_models > 1 else [self.task.model]
+        """Draw `num_models` models (the planning model and perturbed copies) and give them to the
+        backend."""
+        models = (
+            randomized_models(self.task, num_models, self.task.rng)
+            if num_models > 1
+            else [self.task.model]
+        )
         self.backend.set_models(None if num_models == 1 else models)
         self.models = models
         self._cycles_since_draw = 0
@@ -196,31 +248,42 @@ class Controller:
         cancel: CancelFlag | None = None,
         deadline: float | None = None,
     ) -> Spline:
-        """Run one planning cycle from `state` (nq + nv,) at sim `time`, publish the new plan and return it.
+        """Run one planning cycle from `state` (nq + nv,) at sim `time`, publish the new plan and
+        return it.
 
-        The cycle runs `config.iterations_per_cycle` optimizer iterations, each the phases `_sample`, `_clamp`,
-        `_roll_out`, `_score_rollouts`, `_update`; `_publish` ends it. With a `deadline` (a time.perf_counter() value:
-        the app gives each cycle its control period) the iterations beyond `config.max_opt_iters` run only while one
-        more, as long as the last, ends before it; `iterations_run` says how many ran.
+        The cycle runs `config.iterations_per_cycle` optimizer iterations, each the phases
+        `_sample`, `_clamp`, `_roll_out`, `_score_rollouts`, `_update`; `_publish` ends it. With a
+        `deadline` (a time.perf_counter() value: the app gives each cycle its control period) the
+        iterations beyond `config.max_opt_iters` run only while one more, as long as the last, ends
+        before it; `iterations_run` says how many ran.
 
-        A set `cancel` (a threading.Event, the app's stop or planning cycle) ends the cycle with PlanningCancelled,
-        keeping the previous plan: before its next optimizer iteration, or between pieces of a batch of rollouts
-        (the CPU pool). `action(t)` serves the returned plan from now on; a caller that models latency (the new
-        plan taking effect only later) keeps the previous returned plan and evaluates it itself.
+        A set `cancel` (a threading.Event, the app's stop or planning cycle) ends the cycle with
+        PlanningCancelled, keeping the previous plan: before its next optimizer iteration, or
+        between pieces of a batch of rollouts (the CPU pool). `action(t)` serves the returned plan
+        from now on; a caller that models latency (the new plan taking effect only later) keeps the
+        previous returned plan and evaluates it itself.
 
-        Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into an invalid
-        combination, NonFiniteRewardError if every rollout scored NaN or -inf, and NonFiniteKnotsError if the
-        optimizer produced NaN or infinite knots; in each case the previous plan stays in force."""
+        Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into
+        an invalid combination, NonFiniteRewardError if every rollout scored NaN or -inf, and
+        NonFiniteKnotsError if the optimizer produced NaN or infinite knots; in each case the
+        previous plan stays in force."""
         nominal, task_config, candidates = self._begin(state, time, system_metadata)
         required, iteration_started = self.config.max_opt_iters, 0.0
-        iterations = self.cycle_size({"controller": self.config, "optimizer": self.optimizer.config}).iterations
-        served = nominal[0].copy()  # the plan in force now (or the warm start): the rate limits' step before
-        self.backend.cancel = cancel  # polled between pieces of a big batch too, and None again after the cycle
+        iterations = self.cycle_size(
+            {"controller": self.config, "optimizer": self.optimizer.config}
+        ).iterations
+        # the plan in force now (or the warm start): the rate limits' step before
+        served = nominal[0].copy()
+        # polled between pieces of a big batch too, and None again after the cycle
+        self.backend.cancel = cancel
         try:
             for iteration in range(iterations):
                 if cancel is not None and cancel.is_set():
-                    raise PlanningCancelled("planning cycle cancelled; the previous plan stays in force")
-                if deadline is not None:  # an extra iteration starts only if one as long as the last fits
+                    raise PlanningCancelled(
+                        "planning cycle cancelled; the previous plan stays in force"
+                    )
+                # an extra iteration starts only if one as long as the last fits
+                if deadline is not None:
                     now = perf_counter()
                     if iteration >= required and 2 * now - iteration_started > deadline:
                         break
@@ -229,7 +292,9 @@ class Controller:
                 knots = self._sample(nominal)
                 self._clamp(knots, candidates)
                 states, sensors = self._roll_out()
-                rewards, sensors = self._score_rollouts(states, sensors, served, task_config, system_metadata)
+                rewards, sensors = self._score_rollouts(
+                    states, sensors, served, task_config, system_metadata
+                )
                 nominal = self._update(knots, rewards)
                 if self.optimizer.stop_cond():
                     break
@@ -237,13 +302,20 @@ class Controller:
             self.backend.cancel = None
         return self._publish(time, nominal, rewards, sensors)
 
-    def _begin(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None) -> tuple:
-        """Check the reading, apply config edits, and set the optimizer's start: (nominal knots, the task config's
-        snapshot, the proposal policy's candidates or None)."""
+    def _begin(
+        self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None
+    ) -> tuple:
+        """Check the reading, apply config edits, and set the optimizer's start: (nominal knots, the
+        task config's snapshot, the proposal policy's candidates or None)."""
         state = checked_reading(state, time, self._num_state, "plan from")
         self._apply_config_changes()
-        cfg = self.config  # the randomized models are redrawn every `redraw_every` cycles (never when it is 0)
-        if cfg.num_randomizations > 1 and cfg.redraw_every and self._cycles_since_draw >= cfg.redraw_every:
+        # the randomized models are redrawn every `redraw_every` cycles (never when it is 0)
+        cfg = self.config
+        if (
+            cfg.num_randomizations > 1
+            and cfg.redraw_every
+            and self._cycles_since_draw >= cfg.redraw_every
+        ):
             self._set_models(cfg.num_randomizations)
         self._cycles_since_draw += 1
         opt, task = self.optimizer, self.task
@@ -262,12 +334,25 @@ class Controller:
             self._initial_mocap[:] = mocap_vector(data)
         task.pre_rollout(state)
         task_config = snapshot(task.config)
-        start = (self._initial_state, self._initial_mocap, self._rollout_weights, task_config, system_metadata)
+        start = (
+            self._initial_state,
+            self._initial_mocap,
+            self._rollout_weights,
+            task_config,
+            system_metadata,
+        )
         opt.set_start(PlanningStart(task, *start))
         policy, count = self.proposal_policy, self.config.policy_samples
-        if policy is None and not count and self._proposer.last_error is None:  # none to check or make
+        # none to check or make
+        if policy is None and not count and self._proposer.last_error is None:
             return nominal, task_config, None
-        start = (self._initial_state, self._initial_mocap, self._basis, self._num_steps, system_metadata)
+        start = (
+            self._initial_state,
+            self._initial_mocap,
+            self._basis,
+            self._num_steps,
+            system_metadata,
+        )
         return nominal, task_config, self._proposer.candidates(policy, count, *start, nominal[0])
 
     def _sample(self, nominal: np.ndarray) -> np.ndarray:
@@ -277,14 +362,18 @@ class Controller:
         expected = (opt.num_rollouts, opt.num_nodes, self.task.command_size)
         if knots.shape != expected:
             raise JudoError(
-                f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, expected {expected}"
+                f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, "
+                f"expected {expected}"
             )
         if not np.isfinite(knots).all():
-            self._restart_search(f"{type(opt).__name__}.sample_control_knots returned non-finite knots")
+            self._restart_search(
+                f"{type(opt).__name__}.sample_control_knots returned non-finite knots"
+            )
         return knots
 
     def _clamp(self, knots: np.ndarray, candidates: Any) -> None:
-        """Put the proposals into `knots`, clamp them (in place) and interpolate them into the rollouts' controls."""
+        """Put the proposals into `knots`, clamp them (in place) and interpolate them into the
+        rollouts' controls."""
         rows = None if candidates is None else insert_proposals(knots, candidates)
         clip_ufunc(knots, self._ctrl_low, self._ctrl_high, out=knots)
         if rows is not None:
@@ -298,37 +387,62 @@ class Controller:
             self._control_blocks[:] = self._controls  # every sequence once per model
 
     def _roll_out(self) -> tuple[np.ndarray, np.ndarray]:
-        """(R * N, T, nq + nv) states (time dropped) and (R * N, T, nsensordata) sensors of the batch's rollouts."""
-        full_states, sensors = self.backend.rollout(self._initial_state, self._batch_controls, self._initial_mocap)
+        """(R * N, T, nq + nv) states (time dropped) and (R * N, T, nsensordata) sensors of the
+        batch's rollouts."""
+        full_states, sensors = self.backend.rollout(
+            self._initial_state, self._batch_controls, self._initial_mocap
+        )
         return full_states[..., 1 : 1 + self._num_state], sensors  # drop time; keep [qpos, qvel]
 
     def _score_rollouts(
-        self, states: Any, sensors: Any, served: np.ndarray, task_config: Any, system_metadata: dict[str, Any] | None
+        self,
+        states: Any,
+        sensors: Any,
+        served: np.ndarray,
+        task_config: Any,
+        system_metadata: dict[str, Any] | None,
     ) -> tuple[np.ndarray, Any]:
-        """(N,) rewards of the rollouts (NaN, +inf, diverged and over-limit: -inf; R models reduced by the risk
-        measure), and the planning model's block of `sensors`; the task's `post_rollout` sees them."""
+        """(N,) rewards of the rollouts (NaN, +inf, diverged and over-limit: -inf; R models reduced
+        by the risk measure), and the planning model's block of `sensors`; the task's `post_rollout`
+        sees them."""
         opt, task, cfg, num_models = self.optimizer, self.task, self.config, len(self.models)
-        args = (states, sensors, self._batch_controls, task_config, system_metadata)  # one plain call on one thread
-        returned = self._score(task.reward, *args) if self._score.num_threads > 1 else task.reward(*args)
-        owner, rows, diverged = type(task).__name__, num_models * opt.num_rollouts, self.backend.diverged
+        # one plain call on one thread
+        args = (states, sensors, self._batch_controls, task_config, system_metadata)
+        returned = (
+            self._score(task.reward, *args) if self._score.num_threads > 1 else task.reward(*args)
+        )
+        owner, rows, diverged = (
+            type(task).__name__,
+            num_models * opt.num_rollouts,
+            self.backend.diverged,
+        )
         try:  # as (R * N,) floats, or a JudoError saying what came back
             rewards = np.asarray(returned, dtype=float)
         except (TypeError, ValueError) as err:
             text = " ".join(str(returned).split())[:200]
-            raise JudoError(f"{owner}.reward must return ({rows},) numbers, got {text} ({err})") from None
+            raise JudoError(
+                f"{owner}.reward must return ({rows},) numbers, got {text} ({err})"
+            ) from None
         if rewards.shape != (rows,):
             raise JudoError(f"{owner}.reward returned shape {rewards.shape}, expected ({rows},)")
-        if diverged is not False or not np.isfinite(rewards).all():  # NaN, +inf, a diverged rollout (a mask): never win
+        # NaN, +inf, a diverged rollout (a mask): never win
+        if diverged is not False or not np.isfinite(rewards).all():
             rewards[np.isnan(rewards) | (rewards == np.inf) | diverged] = -np.inf
         if self.limits is not None:  # a rollout that crosses a hard limit never wins either
-            rewards = self.limits.screen(rewards, states, sensors, self._batch_controls, served, num_models)
-        if num_models > 1:  # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
-            rewards = reduce_rewards(rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale)
+            rewards = self.limits.screen(
+                rewards, states, sensors, self._batch_controls, served, num_models
+            )
+        # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
+        if num_models > 1:
+            rewards = reduce_rewards(
+                rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale
+            )
             states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
         task.post_rollout(states, sensors, self._controls, rewards)
         if not np.isfinite(rewards).any():
             raise NonFiniteRewardError(
-                f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or -inf; keeping the previous plan"
+                f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or "
+                "-inf; keeping the previous plan"
             )
         return rewards, sensors
 
@@ -336,33 +450,49 @@ class Controller:
         """The optimizer's new nominal knots from the scored `knots`, checked."""
         nominal = self.optimizer.update_nominal_knots(knots, rewards)
         if not np.isfinite(nominal).all():
-            self._restart_search(f"{type(self.optimizer).__name__}.update_nominal_knots returned non-finite knots")
+            self._restart_search(
+                f"{type(self.optimizer).__name__}.update_nominal_knots returned non-finite knots"
+            )
         return nominal
 
-    def _publish(self, time: float, nominal: np.ndarray, rewards: np.ndarray, sensors: Any) -> Spline:
-        """The clamped `nominal` as the plan from `time` (with gains under `config.feedback`); keeps rewards, traces."""
+    def _publish(
+        self, time: float, nominal: np.ndarray, rewards: np.ndarray, sensors: Any
+    ) -> Spline:
+        """The clamped `nominal` as the plan from `time` (with gains under `config.feedback`); keeps
+        rewards, traces."""
         cfg, self.rewards = self.config, rewards
         self.nominal_knots = nominal = clip_ufunc(nominal, self._ctrl_low, self._ctrl_high)
         self._plan = Spline(time, self._basis, nominal, self._ctrl_low, self._ctrl_high)
         if cfg.feedback:  # with the gains around its nominal rollout (judo.core.feedback)
-            start = (self._initial_state, self._initial_mocap, self.optimizer.num_rollouts * len(self.models))
-            self._plan = self._gains.add_to(self._plan, self._rollout_weights, *start, 1.0 / cfg.control_freq)
+            start = (
+                self._initial_state,
+                self._initial_mocap,
+                self.optimizer.num_rollouts * len(self.models),
+            )
+            self._plan = self._gains.add_to(
+                self._plan, self._rollout_weights, *start, 1.0 / cfg.control_freq
+            )
         shown = np.argsort(-rewards, kind="stable")[: cfg.max_num_traces]
         rows = self._trace_rows[: len(shown) + 1]  # row 0 stays 0: the nominal
         rows[1:] = shown
-        self.traces = sensors[rows][..., self._trace_columns].reshape(len(rows), self._num_steps, -1, 3)
-        self._plan.rewards, self._plan.traces = rewards, self.traces  # what the loop records of the update
+        self.traces = sensors[rows][..., self._trace_columns].reshape(
+            len(rows), self._num_steps, -1, 3
+        )
+        # what the loop records of the update
+        self._plan.rewards, self._plan.traces = rewards, self.traces
         return self._plan
 
     def _restart_search(self, what: str) -> None:
-        """Restart the optimizer's search (its carried state may be NaN too) and refuse the cycle."""
+        """Restart the optimizer's search (its carried state may be NaN too) and refuse the
+        cycle."""
         self.optimizer.restart()
         raise NonFiniteKnotsError(f"{what}; restarted its search and kept the previous plan")
 
     def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) control of the current plan at sim `time` (held past its ends), within the ctrlrange: what its
-        rollouts applied then, plus the gains' correction from the (nq + nv,) `state` with `config.feedback`.
-        Before the first plan: the task's warm start from the (nq + nv,) `state` (see `warm_start_action`)."""
+        """(nu,) control of the current plan at sim `time` (held past its ends), within the
+        ctrlrange: what its rollouts applied then, plus the gains' correction from the (nq + nv,)
+        `state` with `config.feedback`. Before the first plan: the task's warm start from the (nq +
+        nv,) `state` (see `warm_start_action`)."""
         if not math.isfinite(time):
             raise JudoError(f"action time must be a finite number of seconds, got {time}")
         if self._plan is None:
@@ -370,14 +500,20 @@ class Controller:
         return self._plan(time, state)
 
     def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped to the ctrlrange: what a plant gets
-        before the first plan. Without a state, the planning model's start state (keyframe 0 or qpos0) stands in."""
-        return np.clip(task_warm_start(self.task, state, self._warm_start_takes_state), self._ctrl_low, self._ctrl_high)
+        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped to the ctrlrange:
+        what a plant gets before the first plan. Without a state, the planning model's start state
+        (keyframe 0 or qpos0) stands in."""
+        return np.clip(
+            task_warm_start(self.task, state, self._warm_start_takes_state),
+            self._ctrl_low,
+            self._ctrl_high,
+        )
 
     @property
     def batch_controls(self) -> np.ndarray:
-        """(R * num_rollouts, T, nu) the controls the last optimizer iteration rolled out (block r under model
-        r), clamped as served; zeros before the first update. A view: copy it to keep it."""
+        """(R * num_rollouts, T, nu) the controls the last optimizer iteration rolled out (block r
+        under model r), clamped as served; zeros before the first update. A view: copy it to keep
+        it."""
         self._apply_config_changes()
         return self._batch_controls
 
@@ -387,7 +523,8 @@ class Controller:
         return self._backend_name
 
     def close(self) -> None:
-        """Release the rollout backend's threads or device memory, and the reward's and the gains' threads."""
+        """Release the rollout backend's threads or device memory, and the reward's and the gains'
+        threads."""
         self.backend.close()
         self._score.close()
         self._gains.close()

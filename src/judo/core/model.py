@@ -24,8 +24,9 @@ def load_model(path: str | Path) -> mujoco.MjModel:
 
 
 def set_mocap_poses(model: mujoco.MjModel, data: mujoco.MjData, metadata: dict | None) -> None:
-    """Copy a reading's "mocap_pos" (nmocap, 3) and "mocap_quat" (nmocap, 4), where `metadata` has them, into
-    `data`: mocap bodies (goals, targets) are not part of [qpos, qvel], so a System publishes them beside it."""
+    """Copy a reading's "mocap_pos" (nmocap, 3) and "mocap_quat" (nmocap, 4), where `metadata` has
+    them, into `data`: mocap bodies (goals, targets) are not part of [qpos, qvel], so a System
+    publishes them beside it."""
     if not metadata or not model.nmocap:
         return
     for key in ("mocap_pos", "mocap_quat"):
@@ -42,12 +43,14 @@ def model_at(
     *,
     forward: bool = True,
 ) -> mujoco.MjData:
-    """Put `state` into `data`, a scratch MjData of `model`, with the mocap poses in `metadata` where it has them
-    (see `set_mocap_poses`), then run `mj_forward` (unless `forward` is False); returns `data`.
+    """Put `state` into `data`, a scratch MjData of `model`, with the mocap poses in `metadata`
+    where it has them (see `set_mocap_poses`), then run `mj_forward` (unless `forward` is False);
+    returns `data`.
 
-    `state` is a reading's (nq + nv,) [qpos, qvel] at sim `time` (None: `data.time` is kept), or a full-physics
-    (nstate,) state of STATE_SPEC, which carries its own time, act and plugin state (`time` is not used). The
-    rest of `data` (ctrl, warm start, and act under a [qpos, qvel] state) is left as it was."""
+    `state` is a reading's (nq + nv,) [qpos, qvel] at sim `time` (None: `data.time` is kept), or a
+    full-physics (nstate,) state of STATE_SPEC, which carries its own time, act and plugin state
+    (`time` is not used). The rest of `data` (ctrl, warm start, and act under a [qpos, qvel] state)
+    is left as it was."""
     if len(state) == model.nq + model.nv:
         if time is not None:
             data.time = time
@@ -62,27 +65,33 @@ def model_at(
 
 
 def mocap_vector(data: mujoco.MjData) -> np.ndarray:
-    """(7 nmocap,) `data`'s mocap poses as a rollout's inputs take them: [mocap_pos.ravel(), mocap_quat.ravel()]."""
+    """(7 nmocap,) `data`'s mocap poses as a rollout's inputs take them: [mocap_pos.ravel(),
+    mocap_quat.ravel()]."""
     return np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
 
 
 def mocap_metadata(model: mujoco.MjModel, mocap: np.ndarray) -> dict[str, np.ndarray]:
-    """The "mocap_pos" (nmocap, 3) and "mocap_quat" (nmocap, 4) of a (7 nmocap,) `mocap_vector`, as metadata."""
+    """The "mocap_pos" (nmocap, 3) and "mocap_quat" (nmocap, 4) of a (7 nmocap,) `mocap_vector`, as
+    metadata."""
     split = 3 * model.nmocap
     return {"mocap_pos": mocap[:split].reshape(-1, 3), "mocap_quat": mocap[split:].reshape(-1, 4)}
 
 
 def model_mocap_poses(model: mujoco.MjModel) -> dict[str, np.ndarray]:
-    """The model's own mocap poses, as a System publishes them: "mocap_pos" (nmocap, 3) and "mocap_quat"
-    (nmocap, 4), in mocap index order (each mocap body's pos and quat in the MJCF)."""
+    """The model's own mocap poses, as a System publishes them: "mocap_pos" (nmocap, 3) and
+    "mocap_quat" (nmocap, 4), in mocap index order (each mocap body's pos and quat in the MJCF)."""
     bodies = np.flatnonzero(model.body_mocapid >= 0)
     order = np.argsort(model.body_mocapid[bodies])
-    return {"mocap_pos": model.body_pos[bodies[order]].copy(), "mocap_quat": model.body_quat[bodies[order]].copy()}
+    return {
+        "mocap_pos": model.body_pos[bodies[order]].copy(),
+        "mocap_quat": model.body_quat[bodies[order]].copy(),
+    }
 
 
 def mocap_pose(model: mujoco.MjModel, metadata: dict | None, key: str) -> np.ndarray:
-    """`metadata[key]` ("mocap_pos" or "mocap_quat") where `metadata` has it, else the model's own poses: (nmocap,
-    3 or 4), or (B, nmocap, 3 or 4) where the metadata gives one row per batch row."""
+    """`metadata[key]` ("mocap_pos" or "mocap_quat") where `metadata` has it, else the model's own
+    poses: (nmocap, 3 or 4), or (B, nmocap, 3 or 4) where the metadata gives one row per batch
+    row."""
     if metadata and key in metadata:
         return np.asarray(metadata[key], dtype=float)
     return model_mocap_poses(model)[key]

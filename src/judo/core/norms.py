@@ -1,4 +1,5 @@
-"""Reward-shaping helpers. The norms reduce over the last axis: pass `x[..., None]` for a scalar per step."""
+"""Reward-shaping helpers. The norms reduce over the last axis: pass `x[..., None]` for a scalar per
+step."""
 
 import numpy as np
 

@@ -1,4 +1,5 @@
-"""The Optimizer contract: sample control knots around a nominal, then update the nominal from rewards."""
+"""The Optimizer contract: sample control knots around a nominal, then update the nominal from
+rewards."""
 
 import typing
 from abc import ABC, abstractmethod
@@ -36,7 +37,8 @@ class OptimizerConfig(Config):
     use_noise_ramp: bool = False
     """Scale the sampling noise up along the horizon, so near-term knots move less."""
     noise_ramp: float = 2.5
-    """Noise multiplier at the last knot when use_noise_ramp is on (it grows linearly from 1/num_nodes of it)."""
+    """Noise multiplier at the last knot when use_noise_ramp is on (it grows linearly from
+    1/num_nodes of it)."""
 
     def validate(self) -> None:
         super().validate()
@@ -50,13 +52,16 @@ ConfigT = TypeVar("ConfigT", bound=OptimizerConfig)
 
 @dataclass
 class PlanningStart:
-    """What one planning cycle starts from, for an optimizer that uses the model itself (`Optimizer.set_start`).
+    """What one planning cycle starts from, for an optimizer that uses the model
+    itself (`Optimizer.set_start`).
 
     Attributes:
         task: the controller's task (its planning `model`, `reward` and hooks).
-        state: (nstate,) the full physics state the rollouts start from (judo.core.model.STATE_SPEC).
+        state: (nstate,) the full physics state the rollouts start
+            from (judo.core.model.STATE_SPEC).
         mocap: (7 nmocap,) the mocap poses held along the rollouts [positions, quaternions].
-        weights: (T, num_nodes) the spline weights: the controls of the T rollout steps are `weights @ knots`.
+        weights: (T, num_nodes) the spline weights: the controls of the T rollout steps
+            are `weights @ knots`.
         task_config: the task config snapshot the rewards of this cycle are scored with.
         metadata: the system metadata handed to the reward (or None).
     """
@@ -97,29 +102,33 @@ class Optimizer(ABC, Generic[ConfigT]):
 
     @abstractmethod
     def update_nominal_knots(self, sampled_knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
-        """The new (num_nodes, nu) nominal from the clamped (num_rollouts, num_nodes, nu) samples and
-        their (num_rollouts,) rewards. Rewards are finite or -inf (NaN was mapped to -inf), higher is better."""
+        """The new (num_nodes, nu) nominal from the clamped (num_rollouts, num_nodes, nu) samples
+        and their (num_rollouts,) rewards. Rewards are finite or -inf (NaN was mapped to -inf),
+        higher is better."""
 
     def samples_replaced(self, rows: np.ndarray, knots: np.ndarray) -> None:
-        """Called after `sample_control_knots` when the controller put candidates from elsewhere (a proposal
-        policy's, `ControllerConfig.policy_samples`) in place of the samples at `rows` (k,), never row 0, with
-        their clamped (k, num_nodes, nu) `knots`, before the rollouts. An optimizer whose update reads what it
-        drew rather than the knots it is given (CMA-ES's steps) brings that in line here; the default does
-        nothing, since the other updates read only the knots and their rewards."""
+        """Called after `sample_control_knots` when the controller put candidates from elsewhere (a
+        proposal policy's, `ControllerConfig.policy_samples`) in place of the samples at `rows`
+        (k,), never row 0, with their clamped (k, num_nodes, nu) `knots`, before the rollouts. An
+        optimizer whose update reads what it drew rather than the knots it is given (CMA-ES's steps)
+        brings that in line here; the default does nothing, since the other updates read only the
+        knots and their rewards."""
 
     def set_start(self, start: PlanningStart) -> None:
-        """Called once per planning cycle, before the first sample, with the state, model and spline the cycle
-        plans with. Sampling optimizers need none of it (the default ignores it); a derivative-based one
-        (`ilqr`) linearises the model along its nominal from there."""
+        """Called once per planning cycle, before the first sample, with the state, model and spline
+        the cycle plans with. Sampling optimizers need none of it (the default ignores it); a
+        derivative-based one (`ilqr`) linearises the model along its nominal from there."""
 
     def pre_optimization(self, old_times: np.ndarray, new_times: np.ndarray) -> None:
         """Called once per planning cycle before sampling, with the previous plan's (old_num_nodes,)
         knot times and this cycle's (num_nodes,) knot times. Shift or resize carried state here."""
 
     def restart(self) -> None:
-        """Forget any search distribution carried between planning cycles (stds, means, kept elites).
+        """Forget any search distribution carried between planning cycles (stds, means, kept
+        elites).
 
-        `Controller.reset()` calls it, so a reset plan also restarts the search. The default carries nothing.
+        `Controller.reset()` calls it, so a reset plan also restarts the search. The default carries
+        nothing.
         """
 
     def stop_cond(self) -> bool:
@@ -127,7 +136,8 @@ class Optimizer(ABC, Generic[ConfigT]):
         return False
 
     def noise_ramp_scale(self) -> np.ndarray:
-        """(num_nodes, 1) noise multiplier per knot: ones, or the linear ramp when use_noise_ramp is on."""
+        """(num_nodes, 1) noise multiplier per knot: ones, or the linear ramp when use_noise_ramp is
+        on."""
         if not self.config.use_noise_ramp:
             return np.ones((self.num_nodes, 1))
         return self.config.noise_ramp * np.linspace(1 / self.num_nodes, 1, self.num_nodes)[:, None]
@@ -139,13 +149,14 @@ class Optimizer(ABC, Generic[ConfigT]):
         samples[0] = nominal_knots
         noise = samples[1:]  # drawn in place: the same numbers as a new array of this shape
         self.rng.standard_normal(out=noise)
-        noise *= sigma * self.noise_ramp_scale() if self.config.use_noise_ramp else sigma  # without: ones
+        # without: ones
+        noise *= sigma * self.noise_ramp_scale() if self.config.use_noise_ramp else sigma
         noise += nominal_knots
         return samples
 
 
 def weighted_knots(weights: np.ndarray, knots: np.ndarray) -> np.ndarray:
-    """(num_nodes, nu) sum over i of weights[i] * knots[i], for (num_rollouts,) `weights` and (num_rollouts,
-    num_nodes, nu) `knots`: the one matrix product `np.tensordot(weights, knots, axes=1)` makes, bit for bit,
-    without its axis bookkeeping."""
+    """(num_nodes, nu) sum over i of weights[i] * knots[i], for (num_rollouts,) `weights` and
+    (num_rollouts, num_nodes, nu) `knots`: the one matrix product `np.tensordot(weights, knots,
+    axes=1)` makes, bit for bit, without its axis bookkeeping."""
     return np.dot(weights.reshape(1, -1), knots.reshape(len(weights), -1)).reshape(knots.shape[1:])

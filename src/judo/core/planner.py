@@ -1,10 +1,11 @@
-"""The `Planner` contract: what the closed loop calls of a controller (the app reads more: `PlannerView`).
+"""The `Planner` contract: what the closed loop calls of a controller (the app reads more:
+`PlannerView`).
 
 Two classes satisfy it: `judo.core.controller.Controller` (an optimizer plans on rollouts) and
-`judo.core.policies.policy_controller.PolicyController` (a policy's action or chunk is the plan). Code that drives a plant
-types against `Planner` only, so either serves through the same loop with no probing of which one it holds.
-`checked_reading` is the state and time check both run at the top of every update, and `task_warm_start` the
-warm start both serve before their first plan.
+`judo.core.policies.policy_controller.PolicyController` (a policy's action or chunk is the plan).
+Code that drives a plant types against `Planner` only, so either serves through the same loop with
+no probing of which one it holds. `checked_reading` is the state and time check both run at the top
+of every update, and `task_warm_start` the warm start both serve before their first plan.
 """
 
 import math
@@ -24,9 +25,11 @@ class CancelFlag(Protocol):
 
 
 class LoopSettings(Protocol):
-    """What the loop reads of a planner's `config` (a `judo.core.configuration.controller_config.ControllerConfig`):
-    the control rate (Hz), the watchdog's plan age (s), and whether a plan starts from the reading predicted to when
-    it takes effect (latency compensation, feedback gains: a planner whose plans have none keeps `feedback` off)."""
+    """What the loop reads of a
+    planner's `config` (a `judo.core.configuration.controller_config.ControllerConfig`): the control
+    rate (Hz), the watchdog's plan age (s), and whether a plan starts from the reading predicted to
+    when it takes effect (latency compensation, feedback gains: a planner whose plans have none
+    keeps `feedback` off)."""
 
     control_freq: float
     max_plan_age: float
@@ -36,14 +39,15 @@ class LoopSettings(Protocol):
 
 @runtime_checkable
 class Planner(Protocol):
-    """Plans from a reading and serves the plan; nu below is `task.command_size`. What the app reads besides
-    (rewards, traces, the optimizer, the backend, its kind) is `judo.core.planner_view.PlannerView`.
+    """Plans from a reading and serves the plan; nu below is `task.command_size`. What the app reads
+    besides (rewards, traces, the optimizer, the backend, its kind) is
+    `judo.core.planner_view.PlannerView`.
 
     Attributes:
-        config: the loop's settings (a ControllerConfig: control_freq, max_plan_age, latency_compensation, ...); the
-            app's planner runner replaces it between updates.
-        task: the planning task, its own instance (the plant is the System's); its `config` may be replaced
-            between updates.
+        config: the loop's settings (a ControllerConfig: control_freq, max_plan_age,
+            latency_compensation, ...); the app's planner runner replaces it between updates.
+        task: the planning task, its own instance (the plant is the System's); its `config` may be
+            replaced between updates.
     """
 
     @property
@@ -60,16 +64,16 @@ class Planner(Protocol):
         cancel: CancelFlag | None = None,
         deadline: float | None = None,
     ) -> Spline:
-        """Plan from `state` (nq + nv,) at sim `time`, publish the new plan and return it; a failed update raises
-        a JudoError and keeps the plan before in force. A set `cancel` ends it (PlanningCancelled); a `deadline`
-        (a time.perf_counter() value) ends the optimizer iterations beyond `config.max_opt_iters` that would end
-        after it. The plan carries what the update scored (`Spline.rewards`, `Spline.traces`) for the loop's
-        records."""
+        """Plan from `state` (nq + nv,) at sim `time`, publish the new plan and return it; a failed
+        update raises a JudoError and keeps the plan before in force. A set `cancel` ends it
+        (PlanningCancelled); a `deadline` (a time.perf_counter() value) ends the optimizer
+        iterations beyond `config.max_opt_iters` that would end after it. The plan carries what the
+        update scored (`Spline.rewards`, `Spline.traces`) for the loop's records."""
         ...
 
     def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) control of the plan in force at sim `time`; the warm start from the (nq + nv,) `state` before
-        the first plan."""
+        """(nu,) control of the plan in force at sim `time`; the warm start from the (nq + nv,)
+        `state` before the first plan."""
         ...
 
     def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
@@ -88,9 +92,9 @@ class Planner(Protocol):
 def checked_reading(state: Any, time: float, num_state: int, doing: str) -> np.ndarray:
     """`state` as a (num_state,) float array, checked before an update uses it.
 
-    Raises ConfigError for another shape, and JudoError "cannot {doing} a non-finite reading (...); keeping the
-    previous plan" for a non-finite state entry or time (no reading time in the message: the same fault reads
-    the same, so the log's repeat filter holds).
+    Raises ConfigError for another shape, and JudoError "cannot {doing} a non-finite reading (...);
+    keeping the previous plan" for a non-finite state entry or time (no reading time in the message:
+    the same fault reads the same, so the log's repeat filter holds).
     """
     state = np.asarray(state, dtype=float)
     if state.shape != (num_state,):
@@ -103,8 +107,9 @@ def checked_reading(state: Any, time: float, num_state: int, doing: str) -> np.n
 
 
 def task_warm_start(task: Task, state: np.ndarray | None, takes_state: bool) -> np.ndarray:
-    """(nu,) `task.optimizer_warm_start(state)` as floats, unclamped; the planning model's start state (keyframe 0
-    or qpos0, at rest) stands in for a None `state`. `takes_state` False: the deprecated form without a state."""
+    """(nu,) `task.optimizer_warm_start(state)` as floats, unclamped; the planning model's start
+    state (keyframe 0 or qpos0, at rest) stands in for a None `state`. `takes_state` False: the
+    deprecated form without a state."""
     if not takes_state:
         return np.asarray(legacy_warm_start(task), dtype=float)
     if state is None:

@@ -1,8 +1,8 @@
 """Measured sensors: which MJCF sensors a robot has, where their values lie, and per-type settings.
 
-A Task names its measured sensors in `Task.measured_sensors`; `measured_layout` checks the names against
-a model and says where each sensor's values lie in `sensordata`. A System that measures only sensors
-returns those values, in that order, as `SystemState.sensors`.
+A Task names its measured sensors in `Task.measured_sensors`; `measured_layout` checks the names
+against a model and says where each sensor's values lie in `sensordata`. A System that measures only
+sensors returns those values, in that order, as `SystemState.sensors`.
 """
 
 from collections.abc import Mapping, Sequence
@@ -16,15 +16,19 @@ from judo.core.errors import ConfigError, JudoError, UnknownNameError
 from judo.core.model import names
 
 QUATERNION_TYPES = ("framequat", "ballquat")
-"""Sensor types whose 4 values are a unit quaternion: their noise and residuals are 3-D rotations (rad)."""
-SENSOR_TYPES = tuple(n.removeprefix("mjSENS_").lower() for n in mujoco.mjtSensor.__members__ if n != "mjSENS_USER")
+"""Sensor types whose 4 values are a unit quaternion: their noise and residuals are 3-D rotations
+(rad)."""
+SENSOR_TYPES = tuple(
+    n.removeprefix("mjSENS_").lower() for n in mujoco.mjtSensor.__members__ if n != "mjSENS_USER"
+)
 """Every MuJoCo sensor type's MJCF name ("jointpos", "framequat", "gyro", ...)."""
 DEFAULT_KEY = "default"
 """The key of a per-type mapping that applies to every sensor type not named in it."""
 
 
 class InvalidSensorError(JudoError, ValueError):
-    """A measured sensor that a robot cannot have (a trace sensor, drawn by the GUI, never measured)."""
+    """A measured sensor that a robot cannot have (a trace sensor, drawn by the GUI, never
+    measured)."""
 
 
 def sensor_type_name(model: mujoco.MjModel, sensor_id: int) -> str:
@@ -66,11 +70,14 @@ class MeasuredLayout:
         return sensordata[self.columns]
 
 
-def measured_layout(model: mujoco.MjModel, sensor_names: Sequence[str], owner: str) -> MeasuredLayout:
-    """Check `sensor_names` against `model` and lay them out; `owner` (e.g. the task's class) names who asked.
+def measured_layout(
+    model: mujoco.MjModel, sensor_names: Sequence[str], owner: str
+) -> MeasuredLayout:
+    """Check `sensor_names` against `model` and lay them out; `owner` (e.g. the task's class) names
+    who asked.
 
-    Raises UnknownNameError (listing the sensors a robot could measure) for a name not in the model, and
-    InvalidSensorError for a trace sensor or a name listed twice.
+    Raises UnknownNameError (listing the sensors a robot could measure) for a name not in the model,
+    and InvalidSensorError for a trace sensor or a name listed twice.
     """
     all_names = names(model, mujoco.mjtObj.mjOBJ_SENSOR, model.nsensor)
     measurable = [n for i, n in enumerate(all_names) if n and not is_trace_sensor(model, i)]
@@ -81,11 +88,14 @@ def measured_layout(model: mujoco.MjModel, sensor_names: Sequence[str], owner: s
             raise UnknownNameError(f"measured sensor of {owner}", name, measurable)
         if is_trace_sensor(model, sensor_id):
             raise InvalidSensorError(
-                f"{owner} lists trace sensor {name!r} as measured; trace sensors are drawn, never measured. "
+                f"{owner} lists trace sensor {name!r} as measured; trace sensors are drawn, "
+                "never measured. "
                 f"Valid measured sensors are: {', '.join(sorted(measurable)) or '(none)'}"
             )
         if sensor_id in ids:
-            raise InvalidSensorError(f"{owner} lists measured sensor {name!r} twice; list each sensor once")
+            raise InvalidSensorError(
+                f"{owner} lists measured sensor {name!r} twice; list each sensor once"
+            )
         adr, dim = int(model.sensor_adr[sensor_id]), int(model.sensor_dim[sensor_id])
         ids.append(sensor_id)
         slices.append(slice(start, start + dim))
@@ -106,9 +116,9 @@ def per_sensor(
     """One value per measured sensor, from one value for all or a mapping {sensor type: value}.
 
     A mapping may hold "default" for the types it does not name. A key must be a MuJoCo sensor type
-    (ConfigError lists them, the measured ones first), so one mapping serves tasks that measure different
-    types; a type not measured here is ignored. A type neither named nor defaulted gets None. `what` names
-    the setting in messages, e.g. "sensor noise".
+    (ConfigError lists them, the measured ones first), so one mapping serves tasks that measure
+    different types; a type not measured here is ignored. A type neither named nor defaulted gets
+    None. `what` names the setting in messages, e.g. "sensor noise".
     """
     if value is None or not isinstance(value, Mapping):
         return [None if value is None else float(value)] * len(layout.names)
@@ -117,7 +127,8 @@ def per_sensor(
             measured = sorted({*layout.types, DEFAULT_KEY})
             raise ConfigError(
                 f"{what}: {key!r} is not a sensor type; valid keys here are: {', '.join(measured)} "
-                f"(or any other MuJoCo sensor type, as mujoco.mjtSensor names it without its mjSENS_ prefix, lower case)"
+                "(or any other MuJoCo sensor type, as mujoco.mjtSensor names it without its "
+                "mjSENS_ prefix, lower case)"
             )
     default = value.get(DEFAULT_KEY)
     picked = [value.get(sensor_type, default) for sensor_type in layout.types]
@@ -127,8 +138,8 @@ def per_sensor(
 def parse_per_type(items: Sequence[str], what: str) -> float | dict[str, float]:
     """Command-line values like ["100", "framepos=30"] -> {"default": 100.0, "framepos": 30.0}.
 
-    A single bare number gives that float. ConfigError for a value that is not a number, or an "=" with no
-    TYPE before it ("=0.1").
+    A single bare number gives that float. ConfigError for a value that is not a number, or an "="
+    with no TYPE before it ("=0.1").
     """
     parsed: dict[str, float] = {}
     for item in items:
@@ -138,7 +149,9 @@ def parse_per_type(items: Sequence[str], what: str) -> float | dict[str, float]:
                 raise ValueError("no sensor type before '='")
             parsed[key or DEFAULT_KEY] = float(number)
         except ValueError:
-            raise ConfigError(f"{what} expects NUMBER or TYPE=NUMBER (e.g. framepos=30), got {shown(item)}") from None
+            raise ConfigError(
+                f"{what} expects NUMBER or TYPE=NUMBER (e.g. framepos=30), got {shown(item)}"
+            ) from None
     if list(parsed) == [DEFAULT_KEY]:
         return parsed[DEFAULT_KEY]
     return parsed

@@ -1,4 +1,5 @@
-"""Splines through control knots, as linear maps from knot values to interpolated values (numpy only).
+"""Splines through control knots, as linear maps from knot values to interpolated values (numpy
+only).
 
 Every supported spline is linear in its knot values, so interpolating many knot sets at the same
 query times is one matrix product: `values = weights(query_times) @ knots`. The controller
@@ -15,8 +16,8 @@ from judo.core.errors import ConfigError
 
 
 def _numpy_clip_ufunc() -> np.ufunc:
-    """The ufunc np.clip calls for float arrays: the same values bit for bit, without the three Python layers in
-    front of it, which cost more than clipping a plan's few knots."""
+    """The ufunc np.clip calls for float arrays: the same values bit for bit, without the three
+    Python layers in front of it, which cost more than clipping a plan's few knots."""
     try:
         from numpy._core import umath
     except ImportError:  # numpy 1
@@ -25,7 +26,8 @@ def _numpy_clip_ufunc() -> np.ufunc:
 
 
 clip_ufunc: np.ufunc = _numpy_clip_ufunc()
-"""`clip_ufunc(values, low, high[, out=])`: np.clip(values, low, high[, out=]) for float arrays and bounds."""
+"""`clip_ufunc(values, low, high[, out=])`: np.clip(values, low, high[, out=]) for float arrays and
+bounds."""
 
 SplineOrder = Literal["zero", "linear", "cubic"]
 MIN_KNOTS = {"zero": 1, "linear": 2, "cubic": 4}
@@ -44,15 +46,19 @@ class SplineBasis:
         if order not in MIN_KNOTS:
             raise ConfigError(f"spline order must be one of {list(MIN_KNOTS)}, got {order!r}")
         if len(knot_times) < MIN_KNOTS[order]:
-            raise ConfigError(f"a {order} spline needs at least {MIN_KNOTS[order]} knots, got {len(knot_times)}")
+            raise ConfigError(
+                f"a {order} spline needs at least {MIN_KNOTS[order]} knots, got {len(knot_times)}"
+            )
         if np.any(np.diff(knot_times) <= 0):
             raise ConfigError(f"knot times must increase strictly, got {knot_times}")
         self.knot_times = knot_times
         self.order: SplineOrder = order
         self._knot_list = knot_times.tolist()
-        self._last_query: tuple[tuple[tuple[int, ...], bytes], np.ndarray] | None = None  # see `last_weights`
-        # What `weights` looks up per segment, computed once: the interior knots (searching them gives the
-        # segment, already within 0..num_nodes - 2), each segment's length h and its cubic factor h**2 / 6.
+        # see `last_weights`
+        self._last_query: tuple[tuple[tuple[int, ...], bytes], np.ndarray] | None = None
+        # What `weights` looks up per segment, computed once: the interior knots (searching them
+        # gives the segment, already within 0..num_nodes - 2), each segment's length h and its cubic
+        # factor h**2 / 6.
         self._interior = knot_times[1:-1]
         self._lengths = np.diff(knot_times)
         if order == "cubic":
@@ -61,7 +67,10 @@ class SplineBasis:
 
     def weights(self, query_times: np.ndarray) -> np.ndarray:
         """(num_queries, num_nodes) matrix W with spline(query_times) = W @ knots."""
-        t = np.minimum(np.maximum(np.asarray(query_times, dtype=float), self.knot_times[0]), self.knot_times[-1])
+        t = np.minimum(
+            np.maximum(np.asarray(query_times, dtype=float), self.knot_times[0]),
+            self.knot_times[-1],
+        )
         num_nodes = len(self.knot_times)
         rows = np.arange(len(t))
         weights = np.zeros((len(t), num_nodes))
@@ -74,20 +83,23 @@ class SplineBasis:
             weights[rows, np.where(at_end, num_nodes - 1, segment)] = 1.0
             return weights
         following = segment + 1
-        a = (t - self.knot_times[segment]) / self._lengths[segment]  # position within the segment, 0..1
+        # position within the segment, 0..1
+        a = (t - self.knot_times[segment]) / self._lengths[segment]
         b = 1.0 - a
         weights[rows, segment] = b
         weights[rows, following] += a
         if self.order == "cubic":
             curvature = self._curvatures[segment]
             m = self._second_derivative_map
-            weights += (curvature * (b**3 - b))[:, None] * m[segment] + (curvature * (a**3 - a))[:, None] * m[following]
+            weights += (curvature * (b**3 - b))[:, None] * m[segment] + (curvature * (a**3 - a))[
+                :, None
+            ] * m[following]
         return weights
 
     def last_weights(self, query_times: np.ndarray) -> np.ndarray:
-        """`weights` of the (num_queries,) float `query_times`, read-only, kept for the times of the last call: a
-        plan shifted by one control period is asked for the same times bit for bit update after update. Thread
-        safe: the times and their weights are kept as one pair."""
+        """`weights` of the (num_queries,) float `query_times`, read-only, kept for the times of the
+        last call: a plan shifted by one control period is asked for the same times bit for bit
+        update after update. Thread safe: the times and their weights are kept as one pair."""
         query_times = np.asarray(query_times, dtype=float)
         key = (query_times.shape, query_times.tobytes())
         last = self._last_query
@@ -131,8 +143,10 @@ class Spline:
     clamped into [low, high]: a cubic through knots that lie within the bounds can still overshoot
     them between knots, and a plant must never be commanded beyond its range.
 
-    A planner's `update_action` sets what its update scored on the plan it returns, for the loop's records:
-    `rewards` (num_rollouts,) and `traces` (1 + num_shown, T, num_trace_sensors, 3), the planner's own
+    A planner's `update_action` sets what its update scored on the plan it returns, for the loop's
+    records:
+    `rewards` (num_rollouts,) and `traces` (1 + num_shown, T, num_trace_sensors, 3), the planner's
+    own
     (`PlannerView`); empty where nothing was scored or rolled out.
     """
 
@@ -155,7 +169,9 @@ class Spline:
         self.high = _bounds(high, np.inf, nu)
         # Zero-order and linear splines never leave the range of their knots, so only a cubic, or
         # knots beyond the bounds, need clamping: the common linear case pays nothing.
-        has_bounds = any(map(math.isfinite, self.low.tolist())) or any(map(math.isfinite, self.high.tolist()))
+        has_bounds = any(map(math.isfinite, self.low.tolist())) or any(
+            map(math.isfinite, self.high.tolist())
+        )
         self._bounded = has_bounds and (basis.order == "cubic" or not self._knots_inside())
 
     @property
@@ -164,14 +180,16 @@ class Spline:
         return self.start_time + self.basis.knot_times
 
     def __call__(self, times: float | np.ndarray, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) for a scalar time, (num_times, nu) for an array of times, within [low, high]. The plant's
-        `state` is for plans with feedback (judo.core.feedback.FeedbackPlan); a plain spline ignores it."""
+        """(nu,) for a scalar time, (num_times, nu) for an array of times, within [low, high]. The
+        plant's `state` is for plans with feedback (judo.core.feedback.FeedbackPlan); a plain spline
+        ignores it."""
         if np.ndim(times) == 0:
             values = self.basis.weights_at(float(times) - self.start_time) @ self.knots
         else:
             values = self.basis.last_weights(np.asarray(times) - self.start_time) @ self.knots
         if self._bounded:
-            return np.minimum(np.maximum(values, self.low), self.high)  # faster than np.clip or out=
+            # faster than np.clip or out=
+            return np.minimum(np.maximum(values, self.low), self.high)
         return values
 
     def _knots_inside(self) -> bool:
@@ -179,8 +197,9 @@ class Spline:
 
 
 def _bounds(value: np.ndarray | None, default: float, nu: int) -> np.ndarray:
-    """(nu,) float copy of `value` broadcast to nu entries, or `default` everywhere for None. The (nu,) array of
-    every plan skips the broadcast, which costs more than the rest of a policy's plan (judo.core.policies.policy_controller)."""
+    """(nu,) float copy of `value` broadcast to nu entries, or `default` everywhere for None. The
+    (nu,) array of every plan skips the broadcast, which costs more than the rest of a policy's plan
+    (judo.core.policies.policy_controller)."""
     if value is None:
         return np.full(nu, default)
     array = np.asarray(value, dtype=float)

@@ -19,8 +19,9 @@ from judo.core.sensors import MeasuredLayout, measured_layout
 
 
 class LowLevelCommands(Protocol):
-    """What `Task.low_level()` returns (a `judo.core.rollouts.low_level.LowLevel`): a policy that turns the C planned
-    commands (each within its row of `command_range`) into ctrl; `plant(model)` is its side on the simulated plant."""
+    """What `Task.low_level()` returns (a `judo.core.rollouts.low_level.LowLevel`): a policy that
+    turns the C planned commands (each within its row of `command_range`) into ctrl; `plant(model)`
+    is its side on the simulated plant."""
 
     command_range: np.ndarray
 
@@ -63,57 +64,81 @@ class Task(ABC, Generic[ConfigT]):
         model: the MjModel the controller plans with.
         sim_model: the MjModel of the plant (the same object unless `sim_model_path` differs); it
             must have the same nq, nv, nu and mocap bodies as `model`.
-        data: the plant's MjData (on `sim_model`), used only when this instance is the simulated plant
-            (`MujocoSystem`): the simulator steps it; `reset`, `pre_sim_step` and `post_sim_step` may write
-            to it. The controller never reads it: planning hooks get the state they need as arguments.
+        data: the plant's MjData (on `sim_model`), used only when this instance is the simulated
+            plant
+            (`MujocoSystem`): the simulator steps it; `reset`, `pre_sim_step` and `post_sim_step`
+            may write
+            to it. The controller never reads it: planning hooks get the state they need as
+                arguments.
         config: this task's config, an instance of the class named in `Task[...]`.
         rng: the np.random.Generator for resets and goal sampling; replace it to seed an episode.
-        measured / sim_measured: where `measured_sensors` lie in the planning / plant model's sensordata.
+        measured / sim_measured: where `measured_sensors` lie in the planning / plant model's
+            sensordata.
     """
 
     config_cls: ClassVar[type[TaskConfig]] = TaskConfig
     lower_is_better: ClassVar[tuple[str, ...]] = ()
-    """Names of the `metrics` that are better lower (errors, distances, times, drops); every other metric, and
-    evaluate's "mean_reward", is better higher (`tune` reads the direction here)."""
+    """Names of the `metrics` that are better lower (errors, distances, times, drops); every other
+    metric, and evaluate's "mean_reward", is better higher (`tune` reads the direction here)."""
     check_latency_ms: ClassVar[float] = 25.0
-    """The fixed planning latency (ms) the task's defaults are checked under, besides none (a `tune`'s default
-    conditions and benchmarks/defaults_under_conditions.py); slower tasks check a larger one."""
+    """The fixed planning latency (ms) the task's defaults are checked under, besides none (a
+    `tune`'s default conditions and benchmarks/defaults_under_conditions.py); slower tasks check a
+    larger one."""
     min_control_freq: ClassVar[float] = 20.0
-    """The slowest replanning rate (Hz) the task's defaults are checked at and hold at (docs/tasks.md): 20 Hz, what
-    a loaded laptop reaches, unless the task is too unstable for it; the slow rate of a `tune`'s default conditions."""
+    """The slowest replanning rate (Hz) the task's defaults are checked at and hold at
+    (docs/tasks.md): 20 Hz, what a loaded laptop reaches, unless the task is too unstable for it;
+    the slow rate of a `tune`'s default conditions."""
     focus_body: ClassVar[str | None] = None
-    """The body the GUI's camera follows while the task runs; None: the first body with a free joint, if any."""
+    """The body the GUI's camera follows while the task runs; None: the first body with a free
+    joint, if any."""
     measured_sensors: ClassVar[tuple[str, ...]] = ()
-    """Names of the MJCF sensors a robot running this task would have (encoders, a camera's pose, an IMU),
-    in the order a System's `SystemState.sensors` holds their values. Trace sensors are never measured.
-    Checked against both models when the task is built; `measured` says where the values lie."""
+    """Names of the MJCF sensors a robot running this task would have (encoders, a camera's pose, an
+    IMU), in the order a System's `SystemState.sensors` holds their values. Trace sensors are never
+    measured. Checked against both models when the task is built; `measured` says where the values
+    lie."""
     default_estimator: ClassVar[str] = "ekf"
-    """The registered estimator that fuses `measured_sensors` when none is named (`--estimator`): with `--observe
-    sensors`, or under a System whose readings have no full state; read through `judo.core.estimator`
-    (`estimator_in_force`, `default_estimator_name`). A class attribute: the task's TOML holds only config fields."""
+    """The registered estimator that fuses `measured_sensors` when none is named (`--estimator`):
+    with `--observe sensors`, or under a System whose readings have no full state; read through
+    `judo.core.estimator` (`estimator_in_force`, `default_estimator_name`). A class attribute: the
+    task's TOML holds only config fields."""
     recorded_metadata: ClassVar[tuple[str, ...]] = ()
-    """Keys of the system metadata (`get_sim_metadata`) that the task's `reward` or `policy_observation` reads, each
-    a number or a fixed-shape array of numbers: `collect` keeps every step's value (`obs/metadata/KEY`) and
-    `distill` gives it back to `policy_observation`. "mocap_pos" is kept for every task with mocap bodies
-    (`obs/mocap_pos`) and is not listed here."""
+    """Keys of the system metadata (`get_sim_metadata`) that the task's `reward` or
+    `policy_observation` reads, each a number or a fixed-shape array of numbers: `collect` keeps
+    every step's value (`obs/metadata/KEY`) and `distill` gives it back to `policy_observation`.
+    "mocap_pos" is kept for every task with mocap bodies (`obs/mocap_pos`) and is not listed
+    here."""
     simulator: ClassVar[str] = "mujoco"
-    """The simulated plant the task needs: "mujoco" steps `sim_model`, "dynamics" a DynamicsTask's own dynamics."""
+    """The simulated plant the task needs: "mujoco" steps `sim_model`, "dynamics" a DynamicsTask's
+    own dynamics."""
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         """Take `config_cls` from `Task[ConfigT]` among the class's own bases. A subclass of a task
-        inherits its parent's `config_cls`, or names its own: `config_cls = MyConfig` in its body. Checks the keys of
-        `recorded_metadata` (TypeError)."""
+        inherits its parent's `config_cls`, or names its own: `config_cls = MyConfig` in its body.
+        Checks the keys of `recorded_metadata` (TypeError)."""
         super().__init_subclass__(**kwargs)
         for base in cls.__dict__.get("__orig_bases__", ()):
             args = typing.get_args(base)
             origin = typing.get_origin(base)  # Task[C], or a generic subclass's (DynamicsTask[C])
-            if isinstance(origin, type) and issubclass(origin, Task) and args and isinstance(args[0], type):
+            if (
+                isinstance(origin, type)
+                and issubclass(origin, Task)
+                and args
+                and isinstance(args[0], type)
+            ):
                 cls.config_cls = args[0]
         keys = cls.recorded_metadata
-        if not isinstance(keys, tuple) or not all(isinstance(k, str) and k and "/" not in k for k in keys):
-            raise TypeError(f"{cls.__name__}.recorded_metadata must be a tuple of key names without '/', got {keys!r}")
+        if not isinstance(keys, tuple) or not all(
+            isinstance(k, str) and k and "/" not in k for k in keys
+        ):
+            raise TypeError(
+                f"{cls.__name__}.recorded_metadata must be a tuple of key names without '/', got "
+                f"{keys!r}"
+            )
         if "mocap_pos" in keys:
-            raise TypeError(f"{cls.__name__}.recorded_metadata lists 'mocap_pos', which is always kept: leave it out")
+            raise TypeError(
+                f"{cls.__name__}.recorded_metadata lists 'mocap_pos', which is always kept: "
+                "leave it out"
+            )
 
     def __init__(self, model_path: str | Path, sim_model_path: str | Path | None = None) -> None:
         self.model = load_model(model_path)
@@ -124,13 +149,17 @@ class Task(ABC, Generic[ConfigT]):
         for size in ("nq", "nv", "nu", "nmocap"):
             if getattr(self.sim_model, size) != getattr(self.model, size):
                 raise ModelLoadError(
-                    f"plant model {sim_model_path} has {size}={getattr(self.sim_model, size)} but the "
-                    f"planning model {model_path} has {size}={getattr(self.model, size)}; they must match"
+                    f"plant model {sim_model_path} has "
+                    f"{size}={getattr(self.sim_model, size)} but the "
+                    f"planning model {model_path} has {size}={getattr(self.model, size)}; "
+                    "they must match"
                 )
         self.model_overrides: dict[str, dict[str, Any]] = {}
-        """MjModel fields set on the planning model by element name (configuration/model_overrides); {}: the MJCF's."""
+        """MjModel fields set on the planning model by element name (configuration/model_overrides);
+        {}: the MJCF's."""
         self.plant_overrides: dict[str, dict[str, Any]] = {}
-        """MjModel fields set on the plant model (`sim_model`), which every plant built from this task gets."""
+        """MjModel fields set on the plant model (`sim_model`), which every plant built from this
+        task gets."""
         owner = type(self).__name__
         self.measured: MeasuredLayout = measured_layout(self.model, self.measured_sensors, owner)
         """Where `measured_sensors` lie in the planning model's sensordata."""
@@ -141,7 +170,8 @@ class Task(ABC, Generic[ConfigT]):
         )
         """Where `measured_sensors` lie in the plant model's sensordata."""
         self.data = mujoco.MjData(self.sim_model)
-        # config_cls is the class named in Task[ConfigT] (see __init_subclass__); a ClassVar cannot say so.
+        # config_cls is the class named in Task[ConfigT] (see __init_subclass__); a ClassVar cannot
+        # say so.
         self.config: ConfigT = cast(ConfigT, self.config_cls())
         self.rng = np.random.default_rng()
 
@@ -157,24 +187,28 @@ class Task(ABC, Generic[ConfigT]):
         """Score each rollout; higher is better.
 
         Args:
-            states: (num_rollouts, T, nq + nv), [qpos, qvel] after each step. Under randomized models
-                the batch holds num_randomizations * num_rollouts rows (block r: every sequence under
-                model r) and the reward must score each row alone, as any reward does.
+            states: (num_rollouts, T, nq + nv), [qpos, qvel] after each step. Under randomized
+                models the batch holds num_randomizations * num_rollouts rows (block r: every
+                sequence under model r) and the reward must score each row alone, as any reward
+                does.
             sensors: (num_rollouts, T, nsensordata), sensor readings after each step.
-            controls: (num_rollouts, T, nu), the control applied at each step; under a low-level policy
-                (`low_level`), the (num_rollouts, T, C) commands planned for each step instead.
+            controls: (num_rollouts, T, nu), the control applied at each step; under a low-level
+                policy (`low_level`), the (num_rollouts, T, C) commands planned for each step
+                instead.
             config: the snapshot of this task's config taken for this update; read weights here.
             system_metadata: what the system published with the state (e.g. mocap goal poses).
         Returns:
             (num_rollouts,) rewards. NaN counts as -inf: it never wins.
 
-        On the warp backend a large batch is scored in blocks of rows, several at once on host threads
-        (core/rollouts/parallel_reward.py): read the arguments and the task's constants, and write nothing shared.
+        On the warp backend a large batch is scored in blocks of rows, several at once on host
+        threads (core/rollouts/parallel_reward.py): read the arguments and the task's constants, and
+        write nothing shared.
         """
 
     # Hooks, each with a no-op default; override the ones the task needs. Helpers below them.
     def reset(self) -> None:
-        """Put the plant (`self.data`) in a start state; the default is the model's keyframe 0 or qpos0."""
+        """Put the plant (`self.data`) in a start state; the default is the model's keyframe 0 or
+        qpos0."""
         if self.sim_model.nkey:
             mujoco.mj_resetDataKeyframe(self.sim_model, self.data, 0)
         else:
@@ -182,19 +216,23 @@ class Task(ABC, Generic[ConfigT]):
         mujoco.mj_forward(self.sim_model, self.data)
 
     def low_level(self) -> LowLevelCommands | None:
-        """A low-level policy to plan over (judo.core.rollouts.low_level), or None (the default): plan the actuators.
-        With one, the optimizer plans its C commands (`command_size`, `command_range`), every rollout and the plant
-        run the policy every k physics steps to turn them into ctrl, and `reward` gets the commands as `controls`.
-        Return the same object on every call (build it once, in `__init__`)."""
+        """A low-level policy to plan over (judo.core.rollouts.low_level), or None (the default):
+        plan the actuators. With one, the optimizer plans its C commands (`command_size`,
+        `command_range`), every rollout and the plant run the policy every k physics steps to turn
+        them into ctrl, and `reward` gets the commands as `controls`. Return the same object on
+        every call (build it once, in `__init__`)."""
         return None
 
-    # What a task with its own dynamics (judo.core.rollouts.dynamics.DynamicsTask) answers otherwise:
+    # What a task with its own dynamics (judo.core.rollouts.dynamics.DynamicsTask) answers
+    # otherwise:
     def rollout_backend(self, name: str) -> Any:
-        """The task's own RolloutBackend, or None (the default): the backend `name` rolls out the planning model."""
+        """The task's own RolloutBackend, or None (the default): the backend `name` rolls out the
+        planning model."""
         return None
 
     def predict_step(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Advance `data` one step of `model` under `data.ctrl` (the latency model's prediction): mj_step."""
+        """Advance `data` one step of `model` under `data.ctrl` (the latency model's prediction):
+        mj_step."""
         mujoco.mj_step(model, data)
 
     def drawn_model(self) -> mujoco.MjModel:
@@ -208,10 +246,13 @@ class Task(ABC, Generic[ConfigT]):
     def pre_rollout(self, state: np.ndarray) -> None:
         """Called once per planning cycle with the (nq + nv,) state, before any rollout."""
 
-    def post_rollout(self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, rewards: np.ndarray) -> None:
-        """Called after each optimizer iteration with the rollouts' arrays and (num_rollouts,) rewards. Under randomized
-        models (num_randomizations > 1) the arrays are the rollouts on the planning model and the rewards are each
-        sequence's rewards over all models, reduced by the risk measure."""
+    def post_rollout(
+        self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, rewards: np.ndarray
+    ) -> None:
+        """Called after each optimizer iteration with the rollouts' arrays and (num_rollouts,)
+        rewards. Under randomized models (num_randomizations > 1) the arrays are the rollouts on the
+        planning model and the rewards are each sequence's rewards over all models, reduced by the
+        risk measure."""
 
     def pre_sim_step(self) -> None:
         """Called by the simulator before each plant step, e.g. to resample a reached goal."""
@@ -220,28 +261,31 @@ class Task(ABC, Generic[ConfigT]):
         """Called by the simulator after each plant step, e.g. to reset a dropped object."""
 
     def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
-        """Perturb `model`, a private copy of the planning model, in place, drawing from `rng`. Called when the
-        controller plans under several models (`ControllerConfig.num_randomizations` > 1), once per randomized model
-        per redraw. Scale what the real system gets wrong (frictions, masses, dampings, gains; helpers in
-        `judo.core.rollouts.randomize`); never change sizes. The default does nothing."""
+        """Perturb `model`, a private copy of the planning model, in place, drawing from `rng`.
+        Called when the controller plans under several models (`ControllerConfig.num_randomizations`
+        > 1), once per randomized model per redraw. Scale what the real system gets wrong
+        (frictions, masses, dampings, gains; helpers in `judo.core.rollouts.randomize`); never
+        change sizes. The default does nothing."""
 
     def get_sim_metadata(self) -> dict[str, Any]:
         """Extra values the simulator publishes with the state; passed on to `reward`."""
         return {}
 
     def readout(self, system_metadata: dict[str, Any]) -> str | None:
-        """One line the GUI shows under its figures, from the plant's latest metadata (e.g. the command a task
-        tracks); None (the default) shows nothing."""
+        """One line the GUI shows under its figures, from the plant's latest metadata (e.g. the
+        command a task tracks); None (the default) shows nothing."""
         return None
 
     def success(self, metrics: dict[str, float]) -> bool | None:
-        """Whether an episode with these `metrics` (from `metrics`) counts as a success, for `collect --success-only`;
-        None when the task has no rule. The default reads a "success" metric (true when above 0.5), if any."""
+        """Whether an episode with these `metrics` (from `metrics`) counts as a success, for
+        `collect --success-only`; None when the task has no rule. The default reads a "success"
+        metric (true when above 0.5), if any."""
         return metrics["success"] > 0.5 if "success" in metrics else None
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """Success figures of a finished episode for `evaluate`, e.g. {"final_distance": 0.02}; none by default.
-        Goal-reaching tasks report "goals_reached" and "goals_per_minute" (counted in the plant task's `pre_sim_step`)."""
+        """Success figures of a finished episode for `evaluate`, e.g. {"final_distance": 0.02}; none
+        by default. Goal-reaching tasks report "goals_reached" and "goals_per_minute" (counted in
+        the plant task's `pre_sim_step`)."""
         return {}
 
     def policy_observation(
@@ -255,47 +299,57 @@ class Task(ABC, Generic[ConfigT]):
 
         Args:
             states: (B, nq + nv) [qpos, qvel].
-            sensors: (B, nsensordata) the planning model's sensor values at those states, or None (none to give).
-            system_metadata: what the system published with the state (e.g. "mocap_pos" (nmocap, 3)), or None;
-                judo.core.model.mocap_pose reads a mocap pose from it, falling back to the model's own.
-            previous_actions: (B, nu) the action each row was served last, or None where there is none.
+            sensors: (B, nsensordata) the planning model's sensor values at those states, or None
+                (none to give).
+            system_metadata: what the system published with the state (e.g. "mocap_pos" (nmocap,
+                3)), or None; judo.core.model.mocap_pose reads a mocap pose from it, falling back to
+                the model's own.
+            previous_actions: (B, nu) the action each row was served last, or None where there is
+                none.
         Returns:
-            (B, O) float observations; the default is the states themselves, O = nq + nv. Override it to give a
-            policy what it was trained on, e.g. `np.concatenate([states, sensors[:, self.measured.columns]], axis=1)`.
+            (B, O) float observations; the default is the states themselves, O = nq + nv. Override
+            it to give a policy what it was trained on, e.g. `np.concatenate([states, sensors[:,
+            self.measured.columns]], axis=1)`.
         """
         return np.asarray(states, dtype=float)
 
     def policy_observation_size(self) -> int:
-        """O, the length of one `policy_observation`: the hook called on one zero row (and the model's mocap poses)."""
+        """O, the length of one `policy_observation`: the hook called on one zero row (and the
+        model's mocap poses)."""
         model = self.model
         metadata = model_mocap_poses(model)
         row = self.policy_observation(
-            np.zeros((1, model.nq + model.nv)), np.zeros((1, model.nsensordata)), metadata, np.zeros((1, self.nu))
+            np.zeros((1, model.nq + model.nv)),
+            np.zeros((1, model.nsensordata)),
+            metadata,
+            np.zeros((1, self.nu)),
         )
         return int(np.shape(row)[-1])
 
     def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
-        """The (command_size,) control that the first plan holds at every knot, from the (nq + nv,) plant `state`
-        [qpos, qvel] it starts from; zeros by default. (The old form without `state` still works, with a
-        DeprecationWarning.)"""
+        """The (command_size,) control that the first plan holds at every knot, from the (nq + nv,)
+        plant `state` [qpos, qvel] it starts from; zeros by default. (The old form without `state`
+        still works, with a DeprecationWarning.)"""
         return np.zeros(self.command_size)
 
     def feedback_cost(self) -> tuple[np.ndarray, np.ndarray]:
-        """The tracking cost of the feedback gains (`ControllerConfig.feedback`): (2 nv,) weights on the deviation
-        [dq, dv] from the nominal rollout (dq in the tangent space) and (nu,) weights on the control correction.
-        By default 1 per position, 0.1 per velocity, 0.1 / (half its range)^2 per control (unbounded: half range 1):
-        0.1 rad costs as much as a third of a half range (stiffer gains did worse at 5 Hz: docs/tasks.md)."""
+        """The tracking cost of the feedback gains (`ControllerConfig.feedback`): (2 nv,) weights on
+        the deviation [dq, dv] from the nominal rollout (dq in the tangent space) and (nu,) weights
+        on the control correction. By default 1 per position, 0.1 per velocity, 0.1 / (half its
+        range)^2 per control (unbounded: half range 1): 0.1 rad costs as much as a third of a half
+        range (stiffer gains did worse at 5 Hz: docs/tasks.md)."""
         low, high = self.actuator_ctrlrange.T
         half = 0.5 * (high - low)
         half = np.where(np.isfinite(half) & (half > 0), half, 1.0)
         return np.concatenate([np.ones(self.model.nv), np.full(self.model.nv, 0.1)]), 0.1 / half**2
 
     def safe_action(self, state: np.ndarray) -> np.ndarray:
-        """The (command_size,) control that brings the plant to rest from the (nq + nv,) `state`: what the watchdog
-        serves when the plan in force is too old, and what `System.halt` applies by default. The default sets
-        motor, force and velocity actuators to 0 and holds position actuators at their joint's current position,
-        clamped to the ctrlrange (override it for a gripper that must keep its grip, a drone that must hover);
-        under a low-level policy, each command's zero clamped to its range."""
+        """The (command_size,) control that brings the plant to rest from the (nq + nv,) `state`:
+        what the watchdog serves when the plan in force is too old, and what `System.halt` applies
+        by default. The default sets motor, force and velocity actuators to 0 and holds position
+        actuators at their joint's current position, clamped to the ctrlrange (override it for a
+        gripper that must keep its grip, a drone that must hover); under a low-level policy, each
+        command's zero clamped to its range."""
         if self.low_level() is not None:
             low, high = self.command_range.T
             return np.clip(np.zeros(self.command_size), low, high)
@@ -306,7 +360,8 @@ class Task(ABC, Generic[ConfigT]):
             joint_types = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
             is_joint = int(model.actuator_trntype[i]) in joint_types
             affine = int(model.actuator_biastype[i]) == int(mujoco.mjtBias.mjBIAS_AFFINE)
-            position_servo = affine and model.actuator_biasprm[i, 1] != 0  # bias -kp * q: holds a target q
+            # bias -kp * q: holds a target q
+            position_servo = affine and model.actuator_biasprm[i, 1] != 0
             if is_joint and position_servo and joint >= 0:
                 gear = float(model.actuator_gear[i, 0]) or 1.0
                 action[i] = state[model.jnt_qposadr[joint]] / gear
@@ -325,7 +380,8 @@ class Task(ABC, Generic[ConfigT]):
 
     @property
     def actuator_ctrlrange(self) -> np.ndarray:
-        """(nu, 2) control limits, [-inf, inf] for unlimited actuators. A copy; the model is untouched."""
+        """(nu, 2) control limits, [-inf, inf] for unlimited actuators. A copy; the model is
+        untouched."""
         limited = self.model.actuator_ctrllimited.astype(bool)
         ranges = np.tile([-np.inf, np.inf], (self.nu, 1))
         ranges[limited] = self.model.actuator_ctrlrange[limited]
@@ -333,27 +389,33 @@ class Task(ABC, Generic[ConfigT]):
 
     @property
     def command_size(self) -> int:
-        """What the optimizer plans and the System is served per step: `nu` actuators' ctrl, or under a
-        low-level policy (`low_level`) its C commands."""
+        """What the optimizer plans and the System is served per step: `nu` actuators' ctrl, or
+        under a low-level policy (`low_level`) its C commands."""
         low_level = self.low_level()
         return self.nu if low_level is None else low_level.command_size
 
     @property
     def command_range(self) -> np.ndarray:
-        """(command_size, 2) the limits the plan is clamped to: `actuator_ctrlrange`, or under a low-level
-        policy its `command_range`. A copy."""
+        """(command_size, 2) the limits the plan is clamped to: `actuator_ctrlrange`, or under a
+        low-level policy its `command_range`. A copy."""
         low_level = self.low_level()
         return self.actuator_ctrlrange if low_level is None else low_level.command_range.copy()
 
     def get_sensor_start_index(self, sensor_name: str) -> int:
         """Column of `sensor_name`'s first value in the sensors array."""
         return int(
-            self.model.sensor_adr[self._id(mujoco.mjtObj.mjOBJ_SENSOR, self.model.nsensor, sensor_name, "sensor")]
+            self.model.sensor_adr[
+                self._id(mujoco.mjtObj.mjOBJ_SENSOR, self.model.nsensor, sensor_name, "sensor")
+            ]
         )
 
     def get_joint_position_start_index(self, joint_name: str) -> int:
         """Column of `joint_name`'s first qpos entry in the states array."""
-        return int(self.model.jnt_qposadr[self._id(mujoco.mjtObj.mjOBJ_JOINT, self.model.njnt, joint_name, "joint")])
+        return int(
+            self.model.jnt_qposadr[
+                self._id(mujoco.mjtObj.mjOBJ_JOINT, self.model.njnt, joint_name, "joint")
+            ]
+        )
 
     def get_joint_velocity_start_index(self, joint_name: str) -> int:
         """Column of `joint_name`'s first qvel entry in the states array (qvel follows qpos)."""
@@ -371,8 +433,9 @@ TaskT = TypeVar("TaskT", bound=Task)
 
 
 def warm_start_takes_state(task: Task) -> bool:
-    """Whether `task.optimizer_warm_start` takes the plant state. The old no-argument form (it read the
-    task's own `data`, which the controller never steps) still works, with a DeprecationWarning."""
+    """Whether `task.optimizer_warm_start` takes the plant state. The old no-argument form (it read
+    the task's own `data`, which the controller never steps) still works, with a
+    DeprecationWarning."""
     try:
         parameters = inspect.signature(task.optimizer_warm_start).parameters
     except (TypeError, ValueError):  # a builtin or an odd callable: assume the current form
@@ -381,7 +444,8 @@ def warm_start_takes_state(task: Task) -> bool:
         return True
     warnings.warn(
         f"{type(task).__name__}.optimizer_warm_start() without arguments is deprecated: define "
-        "optimizer_warm_start(self, state) and read the (nq + nv,) plant state it is given, not self.data",
+        "optimizer_warm_start(self, state) and read the (nq + nv,) plant state it is given, "
+        "not self.data",
         DeprecationWarning,
         stacklevel=3,
     )
@@ -389,12 +453,14 @@ def warm_start_takes_state(task: Task) -> bool:
 
 
 def legacy_warm_start(task: Task) -> Any:
-    """`task.optimizer_warm_start()` in the deprecated form without the state, for a task whose override takes
-    none (`warm_start_takes_state` False); Task declares the current form, hence the cast."""
+    """`task.optimizer_warm_start()` in the deprecated form without the state, for a task whose
+    override takes none (`warm_start_takes_state` False); Task declares the current form, hence the
+    cast."""
     return cast(Callable[[], Any], task.optimizer_warm_start)()
 
 
 def new_task(task_cls: type[TaskT]) -> TaskT:
-    """A new `task_cls()`. A registered task class builds its own models and so takes no arguments (what
-    `register_task` asks of it), while the Task base it is typed by takes the model paths: hence the cast."""
+    """A new `task_cls()`. A registered task class builds its own models and so takes no arguments
+    (what `register_task` asks of it), while the Task base it is typed by takes the model paths:
+    hence the cast."""
     return cast(Callable[[], TaskT], task_cls)()

@@ -1,13 +1,14 @@
-"""Extended Kalman filter on the task's planning model: predict with the applied controls, correct with
-the measured sensors, fuse late readings at the time they were taken.
+"""Extended Kalman filter on the task's planning model: predict with the applied controls, correct
+with the measured sensors, fuse late readings at the time they were taken.
 
-The filter keeps one node per planning-model timestep over the last `history` seconds: the prior state
-and covariance there, the measurements taken then, and the Jacobians from `mujoco.mjd_transitionFD`
-(A, the step's state Jacobian, and C, the sensors' state Jacobian; no derivative is written by hand).
-A reading stamped in the past is added to its node, and the nodes from there on are recomputed: the mean
-through the model again (`mj_step` with the controls applied since), the covariance through the Jacobians
-stored when each node was first reached. So a 40 ms camera delay costs four cheap replays, not four
-finite-difference Jacobians, and does not turn into 40 ms of stale state.
+The filter keeps one node per planning-model timestep over the last `history` seconds: the prior
+state and covariance there, the measurements taken then, and the Jacobians from
+`mujoco.mjd_transitionFD` (A, the step's state Jacobian, and C, the sensors' state Jacobian; no
+derivative is written by hand). A reading stamped in the past is added to its node, and the nodes
+from there on are recomputed: the mean through the model again (`mj_step` with the controls applied
+since), the covariance through the Jacobians stored when each node was first reached. So a 40 ms
+camera delay costs four cheap replays, not four finite-difference Jacobians, and does not turn into
+40 ms of stale state.
 """
 
 from dataclasses import dataclass, field
@@ -18,14 +19,21 @@ import numpy as np
 
 from judo.core.configuration.config import require
 from judo.core.configuration.fields import slider
-from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, check_sensors, estimate_of
+from judo.core.estimator import (
+    ControlHistory,
+    Estimator,
+    EstimatorConfig,
+    check_sensors,
+    estimate_of,
+)
 from judo.core.model import set_mocap_poses
 from judo.core.reading import TIME_TOLERANCE, SystemState
 from judo.core.task import Task
 from judo.estimators.tangent import Residuals, TangentSpace
 
 RESET_ITERATIONS = 5
-"""Gauss-Newton iterations of the first correction (an iterated EKF), which starts far from the truth."""
+"""Gauss-Newton iterations of the first correction (an iterated EKF), which starts far from the
+truth."""
 COVARIANCE_CAP = 10.0
 """No variance grows past this many times the initial std, squared (see `_capped`)."""
 
@@ -45,9 +53,11 @@ class KalmanConfig(EstimatorConfig):
     """The noise model and bookkeeping that the Kalman filters here share (EKF, UKF)."""
 
     process_noise_position: float = 0.01
-    """Std of the model's position error, (m or rad) per sqrt(s): how far the truth drifts from a prediction."""
+    """Std of the model's position error, (m or rad) per sqrt(s): how far the truth drifts from a
+    prediction."""
     process_noise_velocity: float = 0.2
-    """Std of the model's velocity error, (m/s or rad/s) per sqrt(s); raise it for contacts the model gets wrong."""
+    """Std of the model's velocity error, (m/s or rad/s) per sqrt(s); raise it for contacts the
+    model gets wrong."""
     noise_jointpos: float = 0.005
     """Std of a joint encoder (rad or m)."""
     noise_framepos: float = 0.002
@@ -57,8 +67,9 @@ class KalmanConfig(EstimatorConfig):
     noise_gyro: float = 0.01
     """Std of a gyro (rad/s)."""
     noise_accelerometer: float = 1.0
-    """Std of an accelerometer (m/s^2). Far above a real IMU's: a contact the model gets slightly wrong moves
-    the acceleration by metres per second squared, and trusting it more drives walker's estimate off the floor."""
+    """Std of an accelerometer (m/s^2). Far above a real IMU's: a contact the model gets slightly
+    wrong moves the acceleration by metres per second squared, and trusting it more drives walker's
+    estimate off the floor."""
     noise_other: float = 0.01
     """Std of any other sensor type, in its own unit."""
     initial_position_std: float = 0.3
@@ -66,21 +77,27 @@ class KalmanConfig(EstimatorConfig):
     initial_velocity_std: float = 1.0
     """Std of the first guess's velocities (m/s or rad/s)."""
     history: float = 0.2
-    """Seconds of past steps kept to fuse late readings at the time they were taken; older ones are dropped."""
+    """Seconds of past steps kept to fuse late readings at the time they were taken; older ones are
+    dropped."""
     fd_epsilon: float = 1e-3
-    """Finite-difference step of the Jacobians (m, rad, m/s, ...): the EKF's at every step, the UKF's for its first
-    reading only. Far above rounding's optimum: a contact solver stopped after a few iterations is noisy, and at
-    1e-6 that noise made leap_cube's Jacobian entries 1e5 and the filter lose the cube; 1e-3 did not."""
+    """Finite-difference step of the Jacobians (m, rad, m/s, ...): the EKF's at every step, the
+    UKF's for its first reading only. Far above rounding's optimum: a contact solver stopped after a
+    few iterations is noisy, and at 1e-6 that noise made leap_cube's Jacobian entries 1e5 and the
+    filter lose the cube; 1e-3 did not."""
 
     def validate(self) -> None:
         super().validate()
         for name, value in vars(self).items():
             if name != "history":
                 require(value > 0, f"{type(self).__name__}.{name} must be positive, got {value}")
-        require(self.history >= 0, f"{type(self).__name__}.history must be at least 0 s, got {self.history}")
+        require(
+            self.history >= 0,
+            f"{type(self).__name__}.history must be at least 0 s, got {self.history}",
+        )
 
     def sensor_std(self, sensor_type: str) -> float:
-        """The std of a sensor of `sensor_type` ("jointpos", ...), `noise_other` for a type without a field."""
+        """The std of a sensor of `sensor_type` ("jointpos", ...), `noise_other` for a type without
+        a field."""
         return float(getattr(self, f"noise_{sensor_type}", self.noise_other))
 
 
@@ -90,7 +107,8 @@ class EKFConfig(KalmanConfig):
     """Extended Kalman filter noise model and bookkeeping."""
 
     relinearize_every: int = 1
-    """Compute the Jacobians every this many steps and reuse them in between (cheaper, less exact)."""
+    """Compute the Jacobians every this many steps and reuse them in between (cheaper, less
+    exact)."""
 
 
 @dataclass
@@ -110,7 +128,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
 
     Attributes:
         dropped_readings: sensor values that arrived later than `history` and were not fused.
-        linearizations: calls of `mjd_transitionFD` so far (one per step, or fewer with relinearize_every).
+        linearizations: calls of `mjd_transitionFD` so far (one per step, or fewer with
+            relinearize_every).
     """
 
     config_cls = EKFConfig
@@ -120,7 +139,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
     def __init__(self, task: Task, config: EKFConfig | None = None) -> None:
         super().__init__(task, config)
         self.model = task.model
-        self.data = mujoco.MjData(self.model)  # the filter's own; the plant's task.data is never read
+        # the filter's own; the plant's task.data is never read
+        self.data = mujoco.MjData(self.model)
         self.space = TangentSpace(self.model)
         self.residuals = Residuals(task.measured)
         self.dt = float(self.model.opt.timestep)
@@ -135,8 +155,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
 
     # The contract.
     def reset(self, reading: SystemState) -> None:
-        """Start from `reading`: its state if it has one, else the model's keyframe 0 (or qpos0), then fuse its
-        sensors with RESET_ITERATIONS Gauss-Newton steps."""
+        """Start from `reading`: its state if it has one, else the model's keyframe 0 (or qpos0),
+        then fuse its sensors with RESET_ITERATIONS Gauss-Newton steps."""
         sensors = check_sensors(self.task, reading, self.name)
         set_mocap_poses(self.model, self.data, reading.metadata)
         if reading.state is not None:
@@ -148,7 +168,10 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
                 mujoco.mj_resetData(self.model, self.data)
             x0 = np.concatenate([self.data.qpos, self.data.qvel, self.data.act])
         nv, cfg = self.model.nv, self.config
-        stds = np.r_[np.full(nv, cfg.initial_position_std), np.full(self.space.size - nv, cfg.initial_velocity_std)]
+        stds = np.r_[
+            np.full(nv, cfg.initial_position_std),
+            np.full(self.space.size - nv, cfg.initial_velocity_std),
+        ]
         self.start_time = float(reading.time)
         self.nodes = [_Node(0, x0, np.diag(stds**2))]
         self._fused[:] = -np.inf
@@ -160,8 +183,9 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         self._correct(node, iterations=RESET_ITERATIONS)
 
     def update(self, reading: SystemState, time: float, controls: ControlHistory) -> SystemState:
-        """See `Estimator.update`. The estimate is at the filter step nearest `time` (steps of the planning
-        model's timestep from the reset's time), never earlier than the newest step already reached."""
+        """See `Estimator.update`. The estimate is at the filter step nearest `time` (steps of the
+        planning model's timestep from the reset's time), never earlier than the newest step already
+        reached."""
         if not self.nodes:
             self.reset(reading)
         sensors = check_sensors(self.task, reading, self.name)
@@ -180,7 +204,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
                 continue
             pending.setdefault(index, {})[i] = sensors[self.task.measured.slices[i]]
         last = self.nodes[-1].index
-        late = [index for index in pending if index <= last]  # fused where taken, then replayed forward
+        # fused where taken, then replayed forward
+        late = [index for index in pending if index <= last]
         for index in late:
             self._node(index).measured.update(pending[index])
         start = min(late, default=last)
@@ -191,7 +216,9 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         head = self._node(target)
         x, _ = self._posterior(head)
         self._forget_before(target - round(self.config.history / self.dt))
-        return estimate_of(reading, x[: self.model.nq + self.model.nv], self.start_time + target * self.dt)
+        return estimate_of(
+            reading, x[: self.model.nq + self.model.nv], self.start_time + target * self.dt
+        )
 
     def covariance(self) -> np.ndarray | None:
         """(2 nv + na, 2 nv + na) posterior covariance at the newest step."""
@@ -199,7 +226,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
 
     # Steps of the filter.
     def _predict(self, index: int, arriving: dict[int, np.ndarray]) -> None:
-        """Node index + 1's prior from node index's posterior: the mean through mj_step, the covariance through A."""
+        """Node index + 1's prior from node index's posterior: the mean through mj_step, the
+        covariance through A."""
         node = self._node(index)
         x, cov = self._posterior(node)
         time = self.start_time + index * self.dt
@@ -208,10 +236,15 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         prior = np.concatenate([self.data.qpos, self.data.qvel, self.data.act])
         assert node.jacobians is not None  # set by _posterior
         A = node.jacobians[0]
-        self._set_prior(index + 1, prior, self._capped(A @ cov @ A.T + self._process_noise()), arriving)
+        self._set_prior(
+            index + 1, prior, self._capped(A @ cov @ A.T + self._process_noise()), arriving
+        )
 
-    def _set_prior(self, index: int, prior: np.ndarray, prior_cov: np.ndarray, arriving: dict[int, np.ndarray]) -> None:
-        """Give node `index` (appended if new) this prior and the readings `arriving` there; its posterior is stale."""
+    def _set_prior(
+        self, index: int, prior: np.ndarray, prior_cov: np.ndarray, arriving: dict[int, np.ndarray]
+    ) -> None:
+        """Give node `index` (appended if new) this prior and the readings `arriving` there; its
+        posterior is stale."""
         if index <= self.nodes[-1].index:
             following = self._node(index)
             following.prior, following.prior_cov, following.posterior = prior, prior_cov, None
@@ -222,11 +255,14 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
     def _process_noise(self) -> np.ndarray:
         """(n, n) the process noise added over one step."""
         nv, na, cfg = self.model.nv, self.model.na, self.config
-        noise = np.r_[np.full(nv, cfg.process_noise_position), np.full(nv + na, cfg.process_noise_velocity)]
+        noise = np.r_[
+            np.full(nv, cfg.process_noise_position), np.full(nv + na, cfg.process_noise_velocity)
+        ]
         return np.diag(noise**2 * self.dt)
 
     def _posterior(self, node: _Node) -> tuple[np.ndarray, np.ndarray]:
-        """(state, covariance) after fusing the node's measurements (computed once, until the node changes)."""
+        """(state, covariance) after fusing the node's measurements (computed once, until the node
+        changes)."""
         if node.jacobians is None:
             node.jacobians = self._jacobians_for(node)
         if node.posterior is None:
@@ -235,7 +271,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         return node.posterior
 
     def _correct(self, node: _Node, iterations: int) -> None:
-        """Fuse the node's measurements into its prior (Joseph form); `iterations` > 1 relinearizes (IEKF)."""
+        """Fuse the node's measurements into its prior (Joseph form); `iterations` > 1 relinearizes
+        (IEKF)."""
         if not node.measured:
             node.posterior = (node.prior.copy(), node.prior_cov.copy())
             if node.jacobians is None:
@@ -247,7 +284,9 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         time = self.start_time + node.index * self.dt
         for _ in range(iterations):
             if iterations > 1 or node.jacobians is None:
-                node.jacobians = self._linearize(x, time) if iterations > 1 else self._jacobians_for(node)
+                node.jacobians = (
+                    self._linearize(x, time) if iterations > 1 else self._jacobians_for(node)
+                )
             predicted = self._sensors_at(x, time)
             residual, G = self.residuals.evaluate(numbers, measured, predicted, node.jacobians[1])
             residual = residual + G @ self.space.minus(x, x0)  # zero on the first pass
@@ -259,8 +298,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         node.posterior = (x, 0.5 * (cov + cov.T))
 
     def _measurement(self, node: _Node) -> tuple[list[int], np.ndarray, np.ndarray]:
-        """The node's sensor numbers (sorted), their values in a (measured size,) vector (zeros elsewhere), and
-        the (m, m) measurement noise R of their residual rows."""
+        """The node's sensor numbers (sorted), their values in a (measured size,) vector (zeros
+        elsewhere), and the (m, m) measurement noise R of their residual rows."""
         numbers = sorted(node.measured)
         measured = np.zeros(self.task.measured.size)
         for i in numbers:
@@ -274,14 +313,18 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         return numbers, measured, np.diag(std**2)
 
     def _capped(self, cov: np.ndarray) -> np.ndarray:
-        """`cov` with each variance above COVARIANCE_CAP^2 times the initial one scaled down to that (D cov D, D
-        diagonal: still SPD).
+        """`cov` with each variance above COVARIANCE_CAP^2 times the initial one scaled down to that
+        (D cov D, D diagonal: still SPD).
 
-        A Jacobian taken across a contact switch can have huge entries, and the covariance it spreads would let
-        one encoder reading throw the velocities off; the cap is far above what a working filter reaches.
+        A Jacobian taken across a contact switch can have huge entries, and the covariance it
+        spreads would let one encoder reading throw the velocities off; the cap is far above what a
+        working filter reaches.
         """
         nv, cfg = self.model.nv, self.config
-        stds = np.r_[np.full(nv, cfg.initial_position_std), np.full(self.space.size - nv, cfg.initial_velocity_std)]
+        stds = np.r_[
+            np.full(nv, cfg.initial_position_std),
+            np.full(self.space.size - nv, cfg.initial_velocity_std),
+        ]
         cap = (COVARIANCE_CAP * stds) ** 2
         scale = np.sqrt(np.minimum(1.0, cap / np.maximum(np.diag(cov), 1e-300)))
         return cov * scale[:, None] * scale[None, :]
@@ -296,21 +339,29 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         return self._linearize(node.prior, self.start_time + node.index * self.dt)
 
     def _linearize(self, x: np.ndarray, time: float) -> tuple[np.ndarray, np.ndarray]:
-        """(A (n, n), C (measured size, n)) of one step from `x` under the control in force after `time`."""
+        """(A (n, n), C (measured size, n)) of one step from `x` under the control in force after
+        `time`."""
         self._set_state(x, time, self._controls.at(time + 0.5 * self.dt))
-        mujoco.mjd_transitionFD(self.model, self.data, self.config.fd_epsilon, 0, self._A, None, self._C, None)
+        mujoco.mjd_transitionFD(
+            self.model, self.data, self.config.fd_epsilon, 0, self._A, None, self._C, None
+        )
         self.linearizations += 1
         return self._A.copy(), self._C[self.task.measured.columns].copy()
 
     def _sensors_at(self, x: np.ndarray, time: float) -> np.ndarray:
-        """(measured size,) h(x): the measured sensors at `x` under the control in force before `time`."""
+        """(measured size,) h(x): the measured sensors at `x` under the control in force before
+        `time`."""
         self._set_state(x, time, self._controls.at(time - 0.5 * self.dt))
         mujoco.mj_forward(self.model, self.data)
         return self.task.measured.read(self.data.sensordata)
 
     def _set_state(self, x: np.ndarray, time: float, ctrl: np.ndarray) -> None:
         nq, nv = self.model.nq, self.model.nv
-        self.data.qpos[:], self.data.qvel[:], self.data.act[:] = x[:nq], x[nq : nq + nv], x[nq + nv :]
+        self.data.qpos[:], self.data.qvel[:], self.data.act[:] = (
+            x[:nq],
+            x[nq : nq + nv],
+            x[nq + nv :],
+        )
         self.data.ctrl[:], self.data.time = ctrl, time
 
     # Bookkeeping.
@@ -324,7 +375,8 @@ class ExtendedKalmanFilter(Estimator[EKFConfig]):
         return [(i, self.residuals.rows[i]) for i in numbers]
 
     def _stamps(self, reading: SystemState) -> np.ndarray:
-        """(k,) when each measured sensor's value was taken: metadata "sensor_times", else reading.time."""
+        """(k,) when each measured sensor's value was taken: metadata "sensor_times", else
+        reading.time."""
         stamps = reading.metadata.get("sensor_times")
         if stamps is None:
             return np.full(len(self.task.measured.names), float(reading.time))

@@ -1,26 +1,29 @@
-"""A contact-aided estimator of a legged robot's floating base, from what its low-level state carries: the IMU
-(orientation, gyro, accelerometer), the joint encoders (positions, and velocities where measured) and the feet's
-contact forces, on flat ground. No base position or velocity is measured.
+"""A contact-aided estimator of a legged robot's floating base, from what its low-level state
+carries: the IMU (orientation, gyro, accelerometer), the joint encoders (positions, and velocities
+where measured) and the feet's contact forces, on flat ground. No base position or velocity is
+measured.
 
-- Attitude: the IMU's orientation, smoothed by integrating the gyro (a complementary filter of time constant
-  `attitude_time_constant`); the angular velocity is the gyro's.
-- Joints: the encoders as read; their velocities as measured, else differenced from the encoders and smoothed.
-- Base position, velocity and the feet: a linear Kalman filter over s = [p (3), v (3), f_1 .. f_k (3 each)] in
-  the world frame (p the base origin, v its velocity, f_i foot site i). It predicts p and v with the
-  accelerometer's acceleration turned into the world frame by the attitude (gravity added back), and holds the
-  feet where they are: a standing foot barely moves (`slip_std`), a swinging one freely (`swing_std`). Each
-  reading corrects it with leg kinematics on the planning model at the measured joints and attitude:
-  f_i - p = R fk_i(q) for every foot (`kinematics_std`), a standing foot's height is its site's height above
-  a flat floor (`ground_std`), and where joint velocities are measured, a standing foot is still: v = -(the
-  foot's velocity relative to the base, from the gyro and the joint velocities) (`foot_velocity_std`).
-- Contact: a foot stands while its touch sensor reads over `contact_force`; with no touch sensors, while it is
-  within `stance_band` of the lowest foot. With no foot pressed (lying, or in the air), the lowest foot is held
-  on the floor loosely (`lowest_foot_std`), so the height never drifts far.
+- Attitude: the IMU's orientation, smoothed by integrating the gyro (a complementary filter of time
+  constant `attitude_time_constant`); the angular velocity is the gyro's.
+- Joints: the encoders as read; their velocities as measured, else differenced from the encoders and
+  smoothed.
+- Base position, velocity and the feet: a linear Kalman filter over s = [p (3), v (3), f_1 .. f_k (3
+  each)] in the world frame (p the base origin, v its velocity, f_i foot site i). It predicts p and
+  v with the accelerometer's acceleration turned into the world frame by the attitude (gravity added
+  back), and holds the feet where they are: a standing foot barely moves (`slip_std`), a swinging
+  one freely (`swing_std`). Each reading corrects it with leg kinematics on the planning model at
+  the measured joints and attitude: f_i - p = R fk_i(q) for every foot (`kinematics_std`), a
+  standing foot's height is its site's height above a flat floor (`ground_std`), and where joint
+  velocities are measured, a standing foot is still: v = -(the foot's velocity relative to the base,
+  from the gyro and the joint velocities) (`foot_velocity_std`).
+- Contact: a foot stands while its touch sensor reads over `contact_force`; with no touch sensors,
+  while it is within `stance_band` of the lowest foot. With no foot pressed (lying, or in the air),
+  the lowest foot is held on the floor loosely (`lowest_foot_std`), so the height never drifts far.
 
-The height is observed through the standing feet, and the velocity through their kinematics; the position in the
-plane is only integrated, so it drifts (as it does on a robot). Each reading is fused at its stamp; the estimate
-is then carried to the requested time at constant velocities. Cost: one `mj_kinematics` and `mj_comPos` and a
-Kalman update of 6 + 3k states per reading, no `mj_step`.
+The height is observed through the standing feet, and the velocity through their kinematics; the
+position in the plane is only integrated, so it drifts (as it does on a robot). Each reading is
+fused at its stamp; the estimate is then carried to the requested time at constant velocities. Cost:
+one `mj_kinematics` and `mj_comPos` and a Kalman update of 6 + 3k states per reading, no `mj_step`.
 """
 
 from dataclasses import dataclass
@@ -30,16 +33,24 @@ import numpy as np
 
 from judo.core.configuration.config import require
 from judo.core.configuration.fields import slider
-from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, check_sensors, estimate_of
+from judo.core.estimator import (
+    ControlHistory,
+    Estimator,
+    EstimatorConfig,
+    check_sensors,
+    estimate_of,
+)
 from judo.core.reading import TIME_TOLERANCE, SystemState
 from judo.core.task import Task
 from judo.estimators.legged_layout import legged_layout
 
 INITIAL_STD = (0.02, 0.2, 0.02)
-"""Std of the first estimate's base position (m), velocity (m/s) and feet (m) about the first reading's kinematics."""
+"""Std of the first estimate's base position (m), velocity (m/s) and feet (m) about the first
+reading's kinematics."""
 SLIP_GATE = 16.27
-"""A standing foot whose velocity is further than this squared normalised distance from the filter's (chi-square of
-3 degrees of freedom, 99.9%) slips: neither its height nor its velocity is fused, and it moves freely."""
+"""A standing foot whose velocity is further than this squared normalised distance from the filter's
+(chi-square of 3 degrees of freedom, 99.9%) slips: neither its height nor its velocity is fused, and
+it moves freely."""
 
 
 @slider("contact_force", 0.5, 100.0)
@@ -54,24 +65,27 @@ class LeggedConfig(EstimatorConfig):
     """The legged estimator's feet, contact rule and noise model."""
 
     foot_sites: tuple[str, ...] = ()
-    """The sites at the feet (for a point foot, its centre); () takes the sites of the task's measured touch
-    sensors, else the model's sites named "*foot"."""
+    """The sites at the feet (for a point foot, its centre); () takes the sites of the task's
+    measured touch sensors, else the model's sites named "*foot"."""
     foot_sink: float | None = None
-    """How deep (m) a standing foot sinks into the floor (a soft contact, a rubber foot); None: as deep as the
-    planning model's feet sink once it has stood a second in its "home" keyframe (0 without one)."""
+    """How deep (m) a standing foot sinks into the floor (a soft contact, a rubber foot); None: as
+    deep as the planning model's feet sink once it has stood a second in its "home" keyframe (0
+    without one)."""
     contact_force: float = 10.0
     """A foot stands while its touch sensor reads above this (N)."""
     stance_band: float = 0.02
     """Without touch sensors, a foot stands while it is within this (m) of the lowest foot."""
     attitude_time_constant: float = 0.1
-    """Seconds over which the gyro-integrated attitude is pulled to the IMU's orientation; 0 takes it as read. A Go2
-    held standing with the IMU's orientation 0.5 deg noisy per axis: 0.37 deg off at 0.02 s, 0.18 at 0.1, 0.15 at
-    0.2; longer trusts the gyro's integral (and a real gyro's bias) longer."""
+    """Seconds over which the gyro-integrated attitude is pulled to the IMU's orientation; 0 takes
+    it as read. A Go2 held standing with the IMU's orientation 0.5 deg noisy per axis: 0.37 deg off
+    at 0.02 s, 0.18 at 0.1, 0.15 at 0.2; longer trusts the gyro's integral (and a real gyro's bias)
+    longer."""
     joint_velocity_time_constant: float = 0.01
-    """Without measured joint velocities, the time constant (s) smoothing the encoders' differences."""
+    """Without measured joint velocities, the time constant (s) smoothing the encoders'
+    differences."""
     accelerometer_std: float = 0.5
-    """How far (m/s per sqrt(s)) the base's velocity strays from the accelerometer's integral: its noise and bias,
-    and the vibration between readings that one sample a reading misses."""
+    """How far (m/s per sqrt(s)) the base's velocity strays from the accelerometer's integral: its
+    noise and bias, and the vibration between readings that one sample a reading misses."""
     kinematics_std: float = 0.005
     """Std (m) of a foot's position relative to the base by the leg's kinematics."""
     foot_velocity_std: float = 0.1
@@ -83,7 +97,8 @@ class LeggedConfig(EstimatorConfig):
     slip_std: float = 0.02
     """How far (m per sqrt(s)) a standing foot may slide."""
     reanchor_distance: float = 0.05
-    """A foot whose state is further than this (m) from where the kinematics put it is put back there."""
+    """A foot whose state is further than this (m) from where the kinematics put it is put back
+    there."""
     swing_std: float = 3.0
     """How far (m per sqrt(s)) a swinging foot may move: effectively free."""
 
@@ -94,21 +109,26 @@ class LeggedConfig(EstimatorConfig):
                 require(value >= 0, f"LeggedConfig.{name} must be at least 0 s, got {value}")
             elif name == "foot_sink":
                 require(
-                    value is None or value >= 0, f"LeggedConfig.foot_sink must be None or at least 0 m, got {value}"
+                    value is None or value >= 0,
+                    f"LeggedConfig.foot_sink must be None or at least 0 m, got {value}",
                 )
             elif name != "foot_sites":
                 require(value > 0, f"LeggedConfig.{name} must be positive, got {value}")
 
 
 class LeggedEstimator(Estimator[LeggedConfig]):
-    """The floating base from the IMU, the encoders and the foot contacts (see the module docstring).
+    """The floating base from the IMU, the encoders and the foot contacts (see the module
+    docstring).
 
     Attributes:
         layout: where the base, joints, IMU and feet lie (`judo.estimators.legged_layout`).
         stance: (k,) which feet stood at the latest reading (pressed, or lowest, and not slipping).
-        reanchors: feet put back where the kinematics put them (`reanchor_distance`), since the start.
-        acceleration: (3,) the base's world acceleration at the latest reading (m/s^2), which carries it to the next.
-        mean: (6 + 3k,) the Kalman filter's [p, v, feet] at the latest reading; cov: its (6 + 3k, 6 + 3k) covariance.
+        reanchors: feet put back where the kinematics put them (`reanchor_distance`), since the
+            start.
+        acceleration: (3,) the base's world acceleration at the latest reading (m/s^2), which
+            carries it to the next.
+        mean: (6 + 3k,) the Kalman filter's [p, v, feet] at the latest reading; cov: its (6 + 3k, 6
+            + 3k) covariance.
     """
 
     config_cls = LeggedConfig
@@ -116,7 +136,8 @@ class LeggedEstimator(Estimator[LeggedConfig]):
     def __init__(self, task: Task, config: LeggedConfig | None = None) -> None:
         super().__init__(task, config)
         self.model = task.model
-        self.data = mujoco.MjData(self.model)  # the estimator's own kinematics; the plant's is never read
+        # the estimator's own kinematics; the plant's is never read
+        self.data = mujoco.MjData(self.model)
         self.layout = legged_layout(task, self.config.foot_sites, self.config.foot_sink)
         k = len(self.layout.feet)
         self.stance = np.zeros(k, dtype=bool)
@@ -133,15 +154,17 @@ class LeggedEstimator(Estimator[LeggedConfig]):
 
     # The contract.
     def reset(self, reading: SystemState) -> None:
-        """Start from `reading`: the attitude and joints as read, the base at the model's keyframe 0 (or qpos0) in
-        the plane, as high as puts the lowest foot on the floor, at rest; a full `reading.state` gives the base's
-        position and velocity instead."""
+        """Start from `reading`: the attitude and joints as read, the base at the model's keyframe 0
+        (or qpos0) in the plane, as high as puts the lowest foot on the floor, at rest; a full
+        `reading.state` gives the base's position and velocity instead."""
         sensors = check_sensors(self.task, reading, "legged")
         lay, model = self.layout, self.model
         self.quat = self._base_quat(sensors)
         self.omega = self._gyro(sensors)
         self.joints = sensors[lay.joint_pos].copy()
-        self.joint_speeds = np.zeros(len(self.joints)) if lay.joint_vel is None else sensors[lay.joint_vel].copy()
+        self.joint_speeds = (
+            np.zeros(len(self.joints)) if lay.joint_vel is None else sensors[lay.joint_vel].copy()
+        )
         relative, _ = self._kinematics()
         start = model.key_qpos[0] if model.nkey else model.qpos0
         position = start[lay.base_qpos : lay.base_qpos + 3].copy()
@@ -160,19 +183,22 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         self._started = True
 
     def update(self, reading: SystemState, time: float, controls: ControlHistory) -> SystemState:
-        """Fuse `reading` if it is newer than the last one fused, and return the estimate carried to `time` at
-        constant velocities; `controls` is not used (the IMU measures what they did)."""
+        """Fuse `reading` if it is newer than the last one fused, and return the estimate carried to
+        `time` at constant velocities; `controls` is not used (the IMU measures what they did)."""
         if not self._started:
             self.reset(reading)
         sensors = check_sensors(self.task, reading, "legged")
         if reading.time > self.time + TIME_TOLERANCE:
             self._fuse(sensors, float(reading.time) - self.time)
             self.time = float(reading.time)
-        return estimate_of(reading, self._state_ahead(max(0.0, time - self.time)), max(time, self.time))
+        return estimate_of(
+            reading, self._state_ahead(max(0.0, time - self.time)), max(time, self.time)
+        )
 
     # The filter.
     def _fuse(self, sensors: np.ndarray, dt: float) -> None:
-        """Predict the attitude, joints and Kalman filter over `dt` s and correct them with `sensors`."""
+        """Predict the attitude, joints and Kalman filter over `dt` s and correct them with
+        `sensors`."""
         lay, cfg = self.layout, self.config
         measured_quat = self._base_quat(sensors)
         self.omega = self._gyro(sensors)
@@ -193,7 +219,8 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         self.joints = joints.copy()
         relative, foot_velocity = self._kinematics()
         self.stance = self._contacts(sensors, relative)
-        self._predict(self.acceleration, dt)  # the acceleration since the reading before: that reading's
+        # the acceleration since the reading before: that reading's
+        self._predict(self.acceleration, dt)
         self.acceleration = self._acceleration(sensors)
         self._correct(relative, foot_velocity)
 
@@ -212,8 +239,9 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         self.cov = F @ self.cov @ F.T + np.diag(noise)
 
     def _correct(self, relative: np.ndarray, foot_velocity: np.ndarray) -> None:
-        """Fuse the (k, 3) feet positions `relative` to the base (world frame) and, for standing feet, their
-        heights and (where joint velocities are measured) their (k, 3) velocities `foot_velocity` to the base."""
+        """Fuse the (k, 3) feet positions `relative` to the base (world frame) and, for standing
+        feet, their heights and (where joint velocities are measured) their (k, 3) velocities
+        `foot_velocity` to the base."""
         cfg, lay, n = self.config, self.layout, len(self.mean)
         self._reanchor(relative)
         if lay.joint_vel is not None:
@@ -253,22 +281,26 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         self.cov = 0.5 * (cov + cov.T)
 
     def _reanchor(self, relative: np.ndarray) -> None:
-        """Put each foot whose state is over `reanchor_distance` from where the (k, 3) kinematics `relative` to
-        the base put it back there, with its first std: the foot slid, or the robot was moved, by more than a
-        foot held where it stood can follow."""
+        """Put each foot whose state is over `reanchor_distance` from where the (k, 3) kinematics
+        `relative` to the base put it back there, with its first std: the foot slid, or the robot
+        was moved, by more than a foot held where it stood can follow."""
         cfg = self.config
         for i in range(len(relative)):
             feet = slice(6 + 3 * i, 9 + 3 * i)
-            if np.linalg.norm(self.mean[:3] + relative[i] - self.mean[feet]) > cfg.reanchor_distance:
+            if (
+                np.linalg.norm(self.mean[:3] + relative[i] - self.mean[feet])
+                > cfg.reanchor_distance
+            ):
                 self.mean[feet] = self.mean[:3] + relative[i]
                 self.cov[feet, :], self.cov[:, feet] = 0.0, 0.0
                 self.cov[feet, feet] = INITIAL_STD[2] ** 2 * np.eye(3)
                 self.reanchors += 1
 
     def _slipping(self, foot_velocity: np.ndarray) -> np.ndarray:
-        """(k,) which standing feet move: the base velocity their (k, 3) `foot_velocity` gives lies more than
-        SLIP_GATE normalised stds (chi-square, 3 degrees of freedom) from the filter's. The standing foot that agrees
-        best never slips: were all of them to, nothing would pull a filter whose velocity is off back again."""
+        """(k,) which standing feet move: the base velocity their (k, 3) `foot_velocity` gives lies
+        more than SLIP_GATE normalised stds (chi-square, 3 degrees of freedom) from the filter's.
+        The standing foot that agrees best never slips: were all of them to, nothing would pull a
+        filter whose velocity is off back again."""
         R = self.config.foot_velocity_std**2 * np.eye(3)
         S = self.cov[3:6, 3:6] + R
         innovation = -foot_velocity - self.mean[3:6]
@@ -280,7 +312,8 @@ class LeggedEstimator(Estimator[LeggedConfig]):
 
     # Measurements through the model.
     def _base_quat(self, sensors: np.ndarray) -> np.ndarray:
-        """(4,) the base's orientation from the IMU site's measured one (the site's own rotation taken off)."""
+        """(4,) the base's orientation from the IMU site's measured one (the site's own rotation
+        taken off)."""
         site = sensors[self.layout.imu["framequat"]]
         site = site / np.linalg.norm(site)
         inverse, base = np.zeros(4), np.zeros(4)
@@ -289,13 +322,15 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         return base
 
     def _gyro(self, sensors: np.ndarray) -> np.ndarray:
-        """(3,) the base's angular velocity in its own frame (a free joint's qvel[3:6]) from the gyro's."""
+        """(3,) the base's angular velocity in its own frame (a free joint's qvel[3:6]) from the
+        gyro's."""
         omega = np.zeros(3)
         mujoco.mju_rotVecQuat(omega, sensors[self.layout.imu["gyro"]], self.layout.imu_quat)
         return omega
 
     def _acceleration(self, sensors: np.ndarray) -> np.ndarray:
-        """(3,) the base's world acceleration: the accelerometer's specific force in the world, plus gravity."""
+        """(3,) the base's world acceleration: the accelerometer's specific force in the world, plus
+        gravity."""
         site = np.zeros(4)
         mujoco.mju_mulQuat(site, self.quat, self.layout.imu_quat)
         world = np.zeros(3)
@@ -303,10 +338,11 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         return world + self.model.opt.gravity
 
     def _kinematics(self) -> tuple[np.ndarray, np.ndarray]:
-        """(k, 3) each foot site's position and (k, 3) the velocity of the foot's point touching the floor
-        (`ground_offset` below the site), both relative to the base origin in the world frame, at the current
-        attitude, angular velocity and joints. That point, not the site, is still while a round foot rolls: the
-        centre of a Go2's 22 mm foot rolling with its calf's 10 rad/s moves at 0.2 m/s."""
+        """(k, 3) each foot site's position and (k, 3) the velocity of the foot's point touching the
+        floor (`ground_offset` below the site), both relative to the base origin in the world frame,
+        at the current attitude, angular velocity and joints. That point, not the site, is still
+        while a round foot rolls: the centre of a Go2's 22 mm foot rolling with its calf's 10 rad/s
+        moves at 0.2 m/s."""
         lay, model, data = self.layout, self.model, self.data
         data.qpos[:] = model.qpos0
         data.qpos[lay.base_qpos : lay.base_qpos + 3] = 0.0
@@ -326,7 +362,8 @@ class LeggedEstimator(Estimator[LeggedConfig]):
         return relative, velocity
 
     def _contacts(self, sensors: np.ndarray, relative: np.ndarray) -> np.ndarray:
-        """(k,) which feet stand: their touch sensors above `contact_force`, else those near the lowest."""
+        """(k,) which feet stand: their touch sensors above `contact_force`, else those near the
+        lowest."""
         if self.layout.touch is not None:
             return sensors[self.layout.touch] > self.config.contact_force
         height = relative[:, 2] - self.layout.ground_offset

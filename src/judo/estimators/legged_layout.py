@@ -1,5 +1,6 @@
-"""Where a legged robot's floating base, joints, IMU and feet lie in its planning model and its measured sensors:
-what the "legged" estimator reads, found once from the model and the task's `measured_sensors`.
+"""Where a legged robot's floating base, joints, IMU and feet lie in its planning model and its
+measured sensors: what the "legged" estimator reads, found once from the model and the task's
+`measured_sensors`.
 """
 
 from dataclasses import dataclass
@@ -21,17 +22,19 @@ class LeggedLayout:
 
     Attributes:
         base_qpos, base_qvel: the free joint's first qpos (7 wide) and qvel (6 wide) columns.
-        joint_qpos, joint_qvel: (nj,) the qpos and qvel columns of every other joint (hinge or slide, 1 wide).
+        joint_qpos, joint_qvel: (nj,) the qpos and qvel columns of every other joint (hinge or
+            slide, 1 wide).
         joint_pos: (nj,) where each joint's jointpos value lies in the measured vector.
-        joint_vel: (nj,) where each joint's jointvel value lies in the measured vector, or None when not all
-            joints' velocities are measured (then they are differenced from the encoders).
+        joint_vel: (nj,) where each joint's jointvel value lies in the measured vector, or None when
+            not all joints' velocities are measured (then they are differenced from the encoders).
         imu: {"framequat": slice, "gyro": slice, "accelerometer": slice} of the measured vector.
-        imu_quat: (4,) [w, x, y, z] of the framequat sensor's site in the base body (the same for all three).
+        imu_quat: (4,) [w, x, y, z] of the framequat sensor's site in the base body (the same for
+            all three).
         feet: (k,) the foot sites' ids; foot_bodies: (k,) their bodies.
-        ground_offset: (k,) each foot site's height above the floor when the foot stands flat on it (m), less how
-            deep it sinks into the floor (`foot_sink`).
-        touch: (k,) where each foot's touch sensor value lies in the measured vector, or None when not every
-            foot has one (then a foot stands when it is near the lowest).
+        ground_offset: (k,) each foot site's height above the floor when the foot stands flat on
+            it (m), less how deep it sinks into the floor (`foot_sink`).
+        touch: (k,) where each foot's touch sensor value lies in the measured vector, or None when
+            not every foot has one (then a foot stands when it is near the lowest).
     """
 
     base_qpos: int
@@ -49,22 +52,32 @@ class LeggedLayout:
 
 
 def legged_layout(task: Task, foot_sites: tuple[str, ...], foot_sink: float | None) -> LeggedLayout:
-    """The LeggedLayout of `task`'s planning model and measured sensors, with the feet sinking `foot_sink` m into
-    the floor (None: as deep as in the model standing, `standing_sink`); ConfigError saying what is missing."""
+    """The LeggedLayout of `task`'s planning model and measured sensors, with the feet sinking
+    `foot_sink` m into the floor (None: as deep as in the model standing, `standing_sink`);
+    ConfigError saying what is missing."""
     model, measured, owner = task.model, task.measured, type(task).__name__
     free = [j for j in range(model.njnt) if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_FREE]
     if len(free) != 1:
         raise ConfigError(
-            f"the 'legged' estimator needs a model with one floating base (a free joint); {owner}'s has {len(free)}"
+            "the 'legged' estimator needs a model with one floating base (a free joint); "
+            f"{owner}'s has {len(free)}"
         )
     base_body = int(model.jnt_bodyid[free[0]])
     others = [j for j in range(model.njnt) if j != free[0]]
-    bad = [name_of(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j in others if model.jnt_type[j] not in (2, 3)]
+    bad = [
+        name_of(model, mujoco.mjtObj.mjOBJ_JOINT, j)
+        for j in others
+        if model.jnt_type[j] not in (2, 3)
+    ]
     if bad:
-        raise ConfigError(f"the 'legged' estimator handles hinge and slide joints besides the base; {owner} has {bad}")
+        raise ConfigError(
+            f"the 'legged' estimator handles hinge and slide joints besides the base; {owner} "
+            f"has {bad}"
+        )
 
     def measured_of(sensor_type: str, objects: list[int]) -> list[int | None]:
-        """Per object id, the start in the measured vector of the measured `sensor_type` sensor on it, or None."""
+        """Per object id, the start in the measured vector of the measured `sensor_type` sensor on
+        it, or None."""
         found: dict[int, int] = {}
         for i, sensor_id in enumerate(measured.ids):
             if measured.types[i] == sensor_type:
@@ -73,11 +86,14 @@ def legged_layout(task: Task, foot_sites: tuple[str, ...], foot_sink: float | No
 
     joint_pos = measured_of("jointpos", others)
     missing = [
-        name_of(model, mujoco.mjtObj.mjOBJ_JOINT, j) for j, p in zip(others, joint_pos, strict=True) if p is None
+        name_of(model, mujoco.mjtObj.mjOBJ_JOINT, j)
+        for j, p in zip(others, joint_pos, strict=True)
+        if p is None
     ]
     if missing:
         raise ConfigError(
-            f"the 'legged' estimator needs a jointpos sensor of every joint in {owner}.measured_sensors; "
+            "the 'legged' estimator needs a jointpos sensor of every joint in "
+            f"{owner}.measured_sensors; "
             f"none measures {', '.join(missing)}"
         )
     joint_vel = measured_of("jointvel", others)
@@ -87,20 +103,28 @@ def legged_layout(task: Task, foot_sites: tuple[str, ...], foot_sink: float | No
     for i, sensor_id in enumerate(measured.ids):
         kind = measured.types[i]
         site = int(model.sensor_objid[sensor_id])
-        on_site = kind == "framequat" and model.sensor_objtype[sensor_id] == mujoco.mjtObj.mjOBJ_SITE
+        on_site = (
+            kind == "framequat" and model.sensor_objtype[sensor_id] == mujoco.mjtObj.mjOBJ_SITE
+        )
         if kind in IMU_TYPES and kind not in imu and (on_site or kind != "framequat"):
             if model.site_bodyid[site] == base_body:
                 imu[kind], imu_sites[kind] = measured.slices[i], site
     if len(imu) < len(IMU_TYPES) or len(set(imu_sites.values())) != 1:
         raise ConfigError(
-            f"the 'legged' estimator needs an IMU ({', '.join(IMU_TYPES)}) at one site on the floating base in "
-            f"{owner}.measured_sensors; it found {sorted(imu) or 'none'} ({', '.join(measured.names) or 'no sensors'})"
+            f"the 'legged' estimator needs an IMU ({', '.join(IMU_TYPES)}) at one site on "
+            "the floating base in "
+            f"{owner}.measured_sensors; it found {sorted(imu) or 'none'} "
+            f"({', '.join(measured.names) or 'no sensors'})"
         )
 
     sites = foot_site_ids(task, foot_sites)
     touch = measured_of("touch", sites)
     offsets = np.array([ground_offset(model, s) for s in sites])
-    sink = standing_sink(model, np.array(sites), offsets) if foot_sink is None else np.full(len(sites), foot_sink)
+    sink = (
+        standing_sink(model, np.array(sites), offsets)
+        if foot_sink is None
+        else np.full(len(sites), foot_sink)
+    )
     return LeggedLayout(
         base_qpos=int(model.jnt_qposadr[free[0]]),
         base_qvel=int(model.jnt_dofadr[free[0]]),
@@ -118,32 +142,44 @@ def legged_layout(task: Task, foot_sites: tuple[str, ...], foot_sink: float | No
 
 
 def foot_site_ids(task: Task, foot_sites: tuple[str, ...]) -> list[int]:
-    """The ids of the sites named `foot_sites`; when empty, the sites of the task's measured touch sensors, else
-    the model's sites whose names end in "foot". ConfigError listing the sites when none is found or a name is
-    not a site."""
+    """The ids of the sites named `foot_sites`; when empty, the sites of the task's measured touch
+    sensors, else the model's sites whose names end in "foot". ConfigError listing the sites when
+    none is found or a name is not a site."""
     model, measured = task.model, task.measured
     all_sites = [n for n in names(model, mujoco.mjtObj.mjOBJ_SITE, model.nsite) if n]
     if foot_sites:
         unknown = [n for n in foot_sites if n not in all_sites]
         if unknown:
-            raise ConfigError(f"foot_sites {unknown} are not sites of {type(task).__name__}; its sites are {all_sites}")
+            raise ConfigError(
+                f"foot_sites {unknown} are not sites of {type(task).__name__}; its sites are "
+                f"{all_sites}"
+            )
         return [mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_SITE, n) for n in foot_sites]
-    touch = [int(model.sensor_objid[s]) for s, t in zip(measured.ids, measured.types, strict=True) if t == "touch"]
+    touch = [
+        int(model.sensor_objid[s])
+        for s, t in zip(measured.ids, measured.types, strict=True)
+        if t == "touch"
+    ]
     if touch:
         return touch
-    feet = [i for i in range(model.nsite) if (name_of(model, mujoco.mjtObj.mjOBJ_SITE, i) or "").endswith("foot")]
+    feet = [
+        i
+        for i in range(model.nsite)
+        if (name_of(model, mujoco.mjtObj.mjOBJ_SITE, i) or "").endswith("foot")
+    ]
     if not feet:
         raise ConfigError(
-            f"the 'legged' estimator found no feet in {type(task).__name__}: no measured touch sensor and no site "
+            f"the 'legged' estimator found no feet in {type(task).__name__}: no measured "
+            "touch sensor and no site "
             f"named '*foot'; name them in LeggedConfig.foot_sites, from its sites {all_sites}"
         )
     return feet
 
 
 def ground_offset(model: mujoco.MjModel, site: int) -> float:
-    """The height (m) of `site` above the floor when its body stands flat on it (its z axis up): above the lowest
-    point of the body's colliding geoms (a sphere's, capsule's or box's own; another geom's bounding sphere's),
-    0 without any."""
+    """The height (m) of `site` above the floor when its body stands flat on it (its z axis up):
+    above the lowest point of the body's colliding geoms (a sphere's, capsule's or box's own;
+    another geom's bounding sphere's), 0 without any."""
     body = int(model.site_bodyid[site])
     geoms = [int(g) for g in np.flatnonzero(model.geom_bodyid == body)]
     lowest = [lowest_point(model, g) for g in geoms if collides(model, g)]
@@ -157,9 +193,10 @@ STAND_SECONDS = 1.0
 
 
 def standing_sink(model: mujoco.MjModel, sites: np.ndarray, offsets: np.ndarray) -> np.ndarray:
-    """(k,) how deep (m) each foot site sinks below its (k,) `offsets` once the model has stood STAND_SECONDS
-    from its STAND_KEY keyframe holding that pose's controls (a soft contact, or a rubber foot, gives way under
-    the robot's weight); 0 for a foot off the floor there, and for every foot without such a keyframe."""
+    """(k,) how deep (m) each foot site sinks below its (k,) `offsets` once the model has stood
+    STAND_SECONDS from its STAND_KEY keyframe holding that pose's controls (a soft contact, or a
+    rubber foot, gives way under the robot's weight); 0 for a foot off the floor there, and for
+    every foot without such a keyframe."""
     key = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_KEY, STAND_KEY)
     if key < 0:
         return np.zeros(len(sites))
@@ -185,7 +222,11 @@ def lowest_point(model: mujoco.MjModel, geom: int) -> float:
         return float(pos[2] - size[0])
     if kind in (mujoco.mjtGeom.mjGEOM_CAPSULE, mujoco.mjtGeom.mjGEOM_CYLINDER):
         radius, half = size[0], size[1]
-        disc = radius * np.sqrt(max(0.0, 1.0 - z_row[2] ** 2)) if kind == mujoco.mjtGeom.mjGEOM_CYLINDER else radius
+        disc = (
+            radius * np.sqrt(max(0.0, 1.0 - z_row[2] ** 2))
+            if kind == mujoco.mjtGeom.mjGEOM_CYLINDER
+            else radius
+        )
         return float(pos[2] - half * abs(z_row[2]) - disc)
     if kind == mujoco.mjtGeom.mjGEOM_BOX:
         return float(pos[2] - np.abs(z_row * size).sum())

@@ -4,7 +4,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, ReadingError, estimate_of
+from judo.core.estimator import (
+    ControlHistory,
+    Estimator,
+    EstimatorConfig,
+    ReadingError,
+    estimate_of,
+)
 from judo.core.reading import SystemState
 
 
@@ -14,7 +20,8 @@ class StateEstimatorConfig(EstimatorConfig):
 
 
 class StateEstimator(Estimator[StateEstimatorConfig]):
-    """Plans from `reading.state` as it is, at `reading.time`: no filtering, no delay compensation."""
+    """Plans from `reading.state` as it is, at `reading.time`: no filtering, no delay
+    compensation."""
 
     config_cls = StateEstimatorConfig
 
@@ -22,7 +29,8 @@ class StateEstimator(Estimator[StateEstimatorConfig]):
         self._check(reading)
 
     def update(self, reading: SystemState, time: float, controls: ControlHistory) -> SystemState:
-        """`reading` itself (state copied), at the time it was taken; `time` and `controls` are not used."""
+        """`reading` itself (state copied), at the time it was taken; `time` and `controls` are not
+        used."""
         state = self._check(reading)
         return estimate_of(reading, state.copy(), reading.time)
 
@@ -32,10 +40,14 @@ class StateEstimator(Estimator[StateEstimatorConfig]):
         size = model.nq + model.nv
         if reading.state is None:
             raise ReadingError(
-                f"the 'state' estimator needs a full state (nq + nv = {size} values), but the reading has only "
-                f"sensors; use the '{self.task.default_estimator}' estimator to estimate the state from "
+                f"the 'state' estimator needs a full state (nq + nv = {size} values), but "
+                "the reading has only "
+                f"sensors; use the '{self.task.default_estimator}' estimator to estimate the "
+                "state from "
                 f"{type(self.task).__name__}'s sensors"
             )
         if reading.state.shape != (size,):
-            raise ReadingError(f"SystemState.state must have shape ({size},), got {reading.state.shape}")
+            raise ReadingError(
+                f"SystemState.state must have shape ({size},), got {reading.state.shape}"
+            )
         return reading.state

@@ -1,8 +1,9 @@
-"""Tangent-space arithmetic on MuJoCo states and sensor residuals, for filters whose covariance is 2 nv + na wide.
+"""Tangent-space arithmetic on MuJoCo states and sensor residuals, for filters whose covariance is 2
+nv + na wide.
 
-A state x is [qpos (nq,), qvel (nv,), act (na,)]; a tangent vector dx is [dq (nv,), dv (nv,), da (na,)], with
-dq a velocity integrated over one second (`mj_integratePos`), so a free joint's quaternion stays on the unit
-sphere and its covariance is 3 x 3, not 4 x 4.
+A state x is [qpos (nq,), qvel (nv,), act (na,)]; a tangent vector dx is [dq (nv,), dv (nv,), da
+(na,)], with dq a velocity integrated over one second (`mj_integratePos`), so a free joint's
+quaternion stays on the unit sphere and its covariance is 3 x 3, not 4 x 4.
 """
 
 import mujoco
@@ -40,8 +41,8 @@ class TangentSpace:
 def quaternion_error_matrix(quat: np.ndarray) -> np.ndarray:
     """(3, 4) E with E p = vec(conj(quat) * p) for a quaternion p [w, x, y, z].
 
-    For a unit `quat` and a small change p of it, 2 E p is the rotation (rad, in quat's frame) from quat to
-    quat + p: the first-order form of `mju_subQuat(quat + p, quat)`.
+    For a unit `quat` and a small change p of it, 2 E p is the rotation (rad, in quat's frame) from
+    quat to quat + p: the first-order form of `mju_subQuat(quat + p, quat)`.
     """
     w, v = quat[0], quat[1:4]
     skew = np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
@@ -49,10 +50,11 @@ def quaternion_error_matrix(quat: np.ndarray) -> np.ndarray:
 
 
 class Residuals:
-    """Measurement residuals y - h(x) of a task's measured sensors, with quaternions as 3-D rotations.
+    """Measurement residuals y - h(x) of a task's measured sensors, with quaternions as 3-D
+    rotations.
 
-    A jointpos, framepos, gyro, ... sensor's residual is y - h; a framequat or ballquat sensor's is the
-    rotation r (rad) with h * exp(r) = y (`mju_subQuat`). Attributes:
+    A jointpos, framepos, gyro, ... sensor's residual is y - h; a framequat or ballquat sensor's is
+    the rotation r (rad) with h * exp(r) = y (`mju_subQuat`). Attributes:
         rows: (k,) each sensor's slice of the residual vector (size,).
         size: length of the full residual vector (measured size minus one per quaternion sensor).
     """
@@ -69,12 +71,14 @@ class Residuals:
         self.size = start
 
     def row_indices(self, sensors: list[int]) -> np.ndarray:
-        """int indices into the residual vector of the sensors numbered `sensors` (indices into layout.names)."""
+        """int indices into the residual vector of the sensors numbered `sensors` (indices into
+        layout.names)."""
         return np.concatenate([np.arange(self.rows[i].start, self.rows[i].stop) for i in sensors])
 
     def values(self, sensors: list[int], measured: np.ndarray, predicted: np.ndarray) -> np.ndarray:
-        """(m,) the residual y - h(x) of the sensors numbered `sensors` (indices into layout.names), from the
-        (layout.size,) `measured` and `predicted` values (only the listed sensors' entries are read)."""
+        """(m,) the residual y - h(x) of the sensors numbered `sensors` (indices into layout.names),
+        from the (layout.size,) `measured` and `predicted` values (only the listed sensors' entries
+        are read)."""
         residual = []
         for i in sensors:
             s = self.layout.slices[i]
@@ -86,7 +90,9 @@ class Residuals:
                 residual.append(measured[s] - predicted[s])
         return np.concatenate(residual)
 
-    def evaluate(self, sensors: list[int], measured: np.ndarray, predicted: np.ndarray, jacobian: np.ndarray):
+    def evaluate(
+        self, sensors: list[int], measured: np.ndarray, predicted: np.ndarray, jacobian: np.ndarray
+    ):
         """Residual and its Jacobian for the sensors numbered `sensors`.
 
         Args:

@@ -1,4 +1,5 @@
-"""`python -m judo benchmark`: time the control update of every task x optimizer pair against raw rollouts."""
+"""`python -m judo benchmark`: time the control update of every task x optimizer pair against raw
+rollouts."""
 
 import time
 from dataclasses import dataclass, field
@@ -35,8 +36,11 @@ from judo.evaluation.shared_options import (
 from judo.evaluation.timing import UpdateTiming, time_pair
 
 DESCRIPTION = (
-    "Time the control update of each task x optimizer pair with the task's default settings, after a warm-up, "
-    "next to the raw rollout of the same N x R x T steps (R: --controller.num-randomizations, 1 by default) on the same rollout pool (the floor) and their ratio."
+    "Time the control update of each task x optimizer pair with the task's default settings, "
+    "after a warm-up, "
+    "next to the raw rollout of the same N x R x T steps (R: "
+    "--controller.num-randomizations, 1 by default) on the same rollout pool (the floor) and "
+    "their ratio."
 )
 
 
@@ -45,48 +49,62 @@ class BenchmarkArgs:
     """Arguments of `python -m judo benchmark`."""
 
     tasks: Annotated[
-        tuple[str, ...] | None, tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)")
+        tuple[str, ...] | None,
+        tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)"),
     ] = None
     """Tasks to time, by registered name."""
     optimizers: Annotated[
-        tuple[str, ...] | None, tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)")
+        tuple[str, ...] | None,
+        tyro.conf.arg(metavar="NAME [NAME ...]", help_behavior_hint="(default: all)"),
     ] = None
     """Optimizers to time, by registered name."""
-    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
-    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides
-    (docs/configuration.md); read before anything else."""
+    config: Annotated[
+        Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")
+    ] = None
+    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task
+    overrides (docs/configuration.md); read before anything else."""
     samples: int = 100
     """Timed control updates per task x optimizer pair."""
     warmup: int = 10
     """Untimed updates (and raw rollouts) before timing starts."""
-    num_workers: Annotated[int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")] = (
-        None
-    )
+    num_workers: Annotated[
+        int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")
+    ] = None
     """Rollout worker threads (cpu backend)."""
     backend: RolloutBackendName = "cpu"
     """Rollout backend: cpu (threads) or warp (MuJoCo Warp; needs pip install -e ".[warp]")."""
     cpu_time: bool = False
-    """Time the calling thread's CPU time instead of wall time: far steadier on a busy machine. Needs
-    --num-workers 1, so that every rollout runs on the timed thread."""
-    json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    """Time the calling thread's CPU time instead of wall time: far steadier on a busy machine.
+    Needs --num-workers 1, so that every rollout runs on the timed thread."""
+    json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = (
+        None
+    )
     """Also write one row per pair to this JSON file."""
     controller: ControllerOverrides = field(default_factory=ControllerOverrides)  # pyright: ignore[reportInvalidTypeForm]
-    """Controller settings to change from each task's defaults, e.g. --controller.num-randomizations 4."""
+    """Controller settings to change from each task's defaults, e.g. --controller.num-randomizations
+    4."""
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range or a name that is not registered."""
         for flag, names in (("--tasks", self.tasks), ("--optimizers", self.optimizers)):
-            require(names != (), f"{flag} needs at least one name; leave {flag} out for all of them")
+            require(
+                names != (), f"{flag} needs at least one name; leave {flag} out for all of them"
+            )
         require(self.samples >= 1, f"--samples must be at least 1, got {self.samples}")
         require(self.warmup >= 0, f"--warmup must be at least 0, got {self.warmup}")
         require(
             self.num_workers is None or self.num_workers >= 1,
             f"--num-workers must be at least 1, got {self.num_workers}",
         )
-        workers = "no --num-workers (one per core)" if self.num_workers is None else f"--num-workers {self.num_workers}"
+        workers = (
+            "no --num-workers (one per core)"
+            if self.num_workers is None
+            else (f"--num-workers {self.num_workers}")
+        )
         require(
             not self.cpu_time or self.num_workers == 1,
-            f"--cpu-time needs --num-workers 1, so that every rollout runs on the timed thread; got {workers}",
+            "--cpu-time needs --num-workers 1, so that every rollout runs on the timed "
+            f"thread; got {workers}",
         )
         check_names(self.tasks or (), self.optimizers or ())
         check_rollout_backend(self.backend)
@@ -95,10 +113,15 @@ class BenchmarkArgs:
 
 
 def timing_table(task: str, timings: list[UpdateTiming], clock: str = "ms") -> Table:
-    """One row per optimizer: update-time statistics (ms, of wall time or of the `clock` the title names), the raw
-    rollout, the floor (raw rollout x iterations) and the overhead ratio (median update / floor)."""
+    """One row per optimizer: update-time statistics (ms, of wall time or of the `clock` the title
+    names), the raw rollout, the floor (raw rollout x iterations) and the overhead ratio (median
+    update / floor)."""
     backend = timings[0].backend
-    on = f"{timings[0].num_workers} rollout workers" if backend == "cpu" else f"the {backend} backend"
+    on = (
+        f"{timings[0].num_workers} rollout workers"
+        if backend == "cpu"
+        else (f"the {backend} backend")
+    )
     table = Table(title=f"{task}: control update time ({clock}), {on}")
     table.add_column("optimizer")
     table.add_column("N x R x T", justify="right")
@@ -127,8 +150,11 @@ def timing_table(task: str, timings: list[UpdateTiming], clock: str = "ms") -> T
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the benchmark on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad arguments."""
-    args = parse_args(BenchmarkArgs, argv, "python -m judo benchmark", DESCRIPTION + " " + name_listing())
+    """Run the benchmark on `argv` (sys.argv[1:] when None); returns 0, exits with status 2 on bad
+    arguments."""
+    args = parse_args(
+        BenchmarkArgs, argv, "python -m judo benchmark", DESCRIPTION + " " + name_listing()
+    )
     try:
         check_count("--num-workers", args.num_workers, MAX_WORKERS)
         check_count("--samples", args.samples, MAX_SAMPLES)
@@ -138,7 +164,12 @@ def main(argv: list[str] | None = None) -> int:
         args.validate()
         tasks, optimizers = chosen_tasks(args.tasks or ()), chosen_optimizers(args.optimizers or ())
         results: dict[str, list[UpdateTiming]] = {task: [] for task in tasks}
-        columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeRemainingColumn())
+        columns = (
+            TextColumn("{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeRemainingColumn(),
+        )
         with progress_display(*columns) as progress:
             bar = progress.add_task("benchmark", total=len(tasks) * len(optimizers) * args.samples)
             for task in tasks:
@@ -158,7 +189,11 @@ def main(argv: list[str] | None = None) -> int:
                     results[task].append(timing)
         console = output_console()
         for task in tasks:
-            console.print(timing_table(task, results[task], "ms of thread CPU time" if args.cpu_time else "ms"))
+            console.print(
+                timing_table(
+                    task, results[task], "ms of thread CPU time" if args.cpu_time else "ms"
+                )
+            )
         if args.json is not None:
             write_json(args.json, [timing.row() for task in tasks for timing in results[task]])
             console.print(f"wrote {args.json}")

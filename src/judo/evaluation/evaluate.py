@@ -1,4 +1,5 @@
-"""`python -m judo evaluate`: closed-loop episodes over seeds, the task's success metrics with 95% CIs."""
+"""`python -m judo evaluate`: closed-loop episodes over seeds, the task's success metrics with 95%
+CIs."""
 
 import sys
 from dataclasses import dataclass, field
@@ -21,7 +22,12 @@ from judo.cli_shared import (
     progress_display,
     seeds_label,
 )
-from judo.core.commandline.boundary import MAX_WORKERS, check_count, check_output_file, check_seed_range
+from judo.core.commandline.boundary import (
+    MAX_WORKERS,
+    check_count,
+    check_output_file,
+    check_seed_range,
+)
 from judo.core.configuration.config import require, require_between
 from judo.core.configuration.registry import make_task
 from judo.core.errors import JudoError
@@ -29,23 +35,35 @@ from judo.core.rollouts.backend import RolloutBackend
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
-from judo.evaluation.seeded import EpisodeSpec, evaluate_seed, planning_model, run_seeded_episode, run_side_by_side
+from judo.evaluation.seeded import (
+    EpisodeSpec,
+    evaluate_seed,
+    planning_model,
+    run_seeded_episode,
+    run_side_by_side,
+)
 from judo.evaluation.shared_options import given_fields, write_json
 from judo.evaluation.stats import Summary, shown_interval, summarize
 from judo.safety.limits import SafetyConfig, set_task_limits
 
 DESCRIPTION = (
-    "Run closed-loop episodes of a task with an optimizer, headless and as fast as the machine allows, one per "
-    "seed (--first-seed, --first-seed + 1, ...; 0, 1, ... by default), each from the task's randomised start, and print each success metric's mean with its 95% "
-    "confidence interval over seeds. With --latency measured or --latency-ms the plant keeps moving while a plan "
-    "is computed, and the plan takes effect that much later. With --observe sensors the planner sees only the "
-    "task's measured sensors (noisy, late, at their rates: --sensor-*) through --estimator (by default the "
+    "Run closed-loop episodes of a task with an optimizer, headless and as fast as the "
+    "machine allows, one per "
+    "seed (--first-seed, --first-seed + 1, ...; 0, 1, ... by default), each from the task's "
+    "randomised start, and print each success metric's mean with its 95% "
+    "confidence interval over seeds. With --latency measured or --latency-ms the plant keeps "
+    "moving while a plan "
+    "is computed, and the plan takes effect that much later. With --observe sensors the "
+    "planner sees only the "
+    "task's measured sensors (noisy, late, at their rates: --sensor-*) through --estimator "
+    "(by default the "
     "task's own: ukf for walker and leap_cube, else ekf)."
 )
 
 
 SafetyOverrides = optional_fields(SafetyConfig, "SafetyOverrides")
-"""`--safety.FIELD VALUE` options of evaluate: every SafetyConfig field (docs/safety.md), None when not given."""
+"""`--safety.FIELD VALUE` options of evaluate: every SafetyConfig field (docs/safety.md), None when
+not given."""
 
 
 @dataclass
@@ -55,30 +73,43 @@ class EvaluateArgs(EpisodeArgs):
     seeds: int = 5
     """Episodes to run, with seeds first_seed to first_seed + seeds - 1."""
     first_seed: int = 0
-    """Seed of the first episode: e.g. --first-seed 100 --seeds 20 runs seeds 100 to 119, to score a policy on
-    seeds its training data (collect --first-seed) never held."""
-    num_workers: Annotated[int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")] = (
+    """Seed of the first episode: e.g. --first-seed 100 --seeds 20 runs seeds 100 to 119, to score a
+    policy on seeds its training data (collect --first-seed) never held."""
+    num_workers: Annotated[
+        int | None, tyro.conf.arg(metavar="INT", help_behavior_hint="(default: one per core)")
+    ] = None
+    """Rollout worker threads (cpu backend)."""
+    workers: Annotated[
+        int | None, tyro.conf.arg(metavar="K", help_behavior_hint="(default: in this process)")
+    ] = None
+    """Run the seeds as Ray tasks, K at once, on a local Ray with K CPUs (each on one rollout thread
+    unless --num-workers is given); the metrics are those of the in-process run. Needs pip install
+    -e '.[tune]'."""
+    address: Annotated[
+        str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(optional)")
+    ] = None
+    """Run the seeds as Ray tasks on a running Ray cluster: auto (the one `ray start --head` started
+    on this machine) or ray://HOST:10001; with --workers, at most K at once."""
+    json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = (
         None
     )
-    """Rollout worker threads (cpu backend)."""
-    workers: Annotated[int | None, tyro.conf.arg(metavar="K", help_behavior_hint="(default: in this process)")] = None
-    """Run the seeds as Ray tasks, K at once, on a local Ray with K CPUs (each on one rollout thread unless
-    --num-workers is given); the metrics are those of the in-process run. Needs pip install -e '.[tune]'."""
-    address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(optional)")] = None
-    """Run the seeds as Ray tasks on a running Ray cluster: auto (the one `ray start --head` started on this
-    machine) or ray://HOST:10001; with --workers, at most K at once."""
-    json: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
     """Also write each episode's metrics and the summary to this JSON file."""
-    plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
-    """Also plot the first seed's episode against time to this .png (needs matplotlib) or .html file."""
+    plot: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = (
+        None
+    )
+    """Also plot the first seed's episode against time to this .png (needs matplotlib) or .html
+    file."""
     safety: SafetyOverrides = field(default_factory=SafetyOverrides)  # pyright: ignore[reportInvalidTypeForm]
-    """The owner's limits (docs/safety.md), over the task's and the --config file's [safety.TASK]."""
-    # EpisodeArgs has the task, optimizer, episode, latency, backend, --controller.FIELD and sensing options;
-    # parse_args_with_config_fields adds `optimizer_config` (--optimizer-config.FIELD, e.g.
-    # --optimizer-config.sigma 0.3) and `task_config` (--task-config.FIELD), typed for the pair named.
+    """The owner's limits (docs/safety.md), over the task's and the --config file's
+    [safety.TASK]."""
+    # EpisodeArgs has the task, optimizer, episode, latency, backend, --controller.FIELD and sensing
+    # options; parse_args_with_config_fields adds `optimizer_config` (--optimizer-config.FIELD, e.g.
+    # --optimizer-config.sigma 0.3) and `task_config` (--task-config.FIELD), typed for the pair
+    # named.
 
     def validate(self) -> None:
-        """Raise a JudoError for an argument out of range, a name that is not registered, or a bad plot path."""
+        """Raise a JudoError for an argument out of range, a name that is not registered, or a bad
+        plot path."""
         self.check()
         require_between("--seeds", self.seeds, 1, 10_000)
         check_seed_range(self.first_seed, self.seeds, "--seeds")
@@ -88,14 +119,16 @@ class EvaluateArgs(EpisodeArgs):
         )
         require(
             self.episodes_per_batch == 1 or (self.workers is None and self.address is None),
-            f"--episodes-per-batch {self.episodes_per_batch} runs the episodes side by side in this process; "
+            f"--episodes-per-batch {self.episodes_per_batch} runs the episodes side by side "
+            "in this process; "
             "expected no --workers or --address",
         )
         if self.plot is not None:
             check_plot_path(self.plot)
         require(
             self.policy is None or self.proposal_policy is None,
-            "--proposal-policy proposes candidates to an optimizer's plan, but --policy drives the plant itself; give one",
+            "--proposal-policy proposes candidates to an optimizer's plan, but --policy "
+            "drives the plant itself; give one",
         )
 
     def seed_range(self) -> range:
@@ -111,7 +144,10 @@ class EvaluateArgs(EpisodeArgs):
 def summarize_metrics(results: list[EpisodeResult]) -> dict[str, Summary]:
     """Each metric's summary over the episodes, in the order the task reports them."""
     names = list(dict.fromkeys(name for result in results for name in result.metrics))
-    return {name: summarize(np.array([result.metrics.get(name, np.nan) for result in results])) for name in names}
+    return {
+        name: summarize(np.array([result.metrics.get(name, np.nan) for result in results]))
+        for name in names
+    }
 
 
 def metrics_table(title: str, summaries: dict[str, Summary]) -> Table:
@@ -127,10 +163,13 @@ def metrics_table(title: str, summaries: dict[str, Summary]) -> Table:
 
 
 def update_caption(update_ms: np.ndarray, policy: bool) -> str:
-    """The table's caption: the median control update in ms, or for a policy its inference in µs (observation,
-    `act` and plan; the same span of the loop's update)."""
+    """The table's caption: the median control update in ms, or for a policy its inference in µs
+    (observation, `act` and plan; the same span of the loop's update)."""
     if policy:
-        return f"policy inference: median {1e3 * np.median(update_ms):.1f} µs per update over {len(update_ms)} updates"
+        return (
+            f"policy inference: median {1e3 * np.median(update_ms):.1f} µs per update over "
+            f"{len(update_ms)} updates"
+        )
     return f"control update: median {np.median(update_ms):.2f} ms over {len(update_ms)} updates"
 
 
@@ -141,7 +180,9 @@ def episode_record(result: EpisodeResult) -> dict[str, Any]:
         "metrics": result.metrics,
         "num_updates": len(result.update_ms),
         "update_ms_median": float(np.median(result.update_ms)) if len(result.update_ms) else None,
-        "latency_ms_median": float(1e3 * np.median(result.latency_s)) if len(result.latency_s) else None,
+        "latency_ms_median": float(1e3 * np.median(result.latency_s))
+        if len(result.latency_s)
+        else None,
         "failed_updates": result.failed_updates,
         "divergences": result.divergences,
         **(
@@ -153,40 +194,53 @@ def episode_record(result: EpisodeResult) -> dict[str, Any]:
 
 
 def apply_safety_flags(args: EvaluateArgs) -> None:
-    """Make the given `--safety.*` fields the task's [safety] defaults in this process, checked against its model;
-    a JudoError for a bad value, or for Ray episodes, whose processes read limits only from --config."""
+    """Make the given `--safety.*` fields the task's [safety] defaults in this process, checked
+    against its model; a JudoError for a bad value, or for Ray episodes, whose processes read limits
+    only from --config."""
     given = given_fields(args.safety)
     if not given:
         return
     require(
         args.workers is None and args.address is None,
-        "--safety.* sets limits in this process only; with --workers or --address give them as [safety.TASK] in --config",
+        "--safety.* sets limits in this process only; with --workers or --address give them "
+        "as [safety.TASK] in --config",
     )
     set_task_limits(args.task, given)
 
 
 def evaluate(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
-    """Run one episode per seed of `args.seed_range()` in this process, one after the other; advance `progress` (if
-    given) by sim seconds."""
-    bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
+    """Run one episode per seed of `args.seed_range()` in this process, one after the other; advance
+    `progress` (if given) by sim seconds."""
+    bar = (
+        None
+        if progress is None
+        else progress.add_task("evaluate", total=args.seeds * args.duration)
+    )
     spec = args.episode_spec()
     results = []
     for done, seed in enumerate(args.seed_range()):
 
         def show(now: float, seed: int = seed, done: int = done) -> None:
             if progress is not None and bar is not None:
-                progress.update(bar, completed=done * args.duration + now, description=f"seed {seed}")
+                progress.update(
+                    bar, completed=done * args.duration + now, description=f"seed {seed}"
+                )
 
         results.append(run_seeded_episode(spec, seed, on_update=show))
     return results
 
 
 def evaluate_batched(args: EvaluateArgs, progress: Progress | None = None) -> list[EpisodeResult]:
-    """Run the seeds of `args.seed_range()` in groups of `args.episodes_per_batch`, each group side by side with its
-    rollouts batched on one WarpRollout (`run_side_by_side`); advance `progress` (if given) by sim seconds."""
+    """Run the seeds of `args.seed_range()` in groups of `args.episodes_per_batch`, each group side
+    by side with its rollouts batched on one WarpRollout (`run_side_by_side`); advance `progress`
+    (if given) by sim seconds."""
     from judo.core.rollouts.warp_rollout import WarpRollout
 
-    bar = None if progress is None else progress.add_task("evaluate", total=args.seeds * args.duration)
+    bar = (
+        None
+        if progress is None
+        else progress.add_task("evaluate", total=args.seeds * args.duration)
+    )
     spec, seeds = args.episode_spec(), list(args.seed_range())
     size = args.episodes_per_batch
     results: list[EpisodeResult] = []
@@ -195,12 +249,16 @@ def evaluate_batched(args: EvaluateArgs, progress: Progress | None = None) -> li
             group = seeds[start : start + size]
             times = dict.fromkeys(group, 0.0)
 
-            def run(seed: int, slot: RolloutBackend, start: int = start, times: dict = times) -> EpisodeResult:
+            def run(
+                seed: int, slot: RolloutBackend, start: int = start, times: dict = times
+            ) -> EpisodeResult:
                 def show(now: float) -> None:
                     times[seed] = now
                     if progress is not None and bar is not None:
                         done = start * args.duration + sum(times.values())
-                        progress.update(bar, completed=done, description=f"seeds {min(times)}-{max(times)}")
+                        progress.update(
+                            bar, completed=done, description=f"seeds {min(times)}-{max(times)}"
+                        )
 
                 return run_seeded_episode(spec, seed, on_update=show, backend=slot)
 
@@ -211,10 +269,11 @@ def evaluate_batched(args: EvaluateArgs, progress: Progress | None = None) -> li
 def evaluate_on_ray(
     spec: EpisodeSpec, seeds: range, workers: int | None, address: str | None
 ) -> tuple[list[EpisodeResult], list[tuple[int, str]]]:
-    """Run the seeds `seeds` of `spec` as Ray tasks (`evaluate_seed`, each sending its EpisodeResult back, log
-    included) on a local Ray with `workers` CPUs (address None) or the cluster at `address`, at most `workers`
-    at once (twice the Ray's CPUs without it); returns (the episodes that ran, by seed; (seed, reason) of those
-    that failed). Ctrl-C cancels the running tasks and raises KeyboardInterrupt."""
+    """Run the seeds `seeds` of `spec` as Ray tasks (`evaluate_seed`, each sending its EpisodeResult
+    back, log included) on a local Ray with `workers` CPUs (address None) or the cluster at
+    `address`, at most `workers` at once (twice the Ray's CPUs without it); returns (the episodes
+    that ran, by seed; (seed, reason) of those that failed). Ctrl-C cancels the running tasks and
+    raises KeyboardInterrupt."""
     import os
 
     import judo.ray_cluster as cluster
@@ -244,16 +303,24 @@ def evaluate_on_ray(
     )
     outcomes.sort(key=lambda outcome: outcome.seed)
     results = [outcome.episode for outcome in outcomes if outcome.episode is not None]
-    failures = [(outcome.seed, outcome.failure or "unknown failure") for outcome in outcomes if outcome.episode is None]
+    failures = [
+        (outcome.seed, outcome.failure or "unknown failure")
+        for outcome in outcomes
+        if outcome.episode is None
+    ]
     return results, failures
 
 
 def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, str]]]:
-    """(the episodes, by seed; (seed, reason) of those that failed): in this process, or as Ray tasks with
-    --workers or --address (where a failed seed does not stop the others)."""
+    """(the episodes, by seed; (seed, reason) of those that failed): in this process, or as Ray
+    tasks with --workers or --address (where a failed seed does not stop the others)."""
     if args.workers is not None or args.address is not None:
         return evaluate_on_ray(args.episode_spec(), args.seed_range(), args.workers, args.address)
-    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.percentage:>3.0f}%"))
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.percentage:>3.0f}%"),
+    )
     with progress_display(*columns, TimeRemainingColumn()) as progress:
         if args.episodes_per_batch > 1:
             return evaluate_batched(args, progress), []
@@ -261,8 +328,9 @@ def run_seeds(args: EvaluateArgs) -> tuple[list[EpisodeResult], list[tuple[int, 
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, or 1 when a seed failed on Ray (or, with
-    --strict, when an update failed or the simulation diverged); exits with status 2 on bad arguments."""
+    """Run the evaluation on `argv` (sys.argv[1:] when None); returns 0, or 1 when a seed failed on
+    Ray (or, with --strict, when an update failed or the simulation diverged); exits with status 2
+    on bad arguments."""
     args = parse_args_with_config_fields(
         EvaluateArgs, argv, "python -m judo evaluate", DESCRIPTION + " " + name_listing()
     )
@@ -275,7 +343,8 @@ def main(argv: list[str] | None = None) -> int:
         apply_config_file(args.config)
         args.validate()
         apply_safety_flags(args)
-        results, failures = run_seeds(args)  # the episodes' configs: the registered ones and the flags (spec.values)
+        # the episodes' configs: the registered ones and the flags (spec.values)
+        results, failures = run_seeds(args)
         for seed, reason in failures:
             print(f"seed {seed} failed: {reason}", file=sys.stderr)
         if not results:
@@ -283,13 +352,16 @@ def main(argv: list[str] | None = None) -> int:
         summaries = summarize_metrics(results)
         update_ms = np.concatenate([result.update_ms for result in results])
         title = (
-            f"{args.task} x {args.controller_label()}: {seeds_label(args.first_seed, args.seeds)} x {args.duration:g} s"
+            f"{args.task} x {args.controller_label()}: "
+            f"{seeds_label(args.first_seed, args.seeds)} x {args.duration:g} s"
             f", latency {args.latency_label()}"
             f"{args.sensing_label()}"
         )
         changed = args.changed_fields()
         if changed:
-            title += ", " + ", ".join(f"{name.removeprefix('controller.')}={value}" for name, value in changed.items())
+            title += ", " + ", ".join(
+                f"{name.removeprefix('controller.')}={value}" for name, value in changed.items()
+            )
         console = output_console()
         table = metrics_table(title, summaries)
         table.caption = update_caption(update_ms, args.policy is not None)
@@ -302,14 +374,24 @@ def main(argv: list[str] | None = None) -> int:
                     f"{result.failed_updates} updates with "
                     + ("non-finite actions" if args.policy is not None else "no finite reward")
                 )
-            if "limit_hits" in result.metrics:  # [safety] limits in force: what the serve filter and the screen did
-                hits = ", ".join(f"{name} {count}" for name, count in sorted(result.limit_hits.items())) or "none"
+            # [safety] limits in force: what the serve filter and the screen did
+            if "limit_hits" in result.metrics:
+                hits = (
+                    ", ".join(
+                        f"{name} {count}" for name, count in sorted(result.limit_hits.items())
+                    )
+                    or "none"
+                )
                 console.print(
-                    f"seed {result.seed}: limit hits: {hits}; {result.no_feasible} planning iterations had no "
+                    f"seed {result.seed}: limit hits: {hits}; {result.no_feasible} planning "
+                    "iterations had no "
                     "feasible sample (the least-violating plan was served)"
                 )
             loud = unserved_line(
-                result.failed_updates, len(result.update_ms), args.policy is not None, f"seed {result.seed}"
+                result.failed_updates,
+                len(result.update_ms),
+                args.policy is not None,
+                f"seed {result.seed}",
             )
             if loud is not None:
                 print(loud, file=sys.stderr)
@@ -327,7 +409,9 @@ def main(argv: list[str] | None = None) -> int:
                     "sensing": args.sensing_record(),
                     "backend": args.backend,
                     "controller": given_fields(args.controller),
-                    "proposal_policy": None if args.proposal_policy is None else str(args.proposal_policy),
+                    "proposal_policy": None
+                    if args.proposal_policy is None
+                    else str(args.proposal_policy),
                     "overrides": changed,
                     "episodes": [episode_record(result) for result in results],
                     "summary": {name: vars(summary) for name, summary in summaries.items()},
@@ -342,7 +426,8 @@ def main(argv: list[str] | None = None) -> int:
         fail(str(err))
     if args.strict and troubled:
         print(
-            f"--strict: {troubled} of {len(results)} episodes had failed control updates or simulation divergences",
+            f"--strict: {troubled} of {len(results)} episodes had failed control updates or "
+            "simulation divergences",
             file=sys.stderr,
         )
         return 1

@@ -1,10 +1,12 @@
-"""The one seeded episode runner of evaluate, tune and collect: seed `seed`'s controller and plant, run.
+"""The one seeded episode runner of evaluate, tune and collect: seed `seed`'s controller and plant,
+run.
 
-`run_seeded_episode(spec, seed)` builds the controller (`make_controller(..., seed=seed)`) with the configs
-in force and the plant (`MujocoSystem.from_task(controller.task, seed)`), and runs `run_episode` on them.
-Everything that determines the episode is in an `EpisodeSpec` of plain values, so the same call runs in
-this process (evaluate without --workers) or as a Ray task on another machine (evaluate --workers, the
-episodes of a tune trial, collect), and gives the same episode bit for bit wherever it runs.
+`run_seeded_episode(spec, seed)` builds the controller (`make_controller(..., seed=seed)`) with the
+configs in force and the plant (`MujocoSystem.from_task(controller.task, seed)`), and runs
+`run_episode` on them. Everything that determines the episode is in an `EpisodeSpec` of plain
+values, so the same call runs in this process (evaluate without --workers) or as a Ray task on
+another machine (evaluate --workers, the episodes of a tune trial, collect), and gives the same
+episode bit for bit wherever it runs.
 """
 
 import traceback
@@ -44,12 +46,12 @@ _LOADED_CONFIG_FILES: set[str] = set()
 """--config files already read in this process (a Ray worker runs many episodes)."""
 
 RecorderFactory = Callable[[AppPlanner, MujocoSystem], Iterable[Recorder]]
-"""Makes an episode's extra recorders once its planner (a Controller, or a PolicyController where a policy drives)
-and plant exist (they size their buffers from them)."""
+"""Makes an episode's extra recorders once its planner (a Controller, or a PolicyController where a
+policy drives) and plant exist (they size their buffers from them)."""
 
 PolicyRecorderFactory = Callable[["PolicyController", MujocoSystem], Iterable[Recorder]]
-"""A RecorderFactory of an episode where a policy drives, for recorders that read the PolicyController itself (its
-expert, its inference times); every RecorderFactory is one."""
+"""A RecorderFactory of an episode where a policy drives, for recorders that read the
+PolicyController itself (its expert, its inference times); every RecorderFactory is one."""
 
 
 @dataclass(frozen=True)
@@ -60,16 +62,19 @@ class EpisodeSpec:
         task, optimizer: registered names.
         duration: seconds of sim time.
         latency: seconds of sim time between a plan's reading and its taking effect, or "measured".
-        values: config fields changed from the pair's defaults, {"controller.horizon": 1.0, "optimizer.sigma": ...}.
+        values: config fields changed from the pair's
+            defaults, {"controller.horizon": 1.0, "optimizer.sigma": ...}.
         config_file: the user's --config file (read once per process), or None.
         backend: rollout backend, "cpu" or "warp".
-        num_workers: rollout threads (None: one per core; 1 where episodes run in parallel, so they do not
-            fight for cores).
-        sensing: how the plant is observed (--observe, --sensor-*) and the estimator between its readings and
-            the plan (--estimator); the full state as it is by default.
-        policy: an .onnx file (absolute path) that drives the plant instead of the optimizer; with an optimizer
-            too, the MPC plans from every state the policy is served from, for labels (collect --policy).
-        proposal_policy: an .onnx file whose policy makes the controller's `policy_samples` candidates
+        num_workers: rollout threads (None: one per core; 1 where episodes run in parallel, so they
+            do not fight for cores).
+        sensing: how the plant is observed (--observe, --sensor-*) and the estimator between its
+            readings and the plan (--estimator); the full state as it is by default.
+        policy: an .onnx file (absolute path) that drives the plant instead of the optimizer; with
+            an optimizer too, the MPC plans from every state the policy is served from, for
+            labels (collect --policy).
+        proposal_policy: an .onnx file whose policy makes the controller's `policy_samples`
+            candidates
             (judo.core.policies.proposals), or None.
     """
 
@@ -89,18 +94,23 @@ class EpisodeSpec:
 
     @property
     def runs_mpc(self) -> bool:
-        """Whether an optimizer plans: alone (it drives the plant), or as the expert that labels a policy's states."""
+        """Whether an optimizer plans: alone (it drives the plant), or as the expert that labels a
+        policy's states."""
         return isinstance(self.optimizer, str)
 
     def optimizer_name(self) -> str:
-        """The optimizer that plans; JudoError where the spec names none (a policy alone, or nothing)."""
+        """The optimizer that plans; JudoError where the spec names none (a policy alone, or
+        nothing)."""
         if isinstance(self.optimizer, str):
             return self.optimizer
-        raise JudoError(f"an episode of {self.task!r} needs an optimizer or a policy; the spec names neither")
+        raise JudoError(
+            f"an episode of {self.task!r} needs an optimizer or a policy; the spec names neither"
+        )
 
 
 def load_config_once(path: str | None) -> None:
-    """Read the user's --config file in this process, once (registering its classes and overrides)."""
+    """Read the user's --config file in this process, once (registering its classes and
+    overrides)."""
     if path is None or path in _LOADED_CONFIG_FILES:
         return
     from judo.core.configuration.config_file import load_config
@@ -110,8 +120,9 @@ def load_config_once(path: str | None) -> None:
 
 
 def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
-    """{"controller", "optimizer", "task"}: the pair's registered configs with `spec.values` applied; reads
-    `spec.config_file` first. ConfigError (or SearchSpaceError for an unknown field) if they do not fit."""
+    """{"controller", "optimizer", "task"}: the pair's registered configs with `spec.values`
+    applied; reads `spec.config_file` first. ConfigError (or SearchSpaceError for an unknown field)
+    if they do not fit."""
     from judo.core.configuration.config_values import apply_values
     from judo.core.configuration.registry import default_configs
 
@@ -129,8 +140,8 @@ def configs_in_force(spec: EpisodeSpec) -> dict[ConfigKind, Config]:
 
 
 def policy_config_in_force(spec: EpisodeSpec, policy: "Policy") -> "ControllerConfig":
-    """The policy's ControllerConfig: the task's (and optimizer's) defaults, then the fields the policy's metadata
-    sets, then the --controller.* fields given in `spec.values`, which win."""
+    """The policy's ControllerConfig: the task's (and optimizer's) defaults, then the fields the
+    policy's metadata sets, then the --controller.* fields given in `spec.values`, which win."""
     from judo.core.configuration.config_values import apply_values
     from judo.core.configuration.controller_config import ControllerConfig
     from judo.core.configuration.registry import make_config
@@ -151,31 +162,44 @@ def run_seeded_episode(
 ) -> EpisodeResult:
     """Run seed `seed`'s episode of `spec`; raises what the task, optimizer or configs raise.
 
-    With `spec.sensing.observe` "sensors" the plant serves only the task's measured sensors (noise seeded by
-    [seed, SENSING_STREAM]) through the estimator; the log, the metrics and the recorders' `state` hold the
-    plant's true state either way.
+    With `spec.sensing.observe` "sensors" the plant serves only the task's measured sensors (noise
+    seeded by [seed, SENSING_STREAM]) through the estimator; the log, the metrics and the recorders'
+    `state` hold the plant's true state either way.
 
     Args:
         spec: the task, optimizer, configs, duration, latency, backend and rollout threads.
         seed: seeds the controller's generators and the plant's (`MujocoSystem.from_task`).
-        recorders: called with the controller and the plant before the episode; its recorders get every
-            plan and step (e.g. collect's dataset recorder).
+        recorders: called with the controller and the plant before the episode; its recorders get
+            every plan and step (e.g. collect's dataset recorder).
         on_update: called after each control update with the plant time (a progress bar).
-        backend: the controller's rollout backend, owned by the episode from now on (a ProblemBatch's slot);
-            built from `spec.backend` when None.
+        backend: the controller's rollout backend, owned by the episode from now on (a
+            ProblemBatch's slot); built from `spec.backend` when None.
     """
     configs = configs_in_force(spec)
     if spec.policy is not None:
         return run_policy_episode(spec, seed, configs, recorders, on_update)
     spec.optimizer_name()  # JudoError where the spec names neither an optimizer nor a policy
-    proposals = load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
+    proposals = load_proposal_policy(
+        spec.proposal_policy, controller_config_of(configs).policy_samples
+    )
     with spec_controller(spec, configs, seed, backend, proposal_policy=proposals) as controller:
         controller.task.config = configs["task"]
         system = observed_plant(with_spec_plant(controller.task, spec), seed, spec.sensing)
         _, estimator = choose_estimator(controller.task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
-        safety = make_config(SafetyConfig, spec.task)  # [safety.TASK] of the task's and the --config file
-        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator, safety)
+        # [safety.TASK] of the task's and the --config file
+        safety = make_config(SafetyConfig, spec.task)
+        return run_episode(
+            controller,
+            system,
+            spec.duration,
+            spec.latency,
+            seed,
+            on_update,
+            extra,
+            estimator,
+            safety,
+        )
 
 
 def spec_controller(
@@ -185,9 +209,9 @@ def spec_controller(
     backend: RolloutBackend | None = None,
     **extra: Any,
 ) -> Controller:
-    """The Controller of `spec`'s task and optimizer with `configs` (of `configs_in_force`) in force, seeded by
-    `seed`, rolling out on `backend` (built from `spec.backend` when None); its callers call it only for a spec
-    that names an optimizer."""
+    """The Controller of `spec`'s task and optimizer with `configs` (of `configs_in_force`) in
+    force, seeded by `seed`, rolling out on `backend` (built from `spec.backend` when None); its
+    callers call it only for a spec that names an optimizer."""
     from judo.core.configuration.registry import make_controller
 
     return make_controller(
@@ -203,16 +227,18 @@ def spec_controller(
 
 
 def load_proposal_policy(path: str | None, policy_samples: int) -> Policy | None:
-    """The OnnxPolicy in the file at `path` (None for None); ConfigError when there is a file but `policy_samples`
-    in force is 0, so that it would never be used."""
+    """The OnnxPolicy in the file at `path` (None for None); ConfigError when there is a file but
+    `policy_samples` in force is 0, so that it would never be used."""
     if path is None:
         return None
     require(
         policy_samples > 0,
-        f"--proposal-policy {path} is given but policy_samples is 0, so it would never be used; set "
+        f"--proposal-policy {path} is given but policy_samples is 0, so it would never be "
+        "used; set "
         "--controller.policy-samples K (1 to num_rollouts - 1)",
     )
-    from judo.core.policies.onnx_policy import OnnxPolicy  # onnxruntime only when a policy is asked for
+    # onnxruntime only when a policy is asked for
+    from judo.core.policies.onnx_policy import OnnxPolicy
 
     return OnnxPolicy(path)
 
@@ -224,34 +250,53 @@ def run_policy_episode(
     recorders: PolicyRecorderFactory | None = None,
     on_update: Callable[[float], None] | None = None,
 ) -> EpisodeResult:
-    """`run_seeded_episode` of a spec with a policy: a PolicyController drives the plant (with the optimizer, if the
-    spec names one, as its expert labelling every state the policy is served from, sampling `policy_samples` of its
-    candidates from `spec.proposal_policy` where one is given)."""
+    """`run_seeded_episode` of a spec with a policy: a PolicyController drives the plant (with the
+    optimizer, if the spec names one, as its expert labelling every state the policy is served from,
+    sampling `policy_samples` of its candidates from `spec.proposal_policy` where one is given)."""
     from judo.core.policies.policy_controller import as_policy, make_policy_controller
 
     assert spec.policy is not None, "run_policy_episode runs a spec with a policy"
     policy = as_policy(spec.policy)
     expert = None
     if spec.runs_mpc:  # the MPC that labels; with a proposal policy, gpc's augmented controller
-        proposals = load_proposal_policy(spec.proposal_policy, controller_config_of(configs).policy_samples)
+        proposals = load_proposal_policy(
+            spec.proposal_policy, controller_config_of(configs).policy_samples
+        )
         expert = spec_controller(spec, configs, seed, proposal_policy=proposals)
     config = policy_config_in_force(spec, policy)
-    controller = make_policy_controller(spec.task, policy, controller_config=config, expert=expert, seed=seed)
+    controller = make_policy_controller(
+        spec.task, policy, controller_config=config, expert=expert, seed=seed
+    )
     task = controller.task
     with controller:
         task.config = configs["task"]
         system = observed_plant(with_spec_plant(task, spec), seed, spec.sensing)
         _, estimator = choose_estimator(task, spec.task, system, spec.sensing)
         extra = list(recorders(controller, plant_of(system))) if recorders is not None else []
-        safety = make_config(SafetyConfig, spec.task)  # [safety.TASK] of the task's and the --config file
-        return run_episode(controller, system, spec.duration, spec.latency, seed, on_update, extra, estimator, safety)
+        # [safety.TASK] of the task's and the --config file
+        safety = make_config(SafetyConfig, spec.task)
+        return run_episode(
+            controller,
+            system,
+            spec.duration,
+            spec.latency,
+            seed,
+            on_update,
+            extra,
+            estimator,
+            safety,
+        )
 
 
 def with_spec_plant(task: Task, spec: EpisodeSpec) -> Task:
-    """`task` with `spec.plant_overrides` (--plant-overrides) added to the plant overrides that every plant built
-    from it gets (`MujocoSystem.from_task`); its own models are left as they are."""
+    """`task` with `spec.plant_overrides` (--plant-overrides) added to the plant overrides that
+    every plant built from it gets (`MujocoSystem.from_task`); its own models are left as they
+    are."""
     if spec.plant_overrides:
-        from judo.core.configuration.model_overrides import check_model_overrides, parse_override_entries
+        from judo.core.configuration.model_overrides import (
+            check_model_overrides,
+            parse_override_entries,
+        )
 
         merged = {field: dict(values) for field, values in task.plant_overrides.items()}
         for field, values in check_model_overrides(
@@ -277,20 +322,22 @@ def failure_reason(err: BaseException) -> str:
 
 
 def planning_model(spec: EpisodeSpec) -> mujoco.MjModel:
-    """The planning model of `spec`'s task as its episodes' controllers build it: after the --config file (custom
-    tasks, [model_overrides]), for a backend that several episodes share."""
+    """The planning model of `spec`'s task as its episodes' controllers build it: after the --config
+    file (custom tasks, [model_overrides]), for a backend that several episodes share."""
     from judo.core.configuration.registry import make_task
 
     load_config_once(spec.config_file)
     return make_task(spec.task).model
 
 
-def run_side_by_side(backend: "ProblemBackend", seeds: list[int], run: Callable[[int, RolloutBackend], T]) -> list[T]:
-    """`run(seed, slot)` for every seed at once, on threads, each seed's controller rolling out on `slot`, its share
-    of a ProblemBatch of `backend`: every planning cycle of the group is one launch of P x N rollouts
-    (evaluate and collect --episodes-per-batch). A slot is closed when its run returns or raises, so the others
-    never wait for an episode that ended. Returns the runs' results in the order of `seeds`; raises the first
-    run's error after all of them ended."""
+def run_side_by_side(
+    backend: "ProblemBackend", seeds: list[int], run: Callable[[int, RolloutBackend], T]
+) -> list[T]:
+    """`run(seed, slot)` for every seed at once, on threads, each seed's controller rolling out on
+    `slot`, its share of a ProblemBatch of `backend`: every planning cycle of the group is one
+    launch of P x N rollouts (evaluate and collect --episodes-per-batch). A slot is closed when its
+    run returns or raises, so the others never wait for an episode that ended. Returns the runs'
+    results in the order of `seeds`; raises the first run's error after all of them ended."""
     from judo.core.rollouts.problem_batch import ProblemBatch
 
     batch = ProblemBatch(backend, len(seeds))
@@ -307,9 +354,9 @@ def run_side_by_side(backend: "ProblemBackend", seeds: list[int], run: Callable[
 
 
 def evaluate_seed(spec: EpisodeSpec, seed: int) -> EpisodeOutcome[EpisodeResult]:
-    """`run_seeded_episode(spec, seed)` as a Ray task of evaluate: the EpisodeResult as the outcome's episode
-    (evaluate reports failed updates and divergences, and fails none for them); never raises, a failure comes
-    back with its reason."""
+    """`run_seeded_episode(spec, seed)` as a Ray task of evaluate: the EpisodeResult as the
+    outcome's episode (evaluate reports failed updates and divergences, and fails none for them);
+    never raises, a failure comes back with its reason."""
     try:
         result = run_seeded_episode(spec, seed)
     except Exception as err:  # a user's task may raise anything; the other seeds go on

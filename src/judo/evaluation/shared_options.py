@@ -1,6 +1,7 @@
-"""What `benchmark` and `evaluate` (and through EpisodeArgs, collect) share on the command line beyond
-judo.cli_shared: the `--controller.FIELD` overrides and the configs they make, the episode checks, the
-chosen tasks and optimizers, and JSON output (the sensing flags: `judo.evaluation.sensing.SensingFlags`)."""
+"""What `benchmark` and `evaluate` (and through EpisodeArgs, collect) share on the command line
+beyond judo.cli_shared: the `--controller.FIELD` overrides and the configs they make, the episode
+checks, the chosen tasks and optimizers, and JSON output (the sensing flags:
+`judo.evaluation.sensing.SensingFlags`)."""
 
 import json
 import math
@@ -38,8 +39,8 @@ def chosen_optimizers(names: tuple[str, ...]) -> list[str]:
 
 
 def write_json(path: Path, content: Any) -> None:
-    """Write `content` to `path` as indented, standard JSON (NaN and infinities become null), creating
-    the parent folder; JudoError if that fails."""
+    """Write `content` to `path` as indented, standard JSON (NaN and infinities become null),
+    creating the parent folder; JudoError if that fails."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(json.dumps(non_finite_to_none(content), indent=2, allow_nan=False) + "\n")
@@ -59,41 +60,50 @@ def non_finite_to_none(content: Any) -> Any:
 
 
 ControllerOverrides = optional_fields(ControllerConfig, "ControllerOverrides")
-"""`--controller.FIELD VALUE` options of `benchmark` and `evaluate`: every ControllerConfig field, None when not given."""
+"""`--controller.FIELD VALUE` options of `benchmark` and `evaluate`: every ControllerConfig field,
+None when not given."""
 
 
 def given_fields(overrides: Any) -> dict[str, Any]:
-    """The fields of a `ControllerOverrides` (or any `optional_fields` class) that were given (not None), by
-    name; {} for None."""
-    return {} if overrides is None else {name: value for name, value in vars(overrides).items() if value is not None}
+    """The fields of a `ControllerOverrides` (or any `optional_fields` class) that were given (not
+    None), by name; {} for None."""
+    return (
+        {}
+        if overrides is None
+        else {name: value for name, value in vars(overrides).items() if value is not None}
+    )
 
 
 def optimizer_config(task: str, optimizer: str, overrides: Any) -> OptimizerConfig:
-    """The optimizer's config for the task (its registered defaults) with the given `--optimizer-config.*` fields."""
+    """The optimizer's config for the task (its registered defaults) with the given
+    `--optimizer-config.*` fields."""
     return with_updates(make_config(lookup_optimizer(optimizer)[1], task), given_fields(overrides))
 
 
 def task_config(task: str, overrides: Any) -> Config:
-    """The task's TaskConfig (its registered defaults) with the given `--task-config.*` fields applied."""
+    """The task's TaskConfig (its registered defaults) with the given `--task-config.*` fields
+    applied."""
     return with_updates(make_config(lookup_task(task)[1], task), given_fields(overrides))
 
 
 def controller_config(task: str, overrides: Any, optimizer: str | None = None) -> ControllerConfig:
-    """The task's ControllerConfig (its registered defaults, and `optimizer`'s own when given) with the given
-    `--controller.*` fields applied; ConfigError for a value the config refuses."""
+    """The task's ControllerConfig (its registered defaults, and `optimizer`'s own when given) with
+    the given `--controller.*` fields applied; ConfigError for a value the config refuses."""
     defaults = make_config(ControllerConfig, task, optimizer)
     return with_updates(defaults, given_fields(overrides))
 
 
 def latency_label(latency: str, latency_ms: float | None) -> str:
-    """How the --latency and --latency-ms flags' latency reads in titles and JSON: "none", "measured" or "25 ms"."""
+    """How the --latency and --latency-ms flags' latency reads in titles and JSON: "none",
+    "measured" or "25 ms"."""
     return f"{latency_ms:g} ms" if latency_ms is not None else latency
 
 
 def check_episode_args(args: Any) -> None:
     """The checks every command that runs episodes shares (evaluate, collect): registered names, the
-    duration, the latency flags, the backend, and the --controller, --optimizer-config and --task-config
-    fields against the pair's configs. Raises a JudoError saying which argument is wrong."""
+    duration, the latency flags, the backend, and the --controller, --optimizer-config and
+    --task-config fields against the pair's configs. Raises a JudoError saying which argument is
+    wrong."""
     require(
         args.runs_mpc or getattr(args, "policy", None) is not None,
         "give --optimizer NAME (or --policy FILE.onnx to run a policy)",

@@ -1,4 +1,5 @@
-"""Summary statistics over seeds: the mean with a 95% confidence interval from Student's t distribution."""
+"""Summary statistics over seeds: the mean with a 95% confidence interval from Student's t
+distribution."""
 
 import math
 from dataclasses import dataclass
@@ -7,9 +8,11 @@ import numpy as np
 
 
 def t_quantile(probability: float, df: int) -> float:
-    """The `probability` quantile (0.5 < probability < 1) of Student's t distribution with `df` degrees of freedom.
+    """The `probability` quantile (0.5 < probability < 1) of Student's t distribution with `df`
+    degrees of freedom.
 
-    Integrates the density with Simpson's rule and bisects on the upper limit; accurate to about 1e-6.
+    Integrates the density with Simpson's rule and bisects on the upper limit; accurate to about
+    1e-6.
     """
     assert 0.5 < probability < 1 and df >= 1
     log_scale = math.lgamma((df + 1) / 2) - math.lgamma(df / 2) - 0.5 * math.log(df * math.pi)
@@ -18,7 +21,11 @@ def t_quantile(probability: float, df: int) -> float:
         grid = np.linspace(0.0, x, 4001)
         density = np.exp(log_scale - (df + 1) / 2 * np.log1p(grid**2 / df))
         step = x / (len(grid) - 1)
-        integral = step / 3 * (density[0] + density[-1] + 4 * density[1:-1:2].sum() + 2 * density[2:-1:2].sum())
+        integral = (
+            step
+            / 3
+            * (density[0] + density[-1] + 4 * density[1:-1:2].sum() + 2 * density[2:-1:2].sum())
+        )
         return 0.5 + integral
 
     low, high = 0.0, 1.0
@@ -36,8 +43,8 @@ class Summary:
 
     Attributes:
         mean: the mean over episodes.
-        ci95: half-width of the 95% confidence interval of the mean (t distribution, n - 1 degrees of
-            freedom); NaN for a single episode.
+        ci95: half-width of the 95% confidence interval of the mean (t distribution, n - 1 degrees
+            of freedom); NaN for a single episode.
         min, max: the extremes over episodes.
         n: number of episodes.
     """
@@ -60,9 +67,9 @@ def summarize(values: np.ndarray) -> Summary:
 
 
 def shown_interval(summary: Summary) -> str:
-    """ "mean ± ci95" for a table, with "n too small" in place of an interval that says nothing: one from a single
-    episode, or one wider than [0, 1] for a metric whose every value lies in [0, 1] (a fraction, a success, a
-    share), which a sample that small cannot bound."""
+    """ "mean ± ci95" for a table, with "n too small" in place of an interval that says nothing: one
+    from a single episode, or one wider than [0, 1] for a metric whose every value lies in [0, 1] (a
+    fraction, a success, a share), which a sample that small cannot bound."""
     mean = f"{summary.mean:.3g}"
     if math.isnan(summary.ci95):
         return f"{mean} (n = {summary.n}: no interval)"

@@ -1,11 +1,12 @@
-"""Timing the control update against its floor: the raw rollout of the same N x R x T steps on the same pool.
+"""Timing the control update against its floor: the raw rollout of the same N x R x T steps on the
+same pool.
 
-The control update samples knots, interpolates them, rolls them out (each sequence under each of the R
-randomized models; R = 1 without randomization), scores and updates; the raw rollout is only
-`controller.backend.rollout(initial_state, controls, mocap)` with controls of the same (R * num_rollouts, T, nu)
-shape, on the same models. An update rolls out one such batch per optimizer iteration, so the floor of the
-same work is max_opt_iters raw rollouts, and the update's ratio to that floor is the controller's overhead on
-top of physics.
+The control update samples knots, interpolates them, rolls them out (each sequence under each of the
+R randomized models; R = 1 without randomization), scores and updates; the raw rollout is only
+`controller.backend.rollout(initial_state, controls, mocap)` with controls of the same (R *
+num_rollouts, T, nu) shape, on the same models. An update rolls out one such batch per optimizer
+iteration, so the floor of the same work is max_opt_iters raw rollouts, and the update's ratio to
+that floor is the controller's overhead on top of physics.
 """
 
 import time
@@ -37,8 +38,8 @@ class UpdateTiming:
         num_workers: rollout threads of the pool.
         max_opt_iters: optimizer iterations (each one batch of rollouts) per update.
         update_ms: (samples,) wall time of each timed control update.
-        raw_rollout_ms: (samples,) wall time of each raw rollout of N x R x T steps on the same pool,
-            timed alternately with the updates so both see the same machine load.
+        raw_rollout_ms: (samples,) wall time of each raw rollout of N x R x T steps on the same
+            pool, timed alternately with the updates so both see the same machine load.
         backend: the rollout backend's name ("cpu" or "warp").
     """
 
@@ -54,16 +55,18 @@ class UpdateTiming:
     num_randomizations: int = 1
 
     def floor_ms(self) -> float:
-        """The physics an update cannot avoid: the median raw rollout times max_opt_iters (one batch per iteration)."""
+        """The physics an update cannot avoid: the median raw rollout times max_opt_iters (one batch
+        per iteration)."""
         return self.max_opt_iters * float(np.median(self.raw_rollout_ms))
 
     def overhead_ratio(self) -> float:
-        """Median update time over `floor_ms`, the raw rollouts of the same work (1.0: no overhead). An optimizer
-        that ends its cycle early (stop_cond) can score below 1."""
+        """Median update time over `floor_ms`, the raw rollouts of the same work (1.0: no overhead).
+        An optimizer that ends its cycle early (stop_cond) can score below 1."""
         return float(np.median(self.update_ms)) / self.floor_ms()
 
     def fixed_cost_us(self) -> float:
-        """The update's cost beyond its physics, in microseconds: the median update minus `floor_ms`."""
+        """The update's cost beyond its physics, in microseconds: the median update minus
+        `floor_ms`."""
         return 1e3 * (float(np.median(self.update_ms)) - self.floor_ms())
 
     def row(self) -> dict[str, Any]:
@@ -108,10 +111,14 @@ def benchmark_controller(
     updates = dict(controller_updates or {})
     if horizon is not None:
         updates["horizon"] = horizon
-    controller_config = with_updates(make_config(ControllerConfig, task_name, optimizer_name), updates)
+    controller_config = with_updates(
+        make_config(ControllerConfig, task_name, optimizer_name), updates
+    )
     optimizer_config = make_config(lookup_optimizer(optimizer_name)[1], task_name)
     sizes = {"num_rollouts": num_rollouts, "num_nodes": num_nodes}
-    optimizer_config = with_updates(optimizer_config, {k: v for k, v in sizes.items() if v is not None})
+    optimizer_config = with_updates(
+        optimizer_config, {k: v for k, v in sizes.items() if v is not None}
+    )
     return make_controller(
         task_name,
         optimizer_name,
@@ -126,8 +133,9 @@ def benchmark_controller(
 def rollout_start(
     model: mujoco.MjModel, state: np.ndarray, time: float, metadata: dict
 ) -> tuple[np.ndarray, np.ndarray]:
-    """What `RolloutPool.rollout` starts from for [qpos, qvel] `state` and mocap poses in `metadata`:
-    the (nstate,) full-physics state and the (7 * nmocap,) mocap vector, as the controller builds them."""
+    """What `RolloutPool.rollout` starts from for [qpos, qvel] `state` and mocap poses in
+    `metadata`: the (nstate,) full-physics state and the (7 * nmocap,) mocap vector, as the
+    controller builds them."""
     data = model_at(model, mujoco.MjData(model), state, time, metadata, forward=False)
     initial = np.zeros(mujoco.mj_stateSize(model, STATE_SPEC))
     mujoco.mj_getState(model, data, initial, STATE_SPEC)
@@ -142,16 +150,18 @@ def time_control_update(
     on_sample: Callable[[], None] | None = None,
     clock: Callable[[], float] = time.perf_counter,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Time `samples` control updates and as many raw rollouts of the same batch, after `warmup` of each.
+    """Time `samples` control updates and as many raw rollouts of the same batch, after `warmup` of
+    each.
 
-    `on_sample` is called after each timed pair (not during the warm-up), e.g. to advance a progress bar.
-    `clock` reads seconds: wall time by default; `time.thread_time` measures the calling thread's CPU time,
-    which a loaded machine disturbs far less (all the work runs on the calling thread with one worker).
+    `on_sample` is called after each timed pair (not during the warm-up), e.g. to advance a progress
+    bar. `clock` reads seconds: wall time by default; `time.thread_time` measures the calling
+    thread's CPU time, which a loaded machine disturbs far less (all the work runs on the calling
+    thread with one worker).
 
     Every update is the closed loop's `plan` from the task's start state for `seed` (its randomised
-    reset), one control period later than the one before, so the plan shifts as in a running loop. The
-    raw rollouts start from the same state and roll out the batch the last warm-up update rolled out
-    (`controller.batch_controls`), on `controller.backend`.
+    reset), one control period later than the one before, so the plan shifts as in a running loop.
+    The raw rollouts start from the same state and roll out the batch the last warm-up update rolled
+    out (`controller.batch_controls`), on `controller.backend`.
 
     Returns:
         update_ms (samples,) and raw_rollout_ms (samples,), wall times in milliseconds.
@@ -163,14 +173,16 @@ def time_control_update(
     period = 1.0 / controller.config.control_freq
     plan_time = start.time
 
-    def update() -> None:  # one control update from the start state, one control period after the last
+    # one control update from the start state, one control period after the last
+    def update() -> None:
         nonlocal plan_time
         loop.plan(SystemState(start.state, plan_time, start.metadata))
         plan_time += period
 
     for _ in range(warmup + 1):  # at least one update, so the plan and the batch exist
         update()
-    controls = controller.batch_controls.copy()  # (R * num_rollouts, T, nu), as the updates roll out
+    # (R * num_rollouts, T, nu), as the updates roll out
+    controls = controller.batch_controls.copy()
     initial, mocap = rollout_start(controller.task.model, start.state, plan_time, start.metadata)
     for _ in range(warmup):
         controller.backend.rollout(initial, controls, mocap)
@@ -203,8 +215,8 @@ def time_pair(
     controller_updates: dict[str, Any] | None = None,
     clock: Callable[[], float] = time.perf_counter,
 ) -> UpdateTiming:
-    """Build a controller for the pair on `backend` (default settings except the sizes and controller fields
-    given), time it on `clock` (see `time_control_update`), close it."""
+    """Build a controller for the pair on `backend` (default settings except the sizes and
+    controller fields given), time it on `clock` (see `time_control_update`), close it."""
     with benchmark_controller(
         task_name,
         optimizer_name,
@@ -215,7 +227,9 @@ def time_pair(
         backend=backend,
         controller_updates=controller_updates,
     ) as controller:
-        update_ms, raw_ms = time_control_update(controller, samples, warmup, on_sample=on_sample, clock=clock)
+        update_ms, raw_ms = time_control_update(
+            controller, samples, warmup, on_sample=on_sample, clock=clock
+        )
     return UpdateTiming(
         task=task_name,
         optimizer=optimizer_name,

@@ -4,6 +4,7 @@
     (networks.py, training.py)  ->  an ONNX file with its own metadata (export.py)  ->  OnnxPolicy
     teacher rounds (rounds.py): the policy drives, the MPC labels the states it visits, retrain on everything
 
-This package sits above collection: it reads datasets and runs collect and evaluate; nothing below it imports
-it. JAX and optax come with the judo-mpc[learn] extra and are imported only inside the functions that train.
-"""
+This package sits above collection: it reads datasets and runs collect and evaluate; nothing below
+it imports it. JAX and optax come with the judo-mpc[learn] extra and are imported only inside the
+functions that train.
+"""  # noqa: E501

@@ -1,8 +1,9 @@
-"""`python -m judo gait-search`: teach the quadruped a locomotion policy by policy search, and write it as ONNX.
+"""`python -m judo gait-search`: teach the quadruped a locomotion policy by policy search, and write
+it as ONNX.
 
 python -m judo gait-search --out quadruped_locomotion.onnx
 python -m judo evaluate --task quadruped_velocity --policy quadruped_locomotion.onnx --seeds 5 --first-seed 1000
-"""
+"""  # noqa: E501
 
 import json
 import shlex
@@ -22,11 +23,16 @@ from judo.learning.gait_policy import GaitLayout
 from judo.learning.policy_search import EVERY, GaitSearchSettings, Iteration
 
 DESCRIPTION = (
-    "Teach the quadruped a locomotion policy for quadruped_velocity's commands [vx, vy, yaw rate] by policy search: "
-    "judo's CEM tunes a gait policy (a trot's clock harmonics, shaped linearly by the command, plus feedback on the "
-    "trunk's gyro and tilt; judo.learning.gait_policy) on closed-loop episodes scored by quadruped_velocity's own "
-    "reward, the objective its MPC plans with. Writes an ONNX file for --policy and quadruped_navigate, and the "
-    "reward curve beside it as a PNG (with matplotlib). The file holds the best iteration's mean; Ctrl-C ends the search early and writes the best so far (exit 130)."
+    "Teach the quadruped a locomotion policy for quadruped_velocity's commands [vx, vy, yaw "
+    "rate] by policy search: "
+    "judo's CEM tunes a gait policy (a trot's clock harmonics, shaped linearly by the "
+    "command, plus feedback on the "
+    "trunk's gyro and tilt; judo.learning.gait_policy) on closed-loop episodes scored by "
+    "quadruped_velocity's own "
+    "reward, the objective its MPC plans with. Writes an ONNX file for --policy and "
+    "quadruped_navigate, and the "
+    "reward curve beside it as a PNG (with matplotlib). The file holds the best iteration's "
+    "mean; Ctrl-C ends the search early and writes the best so far (exit 130)."
 )
 TASK = "quadruped_velocity"
 SEARCH_PNG = ".search.png"
@@ -52,9 +58,11 @@ class GaitSearchArgs(GaitSearchSettings):
         )
 
 
-def write_gait_policy(out: Path, parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]) -> Path:
-    """Write the gait policy of (P,) `parameters` on `layout` to `out` through a temporary file (no half file on
-    failure)."""
+def write_gait_policy(
+    out: Path, parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]
+) -> Path:
+    """Write the gait policy of (P,) `parameters` on `layout` to `out` through a temporary file (no
+    half file on failure)."""
     from judo.core.policies.onnx_policy import save_model
     from judo.learning.gait_policy import gait_policy_model
 
@@ -62,7 +70,8 @@ def write_gait_policy(out: Path, parameters: np.ndarray, layout: GaitLayout, met
 
 
 def plot_search(path: Path, history: list[Iteration]) -> Path | None:
-    """The mean's and the best candidate's reward per iteration as a PNG at `path`; None without matplotlib."""
+    """The mean's and the best candidate's reward per iteration as a PNG at `path`; None without
+    matplotlib."""
     plt = optional_pyplot()
     if plt is None:
         return None
@@ -81,22 +90,31 @@ def plot_search(path: Path, history: list[Iteration]) -> Path | None:
 
 
 def run(args: GaitSearchArgs, command: str) -> int:
-    """Search with a progress bar, then write the ONNX file (the best iteration's mean) and its reward curve, and
-    say how to use them. Returns the exit status: 0, or 130 when Ctrl-C ended the search (the best so far is
-    written all the same)."""
+    """Search with a progress bar, then write the ONNX file (the best iteration's mean) and its
+    reward curve, and say how to use them. Returns the exit status: 0, or 130 when Ctrl-C ended the
+    search (the best so far is written all the same)."""
     from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     from judo.learning.policy_search import quadruped_gait_layout, search_gait
     from judo.tasks.quadruped_velocity import OBSERVATION, QuadrupedVelocity
 
     console = output_console()
-    settings = GaitSearchSettings(**{name: getattr(args, name) for name in asdict(GaitSearchSettings())})
-    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("{task.completed}/{task.total}"))
+    settings = GaitSearchSettings(
+        **{name: getattr(args, name) for name in asdict(GaitSearchSettings())}
+    )
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("{task.completed}/{task.total}"),
+    )
     with progress_display(*columns, TimeElapsedColumn()) as progress:
         bar = progress.add_task("searching", total=args.iterations)
 
         def show(record: Iteration) -> None:
-            text = f"reward {record.mean_reward:.3f} (best {record.best_reward:.3f}), falls {record.falls:.0%}"
+            text = (
+                f"reward {record.mean_reward:.3f} (best {record.best_reward:.3f}), falls "
+                f"{record.falls:.0%}"
+            )
             progress.update(bar, completed=record.index + 1, description=text)
 
         task = QuadrupedVelocity()
@@ -127,21 +145,24 @@ def run(args: GaitSearchArgs, command: str) -> int:
     plot = plot_search(args.out.with_name(args.out.stem + SEARCH_PNG), history)
     stopped = "interrupted: " if result.interrupted else ""
     console.print(
-        f"{stopped}wrote {args.out}, the mean of iteration {best.index + 1}, the best of {len(history)} in "
+        f"{stopped}wrote {args.out}, the mean of iteration {best.index + 1}, the best of "
+        f"{len(history)} in "
         f"{history[-1].seconds / 60:.1f} min: the mean's reward {history[0].mean_reward:.3f} -> "
         f"{best.mean_reward:.3f} (last {history[-1].mean_reward:.3f}), falls {best.falls:.0%}"
         + (f"; the reward curve is {plot}" if plot else ""),
         soft_wrap=True,
     )
     console.print(
-        f"score it on fresh seeds: python -m judo evaluate --task {TASK} --policy {args.out} --seeds 5 --first-seed 1000",
+        f"score it on fresh seeds: python -m judo evaluate --task {TASK} --policy {args.out} "
+        "--seeds 5 --first-seed 1000",
         soft_wrap=True,
     )
     return 130 if result.interrupted else 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run `python -m judo gait-search` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
+    """Run `python -m judo gait-search` on `argv` (sys.argv[1:] when None); exits with status 2 on
+    bad arguments."""
     argv = list(sys.argv[1:] if argv is None else argv)
     args = parse_args(GaitSearchArgs, argv, "python -m judo gait-search", DESCRIPTION)
     try:

@@ -1,13 +1,15 @@
-"""Policy search: judo's own CEM tunes a gait policy (judo.learning.gait_policy) on closed-loop episodes.
+"""Policy search: judo's own CEM tunes a gait policy (judo.learning.gait_policy) on closed-loop
+episodes.
 
-Each iteration draws `commands` velocity commands from quadruped_velocity's ranges. Every one of the CEM's
-`population` candidate parameter rows then walks every command for `episode_seconds` from the standing pose
-(at a random point of the gait's cycle), all population x commands episodes stepped together with
-`mujoco.rollout` on `workers` threads, the policy run between ticks as the low-level hook runs it (every
-`every` steps). A candidate's score is the mean over its commands of quadruped_velocity's own reward, the
-objective the MPC plans with (height, uprightness, the trot's foot schedule, posture, effort, and the command's
-velocity and yaw rate), so the search teaches the policy what the MPC would do, without the MPC's sampling
-noise in the labels that defeated cloning it (docs/tasks.md).
+Each iteration draws `commands` velocity commands from quadruped_velocity's ranges. Every one of the
+CEM's `population` candidate parameter rows then walks every command for `episode_seconds` from the
+standing pose (at a random point of the gait's cycle), all population x commands episodes stepped
+together with `mujoco.rollout` on `workers` threads, the policy run between ticks as the low-level
+hook runs it (every `every` steps). A candidate's score is the mean over its commands of
+quadruped_velocity's own reward, the objective the MPC plans with (height, uprightness, the trot's
+foot schedule, posture, effort, and the command's velocity and yaw rate), so the search teaches the
+policy what the MPC would do, without the MPC's sampling noise in the labels that defeated cloning
+it (docs/tasks.md).
 """
 
 import time
@@ -33,7 +35,8 @@ from judo.tasks.quadruped_velocity import (
 )
 
 EVERY = 2
-"""Physics steps per policy tick: 50 Hz on the quadruped's 0.01 s timestep (quadruped_navigate's rate)."""
+"""Physics steps per policy tick: 50 Hz on the quadruped's 0.01 s timestep (quadruped_navigate's
+rate)."""
 
 
 @dataclass
@@ -65,7 +68,10 @@ class GaitSearchSettings:
         require_between("--population", self.population, 2, 100_000)
         require_between("--elites", self.elites, 1, self.population)
         require_between("--commands", self.commands, 1, 10_000)
-        require(0.1 <= self.episode_seconds <= 60, f"--episode-seconds must be 0.1 to 60, got {self.episode_seconds}")
+        require(
+            0.1 <= self.episode_seconds <= 60,
+            f"--episode-seconds must be 0.1 to 60, got {self.episode_seconds}",
+        )
         require(
             0 < self.sigma_min <= self.sigma_max <= 2,
             f"need 0 < --sigma-min <= --sigma-max <= 2, got {self.sigma_min}, {self.sigma_max}",
@@ -75,10 +81,11 @@ class GaitSearchSettings:
 
 
 def quadruped_gait_layout(task: QuadrupedVelocity) -> GaitLayout:
-    """The gait policy's layout on quadruped_velocity's OBSERVATION: the trot's diagonal pairs half a cycle apart,
-    feedback on the trunk's gyro and gravity direction."""
+    """The gait policy's layout on quadruped_velocity's OBSERVATION: the trot's diagonal pairs half
+    a cycle apart, feedback on the trunk's gyro and gravity direction."""
     offsets = np.array(GAITS["trot"].offsets)
-    signs = np.repeat(np.where(offsets == 0.0, 1.0, -1.0), 3)  # a leg half a cycle behind: its first harmonic flips
+    # a leg half a cycle behind: its first harmonic flips
+    signs = np.repeat(np.where(offsets == 0.0, 1.0, -1.0), 3)
     return GaitLayout(
         home=task.home_ctrl.copy(),
         command_columns=OBSERVATION_COLUMNS["command"],
@@ -90,9 +97,11 @@ def quadruped_gait_layout(task: QuadrupedVelocity) -> GaitLayout:
 
 
 def stepping_in_place(layout: GaitLayout) -> np.ndarray:
-    """(P,) the search's first mean: each hip flexes by up to 0.25 rad and each knee by up to 0.5 rad in its leg's
-    swing half of the cycle (a half-wave sine), whatever the command: a trot on the spot."""
-    half_wave = np.array([1 / np.pi, 0.0, 0.5, -2 / (3 * np.pi), 0.0])  # max(0, sin p) in [1, cos, sin, cos2, sin2]
+    """(P,) the search's first mean: each hip flexes by up to 0.25 rad and each knee by up to 0.5
+    rad in its leg's swing half of the cycle (a half-wave sine), whatever the command: a trot on the
+    spot."""
+    # max(0, sin p) in [1, cos, sin, cos2, sin2]
+    half_wave = np.array([1 / np.pi, 0.0, 0.5, -2 / (3 * np.pi), 0.0])
     weights = np.zeros((layout.num_joints, HARMONICS, COMMAND_FEATURES))
     weights[1::3, :, 0] = 0.25 * half_wave  # hips (abduction, hip, knee per leg)
     weights[2::3, :, 0] = -0.5 * half_wave  # knees bend further (more negative)
@@ -118,8 +127,8 @@ class GaitSearchResult:
     """What a search found: the best iteration's mean, and every iteration's figures.
 
     Attributes:
-        parameters: (P,) the mean that scored best (an iteration's candidate 0, scored on that iteration's
-            commands), not the last one, which a late noisy update may have made worse.
+        parameters: (P,) the mean that scored best (an iteration's candidate 0, scored on that
+            iteration's commands), not the last one, which a late noisy update may have made worse.
         best_index: the iteration it was scored in.
         history: every finished iteration's figures.
         interrupted: whether Ctrl-C ended the search early (after at least one iteration).
@@ -132,14 +141,16 @@ class GaitSearchResult:
 
 
 class GaitEpisodes:
-    """Steps B closed-loop episodes of the quadruped at once, each with its own gait policy parameters, on a
-    `PolicyStepper` block by block on a `RolloutPool`'s workers (its threads and MjData kept for every tick of
-    every run; `close` ends them)."""
+    """Steps B closed-loop episodes of the quadruped at once, each with its own gait policy
+    parameters, on a `PolicyStepper` block by block on a `RolloutPool`'s workers (its threads and
+    MjData kept for every tick of every run; `close` ends them)."""
 
     def __init__(self, task: QuadrupedVelocity, layout: GaitLayout, workers: int) -> None:
         self.task, self.layout, self.model = task, layout, task.model
         self.pool = RolloutPool(self.model, workers)
-        self.stepper = PolicyStepper(self.model, self.model.nu, EVERY, observation_size=layout.observation_size)
+        self.stepper = PolicyStepper(
+            self.model, self.model.nu, EVERY, observation_size=layout.observation_size
+        )
         data = mujoco.MjData(self.model)
         data.qpos[:] = self.model.key_qpos[0]
         data.ctrl[:] = task.home_ctrl
@@ -150,8 +161,9 @@ class GaitEpisodes:
     def run(
         self, parameters: np.ndarray, commands: np.ndarray, start_times: np.ndarray, seconds: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Walk (B, P) `parameters` rows on (B, 3) `commands` from standing at (B,) sim `start_times` for `seconds`;
-        returns each tick's (B, ticks, nq + nv) states, (B, ticks, nsensordata) sensors and (B, ticks, 12) ctrl."""
+        """Walk (B, P) `parameters` rows on (B, 3) `commands` from standing at (B,) sim
+        `start_times` for `seconds`; returns each tick's (B, ticks, nq + nv) states, (B, ticks,
+        nsensordata) sensors and (B, ticks, 12) ctrl."""
         model, batch, stepper, layout = self.model, len(parameters), self.stepper, self.layout
         ticks = max(1, round(seconds / (EVERY * model.opt.timestep)))
         stepper.start(batch, ticks * EVERY, self._standing)
@@ -160,17 +172,26 @@ class GaitEpisodes:
         sensors = np.zeros((batch, ticks, model.nsensordata))
         ctrl = np.zeros((batch, ticks, model.nu))
 
-        def observe(rows: slice, start: int, current: np.ndarray, previous: np.ndarray) -> np.ndarray:
+        def observe(
+            rows: slice, start: int, current: np.ndarray, previous: np.ndarray
+        ) -> np.ndarray:
             out = stepper.observations[rows]  # written in place: no temporaries per tick
-            return self.task.locomotion_observation(commands[rows], current[:, 1:], None, current[:, 0], out=out)
+            return self.task.locomotion_observation(
+                commands[rows], current[:, 1:], None, current[:, 0], out=out
+            )
 
         def act(rows: slice, observations: np.ndarray) -> np.ndarray:
-            return gait_actions(parameters[rows], observations, layout)[:, None]  # (B, 1, 12), held for the tick
+            # (B, 1, 12), held for the tick
+            return gait_actions(parameters[rows], observations, layout)[:, None]
 
-        def record(rows: slice, start: int, stop: int) -> None:  # each tick keeps its last step's row
+        # each tick keeps its last step's row
+        def record(rows: slice, start: int, stop: int) -> None:
             tick = start // EVERY
             ctrl[rows, tick] = stepper.inputs[EVERY][rows, 0]
-            states[rows, tick], sensors[rows, tick] = stepper.current[rows, 1:], stepper.sensors[EVERY][rows, -1]
+            states[rows, tick], sensors[rows, tick] = (
+                stepper.current[rows, 1:],
+                stepper.sensors[EVERY][rows, -1],
+            )
 
         stepper.run_blocks(self.pool, observe, act, record)
         return states, sensors, ctrl
@@ -185,8 +206,9 @@ def search_gait(
     settings: GaitSearchSettings,
     on_iteration: Callable[[Iteration], None] | None = None,
 ) -> GaitSearchResult:
-    """Run the search; returns the best-scoring mean and each iteration's figures. Ctrl-C after the first
-    iteration ends it early with the best so far (`interrupted`); before, it is raised as it is."""
+    """Run the search; returns the best-scoring mean and each iteration's figures. Ctrl-C after the
+    first iteration ends it early with the best so far (`interrupted`); before, it is raised as it
+    is."""
     layout = quadruped_gait_layout(task)
     config: QuadrupedVelocityConfig = task.config
     cem = CEM(
@@ -214,19 +236,26 @@ def search_gait(
             rows = np.repeat(candidates, count, axis=0)
             row_commands = np.tile(commands, (population, 1))
             starts = rng.uniform(0.0, period, len(rows))
-            states, sensors, ctrl = episodes.run(rows, row_commands, starts, settings.episode_seconds)
+            states, sensors, ctrl = episodes.run(
+                rows, row_commands, starts, settings.episode_seconds
+            )
             rewards = np.zeros((population, count))
             for j, command in enumerate(commands):
                 block = slice(j, None, count)  # rows of command j, one per candidate
                 metadata = {COMMAND_KEY: command}
-                rewards[:, j] = task.reward(states[block], sensors[block], ctrl[block], config, metadata)
+                rewards[:, j] = task.reward(
+                    states[block], sensors[block], ctrl[block], config, metadata
+                )
             fell = (states[..., 2] < 0.5 * STANDING_HEIGHT).any(axis=1).reshape(population, count)
             scores = rewards.mean(axis=1)
             mean = cem.update_nominal_knots(candidates[:, None], scores)
             seconds = time.perf_counter() - start
-            record = Iteration(index, float(scores[0]), float(scores.max()), float(fell[0].mean()), seconds)
+            record = Iteration(
+                index, float(scores[0]), float(scores.max()), float(fell[0].mean()), seconds
+            )
             history.append(record)
-            score = record.mean_reward if np.isfinite(record.mean_reward) else -np.inf  # NaN never wins
+            # NaN never wins
+            score = record.mean_reward if np.isfinite(record.mean_reward) else -np.inf
             if best is None or score > best_score:
                 best, best_score = GaitSearchResult(candidates[0].copy(), index, history), score
             if on_iteration is not None:

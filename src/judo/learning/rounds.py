@@ -1,14 +1,18 @@
-"""distill's driver: train on the datasets, then (with --rounds) let the MPC teach the policy it made.
+"""distill's driver: train on the datasets, then (with --rounds) let the MPC teach the policy it
+made.
 
 Each teacher round r (DAgger; gpc's loop with --proposals):
-  1. collect `episodes_per_round` episodes into ROUNDS/round_<r>.h5, seeds from r * ROUND_SEED_STRIDE, in which
-     the policy of round r - 1 drives the plant and the dataset's MPC labels every state it visits
-     (`collect --policy`; with --proposals K the MPC also samples K candidates from the policy);
+  1. collect `episodes_per_round` episodes into ROUNDS/round_<r>.h5, seeds from r *
+     ROUND_SEED_STRIDE, in which the policy of round r - 1 drives the plant and the dataset's MPC
+     labels every state it visits (`collect --policy`; with --proposals K the MPC also samples K
+     candidates from the policy);
   2. retrain from scratch on the datasets and every round file so far: ROUNDS/policy_round_<r>.onnx;
-  3. measure the policy alone, and the MPC with its proposals, on fresh seeds, and print the table so far.
-ROUNDS is the folder OUT_rounds beside --out. A rerun with the same settings resumes (RUN_RECORD holds them; other
-settings are refused): collect adds only missing seeds, and a round whose policy file exists is not trained again.
-The last round's policy is copied to --out at the end, or the last finished one's on Ctrl-C.
+  3. measure the policy alone, and the MPC with its proposals, on fresh seeds, and print the table
+     so far.
+ROUNDS is the folder OUT_rounds beside --out. A rerun with the same settings resumes (RUN_RECORD
+holds them; other settings are refused): collect adds only missing seeds, and a round whose policy
+file exists is not trained again. The last round's policy is copied to --out at the end, or the last
+finished one's on Ctrl-C.
 """
 
 import dataclasses
@@ -25,21 +29,34 @@ from rich.table import Table
 
 from judo.cli_shared import progress_display
 from judo.learning.args import DistillArgs
-from judo.learning.export import copy_policy, losses_path, plot_losses, policy_metadata, write_policy
+from judo.learning.export import (
+    copy_policy,
+    losses_path,
+    plot_losses,
+    policy_metadata,
+    write_policy,
+)
 from judo.learning.pairs import DistillError, TrainingPairs, read_pairs
 from judo.learning.training import TrainedPolicy, train
 
 RUN_RECORD = "distill_run.json"
-"""The file in the rounds folder that records the run's settings (`DistillArgs.run_record`), checked on resume."""
+"""The file in the rounds folder that records the run's settings (`DistillArgs.run_record`), checked
+on resume."""
 ROUND_SEED_STRIDE = 100_000
-"""Round r collects seeds r * ROUND_SEED_STRIDE onwards: never a seed of another round or of a usual dataset."""
+"""Round r collects seeds r * ROUND_SEED_STRIDE onwards: never a seed of another round or of a usual
+dataset."""
 
 
 def train_and_write(
     pairs: TrainingPairs, args: DistillArgs, command: str, out: Path, progress_console: Console
 ) -> TrainedPolicy:
-    """Train on `pairs` with a progress bar showing the losses, write the ONNX file and its loss PNG."""
-    columns = (TextColumn("{task.description}"), BarColumn(), TextColumn("epoch {task.completed:.0f}"))
+    """Train on `pairs` with a progress bar showing the losses, write the ONNX file and its loss
+    PNG."""
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        TextColumn("epoch {task.completed:.0f}"),
+    )
     with progress_display(*columns, TimeElapsedColumn(), console=progress_console) as progress:
         bar = progress.add_task(f"training {out.name}", total=args.epochs)
 
@@ -50,7 +67,8 @@ def train_and_write(
         trained = train(pairs, args.settings(), show)
     write_policy(out, trained, policy_metadata(trained, pairs, command, out.stem), args.noise_scale)
     title = (
-        f"{pairs.task}, {pairs.kind} policy, {trained.head}: {pairs.num_pairs} pairs of {len(pairs.episodes)} episodes"
+        f"{pairs.task}, {pairs.kind} policy, {trained.head}: {pairs.num_pairs} pairs of "
+        f"{len(pairs.episodes)} episodes"
     )
     plot_losses(losses_path(out), trained, title)
     return trained
@@ -59,32 +77,42 @@ def train_and_write(
 def summary_line(out: Path, trained: TrainedPolicy, pairs: TrainingPairs) -> str:
     """One line on what was trained and where it went."""
     return (
-        f"wrote {out} ({pairs.kind}, {trained.head}): {pairs.num_pairs} pairs from {len(trained.train_episodes)} "
-        f"training and {len(trained.validation_episodes)} validation episodes, {len(trained.history['train'])} "
-        f"epochs in {trained.seconds:.1f} s, validation loss {min(trained.history['validation']):.4g} "
+        f"wrote {out} ({pairs.kind}, {trained.head}): {pairs.num_pairs} pairs from "
+        f"{len(trained.train_episodes)} "
+        f"training and {len(trained.validation_episodes)} validation episodes, "
+        f"{len(trained.history['train'])} "
+        f"epochs in {trained.seconds:.1f} s, validation loss "
+        f"{min(trained.history['validation']):.4g} "
         f"(epoch {trained.best_epoch + 1}); losses in {losses_path(out)}"
     )
 
 
 def distill(args: DistillArgs, command: str, console: Console, progress_console: Console) -> None:
-    """Train on the datasets (and run the teacher rounds), writing `args.out`. Everything that can be refused
-    (the datasets, an --out that exists, a resume of other settings, the teacher's flags) is refused before any
-    training. Lines that name a file are never wrapped (soft_wrap), so its path can be copied whole."""
+    """Train on the datasets (and run the teacher rounds), writing `args.out`. Everything that can
+    be refused (the datasets, an --out that exists, a resume of other settings, the teacher's flags)
+    is refused before any training. Lines that name a file are never wrapped (soft_wrap), so its
+    path can be copied whole."""
     datasets = list(args.datasets)
     pairs = read_pairs(datasets, args.kind)
     resuming = args.rounds > 0 and check_resume(args)
     if args.out.exists() and not (args.overwrite or resuming):
-        raise DistillError(f"--out {str(args.out)!r} exists; give --overwrite to replace it, or another --out")
+        raise DistillError(
+            f"--out {str(args.out)!r} exists; give --overwrite to replace it, or another --out"
+        )
     if args.rounds == 0:
         trained = train_and_write(pairs, args, command, args.out, progress_console)
         console.print(summary_line(args.out, trained, pairs), soft_wrap=True)
-        console.print(f"serve it: python -m judo evaluate --task {pairs.task} --policy {args.out}", soft_wrap=True)
+        console.print(
+            f"serve it: python -m judo evaluate --task {pairs.task} --policy {args.out}",
+            soft_wrap=True,
+        )
         return
     env_args = dataset_env_args(datasets[0])
     check_teacher(args, env_args)
     from judo.ray_cluster import start_ray, stop_ray
 
-    # Ray's processes start before JAX trains (and starts its threads), never forked from a JAX process.
+    # Ray's processes start before JAX trains (and starts its threads), never forked from a JAX
+    # process.
     connected = start_ray(args.address, args.workers or os.cpu_count() or 1)
     try:
         teacher_rounds(args, command, pairs, env_args, console, progress_console)
@@ -101,8 +129,8 @@ def teacher_rounds(
     console: Console,
     progress_console: Console,
 ) -> None:
-    """Round 0 on `pairs` (the datasets' own), then --rounds teacher rounds; on Ctrl-C, --out gets the last
-    finished round's policy before the interrupt goes on."""
+    """Round 0 on `pairs` (the datasets' own), then --rounds teacher rounds; on Ctrl-C, --out gets
+    the last finished round's policy before the interrupt goes on."""
     folder = args.rounds_folder()
     folder.mkdir(parents=True, exist_ok=True)
     (folder / RUN_RECORD).write_text(json.dumps(args.run_record(), indent=1) + "\n")
@@ -120,7 +148,8 @@ def teacher_rounds(
                 pairs = read_pairs(datasets, args.kind)
             if policy.exists():
                 console.print(
-                    f"round {round_index}: {policy} exists; resumed without training it again", soft_wrap=True
+                    f"round {round_index}: {policy} exists; resumed without training it again",
+                    soft_wrap=True,
                 )
                 seconds = float("nan")
             else:
@@ -128,21 +157,25 @@ def teacher_rounds(
                 console.print(summary_line(policy, trained, pairs), soft_wrap=True)
                 seconds = trained.seconds
             finished = policy
-            rows.append([str(round_index), str(len(pairs.episodes)), str(pairs.num_pairs), f"{seconds:.1f}"])
+            rows.append(
+                [str(round_index), str(len(pairs.episodes)), str(pairs.num_pairs), f"{seconds:.1f}"]
+            )
             rows[-1] += evaluate_round(args, env_args, policy)
             console.print(round_table(rows, args, env_args))
     except KeyboardInterrupt:
         if finished is not None:
             keep_policy(finished, args.out)
             console.print(
-                f"interrupted: wrote {args.out} ({finished.stem.replace('policy_', '').replace('_', ' ')}'s policy, "
+                f"interrupted: wrote {args.out} "
+                f"({finished.stem.replace('policy_', '').replace('_', ' ')}'s policy, "
                 "the last one finished); the same command resumes the rounds",
                 soft_wrap=True,
             )
         raise
     keep_policy(policy, args.out)
     console.print(
-        f"wrote {args.out} (round {args.rounds}'s policy); every round's files are in {folder}", soft_wrap=True
+        f"wrote {args.out} (round {args.rounds}'s policy); every round's files are in {folder}",
+        soft_wrap=True,
     )
 
 
@@ -153,15 +186,17 @@ def keep_policy(policy: Path, out: Path) -> None:
 
 
 def check_resume(args: DistillArgs) -> bool:
-    """Whether the rounds folder holds rounds of this very run (the same settings, `DistillArgs.run_record`),
-    which a rerun resumes. DistillError (one line, naming the settings that differ) for rounds of other
-    settings, or of settings that were not recorded; False when there are none yet."""
+    """Whether the rounds folder holds rounds of this very run (the same settings,
+    `DistillArgs.run_record`), which a rerun resumes. DistillError (one line, naming the settings
+    that differ) for rounds of other settings, or of settings that were not recorded; False when
+    there are none yet."""
     folder = args.rounds_folder()
     record_path = folder / RUN_RECORD
     if not record_path.is_file():
         if any(folder.glob("policy_round_*.onnx")):
             raise DistillError(
-                f"{str(folder)!r} holds teacher rounds whose settings were not recorded, so they cannot be "
+                f"{str(folder)!r} holds teacher rounds whose settings were not recorded, so "
+                "they cannot be "
                 "resumed; remove it, or give another --out"
             )
         return False
@@ -170,47 +205,60 @@ def check_resume(args: DistillArgs) -> bool:
     except ValueError:
         recorded = None
     if not isinstance(recorded, dict):
-        raise DistillError(f"{str(record_path)!r} is not a distill run record; remove {str(folder)!r} to start again")
+        raise DistillError(
+            f"{str(record_path)!r} is not a distill run record; remove {str(folder)!r} to start "
+            "again"
+        )
     wanted = args.run_record()
     differ = [name for name in wanted if recorded.get(name) != wanted[name]]
     if differ:
         raise DistillError(
-            f"{str(folder)!r} holds teacher rounds of {run_flags(recorded, differ)}, not {run_flags(wanted, differ)}; "
+            f"{str(folder)!r} holds teacher rounds of {run_flags(recorded, differ)}, not "
+            f"{run_flags(wanted, differ)}; "
             "rerun with those to resume them, or give another --out to start new rounds"
         )
     return True
 
 
 def run_flags(record: dict[str, Any], names: list[str]) -> str:
-    """The distill flags that give `record`'s values of `names`, e.g. "--kind action --hidden 16 16"."""
+    """The distill flags that give `record`'s values of `names`, e.g. "--kind action --hidden 16
+    16"."""
     parts = []
     for name in names:
         value = record.get(name)
         if name == "datasets":
-            parts.append(" ".join(map(str, value)) if isinstance(value, list) else "(unrecorded datasets)")
+            parts.append(
+                " ".join(map(str, value)) if isinstance(value, list) else "(unrecorded datasets)"
+            )
             continue
         shown_value = (
-            " ".join(map(str, value)) if isinstance(value, list) else ("(default)" if value is None else value)
+            " ".join(map(str, value))
+            if isinstance(value, list)
+            else ("(default)" if value is None else value)
         )
         parts.append(f"--{name.replace('_', '-')} {shown_value}")
     return " ".join(parts)
 
 
 def check_teacher(args: DistillArgs, env_args: dict[str, Any]) -> None:
-    """DistillError now, before any training, unless the teacher rounds can run: an optimizer to label with,
-    and --proposals below its num_rollouts (the nominal, rollout 0, is never replaced)."""
+    """DistillError now, before any training, unless the teacher rounds can run: an optimizer to
+    label with, and --proposals below its num_rollouts (the nominal, rollout 0, is never
+    replaced)."""
     from judo.core.configuration.registry import lookup_optimizer, make_config
 
     teacher_flags(args, env_args)
     optimizer = args.optimizer or env_args["optimizer"]
     config_cls = lookup_optimizer(optimizer)[1]
-    rollouts = env_args.get("env_kwargs", {}).get("optimizer", {}).get("num_rollouts")  # teacher_flags passes it on
+    # teacher_flags passes it on
+    rollouts = env_args.get("env_kwargs", {}).get("optimizer", {}).get("num_rollouts")
     if rollouts is None:
         rollouts = make_config(config_cls, env_args["task"], optimizer).num_rollouts
     if args.proposals >= int(rollouts):
         raise DistillError(
-            f"--proposals {args.proposals} must be below the teacher's num_rollouts ({rollouts}, {optimizer} on "
-            f"{env_args['task']}): the nominal, rollout 0, is never replaced; expected 0 to {int(rollouts) - 1}"
+            f"--proposals {args.proposals} must be below the teacher's num_rollouts "
+            f"({rollouts}, {optimizer} on "
+            f"{env_args['task']}): the nominal, rollout 0, is never replaced; expected 0 to "
+            f"{int(rollouts) - 1}"
         )
 
 
@@ -223,13 +271,23 @@ def dataset_env_args(path: Path) -> dict[str, Any]:
 
 
 def teacher_flags(args: DistillArgs, env_args: dict[str, Any]) -> list[str]:
-    """The collect/evaluate flags that reproduce the dataset's MPC: optimizer, duration, latency, and the plan
-    layout fields of its configs (so every round's knots have the dataset's shape)."""
+    """The collect/evaluate flags that reproduce the dataset's MPC: optimizer, duration, latency,
+    and the plan layout fields of its configs (so every round's knots have the dataset's shape)."""
     optimizer = args.optimizer or env_args.get("optimizer")
     if not optimizer:
-        raise DistillError("the dataset names no optimizer (a policy drove it); give --optimizer NAME for the rounds")
+        raise DistillError(
+            "the dataset names no optimizer (a policy drove it); give --optimizer NAME for the "
+            "rounds"
+        )
     latency = env_args.get("latency_s", 0.0)
-    flags = ["--task", env_args["task"], "--optimizer", optimizer, "--duration", repr(float(env_args["duration"]))]
+    flags = [
+        "--task",
+        env_args["task"],
+        "--optimizer",
+        optimizer,
+        "--duration",
+        repr(float(env_args["duration"])),
+    ]
     flags += ["--latency-ms", repr(1e3 * latency if isinstance(latency, (int, float)) else 0.0)]
     kwargs = env_args.get("env_kwargs", {})
     for name in ("control_freq", "horizon", "spline_order"):
@@ -237,18 +295,29 @@ def teacher_flags(args: DistillArgs, env_args: dict[str, Any]) -> list[str]:
             flags += [f"--controller.{name.replace('_', '-')}", str(kwargs["controller"][name])]
     for name in ("num_nodes", "num_rollouts"):
         if name in kwargs.get("optimizer", {}):
-            flags += [f"--optimizer-config.{name.replace('_', '-')}", str(kwargs["optimizer"][name])]
+            flags += [
+                f"--optimizer-config.{name.replace('_', '-')}",
+                str(kwargs["optimizer"][name]),
+            ]
     return flags
 
 
-def collect_round(args: DistillArgs, env_args: dict[str, Any], policy: Path, out: Path, round_index: int) -> None:
-    """Collect round `round_index`'s episodes (resuming `out`) with `policy` driving and the MPC labelling."""
+def collect_round(
+    args: DistillArgs, env_args: dict[str, Any], policy: Path, out: Path, round_index: int
+) -> None:
+    """Collect round `round_index`'s episodes (resuming `out`) with `policy` driving and the MPC
+    labelling."""
     from judo.collection.collect import main as collect_main
 
     argv = ["--out", str(out), "--episodes", str(args.episodes_per_round), "--policy", str(policy)]
     argv += ["--first-seed", str(round_index * ROUND_SEED_STRIDE), *teacher_flags(args, env_args)]
     if args.proposals:
-        argv += ["--proposal-policy", str(policy), "--controller.policy-samples", str(args.proposals)]
+        argv += [
+            "--proposal-policy",
+            str(policy),
+            "--controller.policy-samples",
+            str(args.proposals),
+        ]
     if args.workers is not None:
         argv += ["--workers", str(args.workers)]
     if args.address is not None:
@@ -257,7 +326,9 @@ def collect_round(args: DistillArgs, env_args: dict[str, Any], policy: Path, out
     if status == 130:  # collect was interrupted (Ctrl-C); the rounds stop the same way
         raise KeyboardInterrupt
     if status:
-        raise DistillError(f"round {round_index}'s collect ended with status {status}; rerun to resume it")
+        raise DistillError(
+            f"round {round_index}'s collect ended with status {status}; rerun to resume it"
+        )
 
 
 def proposal_samples(env_args: dict[str, Any]) -> int:
@@ -267,8 +338,8 @@ def proposal_samples(env_args: dict[str, Any]) -> int:
 
 
 def evaluate_round(args: DistillArgs, env_args: dict[str, Any], policy: Path) -> list[str]:
-    """The round's two table cells: the task's metric for the policy alone and for the MPC with its proposals,
-    mean over `args.eval_seeds` fresh seeds ("-" with --eval-seeds 0)."""
+    """The round's two table cells: the task's metric for the policy alone and for the MPC with its
+    proposals, mean over `args.eval_seeds` fresh seeds ("-" with --eval-seeds 0)."""
     if args.eval_seeds == 0:
         return ["-", "-"]
     from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
@@ -276,7 +347,9 @@ def evaluate_round(args: DistillArgs, env_args: dict[str, Any], policy: Path) ->
     optimizer = args.optimizer or env_args.get("optimizer")
     latency = env_args.get("latency_s", 0.0)
     latency = float(latency) if isinstance(latency, (int, float)) else 0.0
-    base = EpisodeSpec(env_args["task"], None, float(env_args["duration"]), latency, num_workers=None)
+    base = EpisodeSpec(
+        env_args["task"], None, float(env_args["duration"]), latency, num_workers=None
+    )
     with_proposals = dataclasses.replace(
         base,
         optimizer=optimizer,
@@ -310,7 +383,9 @@ def round_table(rows: list[list[str]], args: DistillArgs, env_args: dict[str, An
     seeds = f"measured on seeds {args.eval_first_seed}-{args.eval_first_seed + args.eval_seeds - 1}"
     if args.eval_seeds < 1:
         seeds = "not measured (--eval-seeds 0)"
-    table = Table(title=f"distill {env_args['task']} ({args.kind}, {args.head}): teacher rounds, {seeds}")
+    table = Table(
+        title=f"distill {env_args['task']} ({args.kind}, {args.head}): teacher rounds, {seeds}"
+    )
     for column in ("round", "episodes", "pairs", "training s", "policy alone"):
         table.add_column(column, justify="right")
     table.add_column(f"MPC + proposals (K = {proposal_samples(env_args)})", justify="right")

@@ -1,8 +1,8 @@
 """Training a policy on TrainingPairs: split by episode, normalize, Adam in minibatches, stop early.
 
-The validation episodes are never trained on; the parameters kept are those of the epoch with the lowest
-validation loss, and training stops once `patience` epochs passed without a new lowest. JAX and optax are
-imported when `train` runs (the judo-mpc[learn] extra).
+The validation episodes are never trained on; the parameters kept are those of the epoch with the
+lowest validation loss, and training stops once `patience` epochs passed without a new lowest. JAX
+and optax are imported when `train` runs (the judo-mpc[learn] extra).
 """
 
 import time
@@ -26,7 +26,8 @@ class TrainedPolicy:
         layers: [(W (out, in), b (out,))] float32.
         input_scale: (mean (O,), std (O,)) of the training observations.
         output_scale: (mean (D,), std (D,)) of the training targets.
-        head, flow_steps, horizon, action_size: the head, its sampler's steps, and the target's H x A.
+        head, flow_steps, horizon, action_size: the head, its sampler's steps, and the target's H x
+            A.
         history: {"train": [...], "validation": [...]} the loss after each epoch.
         best_epoch: the epoch whose parameters were kept.
         train_episodes, validation_episodes: the episodes of each side of the split.
@@ -47,23 +48,29 @@ class TrainedPolicy:
     seconds: float = 0.0
 
     def act(self, observations: np.ndarray, noise: np.ndarray | None = None) -> np.ndarray:
-        """(B, O) observations -> (B, H * A) targets through JAX (the reference the ONNX export is checked
-        against); the flow starts from `noise` (B, D), zeros when None."""
+        """(B, O) observations -> (B, H * A) targets through JAX (the reference the ONNX export is
+        checked against); the flow starts from `noise` (B, D), zeros when None."""
         import jax.numpy as jnp
 
         from judo.learning.networks import predict
 
         mean, std = self.input_scale
         normalized = (np.asarray(observations, np.float32) - mean) / std
-        start = np.zeros((len(normalized), len(self.output_scale[0])), np.float32) if noise is None else noise
+        start = (
+            np.zeros((len(normalized), len(self.output_scale[0])), np.float32)
+            if noise is None
+            else noise
+        )
         params = [(jnp.asarray(w), jnp.asarray(b)) for w, b in self.layers]
-        out = np.asarray(predict(params, self.head, jnp.asarray(normalized), jnp.asarray(start), self.flow_steps))
+        out = np.asarray(
+            predict(params, self.head, jnp.asarray(normalized), jnp.asarray(start), self.flow_steps)
+        )
         return out * self.output_scale[1] + self.output_scale[0]
 
 
 def split_episodes(num_episodes: int, fraction: float, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """(train indices, validation indices) of the episodes, shuffled by `seed`: at least one of each side when
-    there are two or more episodes; with one, it trains and validates on it."""
+    """(train indices, validation indices) of the episodes, shuffled by `seed`: at least one of each
+    side when there are two or more episodes; with one, it trains and validates on it."""
     order = np.random.default_rng(seed).permutation(num_episodes)
     if num_episodes < 2:
         return order, order
@@ -82,7 +89,8 @@ def train(
     settings: TrainSettings,
     on_epoch: Callable[[int, float, float], None] | None = None,
 ) -> TrainedPolicy:
-    """Train `settings.head` on `pairs`; `on_epoch(epoch, train_loss, validation_loss)` after each epoch."""
+    """Train `settings.head` on `pairs`; `on_epoch(epoch, train_loss, validation_loss)` after each
+    epoch."""
     jax = import_extra("jax", "python -m judo distill", EXTRA)
     optax = import_extra("optax", "python -m judo distill", EXTRA)
     import jax.numpy as jnp
@@ -92,7 +100,9 @@ def train(
     if settings.head not in networks.HEADS:
         raise DistillError(f"unknown head {settings.head!r}; choose one of {list(networks.HEADS)}")
     started = time.perf_counter()
-    train_ids, val_ids = split_episodes(len(pairs.observations), settings.validation_fraction, settings.seed)
+    train_ids, val_ids = split_episodes(
+        len(pairs.observations), settings.validation_fraction, settings.seed
+    )
     obs_train = np.concatenate([pairs.observations[i] for i in train_ids])
     tgt_train = np.concatenate([pairs.targets[i] for i in train_ids])
     input_scale, output_scale = scale_of(obs_train), scale_of(tgt_train)
@@ -107,7 +117,11 @@ def train(
 
     (x_train, y_train), (x_val, y_val) = normalized(train_ids), normalized(val_ids)
     obs_size, target_size = x_train.shape[1], y_train.shape[1]
-    sizes = [networks.input_size(settings.head, obs_size, target_size), *settings.hidden, target_size]
+    sizes = [
+        networks.input_size(settings.head, obs_size, target_size),
+        *settings.hidden,
+        target_size,
+    ]
     key = jax.random.PRNGKey(settings.seed)
     key, init_key, val_key = jax.random.split(key, 3)
     params = networks.init_mlp(init_key, sizes)
@@ -122,7 +136,9 @@ def train(
         return optax.apply_updates(params, updates), state, value
 
     evaluate = jax.jit(lambda params, x, y: networks.loss(params, head, x, y, val_key))
-    result = TrainedPolicy([], input_scale, output_scale, head, settings.flow_steps, pairs.horizon, pairs.action_size)
+    result = TrainedPolicy(
+        [], input_scale, output_scale, head, settings.flow_steps, pairs.horizon, pairs.action_size
+    )
     result.train_episodes = [pairs.episodes[i] for i in train_ids]
     result.validation_episodes = [pairs.episodes[i] for i in val_ids]
     rng = np.random.default_rng(settings.seed)
@@ -148,7 +164,9 @@ def train(
             if since_best >= settings.patience:
                 break
     if not np.isfinite(best):
-        raise DistillError("training diverged: the validation loss is not finite; try a lower --learning-rate")
+        raise DistillError(
+            "training diverged: the validation loss is not finite; try a lower --learning-rate"
+        )
     result.layers = [(np.asarray(w, np.float32), np.asarray(b, np.float32)) for w, b in best_params]
     result.seconds = time.perf_counter() - started
     return result

@@ -13,10 +13,12 @@ What a robot integrator reads, below the app, the GUI and the commands (it impor
     records.py          PlanRecord and StepRecord, what the loop tells its recorders
     sensing.py          rehearsed sensing (SensedSystem): a simulator seen through a robot's sensors
 
-It imports only contracts (judo.core's task, planner, estimator, reading, errors) and the safety layer: which
-System a command line names is `judo.cli_shared`'s, how a command's plant is observed `judo.evaluation.sensing`'s,
-and the app's estimator thread `judo.runtime.running.estimator_thread`'s.
+It imports only contracts (judo.core's task, planner, estimator, reading, errors) and the safety
+layer: which System a command line names is `judo.cli_shared`'s, how a command's plant is observed
+`judo.evaluation.sensing`'s, and the app's estimator thread
+`judo.runtime.running.estimator_thread`'s.
 
-`SystemState`, the reading a System serves, is defined in `judo.core.reading` (the estimators below this
-package read it too). Import each name from the module that defines it; `judo` exports those a user needs.
-"""
+`SystemState`, the reading a System serves, is defined in `judo.core.reading` (the estimators below
+this package read it too). Import each name from the module that defines it; `judo` exports those a
+user needs.
+"""  # noqa: E501

@@ -1,33 +1,39 @@
-"""The one closed-loop step: read the plant, plan (with the latency model), serve the plan, step the plant.
+"""The one closed-loop step: read the plant, plan (with the latency model), serve the plan, step the
+plant.
 
-Everything that drives a plant with a controller calls this module, and nothing else writes the loop:
-- the app's two runners: the planner runner (`judo.runtime.running.planner`) calls `plan` on its worker thread
-  when the control clock says, in wall time, and the plant runner (`judo.runtime.running.plant`) calls `advance`
-  on the System's thread at real-time pace;
-- `evaluate`'s episodes (`judo.evaluation.episode.run_episode`), and through them `tune`'s trials, call
-  `step`, which plans when the control clock (`ControlClock`) says, in sim time, then advances;
+Everything that drives a plant with a controller calls this module, and nothing else writes the
+loop:
+- the app's two runners: the planner runner (`judo.runtime.running.planner`) calls `plan` on its
+  worker thread when the control clock says, in wall time, and the plant runner
+  (`judo.runtime.running.plant`) calls `advance` on the System's thread at real-time pace;
+- `evaluate`'s episodes (`judo.evaluation.episode.run_episode`), and through them `tune`'s trials,
+  call `step`, which plans when the control clock (`ControlClock`) says, in sim time, then advances;
 - the benchmark's timing (`judo.evaluation.timing`) calls `plan` for each timed update.
 
     reading = system.read_state()  --[estimator]-->  plan(reading)  --latency-->  serve(t)  --[watchdog]-->
     system.apply(action); system.step()  -->  read back  --[recorders: on_plan, on_step]
 
 Where the features plug in, each once, here:
-- the estimator between the reading and the plan (`judo.core.estimator`): `read` fuses the System's raw
-  reading (sensors, the time they were taken) into the state planned from, as of the plant's now;
-- the watchdog on the served action (`judo.loop.watchdog.Watchdog`): `serve` gives the plant the task's
-  `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one control period
-  (`on_watchdog` is told why);
-- recorders of every step and plan: the `recorders` given to the loop (`judo.loop.records.Recorder`).
-- the guard on every served action (`judo.loop.guard.Guard`; the owner's limits: `judo.safety_guard`), and the
-  latched stop (`judo.loop.guard.Stop`, e.g. `judo.safety.stop.StopLatch`): while engaged, `serve` gives the safe
-  action and `advance` holds the plant by the System's halt where it offers one, until the stop is cleared.
+- the estimator between the reading and the plan (`judo.core.estimator`): `read` fuses the System's
+  raw reading (sensors, the time they were taken) into the state planned from, as of the plant's
+  now;
+- the watchdog on the served action (`judo.loop.watchdog.Watchdog`): `serve` gives the plant the
+  task's `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one
+  control period (`on_watchdog` is told why);
+- recorders of every step and plan: the `recorders` given to the loop
+  (`judo.loop.records.Recorder`).
+- the guard on every served action (`judo.loop.guard.Guard`; the owner's limits:
+  `judo.safety_guard`), and the latched stop (`judo.loop.guard.Stop`, e.g.
+  `judo.safety.stop.StopLatch`): while engaged, `serve` gives the safe action and `advance` holds
+  the plant by the System's halt where it offers one, until the stop is cleared.
 
-The latency model (`judo.loop.latency`): a plan computed from the reading at time t is served from plant time
-t + delay (seconds of sim time, or "measured": the update's wall time); until then the plant keeps the plan in
-force before it (or the task's warm start). The app uses delay 0: in real time a plan's latency is its own.
-The control clock (`judo.loop.plant_clock.ControlClock`) says when `step` plans. The app's own simulator has no
-clock (plans age in plant time), and it waits for a slow planner (`PlantRunner`).
-"""
+The latency model (`judo.loop.latency`): a plan computed from the reading at time t is served from
+plant time t + delay (seconds of sim time, or "measured": the update's wall time); until then the
+plant keeps the plan in force before it (or the task's warm start). The app uses delay 0: in real
+time a plan's latency is its own. The control clock (`judo.loop.plant_clock.ControlClock`) says when
+`step` plans. The app's own simulator has no clock (plans age in plant time), and it waits for a
+slow planner (`PlantRunner`).
+"""  # noqa: E501
 
 import collections
 import dataclasses
@@ -44,10 +50,22 @@ from judo.core.planner import Planner
 from judo.core.reading import TIME_TOLERANCE, SystemState
 from judo.core.spline import Spline
 from judo.loop.guard import Guard, Stop
-from judo.loop.latency import RECENT_CYCLES, Latency, LatencyPredictor, check_latency, prediction_delay
+from judo.loop.latency import (
+    RECENT_CYCLES,
+    Latency,
+    LatencyPredictor,
+    check_latency,
+    prediction_delay,
+)
 from judo.loop.plant_clock import ControlClock
 from judo.loop.records import PlanRecord, Recorder, StepRecord
-from judo.loop.system import SimulationDiverged, System, SystemCallError, SystemCalls, SystemClosedError
+from judo.loop.system import (
+    SimulationDiverged,
+    System,
+    SystemCallError,
+    SystemCalls,
+    SystemClosedError,
+)
 from judo.loop.watchdog import Watchdog, safe_action
 
 __all__ = ["ClosedLoop"]
@@ -61,33 +79,39 @@ class ClosedLoop:
         system: the plant (a simulator, rehearsed sensing or hardware).
         latency: seconds of sim time between a plan's reading and its being served, or "measured".
         recorders: objects with `on_plan(PlanRecord)` and `on_step(StepRecord)`, called in order.
-        clock: the watchdog's clock in seconds; None counts the plant time the loop has stepped (evaluate,
-            tune), the app passes the wall clock.
-        on_watchdog: called with the reason when the watchdog starts serving the safe action, again as it learns
-            more and every REPORT_EVERY s while it lasts, and with None when a fresh plan is served again
-            (`judo.loop.watchdog`: what is told and when).
-        estimator: turns each raw reading into the state planned from (None: plan from the reading's state).
-            It is fed every served action, and estimates as of the plant's now: the System's `time` where it
+        clock: the watchdog's clock in seconds; None counts the plant time the loop has stepped
+            (evaluate, tune), the app passes the wall clock.
+        on_watchdog: called with the reason when the watchdog starts serving the safe action, again
+            as it learns more and every REPORT_EVERY s while it lasts, and with None when a fresh
+            plan is served again (`judo.loop.watchdog`: what is told and when).
+        estimator: turns each raw reading into the state planned from (None: plan from the reading's
+            state).
+            It is fed every served action, and estimates as of the plant's now: the System's `time`
+                where it
             has one (a reading may be late), else the reading's.
-        keep_updates: keep at least the latest this many entries of `update_ms` and `latency_s` (at most twice as
-            many), for a loop that runs for days (the app); None keeps every update's (an episode's log).
-        stop: the latched stop (a `judo.loop.guard.Stop`, as `judo.safety.stop.StopLatch`): while it is engaged the
-            plant is served the safe action, or held by the System's own `halt()` (called once per latch, then
-            nothing is applied) where it offers one.
-        guard: each served action passes its `filter` (a `judo.loop.guard.Guard`: the owner's limits, built with
-            `judo.safety_guard(controller, SafetyConfig(...))`, which also screens a Controller's rollouts); None: none.
+        keep_updates: keep at least the latest this many entries of `update_ms` and `latency_s` (at
+            most twice as many), for a loop that runs for days (the app); None keeps every update's
+            (an episode's log).
+        stop: the latched stop (a `judo.loop.guard.Stop`, as `judo.safety.stop.StopLatch`): while it
+            is engaged the plant is served the safe action, or held by the System's own `halt()`
+            (called once per latch, then nothing is applied) where it offers one.
+        guard: each served action passes its `filter` (a `judo.loop.guard.Guard`: the owner's
+            limits, built with `judo.safety_guard(controller, SafetyConfig(...))`, which also
+            screens a Controller's rollouts); None: none.
 
     Attributes:
         reading: the latest reading of the plant (None until the first `read`).
-        update_ms: wall times of every control update (the latest `keep_updates`), in milliseconds (failed ones too).
+        update_ms: wall times of every control update (the latest `keep_updates`), in milliseconds
+            (failed ones too).
         latency_s: the delay after which each update's plan took effect, in seconds (as many).
-        failed_updates: updates whose rollouts all scored NaN or -inf, or whose knots were non-finite
-            (the plan before them stayed in force); `last_failure` is the latest one's error.
+        failed_updates: updates whose rollouts all scored NaN or -inf, or whose knots were
+            non-finite (the plan before them stayed in force); `last_failure` is the latest one's
+            error.
         divergences: times the plant's simulation blew up and was reset.
         control_clock: when `step` makes the next control update, in plant time.
 
-    `plan` may run on another thread than `serve` and `advance` (the app's worker thread): the hand-over
-    of a new plan is locked.
+    `plan` may run on another thread than `serve` and `advance` (the app's worker thread): the
+    hand-over of a new plan is locked.
     """
 
     def __init__(
@@ -107,23 +131,30 @@ class ClosedLoop:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
         self.calls = SystemCalls(system)  # every System call goes through it (see judo.loop.system)
-        self.recorders = [*recorders, *filter(None, [system.recorder()])]  # and the System's own log, if it has one
+        # and the System's own log, if it has one
+        self.recorders = [*recorders, *filter(None, [system.recorder()])]
         self.estimator = estimator
-        self.controls = ControlHistory(controller.task.command_size)  # every served action, for the estimator
-        self.raw_reading: SystemState | None = None  # the System's latest reading, before the estimator
+        # every served action, for the estimator
+        self.controls = ControlHistory(controller.task.command_size)
+        # the System's latest reading, before the estimator
+        self.raw_reading: SystemState | None = None
         self._estimator_started = False
-        self.stepped_time = 0.0  # plant time this loop has stepped, the watchdog's clock when none is given
+        # plant time this loop has stepped, the watchdog's clock when none is given
+        self.stepped_time = 0.0
         self.clock = clock if clock is not None else (lambda: self.stepped_time)
         self.on_watchdog = on_watchdog
         self.watchdog = Watchdog()
         self.watchdog.restart(self.clock())
-        self.plan_stamp = self.clock()  # watchdog clock of the freshest reading behind the plan in force
-        self._safe_state: np.ndarray | None = None  # (nq + nv,) the latest finite reading, for safe_action
+        # watchdog clock of the freshest reading behind the plan in force
+        self.plan_stamp = self.clock()
+        # (nq + nv,) the latest finite reading, for safe_action
+        self._safe_state: np.ndarray | None = None
         self.reading: SystemState | None = None
         self.update_ms: list[float] = []
         self.latency_s: list[float] = []
         self.keep_updates = keep_updates
-        self.stop, self._stop_halted = stop, False  # the latched stop, and whether the System's halt holds the plant
+        # the latched stop, and whether the System's halt holds the plant
+        self.stop, self._stop_halted = stop, False
         self.guard = guard  # the owner's limits: the serve filter, or None
         self.failed_updates = self.divergences = 0
         self.control_clock = ControlClock()
@@ -131,13 +162,19 @@ class ClosedLoop:
         self.last_failure: JudoError | None = None  # why the latest failed update failed
         self._lock = threading.Lock()
         self._active: Spline | None = None
-        self._pending: list[tuple[float, Spline, float]] = []  # (plant time it takes effect, plan, stamp), in order
+        # (plant time it takes effect, plan, stamp), in order
+        self._pending: list[tuple[float, Spline, float]] = []
         self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
-        self.real_time, self._predictor = clock is not None, LatencyPredictor(controller.task)  # app: wall clock
-        self.cycle_started: float | None = None  # stepped_time when the planning cycle in flight began
-        self.last_cycle_failed, self.newest_stamp = False, self.plan_stamp  # and the newest scheduled plan's stamp
-        self.last_cycle_plant_time = 0.0  # plant time stepped (by another thread) while the last cycle ran
-        # plant time from each recent cycle's reading to the newest reading when the cycle ended (its plan's start)
+        # app: wall clock
+        self.real_time, self._predictor = clock is not None, LatencyPredictor(controller.task)
+        # stepped_time when the planning cycle in flight began
+        self.cycle_started: float | None = None
+        # and the newest scheduled plan's stamp
+        self.last_cycle_failed, self.newest_stamp = False, self.plan_stamp
+        # plant time stepped (by another thread) while the last cycle ran
+        self.last_cycle_plant_time = 0.0
+        # plant time from each recent cycle's reading to the newest reading when the cycle
+        # ended (its plan's start)
         self.cycle_plant_times: collections.deque[float] = collections.deque(maxlen=RECENT_CYCLES)
 
     def restart_estimator(self) -> None:
@@ -146,7 +183,8 @@ class ClosedLoop:
         self.controls.clear()
 
     def forget_plans(self) -> None:
-        """Forget every plan, the controller's too: the plant gets the warm start until the next plan."""
+        """Forget every plan, the controller's too: the plant gets the warm start until the next
+        plan."""
         self.controller.reset()
         now = self.clock()
         with self._lock:
@@ -154,8 +192,8 @@ class ClosedLoop:
             self.plan_stamp = now  # the warm start counts as a plan from now
 
     def restart(self) -> SystemState:
-        """Forget every plan and read the plant; the control clock starts at the reading's time. Call it
-        after the plant was reset, whose time may start again."""
+        """Forget every plan and read the plant; the control clock starts at the reading's time.
+        Call it after the plant was reset, whose time may start again."""
         self.forget_plans()
         self.watchdog.restart(self.clock())
         self.restart_estimator()
@@ -164,32 +202,38 @@ class ClosedLoop:
         return reading
 
     def read(self) -> SystemState:
-        """Read the plant: the reading the next plan starts from, kept as `reading`. Raises ReadingTimeError,
-        keeping the reading before, if its time went backwards."""
+        """Read the plant: the reading the next plan starts from, kept as `reading`. Raises
+        ReadingTimeError, keeping the reading before, if its time went backwards."""
         raw = self.calls.read_state()
         self.watchdog.note_reading(raw, self.clock())
         self.raw_reading = raw
         reading = raw if self.estimator is None else self._estimate(raw)
         self.reading = reading
         state = reading.state
-        if state is not None and np.shape(state) == (self.controller.task.model.nq + self.controller.task.model.nv,):
+        if state is not None and np.shape(state) == (
+            self.controller.task.model.nq + self.controller.task.model.nv,
+        ):
             if np.isfinite(state).all():
                 self._safe_state = np.array(state, dtype=float)
         return reading
 
     def plant_time(self, raw: SystemState) -> float:
-        """The plant's now: the System's `time` where it has one (its readings may be late), else the reading's."""
+        """The plant's now: the System's `time` where it has one (its readings may be late), else
+        the reading's."""
         now = getattr(self.system, "time", None)
         return float(now) if isinstance(now, int | float) else raw.time
 
     def measured_age(self, raw: SystemState) -> np.ndarray:
-        """(k,) seconds between taking each measured sensor's value in `raw` (its metadata's "sensor_times", else
-        its time) and the plant's now."""
+        """(k,) seconds between taking each measured sensor's value in `raw` (its metadata's
+        "sensor_times", else its time) and the plant's now."""
         stamps = np.asarray(raw.metadata.get("sensor_times", raw.time), dtype=float)
-        return self.plant_time(raw) - np.broadcast_to(stamps, (len(self.controller.task.measured_sensors),))
+        return self.plant_time(raw) - np.broadcast_to(
+            stamps, (len(self.controller.task.measured_sensors),)
+        )
 
     def _estimate(self, raw: SystemState) -> SystemState:
-        """The estimator's state from `raw`, as of the plant's now (started from the first reading)."""
+        """The estimator's state from `raw`, as of the plant's now (started from the first
+        reading)."""
         assert self.estimator is not None
         now = self.plant_time(raw)
         if not self._estimator_started:
@@ -198,20 +242,30 @@ class ClosedLoop:
         return dataclasses.replace(self.estimator.update(raw, now, self.controls), time=now)
 
     def plan(
-        self, reading: SystemState, cancel: threading.Event | None = None, deadline: float | None = None
+        self,
+        reading: SystemState,
+        cancel: threading.Event | None = None,
+        deadline: float | None = None,
     ) -> Spline | None:
-        """One control update from `reading`, scheduled to be served after the latency model's delay. A `deadline`
-        (a time.perf_counter() value) ends the optimizer iterations beyond `max_opt_iters` that would end after it.
+        """One control update from `reading`, scheduled to be served after the latency model's
+        delay. A `deadline` (a time.perf_counter() value) ends the optimizer iterations beyond
+        `max_opt_iters` that would end after it.
 
-        Returns the new plan, or None when the update failed on non-finite rewards or knots (counted in
-        `failed_updates`; the plan before stays in force). Other errors (a reward that raises, an invalid config, a
-        set `cancel`) propagate, with nothing scheduled."""
+        Returns the new plan, or None when the update failed on non-finite rewards or knots (counted
+        in `failed_updates`; the plan before stays in force). Other errors (a reward that raises, an
+        invalid config, a set `cancel`) propagate, with nothing scheduled."""
         stamp = self.watchdog.fresh_at
         started = time.perf_counter()
-        self.cycle_started, self.last_cycle_failed, stepped = self.stepped_time, True, self.stepped_time
+        self.cycle_started, self.last_cycle_failed, stepped = (
+            self.stepped_time,
+            True,
+            self.stepped_time,
+        )
         try:
             start = self._predicted(reading) if self.predicts() else reading
-            plan = self.controller.update_action(start.state, start.time, start.metadata, cancel, deadline)
+            plan = self.controller.update_action(
+                start.state, start.time, start.metadata, cancel, deadline
+            )
         except (NonFiniteRewardError, NonFiniteKnotsError) as err:
             plan = None
             self.failed_updates += 1
@@ -220,73 +274,94 @@ class ClosedLoop:
             self.cycle_started = None
             self.last_cycle_plant_time = self.stepped_time - stepped
             latest = self.reading  # the plant thread's newest: the plan is served from its time on
-            self.cycle_plant_times.append(0.0 if latest is None else max(0.0, latest.time - reading.time))
+            self.cycle_plant_times.append(
+                0.0 if latest is None else max(0.0, latest.time - reading.time)
+            )
         wall = time.perf_counter() - started
         delay = wall if self.latency == "measured" else float(self.latency)
-        if plan is not None:  # a plan made for a predicted reading takes effect no earlier than that reading's time
+        # a plan made for a predicted reading takes effect no earlier than that reading's time
+        if plan is not None:
             delay = max(delay, start.time - reading.time)
         self.update_ms.append(1e3 * wall)
         self.latency_s.append(delay)
         if self.keep_updates is not None and len(self.update_ms) > 2 * self.keep_updates:
-            del self.update_ms[: -self.keep_updates], self.latency_s[: -self.keep_updates]  # amortised O(1)
+            # amortised O(1)
+            del self.update_ms[: -self.keep_updates], self.latency_s[: -self.keep_updates]
         self.last_delay = delay
         if plan is None:
             return None
         self.last_cycle_failed, self.newest_stamp = False, stamp
-        with self._lock:  # a plan that takes effect no later than one pending before it replaces that one
+        # a plan that takes effect no later than one pending before it replaces that one
+        with self._lock:
             at = reading.time + delay
             self._pending = [entry for entry in self._pending if entry[0] < at - TIME_TOLERANCE]
             self._pending.append((at, plan, stamp))
         if self.recorders:  # the record is built only for someone to read it
             traces = self._traces_if_wanted(plan)
-            record = PlanRecord.of_update(reading.time, delay, plan.knots, wall, plan.rewards, traces)
+            record = PlanRecord.of_update(
+                reading.time, delay, plan.knots, wall, plan.rewards, traces
+            )
             for recorder in self.recorders:
                 recorder.on_plan(record)
         return plan
 
     def predicts(self) -> bool:
-        """Whether a plan is made from the reading predicted to when it takes effect: with latency compensation,
-        and with feedback gains (a planner whose plans have none keeps `feedback` off), whose nominal rollout must
-        start where the plant will be when they act (else they pull it toward a start it has already left)."""
+        """Whether a plan is made from the reading predicted to when it takes effect: with latency
+        compensation, and with feedback gains (a planner whose plans have none keeps `feedback`
+        off), whose nominal rollout must start where the plant will be when they act (else they pull
+        it toward a start it has already left)."""
         config = self.controller.config
         return config.latency_compensation or config.feedback
 
     def _predicted(self, reading: SystemState) -> SystemState:
-        """`reading` predicted to when the plan made from it takes effect, under the plans due meanwhile."""
-        delay = prediction_delay(self.latency, self.real_time, self.update_ms, self.cycle_plant_times)
+        """`reading` predicted to when the plan made from it takes effect, under the plans due
+        meanwhile."""
+        delay = prediction_delay(
+            self.latency, self.real_time, self.update_ms, self.cycle_plant_times
+        )
         step = self.system.timestep
         if step > 0:  # a plan due between two plant steps takes effect at the later one
             delay = math.ceil(delay / step - 1e-6) * step
 
-        def control_at(now: float, state: np.ndarray) -> np.ndarray:  # what `serve` gives the plant in `state`
+        # what `serve` gives the plant in `state`
+        def control_at(now: float, state: np.ndarray) -> np.ndarray:
             with self._lock:
                 due = [plan for at, plan, _ in self._pending if at <= now + TIME_TOLERANCE]
                 plan = due[-1] if due else self._active
-            return self.controller.warm_start_action(reading.state) if plan is None else plan(now, state)
+            return (
+                self.controller.warm_start_action(reading.state)
+                if plan is None
+                else plan(now, state)
+            )
 
         return self._predictor.predict_reading(reading, delay, control_at)
 
     def _traces_if_wanted(self, plan: Spline) -> np.ndarray | None:
-        """(1 + num_shown, T, num_trace_sensors, 3) float32 copy of the traces of the update that made `plan`
-        when a recorder has `wants_traces`, else None."""
+        """(1 + num_shown, T, num_trace_sensors, 3) float32 copy of the traces of the update that
+        made `plan` when a recorder has `wants_traces`, else None."""
         if any(getattr(recorder, "wants_traces", False) for recorder in self.recorders):
             return plan.traces.astype(np.float32)
         return None
 
     def serve(self, now: float) -> np.ndarray:
-        """(nu,) the control the plant gets at plant time `now`: the latest plan whose time has come (with
-        feedback gains, corrected by the latest reading's deviation from its nominal), or the task's warm
-        start (from the latest reading) before the first one; the task's `safe_action` instead while the
-        watchdog finds that plan too old, and while the latched stop is engaged."""
+        """(nu,) the control the plant gets at plant time `now`: the latest plan whose time has come
+        (with feedback gains, corrected by the latest reading's deviation from its nominal), or the
+        task's warm start (from the latest reading) before the first one; the task's `safe_action`
+        instead while the watchdog finds that plan too old, and while the latched stop is
+        engaged."""
         with self._lock:
             while self._pending and self._pending[0][0] <= now + TIME_TOLERANCE:
                 _, self._active, self.plan_stamp = self._pending.pop(0)
             active, stamp = self._active, self.plan_stamp
             if active is None and self._hold is None:  # held from the first reading after a restart
-                self._hold = self.controller.warm_start_action(None if self.reading is None else self.reading.state)
+                self._hold = self.controller.warm_start_action(
+                    None if self.reading is None else self.reading.state
+                )
             hold = self._hold
         config, newest = self.controller.config, max(stamp, self.newest_stamp)
-        reason = self.watchdog.verdict(self.clock(), stamp, config.max_plan_age, config.control_freq, newest)
+        reason = self.watchdog.verdict(
+            self.clock(), stamp, config.max_plan_age, config.control_freq, newest
+        )
         if self.watchdog.news and self.on_watchdog is not None:
             self.on_watchdog(reason)
         stopped = self.stop if self.stop is not None and self.stop.latched else None
@@ -296,35 +371,44 @@ class ClosedLoop:
             return self.safe_action()
         if active is None:
             return hold
-        return active(now, None if self.reading is None else self.reading.state)  # the state feeds back gains
+        # the state feeds back gains
+        return active(now, None if self.reading is None else self.reading.state)
 
     def safe_action(self) -> np.ndarray:
-        """(nu,) the task's `safe_action` from the latest finite reading, clamped (`judo.loop.watchdog.safe_action`)."""
+        """(nu,) the task's `safe_action` from the latest finite reading, clamped
+        (`judo.loop.watchdog.safe_action`)."""
         return safe_action(self.controller.task, self._safe_state)
 
     def halt(self) -> None:
-        """Bring the plant to rest: the System's own `halt()` where it offers one, else apply the safe action."""
+        """Bring the plant to rest: the System's own `halt()` where it offers one, else apply the
+        safe action."""
         if not self.calls.halt():
             self.calls.apply(self.safe_action())
 
     def reset_plant(self) -> SystemState:
-        """Reset the plant to its start state and read it (its time may start again). Raises what the System's
-        `reset` raised, with the loop as it was; the plans are the caller's to forget (`forget_plans`)."""
+        """Reset the plant to its start state and read it (its time may start again). Raises what
+        the System's `reset` raised, with the loop as it was; the plans are the caller's to forget
+        (`forget_plans`)."""
         self.calls.reset()
         self.watchdog.restart(self.clock())
         self.restart_estimator()
         return self.read()
 
     def advance(self) -> StepRecord:
-        """Serve the plan at the plant's time, step the plant once, read it back and record the step.
+        """Serve the plan at the plant's time, step the plant once, read it back and record the
+        step.
 
-        apply, step and read_state are each tried on their own, so a failed reading or apply never skips the step
-        (a robot's driver exchanges its data in `step`). A diverged simulation (the plant reset itself) is counted
-        in `divergences` and re-raised after the step is recorded; other failures raise one SystemCallError."""
+        apply, step and read_state are each tried on their own, so a failed reading or apply never
+        skips the step (a robot's driver exchanges its data in `step`). A diverged simulation (the
+        plant reset itself) is counted in `divergences` and re-raised after the step is recorded;
+        other failures raise one SystemCallError."""
         reading = self.reading if self.reading is not None else self.read()
         action = self.serve(reading.time)
-        if self.guard is not None and not (self.stop is not None and self.stop.latched):  # the owner's limits
-            action = self.guard.filter(action, reading.state, reading.time, self.safe_action, reading.metadata)
+        # the owner's limits
+        if self.guard is not None and not (self.stop is not None and self.stop.latched):
+            action = self.guard.filter(
+                action, reading.state, reading.time, self.safe_action, reading.metadata
+            )
         if self.estimator is not None:
             self.controls.append(reading.time, action)
         failed: dict[str, Exception] = {}
@@ -375,8 +459,9 @@ class ClosedLoop:
         return record
 
     def _held_by_stop(self) -> bool:
-        """Whether the latched stop holds the plant by the System's own halt, so no action is applied: halted once
-        per latch where the System offers a halt (else the safe action `serve` gave is applied)."""
+        """Whether the latched stop holds the plant by the System's own halt, so no action is
+        applied: halted once per latch where the System offers a halt (else the safe action `serve`
+        gave is applied)."""
         stop = self.stop
         if stop is None or not stop.latched:
             self._stop_halted = False
@@ -386,9 +471,9 @@ class ClosedLoop:
         return self._stop_halted
 
     def step(self) -> StepRecord | None:
-        """Plan when the control clock is due (in sim time: `ControlClock`), then advance the plant one step.
-        Returns the step's record, or None when the simulation diverged (counted in `divergences`; the plant
-        reset itself)."""
+        """Plan when the control clock is due (in sim time: `ControlClock`), then advance the plant
+        one step. Returns the step's record, or None when the simulation diverged (counted in
+        `divergences`; the plant reset itself)."""
         reading = self.reading if self.reading is not None else self.restart()
         now, period = reading.time, 1.0 / self.controller.config.control_freq
         if self.control_clock.due(now, period):

@@ -1,9 +1,11 @@
-"""What the closed loop asks of the two things that may override the plan it serves, handed in by its builder.
+"""What the closed loop asks of the two things that may override the plan it serves, handed in by
+its builder.
 
-- a `Guard` (`ClosedLoop(guard=...)`): every served action passes its `filter`, and the step's record keeps its
-  `step_hits`; the owner's limits build one (`judo.safety.serve_filter.safety_guard`, `judo.safety_guard`);
-- a `Stop` (`ClosedLoop(stop=...)`): while it is `latched` the plant is served the safe action (or held by the
-  System's halt); `judo.safety.stop.StopLatch` is one.
+- a `Guard` (`ClosedLoop(guard=...)`): every served action passes its `filter`, and the step's
+  record keeps its `step_hits`; the owner's limits build one
+  (`judo.safety.serve_filter.safety_guard`, `judo.safety_guard`);
+- a `Stop` (`ClosedLoop(stop=...)`): while it is `latched` the plant is served the safe action (or
+  held by the System's halt); `judo.safety.stop.StopLatch` is one.
 The loop imports neither: it types them by these protocols.
 """
 
@@ -19,7 +21,8 @@ class Guard(Protocol):
     """The last-line filter of every served action (the owner's limits).
 
     Attributes:
-        step_hits: what acted on the latest filtered action (recorded in its StepRecord's `limit_hits`).
+        step_hits: what acted on the latest filtered action (recorded in its StepRecord's
+            `limit_hits`).
     """
 
     @property
@@ -33,8 +36,9 @@ class Guard(Protocol):
         safe_action: Callable[[], np.ndarray],
         metadata: dict[str, Any] | None = None,
     ) -> np.ndarray:
-        """(nu,) the action to serve at plant `time` instead of `action`, from the latest reading's (nq + nv,)
-        `state` (None where the plant gives none) and `metadata`; `safe_action()` is the task's safe action."""
+        """(nu,) the action to serve at plant `time` instead of `action`, from the latest reading's
+        (nq + nv,) `state` (None where the plant gives none) and `metadata`; `safe_action()` is the
+        task's safe action."""
         ...
 
 

@@ -1,12 +1,12 @@
 """Planning latency: the closed loop's latency model, and the prediction that compensates for it.
 
-A plan computed from the reading at time t is served from t + delay (`judo.loop.closed_loop`). Until then
-the plant goes on under the plan in force before it, so a plan whose rollouts start from the reading's state
-plans the first `delay` seconds for a state the plant has already left. With the controller's
-`latency_compensation` (and with `feedback` gains), the closed loop first predicts the plant's state at the first
-plant step at or after t + delay on the planning model, under the controls it will actually be served meanwhile,
-and plans from there (`predict_reading`); such a plan takes effect no earlier than that step, where its rollouts
-start.
+A plan computed from the reading at time t is served from t + delay (`judo.loop.closed_loop`). Until
+then the plant goes on under the plan in force before it, so a plan whose rollouts start from the
+reading's state plans the first `delay` seconds for a state the plant has already left. With the
+controller's `latency_compensation` (and with `feedback` gains), the closed loop first predicts the
+plant's state at the first plant step at or after t + delay on the planning model, under the
+controls it will actually be served meanwhile, and plans from there (`predict_reading`); such a plan
+takes effect no earlier than that step, where its rollouts start.
 """
 
 import dataclasses
@@ -28,22 +28,24 @@ Latency = float | Literal["measured"]
 
 
 def check_latency(latency: Latency) -> None:
-    """Raise ConfigError unless `latency` is "measured" or a finite number of seconds, at least 0."""
+    """Raise ConfigError unless `latency` is "measured" or a finite number of seconds, at least
+    0."""
     if latency != "measured":
         require(0 <= latency < math.inf, f"latency must be at least 0 s and finite, got {latency}")
 
 
 RECENT_CYCLES = 5
-"""Cycles whose slowest sets how far ahead a wall-clock loop predicts: a plan that comes early waits for the
-time it was planned for, one that comes late starts from a state its rollouts never saw."""
+"""Cycles whose slowest sets how far ahead a wall-clock loop predicts: a plan that comes early waits
+for the time it was planned for, one that comes late starts from a state its rollouts never saw."""
 
 
 def prediction_delay(
     latency: Latency, real_time: bool, update_ms: list[float], cycle_plant_times: Sequence[float]
 ) -> float:
-    """Seconds ahead that latency compensation predicts a reading: the slowest of the last RECENT_CYCLES updates'
-    wall time for a robot (or "measured"), the fixed latency, else the most plant time one of the last
-    RECENT_CYCLES cycles took (the app's simulator steps while planning; evaluate's does not, so 0 there)."""
+    """Seconds ahead that latency compensation predicts a reading: the slowest of the last
+    RECENT_CYCLES updates' wall time for a robot (or "measured"), the fixed latency, else the most
+    plant time one of the last RECENT_CYCLES cycles took (the app's simulator steps while planning;
+    evaluate's does not, so 0 there)."""
     if latency == "measured" or real_time:
         return max(update_ms[-RECENT_CYCLES:]) / 1e3 if update_ms else 0.0
     if float(latency) > 0:
@@ -52,26 +54,31 @@ def prediction_delay(
 
 
 class LatencyPredictor:
-    """Predicts a reading forward by the planning latency on the task's planning model (its own MjData).
+    """Predicts a reading forward by the planning latency on the task's planning model (its own
+    MjData).
 
     Args:
         task: the controller's task; its `model` steps the prediction.
     """
 
     def __init__(self, task: Task) -> None:
-        self.task = task  # its `predict_step` steps the prediction (a DynamicsTask's: its own dynamics)
+        # its `predict_step` steps the prediction (a DynamicsTask's: its own dynamics)
+        self.task = task
         self.model = task.model
         self.data = mujoco.MjData(self.model)
 
     def predict_reading(
-        self, reading: SystemState, delay: float, control_at: Callable[[float, np.ndarray], np.ndarray]
+        self,
+        reading: SystemState,
+        delay: float,
+        control_at: Callable[[float, np.ndarray], np.ndarray],
     ) -> SystemState:
-        """`reading` moved `delay` seconds ahead: its (nq + nv,) state stepped round(delay / timestep) steps with
-        `control_at(time, state)` ((nu,), the control the plant gets at that plant time in that (nq + nv,) state:
-        a plan with feedback gains serves by the state), its time advanced as far.
-        The reading as it is when the delay is under half a step, it has no full state or a non-finite one (the
-        planner refuses that itself), or the prediction diverged (MuJoCo resets the data on a bad state, which
-        would otherwise pass for a prediction)."""
+        """`reading` moved `delay` seconds ahead: its (nq + nv,) state stepped round(delay /
+        timestep) steps with `control_at(time, state)` ((nu,), the control the plant gets at that
+        plant time in that (nq + nv,) state: a plan with feedback gains serves by the state), its
+        time advanced as far. The reading as it is when the delay is under half a step, it has no
+        full state or a non-finite one (the planner refuses that itself), or the prediction diverged
+        (MuJoCo resets the data on a bad state, which would otherwise pass for a prediction)."""
         steps = round(delay / self.model.opt.timestep)
         nq, nv = self.model.nq, self.model.nv
         if steps <= 0 or reading.state is None or np.shape(reading.state) != (nq + nv,):
@@ -90,4 +97,6 @@ class LatencyPredictor:
         if diverged or not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
             return reading  # the prediction blew up: plan from what was read
         state = np.concatenate([data.qpos, data.qvel])
-        return dataclasses.replace(reading, state=state, time=reading.time + steps * self.model.opt.timestep)
+        return dataclasses.replace(
+            reading, state=state, time=reading.time + steps * self.model.opt.timestep
+        )

@@ -1,11 +1,13 @@
-"""MuJoCo's own warnings, counted into one log line every few seconds instead of one terminal line each.
+"""MuJoCo's own warnings, counted into one log line every few seconds instead of one terminal line
+each.
 
-MuJoCo prints a warning (`mju_warning`, e.g. "Nan, Inf or huge value in QPOS at DOF 1") the first time an MjData
-meets it. A planner's rollouts start each rollout afresh and a diverging plant is reset every step, so a state
-MuJoCo cannot simulate makes a line per rollout: tens of thousands in a few seconds. `count_mujoco_warnings()`
-hands MuJoCo's warnings (`mujoco.set_mju_user_warning`) to a `WarningCounter`, which logs the first of each kind
-at once and then, at most every `REPORT_EVERY` seconds, one line with how many came since; what is still
-uncounted at exit is said then. The Systems that run MuJoCo or plan from a robot install it.
+MuJoCo prints a warning (`mju_warning`, e.g. "Nan, Inf or huge value in QPOS at DOF 1") the first
+time an MjData meets it. A planner's rollouts start each rollout afresh and a diverging plant is
+reset every step, so a state MuJoCo cannot simulate makes a line per rollout: tens of thousands in a
+few seconds. `count_mujoco_warnings()` hands MuJoCo's warnings (`mujoco.set_mju_user_warning`) to a
+`WarningCounter`, which logs the first of each kind at once and then, at most every `REPORT_EVERY`
+seconds, one line with how many came since; what is still uncounted at exit is said then. The
+Systems that run MuJoCo or plan from a robot install it.
 """
 
 import atexit
@@ -27,7 +29,8 @@ KINDS_NAMED = 3
 
 
 class WarningCounter:
-    """A handler for MuJoCo's warning texts that counts them into a log line every `report_every` seconds.
+    """A handler for MuJoCo's warning texts that counts them into a log line every `report_every`
+    seconds.
 
     Args:
         report_every: wall seconds between counting lines.
@@ -37,7 +40,9 @@ class WarningCounter:
         total: warnings counted so far.
     """
 
-    def __init__(self, report_every: float = REPORT_EVERY, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self, report_every: float = REPORT_EVERY, clock: Callable[[], float] = time.monotonic
+    ) -> None:
         self.report_every, self.clock = report_every, clock
         self.total = 0
         self._seen: set[str] = set()
@@ -47,14 +52,19 @@ class WarningCounter:
 
     def __call__(self, text: str) -> None:
         """Count MuJoCo's warning `text` (called by MuJoCo, from whichever thread warned)."""
-        kind = re.sub(r"\s*Time = [-+.\deE]+\.?\s*$", "", text.strip())  # the same warning at another time
+        # the same warning at another time
+        kind = re.sub(r"\s*Time = [-+.\deE]+\.?\s*$", "", text.strip())
         with self._lock:
             self.total += 1
             now = self.clock()
             if kind not in self._seen:
                 self._seen.add(kind)
                 self._since = now if not self._pending else self._since
-                logger.warning("MuJoCo: %s (further MuJoCo warnings are counted every %g s)", text, self.report_every)
+                logger.warning(
+                    "MuJoCo: %s (further MuJoCo warnings are counted every %g s)",
+                    text,
+                    self.report_every,
+                )
                 return
             self._pending[kind] = self._pending.get(kind, 0) + 1
             if now - self._since >= self.report_every:
@@ -73,7 +83,12 @@ class WarningCounter:
         more = f"; and {len(kinds) - KINDS_NAMED} more kinds" if len(kinds) > KINDS_NAMED else ""
         span = f"in the last {now - self._since:.0f} s" if math.isfinite(self._since) else "so far"
         logger.warning(
-            "MuJoCo warned %s more times %s (%s total): %s%s", f"{count:,}", span, f"{self.total:,}", named, more
+            "MuJoCo warned %s more times %s (%s total): %s%s",
+            f"{count:,}",
+            span,
+            f"{self.total:,}",
+            named,
+            more,
         )
         self._pending.clear()
         self._since = now
@@ -83,8 +98,9 @@ _installed: WarningCounter | None = None
 
 
 def count_mujoco_warnings() -> WarningCounter | None:
-    """Hand MuJoCo's warnings to one `WarningCounter` for this process (once; later calls return it), and log what
-    it still counts at exit. None, and nothing changed, where the process already gave MuJoCo a handler of its own."""
+    """Hand MuJoCo's warnings to one `WarningCounter` for this process (once; later calls return
+    it), and log what it still counts at exit. None, and nothing changed, where the process already
+    gave MuJoCo a handler of its own."""
     global _installed
     current = mujoco.get_mju_user_warning()
     if current is not None and current is not _installed:

@@ -1,15 +1,15 @@
-"""The loop's two clocks: the plant clock (`PlantClock`), when a System's next `step()` is due in wall time, and the
-control clock (`ControlClock`), when the next control update is due.
+"""The loop's two clocks: the plant clock (`PlantClock`), when a System's next `step()` is due in
+wall time, and the control clock (`ControlClock`), when the next control update is due.
 
-The plant clock steps a plant once per `timestep` of wall clock (docs/hardware.md). The app's plant thread and
-`python -m judo excite` both pace a System by it.
+The plant clock steps a plant once per `timestep` of wall clock (docs/hardware.md). The app's plant
+thread and `python -m judo excite` both pace a System by it.
 
-Step k of a stretch is due at wall time origin + k * timestep, the origin being the wall time the stretch
-began (its first step is due at once). `restart` ends the stretch: the next `due` begins a new one (after a
-new session, a reset, a pause, a wait for the planner). A caller that falls further behind than
-`max_catch_up` seconds at once falls behind instead: at most that many seconds of steps are due at once, and
-the origin moves on by the rest, so a slow `step()` slows the plant down (the real-time factor shows it) rather
-than bursting to catch up.
+Step k of a stretch is due at wall time origin + k * timestep, the origin being the wall time the
+stretch began (its first step is due at once). `restart` ends the stretch: the next `due` begins a
+new one (after a new session, a reset, a pause, a wait for the planner). A caller that falls further
+behind than `max_catch_up` seconds at once falls behind instead: at most that many seconds of steps
+are due at once, and the origin moves on by the rest, so a slow `step()` slows the plant down (the
+real-time factor shows it) rather than bursting to catch up.
 
     clock = PlantClock()
     while running:
@@ -20,10 +20,10 @@ than bursting to catch up.
         clock.stepped(due)
         time.sleep(clock.wait(time.perf_counter(), system.timestep))
 
-The control clock is ticked in sim time by `ClosedLoop.step` (evaluate, tune, collect) and in wall time by the
-app's planner runner. It ticks every 1 / control_freq s, read when asked (an edit takes effect at once); an update
-whose plan takes effect after the next tick moves that tick to then, since a controller cannot start a plan before
-the current one is done.
+The control clock is ticked in sim time by `ClosedLoop.step` (evaluate, tune, collect) and in wall
+time by the app's planner runner. It ticks every 1 / control_freq s, read when asked (an edit takes
+effect at once); an update whose plan takes effect after the next tick moves that tick to then,
+since a controller cannot start a plan before the current one is done.
 """
 
 import math
@@ -39,7 +39,8 @@ STOP_POLL = 0.05
 
 
 class PlantClock:
-    """Which steps of a plant are due at a wall time (time.perf_counter() seconds), and how long until the next.
+    """Which steps of a plant are due at a wall time (time.perf_counter() seconds), and how long
+    until the next.
 
     Args:
         max_catch_up: most seconds of steps due at once (at least one step).
@@ -59,8 +60,8 @@ class PlantClock:
         self.running = False
 
     def due(self, now: float, timestep: float) -> int:
-        """Steps of `timestep` s due at wall time `now` and not taken yet, at most `max_catch_up` s of them
-        (at least one); begins a stretch at `now` where none runs."""
+        """Steps of `timestep` s due at wall time `now` and not taken yet, at most `max_catch_up` s
+        of them (at least one); begins a stretch at `now` where none runs."""
         if not self.running:
             self._origin, self._steps, self.running = now, 0, True
         due = int((now - self._origin) / timestep) + 1 - self._steps
@@ -75,15 +76,15 @@ class PlantClock:
         self._steps += count
 
     def wait(self, now: float, timestep: float) -> float:
-        """Seconds from wall time `now` until the stretch's next step of `timestep` s is due (0 when it is due,
-        or when no stretch runs)."""
+        """Seconds from wall time `now` until the stretch's next step of `timestep` s is due (0 when
+        it is due, or when no stretch runs)."""
         if not self.running:
             return 0.0
         return max(0.0, self._origin + self._steps * timestep - now)
 
     def sleep_until_due(self, timestep: float, stopped: Callable[[], bool]) -> bool:
-        """Sleep until a step of `timestep` s is due (True), or until `stopped()` (False), asking it at least every
-        STOP_POLL s: the wait of a caller that steps one step at a time."""
+        """Sleep until a step of `timestep` s is due (True), or until `stopped()` (False), asking it
+        at least every STOP_POLL s: the wait of a caller that steps one step at a time."""
         while not stopped():
             now = time.perf_counter()
             if self.due(now, timestep):
@@ -95,8 +96,8 @@ class PlantClock:
 class ControlClock:
     """When the next control update is due.
 
-    `restart(now)` makes an update due at `now`; `ticked(now, delay, period)` records an update made at `now`
-    whose plan takes effect `delay` s later. Before the first restart every time is due.
+    `restart(now)` makes an update due at `now`; `ticked(now, delay, period)` records an update made
+    at `now` whose plan takes effect `delay` s later. Before the first restart every time is due.
     """
 
     def __init__(self) -> None:
@@ -108,8 +109,8 @@ class ControlClock:
         self._tick, self._not_before = -math.inf, now
 
     def next_time(self, period: float) -> float:
-        """The time the next update is due: one `period` after the latest tick, or when its plan takes effect
-        if later."""
+        """The time the next update is due: one `period` after the latest tick, or when its plan
+        takes effect if later."""
         return max(self._tick + period, self._not_before)
 
     def due(self, now: float, period: float) -> bool:

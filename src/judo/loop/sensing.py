@@ -1,14 +1,15 @@
-"""Rehearsed sensing: the simulator seen through a robot's sensors, noisy, late and at their own rates.
+"""Rehearsed sensing: the simulator seen through a robot's sensors, noisy, late and at their own
+rates.
 
     system = SensedSystem(MujocoSystem(task), noise={"default": 0.005, "framequat": 0.017},
                           delay={"framepos": 0.04, "framequat": 0.04}, rate={"default": 100, "framepos": 30})
 
-Each setting is one value for every measured sensor or a mapping {sensor type: value} with an optional
-"default" (see `judo.core.sensors.per_sensor`).
+Each setting is one value for every measured sensor or a mapping {sensor type: value} with an
+optional "default" (see `judo.core.sensors.per_sensor`).
 
-How a command's simulated plant is observed (`Sensing`, `observed_plant`, `choose_estimator` and their flags) is
-the commands' choice: `judo.evaluation.sensing`.
-"""
+How a command's simulated plant is observed (`Sensing`, `observed_plant`, `choose_estimator` and
+their flags) is the commands' choice: `judo.evaluation.sensing`.
+"""  # noqa: E501
 
 from collections import deque
 from collections.abc import Mapping
@@ -28,11 +29,11 @@ PerType = float | Mapping[str, float | None] | None
 class SensedSystem(System):
     """A simulated plant that serves only its task's measured sensors (`SystemState.state` is None).
 
-    Each measured sensor is sampled at its rate, gets Gaussian noise (a quaternion sensor a random rotation
-    of that std per axis, in rad), and is delivered `delay` seconds later, stamped with the time it was
-    taken; between samples the last delivered value is held. The reading's `time` is the newest stamp and
-    `metadata["sensor_times"]` (k,) holds each sensor's stamp. The sample taken at reset is delivered at once,
-    so a loop always has a reading to start from.
+    Each measured sensor is sampled at its rate, gets Gaussian noise (a quaternion sensor a random
+    rotation of that std per axis, in rad), and is delivered `delay` seconds later, stamped with the
+    time it was taken; between samples the last delivered value is held. The reading's `time` is the
+    newest stamp and `metadata["sensor_times"]` (k,) holds each sensor's stamp. The sample taken at
+    reset is delivered at once, so a loop always has a reading to start from.
 
     Args:
         system: the simulated plant; its task's `sim_measured` says which sensors are served.
@@ -56,15 +57,21 @@ class SensedSystem(System):
         self.layout = self.task.sim_measured
         require(
             self.layout.size > 0,
-            f"{type(self.task).__name__} declares no measured sensors; list the MJCF sensors a robot has in "
+            f"{type(self.task).__name__} declares no measured sensors; list the MJCF sensors "
+            "a robot has in "
             f"{type(self.task).__name__}.measured_sensors",
         )
         self.noise = np.array([v or 0.0 for v in per_sensor(noise, self.layout, "sensor noise")])
         self.delay = np.array([v or 0.0 for v in per_sensor(delay, self.layout, "sensor delay")])
         rates = per_sensor(rate, self.layout, "sensor rate")
         for what, values in (("noise", self.noise), ("delay", self.delay)):
-            require(bool((values >= 0).all()), f"sensor {what} must be at least 0, got {values.tolist()}")
-        require(all(r is None or r > 0 for r in rates), f"sensor rate must be above 0 Hz, got {rates}")
+            require(
+                bool((values >= 0).all()),
+                f"sensor {what} must be at least 0, got {values.tolist()}",
+            )
+        require(
+            all(r is None or r > 0 for r in rates), f"sensor rate must be above 0 Hz, got {rates}"
+        )
         self.period = np.array([0.0 if r is None else 1.0 / r for r in rates])
         """(k,) seconds between samples of each sensor (0: every step)."""
         self.rng = rng if rng is not None else np.random.default_rng()
@@ -77,16 +84,18 @@ class SensedSystem(System):
 
     @property
     def time(self) -> float:
-        """The plant's current time (s): the time a plan made now starts from, later than a delayed reading's."""
+        """The plant's current time (s): the time a plan made now starts from, later than a delayed
+        reading's."""
         return float(self.task.data.time)
 
     def plant_sensors(self) -> np.ndarray:
-        """(nsensordata,) every sensor of the simulated plant, noiseless and current, for logs and metrics
-        (the controller sees only `read_state`)."""
+        """(nsensordata,) every sensor of the simulated plant, noiseless and current, for logs and
+        metrics (the controller sees only `read_state`)."""
         return self.task.data.sensordata.copy()
 
     def plant_state(self) -> np.ndarray | None:
-        """(nq + nv,) the simulated plant's true state, for logs and metrics (the controller never sees it)."""
+        """(nq + nv,) the simulated plant's true state, for logs and metrics (the controller never
+        sees it)."""
         return self.system.plant_state()
 
     def reset(self) -> None:
@@ -100,14 +109,16 @@ class SensedSystem(System):
         self.system.apply(action)
 
     def step(self) -> None:
-        """One plant step, then the samples that fall due are taken and those whose delay has passed arrive."""
+        """One plant step, then the samples that fall due are taken and those whose delay has passed
+        arrive."""
         try:
             self.system.step()
         finally:
             self._sample()
 
     def read_state(self) -> SystemState:
-        """The measured sensors last delivered (state None); see the class docstring for the stamps."""
+        """The measured sensors last delivered (state None); see the class docstring for the
+        stamps."""
         metadata = self.system.read_state().metadata
         metadata["sensor_times"] = self._stamps.copy()
         return SystemState(None, float(self._stamps.max()), metadata, self._values.copy())
@@ -119,9 +130,14 @@ class SensedSystem(System):
             true = self.system.sensor_values()
             for i in due:
                 arrival = now if deliver_at_once else now + self.delay[i]
-                self._in_flight[i].append((arrival, now, self._noisy(int(i), true[self.layout.slices[i]])))
-                following = self._next_sample[i] + self.period[i]  # on the rate's grid, unless it fell behind
-                self._next_sample[i] = following if following > now + TIME_TOLERANCE else now + self.period[i]
+                self._in_flight[i].append(
+                    (arrival, now, self._noisy(int(i), true[self.layout.slices[i]]))
+                )
+                # on the rate's grid, unless it fell behind
+                following = self._next_sample[i] + self.period[i]
+                self._next_sample[i] = (
+                    following if following > now + TIME_TOLERANCE else now + self.period[i]
+                )
         for i, queue in enumerate(self._in_flight):
             while queue and queue[0][0] <= now + TIME_TOLERANCE:
                 _, self._stamps[i], self._values[self.layout.slices[i]] = queue.popleft()

@@ -1,12 +1,14 @@
-"""The plant interface (simulator or hardware), its MuJoCo implementation, and the one gate every call into it
-goes through.
+"""The plant interface (simulator or hardware), its MuJoCo implementation, and the one gate every
+call into it goes through.
 
 Controller and GUI code only ever talk to a `System`, so a user swaps the simulator for a robot by
 writing one subclass: read the state, apply an action, step.
 
-**The gate** (`SystemCalls`): which call is in flight and since when, and none after a stop. A robot's driver may block or raise. The closed loop makes each System call through `SystemCalls`, so
+**The gate** (`SystemCalls`): which call is in flight and since when, and none after a stop. A
+robot's driver may block or raise. The closed loop makes each System call through `SystemCalls`, so
 - the app can see a call that has blocked for too long (`blocked`) and report it, or halt the robot;
-- once `close()` has returned, no System call starts any more (a call already in flight may still end);
+- once `close()` has returned, no System call starts any more (a call already in flight may still
+  end);
 - each call fails on its own: the caller decides what a failed call means for the others.
 """
 
@@ -32,11 +34,13 @@ DIVERGENCE_WARNINGS = (
 """MuJoCo warnings that mean the simulation blew up (it resets the data itself on bad qpos/qvel)."""
 
 PLANT_STREAM = 0x706C616E74
-"""Second word of a simulated plant's seed sequence, keeping its stream apart from the controller's generators."""
+"""Second word of a simulated plant's seed sequence, keeping its stream apart from the controller's
+generators."""
 
 
 class SimulationDiverged(JudoError):
-    """The plant's state became non-finite or MuJoCo flagged bad positions, velocities or accelerations; the plant was reset."""
+    """The plant's state became non-finite or MuJoCo flagged bad positions, velocities or
+    accelerations; the plant was reset."""
 
 
 class System(ABC):
@@ -54,48 +58,54 @@ class System(ABC):
 
     @abstractmethod
     def apply(self, action: np.ndarray) -> None:
-        """Command the (task.command_size,) `action` from now on: the actuators' ctrl, or, for a task with a
-        low-level policy, its command, which the robot's own controller turns into ctrl at its rate."""
+        """Command the (task.command_size,) `action` from now on: the actuators' ctrl, or, for a
+        task with a low-level policy, its command, which the robot's own controller turns into ctrl
+        at its rate."""
 
     @abstractmethod
     def step(self) -> None:
         """Advance the plant by `timestep` under the last applied action."""
 
     def halt(self) -> bool:
-        """Bring the robot to rest now, e.g. engage brakes or switch the drives to a hold mode; called on a
-        pause, a stop and a watchdog trip, possibly from another thread than `step`. Return True if done;
-        the default returns False, and the app then applies the task's `safe_action` instead."""
+        """Bring the robot to rest now, e.g. engage brakes or switch the drives to a hold mode;
+        called on a pause, a stop and a watchdog trip, possibly from another thread than `step`.
+        Return True if done; the default returns False, and the app then applies the task's
+        `safe_action` instead."""
         return False
 
     def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
-        """Move the task's goal `index` (mocap body `index`) to `position` (3,), turned to the unit `quat` (4,) wxyz
-        if given, before the next step; the next reading's metadata carries it back ("mocap_pos", "mocap_quat").
-        The default refuses: a System that can move its goals (a simulator, a bridge with a goal topic) says how."""
-        raise JudoError(f"{type(self).__name__} cannot move goals: it does not implement System.move_goal")
+        """Move the task's goal `index` (mocap body `index`) to `position` (3,), turned to the unit
+        `quat` (4,) wxyz if given, before the next step; the next reading's metadata carries it back
+        ("mocap_pos", "mocap_quat"). The default refuses: a System that can move its goals (a
+        simulator, a bridge with a goal topic) says how."""
+        raise JudoError(
+            f"{type(self).__name__} cannot move goals: it does not implement System.move_goal"
+        )
 
     def recorder(self) -> Recorder | None:
-        """The System's own recorder of the closed loop's plans and steps (the ROS 2 bridge's MCAP log of each
-        limit hit), which a ClosedLoop on it adds to its recorders; None by default."""
+        """The System's own recorder of the closed loop's plans and steps (the ROS 2 bridge's MCAP
+        log of each limit hit), which a ClosedLoop on it adds to its recorders; None by default."""
         return None
 
     def plant_sensors(self) -> np.ndarray:
-        """(nsensordata,) every sensor value of the plant, for logs and datasets; empty by default (a robot
-        has no simulator sensors to give)."""
+        """(nsensordata,) every sensor value of the plant, for logs and datasets; empty by default
+        (a robot has no simulator sensors to give)."""
         return np.zeros(0)
 
     def plant_state(self) -> np.ndarray | None:
-        """(nq + nv,) the plant's true state for logs and metrics, where the System knows it (a simulator);
-        None by default (a robot knows only what it measures)."""
+        """(nq + nv,) the plant's true state for logs and metrics, where the System knows it (a
+        simulator); None by default (a robot knows only what it measures)."""
         return None
 
 
 class MujocoSystem(System):
     """Simulates `task.sim_model` in `task.data`, calling the task's sim hooks around each step.
 
-    The plant is the System's: the task instance it steps is its own, never the controller's. For a task
-    with a low-level policy (`Task.low_level`), `apply` serves the command and the plant runs the policy on
-    it every k steps before stepping (`LowLevelPlant`), as the robot's own controller would.
-    `MujocoSystem.from_task` builds the simulated plant for the app, evaluate, tune and the benchmarks.
+    The plant is the System's: the task instance it steps is its own, never the controller's. For a
+    task with a low-level policy (`Task.low_level`), `apply` serves the command and the plant runs
+    the policy on it every k steps before stepping (`LowLevelPlant`), as the robot's own controller
+    would. `MujocoSystem.from_task` builds the simulated plant for the app, evaluate, tune and the
+    benchmarks.
     """
 
     def __init__(self, task: Task) -> None:
@@ -103,21 +113,25 @@ class MujocoSystem(System):
         self.timestep = float(task.sim_model.opt.timestep)
         self._scratch: mujoco.MjData | None = None  # for sensor_values
         low_level = task.low_level()
-        self.low_level = None if low_level is None else low_level.plant(task.sim_model)  # a LowLevelPlant
-        count_mujoco_warnings()  # a diverging plant warns every step: one counting line every few seconds instead
+        # a LowLevelPlant
+        self.low_level = None if low_level is None else low_level.plant(task.sim_model)
+        # a diverging plant warns every step: one counting line every few seconds instead
+        count_mujoco_warnings()
 
     @classmethod
     def from_task(cls, task: Task, seed: int | None = None) -> "MujocoSystem":
-        """The simulated plant of `task`: a new instance of its class sharing its config, reset to its start, with
-        `task.plant_overrides` set on its plant model (never `task.model_overrides`: the plant is the MJCF's).
+        """The simulated plant of `task`: a new instance of its class sharing its config, reset to
+        its start, with `task.plant_overrides` set on its plant model (never `task.model_overrides`:
+        the plant is the MJCF's).
 
-        The one seeding rule of every simulated plant: the plant's `rng` is seeded with
-        [seed, PLANT_STREAM] (a stream apart from the controller's), so the same seed gives the same
-        randomised start state; `seed` None draws a fresh one. The class must be constructible with no
-        arguments, as every registered task is.
+        The one seeding rule of every simulated plant: the plant's `rng` is seeded with [seed,
+        PLANT_STREAM] (a stream apart from the controller's), so the same seed gives the same
+        randomised start state; `seed` None draws a fresh one. The class must be constructible with
+        no arguments, as every registered task is.
         """
         plant: Task = new_task(type(task))
-        if task.plant_overrides:  # only the plant's: the planning model's overrides are the controller's
+        # only the plant's: the planning model's overrides are the controller's
+        if task.plant_overrides:
             from judo.core.configuration.model_overrides import override_task_models
 
             override_task_models(plant, {}, task.plant_overrides)
@@ -151,11 +165,12 @@ class MujocoSystem(System):
         return SystemState(np.concatenate([data.qpos, data.qvel]), float(data.time), metadata)
 
     def sensor_values(self) -> np.ndarray:
-        """(task.sim_measured.size,) the task's measured sensors at the plant's current state, noiseless.
+        """(task.sim_measured.size,) the task's measured sensors at the plant's current state,
+        noiseless.
 
-        Evaluated on a scratch MjData (`mj_forward` on a copy of the state), so the plant's own data, and
-        with it the solver's warm start, is untouched: sensing never changes the physics. (After `mj_step`
-        the plant's sensordata belongs to the state before the step.)
+        Evaluated on a scratch MjData (`mj_forward` on a copy of the state), so the plant's own
+        data, and with it the solver's warm start, is untouched: sensing never changes the physics.
+        (After `mj_step` the plant's sensordata belongs to the state before the step.)
         """
         model = self.task.sim_model
         scratch = self._scratch = self._scratch or mujoco.MjData(model)
@@ -173,7 +188,8 @@ class MujocoSystem(System):
             self.task.data.ctrl[:] = action
 
     def step(self) -> None:
-        """One physics step. Raises SimulationDiverged (after resetting the task) if the state blew up."""
+        """One physics step. Raises SimulationDiverged (after resetting the task) if the state blew
+        up."""
         model, data = self.task.sim_model, self.task.data
         start_time = data.time  # MuJoCo's own reset on bad qpos/qvel zeroes data.time
         self.task.pre_sim_step()
@@ -182,7 +198,9 @@ class MujocoSystem(System):
         mujoco.mj_step(model, data)
         self.task.post_sim_step()
         warnings = [data.warning[w] for w in DIVERGENCE_WARNINGS]
-        if any(w.number for w in warnings) or not (np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()):
+        if any(w.number for w in warnings) or not (
+            np.isfinite(data.qpos).all() and np.isfinite(data.qvel).all()
+        ):
             for warning in warnings:
                 warning.number = 0
             self.task.reset()
@@ -190,7 +208,8 @@ class MujocoSystem(System):
                 self.low_level.reset()
             data.time = start_time + model.opt.timestep  # the plant's clock keeps running
             raise SimulationDiverged(
-                f"simulation of {type(self.task).__name__} diverged at t={start_time:.3f} s; reset the task"
+                f"simulation of {type(self.task).__name__} diverged at t={start_time:.3f} s; "
+                "reset the task"
             )
 
 
@@ -199,29 +218,35 @@ def missing_halt(system: System) -> str | None:
     if type(system).halt is not System.halt:
         return None
     return (
-        f"your System {type(system).__name__} defines no halt(): while a call into it blocks, nothing reaches the "
-        "robot, which keeps its last action until the call returns; define halt() to bring it to rest from another "
+        f"your System {type(system).__name__} defines no halt(): while a call into it "
+        "blocks, nothing reaches the "
+        "robot, which keeps its last action until the call returns; define halt() to bring "
+        "it to rest from another "
         "thread (docs/hardware.md)"
     )
 
 
 class DynamicsSystem(MujocoSystem):
-    """The simulated plant of a DynamicsTask: steps the task's own `dynamics` on one row, seeded, with optional
-    process noise, instead of MuJoCo's physics.
+    """The simulated plant of a DynamicsTask: steps the task's own `dynamics` on one row, seeded,
+    with optional process noise, instead of MuJoCo's physics.
 
-    The state x lives in the task's carrier `data` ([qpos, qvel], judo.core.rollouts.dynamics), so reading the state,
-    logs, datasets and the GUI work as for any MuJoCo plant. `MujocoSystem.from_task` builds one for a task whose
-    `simulator` is "dynamics".
+    The state x lives in the task's carrier `data` ([qpos, qvel], judo.core.rollouts.dynamics), so
+    reading the state, logs, datasets and the GUI work as for any MuJoCo plant.
+    `MujocoSystem.from_task` builds one for a task whose `simulator` is "dynamics".
 
     Args:
         task: the plant's own DynamicsTask instance, reset to its start.
-        process_noise: (nx,) or scalar standard deviation of the Gaussian noise added to x after each step, drawn
-            from `task.rng` (seeded by `from_task`); None: the task's `process_noise`.
+        process_noise: (nx,) or scalar standard deviation of the Gaussian noise added to x after
+            each step, drawn from `task.rng` (seeded by `from_task`); None: the task's
+            `process_noise`.
     """
 
     def __init__(self, task: Task, process_noise: float | np.ndarray | None = None) -> None:
         if task.simulator != "dynamics":
-            raise ConfigError(f"{type(self).__name__} needs a task that is a DynamicsTask, got {type(task).__name__}")
+            raise ConfigError(
+                f"{type(self).__name__} needs a task that is a DynamicsTask, got "
+                f"{type(task).__name__}"
+            )
         super().__init__(task)
         own: Any = task  # a DynamicsTask: its nx, state, step_checked, trace_points, process_noise
         self.dynamics_task = own
@@ -230,29 +255,33 @@ class DynamicsSystem(MujocoSystem):
         self._low, self._high = task.actuator_ctrlrange.T.copy()
 
     def step(self) -> None:
-        """One step of the task's dynamics under the applied control. Raises SimulationDiverged (after resetting
-        the task) when the state turns non-finite."""
+        """One step of the task's dynamics under the applied control. Raises SimulationDiverged
+        (after resetting the task) when the state turns non-finite."""
         task, data = self.dynamics_task, self.dynamics_task.data
         start_time = data.time
         task.pre_sim_step()
-        control = np.clip(data.ctrl, self._low, self._high)  # as MuJoCo clamps a limited actuator's ctrl
+        # as MuJoCo clamps a limited actuator's ctrl
+        control = np.clip(data.ctrl, self._low, self._high)
         x = task.step_checked(task.state[None], control[None])[0]
         if self.process_noise.any():
             x = x + self.process_noise * task.rng.standard_normal(task.nx)
         task.state = x
-        data.sensordata[:] = task.trace_points(x).ravel()  # the carrier's only sensors: the traced points
+        # the carrier's only sensors: the traced points
+        data.sensordata[:] = task.trace_points(x).ravel()
         data.time = start_time + task.dt
         task.post_sim_step()
         if not np.isfinite(x).all():
             task.reset()
             data.time = start_time + task.dt  # the plant's clock keeps running
             raise SimulationDiverged(
-                f"{type(task).__name__}.dynamics gave a non-finite state at t={start_time:.3f} s; reset the task"
+                f"{type(task).__name__}.dynamics gave a non-finite state at "
+                f"t={start_time:.3f} s; reset the task"
             )
 
 
 SIMULATORS: dict[str, type[MujocoSystem]] = {"mujoco": MujocoSystem, "dynamics": DynamicsSystem}
-"""The simulated plant of each `Task.simulator`: MuJoCo's physics, or a DynamicsTask's own dynamics."""
+"""The simulated plant of each `Task.simulator`: MuJoCo's physics, or a DynamicsTask's own
+dynamics."""
 
 
 class SystemClosedError(JudoError):
@@ -269,7 +298,9 @@ class SystemCallError(JudoError):
     def __init__(self, failed: dict[str, Exception]) -> None:
         self.failed = failed
         super().__init__(
-            "; ".join(f"system {name} failed: {type(err).__name__}: {err}" for name, err in failed.items())
+            "; ".join(
+                f"system {name} failed: {type(err).__name__}: {err}" for name, err in failed.items()
+            )
         )
 
     @property
@@ -283,11 +314,12 @@ class SystemReadingError(JudoError, TypeError):
 
 
 def check_reading(system: System, reading: Any) -> SystemState:
-    """`reading`, which `system.read_state()` returned, if it is a SystemState; else SystemReadingError (one line,
-    naming the System's class, the method and the expected type)."""
+    """`reading`, which `system.read_state()` returned, if it is a SystemState; else
+    SystemReadingError (one line, naming the System's class, the method and the expected type)."""
     if not isinstance(reading, SystemState):
         raise SystemReadingError(
-            f"{type(system).__name__}.read_state() returned {type(reading).__name__}; expected a judo.SystemState "
+            f"{type(system).__name__}.read_state() returned {type(reading).__name__}; "
+            "expected a judo.SystemState "
             "(state, time, metadata, sensors)"
         )
     return reading
@@ -338,7 +370,8 @@ class SystemCalls:
         return type(self.system).halt is not System.halt
 
     def blocked(self, limit: float) -> tuple[str, float] | None:
-        """(name, seconds) of the call under way if it has run longer than `limit` seconds, else None."""
+        """(name, seconds) of the call under way if it has run longer than `limit` seconds, else
+        None."""
         in_flight = self.in_flight
         if in_flight is None:
             return None

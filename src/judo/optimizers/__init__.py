@@ -1,1 +1,2 @@
-"""Built-in optimizers, one algorithm per file with its config; judo.builtin registers them by name."""
+"""Built-in optimizers, one algorithm per file with its config; judo.builtin registers them by
+name."""

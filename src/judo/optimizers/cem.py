@@ -30,12 +30,13 @@ class CEMConfig(OptimizerConfig):
 
 
 class CEM(Optimizer[CEMConfig]):
-    """Samples around the nominal with a per-knot std; the new nominal and std are the elites' mean and
-    std (clipped to [sigma_min, sigma_max]). The std carries over between cycles.
+    """Samples around the nominal with a per-knot std; the new nominal and std are the elites' mean
+    and std (clipped to [sigma_min, sigma_max]). The std carries over between cycles.
 
     Attributes:
-        sigma: (num_nodes, nu) current sampling std, before the noise ramp (with use_noise_ramp on, the
-            samples' std is sigma times `noise_ramp_scale()`, and the elites' std is divided by it again).
+        sigma: (num_nodes, nu) current sampling std, before the noise ramp (with use_noise_ramp on,
+            the samples' std is sigma times `noise_ramp_scale()`, and the elites' std is divided by
+            it again).
     """
 
     def __init__(self, config: CEMConfig, nu: int) -> None:
@@ -64,7 +65,8 @@ class CEM(Optimizer[CEMConfig]):
 def check_elite_settings(config: Any) -> None:
     """Raise ConfigError unless 0 < sigma_min <= sigma_max and 1 <= num_elites <= num_rollouts.
 
-    Shared by CEMConfig and ICEMConfig, which have these fields but no common base beyond OptimizerConfig.
+    Shared by CEMConfig and ICEMConfig, which have these fields but no common base beyond
+    OptimizerConfig.
     """
     require(
         0 < config.sigma_min <= config.sigma_max,
@@ -72,5 +74,6 @@ def check_elite_settings(config: Any) -> None:
     )
     require(
         1 <= config.num_elites <= config.num_rollouts,
-        f"num_elites must be between 1 and num_rollouts ({config.num_rollouts}), got {config.num_elites}",
+        f"num_elites must be between 1 and num_rollouts ({config.num_rollouts}), got "
+        f"{config.num_elites}",
     )

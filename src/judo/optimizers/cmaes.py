@@ -1,7 +1,8 @@
-"""CMA-ES (Hansen 2016) with a diagonal covariance (sep-CMA-ES, Ros & Hansen 2008) over the flattened knots.
+"""CMA-ES (Hansen 2016) with a diagonal covariance (sep-CMA-ES, Ros & Hansen 2008) over the
+flattened knots.
 
-N. Hansen, "The CMA Evolution Strategy: A Tutorial", arXiv:1604.00772, 2016.
-R. Ros, N. Hansen, "A Simple Modification in CMA-ES Achieving Linear Time and Space Complexity", PPSN 2008.
+N. Hansen, "The CMA Evolution Strategy: A Tutorial", arXiv:1604.00772, 2016. R. Ros, N. Hansen, "A
+Simple Modification in CMA-ES Achieving Linear Time and Space Complexity", PPSN 2008.
 """
 
 import functools
@@ -24,9 +25,11 @@ class CMAESConfig(OptimizerConfig):
     """CMA-ES settings; the learning rates are Hansen's defaults and are not exposed."""
 
     sigma: float = 0.3
-    """Initial step size in control units (clipped to [sigma_min, sigma_max]); editing it restarts the search distribution."""
+    """Initial step size in control units (clipped to [sigma_min, sigma_max]); editing it restarts
+    the search distribution."""
     sigma_min: float = 0.1
-    """Lower bound on every coordinate's std step_size * sqrt(C_ii), so the search never collapses between cycles."""
+    """Lower bound on every coordinate's std step_size * sqrt(C_ii), so the search never collapses
+    between cycles."""
     sigma_max: float = 0.5
     """Upper bound on every coordinate's std step_size * sqrt(C_ii)."""
     execute_best: bool = True
@@ -47,12 +50,14 @@ class CMAESConfig(OptimizerConfig):
 
 @dataclass(frozen=True)
 class CMAESParameters:
-    """Strategy parameters of one population size and dimension (Hansen 2016, Table 1 and eqs. 47-58)."""
+    """Strategy parameters of one population size and dimension (Hansen 2016, Table 1 and
+    eqs. 47-58)."""
 
     mu: int
     """Parents: the best mu = lambda // 2 samples enter the update."""
     weights: np.ndarray
-    """(mu,) recombination weights w_i proportional to ln((lambda + 1) / 2) - ln(i), summing to 1."""
+    """(mu,) recombination weights w_i proportional to ln((lambda + 1) / 2) - ln(i), summing to
+    1."""
     mu_eff: float
     """Variance-effective selection mass 1 / sum(w_i^2)."""
     c_sigma: float
@@ -71,9 +76,9 @@ class CMAESParameters:
 
 @functools.lru_cache(maxsize=16)
 def cmaes_parameters(lam: int, n: int) -> CMAESParameters:
-    """Hansen's default parameters for population `lam` in dimension `n`, with the covariance learning
-    rates multiplied by (n + 2) / 3 as sep-CMA-ES prescribes for a diagonal covariance. Cached: the
-    sizes change only when num_rollouts or num_nodes is edited."""
+    """Hansen's default parameters for population `lam` in dimension `n`, with the covariance
+    learning rates multiplied by (n + 2) / 3 as sep-CMA-ES prescribes for a diagonal covariance.
+    Cached: the sizes change only when num_rollouts or num_nodes is edited."""
     mu = max(1, lam // 2)
     raw = np.log((lam + 1) / 2) - np.log(np.arange(1, mu + 1))
     weights = raw / raw.sum() if raw.sum() > 0 else np.full(mu, 1.0 / mu)
@@ -98,13 +103,14 @@ def cmaes_parameters(lam: int, n: int) -> CMAESParameters:
 
 
 class CMAES(Optimizer[CMAESConfig]):
-    """CMA-ES over the num_nodes * nu knot values, its mean warm-started each cycle from the shifted plan.
+    """CMA-ES over the num_nodes * nu knot values, its mean warm-started each cycle from the shifted
+    plan.
 
-    Each iteration evaluates the plan (sample 0, the nominal passed in) and a population of
-    lambda = num_rollouts - 1 samples x_k = m + step_size * sqrt(C) z_k, z_k ~ N(0, I). At the first
-    iteration of a cycle the mean m is the nominal, i.e. the previous plan shifted to the new knot times.
-    The update is Hansen's tutorial's with positive weights only (no active CMA) and c_m = 1, on the
-    population ranked by reward:
+    Each iteration evaluates the plan (sample 0, the nominal passed in) and a population of lambda =
+    num_rollouts - 1 samples x_k = m + step_size * sqrt(C) z_k, z_k ~ N(0, I). At the first
+    iteration of a cycle the mean m is the nominal, i.e. the previous plan shifted to the new knot
+    times. The update is Hansen's tutorial's with positive weights only (no active CMA) and c_m = 1,
+    on the population ranked by reward:
 
         y_k = sqrt(C) z_k,   <y> = sum_{i<=mu} w_i y_{i:lambda},   m <- m + step_size <y>
         p_sigma <- (1 - c_sigma) p_sigma + sqrt(c_sigma (2 - c_sigma) mu_eff) C^{-1/2} <y>
@@ -112,23 +118,25 @@ class CMAES(Optimizer[CMAESConfig]):
         C <- (1 - c_1 - c_mu) C + c_1 (p_c^2 + delta(h_sigma) C) + c_mu sum_i w_i y_{i:lambda}^2
         step_size <- step_size exp((c_sigma / d_sigma) (|p_sigma| / E|N(0, I)| - 1))
 
-    The steps y are the ones drawn; the controller evaluates them clamped to the actuator limits, and
-    updating with the clamped steps would shrink C wherever the plan saturates. The new plan is the
-    best sample evaluated this iteration (`execute_best`, the default: rollouts are deterministic, so
-    the plan never gets worse within a cycle) or the new mean m.
+    The steps y are the ones drawn; the controller evaluates them clamped to the actuator limits,
+    and updating with the clamped steps would shrink C wherever the plan saturates. The new plan is
+    the best sample evaluated this iteration (`execute_best`, the default: rollouts are
+    deterministic, so the plan never gets worse within a cycle) or the new mean m.
 
-    C is diagonal (sep-CMA-ES): a full n x n covariance needs on the order of n^2 / mu_eff samples to
-    learn, far more than the few dozen rollouts of a handful of iterations per control cycle, while the
-    diagonal's learning rates may be (n + 2) / 3 times larger; it also costs O(n) per sample, so it
-    scales to hands with many actuators and knots. After each update C is rescaled to mean(C_ii) = 1
-    and its scale moved into step_size (step_size^2 C is unchanged), so step_size is the RMS std; then
-    step_size and every coordinate's std step_size * sqrt(C_ii) are clipped to [sigma_min, sigma_max],
-    because the MPC problem moves every cycle and a collapsed search could not follow it.
+    C is diagonal (sep-CMA-ES): a full n x n covariance needs on the order of n^2 / mu_eff samples
+    to learn, far more than the few dozen rollouts of a handful of iterations per control cycle,
+    while the diagonal's learning rates may be (n + 2) / 3 times larger; it also costs O(n) per
+    sample, so it scales to hands with many actuators and knots. After each update C is rescaled to
+    mean(C_ii) = 1 and its scale moved into step_size (step_size^2 C is unchanged), so step_size is
+    the RMS std; then step_size and every coordinate's std step_size * sqrt(C_ii) are clipped to
+    [sigma_min, sigma_max], because the MPC problem moves every cycle and a collapsed search could
+    not follow it.
 
-    C, p_sigma and p_c are per knot and control, so between cycles they are re-interpolated from the old
-    knot times to the new ones, like the plan itself; this also carries them across a num_nodes edit.
-    A num_rollouts edit only changes lambda and the parameters derived from it. Editing `sigma`
-    restarts the distribution. use_noise_ramp shapes the initial C (the initial per-knot std profile).
+    C, p_sigma and p_c are per knot and control, so between cycles they are re-interpolated from the
+    old knot times to the new ones, like the plan itself; this also carries them across a num_nodes
+    edit. A num_rollouts edit only changes lambda and the parameters derived from it. Editing
+    `sigma` restarts the distribution. use_noise_ramp shapes the initial C (the initial per-knot std
+    profile).
 
     Attributes:
         mean: (num_nodes * nu,) the distribution mean m.
@@ -143,12 +151,15 @@ class CMAES(Optimizer[CMAESConfig]):
         self.restart()
 
     def restart(self) -> None:
-        """Reset the search distribution to step size `sigma`, C from the noise ramp, and zero paths."""
+        """Reset the search distribution to step size `sigma`, C from the noise ramp, and zero
+        paths."""
         cfg = self.config
         n = self.num_nodes * self.nu
         self._restart_sigma = cfg.sigma
         self.step_size = float(np.clip(cfg.sigma, cfg.sigma_min, cfg.sigma_max))
-        self.variances = np.square(np.broadcast_to(self.noise_ramp_scale(), (self.num_nodes, self.nu))).ravel()
+        self.variances = np.square(
+            np.broadcast_to(self.noise_ramp_scale(), (self.num_nodes, self.nu))
+        ).ravel()
         self.path_sigma = np.zeros(n)
         self.path_c = np.zeros(n)
         self.generation = 0
@@ -159,8 +170,12 @@ class CMAES(Optimizer[CMAESConfig]):
 
     def pre_optimization(self, old_times: np.ndarray, new_times: np.ndarray) -> None:
         self._new_cycle = True
-        if self.config.sigma != self._restart_sigma or len(self.variances) != len(old_times) * self.nu:
-            self.restart()  # a new initial sigma from the GUI, or state that does not belong to the old plan
+        if (
+            self.config.sigma != self._restart_sigma
+            or len(self.variances) != len(old_times) * self.nu
+        ):
+            # a new initial sigma from the GUI, or state that does not belong to the old plan
+            self.restart()
             return
         shift = knot_shift_matrix(old_times, new_times)
         for name in ("variances", "path_sigma", "path_c"):
@@ -170,7 +185,8 @@ class CMAES(Optimizer[CMAESConfig]):
         self._clip_spread()
 
     def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
-        if len(self.variances) != self.num_nodes * self.nu:  # sizes changed without pre_optimization
+        # sizes changed without pre_optimization
+        if len(self.variances) != self.num_nodes * self.nu:
             self.restart()
         if self._new_cycle or len(self.mean) != self.num_nodes * self.nu:
             self.mean = nominal_knots.ravel().astype(float)  # warm start from the shifted plan
@@ -182,13 +198,16 @@ class CMAES(Optimizer[CMAESConfig]):
         )
 
     def samples_replaced(self, rows: np.ndarray, knots: np.ndarray) -> None:
-        """Take the candidates at `rows` (a proposal policy's) into the update as injected solutions (Hansen 2011,
-        "Injecting external solutions into CMA-ES", arXiv:1110.4181): the draw behind each becomes
-        z = (x - m) / (step_size sqrt(C)), its length clipped to c_y = sqrt(n) + 2n / (n + 2), so that a far
-        candidate moves the mean, the paths and C no further than a long own draw would. Without this the update
-        would credit a candidate's rank to the draw it replaced."""
+        """Take the candidates at `rows` (a proposal policy's) into the update as injected solutions
+        (Hansen 2011, "Injecting external solutions into CMA-ES", arXiv:1110.4181): the draw behind
+        each becomes z = (x - m) / (step_size sqrt(C)), its length clipped to c_y = sqrt(n) + 2n /
+        (n + 2), so that a far candidate moves the mean, the paths and C no further than a long own
+        draw would. Without this the update would credit a candidate's rank to the draw it
+        replaced."""
         n = len(self.mean)
-        draws = (knots.reshape(len(rows), n) - self.mean) / (self.step_size * np.sqrt(self.variances))
+        draws = (knots.reshape(len(rows), n) - self.mean) / (
+            self.step_size * np.sqrt(self.variances)
+        )
         lengths = np.linalg.norm(draws, axis=1, keepdims=True)
         limit = np.sqrt(n) + 2 * n / (n + 2)
         draws *= np.minimum(1.0, limit / np.maximum(lengths, np.finfo(float).tiny))
@@ -199,7 +218,8 @@ class CMAES(Optimizer[CMAESConfig]):
         lam = self.num_rollouts - 1
         p = cmaes_parameters(lam, n)
         population_rewards = rewards[1:]
-        steps = np.sqrt(self.variances) * self._draws  # as drawn, before the controller clamped them
+        # as drawn, before the controller clamped them
+        steps = np.sqrt(self.variances) * self._draws
         parents = np.argsort(-population_rewards, kind="stable")[: p.mu]
         weights = np.where(np.isfinite(population_rewards[parents]), p.weights, 0.0)
         if weights.sum() == 0:  # every new sample failed: keep the distribution, keep the plan
@@ -210,7 +230,9 @@ class CMAES(Optimizer[CMAESConfig]):
 
         self.generation += 1
         self.path_sigma *= 1 - p.c_sigma
-        self.path_sigma += np.sqrt(p.c_sigma * (2 - p.c_sigma) * p.mu_eff) * mean_step / np.sqrt(self.variances)
+        self.path_sigma += (
+            np.sqrt(p.c_sigma * (2 - p.c_sigma) * p.mu_eff) * mean_step / np.sqrt(self.variances)
+        )
         path_sigma_norm = float(np.linalg.norm(self.path_sigma))
         unbiased_norm = path_sigma_norm / np.sqrt(1 - (1 - p.c_sigma) ** (2 * self.generation))
         h_sigma = float(unbiased_norm < (1.4 + 2 / (n + 1)) * p.chi_n)
@@ -230,16 +252,19 @@ class CMAES(Optimizer[CMAESConfig]):
         return self.mean.reshape(self.num_nodes, self.nu).copy()
 
     def _normalise_covariance(self) -> None:
-        """Move C's overall scale into step_size so that mean(C_ii) = 1 and step_size is the RMS std.
+        """Move C's overall scale into step_size so that mean(C_ii) = 1 and step_size is the RMS
+        std.
 
-        step_size^2 C and the paths in N(0, I) units are unchanged; p_c, in units of step_size, is rescaled."""
+        step_size^2 C and the paths in N(0, I) units are unchanged; p_c, in units of step_size, is
+        rescaled."""
         scale = float(self.variances.mean())
         self.variances /= scale
         self.path_c /= np.sqrt(scale)
         self.step_size *= np.sqrt(scale)
 
     def _clip_spread(self) -> None:
-        """Keep step_size and every coordinate's std step_size * sqrt(C_ii) within [sigma_min, sigma_max]."""
+        """Keep step_size and every coordinate's std step_size * sqrt(C_ii) within [sigma_min,
+        sigma_max]."""
         cfg = self.config
         self.step_size = float(np.clip(self.step_size, cfg.sigma_min, cfg.sigma_max))
         low, high = (cfg.sigma_min / self.step_size) ** 2, (cfg.sigma_max / self.step_size) ** 2

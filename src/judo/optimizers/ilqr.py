@@ -1,18 +1,21 @@
-"""iLQR (Li & Todorov 2004; Tassa et al. 2012) on the feedback gains' derivatives, with a parallel line search.
+"""iLQR (Li & Todorov 2004; Tassa et al. 2012) on the feedback gains' derivatives, with a parallel
+line search.
 
 Each iteration linearises the planning model along the nominal plan (`FeedbackGains.linearise`:
-`mjd_transitionFD` at up to 20 steps of the horizon), expands the task's reward to second order around the
-nominal by finite differences (gradient and diagonal Hessian in the state's tangent space and the controls,
-one batched reward call over one-step rows), and runs the regularised backward pass. The step
-du_t = a k_t + K_t dx_t, propagated through the linearisation, is projected onto the plan's knots by least
-squares, once per step size a of the line search: the controller rolls all of them out in one batch (row 0 is
-the nominal, a = 0) and keeps the best, as MuJoCo MPC's iLQG does. A step that improves nothing raises the
-regularisation tenfold; one that does lowers it. The warm start is the plan shifted to the new knot times.
+`mjd_transitionFD` at up to 20 steps of the horizon), expands the task's reward to second order
+around the nominal by finite differences (gradient and diagonal Hessian in the state's tangent space
+and the controls, one batched reward call over one-step rows), and runs the regularised backward
+pass. The step du_t = a k_t + K_t dx_t, propagated through the linearisation, is projected onto the
+plan's knots by least squares, once per step size a of the line search: the controller rolls all of
+them out in one batch (row 0 is the nominal, a = 0) and keeps the best, as MuJoCo MPC's iLQG does. A
+step that improves nothing raises the regularisation tenfold; one that does lowers it. The warm
+start is the plan shifted to the new knot times.
 
-No randomness: the same start gives the same plan. Measured (docs/tasks.md): it swings cartpole up and
-balances it where mppi does not at 10 Hz, and pushes push_t's T close to mppi (placed 0.71 against 0.79 of
-the time); expect it to fail where finite-difference derivatives jump at contact changes the step cannot
-see (a hand juggling a cube) and where a reward's terms are flat or capped, whose expansion is zero.
+No randomness: the same start gives the same plan. Measured (docs/tasks.md): it swings cartpole up
+and balances it where mppi does not at 10 Hz, and pushes push_t's T close to mppi (placed 0.71
+against 0.79 of the time); expect it to fail where finite-difference derivatives jump at contact
+changes the step cannot see (a hand juggling a cube) and where a reward's terms are flat or capped,
+whose expansion is zero.
 """
 
 from dataclasses import dataclass
@@ -27,7 +30,8 @@ from judo.core.feedback import FeedbackError, FeedbackGains
 from judo.core.optimizer import Optimizer, OptimizerConfig, PlanningStart
 
 MAX_REGULARIZATION = 1e8
-"""Largest regularisation of the control Hessian; beyond it the backward pass gives up for the cycle."""
+"""Largest regularisation of the control Hessian; beyond it the backward pass gives up for the
+cycle."""
 
 
 @slider("num_rollouts", 2, 64, 1)
@@ -36,14 +40,17 @@ MAX_REGULARIZATION = 1e8
 @slider("fd_step", 1e-6, 0.1, 1e-6)
 @dataclass
 class ILQRConfig(OptimizerConfig):
-    """iLQR settings. num_rollouts is the number of line-search step sizes, the nominal (step 0) included."""
+    """iLQR settings. num_rollouts is the number of line-search step sizes, the nominal (step 0)
+    included."""
 
     num_rollouts: int = 8
-    """Step sizes tried per iteration, the nominal (step 0) included: 1 down to min_step, geometrically."""
+    """Step sizes tried per iteration, the nominal (step 0) included: 1 down to min_step,
+    geometrically."""
     num_nodes: int = 10
     """Spline knots over the horizon (more knots let the per-step iLQR step through)."""
     regularization: float = 0.1
-    """Initial regularisation added to the control Hessian (reward units per control unit squared)."""
+    """Initial regularisation added to the control Hessian (reward units per control unit
+    squared)."""
     min_step: float = 1e-3
     """Smallest line-search step size."""
     fd_step: float = 1e-3
@@ -52,15 +59,19 @@ class ILQRConfig(OptimizerConfig):
     def validate(self) -> None:
         super().validate()
         require(
-            self.num_rollouts >= 2, f"ilqr needs num_rollouts >= 2 (the nominal and a step), got {self.num_rollouts}"
+            self.num_rollouts >= 2,
+            f"ilqr needs num_rollouts >= 2 (the nominal and a step), got {self.num_rollouts}",
         )
-        require(self.regularization > 0, f"regularization must be positive, got {self.regularization}")
+        require(
+            self.regularization > 0, f"regularization must be positive, got {self.regularization}"
+        )
         require(0 < self.min_step <= 1, f"min_step must be in (0, 1], got {self.min_step}")
         require(self.fd_step > 0, f"fd_step must be positive, got {self.fd_step}")
 
 
 class ILQR(Optimizer[ILQRConfig]):
-    """iLQR over the plan's knots; needs the controller's `set_start` (it plans only inside a Controller)."""
+    """iLQR over the plan's knots; needs the controller's `set_start` (it plans only inside a
+    Controller)."""
 
     def __init__(self, config: ILQRConfig, nu: int) -> None:
         super().__init__(config, nu)
@@ -82,7 +93,9 @@ class ILQR(Optimizer[ILQRConfig]):
     def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
         start = self._start
         if start is None or self._linear is None:
-            raise JudoError("ilqr plans only inside a Controller, which hands it the start state (set_start)")
+            raise JudoError(
+                "ilqr plans only inside a Controller, which hands it the start state (set_start)"
+            )
         low, high = start.task.command_range.T
         controls = np.clip(start.weights @ nominal_knots, low, high)
         steps = self.config.min_step ** np.linspace(0.0, 1.0, self.num_rollouts - 1)
@@ -91,7 +104,8 @@ class ILQR(Optimizer[ILQRConfig]):
             cost = self._expand(start, path, controls)
             k, gains = self._backward(a, b, self._linear.source, *cost)
         except (FeedbackError, np.linalg.LinAlgError):
-            return np.repeat(nominal_knots[None], self.num_rollouts, axis=0)  # nothing to step along this time
+            # nothing to step along this time
+            return np.repeat(nominal_knots[None], self.num_rollouts, axis=0)
         source = self._linear.source
         dx = np.zeros((len(steps), a.shape[1]))
         du = np.empty((len(steps), len(controls), self.nu))
@@ -110,7 +124,8 @@ class ILQR(Optimizer[ILQRConfig]):
         return sampled_knots[best]
 
     def _pinv(self, weights: np.ndarray) -> np.ndarray:
-        """(num_nodes, T) least-squares map from per-step controls to knots, kept while the weights stay."""
+        """(num_nodes, T) least-squares map from per-step controls to knots, kept while the weights
+        stay."""
         key = (id(weights), weights.shape)
         if key != self._pinv_of:
             self._pinv_matrix = np.linalg.pinv(weights)
@@ -120,10 +135,12 @@ class ILQR(Optimizer[ILQRConfig]):
     def _expand(
         self, start: PlanningStart, path: np.ndarray, controls: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The cost (minus the per-step reward) at the linearised steps, to second order by central differences.
+        """The cost (minus the per-step reward) at the linearised steps, to second order by central
+        differences.
 
-        Returns (L, n) gradient and diagonal Hessian in the tangent space (n = 2 nv + na; the actuator states'
-        entries are 0) and (L, nu) gradient and diagonal Hessian in the controls, at the L linearised steps.
+        Returns (L, n) gradient and diagonal Hessian in the tangent space (n = 2 nv + na; the
+        actuator states' entries are 0) and (L, nu) gradient and diagonal Hessian in the controls,
+        at the L linearised steps.
         """
         assert self._linear is not None and self._data is not None
         task, model, data = start.task, start.task.model, self._data
@@ -159,13 +176,16 @@ class ILQR(Optimizer[ILQRConfig]):
                 states[row, 0, :nq], states[row, 0, nq:], ctrl[row, 0] = q, v, u
                 sensors[row, 0] = data.sensordata
                 row += 1
-        rewards = np.asarray(task.reward(states, sensors, ctrl, start.task_config, start.metadata), dtype=float)
+        rewards = np.asarray(
+            task.reward(states, sensors, ctrl, start.task_config, start.metadata), dtype=float
+        )
         rewards = rewards.reshape(len(points), rows_per_point)
         if not np.isfinite(rewards).all():
             raise FeedbackError("the reward's expansion is not finite")
         centre, plus, minus = -rewards[:, :1], -rewards[:, 1::2], -rewards[:, 2::2]
         gradient = (plus - minus) / (2 * eps)
-        hessian = np.maximum((plus - 2 * centre + minus) / eps**2, 0.0)  # a convex model of the cost
+        # a convex model of the cost
+        hessian = np.maximum((plus - 2 * centre + minus) / eps**2, 0.0)
         n = 2 * nv + model.na
         lx, lxx = np.zeros((len(points), n)), np.zeros((len(points), n))
         lx[:, : 2 * nv], lxx[:, : 2 * nv] = gradient[:, : 2 * nv], hessian[:, : 2 * nv]
@@ -181,9 +201,9 @@ class ILQR(Optimizer[ILQRConfig]):
         lxx: np.ndarray,
         luu: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
-        """(T, nu) feedforward steps k and (T, nu, n) gains K of the regularised iLQR backward pass; step t uses
-        linearisation and expansion `source[t]`. Raises FeedbackError when no regularisation up to
-        MAX_REGULARIZATION makes the control Hessian positive definite."""
+        """(T, nu) feedforward steps k and (T, nu, n) gains K of the regularised iLQR backward pass;
+        step t uses linearisation and expansion `source[t]`. Raises FeedbackError when no
+        regularisation up to MAX_REGULARIZATION makes the control Hessian positive definite."""
         num_steps, nu = len(source), b.shape[2]
         while True:
             k, gains = np.empty((num_steps, nu)), np.empty((num_steps, nu, a.shape[1]))
@@ -197,14 +217,18 @@ class ILQR(Optimizer[ILQRConfig]):
                     quu = np.diag(luu[i]) + b[i].T @ vxx_b
                     qux = b[i].T @ vxx_a
                     factor = np.linalg.cholesky(quu + self.regularization * np.eye(nu))
-                    solve = np.linalg.solve(factor.T, np.linalg.solve(factor, np.column_stack([qu, qux])))
+                    solve = np.linalg.solve(
+                        factor.T, np.linalg.solve(factor, np.column_stack([qu, qux]))
+                    )
                     k[t], gains[t] = -solve[:, 0], -solve[:, 1:]
                     vx = qx + gains[t].T @ quu @ k[t] + gains[t].T @ qu + qux.T @ k[t]
                     vxx = qxx + gains[t].T @ quu @ gains[t] + gains[t].T @ qux + qux.T @ gains[t]
                     vxx = 0.5 * (vxx + vxx.T)
             except np.linalg.LinAlgError:
                 if self.regularization >= MAX_REGULARIZATION:
-                    raise FeedbackError("the iLQR backward pass found no positive definite control Hessian") from None
+                    raise FeedbackError(
+                        "the iLQR backward pass found no positive definite control Hessian"
+                    ) from None
                 self.regularization = min(10.0 * self.regularization, MAX_REGULARIZATION)
                 continue
             if not (np.isfinite(k).all() and np.isfinite(gains).all()):

@@ -1,4 +1,5 @@
-"""Carry per-knot optimizer state (stds, elites, evolution paths) from one plan's knot times to the next's."""
+"""Carry per-knot optimizer state (stds, elites, evolution paths) from one plan's knot times to the
+next's."""
 
 import numpy as np
 

@@ -1,4 +1,5 @@
-"""Model predictive path integral control (Williams et al. 2017): a softmax-weighted mean of samples."""
+"""Model predictive path integral control (Williams et al. 2017): a softmax-weighted mean of
+samples."""
 
 from dataclasses import dataclass
 
@@ -18,8 +19,9 @@ class MPPIConfig(OptimizerConfig):
     sigma: float = 0.05
     """Std of the Gaussian noise added to every knot, in control units."""
     temperature: float = 0.1
-    """Softmax temperature on rewards: small follows the best sample, large averages them all. It is in the
-    task's reward units, so size it to how much the rewards of a cycle's samples differ (leap_cube: 0.001)."""
+    """Softmax temperature on rewards: small follows the best sample, large averages them all. It is
+    in the task's reward units, so size it to how much the rewards of a cycle's samples differ
+    (leap_cube: 0.001)."""
 
     def validate(self) -> None:
         super().validate()
@@ -28,7 +30,8 @@ class MPPIConfig(OptimizerConfig):
 
 
 class MPPI(Optimizer[MPPIConfig]):
-    """Samples like predictive sampling; the new nominal is sum_i w_i knots_i, w = softmax(rewards / temperature)."""
+    """Samples like predictive sampling; the new nominal is sum_i w_i knots_i, w = softmax(rewards /
+    temperature)."""
 
     def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
         return self.perturb(nominal_knots, self.config.sigma)

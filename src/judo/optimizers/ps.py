@@ -23,7 +23,8 @@ class PredictiveSamplingConfig(OptimizerConfig):
 
 
 class PredictiveSampling(Optimizer[PredictiveSamplingConfig]):
-    """The greedy baseline: the best of the nominal and its perturbations becomes the new nominal."""
+    """The greedy baseline: the best of the nominal and its perturbations becomes the new
+    nominal."""
 
     def sample_control_knots(self, nominal_knots: np.ndarray) -> np.ndarray:
         return self.perturb(nominal_knots, self.config.sigma)

@@ -6,6 +6,6 @@
                    default one, LiveRecording, which writes the next demo of a file
     model_info.py  the configs and model hashes stored beside each recording
 
-collect (judo.collection), the app's recording (judo.runtime.live_recording), replay, sysid and distill all use it.
-h5py (the `collect` extra) is imported only when a file is opened.
-"""
+collect (judo.collection), the app's recording (judo.runtime.live_recording), replay, sysid and
+distill all use it. h5py (the `collect` extra) is imported only when a file is opened.
+"""  # noqa: E501

@@ -1,4 +1,5 @@
-"""The collect dataset: a robomimic-style HDF5 file plus judo's plan extras (layout in docs/collect.md).
+"""The collect dataset: a robomimic-style HDF5 file plus judo's plan extras (layout in
+docs/collect.md).
 
     data                      attrs env_args (JSON), total (samples over every demo)
     data/demo_<seed>/obs/qpos       (S, nq)  float64    plant qpos after each step
@@ -20,7 +21,8 @@
                                     [safety] limits' serve filter (only where a limit acted; docs/safety.md)
     data/demo_<seed>/plan/...       times, takes_effect, update_ms, best_reward, mean_reward (U,);
                                     knots (U, num_nodes, nu); traces (U, 1 + num_shown, T, num_trace_sensors,
-                                    3) float32, only with --traces and in GUI recordings (NaN-padded)
+                                    3) float32, only with --traces and in GUI recordings
+                                       (NaN-padded)
     data/demo_<seed>                attrs num_samples, seed, metrics (JSON), success; measured_sensors (JSON
                                     list of the sensor names of obs/measured) with obs/measured
     judo/failed                     attrs "<seed>": why that episode failed (retried on resume)
@@ -29,7 +31,7 @@
 Only the driver writes, through `DatasetFile`: the file is opened, one finished episode written and
 the file closed again, with Ctrl-C held off meanwhile, so the file on disk is always whole. h5py is
 imported here only, and this module only where a command needs it.
-"""
+"""  # noqa: E501
 
 import json
 import time
@@ -53,7 +55,8 @@ PLAN_KEYS = ("times", "takes_effect", "update_ms", "best_reward", "mean_reward",
 
 
 class DatasetError(JudoError):
-    """A dataset file that cannot be read or written, or that holds episodes of another configuration."""
+    """A dataset file that cannot be read or written, or that holds episodes of another
+    configuration."""
 
 
 def import_h5py(feature: str = "python -m judo collect") -> Any:
@@ -69,23 +72,32 @@ class EpisodeArrays:
         seed: the episode's seed.
         qpos, qvel: (S, nq), (S, nv) plant state after each of the S steps.
         sensors: (S, nsensordata) plant sensor values after each step.
-        mocap_pos: (S, 3 * nmocap) mocap body positions after each step, or None without mocap bodies.
+        mocap_pos: (S, 3 * nmocap) mocap body positions after each step, or None without mocap
+            bodies.
         actions: (S, nu) control served during each step.
         rewards: (S,) the task's reward of each step.
         plan: {"times", "takes_effect", "update_ms", "best_reward", "mean_reward"}: (U,) each, and
             "knots": (U, num_nodes, nu), one row per control update that produced a plan.
         metrics: the task's metrics of the episode.
         success: whether the task counts the episode a success (None: the task has no rule).
-        measured: (S, m) the measured sensors the System served after each step, or None (full state).
-        estimate: (S, nq + nv) the estimator's state after each step (NaN rows where none ran), or None.
-        measured_sensors: names of the task's measured sensors, in the order of `measured`'s columns.
-        measured_age: (S, k) for each of the k measured sensors, the seconds between taking the value `measured`
-            holds and the end of the step it was read after (0: taken then), or None (not stamped).
-        mpc_actions: (S, nu) the MPC's action at the time each step was served, where a policy drove the plant
+        measured: (S, m) the measured sensors the System served after each step, or None (full
+            state).
+        estimate: (S, nq + nv) the estimator's state after each step (NaN rows where none ran), or
+            None.
+        measured_sensors: names of the task's measured sensors, in the order of `measured`'s
+            columns.
+        measured_age: (S, k) for each of the k measured sensors, the seconds between taking the
+            value `measured` holds and the end of the step it was read after (0: taken then), or
+            None (not stamped).
+        mpc_actions: (S, nu) the MPC's action at the time each step was served, where a policy drove
+            the plant
             (collect --policy): the label beside `actions`; else None.
-        policy_plan: {"knots": (U, H, nu), "inference_ms": (U,)} the policy's chunks, where a policy drove.
-        metadata: {key: (S, *shape)} each step's system metadata of the task's `Task.recorded_metadata` keys
-            (e.g. quadruped_velocity's "velocity_command" (S, 3)); empty for a task that declares none.
+        policy_plan: {"knots": (U, H, nu), "inference_ms": (U,)} the policy's chunks, where a policy
+            drove.
+        metadata: {key: (S, *shape)} each step's system metadata of the
+            task's `Task.recorded_metadata` keys
+            (e.g. quadruped_velocity's "velocity_command" (S, 3)); empty for a task that declares
+            none.
     """
 
     seed: int
@@ -106,7 +118,8 @@ class EpisodeArrays:
     metadata: dict[str, np.ndarray] = field(default_factory=dict)
     measured_age: np.ndarray | None = None
     limit_hits: list[Any] | None = None
-    """The serve filter's hits (judo.safety.serve_filter.LimitHit: time, limit, value), where a [safety] limit acted."""
+    """The serve filter's hits (judo.safety.serve_filter.LimitHit: time, limit, value), where a
+    [safety] limit acted."""
 
     @property
     def num_samples(self) -> int:
@@ -123,9 +136,9 @@ class DatasetFile:
     """The driver's handle on a dataset file: create it, or reopen it to append missing seeds.
 
     `env_args` is everything that determines the episodes (task, optimizer, configs, versions, model
-    hashes); an existing file must hold the same, except for the judo and mujoco versions. Its "type" is
-    always "judo", the mark of a file judo wrote: an existing file without it (`check_ours`) is refused before
-    it is opened for writing.
+    hashes); an existing file must hold the same, except for the judo and mujoco versions. Its
+    "type" is always "judo", the mark of a file judo wrote: an existing file without it
+    (`check_ours`) is refused before it is opened for writing.
     """
 
     def __init__(self, path: str | Path, env_args: dict[str, Any]) -> None:
@@ -157,7 +170,8 @@ class DatasetFile:
             file.flush()
 
     def _file(self, mode: str) -> Any:
-        """The h5py File in `mode`, waiting up to LOCK_WAIT_S while another process (a reader) holds it."""
+        """The h5py File in `mode`, waiting up to LOCK_WAIT_S while another process (a reader) holds
+        it."""
         deadline = time.monotonic() + LOCK_WAIT_S
         while True:
             try:
@@ -174,7 +188,8 @@ class DatasetFile:
             return kept | {int(seed) for seed in file["judo/dropped"].attrs}
 
     def counts(self) -> dict[str, int]:
-        """{"kept", "dropped", "failed", "total"}: demos, dropped and failed seeds, and samples in the file."""
+        """{"kept", "dropped", "failed", "total"}: demos, dropped and failed seeds, and samples in
+        the file."""
         with self._file("r") as file:
             return {
                 "kept": len(file["data"]),
@@ -184,12 +199,15 @@ class DatasetFile:
             }
 
     def write_episode(self, episode: EpisodeArrays) -> None:
-        """Add `episode` as data/demo_<seed> (replacing an earlier one of that seed) and update `total`."""
+        """Add `episode` as data/demo_<seed> (replacing an earlier one of that seed) and update
+        `total`."""
         with self._open() as file:
             data = file["data"]
             name = demo_name(episode.seed)
             if name in data:
-                data.attrs["total"] = int(data.attrs["total"]) - int(data[name].attrs["num_samples"])
+                data.attrs["total"] = int(data.attrs["total"]) - int(
+                    data[name].attrs["num_samples"]
+                )
                 del data[name]
             write_demo(data.create_group(name), episode)
             data.attrs["total"] = int(data.attrs["total"]) + episode.num_samples
@@ -201,15 +219,17 @@ class DatasetFile:
             file["judo/failed"].attrs[str(seed)] = reason
 
     def write_dropped(self, seed: int, metrics: dict[str, float]) -> None:
-        """Record that seed `seed`'s episode ran but was not a success (--success-only); it is not rerun."""
+        """Record that seed `seed`'s episode ran but was not a success (--success-only); it is not
+        rerun."""
         with self._open() as file:
             file["judo/dropped"].attrs[str(seed)] = json.dumps(metrics)
             file["judo/failed"].attrs.pop(str(seed), None)
 
 
 def check_ours(path: Path, file: Any) -> None:
-    """DatasetError unless the open h5py `file` is one judo wrote (data.attrs["env_args"] JSON with "type"
-    "judo"), or one with nothing in it: judo never writes its groups beside another program's data."""
+    """DatasetError unless the open h5py `file` is one judo wrote (data.attrs["env_args"] JSON with
+    "type" "judo"), or one with nothing in it: judo never writes its groups beside another program's
+    data."""
     if not len(file) and not len(file.attrs):
         return
     data = file.get("data")
@@ -221,7 +241,8 @@ def check_ours(path: Path, file: Any) -> None:
     if not ours:
         keys = ", ".join(sorted(file)[:5]) + (", ..." if len(file) > 5 else "")
         raise DatasetError(
-            f"{path} is an HDF5 file judo did not write (it holds {keys or 'only attributes'} and no judo "
+            f"{path} is an HDF5 file judo did not write (it holds "
+            f"{keys or 'only attributes'} and no judo "
             "env_args); judo writes only into its own datasets: give another file"
         )
 
@@ -238,7 +259,10 @@ def write_demo(group: Any, episode: EpisodeArrays) -> None:
             obs["measured_age"] = episode.measured_age
     if episode.estimate is not None:
         nq = episode.qpos.shape[1]
-        obs["estimate_qpos"], obs["estimate_qvel"] = episode.estimate[:, :nq], episode.estimate[:, nq:]
+        obs["estimate_qpos"], obs["estimate_qvel"] = (
+            episode.estimate[:, :nq],
+            episode.estimate[:, nq:],
+        )
     obs.update({f"metadata/{key}": value for key, value in episode.metadata.items()})
     for key, value in obs.items():
         group.create_dataset(f"obs/{key}", data=np.asarray(value, dtype=np.float64))
@@ -254,12 +278,20 @@ def write_demo(group: Any, episode: EpisodeArrays) -> None:
     for key in PLAN_KEYS:
         group.create_dataset(f"plan/{key}", data=np.asarray(episode.plan[key], dtype=np.float64))
     if "traces" in episode.plan:
-        group.create_dataset("plan/traces", data=np.asarray(episode.plan["traces"], dtype=np.float32))
+        group.create_dataset(
+            "plan/traces", data=np.asarray(episode.plan["traces"], dtype=np.float32)
+        )
     if episode.limit_hits is not None:
         hits = episode.limit_hits
-        group.create_dataset("limit_hits/time", data=np.array([hit.time for hit in hits], dtype=np.float64))
-        group.create_dataset("limit_hits/limit", data=np.array([hit.limit.encode() for hit in hits], dtype="S"))
-        group.create_dataset("limit_hits/value", data=np.array([hit.value for hit in hits], dtype=np.float64))
+        group.create_dataset(
+            "limit_hits/time", data=np.array([hit.time for hit in hits], dtype=np.float64)
+        )
+        group.create_dataset(
+            "limit_hits/limit", data=np.array([hit.limit.encode() for hit in hits], dtype="S")
+        )
+        group.create_dataset(
+            "limit_hits/value", data=np.array([hit.value for hit in hits], dtype=np.float64)
+        )
     group.attrs["num_samples"] = episode.num_samples
     group.attrs["seed"] = episode.seed
     group.attrs["metrics"] = json.dumps(episode.metrics)
@@ -278,13 +310,28 @@ def flatten(content: dict[str, Any], prefix: str = "") -> dict[str, Any]:
 
 
 def check_same_run(path: Path, stored: dict[str, Any], wanted: dict[str, Any]) -> None:
-    """DatasetError naming the differing entries unless `stored` and `wanted` env_args agree (versions aside)."""
-    ignored = {"judo_version", "mujoco_version", "config_file", "policy.file", "proposal_policy.file"}  # hashes count
+    """DatasetError naming the differing entries unless `stored` and `wanted` env_args agree
+    (versions aside)."""
+    # hashes count
+    ignored = {
+        "judo_version",
+        "mujoco_version",
+        "config_file",
+        "policy.file",
+        "proposal_policy.file",
+    }
     old, new = flatten(stored), flatten(wanted)
-    differing = sorted(key for key in old.keys() | new.keys() if key not in ignored and old.get(key) != new.get(key))
+    differing = sorted(
+        key
+        for key in old.keys() | new.keys()
+        if key not in ignored and old.get(key) != new.get(key)
+    )
     if differing:
-        detail = "; ".join(f"{key}: file has {old.get(key)!r}, this run {new.get(key)!r}" for key in differing)
+        detail = "; ".join(
+            f"{key}: file has {old.get(key)!r}, this run {new.get(key)!r}" for key in differing
+        )
         raise DatasetError(
-            f"{path} holds episodes of another configuration ({detail}); give another --out, or the same "
+            f"{path} holds episodes of another configuration ({detail}); give another --out, "
+            "or the same "
             "arguments as the run that made it"
         )

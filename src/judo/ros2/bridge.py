@@ -1,29 +1,35 @@
 # pyright: reportArgumentType=false
-# (cyclonedds types a message's list fields as its IDL `sequence`, which is a plain list at run time)
+# (cyclonedds types a message's list fields as its IDL `sequence`, which is a plain list at run
+# time)
 """`Ros2System`: a robot reached over ROS 2's DDS wire, with no ROS install, as judo's `System`.
 
     python -m judo --task cartpole --system ros2 --headless [--ros2.domain-id 7] [--record run.mcap]
 
-State in: sensor_msgs/JointState on /joint_states (matched by joint name), nav_msgs/Odometry on /odom for a
-task with a free joint, sensor_msgs/Imu on /imu (passed on in the reading's metadata["imu"]), and for a task with
-mocap bodies (a goal) geometry_msgs/PoseArray on /judo/mocap (metadata["mocap_pos"], ["mocap_quat"]); best
-effort, keep last 1. Commands out: std_msgs/Float64MultiArray on /judo/commands in actuator order, reliable: what a
-ros2_control forward command controller takes. The reading's time is the JointState's header stamp, the
-robot's clock, so a late reading is known as late. A JointState with a velocity for every joint (and, for a
-free base, an Odometry) is the full state; one with positions only becomes the task's `measured_sensors`
-(jointpos from the positions, gyro and accelerometer from the latest Imu) for its estimator.
+State in: sensor_msgs/JointState on /joint_states (matched by joint name), nav_msgs/Odometry on
+/odom for a task with a free joint, sensor_msgs/Imu on /imu (passed on in the reading's
+metadata["imu"]), and for a task with mocap bodies (a goal) geometry_msgs/PoseArray on /judo/mocap
+(metadata["mocap_pos"], ["mocap_quat"]); best effort, keep last 1. Commands out:
+std_msgs/Float64MultiArray on /judo/commands in actuator order, reliable: what a ros2_control
+forward command controller takes. The reading's time is the JointState's header stamp, the robot's
+clock, so a late reading is known as late. A JointState with a velocity for every joint (and, for a
+free base, an Odometry) is the full state; one with positions only becomes the task's
+`measured_sensors` (jointpos from the positions, gyro and accelerometer from the latest Imu) for its
+estimator.
 
-A message that cannot be a reading is refused, and the reason is logged (once, then every few seconds with a
-count): wrong lengths, a missing or unknown joint, a non-finite value, a joint where the robot cannot be (beyond
-its range with a margin, or faster than the model can move it: `judo.ros2.joints.JointLayout`), a stamp that
-jumps backwards or from the future. While nothing valid arrives the reading's time stands still, and the closed
-loop's watchdog serves the task's safe action once the plan is older than `max_plan_age`. A robot that restarts
-its clock is followed after a second of consistent stamps (`judo.ros2.clock`), with the reading's time carried on
-from where it was. When recording, the commands the robot reports it applied (a JointState on <commands>_applied,
-as `python -m judo plant` publishes them) are logged too, for `sysid` to pair each step with. Another commander or a second robot on the topics is refused at start (`judo.ros2.peers`).
+A message that cannot be a reading is refused, and the reason is logged (once, then every few
+seconds with a count): wrong lengths, a missing or unknown joint, a non-finite value, a joint where
+the robot cannot be (beyond its range with a margin, or faster than the model can move it:
+`judo.ros2.joints.JointLayout`), a stamp that jumps backwards or from the future. While nothing
+valid arrives the reading's time stands still, and the closed loop's watchdog serves the task's safe
+action once the plan is older than `max_plan_age`. A robot that restarts its clock is followed after
+a second of consistent stamps (`judo.ros2.clock`), with the reading's time carried on from where it
+was. When recording, the commands the robot reports it applied (a JointState on <commands>_applied,
+as `python -m judo plant` publishes them) are logged too, for `sysid` to pair each step with.
+Another commander or a second robot on the topics is refused at start (`judo.ros2.peers`).
 
-The e-stop: a std_msgs/Bool on /judo/estop (reliable), true latches the app's stop and false clears it
-(`judo.safety.stop.wire_request`); each is taken when the loop next reads the robot, and logged when recording."""
+The e-stop: a std_msgs/Bool on /judo/estop (reliable), true latches the app's stop and false clears
+it (`judo.safety.stop.wire_request`); each is taken when the loop next reads the robot, and logged
+when recording."""
 
 import logging
 import math
@@ -61,9 +67,11 @@ class Ros2System(System):
         task: the task the robot runs; its model's joint names are the JointState's (through
             `options.joint_map`), and `halt()` writes its `safe_action`.
         options: domain, topics, rate and joint map (`judo.ros2.options.Ros2Options`).
-        record: an MCAP log of every message read and written, and of the commands the robot applied (None: none).
-        refuse_other_writer: raise JudoError at start when another writer already commands the robot, or a second
-            robot publishes joint states (`judo.ros2.peers`); either is warned of while running.
+        record: an MCAP log of every message read and written, and of the commands the robot applied
+            (None: none).
+        refuse_other_writer: raise JudoError at start when another writer already commands the
+            robot, or a second robot publishes joint states (`judo.ros2.peers`); either is warned of
+            while running.
 
     Waits up to `options.wait_s` for the robot's first valid JointState (JudoError if none came).
 
@@ -87,7 +95,9 @@ class Ros2System(System):
         self.task = task
         self.options = options = options or Ros2Options()
         if not (math.isfinite(options.rate_hz) and options.rate_hz > 0):
-            raise ConfigError(f"the bridge's rate must be a positive number of Hz, got {options.rate_hz}")
+            raise ConfigError(
+                f"the bridge's rate must be a positive number of Hz, got {options.rate_hz}"
+            )
         self.timestep = 1.0 / options.rate_hz
         self.layout = JointLayout.of(task.model, options.joint_map)
         self.domain = link.domain_id(options.domain_id)
@@ -101,11 +111,13 @@ class Ros2System(System):
         self._reading: SystemState | None = None
         self._odom: tuple[np.ndarray, np.ndarray] | None = None
         self._imu: dict[str, np.ndarray] | None = None
-        self._mocap: tuple[np.ndarray, np.ndarray] | None = None  # (nmocap, 3), (nmocap, 4) from the robot side
+        # (nmocap, 3), (nmocap, 4) from the robot side
+        self._mocap: tuple[np.ndarray, np.ndarray] | None = None
         self._command: np.ndarray | None = None
         self._next_tick: float | None = None
         self._closed = False
-        count_mujoco_warnings()  # the planner's rollouts from a reading MuJoCo cannot simulate would flood the terminal
+        # the planner's rollouts from a reading MuJoCo cannot simulate would flood the terminal
+        count_mujoco_warnings()
         self._participant = part = link.participant(self.domain)
         try:
             self._joint_reader = DataReader(
@@ -113,23 +125,34 @@ class Ros2System(System):
             )
             self._odom_reader = None
             if self.layout.free is not None:
-                self._odom_reader = DataReader(part, link.topic(part, options.odom, msg.Odometry), link.SENSOR_QOS)
-            self._imu_reader = DataReader(part, link.topic(part, options.imu, msg.Imu), link.SENSOR_QOS)
+                self._odom_reader = DataReader(
+                    part, link.topic(part, options.odom, msg.Odometry), link.SENSOR_QOS
+                )
+            self._imu_reader = DataReader(
+                part, link.topic(part, options.imu, msg.Imu), link.SENSOR_QOS
+            )
             self._mocap_reader = None
             if task.model.nmocap:
                 mocap_topic = link.topic(part, options.mocap, msg.PoseArray)
                 self._mocap_reader = DataReader(part, mocap_topic, link.SENSOR_QOS)
-            estop_topic = link.topic(part, ESTOP_TOPIC, msg.Bool)  # reliable and deep: a true then a false both count
+            # reliable and deep: a true then a false both count
+            estop_topic = link.topic(part, ESTOP_TOPIC, msg.Bool)
             self._estop_reader = DataReader(part, estop_topic, link.APPLIED_QOS)
             command_topic = link.topic(part, options.commands, msg.Float64MultiArray)
             self._writer = DataWriter(part, command_topic, link.COMMAND_QOS)
             self._applied_reader = None
-            if record is not None:  # the robot's own record of the commands it applied, only to be logged
-                applied_topic = link.topic(part, options.commands + link.APPLIED_SUFFIX, msg.JointState)
+            # the robot's own record of the commands it applied, only to be logged
+            if record is not None:
+                applied_topic = link.topic(
+                    part, options.commands + link.APPLIED_SUFFIX, msg.JointState
+                )
                 self._applied_reader = DataReader(part, applied_topic, link.APPLIED_QOS)
-            others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)  # writers of other processes
+            # writers of other processes
+            others = Qos(Policy.Reliability.Reliable(0), Policy.IgnoreLocal.Participant)
             topics = (options.commands, options.joint_states)
-            self.peers = Peers(DataReader(part, command_topic, others), self._joint_reader, topics, self.domain)
+            self.peers = Peers(
+                DataReader(part, command_topic, others), self._joint_reader, topics, self.domain
+            )
             self._wait_for_robot(options.wait_s)
             if refuse_other_writer:
                 self.peers.refuse_at_start()
@@ -141,7 +164,11 @@ class Ros2System(System):
     def from_options(cls, task: Task, options: Any) -> "Ros2System":
         """The bridge the app's `--system ros2 [--record FILE.mcap] [--ros2.*]` options describe (a
         `judo.cli_shared.SystemOptions`: its `ros2` and `record`)."""
-        log = None if options.record is None else McapLog(options.record, log_metadata(task, options.ros2))
+        log = (
+            None
+            if options.record is None
+            else McapLog(options.record, log_metadata(task, options.ros2))
+        )
         try:
             return cls(task, options.ros2, log)
         except BaseException:
@@ -158,8 +185,10 @@ class Ros2System(System):
             time.sleep(0.01)
         why = self._refusals.summary()
         raise JudoError(
-            f"no valid sensor_msgs/JointState on {msg.ros_topic(self.options.joint_states)} in DDS domain "
-            f"{self.domain} within {seconds:g} s ({why}); is the robot's process running, on this ROS_DOMAIN_ID? "
+            f"no valid sensor_msgs/JointState on {msg.ros_topic(self.options.joint_states)} "
+            "in DDS domain "
+            f"{self.domain} within {seconds:g} s ({why}); is the robot's process running, on "
+            "this ROS_DOMAIN_ID? "
             f"It must name the joints {list(self.layout.names)}"
         )
 
@@ -191,7 +220,9 @@ class Ros2System(System):
         if self._applied_reader is None or self.log is None:
             return
         for applied in link.take(self._applied_reader, 256):
-            self.log.write(self.options.commands + link.APPLIED_SUFFIX, applied, _ns(applied.header.stamp))
+            self.log.write(
+                self.options.commands + link.APPLIED_SUFFIX, applied, _ns(applied.header.stamp)
+            )
 
     def _note_odometry(self, odom: msg.Odometry) -> None:
         try:
@@ -235,21 +266,29 @@ class Ros2System(System):
         if unknown or missing:
             return self._refuse(
                 "joint state (names)",
-                f"missing joints {missing}, unknown joints {unknown}; expected {list(self.layout.names)} "
+                f"missing joints {missing}, unknown joints {unknown}; expected "
+                f"{list(self.layout.names)} "
                 "(map names with --ros2.joint-map mjcf_name=robot_name)",
             )
         position = np.asarray(joints.position, float)
         velocity = np.asarray(joints.velocity, float) if with_velocity else np.zeros(n)
-        bad = [name for name, p, v in zip(names, position, velocity, strict=True) if not math.isfinite(p + v)]
+        bad = [
+            name
+            for name, p, v in zip(names, position, velocity, strict=True)
+            if not math.isfinite(p + v)
+        ]
         if bad:
-            return self._refuse("joint state (non-finite)", f"non-finite position or velocity of joints {bad}")
+            return self._refuse(
+                "joint state (non-finite)", f"non-finite position or velocity of joints {bad}"
+            )
         order = [self._index[name] for name in names]
         why = self.layout.implausible(order, position, velocity)
         if why is not None:
             return self._refuse("joint state (out of bounds)", why)
         full = with_velocity and (self.layout.free is None or self._odom is not None)
         sensors = None
-        if not full:  # positions only (or no odometry): the task's measured sensors, for its estimator
+        # positions only (or no odometry): the task's measured sensors, for its estimator
+        if not full:
             sensors, why = self._measured(position, order)
             if sensors is None:
                 return self._refuse("joint state (not enough to plan from)", str(why))
@@ -276,18 +315,29 @@ class Ros2System(System):
         with self._lock:
             self._reading = SystemState(state, reading_time, metadata, sensors)
 
-    def _measured(self, position: np.ndarray, order: list[int]) -> tuple[np.ndarray | None, str | None]:
-        """((task.measured.size,) the task's measured sensors from the JointState's `position` (in message
-        order; `order` their layout indices) and the latest Imu, None) or (None, why they cannot be made)."""
+    def _measured(
+        self, position: np.ndarray, order: list[int]
+    ) -> tuple[np.ndarray | None, str | None]:
+        """((task.measured.size,) the task's measured sensors from the JointState's `position` (in
+        message order; `order` their layout indices) and the latest Imu, None) or (None, why they
+        cannot be made)."""
         model, layout = self.task.model, self.task.measured
         if layout.size == 0:
             return None, (
-                f"{type(self.task).__name__} declares no measured sensors, so each JointState needs a velocity "
-                "per joint" + (" and an Odometry on " + self.options.odom if self.layout.free is not None else "")
+                f"{type(self.task).__name__} declares no measured sensors, so each "
+                "JointState needs a velocity "
+                "per joint"
+                + (
+                    " and an Odometry on " + self.options.odom
+                    if self.layout.free is not None
+                    else ""
+                )
             )
         by_qpos = dict(zip(self.layout.qpos[order].tolist(), position.tolist(), strict=True))
         values = np.empty(layout.size)
-        for name, kind, sensor, where in zip(layout.names, layout.types, layout.ids, layout.slices, strict=True):
+        for name, kind, sensor, where in zip(
+            layout.names, layout.types, layout.ids, layout.slices, strict=True
+        ):
             if kind == "jointpos":
                 address = int(model.jnt_qposadr[model.sensor_objid[sensor]])
                 if address not in by_qpos:
@@ -297,10 +347,15 @@ class Ros2System(System):
                 key = "angular_velocity" if kind == "gyro" else "linear_acceleration"
                 values[where] = self._imu[key]
             else:
-                source = "no Imu has arrived yet" if kind in ("gyro", "accelerometer") else "no ROS 2 source"
+                source = (
+                    "no Imu has arrived yet"
+                    if kind in ("gyro", "accelerometer")
+                    else ("no ROS 2 source")
+                )
                 return (
                     None,
-                    f"measured sensor {name!r} ({kind}) has {source}; the bridge fills jointpos, gyro, accelerometer",
+                    f"measured sensor {name!r} ({kind}) has {source}; the bridge fills "
+                    "jointpos, gyro, accelerometer",
                 )
         return values, None
 
@@ -308,12 +363,14 @@ class Ros2System(System):
         """A robot is not reset by judo: the loop starts again from its latest reading."""
 
     def recorder(self) -> LimitHitLog | None:
-        """When recording, the log of each limit hit of the closed loop on the bridge (`LimitHitLog`)."""
+        """When recording, the log of each limit hit of the closed loop on the bridge
+        (`LimitHitLog`)."""
         return None if self.log is None else LimitHitLog(self.log)
 
     def read_state(self) -> SystemState:
         self._take()
-        for estop in link.take(self._estop_reader, 64):  # in the order sent (not while waiting for the robot)
+        # in the order sent (not while waiting for the robot)
+        for estop in link.take(self._estop_reader, 64):
             if self.log is not None:
                 self.log.write(ESTOP_TOPIC, estop)
             wire_request(bool(estop.data), ESTOP_TOPIC)
@@ -329,25 +386,29 @@ class Ros2System(System):
         )
 
     def apply(self, action: np.ndarray) -> None:
-        """Keep the (command_size,) `action`, clamped to the task's command range, to be written by `step`.
-        JudoError for a wrong size or a non-finite value (nothing is written then)."""
+        """Keep the (command_size,) `action`, clamped to the task's command range, to be written by
+        `step`. JudoError for a wrong size or a non-finite value (nothing is written then)."""
         action = np.asarray(action, dtype=float)
         size = self.task.command_size
         if action.shape != (size,) or not np.isfinite(action).all():
-            raise JudoError(f"refused a command of shape {action.shape} (expected ({size},), finite): {action}")
+            raise JudoError(
+                f"refused a command of shape {action.shape} (expected ({size},), finite): {action}"
+            )
         low, high = self.task.command_range.T
         with self._lock:
             self._command = np.clip(action, low, high)
 
     def step(self) -> None:
-        """Write the command in force, then wait for the next tick of the bridge's rate, in wall time."""
+        """Write the command in force, then wait for the next tick of the bridge's rate, in wall
+        time."""
         with self._lock:
             command = self._command
         if command is not None:
             self._write(command)
         now = time.monotonic()
         self.peers.check(now)
-        if self._next_tick is None or self._next_tick < now - 0.1:  # first tick, or far behind: pace from now
+        # first tick, or far behind: pace from now
+        if self._next_tick is None or self._next_tick < now - 0.1:
             self._next_tick = now
         self._next_tick += self.timestep
         time.sleep(max(0.0, self._next_tick - time.monotonic()))
@@ -375,8 +436,8 @@ class Ros2System(System):
         return True
 
     def close(self) -> None:
-        """Wait briefly for the robot to acknowledge the last command, leave the DDS domain and finish the MCAP
-        log. The bridge cannot be used after."""
+        """Wait briefly for the robot to acknowledge the last command, leave the DDS domain and
+        finish the MCAP log. The bridge cannot be used after."""
         from cyclonedds.util import duration
 
         if self._closed:
@@ -386,7 +447,8 @@ class Ros2System(System):
             self._writer.wait_for_acks(duration(milliseconds=200))
         except Exception:  # no reader, or the robot gone: nothing to wait for
             pass
-        self._log_applied()  # the robot's record of the last commands, which came after the last reading
+        # the robot's record of the last commands, which came after the last reading
+        self._log_applied()
         link.close_participant(self._participant)
         if self.log is not None:
             self.log.close()

@@ -1,30 +1,35 @@
-"""A ROS 2 bridge's MCAP log (`--record FILE.mcap`) read back as the arrays that `replay` plays and `sysid` fits.
+"""A ROS 2 bridge's MCAP log (`--record FILE.mcap`) read back as the arrays that `replay` plays and
+`sysid` fits.
 
     python -m judo replay run.mcap                         # the task named in the log; --task for another log
     python -m judo sysid run.mcap --task cartpole --params body_mass.pole --out fitted.toml
 
-Each message is decoded by `mcap_ros2` from the ROS 2 definition stored beside it in the log (the bridge stores
-judo.ros2.messages' own), so reading needs the `ros2` extra's `mcap` and `mcap-ros2-support`, and no DDS. A
-`ros2 bag record` MCAP of the same topics reads the same way (give --task: only the bridge names its task).
+Each message is decoded by `mcap_ros2` from the ROS 2 definition stored beside it in the log (the
+bridge stores judo.ros2.messages' own), so reading needs the `ros2` extra's `mcap` and
+`mcap-ros2-support`, and no DDS. A `ros2 bag record` MCAP of the same topics reads the same way
+(give --task: only the bridge names its task).
 
-- The rows are the sensor_msgs/JointState messages, in stamp order (a repeated or older stamp is skipped), at
-  their header stamps: the robot's clock. Each joint is placed in qpos and qvel by name, as the bridge maps it
-  (`JointLayout`, with the joint map the log's "judo" metadata record holds). A free base comes from the latest
-  nav_msgs/Odometry logged before the row, mocap bodies from the latest geometry_msgs/PoseArray.
-- The applied commands, where the log holds them, are what the robot reports it applied: the JointStates on
-  <commands>_applied (`python -m judo plant` publishes them, the bridge logs them when recording), the command in
-  `effort` in actuator order, each stamped with the robot's time at the start of the first step it was in force.
-  The action of a row (applied during the plant step that ended at it) is then the latest applied command stamped
-  before the row's stamp: exact however late each command reached the robot. A log without them (an older
-  bridge's, or a robot that reports none) pairs each row with the commands sent, as follows.
-- The commands are the std_msgs/Float64MultiArray messages judo wrote. The bridge logs them at its wall clock, so
-  each is placed on the robot's clock by the offset between the two that the joint states show: the largest
-  (stamp - log time) of those logged in the second before it, the least delayed. The robot holds a command until
-  the next: the action of a row, applied during the plant step that ended at it, is the latest command at or
-  before its stamp. That is exactly what judo's plant process applied (it computes a step when its time comes,
-  with the command it holds then) where each command reached it in time; one that came a step late was applied a
-  step late, which this pairing cannot see (`sysid` fits a command delay for it).
-"""
+- The rows are the sensor_msgs/JointState messages, in stamp order (a repeated or older stamp is
+  skipped), at their header stamps: the robot's clock. Each joint is placed in qpos and qvel by
+  name, as the bridge maps it (`JointLayout`, with the joint map the log's "judo" metadata record
+  holds). A free base comes from the latest nav_msgs/Odometry logged before the row, mocap bodies
+  from the latest geometry_msgs/PoseArray.
+- The applied commands, where the log holds them, are what the robot reports it applied: the
+  JointStates on <commands>_applied (`python -m judo plant` publishes them, the bridge logs them
+  when recording), the command in `effort` in actuator order, each stamped with the robot's time at
+  the start of the first step it was in force. The action of a row (applied during the plant step
+  that ended at it) is then the latest applied command stamped before the row's stamp: exact however
+  late each command reached the robot. A log without them (an older bridge's, or a robot that
+  reports none) pairs each row with the commands sent, as follows.
+- The commands are the std_msgs/Float64MultiArray messages judo wrote. The bridge logs them at its
+  wall clock, so each is placed on the robot's clock by the offset between the two that the joint
+  states show: the largest (stamp - log time) of those logged in the second before it, the least
+  delayed. The robot holds a command until the next: the action of a row, applied during the plant
+  step that ended at it, is the latest command at or before its stamp. That is exactly what judo's
+  plant process applied (it computes a step when its time comes, with the command it holds then)
+  where each command reached it in time; one that came a step late was applied a step late, which
+  this pairing cannot see (`sysid` fits a command delay for it).
+"""  # noqa: E501
 
 import math
 from collections.abc import Iterator
@@ -43,24 +48,28 @@ COMMANDS = "std_msgs/msg/Float64MultiArray"
 ODOMETRY = "nav_msgs/msg/Odometry"
 POSES = "geometry_msgs/msg/PoseArray"
 METADATA = "judo"
-"""The bridge's metadata record (judo.ros2.mcap_log.METADATA; not imported from there, which needs DDS)."""
+"""The bridge's metadata record (judo.ros2.mcap_log.METADATA; not imported from there, which needs
+DDS)."""
 DEFAULT_TOPICS = {
     "joint_states": "/joint_states",
     "commands": "/judo/commands",
     "odom": "/odom",
     "mocap": "/judo/mocap",
 }
-"""The bridge's default topics, for a log without the "judo" record (the applied commands': the commands' topic
-with APPLIED_SUFFIX)."""
+"""The bridge's default topics, for a log without the "judo" record (the applied commands': the
+commands' topic with APPLIED_SUFFIX)."""
 APPLIED_SUFFIX = "_applied"
 """judo.ros2.link.APPLIED_SUFFIX (not imported from there, which needs DDS)."""
 STAMP_TOLERANCE = 1e-6
-"""Seconds within which an applied command's stamp is the row's own (a command applied from the row's time on is
-in force for the step after it, not the step that ended there); stamps are whole nanoseconds."""
+"""Seconds within which an applied command's stamp is the row's own (a command applied from the
+row's time on is in force for the step after it, not the step that ended there); stamps are whole
+nanoseconds."""
 MAX_GAP_STEPS = 100
-"""The most model steps between two joint states of one run compared every k steps (`BridgeLog.grid_runs`)."""
+"""The most model steps between two joint states of one run compared every k steps
+(`BridgeLog.grid_runs`)."""
 OFFSET_WINDOW_S = 1.0
-"""Wall seconds of joint states before a command whose least delayed one places it on the robot's clock."""
+"""Wall seconds of joint states before a command whose least delayed one places it on the robot's
+clock."""
 
 
 class BridgeLogError(JudoError):
@@ -75,16 +84,19 @@ class BridgeLog:
         path: the file.
         task: the task's registered name (the log's own, else the one given).
         times: (S,) each row's JointState header stamp, seconds, increasing.
-        qpos, qvel: (S, nq), (S, nv) the plant's state at each row; qvel NaN where the JointState had no velocities.
-        actions: (S, nu) the command applied during the plant step that ended at each row (`actions_at`); NaN
-            before the first command.
-        mocap_pos: (S, 3 * nmocap) the latest mocap positions at each row, or None without a PoseArray.
+        qpos, qvel: (S, nq), (S, nv) the plant's state at each row; qvel NaN where the JointState
+            had no velocities.
+        actions: (S, nu) the command applied during the plant step that ended at each
+            row (`actions_at`); NaN before the first command.
+        mocap_pos: (S, 3 * nmocap) the latest mocap positions at each row, or None without a
+            PoseArray.
         command_times: (C,) each command's time on the robot's clock, seconds.
         commands: (C, nu) the commands, in the order judo wrote them.
         timestep: the plant model's step, seconds.
         topics: {"joint_states", "commands", "applied", ...: the topic read}.
-        applied_times: (A,) the robot's time each applied command took effect (the start of the first step it was
-            in force), seconds, increasing; empty where the log holds no applied commands.
+        applied_times: (A,) the robot's time each applied command took effect (the start of the
+            first step it was in force), seconds, increasing; empty where the log holds no applied
+            commands.
         applied: (A, nu) the commands the robot applied, as it reported them.
     """
 
@@ -104,36 +116,43 @@ class BridgeLog:
 
     @property
     def source(self) -> str:
-        """ "applied" where the rows are paired with the commands the robot reported applying, else "sent"."""
+        """ "applied" where the rows are paired with the commands the robot reported applying, else
+        "sent"."""
         return "applied" if len(self.applied) else "sent"
 
     def step_runs(self, step: float, needed: bool = True) -> list[slice]:
-        """`segments(step)`, or BridgeLogError (one line naming the file) for a log that cannot be compared with a
-        rollout of `step` seconds a step: without commands, without velocities, or (where `needed`) no two rows
-        `step` apart."""
+        """`segments(step)`, or BridgeLogError (one line naming the file) for a log that cannot be
+        compared with a rollout of `step` seconds a step: without commands, without velocities, or
+        (where `needed`) no two rows `step` apart."""
         if not len(self.commands) and not len(self.applied):
             raise BridgeLogError(
-                f"{self.path}: no {COMMANDS} on {self.topics['commands']}; sysid needs the commands the robot applied"
+                f"{self.path}: no {COMMANDS} on {self.topics['commands']}; sysid needs the "
+                "commands the robot applied"
             )
         if np.isnan(self.qvel).all():
-            raise BridgeLogError(f"{self.path}: its joint states carry no velocities; sysid fits qpos and qvel")
+            raise BridgeLogError(
+                f"{self.path}: its joint states carry no velocities; sysid fits qpos and qvel"
+            )
         runs = list(self.segments(step))
         if not runs and needed:
             spacing = float(np.median(np.diff(self.times))) if len(self.times) > 1 else math.nan
             raise BridgeLogError(
-                f"{self.path}: no two joint states one model step ({step:g} s) apart with a command in force (they "
-                f"are {spacing:.3g} s apart); the robot must publish one each step (python -m judo plant --rate-hz "
+                f"{self.path}: no two joint states one model step ({step:g} s) apart with a "
+                "command in force (they "
+                f"are {spacing:.3g} s apart); the robot must publish one each step (python "
+                "-m judo plant --rate-hz "
                 f"{1 / step:g})"
             )
         return runs
 
     def grid_runs(self, step: float) -> list[tuple[slice, np.ndarray]]:
-        """The runs of at least two rows, each row a whole number of steps (1 to MAX_GAP_STEPS, within 1e-3 of a
-        step) of `step` seconds after the one before, with a command in force and a velocity: (rows, (R,) each
-        row's step count from the run's first row). A robot that publishes every k model steps (a 50 Hz driver
-        under a 0.01 s model: k = 2) gives runs with offsets 0, k, 2k, ...; a row the bridge missed is a gap of
-        more steps, not the run's end. BridgeLogError (one line naming the file) as `step_runs`, where no two rows
-        are a whole number of steps apart."""
+        """The runs of at least two rows, each row a whole number of steps (1 to MAX_GAP_STEPS,
+        within 1e-3 of a step) of `step` seconds after the one before, with a command in force and a
+        velocity: (rows, (R,) each row's step count from the run's first row). A robot that
+        publishes every k model steps (a 50 Hz driver under a 0.01 s model: k = 2) gives runs with
+        offsets 0, k, 2k, ...; a row the bridge missed is a gap of more steps, not the run's end.
+        BridgeLogError (one line naming the file) as `step_runs`, where no two rows are a whole
+        number of steps apart."""
         self.step_runs(step, needed=False)
         gaps = np.diff(self.times) / step
         whole = np.round(gaps)
@@ -151,25 +170,28 @@ class BridgeLog:
         if not runs:
             spacing = float(np.median(np.diff(self.times))) if len(self.times) > 1 else math.nan
             raise BridgeLogError(
-                f"{self.path}: no two joint states a whole number of model steps ({step:g} s, at most "
-                f"{MAX_GAP_STEPS}) apart with a command in force (they are {spacing:.3g} s apart); the robot must "
+                f"{self.path}: no two joint states a whole number of model steps ({step:g} "
+                "s, at most "
+                f"{MAX_GAP_STEPS}) apart with a command in force (they are {spacing:.3g} s "
+                "apart); the robot must "
                 "publish on the model's step grid (python -m judo plant --rate-hz 100)"
             )
         return runs
 
     def actions_at(self, times: np.ndarray) -> np.ndarray:
-        """(T, nu) the command applied during the plant step that ended at each of `times`: with applied commands
-        (`source` "applied"), the latest stamped before it (by more than STAMP_TOLERANCE); else the latest command
-        sent at or before it on the robot's clock. NaN before the first."""
+        """(T, nu) the command applied during the plant step that ended at each of `times`: with
+        applied commands (`source` "applied"), the latest stamped before it (by more than
+        STAMP_TOLERANCE); else the latest command sent at or before it on the robot's clock. NaN
+        before the first."""
         times = np.asarray(times, float)
         if len(self.applied):
             return _latest(self.applied_times, self.applied, times - STAMP_TOLERANCE, "left")
         return _latest(self.command_times, self.commands, times + 1e-9, "right")
 
     def segments(self, step: float | None = None) -> Iterator[slice]:
-        """The runs of at least two rows, each row `step` seconds (default: one plant step) after the one before,
-        with a command in force and a velocity: the rows a rollout from a run's first row is compared with step by
-        step (a JointState the bridge missed ends a run)."""
+        """The runs of at least two rows, each row `step` seconds (default: one plant step) after
+        the one before, with a command in force and a velocity: the rows a rollout from a run's
+        first row is compared with step by step (a JointState the bridge missed ends a run)."""
         steps = np.diff(self.times) / (self.timestep if step is None else step)
         usable = np.zeros(len(self.times), bool)
         usable[1:] = (np.abs(steps - 1.0) < 1e-3) & np.isfinite(self.actions[1:]).all(axis=1)
@@ -182,19 +204,26 @@ class BridgeLog:
                 start = row
 
 
-def read_bridge_log(path: Path, task: str | None = None, feature: str = "reading an MCAP log") -> BridgeLog:
-    """The bridge log at `path` for `task` (None: the task the log names). BridgeLogError, in one line naming the
-    file, for a file that is missing, empty or not MCAP, a log of another task, one that names no task when `task`
-    is None, one without JointStates, or joints the task's model lacks (each listing what the log holds)."""
+def read_bridge_log(
+    path: Path, task: str | None = None, feature: str = "reading an MCAP log"
+) -> BridgeLog:
+    """The bridge log at `path` for `task` (None: the task the log names). BridgeLogError, in one
+    line naming the file, for a file that is missing, empty or not MCAP, a log of another task, one
+    that names no task when `task` is None, one without JointStates, or joints the task's model
+    lacks (each listing what the log holds)."""
     from judo.core.configuration.registry import make_task
 
     reader_module = import_extra("mcap.reader", feature, "ros2")
     decoder_module = import_extra("mcap_ros2.decoder", feature, "ros2")
     path = Path(path)
     if not path.is_file():
-        raise BridgeLogError(f"{path}: no such log file; give the MCAP file the bridge wrote (--record FILE.mcap)")
+        raise BridgeLogError(
+            f"{path}: no such log file; give the MCAP file the bridge wrote (--record FILE.mcap)"
+        )
     if path.stat().st_size == 0:
-        raise BridgeLogError(f"{path}: the file is empty; give the MCAP file the bridge wrote (--record FILE.mcap)")
+        raise BridgeLogError(
+            f"{path}: the file is empty; give the MCAP file the bridge wrote (--record FILE.mcap)"
+        )
     try:
         with path.open("rb") as file:
             metadata, raw = _read(reader_module, decoder_module, file)
@@ -203,7 +232,9 @@ def read_bridge_log(path: Path, task: str | None = None, feature: str = "reading
         raise BridgeLogError(f"{path}: not a readable MCAP log ({text})") from None
     logged_task = metadata.get("task") or None
     if task is None and logged_task is None:
-        raise BridgeLogError(f"{path}: the log does not name its task (the bridge's record does); give --task")
+        raise BridgeLogError(
+            f"{path}: the log does not name its task (the bridge's record does); give --task"
+        )
     if task is not None and logged_task is not None and task != logged_task:
         raise BridgeLogError(f"{path}: a log of task {logged_task!r}, not of --task {task!r}")
     name = task or logged_task
@@ -223,7 +254,9 @@ class _Message:
     message: Any
 
 
-def _read(reader_module: Any, decoder_module: Any, file: Any) -> tuple[dict[str, str], list[_Message]]:
+def _read(
+    reader_module: Any, decoder_module: Any, file: Any
+) -> tuple[dict[str, str], list[_Message]]:
     """(the "judo" metadata record, every message of the four types read, decoded, in log order)."""
     reader = reader_module.make_reader(file)
     wanted = {JOINT_STATE, COMMANDS, ODOMETRY, POSES}
@@ -236,7 +269,9 @@ def _read(reader_module: Any, decoder_module: Any, file: Any) -> tuple[dict[str,
         if schema is not None and name in wanted:
             decoder = decoders.get(schema.id)
             if decoder is None:
-                decoder = decoders[schema.id] = factory.decoder_for(channel.message_encoding, schema)
+                decoder = decoders[schema.id] = factory.decoder_for(
+                    channel.message_encoding, schema
+                )
             entry.message = decoder(message.data)
         messages.append(entry)
     file.seek(0)
@@ -254,7 +289,12 @@ def _seen(raw: list[_Message]) -> str:
 
 
 def _arrays(
-    path: Path, task: str, model: mujoco.MjModel, layout: JointLayout, raw: list[_Message], topics: dict[str, str]
+    path: Path,
+    task: str,
+    model: mujoco.MjModel,
+    layout: JointLayout,
+    raw: list[_Message],
+    topics: dict[str, str],
 ) -> BridgeLog:
     joints = [m for m in raw if m.schema == JOINT_STATE and m.topic == topics["joint_states"]]
     if not joints:
@@ -273,19 +313,28 @@ def _arrays(
         message = entry.message
         if entry.schema == ODOMETRY and entry.topic == topics["odom"]:
             odom = base_from_odometry(message)
-        elif entry.schema == POSES and entry.topic == topics["mocap"] and len(message.poses) == model.nmocap:
-            mocap = np.array([[p.position.x, p.position.y, p.position.z] for p in message.poses], float).reshape(-1)
+        elif (
+            entry.schema == POSES
+            and entry.topic == topics["mocap"]
+            and len(message.poses) == model.nmocap
+        ):
+            mocap = np.array(
+                [[p.position.x, p.position.y, p.position.z] for p in message.poses], float
+            ).reshape(-1)
         elif entry.schema == JOINT_STATE and entry.topic == topics["joint_states"]:
             names = list(message.name)
             unknown = [name for name in names if name not in index]
             missing = [name for name in layout.names if name not in set(names)]
             if unknown or missing:
                 raise BridgeLogError(
-                    f"{path}: its joint states name the joints {names}; {task}'s model has {list(layout.names)} "
+                    f"{path}: its joint states name the joints {names}; {task}'s model has "
+                    f"{list(layout.names)} "
                     f"(missing {missing}, unknown {unknown})"
                 )
             position = np.asarray(message.position, float)
-            velocity = np.asarray(message.velocity, float) if len(message.velocity) == len(names) else None
+            velocity = (
+                np.asarray(message.velocity, float) if len(message.velocity) == len(names) else None
+            )
             if len(position) != len(names):
                 continue  # the bridge logs none such; a robot's own log may
             stamp = message.header.stamp.sec + 1e-9 * message.header.stamp.nanosec
@@ -300,9 +349,13 @@ def _arrays(
             if layout.free is not None and odom is not None:
                 a, d = layout.free
                 qpos[a : a + 7], qvel[d : d + 6] = odom
-            rows.append((stamp, entry.log_ns, qpos, qvel, None if mocap is None else mocap.copy(), None))
+            rows.append(
+                (stamp, entry.log_ns, qpos, qvel, None if mocap is None else mocap.copy(), None)
+            )
     if not rows:
-        raise BridgeLogError(f"{path}: no joint state came after an {ODOMETRY} on {topics['odom']} for the free base")
+        raise BridgeLogError(
+            f"{path}: no joint state came after an {ODOMETRY} on {topics['odom']} for the free base"
+        )
     times = np.array([row[0] for row in rows])
     command_times, commands = _commands(path, raw, topics["commands"], rows, model.nu)
     applied_times, applied = _applied(path, raw, topics["applied"], model.nu)
@@ -331,9 +384,11 @@ def _arrays(
     return log
 
 
-def _latest(stamps: np.ndarray, values: np.ndarray, at: np.ndarray, side: Literal["left", "right"]) -> np.ndarray:
-    """(T, nu) the row of the (N, nu) `values` with the latest of the (N,) increasing `stamps` before each of the
-    (T,) `at` (`side` "right": at or before), NaN before the first."""
+def _latest(
+    stamps: np.ndarray, values: np.ndarray, at: np.ndarray, side: Literal["left", "right"]
+) -> np.ndarray:
+    """(T, nu) the row of the (N, nu) `values` with the latest of the (N,) increasing `stamps`
+    before each of the (T,) `at` (`side` "right": at or before), NaN before the first."""
     out = np.full((len(at), values.shape[1]), np.nan)
     index = np.searchsorted(stamps, at, side=side) - 1
     out[index >= 0] = values[index[index >= 0]]
@@ -341,34 +396,43 @@ def _latest(stamps: np.ndarray, values: np.ndarray, at: np.ndarray, side: Litera
 
 
 def _applied(path: Path, raw: list[_Message], topic: str, nu: int) -> tuple[np.ndarray, np.ndarray]:
-    """((A,) the stamps, (A, nu) the commands) the robot reported applying on `topic` (JointStates, each command
-    in `effort`), in stamp order (a command of the same stamp as one before it replaced it); both empty without.
-    BridgeLogError for a record of another size than the model's `nu` actuators."""
+    """((A,) the stamps, (A, nu) the commands) the robot reported applying on `topic` (JointStates,
+    each command in `effort`), in stamp order (a command of the same stamp as one before it replaced
+    it); both empty without. BridgeLogError for a record of another size than the model's `nu`
+    actuators."""
     found = [m.message for m in raw if m.schema == JOINT_STATE and m.topic == topic]
     values = [np.asarray(message.effort, float) for message in found]
     wrong = sorted({len(v) for v in values if len(v) != nu})
     if wrong:
         raise BridgeLogError(
-            f"{path}: applied commands on {topic} of {wrong} values; the task's model has {nu} actuators"
+            f"{path}: applied commands on {topic} of {wrong} values; the task's model has "
+            f"{nu} actuators"
         )
     stamps = np.array([m.header.stamp.sec + 1e-9 * m.header.stamp.nanosec for m in found], float)
     order = np.argsort(stamps, kind="stable")
     return stamps[order], np.array(values, float).reshape(len(found), nu)[order]
 
 
-def _commands(path: Path, raw: list[_Message], topic: str, rows: list[Any], nu: int) -> tuple[np.ndarray, np.ndarray]:
+def _commands(
+    path: Path, raw: list[_Message], topic: str, rows: list[Any], nu: int
+) -> tuple[np.ndarray, np.ndarray]:
     """((C,) the commands' times on the robot's clock, (C, nu) the commands) on `topic`."""
     found = [m for m in raw if m.schema == COMMANDS and m.topic == topic]
     values = [np.asarray(m.message.data, float) for m in found]
     wrong = sorted({len(v) for v in values if len(v) != nu})
     if wrong:
-        raise BridgeLogError(f"{path}: commands on {topic} of {wrong} values; the task's model has {nu} actuators")
+        raise BridgeLogError(
+            f"{path}: commands on {topic} of {wrong} values; the task's model has {nu} actuators"
+        )
     stamps = np.array([row[0] for row in rows])
     logged = 1e-9 * np.array([row[1] for row in rows], float)
-    offsets = stamps - logged  # the robot's clock less the logging wall clock, each message's delay below it
+    # the robot's clock less the logging wall clock, each message's delay below it
+    offsets = stamps - logged
     times = np.empty(len(found))
     for i, message in enumerate(found):
         wall = 1e-9 * message.log_ns
         near = (logged <= wall) & (logged >= wall - OFFSET_WINDOW_S)
-        times[i] = wall + (offsets[near].max() if near.any() else offsets[np.argmin(np.abs(logged - wall))])
+        times[i] = wall + (
+            offsets[near].max() if near.any() else offsets[np.argmin(np.abs(logged - wall))]
+        )
     return times, np.array(values).reshape(len(found), nu)

@@ -1,12 +1,15 @@
 # pyright: reportCallIssue=false, reportGeneralTypeIssues=false, reportAssignmentType=false
-# (cyclonedds' IDL dataclasses take `typename=` in the class line, sizes in `array[float64, 9]` and lists for
+# (cyclonedds' IDL dataclasses take `typename=` in the class line, sizes in `array[float64, 9]` and
+# lists for
 # `sequence` fields, which its type hints do not describe)
-"""ROS 2's standard messages as DDS types, without a ROS install: the CDR on the wire is ROS 2's own.
+"""ROS 2's standard messages as DDS types, without a ROS install: the CDR on the wire is ROS 2's
+own.
 
-ROS 2 maps `sensor_msgs/msg/JointState` to the DDS type `sensor_msgs::msg::dds_::JointState_` and the topic
-`/joint_states` to `rt/joint_states`; the domain is `ROS_DOMAIN_ID`. The classes here are those types, written
-with `cyclonedds`' IDL dataclasses (its wheel carries the C library), and `MSGDEFS` holds each message's ROS 2
-definition text, the schema an MCAP log stores beside the bytes.
+ROS 2 maps `sensor_msgs/msg/JointState` to the DDS type `sensor_msgs::msg::dds_::JointState_` and
+the topic `/joint_states` to `rt/joint_states`; the domain is `ROS_DOMAIN_ID`. The classes here are
+those types, written with `cyclonedds`' IDL dataclasses (its wheel carries the C library), and
+`MSGDEFS` holds each message's ROS 2 definition text, the schema an MCAP log stores beside the
+bytes.
 """
 
 from dataclasses import dataclass, field
@@ -156,7 +159,8 @@ class Bool(IdlStruct, typename="std_msgs::msg::dds_::Bool_"):
 @dataclass
 @annotate.final
 class LimitHit(IdlStruct, typename="judo_msgs::msg::dds_::LimitHit_"):
-    """One [safety] limit acting on one served command (`judo.safety.serve_filter.LimitHit`), as the MCAP logs it."""
+    """One [safety] limit acting on one served command (`judo.safety.serve_filter.LimitHit`), as the
+    MCAP logs it."""
 
     stamp: Time = field(default_factory=Time)
     limit: str = ""
@@ -169,8 +173,8 @@ def ros_topic(name: str) -> str:
 
 
 def stamp_of(seconds: float) -> Time:
-    """A ROS 2 Time of `seconds` (>= 0), to the nearest nanosecond: rounded first, then split, so a sum of steps a
-    hair below a whole second is that second, 0 ns."""
+    """A ROS 2 Time of `seconds` (>= 0), to the nearest nanosecond: rounded first, then split, so a
+    sum of steps a hair below a whole second is that second, 0 ns."""
     sec, nanosec = divmod(round(seconds * 1e9), 1_000_000_000)
     return Time(sec, nanosec)
 
@@ -187,7 +191,8 @@ _QUATERNION = "float64 x 0\nfloat64 y 0\nfloat64 z 0\nfloat64 w 1"
 
 
 def _msgdef(main: str, *deps: tuple[str, str]) -> str:
-    """ROS 2's concatenated definition text (the "ros2msg" schema): the message, then each dependency."""
+    """ROS 2's concatenated definition text (the "ros2msg" schema): the message, then each
+    dependency."""
     sep = "=" * 80
     return main + "".join(f"\n{sep}\nMSG: {name}\n{text}" for name, text in deps)
 
@@ -196,14 +201,19 @@ _HEADER_DEPS = (("std_msgs/Header", _HEADER), ("builtin_interfaces/Time", _TIME)
 
 MSGDEFS = {
     "sensor_msgs/msg/JointState": _msgdef(
-        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort", *_HEADER_DEPS
+        "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] "
+        "velocity\nfloat64[] effort",
+        *_HEADER_DEPS,
     ),
     "nav_msgs/msg/Odometry": _msgdef(
         "std_msgs/Header header\nstring child_frame_id\ngeometry_msgs/PoseWithCovariance pose\n"
         "geometry_msgs/TwistWithCovariance twist",
         *_HEADER_DEPS,
         ("geometry_msgs/PoseWithCovariance", "geometry_msgs/Pose pose\nfloat64[36] covariance"),
-        ("geometry_msgs/Pose", "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation"),
+        (
+            "geometry_msgs/Pose",
+            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation",
+        ),
         ("geometry_msgs/Point", _VECTOR),
         ("geometry_msgs/Quaternion", _QUATERNION),
         ("geometry_msgs/TwistWithCovariance", "geometry_msgs/Twist twist\nfloat64[36] covariance"),
@@ -211,7 +221,8 @@ MSGDEFS = {
         ("geometry_msgs/Vector3", _VECTOR),
     ),
     "sensor_msgs/msg/Imu": _msgdef(
-        "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\nfloat64[9] orientation_covariance\n"
+        "std_msgs/Header header\ngeometry_msgs/Quaternion orientation\nfloat64[9] "
+        "orientation_covariance\n"
         "geometry_msgs/Vector3 angular_velocity\nfloat64[9] angular_velocity_covariance\n"
         "geometry_msgs/Vector3 linear_acceleration\nfloat64[9] linear_acceleration_covariance",
         *_HEADER_DEPS,
@@ -221,7 +232,10 @@ MSGDEFS = {
     "geometry_msgs/msg/PoseArray": _msgdef(
         "std_msgs/Header header\ngeometry_msgs/Pose[] poses",
         *_HEADER_DEPS,
-        ("geometry_msgs/Pose", "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation"),
+        (
+            "geometry_msgs/Pose",
+            "geometry_msgs/Point position\ngeometry_msgs/Quaternion orientation",
+        ),
         ("geometry_msgs/Point", _VECTOR),
         ("geometry_msgs/Quaternion", _QUATERNION),
     ),
@@ -232,12 +246,18 @@ MSGDEFS = {
     ),
     "std_msgs/msg/Bool": "bool data",
     "judo_msgs/msg/LimitHit": _msgdef(
-        "builtin_interfaces/Time stamp\nstring limit\nfloat64 value", ("builtin_interfaces/Time", _TIME)
+        "builtin_interfaces/Time stamp\nstring limit\nfloat64 value",
+        ("builtin_interfaces/Time", _TIME),
     ),
 }
-"""ROS 2 message name -> its definition text with its dependencies (MCAP's "ros2msg" schema encoding)."""
+"""ROS 2 message name -> its definition text with its dependencies (MCAP's "ros2msg" schema
+encoding)."""
 
-ROS_NAMES = {JointState: "sensor_msgs/msg/JointState", Odometry: "nav_msgs/msg/Odometry", Imu: "sensor_msgs/msg/Imu"}
+ROS_NAMES = {
+    JointState: "sensor_msgs/msg/JointState",
+    Odometry: "nav_msgs/msg/Odometry",
+    Imu: "sensor_msgs/msg/Imu",
+}
 ROS_NAMES[Float64MultiArray] = "std_msgs/msg/Float64MultiArray"
 ROS_NAMES[PoseArray] = "geometry_msgs/msg/PoseArray"
 ROS_NAMES[Bool] = "std_msgs/msg/Bool"

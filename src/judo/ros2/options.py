@@ -1,9 +1,10 @@
-"""How judo's two DDS bridges reach the robot: `Ros2Options` (`--system ros2`, judo.ros2.bridge) and `UnitreeOptions`
-(`--system unitree`, judo.unitree.bridge), each from the command line (`--ros2.*`, `--unitree.*`) or a TOML table of
-its fields (`ros2_options`, `unitree_options`: the config file's [ros2] and [unitree]).
+"""How judo's two DDS bridges reach the robot: `Ros2Options` (`--system ros2`, judo.ros2.bridge) and
+`UnitreeOptions` (`--system unitree`, judo.unitree.bridge), each from the command line (`--ros2.*`,
+`--unitree.*`) or a TOML table of its fields (`ros2_options`, `unitree_options`: the config file's
+[ros2] and [unitree]).
 
-Both live here, below judo.unitree: the Unitree bridge builds on judo.ros2's link, and the ROS 2 fake robot
-(judo.ros2.plant) serves either protocol.
+Both live here, below judo.unitree: the Unitree bridge builds on judo.ros2's link, and the ROS 2
+fake robot (judo.ros2.plant) serves either protocol.
 """
 
 from dataclasses import dataclass, fields
@@ -25,55 +26,63 @@ class Ros2Options:
     imu: str = "/imu"
     """Topic of the robot's sensor_msgs/Imu, passed to the task in the reading's metadata["imu"]."""
     mocap: str = "/judo/mocap"
-    """Topic of the robot side's geometry_msgs/PoseArray of the model's mocap bodies (a goal, a target), in the
-    model's mocap order, read for a task that has them; the planner gets them as in-process, in the reading's
-    metadata["mocap_pos"] and ["mocap_quat"]."""
+    """Topic of the robot side's geometry_msgs/PoseArray of the model's mocap bodies (a goal, a
+    target), in the model's mocap order, read for a task that has them; the planner gets them as
+    in-process, in the reading's metadata["mocap_pos"] and ["mocap_quat"]."""
     commands: str = "/judo/commands"
     """Topic judo writes std_msgs/Float64MultiArray commands to, in actuator order (reliable)."""
     rate_hz: float = 100.0
     """Commands written per second; step() paces the loop to it in wall time."""
     joint_map: tuple[str, ...] = ()
-    """MJCF joint name = the robot's JointState name, for each joint whose names differ (e.g. slider=cart_joint)."""
+    """MJCF joint name = the robot's JointState name, for each joint whose names differ (e.g.
+    slider=cart_joint)."""
     wait_s: float = 5.0
     """Seconds to wait at start for the robot's first valid JointState."""
 
 
 @dataclass
 class UnitreeOptions:
-    """How the Unitree bridge (`--system unitree`) reaches the robot: rt/lowstate in, rt/lowcmd out."""
+    """How the Unitree bridge (`--system unitree`) reaches the robot: rt/lowstate in, rt/lowcmd
+    out."""
 
     robot: Literal["go2", "g1"] = "go2"
     """go2 (unitree_go messages, 12 motors) or g1 (unitree_hg messages, 29 motors)."""
     domain: int = 0
     """DDS domain, 0..232: Unitree's robots use 0."""
     interface: str | None = None
-    """Network interface DDS uses (the one wired to the robot, e.g. eth0; lo for a robot process on this machine);
-    None: Cyclone DDS's default choice."""
+    """Network interface DDS uses (the one wired to the robot, e.g. eth0; lo for a robot process on
+    this machine); None: Cyclone DDS's default choice."""
     rate_hz: float = 500.0
-    """LowCmd_ messages written per second (the robot runs its PD between them); step() paces the loop to it."""
+    """LowCmd_ messages written per second (the robot runs its PD between them); step() paces the
+    loop to it."""
     soft_start_s: float = 2.0
-    """Seconds over which gains and targets ramp in from the robot's pose at the first command, and again after a
-    halt or a silence."""
+    """Seconds over which gains and targets ramp in from the robot's pose at the first command, and
+    again after a halt or a silence."""
     wait_s: float = 5.0
     """Seconds to wait at start for the robot's first valid LowState_."""
     silence_s: float = 0.1
-    """Seconds without a valid LowState_ after which judo sends damping instead of the plan (and a robot process
-    without a valid LowCmd_ applies it)."""
+    """Seconds without a valid LowState_ after which judo sends damping instead of the plan (and a
+    robot process without a valid LowCmd_ applies it)."""
 
 
 def ros2_options(table: dict[str, Any], where: str) -> Ros2Options:
-    """Ros2Options from a TOML table of its fields (`joint_map` a table {mjcf_name = robot_name} or a list of
-    "mjcf_name=robot_name"). ConfigError naming the field for an unknown name or a value of the wrong type."""
+    """Ros2Options from a TOML table of its fields (`joint_map` a table {mjcf_name = robot_name} or
+    a list of "mjcf_name=robot_name"). ConfigError naming the field for an unknown name or a value
+    of the wrong type."""
     valid = {f.name: f for f in fields(Ros2Options)}
     values: dict[str, Any] = {}
     for key, value in table.items():
         if key not in valid:
-            raise ConfigError(f"{where}: unknown field {key!r}; valid fields are: {', '.join(valid)}")
+            raise ConfigError(
+                f"{where}: unknown field {key!r}; valid fields are: {', '.join(valid)}"
+            )
         if key == "joint_map":
             if isinstance(value, dict):
                 value = [f"{k}={v}" for k, v in value.items()]
             if not (isinstance(value, list) and all(isinstance(v, str) for v in value)):
-                raise ConfigError(f"{where}: joint_map must be a table mjcf_name = robot_name, got {value!r}")
+                raise ConfigError(
+                    f"{where}: joint_map must be a table mjcf_name = robot_name, got {value!r}"
+                )
             value = tuple(value)
         elif key == "domain_id":
             if not (isinstance(value, int) and not isinstance(value, bool)):
@@ -89,13 +98,15 @@ def ros2_options(table: dict[str, Any], where: str) -> Ros2Options:
 
 
 def unitree_options(table: dict[str, Any], where: str) -> UnitreeOptions:
-    """UnitreeOptions from a TOML table of its fields. ConfigError naming the field for an unknown name or a value
-    of the wrong type."""
+    """UnitreeOptions from a TOML table of its fields. ConfigError naming the field for an unknown
+    name or a value of the wrong type."""
     valid = {f.name for f in fields(UnitreeOptions)}
     values: dict[str, Any] = {}
     for key, value in table.items():
         if key not in valid:
-            raise ConfigError(f"{where}: unknown field {key!r}; valid fields are: {', '.join(sorted(valid))}")
+            raise ConfigError(
+                f"{where}: unknown field {key!r}; valid fields are: {', '.join(sorted(valid))}"
+            )
         number = isinstance(value, int | float) and not isinstance(value, bool)
         if key == "domain" and not (isinstance(value, int) and not isinstance(value, bool)):
             raise ConfigError(f"{where}: domain must be an integer 0..232, got {value!r}")

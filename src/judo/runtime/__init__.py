@@ -1,4 +1,5 @@
-"""The app: a plant thread, a planner and a browser GUI around one closed loop (`judo.loop`); its CLI.
+"""The app: a plant thread, a planner and a browser GUI around one closed loop (`judo.loop`); its
+CLI.
 
 app.py            App: checks its settings, builds the parts, start/run/stop; the commands' public face
 app_state.py      AppState (the one lock and what the parts share)
@@ -14,4 +15,4 @@ status.py         the status line, the timing figures, the reports
 address.py        where the GUI listens
 launch.py         `python -m judo`: the app's command line
 gui/              the viser GUI (the app never imports it)
-"""
+"""  # noqa: E501

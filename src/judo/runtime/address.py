@@ -1,4 +1,5 @@
-"""Where the GUI listens: a port in range, an address of this machine, and whether it is loopback-only.
+"""Where the GUI listens: a port in range, an address of this machine, and whether it is
+loopback-only.
 
 Checked before the viser server starts, so a bad `--port` or `--host` ends the run with a message
 instead of a traceback in the server thread and a hang.
@@ -20,7 +21,8 @@ LOCAL_HOSTS_HINT = "127.0.0.1 (this machine only, the default) or 0.0.0.0 (every
 TOKEN_LENGTH = (8, 128)
 """Shortest and longest access token accepted, in characters."""
 TOKEN_ALPHABET = "A-Z, a-z, 0-9, '_' and '-'"
-"""The URL-safe characters a token may hold (those of `secrets.token_urlsafe`), so its URL always opens."""
+"""The URL-safe characters a token may hold (those of `secrets.token_urlsafe`), so its URL always
+opens."""
 _TOKEN_PATTERN = re.compile(r"[A-Za-z0-9_-]+")
 
 
@@ -28,12 +30,15 @@ def check_port(port: object) -> int:
     """`port` if it is an integer in 0..65535, else raise ConfigError."""
     low, high = PORT_RANGE
     if isinstance(port, bool) or not isinstance(port, int) or not low <= port <= high:
-        raise ConfigError(f"port must be an integer in {low}..{high} (0 picks a free port), got {port!r}")
+        raise ConfigError(
+            f"port must be an integer in {low}..{high} (0 picks a free port), got {port!r}"
+        )
     return port
 
 
 def is_loopback(host: str) -> bool:
-    """True if `host` (a name or an address, IPv6 with or without brackets) only reaches this machine."""
+    """True if `host` (a name or an address, IPv6 with or without brackets) only reaches this
+    machine."""
     host = host.strip("[]").lower()
     if host == "localhost" or host.endswith(".localhost"):
         return True
@@ -49,8 +54,8 @@ def new_token() -> str:
 
 
 def check_token(token: object, host: str, *, generate: bool = True) -> str | None:
-    """The GUI's access token: `token` if it is URL-safe, a fresh one when it is None, `generate` is set
-    (a GUI is served) and `host` reaches beyond this machine, else None (no token).
+    """The GUI's access token: `token` if it is URL-safe, a fresh one when it is None, `generate` is
+    set (a GUI is served) and `host` reaches beyond this machine, else None (no token).
 
     Raises ConfigError for an empty or blank token (which would let every URL in), a token outside
     `TOKEN_ALPHABET` (its URL could never be opened) or one whose length is outside `TOKEN_LENGTH`.
@@ -60,7 +65,10 @@ def check_token(token: object, host: str, *, generate: bool = True) -> str | Non
     low, high = TOKEN_LENGTH
     shown = repr(token)[:200]
     if not isinstance(token, str):
-        raise ConfigError(f"token must be a string of {low} to {high} characters, got {type(token).__name__} {shown}")
+        raise ConfigError(
+            f"token must be a string of {low} to {high} characters, got {type(token).__name__} "
+            f"{shown}"
+        )
     if not token.strip():
         raise ConfigError(
             f"token must not be empty or blank (it would let every URL in), got {shown}; "
@@ -73,12 +81,15 @@ def check_token(token: object, host: str, *, generate: bool = True) -> str | Non
             f"(with {', '.join(map(repr, bad))[:200]})"
         )
     if not low <= len(token) <= high:
-        raise ConfigError(f"token must be {low} to {high} characters long, got {len(token)} characters")
+        raise ConfigError(
+            f"token must be {low} to {high} characters long, got {len(token)} characters"
+        )
     return token
 
 
 def check_host(host: str, timeout: float = RESOLVE_TIMEOUT) -> None:
-    """Raise GuiStartError unless `host` resolves, within `timeout` s, to addresses of this machine."""
+    """Raise GuiStartError unless `host` resolves, within `timeout` s, to addresses of this
+    machine."""
     if re.fullmatch(r"[0-9.]+", host):
         try:
             ipaddress.IPv4Address(host)
@@ -99,7 +110,8 @@ def check_host(host: str, timeout: float = RESOLVE_TIMEOUT) -> None:
 
 
 def _resolve(host: str, timeout: float) -> list:
-    """getaddrinfo(host) in a daemon thread, so a name server that does not answer cannot hang the app."""
+    """getaddrinfo(host) in a daemon thread, so a name server that does not answer cannot hang the
+    app."""
     found: list = []
     failure: list[BaseException] = []
 
@@ -114,9 +126,13 @@ def _resolve(host: str, timeout: float) -> list:
     thread.join(timeout)
     if thread.is_alive():
         raise GuiStartError(
-            f"cannot listen on {host!r}: the name did not resolve within {timeout:g} s; use {LOCAL_HOSTS_HINT}"
+            f"cannot listen on {host!r}: the name did not resolve within {timeout:g} s; use "
+            f"{LOCAL_HOSTS_HINT}"
         )
     if failure or not found:
         reason = failure[0] if failure else "no address"
-        raise GuiStartError(f"cannot listen on {host!r}: the name does not resolve ({reason}); use {LOCAL_HOSTS_HINT}")
+        raise GuiStartError(
+            f"cannot listen on {host!r}: the name does not resolve ({reason}); use "
+            f"{LOCAL_HOSTS_HINT}"
+        )
     return found

@@ -1,25 +1,33 @@
-"""The judo app: a plant thread, a planner and a browser GUI side by side, sharing one lock-protected state.
+"""The judo app: a plant thread, a planner and a browser GUI side by side, sharing one
+lock-protected state.
 
     app = judo.App(task="cartpole", optimizer="mppi")   # GUI at http://127.0.0.1:8080
     app.start(); app.commands.update_config("optimizer", {"sigma": 0.2}); app.stop(); print(app.summary())
 
-The App checks its run settings (`check_app_settings`: a bad one is a one-line ConfigError before anything is
-built), then composes parts that own their state and are handed what they use (docs/architecture.md):
-- `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the counters;
-- `Commands` (`judo.runtime.commands`): validate each command and queue it in the state; the App's `commands`
-  (`app.commands.update_config(...)`, `app.commands.pause()`, `app.commands.switch_task(...)`);
+The App checks its run settings (`check_app_settings`: a bad one is a one-line ConfigError before
+anything is built), then composes parts that own their state and are handed what they use
+(docs/architecture.md):
+- `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the
+  counters;
+- `Commands` (`judo.runtime.commands`): validate each command and queue it in the state; the App's
+  `commands` (`app.commands.update_config(...)`, `app.commands.pause()`,
+  `app.commands.switch_task(...)`);
 - `PlantRunner` (`judo.runtime.running.plant`): the System's thread;
 - `PlannerRunner` (`judo.runtime.running.planner`): the control clock, planning and switches;
-- `Supervisor` (`judo.runtime.running.supervisor`): the event loop, signals, the monitor and the stop order;
-- `Recordings` (`judo.runtime.live_recording`) and the frontend (the GUI, given to the App, which never imports it).
-The App implements the GUI's command port (`judo.runtime.commands.AppPort`); `start()` returns at once. What the
-app publishes arrives by callback, on the thread that made it (keep a callback cheap): `on_state` each plant
-reading, `on_plan` each plan, `on_config_change` each accepted config, `on_reset` each plant reset, `on_session`
-each switch, `on_recording` each recording begun or ended, `on_status` each status line.
+- `Supervisor` (`judo.runtime.running.supervisor`): the event loop, signals, the monitor and the
+  stop order;
+- `Recordings` (`judo.runtime.live_recording`) and the frontend (the GUI, given to the App, which
+  never imports it).
+The App implements the GUI's command port (`judo.runtime.commands.AppPort`); `start()` returns at
+once. What the app publishes arrives by callback, on the thread that made it (keep a callback
+cheap): `on_state` each plant reading, `on_plan` each plan, `on_config_change` each accepted config,
+`on_reset` each plant reset, `on_session` each switch, `on_recording` each recording begun or ended,
+`on_status` each status line.
 
-A stop (`stop()`, Ctrl-C, SIGTERM) takes effect within about a second whatever the configs: every wait is cut
-short, planning stops between optimizer iterations, and a call stuck in a rollout is left to its daemon thread.
-"""
+A stop (`stop()`, Ctrl-C, SIGTERM) takes effect within about a second whatever the configs: every
+wait is cut short, planning stops between optimizer iterations, and a call stuck in a rollout is
+left to its daemon thread.
+"""  # noqa: E501
 
 import asyncio
 import functools
@@ -52,7 +60,12 @@ from judo.runtime.cycles import CycleCost
 from judo.runtime.live_recording import Recordings
 from judo.runtime.running.planner import PlannerRunner
 from judo.runtime.running.plant import PlantRunner
-from judo.runtime.running.supervisor import FrontendFactory, Supervisor, stop_at_exit, viser_frontend
+from judo.runtime.running.supervisor import (
+    FrontendFactory,
+    Supervisor,
+    stop_at_exit,
+    viser_frontend,
+)
 from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
@@ -70,23 +83,32 @@ def check_app_settings(
     user_system: bool,
     observe: str,
 ) -> None:
-    """Raise ConfigError, saying what is wrong and what is valid, for a duration, rollout-thread count, seed or
-    System-call limit out of range, or rehearsed sensing (`observe` not "state") asked of a `user_system`."""
+    """Raise ConfigError, saying what is wrong and what is valid, for a duration, rollout-thread
+    count, seed or System-call limit out of range, or rehearsed sensing (`observe` not "state")
+    asked of a `user_system`."""
     if duration is not None and not 0 < duration < math.inf:
         raise ConfigError(
-            f"duration must be a positive, finite number of seconds of sim time (or None to run until stopped), "
+            "duration must be a positive, finite number of seconds of sim time (or None to "
+            "run until stopped), "
             f"got {duration}"
         )
-    if num_workers is not None and not (isinstance(num_workers, int) and 1 <= num_workers <= MAX_WORKERS):
+    if num_workers is not None and not (
+        isinstance(num_workers, int) and 1 <= num_workers <= MAX_WORKERS
+    ):
         raise ConfigError(
-            f"num_workers must be an integer from 1 to {MAX_WORKERS} (or None: one per core), got {num_workers!r}"
+            f"num_workers must be an integer from 1 to {MAX_WORKERS} (or None: one per "
+            f"core), got {num_workers!r}"
         )
     check_seed(seed)
     if not 0 < system_call_limit < math.inf:
-        raise ConfigError(f"system_call_limit must be a positive, finite number of seconds, got {system_call_limit}")
+        raise ConfigError(
+            "system_call_limit must be a positive, finite number of seconds, got "
+            f"{system_call_limit}"
+        )
     if user_system and observe != "state":
         raise ConfigError(
-            f"observe={observe!r} rehearses sensing on the app's own simulation; your System chooses what it "
+            f"observe={observe!r} rehearses sensing on the app's own simulation; your System "
+            "chooses what it "
             "measures (return SystemState.sensors, state None), so leave observe at 'state'"
         )
 
@@ -105,9 +127,10 @@ class App:
             defaults where left out.
         system: the plant to drive, e.g. your hardware; a MuJoCo simulation of the task by default.
             A user system stays for the whole run, so switching task is refused.
-        gui: serve the viser GUI at http://host:port (http://host:port/TOKEN with a token); or a function that
-            builds another frontend from the App (the `AppPort`, `judo.runtime.commands`) on the app's event loop,
-            anything with `url`, `update()` (one frame, about 30 Hz) and `close()`.
+        gui: serve the viser GUI at http://host:port (http://host:port/TOKEN with a token); or a
+            function that builds another frontend from the App (the `AppPort`,
+            `judo.runtime.commands`) on the app's event loop, anything with `url`, `update()` (one
+            frame, about 30 Hz) and `close()`.
         host: address the GUI listens on; 127.0.0.1 (this machine only) by default. Any other
             address (0.0.0.0: every interface) exposes the app to the network: a warning is logged
             and a token is required.
@@ -120,27 +143,37 @@ class App:
         seed: seeds the optimizer, the task and the simulated plant.
         num_workers: rollout threads; the number of cores by default.
         backend: rollout backend, "cpu" (threads) or "warp" (MuJoCo Warp, a GPU when there is one).
-        system_call_limit: seconds a call into the System (read_state, apply, step, reset) may block before
-            the status line reports it and the robot is halted (`System.halt`) where the System offers it.
-        estimator, estimator_config: the registered estimator between the plant's readings and the plan,
-            and its config (its registered defaults where left out). By default none for a full-state
-            reading, and the task's `default_estimator` ("ekf"; "ukf" for walker and leap_cube) for one with
-            only measured sensors (observe="sensors", or a System whose reading has state None), chosen again
-            for each task switched to. Edit its config live with `update_estimator_config`.
-        observe: "state" (the simulated plant's full state) or "sensors" (only the task's measured sensors,
-            through `judo.loop.sensing.SensedSystem`: rehearsed sensing, its noise seeded from `seed`).
-        sensor_noise, sensor_delay, sensor_rate: the rehearsed sensors' noise std, delay (s) and rate (Hz),
-            one value for all or {sensor type: value} with an optional "default"; used with observe="sensors".
-        proposal_policy: a `judo.Policy`, or an ONNX file (needs the `policy` extra), whose candidates replace
-            `controller_config.policy_samples` of the rollouts each update (docs/policies.md), in sessions of
-            `task` (a switch to another task plans without it). PolicyError at once if it does not fit the task.
-        policy: a `judo.Policy`, or an ONNX file (the `policy` extra), that drives the plant instead of `optimizer`
-            through the same closed loop (docs/policies.md): the session's optimizer is then "policy", and its
-            controller config the policy's metadata's rate and chunk layout (where `controller_config` is None).
-            `switch_optimizer(name)` hands the plant to MPC, `switch_optimizer("policy")` back; another task: MPC.
-        recorder_factory: makes the recorder of `start_recording(path)`; None writes collect's HDF5 layout
-            (`judo.recording.live`, needs the `collect` extra).
-        stop_file: the latched stop's state file (`judo.safety.stop`, the app's `stop_latch`); None: the default one.
+        system_call_limit: seconds a call into the System (read_state, apply, step, reset) may block
+            before the status line reports it and the robot is halted (`System.halt`) where the
+            System offers it.
+        estimator, estimator_config: the registered estimator between the plant's readings and the
+            plan, and its config (its registered defaults where left out). By default none for a
+            full-state reading, and the task's `default_estimator` ("ekf"; "ukf" for walker and
+            leap_cube) for one with only measured sensors (observe="sensors", or a System whose
+            reading has state None), chosen again for each task switched to. Edit its config live
+            with `update_estimator_config`.
+        observe: "state" (the simulated plant's full state) or "sensors" (only the task's measured
+            sensors,
+            through `judo.loop.sensing.SensedSystem`: rehearsed sensing, its noise seeded from
+                `seed`).
+        sensor_noise, sensor_delay, sensor_rate: the rehearsed sensors' noise std, delay (s) and
+            rate (Hz), one value for all or {sensor type: value} with an optional "default"; used
+            with observe="sensors".
+        proposal_policy: a `judo.Policy`, or an ONNX file (needs the `policy` extra), whose
+            candidates replace `controller_config.policy_samples` of the rollouts each update
+            (docs/policies.md), in sessions of `task` (a switch to another task plans without it).
+            PolicyError at once if it does not fit the task.
+        policy: a `judo.Policy`, or an ONNX file (the `policy` extra), that drives the plant instead
+            of `optimizer`
+            through the same closed loop (docs/policies.md): the session's optimizer is then
+                "policy", and its
+            controller config the policy's metadata's rate and chunk layout (where
+            `controller_config` is None). `switch_optimizer(name)` hands the plant to MPC,
+            `switch_optimizer("policy")` back; another task: MPC.
+        recorder_factory: makes the recorder of `start_recording(path)`; None writes collect's HDF5
+            layout (`judo.recording.live`, needs the `collect` extra).
+        stop_file: the latched stop's state file (`judo.safety.stop`, the app's `stop_latch`); None:
+            the default one.
 
     Raises UnknownNameError or ConfigError at once for bad names or configs.
     """
@@ -175,8 +208,15 @@ class App:
         policy: Policy | str | Path | None = None,
         stop_file: str | Path | None = None,
     ) -> None:
-        check_app_settings(duration, num_workers, seed, system_call_limit, system is not None, observe)
-        self.gui_enabled, self.host, self.port, self.duration = gui is not False, host, check_port(port), duration
+        check_app_settings(
+            duration, num_workers, seed, system_call_limit, system is not None, observe
+        )
+        self.gui_enabled, self.host, self.port, self.duration = (
+            gui is not False,
+            host,
+            check_port(port),
+            duration,
+        )
         self.token, self.share = check_token(token, host, generate=gui is not False), share
         self.backend, self.system_call_limit = backend, system_call_limit
         self.buffer = StateBuffer()  # the GUI's view: the latest reading and plan
@@ -185,10 +225,13 @@ class App:
             Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
         )
         self._reports = reports = Reports(line=StatusLine(), state=state)
-        self.stop_latch = StopLatch(default_stop_file() if stop_file is None else stop_file, reports.on_stop)
+        self.stop_latch = StopLatch(
+            default_stop_file() if stop_file is None else stop_file, reports.on_stop
+        )
         if system is not None and (warning := missing_halt(system)) is not None:
             reports.report(warning, "warning")
-        clock = None if system is None else state.clock  # a robot's plans age in wall time; the simulator waits
+        # a robot's plans age in wall time; the simulator waits
+        clock = None if system is None else state.clock
         proposals = None if proposal_policy is None else as_policy(proposal_policy)
         driver = None if policy is None else as_policy(policy)
         maker = SessionMaker(
@@ -206,9 +249,14 @@ class App:
             stop=self.stop_latch,
         )
         first = optimizer if driver is None else PlannerKind.POLICY.value
-        state.begin(maker.first(task, first, state.sensing, controller_config, optimizer_config, task_config))
+        state.begin(
+            maker.first(
+                task, first, state.sensing, controller_config, optimizer_config, task_config
+            )
+        )
         self._policy_name = None if driver is None else driver.name
-        self.commands = Commands(state=state, reports=reports, maker=maker)  # app.commands.pause(), ...
+        # app.commands.pause(), ...
+        self.commands = Commands(state=state, reports=reports, maker=maker)
         self._recordings = Recordings(state=state, reports=reports, factory=recorder_factory)
         plant = PlantRunner(
             state=state,
@@ -219,10 +267,19 @@ class App:
             request_stop=state.stop.set,
         )
         planner = PlannerRunner(
-            state=state, maker=maker, buffer=self.buffer, stats=self.stats, reports=reports, recordings=self._recordings
+            state=state,
+            maker=maker,
+            buffer=self.buffer,
+            stats=self.stats,
+            reports=reports,
+            recordings=self._recordings,
         )
         make_frontend = (
-            None if gui is False else functools.partial(gui, self) if callable(gui) else viser_frontend(self)
+            None
+            if gui is False
+            else functools.partial(gui, self)
+            if callable(gui)
+            else viser_frontend(self)
         )
         self._supervisor = Supervisor(
             state=state,
@@ -256,19 +313,26 @@ class App:
 
         Raises GuiStartError (or ConfigError) if the GUI server cannot start."""
         self._claim_run()
-        asyncio.run(self._supervisor.main(handle_signals=threading.current_thread() is threading.main_thread()))
+        asyncio.run(
+            self._supervisor.main(
+                handle_signals=threading.current_thread() is threading.main_thread()
+            )
+        )
         return self.summary()
 
     def stop(self, timeout: float | None = 10.0) -> None:
-        """Ask every loop to finish, and wait for them (when started with `start()`), at most `timeout` s.
+        """Ask every loop to finish, and wait for them (when started with `start()`), at most
+        `timeout` s.
 
-        Takes effect within about a second: a planning cycle in flight is abandoned to its thread."""
+        Takes effect within about a second: a planning cycle in flight is abandoned to its
+        thread."""
         self._state.stop.set()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout)
 
     def wait(self, timeout: float | None = None) -> bool:
-        """Block until the app stops by itself (its `duration` reached); True if it did within `timeout`."""
+        """Block until the app stops by itself (its `duration` reached); True if it did within
+        `timeout`."""
         if self._thread is None:
             return self._state.stop.is_set()
         self._thread.join(timeout)
@@ -283,7 +347,9 @@ class App:
         """Control rate, plan times, real-time factor and final reward of the run so far."""
         session = self._state.session
         guard = session.closed_loop.guard  # the [safety] limits' serve filter, or None
-        return self.stats.summary(session.task_name, session.optimizer_name, self.stop_latch, guard and guard.summary())
+        return self.stats.summary(
+            session.task_name, session.optimizer_name, self.stop_latch, guard and guard.summary()
+        )
 
     def _claim_run(self) -> None:
         if self._ran:
@@ -300,12 +366,14 @@ class App:
     # ---- what the GUI and scripts read ---------------------------------------------------------
     @property
     def gui(self) -> Any:
-        """The GUI (`judo.runtime.gui.gui.Gui`, or the frontend given) while the app runs with one, else None."""
+        """The GUI (`judo.runtime.gui.gui.Gui`, or the frontend given) while the app runs with one,
+        else None."""
         return self._supervisor.frontend
 
     @property
     def policy_name(self) -> str | None:
-        """The policy the app can serve as its controller (the optimizer dropdown's "policy"), or None."""
+        """The policy the app can serve as its controller (the optimizer dropdown's "policy"), or
+        None."""
         return self._policy_name
 
     @property
@@ -334,46 +402,56 @@ class App:
         return self._state.resets_done
 
     def configs(self) -> dict[ConfigKind, Config]:
-        """The latest accepted config of each kind; a planning cycle may not have picked them up yet."""
+        """The latest accepted config of each kind; a planning cycle may not have picked them up
+        yet."""
         return self._state.configs.as_dict()
 
     def planning_cost(self) -> CycleCost:
-        """The cycle's size (N x R x iterations x T; None where a policy drives) and estimated seconds under the latest
-        configs, the last update's seconds, and the late cycle's seconds so far (else None); judo.runtime.cycles."""
+        """The cycle's size (N x R x iterations x T; None where a policy drives) and estimated
+        seconds under the latest configs, the last update's seconds, and the late cycle's seconds so
+        far (else None); judo.runtime.cycles."""
         return self._state.planning_cost()
 
-    # ---- news by callback, on the thread that made it: a callback keeps the value and returns at once ------------
+    # ---- news by callback, on the thread that made it: a callback keeps the value and returns at o
     def on_state(self, callback: Callable[[Snapshot[SystemSnapshot]], None]) -> None:
-        """Call `callback(snapshot)` with each plant reading published (`app.buffer`'s "system"), on the plant's thread."""
+        """Call `callback(snapshot)` with each plant reading published (`app.buffer`'s "system"), on
+        the plant's thread."""
         self.buffer.subscribe("system", callback)
 
     def on_plan(self, callback: Callable[[Snapshot[PlanSnapshot]], None]) -> None:
-        """Call `callback(snapshot)` with each plan published (`app.buffer`'s "plan"), on the planner's thread."""
+        """Call `callback(snapshot)` with each plan published (`app.buffer`'s "plan"), on the
+        planner's thread."""
         self.buffer.subscribe("plan", callback)
 
     def on_config_change(self, callback: Callable[[str, Config, bool], None]) -> None:
-        """Call `callback(kind, config, from_gui)` with each config accepted ("controller", "optimizer", "task" or
-        "estimator"; `from_gui` for the GUI's own panel edits), on the thread of the command."""
+        """Call `callback(kind, config, from_gui)` with each config accepted ("controller",
+        "optimizer", "task" or "estimator"; `from_gui` for the GUI's own panel edits), on the thread
+        of the command."""
         self._state.config_changed.add(callback)
 
     def on_reset(self, callback: Callable[[int], None]) -> None:
-        """Call `callback(resets_done)` after each reset the plant carried out, on the plant's thread."""
+        """Call `callback(resets_done)` after each reset the plant carried out, on the plant's
+        thread."""
         self._state.plant_reset.add(callback)
 
     def on_session(self, callback: Callable[[Session], None]) -> None:
-        """Call `callback(session)` once a switch installed the new session, on the planner's thread."""
+        """Call `callback(session)` once a switch installed the new session, on the planner's
+        thread."""
         self._state.session_changed.add(callback)
 
     def on_recording(self, callback: Callable[[Path | None], None]) -> None:
         """Call `callback(path)` when a recording begins (its file) or ends (None)."""
-        self._state.recording_changed.add(lambda recorder: callback(None if recorder is None else recorder.path))
+        self._state.recording_changed.add(
+            lambda recorder: callback(None if recorder is None else recorder.path)
+        )
 
     def on_status(self, callback: Callable[[Status], None]) -> None:
         """Call `callback(status)` with each new status line, on the thread that reported it."""
         self._reports.line.changed.add(callback)
 
     def report(self, message: str, level: Level = "info") -> None:
-        """Show `message` on the status line and write it to the log (each message at most every few seconds)."""
+        """Show `message` on the status line and write it to the log (each message at most every few
+        seconds)."""
         self._reports.report(message, level)
 
     @property
@@ -382,10 +460,12 @@ class App:
         return self._recordings.path
 
     def start_recording(self, recorder: LiveRecorder | str | Path | None = None) -> Path:
-        """Record every step, plan and config edit until `stop_recording()` (or a switch) with `recorder` (a LiveRecorder
-        of `app.session`), or into a path by the recorder factory (collect's layout by default). Returns its file."""
+        """Record every step, plan and config edit until `stop_recording()` (or a switch) with
+        `recorder` (a LiveRecorder of `app.session`), or into a path by the recorder factory
+        (collect's layout by default). Returns its file."""
         return self._recordings.start(recorder)
 
     def stop_recording(self) -> Path | None:
-        """Write the recording under way as its file's next demo (for replay); its file, or None; JudoError on failure."""
+        """Write the recording under way as its file's next demo (for replay); its file, or None;
+        JudoError on failure."""
         return self._recordings.stop()

@@ -1,26 +1,29 @@
 """The app's shared state: one object, one lock, every field written through its methods.
 
 The App's parts (`judo.runtime.app`) share one `AppState` and take what is theirs from it:
-- the commands (any thread: the GUI's callbacks, a notebook) validate, then `accept_config`, `request_*`,
-  `pause`, `resume`;
+- the commands (any thread: the GUI's callbacks, a notebook) validate, then `accept_config`,
+  `request_*`, `pause`, `resume`;
 - the plant runner (`judo.runtime.running.plant`, the System's thread) takes the plant's requests
   (`take_plant_requests`, when `plant_pending`) and counts the resets it carries out;
-- the planner runner (`judo.runtime.running.planner`) takes the planner's requests (`take_planner_requests`, when
-  `planner_pending`), makes each planning cycle the one in flight (`in_flight`) and installs a new session on a switch
-  (`install_session`); it is the only writer of the session's configs.
+- the planner runner (`judo.runtime.running.planner`) takes the planner's requests
+  (`take_planner_requests`, when `planner_pending`), makes each planning cycle the one in flight
+  (`in_flight`) and installs a new session on a switch (`install_session`); it is the only writer of
+  the session's configs.
 
-What the GUI (or a notebook) follows arrives by callback, fired on the thread that made the change, under the lock:
-`config_changed(kind, config, from_gui)` for each accepted config, `plant_reset(resets_done)` after each reset the
-plant carried out, `session_changed(session)` after a switch and `recording_changed(recorder or None)` when a
-recording begins or ends (`judo.runtime.snapshots.Subscribers`).
+What the GUI (or a notebook) follows arrives by callback, fired on the thread that made the change,
+under the lock: `config_changed(kind, config, from_gui)` for each accepted config,
+`plant_reset(resets_done)` after each reset the plant carried out, `session_changed(session)` after
+a switch and `recording_changed(recorder or None)` when a recording begins or ends
+(`judo.runtime.snapshots.Subscribers`).
 
-Reads of a single field (`session`, `paused`, `resets_done`, `in_flight.cycle`, and the flags `plant_pending` and
-`planner_pending` that say requests wait) need no lock: each is one reference, replaced whole. Everything read or
-written together is taken under `lock`. The runners look at the flags on every tick and take the requests only when
-one is up, so a steady-state tick runs no code here.
+Reads of a single field (`session`, `paused`, `resets_done`, `in_flight.cycle`, and the flags
+`plant_pending` and `planner_pending` that say requests wait) need no lock: each is one reference,
+replaced whole. Everything read or written together is taken under `lock`. The runners look at the
+flags on every tick and take the requests only when one is up, so a steady-state tick runs no code
+here.
 
-`stop` is the app's `StopSignal` (`judo.runtime.cycles`): one flag that every thread polls and every asyncio wait is
-cut short by.
+`stop` is the app's `StopSignal` (`judo.runtime.cycles`): one flag that every thread polls and every
+asyncio wait is cut short by.
 """
 
 import math
@@ -39,14 +42,21 @@ from judo.core.optimizer import OptimizerConfig
 from judo.core.task import TaskConfig
 from judo.evaluation.sensing import Sensing
 from judo.recording.live import LiveRecorder
-from judo.runtime.cycles import CycleCost, CycleInFlight, PlanningCycle, StepCost, StopSignal, cycle_seconds
+from judo.runtime.cycles import (
+    CycleCost,
+    CycleInFlight,
+    PlanningCycle,
+    StepCost,
+    StopSignal,
+    cycle_seconds,
+)
 from judo.runtime.session import ConfigSet, Session
 from judo.runtime.snapshots import Subscribers
 
 
 class PausableClock:
-    """Wall-clock seconds (monotonic) that stand still while paused: the app's watchdog clock, so a pause
-    does not age the plan in force."""
+    """Wall-clock seconds (monotonic) that stand still while paused: the app's watchdog clock, so a
+    pause does not age the plan in force."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
@@ -72,7 +82,8 @@ class PausableClock:
 
 @dataclass
 class PendingConfigs:
-    """Configs accepted since the planner last took them: one optional field per kind (None: no edit)."""
+    """Configs accepted since the planner last took them: one optional field per kind (None: no
+    edit)."""
 
     controller: ControllerConfig | None = None
     optimizer: OptimizerConfig | None = None
@@ -88,7 +99,8 @@ class PlantRequests:
 
     reset: bool = False
     reset_from_user: bool = False  # the reset was asked for (reported), not made by a divergence
-    goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]] = field(default_factory=dict)  # index -> pos, quat
+    # index -> pos, quat
+    goal_moves: dict[int, tuple[np.ndarray, np.ndarray | None]] = field(default_factory=dict)
 
 
 @dataclass
@@ -116,16 +128,20 @@ class AppState:
         self.session: Session  # the session in use, from `begin`
         self.configs: ConfigSet  # the latest accepted configs, from `begin`
         self.sensing = sensing
-        self.clock = PausableClock()  # the watchdog's wall clock for a user's System: stands still while paused
+        # the watchdog's wall clock for a user's System: stands still while paused
+        self.clock = PausableClock()
         self.clock.resume()
         self.paused = False
-        self.resets_done = 0  # plant resets carried out; a plan stamped with fewer is of the plant before a reset
+        # plant resets carried out; a plan stamped with fewer is of the plant before a reset
+        self.resets_done = 0
         self.recording: LiveRecorder | None = None
         self.config_changed = Subscribers()  # (kind, config, from_gui) for each config accepted
         self.plant_reset = Subscribers()  # (resets_done) after each reset the plant carried out
         self.session_changed = Subscribers()  # (session) after a switch
-        self.recording_changed = Subscribers()  # (recorder, or None) when a recording begins or ends
-        self.in_flight = CycleInFlight()  # the planning cycle in flight (the planner runner starts each one)
+        # (recorder, or None) when a recording begins or ends
+        self.recording_changed = Subscribers()
+        # the planning cycle in flight (the planner runner starts each one)
+        self.in_flight = CycleInFlight()
         self.step_cost: StepCost  # the session's cost of one rollout step, from `begin`
         self._plant = PlantRequests()
         self._planner = PlannerRequests()
@@ -138,9 +154,10 @@ class AppState:
         with self.lock:
             self.session, self.configs, self.step_cost = session, ConfigSet.of(session), cost
 
-    # ---- configs ----------------------------------------------------------------------------------
+    # ---- configs ---------------------------------------------------------------------------------
     def accept_config(self, kind: ConfigKind, config: Config, *, from_gui: bool) -> None:
-        """Put `config` (validated by the caller under `lock`) in force from the planner's next cycle."""
+        """Put `config` (validated by the caller under `lock`) in force from the planner's next
+        cycle."""
         with self.lock:
             self.configs = self.configs.with_config(kind, config)
             setattr(self._planner.configs, kind, config)
@@ -149,8 +166,11 @@ class AppState:
                 self.recording.on_config(kind, config)
             self.config_changed.fire(kind, config, from_gui)
 
-    def accept_estimator_config(self, estimator: Any, config: EstimatorConfig, *, from_gui: bool) -> None:
-        """Hand `config` to the running `estimator` (its own hand-over takes effect before its next update)."""
+    def accept_estimator_config(
+        self, estimator: Any, config: EstimatorConfig, *, from_gui: bool
+    ) -> None:
+        """Hand `config` to the running `estimator` (its own hand-over takes effect before its next
+        update)."""
         with self.lock:
             estimator.config = config
             if self.recording is not None:
@@ -158,16 +178,19 @@ class AppState:
             self.config_changed.fire("estimator", config, from_gui)
 
     def reset_configs(self, defaults: ConfigSet) -> None:
-        """Put `defaults` in force from the planner's next cycle (cancelling the cycle in flight)."""
+        """Put `defaults` in force from the planner's next cycle (cancelling the cycle in
+        flight)."""
         with self.lock:
             self.cancel_cycle("the configs were reset")
             self.configs = defaults
-            self._planner.configs = PendingConfigs(defaults.controller, defaults.optimizer, defaults.task)
+            self._planner.configs = PendingConfigs(
+                defaults.controller, defaults.optimizer, defaults.task
+            )
             self.planner_pending = True
             for kind, config in defaults.as_dict().items():
                 self.config_changed.fire(kind, config, False)
 
-    # ---- recording ----------------------------------------------------------------------------------
+    # ---- recording -------------------------------------------------------------------------------
     def begin_recording(self, recorder: LiveRecorder) -> None:
         """`recorder` hears every config edit from now on (`judo.runtime.live_recording`)."""
         with self.lock:
@@ -182,19 +205,20 @@ class AppState:
                 self.recording_changed.fire(None)
         return recorder
 
-    # ---- the planning cycle in flight ----------------------------------------------------------------
+    # ---- the planning cycle in flight ------------------------------------------------------------
     @property
     def cycle(self) -> PlanningCycle | None:
         """The planning cycle in flight, or None (`in_flight.cycle`)."""
         return self.in_flight.cycle
 
     def cancel_cycle(self, reason: str) -> None:
-        """End the planning cycle in flight, if any, at its next check (the plan before stays in force)."""
+        """End the planning cycle in flight, if any, at its next check (the plan before stays in
+        force)."""
         with self.lock:
             if (cycle := self.in_flight.cycle) is not None:
                 cycle.cancel(reason)
 
-    # ---- pause ------------------------------------------------------------------------------------
+    # ---- pause -----------------------------------------------------------------------------------
     def pause(self) -> None:
         with self.lock:
             self.cancel_cycle("paused")
@@ -206,7 +230,7 @@ class AppState:
             self.paused = False
             self.clock.resume()
 
-    # ---- the plant's requests -----------------------------------------------------------------------
+    # ---- the plant's requests --------------------------------------------------------------------
     def request_reset(self, *, from_user: bool) -> None:
         """Reset the plant before its next step (and the plan once that worked)."""
         with self.lock:
@@ -228,7 +252,8 @@ class AppState:
         return requests
 
     def note_plant_reset(self) -> None:
-        """The plant was reset (or reset itself): count it, and have the planner forget its plans."""
+        """The plant was reset (or reset itself): count it, and have the planner forget its
+        plans."""
         with self.lock:
             self.resets_done += 1
             self._planner.forget_plans = self.planner_pending = True
@@ -239,26 +264,32 @@ class AppState:
         with self.lock:
             self._planner.forget_plans = self.planner_pending = True
 
-    # ---- the planner's requests ---------------------------------------------------------------------
-    def request_switch(self, task: str | None = None, optimizer: str | None = None, *, rebuild: bool = False) -> None:
-        """Switch to `task` and/or `optimizer` (the names in use, or already asked for, where None)."""
+    # ---- the planner's requests ------------------------------------------------------------------
+    def request_switch(
+        self, task: str | None = None, optimizer: str | None = None, *, rebuild: bool = False
+    ) -> None:
+        """Switch to `task` and/or `optimizer` (the names in use, or already asked for, where
+        None)."""
         with self.lock:
             current = self._planner.switch or (self.session.task_name, self.session.optimizer_name)
             self._planner.switch = (task or current[0], optimizer or current[1])
-            self.cancel_cycle(f"switching to {self._planner.switch[0]} with {self._planner.switch[1]}")
+            self.cancel_cycle(
+                f"switching to {self._planner.switch[0]} with {self._planner.switch[1]}"
+            )
             self._planner.rebuild = self._planner.rebuild or rebuild
             self.planner_pending = True
 
     def request_estimator(self, estimator: str | None, *, rebuild: bool) -> None:
-        """Run `estimator` (None: none) in every session from now on, with its registered defaults; `rebuild` the
-        running session for it."""
+        """Run `estimator` (None: none) in every session from now on, with its registered defaults;
+        `rebuild` the running session for it."""
         with self.lock:
             self.sensing = replace(self.sensing, estimator=estimator, estimator_config=None)
             if rebuild:
                 self.request_switch(rebuild=True)
 
     def take_planner_requests(self) -> PlannerRequests:
-        """The planner's requests since the last take (the planner runner's, when `planner_pending`)."""
+        """The planner's requests since the last take (the planner runner's, when
+        `planner_pending`)."""
         with self.lock:
             requests, self._planner, self.planner_pending = self._planner, PlannerRequests(), False
         return requests
@@ -273,10 +304,15 @@ class AppState:
             self.session_changed.fire(session)
 
     def planning_cost(self) -> CycleCost:
-        """The planning cycle's size and estimated seconds under the latest configs, the last update's seconds, and
-        the late cycle's seconds so far (`App.planning_cost`)."""
+        """The planning cycle's size and estimated seconds under the latest configs, the last
+        update's seconds, and the late cycle's seconds so far (`App.planning_cost`)."""
         with self.lock:
-            session, configs, cycle, step_cost = self.session, self.configs, self.cycle, self.step_cost
+            session, configs, cycle, step_cost = (
+                self.session,
+                self.configs,
+                self.cycle,
+                self.step_cost,
+            )
         size = session.controller.cycle_size(configs.as_dict())  # None: a policy rolls nothing out
         times = session.closed_loop.update_ms
         last = times[-1] / 1e3 if times else math.nan
@@ -286,8 +322,10 @@ class AppState:
 
 
 def session_step_cost(session: Session) -> StepCost:
-    """The cost of one rollout step of `session`'s controller: probed on its planning model on the CPU backend;
-    measured from cycles only on another backend, and unknown where a policy drives (no rollouts)."""
+    """The cost of one rollout step of `session`'s controller: probed on its planning model on the
+    CPU backend; measured from cycles only on another backend, and unknown where a policy drives (no
+    rollouts)."""
     controller = session.controller
-    workers = 1 if controller.backend is None else controller.backend.num_workers  # None where a policy plans
+    # None where a policy plans
+    workers = 1 if controller.backend is None else controller.backend.num_workers
     return StepCost(controller.task.model, workers, probe=controller.backend_name == "cpu")

@@ -4,8 +4,9 @@ The GUI (`judo.runtime.gui`) imports this module and never `judo.runtime.app`; `
 `AppPort`. What goes through the port, and nothing else:
 - read-only status: the session in use, the latest configs, the snapshots the loops publish, the
   live figures and the status line;
-- news by callback (`on_state`, `on_plan`, `on_config_change`, `on_reset`, `on_session`, `on_recording`,
-  `on_status`), called on the thread that made it: a callback keeps the newest value and returns at once;
+- news by callback (`on_state`, `on_plan`, `on_config_change`, `on_reset`, `on_session`,
+  `on_recording`, `on_status`), called on the thread that made it: a callback keeps the newest value
+  and returns at once;
 - commands, callable from any thread (the GUI's callbacks run on viser's): config edits, pause and
   resume, resets, goal moves, switches of task or optimizer, and status reports. Each is queued and
   carried out by the app's loops at their next iteration.
@@ -13,10 +14,11 @@ The GUI (`judo.runtime.gui`) imports this module and never `judo.runtime.app`; `
 The loops publish under two topics of the app's StateBuffer: "system" a `SystemSnapshot`, "plan" a
 `PlanSnapshot`.
 
-`Commands` carries the App's commands out: what the GUI, a notebook or a script asks of a running app, from any
-thread. Each command validates at once (raising UnknownNameError, ConfigError or JudoError) and only queues its request
-in the app's state (`judo.runtime.app_state`); the plant runner and the planner runner carry it out at the top
-of their next iteration. `App` (`judo.runtime.app`) owns one, its public `commands`: `app.commands.pause()`.
+`Commands` carries the App's commands out: what the GUI, a notebook or a script asks of a running
+app, from any thread. Each command validates at once (raising UnknownNameError, ConfigError or
+JudoError) and only queues its request in the app's state (`judo.runtime.app_state`); the plant
+runner and the planner runner carry it out at the top of their next iteration. `App`
+(`judo.runtime.app`) owns one, its public `commands`: `app.commands.pause()`.
 """
 
 from collections.abc import Callable
@@ -52,7 +54,8 @@ class SnapshotSource(Protocol):
     """The reading side of the app's StateBuffer."""
 
     def latest(self, topic: str) -> Snapshot[Any] | None:
-        """The newest snapshot of `topic` ("system": SystemSnapshot, "plan": PlanSnapshot), or None."""
+        """The newest snapshot of `topic` ("system": SystemSnapshot, "plan": PlanSnapshot), or
+        None."""
         ...
 
 
@@ -68,16 +71,23 @@ class CommandPort(Protocol):
     """What a running app is asked to do, from any thread: `App.commands` (a `Commands`)."""
 
     def update_config(
-        self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+        self,
+        kind: ConfigKind,
+        updates: dict[str, Any],
+        *,
+        generation: int | None = None,
+        from_gui: bool = False,
     ) -> Config:
-        """Validate {field: value} `updates` to the `kind` config and queue it; raises JudoError if refused."""
+        """Validate {field: value} `updates` to the `kind` config and queue it; raises JudoError if
+        refused."""
         ...
 
     def update_estimator_config(
         self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
     ) -> EstimatorConfig:
-        """Validate {field: value} `updates` to the running estimator's config (`session.closed_loop.estimator`)
-        and use it from its next update; raises JudoError if refused or no estimator runs."""
+        """Validate {field: value} `updates` to the running estimator's config
+        (`session.closed_loop.estimator`) and use it from its next update; raises JudoError if
+        refused or no estimator runs."""
         ...
 
     def reset_configs(self) -> None:
@@ -97,7 +107,8 @@ class CommandPort(Protocol):
         ...
 
     def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
-        """Move mocap body `index` to `position` (3,), turned to `quat` (4,) wxyz if given; raises JudoError."""
+        """Move mocap body `index` to `position` (3,), turned to `quat` (4,) wxyz if given; raises
+        JudoError."""
         ...
 
     def switch_task(self, task: str) -> None:
@@ -105,11 +116,13 @@ class CommandPort(Protocol):
         ...
 
     def switch_estimator(self, estimator: str | None) -> None:
-        """Run the registered estimator `estimator` (None: none) from the next cycle; raises JudoError if refused."""
+        """Run the registered estimator `estimator` (None: none) from the next cycle; raises
+        JudoError if refused."""
         ...
 
     def switch_optimizer(self, optimizer: str) -> None:
-        """Use the registered optimizer `optimizer` from the next cycle; raises JudoError if unknown."""
+        """Use the registered optimizer `optimizer` from the next cycle; raises JudoError if
+        unknown."""
         ...
 
 
@@ -119,12 +132,14 @@ class AppPort(Protocol):
 
     @property
     def session(self) -> Session:
-        """The session in use (names, generation, controller); replaced, never changed, on a switch."""
+        """The session in use (names, generation, controller); replaced, never changed, on a
+        switch."""
         ...
 
     @property
     def policy_name(self) -> str | None:
-        """The name of the policy the app can serve as its controller (its optimizer dropdown's "policy"), or None."""
+        """The name of the policy the app can serve as its controller (its optimizer dropdown's
+        "policy"), or None."""
         ...
 
     @property
@@ -156,15 +171,18 @@ class AppPort(Protocol):
         ...
 
     def on_config_change(self, callback: Callable[[str, Config, bool], None]) -> None:
-        """Call `callback(kind, config, from_gui)` with each config accepted, on the thread of the command."""
+        """Call `callback(kind, config, from_gui)` with each config accepted, on the thread of the
+        command."""
         ...
 
     def on_reset(self, callback: Callable[[int], None]) -> None:
-        """Call `callback(resets_done)` after each reset the plant carried out, on the plant's thread."""
+        """Call `callback(resets_done)` after each reset the plant carried out, on the plant's
+        thread."""
         ...
 
     def on_session(self, callback: Callable[[Session], None]) -> None:
-        """Call `callback(session)` once a switch installed the new session, on the planner's thread."""
+        """Call `callback(session)` once a switch installed the new session, on the planner's
+        thread."""
         ...
 
     def on_recording(self, callback: Callable[[Path | None], None]) -> None:
@@ -180,13 +198,14 @@ class AppPort(Protocol):
         ...
 
     def planning_cost(self) -> CycleCost:
-        """The planning cycle's size and estimated seconds under the latest configs, the last update's seconds, and
-        how long the cycle in flight has run once it is late."""
+        """The planning cycle's size and estimated seconds under the latest configs, the last
+        update's seconds, and how long the cycle in flight has run once it is late."""
         ...
 
     @property
     def commands(self) -> "CommandPort":
-        """The commands (config edits, pause, resets, goal moves, switches), callable from any thread."""
+        """The commands (config edits, pause, resets, goal moves, switches), callable from any
+        thread."""
         ...
 
     def report(self, message: str, level: StatusLevel = "info") -> None:
@@ -199,8 +218,9 @@ class AppPort(Protocol):
         ...
 
     def start_recording(self, recorder: LiveRecorder | str | Path | None = None) -> Path:
-        """Record every step, plan and config edit with `recorder`, or into the file `recorder` names with the
-        app's recorder factory (by default an HDF5 file in the collect layout); returns the file."""
+        """Record every step, plan and config edit with `recorder`, or into the file `recorder`
+        names with the app's recorder factory (by default an HDF5 file in the collect layout);
+        returns the file."""
         ...
 
     def stop_recording(self) -> Path | None:
@@ -209,7 +229,8 @@ class AppPort(Protocol):
 
     @property
     def stop_latch(self) -> StopLatch:
-        """The latched stop (`judo.safety.stop`): whether it is engaged, and its engage and clear (any thread)."""
+        """The latched stop (`judo.safety.stop`): whether it is engaged, and its engage and clear
+        (any thread)."""
         ...
 
 
@@ -219,8 +240,8 @@ class Commands:
     Args:
         state: the app's state, where every command queues its request.
         reports: the status line.
-        maker: how the app builds sessions: the user's System (which stays for the whole run), the policy, the
-            defaults.
+        maker: how the app builds sessions: the user's System (which stays for the whole run), the
+            policy, the defaults.
     """
 
     def __init__(self, *, state: AppState, reports: Reports, maker: SessionMaker) -> None:
@@ -228,15 +249,21 @@ class Commands:
         self._user_system = maker.user_system
 
     def update_config(
-        self, kind: ConfigKind, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
+        self,
+        kind: ConfigKind,
+        updates: dict[str, Any],
+        *,
+        generation: int | None = None,
+        from_gui: bool = False,
     ) -> Config:
         """Validate `updates` ({field: value}) to the `kind` config and queue it for the next cycle.
 
         Returns the new config. Raises UnknownNameError or ConfigError, keeping the previous config,
         if a field does not exist, a value is invalid, or the configs would not work together (e.g.
-        num_rollouts 0, a horizon shorter than one timestep), or the edit would grow a planning cycle past an
-        estimated MAX_CYCLE_SECONDS (`judo.runtime.cycles`). An edit that resizes a late cycle cancels it.
-        `generation` (from `session`) refuses an edit made for a session that has since been replaced.
+        num_rollouts 0, a horizon shorter than one timestep), or the edit would grow a planning
+        cycle past an estimated MAX_CYCLE_SECONDS (`judo.runtime.cycles`). An edit that resizes a
+        late cycle cancels it. `generation` (from `session`) refuses an edit made for a session that
+        has since been replaced.
         """
         if kind not in CONFIG_KINDS:
             raise ConfigError(f"config kind must be one of {list(CONFIG_KINDS)}, got {kind!r}")
@@ -244,11 +271,14 @@ class Commands:
         with state.lock:
             session = state.session
             if generation is not None and generation != session.generation:
-                raise ConfigError("the task or optimizer changed since this edit was made; it was not applied")
+                raise ConfigError(
+                    "the task or optimizer changed since this edit was made; it was not applied"
+                )
             planner = session.controller
             if kind not in planner.config_kinds:
                 raise ConfigError(
-                    f"a policy drives {session.task_name}: it has no {kind} config; choose an optimizer to plan with MPC"
+                    f"a policy drives {session.task_name}: it has no {kind} config; choose "
+                    "an optimizer to plan with MPC"
                 )
             current = state.configs.get(kind)
             updated = with_updates(current, updates)
@@ -265,48 +295,59 @@ class Commands:
             and getattr(current, "max_plan_age", 0) != 0
         ):
             self._reports.report(
-                "max_plan_age 0 turns the watchdog off: a stalled planner's last plan is served however old it is",
+                "max_plan_age 0 turns the watchdog off: a stalled planner's last plan is "
+                "served however old it is",
                 "warning",
             )
         rate = getattr(updated, "control_freq", None)
         if kind == "controller" and rate is not None and rate < type(task).min_control_freq:
             self._reports.report(
-                f"control_freq {rate:g} Hz is below the {type(task).min_control_freq:g} Hz that {type(task).__name__}'s "
+                f"control_freq {rate:g} Hz is below the {type(task).min_control_freq:g} Hz "
+                f"that {type(task).__name__}'s "
                 "defaults need (docs/tasks.md); expect it to fail",
                 "warning",
             )
         return updated
 
     def _check_cycle_cost(self, updates: dict[str, Any], candidate: ConfigSet) -> bool:
-        """True if the `candidate` configs change the size of a planning cycle (the planner's `cycle_size`; a policy
-        rolls nothing out); ConfigError if they grow it beyond an estimated MAX_CYCLE_SECONDS (a smaller cycle is
-        always accepted). Under the lock."""
+        """True if the `candidate` configs change the size of a planning cycle (the planner's
+        `cycle_size`; a policy rolls nothing out); ConfigError if they grow it beyond an estimated
+        MAX_CYCLE_SECONDS (a smaller cycle is always accepted). Under the lock."""
         state = self._state
         planner = state.session.controller
-        before, after = planner.cycle_size(state.configs.as_dict()), planner.cycle_size(candidate.as_dict())
+        before, after = (
+            planner.cycle_size(state.configs.as_dict()),
+            planner.cycle_size(candidate.as_dict()),
+        )
         if after is None:
             return False
         seconds = cycle_seconds(state.step_cost, after, candidate.controller)
         if seconds > MAX_CYCLE_SECONDS and (before is None or after.total > before.total):
             edit = ", ".join(f"{name} = {value}" for name, value in updates.items())
             raise ConfigError(
-                f"{edit} would make a planning cycle of about {seconds:.0f} s (num_rollouts x num_randomizations x "
-                f"iterations x horizon steps: {after}); expected at most {MAX_CYCLE_SECONDS:g} s: lower "
-                "num_rollouts, num_randomizations, max_opt_iters, iterations_per_second or the horizon"
+                f"{edit} would make a planning cycle of about {seconds:.0f} s (num_rollouts "
+                "x num_randomizations x "
+                f"iterations x horizon steps: {after}); expected at most "
+                f"{MAX_CYCLE_SECONDS:g} s: lower "
+                "num_rollouts, num_randomizations, max_opt_iters, iterations_per_second or "
+                "the horizon"
             )
         return after != before
 
     def update_estimator_config(
         self, updates: dict[str, Any], *, generation: int | None = None, from_gui: bool = False
     ) -> EstimatorConfig:
-        """Validate `updates` ({field: value}) to the running estimator's config and use it from its next
-        update. Returns the new config. Raises ConfigError, keeping the config before, for an unknown field
-        or a bad value, and JudoError when no estimator runs or the session changed (`generation`)."""
+        """Validate `updates` ({field: value}) to the running estimator's config and use it from its
+        next update. Returns the new config. Raises ConfigError, keeping the config before, for an
+        unknown field or a bad value, and JudoError when no estimator runs or the session changed
+        (`generation`)."""
         state = self._state
         with state.lock:
             session = state.session
             if generation is not None and generation != session.generation:
-                raise ConfigError("the task or optimizer changed since this edit was made; it was not applied")
+                raise ConfigError(
+                    "the task or optimizer changed since this edit was made; it was not applied"
+                )
             estimator = session.closed_loop.estimator
             if estimator is None:
                 raise JudoError(
@@ -315,7 +356,8 @@ class Commands:
                 )
             updated = with_updates(estimator.config, updates)
             assert isinstance(updated, EstimatorConfig)
-            state.accept_estimator_config(estimator, updated, from_gui=from_gui)  # used from its next update
+            # used from its next update
+            state.accept_estimator_config(estimator, updated, from_gui=from_gui)
         return updated
 
     def reset_configs(self) -> None:
@@ -323,7 +365,9 @@ class Commands:
         state = self._state
         with state.lock:
             session = state.session
-            state.reset_configs(self._maker.default_configs(session.task_name, session.optimizer_name))
+            state.reset_configs(
+                self._maker.default_configs(session.task_name, session.optimizer_name)
+            )
         self._reports.report("configs reset to the defaults")
 
     def pause(self) -> None:
@@ -338,29 +382,44 @@ class Commands:
 
     def reset_task(self) -> None:
         """Reset the plant to its start state and forget the plan."""
-        self._state.request_reset(from_user=True)  # the plan is forgotten once the plant's reset worked
+        # the plan is forgotten once the plant's reset worked
+        self._state.request_reset(from_user=True)
 
     def move_goal(self, index: int, position: np.ndarray, quat: np.ndarray | None = None) -> None:
-        """Move mocap body `index` (a goal) to `position` (3,), and turn it to `quat` (4,) wxyz if given, before
-        the plant's next step, through the System's `move_goal` (the simulated plant writes its MjData).
+        """Move mocap body `index` (a goal) to `position` (3,), and turn it to `quat` (4,) wxyz if
+        given, before the plant's next step, through the System's `move_goal` (the simulated plant
+        writes its MjData).
 
-        The planner sees it with the next state (the reading's metadata carries the mocap poses). Raises
-        JudoError for a user's System without `move_goal`, or an index the model does not have.
+        The planner sees it with the next state (the reading's metadata carries the mocap poses).
+        Raises JudoError for a user's System without `move_goal`, or an index the model does not
+        have.
         """
         session = self._state.session
         plant = session.simulated
         if plant is None and type(session.system).move_goal is System.move_goal:
-            raise JudoError(f"cannot move goal {index}: your {type(session.system).__name__} has no System.move_goal")
-        nmocap = session.controller.task.model.nmocap if plant is None else plant.task.sim_model.nmocap
+            raise JudoError(
+                f"cannot move goal {index}: your {type(session.system).__name__} has no "
+                "System.move_goal"
+            )
+        nmocap = (
+            session.controller.task.model.nmocap if plant is None else plant.task.sim_model.nmocap
+        )
         if not 0 <= index < nmocap:
             raise JudoError(f"goal index must be in [0, {nmocap}), got {index}")
         try:
             moved = np.array(position, dtype=float).reshape(3)
             turn = None if quat is None else np.array(quat, dtype=float).reshape(4)
         except (TypeError, ValueError) as err:
-            raise JudoError(f"goal {index}: a position needs 3 numbers and a quat 4: {err}") from None
-        if not np.isfinite(moved).all() or (turn is not None and not (np.isfinite(turn).all() and turn.any())):
-            raise JudoError(f"goal {index} not moved: position {moved.tolist()} and quat must be finite (quat not 0)")
+            raise JudoError(
+                f"goal {index}: a position needs 3 numbers and a quat 4: {err}"
+            ) from None
+        if not np.isfinite(moved).all() or (
+            turn is not None and not (np.isfinite(turn).all() and turn.any())
+        ):
+            raise JudoError(
+                f"goal {index} not moved: position {moved.tolist()} and quat must be finite "
+                "(quat not 0)"
+            )
         self._state.request_goal_move(index, moved, turn)
 
     def switch_task(self, task: str) -> None:
@@ -375,25 +434,32 @@ class Commands:
         self._state.request_switch(task=task)
 
     def switch_estimator(self, estimator: str | None) -> None:
-        """Run the registered estimator `estimator` (None: none, planning from full-state readings as they are)
-        from the next cycle, keeping the plant running: restarted from the next reading, with its registered
-        defaults (its live config when it is the one running). Raises UnknownNameError for
-        an unregistered name, JudoError when the plant's readings lack what it needs (a full state)."""
+        """Run the registered estimator `estimator` (None: none, planning from full-state readings
+        as they are) from the next cycle, keeping the plant running: restarted from the next
+        reading, with its registered defaults (its live config when it is the one running). Raises
+        UnknownNameError for an unregistered name, JudoError when the plant's readings lack what it
+        needs (a full state)."""
         state = self._state
         session = state.session
-        if estimator is not None:  # tried on the plant's latest reading (its own thread may be reading it now)
+        # tried on the plant's latest reading (its own thread may be reading it now)
+        if estimator is not None:
             latest = session.closed_loop.raw_reading or session.system.read_state()
             check_estimator(estimator, make_estimator(estimator, session.controller.task), latest)
         with state.lock:
             raw = session.closed_loop.raw_reading
             if estimator is None and raw is not None and raw.state is None:
                 raise JudoError(
-                    "cannot plan without an estimator: the plant measures only sensors (state None); choose "
+                    "cannot plan without an estimator: the plant measures only sensors "
+                    "(state None); choose "
                     "an estimator that fuses them, e.g. 'ekf'"
                 )
-            state.request_estimator(estimator, rebuild=not (estimator is None and session.estimator_name is None))
+            state.request_estimator(
+                estimator, rebuild=not (estimator is None and session.estimator_name is None)
+            )
 
     def switch_optimizer(self, optimizer: str) -> None:
-        """Use the registered optimizer `optimizer` from the next cycle, keeping the plant running."""
-        self._maker.check_choice(self._state.session.task_name, optimizer)  # or the policy's (the GUI's "policy")
+        """Use the registered optimizer `optimizer` from the next cycle, keeping the plant
+        running."""
+        # or the policy's (the GUI's "policy")
+        self._maker.check_choice(self._state.session.task_name, optimizer)
         self._state.request_switch(optimizer=optimizer)

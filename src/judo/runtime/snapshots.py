@@ -1,16 +1,19 @@
-"""What the app's loops publish in the StateBuffer for the GUI and scripts: plant readings and plans.
+"""What the app's loops publish in the StateBuffer for the GUI and scripts: plant readings and
+plans.
 
-`StateBuffer` is the one place the app's loops exchange data: the latest value of each topic, as a versioned snapshot.
+`StateBuffer` is the one place the app's loops exchange data: the latest value of each topic, as a
+versioned snapshot.
 
 A writer publishes a value; the buffer stores a deep copy whose arrays are read-only, under a lock,
 and stamps it with the next version number. A reader gets that stored snapshot whole. Since a
 published snapshot is never written again, a reader can never see half of one write and half of
 another (no torn reads), however the threads interleave.
 
-A reader that wants each snapshot as it comes subscribes (`subscribe(topic, callback)`): the callback runs on
-the publisher's thread (the plant's or the planner's) right after the snapshot is stored. `Subscribers` holds the
-callbacks of one event for the app's other news (config changes, resets, switches). A callback must be cheap: keep
-the newest value and let its own thread act on it; one that raises is logged and the publisher goes on.
+A reader that wants each snapshot as it comes subscribes (`subscribe(topic, callback)`): the
+callback runs on the publisher's thread (the plant's or the planner's) right after the snapshot is
+stored. `Subscribers` holds the callbacks of one event for the app's other news (config changes,
+resets, switches). A callback must be cheap: keep the newest value and let its own thread act on it;
+one that raises is logged and the publisher goes on.
 """
 
 import copy
@@ -33,9 +36,11 @@ class SystemSnapshot:
 
     Attributes:
         generation: the session that read it.
-        reading: the state the next plan starts from: the estimate when an estimator runs, else the reading.
-        true_state: (nq + nv,) the simulated plant's true state when an estimator runs (the GUI draws it as
-            the robot and the estimate as a ghost); None otherwise, and for a user's System.
+        reading: the state the next plan starts from: the estimate when an estimator runs, else the
+            reading.
+        true_state: (nq + nv,) the simulated plant's true state when an estimator runs (the GUI
+            draws it as the robot and the estimate as a ghost); None otherwise, and for a user's
+            System.
     """
 
     generation: int
@@ -54,8 +59,8 @@ class PlanSnapshot:
         rewards: (num_rollouts,) rewards of the last iteration (index 0 is the nominal).
         traces: (1 + num_shown, T, num_trace_sensors, 3) trace-sensor positions, nominal first.
         plan_time: wall-clock seconds the cycle took.
-        resets: plant resets done before the state planned from was read; a plan from before the latest reset is
-            stale, and the GUI never draws its traces over the reset plant.
+        resets: plant resets done before the state planned from was read; a plan from before the
+            latest reset is stale, and the GUI never draws its traces over the reset plant.
     """
 
     generation: int
@@ -85,7 +90,8 @@ class Subscribers:
             self._callbacks = (*self._callbacks, callback)
 
     def fire(self, *args: Any) -> None:
-        """Call every callback with `args`; one that raises is logged, and the others are still called."""
+        """Call every callback with `args`; one that raises is logged, and the others are still
+        called."""
         for callback in self._callbacks:
             try:
                 callback(*args)
@@ -118,7 +124,8 @@ class StateBuffer:
         self._subscribers: dict[str, Subscribers] = {}
 
     def subscribe(self, topic: str, callback: Callable[[Snapshot[Any]], None]) -> None:
-        """Call `callback(snapshot)` with each snapshot of `topic` published from now on, on the publisher's thread."""
+        """Call `callback(snapshot)` with each snapshot of `topic` published from now on, on the
+        publisher's thread."""
         with self._lock:
             subscribers = self._subscribers.setdefault(topic, Subscribers())
         subscribers.add(callback)

@@ -1,8 +1,10 @@
-"""What a running app tells its user: the status line, the timing figures, and the end-of-run summary.
+"""What a running app tells its user: the status line, the timing figures, and the end-of-run
+summary.
 
 - `StatusLine`: the latest message for the GUI, written to the log without flooding it;
 - `Reports`: the status line worded with the session in use, for every part of the app;
-- `RunStats` / `LiveFigures` / `RunSummary`: plan times, control rate, real-time factor, and the summary at exit.
+- `RunStats` / `LiveFigures` / `RunSummary`: plan times, control rate, real-time factor, and the
+  summary at exit.
 """
 
 import logging
@@ -30,7 +32,8 @@ Level = Literal["info", "warning", "error"]
 
 @dataclass(frozen=True)
 class Status:
-    """The GUI's status line: the latest message, its level, and a count that grows with each report."""
+    """The GUI's status line: the latest message, its level, and a count that grows with each
+    report."""
 
     message: str
     level: Level
@@ -40,8 +43,8 @@ class Status:
 class StatusLine:
     """The latest status, safe to report from any thread.
 
-    Each message is logged at most once every REPEAT_LOG_INTERVAL seconds, however messages alternate.
-    Parts of the app that failed (`trouble`) are remembered until they report a recovery.
+    Each message is logged at most once every REPEAT_LOG_INTERVAL seconds, however messages
+    alternate. Parts of the app that failed (`trouble`) are remembered until they report a recovery.
     """
 
     def __init__(self) -> None:
@@ -51,22 +54,32 @@ class StatusLine:
         self.trouble: set[str] = set()
         self.changed = Subscribers()  # (status) after each report, on the reporting thread
 
-    def report(self, message: str, level: Level = "info", log: bool = True, paced: bool = False) -> None:
-        """Show `message` and write it to the log (each message at most once every REPEAT_LOG_INTERVAL s, or every
-        time where its sender paces its reports itself, `paced`; never without `log`, for a count that changes
-        every second)."""
+    def report(
+        self, message: str, level: Level = "info", log: bool = True, paced: bool = False
+    ) -> None:
+        """Show `message` and write it to the log (each message at most once every
+        REPEAT_LOG_INTERVAL s, or every time where its sender paces its reports itself, `paced`;
+        never without `log`, for a count that changes every second)."""
         with self._lock:
             self.status = status = Status(message, level, self.status.count + 1)
             now = time.monotonic()
-            logged = log and (paced or now - self._logged_at.get(message, -math.inf) >= REPEAT_LOG_INTERVAL)
+            logged = log and (
+                paced or now - self._logged_at.get(message, -math.inf) >= REPEAT_LOG_INTERVAL
+            )
             if logged:
-                if len(self._logged_at) >= 64:  # forget messages not logged lately, so the table stays small
-                    self._logged_at = {m: t for m, t in self._logged_at.items() if now - t < REPEAT_LOG_INTERVAL}
+                # forget messages not logged lately, so the table stays small
+                if len(self._logged_at) >= 64:
+                    self._logged_at = {
+                        m: t for m, t in self._logged_at.items() if now - t < REPEAT_LOG_INTERVAL
+                    }
                 self._logged_at[message] = now
         self.changed.fire(status)  # outside the lock: a callback may report
         if not logged:
             return
-        logger.log({"info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}[level], message)
+        logger.log(
+            {"info": logging.INFO, "warning": logging.WARNING, "error": logging.ERROR}[level],
+            message,
+        )
 
     def failed(self, part: str, message: str, level: Level = "error") -> None:
         """Report that `part` (e.g. "planner") failed; it stays in trouble until `recovered`."""
@@ -74,7 +87,8 @@ class StatusLine:
         self.report(message, level)
 
     def recovered(self, part: str, message: str) -> None:
-        """After a success of `part`: if its failure is on the status line, replace it with `message`."""
+        """After a success of `part`: if its failure is on the status line, replace it with
+        `message`."""
         if part not in self.trouble:
             return
         self.trouble.discard(part)
@@ -96,7 +110,8 @@ class RunSummary:
         plan_time_p95_ms: its 95th percentile over the last PLAN_TIMES_KEPT cycles.
         real_time_factor: sim_time / wall_time (1 = real time).
         final_reward: reward of the nominal rollout in the last cycle (NaN if none ran).
-        stops: each latch and clear of the latched stop in the run (`judo.safety.stop`); stop_latched: still at exit.
+        stops: each latch and clear of the latched stop in the run (`judo.safety.stop`);
+            stop_latched: still at exit.
     """
 
     task: str
@@ -112,7 +127,8 @@ class RunSummary:
     stops: tuple[StopEvent, ...] = ()
     stop_latched: bool = False
     limits: str | None = None
-    """The [safety] limits' serve filter's line (commands filtered, replaced, hits by limit); None without limits."""
+    """The [safety] limits' serve filter's line (commands filtered, replaced, hits by limit); None
+    without limits."""
 
     def __str__(self) -> str:
         rows = [
@@ -120,16 +136,27 @@ class RunSummary:
             ("optimizer", self.optimizer),
             ("sim time", f"{self.sim_time:.2f} s in {self.wall_time:.2f} s wall"),
             ("control rate", f"{self.control_rate:.1f} Hz ({self.num_plans} plans)"),
-            ("plan time", f"mean {self.plan_time_mean_ms:.2f} ms, p95 {self.plan_time_p95_ms:.2f} ms"),
+            (
+                "plan time",
+                f"mean {self.plan_time_mean_ms:.2f} ms, p95 {self.plan_time_p95_ms:.2f} ms",
+            ),
             ("real-time factor", f"{self.real_time_factor:.3f}"),
             (
                 "final reward",
-                f"{self.final_reward:.4g}" if np.isfinite(self.final_reward) else "none (no rollout scored)",
+                f"{self.final_reward:.4g}"
+                if np.isfinite(self.final_reward)
+                else "none (no rollout scored)",
             ),
         ]
         rows += [("stop", event.line()) for event in self.stops]
         if self.stop_latched:
-            rows.append(("stop", "still latched at exit: the next start serves the safe action until it is cleared"))
+            rows.append(
+                (
+                    "stop",
+                    "still latched at exit: the next start serves the safe action until it is "
+                    "cleared",
+                )
+            )
         if self.limits is not None:
             rows.append(("limits", self.limits))
         return "\n".join(f"{name:>16}: {value}" for name, value in rows)
@@ -137,7 +164,8 @@ class RunSummary:
 
 @dataclass(frozen=True)
 class LiveFigures:
-    """The figures the GUI plots, rates over the last `window` seconds; NaN where there is no data yet."""
+    """The figures the GUI plots, rates over the last `window` seconds; NaN where there is no data
+    yet."""
 
     nominal_reward: float
     plan_time_ms: float
@@ -153,7 +181,8 @@ memory stays bounded."""
 class RunStats:
     """Collects plan and plant timings from the app's loops; safe to read from any thread.
 
-    Memory is bounded however long the app runs: the last PLAN_TIMES_KEPT plan times, a count and a sum.
+    Memory is bounded however long the app runs: the last PLAN_TIMES_KEPT plan times, a count and a
+    sum.
     """
 
     def __init__(self, window: float = 1.0) -> None:
@@ -171,7 +200,8 @@ class RunStats:
         self._recent_progress: deque[tuple[float, float]] = deque()  # (perf_counter, sim_time)
 
     def record_plan(self, start: float, duration: float, nominal_reward: float) -> None:
-        """One planning cycle that began at `time.perf_counter()` value `start` and took `duration` s."""
+        """One planning cycle that began at `time.perf_counter()` value `start` and took `duration`
+        s."""
         with self._lock:
             self._plan_times.append(duration)
             self._num_plans += 1
@@ -185,13 +215,16 @@ class RunStats:
                 self._recent_plan_starts.popleft()
 
     def record_plant(self, sim_dt: float, wall_dt: float) -> None:
-        """The plant advanced `sim_dt` seconds of sim time during `wall_dt` unpaused wall-clock seconds."""
+        """The plant advanced `sim_dt` seconds of sim time during `wall_dt` unpaused wall-clock
+        seconds."""
         now = time.perf_counter()
         with self._lock:
             self._sim_time += sim_dt
             self._wall_time += wall_dt
             self._recent_progress.append((now, self._sim_time))
-            while len(self._recent_progress) > 2 and self._recent_progress[1][0] < now - self.window:
+            while (
+                len(self._recent_progress) > 2 and self._recent_progress[1][0] < now - self.window
+            ):
                 self._recent_progress.popleft()
 
     def sim_time(self) -> float:
@@ -219,7 +252,8 @@ class RunStats:
     def summary(
         self, task: str, optimizer: str, stop: StopLatch | None = None, limits: str | None = None
     ) -> RunSummary:
-        """Figures over the whole run so far, with the events of the latched `stop` and the `limits` line."""
+        """Figures over the whole run so far, with the events of the latched `stop` and the `limits`
+        line."""
         with self._lock:
             times, count = np.array(self._plan_times), self._num_plans
             span = 0.0
@@ -233,8 +267,12 @@ class RunStats:
                 num_plans=count,
                 control_rate=(count - 1) / span if span > 0 else float("nan"),
                 plan_time_mean_ms=1000.0 * self._plan_time_total / count if count else float("nan"),
-                plan_time_p95_ms=1000.0 * float(np.percentile(times, 95)) if len(times) else float("nan"),
-                real_time_factor=self._sim_time / self._wall_time if self._wall_time > 0 else float("nan"),
+                plan_time_p95_ms=1000.0 * float(np.percentile(times, 95))
+                if len(times)
+                else float("nan"),
+                real_time_factor=self._sim_time / self._wall_time
+                if self._wall_time > 0
+                else float("nan"),
                 final_reward=self._nominal_reward,
                 stops=() if stop is None else tuple(stop.events),
                 stop_latched=stop is not None and stop.latched,
@@ -271,19 +309,25 @@ class Reports:
         self.line.failed(part, message, level)
 
     def recovered(self, part: str, news: str) -> None:
-        """`part` works again: say `news` and that the app is running, if its failure is on the status line (the
-        line is worded only then: a runner calls this after each success)."""
+        """`part` works again: say `news` and that the app is running, if its failure is on the
+        status line (the line is worded only then: a runner calls this after each success)."""
         if part in self.line.trouble:
             self.line.recovered(part, f"{news}: {self.running()}")
 
     def running(self) -> str:
-        """'running TASK with OPTIMIZER', and where the planning model has model overrides ([model_overrides.TASK]),
-        ', planning with a fitted model (body_mass.pole, ...)' when sysid fitted them all (its fitted.toml says so in
-        [sysid.TASK]), else ', planning with a model with overrides (dof_damping.slider, ...)'."""
+        """'running TASK with OPTIMIZER', and where the planning model has model overrides
+        ([model_overrides.TASK]), ', planning with a fitted model (body_mass.pole, ...)' when sysid
+        fitted them all (its fitted.toml says so in [sysid.TASK]), else ', planning with a model
+        with overrides (dof_damping.slider, ...)'."""
         session = self._state.session
         message = f"running {session.task_name} with {session.optimizer_name}"
-        entries = [f"{f}.{e}" for f, values in session.controller.task.model_overrides.items() for e in values]
-        fitted = fitted_overrides(session.task_name) if entries else frozenset()  # no overrides: none to look up
+        entries = [
+            f"{f}.{e}"
+            for f, values in session.controller.task.model_overrides.items()
+            for e in values
+        ]
+        # no overrides: none to look up
+        fitted = fitted_overrides(session.task_name) if entries else frozenset()
         if entries and all(entry in fitted for entry in entries):
             message += f", planning with a fitted model ({', '.join(entries)})"
         elif entries:
@@ -292,31 +336,48 @@ class Reports:
         return message
 
     def on_stop(self, event: StopEvent) -> None:
-        """The latched stop was latched or cleared (`judo.safety.stop`): say so, and tell the recording under way; then
-        say when a latch took effect (the first safe action served under it)."""
+        """The latched stop was latched or cleared (`judo.safety.stop`): say so, and tell the
+        recording under way; then say when a latch took effect (the first safe action served under
+        it)."""
         if event.effect_s is not None:
             self.line.report(
-                f"stop in effect after {event.effect_s:.3f} s: serving the safe action", "warning", paced=True
+                f"stop in effect after {event.effect_s:.3f} s: serving the safe action",
+                "warning",
+                paced=True,
             )
             return
         if event.engaged:
-            self.line.report(f"stop {event.line()}: serving the safe action until it is cleared", "warning", paced=True)
+            self.line.report(
+                f"stop {event.line()}: serving the safe action until it is cleared",
+                "warning",
+                paced=True,
+            )
         else:
             self.line.report(f"stop {event.line()}: {self.running()}", paced=True)
         recording = self._state.recording
         if recording is not None:
-            recording.on_config("stop", None, source=event.source, engaged=event.engaged, wall_time=event.time)
+            recording.on_config(
+                "stop", None, source=event.source, engaged=event.engaged, wall_time=event.time
+            )
 
     def on_watchdog(self, reason: str | None) -> None:
-        """The closed loop's watchdog serves the safe action (`reason`, at the start of a trouble and every few
-        seconds while it lasts) or fresh plans again (None, once per trouble, with how long it took). Every line
-        is logged: the watchdog paces them (`judo.loop.watchdog`), and each trouble told is paired with its end."""
+        """The closed loop's watchdog serves the safe action (`reason`, at the start of a trouble
+        and every few seconds while it lasts) or fresh plans again (None, once per trouble, with how
+        long it took). Every line is logged: the watchdog paces them (`judo.loop.watchdog`), and
+        each trouble told is paired with its end."""
         if reason is not None:
             self.line.trouble.add("watchdog")
             self.line.report(f"watchdog: {reason}; serving the safe action", "warning", paced=True)
             return
         self.line.trouble.discard("watchdog")  # said even when another part's recovery came first
         watchdog = self._state.session.closed_loop.watchdog
-        resumed = "" if watchdog.resumed_s is None else f", {watchdog.resumed_s:.2f} s after the readings resumed"
-        news = f"fresh plans are served again after {watchdog.episode_s:.2f} s of the safe action{resumed}"
+        resumed = (
+            ""
+            if watchdog.resumed_s is None
+            else (f", {watchdog.resumed_s:.2f} s after the readings resumed")
+        )
+        news = (
+            f"fresh plans are served again after {watchdog.episode_s:.2f} s of the safe "
+            f"action{resumed}"
+        )
         self.line.report(f"{news}: {self.running()}", paced=True)

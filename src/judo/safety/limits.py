@@ -1,14 +1,16 @@
-"""The owner's limits: `SafetyConfig` (the `[safety.TASK]` section of a config file, `--safety.*`) and `Limits`,
-the same limits resolved against a task's planning model (indices, gains, bounds), checked once at load.
+"""The owner's limits: `SafetyConfig` (the `[safety.TASK]` section of a config file, `--safety.*`)
+and `Limits`, the same limits resolved against a task's planning model (indices, gains, bounds),
+checked once at load.
 
-Every entry names a joint, an actuator, a site, a body or a geom of the planning model; "*" in an entry's name
-stands for every joint (velocity) or actuator (effort, rate). A config with no entry is off: nothing is
-checked, planned or served differently (`SafetyConfig.active`).
+Every entry names a joint, an actuator, a site, a body or a geom of the planning model; "*" in an
+entry's name stands for every joint (velocity) or actuator (effort, rate). A config with no entry is
+off: nothing is checked, planned or served differently (`SafetyConfig.active`).
 
-The effort of an actuator is its force as MuJoCo computes it (`actuator_force`, before the gear): for a gain and
-bias that are affine (motor, position, velocity and general actuators without dynamics),
-force = gain0 * ctrl + bias0 + bias1 * length + bias2 * velocity, where length and velocity are the joint's times
-the gear. A position actuator's force is so kp (q_des - q) - kv dq, the torque its PD asks for.
+The effort of an actuator is its force as MuJoCo computes it (`actuator_force`, before the gear):
+for a gain and bias that are affine (motor, position, velocity and general actuators without
+dynamics), force = gain0 * ctrl + bias0 + bias1 * length + bias2 * velocity, where length and
+velocity are the joint's times the gear. A position actuator's force is so kp (q_des - q) - kv dq,
+the torque its PD asks for.
 """
 
 import math
@@ -28,29 +30,34 @@ ALL = "*"
 SCALAR_JOINTS = (int(mujoco.mjtJoint.mjJNT_HINGE), int(mujoco.mjtJoint.mjJNT_SLIDE))
 """The joint types a position or velocity limit applies to (one qpos and one qvel each)."""
 BASE = "base"
-"""The workspace frame that means the first body with a free joint (its position is the joint's qpos)."""
+"""The workspace frame that means the first body with a free joint (its position is the joint's
+qpos)."""
 
 
 @dataclass
 class SafetyConfig(Config):
-    """Limits the robot's owner sets; off (no entry) by default. Entries are "NAME=VALUE" strings."""
+    """Limits the robot's owner sets; off (no entry) by default. Entries are "NAME=VALUE"
+    strings."""
 
     joint_ranges: bool = False
-    """Hold every limited hinge and slide joint inside its MJCF range, shrunk by range_margin at each end."""
+    """Hold every limited hinge and slide joint inside its MJCF range, shrunk by range_margin at
+    each end."""
     range_margin: float = 0.0
     """How far inside each MJCF range joint_ranges holds a joint (rad or m, at least 0)."""
     position: tuple[str, ...] = ()
-    """Position limits, "JOINT=LOW:HIGH" (rad or m) of hinge and slide joints; they replace joint_ranges' for that joint."""
+    """Position limits, "JOINT=LOW:HIGH" (rad or m) of hinge and slide joints; they replace
+    joint_ranges' for that joint."""
     velocity: tuple[str, ...] = ()
-    """Speed caps, "JOINT=MAX" (rad/s or m/s, |qvel| <= MAX); "*=MAX" for every hinge and slide joint."""
+    """Speed caps, "JOINT=MAX" (rad/s or m/s, |qvel| <= MAX); "*=MAX" for every hinge and slide
+    joint."""
     effort: tuple[str, ...] = ()
-    """Effort caps, "ACTUATOR=MAX": |actuator force| <= MAX, the force a position actuator's PD implies included;
-    "*=MAX" for every actuator."""
+    """Effort caps, "ACTUATOR=MAX": |actuator force| <= MAX, the force a position actuator's PD
+    implies included; "*=MAX" for every actuator."""
     rate: tuple[str, ...] = ()
     """Rate limits, "ACTUATOR=MAX" (command units per second); "*=MAX" for every actuator."""
     workspace_frame: str = ""
-    """The frame held inside the workspace box: "base" (the free-joint body), or a site or body that a framepos
-    sensor of the model reports; "" for no box."""
+    """The frame held inside the workspace box: "base" (the free-joint body), or a site or body that
+    a framepos sensor of the model reports; "" for no box."""
     workspace_low: tuple[float, ...] = ()
     """(3,) lower corner of the workspace box in world coordinates (m)."""
     workspace_high: tuple[float, ...] = ()
@@ -58,10 +65,12 @@ class SafetyConfig(Config):
     contact_geoms: tuple[str, ...] = ()
     """Geoms whose total contact force is capped by max_contact_force (checked at serve time)."""
     max_contact_force: float = 0.0
-    """Cap on the total normal contact force on each of contact_geoms (N); above 0 when contact_geoms are given."""
+    """Cap on the total normal contact force on each of contact_geoms (N); above 0 when
+    contact_geoms are given."""
 
     def validate(self) -> None:
-        """The checks that need no model: entry syntax, a minimum above its maximum, negative caps."""
+        """The checks that need no model: entry syntax, a minimum above its maximum, negative
+        caps."""
         super().validate()
         where = "SafetyConfig"
         for name in ("position", "velocity", "effort", "rate", "contact_geoms"):
@@ -79,25 +88,35 @@ class SafetyConfig(Config):
         box = [self.workspace_low, self.workspace_high]
         if self.workspace_frame:
             for corner, label in zip(box, ("workspace_low", "workspace_high"), strict=True):
-                ok = len(corner) == 3 and all(isinstance(v, (int, float)) and math.isfinite(v) for v in corner)
+                ok = len(corner) == 3 and all(
+                    isinstance(v, (int, float)) and math.isfinite(v) for v in corner
+                )
                 require(
-                    ok, f"{where}.{label} expects 3 finite numbers (x, y, z) with workspace_frame, got {list(corner)}"
+                    ok,
+                    f"{where}.{label} expects 3 finite numbers (x, y, z) with "
+                    f"workspace_frame, got {list(corner)}",
                 )
             low, high = np.asarray(box[0], float), np.asarray(box[1], float)
             bad = np.flatnonzero(low > high)
             require(
                 not len(bad),
-                f"{where}: workspace_low {low.tolist()} is above workspace_high {high.tolist()} in {'xyz'[bad[0]] if len(bad) else ''}",
+                f"{where}: workspace_low {low.tolist()} is above workspace_high "
+                f"{high.tolist()} in {'xyz'[bad[0]] if len(bad) else ''}",
             )
         else:
-            require(not any(box), f'{where}: workspace_low/high need a workspace_frame ("base", a site or a body)')
+            require(
+                not any(box),
+                f'{where}: workspace_low/high need a workspace_frame ("base", a site or a body)',
+            )
         require(
             math.isfinite(self.max_contact_force) and self.max_contact_force >= 0,
-            f"{where}.max_contact_force must be a cap of at least 0 N, got {self.max_contact_force}",
+            f"{where}.max_contact_force must be a cap of at least 0 N, got "
+            f"{self.max_contact_force}",
         )
         require(
             bool(self.contact_geoms) == (self.max_contact_force > 0),
-            f"{where}: contact_geoms {list(self.contact_geoms)} and max_contact_force {self.max_contact_force:g} go "
+            f"{where}: contact_geoms {list(self.contact_geoms)} and max_contact_force "
+            f"{self.max_contact_force:g} go "
             "together: name the geoms and a cap above 0, or neither",
         )
 
@@ -117,12 +136,16 @@ class SafetyConfig(Config):
 
 def _split(name: str, entry: str, what: str) -> tuple[str, str]:
     key, sep, value = entry.partition("=")
-    require(bool(sep and key.strip() and value.strip()), f"SafetyConfig.{name} entry {entry!r} is not {what}")
+    require(
+        bool(sep and key.strip() and value.strip()),
+        f"SafetyConfig.{name} entry {entry!r} is not {what}",
+    )
     return key.strip(), value.strip()
 
 
 def position_entries(entries: tuple[str, ...]) -> dict[str, tuple[float, float]]:
-    """{joint: (low, high)} of "JOINT=LOW:HIGH" entries; ConfigError for a bad entry or a minimum above its maximum."""
+    """{joint: (low, high)} of "JOINT=LOW:HIGH" entries; ConfigError for a bad entry or a minimum
+    above its maximum."""
     limits: dict[str, tuple[float, float]] = {}
     for entry in entries:
         joint, value = _split("position", entry, '"JOINT=LOW:HIGH"')
@@ -135,14 +158,18 @@ def position_entries(entries: tuple[str, ...]) -> dict[str, tuple[float, float]]
             math.isfinite(low) and math.isfinite(high),
             f'SafetyConfig.position entry {entry!r} is not "JOINT=LOW:HIGH" with finite numbers',
         )
-        require(low <= high, f"SafetyConfig.position {joint}: the minimum {low:g} is above the maximum {high:g}")
+        require(
+            low <= high,
+            f"SafetyConfig.position {joint}: the minimum {low:g} is above the maximum {high:g}",
+        )
         require(joint not in limits, f"SafetyConfig.position names {joint!r} twice")
         limits[joint] = (low, high)
     return limits
 
 
 def cap_entries(name: str, entries: tuple[str, ...]) -> dict[str, float]:
-    """{name: cap} of "NAME=MAX" entries; ConfigError for a bad entry, a cap below 0 or a name given twice."""
+    """{name: cap} of "NAME=MAX" entries; ConfigError for a bad entry, a cap below 0 or a name given
+    twice."""
     caps: dict[str, float] = {}
     for entry in entries:
         key, value = _split(name, entry, '"NAME=MAX"')
@@ -150,7 +177,10 @@ def cap_entries(name: str, entries: tuple[str, ...]) -> dict[str, float]:
             cap = float(value)
         except ValueError:
             cap = math.nan
-        require(math.isfinite(cap), f'SafetyConfig.{name} entry {entry!r} is not "NAME=MAX" with a finite number')
+        require(
+            math.isfinite(cap),
+            f'SafetyConfig.{name} entry {entry!r} is not "NAME=MAX" with a finite number',
+        )
         require(cap >= 0, f"SafetyConfig.{name} {key}: the cap must be at least 0, got {cap:g}")
         require(key not in caps, f"SafetyConfig.{name} names {key!r} twice")
         caps[key] = cap
@@ -158,31 +188,45 @@ def cap_entries(name: str, entries: tuple[str, ...]) -> dict[str, float]:
 
 
 class LimitError(ConfigError):
-    """A [safety] entry that does not fit the task's model (an unknown or unsuited joint, actuator, site or geom)."""
+    """A [safety] entry that does not fit the task's model (an unknown or unsuited joint, actuator,
+    site or geom)."""
 
 
-def _lookup(model: mujoco.MjModel, kind: str, obj: mujoco.mjtObj, count: int, name: str, valid: list[str]) -> int:
+def _lookup(
+    model: mujoco.MjModel, kind: str, obj: mujoco.mjtObj, count: int, name: str, valid: list[str]
+) -> int:
     index = mujoco.mj_name2id(model, obj, name)
     if index < 0 or name not in valid:
-        raise LimitError(f"safety limits: unknown {kind} {name!r}; valid {kind}s are: {', '.join(valid) or 'none'}")
+        raise LimitError(
+            f"safety limits: unknown {kind} {name!r}; valid {kind}s are: "
+            f"{', '.join(valid) or 'none'}"
+        )
     return index
 
 
 @dataclass
 class Limits:
-    """A SafetyConfig resolved against a task's planning model. Arrays hold one entry per limit of their kind.
+    """A SafetyConfig resolved against a task's planning model. Arrays hold one entry per limit of
+    their kind.
 
     Attributes:
-        position: names (k,), qpos columns `position_index` (k,), bounds `position_low`, `position_high` (k,).
+        position: names (k,), qpos columns `position_index` (k,),
+            bounds `position_low`, `position_high` (k,).
         velocity: names (m,), qvel columns `velocity_index` (m,), caps `velocity_max` (m,).
-        effort: actuator names (e,), ids `effort_actuator` (e,), caps `effort_max` (e,), and each one's force
-            terms: `gain` (e,) on ctrl, `bias` (e, 3) [constant, per length, per velocity], `gear` (e,) and the
+        effort: actuator names (e,), ids `effort_actuator` (e,), caps `effort_max` (e,), and each
+            one's force
+            terms: `gain` (e,) on ctrl, `bias` (e, 3) [constant, per length, per
+                velocity], `gear` (e,) and the
             joint's qpos and qvel columns `effort_qpos`, `effort_qvel` (e,).
-        rate: actuator names, ids `rate_actuator` and caps `rate_max` (r,) in command units per second.
-        workspace_frame: the frame in the box ("" for none); `frame_qpos` (3,) its qpos columns (the base) or
-            `frame_sensor` (3,) its framepos sensor's sensordata columns; `frame_obj` (mjtObj, id): a site (site_xpos), a
-            body's inertial frame (xipos) or a body's frame (XBODY: xpos); `workspace_low`, `workspace_high` (3,).
-        contact_geoms: geom names and ids `contact_ids` whose contact force is capped by `max_contact_force`.
+        rate: actuator names, ids `rate_actuator` and caps `rate_max` (r,) in command units per
+            second.
+        workspace_frame: the frame in the box ("" for none); `frame_qpos` (3,) its qpos columns (the
+            base) or
+            `frame_sensor` (3,) its framepos sensor's sensordata columns; `frame_obj` (mjtObj, id):
+            a site (site_xpos), a body's inertial frame (xipos) or a body's frame (XBODY:
+            xpos); `workspace_low`, `workspace_high` (3,).
+        contact_geoms: geom names and ids `contact_ids` whose contact force is capped
+            by `max_contact_force`.
     """
 
     position: list[str] = field(default_factory=list)
@@ -214,7 +258,8 @@ class Limits:
     max_contact_force: float = 0.0
 
     def effort_of(self, ctrl: np.ndarray, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
-        """(..., e) the capped actuators' forces of controls (..., nu) in states whose qpos (..., nq), qvel (..., nv)."""
+        """(..., e) the capped actuators' forces of controls (..., nu) in states whose qpos (...,
+        nq), qvel (..., nv)."""
         length = self.gear * qpos[..., self.effort_qpos]
         speed = self.gear * qvel[..., self.effort_qvel]
         return (
@@ -226,8 +271,8 @@ class Limits:
 
 
 def resolve(task: Task, config: SafetyConfig) -> Limits:
-    """`config`'s limits on `task`'s planning model; LimitError (one line, naming the valid choices) for a name the
-    model lacks or a joint or actuator the limit cannot apply to."""
+    """`config`'s limits on `task`'s planning model; LimitError (one line, naming the valid choices)
+    for a name the model lacks or a joint or actuator the limit cannot apply to."""
     model, limits = task.model, Limits()
     joint_names = names(model, mujoco.mjtObj.mjOBJ_JOINT, model.njnt)
     scalar = [n for i, n in enumerate(joint_names) if n and int(model.jnt_type[i]) in SCALAR_JOINTS]
@@ -236,32 +281,45 @@ def resolve(task: Task, config: SafetyConfig) -> Limits:
         for name in scalar:
             j = joint_names.index(name)
             if model.jnt_limited[j]:
-                low, high = model.jnt_range[j] + np.array([config.range_margin, -config.range_margin])
+                low, high = model.jnt_range[j] + np.array(
+                    [config.range_margin, -config.range_margin]
+                )
                 if low > high:
                     raise LimitError(
-                        f"safety limits: range_margin {config.range_margin:g} is more than half of joint {name}'s range {model.jnt_range[j].tolist()}"
+                        f"safety limits: range_margin {config.range_margin:g} is more than "
+                        f"half of joint {name}'s range {model.jnt_range[j].tolist()}"
                     )
                 bounds[name] = (float(low), float(high))
     for name, bound in position_entries(config.position).items():
         _lookup(model, "hinge or slide joint", mujoco.mjtObj.mjOBJ_JOINT, model.njnt, name, scalar)
         bounds[name] = bound
     limits.position = list(bounds)
-    limits.position_index = np.array([model.jnt_qposadr[joint_names.index(n)] for n in bounds], dtype=int)
+    limits.position_index = np.array(
+        [model.jnt_qposadr[joint_names.index(n)] for n in bounds], dtype=int
+    )
     limits.position_low = np.array([b[0] for b in bounds.values()], dtype=float)
     limits.position_high = np.array([b[1] for b in bounds.values()], dtype=float)
 
     speeds = _expand(
-        cap_entries("velocity", config.velocity), scalar, "hinge or slide joint", model, mujoco.mjtObj.mjOBJ_JOINT
+        cap_entries("velocity", config.velocity),
+        scalar,
+        "hinge or slide joint",
+        model,
+        mujoco.mjtObj.mjOBJ_JOINT,
     )
     limits.velocity = list(speeds)
-    limits.velocity_index = np.array([model.jnt_dofadr[joint_names.index(n)] for n in speeds], dtype=int)
+    limits.velocity_index = np.array(
+        [model.jnt_dofadr[joint_names.index(n)] for n in speeds], dtype=int
+    )
     limits.velocity_max = np.array(list(speeds.values()), dtype=float)
 
     actuators = names(model, mujoco.mjtObj.mjOBJ_ACTUATOR, model.nu)
     for kind in ("effort", "rate"):
         if getattr(config, kind) and task.low_level() is not None:
             raise LimitError(
-                f"safety limits: {kind} limits apply to actuators, but {type(task).__name__} plans a low-level policy's commands; use position, velocity or workspace limits"
+                f"safety limits: {kind} limits apply to actuators, but {type(task).__name__} "
+                "plans a low-level policy's commands; use position, velocity or workspace "
+                "limits"
             )
     caps = _expand(
         cap_entries("effort", config.effort),
@@ -283,9 +341,16 @@ def resolve(task: Task, config: SafetyConfig) -> Limits:
     limits.effort_qvel = np.array([model.jnt_dofadr[j] for j in joints], dtype=int)
 
     rates = _expand(
-        cap_entries("rate", config.rate), [a for a in actuators if a], "actuator", model, mujoco.mjtObj.mjOBJ_ACTUATOR
+        cap_entries("rate", config.rate),
+        [a for a in actuators if a],
+        "actuator",
+        model,
+        mujoco.mjtObj.mjOBJ_ACTUATOR,
     )
-    limits.rate, limits.rate_actuator = list(rates), np.array([actuators.index(n) for n in rates], dtype=int)
+    limits.rate, limits.rate_actuator = (
+        list(rates),
+        np.array([actuators.index(n) for n in rates], dtype=int),
+    )
     limits.rate_max = np.array(list(rates.values()), dtype=float)
 
     if config.workspace_frame:
@@ -297,7 +362,10 @@ def resolve(task: Task, config: SafetyConfig) -> Limits:
     valid_geoms = [g for g in geoms if g]
     limits.contact_geoms = list(config.contact_geoms)
     limits.contact_ids = np.array(
-        [_lookup(model, "geom", mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, g, valid_geoms) for g in config.contact_geoms],
+        [
+            _lookup(model, "geom", mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, g, valid_geoms)
+            for g in config.contact_geoms
+        ],
         dtype=int,
     )
     limits.max_contact_force = config.max_contact_force
@@ -307,7 +375,8 @@ def resolve(task: Task, config: SafetyConfig) -> Limits:
 def _expand(
     caps: dict[str, float], valid: list[str], kind: str, model: mujoco.MjModel, obj: mujoco.mjtObj
 ) -> dict[str, float]:
-    """`caps` with "*" expanded to every valid name (a named entry wins over "*"); LimitError for an unknown name."""
+    """`caps` with "*" expanded to every valid name (a named entry wins over "*"); LimitError for an
+    unknown name."""
     expanded = dict.fromkeys(valid, caps[ALL]) if ALL in caps else {}
     for name, cap in caps.items():
         if name != ALL:
@@ -317,25 +386,28 @@ def _expand(
 
 
 def _check_affine(model: mujoco.MjModel, name: str, i: int) -> None:
-    """LimitError unless actuator `i`'s force is affine in ctrl, length and velocity on one hinge or slide joint."""
+    """LimitError unless actuator `i`'s force is affine in ctrl, length and velocity on one hinge or
+    slide joint."""
     joint = model.actuator_trnid[i, 0]
     ok = (
         int(model.actuator_trntype[i]) == int(mujoco.mjtTrn.mjTRN_JOINT)
         and int(model.jnt_type[joint]) in SCALAR_JOINTS
         and int(model.actuator_dyntype[i]) == int(mujoco.mjtDyn.mjDYN_NONE)
         and int(model.actuator_gaintype[i]) == int(mujoco.mjtGain.mjGAIN_FIXED)
-        and int(model.actuator_biastype[i]) in (int(mujoco.mjtBias.mjBIAS_NONE), int(mujoco.mjtBias.mjBIAS_AFFINE))
+        and int(model.actuator_biastype[i])
+        in (int(mujoco.mjtBias.mjBIAS_NONE), int(mujoco.mjtBias.mjBIAS_AFFINE))
     )
     if not ok:
         raise LimitError(
-            f"safety limits: effort limit on actuator {name!r}: expected a joint actuator on a hinge or slide joint with a "
+            f"safety limits: effort limit on actuator {name!r}: expected a joint actuator on "
+            "a hinge or slide joint with a "
             "fixed gain, an affine bias and no dynamics (motor, position, velocity)"
         )
 
 
 def _resolve_frame(model: mujoco.MjModel, frame: str, limits: Limits) -> None:
-    """Set the workspace frame's columns: the base's qpos, or a framepos sensor's sensordata; LimitError listing the
-    frames a rollout reports."""
+    """Set the workspace frame's columns: the base's qpos, or a framepos sensor's sensordata;
+    LimitError listing the frames a rollout reports."""
     limits.workspace_frame = frame
     free = [
         j
@@ -345,18 +417,25 @@ def _resolve_frame(model: mujoco.MjModel, frame: str, limits: Limits) -> None:
     valid = [BASE] if free and model.body_parentid[model.jnt_bodyid[free[0]]] == 0 else []
     sensors: dict[str, tuple[mujoco.mjtObj, int, int]] = {}
     for s in range(model.nsensor):
-        if int(model.sensor_type[s]) == int(mujoco.mjtSensor.mjSENS_FRAMEPOS) and int(model.sensor_reftype[s]) == int(
-            mujoco.mjtObj.mjOBJ_UNKNOWN
-        ):
+        if int(model.sensor_type[s]) == int(mujoco.mjtSensor.mjSENS_FRAMEPOS) and int(
+            model.sensor_reftype[s]
+        ) == int(mujoco.mjtObj.mjOBJ_UNKNOWN):
             obj = mujoco.mjtObj(int(model.sensor_objtype[s]))
             named = mujoco.mjtObj.mjOBJ_BODY if obj == mujoco.mjtObj.mjOBJ_XBODY else obj
             name = mujoco.mj_id2name(model, named, int(model.sensor_objid[s]))
-            if obj in (mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_XBODY) and name:
-                sensors.setdefault(name, (obj, int(model.sensor_objid[s]), int(model.sensor_adr[s])))
+            if (
+                obj
+                in (mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtObj.mjOBJ_BODY, mujoco.mjtObj.mjOBJ_XBODY)
+                and name
+            ):
+                sensors.setdefault(
+                    name, (obj, int(model.sensor_objid[s]), int(model.sensor_adr[s]))
+                )
     valid += list(sensors)
     if frame not in valid:
         raise LimitError(
-            f"safety limits: workspace_frame {frame!r} is neither the base nor a site or body a framepos sensor reports; "
+            f"safety limits: workspace_frame {frame!r} is neither the base nor a site or "
+            "body a framepos sensor reports; "
             f"valid frames are: {', '.join(valid) or 'none (add a framepos sensor)'}"
         )
     if frame == BASE:
@@ -370,11 +449,13 @@ def _resolve_frame(model: mujoco.MjModel, frame: str, limits: Limits) -> None:
 
 
 SECTION_CONFIG = SafetyConfig
-"""The class a config file's [safety.TASK] table sets the task's defaults of (judo.core.configuration.config_file)."""
+"""The class a config file's [safety.TASK] table sets the task's defaults of
+(judo.core.configuration.config_file)."""
 
 
 def check_section(task_name: str, config: SafetyConfig) -> None:
-    """The load checks of a [safety.TASK] table against the task's planning model (`resolve`); LimitError if not."""
+    """The load checks of a [safety.TASK] table against the task's planning model (`resolve`);
+    LimitError if not."""
     if config.active:
         from judo.core.configuration.registry import make_task
 
@@ -382,9 +463,10 @@ def check_section(task_name: str, config: SafetyConfig) -> None:
 
 
 def set_task_limits(task_name: str, given: dict[str, Any]) -> None:
-    """Make `given` ({SafetyConfig field: value}, e.g. the `--safety.*` flags of the app and evaluate) the task's
-    [safety] defaults in this process, over its own and the config file's; checked against its planning model first
-    (ConfigError or LimitError, one line). Nothing changes for {}."""
+    """Make `given` ({SafetyConfig field: value}, e.g. the `--safety.*` flags of the app and
+    evaluate) the task's [safety] defaults in this process, over its own and the config file's;
+    checked against its planning model first (ConfigError or LimitError, one line). Nothing changes
+    for {}."""
     if not given:
         return
     from judo.core.configuration.config import with_updates

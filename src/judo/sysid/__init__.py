@@ -7,6 +7,7 @@
     quality.py  how much of a log the fit explains, and which parameters would explain the rest
     sysid.py    `python -m judo sysid`: the command line, the fitted TOML file and the report
 
-This package sits above collection: it reads and writes collect's HDF5 layout. Nothing here is imported by
-`import judo`; mujoco[sysid] (the `sysid` extra), h5py and the MCAP reader only where a command needs them.
-"""
+This package sits above collection: it reads and writes collect's HDF5 layout. Nothing here is
+imported by `import judo`; mujoco[sysid] (the `sysid` extra), h5py and the MCAP reader only where a
+command needs them.
+"""  # noqa: E501

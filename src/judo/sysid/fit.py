@@ -1,16 +1,19 @@
-"""Fit planning-model parameters to judo's logs with MuJoCo's own system identification (`mujoco.sysid`).
+"""Fit planning-model parameters to judo's logs with MuJoCo's own system identification
+(`mujoco.sysid`).
 
-A log (collect's HDF5, a GUI recording in the same layout, or the ROS 2 bridge's MCAP) holds each step's plant
-state and the action served during it. The fit cuts every episode into windows of K steps, rolls each window
-out from its logged start state under its logged actions on the planning model with candidate parameters, and
-minimises the normalised difference to the logged states (`mujoco.sysid`'s residual and least-squares
-optimizer). A log whose plant reported only its measured sensors is compared on those instead (the rollouts'
-sensordata against each value at the step it was taken), each window starting from the logged estimate refined,
-for each candidate, to the window's own measurements (`judo.sysid.hooks.refine_starts`). The parameters are named
-MjModel fields by element (judo.core.configuration.model_overrides), so the result is a [model_overrides.TASK] section that
-`--config` reads. Commands that reach the plant whole steps late (a bridge under load) are a command delay, fitted
-by trying each; some windows are held out of the fit and the fitted model's error is reported on them; a fit that
-leaves most of the error it could explain is flagged, with the parameters most likely missing (judo.sysid.quality).
+A log (collect's HDF5, a GUI recording in the same layout, or the ROS 2 bridge's MCAP) holds each
+step's plant state and the action served during it. The fit cuts every episode into windows of K
+steps, rolls each window out from its logged start state under its logged actions on the planning
+model with candidate parameters, and minimises the normalised difference to the logged states
+(`mujoco.sysid`'s residual and least-squares optimizer). A log whose plant reported only its
+measured sensors is compared on those instead (the rollouts' sensordata against each value at the
+step it was taken), each window starting from the logged estimate refined, for each candidate, to
+the window's own measurements (`judo.sysid.hooks.refine_starts`). The parameters are named MjModel
+fields by element (judo.core.configuration.model_overrides), so the result is a
+[model_overrides.TASK] section that `--config` reads. Commands that reach the plant whole steps late
+(a bridge under load) are a command delay, fitted by trying each; some windows are held out of the
+fit and the fitted model's error is reported on them; a fit that leaves most of the error it could
+explain is flagged, with the parameters most likely missing (judo.sysid.quality).
 
 mujoco.sysid (the `sysid` extra, `mujoco[sysid]`) is imported only by `fit`.
 """
@@ -37,25 +40,30 @@ from judo.sysid.hooks import least_squares, refined_residuals
 EXTRA = "sysid"
 """The optional extra holding mujoco.sysid's dependencies (`mujoco[sysid]`)."""
 MAX_DELAY = 0.1
-"""Seconds: the most actuation delay `--fit-delay` considers (the fit reads this much action history before each
-window)."""
+"""Seconds: the most actuation delay `--fit-delay` considers (the fit reads this much action history
+before each window)."""
 DELAY = "delay"
-"""The field of the FitParameter that stands for the actuation delay (--fit-delay), in seconds, of every actuator."""
+"""The field of the FitParameter that stands for the actuation delay (--fit-delay), in seconds, of
+every actuator."""
 POSITION_SPAN = 0.5
-"""Metres a fitted position (body_ipos.trunk[0], ...) may move from the planning model's value, either way."""
+"""Metres a fitted position (body_ipos.trunk[0], ...) may move from the planning model's value,
+either way."""
 POSITION_SCALE = 0.01
-"""Metres: the size of a fitted position near 0, for the optimizer's scaling and the excited test."""
+"""Metres: the size of a fitted position near 0, for the optimizer's scaling and the excited
+test."""
 EXCITED_REL_INTERVAL = 0.25
-"""A fitted parameter whose 95% confidence half-width exceeds this fraction of its value is not excited by the
-data: it is reported, not written."""
+"""A fitted parameter whose 95% confidence half-width exceeds this fraction of its value is not
+excited by the data: it is reported, not written."""
 MAX_COMMAND_DELAY = 3
-"""Most whole steps of command delay the fit tries when none is given (--command-delay auto): 0 to 3."""
+"""Most whole steps of command delay the fit tries when none is given (--command-delay auto): 0 to
+3."""
 
 
 @dataclass(frozen=True)
 class FitParameter:
-    """One parameter to fit: entry `index` of `element`'s row of the MjModel `field` (None: the row's one value),
-    or, `whole`, one factor scaling all of its row (a heavier part of the same shape: its inertia's row)."""
+    """One parameter to fit: entry `index` of `element`'s row of the MjModel `field` (None: the
+    row's one value), or, `whole`, one factor scaling all of its row (a heavier part of the same
+    shape: its inertia's row)."""
 
     field: str
     element: str
@@ -64,45 +72,56 @@ class FitParameter:
 
     @property
     def name(self) -> str:
-        """How the command line and the report name it: "body_mass.pole" or "geom_friction.cube[0]"; "delay" for
-        the actuation delay."""
+        """How the command line and the report name it: "body_mass.pole" or "geom_friction.cube[0]";
+        "delay" for the actuation delay."""
         if self.field == DELAY:
             return DELAY
         return f"{self.field}.{self.element}" + ("" if self.index is None else f"[{self.index}]")
 
     @property
     def key(self) -> tuple[str, str, int]:
-        """(field, element, index) as judo.sysid.quality names parameters: index -1 for a whole row."""
+        """(field, element, index) as judo.sysid.quality names parameters: index -1 for a whole
+        row."""
         return (self.field, self.element, -1 if self.whole else self.index or 0)
 
 
 DELAY_PARAMETER = FitParameter(DELAY, "actuators")
-"""The actuation delay (s) of every actuator, fitted with --fit-delay: each logged action takes effect that late."""
+"""The actuation delay (s) of every actuator, fitted with --fit-delay: each logged action takes
+effect that late."""
 
 
-def parse_parameters(texts: list[str] | tuple[str, ...], model: mujoco.MjModel) -> list[FitParameter]:
-    """`--params` entries ("FIELD.ELEMENT[i]": one entry of a row; "FIELD.ELEMENT": the row's one value, or a
-    factor scaling all of a longer row) checked against `model`: UnknownNameError for an unknown field or element
-    (listing the valid names), ConfigError for another form, an index out of range, a row named twice, or a whole
-    row that a factor cannot fit (a position or orientation, or all 0: listing its entries)."""
+def parse_parameters(
+    texts: list[str] | tuple[str, ...], model: mujoco.MjModel
+) -> list[FitParameter]:
+    """`--params` entries ("FIELD.ELEMENT[i]": one entry of a row; "FIELD.ELEMENT": the row's one
+    value, or a factor scaling all of a longer row) checked against `model`: UnknownNameError for an
+    unknown field or element (listing the valid names), ConfigError for another form, an index out
+    of range, a row named twice, or a whole row that a factor cannot fit (a position or orientation,
+    or all 0: listing its entries)."""
     parameters: list[FitParameter] = []
     for text in texts:
         match = re.fullmatch(r"([a-z0-9_]+)\.([^\[\]]+)(?:\[(\d+)\])?", text)
         if match is None:
-            raise ConfigError(f"--params takes FIELD.ELEMENT or FIELD.ELEMENT[i] (e.g. body_mass.pole), got {text!r}")
+            raise ConfigError(
+                "--params takes FIELD.ELEMENT or FIELD.ELEMENT[i] (e.g. body_mass.pole), got "
+                f"{text!r}"
+            )
         field, element, index = match.group(1), match.group(2), match.group(3)
-        check_model_overrides(model, {field: {element: 0.0}}, simulable=False)  # the field and element exist
+        # the field and element exist
+        check_model_overrides(model, {field: {element: 0.0}}, simulable=False)
         current = model_value(model, field, element)
         if index is not None and int(index) >= current.size:
             raise ConfigError(
-                f"--params {text}: {field}.{element} has {current.size} entries, index 0 to {current.size - 1}"
+                f"--params {text}: {field}.{element} has {current.size} entries, index 0 to "
+                f"{current.size - 1}"
             )
         whole = index is None and current.size > 1
         if whole and (field.endswith(("pos", "quat")) or not np.any(current)):
             valid = ", ".join(f"{text}[{i}]" for i in range(current.size))
             why = "a position or orientation" if field.endswith(("pos", "quat")) else "all 0"
             raise ConfigError(
-                f"--params {text}: its {current.size} entries {current.tolist()} are {why}, which no factor fits; "
+                f"--params {text}: its {current.size} entries {current.tolist()} are {why}, "
+                "which no factor fits; "
                 f"name the entries to fit: {valid}"
             )
         parameter = FitParameter(field, element, None if index is None else int(index), whole)
@@ -124,25 +143,36 @@ class FitResult:
         parameters: the fitted parameters, in --params order.
         planning: (P,) each parameter's value in the planning model before the fit.
         fitted: (P,) each parameter's fitted value.
-        interval: (P,) the 95% confidence half-width of each (inf where the data do not determine it).
-        excited: (P,) whether the data determine each parameter (interval within EXCITED_REL_INTERVAL of it).
-        condition: cond(J) of the residual's Jacobian at the fit, columns scaled by the parameters' values.
-        error_before, error_after: the K-step prediction error (`prediction_error`) on the planning model (the
-            actions as logged) and on the fitted one (with the command delay), on the windows fitted.
+        interval: (P,) the 95% confidence half-width of each (inf where the data do not determine
+            it).
+        excited: (P,) whether the data determine each parameter (interval within
+            EXCITED_REL_INTERVAL of it).
+        condition: cond(J) of the residual's Jacobian at the fit, columns scaled by the parameters'
+            values.
+        error_before, error_after: the K-step prediction error (`prediction_error`) on the planning
+            model (the actions as logged) and on the fitted one (with the command delay), on the
+            windows fitted.
         num_windows, window_steps: the windows fitted.
         seconds: the fit's wall time.
-        compare: what the fit compared: "states" (the logged plant states) or "sensors" (the measured sensors).
-        from_estimate: whether each window started from the logged estimate (else from the logged state).
+        compare: what the fit compared: "states" (the logged plant states) or "sensors" (the
+            measured sensors).
+        from_estimate: whether each window started from the logged estimate (else from the logged
+            state).
         timestep: the planning model's step (s): a window lasts window_steps of it.
-        command_delay: whole steps each logged action reached the plant late (applied `command_delay` steps after
-            it was served), given or chosen by the lowest fitted prediction error among those in `delay_errors`.
-        delay_errors: {steps: the fitted model's prediction error on the training windows with that command delay}.
-        held_out_before, held_out_after: the prediction error on the held-out windows (NaN without any), on the
-            planning model and on the fitted one.
-        num_held_out: windows held out of the fit (every HOLD_OUT_EVERY-th); num_windows counts those fitted.
-        noise: the prediction error measurement noise alone would leave (`noise_floor` of the fitted residuals).
-        likely_missing: [(name, share)]: where the fit explains little, the parameters not fitted that would
-            remove the largest share of what is left, to first order (`first_order_gains`), largest first.
+        command_delay: whole steps each logged action reached the plant
+            late (applied `command_delay` steps after it was served), given or chosen by the lowest
+            fitted prediction error among those in `delay_errors`.
+        delay_errors: {steps: the fitted model's prediction error on the training windows with that
+            command delay}.
+        held_out_before, held_out_after: the prediction error on the held-out windows (NaN without
+            any), on the planning model and on the fitted one.
+        num_held_out: windows held out of the fit (every HOLD_OUT_EVERY-th); num_windows counts
+            those fitted.
+        noise: the prediction error measurement noise alone would leave (`noise_floor` of the fitted
+            residuals).
+        likely_missing: [(name, share)]: where the fit explains little, the parameters not fitted
+            that would remove the largest share of what is left, to first
+            order (`first_order_gains`), largest first.
     """
 
     parameters: list[FitParameter]
@@ -169,20 +199,25 @@ class FitResult:
 
     @property
     def removed(self) -> float:
-        """The share of the training windows' prediction error the fit removed: 1 - error_after / error_before."""
+        """The share of the training windows' prediction error the fit removed: 1 - error_after /
+        error_before."""
         return 1.0 - self.error_after / self.error_before if self.error_before > 0 else 0.0
 
     @property
     def explains_log(self) -> bool:
-        """Whether the fitted model explains the log (`judo.sysid.quality.explains`): where not, its intervals do not hold."""
+        """Whether the fitted model explains the log (`judo.sysid.quality.explains`): where not, its
+        intervals do not hold."""
         return quality.explains(self.error_before, self.error_after, self.noise)
 
     def overrides(self, model: mujoco.MjModel) -> dict[str, dict[str, Any]]:
-        """{field: {element: row}} of the determined model parameters (excited, in a fit that explains the log),
-        each whole row as `model` holds it otherwise; the delay is among them (as actuator_delay of every actuator)
-        only where `model` keeps the action history that MuJoCo's actuator delay needs (`delay_fits_model`)."""
+        """{field: {element: row}} of the determined model parameters (excited, in a fit that
+        explains the log), each whole row as `model` holds it otherwise; the delay is among them (as
+        actuator_delay of every actuator) only where `model` keeps the action history that MuJoCo's
+        actuator delay needs (`delay_fits_model`)."""
         ok = self.excited & self.explains_log
-        chosen = [(p, v) for p, v, keep in zip(self.parameters, self.fitted, ok, strict=True) if keep]
+        chosen = [
+            (p, v) for p, v, keep in zip(self.parameters, self.fitted, ok, strict=True) if keep
+        ]
         overrides = parameter_rows(model, [(p, v) for p, v in chosen if p.field != DELAY])
         if self.delay is not None and delay_fits_model(model, self.delay):
             names = [model.actuator(i).name for i in range(model.nu)]
@@ -191,23 +226,29 @@ class FitResult:
 
     @property
     def delay(self) -> float | None:
-        """The fitted actuation delay (s), where --fit-delay fitted one the data determine; else None."""
-        for parameter, value, ok in zip(self.parameters, self.fitted, self.excited & self.explains_log, strict=True):
+        """The fitted actuation delay (s), where --fit-delay fitted one the data determine; else
+        None."""
+        for parameter, value, ok in zip(
+            self.parameters, self.fitted, self.excited & self.explains_log, strict=True
+        ):
             if parameter.field == DELAY and ok:
                 return float(value)
         return None
 
 
 def delay_fits_model(model: mujoco.MjModel, delay: float) -> bool:
-    """Whether every actuator of `model` keeps enough action history (MJCF's nsample, compiled in) for MuJoCo's
-    actuator_delay to hold `delay` seconds: without it MuJoCo ignores actuator_delay."""
+    """Whether every actuator of `model` keeps enough action history (MJCF's nsample, compiled in)
+    for MuJoCo's actuator_delay to hold `delay` seconds: without it MuJoCo ignores
+    actuator_delay."""
     needed = int(np.ceil(delay / float(model.opt.timestep) - 1e-9)) + 1
     return model.nu > 0 and bool(np.all(model.actuator_history[:, 0] >= needed))
 
 
-def parameter_rows(model: mujoco.MjModel, values: list[tuple[FitParameter, float]]) -> dict[str, dict[str, Any]]:
-    """{field: {element: row}}: each parameter's value set in its row of `model` (the rest of the row as it is), or
-    for a whole row, the row scaled by it."""
+def parameter_rows(
+    model: mujoco.MjModel, values: list[tuple[FitParameter, float]]
+) -> dict[str, dict[str, Any]]:
+    """{field: {element: row}}: each parameter's value set in its row of `model` (the rest of the
+    row as it is), or for a whole row, the row scaled by it."""
     rows: dict[tuple[str, str], np.ndarray] = {}
     for parameter, value in values:
         if parameter.field == DELAY:  # a delay of the actions, not of the model
@@ -224,7 +265,9 @@ def parameter_rows(model: mujoco.MjModel, values: list[tuple[FitParameter, float
     return overrides
 
 
-def fitted_model(model: mujoco.MjModel, parameters: list[FitParameter], values: np.ndarray) -> mujoco.MjModel:
+def fitted_model(
+    model: mujoco.MjModel, parameters: list[FitParameter], values: np.ndarray
+) -> mujoco.MjModel:
     """A copy of `model` with each parameter set to its value in `values` (P,)."""
     return overridden(model, parameter_rows(model, list(zip(parameters, values, strict=True))))
 
@@ -239,30 +282,43 @@ def fit(
     compare: str = "auto",
     command_delay: int | None = None,
 ) -> FitResult:
-    """Fit `parameters` of `task`'s planning model to `episodes` over windows of `window_steps` steps.
+    """Fit `parameters` of `task`'s planning model to `episodes` over windows of `window_steps`
+    steps.
 
-    `compare` (judo.sysid.data.COMPARE_CHOICES) says what the model's predictions are compared with: the logged plant
-    states, or the task's measured sensors as the plant reported them (the sensordata mujoco.sysid rolls out,
-    at the steps they were taken), each window then starting from the logged estimate where there is one; auto
-    takes the sensors where every episode holds them.
+    `compare` (judo.sysid.data.COMPARE_CHOICES) says what the model's predictions are compared with:
+    the logged plant states, or the task's measured sensors as the plant reported them (the
+    sensordata mujoco.sysid rolls out, at the steps they were taken), each window then starting from
+    the logged estimate where there is one; auto takes the sensors where every episode holds them.
 
-    `command_delay`: whole steps each logged action reached the plant late; None tries 0, 1, ... MAX_COMMAND_DELAY
-    on the same windows, fitting the parameters for each until the fitted error is at the noise or rises, and keeps
-    the lowest (0 only, with DELAY_PARAMETER: the actuation delay in seconds, within [0, MAX_DELAY], the logged
-    actions read that late, `delayed_controls`). Each parameter starts at the planning model's value, bounded to
-    [value / 10, value * 10] ([0, 1] where the model holds 0; a position, a field ending in "pos", to value ±
-    POSITION_SPAN). Every HOLD_OUT_EVERY-th window is held out. `on_evaluation(n)` is called after the n-th
-    evaluation of the residual (a progress bar).
+    `command_delay`: whole steps each logged action reached the plant late; None tries 0, 1, ...
+    MAX_COMMAND_DELAY on the same windows, fitting the parameters for each until the fitted error is
+    at the noise or rises, and keeps the lowest (0 only, with DELAY_PARAMETER: the actuation delay
+    in seconds, within [0, MAX_DELAY], the logged actions read that late, `delayed_controls`). Each
+    parameter starts at the planning model's value, bounded to [value / 10, value * 10] ([0, 1]
+    where the model holds 0; a position, a field ending in "pos", to value ± POSITION_SPAN). Every
+    HOLD_OUT_EVERY-th window is held out. `on_evaluation(n)` is called after the n-th evaluation of
+    the residual (a progress bar).
     """
     sysid = import_extra("mujoco.sysid", "python -m judo sysid", EXTRA)
     if not hasattr(sysid, "optimize"):  # mujoco.sysid swallows its own ImportError
         import_extra("scipy", "python -m judo sysid", EXTRA)
         import_extra("colorama", "python -m judo sysid", EXTRA)
-    absl = logging.getLogger("absl")  # mujoco.sysid's warnings (a sensor layout it does not use) stay quiet
+    # mujoco.sysid's warnings (a sensor layout it does not use) stay quiet
+    absl = logging.getLogger("absl")
     level = absl.level
     absl.setLevel(logging.ERROR)
     try:
-        return _fit(sysid, task, parameters, episodes, window_steps, max_iters, on_evaluation, compare, command_delay)
+        return _fit(
+            sysid,
+            task,
+            parameters,
+            episodes,
+            window_steps,
+            max_iters,
+            on_evaluation,
+            compare,
+            command_delay,
+        )
     finally:
         absl.setLevel(level)
 
@@ -292,8 +348,11 @@ def _fit(
         if on_evaluation is not None:
             on_evaluation(evaluations[0])
 
-    def cut(shift: int) -> tuple[Windows, Windows | None]:  # (training, held out), the same windows for every shift
-        windows = cut_windows(episodes, window_steps, history, compare, task.measured, timestep, shift, max(shifts))
+    # (training, held out), the same windows for every shift
+    def cut(shift: int) -> tuple[Windows, Windows | None]:
+        windows = cut_windows(
+            episodes, window_steps, history, compare, task.measured, timestep, shift, max(shifts)
+        )
         return quality.split_windows(windows, quality.HOLD_OUT_EVERY)
 
     delay_errors: dict[int, float] = {}
@@ -308,7 +367,8 @@ def _fit(
             best = (shift, training, held_out, found, delay, residuals)
         else:  # the error rose: a longer delay fits worse still
             break
-        if quality.at_noise(delay_errors[shift], quality.noise_floor(residuals)):  # nothing left to explain
+        # nothing left to explain
+        if quality.at_noise(delay_errors[shift], quality.noise_floor(residuals)):
             break
     assert best is not None
     shift, training, held_out, (fitted, interval, excited, condition), delay, residuals = best
@@ -351,8 +411,9 @@ def _fit_windows(
     max_iters: int,
     counted: Callable[[], None],
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
-    """mujoco.sysid's least-squares fit of `parameters` to `windows`: ((P,) fitted, (P,) 95% half-widths, (P,)
-    excited, cond(J) of the Jacobian with its columns scaled by the parameters)."""
+    """mujoco.sysid's least-squares fit of `parameters` to `windows`: ((P,) fitted, (P,) 95%
+    half-widths, (P,) excited, cond(J) of the Jacobian with its columns scaled by the
+    parameters)."""
     timestep = float(model.opt.timestep)
     delay_at = next((i for i, p in enumerate(parameters) if p.field == DELAY), None)
     nominal = np.array([_entry(model, p) for p in parameters])
@@ -367,13 +428,17 @@ def _fit_windows(
             low, high, start = value - POSITION_SPAN, value + POSITION_SPAN, value
         else:
             low, high = (
-                (value / 10, value * 10) if value > 0 else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
+                (value / 10, value * 10)
+                if value > 0
+                else ((0.0, 1.0) if value == 0 else (value * 10, value / 10))
             )
             start = value
         bounds.append((low, high, start))
 
     def build_model(candidate: Any) -> mujoco.MjModel:
-        return fitted_model(model, parameters, np.array([candidate[p.name].value[0] for p in parameters]))
+        return fitted_model(
+            model, parameters, np.array([candidate[p.name].value[0] for p in parameters])
+        )
 
     names = [p.name for p in parameters]
     delay_name = DELAY if delay_at is not None else None
@@ -384,14 +449,16 @@ def _fit_windows(
     condition = float(np.linalg.cond(scaled)) if scaled.size else float("inf")
     size = np.maximum(np.abs(fitted), 1e-12)
     size[positions] = np.maximum(size[positions], POSITION_SCALE)
-    if delay_at is not None:  # a delay near 0 is determined when known to within a quarter of a step
+    # a delay near 0 is determined when known to within a quarter of a step
+    if delay_at is not None:
         size[delay_at] = max(size[delay_at], timestep)
     excited = np.isfinite(interval) & (interval <= EXCITED_REL_INTERVAL * size)
     return fitted, interval, excited, condition
 
 
 def _entry(model: mujoco.MjModel, parameter: FitParameter) -> float:
-    """The parameter's value in `model`: 0 for the delay, 1 for a whole row's factor, else its entry."""
+    """The parameter's value in `model`: 0 for the delay, 1 for a whole row's factor, else its
+    entry."""
     if parameter.field == DELAY or parameter.whole:
         return float(parameter.whole)
     return float(model_value(model, parameter.field, parameter.element)[parameter.index or 0])

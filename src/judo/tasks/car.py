@@ -1,11 +1,12 @@
-"""Car: a kinematic bicycle drives to goals among round obstacles, on its own numpy dynamics (not MuJoCo).
+"""Car: a kinematic bicycle drives to goals among round obstacles, on its own numpy dynamics (not
+MuJoCo).
 
-The vehicle is the F1TENTH 1/10-scale car with the default parameters of f1tenth_gym (O'Kelly et al., "F1TENTH:
-An Open-source Evaluation Environment for Continuous Control and Reinforcement Learning", PMLR 123, 2020):
-axle distances from the centre of mass lf = 0.15875 m and lr = 0.17145 m, steering within +-0.4189 rad,
-acceleration within +-9.51 m/s^2, speed from -5 to 20 m/s, body 0.58 m x 0.31 m. The kinematic bicycle about
-the centre of mass is eq. (1) of Kong et al., "Kinematic and dynamic vehicle models for autonomous driving
-control design", IEEE IV 2015.
+The vehicle is the F1TENTH 1/10-scale car with the default parameters of f1tenth_gym (O'Kelly et
+al., "F1TENTH: An Open-source Evaluation Environment for Continuous Control and Reinforcement
+Learning", PMLR 123, 2020): axle distances from the centre of mass lf = 0.15875 m and lr = 0.17145
+m, steering within +-0.4189 rad, acceleration within +-9.51 m/s^2, speed from -5 to 20 m/s, body
+0.58 m x 0.31 m. The kinematic bicycle about the centre of mass is eq. (1) of Kong et al.,
+"Kinematic and dynamic vehicle models for autonomous driving control design", IEEE IV 2015.
 """
 
 from dataclasses import dataclass
@@ -33,7 +34,9 @@ CLEARANCE = 0.1
 """Extra distance (m) the reward keeps from obstacles beyond the car's disc."""
 DT = 0.02
 """Step (s): 50 Hz."""
-OBSTACLES = np.array([[1.2, 1.0, 0.35], [-1.1, 1.3, 0.3], [-1.3, -1.1, 0.4], [1.0, -1.4, 0.3], [0.0, 2.4, 0.3]])
+OBSTACLES = np.array(
+    [[1.2, 1.0, 0.35], [-1.1, 1.3, 0.3], [-1.3, -1.1, 0.4], [1.0, -1.4, 0.3], [0.0, 2.4, 0.3]]
+)
 """(5, 3) obstacles as [x, y, radius] (m)."""
 GOAL_SPAN = 2.5
 """New goals are drawn uniformly from [-GOAL_SPAN, GOAL_SPAN]^2 (m), clear of the obstacles."""
@@ -41,7 +44,8 @@ GOAL_SPAN = 2.5
 
 def _scene_xml() -> str:
     obstacles = "".join(
-        f'<geom name="obstacle{i}" type="cylinder" size="{r} 0.15" pos="{x} {y} 0.15" rgba="0.55 0.35 0.3 1"/>'
+        f'<geom name="obstacle{i}" type="cylinder" size="{r} 0.15" pos="{x} {y} 0.15" '
+        'rgba="0.55 0.35 0.3 1"/>'
         for i, (x, y, r) in enumerate(OBSTACLES)
     )
     return f"""<geom name="floor" type="plane" size="3.5 3.5 0.1" rgba="0.85 0.85 0.85 1"/>
@@ -65,18 +69,20 @@ class CarConfig(TaskConfig):
     w_velocity: float = 0.05
     """Weight on a slow car, so it stops on the goal instead of circling it."""
     w_obstacle: float = 300.0
-    """Weight on how deep (m) the car's disc, 10 cm larger for clearance, reaches into an obstacle."""
+    """Weight on how deep (m) the car's disc, 10 cm larger for clearance, reaches into an
+    obstacle."""
     w_control: float = 0.001
     """Weight on small controls (fractions of their limits)."""
     goal_radius: float = 0.2
     """Distance (m) within which the goal counts as reached."""
     new_goal_on_reach: bool = True
-    """Move the goal to a random free spot whenever the car reaches it (turn off to place goals by hand)."""
+    """Move the goal to a random free spot whenever the car reaches it (turn off to place goals by
+    hand)."""
 
 
 class Car(DynamicsTask[CarConfig]):
-    """State [x, y, heading, speed] of the centre of mass; controls [acceleration, steering angle] as fractions of
-    their limits (9.51 m/s^2, 0.4189 rad), so one sampling width suits both."""
+    """State [x, y, heading, speed] of the centre of mass; controls [acceleration, steering angle]
+    as fractions of their limits (9.51 m/s^2, 0.4189 rad), so one sampling width suits both."""
 
     lower_is_better = ("final_distance", "collision_fraction")
     focus_body = "car"
@@ -96,7 +102,8 @@ class Car(DynamicsTask[CarConfig]):
         self.reset()
 
     def dynamics(self, states: np.ndarray, controls: np.ndarray, dt: float) -> np.ndarray:
-        """Explicit Euler step of the kinematic bicycle: (N, 4) states, (N, 2) controls -> (N, 4)."""
+        """Explicit Euler step of the kinematic bicycle: (N, 4) states, (N, 2) controls -> (N,
+        4)."""
         x, y, heading, speed = states.T
         slip = np.arctan(LR / (LF + LR) * np.tan(MAX_STEER * controls[:, 1]))
         direction = heading + slip
@@ -158,7 +165,10 @@ class Car(DynamicsTask[CarConfig]):
     def pre_sim_step(self) -> None:
         """Count a reached goal and draw the next one."""
         if self.config.new_goal_on_reach:
-            if np.linalg.norm(self.state[:2] - self.data.mocap_pos[0, :2]) < self.config.goal_radius:
+            if (
+                np.linalg.norm(self.state[:2] - self.data.mocap_pos[0, :2])
+                < self.config.goal_radius
+            ):
                 self.goals_reached += 1
                 self._new_goal()
 
@@ -167,14 +177,17 @@ class Car(DynamicsTask[CarConfig]):
         return np.array([-np.clip(state[3] / (DT * MAX_ACCEL), -1.0, 1.0), 0.0])
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """goals_reached and goals_per_minute (counted on this plant task); collision_fraction: the share of
-        steps with the car's disc inside an obstacle; final_distance (m) to the goal in force at the end."""
+        """goals_reached and goals_per_minute (counted on this plant task); collision_fraction: the
+        share of steps with the car's disc inside an obstacle; final_distance (m) to the goal in
+        force at the end."""
         duration = log.times[-1] - log.times[0] + DT
         return {
             "goals_reached": float(self.goals_reached),
             "goals_per_minute": float(60.0 * self.goals_reached / duration),
             "collision_fraction": float(np.mean(penetration(log.states[:, :2]) > 0.0)),
-            "final_distance": float(np.linalg.norm(log.states[-1, :2] - self.data.mocap_pos[0, :2])),
+            "final_distance": float(
+                np.linalg.norm(log.states[-1, :2] - self.data.mocap_pos[0, :2])
+            ),
         }
 
     def success(self, metrics: dict[str, float]) -> bool:
@@ -183,7 +196,8 @@ class Car(DynamicsTask[CarConfig]):
 
 
 def penetration(positions: np.ndarray, margin: float = CAR_RADIUS) -> np.ndarray:
-    """(...,) how deep (m) a disc of radius `margin` at (..., 2) `positions` reaches into the deepest obstacle."""
+    """(...,) how deep (m) a disc of radius `margin` at (..., 2) `positions` reaches into the
+    deepest obstacle."""
     offsets = positions[..., None, :] - OBSTACLES[:, :2]
     depth = OBSTACLES[:, 2] + margin - np.sqrt(np.square(offsets).sum(-1))
     return np.maximum(depth, 0.0).max(-1)

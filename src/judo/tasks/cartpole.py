@@ -1,4 +1,5 @@
-"""Cart-pole swing-up: push the cart so the pole swings up from hanging and balances upright, centred."""
+"""Cart-pole swing-up: push the cart so the pole swings up from hanging and balances upright,
+centred."""
 
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,12 +33,15 @@ class CartpoleConfig(TaskConfig):
 
 
 class Cartpole(Task[CartpoleConfig]):
-    """State [cart x, pole angle (0 = upright), their velocities]; one control, the push on the cart."""
+    """State [cart x, pole angle (0 = upright), their velocities]; one control, the push on the
+    cart."""
 
     measured_sensors = ("slider_pos", "hinge_pos")
     focus_body = "cart"
 
-    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+    def __init__(
+        self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None
+    ) -> None:
         super().__init__(model_path, sim_model_path)
         self.reset()
 
@@ -73,13 +77,16 @@ class Cartpole(Task[CartpoleConfig]):
     ) -> np.ndarray:
         """(B, 5) [cart x, cos angle, sin angle, cart velocity, angular velocity] of (B, 4) states.
 
-        The pole's hinge is unlimited: a swing-up ends at 0 or 2 pi (or 4 pi after a full turn), one pose that a
-        learned policy would otherwise have to meet in its data at each of those angles; cos and sin are the same
-        there. A law written for [x, angle, velocities] near upright reads sin angle as the angle.
+        The pole's hinge is unlimited: a swing-up ends at 0 or 2 pi (or 4 pi after a full turn), one
+        pose that a learned policy would otherwise have to meet in its data at each of those angles;
+        cos and sin are the same there. A law written for [x, angle, velocities] near upright reads
+        sin angle as the angle.
         """
         states = np.asarray(states, dtype=float)
         angle = states[:, 1]
-        return np.column_stack([states[:, 0], np.cos(angle), np.sin(angle), states[:, 2], states[:, 3]])
+        return np.column_stack(
+            [states[:, 0], np.cos(angle), np.sin(angle), states[:, 2], states[:, 3]]
+        )
 
     def reset(self) -> None:
         """Pole hanging down, cart near the centre, small random velocities."""
@@ -90,8 +97,8 @@ class Cartpole(Task[CartpoleConfig]):
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
         """Balance over the final 3 s (the whole episode if shorter).
 
-        "balanced_fraction" is the share of those steps with the pole upright (cos(angle) > 0.9) and the
-        cart centred (|x| < 0.3 m); "swung_up" is 1.0 if that share is over 0.9, else 0.0.
+        "balanced_fraction" is the share of those steps with the pole upright (cos(angle) > 0.9) and
+        the cart centred (|x| < 0.3 m); "swung_up" is 1.0 if that share is over 0.9, else 0.0.
         """
         final = log.times > log.times[-1] - 3.0 + 1e-9  # steps ending within the final 3 s
         cart_x, angle = log.states[final, 0], log.states[final, 1]
@@ -99,5 +106,6 @@ class Cartpole(Task[CartpoleConfig]):
         return {"balanced_fraction": fraction, "swung_up": float(fraction > 0.9)}
 
     def success(self, metrics: dict[str, float]) -> bool:
-        """Success for `collect --success-only`: "swung_up" (the pole balanced over 90% of the final 3 s)."""
+        """Success for `collect --success-only`: "swung_up" (the pole balanced over 90% of the final
+        3 s)."""
         return bool(metrics["swung_up"] > 0.5)

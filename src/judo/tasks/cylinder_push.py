@@ -38,19 +38,27 @@ class CylinderPushConfig(TaskConfig):
     pusher_goal_offset: float = 0.35
     """How far behind the cart's centre (m) the pusher should be, along the cart-to-goal line."""
     goal_pos: np.ndarray = np_1d_field(
-        np.array([0.0, 0.0]), names=["x", "y"], mins=[-1.0, -1.0], maxs=[1.0, 1.0], steps=[0.01, 0.01], vis_name="goal"
+        np.array([0.0, 0.0]),
+        names=["x", "y"],
+        mins=[-1.0, -1.0],
+        maxs=[1.0, 1.0],
+        steps=[0.01, 0.01],
+        vis_name="goal",
     )
     """Goal position (m) of the cart on the table."""
 
 
 class CylinderPush(Task[CylinderPushConfig]):
-    """State [pusher x, y, cart x, y, and their velocities]; controls are the x, y forces on the pusher."""
+    """State [pusher x, y, cart x, y, and their velocities]; controls are the x, y forces on the
+    pusher."""
 
     measured_sensors = ("pusher_x_pos", "pusher_y_pos", "cart_x_pos", "cart_y_pos")
     lower_is_better = ("final_distance",)
     focus_body = "cart"
 
-    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+    def __init__(
+        self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None
+    ) -> None:
         super().__init__(model_path, sim_model_path)
         self.reset()
 
@@ -73,27 +81,32 @@ class CylinderPush(Task[CylinderPushConfig]):
         )
 
     def reset(self) -> None:
-        """Cart 1 m from the goal in a random direction; pusher on a random spot 0.5-1 m from the cart."""
+        """Cart 1 m from the goal in a random direction; pusher on a random spot 0.5-1 m from the
+        cart."""
         cart_angle, pusher_angle = self.rng.uniform(0, 2 * np.pi, 2)
         cart = self.config.goal_pos + np.array([np.cos(cart_angle), np.sin(cart_angle)])
-        pusher = cart + self.rng.uniform(0.5, 1.0) * np.array([np.cos(pusher_angle), np.sin(pusher_angle)])
+        pusher = cart + self.rng.uniform(0.5, 1.0) * np.array(
+            [np.cos(pusher_angle), np.sin(pusher_angle)]
+        )
         self.data.qpos[:] = np.concatenate([pusher, cart])
         self.data.qvel[:] = 0.0
         mujoco.mj_forward(self.sim_model, self.data)
 
     def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
-        """Pusher-cart friction x U[0.7, 1.3] per geom, the cart's mass x U[0.8, 1.25], and the cart's friction
-        loss (the table's friction) x U[0.7, 1.3]."""
+        """Pusher-cart friction x U[0.7, 1.3] per geom, the cart's mass x U[0.8, 1.25], and the
+        cart's friction loss (the table's friction) x U[0.7, 1.3]."""
         scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
         scale_body_mass(model, body_id(model, "cart"), 0.8, 1.25, rng)
         dofs = [int(model.joint(name).dofadr[0]) for name in ("cart_x", "cart_y")]
         scale_dof_frictionloss(model, dofs, 0.7, 1.3, rng)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """Where the cart ended: "final_distance" to the goal (m), and "reached", 1.0 if that is under 0.05 m."""
+        """Where the cart ended: "final_distance" to the goal (m), and "reached", 1.0 if that is
+        under 0.05 m."""
         distance = float(np.linalg.norm(log.states[-1, 2:4] - self.config.goal_pos))
         return {"final_distance": distance, "reached": float(distance < 0.05)}
 
     def success(self, metrics: dict[str, float]) -> bool:
-        """Success for `collect --success-only`: "reached" (the cart ended within 0.05 m of the goal)."""
+        """Success for `collect --success-only`: "reached" (the cart ended within 0.05 m of the
+        goal)."""
         return bool(metrics["reached"] > 0.5)

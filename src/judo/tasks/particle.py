@@ -1,4 +1,5 @@
-"""Particle: push a point mass with x/y forces onto a goal that moves to a new spot each time it is reached."""
+"""Particle: push a point mass with x/y forces onto a goal that moves to a new spot each time it is
+reached."""
 
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,7 +24,8 @@ GOAL_SPAN = 0.45
 @slider("goal_radius", 0.005, 0.2, 0.005)
 @dataclass
 class ParticleConfig(TaskConfig):
-    """Particle reward weights and goal rule. The goal itself is the mocap body "goal": drag it in the GUI."""
+    """Particle reward weights and goal rule. The goal itself is the mocap body "goal": drag it in
+    the GUI."""
 
     w_position: float = 5.0
     """Weight on the distance (m) from the particle to the goal."""
@@ -34,7 +36,8 @@ class ParticleConfig(TaskConfig):
     goal_radius: float = 0.03
     """Distance (m) within which the goal counts as reached."""
     new_goal_on_reach: bool = True
-    """Move the goal to a random spot whenever the particle reaches it (turn off to place goals by hand)."""
+    """Move the goal to a random spot whenever the particle reaches it (turn off to place goals by
+    hand)."""
 
 
 class Particle(Task[ParticleConfig]):
@@ -47,7 +50,9 @@ class Particle(Task[ParticleConfig]):
     lower_is_better = ("final_distance",)
     focus_body = "particle"
 
-    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+    def __init__(
+        self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None
+    ) -> None:
         super().__init__(model_path, sim_model_path)
         self._particle_column = self.get_sensor_start_index("trace_particle")
         self._goal_column = self.get_sensor_start_index("goal_position")
@@ -82,12 +87,15 @@ class Particle(Task[ParticleConfig]):
     ) -> np.ndarray:
         """(B, 6) [x, y, vx, vy, goal x - x, goal y - y]: the (B, 4) state and the goal relative to the particle.
 
-        The goal is the mocap body's position, `system_metadata["mocap_pos"]` (nmocap, 3) or (B, nmocap, 3) (a
-        collect file's obs/mocap_pos, reshaped), else the model's own; without it a policy could not know where
-        to go. The position itself stays in: the walls make the dynamics depend on where the particle is.
-        """
+        The goal is the mocap body's position, `system_metadata["mocap_pos"]` (nmocap, 3) or (B,
+        nmocap, 3) (a collect file's obs/mocap_pos, reshaped), else the model's own; without it a
+        policy could not know where to go. The position itself stays in: the walls make the dynamics
+        depend on where the particle is.
+        """  # noqa: E501
         states = np.asarray(states, dtype=float)
-        goal = np.broadcast_to(mocap_pose(self.model, system_metadata, "mocap_pos")[..., 0, :2], (len(states), 2))
+        goal = np.broadcast_to(
+            mocap_pose(self.model, system_metadata, "mocap_pos")[..., 0, :2], (len(states), 2)
+        )
         return np.concatenate([states, goal - states[:, :2]], axis=1)
 
     def reset(self) -> None:
@@ -108,8 +116,8 @@ class Particle(Task[ParticleConfig]):
                 self._new_goal()
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """goals_reached: how often the goal moved on (it moves when reached); goals_per_minute over the
-        episode; final_distance (m) from the particle to the last goal."""
+        """goals_reached: how often the goal moved on (it moves when reached); goals_per_minute over
+        the episode; final_distance (m) from the particle to the last goal."""
         particle, goal = self._positions(log.sensors)
         goals = int(np.count_nonzero(np.any(np.diff(goal, axis=0) != 0.0, axis=-1)))
         duration = log.times[-1] - log.times[0] + self.sim_model.opt.timestep

@@ -34,16 +34,20 @@ class PendulumConfig(TaskConfig):
 
 
 class Pendulum(Task[PendulumConfig]):
-    """State [pole angle (0 = upright), angular velocity]; one control, the hinge torque (2 Nm at 1).
+    """State [pole angle (0 = upright), angular velocity]; one control, the hinge torque (2 Nm at
+    1).
 
-    Gravity needs 4.9 Nm to hold the pole level, so the controller has to swing it up in several pumps.
+    Gravity needs 4.9 Nm to hold the pole level, so the controller has to swing it up in several
+    pumps.
     """
 
     measured_sensors = ("hinge_pos",)
     lower_is_better = ("final_angle_error",)
     focus_body = "pole"
 
-    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+    def __init__(
+        self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None
+    ) -> None:
         super().__init__(model_path, sim_model_path)
         self.reset()
 
@@ -72,9 +76,9 @@ class Pendulum(Task[PendulumConfig]):
     ) -> np.ndarray:
         """(B, 3) [cos angle, sin angle, angular velocity] of (B, 2) states.
 
-        The hinge is unlimited: the pole's pumping and any full turn leave the raw angle at 2 pi, 4 pi, ... for
-        the same pose, which a learned policy would have to meet in its data at every one of them; cos and sin
-        are the same there.
+        The hinge is unlimited: the pole's pumping and any full turn leave the raw angle at 2 pi, 4
+        pi, ... for the same pose, which a learned policy would have to meet in its data at every
+        one of them; cos and sin are the same there.
         """
         states = np.asarray(states, dtype=float)
         return np.column_stack([np.cos(states[:, 0]), np.sin(states[:, 0]), states[:, 1]])
@@ -96,5 +100,6 @@ class Pendulum(Task[PendulumConfig]):
         }
 
     def success(self, metrics: dict[str, float]) -> bool:
-        """Success for `collect --success-only`: the pole upright over at least 90% of the final 3 s."""
+        """Success for `collect --success-only`: the pole upright over at least 90% of the final 3
+        s."""
         return bool(metrics["upright_fraction"] >= 0.9)

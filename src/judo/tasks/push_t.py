@@ -21,9 +21,11 @@ from judo.core.task import EpisodeLog, Task, TaskConfig
 
 MODEL_PATH = Path(__file__).parent / "models" / "push_t.xml"
 POSITION_TOLERANCE = 0.02
-"""Block position error (m) under which `metrics` counts the block as placed (with the angle below)."""
+"""Block position error (m) under which `metrics` counts the block as placed (with the angle
+below)."""
 ANGLE_TOLERANCE = 0.1
-"""Block heading error (rad) under which `metrics` counts the block as placed (with the position above)."""
+"""Block heading error (rad) under which `metrics` counts the block as placed (with the position
+above)."""
 
 
 @slider("w_position", 0.0, 50.0, 0.1)
@@ -33,43 +35,63 @@ ANGLE_TOLERANCE = 0.1
 @slider("push_offset", 0.0, 0.3, 0.005)
 @dataclass
 class PushTConfig(TaskConfig):
-    """Push-T reward weights. The goal pose is the mocap body "goal": drag and turn it in the GUI."""
+    """Push-T reward weights. The goal pose is the mocap body "goal": drag and turn it in the
+    GUI."""
 
     w_position: float = 10.0
     """Weight on the block's distance (m) from the goal position."""
     w_orientation: float = 1.0
     """Weight on the block's heading error (rad) from the goal's heading."""
     w_proximity: float = 0.3
-    """Weight on the pusher's distance (m) from a spot behind the block, on the far side from the goal."""
+    """Weight on the pusher's distance (m) from a spot behind the block, on the far side from the
+    goal."""
     push_offset: float = 0.12
-    """How far (m) behind the block's centre that spot is; it shrinks to zero as the block nears the goal."""
+    """How far (m) behind the block's centre that spot is; it shrinks to zero as the block nears the
+    goal."""
     w_control: float = 0.01
     """Weight on small pusher forces."""
 
 
 def yaw_of(quaternions: np.ndarray) -> np.ndarray:
-    """(...,) heading (rad) of (..., 4) [w, x, y, z] quaternions that rotate about the vertical only."""
+    """(...,) heading (rad) of (..., 4) [w, x, y, z] quaternions that rotate about the vertical
+    only."""
     return 2.0 * np.arctan2(quaternions[..., 3], quaternions[..., 0])
 
 
 class PushT(Task[PushTConfig]):
-    """State [block x, y, heading, pusher x, y, and their velocities]; controls are the x, y forces on the
-    pusher (5 N at 1). The planner reads the block and goal poses through framepos/framequat sensors."""
+    """State [block x, y, heading, pusher x, y, and their velocities]; controls are the x, y forces
+    on the pusher (5 N at 1). The planner reads the block and goal poses through framepos/framequat
+    sensors."""
 
-    measured_sensors = ("block_x_pos", "block_y_pos", "block_yaw_pos", "pusher_x_pos", "pusher_y_pos")
+    measured_sensors = (
+        "block_x_pos",
+        "block_y_pos",
+        "block_yaw_pos",
+        "pusher_x_pos",
+        "pusher_y_pos",
+    )
     lower_is_better = ("final_position_error", "final_angle_error")
     focus_body = "block"
 
-    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+    def __init__(
+        self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None
+    ) -> None:
         super().__init__(model_path, sim_model_path)
         self._columns = {
             name: self.get_sensor_start_index(name)
-            for name in ("trace_pusher", "trace_block", "block_orientation", "goal_position", "goal_orientation")
+            for name in (
+                "trace_pusher",
+                "trace_block",
+                "block_orientation",
+                "goal_position",
+                "goal_orientation",
+            )
         }
         self.reset()
 
     def errors(self, sensors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(...,) block position error (m) and (...,) signed heading error (rad) from (..., nsensordata)."""
+        """(...,) block position error (m) and (...,) signed heading error (rad) from (...,
+        nsensordata)."""
         c = self._columns
         block, goal = (
             sensors[..., c["trace_block"] : c["trace_block"] + 2],
@@ -117,15 +139,18 @@ class PushT(Task[PushTConfig]):
             [6:8]   cos, sin of the block's heading (its hinge is unlimited: the raw angle grows as it turns)
             [8:13]  qvel: block vx, vy, yaw rate, pusher vx, vy
 
-        from (B, 10) states. Nothing absolute: nothing bounds the table, so the dynamics are the same anywhere.
-        The goal is `system_metadata["mocap_pos"]` (nmocap, 3) and its heading "mocap_quat" (nmocap, 4) (each
-        also (B, nmocap, ...)), else the model's own pose. A collect file stores obs/mocap_pos only; its goal's
-        heading is the model's, since `reset` never turns the goal (only a GUI drag does), so the
-        observation of a recorded step is this with system_metadata {"mocap_pos": that row}.
-        """
+        from (B, 10) states. Nothing absolute: nothing bounds the table, so the dynamics are the
+        same anywhere. The goal is `system_metadata["mocap_pos"]` (nmocap, 3) and its heading
+        "mocap_quat" (nmocap, 4) (each also (B, nmocap, ...)), else the model's own pose. A collect
+        file stores obs/mocap_pos only; its goal's heading is the model's, since `reset` never turns
+        the goal (only a GUI drag does), so the observation of a recorded step is this with
+        system_metadata {"mocap_pos": that row}.
+        """  # noqa: E501
         states = np.asarray(states, dtype=float)
         block, block_yaw, pusher = states[:, 0:2], states[:, 2], states[:, 3:5]
-        goal = np.broadcast_to(mocap_pose(self.model, system_metadata, "mocap_pos")[..., 0, :2], block.shape)
+        goal = np.broadcast_to(
+            mocap_pose(self.model, system_metadata, "mocap_pos")[..., 0, :2], block.shape
+        )
         goal_yaw = yaw_of(mocap_pose(self.model, system_metadata, "mocap_quat")[..., 0, :])
         error = block_yaw - goal_yaw
         return np.column_stack(
@@ -141,18 +166,23 @@ class PushT(Task[PushTConfig]):
         )
 
     def reset(self) -> None:
-        """Block 0.15-0.25 m from the goal with a random heading; pusher at rest 0.2-0.3 m from the block."""
+        """Block 0.15-0.25 m from the goal with a random heading; pusher at rest 0.2-0.3 m from the
+        block."""
         mujoco.mj_resetData(self.sim_model, self.data)
         goal = self.data.mocap_pos[0, :2]
         block_direction, pusher_direction = self.rng.uniform(-np.pi, np.pi, 2)
-        block = goal + self.rng.uniform(0.15, 0.25) * np.array([np.cos(block_direction), np.sin(block_direction)])
-        pusher = block + self.rng.uniform(0.2, 0.3) * np.array([np.cos(pusher_direction), np.sin(pusher_direction)])
+        block = goal + self.rng.uniform(0.15, 0.25) * np.array(
+            [np.cos(block_direction), np.sin(block_direction)]
+        )
+        pusher = block + self.rng.uniform(0.2, 0.3) * np.array(
+            [np.cos(pusher_direction), np.sin(pusher_direction)]
+        )
         self.data.qpos[:] = [*block, self.rng.uniform(-np.pi, np.pi), *pusher]
         mujoco.mj_forward(self.sim_model, self.data)
 
     def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
-        """Pusher-block friction x U[0.7, 1.3] per geom, the block's mass x U[0.8, 1.25], and the block's friction
-        loss (the table's friction) x U[0.7, 1.3]."""
+        """Pusher-block friction x U[0.7, 1.3] per geom, the block's mass x U[0.8, 1.25], and the
+        block's friction loss (the table's friction) x U[0.7, 1.3]."""
         scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
         scale_body_mass(model, body_id(model, "block"), 0.8, 1.25, rng)
         dofs = [int(model.joint(name).dofadr[0]) for name in ("block_x", "block_y", "block_yaw")]
@@ -170,7 +200,9 @@ class PushT(Task[PushTConfig]):
         }
 
     def success(self, metrics: dict[str, float]) -> bool:
-        """Success for `collect --success-only`: the block placed (within 2 cm and 0.1 rad) at the end."""
+        """Success for `collect --success-only`: the block placed (within 2 cm and 0.1 rad) at the
+        end."""
         return bool(
-            metrics["final_position_error"] < POSITION_TOLERANCE and metrics["final_angle_error"] < ANGLE_TOLERANCE
+            metrics["final_position_error"] < POSITION_TOLERANCE
+            and metrics["final_angle_error"] < ANGLE_TOLERANCE
         )

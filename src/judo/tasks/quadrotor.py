@@ -1,12 +1,13 @@
-"""Quadrotor: a rigid body lifted by four rotor thrusts flies to goal poses, on its own equations of motion (numpy,
-not MuJoCo).
+"""Quadrotor: a rigid body lifted by four rotor thrusts flies to goal poses, on its own equations of
+motion (numpy, not MuJoCo).
 
-The airframe is MuJoCo Menagerie's Skydio X2 (skydio_x2/x2.xml): 1.325 kg (a 0.325 kg body and four 0.25 kg
-rotors at x = +-0.14 m, y = +-0.18 m), each rotor's thrust within 0 to 13 N with a yaw moment of 0.0201 N m per N
-(rotors 1 and 3 turning one way, 2 and 4 the other); hover is 3.25 N a rotor. The inertia is that of those
-masses (rotor and body ellipsoids at their offsets): diag(0.0359, 0.0247, 0.0605) kg m^2. The motion is the
-Newton-Euler rigid body of Mahony, Kumar and Corke, "Multirotor Aerial Vehicles", IEEE RAM 2012, eqs. (3)-(5),
-stepped by semi-implicit Euler with the quaternion renormalized.
+The airframe is MuJoCo Menagerie's Skydio X2 (skydio_x2/x2.xml): 1.325 kg (a 0.325 kg body and four
+0.25 kg rotors at x = +-0.14 m, y = +-0.18 m), each rotor's thrust within 0 to 13 N with a yaw
+moment of 0.0201 N m per N (rotors 1 and 3 turning one way, 2 and 4 the other); hover is 3.25 N a
+rotor. The inertia is that of those masses (rotor and body ellipsoids at their offsets):
+diag(0.0359, 0.0247, 0.0605) kg m^2. The motion is the Newton-Euler rigid body of Mahony, Kumar and
+Corke, "Multirotor Aerial Vehicles", IEEE RAM 2012, eqs. (3)-(5), stepped by semi-implicit Euler
+with the quaternion renormalized.
 """
 
 from dataclasses import dataclass
@@ -36,7 +37,8 @@ HOVER = MASS * GRAVITY / 4 / MAX_THRUST
 DT = 0.01
 """Step (s): 100 Hz."""
 YAW_TOLERANCE = 0.5
-"""Heading error (rad) within which a goal pose counts as reached (with the distance within `goal_radius`)."""
+"""Heading error (rad) within which a goal pose counts as reached (with the distance within
+`goal_radius`)."""
 GOAL_LOW, GOAL_HIGH = np.array([-1.5, -1.5, 0.6]), np.array([1.5, 1.5, 2.0])
 """Corners (m) of the box new goals are drawn from."""
 
@@ -62,7 +64,8 @@ def yaw_of(quat: np.ndarray) -> np.ndarray:
 @slider("goal_radius", 0.05, 1.0, 0.05)
 @dataclass
 class QuadrotorConfig(TaskConfig):
-    """Quadrotor reward weights and goal rule. The goal pose is the mocap body "goal": drag and turn it in the GUI."""
+    """Quadrotor reward weights and goal rule. The goal pose is the mocap body "goal": drag and turn
+    it in the GUI."""
 
     w_position: float = 5.0
     """Weight on the distance (m) to the goal."""
@@ -83,8 +86,8 @@ class QuadrotorConfig(TaskConfig):
 
 
 class Quadrotor(DynamicsTask[QuadrotorConfig]):
-    """State [position (3), orientation quaternion w, x, y, z (4), world velocity (3), body angular velocity (3)];
-    controls: the four rotors' thrusts as fractions of 13 N (hover 0.25)."""
+    """State [position (3), orientation quaternion w, x, y, z (4), world velocity (3), body angular
+    velocity (3)]; controls: the four rotors' thrusts as fractions of 13 N (hover 0.25)."""
 
     lower_is_better = ("final_distance", "crashes")
     focus_body = "quadrotor"
@@ -92,7 +95,7 @@ class Quadrotor(DynamicsTask[QuadrotorConfig]):
     <body name="goal" mocap="true" pos="1 0 1.2">
       <geom type="sphere" size="0.06" rgba="0.2 0.8 0.2 0.6" contype="0" conaffinity="0"/>
       <geom type="box" size="0.12 0.01 0.01" pos="0.12 0 0" rgba="0.2 0.8 0.2 0.6" contype="0" conaffinity="0"/>
-    </body>"""
+    </body>"""  # noqa: E501
     robot_xml = """<body name="quadrotor">
       <freejoint/>
       <geom type="box" size="0.12 0.05 0.03" rgba="0.3 0.3 0.35 1"/>
@@ -111,15 +114,29 @@ class Quadrotor(DynamicsTask[QuadrotorConfig]):
         self.reset()
 
     def dynamics(self, states: np.ndarray, controls: np.ndarray, dt: float) -> np.ndarray:
-        """Semi-implicit Euler step of the rigid body: (N, 13) states, (N, 4) controls -> (N, 13)."""
-        position, quat, velocity, omega = states[:, :3], states[:, 3:7], states[:, 7:10], states[:, 10:13]
+        """Semi-implicit Euler step of the rigid body: (N, 13) states, (N, 4) controls -> (N,
+        13)."""
+        position, quat, velocity, omega = (
+            states[:, :3],
+            states[:, 3:7],
+            states[:, 7:10],
+            states[:, 10:13],
+        )
         thrust = MAX_THRUST * controls
-        torque = np.stack([thrust @ ROTORS[:, 1], -(thrust @ ROTORS[:, 0]), thrust @ YAW_MOMENT], axis=1)
+        torque = np.stack(
+            [thrust @ ROTORS[:, 1], -(thrust @ ROTORS[:, 0]), thrust @ YAW_MOMENT], axis=1
+        )
         omega = omega + dt * (torque - np.cross(omega, INERTIA * omega)) / INERTIA
         w, x, y, z = quat.T
         p, q, r = omega.T
         quat = quat + 0.5 * dt * np.stack(
-            [-x * p - y * q - z * r, w * p + y * r - z * q, w * q + z * p - x * r, w * r + x * q - y * p], axis=1
+            [
+                -x * p - y * q - z * r,
+                w * p + y * r - z * q,
+                w * q + z * p - x * r,
+                w * r + x * q - y * p,
+            ],
+            axis=1,
         )
         quat = quat / np.linalg.norm(quat, axis=1, keepdims=True)
         acceleration = z_axis(quat) * (thrust.sum(1) / MASS)[:, None]
@@ -190,13 +207,15 @@ class Quadrotor(DynamicsTask[QuadrotorConfig]):
         if self.config.new_goal_on_reach:
             state, data = self.state, self.data
             near = np.linalg.norm(state[:3] - data.mocap_pos[0]) < self.config.goal_radius
-            if near and np.cos(yaw_of(state[3:7]) - yaw_of(data.mocap_quat[0])) > np.cos(YAW_TOLERANCE):
+            if near and np.cos(yaw_of(state[3:7]) - yaw_of(data.mocap_quat[0])) > np.cos(
+                YAW_TOLERANCE
+            ):
                 self.goals_reached += 1
                 self._new_goal()
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """goals_reached and goals_per_minute (counted on this plant task); crashes: steps below the floor;
-        final_distance (m) to the goal in force at the end."""
+        """goals_reached and goals_per_minute (counted on this plant task); crashes: steps below the
+        floor; final_distance (m) to the goal in force at the end."""
         duration = log.times[-1] - log.times[0] + DT
         return {
             "goals_reached": float(self.goals_reached),

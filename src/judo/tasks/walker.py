@@ -42,21 +42,29 @@ class WalkerConfig(TaskConfig):
 
 
 class Walker(Task[WalkerConfig]):
-    """State [torso x, z offset, pitch, right and left hip, knee, ankle angles, and their velocities];
-    controls are the six joint torques, normalised to [-1, 1] (hips 100 Nm, knees 60 Nm, ankles 20 Nm)."""
+    """State [torso x, z offset, pitch, right and left hip, knee, ankle angles, and their
+    velocities]; controls are the six joint torques, normalised to [-1, 1] (hips 100 Nm, knees 60
+    Nm, ankles 20 Nm)."""
 
     measured_sensors = (
-        *(f"{side}_{joint}_pos" for side in ("right", "left") for joint in ("hip", "knee", "ankle")),
+        *(
+            f"{side}_{joint}_pos"
+            for side in ("right", "left")
+            for joint in ("hip", "knee", "ankle")
+        ),
         "imu_quat",
         "imu_gyro",
         "imu_accel",
     )
     default_estimator = "ukf"
-    """The UKF keeps 0.99 of the full-state forward speed with docs/estimation.md's sensing, the EKF 0.48 (docs/estimation.md)."""
+    """The UKF keeps 0.99 of the full-state forward speed with docs/estimation.md's sensing, the EKF
+    0.48 (docs/estimation.md)."""
     lower_is_better = ("fallen_fraction",)
     focus_body = "torso"
 
-    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+    def __init__(
+        self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None
+    ) -> None:
         super().__init__(model_path, sim_model_path)
         self._head_column = self.get_sensor_start_index("trace_head")
         self._up_column = self.get_sensor_start_index("torso_up")
@@ -76,7 +84,8 @@ class Walker(Task[WalkerConfig]):
         forward_speed = sensors[..., self._velocity_column]
         too_low = np.maximum(config.target_head_height - head_height, 0.0)
         return -(
-            config.w_speed * smooth_l1_norm((forward_speed - config.target_speed)[..., None], 0.2).sum(-1)
+            config.w_speed
+            * smooth_l1_norm((forward_speed - config.target_speed)[..., None], 0.2).sum(-1)
             + config.w_height * too_low.sum(-1)
             + config.w_upright * (1.0 - torso_up).sum(-1)
             + config.w_control * quadratic_norm(controls).sum(-1)
@@ -90,12 +99,13 @@ class Walker(Task[WalkerConfig]):
         mujoco.mj_forward(self.sim_model, self.data)
 
     def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
-        """Each contact geom's sliding friction x U[0.7, 1.3] (its own draw): the feet's grip on the floor."""
+        """Each contact geom's sliding friction x U[0.7, 1.3] (its own draw): the feet's grip on the
+        floor."""
         scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """mean_forward_speed: torso travel (m) over the episode's duration (s); fallen_fraction: share of
-        the episode with the head below 0.9 m; final_head_height (m)."""
+        """mean_forward_speed: torso travel (m) over the episode's duration (s); fallen_fraction:
+        share of the episode with the head below 0.9 m; final_head_height (m)."""
         head_height = log.sensors[:, self._head_column + 2]
         duration = log.times[-1] - log.times[0] + self.sim_model.opt.timestep
         return {

@@ -1,4 +1,5 @@
-"""`python -m judo tune`: search a task x optimizer's settings with Optuna, running trials as Ray tasks.
+"""`python -m judo tune`: search a task x optimizer's settings with Optuna, running trials as Ray
+tasks.
 
 space.py      the search space, from the config dataclasses and their @slider ranges; --params / --fix
 objective.py  the metric being optimised and its direction
@@ -11,4 +12,4 @@ tune.py       the command line
 
 Nothing here imports optuna or ray at import time: study.py imports them when called, and
 only the command imports it (it needs the `tune` extra).
-"""
+"""  # noqa: E501

@@ -4,9 +4,9 @@ A condition is one episode setting: a fixed planning latency (`latency_ms`) and 
 (`control_freq`, the controller's). `--conditions latency_ms=0,25 control_freq=20,50` crosses the
 lists (4 conditions); with `--conditions-mode listed` the i-th values of every name form the i-th
 condition (all lists the same length). A trial's value is the objective metric of each condition
-(its mean over seeds) aggregated by `mean`, `worst`, or `cvar` (the mean of the worst alpha fraction,
-at least one). Without --conditions a study uses the task's check set: control_freq 20 and the task's
-own rate, crossed with latency 0 and `Task.check_latency_ms`.
+(its mean over seeds) aggregated by `mean`, `worst`, or `cvar` (the mean of the worst alpha
+fraction, at least one). Without --conditions a study uses the task's check set: control_freq 20 and
+the task's own rate, crossed with latency 0 and `Task.check_latency_ms`.
 """
 
 import itertools
@@ -47,7 +47,11 @@ class Condition:
     @property
     def label(self) -> str:
         """E.g. "control_freq=20 latency_ms=25" (only the names it sets; "default" when none)."""
-        parts = [f"{name}={value:g}" for name in CONDITION_NAMES if (value := getattr(self, name)) is not None]
+        parts = [
+            f"{name}={value:g}"
+            for name in CONDITION_NAMES
+            if (value := getattr(self, name)) is not None
+        ]
         return " ".join(parts) or "default"
 
 
@@ -57,7 +61,8 @@ def parse_values(entry: str) -> tuple[str, list[float]]:
     name = name.strip()
     if name not in CONDITION_NAMES:
         raise ConditionError(
-            f"--conditions {entry!r}: unknown condition {name!r}; valid conditions are: {', '.join(CONDITION_NAMES)}"
+            f"--conditions {entry!r}: unknown condition {name!r}; valid conditions are: "
+            f"{', '.join(CONDITION_NAMES)}"
         )
     example = "latency_ms=0,25,50" if name == "latency_ms" else "control_freq=20,50"
     try:
@@ -70,10 +75,13 @@ def parse_values(entry: str) -> tuple[str, list[float]]:
         ) from None
     for value in values:
         if name == "control_freq" and not (math.isfinite(value) and value > 0):
-            raise ConditionError(f"--conditions {entry!r}: control_freq must be a positive rate in Hz, got {value:g}")
+            raise ConditionError(
+                f"--conditions {entry!r}: control_freq must be a positive rate in Hz, got {value:g}"
+            )
         if name == "latency_ms" and not (0 <= value <= MAX_LATENCY_MS):
             raise ConditionError(
-                f"--conditions {entry!r}: latency_ms must be from 0 to {MAX_LATENCY_MS:g} ms, got {value:g}"
+                f"--conditions {entry!r}: latency_ms must be from 0 to {MAX_LATENCY_MS:g} "
+                f"ms, got {value:g}"
             )
     return name, list(dict.fromkeys(values))
 
@@ -85,12 +93,16 @@ def parse_conditions(entries: Sequence[str], mode: ConditionsMode = "crossed") -
     value, or listed lists of different lengths.
     """
     if mode not in ("crossed", "listed"):
-        raise ConditionError(f"unknown --conditions-mode {mode!r}; valid modes are: crossed, listed")
+        raise ConditionError(
+            f"unknown --conditions-mode {mode!r}; valid modes are: crossed, listed"
+        )
     lists: dict[str, list[float]] = {}
     for entry in entries:
         name, values = parse_values(entry)
         if name in lists:
-            raise ConditionError(f"--conditions names {name} twice; give all its values once, e.g. {name}=20,50")
+            raise ConditionError(
+                f"--conditions names {name} twice; give all its values once, e.g. {name}=20,50"
+            )
         lists[name] = values
     if not lists:
         return []
@@ -102,7 +114,8 @@ def parse_conditions(entries: Sequence[str], mode: ConditionsMode = "crossed") -
         if len(set(lengths.values())) > 1:
             given = ", ".join(f"{name} has {length}" for name, length in lengths.items())
             raise ConditionError(
-                f"--conditions-mode listed pairs the i-th values of each name, so every list needs the same length; "
+                "--conditions-mode listed pairs the i-th values of each name, so every list "
+                "needs the same length; "
                 f"{given}"
             )
         rows = list(zip(*lists.values(), strict=True))
@@ -110,8 +123,9 @@ def parse_conditions(entries: Sequence[str], mode: ConditionsMode = "crossed") -
 
 
 def check_conditions(task_name: str) -> list[Condition]:
-    """The task's check set: its slowest rate (`Task.min_control_freq`, 20 Hz unless the task needs more) and its
-    own rate, crossed with latency 0 and its check latency (`Task.check_latency_ms`)."""
+    """The task's check set: its slowest rate (`Task.min_control_freq`, 20 Hz unless the task needs
+    more) and its own rate, crossed with latency 0 and its check latency
+    (`Task.check_latency_ms`)."""
     task_cls = lookup_task(task_name)[0]
     own_rate = make_config(ControllerConfig, task_name).control_freq
     rates = list(dict.fromkeys([float(task_cls.min_control_freq), float(own_rate)]))
@@ -120,14 +134,17 @@ def check_conditions(task_name: str) -> list[Condition]:
 
 
 def aggregate(values: Sequence[float], how: Aggregate, maximize: bool, alpha: float = 0.5) -> float:
-    """One value from the conditions' `values`: their mean, the worst, or the mean of the worst `alpha` fraction.
+    """One value from the conditions' `values`: their mean, the worst, or the mean of the worst
+    `alpha` fraction.
 
     "Worst" is the lowest when `maximize`, else the highest. cvar averages the ceil(alpha * n) worst
-    (at least one), so alpha 1 is the mean and a small alpha the worst. NaN when `values` is empty or
-    holds a NaN.
+    (at least one), so alpha 1 is the mean and a small alpha the worst. NaN when `values` is empty
+    or holds a NaN.
     """
     if how not in AGGREGATES:
-        raise ConditionError(f"unknown --aggregate {how!r}; valid aggregates are: {', '.join(AGGREGATES)}")
+        raise ConditionError(
+            f"unknown --aggregate {how!r}; valid aggregates are: {', '.join(AGGREGATES)}"
+        )
     if not 0 < alpha <= 1:
         raise ConditionError(f"--cvar-alpha must be in (0, 1], got {alpha:g}")
     if not values or any(math.isnan(value) for value in values):

@@ -1,15 +1,15 @@
-"""`python -m judo leaderboard`: which optimizer wins on which task, each tuned with the same budget, then scored on
-fresh seeds.
+"""`python -m judo leaderboard`: which optimizer wins on which task, each tuned with the same
+budget, then scored on fresh seeds.
 
 python -m judo leaderboard --tasks pendulum cartpole --optimizers ps mppi cem --trials 20 --seeds 10
 
-For each task x optimizer, tune's machinery (one Optuna study per pair, its trials as Ray tasks: study.py's
-`run_trials`) searches the optimizer's own settings for `--trials` trials, the first of them its defaults,
-at the task's protocol (leaderboard_protocol.py: rate, latency, horizon, knots, N, episode length, metric
-and sign) on the protocol's tuning seeds. The best trial is then validated on `--seeds` fresh seeds (0, 1,
-...), as is the shipped default (the app's optimizer with every setting as shipped). The studies are in one
-SQLite file in --out and each finished validation in validation.json, so Ctrl-C keeps all that finished and
-the same command resumes.
+For each task x optimizer, tune's machinery (one Optuna study per pair, its trials as Ray tasks:
+study.py's `run_trials`) searches the optimizer's own settings for `--trials` trials, the first of
+them its defaults, at the task's protocol (leaderboard_protocol.py: rate, latency, horizon, knots,
+N, episode length, metric and sign) on the protocol's tuning seeds. The best trial is then validated
+on `--seeds` fresh seeds (0, 1, ...), as is the shipped default (the app's optimizer with every
+setting as shipped). The studies are in one SQLite file in --out and each finished validation in
+validation.json, so Ctrl-C keeps all that finished and the same command resumes.
 """
 
 import os
@@ -21,7 +21,13 @@ from pathlib import Path
 from typing import Annotated, Any, Literal
 
 import tyro
-from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    TextColumn,
+    TimeElapsedColumn,
+    TimeRemainingColumn,
+)
 
 from judo.cli_shared import (
     apply_config_file,
@@ -31,7 +37,13 @@ from judo.cli_shared import (
     output_console,
     progress_display,
 )
-from judo.core.commandline.boundary import MAX_SAMPLES, MAX_WORKERS, check_count, check_output_folder, check_seed_range
+from judo.core.commandline.boundary import (
+    MAX_SAMPLES,
+    MAX_WORKERS,
+    check_count,
+    check_output_folder,
+    check_seed_range,
+)
 from judo.core.configuration.config import require, require_between
 from judo.core.configuration.config_values import apply_values
 from judo.core.configuration.registry import default_configs, get_registered_optimizers
@@ -48,19 +60,27 @@ from judo.tuning.trial import TrialSpec
 
 PROG = "python -m judo leaderboard"
 DESCRIPTION = (
-    "Rank optimizers per task: for each task x optimizer, tune the optimizer's own settings (tune's machinery: an "
-    "Optuna study, trials as Ray tasks) with the same --trials budget at the task's protocol (rate, latency, "
-    "horizon, knots, N, episode length, metric and its sign: judo/tuning/protocols/TASK.toml, or --protocols DIR) "
-    "on its tuning seeds, then score the best settings and the shipped default on --seeds fresh seeds with 95% "
-    "confidence intervals. Prints the table (a column per task, the winner bold) and writes to --out "
-    "leaderboard.md, leaderboard.csv, leaderboard.png and configs/TASK-OPTIMIZER.toml (for --config). The studies "
-    "live in --out/leaderboard.db: Ctrl-C keeps every finished trial and the same command resumes. Needs the "
+    "Rank optimizers per task: for each task x optimizer, tune the optimizer's own settings "
+    "(tune's machinery: an "
+    "Optuna study, trials as Ray tasks) with the same --trials budget at the task's protocol "
+    "(rate, latency, "
+    "horizon, knots, N, episode length, metric and its sign: "
+    "judo/tuning/protocols/TASK.toml, or --protocols DIR) "
+    "on its tuning seeds, then score the best settings and the shipped default on --seeds "
+    "fresh seeds with 95% "
+    "confidence intervals. Prints the table (a column per task, the winner bold) and writes "
+    "to --out "
+    "leaderboard.md, leaderboard.csv, leaderboard.png and configs/TASK-OPTIMIZER.toml (for "
+    "--config). The studies "
+    "live in --out/leaderboard.db: Ctrl-C keeps every finished trial and the same command "
+    "resumes. Needs the "
     "`tune` extra: pip install -e '.[tune]'."
 )
 SHIPPED_OPTIMIZER = "mppi"
 """The optimizer the app runs when none is named (runtime/launch.py): the shipped default's."""
 PROBE_S = 0.2
-"""Seconds of sim time of the check episode run per task before any study, which also lists its metrics."""
+"""Seconds of sim time of the check episode run per task before any study, which also lists its
+metrics."""
 RESTARTED = ("interrupted", DEAD_PROCESS)
 """Failures that do not use up a trial of the budget: a Ctrl-C's, or a process that died."""
 
@@ -72,27 +92,40 @@ class LeaderboardArgs:
     tasks: Annotated[tuple[str, ...], tyro.conf.arg(metavar="NAME ...")]
     """Tasks to compare on, by registered name; each needs a protocol file."""
     optimizers: Annotated[
-        tuple[str, ...], tyro.conf.arg(metavar="NAME ...", help_behavior_hint="(default: every registered one)")
+        tuple[str, ...],
+        tyro.conf.arg(metavar="NAME ...", help_behavior_hint="(default: every registered one)"),
     ] = ()
     """Optimizers to compare, by registered name."""
     trials: int = 20
-    """Trials per task x optimizer (the first runs the optimizer's defaults); a resumed run adds only missing ones."""
+    """Trials per task x optimizer (the first runs the optimizer's defaults); a resumed run adds
+    only missing ones."""
     seeds: int = 10
     """Fresh seeds (0 to seeds - 1) each tuned setting and the shipped default are validated on."""
     out: Annotated[Path, tyro.conf.arg(metavar="DIR")] = Path("leaderboard")
     """Folder for the outputs and the study database (leaderboard.db) that a rerun resumes."""
-    protocols: Annotated[Path | None, tyro.conf.arg(metavar="DIR", help_behavior_hint="(optional)")] = None
-    """Folder of your own protocol files, TASK.toml, read before the shipped ones (docs/optimizers.md)."""
-    address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")] = None
-    """A running Ray cluster: auto (the one `ray start --head` started on this machine) or ray://HOST:10001."""
-    workers: Annotated[int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")] = None
+    protocols: Annotated[
+        Path | None, tyro.conf.arg(metavar="DIR", help_behavior_hint="(optional)")
+    ] = None
+    """Folder of your own protocol files, TASK.toml, read before the shipped ones
+    (docs/optimizers.md)."""
+    address: Annotated[
+        str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")
+    ] = None
+    """A running Ray cluster: auto (the one `ray start --head` started on this machine) or
+    ray://HOST:10001."""
+    workers: Annotated[
+        int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")
+    ] = None
     """Episodes run at once, each on one rollout thread (the CPUs of a local Ray)."""
     sampler: Literal["tpe", "cmaes", "random"] = "tpe"
     """Optuna sampler of every study."""
     seed: int = 0
     """Seed of the samplers."""
-    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
-    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides."""
+    config: Annotated[
+        Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")
+    ] = None
+    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task
+    overrides."""
 
     def optimizer_names(self) -> list[str]:
         """--optimizers without repeats, or every registered optimizer."""
@@ -103,7 +136,8 @@ class LeaderboardArgs:
         return list(dict.fromkeys(self.tasks))
 
     def validate(self) -> None:
-        """Raise a JudoError (one line, listing the valid choices) for an unknown name or a count out of range."""
+        """Raise a JudoError (one line, listing the valid choices) for an unknown name or a count
+        out of range."""
         check_names(self.task_names(), self.optimizer_names())
         check_count("--trials", self.trials, MAX_SAMPLES)
         require_between("--seeds", self.seeds, 1, 10_000)
@@ -129,19 +163,24 @@ class Pair:
         return self.protocol.task
 
     def target(self, trials: int) -> int:
-        """Finished trials the study should have: `trials` (one with nothing to search) plus those a Ctrl-C or a
-        dead process failed, which do not use up the budget."""
+        """Finished trials the study should have: `trials` (one with nothing to search) plus those a
+        Ctrl-C or a dead process failed, which do not use up the budget."""
         restarted = sum(failure_of(trial) in RESTARTED for trial in self.study.trials)
         return (trials if self.space else 1) + restarted
 
     def done(self, trials: int) -> int:
         """Trials of the budget finished so far."""
         kept = [trial for trial in self.study.trials if trial.state.name in ("COMPLETE", "FAIL")]
-        return min(trials if self.space else 1, sum(failure_of(trial) not in RESTARTED for trial in kept))
+        return min(
+            trials if self.space else 1, sum(failure_of(trial) not in RESTARTED for trial in kept)
+        )
 
 
-def protocol_spec(protocol: Protocol, optimizer: str, config_file: str | None, fixed: dict[str, Any]) -> TrialSpec:
-    """The TrialSpec of `optimizer`'s trials at `protocol`: its tuning seeds, under one condition (rate, latency)."""
+def protocol_spec(
+    protocol: Protocol, optimizer: str, config_file: str | None, fixed: dict[str, Any]
+) -> TrialSpec:
+    """The TrialSpec of `optimizer`'s trials at `protocol`: its tuning seeds, under one condition
+    (rate, latency)."""
     return TrialSpec(
         protocol.task,
         optimizer,
@@ -157,7 +196,8 @@ def protocol_spec(protocol: Protocol, optimizer: str, config_file: str | None, f
 
 
 def probe_metrics(protocol: Protocol, optimizer: str) -> list[str]:
-    """The metrics a short episode of the task reports (tune's probe, at the protocol); JudoError if it fails."""
+    """The metrics a short episode of the task reports (tune's probe, at the protocol); JudoError if
+    it fails."""
     from judo.tuning.tune import TuneArgs, probe
 
     args = TuneArgs(task=protocol.task, optimizer=optimizer, duration=PROBE_S)
@@ -165,7 +205,8 @@ def probe_metrics(protocol: Protocol, optimizer: str) -> list[str]:
 
 
 def open_pairs(args: LeaderboardArgs, storage: str, console: Any) -> list[Pair]:
-    """Every task x optimizer with its study created or loaded (the defaults queued as trial 0 of a new one)."""
+    """Every task x optimizer with its study created or loaded (the defaults queued as trial 0 of a
+    new one)."""
     from judo.tuning import study as studies
 
     config_file = None if args.config is None else str(args.config.resolve())
@@ -174,18 +215,28 @@ def open_pairs(args: LeaderboardArgs, storage: str, console: Any) -> list[Pair]:
         protocol = load_protocol(task, args.protocols)
         require(
             protocol.tuning_first_seed >= args.seeds,
-            f"{protocol.path}: its tuning seeds (from tuning_first_seed = {protocol.tuning_first_seed}) overlap the "
-            f"validation seeds 0 to {args.seeds - 1}; give fewer --seeds or a tuning_first_seed of {args.seeds} or more",
+            f"{protocol.path}: its tuning seeds (from tuning_first_seed = "
+            f"{protocol.tuning_first_seed}) overlap the "
+            f"validation seeds 0 to {args.seeds - 1}; give fewer --seeds or a "
+            f"tuning_first_seed of {args.seeds} or more",
         )
-        objective = make_objective(task, protocol.metric, probe_metrics(protocol, args.optimizer_names()[0]))
+        objective = make_objective(
+            task, protocol.metric, probe_metrics(protocol, args.optimizer_names()[0])
+        )
         objective = Objective(objective.metric, protocol.direction)
         for optimizer in args.optimizer_names():
             fixed = protocol.fixed()
-            configs = apply_values(default_configs(task, optimizer), fixed)  # ConfigError now if they do not fit
+            # ConfigError now if they do not fit
+            configs = apply_values(default_configs(task, optimizer), fixed)
             space = build_space(task, optimizer, (), fixed)
             spec = protocol_spec(protocol, optimizer, config_file, fixed)
             sampler = studies.make_sampler(args.sampler, args.seed, space, False)
-            identity = {"task": task, "optimizer": optimizer, "metric": protocol.metric, "protocol": protocol.line()}
+            identity = {
+                "task": task,
+                "optimizer": optimizer,
+                "metric": protocol.metric,
+                "protocol": protocol.line(),
+            }
             name = f"{task}-{optimizer}-{protocol.digest()}"
             study, _, notes = studies.open_study(storage, name, objective, sampler, identity)
             if not study.trials:
@@ -197,7 +248,8 @@ def open_pairs(args: LeaderboardArgs, storage: str, console: Any) -> list[Pair]:
 
 
 def tune_pairs(pairs: list[Pair], trials: int, capacity: int) -> None:
-    """Run every pair's missing trials, pair after pair, under one progress bar over all trials with an ETA."""
+    """Run every pair's missing trials, pair after pair, under one progress bar over all trials with
+    an ETA."""
     from judo.tuning import study as studies
 
     columns = (
@@ -223,14 +275,17 @@ def tune_pairs(pairs: list[Pair], trials: int, capacity: int) -> None:
                 score = "" if best is None else f", best {pair.objective.metric} {best.value:.4g}"
                 progress.update(bar, completed=sum(done), description=label + score)
 
-            studies.run_trials(pair.study, pair.space, pair.spec, pair.target(trials), capacity, None, show)
+            studies.run_trials(
+                pair.study, pair.space, pair.spec, pair.target(trials), capacity, None, show
+            )
 
 
 def validation_jobs(pairs: list[Pair], seeds: int, config_file: str | None) -> Jobs:
-    """{key: (spec, values)} of everything to validate: each pair's best trial, and each task's shipped default.
+    """{key: (spec, values)} of everything to validate: each pair's best trial, and each task's
+    shipped default.
 
-    A key names what was run (task, entry, protocol digest, best trial, seeds), so a validation stored under it
-    is reused on resume and redone when the best trial changed."""
+    A key names what was run (task, entry, protocol digest, best trial, seeds), so a validation
+    stored under it is reused on resume and redone when the best trial changed."""
     from judo.tuning import study as studies
 
     jobs: Jobs = {}
@@ -238,18 +293,26 @@ def validation_jobs(pairs: list[Pair], seeds: int, config_file: str | None) -> J
         best = studies.best_trial(pair.study, pair.objective)
         if best is not None:
             spec = replace(pair.spec, seeds=seeds, first_seed=0)
-            jobs[f"{pair.task}|{pair.optimizer}|{pair.protocol.digest()}|trial {best.number}|{seeds} seeds"] = (
+            jobs[
+                f"{pair.task}|{pair.optimizer}|{pair.protocol.digest()}|trial "
+                f"{best.number}|{seeds} seeds"
+            ] = (
                 spec,
                 best.params,
             )
     for protocol in {pair.task: pair.protocol for pair in pairs}.values():
-        spec = replace(protocol_spec(protocol, SHIPPED_OPTIMIZER, config_file, {}), seeds=seeds, first_seed=0)
+        spec = replace(
+            protocol_spec(protocol, SHIPPED_OPTIMIZER, config_file, {}), seeds=seeds, first_seed=0
+        )
         jobs[f"{protocol.task}|{SHIPPED_ENTRY}|{protocol.digest()}|{seeds} seeds"] = (spec, {})
     return jobs
 
 
-def collect_cells(pairs: list[Pair], jobs: Jobs, store: dict, out: Path, command: str) -> list[Cell]:
-    """Every pair's cell and each task's shipped default, with the tuned configs written to out/configs/."""
+def collect_cells(
+    pairs: list[Pair], jobs: Jobs, store: dict, out: Path, command: str
+) -> list[Cell]:
+    """Every pair's cell and each task's shipped default, with the tuned configs written to
+    out/configs/."""
     from judo.tuning import study as studies
 
     cells = []
@@ -273,7 +336,12 @@ def collect_cells(pairs: list[Pair], jobs: Jobs, store: dict, out: Path, command
     for key, (spec, _) in jobs.items():
         task, entry = key.split("|")[:2]
         if entry == SHIPPED_ENTRY:
-            cells.append(fill(Cell(task, f"{SHIPPED_ENTRY} ({spec.optimizer})", spec.optimizer), store.get(key)))
+            cells.append(
+                fill(
+                    Cell(task, f"{SHIPPED_ENTRY} ({spec.optimizer})", spec.optimizer),
+                    store.get(key),
+                )
+            )
     return cells
 
 
@@ -286,23 +354,31 @@ def fill(cell: Cell, stored: dict | None) -> Cell:
 
 
 def write_config(out: Path, pair: Pair, best: Any, cell: Cell, command: str) -> Path:
-    """configs/TASK-OPTIMIZER.toml: the protocol's settings and the best trial's, as a --config file."""
+    """configs/TASK-OPTIMIZER.toml: the protocol's settings and the best trial's, as a --config
+    file."""
     path = out / "configs" / f"{pair.task}-{pair.optimizer}.toml"
-    values = {**pair.spec.fixed, "controller.control_freq": pair.protocol.control_freq, **best.params}
+    values = {
+        **pair.spec.fixed,
+        "controller.control_freq": pair.protocol.control_freq,
+        **best.params,
+    }
     header = [
         f"{pair.task} x {pair.optimizer}, tuned by a leaderboard: trial {best.number} of study "
-        f"{pair.study.study_name!r}, {pair.objective.metric} = {best.value:.6g} on the tuning seeds; "
+        f"{pair.study.study_name!r}, {pair.objective.metric} = {best.value:.6g} on the "
+        "tuning seeds; "
         f"{cell.text()} on {len(cell.scores)} fresh seeds.",
         f"Protocol ({pair.protocol.path}): {pair.protocol.line()}.",
         f"Found by: {command}",
-        f"Use with: python -m judo --config {path}  (or evaluate --config ... --task ... --optimizer ...)",
+        f"Use with: python -m judo --config {path}  (or evaluate --config ... --task ... "
+        "--optimizer ...)",
     ]
     write_best_toml(path, pair.task, pair.optimizer, values, header)
     return path
 
 
 def leaderboard(args: LeaderboardArgs, command: str) -> int:
-    """Run (or resume) the leaderboard; returns the exit status (130 on Ctrl-C, 1 when no cell has a score)."""
+    """Run (or resume) the leaderboard; returns the exit status (130 on Ctrl-C, 1 when no cell has a
+    score)."""
     import judo.ray_cluster as cluster
     from judo.tuning import leaderboard_report as report
     from judo.tuning import study as studies
@@ -345,15 +421,23 @@ def leaderboard(args: LeaderboardArgs, command: str) -> int:
     report.write_markdown(args.out / "leaderboard.md", cells, protocols, notes)
     report.write_csv(args.out / "leaderboard.csv", cells, protocols)
     plotted = report.write_plot(args.out / "leaderboard.png", cells, protocols, title)
-    written = ["leaderboard.md", "leaderboard.csv", *(["leaderboard.png"] if plotted else []), "configs/*.toml"]
+    written = [
+        "leaderboard.md",
+        "leaderboard.csv",
+        *(["leaderboard.png"] if plotted else []),
+        "configs/*.toml",
+    ]
     console.print(f"wrote {', '.join(str(args.out / name) for name in written)}")
     return 0 if any(cell.summary is not None for cell in cells) else 1
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run `python -m judo leaderboard` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
+    """Run `python -m judo leaderboard` on `argv` (sys.argv[1:] when None); exits with status 2 on
+    bad arguments."""
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = tyro.cli(LeaderboardArgs, args=argv, prog=PROG, description=DESCRIPTION + " " + name_listing())
+    args = tyro.cli(
+        LeaderboardArgs, args=argv, prog=PROG, description=DESCRIPTION + " " + name_listing()
+    )
     try:
         return leaderboard(args, f"{PROG} {shlex.join(argv)}")
     except JudoError as err:

@@ -1,7 +1,8 @@
-"""A leaderboard's protocol: what is held the same for every optimizer on one task, read from a TOML file.
+"""A leaderboard's protocol: what is held the same for every optimizer on one task, read from a TOML
+file.
 
-One file per task, `<task>.toml`: the shipped ones in judo/tuning/protocols/, a user's in the folder given
-by `leaderboard --protocols DIR` (looked at first). Every key:
+One file per task, `<task>.toml`: the shipped ones in judo/tuning/protocols/, a user's in the folder
+given by `leaderboard --protocols DIR` (looked at first). Every key:
 
     metric = "upright_fraction"   # the evaluate metric compared (the task's metrics, or mean_reward)
     direction = "maximize"        # its sign: maximize or minimize (default: the task's lower_is_better)
@@ -15,8 +16,9 @@ by `leaderboard --protocols DIR` (looked at first). Every key:
     tuning_seeds = 2              # episodes per trial, seeds tuning_first_seed, tuning_first_seed + 1, ...
     tuning_first_seed = 1000      # the validation seeds (0 to --seeds - 1) never overlap them
 
-Only `metric` is required; a missing setting takes the task's default (what `python -m judo --task T` runs).
-"""
+Only `metric` is required; a missing setting takes the task's default (what `python -m judo --task
+T` runs).
+"""  # noqa: E501
 
 import hashlib
 import math
@@ -47,7 +49,8 @@ MAX_TUNING_SEEDS = 1000
 
 
 class ProtocolError(JudoError):
-    """A protocol file that is missing, unreadable, or has an unknown key or a value out of range."""
+    """A protocol file that is missing, unreadable, or has an unknown key or a value out of
+    range."""
 
 
 @dataclass(frozen=True)
@@ -60,7 +63,8 @@ class Protocol:
         control_freq: replanning rate in Hz; latency_ms: fixed planning latency in ms of sim time.
         horizon: seconds; spline_order, num_nodes: the control spline; num_rollouts: N.
         duration: seconds of sim time per episode.
-        tuning_seeds, tuning_first_seed: the seeds each trial runs (validation runs 0 to --seeds - 1).
+        tuning_seeds, tuning_first_seed: the seeds each trial runs (validation runs 0
+            to --seeds - 1).
         path: the file it was read from.
     """
 
@@ -79,8 +83,8 @@ class Protocol:
     path: str
 
     def fixed(self) -> dict[str, Any]:
-        """The settings pinned for every trial of every optimizer, {`kind.field`: value} (the rate and latency are
-        the trials' condition instead)."""
+        """The settings pinned for every trial of every optimizer, {`kind.field`: value} (the rate
+        and latency are the trials' condition instead)."""
         return {
             "controller.horizon": self.horizon,
             "controller.spline_order": self.spline_order,
@@ -89,16 +93,20 @@ class Protocol:
         }
 
     def digest(self) -> str:
-        """8 hex digits that change with any setting (not the file's path): part of each study's name, so that
-        an edited protocol starts new studies instead of resuming ones scored otherwise."""
+        """8 hex digits that change with any setting (not the file's path): part of each study's
+        name, so that an edited protocol starts new studies instead of resuming ones scored
+        otherwise."""
         values = {key: value for key, value in asdict(self).items() if key != "path"}
         return hashlib.sha256(repr(sorted(values.items())).encode()).hexdigest()[:8]
 
     def line(self) -> str:
-        """E.g. "upright_fraction (maximize), 20 Hz, 0 ms, horizon 1.5 s, cubic 4 knots, N 32, 10 s episodes"."""
+        """E.g. "upright_fraction (maximize), 20 Hz, 0 ms, horizon 1.5 s, cubic 4 knots, N 32, 10 s
+        episodes"."""
         return (
-            f"{self.metric} ({self.direction}), {self.control_freq:g} Hz, latency {self.latency_ms:g} ms, horizon "
-            f"{self.horizon:g} s, {self.spline_order} spline of {self.num_nodes} knots, N {self.num_rollouts}, "
+            f"{self.metric} ({self.direction}), {self.control_freq:g} Hz, latency "
+            f"{self.latency_ms:g} ms, horizon "
+            f"{self.horizon:g} s, {self.spline_order} spline of {self.num_nodes} knots, N "
+            f"{self.num_rollouts}, "
             f"{self.duration:g} s episodes, tuning seeds {self.tuning_first_seed} to "
             f"{self.tuning_first_seed + self.tuning_seeds - 1}"
         )
@@ -120,23 +128,33 @@ KEYS = (
 
 
 def protocol_path(task: str, folder: Path | None) -> Path:
-    """The protocol file of `task`: `folder/<task>.toml` when it exists, else the shipped one; ProtocolError,
-    naming the tasks that have one, when neither does."""
+    """The protocol file of `task`: `folder/<task>.toml` when it exists, else the shipped one;
+    ProtocolError, naming the tasks that have one, when neither does."""
     for place in ([folder] if folder is not None else []) + [SHIPPED]:
         if (place / f"{task}.toml").is_file():
             return place / f"{task}.toml"
-    have = sorted({p.stem for place in filter(None, [folder, SHIPPED]) for p in place.glob("*.toml")})
+    have = sorted(
+        {p.stem for place in filter(None, [folder, SHIPPED]) for p in place.glob("*.toml")}
+    )
     where = f"{folder} or {SHIPPED}" if folder is not None else str(SHIPPED)
     raise ProtocolError(
-        f"task {task!r} has no protocol file {task}.toml in {where}; write one (docs/optimizers.md) and pass its "
+        f"task {task!r} has no protocol file {task}.toml in {where}; write one "
+        "(docs/optimizers.md) and pass its "
         f"folder as --protocols DIR; tasks with one: {', '.join(have)}"
     )
 
 
-def number(path: Path, table: dict[str, Any], key: str, default: float, integer: bool = False) -> Any:
-    """`table[key]` (or `default`) as a finite number, an int where `integer`; ProtocolError otherwise."""
+def number(
+    path: Path, table: dict[str, Any], key: str, default: float, integer: bool = False
+) -> Any:
+    """`table[key]` (or `default`) as a finite number, an int where `integer`; ProtocolError
+    otherwise."""
     value = table.get(key, default)
-    ok = isinstance(value, int) if integer else isinstance(value, (int, float)) and math.isfinite(value)
+    ok = (
+        isinstance(value, int)
+        if integer
+        else isinstance(value, (int, float)) and math.isfinite(value)
+    )
     if isinstance(value, bool) or not ok:
         kind = "an integer" if integer else "a finite number"
         raise ProtocolError(f"{path}: {key} must be {kind}, got {value!r}")
@@ -144,7 +162,8 @@ def number(path: Path, table: dict[str, Any], key: str, default: float, integer:
 
 
 def load_protocol(task: str, folder: Path | None = None) -> Protocol:
-    """The protocol of `task` (see the module docstring), checked: ProtocolError naming the file and the key."""
+    """The protocol of `task` (see the module docstring), checked: ProtocolError naming the file and
+    the key."""
     lookup_task(task)  # UnknownNameError listing the tasks first
     path = protocol_path(task, folder)
     try:
@@ -153,11 +172,14 @@ def load_protocol(task: str, folder: Path | None = None) -> Protocol:
         raise ProtocolError(f"{path}: cannot be read as TOML: {err}") from None
     unknown = sorted(set(table) - set(KEYS))
     if unknown:
-        raise ProtocolError(f"{path}: unknown key {unknown[0]!r}; valid keys are: {', '.join(KEYS)}")
+        raise ProtocolError(
+            f"{path}: unknown key {unknown[0]!r}; valid keys are: {', '.join(KEYS)}"
+        )
     metric = table.get("metric")
     if not isinstance(metric, str) or not metric:
         raise ProtocolError(
-            f'{path}: metric must name one of the task\'s evaluate metrics, e.g. metric = "mean_reward"'
+            f"{path}: metric must name one of the task's evaluate metrics, e.g. metric = "
+            '"mean_reward"'
         )
     direction = table.get("direction", metric_direction(task, metric))
     if direction not in get_args(Direction):
@@ -166,7 +188,9 @@ def load_protocol(task: str, folder: Path | None = None) -> Protocol:
     optimizer = make_config(OptimizerConfig, task)
     spline_order = table.get("spline_order", controller.spline_order)
     if spline_order not in MIN_KNOTS:
-        raise ProtocolError(f"{path}: spline_order must be one of {', '.join(MIN_KNOTS)}, got {spline_order!r}")
+        raise ProtocolError(
+            f"{path}: spline_order must be one of {', '.join(MIN_KNOTS)}, got {spline_order!r}"
+        )
     protocol = Protocol(
         task=task,
         metric=metric,
@@ -190,17 +214,23 @@ def load_protocol(task: str, folder: Path | None = None) -> Protocol:
 
 
 def check_ranges(protocol: Protocol) -> None:
-    """ConfigError for a protocol value out of range (the controller's own checks for its settings)."""
+    """ConfigError for a protocol value out of range (the controller's own checks for its
+    settings)."""
     require_between("duration", protocol.duration, 0, MAX_EPISODE, " s", above=True)
     require_between("latency_ms", protocol.latency_ms, 0, MAX_LATENCY_MS, " ms")
     require_between("tuning_seeds", protocol.tuning_seeds, 1, MAX_TUNING_SEEDS)
-    require_between("tuning_first_seed", protocol.tuning_first_seed, 0, MAX_SEED - protocol.tuning_seeds + 1)
+    require_between(
+        "tuning_first_seed", protocol.tuning_first_seed, 0, MAX_SEED - protocol.tuning_seeds + 1
+    )
     ControllerConfig(
-        horizon=protocol.horizon, control_freq=protocol.control_freq, spline_order=protocol.spline_order
+        horizon=protocol.horizon,
+        control_freq=protocol.control_freq,
+        spline_order=protocol.spline_order,
     ).validate()
     OptimizerConfig(num_nodes=protocol.num_nodes, num_rollouts=protocol.num_rollouts).validate()
     needed = MIN_KNOTS[protocol.spline_order]
     require(
         protocol.num_nodes >= needed,
-        f"a {protocol.spline_order} spline needs at least {needed} knots, got num_nodes = {protocol.num_nodes}",
+        f"a {protocol.spline_order} spline needs at least {needed} knots, got num_nodes = "
+        f"{protocol.num_nodes}",
     )

@@ -1,8 +1,10 @@
-"""The outputs of a leaderboard: the table (rich, markdown), the CSV, and the plot of every entry's interval.
+"""The outputs of a leaderboard: the table (rich, markdown), the CSV, and the plot of every entry's
+interval.
 
-An entry is a row of the table: each optimizer tuned at the tasks' protocols, and the shipped default (the
-app's optimizer with every setting as shipped). A cell is an entry's score on one task: its metric's mean over
-the validation seeds with the 95% confidence interval (evaluate's `summarize`), the task's winner in bold.
+An entry is a row of the table: each optimizer tuned at the tasks' protocols, and the shipped
+default (the app's optimizer with every setting as shipped). A cell is an entry's score on one task:
+its metric's mean over the validation seeds with the 95% confidence interval (evaluate's
+`summarize`), the task's winner in bold.
 """
 
 import csv
@@ -34,13 +36,17 @@ class Cell:
     Attributes:
         task, entry: the task and the row's name (an optimizer, or "shipped default (mppi)").
         optimizer: the optimizer that ran.
-        scores: (S,) the metric of each validation seed, in seed order; empty until validated or when failed.
+        scores: (S,) the metric of each validation seed, in seed order; empty until validated or
+            when failed.
         failure: why tuning or validation failed, or None.
         tuned_value: the best trial's value on the tuning seeds (None for the shipped default).
-        defaults_value: the trial that ran the optimizer's defaults at the protocol, on the tuning seeds.
-        best_trial: that best trial's number; trials, failed_trials: the study's completed and failed trials.
+        defaults_value: the trial that ran the optimizer's defaults at the protocol, on the tuning
+            seeds.
+        best_trial: that best trial's number; trials, failed_trials: the study's completed and
+            failed trials.
         plan_ms: median control update over the validation episodes, in milliseconds.
-        params: the best trial's settings ({`kind.field`: value}); config: the TOML file written for them.
+        params: the best trial's settings ({`kind.field`: value}); config: the TOML file written for
+            them.
     """
 
     task: str
@@ -71,13 +77,18 @@ class Cell:
 
 
 def winners(cells: list[Cell], protocol: Protocol) -> set[str]:
-    """The entries of one task's `cells` with the best mean (ties, to rounding, all win); none without a score."""
+    """The entries of one task's `cells` with the best mean (ties, to rounding, all win); none
+    without a score."""
     means = {cell.entry: summary.mean for cell in cells if (summary := cell.summary) is not None}
     finite = {entry: mean for entry, mean in means.items() if math.isfinite(mean)}
     if not finite:
         return set()
     best = max(finite.values()) if protocol.direction == "maximize" else min(finite.values())
-    return {entry for entry, mean in finite.items() if math.isclose(mean, best, rel_tol=1e-9, abs_tol=1e-12)}
+    return {
+        entry
+        for entry, mean in finite.items()
+        if math.isclose(mean, best, rel_tol=1e-9, abs_tol=1e-12)
+    }
 
 
 def entries_of(cells: list[Cell]) -> list[str]:
@@ -113,7 +124,12 @@ def rich_table(cells: list[Cell], protocols: dict[str, Protocol], title: str) ->
         texts = []
         for task, row in grid.items():
             cell = row.get(entry)
-            texts.append(Text("-" if cell is None else cell.text(), style="bold" if entry in best[task] else ""))
+            texts.append(
+                Text(
+                    "-" if cell is None else cell.text(),
+                    style="bold" if entry in best[task] else "",
+                )
+            )
         table.add_row(entry, *texts)
     return table
 
@@ -136,7 +152,9 @@ def markdown_table(cells: list[Cell], protocols: dict[str, Protocol]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_markdown(path: Path, cells: list[Cell], protocols: dict[str, Protocol], notes: list[str]) -> None:
+def write_markdown(
+    path: Path, cells: list[Cell], protocols: dict[str, Protocol], notes: list[str]
+) -> None:
     """leaderboard.md: the table, each task's protocol, and `notes` (the command, the hours)."""
     parts = [markdown_table(cells, protocols), ""]
     parts += [f"- {protocol.task}: {protocol.line()}" for protocol in protocols.values()]
@@ -169,7 +187,8 @@ CSV_COLUMNS = (
 
 
 def write_csv(path: Path, cells: list[Cell], protocols: dict[str, Protocol]) -> None:
-    """leaderboard.csv: one row per task x entry, CSV_COLUMNS (the validation's summary, the tuning's values)."""
+    """leaderboard.csv: one row per task x entry, CSV_COLUMNS (the validation's summary, the
+    tuning's values)."""
     grid = by_task(cells)
     best = {task: winners(list(row.values()), protocols[task]) for task, row in grid.items()}
     try:
@@ -178,7 +197,11 @@ def write_csv(path: Path, cells: list[Cell], protocols: dict[str, Protocol]) -> 
             writer.writerow(CSV_COLUMNS)
             for cell in cells:
                 protocol, summary = protocols[cell.task], cell.summary
-                stats = [] if summary is None else [summary.mean, summary.ci95, summary.min, summary.max, summary.n]
+                stats = (
+                    []
+                    if summary is None
+                    else [summary.mean, summary.ci95, summary.min, summary.max, summary.n]
+                )
                 writer.writerow(
                     [
                         cell.task,
@@ -204,21 +227,29 @@ def write_csv(path: Path, cells: list[Cell], protocols: dict[str, Protocol]) -> 
 
 
 def write_plot(path: Path, cells: list[Cell], protocols: dict[str, Protocol], title: str) -> bool:
-    """leaderboard.png: a panel per task, each entry's mean as a dot with its 95% interval as a bar (the winner
-    filled in), so overlapping intervals show where the order is not settled. False without matplotlib."""
+    """leaderboard.png: a panel per task, each entry's mean as a dot with its 95% interval as a bar
+    (the winner filled in), so overlapping intervals show where the order is not settled. False
+    without matplotlib."""
     plt = optional_pyplot()
     if plt is None:
         return False
     grid = by_task(cells)
     entries = entries_of(cells)
-    figure, axes = plt.subplots(1, len(grid), figsize=(3.2 * len(grid) + 1.5, 0.4 * len(entries) + 1.6), squeeze=False)
+    figure, axes = plt.subplots(
+        1, len(grid), figsize=(3.2 * len(grid) + 1.5, 0.4 * len(entries) + 1.6), squeeze=False
+    )
     for axis, (task, row) in zip(axes[0], grid.items(), strict=True):
         best = winners(list(row.values()), protocols[task])
         for y, entry in enumerate(entries):
             cell = row.get(entry)
             summary = None if cell is None else cell.summary
             if summary is None:
-                axis.text(0.02, y, "failed" if cell is not None else "-", transform=axis.get_yaxis_transform())
+                axis.text(
+                    0.02,
+                    y,
+                    "failed" if cell is not None else "-",
+                    transform=axis.get_yaxis_transform(),
+                )
                 continue
             error = 0.0 if math.isnan(summary.ci95) else summary.ci95
             filled = entry in best
@@ -258,17 +289,22 @@ def record_run(out: Path, seconds: float, cpus: int, finished: bool) -> list[dic
 
 
 def hours_line(runs: list[dict[str, Any]]) -> str:
-    """E.g. "wall time 12:30 on 2 cores (0.42 core-hours held: wall time x cores); all 2 runs into this folder:
-    15:00, 0.50 core-hours": this run's, from Ray's start to the last validation, and every run's recorded."""
+    """E.g. "wall time 12:30 on 2 cores (0.42 core-hours held: wall time x cores); all 2 runs into
+    this folder: 15:00, 0.50 core-hours": this run's, from Ray's start to the last validation, and
+    every run's recorded."""
     last = runs[-1]
     line = (
-        f"wall time {clock_time(last['wall_s'])} on {last['cpus']} cores ({last['wall_s'] * last['cpus'] / 3600:.2f} "
+        f"wall time {clock_time(last['wall_s'])} on {last['cpus']} cores "
+        f"({last['wall_s'] * last['cpus'] / 3600:.2f} "
         "core-hours held: wall time x cores)"
     )
     if len(runs) > 1:
         total = sum(run["wall_s"] for run in runs)
         core_hours = sum(run["wall_s"] * run["cpus"] for run in runs) / 3600
-        line += f"; all {len(runs)} runs into this folder: {clock_time(total)}, {core_hours:.2f} core-hours"
+        line += (
+            f"; all {len(runs)} runs into this folder: {clock_time(total)}, {core_hours:.2f} "
+            "core-hours"
+        )
     return line
 
 

@@ -5,8 +5,9 @@ conditions.{png,html}   each condition's metric (mean over seeds) of each trial,
 importance.{png,html}   each parameter's importance to the objective (fANOVA), from 2 completed trials on
 best_episode.{png,html} the best trial's episode (seed 0), drawn by evaluate's plot code
 
-HTML plots are plotly files with the library inlined (they open offline); PNGs are drawn with matplotlib.
-"""
+HTML plots are plotly files with the library inlined (they open offline); PNGs are drawn with
+matplotlib.
+"""  # noqa: E501
 
 import csv
 import json
@@ -25,7 +26,8 @@ from judo.tuning.space import Param
 from judo.tuning.study import import_optuna, is_baseline, is_feasible, ranked_trials
 
 LIMIT_HITS = "limit_hits"
-"""Evaluate's metric of the [safety] limits' hits per episode (judo.evaluation.episode), shown beside the score."""
+"""Evaluate's metric of the [safety] limits' hits per episode (judo.evaluation.episode), shown
+beside the score."""
 
 
 def has_limit_hits(trials: list[Any]) -> bool:
@@ -40,19 +42,31 @@ def fmt(value: Any) -> str:
     return str(value)
 
 
-def top_trials_table(study: Any, objective: Objective, space: list[Param], count: int = 10) -> Table:
-    """The best `count` completed trials: value (and the mean limit hits per episode under [safety] limits), median
-    plan time, feasibility and parameters."""
+def top_trials_table(
+    study: Any, objective: Objective, space: list[Param], count: int = 10
+) -> Table:
+    """The best `count` completed trials: value (and the mean limit hits per episode under [safety]
+    limits), median plan time, feasibility and parameters."""
     trials = ranked_trials(study, objective)
     failed = len(study.get_trials(deepcopy=False, states=(import_optuna().trial.TrialState.FAIL,)))
-    table = Table(title=f"top trials of {study.study_name}: {objective.metric} ({objective.direction})")
+    table = Table(
+        title=f"top trials of {study.study_name}: {objective.metric} ({objective.direction})"
+    )
     table.caption = f"{len(trials)} completed, {failed} failed"
     fields = [p.field for p in space]
     labels = [p.field if fields.count(p.field) == 1 else p.name for p in space]
     conditions = condition_labels(trials)
     shown = conditions if len(conditions) > 1 else []
     hits = ["limit hits"] if has_limit_hits(trials) else []
-    for column in ("trial", objective.metric, *hits, *map(short_label, shown), "plan ms", "feasible", *labels):
+    for column in (
+        "trial",
+        objective.metric,
+        *hits,
+        *map(short_label, shown),
+        "plan ms",
+        "feasible",
+        *labels,
+    ):
         table.add_column(column, justify="left" if column in ("feasible",) else "right")
     for trial in trials[:count]:
         table.add_row(
@@ -79,16 +93,20 @@ def short_label(label: str) -> str:
 
 def condition_labels(trials: list[Any]) -> list[str]:
     """The condition labels the trials were scored under, in order of first appearance."""
-    return list(dict.fromkeys(label for trial in trials for label in trial.user_attrs.get("conditions", {})))
+    return list(
+        dict.fromkeys(label for trial in trials for label in trial.user_attrs.get("conditions", {}))
+    )
 
 
 def write_trials_csv(path: Path, study: Any, metric: str = "value") -> None:
-    """One row per trial: number, state, value, under [safety] limits `limit_hits` (the mean hits per episode), the
-    objective `metric` under each condition (a column `METRIC@LABEL` per condition), plan_ms, feasible, failure, each
-    parameter and each other metric's mean."""
+    """One row per trial: number, state, value, under [safety] limits `limit_hits` (the mean hits
+    per episode), the objective `metric` under each condition (a column `METRIC@LABEL` per
+    condition), plan_ms, feasible, failure, each parameter and each other metric's mean."""
     trials = study.get_trials(deepcopy=False)
     params = list(dict.fromkeys(name for trial in trials for name in trial.params))
-    metrics = list(dict.fromkeys(name for trial in trials for name in trial.user_attrs.get("metrics", {})))
+    metrics = list(
+        dict.fromkeys(name for trial in trials for name in trial.user_attrs.get("metrics", {}))
+    )
     hits = [LIMIT_HITS] if LIMIT_HITS in metrics else []
     metrics = [name for name in metrics if name not in hits]
     conditions = condition_labels(trials)
@@ -115,7 +133,10 @@ def write_trials_csv(path: Path, study: Any, metric: str = "value") -> None:
                         trial.state.name,
                         "" if trial.value is None else trial.value,
                         *(trial.user_attrs.get("metrics", {}).get(name, "") for name in hits),
-                        *(trial.user_attrs.get("conditions", {}).get(label, "") for label in conditions),
+                        *(
+                            trial.user_attrs.get("conditions", {}).get(label, "")
+                            for label in conditions
+                        ),
                         trial.user_attrs.get("plan_ms", ""),
                         is_feasible(trial),
                         failure_of(trial) or "",
@@ -128,7 +149,8 @@ def write_trials_csv(path: Path, study: Any, metric: str = "value") -> None:
 
 
 def write_study_plots(out: Path, study: Any, objective: Objective) -> list[Path]:
-    """history and (with 2+ completed trials) importance plots as PNG and HTML; returns the paths written."""
+    """history and (with 2+ completed trials) importance plots as PNG and HTML; returns the paths
+    written."""
     optuna = import_optuna()
     from optuna.visualization import matplotlib as optuna_matplotlib
 
@@ -136,11 +158,19 @@ def write_study_plots(out: Path, study: Any, objective: Objective) -> list[Path]
     if not complete:
         return []
     plots: list[tuple[str, Any, Any]] = [
-        ("history", optuna.visualization.plot_optimization_history, optuna_matplotlib.plot_optimization_history)
+        (
+            "history",
+            optuna.visualization.plot_optimization_history,
+            optuna_matplotlib.plot_optimization_history,
+        )
     ]
     if len(complete) >= 2 and complete[0].params:
         plots.append(
-            ("importance", optuna.visualization.plot_param_importances, optuna_matplotlib.plot_param_importances)
+            (
+                "importance",
+                optuna.visualization.plot_param_importances,
+                optuna_matplotlib.plot_param_importances,
+            )
         )
     written = []
     for name, plotly_plot, matplotlib_plot in plots:
@@ -151,21 +181,31 @@ def write_study_plots(out: Path, study: Any, objective: Objective) -> list[Path]
                 figure.write_html(out / f"{name}.html", include_plotlyjs=True)
                 written.append(out / f"{name}.html")
                 written += write_png(out / f"{name}.png", matplotlib_plot, study, objective)
-        except (ValueError, RuntimeError, ZeroDivisionError) as err:  # e.g. importances of constant values
+        # e.g. importances of constant values
+        except (ValueError, RuntimeError, ZeroDivisionError) as err:
             (out / f"{name}.txt").write_text(f"no {name} plot: {err}\n")
     return written + write_conditions_plots(out, complete, objective)
 
 
 def write_conditions_plots(out: Path, complete: list[Any], objective: Objective) -> list[Path]:
-    """conditions.{html,png}: each condition's metric against the trial number, with 2+ conditions."""
+    """conditions.{html,png}: each condition's metric against the trial number, with 2+
+    conditions."""
     labels = condition_labels(complete)
     if len(labels) < 2:
         return []
     import plotly.graph_objects as go
 
     numbers = [trial.number for trial in complete]
-    series = {label: [trial.user_attrs.get("conditions", {}).get(label) for trial in complete] for label in labels}
-    figure = go.Figure([go.Scatter(x=numbers, y=ys, mode="lines+markers", name=label) for label, ys in series.items()])
+    series = {
+        label: [trial.user_attrs.get("conditions", {}).get(label) for trial in complete]
+        for label in labels
+    }
+    figure = go.Figure(
+        [
+            go.Scatter(x=numbers, y=ys, mode="lines+markers", name=label)
+            for label, ys in series.items()
+        ]
+    )
     figure.update_layout(
         title=f"{objective.metric} under each condition (mean over seeds)",
         xaxis_title="trial",
@@ -179,7 +219,9 @@ def write_conditions_plots(out: Path, complete: list[Any], objective: Objective)
     figure, axes = plt.subplots(figsize=(8, 5))
     for label, ys in series.items():
         axes.plot(numbers, [math.nan if y is None else y for y in ys], marker="o", label=label)
-    axes.set(xlabel="trial", ylabel=objective.metric, title=f"{objective.metric} under each condition")
+    axes.set(
+        xlabel="trial", ylabel=objective.metric, title=f"{objective.metric} under each condition"
+    )
     axes.legend()
     figure.tight_layout()
     figure.savefig(out / "conditions.png", dpi=100)
@@ -188,7 +230,8 @@ def write_conditions_plots(out: Path, complete: list[Any], objective: Objective)
 
 
 def write_png(path: Path, plot: Any, study: Any, objective: Objective) -> list[Path]:
-    """Draw `plot` (an optuna.visualization.matplotlib function) to `path`; [] when matplotlib is missing."""
+    """Draw `plot` (an optuna.visualization.matplotlib function) to `path`; [] when matplotlib is
+    missing."""
     plt = optional_pyplot()
     if plt is None:
         return []
@@ -203,7 +246,10 @@ def write_png(path: Path, plot: Any, study: Any, objective: Objective) -> list[P
 
 def before_after_line(objective: Objective, baseline: Any, best: Any | None) -> str:
     """One line comparing the trial that ran the defaults with the best trial."""
-    before = f"defaults (trial {baseline.number}): {objective.metric} {fmt(baseline.value)}, plan {plan_text(baseline)}"
+    before = (
+        f"defaults (trial {baseline.number}): {objective.metric} {fmt(baseline.value)}, plan "
+        f"{plan_text(baseline)}"
+    )
     if best is None:
         return before + "; no feasible trial"
     if best.number == baseline.number:
@@ -233,7 +279,8 @@ def trial_summary(trial: Any | None) -> dict[str, Any] | None:
 def write_summary_json(
     path: Path, study: Any, objective: Objective, best: Any | None, baseline: Any | None = None
 ) -> None:
-    """The study's identity, its best trial and the trial that ran the defaults, as JSON (for scripts)."""
+    """The study's identity, its best trial and the trial that ran the defaults, as JSON (for
+    scripts)."""
     content = {
         "study": study.study_name,
         **study.user_attrs,

@@ -1,15 +1,17 @@
-"""The Optuna study of a tune: its storage, its sampler, and the ask/tell loop that keeps the Ray workers busy.
+"""The Optuna study of a tune: its storage, its sampler, and the ask/tell loop that keeps the Ray
+workers busy.
 
-Each trial's settings are asked for while other trials run; a finished trial is told at once, so
-the study in the database holds every finished trial and a crash or Ctrl-C loses none of them. A Ctrl-C
+Each trial's settings are asked for while other trials run; a finished trial is told at once, so the
+study in the database holds every finished trial and a crash or Ctrl-C loses none of them. A Ctrl-C
 is held off while a trial is asked for, submitted or told, so that every trial the loop started is
 either told or known to it (and failed as "interrupted"). Each running trial's heartbeat is kept in
 the storage (Optuna's RDB heartbeat): a trial left RUNNING by a process that died (kill -9, a crash)
-stops beating, and opening the study again marks it FAIL (tuning/heartbeat.py).
-Trial user attributes: "metrics" (each metric's mean over seeds and conditions), "conditions" (the
-objective metric's mean over seeds under each condition, by label), "plan_ms" (median control update),
+stops beating, and opening the study again marks it FAIL (tuning/heartbeat.py). Trial user
+attributes: "metrics" (each metric's mean over seeds and conditions), "conditions" (the objective
+metric's mean over seeds under each condition, by label), "plan_ms" (median control update),
 "failure" (why a trial failed), and with --max-plan-ms "constraint" ([plan_ms - max_plan_ms],
-feasible when <= 0), also set as the trial's Optuna constraint, which the TPE sampler takes into account.
+feasible when <= 0), also set as the trial's Optuna constraint, which the TPE sampler takes into
+account.
 """
 
 import math
@@ -39,7 +41,8 @@ GRID_POINTS = 3
 
 
 class StudyError(JudoError):
-    """A storage that cannot be opened, or a --study that was made for another task, optimizer or metric."""
+    """A storage that cannot be opened, or a --study that was made for another task, optimizer or
+    metric."""
 
 
 def import_optuna() -> Any:
@@ -47,8 +50,11 @@ def import_optuna() -> Any:
     optuna = import_extra("optuna", "python -m judo tune", "tune")
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
-    # Optuna records heartbeats in study.optimize only and warns of ask-and-tell with them: tune records them itself
-    warnings.filterwarnings("ignore", message="Heartbeat of storage is supposed to be used with Study.optimize")
+    # Optuna records heartbeats in study.optimize only and warns of ask-and-tell with them: tune
+    # records them itself
+    warnings.filterwarnings(
+        "ignore", message="Heartbeat of storage is supposed to be used with Study.optimize"
+    )
     return optuna
 
 
@@ -58,10 +64,15 @@ def constraint_of(trial: Any) -> list[float]:
 
 
 def grid_values(param: Param, points: int = GRID_POINTS) -> list[Any]:
-    """The grid of `param`: its choices, or `points` values spaced evenly (on a log scale when it is log)."""
+    """The grid of `param`: its choices, or `points` values spaced evenly (on a log scale when it is
+    log)."""
     if param.choices:
         return list(param.choices)
-    spaced = np.geomspace(param.low, param.high, points) if param.log else np.linspace(param.low, param.high, points)
+    spaced = (
+        np.geomspace(param.low, param.high, points)
+        if param.log
+        else np.linspace(param.low, param.high, points)
+    )
     if param.integer:
         return sorted({int(round(v)) for v in spaced})
     return [float(v) for v in spaced]
@@ -100,25 +111,33 @@ def sqlite_folder(storage: str) -> Path | None:
 def open_study(
     storage: str, study_name: str, objective: Objective, sampler: Any, identity: dict[str, str]
 ) -> tuple[Any, int, list[str]]:
-    """Create the study, or load it when it exists; returns (study, number of finished trials it already has,
-    `dead_trial_notes`: the trials of a dead process it marked FAIL first, and those still RUNNING).
+    """Create the study, or load it when it exists; returns (study, number of finished trials it
+    already has, `dead_trial_notes`: the trials of a dead process it marked FAIL first, and those
+    still RUNNING).
 
-    `identity` ({"task": ..., "optimizer": ..., "metric": ...}) is stored with a new study and must match
-    on resume. Raises StudyError for a storage URL Optuna cannot open.
+    `identity` ({"task": ..., "optimizer": ..., "metric": ...}) is stored with a new study and must
+    match on resume. Raises StudyError for a storage URL Optuna cannot open.
     """
     optuna = import_optuna()
     folder = sqlite_folder(storage)
     if folder is not None:
         folder.mkdir(parents=True, exist_ok=True)
     try:
-        rdb = optuna.storages.RDBStorage(storage, heartbeat_interval=HEARTBEAT_S, grace_period=STALE_AFTER_S)
+        rdb = optuna.storages.RDBStorage(
+            storage, heartbeat_interval=HEARTBEAT_S, grace_period=STALE_AFTER_S
+        )
         study = optuna.create_study(
-            storage=rdb, study_name=study_name, direction=objective.direction, sampler=sampler, load_if_exists=True
+            storage=rdb,
+            study_name=study_name,
+            direction=objective.direction,
+            sampler=sampler,
+            load_if_exists=True,
         )
     except Exception as err:  # sqlalchemy and optuna raise many kinds for a bad URL
         first_line = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
         raise StudyError(
-            f"cannot open the study storage {storage!r}: {first_line}. Expected an Optuna RDB URL such as "
+            f"cannot open the study storage {storage!r}: {first_line}. Expected an Optuna "
+            "RDB URL such as "
             "sqlite:///judo-tune.db or postgresql://user:password@host/database"
         ) from None
     stored = study.user_attrs
@@ -126,15 +145,23 @@ def open_study(
         for key, value in identity.items():
             study.set_user_attr(key, value)
     else:
-        mismatched = {key: (stored.get(key), value) for key, value in identity.items() if stored.get(key) != value}
+        mismatched = {
+            key: (stored.get(key), value)
+            for key, value in identity.items()
+            if stored.get(key) != value
+        }
         if mismatched:
-            what = ", ".join(f"{key} {old!r} (asked for {new!r})" for key, (old, new) in mismatched.items())
+            what = ", ".join(
+                f"{key} {old!r} (asked for {new!r})" for key, (old, new) in mismatched.items()
+            )
             raise StudyError(
-                f"study {study_name!r} in {storage} was made for {what}; pick another --study name to start a new one"
+                f"study {study_name!r} in {storage} was made for {what}; pick another "
+                "--study name to start a new one"
             )
     if study.direction.name.lower() != objective.direction:
         raise StudyError(
-            f"study {study_name!r} {study.direction.name.lower()}s its metric, not {objective.direction}; "
+            f"study {study_name!r} {study.direction.name.lower()}s its metric, not "
+            f"{objective.direction}; "
             "pick another --study name"
         )
     notes = dead_trial_notes(study)
@@ -155,9 +182,13 @@ def suggest(trial: Any, space: list[Param]) -> dict[str, Any]:
         if param.choices:
             values[param.name] = trial.suggest_categorical(param.name, list(param.choices))
         elif param.integer:
-            values[param.name] = trial.suggest_int(param.name, int(param.low), int(param.high), log=param.log)
+            values[param.name] = trial.suggest_int(
+                param.name, int(param.low), int(param.high), log=param.log
+            )
         else:
-            values[param.name] = trial.suggest_float(param.name, param.low, param.high, log=param.log)
+            values[param.name] = trial.suggest_float(
+                param.name, param.low, param.high, log=param.log
+            )
     return values
 
 
@@ -197,20 +228,23 @@ def run_trials(
     max_plan_ms: float | None,
     on_trial: Callable[[Progress], None] | None = None,
 ) -> None:
-    """Run trials on Ray until the study has `target` finished trials, keeping about `concurrency` episodes running.
+    """Run trials on Ray until the study has `target` finished trials, keeping about `concurrency`
+    episodes running.
 
-    Each trial's episodes (a condition x a seed each) are Ray tasks of their own; a new trial is asked for
-    while fewer than `concurrency` episodes are pending, and a trial is told once all its episodes are in.
-    On Ctrl-C the running trials are cancelled and stored as failed ("interrupted"), and
-    KeyboardInterrupt is raised again; every finished trial is already in the storage. A Ctrl-C that lands
-    while trials are asked for and submitted, or told, takes effect once that is done, so that no trial is
-    left RUNNING. Each running trial's heartbeat is recorded every HEARTBEAT_S seconds (`Heartbeats`).
+    Each trial's episodes (a condition x a seed each) are Ray tasks of their own; a new trial is
+    asked for while fewer than `concurrency` episodes are pending, and a trial is told once all its
+    episodes are in. On Ctrl-C the running trials are cancelled and stored as failed
+    ("interrupted"), and KeyboardInterrupt is raised again; every finished trial is already in the
+    storage. A Ctrl-C that lands while trials are asked for and submitted, or told, takes effect
+    once that is done, so that no trial is left RUNNING. Each running trial's heartbeat is recorded
+    every HEARTBEAT_S seconds (`Heartbeats`).
     """
     optuna = import_optuna()
     finished = len(finished_trials(study))
     to_start = target - finished
     pending: dict[Any, tuple[int, int, int]] = {}  # ObjectRef -> (trial number, condition, seed)
-    running: dict[int, tuple[Any, list[EpisodeOutcome[None]]]] = {}  # trial number -> (optuna Trial, episodes so far)
+    # trial number -> (optuna Trial, episodes so far)
+    running: dict[int, tuple[Any, list[EpisodeOutcome[None]]]] = {}
     per_trial = len(spec.conditions) * spec.seeds
     with Heartbeats(study) as heartbeats:
         try:
@@ -231,7 +265,8 @@ def run_trials(
                     for ref in done:
                         number, condition, seed = pending.pop(ref)
                         trial, episodes = running[number]
-                        lost = partial(EpisodeOutcome.failed, seed, condition=condition)  # a Ray task that died
+                        # a Ray task that died
+                        lost = partial(EpisodeOutcome.failed, seed, condition=condition)
                         episodes.append(get(ref, lost))
                         if len(episodes) < per_trial:
                             continue
@@ -243,7 +278,8 @@ def run_trials(
                         if on_trial is not None:
                             on_trial(Progress(finished, target, outcome))
         except KeyboardInterrupt:
-            with sigint_deferred():  # a second Ctrl-C does not cut the failing of the running trials short
+            # a second Ctrl-C does not cut the failing of the running trials short
+            with sigint_deferred():
                 cancel(list(pending))
                 for trial, _ in running.values():
                     trial.set_user_attr("failure", "interrupted")
@@ -290,7 +326,9 @@ def ranked_trials(study: Any, objective: Objective) -> list[Any]:
     optuna = import_optuna()
     complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
     sign = -1.0 if objective.direction == "maximize" else 1.0
-    return sorted(complete, key=lambda trial: (not is_feasible(trial), sign * trial.value, trial.number))
+    return sorted(
+        complete, key=lambda trial: (not is_feasible(trial), sign * trial.value, trial.number)
+    )
 
 
 def best_trial(study: Any, objective: Objective) -> Any | None:

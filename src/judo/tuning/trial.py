@@ -1,10 +1,10 @@
 """One trial: the task x optimizer with the trial's settings, over seeded closed-loop episodes.
 
-The episodes are evaluate's (`judo.evaluation.seeded.run_seeded_episode`, the one seeded episode runner), one
-per seed and condition (tuning/conditions.py), with the same latency options. `run_condition_seed` is what
-each Ray task runs and `score_trial` combines a trial's episodes; neither raises: an exception, a
-non-finite metric, a diverged simulation or an update with no finite reward makes the outcome failed,
-with the reason.
+The episodes are evaluate's (`judo.evaluation.seeded.run_seeded_episode`, the one seeded episode
+runner), one per seed and condition (tuning/conditions.py), with the same latency options.
+`run_condition_seed` is what each Ray task runs and `score_trial` combines a trial's episodes;
+neither raises: an exception, a non-finite metric, a diverged simulation or an update with no finite
+reward makes the outcome failed, with the reason.
 """
 
 import math
@@ -37,9 +37,11 @@ class TrialSpec:
             that sets nothing runs the study's latency at the task's rate.
         aggregate, cvar_alpha: how the conditions' metrics become the trial's value.
         maximize: whether the metric is better higher (which condition is the worst).
-        sensing: how every episode's plant is observed and estimated (--observe, --sensor-*, --estimator).
+        sensing: how every episode's plant is observed and
+            estimated (--observe, --sensor-*, --estimator).
         first_seed: the seed of each condition's first episode (tune --first-seed).
-        plant_overrides: --plant-overrides entries (FIELD.ELEMENT=VALUE), the simulated plant's model fields.
+        plant_overrides: --plant-overrides entries (FIELD.ELEMENT=VALUE), the simulated plant's
+            model fields.
     """
 
     task: str
@@ -91,8 +93,8 @@ class TrialOutcome:
 def run_seeded_episodes(
     spec: TrialSpec, values: dict[str, Any], seeds: range, condition: Condition | None = None
 ) -> list[EpisodeResult]:
-    """One episode per seed with `values` ({`kind.field`: value}) over the fixed ones, each by the one seeded
-    episode runner (`judo.evaluation.seeded.run_seeded_episode`); raises on failure.
+    """One episode per seed with `values` ({`kind.field`: value}) over the fixed ones, each by the
+    one seeded episode runner (`judo.evaluation.seeded.run_seeded_episode`); raises on failure.
 
     `condition` (None: `spec.conditions[0]`) sets the controller's control_freq and the latency.
     """
@@ -115,19 +117,27 @@ def run_seeded_episodes(
     return [run_seeded_episode(episode, seed) for seed in seeds]
 
 
-def run_condition_seed(spec: TrialSpec, values: dict[str, Any], condition: int, seed: int) -> EpisodeOutcome[None]:
-    """Run one episode of the trial (seed `seed` under condition number `condition`), what each Ray task of a study
-    runs; never raises. A failed control update fails the episode, and so the trial (`episode_failure`)."""
+def run_condition_seed(
+    spec: TrialSpec, values: dict[str, Any], condition: int, seed: int
+) -> EpisodeOutcome[None]:
+    """Run one episode of the trial (seed `seed` under condition number `condition`), what each Ray
+    task of a study runs; never raises. A failed control update fails the episode, and so the trial
+    (`episode_failure`)."""
     try:
-        (result,) = run_seeded_episodes(spec, values, range(seed, seed + 1), spec.conditions[condition])
+        (result,) = run_seeded_episodes(
+            spec, values, range(seed, seed + 1), spec.conditions[condition]
+        )
     except Exception as err:  # a user's task may raise anything; the study goes on
         return EpisodeOutcome.failed(seed, failure_reason(err), condition)
-    return EpisodeOutcome.of(result, None, episode_failure(result, failed_updates_fail=True), condition)
+    return EpisodeOutcome.of(
+        result, None, episode_failure(result, failed_updates_fail=True), condition
+    )
 
 
 def score_trial(spec: TrialSpec, episodes: list[EpisodeOutcome[None]]) -> TrialOutcome:
     """The trial's outcome from all its episodes: each condition's mean of `spec.metric` over seeds,
-    aggregated by `spec.aggregate`; `metrics` are means over every episode. Failed when any episode failed."""
+    aggregated by `spec.aggregate`; `metrics` are means over every episode. Failed when any episode
+    failed."""
     from judo.tuning.conditions import aggregate
 
     labels = [condition.label for condition in spec.conditions]
@@ -137,11 +147,18 @@ def score_trial(spec: TrialSpec, episodes: list[EpisodeOutcome[None]]) -> TrialO
             where = f"{labels[episode.condition]}: " if len(labels) > 1 else ""
             return TrialOutcome(math.nan, {}, math.nan, where + episode.failure)
     names = list(dict.fromkeys(name for episode in episodes for name in episode.metrics))
-    metrics = {name: float(np.mean([episode.metrics.get(name, np.nan) for episode in episodes])) for name in names}
-    update_ms = np.concatenate([episode.update_ms for episode in episodes]) if episodes else np.zeros(0)
+    metrics = {
+        name: float(np.mean([episode.metrics.get(name, np.nan) for episode in episodes]))
+        for name in names
+    }
+    update_ms = (
+        np.concatenate([episode.update_ms for episode in episodes]) if episodes else np.zeros(0)
+    )
     plan_ms = float(np.median(update_ms)) if len(update_ms) else math.nan
     per_condition = {
-        label: float(np.mean([e.metrics.get(spec.metric, np.nan) for e in episodes if e.condition == index]))
+        label: float(
+            np.mean([e.metrics.get(spec.metric, np.nan) for e in episodes if e.condition == index])
+        )
         for index, label in enumerate(labels)
     }
     value = aggregate(list(per_condition.values()), spec.aggregate, spec.maximize, spec.cvar_alpha)
@@ -150,7 +167,8 @@ def score_trial(spec: TrialSpec, episodes: list[EpisodeOutcome[None]]) -> TrialO
 
 
 def run_trial(spec: TrialSpec, values: dict[str, Any]) -> TrialOutcome:
-    """Run every episode of the trial here, one after another (a study runs each as its own Ray task); never raises."""
+    """Run every episode of the trial here, one after another (a study runs each as its own Ray
+    task); never raises."""
     episodes = [
         run_condition_seed(spec, values, condition, seed)
         for condition in range(len(spec.conditions))

@@ -1,7 +1,7 @@
 """`python -m judo tune`: search a task x optimizer's settings for the best closed-loop metric.
 
 python -m judo tune --task leap_cube --optimizer mppi --metric goals_per_minute --trials 60 --seeds 3 --duration 20
-"""
+"""  # noqa: E501
 
 import os
 import shlex
@@ -55,19 +55,29 @@ from judo.tuning.space import Param, build_space, parse_fixed
 from judo.tuning.trial import TrialSpec, run_seeded_episodes
 
 DESCRIPTION = (
-    "Tune a task x optimizer: search the optimizer's settings (every numeric field with a slider range, plus "
-    "controller.horizon, each from 1/3 to 3 times its value in force; or --params) for the best value of one "
-    "of the task's evaluate metrics, averaged over seeded closed-loop episodes under several conditions "
-    "(--conditions; by default the task's check set: 20 Hz (or the task's minimum rate) and its own rate, crossed with no latency "
-    "and 25 ms, 50 ms for the LEAP and fr3 tasks), aggregated by --aggregate. Optuna chooses the trials (TPE "
-    "by default); each episode (a condition x a seed) runs as a Ray task on one core, on a local Ray or a "
-    "cluster (--address). The study is stored in a database (SQLite by default), so the same command resumes "
+    "Tune a task x optimizer: search the optimizer's settings (every numeric field with a "
+    "slider range, plus "
+    "controller.horizon, each from 1/3 to 3 times its value in force; or --params) for the "
+    "best value of one "
+    "of the task's evaluate metrics, averaged over seeded closed-loop episodes under several "
+    "conditions "
+    "(--conditions; by default the task's check set: 20 Hz (or the task's minimum rate) and "
+    "its own rate, crossed with no latency "
+    "and 25 ms, 50 ms for the LEAP and fr3 tasks), aggregated by --aggregate. Optuna chooses "
+    "the trials (TPE "
+    "by default); each episode (a condition x a seed) runs as a Ray task on one core, on a "
+    "local Ray or a "
+    "cluster (--address). The study is stored in a database (SQLite by default), so the same "
+    "command resumes "
     "it. Writes to --out: trials.csv, plots (PNG and HTML), summary.json, and best.toml, which "
-    "`python -m judo --config` and `evaluate --config` read. With --observe sensors (--sensor-*, --estimator) "
-    "every episode plans from the task's measured sensors through the estimator. Needs the `tune` extra: pip install -e '.[tune]'."
+    "`python -m judo --config` and `evaluate --config` read. With --observe sensors "
+    "(--sensor-*, --estimator) "
+    "every episode plans from the task's measured sensors through the estimator. Needs the "
+    "`tune` extra: pip install -e '.[tune]'."
 )
 PROBE_DURATION = 0.2
-"""Seconds of sim time of the check episode run before the study, which also lists the task's metrics."""
+"""Seconds of sim time of the check episode run before the study, which also lists the task's
+metrics."""
 
 
 @dataclass
@@ -78,76 +88,111 @@ class TuneArgs(SensingFlags):
     """Task to tune, by registered name."""
     optimizer: Annotated[str, tyro.conf.arg(metavar="NAME")]
     """Optimizer to tune, by registered name."""
-    metric: Annotated[str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: mean_reward)")] = None
-    """The evaluate metric to optimise, averaged over seeds; its direction is the task's (lower_is_better)."""
+    metric: Annotated[
+        str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: mean_reward)")
+    ] = None
+    """The evaluate metric to optimise, averaged over seeds; its direction is the task's
+    (lower_is_better)."""
     trials: int = 20
     """Finished trials the study should have; a resumed study runs only the missing ones."""
     seeds: int = 3
     """Episodes per trial and condition, with seeds first_seed to first_seed + seeds - 1."""
     first_seed: int = 0
-    """Seed of each condition's first episode: e.g. --first-seed 1000 tunes on seeds an `evaluate` of seeds 0 to
-    999 never sees. Not part of a study's identity (as --seeds is not): a resumed study scores its new trials on
-    these seeds."""
+    """Seed of each condition's first episode: e.g. --first-seed 1000 tunes on seeds an `evaluate`
+    of seeds 0 to 999 never sees. Not part of a study's identity (as --seeds is not): a resumed
+    study scores its new trials on these seeds."""
     duration: float = 10.0
     """Length of each episode in seconds of sim time."""
     params: Annotated[
-        tuple[str, ...], tyro.conf.arg(metavar="KIND.FIELD[=LOW:HIGH] ...", help_behavior_hint="(default: see above)")
+        tuple[str, ...],
+        tyro.conf.arg(
+            metavar="KIND.FIELD[=LOW:HIGH] ...", help_behavior_hint="(default: see above)"
+        ),
     ] = ()
-    """Parameters to search instead of the default space, e.g. optimizer.temperature controller.horizon
-    task.w_position; LOW:HIGH replaces the slider range. KIND is controller, optimizer or task."""
-    fix: Annotated[tuple[str, ...], tyro.conf.arg(metavar="KIND.FIELD=VALUE ...", help_behavior_hint="(optional)")] = ()
+    """Parameters to search instead of the default space, e.g. optimizer.temperature
+    controller.horizon task.w_position; LOW:HIGH replaces the slider range. KIND is controller,
+    optimizer or task."""
+    fix: Annotated[
+        tuple[str, ...],
+        tyro.conf.arg(metavar="KIND.FIELD=VALUE ...", help_behavior_hint="(optional)"),
+    ] = ()
     """Fields pinned for every trial (and left out of the space), e.g. optimizer.num_rollouts=64."""
-    max_plan_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
-    """Best quality at a median control update of at most this: slower trials are kept but marked infeasible."""
+    max_plan_ms: Annotated[
+        float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")
+    ] = None
+    """Best quality at a median control update of at most this: slower trials are kept but marked
+    infeasible."""
     direction: Annotated[
-        Direction | None, tyro.conf.arg(metavar="{maximize,minimize}", help_behavior_hint="(default: the metric's)")
+        Direction | None,
+        tyro.conf.arg(metavar="{maximize,minimize}", help_behavior_hint="(default: the metric's)"),
     ] = None
     """Override the metric's direction (for a metric of your own task that is better lower)."""
     conditions: Annotated[
         tuple[str, ...],
-        tyro.conf.arg(metavar="NAME=V1,V2,... ...", help_behavior_hint="(default: the task's check set)"),
+        tyro.conf.arg(
+            metavar="NAME=V1,V2,... ...", help_behavior_hint="(default: the task's check set)"
+        ),
     ] = ()
-    """Episode settings every trial is scored under: latency_ms (fixed planning latency) and control_freq (Hz),
-    e.g. latency_ms=0,25,50 control_freq=20,50. Crossed: every combination (here 6 conditions); with
-    --conditions-mode listed the i-th values of each name make the i-th condition. Default: control_freq 20
-    and the task's own rate, crossed with latency_ms 0 and 25 (50 for leap_cube, leap_cube_down, fr3_pick),
-    unless --latency or --latency-ms picks a single condition."""
+    """Episode settings every trial is scored under: latency_ms (fixed planning latency) and
+    control_freq (Hz), e.g. latency_ms=0,25,50 control_freq=20,50. Crossed: every combination (here
+    6 conditions); with --conditions-mode listed the i-th values of each name make the i-th
+    condition. Default: control_freq 20 and the task's own rate, crossed with latency_ms 0 and 25
+    (50 for leap_cube, leap_cube_down, fr3_pick), unless --latency or --latency-ms picks a single
+    condition."""
     conditions_mode: ConditionsMode = "crossed"
-    """How --conditions' lists combine: crossed (every combination) or listed (paired by position, equal lengths)."""
+    """How --conditions' lists combine: crossed (every combination) or listed (paired by position,
+    equal lengths)."""
     aggregate: Aggregate = "mean"
-    """How the conditions' metrics (each a mean over seeds) become the trial's value: their mean, the worst, or
-    cvar (the mean of the worst --cvar-alpha fraction of conditions)."""
+    """How the conditions' metrics (each a mean over seeds) become the trial's value: their mean,
+    the worst, or cvar (the mean of the worst --cvar-alpha fraction of conditions)."""
     cvar_alpha: float = 0.5
     """The fraction of worst conditions --aggregate cvar averages (at least one condition)."""
     latency: Literal["none", "measured"] = "none"
-    """Planning latency in the episodes, as for evaluate; measured runs one condition at the task's rate
-    (or each --conditions control_freq)."""
-    latency_ms: Annotated[float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")] = None
-    """Fixed planning latency in milliseconds of sim time, as for evaluate, instead of --latency: one condition
-    at the task's rate (or each --conditions control_freq); same as --conditions latency_ms=MS."""
+    """Planning latency in the episodes, as for evaluate; measured runs one condition at the task's
+    rate (or each --conditions control_freq)."""
+    latency_ms: Annotated[
+        float | None, tyro.conf.arg(metavar="MS", help_behavior_hint="(optional)")
+    ] = None
+    """Fixed planning latency in milliseconds of sim time, as for evaluate, instead of --latency:
+    one condition at the task's rate (or each --conditions control_freq); same as --conditions
+    latency_ms=MS."""
     sampler: Literal["tpe", "cmaes", "random", "grid"] = "tpe"
     """Optuna sampler: TPE, CMA-ES, random search, or a grid of 3 values per parameter."""
     seed: int = 0
     """Seed of the sampler."""
-    workers: Annotated[int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")] = None
-    """Trials run at once, each on one rollout thread (the CPUs of a local Ray; with --address, default all the cluster's CPUs)."""
-    address: Annotated[str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")] = None
-    """A running Ray cluster: auto (the one `ray start --head` started on this machine) or ray://HOST:10001."""
-    storage: Annotated[str | None, tyro.conf.arg(metavar="URL", help_behavior_hint="(default: sqlite in --out)")] = None
+    workers: Annotated[
+        int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")
+    ] = None
+    """Trials run at once, each on one rollout thread (the CPUs of a local Ray; with --address,
+    default all the cluster's CPUs)."""
+    address: Annotated[
+        str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")
+    ] = None
+    """A running Ray cluster: auto (the one `ray start --head` started on this machine) or
+    ray://HOST:10001."""
+    storage: Annotated[
+        str | None, tyro.conf.arg(metavar="URL", help_behavior_hint="(default: sqlite in --out)")
+    ] = None
     """Optuna RDB storage URL, e.g. sqlite:///judo-tune.db or postgresql://user:password@host/db."""
     study: Annotated[
-        str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: TASK-OPTIMIZER-METRIC)")
+        str | None,
+        tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: TASK-OPTIMIZER-METRIC)"),
     ] = None
     """Study name; an existing study of that name in the storage is resumed."""
-    out: Annotated[Path | None, tyro.conf.arg(metavar="DIR", help_behavior_hint="(default: tune-TASK-OPTIMIZER)")] = (
-        None
-    )
+    out: Annotated[
+        Path | None,
+        tyro.conf.arg(metavar="DIR", help_behavior_hint="(default: tune-TASK-OPTIMIZER)"),
+    ] = None
     """Folder for trials.csv, the plots, summary.json and best.toml."""
-    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
-    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task overrides."""
+    config: Annotated[
+        Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")
+    ] = None
+    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task
+    overrides."""
     plant_overrides: Annotated[tuple[str, ...], tyro.conf.arg(metavar="FIELD.ELEMENT=VALUE")] = ()
-    """MjModel fields of the simulated plant only, by element name (tune for a plant unlike the planning model),
-    e.g. body_mass.pole=0.13; after the --config file's [plant_overrides.TASK] (docs/sysid.md)."""
+    """MjModel fields of the simulated plant only, by element name (tune for a plant unlike the
+    planning model), e.g. body_mass.pole=0.13; after the --config file's [plant_overrides.TASK]
+    (docs/sysid.md)."""
 
     def validate(self) -> None:
         """Raise a JudoError for an argument out of range or a name that is not registered."""
@@ -156,9 +201,13 @@ class TuneArgs(SensingFlags):
         require(self.seeds >= 1, f"--seeds must be at least 1, got {self.seeds}")
         check_seed_range(self.first_seed, self.seeds, "--seeds")
         require(self.duration > 0, f"--duration must be positive, got {self.duration}")
-        require(self.workers is None or self.workers >= 1, f"--workers must be at least 1, got {self.workers}")
         require(
-            self.max_plan_ms is None or self.max_plan_ms > 0, f"--max-plan-ms must be positive, got {self.max_plan_ms}"
+            self.workers is None or self.workers >= 1,
+            f"--workers must be at least 1, got {self.workers}",
+        )
+        require(
+            self.max_plan_ms is None or self.max_plan_ms > 0,
+            f"--max-plan-ms must be positive, got {self.max_plan_ms}",
         )
         require(
             self.latency_ms is None or self.latency == "none",
@@ -168,15 +217,21 @@ class TuneArgs(SensingFlags):
         self.sensing()
 
     def condition_list(self) -> list[Condition]:
-        """The conditions every trial runs: --conditions, or one condition for --latency/--latency-ms, or the
-        task's check set. ConditionError for a bad entry, or a latency given both ways."""
+        """The conditions every trial runs: --conditions, or one condition for
+        --latency/--latency-ms, or the task's check set. ConditionError for a bad entry, or a
+        latency given both ways."""
         conditions = parse_conditions(self.conditions, self.conditions_mode)
         own_latency = self.latency_ms is not None or self.latency == "measured"
         if any(condition.latency_ms is not None for condition in conditions) and own_latency:
             flag = "--latency-ms" if self.latency_ms is not None else "--latency measured"
-            raise ConditionError(f"give the latency either in --conditions latency_ms=... or by {flag}, not both")
+            raise ConditionError(
+                f"give the latency either in --conditions latency_ms=... or by {flag}, not both"
+            )
         if self.latency_ms is not None:  # folded into every condition
-            return [replace(condition, latency_ms=self.latency_ms) for condition in conditions or [Condition()]]
+            return [
+                replace(condition, latency_ms=self.latency_ms)
+                for condition in conditions or [Condition()]
+            ]
         if conditions:
             return conditions
         return [Condition()] if own_latency else check_conditions(self.task)
@@ -195,19 +250,23 @@ class TuneArgs(SensingFlags):
 
 
 def probe(args: TuneArgs, fixed: dict[str, Any]) -> list[str]:
-    """Run one short episode with the default settings (and --fix) and return the metrics it reports.
+    """Run one short episode with the default settings (and --fix) and return the metrics it
+    reports.
 
     Raises JudoError when that episode fails, so a broken task stops the tune before Ray starts.
     """
     duration = min(PROBE_DURATION, args.duration)
-    spec = TrialSpec(args.task, args.optimizer, "mean_reward", 1, duration, fixed=fixed, sensing=args.sensing())
+    spec = TrialSpec(
+        args.task, args.optimizer, "mean_reward", 1, duration, fixed=fixed, sensing=args.sensing()
+    )
     try:
         (result,) = run_seeded_episodes(spec, {}, range(1))
     except JudoError:
         raise
     except Exception as err:  # a user's task may raise anything
         raise JudoError(
-            f"a {spec.duration:g} s check episode of {args.task} x {args.optimizer} with the default settings failed: "
+            f"a {spec.duration:g} s check episode of {args.task} x {args.optimizer} with the "
+            "default settings failed: "
             f"{type(err).__name__}: {err}"
         ) from None
     return list(result.metrics)
@@ -224,7 +283,8 @@ def progress_text(objective: Objective, best: float | None) -> str:
 
 
 def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
-    """Run the study described by `args`; returns the exit status. `command` is recorded in best.toml."""
+    """Run the study described by `args`; returns the exit status. `command` is recorded in
+    best.toml."""
     import judo.ray_cluster as cluster
     from judo.tuning import study as studies
 
@@ -233,9 +293,14 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     apply_config_file(args.config)
     args.validate()
     if args.plant_overrides:  # checked now against the plant, in one line
-        from judo.core.configuration.model_overrides import check_model_overrides, parse_override_entries
+        from judo.core.configuration.model_overrides import (
+            check_model_overrides,
+            parse_override_entries,
+        )
 
-        check_model_overrides(make_task(args.task).sim_model, parse_override_entries(args.plant_overrides))
+        check_model_overrides(
+            make_task(args.task).sim_model, parse_override_entries(args.plant_overrides)
+        )
     configs = default_configs(args.task, args.optimizer)
     fixed = parse_fixed(args.fix, configs)
     apply_values(configs, fixed)  # a pinned value the configs refuse fails now, not in every trial
@@ -272,7 +337,8 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
         "conditions": "; ".join(condition.label for condition in spec.conditions),
         "aggregate": aggregate_text(spec),
     }
-    if spec.sensing != Sensing():  # a study planning from sensors never resumes one from the full state
+    # a study planning from sensors never resumes one from the full state
+    if spec.sensing != Sensing():
         identity["sensing"] = repr(spec.sensing)
     out = args.out_dir()
     storage = args.storage_url()
@@ -282,26 +348,38 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     out.mkdir(parents=True, exist_ok=True)
     console = output_console()
     console.print(
-        f"study {study_name!r} in {storage}: {objective.direction} the {aggregate_text(spec)} of {objective.metric} "
+        f"study {study_name!r} in {storage}: {objective.direction} the "
+        f"{aggregate_text(spec)} of {objective.metric} "
         f"over {len(spec.conditions)} conditions ({identity['conditions']}), searching "
-        f"{', '.join(p.name for p in space)}" + (f"; resuming with {already} finished trials" if already else "")
+        f"{', '.join(p.name for p in space)}"
+        + (f"; resuming with {already} finished trials" if already else "")
     )
-    for note in notes:  # e.g. "resumed: trial 0 was left RUNNING by a process that died; marked FAIL"
+    # e.g. "resumed: trial 0 was left RUNNING by a process that died; marked FAIL"
+    for note in notes:
         console.print(f"resumed: {note}")
     connected = cluster.start_ray(args.address, args.workers or os.cpu_count() or 1)
     capacity = args.workers or cluster.cluster_cpus()
     best_so_far = studies.best_trial(study, objective)
     best_value = None if best_so_far is None else best_so_far.value
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+    )
     started = time.perf_counter()
     try:
         with progress_display(*columns) as progress:
-            bar = progress.add_task(progress_text(objective, best_value), total=target, completed=min(already, target))
+            bar = progress.add_task(
+                progress_text(objective, best_value), total=target, completed=min(already, target)
+            )
 
             def show(update: studies.Progress) -> None:
                 best = studies.best_trial(study, objective)
                 progress.update(
-                    bar, completed=update.finished, description=progress_text(objective, best and best.value)
+                    bar,
+                    completed=update.finished,
+                    description=progress_text(objective, best and best.value),
                 )
 
             studies.run_trials(study, space, spec, target, capacity, args.max_plan_ms, show)
@@ -321,7 +399,9 @@ def tune(args: TuneArgs, command: str = "python -m judo tune") -> int:
     finished = studies.finished_trials(study)
     if finished and all(failure_of(trial) for trial in finished):
         reason = failure_of(finished[0])
-        print(f"python -m judo tune: every trial failed; the first reason: {reason}", file=sys.stderr)
+        print(
+            f"python -m judo tune: every trial failed; the first reason: {reason}", file=sys.stderr
+        )
         return 1
     return 0
 
@@ -354,26 +434,35 @@ def write_outputs(
     report.write_summary_json(out / "summary.json", study, objective, best, baseline)
     written.append(out / "summary.json")
     if best is None:
-        console.print("no feasible completed trial, so no best.toml" + (" (see trials.csv)" if study.trials else ""))
+        console.print(
+            "no feasible completed trial, so no best.toml"
+            + (" (see trials.csv)" if study.trials else "")
+        )
     else:
         values = {**spec.fixed, **best.params}
         header = [
-            f"Best of study {study.study_name!r}: trial {best.number}, {objective.metric} = {best.value:.6g} "
+            f"Best of study {study.study_name!r}: trial {best.number}, {objective.metric} = "
+            f"{best.value:.6g} "
             f"({aggregate_text(spec)} of {len(spec.conditions)} conditions x "
             f"{seeds_label(args.first_seed, args.seeds)} x {args.duration:g} s), "
             f"median plan {best.user_attrs.get('plan_ms') or float('nan'):.3g} ms.",
             "Per condition: "
-            + ", ".join(f"{label}: {value:.4g}" for label, value in best.user_attrs.get("conditions", {}).items()),
+            + ", ".join(
+                f"{label}: {value:.4g}"
+                for label, value in best.user_attrs.get("conditions", {}).items()
+            ),
             *([] if comparison is None else [comparison]),
             f"Found by: {command}",
-            f"Use with: python -m judo --config {out / 'best.toml'}  (or evaluate --config ... --task ... --optimizer ...)",
+            f"Use with: python -m judo --config {out / 'best.toml'}  (or evaluate --config "
+            "... --task ... --optimizer ...)",
         ]
         write_best_toml(out / "best.toml", args.task, args.optimizer, values, header)
         written.append(out / "best.toml")
         (episode,) = run_seeded_episodes(spec, best.params, spec.seed_range()[:1])
         model = make_task(args.task).sim_model
         title = (
-            f"{args.task} x {args.optimizer}, best trial {best.number}, seed {episode.seed}, {spec.conditions[0].label}"
+            f"{args.task} x {args.optimizer}, best trial {best.number}, seed {episode.seed}, "
+            f"{spec.conditions[0].label}"
         )
         for suffix in (".html", ".png"):
             try:
@@ -385,9 +474,15 @@ def write_outputs(
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run `python -m judo tune` on `argv` (sys.argv[1:] when None); exits with status 2 on bad arguments."""
+    """Run `python -m judo tune` on `argv` (sys.argv[1:] when None); exits with status 2 on bad
+    arguments."""
     argv = merge_repeated(list(sys.argv[1:] if argv is None else argv))
-    args = tyro.cli(TuneArgs, args=argv, prog="python -m judo tune", description=DESCRIPTION + " " + name_listing())
+    args = tyro.cli(
+        TuneArgs,
+        args=argv,
+        prog="python -m judo tune",
+        description=DESCRIPTION + " " + name_listing(),
+    )
     try:
         check_count("--workers", args.workers, MAX_WORKERS)
         check_count("--trials", args.trials, MAX_SAMPLES)

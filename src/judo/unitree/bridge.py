@@ -1,30 +1,34 @@
 # pyright: reportAttributeAccessIssue=false
 # (a message's fields are its IDL dataclass's; cyclonedds types them loosely)
-"""`UnitreeSystem`: a Unitree Go2 or G1 under low-level control, over Unitree's own DDS messages, as judo's `System`.
+"""`UnitreeSystem`: a Unitree Go2 or G1 under low-level control, over Unitree's own DDS messages, as
+judo's `System`.
 
     python -m judo --task go2_stand --system unitree --headless [--unitree.interface eth0] [--unitree.robot g1]
 
-In: `rt/lowstate` (LowState_) becomes a reading with no `state`: the task's measured sensors (joint q and dq of each
-actuator's motor, the IMU's quaternion [w x y z], gyroscope and accelerometer, the Go2's foot forces), stamped by the
-robot's tick (milliseconds, made a reading time that never runs back: `judo.ros2.clock.RobotClock`), with the tick
-and judo's receive time (monotonic seconds) in the reading's metadata["tick"] and ["received"]; the task's
-estimator makes the state. `rt/sportmodestate` is never read: a robot under low-level control does not publish it.
+In: `rt/lowstate` (LowState_) becomes a reading with no `state`: the task's measured sensors (joint
+q and dq of each actuator's motor, the IMU's quaternion [w x y z], gyroscope and accelerometer, the
+Go2's foot forces), stamped by the robot's tick (milliseconds, made a reading time that never runs
+back: `judo.ros2.clock.RobotClock`), with the tick and judo's receive time (monotonic seconds) in
+the reading's metadata["tick"] and ["received"]; the task's estimator makes the state.
+`rt/sportmodestate` is never read: a robot under low-level control does not publish it.
 
-Out: `rt/lowcmd` (LowCmd_) once per `step()`, at `rate_hz`, with the action in force (the plan evaluated at each
-step) as each motor's target q, dq = tau = 0, kp and kd from the model's position actuators, mode 0x01, Unitree's
-header fields and CRC (`judo.unitree.crc`). A soft start ramps targets and gains in from the robot's pose over
-`soft_start_s`: at the first command, after `halt()` and after a silence.
+Out: `rt/lowcmd` (LowCmd_) once per `step()`, at `rate_hz`, with the action in force (the plan
+evaluated at each step) as each motor's target q, dq = tau = 0, kp and kd from the model's position
+actuators, mode 0x01, Unitree's header fields and CRC (`judo.unitree.crc`). A soft start ramps
+targets and gains in from the robot's pose over `soft_start_s`: at the first command, after `halt()`
+and after a silence.
 
-`halt()` sends Unitree's damping (kp = 0, kd = `DAMPING_KD`, tau = 0) and keeps sending it until the next `apply`.
-The same damping goes out while no valid reading has come for `silence_s` seconds, so a robot whose readings
-stopped (or whose process died) never gets a stiff command from a plan made before. A reading with a non-finite
-value, the wrong number of motors, a joint where the robot cannot be (`judo.ros2.joints.JointLayout`) or a tick that
-runs backwards is refused, and the reason logged (once, then every few seconds with a count).
+`halt()` sends Unitree's damping (kp = 0, kd = `DAMPING_KD`, tau = 0) and keeps sending it until the
+next `apply`. The same damping goes out while no valid reading has come for `silence_s` seconds, so
+a robot whose readings stopped (or whose process died) never gets a stiff command from a plan made
+before. A reading with a non-finite value, the wrong number of motors, a joint where the robot
+cannot be (`judo.ros2.joints.JointLayout`) or a tick that runs backwards is refused, and the reason
+logged (once, then every few seconds with a count).
 
-The remote's stop: a LowState_ whose `wireless_remote` shows L2 and B held together (`REMOTE_STOP`, Unitree's own
-damping combination) latches judo's stop (`judo.safety.stop.wire_request`) at every such reading, refused or not;
-the remote never clears it (the GUI's Clear stop button does).
-"""
+The remote's stop: a LowState_ whose `wireless_remote` shows L2 and B held together (`REMOTE_STOP`,
+Unitree's own damping combination) latches judo's stop (`judo.safety.stop.wire_request`) at every
+such reading, refused or not; the remote never clears it (the GUI's Clear stop button does).
+"""  # noqa: E501
 
 import logging
 import math
@@ -51,9 +55,27 @@ from judo.unitree.messages import LOWCMD, LOWSTATE
 
 logger = logging.getLogger("judo.unitree")
 
-REMOTE_KEYS = ("R1", "L1", "start", "select", "R2", "L2", "F1", "F2", "A", "B", "X", "Y", "up", "right", "down", "left")
-"""The remote's keys by bit of its 16-bit key field: bytes 2 and 3 (little-endian) of a LowState_'s 40
-`wireless_remote` bytes (Unitree's xRockerBtnDataStruct: 2 head bytes, the keys, then the sticks)."""
+REMOTE_KEYS = (
+    "R1",
+    "L1",
+    "start",
+    "select",
+    "R2",
+    "L2",
+    "F1",
+    "F2",
+    "A",
+    "B",
+    "X",
+    "Y",
+    "up",
+    "right",
+    "down",
+    "left",
+)
+"""The remote's keys by bit of its 16-bit key field: bytes 2 and 3 (little-endian) of a LowState_'s
+40 `wireless_remote` bytes (Unitree's xRockerBtnDataStruct: 2 head bytes, the keys, then the
+sticks)."""
 REMOTE_STOP = frozenset({"L2", "B"})
 """The keys that, held together, latch judo's stop."""
 REMOTE_SOURCE = "the Unitree remote (L2+B)"
@@ -64,8 +86,8 @@ class UnitreeSystem(System):
     """A Unitree robot driven by judo's closed loop.
 
     Args:
-        task: the task the robot runs; its model's actuators are the robot's motors (`judo.unitree.motors.Motors`)
-            and its `measured_sensors` what a reading holds.
+        task: the task the robot runs; its model's actuators are the robot's motors
+            (`judo.unitree.motors.Motors`) and its `measured_sensors` what a reading holds.
         options: robot, domain, interface, rate, soft start (`judo.ros2.options.UnitreeOptions`).
         refuse_other_writer: raise JudoError at start when another process already writes rt/lowcmd.
 
@@ -74,10 +96,13 @@ class UnitreeSystem(System):
     Attributes:
         motors: the model's actuators as the robot's motors.
         refused: {reason kind: count} of the readings refused so far.
-        commands_sent: LowCmd_ messages written so far; `damping_sent` how many of them were damping.
+        commands_sent: LowCmd_ messages written so far; `damping_sent` how many of them were
+            damping.
     """
 
-    def __init__(self, task: Task, options: UnitreeOptions | None = None, refuse_other_writer: bool = True) -> None:
+    def __init__(
+        self, task: Task, options: UnitreeOptions | None = None, refuse_other_writer: bool = True
+    ) -> None:
         from cyclonedds.core import Policy, Qos
         from cyclonedds.pub import DataWriter
         from cyclonedds.sub import DataReader
@@ -87,18 +112,26 @@ class UnitreeSystem(System):
         for name in ("rate_hz", "wait_s", "silence_s"):
             value = getattr(options, name)
             if not (math.isfinite(value) and value > 0):
-                raise ConfigError(f"--unitree.{name.replace('_', '-')} must be a positive number, got {value}")
+                raise ConfigError(
+                    f"--unitree.{name.replace('_', '-')} must be a positive number, got {value}"
+                )
         if not (math.isfinite(options.soft_start_s) and options.soft_start_s >= 0):
-            raise ConfigError(f"--unitree.soft-start-s must be 0 or more seconds, got {options.soft_start_s}")
+            raise ConfigError(
+                f"--unitree.soft-start-s must be 0 or more seconds, got {options.soft_start_s}"
+            )
         self.timestep = 1.0 / options.rate_hz
         self.motors = mt.Motors.of(task.model, options.robot)
         if task.command_size != self.motors.count:
             raise ConfigError(
-                f"{type(task).__name__} commands {task.command_size} values, but its model has {self.motors.count} "
+                f"{type(task).__name__} commands {task.command_size} values, but its model "
+                f"has {self.motors.count} "
                 "motors: --system unitree serves one target position per motor"
             )
         if task.measured.size == 0:
-            raise ConfigError(f"{type(task).__name__} declares no measured sensors; a Unitree robot gives no state")
+            raise ConfigError(
+                f"{type(task).__name__} declares no measured sensors; a Unitree robot gives no "
+                "state"
+            )
         self.sensors = mt.Sensors.of(task.model, task.measured, self.motors)
         self._refusals = Refusals(logger)
         self.refused = self._refusals.counts
@@ -111,7 +144,8 @@ class UnitreeSystem(System):
         self._mode_machine = 0  # the G1's, echoed in each command
         self._command: np.ndarray | None = None
         self._halted = False
-        self._ramp: tuple[float, np.ndarray] | None = None  # (start, pose) of the soft start under way
+        # (start, pose) of the soft start under way
+        self._ramp: tuple[float, np.ndarray] | None = None
         self._next_tick: float | None = None
         self._closed = False
         count_mujoco_warnings()
@@ -122,7 +156,8 @@ class UnitreeSystem(System):
             self._reader = DataReader(part, self.link.state_topic, STATE_QOS)
             self._writer = DataWriter(part, self.link.command_topic, COMMAND_QOS)
             others = Qos(Policy.Reliability.BestEffort, Policy.IgnoreLocal.Participant)
-            self._others = DataReader(part, self.link.command_topic, others)  # other processes' command writers
+            # other processes' command writers
+            self._others = DataReader(part, self.link.command_topic, others)
             self._wait_for_robot(options.wait_s)
             if refuse_other_writer:
                 self._refuse_other_writer()
@@ -132,10 +167,12 @@ class UnitreeSystem(System):
 
     @classmethod
     def from_options(cls, task: Task, options: Any) -> "UnitreeSystem":
-        """The bridge the app's `--system unitree [--unitree.*]` options describe (a `judo.cli_shared.SystemOptions`:
-        its `unitree` and `record`)."""
+        """The bridge the app's `--system unitree [--unitree.*]` options describe (a
+        `judo.cli_shared.SystemOptions`: its `unitree` and `record`)."""
         if options.record is not None:
-            raise ConfigError(f"--record {options.record} logs the ROS 2 bridge's link; --system unitree has none")
+            raise ConfigError(
+                f"--record {options.record} logs the ROS 2 bridge's link; --system unitree has none"
+            )
         return cls(task, options.unitree)
 
     def _wait_for_robot(self, seconds: float) -> None:
@@ -147,8 +184,10 @@ class UnitreeSystem(System):
             time.sleep(0.005)
         why = self._refusals.summary()
         raise JudoError(
-            f"no valid {self.motors.robot.low_state.__idl_typename__} on {LOWSTATE} in DDS domain {self.link.domain} "
-            f"within {seconds:g} s ({why}); is the robot on, in low-level mode (sport mode off), on this domain and "
+            f"no valid {self.motors.robot.low_state.__idl_typename__} on {LOWSTATE} in DDS "
+            f"domain {self.link.domain} "
+            f"within {seconds:g} s ({why}); is the robot on, in low-level mode (sport mode "
+            "off), on this domain and "
             f"interface ({self.options.interface or 'the default'})?"
         )
 
@@ -158,8 +197,10 @@ class UnitreeSystem(System):
             time.sleep(0.02)
         if self._others.get_matched_publications():
             raise JudoError(
-                f"another participant (Unitree's sport service, a judo, a teleop) already writes {LOWCMD} in DDS "
-                f"domain {self.link.domain}: two controllers would fight over the robot; stop it (sport mode off)"
+                "another participant (Unitree's sport service, a judo, a teleop) already "
+                f"writes {LOWCMD} in DDS "
+                f"domain {self.link.domain}: two controllers would fight over the robot; "
+                "stop it (sport mode off)"
             )
 
     def _refuse(self, kind: str, detail: str) -> None:
@@ -195,16 +236,20 @@ class UnitreeSystem(System):
             reading = self._reading
         assert reading is not None  # the constructor waited for the first one
         sensors = reading.sensors
-        return SystemState(None, reading.time, dict(reading.metadata), None if sensors is None else sensors.copy())
+        return SystemState(
+            None, reading.time, dict(reading.metadata), None if sensors is None else sensors.copy()
+        )
 
     def apply(self, action: np.ndarray) -> None:
-        """Keep the (nu,) target positions `action`, clamped to the task's command range, to be sent by `step`;
-        after a `halt()`, a soft start from the robot's pose begins. JudoError for a wrong size or a non-finite
-        value (nothing is kept then)."""
+        """Keep the (nu,) target positions `action`, clamped to the task's command range, to be sent
+        by `step`; after a `halt()`, a soft start from the robot's pose begins. JudoError for a
+        wrong size or a non-finite value (nothing is kept then)."""
         action = np.asarray(action, dtype=float)
         size = self.motors.count
         if action.shape != (size,) or not np.isfinite(action).all():
-            raise JudoError(f"refused a command of shape {action.shape} (expected ({size},), finite): {action}")
+            raise JudoError(
+                f"refused a command of shape {action.shape} (expected ({size},), finite): {action}"
+            )
         low, high = self.task.command_range.T
         with self._lock:
             self._command = np.clip(action, low, high)
@@ -212,11 +257,13 @@ class UnitreeSystem(System):
                 self._halted, self._ramp = False, None
 
     def step(self) -> None:
-        """Send the command in force (ramped in, or damping), then wait for the next tick of the rate, in wall time."""
+        """Send the command in force (ramped in, or damping), then wait for the next tick of the
+        rate, in wall time."""
         self._take()
         self._send(time.monotonic())
         now = time.monotonic()
-        if self._next_tick is None or self._next_tick < now - 0.1:  # first tick, or far behind: pace from now
+        # first tick, or far behind: pace from now
+        if self._next_tick is None or self._next_tick < now - 0.1:
             self._next_tick = now
         self._next_tick += self.timestep
         time.sleep(max(0.0, self._next_tick - time.monotonic()))
@@ -256,8 +303,8 @@ class UnitreeSystem(System):
         return True
 
     def close(self) -> None:
-        """Send damping, wait briefly for the robot to acknowledge it, and leave the DDS domain. The bridge cannot be
-        used after."""
+        """Send damping, wait briefly for the robot to acknowledge it, and leave the DDS domain. The
+        bridge cannot be used after."""
         from cyclonedds.util import duration
 
         if self._closed:
@@ -272,33 +319,39 @@ class UnitreeSystem(System):
 
 
 def damping(motors: mt.Motors, mode_machine: int = 0):
-    """Unitree's damping mode for `motors` (kp = 0, kd = `DAMPING_KD`, tau = 0), as a LowCmd_ without its CRC."""
+    """Unitree's damping mode for `motors` (kp = 0, kd = `DAMPING_KD`, tau = 0), as a LowCmd_
+    without its CRC."""
     zeros = np.zeros(motors.count)
     return mt.low_cmd(motors, zeros, zeros, np.full(motors.count, mt.DAMPING_KD), mode_machine)
 
 
 def remote_keys(wireless_remote) -> frozenset[str]:
-    """The remote's keys held (names of REMOTE_KEYS) in a LowState_'s (40,) `wireless_remote` bytes."""
+    """The remote's keys held (names of REMOTE_KEYS) in a LowState_'s (40,) `wireless_remote`
+    bytes."""
     raw = bytes(wireless_remote)
     bits = int.from_bytes(raw[2:4], "little") if len(raw) >= 4 else 0
     return frozenset(key for i, key in enumerate(REMOTE_KEYS) if bits >> i & 1)
 
 
 class Refusal(NamedTuple):
-    """Why a reading was refused: its kind (the key of `UnitreeSystem.refused`) and the detail logged."""
+    """Why a reading was refused: its kind (the key of `UnitreeSystem.refused`) and the detail
+    logged."""
 
     kind: str
     why: str
 
 
-def reading_of(message, motors: mt.Motors, sensors: mt.Sensors) -> tuple[np.ndarray, np.ndarray] | Refusal:
-    """((measured size,) the task's measured sensors, (nu,) motor q) of a LowState_ `message`, or the `Refusal` of
-    one that cannot be the robot's: the wrong number of motors, a non-finite value, a joint out of its
-    bounds."""
+def reading_of(
+    message, motors: mt.Motors, sensors: mt.Sensors
+) -> tuple[np.ndarray, np.ndarray] | Refusal:
+    """((measured size,) the task's measured sensors, (nu,) motor q) of a LowState_ `message`, or
+    the `Refusal` of one that cannot be the robot's: the wrong number of motors, a non-finite value,
+    a joint out of its bounds."""
     slots = motors.robot.slots
     if len(message.motor_state) != slots:
         return Refusal(
-            "lowstate (motor count)", f"{len(message.motor_state)} motors; a {motors.robot.name} sends {slots}"
+            "lowstate (motor count)",
+            f"{len(message.motor_state)} motors; a {motors.robot.name} sends {slots}",
         )
     q, dq, _ = mt.motors_of(message, motors)
     imu = message.imu_state
@@ -308,14 +361,19 @@ def reading_of(message, motors: mt.Motors, sensors: mt.Sensors) -> tuple[np.ndar
         "acc": np.array(imu.accelerometer, float),
     }
     feet = np.array(getattr(message, "foot_force", [0, 0, 0, 0]), float)
-    bad = [motors.joints.names[i] for i, v in zip(motors.order, q + dq, strict=True) if not math.isfinite(v)]
+    bad = [
+        motors.joints.names[i]
+        for i, v in zip(motors.order, q + dq, strict=True)
+        if not math.isfinite(v)
+    ]
     bad += [f"imu {key}" for key, value in values.items() if not np.isfinite(value).all()]
     if bad:
         return Refusal("lowstate (non-finite)", f"non-finite values of {', '.join(bad)}")
     norm = float(np.linalg.norm(values["quat"]))
     if not 0.5 < norm < 1.5:
         return Refusal(
-            "lowstate (imu)", f"an IMU quaternion {values['quat'].tolist()} of norm {norm:.3g}, not a unit one"
+            "lowstate (imu)",
+            f"an IMU quaternion {values['quat'].tolist()} of norm {norm:.3g}, not a unit one",
         )
     why = motors.joints.implausible(motors.order, q, dq)
     if why is not None:

@@ -1,13 +1,14 @@
-"""The four top-level Unitree messages' CDR, written with `struct`: what cyclonedds' own (pure-Python) serializer
-makes of them, bit for bit, several times faster, since the bridge writes a LowCmd_ and reads a LowState_ 500 times
-a second.
+"""The four top-level Unitree messages' CDR, written with `struct`: what cyclonedds' own
+(pure-Python) serializer makes of them, bit for bit, several times faster, since the bridge writes a
+LowCmd_ and reads a LowState_ 500 times a second.
 
-A @final struct of primitives and fixed arrays, in XCDR1 (the representation cyclonedds writes for such a type, and
-a Unitree robot's own), is a 4-byte encapsulation header (00 01 00 00: CDR, little-endian) then each primitive at
-its natural alignment counted from the payload's start, with no padding of a struct's own (where the C layout of
-`judo.unitree.crc` pads each struct to its widest member). `install` gives the message classes this `serialize`
-and `deserialize`; any other request (XCDR2, another endianness, a buffer) and any bytes that are not little-endian
-XCDR1 go to cyclonedds' own.
+A @final struct of primitives and fixed arrays, in XCDR1 (the representation cyclonedds writes for
+such a type, and a Unitree robot's own), is a 4-byte encapsulation header (00 01 00 00: CDR,
+little-endian) then each primitive at its natural alignment counted from the payload's start, with
+no padding of a struct's own (where the C layout of `judo.unitree.crc` pads each struct to its
+widest member). `install` gives the message classes this `serialize` and `deserialize`; any other
+request (XCDR2, another endianness, a buffer) and any bytes that are not little-endian XCDR1 go to
+cyclonedds' own.
 """
 
 import struct
@@ -21,7 +22,8 @@ HEADER = b"\x00\x01\x00\x00"
 
 
 def _runs(cls: type, out: list[tuple[str, int, int]]) -> None:
-    """Append (struct code, size, count) for each primitive or primitive array of `cls`, structs expanded."""
+    """Append (struct code, size, count) for each primitive or primitive array of `cls`, structs
+    expanded."""
     for _, hint in fields_of(cls):
         kind, what, n = kind_of(hint)
         if kind == "struct":
@@ -37,7 +39,8 @@ def _runs(cls: type, out: list[tuple[str, int, int]]) -> None:
 
 @cache
 def cdr_format(cls: type) -> str:
-    """The `struct` format of `cls`'s XCDR1 payload (little-endian, each primitive aligned from the payload's start)."""
+    """The `struct` format of `cls`'s XCDR1 payload (little-endian, each primitive aligned from the
+    payload's start)."""
     runs: list[tuple[str, int, int]] = []
     _runs(cls, runs)
     codes, offset = ["<"], 0
@@ -62,7 +65,8 @@ def serialize(message: Any, buffer=None, endianness=None, use_version_2=None) ->
 
 @cache
 def _shape(cls: type) -> list[tuple[str, str, Any, int]]:
-    """(field name, kind, element class or primitive name, count) of each field of `cls`, in order."""
+    """(field name, kind, element class or primitive name, count) of each field of `cls`, in
+    order."""
     shape = []
     for (name, kind), (_, hint) in zip(plan_of(cls), fields_of(cls), strict=True):
         _, what, n = kind_of(hint)
@@ -92,7 +96,8 @@ def _build(cls: type, values: tuple, at: int) -> tuple[Any, int]:
 
 
 def deserializer(cls: type):
-    """A `deserialize` classmethod body for `cls`: little-endian XCDR1 by `cdr_format`, else cyclonedds' own."""
+    """A `deserialize` classmethod body for `cls`: little-endian XCDR1 by `cdr_format`, else
+    cyclonedds' own."""
 
     def deserialize(data: bytes, has_header: bool = True, use_version_2=None) -> Any:
         if not has_header or bytes(data[:4]) != HEADER or use_version_2:

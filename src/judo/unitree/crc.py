@@ -1,13 +1,14 @@
 """Unitree's CRC of a LowCmd_ / LowState_: what a Unitree robot checks before it runs a command.
 
-The message is laid out as the C struct of its IDL (each field at its natural alignment, each struct padded to
-its widest member, little-endian), read as 32-bit little-endian words, and every word but the last (the `crc`
-field itself) is fed most significant bit first through the CRC-32 polynomial 0x04C11DB7 from 0xFFFFFFFF, with
-no reflection and no final XOR: CRC-32/MPEG-2 over each word's big-endian bytes (the STM32's hardware CRC).
+The message is laid out as the C struct of its IDL (each field at its natural alignment, each struct
+padded to its widest member, little-endian), read as 32-bit little-endian words, and every word but
+the last (the `crc` field itself) is fed most significant bit first through the CRC-32 polynomial
+0x04C11DB7 from 0xFFFFFFFF, with no reflection and no final XOR: CRC-32/MPEG-2 over each word's
+big-endian bytes (the STM32's hardware CRC).
 
-The layout is read off the message class's own IDL annotations (`struct_format`), so there is one description of
-each type (judo.unitree.messages). The CRC itself runs in C: CRC-32/MPEG-2 is zlib's CRC-32 with every input
-byte and the result bit-reversed and the final XOR undone.
+The layout is read off the message class's own IDL annotations (`struct_format`), so there is one
+description of each type (judo.unitree.messages). The CRC itself runs in C: CRC-32/MPEG-2 is zlib's
+CRC-32 with every input byte and the result bit-reversed and the final XOR undone.
 """
 
 import struct
@@ -37,7 +38,8 @@ def fields_of(cls: type) -> list[tuple[str, Any]]:
 
 
 def kind_of(hint: Any) -> tuple[str, Any, int]:
-    """("prim", code name, 1), ("array", element hint, n) or ("struct", class, 1) of one field's type hint."""
+    """("prim", code name, 1), ("array", element hint, n) or ("struct", class, 1) of one field's
+    type hint."""
     if isinstance(hint, type):
         return "struct", hint, 1
     (meta,) = hint.__metadata__
@@ -48,8 +50,8 @@ def kind_of(hint: Any) -> tuple[str, Any, int]:
 
 @cache
 def _layout(cls: type) -> tuple[list[str], int]:
-    """(struct codes with padding, in order; the struct's alignment) of IDL struct `cls` as C lays it out,
-    offsets counted from the struct's start."""
+    """(struct codes with padding, in order; the struct's alignment) of IDL struct `cls` as C lays
+    it out, offsets counted from the struct's start."""
     codes: list[str] = []
     offset, align = 0, 1
 
@@ -85,7 +87,8 @@ def _layout(cls: type) -> tuple[list[str], int]:
 
 @cache
 def struct_format(cls: type) -> str:
-    """The `struct` format of IDL struct `cls` laid out as its C struct (little-endian, with padding)."""
+    """The `struct` format of IDL struct `cls` laid out as its C struct (little-endian, with
+    padding)."""
     return "<" + "".join(_layout(cls)[0])
 
 
@@ -126,20 +129,22 @@ def pack(message: Any) -> bytes:
 
 
 def crc32_mpeg2(data: bytes) -> int:
-    """CRC-32/MPEG-2 of `data`: polynomial 0x04C11DB7, initial 0xFFFFFFFF, bits fed most significant first, no
-    reflection, no final XOR (its catalogued check value, of b"123456789", is 0x0376E6E7)."""
+    """CRC-32/MPEG-2 of `data`: polynomial 0x04C11DB7, initial 0xFFFFFFFF, bits fed most significant
+    first, no reflection, no final XOR (its catalogued check value, of b"123456789", is
+    0x0376E6E7)."""
     reflected = zlib.crc32(_REVERSED_BYTE[np.frombuffer(data, np.uint8)].tobytes()) ^ 0xFFFFFFFF
     return int(f"{reflected:032b}"[::-1], 2)
 
 
 def crc32_words(words: np.ndarray) -> int:
-    """Unitree's CRC-32 of (n,) uint32 `words`, each fed most significant bit first: CRC-32/MPEG-2 of their
-    big-endian bytes."""
+    """Unitree's CRC-32 of (n,) uint32 `words`, each fed most significant bit first: CRC-32/MPEG-2
+    of their big-endian bytes."""
     return crc32_mpeg2(np.asarray(words, dtype=">u4").tobytes())
 
 
 def crc_of(message: Any) -> int:
-    """The CRC a Unitree robot expects in `message.crc`: over every 32-bit word of its C struct but the last."""
+    """The CRC a Unitree robot expects in `message.crc`: over every 32-bit word of its C struct but
+    the last."""
     data = pack(message)
     return crc32_words(np.frombuffer(data, "<u4")[:-1])
 

@@ -1,6 +1,7 @@
-"""What both ends of a Unitree link share: the DDS domain on a chosen network interface, the two topics and their
-QoS. The QoS are the ROS 2 link's (`judo.ros2.link`): readings best effort, keep last 1 (a reader that matches any
-writer); commands reliable, keep last 1 (a writer that matches a reliable or a best-effort reader)."""
+"""What both ends of a Unitree link share: the DDS domain on a chosen network interface, the two
+topics and their QoS. The QoS are the ROS 2 link's (`judo.ros2.link`): readings best effort, keep
+last 1 (a reader that matches any writer); commands reliable, keep last 1 (a writer that matches a
+reliable or a best-effort reader)."""
 
 from typing import Any
 
@@ -13,9 +14,13 @@ COMMAND_QOS = link.COMMAND_QOS
 
 
 def interface_config(interface: str) -> str:
-    """The Cyclone DDS configuration that puts a domain on the network interface `interface` (e.g. eth0, lo)."""
+    """The Cyclone DDS configuration that puts a domain on the network interface `interface` (e.g.
+    eth0, lo)."""
     if not interface or any(c in interface for c in "<>&\"' "):
-        raise ConfigError(f"--unitree.interface must name a network interface such as eth0 or lo, got {interface!r}")
+        raise ConfigError(
+            "--unitree.interface must name a network interface such as eth0 or lo, got "
+            f"{interface!r}"
+        )
     return (
         '<CycloneDDS><Domain Id="any"><General><Interfaces>'
         f'<NetworkInterface name="{interface}" priority="default" multicast="default"/>'
@@ -24,8 +29,8 @@ def interface_config(interface: str) -> str:
 
 
 _DOMAINS: dict[int, tuple[str, Any, int]] = {}
-"""The domains this process opened on an interface: domain -> (interface, cyclonedds Domain, links using it). A
-domain is configured once per process, before its first participant."""
+"""The domains this process opened on an interface: domain -> (interface, cyclonedds Domain, links
+using it). A domain is configured once per process, before its first participant."""
 
 
 def _open_domain(domain: int, interface: str) -> None:
@@ -36,7 +41,8 @@ def _open_domain(domain: int, interface: str) -> None:
         named, handle, users = _DOMAINS[domain]
         if named != interface:
             raise ConfigError(
-                f"DDS domain {domain} is already open on interface {named!r} in this process, not {interface!r}"
+                f"DDS domain {domain} is already open on interface {named!r} in this "
+                f"process, not {interface!r}"
             )
         _DOMAINS[domain] = (named, handle, users + 1)
         return
@@ -44,7 +50,8 @@ def _open_domain(domain: int, interface: str) -> None:
         handle = Domain(domain, interface_config(interface))
     except DDSException as err:
         raise ConfigError(
-            f"DDS domain {domain} is already open in this process without --unitree.interface {interface}: "
+            f"DDS domain {domain} is already open in this process without "
+            f"--unitree.interface {interface}: "
             f"open the interface's link first ({err})"
         ) from None
     _DOMAINS[domain] = (interface, handle, 1)
@@ -60,14 +67,17 @@ def _close_domain(domain: int) -> None:
 
 
 class Link:
-    """A DDS participant on `domain` (0..232), on `interface` where given (None: Cyclone's default, or the interface
-    this process already opened the domain on), with the topics rt/lowstate and rt/lowcmd of the given types.
+    """A DDS participant on `domain` (0..232), on `interface` where given (None: Cyclone's default,
+    or the interface this process already opened the domain on), with the topics rt/lowstate and
+    rt/lowcmd of the given types.
 
     Attributes:
         participant: the DDS participant; `state_topic`, `command_topic`: its two topics.
     """
 
-    def __init__(self, domain: int, interface: str | None, state_type: type, command_type: type) -> None:
+    def __init__(
+        self, domain: int, interface: str | None, state_type: type, command_type: type
+    ) -> None:
         from cyclonedds.topic import Topic
 
         self.domain = link.domain_id(domain)
@@ -84,7 +94,8 @@ class Link:
             raise
 
     def close(self) -> None:
-        """Delete the participant and everything it made, now (and the domain, after its last link)."""
+        """Delete the participant and everything it made, now (and the domain, after its last
+        link)."""
         link.close_participant(self.participant)
         if self._interface is not None:
             _close_domain(self.domain)

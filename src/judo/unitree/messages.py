@@ -1,13 +1,15 @@
 # pyright: reportCallIssue=false, reportGeneralTypeIssues=false, reportAssignmentType=false, reportInvalidTypeForm=false
 # pyright: reportArgumentType=false
-# (cyclonedds' IDL dataclasses take `typename=` in the class line and sizes in `array[float32, 4]`, which its type
-# hints do not describe)
-"""Unitree's low-level DDS messages, written on `cyclonedds` (Unitree's IDL, as unitree_sdk2 publishes it).
+# (cyclonedds' IDL dataclasses take `typename=` in the class line and sizes in `array[float32, 4]`,
+# which its type hints do not describe)
+"""Unitree's low-level DDS messages, written on `cyclonedds` (Unitree's IDL, as unitree_sdk2
+publishes it).
 
-The Go2 speaks `unitree_go::msg::dds_::*`, the G1 `unitree_hg::msg::dds_::*`, on the DDS topics `rt/lowstate`
-(the robot's readings) and `rt/lowcmd` (the commands it runs its per-motor PD on). Each class keeps Unitree's
-field order, types and array sizes exactly: the CDR on the wire and the bytes the CRC covers (`judo.unitree.crc`)
-follow them. Every message is `@final` with sequential member ids, as Unitree's are.
+The Go2 speaks `unitree_go::msg::dds_::*`, the G1 `unitree_hg::msg::dds_::*`, on the DDS topics
+`rt/lowstate` (the robot's readings) and `rt/lowcmd` (the commands it runs its per-motor PD on).
+Each class keeps Unitree's field order, types and array sizes exactly: the CDR on the wire and the
+bytes the CRC covers (`judo.unitree.crc`) follow them. Every message is `@final` with sequential
+member ids, as Unitree's are.
 """
 
 from dataclasses import dataclass, field
@@ -113,7 +115,9 @@ class GoLowCmd(IdlStruct, typename="unitree_go::msg::dds_::LowCmd_"):
     sn: array[uint32, 2] = _zeros(2)
     version: array[uint32, 2] = _zeros(2)
     bandwidth: uint16 = 0
-    motor_cmd: array[GoMotorCmd, GO_MOTORS] = field(default_factory=lambda: [GoMotorCmd() for _ in range(GO_MOTORS)])
+    motor_cmd: array[GoMotorCmd, GO_MOTORS] = field(
+        default_factory=lambda: [GoMotorCmd() for _ in range(GO_MOTORS)]
+    )
     bms_cmd: GoBmsCmd = field(default_factory=GoBmsCmd)
     wireless_remote: array[uint8, 40] = _bytes(40)
     led: array[uint8, 12] = _bytes(12)
@@ -205,7 +209,9 @@ class HgIMUState(IdlStruct, typename="unitree_hg::msg::dds_::IMUState_"):
 class HgLowCmd(IdlStruct, typename="unitree_hg::msg::dds_::LowCmd_"):
     mode_pr: uint8 = 0
     mode_machine: uint8 = 0
-    motor_cmd: array[HgMotorCmd, HG_MOTORS] = field(default_factory=lambda: [HgMotorCmd() for _ in range(HG_MOTORS)])
+    motor_cmd: array[HgMotorCmd, HG_MOTORS] = field(
+        default_factory=lambda: [HgMotorCmd() for _ in range(HG_MOTORS)]
+    )
     reserve: array[uint32, 4] = _zeros(4)
     crc: uint32 = 0
 

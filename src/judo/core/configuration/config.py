@@ -1,4 +1,5 @@
-"""The config base class and the one place where a config field is set from outside (file, CLI, GUI)."""
+"""The config base class and the one place where a config field is set from outside (file, CLI,
+GUI)."""
 
 import copy
 import copyreg
@@ -13,17 +14,19 @@ import numpy as np
 from judo.core.errors import ConfigError, UnknownNameError
 
 MAX_MAGNITUDE = 1e9
-"""Largest magnitude of a float config value (a weight, a noise scale, a goal): far beyond any that plans,
-below MuJoCo's "huge value" mark (1e10), and small enough that a reward squaring it and summing it over
-every rollout and step never overflows."""
+"""Largest magnitude of a float config value (a weight, a noise scale, a goal): far beyond any that
+plans, below MuJoCo's "huge value" mark (1e10), and small enough that a reward squaring it and
+summing it over every rollout and step never overflows."""
 MAX_INT = 2**53
-"""Largest magnitude of an integer config value: every one is exact as a float, a numpy int and in a browser."""
+"""Largest magnitude of an integer config value: every one is exact as a float, a numpy int and in a
+browser."""
 SHOWN = 200
 """Characters of an offending value a message shows at most."""
 
 
 def shown(value: Any) -> str:
-    """`repr(value)`, cut to SHOWN characters, for an error message (a 50 MB value is never echoed whole)."""
+    """`repr(value)`, cut to SHOWN characters, for an error message (a 50 MB value is never echoed
+    whole)."""
     text = repr(value.tolist() if isinstance(value, np.ndarray) else value)
     return text if len(text) <= SHOWN else f"{text[:SHOWN]}... ({len(text)} characters)"
 
@@ -48,32 +51,44 @@ class Config:
             if isinstance(value, (float, np.floating)):
                 require(math.isfinite(value), f"{where} must be a finite number, got {value}")
             if isinstance(value, np.ndarray) and value.dtype.kind in "fc":
-                require(bool(np.isfinite(value).all()), f"{where} must hold finite numbers, got {shown(value)}")
+                require(
+                    bool(np.isfinite(value).all()),
+                    f"{where} must hold finite numbers, got {shown(value)}",
+                )
 
 
 ConfigT = TypeVar("ConfigT", bound=Config)
-"""A config class, kept by the helpers that copy or build one (`with_updates`, `snapshot`, `make_config`)."""
+"""A config class, kept by the helpers that copy or build one (`with_updates`, `snapshot`,
+`make_config`)."""
 
 
 def check_magnitudes(config: Config) -> None:
-    """Raise ConfigError for a value no field may hold whatever its own range, one check per kind of field:
-    a float (or an array's entry) beyond MAX_MAGNITUDE, an integer beyond MAX_INT. A weight, noise scale
-    or goal of 1e308 passes "finite" but overflows every planning cycle.
+    """Raise ConfigError for a value no field may hold whatever its own range, one check per kind of
+    field: a float (or an array's entry) beyond MAX_MAGNITUDE, an integer beyond MAX_INT. A weight,
+    noise scale or goal of 1e308 passes "finite" but overflows every planning cycle.
 
-    Run after `validate()`, at construction and by `with_updates`, so a field's own range is named first.
+    Run after `validate()`, at construction and by `with_updates`, so a field's own range is named
+    first.
     """
     for f in fields(config):
         value = getattr(config, f.name, None)
         where = f"{type(config).__name__}.{f.name}"
         if isinstance(value, (float, np.floating)):
-            require(abs(value) <= MAX_MAGNITUDE, f"{where} must be of magnitude at most {MAX_MAGNITUDE:g}, got {value}")
+            require(
+                abs(value) <= MAX_MAGNITUDE,
+                f"{where} must be of magnitude at most {MAX_MAGNITUDE:g}, got {value}",
+            )
         if isinstance(value, np.ndarray) and value.dtype.kind in "fc":
             require(
                 bool((np.abs(value) <= MAX_MAGNITUDE).all()),
-                f"{where} must hold numbers of magnitude at most {MAX_MAGNITUDE:g}, got {shown(value)}",
+                f"{where} must hold numbers of magnitude at most {MAX_MAGNITUDE:g}, got "
+                f"{shown(value)}",
             )
         if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
-            require(abs(int(value)) <= MAX_INT, f"{where} must be of magnitude at most 2**53, got {shown(value)}")
+            require(
+                abs(int(value)) <= MAX_INT,
+                f"{where} must be of magnitude at most 2**53, got {shown(value)}",
+            )
 
 
 def require(condition: bool, message: str) -> None:
@@ -83,15 +98,22 @@ def require(condition: bool, message: str) -> None:
 
 
 def check_seed(seed: int | None) -> None:
-    """Raise ConfigError unless `seed` is None or an integer from 0 to 2**63 - 1 (what numpy's generators take)."""
+    """Raise ConfigError unless `seed` is None or an integer from 0 to 2**63 - 1 (what numpy's
+    generators take)."""
     if seed is None:
         return
     integral = isinstance(seed, (int, np.integer)) and not isinstance(seed, bool)
-    require(integral and 0 <= int(seed) < 2**63, f"seed must be an integer from 0 to 2**63 - 1, got {seed!r}")
+    require(
+        integral and 0 <= int(seed) < 2**63,
+        f"seed must be an integer from 0 to 2**63 - 1, got {seed!r}",
+    )
 
 
-def require_between(name: str, value: float, low: float, high: float, unit: str = "", *, above: bool = False) -> None:
-    """Raise ConfigError unless low <= value <= high (low < value with `above`), naming the valid range.
+def require_between(
+    name: str, value: float, low: float, high: float, unit: str = "", *, above: bool = False
+) -> None:
+    """Raise ConfigError unless low <= value <= high (low < value with `above`), naming the valid
+    range.
 
     The message reads e.g. "horizon must be above 0 and at most 60 s, got inf".
     """
@@ -119,9 +141,14 @@ def coerce_field_value(config: Config, name: str, value: Any) -> Any:
     hint = types[name]
     where = f"{type(config).__name__}.{name}"
     if hint is bool:
-        require(isinstance(value, (bool, np.bool_)), f"{where} expects true or false, got {shown(value)}")
+        require(
+            isinstance(value, (bool, np.bool_)),
+            f"{where} expects true or false, got {shown(value)}",
+        )
         return bool(value)
-    is_number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+    is_number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+        value, bool
+    )
     if hint is int:
         integral = isinstance(value, (int, np.integer)) or (is_number and float(value).is_integer())
         require(is_number and integral, f"{where} expects an integer, got {shown(value)}")
@@ -139,19 +166,33 @@ def coerce_field_value(config: Config, name: str, value: Any) -> Any:
         return value
     if typing.get_origin(hint) is Literal:
         choices = typing.get_args(hint)
-        scalar = isinstance(value, (str, int, float, bool, np.generic))  # an array compares elementwise
-        require(scalar and value in choices, f"{where} expects one of {list(choices)}, got {shown(value)}")
+        # an array compares elementwise
+        scalar = isinstance(value, (str, int, float, bool, np.generic))
+        require(
+            scalar and value in choices,
+            f"{where} expects one of {list(choices)}, got {shown(value)}",
+        )
         return value
     if hint is np.ndarray:
         current = getattr(config, name)
         try:
             array = np.asarray(value, dtype=float)
         except (TypeError, ValueError):
-            raise ConfigError(f"{where} expects a list of {len(current)} numbers, got {shown(value)}") from None
+            raise ConfigError(
+                f"{where} expects a list of {len(current)} numbers, got {shown(value)}"
+            ) from None
         except OverflowError:  # an int beyond a float's range
-            raise ConfigError(f"{where} expects {len(current)} finite numbers, got {shown(value)}") from None
-        require(array.shape == current.shape, f"{where} expects {len(current)} numbers, got {shown(value)}")
-        require(bool(np.isfinite(array).all()), f"{where} expects {len(current)} finite numbers, got {shown(value)}")
+            raise ConfigError(
+                f"{where} expects {len(current)} finite numbers, got {shown(value)}"
+            ) from None
+        require(
+            array.shape == current.shape,
+            f"{where} expects {len(current)} numbers, got {shown(value)}",
+        )
+        require(
+            bool(np.isfinite(array).all()),
+            f"{where} expects {len(current)} finite numbers, got {shown(value)}",
+        )
         return array
     return value
 
@@ -163,7 +204,10 @@ def with_updates(config: ConfigT, updates: dict[str, Any]) -> ConfigT:
     caller (override file, CLI, GUI) can refuse the edit and keep the previous config.
     """
     if not isinstance(updates, dict):
-        raise ConfigError(f"updates must be a dict {{field: value}}, got {type(updates).__name__} {shown(updates)}")
+        raise ConfigError(
+            f"updates must be a dict {{field: value}}, got {type(updates).__name__} "
+            f"{shown(updates)}"
+        )
     updated = snapshot(config)
     for name, value in updates.items():
         setattr(updated, name, coerce_field_value(updated, name, value))
@@ -187,8 +231,9 @@ def snapshot(config: ConfigT) -> ConfigT:
 
 @functools.cache
 def _copies_its_dict(cls: type) -> bool:
-    """Whether copy.copy of a `cls` instance is a new instance whose __dict__ is updated from the original's:
-    a plain class (a dataclass config) that defines none of the hooks that change copying, nor slots."""
+    """Whether copy.copy of a `cls` instance is a new instance whose __dict__ is updated from the
+    original's: a plain class (a dataclass config) that defines none of the hooks that change
+    copying, nor slots."""
     hooks = ("__copy__", "__setstate__", "__getnewargs__", "__getnewargs_ex__", "__slots__")
     return (
         cls.__new__ is object.__new__

@@ -1,4 +1,5 @@
-"""TOML config files: register custom tasks and optimizers by import path and set per-task overrides.
+"""TOML config files: register custom tasks and optimizers by import path and set per-task
+overrides.
 
 task = "my_task"                      # initial task
 optimizer = "mppi"                    # initial optimizer
@@ -35,7 +36,7 @@ dof_damping.slider = 0.5
 fitted = ["body_mass.pole"]
 [safety.cartpole]                               # the owner's limits (judo.safety, docs/safety.md)
 position = ["slider=-1:1"]
-"""
+"""  # noqa: E501
 
 import importlib
 import os
@@ -87,17 +88,22 @@ TOP_LEVEL_KEYS = (
 )
 
 TASK_SECTIONS: dict[str, tuple[type[Config], Callable[[str, Any], None]]] = {}
-"""Per-task sections whose config class lives above core ([safety.TASK], registered by judo.builtin): section ->
-(the class whose task defaults the table sets, `check(task_name, config)`: the checks against the task's model)."""
+"""Per-task sections whose config class lives above core ([safety.TASK], registered by
+judo.builtin): section -> (the class whose task defaults the table sets, `check(task_name, config)`:
+the checks against the task's model)."""
 
 
-def register_task_section(section: str, config_cls: type[Config], check: Callable[[str, Any], None]) -> None:
-    """Let a file's [`section`.TASK] tables set `config_cls`'s defaults, each `check(task_name, config)`ed first."""
+def register_task_section(
+    section: str, config_cls: type[Config], check: Callable[[str, Any], None]
+) -> None:
+    """Let a file's [`section`.TASK] tables set `config_cls`'s defaults, each `check(task_name,
+    config)`ed first."""
     TASK_SECTIONS[section] = (config_cls, check)
 
 
 ALL_OPTIMIZERS = "all"
-"""The optimizer name in [optimizer_config_overrides.<task>.all]: OptimizerConfig, so every optimizer."""
+"""The optimizer name in [optimizer_config_overrides.<task>.all]: OptimizerConfig, so every
+optimizer."""
 
 
 MAX_CONFIG_BYTES = 1_000_000
@@ -105,7 +111,8 @@ MAX_CONFIG_BYTES = 1_000_000
 
 
 class ConfigFileError(JudoError):
-    """A config file that cannot be read or applied; the message names the file and the offending key."""
+    """A config file that cannot be read or applied; the message names the file and the offending
+    key."""
 
 
 @dataclass
@@ -120,7 +127,8 @@ class LoadedConfig:
     ros2: dict[str, Any] = field(default_factory=dict)
     """The [ros2] table: the ROS 2 bridge's settings by field name, checked where they are used."""
     unitree: dict[str, Any] = field(default_factory=dict)
-    """The [unitree] table: the Unitree bridge's settings by field name, checked where they are used."""
+    """The [unitree] table: the Unitree bridge's settings by field name, checked where they are
+    used."""
 
 
 def load_config(path: str | Path) -> LoadedConfig:
@@ -136,18 +144,20 @@ def load_config(path: str | Path) -> LoadedConfig:
     except tomllib.TOMLDecodeError as err:
         where = "" if "line" in str(err) else f" (at line {max(1, len(text.splitlines()))})"
         raise ConfigFileError(f"{path}: TOML syntax error: {err}{where}") from None
-    except ValueError as err:  # an integer of more digits than Python converts (sys.get_int_max_str_digits)
+    # an integer of more digits than Python converts (sys.get_int_max_str_digits)
+    except ValueError as err:
         raise ConfigFileError(f"{path}: a value could not be read: {str(err)[:200]}") from None
 
     unknown = sorted(set(table) - set(TOP_LEVEL_KEYS))
     if unknown:
         raise ConfigFileError(
-            f"{path}: unknown top-level key {unknown[0]!r}; valid keys are: {', '.join(TOP_LEVEL_KEYS)}"
+            f"{path}: unknown top-level key {unknown[0]!r}; valid keys are: "
+            f"{', '.join(TOP_LEVEL_KEYS)}"
         )
     folder = path.parent.resolve()
-    # Only a file that registers classes needs its folder importable. Appended, not prepended: a file
-    # beside the config (say websockets.py) must never shadow an installed package, while modules the
-    # file names, and their own sibling imports, still resolve.
+    # Only a file that registers classes needs its folder importable. Appended, not prepended: a
+    # file beside the config (say websockets.py) must never shadow an installed package, while
+    # modules the file names, and their own sibling imports, still resolve.
     registers_classes = bool(table.get("custom_tasks") or table.get("custom_optimizers"))
     if registers_classes and str(folder) not in sys.path:
         sys.path.append(str(folder))
@@ -162,7 +172,10 @@ def load_config(path: str | Path) -> LoadedConfig:
         for name, entry in _table(table, section, path).items():
             where = f"{section}.{name}"
             try:
-                classes = [_import(_entry(entry, key, where, path), key, folder) for key in (class_key, "config")]
+                classes = [
+                    _import(_entry(entry, key, where, path), key, folder)
+                    for key in (class_key, "config")
+                ]
                 register(name, *classes)
             except JudoError as err:
                 raise fail(where, err) from None
@@ -174,7 +187,9 @@ def load_config(path: str | Path) -> LoadedConfig:
         except UnknownNameError as err:
             raise fail(where, err) from None
         if not isinstance(overrides, dict):
-            raise ConfigFileError(f"{path}: [{where}] must be a table of field = value, got {overrides!r}")
+            raise ConfigFileError(
+                f"{path}: [{where}] must be a table of field = value, got {overrides!r}"
+            )
         task_wide = {key: value for key, value in overrides.items() if not isinstance(value, dict)}
         _apply(path, where, task_name, ControllerConfig, task_wide)
         for optimizer_name, per_optimizer in overrides.items():
@@ -182,7 +197,14 @@ def load_config(path: str | Path) -> LoadedConfig:
                 if optimizer_name not in get_registered_optimizers():
                     err = UnknownNameError("optimizer", optimizer_name, get_registered_optimizers())
                     raise fail(f"{where}.{optimizer_name}", err)
-                _apply(path, f"{where}.{optimizer_name}", task_name, ControllerConfig, per_optimizer, optimizer_name)
+                _apply(
+                    path,
+                    f"{where}.{optimizer_name}",
+                    task_name,
+                    ControllerConfig,
+                    per_optimizer,
+                    optimizer_name,
+                )
     for task_name, overrides in _table(table, "task_config_overrides", path).items():
         where = f"task_config_overrides.{task_name}"
         try:
@@ -218,19 +240,26 @@ def load_config(path: str | Path) -> LoadedConfig:
             try:
                 lookup_task(task_name)
                 set_model_overrides(
-                    task_name, overrides, plant=plant, fitted=() if plant else fitted.get(task_name, ())
+                    task_name,
+                    overrides,
+                    plant=plant,
+                    fitted=() if plant else fitted.get(task_name, ()),
                 )
             except JudoError as err:
                 raise fail(f"{section}.{task_name}", err) from None
 
-    for section, (section_config, check_section) in [(n, entry) for n, entry in TASK_SECTIONS.items() if n in table]:
+    for section, (section_config, check_section) in [
+        (n, entry) for n, entry in TASK_SECTIONS.items() if n in table
+    ]:
         for task_name, overrides in _table(table, section, path).items():
             where = f"{section}.{task_name}"
             try:
                 lookup_task(task_name)
                 if not isinstance(overrides, dict):
                     raise JudoError(f"expected a table of field = value, got {overrides!r}")
-                check_section(task_name, with_updates(make_config(section_config, task_name), overrides))
+                check_section(
+                    task_name, with_updates(make_config(section_config, task_name), overrides)
+                )
             except JudoError as err:
                 raise fail(where, err) from None
             _apply(path, where, task_name, section_config, overrides)
@@ -243,22 +272,27 @@ def load_config(path: str | Path) -> LoadedConfig:
                 raise fail(key, err) from None
     system = table.get("system")
     if system is not None and not isinstance(system, str):
-        raise ConfigFileError(f'{path}: system must be a string ("ros2" or "module:Class"), got {system!r}')
+        raise ConfigFileError(
+            f'{path}: system must be a string ("ros2" or "module:Class"), got {system!r}'
+        )
     ros2 = table.get("ros2", {})
     if not isinstance(ros2, dict):
         raise ConfigFileError(f"{path}: [ros2] must be a table of field = value, got {ros2!r}")
     unitree = table.get("unitree", {})
     if not isinstance(unitree, dict):
-        raise ConfigFileError(f"{path}: [unitree] must be a table of field = value, got {unitree!r}")
+        raise ConfigFileError(
+            f"{path}: [unitree] must be a table of field = value, got {unitree!r}"
+        )
     return LoadedConfig(table.get("task"), table.get("optimizer"), path, system, ros2, unitree)
 
 
 def read_config_text(path: str | Path) -> str:
     """The text of the config file at `path`, checked before it is opened and as it is read.
 
-    Raises ConfigFileError, in one line, for an empty path, a missing or unreadable file, a directory,
-    a FIFO, device or socket (checked with stat first, so reading never blocks or runs out of memory),
-    a file over MAX_CONFIG_BYTES, a binary file (a NUL byte) and text that is not UTF-8.
+    Raises ConfigFileError, in one line, for an empty path, a missing or unreadable file, a
+    directory, a FIFO, device or socket (checked with stat first, so reading never blocks or runs
+    out of memory), a file over MAX_CONFIG_BYTES, a binary file (a NUL byte) and text that is not
+    UTF-8.
     """
     if str(path).strip() in ("", "."):
         raise ConfigFileError("--config needs the path of a TOML file, got an empty path (or '.')")
@@ -272,10 +306,13 @@ def read_config_text(path: str | Path) -> str:
     if stat.S_ISDIR(info.st_mode):
         raise ConfigFileError(f"config file {path} is a directory; give the path of a TOML file")
     if not stat.S_ISREG(info.st_mode):
-        raise ConfigFileError(f"config file {path} is not a regular file (a FIFO, device or socket); give a TOML file")
+        raise ConfigFileError(
+            f"config file {path} is not a regular file (a FIFO, device or socket); give a TOML file"
+        )
     if info.st_size > MAX_CONFIG_BYTES:
         raise ConfigFileError(
-            f"config file {path} is {info.st_size} bytes; a config file is at most {MAX_CONFIG_BYTES} bytes"
+            f"config file {path} is {info.st_size} bytes; a config file is at most "
+            f"{MAX_CONFIG_BYTES} bytes"
         )
     try:
         with open(path, "rb") as file:
@@ -283,20 +320,26 @@ def read_config_text(path: str | Path) -> str:
     except OSError as err:
         raise ConfigFileError(f"cannot read config file {path}: {err.strerror or err}") from None
     if len(data) > MAX_CONFIG_BYTES:
-        raise ConfigFileError(f"config file {path} is over {MAX_CONFIG_BYTES} bytes; a config file is at most that")
+        raise ConfigFileError(
+            f"config file {path} is over {MAX_CONFIG_BYTES} bytes; a config file is at most that"
+        )
     if b"\0" in data:
-        raise ConfigFileError(f"config file {path} is binary (it holds NUL bytes); give a TOML text file")
+        raise ConfigFileError(
+            f"config file {path} is binary (it holds NUL bytes); give a TOML text file"
+        )
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as err:
         line = data[: err.start].count(b"\n") + 1
         raise ConfigFileError(
-            f"config file {path} is not UTF-8 text (byte {err.start}, line {line}); save it as UTF-8"
+            f"config file {path} is not UTF-8 text (byte {err.start}, line {line}); save it "
+            "as UTF-8"
         ) from None
 
 
 def optimizer_config_class(name: str) -> type[OptimizerConfig]:
-    """The config class that [optimizer_config_overrides.<task>.<name>] sets: OptimizerConfig for "all"."""
+    """The config class that [optimizer_config_overrides.<task>.<name>] sets: OptimizerConfig for
+    "all"."""
     if name == ALL_OPTIMIZERS:
         return OptimizerConfig
     if name not in get_registered_optimizers():
@@ -305,24 +348,35 @@ def optimizer_config_class(name: str) -> type[OptimizerConfig]:
 
 
 def _fitted(table: dict[str, Any], path: Path) -> dict[str, list[str]]:
-    """task -> the entries of its [model_overrides.TASK] that sysid fitted: [sysid.TASK] fitted = ["FIELD.ELEMENT",
-    ...], which sysid writes in its --out file; ConfigFileError for another form or an entry the file does not set."""
+    """task -> the entries of its [model_overrides.TASK] that sysid fitted: [sysid.TASK] fitted =
+    ["FIELD.ELEMENT", ...], which sysid writes in its --out file; ConfigFileError for another form
+    or an entry the file does not set."""
     fitted = {}
     for task_name, entry in _table(table, "sysid", path).items():
         where = f"{path}: [sysid.{task_name}]"
         if not isinstance(entry, dict) or set(entry) != {"fitted"}:
-            raise ConfigFileError(f'{where} must hold only fitted = ["FIELD.ELEMENT", ...], got {entry!r}')
+            raise ConfigFileError(
+                f'{where} must hold only fitted = ["FIELD.ELEMENT", ...], got {entry!r}'
+            )
         names = entry["fitted"]
         if not (isinstance(names, list) and all(isinstance(name, str) for name in names)):
-            raise ConfigFileError(f'{where}: fitted must be a list of "FIELD.ELEMENT" strings, got {names!r}')
+            raise ConfigFileError(
+                f'{where}: fitted must be a list of "FIELD.ELEMENT" strings, got {names!r}'
+            )
         sections = table.get("model_overrides")
         overrides = sections.get(task_name) if isinstance(sections, dict) else None
         overrides = overrides if isinstance(overrides, dict) else {}
-        entries = [f"{f}.{e}" for f, values in overrides.items() if isinstance(values, dict) for e in values]
+        entries = [
+            f"{f}.{e}"
+            for f, values in overrides.items()
+            if isinstance(values, dict)
+            for e in values
+        ]
         for name in names:
             if name not in entries:
                 raise ConfigFileError(
-                    f"{where}: fitted names {name!r}, which [model_overrides.{task_name}] does not set; "
+                    f"{where}: fitted names {name!r}, which [model_overrides.{task_name}] "
+                    "does not set; "
                     f"it sets: {', '.join(entries) or 'nothing'}"
                 )
         fitted[task_name] = names
@@ -353,11 +407,18 @@ def _import(dotted: str, key: str, folder: Path) -> Any:
     try:
         module = importlib.import_module(module_name)
     except ImportError as err:
-        if err.name is not None and module_name.startswith(err.name):  # the named module itself is missing
-            raise JudoError(f"cannot import module {module_name!r} (named by {named}): {err}") from None
-        raise JudoError(f"importing module {module_name!r} (named by {named}) failed:\n{_user_error(err)}") from None
+        # the named module itself is missing
+        if err.name is not None and module_name.startswith(err.name):
+            raise JudoError(
+                f"cannot import module {module_name!r} (named by {named}): {err}"
+            ) from None
+        raise JudoError(
+            f"importing module {module_name!r} (named by {named}) failed:\n{_user_error(err)}"
+        ) from None
     except Exception as err:  # a SyntaxError or any error raised by the module's own code
-        raise JudoError(f"importing module {module_name!r} (named by {named}) failed:\n{_user_error(err)}") from None
+        raise JudoError(
+            f"importing module {module_name!r} (named by {named}) failed:\n{_user_error(err)}"
+        ) from None
     _check_not_shadowed(module_name, folder, named)
     if not hasattr(module, attribute):
         raise JudoError(f"module {module_name!r} has no attribute {attribute!r} (named by {named})")
@@ -370,29 +431,43 @@ def _user_error(err: BaseException) -> str:
     frames = [
         frame
         for frame in traceback.extract_tb(err.__traceback__)
-        if not frame.filename.startswith((judo_dir, "<frozen ")) and "importlib" not in frame.filename
+        if not frame.filename.startswith((judo_dir, "<frozen "))
+        and "importlib" not in frame.filename
     ]
     lines = traceback.format_list(frames) + traceback.format_exception_only(type(err), err)
     return "".join(lines).rstrip("\n")
 
 
 def _check_not_shadowed(module_name: str, folder: Path, named: str) -> None:
-    """Raise JudoError if a module of this name lies beside the config file but an installed one was imported."""
+    """Raise JudoError if a module of this name lies beside the config file but an installed one was
+    imported."""
     top = module_name.partition(".")[0]
-    beside = [candidate for candidate in (folder / f"{top}.py", folder / top / "__init__.py") if candidate.exists()]
+    beside = [
+        candidate
+        for candidate in (folder / f"{top}.py", folder / top / "__init__.py")
+        if candidate.exists()
+    ]
     loaded = getattr(sys.modules.get(top), "__file__", None)
     if beside and loaded is not None and Path(loaded).resolve() != beside[0].resolve():
         raise JudoError(
-            f"{named} names {beside[0]}, but {top!r} is also an installed module ({loaded}), which comes first; "
+            f"{named} names {beside[0]}, but {top!r} is also an installed module ({loaded}), "
+            "which comes first; "
             "rename your module"
         )
 
 
 def _apply(
-    path: Path, where: str, task_name: str, config_cls: type, overrides: Any, optimizer_name: str | None = None
+    path: Path,
+    where: str,
+    task_name: str,
+    config_cls: type,
+    overrides: Any,
+    optimizer_name: str | None = None,
 ) -> None:
     if not isinstance(overrides, dict):
-        raise ConfigFileError(f"{path}: [{where}] must be a table of field = value, got {overrides!r}")
+        raise ConfigFileError(
+            f"{path}: [{where}] must be a table of field = value, got {overrides!r}"
+        )
     try:
         set_config_overrides(task_name, config_cls, overrides, optimizer_name)
     except JudoError as err:

@@ -1,4 +1,5 @@
-"""The docstring line under each dataclass field, read from the source: the GUI's hover hints and the CLIs' help."""
+"""The docstring line under each dataclass field, read from the source: the GUI's hover hints and
+the CLIs' help."""
 
 import ast
 import dataclasses

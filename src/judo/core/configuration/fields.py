@@ -1,4 +1,5 @@
-"""Metadata for config fields: slider ranges and named 1-D arrays. The GUI reads it; nothing else does.
+"""Metadata for config fields: slider ranges and named 1-D arrays. The GUI reads it; nothing else
+does.
 
 Both helpers only attach metadata, so a config stays a plain dataclass that tyro and user code can
 use directly.
@@ -43,7 +44,8 @@ class SliderRange:
 
 @dataclass(frozen=True)
 class ArrayFieldSpec:
-    """GUI metadata for a 1-D array field: one slider per entry, optionally a marker in the scene."""
+    """GUI metadata for a 1-D array field: one slider per entry, optionally a marker in the
+    scene."""
 
     names: tuple[str, ...]
     mins: tuple[float, ...]
@@ -57,10 +59,11 @@ def slider(
 ) -> Callable[[ClassT], ClassT]:
     """Class decorator that gives the numeric field `field_name` a slider from `min` to `max`.
 
-    Stack it above `@dataclass`, once per field (below it works too). `log` puts a float field's slider
-    on a log scale (None: when the range spans two or more decades, see `SliderRange`). Raises ConfigError
-    for an inverted range, and, when the class is defined, for a `field_name` that is not one of its
-    fields (a typo would otherwise give no slider and no error), listing the fields.
+    Stack it above `@dataclass`, once per field (below it works too). `log` puts a float field's
+    slider on a log scale (None: when the range spans two or more decades, see `SliderRange`).
+    Raises ConfigError for an inverted range, and, when the class is defined, for a `field_name`
+    that is not one of its fields (a typo would otherwise give no slider and no error), listing the
+    fields.
     """
     from judo.core.errors import ConfigError
 
@@ -75,11 +78,14 @@ def slider(
             close = difflib.get_close_matches(field_name, names, n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
             raise ConfigError(
-                f"@slider({field_name!r}, ...) on {cls.__name__}: {cls.__name__} has no field {field_name!r}{hint}; "
+                f"@slider({field_name!r}, ...) on {cls.__name__}: {cls.__name__} has no "
+                f"field {field_name!r}{hint}; "
                 f"expected one of its fields: {', '.join(names) or '(none)'}"
             )
         inherited = dict(getattr(cls, SLIDER_ATTR, {}))
-        inherited[field_name] = SliderRange(float(min), float(max), None if step is None else float(step), log)
+        inherited[field_name] = SliderRange(
+            float(min), float(max), None if step is None else float(step), log
+        )
         setattr(cls, SLIDER_ATTR, inherited)
         return cls
 
@@ -87,8 +93,9 @@ def slider(
 
 
 def field_names(cls: type) -> list[str]:
-    """The fields of config class `cls` and its bases, in definition order: the annotated class attributes
-    (ClassVars left out), which are its dataclass fields, and are known before `@dataclass` has run too."""
+    """The fields of config class `cls` and its bases, in definition order: the annotated class
+    attributes (ClassVars left out), which are its dataclass fields, and are known before
+    `@dataclass` has run too."""
     names: dict[str, None] = {}
     for klass in reversed(cls.__mro__):
         for name, annotation in klass.__dict__.get("__annotations__", {}).items():

@@ -1,21 +1,24 @@
-"""A policy as the controller: each control update is one `act`, and its action or chunk is the plan.
+"""A policy as the controller: each control update is one `act`, and its action or chunk is the
+plan.
 
 `PolicyController` is a `Planner` (judo.core.planner), as `Controller` is, so the one closed loop
-(`judo.loop.closed_loop.ClosedLoop`), evaluate and the app drive either: `update_action` returns a plan `Spline`,
-`action(t)` serves it, `config` holds the control rate and the watchdog's `max_plan_age`, and `reset`, `close` and
-`warm_start_action` behave alike. So the watchdog, the
-estimator, the latency model and the recorders serve and watch a policy's plan as they do an optimizer's, with no
-second loop:
+(`judo.loop.closed_loop.ClosedLoop`), evaluate and the app drive either: `update_action` returns a
+plan `Spline`, `action(t)` serves it, `config` holds the control rate and the watchdog's
+`max_plan_age`, and `reset`, `close` and `warm_start_action` behave alike. So the watchdog, the
+estimator, the latency model and the recorders serve and watch a policy's plan as they do an
+optimizer's, with no second loop:
   - a per-step policy (horizon H = 1): the plan holds its action until the next update;
-  - a chunk policy (H > 1): the chunk is the plan's H knots, placed at `linspace(0, config.horizon, H)` and
-    joined by `config.spline_order` (the MPC plan's own layout, so a policy distilled from a dataset's
-    `plan/knots` gives back the same plans), served until the next inference.
-A policy that returns NaN fails its update like an optimizer's NaN knots (NonFiniteKnotsError, counted by the
-loop): the plan before stays in force and the watchdog serves the task's `safe_action` once it is too old.
+  - a chunk policy (H > 1): the chunk is the plan's H knots, placed at `linspace(0, config.horizon,
+    H)` and joined by `config.spline_order` (the MPC plan's own layout, so a policy distilled from a
+    dataset's `plan/knots` gives back the same plans), served until the next inference.
+A policy that returns NaN fails its update like an optimizer's NaN knots (NonFiniteKnotsError,
+counted by the loop): the plan before stays in force and the watchdog serves the task's
+`safe_action` once it is too old.
 
-With an `expert` Controller, every update also runs the MPC from the same state (after the policy, so it never
-delays the policy's plan within the update): the policy drives the plant while the MPC labels the states it visits
-(`python -m judo collect --policy FILE.onnx --optimizer O`). The expert's `rewards` and `traces` are reported.
+With an `expert` Controller, every update also runs the MPC from the same state (after the policy,
+so it never delays the policy's plan within the update): the policy drives the plant while the MPC
+labels the states it visits (`python -m judo collect --policy FILE.onnx --optimizer O`). The
+expert's `rewards` and `traces` are reported.
 """
 
 import dataclasses
@@ -39,13 +42,15 @@ from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
 from judo.core.task import Task, new_task, warm_start_takes_state
 
 POLICY_CONFIG_FIELDS = ("control_freq", "horizon", "spline_order")
-"""ControllerConfig fields a policy's metadata may set (as strings): the rate it was trained to act at, and for a
-chunk policy the span and interpolation of its chunk. Fields given on a command line or in code win."""
+"""ControllerConfig fields a policy's metadata may set (as strings): the rate it was trained to act
+at, and for a chunk policy the span and interpolation of its chunk. Fields given on a command line
+or in code win."""
 
 
 POLICY_USES_FIELDS = (*POLICY_CONFIG_FIELDS, "max_plan_age", "latency_compensation")
-"""ControllerConfig fields a PolicyController uses; the others (iterations, randomization, risk, traces, proposals)
-only an optimizer's Controller does, so the GUI hides them while a policy drives."""
+"""ControllerConfig fields a PolicyController uses; the others (iterations, randomization, risk,
+traces, proposals) only an optimizer's Controller does, so the GUI hides them while a policy
+drives."""
 
 
 def as_policy(policy: "Policy | str | Path") -> Policy:
@@ -56,11 +61,14 @@ def as_policy(policy: "Policy | str | Path") -> Policy:
         from judo.core.policies.onnx_policy import OnnxPolicy
 
         return OnnxPolicy(policy)
-    raise PolicyError(f"a policy must be a judo.Policy or the path of an .onnx file, got {type(policy).__name__}")
+    raise PolicyError(
+        f"a policy must be a judo.Policy or the path of an .onnx file, got {type(policy).__name__}"
+    )
 
 
 def policy_config_fields(policy: Policy) -> dict[str, Any]:
-    """The POLICY_CONFIG_FIELDS its metadata gives, as ControllerConfig values ({"control_freq": 50.0, ...})."""
+    """The POLICY_CONFIG_FIELDS its metadata gives, as ControllerConfig values ({"control_freq":
+    50.0, ...})."""
     metadata = getattr(policy, "metadata", {})
     fields: dict[str, Any] = {}
     for name in POLICY_CONFIG_FIELDS:
@@ -69,17 +77,21 @@ def policy_config_fields(policy: Policy) -> dict[str, Any]:
             try:
                 fields[name] = value if name == "spline_order" else float(value)
             except (TypeError, ValueError):
-                raise PolicyError(f"policy {policy.name!r}: metadata {name}={value!r} is not a number") from None
+                raise PolicyError(
+                    f"policy {policy.name!r}: metadata {name}={value!r} is not a number"
+                ) from None
     return fields
 
 
 def policy_config(policy: Policy, base: ControllerConfig | None = None) -> ControllerConfig:
-    """`base` (ControllerConfig() when None) with the fields the policy's metadata sets; PolicyError if they do
-    not fit."""
+    """`base` (ControllerConfig() when None) with the fields the policy's metadata sets; PolicyError
+    if they do not fit."""
     try:
         return with_updates(base or ControllerConfig(), policy_config_fields(policy))
     except ConfigError as err:
-        raise PolicyError(f"policy {policy.name!r}: its metadata does not make a controller config: {err}") from None
+        raise PolicyError(
+            f"policy {policy.name!r}: its metadata does not make a controller config: {err}"
+        ) from None
 
 
 class PolicyController:
@@ -88,20 +100,29 @@ class PolicyController:
     Args:
         task: the planning task; its `policy_observation` says what the policy sees.
         policy: a Policy whose sizes fit the task (checked now: PolicyError, one line, naming both).
-        config: the loop's settings (control_freq, max_plan_age, latency_compensation; horizon and spline_order
-            for a chunk); None: the expert's (a copy), or the defaults, with the fields the policy's metadata sets.
-        task_name: the task's registered name, checked against the policy's metadata "task" (None: not checked).
-        expert: a Controller on the same task that plans from every state the policy is served from, for labels.
+        config: the loop's settings (control_freq, max_plan_age, latency_compensation; horizon and
+            spline_order for a chunk); None: the expert's (a copy), or the defaults, with the fields
+            the policy's metadata sets.
+        task_name: the task's registered name, checked against the policy's metadata "task" (None:
+            not checked).
+        expert: a Controller on the same task that plans from every state the policy is served from,
+            for labels.
 
     Attributes:
-        config, task, policy, expert: the parts (`config.feedback` always off: a policy's plan has no gains).
-        nominal_knots: (H, nu) the latest chunk (clamped to the ctrlrange), or None before the first update.
-        inference_ms: wall time of each update's observation and `act`, in milliseconds (the expert's not counted).
-        expert_failures: expert updates that failed on non-finite rewards or knots (its plan before stayed).
-        kind, config_kinds, controller_fields: as a `PlannerView` (judo.core.planner_view): PlannerKind.POLICY,
+        config, task, policy, expert: the parts (`config.feedback` always off: a policy's plan has
+            no gains).
+        nominal_knots: (H, nu) the latest chunk (clamped to the ctrlrange), or None before the first
+            update.
+        inference_ms: wall time of each update's observation and `act`, in milliseconds (the
+            expert's not counted).
+        expert_failures: expert updates that failed on non-finite rewards or knots (its plan before
+            stayed).
+        kind, config_kinds, controller_fields: as a `PlannerView` (judo.core.planner_view):
+            PlannerKind.POLICY,
             ("controller", "task") (no optimizer config), and POLICY_USES_FIELDS.
-        optimizer, backend, backend_name, proposal_policy: None, as a `PlannerView` where a policy plans: nothing
-            of its own is optimized, rolled out or proposed (an expert's are the expert's).
+        optimizer, backend, backend_name, proposal_policy: None, as a `PlannerView` where a policy
+            plans: nothing of its own is optimized, rolled out or proposed (an expert's are the
+            expert's).
         iterations_run: 0, as a `PlannerView`: a policy runs no optimizer iterations of its own.
     """
 
@@ -126,7 +147,11 @@ class PolicyController:
         observation_size = task.policy_observation_size()
         policy.check_fits(task_name, observation_size, task.nu)
         self.task, self.policy, self.expert = task, policy, expert
-        self.config = config if config is not None else policy_config(policy, None if expert is None else expert.config)
+        self.config = (
+            config
+            if config is not None
+            else policy_config(policy, None if expert is None else expert.config)
+        )
         self.nominal_knots: np.ndarray | None = None
         self.inference_ms: list[float] = []
         self.expert_failures = 0
@@ -140,8 +165,8 @@ class PolicyController:
         self._warm_start_takes_state = warm_start_takes_state(task)
 
     def __setattr__(self, name: str, value: Any) -> None:
-        """`config` is kept with `feedback` off (a config set with it on is taken as a copy with it off): a policy's
-        plan carries no gains, so the loop never predicts a start for them."""
+        """`config` is kept with `feedback` off (a config set with it on is taken as a copy with it
+        off): a policy's plan carries no gains, so the loop never predicts a start for them."""
         if name == "config" and value.feedback:
             value = dataclasses.replace(value, feedback=False)
         super().__setattr__(name, value)
@@ -153,7 +178,8 @@ class PolicyController:
 
     @property
     def rewards(self) -> np.ndarray:
-        """(num_rollouts,) the expert's last rewards; (0,) without an expert (a policy scores nothing)."""
+        """(num_rollouts,) the expert's last rewards; (0,) without an expert (a policy scores
+        nothing)."""
         return self.expert.rewards if self.expert is not None else np.zeros(0)
 
     @property
@@ -169,11 +195,13 @@ class PolicyController:
         """Nothing to check before the next update: a policy rolls nothing out of its own."""
 
     def cycle_size(self, configs: dict[Any, Any]) -> None:
-        """None: a policy's update rolls nothing out of its own (an expert's cycle is not the app's to size)."""
+        """None: a policy's update rolls nothing out of its own (an expert's cycle is not the app's
+        to size)."""
         return None
 
     def _chunk_basis(self) -> SplineBasis:
-        """The knot layout of a chunk under the config in force, rebuilt when horizon or spline_order change."""
+        """The knot layout of a chunk under the config in force, rebuilt when horizon or
+        spline_order change."""
         cfg, horizon = self.config, self.policy.horizon
         key = (cfg.horizon, cfg.spline_order)
         if key == self._layout_key:
@@ -183,7 +211,8 @@ class PolicyController:
         else:
             if horizon < MIN_KNOTS[cfg.spline_order]:
                 raise PolicyError(
-                    f"policy {self.policy.name!r} gives chunks of {horizon} actions, but a {cfg.spline_order} plan "
+                    f"policy {self.policy.name!r} gives chunks of {horizon} actions, but a "
+                    f"{cfg.spline_order} plan "
                     f"needs at least {MIN_KNOTS[cfg.spline_order]}; set spline_order to one of "
                     f"{[order for order, least in MIN_KNOTS.items() if least <= horizon]}"
                 )
@@ -191,17 +220,27 @@ class PolicyController:
         self._basis, self._layout_key = basis, key
         return basis
 
-    def observe(self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None = None) -> np.ndarray:
-        """(1, O) the task's `policy_observation` of the (nq + nv,) `state`, with the planning model's sensors at
-        it when the task overrides the hook, and the action in force as the previous action."""
+    def observe(
+        self, state: np.ndarray, time: float, system_metadata: dict[str, Any] | None = None
+    ) -> np.ndarray:
+        """(1, O) the task's `policy_observation` of the (nq + nv,) `state`, with the planning
+        model's sensors at it when the task overrides the hook, and the action in force as the
+        previous action."""
         sensors = None
         if self._scratch is not None:
-            sensors = model_at(self.task.model, self._scratch, state, time, system_metadata).sensordata[None].copy()
+            sensors = (
+                model_at(self.task.model, self._scratch, state, time, system_metadata)
+                .sensordata[None]
+                .copy()
+            )
         previous = self.action(time, state)[None]
-        observation = np.asarray(self.task.policy_observation(state[None], sensors, system_metadata, previous), float)
+        observation = np.asarray(
+            self.task.policy_observation(state[None], sensors, system_metadata, previous), float
+        )
         if observation.shape != (1, self.policy.observation_size):
             raise PolicyError(
-                f"{type(self.task).__name__}.policy_observation returned shape {observation.shape}, expected "
+                f"{type(self.task).__name__}.policy_observation returned shape "
+                f"{observation.shape}, expected "
                 f"(1, {self.policy.observation_size}) for policy {self.policy.name!r}"
             )
         return observation
@@ -214,12 +253,14 @@ class PolicyController:
         cancel: CancelFlag | None = None,
         deadline: float | None = None,
     ) -> Spline:
-        """One inference from `state` (nq + nv,) at sim `time`: the policy's action (held) or chunk becomes the plan,
-        which is published and returned. With an expert, the MPC then plans from the same state.
+        """One inference from `state` (nq + nv,) at sim `time`: the policy's action (held) or chunk
+        becomes the plan, which is published and returned. With an expert, the MPC then plans from
+        the same state.
 
-        Raises JudoError for a non-finite state or time, PolicyError for an observation or output of the wrong
-        shape, and NonFiniteKnotsError when the policy returned NaN or infinite actions (the plan before stays in
-        force; the closed loop counts it as a failed update). What the policy's `act` raises propagates.
+        Raises JudoError for a non-finite state or time, PolicyError for an observation or output of
+        the wrong shape, and NonFiniteKnotsError when the policy returned NaN or infinite actions
+        (the plan before stays in force; the closed loop counts it as a failed update). What the
+        policy's `act` raises propagates.
         """
         state = checked_reading(state, time, self._num_state, "act on")
         basis = self._chunk_basis()
@@ -238,19 +279,20 @@ class PolicyController:
                 self.expert.update_action(state, time, system_metadata, cancel, deadline)
             except (NonFiniteRewardError, NonFiniteKnotsError):
                 self.expert_failures += 1  # the policy's plan is served all the same
-        self._plan.rewards, self._plan.traces = self.rewards, self.traces  # the expert's, for the loop's records
+        # the expert's, for the loop's records
+        self._plan.rewards, self._plan.traces = self.rewards, self.traces
         return self._plan
 
     def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) control of the current plan at sim `time`, within the ctrlrange; the task's warm start from the
-        (nq + nv,) `state` before the first plan."""
+        """(nu,) control of the current plan at sim `time`, within the ctrlrange; the task's warm
+        start from the (nq + nv,) `state` before the first plan."""
         if not math.isfinite(time):
             raise JudoError(f"action time must be a finite number of seconds, got {time}")
         return self.warm_start_action(state) if self._plan is None else self._plan(time)
 
     def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped: what the plant gets before the
-        first plan (the planning model's start state stands in without a state)."""
+        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped: what the plant
+        gets before the first plan (the planning model's start state stands in without a state)."""
         warm = task_warm_start(self.task, state, self._warm_start_takes_state)
         return np.clip(warm, self._ctrl_low, self._ctrl_high)
 
@@ -285,20 +327,29 @@ def make_policy_controller(
     seed: int | None = None,
     backend: str = "cpu",
 ) -> PolicyController:
-    """A PolicyController for the registered task, serving `policy` (a Policy, or the path of an .onnx file).
+    """A PolicyController for the registered task, serving `policy` (a Policy, or the path of an
+    .onnx file).
 
-    The policy is checked against the task now (its metadata's task, the observation and action sizes): a
-    PolicyError of one line naming both. `controller_config` is used as it is; None gives the task's registered
-    ControllerConfig (a copy of the expert's, with one) with the fields the policy's metadata sets. `expert` is a
-    Controller of the task, or an optimizer's name (then made by `make_controller` with `num_workers`, `seed` and
-    `backend`), that plans from the same states for labels; the policy controller shares its task instance and
-    closes it. Without one, `seed` seeds the task's generator as `make_controller` does.
+    The policy is checked against the task now (its metadata's task, the observation and action
+    sizes): a PolicyError of one line naming both. `controller_config` is used as it is; None gives
+    the task's registered ControllerConfig (a copy of the expert's, with one) with the fields the
+    policy's metadata sets. `expert` is a Controller of the task, or an optimizer's name (then made
+    by `make_controller` with `num_workers`, `seed` and `backend`), that plans from the same states
+    for labels; the policy controller shares its task instance and closes it. Without one, `seed`
+    seeds the task's generator as `make_controller` does.
     """
-    from judo.core.configuration.registry import lookup_task, make_config, make_controller, with_model_overrides
+    from judo.core.configuration.registry import (
+        lookup_task,
+        make_config,
+        make_controller,
+        with_model_overrides,
+    )
 
     loaded = as_policy(policy)
     if isinstance(expert, str):
-        expert = make_controller(task_name, expert, num_workers=num_workers, seed=seed, backend=backend)
+        expert = make_controller(
+            task_name, expert, num_workers=num_workers, seed=seed, backend=backend
+        )
     try:
         if expert is not None:
             task = expert.task

@@ -1,15 +1,18 @@
-"""`ProblemBatch`: P controllers' rollouts as one batch of one backend (P problems x N rollouts per launch).
+"""`ProblemBatch`: P controllers' rollouts as one batch of one backend (P problems x N rollouts per
+launch).
 
-On a GPU a rollout of 1024 worlds costs little more than one of 256: the kernel chain, not the worlds, sets
-the time. Several closed-loop episodes (evaluate's seeds) therefore run faster side by side in one process,
-their planning cycles in lockstep, than one after the other. Each episode's Controller rolls out on its own
-`ProblemSlot`, a RolloutBackend; a slot's `rollout` waits until every open slot has handed in its batch, and the
-last to arrive rolls out all of them in one `rollout_problems` call of the shared backend (problem p's rows
-start from its own state and mocap poses), then every slot gets its own rows back.
+On a GPU a rollout of 1024 worlds costs little more than one of 256: the kernel chain, not the
+worlds, sets the time. Several closed-loop episodes (evaluate's seeds) therefore run faster side by
+side in one process, their planning cycles in lockstep, than one after the other. Each episode's
+Controller rolls out on its own `ProblemSlot`, a RolloutBackend; a slot's `rollout` waits until
+every open slot has handed in its batch, and the last to arrive rolls out all of them in one
+`rollout_problems` call of the shared backend (problem p's rows start from its own state and mocap
+poses), then every slot gets its own rows back.
 
-A slot that closes (its episode ended or failed) no longer holds the others up. Every open slot must roll out
-batches of the same N x T (the same configs); a slot that differs raises ProblemBatchError rather than waiting
-forever. Randomized models (`set_models`) are refused: the shared backend holds one set of models.
+A slot that closes (its episode ended or failed) no longer holds the others up. Every open slot must
+roll out batches of the same N x T (the same configs); a slot that differs raises ProblemBatchError
+rather than waiting forever. Randomized models (`set_models`) are refused: the shared backend holds
+one set of models.
 """
 
 import threading
@@ -37,7 +40,8 @@ class ProblemBackend(Protocol):
 
 
 class ProblemBatchError(JudoError):
-    """The open slots of a ProblemBatch asked for batches of different shapes, or a rollout of the batch failed."""
+    """The open slots of a ProblemBatch asked for batches of different shapes, or a rollout of the
+    batch failed."""
 
 
 class ProblemBatch:
@@ -46,7 +50,8 @@ class ProblemBatch:
     Args:
         backend: rolls out the combined batch; owned here (closed by `close`).
         num_problems: the slots, P.
-        timeout: most seconds a slot waits for the others before ProblemBatchError (a stuck episode).
+        timeout: most seconds a slot waits for the others before ProblemBatchError (a stuck
+            episode).
     """
 
     def __init__(self, backend: ProblemBackend, num_problems: int, timeout: float = 600.0) -> None:
@@ -61,8 +66,11 @@ class ProblemBatch:
         self.launches = 0
         """Combined rollouts so far."""
 
-    def _submit(self, p: int, initial: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None) -> tuple:
-        """Hand in slot p's batch; return its rows of the combined rollout once every open slot has handed in."""
+    def _submit(
+        self, p: int, initial: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None
+    ) -> tuple:
+        """Hand in slot p's batch; return its rows of the combined rollout once every open slot has
+        handed in."""
         with self._lock:
             self._inputs[p] = (initial, controls, mocap)
             this_round = self._round
@@ -85,7 +93,8 @@ class ProblemBatch:
             self._launch_if_complete()
 
     def _launch_if_complete(self) -> None:
-        """With the lock held: when every open slot has handed in, roll them out as one batch and wake them."""
+        """With the lock held: when every open slot has handed in, roll them out as one batch and
+        wake them."""
         if not self._inputs or set(self._inputs) != self._open:
             return
         order = sorted(self._inputs)
@@ -94,16 +103,24 @@ class ProblemBatch:
         try:
             if len(shapes) > 1:
                 raise ProblemBatchError(
-                    f"the problems of one batch must roll out batches of one N x T x nu, got {sorted(shapes)}; "
+                    "the problems of one batch must roll out batches of one N x T x nu, got "
+                    f"{sorted(shapes)}; "
                     "expected every episode to run the same configs"
                 )
             initial = np.stack([state for state, _, _ in inputs])
             controls = np.concatenate([c for _, c, _ in inputs])
-            mocaps = None if inputs[0][2] is None else np.stack([cast(np.ndarray, m) for _, _, m in inputs])
+            mocaps = (
+                None
+                if inputs[0][2] is None
+                else np.stack([cast(np.ndarray, m) for _, _, m in inputs])
+            )
             states, sensors = self.backend.rollout_problems(initial, controls, mocaps)
             rows = len(inputs[0][1])
             for i, p in enumerate(order):
-                self._results[p] = (states[i * rows : (i + 1) * rows], sensors[i * rows : (i + 1) * rows])
+                self._results[p] = (
+                    states[i * rows : (i + 1) * rows],
+                    sensors[i * rows : (i + 1) * rows],
+                )
             self.launches += 1
         except Exception as err:  # every waiting slot gets the failure, then raises it
             for p in order:
@@ -120,10 +137,11 @@ class ProblemBatch:
 
 
 class ProblemSlot(RolloutBackend):
-    """Problem p's view of a ProblemBatch: a RolloutBackend whose rollouts are rows of the batch's combined one.
+    """Problem p's view of a ProblemBatch: a RolloutBackend whose rollouts are rows of the batch's
+    combined one.
 
-    The arrays it returns belong to the shared backend's host buffers and are overwritten by the next combined
-    rollout, as a plain backend's are by its next call.
+    The arrays it returns belong to the shared backend's host buffers and are overwritten by the
+    next combined rollout, as a plain backend's are by its next call.
     """
 
     def __init__(self, batch: ProblemBatch, index: int) -> None:
@@ -148,7 +166,8 @@ class ProblemSlot(RolloutBackend):
         if models is None or (len(models) == 1 and models[0] is self.model):
             return
         raise ProblemBatchError(
-            f"episodes batched as problems on one backend cannot roll out under {len(models)} randomized models; "
+            "episodes batched as problems on one backend cannot roll out under "
+            f"{len(models)} randomized models; "
             "expected num_randomizations = 1, or one episode per batch"
         )
 

@@ -1,7 +1,8 @@
-"""Domain randomization: perturbed copies of a task's planning model, built by its `randomize_model` hook.
+"""Domain randomization: perturbed copies of a task's planning model, built by its `randomize_model`
+hook.
 
-`randomized_models` returns the planning model itself followed by perturbed copies, each built once per
-redraw (a copy of the model, the task's hook, a check of the fields it may have broken, then
+`randomized_models` returns the planning model itself followed by perturbed copies, each built once
+per redraw (a copy of the model, the task's hook, a check of the fields it may have broken, then
 `mj_setConst` so derived constants such as subtree masses follow the new values). The helpers below
 draw the usual perturbations, one uniform factor per element, for task hooks to call.
 """
@@ -30,13 +31,14 @@ the hook changed must stay finite."""
 
 
 class InvalidRandomizedModelError(JudoError):
-    """A task's `randomize_model` hook left a field with a NaN, an infinity, or a negative entry where
-    only nonnegative values make sense (a mass, an inertia, a friction, a damping)."""
+    """A task's `randomize_model` hook left a field with a NaN, an infinity, or a negative entry
+    where only nonnegative values make sense (a mass, an inertia, a friction, a damping)."""
 
 
 def randomized_models(task: Task, count: int, rng: np.random.Generator) -> list[mujoco.MjModel]:
     """The `count` models a randomized batch rolls out under: `task.model` itself, then count - 1
-    perturbed copies, each made by `task.randomize_model(copy, rng)` and checked by `check_randomized_model`.
+    perturbed copies, each made by `task.randomize_model(copy, rng)` and checked by
+    `check_randomized_model`.
 
     Raises InvalidRandomizedModelError naming the field when a hook breaks one.
     """
@@ -57,9 +59,11 @@ def _copy_model(model: mujoco.MjModel) -> mujoco.MjModel:
     return copy.deepcopy(model)
 
 
-def check_randomized_model(original: mujoco.MjModel, randomized: mujoco.MjModel, source: str) -> None:
-    """Raise InvalidRandomizedModelError unless every float field that `source` changed is finite and each
-    of NONNEGATIVE_FIELDS is >= 0; the message names the field, the entry and the value."""
+def check_randomized_model(
+    original: mujoco.MjModel, randomized: mujoco.MjModel, source: str
+) -> None:
+    """Raise InvalidRandomizedModelError unless every float field that `source` changed is finite
+    and each of NONNEGATIVE_FIELDS is >= 0; the message names the field, the entry and the value."""
     for name in _float_fields(original):
         before, after = getattr(original, name), getattr(randomized, name)
         if before.shape != after.shape:
@@ -74,7 +78,8 @@ def check_randomized_model(original: mujoco.MjModel, randomized: mujoco.MjModel,
             index = tuple(int(i) for i in np.argwhere(bad)[0])
             expected = "a finite value >= 0" if name in NONNEGATIVE_FIELDS else "a finite value"
             raise InvalidRandomizedModelError(
-                f"{source} set {name}[{', '.join(map(str, index))}]{_owner(original, name, index[0])} to "
+                f"{source} set "
+                f"{name}[{', '.join(map(str, index))}]{_owner(original, name, index[0])} to "
                 f"{float(after[index])!r}; expected {expected} (it was {float(before[index])!r})"
             )
 
@@ -113,13 +118,16 @@ def _float_fields(model: mujoco.MjModel) -> list[str]:
 def scale_geom_friction(
     model: mujoco.MjModel, geoms: Sequence[int], low: float, high: float, rng: np.random.Generator
 ) -> None:
-    """Multiply the sliding friction of each of `geoms` (ids) by its own factor drawn uniformly from [low, high]."""
+    """Multiply the sliding friction of each of `geoms` (ids) by its own factor drawn uniformly from
+    [low, high]."""
     model.geom_friction[list(geoms), 0] *= rng.uniform(low, high, len(geoms))
 
 
-def scale_body_mass(model: mujoco.MjModel, body: int, low: float, high: float, rng: np.random.Generator) -> None:
-    """Multiply the mass and inertia of `body` (id) by one factor drawn uniformly from [low, high] (same density
-    distribution, so the inertia scales with the mass)."""
+def scale_body_mass(
+    model: mujoco.MjModel, body: int, low: float, high: float, rng: np.random.Generator
+) -> None:
+    """Multiply the mass and inertia of `body` (id) by one factor drawn uniformly from [low, high]
+    (same density distribution, so the inertia scales with the mass)."""
     factor = rng.uniform(low, high)
     model.body_mass[body] *= factor
     model.body_inertia[body] *= factor
@@ -128,12 +136,14 @@ def scale_body_mass(model: mujoco.MjModel, body: int, low: float, high: float, r
 def scale_dof_frictionloss(
     model: mujoco.MjModel, dofs: Sequence[int], low: float, high: float, rng: np.random.Generator
 ) -> None:
-    """Multiply the friction loss of `dofs` (ids) by one common factor drawn uniformly from [low, high]."""
+    """Multiply the friction loss of `dofs` (ids) by one common factor drawn uniformly from [low,
+    high]."""
     model.dof_frictionloss[list(dofs)] *= rng.uniform(low, high)
 
 
 def geom_ids(model: mujoco.MjModel, geom_names: Sequence[str]) -> list[int]:
-    """Ids of the geoms called `geom_names`; UnknownNameError (listing the geoms) for a missing one."""
+    """Ids of the geoms called `geom_names`; UnknownNameError (listing the geoms) for a missing
+    one."""
     return [_id(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, name, "geom") for name in geom_names]
 
 
@@ -151,4 +161,6 @@ def _id(model: mujoco.MjModel, obj_type: mujoco.mjtObj, count: int, name: str, k
 
 def contact_geom_ids(model: mujoco.MjModel) -> list[int]:
     """Ids of the geoms that can collide (nonzero contype or conaffinity), in id order."""
-    return [int(i) for i in np.flatnonzero((model.geom_contype != 0) | (model.geom_conaffinity != 0))]
+    return [
+        int(i) for i in np.flatnonzero((model.geom_contype != 0) | (model.geom_conaffinity != 0))
+    ]

@@ -1,10 +1,11 @@
-"""Risk measures: each control sequence's rewards under several randomized models, reduced to one score.
+"""Risk measures: each control sequence's rewards under several randomized models, reduced to one
+score.
 
-Every function takes rewards of shape (num_rollouts, num_randomizations), one row per sampled control
-sequence and one column per model it was rolled out under, and returns (num_rollouts,). Higher is
-better, as everywhere in judo. NaN counts as -inf (a diverged rollout), so "average", "worst", "cvar"
-and a risk-averse "exponential" score a sequence -inf if any of its models diverged; "best" and a
-risk-seeking "exponential" look past it.
+Every function takes rewards of shape (num_rollouts, num_randomizations), one row per sampled
+control sequence and one column per model it was rolled out under, and returns (num_rollouts,).
+Higher is better, as everywhere in judo. NaN counts as -inf (a diverged rollout), so "average",
+"worst", "cvar" and a risk-averse "exponential" score a sequence -inf if any of its models diverged;
+"best" and a risk-seeking "exponential" look past it.
 """
 
 from typing import Literal, get_args
@@ -53,11 +54,13 @@ def cvar(rewards: np.ndarray, alpha: float) -> np.ndarray:
 
 
 def exponential(rewards: np.ndarray, scale: float) -> np.ndarray:
-    """(num_rollouts, R) -> (num_rollouts,) certainty equivalent -1/scale * log(mean_r exp(-scale * reward_r)).
+    """(num_rollouts, R) -> (num_rollouts,) certainty equivalent -1/scale * log(mean_r exp(-scale *
+    reward_r)).
 
     `scale` > 0 is risk-averse (towards the worst case as it grows), < 0 risk-seeking (towards the
     best), and tends to the average as it nears 0. Its units are 1 / reward: pick it against the
-    spread of the task's rewards. Computed as a shifted log-sum-exp, so large scales do not overflow.
+    spread of the task's rewards. Computed as a shifted log-sum-exp, so large scales do not
+    overflow.
     """
     if scale == 0:
         raise ValueError("exponential risk needs a nonzero scale")
@@ -71,14 +74,19 @@ def exponential(rewards: np.ndarray, scale: float) -> np.ndarray:
     return -log_mean / scale
 
 
-def reduce_rewards(rewards: np.ndarray, measure: str, cvar_alpha: float = 0.5, risk_scale: float = 1.0) -> np.ndarray:
-    """(num_rollouts, R) rewards -> (num_rollouts,) scores by the risk `measure` (one of RISK_MEASURES).
+def reduce_rewards(
+    rewards: np.ndarray, measure: str, cvar_alpha: float = 0.5, risk_scale: float = 1.0
+) -> np.ndarray:
+    """(num_rollouts, R) rewards -> (num_rollouts,) scores by the risk `measure` (one of
+    RISK_MEASURES).
 
     `cvar_alpha` is read by "cvar", `risk_scale` by "exponential". NaN counts as -inf.
     Raises UnknownNameError for an unknown measure.
     """
     if rewards.ndim != 2:
-        raise ValueError(f"rewards must have shape (num_rollouts, num_randomizations), got {rewards.shape}")
+        raise ValueError(
+            f"rewards must have shape (num_rollouts, num_randomizations), got {rewards.shape}"
+        )
     if measure == "average":
         return average(rewards)
     if measure == "worst":

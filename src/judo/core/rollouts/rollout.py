@@ -1,8 +1,9 @@
-"""`RolloutPool`, the CPU rollout backend: one shared MjModel, one MjData per worker thread, one C call per
-chunk.
+"""`RolloutPool`, the CPU rollout backend: one shared MjModel, one MjData per worker thread, one C
+call per chunk.
 
-It implements `judo.core.rollouts.backend.RolloutBackend`, as the MuJoCo Warp backend (core/rollouts/warp_rollout.py)
-does; the factory `make_rollout_backend` lives in core/rollouts/factory.py.
+It implements `judo.core.rollouts.backend.RolloutBackend`, as the MuJoCo Warp backend
+(core/rollouts/warp_rollout.py) does; the factory `make_rollout_backend` lives in
+core/rollouts/factory.py.
 """
 
 import os
@@ -24,27 +25,31 @@ from judo.core.rollouts.workers import DaemonThreadPool
 __all__ = ["CLOSE_TIMEOUT", "MOCAP_CONTROL_SPEC", "RolloutPool"]
 
 MOCAP_CONTROL_SPEC = (
-    mujoco.mjtState.mjSTATE_CTRL | mujoco.mjtState.mjSTATE_MOCAP_POS | mujoco.mjtState.mjSTATE_MOCAP_QUAT
+    mujoco.mjtState.mjSTATE_CTRL
+    | mujoco.mjtState.mjSTATE_MOCAP_POS
+    | mujoco.mjtState.mjSTATE_MOCAP_QUAT
 )
-"""Per-step inputs of a rollout on a model with mocap bodies: [ctrl, mocap_pos, mocap_quat]. MuJoCo's
-rollout resets mocap poses to the model's defaults unless they are passed as inputs like this."""
+"""Per-step inputs of a rollout on a model with mocap bodies: [ctrl, mocap_pos, mocap_quat].
+MuJoCo's rollout resets mocap poses to the model's defaults unless they are passed as inputs like
+this."""
 
 
 CLOSE_TIMEOUT = 0.5
 """Most seconds `RolloutPool.close` waits for its workers."""
 PIECE_STEPS = 50_000
-"""Most rollout steps one C call of a worker takes while a `cancel` flag is set on the pool: a bigger chunk is
-rolled out in pieces of whole rows, the flag polled between them, so a cancelled batch ends within a piece."""
+"""Most rollout steps one C call of a worker takes while a `cancel` flag is set on the pool: a
+bigger chunk is rolled out in pieces of whole rows, the flag polled between them, so a cancelled
+batch ends within a piece."""
 
 
 class RolloutPool(RolloutBackend):
     """Rolls out batches of control sequences from one initial state on `num_workers` threads.
 
     The batch is split into one contiguous chunk per worker; each worker runs MuJoCo's C rollout on
-    its own MjData with the GIL released. Output buffers, and each chunk's list of per-rollout models,
-    are built when the batch shape or the models change and reused otherwise, so the returned arrays
-    are overwritten by the next call. Under `set_models` MuJoCo's rollout gets the mixed list of
-    models, by reference: nothing is copied per call.
+    its own MjData with the GIL released. Output buffers, and each chunk's list of per-rollout
+    models, are built when the batch shape or the models change and reused otherwise, so the
+    returned arrays are overwritten by the next call. Under `set_models` MuJoCo's rollout gets the
+    mixed list of models, by reference: nothing is copied per call.
     """
 
     name = "cpu"
@@ -61,7 +66,8 @@ class RolloutPool(RolloutBackend):
         self._splits: dict[int, tuple[list[slice], list[list[mujoco.MjModel]]]] = {}
 
     def set_models(self, models: Sequence[mujoco.MjModel] | None) -> None:
-        """See `RolloutBackend.set_models`; raises RandomizedRolloutError for a model of other sizes."""
+        """See `RolloutBackend.set_models`; raises RandomizedRolloutError for a model of other
+        sizes."""
         models = [self.model] if models is None else check_model_sizes(self.model, models)
         self._models = models
         self._splits.clear()  # rebuild the chunks' model lists on the next rollout
@@ -74,21 +80,26 @@ class RolloutPool(RolloutBackend):
         self._inputs = np.zeros((num_rollouts, num_steps, self.model.nu + 7 * self.model.nmocap))
 
     def _split(self, num_rollouts: int) -> tuple[list[slice], list[list[mujoco.MjModel]]]:
-        """The rows of each worker's contiguous chunk and each chunk's per-row models, kept per batch size
-        until `set_models` changes the models."""
-        if num_rollouts not in self._splits:  # checked once per batch size and models, as the split is made
+        """The rows of each worker's contiguous chunk and each chunk's per-row models, kept per
+        batch size until `set_models` changes the models."""
+        # checked once per batch size and models, as the split is made
+        if num_rollouts not in self._splits:
             check_blocks(num_rollouts, len(self._models))
-            bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(int)
+            bounds = np.linspace(0, num_rollouts, min(self.num_workers, num_rollouts) + 1).astype(
+                int
+            )
             chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:], strict=True)]
             block = num_rollouts // len(self._models)
-            row_models = [model for model in self._models for _ in range(block)]  # block r: models[r]
+            # block r: models[r]
+            row_models = [model for model in self._models for _ in range(block)]
             self._splits[num_rollouts] = (chunks, [row_models[c] for c in chunks])
         return self._splits[num_rollouts]
 
     def rollout(
         self, initial_state: np.ndarray, controls: np.ndarray, mocap: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
-        """See `RolloutBackend.rollout`; the work is split into one contiguous chunk per worker thread."""
+        """See `RolloutBackend.rollout`; the work is split into one contiguous chunk per worker
+        thread."""
         num_rollouts, num_steps, _ = controls.shape
         self._split(num_rollouts)  # RandomizedRolloutError before anything is written
         if self._shape != (num_rollouts, num_steps):
@@ -99,21 +110,26 @@ class RolloutPool(RolloutBackend):
             self._inputs[..., : self.model.nu] = controls
             self._inputs[..., self.model.nu :] = mocap
             controls, spec = self._inputs, MOCAP_CONTROL_SPEC
-        self.rollout_rows(self._initial, controls, spec, self._states, self._sensors, caller_runs_first=False)
+        self.rollout_rows(
+            self._initial, controls, spec, self._states, self._sensors, caller_runs_first=False
+        )
         return self._states, self._sensors
 
     def blocks(self, num_rollouts: int) -> list[slice]:
-        """The contiguous block of rows each worker rolls out of a batch of `num_rollouts`: one block per
-        worker, or one per row when there are fewer rows than workers."""
+        """The contiguous block of rows each worker rolls out of a batch of `num_rollouts`: one
+        block per worker, or one per row when there are fewer rows than workers."""
         return self._split(num_rollouts)[0]
 
-    def for_each_block(self, num_rollouts: int, work: Callable[[int], None], caller_runs_first: bool = True) -> None:
-        """Call `work(block)` once for each block of a batch of `num_rollouts` (see `blocks`), on the worker
-        threads, and return once every call has returned; the first error is re-raised after all have ended.
+    def for_each_block(
+        self, num_rollouts: int, work: Callable[[int], None], caller_runs_first: bool = True
+    ) -> None:
+        """Call `work(block)` once for each block of a batch of `num_rollouts` (see `blocks`), on
+        the worker threads, and return once every call has returned; the first error is re-raised
+        after all have ended.
 
-        With `caller_runs_first` the calling thread runs block 0 itself rather than wait, one thread hand-off
-        fewer; `rollout` (one long call) leaves all blocks to the daemon workers, so that a caller waiting on
-        them stays interruptible.
+        With `caller_runs_first` the calling thread runs block 0 itself rather than wait, one thread
+        hand-off fewer; `rollout` (one long call) leaves all blocks to the daemon workers, so that a
+        caller waiting on them stays interruptible.
         """
         count = len(self.blocks(num_rollouts))
         if count == 1:
@@ -139,15 +155,19 @@ class RolloutPool(RolloutBackend):
         states: np.ndarray,
         sensors: np.ndarray,
     ) -> None:
-        """Roll the rows of block `block` (see `blocks`) out on that block's MjData, on the calling thread.
+        """Roll the rows of block `block` (see `blocks`) out on that block's MjData, on the calling
+        thread.
 
-        The arrays hold the whole batch, of which only the block's rows are read and written; all are
-        C-contiguous float64: initial_states (N, nstate); inputs (N, k, ncontrol), the per-step values of
-        `control_spec` ([ctrl] or [ctrl, mocap_pos, mocap_quat]); states (N, k, nstate) and sensors
-        (N, k, nsensordata). A low-level policy's worker (core/rollouts/low_level.py) calls it once per tick.
+        The arrays hold the whole batch, of which only the block's rows are read and written; all
+        are C-contiguous float64: initial_states (N, nstate); inputs (N, k, ncontrol), the per-step
+        values of `control_spec` ([ctrl] or [ctrl, mocap_pos, mocap_quat]); states (N, k, nstate)
+        and sensors (N, k, nsensordata). A low-level policy's worker (core/rollouts/low_level.py)
+        calls it once per tick.
         """
         chunks, chunk_models = self._split(len(initial_states))
-        self._run_chunk(block, chunks, chunk_models, initial_states, inputs, control_spec, states, sensors)
+        self._run_chunk(
+            block, chunks, chunk_models, initial_states, inputs, control_spec, states, sensors
+        )
 
     def rollout_rows(
         self,
@@ -158,8 +178,9 @@ class RolloutPool(RolloutBackend):
         sensors: np.ndarray,
         caller_runs_first: bool = True,
     ) -> None:
-        """Roll row i of `inputs` out from row i of `initial_states`, into the caller's output arrays: every
-        block on its worker (arrays as in `rollout_block`; `caller_runs_first` as in `for_each_block`)."""
+        """Roll row i of `inputs` out from row i of `initial_states`, into the caller's output
+        arrays: every block on its worker (arrays as in `rollout_block`; `caller_runs_first` as in
+        `for_each_block`)."""
 
         def roll(block: int) -> None:
             self.rollout_block(block, initial_states, inputs, control_spec, states, sensors)
@@ -181,10 +202,12 @@ class RolloutPool(RolloutBackend):
         num_steps = controls.shape[1]
         rows = chunk.stop - chunk.start
         piece = rows if cancel is None else max(1, PIECE_STEPS // max(1, num_steps))
-        for first in range(0, rows, piece):  # one call unless a cancellable chunk is bigger than PIECE_STEPS
+        # one call unless a cancellable chunk is bigger than PIECE_STEPS
+        for first in range(0, rows, piece):
             if cancel is not None and cancel.is_set():
                 raise PlanningCancelled(
-                    "planning cycle cancelled part-way through a batch of rollouts; the previous plan stays in force"
+                    "planning cycle cancelled part-way through a batch of rollouts; the "
+                    "previous plan stays in force"
                 )
             part = slice(chunk.start + first, min(chunk.stop, chunk.start + first + piece))
             self._runners[worker].rollout(

@@ -2,8 +2,8 @@
 
 `concurrent.futures.ThreadPoolExecutor` joins its threads when the interpreter exits, so a worker
 stuck in one long call (a batch of 10**5 rollouts, a user reward that sleeps) holds up Ctrl-C until
-the call returns. `DaemonThreadPool` runs the same work on daemon threads and its `shutdown` can stop
-waiting after a timeout: an abandoned call finishes on its own, or ends with the process.
+the call returns. `DaemonThreadPool` runs the same work on daemon threads and its `shutdown` can
+stop waiting after a timeout: an abandoned call finishes on its own, or ends with the process.
 """
 
 import queue
@@ -14,11 +14,13 @@ from collections.abc import Callable
 from concurrent.futures import Executor, Future
 from typing import Any
 
-WorkQueue = queue.SimpleQueue  # of (future, fn, args, kwargs), or None: the signal for one worker to end
+# of (future, fn, args, kwargs), or None: the signal for one worker to end
+WorkQueue = queue.SimpleQueue
 
 
 class DaemonThreadPool(Executor):
-    """Up to `num_workers` daemon threads named `name_0`, `name_1`, ... running submitted calls in order.
+    """Up to `num_workers` daemon threads named `name_0`, `name_1`, ... running submitted calls in
+    order.
 
     The threads start with the first calls; they end on `shutdown()`, or when the pool is garbage
     collected (the workers hold no reference to it)."""
@@ -40,14 +42,20 @@ class DaemonThreadPool(Executor):
             self._queue.put((future, fn, args, kwargs))
             if len(self._threads) < self.num_workers:
                 thread = threading.Thread(
-                    target=_work, args=(self._queue,), name=f"{self.name}_{len(self._threads)}", daemon=True
+                    target=_work,
+                    args=(self._queue,),
+                    name=f"{self.name}_{len(self._threads)}",
+                    daemon=True,
                 )
                 thread.start()
                 self._threads.append(thread)
         return future
 
-    def shutdown(self, wait: bool = True, *, cancel_futures: bool = False, timeout: float | None = None) -> None:
-        """Let the workers end after the call they are running; wait for them (at most `timeout` s)."""
+    def shutdown(
+        self, wait: bool = True, *, cancel_futures: bool = False, timeout: float | None = None
+    ) -> None:
+        """Let the workers end after the call they are running; wait for them (at most `timeout`
+        s)."""
         with self._lock:
             if not self._shutdown:
                 self._shutdown = True

@@ -1,4 +1,5 @@
-"""Who may open the GUI's websocket: same-origin browsers, and with a token set, only those who hold it.
+"""Who may open the GUI's websocket: same-origin browsers, and with a token set, only those who hold
+it.
 
 The websocket is the GUI's only channel of control (every slider, reset and switch travels over it),
 so every opening handshake passes `AccessPolicy.check` before it is accepted:
@@ -47,14 +48,21 @@ class AccessPolicy:
         """Why the websocket handshake `request` is refused, or None if it is accepted."""
         hosts, origins = request.headers.get_all("Host"), request.headers.get_all("Origin")
         if len(hosts) != 1 or len(origins) > 1:
-            return f"websocket refused: expected one Host and at most one Origin header, got {hosts} and {origins}"
+            return (
+                "websocket refused: expected one Host and at most one Origin header, got "
+                f"{hosts} and {origins}"
+            )
         host, origin = hosts[0], (origins[0] if origins else None)
         if origin is not None and urlsplit(origin).netloc.lower() != host.lower():
-            return f"cross-origin websocket refused: Origin {origin!r} is not the GUI's own address {host!r}"
+            return (
+                f"cross-origin websocket refused: Origin {origin!r} is not the GUI's own address "
+                f"{host!r}"
+            )
         if self.token is None:
             if not is_loopback(_hostname(host)):
                 return (
-                    f"websocket to {host!r} refused: without a token the GUI only answers loopback addresses "
+                    f"websocket to {host!r} refused: without a token the GUI only answers "
+                    "loopback addresses "
                     "(localhost, 127.0.0.1, [::1]); use one, or restart with --token"
                 )
             return None
@@ -78,7 +86,10 @@ class AccessPolicy:
             rest = request.path.lstrip("/").partition("/")[2]
             return replace(request, path="/" + rest)
         if request.path.partition("?")[0] in ("", "/"):
-            return "This judo GUI needs its access token: open the URL the app printed (http://HOST:PORT/TOKEN).\n"
+            return (
+                "This judo GUI needs its access token: open the URL the app printed "
+                "(http://HOST:PORT/TOKEN).\n"
+            )
         return request
 
     def guard(self, serve_files):  # viser's process_request callable, and ours

@@ -1,4 +1,5 @@
-"""Where the GUI's camera looks: a framing of the task on open, reset and switch, and the focus body it follows.
+"""Where the GUI's camera looks: a framing of the task on open, reset and switch, and the focus body
+it follows.
 
     points = np.concatenate([corners, reach_points(model, data, corners, corner_bodies)])
     position, look_at = frame_points(model, points)            # (3,), (3,)
@@ -18,13 +19,15 @@ import mujoco
 import numpy as np
 
 MIN_FRAMED_RADIUS = 0.12
-"""Metres: the smallest half-extent the camera frames, so a lone small body keeps a little context."""
+"""Metres: the smallest half-extent the camera frames, so a lone small body keeps a little
+context."""
 FRAMING_FILL = 0.8
 """The framed points reach at most this fraction of the way from the view's centre to its edges."""
 VERTICAL_FOV = np.deg2rad(75.0)
 """viser's default vertical field of view (radians)."""
 VISIBLE_ASPECT = 1.1
-"""Width over height of the canvas beside the docked GUI panel on a 1280 x 800 page (wider pages see more)."""
+"""Width over height of the canvas beside the docked GUI panel on a 1280 x 800 page (wider pages see
+more)."""
 
 
 def focus_body_id(model: mujoco.MjModel, name: str | None) -> int:
@@ -35,7 +38,9 @@ def focus_body_id(model: mujoco.MjModel, name: str | None) -> int:
     if name is not None:
         body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
         if body < 0:
-            bodies = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, model.nbody)]
+            bodies = [
+                mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(1, model.nbody)
+            ]
             raise KeyError(f"focus body {name!r} is not in the model; its bodies are {bodies}")
         return body
     for joint in range(model.njnt):
@@ -44,7 +49,9 @@ def focus_body_id(model: mujoco.MjModel, name: str | None) -> int:
     return 0
 
 
-def reach_points(model: mujoco.MjModel, data: mujoco.MjData, corners: np.ndarray, corner_bodies: np.ndarray):
+def reach_points(
+    model: mujoco.MjModel, data: mujoco.MjData, corners: np.ndarray, corner_bodies: np.ndarray
+):
     """(n, 3) points bounding where k bodies can swing their subtrees' geoms without travelling.
 
     Two kinds of body count. A chain that turns (hinge or ball joints only) on the world, or on
@@ -69,7 +76,9 @@ def reach_points(model: mujoco.MjModel, data: mujoco.MjData, corners: np.ndarray
         centre = data.xanchor[model.body_jntadr[body]] if types <= turning else data.xpos[body]
         radius = _reach_radius(model, data, body, centre, corners, corner_bodies)
         axis = _swing_axis(model, data, body)
-        points.append(centre + radius * (BALL_DIRECTIONS if axis is None else _circle_directions(axis)))
+        points.append(
+            centre + radius * (BALL_DIRECTIONS if axis is None else _circle_directions(axis))
+        )
     return np.concatenate(points) if points else np.zeros((0, 3))
 
 
@@ -81,9 +90,9 @@ def _reach_radius(
     corners: np.ndarray,
     corner_bodies: np.ndarray,
 ) -> float:
-    """How far from `point` (3,), fixed in `body`, any geom corner of `body`'s subtree can get in any
-    pose: `body`'s own corners, and for each jointed child the distance to its joint's anchor plus
-    the child's own reach from there (a folded arm reaches as far as a straight one)."""
+    """How far from `point` (3,), fixed in `body`, any geom corner of `body`'s subtree can get in
+    any pose: `body`'s own corners, and for each jointed child the distance to its joint's anchor
+    plus the child's own reach from there (a folded arm reaches as far as a straight one)."""
     own = corners[corner_bodies == body]
     radius = float(np.linalg.norm(own - point, axis=1).max()) if len(own) else 0.0
     for child in range(body + 1, model.nbody):
@@ -100,7 +109,11 @@ def _reach_radius(
 
 
 BALL_DIRECTIONS = np.concatenate(
-    [np.eye(3), -np.eye(3), np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) / np.sqrt(3)]
+    [
+        np.eye(3),
+        -np.eye(3),
+        np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) / np.sqrt(3),
+    ]
 )
 """(14, 3) unit directions whose points outline a ball well enough to frame it from any side."""
 
@@ -156,7 +169,13 @@ def frame_points(model: mujoco.MjModel, points: np.ndarray, aspect: float = VISI
     low, high = points.min(axis=0), points.max(axis=0)
     look_at = (low + high) / 2
     azimuth, elevation = np.deg2rad([model.vis.global_.azimuth, model.vis.global_.elevation])
-    forward = np.array([np.cos(elevation) * np.cos(azimuth), np.cos(elevation) * np.sin(azimuth), np.sin(elevation)])
+    forward = np.array(
+        [
+            np.cos(elevation) * np.cos(azimuth),
+            np.cos(elevation) * np.sin(azimuth),
+            np.sin(elevation),
+        ]
+    )
     right = np.cross(forward, [0.0, 0.0, 1.0])
     right = (
         right / np.linalg.norm(right)
@@ -167,15 +186,23 @@ def frame_points(model: mujoco.MjModel, points: np.ndarray, aspect: float = VISI
     offsets = points - look_at  # (n, 3)
     across, along, depth = np.abs(offsets @ right), np.abs(offsets @ up), offsets @ forward
     tan_y = FRAMING_FILL * np.tan(VERTICAL_FOV / 2)
-    needed = np.maximum(across / (tan_y * aspect), along / tan_y) - depth  # (n,) each point's distance
-    distance = max(float(needed.max()), MIN_FRAMED_RADIUS / tan_y, float(np.abs(depth).max()) + MIN_FRAMED_RADIUS)
+    # (n,) each point's distance
+    needed = np.maximum(across / (tan_y * aspect), along / tan_y) - depth
+    distance = max(
+        float(needed.max()),
+        MIN_FRAMED_RADIUS / tan_y,
+        float(np.abs(depth).max()) + MIN_FRAMED_RADIUS,
+    )
     return look_at - distance * forward, look_at
 
 
-def distance_to_see(offset: np.ndarray, look_at: np.ndarray, points: np.ndarray, aspect: float = VISIBLE_ASPECT):
-    """The camera's distance from `look_at` along its view, `offset` (3,) = position - look_at, kept unless some
-    of (n, 3) `points` (the goals) would then project beyond FRAMING_FILL of the view: then the distance that
-    brings them all within it. The view's direction and look-at stay (a zoom out, never in)."""
+def distance_to_see(
+    offset: np.ndarray, look_at: np.ndarray, points: np.ndarray, aspect: float = VISIBLE_ASPECT
+):
+    """The camera's distance from `look_at` along its view, `offset` (3,) = position - look_at, kept
+    unless some of (n, 3) `points` (the goals) would then project beyond FRAMING_FILL of the view:
+    then the distance that brings them all within it. The view's direction and look-at stay (a zoom
+    out, never in)."""
     distance = float(np.linalg.norm(offset))
     if len(points) == 0 or distance < 1e-9:
         return distance
@@ -188,7 +215,8 @@ def distance_to_see(offset: np.ndarray, look_at: np.ndarray, points: np.ndarray,
     offsets = np.asarray(points, dtype=float) - look_at
     across, along, depth = np.abs(offsets @ right), np.abs(offsets @ up), offsets @ forward
     tan_y = FRAMING_FILL * np.tan(VERTICAL_FOV / 2)
-    needed = np.maximum(across / (tan_y * aspect), along / tan_y) - depth  # (n,) each point's distance
+    # (n,) each point's distance
+    needed = np.maximum(across / (tan_y * aspect), along / tan_y) - depth
     return max(distance, float(needed.max()))
 
 
@@ -204,8 +232,16 @@ def model_camera(model: mujoco.MjModel, data: mujoco.MjData, look_distance: floa
     return position, position + look_distance * forward
 
 
-def project(point: np.ndarray, position: np.ndarray, look_at: np.ndarray, up: np.ndarray, fov: float, aspect: float):
-    """(x, y) normalised device coordinates of `point` (3,) seen by a pinhole camera, or None if behind it.
+def project(
+    point: np.ndarray,
+    position: np.ndarray,
+    look_at: np.ndarray,
+    up: np.ndarray,
+    fov: float,
+    aspect: float,
+):
+    """(x, y) normalised device coordinates of `point` (3,) seen by a pinhole camera, or None if
+    behind it.
 
     Both lie in [-1, 1] when the point is in view; `fov` is the vertical field of view in radians.
     """

@@ -13,10 +13,10 @@ starts with the exact name.
 A page sends a number box's value at every keystroke and a slider's at every step of a drag, so an
 edit is applied once it has settled (EDIT_SETTLE seconds without a change): typing 0.001 never
 applies 0. A value typed into a slider's box outside the slider's range is refused with a message
-naming the range and the command-line option that sets it: the box drops letters, so `1e9` arrives as
-19, and the server cannot tell it from a 19 typed on purpose. After each applied edit, accepted or
-refused, every page is made to show the value in force, even one whose box holds stale text.
-"""
+naming the range and the command-line option that sets it: the box drops letters, so `1e9` arrives
+as 19, and the server cannot tell it from a 19 typed on purpose. After each applied edit, accepted
+or refused, every page is made to show the value in force, even one whose box holds stale text.
+"""  # noqa: E501
 
 import functools
 import math
@@ -58,12 +58,13 @@ class ConfigPanel:
     A user's change is queued; `flush()` (called every GUI frame) calls `on_edit({field: value})`
     once it has settled. If that raises JudoError, the widget goes back to the last accepted value
     (the caller reports why). `show(config)` puts a config that changed elsewhere (reset, switch, a
-    script) into the widgets without calling `on_edit`, widening a slider's range to hold a value beyond
-    it. `ranges` ({field: SliderRange}) replaces the config class's own `@slider` ranges, e.g. a wider
-    num_rollouts on a GPU backend. The fields in `hidden` get no widget (fields of no use
-    to the session, e.g. policy_samples without a proposal policy). A page's value outside a slider's range is
-    refused (`check_slider_range`); with `kind` (a key of `judo.core.configuration.registry.CONFIG_GROUPS`) the refusal names
-    the command-line option that sets the field.
+    script) into the widgets without calling `on_edit`, widening a slider's range to hold a value
+    beyond it. `ranges` ({field: SliderRange}) replaces the config class's own `@slider` ranges,
+    e.g. a wider num_rollouts on a GPU backend. The fields in `hidden` get no widget (fields of no
+    use to the session, e.g. policy_samples without a proposal policy). A page's value outside a
+    slider's range is refused (`check_slider_range`); with `kind` (a key of
+    `judo.core.configuration.registry.CONFIG_GROUPS`) the refusal names the command-line option that
+    sets the field.
     """
 
     def __init__(
@@ -89,9 +90,11 @@ class ConfigPanel:
         self._widgets: dict[str, list[Any]] = {}
         self._decode: dict[str, Callable[[list[Any]], Any]] = {}
         self._encode: dict[str, Callable[[Any], list[Any]]] = {}
-        self._pending: dict[str, list[list[Any]]] = {}  # field -> the widget values seen while it was edited
+        # field -> the widget values seen while it was edited
+        self._pending: dict[str, list[list[Any]]] = {}
         self._last_change: dict[str, float] = {}
-        # id(handle) -> (handle, value it was nudged to, value in force, when to put it back or None)
+        # id(handle) -> (handle, value it was nudged to, value in force, when to put it back or
+        # None)
         self._nudged: dict[int, tuple[Any, Any, Any, float | None]] = {}
         self.folder = gui.add_folder(label, order=order)
         cls = type(config)
@@ -102,7 +105,12 @@ class ConfigPanel:
                 if f.name in hidden:
                     continue
                 self._add_field(
-                    gui, f.name, types[f.name], getattr(config, f.name), ranges.get(f.name), docs.get(f.name)
+                    gui,
+                    f.name,
+                    types[f.name],
+                    getattr(config, f.name),
+                    ranges.get(f.name),
+                    docs.get(f.name),
                 )
 
     @property
@@ -144,14 +152,16 @@ class ConfigPanel:
                 del self._last_change[name]
                 seen = self._settled(name, self._pending.pop(name))
                 if self._echoes_refusal(name, seen):
-                    continue  # a box put a refused value back to its slider's end: the refusal stands
+                    # a box put a refused value back to its slider's end: the refusal stands
+                    continue
                 self._refused.pop(name, None)
                 try:
                     flag = config_flag(self._kind, name) if self._kind is not None else None
                     check_slider_range(name, self._widgets[name], seen, name in self._arrays, flag)
                     self._config = self._on_edit({name: self._decode[name](seen)})
                 except JudoError as err:
-                    self._refused[name] = (now, str(err), seen)  # shown and put back once the user stops typing
+                    # shown and put back once the user stops typing
+                    self._refused[name] = (now, str(err), seen)
                     continue
                 self._write(name, getattr(self._config, name), resync=True)
             for name, (when, why, _) in list(self._refused.items()):
@@ -166,7 +176,15 @@ class ConfigPanel:
         self.folder.remove()
 
     # ---- building ------------------------------------------------------------------------------
-    def _add_field(self, gui: viser.GuiApi, name: str, hint: Any, value: Any, rng: SliderRange | None, doc: str | None):
+    def _add_field(
+        self,
+        gui: viser.GuiApi,
+        name: str,
+        hint: Any,
+        value: Any,
+        rng: SliderRange | None,
+        doc: str | None,
+    ):
         label, doc = field_label(name), field_hint(name, doc)
         if hint is bool:
             handles = [gui.add_checkbox(label, bool(value), hint=doc)]
@@ -186,20 +204,33 @@ class ConfigPanel:
             self._bind(name, handles, lambda values: values[0], lambda v: [v])
         elif hint is np.ndarray and np.ndim(value) == 1:
             handles = self._add_array(gui, name, np.asarray(value, dtype=float), doc)
-            self._bind(name, handles, lambda values: np.array(values, dtype=float), lambda v: [float(x) for x in v])
+            self._bind(
+                name,
+                handles,
+                lambda values: np.array(values, dtype=float),
+                lambda v: [float(x) for x in v],
+            )
 
-    def _add_log(self, gui: viser.GuiApi, label: str, value: float, rng: SliderRange, doc: str) -> list[Any]:
-        """One box for the value in real units (a field over decades: typed, e.g. 1e-3), its range in the hint.
+    def _add_log(
+        self, gui: viser.GuiApi, label: str, value: float, rng: SliderRange, doc: str
+    ) -> list[Any]:
+        """One box for the value in real units (a field over decades: typed, e.g. 1e-3), its range
+        in the hint.
 
         The box is a text box: a page sends whatever is typed there, so text that is not a number is
         refused with a message and replaced by the value in force (a page's number box sends nothing
         for it and is left blank).
         """
         span = f"{format_number(min(rng.min, value))} to {format_number(max(rng.max, value))}"
-        return [gui.add_text(label, format_number(value), hint=f"{doc} (usually {span}; type e.g. 1e-3)")]
+        return [
+            gui.add_text(
+                label, format_number(value), hint=f"{doc} (usually {span}; type e.g. 1e-3)"
+            )
+        ]
 
     def _decode_log(self, name: str, values: list[Any]) -> float:
-        """The value a log field's box asks for. Raises ConfigError when it holds text that is not a number."""
+        """The value a log field's box asks for. Raises ConfigError when it holds text that is not a
+        number."""
         return parse_number(name, values[0])
 
     def _add_array(self, gui: viser.GuiApi, name: str, value: np.ndarray, doc: str) -> list[Any]:
@@ -226,16 +257,20 @@ class ConfigPanel:
         if event.client is None:  # our own write (show, or a refused edit put back)
             return
         with self._lock:
-            self._pending.setdefault(name, []).append([self._shown(handle) for handle in self._widgets[name]])
+            self._pending.setdefault(name, []).append(
+                [self._shown(handle) for handle in self._widgets[name]]
+            )
             self._last_change[name] = time.monotonic()
 
     def _shown(self, handle: Any) -> Any:
-        """The value `handle` shows, or will again at the next flush if it is nudged for a redraw."""
+        """The value `handle` shows, or will again at the next flush if it is nudged for a
+        redraw."""
         nudged = self._nudged.get(id(handle))
         return nudged[2] if nudged is not None and handle.value == nudged[1] else handle.value
 
     def _settled(self, name: str, seen: list[list[Any]]) -> list[Any]:
-        """The widget values to apply: the last seen, except where a number box clamped a typed value.
+        """The widget values to apply: the last seen, except where a number box clamped a typed
+        value.
 
         A page's number box puts a value typed beyond the slider's range back to the range's end
         when it loses focus; that end, right after a value beyond it, means the typed value (which
@@ -243,7 +278,10 @@ class ConfigPanel:
         """
         settled = list(seen[-1])
         for i, handle in enumerate(self._widgets[name]):
-            if not isinstance(handle, viser.GuiSliderHandle) or settled[i] not in (handle.min, handle.max):
+            if not isinstance(handle, viser.GuiSliderHandle) or settled[i] not in (
+                handle.min,
+                handle.max,
+            ):
                 continue
             beyond = [v[i] for v in seen if v[i] > handle.max or v[i] < handle.min]
             if beyond:
@@ -251,13 +289,16 @@ class ConfigPanel:
         return settled
 
     def _echoes_refusal(self, name: str, seen: list[Any]) -> bool:
-        """True when `seen` is field `name`'s refused values put back to their sliders' ends: a page's number box
-        does that when it loses focus, after the refused value reached the app (as `_settled` reads it before)."""
+        """True when `seen` is field `name`'s refused values put back to their sliders' ends: a
+        page's number box does that when it loses focus, after the refused value reached the app (as
+        `_settled` reads it before)."""
         refused = self._refused.get(name)
         if refused is None:
             return False
         ends = [
-            min(max(value, handle.min), handle.max) if isinstance(handle, viser.GuiSliderHandle) else value
+            min(max(value, handle.min), handle.max)
+            if isinstance(handle, viser.GuiSliderHandle)
+            else value
             for handle, value in zip(self._widgets[name], refused[2], strict=True)
         ]
         return ends != refused[2] and seen == ends
@@ -294,7 +335,8 @@ def field_label(name: str) -> str:
 
 
 def field_hint(name: str, doc: str | None) -> str:
-    """The hover hint of a field's widget: its exact name (as in code, configs and the CLI), then its doc."""
+    """The hover hint of a field's widget: its exact name (as in code, configs and the CLI), then
+    its doc."""
     return f"{name}: {doc}" if doc else name
 
 
@@ -315,10 +357,14 @@ def parse_number(name: str, text: Any) -> float:
     try:
         return float(text)
     except (TypeError, ValueError):
-        raise ConfigError(f"{name} must be a number, like 0.25 or 1e-3; got {str(text)!r}") from None
+        raise ConfigError(
+            f"{name} must be a number, like 0.25 or 1e-3; got {str(text)!r}"
+        ) from None
 
 
-def _slider(gui: viser.GuiApi, label: str, value: Any, rng: SliderRange | None, integer: bool, doc: str):
+def _slider(
+    gui: viser.GuiApi, label: str, value: Any, rng: SliderRange | None, integer: bool, doc: str
+):
     """A slider over `rng` (or a default range around `value`), widened to include `value`."""
     rng = rng or default_range(value, integer)
     low, high = min(rng.min, value), max(rng.max, value)
@@ -331,7 +377,8 @@ def _slider(gui: viser.GuiApi, label: str, value: Any, rng: SliderRange | None, 
 
 
 def default_range(value: float, integer: bool) -> SliderRange:
-    """A slider range for a field without `@slider`: from 0 to twice the value (mirrored if negative)."""
+    """A slider range for a field without `@slider`: from 0 to twice the value (mirrored if
+    negative)."""
     if integer:
         reach = max(10, 2 * abs(int(value)))
         return SliderRange(0, reach, 1) if value >= 0 else SliderRange(-reach, 0, 1)
@@ -348,13 +395,16 @@ def nice_step(span: float) -> float:
     return max(m * power for m in (1.0, 2.0, 5.0) if m * power <= raw * (1 + 1e-9))
 
 
-def check_slider_range(name: str, handles: list[Any], values: list[Any], indexed: bool, flag: str | None) -> None:
-    """Refuse `values` (one per handle of field `name`'s widgets, entry i of an array if `indexed`) where one lies
-    outside its slider's range (which includes the value in force: a range widened to a value set elsewhere keeps
-    it). `flag` is the command-line option that sets the field, named in the message.
+def check_slider_range(
+    name: str, handles: list[Any], values: list[Any], indexed: bool, flag: str | None
+) -> None:
+    """Refuse `values` (one per handle of field `name`'s widgets, entry i of an array if `indexed`)
+    where one lies outside its slider's range (which includes the value in force: a range widened to
+    a value set elsewhere keeps it). `flag` is the command-line option that sets the field, named in
+    the message.
 
-    Raises ConfigError, e.g. "horizon 19 is outside the slider's 0.05 to 5; set a larger value with --config or
-    --controller.horizon".
+    Raises ConfigError, e.g. "horizon 19 is outside the slider's 0.05 to 5; set a larger value with
+    --config or --controller.horizon".
     """
     for i, (handle, value) in enumerate(zip(handles, values, strict=True)):
         if not isinstance(handle, viser.GuiSliderHandle) or handle.min <= value <= handle.max:
@@ -363,13 +413,15 @@ def check_slider_range(name: str, handles: list[Any], values: list[Any], indexed
         where = f"--config or {flag}" if flag is not None else "--config or on the command line"
         raise ConfigError(
             f"{what} {format_number(value)} is outside the slider's {format_number(handle.min)} to "
-            f"{format_number(handle.max)}; set a {'larger' if value > handle.max else 'smaller'} value with {where}"
+            f"{format_number(handle.max)}; set a "
+            f"{'larger' if value > handle.max else 'smaller'} value with {where}"
         )
 
 
 def hidden_fields(session: Any, kind: ConfigKind, config: Config) -> tuple[str, ...]:
-    """The fields of `session`'s `kind` config that get no widget: while a policy drives, the controller fields
-    only an optimizer uses; without a proposal policy, policy_samples (every value but 0 would be refused)."""
+    """The fields of `session`'s `kind` config that get no widget: while a policy drives, the
+    controller fields only an optimizer uses; without a proposal policy, policy_samples (every value
+    but 0 would be refused)."""
     if kind != "controller":
         return ()
     used = session.controller.controller_fields  # the planner says which it uses

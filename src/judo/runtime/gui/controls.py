@@ -1,9 +1,10 @@
-"""The top of the GUI panel: task and optimizer dropdowns, the latched stop, pause/resume, reset buttons and the
-status line.
+"""The top of the GUI panel: task and optimizer dropdowns, the latched stop, pause/resume, reset
+buttons and the status line.
 
 Every control only calls a command of the app's port (`judo.runtime.commands.AppPort`); the app's
-loops carry it out at their next iteration. The status line follows the app's `on_status` news (a pause, a resume
-and each change of the latched stop are reported on it), the record box its `on_recording` news.
+loops carry it out at their next iteration. The status line follows the app's `on_status` news (a
+pause, a resume and each change of the latched stop are reported on it), the record box its
+`on_recording` news.
 """
 
 import math
@@ -11,7 +12,11 @@ import math
 import numpy as np
 import viser
 
-from judo.core.configuration.registry import get_registered_estimators, get_registered_optimizers, get_registered_tasks
+from judo.core.configuration.registry import (
+    get_registered_estimators,
+    get_registered_optimizers,
+    get_registered_tasks,
+)
 from judo.core.errors import JudoError
 from judo.core.planner_view import PlannerKind
 from judo.runtime.commands import AppPort
@@ -25,7 +30,8 @@ INFERENCE_WINDOW = 100
 """Latest updates whose median the readout shows as a policy's inference time."""
 STATUS_PREFIX = {"info": "", "warning": "warning: ", "error": "error: "}
 STOP_KEY = "escape"
-"""The key that latches the stop, from anywhere on the page (a command of viser's command palette)."""
+"""The key that latches the stop, from anywhere on the page (a command of viser's command
+palette)."""
 
 
 class Controls:
@@ -43,58 +49,83 @@ class Controls:
         )
         self.optimizer = gui.add_dropdown(
             "optimizer",
-            sorted(get_registered_optimizers()) + ([PlannerKind.POLICY.value] if app.policy_name else []),
+            sorted(get_registered_optimizers())
+            + ([PlannerKind.POLICY.value] if app.policy_name else []),
             initial_value=session.optimizer_name,
             order=order + 0.1,
-            hint="Registered optimizers" + (f"; policy: {app.policy_name} drives the plant" if app.policy_name else ""),
+            hint="Registered optimizers"
+            + (f"; policy: {app.policy_name} drives the plant" if app.policy_name else ""),
         )
         self.estimator = gui.add_dropdown(
             "estimator",
             [NO_ESTIMATOR, *sorted(get_registered_estimators())],
             initial_value=session.estimator_name or NO_ESTIMATOR,
             order=order + 0.15,
-            hint="Registered estimators, between the plant's readings and the plan (none: plan from the full state)",
+            hint="Registered estimators, between the plant's readings and the plan (none: plan "
+            "from the full state)",
         )
         self.stop = gui.add_button(
             "Stop",
             color="red",
             order=order + 0.18,
-            hint=f"Latch the stop ({STOP_KEY.capitalize()} key): the safe action (or the robot's halt) until Clear stop",
+            hint=f"Latch the stop ({STOP_KEY.capitalize()} key): the safe action (or the robot's "
+            "halt) until Clear stop",
         )
         self.clear_stop = gui.add_button(
-            "Clear stop", disabled=True, order=order + 0.19, hint="Clear the latched stop: the plan is served again"
+            "Clear stop",
+            disabled=True,
+            order=order + 0.19,
+            hint="Clear the latched stop: the plan is served again",
         )
-        self.stop_key = gui.add_command("Stop (latched)", description="Latch the stop", hotkey=STOP_KEY)
+        self.stop_key = gui.add_command(
+            "Stop (latched)", description="Latch the stop", hotkey=STOP_KEY
+        )
         self.stop.on_click(lambda _: app.stop_latch.engage("the GUI's Stop button"))
         self.clear_stop.on_click(lambda _: app.stop_latch.clear("the GUI's Clear stop button"))
-        self.stop_key.on_trigger(lambda _: app.stop_latch.engage(f"the GUI's {STOP_KEY.capitalize()} key"))
-        self.pause = gui.add_button("Pause", order=order + 0.2, hint="Pause or resume the plant and the planner")
-        self.reset_task = gui.add_button("Reset task", order=order + 0.3, hint="Put the plant in its start state")
+        self.stop_key.on_trigger(
+            lambda _: app.stop_latch.engage(f"the GUI's {STOP_KEY.capitalize()} key")
+        )
+        self.pause = gui.add_button(
+            "Pause", order=order + 0.2, hint="Pause or resume the plant and the planner"
+        )
+        self.reset_task = gui.add_button(
+            "Reset task", order=order + 0.3, hint="Put the plant in its start state"
+        )
         self.reset_configs = gui.add_button(
             "Reset configs", order=order + 0.4, hint="Put every config back to the task's defaults"
         )
         self.follow = gui.add_checkbox(
-            "follow camera", True, order=order + 0.45, hint="Keep the task's focus body in view while it runs"
+            "follow camera",
+            True,
+            order=order + 0.45,
+            hint="Keep the task's focus body in view while it runs",
         )
         self.record = gui.add_checkbox(
             "record",
             False,
             order=order + 0.47,
-            hint="Record every step, plan and config edit to judo-recording-TASK-TIME.h5 (needs judo-mpc[collect]); "
+            hint="Record every step, plan and config edit to judo-recording-TASK-TIME.h5 (needs "
+            "judo-mpc[collect]); "
             "untick to write it, then: python -m judo replay FILE",
         )
         self.record.on_update(lambda event: self._toggle_recording(event))
         self.status = gui.add_markdown("", order=order + 0.5)
         self.readout = gui.add_markdown("", order=order + 0.6)
         self.cost = gui.add_markdown("", order=order + 0.65)
-        self.task_readout = gui.add_markdown("", order=order + 0.67)  # the task's own line (`Task.readout`)
+        # the task's own line (`Task.readout`)
+        self.task_readout = gui.add_markdown("", order=order + 0.67)
         self._status: Latest[Status] = Latest(app.status)  # a status line not yet shown
-        self._recording: Latest[bool] = Latest()  # a recording began or ended: tick or untick the box
+        # a recording began or ended: tick or untick the box
+        self._recording: Latest[bool] = Latest()
         app.on_status(self._status.put)
         app.on_recording(lambda _path: self._recording.put(True))
-        self.task.on_update(lambda event: self._switch(event, app.commands.switch_task, self.task, "task"))
+        self.task.on_update(
+            lambda event: self._switch(event, app.commands.switch_task, self.task, "task")
+        )
         self.optimizer.on_update(
-            lambda event: self._switch(event, app.commands.switch_optimizer, self.optimizer, "optimizer")
+            lambda event: self._switch(
+                event, app.commands.switch_optimizer, self.optimizer, "optimizer"
+            )
         )
         self.estimator.on_update(
             lambda event: self._switch(
@@ -110,7 +141,8 @@ class Controls:
         self.reset_configs.on_click(lambda _: self._reset_configs())
 
     def update(self) -> None:
-        """Show a recording begun or ended, and a new status line with the pause state and the latched stop."""
+        """Show a recording begun or ended, and a new status line with the pause state and the
+        latched stop."""
         if self._recording.take():
             self.show_recording()
         if self._status.take() is None:
@@ -122,9 +154,12 @@ class Controls:
         )
         self.status.content = status_markdown(self.app.status, paused)
 
-    def show_readout(self, sim_time: float, figures: LiveFigures, metadata: dict | None = None) -> None:
-        """Sim time, plan time, control rate and real-time factor as numbers ("-" before there is data), the
-        planning cycle's cost, and the task's own line from the plant's `metadata` (`Task.readout`)."""
+    def show_readout(
+        self, sim_time: float, figures: LiveFigures, metadata: dict | None = None
+    ) -> None:
+        """Sim time, plan time, control rate and real-time factor as numbers ("-" before there is
+        data), the planning cycle's cost, and the task's own line from the plant's `metadata`
+        (`Task.readout`)."""
 
         def shown(value: float, unit: str, digits: int) -> str:
             return f"{value:.{digits}f}{unit}" if math.isfinite(value) else "-"
@@ -133,13 +168,16 @@ class Controls:
         policy = self.app.policy_name if session.controller.kind is PlannerKind.POLICY else None
         if policy is None:
             update = f"plan {shown(figures.plan_time_ms, ' ms', 1)}"
-        else:  # the span `evaluate` reports: the closed loop's update (observation, `act`, plan), its median
+        # the span `evaluate` reports: the closed loop's update (observation, `act`, plan), its
+        # median
+        else:
             recent = session.closed_loop.update_ms[-INFERENCE_WINDOW:]
             median = 1e3 * float(np.median(recent)) if recent else math.nan
             update = f"policy {policy} · inference {shown(median, ' µs', 0)} (median, as evaluate)"
         self.readout.content = (
             f"sim time {shown(sim_time, ' s', 1)} · {update} · "
-            f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor {shown(figures.real_time_factor, '', 2)}"
+            f"{shown(figures.control_rate, ' Hz', 1)} · real-time factor "
+            f"{shown(figures.real_time_factor, '', 2)}"
         )
         self.cost.content = self.app.planning_cost().line().replace(" x ", " × ")
         line = session.controller.task.readout(metadata or {})
@@ -158,12 +196,14 @@ class Controls:
         self.show_recording()
 
     def show_recording(self) -> None:
-        """Tick the record box while a recording is under way: called when one starts or ends (a switch ends it by
-        itself), and after a page's toggle, to show what came of it (a refused start unticks it).
+        """Tick the record box while a recording is under way: called when one starts or ends (a
+        switch ends it by itself), and after a page's toggle, to show what came of it (a refused
+        start unticks it).
 
-        Between those the box is left alone: a page's toggle is applied by viser before its callback runs on
-        viser's thread pool, and putting the box back to the app's state meanwhile (the GUI loop runs 30 times a
-        second) made that callback read the box put back, so an untick started a second recording."""
+        Between those the box is left alone: a page's toggle is applied by viser before its callback
+        runs on viser's thread pool, and putting the box back to the app's state meanwhile (the GUI
+        loop runs 30 times a second) made that callback read the box put back, so an untick started
+        a second recording."""
         recording = self.app.recording is not None
         if self.record.value != recording:
             self.record.value = recording
@@ -178,7 +218,9 @@ class Controls:
         self.task.value, self.optimizer.value = session.task_name, session.optimizer_name
         self.estimator.value = session.estimator_name or NO_ESTIMATOR
 
-    def _switch(self, event: viser.GuiEvent, command, dropdown: viser.GuiDropdownHandle, what: str) -> None:
+    def _switch(
+        self, event: viser.GuiEvent, command, dropdown: viser.GuiDropdownHandle, what: str
+    ) -> None:
         if event.client is None:
             return
         wanted = dropdown.value
@@ -188,7 +230,8 @@ class Controls:
             self.app.report(f"{what} not switched: {err}", "error")
         else:
             self.app.report(f"switching {what} to {wanted}...")
-        # the dropdowns name what runs: the session in use until the switch is carried out (`Gui._rebuild`)
+        # the dropdowns name what runs: the session in use until the switch is carried
+        # out (`Gui._rebuild`)
         self.show_session()
 
 
@@ -198,7 +241,8 @@ def markdown_text(text: str) -> str:
 
 
 def status_markdown(status: Status, paused: bool = False) -> str:
-    """The status line as markdown; warnings and errors are marked as such, and a paused app says so first."""
+    """The status line as markdown; warnings and errors are marked as such, and a paused app says so
+    first."""
     text = markdown_text(status.message)
     state = "**paused** · " if paused and status.message != "paused" else ""
     return f"**status:** {state}{STATUS_PREFIX[status.level]}{text}"

@@ -1,9 +1,10 @@
 """The browser GUI of an App: a viser server whose panel and scene follow the app's session.
 
-`update()` is called by the app's GUI loop about 30 times a second, on the event-loop thread; the widgets' callbacks
-run on viser's threads. The GUI knows the app only through the command port (`judo.runtime.commands.AppPort`): it
-reads status, calls commands and subscribes to news (readings, plans, config edits, resets, switches), whose
-callbacks run on the app's threads and keep the newest of each (`gui.news.Latest`) for `update()` to draw.
+`update()` is called by the app's GUI loop about 30 times a second, on the event-loop thread; the
+widgets' callbacks run on viser's threads. The GUI knows the app only through the command port
+(`judo.runtime.commands.AppPort`): it reads status, calls commands and subscribes to news (readings,
+plans, config edits, resets, switches), whose callbacks run on the app's threads and keep the newest
+of each (`gui.news.Latest`) for `update()` to draw.
 """
 
 import collections
@@ -33,7 +34,8 @@ from judo.runtime.gui.viser_internals import purge_removed
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
 
 SENT_POSES_KEPT = 400
-"""Camera poses sent to the pages that a late camera report is matched against (a few seconds' worth)."""
+"""Camera poses sent to the pages that a late camera report is matched against (a few seconds'
+worth)."""
 PLOT_PERIOD = 0.25
 """Seconds between points on the plots and updates of the numeric readout."""
 MAX_ROLLOUTS_BY_BACKEND = {"warp": 8192}
@@ -42,41 +44,58 @@ thousands of samples per cycle); a backend not named here keeps the optimizer co
 
 
 class Gui:
-    """Serves the GUI of `app` at http://host:port (http://host:port/TOKEN with a token) until `close()`.
+    """Serves the GUI of `app` at http://host:port (http://host:port/TOKEN with a token) until
+    `close()`.
 
     Raises GuiStartError (or ConfigError for a port out of range) if the server cannot start; see
     `start_server` for who may connect and the share button.
     """
 
-    def __init__(self, app: AppPort, host: str, port: int, *, token: str | None = None, share: bool = False) -> None:
+    def __init__(
+        self, app: AppPort, host: str, port: int, *, token: str | None = None, share: bool = False
+    ) -> None:
         self.app = app
         self.token = token
         self.server = start_server(host, port, token=token, share=share, label="judo")
         self.server.scene.set_up_direction("+z")
-        self.server.gui.configure_theme(control_width="large", dark_mode=False, show_share_button=share)
-        self.server.gui.main_panel.dock_right()  # the panel beside the 3-D view, not over the robot it frames
+        self.server.gui.configure_theme(
+            control_width="large", dark_mode=False, show_share_button=share
+        )
+        # the panel beside the 3-D view, not over the robot it frames
+        self.server.gui.main_panel.dock_right()
         self.controls = Controls(self.server.gui, app, order=0)
         self.plots = Plots(self.server.gui, order=100)
         self.panels: dict[str, ConfigPanel] = {}
         self.scene: SceneView | None = None
-        self.ghost: SceneView | None = None  # the estimate, while an estimator runs on the app's simulation
+        # the estimate, while an estimator runs on the app's simulation
+        self.ghost: SceneView | None = None
         self.estimator_panel: ConfigPanel | None = None
         self.safety_panel: SafetyPanel | None = None  # the limits in force, read-only
         self.follower: Follower | None = None
         self.goals: GoalHandles | None = None
-        self._look_at = np.zeros(3)  # where the cameras look while following: the framed centre plus the focus's moves
-        self._offsets: dict[int, np.ndarray] = {}  # client id -> (3,) camera position minus look-at that we keep
-        self._sent: collections.deque[np.ndarray] = collections.deque(maxlen=SENT_POSES_KEPT)  # (2, 3) poses sent
+        # where the cameras look while following: the framed centre plus the focus's moves
+        self._look_at = np.zeros(3)
+        # client id -> (3,) camera position minus look-at that we keep
+        self._offsets: dict[int, np.ndarray] = {}
+        # (2, 3) poses sent
+        self._sent: collections.deque[np.ndarray] = collections.deque(maxlen=SENT_POSES_KEPT)
         self._scene_task: str | None = None
         self._generation = -1  # the session the panels and scene show
-        self._resets = 0  # plant resets the app has said it carried out: a plan stamped with fewer is stale
-        self._shown: Snapshot[SystemSnapshot] | None = app.buffer.latest("system")  # the reading shown
-        self._session: Latest[Any] = Latest(app.session)  # a session to build the panels and scene for
-        self._state: Latest[Snapshot[SystemSnapshot]] = Latest(self._shown)  # a reading not yet drawn
+        # plant resets the app has said it carried out: a plan stamped with fewer is stale
+        self._resets = 0
+        # the reading shown
+        self._shown: Snapshot[SystemSnapshot] | None = app.buffer.latest("system")
+        # a session to build the panels and scene for
+        self._session: Latest[Any] = Latest(app.session)
+        # a reading not yet drawn
+        self._state: Latest[Snapshot[SystemSnapshot]] = Latest(self._shown)
         self._plan: Latest[Snapshot[PlanSnapshot]] = Latest()  # a plan not yet drawn
-        self._edited: Latest[bool] = Latest()  # a config edit made outside the panels: show it in them
-        self._task_edited: Latest[bool] = Latest()  # a task config edit: move the markers and goal handles
-        self._reset: Latest[bool] = Latest()  # the plant was reset: frame it again with its next reading
+        # a config edit made outside the panels: show it in them
+        self._edited: Latest[bool] = Latest()
+        # a task config edit: move the markers and goal handles
+        self._task_edited: Latest[bool] = Latest()
+        # the plant was reset: frame it again with its next reading
+        self._reset: Latest[bool] = Latest()
         app.on_session(self._session.put)
         app.on_state(self._state.put)
         app.on_plan(self._plan.put)
@@ -102,20 +121,24 @@ class Gui:
 
     @property
     def shown_generation(self) -> int:
-        """The generation of the session the panels and scene were last built for (-1 before the first)."""
+        """The generation of the session the panels and scene were last built for (-1 before the
+        first)."""
         return self._generation
 
     def camera_sent(self, client_id: int) -> tuple[np.ndarray, np.ndarray] | None:
-        """(position (3,), look_at (3,)) of the camera last sent to page `client_id` (None before any):
-        what the page shows with the bodies posed in the same update, however late it reports back."""
+        """(position (3,), look_at (3,)) of the camera last sent to page `client_id` (None before
+        any): what the page shows with the bodies posed in the same update, however late it reports
+        back."""
         offset = self._offsets.get(client_id)
         return None if offset is None else (self._look_at + offset, self._look_at.copy())
 
     def update(self) -> None:
-        """Follow the app: rebuild after a switch, refresh widgets, pose the scene, draw traces and plots.
+        """Follow the app: rebuild after a switch, refresh widgets, pose the scene, draw traces and
+        plots.
 
-        The status line and the pause button are refreshed whatever happens to the rest of the frame (a frame
-        skipped while a switch is under way, or one that fails), so a page never shows a stale status."""
+        The status line and the pause button are refreshed whatever happens to the rest of the frame
+        (a frame skipped while a switch is under way, or one that fails), so a page never shows a
+        stale status."""
         try:
             self._update()
         finally:
@@ -130,9 +153,11 @@ class Gui:
             return
         app = self.app
         assert self.scene is not None and self._shown is not None
-        if self._edited.take():  # a script's edit, Reset configs, a switch: the panels show the configs in force
+        # a script's edit, Reset configs, a switch: the panels show the configs in force
+        if self._edited.take():
             configs = app.configs()
-            if self._session.waiting():  # these configs may be the next session's: it rebuilds the panels
+            # these configs may be the next session's: it rebuilds the panels
+            if self._session.waiting():
                 return
             redraw, self.controls.redraw_requested = self.controls.redraw_requested, False
             for kind, config in configs.items():
@@ -150,10 +175,17 @@ class Gui:
             self._draw_state(state)
         if self.goals is not None and (state is not None or task_edited):
             metadata = self._shown.value.reading.metadata
-            self.goals.update(app.configs()["task"], metadata.get("mocap_pos"), metadata.get("mocap_quat"))
+            self.goals.update(
+                app.configs()["task"], metadata.get("mocap_pos"), metadata.get("mocap_quat")
+            )
         plan = self._plan.take()
-        if plan is not None and plan.value.generation == self._generation and plan.value.resets == self._resets:
-            self.scene.set_traces(plan.value.traces, anchored=True)  # never a plan of the plant before a reset
+        if (
+            plan is not None
+            and plan.value.generation == self._generation
+            and plan.value.resets == self._resets
+        ):
+            # never a plan of the plant before a reset
+            self.scene.set_traces(plan.value.traces, anchored=True)
         now = time.perf_counter()
         if now - self._last_plot >= PLOT_PERIOD:
             self._last_plot = now
@@ -161,7 +193,9 @@ class Gui:
             self.plots.add(now - self._start, figures)
             shown = self._shown.value
             if shown.true_state is not None:
-                errors = estimation_error(app.session.controller.task.model, shown.true_state, shown.reading.state)
+                errors = estimation_error(
+                    app.session.controller.task.model, shown.true_state, shown.reading.state
+                )
                 self.plots.add_estimation(now - self._start, *errors)
             self.controls.show_readout(shown.reading.time, figures, shown.reading.metadata)
         for panel in self.panels.values():
@@ -170,7 +204,8 @@ class Gui:
             self.estimator_panel.flush()
 
     def _build_for(self, session: Any) -> bool:
-        """Build the panels and scene for `session` from its plant's first reading; False until there is one."""
+        """Build the panels and scene for `session` from its plant's first reading; False until
+        there is one."""
         state = self._state.take()
         if state is not None and state.value.generation != session.generation:
             state = None  # the plant before the switch
@@ -189,7 +224,9 @@ class Gui:
         reading, truth = state.value.reading, state.value.true_state
         task = self.app.session.controller.task
         with self.server.atomic():
-            self.scene.update(drawn_qpos(task, reading.state if truth is None else truth), reading.metadata)
+            self.scene.update(
+                drawn_qpos(task, reading.state if truth is None else truth), reading.metadata
+            )
             if self.ghost is not None and truth is not None:
                 self.ghost.update(drawn_qpos(task, reading.state), reading.metadata)
         if self._reset.take():  # the plant is back at its start: frame it again
@@ -202,19 +239,25 @@ class Gui:
         self.server.stop()
 
     def _rebuild(self, session: Any, reading: SystemState) -> bool:
-        """New config panels for `session`, and for a new task a new scene whose camera frames the plant's
-        `reading`; False (nothing changed) if another session replaced it meanwhile."""
+        """New config panels for `session`, and for a new task a new scene whose camera frames the
+        plant's `reading`; False (nothing changed) if another session replaced it meanwhile."""
         app = self.app
         configs = app.configs()
-        if app.session is not session or self._session.waiting():  # the configs read may be of the session after it
+        # the configs read may be of the session after it
+        if app.session is not session or self._session.waiting():
             return False
         self._edited.take()  # the panels are built from these configs
         self._task_edited.take()
-        for panel in [*self.panels.values(), *([self.estimator_panel] if self.estimator_panel else [])]:
+        for panel in [
+            *self.panels.values(),
+            *([self.estimator_panel] if self.estimator_panel else []),
+        ]:
             panel.remove()
         self.panels, self.estimator_panel = {}, None
-        if session.task_name != self._scene_task:  # a new model; a new optimizer keeps scene and camera
-            self._scene_task = None  # until the new scene is built: a frame that fails here builds it again
+        # a new model; a new optimizer keeps scene and camera
+        if session.task_name != self._scene_task:
+            # until the new scene is built: a frame that fails here builds it again
+            self._scene_task = None
             if self.scene is not None:
                 self.scene.remove()
                 self.scene = None
@@ -225,27 +268,36 @@ class Gui:
                 self.ghost.remove()
                 self.ghost = None
             task = session.controller.task
-            model = drawn_model(task)  # the planning model, or a task with its own dynamics' drawing model
+            # the planning model, or a task with its own dynamics' drawing model
+            model = drawn_model(task)
             self.scene = SceneView(self.server.scene, model)
             self.scene.update(drawn_qpos(task, reading.state), reading.metadata)
             self.scene.set_markers(configs["task"])
             self.goals = GoalHandles(
-                self.server.scene, model, configs["task"], self._drag_field(session.generation), self._drag_mocap
+                self.server.scene,
+                model,
+                configs["task"],
+                self._drag_field(session.generation),
+                self._drag_mocap,
             )
             self.follower = Follower(model, focus_body_id(model, type(task).focus_body))
             self.frame_task()
             self._scene_task = session.task_name
         assert self.scene is not None
         self.scene.set_markers(configs["task"])
-        self.scene.set_traces(np.zeros((0, 0, 0, 3)))  # a new optimizer: the old one's plan and figures go
+        # a new optimizer: the old one's plan and figures go
+        self.scene.set_traces(np.zeros((0, 0, 0, 3)))
         self.plots.clear()
         titles = {
             "controller": "Controller",
             "optimizer": f"Optimizer: {session.optimizer_name}",
             "task": f"Task: {session.task_name}",
         }
-        max_rollouts = MAX_ROLLOUTS_BY_BACKEND.get(session.controller.backend_name or "")  # a policy: none
-        ranges = {"optimizer": {"num_rollouts": SliderRange(1, max_rollouts, 1)}} if max_rollouts else {}
+        # a policy: none
+        max_rollouts = MAX_ROLLOUTS_BY_BACKEND.get(session.controller.backend_name or "")
+        ranges = (
+            {"optimizer": {"num_rollouts": SliderRange(1, max_rollouts, 1)}} if max_rollouts else {}
+        )
         self.panels = {
             kind: ConfigPanel(
                 self.server.gui,
@@ -264,21 +316,26 @@ class Gui:
         if self.safety_panel is not None:
             self.safety_panel.remove()
         guard = session.closed_loop.guard  # the [safety] limits' serve filter, or None
-        self.safety_panel = SafetyPanel(self.server.gui, None if guard is None else guard.limits, 45)
+        self.safety_panel = SafetyPanel(
+            self.server.gui, None if guard is None else guard.limits, 45
+        )
         self.controls.show_session()
         self._generation = session.generation
-        # viser keeps every removed widget's and scene node's tombstone for clients that connect later,
-        # and purges them only when one does: purge now, or each switch would grow the app's memory.
+        # viser keeps every removed widget's and scene node's tombstone for clients that connect
+        # later, and purges them only when one does: purge now, or each switch would grow the app's
+        # memory.
         purge_removed(self.server)
         return True
 
     def _show_estimator(self, session: Any, reading: SystemState) -> None:
-        """The estimator's config panel, and while it runs on the app's own simulation (the snapshots carry
-        the true state) the estimate's ghost and the estimation-error chart."""
+        """The estimator's config panel, and while it runs on the app's own simulation (the
+        snapshots carry the true state) the estimate's ghost and the estimation-error chart."""
         estimator = session.closed_loop.estimator
         simulated = estimator is not None and session.simulated is not None
         if simulated and self.ghost is None:
-            self.ghost = SceneView(self.server.scene, drawn_model(session.controller.task), "/ghost", ghost=True)
+            self.ghost = SceneView(
+                self.server.scene, drawn_model(session.controller.task), "/ghost", ghost=True
+            )
             self.ghost.update(drawn_qpos(session.controller.task, reading.state), reading.metadata)
         elif not simulated and self.ghost is not None:
             self.ghost.remove()
@@ -288,7 +345,9 @@ class Gui:
             generation = session.generation
 
             def edit(updates: dict[str, Any]) -> Config:
-                config = self.app.commands.update_estimator_config(updates, generation=generation, from_gui=True)
+                config = self.app.commands.update_estimator_config(
+                    updates, generation=generation, from_gui=True
+                )
                 shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
                 self.app.report(f"estimator config: {shown}")
                 return config
@@ -318,7 +377,9 @@ class Gui:
             with client.atomic():
                 client.camera.position, client.camera.look_at = position, look_at
             self._offsets[client.client_id] = np.asarray(position, dtype=float) - look_at
-        self._sent.append(np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)]))
+        self._sent.append(
+            np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)])
+        )
         self.follower.restart(self.scene.data)
 
     def _frame_new_page(self, client: viser.ClientHandle) -> None:
@@ -328,26 +389,31 @@ class Gui:
             with client.atomic():
                 client.camera.position, client.camera.look_at = position, look_at
             self._offsets[client.client_id] = np.asarray(position, dtype=float) - look_at
-            self._sent.append(np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)]))
+            self._sent.append(
+                np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)])
+            )
 
     def _follow(self) -> None:
         """Move every camera by how far the focus body moved, while "follow" is on.
 
         The look-at point is ours (a page's camera report may lag our last move, so it is not added
-        to); the view direction and distance stay the page's own, so the user can still orbit and zoom.
-        A page that lags may report a camera halfway through our moves (a new look-at with a position
-        we sent a second ago); taken as the user's view, that would drift the camera behind a walking
-        robot. So a report whose position and look-at are both among the last poses we sent is ours,
-        and the offset we keep stands; any other report is the user's orbit or zoom, and is kept.
+        to); the view direction and distance stay the page's own, so the user can still orbit and
+        zoom. A page that lags may report a camera halfway through our moves (a new look-at with a
+        position we sent a second ago); taken as the user's view, that would drift the camera behind
+        a walking robot. So a report whose position and look-at are both among the last poses we
+        sent is ours, and the offset we keep stands; any other report is the user's orbit or zoom,
+        and is kept.
         """
         assert self.scene is not None and self.follower is not None
         delta = self.follower.step(self.scene.data)
         if self.follower.body:
             self.scene.keep_floor_under(self.scene.data.xpos[self.follower.body])
-        self._look_at = self._look_at + delta  # kept up while off too, so turning follow on finds the focus
+        # kept up while off too, so turning follow on finds the focus
+        self._look_at = self._look_at + delta
         if not self.controls.follow.value or not np.any(np.abs(delta) > 1e-6):
             return
-        sent = np.array(self._sent).reshape(-1, 2, 3)  # (n, 2, 3) position and look-at of each pose sent
+        # (n, 2, 3) position and look-at of each pose sent
+        sent = np.array(self._sent).reshape(-1, 2, 3)
         goals = self.scene.goal_positions()
         for client in self.server.get_clients().values():
             camera = client.camera
@@ -359,7 +425,11 @@ class Gui:
             offset = kept if kept is not None and ours else position - look_at
             if goals is not None:  # pull back until the goals are in view too
                 length = float(np.linalg.norm(offset))
-                offset = offset * (distance_to_see(offset, self._look_at, goals) / length) if length else offset
+                offset = (
+                    offset * (distance_to_see(offset, self._look_at, goals) / length)
+                    if length
+                    else offset
+                )
             self._offsets[client.client_id] = offset
             self._sent.append(np.stack([self._look_at + offset, self._look_at]))
             with client.atomic():
@@ -369,7 +439,8 @@ class Gui:
     def _drag_field(self, generation: int) -> Any:
         def drag(name: str, value: np.ndarray) -> None:
             try:
-                self.app.commands.update_config("task", {name: value}, generation=generation)  # the sliders follow
+                # the sliders follow
+                self.app.commands.update_config("task", {name: value}, generation=generation)
             except JudoError as err:
                 self.app.report(f"goal not moved: {err}", "warning")
 
@@ -383,7 +454,9 @@ class Gui:
 
     def _editor(self, kind: ConfigKind, generation: int) -> Any:
         def edit(updates: dict[str, Any]) -> Config:
-            config = self.app.commands.update_config(kind, updates, generation=generation, from_gui=True)
+            config = self.app.commands.update_config(
+                kind, updates, generation=generation, from_gui=True
+            )
             shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
             self.app.report(f"{kind} config: {shown}")
             return config
@@ -392,7 +465,8 @@ class Gui:
 
 
 def _shown(value: Any) -> str:
-    """A config value as the status line shows it: floats to 4 significant digits, arrays as lists."""
+    """A config value as the status line shows it: floats to 4 significant digits, arrays as
+    lists."""
     if isinstance(value, np.ndarray):
         return "[" + ", ".join(_shown(float(v)) for v in value) + "]"
     return f"{value:.4g}" if isinstance(value, float) else str(value)

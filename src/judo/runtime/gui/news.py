@@ -1,9 +1,10 @@
-"""What the app's callbacks hand the GUI loop: the newest value of each kind of news, kept until a frame takes it.
+"""What the app's callbacks hand the GUI loop: the newest value of each kind of news, kept until a
+frame takes it.
 
-The app calls the GUI's subscriptions (`AppPort.on_state`, `on_plan`, ...) on the thread that made the news: the
-plant's, the planner's, a command's. Each callback only `put`s into a `Latest`, which takes a lock for one
-assignment, so a control thread never waits on drawing; the GUI loop (about 30 Hz) `take`s what came since its last
-frame and draws it.
+The app calls the GUI's subscriptions (`AppPort.on_state`, `on_plan`, ...) on the thread that made
+the news: the plant's, the planner's, a command's. Each callback only `put`s into a `Latest`, which
+takes a lock for one assignment, so a control thread never waits on drawing; the GUI loop (about 30
+Hz) `take`s what came since its last frame and draws it.
 """
 
 import threading

@@ -1,13 +1,14 @@
-"""`python -m judo replay FILE.h5 [--demo N]`: play a collect file's episodes back in the GUI's 3-D scene.
+"""`python -m judo replay FILE.h5 [--demo N]`: play a collect file's episodes back in the GUI's 3-D
+scene.
 
-`python -m judo replay LOG.mcap [--task T]` plays a ROS 2 bridge's log (`--record`, judo.ros2.mcap_read) the same
-way: one episode, its rows at the robot's JointState stamps.
+`python -m judo replay LOG.mcap [--task T]` plays a ROS 2 bridge's log (`--record`,
+judo.ros2.mcap_read) the same way: one episode, its rows at the robot's JointState stamps.
 
 Nothing is re-simulated: each frame poses the task's plant model at a recorded qpos (and mocap
-positions), so a replay is exactly what happened. Where the file has `plan/traces` (collect --traces, GUI
-recordings), each frame also draws the traces of the latest plan made by its time, with the live GUI's
-own drawing (`SceneView.set_traces`). The page has a demo dropdown, play/pause, a time scrubber, a speed
-control and the demo's metrics.
+positions), so a replay is exactly what happened. Where the file
+has `plan/traces` (collect --traces, GUI recordings), each frame also draws the traces of the latest
+plan made by its time, with the live GUI's own drawing (`SceneView.set_traces`). The page has a demo
+dropdown, play/pause, a time scrubber, a speed control and the demo's metrics.
 """
 
 import json
@@ -36,29 +37,38 @@ class ReplayArgs:
     """Arguments of `python -m judo replay`."""
 
     file: tyro.conf.Positional[Path]
-    """The HDF5 file `python -m judo collect` (or the GUI's recorder) wrote, or a ROS 2 bridge's MCAP log."""
-    task: Annotated[str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: the log's)")] = None
-    """The task of an MCAP log that does not name it (the bridge's logs do; `ros2 bag record`'s do not)."""
-    demo: Annotated[int | None, tyro.conf.arg(metavar="SEED", help_behavior_hint="(default: the first)")] = None
+    """The HDF5 file `python -m judo collect` (or the GUI's recorder) wrote, or a ROS 2 bridge's
+    MCAP log."""
+    task: Annotated[
+        str | None, tyro.conf.arg(metavar="NAME", help_behavior_hint="(default: the log's)")
+    ] = None
+    """The task of an MCAP log that does not name it (the bridge's logs do; `ros2 bag record`'s do
+    not)."""
+    demo: Annotated[
+        int | None, tyro.conf.arg(metavar="SEED", help_behavior_hint="(default: the first)")
+    ] = None
     """Seed of the demo shown first."""
-    config: Annotated[Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")] = None
+    config: Annotated[
+        Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")
+    ] = None
     """TOML file registering the file's task, when it is a task of your own."""
     host: str = "127.0.0.1"
-    """Address the GUI listens on: this machine only by default. 0.0.0.0 (every interface) shows the recording
-    to the network, behind a token, under the app's access rules (docs/gui.md)."""
+    """Address the GUI listens on: this machine only by default. 0.0.0.0 (every interface) shows the
+    recording to the network, behind a token, under the app's access rules (docs/gui.md)."""
     port: int = 8080
     """Port of the GUI (the next free one if taken)."""
     token: str | None = None
-    """Secret the GUI's URL must carry (http://HOST:PORT/TOKEN); generated when --host is not a loopback address."""
+    """Secret the GUI's URL must carry (http://HOST:PORT/TOKEN); generated when --host is not a
+    loopback address."""
     speed: float = 1.0
     """Playback speed at the start (sim seconds per second; the page's speed slider changes it)."""
 
 
 @dataclass
 class Demo:
-    """One recorded episode: qpos (S, nq), mocap_pos (S, nmocap, 3) or None, times (S,), metrics, success (None:
-    not judged, a bridge log); plan_times (U,) the reading times of its plans, and has_traces: whether the file
-    holds their traces."""
+    """One recorded episode: qpos (S, nq), mocap_pos (S, nmocap, 3) or None, times (S,), metrics,
+    success (None: not judged, a bridge log); plan_times (U,) the reading times of its plans, and
+    has_traces: whether the file holds their traces."""
 
     seed: int
     qpos: np.ndarray
@@ -71,9 +81,9 @@ class Demo:
 
 
 def read_demos(path: Path) -> tuple[dict[str, Any], dict[int, Demo]]:
-    """(env_args, {seed: Demo}) of a collect file, in seed order; DatasetError when it is not one, naming the
-    group, dataset, attribute or env_args entry that is missing or unreadable. `check_demos` checks the arrays
-    against the task's model."""
+    """(env_args, {seed: Demo}) of a collect file, in seed order; DatasetError when it is not one,
+    naming the group, dataset, attribute or env_args entry that is missing or unreadable.
+    `check_demos` checks the arrays against the task's model."""
     h5py = import_h5py("python -m judo replay")
     not_ours = f"{path} is not a file of `python -m judo collect`"
     try:
@@ -84,7 +94,10 @@ def read_demos(path: Path) -> tuple[dict[str, Any], dict[int, Demo]]:
             for key in ("task", "optimizer"):  # the page's title
                 member(env_args, key, "data's env_args", "entry")
             if not 0 < dt <= 1.0:  # NaN too
-                raise DatasetError(f"data's env_args entry 'plant_timestep' must be above 0 and at most 1 s, got {dt}")
+                raise DatasetError(
+                    "data's env_args entry 'plant_timestep' must be above 0 and at most 1 s, "
+                    f"got {dt}"
+                )
             demos = {}
             for name in sorted(file["data"], key=demo_seed):
                 group, where = file["data"][name], f"data/{name}"
@@ -93,15 +106,24 @@ def read_demos(path: Path) -> tuple[dict[str, Any], dict[int, Demo]]:
                 seed = int(member(group.attrs, "seed", where, "attribute"))
                 times = dt * np.arange(1, len(qpos) + 1)
                 metrics = json.loads(member(group.attrs, "metrics", where, "attribute"))
-                plan_times, has_traces = member(group, "plan/times", where, "dataset")[:], "plan/traces" in group
+                plan_times, has_traces = (
+                    member(group, "plan/times", where, "dataset")[:],
+                    "plan/traces" in group,
+                )
                 traces = group["plan/traces"].shape if has_traces else (len(plan_times), 0, 0, 0, 3)
                 if len(traces) != 5 or traces[0] != len(plan_times) or traces[-1] != 3:
-                    raise DatasetError(f"{where}/plan/traces must have shape ({len(plan_times)}, ..., 3), got {traces}")
+                    raise DatasetError(
+                        f"{where}/plan/traces must have shape ({len(plan_times)}, ..., 3), got "
+                        f"{traces}"
+                    )
                 success = bool(member(group.attrs, "success", where, "attribute"))
-                demos[seed] = Demo(seed, qpos, mocap, times, metrics, success, plan_times, has_traces)
+                demos[seed] = Demo(
+                    seed, qpos, mocap, times, metrics, success, plan_times, has_traces
+                )
     except DatasetError as err:
         raise DatasetError(f"{not_ours}: {err}") from None
-    except (OSError, ValueError, TypeError) as err:  # not HDF5, unreadable JSON, a name that is not demo_<seed>
+    # not HDF5, unreadable JSON, a name that is not demo_<seed>
+    except (OSError, ValueError, TypeError) as err:
         raise DatasetError(f"{not_ours}: {' '.join(str(err).split())[:200]}") from None
     if not demos:
         raise DatasetError(f"{path} holds no episodes")
@@ -109,13 +131,15 @@ def read_demos(path: Path) -> tuple[dict[str, Any], dict[int, Demo]]:
 
 
 def read_episodes(path: Path, task: str | None = None) -> tuple[dict[str, Any], dict[int, Demo]]:
-    """(env_args, {seed: Demo}) of a collect file (`read_demos`), or of a ROS 2 bridge's MCAP log: one demo of seed
-    0, its times the JointState stamps from one plant step on. `task` names an MCAP log's task where the log does
-    not (a collect file names its own: DatasetError for another)."""
+    """(env_args, {seed: Demo}) of a collect file (`read_demos`), or of a ROS 2 bridge's MCAP log:
+    one demo of seed 0, its times the JointState stamps from one plant step on. `task` names an MCAP
+    log's task where the log does not (a collect file names its own: DatasetError for another)."""
     if path.suffix.lower() != ".mcap":
         env_args, demos = read_demos(path)
         if task is not None and task != env_args["task"]:
-            raise DatasetError(f"{path}: a file of task {env_args['task']!r}, not of --task {task!r}")
+            raise DatasetError(
+                f"{path}: a file of task {env_args['task']!r}, not of --task {task!r}"
+            )
         return env_args, demos
     from judo.ros2.mcap_read import read_bridge_log
 
@@ -126,7 +150,8 @@ def read_episodes(path: Path, task: str | None = None) -> tuple[dict[str, Any], 
 
 
 def member(container: Any, key: str, where: str, kind: str) -> Any:
-    """`container[key]` (an h5py group or attributes, or a dict), or DatasetError "WHERE has no KIND 'KEY'"."""
+    """`container[key]` (an h5py group or attributes, or a dict), or DatasetError "WHERE has no KIND
+    'KEY'"."""
     try:
         return container[key]
     except KeyError:
@@ -142,14 +167,18 @@ def demo_seed(name: str) -> int:
 
 
 def check_demos(path: Path, demos: dict[int, Demo], model: Any, task: str) -> None:
-    """DatasetError unless every demo's arrays fit `model` (the task's plant model) and are finite: qpos
-    (S, nq) with S >= 1, obs/mocap_pos (S, 3 nmocap) where present, plan/times (U,). Reshapes mocap_pos to
-    (S, nmocap, 3)."""
+    """DatasetError unless every demo's arrays fit `model` (the task's plant model) and are finite:
+    qpos (S, nq) with S >= 1, obs/mocap_pos (S, 3 nmocap) where present, plan/times (U,). Reshapes
+    mocap_pos to (S, nmocap, 3)."""
     for seed, demo in demos.items():
         where = f"{path}: data/{demo_name(seed)}"
         rows = len(demo.qpos)
         arrays: dict[str, tuple[np.ndarray, tuple[int, ...], str]] = {
-            "obs/qpos": (demo.qpos, (rows, model.nq), f"(S, {model.nq}) for {task}'s nq = {model.nq}")
+            "obs/qpos": (
+                demo.qpos,
+                (rows, model.nq),
+                f"(S, {model.nq}) for {task}'s nq = {model.nq}",
+            )
         }
         if demo.mocap_pos is not None:
             width = 3 * model.nmocap
@@ -167,7 +196,8 @@ def check_demos(path: Path, demos: dict[int, Demo], model: Any, task: str) -> No
             bad = np.flatnonzero(~np.isfinite(values).all(axis=tuple(range(1, values.ndim))))
             if bad.size:
                 raise DatasetError(
-                    f"{where}/{key} holds non-finite values (NaN or inf) in {bad.size} of its {len(values)} rows, "
+                    f"{where}/{key} holds non-finite values (NaN or inf) in {bad.size} of "
+                    f"its {len(values)} rows, "
                     f"the first row {bad[0]}"
                 )
         if demo.mocap_pos is not None:
@@ -175,15 +205,16 @@ def check_demos(path: Path, demos: dict[int, Demo], model: Any, task: str) -> No
 
 
 def read_traces(path: Path, seed: int) -> np.ndarray:
-    """(U, 1 + num_shown, T, num_trace_sensors, 3) the plan traces of demo `seed` (read when it is shown)."""
+    """(U, 1 + num_shown, T, num_trace_sensors, 3) the plan traces of demo `seed` (read when it is
+    shown)."""
     h5py = import_h5py("python -m judo replay")
     with h5py.File(path, "r") as file:
         return file["data"][demo_name(seed)]["plan/traces"][:]
 
 
 def unpadded(traces: np.ndarray) -> np.ndarray:
-    """(num_traces, T, num_trace_sensors, 3) one plan's traces without the NaN padding of a file whose plans
-    differ in shape (a recording across an edit of the horizon or of max_num_traces)."""
+    """(num_traces, T, num_trace_sensors, 3) one plan's traces without the NaN padding of a file
+    whose plans differ in shape (a recording across an edit of the horizon or of max_num_traces)."""
     finite = np.isfinite(traces)
     steps = finite.any(axis=(0, 2, 3))
     traces, finite = traces[:, steps], finite[:, steps]
@@ -196,7 +227,8 @@ class Replay:
     Attributes:
         demo: the demo shown; index: its row shown (0..S-1); playing: whether time runs.
         scene: the SceneView posed from the recorded rows.
-        token: the secret the page's URL carries (`check_token`: given, or generated beyond loopback), or None.
+        token: the secret the page's URL carries (`check_token`: given, or generated beyond
+            loopback), or None.
     """
 
     def __init__(
@@ -213,42 +245,57 @@ class Replay:
         from judo.runtime.address import check_port, check_token
 
         check_port(port)
-        self.token = check_token(token, host)  # the app's rules: generated beyond loopback, never empty
+        # the app's rules: generated beyond loopback, never empty
+        self.token = check_token(token, host)
         require_between("--speed", speed, 0.1, 4.0)
         self.env_args, self.demos = read_episodes(path, task)
         if demo is not None and demo not in self.demos:
-            raise DatasetError(f"{path} has no demo of seed {demo}; its seeds are: {', '.join(map(str, self.demos))}")
+            raise DatasetError(
+                f"{path} has no demo of seed {demo}; its seeds are: "
+                f"{', '.join(map(str, self.demos))}"
+            )
         self.demo = self.demos[demo if demo is not None else next(iter(self.demos))]
         self.model = make_task(self.env_args["task"]).sim_model
         check_demos(path, self.demos, self.model, self.env_args["task"])
         self.path, self.host, self.port = path, host, port
         self.index, self.playing, self.speed = 0, False, float(speed)
-        self.traces: np.ndarray | None = None  # (U, ...) the shown demo's plan traces, where the file has them
+        # (U, ...) the shown demo's plan traces, where the file has them
+        self.traces: np.ndarray | None = None
         self.plan_shown = -1  # the plan whose traces are drawn (-1: none)
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None  # the playback thread, from start()
-        self.lock = threading.Lock()  # held while a demo is chosen or a row is shown: hold it to read a whole frame
+        # held while a demo is chosen or a row is shown: hold it to read a whole frame
+        self.lock = threading.Lock()
 
     def start(self) -> None:
-        """Start the server, draw the first row of the demo and the widgets, and the playback thread."""
+        """Start the server, draw the first row of the demo and the widgets, and the playback
+        thread."""
         from judo.runtime.gui.scene import SceneView
         from judo.runtime.gui.server import gui_url, start_server
 
-        self.server = start_server(self.host, self.port, token=self.token, share=False, label="judo replay")
+        self.server = start_server(
+            self.host, self.port, token=self.token, share=False, label="judo replay"
+        )
         self.url = gui_url(self.server, self.token)
         self.scene = SceneView(self.server.scene, self.model)
         gui = self.server.gui
         gui.main_panel.dock_right()  # beside the view the camera frames, as in the app
         names = [demo_name(seed) for seed in self.demos]
-        self.demo_dropdown = gui.add_dropdown("demo", names, initial_value=demo_name(self.demo.seed))
+        self.demo_dropdown = gui.add_dropdown(
+            "demo", names, initial_value=demo_name(self.demo.seed)
+        )
         self.play_button = gui.add_button("Play")
         self.time_slider = gui.add_slider("time (s)", 0.0, self._duration(), self._dt(), 0.0)
         self.speed_slider = gui.add_slider("speed", 0.1, 4.0, 0.1, self.speed)
         self.readout = gui.add_markdown("")
-        self.demo_dropdown.on_update(lambda _: self.select(int(self.demo_dropdown.value.removeprefix("demo_"))))
+        self.demo_dropdown.on_update(
+            lambda _: self.select(int(self.demo_dropdown.value.removeprefix("demo_")))
+        )
         self.play_button.on_click(lambda _: self.set_playing(not self.playing))
         self.time_slider.on_update(lambda _: self.show(self._row(self.time_slider.value)))
-        self.speed_slider.on_update(lambda _: setattr(self, "speed", float(self.speed_slider.value)))
+        self.speed_slider.on_update(
+            lambda _: setattr(self, "speed", float(self.speed_slider.value))
+        )
         self.select(self.demo.seed)
         position, look_at = self.scene.camera_pose()
         self.server.initial_camera.position, self.server.initial_camera.look_at = position, look_at
@@ -264,9 +311,16 @@ class Replay:
             self.scene.set_traces(np.zeros((0, 0, 0, 3)))
         self.time_slider.max = self._duration()
         metrics = ", ".join(f"{name} {value:.3g}" for name, value in self.demo.metrics.items())
-        verdict = "" if self.demo.success is None else ", success" if self.demo.success else ", no success"
+        verdict = (
+            ""
+            if self.demo.success is None
+            else ", success"
+            if self.demo.success
+            else (", no success")
+        )
         self.readout.content = (
-            f"**{self.env_args['task']} x {self.env_args['optimizer']}**, seed {seed}{verdict}  \n{metrics}"
+            f"**{self.env_args['task']} x {self.env_args['optimizer']}**, seed "
+            f"{seed}{verdict}  \n{metrics}"
         )
         self.seek(0)
 
@@ -283,18 +337,27 @@ class Replay:
         self.time_slider.value = float(self.demo.times[self.index])
 
     def show(self, index: int) -> None:
-        """Pose the scene at row `index` (clamped) of the demo shown, with the traces of the latest plan made by
-        its time."""
+        """Pose the scene at row `index` (clamped) of the demo shown, with the traces of the latest
+        plan made by its time."""
         with self.lock:
             demo = self.demo
             self.index = int(np.clip(index, 0, len(demo.qpos) - 1))
             metadata = {} if demo.mocap_pos is None else {"mocap_pos": demo.mocap_pos[self.index]}
             self.scene.update(demo.qpos[self.index], metadata)
             if self.traces is not None:
-                plan = int(np.searchsorted(demo.plan_times, demo.times[self.index] + TIME_TOLERANCE, side="right")) - 1
+                plan = (
+                    int(
+                        np.searchsorted(
+                            demo.plan_times, demo.times[self.index] + TIME_TOLERANCE, side="right"
+                        )
+                    )
+                    - 1
+                )
                 if plan != self.plan_shown:
                     self.plan_shown = plan
-                    self.scene.set_traces(unpadded(self.traces[plan]) if plan >= 0 else np.zeros((0, 0, 0, 3)))
+                    self.scene.set_traces(
+                        unpadded(self.traces[plan]) if plan >= 0 else np.zeros((0, 0, 0, 3))
+                    )
 
     def stop(self) -> None:
         """Stop playing and the server."""
@@ -306,7 +369,8 @@ class Replay:
 
     def _play(self) -> None:
         last = time.perf_counter()
-        clock = 0.0  # sim seconds shown while playing, kept unrounded so that slow speeds still advance
+        # sim seconds shown while playing, kept unrounded so that slow speeds still advance
+        clock = 0.0
         while not self._stop.wait(FRAME_S):
             now = time.perf_counter()
             if not self.playing:
@@ -335,11 +399,14 @@ class Replay:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run `python -m judo replay` on `argv` (sys.argv[1:] when None) until Ctrl-C; exits 2 on bad arguments."""
+    """Run `python -m judo replay` on `argv` (sys.argv[1:] when None) until Ctrl-C; exits 2 on bad
+    arguments."""
     args = tyro.cli(ReplayArgs, args=argv, prog="python -m judo replay", description=__doc__)
     try:
         apply_config_file(args.config)
-        replay = Replay(args.file, args.demo, args.host, args.port, args.speed, args.token, args.task)
+        replay = Replay(
+            args.file, args.demo, args.host, args.port, args.speed, args.token, args.task
+        )
         replay.start()
     except JudoError as err:
         fail(str(err))

@@ -3,27 +3,28 @@
     estimator = EstimatorThread(make_estimator("ukf", task))   # an Estimator: the closed loop calls it as one
     closed_loop = ClosedLoop(controller, system, estimator=estimator)
 
-The plant thread only reads, steps and serves: each `update` hands the raw reading (and the action served
-since the one before) to the filter's thread and returns at once with the newest estimate, predicted to the
-plant's now on the planning model under the actions served since (its mean only: one `mj_step` per plant step,
-against the UKF's 2n sigma points). The filter's thread fuses the newest reading waiting, with every served
-action in order; readings that a newer one overtook while the filter was busy are passed over (a sensor's value
-held in the newer reading is fused from there). So a filter slower than the plant's step makes the estimate
-lag (`lag`), not the plant: judo's own simulator keeps real time. A filter more than CATCH_UP_LAG behind starts
-over from the prediction at the plant's now and the newest reading (`catch_ups`), so its lag stays within
+The plant thread only reads, steps and serves: each `update` hands the raw reading (and the action
+served since the one before) to the filter's thread and returns at once with the newest estimate,
+predicted to the plant's now on the planning model under the actions served since (its mean only:
+one `mj_step` per plant step, against the UKF's 2n sigma points). The filter's thread fuses the
+newest reading waiting, with every served action in order; readings that a newer one overtook while
+the filter was busy are passed over (a sensor's value held in the newer reading is fused from
+there). So a filter slower than the plant's step makes the estimate lag (`lag`), not the plant:
+judo's own simulator keeps real time. A filter more than CATCH_UP_LAG behind starts over from the
+prediction at the plant's now and the newest reading (`catch_ups`), so its lag stays within
 CATCH_UP_LAG and one update.
 
-The app's plant runs through it (`build_session(..., estimator_thread=True)`, beside the plant runner of this
-package); evaluate, tune and collect call their estimator on the stepping thread, so their episodes stay
-deterministic.
+The app's plant runs through it (`build_session(..., estimator_thread=True)`, beside the plant
+runner of this package); evaluate, tune and collect call their estimator on the stepping thread, so
+their episodes stay deterministic.
 
-A reset (`ClosedLoop.restart_estimator`, after the plant's reset or a switch) restarts the filter from the next
-reading on the plant thread, waiting for an update in flight: readings of before it are dropped. A config edit
-(`config = ...` from the GUI's thread) is handed to the filter before its next update. An exception on the
-filter's thread is raised from the plant thread's next `update` as an EstimatorThreadError (the app reports a
-failed read_state, as for a filter on the plant thread); the filter goes on with the next reading. `close()`
-ends the (daemon) thread within `timeout`.
-"""
+A reset (`ClosedLoop.restart_estimator`, after the plant's reset or a switch) restarts the filter
+from the next reading on the plant thread, waiting for an update in flight: readings of before it
+are dropped. A config edit (`config = ...` from the GUI's thread) is handed to the filter before its
+next update. An exception on the filter's thread is raised from the plant thread's next `update` as
+an EstimatorThreadError (the app reports a failed read_state, as for a filter on the plant thread);
+the filter goes on with the next reading. `close()` ends the (daemon) thread within `timeout`.
+"""  # noqa: E501
 
 import dataclasses
 import math
@@ -42,7 +43,8 @@ from judo.loop.latency import LatencyPredictor
 JOIN_TIMEOUT = 0.2
 """Seconds `close` waits for the filter's thread to finish its update in flight."""
 CATCH_UP_LAG = 0.5
-"""Seconds of plant time the filter may fall behind before it starts over from the prediction at the plant's now."""
+"""Seconds of plant time the filter may fall behind before it starts over from the prediction at the
+plant's now."""
 
 
 class EstimatorThreadError(JudoError):
@@ -51,7 +53,8 @@ class EstimatorThreadError(JudoError):
 
 @dataclass(frozen=True)
 class _Handed:
-    """One reading handed to the filter's thread: its reset `epoch`, the plant time to estimate at, and the
+    """One reading handed to the filter's thread: its reset `epoch`, the plant time to estimate at,
+    and the
     (time, (nu,) action) served since the reading before (None if none)."""
 
     epoch: int
@@ -64,20 +67,26 @@ class EstimatorThread(Estimator):
     """Runs `estimator` on a daemon thread of its own; see the module docstring.
 
     Args:
-        estimator: the filter; after this, only the filter's thread (and a reset) call it, under `_lock`.
+        estimator: the filter; after this, only the filter's thread (and a reset) call it, under
+            `_lock`.
 
     Attributes:
         estimator: the filter that fuses the readings.
-        lag: seconds of plant time the newest estimate was behind the plant's now at the latest `update`.
-        fused: readings fused so far (on the thread, and the first after each reset on the plant thread).
+        lag: seconds of plant time the newest estimate was behind the plant's now at the latest
+            `update`.
+        fused: readings fused so far (on the thread, and the first after each reset on the plant
+            thread).
         passed_over: readings a newer one overtook before the filter got to them.
         failures: updates that raised on the filter's thread.
-        catch_ups: times the filter fell CATCH_UP_LAG behind and started over from the prediction at the plant's now.
+        catch_ups: times the filter fell CATCH_UP_LAG behind and started over from the prediction at
+            the plant's now.
     """
 
-    def __init__(self, estimator: Estimator) -> None:  # not Estimator.__init__: `config` is the handed-over one
+    # not Estimator.__init__: `config` is the handed-over one
+    def __init__(self, estimator: Estimator) -> None:
         self.task, self.estimator = estimator.task, estimator
-        self._mutex = threading.Condition()  # guards the hand-over: queue, newest estimate, config, error
+        # guards the hand-over: queue, newest estimate, config, error
+        self._mutex = threading.Condition()
         self._lock = threading.Lock()  # held while the filter runs (its thread, or a reset)
         self._config: EstimatorConfig = estimator.config
         self._queue: deque[_Handed] = deque()
@@ -91,7 +100,8 @@ class EstimatorThread(Estimator):
         self._bridge: SystemState | None = None  # the estimate predicted to the plant's latest now
         self._bridged_version = -1
         self._predictor = LatencyPredictor(self.task)
-        self._first = True  # the next update is the first since a reset: fused on the calling thread
+        # the next update is the first since a reset: fused on the calling thread
+        self._first = True
         self.lag = 0.0
         self.fused = self.passed_over = self.failures = self.catch_ups = 0
 
@@ -107,7 +117,8 @@ class EstimatorThread(Estimator):
             self._config = config
 
     def reset(self, reading: SystemState) -> None:
-        """Restart the filter from `reading`, waiting for an update in flight; readings handed before are dropped."""
+        """Restart the filter from `reading`, waiting for an update in flight; readings handed
+        before are dropped."""
         with self._lock:
             with self._mutex:
                 self._epoch += 1
@@ -120,9 +131,9 @@ class EstimatorThread(Estimator):
         self._first = True
 
     def update(self, reading: SystemState, time: float, controls: ControlHistory) -> SystemState:
-        """Hand `reading` to the filter's thread and return the newest estimate predicted to plant `time` (the
-        first after a reset is fused here). Raises EstimatorThreadError for an update that failed on the thread
-        since the last call."""
+        """Hand `reading` to the filter's thread and return the newest estimate predicted to plant
+        `time` (the first after a reset is fused here). Raises EstimatorThreadError for an update
+        that failed on the thread since the last call."""
         latest = controls.latest()
         control = latest if latest is not None and latest[0] > self._handed_control else None
         if control is not None:
@@ -135,7 +146,11 @@ class EstimatorThread(Estimator):
                 estimate = self.estimator.update(reading, time, self._controls)
             self._first = False
             with self._mutex:
-                self._estimate, self._version, self.fused = estimate, self._version + 1, self.fused + 1
+                self._estimate, self._version, self.fused = (
+                    estimate,
+                    self._version + 1,
+                    self.fused + 1,
+                )
         else:
             with self._mutex:
                 self._queue.append(_Handed(self._epoch, reading, time, control))
@@ -144,11 +159,14 @@ class EstimatorThread(Estimator):
             self._start()
             if error is not None:
                 name = type(self.estimator).__name__
-                raise EstimatorThreadError(f"{name} failed on its thread: {type(error).__name__}: {error}") from error
+                raise EstimatorThreadError(
+                    f"{name} failed on its thread: {type(error).__name__}: {error}"
+                ) from error
         return self._bridged(reading, time, controls)
 
     def covariance(self) -> np.ndarray | None:
-        """The filter's (2 nv + na, 2 nv + na) covariance at its newest estimate (waits for an update in flight)."""
+        """The filter's (2 nv + na, 2 nv + na) covariance at its newest estimate (waits for an
+        update in flight)."""
         with self._lock:
             return self.estimator.covariance()
 
@@ -161,25 +179,32 @@ class EstimatorThread(Estimator):
             self._thread.join(timeout)
 
     def _bridged(self, reading: SystemState, time: float, controls: ControlHistory) -> SystemState:
-        """The newest estimate predicted to plant `time` under the served `controls`: from the estimate when it is
-        new, else on from the last prediction (one step per plant step)."""
+        """The newest estimate predicted to plant `time` under the served `controls`: from the
+        estimate when it is new, else on from the last prediction (one step per plant step)."""
         with self._mutex:
             estimate, version = self._estimate, self._version
         assert estimate is not None  # fused on the calling thread after every reset
-        base = estimate if version != self._bridged_version or self._bridge is None else self._bridge
+        base = (
+            estimate if version != self._bridged_version or self._bridge is None else self._bridge
+        )
         self._bridged_version, self.lag = version, max(0.0, time - estimate.time)
-        ahead = self._predictor.predict_reading(base, time - base.time, lambda now, _state: controls.at(now))
+        ahead = self._predictor.predict_reading(
+            base, time - base.time, lambda now, _state: controls.at(now)
+        )
         self._bridge = ahead
         return estimate_of(reading, np.asarray(ahead.state), ahead.time)
 
     def _catch_up_if_behind(self, newest: _Handed) -> None:
-        """Start the filter over from the plant thread's prediction (with `newest`'s sensors) when its estimate is
-        more than CATCH_UP_LAG behind `newest`: a filter slower than the plant would fall further behind at every
-        update, and the planner would plan from an ever longer prediction that no reading corrects."""
+        """Start the filter over from the plant thread's prediction (with `newest`'s sensors) when
+        its estimate is more than CATCH_UP_LAG behind `newest`: a filter slower than the plant would
+        fall further behind at every update, and the planner would plan from an ever longer
+        prediction that no reading corrects."""
         estimate, bridge = self._estimate, self._bridge
         if estimate is None or bridge is None or newest.time - estimate.time <= CATCH_UP_LAG:
             return
-        self.estimator.reset(dataclasses.replace(newest.reading, state=bridge.state, time=bridge.time))
+        self.estimator.reset(
+            dataclasses.replace(newest.reading, state=bridge.state, time=bridge.time)
+        )
         self.catch_ups += 1
 
     def _take_config(self) -> None:
@@ -195,7 +220,8 @@ class EstimatorThread(Estimator):
             self._thread.start()
 
     def _run(self) -> None:
-        """The filter's thread: fuse the newest reading handed over, with every action served, until `close`."""
+        """The filter's thread: fuse the newest reading handed over, with every action served, until
+        `close`."""
         while True:
             with self._mutex:
                 while not self._queue and not self._closing:
@@ -223,4 +249,7 @@ class EstimatorThread(Estimator):
                     continue
                 with self._mutex:
                     self._estimate, self._version = estimate, self._version + 1
-                    self.fused, self.passed_over = self.fused + 1, self.passed_over + len(handed) - 1
+                    self.fused, self.passed_over = (
+                        self.fused + 1,
+                        self.passed_over + len(handed) - 1,
+                    )

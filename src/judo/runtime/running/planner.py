@@ -1,5 +1,5 @@
-"""The planner runner: plans for the session in use at control_freq of wall time, and carries out the switches and
-config edits the commands queued (the package's docstring tells who runs what)."""
+"""The planner runner: plans for the session in use at control_freq of wall time, and carries out
+the switches and config edits the commands queued (the package's docstring tells who runs what)."""
 
 import dataclasses
 import math
@@ -63,7 +63,8 @@ class PlannerRunner:
             while not state.stop.is_set():
                 await self._carry_out_requests()
                 session = state.session
-                resets = state.resets_done  # before the reading: a reset in between only makes the plan look stale
+                # before the reading: a reset in between only makes the plan look stale
+                resets = state.resets_done
                 reading = session.closed_loop.reading
                 period = 1.0 / session.controller.config.control_freq
                 now = time.perf_counter()
@@ -79,9 +80,10 @@ class PlannerRunner:
             return
 
     async def show_late_cycles(self) -> None:
-        """Count a late planning cycle's seconds on the status line, once a second (logged once per cycle), until a
-        stop."""
-        shown: tuple[object, int] | None = None  # the late cycle and the whole seconds last shown of it
+        """Count a late planning cycle's seconds on the status line, once a second (logged once per
+        cycle), until a stop."""
+        # the late cycle and the whole seconds last shown of it
+        shown: tuple[object, int] | None = None
         while not self._state.stop.is_set():
             shown = self._show_late_cycle(shown)
             await self._state.stop.sleep(LATE_CYCLE_LOOK)
@@ -94,7 +96,9 @@ class PlannerRunner:
         if shown is not None and shown == (cycle, seconds):
             return shown
         size = "" if cycle.size is None else f" ({cycle.size}, est. {seconds_text(cycle.estimate)})"
-        message = f"planning: {seconds} s so far{size}; Pause, Reset task or a smaller setting cancels it"
+        message = (
+            f"planning: {seconds} s so far{size}; Pause, Reset task or a smaller setting cancels it"
+        )
         if shown is None or shown[0] is not cycle:
             self._reports.report(message, "warning")
         else:
@@ -102,42 +106,59 @@ class PlannerRunner:
         return cycle, seconds
 
     def close(self) -> None:
-        """End the planning thread: at once when idle; a cycle still in flight (a huge batch, a slow reward) is
-        not waited for beyond IDLE_THREAD_JOIN and ends on its own daemon thread."""
+        """End the planning thread: at once when idle; a cycle still in flight (a huge batch, a slow
+        reward) is not waited for beyond IDLE_THREAD_JOIN and ends on its own daemon thread."""
         self._executor.shutdown(wait=True, timeout=IDLE_THREAD_JOIN)
 
-    async def _plan(self, session: Session, reading: SystemState, start: float, resets: int, period: float) -> None:
-        """One planning cycle from `reading`, read after `resets` plant resets, published under "plan"; a failed
-        cycle is reported and skipped. The optimizer iterations beyond max_opt_iters (iterations_per_second) run
-        only while they fit in the control `period` (s) from `start`."""
+    async def _plan(
+        self, session: Session, reading: SystemState, start: float, resets: int, period: float
+    ) -> None:
+        """One planning cycle from `reading`, read after `resets` plant resets, published under
+        "plan"; a failed cycle is reported and skipped. The optimizer iterations beyond
+        max_opt_iters (iterations_per_second) run only while they fit in the control `period` (s)
+        from `start`."""
         controller, reports, state = session.controller, self._reports, self._state
         with state.lock:
-            configs = state.configs  # what the cycle will take up (the planner is their only writer)
-            size = session.controller.cycle_size(configs.by_kind)  # None: a policy rolls nothing out
-            estimate = math.nan if size is None else cycle_seconds(state.step_cost, size, configs.controller)
+            # what the cycle will take up (the planner is their only writer)
+            configs = state.configs
+            # None: a policy rolls nothing out
+            size = session.controller.cycle_size(configs.by_kind)
+            estimate = (
+                math.nan
+                if size is None
+                else cycle_seconds(state.step_cost, size, configs.controller)
+            )
             cycle = PlanningCycle(state.stop, size, estimate)
             state.in_flight.start(cycle)  # under the lock: a cancel from now on reaches it
         try:
-            plan = await state.stop.in_worker(self._executor, session.closed_loop.plan, reading, cycle, start + period)
+            plan = await state.stop.in_worker(
+                self._executor, session.closed_loop.plan, reading, cycle, start + period
+            )
         except Stopping:
             raise
         except PlanningCancelled:
             if state.stop.is_set():
                 raise Stopping from None
             reports.report(
-                f"planning cycle cancelled after {cycle.elapsed():.1f} s: {cycle.reason}; the plan before stays"
+                f"planning cycle cancelled after {cycle.elapsed():.1f} s: {cycle.reason}; "
+                "the plan before stays"
             )
             return
         except JudoError as err:  # ConfigError, a bad reading: skip this cycle
             reports.failed("planner", f"planning cycle skipped: {err}", "warning")
             return
         except Exception as err:  # an exception in the user's reward or hooks
-            reports.failed("planner", f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}")
+            reports.failed(
+                "planner",
+                f"planning cycle skipped: {type(err).__name__} in {session.task_name}: {err}",
+            )
             return
         finally:
             state.in_flight.start(None)
         if plan is None:  # no finite reward, or non-finite knots: the plan before stays in force
-            reports.failed("planner", f"planning cycle skipped: {session.closed_loop.last_failure}", "warning")
+            reports.failed(
+                "planner", f"planning cycle skipped: {session.closed_loop.last_failure}", "warning"
+            )
             return
         reports.recovered("planner", "planning works again")
         if isinstance(plan, FeedbackPlan) and plan.feedback_error is not None:
@@ -145,21 +166,33 @@ class PlannerRunner:
         plan_time = time.perf_counter() - start
         rewards = controller.rewards
         assert controller.nominal_knots is not None  # set by every completed cycle
-        self._stats.record_plan(start, plan_time, float(rewards[0]) if len(rewards) else float("nan"))
-        if size is not None and controller.iterations_run > 0:  # the iterations that fitted in the period
-            ran = controller.iterations_run  # the same size object when all ran: its total is worked out already
+        self._stats.record_plan(
+            start, plan_time, float(rewards[0]) if len(rewards) else float("nan")
+        )
+        # the iterations that fitted in the period
+        if size is not None and controller.iterations_run > 0:
+            # the same size object when all ran: its total is worked out already
+            ran = controller.iterations_run
             state.step_cost.record(
-                size if ran == size.iterations else dataclasses.replace(size, iterations=ran), plan_time
+                size if ran == size.iterations else dataclasses.replace(size, iterations=ran),
+                plan_time,
             )
         if cycle.late():  # the status line counted its time: say it is over
             reports.report(f"planned in {plan_time:.1f} s: {reports.running()}")
         snapshot = PlanSnapshot(
-            session.generation, reading.time, controller.nominal_knots, rewards, controller.traces, plan_time, resets
+            session.generation,
+            reading.time,
+            controller.nominal_knots,
+            rewards,
+            controller.traces,
+            plan_time,
+            resets,
         )
         self._buffer.publish("plan", snapshot)
 
     async def _carry_out_requests(self) -> None:
-        """Switches, config edits and resets queued since the last look; no cycle is in flight here."""
+        """Switches, config edits and resets queued since the last look; no cycle is in flight
+        here."""
         if not self._state.planner_pending:  # nothing queued: the steady state
             return
         requests = self._state.take_planner_requests()
@@ -172,19 +205,25 @@ class PlannerRunner:
         controller = session.controller
         if pending.controller is not None:
             controller.config = pending.controller
-        edited, optimizer = pending.optimizer, controller.optimizer  # an optimizer config's edit, if one is pending
+        # an optimizer config's edit, if one is pending
+        edited, optimizer = pending.optimizer, controller.optimizer
         if edited is not None:
-            assert controller.kind is PlannerKind.MPC and optimizer, "a session where a policy plans takes no such edit"
+            assert controller.kind is PlannerKind.MPC and optimizer, (
+                "a session where a policy plans takes no such edit"
+            )
             optimizer.config = edited
-        if pending.task is not None:  # the planner's task owns the task config; the plant reads it from there
+        # the planner's task owns the task config; the plant reads it from there
+        if pending.task is not None:
             controller.task.config = pending.task
         if requests.forget_plans:
             session.closed_loop.forget_plans()
 
     async def _switch(self, task: str, optimizer: str) -> bool:
-        """Replace the session with one of `task` and `optimizer` (built on the worker thread); True if it worked."""
+        """Replace the session with one of `task` and `optimizer` (built on the worker thread); True
+        if it worked."""
         state, old = self._state, self._state.session
-        estimator_only = (task, optimizer) == (old.task_name, old.optimizer_name)  # a recording goes on
+        # a recording goes on
+        estimator_only = (task, optimizer) == (old.task_name, old.optimizer_name)
         if not estimator_only:
             self._recordings.finish("the task or optimizer was switched")
         with state.lock:
@@ -192,7 +231,8 @@ class PlannerRunner:
 
         def build() -> Session:
             session = self._maker.switched(old, task, optimizer, sensing, configs)
-            if state.stop.is_set():  # the app stopped meanwhile and will not take it: free its threads
+            # the app stopped meanwhile and will not take it: free its threads
+            if state.stop.is_set():
                 session.close()
             return session
 
@@ -201,7 +241,9 @@ class PlannerRunner:
         except Stopping:
             raise
         except Exception as err:
-            self._reports.report(f"could not switch to {task} with {optimizer}: {type(err).__name__}: {err}", "error")
+            self._reports.report(
+                f"could not switch to {task} with {optimizer}: {type(err).__name__}: {err}", "error"
+            )
             return False
         with state.lock:
             state.install_session(new)
@@ -213,5 +255,7 @@ class PlannerRunner:
         self.clock.restart(time.perf_counter())
         estimating = f" and the {new.estimator_name} estimator" if new.estimator_name else ""
         paused = " (paused)" if state.paused else ""
-        self._reports.report(f"switched to {new.task_name} with {new.optimizer_name}{estimating}{paused}")
+        self._reports.report(
+            f"switched to {new.task_name} with {new.optimizer_name}{estimating}{paused}"
+        )
         return True

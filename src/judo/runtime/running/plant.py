@@ -1,5 +1,5 @@
-"""The plant runner: the System driven from one thread of its own at real-time pace (the package's docstring tells
-who runs what)."""
+"""The plant runner: the System driven from one thread of its own at real-time pace (the package's
+docstring tells who runs what)."""
 
 import logging
 import math
@@ -27,29 +27,38 @@ WAIT_REPORT = 2.0
 
 
 def sim_waits(loop: ClosedLoop) -> bool:
-    """Whether judo's own simulator waits before its next step (docs/gui.md; a robot never does): while the
-    planning cycle in flight would take more than one control period of sim time, and between cycles while the
-    plan in force would age past max(2 periods, max_plan_age / 2) (a planner thread late to start its next
-    cycle); never after a failed cycle, so a failing planner still trips the watchdog."""
+    """Whether judo's own simulator waits before its next step (docs/gui.md; a robot never does):
+    while the planning cycle in flight would take more than one control period of sim time, and
+    between cycles while the plan in force would age past max(2 periods, max_plan_age / 2) (a
+    planner thread late to start its next cycle); never after a failed cycle, so a failing planner
+    still trips the watchdog."""
     config = loop.controller.config
     period, next_time = 1.0 / config.control_freq, loop.stepped_time + loop.system.timestep
     started = loop.cycle_started
     if started is not None:
         return next_time - started > period + 1e-9
-    newest = max(loop.plan_stamp, loop.newest_stamp)  # a finished plan is in force from the next step on
-    return not loop.last_cycle_failed and next_time - newest > max(2 * period, config.max_plan_age / 2)
+    # a finished plan is in force from the next step on
+    newest = max(loop.plan_stamp, loop.newest_stamp)
+    return not loop.last_cycle_failed and next_time - newest > max(
+        2 * period, config.max_plan_age / 2
+    )
 
 
 def system_snapshot(session: Session, reading: SystemState) -> SystemSnapshot:
-    """The "system" snapshot of `reading`, with the simulated plant's true state when an estimator runs."""
+    """The "system" snapshot of `reading`, with the simulated plant's true state when an estimator
+    runs."""
     plant = session.simulated
-    truth = plant.plant_state() if plant is not None and session.closed_loop.estimator is not None else None
+    truth = (
+        plant.plant_state()
+        if plant is not None and session.closed_loop.estimator is not None
+        else None
+    )
     return SystemSnapshot(session.generation, reading, truth)
 
 
 class PlantRunner:
-    """The plant thread of an App: steps the session's plant at real-time pace, carries out the plant's
-    requests (resets, goal moves) and publishes each new reading under "system" for the GUI.
+    """The plant thread of an App: steps the session's plant at real-time pace, carries out the
+    plant's requests (resets, goal moves) and publishes each new reading under "system" for the GUI.
 
     Args:
         state: the app's shared state (the session in use, pause, the plant's requests).
@@ -72,7 +81,8 @@ class PlantRunner:
     ) -> None:
         self._state, self._buffer, self._stats, self._reports = state, buffer, stats, reports
         self._duration, self._request_stop = duration, request_stop
-        self._waiting_since: float | None = None  # wall time the simulation began to wait for the cycle in flight
+        # wall time the simulation began to wait for the cycle in flight
+        self._waiting_since: float | None = None
         self._wait_reported = False
         self.thread = threading.Thread(target=self._drive_plant, name="judo-plant", daemon=True)
 
@@ -80,7 +90,8 @@ class PlantRunner:
         self.thread.start()
 
     def _drive_plant(self) -> None:
-        """The plant thread: step the plant at real-time pace until a stop; halt it on a pause and at the end."""
+        """The plant thread: step the plant at real-time pace until a stop; halt it on a pause and
+        at the end."""
         generation = -1
         last_wall = time.perf_counter()
         clock, halted = PlantClock(), False
@@ -104,10 +115,15 @@ class PlantRunner:
                 halted = False
                 now = time.perf_counter()
                 dt = session.system.timestep
-                due = clock.due(now, dt)  # a wait for the planner stays in the run's wall time: the RTF shows it
+                # a wait for the planner stays in the run's wall time: the RTF shows it
+                due = clock.due(now, dt)
                 if self._duration is not None:  # never step past the requested duration
-                    due = min(due, max(0, math.ceil((self._duration - self._stats.sim_time()) / dt - 1e-9)))
-                waits = not session.closed_loop.real_time  # judo's own simulator waits for a slow planner
+                    due = min(
+                        due,
+                        max(0, math.ceil((self._duration - self._stats.sim_time()) / dt - 1e-9)),
+                    )
+                # judo's own simulator waits for a slow planner
+                waits = not session.closed_loop.real_time
                 served = stepped = 0
                 while stepped < due and not self._state.stop.is_set():
                     if waits and sim_waits(session.closed_loop):
@@ -120,10 +136,13 @@ class PlantRunner:
                     self._note_wait(True)
                 elif stepped:
                     self._note_wait(False)
-                self._stats.record_plant(served * dt, now - last_wall)  # only the ticks the plant got
+                # only the ticks the plant got
+                self._stats.record_plant(served * dt, now - last_wall)
                 last_wall = now
                 if stepped and session.closed_loop.reading is not None:
-                    self._buffer.publish("system", system_snapshot(session, session.closed_loop.reading))
+                    self._buffer.publish(
+                        "system", system_snapshot(session, session.closed_loop.reading)
+                    )
                 if self._duration is not None and self._stats.sim_time() >= self._duration - 1e-9:
                     self._request_stop()
                     break
@@ -134,11 +153,14 @@ class PlantRunner:
             return
 
     def _note_wait(self, waiting: bool) -> None:
-        """Say once when the simulator has waited WAIT_REPORT s for one planning cycle, and when it goes on."""
+        """Say once when the simulator has waited WAIT_REPORT s for one planning cycle, and when it
+        goes on."""
         now = time.perf_counter()
         if not waiting:
             if self._wait_reported:
-                self._reports.report(f"the planner caught up; the simulation goes on: {self._reports.running()}")
+                self._reports.report(
+                    f"the planner caught up; the simulation goes on: {self._reports.running()}"
+                )
             self._waiting_since, self._wait_reported = None, False
             return
         if self._waiting_since is None:
@@ -158,13 +180,16 @@ class PlantRunner:
         except SystemClosedError:
             raise
         except Exception as err:
-            self._reports.report(f"system halt ({why}) failed: {type(err).__name__}: {err}", "error")
+            self._reports.report(
+                f"system halt ({why}) failed: {type(err).__name__}: {err}", "error"
+            )
             return False
         return True
 
     def _carry_out_plant_requests(self, session: Session) -> bool:
-        """Take up the task config in force, then a reset or goal moves queued for the plant; True if the plant was
-        reset. The planner's task owns the task config: the simulated plant's task reads it here, on its own thread."""
+        """Take up the task config in force, then a reset or goal moves queued for the plant; True
+        if the plant was reset. The planner's task owns the task config: the simulated plant's task
+        reads it here, on its own thread."""
         if (simulated := session.simulated) is not None:
             simulated.task.config = session.controller.task.config
         if not self._state.plant_pending:  # nothing queued: the steady state
@@ -177,13 +202,18 @@ class PlantRunner:
             except SystemClosedError:
                 raise
             except Exception as err:  # the plan is not restarted as if the reset had worked
-                self._reports.report(f"system reset failed: {type(err).__name__}: {err}; the plan was kept", "error")
+                self._reports.report(
+                    f"system reset failed: {type(err).__name__}: {err}; the plan was kept", "error"
+                )
             else:
                 self._buffer.publish("system", system_snapshot(session, reading))
                 self._state.note_plant_reset()
                 if requests.reset_from_user:
-                    self._reports.report(f"{session.task_name} reset to its start state; the plan starts afresh")
-        plant = session.system if simulated is None else simulated  # the System whose goals they are
+                    self._reports.report(
+                        f"{session.task_name} reset to its start state; the plan starts afresh"
+                    )
+        # the System whose goals they are
+        plant = session.system if simulated is None else simulated
         if moves:
             try:
                 for index, (position, quat) in moves.items():
@@ -225,27 +255,33 @@ class PlantRunner:
         self._buffer.publish("system", system_snapshot(session, reading))
 
     async def watch(self, system_call_limit: float) -> None:
-        """On the event loop: report a call into a user's System that has blocked longer than `system_call_limit` s
-        (once per block) and halt the robot where the System offers a halt; report when it returns; stop the app if
-        the plant thread died. Ends on a stop."""
+        """On the event loop: report a call into a user's System that has blocked longer than
+        `system_call_limit` s (once per block) and halt the robot where the System offers a halt;
+        report when it returns; stop the app if the plant thread died. Ends on a stop."""
         state, reports = self._state, self._reports
         reported: tuple[str, float] | None = None
         while not state.stop.is_set():
             session = state.session
             calls = session.closed_loop.calls
-            # judo's own simulator never hangs in a call: a late step there is this process busy elsewhere (a page
-            # that connects is sent the whole scene), not a driver to halt
+            # judo's own simulator never hangs in a call: a late step there is this process busy
+            # elsewhere (a page that connects is sent the whole scene), not a driver to halt
             blocked = None if session.simulated is not None else calls.blocked(system_call_limit)
             if blocked is not None and reported is None:
                 reported = blocked
                 halting = calls.offers_halt()
                 reports.report(
                     f"system {blocked[0]}() has not returned for {blocked[1]:.1f} s; "
-                    + ("halting the robot" if halting else "the watchdog serves the safe action once it returns"),
+                    + (
+                        "halting the robot"
+                        if halting
+                        else "the watchdog serves the safe action once it returns"
+                    ),
                     "error",
                 )
                 if halting:  # on a thread of its own: the driver's halt may block too
-                    threading.Thread(target=self._halt_quietly, daemon=True, name="judo-halt").start()
+                    threading.Thread(
+                        target=self._halt_quietly, daemon=True, name="judo-halt"
+                    ).start()
             elif blocked is None and reported is not None:
                 reported = None
                 reports.report(f"the system responds again: {reports.running()}")

@@ -1,6 +1,6 @@
-"""The supervisor: one asyncio event loop that runs the planner runner, the plant thread's watch and the frontend's
-frames until a stop, then stops every part in order; the frontend's factory and the exit guard (the package's
-docstring tells who runs what)."""
+"""The supervisor: one asyncio event loop that runs the planner runner, the plant thread's watch and
+the frontend's frames until a stop, then stops every part in order; the frontend's factory and the
+exit guard (the package's docstring tells who runs what)."""
 
 import asyncio
 import atexit
@@ -58,8 +58,9 @@ class ServedApp(AppPort, Protocol):
 
 
 def viser_frontend(app: ServedApp) -> Callable[[], Frontend]:
-    """Builds judo's viser GUI of `app` at http://app.host:app.port (the next free port if it is taken), warning
-    when it listens beyond loopback. The function raises GuiStartError if the server cannot start."""
+    """Builds judo's viser GUI of `app` at http://app.host:app.port (the next free port if it is
+    taken), warning when it listens beyond loopback. The function raises GuiStartError if the server
+    cannot start."""
 
     def make() -> Frontend:
         module, _, name = VISER_FRONTEND.partition(":")
@@ -77,8 +78,10 @@ def warn_if_exposed(host: str, port: int) -> None:
     if is_loopback(host):
         return
     logger.warning(
-        "the GUI listens on %s (%s): anyone who can reach port %d of this machine and has the URL with its "
-        "token can change every config, switch the task, pause the plant or reset it, a real robot too. "
+        "the GUI listens on %s (%s): anyone who can reach port %d of this machine and has "
+        "the URL with its "
+        "token can change every config, switch the task, pause the plant or reset it, a real "
+        "robot too. "
         "Prefer the default 127.0.0.1 and an SSH tunnel (docs/gui.md).",
         host,
         "every network interface" if host in ("0.0.0.0", "::") else "reachable from the network",
@@ -91,7 +94,8 @@ logger = logging.getLogger("judo.app")
 GUI_PERIOD = 1.0 / 30.0
 """Seconds between GUI frames."""
 PLANT_THREAD_JOIN = 1.0
-"""Seconds a stop waits for the plant thread to halt the plant and end; a driver blocked longer is left."""
+"""Seconds a stop waits for the plant thread to halt the plant and end; a driver blocked longer is
+left."""
 
 
 class Supervisor:
@@ -103,9 +107,12 @@ class Supervisor:
         planner: the planner runner, run here.
         recordings: written at the stop.
         reports: the status line.
-        system_call_limit: seconds a System call may block before it is reported and the robot halted.
-        make_frontend: builds the GUI on the event loop's thread (None: no GUI); raises if it cannot start.
-        stop_latch: the latched stop, engaged by SIGUSR1 where signals are handled, and said at start when latched.
+        system_call_limit: seconds a System call may block before it is reported and the robot
+            halted.
+        make_frontend: builds the GUI on the event loop's thread (None: no GUI); raises if it cannot
+            start.
+        stop_latch: the latched stop, engaged by SIGUSR1 where signals are handled, and said at
+            start when latched.
     """
 
     def __init__(
@@ -122,14 +129,19 @@ class Supervisor:
     ) -> None:
         self._state, self._plant, self._planner = state, plant, planner
         self._recordings, self._reports = recordings, reports
-        self._system_call_limit, self._make_frontend, self._stop_latch = system_call_limit, make_frontend, stop_latch
+        self._system_call_limit, self._make_frontend, self._stop_latch = (
+            system_call_limit,
+            make_frontend,
+            stop_latch,
+        )
         self.frontend: Frontend | None = None  # while the loops run with a GUI
         self.start_error: BaseException | None = None  # why the GUI could not start
         self.ready = threading.Event()  # the loops run (or failed to start)
         self.finished = threading.Event()  # every part has stopped
 
     async def main(self, handle_signals: bool = False) -> None:
-        """Run every part until a stop, then stop them in order. Raises what kept the GUI from starting."""
+        """Run every part until a stop, then stop them in order. Raises what kept the GUI from
+        starting."""
         state, loop = self._state, asyncio.get_running_loop()
         state.stop.bind()
         if handle_signals:
@@ -180,7 +192,8 @@ class Supervisor:
         self.ready.set()
         if self._plant.thread.ident is not None:
             self._plant.thread.join(PLANT_THREAD_JOIN)
-        state.session.closed_loop.calls.close()  # a driver blocked in a call is left to return on its own thread
+        # a driver blocked in a call is left to return on its own thread
+        state.session.closed_loop.calls.close()
         self._recordings.finish("the app stopped")
         if self.frontend is not None:
             self.frontend.close()
@@ -207,14 +220,16 @@ class Stoppable(Protocol):
 
 
 EXIT_STOP_TIMEOUT = 5.0
-"""Seconds the exit hook waits for each running App to stop (its planning cycle in flight to end)."""
+"""Seconds the exit hook waits for each running App to stop (its planning cycle in flight to
+end)."""
 
 _running: "weakref.WeakSet[Stoppable]" = weakref.WeakSet()
 _lock = threading.Lock()
 
 
 def stop_at_exit(app: Stoppable) -> None:
-    """Have `app` stopped (`app.stop(EXIT_STOP_TIMEOUT)`) at interpreter exit if it is still running then.
+    """Have `app` stopped (`app.stop(EXIT_STOP_TIMEOUT)`) at interpreter exit if it is still running
+    then.
 
     Call it once the app has started; stopping an app that already stopped does nothing harmful."""
     with _lock:

@@ -1,1 +1,2 @@
-"""Tasks for Unitree's robots: the Go2 standing and walking, the G1 standing, and the pushes both take."""
+"""Tasks for Unitree's robots: the Go2 standing and walking, the G1 standing, and the pushes both
+take."""

@@ -1,9 +1,10 @@
 """G1 stand: Unitree's G1 humanoid (29 DoF) holds its standing pose under random pushes.
 
-The model is MuJoCo Menagerie's G1 with Unitree's joint PD as position servos (models/unitree_g1/g1.xml). The
-planner plans all 29 joint targets; the reward holds the pelvis at its standing height and upright, the capture
-point over the feet, the joints near Unitree's standing pose, and little torque. The plant is pushed at random
-(RandomPushes): the planner only sees what the push did to the state.
+The model is MuJoCo Menagerie's G1 with Unitree's joint PD as position servos
+(models/unitree_g1/g1.xml). The planner plans all 29 joint targets; the reward holds the pelvis at
+its standing height and upright, the capture point over the feet, the joints near Unitree's standing
+pose, and little torque. The plant is pushed at random (RandomPushes): the planner only sees what
+the push did to the state.
 """
 
 from dataclasses import dataclass
@@ -26,13 +27,16 @@ MOTOR_JOINTS = (
     "waist_roll_joint",
     "waist_pitch_joint",
     *(f"{side}_{j}_joint" for side in ("left", "right")
-      for j in ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow", "wrist_roll", "wrist_pitch", "wrist_yaw")),
+      for j in ("shoulder_pitch", "shoulder_roll", "shoulder_yaw", "elbow", "wrist_roll", "wrist_pitch", "wrist_yaw")),  # noqa: E501
 )  # fmt: skip
-"""The 29 joints in Unitree's motor order (motor i drives MOTOR_JOINTS[i]); the actuators are named as them."""
+"""The 29 joints in Unitree's motor order (motor i drives MOTOR_JOINTS[i]); the actuators are named
+as them."""
 STANDING_HEIGHT = 0.6
-"""Pelvis height (m) above which, upright, `metrics` counts the robot as standing (the standing pose: 0.78 m)."""
+"""Pelvis height (m) above which, upright, `metrics` counts the robot as standing (the standing
+pose: 0.78 m)."""
 FALL_HEIGHT = 0.45
-"""Pelvis height (m) below which the plant counts a fall and stands the robot up again where it lies."""
+"""Pelvis height (m) below which the plant counts a fall and stands the robot up again where it
+lies."""
 UPRIGHT_COS = np.cos(np.radians(30.0))
 """The pelvis counts as upright while its z axis is within 30 degrees of vertical."""
 GRAVITY = 9.81
@@ -59,10 +63,12 @@ class G1StandConfig(TaskConfig):
     w_height: float = 100.0
     """Weight on the pelvis height error (squared, m^2)."""
     w_upright: float = 5.0
-    """Weight on the pelvis and the torso tilting (1 - cos of each one's angle from vertical, summed)."""
+    """Weight on the pelvis and the torso tilting (1 - cos of each one's angle from vertical,
+    summed)."""
     w_balance: float = 10.0
-    """Weight on the horizontal distance (m) from the capture point (the centre of mass moved on by its velocity
-    times sqrt(height / g)) to the midpoint of the feet (smooth L1, quadratic within 0.05 m)."""
+    """Weight on the horizontal distance (m) from the capture point (the centre of mass moved on by
+    its velocity times sqrt(height / g)) to the midpoint of the feet (smooth L1, quadratic within
+    0.05 m)."""
     w_posture: float = 0.5
     """Weight on the joint angles differing from the standing pose (squared, summed, rad^2)."""
     w_velocity: float = 1.0
@@ -70,7 +76,8 @@ class G1StandConfig(TaskConfig):
     w_effort: float = 0.01
     """Weight on the servos' torques as a share of their limits (squared, summed)."""
     w_feet: float = 0.0
-    """Weight on the feet's soles rising off the floor (squared height, summed over both feet, m^2)."""
+    """Weight on the feet's soles rising off the floor (squared height, summed over both feet,
+    m^2)."""
     push_force: float = 40.0
     """Force (N) of each random horizontal push on the plant's pelvis; 0 turns pushes off."""
     push_interval: float = 4.0
@@ -80,9 +87,10 @@ class G1StandConfig(TaskConfig):
 
 
 class G1Stand(Task[G1StandConfig]):
-    """State [pelvis position (3), quaternion (4), 29 joint angles, pelvis velocity (6), 29 joint velocities]; the
-    29 controls are joint position targets (rad) in Unitree's motor order (MOTOR_JOINTS), which the servos track
-    with the robot's own kp and kd (the model's actuators)."""
+    """State [pelvis position (3), quaternion (4), 29 joint angles, pelvis velocity (6), 29 joint
+    velocities]; the
+    29 controls are joint position targets (rad) in Unitree's motor order (MOTOR_JOINTS), which the
+    servos track with the robot's own kp and kd (the model's actuators)."""
 
     focus_body = "pelvis"
     lower_is_better: ClassVar[tuple[str, ...]] = ("falls", "falls_per_minute", "rms_height_error")
@@ -93,23 +101,31 @@ class G1Stand(Task[G1StandConfig]):
         "imu_gyro",
         "imu_acc",
     )
-    """What the G1's rt/lowstate carries: 29 joint encoders (q, then dq, in motor order) and the pelvis IMU."""
+    """What the G1's rt/lowstate carries: 29 joint encoders (q, then dq, in motor order) and the
+    pelvis IMU."""
     default_estimator = "legged"
-    """The filter that makes the floating base from those readings (no base pose or foot force is measured)."""
+    """The filter that makes the floating base from those readings (no base pose or foot force is
+    measured)."""
 
-    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+    def __init__(
+        self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None
+    ) -> None:
         super().__init__(model_path, sim_model_path)
         self._home_key = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_KEY, "home")
         self.home_ctrl = self.model.key_ctrl[self._home_key].copy()
         """(29,) Unitree's standing pose's joint targets, in motor order."""
         self._joint_qpos = np.array([self.get_joint_position_start_index(j) for j in MOTOR_JOINTS])
         self._pelvis = self.get_sensor_start_index("trace_pelvis")
-        self._feet = np.array([self.get_sensor_start_index(f"trace_{side}_foot") for side in ("left", "right")])
+        self._feet = np.array(
+            [self.get_sensor_start_index(f"trace_{side}_foot") for side in ("left", "right")]
+        )
         self._pelvis_up = self.get_sensor_start_index("pelvis_up")
         self._torso_up = self.get_sensor_start_index("torso_up")
         self._com = self.get_sensor_start_index("center_of_mass")
         self._com_velocity = self.get_sensor_start_index("center_of_mass_velocity")
-        self._torque_per_rad = self.model.actuator_gainprm[:, 0] / np.abs(self.model.actuator_forcerange[:, 1])
+        self._torque_per_rad = self.model.actuator_gainprm[:, 0] / np.abs(
+            self.model.actuator_forcerange[:, 1]
+        )
         self.pushes = RandomPushes(self.sim_model, "pelvis")
         self.falls = 0
         self.reset()
@@ -126,17 +142,21 @@ class G1Stand(Task[G1StandConfig]):
         config: G1StandConfig,
         system_metadata: dict[str, Any] | None = None,
     ) -> np.ndarray:
-        """Minus the time-averaged cost, (num_rollouts,), from (num_rollouts, T, nq + nv) states, (num_rollouts, T,
-        nsensordata) sensors and (num_rollouts, T, 29) controls."""
+        """Minus the time-averaged cost, (num_rollouts,), from (num_rollouts, T, nq + nv) states,
+        (num_rollouts, T, nsensordata) sensors and (num_rollouts, T, 29) controls."""
         height_error = self.pelvis_height(sensors) - config.target_height
         tilt = 2.0 - sensors[..., self._pelvis_up + 2] - sensors[..., self._torso_up + 2]
         feet_middle = 0.5 * (
-            sensors[..., self._feet[0] : self._feet[0] + 2] + sensors[..., self._feet[1] : self._feet[1] + 2]
+            sensors[..., self._feet[0] : self._feet[0] + 2]
+            + sensors[..., self._feet[1] : self._feet[1] + 2]
         )
         com = sensors[..., self._com : self._com + 3]
         com_velocity = sensors[..., self._com_velocity : self._com_velocity + 2]
-        # Capture point: where the centre of mass would come to rest over, as for an inverted pendulum.
-        capture_point = com[..., :2] + com_velocity * np.sqrt(np.maximum(com[..., 2:3], 0.0) / GRAVITY)
+        # Capture point: where the centre of mass would come to rest over, as for an inverted
+        # pendulum.
+        capture_point = com[..., :2] + com_velocity * np.sqrt(
+            np.maximum(com[..., 2:3], 0.0) / GRAVITY
+        )
         joints = states[..., self._joint_qpos]
         torque_share = (controls - joints) * self._torque_per_rad
         cost = (
@@ -155,14 +175,19 @@ class G1Stand(Task[G1StandConfig]):
         key_qpos = self.sim_model.key_qpos[self._home_key]
         self.data.qpos[:] = key_qpos
         self.data.qpos[:2] = (x, y)
-        mujoco.mju_mulQuat(self.data.qpos[3:7], np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]), key_qpos[3:7])
+        mujoco.mju_mulQuat(
+            self.data.qpos[3:7],
+            np.array([np.cos(yaw / 2), 0.0, 0.0, np.sin(yaw / 2)]),
+            key_qpos[3:7],
+        )
         self.data.qvel[:] = 0.0
         self.data.ctrl[:] = self.home_ctrl
         self.data.xfrc_applied[:] = 0.0
         mujoco.mj_forward(self.sim_model, self.data)
 
     def reset(self) -> None:
-        """Standing in Unitree's standing pose at the origin, facing +x, at rest; pushes and falls at zero."""
+        """Standing in Unitree's standing pose at the origin, facing +x, at rest; pushes and falls
+        at zero."""
         mujoco.mj_resetDataKeyframe(self.sim_model, self.data, self._home_key)
         self.stand_at(0.0, 0.0, 0.0)
         self.data.time = 0.0
@@ -170,9 +195,12 @@ class G1Stand(Task[G1StandConfig]):
         self.falls = 0
 
     def pre_sim_step(self) -> None:
-        """Push the plant's pelvis when a push is due (config.push_force, push_interval, push_duration)."""
+        """Push the plant's pelvis when a push is due (config.push_force, push_interval,
+        push_duration)."""
         config = self.config
-        self.pushes.apply(self.data, self.rng, config.push_force, config.push_interval, config.push_duration)
+        self.pushes.apply(
+            self.data, self.rng, config.push_force, config.push_interval, config.push_duration
+        )
 
     def post_sim_step(self) -> None:
         """Count a fall (pelvis below FALL_HEIGHT) and stand the robot up again where it lies."""
@@ -186,19 +214,23 @@ class G1Stand(Task[G1StandConfig]):
         return self.home_ctrl.copy()
 
     def safe_action(self, state: np.ndarray) -> np.ndarray:
-        """(29,) the standing pose's joint targets: the servos hold the standing pose (a robot that is falling
-        is better caught in it than frozen in its current joint angles)."""
+        """(29,) the standing pose's joint targets: the servos hold the standing pose (a robot that
+        is falling is better caught in it than frozen in its current joint angles)."""
         return self.home_ctrl.copy()
 
     def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
-        """The feet's six contact pairs with the floor: sliding friction x U[0.7, 1.3] (one draw each)."""
-        feet = [i for i in range(model.npair) if "foot" in model.geom(int(model.pair_geom1[i])).name]
+        """The feet's six contact pairs with the floor: sliding friction x U[0.7, 1.3] (one draw
+        each)."""
+        feet = [
+            i for i in range(model.npair) if "foot" in model.geom(int(model.pair_geom1[i])).name
+        ]
         model.pair_friction[feet, :2] *= rng.uniform(0.7, 1.3, (len(feet), 1))
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """standing_fraction: share of the steps with the pelvis above 0.6 m and within 30 degrees of upright;
-        falls and falls_per_minute (pelvis below 0.45 m, counted on this plant task); pushes: pushes given;
-        rms_height_error: RMS (m) of the pelvis height from config.target_height."""
+        """standing_fraction: share of the steps with the pelvis above 0.6 m and within 30 degrees
+        of upright; falls and falls_per_minute (pelvis below 0.45 m, counted on this plant task);
+        pushes: pushes given; rms_height_error: RMS (m) of the pelvis height from
+        config.target_height."""
         height = self.pelvis_height(log.sensors)
         upright = log.sensors[:, self._pelvis_up + 2] > UPRIGHT_COS
         minutes = len(log.times) * float(self.sim_model.opt.timestep) / 60.0
@@ -207,7 +239,9 @@ class G1Stand(Task[G1StandConfig]):
             "falls": float(self.falls),
             "falls_per_minute": self.falls / minutes if minutes > 0 else 0.0,
             "pushes": float(self.pushes.count),
-            "rms_height_error": float(np.sqrt(np.mean(np.square(height - self.config.target_height)))),
+            "rms_height_error": float(
+                np.sqrt(np.mean(np.square(height - self.config.target_height)))
+            ),
         }
 
     def success(self, metrics: dict[str, float]) -> bool:

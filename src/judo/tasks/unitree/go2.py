@@ -1,9 +1,11 @@
-"""Unitree Go2: stand up from lying and hold a height under pushes (go2_stand), or walk to a velocity command
-(go2_walk), planned directly in the 12 motor position targets the robot's own PD tracks.
+"""Unitree Go2: stand up from lying and hold a height under pushes (go2_stand), or walk to a
+velocity command (go2_walk), planned directly in the 12 motor position targets the robot's own PD
+tracks.
 
-The model (models/unitree_go2/, from MuJoCo Menagerie) keeps to the contract the Unitree bridge reads
-(judo.unitree): actuators in Unitree's motor order, position actuators carrying kp / kd, and the measured
-sensors rt/lowstate carries. The rewards reuse the quadruped task's gait schedule (judo.tasks.quadruped).
+The model (models/unitree_go2/, from MuJoCo Menagerie) keeps to the contract the Unitree bridge
+reads (judo.unitree): actuators in Unitree's motor order, position actuators carrying kp / kd, and
+the measured sensors rt/lowstate carries. The rewards reuse the quadruped task's gait schedule
+(judo.tasks.quadruped).
 """
 
 from dataclasses import dataclass
@@ -30,10 +32,11 @@ FOOT_RADIUS = 0.022
 STAND_POSE = np.tile([0.0, 0.9, -1.8], 4)
 """(12,) the crouched stand's joint targets (keyframe "home", base 0.25 m up): the safe action."""
 RISE_POSE = np.tile([0.0, 0.8, -1.5], 4)
-"""(12,) joint targets the PD holds the base at about 0.30 m with (the default target height): the warm start."""
+"""(12,) joint targets the PD holds the base at about 0.30 m with (the default target height): the
+warm start."""
 POSTURE = np.tile([0.0, 0.8, -1.6], 4)
-"""(12,) the joint angles the robot stands at under RISE_POSE (the servos sag 0.09 rad at the calves): the posture
-the reward keeps the legs near."""
+"""(12,) the joint angles the robot stands at under RISE_POSE (the servos sag 0.09 rad at the
+calves): the posture the reward keeps the legs near."""
 STANDING_FRACTION_OF_TARGET = 0.8
 """The base counts as standing above this share of the target height, upright within UPRIGHT_COS."""
 UPRIGHT_COS = np.cos(np.deg2rad(30.0))
@@ -55,13 +58,15 @@ STAND_HOLD_TIME = 1.0
 @slider("w_effort", 0.0, 1.0, 0.001)
 @dataclass
 class Go2BaseConfig(TaskConfig):
-    """What both Go2 tasks weigh (height, uprightness, balance over the feet, posture, effort) and the pushes the
-    plant gets."""
+    """What both Go2 tasks weigh (height, uprightness, balance over the feet, posture, effort) and
+    the pushes the plant gets."""
 
     target_height: float = 0.30
-    """Base height (m) to hold; the crouched stand puts it at 0.25 m, Unitree's stand pose at 0.333 m."""
+    """Base height (m) to hold; the crouched stand puts it at 0.25 m, Unitree's stand pose at 0.333
+    m."""
     push_force: float = 40.0
-    """Horizontal force (N) of each push on the plant's base, in a random direction; 0 turns pushes off."""
+    """Horizontal force (N) of each push on the plant's base, in a random direction; 0 turns pushes
+    off."""
     push_interval: float = 3.0
     """Seconds between pushes (the first comes this long after a reset); read at each reset."""
     push_duration: float = 0.1
@@ -73,9 +78,11 @@ class Go2BaseConfig(TaskConfig):
     w_balance: float = 20.0
     """Weight on the base's horizontal offset from the middle of the four feet (squared, m^2)."""
     w_posture: float = 0.1
-    """Weight on the joint angles differing from POSTURE, the stand at 0.30 m (squared, summed, rad^2)."""
+    """Weight on the joint angles differing from POSTURE, the stand at 0.30 m (squared, summed,
+    rad^2)."""
     w_effort: float = 0.01
-    """Weight on the joint torques the PD spends, as a share of the motor limit (squared, summed)."""
+    """Weight on the joint torques the PD spends, as a share of the motor limit (squared,
+    summed)."""
 
 
 @slider("w_velocity", 0.0, 20.0, 0.1)
@@ -84,7 +91,8 @@ class Go2StandConfig(Go2BaseConfig):
     """go2_stand: the common weights and the base's motion, which standing still should not have."""
 
     w_velocity: float = 1.0
-    """Weight on the base's linear and angular speed (squared, m^2/s^2 and rad^2/s^2): come to rest."""
+    """Weight on the base's linear and angular speed (squared, m^2/s^2 and rad^2/s^2): come to
+    rest."""
 
 
 @slider("step_height", 0.0, 0.15, 0.005)
@@ -93,8 +101,8 @@ class Go2StandConfig(Go2BaseConfig):
 @slider("w_yaw_rate", 0.0, 10.0, 0.1)
 @dataclass
 class Go2WalkConfig(Go2BaseConfig):
-    """go2_walk: the common weights, a gait schedule and the velocity command to track (in the base's heading
-    frame). Pushes are off unless asked for."""
+    """go2_walk: the common weights, a gait schedule and the velocity command to track (in the
+    base's heading frame). Pushes are off unless asked for."""
 
     velocity_command: np.ndarray = np_1d_field(
         [0.5, 0.0, 0.0],
@@ -103,20 +111,26 @@ class Go2WalkConfig(Go2BaseConfig):
         maxs=[1.5, 0.6, 1.5],
         steps=[0.05, 0.05, 0.05],
     )
-    """(3,) the command [forward (m/s), left (m/s), yaw rate (rad/s, counter-clockwise)] in the heading frame;
-    `--task-config.velocity-command 0.5 0 0` on the command line, `velocity_command = [0.5, 0, 0]` in TOML."""
+    """(3,) the command [forward (m/s), left (m/s), yaw rate (rad/s, counter-clockwise)] in the
+    heading frame; `--task-config.velocity-command 0.5 0 0` on the command line, `velocity_command =
+    [0.5, 0, 0]` in TOML."""
     gait: GaitName = "trot"
-    """The foot schedule (judo.tasks.quadruped.GAITS): "trot", "walk" or "stand" (no foot asked to lift)."""
+    """The foot schedule (judo.tasks.quadruped.GAITS): "trot", "walk" or "stand" (no foot asked to
+    lift)."""
     step_height: float = 0.06
     """How high (m) a swinging foot is lifted at mid-swing."""
     push_force: float = 0.0
-    """Horizontal force (N) of each push on the plant's base; 0 (the default here) turns pushes off."""
+    """Horizontal force (N) of each push on the plant's base; 0 (the default here) turns pushes
+    off."""
     w_height: float = 800.0
-    """Weight on the base height error (squared, m^2): twice go2_stand's, or the trot sags below 0.24 m."""
+    """Weight on the base height error (squared, m^2): twice go2_stand's, or the trot sags below
+    0.24 m."""
     w_balance: float = 0.0
-    """Weight on the base's offset from the middle of the feet: none while walking (the stride moves them)."""
+    """Weight on the base's offset from the middle of the feet: none while walking (the stride moves
+    them)."""
     w_gait: float = 100.0
-    """Weight on each foot's height differing from the gait's schedule (squared, summed over feet, m^2)."""
+    """Weight on each foot's height differing from the gait's schedule (squared, summed over feet,
+    m^2)."""
     w_velocity: float = 6.0
     """Weight on the base's horizontal velocity differing from the command's (squared, m^2/s^2)."""
     w_yaw_rate: float = 2.0
@@ -127,10 +141,12 @@ Go2ConfigT = TypeVar("Go2ConfigT", bound=Go2BaseConfig)
 
 
 class Go2Base(Task[Go2ConfigT]):
-    """What both Go2 tasks share: the model, its sensor columns, the reward's common terms, pushes and falls.
+    """What both Go2 tasks share: the model, its sensor columns, the reward's common terms, pushes
+    and falls.
 
-    State [base position (3), quaternion (4), 12 joint angles, base velocity (6), 12 joint velocities]; the 12
-    controls are motor position targets q_des (rad) in Unitree's motor order, which the robot's PD tracks.
+    State [base position (3), quaternion (4), 12 joint angles, base velocity (6), 12 joint
+    velocities]; the 12 controls are motor position targets q_des (rad) in Unitree's motor order,
+    which the robot's PD tracks.
     """
 
     focus_body = "base"
@@ -144,13 +160,15 @@ class Go2Base(Task[Go2ConfigT]):
         "imu_acc",
         *(f"foot_force_{leg}" for leg in LEGS),
     )
-    """What rt/lowstate carries: 12 encoders, 12 joint speeds, the base IMU (orientation, gyro, accelerometer) and
-    the four foot contact forces (N)."""
+    """What rt/lowstate carries: 12 encoders, 12 joint speeds, the base IMU (orientation, gyro,
+    accelerometer) and the four foot contact forces (N)."""
     default_estimator = "ekf"
     start_key: ClassVar[str] = "lying"
     """The keyframe `reset` starts the plant from."""
 
-    def __init__(self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None) -> None:
+    def __init__(
+        self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None
+    ) -> None:
         super().__init__(model_path, sim_model_path)
         self._joint_qpos = np.array([self.get_joint_position_start_index(j) for j in JOINTS])
         self._base = self.get_sensor_start_index("trace_base")
@@ -160,7 +178,9 @@ class Go2Base(Task[Go2ConfigT]):
         self._velocity = self.get_sensor_start_index("base_world_velocity")
         self._angvel = self.get_sensor_start_index("base_world_angvel")
         self._clock = self.get_sensor_start_index("clock")
-        self._torque_per_rad = self.model.actuator_gainprm[:, 0] / np.abs(self.model.actuator_forcerange[:, 1])
+        self._torque_per_rad = self.model.actuator_gainprm[:, 0] / np.abs(
+            self.model.actuator_forcerange[:, 1]
+        )
         self.pushes = RandomPushes(self.sim_model, "base")
         self.reset()
 
@@ -173,19 +193,21 @@ class Go2Base(Task[Go2ConfigT]):
         return np.arctan2(sensors[..., self._forward + 1], sensors[..., self._forward])
 
     def body_velocity(self, sensors: np.ndarray) -> np.ndarray:
-        """(..., 3) [forward, left, yaw rate] of the base in its heading frame (m/s, m/s, rad/s) from (...,
-        nsensordata) sensor rows: the frame a velocity command is given in."""
+        """(..., 3) [forward, left, yaw rate] of the base in its heading frame (m/s, m/s, rad/s)
+        from (..., nsensordata) sensor rows: the frame a velocity command is given in."""
         yaw = self.heading(sensors)
         vx, vy = sensors[..., self._velocity], sensors[..., self._velocity + 1]
         c, s = np.cos(yaw), np.sin(yaw)
-        return np.stack([c * vx + s * vy, -s * vx + c * vy, sensors[..., self._angvel + 2]], axis=-1)
+        return np.stack(
+            [c * vx + s * vy, -s * vx + c * vy, sensors[..., self._angvel + 2]], axis=-1
+        )
 
     def base_cost(
         self, states: np.ndarray, sensors: np.ndarray, controls: np.ndarray, config: Go2BaseConfig
     ) -> np.ndarray:
-        """(num_rollouts, T) the per-step cost of height, tilt, balance over the feet, posture and effort from
-        (num_rollouts, T, nq + nv) states, (num_rollouts, T, nsensordata) sensors and (num_rollouts, T, 12)
-        controls."""
+        """(num_rollouts, T) the per-step cost of height, tilt, balance over the feet, posture and
+        effort from (num_rollouts, T, nq + nv) states, (num_rollouts, T, nsensordata) sensors and
+        (num_rollouts, T, 12) controls."""
         height_error = self.base_height(sensors) - config.target_height
         tilt = 1.0 - sensors[..., self._up + 2]
         feet_xy = sensors[..., self._feet[:, None] + np.arange(2)].mean(-2)  # (num_rollouts, T, 2)
@@ -201,49 +223,57 @@ class Go2Base(Task[Go2ConfigT]):
         )
 
     def reset(self) -> None:
-        """At rest in the `start_key` keyframe at the origin, facing +x; the first push one interval away."""
+        """At rest in the `start_key` keyframe at the origin, facing +x; the first push one interval
+        away."""
         key = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_KEY, self.start_key)
         mujoco.mj_resetDataKeyframe(self.sim_model, self.data, key)
         mujoco.mj_forward(self.sim_model, self.data)
         self.pushes.reset(self.config.push_interval)
 
     def pre_sim_step(self) -> None:
-        """Push the plant's base when a push is due (config.push_force, push_interval, push_duration)."""
+        """Push the plant's base when a push is due (config.push_force, push_interval,
+        push_duration)."""
         config = self.config
-        self.pushes.apply(self.data, self.rng, config.push_force, config.push_interval, config.push_duration)
+        self.pushes.apply(
+            self.data, self.rng, config.push_force, config.push_interval, config.push_duration
+        )
 
     def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
         """(12,) RISE_POSE: with no noise, the plan stands up to about the default target height."""
         return RISE_POSE.copy()
 
     def safe_action(self, state: np.ndarray) -> np.ndarray:
-        """(12,) the crouched stand's joint targets (0, 0.9, -1.8 per leg), whatever the `state`. Holding the
-        current joint angles, the default for position actuators, freezes a falling robot mid-fall; the crouch has
-        a low centre of mass, feet under the hips, and is where the PD holds a standing robot up without help."""
+        """(12,) the crouched stand's joint targets (0, 0.9, -1.8 per leg), whatever the `state`.
+        Holding the current joint angles, the default for position actuators, freezes a falling
+        robot mid-fall; the crouch has a low centre of mass, feet under the hips, and is where the
+        PD holds a standing robot up without help."""
         return STAND_POSE.copy()
 
     def randomize_model(self, model: mujoco.MjModel, rng: np.random.Generator) -> None:
-        """Each contact geom's sliding friction x U[0.7, 1.3] (its own draw): the feet's grip on the floor."""
+        """Each contact geom's sliding friction x U[0.7, 1.3] (its own draw): the feet's grip on the
+        floor."""
         scale_geom_friction(model, contact_geom_ids(model), 0.7, 1.3, rng)
 
     def standing(self, sensors: np.ndarray) -> np.ndarray:
-        """(T,) whether the base is up (above STANDING_FRACTION_OF_TARGET of the target height) and upright, from
-        (T, nsensordata) sensor rows."""
+        """(T,) whether the base is up (above STANDING_FRACTION_OF_TARGET of the target height) and
+        upright, from (T, nsensordata) sensor rows."""
         up = self.base_height(sensors) > STANDING_FRACTION_OF_TARGET * self.config.target_height
         return up & (sensors[..., self._up + 2] > UPRIGHT_COS)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """standing_fraction: share of the episode standing (`standing`); time_to_stand: when (s) the base first
-        stood and stayed so for STAND_HOLD_TIME, or the episode's length if never; falls: times the base, having
-        stood, dropped below FALLEN_HEIGHT or tilted past 60 degrees; height_error: mean absolute distance (m) of the
-        base from the target height from time_to_stand on (the target itself if it never stood); final_height (m);
-        pushes given."""
+        """standing_fraction: share of the episode standing (`standing`); time_to_stand: when (s)
+        the base first stood and stayed so for STAND_HOLD_TIME, or the episode's length if never;
+        falls: times the base, having stood, dropped below FALLEN_HEIGHT or tilted past 60 degrees;
+        height_error: mean absolute distance (m) of the base from the target height from
+        time_to_stand on (the target itself if it never stood); final_height (m); pushes given."""
         standing = self.standing(log.sensors)
         dt = float(self.sim_model.opt.timestep)
         hold = max(1, round(STAND_HOLD_TIME / dt))
         held = np.convolve(standing, np.ones(hold), mode="valid") == hold
         start = int(np.argmax(held)) if held.any() else len(standing) - 1
-        down = (self.base_height(log.sensors) < FALLEN_HEIGHT) | (log.sensors[:, self._up + 2] < 0.5)
+        down = (self.base_height(log.sensors) < FALLEN_HEIGHT) | (
+            log.sensors[:, self._up + 2] < 0.5
+        )
         falls, stood = 0, False
         for is_up, is_down in zip(standing, down, strict=True):
             if is_up:
@@ -253,7 +283,9 @@ class Go2Base(Task[Go2ConfigT]):
         after = self.base_height(log.sensors[start:]) - self.config.target_height
         return {
             "standing_fraction": float(standing.mean()),
-            "height_error": float(np.abs(after).mean()) if held.any() else float(self.config.target_height),
+            "height_error": float(np.abs(after).mean())
+            if held.any()
+            else float(self.config.target_height),
             "time_to_stand": float(log.times[start] - log.times[0] + dt),
             "falls": float(falls),
             "final_height": float(self.base_height(log.sensors[-1])),
@@ -262,8 +294,9 @@ class Go2Base(Task[Go2ConfigT]):
 
 
 class Go2Stand(Go2Base[Go2StandConfig]):
-    """Stand up from Unitree's stand-down pose (lying on folded legs) and hold the base at `target_height`, level
-    and over the feet, while the plant pushes the base every `push_interval` s."""
+    """Stand up from Unitree's stand-down pose (lying on folded legs) and hold the base at
+    `target_height`, level and over the feet, while the plant pushes the base every `push_interval`
+    s."""
 
     def reward(
         self,
@@ -276,13 +309,16 @@ class Go2Stand(Go2Base[Go2StandConfig]):
         """Minus the time-averaged cost, (num_rollouts,): `base_cost` and the base's speed."""
         speed = np.square(sensors[..., self._velocity : self._velocity + 3]).sum(-1)
         spin = np.square(sensors[..., self._angvel : self._angvel + 3]).sum(-1)
-        cost = self.base_cost(states, sensors, controls, config) + config.w_velocity * (speed + spin)
+        cost = self.base_cost(states, sensors, controls, config) + config.w_velocity * (
+            speed + spin
+        )
         return -cost.mean(-1)
 
 
 class Go2Walk(Go2Base[Go2WalkConfig]):
-    """Track `velocity_command` [vx, vy, yaw rate] in the base's heading frame from the crouched stand, lifting
-    the feet on the gait's schedule (the model's "clock" sensor places each rollout step in the stride)."""
+    """Track `velocity_command` [vx, vy, yaw rate] in the base's heading frame from the crouched
+    stand, lifting the feet on the gait's schedule (the model's "clock" sensor places each rollout
+    step in the stride)."""
 
     start_key = "home"
     lower_is_better = ("falls", "time_to_stand", "height_error", "velocity_error", "yaw_rate_error")
@@ -295,8 +331,8 @@ class Go2Walk(Go2Base[Go2WalkConfig]):
         config: Go2WalkConfig,
         system_metadata: dict[str, Any] | None = None,
     ) -> np.ndarray:
-        """Minus the time-averaged cost, (num_rollouts,): `base_cost`, the feet's heights against the gait, and the
-        heading-frame velocity and yaw rate against the command."""
+        """Minus the time-averaged cost, (num_rollouts,): `base_cost`, the feet's heights against
+        the gait, and the heading-frame velocity and yaw rate against the command."""
         targets = swing_heights(sensors[..., self._clock], gait_of(config.gait), config.step_height)
         foot_error = sensors[..., self._feet + 2] - FOOT_RADIUS - targets
         velocity = self.body_velocity(sensors)
@@ -310,9 +346,10 @@ class Go2Walk(Go2Base[Go2WalkConfig]):
         return -cost.mean(-1)
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
-        """`Go2Base.metrics` and velocity_error: mean horizontal velocity error (m/s) in the heading frame;
-        yaw_rate_error: mean absolute yaw-rate error (rad/s); each compares the command with the velocities averaged
-        over the AVERAGE_WINDOW (0.5 s) before the step, from the first second on (the start from rest)."""
+        """`Go2Base.metrics` and velocity_error: mean horizontal velocity error (m/s) in the heading
+        frame; yaw_rate_error: mean absolute yaw-rate error (rad/s); each compares the command with
+        the velocities averaged over the AVERAGE_WINDOW (0.5 s) before the step, from the first
+        second on (the start from rest)."""
         velocity = self.body_velocity(log.sensors)
         window = max(1, round(AVERAGE_WINDOW / float(self.sim_model.opt.timestep)))
         averaged = np.stack([trailing_mean(velocity[:, i], window) for i in range(3)], axis=1)
