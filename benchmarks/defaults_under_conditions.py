@@ -33,7 +33,7 @@ from pathlib import Path
 import judo
 from judo.core.configuration.registry import get_registered_tasks, lookup_optimizer, lookup_task
 from judo.core.errors import JudoError
-from judo.evaluation.evaluate import summarize_metrics
+from judo.evaluation.report import summarize_metrics
 from judo.evaluation.stats import Summary
 from judo.tuning.conditions import Condition, check_conditions, parse_conditions
 from judo.tuning.trial import TrialSpec, run_seeded_episodes

@@ -43,7 +43,8 @@ from judo.core.policies.policy_controller import make_policy_controller
 from judo.core.policy import Policy
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
-from judo.safety.limits import SafetyConfig, resolve
+from judo.safety.config import SafetyConfig
+from judo.safety.limits import resolve
 
 
 class Rogue(Policy):

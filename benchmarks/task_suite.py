@@ -23,7 +23,8 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 
 from judo.cli_shared import check_names, output_console, progress_console
 from judo.core.errors import JudoError
-from judo.evaluation.evaluate import EvaluateArgs, evaluate, summarize_metrics
+from judo.evaluation.evaluate import EvaluateArgs, evaluate
+from judo.evaluation.report import summarize_metrics
 from judo.evaluation.shared_options import chosen_tasks
 from judo.evaluation.stats import Summary
 from judo.evaluation.timing import time_pair

@@ -9,7 +9,8 @@ import viser
 from judo.core.configuration.registry import default_configs, make_config, make_task
 from judo.runtime import launch
 from judo.runtime.gui.safety_panel import SafetyPanel, limit_lines
-from judo.safety.limits import SafetyConfig, resolve
+from judo.safety.config import SafetyConfig
+from judo.safety.limits import resolve
 
 CARTPOLE = ["--task", "cartpole", "--optimizer", "ps"]
 

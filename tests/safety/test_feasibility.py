@@ -7,8 +7,9 @@ import pytest
 from judo.core.configuration.registry import get_registered_optimizers, make_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
+from judo.safety.config import SafetyConfig
 from judo.safety.feasibility import RolloutScreen
-from judo.safety.limits import SafetyConfig, resolve
+from judo.safety.limits import resolve
 from judo.safety.serve_filter import safety_guard
 
 

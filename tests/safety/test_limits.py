@@ -7,7 +7,8 @@ from judo.core.configuration.config import with_updates
 from judo.core.configuration.config_file import ConfigFileError, load_config
 from judo.core.configuration.registry import make_config, make_task
 from judo.core.errors import ConfigError
-from judo.safety.limits import LimitError, SafetyConfig, resolve
+from judo.safety.config import SafetyConfig
+from judo.safety.limits import LimitError, resolve
 
 
 def test_the_default_is_off():

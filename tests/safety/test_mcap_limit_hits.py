@@ -21,7 +21,7 @@ from judo.ros2 import messages as msg
 from judo.ros2.bridge import Ros2System
 from judo.ros2.mcap_log import LIMIT_HITS_TOPIC, LimitHitLog, McapLog
 from judo.ros2.options import Ros2Options
-from judo.safety.limits import SafetyConfig
+from judo.safety.config import SafetyConfig
 from judo.safety.serve_filter import safety_guard
 
 pytestmark = pytest.mark.slow

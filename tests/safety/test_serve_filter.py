@@ -10,7 +10,8 @@ from judo.evaluation.episode import run_episode
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.records import StepRecord
 from judo.loop.system import MujocoSystem
-from judo.safety.limits import SafetyConfig, resolve
+from judo.safety.config import SafetyConfig
+from judo.safety.limits import resolve
 from judo.safety.serve_filter import ServeFilter, safety_guard
 
 

@@ -7,7 +7,7 @@ import pytest
 from judo.core.configuration.registry import make_controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
-from judo.safety.limits import SafetyConfig
+from judo.safety.config import SafetyConfig
 from judo.safety.serve_filter import safety_guard
 
 pytestmark = [pytest.mark.warp, pytest.mark.slow]

@@ -26,8 +26,8 @@ from judo.loop.latency import Latency, check_latency
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
+from judo.safety.config import SafetyConfig
 from judo.safety.feasibility import RolloutScreen
-from judo.safety.limits import SafetyConfig
 from judo.safety.serve_filter import safety_guard
 
 __all__ = [

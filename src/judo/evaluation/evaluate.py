@@ -4,12 +4,11 @@ CIs."""
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import numpy as np
 import tyro
 from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-from rich.table import Table
 
 from judo.cli_shared import (
     apply_config_file,
@@ -35,6 +34,7 @@ from judo.core.rollouts.backend import RolloutBackend
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, unserved_line
 from judo.evaluation.episode_args import EpisodeArgs
 from judo.evaluation.plot import check_plot_path, write_episode_plot
+from judo.evaluation.report import episode_record, metrics_table, summarize_metrics, update_caption
 from judo.evaluation.seeded import (
     EpisodeSpec,
     evaluate_seed,
@@ -43,8 +43,8 @@ from judo.evaluation.seeded import (
     run_side_by_side,
 )
 from judo.evaluation.shared_options import given_fields, write_json
-from judo.evaluation.stats import Summary, shown_interval, summarize
-from judo.safety.limits import SafetyConfig, set_task_limits
+from judo.safety.config import SafetyConfig
+from judo.safety.limits import set_task_limits
 
 DESCRIPTION = (
     "Run closed-loop episodes of a task with an optimizer, headless and as fast as the "
@@ -139,58 +139,6 @@ class EvaluateArgs(EpisodeArgs):
         """What determines each seed's episode, for the one seeded episode runner here or on Ray."""
         on_ray = self.workers is not None or self.address is not None
         return self.spec((self.num_workers or 1) if on_ray else self.num_workers)
-
-
-def summarize_metrics(results: list[EpisodeResult]) -> dict[str, Summary]:
-    """Each metric's summary over the episodes, in the order the task reports them."""
-    names = list(dict.fromkeys(name for result in results for name in result.metrics))
-    return {
-        name: summarize(np.array([result.metrics.get(name, np.nan) for result in results]))
-        for name in names
-    }
-
-
-def metrics_table(title: str, summaries: dict[str, Summary]) -> Table:
-    """One row per metric: mean ± 95% CI, min and max over seeds."""
-    table = Table(title=title)
-    table.add_column("metric")
-    table.add_column("mean ± 95% CI", justify="right")
-    table.add_column("min", justify="right")
-    table.add_column("max", justify="right")
-    for name, summary in summaries.items():
-        table.add_row(name, shown_interval(summary), f"{summary.min:.3g}", f"{summary.max:.3g}")
-    return table
-
-
-def update_caption(update_ms: np.ndarray, policy: bool) -> str:
-    """The table's caption: the median control update in ms, or for a policy its inference in µs
-    (observation, `act` and plan; the same span of the loop's update)."""
-    if policy:
-        return (
-            f"policy inference: median {1e3 * np.median(update_ms):.1f} µs per update over "
-            f"{len(update_ms)} updates"
-        )
-    return f"control update: median {np.median(update_ms):.2f} ms over {len(update_ms)} updates"
-
-
-def episode_record(result: EpisodeResult) -> dict[str, Any]:
-    """The JSON record of one episode."""
-    return {
-        "seed": result.seed,
-        "metrics": result.metrics,
-        "num_updates": len(result.update_ms),
-        "update_ms_median": float(np.median(result.update_ms)) if len(result.update_ms) else None,
-        "latency_ms_median": float(1e3 * np.median(result.latency_s))
-        if len(result.latency_s)
-        else None,
-        "failed_updates": result.failed_updates,
-        "divergences": result.divergences,
-        **(
-            {"limit_hits": result.limit_hits, "no_feasible": result.no_feasible}
-            if "limit_hits" in result.metrics
-            else {}
-        ),
-    }
 
 
 def apply_safety_flags(args: EvaluateArgs) -> None:

@@ -33,7 +33,7 @@ from judo.loop.latency import Latency
 from judo.loop.records import Recorder
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
-from judo.safety.limits import SafetyConfig
+from judo.safety.config import SafetyConfig
 
 T = TypeVar("T")
 

@@ -52,7 +52,8 @@ from judo.core.task import TaskConfig
 from judo.evaluation.sensing import SensingFlags
 from judo.ros2.options import Ros2Options, UnitreeOptions, ros2_options, unitree_options
 from judo.runtime.app import App
-from judo.safety.limits import SafetyConfig, set_task_limits
+from judo.safety.config import SafetyConfig
+from judo.safety.limits import set_task_limits
 
 PROG = "python -m judo"
 

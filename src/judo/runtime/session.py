@@ -37,7 +37,7 @@ from judo.loop.closed_loop import ClosedLoop
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem, System
 from judo.runtime.running.estimator_thread import EstimatorThread
-from judo.safety.limits import SafetyConfig
+from judo.safety.config import SafetyConfig
 from judo.safety.serve_filter import safety_guard
 from judo.safety.stop import StopLatch
 

@@ -30,8 +30,9 @@ import numpy as np
 
 from judo.core.planner import Planner
 from judo.core.task import Task
+from judo.safety.config import SafetyConfig
 from judo.safety.feasibility import TOLERANCE, RolloutScreen
-from judo.safety.limits import Limits, SafetyConfig, resolve
+from judo.safety.limits import Limits, resolve
 
 LOG = logging.getLogger("judo.safety")
 
