@@ -12,7 +12,7 @@ from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.loop.records import StepRecord
 from judo.recording.dataset import DatasetFile
 from judo.recording.recorder import EpisodeRecorder
-from judo.runtime.gui.replay import check_demos, read_demos
+from judo.runtime.gui.replay_episodes import check_demos, read_demos
 from judo.tasks.pendulum import Pendulum
 from judo.tasks.quadruped_velocity import QuadrupedVelocity
 

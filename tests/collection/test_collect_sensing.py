@@ -132,7 +132,7 @@ def test_the_loop_copies_traces_only_for_a_recorder_that_wants_them():
 
 def test_traces_of_plans_that_differ_in_shape_are_padded_and_replay_unpads_them():
     from judo.recording.recorder import padded_stack
-    from judo.runtime.gui.replay import unpadded
+    from judo.runtime.gui.replay_episodes import unpadded
 
     rng = np.random.default_rng(0)
     # horizon and traces edited

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 from judo.recording.dataset import DatasetError, DatasetFile
-from judo.runtime.gui.replay import Replay, read_demos
+from judo.runtime.gui.replay import Replay
+from judo.runtime.gui.replay_episodes import read_demos
 
 h5py = pytest.importorskip("h5py")
 

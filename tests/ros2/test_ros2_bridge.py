@@ -139,7 +139,7 @@ def test_a_paused_robot_gets_the_safe_action_within_max_plan_age_and_plans_resum
 def test_the_app_on_the_bridge_records_hdf5_stops_within_a_second_and_leaves_the_robot_the_safe_action(  # noqa: E501
     plant, tmp_path
 ):
-    from judo.runtime.gui.replay import read_demos
+    from judo.runtime.gui.replay_episodes import read_demos
 
     _, domain = plant
     part, echo = echo_reader(domain)

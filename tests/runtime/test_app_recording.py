@@ -9,7 +9,7 @@ import pytest
 
 import judo
 from judo.runtime.app import App
-from judo.runtime.gui.replay import read_demos
+from judo.runtime.gui.replay_episodes import read_demos
 
 h5py = pytest.importorskip("h5py")
 

@@ -11,7 +11,7 @@ import pytest
 import judo
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import make_config
-from judo.runtime.gui.config_panel import field_label
+from judo.runtime.gui.field_widgets import field_label
 
 pytestmark = pytest.mark.browser
 

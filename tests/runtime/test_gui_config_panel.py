@@ -11,8 +11,8 @@ from judo.core.configuration.config import Config
 from judo.core.configuration.fields import np_1d_field, slider
 from judo.core.configuration.registry import config_flag, default_configs
 from judo.core.errors import ConfigError
-from judo.runtime.gui.config_panel import (
-    ConfigPanel,
+from judo.runtime.gui.config_panel import ConfigPanel
+from judo.runtime.gui.field_widgets import (
     check_slider_range,
     default_range,
     format_number,

@@ -9,7 +9,7 @@ import itertools
 
 import pytest
 
-from judo.runtime.gui.config_panel import field_label
+from judo.runtime.gui.field_widgets import field_label
 
 pytestmark = pytest.mark.browser
 

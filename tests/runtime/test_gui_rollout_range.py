@@ -9,7 +9,7 @@ from judo.core.rollouts.backend import ROLLOUT_BACKENDS
 from judo.optimizers.mppi import MPPIConfig
 from judo.runtime.app import App
 from judo.runtime.gui.config_panel import ConfigPanel
-from judo.runtime.gui.gui import MAX_ROLLOUTS_BY_BACKEND
+from judo.runtime.gui.session_panels import MAX_ROLLOUTS_BY_BACKEND
 
 
 def test_a_panel_range_replaces_the_config_classes_slider_range():

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from judo.runtime.app import App
-from judo.runtime.gui.config_panel import field_label
+from judo.runtime.gui.field_widgets import field_label
 
 pytestmark = pytest.mark.browser
 

@@ -12,11 +12,15 @@ without travelling: the reach of the jointed chains fixed to the world, and the 
 of a body that slides or floats (a cart's pole, a walker's legs) around where that body is now.
 The camera sits just far enough back that every such point lands inside the middle FRAMING_FILL of
 the canvas, which the docked GUI panel does not cover. Where a body could slide to is not framed:
-the camera follows it instead.
+the camera follows it instead. `PageCameras` sends those poses to every open page and moves the
+pages' cameras along with the focus body.
 """
+
+import collections
 
 import mujoco
 import numpy as np
+import viser
 
 MIN_FRAMED_RADIUS = 0.12
 """Metres: the smallest half-extent the camera frames, so a lone small body keeps a little
@@ -28,6 +32,9 @@ VERTICAL_FOV = np.deg2rad(75.0)
 VISIBLE_ASPECT = 1.1
 """Width over height of the canvas beside the docked GUI panel on a 1280 x 800 page (wider pages see
 more)."""
+SENT_POSES_KEPT = 400
+"""Camera poses sent to the pages that a late camera report is matched against (a few seconds'
+worth)."""
 
 
 def focus_body_id(model: mujoco.MjModel, name: str | None) -> int:
@@ -285,3 +292,89 @@ def _in_subtree(model: mujoco.MjModel, body: int, root: int) -> bool:
             return True
         body = int(model.body_parentid[body])
     return False
+
+
+class PageCameras:
+    """The camera of every page open on `server`: framed on the task, and moved with the focus body.
+
+    The look-at point is ours (a page's camera report may lag our last move, so it is not added to);
+    the view direction and distance stay the page's own, so the user can still orbit and zoom.
+    """
+
+    def __init__(self, server: viser.ViserServer) -> None:
+        self.server = server
+        # where the cameras look while following: the framed centre plus the focus's moves
+        self._look_at = np.zeros(3)
+        # client id -> (3,) camera position minus look-at that we keep
+        self._offsets: dict[int, np.ndarray] = {}
+        # (2, 3) poses sent
+        self._sent: collections.deque[np.ndarray] = collections.deque(maxlen=SENT_POSES_KEPT)
+
+    def sent(self, client_id: int) -> tuple[np.ndarray, np.ndarray] | None:
+        """(position (3,), look_at (3,)) of the camera last sent to page `client_id` (None before
+        any)."""
+        offset = self._offsets.get(client_id)
+        return None if offset is None else (self._look_at + offset, self._look_at.copy())
+
+    def frame(self, position: np.ndarray, look_at: np.ndarray) -> None:
+        """Point every page's camera (and a new page's) from `position` at `look_at`."""
+        self.server.initial_camera.position = position
+        self.server.initial_camera.look_at = look_at
+        self._look_at = np.array(look_at, dtype=float)
+        self._offsets.clear()
+        for client in self.server.get_clients().values():
+            with client.atomic():
+                client.camera.position, client.camera.look_at = position, look_at
+            self._offsets[client.client_id] = np.asarray(position, dtype=float) - look_at
+        self._sent.append(
+            np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)])
+        )
+
+    def frame_page(
+        self, client: viser.ClientHandle, position: np.ndarray, look_at: np.ndarray
+    ) -> None:
+        """Point the camera of page `client` (opened mid-run) from `position` at `look_at`."""
+        with client.atomic():
+            client.camera.position, client.camera.look_at = position, look_at
+        self._offsets[client.client_id] = np.asarray(position, dtype=float) - look_at
+        self._sent.append(
+            np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)])
+        )
+
+    def move(self, delta: np.ndarray) -> None:
+        """Move the look-at point by `delta` (3,), how far the focus body moved (kept up while
+        follow is off too, so turning follow on finds the focus)."""
+        self._look_at = self._look_at + delta
+
+    def follow(self, goals: np.ndarray | None) -> None:
+        """Move every page's camera to the look-at point, pulled back until (n, 3) `goals` are in
+        view too.
+
+        A page that lags may report a camera halfway through our moves (a new look-at with a
+        position we sent a second ago); taken as the user's view, that would drift the camera behind
+        a walking robot. So a report whose position and look-at are both among the last poses we
+        sent is ours, and the offset we keep stands; any other report is the user's orbit or zoom,
+        and is kept.
+        """
+        # (n, 2, 3) position and look-at of each pose sent
+        sent = np.array(self._sent).reshape(-1, 2, 3)
+        for client in self.server.get_clients().values():
+            camera = client.camera
+            position, look_at = np.asarray(camera.position), np.asarray(camera.look_at)
+            kept = self._offsets.get(client.client_id)
+            ours = np.any(np.linalg.norm(sent[:, 0] - position, axis=1) < 1e-3) and np.any(
+                np.linalg.norm(sent[:, 1] - look_at, axis=1) < 1e-3
+            )
+            offset = kept if kept is not None and ours else position - look_at
+            if goals is not None:  # pull back until the goals are in view too
+                length = float(np.linalg.norm(offset))
+                offset = (
+                    offset * (distance_to_see(offset, self._look_at, goals) / length)
+                    if length
+                    else offset
+                )
+            self._offsets[client.client_id] = offset
+            self._sent.append(np.stack([self._look_at + offset, self._look_at]))
+            with client.atomic():
+                camera.position = self._look_at + offset
+                camera.look_at = self._look_at

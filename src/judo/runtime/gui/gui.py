@@ -2,12 +2,11 @@
 
 `update()` is called by the app's GUI loop about 30 times a second, on the event-loop thread; the
 widgets' callbacks run on viser's threads. The GUI knows the app only through the command port
-(`judo.runtime.commands.AppPort`): it reads status, calls commands and subscribes to news (readings,
-plans, config edits, resets, switches), whose callbacks run on the app's threads and keep the newest
-of each (`gui.news.Latest`) for `update()` to draw.
+(`judo.runtime.command_port.AppPort`): it reads status, calls commands and subscribes to news
+(readings, plans, config edits, resets, switches), whose callbacks run on the app's threads and keep
+the newest of each (`gui.news.Latest`) for `update()` to draw.
 """
 
-import collections
 import time
 from typing import Any
 
@@ -15,14 +14,12 @@ import numpy as np
 import viser
 
 from judo.core.configuration.config import Config
-from judo.core.configuration.fields import SliderRange
-from judo.core.configuration.registry import ConfigKind
 from judo.core.errors import JudoError
 from judo.core.reading import SystemState
 from judo.core.rollouts.dynamics import drawn_model, drawn_qpos
-from judo.runtime.commands import AppPort
-from judo.runtime.gui.camera import Follower, distance_to_see, focus_body_id
-from judo.runtime.gui.config_panel import ConfigPanel, hidden_fields
+from judo.runtime.command_port import AppPort
+from judo.runtime.gui.camera import Follower, PageCameras, focus_body_id
+from judo.runtime.gui.config_panel import ConfigPanel
 from judo.runtime.gui.controls import Controls
 from judo.runtime.gui.goal_handles import GoalHandles
 from judo.runtime.gui.news import Latest
@@ -30,17 +27,12 @@ from judo.runtime.gui.plots import Plots, estimation_error
 from judo.runtime.gui.safety_panel import SafetyPanel
 from judo.runtime.gui.scene import SceneView
 from judo.runtime.gui.server import gui_url, start_server
+from judo.runtime.gui.session_panels import config_panels, estimator_panel
 from judo.runtime.gui.viser_internals import purge_removed
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
 
-SENT_POSES_KEPT = 400
-"""Camera poses sent to the pages that a late camera report is matched against (a few seconds'
-worth)."""
 PLOT_PERIOD = 0.25
 """Seconds between points on the plots and updates of the numeric readout."""
-MAX_ROLLOUTS_BY_BACKEND = {"warp": 8192}
-"""Upper end of the num_rollouts slider on a rollout backend, by the backend's name (a GPU rolls out
-thousands of samples per cycle); a backend not named here keeps the optimizer config's own range."""
 
 
 class Gui:
@@ -73,12 +65,7 @@ class Gui:
         self.safety_panel: SafetyPanel | None = None  # the limits in force, read-only
         self.follower: Follower | None = None
         self.goals: GoalHandles | None = None
-        # where the cameras look while following: the framed centre plus the focus's moves
-        self._look_at = np.zeros(3)
-        # client id -> (3,) camera position minus look-at that we keep
-        self._offsets: dict[int, np.ndarray] = {}
-        # (2, 3) poses sent
-        self._sent: collections.deque[np.ndarray] = collections.deque(maxlen=SENT_POSES_KEPT)
+        self.cameras = PageCameras(self.server)  # every page's camera: framed, then following
         self._scene_task: str | None = None
         self._generation = -1  # the session the panels and scene show
         # plant resets the app has said it carried out: a plan stamped with fewer is stale
@@ -129,8 +116,7 @@ class Gui:
         """(position (3,), look_at (3,)) of the camera last sent to page `client_id` (None before
         any): what the page shows with the bodies posed in the same update, however late it reports
         back."""
-        offset = self._offsets.get(client_id)
-        return None if offset is None else (self._look_at + offset, self._look_at.copy())
+        return self.cameras.sent(client_id)
 
     def update(self) -> None:
         """Follow the app: rebuild after a switch, refresh widgets, pose the scene, draw traces and
@@ -288,30 +274,7 @@ class Gui:
         # a new optimizer: the old one's plan and figures go
         self.scene.set_traces(np.zeros((0, 0, 0, 3)))
         self.plots.clear()
-        titles = {
-            "controller": "Controller",
-            "optimizer": f"Optimizer: {session.optimizer_name}",
-            "task": f"Task: {session.task_name}",
-        }
-        # a policy: none
-        max_rollouts = MAX_ROLLOUTS_BY_BACKEND.get(session.controller.backend_name or "")
-        ranges = (
-            {"optimizer": {"num_rollouts": SliderRange(1, max_rollouts, 1)}} if max_rollouts else {}
-        )
-        self.panels = {
-            kind: ConfigPanel(
-                self.server.gui,
-                titles[kind],
-                config,
-                self._editor(kind, session.generation),
-                10 * order,
-                ranges.get(kind),
-                on_refused=lambda why: self.app.report(f"edit refused: {why}", "warning"),
-                hidden=hidden_fields(session, kind, config),
-                kind=kind,
-            )
-            for order, (kind, config) in enumerate(configs.items(), start=1)
-        }
+        self.panels = config_panels(self.server.gui, app, session, configs)
         self._show_estimator(session, reading)
         if self.safety_panel is not None:
             self.safety_panel.remove()
@@ -341,26 +304,7 @@ class Gui:
             self.ghost.remove()
             self.ghost = None
         self.plots.show_estimation(simulated)
-        if estimator is not None:
-            generation = session.generation
-
-            def edit(updates: dict[str, Any]) -> Config:
-                config = self.app.commands.update_estimator_config(
-                    updates, generation=generation, from_gui=True
-                )
-                shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
-                self.app.report(f"estimator config: {shown}")
-                return config
-
-            self.estimator_panel = ConfigPanel(
-                self.server.gui,
-                f"Estimator: {session.estimator_name}",
-                estimator.config,
-                edit,
-                40,
-                on_refused=lambda why: self.app.report(f"edit refused: {why}", "warning"),
-                kind="estimator",
-            )
+        self.estimator_panel = estimator_panel(self.server.gui, self.app, session)
 
     def frame_task(self) -> None:
         """Point every page's camera (and a new page's) at the task as the scene shows it now, and
@@ -368,73 +312,24 @@ class Gui:
         assert self.scene is not None and self.follower is not None
         self.scene.set_traces(np.zeros((0, 0, 0, 3)))
         self.plots.clear()
-        position, look_at = self.scene.camera_pose()
-        self.server.initial_camera.position = position
-        self.server.initial_camera.look_at = look_at
-        self._look_at = np.array(look_at, dtype=float)
-        self._offsets.clear()
-        for client in self.server.get_clients().values():
-            with client.atomic():
-                client.camera.position, client.camera.look_at = position, look_at
-            self._offsets[client.client_id] = np.asarray(position, dtype=float) - look_at
-        self._sent.append(
-            np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)])
-        )
+        self.cameras.frame(*self.scene.camera_pose())
         self.follower.restart(self.scene.data)
 
     def _frame_new_page(self, client: viser.ClientHandle) -> None:
         """A page opened mid-run looks at the task where it is now, not where it started."""
         if self.scene is not None:
-            position, look_at = self.scene.camera_pose()
-            with client.atomic():
-                client.camera.position, client.camera.look_at = position, look_at
-            self._offsets[client.client_id] = np.asarray(position, dtype=float) - look_at
-            self._sent.append(
-                np.stack([np.asarray(position, dtype=float), np.asarray(look_at, dtype=float)])
-            )
+            self.cameras.frame_page(client, *self.scene.camera_pose())
 
     def _follow(self) -> None:
-        """Move every camera by how far the focus body moved, while "follow" is on.
-
-        The look-at point is ours (a page's camera report may lag our last move, so it is not added
-        to); the view direction and distance stay the page's own, so the user can still orbit and
-        zoom. A page that lags may report a camera halfway through our moves (a new look-at with a
-        position we sent a second ago); taken as the user's view, that would drift the camera behind
-        a walking robot. So a report whose position and look-at are both among the last poses we
-        sent is ours, and the offset we keep stands; any other report is the user's orbit or zoom,
-        and is kept.
-        """
+        """Move every camera by how far the focus body moved, while "follow" is on (see
+        `PageCameras.follow`)."""
         assert self.scene is not None and self.follower is not None
         delta = self.follower.step(self.scene.data)
         if self.follower.body:
             self.scene.keep_floor_under(self.scene.data.xpos[self.follower.body])
-        # kept up while off too, so turning follow on finds the focus
-        self._look_at = self._look_at + delta
-        if not self.controls.follow.value or not np.any(np.abs(delta) > 1e-6):
-            return
-        # (n, 2, 3) position and look-at of each pose sent
-        sent = np.array(self._sent).reshape(-1, 2, 3)
-        goals = self.scene.goal_positions()
-        for client in self.server.get_clients().values():
-            camera = client.camera
-            position, look_at = np.asarray(camera.position), np.asarray(camera.look_at)
-            kept = self._offsets.get(client.client_id)
-            ours = np.any(np.linalg.norm(sent[:, 0] - position, axis=1) < 1e-3) and np.any(
-                np.linalg.norm(sent[:, 1] - look_at, axis=1) < 1e-3
-            )
-            offset = kept if kept is not None and ours else position - look_at
-            if goals is not None:  # pull back until the goals are in view too
-                length = float(np.linalg.norm(offset))
-                offset = (
-                    offset * (distance_to_see(offset, self._look_at, goals) / length)
-                    if length
-                    else offset
-                )
-            self._offsets[client.client_id] = offset
-            self._sent.append(np.stack([self._look_at + offset, self._look_at]))
-            with client.atomic():
-                camera.position = self._look_at + offset
-                camera.look_at = self._look_at
+        self.cameras.move(delta)
+        if self.controls.follow.value and np.any(np.abs(delta) > 1e-6):
+            self.cameras.follow(self.scene.goal_positions())
 
     def _drag_field(self, generation: int) -> Any:
         def drag(name: str, value: np.ndarray) -> None:
@@ -451,22 +346,3 @@ class Gui:
             self.app.commands.move_goal(index, position, wxyz)
         except JudoError as err:
             self.app.report(f"goal not moved: {err}", "warning")
-
-    def _editor(self, kind: ConfigKind, generation: int) -> Any:
-        def edit(updates: dict[str, Any]) -> Config:
-            config = self.app.commands.update_config(
-                kind, updates, generation=generation, from_gui=True
-            )
-            shown = ", ".join(f"{name} = {_shown(getattr(config, name))}" for name in updates)
-            self.app.report(f"{kind} config: {shown}")
-            return config
-
-        return edit
-
-
-def _shown(value: Any) -> str:
-    """A config value as the status line shows it: floats to 4 significant digits, arrays as
-    lists."""
-    if isinstance(value, np.ndarray):
-        return "[" + ", ".join(_shown(float(v)) for v in value) + "]"
-    return f"{value:.4g}" if isinstance(value, float) else str(value)
