@@ -15,7 +15,7 @@ from judo.tuning.conditions import (
     parse_conditions,
 )
 from judo.tuning.trial import TrialSpec, score_trial
-from judo.tuning.tune import TuneArgs
+from judo.tuning.tune_args import TuneArgs
 
 
 def test_lists_are_crossed_by_default_and_paired_when_listed():

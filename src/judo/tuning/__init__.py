@@ -9,6 +9,7 @@ study.py      the Optuna study: storage, sampler, ask/tell while each trial's ep
               (judo.ray_cluster starts or joins Ray)
 report.py     the outputs: table, trials.csv, plots
 tune.py       the command line
+tune_args.py  its arguments (TuneArgs) and their checks
 
 Nothing here imports optuna or ray at import time: study.py imports them when called, and
 only the command imports it (it needs the `tune` extra).

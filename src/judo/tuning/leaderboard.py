@@ -18,7 +18,7 @@ import sys
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Any
 
 import tyro
 from rich.progress import (
@@ -31,26 +31,19 @@ from rich.progress import (
 
 from judo.cli_shared import (
     apply_config_file,
-    check_names,
     fail,
     name_listing,
     output_console,
     progress_display,
 )
-from judo.core.commandline.boundary import (
-    MAX_SAMPLES,
-    MAX_WORKERS,
-    check_count,
-    check_output_folder,
-    check_seed_range,
-)
-from judo.core.configuration.config import require, require_between
+from judo.core.configuration.config import require
 from judo.core.configuration.config_values import apply_values
-from judo.core.configuration.registry import default_configs, get_registered_optimizers
+from judo.core.configuration.registry import default_configs
 from judo.core.errors import JudoError
 from judo.tuning.best_file import write_best_toml
 from judo.tuning.conditions import Condition
 from judo.tuning.heartbeat import DEAD_PROCESS, failure_of
+from judo.tuning.leaderboard_args import LeaderboardArgs
 from judo.tuning.leaderboard_protocol import Protocol, load_protocol
 from judo.tuning.leaderboard_report import SHIPPED_ENTRY, Cell
 from judo.tuning.leaderboard_validation import Jobs, validate
@@ -83,67 +76,6 @@ PROBE_S = 0.2
 metrics."""
 RESTARTED = ("interrupted", DEAD_PROCESS)
 """Failures that do not use up a trial of the budget: a Ctrl-C's, or a process that died."""
-
-
-@dataclass
-class LeaderboardArgs:
-    """Arguments of `python -m judo leaderboard`."""
-
-    tasks: Annotated[tuple[str, ...], tyro.conf.arg(metavar="NAME ...")]
-    """Tasks to compare on, by registered name; each needs a protocol file."""
-    optimizers: Annotated[
-        tuple[str, ...],
-        tyro.conf.arg(metavar="NAME ...", help_behavior_hint="(default: every registered one)"),
-    ] = ()
-    """Optimizers to compare, by registered name."""
-    trials: int = 20
-    """Trials per task x optimizer (the first runs the optimizer's defaults); a resumed run adds
-    only missing ones."""
-    seeds: int = 10
-    """Fresh seeds (0 to seeds - 1) each tuned setting and the shipped default are validated on."""
-    out: Annotated[Path, tyro.conf.arg(metavar="DIR")] = Path("leaderboard")
-    """Folder for the outputs and the study database (leaderboard.db) that a rerun resumes."""
-    protocols: Annotated[
-        Path | None, tyro.conf.arg(metavar="DIR", help_behavior_hint="(optional)")
-    ] = None
-    """Folder of your own protocol files, TASK.toml, read before the shipped ones
-    (docs/optimizers.md)."""
-    address: Annotated[
-        str | None, tyro.conf.arg(metavar="ADDRESS", help_behavior_hint="(default: a local Ray)")
-    ] = None
-    """A running Ray cluster: auto (the one `ray start --head` started on this machine) or
-    ray://HOST:10001."""
-    workers: Annotated[
-        int | None, tyro.conf.arg(metavar="N", help_behavior_hint="(default: one per core)")
-    ] = None
-    """Episodes run at once, each on one rollout thread (the CPUs of a local Ray)."""
-    sampler: Literal["tpe", "cmaes", "random"] = "tpe"
-    """Optuna sampler of every study."""
-    seed: int = 0
-    """Seed of the samplers."""
-    config: Annotated[
-        Path | None, tyro.conf.arg(metavar="PATH", help_behavior_hint="(optional)")
-    ] = None
-    """TOML file, as for the app, that registers custom tasks and optimizers and sets per-task
-    overrides."""
-
-    def optimizer_names(self) -> list[str]:
-        """--optimizers without repeats, or every registered optimizer."""
-        return list(dict.fromkeys(self.optimizers)) or list(get_registered_optimizers())
-
-    def task_names(self) -> list[str]:
-        """--tasks without repeats."""
-        return list(dict.fromkeys(self.tasks))
-
-    def validate(self) -> None:
-        """Raise a JudoError (one line, listing the valid choices) for an unknown name or a count
-        out of range."""
-        check_names(self.task_names(), self.optimizer_names())
-        check_count("--trials", self.trials, MAX_SAMPLES)
-        require_between("--seeds", self.seeds, 1, 10_000)
-        check_seed_range(0, self.seeds, "--seeds")
-        check_count("--workers", self.workers, MAX_WORKERS)
-        check_output_folder("--out", self.out)
 
 
 @dataclass
@@ -198,7 +130,8 @@ def protocol_spec(
 def probe_metrics(protocol: Protocol, optimizer: str) -> list[str]:
     """The metrics a short episode of the task reports (tune's probe, at the protocol); JudoError if
     it fails."""
-    from judo.tuning.tune import TuneArgs, probe
+    from judo.tuning.tune import probe
+    from judo.tuning.tune_args import TuneArgs
 
     args = TuneArgs(task=protocol.task, optimizer=optimizer, duration=PROBE_S)
     return probe(args, protocol.fixed())
