@@ -43,8 +43,10 @@ from judo.core.configuration.registry import make_task, register_task, set_model
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.recording.dataset import DatasetFile
 from judo.sysid.data import read_logs
-from judo.sysid.excite import drive, excitation_episode, multisine
-from judo.sysid.fit import DELAY_PARAMETER, fit, parse_parameters
+from judo.sysid.drive import drive
+from judo.sysid.excite import excitation_episode, multisine
+from judo.sysid.fit import fit
+from judo.sysid.parameters import DELAY_PARAMETER, parse_parameters
 from judo.tasks.cartpole import MODEL_PATH, Cartpole, CartpoleConfig
 
 ROOT = Path(__file__).resolve().parents[1]

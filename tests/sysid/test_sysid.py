@@ -294,7 +294,7 @@ def test_fit_delay_finds_the_motor_lag_and_mass_of_examples_06_robot_driven_thro
 def test_the_fitted_file_is_the_config_given_with_the_fitted_values_in_its_model_overrides():
     import tomllib
 
-    from judo.sysid.sysid import fitted_toml
+    from judo.sysid.fitted_toml import fitted_toml
 
     config = {
         "task": "cartpole",

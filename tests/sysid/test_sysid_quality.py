@@ -12,11 +12,11 @@ import pytest
 from judo.core.configuration.model_overrides import overridden
 from judo.core.errors import ConfigError
 from judo.recording.dataset import DatasetFile
-from judo.sysid.data import rms
 from judo.sysid.excite import excitation_episode, multisine
-from judo.sysid.fit import FitParameter, parse_parameters
+from judo.sysid.parameters import FitParameter, parse_parameters
 from judo.sysid.quality import noise_floor
 from judo.sysid.sysid import main as sysid_main
+from judo.sysid.windows import rms
 from judo.tasks.cartpole import Cartpole
 
 pytest.importorskip("h5py")

@@ -256,7 +256,8 @@ def test_each_measured_value_is_compared_at_the_step_it_was_taken():
     step (held between samples), logged with its age, and placed back at every other step, where it
     equals the plant's joint positions (cartpole's measured sensors) of that step."""
     from judo.core.configuration.registry import make_task
-    from judo.sysid.data import Episode, taken_samples
+    from judo.sysid.data import Episode
+    from judo.sysid.windows import taken_samples
 
     outcome = collect_episode(
         EpisodeSpec("cartpole", "ps", 0.3, sensing=Sensing("sensors", delay=0.02, rate=50.0)), 0

@@ -13,7 +13,7 @@ import mujoco
 import numpy as np
 
 from judo.core.configuration.model_overrides import overridden
-from judo.sysid.data import Windows, delayed_controls, prediction_residuals, spread
+from judo.sysid.windows import Windows, delayed_controls, prediction_residuals, spread
 
 
 def least_squares(

@@ -10,8 +10,8 @@ import numpy as np
 
 from judo.core.configuration.model_overrides import model_value, overridden
 from judo.core.errors import JudoError
-from judo.sysid.data import Windows
 from judo.sysid.hooks import refined_residuals
+from judo.sysid.windows import Windows
 
 HOLD_OUT_EVERY = 5
 """Every HOLD_OUT_EVERY-th window is held out of the fit, to report the fitted model's error on
