@@ -27,11 +27,8 @@ import numpy as np
 import judo
 from judo.core.configuration.config import with_updates
 from judo.core.configuration.controller_config import ControllerConfig
-from judo.core.configuration.model_overrides import (
-    check_model_overrides,
-    override_task_models,
-    parse_override_entries,
-)
+from judo.core.configuration.model_override_checks import check_model_overrides
+from judo.core.configuration.model_overrides import override_task_models, parse_override_entries
 from judo.core.configuration.registry import lookup_optimizer, make_config
 from judo.core.rollouts.risk import RISK_MEASURES
 from judo.core.task import Task

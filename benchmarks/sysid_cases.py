@@ -34,11 +34,8 @@ import numpy as np
 
 from judo.collection.episode import collect_episode
 from judo.core.configuration import registry
-from judo.core.configuration.model_overrides import (
-    check_model_overrides,
-    model_value,
-    parse_override_entries,
-)
+from judo.core.configuration.model_override_checks import check_model_overrides
+from judo.core.configuration.model_overrides import model_value, parse_override_entries
 from judo.core.configuration.registry import make_task, register_task, set_model_overrides
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.recording.dataset import DatasetFile

@@ -96,10 +96,8 @@ class EpisodeArgs(SensingFlags):
         )
         # checked here; the episodes apply them from their spec (`with_spec_plant`)
         if self.plant_overrides:
-            from judo.core.configuration.model_overrides import (
-                check_model_overrides,
-                parse_override_entries,
-            )
+            from judo.core.configuration.model_override_checks import check_model_overrides
+            from judo.core.configuration.model_overrides import parse_override_entries
             from judo.core.task import new_task
 
             check_model_overrides(

@@ -293,10 +293,8 @@ def with_spec_plant(task: Task, spec: EpisodeSpec) -> Task:
     every plant built from it gets (`MujocoSystem.from_task`); its own models are left as they
     are."""
     if spec.plant_overrides:
-        from judo.core.configuration.model_overrides import (
-            check_model_overrides,
-            parse_override_entries,
-        )
+        from judo.core.configuration.model_override_checks import check_model_overrides
+        from judo.core.configuration.model_overrides import parse_override_entries
 
         merged = {field: dict(values) for field, values in task.plant_overrides.items()}
         for field, values in check_model_overrides(

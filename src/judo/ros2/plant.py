@@ -35,11 +35,8 @@ import numpy as np
 import tyro
 
 from judo.core.configuration.config import check_seed
-from judo.core.configuration.model_overrides import (
-    check_model_overrides,
-    override_task_models,
-    parse_override_entries,
-)
+from judo.core.configuration.model_override_checks import check_model_overrides
+from judo.core.configuration.model_overrides import override_task_models, parse_override_entries
 from judo.core.configuration.registry import get_registered_tasks, lookup_task
 from judo.core.errors import ConfigError, JudoError, import_extra
 from judo.core.task import new_task

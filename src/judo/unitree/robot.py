@@ -29,11 +29,8 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from judo.core.configuration.model_overrides import (
-    check_model_overrides,
-    override_task_models,
-    parse_override_entries,
-)
+from judo.core.configuration.model_override_checks import check_model_overrides
+from judo.core.configuration.model_overrides import override_task_models, parse_override_entries
 from judo.core.configuration.registry import lookup_task
 from judo.core.errors import ConfigError
 from judo.core.task import new_task

@@ -14,11 +14,8 @@ from judo.core.configuration.config import (
     with_updates,
 )
 from judo.core.configuration.controller_config import ControllerConfig
-from judo.core.configuration.model_overrides import (
-    ModelOverrides,
-    check_model_overrides,
-    override_task_models,
-)
+from judo.core.configuration.model_override_checks import check_model_overrides
+from judo.core.configuration.model_overrides import ModelOverrides, override_task_models
 from judo.core.controller import Controller
 from judo.core.errors import JudoError, UnknownNameError
 from judo.core.estimator import Estimator, EstimatorConfig
