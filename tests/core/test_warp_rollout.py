@@ -26,7 +26,8 @@ from judo.core.rollouts.backend import RandomizedRolloutError
 from judo.core.rollouts.problem_batch import ProblemBatch, ProblemBatchError
 from judo.core.rollouts.rollout import RolloutPool
 from judo.core.rollouts.warp_models import WarpUnsupportedModelError
-from judo.core.rollouts.warp_rollout import RolloutOverflowWarning, WarpRollout
+from judo.core.rollouts.warp_overflow import RolloutOverflowWarning
+from judo.core.rollouts.warp_rollout import WarpRollout
 
 pytestmark = pytest.mark.warp
 

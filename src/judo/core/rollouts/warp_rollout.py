@@ -13,7 +13,9 @@ launched directly and the host arrays are the device arrays themselves.
 
 Under `set_models` the fields in which the models differ are MuJoCo Warp's per-world model arrays
 (see core/rollouts/warp_models.py), and `rollout_problems` rolls out several problems, each from its
-own state, in one batch (core/rollouts/problem_batch.py).
+own state, in one batch (core/rollouts/problem_batch.py). The kernels and the state layouts they
+read and write are in core/rollouts/warp_kernels.py; what the overflow flags mean, in
+core/rollouts/warp_overflow.py.
 
 Importing this module imports warp and mujoco_warp (the `judo-mpc[warp]` extra);
 `make_rollout_backend` (core/rollouts/backend.py) imports it only when the "warp" backend is asked
@@ -24,7 +26,6 @@ import os
 import time
 import warnings
 from collections.abc import Sequence
-from typing import TYPE_CHECKING, Any
 
 import mujoco
 import numpy as np
@@ -32,121 +33,33 @@ import numpy as np
 from judo.core.errors import JudoError, import_extra
 from judo.core.model import STATE_SPEC
 from judo.core.rollouts.backend import RolloutBackend, check_blocks, check_model_sizes
+from judo.core.rollouts.warp_kernels import (
+    EXTRA_SPEC,
+    INITIAL_SPEC,
+    broadcast_initial,
+    load_controls,
+    record_step,
+)
 from judo.core.rollouts.warp_models import probe_sizes, put_model, varying_fields
+from judo.core.rollouts.warp_overflow import (
+    CONSTRAINT_OVERFLOWS,
+    CONTACT_OVERFLOWS,
+    DROPPED,
+    MAX_RESIZES,
+    RolloutOverflowError,
+    RolloutOverflowWarning,
+)
 
 FEATURE = "the warp rollout backend (--backend warp)"
 wp = import_extra("warp", FEATURE, "warp")
 mjw = import_extra("mujoco_warp", FEATURE, "warp")
 
-__all__ = ["RolloutOverflowError", "RolloutOverflowWarning", "WarpRollout"]
+__all__ = ["WarpRollout"]
 
-# warp's array types are call expressions, which a type checker cannot read as annotations
-if TYPE_CHECKING:
-    Float32Array = Any
-    Float32Array2D = Any
-    Float64Array2D = Any
-    Float64Array3D = Any
-else:  # the kernel argument types warp compiles the kernels below for
-    Float32Array = wp.array(dtype=wp.float32)
-    Float32Array2D = wp.array2d(dtype=wp.float32)
-    Float64Array2D = wp.array2d(dtype=wp.float64)
-    Float64Array3D = wp.array3d(dtype=wp.float64)
-
-EXTRA_SPEC = STATE_SPEC & ~(
-    mujoco.mjtState.mjSTATE_TIME
-    | mujoco.mjtState.mjSTATE_QPOS
-    | mujoco.mjtState.mjSTATE_QVEL
-    | mujoco.mjtState.mjSTATE_ACT
-)
-"""The full-physics state after [time, qpos, qvel, act] (delay history, plugin and plastic state):
-empty for most models; read with mjw.get_state each step when not."""
-INITIAL_SPEC = (
-    STATE_SPEC
-    | mujoco.mjtState.mjSTATE_WARMSTART
-    | mujoco.mjtState.mjSTATE_MOCAP_POS
-    | mujoco.mjtState.mjSTATE_MOCAP_QUAT
-)
-"""What each rollout starts from: the full-physics state, a zero solver warm start (so a rollout
-does not depend on the one before it) and the mocap poses, which then stay put for the whole
-rollout."""
-
-CONTACT_OVERFLOWS = int(
-    mjw.OverflowType.BROADPHASE | mjw.OverflowType.NARROWPHASE | mjw.OverflowType.CCD
-)
-"""Overflow bits meaning contacts were dropped: fixed by more contacts per world (nconmax)."""
-CONSTRAINT_OVERFLOWS = int(mjw.OverflowType.NEFC | mjw.OverflowType.NJMAX_NNZ)
-"""Overflow bits meaning constraint rows were dropped: fixed by more rows per world (njmax)."""
-DROPPED = CONTACT_OVERFLOWS | CONSTRAINT_OVERFLOWS
-"""Every overflow bit that means a rollout lost contacts or constraints (solver-iteration limits are
-not such)."""
-MAX_RESIZES = 8
-"""Doublings of nconmax / njmax tried within one call before giving up with RolloutOverflowError."""
 PHASES = ("copy_in", "physics", "copy_out")
 """Where a rollout's wall time goes, summed over calls in `WarpRollout.phase_seconds`: inputs to the
 device (host staging included), the T steps on the device, and states, sensors and overflow flags
 back to the host."""
-
-
-class RolloutOverflowError(JudoError):
-    """Rollouts that still dropped contacts or constraints after the backend grew its buffers
-    MAX_RESIZES times."""
-
-
-class RolloutOverflowWarning(UserWarning):
-    """A rollout overflowed its contact or constraint buffers; they were doubled and the batch
-    rolled out again."""
-
-
-@wp.kernel
-def _broadcast_initial(initial: Float64Array2D, rows_per_problem: int, out: Float32Array2D):
-    """out[world, i] = initial[world // rows_per_problem, i]: each block of rows_per_problem worlds
-    starts from its problem's (ninitial,) state. Launch dim (N, ninitial)."""
-    world, i = wp.tid()
-    out[world, i] = wp.float32(initial[world // rows_per_problem, i])
-
-
-@wp.kernel
-def _load_controls(
-    controls: Float64Array3D,
-    step: int,
-    ctrl: Float32Array2D,
-):
-    """ctrl[world, j] = controls[world, step, j], the (N, nu) controls of one step. Launch dim (N,
-    nu)."""
-    world, j = wp.tid()
-    ctrl[world, j] = wp.float32(controls[world, step, j])
-
-
-@wp.kernel
-def _record_step(
-    time: Float32Array,
-    qpos: Float32Array2D,
-    qvel: Float32Array2D,
-    act: Float32Array2D,
-    extra: Float32Array2D,
-    sensordata: Float32Array2D,
-    step: int,
-    states: Float64Array3D,
-    sensors: Float64Array3D,
-):
-    """states[:, step] = [time, qpos, qvel, act, extra] (N, nstate), the full-physics state in
-    mj_getState's order, and sensors[:, step] = sensordata (N, nsensordata), as float64. Launch dim
-    (N, nstate + nsensordata)."""
-    world, i = wp.tid()
-    nq, nv, na = qpos.shape[1], qvel.shape[1], act.shape[1]
-    nstate = 1 + nq + nv + na + extra.shape[1]
-    if i == 0:
-        states[world, step, 0] = wp.float64(time[world])
-    elif i < 1 + nq:
-        states[world, step, i] = wp.float64(qpos[world, i - 1])
-    elif i < 1 + nq + nv:
-        states[world, step, i] = wp.float64(qvel[world, i - 1 - nq])
-    elif i < 1 + nq + nv + na:
-        states[world, step, i] = wp.float64(act[world, i - 1 - nq - nv])
-    elif i < nstate:
-        states[world, step, i] = wp.float64(extra[world, i - 1 - nq - nv - na])
-    else:
-        sensors[world, step, i - nstate] = wp.float64(sensordata[world, i - nstate])
 
 
 class WarpRollout(RolloutBackend):
@@ -367,13 +280,13 @@ class WarpRollout(RolloutBackend):
         num_rollouts, num_steps, num_problems = self._shape
         d.overflow.zero_()
         inputs = [self._initial, num_rollouts // num_problems, self._start]
-        wp.launch(_broadcast_initial, dim=(num_rollouts, self.ninitial), inputs=inputs)
+        wp.launch(broadcast_initial, dim=(num_rollouts, self.ninitial), inputs=inputs)
         mjw.set_state(m, d, self._start, int(INITIAL_SPEC))
         record_dim = (num_rollouts, self.nstate + self.model.nsensordata)
         for step in range(num_steps):
             if self.model.nu:
                 wp.launch(
-                    _load_controls,
+                    load_controls,
                     dim=(num_rollouts, self.model.nu),
                     inputs=[self._controls, step, d.ctrl],
                 )
@@ -381,7 +294,7 @@ class WarpRollout(RolloutBackend):
             if self.nextra:
                 mjw.get_state(m, d, self._extra, int(EXTRA_SPEC))
             wp.launch(
-                _record_step,
+                record_step,
                 dim=record_dim,
                 inputs=[
                     d.time,
