@@ -31,7 +31,8 @@ from rich.table import Table
 import judo
 from judo.core.configuration.registry import lookup_optimizer, make_config
 from judo.core.policy import Policy
-from judo.core.rollouts.low_level import LowLevel, LowLevelRollout
+from judo.core.rollouts.low_level import LowLevel
+from judo.core.rollouts.low_level_rollout import LowLevelRollout
 from judo.core.rollouts.rollout import RolloutPool
 from judo.evaluation.timing import rollout_start
 from judo.loop.system import MujocoSystem

@@ -32,7 +32,7 @@ from rich.table import Table
 
 from judo.core.configuration.registry import make_task
 from judo.core.errors import JudoError
-from judo.core.rollouts.low_level import LowLevelRollout
+from judo.core.rollouts.low_level_rollout import LowLevelRollout
 from judo.core.rollouts.rollout import RolloutPool
 from judo.evaluation.timing import rollout_start
 from judo.loop.system import MujocoSystem

@@ -12,8 +12,8 @@ import judo
 from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
 from judo.core.rollouts.backend import RolloutBackend
-from judo.core.rollouts.low_level import (
-    LowLevel,
+from judo.core.rollouts.low_level import LowLevel
+from judo.core.rollouts.low_level_rollout import (
     LowLevelBackendError,
     LowLevelRollout,
     with_low_level,

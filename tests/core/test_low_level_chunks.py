@@ -9,7 +9,8 @@ import pytest
 import judo
 from judo.core.model import STATE_SPEC
 from judo.core.policy import Policy, PolicyError
-from judo.core.rollouts.low_level import LowLevel, LowLevelRollout
+from judo.core.rollouts.low_level import LowLevel
+from judo.core.rollouts.low_level_rollout import LowLevelRollout
 from judo.core.rollouts.rollout import RolloutPool
 from judo.core.spline import SplineBasis
 from judo.loop.system import MujocoSystem

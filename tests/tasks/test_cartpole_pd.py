@@ -7,7 +7,7 @@ import numpy as np
 
 from judo.core.configuration.registry import make_controller
 from judo.core.policies.onnx_policy import OnnxPolicy
-from judo.core.rollouts.low_level import LowLevelRollout
+from judo.core.rollouts.low_level_rollout import LowLevelRollout
 from judo.evaluation.evaluate import main
 from judo.loop.system import MujocoSystem
 from judo.tasks.cartpole_pd import EVERY, TARGET_RANGE, CartpolePD, pd_policy_path, pd_weight

@@ -7,7 +7,7 @@ import pytest
 
 import judo
 from judo.core.policies.onnx_policy import OnnxPolicy
-from judo.core.rollouts.low_level import LowLevelRollout
+from judo.core.rollouts.low_level_rollout import LowLevelRollout
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
 from judo.tasks.quadruped_navigate import COMMAND_RANGE, EVERY, POLICY_PATH, QuadrupedNavigate

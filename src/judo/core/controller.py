@@ -22,7 +22,7 @@ from judo.core.policies.proposals import Proposer, check_proposal_policy, insert
 from judo.core.policy import Policy
 from judo.core.rollouts.backend import PlanningCancelled, RolloutBackend
 from judo.core.rollouts.dynamics import task_rollout_backend
-from judo.core.rollouts.low_level import check_low_level_backend, with_low_level
+from judo.core.rollouts.low_level_rollout import check_low_level_backend, with_low_level
 from judo.core.rollouts.parallel_reward import ParallelReward
 from judo.core.rollouts.randomize import randomized_models
 from judo.core.rollouts.risk import reduce_rewards

@@ -161,8 +161,8 @@ class RolloutPool(RolloutBackend):
         The arrays hold the whole batch, of which only the block's rows are read and written; all
         are C-contiguous float64: initial_states (N, nstate); inputs (N, k, ncontrol), the per-step
         values of `control_spec` ([ctrl] or [ctrl, mocap_pos, mocap_quat]); states (N, k, nstate)
-        and sensors (N, k, nsensordata). A low-level policy's worker (core/rollouts/low_level.py)
-        calls it once per tick.
+        and sensors (N, k, nsensordata). A low-level policy's worker
+        (core/rollouts/low_level_rollout.py) calls it once per tick.
         """
         chunks, chunk_models = self._split(len(initial_states))
         self._run_chunk(

@@ -6,8 +6,8 @@ batch) makes its (B, O) observations from the rows' states at the tick, one batc
 row an action (or a chunk of H, read off its spline at each of the tick's steps), the ctrl of the
 tick's steps is written into the inputs of `mujoco.rollout`, and the physics steps every row on from
 its own state. Four places run it:
-  - `LowLevelRollout` (core/rollouts/low_level.py): a task's low-level policy inside every rollout,
-    block by block on a `RolloutPool`'s workers (`run_blocks`);
+  - `LowLevelRollout` (core/rollouts/low_level_rollout.py): a task's low-level policy inside every
+    rollout, block by block on a `RolloutPool`'s workers (`run_blocks`);
   - `LowLevelPlant` (core/rollouts/low_level.py): the same policy on the plant, one row, whose
     physics is the plant's own steps (`act` alone makes each tick's ctrl);
   - `Proposer` (core/policies/proposals.py): an action policy's closed loop from the current state,
