@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from judo.core.feedback import FeedbackPlan
+from judo.core.feedback_plan import FeedbackPlan
 from judo.evaluation.episode import run_episode
 from judo.evaluation.seeded import EpisodeSpec, configs_in_force, spec_controller
 from judo.loop.system import MujocoSystem

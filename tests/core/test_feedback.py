@@ -7,7 +7,8 @@ import pytest
 
 import judo
 from judo.core.configuration.controller_config import ControllerConfig
-from judo.core.feedback import FeedbackError, FeedbackGains, FeedbackPlan, tvlqr_gains
+from judo.core.feedback import FeedbackError, FeedbackGains, tvlqr_gains
+from judo.core.feedback_plan import FeedbackPlan
 from judo.core.model import STATE_SPEC
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem

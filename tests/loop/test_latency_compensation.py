@@ -75,7 +75,7 @@ def test_a_plan_with_gains_takes_effect_where_its_nominal_starts(monkeypatch):
     # predicted that far, and with feedback it is planned from the prediction whatever
     # latency_compensation says. Each plan's first served state is then its nominal rollout's start,
     # and the gains correct nothing on a plant that is the model.
-    from judo.core.feedback import FeedbackPlan
+    from judo.core.feedback_plan import FeedbackPlan
 
     first_serves: dict[int, tuple[float, float, float]] = {}
     serve = FeedbackPlan.__call__

@@ -181,8 +181,8 @@ class Spline:
 
     def __call__(self, times: float | np.ndarray, state: np.ndarray | None = None) -> np.ndarray:
         """(nu,) for a scalar time, (num_times, nu) for an array of times, within [low, high]. The
-        plant's `state` is for plans with feedback (judo.core.feedback.FeedbackPlan); a plain spline
-        ignores it."""
+        plant's `state` is for plans with feedback (judo.core.feedback_plan.FeedbackPlan); a plain
+        spline ignores it."""
         if np.ndim(times) == 0:
             values = self.basis.weights_at(float(times) - self.start_time) @ self.knots
         else:

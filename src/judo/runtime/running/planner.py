@@ -6,7 +6,7 @@ import math
 import time
 
 from judo.core.errors import JudoError
-from judo.core.feedback import FeedbackPlan
+from judo.core.feedback_plan import FeedbackPlan
 from judo.core.planner_view import PlannerKind
 from judo.core.reading import SystemState
 from judo.core.rollouts.backend import PlanningCancelled
