@@ -20,9 +20,10 @@ from judo.core.configuration.config_file import load_config
 from judo.core.configuration.model_overrides import overridden
 from judo.core.configuration.registry import make_task
 from judo.ros2 import link
+from judo.ros2.bridge_log import BridgeLogError
 from judo.ros2.joints import JointLayout
 from judo.ros2.mcap_log import McapLog
-from judo.ros2.mcap_read import BridgeLogError, read_bridge_log
+from judo.ros2.mcap_read import read_bridge_log
 from judo.runtime.gui.replay import Replay
 from judo.runtime.gui.replay import main as replay_main
 from judo.sysid.sysid import main as sysid_main
@@ -311,7 +312,8 @@ def test_the_reader_needs_no_dds_and_without_mcap_says_what_to_install(tmp_path)
     path = write_log(tmp_path / "run.mcap")
     code = (
         "import sys; sys.modules['cyclonedds'] = None\n"  # any import of cyclonedds now fails
-        "from judo.ros2.mcap_read import BridgeLogError, read_bridge_log\n"
+        "from judo.ros2.bridge_log import BridgeLogError\n"
+        "from judo.ros2.mcap_read import read_bridge_log\n"
         f"log = read_bridge_log({str(path)!r})\n"
         "print(log.task, log.qpos.shape, log.commands.tolist()[:2])"
     )

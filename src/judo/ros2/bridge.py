@@ -47,6 +47,7 @@ from judo.loop.system import System
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
+from judo.ros2.joint_reading import check_joint_state, full_state, measured_sensors
 from judo.ros2.joints import JointLayout, base_from_odometry, implausible_base
 from judo.ros2.mcap_log import LimitHitLog, McapLog, log_metadata
 from judo.ros2.options import Ros2Options
@@ -163,7 +164,7 @@ class Ros2System(System):
     @classmethod
     def from_options(cls, task: Task, options: Any) -> "Ros2System":
         """The bridge the app's `--system ros2 [--record FILE.mcap] [--ros2.*]` options describe (a
-        `judo.cli_shared.SystemOptions`: its `ros2` and `record`)."""
+        `judo.system_choice.SystemOptions`: its `ros2` and `record`)."""
         log = (
             None
             if options.record is None
@@ -253,58 +254,23 @@ class Ros2System(System):
         self._imu = values
 
     def _note_joint_state(self, joints: msg.JointState, wall: float) -> None:
-        names, n = list(joints.name), len(joints.name)
-        with_velocity = len(joints.velocity) == n
-        if len(joints.position) != n or not (with_velocity or len(joints.velocity) == 0):
-            return self._refuse(
-                "joint state (wrong lengths)",
-                f"{n} names, {len(joints.position)} positions, {len(joints.velocity)} velocities; "
-                "each joint needs a position, and a velocity each or none",
-            )
-        unknown = [name for name in names if name not in self._index]
-        missing = [name for name in self.layout.names if name not in set(names)]
-        if unknown or missing:
-            return self._refuse(
-                "joint state (names)",
-                f"missing joints {missing}, unknown joints {unknown}; expected "
-                f"{list(self.layout.names)} "
-                "(map names with --ros2.joint-map mjcf_name=robot_name)",
-            )
-        position = np.asarray(joints.position, float)
-        velocity = np.asarray(joints.velocity, float) if with_velocity else np.zeros(n)
-        bad = [
-            name
-            for name, p, v in zip(names, position, velocity, strict=True)
-            if not math.isfinite(p + v)
-        ]
-        if bad:
-            return self._refuse(
-                "joint state (non-finite)", f"non-finite position or velocity of joints {bad}"
-            )
-        order = [self._index[name] for name in names]
-        why = self.layout.implausible(order, position, velocity)
-        if why is not None:
-            return self._refuse("joint state (out of bounds)", why)
-        full = with_velocity and (self.layout.free is None or self._odom is not None)
+        arrays, refusal = check_joint_state(joints, self.layout, self._index)
+        if arrays is None:
+            assert refusal is not None
+            return self._refuse(*refusal)
+        full = arrays.with_velocity and (self.layout.free is None or self._odom is not None)
         sensors = None
         # positions only (or no odometry): the task's measured sensors, for its estimator
         if not full:
-            sensors, why = self._measured(position, order)
+            sensors, why = measured_sensors(
+                self.task, self.layout, arrays.position, arrays.order, self._imu, self.options.odom
+            )
             if sensors is None:
                 return self._refuse("joint state (not enough to plan from)", str(why))
         reading_time, why = self._clock.accept(msg.seconds_of(joints.header.stamp), wall)
         if reading_time is None:
             return self._refuse("joint state (stamp)", str(why))
-        state = None
-        if full:
-            model = self.task.model
-            qpos, qvel = model.qpos0.copy(), np.zeros(model.nv)
-            qpos[self.layout.qpos[order]] = position
-            qvel[self.layout.qvel[order]] = velocity
-            if self.layout.free is not None and self._odom is not None:
-                a, d = self.layout.free
-                qpos[a : a + 7], qvel[d : d + 6] = self._odom
-            state = np.concatenate([qpos, qvel])
+        state = full_state(self.task.model, self.layout, arrays, self._odom) if full else None
         metadata: dict[str, Any] = {}
         if self._imu is not None:
             metadata["imu"] = {key: value.copy() for key, value in self._imu.items()}
@@ -314,50 +280,6 @@ class Ros2System(System):
             self.log.write(self.options.joint_states, joints, _ns(joints.header.stamp))
         with self._lock:
             self._reading = SystemState(state, reading_time, metadata, sensors)
-
-    def _measured(
-        self, position: np.ndarray, order: list[int]
-    ) -> tuple[np.ndarray | None, str | None]:
-        """((task.measured.size,) the task's measured sensors from the JointState's `position` (in
-        message order; `order` their layout indices) and the latest Imu, None) or (None, why they
-        cannot be made)."""
-        model, layout = self.task.model, self.task.measured
-        if layout.size == 0:
-            return None, (
-                f"{type(self.task).__name__} declares no measured sensors, so each "
-                "JointState needs a velocity "
-                "per joint"
-                + (
-                    " and an Odometry on " + self.options.odom
-                    if self.layout.free is not None
-                    else ""
-                )
-            )
-        by_qpos = dict(zip(self.layout.qpos[order].tolist(), position.tolist(), strict=True))
-        values = np.empty(layout.size)
-        for name, kind, sensor, where in zip(
-            layout.names, layout.types, layout.ids, layout.slices, strict=True
-        ):
-            if kind == "jointpos":
-                address = int(model.jnt_qposadr[model.sensor_objid[sensor]])
-                if address not in by_qpos:
-                    return None, f"measured sensor {name!r} is on a joint the JointState lacks"
-                values[where] = by_qpos[address]
-            elif kind in ("gyro", "accelerometer") and self._imu is not None:
-                key = "angular_velocity" if kind == "gyro" else "linear_acceleration"
-                values[where] = self._imu[key]
-            else:
-                source = (
-                    "no Imu has arrived yet"
-                    if kind in ("gyro", "accelerometer")
-                    else ("no ROS 2 source")
-                )
-                return (
-                    None,
-                    f"measured sensor {name!r} ({kind}) has {source}; the bridge fills "
-                    "jointpos, gyro, accelerometer",
-                )
-        return values, None
 
     def reset(self) -> None:
         """A robot is not reset by judo: the loop starts again from its latest reading."""
