@@ -204,12 +204,12 @@ into the run's first windows."""
 
 def read_mcap_log(path: Path, task_name: str, model: mujoco.MjModel) -> list[Episode]:
     """The episodes of the ROS 2 bridge's MCAP log at `path`, one per run of rows a whole number of
-    steps of `model` apart with a command in force (`judo.ros2.mcap_read.BridgeLog.grid_runs`, whose
-    errors name the file), laid on the model's step grid: a row every step, its state NaN where no
-    joint state fell on it (a robot that publishes every k steps) and its action the command applied
-    during that step (`BridgeLog.actions_at`: the commands the robot reported applying where the log
-    holds them, else those sent); with the commands in force during the LEAD_STEPS steps before the
-    run as its lead_actions."""
+    steps of `model` apart with a command in force (`judo.ros2.bridge_log.BridgeLog.grid_runs`,
+    whose errors name the file), laid on the model's step grid: a row every step, its state NaN
+    where no joint state fell on it (a robot that publishes every k steps) and its action the
+    command applied during that step (`BridgeLog.actions_at`: the commands the robot reported
+    applying where the log holds them, else those sent); with the commands in force during the
+    LEAD_STEPS steps before the run as its lead_actions."""
     from judo.ros2.mcap_read import read_bridge_log
 
     log = read_bridge_log(path, task_name, "python -m judo sysid LOG.mcap")
