@@ -26,14 +26,12 @@ MAX_LINES = 400
 """Most lines in any file in src/judo, but those below."""
 
 LONGER_FILES = {
-    "cli_shared.py": 475,
     "core/configuration/config_file.py": 474,
     "core/controller.py": 537,
     "core/task.py": 466,
     "loop/closed_loop.py": 485,
     "runtime/app.py": 471,
     "runtime/commands.py": 465,
-    "tasks/quadruped.py": 411,
 }
 """Files allowed more lines: those the 100-column format lengthened, until each is split."""
 
@@ -333,6 +331,7 @@ APPLICATION_LAYERS = (
     "judo.runtime",
     "judo.ros2",
     "judo.unitree",
+    "judo.system_choice",
     "judo.cli_shared",
     "judo.evaluation",
     "judo.tuning",
@@ -413,6 +412,7 @@ PACKAGE_ORDER = (
     "judo.ray_cluster",
     "judo.ros2",
     "judo.unitree",
+    "judo.system_choice",
     "judo.cli_shared",
     "judo.evaluation",
     "judo.recording",

@@ -17,7 +17,8 @@ from judo.learning.policy_search import (
     search_gait,
     stepping_in_place,
 )
-from judo.tasks.quadruped import GAITS, STANDING_HEIGHT, gait_clock, swing_heights
+from judo.tasks.gait import GAITS, gait_clock, swing_heights
+from judo.tasks.quadruped import STANDING_HEIGHT
 from judo.tasks.quadruped_velocity import COMMAND_KEY, QuadrupedVelocity
 
 pytest.importorskip("onnxruntime")

@@ -12,7 +12,7 @@ pytest.importorskip("cyclonedds")
 
 from ros2_links import ROOT, env, free_domain, stop_process
 
-from judo.cli_shared import SystemOptions, build_system, system_class
+from judo.system_choice import SystemOptions, build_system, system_class
 from judo.loop.system import System
 from judo.ros2 import plant
 from judo.runtime import launch

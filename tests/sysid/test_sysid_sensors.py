@@ -275,7 +275,7 @@ def test_each_measured_value_is_compared_at_the_step_it_was_taken():
 
 
 def test_sim_is_judos_simulator_by_name():
-    from judo.cli_shared import SystemOptions, build_system
+    from judo.system_choice import SystemOptions, build_system
 
     # the caller builds judo's own plant
     assert build_system(SystemOptions("sim"), "cartpole") is None

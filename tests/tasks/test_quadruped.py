@@ -11,15 +11,8 @@ from judo.core.errors import ConfigError
 from judo.core.policy import PolicyError
 from judo.evaluation.episode import run_episode
 from judo.loop.system import MujocoSystem
-from judo.tasks.quadruped import (
-    GAITS,
-    JOINTS,
-    LEGS,
-    Quadruped,
-    gait_of,
-    gravity_in_body,
-    swing_heights,
-)
+from judo.tasks.gait import GAITS, LEGS, gait_of, swing_heights
+from judo.tasks.quadruped import JOINTS, Quadruped, gravity_in_body
 from judo.tasks.quadruped_velocity import COMMAND_KEY, QuadrupedVelocity, QuadrupedVelocityConfig
 
 

@@ -11,7 +11,7 @@ import leg_task
 import mujoco
 from unitree_links import free_domain, leg_state
 
-from judo.cli_shared import system_class
+from judo.system_choice import system_class
 from judo.core.configuration.config_file import load_config
 from judo.core.errors import ConfigError
 from judo.ros2.options import UnitreeOptions, unitree_options

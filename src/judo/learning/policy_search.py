@@ -25,7 +25,8 @@ from judo.core.rollouts.rollout import RolloutPool
 from judo.core.rollouts.stepper import PolicyStepper
 from judo.learning.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout, gait_actions
 from judo.optimizers.cem import CEM, CEMConfig
-from judo.tasks.quadruped import GAITS, STANDING_HEIGHT
+from judo.tasks.gait import GAITS
+from judo.tasks.quadruped import STANDING_HEIGHT
 from judo.tasks.quadruped_velocity import (
     COMMAND_KEY,
     OBSERVATION_COLUMNS,

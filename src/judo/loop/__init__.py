@@ -14,8 +14,8 @@ What a robot integrator reads, below the app, the GUI and the commands (it impor
     sensing.py          rehearsed sensing (SensedSystem): a simulator seen through a robot's sensors
 
 It imports only contracts (judo.core's task, planner, estimator, reading, errors) and the safety
-layer: which System a command line names is `judo.cli_shared`'s, how a command's plant is observed
-`judo.evaluation.sensing`'s, and the app's estimator thread
+layer: which System a command line names is `judo.system_choice`'s, how a command's plant is
+observed `judo.evaluation.sensing`'s, and the app's estimator thread
 `judo.runtime.running.estimator_thread`'s.
 
 `SystemState`, the reading a System serves, is defined in `judo.core.reading` (the estimators below

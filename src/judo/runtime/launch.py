@@ -28,7 +28,8 @@ import numpy as np
 import tyro
 import tyro.constructors
 
-from judo.cli_shared import SystemOptions, build_system, merge_repeated
+from judo.cli_shared import merge_repeated
+from judo.system_choice import SystemOptions, build_system
 from judo.core.commandline.boundary import MAX_DURATION
 from judo.core.configuration.config import Config, ConfigT, with_updates
 from judo.core.configuration.config_file import LoadedConfig, load_config

@@ -187,7 +187,7 @@ def main(argv: list[str] | None = None) -> int:
 def run(args: ExciteArgs) -> int:
     """Excite the plant and write the log; 130 where a stop request (Ctrl-C, SIGTERM) ended it
     early, else 0."""
-    from judo.cli_shared import SIM, SystemOptions, build_system
+    from judo.system_choice import SIM, SystemOptions, build_system
     from judo.core.configuration.model_overrides import parse_override_entries
     from judo.core.configuration.registry import make_task, set_model_overrides
     from judo.loop.system import MujocoSystem

@@ -168,7 +168,7 @@ class UnitreeSystem(System):
     @classmethod
     def from_options(cls, task: Task, options: Any) -> "UnitreeSystem":
         """The bridge the app's `--system unitree [--unitree.*]` options describe (a
-        `judo.cli_shared.SystemOptions`: its `unitree` and `record`)."""
+        `judo.system_choice.SystemOptions`: its `unitree` and `record`)."""
         if options.record is not None:
             raise ConfigError(
                 f"--record {options.record} logs the ROS 2 bridge's link; --system unitree has none"

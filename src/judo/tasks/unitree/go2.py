@@ -5,7 +5,7 @@ tracks.
 The model (models/unitree_go2/, from MuJoCo Menagerie) keeps to the contract the Unitree bridge
 reads (judo.unitree): actuators in Unitree's motor order, position actuators carrying kp / kd, and
 the measured sensors rt/lowstate carries. The rewards reuse the quadruped task's gait schedule
-(judo.tasks.quadruped).
+(judo.tasks.gait).
 """
 
 from dataclasses import dataclass
@@ -18,7 +18,7 @@ import numpy as np
 from judo.core.configuration.fields import np_1d_field, slider
 from judo.core.rollouts.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
-from judo.tasks.quadruped import GaitName, gait_of, swing_heights
+from judo.tasks.gait import GaitName, gait_of, swing_heights
 from judo.tasks.quadruped_velocity import AVERAGE_WINDOW, trailing_mean
 from judo.tasks.unitree.pushes import RandomPushes
 
@@ -115,7 +115,7 @@ class Go2WalkConfig(Go2BaseConfig):
     heading frame; `--task-config.velocity-command 0.5 0 0` on the command line, `velocity_command =
     [0.5, 0, 0]` in TOML."""
     gait: GaitName = "trot"
-    """The foot schedule (judo.tasks.quadruped.GAITS): "trot", "walk" or "stand" (no foot asked to
+    """The foot schedule (judo.tasks.gait.GAITS): "trot", "walk" or "stand" (no foot asked to
     lift)."""
     step_height: float = 0.06
     """How high (m) a swinging foot is lifted at mid-swing."""
