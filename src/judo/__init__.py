@@ -11,7 +11,8 @@ loop.step()                             # plan when due, serve, step the plant o
 
 from judo.builtin import register_builtins
 from judo.core.configuration.config import Config
-from judo.core.configuration.config_file import ConfigFileError, LoadedConfig, load_config
+from judo.core.configuration.config_file import LoadedConfig, load_config
+from judo.core.configuration.config_file_text import ConfigFileError
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.fields import np_1d_field, slider
 from judo.core.configuration.registry import (

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 
 import judo
-from judo.core.configuration.config_file import ConfigFileError, load_config
+from judo.core.configuration.config_file import load_config
+from judo.core.configuration.config_file_text import ConfigFileError
 from judo.core.configuration.model_override_checks import check_model_overrides
 from judo.core.configuration.model_overrides import overridden, parse_override_entries
 from judo.core.configuration.registry import make_controller, make_task, set_model_overrides

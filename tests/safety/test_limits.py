@@ -4,7 +4,8 @@ choices."""
 import pytest
 
 from judo.core.configuration.config import with_updates
-from judo.core.configuration.config_file import ConfigFileError, load_config
+from judo.core.configuration.config_file import load_config
+from judo.core.configuration.config_file_text import ConfigFileError
 from judo.core.configuration.registry import make_config, make_task
 from judo.core.errors import ConfigError
 from judo.safety.config import SafetyConfig

@@ -38,11 +38,7 @@ fitted = ["body_mass.pole"]
 position = ["slider=-1:1"]
 """  # noqa: E501
 
-import importlib
-import os
-import stat
 import sys
-import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -54,7 +50,9 @@ else:  # pragma: no cover
     import tomli as tomllib
 
 from judo.core.configuration.config import Config, with_updates
+from judo.core.configuration.config_file_text import ConfigFileError, read_config_text
 from judo.core.configuration.controller_config import ControllerConfig
+from judo.core.configuration.dotted_import import import_dotted
 from judo.core.configuration.registry import (
     get_registered_optimizers,
     lookup_estimator,
@@ -104,15 +102,6 @@ def register_task_section(
 ALL_OPTIMIZERS = "all"
 """The optimizer name in [optimizer_config_overrides.<task>.all]: OptimizerConfig, so every
 optimizer."""
-
-
-MAX_CONFIG_BYTES = 1_000_000
-"""Largest config file read: a config is a few hundred lines; anything bigger is not one."""
-
-
-class ConfigFileError(JudoError):
-    """A config file that cannot be read or applied; the message names the file and the offending
-    key."""
 
 
 @dataclass
@@ -173,7 +162,7 @@ def load_config(path: str | Path) -> LoadedConfig:
             where = f"{section}.{name}"
             try:
                 classes = [
-                    _import(_entry(entry, key, where, path), key, folder)
+                    import_dotted(_entry(entry, key, where, path), key, folder)
                     for key in (class_key, "config")
                 ]
                 register(name, *classes)
@@ -286,57 +275,6 @@ def load_config(path: str | Path) -> LoadedConfig:
     return LoadedConfig(table.get("task"), table.get("optimizer"), path, system, ros2, unitree)
 
 
-def read_config_text(path: str | Path) -> str:
-    """The text of the config file at `path`, checked before it is opened and as it is read.
-
-    Raises ConfigFileError, in one line, for an empty path, a missing or unreadable file, a
-    directory, a FIFO, device or socket (checked with stat first, so reading never blocks or runs
-    out of memory), a file over MAX_CONFIG_BYTES, a binary file (a NUL byte) and text that is not
-    UTF-8.
-    """
-    if str(path).strip() in ("", "."):
-        raise ConfigFileError("--config needs the path of a TOML file, got an empty path (or '.')")
-    path = Path(path)
-    try:
-        info = os.stat(path)
-    except FileNotFoundError:
-        raise ConfigFileError(f"config file not found: {path}") from None
-    except OSError as err:
-        raise ConfigFileError(f"cannot read config file {path}: {err.strerror or err}") from None
-    if stat.S_ISDIR(info.st_mode):
-        raise ConfigFileError(f"config file {path} is a directory; give the path of a TOML file")
-    if not stat.S_ISREG(info.st_mode):
-        raise ConfigFileError(
-            f"config file {path} is not a regular file (a FIFO, device or socket); give a TOML file"
-        )
-    if info.st_size > MAX_CONFIG_BYTES:
-        raise ConfigFileError(
-            f"config file {path} is {info.st_size} bytes; a config file is at most "
-            f"{MAX_CONFIG_BYTES} bytes"
-        )
-    try:
-        with open(path, "rb") as file:
-            data = file.read(MAX_CONFIG_BYTES + 1)  # the file may have grown since stat
-    except OSError as err:
-        raise ConfigFileError(f"cannot read config file {path}: {err.strerror or err}") from None
-    if len(data) > MAX_CONFIG_BYTES:
-        raise ConfigFileError(
-            f"config file {path} is over {MAX_CONFIG_BYTES} bytes; a config file is at most that"
-        )
-    if b"\0" in data:
-        raise ConfigFileError(
-            f"config file {path} is binary (it holds NUL bytes); give a TOML text file"
-        )
-    try:
-        return data.decode("utf-8")
-    except UnicodeDecodeError as err:
-        line = data[: err.start].count(b"\n") + 1
-        raise ConfigFileError(
-            f"config file {path} is not UTF-8 text (byte {err.start}, line {line}); save it "
-            "as UTF-8"
-        ) from None
-
-
 def optimizer_config_class(name: str) -> type[OptimizerConfig]:
     """The config class that [optimizer_config_overrides.<task>.<name>] sets: OptimizerConfig for
     "all"."""
@@ -394,66 +332,6 @@ def _entry(entry: Any, key: str, where: str, path: Path) -> str:
     if not isinstance(entry, dict) or not isinstance(entry.get(key), str):
         raise ConfigFileError(f'{path}: [{where}] needs {key} = "module.ClassName"')
     return entry[key]
-
-
-def _import(dotted: str, key: str, folder: Path) -> Any:
-    """The object at the dotted import path `dotted` (named by `key` = "..."), or a JudoError naming
-    the part that failed. An error raised while importing the user's module keeps the user's own
-    frames (file, line, source) and the error, and drops judo's and importlib's."""
-    module_name, _, attribute = dotted.rpartition(".")
-    named = f'{key} = "{dotted}"'
-    if not module_name:
-        raise JudoError(f"{named} is not a dotted import path like 'my_module.MyClass'")
-    try:
-        module = importlib.import_module(module_name)
-    except ImportError as err:
-        # the named module itself is missing
-        if err.name is not None and module_name.startswith(err.name):
-            raise JudoError(
-                f"cannot import module {module_name!r} (named by {named}): {err}"
-            ) from None
-        raise JudoError(
-            f"importing module {module_name!r} (named by {named}) failed:\n{_user_error(err)}"
-        ) from None
-    except Exception as err:  # a SyntaxError or any error raised by the module's own code
-        raise JudoError(
-            f"importing module {module_name!r} (named by {named}) failed:\n{_user_error(err)}"
-        ) from None
-    _check_not_shadowed(module_name, folder, named)
-    if not hasattr(module, attribute):
-        raise JudoError(f"module {module_name!r} has no attribute {attribute!r} (named by {named})")
-    return getattr(module, attribute)
-
-
-def _user_error(err: BaseException) -> str:
-    """`err` formatted like a traceback, but with only the frames of the user's files."""
-    judo_dir = str(Path(__file__).resolve().parents[1])
-    frames = [
-        frame
-        for frame in traceback.extract_tb(err.__traceback__)
-        if not frame.filename.startswith((judo_dir, "<frozen "))
-        and "importlib" not in frame.filename
-    ]
-    lines = traceback.format_list(frames) + traceback.format_exception_only(type(err), err)
-    return "".join(lines).rstrip("\n")
-
-
-def _check_not_shadowed(module_name: str, folder: Path, named: str) -> None:
-    """Raise JudoError if a module of this name lies beside the config file but an installed one was
-    imported."""
-    top = module_name.partition(".")[0]
-    beside = [
-        candidate
-        for candidate in (folder / f"{top}.py", folder / top / "__init__.py")
-        if candidate.exists()
-    ]
-    loaded = getattr(sys.modules.get(top), "__file__", None)
-    if beside and loaded is not None and Path(loaded).resolve() != beside[0].resolve():
-        raise JudoError(
-            f"{named} names {beside[0]}, but {top!r} is also an installed module ({loaded}), "
-            "which comes first; "
-            "rename your module"
-        )
 
 
 def _apply(
