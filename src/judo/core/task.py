@@ -65,11 +65,9 @@ class Task(ABC, Generic[ConfigT]):
         sim_model: the MjModel of the plant (the same object unless `sim_model_path` differs); it
             must have the same nq, nv, nu and mocap bodies as `model`.
         data: the plant's MjData (on `sim_model`), used only when this instance is the simulated
-            plant
-            (`MujocoSystem`): the simulator steps it; `reset`, `pre_sim_step` and `post_sim_step`
-            may write
-            to it. The controller never reads it: planning hooks get the state they need as
-                arguments.
+            plant (`MujocoSystem`): the simulator steps it; `reset`, `pre_sim_step` and
+            `post_sim_step` may write to it. The controller never reads it: planning hooks get the
+            state they need as arguments.
         config: this task's config, an instance of the class named in `Task[...]`.
         rng: the np.random.Generator for resets and goal sampling; replace it to seed an episode.
         measured / sim_measured: where `measured_sensors` lie in the planning / plant model's
