@@ -61,10 +61,10 @@ def start_plant(domain: int, *flags: str, task: str = "cartpole") -> subprocess.
 def record_multisine(path, domain: int, steps: int) -> np.ndarray:
     """Drive the cart-pole robot on `domain` through the bridge, recording to `path`, by `steps`
     commands of a multisine at the bridge's 100 Hz; returns them (C, 1)."""
-    from judo.system_choice import SystemOptions
     from judo.ros2.bridge import Ros2System
     from judo.ros2.options import Ros2Options
     from judo.sysid.excite import multisine
+    from judo.system_choice import SystemOptions
     from judo.tasks.cartpole import Cartpole
 
     task = Cartpole()

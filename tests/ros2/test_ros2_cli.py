@@ -12,10 +12,10 @@ pytest.importorskip("cyclonedds")
 
 from ros2_links import ROOT, env, free_domain, stop_process
 
-from judo.system_choice import SystemOptions, build_system, system_class
 from judo.loop.system import System
 from judo.ros2 import plant
 from judo.runtime import launch
+from judo.system_choice import SystemOptions, build_system, system_class
 
 
 def one_line_error(capsys, argv: list[str], main=launch.main) -> str:

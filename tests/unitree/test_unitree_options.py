@@ -11,11 +11,11 @@ import leg_task
 import mujoco
 from unitree_links import free_domain, leg_state
 
-from judo.system_choice import system_class
 from judo.core.configuration.config_file import load_config
 from judo.core.errors import ConfigError
 from judo.ros2.options import UnitreeOptions, unitree_options
 from judo.runtime import launch
+from judo.system_choice import system_class
 from judo.unitree import messages as msg
 from judo.unitree import motors as mt
 from judo.unitree.bridge import UnitreeSystem, reading_of

@@ -29,7 +29,6 @@ import tyro
 import tyro.constructors
 
 from judo.cli_shared import merge_repeated
-from judo.system_choice import SystemOptions, build_system
 from judo.core.commandline.boundary import MAX_DURATION
 from judo.core.configuration.config import Config, ConfigT, with_updates
 from judo.core.configuration.config_file import LoadedConfig, load_config
@@ -55,6 +54,7 @@ from judo.ros2.options import Ros2Options, UnitreeOptions, ros2_options, unitree
 from judo.runtime.app import App
 from judo.safety.config import SafetyConfig
 from judo.safety.limits import set_task_limits
+from judo.system_choice import SystemOptions, build_system
 
 PROG = "python -m judo"
 

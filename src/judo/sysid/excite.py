@@ -187,11 +187,11 @@ def main(argv: list[str] | None = None) -> int:
 def run(args: ExciteArgs) -> int:
     """Excite the plant and write the log; 130 where a stop request (Ctrl-C, SIGTERM) ended it
     early, else 0."""
-    from judo.system_choice import SIM, SystemOptions, build_system
     from judo.core.configuration.model_overrides import parse_override_entries
     from judo.core.configuration.registry import make_task, set_model_overrides
     from judo.loop.system import MujocoSystem
     from judo.recording.dataset import DatasetFile
+    from judo.system_choice import SIM, SystemOptions, build_system
 
     own = args.system is not None and args.system != SIM
     if own and args.plant_overrides:
