@@ -26,9 +26,7 @@ MAX_LINES = 400
 """Most lines in any file in src/judo, but those below."""
 
 LONGER_FILES = {
-    "core/controller.py": 537,
     "core/task.py": 464,
-    "loop/closed_loop.py": 485,
     "runtime/app.py": 471,
     "runtime/commands.py": 465,
 }

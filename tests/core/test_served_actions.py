@@ -53,7 +53,7 @@ def test_a_cubic_plan_never_serves_or_rolls_out_a_torque_beyond_the_range(swing_
         for step in range(1000):
             if step % steps_per_plan == 0:
                 controller.update_action(np.r_[data.qpos, data.qvel], data.time)
-                rolled_out.append(np.abs(controller._controls).max())
+                rolled_out.append(np.abs(controller._layout.controls).max())
                 cycles += 1
             for query in (data.time, data.time + 0.003, data.time + 0.007):  # between knots, too
                 served.append(controller.action(query))
@@ -83,8 +83,8 @@ def test_the_plan_serves_what_its_rollouts_applied(swing_up):
         optimizer.sample_control_knots = lambda nominal: np.repeat(knots[None], 8, axis=0)  # type: ignore[method-assign]
         controller.update_action(state, 0.0)
         times = np.arange(controller.num_steps) * swing_up.dt
-        np.testing.assert_array_equal(plan(times), controller._controls[0])
-        assert np.abs(controller._controls).max() <= 3.0
+        np.testing.assert_array_equal(plan(times), controller._layout.controls[0])
+        assert np.abs(controller._layout.controls).max() <= 3.0
     finally:
         controller.close()
 

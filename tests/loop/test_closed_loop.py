@@ -302,4 +302,4 @@ def test_an_estimator_plans_from_late_noisy_encoders_and_the_records_hold_truth_
     # as of the plant's now, not the late reading's
     assert loop.reading.time == pytest.approx(plant.task.data.time)
     # fed every served action
-    assert loop.controls.at(loop.reading.time) == pytest.approx(step.action)
+    assert loop.estimation.controls.at(loop.reading.time) == pytest.approx(step.action)

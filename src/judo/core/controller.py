@@ -3,46 +3,41 @@ update, publish. Its settings (`ControllerConfig`, `check_configs`) live in
 `judo.core.configuration.controller_config`."""
 
 import dataclasses
-import math
 from time import perf_counter
-from typing import Any, Protocol
+from typing import Any
 
 import mujoco
 import numpy as np
 
 from judo.core.configuration.config import snapshot
 from judo.core.configuration.controller_config import ControllerConfig, check_configs, rollout_steps
-from judo.core.errors import ConfigError, JudoError, NonFiniteKnotsError, NonFiniteRewardError
+from judo.core.errors import NonFiniteRewardError
 from judo.core.feedback import FeedbackGains
 from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_columns
-from judo.core.optimizer import Optimizer, PlanningStart
-from judo.core.planner import CancelFlag, checked_reading, task_warm_start
+from judo.core.optimizer import (
+    Optimizer,
+    PlanningStart,
+    ranked_rewards,
+    sampled_knots,
+    updated_knots,
+)
+from judo.core.planner import CancelFlag, PlanServer, checked_reading, task_warm_start
 from judo.core.planner_view import CycleSize, PlannerKind
 from judo.core.policies.proposals import Proposer, check_proposal_policy, insert_proposals
 from judo.core.policy import Policy
-from judo.core.rollouts.backend import PlanningCancelled, RolloutBackend
+from judo.core.rollouts.backend import PlanningCancelled, RolloutBackend, RolloutLimits
 from judo.core.rollouts.dynamics import task_rollout_backend
 from judo.core.rollouts.low_level_rollout import check_low_level_backend, with_low_level
 from judo.core.rollouts.parallel_reward import ParallelReward
 from judo.core.rollouts.randomize import randomized_models
 from judo.core.rollouts.risk import reduce_rewards
-from judo.core.spline import Spline, SplineBasis, clip_ufunc
+from judo.core.spline import CycleLayout, Spline, clip_ufunc
 from judo.core.task import Task, warm_start_takes_state
 
 __all__ = ["Controller"]
 
 
-class RolloutLimits(Protocol):
-    """Hard limits (`judo.safety.feasibility.RolloutScreen`): (R * N,) rewards, each rollout that
-    crosses a limit scored below every feasible one, from (R * N, T, ...) states, sensors, controls
-    and the (nu,) control served now."""
-
-    def screen(
-        self, rewards: Any, states: Any, sensors: Any, controls: Any, served: Any, num_models: int
-    ) -> Any: ...
-
-
-class Controller:
+class Controller(PlanServer):
     """Plans with `optimizer` on `task` and serves the resulting control spline.
 
     Attributes:
@@ -54,8 +49,7 @@ class Controller:
             `LowLevelRollout` whose plan is its commands (`command_size`).
         backend_name: that name (read-only).
         nominal_knots: (num_nodes, nu) knots of the current plan, or None before the first update
-            (here and
-            below, nu is `task.command_size`: the actuators, or a low-level policy's commands).
+            (nu is `task.command_size` throughout: the actuators, or a low-level policy's commands).
         rewards: (num_rollouts,) rewards of the last iteration's rollouts (NaN mapped to -inf); with
             num_randomizations R > 1, each sequence's R rewards reduced by the config's risk
             measure.
@@ -83,9 +77,7 @@ class Controller:
         self.proposal_policy = proposal_policy
         # checks them
         self._proposer = Proposer(task, proposal_policy, controller_config.policy_samples)
-        self.config = controller_config
-        self.task = task
-        self.optimizer = optimizer
+        self.config, self.task, self.optimizer = controller_config, task, optimizer
         if isinstance(backend, str):
             check_low_level_backend(backend, task.low_level())
             # own dynamics or MuJoCo
@@ -112,8 +104,7 @@ class Controller:
         self._warm_start_takes_state = warm_start_takes_state(task)
         self._gains = FeedbackGains(task, self.backend.num_workers if backend == "cpu" else None)
         self.limits: RolloutLimits | None = None
-        # the last cycle_size, by the values it was made from
-        self._sized: tuple[tuple, CycleSize] | None = None
+        self._sized: tuple[tuple, CycleSize] | None = None  # the last cycle_size, by its key
 
     kind = PlannerKind.MPC
     config_kinds = ("controller", "optimizer", "task")
@@ -123,11 +114,9 @@ class Controller:
         """Every ControllerConfig field, but policy_samples without a proposal policy (only 0 would
         be accepted)."""
         names = tuple(f.name for f in dataclasses.fields(self.config))
-        return (
-            names
-            if self.proposal_policy is not None
-            else tuple(n for n in names if n != "policy_samples")
-        )
+        if self.proposal_policy is not None:
+            return names
+        return tuple(n for n in names if n != "policy_samples")
 
     def configs(self) -> dict[str, Any]:
         """{"controller": ..., "optimizer": ..., "task": ...}: the configs it plans with now."""
@@ -146,15 +135,9 @@ class Controller:
     def cycle_size(self, configs: dict[Any, Any]) -> CycleSize:
         """num_rollouts x num_randomizations x iterations (`iterations_per_cycle`) x T under
         `configs`, kept by key."""
-        cfg, opt, dt = configs["controller"], configs["optimizer"], self.task.dt
-        key = (
-            cfg.horizon,
-            cfg.max_opt_iters,
-            cfg.iterations_per_second,
-            cfg.control_freq,
-            cfg.num_randomizations,
-        )
-        key, sized = (*key, opt.num_rollouts, dt), self._sized
+        cfg, opt, dt, sized = configs["controller"], configs["optimizer"], self.task.dt, self._sized
+        key = (cfg.horizon, cfg.max_opt_iters, cfg.iterations_per_second, cfg.control_freq)
+        key = (*key, cfg.num_randomizations, opt.num_rollouts, dt)
         if sized is None or sized[0] != key:
             steps, iterations = rollout_steps(cfg.horizon, dt), cfg.iterations_per_cycle
             sized = self._sized = (
@@ -171,9 +154,8 @@ class Controller:
     def reset(self) -> None:
         """Forget the plan and restart the optimizer's search; the next update starts again from the
         task's warm start."""
-        self._plan = None
+        self._plan, self.nominal_knots = None, None
         self.optimizer.restart()
-        self.nominal_knots = None
 
     def _apply_config_changes(self) -> None:
         """Rebuild the spline weights when horizon, order or sizes changed since the last cycle.
@@ -182,60 +164,27 @@ class Controller:
         change leaves the previous layout (and its key) in force, and reverting the edit works.
         """
         opt, cfg = self.optimizer, self.config
-        key = (
-            cfg.horizon,
-            cfg.spline_order,
-            opt.config.num_rollouts,
-            opt.config.num_nodes,
-            self.task.dt,
-        )
+        key = (cfg.horizon, cfg.spline_order, opt.config.num_rollouts, opt.config.num_nodes)
         # policy_samples: checked against num_rollouts
-        key = (*key, cfg.num_randomizations, cfg.policy_samples)
+        key = (*key, self.task.dt, cfg.num_randomizations, cfg.policy_samples)
         if key == self._layout_key:
             return
         check_configs(self.task, cfg, opt.config)
         num_rollouts, num_nodes = opt.config.num_rollouts, opt.config.num_nodes
         num_steps = rollout_steps(cfg.horizon, self.task.dt)
         num_models = cfg.num_randomizations
-        try:
-            knot_offsets = np.linspace(0.0, cfg.horizon, num_nodes)
-            basis = SplineBasis(knot_offsets, cfg.spline_order)
-            rollout_weights = basis.weights(np.arange(num_steps) * self.task.dt)
-            controls = np.zeros((num_rollouts, num_steps, self.task.command_size))
-            # (R * num_rollouts, T, nu): block r is every sequence again, rolled out on model r.
-            # R = 1: the same array.
-            batch_controls = (
-                controls
-                if num_models == 1
-                else np.zeros((num_models * num_rollouts, *controls.shape[1:]))
-            )
-        except MemoryError:
-            raise ConfigError(
-                f"not enough memory for {num_models} x {num_rollouts} rollouts of "
-                f"{num_steps} steps with "
-                f"{num_nodes} knots; lower num_randomizations, num_rollouts, num_nodes or "
-                "the horizon"
-            ) from None
+        sizes = (num_models, num_rollouts, num_nodes, self.task.command_size)
+        layout = CycleLayout.build(cfg.horizon, cfg.spline_order, self.task.dt, num_steps, sizes)
         if num_models != len(self.models):
             self._set_models(num_models)  # a hook that fails raises here, before the layout changes
         opt.num_rollouts, opt.num_nodes = num_rollouts, num_nodes
-        self._knot_offsets, self._basis = knot_offsets, basis
-        self._rollout_weights, self._controls = rollout_weights, controls
-        self._batch_controls = batch_controls
-        self._control_blocks = batch_controls.reshape(num_models, *controls.shape)
-        self._num_steps = num_steps
-        # [0, the best rollouts...], see `update_action`
-        self._trace_rows = np.zeros(num_rollouts + 1, dtype=int)
-        self._layout_key = key
+        self._layout, self._num_steps, self._layout_key = layout, num_steps, key
 
     def _set_models(self, num_models: int) -> None:
         """Draw `num_models` models (the planning model and perturbed copies) and give them to the
         backend."""
-        models = (
-            randomized_models(self.task, num_models, self.task.rng)
-            if num_models > 1
-            else [self.task.model]
-        )
+        task = self.task
+        models = randomized_models(task, num_models, task.rng) if num_models > 1 else [task.model]
         self.backend.set_models(None if num_models == 1 else models)
         self.models = models
         self._cycles_since_draw = 0
@@ -260,8 +209,7 @@ class Controller:
         A set `cancel` (a threading.Event, the app's stop or planning cycle) ends the cycle with
         PlanningCancelled, keeping the previous plan: before its next optimizer iteration, or
         between pieces of a batch of rollouts (the CPU pool). `action(t)` serves the returned plan
-        from now on; a caller that models latency (the new plan taking effect only later) keeps the
-        previous returned plan and evaluates it itself.
+        from now on (a caller that models latency serves the previous one itself until it is due).
 
         Raises JudoError for a non-finite state or time, ConfigError if the configs were edited into
         an invalid combination, NonFiniteRewardError if every rollout scored NaN or -inf, and
@@ -311,15 +259,12 @@ class Controller:
         self._apply_config_changes()
         # the randomized models are redrawn every `redraw_every` cycles (never when it is 0)
         cfg = self.config
-        if (
-            cfg.num_randomizations > 1
-            and cfg.redraw_every
-            and self._cycles_since_draw >= cfg.redraw_every
-        ):
+        redraw = cfg.redraw_every and self._cycles_since_draw >= cfg.redraw_every
+        if cfg.num_randomizations > 1 and redraw:
             self._set_models(cfg.num_randomizations)
         self._cycles_since_draw += 1
         opt, task = self.optimizer, self.task
-        knot_times = time + self._knot_offsets
+        knot_times = time + self._layout.knot_offsets
         if self._plan is None:
             warm = task_warm_start(task, state, self._warm_start_takes_state)
             nominal = np.tile(warm, (opt.num_nodes, 1)).astype(float)
@@ -333,43 +278,19 @@ class Controller:
         if len(self._initial_mocap):  # a model without mocap bodies has none to copy
             self._initial_mocap[:] = mocap_vector(data)
         task.pre_rollout(state)
-        task_config = snapshot(task.config)
-        start = (
-            self._initial_state,
-            self._initial_mocap,
-            self._rollout_weights,
-            task_config,
-            system_metadata,
-        )
-        opt.set_start(PlanningStart(task, *start))
+        task_config, initial = snapshot(task.config), (self._initial_state, self._initial_mocap)
+        weights = self._layout.rollout_weights
+        opt.set_start(PlanningStart(task, *initial, weights, task_config, system_metadata))
         policy, count = self.proposal_policy, self.config.policy_samples
         # none to check or make
         if policy is None and not count and self._proposer.last_error is None:
             return nominal, task_config, None
-        start = (
-            self._initial_state,
-            self._initial_mocap,
-            self._basis,
-            self._num_steps,
-            system_metadata,
-        )
+        start = (*initial, self._layout.basis, self._num_steps, system_metadata)
         return nominal, task_config, self._proposer.candidates(policy, count, *start, nominal[0])
 
     def _sample(self, nominal: np.ndarray) -> np.ndarray:
         """The optimizer's (num_rollouts, num_nodes, nu) knots around `nominal`, checked."""
-        opt = self.optimizer
-        knots = opt.sample_control_knots(nominal)
-        expected = (opt.num_rollouts, opt.num_nodes, self.task.command_size)
-        if knots.shape != expected:
-            raise JudoError(
-                f"{type(opt).__name__}.sample_control_knots returned shape {knots.shape}, "
-                f"expected {expected}"
-            )
-        if not np.isfinite(knots).all():
-            self._restart_search(
-                f"{type(opt).__name__}.sample_control_knots returned non-finite knots"
-            )
-        return knots
+        return sampled_knots(self.optimizer, nominal, self.task.command_size)
 
     def _clamp(self, knots: np.ndarray, candidates: Any) -> None:
         """Put the proposals into `knots`, clamp them (in place) and interpolate them into the
@@ -378,19 +299,20 @@ class Controller:
         clip_ufunc(knots, self._ctrl_low, self._ctrl_high, out=knots)
         if rows is not None:
             self.optimizer.samples_replaced(rows, knots[rows])
-        np.matmul(self._rollout_weights, knots, out=self._controls)
+        layout = self._layout
+        np.matmul(layout.rollout_weights, knots, out=layout.controls)
         # Clamp what the rollouts apply exactly as `action(t)` clamps what the plant gets, so
         # the plan that is scored is the plan that is served (a cubic overshoots its knots).
-        np.minimum(self._controls, self._ctrl_high, out=self._controls)
-        np.maximum(self._controls, self._ctrl_low, out=self._controls)
+        np.minimum(layout.controls, self._ctrl_high, out=layout.controls)
+        np.maximum(layout.controls, self._ctrl_low, out=layout.controls)
         if len(self.models) > 1:
-            self._control_blocks[:] = self._controls  # every sequence once per model
+            layout.control_blocks[:] = layout.controls  # every sequence once per model
 
     def _roll_out(self) -> tuple[np.ndarray, np.ndarray]:
         """(R * N, T, nq + nv) states (time dropped) and (R * N, T, nsensordata) sensors of the
         batch's rollouts."""
         full_states, sensors = self.backend.rollout(
-            self._initial_state, self._batch_controls, self._initial_mocap
+            self._initial_state, self._layout.batch_controls, self._initial_mocap
         )
         return full_states[..., 1 : 1 + self._num_state], sensors  # drop time; keep [qpos, qvel]
 
@@ -407,30 +329,15 @@ class Controller:
         sees them."""
         opt, task, cfg, num_models = self.optimizer, self.task, self.config, len(self.models)
         # one plain call on one thread
-        args = (states, sensors, self._batch_controls, task_config, system_metadata)
+        args = (states, sensors, self._layout.batch_controls, task_config, system_metadata)
         returned = (
             self._score(task.reward, *args) if self._score.num_threads > 1 else task.reward(*args)
         )
-        owner, rows, diverged = (
-            type(task).__name__,
-            num_models * opt.num_rollouts,
-            self.backend.diverged,
-        )
-        try:  # as (R * N,) floats, or a JudoError saying what came back
-            rewards = np.asarray(returned, dtype=float)
-        except (TypeError, ValueError) as err:
-            text = " ".join(str(returned).split())[:200]
-            raise JudoError(
-                f"{owner}.reward must return ({rows},) numbers, got {text} ({err})"
-            ) from None
-        if rewards.shape != (rows,):
-            raise JudoError(f"{owner}.reward returned shape {rewards.shape}, expected ({rows},)")
-        # NaN, +inf, a diverged rollout (a mask): never win
-        if diverged is not False or not np.isfinite(rewards).all():
-            rewards[np.isnan(rewards) | (rewards == np.inf) | diverged] = -np.inf
+        rows = num_models * opt.num_rollouts
+        rewards = ranked_rewards(returned, type(task).__name__, rows, self.backend.diverged)
         if self.limits is not None:  # a rollout that crosses a hard limit never wins either
             rewards = self.limits.screen(
-                rewards, states, sensors, self._batch_controls, served, num_models
+                rewards, states, sensors, self._layout.batch_controls, served, num_models
             )
         # (R * N,) -> (N, R) -> (N,) by the risk measure; keep the planning model's block
         if num_models > 1:
@@ -438,7 +345,7 @@ class Controller:
                 rewards.reshape(num_models, -1).T, cfg.risk, cfg.cvar_alpha, cfg.risk_scale
             )
             states, sensors = states[: opt.num_rollouts], sensors[: opt.num_rollouts]
-        task.post_rollout(states, sensors, self._controls, rewards)
+        task.post_rollout(states, sensors, self._layout.controls, rewards)
         if not np.isfinite(rewards).any():
             raise NonFiniteRewardError(
                 f"all {opt.num_rollouts} rollouts of {type(task).__name__} scored NaN or "
@@ -448,12 +355,7 @@ class Controller:
 
     def _update(self, knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
         """The optimizer's new nominal knots from the scored `knots`, checked."""
-        nominal = self.optimizer.update_nominal_knots(knots, rewards)
-        if not np.isfinite(nominal).all():
-            self._restart_search(
-                f"{type(self.optimizer).__name__}.update_nominal_knots returned non-finite knots"
-            )
-        return nominal
+        return updated_knots(self.optimizer, knots, rewards)
 
     def _publish(
         self, time: float, nominal: np.ndarray, rewards: np.ndarray, sensors: Any
@@ -462,52 +364,20 @@ class Controller:
         rewards, traces."""
         cfg, self.rewards = self.config, rewards
         self.nominal_knots = nominal = clip_ufunc(nominal, self._ctrl_low, self._ctrl_high)
-        self._plan = Spline(time, self._basis, nominal, self._ctrl_low, self._ctrl_high)
+        self._plan = Spline(time, self._layout.basis, nominal, self._ctrl_low, self._ctrl_high)
         if cfg.feedback:  # with the gains around its nominal rollout (judo.core.feedback)
-            start = (
-                self._initial_state,
-                self._initial_mocap,
-                self.optimizer.num_rollouts * len(self.models),
-            )
-            self._plan = self._gains.add_to(
-                self._plan, self._rollout_weights, *start, 1.0 / cfg.control_freq
-            )
+            start = (self._initial_state, self._initial_mocap)
+            batch, period = self.optimizer.num_rollouts * len(self.models), 1.0 / cfg.control_freq
+            weights = self._layout.rollout_weights
+            self._plan = self._gains.add_to(self._plan, weights, *start, batch, period)
         shown = np.argsort(-rewards, kind="stable")[: cfg.max_num_traces]
-        rows = self._trace_rows[: len(shown) + 1]  # row 0 stays 0: the nominal
+        rows = self._layout.trace_rows[: len(shown) + 1]  # row 0 stays 0: the nominal
         rows[1:] = shown
-        self.traces = sensors[rows][..., self._trace_columns].reshape(
-            len(rows), self._num_steps, -1, 3
-        )
+        traces = sensors[rows][..., self._trace_columns]
+        self.traces = traces.reshape(len(rows), self._num_steps, -1, 3)
         # what the loop records of the update
         self._plan.rewards, self._plan.traces = rewards, self.traces
         return self._plan
-
-    def _restart_search(self, what: str) -> None:
-        """Restart the optimizer's search (its carried state may be NaN too) and refuse the
-        cycle."""
-        self.optimizer.restart()
-        raise NonFiniteKnotsError(f"{what}; restarted its search and kept the previous plan")
-
-    def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) control of the current plan at sim `time` (held past its ends), within the
-        ctrlrange: what its rollouts applied then, plus the gains' correction from the (nq + nv,)
-        `state` with `config.feedback`. Before the first plan: the task's warm start from the (nq +
-        nv,) `state` (see `warm_start_action`)."""
-        if not math.isfinite(time):
-            raise JudoError(f"action time must be a finite number of seconds, got {time}")
-        if self._plan is None:
-            return self.warm_start_action(state)
-        return self._plan(time, state)
-
-    def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped to the ctrlrange:
-        what a plant gets before the first plan. Without a state, the planning model's start state
-        (keyframe 0 or qpos0) stands in."""
-        return np.clip(
-            task_warm_start(self.task, state, self._warm_start_takes_state),
-            self._ctrl_low,
-            self._ctrl_high,
-        )
 
     @property
     def batch_controls(self) -> np.ndarray:
@@ -515,7 +385,7 @@ class Controller:
         under model r), clamped as served; zeros before the first update. A view: copy it to keep
         it."""
         self._apply_config_changes()
-        return self._batch_controls
+        return self._layout.batch_controls
 
     @property
     def backend_name(self) -> str:
@@ -528,10 +398,3 @@ class Controller:
         self.backend.close()
         self._score.close()
         self._gains.close()
-
-    def __enter__(self) -> "Controller":
-        """`with judo.make_controller(...) as controller:` closes the controller on the way out."""
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()

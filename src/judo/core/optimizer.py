@@ -4,12 +4,13 @@ rewards."""
 import typing
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Any, Generic, TypeVar
+from typing import Any, Generic, NoReturn, TypeVar
 
 import numpy as np
 
 from judo.core.configuration.config import Config, require_between
 from judo.core.configuration.fields import slider
+from judo.core.errors import JudoError, NonFiniteKnotsError
 
 if typing.TYPE_CHECKING:
     from judo.core.task import Task
@@ -160,3 +161,57 @@ def weighted_knots(weights: np.ndarray, knots: np.ndarray) -> np.ndarray:
     (num_rollouts, num_nodes, nu) `knots`: the one matrix product `np.tensordot(weights, knots,
     axes=1)` makes, bit for bit, without its axis bookkeeping."""
     return np.dot(weights.reshape(1, -1), knots.reshape(len(weights), -1)).reshape(knots.shape[1:])
+
+
+def sampled_knots(optimizer: Optimizer, nominal: np.ndarray, nu: int) -> np.ndarray:
+    """`optimizer.sample_control_knots(nominal)`, checked: (num_rollouts, num_nodes, nu) knots.
+
+    Raises JudoError for another shape, and NonFiniteKnotsError, after restarting the optimizer's
+    search, for non-finite knots."""
+    knots = optimizer.sample_control_knots(nominal)
+    expected = (optimizer.num_rollouts, optimizer.num_nodes, nu)
+    if knots.shape != expected:
+        raise JudoError(
+            f"{type(optimizer).__name__}.sample_control_knots returned shape {knots.shape}, "
+            f"expected {expected}"
+        )
+    if not np.isfinite(knots).all():
+        _restart_search(optimizer, "sample_control_knots")
+    return knots
+
+
+def updated_knots(optimizer: Optimizer, knots: np.ndarray, rewards: np.ndarray) -> np.ndarray:
+    """`optimizer.update_nominal_knots(knots, rewards)`: the new (num_nodes, nu) nominal, checked
+    (NonFiniteKnotsError, after restarting the search, for non-finite knots)."""
+    nominal = optimizer.update_nominal_knots(knots, rewards)
+    if not np.isfinite(nominal).all():
+        _restart_search(optimizer, "update_nominal_knots")
+    return nominal
+
+
+def ranked_rewards(returned: Any, owner: str, rows: int, diverged: Any) -> np.ndarray:
+    """(rows,) floats of what `owner`.reward `returned`, as an optimizer ranks them: NaN, +inf and
+    each rollout the (rows,) `diverged` mask (or False) marks are -inf, so they never win.
+
+    Raises JudoError, saying what came back, for what is not (rows,) numbers."""
+    try:
+        rewards = np.asarray(returned, dtype=float)
+    except (TypeError, ValueError) as err:
+        text = " ".join(str(returned).split())[:200]
+        raise JudoError(
+            f"{owner}.reward must return ({rows},) numbers, got {text} ({err})"
+        ) from None
+    if rewards.shape != (rows,):
+        raise JudoError(f"{owner}.reward returned shape {rewards.shape}, expected ({rows},)")
+    if diverged is not False or not np.isfinite(rewards).all():
+        rewards[np.isnan(rewards) | (rewards == np.inf) | diverged] = -np.inf
+    return rewards
+
+
+def _restart_search(optimizer: Optimizer, method: str) -> NoReturn:
+    """Restart the optimizer's search (its carried state may be NaN too) and refuse the cycle."""
+    optimizer.restart()
+    raise NonFiniteKnotsError(
+        f"{type(optimizer).__name__}.{method} returned non-finite knots; restarted its search and "
+        "kept the previous plan"
+    )

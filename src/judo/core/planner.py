@@ -4,12 +4,13 @@
 Two classes satisfy it: `judo.core.controller.Controller` (an optimizer plans on rollouts) and
 `judo.core.policies.policy_controller.PolicyController` (a policy's action or chunk is the plan).
 Code that drives a plant types against `Planner` only, so either serves through the same loop with
-no probing of which one it holds. `checked_reading` is the state and time check both run at the top
-of every update, and `task_warm_start` the warm start both serve before their first plan.
+no probing of which one it holds. `PlanServer` is what both serve alike (the plan at a time, the
+warm start before the first), and `checked_reading` the state and time check both run at the top of
+every update.
 """
 
 import math
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, TypeVar, runtime_checkable
 
 import numpy as np
 
@@ -117,3 +118,49 @@ def task_warm_start(task: Task, state: np.ndarray | None, takes_state: bool) -> 
         qpos = model.key_qpos[0] if model.nkey else model.qpos0
         state = np.concatenate([qpos, np.zeros(model.nv)])
     return np.asarray(task.optimizer_warm_start(state), dtype=float)
+
+
+ServerT = TypeVar("ServerT", bound="PlanServer")
+
+
+class PlanServer:
+    """What `Controller` and `PolicyController` serve alike: the current plan at a time, the task's
+    warm start before the first plan, and closing on the way out of a `with` block.
+
+    A subclass sets `task`, `_plan` (the Spline in force, or None), `_ctrl_low` and `_ctrl_high`
+    ((nu,) bounds) and `_warm_start_takes_state`, and defines `close`.
+    """
+
+    task: Task
+    _plan: Spline | None
+    _ctrl_low: np.ndarray
+    _ctrl_high: np.ndarray
+    _warm_start_takes_state: bool
+
+    def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
+        """(nu,) control of the current plan at sim `time` (held past its ends), within the
+        ctrlrange, plus the gains' correction from the (nq + nv,) `state` in a plan with feedback.
+        Before the first plan: the task's warm start from `state` (see `warm_start_action`)."""
+        if not math.isfinite(time):
+            raise JudoError(f"action time must be a finite number of seconds, got {time}")
+        if self._plan is None:
+            return self.warm_start_action(state)
+        return self._plan(time, state)
+
+    def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
+        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped to the ctrlrange:
+        what a plant gets before the first plan. Without a state, the planning model's start state
+        (keyframe 0 or qpos0) stands in."""
+        warm = task_warm_start(self.task, state, self._warm_start_takes_state)
+        return np.clip(warm, self._ctrl_low, self._ctrl_high)
+
+    def close(self) -> None:
+        """Release what the planner holds (threads, device memory)."""
+        raise NotImplementedError
+
+    def __enter__(self: ServerT) -> ServerT:
+        """`with judo.make_controller(...) as controller:` closes it on the way out."""
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()

@@ -8,6 +8,7 @@ precomputes the (T, num_nodes) weights once per configuration and reuses them ev
 
 import math
 from bisect import bisect_right
+from dataclasses import dataclass
 from typing import Literal
 
 import numpy as np
@@ -194,6 +195,75 @@ class Spline:
 
     def _knots_inside(self) -> bool:
         return bool(((self.knots >= self.low) & (self.knots <= self.high)).all())
+
+
+@dataclass
+class CycleLayout:
+    """The arrays a planning cycle fills, sized by its horizon, knots and rollouts; the controller
+    builds a new one only when one of those sizes changes.
+
+    Attributes:
+        knot_offsets: (num_nodes,) knot times from the cycle's start, evenly over the horizon.
+        basis: the SplineBasis through those knots.
+        rollout_weights: (T, num_nodes) weights that interpolate knots at the T rollout steps.
+        controls: (N, T, nu) every rollout's controls.
+        batch_controls: (R * N, T, nu) what the backend rolls out: block r is every sequence again,
+            on model r; with R = 1, `controls` itself.
+        control_blocks: (R, N, T, nu) `batch_controls` by model.
+        trace_rows: (N + 1,) rows of the shown traces: 0 (the nominal), then the best rollouts.
+    """
+
+    knot_offsets: np.ndarray
+    basis: SplineBasis
+    rollout_weights: np.ndarray
+    controls: np.ndarray
+    batch_controls: np.ndarray
+    control_blocks: np.ndarray
+    trace_rows: np.ndarray
+
+    @classmethod
+    def build(
+        cls,
+        horizon: float,
+        order: SplineOrder,
+        dt: float,
+        num_steps: int,
+        sizes: tuple[int, int, int, int],
+    ) -> "CycleLayout":
+        """The layout of a cycle of `num_steps` rollout steps of `dt` s, with `order` splines
+        through knots spread over `horizon` s; `sizes` = (R models, N rollouts, num_nodes knots,
+        nu).
+
+        Raises ConfigError (naming what to lower) when the arrays do not fit in memory."""
+        num_models, num_rollouts, num_nodes, nu = sizes
+        try:
+            knot_offsets = np.linspace(0.0, horizon, num_nodes)
+            basis = SplineBasis(knot_offsets, order)
+            rollout_weights = basis.weights(np.arange(num_steps) * dt)
+            controls = np.zeros((num_rollouts, num_steps, nu))
+            batch_controls = (
+                controls
+                if num_models == 1
+                else np.zeros((num_models * num_rollouts, *controls.shape[1:]))
+            )
+        except MemoryError:
+            raise ConfigError(
+                f"not enough memory for {num_models} x {num_rollouts} rollouts of "
+                f"{num_steps} steps with "
+                f"{num_nodes} knots; lower num_randomizations, num_rollouts, num_nodes or "
+                "the horizon"
+            ) from None
+        control_blocks = batch_controls.reshape(num_models, *controls.shape)
+        trace_rows = np.zeros(num_rollouts + 1, dtype=int)
+        return cls(
+            knot_offsets,
+            basis,
+            rollout_weights,
+            controls,
+            batch_controls,
+            control_blocks,
+            trace_rows,
+        )
 
 
 def _bounds(value: np.ndarray | None, default: float, nu: int) -> np.ndarray:

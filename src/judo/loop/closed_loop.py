@@ -2,58 +2,47 @@
 plant.
 
 Everything that drives a plant with a controller calls this module, and nothing else writes the
-loop:
-- the app's two runners: the planner runner (`judo.runtime.running.planner`) calls `plan` on its
-  worker thread when the control clock says, in wall time, and the plant runner
-  (`judo.runtime.running.plant`) calls `advance` on the System's thread at real-time pace;
-- `evaluate`'s episodes (`judo.evaluation.episode.run_episode`), and through them `tune`'s trials,
-  call `step`, which plans when the control clock (`ControlClock`) says, in sim time, then advances;
-- the benchmark's timing (`judo.evaluation.timing`) calls `plan` for each timed update.
+loop: the app's planner runner calls `plan` on its worker thread and its plant runner `advance` at
+real-time pace; `evaluate`'s episodes (and `tune`'s trials) call `step`, which plans when the
+control clock (`ControlClock`) says, in sim time, then advances; the benchmark times `plan`.
 
     reading = system.read_state()  --[estimator]-->  plan(reading)  --latency-->  serve(t)  --[watchdog]-->
     system.apply(action); system.step()  -->  read back  --[recorders: on_plan, on_step]
 
 Where the features plug in, each once, here:
-- the estimator between the reading and the plan (`judo.core.estimator`): `read` fuses the System's
-  raw reading (sensors, the time they were taken) into the state planned from, as of the plant's
-  now;
-- the watchdog on the served action (`judo.loop.watchdog.Watchdog`): `serve` gives the plant the
-  task's `safe_action` instead of a plan older than `ControllerConfig.max_plan_age` beyond one
-  control period (`on_watchdog` is told why);
-- recorders of every step and plan: the `recorders` given to the loop
-  (`judo.loop.records.Recorder`).
-- the guard on every served action (`judo.loop.guard.Guard`; the owner's limits:
-  `judo.safety_guard`), and the latched stop (`judo.loop.guard.Stop`, e.g.
-  `judo.safety.stop.StopLatch`): while engaged, `serve` gives the safe action and `advance` holds
-  the plant by the System's halt where it offers one, until the stop is cleared.
-
-The latency model (`judo.loop.latency`): a plan computed from the reading at time t is served from
-plant time t + delay (seconds of sim time, or "measured": the update's wall time); until then the
-plant keeps the plan in force before it (or the task's warm start). The app uses delay 0: in real
-time a plan's latency is its own. The control clock (`judo.loop.plant_clock.ControlClock`) says when
-`step` plans. The app's own simulator has no clock (plans age in plant time), and it waits for a
-slow planner (`PlantRunner`).
+- the estimator (`judo.loop.estimation`): `read` fuses the System's raw reading into the state
+  planned from, as of the plant's now;
+- the latency model (`judo.loop.latency`): a plan from the reading at time t is served from plant
+  time t + delay (sim seconds, or "measured": the update's wall time; the app uses 0);
+- the watchdog (`judo.loop.watchdog`): `serve` gives the task's `safe_action` instead of a plan
+  older than `ControllerConfig.max_plan_age` beyond one control period (`on_watchdog` is told why);
+- recorders of every step and plan (`judo.loop.records.Recorder`);
+- the guard on every served action (`judo.loop.guard.Guard`: `judo.safety_guard`) and the latched
+  stop (`judo.loop.guard.Stop`): while it is engaged, `serve` gives the safe action and `advance`
+  holds the plant by the System's halt where it offers one.
 """  # noqa: E501
 
 import collections
-import dataclasses
 import math
 import threading
 import time
 from collections.abc import Callable, Iterable
+from typing import Any
 
 import numpy as np
 
 from judo.core.errors import JudoError, NonFiniteKnotsError, NonFiniteRewardError
-from judo.core.estimator import ControlHistory, Estimator
+from judo.core.estimator import Estimator
 from judo.core.planner import Planner
-from judo.core.reading import TIME_TOLERANCE, SystemState
+from judo.core.reading import SystemState
 from judo.core.spline import Spline
+from judo.loop.estimation import Estimation
 from judo.loop.guard import Guard, Stop
 from judo.loop.latency import (
     RECENT_CYCLES,
     Latency,
     LatencyPredictor,
+    PlanQueue,
     check_latency,
     prediction_delay,
 )
@@ -85,10 +74,7 @@ class ClosedLoop:
             as it learns more and every REPORT_EVERY s while it lasts, and with None when a fresh
             plan is served again (`judo.loop.watchdog`: what is told and when).
         estimator: turns each raw reading into the state planned from (None: plan from the reading's
-            state).
-            It is fed every served action, and estimates as of the plant's now: the System's `time`
-                where it
-            has one (a reading may be late), else the reading's.
+            state), fed every served action (`judo.loop.estimation`).
         keep_updates: keep at least the latest this many entries of `update_ms` and `latency_s` (at
             most twice as many), for a loop that runs for days (the app); None keeps every update's
             (an episode's log).
@@ -105,13 +91,12 @@ class ClosedLoop:
             (failed ones too).
         latency_s: the delay after which each update's plan took effect, in seconds (as many).
         failed_updates: updates whose rollouts all scored NaN or -inf, or whose knots were
-            non-finite (the plan before them stayed in force); `last_failure` is the latest one's
-            error.
+            non-finite (the plan before stayed in force); `last_failure`: the latest one's error.
         divergences: times the plant's simulation blew up and was reset.
         control_clock: when `step` makes the next control update, in plant time.
 
     `plan` may run on another thread than `serve` and `advance` (the app's worker thread): the
-    hand-over of a new plan is locked.
+    hand-over of a new plan is locked (`judo.loop.latency.PlanQueue`).
     """
 
     def __init__(
@@ -131,72 +116,45 @@ class ClosedLoop:
         check_latency(latency)
         self.controller, self.system, self.latency = controller, system, latency
         self.calls = SystemCalls(system)  # every System call goes through it (see judo.loop.system)
-        # and the System's own log, if it has one
-        self.recorders = [*recorders, *filter(None, [system.recorder()])]
+        self.recorders = [*recorders, *filter(None, [system.recorder()])]  # and the System's log
         self.estimator = estimator
-        # every served action, for the estimator
-        self.controls = ControlHistory(controller.task.command_size)
-        # the System's latest reading, before the estimator
-        self.raw_reading: SystemState | None = None
-        self._estimator_started = False
-        # plant time this loop has stepped, the watchdog's clock when none is given
-        self.stepped_time = 0.0
-        self.clock = clock if clock is not None else (lambda: self.stepped_time)
-        self.on_watchdog = on_watchdog
-        self.watchdog = Watchdog()
-        self.watchdog.restart(self.clock())
-        # watchdog clock of the freshest reading behind the plan in force
-        self.plan_stamp = self.clock()
-        # (nq + nv,) the latest finite reading, for safe_action
-        self._safe_state: np.ndarray | None = None
+        self.estimation = Estimation(system, controller.task, estimator)
+        self.raw_reading: SystemState | None = None  # the System's latest, before the estimator
         self.reading: SystemState | None = None
+        self.stepped_time = 0.0  # plant time this loop has stepped: the default clock
+        self.clock = clock if clock is not None else (lambda: self.stepped_time)
+        self.real_time = clock is not None  # the app's wall clock
+        self.on_watchdog, self.watchdog = on_watchdog, Watchdog()
+        self.watchdog.restart(self.clock())
+        self.plans = PlanQueue(self.clock())  # the plans waiting for their time, the one in force
+        self._safe_state: np.ndarray | None = None  # (nq + nv,) the latest finite reading
         self.update_ms: list[float] = []
         self.latency_s: list[float] = []
         self.keep_updates = keep_updates
-        # the latched stop, and whether the System's halt holds the plant
-        self.stop, self._stop_halted = stop, False
-        self.guard = guard  # the owner's limits: the serve filter, or None
-        self.failed_updates = self.divergences = 0
-        self.control_clock = ControlClock()
-        self.last_delay = 0.0
+        # the latched stop, whether the System's halt holds the plant, the owner's limits
+        self.stop, self._stop_halted, self.guard = stop, False, guard
+        self.failed_updates, self.divergences, self.last_delay = 0, 0, 0.0
+        self.control_clock, self._predictor = ControlClock(), LatencyPredictor(controller.task)
         self.last_failure: JudoError | None = None  # why the latest failed update failed
-        self._lock = threading.Lock()
-        self._active: Spline | None = None
-        # (plant time it takes effect, plan, stamp), in order
-        self._pending: list[tuple[float, Spline, float]] = []
-        self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
-        # app: wall clock
-        self.real_time, self._predictor = clock is not None, LatencyPredictor(controller.task)
-        # stepped_time when the planning cycle in flight began
-        self.cycle_started: float | None = None
-        # and the newest scheduled plan's stamp
-        self.last_cycle_failed, self.newest_stamp = False, self.plan_stamp
-        # plant time stepped (by another thread) while the last cycle ran
-        self.last_cycle_plant_time = 0.0
-        # plant time from each recent cycle's reading to the newest reading when the cycle
-        # ended (its plan's start)
+        self.cycle_started: float | None = None  # stepped_time when the cycle in flight began
+        # whether the last cycle failed, and the newest scheduled plan's stamp
+        self.last_cycle_failed, self.newest_stamp = False, self.plans.stamp
+        self.last_cycle_plant_time = 0.0  # plant time stepped (by another thread) in the last cycle
+        # plant time from each recent cycle's reading to the newest reading when it ended
         self.cycle_plant_times: collections.deque[float] = collections.deque(maxlen=RECENT_CYCLES)
-
-    def restart_estimator(self) -> None:
-        """Start the estimator afresh from the next reading (after a reset of the plant)."""
-        self._estimator_started = False
-        self.controls.clear()
 
     def forget_plans(self) -> None:
         """Forget every plan, the controller's too: the plant gets the warm start until the next
         plan."""
         self.controller.reset()
-        now = self.clock()
-        with self._lock:
-            self._active, self._pending, self._hold = None, [], None
-            self.plan_stamp = now  # the warm start counts as a plan from now
+        self.plans.forget(self.clock())  # the warm start counts as a plan from now
 
     def restart(self) -> SystemState:
         """Forget every plan and read the plant; the control clock starts at the reading's time.
         Call it after the plant was reset, whose time may start again."""
         self.forget_plans()
         self.watchdog.restart(self.clock())
-        self.restart_estimator()
+        self.estimation.restart()
         reading = self.read()
         self.control_clock.restart(reading.time)
         return reading
@@ -207,39 +165,13 @@ class ClosedLoop:
         raw = self.calls.read_state()
         self.watchdog.note_reading(raw, self.clock())
         self.raw_reading = raw
-        reading = raw if self.estimator is None else self._estimate(raw)
+        reading = raw if self.estimator is None else self.estimation.estimate(raw)
         self.reading = reading
-        state = reading.state
-        if state is not None and np.shape(state) == (
-            self.controller.task.model.nq + self.controller.task.model.nv,
-        ):
+        state, model = reading.state, self.controller.task.model
+        if state is not None and np.shape(state) == (model.nq + model.nv,):
             if np.isfinite(state).all():
                 self._safe_state = np.array(state, dtype=float)
         return reading
-
-    def plant_time(self, raw: SystemState) -> float:
-        """The plant's now: the System's `time` where it has one (its readings may be late), else
-        the reading's."""
-        now = getattr(self.system, "time", None)
-        return float(now) if isinstance(now, int | float) else raw.time
-
-    def measured_age(self, raw: SystemState) -> np.ndarray:
-        """(k,) seconds between taking each measured sensor's value in `raw` (its metadata's
-        "sensor_times", else its time) and the plant's now."""
-        stamps = np.asarray(raw.metadata.get("sensor_times", raw.time), dtype=float)
-        return self.plant_time(raw) - np.broadcast_to(
-            stamps, (len(self.controller.task.measured_sensors),)
-        )
-
-    def _estimate(self, raw: SystemState) -> SystemState:
-        """The estimator's state from `raw`, as of the plant's now (started from the first
-        reading)."""
-        assert self.estimator is not None
-        now = self.plant_time(raw)
-        if not self._estimator_started:
-            self.estimator.reset(raw)
-            self._estimator_started = True
-        return dataclasses.replace(self.estimator.update(raw, now, self.controls), time=now)
 
     def plan(
         self,
@@ -256,20 +188,16 @@ class ClosedLoop:
         invalid config, a set `cancel`) propagate, with nothing scheduled."""
         stamp = self.watchdog.fresh_at
         started = time.perf_counter()
-        self.cycle_started, self.last_cycle_failed, stepped = (
-            self.stepped_time,
-            True,
-            self.stepped_time,
-        )
+        stepped = self.cycle_started = self.stepped_time
+        self.last_cycle_failed = True
         try:
             start = self._predicted(reading) if self.predicts() else reading
             plan = self.controller.update_action(
                 start.state, start.time, start.metadata, cancel, deadline
             )
         except (NonFiniteRewardError, NonFiniteKnotsError) as err:
-            plan = None
+            plan, self.last_failure = None, err
             self.failed_updates += 1
-            self.last_failure = err
         finally:
             self.cycle_started = None
             self.last_cycle_plant_time = self.stepped_time - stepped
@@ -291,13 +219,10 @@ class ClosedLoop:
         if plan is None:
             return None
         self.last_cycle_failed, self.newest_stamp = False, stamp
-        # a plan that takes effect no later than one pending before it replaces that one
-        with self._lock:
-            at = reading.time + delay
-            self._pending = [entry for entry in self._pending if entry[0] < at - TIME_TOLERANCE]
-            self._pending.append((at, plan, stamp))
+        self.plans.schedule(reading.time + delay, plan, stamp)
         if self.recorders:  # the record is built only for someone to read it
-            traces = self._traces_if_wanted(plan)
+            wanted = any(getattr(recorder, "wants_traces", False) for recorder in self.recorders)
+            traces = plan.traces.astype(np.float32) if wanted else None  # a copy, to keep
             record = PlanRecord.of_update(
                 reading.time, delay, plan.knots, wall, plan.rewards, traces
             )
@@ -325,23 +250,12 @@ class ClosedLoop:
 
         # what `serve` gives the plant in `state`
         def control_at(now: float, state: np.ndarray) -> np.ndarray:
-            with self._lock:
-                due = [plan for at, plan, _ in self._pending if at <= now + TIME_TOLERANCE]
-                plan = due[-1] if due else self._active
-            return (
-                self.controller.warm_start_action(reading.state)
-                if plan is None
-                else plan(now, state)
-            )
+            plan = self.plans.due_at(now)
+            if plan is None:
+                return self.controller.warm_start_action(reading.state)
+            return plan(now, state)
 
         return self._predictor.predict_reading(reading, delay, control_at)
-
-    def _traces_if_wanted(self, plan: Spline) -> np.ndarray | None:
-        """(1 + num_shown, T, num_trace_sensors, 3) float32 copy of the traces of the update that
-        made `plan` when a recorder has `wants_traces`, else None."""
-        if any(getattr(recorder, "wants_traces", False) for recorder in self.recorders):
-            return plan.traces.astype(np.float32)
-        return None
 
     def serve(self, now: float) -> np.ndarray:
         """(nu,) the control the plant gets at plant time `now`: the latest plan whose time has come
@@ -349,15 +263,8 @@ class ClosedLoop:
         task's warm start (from the latest reading) before the first one; the task's `safe_action`
         instead while the watchdog finds that plan too old, and while the latched stop is
         engaged."""
-        with self._lock:
-            while self._pending and self._pending[0][0] <= now + TIME_TOLERANCE:
-                _, self._active, self.plan_stamp = self._pending.pop(0)
-            active, stamp = self._active, self.plan_stamp
-            if active is None and self._hold is None:  # held from the first reading after a restart
-                self._hold = self.controller.warm_start_action(
-                    None if self.reading is None else self.reading.state
-                )
-            hold = self._hold
+        # the warm start is held from the first reading after a restart
+        active, stamp, hold = self.plans.take_due(now, self._warm_start)
         config, newest = self.controller.config, max(stamp, self.newest_stamp)
         reason = self.watchdog.verdict(
             self.clock(), stamp, config.max_plan_age, config.control_freq, newest
@@ -373,6 +280,12 @@ class ClosedLoop:
             return hold
         # the state feeds back gains
         return active(now, None if self.reading is None else self.reading.state)
+
+    def _warm_start(self) -> np.ndarray:
+        """(nu,) the task's warm start from the latest reading."""
+        return self.controller.warm_start_action(
+            None if self.reading is None else self.reading.state
+        )
 
     def safe_action(self) -> np.ndarray:
         """(nu,) the task's `safe_action` from the latest finite reading, clamped
@@ -391,7 +304,7 @@ class ClosedLoop:
         (`forget_plans`)."""
         self.calls.reset()
         self.watchdog.restart(self.clock())
-        self.restart_estimator()
+        self.estimation.restart()
         return self.read()
 
     def advance(self) -> StepRecord:
@@ -404,38 +317,26 @@ class ClosedLoop:
         other failures raise one SystemCallError."""
         reading = self.reading if self.reading is not None else self.read()
         action = self.serve(reading.time)
-        # the owner's limits
         if self.guard is not None and not (self.stop is not None and self.stop.latched):
             action = self.guard.filter(
                 action, reading.state, reading.time, self.safe_action, reading.metadata
             )
-        if self.estimator is not None:
-            self.controls.append(reading.time, action)
-        failed: dict[str, Exception] = {}
-        diverged: SimulationDiverged | None = None
-        try:
-            if not self._held_by_stop():
-                self.calls.apply(action)
-        except SystemClosedError:
-            raise
-        except Exception as err:
-            failed["apply"] = err
+        if self.estimator is not None:  # every served action, for the estimator
+            self.estimation.controls.append(reading.time, action)
+        failed: dict[str, Exception] = {}  # each call's error but a closed System's
+        _attempt(failed, "apply", lambda: self._held_by_stop() or self.calls.apply(action))
         self.stepped_time += self.system.timestep
+        diverged: SimulationDiverged | None = None
         try:
             self.calls.step()
         except SimulationDiverged as err:
-            self.divergences += 1
-            diverged = err
+            self.divergences, diverged = self.divergences + 1, err
         except SystemClosedError:
             raise
         except Exception as err:
             failed["step"] = err
-        try:
-            reading = self.read()
-        except SystemClosedError:
-            raise
-        except Exception as err:
-            failed["read_state"] = err
+        read = _attempt(failed, "read_state", self.read)
+        reading = reading if read is None else read
         true_state = self.system.plant_state()
         raw = self.raw_reading
         record = StepRecord(
@@ -446,7 +347,9 @@ class ClosedLoop:
             reading.metadata,
             measured=None if raw is None else raw.sensors,
             estimate=None if self.estimator is None else reading.state,
-            measured_age=None if raw is None or raw.sensors is None else self.measured_age(raw),
+            measured_age=None
+            if raw is None or raw.sensors is None
+            else self.estimation.measured_age(raw),
             limit_hits=() if self.guard is None else self.guard.step_hits,
         )
         if "read_state" not in failed:
@@ -483,3 +386,15 @@ class ClosedLoop:
             return self.advance()
         except SimulationDiverged:
             return None
+
+
+def _attempt(failed: dict[str, Exception], name: str, call: Callable[[], Any]) -> Any:
+    """`call()`'s value, or None with its error kept as `failed[name]`; a SystemClosedError is
+    raised."""
+    try:
+        return call()
+    except SystemClosedError:
+        raise
+    except Exception as err:
+        failed[name] = err
+        return None

@@ -6,11 +6,13 @@ reading's state plans the first `delay` seconds for a state the plant has alread
 controller's `latency_compensation` (and with `feedback` gains), the closed loop first predicts the
 plant's state at the first plant step at or after t + delay on the planning model, under the
 controls it will actually be served meanwhile, and plans from there (`predict_reading`); such a plan
-takes effect no earlier than that step, where its rollouts start.
+takes effect no earlier than that step, where its rollouts start. `PlanQueue` holds the plans that
+wait for their time, and the one in force.
 """
 
 import dataclasses
 import math
+import threading
 from collections.abc import Callable, Sequence
 from typing import Literal
 
@@ -19,7 +21,8 @@ import numpy as np
 
 from judo.core.configuration.config import require
 from judo.core.model import set_mocap_poses
-from judo.core.reading import SystemState
+from judo.core.reading import TIME_TOLERANCE, SystemState
+from judo.core.spline import Spline
 from judo.core.task import Task
 from judo.loop.system import DIVERGENCE_WARNINGS
 
@@ -100,3 +103,57 @@ class LatencyPredictor:
         return dataclasses.replace(
             reading, state=state, time=reading.time + steps * self.model.opt.timestep
         )
+
+
+class PlanQueue:
+    """A closed loop's plans that wait for the plant time they take effect at, and the one in force.
+
+    `schedule` runs on the planner's thread and `take_due` on the plant's; each holds the queue's
+    lock.
+
+    Attributes:
+        stamp: the watchdog clock of the freshest reading behind the plan in force (the warm start
+            counts as a plan from the last `forget`).
+    """
+
+    def __init__(self, stamp: float) -> None:
+        self.stamp = stamp
+        self._lock = threading.Lock()
+        self._active: Spline | None = None
+        # (plant time it takes effect, plan, stamp), in order
+        self._pending: list[tuple[float, Spline, float]] = []
+        self._hold: np.ndarray | None = None  # (nu,) the warm start served until the first plan
+
+    def forget(self, stamp: float) -> None:
+        """Drop every plan: the warm start is served, as a plan from `stamp`, until the next is
+        due."""
+        with self._lock:
+            self._active, self._pending, self._hold = None, [], None
+            self.stamp = stamp
+
+    def schedule(self, at: float, plan: Spline, stamp: float) -> None:
+        """`plan`, from a reading of watchdog clock `stamp`, takes effect at plant time `at`; it
+        replaces each pending plan that would take effect no earlier."""
+        with self._lock:
+            self._pending = [entry for entry in self._pending if entry[0] < at - TIME_TOLERANCE]
+            self._pending.append((at, plan, stamp))
+
+    def due_at(self, now: float) -> Spline | None:
+        """The plan in force at plant time `now`, those due by then counted but left pending (None:
+        the warm start)."""
+        with self._lock:
+            due = [plan for at, plan, _ in self._pending if at <= now + TIME_TOLERANCE]
+            return due[-1] if due else self._active
+
+    def take_due(
+        self, now: float, hold: Callable[[], np.ndarray]
+    ) -> tuple[Spline | None, float, np.ndarray | None]:
+        """Put in force the plans due by plant time `now`: (the plan in force or None, its stamp,
+        and the (nu,) warm start held until the first plan, made by `hold` once after each
+        `forget`)."""
+        with self._lock:
+            while self._pending and self._pending[0][0] <= now + TIME_TOLERANCE:
+                _, self._active, self.stamp = self._pending.pop(0)
+            if self._active is None and self._hold is None:
+                self._hold = hold()
+            return self._active, self.stamp, self._hold

@@ -22,7 +22,6 @@ expert's `rewards` and `traces` are reported.
 """
 
 import dataclasses
-import math
 from pathlib import Path
 from time import perf_counter_ns
 from typing import Any
@@ -33,9 +32,9 @@ import numpy as np
 from judo.core.configuration.config import check_seed, with_updates
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.controller import Controller
-from judo.core.errors import ConfigError, JudoError, NonFiniteKnotsError, NonFiniteRewardError
+from judo.core.errors import ConfigError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.model import model_at
-from judo.core.planner import CancelFlag, checked_reading, task_warm_start
+from judo.core.planner import CancelFlag, PlanServer, checked_reading
 from judo.core.planner_view import PlannerKind
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
@@ -94,7 +93,7 @@ def policy_config(policy: Policy, base: ControllerConfig | None = None) -> Contr
         ) from None
 
 
-class PolicyController:
+class PolicyController(PlanServer):
     """Serves a policy's actions or chunks as the plan of the one closed loop.
 
     Args:
@@ -283,19 +282,6 @@ class PolicyController:
         self._plan.rewards, self._plan.traces = self.rewards, self.traces
         return self._plan
 
-    def action(self, time: float, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) control of the current plan at sim `time`, within the ctrlrange; the task's warm
-        start from the (nq + nv,) `state` before the first plan."""
-        if not math.isfinite(time):
-            raise JudoError(f"action time must be a finite number of seconds, got {time}")
-        return self.warm_start_action(state) if self._plan is None else self._plan(time)
-
-    def warm_start_action(self, state: np.ndarray | None = None) -> np.ndarray:
-        """(nu,) the task's warm start from the (nq + nv,) plant `state`, clamped: what the plant
-        gets before the first plan (the planning model's start state stands in without a state)."""
-        warm = task_warm_start(self.task, state, self._warm_start_takes_state)
-        return np.clip(warm, self._ctrl_low, self._ctrl_high)
-
     def reset(self) -> None:
         """Forget the plan (and the expert's); the next update starts from the warm start again."""
         self._plan, self.nominal_knots = None, None
@@ -309,12 +295,6 @@ class PolicyController:
         close = getattr(self.policy, "close", None)
         if callable(close):
             close()
-
-    def __enter__(self) -> "PolicyController":
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
 
 
 def make_policy_controller(

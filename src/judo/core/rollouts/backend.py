@@ -14,7 +14,7 @@ warp.
 
 import abc
 from collections.abc import Sequence
-from typing import Literal, TypeVar, get_args
+from typing import Any, Literal, Protocol, TypeVar, get_args
 
 import mujoco
 import numpy as np
@@ -161,3 +161,13 @@ RolloutBackendName = Literal["cpu", "warp"]
 ROLLOUT_BACKENDS: tuple[str, ...] = get_args(RolloutBackendName)
 """Names `make_rollout_backend` accepts: "cpu" is `RolloutPool`; "warp" is `WarpRollout` (MuJoCo
 Warp on warp's default device, a GPU when there is one; needs the judo-mpc[warp] extra)."""
+
+
+class RolloutLimits(Protocol):
+    """Hard limits (`judo.safety.feasibility.RolloutScreen`): (R * N,) rewards, each rollout that
+    crosses a limit scored below every feasible one, from (R * N, T, ...) states, sensors, controls
+    and the (nu,) control served now."""
+
+    def screen(
+        self, rewards: Any, states: Any, sensors: Any, controls: Any, served: Any, num_models: int
+    ) -> Any: ...

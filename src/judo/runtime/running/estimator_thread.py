@@ -18,12 +18,13 @@ The app's plant runs through it (`build_session(..., estimator_thread=True)`, be
 runner of this package); evaluate, tune and collect call their estimator on the stepping thread, so
 their episodes stay deterministic.
 
-A reset (`ClosedLoop.restart_estimator`, after the plant's reset or a switch) restarts the filter
-from the next reading on the plant thread, waiting for an update in flight: readings of before it
-are dropped. A config edit (`config = ...` from the GUI's thread) is handed to the filter before its
-next update. An exception on the filter's thread is raised from the plant thread's next `update` as
-an EstimatorThreadError (the app reports a failed read_state, as for a filter on the plant thread);
-the filter goes on with the next reading. `close()` ends the (daemon) thread within `timeout`.
+A reset (`judo.loop.estimation.Estimation.restart`, after the plant's reset or a switch) restarts
+the filter from the next reading on the plant thread, waiting for an update in flight: readings of
+before it are dropped. A config edit (`config = ...` from the GUI's thread) is handed to the filter
+before its next update. An exception on the filter's thread is raised from the plant thread's next
+`update` as an EstimatorThreadError (the app reports a failed read_state, as for a filter on the
+plant thread); the filter goes on with the next reading. `close()` ends the (daemon) thread within
+`timeout`.
 """  # noqa: E501
 
 import dataclasses

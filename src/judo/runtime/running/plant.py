@@ -38,7 +38,7 @@ def sim_waits(loop: ClosedLoop) -> bool:
     if started is not None:
         return next_time - started > period + 1e-9
     # a finished plan is in force from the next step on
-    newest = max(loop.plan_stamp, loop.newest_stamp)
+    newest = max(loop.plans.stamp, loop.newest_stamp)
     return not loop.last_cycle_failed and next_time - newest > max(
         2 * period, config.max_plan_age / 2
     )
