@@ -9,7 +9,8 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from judo.core.configuration.model_overrides import check_model_overrides, model_value, overridden
+from judo.core.configuration.model_override_checks import check_model_overrides
+from judo.core.configuration.model_overrides import model_value, overridden
 from judo.core.errors import ConfigError
 
 DELAY = "delay"
