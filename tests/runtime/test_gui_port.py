@@ -1,5 +1,5 @@
-"""The GUI depends on the command port (judo.runtime.commands.AppPort), never on the App; the App
-implements it."""
+"""The GUI depends on the command port (judo.runtime.command_port.AppPort), never on the App; the
+App implements it."""
 
 import ast
 import inspect
@@ -11,11 +11,11 @@ import pytest
 
 import judo.runtime.gui
 from judo.runtime.app import App
-from judo.runtime.commands import AppPort, CommandPort
+from judo.runtime.command_port import AppPort, CommandPort
 
 GUI_DIR = Path(judo.runtime.gui.__file__).parent
 ALLOWED_RUNTIME_IMPORTS = {
-    "judo.runtime.commands",
+    "judo.runtime.command_port",
     "judo.runtime.address",
     "judo.runtime.status",
     "judo.runtime.snapshots",
@@ -72,8 +72,8 @@ def test_the_gui_package_imports_nothing_from_the_app():
         for name, modules in imported.items()
     }
     assert {name: found for name, found in beyond_port.items() if found} == {}
-    assert "judo.runtime.commands.AppPort" in imported["gui.py"]
-    assert "judo.runtime.commands.AppPort" in imported["controls.py"]
+    assert "judo.runtime.command_port.AppPort" in imported["gui.py"]
+    assert "judo.runtime.command_port.AppPort" in imported["controls.py"]
 
 
 def test_the_gui_reads_and_calls_only_members_of_the_port():
@@ -164,7 +164,7 @@ def test_the_app_implements_every_member_of_the_port(unstarted_app):
 
 def test_the_status_types_are_defined_once_and_neither_the_app_nor_the_port_re_exports_them():
     import judo.runtime.app as app_module
-    import judo.runtime.commands as commands
+    import judo.runtime.command_port as command_port
     import judo.runtime.snapshots as snapshots
     import judo.runtime.status as status
     from judo.core.configuration import registry
@@ -173,7 +173,7 @@ def test_the_status_types_are_defined_once_and_neither_the_app_nor_the_port_re_e
     for name, home in homes.items():  # each imported from the module that defines it
         assert getattr(home, name).__module__ == home.__name__, name
     for name in (*homes, "ConfigKind", "CONFIG_KINDS"):
-        assert name not in app_module.__all__ and name not in commands.__all__, name
+        assert name not in app_module.__all__ and name not in command_port.__all__, name
     assert (
         registry.CONFIG_KINDS
         == typing.get_args(registry.ConfigKind)

@@ -3,7 +3,8 @@ CLI.
 
 app.py            App: checks its settings, builds the parts, start/run/stop; the commands' public face
 app_state.py      AppState (the one lock and what the parts share)
-commands.py       AppPort (all the GUI sees) and Commands (validate each command, queue it in the state)
+command_port.py   AppPort (all the GUI sees of the app) and CommandPort (the commands it may call)
+commands.py       check_app_settings, and Commands (validate each command, queue it in the state)
 session.py        Session (a controller, its plant and their ClosedLoop), ConfigSet, SessionMaker
 running/          who runs what, a room each: planner.py (the control clock in wall time, ClosedLoop.plan on a
                   worker thread, switches), plant.py (the System's own thread: ClosedLoop.advance at real-time

@@ -4,9 +4,9 @@ lock-protected state.
     app = judo.App(task="cartpole", optimizer="mppi")   # GUI at http://127.0.0.1:8080
     app.start(); app.commands.update_config("optimizer", {"sigma": 0.2}); app.stop(); print(app.summary())
 
-The App checks its run settings (`check_app_settings`: a bad one is a one-line ConfigError before
-anything is built), then composes parts that own their state and are handed what they use
-(docs/architecture.md):
+The App checks its run settings (`judo.runtime.commands.check_app_settings`: a bad one is a one-line
+ConfigError before anything is built), then composes parts that own their state and are handed what
+they use (docs/architecture.md):
 - `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the
   counters;
 - `Commands` (`judo.runtime.commands`): validate each command and queue it in the state; the App's
@@ -18,8 +18,8 @@ anything is built), then composes parts that own their state and are handed what
   stop order;
 - `Recordings` (`judo.runtime.live_recording`) and the frontend (the GUI, given to the App, which
   never imports it).
-The App implements the GUI's command port (`judo.runtime.commands.AppPort`); `start()` returns at
-once. What the app publishes arrives by callback, on the thread that made it (keep a callback
+The App implements the GUI's command port (`judo.runtime.command_port.AppPort`); `start()` returns
+at once. What the app publishes arrives by callback, on the thread that made it (keep a callback
 cheap): `on_state` each plant reading, `on_plan` each plan, `on_config_change` each accepted config,
 `on_reset` each plant reset, `on_session` each switch, `on_recording` each recording begun or ended,
 `on_status` each status line.
@@ -32,16 +32,15 @@ left to its daemon thread.
 import asyncio
 import functools
 import logging
-import math
 import threading
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from judo.core.configuration.config import Config, check_seed
+from judo.core.configuration.config import Config
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import ConfigKind
-from judo.core.errors import ConfigError, JudoError
+from judo.core.errors import JudoError
 from judo.core.estimator import EstimatorConfig
 from judo.core.optimizer import OptimizerConfig
 from judo.core.planner import Planner
@@ -55,7 +54,7 @@ from judo.loop.system import System, missing_halt
 from judo.recording.live import LiveRecorder, RecorderFactory
 from judo.runtime.address import check_port, check_token
 from judo.runtime.app_state import AppState
-from judo.runtime.commands import Commands
+from judo.runtime.commands import Commands, check_app_settings
 from judo.runtime.cycles import CycleCost
 from judo.runtime.live_recording import Recordings
 from judo.runtime.running.planner import PlannerRunner
@@ -70,48 +69,6 @@ from judo.runtime.session import Session, SessionMaker
 from judo.runtime.snapshots import PlanSnapshot, Snapshot, StateBuffer, SystemSnapshot
 from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
 from judo.safety.stop import StopLatch, default_stop_file
-
-MAX_WORKERS = 1024
-"""Most rollout threads an app may ask for."""
-
-
-def check_app_settings(
-    duration: float | None,
-    num_workers: int | None,
-    seed: int | None,
-    system_call_limit: float,
-    user_system: bool,
-    observe: str,
-) -> None:
-    """Raise ConfigError, saying what is wrong and what is valid, for a duration, rollout-thread
-    count, seed or System-call limit out of range, or rehearsed sensing (`observe` not "state")
-    asked of a `user_system`."""
-    if duration is not None and not 0 < duration < math.inf:
-        raise ConfigError(
-            "duration must be a positive, finite number of seconds of sim time (or None to "
-            "run until stopped), "
-            f"got {duration}"
-        )
-    if num_workers is not None and not (
-        isinstance(num_workers, int) and 1 <= num_workers <= MAX_WORKERS
-    ):
-        raise ConfigError(
-            f"num_workers must be an integer from 1 to {MAX_WORKERS} (or None: one per "
-            f"core), got {num_workers!r}"
-        )
-    check_seed(seed)
-    if not 0 < system_call_limit < math.inf:
-        raise ConfigError(
-            "system_call_limit must be a positive, finite number of seconds, got "
-            f"{system_call_limit}"
-        )
-    if user_system and observe != "state":
-        raise ConfigError(
-            f"observe={observe!r} rehearses sensing on the app's own simulation; your System "
-            "chooses what it "
-            "measures (return SystemState.sensors, state None), so leave observe at 'state'"
-        )
-
 
 __all__ = ["App"]
 
@@ -129,8 +86,8 @@ class App:
             A user system stays for the whole run, so switching task is refused.
         gui: serve the viser GUI at http://host:port (http://host:port/TOKEN with a token); or a
             function that builds another frontend from the App (the `AppPort`,
-            `judo.runtime.commands`) on the app's event loop, anything with `url`, `update()` (one
-            frame, about 30 Hz) and `close()`.
+            `judo.runtime.command_port`) on the app's event loop, anything with `url`, `update()`
+            (one frame, about 30 Hz) and `close()`.
         host: address the GUI listens on; 127.0.0.1 (this machine only) by default. Any other
             address (0.0.0.0: every interface) exposes the app to the network: a warning is logged
             and a token is required.
@@ -153,9 +110,8 @@ class App:
             reading has state None), chosen again for each task switched to. Edit its config live
             with `update_estimator_config`.
         observe: "state" (the simulated plant's full state) or "sensors" (only the task's measured
-            sensors,
-            through `judo.loop.sensing.SensedSystem`: rehearsed sensing, its noise seeded from
-                `seed`).
+            sensors, through `judo.loop.sensing.SensedSystem`: rehearsed sensing, its noise seeded
+            from `seed`).
         sensor_noise, sensor_delay, sensor_rate: the rehearsed sensors' noise std, delay (s) and
             rate (Hz), one value for all or {sensor type: value} with an optional "default"; used
             with observe="sensors".
@@ -164,12 +120,10 @@ class App:
             (docs/policies.md), in sessions of `task` (a switch to another task plans without it).
             PolicyError at once if it does not fit the task.
         policy: a `judo.Policy`, or an ONNX file (the `policy` extra), that drives the plant instead
-            of `optimizer`
-            through the same closed loop (docs/policies.md): the session's optimizer is then
-                "policy", and its
-            controller config the policy's metadata's rate and chunk layout (where
-            `controller_config` is None). `switch_optimizer(name)` hands the plant to MPC,
-            `switch_optimizer("policy")` back; another task: MPC.
+            of `optimizer` through the same closed loop (docs/policies.md): the session's optimizer
+            is then "policy", and its controller config the policy's metadata's rate and chunk
+            layout (where `controller_config` is None). `switch_optimizer(name)` hands the plant to
+            MPC, `switch_optimizer("policy")` back; another task: MPC.
         recorder_factory: makes the recorder of `start_recording(path)`; None writes collect's HDF5
             layout (`judo.recording.live`, needs the `collect` extra).
         stop_file: the latched stop's state file (`judo.safety.stop`, the app's `stop_latch`); None:
@@ -208,83 +162,63 @@ class App:
         policy: Policy | str | Path | None = None,
         stop_file: str | Path | None = None,
     ) -> None:
-        check_app_settings(
-            duration, num_workers, seed, system_call_limit, system is not None, observe
-        )
-        self.gui_enabled, self.host, self.port, self.duration = (
-            gui is not False,
-            host,
-            check_port(port),
-            duration,
-        )
-        self.token, self.share = check_token(token, host, generate=gui is not False), share
-        self.backend, self.system_call_limit = backend, system_call_limit
+        check_app_settings(duration, num_workers, seed, system_call_limit, system, observe)
+        self.gui_enabled, self.host, self.port = gui is not False, host, check_port(port)
+        self.duration, self.token = duration, check_token(token, host, generate=gui is not False)
+        self.share, self.backend, self.system_call_limit = share, backend, system_call_limit
         self.buffer = StateBuffer()  # the GUI's view: the latest reading and plan
         self.stats = RunStats()
         self._state = state = AppState(
             Sensing(observe, sensor_noise, sensor_delay, sensor_rate, estimator, estimator_config)
         )
         self._reports = reports = Reports(line=StatusLine(), state=state)
-        self.stop_latch = StopLatch(
-            default_stop_file() if stop_file is None else stop_file, reports.on_stop
-        )
+        latch_file = default_stop_file() if stop_file is None else stop_file
+        self.stop_latch = StopLatch(latch_file, reports.on_stop)
         if system is not None and (warning := missing_halt(system)) is not None:
             reports.report(warning, "warning")
-        # a robot's plans age in wall time; the simulator waits
-        clock = None if system is None else state.clock
-        proposals = None if proposal_policy is None else as_policy(proposal_policy)
-        driver = None if policy is None else as_policy(policy)
         maker = SessionMaker(
             user_system=system,
             seed=seed,
             num_workers=num_workers,
             backend=backend,
-            clock=clock,
+            clock=None if system is None else state.clock,  # a robot's plans age in wall time
             on_watchdog=reports.on_watchdog,
-            proposal_policy=proposals,
+            proposal_policy=None if proposal_policy is None else as_policy(proposal_policy),
             proposal_task=task,
-            policy=driver,
+            policy=None if policy is None else as_policy(policy),
             policy_task=task,
             fallback_optimizer=optimizer,
             stop=self.stop_latch,
         )
-        first = optimizer if driver is None else PlannerKind.POLICY.value
-        state.begin(
-            maker.first(
-                task, first, state.sensing, controller_config, optimizer_config, task_config
-            )
+        first = optimizer if maker.policy is None else PlannerKind.POLICY.value
+        session = maker.first(
+            task, first, state.sensing, controller_config, optimizer_config, task_config
         )
-        self._policy_name = None if driver is None else driver.name
-        # app.commands.pause(), ...
-        self.commands = Commands(state=state, reports=reports, maker=maker)
+        state.begin(session)
+        self._policy_name = None if maker.policy is None else maker.policy.name
+        self.commands = Commands(state=state, reports=reports, maker=maker)  # app.commands.pause()
         self._recordings = Recordings(state=state, reports=reports, factory=recorder_factory)
-        plant = PlantRunner(
-            state=state,
-            buffer=self.buffer,
-            stats=self.stats,
-            reports=reports,
-            duration=duration,
-            request_stop=state.stop.set,
-        )
-        planner = PlannerRunner(
-            state=state,
-            maker=maker,
-            buffer=self.buffer,
-            stats=self.stats,
-            reports=reports,
-            recordings=self._recordings,
-        )
-        make_frontend = (
-            None
-            if gui is False
-            else functools.partial(gui, self)
-            if callable(gui)
-            else viser_frontend(self)
-        )
+        make_frontend: Callable[[], Any] | None = None
+        if gui is not False:
+            make_frontend = functools.partial(gui, self) if callable(gui) else viser_frontend(self)
         self._supervisor = Supervisor(
             state=state,
-            plant=plant,
-            planner=planner,
+            plant=PlantRunner(
+                state=state,
+                buffer=self.buffer,
+                stats=self.stats,
+                reports=reports,
+                duration=duration,
+                request_stop=state.stop.set,
+            ),
+            planner=PlannerRunner(
+                state=state,
+                maker=maker,
+                buffer=self.buffer,
+                stats=self.stats,
+                reports=reports,
+                recordings=self._recordings,
+            ),
             recordings=self._recordings,
             reports=reports,
             system_call_limit=system_call_limit,
@@ -313,11 +247,8 @@ class App:
 
         Raises GuiStartError (or ConfigError) if the GUI server cannot start."""
         self._claim_run()
-        asyncio.run(
-            self._supervisor.main(
-                handle_signals=threading.current_thread() is threading.main_thread()
-            )
-        )
+        on_main_thread = threading.current_thread() is threading.main_thread()
+        asyncio.run(self._supervisor.main(handle_signals=on_main_thread))
         return self.summary()
 
     def stop(self, timeout: float | None = 10.0) -> None:
@@ -441,9 +372,7 @@ class App:
 
     def on_recording(self, callback: Callable[[Path | None], None]) -> None:
         """Call `callback(path)` when a recording begins (its file) or ends (None)."""
-        self._state.recording_changed.add(
-            lambda recorder: callback(None if recorder is None else recorder.path)
-        )
+        self._recordings.on_change(callback)
 
     def on_status(self, callback: Callable[[Status], None]) -> None:
         """Call `callback(status)` with each new status line, on the thread that reported it."""

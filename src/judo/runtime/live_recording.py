@@ -6,6 +6,7 @@ the app's recorder factory turns into one. The default factory,
 only when a recording starts, so an app that never records never needs the `collect` extra.
 """
 
+from collections.abc import Callable
 from pathlib import Path
 
 from judo.core.errors import JudoError
@@ -34,6 +35,12 @@ class Recordings:
         """The file the recording under way will be written to, or None."""
         recording = self._state.recording
         return None if recording is None else recording.path
+
+    def on_change(self, callback: Callable[[Path | None], None]) -> None:
+        """Call `callback(path)` when a recording begins (its file) or ends (None)."""
+        self._state.recording_changed.add(
+            lambda recorder: callback(None if recorder is None else recorder.path)
+        )
 
     def start(self, recorder: LiveRecorder | str | Path | None = None) -> Path:
         """Add `recorder` (or a recorder of the running session into the path given; a name of its

@@ -1,9 +1,9 @@
 """The top of the GUI panel: task and optimizer dropdowns, the latched stop, pause/resume, reset
 buttons and the status line.
 
-Every control only calls a command of the app's port (`judo.runtime.commands.AppPort`); the app's
-loops carry it out at their next iteration. The status line follows the app's `on_status` news (a
-pause, a resume and each change of the latched stop are reported on it), the record box its
+Every control only calls a command of the app's port (`judo.runtime.command_port.AppPort`); the
+app's loops carry it out at their next iteration. The status line follows the app's `on_status` news
+(a pause, a resume and each change of the latched stop are reported on it), the record box its
 `on_recording` news.
 """
 
@@ -19,7 +19,7 @@ from judo.core.configuration.registry import (
 )
 from judo.core.errors import JudoError
 from judo.core.planner_view import PlannerKind
-from judo.runtime.commands import AppPort
+from judo.runtime.command_port import AppPort
 from judo.runtime.gui.news import Latest
 from judo.runtime.status import LiveFigures, Status
 

@@ -32,8 +32,8 @@ closes; the planning thread ends (a cycle still in flight is abandoned to its da
 session's rollout and filter threads end.
 
 The frontend is anything with `url`, `update()` (one frame) and `close()`, built from the App's
-command port (`judo.runtime.commands.AppPort`) by a `FrontendFactory`. judo's own is the viser GUI
-(`judo.runtime.gui.gui.Gui`), looked up by name (VISER_FRONTEND) when an App is started with
+command port (`judo.runtime.command_port.AppPort`) by a `FrontendFactory`. judo's own is the viser
+GUI (`judo.runtime.gui.gui.Gui`), looked up by name (VISER_FRONTEND) when an App is started with
 gui=True, so viser is imported only then.
 
 The exit guard (`stop_at_exit`, supervisor.py) stops every running App before the interpreter

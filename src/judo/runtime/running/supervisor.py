@@ -14,7 +14,7 @@ from typing import Any, Protocol
 
 from judo.runtime.address import is_loopback
 from judo.runtime.app_state import AppState
-from judo.runtime.commands import AppPort
+from judo.runtime.command_port import AppPort
 from judo.runtime.live_recording import Recordings
 from judo.runtime.running.planner import PlannerRunner
 from judo.runtime.running.plant import PlantRunner
