@@ -21,7 +21,13 @@ from judo.core.optimizer import (
     sampled_knots,
     updated_knots,
 )
-from judo.core.planner import CancelFlag, PlanServer, checked_reading, task_warm_start
+from judo.core.planner import (
+    CancelFlag,
+    PlanServer,
+    checked_reading,
+    task_warm_start,
+    warm_start_takes_state,
+)
 from judo.core.planner_view import CycleSize, PlannerKind
 from judo.core.policies.proposals import Proposer, check_proposal_policy, insert_proposals
 from judo.core.policy import Policy
@@ -32,7 +38,7 @@ from judo.core.rollouts.parallel_reward import ParallelReward
 from judo.core.rollouts.randomize import randomized_models
 from judo.core.rollouts.risk import reduce_rewards
 from judo.core.spline import CycleLayout, Spline, clip_ufunc
-from judo.core.task import Task, warm_start_takes_state
+from judo.core.task import Task
 
 __all__ = ["Controller"]
 
@@ -74,8 +80,7 @@ class Controller(PlanServer):
         proposal_policy: Policy | None = None,
     ) -> None:
         check_configs(task, controller_config, optimizer.config)
-        self.proposal_policy = proposal_policy
-        # checks them
+        self.proposal_policy = proposal_policy  # checked by its Proposer
         self._proposer = Proposer(task, proposal_policy, controller_config.policy_samples)
         self.config, self.task, self.optimizer = controller_config, task, optimizer
         if isinstance(backend, str):
@@ -86,8 +91,7 @@ class Controller(PlanServer):
             self.backend = backend
         self.backend = with_low_level(self.backend, task.low_level())  # the pool itself without one
         self._backend_name = backend if isinstance(backend, str) else backend.name
-        # one plain call unless the backend asks
-        self._score = ParallelReward(self.backend.reward_threads)
+        self._score = ParallelReward(self.backend.reward_threads)  # one call unless asked
         self.nominal_knots: np.ndarray | None = None
         self.rewards, self.traces = np.zeros(0), np.zeros((0, 0, 0, 3))
         self.iterations_run = 0
@@ -120,11 +124,7 @@ class Controller(PlanServer):
 
     def configs(self) -> dict[str, Any]:
         """{"controller": ..., "optimizer": ..., "task": ...}: the configs it plans with now."""
-        return {
-            "controller": self.config,
-            "optimizer": self.optimizer.config,
-            "task": self.task.config,
-        }
+        return dict(controller=self.config, optimizer=self.optimizer.config, task=self.task.config)
 
     def check_configs(self, configs: dict[Any, Any]) -> None:
         """ConfigError unless `configs` work together; PolicyError unless the proposal policy fits
@@ -217,15 +217,14 @@ class Controller(PlanServer):
         previous plan stays in force."""
         nominal, task_config, candidates = self._begin(state, time, system_metadata)
         required, iteration_started = self.config.max_opt_iters, 0.0
-        iterations = self.cycle_size(
-            {"controller": self.config, "optimizer": self.optimizer.config}
-        ).iterations
+        opt = self.optimizer
+        size = self.cycle_size({"controller": self.config, "optimizer": opt.config})
         # the plan in force now (or the warm start): the rate limits' step before
         served = nominal[0].copy()
         # polled between pieces of a big batch too, and None again after the cycle
         self.backend.cancel = cancel
         try:
-            for iteration in range(iterations):
+            for iteration in range(size.iterations):
                 if cancel is not None and cancel.is_set():
                     raise PlanningCancelled(
                         "planning cycle cancelled; the previous plan stays in force"
@@ -244,7 +243,7 @@ class Controller(PlanServer):
                     states, sensors, served, task_config, system_metadata
                 )
                 nominal = self._update(knots, rewards)
-                if self.optimizer.stop_cond():
+                if opt.stop_cond():
                     break
         finally:
             self.backend.cancel = None

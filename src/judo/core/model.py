@@ -5,7 +5,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from judo.core.errors import ModelLoadError
+from judo.core.errors import ModelLoadError, UnknownNameError
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 
@@ -95,6 +95,33 @@ def mocap_pose(model: mujoco.MjModel, metadata: dict | None, key: str) -> np.nda
     if metadata and key in metadata:
         return np.asarray(metadata[key], dtype=float)
     return model_mocap_poses(model)[key]
+
+
+def object_id(
+    model: mujoco.MjModel, obj_type: mujoco.mjtObj, count: int, name: str, kind: str
+) -> int:
+    """The id of the `obj_type` object `name` in `model`; UnknownNameError (naming it a `kind` and
+    listing the model's `count` names of that type) where it has none."""
+    index = mujoco.mj_name2id(model, obj_type, name)
+    if index < 0:
+        raise UnknownNameError(kind, name, [n for n in names(model, obj_type, count) if n])
+    return index
+
+
+def holding_ctrl(model: mujoco.MjModel, state: np.ndarray) -> np.ndarray:
+    """(nu,) the ctrl that holds each joint position actuator (a servo: affine bias -kp * q) at its
+    joint's position in the (nq + nv,) `state`, divided by its gear; 0 for every other actuator."""
+    action = np.zeros(model.nu)
+    joint_types = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
+    for i in range(model.nu):
+        joint = int(model.actuator_trnid[i, 0])
+        is_joint = int(model.actuator_trntype[i]) in joint_types
+        affine = int(model.actuator_biastype[i]) == int(mujoco.mjtBias.mjBIAS_AFFINE)
+        position_servo = affine and model.actuator_biasprm[i, 1] != 0
+        if is_joint and position_servo and joint >= 0:
+            gear = float(model.actuator_gear[i, 0]) or 1.0
+            action[i] = state[model.jnt_qposadr[joint]] / gear
+    return action
 
 
 def names(model: mujoco.MjModel, obj_type: mujoco.mjtObj, count: int) -> list[str]:

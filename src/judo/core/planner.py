@@ -9,14 +9,17 @@ warm start before the first), and `checked_reading` the state and time check bot
 every update.
 """
 
+import inspect
 import math
-from typing import Any, Protocol, TypeVar, runtime_checkable
+import warnings
+from collections.abc import Callable
+from typing import Any, Protocol, TypeVar, cast, runtime_checkable
 
 import numpy as np
 
 from judo.core.errors import ConfigError, JudoError
 from judo.core.spline import Spline
-from judo.core.task import Task, legacy_warm_start
+from judo.core.task import Task
 
 
 class CancelFlag(Protocol):
@@ -164,3 +167,30 @@ class PlanServer:
 
     def __exit__(self, *exc_info: object) -> None:
         self.close()
+
+
+def warm_start_takes_state(task: Task) -> bool:
+    """Whether `task.optimizer_warm_start` takes the plant state. The old no-argument form (it read
+    the task's own `data`, which the controller never steps) still works, with a
+    DeprecationWarning."""
+    try:
+        parameters = inspect.signature(task.optimizer_warm_start).parameters
+    except (TypeError, ValueError):  # a builtin or an odd callable: assume the current form
+        return True
+    if parameters:
+        return True
+    warnings.warn(
+        f"{type(task).__name__}.optimizer_warm_start() without arguments is deprecated: define "
+        "optimizer_warm_start(self, state) and read the (nq + nv,) plant state it is given, "
+        "not self.data",
+        DeprecationWarning,
+        stacklevel=3,
+    )
+    return False
+
+
+def legacy_warm_start(task: Task) -> Any:
+    """`task.optimizer_warm_start()` in the deprecated form without the state, for a task whose
+    override takes none (`warm_start_takes_state` False); Task declares the current form, hence the
+    cast."""
+    return cast(Callable[[], Any], task.optimizer_warm_start)()

@@ -1,8 +1,6 @@
 """The Task contract: a MuJoCo model plus a reward over batches of rollouts."""
 
-import inspect
 import typing
-import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -13,9 +11,11 @@ import mujoco
 import numpy as np
 
 from judo.core.configuration.config import Config
-from judo.core.errors import ModelLoadError, UnknownNameError
-from judo.core.model import load_model, model_mocap_poses, names
+from judo.core.errors import ModelLoadError
+from judo.core.model import holding_ctrl, load_model, model_mocap_poses, object_id
 from judo.core.sensors import MeasuredLayout, measured_layout
+
+SENSOR, JOINT = mujoco.mjtObj.mjOBJ_SENSOR, mujoco.mjtObj.mjOBJ_JOINT
 
 
 class LowLevelCommands(Protocol):
@@ -117,17 +117,12 @@ class Task(ABC, Generic[ConfigT]):
         for base in cls.__dict__.get("__orig_bases__", ()):
             args = typing.get_args(base)
             origin = typing.get_origin(base)  # Task[C], or a generic subclass's (DynamicsTask[C])
-            if (
-                isinstance(origin, type)
-                and issubclass(origin, Task)
-                and args
-                and isinstance(args[0], type)
-            ):
-                cls.config_cls = args[0]
+            if isinstance(origin, type) and issubclass(origin, Task) and args:
+                if isinstance(args[0], type):
+                    cls.config_cls = args[0]
         keys = cls.recorded_metadata
-        if not isinstance(keys, tuple) or not all(
-            isinstance(k, str) and k and "/" not in k for k in keys
-        ):
+        names_keys = isinstance(keys, tuple) and all(isinstance(k, str) for k in keys)
+        if not names_keys or not all(k and "/" not in k for k in keys):
             raise TypeError(
                 f"{cls.__name__}.recorded_metadata must be a tuple of key names without '/', got "
                 f"{keys!r}"
@@ -145,12 +140,11 @@ class Task(ABC, Generic[ConfigT]):
         else:
             self.sim_model = load_model(sim_model_path)
         for size in ("nq", "nv", "nu", "nmocap"):
-            if getattr(self.sim_model, size) != getattr(self.model, size):
+            plant, planning = getattr(self.sim_model, size), getattr(self.model, size)
+            if plant != planning:
                 raise ModelLoadError(
-                    f"plant model {sim_model_path} has "
-                    f"{size}={getattr(self.sim_model, size)} but the "
-                    f"planning model {model_path} has {size}={getattr(self.model, size)}; "
-                    "they must match"
+                    f"plant model {sim_model_path} has {size}={plant} but the planning model "
+                    f"{model_path} has {size}={planning}; they must match"
                 )
         self.model_overrides: dict[str, dict[str, Any]] = {}
         """MjModel fields set on the planning model by element name (configuration/model_overrides);
@@ -168,8 +162,7 @@ class Task(ABC, Generic[ConfigT]):
         )
         """Where `measured_sensors` lie in the plant model's sensordata."""
         self.data = mujoco.MjData(self.sim_model)
-        # config_cls is the class named in Task[ConfigT] (see __init_subclass__); a ClassVar cannot
-        # say so.
+        # config_cls is the class named in Task[ConfigT] (__init_subclass__): a ClassVar can't say
         self.config: ConfigT = cast(ConfigT, self.config_cls())
         self.rng = np.random.default_rng()
 
@@ -221,8 +214,7 @@ class Task(ABC, Generic[ConfigT]):
         every call (build it once, in `__init__`)."""
         return None
 
-    # What a task with its own dynamics (judo.core.rollouts.dynamics.DynamicsTask) answers
-    # otherwise:
+    # What a task with its own dynamics (judo.core.rollouts.dynamics.DynamicsTask) answers else:
     def rollout_backend(self, name: str) -> Any:
         """The task's own RolloutBackend, or None (the default): the backend `name` rolls out the
         planning model."""
@@ -314,15 +306,9 @@ class Task(ABC, Generic[ConfigT]):
     def policy_observation_size(self) -> int:
         """O, the length of one `policy_observation`: the hook called on one zero row (and the
         model's mocap poses)."""
-        model = self.model
-        metadata = model_mocap_poses(model)
-        row = self.policy_observation(
-            np.zeros((1, model.nq + model.nv)),
-            np.zeros((1, model.nsensordata)),
-            metadata,
-            np.zeros((1, self.nu)),
-        )
-        return int(np.shape(row)[-1])
+        model, metadata = self.model, model_mocap_poses(self.model)
+        rows = (np.zeros((1, model.nq + model.nv)), np.zeros((1, model.nsensordata)))
+        return int(np.shape(self.policy_observation(*rows, metadata, np.zeros((1, self.nu))))[-1])
 
     def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
         """The (command_size,) control that the first plan holds at every knot, from the (nq + nv,)
@@ -351,20 +337,8 @@ class Task(ABC, Generic[ConfigT]):
         if self.low_level() is not None:
             low, high = self.command_range.T
             return np.clip(np.zeros(self.command_size), low, high)
-        action = np.zeros(self.nu)
-        model = self.model
-        for i in range(self.nu):
-            joint = int(model.actuator_trnid[i, 0])
-            joint_types = (int(mujoco.mjtTrn.mjTRN_JOINT), int(mujoco.mjtTrn.mjTRN_JOINTINPARENT))
-            is_joint = int(model.actuator_trntype[i]) in joint_types
-            affine = int(model.actuator_biastype[i]) == int(mujoco.mjtBias.mjBIAS_AFFINE)
-            # bias -kp * q: holds a target q
-            position_servo = affine and model.actuator_biasprm[i, 1] != 0
-            if is_joint and position_servo and joint >= 0:
-                gear = float(model.actuator_gear[i, 0]) or 1.0
-                action[i] = state[model.jnt_qposadr[joint]] / gear
         low, high = self.actuator_ctrlrange.T
-        return np.clip(action, low, high)
+        return np.clip(holding_ctrl(self.model, state), low, high)
 
     @property
     def nu(self) -> int:
@@ -401,60 +375,21 @@ class Task(ABC, Generic[ConfigT]):
 
     def get_sensor_start_index(self, sensor_name: str) -> int:
         """Column of `sensor_name`'s first value in the sensors array."""
-        return int(
-            self.model.sensor_adr[
-                self._id(mujoco.mjtObj.mjOBJ_SENSOR, self.model.nsensor, sensor_name, "sensor")
-            ]
-        )
+        m = self.model
+        return int(m.sensor_adr[object_id(m, SENSOR, m.nsensor, sensor_name, "sensor")])
 
     def get_joint_position_start_index(self, joint_name: str) -> int:
         """Column of `joint_name`'s first qpos entry in the states array."""
-        return int(
-            self.model.jnt_qposadr[
-                self._id(mujoco.mjtObj.mjOBJ_JOINT, self.model.njnt, joint_name, "joint")
-            ]
-        )
+        m = self.model
+        return int(m.jnt_qposadr[object_id(m, JOINT, m.njnt, joint_name, "joint")])
 
     def get_joint_velocity_start_index(self, joint_name: str) -> int:
         """Column of `joint_name`'s first qvel entry in the states array (qvel follows qpos)."""
-        joint = self._id(mujoco.mjtObj.mjOBJ_JOINT, self.model.njnt, joint_name, "joint")
-        return int(self.model.nq + self.model.jnt_dofadr[joint])
-
-    def _id(self, obj_type: mujoco.mjtObj, count: int, name: str, kind: str) -> int:
-        index = mujoco.mj_name2id(self.model, obj_type, name)
-        if index < 0:
-            raise UnknownNameError(kind, name, [n for n in names(self.model, obj_type, count) if n])
-        return index
+        m = self.model
+        return int(m.nq + m.jnt_dofadr[object_id(m, JOINT, m.njnt, joint_name, "joint")])
 
 
 TaskT = TypeVar("TaskT", bound=Task)
-
-
-def warm_start_takes_state(task: Task) -> bool:
-    """Whether `task.optimizer_warm_start` takes the plant state. The old no-argument form (it read
-    the task's own `data`, which the controller never steps) still works, with a
-    DeprecationWarning."""
-    try:
-        parameters = inspect.signature(task.optimizer_warm_start).parameters
-    except (TypeError, ValueError):  # a builtin or an odd callable: assume the current form
-        return True
-    if parameters:
-        return True
-    warnings.warn(
-        f"{type(task).__name__}.optimizer_warm_start() without arguments is deprecated: define "
-        "optimizer_warm_start(self, state) and read the (nq + nv,) plant state it is given, "
-        "not self.data",
-        DeprecationWarning,
-        stacklevel=3,
-    )
-    return False
-
-
-def legacy_warm_start(task: Task) -> Any:
-    """`task.optimizer_warm_start()` in the deprecated form without the state, for a task whose
-    override takes none (`warm_start_takes_state` False); Task declares the current form, hence the
-    cast."""
-    return cast(Callable[[], Any], task.optimizer_warm_start)()
 
 
 def new_task(task_cls: type[TaskT]) -> TaskT:

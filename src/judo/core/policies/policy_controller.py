@@ -34,11 +34,11 @@ from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.controller import Controller
 from judo.core.errors import ConfigError, NonFiniteKnotsError, NonFiniteRewardError
 from judo.core.model import model_at
-from judo.core.planner import CancelFlag, PlanServer, checked_reading
+from judo.core.planner import CancelFlag, PlanServer, checked_reading, warm_start_takes_state
 from judo.core.planner_view import PlannerKind
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
-from judo.core.task import Task, new_task, warm_start_takes_state
+from judo.core.task import Task, new_task
 
 POLICY_CONFIG_FIELDS = ("control_freq", "horizon", "spline_order")
 """ControllerConfig fields a policy's metadata may set (as strings): the rate it was trained to act

@@ -12,8 +12,8 @@ from collections.abc import Sequence
 import mujoco
 import numpy as np
 
-from judo.core.errors import JudoError, UnknownNameError
-from judo.core.model import names
+from judo.core.errors import JudoError
+from judo.core.model import object_id
 from judo.core.task import Task
 
 NONNEGATIVE_FIELDS = (
@@ -144,19 +144,14 @@ def scale_dof_frictionloss(
 def geom_ids(model: mujoco.MjModel, geom_names: Sequence[str]) -> list[int]:
     """Ids of the geoms called `geom_names`; UnknownNameError (listing the geoms) for a missing
     one."""
-    return [_id(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, name, "geom") for name in geom_names]
+    return [
+        object_id(model, mujoco.mjtObj.mjOBJ_GEOM, model.ngeom, name, "geom") for name in geom_names
+    ]
 
 
 def body_id(model: mujoco.MjModel, name: str) -> int:
     """Id of the body called `name`; UnknownNameError (listing the bodies) if there is none."""
-    return _id(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, name, "body")
-
-
-def _id(model: mujoco.MjModel, obj_type: mujoco.mjtObj, count: int, name: str, kind: str) -> int:
-    index = mujoco.mj_name2id(model, obj_type, name)
-    if index < 0:
-        raise UnknownNameError(kind, name, [n for n in names(model, obj_type, count) if n])
-    return index
+    return object_id(model, mujoco.mjtObj.mjOBJ_BODY, model.nbody, name, "body")
 
 
 def contact_geom_ids(model: mujoco.MjModel) -> list[int]:
