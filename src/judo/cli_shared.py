@@ -32,7 +32,7 @@ from judo.core.configuration.registry import (
 from judo.core.errors import JudoError
 from judo.core.optimizer import OptimizerConfig
 from judo.core.task import TaskConfig
-from judo.loop.latency import Latency
+from judo.loop.timing import Latency
 
 ArgsT = TypeVar("ArgsT")
 

@@ -208,7 +208,7 @@ def test_the_plant_is_seeded_noisy_and_resets_on_nan():
 
 def test_latency_compensation_predicts_on_the_task_s_own_dynamics():
     from judo.core.reading import SystemState
-    from judo.loop.latency import LatencyPredictor
+    from judo.loop.timing import LatencyPredictor
 
     task = UserPendulum()
     reading = SystemState(np.array([2.0, 0.5]), 1.0, {})

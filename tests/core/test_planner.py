@@ -13,10 +13,11 @@ import pytest
 import judo
 from judo.core.controller import Controller
 from judo.core.errors import ConfigError, JudoError
-from judo.core.planner import Planner, checked_reading
+from judo.core.planner import Planner
 from judo.core.planner_view import AppPlanner, CycleSize, PlannerKind, PlannerView
 from judo.core.policies.policy_controller import PolicyController, make_policy_controller
 from judo.core.policy import Policy
+from judo.core.reading import checked_reading
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 from judo.optimizers.ps import PredictiveSamplingConfig

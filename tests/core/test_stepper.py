@@ -7,7 +7,8 @@ import mujoco.rollout
 import numpy as np
 import pytest
 
-from judo.core.model import STATE_SPEC, mocap_metadata, mocap_vector, model_at
+from judo.core.model import STATE_SPEC
+from judo.core.reading import mocap_metadata, mocap_vector, model_at
 from judo.core.rollouts.rollout import RolloutPool
 from judo.core.rollouts.stepper import PolicyStepper
 

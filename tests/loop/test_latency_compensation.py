@@ -11,8 +11,8 @@ from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import make_controller
 from judo.evaluation.seeded import EpisodeSpec, run_seeded_episode
 from judo.loop.closed_loop import ClosedLoop
-from judo.loop.latency import LatencyPredictor
 from judo.loop.system import MujocoSystem
+from judo.loop.timing import LatencyPredictor
 
 
 def test_the_prediction_is_the_plant_stepped_under_the_same_controls():

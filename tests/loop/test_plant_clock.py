@@ -1,11 +1,11 @@
-"""The plant clock (judo.loop.plant_clock): which steps of a plant are due at a wall time, on given
+"""The plant clock (judo.loop.timing): which steps of a plant are due at a wall time, on given
 times (no sleeping), and a wait that ends on a stop."""
 
 import time
 
 import pytest
 
-from judo.loop.plant_clock import MAX_CATCH_UP, PlantClock
+from judo.loop.timing import MAX_CATCH_UP, PlantClock
 
 DT = 0.01
 

@@ -77,7 +77,9 @@ def test_readings_that_stop_are_named_every_few_seconds_until_they_resume_and_th
     assert stood[1] == pytest.approx(stood[0] + REPORT_EVERY, abs=0.035)
     assert stood[2] == pytest.approx(stood[0] + 2 * REPORT_EVERY, abs=0.035)
     assert loop.serve(loop.reading.time) == pytest.approx(loop.safe_action())
-    assert len(loop.plans._pending) <= 1  # the plans made from the same reading replaced one another
+    assert (
+        len(loop.plans._pending) <= 1
+    )  # the plans made from the same reading replaced one another
     plant.read_state = read  # the robot is back
     run_as_the_app(loop, 0.5)
     assert events[-1] is None and events.count(None) == 1 and loop.watchdog.tripped is None

@@ -17,7 +17,7 @@ import judo
 import judo.loop
 import judo.runtime
 from judo.evaluation.sensing import Sensing
-from judo.loop.plant_clock import ControlClock
+from judo.loop.timing import ControlClock
 from judo.runtime.app import App
 from judo.runtime.app_state import AppState, PendingConfigs
 from judo.runtime.session import ConfigSet

@@ -7,7 +7,7 @@ one MPC loop.
 - `controller.py`: one control update, written once (shift, sample, roll out, score, update);
 - `planner.py`: what the closed loop and the app call on a controller;
 - `policy.py`, `estimator.py`, `reading.py` (`SystemState`): a learned policy, a state estimator, a
-  reading.
+  reading (checked, and put into an MjData for planning).
 
 Beside them, in rooms by kind: `rollouts/` (the backends that step MuJoCo, and what runs inside a
 rollout), `configuration/` (config classes, fields, TOML files and the name registries), `policies/`

@@ -13,7 +13,7 @@ from judo.core.configuration.config import snapshot
 from judo.core.configuration.controller_config import ControllerConfig, check_configs, rollout_steps
 from judo.core.errors import NonFiniteRewardError
 from judo.core.feedback import FeedbackGains
-from judo.core.model import STATE_SPEC, mocap_vector, model_at, trace_sensor_columns
+from judo.core.model import STATE_SPEC, trace_sensor_columns
 from judo.core.optimizer import (
     Optimizer,
     PlanningStart,
@@ -21,16 +21,11 @@ from judo.core.optimizer import (
     sampled_knots,
     updated_knots,
 )
-from judo.core.planner import (
-    CancelFlag,
-    PlanServer,
-    checked_reading,
-    task_warm_start,
-    warm_start_takes_state,
-)
+from judo.core.planner import CancelFlag, PlanServer, task_warm_start, warm_start_takes_state
 from judo.core.planner_view import CycleSize, PlannerKind
 from judo.core.policies.proposals import Proposer, check_proposal_policy, insert_proposals
 from judo.core.policy import Policy
+from judo.core.reading import checked_reading, mocap_vector, model_at
 from judo.core.rollouts.backend import PlanningCancelled, RolloutBackend, RolloutLimits
 from judo.core.rollouts.dynamics import task_rollout_backend
 from judo.core.rollouts.low_level_rollout import check_low_level_backend, with_low_level

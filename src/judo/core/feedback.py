@@ -32,7 +32,7 @@ import numpy as np
 from judo.core.errors import JudoError
 from judo.core.feedback_plan import FeedbackPlan
 from judo.core.model import STATE_SPEC
-from judo.core.rollouts.workers import DaemonThreadPool
+from judo.core.rollouts.rollout import DaemonThreadPool
 from judo.core.spline import Spline
 
 if typing.TYPE_CHECKING:

@@ -23,60 +23,6 @@ def load_model(path: str | Path) -> mujoco.MjModel:
         raise ModelLoadError(f"could not compile MuJoCo model {path}: {err}") from err
 
 
-def set_mocap_poses(model: mujoco.MjModel, data: mujoco.MjData, metadata: dict | None) -> None:
-    """Copy a reading's "mocap_pos" (nmocap, 3) and "mocap_quat" (nmocap, 4), where `metadata` has
-    them, into `data`: mocap bodies (goals, targets) are not part of [qpos, qvel], so a System
-    publishes them beside it."""
-    if not metadata or not model.nmocap:
-        return
-    for key in ("mocap_pos", "mocap_quat"):
-        if key in metadata:
-            getattr(data, key)[:] = metadata[key]
-
-
-def model_at(
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    state: np.ndarray,
-    time: float | None = None,
-    metadata: dict | None = None,
-    *,
-    forward: bool = True,
-) -> mujoco.MjData:
-    """Put `state` into `data`, a scratch MjData of `model`, with the mocap poses in `metadata`
-    where it has them (see `set_mocap_poses`), then run `mj_forward` (unless `forward` is False);
-    returns `data`.
-
-    `state` is a reading's (nq + nv,) [qpos, qvel] at sim `time` (None: `data.time` is kept), or a
-    full-physics (nstate,) state of STATE_SPEC, which carries its own time, act and plugin state
-    (`time` is not used). The rest of `data` (ctrl, warm start, and act under a [qpos, qvel] state)
-    is left as it was."""
-    if len(state) == model.nq + model.nv:
-        if time is not None:
-            data.time = time
-        data.qpos[:] = state[: model.nq]
-        data.qvel[:] = state[model.nq :]
-    else:
-        mujoco.mj_setState(model, data, state, STATE_SPEC)
-    set_mocap_poses(model, data, metadata)
-    if forward:
-        mujoco.mj_forward(model, data)
-    return data
-
-
-def mocap_vector(data: mujoco.MjData) -> np.ndarray:
-    """(7 nmocap,) `data`'s mocap poses as a rollout's inputs take them: [mocap_pos.ravel(),
-    mocap_quat.ravel()]."""
-    return np.concatenate([data.mocap_pos.ravel(), data.mocap_quat.ravel()])
-
-
-def mocap_metadata(model: mujoco.MjModel, mocap: np.ndarray) -> dict[str, np.ndarray]:
-    """The "mocap_pos" (nmocap, 3) and "mocap_quat" (nmocap, 4) of a (7 nmocap,) `mocap_vector`, as
-    metadata."""
-    split = 3 * model.nmocap
-    return {"mocap_pos": mocap[:split].reshape(-1, 3), "mocap_quat": mocap[split:].reshape(-1, 4)}
-
-
 def model_mocap_poses(model: mujoco.MjModel) -> dict[str, np.ndarray]:
     """The model's own mocap poses, as a System publishes them: "mocap_pos" (nmocap, 3) and
     "mocap_quat" (nmocap, 4), in mocap index order (each mocap body's pos and quat in the MJCF)."""

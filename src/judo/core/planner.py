@@ -5,8 +5,8 @@ Two classes satisfy it: `judo.core.controller.Controller` (an optimizer plans on
 `judo.core.policies.policy_controller.PolicyController` (a policy's action or chunk is the plan).
 Code that drives a plant types against `Planner` only, so either serves through the same loop with
 no probing of which one it holds. `PlanServer` is what both serve alike (the plan at a time, the
-warm start before the first), and `checked_reading` the state and time check both run at the top of
-every update.
+warm start before the first: `task_warm_start`); both check each reading with
+`judo.core.reading.checked_reading` at the top of every update.
 """
 
 import inspect
@@ -17,7 +17,7 @@ from typing import Any, Protocol, TypeVar, cast, runtime_checkable
 
 import numpy as np
 
-from judo.core.errors import ConfigError, JudoError
+from judo.core.errors import JudoError
 from judo.core.spline import Spline
 from judo.core.task import Task
 
@@ -91,23 +91,6 @@ class Planner(Protocol):
     def close(self) -> None:
         """Release threads, device memory and whatever else the planner holds."""
         ...
-
-
-def checked_reading(state: Any, time: float, num_state: int, doing: str) -> np.ndarray:
-    """`state` as a (num_state,) float array, checked before an update uses it.
-
-    Raises ConfigError for another shape, and JudoError "cannot {doing} a non-finite reading (...);
-    keeping the previous plan" for a non-finite state entry or time (no reading time in the message:
-    the same fault reads the same, so the log's repeat filter holds).
-    """
-    state = np.asarray(state, dtype=float)
-    if state.shape != (num_state,):
-        raise ConfigError(f"state must have shape ({num_state},) = (nq + nv,), got {state.shape}")
-    if not (np.isfinite(state).all() and math.isfinite(time)):
-        bad = np.flatnonzero(~np.isfinite(state)).tolist()
-        what = f"non-finite state entries {bad}" if bad else f"non-finite time {time}"
-        raise JudoError(f"cannot {doing} a non-finite reading ({what}); keeping the previous plan")
-    return state
 
 
 def task_warm_start(task: Task, state: np.ndarray | None, takes_state: bool) -> np.ndarray:

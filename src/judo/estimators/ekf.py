@@ -26,8 +26,7 @@ from judo.core.estimator import (
     check_sensors,
     estimate_of,
 )
-from judo.core.model import set_mocap_poses
-from judo.core.reading import TIME_TOLERANCE, SystemState
+from judo.core.reading import TIME_TOLERANCE, SystemState, set_mocap_poses
 from judo.core.task import Task
 from judo.estimators.tangent import Residuals, TangentSpace
 

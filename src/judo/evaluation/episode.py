@@ -22,10 +22,10 @@ from judo.core.estimator import Estimator
 from judo.core.planner import Planner
 from judo.core.task import EpisodeLog, Task
 from judo.loop.closed_loop import ClosedLoop
-from judo.loop.latency import Latency, check_latency
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
+from judo.loop.timing import Latency, check_latency
 from judo.safety.config import SafetyConfig
 from judo.safety.feasibility import RolloutScreen
 from judo.safety.serve_filter import safety_guard

@@ -25,7 +25,7 @@ from judo.evaluation.shared_options import (
     given_fields,
     latency_label,
 )
-from judo.loop.latency import Latency
+from judo.loop.timing import Latency
 
 
 @dataclass

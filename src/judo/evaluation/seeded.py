@@ -29,10 +29,10 @@ from judo.core.rollouts.backend import RolloutBackend
 from judo.core.task import Task
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, run_episode
 from judo.evaluation.sensing import Sensing, choose_estimator, observed_plant
-from judo.loop.latency import Latency
 from judo.loop.records import Recorder
 from judo.loop.sensing import SensedSystem
 from judo.loop.system import MujocoSystem
+from judo.loop.timing import Latency
 from judo.safety.config import SafetyConfig
 
 T = TypeVar("T")

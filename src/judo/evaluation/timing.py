@@ -21,8 +21,8 @@ from judo.core.configuration.config import require, with_updates
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.configuration.registry import lookup_optimizer, make_config, make_controller
 from judo.core.controller import Controller
-from judo.core.model import STATE_SPEC, mocap_vector, model_at
-from judo.core.reading import SystemState
+from judo.core.model import STATE_SPEC
+from judo.core.reading import SystemState, mocap_vector, model_at
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
 

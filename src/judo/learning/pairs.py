@@ -26,7 +26,7 @@ import mujoco
 import numpy as np
 
 from judo.core.errors import JudoError
-from judo.core.model import model_at
+from judo.core.reading import model_at
 from judo.core.task import Task
 
 FEATURE = "python -m judo distill"

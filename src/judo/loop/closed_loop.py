@@ -12,7 +12,7 @@ control clock (`ControlClock`) says, in sim time, then advances; the benchmark t
 Where the features plug in, each once, here:
 - the estimator (`judo.loop.estimation`): `read` fuses the System's raw reading into the state
   planned from, as of the plant's now;
-- the latency model (`judo.loop.latency`): a plan from the reading at time t is served from plant
+- the latency model (`judo.loop.timing`): a plan from the reading at time t is served from plant
   time t + delay (sim seconds, or "measured": the update's wall time; the app uses 0);
 - the watchdog (`judo.loop.watchdog`): `serve` gives the task's `safe_action` instead of a plan
   older than `ControllerConfig.max_plan_age` beyond one control period (`on_watchdog` is told why);
@@ -38,15 +38,6 @@ from judo.core.reading import SystemState
 from judo.core.spline import Spline
 from judo.loop.estimation import Estimation
 from judo.loop.guard import Guard, Stop
-from judo.loop.latency import (
-    RECENT_CYCLES,
-    Latency,
-    LatencyPredictor,
-    PlanQueue,
-    check_latency,
-    prediction_delay,
-)
-from judo.loop.plant_clock import ControlClock
 from judo.loop.records import PlanRecord, Recorder, StepRecord
 from judo.loop.system import (
     SimulationDiverged,
@@ -54,6 +45,15 @@ from judo.loop.system import (
     SystemCallError,
     SystemCalls,
     SystemClosedError,
+)
+from judo.loop.timing import (
+    RECENT_CYCLES,
+    ControlClock,
+    Latency,
+    LatencyPredictor,
+    PlanQueue,
+    check_latency,
+    prediction_delay,
 )
 from judo.loop.watchdog import Watchdog, safe_action
 
@@ -96,7 +96,7 @@ class ClosedLoop:
         control_clock: when `step` makes the next control update, in plant time.
 
     `plan` may run on another thread than `serve` and `advance` (the app's worker thread): the
-    hand-over of a new plan is locked (`judo.loop.latency.PlanQueue`).
+    hand-over of a new plan is locked (`judo.loop.timing.PlanQueue`).
     """
 
     def __init__(

@@ -40,8 +40,8 @@ from judo.core.configuration.model_overrides import override_task_models, parse_
 from judo.core.configuration.registry import get_registered_tasks, lookup_task
 from judo.core.errors import ConfigError, JudoError, import_extra
 from judo.core.task import new_task
-from judo.loop.plant_clock import PlantClock
 from judo.loop.system import MujocoSystem, SimulationDiverged
+from judo.loop.timing import PlantClock
 from judo.ros2.options import Ros2Options, UnitreeOptions
 
 PROG = "python -m judo plant"

@@ -11,8 +11,8 @@ running/          who runs what, a room each: planner.py (the control clock in w
                   pace) and supervisor.py (the event loop, the frontend, the stop order, the exit guard)
 cycles.py         a planning cycle's size, estimated cost, the cycle in flight, and StopSignal (the app's stop)
 live_recording.py the recording under way
-snapshots.py      StateBuffer and what the loops publish in it for the GUI
-status.py         the status line, the timing figures, the reports
+snapshots.py      what the loops publish for the GUI: StateBuffer, and RunStats (the timing figures)
+status.py         the status line and the reports
 address.py        where the GUI listens
 launch.py         `python -m judo`: the app's command line
 gui/              the viser GUI (the app never imports it)

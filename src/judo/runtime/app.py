@@ -6,18 +6,11 @@ lock-protected state.
 
 The App checks its run settings (`judo.runtime.commands.check_app_settings`: a bad one is a one-line
 ConfigError before anything is built), then composes parts that own their state and are handed what
-they use (docs/architecture.md):
-- `AppState` (`judo.runtime.app_state`): the configs in force and pending, the requests, pause, the
-  counters;
-- `Commands` (`judo.runtime.commands`): validate each command and queue it in the state; the App's
-  `commands` (`app.commands.update_config(...)`, `app.commands.pause()`,
-  `app.commands.switch_task(...)`);
-- `PlantRunner` (`judo.runtime.running.plant`): the System's thread;
-- `PlannerRunner` (`judo.runtime.running.planner`): the control clock, planning and switches;
-- `Supervisor` (`judo.runtime.running.supervisor`): the event loop, signals, the monitor and the
-  stop order;
-- `Recordings` (`judo.runtime.live_recording`) and the frontend (the GUI, given to the App, which
-  never imports it).
+they use (docs/architecture.md): `AppState` (the configs in force and pending, the requests, pause,
+the counters), `Commands` (each command validated and queued: `app.commands.update_config(...)`,
+`.pause()`, `.switch_task(...)`), `PlantRunner` (the System's thread), `PlannerRunner` (the control
+clock, planning and switches), `Supervisor` (the event loop, signals, the monitor and the stop
+order), `Recordings`, and the frontend (the GUI, given to the App, which never imports it).
 The App implements the GUI's command port (`judo.runtime.command_port.AppPort`); `start()` returns
 at once. What the app publishes arrives by callback, on the thread that made it (keep a callback
 cheap): `on_state` each plant reading, `on_plan` each plan, `on_config_change` each accepted config,
@@ -66,8 +59,15 @@ from judo.runtime.running.supervisor import (
     viser_frontend,
 )
 from judo.runtime.session import Session, SessionMaker
-from judo.runtime.snapshots import PlanSnapshot, Snapshot, StateBuffer, SystemSnapshot
-from judo.runtime.status import Level, Reports, RunStats, RunSummary, Status, StatusLine
+from judo.runtime.snapshots import (
+    PlanSnapshot,
+    RunStats,
+    RunSummary,
+    Snapshot,
+    StateBuffer,
+    SystemSnapshot,
+)
+from judo.runtime.status import Level, Reports, Status, StatusLine
 from judo.safety.stop import StopLatch, default_stop_file
 
 __all__ = ["App"]

@@ -27,9 +27,9 @@ from judo.core.estimator import EstimatorConfig
 from judo.recording.live import LiveRecorder
 from judo.runtime.cycles import CycleCost
 from judo.runtime.session import Session
-from judo.runtime.snapshots import PlanSnapshot, Snapshot, SystemSnapshot
+from judo.runtime.snapshots import LiveFigures, PlanSnapshot, Snapshot, SystemSnapshot
 from judo.runtime.status import Level as StatusLevel
-from judo.runtime.status import LiveFigures, Status
+from judo.runtime.status import Status
 from judo.safety.stop import StopLatch
 
 __all__ = ["AppPort", "CommandPort", "FigureSource", "SnapshotSource"]

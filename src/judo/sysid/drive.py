@@ -95,8 +95,8 @@ def drive(
     progress display)."""
     from judo.core.estimator import ControlHistory
     from judo.evaluation.sensing import Sensing, choose_estimator
-    from judo.loop.plant_clock import PlantClock
     from judo.loop.system import check_reading
+    from judo.loop.timing import PlantClock
 
     model = task.model
     width = model.nq + model.nv

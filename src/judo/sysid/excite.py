@@ -10,7 +10,7 @@ random phases (seeded), scaled so that the signal spans --amplitude of the actua
 about its centre and never leaves the range. The plant is judo's simulator with the task's plant
 overrides (--plant-overrides, --config), or the System --system names (as the app's --system: ros2
 or module:Class), whose step() is called once per timestep of wall clock, paced by the app's plant
-clock (judo.loop.plant_clock); judo's simulator, which has no wall clock of its own, is stepped as
+clock (judo.loop.timing); judo's simulator, which has no wall clock of its own, is stepped as
 fast as it goes, as collect steps it. What the plant reports is logged: its state where it gives
 one, its sensors, and, where its readings hold only measured sensors, those sensors, when each was
 taken, and the task's default estimator's state (what `sysid` starts each window from). At the end,

@@ -16,7 +16,7 @@ import numpy as np
 from judo.evaluation.episode import EpisodeOutcome, EpisodeResult, episode_failure
 from judo.evaluation.seeded import EpisodeSpec, failure_reason, run_seeded_episode
 from judo.evaluation.sensing import Sensing
-from judo.loop.latency import Latency
+from judo.loop.timing import Latency
 from judo.tuning.conditions import Aggregate, Condition
 
 

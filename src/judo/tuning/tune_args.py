@@ -12,7 +12,7 @@ from judo.cli_shared import check_names, episode_latency
 from judo.core.commandline.boundary import check_seed_range
 from judo.core.configuration.config import require
 from judo.evaluation.sensing import SensingFlags
-from judo.loop.latency import Latency
+from judo.loop.timing import Latency
 from judo.tuning.conditions import (
     Aggregate,
     Condition,

@@ -34,8 +34,8 @@ from judo.core.configuration.model_overrides import override_task_models, parse_
 from judo.core.configuration.registry import lookup_task
 from judo.core.errors import ConfigError
 from judo.core.task import new_task
-from judo.loop.plant_clock import PlantClock
 from judo.loop.system import MujocoSystem, SimulationDiverged
+from judo.loop.timing import PlantClock
 from judo.ros2 import link as ros2_link
 from judo.ros2.plant import PROG, Outbox, PlantOptions, check
 from judo.ros2.plant import main as ros2_plant_main

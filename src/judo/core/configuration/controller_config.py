@@ -92,7 +92,7 @@ class ControllerConfig(Config):
     latency_compensation: bool = False
     """Plan from the state the plant will be in when the plan takes effect: the reading is stepped
     forward on the planning model by the planning latency (the fixed latency, else the last update's
-    wall time), under the controls the plant gets meanwhile (judo.loop.latency)."""
+    wall time), under the controls the plant gets meanwhile (judo.loop.timing)."""
     feedback: bool = False
     """Serve the plan with time-varying LQR gains around its nominal rollout, u = u_plan(t) + K(t)
     (x - x_nom(t)), clamped to the actuators' range: each update also linearises the planning model

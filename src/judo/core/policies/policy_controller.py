@@ -33,10 +33,10 @@ from judo.core.configuration.config import check_seed, with_updates
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.controller import Controller
 from judo.core.errors import ConfigError, NonFiniteKnotsError, NonFiniteRewardError
-from judo.core.model import model_at
-from judo.core.planner import CancelFlag, PlanServer, checked_reading, warm_start_takes_state
+from judo.core.planner import CancelFlag, PlanServer, warm_start_takes_state
 from judo.core.planner_view import PlannerKind
 from judo.core.policy import NonFiniteActionsError, Policy, PolicyError
+from judo.core.reading import checked_reading, model_at
 from judo.core.spline import MIN_KNOTS, Spline, SplineBasis
 from judo.core.task import Task, new_task
 

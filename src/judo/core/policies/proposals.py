@@ -36,8 +36,8 @@ import mujoco.rollout
 import numpy as np
 
 from judo.core.errors import ConfigError
-from judo.core.model import mocap_metadata, model_at
 from judo.core.policy import Policy, PolicyError
+from judo.core.reading import mocap_metadata, model_at
 from judo.core.rollouts.stepper import PolicyStepper
 from judo.core.spline import MIN_KNOTS, SplineBasis, SplineOrder
 from judo.core.task import Task

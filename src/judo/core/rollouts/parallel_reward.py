@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from judo.core.errors import JudoError
-from judo.core.rollouts.workers import DaemonThreadPool
+from judo.core.rollouts.rollout import DaemonThreadPool
 
 MIN_BLOCK_ROWS = 256
 """Fewest rows a block gets: below this a thread's start-up and numpy's per-call overhead outweigh

@@ -21,7 +21,8 @@ from judo.core.errors import JudoError
 from judo.core.planner_view import PlannerKind
 from judo.runtime.command_port import AppPort
 from judo.runtime.gui.news import Latest
-from judo.runtime.status import LiveFigures, Status
+from judo.runtime.snapshots import LiveFigures
+from judo.runtime.status import Status
 
 MARKDOWN_SPECIAL = set("\\`*_[]<>#|")
 NO_ESTIMATOR = "none"

@@ -8,7 +8,7 @@ import numpy as np
 import viser
 import viser.uplot
 
-from judo.runtime.status import LiveFigures
+from judo.runtime.snapshots import LiveFigures
 
 HISTORY = 120
 """Points kept per chart: the last 30 s at 4 points a second, so the y-range follows the recent

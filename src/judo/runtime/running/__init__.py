@@ -6,13 +6,13 @@ Who runs what:
   top of each iteration it carries out what the commands queued in the app's state (a switch of
   task, optimizer or estimator; config edits; forgetting the plans after a reset), so it is the only
   writer of the session's configs and the only builder of sessions after the first. When the control
-  clock (`judo.loop.plant_clock.ControlClock`, the one `ClosedLoop.step` uses in sim time) says a
+  clock (`judo.loop.timing.ControlClock`, the one `ClosedLoop.step` uses in sim time) says a
   plan is due, it plans from the closed loop's latest reading on its worker thread
   (`run_in_executor`), so the event loop never blocks on rollouts, and publishes the plan, rewards,
   traces and timing under "plan" in the StateBuffer (the GUI's view).
 - **The plant runner** (`PlantRunner`, plant.py), the System driven from one thread of its own at
   real-time pace: the only caller of the closed loop's `advance` (serve, apply, step, read back), of
-  the plant's resets and of `halt`. The plant clock (`judo.loop.plant_clock.PlantClock`, the one
+  the plant's resets and of `halt`. The plant clock (`judo.loop.timing.PlantClock`, the one
   `excite` paces by) says which steps are due: step k of a stretch at wall time origin + k *
   timestep; a loop that falls further behind than MAX_CATCH_UP s at once falls behind instead (the
   real-time factor shows it). judo's own simulator waits for a slow planner (`sim_waits`), so on a

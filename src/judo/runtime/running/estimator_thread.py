@@ -39,7 +39,7 @@ import numpy as np
 from judo.core.errors import JudoError
 from judo.core.estimator import ControlHistory, Estimator, EstimatorConfig, estimate_of
 from judo.core.reading import SystemState
-from judo.loop.latency import LatencyPredictor
+from judo.loop.timing import LatencyPredictor
 
 JOIN_TIMEOUT = 0.2
 """Seconds `close` waits for the filter's thread to finish its update in flight."""

@@ -10,14 +10,14 @@ from judo.core.feedback_plan import FeedbackPlan
 from judo.core.planner_view import PlannerKind
 from judo.core.reading import SystemState
 from judo.core.rollouts.backend import PlanningCancelled
-from judo.core.rollouts.workers import DaemonThreadPool
-from judo.loop.plant_clock import ControlClock
+from judo.core.rollouts.rollout import DaemonThreadPool
+from judo.loop.timing import ControlClock
 from judo.runtime.app_state import AppState, PendingConfigs
 from judo.runtime.cycles import PlanningCycle, Stopping, cycle_seconds, seconds_text
 from judo.runtime.live_recording import Recordings
 from judo.runtime.session import Session, SessionMaker
-from judo.runtime.snapshots import PlanSnapshot, StateBuffer
-from judo.runtime.status import Reports, RunStats
+from judo.runtime.snapshots import PlanSnapshot, RunStats, StateBuffer
+from judo.runtime.status import Reports
 
 IDLE_POLL = 0.01
 """Seconds the planner sleeps while paused or waiting for its first reading."""
@@ -160,7 +160,8 @@ class PlannerRunner:
                 "planner", f"planning cycle skipped: {session.closed_loop.last_failure}", "warning"
             )
             return
-        reports.recovered("planner", "planning works again")
+        if reports.line.trouble:  # nothing to clear in the steady state
+            reports.recovered("planner", "planning works again")
         if isinstance(plan, FeedbackPlan) and plan.feedback_error is not None:
             reports.report(f"plan served without feedback gains: {plan.feedback_error}", "warning")
         plan_time = time.perf_counter() - start

@@ -9,12 +9,12 @@ from collections.abc import Callable
 
 from judo.core.reading import SystemState
 from judo.loop.closed_loop import ClosedLoop
-from judo.loop.plant_clock import PlantClock
 from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedError
+from judo.loop.timing import PlantClock
 from judo.runtime.app_state import AppState
 from judo.runtime.session import Session
-from judo.runtime.snapshots import StateBuffer, SystemSnapshot
-from judo.runtime.status import Reports, RunStats
+from judo.runtime.snapshots import RunStats, StateBuffer, SystemSnapshot
+from judo.runtime.status import Reports
 
 logger = logging.getLogger("judo.app")
 
@@ -241,7 +241,8 @@ class PlantRunner:
         except Exception as err:
             self._reports.failed("system", f"system step failed: {type(err).__name__}: {err}")
             return False
-        self._reports.recovered("system", "the system steps again")
+        if self._reports.line.trouble:  # nothing to clear in the steady state
+            self._reports.recovered("system", "the system steps again")
         return True
 
     def _read_and_publish(self, session: Session) -> None:

@@ -7,7 +7,7 @@ import time
 
 import pytest
 
-from judo.core.rollouts.workers import DaemonThreadPool
+from judo.core.rollouts.rollout import DaemonThreadPool
 
 
 def alive(name: str) -> list[threading.Thread]:
