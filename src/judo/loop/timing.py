@@ -190,7 +190,7 @@ class LatencyPredictor:
     """
 
     def __init__(self, task: Task) -> None:
-        # its `predict_step` steps the prediction (a DynamicsTask's: its own dynamics)
+        # the task's `predict_step` steps the prediction (a DynamicsTask's: its own dynamics)
         self.task = task
         self.model = task.model
         self.data = mujoco.MjData(self.model)

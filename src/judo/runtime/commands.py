@@ -296,6 +296,6 @@ class Commands:
     def switch_optimizer(self, optimizer: str) -> None:
         """Use the registered optimizer `optimizer` from the next cycle, keeping the plant
         running."""
-        # or the policy's (the GUI's "policy")
+        # an optimizer, or the policy (the GUI's "policy")
         self._maker.check_choice(self._state.session.task_name, optimizer)
         self._state.request_switch(optimizer=optimizer)

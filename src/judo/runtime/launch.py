@@ -247,7 +247,7 @@ def parse(
         (CONFIG_GROUPS[kind], type(config), field(default_factory=lambda config=config: config))
         for kind, config in defaults.items()
     ]
-    # its flags without a prefix
+    # RunOptions' flags without a prefix
     flat = Annotated[RunOptions, tyro.conf.OmitArgPrefixes, tyro.conf.arg(name="")]
     options_field = ("options", flat, field(default_factory=RunOptions))
     ros2_field = (

@@ -341,7 +341,7 @@ class SessionMaker:
         estimator_only = (task, optimizer) == (old.task_name, old.optimizer_name)
         if task != old.task_name:
             return self._build(task, optimizer, old.generation + 1, sensing, None, None, None, old)
-        # its live config goes on with the running plant, unless replaced
+        # the estimator's live config goes on with the running plant, unless replaced
         estimator = old.closed_loop.estimator
         if estimator is not None and sensing.estimator in (None, old.estimator_name):
             sensing = replace(sensing, estimator_config=estimator.config)

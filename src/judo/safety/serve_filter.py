@@ -233,7 +233,7 @@ class ServeFilter:
         for key, target in (("mocap_pos", data.mocap_pos), ("mocap_quat", data.mocap_quat)):
             if key in metadata and np.shape(metadata[key]) == target.shape:
                 target[:] = metadata[key]
-        # its kinematics stay those of `state`: the frame before the step
+        # the data's kinematics stay those of `state`: the frame before the step
         mujoco.mj_step(model, data)
         before = self._frame(data) if lim.workspace_frame else None
         hits, excess = [], 0.0
