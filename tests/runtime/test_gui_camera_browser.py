@@ -205,14 +205,17 @@ def test_following_keeps_the_pages_view_direction_and_distance(app, page, wait_u
     wait_until(lambda: app.resets_done >= 1, timeout=30, what="the reset")
     time.sleep(0.5)
     offset = np.asarray(client.camera.position) - np.asarray(client.camera.look_at)
-    start, worst = app.gui.scene.data.xpos[torso].copy(), 0.0
-    deadline = time.monotonic() + RUN_SECONDS
-    while time.monotonic() < deadline:
+    start, worst, moved = app.gui.scene.data.xpos[torso].copy(), 0.0, 0.0
+    # at least RUN_SECONDS, and on until the walker has walked 0.3 m (a loaded machine plans slower)
+    began = time.monotonic()
+    while time.monotonic() < began + RUN_SECONDS or (
+        moved <= 0.3 and time.monotonic() < began + 30
+    ):
         now = np.asarray(client.camera.position) - np.asarray(client.camera.look_at)
         worst = max(worst, float(np.linalg.norm(now - offset)))
+        moved = float(np.linalg.norm(app.gui.scene.data.xpos[torso] - start))
         time.sleep(SAMPLE_PERIOD)
-    moved = float(np.linalg.norm(app.gui.scene.data.xpos[torso] - start))
-    assert moved > 0.3, f"the walker moved only {moved:.2f} m: nothing to follow"
+    assert moved > 0.3, f"the walker moved only {moved:.2f} m in 30 s: nothing to follow"
     assert worst < 0.25, (
         f"the camera's offset from the walker changed by {worst:.2f} m while following"
     )
