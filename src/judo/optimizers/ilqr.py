@@ -79,7 +79,7 @@ class ILQR(Optimizer[ILQRConfig]):
         self._start: PlanningStart | None = None
         self._linear: FeedbackGains | None = None
         self._data: mujoco.MjData | None = None
-        self._pinv_of: tuple[int, tuple[int, ...]] | None = None
+        self._pinv_of: np.ndarray | None = None
 
     def restart(self) -> None:
         self.regularization = self.config.regularization
@@ -125,11 +125,10 @@ class ILQR(Optimizer[ILQRConfig]):
 
     def _pinv(self, weights: np.ndarray) -> np.ndarray:
         """(num_nodes, T) least-squares map from per-step controls to knots, kept while the weights
-        stay."""
-        key = (id(weights), weights.shape)
-        if key != self._pinv_of:
+        stay (held, so that a freed array's id can never match a new one)."""
+        if weights is not self._pinv_of:
             self._pinv_matrix = np.linalg.pinv(weights)
-            self._pinv_of = key
+            self._pinv_of = weights
         return self._pinv_matrix
 
     def _expand(

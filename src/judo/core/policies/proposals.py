@@ -139,7 +139,7 @@ class Proposer:
         self._num_state = model.nq + model.nv
         self._fit_key: tuple | None = None
         self._fit = np.zeros((0, 0))
-        self._checked: tuple[int, int] | None = None
+        self._checked: tuple[Policy, int] | None = None
         self.last_error: str | None = None
         self.check(policy, count)
 
@@ -148,10 +148,14 @@ class Proposer:
         PolicyError unless a `policy` takes the task's observations to its nu controls (checked once
         per policy)."""
         check_proposal_policy(policy, count)
-        if policy is None or self._checked == (id(policy), self.task.command_size):
+        if policy is None or (
+            self._checked is not None
+            and self._checked[0] is policy
+            and self._checked[1] == self.task.command_size
+        ):
             return
         check_policy_fits(self.task, policy)
-        self._checked = (id(policy), self.task.command_size)
+        self._checked = (policy, self.task.command_size)
 
     def candidates(
         self,
