@@ -529,7 +529,7 @@ def test_house_figures_counts_each_figure_on_a_small_checkout_and_this_one(tmp_p
     assert "before (" in both.stdout and "GUI polled change counters:" in both.stdout
 
 
-FILES_PER_UPDATE = 17
+FILES_PER_UPDATE = 16
 """Most judo files whose code runs during steady-state updates of cartpole with mppi in the app
 (21 before the loop's clocks, the reading's helpers, the daemon pool and the run's figures each
 joined the room they belong to; the target is 15)."""

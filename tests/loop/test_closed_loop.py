@@ -240,7 +240,7 @@ def test_the_watchdog_serves_the_safe_action_once_the_plan_is_too_old_and_resume
 def test_a_frozen_reading_trips_the_watchdog_and_a_reading_running_backwards_is_refused(
     hold_task_cls,
 ):
-    from judo.loop.watchdog import ReadingTimeError
+    from judo.core.errors import ReadingTimeError
 
     events = []
     with hold_controller(hold_task_cls) as controller:

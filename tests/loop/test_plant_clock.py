@@ -6,6 +6,7 @@ import time
 import pytest
 
 from judo.loop.timing import MAX_CATCH_UP, PlantClock
+from judo.sysid.drive import sleep_until_due
 
 DT = 0.01
 
@@ -48,9 +49,9 @@ def test_sleep_until_due_sleeps_to_the_step_and_ends_on_a_stop():
     clock = PlantClock()
     timestep = 0.05
     start = time.perf_counter()
-    assert clock.sleep_until_due(timestep, lambda: False)  # the first step at once
+    assert sleep_until_due(clock, timestep, lambda: False)  # the first step at once
     clock.stepped(1)
-    assert clock.sleep_until_due(timestep, lambda: False)
+    assert sleep_until_due(clock, timestep, lambda: False)
     assert time.perf_counter() - start >= timestep  # never before it is due
     clock.stepped(1)
-    assert not clock.sleep_until_due(timestep, lambda: True)
+    assert not sleep_until_due(clock, timestep, lambda: True)

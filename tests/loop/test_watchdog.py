@@ -11,7 +11,7 @@ from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.controller import Controller
 from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import MujocoSystem
-from judo.loop.watchdog import REPORT_EVERY, Watchdog
+from judo.loop.timing import REPORT_EVERY, Watchdog
 from judo.optimizers.ps import PredictiveSampling, PredictiveSamplingConfig
 
 CONTROL_FREQ, MAX_PLAN_AGE = 20.0, 0.2

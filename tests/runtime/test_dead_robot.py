@@ -14,7 +14,7 @@ import pytest
 import judo
 from judo.core.reading import SystemState
 from judo.loop.system import MujocoSystem, System
-from judo.loop.watchdog import REPORT_EVERY
+from judo.loop.timing import REPORT_EVERY
 from judo.runtime.app import App
 
 STOPPED_FOR = REPORT_EVERY + 1.5

@@ -70,3 +70,8 @@ class NonFiniteRewardError(JudoError):
 class NonFiniteKnotsError(JudoError):
     """The optimizer sampled or returned NaN or infinite knots; its search was restarted and the
     plan is kept."""
+
+
+class ReadingTimeError(JudoError):
+    """A reading's time went backwards (a System's clock must never run back); the reading is
+    refused."""

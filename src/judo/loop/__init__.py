@@ -7,9 +7,9 @@ What a robot integrator reads, below the app, the GUI and the commands (it impor
     closed_loop.py      ClosedLoop: read -> plan (latency model) -> serve (watchdog, feedback) -> apply, step
     timing.py           when the loop acts: ControlClock (when the next plan is due, in sim or wall
                         time), PlantClock (when a System's next step() is due in wall time), the
-                        latency model and its prediction, and PlanQueue (the plans waiting for their time)
-    watchdog.py         the watchdog: how fresh the readings and the plan in force are, which of them is
-                        to blame, and when to tell it; the safe action it serves
+                        latency model and its prediction, PlanQueue (the plans waiting for their time),
+                        and the watchdog (how fresh the readings and the plan in force are, which of
+                        them is to blame, when to tell it) with the safe action it serves
     estimation.py       the estimator's side of the loop: fed every served action, run on each raw reading
     records.py          PlanRecord and StepRecord, what the loop tells its recorders
     sensing.py          rehearsed sensing (SensedSystem): a simulator seen through a robot's sensors

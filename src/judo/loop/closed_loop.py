@@ -12,10 +12,10 @@ control clock (`ControlClock`) says, in sim time, then advances; the benchmark t
 Where the features plug in, each once, here:
 - the estimator (`judo.loop.estimation`): `read` fuses the System's raw reading into the state
   planned from, as of the plant's now;
-- the latency model (`judo.loop.timing`): a plan from the reading at time t is served from plant
-  time t + delay (sim seconds, or "measured": the update's wall time; the app uses 0);
-- the watchdog (`judo.loop.watchdog`): `serve` gives the task's `safe_action` instead of a plan
-  older than `ControllerConfig.max_plan_age` beyond one control period (`on_watchdog` is told why);
+- the latency model and the watchdog (`judo.loop.timing`): a plan from the reading at time t is
+  served from plant time t + delay (sim seconds, or "measured": the update's wall time; the app
+  uses 0); `serve` gives the task's `safe_action` instead of a plan older than
+  `ControllerConfig.max_plan_age` beyond one control period (`on_watchdog` is told why);
 - recorders of every step and plan (`judo.loop.records.Recorder`);
 - the guard on every served action (`judo.loop.guard.Guard`: `judo.safety_guard`) and the latched
   stop (`judo.loop.guard.Stop`): while it is engaged, `serve` gives the safe action and `advance`
@@ -52,10 +52,11 @@ from judo.loop.timing import (
     Latency,
     LatencyPredictor,
     PlanQueue,
+    Watchdog,
     check_latency,
     prediction_delay,
+    safe_action,
 )
-from judo.loop.watchdog import Watchdog, safe_action
 
 __all__ = ["ClosedLoop"]
 
@@ -70,9 +71,8 @@ class ClosedLoop:
         recorders: objects with `on_plan(PlanRecord)` and `on_step(StepRecord)`, called in order.
         clock: the watchdog's clock in seconds; None counts the plant time the loop has stepped
             (evaluate, tune), the app passes the wall clock.
-        on_watchdog: called with the reason when the watchdog starts serving the safe action, again
-            as it learns more and every REPORT_EVERY s while it lasts, and with None when a fresh
-            plan is served again (`judo.loop.watchdog`: what is told and when).
+        on_watchdog: called with the reason whenever the watchdog has news (`judo.loop.timing`:
+            what is told and when), with None when a fresh plan is served again.
         estimator: turns each raw reading into the state planned from (None: plan from the reading's
             state), fed every served action (`judo.loop.estimation`).
         keep_updates: keep at least the latest this many entries of `update_ms` and `latency_s` (at
@@ -289,7 +289,7 @@ class ClosedLoop:
 
     def safe_action(self) -> np.ndarray:
         """(nu,) the task's `safe_action` from the latest finite reading, clamped
-        (`judo.loop.watchdog.safe_action`)."""
+        (`judo.loop.timing.safe_action`)."""
         return safe_action(self.controller.task, self._safe_state)
 
     def halt(self) -> None:

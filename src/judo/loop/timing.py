@@ -1,50 +1,38 @@
-"""When the loop acts: the two clocks (when a System's next step and the next control update are
-due) and the latency model (when a plan takes effect, and the prediction that compensates for it).
+"""When the loop acts, and whether what it serves is fresh: the clocks, the latency model and the
+watchdog.
 
-## The clocks
+`PlantClock` says when a System's next `step()` is due in wall time: step k of a stretch at origin
++ k * timestep, the stretch ending at `restart` (a new session, a reset, a pause); a caller more
+than `max_catch_up` s behind falls behind rather than bursting to catch up. The app's plant thread,
+`excite` and the robot processes pace a System by it:
 
-The plant clock (`PlantClock`) says when a System's next `step()` is due in wall time, the control
-clock (`ControlClock`) when the next control update is due. The plant clock steps a plant once per
-`timestep` of wall clock (docs/hardware.md). The app's plant thread and `python -m judo excite` both
-pace a System by it.
+    due = clock.due(time.perf_counter(), system.timestep)
+    for _ in range(due):
+        system.step()
+    clock.stepped(due)
+    time.sleep(clock.wait(time.perf_counter(), system.timestep))
 
-Step k of a stretch is due at wall time origin + k * timestep, the origin being the wall time the
-stretch began (its first step is due at once). `restart` ends the stretch: the next `due` begins a
-new one (after a new session, a reset, a pause, a wait for the planner). A caller that falls further
-behind than `max_catch_up` seconds at once falls behind instead: at most that many seconds of steps
-are due at once, and the origin moves on by the rest, so a slow `step()` slows the plant down (the
-real-time factor shows it) rather than bursting to catch up.
+`ControlClock` says when the next control update is due, every 1 / control_freq s: in sim time
+under `ClosedLoop.step` (evaluate, tune, collect), in wall time under the app's planner runner.
 
-    clock = PlantClock()
-    while running:
-        now = time.perf_counter()
-        due = clock.due(now, system.timestep)
-        for _ in range(due):
-            system.step()
-        clock.stepped(due)
-        time.sleep(clock.wait(time.perf_counter(), system.timestep))
+The latency model: a plan from the reading at time t is served from t + delay, the plant going on
+under the plan before meanwhile; with `latency_compensation` (or `feedback`) the loop plans from the
+state predicted at the first step at or after t + delay (`LatencyPredictor`). `PlanQueue` holds the
+plans waiting for their time, and the one in force.
 
-The control clock is ticked in sim time by `ClosedLoop.step` (evaluate, tune, collect) and in wall
-time by the app's planner runner. It ticks every 1 / control_freq s, read when asked (an edit takes
-effect at once); an update whose plan takes effect after the next tick moves that tick to then,
-since a controller cannot start a plan before the current one is done.
-
-## The latency model
-
-A plan computed from the reading at time t is served from t + delay (`judo.loop.closed_loop`). Until
-then the plant goes on under the plan in force before it, so a plan whose rollouts start from the
-reading's state plans the first `delay` seconds for a state the plant has already left. With the
-controller's `latency_compensation` (and with `feedback` gains), the closed loop first predicts the
-plant's state at the first plant step at or after t + delay on the planning model, under the
-controls it will actually be served meanwhile, and plans from there (`predict_reading`); such a plan
-takes effect no earlier than that step, where its rollouts start. `PlanQueue` holds the plans that
-wait for their time, and the one in force.
+The watchdog (`Watchdog.verdict`, before each action served, on the loop's clock: plant time in
+evaluate and tune, the wall clock in the app): once the plan in force is older than `max_plan_age`
+beyond one control period, the plant gets `safe_action` until a fresh plan is served. A plan is as
+old as the freshest reading it was planned from; the age's larger part is named as the cause: the
+readings stood still (a dead robot, driver, link or sensor stream), or planning lags behind fresher
+readings (a hung reward, a slow cycle, a refused reading). A trouble is told (`news`) when it
+starts, when the readings turn out to have stopped, every REPORT_EVERY s while it lasts, and at its
+end; one of the same cause within REPORT_EVERY s of the last one told is counted instead.
 """
 
 import dataclasses
 import math
 import threading
-import time
 from collections.abc import Callable, Sequence
 from typing import Literal
 
@@ -52,6 +40,7 @@ import mujoco
 import numpy as np
 
 from judo.core.configuration.config import require
+from judo.core.errors import ReadingTimeError
 from judo.core.reading import TIME_TOLERANCE, SystemState, set_mocap_poses
 from judo.core.spline import Spline
 from judo.core.task import Task
@@ -59,20 +48,12 @@ from judo.loop.system import DIVERGENCE_WARNINGS
 
 MAX_CATCH_UP = 0.1
 """Most seconds of sim time due at once to catch up; beyond that the plant falls behind."""
-STOP_POLL = 0.05
-"""Most seconds `sleep_until_due` sleeps before it asks again whether to stop."""
 
 
 class PlantClock:
     """Which steps of a plant are due at a wall time (time.perf_counter() seconds), and how long
-    until the next.
-
-    Args:
-        max_catch_up: most seconds of steps due at once (at least one step).
-
-    Attributes:
-        running: whether a stretch runs (False before the first `due` and after `restart`).
-    """
+    until the next: at most `max_catch_up` s of steps at once (at least one). `running`: whether a
+    stretch runs (False before the first `due` and after `restart`)."""
 
     def __init__(self, max_catch_up: float = MAX_CATCH_UP) -> None:
         self.max_catch_up = max_catch_up
@@ -107,23 +88,12 @@ class PlantClock:
             return 0.0
         return max(0.0, self._origin + self._steps * timestep - now)
 
-    def sleep_until_due(self, timestep: float, stopped: Callable[[], bool]) -> bool:
-        """Sleep until a step of `timestep` s is due (True), or until `stopped()` (False), asking it
-        at least every STOP_POLL s: the wait of a caller that steps one step at a time."""
-        while not stopped():
-            now = time.perf_counter()
-            if self.due(now, timestep):
-                return True
-            time.sleep(min(self.wait(now, timestep), STOP_POLL))
-        return False
-
 
 class ControlClock:
-    """When the next control update is due.
-
-    `restart(now)` makes an update due at `now`; `ticked(now, delay, period)` records an update made
-    at `now` whose plan takes effect `delay` s later. Before the first restart every time is due.
-    """
+    """When the next control update is due: `restart(now)` makes one due at `now`, `ticked(now,
+    delay, period)` records one made at `now` whose plan takes effect `delay` s later, and an update
+    whose plan takes effect after the next tick moves that tick to then. Before the first restart
+    every time is due."""
 
     def __init__(self) -> None:
         self._tick = -math.inf  # the time the latest update came due
@@ -231,15 +201,11 @@ class LatencyPredictor:
 
 
 class PlanQueue:
-    """A closed loop's plans that wait for the plant time they take effect at, and the one in force.
+    """A closed loop's plans that wait for the plant time they take effect at, and the one in force
+    (`schedule` runs on the planner's thread and `take_due` on the plant's, each under the lock).
 
-    `schedule` runs on the planner's thread and `take_due` on the plant's; each holds the queue's
-    lock.
-
-    Attributes:
-        stamp: the watchdog clock of the freshest reading behind the plan in force (the warm start
-            counts as a plan from the last `forget`).
-    """
+    `stamp`: the watchdog clock of the freshest reading behind the plan in force (the warm start
+    counts as a plan from the last `forget`)."""
 
     def __init__(self, stamp: float) -> None:
         self.stamp = stamp
@@ -282,3 +248,152 @@ class PlanQueue:
             if self._active is None and self._hold is None:
                 self._hold = hold()
             return self._active, self.stamp, self._hold
+
+
+REPORT_EVERY = 5.0
+"""Seconds of the watchdog's clock between two lines told of the same trouble."""
+READINGS_STOPPED = "the readings stopped"
+"""How a reason that blames the readings begins."""
+PLANNING_LATE = "the plan in force is"
+"""How a reason that blames planning begins."""
+
+
+class Watchdog:
+    """Freshness of the readings and of the plan in force, on the loop's clock.
+
+    Attributes:
+        fresh_at: clock time at which the latest reading's time last advanced.
+        tripped: why the safe action is being served, or None while plans are fresh.
+        trips: episodes of trouble so far (each trip counts once until plans are fresh again).
+        news: whether the latest verdict is to be told (see the module's docstring): its reason, or
+            None for the end of a trouble that was told.
+        episode_s: clock seconds the latest trouble has lasted so far, or lasted once it ended.
+        resumed_s: clock seconds from the readings' resuming to the end of the latest trouble, where
+            they had stopped during it; None otherwise.
+    """
+
+    def __init__(self) -> None:
+        self.fresh_at = 0.0
+        self.tripped: str | None = None
+        self.trips = 0
+        self.news = False
+        self.episode_s = 0.0
+        self.resumed_s: float | None = None
+        self._last_time: float | None = None
+        self._began = 0.0  # clock time the trouble began
+        self._cause: str | None = None  # READINGS_STOPPED or PLANNING_LATE, while tripped
+        self._readings_stopped = False  # the readings stood still during this trouble
+        self._resumed_at: float | None = None  # clock time they advanced again during it
+        self._told_at, self._told_cause = -math.inf, None  # the last line told of a trouble
+        self._told = False  # this trouble's start was told
+        self._untold = 0  # troubles begun and ended untold since the last line told
+
+    def restart(self, now: float) -> None:
+        """Start the readings' freshness afresh at clock time `now` (after a reset of the plant,
+        whose time may start again at 0). A trouble under way stays until the next verdict finds the
+        plan fresh."""
+        self.fresh_at, self._last_time = now, None
+
+    def note_reading(self, reading: SystemState, now: float) -> None:
+        """Stamp `reading` at clock time `now`: fresh if its time advanced. Raises ReadingTimeError
+        if its time went backwards, and keeps the stamps as they were."""
+        time = reading.time
+        if not math.isfinite(time):  # never fresh; planning refuses it anyway
+            return
+        if self._last_time is not None and time < self._last_time - TIME_TOLERANCE:
+            raise ReadingTimeError(
+                f"refused a reading whose time went backwards, from {self._last_time:.6g} s "
+                f"to {time:.6g} s; "
+                "a System's read_state().time must never decrease (reset the plant to start "
+                "it again)"
+            )
+        if self._last_time is None or time > self._last_time + TIME_TOLERANCE:
+            if self._readings_stopped and self._resumed_at is None:
+                self._resumed_at = now
+            self.fresh_at = now
+        self._last_time = time
+
+    def verdict(
+        self,
+        now: float,
+        plan_stamp: float,
+        max_plan_age: float,
+        control_freq: float,
+        newest_stamp: float | None = None,
+    ) -> str | None:
+        """Why the plan stamped `plan_stamp` must not be served at clock time `now`, or None if it
+        may.
+
+        `newest_stamp` is the stamp of the newest plan made (served or still to take effect;
+        `plan_stamp` if None): how far it lags behind the freshest reading is planning's share of
+        the age. Updates `tripped`, `trips`, `news`, `episode_s` and `resumed_s`. `max_plan_age` 0
+        turns the watchdog off.
+        """
+        age = now - plan_stamp
+        if max_plan_age <= 0 or age <= max_plan_age + 1.0 / control_freq:
+            self._clear(now)
+            return None
+        stood = now - self.fresh_at  # how long the readings have stood still
+        lag = self.fresh_at - max(plan_stamp, plan_stamp if newest_stamp is None else newest_stamp)
+        if stood > lag:
+            cause = READINGS_STOPPED
+            reason = (
+                f"{READINGS_STOPPED}: their time has not advanced for {stood:.2f} s "
+                "(is the robot, its driver or the link down, or the sensor stream frozen?)"
+            )
+        else:
+            cause = PLANNING_LATE
+            reason = f"{PLANNING_LATE} {age:.2f} s old (planning stalled or failed)"
+        self._trip(now, cause)
+        if self.news and self._untold:
+            reason += (
+                f" ({self._untold} shorter episode{'s' if self._untold > 1 else ''} since the "
+                "last report)"
+            )
+            self._untold = 0
+        self.tripped = reason
+        return reason
+
+    def _trip(self, now: float, cause: str) -> None:
+        """Note trouble of `cause` at `now`, and whether it is news."""
+        # a new trouble: told unless one of the same cause was told just now
+        if self.tripped is None:
+            self.trips += 1
+            self._began, self._readings_stopped, self._resumed_at = now, False, None
+            self._told = cause != self._told_cause or now - self._told_at >= REPORT_EVERY
+            self.news = self._told
+            if not self._told:
+                self._untold += 1
+        else:  # told again when the readings turn out to have stopped, and every REPORT_EVERY s
+            self.news = (
+                cause != self._cause and cause == READINGS_STOPPED
+            ) or now - self._told_at >= REPORT_EVERY
+            # a trouble counted untold lasted: it is told after all
+            if self.news and not self._told:
+                self._told, self._untold = True, max(0, self._untold - 1)
+        if cause == READINGS_STOPPED:
+            self._readings_stopped, self._resumed_at = True, None
+        self._cause, self.episode_s = cause, now - self._began
+        if self.news:
+            self._told_at, self._told_cause = now, cause
+
+    def _clear(self, now: float) -> None:
+        """Plans are fresh at `now`: the end of a trouble is news if its start was told."""
+        self.news = self.tripped is not None and self._told
+        if self.tripped is not None:
+            self.episode_s = now - self._began
+            self.resumed_s = None if self._resumed_at is None else now - self._resumed_at
+        self.tripped, self._cause, self._told = None, None, False
+
+
+def safe_action(task: Task, state: np.ndarray | None) -> np.ndarray:
+    """(command_size,) what the watchdog serves: the task's `safe_action` from the (nq + nv,)
+    `state`, the latest finite reading (the planning model's start state when None), clamped to the
+    command range."""
+    if state is None:
+        model = task.model
+        state = np.concatenate(
+            [model.key_qpos[0] if model.nkey else model.qpos0, np.zeros(model.nv)]
+        )
+    low, high = task.command_range.T
+    return np.clip(np.asarray(task.safe_action(state), dtype=float), low, high)

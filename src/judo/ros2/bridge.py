@@ -44,6 +44,7 @@ from judo.core.reading import SystemState
 from judo.core.task import Task
 from judo.loop.mujoco_warnings import count_mujoco_warnings
 from judo.loop.system import System
+from judo.loop.timing import safe_action
 from judo.ros2 import link
 from judo.ros2 import messages as msg
 from judo.ros2.clock import RobotClock
@@ -346,12 +347,7 @@ class Ros2System(System):
         """Write the task's safe action from the latest reading now (and keep it in force). True."""
         with self._lock:
             reading = self._reading
-        state = None if reading is None else reading.state
-        if state is None:
-            model = self.task.model
-            state = np.concatenate([model.qpos0, np.zeros(model.nv)])
-        low, high = self.task.command_range.T
-        safe = np.clip(np.asarray(self.task.safe_action(state), float), low, high)
+        safe = safe_action(self.task, None if reading is None else reading.state)
         with self._lock:
             self._command = safe
         self._write(safe)

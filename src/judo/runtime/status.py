@@ -176,7 +176,7 @@ class Reports:
     def on_watchdog(self, reason: str | None) -> None:
         """The closed loop's watchdog serves the safe action (`reason`, at the start of a trouble
         and every few seconds while it lasts) or fresh plans again (None, once per trouble, with how
-        long it took). Every line is logged: the watchdog paces them (`judo.loop.watchdog`), and
+        long it took). Every line is logged: the watchdog paces them (`judo.loop.timing`), and
         each trouble told is paired with its end."""
         if reason is not None:
             self.line.trouble.add("watchdog")

@@ -3,6 +3,7 @@ System, open loop, what it reports after each logged, and the plant brought to r
 """
 
 import signal
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
@@ -15,6 +16,10 @@ if TYPE_CHECKING:
     from judo.core.reading import SystemState
     from judo.core.task import Task
     from judo.loop.system import System
+    from judo.loop.timing import PlantClock
+
+STOP_POLL = 0.05
+"""Most seconds `sleep_until_due` sleeps before it asks again whether to stop."""
 
 
 @dataclass
@@ -116,7 +121,7 @@ def drive(
         try:
             for step, control in enumerate(controls):
                 if stop or (
-                    paced and not clock.sleep_until_due(system.timestep, lambda: bool(stop))
+                    paced and not sleep_until_due(clock, system.timestep, lambda: bool(stop))
                 ):
                     break
                 history.append(_now(system, reading), control)
@@ -158,6 +163,17 @@ def drive(
         bool(stop),
         halted,
     )
+
+
+def sleep_until_due(clock: "PlantClock", timestep: float, stopped: Callable[[], bool]) -> bool:
+    """Sleep until `clock` has a step of `timestep` s due (True), or until `stopped()` (False),
+    asking it at least every STOP_POLL s: the wait of a loop that steps one step at a time."""
+    while not stopped():
+        now = time.perf_counter()
+        if clock.due(now, timestep):
+            return True
+        time.sleep(min(clock.wait(now, timestep), STOP_POLL))
+    return False
 
 
 def halt(system: "System", task: "Task", state: np.ndarray) -> str:
