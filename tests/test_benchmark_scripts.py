@@ -2,7 +2,6 @@
 
 import json
 import os
-import re
 import subprocess
 import sys
 from pathlib import Path
@@ -527,22 +526,3 @@ def test_house_figures_counts_each_figure_on_a_small_checkout_and_this_one(tmp_p
     both = run_script("house_figures.py", "--skip-run", "--compare", str(tmp_path))
     assert both.returncode == 0, both.stderr
     assert "before (" in both.stdout and "GUI polled change counters:" in both.stdout
-
-
-FILES_PER_UPDATE = 16
-"""Most judo files whose code runs during steady-state updates of cartpole with mppi in the app
-(21 before the loop's clocks, the reading's helpers, the daemon pool and the run's figures each
-joined the room they belong to; the target is 15)."""
-
-
-# about 6 s (the app warms up for 4 s before it records): it holds the house's update path
-def test_files_crossed_lists_each_file_with_its_callers_and_few_files_run_per_update():
-    result = run_script("files_crossed.py", "--seconds", "0.3", "--callers")
-    assert result.returncode == 0, result.stderr
-    lines = result.stdout.splitlines()
-    assert lines[-1].endswith("files run code during steady-state updates")
-    files = [line.split()[-1] for line in lines if re.fullmatch(r" {6,10}[0-9.]+  \S+", line)]
-    assert len(files) == int(lines[-1].split()[0])
-    assert len(files) <= FILES_PER_UPDATE, files
-    assert any(line.strip().endswith("core/controller.py") for line in lines)
-    assert any("update_action <- loop/closed_loop.py:plan" in line for line in lines)

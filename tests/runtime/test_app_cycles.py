@@ -14,7 +14,7 @@ from judo.core.errors import ConfigError, JudoError
 from judo.core.planner_view import CycleSize
 from judo.core.rollouts.rollout import RolloutPool
 from judo.runtime.app import App
-from judo.runtime.cycles import MAX_CYCLE_SECONDS, StepCost
+from judo.runtime.exchange import MAX_CYCLE_SECONDS, StepCost
 from judo.tasks.cartpole import Cartpole, CartpoleConfig
 
 CANCEL_BUDGET = 3.0

@@ -12,7 +12,7 @@ import time
 import pytest
 
 from judo.runtime.app import App
-from judo.runtime.cycles import MAX_CYCLE_SECONDS
+from judo.runtime.exchange import MAX_CYCLE_SECONDS
 
 pytestmark = [pytest.mark.browser, pytest.mark.slow]
 

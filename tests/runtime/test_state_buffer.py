@@ -6,7 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 import pytest
 
-from judo.runtime.snapshots import StateBuffer
+from judo.runtime.exchange import StateBuffer
 
 
 @dataclass

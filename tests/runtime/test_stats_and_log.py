@@ -8,7 +8,7 @@ import pytest
 
 from judo.runtime import status as app_module
 from judo.runtime.app import App
-from judo.runtime.snapshots import PLAN_TIMES_KEPT, RunStats
+from judo.runtime.exchange import PLAN_TIMES_KEPT, RunStats
 
 
 def test_run_stats_keep_a_bounded_window_of_plan_times_but_count_and_average_them_all():

@@ -9,9 +9,10 @@ session.py        Session (a controller, its plant and their ClosedLoop), Config
 running/          who runs what, a room each: planner.py (the control clock in wall time, ClosedLoop.plan on a
                   worker thread, switches), plant.py (the System's own thread: ClosedLoop.advance at real-time
                   pace) and supervisor.py (the event loop, the frontend, the stop order, the exit guard)
-cycles.py         a planning cycle's size, estimated cost, the cycle in flight, and StopSignal (the app's stop)
+exchange.py       what the threads run on together: StopSignal (the app's stop), the cycle in flight and its
+                  cost, the StateBuffer (the published readings and plans), RunStats (the timing figures)
 live_recording.py the recording under way
-snapshots.py      what the loops publish for the GUI: StateBuffer, and RunStats (the timing figures)
+snapshots.py      the values published and shown: readings and plans as published, the figures, the cycle's cost
 status.py         the status line and the reports
 address.py        where the GUI listens
 launch.py         `python -m judo`: the app's command line

@@ -48,7 +48,7 @@ from judo.recording.live import LiveRecorder, RecorderFactory
 from judo.runtime.address import check_port, check_token
 from judo.runtime.app_state import AppState
 from judo.runtime.commands import Commands, check_app_settings
-from judo.runtime.cycles import CycleCost
+from judo.runtime.exchange import RunStats, StateBuffer
 from judo.runtime.live_recording import Recordings
 from judo.runtime.running.planner import PlannerRunner
 from judo.runtime.running.plant import PlantRunner
@@ -59,14 +59,7 @@ from judo.runtime.running.supervisor import (
     viser_frontend,
 )
 from judo.runtime.session import Session, SessionMaker
-from judo.runtime.snapshots import (
-    PlanSnapshot,
-    RunStats,
-    RunSummary,
-    Snapshot,
-    StateBuffer,
-    SystemSnapshot,
-)
+from judo.runtime.snapshots import CycleCost, PlanSnapshot, RunSummary, Snapshot, SystemSnapshot
 from judo.runtime.status import Level, Reports, Status, StatusLine
 from judo.safety.stop import StopLatch, default_stop_file
 
@@ -340,7 +333,7 @@ class App:
     def planning_cost(self) -> CycleCost:
         """The cycle's size (N x R x iterations x T; None where a policy drives) and estimated
         seconds under the latest configs, the last update's seconds, and the late cycle's seconds so
-        far (else None); judo.runtime.cycles."""
+        far (else None); judo.runtime.exchange."""
         return self._state.planning_cost()
 
     # ---- news by callback, on the thread that made it: a callback keeps the value and returns at o

@@ -22,8 +22,8 @@ replaced whole. Everything read or written together is taken under `lock`. The r
 flags on every tick and take the requests only when one is up, so a steady-state tick runs no code
 here.
 
-`stop` is the app's `StopSignal` (`judo.runtime.cycles`): one flag that every thread polls and every
-asyncio wait is cut short by.
+`stop` is the app's `StopSignal` (`judo.runtime.exchange`): one flag that every thread polls and
+every asyncio wait is cut short by.
 """
 
 import math
@@ -42,8 +42,7 @@ from judo.core.optimizer import OptimizerConfig
 from judo.core.task import TaskConfig
 from judo.evaluation.sensing import Sensing
 from judo.recording.live import LiveRecorder
-from judo.runtime.cycles import (
-    CycleCost,
+from judo.runtime.exchange import (
     CycleInFlight,
     PlanningCycle,
     StepCost,
@@ -51,7 +50,7 @@ from judo.runtime.cycles import (
     cycle_seconds,
 )
 from judo.runtime.session import ConfigSet, Session
-from judo.runtime.snapshots import Subscribers
+from judo.runtime.snapshots import CycleCost, Subscribers
 
 
 class PausableClock:

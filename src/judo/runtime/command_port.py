@@ -25,9 +25,8 @@ from judo.core.configuration.config import Config
 from judo.core.configuration.registry import ConfigKind
 from judo.core.estimator import EstimatorConfig
 from judo.recording.live import LiveRecorder
-from judo.runtime.cycles import CycleCost
 from judo.runtime.session import Session
-from judo.runtime.snapshots import LiveFigures, PlanSnapshot, Snapshot, SystemSnapshot
+from judo.runtime.snapshots import CycleCost, LiveFigures, PlanSnapshot, Snapshot, SystemSnapshot
 from judo.runtime.status import Level as StatusLevel
 from judo.runtime.status import Status
 from judo.safety.stop import StopLatch

@@ -28,7 +28,7 @@ from judo.core.estimator import EstimatorConfig
 from judo.evaluation.sensing import check_estimator
 from judo.loop.system import System
 from judo.runtime.app_state import AppState
-from judo.runtime.cycles import MAX_CYCLE_SECONDS, cycle_seconds
+from judo.runtime.exchange import MAX_CYCLE_SECONDS, cycle_seconds
 from judo.runtime.session import ConfigSet, SessionMaker
 from judo.runtime.status import Reports
 
@@ -97,7 +97,7 @@ class Commands:
         Returns the new config. Raises UnknownNameError or ConfigError, keeping the previous config,
         if a field does not exist, a value is invalid, or the configs would not work together (e.g.
         num_rollouts 0, a horizon shorter than one timestep), or the edit would grow a planning
-        cycle past an estimated MAX_CYCLE_SECONDS (`judo.runtime.cycles`). An edit that resizes a
+        cycle past an estimated MAX_CYCLE_SECONDS (`judo.runtime.exchange`). An edit that resizes a
         late cycle cancels it. `generation` (from `session`) refuses an edit made for a session that
         has since been replaced.
         """

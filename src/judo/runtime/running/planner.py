@@ -13,10 +13,10 @@ from judo.core.rollouts.backend import PlanningCancelled
 from judo.core.rollouts.rollout import DaemonThreadPool
 from judo.loop.timing import ControlClock
 from judo.runtime.app_state import AppState, PendingConfigs
-from judo.runtime.cycles import PlanningCycle, Stopping, cycle_seconds, seconds_text
+from judo.runtime.exchange import PlanningCycle, RunStats, StateBuffer, Stopping, cycle_seconds
 from judo.runtime.live_recording import Recordings
 from judo.runtime.session import Session, SessionMaker
-from judo.runtime.snapshots import PlanSnapshot, RunStats, StateBuffer
+from judo.runtime.snapshots import PlanSnapshot, seconds_text
 from judo.runtime.status import Reports
 
 IDLE_POLL = 0.01

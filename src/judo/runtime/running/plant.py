@@ -12,8 +12,9 @@ from judo.loop.closed_loop import ClosedLoop
 from judo.loop.system import SimulationDiverged, SystemCallError, SystemClosedError
 from judo.loop.timing import PlantClock
 from judo.runtime.app_state import AppState
+from judo.runtime.exchange import RunStats, StateBuffer
 from judo.runtime.session import Session
-from judo.runtime.snapshots import RunStats, StateBuffer, SystemSnapshot
+from judo.runtime.snapshots import SystemSnapshot
 from judo.runtime.status import Reports
 
 logger = logging.getLogger("judo.app")

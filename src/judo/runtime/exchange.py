@@ -1,25 +1,31 @@
-"""The app's planning cycle: its size (N x R x iterations x T steps), its estimated wall time, the
-cycle in flight with its cancel, and the app's stop that cancels it too.
+"""What the app's threads run on together: the stop they all poll, the planning cycle in flight
+(its cancel and its cost), the `StateBuffer` the plant's readings and the plans are published in,
+and the run's figures (`RunStats`). The values published and shown are `judo.runtime.snapshots`'.
 
-A cycle's cost is its rollout steps (`CycleSize`, the planner's `cycle_size`: num_rollouts x
-num_randomizations x iterations x T), times the seconds one step takes on the session's rollout
-backend (`StepCost`): probed on the planning model when the session is built, then measured from
-each completed cycle large enough for its fixed overhead not to count. The commands refuse an edit
-whose estimated cycle exceeds MAX_CYCLE_SECONDS (`judo.runtime.commands`), and the GUI shows the
-cost.
+`StopSignal` is the app's stop (`AppState.stop`), set from any thread (`App.stop()`, Ctrl-C,
+SIGTERM, the duration reached, a dead plant thread). Threads see it with `is_set` / `wait`; the
+event loop's coroutines sleep with `sleep` and run blocking calls with `in_worker`, both of which
+return, or raise `Stopping`, as soon as it is set.
 
 The planner runner plans under a `PlanningCycle`: the controller polls it (`is_set`) between
 optimizer iterations and the CPU rollout pool between pieces of a batch, so a pause, reset, switch
-or resize that cancels it ends it within a fraction of a second, keeping the plan before.
+or resize that cancels it ends it within a fraction of a second, keeping the plan before. A cycle's
+cost is its rollout steps (`CycleSize`: num_rollouts x num_randomizations x iterations x T) times
+the seconds one step takes on the session's backend (`StepCost`): probed on the planning model,
+then measured from each completed cycle large enough for its fixed overhead not to count. The
+commands refuse an edit whose estimated cycle exceeds MAX_CYCLE_SECONDS, and the GUI shows the cost.
 
-`StopSignal` is the app's stop (`AppState.stop`): one flag that every thread polls and every asyncio
-wait is cut short by. A stop (`App.stop()`, Ctrl-C, SIGTERM, the duration reached, a dead plant
-thread) calls `set` from any thread. Threads see it with `is_set` / `wait` (a threading.Event's
-own); the event loop's coroutines sleep with `sleep` and run blocking calls with `in_worker`, both
-of which return, or raise `Stopping`, as soon as it is set.
+`StateBuffer` is the one place the app's loops exchange data: the latest value of each topic, as a
+versioned snapshot. A writer publishes a value; the buffer stores a deep copy whose arrays are
+read-only, so a reader never sees half of one write and half of another. A reader that wants each
+snapshot as it comes subscribes: the callback runs on the publisher's thread right after the
+snapshot is stored; it must be cheap (keep the newest value, let its own thread act on it), and one
+that raises is logged and the publisher goes on.
 """
 
 import asyncio
+import copy
+import dataclasses
 import math
 import os
 import threading
@@ -27,7 +33,7 @@ import time
 from collections import deque
 from collections.abc import Callable
 from concurrent.futures import Executor
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import mujoco
@@ -36,6 +42,8 @@ import numpy as np
 from judo.core.configuration.controller_config import ControllerConfig
 from judo.core.planner import CancelFlag
 from judo.core.planner_view import CycleSize
+from judo.runtime.snapshots import LiveFigures, RunSummary, Snapshot, Subscribers, T
+from judo.safety.stop import StopLatch
 
 MAX_CYCLE_SECONDS = 10.0
 """Longest estimated planning cycle a config edit may ask for; a bigger one is refused (the plant
@@ -227,30 +235,166 @@ class CycleInFlight:
         self.cycle = cycle
 
 
-@dataclass(frozen=True)
-class CycleCost:
-    """What the GUI shows of the cycle: the configs' size and estimated seconds, the last completed
-    cycle's seconds, and how long the cycle in flight has run when it is late (else None)."""
+class StateBuffer:
+    """Latest snapshot per topic (e.g. "system", "plan"), safe to share between threads."""
 
-    size: CycleSize | None
-    estimate: float
-    last: float
-    running_for: float | None
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._latest: dict[str, Snapshot[Any]] = {}
+        self._version = 0
+        self._subscribers: dict[str, Subscribers] = {}
 
-    def line(self) -> str:
-        """The cost as one line: 'cycle 64 x 1 x 1 x 100 = 6,400 steps, est. 12 ms; last plan 9.8
-        ms'."""
-        if self.size is None:
-            return f"last update {seconds_text(self.last)}"
-        estimated = f", est. {seconds_text(self.estimate)}" if math.isfinite(self.estimate) else ""
-        text = f"cycle {self.size}{estimated}; last plan {seconds_text(self.last)}"
-        if self.running_for is not None:
-            text += f"; planning: {self.running_for:.0f} s so far"
-        return text
+    def subscribe(self, topic: str, callback: Callable[[Snapshot[Any]], None]) -> None:
+        """Call `callback(snapshot)` with each snapshot of `topic` published from now on, on the
+        publisher's thread."""
+        with self._lock:
+            subscribers = self._subscribers.setdefault(topic, Subscribers())
+        subscribers.add(callback)
+
+    def publish(self, topic: str, value: T) -> Snapshot[T]:
+        """Store a frozen copy of `value` as the newest snapshot of `topic` and return it.
+
+        The copy is made before taking the lock, so the caller may reuse or change `value` at once.
+        """
+        frozen = _freeze(copy.deepcopy(value))
+        with self._lock:
+            self._version += 1
+            snapshot = Snapshot(self._version, frozen, time.perf_counter())
+            self._latest[topic] = snapshot
+            subscribers = self._subscribers.get(topic)
+        if subscribers is not None:
+            subscribers.fire(snapshot)
+        return snapshot
+
+    def latest(self, topic: str) -> Snapshot[Any] | None:
+        """The newest snapshot of `topic`, or None if nothing was published to it yet."""
+        with self._lock:
+            return self._latest.get(topic)
+
+    def clear(self, topic: str) -> None:
+        """Forget `topic`, e.g. the old plan after a switch of task."""
+        with self._lock:
+            self._latest.pop(topic, None)
 
 
-def seconds_text(seconds: float) -> str:
-    """'9.8 ms', '1.2 s', '-' for NaN."""
-    if not math.isfinite(seconds):
-        return "-"
-    return f"{1e3 * seconds:.1f} ms" if seconds < 1 else f"{seconds:.1f} s"
+def _freeze(value: Any) -> Any:
+    """Mark every numpy array reachable through dicts, lists, tuples and dataclasses read-only."""
+    if isinstance(value, np.ndarray):
+        value.flags.writeable = False
+    elif isinstance(value, dict):
+        for item in value.values():
+            _freeze(item)
+    elif isinstance(value, (list, tuple)):
+        for item in value:
+            _freeze(item)
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        for f in dataclasses.fields(value):
+            _freeze(getattr(value, f.name))
+    return value
+
+
+PLAN_TIMES_KEPT = 10_000
+"""Plan times a RunStats keeps for the p95 (older ones only count towards the mean), so a long run's
+memory stays bounded."""
+
+
+class RunStats:
+    """Collects plan and plant timings from the app's loops; safe to read from any thread.
+
+    Memory is bounded however long the app runs: the last PLAN_TIMES_KEPT plan times, a count and a
+    sum.
+    """
+
+    def __init__(self, window: float = 1.0) -> None:
+        self.window = window
+        self._lock = threading.Lock()
+        self._plan_times: deque[float] = deque(maxlen=PLAN_TIMES_KEPT)
+        self._num_plans = 0
+        self._plan_time_total = 0.0
+        self._recent_plan_starts: deque[float] = deque()
+        self._first_plan_start: float | None = None
+        self._last_plan_start: float | None = None
+        self._nominal_reward = float("nan")
+        self._sim_time = 0.0
+        self._wall_time = 0.0
+        self._recent_progress: deque[tuple[float, float]] = deque()  # (perf_counter, sim_time)
+
+    def record_plan(self, start: float, duration: float, nominal_reward: float) -> None:
+        """One planning cycle that began at `time.perf_counter()` value `start` and took `duration`
+        s."""
+        with self._lock:
+            self._plan_times.append(duration)
+            self._num_plans += 1
+            self._plan_time_total += duration
+            self._recent_plan_starts.append(start)
+            if self._first_plan_start is None:
+                self._first_plan_start = start
+            self._last_plan_start = start
+            self._nominal_reward = nominal_reward
+            while self._recent_plan_starts[0] < start - self.window:
+                self._recent_plan_starts.popleft()
+
+    def record_plant(self, sim_dt: float, wall_dt: float) -> None:
+        """The plant advanced `sim_dt` seconds of sim time during `wall_dt` unpaused wall-clock
+        seconds."""
+        now = time.perf_counter()
+        with self._lock:
+            self._sim_time += sim_dt
+            self._wall_time += wall_dt
+            self._recent_progress.append((now, self._sim_time))
+            while (
+                len(self._recent_progress) > 2 and self._recent_progress[1][0] < now - self.window
+            ):
+                self._recent_progress.popleft()
+
+    def sim_time(self) -> float:
+        """Seconds of plant time stepped so far."""
+        with self._lock:
+            return self._sim_time
+
+    def num_plans(self) -> int:
+        """Planning cycles completed so far."""
+        with self._lock:
+            return self._num_plans
+
+    def live(self) -> LiveFigures:
+        """The latest reward and plan time, and the rates over the last `window` seconds."""
+        with self._lock:
+            starts = self._recent_plan_starts
+            rate = (len(starts) - 1) / (starts[-1] - starts[0]) if len(starts) > 1 else float("nan")
+            plan_ms = 1000.0 * self._plan_times[-1] if self._plan_times else float("nan")
+            rtf = float("nan")
+            if len(self._recent_progress) > 1:
+                (w0, s0), (w1, s1) = self._recent_progress[0], self._recent_progress[-1]
+                rtf = (s1 - s0) / (w1 - w0) if w1 > w0 else float("nan")
+            return LiveFigures(self._nominal_reward, plan_ms, rate, rtf)
+
+    def summary(
+        self, task: str, optimizer: str, stop: StopLatch | None = None, limits: str | None = None
+    ) -> RunSummary:
+        """Figures over the whole run so far, with the events of the latched `stop` and the `limits`
+        line."""
+        with self._lock:
+            times, count = np.array(self._plan_times), self._num_plans
+            span = 0.0
+            if self._first_plan_start is not None and self._last_plan_start is not None:
+                span = self._last_plan_start - self._first_plan_start
+            return RunSummary(
+                task=task,
+                optimizer=optimizer,
+                sim_time=self._sim_time,
+                wall_time=self._wall_time,
+                num_plans=count,
+                control_rate=(count - 1) / span if span > 0 else float("nan"),
+                plan_time_mean_ms=1000.0 * self._plan_time_total / count if count else float("nan"),
+                plan_time_p95_ms=1000.0 * float(np.percentile(times, 95))
+                if len(times)
+                else float("nan"),
+                real_time_factor=self._sim_time / self._wall_time
+                if self._wall_time > 0
+                else float("nan"),
+                final_reward=self._nominal_reward,
+                stops=() if stop is None else tuple(stop.events),
+                stop_latched=stop is not None and stop.latched,
+                limits=limits,
+            )
