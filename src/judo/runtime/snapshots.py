@@ -114,7 +114,7 @@ class RunSummary:
         num_plans: planning cycles completed.
         control_rate: planning cycles per wall-clock second.
         plan_time_mean_ms: mean wall time of one planning cycle over the whole run.
-        plan_time_p95_ms: its 95th percentile over the last PLAN_TIMES_KEPT cycles.
+        plan_time_p95_ms: its 95th percentile over the last PLAN_TIMES_KEPT cycles (RunStats).
         real_time_factor: sim_time / wall_time (1 = real time).
         final_reward: reward of the nominal rollout in the last cycle (NaN if none ran).
         stops: each latch and clear of the latched stop in the run (`judo.safety.stop`);
