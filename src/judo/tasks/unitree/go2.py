@@ -5,7 +5,9 @@ tracks.
 The model (models/unitree_go2/, from MuJoCo Menagerie) keeps to the contract the Unitree bridge
 reads (judo.unitree): actuators in Unitree's motor order, position actuators carrying kp / kd, and
 the measured sensors rt/lowstate carries. The rewards reuse the quadruped task's gait schedule
-(judo.tasks.gait).
+(judo.tasks.gait). go2_walk's optimizer gets candidates from a trot's gait policy (judo.tasks.
+gait_policy, taught by `python -m judo gait-search --task go2_walk`) among its samples by default:
+what the robot gets is still the plan of motor targets.
 """
 
 from dataclasses import dataclass
@@ -16,9 +18,12 @@ import mujoco
 import numpy as np
 
 from judo.core.configuration.fields import np_1d_field, slider
+from judo.core.policy import Policy, PolicyError
 from judo.core.rollouts.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
-from judo.tasks.gait import GaitName, gait_of, swing_heights
+from judo.tasks.gait import CLOCK_RAD_PER_S, GaitName, gait_of, swing_heights
+from judo.tasks.gait_policy import GaitPolicy
+from judo.tasks.quadruped import gravity_in_body
 from judo.tasks.quadruped_velocity import AVERAGE_WINDOW, trailing_mean
 from judo.tasks.unitree.pushes import RandomPushes
 
@@ -45,6 +50,21 @@ FALLEN_HEIGHT = 0.15
 """Base height (m) under which a robot that stood counts as fallen (lying, it is 0.096 m)."""
 STAND_HOLD_TIME = 1.0
 """Seconds the base must stay standing for `time_to_stand` to count it as up."""
+OBSERVATION = (
+    "12 joint angles minus POSTURE (rad), 12 joint velocities (rad/s), base angular velocity in "
+    "the base frame (3, rad/s, what the IMU's gyro reads), gravity's direction in the base frame "
+    "(3), the command [vx, vy, yaw rate] (3), the gait clock [cos, sin] of 2 pi 2.5 Hz t (2)"
+)
+"""What `Go2Walk.policy_observation` holds, in order: 35 values, quadruped_velocity's layout."""
+OBSERVATION_COLUMNS = {
+    "command": np.arange(30, 33),
+    "clock": np.arange(33, 35),
+    "gyro_and_gravity": np.arange(24, 30),
+}
+"""Where the gait policy (judo.tasks.gait_policy) reads its inputs in OBSERVATION."""
+POLICY_PATH = Path(__file__).parents[1] / "models" / "policies" / "go2_trot.json"
+"""go2_walk's default proposal policy: a trot's gait policy (`python -m judo gait-search --task
+go2_walk`)."""
 
 
 @slider("target_height", 0.15, 0.38, 0.005)
@@ -322,6 +342,69 @@ class Go2Walk(Go2Base[Go2WalkConfig]):
 
     start_key = "home"
     lower_is_better = ("falls", "time_to_stand", "height_error", "velocity_error", "yaw_rate_error")
+
+    def __init__(
+        self,
+        model_path: str | Path = MODEL_PATH,
+        sim_model_path: str | Path | None = None,
+        policy_path: str | Path | None = POLICY_PATH,
+    ) -> None:
+        super().__init__(model_path, sim_model_path)
+        nq = self.model.nq
+        joint_qvel = np.array([self.get_joint_velocity_start_index(j) for j in JOINTS])
+        self._proprioception = np.concatenate(
+            [self._joint_qpos, joint_qvel, np.arange(nq + 3, nq + 6)]
+        )
+        """(27,) the state columns the observation starts with: joint angles, joint speeds, the
+        free joint's angular velocity (in the base frame)."""
+        self._policy_path = None if policy_path is None else Path(policy_path)
+        self._policy: Policy | None = None
+
+    def default_proposal_policy(self) -> Policy | None:
+        """The trot's gait policy at `policy_path` (POLICY_PATH; loaded once, numpy only), whose
+        candidates the optimizer scores among its own (`policy_samples`); None when built with
+        `policy_path=None`. PolicyError for a missing or unreadable file."""
+        if self._policy is None and self._policy_path is not None:
+            if not self._policy_path.is_file():
+                raise PolicyError(f"go2_walk's gait policy {str(self._policy_path)!r} is missing")
+            self._policy = GaitPolicy.load(self._policy_path)
+        return self._policy
+
+    def locomotion_observation(
+        self,
+        commands: np.ndarray,
+        states: np.ndarray,
+        times: np.ndarray,
+        out: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(B, 35) OBSERVATION of (B, 3) commands [vx, vy, yaw rate], (B, nq + nv) states and (B,)
+        sim times (s), one command per row; written into the (B, 35) `out` where given."""
+        if out is None:
+            out = np.empty((len(states), 35))
+        np.take(states, self._proprioception, axis=1, out=out[:, :27], mode="clip")
+        out[:, :12] -= POSTURE
+        gravity_in_body(states[:, 3:7], out=out[:, 27:30])
+        out[:, 30:33] = commands
+        phase = CLOCK_RAD_PER_S * np.asarray(times, dtype=float)
+        out[:, 33], out[:, 34] = np.cos(phase), np.sin(phase)
+        return out
+
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(B, 35) OBSERVATION from (B, nq + nv) states, the config's `velocity_command` and the (B,
+        nsensordata) sensors' "clock" (the sim time); `previous_actions` is not used. Gyro and
+        gravity come from the states, what the IMU reads."""
+        states = np.atleast_2d(np.asarray(states, dtype=float))
+        if sensors is None:
+            raise PolicyError("go2_walk's policy observation needs the sensors, for the gait clock")
+        commands = np.broadcast_to(self.config.velocity_command, (len(states), 3))
+        times = np.atleast_2d(np.asarray(sensors, dtype=float))[:, self._clock]
+        return self.locomotion_observation(commands, states, times)
 
     def reward(
         self,
