@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from judo.core.policies.onnx_policy import OnnxPolicy
-from judo.learning.gait_policy import gait_actions, gait_policy_model, phase_features
+from judo.learning.gait_policy import gait_policy_model
 from judo.learning.gait_search import main as gait_search_main
 from judo.learning.policy_search import (
     GaitEpisodes,
@@ -19,6 +19,7 @@ from judo.learning.policy_search import (
     stepping_in_place,
 )
 from judo.tasks.gait import GAITS, gait_clock, swing_heights
+from judo.tasks.gait_policy import gait_actions, phase_features
 from judo.tasks.quadruped import STANDING_HEIGHT
 from judo.tasks.quadruped_velocity import COMMAND_KEY, QuadrupedVelocity
 

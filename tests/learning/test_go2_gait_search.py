@@ -98,3 +98,19 @@ def test_the_command_writes_the_go2_policy_as_onnx_and_as_json_alike(tmp_path):
     np.testing.assert_allclose(
         onnx_policy.act(observations), json_policy.act(observations), atol=1e-5
     )
+
+
+def test_gait_policy_gives_gait_actions_targets_and_reads_back_from_json(tmp_path):
+    from judo.tasks.gait_policy import save_gait_policy
+
+    layout = go2_problem().layout
+    rng = np.random.default_rng(3)
+    parameters = rng.normal(0.0, 0.1, layout.num_parameters)
+    observations = rng.normal(0.0, 1.0, (9, 35))
+    observations[:, 33:35] = gait_clock(rng.uniform(0, 1, 9))
+    expected = gait_actions(np.tile(parameters, (9, 1)), observations, layout)
+    path = save_gait_policy(tmp_path / "p.json", parameters, layout, {"task": "go2_walk"})
+    for policy in (GaitPolicy(parameters, layout), GaitPolicy.load(path)):
+        assert (policy.observation_size, policy.action_size, policy.horizon) == (35, 12, 1)
+        np.testing.assert_allclose(policy.act(observations)[:, 0], expected, atol=1e-12)
+    assert GaitPolicy.load(path).metadata == {"task": "go2_walk", "name": "p"}

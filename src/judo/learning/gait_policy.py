@@ -2,7 +2,7 @@
 judo.tasks.gait_policy's central pattern generator as a graph that gives `gait_actions`' targets
 (float32), for `OnnxPolicy`. The generator itself (its formula, `GaitLayout`, `gait_actions`, and
 `GaitPolicy`, which runs one in numpy from a JSON file) lives there, where a task can load its
-shipped policy without onnxruntime; its names are re-exported here.
+shipped policy without onnxruntime.
 """
 
 from typing import Any
@@ -10,22 +10,7 @@ from typing import Any
 import numpy as np
 
 from judo.core.policies.onnx_policy import _onnx, model_of_graph
-from judo.tasks.gait_policy import (
-    COMMAND_FEATURES,
-    HARMONICS,
-    GaitLayout,
-    gait_actions,
-    phase_features,
-)
-
-__all__ = [
-    "COMMAND_FEATURES",
-    "HARMONICS",
-    "GaitLayout",
-    "gait_actions",
-    "gait_policy_model",
-    "phase_features",
-]
+from judo.tasks.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout
 
 
 def gait_policy_model(parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]) -> Any:

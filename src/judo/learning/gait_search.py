@@ -21,8 +21,8 @@ from judo.cli_shared import fail, optional_pyplot, output_console, parse_args, p
 from judo.core.commandline.boundary import check_output_file
 from judo.core.configuration.config import require
 from judo.core.errors import JudoError
-from judo.learning.gait_policy import GaitLayout
 from judo.learning.policy_search import EVERY, GaitSearchSettings, Iteration
+from judo.tasks.gait_policy import GaitLayout
 
 DESCRIPTION = (
     "Teach a legged task (--task quadruped_velocity, the default, or go2_walk) a locomotion "
@@ -162,8 +162,8 @@ def run(args: GaitSearchArgs, command: str) -> int:
     plot = plot_search(args.out.with_name(args.out.stem + SEARCH_PNG), history, args.task)
     stopped = "interrupted: " if result.interrupted else ""
     console.print(
-        f"{stopped}wrote {args.out} and {written}, the mean of iteration {best.index + 1}, the best "
-        f"of {len(history)} in "
+        f"{stopped}wrote {args.out} and {written}, the mean of iteration {best.index + 1}, the "
+        f"best of {len(history)} in "
         f"{history[-1].seconds / 60:.1f} min: the mean's reward {history[0].mean_reward:.3f} -> "
         f"{best.mean_reward:.3f} (last {history[-1].mean_reward:.3f}), falls {best.falls:.0%}"
         + (f"; the reward curve is {plot}" if plot else ""),

@@ -27,7 +27,13 @@ from judo.core.rollouts.rollout import RolloutPool
 from judo.core.rollouts.stepper import PolicyStepper
 from judo.optimizers.cem import CEM, CEMConfig
 from judo.tasks.gait import GAITS
-from judo.tasks.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout, gait_actions
+from judo.tasks.gait_policy import (
+    COMMAND_FEATURES,
+    HARMONICS,
+    GaitLayout,
+    gait_actions,
+    locomotion_features,
+)
 from judo.tasks.quadruped import STANDING_HEIGHT
 from judo.tasks.quadruped_velocity import (
     COMMAND_KEY,
@@ -113,9 +119,9 @@ def go2_gait_layout(task: go2.Go2Walk) -> GaitLayout:
     direction."""
     return GaitLayout(
         home=go2.RISE_POSE.copy(),
-        command_columns=go2.OBSERVATION_COLUMNS["command"],
-        clock_columns=go2.OBSERVATION_COLUMNS["clock"],
-        feedback_columns=go2.OBSERVATION_COLUMNS["gyro_and_gravity"],
+        command_columns=OBSERVATION_COLUMNS["command"],
+        clock_columns=OBSERVATION_COLUMNS["clock"],
+        feedback_columns=OBSERVATION_COLUMNS["gyro_and_gravity"],
         phase_signs=trot_phase_signs(),
         observation_size=task.policy_observation_size(),
     )
@@ -191,7 +197,9 @@ def go2_problem(task: go2.Go2Walk | None = None) -> GaitProblem:
         start_qpos=task.model.key_qpos[key].copy(),
         start_ctrl=go2.RISE_POSE.copy(),
         draw=lambda rng: rng.uniform(low, high),
-        observe=task.locomotion_observation,
+        observe=lambda commands, states, times, out: locomotion_features(
+            states, task.proprioception, go2.POSTURE, commands, times, out
+        ),
         reward=reward,
         fallen_height=go2.FALLEN_HEIGHT,
     )

@@ -30,6 +30,8 @@ from typing import Any
 import numpy as np
 
 from judo.core.policy import Policy, PolicyError
+from judo.tasks.gait import CLOCK_RAD_PER_S
+from judo.tasks.quadruped import gravity_in_body
 
 HARMONICS = 5
 """Phase features per leg: [1, cos p, sin p, cos 2p, sin 2p]."""
@@ -105,6 +107,30 @@ class GaitLayout:
         )
 
 
+def locomotion_features(
+    states: np.ndarray,
+    proprioception: np.ndarray,
+    pose: np.ndarray,
+    commands: np.ndarray,
+    times: np.ndarray,
+    out: np.ndarray | None = None,
+) -> np.ndarray:
+    """(B, 35) a legged robot's locomotion observation, quadruped_velocity.OBSERVATION's layout:
+    from (B, nq + nv) states with the free joint first, its (27,) `proprioception` columns (12 joint
+    angles, less the (12,) `pose`, 12 joint speeds, the free joint's angular velocity, in the base
+    frame: the gyro), gravity's direction in the base frame, the (B, 3) commands and the trot's
+    clock [cos, sin] at (B,) sim `times`; written into the (B, 35) `out` where given."""
+    if out is None:
+        out = np.empty((len(states), 35))
+    np.take(states, proprioception, axis=1, out=out[:, :27], mode="clip")
+    out[:, :12] -= pose
+    gravity_in_body(states[:, 3:7], out=out[:, 27:30])
+    out[:, 30:33] = commands
+    phase = CLOCK_RAD_PER_S * np.asarray(times, dtype=float)
+    out[:, 33], out[:, 34] = np.cos(phase), np.sin(phase)
+    return out
+
+
 def phase_features(clock: np.ndarray) -> np.ndarray:
     """(B, 5) [1, cos p, sin p, cos 2p, sin 2p] from (B, 2) [cos p, sin p]."""
     cos, sin = clock[:, 0], clock[:, 1]
@@ -114,8 +140,7 @@ def phase_features(clock: np.ndarray) -> np.ndarray:
 def gait_actions(
     parameters: np.ndarray, observations: np.ndarray, layout: GaitLayout
 ) -> np.ndarray:
-    """(B, J) joint targets of (B, P) parameter rows (one policy per row) on (B, O) observations;
-    one (1, P) row serves every observation."""
+    """(B, J) joint targets of (B, P) parameter rows (one policy per row) on (B, O) observations."""
     weights, gains = layout.split(np.asarray(parameters, dtype=float))
     # (B, J, 5)
     phase = (
@@ -125,18 +150,16 @@ def gait_actions(
     command = np.concatenate(
         [np.ones((len(observations), 1)), observations[:, layout.command_columns]], axis=1
     )
-    if len(weights) == 1 < len(observations):  # one policy for the whole batch
-        rhythm = np.einsum("jkc,bjk,bc->bj", weights[0], phase, command)
-        feedback = observations[:, layout.feedback_columns] @ gains[0].T
-    else:
-        rhythm = np.einsum("bjkc,bjk,bc->bj", weights, phase, command)
-        feedback = np.einsum("bjf,bf->bj", gains, observations[:, layout.feedback_columns])
+    rhythm = np.einsum("bjkc,bjk,bc->bj", weights, phase, command)
+    feedback = np.einsum("bjf,bf->bj", gains, observations[:, layout.feedback_columns])
     return layout.home + rhythm + feedback
 
 
 class GaitPolicy(Policy):
     """One gait policy, (P,) `parameters` on `layout`, as a per-step action policy (horizon 1): (B,
-    O) observations -> (B, 1, J) joint targets, in numpy. Keeps no state between calls."""
+    O) observations -> (B, 1, J) joint targets, in numpy; `gait_actions`' targets, computed as the
+    ONNX graph does (the phase signs folded into one (20, J) matrix on the outer product of the
+    phase and command features), a few small products a call. Keeps no state between calls."""
 
     horizon = 1
 
@@ -152,10 +175,22 @@ class GaitPolicy(Policy):
         self.layout = layout
         self.observation_size, self.action_size = layout.observation_size, layout.num_joints
         self.metadata = dict(metadata or {})
+        weights, gains = layout.split(self.parameters)
+        signed = weights[0] * layout.signed_harmonics()[:, :, None]  # (J, 5, 4)
+        self._rhythm = signed.reshape(layout.num_joints, -1).T.copy()  # (20, J): row b * 4 + c
+        self._feedback = gains[0].T.copy()  # (F, J)
 
     def act(self, observations: np.ndarray) -> np.ndarray:
         observations = np.asarray(observations, dtype=float)
-        return gait_actions(self.parameters, observations, self.layout)[:, None, :]
+        layout, batch = self.layout, len(observations)
+        features = np.empty((batch, HARMONICS, COMMAND_FEATURES))
+        phase = phase_features(observations[:, layout.clock_columns])  # (B, 5)
+        features[:, :, 0] = phase
+        features[:, :, 1:] = phase[:, :, None] * observations[:, None, layout.command_columns]
+        targets = features.reshape(batch, -1) @ self._rhythm
+        targets += observations[:, layout.feedback_columns] @ self._feedback
+        targets += layout.home
+        return targets[:, None, :]
 
     @classmethod
     def load(cls, path: str | Path) -> "GaitPolicy":
