@@ -160,7 +160,9 @@ def quadruped_problem(task: QuadrupedVelocity | None = None) -> GaitProblem:
     task = QuadrupedVelocity() if task is None else task
     config = task.config
 
-    def reward(states, sensors, ctrl, command):
+    def reward(
+        states: np.ndarray, sensors: np.ndarray, ctrl: np.ndarray, command: np.ndarray
+    ) -> np.ndarray:
         return task.reward(states, sensors, ctrl, config, {COMMAND_KEY: command})
 
     return GaitProblem(
@@ -186,7 +188,9 @@ def go2_problem(task: go2.Go2Walk | None = None) -> GaitProblem:
     key = mujoco.mj_name2id(task.model, mujoco.mjtObj.mjOBJ_KEY, task.start_key)
     low, high = GO2_COMMAND_RANGE.T
 
-    def reward(states, sensors, ctrl, command):
+    def reward(
+        states: np.ndarray, sensors: np.ndarray, ctrl: np.ndarray, command: np.ndarray
+    ) -> np.ndarray:
         config = dataclasses.replace(task.config, velocity_command=np.asarray(command, float))
         return task.reward(states, sensors, ctrl, config)
 
