@@ -12,13 +12,14 @@ OWN_OBSERVATION = (
     "acrobot",
     "cartpole",
     "cartpole_pd",
+    "go2_walk",
     "particle",
     "pendulum",
     "push_t",
     "quadruped_velocity",
 )
 """Built-in tasks with their own observation (tests/tasks/test_policy_observations.py,
-test_quadruped.py)."""
+test_quadruped.py, tests/learning/test_go2_gait_search.py)."""
 
 
 @pytest.mark.parametrize("name", sorted(set(BUILTIN_TASKS) - set(OWN_OBSERVATION)))

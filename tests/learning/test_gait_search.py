@@ -8,16 +8,18 @@ import numpy as np
 import pytest
 
 from judo.core.policies.onnx_policy import OnnxPolicy
-from judo.learning.gait_policy import gait_actions, gait_policy_model, phase_features
+from judo.learning.gait_policy import gait_policy_model
 from judo.learning.gait_search import main as gait_search_main
 from judo.learning.policy_search import (
     GaitEpisodes,
     GaitSearchSettings,
     quadruped_gait_layout,
+    quadruped_problem,
     search_gait,
     stepping_in_place,
 )
 from judo.tasks.gait import GAITS, gait_clock, swing_heights
+from judo.tasks.gait_policy import gait_actions, phase_features
 from judo.tasks.quadruped import STANDING_HEIGHT
 from judo.tasks.quadruped_velocity import COMMAND_KEY, QuadrupedVelocity
 
@@ -69,9 +71,9 @@ def test_the_diagonal_legs_swing_half_a_cycle_apart_and_the_first_mean_lifts_eac
 
 
 def test_the_episodes_are_real_physics_and_a_standing_policy_stands():
-    task = QuadrupedVelocity()
-    layout = quadruped_gait_layout(task)
-    episodes = GaitEpisodes(task, layout, workers=2)
+    problem = quadruped_problem()
+    task, layout = problem.task, problem.layout
+    episodes = GaitEpisodes(problem, workers=2)
     standing = np.zeros((2, layout.num_parameters))  # all zero: the standing pose's targets
     commands = np.array([[0.0, 0.0, 0.0], [0.5, 0.0, 0.0]])
     states, sensors, ctrl = episodes.run(standing, commands, np.zeros(2), seconds=1.0)
@@ -99,7 +101,7 @@ def test_a_short_search_runs_the_cem_and_keeps_every_iteration():
         iterations=2, population=4, elites=2, commands=2, episode_seconds=0.2, workers=1
     )
     seen = []
-    result = search_gait(QuadrupedVelocity(), settings, seen.append)
+    result = search_gait(quadruped_problem(), settings, seen.append)
     history = result.history
     layout = quadruped_gait_layout(QuadrupedVelocity())
     assert result.parameters.shape == (layout.num_parameters,) and [r.index for r in history] == [
@@ -131,10 +133,10 @@ def test_ctrl_c_ends_the_search_with_the_best_so_far():
 
         return on_iteration
 
-    result = search_gait(QuadrupedVelocity(), settings, interrupt_at(1))
+    result = search_gait(quadruped_problem(), settings, interrupt_at(1))
     assert result.interrupted and [r.index for r in result.history] == [0, 1]
     assert result.best_index == int(np.argmax([r.mean_reward for r in result.history]))
-    first_only = search_gait(QuadrupedVelocity(), settings, interrupt_at(0))
+    first_only = search_gait(quadruped_problem(), settings, interrupt_at(0))
     assert first_only.interrupted and first_only.best_index == 0 and len(first_only.history) == 1
 
 

@@ -60,7 +60,8 @@ class Controller(PlanServer):
         traces: (1 + num_shown, T, num_trace_sensors, 3) positions of the "trace" framepos sensors
             along the nominal rollout (index 0) and the best `max_num_traces` rollouts.
         proposal_policy: the Policy whose candidates replace the last `config.policy_samples` of the
-            optimizer's samples every iteration (judo.core.policies.proposals), or None.
+            optimizer's samples every iteration (judo.core.policies.proposals): the one given, else
+            the task's `default_proposal_policy()`, or None.
         limits: the RolloutLimits that screen each iteration's rollouts before ranking ([safety],
             via the loop), or None.
     """
@@ -75,6 +76,8 @@ class Controller(PlanServer):
         proposal_policy: Policy | None = None,
     ) -> None:
         check_configs(task, controller_config, optimizer.config)
+        if proposal_policy is None:  # the task's own, where it ships one (else None)
+            proposal_policy = task.default_proposal_policy()
         self.proposal_policy = proposal_policy  # checked by its Proposer
         self._proposer = Proposer(task, proposal_policy, controller_config.policy_samples)
         self.config, self.task, self.optimizer = controller_config, task, optimizer

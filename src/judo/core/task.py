@@ -216,13 +216,11 @@ class Task(ABC, Generic[ConfigT]):
 
     # What a task with its own dynamics (judo.core.rollouts.dynamics.DynamicsTask) answers else:
     def rollout_backend(self, name: str) -> Any:
-        """The task's own RolloutBackend, or None (the default): the backend `name` rolls out the
-        planning model."""
+        """The task's own RolloutBackend, or None (the default): backend `name` on the model."""
         return None
 
     def predict_step(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Advance `data` one step of `model` under `data.ctrl` (the latency model's prediction):
-        mj_step."""
+        """Step `data` on `model` under `data.ctrl` (the latency model's prediction): mj_step."""
         mujoco.mj_step(model, data)
 
     def drawn_model(self) -> mujoco.MjModel:
@@ -267,9 +265,8 @@ class Task(ABC, Generic[ConfigT]):
         return None
 
     def success(self, metrics: dict[str, float]) -> bool | None:
-        """Whether an episode with these `metrics` (from `metrics`) counts as a success, for
-        `collect --success-only`; None when the task has no rule. The default reads a "success"
-        metric (true when above 0.5), if any."""
+        """Whether an episode with these `metrics` counts as a success (`collect --success-only`);
+        None without a rule. The default reads a "success" metric (true above 0.5), if any."""
         return metrics["success"] > 0.5 if "success" in metrics else None
 
     def metrics(self, log: EpisodeLog) -> dict[str, float]:
@@ -310,10 +307,14 @@ class Task(ABC, Generic[ConfigT]):
         rows = (np.zeros((1, model.nq + model.nv)), np.zeros((1, model.nsensordata)))
         return int(np.shape(self.policy_observation(*rows, metadata, np.zeros((1, self.nu))))[-1])
 
+    def default_proposal_policy(self) -> Any:
+        """The judo.Policy a controller given no proposal policy takes its `policy_samples`
+        candidates from (judo.core.policies.proposals); None (the default): none."""
+        return None
+
     def optimizer_warm_start(self, state: np.ndarray) -> np.ndarray:
-        """The (command_size,) control that the first plan holds at every knot, from the (nq + nv,)
-        plant `state` [qpos, qvel] it starts from; zeros by default. (The old form without `state`
-        still works, with a DeprecationWarning.)"""
+        """The (command_size,) control the first plan holds at every knot, from the (nq + nv,) plant
+        `state` it starts from; zeros by default (the form without `state` warns, deprecated)."""
         return np.zeros(self.command_size)
 
     def feedback_cost(self) -> tuple[np.ndarray, np.ndarray]:

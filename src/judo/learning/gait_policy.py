@@ -1,103 +1,16 @@
-"""A periodic gait policy: a central pattern generator whose joint targets the command shapes, with
-feedback.
+"""The gait policy as an ONNX graph: `gait_policy_model` writes one (P,) parameter row of
+judo.tasks.gait_policy's central pattern generator as a graph that gives `gait_actions`' targets
+(float32), for `OnnxPolicy`. The generator itself (its formula, `GaitLayout`, `gait_actions`, and
+`GaitPolicy`, which runs one in numpy from a JSON file) lives there, where a task can load its
+shipped policy without onnxruntime.
+"""
 
-Each joint's target is the standing pose plus a clock's first two harmonics, each harmonic's size a
-linear function of the command, plus a linear feedback on a few proprioceptive values (the trunk's
-gyro and its gravity direction, by default):
-
-    target_j = home_j + sum_{b, c} W[j, b, c] * phase_b(leg of j) * command_c + sum_f K[j, f] * feedback_f
-    phase = [1, cos p, sin p, cos 2p, sin 2p],  p = 2 pi (gait frequency * t + the leg's offset)
-    command = [1, vx, vy, yaw rate]
-
-In a trot the diagonal legs run half a cycle apart: their first harmonic flips sign (`phase_signs`).
-The clock arrives as [cos, sin] of the trot's phase in the observation (quadruped's
-`locomotion_observation`), so the policy itself keeps no state and runs wherever the observation is
-built: every rollout, and the plant.
-
-`gait_actions` runs a batch of policies, one parameter row each (the search's candidates);
-`gait_policy_model` writes one as an ONNX graph that gives the same targets (float32), for
-`OnnxPolicy`.
-"""  # noqa: E501
-
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from judo.core.policies.onnx_policy import _onnx, model_of_graph
-
-HARMONICS = 5
-"""Phase features per leg: [1, cos p, sin p, cos 2p, sin 2p]."""
-COMMAND_FEATURES = 4
-"""Command features: [1, vx, vy, yaw rate]."""
-
-
-@dataclass(frozen=True)
-class GaitLayout:
-    """Where a gait policy reads its inputs in an (B, O) observation, and its joints' phasing.
-
-    Attributes:
-        home: (J,) the standing pose's joint targets, what all-zero parameters give.
-        command_columns: (3,) columns of [vx, vy, yaw rate].
-        clock_columns: (2,) columns of [cos, sin] of the gait's phase.
-        feedback_columns: (F,) columns fed back linearly.
-        phase_signs: (J,) +1, or -1 for a joint on a leg half a cycle behind (its first harmonic
-            flips).
-        observation_size: O.
-    """
-
-    home: np.ndarray
-    command_columns: np.ndarray
-    clock_columns: np.ndarray
-    feedback_columns: np.ndarray
-    phase_signs: np.ndarray
-    observation_size: int
-
-    @property
-    def num_joints(self) -> int:
-        return len(self.home)
-
-    @property
-    def num_parameters(self) -> int:
-        """P: J * 5 * 4 harmonic weights, then J * F feedback gains."""
-        return self.num_joints * (HARMONICS * COMMAND_FEATURES + len(self.feedback_columns))
-
-    def split(self, parameters: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(B, P) parameters -> (B, J, 5, 4) harmonic weights and (B, J, F) feedback gains."""
-        batch, joints = len(parameters), self.num_joints
-        cut = joints * HARMONICS * COMMAND_FEATURES
-        weights = parameters[:, :cut].reshape(batch, joints, HARMONICS, COMMAND_FEATURES)
-        return weights, parameters[:, cut:].reshape(batch, joints, len(self.feedback_columns))
-
-    def signed_harmonics(self) -> np.ndarray:
-        """(J, 5) each joint's sign on [1, cos p, sin p, cos 2p, sin 2p]."""
-        signs = np.ones((self.num_joints, HARMONICS))
-        signs[:, 1:3] = self.phase_signs[:, None]
-        return signs
-
-
-def phase_features(clock: np.ndarray) -> np.ndarray:
-    """(B, 5) [1, cos p, sin p, cos 2p, sin 2p] from (B, 2) [cos p, sin p]."""
-    cos, sin = clock[:, 0], clock[:, 1]
-    return np.stack([np.ones_like(cos), cos, sin, cos * cos - sin * sin, 2.0 * sin * cos], axis=1)
-
-
-def gait_actions(
-    parameters: np.ndarray, observations: np.ndarray, layout: GaitLayout
-) -> np.ndarray:
-    """(B, J) joint targets of (B, P) parameter rows (one policy per row) on (B, O) observations."""
-    weights, gains = layout.split(np.asarray(parameters, dtype=float))
-    # (B, J, 5)
-    phase = (
-        phase_features(observations[:, layout.clock_columns])[:, None, :]
-        * layout.signed_harmonics()
-    )
-    command = np.concatenate(
-        [np.ones((len(observations), 1)), observations[:, layout.command_columns]], axis=1
-    )
-    rhythm = np.einsum("bjkc,bjk,bc->bj", weights, phase, command)
-    feedback = np.einsum("bjf,bf->bj", gains, observations[:, layout.feedback_columns])
-    return layout.home + rhythm + feedback
+from judo.tasks.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout
 
 
 def gait_policy_model(parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]) -> Any:

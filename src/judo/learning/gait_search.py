@@ -1,8 +1,10 @@
-"""`python -m judo gait-search`: teach the quadruped a locomotion policy by policy search, and write
-it as ONNX.
+"""`python -m judo gait-search`: teach a legged task (quadruped_velocity's quadruped, or go2_walk's
+Go2) a locomotion policy by policy search, and write it as ONNX and as the JSON file judo's numpy
+`GaitPolicy` reads.
 
 python -m judo gait-search --out quadruped_locomotion.onnx
 python -m judo evaluate --task quadruped_velocity --policy quadruped_locomotion.onnx --seeds 5 --first-seed 1000
+python -m judo gait-search --task go2_walk --out go2_trot.onnx
 """  # noqa: E501
 
 import json
@@ -10,7 +12,7 @@ import shlex
 import sys
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import numpy as np
 import tyro
@@ -19,24 +21,23 @@ from judo.cli_shared import fail, optional_pyplot, output_console, parse_args, p
 from judo.core.commandline.boundary import check_output_file
 from judo.core.configuration.config import require
 from judo.core.errors import JudoError
-from judo.learning.gait_policy import GaitLayout
 from judo.learning.policy_search import EVERY, GaitSearchSettings, Iteration
+from judo.tasks.gait_policy import GaitLayout
 
 DESCRIPTION = (
-    "Teach the quadruped a locomotion policy for quadruped_velocity's commands [vx, vy, yaw "
-    "rate] by policy search: "
-    "judo's CEM tunes a gait policy (a trot's clock harmonics, shaped linearly by the "
-    "command, plus feedback on the "
-    "trunk's gyro and tilt; judo.learning.gait_policy) on closed-loop episodes scored by "
-    "quadruped_velocity's own "
-    "reward, the objective its MPC plans with. Writes an ONNX file for --policy and "
-    "quadruped_navigate, and the "
-    "reward curve beside it as a PNG (with matplotlib). The file holds the best iteration's "
-    "mean; Ctrl-C ends the search early and writes the best so far (exit 130)."
+    "Teach a legged task (--task quadruped_velocity, the default, or go2_walk) a locomotion "
+    "policy for commands [vx, vy, yaw rate] by policy search: judo's CEM tunes a gait policy (a "
+    "trot's clock harmonics, shaped linearly by the command, plus feedback on the trunk's gyro "
+    "and tilt; judo.tasks.gait_policy) on closed-loop episodes scored by the task's own reward, "
+    "the objective its MPC plans with. Writes an ONNX file for --policy and quadruped_navigate, "
+    "the same policy as JSON beside it (OUT.json, what judo.tasks.gait_policy.GaitPolicy runs in "
+    "numpy: go2_walk's proposals), and the reward curve as a PNG (with matplotlib). The files "
+    "hold the best iteration's mean; Ctrl-C ends the search early and writes the best so far "
+    "(exit 130)."
 )
-TASK = "quadruped_velocity"
 SEARCH_PNG = ".search.png"
 """The reward curve's file name beside --out: OUT.search.png."""
+GaitTaskName = Literal["quadruped_velocity", "go2_walk"]
 
 
 @dataclass
@@ -44,14 +45,18 @@ class GaitSearchArgs(GaitSearchSettings):
     """Arguments of `python -m judo gait-search`: the search's settings and the file to write."""
 
     out: Annotated[Path, tyro.conf.arg(metavar="POLICY.onnx")] = field(kw_only=True)
-    """The ONNX file to write (its reward curve goes beside it, as POLICY.search.png)."""
+    """The ONNX file to write (the same policy goes beside it as POLICY.json, its reward curve as
+    POLICY.search.png)."""
+    task: GaitTaskName = "quadruped_velocity"
+    """The task whose reward, start and commands the search walks (judo.learning.policy_search's
+    GAIT_PROBLEMS)."""
     overwrite: bool = False
     """Replace an --out file that exists (without it, gait-search refuses before searching)."""
 
     def validate(self) -> None:
         super().validate()
         require(self.out.suffix == ".onnx", f"--out must name an .onnx file, got {str(self.out)!r}")
-        check_output_file("--out", self.out, (self.out.stem + SEARCH_PNG,))
+        check_output_file("--out", self.out, (self.out.stem + SEARCH_PNG, self.out.stem + ".json"))
         require(
             self.overwrite or not self.out.exists(),
             f"--out {str(self.out)!r} exists; give --overwrite to replace it, or another --out",
@@ -69,7 +74,17 @@ def write_gait_policy(
     return save_model(out, gait_policy_model(parameters, layout, metadata), JudoError)
 
 
-def plot_search(path: Path, history: list[Iteration]) -> Path | None:
+def write_gait_json(
+    out: Path, parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str]
+) -> Path:
+    """Write the same policy as `GaitPolicy`'s JSON file beside `out` (OUT.json); returns its
+    path."""
+    from judo.tasks.gait_policy import save_gait_policy
+
+    return save_gait_policy(out.with_suffix(".json"), parameters, layout, metadata)
+
+
+def plot_search(path: Path, history: list[Iteration], task: str) -> Path | None:
     """The mean's and the best candidate's reward per iteration as a PNG at `path`; None without
     matplotlib."""
     plt = optional_pyplot()
@@ -80,7 +95,7 @@ def plot_search(path: Path, history: list[Iteration]) -> Path | None:
     axes.plot(index, [record.mean_reward for record in history], label="the CEM's mean")
     axes.plot(index, [record.best_reward for record in history], label="best candidate", alpha=0.6)
     axes.set_xlabel("iteration")
-    axes.set_ylabel("quadruped_velocity reward (higher is better)")
+    axes.set_ylabel(f"{task} reward (higher is better)")
     axes.set_title("gait-search: reward on each iteration's drawn commands", fontsize=9)
     axes.legend(fontsize=8)
     figure.tight_layout()
@@ -95,8 +110,9 @@ def run(args: GaitSearchArgs, command: str) -> int:
     search (the best so far is written all the same)."""
     from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
-    from judo.learning.policy_search import quadruped_gait_layout, search_gait
-    from judo.tasks.quadruped_velocity import OBSERVATION, QuadrupedVelocity
+    from judo.learning.policy_search import GAIT_PROBLEMS, search_gait
+    from judo.tasks.quadruped_velocity import OBSERVATION
+    from judo.tasks.unitree.go2 import OBSERVATION as GO2_OBSERVATION
 
     console = output_console()
     settings = GaitSearchSettings(
@@ -117,16 +133,16 @@ def run(args: GaitSearchArgs, command: str) -> int:
             )
             progress.update(bar, completed=record.index + 1, description=text)
 
-        task = QuadrupedVelocity()
-        result = search_gait(task, settings, show)
+        problem = GAIT_PROBLEMS[args.task]()
+        result = search_gait(problem, settings, show)
     history, best = result.history, result.history[result.best_index]
-    layout = quadruped_gait_layout(task)
+    task, layout = problem.task, problem.layout
     metadata = {
         "name": args.out.stem,
-        "task": TASK,
+        "task": args.task,
         "kind": "action",
         "head": "gait",
-        "observation": OBSERVATION,
+        "observation": GO2_OBSERVATION if args.task == "go2_walk" else OBSERVATION,
         "observation_size": str(layout.observation_size),
         "control_freq": repr(1.0 / (EVERY * float(task.model.opt.timestep))),
         "training_command": command,
@@ -142,18 +158,19 @@ def run(args: GaitSearchArgs, command: str) -> int:
         ),
     }
     write_gait_policy(args.out, result.parameters, layout, metadata)
-    plot = plot_search(args.out.with_name(args.out.stem + SEARCH_PNG), history)
+    written = write_gait_json(args.out, result.parameters, layout, metadata)
+    plot = plot_search(args.out.with_name(args.out.stem + SEARCH_PNG), history, args.task)
     stopped = "interrupted: " if result.interrupted else ""
     console.print(
-        f"{stopped}wrote {args.out}, the mean of iteration {best.index + 1}, the best of "
-        f"{len(history)} in "
+        f"{stopped}wrote {args.out} and {written}, the mean of iteration {best.index + 1}, the "
+        f"best of {len(history)} in "
         f"{history[-1].seconds / 60:.1f} min: the mean's reward {history[0].mean_reward:.3f} -> "
         f"{best.mean_reward:.3f} (last {history[-1].mean_reward:.3f}), falls {best.falls:.0%}"
         + (f"; the reward curve is {plot}" if plot else ""),
         soft_wrap=True,
     )
     console.print(
-        f"score it on fresh seeds: python -m judo evaluate --task {TASK} --policy {args.out} "
+        f"score it on fresh seeds: python -m judo evaluate --task {args.task} --policy {args.out} "
         "--seeds 5 --first-seed 1000",
         soft_wrap=True,
     )

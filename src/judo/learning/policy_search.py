@@ -1,20 +1,22 @@
-"""Policy search: judo's own CEM tunes a gait policy (judo.learning.gait_policy) on closed-loop
-episodes.
+"""Policy search: judo's own CEM tunes a gait policy (judo.tasks.gait_policy) on closed-loop
+episodes of a legged task (`GaitProblem`: quadruped_velocity's quadruped, or go2_walk's Go2).
 
-Each iteration draws `commands` velocity commands from quadruped_velocity's ranges. Every one of the
-CEM's `population` candidate parameter rows then walks every command for `episode_seconds` from the
-standing pose (at a random point of the gait's cycle), all population x commands episodes stepped
+Each iteration draws `commands` velocity commands from the problem's ranges. Every one of the CEM's
+`population` candidate parameter rows then walks every command for `episode_seconds` from the
+task's start (at a random point of the gait's cycle), all population x commands episodes stepped
 together with `mujoco.rollout` on `workers` threads, the policy run between ticks as the low-level
-hook runs it (every `every` steps). A candidate's score is the mean over its commands of
-quadruped_velocity's own reward, the objective the MPC plans with (height, uprightness, the trot's
-foot schedule, posture, effort, and the command's velocity and yaw rate), so the search teaches the
-policy what the MPC would do, without the MPC's sampling noise in the labels that defeated cloning
-it (docs/tasks.md).
+hook runs it (every EVERY steps). A candidate's score is the mean over its commands of the task's
+own reward, the objective the MPC plans with (height, uprightness, the trot's foot schedule,
+posture, effort, and the command's velocity and yaw rate), so the search teaches the policy what the
+MPC would do, without the MPC's sampling noise in the labels that defeated cloning it
+(docs/tasks.md).
 """
 
+import dataclasses
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -23,21 +25,30 @@ from judo.core.configuration.config import require, require_between
 from judo.core.model import STATE_SPEC
 from judo.core.rollouts.rollout import RolloutPool
 from judo.core.rollouts.stepper import PolicyStepper
-from judo.learning.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout, gait_actions
 from judo.optimizers.cem import CEM, CEMConfig
 from judo.tasks.gait import GAITS
+from judo.tasks.gait_policy import (
+    COMMAND_FEATURES,
+    HARMONICS,
+    GaitLayout,
+    gait_actions,
+    locomotion_features,
+)
 from judo.tasks.quadruped import STANDING_HEIGHT
 from judo.tasks.quadruped_velocity import (
     COMMAND_KEY,
     OBSERVATION_COLUMNS,
     QuadrupedVelocity,
-    QuadrupedVelocityConfig,
     draw_command,
 )
+from judo.tasks.unitree import go2
 
 EVERY = 2
-"""Physics steps per policy tick: 50 Hz on the quadruped's 0.01 s timestep (quadruped_navigate's
-rate)."""
+"""Physics steps per policy tick: 50 Hz on the 0.01 s timestep of both the quadruped and the Go2
+(quadruped_navigate's rate)."""
+GO2_COMMAND_RANGE = np.array([[-0.3, 0.8], [-0.3, 0.3], [-0.8, 0.8]])
+"""(3, 2) [low, high] of the [vx, vy, yaw rate] commands the Go2's search draws (uniformly): around
+go2_walk's default (0.5, 0, 0)."""
 
 
 @dataclass
@@ -81,20 +92,128 @@ class GaitSearchSettings:
         require_between("--workers", self.workers, 1, 1024)
 
 
+def trot_phase_signs() -> np.ndarray:
+    """(12,) +1 for the joints of the trot's first diagonal pair (FR, RL), -1 for the other's (FL,
+    RR): legs in FR, FL, RR, RL order, three joints each, for both robots."""
+    offsets = np.array(GAITS["trot"].offsets)
+    return np.repeat(np.where(offsets == 0.0, 1.0, -1.0), 3)
+
+
 def quadruped_gait_layout(task: QuadrupedVelocity) -> GaitLayout:
     """The gait policy's layout on quadruped_velocity's OBSERVATION: the trot's diagonal pairs half
     a cycle apart, feedback on the trunk's gyro and gravity direction."""
-    offsets = np.array(GAITS["trot"].offsets)
-    # a leg half a cycle behind: its first harmonic flips
-    signs = np.repeat(np.where(offsets == 0.0, 1.0, -1.0), 3)
     return GaitLayout(
         home=task.home_ctrl.copy(),
         command_columns=OBSERVATION_COLUMNS["command"],
         clock_columns=OBSERVATION_COLUMNS["clock"],
         feedback_columns=OBSERVATION_COLUMNS["gyro_and_gravity"],
-        phase_signs=signs,
+        phase_signs=trot_phase_signs(),
         observation_size=task.policy_observation_size(),
     )
+
+
+def go2_gait_layout(task: go2.Go2Walk) -> GaitLayout:
+    """The gait policy's layout on go2_walk's OBSERVATION (Unitree's motor order FR, FL, RR, RL x
+    hip, thigh, calf): around RISE_POSE (the stand at the 0.30 m target height), the trot's diagonal
+    pairs FR + RL and FL + RR half a cycle apart, feedback on the base's gyro and gravity
+    direction."""
+    return GaitLayout(
+        home=go2.RISE_POSE.copy(),
+        command_columns=OBSERVATION_COLUMNS["command"],
+        clock_columns=OBSERVATION_COLUMNS["clock"],
+        feedback_columns=OBSERVATION_COLUMNS["gyro_and_gravity"],
+        phase_signs=trot_phase_signs(),
+        observation_size=task.policy_observation_size(),
+    )
+
+
+@dataclass
+class GaitProblem:
+    """What the search needs of a legged task: its layout, start, commands, observation and score.
+
+    Attributes:
+        name: the registered task's name.
+        task: the task (its planning model is stepped).
+        layout: the gait policy's layout on the task's observation.
+        start_qpos, start_ctrl: (nq,) and (nu,) the episodes' start (at rest).
+        draw: rng -> (3,) a command [vx, vy, yaw rate].
+        observe: ((B, 3) commands, (B, nq + nv) states, (B,) times, (B, O) out) -> out.
+        reward: ((B, T, nq + nv) states, (B, T, nsensordata) sensors, (B, T, nu) ctrl, (3,)
+            command) -> (B,) the task's reward of episodes that all walked `command`.
+        fallen_height: the base height (m) under which an episode counts as fallen.
+    """
+
+    name: str
+    task: Any
+    layout: GaitLayout
+    start_qpos: np.ndarray
+    start_ctrl: np.ndarray
+    draw: Callable[[np.random.Generator], np.ndarray]
+    observe: Callable[..., np.ndarray]
+    reward: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
+    fallen_height: float
+
+
+def quadruped_problem(task: QuadrupedVelocity | None = None) -> GaitProblem:
+    """quadruped_velocity: from the standing pose, commands from its config's ranges, its reward
+    with the command as the plant publishes it."""
+    task = QuadrupedVelocity() if task is None else task
+    config = task.config
+
+    def reward(
+        states: np.ndarray, sensors: np.ndarray, ctrl: np.ndarray, command: np.ndarray
+    ) -> np.ndarray:
+        return task.reward(states, sensors, ctrl, config, {COMMAND_KEY: command})
+
+    return GaitProblem(
+        name="quadruped_velocity",
+        task=task,
+        layout=quadruped_gait_layout(task),
+        start_qpos=task.model.key_qpos[0].copy(),
+        start_ctrl=task.home_ctrl.copy(),
+        draw=lambda rng: draw_command(config, rng),
+        observe=lambda commands, states, times, out: task.locomotion_observation(
+            commands, states, None, times, out=out
+        ),
+        reward=reward,
+        fallen_height=0.5 * STANDING_HEIGHT,
+    )
+
+
+def go2_problem(task: go2.Go2Walk | None = None) -> GaitProblem:
+    """go2_walk: from its start (the crouched stand, keyframe "home", the targets RISE_POSE),
+    commands from GO2_COMMAND_RANGE, its reward with the command as its config's
+    `velocity_command`."""
+    task = go2.Go2Walk(policy_path=None) if task is None else task
+    key = mujoco.mj_name2id(task.model, mujoco.mjtObj.mjOBJ_KEY, task.start_key)
+    low, high = GO2_COMMAND_RANGE.T
+
+    def reward(
+        states: np.ndarray, sensors: np.ndarray, ctrl: np.ndarray, command: np.ndarray
+    ) -> np.ndarray:
+        config = dataclasses.replace(task.config, velocity_command=np.asarray(command, float))
+        return task.reward(states, sensors, ctrl, config)
+
+    return GaitProblem(
+        name="go2_walk",
+        task=task,
+        layout=go2_gait_layout(task),
+        start_qpos=task.model.key_qpos[key].copy(),
+        start_ctrl=go2.RISE_POSE.copy(),
+        draw=lambda rng: rng.uniform(low, high),
+        observe=lambda commands, states, times, out: locomotion_features(
+            states, task.proprioception, go2.POSTURE, commands, times, out
+        ),
+        reward=reward,
+        fallen_height=go2.FALLEN_HEIGHT,
+    )
+
+
+GAIT_PROBLEMS: dict[str, Callable[[], GaitProblem]] = {
+    "quadruped_velocity": quadruped_problem,
+    "go2_walk": go2_problem,
+}
+"""The tasks gait-search teaches a gait, by name."""
 
 
 def stepping_in_place(layout: GaitLayout) -> np.ndarray:
@@ -142,47 +261,46 @@ class GaitSearchResult:
 
 
 class GaitEpisodes:
-    """Steps B closed-loop episodes of the quadruped at once, each with its own gait policy
+    """Steps B closed-loop episodes of a `GaitProblem`'s task at once, each with its own gait policy
     parameters, on a `PolicyStepper` block by block on a `RolloutPool`'s workers (its threads and
     MjData kept for every tick of every run; `close` ends them)."""
 
-    def __init__(self, task: QuadrupedVelocity, layout: GaitLayout, workers: int) -> None:
-        self.task, self.layout, self.model = task, layout, task.model
+    def __init__(self, problem: GaitProblem, workers: int) -> None:
+        self.problem, self.layout, self.model = problem, problem.layout, problem.task.model
         self.pool = RolloutPool(self.model, workers)
         self.stepper = PolicyStepper(
-            self.model, self.model.nu, EVERY, observation_size=layout.observation_size
+            self.model, self.model.nu, EVERY, observation_size=self.layout.observation_size
         )
         data = mujoco.MjData(self.model)
-        data.qpos[:] = self.model.key_qpos[0]
-        data.ctrl[:] = task.home_ctrl
+        data.qpos[:] = problem.start_qpos
+        data.ctrl[:] = problem.start_ctrl
         mujoco.mj_forward(self.model, data)
-        self._standing = np.zeros(mujoco.mj_stateSize(self.model, STATE_SPEC))
-        mujoco.mj_getState(self.model, data, self._standing, STATE_SPEC)
+        self._start = np.zeros(mujoco.mj_stateSize(self.model, STATE_SPEC))
+        mujoco.mj_getState(self.model, data, self._start, STATE_SPEC)
 
     def run(
         self, parameters: np.ndarray, commands: np.ndarray, start_times: np.ndarray, seconds: float
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Walk (B, P) `parameters` rows on (B, 3) `commands` from standing at (B,) sim
+        """Walk (B, P) `parameters` rows on (B, 3) `commands` from the start at (B,) sim
         `start_times` for `seconds`; returns each tick's (B, ticks, nq + nv) states, (B, ticks,
-        nsensordata) sensors and (B, ticks, 12) ctrl."""
+        nsensordata) sensors and (B, ticks, nu) ctrl."""
         model, batch, stepper, layout = self.model, len(parameters), self.stepper, self.layout
         ticks = max(1, round(seconds / (EVERY * model.opt.timestep)))
-        stepper.start(batch, ticks * EVERY, self._standing)
+        stepper.start(batch, ticks * EVERY, self._start)
         stepper.current[:, 0] = start_times
         states = np.zeros((batch, ticks, model.nq + model.nv))
         sensors = np.zeros((batch, ticks, model.nsensordata))
         ctrl = np.zeros((batch, ticks, model.nu))
+        observe_rows = self.problem.observe
 
         def observe(
             rows: slice, start: int, current: np.ndarray, previous: np.ndarray
         ) -> np.ndarray:
             out = stepper.observations[rows]  # written in place: no temporaries per tick
-            return self.task.locomotion_observation(
-                commands[rows], current[:, 1:], None, current[:, 0], out=out
-            )
+            return observe_rows(commands[rows], current[:, 1:], current[:, 0], out)
 
         def act(rows: slice, observations: np.ndarray) -> np.ndarray:
-            # (B, 1, 12), held for the tick
+            # (B, 1, nu), held for the tick
             return gait_actions(parameters[rows], observations, layout)[:, None]
 
         # each tick keeps its last step's row
@@ -203,15 +321,14 @@ class GaitEpisodes:
 
 
 def search_gait(
-    task: QuadrupedVelocity,
+    problem: GaitProblem,
     settings: GaitSearchSettings,
     on_iteration: Callable[[Iteration], None] | None = None,
 ) -> GaitSearchResult:
     """Run the search; returns the best-scoring mean and each iteration's figures. Ctrl-C after the
     first iteration ends it early with the best so far (`interrupted`); before, it is raised as it
     is."""
-    layout = quadruped_gait_layout(task)
-    config: QuadrupedVelocityConfig = task.config
+    layout = problem.layout
     cem = CEM(
         CEMConfig(
             num_rollouts=settings.population,
@@ -227,12 +344,12 @@ def search_gait(
     mean, history, start = stepping_in_place(layout)[None], [], time.perf_counter()
     best: GaitSearchResult | None = None
     best_score = -np.inf
-    episodes = GaitEpisodes(task, layout, settings.workers)
+    episodes = GaitEpisodes(problem, settings.workers)
     try:
         population, count = settings.population, settings.commands
         period = 1.0 / GAITS["trot"].frequency
         for index in range(settings.iterations):
-            commands = np.array([draw_command(config, rng) for _ in range(count)])
+            commands = np.array([problem.draw(rng) for _ in range(count)])
             candidates = cem.sample_control_knots(mean)[:, 0]  # (population, P), row 0 the mean
             rows = np.repeat(candidates, count, axis=0)
             row_commands = np.tile(commands, (population, 1))
@@ -243,11 +360,9 @@ def search_gait(
             rewards = np.zeros((population, count))
             for j, command in enumerate(commands):
                 block = slice(j, None, count)  # rows of command j, one per candidate
-                metadata = {COMMAND_KEY: command}
-                rewards[:, j] = task.reward(
-                    states[block], sensors[block], ctrl[block], config, metadata
-                )
-            fell = (states[..., 2] < 0.5 * STANDING_HEIGHT).any(axis=1).reshape(population, count)
+                rewards[:, j] = problem.reward(states[block], sensors[block], ctrl[block], command)
+            fell = states[..., 2] < problem.fallen_height
+            fell = fell.any(axis=1).reshape(population, count)
             scores = rewards.mean(axis=1)
             mean = cem.update_nominal_knots(candidates[:, None], scores)
             seconds = time.perf_counter() - start

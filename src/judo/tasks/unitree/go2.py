@@ -5,7 +5,7 @@ tracks.
 The model (models/unitree_go2/, from MuJoCo Menagerie) keeps to the contract the Unitree bridge
 reads (judo.unitree): actuators in Unitree's motor order, position actuators carrying kp / kd, and
 the measured sensors rt/lowstate carries. The rewards reuse the quadruped task's gait schedule
-(judo.tasks.gait).
+(judo.tasks.gait); go2_walk's optimizer samples among a trot gait policy's candidates by default.
 """
 
 from dataclasses import dataclass
@@ -16,9 +16,11 @@ import mujoco
 import numpy as np
 
 from judo.core.configuration.fields import np_1d_field, slider
+from judo.core.policy import Policy, PolicyError
 from judo.core.rollouts.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 from judo.tasks.gait import GaitName, gait_of, swing_heights
+from judo.tasks.gait_policy import GaitPolicy, locomotion_features
 from judo.tasks.quadruped_velocity import AVERAGE_WINDOW, trailing_mean
 from judo.tasks.unitree.pushes import RandomPushes
 
@@ -32,11 +34,9 @@ FOOT_RADIUS = 0.022
 STAND_POSE = np.tile([0.0, 0.9, -1.8], 4)
 """(12,) the crouched stand's joint targets (keyframe "home", base 0.25 m up): the safe action."""
 RISE_POSE = np.tile([0.0, 0.8, -1.5], 4)
-"""(12,) joint targets the PD holds the base at about 0.30 m with (the default target height): the
-warm start."""
+"""(12,) targets the PD holds the base at about 0.30 m with (the default target): the warm start."""
 POSTURE = np.tile([0.0, 0.8, -1.6], 4)
-"""(12,) the joint angles the robot stands at under RISE_POSE (the servos sag 0.09 rad at the
-calves): the posture the reward keeps the legs near."""
+"""(12,) the angles it stands at under RISE_POSE (calves sag 0.09 rad): the reward's posture."""
 STANDING_FRACTION_OF_TARGET = 0.8
 """The base counts as standing above this share of the target height, upright within UPRIGHT_COS."""
 UPRIGHT_COS = np.cos(np.deg2rad(30.0))
@@ -45,6 +45,14 @@ FALLEN_HEIGHT = 0.15
 """Base height (m) under which a robot that stood counts as fallen (lying, it is 0.096 m)."""
 STAND_HOLD_TIME = 1.0
 """Seconds the base must stay standing for `time_to_stand` to count it as up."""
+OBSERVATION = (
+    "12 joint angles minus POSTURE (rad), 12 joint velocities (rad/s), base angular velocity in "
+    "the base frame (3, rad/s, what the IMU's gyro reads), gravity's direction in the base frame "
+    "(3), the command [vx, vy, yaw rate] (3), the gait clock [cos, sin] of 2 pi 2.5 Hz t (2)"
+)
+"""What `Go2Walk.policy_observation` holds: 35 values, in quadruped_velocity.OBSERVATION's order."""
+POLICY_PATH = Path(__file__).parents[1] / "models" / "policies" / "go2_trot.json"
+"""go2_walk's default proposal policy: a trot (`python -m judo gait-search --task go2_walk`)."""
 
 
 @slider("target_height", 0.15, 0.38, 0.005)
@@ -91,8 +99,7 @@ class Go2StandConfig(Go2BaseConfig):
     """go2_stand: the common weights and the base's motion, which standing still should not have."""
 
     w_velocity: float = 1.0
-    """Weight on the base's linear and angular speed (squared, m^2/s^2 and rad^2/s^2): come to
-    rest."""
+    """Weight on the base's linear and angular speed (squared, m^2/s^2, rad^2/s^2): come to rest."""
 
 
 @slider("step_height", 0.0, 0.15, 0.005)
@@ -115,22 +122,17 @@ class Go2WalkConfig(Go2BaseConfig):
     heading frame; `--task-config.velocity-command 0.5 0 0` on the command line, `velocity_command =
     [0.5, 0, 0]` in TOML."""
     gait: GaitName = "trot"
-    """The foot schedule (judo.tasks.gait.GAITS): "trot", "walk" or "stand" (no foot asked to
-    lift)."""
+    """The foot schedule (judo.tasks.gait.GAITS): "trot", "walk" or "stand" (no foot lifts)."""
     step_height: float = 0.06
     """How high (m) a swinging foot is lifted at mid-swing."""
     push_force: float = 0.0
-    """Horizontal force (N) of each push on the plant's base; 0 (the default here) turns pushes
-    off."""
+    """Horizontal force (N) of each push on the plant's base; 0 (the default here): no pushes."""
     w_height: float = 800.0
-    """Weight on the base height error (squared, m^2): twice go2_stand's, or the trot sags below
-    0.24 m."""
+    """Weight on the base height error (squared, m^2): twice go2_stand's (else the trot: 0.24 m)."""
     w_balance: float = 0.0
-    """Weight on the base's offset from the middle of the feet: none while walking (the stride moves
-    them)."""
+    """Weight on the base's offset from the middle of the feet: none while walking (strides)."""
     w_gait: float = 100.0
-    """Weight on each foot's height differing from the gait's schedule (squared, summed over feet,
-    m^2)."""
+    """Weight on each foot's height differing from the gait's schedule (squared, summed, m^2)."""
     w_velocity: float = 6.0
     """Weight on the base's horizontal velocity differing from the command's (squared, m^2/s^2)."""
     w_yaw_rate: float = 2.0
@@ -318,10 +320,42 @@ class Go2Stand(Go2Base[Go2StandConfig]):
 class Go2Walk(Go2Base[Go2WalkConfig]):
     """Track `velocity_command` [vx, vy, yaw rate] in the base's heading frame from the crouched
     stand, lifting the feet on the gait's schedule (the model's "clock" sensor places each rollout
-    step in the stride)."""
+    step in the stride). `policy_path`: the default proposal policy's JSON file, or None: none."""
 
     start_key = "home"
     lower_is_better = ("falls", "time_to_stand", "height_error", "velocity_error", "yaw_rate_error")
+
+    def __init__(
+        self,
+        model_path: str | Path = MODEL_PATH,
+        sim_model_path: str | Path | None = None,
+        policy_path: str | Path | None = POLICY_PATH,
+    ) -> None:
+        super().__init__(model_path, sim_model_path)
+        nq, speeds = self.model.nq, [self.get_joint_velocity_start_index(j) for j in JOINTS]
+        self.proprioception = np.concatenate([self._joint_qpos, speeds, np.arange(nq + 3, nq + 6)])
+        """(27,) state columns of the joint angles, joint speeds and gyro (in the base frame)."""
+        self._policy = None if policy_path is None else GaitPolicy.load(policy_path)
+
+    def default_proposal_policy(self) -> Policy | None:
+        """The trot's gait policy (numpy), whose candidates the optimizer scores among its own."""
+        return self._policy
+
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(B, 35) OBSERVATION of (B, nq + nv) states, the config's `velocity_command` and the (B,
+        nsensordata) sensors' "clock"; `previous_actions` is not used."""
+        states = np.atleast_2d(np.asarray(states, dtype=float))
+        if sensors is None:
+            raise PolicyError("go2_walk's policy observation needs the sensors, for the gait clock")
+        times = np.atleast_2d(np.asarray(sensors, dtype=float))[:, self._clock]
+        commands = np.broadcast_to(self.config.velocity_command, (len(states), 3))
+        return locomotion_features(states, self.proprioception, POSTURE, commands, times)
 
     def reward(
         self,
