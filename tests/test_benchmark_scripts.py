@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -526,3 +527,36 @@ def test_house_figures_counts_each_figure_on_a_small_checkout_and_this_one(tmp_p
     both = run_script("house_figures.py", "--skip-run", "--compare", str(tmp_path))
     assert both.returncode == 0, both.stderr
     assert "before (" in both.stdout and "GUI polled change counters:" in both.stdout
+
+
+def test_the_unitree_walk_figures_come_from_the_robots_true_base_after_its_first_second():
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(
+        "unitree_walk", ROOT / "benchmarks" / "unitree_walk.py"
+    )
+    walk = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(walk)
+    # (t, height, tilt, x, y, heading): crouched, sunk under damping, then up and walking at
+    # 0.4 m/s along a heading of 90 degrees (+y), turning at 0.1 rad/s from t = 3 s on
+    reports = [(0.0, 0.25, 1, 0, 0, 90), (1.0, 0.09, 3, 0, 0, 90), (2.0, 0.30, 2, 0, 0, 90)]
+    reports += [(t, 0.30, 2, 0.0, 0.4 * (t - 3), 90 + 5.73 * (t - 3)) for t in (3.0, 4.0, 5.0)]
+    row = walk.figures(reports, np.array([0.5, 0.0]))
+    assert row["time_to_stand"] == 2.0 and row["falls"] == 0 and row["standing"] == 0.8
+    assert row["speed"] == pytest.approx(0.4, abs=0.01)
+    assert row["velocity_error"] == pytest.approx(0.1, abs=0.01)
+    assert row["yaw_rate"] == pytest.approx(0.1, abs=0.001)
+    fallen = [*reports, (6.0, 0.08, 170, 0.0, 1.2, 90)]
+    assert walk.figures(fallen, np.array([0.5, 0.0]))["falls"] == 1
+
+
+@pytest.mark.slow
+def test_unitree_walk_runs_the_robot_and_the_app_over_dds_and_prints_a_row_per_seed():
+    pytest.importorskip("cyclonedds")
+    result = run_script("unitree_walk.py", "--task", "go2_stand", "--seeds", "1", "--duration", "5")
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("go2_stand over the Unitree wire on loopback, estimator legged")
+    seed = lines[2].split()
+    assert seed[0] == "0" and float(seed[1]) >= 3.0  # the robot's clock ran
+    assert float(seed[4]) == 0  # no fall

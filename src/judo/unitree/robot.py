@@ -182,13 +182,16 @@ def run_robot(options: PlantOptions, stop: threading.Event) -> None:
 
 
 def report_base(data: mujoco.MjData, address: int) -> None:
-    """Log the free base's height and tilt from vertical (its qpos at `address`): what no
-    rt/lowstate carries."""
+    """Log the free base's height, tilt from vertical, position on the floor and heading (its qpos
+    at `address`): what no rt/lowstate carries."""
     w, x, y, z = data.qpos[address + 3 : address + 7]
     up = 1.0 - 2.0 * (x * x + y * y)  # the base's z axis against the world's
     tilt = math.degrees(math.acos(max(-1.0, min(1.0, up))))
+    yaw = math.degrees(math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z)))
+    px, py, pz = data.qpos[address : address + 3]
     logger.info(
-        "t=%.1f s: base at height %.3f m, tilted %.0f deg", data.time, data.qpos[address + 2], tilt
+        "t=%.1f s: base at height %.3f m, tilted %.0f deg, at x %.3f y %.3f m, heading %.1f deg",
+        *(data.time, pz, tilt, px, py, yaw),
     )
 
 

@@ -164,7 +164,8 @@ class Go2Base(Task[Go2ConfigT]):
     )
     """What rt/lowstate carries: 12 encoders, 12 joint speeds, the base IMU (orientation, gyro,
     accelerometer) and the four foot contact forces (N)."""
-    default_estimator = "ekf"
+    default_estimator = "legged"
+    """Over Unitree's wire it stands and walks the Go2 where the EKF fell (docs/hardware.md)."""
     start_key: ClassVar[str] = "lying"
     """The keyframe `reset` starts the plant from."""
 
