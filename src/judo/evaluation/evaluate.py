@@ -57,7 +57,7 @@ DESCRIPTION = (
     "planner sees only the "
     "task's measured sensors (noisy, late, at their rates: --sensor-*) through --estimator "
     "(by default the "
-    "task's own: ukf for walker and leap_cube, else ekf)."
+    "task's own: ukf for walker and leap_cube, legged for the Unitree robots, else ekf)."
 )
 
 

@@ -174,8 +174,8 @@ class SensingFlags:
     repeatable."""
     estimator: str | None = None
     """Registered estimator between the readings and the plan (ekf, ukf, state, ...). By default the
-    task's own with --observe sensors (ukf for walker and leap_cube, else ekf), none (the true state
-    as it is) with --observe state."""
+    task's own with --observe sensors (ukf for walker and leap_cube, legged for the Unitree robots,
+    else ekf), none (the true state as it is) with --observe state."""
 
     def sensor_settings(self) -> dict[str, PerType]:
         """{"noise": std, "delay": seconds, "rate": Hz} from the per-type flags, each None when not
