@@ -144,6 +144,45 @@ def test_an_action_policy_with_a_constant_action_is_fitted_to_constant_knots(tin
     np.testing.assert_allclose(nominal, TrackTask.TARGET, rtol=0, atol=1e-12)
 
 
+class CountingPolicy(RandomPolicy):
+    """RandomPolicy, counting the rows it is asked to act on; `deterministic` as told."""
+
+    def __init__(self, deterministic: bool) -> None:
+        super().__init__(1)
+        self.deterministic, self.rows = deterministic, 0
+
+    def act(self, observations):
+        self.rows += len(observations)
+        return super().act(observations)
+
+
+def test_a_deterministic_policy_rolls_out_one_candidate_and_a_sampling_one_all_of_them(
+    tiny_model_path,
+):
+    import mujoco
+
+    from judo.core.model import STATE_SPEC
+    from judo.core.policies.proposals import Proposer
+
+    task = TrackTask(tiny_model_path)
+    state = np.zeros(mujoco.mj_stateSize(task.model, STATE_SPEC))
+    basis = SplineBasis(np.linspace(0.0, HORIZON, NUM_NODES), "linear")
+    made = {}
+    for deterministic in (False, True):
+        policy = CountingPolicy(deterministic)
+        candidates = Proposer(task, policy, 3).candidates(
+            policy, 3, state, np.zeros(0), basis, 30, None, np.zeros(task.nu)
+        )
+        made[deterministic] = (candidates, policy.rows)
+    sampled, rows_sampled = made[False]
+    repeated, rows_repeated = made[True]
+    assert sampled.shape == repeated.shape == (3, NUM_NODES, task.nu)
+    assert not np.allclose(sampled[0], sampled[1])  # three draws of its own
+    np.testing.assert_array_equal(repeated[0], repeated[1])
+    np.testing.assert_array_equal(repeated[1], repeated[2])
+    assert rows_sampled == 3 * rows_repeated > 0
+
+
 @pytest.mark.parametrize("order", ["zero", "linear", "cubic"])
 def test_the_least_squares_fit_reproduces_knots_whose_spline_gives_the_actions(order):
     basis = SplineBasis(np.linspace(0.0, HORIZON, 5), order)

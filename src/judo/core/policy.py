@@ -45,12 +45,15 @@ class Policy(abc.ABC):
         metadata: free-form facts about the policy (strings): its "task", "kind", "observation"
             layout,
             "training_command", ...; `check_fits` reads "task" when it is there.
+        deterministic: True when equal observations always give equal actions (no sampling inside):
+            the controller's proposals then roll out one candidate and repeat it. False by default.
     """
 
     observation_size: int
     action_size: int
     horizon: int = 1
     metadata: dict[str, str]
+    deterministic: bool = False
 
     @abc.abstractmethod
     def act(self, observations: np.ndarray) -> np.ndarray:

@@ -162,6 +162,7 @@ class GaitPolicy(Policy):
     phase and command features), a few small products a call. Keeps no state between calls."""
 
     horizon = 1
+    deterministic = True
 
     def __init__(
         self, parameters: np.ndarray, layout: GaitLayout, metadata: dict[str, str] | None = None

@@ -179,8 +179,11 @@ class Proposer:
         if not count or policy is None:
             return None
         try:
-            start = (initial_state, initial_mocap, np.tile(previous_action, (count, 1)))
-            return self._candidates(policy, count, start, basis, num_steps, system_metadata)
+            # a deterministic policy's candidates from one start are one candidate, repeated
+            made = 1 if policy.deterministic else count
+            start = (initial_state, initial_mocap, np.tile(previous_action, (made, 1)))
+            knots = self._candidates(policy, made, start, basis, num_steps, system_metadata)
+            return knots if made == count else np.repeat(knots, count, axis=0)
         except PolicyError as err:
             self.last_error = str(err)
             warnings.warn(
