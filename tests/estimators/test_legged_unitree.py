@@ -64,7 +64,8 @@ def held(task_name: str, estimator_name: str, steps: int, skip: int) -> np.ndarr
 
 
 @pytest.mark.parametrize(
-    ("task_name", "estimator"), [("go2_stand", "legged"), ("go2_walk", "legged"), ("g1_stand", "legged")]
+    ("task_name", "estimator"),
+    [("go2_stand", "legged"), ("go2_walk", "legged"), ("g1_stand", "legged")],
 )
 def test_each_unitree_task_names_its_estimator(task_name, estimator):
     assert judo.get_registered_tasks()[task_name][0].default_estimator == estimator
