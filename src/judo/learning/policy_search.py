@@ -99,32 +99,29 @@ def trot_phase_signs() -> np.ndarray:
     return np.repeat(np.where(offsets == 0.0, 1.0, -1.0), 3)
 
 
-def quadruped_gait_layout(task: QuadrupedVelocity) -> GaitLayout:
-    """The gait policy's layout on quadruped_velocity's OBSERVATION: the trot's diagonal pairs half
-    a cycle apart, feedback on the trunk's gyro and gravity direction."""
+def trot_layout(task: QuadrupedVelocity | go2.Go2Walk, home: np.ndarray) -> GaitLayout:
+    """The gait policy's layout on a trotting task's observation (quadruped_velocity.OBSERVATION's
+    columns, which go2_walk's shares), around the (12,) `home` targets: the trot's diagonal pairs
+    half a cycle apart, feedback on the base's gyro and gravity direction."""
     return GaitLayout(
-        home=task.home_ctrl.copy(),
+        home=np.array(home, dtype=float),
         command_columns=OBSERVATION_COLUMNS["command"],
         clock_columns=OBSERVATION_COLUMNS["clock"],
         feedback_columns=OBSERVATION_COLUMNS["gyro_and_gravity"],
         phase_signs=trot_phase_signs(),
         observation_size=task.policy_observation_size(),
     )
+
+
+def quadruped_gait_layout(task: QuadrupedVelocity) -> GaitLayout:
+    """`trot_layout` on quadruped_velocity, around its standing pose."""
+    return trot_layout(task, task.home_ctrl)
 
 
 def go2_gait_layout(task: go2.Go2Walk) -> GaitLayout:
-    """The gait policy's layout on go2_walk's OBSERVATION (Unitree's motor order FR, FL, RR, RL x
-    hip, thigh, calf): around RISE_POSE (the stand at the 0.30 m target height), the trot's diagonal
-    pairs FR + RL and FL + RR half a cycle apart, feedback on the base's gyro and gravity
-    direction."""
-    return GaitLayout(
-        home=go2.RISE_POSE.copy(),
-        command_columns=OBSERVATION_COLUMNS["command"],
-        clock_columns=OBSERVATION_COLUMNS["clock"],
-        feedback_columns=OBSERVATION_COLUMNS["gyro_and_gravity"],
-        phase_signs=trot_phase_signs(),
-        observation_size=task.policy_observation_size(),
-    )
+    """`trot_layout` on go2_walk (Unitree's motor order FR, FL, RR, RL x hip, thigh, calf), around
+    RISE_POSE (the stand at the 0.30 m target height)."""
+    return trot_layout(task, go2.RISE_POSE)
 
 
 @dataclass
