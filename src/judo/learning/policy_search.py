@@ -32,9 +32,8 @@ from judo.tasks.gait_policy import (
     HARMONICS,
     GaitLayout,
     gait_actions,
-    locomotion_features,
 )
-from judo.tasks.quadruped import STANDING_HEIGHT
+from judo.tasks.quadruped import STANDING_HEIGHT, locomotion_features
 from judo.tasks.quadruped_velocity import (
     COMMAND_KEY,
     OBSERVATION_COLUMNS,

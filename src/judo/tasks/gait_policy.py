@@ -30,8 +30,6 @@ from typing import Any
 import numpy as np
 
 from judo.core.policy import Policy, PolicyError
-from judo.tasks.gait import CLOCK_RAD_PER_S
-from judo.tasks.quadruped import gravity_in_body
 
 HARMONICS = 5
 """Phase features per leg: [1, cos p, sin p, cos 2p, sin 2p]."""
@@ -105,30 +103,6 @@ class GaitLayout:
             observation_size=int(values["observation_size"]),
             **columns,
         )
-
-
-def locomotion_features(
-    states: np.ndarray,
-    proprioception: np.ndarray,
-    pose: np.ndarray,
-    commands: np.ndarray,
-    times: np.ndarray,
-    out: np.ndarray | None = None,
-) -> np.ndarray:
-    """(B, 35) a legged robot's locomotion observation, quadruped_velocity.OBSERVATION's layout:
-    from (B, nq + nv) states with the free joint first, its (27,) `proprioception` columns (12 joint
-    angles, less the (12,) `pose`, 12 joint speeds, the free joint's angular velocity, in the base
-    frame: the gyro), gravity's direction in the base frame, the (B, 3) commands and the trot's
-    clock [cos, sin] at (B,) sim `times`; written into the (B, 35) `out` where given."""
-    if out is None:
-        out = np.empty((len(states), 35))
-    np.take(states, proprioception, axis=1, out=out[:, :27], mode="clip")
-    out[:, :12] -= pose
-    gravity_in_body(states[:, 3:7], out=out[:, 27:30])
-    out[:, 30:33] = commands
-    phase = CLOCK_RAD_PER_S * np.asarray(times, dtype=float)
-    out[:, 33], out[:, 34] = np.cos(phase), np.sin(phase)
-    return out
 
 
 def phase_features(clock: np.ndarray) -> np.ndarray:

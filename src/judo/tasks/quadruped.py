@@ -50,6 +50,30 @@ def gravity_in_body(quat: np.ndarray, out: np.ndarray | None = None) -> np.ndarr
     return np.einsum("...i,kij,...j->...k", quat, DOWN_IN_BODY_FORMS, quat, out=out)
 
 
+def locomotion_features(
+    states: np.ndarray,
+    proprioception: np.ndarray,
+    pose: np.ndarray,
+    commands: np.ndarray,
+    times: np.ndarray,
+    out: np.ndarray | None = None,
+) -> np.ndarray:
+    """(B, 35) a legged robot's locomotion observation in quadruped_velocity.OBSERVATION's layout:
+    from (B, nq + nv) states with the free joint first, its (27,) `proprioception` columns (12 joint
+    angles, less the (12,) `pose`, 12 joint speeds, the free joint's angular velocity, in the base
+    frame: the gyro), gravity's direction in the base frame, the (B, 3) commands and the trot's
+    clock [cos, sin] at (B,) sim `times`; written into the (B, 35) `out` where given."""
+    if out is None:
+        out = np.empty((len(states), 35))
+    np.take(states, proprioception, axis=1, out=out[:, :27], mode="clip")
+    out[:, :12] -= pose
+    gravity_in_body(states[:, 3:7], out=out[:, 27:30])
+    out[:, 30:33] = commands
+    phase = CLOCK_RAD_PER_S * np.asarray(times, dtype=float)
+    out[:, 33], out[:, 34] = np.cos(phase), np.sin(phase)
+    return out
+
+
 LOCOMOTION_OBSERVATION_SIZE = 35
 """Width of `locomotion_observation`: 12 joint angles, 12 joint speeds, gyro, gravity, command,
 clock."""
@@ -197,18 +221,9 @@ class QuadrupedBase(Task[ConfigT]):
         policy cloned from the MPC with them learned to copy them (the copycat problem of behaviour
         cloning; docs/tasks.md). Written into the (B, 35) `out` where given (a low-level tick's
         buffer: one gather and a few small writes, no concatenated temporaries)."""
-        if out is None:
-            out = np.empty((len(states), LOCOMOTION_OBSERVATION_SIZE))
-        # in range: no bounds buffer
-        np.take(states, self._proprioception, axis=1, out=out[:, :27], mode="clip")
-        out[:, :12] -= self.home_ctrl  # joint angles from the standing pose
-        gravity_in_body(states[:, 3:7], out=out[:, 27:30])
-        out[:, 30:33] = commands
-        phase = CLOCK_RAD_PER_S * np.asarray(times, dtype=float)
-        # gait_clock's columns, each computed on the contiguous phases as there
-        out[:, 33] = np.cos(phase)
-        out[:, 34] = np.sin(phase)
-        return out
+        return locomotion_features(
+            states, self._proprioception, self.home_ctrl, commands, times, out
+        )
 
     def post_sim_step(self) -> None:
         """Count a fall (trunk below half its standing height) and stand the robot up where it

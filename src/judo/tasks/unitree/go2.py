@@ -20,7 +20,8 @@ from judo.core.policy import Policy, PolicyError
 from judo.core.rollouts.randomize import contact_geom_ids, scale_geom_friction
 from judo.core.task import EpisodeLog, Task, TaskConfig
 from judo.tasks.gait import GaitName, gait_of, swing_heights
-from judo.tasks.gait_policy import GaitPolicy, locomotion_features
+from judo.tasks.gait_policy import GaitPolicy
+from judo.tasks.quadruped import locomotion_features
 from judo.tasks.quadruped_velocity import AVERAGE_WINDOW, trailing_mean
 from judo.tasks.unitree.pushes import RandomPushes
 
@@ -70,8 +71,7 @@ class Go2BaseConfig(TaskConfig):
     the pushes the plant gets."""
 
     target_height: float = 0.30
-    """Base height (m) to hold; the crouched stand puts it at 0.25 m, Unitree's stand pose at 0.333
-    m."""
+    """Base height (m) to hold; the crouched stand puts it at 0.25 m, Unitree's stand at 0.333 m."""
     push_force: float = 40.0
     """Horizontal force (N) of each push on the plant's base, in a random direction; 0 turns pushes
     off."""
