@@ -5,6 +5,7 @@ Go2) a locomotion policy by policy search, and write it as ONNX and as the JSON 
 python -m judo gait-search --out quadruped_locomotion.onnx
 python -m judo evaluate --task quadruped_velocity --policy quadruped_locomotion.onnx --seeds 5 --first-seed 1000
 python -m judo gait-search --task go2_walk --out go2_trot.onnx
+python -m judo gait-search --task g1_stand --out g1_balance.onnx  (with the settings docs/tasks.md gives)
 """  # noqa: E501
 
 import json
@@ -21,14 +22,23 @@ from judo.cli_shared import fail, optional_pyplot, output_console, parse_args, p
 from judo.core.commandline.boundary import check_output_file
 from judo.core.configuration.config import require
 from judo.core.errors import JudoError
-from judo.learning.policy_search import EVERY, GaitSearchSettings, Iteration
+from judo.learning.policy_search import (
+    EVERY,
+    GAIT_PROBLEMS,
+    GaitProblem,
+    GaitSearchSettings,
+    Iteration,
+)
 from judo.tasks.gait_policy import GaitLayout
+from judo.tasks.unitree import g1
 
 DESCRIPTION = (
     "Teach a legged task (--task quadruped_velocity, the default, or go2_walk) a locomotion "
     "policy for commands [vx, vy, yaw rate] by policy search: judo's CEM tunes a gait policy (a "
     "trot's clock harmonics, shaped linearly by the command, plus feedback on the trunk's gyro "
     "and tilt; judo.tasks.gait_policy) on closed-loop episodes scored by the task's own reward, "
+    "or (--task g1_stand) the G1's balance policy (the standing pose plus feedback on the "
+    "pelvis's gyro, tilt and velocity) on episodes that start with a kick, "
     "the objective its MPC plans with. Writes an ONNX file for --policy and quadruped_navigate, "
     "the same policy as JSON beside it (OUT.json, what judo.tasks.gait_policy.GaitPolicy runs in "
     "numpy: go2_walk's proposals), and the reward curve as a PNG (with matplotlib). The files "
@@ -37,7 +47,34 @@ DESCRIPTION = (
 )
 SEARCH_PNG = ".search.png"
 """The reward curve's file name beside --out: OUT.search.png."""
-GaitTaskName = Literal["quadruped_velocity", "go2_walk"]
+GaitTaskName = Literal["quadruped_velocity", "go2_walk", "g1_stand"]
+
+
+def g1_problem(task: g1.G1Stand | None = None) -> GaitProblem:
+    """g1_stand: from the standing pose (keyframe "home"), each episode kicked (g1.draw_kick: its
+    "command" is the pelvis's start velocity), scored by g1_stand's reward; the balance policy
+    (g1.balance_layout) starts at g1.ankle_and_hip_strategy and tunes g1.balance_parameters: the
+    legs' and waist's offsets and feedback gains."""
+    task = g1.G1Stand(policy_path=None) if task is None else task
+    layout, nq = g1.balance_layout(task.home_ctrl), task.model.nq
+    return GaitProblem(
+        name="g1_stand",
+        task=task,
+        layout=layout,
+        start_qpos=task.model.key_qpos[task.home_key].copy(),
+        start_ctrl=task.home_ctrl.copy(),
+        draw=g1.draw_kick,
+        observe=lambda commands, states, times, out: g1.balance_features(states, nq, out),
+        reward=lambda states, sensors, ctrl, _: task.reward(states, sensors, ctrl, task.config),
+        fallen_height=g1.FALL_HEIGHT,
+        kicks=True,
+        free=g1.balance_parameters(layout),
+        initial=g1.ankle_and_hip_strategy(layout),
+    )
+
+
+PROBLEMS = {**GAIT_PROBLEMS, "g1_stand": g1_problem}
+"""GAIT_PROBLEMS and g1_stand's balance problem, by task name."""
 
 
 @dataclass
@@ -48,8 +85,7 @@ class GaitSearchArgs(GaitSearchSettings):
     """The ONNX file to write (the same policy goes beside it as POLICY.json, its reward curve as
     POLICY.search.png)."""
     task: GaitTaskName = "quadruped_velocity"
-    """The task whose reward, start and commands the search walks (judo.learning.policy_search's
-    GAIT_PROBLEMS)."""
+    """The task whose reward, start and commands the search walks (PROBLEMS)."""
     overwrite: bool = False
     """Replace an --out file that exists (without it, gait-search refuses before searching)."""
 
@@ -110,9 +146,11 @@ def run(args: GaitSearchArgs, command: str) -> int:
     search (the best so far is written all the same)."""
     from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
-    from judo.learning.policy_search import GAIT_PROBLEMS, search_gait
+    from judo.learning.policy_search import search_gait
     from judo.tasks.quadruped_velocity import OBSERVATION
     from judo.tasks.unitree.go2 import OBSERVATION as GO2_OBSERVATION
+
+    observations = {"go2_walk": GO2_OBSERVATION, "g1_stand": g1.OBSERVATION}
 
     console = output_console()
     settings = GaitSearchSettings(
@@ -133,7 +171,7 @@ def run(args: GaitSearchArgs, command: str) -> int:
             )
             progress.update(bar, completed=record.index + 1, description=text)
 
-        problem = GAIT_PROBLEMS[args.task]()
+        problem = PROBLEMS[args.task]()
         result = search_gait(problem, settings, show)
     history, best = result.history, result.history[result.best_index]
     task, layout = problem.task, problem.layout
@@ -142,7 +180,7 @@ def run(args: GaitSearchArgs, command: str) -> int:
         "task": args.task,
         "kind": "action",
         "head": "gait",
-        "observation": GO2_OBSERVATION if args.task == "go2_walk" else OBSERVATION,
+        "observation": observations.get(args.task, OBSERVATION),
         "observation_size": str(layout.observation_size),
         "control_freq": repr(1.0 / (EVERY * float(task.model.opt.timestep))),
         "training_command": command,

@@ -1,5 +1,6 @@
 """Policy search: judo's own CEM tunes a gait policy (judo.tasks.gait_policy) on closed-loop
-episodes of a legged task (`GaitProblem`: quadruped_velocity's quadruped, or go2_walk's Go2).
+episodes of a legged task (`GaitProblem`: quadruped_velocity's quadruped, go2_walk's Go2, or
+gait_search's g1_stand problem: a balance policy under kicks).
 
 Each iteration draws `commands` velocity commands from the problem's ranges. Every one of the CEM's
 `population` candidate parameter rows then walks every command for `episode_seconds` from the
@@ -137,6 +138,10 @@ class GaitProblem:
         reward: ((B, T, nq + nv) states, (B, T, nsensordata) sensors, (B, T, nu) ctrl, (3,)
             command) -> (B,) the task's reward of episodes that all walked `command`.
         fallen_height: the base height (m) under which an episode counts as fallen.
+        kicks: the drawn commands' [vx, vy] are also the base's start velocity (m/s, world frame).
+        free: (P,) bool, the parameters the CEM tunes (the rest stay at the first mean's), or None:
+            all.
+        initial: (P,) the first mean, or None: `stepping_in_place`.
     """
 
     name: str
@@ -148,6 +153,9 @@ class GaitProblem:
     observe: Callable[..., np.ndarray]
     reward: Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray], np.ndarray]
     fallen_height: float
+    kicks: bool = False
+    free: np.ndarray | None = None
+    initial: np.ndarray | None = None
 
 
 def quadruped_problem(task: QuadrupedVelocity | None = None) -> GaitProblem:
@@ -209,7 +217,8 @@ GAIT_PROBLEMS: dict[str, Callable[[], GaitProblem]] = {
     "quadruped_velocity": quadruped_problem,
     "go2_walk": go2_problem,
 }
-"""The tasks gait-search teaches a gait, by name."""
+"""The tasks gait-search teaches a gait, by name (and gait_search's PROBLEMS: g1_stand's
+balance)."""
 
 
 def stepping_in_place(layout: GaitLayout) -> np.ndarray:
@@ -284,6 +293,8 @@ class GaitEpisodes:
         ticks = max(1, round(seconds / (EVERY * model.opt.timestep)))
         stepper.start(batch, ticks * EVERY, self._start)
         stepper.current[:, 0] = start_times
+        if self.problem.kicks:  # FULLPHYSICS rows: time, qpos, qvel, ...
+            stepper.current[:, 1 + model.nq : 3 + model.nq] = commands[:, :2]
         states = np.zeros((batch, ticks, model.nq + model.nv))
         sensors = np.zeros((batch, ticks, model.nsensordata))
         ctrl = np.zeros((batch, ticks, model.nu))
@@ -325,6 +336,8 @@ def search_gait(
     first iteration ends it early with the best so far (`interrupted`); before, it is raised as it
     is."""
     layout = problem.layout
+    initial = stepping_in_place(layout) if problem.initial is None else problem.initial
+    free = np.ones(len(initial), dtype=bool) if problem.free is None else problem.free
     cem = CEM(
         CEMConfig(
             num_rollouts=settings.population,
@@ -333,11 +346,11 @@ def search_gait(
             sigma_min=settings.sigma_min,
             sigma_max=settings.sigma_max,
         ),
-        layout.num_parameters,
+        int(free.sum()),
     )
     rng = np.random.default_rng(settings.seed)
     cem.rng = np.random.default_rng(settings.seed + 1)
-    mean, history, start = stepping_in_place(layout)[None], [], time.perf_counter()
+    mean, history, start = initial[free][None], [], time.perf_counter()
     best: GaitSearchResult | None = None
     best_score = -np.inf
     episodes = GaitEpisodes(problem, settings.workers)
@@ -346,7 +359,10 @@ def search_gait(
         period = 1.0 / GAITS["trot"].frequency
         for index in range(settings.iterations):
             commands = np.array([problem.draw(rng) for _ in range(count)])
-            candidates = cem.sample_control_knots(mean)[:, 0]  # (population, P), row 0 the mean
+            # (population, free), row 0 the mean
+            sampled = cem.sample_control_knots(mean)[:, 0]
+            candidates = np.tile(initial, (population, 1))  # (population, P)
+            candidates[:, free] = sampled
             rows = np.repeat(candidates, count, axis=0)
             row_commands = np.tile(commands, (population, 1))
             starts = rng.uniform(0.0, period, len(rows))
@@ -360,7 +376,7 @@ def search_gait(
             fell = states[..., 2] < problem.fallen_height
             fell = fell.any(axis=1).reshape(population, count)
             scores = rewards.mean(axis=1)
-            mean = cem.update_nominal_knots(candidates[:, None], scores)
+            mean = cem.update_nominal_knots(sampled[:, None], scores)
             seconds = time.perf_counter() - start
             record = Iteration(
                 index, float(scores[0]), float(scores.max()), float(fell[0].mean()), seconds

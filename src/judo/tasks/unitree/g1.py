@@ -4,7 +4,9 @@ The model is MuJoCo Menagerie's G1 with Unitree's joint PD as position servos
 (models/unitree_g1/g1.xml). The planner plans all 29 joint targets; the reward holds the pelvis at
 its standing height and upright, the capture point over the feet, the joints near Unitree's standing
 pose, and little torque. The plant is pushed at random (RandomPushes): the planner only sees what
-the push did to the state.
+the push did to the state. By default some of the optimizer's candidates each update come from a
+shipped balance policy (`default_proposal_policy`; `python -m judo gait-search --task g1_stand`):
+the standing pose plus linear feedback on the pelvis's gyro, tilt and velocity.
 """
 
 from dataclasses import dataclass
@@ -16,7 +18,10 @@ import numpy as np
 
 from judo.core.configuration.fields import slider
 from judo.core.norms import smooth_l1_norm
+from judo.core.policy import Policy
 from judo.core.task import EpisodeLog, Task, TaskConfig
+from judo.tasks.gait_policy import COMMAND_FEATURES, HARMONICS, GaitLayout, GaitPolicy
+from judo.tasks.quadruped import gravity_in_body
 from judo.tasks.unitree.pushes import RandomPushes
 
 MODEL_PATH = Path(__file__).parents[1] / "models" / "unitree_g1" / "g1.xml"
@@ -41,6 +46,56 @@ UPRIGHT_COS = np.cos(np.radians(30.0))
 """The pelvis counts as upright while its z axis is within 30 degrees of vertical."""
 GRAVITY = 9.81
 """Gravity (m/s^2) used for the capture point."""
+OBSERVATION = (
+    "pelvis angular velocity in the pelvis frame (3, rad/s, the free joint's: what the IMU's gyro "
+    "reads), gravity's direction in the pelvis frame (3), the pelvis's linear velocity in the "
+    "pelvis frame (3, m/s), a zero command (3) and a constant clock [1, 0] (2)"
+)
+"""What `G1Stand.policy_observation` holds: 14 values; the command and clock columns are there
+so that the balance policy is a judo.tasks.gait_policy GaitLayout (the constant clock and zero
+command leave its harmonics as constant offsets)."""
+OBSERVATION_SIZE = 14
+FEEDBACK_COLUMNS = np.arange(9)
+"""The observation's columns the balance policy feeds back: gyro, gravity, velocity."""
+BALANCE_JOINTS = 15
+"""The balance policy offsets and feeds back into the first 15 motors (legs and waist); the arms
+hold the standing pose."""
+KICK_SPEEDS = (0.2, 0.4)
+"""[low, high] (m/s) of the start speeds `draw_kick` draws: what a 40 N x 0.2 s push gives the
+35 kg robot (0.23 m/s), with margin."""
+POLICY_PATH = Path(__file__).parents[1] / "models" / "policies" / "g1_balance.json"
+"""g1_stand's default proposal policy (`python -m judo gait-search --task g1_stand`)."""
+
+
+def balance_features(states: np.ndarray, nq: int, out: np.ndarray | None = None) -> np.ndarray:
+    """(B, 14) OBSERVATION of (B, nq + nv) states with the free joint first (qpos[3:7] its [w, x,
+    y, z] quaternion, qvel[:3] its world-frame velocity, qvel[3:6] its angular velocity in its own
+    frame); written into the (B, 14) `out` where given."""
+    if out is None:
+        out = np.empty((len(states), OBSERVATION_SIZE))
+    quat = states[:, 3:7]
+    out[:, 0:3] = states[:, nq + 3 : nq + 6]
+    gravity_in_body(quat, out=out[:, 3:6])
+    # R^T v for q = (w, u): v - 2 w (u x v) + 2 u x (u x v)
+    w, u, velocity = quat[:, :1], quat[:, 1:], states[:, nq : nq + 3]
+    twist = np.cross(u, velocity)
+    out[:, 6:9] = velocity - 2.0 * w * twist + 2.0 * np.cross(u, twist)
+    out[:, 9:] = (0.0, 0.0, 0.0, 1.0, 0.0)
+    return out
+
+
+def balance_layout(home: np.ndarray) -> GaitLayout:
+    """The balance policy's GaitLayout on OBSERVATION around the (29,) standing targets `home`:
+    feedback on FEEDBACK_COLUMNS; the zero command and constant clock make its harmonic weights
+    constant offsets (the search tunes one per joint: `balance_parameters`)."""
+    return GaitLayout(
+        home=np.array(home, dtype=float),
+        command_columns=np.arange(9, 12),
+        clock_columns=np.arange(12, 14),
+        feedback_columns=FEEDBACK_COLUMNS,
+        phase_signs=np.ones(len(home)),
+        observation_size=OBSERVATION_SIZE,
+    )
 
 
 @slider("target_height", 0.6, 0.85, 0.005)
@@ -86,11 +141,45 @@ class G1StandConfig(TaskConfig):
     """Seconds each push lasts (40 N for 0.2 s gives the 35 kg robot 0.23 m/s)."""
 
 
+def balance_parameters(layout: GaitLayout) -> np.ndarray:
+    """(P,) bool: the parameters of `layout` the search tunes, those of the first BALANCE_JOINTS
+    motors: each one's offset (its constant harmonic weight, W[j, 0, 0]) and its feedback gains
+    (the (J, F) gains follow the J x 5 x 4 harmonic weights: GaitLayout.split)."""
+    joints, cut = layout.num_joints, layout.num_joints * HARMONICS * COMMAND_FEATURES
+    free = np.zeros(layout.num_parameters, dtype=bool)
+    free[:cut].reshape(joints, HARMONICS, COMMAND_FEATURES)[:BALANCE_JOINTS, 0, 0] = True
+    free[cut:].reshape(joints, -1)[:BALANCE_JOINTS] = True
+    return free
+
+
+def ankle_and_hip_strategy(layout: GaitLayout) -> np.ndarray:
+    """(P,) the balance search's first mean: no offsets, and feedback only into the ankles' pitch
+    (4 per unit of forward gravity, 0.3 per rad/s of pitch rate, 1 per m/s of forward velocity)
+    and the hips' roll (2 per unit of sideways gravity, 1 per m/s of sideways velocity). Set by
+    hand from a coarse grid over those gains on 8 kicks (docs/tasks.md): from zero, all candidates
+    fall and the search finds nothing to climb."""
+    joints, cut = layout.num_joints, layout.num_joints * HARMONICS * COMMAND_FEATURES
+    parameters = np.zeros(layout.num_parameters)
+    gains = parameters[cut:].reshape(joints, -1)  # columns: gyro, gravity, velocity (x, y, z)
+    ankles_pitch, hips_roll = [4, 10], [1, 7]
+    gains[ankles_pitch, 3], gains[ankles_pitch, 1], gains[ankles_pitch, 6] = 4.0, 0.3, 1.0
+    gains[hips_roll, 4], gains[hips_roll, 7] = 2.0, 1.0
+    return parameters
+
+
+def draw_kick(rng: np.random.Generator) -> np.ndarray:
+    """(3,) [vx, vy, 0] (m/s): a horizontal start velocity of a speed in KICK_SPEEDS in a direction
+    drawn from `rng`, the search's stand-in for a push."""
+    speed, angle = rng.uniform(*KICK_SPEEDS), rng.uniform(-np.pi, np.pi)
+    return np.array([speed * np.cos(angle), speed * np.sin(angle), 0.0])
+
+
 class G1Stand(Task[G1StandConfig]):
     """State [pelvis position (3), quaternion (4), 29 joint angles, pelvis velocity (6), 29 joint
     velocities]; the
     29 controls are joint position targets (rad) in Unitree's motor order (MOTOR_JOINTS), which the
-    servos track with the robot's own kp and kd (the model's actuators)."""
+    servos track with the robot's own kp and kd (the model's actuators). `policy_path`: the default
+    proposal policy's JSON file, or None: none."""
 
     focus_body = "pelvis"
     lower_is_better: ClassVar[tuple[str, ...]] = ("falls", "falls_per_minute", "rms_height_error")
@@ -108,11 +197,15 @@ class G1Stand(Task[G1StandConfig]):
     measured)."""
 
     def __init__(
-        self, model_path: str | Path = MODEL_PATH, sim_model_path: str | Path | None = None
+        self,
+        model_path: str | Path = MODEL_PATH,
+        sim_model_path: str | Path | None = None,
+        policy_path: str | Path | None = POLICY_PATH,
     ) -> None:
         super().__init__(model_path, sim_model_path)
-        self._home_key = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_KEY, "home")
-        self.home_ctrl = self.model.key_ctrl[self._home_key].copy()
+        self._policy = None if policy_path is None else GaitPolicy.load(policy_path)
+        self.home_key = mujoco.mj_name2id(self.sim_model, mujoco.mjtObj.mjOBJ_KEY, "home")
+        self.home_ctrl = self.model.key_ctrl[self.home_key].copy()
         """(29,) Unitree's standing pose's joint targets, in motor order."""
         self._joint_qpos = np.array([self.get_joint_position_start_index(j) for j in MOTOR_JOINTS])
         self._pelvis = self.get_sensor_start_index("trace_pelvis")
@@ -129,6 +222,21 @@ class G1Stand(Task[G1StandConfig]):
         self.pushes = RandomPushes(self.sim_model, "pelvis")
         self.falls = 0
         self.reset()
+
+    def default_proposal_policy(self) -> Policy | None:
+        """The balance policy (numpy), whose candidates the optimizer scores among its own."""
+        return self._policy
+
+    def policy_observation(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray | None = None,
+        system_metadata: dict[str, Any] | None = None,
+        previous_actions: np.ndarray | None = None,
+    ) -> np.ndarray:
+        """(B, 14) OBSERVATION of (B, nq + nv) states; the other arguments are not used."""
+        states = np.atleast_2d(np.asarray(states, dtype=float))
+        return balance_features(states, self.model.nq)
 
     def pelvis_height(self, sensors: np.ndarray) -> np.ndarray:
         """(...,) the pelvis height (m) from (..., nsensordata) sensor rows."""
@@ -172,7 +280,7 @@ class G1Stand(Task[G1StandConfig]):
 
     def stand_at(self, x: float, y: float, yaw: float) -> None:
         """Put the plant in the "home" standing pose, at rest, at (x, y) facing `yaw` (rad)."""
-        key_qpos = self.sim_model.key_qpos[self._home_key]
+        key_qpos = self.sim_model.key_qpos[self.home_key]
         self.data.qpos[:] = key_qpos
         self.data.qpos[:2] = (x, y)
         mujoco.mju_mulQuat(
@@ -188,7 +296,7 @@ class G1Stand(Task[G1StandConfig]):
     def reset(self) -> None:
         """Standing in Unitree's standing pose at the origin, facing +x, at rest; pushes and falls
         at zero."""
-        mujoco.mj_resetDataKeyframe(self.sim_model, self.data, self._home_key)
+        mujoco.mj_resetDataKeyframe(self.sim_model, self.data, self.home_key)
         self.stand_at(0.0, 0.0, 0.0)
         self.data.time = 0.0
         self.pushes.reset(self.config.push_interval)
