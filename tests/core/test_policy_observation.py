@@ -12,6 +12,7 @@ OWN_OBSERVATION = (
     "acrobot",
     "cartpole",
     "cartpole_pd",
+    "g1_stand",
     "go2_walk",
     "particle",
     "pendulum",
