@@ -24,10 +24,11 @@ from judo.core.configuration.config import require
 from judo.core.errors import JudoError
 from judo.learning.policy_search import (
     EVERY,
-    GAIT_PROBLEMS,
     GaitProblem,
     GaitSearchSettings,
     Iteration,
+    go2_problem,
+    quadruped_problem,
 )
 from judo.tasks.gait_policy import GaitLayout
 from judo.tasks.unitree import g1
@@ -73,8 +74,13 @@ def g1_problem(task: g1.G1Stand | None = None) -> GaitProblem:
     )
 
 
-PROBLEMS = {**GAIT_PROBLEMS, "g1_stand": g1_problem}
-"""GAIT_PROBLEMS and g1_stand's balance problem, by task name."""
+PROBLEMS = {
+    "quadruped_velocity": quadruped_problem,
+    "go2_walk": go2_problem,
+    "g1_stand": g1_problem,
+}
+"""The tasks gait-search teaches, by name: the two gaits (judo.learning.policy_search) and
+g1_stand's balance."""
 
 
 @dataclass

@@ -213,14 +213,6 @@ def go2_problem(task: go2.Go2Walk | None = None) -> GaitProblem:
     )
 
 
-GAIT_PROBLEMS: dict[str, Callable[[], GaitProblem]] = {
-    "quadruped_velocity": quadruped_problem,
-    "go2_walk": go2_problem,
-}
-"""The tasks gait-search teaches a gait, by name (and gait_search's PROBLEMS: g1_stand's
-balance)."""
-
-
 def stepping_in_place(layout: GaitLayout) -> np.ndarray:
     """(P,) the search's first mean: each hip flexes by up to 0.25 rad and each knee by up to 0.5
     rad in its leg's swing half of the cycle (a half-wave sine), whatever the command: a trot on the
